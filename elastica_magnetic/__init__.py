@@ -1,0 +1,1 @@
+"""Magnetic soft robots on PyElastica."""

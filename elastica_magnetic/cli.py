@@ -1,0 +1,74 @@
+"""The ``msr`` command line: parses, calls library functions, prints (JSON with ``--json``).
+
+Each area of the project registers its own sub-commands through a ``register(subparsers)``
+function, so this file stays a thin dispatcher:
+
+- ``elastica_magnetic.commands``: ``replay``, ``simulate``
+- ``validation.cli``: ``validate``
+- ``rl.cli``: ``train``, ``refine``, ``generate``, ``export``, ``demo``
+- ``elastica_magnetic.hardware.cli``: ``stream``, ``export-firmware``, ``calibrate``
+- ``benchmarks`` (through ``elastica_magnetic.commands``): ``bench``
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+# Modules that provide ``register(subparsers)``; missing optional areas are skipped.
+COMMAND_MODULES = (
+    "elastica_magnetic.commands",
+    "validation.cli",
+    "rl.cli",
+    "elastica_magnetic.hardware.cli",
+)
+
+
+class CommandError(Exception):
+    """An error to report to the user as one clear line (exit status 2)."""
+
+
+def print_result(result: dict[str, Any], as_json: bool) -> None:
+    """Print a command's result: JSON on one document with ``--json``, else ``key: value`` lines."""
+    if as_json:
+        print(json.dumps(result, indent=2, default=str))
+    else:
+        for key, value in result.items():
+            print(f"{key}: {value}")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="msr",
+        description="Magnetic soft robots on PyElastica (Yao et al. 2023).",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for name in COMMAND_MODULES:
+        try:
+            module = importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name is not None and name.startswith(exc.name):
+                continue  # that area is not part of this checkout
+            raise
+        module.register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        status = args.func(args)
+    except (CommandError, ValueError, FileNotFoundError) as exc:
+        print(f"msr {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    return int(status or 0)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

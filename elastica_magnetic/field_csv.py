@@ -1,0 +1,144 @@
+"""Reading and writing field CSV files: the paper's interchange format and the firmware's input.
+
+Format (as published by Yao et al. 2023): an optional header line ``,mag_x,mag_y,mag_z`` (or
+``index,mag_x,mag_y,mag_z``), then one row per 1/100 s: an optional integer index column, then the
+field components in **millitesla**. Row ``i`` holds the field during ``[i/100, (i+1)/100)`` s.
+
+Inside the package fields are in tesla; the conversion happens here and only here.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+#: Rows per second of a field CSV (the paper's 100 Hz field update).
+FIELD_CSV_RATE_HZ = 100.0
+#: Column names of the field components, in mT.
+FIELD_COLUMNS = ("mag_x", "mag_y", "mag_z")
+MILLITESLA = 1e-3
+
+
+class FieldCSVError(ValueError):
+    """A field CSV file that cannot be read; the message names the file, row and problem."""
+
+
+def read_field_csv(path: str | Path) -> NDArray[np.float64]:
+    """Read a field CSV (mT) and return the field in tesla.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV file with columns ``mag_x, mag_y, mag_z`` in mT, optionally preceded by an index
+        column and a header line.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_rows, 3)`` float64 array of the field in **tesla**; row ``i`` is the field held on
+        ``[i/100, (i+1)/100)`` s.
+
+    Raises
+    ------
+    FieldCSVError
+        Missing file, missing columns, a malformed or non-numeric row, a non-finite value, or an
+        index column that does not count 0, 1, 2, ... The message names the file and the row
+        (1-based line number in the file).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FieldCSVError(f"{path}: no such field CSV file")
+    with path.open(newline="") as handle:
+        rows = list(csv.reader(handle))
+    rows_with_lines = [(i + 1, r) for i, r in enumerate(rows) if any(c.strip() for c in r)]
+    if not rows_with_lines:
+        raise FieldCSVError(f"{path}: empty file, expected columns {', '.join(FIELD_COLUMNS)} (mT)")
+
+    first_line, first = rows_with_lines[0]
+    has_header = not _is_number(first[-1])
+    if has_header:
+        names = [c.strip() for c in first]
+        missing = [c for c in FIELD_COLUMNS if c not in names]
+        if missing:
+            raise FieldCSVError(
+                f"{path}: header on line {first_line} lacks column(s) {', '.join(missing)}; "
+                f"expected {', '.join(FIELD_COLUMNS)} in mT (found {names})"
+            )
+        columns = [names.index(c) for c in FIELD_COLUMNS]
+        index_column = 0 if len(names) == 4 and columns == [1, 2, 3] else None
+        ncols = len(names)
+        body = rows_with_lines[1:]
+    else:
+        ncols = len(first)
+        if ncols == 3:
+            columns, index_column = [0, 1, 2], None
+        elif ncols == 4:
+            columns, index_column = [1, 2, 3], 0
+        else:
+            raise FieldCSVError(
+                f"{path}: line {first_line} has {ncols} columns; expected 3 (mag_x, mag_y, mag_z "
+                "in mT) or 4 (index first)"
+            )
+        body = rows_with_lines
+
+    if not body:
+        raise FieldCSVError(f"{path}: header but no data rows")
+    field = np.empty((len(body), 3))
+    for k, (line, row) in enumerate(body):
+        if len(row) != ncols:
+            raise FieldCSVError(
+                f"{path}: line {line} has {len(row)} columns, expected {ncols}: {','.join(row)!r}"
+            )
+        for j, c in enumerate(columns):
+            text = row[c].strip()
+            try:
+                value = float(text)
+            except ValueError:
+                raise FieldCSVError(
+                    f"{path}: line {line}, column {FIELD_COLUMNS[j]}: {text!r} is not a number "
+                    "(field in mT)"
+                ) from None
+            if not math.isfinite(value):
+                raise FieldCSVError(
+                    f"{path}: line {line}, column {FIELD_COLUMNS[j]}: non-finite value {text!r}"
+                )
+            field[k, j] = value * MILLITESLA
+        if index_column is not None:
+            text = row[index_column].strip()
+            if text and (not _is_number(text) or float(text) != k):
+                raise FieldCSVError(
+                    f"{path}: line {line}: index {text!r} out of sequence, expected {k}"
+                )
+    return field
+
+
+def write_field_csv(path: str | Path, field_tesla: NDArray[np.float64]) -> Path:
+    """Write a field (``(n_rows, 3)`` in tesla) as a field CSV in the paper's format (mT).
+
+    The header is ``,mag_x,mag_y,mag_z`` with an unnamed index column, as published.
+    """
+    field_tesla = np.asarray(field_tesla, dtype=np.float64)
+    if field_tesla.ndim != 2 or field_tesla.shape[1] != 3:
+        raise ValueError(f"field must have shape (n_rows, 3) in tesla, got {field_tesla.shape}")
+    if not np.all(np.isfinite(field_tesla)):
+        raise ValueError("field contains non-finite values")
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as handle:
+        writer = csv.writer(handle, lineterminator="\n")
+        writer.writerow(["", *FIELD_COLUMNS])
+        for i, b in enumerate(field_tesla / MILLITESLA):
+            writer.writerow([i, *(repr(float(v)) for v in b)])
+    return path
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
