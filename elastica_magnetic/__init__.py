@@ -1,1 +1,88 @@
-"""Magnetic soft robots on PyElastica."""
+"""Magnetic soft robots on PyElastica (Yao et al. 2023).
+
+Forcing classes to add to your own PyElastica simulations (``sim.add_forcing_to(rod).using(...)``),
+field sources, magnetization patterns, the equivalent circular section of a band, a frictional
+ground with an adjustable tolerance, robot presets and a simulation builder. SI units throughout.
+"""
+
+from .field_csv import FieldCSVError, read_field_csv, write_field_csv
+from .fields import ConstantField, ControlledField, RampedField, RotatingField, TabulatedField
+from .forcing import LegacyInternalDamping, MagneticTorques, RelativeVelocityDamping
+from .ground import FrictionalGroundContact
+from .magnetization import (
+    YAO2023_MAGNETIZATION,
+    element_centres,
+    magnetization_from_function,
+    sinusoidal_magnetization,
+    two_segment_magnetization,
+    uniform_magnetization,
+    yao2023_magnetization,
+)
+from .openloop import OpenLoopResult, run_open_loop, write_trajectory_csv
+from .presets import (
+    YAO2023_MASS_SCALE,
+    DampingSpec,
+    GroundSpec,
+    RobotSpec,
+    hu2018_robot,
+    robot_by_name,
+    yao2023_robot,
+)
+from .section import (
+    equivalent_radius,
+    rectangular_band_rod,
+    set_shear_coefficient,
+    shear_coefficient,
+)
+from .simulation import (
+    MagneticRodSimulator,
+    RobotSimulation,
+    SimulationDiverged,
+    build_simulation,
+)
+from .units import MM_MG_S, SI, UnitSystem
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "ConstantField",
+    "ControlledField",
+    "DampingSpec",
+    "FieldCSVError",
+    "FrictionalGroundContact",
+    "GroundSpec",
+    "LegacyInternalDamping",
+    "MM_MG_S",
+    "MagneticRodSimulator",
+    "MagneticTorques",
+    "OpenLoopResult",
+    "RampedField",
+    "RelativeVelocityDamping",
+    "RobotSimulation",
+    "RobotSpec",
+    "RotatingField",
+    "SI",
+    "SimulationDiverged",
+    "TabulatedField",
+    "UnitSystem",
+    "YAO2023_MAGNETIZATION",
+    "YAO2023_MASS_SCALE",
+    "build_simulation",
+    "element_centres",
+    "equivalent_radius",
+    "hu2018_robot",
+    "magnetization_from_function",
+    "read_field_csv",
+    "rectangular_band_rod",
+    "robot_by_name",
+    "run_open_loop",
+    "set_shear_coefficient",
+    "shear_coefficient",
+    "sinusoidal_magnetization",
+    "two_segment_magnetization",
+    "uniform_magnetization",
+    "write_field_csv",
+    "write_trajectory_csv",
+    "yao2023_magnetization",
+    "yao2023_robot",
+]

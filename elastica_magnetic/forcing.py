@@ -1,0 +1,279 @@
+"""Forcing classes for magnetic soft robots, in the style of ``elastica.external_forces``.
+
+Each class is a small :class:`elastica.NoForces` subclass with a numba kernel beside it. Register
+them with ``sim.add_forcing_to(rod).using(Class, ...)``, in this order (see :doc:`/tutorial`):
+magnetic torques, dampings, gravity, then the ground contact. PyElastica runs forcing and contact in
+registration order and the plane contact cancels only the loads already accumulated.
+
+Units are SI throughout: m, kg, s, N, T, A/m.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Literal
+
+import numpy as np
+from elastica.external_forces import NoForces
+from numba import njit
+from numpy.typing import NDArray
+
+__all__ = [
+    "MagneticTorques",
+    "RelativeVelocityDamping",
+    "LegacyInternalDamping",
+]
+
+FieldFunction = Callable[[float], NDArray[np.float64]]
+
+
+class MagneticTorques(NoForces):
+    """Magnetic torques on a rod whose magnetization moves with the material (paper Eq. 3).
+
+    Each element ``i`` carries the magnetic moment ``m_i = V_i M_i``, fixed in its material frame,
+    and receives the torque ``tau_i = m_i x B(t)``. In PyElastica's convention the external torque is
+    stored in the material frame: ``tau_i = V_i (M_i x Q_i B)``, with ``Q_i`` the director matrix of
+    element ``i`` (rows ``d1, d2, d3``). ``V_i`` is the rod's rest volume of the element (for an
+    equivalent circular section, the circular volume: see :func:`~elastica_magnetic.equivalent_radius`).
+    A uniform field gives no net force, so only torques are applied.
+
+    Parameters
+    ----------
+    field : callable
+        ``field(time) -> (3,)`` magnetic flux density in the lab frame, tesla. Any callable works;
+        see :mod:`elastica_magnetic.fields` for constant, ramped, rotating, tabulated and controlled
+        fields.
+    magnetization : numpy.ndarray
+        ``(3, n_elements)`` magnetization in A/m, or ``(3,)`` for a uniform one.
+    frame : {"lab", "material"}
+        ``"lab"`` (default): ``magnetization`` is given in the lab frame of the configuration the rod
+        has at the first call (the reference configuration when the simulation starts), and is
+        turned into the material frame then. ``"material"``: components along ``(d1, d2, d3)``.
+
+    Examples
+    --------
+    >>> sim.add_forcing_to(rod).using(
+    ...     MagneticTorques,
+    ...     field=RotatingField(amplitude=4e-3, frequency=1.0),
+    ...     magnetization=yao2023_magnetization(pattern=1, n_elements=64),
+    ... )
+    """
+
+    def __init__(
+        self,
+        field: FieldFunction,
+        magnetization: NDArray[np.float64],
+        frame: Literal["lab", "material"] = "lab",
+    ) -> None:
+        super().__init__()
+        if not callable(field):
+            raise TypeError(f"field must be a callable field(time) -> (3,) in tesla, got {field!r}")
+        if frame not in ("lab", "material"):
+            raise ValueError(f"frame must be 'lab' or 'material', got {frame!r}")
+        magnetization = np.asarray(magnetization, dtype=np.float64)
+        if magnetization.ndim == 1:
+            if magnetization.shape != (3,):
+                raise ValueError(
+                    f"magnetization must have shape (3,) or (3, n_elements) in A/m, "
+                    f"got {magnetization.shape}"
+                )
+            magnetization = magnetization[:, None]
+        if magnetization.ndim != 2 or magnetization.shape[0] != 3:
+            raise ValueError(
+                f"magnetization must have shape (3,) or (3, n_elements) in A/m, "
+                f"got {magnetization.shape}"
+            )
+        if not np.all(np.isfinite(magnetization)):
+            raise ValueError("magnetization contains NaN or infinite values")
+        self.field = field
+        self.magnetization = magnetization
+        self.frame = frame
+        self._moment_material: NDArray[np.float64] | None = None
+
+    def moment_in_material_frame(self, system) -> NDArray[np.float64]:
+        """The ``(3, n_elements)`` magnetic moments ``V M`` (A m^2) in the material frame."""
+        if self._moment_material is None:
+            n_elements = system.n_elems
+            magnetization = self.magnetization
+            if magnetization.shape[1] == 1:
+                magnetization = np.repeat(magnetization, n_elements, axis=1)
+            if magnetization.shape[1] != n_elements:
+                raise ValueError(
+                    f"magnetization has {magnetization.shape[1]} columns but the rod has "
+                    f"{n_elements} elements; expected shape (3, {n_elements}) in A/m"
+                )
+            if self.frame == "lab":
+                magnetization = np.einsum("ijk,jk->ik", system.director_collection, magnetization)
+            self._moment_material = np.ascontiguousarray(magnetization * system.volume[None, :])
+        return self._moment_material
+
+    def apply_torques(self, system, time: np.float64 = np.float64(0.0)) -> None:
+        field = np.asarray(self.field(time), dtype=np.float64)
+        _magnetic_torques(
+            self.moment_in_material_frame(system),
+            field,
+            system.director_collection,
+            system.external_torques,
+        )
+
+
+@njit(cache=True)
+def _magnetic_torques(
+    moment_material: NDArray[np.float64],
+    field_lab: NDArray[np.float64],
+    directors: NDArray[np.float64],
+    external_torques: NDArray[np.float64],
+) -> None:
+    """Add ``m x (Q B)`` to the material-frame torques. Shapes ``(3, n)``, ``(3,)``, ``(3, 3, n)``."""
+    for i in range(moment_material.shape[1]):
+        # Field in the material frame of element i: b = Q_i B.
+        b0 = directors[0, 0, i] * field_lab[0] + directors[0, 1, i] * field_lab[1]
+        b0 += directors[0, 2, i] * field_lab[2]
+        b1 = directors[1, 0, i] * field_lab[0] + directors[1, 1, i] * field_lab[1]
+        b1 += directors[1, 2, i] * field_lab[2]
+        b2 = directors[2, 0, i] * field_lab[0] + directors[2, 1, i] * field_lab[1]
+        b2 += directors[2, 2, i] * field_lab[2]
+        m0 = moment_material[0, i]
+        m1 = moment_material[1, i]
+        m2 = moment_material[2, i]
+        external_torques[0, i] += m1 * b2 - m2 * b1
+        external_torques[1, i] += m2 * b0 - m0 * b2
+        external_torques[2, i] += m0 * b1 - m1 * b0
+
+
+class RelativeVelocityDamping(NoForces):
+    """Damping on the relative velocity of nodes ``j`` and ``j + k`` (paper Eq. 4-5).
+
+    For every node pair ``(j, j + k)``, ``j = 0 .. n_nodes - 1 - k``, the force
+    ``f = nu * l_j * (v_{j+k} - v_j)`` is added to node ``j`` and subtracted from node ``j + k``,
+    with ``l_j`` the current length of element ``j`` (the authors' implementation). The forces cancel
+    in pairs, so the net force (and the momentum change) is zero; a rigid translation is not damped.
+
+    Parameters
+    ----------
+    nu : float
+        Damping coefficient per unit length, N s / m^2. The paper's robot uses 20 N s/m^2
+        (the authors' ``2e4`` in mm-mg-s units).
+    node_offset : int
+        ``k``, the distance between the damped node pairs. The paper uses 4 ("slightly magnifying
+        the interval between the two nodes helps coarse-tune dissipation").
+    """
+
+    def __init__(self, nu: float, node_offset: int = 4) -> None:
+        super().__init__()
+        nu = float(nu)
+        if not np.isfinite(nu) or nu < 0.0:
+            raise ValueError(f"nu must be a finite damping coefficient >= 0 in N s/m^2, got {nu}")
+        if int(node_offset) != node_offset or node_offset < 1:
+            raise ValueError(f"node_offset must be a positive integer, got {node_offset!r}")
+        self.nu = np.float64(nu)
+        self.node_offset = int(node_offset)
+
+    def apply_forces(self, system, time: np.float64 = np.float64(0.0)) -> None:
+        if self.node_offset >= system.n_elems + 1:
+            raise ValueError(
+                f"node_offset {self.node_offset} must be smaller than the number of nodes "
+                f"({system.n_elems + 1})"
+            )
+        _relative_velocity_damping(
+            self.nu,
+            self.node_offset,
+            system.lengths,
+            system.velocity_collection,
+            system.external_forces,
+        )
+
+
+@njit(cache=True)
+def _relative_velocity_damping(
+    nu: np.float64,
+    offset: int,
+    lengths: NDArray[np.float64],
+    velocities: NDArray[np.float64],
+    external_forces: NDArray[np.float64],
+) -> None:
+    n_nodes = velocities.shape[1]
+    for j in range(n_nodes - offset):
+        c = nu * lengths[j]
+        for d in range(3):
+            f = c * (velocities[d, j + offset] - velocities[d, j])
+            external_forces[d, j] += f
+            external_forces[d, j + offset] -= f
+
+
+class LegacyInternalDamping(NoForces):
+    """The internal damping of PyElastica before 0.3 (rod keyword ``nu``), as a forcing.
+
+    Yao et al. used it together with :class:`RelativeVelocityDamping`; PyElastica 1.0 removed it, so
+    this class restores it to reproduce the paper. With element velocities
+    ``v_e = (v_i + v_{i+1}) / 2`` and current element lengths ``l_e``:
+
+    - node forces: ``-quadrature(c_f * v_e * l_e)``, i.e. node ``i`` gets minus half of the elemental
+      force of each adjacent element;
+    - element torques (material frame): ``-c_t * omega_e * l_e``.
+
+    Unlike :class:`RelativeVelocityDamping`, it also damps rigid-body motion (like a viscous medium).
+
+    Parameters
+    ----------
+    force_coefficient : float
+        ``c_f``, N s / m^2. The paper's robot: 0.15 (the authors' ``nu = 150`` in mm-mg-s units).
+    torque_coefficient : float
+        ``c_t``, N s. The paper's robot: 1.5e-7 (the same ``nu = 150``, by its dimension).
+    """
+
+    def __init__(self, force_coefficient: float, torque_coefficient: float) -> None:
+        super().__init__()
+        for name, value in (
+            ("force_coefficient (N s/m^2)", force_coefficient),
+            ("torque_coefficient (N s)", torque_coefficient),
+        ):
+            if not np.isfinite(value) or value < 0.0:
+                raise ValueError(f"{name} must be finite and >= 0, got {value}")
+        self.force_coefficient = np.float64(force_coefficient)
+        self.torque_coefficient = np.float64(torque_coefficient)
+
+    def apply_forces(self, system, time: np.float64 = np.float64(0.0)) -> None:
+        _legacy_damping_forces(
+            self.force_coefficient,
+            system.lengths,
+            system.velocity_collection,
+            system.external_forces,
+        )
+
+    def apply_torques(self, system, time: np.float64 = np.float64(0.0)) -> None:
+        _legacy_damping_torques(
+            self.torque_coefficient,
+            system.lengths,
+            system.omega_collection,
+            system.external_torques,
+        )
+
+
+@njit(cache=True)
+def _legacy_damping_forces(
+    coefficient: np.float64,
+    lengths: NDArray[np.float64],
+    velocities: NDArray[np.float64],
+    external_forces: NDArray[np.float64],
+) -> None:
+    n_elements = lengths.shape[0]
+    for e in range(n_elements):
+        c = 0.25 * coefficient * lengths[e]  # half for the element velocity, half per node
+        for d in range(3):
+            f = c * (velocities[d, e] + velocities[d, e + 1])
+            external_forces[d, e] -= f
+            external_forces[d, e + 1] -= f
+
+
+@njit(cache=True)
+def _legacy_damping_torques(
+    coefficient: np.float64,
+    lengths: NDArray[np.float64],
+    omegas: NDArray[np.float64],
+    external_torques: NDArray[np.float64],
+) -> None:
+    for e in range(lengths.shape[0]):
+        c = coefficient * lengths[e]
+        for d in range(3):
+            external_torques[d, e] -= c * omegas[d, e]

@@ -1,0 +1,89 @@
+"""Pictures of open-loop runs: the robot's shapes and its trajectory."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .openloop import OpenLoopResult
+
+__all__ = ["plot_open_loop"]
+
+
+def plot_open_loop(
+    result: OpenLoopResult,
+    path: str | Path,
+    title: str = "",
+    reference: pd.DataFrame | None = None,
+) -> Path:
+    """Save a PNG: side view of the shapes over time, marker positions, height and field.
+
+    Parameters
+    ----------
+    result : OpenLoopResult
+    path : str or Path
+        Output PNG.
+    title : str
+    reference : pandas.DataFrame, optional
+        A trajectory with the same columns (e.g. the published one) drawn dashed for comparison.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig = plt.figure(figsize=(10, 8), constrained_layout=True)
+    grid = fig.add_gridspec(3, 2)
+    ax_shape = fig.add_subplot(grid[0, :])
+    ax_x = fig.add_subplot(grid[1, 0])
+    ax_h = fig.add_subplot(grid[1, 1])
+    ax_b = fig.add_subplot(grid[2, :])
+
+    colours = plt.cm.viridis(np.linspace(0.0, 1.0, len(result.shapes)))
+    for (t, pos), colour in zip(result.shapes, colours, strict=True):
+        ax_shape.plot(1e3 * pos[0], 1e3 * pos[1], color=colour, lw=2, label=f"{t:.2f} s")
+    ground = -result.spec.radius * 1e3 if result.spec.ground is not None else None
+    if ground is not None:
+        ax_shape.axhline(ground, color="0.5", lw=1)
+    ax_shape.set_aspect("equal")
+    ax_shape.set_xlabel("x (mm)")
+    ax_shape.set_ylabel("y (mm)")
+    ax_shape.set_title("shapes (side view), colour = time")
+    ax_shape.legend(ncol=6, fontsize=7, loc="upper left")
+
+    traj = result.trajectory
+    for name, colour in (("back", "C0"), ("mid", "C1"), ("front", "C2")):
+        ax_x.plot(traj.t_s, 1e3 * traj[f"{name}_x_m"], color=colour, label=name)
+        if reference is not None:
+            ax_x.plot(
+                reference.t_s, 1e3 * reference[f"{name}_x_m"], "--", color=colour, lw=1,
+                label=f"{name} (reference)",
+            )
+    ax_x.set_xlabel("t (s)")
+    ax_x.set_ylabel("x (mm)")
+    ax_x.legend(fontsize=7)
+
+    ax_h.plot(traj.t_s, 1e3 * traj.height_max_m, label="height")
+    ax_h.plot(traj.t_s, 1e3 * traj.span_m, label="span")
+    if reference is not None:
+        ax_h.plot(reference.t_s, 1e3 * reference.height_max_m, "--", lw=1, label="height (ref.)")
+        ax_h.plot(reference.t_s, 1e3 * reference.span_m, "--", lw=1, label="span (ref.)")
+    ax_h.set_xlabel("t (s)")
+    ax_h.set_ylabel("mm")
+    ax_h.legend(fontsize=7)
+
+    t_field = np.arange(result.fields.shape[0]) * 0.01
+    for k, name in enumerate("xyz"):
+        ax_b.step(t_field, 1e3 * result.fields[:, k], where="post", label=f"B{name}")
+    ax_b.set_xlabel("t (s)")
+    ax_b.set_ylabel("field (mT)")
+    ax_b.legend(fontsize=7)
+    if title:
+        fig.suptitle(title)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
