@@ -1,0 +1,405 @@
+"""Tests of the TD3 agent (rl/td3.py): hand-computed update, truncation vs termination, exact
+resume, per-dimension exploration noise, a Pendulum smoke run and the replay buffer sizing."""
+
+from __future__ import annotations
+
+import csv
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+
+from rl.td3 import (
+    Batch,
+    ReplayBuffer,
+    TD3Agent,
+    TD3Config,
+    evaluate,
+    load_checkpoint,
+    train,
+)
+
+torch.set_num_threads(1)
+
+
+class ToyEnv(gym.Env):
+    """Tiny 1-D reaching task: obs (position, target, t/T); two action dims with asymmetric
+    bounds; terminates at random (through ``self.np_random``) and is truncated after T steps."""
+
+    metadata = {"render_modes": []}
+
+    def __init__(self, max_steps: int = 20, p_terminate: float = 0.06) -> None:
+        self.max_steps, self.p_terminate = max_steps, p_terminate
+        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (3,), np.float32)
+        self.action_space = gym.spaces.Box(
+            np.array([-1.0, 0.0], np.float32), np.array([1.0, 2.0], np.float32)
+        )
+
+    def _obs(self) -> np.ndarray:
+        return np.array([self.pos, self.target, self.t / self.max_steps], np.float32)
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self.pos = float(self.np_random.uniform(-0.5, 0.5))
+        self.target = float(self.np_random.uniform(-1.0, 1.0))
+        self.t = 0
+        return self._obs(), {}
+
+    def step(self, action):
+        action = np.asarray(action, dtype=np.float64)
+        self.pos += 0.1 * action[0]
+        self.t += 1
+        reward = -((self.pos - self.target) ** 2) - 0.01 * (action[1] - 1.0) ** 2
+        terminated = self.t < self.max_steps and bool(self.np_random.random() < self.p_terminate)
+        truncated = self.t >= self.max_steps and not terminated
+        return self._obs(), float(reward), terminated, truncated, {}
+
+
+def toy_config(**kw) -> TD3Config:
+    base = dict(hidden_sizes=(16, 16), batch_size=16, learning_starts=30, checkpoint_every=40,
+                log_every=10)
+    base.update(kw)
+    return TD3Config(**base)
+
+
+# ----------------------------------------------------------------------------------------------
+# (1) one critic update and one (delayed) actor update against a hand computation in numpy
+# ----------------------------------------------------------------------------------------------
+def _params(seq: torch.nn.Sequential) -> list[np.ndarray]:
+    return [p.detach().numpy().astype(np.float64).copy() for p in seq.parameters()]
+
+
+def _fwd(p: list[np.ndarray], x: np.ndarray):
+    """One-hidden-layer ReLU MLP: returns output and the cache for backprop."""
+    w0, b0, w1, b1 = p
+    pre = x @ w0.T + b0
+    h = np.maximum(pre, 0.0)
+    return h @ w1.T + b1, (x, pre, h)
+
+
+def _bwd(p: list[np.ndarray], cache, dout: np.ndarray):
+    """Gradients of the parameters [w0, b0, w1, b1] and of the input."""
+    w0, _, w1, _ = p
+    x, pre, h = cache
+    dh = (dout @ w1) * (pre > 0)
+    return [dh.T @ x, dh.sum(0), dout.T @ h, dout.sum(0)], dh @ w0
+
+
+class _Adam:
+    """Adam (Kingma & Ba) with PyTorch's defaults, written out."""
+
+    def __init__(self, params, lr, b1=0.9, b2=0.999, eps=1e-8):
+        self.lr, self.b1, self.b2, self.eps = lr, b1, b2, eps
+        self.m = [np.zeros_like(q) for q in params]
+        self.v = [np.zeros_like(q) for q in params]
+        self.t = 0
+
+    def step(self, params, grads):
+        self.t += 1
+        out = []
+        for i, (q, g) in enumerate(zip(params, grads, strict=True)):
+            self.m[i] = self.b1 * self.m[i] + (1 - self.b1) * g
+            self.v[i] = self.b2 * self.v[i] + (1 - self.b2) * g * g
+            m_hat = self.m[i] / (1 - self.b1**self.t)
+            v_hat = self.v[i] / (1 - self.b2**self.t)
+            out.append(q - self.lr * m_hat / (np.sqrt(v_hat) + self.eps))
+        return out
+
+
+def test_update_matches_hand_computation():
+    obs_dim, act_dim, n = 3, 2, 5
+    cfg = TD3Config(hidden_sizes=(3,), actor_lr=0.01, critic_lr=0.02, gamma=0.9, tau=0.1,
+                    policy_noise=0.3, target_noise_clip=0.2, policy_delay=2, seed=3)
+    agent = TD3Agent(obs_dim, act_dim, -np.ones(act_dim), np.ones(act_dim), cfg)
+    rng = np.random.default_rng(0)
+
+    def batch():
+        return Batch(
+            rng.normal(size=(n, obs_dim)).astype(np.float32),
+            rng.uniform(-1, 1, size=(n, act_dim)).astype(np.float32),
+            rng.normal(size=n).astype(np.float32),
+            rng.normal(size=(n, obs_dim)).astype(np.float32),
+            np.array([0, 1, 0, 0, 1], np.float32),
+        )
+
+    batches = [batch(), batch()]
+
+    # reference state, copied from the agent before any update
+    actor = _params(agent.actor.net)
+    q1, q2 = _params(agent.critic.q1_net), _params(agent.critic.q2_net)
+    actor_t, q1_t, q2_t = actor, q1, q2  # targets start as copies
+    assert all(np.array_equal(a, b) for a, b in zip(actor_t, _params(agent.actor_target.net),
+                                                    strict=True))
+    opt_q, opt_a = _Adam(q1 + q2, cfg.critic_lr), _Adam(actor, cfg.actor_lr)
+    noise_gen = torch.Generator()
+    noise_gen.set_state(agent.torch_rng.get_state())  # replay the agent's target-noise draws
+
+    def critic_step(b: Batch):
+        nonlocal q1, q2
+        s, a, r, s2, d = (np.asarray(x, np.float64) for x in b)
+        eps = torch.randn((n, act_dim), generator=noise_gen).numpy().astype(np.float64)
+        eps = np.clip(cfg.policy_noise * eps, -cfg.target_noise_clip, cfg.target_noise_clip)
+        a2 = np.clip(np.tanh(_fwd(actor_t, s2)[0]) + eps, -1, 1)
+        sa2 = np.concatenate([s2, a2], 1)
+        q_next = np.minimum(_fwd(q1_t, sa2)[0], _fwd(q2_t, sa2)[0])[:, 0]
+        y = r + cfg.gamma * (1 - d) * q_next
+        sa = np.concatenate([s, a], 1)
+        out1, c1 = _fwd(q1, sa)
+        out2, c2 = _fwd(q2, sa)
+        loss = np.mean((out1[:, 0] - y) ** 2) + np.mean((out2[:, 0] - y) ** 2)
+        g1, _ = _bwd(q1, c1, 2 * (out1 - y[:, None]) / n)
+        g2, _ = _bwd(q2, c2, 2 * (out2 - y[:, None]) / n)
+        new = opt_q.step(q1 + q2, g1 + g2)
+        q1, q2 = new[:4], new[4:]
+        return loss
+
+    # update 1: critics only (policy delay 2)
+    loss1 = critic_step(batches[0])
+    info1 = agent.update(batches[0])
+    assert "actor_loss" not in info1
+    assert info1["critic_loss"] == pytest.approx(loss1, rel=1e-5)
+    for ref, net in ((q1, agent.critic.q1_net), (q2, agent.critic.q2_net)):
+        for a, b in zip(ref, _params(net), strict=True):
+            np.testing.assert_allclose(b, a, rtol=1e-5, atol=1e-6)
+    for a, b in zip(actor, _params(agent.actor.net), strict=True):
+        np.testing.assert_array_equal(b, a)  # actor untouched
+    for a, b in zip(q1_t, _params(agent.critic_target.q1_net), strict=True):
+        np.testing.assert_array_equal(b, a)  # targets untouched
+
+    # update 2: critics (second Adam step), then actor on the new Q1, then Polyak targets
+    loss2 = critic_step(batches[1])
+    s = batches[1].obs.astype(np.float64)
+    pre_a, ca = _fwd(actor, s)
+    mu = np.tanh(pre_a)
+    qa, cq = _fwd(q1, np.concatenate([s, mu], 1))
+    actor_loss = -qa.mean()
+    _, d_in = _bwd(q1, cq, -np.ones_like(qa) / n)
+    grads_a, _ = _bwd(actor, ca, d_in[:, obs_dim:] * (1 - mu**2))
+    actor = opt_a.step(actor, grads_a)
+    q1_t = [cfg.tau * p + (1 - cfg.tau) * pt for p, pt in zip(q1, q1_t, strict=True)]
+    q2_t = [cfg.tau * p + (1 - cfg.tau) * pt for p, pt in zip(q2, q2_t, strict=True)]
+    actor_t = [cfg.tau * p + (1 - cfg.tau) * pt for p, pt in zip(actor, actor_t, strict=True)]
+
+    info2 = agent.update(batches[1])
+    assert info2["critic_loss"] == pytest.approx(loss2, rel=1e-5)
+    assert info2["actor_loss"] == pytest.approx(actor_loss, rel=1e-5)
+    for g_ref, p in zip(grads_a, agent.actor.net.parameters(), strict=True):
+        np.testing.assert_allclose(p.grad.numpy(), g_ref, rtol=1e-4, atol=1e-7)
+    pairs = [
+        (q1, agent.critic.q1_net), (q2, agent.critic.q2_net), (actor, agent.actor.net),
+        (q1_t, agent.critic_target.q1_net), (q2_t, agent.critic_target.q2_net),
+        (actor_t, agent.actor_target.net),
+    ]
+    for ref, net in pairs:
+        for a, b in zip(ref, _params(net), strict=True):
+            np.testing.assert_allclose(b, a, rtol=1e-5, atol=1e-6)
+    # the reference parameters did move (the comparison is not vacuous)
+    assert not np.allclose(actor[0], _params(agent.actor_target.net)[0])
+
+
+# ----------------------------------------------------------------------------------------------
+# (2) terminated vs truncated
+# ----------------------------------------------------------------------------------------------
+def test_target_bootstraps_on_truncation_not_on_termination():
+    cfg = TD3Config(hidden_sizes=(8,), policy_noise=0.0, gamma=0.97)
+    agent = TD3Agent(3, 2, -np.ones(2), np.ones(2), cfg)
+    s2 = torch.tensor([[0.3, -1.2, 0.5], [0.3, -1.2, 0.5]])
+    r = torch.tensor([[0.7], [0.7]])
+    term = torch.tensor([[0.0], [1.0]])  # row 0: truncated / ongoing, row 1: terminated
+    y = agent.compute_target(r, s2, term)
+    with torch.no_grad():
+        q1, q2 = agent.critic_target(s2, agent.actor_target(s2))
+        q_next = torch.min(q1, q2)
+    assert abs(q_next[0].item()) > 1e-3
+    assert y[0].item() == pytest.approx(0.7 + 0.97 * q_next[0].item(), rel=1e-6)
+    assert y[1].item() == pytest.approx(0.7, abs=1e-7)
+
+
+def test_training_loop_stores_terminated_not_done(tmp_path):
+    # no learning needed: learning_starts beyond the run
+    train(ToyEnv, toy_config(learning_starts=10_000), 150, tmp_path, progress=False)
+    ckpt = load_checkpoint(tmp_path)
+    buf = ckpt["buffer"]
+    next_obs, term = buf["next_obs"].numpy(), buf["terminated"].numpy()
+    with open(tmp_path / "episodes.csv") as f:
+        rows = list(csv.DictReader(f))
+    n_trunc = sum(int(r["truncated"]) for r in rows)
+    n_term = sum(int(r["terminated"]) for r in rows)
+    assert n_trunc > 0 and n_term > 0  # both kinds occurred
+    # truncated steps: the stored s' is the real final observation (t/T == 1), not the reset one,
+    # and terminated = 0 so the target bootstraps
+    at_limit = np.isclose(next_obs[:, 2], 1.0)
+    assert at_limit.sum() == n_trunc
+    assert np.all(term[at_limit] == 0.0)
+    assert term.sum() == n_term
+
+
+# ----------------------------------------------------------------------------------------------
+# (3) resume determinism
+# ----------------------------------------------------------------------------------------------
+class _Killed(Exception):
+    pass
+
+
+def _assert_state_equal(a, b, path="state"):
+    if isinstance(a, torch.Tensor):
+        assert torch.equal(a, b), path
+    elif isinstance(a, dict):
+        assert a.keys() == b.keys(), path
+        for k in a:
+            _assert_state_equal(a[k], b[k], f"{path}.{k}")
+    elif isinstance(a, list | tuple):
+        assert len(a) == len(b), path
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            _assert_state_equal(x, y, f"{path}[{i}]")
+    else:
+        assert a == b, path
+
+
+def test_killed_and_resumed_run_is_bit_identical(tmp_path):
+    steps, cfg = 200, toy_config(seed=7)
+    full = train(ToyEnv, cfg, steps, tmp_path / "full", progress=False)
+
+    def kill_late(row):
+        if row["global_step"] >= 130:
+            raise _Killed
+
+    with pytest.raises(_Killed):
+        train(ToyEnv, cfg, steps, tmp_path / "killed", progress=False, log_fn=kill_late)
+    ckpt = load_checkpoint(tmp_path / "killed")
+    assert cfg.learning_starts < ckpt["global_step"] < 130 and ckpt["at_episode_boundary"]
+    assert ckpt["agent"]["num_updates"] > 0
+    del ckpt
+    with pytest.raises(FileExistsError):
+        train(ToyEnv, cfg, steps, tmp_path / "killed", progress=False)
+    resumed = train(ToyEnv, cfg, steps, tmp_path / "killed", resume=True, progress=False)
+
+    _assert_state_equal(full.state_dict(), resumed.state_dict())
+    a, b = load_checkpoint(tmp_path / "full"), load_checkpoint(tmp_path / "killed")
+    for key in ("agent", "buffer", "global_step", "episode", "python_rng", "torch_cpu_rng"):
+        _assert_state_equal(a[key], b[key], key)
+
+    def log(run):
+        with open(tmp_path / run / "episodes.csv") as f:
+            return [{k: v for k, v in r.items() if k != "wall_time_s"} for r in csv.DictReader(f)]
+
+    assert log("full") == log("killed")
+    # and the run was not trivially deterministic: another seed learns different weights
+    other = TD3Agent.for_env(ToyEnv(), toy_config(seed=8))
+    assert not torch.equal(other.actor.net[0].weight, full.actor.net[0].weight)
+
+
+# ----------------------------------------------------------------------------------------------
+# (4) exploration noise per action dimension
+# ----------------------------------------------------------------------------------------------
+def test_exploration_noise_is_drawn_per_dimension():
+    agent = TD3Agent.for_env(ToyEnv(), TD3Config(hidden_sizes=(8,), exploration_noise=0.2))
+    with torch.no_grad():  # mu(s) = 0: the explored action is pure noise
+        agent.actor.net[-1].weight.zero_()
+        agent.actor.net[-1].bias.zero_()
+    obs = np.zeros(3, np.float32)
+    noise = np.stack([agent.select_action(obs, explore=True) for _ in range(4000)])
+    assert np.all(noise[:, 0] != noise[:, 1])
+    np.testing.assert_allclose(noise.std(0), [0.2, 0.2], rtol=0.06)
+    assert abs(np.corrcoef(noise.T)[0, 1]) < 0.06
+    np.testing.assert_array_equal(agent.select_action(obs, explore=False), [0.0, 0.0])
+    # in environment units the noise scales with each half-range (both are 1 here) around center
+    env_actions = np.stack([agent.act(obs, explore=True) for _ in range(2000)])
+    np.testing.assert_allclose(env_actions.mean(0), [0.0, 1.0], atol=0.02)
+    assert np.all(env_actions[:, 1] >= 0.0) and np.all(env_actions[:, 1] <= 2.0)
+
+
+# ----------------------------------------------------------------------------------------------
+# (5) smoke training on Pendulum-v1
+# ----------------------------------------------------------------------------------------------
+def test_pendulum_smoke_writes_log_tensorboard_and_checkpoint(tmp_path):
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    cfg = TD3Config(hidden_sizes=(32, 32), batch_size=32, learning_starts=100, log_every=50)
+    agent = train(lambda: gym.make("Pendulum-v1"), cfg, 300, tmp_path, progress=False)
+
+    with open(tmp_path / "episodes.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 1
+    assert rows[0]["episode"] == "0" and rows[0]["global_step"] == "200"
+    assert rows[0]["length"] == "200" and rows[0]["truncated"] == "1"
+    assert rows[0]["terminated"] == "0" and float(rows[0]["return"]) < 0
+
+    events = list(tmp_path.glob("events.out.tfevents.*"))
+    assert events
+    acc = EventAccumulator(str(tmp_path))
+    acc.Reload()
+    tags = acc.Tags()["scalars"]
+    assert "charts/episodic_return" in tags and "losses/critic_loss" in tags
+    assert "losses/actor_loss" in tags
+
+    ckpt = load_checkpoint(tmp_path / "checkpoint.pt")
+    assert ckpt["global_step"] == 300 and not ckpt["at_episode_boundary"]
+    assert ckpt["agent"]["num_updates"] == 200
+    restored = TD3Agent.from_checkpoint(tmp_path)
+    obs = np.array([0.1, -0.5, 0.3], np.float32)
+    np.testing.assert_array_equal(restored.act(obs), agent.act(obs))
+    assert np.all(np.abs(agent.act(obs)) <= 2.0)
+    policy = agent.policy_module()  # standalone obs -> env action module (for export)
+    with torch.no_grad():
+        np.testing.assert_allclose(policy(torch.from_numpy(obs)[None])[0].numpy(),
+                                   agent.act(obs), rtol=1e-6)
+
+    res = evaluate(agent, lambda: gym.make("Pendulum-v1"), episodes=1, seed=5)
+    assert res.lengths == [200] and np.isfinite(res.mean_return)
+    assert evaluate(agent, lambda: gym.make("Pendulum-v1"), 1, 5).returns == res.returns
+
+    # (6) the replay buffer is sized to the run, not to buffer_size = 1e6
+    assert cfg.buffer_size == 1_000_000
+    assert ckpt["buffer"]["capacity"] == 300 and ckpt["buffer"]["obs"].shape == (300, 3)
+
+
+# ----------------------------------------------------------------------------------------------
+# (6) replay buffer
+# ----------------------------------------------------------------------------------------------
+def test_buffer_capacity_is_min_of_buffer_size_and_run(tmp_path):
+    train(ToyEnv, toy_config(buffer_size=50, learning_starts=1000), 80, tmp_path, progress=False)
+    buf = load_checkpoint(tmp_path)["buffer"]
+    assert buf["capacity"] == 50 and buf["size"] == 50 and buf["ptr"] == 30
+
+
+def test_replay_buffer_ring_dtype_and_state_roundtrip():
+    buf = ReplayBuffer(4, obs_dim=2, act_dim=1)
+    assert buf.obs.dtype == np.float32 and buf.obs.nbytes == 4 * 2 * 4
+    for i in range(6):
+        buf.add(np.full(2, i, np.float64), np.array([i / 10]), float(i), np.full(2, i + 1),
+                terminated=(i == 5))
+    assert len(buf) == 4 and buf.ptr == 2
+    assert sorted(buf.rewards.tolist()) == [2.0, 3.0, 4.0, 5.0]
+    assert buf.obs.dtype == np.float32 and buf.terminated[1] == 1.0  # i=5 went to slot 1
+    batch = buf.sample(64, np.random.default_rng(0))
+    np.testing.assert_array_equal(batch.next_obs[:, 0], batch.obs[:, 0] + 1)
+    np.testing.assert_array_equal(batch.terminated, (batch.rewards == 5.0).astype(np.float32))
+
+    same = ReplayBuffer(4, 2, 1)
+    same.load_state_dict(buf.state_dict())
+    assert (same.ptr, same.size) == (buf.ptr, buf.size)
+    np.testing.assert_array_equal(same.obs, buf.obs)
+    bigger = ReplayBuffer(10, 2, 1)  # into another capacity: chronological, oldest first
+    bigger.load_state_dict(buf.state_dict())
+    assert bigger.rewards[:4].tolist() == [2.0, 3.0, 4.0, 5.0] and bigger.ptr == 4
+    smaller = ReplayBuffer(3, 2, 1)  # keeps the newest
+    smaller.load_state_dict(buf.state_dict())
+    assert smaller.rewards.tolist() == [3.0, 4.0, 5.0] and smaller.ptr == 0
+
+
+def test_init_from_continues_without_new_warmup(tmp_path):
+    """Refinement: start from another run's checkpoint (agent, buffer, counters) in a new dir."""
+    train(ToyEnv, toy_config(), 100, tmp_path / "base", progress=False)
+    base = load_checkpoint(tmp_path / "base")
+    agent = train(ToyEnv, None, 130, tmp_path / "refine", progress=False,
+                  init_from=tmp_path / "base")
+    ckpt = load_checkpoint(tmp_path / "refine")
+    assert ckpt["global_step"] == 130
+    assert agent.num_updates == base["agent"]["num_updates"] + 30  # learning from the first step
+    assert ckpt["buffer"]["capacity"] == 130 and ckpt["buffer"]["size"] == 130
+    torch.testing.assert_close(ckpt["buffer"]["obs"][:100], base["buffer"]["obs"])
+    with open(tmp_path / "refine" / "episodes.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert rows and int(rows[0]["episode"]) >= base["episode"]
