@@ -1,0 +1,796 @@
+"""TD3 (Twin Delayed DDPG), a single-file implementation in the style of CleanRL.
+
+Reference: S. Fujimoto, H. van Hoof, D. Meger, "Addressing Function Approximation Error in
+Actor-Critic Methods", ICML 2018 (https://arxiv.org/abs/1802.09477).
+
+The three ingredients of TD3, all in :meth:`TD3Agent.update`:
+
+1. **Clipped double-Q learning.** Two critics ``Q1, Q2`` and their targets; the TD target uses
+   the smaller target value::
+
+       y = r + gamma * (1 - terminated) * min(Q1'(s', a'), Q2'(s', a'))
+
+2. **Target policy smoothing.** The target action is the target actor's action plus clipped
+   Gaussian noise, drawn independently per action dimension::
+
+       a' = clip(mu'(s') + clip(eps, -c, c), -1, 1),   eps ~ N(0, sigma_target^2 I)
+
+3. **Delayed policy updates.** Every ``policy_delay`` critic updates the actor ascends
+   ``Q1(s, mu(s))`` and the targets follow by Polyak averaging::
+
+       theta' <- tau * theta + (1 - tau) * theta'
+
+Conventions of this implementation
+----------------------------------
+* Actions are handled in **normalised units** ``[-1, 1]^d`` everywhere inside the agent: the actor
+  ends in ``tanh``, the critics see normalised actions, the replay buffer stores them, and all noise
+  scales (exploration ``sigma``, target noise and its clip) are fractions of the half-range of the
+  action box. Only the action sent to the environment is mapped affinely onto
+  ``[low, high]`` (:meth:`TD3Agent.scale_action`). For symmetric bounds ``[-m, m]`` this is exactly
+  Fujimoto's ``max_action * sigma`` convention.
+* Exploration noise is drawn **per action dimension** (the authors' released code added one scalar
+  sample to every dimension; see ``DESIGN.md`` section 5).
+* The buffer stores ``terminated``, not ``done``: a time-limit truncation still bootstraps, and the
+  stored ``next_obs`` of a truncated step is the real final observation returned by ``step()``
+  (Gymnasium 1.x single envs are reset by the caller, so nothing is lost).
+* ``target_noise_clip`` defaults to Fujimoto's 0.5; the authors of the magnetic-crawler paper used
+  0.8 (``TD3Config(target_noise_clip=0.8)``).
+
+Exact resume
+------------
+:func:`train` writes checkpoints (atomically) that hold everything needed to continue bit-for-bit:
+networks, target networks, both Adam optimisers, the replay buffer (contents, pointer, size), every
+RNG state (Python ``random``, the agent's numpy ``Generator``, the agent's torch ``Generator``, the
+global torch CPU RNG) and the counters. The environment's internal state cannot be saved in general,
+so checkpoints are taken **only at episode boundaries**, and each episode ``k`` starts with
+``env.reset(seed=episode_seed(config.seed, k))`` -- a deterministic seed sequence. Together this
+makes a run killed after a checkpoint and resumed end with bit-identical weights to an uninterrupted
+run on the CPU (same thread count; ``torch.use_deterministic_algorithms`` is switched on during
+training when ``config.torch_deterministic``). The one checkpoint that may fall inside an episode
+is the final one written when ``steps`` is reached; continuing such a run to a larger ``steps``
+abandons that partial episode (its transitions stay in the buffer) and starts the next one.
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import dataclasses
+import os
+import random
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import gymnasium as gym
+import numpy as np
+import torch
+import torch.nn as nn
+import torch.nn.functional as F
+
+CHECKPOINT_NAME = "checkpoint.pt"
+EPISODES_CSV = "episodes.csv"
+CHECKPOINT_FORMAT = "td3-checkpoint-v1"
+EPISODE_FIELDS = (
+    "episode",
+    "global_step",
+    "return",
+    "length",
+    "terminated",
+    "truncated",
+    "wall_time_s",
+)
+
+
+# ----------------------------------------------------------------------------------------------
+# Hyperparameters
+# ----------------------------------------------------------------------------------------------
+@dataclass
+class TD3Config:
+    """All TD3 hyperparameters and run settings (defaults: the paper's / Fujimoto's values).
+
+    Noise scales are in normalised action units (fractions of the action half-range).
+    """
+
+    # networks and optimisation
+    hidden_sizes: tuple[int, ...] = (256, 256)
+    """Hidden layer widths (ReLU) of the actor and of each critic."""
+    actor_lr: float = 3e-4
+    critic_lr: float = 3e-4
+    gamma: float = 0.99
+    tau: float = 0.005
+    """Polyak coefficient of the target networks."""
+    batch_size: int = 256
+    # replay and exploration
+    buffer_size: int = 1_000_000
+    """Upper bound on the replay capacity; the buffer actually allocated holds
+    ``min(buffer_size, total steps of the run)`` transitions."""
+    learning_starts: int = 2500
+    """Warm-up: steps of uniform random actions before the policy acts and learning begins."""
+    exploration_noise: float = 0.2
+    """Std of the Gaussian exploration noise, drawn independently per action dimension."""
+    # TD3 specifics
+    policy_noise: float = 0.2
+    """Std of the target policy smoothing noise."""
+    target_noise_clip: float = 0.5
+    """Clip of the target policy noise: 0.5 as Fujimoto et al.; the crawler paper's authors
+    used 0.8."""
+    policy_delay: int = 2
+    """Actor and target networks are updated once every ``policy_delay`` critic updates."""
+    updates_per_step: int = 1
+    """Gradient steps per environment step (after warm-up)."""
+    # run settings
+    seed: int = 0
+    device: str = "cpu"
+    torch_deterministic: bool = True
+    """Switch on ``torch.use_deterministic_algorithms`` while training (restored afterwards)."""
+    checkpoint_every: int = 10_000
+    """A checkpoint is written at the first episode boundary after every multiple of this many
+    steps, and at the end of the run."""
+    log_every: int = 100
+    """TensorBoard loss scalars every this many gradient updates."""
+
+    def __post_init__(self) -> None:
+        self.hidden_sizes = tuple(int(h) for h in self.hidden_sizes)
+        if not 0.0 < self.tau <= 1.0:
+            raise ValueError(f"tau must be in (0, 1], got {self.tau}")
+        if not 0.0 <= self.gamma <= 1.0:
+            raise ValueError(f"gamma must be in [0, 1], got {self.gamma}")
+        for name in ("batch_size", "buffer_size", "policy_delay", "checkpoint_every", "log_every"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+        for name in ("learning_starts", "updates_per_step"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        for name in ("exploration_noise", "policy_noise", "target_noise_clip"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> TD3Config:
+        names = {f.name for f in dataclasses.fields(cls)}
+        return cls(**{k: v for k, v in d.items() if k in names})
+
+
+def episode_seed(base_seed: int, episode: int) -> int:
+    """Seed of ``env.reset`` for episode ``episode`` of a run with seed ``base_seed``.
+
+    Derived with ``numpy.random.SeedSequence`` so that runs with neighbouring seeds do not share
+    episodes (``base_seed + episode`` would make episode 1 of seed 0 equal episode 0 of seed 1).
+    """
+    return int(np.random.SeedSequence([int(base_seed), int(episode)]).generate_state(1)[0])
+
+
+# ----------------------------------------------------------------------------------------------
+# Replay buffer
+# ----------------------------------------------------------------------------------------------
+class Batch(NamedTuple):
+    """A minibatch of transitions (numpy arrays; actions normalised to [-1, 1])."""
+
+    obs: np.ndarray  # (B, obs_dim) float32
+    actions: np.ndarray  # (B, act_dim) float32
+    rewards: np.ndarray  # (B,) float32
+    next_obs: np.ndarray  # (B, obs_dim) float32
+    terminated: np.ndarray  # (B,) float32, 1.0 where s' is terminal (not on truncation)
+
+
+class ReplayBuffer:
+    """Fixed-capacity ring buffer of transitions, stored as float32 numpy arrays.
+
+    It stores ``terminated`` (a true terminal state) rather than ``done``: transitions cut by a time
+    limit are stored with ``terminated=0`` and so bootstrap from ``next_obs``.
+    """
+
+    def __init__(self, capacity: int, obs_dim: int, act_dim: int) -> None:
+        if capacity < 1:
+            raise ValueError(f"capacity must be >= 1, got {capacity}")
+        self.capacity = int(capacity)
+        self.obs_dim = int(obs_dim)
+        self.act_dim = int(act_dim)
+        self.obs = np.zeros((self.capacity, self.obs_dim), dtype=np.float32)
+        self.next_obs = np.zeros((self.capacity, self.obs_dim), dtype=np.float32)
+        self.actions = np.zeros((self.capacity, self.act_dim), dtype=np.float32)
+        self.rewards = np.zeros(self.capacity, dtype=np.float32)
+        self.terminated = np.zeros(self.capacity, dtype=np.float32)
+        self.ptr = 0  # next slot to write
+        self.size = 0  # number of valid transitions
+
+    def __len__(self) -> int:
+        return self.size
+
+    def add(
+        self,
+        obs: np.ndarray,
+        action: np.ndarray,
+        reward: float,
+        next_obs: np.ndarray,
+        terminated: bool,
+    ) -> None:
+        """Store one transition, overwriting the oldest when full."""
+        i = self.ptr
+        self.obs[i] = obs
+        self.actions[i] = action
+        self.rewards[i] = reward
+        self.next_obs[i] = next_obs
+        self.terminated[i] = float(terminated)
+        self.ptr = (self.ptr + 1) % self.capacity
+        self.size = min(self.size + 1, self.capacity)
+
+    def sample(self, batch_size: int, rng: np.random.Generator) -> Batch:
+        """Uniformly sample ``batch_size`` transitions (with replacement) using ``rng``."""
+        if self.size == 0:
+            raise ValueError("cannot sample from an empty replay buffer")
+        idx = rng.integers(0, self.size, size=batch_size)
+        return Batch(
+            self.obs[idx], self.actions[idx], self.rewards[idx], self.next_obs[idx],
+            self.terminated[idx],
+        )
+
+    def _chronological(self) -> dict[str, np.ndarray]:
+        """Valid contents, oldest first."""
+        start = self.ptr if self.size == self.capacity else 0
+        order = (start + np.arange(self.size)) % self.capacity
+        return {k: getattr(self, k)[order] for k in ("obs", "actions", "rewards", "next_obs",
+                                                     "terminated")}
+
+    def state_dict(self) -> dict[str, Any]:
+        """Contents as torch tensors (only the ``size`` valid rows) plus pointer and size."""
+        keys = ("obs", "actions", "rewards", "next_obs", "terminated")
+        return {
+            "capacity": self.capacity,
+            "obs_dim": self.obs_dim,
+            "act_dim": self.act_dim,
+            "ptr": self.ptr,
+            "size": self.size,
+            **{k: torch.from_numpy(getattr(self, k)[: self.size].copy()) for k in keys},
+        }
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        """Restore contents. With the same capacity the layout (and thus sampling) is exact; into a
+        different capacity the transitions are copied oldest first (keeping the newest if smaller).
+        """
+        if state["obs_dim"] != self.obs_dim or state["act_dim"] != self.act_dim:
+            raise ValueError("replay buffer dimensions do not match the checkpoint")
+        keys = ("obs", "actions", "rewards", "next_obs", "terminated")
+        data = {k: state[k].numpy() for k in keys}
+        size = int(state["size"])
+        if state["capacity"] == self.capacity:
+            for k in keys:
+                getattr(self, k)[:size] = data[k]
+            self.ptr, self.size = int(state["ptr"]), size
+            return
+        # different capacity: unroll into chronological order first
+        start = int(state["ptr"]) if size == state["capacity"] else 0
+        order = (start + np.arange(size)) % max(size, 1)
+        n = min(size, self.capacity)
+        order = order[size - n:]
+        for k in keys:
+            getattr(self, k)[:n] = data[k][order]
+        self.size = n
+        self.ptr = n % self.capacity
+
+
+# ----------------------------------------------------------------------------------------------
+# Networks
+# ----------------------------------------------------------------------------------------------
+def mlp(in_dim: int, out_dim: int, hidden_sizes: tuple[int, ...]) -> nn.Sequential:
+    """Linear-ReLU-...-Linear with PyTorch's default (Kaiming-uniform) initialisation."""
+    layers: list[nn.Module] = []
+    d = in_dim
+    for h in hidden_sizes:
+        layers += [nn.Linear(d, h), nn.ReLU()]
+        d = h
+    layers.append(nn.Linear(d, out_dim))
+    return nn.Sequential(*layers)
+
+
+class Actor(nn.Module):
+    """Deterministic policy ``mu(s) = tanh(MLP(s))`` in normalised action units [-1, 1]."""
+
+    def __init__(self, obs_dim: int, act_dim: int, hidden_sizes: tuple[int, ...]) -> None:
+        super().__init__()
+        self.net = mlp(obs_dim, act_dim, hidden_sizes)
+
+    def forward(self, obs: torch.Tensor) -> torch.Tensor:
+        return torch.tanh(self.net(obs))
+
+
+class TwinCritic(nn.Module):
+    """Two independent Q networks ``Q_i(s, a) = MLP_i([s, a])`` (normalised actions)."""
+
+    def __init__(self, obs_dim: int, act_dim: int, hidden_sizes: tuple[int, ...]) -> None:
+        super().__init__()
+        self.q1_net = mlp(obs_dim + act_dim, 1, hidden_sizes)
+        self.q2_net = mlp(obs_dim + act_dim, 1, hidden_sizes)
+
+    def forward(self, obs: torch.Tensor, act: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        x = torch.cat([obs, act], dim=-1)
+        return self.q1_net(x), self.q2_net(x)
+
+    def q1(self, obs: torch.Tensor, act: torch.Tensor) -> torch.Tensor:
+        return self.q1_net(torch.cat([obs, act], dim=-1))
+
+
+class ScaledPolicy(nn.Module):
+    """Actor followed by the affine map onto the environment's action box (for export)."""
+
+    def __init__(self, actor: Actor, low: np.ndarray, high: np.ndarray) -> None:
+        super().__init__()
+        self.actor = actor
+        self.register_buffer("scale", torch.as_tensor((high - low) / 2.0, dtype=torch.float32))
+        self.register_buffer("center", torch.as_tensor((high + low) / 2.0, dtype=torch.float32))
+
+    def forward(self, obs: torch.Tensor) -> torch.Tensor:
+        return self.center + self.scale * self.actor(obs)
+
+
+# ----------------------------------------------------------------------------------------------
+# Agent
+# ----------------------------------------------------------------------------------------------
+class TD3Agent:
+    """TD3 actor, twin critics, their targets, optimisers and the agent's own RNGs.
+
+    Randomness used by the agent comes from ``self.rng`` (numpy: exploration noise, warm-up
+    actions, minibatch indices) and ``self.torch_rng`` (torch CPU: target policy noise); the
+    networks are initialised from ``config.seed`` without touching the global torch RNG.
+    """
+
+    def __init__(
+        self,
+        obs_dim: int,
+        act_dim: int,
+        action_low: np.ndarray,
+        action_high: np.ndarray,
+        config: TD3Config | None = None,
+    ) -> None:
+        self.config = cfg = config if config is not None else TD3Config()
+        self.obs_dim, self.act_dim = int(obs_dim), int(act_dim)
+        self.action_low = np.asarray(action_low, dtype=np.float64).reshape(self.act_dim)
+        self.action_high = np.asarray(action_high, dtype=np.float64).reshape(self.act_dim)
+        if not (np.all(np.isfinite(self.action_low)) and np.all(np.isfinite(self.action_high))):
+            raise ValueError("TD3 needs a bounded action space")
+        if np.any(self.action_high <= self.action_low):
+            raise ValueError("action_high must exceed action_low in every dimension")
+        self.device = torch.device(cfg.device)
+
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(cfg.seed)
+            self.actor = Actor(self.obs_dim, self.act_dim, cfg.hidden_sizes).to(self.device)
+            self.critic = TwinCritic(self.obs_dim, self.act_dim, cfg.hidden_sizes).to(self.device)
+        self.actor_target = copy.deepcopy(self.actor)
+        self.critic_target = copy.deepcopy(self.critic)
+        for p in (*self.actor_target.parameters(), *self.critic_target.parameters()):
+            p.requires_grad_(False)
+        self.actor_optimizer = torch.optim.Adam(self.actor.parameters(), lr=cfg.actor_lr)
+        self.critic_optimizer = torch.optim.Adam(self.critic.parameters(), lr=cfg.critic_lr)
+
+        self.rng = np.random.default_rng(cfg.seed)
+        self.torch_rng = torch.Generator(device="cpu").manual_seed(cfg.seed)
+        self.num_updates = 0  # critic updates so far (the policy-delay counter)
+
+    @classmethod
+    def for_env(cls, env: gym.Env, config: TD3Config | None = None) -> TD3Agent:
+        """Build an agent for a Gymnasium env with a flat Box observation and Box action space."""
+        obs_space, act_space = env.observation_space, env.action_space
+        if not isinstance(act_space, gym.spaces.Box) or not isinstance(obs_space, gym.spaces.Box):
+            raise TypeError("TD3 needs Box observation and action spaces")
+        return cls(
+            int(np.prod(obs_space.shape)), int(np.prod(act_space.shape)),
+            act_space.low.reshape(-1), act_space.high.reshape(-1), config,
+        )
+
+    # -- acting ---------------------------------------------------------------------------------
+    def scale_action(self, action: np.ndarray) -> np.ndarray:
+        """Map a normalised action in [-1, 1]^d onto the environment's box ``[low, high]``."""
+        center = (self.action_high + self.action_low) / 2.0
+        scale = (self.action_high - self.action_low) / 2.0
+        return (center + scale * np.asarray(action, dtype=np.float64)).astype(np.float32)
+
+    def random_action(self) -> np.ndarray:
+        """Warm-up action: uniform on [-1, 1]^d (normalised), from the agent's numpy RNG."""
+        return self.rng.uniform(-1.0, 1.0, size=self.act_dim).astype(np.float32)
+
+    @torch.no_grad()
+    def select_action(self, obs: np.ndarray, explore: bool) -> np.ndarray:
+        """Normalised action ``mu(s)``, plus per-dimension noise ``N(0, sigma^2 I)`` when exploring
+        (then clipped to [-1, 1])."""
+        obs_t = torch.as_tensor(np.asarray(obs, dtype=np.float32).reshape(1, -1))
+        obs_t = obs_t.to(self.device)
+        action = self.actor(obs_t)[0].cpu().numpy().astype(np.float64)
+        if explore:
+            noise = self.rng.normal(0.0, self.config.exploration_noise, size=self.act_dim)
+            action = np.clip(action + noise, -1.0, 1.0)
+        return action.astype(np.float32)
+
+    def act(self, obs: np.ndarray, explore: bool = False) -> np.ndarray:
+        """Action in environment units for ``obs`` (deterministic unless ``explore``)."""
+        return self.scale_action(self.select_action(obs, explore))
+
+    def policy_module(self) -> ScaledPolicy:
+        """A standalone copy of the actor mapping observations to environment actions."""
+        policy = ScaledPolicy(copy.deepcopy(self.actor).cpu(), self.action_low, self.action_high)
+        return policy.eval().requires_grad_(False)
+
+    # -- learning -------------------------------------------------------------------------------
+    def _to_tensors(self, batch: Batch) -> tuple[torch.Tensor, ...]:
+        def t(x: np.ndarray) -> torch.Tensor:
+            return torch.as_tensor(np.asarray(x, dtype=np.float32), device=self.device)
+
+        return (
+            t(batch.obs), t(batch.actions), t(batch.rewards).reshape(-1, 1), t(batch.next_obs),
+            t(batch.terminated).reshape(-1, 1),
+        )
+
+    @torch.no_grad()
+    def compute_target(
+        self, rewards: torch.Tensor, next_obs: torch.Tensor, terminated: torch.Tensor
+    ) -> torch.Tensor:
+        """TD target with target policy smoothing and clipped double Q (shape (B, 1))::
+
+            eps ~ N(0, sigma^2), per dimension;  a' = clip(mu'(s') + clip(eps, -c, c), -1, 1)
+            y   = r + gamma * (1 - terminated) * min(Q1'(s', a'), Q2'(s', a'))
+        """
+        cfg = self.config
+        shape = (next_obs.shape[0], self.act_dim)
+        eps = torch.randn(shape, generator=self.torch_rng).to(self.device) * cfg.policy_noise
+        eps = eps.clamp(-cfg.target_noise_clip, cfg.target_noise_clip)
+        next_action = (self.actor_target(next_obs) + eps).clamp(-1.0, 1.0)
+        q1_next, q2_next = self.critic_target(next_obs, next_action)
+        return rewards + cfg.gamma * (1.0 - terminated) * torch.min(q1_next, q2_next)
+
+    def update(self, batch: Batch) -> dict[str, float]:
+        """One TD3 gradient step on ``batch``: the critics always; every ``policy_delay``-th call
+        also the actor and a Polyak update of both targets. Returns the losses as floats."""
+        cfg = self.config
+        obs, actions, rewards, next_obs, terminated = self._to_tensors(batch)
+
+        # critics: regress both Q1 and Q2 onto the shared target y
+        y = self.compute_target(rewards, next_obs, terminated)
+        q1, q2 = self.critic(obs, actions)
+        critic_loss = F.mse_loss(q1, y) + F.mse_loss(q2, y)
+        self.critic_optimizer.zero_grad(set_to_none=True)
+        critic_loss.backward()
+        self.critic_optimizer.step()
+        self.num_updates += 1
+        info = {
+            "critic_loss": critic_loss.item(),
+            "q1": q1.mean().item(),
+            "q2": q2.mean().item(),
+            "target_q": y.mean().item(),
+        }
+
+        # delayed actor and target updates
+        if self.num_updates % cfg.policy_delay == 0:
+            actor_loss = -self.critic.q1(obs, self.actor(obs)).mean()
+            self.actor_optimizer.zero_grad(set_to_none=True)
+            actor_loss.backward()
+            self.actor_optimizer.step()
+            with torch.no_grad():  # theta' <- tau * theta + (1 - tau) * theta'
+                for net, target in ((self.actor, self.actor_target),
+                                    (self.critic, self.critic_target)):
+                    for p, p_targ in zip(net.parameters(), target.parameters(), strict=True):
+                        p_targ.copy_(cfg.tau * p + (1.0 - cfg.tau) * p_targ)
+            info["actor_loss"] = actor_loss.item()
+        return info
+
+    # -- state ----------------------------------------------------------------------------------
+    def state_dict(self) -> dict[str, Any]:
+        """Networks, targets, optimisers, the agent's RNG states and the update counter."""
+        return {
+            "actor": self.actor.state_dict(),
+            "critic": self.critic.state_dict(),
+            "actor_target": self.actor_target.state_dict(),
+            "critic_target": self.critic_target.state_dict(),
+            "actor_optimizer": self.actor_optimizer.state_dict(),
+            "critic_optimizer": self.critic_optimizer.state_dict(),
+            "numpy_rng": self.rng.bit_generator.state,
+            "torch_rng": self.torch_rng.get_state(),
+            "num_updates": self.num_updates,
+        }
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.actor.load_state_dict(state["actor"])
+        self.critic.load_state_dict(state["critic"])
+        self.actor_target.load_state_dict(state["actor_target"])
+        self.critic_target.load_state_dict(state["critic_target"])
+        self.actor_optimizer.load_state_dict(state["actor_optimizer"])
+        self.critic_optimizer.load_state_dict(state["critic_optimizer"])
+        self.rng.bit_generator.state = state["numpy_rng"]
+        self.torch_rng.set_state(state["torch_rng"])
+        self.num_updates = int(state["num_updates"])
+
+    @classmethod
+    def from_checkpoint(cls, path: str | os.PathLike, device: str | None = None) -> TD3Agent:
+        """Rebuild an agent (networks, optimisers, RNGs) from a :func:`train` checkpoint."""
+        ckpt = load_checkpoint(path)
+        cfg = TD3Config.from_dict(ckpt["config"])
+        if device is not None:
+            cfg.device = device
+        agent = cls(ckpt["obs_dim"], ckpt["act_dim"], ckpt["action_low"].numpy(),
+                    ckpt["action_high"].numpy(), cfg)
+        agent.load_state_dict(ckpt["agent"])
+        return agent
+
+
+# ----------------------------------------------------------------------------------------------
+# Checkpoints
+# ----------------------------------------------------------------------------------------------
+def save_checkpoint(path: str | os.PathLike, checkpoint: dict[str, Any]) -> None:
+    """Write ``checkpoint`` atomically: to a temporary file in the same directory, then rename."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "wb") as f:
+        torch.save(checkpoint, f)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def load_checkpoint(path: str | os.PathLike) -> dict[str, Any]:
+    """Load a checkpoint written by :func:`train` (a run directory or the file itself)."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / CHECKPOINT_NAME
+    ckpt = torch.load(path, map_location="cpu", weights_only=True)
+    if ckpt.get("format") != CHECKPOINT_FORMAT:
+        raise ValueError(f"{path} is not a TD3 checkpoint ({CHECKPOINT_FORMAT})")
+    return ckpt
+
+
+# ----------------------------------------------------------------------------------------------
+# Training loop
+# ----------------------------------------------------------------------------------------------
+def _flat_obs(obs: Any) -> np.ndarray:
+    return np.asarray(obs, dtype=np.float32).reshape(-1)
+
+
+def _truncate_episode_log(path: Path, keep_episodes: int) -> None:
+    """Drop rows of episodes ``>= keep_episodes`` (logged after the checkpoint we resume from)."""
+    if not path.exists():
+        return
+    with open(path, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if int(r["episode"]) < keep_episodes]
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=EPISODE_FIELDS)
+        writer.writeheader()
+        writer.writerows(rows)
+    os.replace(tmp, path)
+
+
+def train(
+    env_fn: Callable[[], gym.Env],
+    config: TD3Config | None = None,
+    steps: int = 100_000,
+    run_dir: str | os.PathLike = "runs/td3",
+    resume: bool = False,
+    progress: bool = True,
+    log_fn: Callable[[dict[str, Any]], None] | None = None,
+    *,
+    init_from: str | os.PathLike | None = None,
+    progress_position: int | None = None,
+    progress_desc: str | None = None,
+) -> TD3Agent:
+    """Train TD3 until ``steps`` environment steps in total and return the agent.
+
+    Writes into ``run_dir``: ``episodes.csv`` (one row per finished episode: episode, global_step,
+    return, length, terminated, truncated, wall_time_s), TensorBoard scalars, and
+    ``checkpoint.pt`` (see the module docstring; every ``config.checkpoint_every`` steps at an
+    episode boundary and at the end).
+
+    Args:
+        env_fn: makes the environment (flat Box observations, bounded Box actions).
+        config: hyperparameters; on ``resume`` the checkpoint's config is used.
+        steps: total environment steps of the run (counted from step 0, including steps done
+            before a resume or inherited through ``init_from``).
+        run_dir: output directory. Refuses to overwrite an existing checkpoint unless ``resume``.
+        resume: continue from ``run_dir/checkpoint.pt`` (fresh start if there is none).
+        progress: show a tqdm progress bar.
+        log_fn: called with each episode's row (a dict) after it is written.
+        init_from: start from another run's checkpoint (networks, optimisers, buffer, RNGs and
+            counters; e.g. to refine a policy in another environment). Ignored when resuming from
+            a checkpoint in ``run_dir``.
+        progress_position, progress_desc: tqdm ``position`` and ``desc`` (one bar per worker).
+    """
+    from torch.utils.tensorboard import SummaryWriter
+    from tqdm.auto import tqdm
+
+    run_dir = Path(run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    ckpt_path = run_dir / CHECKPOINT_NAME
+    csv_path = run_dir / EPISODES_CSV
+
+    ckpt: dict[str, Any] | None = None
+    if ckpt_path.exists():
+        if not resume:
+            raise FileExistsError(f"{ckpt_path} exists: pass resume=True or use a new run_dir")
+        ckpt = load_checkpoint(ckpt_path)
+    elif resume:
+        warnings.warn(f"resume=True but no checkpoint in {run_dir}: starting fresh", stacklevel=2)
+    resumed_here = ckpt is not None
+    if ckpt is None and init_from is not None:
+        ckpt = load_checkpoint(init_from)
+
+    if ckpt is not None:
+        ckpt_cfg = TD3Config.from_dict(ckpt["config"])
+        if resumed_here or config is None:
+            if config is not None and config != ckpt_cfg:
+                warnings.warn("resuming: using the checkpoint's config, not the one passed",
+                              stacklevel=2)
+            config = ckpt_cfg
+    cfg = config if config is not None else TD3Config()
+
+    env = env_fn()
+    agent = TD3Agent.for_env(env, cfg)
+    buffer = ReplayBuffer(min(cfg.buffer_size, steps), agent.obs_dim, agent.act_dim)
+    global_step, episode, elapsed_before = 0, 0, 0.0
+    if ckpt is not None:
+        if (ckpt["obs_dim"], ckpt["act_dim"]) != (agent.obs_dim, agent.act_dim):
+            raise ValueError("checkpoint does not match the environment's spaces")
+        agent.load_state_dict(ckpt["agent"])
+        buffer.load_state_dict(ckpt["buffer"])
+        global_step = int(ckpt["global_step"])
+        episode = int(ckpt["episode"]) + (0 if ckpt["at_episode_boundary"] else 1)
+        random.setstate(ckpt["python_rng"])
+        torch.set_rng_state(ckpt["torch_cpu_rng"])
+        elapsed_before = float(ckpt["wall_time_s"]) if resumed_here else 0.0
+    else:
+        random.seed(cfg.seed)
+        torch.manual_seed(cfg.seed)
+
+    if resumed_here:
+        _truncate_episode_log(csv_path, episode)
+    elif csv_path.exists():
+        csv_path.unlink()  # stale log of a run without checkpoint
+    writer = SummaryWriter(str(run_dir), purge_step=global_step if resumed_here else None)
+    if not resumed_here:
+        writer.add_text("config", str(cfg.to_dict()))
+
+    def checkpoint(at_episode_boundary: bool) -> None:
+        save_checkpoint(ckpt_path, {
+            "format": CHECKPOINT_FORMAT,
+            "config": cfg.to_dict(),
+            "obs_dim": agent.obs_dim,
+            "act_dim": agent.act_dim,
+            "action_low": torch.from_numpy(agent.action_low.copy()),
+            "action_high": torch.from_numpy(agent.action_high.copy()),
+            "agent": agent.state_dict(),
+            "buffer": buffer.state_dict(),
+            "global_step": global_step,
+            "episode": episode,  # index of the next episode (of the current one if mid-episode)
+            "at_episode_boundary": at_episode_boundary,
+            "python_rng": random.getstate(),
+            "torch_cpu_rng": torch.get_rng_state(),
+            "wall_time_s": elapsed_before + time.time() - t_start,
+        })
+
+    prev_deterministic = torch.are_deterministic_algorithms_enabled()
+    if cfg.torch_deterministic:
+        torch.use_deterministic_algorithms(True)
+    t_start = time.time()
+    next_checkpoint = (global_step // cfg.checkpoint_every + 1) * cfg.checkpoint_every
+    bar = tqdm(total=steps, initial=min(global_step, steps), disable=not progress,
+               position=progress_position, desc=progress_desc, dynamic_ncols=True, leave=True)
+    csv_file = open(csv_path, "a", newline="")
+    try:
+        csv_writer = csv.DictWriter(csv_file, fieldnames=EPISODE_FIELDS)
+        if csv_path.stat().st_size == 0:
+            csv_writer.writeheader()
+        sps_t, sps_step = time.time(), global_step
+        obs, _ = env.reset(seed=episode_seed(cfg.seed, episode))
+        obs = _flat_obs(obs)
+        ep_return, ep_len = 0.0, 0
+        while global_step < steps:
+            # 1. act: uniform random during warm-up, then mu(s) + N(0, sigma^2 I)
+            if global_step < cfg.learning_starts:
+                action = agent.random_action()
+            else:
+                action = agent.select_action(obs, explore=True)
+            next_obs, reward, terminated, truncated, _ = env.step(agent.scale_action(action))
+            next_obs = _flat_obs(next_obs)
+            # 2. store terminated (not done): truncated transitions bootstrap from the real s'
+            buffer.add(obs, action, float(reward), next_obs, bool(terminated))
+            obs = next_obs
+            ep_return += float(reward)
+            ep_len += 1
+            global_step += 1
+            bar.update(1)
+
+            # 3. learn: one (or updates_per_step) TD3 update per env step after warm-up
+            if global_step > cfg.learning_starts and len(buffer) >= cfg.batch_size:
+                for _ in range(cfg.updates_per_step):
+                    info = agent.update(buffer.sample(cfg.batch_size, agent.rng))
+                    if agent.num_updates % cfg.log_every == 0:
+                        for k, v in info.items():
+                            writer.add_scalar(f"losses/{k}", v, global_step)
+
+            # 4. episode end: log, maybe checkpoint, reset with the next seed of the sequence
+            if terminated or truncated:
+                row = {
+                    "episode": episode,
+                    "global_step": global_step,
+                    "return": ep_return,
+                    "length": ep_len,
+                    "terminated": int(bool(terminated)),
+                    "truncated": int(bool(truncated)),
+                    "wall_time_s": round(elapsed_before + time.time() - t_start, 3),
+                }
+                csv_writer.writerow(row)
+                csv_file.flush()
+                writer.add_scalar("charts/episodic_return", ep_return, global_step)
+                writer.add_scalar("charts/episodic_length", ep_len, global_step)
+                now = time.time()
+                writer.add_scalar("charts/sps", (global_step - sps_step) / max(now - sps_t, 1e-9),
+                                  global_step)
+                sps_t, sps_step = now, global_step
+                bar.set_postfix(ep=episode, ret=f"{ep_return:.3g}", refresh=False)
+                if log_fn is not None:
+                    log_fn(row)
+                episode += 1
+                if global_step >= next_checkpoint and global_step < steps:
+                    writer.flush()
+                    checkpoint(at_episode_boundary=True)
+                    next_checkpoint = (global_step // cfg.checkpoint_every + 1) \
+                        * cfg.checkpoint_every
+                if global_step < steps:
+                    obs, _ = env.reset(seed=episode_seed(cfg.seed, episode))
+                    obs = _flat_obs(obs)
+                    ep_return, ep_len = 0.0, 0
+        if not (resumed_here and global_step == int(ckpt["global_step"])):
+            checkpoint(at_episode_boundary=ep_len == 0 or bool(terminated or truncated))
+    finally:
+        csv_file.close()
+        bar.close()
+        writer.close()
+        env.close()
+        torch.use_deterministic_algorithms(prev_deterministic)
+    return agent
+
+
+# ----------------------------------------------------------------------------------------------
+# Evaluation
+# ----------------------------------------------------------------------------------------------
+@dataclass
+class EvalResult:
+    """Returns and lengths of evaluation episodes (``mean_return``, ``std_return`` as SB3's
+    ``evaluate_policy``)."""
+
+    returns: list[float]
+    lengths: list[int]
+
+    @property
+    def mean_return(self) -> float:
+        return float(np.mean(self.returns))
+
+    @property
+    def std_return(self) -> float:
+        return float(np.std(self.returns))
+
+
+def evaluate(
+    agent: TD3Agent, env_fn: Callable[[], gym.Env], episodes: int = 10, seed: int = 0
+) -> EvalResult:
+    """Run ``episodes`` full episodes with deterministic actions ``mu(s)`` (no noise); episode ``i``
+    is reset with ``seed + i``. Returns are undiscounted sums of rewards."""
+    env = env_fn()
+    returns, lengths = [], []
+    try:
+        for i in range(episodes):
+            obs, _ = env.reset(seed=seed + i)
+            done, ep_return, ep_len = False, 0.0, 0
+            while not done:
+                obs, reward, terminated, truncated, _ = env.step(agent.act(_flat_obs(obs)))
+                ep_return += float(reward)
+                ep_len += 1
+                done = terminated or truncated
+            returns.append(ep_return)
+            lengths.append(ep_len)
+    finally:
+        env.close()
+    return EvalResult(returns, lengths)
