@@ -25,9 +25,9 @@ stamp=.venv/.msr-installed
 want="$(cat setup.cfg pyproject.toml | sha256sum | cut -c1-16)"
 if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
   echo "[bootstrap] installing the project into .venv (first time takes a few minutes)"
-  .venv/bin/python -m pip install -q --upgrade pip >/dev/null 2>&1 || true
+  quiet() { "$@" 2> >(grep -v "is ignored: it is neither a file nor a directory" >&2); }
   # torch is pinned to the CPU build (setup.cfg); install it first so nothing pulls a CUDA build.
-  .venv/bin/python -m pip install -q "torch==2.13.0"
-  .venv/bin/python -m pip install -q -e ".[dev]"
+  quiet .venv/bin/python -m pip install -q "torch==2.13.0"
+  quiet .venv/bin/python -m pip install -q -e ".[dev]"
   echo "$want" > "$stamp"
 fi

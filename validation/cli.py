@@ -1,0 +1,88 @@
+"""``msr validate [CASE ...] [--quick] [--out DIR] [--json]``."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+from pathlib import Path
+
+from .report import CaseResult, write_report
+
+#: Case name -> module with ``run(out: Path, quick: bool) -> CaseResult``.
+CASES = {
+    "cantilever": "validation.cantilever_case",
+    "hu2018": "validation.hu2018_case",
+    "replay-yao2023": "validation.replay_case",
+}
+
+
+def available_cases() -> list[str]:
+    """Cases whose module is present in this checkout."""
+    found = []
+    for name, module in CASES.items():
+        try:
+            importlib.import_module(module)
+        except ModuleNotFoundError as exc:
+            if exc.name == module:
+                continue
+            raise
+        found.append(name)
+    return found
+
+
+def run_cases(names: list[str], out: Path, quick: bool) -> list[CaseResult]:
+    """Run the named cases, writing figures into ``out``."""
+    results = []
+    for name in names:
+        module = importlib.import_module(CASES[name])
+        print(f"[validate] {name}{' (quick)' if quick else ''} ...", file=sys.stderr, flush=True)
+        results.append(module.run(out, quick=quick))
+    return results
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "validate",
+        help="compare the simulator with independent references",
+        description="Run validation cases, write a Markdown report with figures into --out, and "
+        "exit non-zero when any case is outside its tolerance.",
+    )
+    p.add_argument("cases", nargs="*", metavar="CASE", help=f"cases to run (default: all of "
+                   f"{', '.join(CASES)})")
+    p.add_argument("--quick", action="store_true", help="reduced grid (for the test suite)")
+    p.add_argument("--out", type=Path, default=Path("out/validation"), help="report folder")
+    p.add_argument("--json", action="store_true", help="print every compared number as JSON")
+    p.set_defaults(func=validate_command)
+
+
+def validate_command(args: argparse.Namespace) -> int:
+    from elastica_magnetic.cli import CommandError
+
+    available = available_cases()
+    names = args.cases or available
+    unknown = [n for n in names if n not in CASES]
+    if unknown:
+        raise CommandError(f"unknown case(s) {', '.join(unknown)}; choose from {', '.join(CASES)}")
+    missing = [n for n in names if n not in available]
+    if missing:
+        raise CommandError(f"case(s) {', '.join(missing)} not implemented in this checkout")
+    results = run_cases(names, args.out, args.quick)
+    command = "msr validate " + " ".join(
+        [*args.cases, *(["--quick"] if args.quick else []), "--out", str(args.out)]
+    )
+    report = write_report(results, args.out, command)
+    passed = all(r.passed for r in results)
+    if args.json:
+        print(json.dumps(
+            {"passed": passed, "report": str(report), "cases": [r.as_dict() for r in results]},
+            indent=2, default=str,
+        ))
+    else:
+        for r in results:
+            failed = [c.quantity for c in r.comparisons if not c.passed]
+            print(f"{r.name}: {'pass' if r.passed else 'FAIL'}"
+                  + (f" ({'; '.join(failed)})" if failed else ""))
+        print(f"report: {report}")
+    return 0 if passed else 1
