@@ -60,11 +60,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    from .simulation import SimulationDiverged
+
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
         status = args.func(args)
-    except (CommandError, ValueError, FileNotFoundError) as exc:
+    except (CommandError, ValueError, FileNotFoundError, SimulationDiverged) as exc:
         print(f"msr {args.command}: error: {exc}", file=sys.stderr)
         return 2
     return int(status or 0)

@@ -125,3 +125,14 @@ def test_msr_replay_bad_csv_is_one_clear_line(tmp_path, capsys):
     assert main(["replay", str(bad), "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "field.csv: line 3, column mag_y: 'x' is not a number" in err
+
+
+def test_msr_simulate_main_job(tmp_path, capsys):
+    status = main(["simulate", "--duration", "0.2", "--physics", "training", "--out", str(tmp_path),
+                   "--json"])
+    assert status == 0
+    result = json.loads(capsys.readouterr().out)
+    trajectory = pd.read_csv(result["trajectory_csv"])
+    assert len(trajectory) == 21
+    assert result["max_height_m"] > 1e-4  # the rotating field lifts the robot
+    assert (tmp_path / "shapes.png").stat().st_size > 10_000
