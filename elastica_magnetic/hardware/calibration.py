@@ -1,0 +1,395 @@
+"""The coil calibration shared by the firmware and the host.
+
+The chain from field to DAC code (identical, operation for operation, to
+``stm32/src/app/calibration.c``; both use IEEE doubles without fused multiply-add):
+
+1. ``b = field_mT * 1e-3`` (T)
+2. ``I = inv(A) @ b`` (A), with ``A`` the measured actuation matrix (T per A) inverted by the
+   adjugate
+3. ``I`` clamped to ``+-current_limit_A`` per axis, then to ``I_prev +- slew_limit_A_per_s / tick_hz``
+4. ``V = I / transconductance_A_per_V + input_offset_V`` (V, relative to the 2.5 V mid-scale)
+5. ``code = clamp(32768 + round_half_away(V / dac_half_span_V * 32767), 0, 65535)``
+
+Mid-scale (32768, 0 A) is the safe state.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+AXES = 3
+TESLA_PER_MILLITESLA = 1e-3
+DAC_MIDSCALE = 32768
+DAC_HALF_RANGE = 32767.0
+DAC_CODE_MIN = 0
+DAC_CODE_MAX = 65535
+#: A determinant below this times the product of the row 1-norms counts as singular (as in C).
+MIN_RELATIVE_DET = 1e-9
+#: From 2**52 on every double is an integer.
+EXACT_INTEGER_LIMIT = 4503599627370496.0
+_NAME_RE = re.compile(r"^[A-Za-z0-9_.-]{1,40}$")
+
+Matrix3 = list[list[float]]
+
+
+class CalibrationError(ValueError):
+    """A calibration file or value that cannot be used; the message names the file and key."""
+
+
+@dataclass
+class Calibration:
+    """Calibration constants, SI units (see ``stm32/calibration/default.json``).
+
+    Attributes
+    ----------
+    name : str
+        Identifier compiled into the firmware banner (letters, digits, ``_.-``).
+    actuation_matrix_T_per_A : list of list of float
+        3x3 matrix ``A`` with ``field [T] = A @ coil currents [A]``.
+    transconductance_A_per_V : list of float
+        Amplifier gain per axis, coil current per input volt (A/V), nonzero.
+    input_offset_V : list of float
+        Amplifier input voltage (relative to mid-scale) that gives 0 A, per axis (V).
+    dac_half_span_V : float
+        Output swing from mid-scale to full scale (2.5 V with the internal reference, gain 2).
+    current_limit_A : list of float
+        Largest coil current magnitude per axis (A), > 0.
+    slew_limit_A_per_s : list of float
+        Largest current rate of change per axis (A/s), > 0.
+    tick_hz : float
+        Row rate (100 Hz).
+    description : str
+        Free text (where and how it was measured).
+    """
+
+    name: str
+    actuation_matrix_T_per_A: Matrix3
+    transconductance_A_per_V: list[float]
+    input_offset_V: list[float]
+    dac_half_span_V: float
+    current_limit_A: list[float]
+    slew_limit_A_per_s: list[float]
+    tick_hz: float = 100.0
+    description: str = ""
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def to_json_dict(self) -> dict[str, Any]:
+        """The JSON object written by :func:`save_calibration`."""
+        out: dict[str, Any] = {
+            "name": self.name,
+            "description": self.description,
+            "actuation_matrix_T_per_A": [list(map(float, r)) for r in self.actuation_matrix_T_per_A],
+            "transconductance_A_per_V": list(map(float, self.transconductance_A_per_V)),
+            "input_offset_V": list(map(float, self.input_offset_V)),
+            "dac_half_span_V": float(self.dac_half_span_V),
+            "current_limit_A": list(map(float, self.current_limit_A)),
+            "slew_limit_A_per_s": list(map(float, self.slew_limit_A_per_s)),
+            "tick_hz": float(self.tick_hz),
+        }
+        out.update(self.extra)
+        return out
+
+
+_VECTOR_KEYS = ("transconductance_A_per_V", "input_offset_V", "current_limit_A",
+                "slew_limit_A_per_s")
+
+
+def _number(value: Any, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise CalibrationError(f"{where}: expected a number, got {value!r}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise CalibrationError(f"{where}: non-finite value {value!r}")
+    return v
+
+
+def _vector(value: Any, where: str) -> list[float]:
+    if not isinstance(value, list) or len(value) != AXES:
+        raise CalibrationError(f"{where}: expected a list of {AXES} numbers (x, y, z), got {value!r}")
+    return [_number(v, f"{where}[{i}]") for i, v in enumerate(value)]
+
+
+def calibration_from_dict(data: dict[str, Any], source: str = "calibration") -> Calibration:
+    """Validate a parsed JSON object and build a :class:`Calibration`.
+
+    Raises
+    ------
+    CalibrationError
+        Missing key, wrong shape, non-finite or non-positive value, or a singular matrix; the
+        message names ``source`` and the key.
+    """
+    if not isinstance(data, dict):
+        raise CalibrationError(f"{source}: expected a JSON object")
+    required = ("name", "actuation_matrix_T_per_A", "dac_half_span_V", *_VECTOR_KEYS)
+    missing = [k for k in required if k not in data]
+    if missing:
+        raise CalibrationError(f"{source}: missing key(s) {', '.join(missing)}")
+    name = data["name"]
+    if not isinstance(name, str) or not _NAME_RE.match(name):
+        raise CalibrationError(
+            f"{source}: name must be 1-40 characters of letters, digits, '_', '.', '-': {name!r}"
+        )
+    matrix_raw = data["actuation_matrix_T_per_A"]
+    if not isinstance(matrix_raw, list) or len(matrix_raw) != AXES:
+        raise CalibrationError(f"{source}: actuation_matrix_T_per_A must be 3 rows of 3 numbers")
+    matrix = [_vector(r, f"{source}: actuation_matrix_T_per_A[{i}]") for i, r in enumerate(matrix_raw)]
+    vectors = {k: _vector(data[k], f"{source}: {k}") for k in _VECTOR_KEYS}
+    half_span = _number(data["dac_half_span_V"], f"{source}: dac_half_span_V")
+    tick_hz = _number(data.get("tick_hz", 100.0), f"{source}: tick_hz")
+    for key in ("current_limit_A", "slew_limit_A_per_s"):
+        for i, v in enumerate(vectors[key]):
+            if not v > 0:
+                raise CalibrationError(f"{source}: {key}[{i}] must be > 0, got {v}")
+    for i, v in enumerate(vectors["transconductance_A_per_V"]):
+        if v == 0:
+            raise CalibrationError(f"{source}: transconductance_A_per_V[{i}] must be nonzero")
+    if not half_span > 0:
+        raise CalibrationError(f"{source}: dac_half_span_V must be > 0, got {half_span}")
+    if not tick_hz > 0:
+        raise CalibrationError(f"{source}: tick_hz must be > 0, got {tick_hz}")
+    if invert3(matrix) is None:
+        raise CalibrationError(f"{source}: actuation_matrix_T_per_A is singular: {matrix}")
+    known = {"description", "tick_hz", *required}
+    return Calibration(
+        name=name,
+        actuation_matrix_T_per_A=matrix,
+        transconductance_A_per_V=vectors["transconductance_A_per_V"],
+        input_offset_V=vectors["input_offset_V"],
+        dac_half_span_V=half_span,
+        current_limit_A=vectors["current_limit_A"],
+        slew_limit_A_per_s=vectors["slew_limit_A_per_s"],
+        tick_hz=tick_hz,
+        description=str(data.get("description", "")),
+        extra={k: v for k, v in data.items() if k not in known},
+    )
+
+
+def load_calibration(path: str | Path) -> Calibration:
+    """Read and validate a calibration JSON file (see :func:`calibration_from_dict`)."""
+    path = Path(path)
+    if not path.is_file():
+        raise CalibrationError(f"{path}: no such calibration file")
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise CalibrationError(f"{path}: not valid JSON: {exc}") from None
+    return calibration_from_dict(data, str(path))
+
+
+def save_calibration(path: str | Path, calibration: Calibration) -> Path:
+    """Write ``calibration`` as JSON (validated first)."""
+    data = calibration.to_json_dict()
+    calibration_from_dict(data, str(path))
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data, indent=2) + "\n")
+    return path
+
+
+def default_calibration_path() -> Path:
+    """``stm32/calibration/default.json`` of this checkout."""
+    return Path(__file__).resolve().parents[2] / "stm32" / "calibration" / "default.json"
+
+
+def invert3(m: Sequence[Sequence[float]]) -> Matrix3 | None:
+    """Inverse of a 3x3 matrix by the adjugate, exactly as the firmware computes it.
+
+    Returns None when the matrix is singular (same criterion as the firmware).
+    """
+    c00 = m[1][1] * m[2][2] - m[1][2] * m[2][1]
+    c01 = m[1][2] * m[2][0] - m[1][0] * m[2][2]
+    c02 = m[1][0] * m[2][1] - m[1][1] * m[2][0]
+    det = m[0][0] * c00 + m[0][1] * c01 + m[0][2] * c02
+    scale = 1.0
+    for i in range(AXES):
+        scale *= abs(m[i][0]) + abs(m[i][1]) + abs(m[i][2])
+    if not math.isfinite(det) or not abs(det) > MIN_RELATIVE_DET * scale:
+        return None
+    return [
+        [c00 / det, (m[0][2] * m[2][1] - m[0][1] * m[2][2]) / det,
+         (m[0][1] * m[1][2] - m[0][2] * m[1][1]) / det],
+        [c01 / det, (m[0][0] * m[2][2] - m[0][2] * m[2][0]) / det,
+         (m[0][2] * m[1][0] - m[0][0] * m[1][2]) / det],
+        [c02 / det, (m[0][1] * m[2][0] - m[0][0] * m[2][1]) / det,
+         (m[0][0] * m[1][1] - m[0][1] * m[1][0]) / det],
+    ]
+
+
+def round_half_away(x: float) -> float:
+    """Round half away from zero, as ``calib_round_half_away`` in C."""
+    if not abs(x) < EXACT_INTEGER_LIMIT:
+        return x
+    if x >= 0.0:
+        t = float(int(x))
+        return t + 1.0 if x - t >= 0.5 else t
+    t = float(int(-x))
+    return -(t + 1.0) if -x - t >= 0.5 else -t
+
+
+def volts_to_code(volts: float, half_span_V: float) -> int:
+    """Amplifier input voltage (V from mid-scale) to DAC code, rounded and clamped."""
+    scaled = volts / half_span_V * DAC_HALF_RANGE
+    if not math.isfinite(scaled):
+        return DAC_MIDSCALE
+    scaled = min(max(scaled, -float(DAC_CODE_MAX)), float(DAC_CODE_MAX))
+    code = float(DAC_MIDSCALE) + round_half_away(scaled)
+    return int(min(max(code, float(DAC_CODE_MIN)), float(DAC_CODE_MAX)))
+
+
+class DacCodeModel:
+    """Stateful model of the firmware's field-to-code conversion (slew state included).
+
+    Call :meth:`reset` where the firmware resets (start of a stream or table, safe state).
+    """
+
+    def __init__(self, calibration: Calibration) -> None:
+        inverse = invert3(calibration.actuation_matrix_T_per_A)
+        if inverse is None:
+            raise CalibrationError("actuation matrix is singular")
+        self.calibration = calibration
+        self.inverse_A_per_T = inverse
+        dt = 1.0 / calibration.tick_hz
+        self.max_step_A = [s * dt for s in calibration.slew_limit_A_per_s]
+        self.last_current_A = [0.0, 0.0, 0.0]
+
+    def reset(self) -> None:
+        """Forget the slew history (next row slews from 0 A)."""
+        self.last_current_A = [0.0, 0.0, 0.0]
+
+    def codes(self, mag_mT: Sequence[float]) -> tuple[int, int, int]:
+        """DAC codes (x, y, z) for one row of field in **mT** (the firmware's input unit)."""
+        cal = self.calibration
+        b = [float(v) * TESLA_PER_MILLITESLA for v in mag_mT]
+        if not all(math.isfinite(v) for v in b):
+            return (DAC_MIDSCALE, DAC_MIDSCALE, DAC_MIDSCALE)
+        out = []
+        for i in range(AXES):
+            row = self.inverse_A_per_T[i]
+            current = row[0] * b[0] + row[1] * b[1] + row[2] * b[2]
+            limit = cal.current_limit_A[i]
+            if current > limit:
+                current = limit
+            elif current < -limit:
+                current = -limit
+            last = self.last_current_A[i]
+            step = self.max_step_A[i]
+            if current - last > step:
+                current = last + step
+            elif current - last < -step:
+                current = last - step
+            self.last_current_A[i] = current
+            volts = current / cal.transconductance_A_per_V[i] + cal.input_offset_V[i]
+            out.append(volts_to_code(volts, cal.dac_half_span_V))
+        return (out[0], out[1], out[2])
+
+
+def expected_dac_codes(calibration: Calibration, rows_mT: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Codes the firmware writes for consecutive rows (field in mT), from a reset state.
+
+    Returns an ``(n_rows, 3)`` integer array.
+    """
+    model = DacCodeModel(calibration)
+    rows_mT = np.asarray(rows_mT, dtype=np.float64)
+    return np.array([model.codes(r) for r in rows_mT.tolist()], dtype=np.int64).reshape(-1, AXES)
+
+
+def calibration_header(calibration: Calibration) -> str:
+    """C header defining ``MSR_CALIBRATION_NAME`` and ``MSR_CALIBRATION_PARAMS`` (exact doubles)."""
+
+    def num(v: float) -> str:
+        return repr(float(v))
+
+    def vec(v: Sequence[float]) -> str:
+        return "{" + ", ".join(num(x) for x in v) + "}"
+
+    cal = calibration
+    matrix = "{" + ", ".join(vec(r) for r in cal.actuation_matrix_T_per_A) + "}"
+    return "\n".join([
+        "/* Generated by elastica_magnetic.hardware.calibration from the calibration JSON. */",
+        "/* Do not edit: change the JSON and rebuild. */",
+        "#ifndef MSR_CALIBRATION_GEN_H",
+        "#define MSR_CALIBRATION_GEN_H",
+        "",
+        f'#define MSR_CALIBRATION_NAME "{cal.name}"',
+        "#define MSR_CALIBRATION_PARAMS \\",
+        "    { \\",
+        f"        .actuation_T_per_A = {matrix}, \\",
+        f"        .transconductance_A_per_V = {vec(cal.transconductance_A_per_V)}, \\",
+        f"        .input_offset_V = {vec(cal.input_offset_V)}, \\",
+        f"        .dac_half_span_V = {num(cal.dac_half_span_V)}, \\",
+        f"        .current_limit_A = {vec(cal.current_limit_A)}, \\",
+        f"        .slew_limit_A_per_s = {vec(cal.slew_limit_A_per_s)}, \\",
+        f"        .tick_hz = {num(cal.tick_hz)}, \\",
+        "    }",
+        "",
+        "#endif",
+        "",
+    ])
+
+
+@dataclass
+class ActuationFit:
+    """Result of :func:`fit_actuation_matrix`.
+
+    Attributes
+    ----------
+    matrix_T_per_A : ndarray
+        Fitted 3x3 actuation matrix (T/A).
+    residuals_T : ndarray
+        ``(n, 3)`` measured minus fitted field (T).
+    rms_residual_T : ndarray
+        Per-axis RMS of the residuals (T).
+    max_abs_residual_T : float
+        Largest absolute residual (T).
+    """
+
+    matrix_T_per_A: NDArray[np.float64]
+    residuals_T: NDArray[np.float64]
+    rms_residual_T: NDArray[np.float64]
+    max_abs_residual_T: float
+
+
+def fit_actuation_matrix(currents_A: NDArray[np.float64], fields_T: NDArray[np.float64]) -> ActuationFit:
+    """Least-squares fit of ``A`` in ``field = A @ current`` from measured pairs.
+
+    Parameters
+    ----------
+    currents_A : array, shape (n, 3)
+        Coil currents (A) applied in each measurement.
+    fields_T : array, shape (n, 3)
+        Field measured at the workspace centre (T).
+
+    Raises
+    ------
+    CalibrationError
+        Wrong shapes, fewer than 3 measurements, non-finite data, or currents that do not excite
+        all three coils independently (rank < 3).
+    """
+    currents = np.asarray(currents_A, dtype=np.float64)
+    fields = np.asarray(fields_T, dtype=np.float64)
+    if currents.ndim != 2 or currents.shape[1] != AXES or fields.shape != currents.shape:
+        raise CalibrationError(
+            f"currents and fields must both have shape (n, 3), got {currents.shape} and {fields.shape}"
+        )
+    if currents.shape[0] < AXES:
+        raise CalibrationError(f"need at least 3 measurements, got {currents.shape[0]}")
+    if not (np.all(np.isfinite(currents)) and np.all(np.isfinite(fields))):
+        raise CalibrationError("measurements contain non-finite values")
+    solution, _, rank, _ = np.linalg.lstsq(currents, fields, rcond=None)
+    if rank < AXES:
+        raise CalibrationError(
+            f"the currents excite only {rank} independent direction(s); drive each coil on its own"
+        )
+    matrix = solution.T
+    residuals = fields - currents @ solution
+    rms = np.sqrt(np.mean(residuals**2, axis=0))
+    return ActuationFit(matrix, residuals, rms, float(np.max(np.abs(residuals))))

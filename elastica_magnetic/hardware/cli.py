@@ -1,0 +1,150 @@
+"""``msr stream``, ``msr export-firmware`` and ``msr calibrate``."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from elastica_magnetic.field_csv import MILLITESLA, read_field_csv
+
+
+def register(subparsers: Any) -> None:
+    """Add the hardware sub-commands to the ``msr`` parser."""
+    p = subparsers.add_parser(
+        "stream", help="stream a field CSV (mT) to the STM32 firmware over a serial URL",
+        description="Stream a field CSV to the board; prints what the board reported.")
+    p.add_argument("field_csv", help="field CSV, mag_x,mag_y,mag_z in mT, 100 rows/s")
+    p.add_argument("--port", required=True,
+                   help="pyserial URL or device: socket://127.0.0.1:4321 (QEMU), /dev/ttyACM0")
+    p.add_argument("--calibration", help="calibration JSON: compare reported codes with expected")
+    p.add_argument("--baud", type=int, default=115200)
+    p.add_argument("--timeout", type=float, default=None, help="overall limit in seconds")
+    p.add_argument("--log", help="write every line the board sent to this file")
+    p.add_argument("--codes-out", help="write the reported DAC codes as row,code_x,code_y,code_z")
+    p.add_argument("--corrupt-row", type=int, default=None,
+                   help="fault injection: corrupt row N after its checksum (board must stop)")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.set_defaults(func=_stream)
+
+    p = subparsers.add_parser(
+        "export-firmware", help="write the flash table, calibration header and expected codes",
+        description="Write calibration_gen.h, waveform_table.c and expected_dac_codes.csv.")
+    p.add_argument("field_csv", help="field CSV, mag_x,mag_y,mag_z in mT")
+    p.add_argument("--calibration", required=True, help="calibration JSON")
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=_export)
+
+    p = subparsers.add_parser(
+        "calibrate", help="fit the 3x3 actuation matrix from measured (current, field) pairs",
+        description="Least-squares fit of field = A @ current; writes a calibration JSON.")
+    p.add_argument("measurements", help="CSV with columns current_x_A,current_y_A,current_z_A,"
+                   "field_x_mT,field_y_mT,field_z_mT (one row per measurement)")
+    p.add_argument("--out", required=True, help="calibration JSON to write")
+    p.add_argument("--base", help="calibration JSON providing the amplifier, DAC and limits "
+                   "(default: stm32/calibration/default.json)")
+    p.add_argument("--name", default="measured", help="calibration name compiled into firmware")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=_calibrate)
+
+
+def _print(result: dict[str, Any], as_json: bool) -> None:
+    from elastica_magnetic.cli import print_result
+
+    print_result(result, as_json)
+
+
+def _error(message: str) -> Exception:
+    from elastica_magnetic.cli import CommandError
+
+    return CommandError(message)
+
+
+def _stream(args: argparse.Namespace) -> int:
+    from elastica_magnetic.hardware.calibration import expected_dac_codes, load_calibration
+    from elastica_magnetic.hardware.export import write_expected_codes
+    from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
+    from elastica_magnetic.hardware.stream import StreamError, stream_field
+
+    field_T = read_field_csv(args.field_csv)
+    cal = load_calibration(args.calibration) if args.calibration else None
+    try:
+        result = stream_field(args.port, field_T, baudrate=args.baud, corrupt_row=args.corrupt_row,
+                              timeout_s=args.timeout, log_path=args.log,
+                              progress=not args.no_progress)
+    except StreamError as exc:
+        raise _error(str(exc)) from None
+    summary = result.summary()
+    got = result.codes_array()
+    if args.codes_out:
+        write_expected_codes(Path(args.codes_out), got)
+    if cal is not None:
+        expected = expected_dac_codes(cal, wire_values_mT(wire_rows_mT(field_T)))
+        rows = [d.row for d in result.row_codes]
+        in_order = rows == list(range(len(rows)))
+        summary["rows_in_order"] = in_order
+        if len(got) and in_order and len(got) <= len(expected):
+            summary["max_code_error_lsb"] = int(np.max(np.abs(got - expected[: len(got)])))
+        else:
+            summary["max_code_error_lsb"] = None if not len(got) else -1
+    _print(summary, args.json)
+    ok = result.safe is not None and result.safe.reason == "end" and result.ended_safe
+    if args.corrupt_row is not None:
+        ok = result.safe is not None and result.safe.reason == "checksum" and result.ended_safe
+    return 0 if ok else 1
+
+
+def _export(args: argparse.Namespace) -> int:
+    from elastica_magnetic.hardware.export import export_firmware
+
+    _print(export_firmware(args.field_csv, args.calibration, args.out), args.json)
+    return 0
+
+
+def _calibrate(args: argparse.Namespace) -> int:
+    import pandas as pd
+
+    from elastica_magnetic.hardware.calibration import (
+        Calibration,
+        calibration_from_dict,
+        default_calibration_path,
+        fit_actuation_matrix,
+        load_calibration,
+        save_calibration,
+    )
+
+    path = Path(args.measurements)
+    if not path.is_file():
+        raise _error(f"{path}: no such measurements file")
+    columns = ["current_x_A", "current_y_A", "current_z_A", "field_x_mT", "field_y_mT",
+               "field_z_mT"]
+    table = pd.read_csv(path, skipinitialspace=True)
+    missing = [c for c in columns if c not in table.columns]
+    if missing:
+        raise _error(f"{path}: missing column(s) {', '.join(missing)}; expected {', '.join(columns)}")
+    data = table[columns].apply(pd.to_numeric, errors="coerce")
+    bad = data.isna().any(axis=1) | ~np.isfinite(data.to_numpy()).all(axis=1)
+    if bad.any():
+        first = int(np.flatnonzero(bad.to_numpy())[0])
+        raise _error(f"{path}: line {first + 2}: missing or non-numeric value in {list(table.iloc[first])}")
+    values = data.to_numpy(dtype=np.float64)
+    fit = fit_actuation_matrix(values[:, :3], values[:, 3:] * MILLITESLA)
+    base = load_calibration(args.base) if args.base else load_calibration(default_calibration_path())
+    fitted: Calibration = calibration_from_dict(
+        {**base.to_json_dict(), "name": args.name,
+         "actuation_matrix_T_per_A": fit.matrix_T_per_A.tolist(),
+         "description": f"fitted by msr calibrate from {path.name} ({len(values)} measurements)"},
+        str(args.out))
+    save_calibration(args.out, fitted)
+    _print({
+        "measurements": len(values),
+        "actuation_matrix_mT_per_A": np.round(fit.matrix_T_per_A / MILLITESLA, 6).tolist(),
+        "rms_residual_mT": np.round(fit.rms_residual_T / MILLITESLA, 6).tolist(),
+        "max_abs_residual_mT": round(fit.max_abs_residual_T / MILLITESLA, 6),
+        "calibration": str(args.out),
+    }, args.json)
+    return 0

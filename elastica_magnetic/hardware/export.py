@@ -1,0 +1,124 @@
+"""Firmware build inputs from a field CSV and a calibration file.
+
+``python -m elastica_magnetic.hardware.export FIELD_CSV --calibration FILE --out DIR`` (run by the
+firmware's CMake build, and by ``msr export-firmware``) writes into DIR:
+
+- ``calibration_gen.h``: the calibration as C constants,
+- ``waveform_table.c``: the field rows (mT) as the flash table played by the ``PLAY`` command,
+- ``expected_dac_codes.csv``: ``row,code_x,code_y,code_z``, the codes the firmware writes for
+  each row, whether played from flash or streamed with ``msr stream``.
+
+Only numpy and :mod:`elastica_magnetic.field_csv` are imported, so the build stays light.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from elastica_magnetic.field_csv import read_field_csv
+from elastica_magnetic.hardware.calibration import (
+    Calibration,
+    calibration_header,
+    expected_dac_codes,
+    load_calibration,
+)
+from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
+
+#: Flash left for the table after code (1 MB part): 3 doubles = 24 bytes per row.
+MAX_TABLE_ROWS = 40000
+
+
+def waveform_table_source(rows_mT: NDArray[np.float64], source: str) -> str:
+    """C source of the flash table (exact double literals, mT)."""
+    lines = [
+        f"/* Generated from {Path(source).name} by elastica_magnetic.hardware.export. */",
+        "/* Field rows in mT, one per 10 ms tick. Do not edit. */",
+        '#include "waveform_table.h"',
+        "",
+        "const double msr_waveform_table[][3] = {",
+    ]
+    lines += [f"    {{{x!r}, {y!r}, {z!r}}}," for x, y, z in rows_mT.tolist()]
+    lines += ["};", f"const uint32_t msr_waveform_rows = {len(rows_mT)}u;", ""]
+    return "\n".join(lines)
+
+
+def write_expected_codes(path: Path, codes: NDArray[np.int64]) -> Path:
+    """Write ``row,code_x,code_y,code_z``."""
+    with path.open("w") as handle:
+        handle.write("row,code_x,code_y,code_z\n")
+        for i, (x, y, z) in enumerate(codes.tolist()):
+            handle.write(f"{i},{x},{y},{z}\n")
+    return path
+
+
+def read_expected_codes(path: str | Path) -> NDArray[np.int64]:
+    """Read an ``expected_dac_codes.csv`` back as an ``(n, 3)`` array (rows must count 0, 1, ...)."""
+    with open(path) as handle:
+        body = handle.read().splitlines()[1:]
+    if not any(line.strip() for line in body):
+        return np.zeros((0, 3), dtype=np.int64)
+    data = np.loadtxt(body, delimiter=",", dtype=np.int64, ndmin=2)
+    if data.shape[1] != 4 or not np.array_equal(data[:, 0], np.arange(len(data))):
+        raise ValueError(f"{path}: expected columns row,code_x,code_y,code_z with rows 0, 1, ...")
+    return data[:, 1:]
+
+
+def export_firmware(field_csv: str | Path, calibration: Calibration | str | Path,
+                    out_dir: str | Path) -> dict[str, Any]:
+    """Write the three build inputs for ``field_csv`` into ``out_dir``; return a summary."""
+    cal = calibration if isinstance(calibration, Calibration) else load_calibration(calibration)
+    field_T = read_field_csv(field_csv)
+    if len(field_T) > MAX_TABLE_ROWS:
+        raise ValueError(
+            f"{field_csv}: {len(field_T)} rows exceed the flash table limit of {MAX_TABLE_ROWS} "
+            "(stream longer waveforms with 'msr stream')"
+        )
+    rows_mT = wire_values_mT(wire_rows_mT(field_T))
+    codes = expected_dac_codes(cal, rows_mT)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    header = out / "calibration_gen.h"
+    table = out / "waveform_table.c"
+    expected = out / "expected_dac_codes.csv"
+    header.write_text(calibration_header(cal))
+    table.write_text(waveform_table_source(rows_mT, str(field_csv)))
+    write_expected_codes(expected, codes)
+    return {
+        "rows": len(rows_mT),
+        "calibration": cal.name,
+        "calibration_header": str(header),
+        "waveform_table": str(table),
+        "expected_dac_codes": str(expected),
+        "code_min": int(codes.min()) if len(codes) else None,
+        "code_max": int(codes.max()) if len(codes) else None,
+    }
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m elastica_magnetic.hardware.export",
+                                     description=__doc__.splitlines()[0])
+    parser.add_argument("field_csv")
+    parser.add_argument("--calibration", required=True)
+    parser.add_argument("--out", required=True)
+    parser.add_argument("--quiet", action="store_true")
+    args = parser.parse_args(argv)
+    try:
+        summary = export_firmware(args.field_csv, args.calibration, args.out)
+    except (ValueError, FileNotFoundError) as exc:
+        print(f"export: error: {exc}", file=sys.stderr)
+        return 2
+    if not args.quiet:
+        for key, value in summary.items():
+            print(f"{key}: {value}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,221 @@
+#include "link.h"
+
+#include "crc16.h"
+#include "msg.h"
+
+#define HEX_DIGIT_BITS 4u
+#define HEX_LETTER_OFFSET 10u
+#define DECIMAL_BASE 10u
+
+static void send_msg(link_t *link, msg_t *msg)
+{
+    msg_end(msg);
+    link->send(link->ctx, msg->text, msg->len);
+}
+
+static bool word_is(const char *text, size_t len, const char *word)
+{
+    size_t i = 0;
+    for (; i < len && word[i] != '\0'; ++i) {
+        if (text[i] != word[i]) {
+            return false;
+        }
+    }
+    return i == len && word[i] == '\0';
+}
+
+static bool parse_hex16(const char *text, size_t len, uint16_t *value)
+{
+    if (len != LINK_CHECKSUM_HEX_DIGITS) {
+        return false;
+    }
+    uint32_t v = 0;
+    for (size_t i = 0; i < len; ++i) {
+        char c = text[i];
+        uint32_t d;
+        if (c >= '0' && c <= '9') {
+            d = (uint32_t)(c - '0');
+        } else if (c >= 'A' && c <= 'F') {
+            d = (uint32_t)(c - 'A') + HEX_LETTER_OFFSET;
+        } else if (c >= 'a' && c <= 'f') {
+            d = (uint32_t)(c - 'a') + HEX_LETTER_OFFSET;
+        } else {
+            return false;
+        }
+        v = (v << HEX_DIGIT_BITS) | d;
+    }
+    *value = (uint16_t)v;
+    return true;
+}
+
+static bool parse_u32(const char *text, size_t len, uint32_t *value)
+{
+    if (len == 0) {
+        return false;
+    }
+    uint32_t v = 0;
+    for (size_t i = 0; i < len; ++i) {
+        if (text[i] < '0' || text[i] > '9') {
+            return false;
+        }
+        uint32_t d = (uint32_t)(text[i] - '0');
+        if (v > (UINT32_MAX - d) / DECIMAL_BASE) {
+            return false;
+        }
+        v = v * DECIMAL_BASE + d;
+    }
+    *value = v;
+    return true;
+}
+
+void link_init(link_t *link, player_t *player, link_send_fn send, void *ctx,
+               const double (*table)[CALIB_AXES], uint32_t table_rows)
+{
+    csv_line_reader_init(&link->reader);
+    link->player = player;
+    link->send = send;
+    link->ctx = ctx;
+    link->credit_sent = 0;
+    link->table = table;
+    link->table_rows = table_rows;
+}
+
+static void send_credit(link_t *link, uint32_t credit)
+{
+    msg_t msg;
+    msg_begin(&msg, "CREDIT ");
+    msg_u32(&msg, credit);
+    send_msg(link, &msg);
+    link->credit_sent = credit;
+}
+
+void link_update_credit(link_t *link)
+{
+    const player_t *p = link->player;
+    if (!player_streaming(p) || p->end_received) {
+        return;
+    }
+    uint32_t credit = p->received + player_free_rows(p);
+    if (credit >= link->credit_sent + LINK_CREDIT_BATCH) {
+        send_credit(link, credit);
+    }
+}
+
+/** Malformed input: fatal while streaming, an ERR line otherwise. */
+static void reject(link_t *link, uint32_t line_no, const char *reason)
+{
+    if (player_streaming(link->player)) {
+        /* row = the sequence number that was expected where the bad line arrived */
+        player_fault(link->player, SAFE_REASON_MALFORMED, link->player->received, reason);
+        return;
+    }
+    msg_t msg;
+    msg_begin(&msg, "ERR ");
+    msg_str(&msg, reason);
+    msg_kv_u32(&msg, "line", line_no);
+    send_msg(link, &msg);
+}
+
+static void handle_row(link_t *link, const char *text, size_t len, uint32_t line_no)
+{
+    if (!player_streaming(link->player)) {
+        return; /* leftovers after a fault or STOP: outputs stay at mid-scale */
+    }
+    size_t star = len;
+    for (size_t i = 0; i < len; ++i) {
+        if (text[i] == LINK_CHECKSUM_SEPARATOR) {
+            star = i;
+        }
+    }
+    uint16_t sent_crc;
+    if (star == len) {
+        reject(link, line_no, "no-checksum");
+        return;
+    }
+    if (!parse_hex16(text + star + 1, len - star - 1, &sent_crc)) {
+        reject(link, line_no, "bad-checksum-field");
+        return;
+    }
+    if (crc16((const uint8_t *)text, star) != sent_crc) {
+        player_fault(link->player, SAFE_REASON_CHECKSUM, link->player->received, "crc-mismatch");
+        return;
+    }
+    csv_row_t row;
+    csv_status_t st = csv_parse_row(text, star, CSV_COLUMNS_INDEXED, &row);
+    if (st != CSV_OK) {
+        reject(link, line_no, csv_status_reason(st));
+        return;
+    }
+    player_push(link->player, row.index, row.mag_mT);
+    link_update_credit(link);
+}
+
+static void handle_command(link_t *link, const char *text, size_t len, uint32_t line_no)
+{
+    size_t word = 0;
+    while (word < len && text[word] != ' ') {
+        ++word;
+    }
+    const char *arg = word < len ? text + word + 1 : text + len;
+    size_t arg_len = word < len ? len - word - 1 : 0;
+    msg_t msg;
+    if (word_is(text, len, "STREAM")) {
+        player_start_stream(link->player);
+        if (player_streaming(link->player)) {
+            msg_begin(&msg, "OK STREAM");
+            msg_kv_u32(&msg, "queue", PLAYER_QUEUE_ROWS);
+            msg_kv_u32(&msg, "prefill", PLAYER_PREFILL_ROWS);
+            send_msg(link, &msg);
+            send_credit(link, player_free_rows(link->player));
+        }
+    } else if (word_is(text, word, "END")) {
+        uint32_t rows;
+        if (!parse_u32(arg, arg_len, &rows)) {
+            reject(link, line_no, "bad-end");
+        } else if (player_streaming(link->player)) {
+            player_end(link->player, rows);
+            if (player_streaming(link->player)) {
+                msg_begin(&msg, "OK END");
+                msg_kv_u32(&msg, "rows", rows);
+                send_msg(link, &msg);
+            }
+        }
+    } else if (word_is(text, len, "PLAY")) {
+        player_start_table(link->player, link->table, link->table_rows);
+        if (link->player->state != PLAYER_SAFE) {
+            msg_begin(&msg, "OK PLAY");
+            msg_kv_u32(&msg, "rows", link->table_rows);
+            send_msg(link, &msg);
+        }
+    } else if (word_is(text, len, "STOP")) {
+        player_fault(link->player, SAFE_REASON_HOST_STOP, link->player->applied, "");
+    } else if (word_is(text, len, "PING")) {
+        msg_begin(&msg, "PONG");
+        send_msg(link, &msg);
+    } else {
+        reject(link, line_no, "unknown-command");
+    }
+}
+
+void link_feed(link_t *link, uint8_t byte)
+{
+    csv_line_t line;
+    csv_line_event_t ev = csv_line_push(&link->reader, byte, &line);
+    if (ev == CSV_LINE_NONE) {
+        return;
+    }
+    if (ev == CSV_LINE_ERROR) {
+        reject(link, line.line_no, csv_status_reason(line.status));
+        return;
+    }
+    if (line.len == 0) {
+        return;
+    }
+    char first = line.text[0];
+    if ((first >= '0' && first <= '9') || first == ' ' || first == '-' || first == '+' ||
+        first == '.' || first == ',') {
+        handle_row(link, line.text, line.len, line.line_no);
+    } else {
+        handle_command(link, line.text, line.len, line.line_no);
+    }
+}

@@ -1,0 +1,57 @@
+/**
+ * @file link.h
+ * The host link protocol on USART1 (text lines, LF-terminated; CRLF accepted).
+ *
+ * Host -> board:
+ *   STREAM                       start a streaming session (rows numbered from 0)
+ *   <seq>,<mx>,<my>,<mz>*<CRC>   one row: field in mT; CRC = 4 hex digits, CRC-16/CCITT-FALSE of
+ *                                every byte before '*'
+ *   END <rows>                   all rows sent: play the rest, then mid-scale (reason "end")
+ *   PLAY                         play the table compiled into flash
+ *   STOP                         mid-scale now (reason "host-stop")
+ *   PING                         answered with PONG
+ *
+ * Board -> host:
+ *   MSR-FW ... / READY           banner after reset
+ *   OK <command> ...             command accepted
+ *   CREDIT <n>                   the host may send rows with seq < n (flow control)
+ *   DAC <row> <x> <y> <z>        codes written to the DACs at a tick ("DAC safe ..." at mid-scale)
+ *   SAFE <reason> row=<r> applied=<a> [line=<l>] [detail=<d>]   outputs went to mid-scale
+ *   ERR <reason> line=<l>        a command that could not be run (outputs unchanged, safe)
+ */
+#ifndef MSR_LINK_H
+#define MSR_LINK_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "csv_row.h"
+#include "player.h"
+
+/** A CREDIT line goes out once the window has grown by this many rows. */
+#define LINK_CREDIT_BATCH 16u
+#define LINK_CHECKSUM_SEPARATOR '*'
+#define LINK_CHECKSUM_HEX_DIGITS 4u
+
+typedef void (*link_send_fn)(void *ctx, const char *text, size_t len);
+
+typedef struct {
+    csv_line_reader_t reader;
+    player_t *player;
+    link_send_fn send;
+    void *ctx;
+    uint32_t credit_sent;
+    const double (*table)[CALIB_AXES];
+    uint32_t table_rows;
+} link_t;
+
+void link_init(link_t *link, player_t *player, link_send_fn send, void *ctx,
+               const double (*table)[CALIB_AXES], uint32_t table_rows);
+
+/** Feed one received byte. */
+void link_feed(link_t *link, uint8_t byte);
+
+/** Send a CREDIT line when the window has grown enough (call after ticks). */
+void link_update_credit(link_t *link);
+
+#endif

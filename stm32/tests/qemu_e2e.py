@@ -1,0 +1,290 @@
+#!/usr/bin/env python3
+"""End-to-end run of the real firmware ELF in QEMU (netduinoplus2) with ``msr stream``.
+
+    python stm32/tests/qemu_e2e.py --csv FILE [--json] [--corrupt-row N]
+
+1. ``export_firmware`` computes the expected DAC codes of FILE for the calibration the ELF was
+   built with (``stm32/calibration/default.json`` unless ``--calibration``).
+2. QEMU boots the ELF with USART1 on a TCP socket (``server=on,wait=on,nodelay=on``) and
+   ``-icount shift=auto`` (so TIM2 ticks at the right rate).
+3. ``msr stream FILE --port socket://...`` streams the whole waveform; every ``DAC`` line the
+   firmware reported is compared with the expected codes (within 1 LSB), and the outputs must end
+   at mid-scale with reason ``end``.
+4. In the same boot, a second stream corrupts row N mid-stream: the firmware must stop there,
+   go to mid-scale and report ``checksum``.
+
+The JSON result holds at least rows_sent, rows_applied, max_code_error_lsb and ended_safe. Every
+step has a hard time-out and QEMU is killed in a ``finally``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import select
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+REPO = Path(__file__).resolve().parents[2]
+if str(REPO) not in sys.path:
+    sys.path.insert(0, str(REPO))
+
+DEFAULT_ELF = REPO / "stm32" / "build" / "arm" / "msr_firmware.elf"
+DEFAULT_CALIBRATION = REPO / "stm32" / "calibration" / "default.json"
+# The published waveform ships with the package (copy of ../shared/reference/yao2023).
+PUBLISHED_CSV = REPO / "elastica_magnetic" / "data" / "yao2023" / "magnetization1_4mT" / "magnetic_field.csv"
+QEMU = "qemu-system-arm"
+#: One LSB of tolerance between the host model and the firmware.
+TOLERANCE_LSB = 1
+CONNECT_TIMEOUT_S = 10.0
+#: Time limit of one stream: playback time (100 rows/s) times this factor plus the margin.
+#: QEMU's -icount shift=auto clock ran at 50-100 % of real time on a loaded 2-core machine.
+STREAM_SLOWDOWN = 3.0
+STREAM_MARGIN_S = 20.0
+
+
+class E2EError(RuntimeError):
+    """The emulator or the ELF is missing, or a step did not finish."""
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def check_prerequisites(elf: Path) -> str:
+    qemu = shutil.which(QEMU)
+    if qemu is None:
+        raise E2EError(f"{QEMU} not found: install Debian's qemu-system-arm (bash stm32/ci.sh does)")
+    if not elf.is_file():
+        raise E2EError(f"firmware ELF {elf} not found: build it with bash stm32/ci.sh")
+    return qemu
+
+
+def start_qemu(qemu: str, elf: Path, port: int) -> subprocess.Popen[bytes]:
+    cmd = [qemu, "-M", "netduinoplus2", "-nographic", "-monitor", "none",
+           "-icount", "shift=auto", "-kernel", str(elf),
+           "-chardev", f"socket,id=s0,host=127.0.0.1,port={port},server=on,wait=on,nodelay=on",
+           "-serial", "chardev:s0"]
+    proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT)
+    # QEMU announces "waiting for connection" once it listens; connecting to probe would make
+    # the guest boot and its banner would be lost, so read that announcement instead.
+    deadline = time.monotonic() + CONNECT_TIMEOUT_S
+    seen = b""
+    assert proc.stdout is not None
+    while time.monotonic() < deadline:
+        ready, _, _ = select.select([proc.stdout], [], [], 0.1)
+        if ready:
+            chunk = os.read(proc.stdout.fileno(), 4096)
+            if not chunk:
+                break
+            seen += chunk
+            if b"waiting for connection" in seen:
+                return proc
+        elif proc.poll() is not None:
+            break
+    proc.kill()
+    raise E2EError(f"QEMU did not listen on port {port} within {CONNECT_TIMEOUT_S} s "
+                   f"(status {proc.poll()}): {seen.decode(errors='replace')[-2000:]}")
+
+
+def run_stream(csv: Path, port: int, calibration: Path, workdir: Path, tag: str, rows: int,
+               corrupt_row: int | None = None) -> dict[str, Any]:
+    """Run ``msr stream`` as a subprocess; returns its JSON summary plus the files it wrote."""
+    log = workdir / f"{tag}.log"
+    codes = workdir / f"{tag}_codes.csv"
+    limit = rows / 100.0 * STREAM_SLOWDOWN + STREAM_MARGIN_S
+    cmd = [sys.executable, "-m", "elastica_magnetic.cli", "stream", str(csv),
+           "--port", f"socket://127.0.0.1:{port}", "--calibration", str(calibration),
+           "--json", "--no-progress", "--log", str(log), "--codes-out", str(codes),
+           "--timeout", str(limit)]
+    if corrupt_row is not None:
+        cmd += ["--corrupt-row", str(corrupt_row)]
+    env = {**os.environ, "PYTHONPATH": str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    try:
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=limit + 15, env=env,
+                              cwd=REPO)
+    except subprocess.TimeoutExpired as exc:
+        raise E2EError(f"msr stream ({tag}) did not finish in {limit + 15:.0f} s") from exc
+    try:
+        summary = json.loads(done.stdout)
+    except json.JSONDecodeError as exc:
+        raise E2EError(f"msr stream ({tag}) printed no JSON (status {done.returncode}):\n"
+                       f"{done.stdout[-2000:]}\n{done.stderr[-2000:]}") from exc
+    summary["exit_status"] = done.returncode
+    summary["log"] = str(log)
+    summary["codes"] = str(codes)
+    return summary
+
+
+def run_e2e(csv: Path, elf: Path = DEFAULT_ELF, calibration: Path = DEFAULT_CALIBRATION,
+            corrupt_row: int | None = -1, workdir: Path | None = None) -> dict[str, Any]:
+    """The whole end-to-end check; ``corrupt_row=-1`` picks the middle row, None skips it."""
+    import numpy as np
+
+    from elastica_magnetic.hardware.export import export_firmware, read_expected_codes
+
+    qemu = check_prerequisites(elf)
+    work = Path(workdir) if workdir else Path(tempfile.mkdtemp(prefix="msr_e2e_"))
+    export = export_firmware(csv, calibration, work / "export")
+    expected = read_expected_codes(export["expected_dac_codes"])
+    rows = len(expected)
+    if corrupt_row == -1:
+        corrupt_row = rows // 2
+    port = free_port()
+    proc = start_qemu(qemu, elf, port)
+    try:
+        full = run_stream(csv, port, calibration, work, "full", rows)
+        got = read_expected_codes(full["codes"])
+        n = min(len(got), rows)
+        max_err = int(np.max(np.abs(got[:n] - expected[:n]))) if n else None
+        result: dict[str, Any] = {
+            "csv": str(csv),
+            "board": full.get("board"),
+            "rows_total": rows,
+            "rows_sent": full.get("rows_sent"),
+            "rows_applied": full.get("rows_applied"),
+            "max_code_error_lsb": max_err,
+            "codes_within_tolerance": max_err is not None and max_err <= TOLERANCE_LSB and n == rows,
+            "ended_safe": bool(full.get("ended_safe")),
+            "end_reason": full.get("safe_reason"),
+            "rows_per_s": full.get("rows_per_s"),
+            "duration_s": full.get("duration_s"),
+            "log": full.get("log"),
+        }
+        if corrupt_row is not None:
+            bad = run_stream(csv, port, calibration, work, "corrupt", rows, corrupt_row)
+            result.update({
+                "corrupt_row": corrupt_row,
+                "corrupt_reason": bad.get("safe_reason"),
+                "corrupt_safe_row": bad.get("safe_row"),
+                "corrupt_safe_line": bad.get("safe_line"),
+                "corrupt_rows_applied": bad.get("rows_applied"),
+                "corrupt_ended_safe": bool(bad.get("ended_safe")),
+                "corrupt_max_code_error_lsb": bad.get("max_code_error_lsb"),
+            })
+    finally:
+        proc.kill()
+        try:
+            proc.communicate(timeout=10)
+        except subprocess.TimeoutExpired:
+            pass
+    ok = result["codes_within_tolerance"] and result["ended_safe"] and result["end_reason"] == "end"
+    if corrupt_row is not None:
+        ok = ok and result["corrupt_reason"] == "checksum" and result["corrupt_ended_safe"] \
+            and result["corrupt_safe_row"] == corrupt_row
+    result["passed"] = bool(ok)
+    return result
+
+
+def run_table_playback(elf: Path = DEFAULT_ELF, expected_csv: Path | None = None,
+                       timeout_s: float = 60.0) -> dict[str, Any]:
+    """Boot the ELF, send ``PLAY`` and compare the flash table's DAC codes with the build's
+    ``gen/expected_dac_codes.csv`` (written next to the ELF by the CMake build)."""
+    import numpy as np
+    import serial
+
+    from elastica_magnetic.hardware.export import read_expected_codes
+    from elastica_magnetic.hardware.protocol import parse_dac, parse_safe
+
+    qemu = check_prerequisites(elf)
+    expected_csv = expected_csv or elf.parent / "gen" / "expected_dac_codes.csv"
+    if not expected_csv.is_file():
+        raise E2EError(f"{expected_csv} not found: build the ELF with bash stm32/ci.sh")
+    expected = read_expected_codes(expected_csv)
+    port = free_port()
+    proc = start_qemu(qemu, elf, port)
+    lines: list[str] = []
+    try:
+        link = serial.serial_for_url(f"socket://127.0.0.1:{port}", timeout=0.05)
+        try:
+            start = time.monotonic()
+            pending = b""
+            sent_play = False
+            last_ping = -1.0
+            safe = None
+            while safe is None and time.monotonic() - start < timeout_s:
+                now = time.monotonic() - start
+                if not sent_play and now - last_ping > 0.5:
+                    link.write(b"\nPING\n")
+                    last_ping = now
+                pending += link.read(4096)
+                *done, pending = pending.split(b"\n")
+                for raw in done:
+                    line = raw.decode("ascii", "replace").strip()
+                    lines.append(line)
+                    if line == "PONG" and not sent_play:
+                        link.write(b"PLAY\n")
+                        sent_play = True
+                    elif line.startswith("SAFE ") and sent_play:
+                        safe = parse_safe(line)
+        finally:
+            link.close()
+    finally:
+        proc.kill()
+        try:
+            proc.communicate(timeout=10)
+        except subprocess.TimeoutExpired:
+            pass
+    reports = [d for d in (parse_dac(x) for x in lines) if d is not None]
+    rows = [d for d in reports if d.row is not None]
+    got = np.array([d.codes for d in rows], dtype=np.int64).reshape(-1, 3)
+    n = min(len(got), len(expected))
+    max_err = int(np.max(np.abs(got[:n] - expected[:n]))) if n else None
+    return {
+        "rows_total": len(expected),
+        "rows_applied": len(rows),
+        "rows_in_order": [d.row for d in rows] == list(range(len(rows))),
+        "max_code_error_lsb": max_err,
+        "ended_safe": bool(reports) and reports[-1].row is None
+        and reports[-1].codes == (32768, 32768, 32768),
+        "end_reason": safe.reason if safe else None,
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--csv", type=Path, default=PUBLISHED_CSV, help="field CSV (mT)")
+    parser.add_argument("--elf", type=Path, default=DEFAULT_ELF)
+    parser.add_argument("--calibration", type=Path, default=DEFAULT_CALIBRATION,
+                        help="the calibration the ELF was built with")
+    parser.add_argument("--corrupt-row", type=int, default=-1,
+                        help="row to corrupt in the second stream (-1: middle)")
+    parser.add_argument("--no-corrupt", action="store_true", help="skip the corrupted stream")
+    parser.add_argument("--play", action="store_true",
+                        help="instead: play the flash table compiled into the ELF and check it")
+    parser.add_argument("--json", action="store_true")
+    args = parser.parse_args(argv)
+    try:
+        if args.play:
+            result = run_table_playback(args.elf)
+            result["passed"] = bool(
+                result["rows_applied"] == result["rows_total"] and result["rows_in_order"]
+                and result["max_code_error_lsb"] is not None
+                and result["max_code_error_lsb"] <= TOLERANCE_LSB
+                and result["ended_safe"] and result["end_reason"] == "end")
+        else:
+            result = run_e2e(args.csv, args.elf, args.calibration,
+                             None if args.no_corrupt else args.corrupt_row)
+    except E2EError as exc:
+        print(f"qemu_e2e: error: {exc}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(result, indent=2))
+    else:
+        for key, value in result.items():
+            print(f"{key}: {value}")
+    return 0 if result["passed"] else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

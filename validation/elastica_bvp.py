@@ -1,0 +1,1142 @@
+"""Independent planar-elastica boundary-value solver for magnetic rods.
+
+This module is the *reference* of the validation suite.  It deliberately depends on
+nothing but numpy and scipy (no PyElastica, nothing else from this package), so that
+agreement between it and the simulator means something.
+
+Model
+-----
+A planar, inextensible, unshearable rod of length ``L`` (m), bending stiffness ``EI``
+(N m^2) and cross-section area ``A`` (m^2) carries a magnetization of magnitude
+``|M|(s)`` (A/m) whose direction makes the angle ``alpha_m(s)`` (rad) with the local
+tangent (the body frame, measured counter-clockwise from the tangent).  A uniform
+field of magnitude ``|B|`` (T) points at the lab angle ``beta`` (rad).  The unknown is
+the tangent angle ``theta(s)`` (rad, lab frame, counter-clockwise from the x axis),
+so that the lab angle of the magnetization is ``theta + alpha_m``.
+
+The total energy (J) is::
+
+    E[theta] = integral_0^L ( EI theta'^2 / 2 - A |M| |B| cos(theta + alpha_m - beta) ) ds
+
+and its Euler-Lagrange equation with natural (free-end) boundary terms is::
+
+    EI theta'' + A |M(s)| |B| sin(beta - alpha_m(s) - theta) = 0.
+
+Sign convention: a magnetization lying along the tangent (``alpha_m = 0``) is rotated
+*towards* the field: with ``theta = 0`` and ``0 < beta < pi`` the couple is positive,
+so ``theta`` increases.  The curvature is ``kappa = theta'`` (1/m), positive when the
+centreline turns counter-clockwise.  The centreline is ``x(s) = int cos theta``,
+``y(s) = int sin theta``, starting at the origin.
+
+Boundary conditions
+-------------------
+``"clamped-free"``
+    ``theta(0) = theta_clamp``, ``theta'(L) = 0``.
+``"free-free"``
+    ``theta'(0) = theta'(L) = 0``.  Integrating the equation over ``[0, L]`` shows that
+    these two conditions imply zero net magnetic torque, i.e. the statics of a free
+    body in a uniform field (a uniform field exerts no net force).  For a non-zero
+    field the absolute orientation is *not* a free gauge: it is fixed by that torque
+    balance, so the problem has isolated solutions and no gauge condition is imposed.
+    Only for a zero field (or zero magnetization) is every straight state at any
+    orientation a solution; the orientation is then taken from the initial guess or
+    from ``theta0``.  Rotating the field by ``gamma`` maps every solution ``theta`` to
+    ``theta + gamma`` (rigid rotation); a constant offset of ``alpha_m`` (e.g. the
+    ``phi0`` of the Hu et al. robot) is equivalent to rotating the field.
+
+Numerics: ``scipy.integrate.solve_bvp`` on the scaled arc length ``xi = s / L`` with an
+analytic Jacobian, natural-parameter load continuation from zero (secant predictor,
+adaptive step, branch-jump detection), or a direct Newton solve from a given initial
+shape.  The stability of an equilibrium is judged by the lowest eigenvalue of the
+second variation of the energy, computed by finite differences.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.integrate import cumulative_simpson, simpson, solve_bvp
+from scipy.linalg import eigh_tridiagonal
+
+FloatArray = NDArray[np.float64]
+Profile = float | Callable[[FloatArray], ArrayLike]
+"""A constant, or a function of the arc length ``s`` (m, array) returning an array."""
+
+BOUNDARY_CONDITIONS = ("clamped-free", "free-free")
+
+# Hu, Lum, Mastrangeli, Sitti, Nature 554, 81 (2018): the millirobot sheet.
+HU2018_LENGTH = 3.7e-3  # m
+HU2018_WIDTH = 1.5e-3  # m
+HU2018_THICKNESS = 185e-6  # m
+HU2018_MAGNETIZATION = 61.3e3  # A/m
+HU2018_YOUNGS_MODULUS = 84.5e3  # Pa
+
+
+STABILITY_TOLERANCE = 1e-8
+"""Equilibria with a stability eigenvalue above ``-STABILITY_TOLERANCE`` count as stable
+(the neutral rotation of a free rod in zero field has eigenvalue 0)."""
+
+
+class ElasticaConvergenceError(RuntimeError):
+    """Raised when the boundary-value solver (or the continuation) does not converge."""
+
+
+# --------------------------------------------------------------------------------------
+# Problem definition
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class MagneticRod:
+    """Geometry, stiffness and magnetization of a planar magnetic rod.
+
+    Parameters
+    ----------
+    length : float
+        Rod length ``L`` (m).
+    bending_stiffness : float
+        ``EI`` (N m^2).
+    area : float
+        Cross-section area ``A`` (m^2).
+    magnetization : float or callable
+        Magnitude ``|M|`` (A/m); constant, or ``f(s) -> |M|`` for ``s`` (m) an array of
+        shape ``(n,)`` returning shape ``(n,)``.
+    alpha_m : float or callable
+        Direction of the magnetization relative to the tangent (rad, counter-clockwise);
+        constant, or ``f(s) -> alpha_m`` with the same shapes as above.
+    """
+
+    length: float
+    bending_stiffness: float
+    area: float
+    magnetization: Profile
+    alpha_m: Profile = 0.0
+
+    def magnetization_at(self, s: ArrayLike) -> FloatArray:
+        """``|M|(s)`` (A/m) at arc lengths ``s`` (m), same shape as ``s``."""
+        return _evaluate_profile(self.magnetization, s)
+
+    def alpha_at(self, s: ArrayLike) -> FloatArray:
+        """``alpha_m(s)`` (rad) at arc lengths ``s`` (m), same shape as ``s``."""
+        return _evaluate_profile(self.alpha_m, s)
+
+
+def _evaluate_profile(profile: Profile, s: ArrayLike) -> FloatArray:
+    s = np.asarray(s, dtype=float)
+    if callable(profile):
+        return np.broadcast_to(np.asarray(profile(s), dtype=float), s.shape).astype(float)
+    return np.full(s.shape, float(profile))
+
+
+@dataclass(frozen=True)
+class _Problem:
+    """The scaled problem ``theta_xixi = -lam q(xi) sin(beta - alpha(xi) - theta)``."""
+
+    rod: MagneticRod
+    field_strength: float  # T, >= 0
+    field_angle: float  # rad
+    bc: str
+    theta_clamp: float
+
+    def q(self, xi: FloatArray) -> FloatArray:
+        r = self.rod
+        return (
+            r.area
+            * r.magnetization_at(xi * r.length)
+            * self.field_strength
+            * r.length**2
+            / r.bending_stiffness
+        )
+
+    def alpha(self, xi: FloatArray) -> FloatArray:
+        return self.rod.alpha_at(xi * self.rod.length)
+
+    @property
+    def unloaded(self) -> bool:
+        xi = np.linspace(0.0, 1.0, 65)
+        return bool(np.all(self.q(xi) == 0.0))
+
+
+# --------------------------------------------------------------------------------------
+# Result
+# --------------------------------------------------------------------------------------
+
+
+@dataclass
+class ElasticaSolution:
+    """An equilibrium of the planar magnetic elastica (SI units).
+
+    Attributes
+    ----------
+    s : ndarray, shape (n,)
+        Uniform output grid of arc lengths (m), ``s[0] = 0``, ``s[-1] = L``.
+    theta : ndarray, shape (n,)
+        Tangent angle (rad, lab frame).
+    dtheta : ndarray, shape (n,)
+        Curvature ``theta'`` (1/m).
+    x, y : ndarray, shape (n,)
+        Centreline (m), with ``x[0] = y[0] = 0``.
+    tip_angle : float
+        End rotation ``theta(L) - theta(0)`` (rad); for a cantilever the tip angle.
+    tip_deflection : float
+        Displacement of the ``s = L`` end perpendicular to the ``s = 0`` tangent (m),
+        positive to the left of it (the ``delta_y`` of a cantilever).
+    tip_shortening : float
+        ``L`` minus the displacement of the ``s = L`` end along the ``s = 0`` tangent (m)
+        (the ``delta_x`` of a cantilever, >= 0).
+    end_to_end : float
+        Distance between the two ends (m).
+    peak_curvature : float
+        ``max |theta'|`` (1/m).
+    energy : float
+        ``int (EI theta'^2/2 - A M.B) ds`` (J).
+    bending_energy, magnetic_energy : float
+        The two parts of ``energy`` (J).
+    stability_eigenvalue : float
+        Lowest eigenvalue of the dimensionless second variation
+        ``-d^2/dxi^2 + (A |M| |B| L^2/EI) cos(beta - alpha_m - theta)`` with the problem's
+        boundary conditions (``> 0``: locally stable).
+    stable : bool
+        ``stability_eigenvalue > -STABILITY_TOLERANCE`` (marginal counts as stable).
+    residual : float
+        Largest relative collocation residual reported by ``solve_bvp``.
+    bc_residual : float
+        Largest boundary-condition residual (dimensionless).
+    converged : bool
+        Always ``True`` for a returned object (failures raise).
+    message : str
+        Solver message.
+    n_nodes : int
+        Number of collocation nodes of the final mesh.
+    snapped : bool
+        ``True`` when the load continuation had to jump to another branch (snap-through).
+    field_strength, field_angle : float
+        ``|B|`` (T) and ``beta`` (rad).
+    bc : str
+        Boundary conditions.
+    rod : MagneticRod
+        The rod.
+    """
+
+    s: FloatArray
+    theta: FloatArray
+    dtheta: FloatArray
+    x: FloatArray
+    y: FloatArray
+    tip_angle: float
+    tip_deflection: float
+    tip_shortening: float
+    end_to_end: float
+    peak_curvature: float
+    energy: float
+    bending_energy: float
+    magnetic_energy: float
+    stability_eigenvalue: float
+    stable: bool
+    residual: float
+    bc_residual: float
+    converged: bool
+    message: str
+    n_nodes: int
+    snapped: bool
+    field_strength: float
+    field_angle: float
+    bc: str
+    rod: MagneticRod = field(repr=False)
+    _fn: Callable[[FloatArray], FloatArray] = field(repr=False)
+
+    def evaluate(self, s: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Interpolate the solution.
+
+        Parameters
+        ----------
+        s : array_like, shape (m,)
+            Arc lengths (m) in ``[0, L]``.
+
+        Returns
+        -------
+        theta : ndarray, shape (m,)
+            Tangent angle (rad).
+        dtheta : ndarray, shape (m,)
+            Curvature (1/m).
+        """
+        xi = np.atleast_1d(np.asarray(s, dtype=float)) / self.rod.length
+        y = self._fn(xi)
+        return y[0].copy(), y[1] / self.rod.length
+
+    def __call__(self, s: ArrayLike) -> FloatArray:
+        """Tangent angle ``theta(s)`` (rad); makes a solution usable as an initial guess."""
+        return self.evaluate(s)[0]
+
+
+GuessLike = ElasticaSolution | Callable[[FloatArray], ArrayLike] | tuple[ArrayLike, ArrayLike]
+"""An initial shape: a solution, a function ``theta(s)`` (s in m), or samples ``(s, theta)``."""
+
+
+# --------------------------------------------------------------------------------------
+# Core solver
+# --------------------------------------------------------------------------------------
+
+
+def _bvp_functions(prob: _Problem, lam: float):
+    beta = prob.field_angle
+
+    def fun(xi: FloatArray, y: FloatArray) -> FloatArray:
+        lq = lam * prob.q(xi)
+        return np.vstack([y[1], -lq * np.sin(beta - prob.alpha(xi) - y[0])])
+
+    def fun_jac(xi: FloatArray, y: FloatArray) -> FloatArray:
+        lq = lam * prob.q(xi)
+        jac = np.zeros((2, 2, xi.size))
+        jac[0, 1] = 1.0
+        jac[1, 0] = lq * np.cos(beta - prob.alpha(xi) - y[0])
+        return jac
+
+    if prob.bc == "clamped-free":
+
+        def bc(ya: FloatArray, yb: FloatArray) -> FloatArray:
+            return np.array([ya[0] - prob.theta_clamp, yb[1]])
+
+        def bc_jac(ya: FloatArray, yb: FloatArray) -> tuple[FloatArray, FloatArray]:
+            return np.array([[1.0, 0.0], [0.0, 0.0]]), np.array([[0.0, 0.0], [0.0, 1.0]])
+
+    else:
+
+        def bc(ya: FloatArray, yb: FloatArray) -> FloatArray:
+            return np.array([ya[1], yb[1]])
+
+        def bc_jac(ya: FloatArray, yb: FloatArray) -> tuple[FloatArray, FloatArray]:
+            return np.array([[0.0, 1.0], [0.0, 0.0]]), np.array([[0.0, 0.0], [0.0, 1.0]])
+
+    return fun, fun_jac, bc, bc_jac
+
+
+def _solve_at(
+    prob: _Problem, lam: float, xi: FloatArray, y: FloatArray, tol: float, max_nodes: int
+):
+    fun, fun_jac, bc, bc_jac = _bvp_functions(prob, lam)
+    res = solve_bvp(
+        fun, bc, xi, y, fun_jac=fun_jac, bc_jac=bc_jac, tol=tol, max_nodes=max_nodes, bc_tol=tol
+    )
+    return res
+
+
+def _guess_function(guess, length: float) -> Callable[[FloatArray], FloatArray]:
+    """Turn an initial guess into ``f(xi) -> y`` with ``y`` of shape ``(2, n)``."""
+    if isinstance(guess, ElasticaSolution):
+        return lambda xi: np.vstack(guess.evaluate(xi * length)) * np.array([[1.0], [length]])
+    if callable(guess):
+
+        def from_callable(xi: FloatArray) -> FloatArray:
+            th = np.asarray(guess(xi * length), dtype=float) * np.ones_like(xi)
+            return np.vstack([th, np.gradient(th, xi)])
+
+        return from_callable
+    s_g, th_g = (np.asarray(a, dtype=float) for a in guess)
+    if s_g.ndim != 1 or s_g.shape != th_g.shape or s_g.size < 3:
+        raise ValueError("an initial guess (s, theta) needs two 1-D arrays of equal length >= 3")
+    order = np.argsort(s_g)
+    s_g, th_g = s_g[order], np.unwrap(th_g[order])
+    xi_g = s_g / length
+
+    def from_samples(xi: FloatArray) -> FloatArray:
+        th = np.interp(xi, xi_g, th_g)
+        # a smooth derivative: fit locally via the gradient of the sampled curve
+        dth = np.interp(xi, xi_g, np.gradient(th_g, xi_g))
+        return np.vstack([th, dth])
+
+    return from_samples
+
+
+def _continuation(
+    prob: _Problem,
+    y0_fn: Callable[[FloatArray], FloatArray],
+    lam0: float,
+    *,
+    n_steps: int,
+    tol: float,
+    max_nodes: int,
+    n_mesh: int,
+    max_jump: float,
+    allow_snap: bool,
+):
+    """Follow the solution from load factor ``lam0`` (solution ``y0_fn``) to 1."""
+    xi = np.linspace(0.0, 1.0, n_mesh)
+    if lam0 > 0.0:
+        res = _solve_at(prob, lam0, xi, y0_fn(xi), tol, max_nodes)
+        if res.status != 0:
+            raise ElasticaConvergenceError(
+                f"no convergence at the starting load factor {lam0:g}: {res.message}"
+            )
+        cur: tuple[float, Callable, FloatArray] = (lam0, res.sol, res.x)
+        last = res
+    else:
+        cur = (0.0, y0_fn, xi)
+        last = None
+    prev: tuple[float, Callable, FloatArray] | None = None
+    step0 = (1.0 - lam0) / max(n_steps, 1)
+    step = step0
+    min_step = step0 * 1e-4
+    snapped = False
+    while cur[0] < 1.0 - 1e-14:
+        lam_try = min(1.0, cur[0] + step)
+        xg = cur[2]
+        yg = cur[1](xg)
+        if prev is not None:
+            yg = yg + (lam_try - cur[0]) / (cur[0] - prev[0]) * (yg - prev[1](xg))
+        res = _solve_at(prob, lam_try, xg, yg, tol, max_nodes)
+        jumped = False
+        if res.status == 0:
+            jumped = float(np.max(np.abs(res.sol(xg)[0] - yg[0]))) > max_jump
+        if res.status == 0 and (not jumped or (step <= min_step and allow_snap)):
+            snapped = snapped or jumped
+            prev = None if jumped else cur
+            cur = (lam_try, res.sol, res.x)
+            last = res
+            step = min(1.5 * step, 2.0 * step0)
+            continue
+        step *= 0.5
+        if step < min_step:
+            why = "the branch jumps (fold)" if jumped else res.message
+            raise ElasticaConvergenceError(
+                f"load continuation stalled at load factor {cur[0]:.6g}: {why}"
+            )
+    if last is None:  # lam0 == 1 handled by caller; zero steps cannot happen here
+        raise ElasticaConvergenceError("continuation produced no solution")
+    return last, snapped
+
+
+def _lowest_mode(
+    prob: _Problem, lam: float, xi: FloatArray, theta: FloatArray
+) -> tuple[float, FloatArray]:
+    """Lowest eigenpair of ``-d2/dxi2 + lam q cos(beta - alpha - theta)`` (FD, O(h^2)).
+
+    The operator is the second variation of the energy in units of ``EI / L``; the
+    eigenvector is returned on ``xi`` (zero at a clamp), scaled to ``max |v| = 1``.
+    """
+    n = xi.size
+    h = xi[1] - xi[0]
+    v = lam * prob.q(xi) * np.cos(prob.field_angle - prob.alpha(xi) - theta)
+    w = np.ones(n)
+    w[0] = w[-1] = 0.5
+    kdiag = np.full(n, 2.0 / h)
+    kdiag[0] = kdiag[-1] = 1.0 / h
+    d = kdiag / (h * w) + v
+    e = -1.0 / (h * h * np.sqrt(w[:-1] * w[1:]))
+    start = 1 if prob.bc == "clamped-free" else 0
+    vals, vecs = eigh_tridiagonal(d[start:], e[start:], select="i", select_range=(0, 0))
+    mode = np.zeros(n)
+    mode[start:] = vecs[:, 0] / np.sqrt(w[start:])
+    mode /= mode[np.argmax(np.abs(mode))]
+    return float(vals[0]), mode
+
+
+def _build_solution(
+    prob: _Problem,
+    fn: Callable[[FloatArray], FloatArray],
+    *,
+    residual: float,
+    bc_residual: float,
+    message: str,
+    n_nodes: int,
+    snapped: bool,
+    n_out: int,
+) -> ElasticaSolution:
+    rod = prob.rod
+    L = rod.length
+    xi = np.linspace(0.0, 1.0, n_out)
+    y = fn(xi)
+    theta, dth = y[0].copy(), y[1] / L
+    s = xi * L
+    h = s[1] - s[0]
+    x = cumulative_simpson(np.cos(theta), dx=h, initial=0.0)
+    yy = cumulative_simpson(np.sin(theta), dx=h, initial=0.0)
+    mag = rod.area * rod.magnetization_at(s) * prob.field_strength
+    e_bend = float(simpson(0.5 * rod.bending_stiffness * dth**2, dx=h))
+    e_mag = float(simpson(-mag * np.cos(theta + rod.alpha_at(s) - prob.field_angle), dx=h))
+    c0, s0 = math.cos(theta[0]), math.sin(theta[0])
+    dxl = c0 * x[-1] + s0 * yy[-1]
+    dyl = -s0 * x[-1] + c0 * yy[-1]
+    eig, _ = _lowest_mode(prob, 1.0, xi, theta)
+    return ElasticaSolution(
+        s=s,
+        theta=theta,
+        dtheta=dth,
+        x=x,
+        y=yy,
+        tip_angle=float(theta[-1] - theta[0]),
+        tip_deflection=float(dyl),
+        tip_shortening=float(L - dxl),
+        end_to_end=float(math.hypot(x[-1], yy[-1])),
+        peak_curvature=float(np.max(np.abs(dth))),
+        energy=e_bend + e_mag,
+        bending_energy=e_bend,
+        magnetic_energy=e_mag,
+        stability_eigenvalue=eig,
+        stable=eig > -STABILITY_TOLERANCE,
+        residual=residual,
+        bc_residual=bc_residual,
+        converged=True,
+        message=message,
+        n_nodes=n_nodes,
+        snapped=snapped,
+        field_strength=prob.field_strength,
+        field_angle=prob.field_angle,
+        bc=prob.bc,
+        rod=rod,
+        _fn=fn,
+    )
+
+
+def _bc_residual(prob: _Problem, res) -> float:
+    _, _, bc, _ = _bvp_functions(prob, 1.0)
+    return float(np.max(np.abs(bc(res.y[:, 0], res.y[:, -1]))))
+
+
+def _make_problem(
+    rod: MagneticRod, field_strength: float, field_angle: float, bc: str, theta_clamp: float
+) -> _Problem:
+    if bc not in BOUNDARY_CONDITIONS:
+        raise ValueError(f"bc must be one of {BOUNDARY_CONDITIONS}, not {bc!r}")
+    if rod.length <= 0 or rod.bending_stiffness <= 0 or rod.area <= 0:
+        raise ValueError("length, bending stiffness and area must be positive")
+    if field_strength < 0:  # a negative magnitude means the reversed field
+        field_strength, field_angle = -field_strength, field_angle + math.pi
+    return _Problem(rod, float(field_strength), float(field_angle), bc, float(theta_clamp))
+
+
+def solve_elastica(
+    rod: MagneticRod,
+    field_strength: float,
+    field_angle: float,
+    bc: str = "clamped-free",
+    *,
+    theta0: float = 0.0,
+    initial_guess: GuessLike | None = None,
+    ramp_steps: int = 10,
+    tol: float = 1e-7,
+    n_mesh: int = 81,
+    max_nodes: int = 20000,
+    n_out: int = 1001,
+    max_jump: float = 1.0,
+    allow_snap: bool = True,
+    seek_stable: bool = False,
+) -> ElasticaSolution:
+    """Solve the planar magnetic elastica ``EI theta'' + A|M||B| sin(beta - alpha_m - theta) = 0``.
+
+    Parameters
+    ----------
+    rod : MagneticRod
+        Rod properties (SI units).
+    field_strength : float
+        ``|B|`` (T).  A negative value is read as the reversed field.
+    field_angle : float
+        ``beta``, the lab-frame field direction (rad).
+    bc : {"clamped-free", "free-free"}
+        Boundary conditions (see the module docstring).
+    theta0 : float
+        Clamp angle ``theta(0)`` (rad) for ``"clamped-free"``; for ``"free-free"`` the
+        orientation of the straight starting state of the ramp (and of the solution at
+        zero field).
+    initial_guess : ElasticaSolution, callable or (s, theta), optional
+        If given, Newton starts from this shape directly at the full load (no ramp):
+        a callable ``theta(s)`` (``s`` in m, shape (n,)), or sample arrays ``s`` (m) and
+        ``theta`` (rad) of equal shape (n,), e.g. a simulated shape.  The solver then
+        converges to the nearby equilibrium (the branch the guess is on).  If omitted,
+        the load is ramped from zero starting from the straight rod at ``theta0``.
+    ramp_steps : int
+        Initial number of continuation steps (the step adapts).
+    tol : float
+        Relative collocation tolerance of ``solve_bvp`` (also used for the boundary
+        conditions).
+    n_mesh : int
+        Initial number of mesh nodes.
+    max_nodes : int
+        Mesh size limit of ``solve_bvp``.
+    n_out : int
+        Size of the uniform output grid (odd is best for Simpson's rule).
+    max_jump : float
+        Largest change of ``theta`` (rad) from the continuation predictor accepted
+        without treating it as a jump to another branch.
+    allow_snap : bool
+        When the branch ends at a fold, accept the jump to the other branch (the
+        snap-through a quasi-static ramp would show) instead of raising.
+    seek_stable : bool
+        If the equilibrium reached is unstable (e.g. the straight rod past a
+        bifurcation, which a ramp without imperfection follows), perturb it along its
+        unstable mode (amplitudes 0.05 to 2 rad, both signs, positive first) and return
+        the first *stable* equilibrium Newton converges to; the unstable one is
+        returned if none is found.
+
+    Returns
+    -------
+    ElasticaSolution
+
+    Raises
+    ------
+    ElasticaConvergenceError
+        If ``solve_bvp`` or the continuation does not converge.
+    """
+    prob = _make_problem(rod, field_strength, field_angle, bc, theta0)
+    L = rod.length
+    if prob.unloaded:
+        if bc == "clamped-free" or initial_guess is None:
+            const = prob.theta_clamp
+        else:
+            gfn = _guess_function(initial_guess, L)
+            const = float(np.mean(gfn(np.linspace(0.0, 1.0, 201))[0]))
+
+        def straight(xi: FloatArray) -> FloatArray:
+            xi = np.atleast_1d(xi)
+            return np.vstack([np.full(xi.shape, const), np.zeros(xi.shape)])
+
+        return _build_solution(
+            prob,
+            straight,
+            residual=0.0,
+            bc_residual=0.0,
+            message="zero load: straight rod",
+            n_nodes=0,
+            snapped=False,
+            n_out=n_out,
+        )
+    if initial_guess is not None:
+        gfn = _guess_function(initial_guess, L)
+        xi = np.linspace(0.0, 1.0, n_mesh)
+        res = _solve_at(prob, 1.0, xi, gfn(xi), tol, max_nodes)
+        if res.status != 0:
+            raise ElasticaConvergenceError(
+                f"solve_bvp did not converge from the initial guess: {res.message}"
+            )
+        snapped = False
+    else:
+
+        def straight0(xi: FloatArray) -> FloatArray:
+            return np.vstack([np.full(xi.shape, prob.theta_clamp), np.zeros(xi.shape)])
+
+        res, snapped = _continuation(
+            prob,
+            straight0,
+            0.0,
+            n_steps=ramp_steps,
+            tol=tol,
+            max_nodes=max_nodes,
+            n_mesh=n_mesh,
+            max_jump=max_jump,
+            allow_snap=allow_snap,
+        )
+    sol = _build_solution(
+        prob,
+        res.sol,
+        residual=float(np.max(res.rms_residuals)),
+        bc_residual=_bc_residual(prob, res),
+        message=res.message,
+        n_nodes=int(res.x.size),
+        snapped=snapped,
+        n_out=n_out,
+    )
+    if seek_stable and not sol.stable:
+        sol = _seek_stable(prob, sol, tol=tol, n_mesh=n_mesh, max_nodes=max_nodes, n_out=n_out)
+    return sol
+
+
+STABILITY_SEARCH_AMPLITUDES = (0.05, 0.2, 0.5, 1.0, 2.0)
+"""Perturbation amplitudes (rad) along the unstable mode tried by ``seek_stable``."""
+
+
+def _seek_stable(prob: _Problem, sol: ElasticaSolution, **kw) -> ElasticaSolution:
+    _, mode = _lowest_mode(prob, 1.0, sol.s / prob.rod.length, sol.theta)
+    for amp in STABILITY_SEARCH_AMPLITUDES:
+        for sign in (1.0, -1.0):
+            guess = (sol.s, sol.theta + sign * amp * mode)
+            try:
+                cand = solve_elastica(
+                    prob.rod,
+                    prob.field_strength,
+                    prob.field_angle,
+                    prob.bc,
+                    theta0=prob.theta_clamp,
+                    initial_guess=guess,
+                    **kw,
+                )
+            except ElasticaConvergenceError:
+                continue
+            if cand.stable:
+                return cand
+    return sol
+
+
+def continue_from(
+    rod: MagneticRod,
+    field_strength: float,
+    field_angle: float,
+    bc: str,
+    guess: GuessLike,
+    start_fraction: float,
+    *,
+    ramp_steps: int = 10,
+    tol: float = 1e-7,
+    n_mesh: int = 81,
+    max_nodes: int = 20000,
+    n_out: int = 1001,
+    max_jump: float = 1.0,
+    allow_snap: bool = False,
+    theta0: float = 0.0,
+) -> ElasticaSolution:
+    """Solve at ``start_fraction * |B|`` from ``guess``, then continue the branch to ``|B|``.
+
+    Parameters are as in :func:`solve_elastica`; ``start_fraction`` is in ``(0, 1]``.
+    By default a fold (branch end) raises instead of snapping.
+    """
+    if not 0.0 < start_fraction <= 1.0:
+        raise ValueError("start_fraction must be in (0, 1]")
+    prob = _make_problem(rod, field_strength, field_angle, bc, theta0)
+    gfn = _guess_function(guess, rod.length)
+    if start_fraction == 1.0:
+        return solve_elastica(
+            rod,
+            field_strength,
+            field_angle,
+            bc,
+            theta0=theta0,
+            initial_guess=guess,
+            tol=tol,
+            n_mesh=n_mesh,
+            max_nodes=max_nodes,
+            n_out=n_out,
+        )
+    res, snapped = _continuation(
+        prob,
+        gfn,
+        start_fraction,
+        n_steps=ramp_steps,
+        tol=tol,
+        max_nodes=max_nodes,
+        n_mesh=n_mesh,
+        max_jump=max_jump,
+        allow_snap=allow_snap,
+    )
+    return _build_solution(
+        prob,
+        res.sol,
+        residual=float(np.max(res.rms_residuals)),
+        bc_residual=_bc_residual(prob, res),
+        message=res.message,
+        n_nodes=int(res.x.size),
+        snapped=snapped,
+        n_out=n_out,
+    )
+
+
+# --------------------------------------------------------------------------------------
+# Comparing shapes and collecting equilibria
+# --------------------------------------------------------------------------------------
+
+
+def same_state(a: ElasticaSolution, b: ElasticaSolution, atol: float = 1e-4) -> bool:
+    """Whether two solutions are the same state: ``theta`` equal modulo 2 pi (``atol`` rad)."""
+    sg = np.linspace(0.0, a.rod.length, 201)
+    d = a.evaluate(sg)[0] - b.evaluate(sg * b.rod.length / a.rod.length)[0]
+    d = (d + math.pi) % (2.0 * math.pi) - math.pi
+    return bool(np.max(np.abs(d)) < atol)
+
+
+def max_matched_distance(
+    xa: ArrayLike, ya: ArrayLike, xb: ArrayLike, yb: ArrayLike, align: bool = True
+) -> float:
+    """Largest distance between matched points of two centrelines (m).
+
+    Parameters
+    ----------
+    xa, ya, xb, yb : array_like, shape (n,)
+        Two centrelines sampled at the same material points (m).
+    align : bool
+        First remove the best rigid motion (least-squares rotation and translation,
+        2-D Kabsch), as is appropriate for free-free bodies.
+
+    Returns
+    -------
+    float
+        ``max_i |r_a(i) - r_b(i)|`` after alignment (m).
+    """
+    pa = np.column_stack([np.asarray(xa, float), np.asarray(ya, float)])
+    pb = np.column_stack([np.asarray(xb, float), np.asarray(yb, float)])
+    if pa.shape != pb.shape:
+        raise ValueError("the two centrelines need the same number of points")
+    if align:
+        ca, cb = pa.mean(axis=0), pb.mean(axis=0)
+        qa, qb = pa - ca, pb - cb
+        # rotation angle maximizing sum qb . R qa
+        num = float(np.sum(qa[:, 0] * qb[:, 1] - qa[:, 1] * qb[:, 0]))
+        den = float(np.sum(qa[:, 0] * qb[:, 0] + qa[:, 1] * qb[:, 1]))
+        ang = math.atan2(num, den)
+        rot = np.array([[math.cos(ang), -math.sin(ang)], [math.sin(ang), math.cos(ang)]])
+        pa = qa @ rot.T
+        pb = qb
+    return float(np.max(np.linalg.norm(pa - pb, axis=1)))
+
+
+@dataclass
+class Equilibria:
+    """Distinct equilibria found for one load, sorted by increasing energy.
+
+    Attributes
+    ----------
+    solutions : list of ElasticaSolution
+        Sorted by ``energy`` (J), lowest first.
+    n_attempts : int
+        Number of starting guesses tried.
+    n_failed : int
+        Number of starting guesses whose solve or continuation failed.
+    """
+
+    solutions: list[ElasticaSolution]
+    n_attempts: int
+    n_failed: int
+
+    @property
+    def lowest(self) -> ElasticaSolution:
+        """The lowest-energy equilibrium found (the stable one, barring missed branches)."""
+        return self.solutions[0]
+
+    @property
+    def energies(self) -> list[float]:
+        """Energies (J) of all equilibria, increasing."""
+        return [sol.energy for sol in self.solutions]
+
+    def closest_to(self, other: ElasticaSolution) -> ElasticaSolution:
+        """The equilibrium whose ``theta(s)`` is closest (max norm, modulo 2 pi) to ``other``."""
+        sg = np.linspace(0.0, other.rod.length, 201)
+        ref = other.evaluate(sg)[0]
+
+        def dist(sol: ElasticaSolution) -> float:
+            d = sol.evaluate(sg)[0] - ref
+            return float(np.max(np.abs((d + math.pi) % (2.0 * math.pi) - math.pi)))
+
+        return min(self.solutions, key=dist)
+
+
+def _add_unique(found: list[ElasticaSolution], sol: ElasticaSolution, atol: float) -> None:
+    if not any(same_state(sol, f, atol) for f in found):
+        found.append(sol)
+
+
+# --------------------------------------------------------------------------------------
+# Wang et al. 2020: hard-magnetic cantilever
+# --------------------------------------------------------------------------------------
+
+
+@dataclass
+class CantileverResult:
+    """Nondimensional hard-magnetic cantilever (Wang et al. 2020).
+
+    Attributes
+    ----------
+    q : float
+        Load ``M B A L^2 / (E I)`` (dimensionless).
+    phi : float
+        Field angle from the clamped tangent (rad).
+    tip_angle : float
+        ``theta(1)`` (rad).
+    delta_y : float
+        ``delta_y / L = int_0^1 sin(theta) d xi`` (tip deflection across the clamp axis).
+    delta_x : float
+        ``delta_x / L = 1 - int_0^1 cos(theta) d xi`` (tip shortening along it, >= 0).
+    solution : ElasticaSolution
+        The full solution, for a rod with ``L = EI = A = |B| = 1`` and ``|M| = q``.
+    """
+
+    q: float
+    phi: float
+    tip_angle: float
+    delta_y: float
+    delta_x: float
+    solution: ElasticaSolution
+
+
+def cantilever(
+    q: float,
+    phi: float,
+    *,
+    degrees: bool = False,
+    tol: float = 1e-7,
+    ramp_steps: int = 10,
+    initial_guess: GuessLike | None = None,
+) -> CantileverResult:
+    """Hard-magnetic cantilever: ``theta'' = -q sin(phi - theta)``, clamped at ``xi = 0``.
+
+    Boundary conditions ``theta(0) = 0`` and ``theta'(1) = 0``.
+
+    Uniform magnetization along the rod (``alpha_m = 0``), uniform field at ``phi`` from
+    the clamp direction, ``xi = s / L``.  Small ``q``: ``theta(1) = q sin(phi)/2 -
+    (5/24) q^2 sin(phi) cos(phi) + O(q^3)`` and ``delta_y/L = q sin(phi)/3 - (2/15) q^2
+    sin(phi) cos(phi) + O(q^3)``.
+
+    The load is ramped from zero (the quasi-static branch), and the stable branch is
+    returned: when the field is aligned with the rod (``sin(phi) = 0``) the straight
+    rod solves the problem exactly for every ``q``, and the ramp stays on it; past the
+    buckling load (``phi = 180`` deg, ``q > pi^2/4``) it is unstable and the solver
+    leaves it along the buckling mode (``seek_stable`` of :func:`solve_elastica`), to
+    the buckled branch with a positive tip angle.  No critical load is hard-coded.
+
+    Parameters
+    ----------
+    q : float
+        Dimensionless load ``M B A L^2 / (E I)`` (>= 0).
+    phi : float
+        Field angle (rad, or degrees if ``degrees``).
+    degrees : bool
+        Read ``phi`` in degrees.
+    tol : float
+        ``solve_bvp`` tolerance.
+    ramp_steps : int
+        Initial number of continuation steps.
+    initial_guess : optional
+        Start Newton at full load from this ``theta(xi)`` instead of ramping (no
+        stability search then).
+
+    Returns
+    -------
+    CantileverResult
+    """
+    phi_rad = math.radians(phi) if degrees else float(phi)
+    rod = MagneticRod(
+        length=1.0, bending_stiffness=1.0, area=1.0, magnetization=float(q), alpha_m=0.0
+    )
+    if initial_guess is not None:
+        sol = solve_elastica(
+            rod, 1.0, phi_rad, "clamped-free", initial_guess=initial_guess, tol=tol
+        )
+    else:
+        sol = solve_elastica(
+            rod, 1.0, phi_rad, "clamped-free", tol=tol, ramp_steps=ramp_steps, seek_stable=True
+        )
+    return CantileverResult(
+        q=float(q),
+        phi=phi_rad,
+        tip_angle=sol.tip_angle,
+        delta_y=sol.tip_deflection,
+        delta_x=sol.tip_shortening,
+        solution=sol,
+    )
+
+
+# --------------------------------------------------------------------------------------
+# Hu et al. 2018 robot, free-free; Lum et al. 2016 first-order model
+# --------------------------------------------------------------------------------------
+
+
+def hu2018_rod(
+    phi0: float = 0.0,
+    *,
+    EI: float | None = None,
+    area: float | None = None,
+    length: float = HU2018_LENGTH,
+    width: float = HU2018_WIDTH,
+    thickness: float = HU2018_THICKNESS,
+    magnetization: float = HU2018_MAGNETIZATION,
+    youngs_modulus: float = HU2018_YOUNGS_MODULUS,
+) -> MagneticRod:
+    """The Hu et al. 2018 sheet as a :class:`MagneticRod`.
+
+    ``alpha_m(s) = 2 pi s / L + phi0`` (one full turn along the length), ``|M| = 61.3``
+    kA/m.  Defaults: ``EI = E w h^3 / 12`` (N m^2) and ``A = w h`` (m^2) for the
+    3.7 mm x 1.5 mm x 185 um band with ``E = 84.5`` kPa.  Only ``A/EI`` matters for the
+    shape (energies scale with ``EI``); the equivalent circular rod of radius
+    ``r = h / sqrt(3)`` has the same ratio ``A/(E I) = 12/(E h^2)``.
+
+    Parameters
+    ----------
+    phi0 : float
+        Magnetization angle at ``s = 0`` relative to the tangent (rad).
+    EI : float, optional
+        Bending stiffness (N m^2).
+    area : float, optional
+        Cross-section area (m^2).
+    length, width, thickness : float
+        Sheet dimensions (m).
+    magnetization : float
+        ``|M|`` (A/m).
+    youngs_modulus : float
+        ``E`` (Pa).
+
+    Returns
+    -------
+    MagneticRod
+    """
+    if EI is None:
+        EI = youngs_modulus * width * thickness**3 / 12.0
+    if area is None:
+        area = width * thickness
+    two_pi_over_l = 2.0 * math.pi / length
+    return MagneticRod(
+        length=length,
+        bending_stiffness=EI,
+        area=area,
+        magnetization=magnetization,
+        alpha_m=lambda s: two_pi_over_l * np.asarray(s) + phi0,
+    )
+
+
+def hu2018_free_free(
+    B: float,
+    beta: float,
+    phi0: float = 0.0,
+    *,
+    EI: float | None = None,
+    area: float | None = None,
+    length: float = HU2018_LENGTH,
+    magnetization: float = HU2018_MAGNETIZATION,
+    initial_guesses: Sequence[GuessLike] = (),
+    n_orientations: int = 8,
+    first_order_guesses: bool = True,
+    tol: float = 1e-7,
+    ramp_steps: int = 8,
+    n_out: int = 1001,
+    dedup_atol: float = 1e-3,
+) -> Equilibria:
+    """Free-free equilibria of the Hu et al. 2018 robot in a uniform field.
+
+    Several starting points are tried and the distinct converged equilibria returned,
+    sorted by energy:
+
+    * each of ``initial_guesses`` (e.g. a simulated shape), solved directly at full load;
+    * the four first-order (Lum et al.) equilibria ``c in {0, pi/2, pi, 3 pi/2}`` at the
+      load where ``K L^2 = 1``, continued to the full load along their branch;
+    * straight rods at ``n_orientations`` equally spaced orientations, load ramped from
+      zero (snap-through allowed, as in a quasi-static experiment).
+
+    Parameters
+    ----------
+    B : float
+        Field magnitude (T).
+    beta : float
+        Field angle in the bending plane (rad, lab frame).
+    phi0 : float
+        Magnetization offset (rad); equivalent to rotating the field by ``-phi0``.
+    EI, area, length, magnetization : float, optional
+        See :func:`hu2018_rod` (SI units).
+    initial_guesses : sequence
+        Extra starting shapes (see :func:`solve_elastica`).
+    n_orientations : int
+        Number of straight starting orientations for the ramps.
+    first_order_guesses : bool
+        Use the first-order branches as starting points.
+    tol : float
+        ``solve_bvp`` tolerance.
+    ramp_steps : int
+        Initial number of continuation steps.
+    n_out : int
+        Output grid size.
+    dedup_atol : float
+        Two solutions whose ``theta`` differ by less (rad, modulo 2 pi) are the same.
+
+    Returns
+    -------
+    Equilibria
+
+    Raises
+    ------
+    ElasticaConvergenceError
+        If no starting point converged.
+    """
+    rod = hu2018_rod(phi0, EI=EI, area=area, length=length, magnetization=magnetization)
+    found: list[ElasticaSolution] = []
+    attempts = failed = 0
+    kw = dict(tol=tol, n_out=n_out)
+    for g in initial_guesses:
+        attempts += 1
+        try:
+            _add_unique(
+                found, solve_elastica(rod, B, beta, "free-free", initial_guess=g, **kw), dedup_atol
+            )
+        except ElasticaConvergenceError:
+            failed += 1
+    if B == 0.0:
+        attempts += 1
+        _add_unique(found, solve_elastica(rod, 0.0, beta, "free-free", **kw), dedup_atol)
+        return Equilibria(sorted(found, key=lambda s: s.energy), attempts, failed)
+    k_full = rod.area * magnetization * abs(B) / rod.bending_stiffness  # 1/m^2
+    frac = min(1.0, 1.0 / (k_full * length**2))
+    if first_order_guesses:
+        for c in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
+            attempts += 1
+            theta_start = beta - phi0 - c
+            k_small = frac * k_full * (1.0 if B > 0 else -1.0)
+
+            def guess(s: FloatArray, c=c, th=theta_start, k=k_small) -> FloatArray:
+                return th + lum2016_theta(s, k, c, length)
+
+            try:
+                sol = continue_from(
+                    rod, B, beta, "free-free", guess, frac, ramp_steps=ramp_steps, **kw
+                )
+                _add_unique(found, sol, dedup_atol)
+            except ElasticaConvergenceError:
+                failed += 1
+    for j in range(n_orientations):
+        attempts += 1
+        try:
+            sol = solve_elastica(
+                rod,
+                B,
+                beta,
+                "free-free",
+                theta0=2.0 * math.pi * j / n_orientations,
+                ramp_steps=ramp_steps,
+                **kw,
+            )
+            _add_unique(found, sol, dedup_atol)
+        except ElasticaConvergenceError:
+            failed += 1
+    if not found:
+        raise ElasticaConvergenceError("no starting guess converged")
+    return Equilibria(sorted(found, key=lambda s: s.energy), attempts, failed)
+
+
+def lum2016_curvature(s: ArrayLike, K: float, c: float, length: float) -> FloatArray:
+    """First-order curvature of the harmonic-magnetization robot (Lum et al. 2016).
+
+    ``kappa(s) = K (L / 2 pi) [cos c - cos(c - 2 pi s / L)]`` with ``K = A |M| |B| / EI``
+    (1/m^2) and ``c = beta - theta0 - phi0`` (rad), ``theta0 = theta(0)`` the tangent
+    angle at the ``s = 0`` end.  This is the exact first-order solution of this module's
+    equation with ``alpha_m = 2 pi s / L + phi0`` (magnetization turning counter-
+    clockwise along ``s``) and ``kappa = theta'`` (counter-clockwise positive): it
+    integrates ``theta'' = -K sin(c - 2 pi s / L)`` with ``theta'(0) = 0`` and satisfies
+    ``theta'(L) = 0`` automatically.  At first order the net torque vanishes for every
+    ``c``; at second order it is proportional to ``sin 2c``, so the equilibria are
+    ``c = 0, pi`` (C shapes, stable) and ``c = pi/2, 3 pi/2`` (S shapes, unstable).
+
+    Parameters
+    ----------
+    s : array_like, shape (n,)
+        Arc length (m).
+    K : float
+        ``A |M| |B| / EI`` (1/m^2).
+    c : float
+        Phase (rad).
+    length : float
+        ``L`` (m).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Curvature (1/m).
+    """
+    s = np.asarray(s, dtype=float)
+    k = 2.0 * math.pi / length
+    return K / k * (math.cos(c) - np.cos(c - k * s))
+
+
+def lum2016_theta(s: ArrayLike, K: float, c: float, length: float) -> FloatArray:
+    """First-order ``theta(s) - theta(0)`` (rad), the integral of :func:`lum2016_curvature`.
+
+    Parameters and shapes as in :func:`lum2016_curvature`.
+    """
+    s = np.asarray(s, dtype=float)
+    k = 2.0 * math.pi / length
+    return K / k * (s * math.cos(c) + (np.sin(c - k * s) - math.sin(c)) / k)
