@@ -122,7 +122,8 @@ def run(out: Path, quick: bool = False) -> CaseResult:
         description=(
             "Clamped rod, uniform axial magnetization, uniform field at angle phi; tip angle and "
             "tip deflection delta_y/L against the planar elastica solved by `solve_bvp` with load "
-            f"continuation. Rod: L/r = {LENGTH / RADIUS:.0f}, E = {YOUNGS_MODULUS:g} Pa (couples alone: no internal force, so "
+            f"continuation. Rod: L/r = {LENGTH / RADIUS:.0f}, E = {YOUNGS_MODULUS:g} Pa "
+            "(couples alone: no internal force, so "
             "shear and stretch stay zero). Every grid point runs at n = 20 and 40, the convergence "
             "study points (q = 5) also at n = 80; the value compared is the Richardson "
             "extrapolation 2 X(2n) - X(n) of the two finest, since the clamp error falls like 1/n "
