@@ -576,6 +576,7 @@ def train(
     init_from: str | os.PathLike | None = None,
     progress_position: int | None = None,
     progress_desc: str | None = None,
+    metadata: dict[str, Any] | None = None,
 ) -> TD3Agent:
     """Train TD3 until ``steps`` environment steps in total and return the agent.
 
@@ -597,6 +598,9 @@ def train(
             counters; e.g. to refine a policy in another environment). Ignored when resuming from
             a checkpoint in ``run_dir``.
         progress_position, progress_desc: tqdm ``position`` and ``desc`` (one bar per worker).
+        metadata: JSON-like dict (str, numbers, lists, dicts) stored in the checkpoint under
+            ``"metadata"`` (e.g. the environment's case), so a checkpoint describes itself. When
+            ``None`` the metadata of the checkpoint resumed from (if any) is kept.
     """
     from torch.utils.tensorboard import SummaryWriter
     from tqdm.auto import tqdm
@@ -625,6 +629,8 @@ def train(
                               stacklevel=2)
             config = ckpt_cfg
     cfg = config if config is not None else TD3Config()
+    if metadata is None and resumed_here:
+        metadata = ckpt.get("metadata")
 
     env = env_fn()
     agent = TD3Agent.for_env(env, cfg)
@@ -668,6 +674,7 @@ def train(
             "python_rng": random.getstate(),
             "torch_cpu_rng": torch.get_rng_state(),
             "wall_time_s": elapsed_before + time.time() - t_start,
+            "metadata": metadata if metadata is not None else {},
         })
 
     prev_deterministic = torch.are_deterministic_algorithms_enabled()

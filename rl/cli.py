@@ -1,0 +1,215 @@
+"""``msr train``, ``refine``, ``generate``, ``ship``, ``export``, ``figures``, ``demo``: thin wrappers
+over :mod:`rl.pipeline` and :mod:`rl.figures` (heavy imports happen inside the commands)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from elastica_magnetic.cli import CommandError, print_result
+
+CASE_NAMES = ("m1-4mT", "m2-4mT", "m1-10mT", "m2-10mT")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "train",
+        help="train TD3 crawling policies for one case, several seeds in parallel",
+        description="Train TD3 on one case in the mass-scaled training physics (random initial "
+        "fields, 20 s truncated episodes). Each seed writes OUT/<case>/seed<k>/ (episodes.csv, "
+        "TensorBoard scalars, checkpoint.pt, run.json); OUT/<case>/summary.json collects the final "
+        "mean episode returns.",
+    )
+    p.add_argument("--case", choices=CASE_NAMES, required=True)
+    p.add_argument("--seeds", type=int, default=8, help="number of seeds (default 8)")
+    p.add_argument("--seed-offset", type=int, default=0, help="first seed (default 0)")
+    p.add_argument("--steps", type=int, default=100_000, help="environment steps per seed")
+    p.add_argument("--workers", type=int, default=1, help="seeds trained at a time (processes)")
+    p.add_argument("--out", type=Path, default=Path("runs"), help="output folder")
+    p.add_argument("--resume", action="store_true", help="continue runs from their checkpoints")
+    p.add_argument("--physics", choices=("training", "accurate"), default="training")
+    p.add_argument("--episode-duration", type=float, default=20.0, help="s (truncation)")
+    p.add_argument("--threads", type=int, default=None, help="torch threads per worker")
+    g = p.add_argument_group("TD3 overrides (default: the paper's settings)")
+    g.add_argument("--learning-starts", type=int, default=None, help="warm-up steps (2500)")
+    g.add_argument("--batch-size", type=int, default=None, help="minibatch (256)")
+    g.add_argument("--hidden", type=str, default=None, help="hidden sizes, e.g. 256,256")
+    g.add_argument("--buffer-size", type=int, default=None, help="replay capacity (1e6)")
+    g.add_argument("--target-noise-clip", type=float, default=None, help="(0.8, the authors')")
+    g.add_argument("--checkpoint-every", type=int, default=None, help="steps (10000)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.set_defaults(func=train_command)
+
+    p = sub.add_parser(
+        "refine",
+        help="continue training a run in the accurate physics (agent and replay buffer)",
+        description="Load a run's agent and replay buffer and continue training for --steps "
+        "environment steps in the accurate physics (true density, dt 8e-6 s: ~12.5x the cost of a "
+        "training step). Writes RUN/refined/ unless --out is given.",
+    )
+    p.add_argument("run", type=Path, help="run directory (or its checkpoint.pt)")
+    p.add_argument("--steps", type=int, default=1000)
+    p.add_argument("--out", type=Path, default=None, help="default: RUN/refined")
+    p.add_argument("--resume", action="store_true", help="continue an interrupted refinement")
+    p.add_argument("--episode-duration", type=float, default=20.0, help="s (truncation)")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=refine_command)
+
+    p = sub.add_parser(
+        "generate",
+        help="generate a field waveform with a policy (accurate physics, field from zero)",
+        description="Run a policy deterministically in the accurate physics with the field starting "
+        "at zero; write fields.csv (index, mag_x, mag_y, mag_z in mT, 100 rows/s), trajectory.csv, "
+        "rollout.npz, generate.json, the figures and gait.gif.",
+    )
+    p.add_argument("policy", help="run directory, checkpoint, shipped-policy folder or shipped name "
+                                  "(e.g. m1-4mT)")
+    p.add_argument("--duration", type=float, default=10.0, help="s")
+    p.add_argument("--out", type=Path, default=Path("out/generate"))
+    p.add_argument("--physics", choices=("accurate", "training"), default="accurate")
+    p.add_argument("--no-figures", action="store_true", help="skip the figures and the GIF")
+    p.add_argument("--no-gif", action="store_true", help="skip the GIF")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=generate_command)
+
+    p = sub.add_parser(
+        "ship",
+        help="pack a run into a shipped policy (rl/policies/<name>/) with a model card",
+        description="Write actor.pt, critic.pt, policy.json and MODEL_CARD.md for a run's checkpoint "
+        "into DEST/<name> (default rl/policies/<name>); measures the 10 s distance in the accurate "
+        "physics unless --no-measure.",
+    )
+    p.add_argument("run", type=Path, help="run directory or checkpoint (e.g. runs/m1-4mT/seed3/refined)")
+    p.add_argument("--name", required=True, help="policy name, e.g. m1-4mT")
+    p.add_argument("--dest", type=Path, default=None, help="default: the package's rl/policies")
+    p.add_argument("--no-measure", action="store_true", help="skip the evaluation run")
+    p.add_argument("--duration", type=float, default=10.0, help="evaluation length, s")
+    p.add_argument("--force", action="store_true", help="overwrite an existing policy")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=ship_command)
+
+    p = sub.add_parser(
+        "export",
+        help="export a policy's actor as TorchScript plus its observation/action JSON",
+    )
+    p.add_argument("policy", help="run directory, checkpoint, shipped-policy folder or shipped name")
+    p.add_argument("--out", type=Path, default=Path("out/export"))
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=export_command)
+
+    p = sub.add_parser(
+        "figures",
+        help="regenerate figures of training runs or of a generate output",
+        description="PATH is a training output (learning curves per case) or a generate output "
+        "(holding rollout.npz: gait, field, contact and Q-value figures, GIF).",
+    )
+    p.add_argument("path", type=Path)
+    p.add_argument("--out", type=Path, default=None, help="default: PATH")
+    p.add_argument("--no-gif", action="store_true")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=figures_command)
+
+    p = sub.add_parser(
+        "demo",
+        help="generate with the shipped pattern-1 4 mT policy (fields, figures, animation)",
+    )
+    p.add_argument("--out", type=Path, default=Path("out/demo"))
+    p.add_argument("--duration", type=float, default=10.0, help="s")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=demo_command)
+
+
+def _overrides(args: argparse.Namespace) -> dict:
+    out = {}
+    for name in ("learning_starts", "batch_size", "buffer_size", "target_noise_clip",
+                 "checkpoint_every"):
+        value = getattr(args, name)
+        if value is not None:
+            out[name] = value
+    if args.hidden:
+        try:
+            out["hidden_sizes"] = tuple(int(h) for h in args.hidden.split(","))
+        except ValueError:
+            raise CommandError(f"--hidden must be comma-separated integers, got {args.hidden!r}") from None
+    return out
+
+
+def train_command(args: argparse.Namespace) -> int:
+    from .pipeline import train_case
+
+    try:
+        summary = train_case(
+            args.case, seeds=args.seeds, steps=args.steps, workers=args.workers, out=args.out,
+            resume=args.resume, seed_offset=args.seed_offset, config_overrides=_overrides(args),
+            physics=args.physics, episode_duration=args.episode_duration,
+            progress=not args.no_progress, threads=args.threads,
+        )
+    except FileExistsError as exc:
+        raise CommandError(str(exc)) from None
+    if not args.json:
+        summary = {k: v for k, v in summary.items() if k != "seeds"} | {
+            f"seed{r['seed']}": r.get("error") or f"final mean return {r['final_mean_return']:.4g} "
+            f"({r['episodes']} episodes)" for r in summary["seeds"]}
+    print_result(summary, args.json)
+    return 1 if summary["failed"] else 0
+
+
+def refine_command(args: argparse.Namespace) -> int:
+    from .pipeline import refine
+
+    try:
+        result = refine(args.run, steps=args.steps, out=args.out, resume=args.resume,
+                        progress=not args.no_progress, episode_duration=args.episode_duration)
+    except FileExistsError as exc:
+        raise CommandError(str(exc)) from None
+    print_result(result, args.json)
+    return 0
+
+
+def generate_command(args: argparse.Namespace) -> int:
+    from .pipeline import generate
+
+    result = generate(args.policy, duration=args.duration, out=args.out, physics=args.physics,
+                      progress=not args.no_progress, figures=not args.no_figures,
+                      gif=not args.no_gif)
+    print_result(result, args.json)
+    return 0 if not result["diverged"] else 1
+
+
+def ship_command(args: argparse.Namespace) -> int:
+    from .pipeline import ship
+
+    try:
+        result = ship(args.run, args.name, dest=args.dest, measure=not args.no_measure,
+                      duration=args.duration, progress=not args.no_progress, overwrite=args.force)
+    except FileExistsError as exc:
+        raise CommandError(str(exc)) from None
+    print_result(result, args.json)
+    return 0
+
+
+def export_command(args: argparse.Namespace) -> int:
+    from .pipeline import export_policy
+
+    print_result(export_policy(args.policy, args.out), args.json)
+    return 0
+
+
+def figures_command(args: argparse.Namespace) -> int:
+    from .figures import make_figures
+
+    print_result(make_figures(args.path, args.out, gif=not args.no_gif), args.json)
+    return 0
+
+
+def demo_command(args: argparse.Namespace) -> int:
+    from .pipeline import demo
+
+    result = demo(args.out, duration=args.duration, progress=not args.no_progress)
+    print_result(result, args.json)
+    return 0 if not result["diverged"] else 1

@@ -1,0 +1,822 @@
+"""Train, refine, generate, ship and export crawling policies (the library behind ``msr``).
+
+Workflow (paper "Miscellaneous training tips"):
+
+1. :func:`train_case`: TD3 on one case (``m1-4mT``, ``m2-4mT``, ``m1-10mT``, ``m2-10mT``) for several
+   seeds in parallel processes, in the mass-scaled *training* physics, random initial fields, 20 s
+   episodes (truncated, not terminal). Each seed writes ``OUT/<case>/seed<k>/`` (``episodes.csv``,
+   TensorBoard scalars, ``checkpoint.pt``, ``run.json``); a ``summary.json`` per case collects
+   each seed's final mean episode return.
+2. :func:`refine`: load a run's agent *and replay buffer* and keep training (~1000 steps) in the
+   *accurate* physics (12.5x more substeps per step). Written to ``RUN/refined/``.
+3. :func:`generate`: run the deterministic policy in the accurate physics with the field starting at
+   zero; write the field CSV (mT, 100 Hz), ``trajectory.csv``, ``rollout.npz``, figures and a GIF.
+4. :func:`ship`: pack a run into the shipped-policy format ``rl/policies/<name>/`` (``actor.pt``
+   state dict, ``critic.pt``, ``policy.json``, ``MODEL_CARD.md``, and the generated
+   ``fields.csv``).
+5. :func:`export_policy`: the actor as TorchScript plus a JSON of the observation layout and
+   scaling and the action scaling, to run without this package.
+
+A *policy* argument is a run directory (holding ``checkpoint.pt``), a checkpoint file, a
+shipped-format directory (``actor.pt`` + ``policy.json``), or the name of a shipped policy in
+``rl/policies/`` (see :func:`resolve_policy`).
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+import multiprocessing
+import os
+import platform
+import time
+import warnings
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .env import CASES, MAX_FIELD_INCREMENT, MagneticCrawlerEnv, observation_spec
+
+__all__ = [
+    "AUTHORS_DISTANCE_10S",
+    "LoadedPolicy",
+    "POLICIES_DIR",
+    "PolicyNotFoundError",
+    "crawler_config",
+    "demo",
+    "export_policy",
+    "generate",
+    "make_env",
+    "refine",
+    "resolve_policy",
+    "ship",
+    "summarize_run",
+    "train_case",
+]
+
+#: Folder of the shipped policies (``rl/policies/<name>/``).
+POLICIES_DIR = Path(__file__).resolve().parent / "policies"
+RUN_JSON = "run.json"
+POLICY_JSON = "policy.json"
+POLICY_FORMAT = "msr-policy-v1"
+EXPORT_FORMAT = "msr-exported-policy-v1"
+
+#: Distance of the middle of the robot in 10 s, accurate physics, field from zero, of the authors'
+#: released policies (m): the targets of the shipped ones (DESIGN.md section 3).
+AUTHORS_DISTANCE_10S = {"m1-4mT": 20.5e-3, "m2-4mT": 20.1e-3, "m1-10mT": 137e-3, "m2-10mT": 137e-3}
+
+#: TD3 settings of the crawler that differ from :class:`~rl.td3.TD3Config`'s defaults: the
+#: authors' target-noise clip 0.8 (Fujimoto's is 0.5). Everything else is the paper's setting.
+CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8}
+
+
+class PolicyNotFoundError(FileNotFoundError):
+    """A policy argument that names no run, checkpoint or shipped policy."""
+
+
+# ----------------------------------------------------------------------------------------------
+# Environments and configuration
+# ----------------------------------------------------------------------------------------------
+def _case(case: str):
+    if case not in CASES:
+        raise ValueError(f"unknown case {case!r}; choose one of {', '.join(CASES)}")
+    return CASES[case]
+
+
+def make_env(
+    case: str,
+    physics: str = "training",
+    initial_field: str = "random",
+    duration: float = 20.0,
+    render_mode: str | None = None,
+) -> MagneticCrawlerEnv:
+    """The environment of a case (module-level so that ``functools.partial`` of it pickles)."""
+    return MagneticCrawlerEnv(
+        **_case(case).env_kwargs, physics=physics, initial_field=initial_field, duration=duration,
+        render_mode=render_mode,
+    )
+
+
+def crawler_config(seed: int = 0, **overrides: Any):
+    """The crawler's TD3 configuration: the paper's settings (:data:`CRAWLER_TD3_OVERRIDES` on
+    :class:`~rl.td3.TD3Config`), then ``overrides`` (e.g. ``learning_starts`` for smoke runs)."""
+    from .td3 import TD3Config
+
+    return TD3Config(**{**CRAWLER_TD3_OVERRIDES, **overrides, "seed": int(seed)})
+
+
+def _versions() -> dict[str, str]:
+    import elastica
+    import gymnasium
+    import torch
+
+    return {"python": platform.python_version(), "torch": torch.__version__,
+            "gymnasium": gymnasium.__version__, "pyelastica": getattr(elastica, "__version__", "?"),
+            "numpy": np.__version__}
+
+
+def _write_json(path: Path, data: dict[str, Any]) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(data, indent=2, default=str) + "\n")
+    os.replace(tmp, path)
+    return path
+
+
+# ----------------------------------------------------------------------------------------------
+# Training
+# ----------------------------------------------------------------------------------------------
+def summarize_run(run_dir: str | Path, last: int = 5) -> dict[str, Any]:
+    """Episodes, steps and the mean return of the last ``last`` episodes of a run (``nan`` if it has
+    no finished episode). ``final_mean_distance_m`` is that return / 1e4 (m per episode)."""
+    import csv
+
+    run_dir = Path(run_dir)
+    rows = []
+    if (run_dir / "episodes.csv").is_file():
+        with open(run_dir / "episodes.csv", newline="") as f:
+            rows = list(csv.DictReader(f))
+    returns = [float(r["return"]) for r in rows]
+    tail = returns[-last:]
+    mean = float(np.mean(tail)) if tail else float("nan")
+    return {
+        "run_dir": str(run_dir),
+        "episodes": len(rows),
+        "global_step": int(rows[-1]["global_step"]) if rows else 0,
+        "final_mean_return": mean,
+        "final_mean_distance_m": mean / 1e4,
+        "best_return": max(returns) if returns else float("nan"),
+        "terminated_episodes": sum(int(r["terminated"]) for r in rows),
+    }
+
+
+def _run_metadata(case: str, physics: str, duration: float, seed: int, **extra: Any) -> dict:
+    spec = _case(case)
+    return {"case": case, "pattern": spec.pattern, "field_limit_T": spec.field_limit,
+            "physics": physics, "episode_duration_s": duration, "seed": int(seed), **extra}
+
+
+def _train_seed(job: dict[str, Any]) -> dict[str, Any]:
+    """Train one seed (runs in a worker process). ``job`` holds plain data only (picklable)."""
+    import torch
+
+    from .td3 import TD3Config, train
+
+    torch.set_num_threads(int(job["threads"]))
+    config = TD3Config.from_dict(job["config"])
+    run_dir = Path(job["run_dir"])
+    metadata = _run_metadata(job["case"], job["physics"], job["duration"], config.seed,
+                             command="train")
+    run_json = run_dir / RUN_JSON
+    if job["resume"] and run_json.is_file() and (run_dir / "checkpoint.pt").is_file():
+        # train() continues with the checkpoint's config: keep the record, update the target.
+        record = json.loads(run_json.read_text())
+        record["steps"] = job["steps"]
+        record["resumed"] = int(record.get("resumed", 0)) + 1
+        _write_json(run_json, record)
+    else:
+        _write_json(run_json, {
+            **metadata, "steps": job["steps"], "config": config.to_dict(),
+            "torch_threads": int(job["threads"]), "versions": _versions(),
+        })
+    env_fn = functools.partial(make_env, job["case"], job["physics"], "random", job["duration"])
+    start = time.perf_counter()
+    train(env_fn, config, job["steps"], run_dir, resume=job["resume"], progress=job["progress"],
+          progress_position=job["position"], progress_desc=f"{job['case']} seed{config.seed}",
+          metadata=metadata)
+    return {"seed": config.seed, **summarize_run(run_dir), "wall_s": time.perf_counter() - start}
+
+
+def train_case(
+    case: str,
+    seeds: int = 8,
+    steps: int = 100_000,
+    workers: int = 1,
+    out: str | Path = "runs",
+    resume: bool = False,
+    seed_offset: int = 0,
+    config_overrides: dict[str, Any] | None = None,
+    physics: str = "training",
+    episode_duration: float = 20.0,
+    progress: bool = True,
+    threads: int | None = None,
+    success_fraction: float = 0.5,
+) -> dict[str, Any]:
+    """Train seeds ``seed_offset .. seed_offset + seeds - 1`` of ``case`` for ``steps`` environment
+    steps each, ``workers`` at a time in separate processes (``spawn``), one progress bar each.
+
+    Writes ``out/<case>/seed<k>/`` per seed and ``out/<case>/summary.json``; returns the summary.
+    A seed counts as *succeeded* when its final mean episode return reaches ``success_fraction``
+    of the authors' distance rate (their 10 s distance, scaled to the episode length, x 1e4): a
+    heuristic to count working seeds, reported with its threshold.
+
+    Args:
+        config_overrides: :class:`~rl.td3.TD3Config` fields on top of :func:`crawler_config`.
+        threads: torch threads per worker (default: CPU count // workers, at least 1). Exact resume
+            needs the same thread count.
+    """
+    _case(case)
+    if seeds < 1 or steps < 1 or workers < 1:
+        raise ValueError("seeds, steps and workers must be >= 1")
+    case_dir = Path(out) / case
+    seed_list = [seed_offset + k for k in range(seeds)]
+    if not resume:
+        existing = [str(case_dir / f"seed{s}") for s in seed_list
+                    if (case_dir / f"seed{s}" / "checkpoint.pt").exists()]
+        if existing:
+            raise FileExistsError(f"runs already exist: {', '.join(existing)} (use --resume, another "
+                                  "--out, or --seed-offset)")
+    workers = min(workers, seeds)
+    if threads is None:
+        threads = max(1, (os.cpu_count() or 1) // workers)
+    jobs = [{
+        "case": case, "physics": physics, "duration": float(episode_duration), "steps": int(steps),
+        "run_dir": str(case_dir / f"seed{s}"), "resume": resume, "progress": progress,
+        "position": k, "threads": threads,
+        "config": crawler_config(s, **(config_overrides or {})).to_dict(),
+    } for k, s in enumerate(seed_list)]
+
+    results: dict[int, dict[str, Any]] = {}
+    start = time.perf_counter()
+    if workers == 1:
+        for job in jobs:
+            seed = job["config"]["seed"]
+            try:
+                results[seed] = _train_seed(job)
+            except Exception as exc:  # keep the other seeds going; report the failure
+                results[seed] = {"seed": seed, "error": f"{type(exc).__name__}: {exc}"}
+    else:
+        context = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+            futures = {pool.submit(_train_seed, job): job["config"]["seed"] for job in jobs}
+            for future in as_completed(futures):
+                seed = futures[future]
+                try:
+                    results[seed] = future.result()
+                except Exception as exc:
+                    results[seed] = {"seed": seed, "error": f"{type(exc).__name__}: {exc}"}
+
+    threshold = success_fraction * AUTHORS_DISTANCE_10S[case] * (episode_duration / 10.0) * 1e4
+    per_seed = [results[s] for s in seed_list]
+    for r in per_seed:
+        if "error" not in r:
+            r["succeeded"] = bool(r["final_mean_return"] >= threshold)
+    ok = [r for r in per_seed if "error" not in r and math.isfinite(r["final_mean_return"])]
+    best = max(ok, key=lambda r: r["final_mean_return"]) if ok else None
+    summary = {
+        "case": case,
+        "steps": int(steps),
+        "physics": physics,
+        "episode_duration_s": float(episode_duration),
+        "workers": workers,
+        "torch_threads_per_worker": threads,
+        "success_threshold_return": threshold,
+        "succeeded": sum(bool(r.get("succeeded")) for r in per_seed),
+        "best_seed": best["seed"] if best else None,
+        "best_run_dir": best["run_dir"] if best else None,
+        "wall_s": time.perf_counter() - start,
+        "seeds": per_seed,
+        "failed": [r["seed"] for r in per_seed if "error" in r],
+    }
+    _write_json(case_dir / "summary.json", summary)
+    summary["summary_json"] = str(case_dir / "summary.json")
+    return summary
+
+
+def _checkpoint_path(run: str | Path) -> Path:
+    run = Path(run)
+    path = run / "checkpoint.pt" if run.is_dir() else run
+    if not path.is_file():
+        raise PolicyNotFoundError(f"{run}: no checkpoint.pt (expected a run directory or a checkpoint)")
+    return path
+
+
+def _checkpoint_metadata(ckpt: dict[str, Any], path: Path) -> dict[str, Any]:
+    """The case and settings of a checkpoint: its own metadata, else ``run.json`` next to it."""
+    meta = dict(ckpt.get("metadata") or {})
+    if "case" not in meta and (path.parent / RUN_JSON).is_file():
+        meta = {**json.loads((path.parent / RUN_JSON).read_text()), **meta}
+    if "case" not in meta:
+        raise ValueError(f"{path}: the checkpoint names no case (no metadata, no {RUN_JSON})")
+    return meta
+
+
+def refine(
+    run: str | Path,
+    steps: int = 1000,
+    out: str | Path | None = None,
+    resume: bool = False,
+    progress: bool = True,
+    episode_duration: float = 20.0,
+    physics: str = "accurate",
+) -> dict[str, Any]:
+    """Continue training a run for ``steps`` more environment steps in the accurate physics.
+
+    The agent (networks, targets, optimisers), its replay buffer, RNG states and counters come from
+    the run's checkpoint (``init_from``), so learning continues at once (the counters are past the
+    warm-up) with the training-physics transitions still in the buffer, gradually displaced by
+    accurate ones. Episodes keep the training setting (random initial field, 20 s). The refined
+    run goes to ``out`` (default ``RUN/refined``) with its own ``episodes.csv``, TensorBoard scalars,
+    ``checkpoint.pt`` and ``run.json``; ``resume`` continues an interrupted refinement.
+
+    Cost: one accurate step is 1250 substeps (~0.1 s here), 12.5x a training step.
+    """
+    from .td3 import TD3Config, load_checkpoint, train
+
+    if steps < 1:
+        raise ValueError("steps must be >= 1")
+    source = _checkpoint_path(run)
+    ckpt = load_checkpoint(source)
+    meta = _checkpoint_metadata(ckpt, source)
+    case = meta["case"]
+    out = Path(out) if out is not None else source.parent / "refined"
+    start_step = int(ckpt["global_step"])
+    total = start_step + int(steps)
+    config = TD3Config.from_dict(ckpt["config"])
+    metadata = _run_metadata(
+        case, physics, episode_duration, config.seed, command="refine",
+        refined_from=str(source), refine_start_step=start_step, refine_steps=int(steps),
+        training_steps=int(meta.get("training_steps", start_step)),
+    )
+    if (out / "checkpoint.pt").exists() and not resume:
+        raise FileExistsError(f"{out} already holds a refined checkpoint (use --resume or --out)")
+    _write_json(out / RUN_JSON, {**metadata, "steps": total, "config": config.to_dict(),
+                                 "versions": _versions()})
+    env_fn = functools.partial(make_env, case, physics, "random", episode_duration)
+    begin = time.perf_counter()
+    train(env_fn, config, total, out, resume=resume, progress=progress, init_from=source,
+          progress_desc=f"refine {case} seed{config.seed}", metadata=metadata)
+    summary = summarize_run(out)
+    return {"case": case, "source": str(source), "run_dir": str(out),
+            "checkpoint": str(out / "checkpoint.pt"), "start_step": start_step, "steps": int(steps),
+            "physics": physics, **{k: summary[k] for k in ("episodes", "final_mean_return")},
+            "wall_s": time.perf_counter() - begin}
+
+
+# ----------------------------------------------------------------------------------------------
+# Policies: loading, shipping, exporting
+# ----------------------------------------------------------------------------------------------
+@dataclass
+class LoadedPolicy:
+    """A policy ready to act: the actor (normalised actions), the critic if known, and its case."""
+
+    actor: Any  # rl.td3.Actor in eval mode
+    critic: Any | None  # rl.td3.TwinCritic or None
+    case: str
+    source: Path
+    kind: str  # "checkpoint" or "shipped"
+    meta: dict[str, Any] = field(default_factory=dict)
+    obs_dim: int = 260
+    act_dim: int = 2
+    hidden_sizes: tuple[int, ...] = (256, 256)
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        """Deterministic normalised action in [-1, 1]^2 for one observation (float32)."""
+        import torch
+
+        with torch.no_grad():
+            x = torch.as_tensor(np.asarray(obs, dtype=np.float32).reshape(1, -1))
+            return self.actor(x)[0].numpy().astype(np.float32)
+
+
+def _build_networks(obs_dim: int, act_dim: int, hidden: tuple[int, ...], actor_state: dict,
+                    critic_state: dict | None):
+    from .td3 import Actor, TwinCritic
+
+    actor = Actor(obs_dim, act_dim, hidden)
+    actor.load_state_dict(actor_state)
+    actor.eval().requires_grad_(False)
+    critic = None
+    if critic_state is not None:
+        critic = TwinCritic(obs_dim, act_dim, hidden)
+        critic.load_state_dict(critic_state)
+        critic.eval().requires_grad_(False)
+    return actor, critic
+
+
+def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -> LoadedPolicy:
+    """Load a policy from a run directory, a checkpoint file, a shipped-format directory
+    (``actor.pt`` + ``policy.json``), or a shipped name (``rl/policies/<name>``), in that order."""
+    import torch
+
+    from .td3 import load_checkpoint
+
+    policies_dir = Path(policies_dir) if policies_dir is not None else POLICIES_DIR
+    path = Path(policy)
+    if not path.exists() and (policies_dir / str(policy)).is_dir():
+        path = policies_dir / str(policy)
+    if path.is_dir() and (path / "checkpoint.pt").is_file():
+        path = path / "checkpoint.pt"
+    if path.is_file():
+        ckpt = load_checkpoint(path)
+        meta = _checkpoint_metadata(ckpt, path)
+        hidden = tuple(ckpt["config"]["hidden_sizes"])
+        actor, critic = _build_networks(ckpt["obs_dim"], ckpt["act_dim"], hidden,
+                                        ckpt["agent"]["actor"], ckpt["agent"]["critic"])
+        meta = {**meta, "global_step": int(ckpt["global_step"]), "config": ckpt["config"]}
+        return LoadedPolicy(actor, critic, meta["case"], path, "checkpoint", meta,
+                            ckpt["obs_dim"], ckpt["act_dim"], hidden)
+    if path.is_dir() and (path / POLICY_JSON).is_file() and (path / "actor.pt").is_file():
+        meta = json.loads((path / POLICY_JSON).read_text())
+        arch = meta["architecture"]
+        hidden = tuple(arch["hidden_sizes"])
+        actor_state = torch.load(path / "actor.pt", map_location="cpu", weights_only=True)
+        critic_state = None
+        if (path / "critic.pt").is_file():
+            critic_state = torch.load(path / "critic.pt", map_location="cpu", weights_only=True)
+        actor, critic = _build_networks(arch["obs_dim"], arch["act_dim"], hidden, actor_state,
+                                        critic_state)
+        return LoadedPolicy(actor, critic, meta["case"], path, "shipped", meta, arch["obs_dim"],
+                            arch["act_dim"], hidden)
+    shipped = sorted(p.name for p in policies_dir.glob("*") if (p / POLICY_JSON).is_file()) \
+        if policies_dir.is_dir() else []
+    raise PolicyNotFoundError(
+        f"{policy}: not a run directory, checkpoint, shipped-policy folder or shipped policy name "
+        f"(shipped in {policies_dir}: {', '.join(shipped) or 'none'})"
+    )
+
+
+# ----------------------------------------------------------------------------------------------
+# Generating fields
+# ----------------------------------------------------------------------------------------------
+def run_policy(
+    policy: LoadedPolicy,
+    duration: float = 10.0,
+    physics: str = "accurate",
+    initial_field: str = "zero",
+    progress: bool = True,
+):
+    """Roll out ``policy`` deterministically for ``duration`` s; returns a :class:`~rl.rollout.Rollout`
+    (stops early, with ``meta["diverged"]``, if the simulation blows up)."""
+    import pandas as pd
+    from tqdm.auto import tqdm
+
+    from elastica_magnetic.simulation import TRAJECTORY_COLUMNS
+
+    from .rollout import Rollout
+
+    env = make_env(policy.case, physics, initial_field, duration)
+    obs, _ = env.reset(seed=0)
+    if obs.shape[0] != policy.obs_dim:
+        raise ValueError(f"policy expects {policy.obs_dim} observations, the environment gives "
+                         f"{obs.shape[0]}")
+    sim = env.simulation
+    n = env.max_episode_steps
+    times, positions, observations = [0.0], [sim.rod.position_collection[:2].copy()], [obs]
+    rows = [sim.markers()]
+    fields, actions, rewards = [], [], []
+    diverged = None
+    start = time.perf_counter()
+    with tqdm(total=n, desc=f"generate {policy.case}", unit="step", disable=not progress,
+              leave=False) as bar:
+        for _ in range(n):
+            action = policy.act(obs)
+            obs, reward, terminated, truncated, info = env.step(action)
+            if terminated:
+                diverged = info.get("divergence", "diverged")
+                break
+            fields.append(info["field_T"])
+            actions.append(action)
+            rewards.append(reward)
+            times.append(sim.time)
+            positions.append(sim.rod.position_collection[:2].copy())
+            observations.append(obs)
+            rows.append(sim.markers())
+            bar.update(1)
+            if truncated:
+                break
+    wall = time.perf_counter() - start
+    spec = env.robot_spec
+    env.close()
+    meta = {
+        "case": policy.case, "physics": physics, "initial_field": initial_field,
+        "duration_s": float(times[-1]), "field_limit_T": env.field_limit,
+        "max_increment_T": env.max_increment, "length_m": spec.length, "radius_m": spec.radius,
+        "n_elements": spec.n_elements, "policy_source": str(policy.source),
+        "policy_kind": policy.kind, "diverged": diverged, "wall_s": wall,
+        "step_ms": 1e3 * wall / max(len(actions), 1),
+    }
+    return Rollout(
+        times=np.asarray(times), positions=np.asarray(positions),
+        fields=np.asarray(fields).reshape(-1, 3), actions=np.asarray(actions).reshape(-1, 2),
+        rewards=np.asarray(rewards), observations=np.asarray(observations, dtype=np.float32),
+        trajectory=pd.DataFrame(rows, columns=list(TRAJECTORY_COLUMNS)), meta=meta,
+    )
+
+
+def generate(
+    policy: str | Path | LoadedPolicy,
+    duration: float = 10.0,
+    out: str | Path = "out/generate",
+    physics: str = "accurate",
+    progress: bool = True,
+    figures: bool = True,
+    gif: bool = True,
+) -> dict[str, Any]:
+    """Generate a field waveform with a policy: accurate physics, field from zero, deterministic.
+
+    Writes into ``out``: ``fields.csv`` (paper format: index, mag_x, mag_y, mag_z in mT; row ``i``
+    is the field held on ``[i/100, (i+1)/100)`` s), ``trajectory.csv`` (the columns of
+    ``msr replay``, 100 Hz, first row t = 0), ``gait.csv`` (height, span and the contact strength
+    of the back and front nodes, 100 Hz), ``rollout.npz`` (every node position, observation, action
+    and field), ``generate.json`` (this result), the figures and ``gait.gif``.
+
+    Returns a dict with at least ``mid_dx_m`` (x displacement of the middle, mean of the two central
+    element centres as in ``trajectory.csv``, m), ``node32_dx_m`` (of the reward's middle node),
+    ``fields_csv`` and ``trajectory_csv``.
+    """
+    import pandas as pd
+
+    from elastica_magnetic import write_field_csv, write_trajectory_csv
+
+    from .figures import rollout_figures
+
+    loaded = policy if isinstance(policy, LoadedPolicy) else resolve_policy(policy)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    rollout = run_policy(loaded, duration, physics, "zero", progress)
+    fields_csv = write_field_csv(out / "fields.csv", rollout.fields) if rollout.n_steps else None
+    trajectory_csv = write_trajectory_csv(rollout.trajectory, out / "trajectory.csv")
+    rollout_npz = rollout.save(out)
+    traj = rollout.trajectory
+    contact = rollout.contact()
+    gait_csv = out / "gait.csv"
+    pd.DataFrame({
+        "t_s": traj.t_s, "height_max_m": traj.height_max_m, "span_m": traj.span_m,
+        "contact_back": contact[:, 0], "contact_front": contact[:, -1],
+    }).to_csv(gait_csv, index=False, float_format="%.9g")
+    mid = rollout.positions.shape[2] // 2
+    result: dict[str, Any] = {
+        "case": loaded.case,
+        "policy": str(loaded.source),
+        "physics": physics,
+        "duration_s": float(rollout.times[-1]),
+        "mid_dx_m": float(traj.mid_x_m.iloc[-1] - traj.mid_x_m.iloc[0]),
+        "node32_dx_m": float(rollout.positions[-1, 0, mid] - rollout.positions[0, 0, mid]),
+        "return": float(np.sum(rollout.rewards)),
+        "max_height_m": float(traj.height_max_m.max()),
+        "max_field_T": float(np.max(np.hypot(rollout.fields[:, 0], rollout.fields[:, 1])))
+        if rollout.n_steps else 0.0,
+        "authors_mid_dx_10s_m": AUTHORS_DISTANCE_10S.get(loaded.case),
+        "diverged": rollout.meta["diverged"],
+        "fields_csv": str(fields_csv) if fields_csv else None,
+        "trajectory_csv": str(trajectory_csv),
+        "rollout_npz": str(rollout_npz),
+        "gait_csv": str(gait_csv),
+        "step_ms": rollout.meta["step_ms"],
+    }
+    if figures and rollout.n_steps:
+        result["figures"] = rollout_figures(rollout, out, loaded.critic, loaded.actor, gif=gif)
+    _write_json(out / "generate.json", result)
+    return result
+
+
+def ship(
+    run: str | Path,
+    name: str,
+    dest: str | Path | None = None,
+    measure: bool = True,
+    duration: float = 10.0,
+    progress: bool = True,
+    overwrite: bool = False,
+) -> dict[str, Any]:
+    """Pack a run's checkpoint into the shipped-policy format ``dest/<name>/`` (default
+    ``rl/policies/<name>/``): ``actor.pt`` and ``critic.pt`` (state dicts of
+    :class:`~rl.td3.Actor` / :class:`~rl.td3.TwinCritic`), ``policy.json`` (case, observation
+    layout and scaling, action scaling, architecture, provenance) and ``MODEL_CARD.md``.
+
+    With ``measure`` the policy is run for ``duration`` s in the accurate physics from a zero field
+    (as :func:`generate`); the distance goes into the card and the waveform into ``fields.csv``.
+    The success count over seeds comes from the case's ``summary.json`` when it is found.
+    """
+    import torch
+
+    from elastica_magnetic import write_field_csv
+
+    policy = resolve_policy(run)
+    if policy.kind != "checkpoint":
+        raise ValueError(f"{run}: ship takes a run directory or checkpoint, not a shipped policy")
+    target = (Path(dest) if dest is not None else POLICIES_DIR) / name
+    if (target / POLICY_JSON).exists() and not overwrite:
+        raise FileExistsError(f"{target} already holds a policy (pass overwrite / --force)")
+    target.mkdir(parents=True, exist_ok=True)
+    torch.save(policy.actor.state_dict(), target / "actor.pt")
+    if policy.critic is not None:
+        torch.save(policy.critic.state_dict(), target / "critic.pt")
+    meta = policy.meta
+    summary = _find_summary(policy.source, policy.case)
+    measured = None
+    if measure:
+        rollout = run_policy(policy, duration, "accurate", "zero", progress)
+        traj = rollout.trajectory
+        measured = {"duration_s": float(rollout.times[-1]),
+                    "mid_dx_m": float(traj.mid_x_m.iloc[-1] - traj.mid_x_m.iloc[0]),
+                    "diverged": rollout.meta["diverged"]}
+        if rollout.n_steps:
+            write_field_csv(target / "fields.csv", rollout.fields)
+    case = _case(policy.case)
+    refined = meta.get("command") == "refine"
+    info = {
+        "format": POLICY_FORMAT,
+        "name": name,
+        "case": policy.case,
+        "pattern": case.pattern,
+        "field_limit_T": case.field_limit,
+        "architecture": {"type": "mlp", "obs_dim": policy.obs_dim, "act_dim": policy.act_dim,
+                         "hidden_sizes": list(policy.hidden_sizes), "activation": "relu",
+                         "output": "tanh", "module": "rl.td3.Actor (net = Sequential of Linear/ReLU)"},
+        "observation": observation_spec(),
+        "action": _action_spec(case.field_limit),
+        "training": {
+            "seed": meta.get("seed"),
+            "training_steps": meta.get("training_steps", meta.get("global_step")),
+            "refine_steps": meta.get("refine_steps", 0) if refined else 0,
+            "global_step": meta.get("global_step"),
+            "config": meta.get("config"),
+            "source": str(policy.source),
+        },
+        "seeds": {"succeeded": summary.get("succeeded"), "total": len(summary.get("seeds", []))}
+        if summary else None,
+        "evaluation": measured,
+        "authors_mid_dx_10s_m": AUTHORS_DISTANCE_10S[policy.case],
+    }
+    _write_json(target / POLICY_JSON, info)
+    (target / "MODEL_CARD.md").write_text(_model_card(info, summary))
+    return {"name": name, "dir": str(target), "case": policy.case,
+            "evaluation": measured, "files": sorted(p.name for p in target.iterdir())}
+
+
+def _find_summary(source: Path, case: str) -> dict[str, Any] | None:
+    """``summary.json`` of the case folder of a run (``<case>/seed<k>[/refined]/checkpoint.pt``)."""
+    for parent in list(source.parents)[:4]:
+        if (parent / "summary.json").is_file():
+            summary = json.loads((parent / "summary.json").read_text())
+            if summary.get("case") == case:
+                return summary
+    return None
+
+
+def _action_spec(field_limit: float) -> dict[str, Any]:
+    return {
+        "shape": [2],
+        "low": -1.0,
+        "high": 1.0,
+        "meaning": "field increment (dB_x, dB_y) = field_increment_T_per_unit * action",
+        "field_increment_T_per_unit": MAX_FIELD_INCREMENT,
+        "field_increment_mT_per_unit": MAX_FIELD_INCREMENT * 1e3,
+        "field_limit_T": field_limit,
+        "field_rule": "B += clip(dB, -0.3 mT, 0.3 mT); clip each component to +-limit; if |B| > limit "
+                      "scale B to |B| = limit; hold for 0.01 s (100 Hz)",
+        "control_period_s": 0.01,
+    }
+
+
+def _model_card(info: dict[str, Any], summary: dict[str, Any] | None) -> str:
+    tr, ev = info["training"], info["evaluation"]
+    target = info["authors_mid_dx_10s_m"]
+    lines = [
+        f"# Model card: `{info['name']}`",
+        "",
+        f"TD3 actor that drives the crawling robot of Yao et al. 2023, magnetization pattern "
+        f"{info['pattern']}, field limit {1e3 * info['field_limit_T']:g} mT (case `{info['case']}`).",
+        "",
+        "## Use",
+        "",
+        f"- `msr generate {info['name']} --duration 10 --out DIR`: field CSV (mT, 100 Hz) from a "
+        "zero field in the accurate physics, trajectory, figures, GIF.",
+        f"- `msr export {info['name']} --out DIR`: TorchScript + observation/action JSON.",
+        "- Input: 260 float32 observations (layout and scales in `policy.json`); output: 2 actions in "
+        "[-1, 1], x 0.3 mT = field increment per 0.01 s.",
+        "",
+        "## Training",
+        "",
+        f"- seed: {tr['seed']}",
+        f"- training steps (mass-scaled training physics, dt 1e-4 s): {tr['training_steps']}",
+        f"- refinement steps (accurate physics, dt 8e-6 s): {tr['refine_steps']}",
+        f"- checkpoint: `{tr['source']}` (global step {tr['global_step']})",
+    ]
+    if summary:
+        lines.append(
+            f"- seeds that succeeded: {summary.get('succeeded')} of {len(summary.get('seeds', []))} "
+            f"(final mean episode return >= {summary.get('success_threshold_return', float('nan')):.0f}, "
+            "half the authors' distance rate)"
+        )
+    else:
+        lines.append("- seeds that succeeded: unknown (no summary.json found next to the run)")
+    lines += ["", "## Evaluation (accurate physics, field from zero, deterministic)", ""]
+    if ev:
+        if abs(ev["duration_s"] - 10.0) < 1e-6:
+            verdict = "meets the target" if ev["mid_dx_m"] >= target else "falls short of the target"
+        else:
+            verdict = "not comparable: the target is for 10 s"
+        lines.append(
+            f"- middle of the robot moved {1e3 * ev['mid_dx_m']:+.1f} mm in {ev['duration_s']:g} s; "
+            f"the authors' policy: {1e3 * target:+.1f} mm in 10 s ({verdict})"
+            + (f"; DIVERGED: {ev['diverged']}" if ev["diverged"] else "")
+        )
+    else:
+        lines.append(f"- not measured (the authors' policy: {1e3 * target:+.1f} mm in 10 s)")
+    lines += [
+        "",
+        "## Limitations",
+        "",
+        "- Simulation only: the model's rotational over-damping makes the simulated robot respond "
+        "~0.3 s slower than the real one (paper); check the waveform on hardware at low amplitude "
+        "first.",
+        "- Trained for one robot (20 x 8 x 0.8 mm, 84.5 kPa, 61.3 kA/m) on a flat ground with "
+        "friction 0.8/0.6; other robots need retraining.",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def export_policy(policy: str | Path, out: str | Path = "out/export") -> dict[str, Any]:
+    """Export the actor as TorchScript (``policy.ts.pt``, traced: float32 ``(N, 260)`` observations
+    -> ``(N, 2)`` actions in [-1, 1]), as a ``torch.export`` program (``policy.pt2``, dynamic batch;
+    torch 2.13 deprecates TorchScript), and ``policy.json`` (observation layout and scaling, action
+    scaling and field rule, case). Both files are checked by reloading them with plain torch
+    (``torch.jit.load``, ``torch.export.load``).
+
+    Returns the paths, ``max_abs_diff`` / ``max_abs_diff_pt2`` between the reloaded modules and the
+    agent's actor on a batch of observations, and the sizes.
+    """
+    import torch
+
+    from .td3 import ScaledPolicy
+
+    loaded = resolve_policy(policy)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    module = ScaledPolicy(loaded.actor, np.full(loaded.act_dim, -1.0), np.full(loaded.act_dim, 1.0))
+    module.eval().requires_grad_(False)
+    example = torch.zeros(2, loaded.obs_dim)
+    ts_path = out / "policy.ts.pt"
+    pt2_path = out / "policy.pt2"
+    with warnings.catch_warnings():
+        # torch 2.13 deprecates torch.jit (trace, save, load) in favour of torch.export; TorchScript
+        # is still what C++/LibTorch and older runtimes load, so both formats are written.
+        warnings.simplefilter("ignore", DeprecationWarning)
+        with torch.no_grad():
+            traced = torch.jit.trace(module, example, check_trace=True)
+        traced.save(str(ts_path))
+        reloaded = torch.jit.load(str(ts_path))
+    batch_dim = torch.export.Dim("batch", min=1)
+    exported = torch.export.export(module, (example,), dynamic_shapes=({0: batch_dim},))
+    torch.export.save(exported, str(pt2_path))
+    reloaded_pt2 = torch.export.load(str(pt2_path)).module()
+
+    # Check: the reloaded modules give the agent's actions on real and random observations.
+    env = make_env(loaded.case, "training", "random", 0.05)
+    obs, _ = env.reset(seed=0)
+    batch = [obs]
+    for _ in range(3):
+        obs, *_ = env.step(env.action_space.sample())
+        batch.append(obs)
+    env.close()
+    rng = np.random.default_rng(0)
+    batch = np.concatenate([np.asarray(batch, dtype=np.float32),
+                            rng.normal(0.0, 1.0, (12, loaded.obs_dim)).astype(np.float32)])
+    with torch.no_grad():
+        x = torch.from_numpy(batch)
+        reference = loaded.actor(x)
+        diff = float((reloaded(x) - reference).abs().max())
+        diff_pt2 = float((reloaded_pt2(x) - reference).abs().max())
+    case = _case(loaded.case)
+    info = {
+        "format": EXPORT_FORMAT,
+        "case": loaded.case,
+        "pattern": case.pattern,
+        "torchscript": ts_path.name,
+        "torch_export": pt2_path.name,
+        "input": {"shape": ["N", loaded.obs_dim], "dtype": "float32"},
+        "output": {"shape": ["N", loaded.act_dim], "dtype": "float32", "range": [-1.0, 1.0]},
+        "observation": observation_spec(),
+        "action": _action_spec(case.field_limit),
+        "usage": "m = torch.jit.load('policy.ts.pt')  # or torch.export.load('policy.pt2').module(); "
+                 "a = m(torch.tensor(obs[None], dtype=torch.float32))[0]; dB_T = 3e-4 * a",
+        "source": str(loaded.source),
+    }
+    json_path = _write_json(out / "policy.json", info)
+    return {"torchscript": str(ts_path), "torch_export": str(pt2_path), "json": str(json_path),
+            "case": loaded.case, "max_abs_diff": diff, "max_abs_diff_pt2": diff_pt2,
+            "obs_dim": loaded.obs_dim, "act_dim": loaded.act_dim}
+
+
+def demo(out: str | Path = "out/demo", duration: float = 10.0, progress: bool = True,
+         name: str = "m1-4mT") -> dict[str, Any]:
+    """``msr demo``: generate with the shipped pattern-1 4 mT policy ``m1-4mT``."""
+    folder = POLICIES_DIR / name
+    missing = [f for f in ("actor.pt", POLICY_JSON) if not (folder / f).is_file()]
+    if missing:
+        raise PolicyNotFoundError(
+            f"no shipped policy {name!r}: {folder} lacks {', '.join(missing)}. Train and ship it "
+            f"first: `msr train --case {name} --seeds 8 --steps 100000 --out runs`, "
+            f"`msr refine runs/{name}/seed<best>`, `msr ship runs/{name}/seed<best>/refined "
+            f"--name {name}`"
+        )
+    return generate(name, duration=duration, out=out, progress=progress)
+

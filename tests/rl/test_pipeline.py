@@ -1,0 +1,202 @@
+"""Smoke tests of the RL pipeline through ``msr``: train (2 seeds, 2 worker processes), refine in the
+accurate physics, generate, ship, export (TorchScript reloaded with plain torch), figures, demo."""
+
+from __future__ import annotations
+
+import csv
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from elastica_magnetic import read_field_csv
+from elastica_magnetic.cli import main as msr
+from elastica_magnetic.simulation import TRAJECTORY_COLUMNS
+from rl import pipeline
+from rl.env import OBSERVATION_LAYOUT, MagneticCrawlerEnv
+from rl.td3 import TD3Agent, load_checkpoint
+
+TRAIN_STEPS = 240
+SMOKE = ["--learning-starts", "60", "--batch-size", "32", "--hidden", "32,32",
+         "--episode-duration", "0.8", "--checkpoint-every", "80", "--no-progress"]
+
+
+def run_msr(capsys, *argv: str) -> dict:
+    capsys.readouterr()
+    status = msr([*argv, "--json"])
+    out = capsys.readouterr().out
+    assert status == 0, out
+    return json.loads(out)
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory) -> Path:
+    """``msr train`` smoke run: 2 seeds in 2 processes, training physics, tiny networks."""
+    out = tmp_path_factory.mktemp("runs")
+    status = msr(["train", "--case", "m1-4mT", "--seeds", "2", "--workers", "2", "--steps",
+                  str(TRAIN_STEPS), "--out", str(out), *SMOKE])
+    assert status == 0
+    return out
+
+
+@pytest.fixture(scope="module")
+def refined(trained) -> Path:
+    run = trained / "m1-4mT" / "seed0"
+    assert msr(["refine", str(run), "--steps", "3", "--episode-duration", "0.02",
+                "--no-progress"]) == 0
+    return run / "refined"
+
+
+def test_train_writes_run_dirs_and_summary(trained):
+    case_dir = trained / "m1-4mT"
+    for seed in (0, 1):
+        run = case_dir / f"seed{seed}"
+        assert (run / "checkpoint.pt").is_file() and (run / "episodes.csv").is_file()
+        assert list(run.glob("events.out.tfevents.*")), "no TensorBoard scalars"
+        meta = json.loads((run / "run.json").read_text())
+        assert meta["case"] == "m1-4mT" and meta["seed"] == seed and meta["physics"] == "training"
+        assert meta["config"]["target_noise_clip"] == 0.8 and meta["config"]["batch_size"] == 32
+        with open(run / "episodes.csv") as f:
+            rows = list(csv.DictReader(f))
+        assert len(rows) == TRAIN_STEPS // 80 and int(rows[-1]["global_step"]) == TRAIN_STEPS
+        assert all(r["truncated"] == "1" and r["terminated"] == "0" for r in rows)
+        ckpt = load_checkpoint(run)
+        assert ckpt["global_step"] == TRAIN_STEPS and ckpt["metadata"]["case"] == "m1-4mT"
+    summary = json.loads((case_dir / "summary.json").read_text())
+    assert [s["seed"] for s in summary["seeds"]] == [0, 1] and not summary["failed"]
+    assert all(np.isfinite(s["final_mean_return"]) for s in summary["seeds"])
+    # the two seeds really differ
+    a0 = load_checkpoint(case_dir / "seed0")["agent"]["actor"]
+    a1 = load_checkpoint(case_dir / "seed1")["agent"]["actor"]
+    assert not torch.equal(a0["net.0.weight"], a1["net.0.weight"])
+
+
+def test_train_refuses_to_overwrite(trained, capsys):
+    assert msr(["train", "--case", "m1-4mT", "--seeds", "1", "--steps", "10", "--out",
+                str(trained), "--no-progress"]) == 2
+    assert "--resume" in capsys.readouterr().err
+
+
+def test_train_resume_extends_runs(tmp_path, capsys):
+    """``--resume`` continues a finished run to a larger step count (one seed, in-process)."""
+    args = ["train", "--case", "m2-4mT", "--seeds", "1", "--seed-offset", "3", "--out", str(tmp_path),
+            "--learning-starts", "20", "--batch-size", "8", "--hidden", "8", "--episode-duration",
+            "0.2", "--no-progress"]
+    assert msr([*args, "--steps", "20"]) == 0
+    summary = run_msr(capsys, *args, "--steps", "40", "--resume")
+    assert summary["seeds"][0]["global_step"] == 40 and summary["seeds"][0]["episodes"] == 2
+    run = tmp_path / "m2-4mT" / "seed3"
+    meta = json.loads((run / "run.json").read_text())
+    assert meta["steps"] == 40 and meta["resumed"] == 1 and meta["seed"] == 3
+    assert load_checkpoint(run)["global_step"] == 40
+
+
+def test_refine_continues_agent_and_buffer_in_accurate_physics(trained, refined):
+    source = load_checkpoint(trained / "m1-4mT" / "seed0")
+    ckpt = load_checkpoint(refined)
+    assert ckpt["global_step"] == TRAIN_STEPS + 3
+    assert ckpt["buffer"]["size"] == TRAIN_STEPS + 3  # the training transitions are kept
+    assert torch.equal(ckpt["buffer"]["obs"][:TRAIN_STEPS], source["buffer"]["obs"])
+    # learning happened (past the warm-up): more critic updates, different weights
+    assert ckpt["agent"]["num_updates"] == source["agent"]["num_updates"] + 3
+    assert not torch.equal(ckpt["agent"]["critic"]["q1_net.0.weight"],
+                           source["agent"]["critic"]["q1_net.0.weight"])
+    meta = ckpt["metadata"]
+    assert meta["physics"] == "accurate" and meta["command"] == "refine"
+    assert meta["refine_steps"] == 3 and meta["training_steps"] == TRAIN_STEPS
+    assert json.loads((refined / "run.json").read_text())["physics"] == "accurate"
+
+
+def test_generate_json_and_files(refined, tmp_path, capsys):
+    out = tmp_path / "gen"
+    result = run_msr(capsys, "generate", str(refined), "--duration", "0.2", "--out", str(out),
+                     "--no-progress")
+    for key in ("mid_dx_m", "fields_csv", "trajectory_csv"):
+        assert key in result
+    assert np.isfinite(result["mid_dx_m"]) and result["physics"] == "accurate"
+    assert not result["diverged"]
+    header = Path(result["fields_csv"]).read_text().splitlines()[0]
+    assert header == ",mag_x,mag_y,mag_z"
+    fields = read_field_csv(result["fields_csv"])
+    assert fields.shape == (20, 3)
+    assert np.all(np.abs(fields[0, :2]) <= 0.3e-3 + 1e-12)  # from zero, one increment
+    assert np.all(np.abs(np.diff(fields[:, :2], axis=0)) <= 0.3e-3 + 1e-12)
+    with open(result["trajectory_csv"]) as f:
+        rows = list(csv.reader(f))
+    assert tuple(rows[0]) == TRAJECTORY_COLUMNS and len(rows) == 22 and float(rows[1][0]) == 0.0
+    assert float(rows[-1][0]) == pytest.approx(0.2)
+    figures = result["figures"]
+    for name in ("positions_velocities", "field_waveforms", "field_polar", "height_span_contact",
+                 "q_values", "filmstrip", "gait_gif"):
+        assert Path(figures[name]).stat().st_size > 1000, name
+    assert Path(figures["gait_gif"]).read_bytes()[:3] == b"GIF"
+    with open(result["gait_csv"]) as f:
+        gait = list(csv.DictReader(f))
+    assert len(gait) == 21 and float(gait[0]["contact_back"]) == 1.0
+
+
+def test_ship_then_generate_by_folder_and_name(refined, tmp_path, monkeypatch, capsys):
+    dest = tmp_path / "policies"
+    info = pipeline.ship(refined, "m1-4mT", dest=dest, measure=True, duration=0.05, progress=False)
+    folder = dest / "m1-4mT"
+    assert {"actor.pt", "critic.pt", "policy.json", "MODEL_CARD.md", "fields.csv"} <= set(info["files"])
+    meta = json.loads((folder / "policy.json").read_text())
+    assert meta["case"] == "m1-4mT" and meta["architecture"]["hidden_sizes"] == [32, 32]
+    assert meta["training"]["refine_steps"] == 3 and meta["seeds"]["total"] == 2
+    card = (folder / "MODEL_CARD.md").read_text()
+    assert "m1-4mT" in card and "refinement steps" in card and "seeds that succeeded" in card
+    # the shipped actor acts exactly as the checkpoint's
+    obs = np.random.default_rng(1).normal(size=260).astype(np.float32)
+    shipped = pipeline.resolve_policy(folder)
+    original = pipeline.resolve_policy(refined)
+    np.testing.assert_array_equal(shipped.act(obs), original.act(obs))
+    # by name, from the (patched) package folder of shipped policies
+    monkeypatch.setattr(pipeline, "POLICIES_DIR", dest)
+    result = run_msr(capsys, "generate", "m1-4mT", "--duration", "0.03", "--out",
+                     str(tmp_path / "gen"), "--no-progress", "--no-gif")
+    assert result["policy"] == str(folder) and "q_values" in result["figures"]
+    with pytest.raises(FileExistsError):
+        pipeline.ship(refined, "m1-4mT", dest=dest, measure=False)
+
+
+def test_export_torchscript_matches_agent(trained, tmp_path, capsys):
+    run = trained / "m1-4mT" / "seed1"
+    result = run_msr(capsys, "export", str(run), "--out", str(tmp_path / "export"))
+    assert result["max_abs_diff"] < 1e-6 and result["max_abs_diff_pt2"] < 1e-6
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # torch.jit is deprecated in 2.13
+        module = torch.jit.load(result["torchscript"])  # plain torch, no package code
+    program = torch.export.load(result["torch_export"]).module()
+    layout = json.loads(Path(result["json"]).read_text())
+    assert layout["observation"]["size"] == 260
+    assert layout["action"]["field_increment_T_per_unit"] == 3e-4
+    agent = TD3Agent.from_checkpoint(run / "checkpoint.pt")
+    env = MagneticCrawlerEnv(duration=0.05)
+    obs, _ = env.reset(seed=5)
+    obs, *_ = env.step(np.array([0.5, -0.5], np.float32))
+    with torch.no_grad():
+        exported = module(torch.from_numpy(obs[None]))[0].numpy()
+        exported_pt2 = program(torch.from_numpy(obs[None]))[0].numpy()
+    np.testing.assert_allclose(exported, agent.act(obs), atol=1e-6)
+    np.testing.assert_allclose(exported_pt2, agent.act(obs), atol=1e-6)
+    assert obs[OBSERVATION_LAYOUT["field_amplitude"]][0] > 0
+
+
+def test_figures_from_training_runs(trained, tmp_path, capsys):
+    result = run_msr(capsys, "figures", str(trained), "--out", str(tmp_path))
+    assert Path(result["learning_curves_m1-4mT"]).stat().st_size > 1000
+
+
+def test_demo_names_the_missing_policy(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(pipeline, "POLICIES_DIR", tmp_path / "none")
+    assert msr(["demo", "--out", str(tmp_path / "demo"), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "m1-4mT" in err and "actor.pt" in err and "msr ship" in err
+
+
+def test_unknown_policy_is_a_clear_error(tmp_path):
+    with pytest.raises(pipeline.PolicyNotFoundError, match="shipped"):
+        pipeline.resolve_policy(tmp_path / "nothing-here")
