@@ -19,3 +19,12 @@ def test_tutorial_code_runs():
     assert np.all(np.isfinite(rod.position_collection))
     assert abs(rod.position_collection[1]).max() > 0  # the field did something
     assert namespace["simulation"].time > 0
+
+
+def test_training_tutorial_environment_snippet():
+    text = (TUTORIAL.parent / "training.md").read_text()
+    (block,) = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    namespace: dict = {}
+    exec(compile(block, "training.md", "exec"), namespace)
+    assert namespace["obs"].shape == (260,)
+    assert not namespace["terminated"] and not namespace["truncated"]
