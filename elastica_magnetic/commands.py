@@ -94,21 +94,7 @@ def replay_command(args: argparse.Namespace) -> int:
         result, args.out / "replay.png",
         title=f"{args.robot}, {args.physics} physics: {args.field_csv.name}", reference=reference,
     )
-    print_result(
-        {
-            "robot": args.robot,
-            "physics": args.physics,
-            "mid_dx_m": result.mid_dx,
-            "max_height_m": result.max_height,
-            "duration_s": float(result.trajectory.t_s.iloc[-1]),
-            "trajectory_csv": str(trajectory_csv),
-            "figure": str(figure),
-            "wall_s": result.wall_s,
-            "step_us": result.step_us,
-            **summary,
-        },
-        args.json,
-    )
+    print_result({**_summary(args, result, trajectory_csv, figure), **summary}, args.json)
     return 0
 
 
@@ -127,20 +113,22 @@ def simulate_command(args: argparse.Namespace) -> int:
         title=f"{args.robot} under a {1e3 * args.amplitude:g} mT field rotating at "
         f"{args.frequency:g} Hz ({args.physics} physics)",
     )
-    print_result(
-        {
-            "robot": args.robot,
-            "mid_dx_m": result.mid_dx,
-            "max_height_m": result.max_height,
-            "duration_s": float(result.trajectory.t_s.iloc[-1]),
-            "trajectory_csv": str(trajectory_csv),
-            "figure": str(figure),
-            "wall_s": result.wall_s,
-            "step_us": result.step_us,
-        },
-        args.json,
-    )
+    print_result(_summary(args, result, trajectory_csv, figure), args.json)
     return 0
+
+
+def _summary(args, result, trajectory_csv: Path, figure: Path) -> dict[str, object]:
+    return {
+        "robot": args.robot,
+        "physics": args.physics,
+        "mid_dx_m": result.mid_dx,
+        "max_height_m": result.max_height,
+        "duration_s": float(result.trajectory.t_s.iloc[-1]),
+        "trajectory_csv": str(trajectory_csv),
+        "figure": str(figure),
+        "wall_s": result.wall_s,
+        "step_us": result.step_us,
+    }
 
 
 def bench_command(args: argparse.Namespace) -> int:

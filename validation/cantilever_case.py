@@ -31,6 +31,7 @@ from elastica_magnetic import (
 )
 
 from .elastica_bvp import cantilever
+from .relaxation import relax
 from .report import CaseResult, Comparison
 
 # A generic slender rod (SI); only q matters for the nondimensional answer.
@@ -89,14 +90,7 @@ def simulate(n_elements: int, q: float, phi_deg: float) -> CantileverSimulation:
         field=RampedField([b * math.cos(phi), b * math.sin(phi), 0.0], RAMP_TIME),
         magnetization=uniform_magnetization(n_elements, MAGNETIZATION, (1.0, 0.0, 0.0)),
     )
-    wave_speed = math.sqrt(YOUNGS_MODULUS / DENSITY)  # axial, bending and shear waves: same order
-    dt = 0.3 * (LENGTH / n_elements) / wave_speed
-    simulator.dampen(rod).using(ea.AnalyticalLinearDamper, uniform_damping_constant=DAMPING, time_step=dt)
-    simulator.finalize()
-    stepper = ea.PositionVerlet()
-    steps = int(round((RAMP_TIME + HOLD_TIME) / dt))
-    for k in range(steps):
-        stepper.step(simulator, k * dt, dt)
+    steps = relax(simulator, rod, YOUNGS_MODULUS, DENSITY, DAMPING, RAMP_TIME + HOLD_TIME)
     tangent = rod.director_collection[2, :, -1]
     return CantileverSimulation(
         n_elements=n_elements,

@@ -22,7 +22,6 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import elastica as ea
 import numpy as np
 
 from elastica_magnetic import (
@@ -44,6 +43,7 @@ from .elastica_bvp import (
     lum2016_curvature,
     solve_elastica,
 )
+from .relaxation import relax
 from .report import CaseResult, Comparison
 
 DENSITY = 1860.0
@@ -99,14 +99,7 @@ def simulate(field_mT: float, angle_deg: float, n_elements: int = N_ELEMENTS) ->
         magnetization=magnetization_material,
         frame="material",
     )
-    wave_speed = math.sqrt(HU2018_YOUNGS_MODULUS / DENSITY)
-    dt = 0.3 * (HU2018_LENGTH / n_elements) / wave_speed
-    simulator.dampen(rod).using(ea.AnalyticalLinearDamper, uniform_damping_constant=DAMPING, time_step=dt)
-    simulator.finalize()
-    stepper = ea.PositionVerlet()
-    steps = int(round((RAMP_TIME + HOLD_TIME) / dt))
-    for k in range(steps):
-        stepper.step(simulator, k * dt, dt)
+    steps = relax(simulator, rod, HU2018_YOUNGS_MODULUS, DENSITY, DAMPING, RAMP_TIME + HOLD_TIME)
     position = rod.position_collection
     tangent = rod.director_collection[2]
     theta = np.unwrap(np.arctan2(tangent[1], tangent[0]))
