@@ -5,6 +5,7 @@ field sources, magnetization patterns, the equivalent circular section of a band
 ground with an adjustable tolerance, robot presets and a simulation builder. SI units throughout.
 """
 
+from .batch import BatchedRobots, BatchedSimulationDiverged
 from .field_csv import FieldCSVError, read_field_csv, write_field_csv
 from .fields import ConstantField, ControlledField, RampedField, RotatingField, TabulatedField
 from .forcing import LegacyInternalDamping, MagneticTorques, RelativeVelocityDamping
@@ -45,6 +46,8 @@ from .units import MM_MG_S, SI, UnitSystem
 __version__ = "0.1.0"
 
 __all__ = [
+    "BatchedRobots",
+    "BatchedSimulationDiverged",
     "ConstantField",
     "ControlledField",
     "DampingSpec",

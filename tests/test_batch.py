@@ -1,0 +1,193 @@
+"""Batched robots (one simulator, one forcing kernel per step) against the per-rod path.
+
+The batched kernel repeats PyElastica's floating-point operations in the same order, so the
+comparison is exact: ``assert_array_equal`` on positions, velocities, directors and angular
+velocities (no tolerance).
+"""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from elastica_magnetic import (
+    ConstantField,
+    ControlledField,
+    RotatingField,
+    SimulationDiverged,
+    build_simulation,
+    hu2018_robot,
+    yao2023_robot,
+)
+from elastica_magnetic.batch import BatchedRobots, BatchedSimulationDiverged
+
+STATE = ("position_collection", "velocity_collection", "director_collection", "omega_collection")
+
+
+def _per_rod(spec, n):
+    """``n`` independent per-rod simulations whose field the test sets (no clipping at 1 T)."""
+    return [build_simulation(spec, ControlledField(limit=1.0, max_increment=1.0)) for _ in range(n)]
+
+
+def _drive(robots, sims, sources, t0, duration, coverage=None):
+    """Step both paths for ``duration`` s, setting each field from ``sources`` every 0.01 s.
+
+    ``sims[i]`` (or ``None``) is driven like robot ``i``. Fields are sampled at the start of each
+    0.01 s (zero-order hold) from ``source(t0 + robot time)``.
+    """
+    spec = robots.spec
+    n_actions = int(round(duration / 0.01))
+    per_action = spec.steps_per_action
+    for _ in range(n_actions):
+        for i, source in enumerate(sources):
+            value = np.array(source(t0 + robots.robot_time(i)), dtype=np.float64)
+            robots.fields[i] = value
+            if sims[i] is not None:
+                sims[i].field.set(value)
+        for chunk in range(0, per_action, per_action // 10):
+            n = min(per_action // 10, per_action - chunk)
+            robots.step(n)
+            for sim in sims:
+                if sim is not None:
+                    sim.step(n)
+            if coverage is not None:
+                _count_contact_states(robots, coverage)
+
+
+def _count_contact_states(robots, coverage):
+    """Accumulate element counts: in contact, lifted off, sticking (static friction), slipping."""
+    spec = robots.spec
+    tol, slip = spec.ground.surface_tolerance, spec.ground.slip_velocity_tol
+    for rod in robots.rods:
+        p, v, m = rod.position_collection, rod.velocity_collection, rod.mass
+        gap = 0.5 * (p[1, 1:] + p[1, :-1]) + spec.radius - rod.radius
+        axial_speed = np.abs((m[1:] * v[0, 1:] + m[:-1] * v[0, :-1]) / (m[1:] + m[:-1]))
+        contact = gap <= tol
+        coverage["contact"] += int(contact.sum())
+        coverage["lifted"] += int((~contact).sum())
+        coverage["stick"] += int((contact & (axial_speed < 2.0 * slip)).sum())
+        coverage["slip"] += int((contact & (axial_speed > 2.0 * slip)).sum())
+
+
+def _assert_same_state(rod_a, rod_b, label):
+    for name in STATE:
+        np.testing.assert_array_equal(
+            getattr(rod_a, name), getattr(rod_b, name), err_msg=f"{label}: {name} differs"
+        )
+
+
+SOURCES = (
+    RotatingField(amplitude=4e-3, frequency=2.0, phase=0.0),
+    RotatingField(amplitude=10e-3, frequency=-3.0, phase=1.0),
+    ConstantField([0.0, 6e-3, 2e-3]),  # out of plane: twists, slides sideways (rolling friction)
+)
+
+
+def test_batched_robots_match_per_rod_simulations_bit_for_bit():
+    spec = yao2023_robot(1, "training")
+    robots = BatchedRobots(spec, n_robots=3)
+    sims = _per_rod(spec, 3)
+    coverage = dict.fromkeys(("contact", "lifted", "stick", "slip"), 0)
+    for t_end in (0.1, 0.2, 0.3, 0.4):  # compare every 0.1 s
+        _drive(robots, sims, SOURCES, 0.0, 0.1, coverage)
+        for i, sim in enumerate(sims):
+            _assert_same_state(robots.rod(i), sim.rod, f"robot {i} at t = {t_end:.1f} s")
+    # The run went through every regime of the ground model.
+    assert coverage["contact"] > 1000 and coverage["lifted"] > 1000, coverage
+    assert coverage["stick"] > 50 and coverage["slip"] > 1000, coverage
+    # The robots follow different fields, so they are in different states.
+    heights = [robots.markers(i)["height_max_m"] for i in range(3)]
+    assert max(heights) > 10 * spec.radius and len(set(heights)) == 3
+    # Robot 2's out-of-plane field moves it sideways, so the rolling (sideways) friction acts.
+    assert np.abs(robots.rod(2).position_collection[2]).max() > 1e-5
+    assert robots.markers(0) == sims[0].markers()
+    assert robots.time == pytest.approx(0.4)
+
+
+def test_comparison_detects_a_different_ground():
+    """Sanity check of the test itself: a 1e-4 m contact band (PyElastica's default) is caught."""
+    spec = yao2023_robot(1, "training")
+    other = replace(spec, ground=replace(spec.ground, surface_tolerance=1e-4))
+    robots = BatchedRobots(other, n_robots=1)
+    sims = _per_rod(spec, 1)
+    _drive(robots, sims, SOURCES[:1], 0.0, 0.1)
+    with pytest.raises(AssertionError, match="differs"):
+        _assert_same_state(robots.rod(0), sims[0].rod, "robot 0")
+
+
+def test_pattern2_accurate_physics_matches_per_rod():
+    spec = yao2023_robot(2, "accurate")
+    robots = BatchedRobots(spec, n_robots=2)
+    sims = _per_rod(spec, 2)
+    sources = (RotatingField(amplitude=10e-3, frequency=5.0, phase=0.5), ConstantField([4e-3, 0, 0]))
+    _drive(robots, sims, sources, 0.0, 0.03)
+    for i, sim in enumerate(sims):
+        _assert_same_state(robots.rod(i), sim.rod, f"robot {i}")
+    assert not np.array_equal(robots.rod(0).position_collection, robots.rod(1).position_collection)
+
+
+def test_robot_without_ground_and_gravity_matches_per_rod():
+    spec = hu2018_robot(n_elements=32)  # free sheet: no ground, no gravity
+    robots = BatchedRobots(spec, n_robots=2, fields=[[0.0, 5e-3, 0.0], [3e-3, 0.0, 1e-3]])
+    sims = _per_rod(spec, 2)
+    for i, sim in enumerate(sims):
+        sim.field.set(robots.fields[i])
+        sim.step(400)
+    robots.step(400)
+    for i, sim in enumerate(sims):
+        _assert_same_state(robots.rod(i), sim.rod, f"robot {i}")
+    assert np.abs(robots.rod(0).omega_collection).max() > 0.0
+
+
+def test_reset_robot_restores_the_initial_state_and_reruns_like_a_fresh_robot():
+    spec = yao2023_robot(1, "training")
+    robots = BatchedRobots(spec, n_robots=3)
+    fresh = BatchedRobots(spec, n_robots=1)
+    sims = _per_rod(spec, 3)
+    _drive(robots, sims, SOURCES, 0.0, 0.1)
+    robots.reset_robot(1)
+    rod, initial = robots.rod(1), fresh.rod(0)
+    for name, value in vars(initial).items():
+        if isinstance(value, np.ndarray):
+            np.testing.assert_array_equal(getattr(rod, name), value, err_msg=name)
+    assert robots.robot_time(1) == 0.0 and robots.robot_time(0) == pytest.approx(0.1)
+    # Robot 1 now reruns from scratch (its source restarts at t = 0); 0 and 2 carry on.
+    sims[1] = _per_rod(spec, 1)[0]
+    _drive(robots, sims, SOURCES, 0.0, 0.1)
+    for i, sim in enumerate(sims):
+        _assert_same_state(robots.rod(i), sim.rod, f"robot {i}")
+    assert robots.markers(1) == sims[1].markers()
+
+
+def test_nan_in_one_robot_is_reported_with_its_index():
+    spec = yao2023_robot(1, "training")
+    robots = BatchedRobots(spec, n_robots=4, fields=[0.0, 4e-3, 0.0])
+    robots.step(20)
+    robots.rod(2).position_collection[1, 40] = np.nan
+    pattern = r"robot 2: .*at t = 0\.0021.* NaN at node \d+ \(element \d+\)"
+    with pytest.raises(SimulationDiverged, match=pattern) as info:
+        robots.step(1)
+    assert isinstance(info.value, BatchedSimulationDiverged)
+    assert info.value.robot == 2 and info.value.time == pytest.approx(21 * spec.dt)
+    for i in (0, 1, 3):
+        assert np.all(np.isfinite(robots.rod(i).position_collection))
+
+
+def test_runaway_speed_is_reported():
+    spec = yao2023_robot(1, "training")
+    robots = BatchedRobots(spec, n_robots=2)
+    robots.rod(1).velocity_collection[0, 10] = 50.0  # m/s, far above max_speed
+    with pytest.raises(BatchedSimulationDiverged, match=r"robot 1: .*runaway speed"):
+        robots.step(1)
+
+
+def test_fields_are_written_in_place_and_checked():
+    robots = BatchedRobots(yao2023_robot(1, "training"), n_robots=2, fields=[[1e-3, 0, 0], [0, 2e-3, 0]])
+    view = robots.fields
+    robots.fields = [0.0, 3e-3, 0.0]  # broadcast to every robot, same array
+    assert robots.fields is view and view.shape == (2, 3)
+    np.testing.assert_array_equal(view[:, 1], [3e-3, 3e-3])
+    with pytest.raises(ValueError, match=r"fields must broadcast to \(2, 3\)"):
+        robots.fields = np.zeros((3, 3))
+    with pytest.raises(ValueError, match="n_robots must be a positive integer"):
+        BatchedRobots(yao2023_robot(1, "training"), n_robots=0)
