@@ -20,6 +20,8 @@ each part of ``PositionVerlet.step`` timed on its own (internal forces, our kern
 dynamic updates, ...), the remainder (Python overhead plus timing noise), and the Python overhead
 measured directly (the same step with every numba call replaced by a no-op).
 
+The measurement itself (:func:`elastica_magnetic.bench.measure_batched`) is shared with ``msr bench``.
+
 Timings depend on the machine and its load: compare the ratios measured in the same run.
 Target (issue 5): <= 12 us per robot-step at N = 16.
 """
@@ -31,135 +33,15 @@ import json
 import statistics
 import time
 
-import elastica as ea
 import numpy as np
 from numba import njit
 
 import elastica_magnetic.batch as batch_module
-from elastica_magnetic import ControlledField, build_simulation, yao2023_robot
+from elastica_magnetic import yao2023_robot
 from elastica_magnetic.batch import BatchedRobots, _block_forcing
-from elastica_magnetic.forcing import LegacyInternalDamping, MagneticTorques, RelativeVelocityDamping
-from elastica_magnetic.ground import FrictionalGroundContact
+from elastica_magnetic.bench import batched_fields as _fields
+from elastica_magnetic.bench import measure_batched, per_rod_simulator  # noqa: F401  (re-exported)
 from elastica_magnetic.presets import RobotSpec
-from elastica_magnetic.section import rectangular_band_rod
-from elastica_magnetic.simulation import MagneticRodSimulator
-
-
-def _fields(n: int) -> np.ndarray:
-    """``(n, 3)`` fields, T: 4-10 mT in varied directions (robots bend, lift off and slide)."""
-    angle = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False) + 0.3
-    amplitude = np.linspace(4e-3, 10e-3, n)
-    return np.stack([amplitude * np.cos(angle), amplitude * np.sin(angle), np.zeros(n)], axis=1)
-
-
-def per_rod_simulator(spec: RobotSpec, n: int) -> tuple[MagneticRodSimulator, list[ControlledField]]:
-    """N rods in one simulator with the per-rod forcing of :func:`build_simulation` (same order)."""
-    simulator = MagneticRodSimulator()
-    plane = ea.Plane(plane_origin=np.array([0.0, -spec.radius, 0.0]), plane_normal=np.array([0.0, 1, 0]))
-    rods = []
-    for _ in range(n):
-        rod = rectangular_band_rod(
-            spec.n_elements,
-            spec.length,
-            spec.width,
-            spec.height,
-            spec.effective_density,
-            spec.youngs_modulus,
-            spec.shear_modulus,
-            alpha_c=spec.alpha_c,
-        )
-        simulator.append(rod)
-        rods.append(rod)
-    simulator.append(plane)
-    sources = []
-    g, d = spec.ground, spec.damping
-    for rod in rods:
-        source = ControlledField(limit=1.0, max_increment=1.0)
-        sources.append(source)
-        simulator.add_forcing_to(rod).using(
-            MagneticTorques, field=source, magnetization=spec.magnetization, frame="lab"
-        )
-        simulator.add_forcing_to(rod).using(
-            RelativeVelocityDamping, nu=d.relative_nu, node_offset=d.node_offset
-        )
-        simulator.add_forcing_to(rod).using(
-            LegacyInternalDamping, force_coefficient=d.legacy_force, torque_coefficient=d.legacy_torque
-        )
-        simulator.add_forcing_to(rod).using(
-            ea.GravityForces, acc_gravity=np.array([0.0, -spec.effective_gravity, 0.0])
-        )
-        simulator.detect_contact_between(rod, plane).using(
-            FrictionalGroundContact,
-            k=g.k,
-            nu=g.nu,
-            static_mu=g.static_mu,
-            kinetic_mu=g.kinetic_mu,
-            surface_tolerance=g.surface_tolerance,
-            slip_velocity_tol=g.slip_velocity_tol,
-        )
-    simulator.finalize()
-    return simulator, sources
-
-
-def _us_per_robot_step(run, steps: int, n: int) -> float:
-    """Wall time of ``run(steps)`` per robot-step, us."""
-    start = time.perf_counter()
-    run(steps)
-    return (time.perf_counter() - start) / (steps * n) * 1e6
-
-
-def _batched_runner(spec: RobotSpec, n: int):
-    robots = BatchedRobots(spec, n, fields=_fields(n))
-    robots.step(200)  # warm up: robots off the initial state, kernels loaded
-
-    def run(n_steps: int) -> None:
-        for _ in range(n_steps // 100):
-            robots.step(100)  # one health check per 0.01 s, as an environment does
-
-    return run
-
-
-def _per_rod_runner(spec: RobotSpec, n: int):
-    simulator, sources = per_rod_simulator(spec, n)
-    for source, value in zip(sources, _fields(n), strict=True):
-        source.set(value)
-    stepper, dt = ea.PositionVerlet(), spec.dt
-    clock = {"t": 0.0}
-
-    def run(n_steps: int) -> None:
-        t = clock["t"]
-        for _ in range(n_steps):
-            t = stepper.step(simulator, t, dt)
-        clock["t"] = t
-
-    run(200)
-    return run
-
-
-def _independent_runner(spec: RobotSpec):
-    source = ControlledField(limit=1.0, max_increment=1.0, initial=_fields(1)[0])
-    sim = build_simulation(spec, source)
-    sim.step(200)
-    return sim.step
-
-
-def measure(spec: RobotSpec, n: int, steps: int, repeats: int) -> dict[str, float]:
-    """Medians (us per robot-step) of the three paths, their repeats interleaved.
-
-    Interleaving makes the paths share the machine's load fluctuations, so their ratios hold even
-    when the absolute figures drift.
-    """
-    runners = {
-        "batched": (_batched_runner(spec, n), n),
-        "per_rod": (_per_rod_runner(spec, n), n),
-        "independent": (_independent_runner(spec), 1),
-    }
-    samples: dict[str, list[float]] = {name: [] for name in runners}
-    for _ in range(repeats):
-        for name, (run, robots) in runners.items():
-            # The independent path runs one robot for as many robot-steps as the others.
-            samples[name].append(_us_per_robot_step(run, steps * n // robots, robots))
-    return {name: statistics.median(values) for name, values in samples.items()}
 
 
 @njit(cache=True)
@@ -253,7 +135,7 @@ def run_benchmark(
     batched, per_rod, independent = {}, {}, {}
     for n in ns:
         steps = max(100, (robot_steps // n) // 100 * 100)
-        result = measure(spec, n, steps, repeats)
+        result = measure_batched(spec, n, steps, repeats)
         batched[str(n)] = round(result["batched"], 2)
         per_rod[str(n)] = round(result["per_rod"], 2)
         independent[str(n)] = round(result["independent"], 2)

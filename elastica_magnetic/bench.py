@@ -7,24 +7,52 @@ Compares, in one run on one machine, the cost of one ``PositionVerlet`` step of 
 - ``bare``: the same robot with gravity and ground but no magnetic forcing and no damping.
 
 Medians over repeated measurements; machines here are noisy, so compare ratios within one run.
+
+:func:`benchmark` (``msr bench``) adds, in the same run: the per-robot-step cost of N robots in one
+batched simulator (:func:`measure_batched`, shared with ``benchmarks/batched_step_cost.py``),
+environment steps per second (single and vector environment), TD3 updates per second and the
+projected wall time of a 1e5-step training seed on one core.
 """
 
 from __future__ import annotations
 
+import os
 import statistics
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import replace
+from typing import Any
 
+import elastica as ea
 import numpy as np
 from elastica.external_forces import NoForces
 
 from . import simulation as simulation_module
-from .fields import RotatingField
+from .batch import BatchedRobots
+from .fields import ControlledField, RotatingField
 from .forcing import LegacyInternalDamping, MagneticTorques, RelativeVelocityDamping
-from .presets import yao2023_robot
-from .simulation import build_simulation
+from .ground import FrictionalGroundContact
+from .presets import RobotSpec, yao2023_robot
+from .section import rectangular_band_rod
+from .simulation import MagneticRodSimulator, build_simulation
 
-__all__ = ["NaiveMagneticTorques", "NaiveRelativeVelocityDamping", "benchmark_step_cost"]
+__all__ = [
+    "BATCH_SIZES",
+    "NaiveMagneticTorques",
+    "NaiveRelativeVelocityDamping",
+    "batched_fields",
+    "benchmark",
+    "benchmark_step_cost",
+    "env_steps_per_s",
+    "measure_batched",
+    "per_robot_step_cost",
+    "per_rod_simulator",
+    "td3_updates_per_s",
+    "vector_env_steps_per_s",
+]
+
+#: Numbers of robots per simulator of the batched benchmark.
+BATCH_SIZES: tuple[int, ...] = (1, 4, 16, 64)
 
 
 class NaiveMagneticTorques(MagneticTorques):
@@ -110,13 +138,15 @@ def _step_cost(physics: str, variant: str, steps: int, repeats: int) -> float:
     return statistics.median(times)
 
 
-def benchmark_step_cost(steps: int = 2000, repeats: int = 5) -> dict[str, object]:
+def benchmark_step_cost(
+    steps: int = 2000, repeats: int = 5, physics_settings: Sequence[str] = ("training", "accurate")
+) -> dict[str, object]:
     """Median step cost (us) of the paper's robot in both physics settings, and the ratios.
 
     Targets (issue 2): ``naive / ours >= 20`` and ``ours / bare <= 1.5``.
     """
     result: dict[str, object] = {"steps": steps, "repeats": repeats}
-    for physics in ("training", "accurate"):
+    for physics in physics_settings:
         naive_steps = max(steps // 10, 50)
         ours = _step_cost(physics, "ours", steps, repeats)
         naive = _step_cost(physics, "naive", naive_steps, repeats)
@@ -132,3 +162,284 @@ def benchmark_step_cost(steps: int = 2000, repeats: int = 5) -> dict[str, object
             "substeps_per_action": substeps,
         }
     return result
+
+
+# --------------------------------------------------------------------------------------------------
+# Batched robots: per-robot-step cost of N robots in one simulator
+# --------------------------------------------------------------------------------------------------
+def batched_fields(n: int) -> np.ndarray:
+    """``(n, 3)`` fields, T: 4-10 mT in varied directions (robots bend, lift off and slide)."""
+    angle = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False) + 0.3
+    amplitude = np.linspace(4e-3, 10e-3, n)
+    return np.stack([amplitude * np.cos(angle), amplitude * np.sin(angle), np.zeros(n)], axis=1)
+
+
+def per_rod_simulator(spec: RobotSpec, n: int) -> tuple[MagneticRodSimulator, list[ControlledField]]:
+    """N rods in one simulator with the per-rod forcing of :func:`build_simulation` (same order)."""
+    simulator = MagneticRodSimulator()
+    plane = ea.Plane(plane_origin=np.array([0.0, -spec.radius, 0.0]), plane_normal=np.array([0.0, 1, 0]))
+    rods = []
+    for _ in range(n):
+        rod = rectangular_band_rod(
+            spec.n_elements,
+            spec.length,
+            spec.width,
+            spec.height,
+            spec.effective_density,
+            spec.youngs_modulus,
+            spec.shear_modulus,
+            alpha_c=spec.alpha_c,
+        )
+        simulator.append(rod)
+        rods.append(rod)
+    simulator.append(plane)
+    sources = []
+    g, d = spec.ground, spec.damping
+    for rod in rods:
+        source = ControlledField(limit=1.0, max_increment=1.0)
+        sources.append(source)
+        simulator.add_forcing_to(rod).using(
+            MagneticTorques, field=source, magnetization=spec.magnetization, frame="lab"
+        )
+        simulator.add_forcing_to(rod).using(
+            RelativeVelocityDamping, nu=d.relative_nu, node_offset=d.node_offset
+        )
+        simulator.add_forcing_to(rod).using(
+            LegacyInternalDamping, force_coefficient=d.legacy_force, torque_coefficient=d.legacy_torque
+        )
+        simulator.add_forcing_to(rod).using(
+            ea.GravityForces, acc_gravity=np.array([0.0, -spec.effective_gravity, 0.0])
+        )
+        simulator.detect_contact_between(rod, plane).using(
+            FrictionalGroundContact,
+            k=g.k,
+            nu=g.nu,
+            static_mu=g.static_mu,
+            kinetic_mu=g.kinetic_mu,
+            surface_tolerance=g.surface_tolerance,
+            slip_velocity_tol=g.slip_velocity_tol,
+        )
+    simulator.finalize()
+    return simulator, sources
+
+
+def _us_per_robot_step(run: Callable[[int], Any], steps: int, n: int) -> float:
+    """Wall time of ``run(steps)`` per robot-step, us."""
+    start = time.perf_counter()
+    run(steps)
+    return (time.perf_counter() - start) / (steps * n) * 1e6
+
+
+def _batched_runner(spec: RobotSpec, n: int) -> Callable[[int], None]:
+    robots = BatchedRobots(spec, n, fields=batched_fields(n))
+    robots.step(200)  # warm up: robots off the initial state, kernels loaded
+
+    def run(n_steps: int) -> None:
+        for _ in range(n_steps // 100):
+            robots.step(100)  # one health check per 0.01 s, as an environment does
+
+    return run
+
+
+def _per_rod_runner(spec: RobotSpec, n: int) -> Callable[[int], None]:
+    simulator, sources = per_rod_simulator(spec, n)
+    for source, value in zip(sources, batched_fields(n), strict=True):
+        source.set(value)
+    stepper, dt = ea.PositionVerlet(), spec.dt
+    clock = {"t": 0.0}
+
+    def run(n_steps: int) -> None:
+        t = clock["t"]
+        for _ in range(n_steps):
+            t = stepper.step(simulator, t, dt)
+        clock["t"] = t
+
+    run(200)
+    return run
+
+
+def _independent_runner(spec: RobotSpec) -> Callable[[int], None]:
+    source = ControlledField(limit=1.0, max_increment=1.0, initial=batched_fields(1)[0])
+    sim = build_simulation(spec, source)
+    sim.step(200)
+    return sim.step
+
+
+def measure_batched(
+    spec: RobotSpec,
+    n: int,
+    steps: int,
+    repeats: int,
+    paths: Sequence[str] = ("batched", "per_rod", "independent"),
+) -> dict[str, float]:
+    """Medians (us per robot-step) of the chosen paths, their repeats interleaved.
+
+    Paths: ``batched`` (:class:`~elastica_magnetic.batch.BatchedRobots` with ``n`` robots, stepped
+    100 steps = 0.01 s at a time, as an environment), ``per_rod`` (``n`` rods in one simulator with
+    the per-rod forcing objects, :func:`per_rod_simulator`), ``independent`` (one
+    :func:`build_simulation` robot). ``steps`` time steps per repeat (a multiple of 100) for the
+    ``n``-robot paths; the independent path runs as many robot-steps. Interleaving makes the paths
+    share the machine's load fluctuations, so their ratios hold even when the absolute figures drift.
+    """
+    makers = {
+        "batched": lambda: (_batched_runner(spec, n), n),
+        "per_rod": lambda: (_per_rod_runner(spec, n), n),
+        "independent": lambda: (_independent_runner(spec), 1),
+    }
+    unknown = set(paths) - set(makers)
+    if unknown:
+        raise ValueError(f"unknown path(s) {sorted(unknown)}; choose from {sorted(makers)}")
+    runners = {name: makers[name]() for name in paths}
+    samples: dict[str, list[float]] = {name: [] for name in runners}
+    for _ in range(repeats):
+        for name, (run, robots) in runners.items():
+            samples[name].append(_us_per_robot_step(run, steps * n // robots, robots))
+    return {name: statistics.median(values) for name, values in samples.items()}
+
+
+def per_robot_step_cost(
+    ns: Sequence[int] = BATCH_SIZES,
+    robot_steps: int = 6400,
+    repeats: int = 3,
+    paths: Sequence[str] = ("batched",),
+    physics: str = "training",
+) -> dict[str, dict[str, float]]:
+    """Per-robot-step cost (us) of the paper's robot for each N, by path.
+
+    ``robot_steps`` robot-steps per repeat (rounded to whole 0.01 s blocks, at least one).
+    Returns ``{path: {str(N): us}}``.
+    """
+    spec = yao2023_robot(1, physics)
+    out: dict[str, dict[str, float]] = {name: {} for name in paths}
+    for n in ns:
+        steps = max(100, (robot_steps // n) // 100 * 100)
+        result = measure_batched(spec, n, steps, repeats, paths)
+        for name in paths:
+            out[name][str(n)] = result[name]
+    return out
+
+
+# --------------------------------------------------------------------------------------------------
+# Environment steps and TD3 updates
+# --------------------------------------------------------------------------------------------------
+def _timed_rate(step: Callable[[], Any], count: int, repeats: int, per_call: int = 1) -> float:
+    """Median over ``repeats`` of ``count * per_call`` / wall time of ``count`` calls, per s."""
+    step()  # warm
+    rates = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        for _ in range(count):
+            step()
+        rates.append(count * per_call / (time.perf_counter() - start))
+    return statistics.median(rates)
+
+
+def env_steps_per_s(steps: int = 200, repeats: int = 3, physics: str = "training") -> float:
+    """Steps per second of :class:`rl.env.MagneticCrawlerEnv` (pattern 1, 4 mT; 0.01 s each:
+    100 substeps in training physics), random actions, episodes never ending during the run."""
+    from rl.env import MagneticCrawlerEnv
+
+    env = MagneticCrawlerEnv(1, 4e-3, physics=physics, duration=1e6)
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    return _timed_rate(lambda: env.step(rng.uniform(-1.0, 1.0, 2).astype(np.float32)), steps, repeats)
+
+
+def vector_env_steps_per_s(
+    n_envs: int = 16, vector_steps: int = 20, repeats: int = 3, physics: str = "training"
+) -> float:
+    """Environment transitions per second of :class:`rl.vector_env.MagneticCrawlerVectorEnv` with
+    ``n_envs`` crawlers in one simulator (``n_envs`` transitions per vector step)."""
+    from rl.vector_env import MagneticCrawlerVectorEnv
+
+    env = MagneticCrawlerVectorEnv(n_envs, 1, 4e-3, physics=physics, duration=1e6)
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+
+    def step() -> None:
+        env.step(rng.uniform(-1.0, 1.0, (n_envs, 2)).astype(np.float32))
+
+    return _timed_rate(step, vector_steps, repeats, per_call=n_envs)
+
+
+def td3_updates_per_s(updates: int = 200, repeats: int = 3, threads: int = 1) -> float:
+    """TD3 gradient updates per second with the crawler's settings (260 observations, 2 actions,
+    256-256 networks, minibatch 256, target-noise clip 0.8) on ``threads`` torch threads, from a
+    replay buffer of random transitions."""
+    import torch
+
+    from rl.pipeline import crawler_config
+    from rl.td3 import ReplayBuffer, TD3Agent
+
+    previous = torch.get_num_threads()
+    torch.set_num_threads(threads)
+    try:
+        cfg = crawler_config(0)
+        obs_dim, act_dim = 260, 2
+        agent = TD3Agent(obs_dim, act_dim, -np.ones(act_dim), np.ones(act_dim), cfg)
+        buffer = ReplayBuffer(10_000, obs_dim, act_dim)
+        rng = np.random.default_rng(0)
+        for _ in range(buffer.capacity):
+            buffer.add(rng.normal(size=obs_dim), rng.uniform(-1, 1, act_dim), rng.normal(),
+                       rng.normal(size=obs_dim), False)
+        return _timed_rate(lambda: agent.update(buffer.sample(cfg.batch_size, agent.rng)),
+                           updates, repeats)
+    finally:
+        torch.set_num_threads(previous)
+
+
+def benchmark(
+    steps: int = 1000,
+    repeats: int = 3,
+    quick: bool = False,
+    vector_envs: int = 16,
+) -> dict[str, Any]:
+    """Everything ``msr bench`` reports, measured in one run (training physics unless noted).
+
+    Keys: ``step_us``, ``naive_step_us``, ``speedup`` (one time step of the paper's robot, us, ours
+    vs per-element Python loops, training physics; both physics in ``training`` / ``accurate``),
+    ``per_robot_step_us`` ``{"1", "4", "16", "64"}`` (us per robot-step, batched simulator),
+    ``env_steps_per_s`` (single environment, one 0.01 s action = 100 substeps),
+    ``vector_env_steps_per_s`` (transitions/s, ``vector_envs`` crawlers in one simulator),
+    ``td3_updates_per_s`` (one torch thread), ``train_1e5_steps_s`` (projected wall time of a
+    1e5-step seed on one core: ``1e5 * (1 / env_steps_per_s + 1 / td3_updates_per_s)``, s),
+    ``train_1e5_steps_vector_s`` (the same with the vector environment), the target (900 s), the
+    load average and the CPU count. ``quick``: tiny measurements (for tests; numbers are rough).
+    """
+    if quick:
+        steps, repeats = min(steps, 200), 1
+    robot_steps = 100 if quick else 6400
+    env_steps, vector_steps, updates = (10, 3, 10) if quick else (200, 20, 200)
+    load_before = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    start = time.perf_counter()
+    cost = benchmark_step_cost(steps, repeats)
+    training = cost["training"]
+    batched = per_robot_step_cost(BATCH_SIZES, robot_steps, repeats)["batched"]
+    env_rate = env_steps_per_s(env_steps, repeats)
+    vector_rate = vector_env_steps_per_s(vector_envs, vector_steps, repeats)
+    td3_rate = td3_updates_per_s(updates, repeats)
+    return {
+        "step_us": training["step_us"],
+        "naive_step_us": training["naive_step_us"],
+        "speedup": training["speedup_vs_naive"],
+        "per_robot_step_us": batched,
+        "env_steps_per_s": env_rate,
+        "vector_envs": vector_envs,
+        "vector_env_steps_per_s": vector_rate,
+        "td3_updates_per_s": td3_rate,
+        "train_1e5_steps_s": 1e5 * (1.0 / env_rate + 1.0 / td3_rate),
+        "train_1e5_steps_vector_s": 1e5 * (1.0 / vector_rate + 1.0 / td3_rate),
+        "train_1e5_target_s": 900.0,
+        "per_robot_step_target_us_at_16": 12.0,
+        "training": cost["training"],
+        "accurate": cost["accurate"],
+        "steps": steps,
+        "repeats": repeats,
+        "quick": quick,
+        "cpu_count": os.cpu_count(),
+        "load_average_1min": load_before,
+        "wall_s": time.perf_counter() - start,
+        "note": "wall-clock medians on this machine under its current load; 1e5-step projections: "
+                "environment steps and TD3 updates on one core, one after the other",
+    }
+

@@ -8,8 +8,10 @@ and torch are imported only when an environment or agent is built)::
 
     env = gym.make("MagneticCrawler-v0", pattern=1, field_limit=4e-3, physics="training")
 
-Modules: :mod:`rl.env` (environment), :mod:`rl.td3` (agent), :mod:`rl.pipeline` (train, refine,
-generate, ship, export), :mod:`rl.figures` (figures), :mod:`rl.cli` (``msr`` sub-commands).
+Modules: :mod:`rl.env` (environment), :mod:`rl.vector_env` (N crawlers in one batched simulator,
+a Gymnasium vector environment), :mod:`rl.td3` (agent; ``train`` and ``train_vector``),
+:mod:`rl.pipeline` (train, refine, generate, ship, export), :mod:`rl.figures` (figures),
+:mod:`rl.cli` (``msr`` sub-commands).
 """
 
 from gymnasium.envs.registration import register as _register

@@ -30,6 +30,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--physics", choices=("training", "accurate"), default="training")
     p.add_argument("--episode-duration", type=float, default=20.0, help="s (truncation)")
     p.add_argument("--threads", type=int, default=None, help="torch threads per worker")
+    p.add_argument("--envs", type=int, default=1,
+                   help="crawlers per seed in one batched simulator (vector env; N transitions and "
+                        "N TD3 updates per vector step; default 1: the single environment)")
     g = p.add_argument_group("TD3 overrides (default: the paper's settings)")
     g.add_argument("--learning-starts", type=int, default=None, help="warm-up steps (2500)")
     g.add_argument("--batch-size", type=int, default=None, help="minibatch (256)")
@@ -147,9 +150,9 @@ def train_command(args: argparse.Namespace) -> int:
             args.case, seeds=args.seeds, steps=args.steps, workers=args.workers, out=args.out,
             resume=args.resume, seed_offset=args.seed_offset, config_overrides=_overrides(args),
             physics=args.physics, episode_duration=args.episode_duration,
-            progress=not args.no_progress, threads=args.threads,
+            progress=not args.no_progress, threads=args.threads, envs=args.envs,
         )
-    except FileExistsError as exc:
+    except (FileExistsError, ValueError) as exc:
         raise CommandError(str(exc)) from None
     if not args.json:
         summary = {k: v for k, v in summary.items() if k != "seeds"} | {

@@ -72,6 +72,9 @@ __all__ = [
     "OBSERVATION_LAYOUT",
     "OBSERVATION_SCALES",
     "MAX_FIELD_INCREMENT",
+    "crawler_observation",
+    "crawler_observation_space",
+    "initial_field_value",
     "observation_layout",
     "observation_spec",
 ]
@@ -130,6 +133,78 @@ def observation_spec(n_elements: int = 64, surface_tolerance: float = 1e-7) -> d
         },
         "units": "SI (m, s, rad, T)",
     }
+
+
+def crawler_observation_space(n_elements: int, field_limit: float) -> gym.spaces.Box:
+    """The float32 ``Box`` of one observation, shape ``(4 n + 4,)`` (bounds per block: angles in
+    ``[-pi, pi]``, heights, contacts and the amplitude non-negative, the amplitude at most
+    ``200 * field_limit`` (T) plus round-off)."""
+    n = int(n_elements)
+    layout = observation_layout(n)
+    low = np.full(4 * n + 4, -np.inf, dtype=np.float32)
+    high = np.full(4 * n + 4, np.inf, dtype=np.float32)
+    for name in ("orientation", "field_angle"):
+        low[layout[name]], high[layout[name]] = -np.pi, np.pi
+    for name in ("height", "contact", "field_amplitude"):
+        low[layout[name]] = 0.0
+    high[layout["field_amplitude"]] = np.float32(
+        OBSERVATION_SCALES["field_amplitude"] * float(field_limit) * (1.0 + 1e-5)
+    )
+    return gym.spaces.Box(low, high, dtype=np.float32)
+
+
+def crawler_observation(
+    rod: Any, field: NDArray[np.float64], layout: dict[str, slice], surface_tolerance: float
+) -> NDArray[np.float32]:
+    """Observation of one rod (see the module docstring), float32 ``(4 n + 4,)``.
+
+    Args:
+        rod: a :class:`elastica.CosseratRod` (or a view of one robot of a memory block).
+        field: the field now applied, ``(3,)`` in T (lab frame).
+        layout: :func:`observation_layout` of the rod's element count.
+        surface_tolerance: largest height of a node counted as touching the ground, m.
+    """
+    n = rod.n_elems
+    sc = OBSERVATION_SCALES
+    obs = np.empty(4 * n + 4, dtype=np.float64)
+    # omega is in the material frame; lab components are Q^T omega. Bending about lab z is
+    # sum_k Q[k, 2] omega[k] (= omega[1] when d2 = +z, as for this planar robot).
+    directors = rod.director_collection
+    omega_z = np.einsum("ki,ki->i", directors[:, 2, :], rod.omega_collection)
+    obs[layout["angular_velocity"]] = sc["angular_velocity"] * omega_z
+    obs[layout["orientation"]] = np.arctan2(directors[2, 1, :], directors[2, 0, :])
+    y = rod.position_collection[1]
+    obs[layout["height"]] = sc["height"] * np.maximum(y, 0.0)
+    touching = y <= surface_tolerance
+    penetration = np.maximum(-y, 0.0)
+    obs[layout["contact"]] = np.where(
+        touching, sc["contact_base"] + sc["contact_penetration"] * penetration, 0.0
+    )
+    obs[layout["field_amplitude"]] = sc["field_amplitude"] * math.hypot(field[0], field[1])
+    obs[layout["field_angle"]] = math.atan2(field[1], field[0])
+    return obs.astype(np.float32)
+
+
+def initial_field_value(
+    initial: str | Any, field_limit: float, rng: np.random.Generator
+) -> Any:
+    """Initial field of an episode, T: ``(3,)`` tuple or array (clipped later by the field rule).
+
+    ``"random"``: B_x, B_y uniform in ``+-0.7 * field_limit`` (two draws from ``rng``, in this
+    order), B_z = 0; ``"zero"``; or a 2- or 3-vector in T (a 2-vector gets B_z = 0).
+    """
+    if isinstance(initial, str):
+        if initial == "random":
+            bound = 0.7 * field_limit
+            bxy = rng.uniform(-bound, bound, size=2)
+            return (bxy[0], bxy[1], 0.0)
+        if initial == "zero":
+            return (0.0, 0.0, 0.0)
+        raise ValueError(f"initial_field must be 'random', 'zero' or a vector, got {initial!r}")
+    initial = np.asarray(initial, dtype=np.float64).reshape(-1)
+    if initial.shape == (2,):
+        initial = np.append(initial, 0.0)
+    return initial
 
 
 @dataclass(frozen=True)
@@ -227,16 +302,7 @@ class MagneticCrawlerEnv(gym.Env):
         self.middle_node = n // 2
         self.layout = observation_layout(n)
         self.surface_tolerance = float(spec.ground.surface_tolerance)
-        low = np.full(4 * n + 4, -np.inf, dtype=np.float32)
-        high = np.full(4 * n + 4, np.inf, dtype=np.float32)
-        for name in ("orientation", "field_angle"):
-            low[self.layout[name]], high[self.layout[name]] = -np.pi, np.pi
-        for name in ("height", "contact", "field_amplitude"):
-            low[self.layout[name]] = 0.0
-        high[self.layout["field_amplitude"]] = np.float32(
-            OBSERVATION_SCALES["field_amplitude"] * self.field_limit * (1.0 + 1e-5)
-        )
-        self.observation_space = gym.spaces.Box(low, high, dtype=np.float32)
+        self.observation_space = crawler_observation_space(n, self.field_limit)
         self.action_space = gym.spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
 
         self.simulation = None
@@ -249,26 +315,8 @@ class MagneticCrawlerEnv(gym.Env):
     # -- observation ------------------------------------------------------------------------------
     def observation(self) -> NDArray[np.float32]:
         """The observation of the current state (see the module docstring), float32 ``(4n+4,)``."""
-        rod = self.simulation.rod
-        lay, sc = self.layout, OBSERVATION_SCALES
-        obs = np.empty(4 * self.n_elements + 4, dtype=np.float64)
-        # omega is in the material frame; lab components are Q^T omega. Bending about lab z is
-        # sum_k Q[k, 2] omega[k] (= omega[1] when d2 = +z, as for this planar robot).
-        directors = rod.director_collection
-        omega_z = np.einsum("ki,ki->i", directors[:, 2, :], rod.omega_collection)
-        obs[lay["angular_velocity"]] = sc["angular_velocity"] * omega_z
-        obs[lay["orientation"]] = np.arctan2(directors[2, 1, :], directors[2, 0, :])
-        y = rod.position_collection[1]
-        obs[lay["height"]] = sc["height"] * np.maximum(y, 0.0)
-        touching = y <= self.surface_tolerance
-        penetration = np.maximum(-y, 0.0)
-        obs[lay["contact"]] = np.where(
-            touching, sc["contact_base"] + sc["contact_penetration"] * penetration, 0.0
-        )
-        b = self.field.value
-        obs[lay["field_amplitude"]] = sc["field_amplitude"] * math.hypot(b[0], b[1])
-        obs[lay["field_angle"]] = math.atan2(b[1], b[0])
-        return obs.astype(np.float32)
+        return crawler_observation(self.simulation.rod, self.field.value, self.layout,
+                                   self.surface_tolerance)
 
     def contact_strength(self) -> NDArray[np.float64]:
         """Per-node contact indicator (the observation's ``contact`` block, float64 ``(n+1,)``)."""
@@ -299,20 +347,8 @@ class MagneticCrawlerEnv(gym.Env):
         ``options``: ``{"initial_field": "random" | "zero" | (Bx, By[, Bz]) in T}``.
         """
         super().reset(seed=seed)
-        initial = (options or {}).get("initial_field", self.initial_field)
-        if isinstance(initial, str):
-            if initial == "random":
-                bound = 0.7 * self.field_limit
-                bxy = self.np_random.uniform(-bound, bound, size=2)
-                initial = (bxy[0], bxy[1], 0.0)
-            elif initial == "zero":
-                initial = (0.0, 0.0, 0.0)
-            else:
-                raise ValueError(f"initial_field must be 'random', 'zero' or a vector, got {initial!r}")
-        else:
-            initial = np.asarray(initial, dtype=np.float64).reshape(-1)
-            if initial.shape == (2,):
-                initial = np.append(initial, 0.0)
+        initial = initial_field_value((options or {}).get("initial_field", self.initial_field),
+                                      self.field_limit, self.np_random)
         self.field = ControlledField(self.field_limit, self.max_increment, initial)
         self.simulation = build_simulation(self.robot_spec, self.field)
         self.steps = 0

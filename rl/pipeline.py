@@ -170,7 +170,7 @@ def _train_seed(job: dict[str, Any]) -> dict[str, Any]:
     config = TD3Config.from_dict(job["config"])
     run_dir = Path(job["run_dir"])
     metadata = _run_metadata(job["case"], job["physics"], job["duration"], config.seed,
-                             command="train")
+                             command="train", envs=int(job.get("envs", 1)))
     run_json = run_dir / RUN_JSON
     if job["resume"] and run_json.is_file() and (run_dir / "checkpoint.pt").is_file():
         # train() continues with the checkpoint's config: keep the record, update the target.
@@ -183,11 +183,21 @@ def _train_seed(job: dict[str, Any]) -> dict[str, Any]:
             **metadata, "steps": job["steps"], "config": config.to_dict(),
             "torch_threads": int(job["threads"]), "versions": _versions(),
         })
-    env_fn = functools.partial(make_env, job["case"], job["physics"], "random", job["duration"])
+    envs = int(job.get("envs", 1))
+    if envs > 1:  # N crawlers in one batched simulator (rl.vector_env), N updates per vector step
+        from .td3 import train_vector
+        from .vector_env import make_vector_env
+
+        train_fn = train_vector
+        env_fn = functools.partial(make_vector_env, job["case"], envs, job["physics"], "random",
+                                   job["duration"])
+    else:
+        train_fn = train
+        env_fn = functools.partial(make_env, job["case"], job["physics"], "random", job["duration"])
     start = time.perf_counter()
-    train(env_fn, config, job["steps"], run_dir, resume=job["resume"], progress=job["progress"],
-          progress_position=job["position"], progress_desc=f"{job['case']} seed{config.seed}",
-          metadata=metadata)
+    train_fn(env_fn, config, job["steps"], run_dir, resume=job["resume"], progress=job["progress"],
+             progress_position=job["position"], progress_desc=f"{job['case']} seed{config.seed}",
+             metadata=metadata)
     return {"seed": config.seed, **summarize_run(run_dir), "wall_s": time.perf_counter() - start}
 
 
@@ -205,6 +215,7 @@ def train_case(
     progress: bool = True,
     threads: int | None = None,
     success_fraction: float = 0.5,
+    envs: int = 1,
 ) -> dict[str, Any]:
     """Train seeds ``seed_offset .. seed_offset + seeds - 1`` of ``case`` for ``steps`` environment
     steps each, ``workers`` at a time in separate processes (``spawn``), one progress bar each.
@@ -218,10 +229,15 @@ def train_case(
         config_overrides: :class:`~rl.td3.TD3Config` fields on top of :func:`crawler_config`.
         threads: torch threads per worker (default: CPU count // workers, at least 1). Exact resume
             needs the same thread count.
+        envs: crawlers per seed stepped together in one batched simulator
+            (:class:`~rl.vector_env.MagneticCrawlerVectorEnv`, trained by
+            :func:`~rl.td3.train_vector`: ``envs`` transitions and updates per vector step); 1
+            (default) is the single environment and :func:`~rl.td3.train`. Resume with the same
+            value.
     """
     _case(case)
-    if seeds < 1 or steps < 1 or workers < 1:
-        raise ValueError("seeds, steps and workers must be >= 1")
+    if seeds < 1 or steps < 1 or workers < 1 or envs < 1:
+        raise ValueError("seeds, steps, workers and envs must be >= 1")
     case_dir = Path(out) / case
     seed_list = [seed_offset + k for k in range(seeds)]
     if not resume:
@@ -236,7 +252,7 @@ def train_case(
     jobs = [{
         "case": case, "physics": physics, "duration": float(episode_duration), "steps": int(steps),
         "run_dir": str(case_dir / f"seed{s}"), "resume": resume, "progress": progress,
-        "position": k, "threads": threads,
+        "position": k, "threads": threads, "envs": int(envs),
         "config": crawler_config(s, **(config_overrides or {})).to_dict(),
     } for k, s in enumerate(seed_list)]
 
@@ -273,6 +289,7 @@ def train_case(
         "physics": physics,
         "episode_duration_s": float(episode_duration),
         "workers": workers,
+        "envs_per_seed": int(envs),
         "torch_threads_per_worker": threads,
         "success_threshold_return": threshold,
         "succeeded": sum(bool(r.get("succeeded")) for r in per_seed),

@@ -49,6 +49,15 @@ run on the CPU (same thread count; ``torch.use_deterministic_algorithms`` is swi
 training when ``config.torch_deterministic``). The one checkpoint that may fall inside an episode
 is the final one written when ``steps`` is reached; continuing such a run to a larger ``steps``
 abandons that partial episode (its transitions stay in the buffer) and starts the next one.
+
+Vector environments
+-------------------
+:func:`train_vector` trains with a Gymnasium vector environment whose ``autoreset_mode`` is
+``SAME_STEP`` (e.g. :class:`rl.vector_env.MagneticCrawlerVectorEnv`, N crawlers in one batched
+simulator): N transitions per vector step, one TD3 update per transition, the real final
+observation ``infos["final_obs"][i]`` stored for ended sub-environments (no transition across a
+reset), and checkpoints at vector-step boundaries that include the environment's full state
+(``env.get_state()``), so resume is exact at any checkpoint.
 """
 
 from __future__ import annotations
@@ -408,6 +417,18 @@ class TD3Agent:
             action = np.clip(action + noise, -1.0, 1.0)
         return action.astype(np.float32)
 
+    @torch.no_grad()
+    def select_actions(self, obs: np.ndarray, explore: bool) -> np.ndarray:
+        """Batched :meth:`select_action`: ``obs`` ``(B, obs_dim)`` -> normalised actions
+        ``(B, act_dim)`` float32; the noise is one ``(B, act_dim)`` draw from ``self.rng`` (for
+        ``B = 1`` the same numbers as :meth:`select_action`)."""
+        obs_t = torch.as_tensor(np.asarray(obs, dtype=np.float32).reshape(-1, self.obs_dim))
+        action = self.actor(obs_t.to(self.device)).cpu().numpy().astype(np.float64)
+        if explore:
+            noise = self.rng.normal(0.0, self.config.exploration_noise, size=action.shape)
+            action = np.clip(action + noise, -1.0, 1.0)
+        return action.astype(np.float32)
+
     def act(self, obs: np.ndarray, explore: bool = False) -> np.ndarray:
         """Action in environment units for ``obs`` (deterministic unless ``explore``)."""
         return self.scale_action(self.select_action(obs, explore))
@@ -751,6 +772,281 @@ def train(
                     ep_return, ep_len = 0.0, 0
         if not (resumed_here and global_step == int(ckpt["global_step"])):
             checkpoint(at_episode_boundary=ep_len == 0 or bool(terminated or truncated))
+    finally:
+        csv_file.close()
+        bar.close()
+        writer.close()
+        env.close()
+        torch.use_deterministic_algorithms(prev_deterministic)
+    return agent
+
+
+# ----------------------------------------------------------------------------------------------
+# Training with a vector environment
+# ----------------------------------------------------------------------------------------------
+def _to_tensors(obj: Any) -> Any:
+    """numpy arrays -> CPU tensors, recursively (checkpoints load with ``weights_only=True``)."""
+    if isinstance(obj, np.ndarray):
+        return torch.from_numpy(obj.copy())
+    if isinstance(obj, dict):
+        return {k: _to_tensors(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return type(obj)(_to_tensors(v) for v in obj)
+    return obj
+
+
+def _to_numpy(obj: Any) -> Any:
+    """Inverse of :func:`_to_tensors`."""
+    if isinstance(obj, torch.Tensor):
+        return obj.numpy().copy()
+    if isinstance(obj, dict):
+        return {k: _to_numpy(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return type(obj)(_to_numpy(v) for v in obj)
+    return obj
+
+
+def train_vector(
+    vec_env_fn: Callable[[], gym.vector.VectorEnv],
+    config: TD3Config | None = None,
+    steps: int = 100_000,
+    run_dir: str | os.PathLike = "runs/td3",
+    resume: bool = False,
+    progress: bool = True,
+    log_fn: Callable[[dict[str, Any]], None] | None = None,
+    *,
+    init_from: str | os.PathLike | None = None,
+    progress_position: int | None = None,
+    progress_desc: str | None = None,
+    metadata: dict[str, Any] | None = None,
+) -> TD3Agent:
+    """Train TD3 with a vector environment of ``N`` sub-environments (e.g.
+    :class:`~rl.vector_env.MagneticCrawlerVectorEnv`): N transitions per vector step and, after
+    the warm-up, ``N * updates_per_step`` gradient updates per vector step (one update per
+    environment transition, as :func:`train`).
+
+    Same outputs as :func:`train` (``episodes.csv`` with a global episode counter, numbered in the
+    order episodes end, sub-environments in index order within a step; TensorBoard scalars;
+    ``checkpoint.pt`` loadable by everything that reads :func:`train` checkpoints).
+
+    Autoreset: the environment must declare ``metadata["autoreset_mode"] ==
+    AutoresetMode.SAME_STEP``. For a sub-environment that ended on a step, the stored transition's
+    ``next_obs`` is ``infos["final_obs"][i]`` (the real last observation) and ``terminated[i]`` is
+    stored (a truncation bootstraps); the first observation of the new episode (the returned
+    ``obs[i]``) only becomes the ``obs`` of the next transition. No transition spans a reset.
+
+    Seeding: the environment is reset once, with ``seed=episode_seed(config.seed, 0)`` (so
+    sub-environment ``i`` gets that seed ``+ i``); later episodes draw their initial fields from
+    each sub-environment's own generator (autoreset).
+
+    Checkpoints and exact resume: a checkpoint is written at the first vector step that reaches
+    every multiple of ``config.checkpoint_every`` transitions, and at the end. It holds what
+    :func:`train` saves plus, under ``"vector"``, the environment's full state
+    (``env.get_state()``: the simulator memory block, fields, counters, generators), the current
+    observations and each sub-environment's running return and length. Every vector step is a
+    restorable point, so a killed run resumed from its checkpoint (or continued to more ``steps``)
+    ends bit-identical to an uninterrupted one (CPU, same thread count). Environments without
+    ``get_state``/``set_state`` train but cannot be resumed mid-episode.
+
+    Args:
+        vec_env_fn: makes the vector environment (flat Box single spaces, bounded actions).
+        steps: total environment transitions (all sub-environments together) of the run; the run
+            stops at the first vector step reaching it, so it takes ``ceil(steps / N)`` vector
+            steps.
+        Others: as :func:`train`.
+    """
+    from gymnasium.vector import AutoresetMode
+    from torch.utils.tensorboard import SummaryWriter
+    from tqdm.auto import tqdm
+
+    run_dir = Path(run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    ckpt_path = run_dir / CHECKPOINT_NAME
+    csv_path = run_dir / EPISODES_CSV
+
+    ckpt: dict[str, Any] | None = None
+    if ckpt_path.exists():
+        if not resume:
+            raise FileExistsError(f"{ckpt_path} exists: pass resume=True or use a new run_dir")
+        ckpt = load_checkpoint(ckpt_path)
+    elif resume:
+        warnings.warn(f"resume=True but no checkpoint in {run_dir}: starting fresh", stacklevel=2)
+    resumed_here = ckpt is not None
+    if ckpt is None and init_from is not None:
+        ckpt = load_checkpoint(init_from)
+    if ckpt is not None:
+        ckpt_cfg = TD3Config.from_dict(ckpt["config"])
+        if resumed_here or config is None:
+            if config is not None and config != ckpt_cfg:
+                warnings.warn("resuming: using the checkpoint's config, not the one passed",
+                              stacklevel=2)
+            config = ckpt_cfg
+    cfg = config if config is not None else TD3Config()
+    if metadata is None and resumed_here:
+        metadata = ckpt.get("metadata")
+
+    env = vec_env_fn()
+    if env.metadata.get("autoreset_mode") != AutoresetMode.SAME_STEP:
+        env.close()
+        raise ValueError("train_vector needs a vector env with autoreset_mode SAME_STEP")
+    n_envs = int(env.num_envs)
+    agent = TD3Agent(
+        int(np.prod(env.single_observation_space.shape)), int(np.prod(env.single_action_space.shape)),
+        env.single_action_space.low.reshape(-1), env.single_action_space.high.reshape(-1), cfg,
+    )
+    total = -(-int(steps) // n_envs) * n_envs
+    buffer = ReplayBuffer(min(cfg.buffer_size, total), agent.obs_dim, agent.act_dim)
+    global_step, episode, elapsed_before = 0, 0, 0.0
+    vector_state: dict[str, Any] | None = None
+    if ckpt is not None:
+        if (ckpt["obs_dim"], ckpt["act_dim"]) != (agent.obs_dim, agent.act_dim):
+            raise ValueError("checkpoint does not match the environment's spaces")
+        agent.load_state_dict(ckpt["agent"])
+        buffer.load_state_dict(ckpt["buffer"])
+        global_step = int(ckpt["global_step"])
+        random.setstate(ckpt["python_rng"])
+        torch.set_rng_state(ckpt["torch_cpu_rng"])
+        if resumed_here:
+            elapsed_before = float(ckpt["wall_time_s"])
+            vector_state = ckpt.get("vector")
+            if vector_state is None or int(vector_state["num_envs"]) != n_envs:
+                raise ValueError(f"{ckpt_path} holds no state of a {n_envs}-env vector run")
+            episode = int(ckpt["episode"])
+        else:
+            episode = int(ckpt["episode"]) + (0 if ckpt["at_episode_boundary"] else 1)
+    else:
+        random.seed(cfg.seed)
+        torch.manual_seed(cfg.seed)
+
+    if resumed_here:
+        _truncate_episode_log(csv_path, episode)
+    elif csv_path.exists():
+        csv_path.unlink()
+    writer = SummaryWriter(str(run_dir), purge_step=global_step if resumed_here else None)
+    if not resumed_here:
+        writer.add_text("config", str(cfg.to_dict()))
+
+    if vector_state is not None:
+        env.reset(seed=episode_seed(cfg.seed, episode))  # builds the simulator; then overwritten
+        env.set_state(_to_numpy(vector_state["env_state"]))
+        obs = _to_numpy(vector_state["obs"])
+        ep_return = _to_numpy(vector_state["ep_return"])
+        ep_len = _to_numpy(vector_state["ep_len"])
+    else:
+        obs, _ = env.reset(seed=episode_seed(cfg.seed, episode))
+        obs = np.asarray(obs, dtype=np.float32).reshape(n_envs, agent.obs_dim)
+        ep_return = np.zeros(n_envs, dtype=np.float64)
+        ep_len = np.zeros(n_envs, dtype=np.int64)
+
+    def checkpoint() -> None:
+        env_state = env.get_state() if hasattr(env, "get_state") else None
+        save_checkpoint(ckpt_path, {
+            "format": CHECKPOINT_FORMAT,
+            "config": cfg.to_dict(),
+            "obs_dim": agent.obs_dim,
+            "act_dim": agent.act_dim,
+            "action_low": torch.from_numpy(agent.action_low.copy()),
+            "action_high": torch.from_numpy(agent.action_high.copy()),
+            "agent": agent.state_dict(),
+            "buffer": buffer.state_dict(),
+            "global_step": global_step,
+            "episode": episode,  # index the next episode to end will get
+            "at_episode_boundary": False,  # for train(): the sub-envs are mid-episode
+            "python_rng": random.getstate(),
+            "torch_cpu_rng": torch.get_rng_state(),
+            "wall_time_s": elapsed_before + time.time() - t_start,
+            "metadata": metadata if metadata is not None else {},
+            "vector": None if env_state is None else {
+                "num_envs": n_envs,
+                "env_state": _to_tensors(env_state),
+                "obs": torch.from_numpy(obs.copy()),
+                "ep_return": torch.from_numpy(ep_return.copy()),
+                "ep_len": torch.from_numpy(ep_len.copy()),
+            },
+        })
+
+    prev_deterministic = torch.are_deterministic_algorithms_enabled()
+    if cfg.torch_deterministic:
+        torch.use_deterministic_algorithms(True)
+    t_start = time.time()
+    start_step = global_step
+    next_checkpoint = (global_step // cfg.checkpoint_every + 1) * cfg.checkpoint_every
+    bar = tqdm(total=total, initial=min(global_step, total), disable=not progress,
+               position=progress_position, desc=progress_desc, dynamic_ncols=True, leave=True)
+    csv_file = open(csv_path, "a", newline="")
+    try:
+        csv_writer = csv.DictWriter(csv_file, fieldnames=EPISODE_FIELDS)
+        if csv_path.stat().st_size == 0:
+            csv_writer.writeheader()
+        sps_t, sps_step = time.time(), global_step
+        while global_step < steps:
+            # 1. act: transition global_step + i is random during warm-up, then mu(s) + noise
+            actions = np.empty((n_envs, agent.act_dim), dtype=np.float32)
+            n_random = int(np.clip(cfg.learning_starts - global_step, 0, n_envs))
+            for i in range(n_random):
+                actions[i] = agent.random_action()
+            if n_random < n_envs:
+                actions[n_random:] = agent.select_actions(obs[n_random:], explore=True)
+            next_obs, rewards, terminated, truncated, infos = env.step(agent.scale_action(actions))
+            next_obs = np.asarray(next_obs, dtype=np.float32).reshape(n_envs, agent.obs_dim)
+            terminated = np.asarray(terminated, dtype=bool)
+            truncated = np.asarray(truncated, dtype=bool)
+            # 2. store: the real s' of an ended sub-env is infos["final_obs"][i] (SAME_STEP)
+            real_next = next_obs.copy()
+            ended = np.flatnonzero(terminated | truncated)
+            if ended.size:
+                final_obs = infos["final_obs"]
+                for i in ended:
+                    real_next[i] = np.asarray(final_obs[i], dtype=np.float32).reshape(-1)
+            for i in range(n_envs):
+                buffer.add(obs[i], actions[i], float(rewards[i]), real_next[i], bool(terminated[i]))
+            ep_return += np.asarray(rewards, dtype=np.float64)
+            ep_len += 1
+            before = global_step
+            global_step += n_envs
+            bar.update(n_envs)
+
+            # 3. learn: updates_per_step updates per transition past the warm-up
+            n_learn = max(0, global_step - max(before, cfg.learning_starts))
+            if n_learn and len(buffer) >= cfg.batch_size:
+                for _ in range(n_learn * cfg.updates_per_step):
+                    info = agent.update(buffer.sample(cfg.batch_size, agent.rng))
+                    if agent.num_updates % cfg.log_every == 0:
+                        for k, v in info.items():
+                            writer.add_scalar(f"losses/{k}", v, global_step)
+
+            # 4. episode ends (the sub-envs are already reset): log in sub-env order
+            for i in ended:
+                row = {
+                    "episode": episode,
+                    "global_step": global_step,
+                    "return": float(ep_return[i]),
+                    "length": int(ep_len[i]),
+                    "terminated": int(terminated[i]),
+                    "truncated": int(truncated[i]),
+                    "wall_time_s": round(elapsed_before + time.time() - t_start, 3),
+                }
+                csv_writer.writerow(row)
+                writer.add_scalar("charts/episodic_return", row["return"], global_step)
+                writer.add_scalar("charts/episodic_length", row["length"], global_step)
+                bar.set_postfix(ep=episode, ret=f"{row['return']:.3g}", refresh=False)
+                if log_fn is not None:
+                    log_fn(row)
+                episode += 1
+                ep_return[i], ep_len[i] = 0.0, 0
+            if ended.size:
+                csv_file.flush()
+                now = time.time()
+                writer.add_scalar("charts/sps", (global_step - sps_step) / max(now - sps_t, 1e-9),
+                                  global_step)
+                sps_t, sps_step = now, global_step
+            obs = next_obs
+            if global_step >= next_checkpoint and global_step < steps:
+                writer.flush()
+                checkpoint()
+                next_checkpoint = (global_step // cfg.checkpoint_every + 1) * cfg.checkpoint_every
+        if global_step != start_step or not resumed_here:
+            checkpoint()
     finally:
         csv_file.close()
         bar.close()
