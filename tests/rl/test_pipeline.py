@@ -200,3 +200,23 @@ def test_demo_names_the_missing_policy(tmp_path, monkeypatch, capsys):
 def test_unknown_policy_is_a_clear_error(tmp_path):
     with pytest.raises(pipeline.PolicyNotFoundError, match="shipped"):
         pipeline.resolve_policy(tmp_path / "nothing-here")
+
+
+def test_shipped_m1_4mT_policy_generates_and_exports(tmp_path, capsys):
+    """The policy shipped in the package: generate a short run by name, export it, reload it."""
+    import json
+
+    import torch
+
+    assert msr(["generate", "m1-4mT", "--duration", "0.05", "--out", str(tmp_path / "gen"),
+                "--no-gif", "--no-figures", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    fields = np.loadtxt(result["fields_csv"], delimiter=",", skiprows=1)
+    assert fields.shape == (5, 4)
+    assert np.all(np.abs(fields[:, 1:3]) <= 5 * 0.3 + 1e-9)  # mT: from zero, +-0.3 mT per step
+    assert msr(["export", "m1-4mT", "--out", str(tmp_path / "exp")]) == 0
+    policy = pipeline.resolve_policy("m1-4mT")
+    obs = np.zeros(260, dtype=np.float32)
+    module = torch.jit.load(str(next((tmp_path / "exp").glob("*.ts.pt"))))
+    action = module(torch.from_numpy(obs)[None]).detach().numpy()[0]
+    np.testing.assert_allclose(action, policy.act(obs), atol=1e-6)
