@@ -107,7 +107,8 @@ def plot_learning_curves(
     n_grid: int = 200,
 ) -> Path:
     """Episode return against environment steps over seeds: per-seed EMA (thin), their mean (thick)
-    and the min-max spread (shaded), on a common step grid where at least one seed has data.
+    and the min-max spread (shaded), on the step range every seed has reached (so the mean is
+    always over all seeds).
 
     The return of a 20 s episode is ``1e4 x`` the middle node's displacement in m (the authors'
     ``10 x mm``), so 100 = 1 cm per episode.
@@ -125,7 +126,7 @@ def plot_learning_curves(
         ax.plot(steps, smooth, lw=0.8, alpha=0.5, label=run.name)
         curves.append((steps, smooth))
     if curves:
-        grid = np.linspace(min(c[0][0] for c in curves), max(c[0][-1] for c in curves), n_grid)
+        grid = np.linspace(max(c[0][0] for c in curves), min(c[0][-1] for c in curves), n_grid)
         values = np.full((len(curves), n_grid), np.nan)
         for k, (steps, smooth) in enumerate(curves):
             inside = (grid >= steps[0]) & (grid <= steps[-1])
