@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# The main job: simulate the paper's robot (pattern 1, accurate physics) under a rotating field.
-# Writes out/simulate/trajectory.csv and out/simulate/shapes.png. Extra arguments go to `msr simulate`.
+# The main job: `msr demo`. The shipped pattern-1 4 mT policy drives the paper's robot for 10 s in
+# the accurate physics from a zero field; writes out/demo/fields.csv (mT, 100 Hz: the waveform for the
+# coils), trajectory.csv, the figures and gait.gif. A few minutes. Extra arguments go to `msr demo`.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
 bash scripts/bootstrap.sh
 export MPLBACKEND=Agg
-.venv/bin/msr simulate --out out/simulate "$@"
+.venv/bin/msr demo --out out/demo "$@"
