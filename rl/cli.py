@@ -24,7 +24,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seeds", type=int, default=8, help="number of seeds (default 8)")
     p.add_argument("--seed-offset", type=int, default=0, help="first seed (default 0)")
     p.add_argument("--steps", type=int, default=100_000, help="environment steps per seed")
-    p.add_argument("--workers", type=int, default=1, help="seeds trained at a time (processes)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="seeds trained at a time (processes, or Ray tasks in flight)")
     p.add_argument("--out", type=Path, default=Path("runs"), help="output folder")
     p.add_argument("--resume", action="store_true", help="continue runs from their checkpoints")
     p.add_argument("--physics", choices=("training", "accurate"), default="training")
@@ -33,6 +34,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--envs", type=int, default=1,
                    help="crawlers per seed in one batched simulator (vector env; N transitions and "
                         "N TD3 updates per vector step; default 1: the single environment)")
+    p.add_argument("--backend", choices=("process", "ray"), default="process",
+                   help="where the seeds run: worker processes on this machine (default) or Ray tasks "
+                        "(a local Ray instance with --workers x --threads CPUs, or the cluster at "
+                        "--address); same run directories and summary.json")
+    p.add_argument("--address", default=None,
+                   help="Ray cluster address for --backend ray (auto, HOST:PORT, ray://HOST:10001); "
+                        "--out must then be on a filesystem all nodes see at the same path")
     g = p.add_argument_group("TD3 overrides (default: the paper's settings)")
     g.add_argument("--learning-starts", type=int, default=None, help="warm-up steps (2500)")
     g.add_argument("--batch-size", type=int, default=None, help="minibatch (256)")
@@ -151,8 +159,9 @@ def train_command(args: argparse.Namespace) -> int:
             resume=args.resume, seed_offset=args.seed_offset, config_overrides=_overrides(args),
             physics=args.physics, episode_duration=args.episode_duration,
             progress=not args.no_progress, threads=args.threads, envs=args.envs,
+            backend=args.backend, address=args.address,
         )
-    except (FileExistsError, ValueError) as exc:
+    except (FileExistsError, ValueError, ConnectionError) as exc:  # ConnectionError: --address
         raise CommandError(str(exc)) from None
     if not args.json:
         summary = {k: v for k, v in summary.items() if k != "seeds"} | {

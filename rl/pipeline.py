@@ -3,10 +3,10 @@
 Workflow (paper "Miscellaneous training tips"):
 
 1. :func:`train_case`: TD3 on one case (``m1-4mT``, ``m2-4mT``, ``m1-10mT``, ``m2-10mT``) for several
-   seeds in parallel processes, in the mass-scaled *training* physics, random initial fields, 20 s
-   episodes (truncated, not terminal). Each seed writes ``OUT/<case>/seed<k>/`` (``episodes.csv``,
-   TensorBoard scalars, ``checkpoint.pt``, ``run.json``); a ``summary.json`` per case collects
-   each seed's final mean episode return.
+   seeds in parallel processes or Ray tasks (:mod:`rl.backends`), in the mass-scaled *training*
+   physics, random initial fields, 20 s episodes (truncated, not terminal). Each seed writes
+   ``OUT/<case>/seed<k>/`` (``episodes.csv``, TensorBoard scalars, ``checkpoint.pt``,
+   ``run.json``); a ``summary.json`` per case collects each seed's final mean episode return.
 2. :func:`refine`: load a run's agent *and replay buffer* and keep training (~1000 steps) in the
    *accurate* physics (12.5x more substeps per step). Written to ``RUN/refined/``.
 3. :func:`generate`: run the deterministic policy in the accurate physics with the field starting at
@@ -27,18 +27,17 @@ from __future__ import annotations
 import functools
 import json
 import math
-import multiprocessing
 import os
 import platform
 import time
 import warnings
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .backends import BACKENDS, run_jobs
 from .env import CASES, MAX_FIELD_INCREMENT, MagneticCrawlerEnv, observation_spec
 
 __all__ = [
@@ -216,6 +215,8 @@ def train_case(
     threads: int | None = None,
     success_fraction: float = 0.5,
     envs: int = 1,
+    backend: str = "process",
+    address: str | None = None,
 ) -> dict[str, Any]:
     """Train seeds ``seed_offset .. seed_offset + seeds - 1`` of ``case`` for ``steps`` environment
     steps each, ``workers`` at a time in separate processes (``spawn``), one progress bar each.
@@ -234,8 +235,18 @@ def train_case(
             :func:`~rl.td3.train_vector`: ``envs`` transitions and updates per vector step); 1
             (default) is the single environment and :func:`~rl.td3.train`. Resume with the same
             value.
+        backend: ``"process"`` (default: worker processes on this machine) or ``"ray"`` (one Ray
+            task per seed, ``workers`` at a time; see :mod:`rl.backends`). Same function per seed,
+            same run directories and summary.
+        address: Ray cluster to run on (``backend="ray"`` only; default: a local Ray instance with
+            ``workers x threads`` CPUs, started and shut down here). The output folder must then be
+            on a filesystem every node sees at the same path.
     """
     _case(case)
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
+    if address is not None and backend != "ray":
+        raise ValueError("--address is for the ray backend (--backend ray)")
     if seeds < 1 or steps < 1 or workers < 1 or envs < 1:
         raise ValueError("seeds, steps, workers and envs must be >= 1")
     case_dir = Path(out) / case
@@ -247,8 +258,8 @@ def train_case(
             raise FileExistsError(f"runs already exist: {', '.join(existing)} (use --resume, another "
                                   "--out, or --seed-offset)")
     workers = min(workers, seeds)
-    if threads is None:
-        threads = max(1, (os.cpu_count() or 1) // workers)
+    if threads is None:  # on a Ray cluster this machine's CPU count says nothing: one per seed
+        threads = 1 if address else max(1, (os.cpu_count() or 1) // workers)
     jobs = [{
         "case": case, "physics": physics, "duration": float(episode_duration), "steps": int(steps),
         "run_dir": str(case_dir / f"seed{s}"), "resume": resume, "progress": progress,
@@ -256,25 +267,17 @@ def train_case(
         "config": crawler_config(s, **(config_overrides or {})).to_dict(),
     } for k, s in enumerate(seed_list)]
 
-    results: dict[int, dict[str, Any]] = {}
-    start = time.perf_counter()
-    if workers == 1:
+    if backend == "ray":
+        # Ray workers may run elsewhere (another cwd, another node): give them absolute paths, and
+        # report the paths as the process backend does.
         for job in jobs:
-            seed = job["config"]["seed"]
-            try:
-                results[seed] = _train_seed(job)
-            except Exception as exc:  # keep the other seeds going; report the failure
-                results[seed] = {"seed": seed, "error": f"{type(exc).__name__}: {exc}"}
-    else:
-        context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-            futures = {pool.submit(_train_seed, job): job["config"]["seed"] for job in jobs}
-            for future in as_completed(futures):
-                seed = futures[future]
-                try:
-                    results[seed] = future.result()
-                except Exception as exc:
-                    results[seed] = {"seed": seed, "error": f"{type(exc).__name__}: {exc}"}
+            job["run_dir"] = str(Path(job["run_dir"]).resolve())
+    start = time.perf_counter()
+    results = run_jobs(_train_seed, jobs, workers, backend=backend, address=address, progress=progress)
+    if backend == "ray":
+        for seed, r in results.items():
+            if "run_dir" in r:
+                r["run_dir"] = str(case_dir / f"seed{seed}")
 
     threshold = success_fraction * AUTHORS_DISTANCE_10S[case] * (episode_duration / 10.0) * 1e4
     per_seed = [results[s] for s in seed_list]
@@ -289,6 +292,7 @@ def train_case(
         "physics": physics,
         "episode_duration_s": float(episode_duration),
         "workers": workers,
+        "backend": backend,
         "envs_per_seed": int(envs),
         "torch_threads_per_worker": threads,
         "success_threshold_return": threshold,
