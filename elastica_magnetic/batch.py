@@ -46,8 +46,7 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from .presets import RobotSpec
-from .section import rectangular_band_rod
-from .simulation import SimulationDiverged, trajectory_row
+from .simulation import SimulationDiverged, robot_rod, trajectory_row
 
 __all__ = ["BatchedRobots", "BatchedRobotSimulator", "BatchedSimulationDiverged"]
 
@@ -180,16 +179,7 @@ class BatchedRobots:
         simulator = BatchedRobotSimulator()
         rods = []
         for _ in range(n_robots):
-            rod = rectangular_band_rod(
-                spec.n_elements,
-                spec.length,
-                spec.width,
-                spec.height,
-                spec.effective_density,
-                spec.youngs_modulus,
-                spec.shear_modulus,
-                alpha_c=spec.alpha_c,
-            )
+            rod = robot_rod(spec)
             simulator.append(rod)
             rods.append(rod)
         simulator.add_forcing_to(rods[0]).using(_BlockForcing, owner=self)

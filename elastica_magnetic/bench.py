@@ -31,10 +31,14 @@ from . import simulation as simulation_module
 from .batch import BatchedRobots
 from .fields import ControlledField, RotatingField
 from .forcing import LegacyInternalDamping, MagneticTorques, RelativeVelocityDamping
-from .ground import FrictionalGroundContact
 from .presets import RobotSpec, yao2023_robot
-from .section import rectangular_band_rod
-from .simulation import MagneticRodSimulator, build_simulation
+from .simulation import (
+    MagneticRodSimulator,
+    build_simulation,
+    ground_plane,
+    register_robot_forcing,
+    robot_rod,
+)
 
 __all__ = [
     "BATCH_SIZES",
@@ -177,48 +181,17 @@ def batched_fields(n: int) -> np.ndarray:
 def per_rod_simulator(spec: RobotSpec, n: int) -> tuple[MagneticRodSimulator, list[ControlledField]]:
     """N rods in one simulator with the per-rod forcing of :func:`build_simulation` (same order)."""
     simulator = MagneticRodSimulator()
-    plane = ea.Plane(plane_origin=np.array([0.0, -spec.radius, 0.0]), plane_normal=np.array([0.0, 1, 0]))
-    rods = []
-    for _ in range(n):
-        rod = rectangular_band_rod(
-            spec.n_elements,
-            spec.length,
-            spec.width,
-            spec.height,
-            spec.effective_density,
-            spec.youngs_modulus,
-            spec.shear_modulus,
-            alpha_c=spec.alpha_c,
-        )
+    rods = [robot_rod(spec) for _ in range(n)]
+    for rod in rods:
         simulator.append(rod)
-        rods.append(rod)
-    simulator.append(plane)
+    plane = ground_plane(spec)
+    if plane is not None:
+        simulator.append(plane)
     sources = []
-    g, d = spec.ground, spec.damping
     for rod in rods:
         source = ControlledField(limit=1.0, max_increment=1.0)
         sources.append(source)
-        simulator.add_forcing_to(rod).using(
-            MagneticTorques, field=source, magnetization=spec.magnetization, frame="lab"
-        )
-        simulator.add_forcing_to(rod).using(
-            RelativeVelocityDamping, nu=d.relative_nu, node_offset=d.node_offset
-        )
-        simulator.add_forcing_to(rod).using(
-            LegacyInternalDamping, force_coefficient=d.legacy_force, torque_coefficient=d.legacy_torque
-        )
-        simulator.add_forcing_to(rod).using(
-            ea.GravityForces, acc_gravity=np.array([0.0, -spec.effective_gravity, 0.0])
-        )
-        simulator.detect_contact_between(rod, plane).using(
-            FrictionalGroundContact,
-            k=g.k,
-            nu=g.nu,
-            static_mu=g.static_mu,
-            kinetic_mu=g.kinetic_mu,
-            surface_tolerance=g.surface_tolerance,
-            slip_velocity_tol=g.slip_velocity_tol,
-        )
+        register_robot_forcing(simulator, rod, spec, source, plane)
     simulator.finalize()
     return simulator, sources
 

@@ -159,6 +159,66 @@ def trajectory_row(rod: ea.CosseratRod, time: float) -> dict[str, float]:
     }
 
 
+def robot_rod(spec: RobotSpec) -> ea.CosseratRod:
+    """The straight equivalent rod of ``spec`` (along +x from the origin), not yet in a simulator."""
+    return rectangular_band_rod(
+        spec.n_elements,
+        spec.length,
+        spec.width,
+        spec.height,
+        spec.effective_density,
+        spec.youngs_modulus,
+        spec.shear_modulus,
+        alpha_c=spec.alpha_c,
+    )
+
+
+def ground_plane(spec: RobotSpec) -> ea.Plane | None:
+    """The ground ``y = -radius`` of ``spec`` (``None`` when the spec has no ground)."""
+    if spec.ground is None:
+        return None
+    return ea.Plane(plane_origin=np.array([0.0, -spec.radius, 0.0]), plane_normal=np.array([0.0, 1.0, 0.0]))
+
+
+def register_robot_forcing(
+    simulator: MagneticRodSimulator,
+    rod: ea.CosseratRod,
+    spec: RobotSpec,
+    field_source: FieldFunction,
+    plane: ea.Plane | None,
+) -> None:
+    """Register the per-rod forcing of ``spec`` on ``rod``: magnetic torques, the dampings, gravity,
+    then the ground contact with ``plane`` (already appended). Order matters: every load on the rod
+    must be in place before the ground contact runs."""
+    simulator.add_forcing_to(rod).using(
+        MagneticTorques, field=field_source, magnetization=spec.magnetization, frame="lab"
+    )
+    if spec.damping is not None:
+        simulator.add_forcing_to(rod).using(
+            RelativeVelocityDamping, nu=spec.damping.relative_nu, node_offset=spec.damping.node_offset
+        )
+        simulator.add_forcing_to(rod).using(
+            LegacyInternalDamping,
+            force_coefficient=spec.damping.legacy_force,
+            torque_coefficient=spec.damping.legacy_torque,
+        )
+    if spec.gravity > 0.0:
+        simulator.add_forcing_to(rod).using(
+            ea.GravityForces, acc_gravity=np.array([0.0, -spec.effective_gravity, 0.0])
+        )
+    if spec.ground is not None and plane is not None:
+        g = spec.ground
+        simulator.detect_contact_between(rod, plane).using(
+            FrictionalGroundContact,
+            k=g.k,
+            nu=g.nu,
+            static_mu=g.static_mu,
+            kinetic_mu=g.kinetic_mu,
+            surface_tolerance=g.surface_tolerance,
+            slip_velocity_tol=g.slip_velocity_tol,
+        )
+
+
 def build_simulation(
     spec: RobotSpec, field_source: FieldFunction, *, max_speed: float | None = None
 ) -> RobotSimulation:
@@ -176,50 +236,12 @@ def build_simulation(
     if not callable(field_source):
         raise TypeError("field_source must be a callable field(time) -> (3,)")
     simulator = MagneticRodSimulator()
-    rod = rectangular_band_rod(
-        spec.n_elements,
-        spec.length,
-        spec.width,
-        spec.height,
-        spec.effective_density,
-        spec.youngs_modulus,
-        spec.shear_modulus,
-        alpha_c=spec.alpha_c,
-    )
+    rod = robot_rod(spec)
     simulator.append(rod)
-
-    # Order matters: every load on the rod must be in place before the ground contact runs.
-    simulator.add_forcing_to(rod).using(
-        MagneticTorques, field=field_source, magnetization=spec.magnetization, frame="lab"
-    )
-    if spec.damping is not None:
-        simulator.add_forcing_to(rod).using(
-            RelativeVelocityDamping, nu=spec.damping.relative_nu, node_offset=spec.damping.node_offset
-        )
-        simulator.add_forcing_to(rod).using(
-            LegacyInternalDamping,
-            force_coefficient=spec.damping.legacy_force,
-            torque_coefficient=spec.damping.legacy_torque,
-        )
-    if spec.gravity > 0.0:
-        simulator.add_forcing_to(rod).using(
-            ea.GravityForces, acc_gravity=np.array([0.0, -spec.effective_gravity, 0.0])
-        )
-    if spec.ground is not None:
-        plane = ea.Plane(
-            plane_origin=np.array([0.0, -spec.radius, 0.0]), plane_normal=np.array([0.0, 1.0, 0.0])
-        )
+    plane = ground_plane(spec)
+    if plane is not None:
         simulator.append(plane)
-        g = spec.ground
-        simulator.detect_contact_between(rod, plane).using(
-            FrictionalGroundContact,
-            k=g.k,
-            nu=g.nu,
-            static_mu=g.static_mu,
-            kinetic_mu=g.kinetic_mu,
-            surface_tolerance=g.surface_tolerance,
-            slip_velocity_tol=g.slip_velocity_tol,
-        )
+    register_robot_forcing(simulator, rod, spec, field_source, plane)
     simulator.finalize()
     if max_speed is None:
         max_speed = 10.0 * spec.units.factor("velocity")
