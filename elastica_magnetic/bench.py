@@ -51,7 +51,12 @@ __all__ = [
     "measure_batched",
     "per_robot_step_cost",
     "per_rod_simulator",
+    "replay_buffer_bytes",
+    "sgemm_gflops",
+    "td3_roofline",
+    "td3_update_flops",
     "td3_updates_per_s",
+    "training_peak_memory",
     "vector_env_steps_per_s",
 ]
 
@@ -361,6 +366,183 @@ def td3_updates_per_s(updates: int = 200, repeats: int = 3, threads: int = 1) ->
         torch.set_num_threads(previous)
 
 
+def _linear_shapes(module: Any) -> list[tuple[int, int]]:
+    """``(in_features, out_features)`` of the ``nn.Linear`` layers of ``module``, in order."""
+    import torch.nn as nn
+
+    return [(m.in_features, m.out_features) for m in module.modules() if isinstance(m, nn.Linear)]
+
+
+def td3_update_flops(agent: Any, batch_size: int) -> float:
+    """Floating-point operations of one :meth:`rl.td3.TD3Agent.update`, averaged over the policy
+    delay, counting the matrix products only (``2 * batch * in * out`` per product; biases,
+    activations and Adam are below 1 % here).
+
+    Per update: the target (target actor and both target critics forward); the critics (forward,
+    weight gradients, input gradients of every layer but the first); every ``policy_delay``-th
+    update the actor (actor and Q1 forward, Q1 input gradients down to the action, actor weight
+    gradients and input gradients of every layer but the first; the critic's weights are frozen).
+    """
+    actor = _linear_shapes(agent.actor)
+    q1, q2 = _linear_shapes(agent.critic.q1_net), _linear_shapes(agent.critic.q2_net)
+
+    def macs(layers: list[tuple[int, int]]) -> int:
+        return sum(i * o for i, o in layers)
+
+    target = macs(actor) + macs(q1) + macs(q2)
+    critics = 2 * (macs(q1) + macs(q2)) + macs(q1[1:]) + macs(q2[1:])
+    actor_step = 3 * macs(actor) + 2 * macs(q1) - macs(actor[:1])
+    per_sample = target + critics + actor_step / agent.config.policy_delay
+    return 2.0 * batch_size * per_sample
+
+
+def sgemm_gflops(shapes: Sequence[tuple[int, int, int]], repeats: int = 3, threads: int = 1,
+                 min_time: float = 0.2) -> float:
+    """Single-precision matrix-product rate of torch on this machine (GFLOP/s, ``threads`` threads):
+    the median over ``repeats`` of products ``(m, k) @ (k, n)`` cycled over ``shapes`` for at least
+    ``min_time`` s. With the network's own shapes this is the ceiling of a TD3 update."""
+    import torch
+
+    previous = torch.get_num_threads()
+    torch.set_num_threads(threads)
+    try:
+        gen = torch.Generator().manual_seed(0)
+        pairs = [(torch.randn(m, k, generator=gen), torch.randn(k, n, generator=gen))
+                 for m, k, n in shapes]
+        flop = sum(2.0 * m * k * n for m, k, n in shapes)
+        for a, b in pairs:  # warm
+            a @ b
+        rates = []
+        for _ in range(repeats):
+            count, start = 0, time.perf_counter()
+            while (elapsed := time.perf_counter() - start) < min_time or count == 0:
+                for a, b in pairs:
+                    a @ b
+                count += 1
+            rates.append(count * flop / elapsed / 1e9)
+        return statistics.median(rates)
+    finally:
+        torch.set_num_threads(previous)
+
+
+def td3_roofline(updates_per_s: float, repeats: int = 3, quick: bool = False) -> dict[str, float]:
+    """Where the TD3 update stands against this machine's matrix-product rate (one thread).
+
+    Returns ``gflop_per_update`` (:func:`td3_update_flops` of the crawler's agent, batch 256),
+    ``sgemm_gflops`` (:func:`sgemm_gflops` over the update's forward shapes), ``achieved_gflops``
+    (``gflop_per_update * updates_per_s``), ``fraction_of_sgemm`` and ``floor_1e5_updates_s``
+    (1e5 updates at the sgemm rate: no implementation on this core does them faster)."""
+    from rl.pipeline import crawler_config
+    from rl.td3 import TD3Agent
+
+    cfg = crawler_config(0)
+    agent = TD3Agent(260, 2, -np.ones(2), np.ones(2), cfg)
+    flop = td3_update_flops(agent, cfg.batch_size)
+    shapes = [(cfg.batch_size, i, o) for net in (agent.actor, agent.critic.q1_net)
+              for i, o in _linear_shapes(net)]
+    rate = sgemm_gflops(shapes, repeats=1 if quick else repeats, min_time=0.02 if quick else 0.2)
+    achieved = flop * updates_per_s / 1e9
+    return {
+        "gflop_per_update": flop / 1e9,
+        "sgemm_gflops": rate,
+        "achieved_gflops": achieved,
+        "fraction_of_sgemm": achieved / rate,
+        "floor_1e5_updates_s": 1e5 * flop / (rate * 1e9),
+    }
+
+
+# --------------------------------------------------------------------------------------------------
+# Memory of a multi-seed training run
+# --------------------------------------------------------------------------------------------------
+def _process_tree_rss(root: int) -> int:
+    """Resident memory (bytes) of process ``root`` and all its descendants, from ``/proc`` (Linux)."""
+    children: dict[int, list[int]] = {}
+    rss: dict[int, int] = {}
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/status") as f:
+                fields = dict(line.split(":", 1) for line in f if ":" in line)
+        except OSError:  # the process ended while we looked
+            continue
+        pid = int(entry)
+        children.setdefault(int(fields["PPid"]), []).append(pid)
+        rss[pid] = int(fields.get("VmRSS", "0 kB").split()[0]) * 1024
+    total, stack = 0, [root]
+    while stack:
+        pid = stack.pop()
+        total += rss.get(pid, 0)
+        stack.extend(children.get(pid, []))
+    return total
+
+
+def replay_buffer_bytes(capacity: int, obs_dim: int = 260, act_dim: int = 2) -> int:
+    """Bytes of a full :class:`rl.td3.ReplayBuffer`: float32 obs, next obs, action, reward and
+    terminated per transition."""
+    return int(capacity) * (2 * obs_dim + act_dim + 2) * 4
+
+
+def training_peak_memory(
+    seeds: int = 8,
+    steps: int = 3000,
+    full_steps: int = 100_000,
+    case: str = "m1-4mT",
+    out: str | os.PathLike | None = None,
+    interval: float = 0.2,
+) -> dict[str, Any]:
+    """Peak resident memory of a real ``seeds``-seed training run, all seeds at once in worker
+    processes (``msr train --seeds N --workers N``), sampled every ``interval`` s over the whole
+    process tree (Linux ``/proc``).
+
+    The run lasts ``steps`` environment steps per seed (past the 2500 warm-up steps, so networks,
+    optimisers and TD3 updates are live). The only memory that grows with the run length is the
+    replay buffer, sized to the run and filled as it goes: ``projected_full_run_peak_bytes`` adds
+    ``seeds`` x the buffer bytes of ``full_steps`` minus those of ``steps``.
+    """
+    import tempfile
+    import threading
+
+    from rl.pipeline import train_case
+
+    if not os.path.isdir("/proc"):
+        raise RuntimeError("training_peak_memory reads /proc: Linux only")
+    root = os.getpid()
+    baseline = _process_tree_rss(root)
+    peak = [baseline]
+    done = threading.Event()
+
+    def sample() -> None:
+        while not done.wait(interval):
+            peak[0] = max(peak[0], _process_tree_rss(root))
+
+    start = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        monitor = threading.Thread(target=sample, daemon=True)
+        monitor.start()
+        try:
+            summary = train_case(case, seeds=seeds, steps=steps, workers=seeds,
+                                 out=out if out is not None else tmp, threads=1, progress=False)
+        finally:
+            done.set()
+            monitor.join()
+    if summary["failed"]:
+        raise RuntimeError(f"seeds {summary['failed']} failed: "
+                           + "; ".join(str(r.get("error")) for r in summary["seeds"] if "error" in r))
+    growth = seeds * (replay_buffer_bytes(full_steps) - replay_buffer_bytes(steps))
+    return {
+        "seeds": seeds,
+        "workers": seeds,
+        "steps_per_seed": steps,
+        "peak_bytes": peak[0],
+        "parent_baseline_bytes": baseline,
+        "replay_buffer_bytes_per_seed_at_full": replay_buffer_bytes(full_steps),
+        "full_steps": full_steps,
+        "projected_full_run_peak_bytes": peak[0] + growth,
+        "wall_s": time.perf_counter() - start,
+    }
+
+
 def benchmark(
     steps: int = 1000,
     repeats: int = 3,
@@ -376,8 +558,10 @@ def benchmark(
     ``vector_env_steps_per_s`` (transitions/s, ``vector_envs`` crawlers in one simulator),
     ``td3_updates_per_s`` (one torch thread), ``train_1e5_steps_s`` (projected wall time of a
     1e5-step seed on one core: ``1e5 * (1 / env_steps_per_s + 1 / td3_updates_per_s)``, s),
-    ``train_1e5_steps_vector_s`` (the same with the vector environment), the target (900 s), the
-    load average and the CPU count. ``quick``: tiny measurements (for tests; numbers are rough).
+    ``train_1e5_steps_vector_s`` (the same with the vector environment), the target (900 s),
+    ``td3_roofline`` (:func:`td3_roofline`: the update's FLOP count against this core's
+    matrix-product rate, and the floor it sets on 1e5 updates), the load average and the CPU
+    count. ``quick``: tiny measurements (for tests; numbers are rough).
     """
     if quick:
         steps, repeats = min(steps, 200), 1
@@ -391,6 +575,7 @@ def benchmark(
     env_rate = env_steps_per_s(env_steps, repeats)
     vector_rate = vector_env_steps_per_s(vector_envs, vector_steps, repeats)
     td3_rate = td3_updates_per_s(updates, repeats)
+    roofline = td3_roofline(td3_rate, repeats, quick)
     return {
         "step_us": training["step_us"],
         "naive_step_us": training["naive_step_us"],
@@ -403,6 +588,7 @@ def benchmark(
         "train_1e5_steps_s": 1e5 * (1.0 / env_rate + 1.0 / td3_rate),
         "train_1e5_steps_vector_s": 1e5 * (1.0 / vector_rate + 1.0 / td3_rate),
         "train_1e5_target_s": 900.0,
+        "td3_roofline": roofline,
         "per_robot_step_target_us_at_16": 12.0,
         "training": cost["training"],
         "accurate": cost["accurate"],

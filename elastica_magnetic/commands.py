@@ -63,6 +63,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--vector-envs", type=int, default=16,
                    help="crawlers in the vector environment measured (default 16)")
     p.add_argument("--quick", action="store_true", help="tiny measurements (smoke test; rough numbers)")
+    p.add_argument("--memory-seeds", type=int, default=0, metavar="N",
+                   help="also measure the peak memory of a real N-seed training run, all seeds at "
+                   "once (Linux; a few minutes for N = 8; default 0: skip)")
+    p.add_argument("--memory-steps", type=int, default=3000,
+                   help="environment steps per seed of that run (default 3000: past the warm-up)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=bench_command)
 
@@ -139,12 +144,16 @@ def _summary(args, result, trajectory_csv: Path, figure: Path) -> dict[str, obje
 
 
 def bench_command(args: argparse.Namespace) -> int:
-    from .bench import benchmark
+    from .bench import benchmark, training_peak_memory
 
     if args.steps < 1 or args.repeats < 1 or args.vector_envs < 1:
         raise CommandError("--steps, --repeats and --vector-envs must be >= 1")
+    if args.memory_seeds < 0 or args.memory_steps < 1:
+        raise CommandError("--memory-seeds must be >= 0 and --memory-steps >= 1")
     result = benchmark(steps=args.steps, repeats=args.repeats, quick=args.quick,
                        vector_envs=args.vector_envs)
+    if args.memory_seeds:
+        result["training_memory"] = training_peak_memory(args.memory_seeds, args.memory_steps)
     print_result(result, args.json)
     return 0
 

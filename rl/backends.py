@@ -61,8 +61,9 @@ def run_jobs(
     backend: str = "process",
     address: str | None = None,
     progress: bool = True,
-) -> dict[int, dict[str, Any]]:
-    """Run ``fn(job)`` for every job and return the results keyed by ``job["config"]["seed"]``.
+) -> list[dict[str, Any]]:
+    """Run ``fn(job)`` for every job and return the results in the order of ``jobs`` (jobs may
+    differ in case and seed: a sweep is one list).
 
     A job that raises does not stop the others: its result is ``{"seed": s, "error": "Type: msg"}``.
     ``address`` (a Ray cluster) is only for ``backend="ray"``; ``progress`` only affects the Ray
@@ -77,29 +78,28 @@ def run_jobs(
     return _run_processes(fn, jobs, workers)
 
 
-def _run_processes(fn, jobs, workers) -> dict[int, dict[str, Any]]:
-    results: dict[int, dict[str, Any]] = {}
+def _run_processes(fn, jobs, workers) -> list[dict[str, Any]]:
+    results: list[dict[str, Any]] = [{} for _ in jobs]
     if workers == 1:
-        for job in jobs:
-            seed = job["config"]["seed"]
+        for k, job in enumerate(jobs):
             try:
-                results[seed] = fn(job)
+                results[k] = fn(job)
             except Exception as exc:  # keep the other seeds going; report the failure
-                results[seed] = {"seed": seed, "error": _error(exc)}
+                results[k] = {"seed": job["config"]["seed"], "error": _error(exc)}
     else:
         context = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-            futures = {pool.submit(fn, job): job["config"]["seed"] for job in jobs}
+            futures = {pool.submit(fn, job): k for k, job in enumerate(jobs)}
             for future in as_completed(futures):
-                seed = futures[future]
+                k = futures[future]
                 try:
-                    results[seed] = future.result()
+                    results[k] = future.result()
                 except Exception as exc:
-                    results[seed] = {"seed": seed, "error": _error(exc)}
+                    results[k] = {"seed": jobs[k]["config"]["seed"], "error": _error(exc)}
     return results
 
 
-def _run_ray(fn, jobs, workers, address, progress) -> dict[int, dict[str, Any]]:
+def _run_ray(fn, jobs, workers, address, progress) -> list[dict[str, Any]]:
     # Before importing ray: a local instance must not report usage statistics (no network).
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
     import ray
@@ -116,19 +116,20 @@ def _run_ray(fn, jobs, workers, address, progress) -> dict[int, dict[str, Any]]:
             ray.init(address="local", num_cpus=workers * threads, include_dashboard=False,
                      object_store_memory=LOCAL_OBJECT_STORE_BYTES, **quiet)
         started = True
-    results: dict[int, dict[str, Any]] = {}
+    results: list[dict[str, Any]] = [{} for _ in jobs]
+    finished = 0
     start = time.perf_counter()
     try:
         task = ray.remote(num_cpus=threads, max_retries=0)(fn)
-        queue = [{**job, "progress": False} for job in jobs]  # no bars in the Ray workers
-        pending: dict[Any, dict[str, Any]] = {}
+        queue = [(k, {**job, "progress": False}) for k, job in enumerate(jobs)]  # no bars in Ray
+        pending: dict[Any, tuple[int, dict[str, Any]]] = {}
         while queue or pending:
             while queue and len(pending) < workers:
-                job = queue.pop(0)
-                pending[task.remote(job)] = job
+                k, job = queue.pop(0)
+                pending[task.remote(job)] = (k, job)
             done, _ = ray.wait(list(pending), num_returns=1)
             for ref in done:
-                job = pending.pop(ref)
+                k, job = pending.pop(ref)
                 seed = job["config"]["seed"]
                 try:
                     result = ray.get(ref)
@@ -138,12 +139,13 @@ def _run_ray(fn, jobs, workers, address, progress) -> dict[int, dict[str, Any]]:
                     result = {"seed": seed, "error": f"{job['run_dir']}: the run directory written by "
                               "the Ray worker is not visible here (put --out on a filesystem shared "
                               "by all nodes, at the same path)"}
-                results[seed] = result
+                results[k] = result
+                finished += 1
                 if progress:
                     status = result.get("error") or (
                         f"final mean return {result['final_mean_return']:.4g}, "
                         f"{result['episodes']} episodes, {result['wall_s']:.1f} s")
-                    print(f"[ray] {job['case']} seed{seed} done ({len(results)}/{len(jobs)}, "
+                    print(f"[ray] {job['case']} seed{seed} done ({finished}/{len(jobs)}, "
                           f"{time.perf_counter() - start:.0f} s): {status}", file=sys.stderr, flush=True)
     finally:
         if started:

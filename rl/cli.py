@@ -14,13 +14,14 @@ CASE_NAMES = ("m1-4mT", "m2-4mT", "m1-10mT", "m2-10mT")
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "train",
-        help="train TD3 crawling policies for one case, several seeds in parallel",
-        description="Train TD3 on one case in the mass-scaled training physics (random initial "
-        "fields, 20 s truncated episodes). Each seed writes OUT/<case>/seed<k>/ (episodes.csv, "
-        "TensorBoard scalars, checkpoint.pt, run.json); OUT/<case>/summary.json collects the final "
-        "mean episode returns.",
+        help="train TD3 crawling policies for one or more cases, several seeds in parallel",
+        description="Train TD3 on one or more cases in the mass-scaled training physics (random "
+        "initial fields, 20 s truncated episodes). Each seed writes OUT/<case>/seed<k>/ "
+        "(episodes.csv, TensorBoard scalars, checkpoint.pt, run.json); OUT/<case>/summary.json "
+        "collects the final mean episode returns of every seed of the case.",
     )
-    p.add_argument("--case", choices=CASE_NAMES, required=True)
+    p.add_argument("--case", choices=CASE_NAMES, required=True, nargs="+",
+                   help="one or more cases; several make one sweep (cases x seeds jobs)")
     p.add_argument("--seeds", type=int, default=8, help="number of seeds (default 8)")
     p.add_argument("--seed-offset", type=int, default=0, help="first seed (default 0)")
     p.add_argument("--steps", type=int, default=100_000, help="environment steps per seed")
@@ -151,10 +152,10 @@ def _overrides(args: argparse.Namespace) -> dict:
 
 
 def train_command(args: argparse.Namespace) -> int:
-    from .pipeline import train_case
+    from .pipeline import train_cases
 
     try:
-        summary = train_case(
+        summaries = train_cases(
             args.case, seeds=args.seeds, steps=args.steps, workers=args.workers, out=args.out,
             resume=args.resume, seed_offset=args.seed_offset, config_overrides=_overrides(args),
             physics=args.physics, episode_duration=args.episode_duration,
@@ -163,12 +164,14 @@ def train_command(args: argparse.Namespace) -> int:
         )
     except (FileExistsError, ValueError, ConnectionError) as exc:  # ConnectionError: --address
         raise CommandError(str(exc)) from None
+    failed = any(s["failed"] for s in summaries.values())
     if not args.json:
-        summary = {k: v for k, v in summary.items() if k != "seeds"} | {
+        summaries = {case: {k: v for k, v in summary.items() if k != "seeds"} | {
             f"seed{r['seed']}": r.get("error") or f"final mean return {r['final_mean_return']:.4g} "
-            f"({r['episodes']} episodes)" for r in summary["seeds"]}
-    print_result(summary, args.json)
-    return 1 if summary["failed"] else 0
+            f"({r['episodes']} episodes)" for r in summary["seeds"]} for case, summary in summaries.items()}
+    # one case: its summary, as before; several: the summaries by case
+    print_result(summaries[args.case[0]] if len(summaries) == 1 else summaries, args.json)
+    return 1 if failed else 0
 
 
 def refine_command(args: argparse.Namespace) -> int:

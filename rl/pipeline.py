@@ -29,8 +29,10 @@ import json
 import math
 import os
 import platform
+import sys
 import time
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -55,6 +57,7 @@ __all__ = [
     "ship",
     "summarize_run",
     "train_case",
+    "train_cases",
 ]
 
 #: Folder of the shipped policies (``rl/policies/<name>/``).
@@ -197,11 +200,48 @@ def _train_seed(job: dict[str, Any]) -> dict[str, Any]:
     train_fn(env_fn, config, job["steps"], run_dir, resume=job["resume"], progress=job["progress"],
              progress_position=job["position"], progress_desc=f"{job['case']} seed{config.seed}",
              metadata=metadata)
-    return {"seed": config.seed, **summarize_run(run_dir), "wall_s": time.perf_counter() - start}
+    return {"seed": config.seed, **summarize_run(run_dir), "wall_s": time.perf_counter() - start,
+            "peak_rss_bytes": _peak_rss_bytes()}
 
 
-def train_case(
-    case: str,
+def _peak_rss_bytes() -> int | None:
+    """Peak resident memory of this process so far (bytes; ``None`` where unavailable)."""
+    try:
+        import resource
+    except ImportError:  # not on Windows
+        return None
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return int(peak if sys.platform == "darwin" else peak * 1024)  # macOS: bytes; Linux: KiB
+
+
+def _earlier_seeds(case_dir: Path, exclude: list[int]) -> list[dict[str, Any]]:
+    """Seeds of ``case_dir`` trained by earlier ``msr train`` calls (``--seed-offset``), so that
+    ``summary.json`` covers every seed of the case. Their entries from the previous summary are
+    kept (wall time, memory) and their episode statistics re-read from ``episodes.csv``."""
+    previous: dict[int, dict[str, Any]] = {}
+    if (case_dir / "summary.json").is_file():
+        try:
+            old = json.loads((case_dir / "summary.json").read_text())
+            previous = {int(r["seed"]): r for r in old.get("seeds", []) if "seed" in r}
+        except (ValueError, KeyError, TypeError):
+            previous = {}  # an unreadable summary is rebuilt from the run folders
+    found = []
+    for path in sorted(case_dir.glob("seed*")):
+        tail = path.name[len("seed"):]
+        if not tail.isdigit() or int(tail) in exclude or not (path / "episodes.csv").is_file():
+            continue
+        entry = {k: v for k, v in previous.get(int(tail), {}).items() if k != "succeeded"}
+        found.append({**entry, "seed": int(tail), **summarize_run(path), "run_dir": str(path)})
+    return found
+
+
+def train_case(case: str, seeds: int = 8, **kwargs: Any) -> dict[str, Any]:
+    """Train seeds of one case: :func:`train_cases` with ``[case]``; returns its summary."""
+    return train_cases([case], seeds, **kwargs)[case]
+
+
+def train_cases(
+    cases: Sequence[str],
     seeds: int = 8,
     steps: int = 100_000,
     workers: int = 1,
@@ -217,14 +257,17 @@ def train_case(
     envs: int = 1,
     backend: str = "process",
     address: str | None = None,
-) -> dict[str, Any]:
-    """Train seeds ``seed_offset .. seed_offset + seeds - 1`` of ``case`` for ``steps`` environment
-    steps each, ``workers`` at a time in separate processes (``spawn``), one progress bar each.
+) -> dict[str, dict[str, Any]]:
+    """Train seeds ``seed_offset .. seed_offset + seeds - 1`` of every case in ``cases`` for
+    ``steps`` environment steps each: one sweep of ``len(cases) x seeds`` jobs, ``workers`` at a
+    time in separate processes (``spawn``, one progress bar each) or Ray tasks.
 
-    Writes ``out/<case>/seed<k>/`` per seed and ``out/<case>/summary.json``; returns the summary.
-    A seed counts as *succeeded* when its final mean episode return reaches ``success_fraction``
-    of the authors' distance rate (their 10 s distance, scaled to the episode length, x 1e4): a
-    heuristic to count working seeds, reported with its threshold.
+    Writes ``out/<case>/seed<k>/`` per seed and ``out/<case>/summary.json`` per case; returns the
+    summaries by case. A summary covers every seed folder of its case, also those of earlier calls
+    (trained with another ``seed_offset``), so success counts and the best seed are over all of
+    them. A seed counts as *succeeded* when its final mean episode return reaches
+    ``success_fraction`` of the authors' distance rate (their 10 s distance, scaled to the episode
+    length, x 1e4): a heuristic to count working seeds, reported with its threshold.
 
     Args:
         config_overrides: :class:`~rl.td3.TD3Config` fields on top of :func:`crawler_config`.
@@ -237,36 +280,38 @@ def train_case(
             value.
         backend: ``"process"`` (default: worker processes on this machine) or ``"ray"`` (one Ray
             task per seed, ``workers`` at a time; see :mod:`rl.backends`). Same function per seed,
-            same run directories and summary.
+            same run directories and summaries.
         address: Ray cluster to run on (``backend="ray"`` only; default: a local Ray instance with
             ``workers x threads`` CPUs, started and shut down here). The output folder must then be
             on a filesystem every node sees at the same path.
     """
-    _case(case)
+    cases = list(dict.fromkeys(cases))  # in order, once each
+    if not cases:
+        raise ValueError("no case to train")
+    for case in cases:
+        _case(case)
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
     if address is not None and backend != "ray":
         raise ValueError("--address is for the ray backend (--backend ray)")
     if seeds < 1 or steps < 1 or workers < 1 or envs < 1:
         raise ValueError("seeds, steps, workers and envs must be >= 1")
-    case_dir = Path(out) / case
     seed_list = [seed_offset + k for k in range(seeds)]
     if not resume:
-        existing = [str(case_dir / f"seed{s}") for s in seed_list
-                    if (case_dir / f"seed{s}" / "checkpoint.pt").exists()]
+        existing = [str(Path(out) / case / f"seed{s}") for case in cases for s in seed_list
+                    if (Path(out) / case / f"seed{s}" / "checkpoint.pt").exists()]
         if existing:
             raise FileExistsError(f"runs already exist: {', '.join(existing)} (use --resume, another "
                                   "--out, or --seed-offset)")
-    workers = min(workers, seeds)
+    workers = min(workers, seeds * len(cases))
     if threads is None:  # on a Ray cluster this machine's CPU count says nothing: one per seed
         threads = 1 if address else max(1, (os.cpu_count() or 1) // workers)
     jobs = [{
         "case": case, "physics": physics, "duration": float(episode_duration), "steps": int(steps),
-        "run_dir": str(case_dir / f"seed{s}"), "resume": resume, "progress": progress,
-        "position": k, "threads": threads, "envs": int(envs),
+        "run_dir": str(Path(out) / case / f"seed{s}"), "resume": resume, "progress": progress,
+        "position": len(seed_list) * c + k, "threads": threads, "envs": int(envs),
         "config": crawler_config(s, **(config_overrides or {})).to_dict(),
-    } for k, s in enumerate(seed_list)]
-
+    } for c, case in enumerate(cases) for k, s in enumerate(seed_list)]
     if backend == "ray":
         # Ray workers may run elsewhere (another cwd, another node): give them absolute paths, and
         # report the paths as the process backend does.
@@ -274,38 +319,44 @@ def train_case(
             job["run_dir"] = str(Path(job["run_dir"]).resolve())
     start = time.perf_counter()
     results = run_jobs(_train_seed, jobs, workers, backend=backend, address=address, progress=progress)
-    if backend == "ray":
-        for seed, r in results.items():
-            if "run_dir" in r:
-                r["run_dir"] = str(case_dir / f"seed{seed}")
+    wall = time.perf_counter() - start
 
-    threshold = success_fraction * AUTHORS_DISTANCE_10S[case] * (episode_duration / 10.0) * 1e4
-    per_seed = [results[s] for s in seed_list]
-    for r in per_seed:
-        if "error" not in r:
-            r["succeeded"] = bool(r["final_mean_return"] >= threshold)
-    ok = [r for r in per_seed if "error" not in r and math.isfinite(r["final_mean_return"])]
-    best = max(ok, key=lambda r: r["final_mean_return"]) if ok else None
-    summary = {
-        "case": case,
-        "steps": int(steps),
-        "physics": physics,
-        "episode_duration_s": float(episode_duration),
-        "workers": workers,
-        "backend": backend,
-        "envs_per_seed": int(envs),
-        "torch_threads_per_worker": threads,
-        "success_threshold_return": threshold,
-        "succeeded": sum(bool(r.get("succeeded")) for r in per_seed),
-        "best_seed": best["seed"] if best else None,
-        "best_run_dir": best["run_dir"] if best else None,
-        "wall_s": time.perf_counter() - start,
-        "seeds": per_seed,
-        "failed": [r["seed"] for r in per_seed if "error" in r],
-    }
-    _write_json(case_dir / "summary.json", summary)
-    summary["summary_json"] = str(case_dir / "summary.json")
-    return summary
+    summaries = {}
+    for case in cases:
+        case_dir = Path(out) / case
+        mine = [r for job, r in zip(jobs, results, strict=True) if job["case"] == case]
+        for r in mine:
+            if "run_dir" in r:
+                r["run_dir"] = str(case_dir / f"seed{r['seed']}")
+        threshold = success_fraction * AUTHORS_DISTANCE_10S[case] * (episode_duration / 10.0) * 1e4
+        per_seed = sorted(mine + _earlier_seeds(case_dir, seed_list), key=lambda r: r["seed"])
+        for r in per_seed:
+            if "error" not in r:
+                r["succeeded"] = bool(r["final_mean_return"] >= threshold)
+        ok = [r for r in per_seed if "error" not in r and math.isfinite(r["final_mean_return"])]
+        best = max(ok, key=lambda r: r["final_mean_return"]) if ok else None
+        summary = {
+            "case": case,
+            "steps": int(steps),
+            "physics": physics,
+            "episode_duration_s": float(episode_duration),
+            "workers": workers,
+            "backend": backend,
+            "envs_per_seed": int(envs),
+            "torch_threads_per_worker": threads,
+            "success_threshold_return": threshold,
+            "succeeded": sum(bool(r.get("succeeded")) for r in per_seed),
+            "best_seed": best["seed"] if best else None,
+            "best_run_dir": best["run_dir"] if best else None,
+            "wall_s": wall,
+            "seeds": per_seed,
+            "failed": [r["seed"] for r in per_seed if "error" in r],
+        }
+        case_dir.mkdir(parents=True, exist_ok=True)
+        _write_json(case_dir / "summary.json", summary)
+        summary["summary_json"] = str(case_dir / "summary.json")
+        summaries[case] = summary
+    return summaries
 
 
 def _checkpoint_path(run: str | Path) -> Path:

@@ -488,9 +488,15 @@ class TD3Agent:
 
         # delayed actor and target updates
         if self.num_updates % cfg.policy_delay == 0:
-            actor_loss = -self.critic.q1(obs, self.actor(obs)).mean()
-            self.actor_optimizer.zero_grad(set_to_none=True)
-            actor_loss.backward()
+            # the critic is held fixed here: freezing its parameters skips their (unused) gradients,
+            # about a third of the backward pass; the actor's gradient is unchanged bit for bit
+            self.critic.requires_grad_(False)
+            try:
+                actor_loss = -self.critic.q1(obs, self.actor(obs)).mean()
+                self.actor_optimizer.zero_grad(set_to_none=True)
+                actor_loss.backward()
+            finally:
+                self.critic.requires_grad_(True)
             self.actor_optimizer.step()
             with torch.no_grad():  # theta' <- tau * theta + (1 - tau) * theta'
                 for net, target in ((self.actor, self.actor_target),

@@ -21,3 +21,45 @@ def test_bench_quick_json_keys(capsys):
     assert result["train_1e5_steps_s"] == 1e5 * (1 / result["env_steps_per_s"]
                                                  + 1 / result["td3_updates_per_s"])
     assert result["training"]["step_us"] == result["step_us"] and result["quick"] is True
+    roof = result["td3_roofline"]
+    assert roof["achieved_gflops"] == roof["gflop_per_update"] * result["td3_updates_per_s"]
+    assert math.isfinite(roof["sgemm_gflops"]) and roof["sgemm_gflops"] > 0
+
+
+def test_td3_update_flop_count_matches_torch_flop_counter():
+    """The analytical FLOP count behind the TD3 roofline equals what torch counts for real updates
+    (two updates: one without and one with the delayed actor step). It would differ if the actor
+    step still computed the critic's weight gradients."""
+    import numpy as np
+    from torch.utils.flop_counter import FlopCounterMode
+
+    from elastica_magnetic.bench import td3_update_flops
+    from rl.td3 import Batch, TD3Agent, TD3Config
+
+    agent = TD3Agent(260, 2, -np.ones(2), np.ones(2), TD3Config(seed=0, hidden_sizes=(64, 32)))
+    rng = np.random.default_rng(0)
+    b = 16
+    batch = Batch(obs=rng.normal(size=(b, 260)).astype(np.float32),
+                  actions=rng.uniform(-1, 1, (b, 2)).astype(np.float32),
+                  rewards=rng.normal(size=b).astype(np.float32),
+                  next_obs=rng.normal(size=(b, 260)).astype(np.float32),
+                  terminated=np.zeros(b, np.float32))
+    counted = 0
+    for _ in range(agent.config.policy_delay):
+        with FlopCounterMode(display=False) as counter:
+            agent.update(batch)
+        counted += counter.get_total_flops()
+    assert counted / agent.config.policy_delay == td3_update_flops(agent, b)
+
+
+def test_training_peak_memory_of_a_two_seed_run():
+    """A real 2-seed run in 2 worker processes: the sampled peak of the process tree exceeds the
+    parent's own memory by at least the two workers' interpreters, and the projection adds exactly
+    the replay-buffer growth to 1e5 transitions per seed."""
+    from elastica_magnetic.bench import replay_buffer_bytes, training_peak_memory
+
+    result = training_peak_memory(seeds=2, steps=30, interval=0.05)
+    assert result["peak_bytes"] > result["parent_baseline_bytes"] + 2 * 50e6
+    assert replay_buffer_bytes(100_000) == 100_000 * (2 * 260 + 2 + 2) * 4  # 209.6 MB
+    growth = 2 * (replay_buffer_bytes(100_000) - replay_buffer_bytes(30))
+    assert result["projected_full_run_peak_bytes"] == result["peak_bytes"] + growth

@@ -92,6 +92,15 @@ def test_train_resume_extends_runs(tmp_path, capsys):
     meta = json.loads((run / "run.json").read_text())
     assert meta["steps"] == 40 and meta["resumed"] == 1 and meta["seed"] == 3
     assert load_checkpoint(run)["global_step"] == 40
+    # another call adding seed 4: the summary covers both seeds of the case
+    args[args.index("--seed-offset") + 1] = "4"
+    summary = run_msr(capsys, *args, "--steps", "20")
+    assert [s["seed"] for s in summary["seeds"]] == [3, 4]
+    assert [s["global_step"] for s in summary["seeds"]] == [40, 20]
+    assert summary["seeds"][1]["peak_rss_bytes"] > 50e6  # python + torch + numba at least
+    assert summary["seeds"][0]["peak_rss_bytes"] > 0  # kept from the earlier call's summary
+    on_disk = json.loads((tmp_path / "m2-4mT" / "summary.json").read_text())
+    assert [s["seed"] for s in on_disk["seeds"]] == [3, 4]
 
 
 def test_refine_continues_agent_and_buffer_in_accurate_physics(trained, refined):

@@ -94,7 +94,8 @@ def test_ray_and_process_backends_agree(sweeps):
     assert proc_summary["backend"] == "process"
 
     def comparable(summary: dict, out: str) -> dict:
-        seeds = [{k: v for k, v in s.items() if k != "wall_s"} | {"run_dir": s["run_dir"].replace(out, "")}
+        seeds = [{k: v for k, v in s.items() if k not in {"wall_s", "peak_rss_bytes"}}
+                 | {"run_dir": s["run_dir"].replace(out, "")}
                  for s in summary["seeds"]]
         rest = {k: v for k, v in summary.items() if k not in RUN_SPECIFIC | {"seeds", "best_run_dir"}}
         return rest | {"seeds": seeds}
@@ -133,3 +134,23 @@ def test_address_needs_the_ray_backend(tmp_path, capsys):
     assert "--backend ray" in capsys.readouterr().err
     with pytest.raises(ValueError, match="backend"):
         pipeline.train_case("m1-4mT", seeds=1, steps=1, out=tmp_path, backend="dask")
+
+
+def test_ray_sweep_over_two_cases(tmp_path, capsys):
+    """Cases and seeds in one sweep: ``--case m1-4mT m2-10mT`` makes 2 x 1 Ray tasks; each case gets
+    its own folder and summary, and the pattern and field limit of each run are its case's."""
+    argv = [a for a in TINY if a not in {"m1-4mT"}]
+    argv[argv.index("--case") + 1:argv.index("--case") + 1] = ["m1-4mT", "m2-10mT"]
+    argv[argv.index("--seeds") + 1] = "1"
+    capsys.readouterr()
+    status = msr(["train", *argv, "--steps", "100", "--out", str(tmp_path), "--backend", "ray"])
+    captured = capsys.readouterr()
+    assert status == 0, captured.out + captured.err
+    summaries = json.loads(captured.out)
+    assert set(summaries) == {"m1-4mT", "m2-10mT"}
+    for case, (pattern, limit) in {"m1-4mT": (1, 4e-3), "m2-10mT": (2, 10e-3)}.items():
+        summary = json.loads((tmp_path / case / "summary.json").read_text())
+        assert summary["case"] == case and [s["seed"] for s in summary["seeds"]] == [0]
+        assert summary["seeds"][0]["global_step"] == 100 and not summary["failed"]  # 2 episodes
+        meta = json.loads((tmp_path / case / "seed0" / "run.json").read_text())
+        assert (meta["case"], meta["pattern"], meta["field_limit_T"]) == (case, pattern, limit)
