@@ -100,6 +100,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-measure", action="store_true", help="skip the evaluation run")
     p.add_argument("--duration", type=float, default=10.0, help="evaluation length, s")
     p.add_argument("--force", action="store_true", help="overwrite an existing policy")
+    p.add_argument("--evaluate-seeds", action="store_true",
+                   help="also run every seed of the case (final checkpoints) in the accurate physics "
+                   "and list their distances in the model card (cached per seed)")
+    p.add_argument("--notes", type=Path, default=None,
+                   help="Markdown file whose text becomes the model card's Notes section")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=ship_command)
@@ -199,10 +204,16 @@ def generate_command(args: argparse.Namespace) -> int:
 def ship_command(args: argparse.Namespace) -> int:
     from .pipeline import ship
 
+    notes = None
+    if args.notes is not None:
+        if not args.notes.is_file():
+            raise CommandError(f"--notes {args.notes}: no such file")
+        notes = args.notes.read_text()
     try:
         result = ship(args.run, args.name, dest=args.dest, measure=not args.no_measure,
-                      duration=args.duration, progress=not args.no_progress, overwrite=args.force)
-    except FileExistsError as exc:
+                      duration=args.duration, progress=not args.no_progress, overwrite=args.force,
+                      evaluate_all_seeds=args.evaluate_seeds, notes=notes)
+    except (FileExistsError, FileNotFoundError) as exc:
         raise CommandError(str(exc)) from None
     print_result(result, args.json)
     return 0

@@ -49,6 +49,7 @@ __all__ = [
     "PolicyNotFoundError",
     "crawler_config",
     "demo",
+    "evaluate_seeds",
     "export_policy",
     "generate",
     "make_env",
@@ -580,6 +581,46 @@ def run_policy(
     )
 
 
+def evaluate_seeds(
+    case_dir: str | Path,
+    duration: float = 10.0,
+    progress: bool = True,
+) -> list[dict[str, Any]]:
+    """Distance in ``duration`` s of every seed of a case, by the shipping criterion: the final
+    checkpoint of ``case_dir/seed<k>/`` run deterministically in the accurate physics from a zero
+    field (as :func:`generate`).
+
+    Each result is cached in the seed's folder (``evaluation.json``) and reused while the
+    checkpoint's global step and the duration are the same. Returns one dict per seed, ordered by
+    seed: ``seed``, ``global_step``, ``mid_dx_m`` (m), ``diverged``, ``meets_target`` (the
+    authors' distance in 10 s reached; ``None`` for other durations).
+    """
+    case_dir = Path(case_dir)
+    results = []
+    seeds = sorted((int(p.name[4:]), p) for p in case_dir.glob("seed*")
+                   if p.name[4:].isdigit() and (p / "checkpoint.pt").is_file())
+    if not seeds:
+        raise FileNotFoundError(f"{case_dir}: no seed<k>/checkpoint.pt to evaluate")
+    for seed, run_dir in seeds:
+        cache = run_dir / "evaluation.json"
+        policy = resolve_policy(run_dir)
+        step = policy.meta.get("global_step")
+        cached = json.loads(cache.read_text()) if cache.is_file() else {}
+        if cached.get("global_step") != step or cached.get("duration_s") != float(duration):
+            rollout = run_policy(policy, duration, "accurate", "zero", progress)
+            traj = rollout.trajectory
+            cached = {"seed": seed, "global_step": step, "duration_s": float(duration),
+                      "physics": "accurate", "initial_field": "zero",
+                      "mid_dx_m": float(traj.mid_x_m.iloc[-1] - traj.mid_x_m.iloc[0]),
+                      "diverged": rollout.meta["diverged"]}
+            _write_json(cache, cached)
+        target = AUTHORS_DISTANCE_10S[policy.case]
+        meets = (cached["mid_dx_m"] >= target and not cached["diverged"]
+                 if abs(duration - 10.0) < 1e-9 else None)
+        results.append({**cached, "meets_target": meets})
+    return results
+
+
 def generate(
     policy: str | Path | LoadedPolicy,
     duration: float = 10.0,
@@ -655,6 +696,8 @@ def ship(
     duration: float = 10.0,
     progress: bool = True,
     overwrite: bool = False,
+    evaluate_all_seeds: bool = False,
+    notes: str | None = None,
 ) -> dict[str, Any]:
     """Pack a run's checkpoint into the shipped-policy format ``dest/<name>/`` (default
     ``rl/policies/<name>/``): ``actor.pt`` and ``critic.pt`` (state dicts of
@@ -663,7 +706,10 @@ def ship(
 
     With ``measure`` the policy is run for ``duration`` s in the accurate physics from a zero field
     (as :func:`generate`); the distance goes into the card and the waveform into ``fields.csv``.
-    The success count over seeds comes from the case's ``summary.json`` when it is found.
+    The success count over seeds comes from the case's ``summary.json`` when it is found; with
+    ``evaluate_all_seeds`` every seed of the case is also run like this (:func:`evaluate_seeds`)
+    and the card lists each seed's distance and how many reach the authors' distance. ``notes``
+    (Markdown) becomes the card's "Notes" section: what the numbers do not say.
     """
     import torch
 
@@ -690,6 +736,13 @@ def ship(
                     "diverged": rollout.meta["diverged"]}
         if rollout.n_steps:
             write_field_csv(target / "fields.csv", rollout.fields)
+    seed_evaluations = None
+    if evaluate_all_seeds:
+        if summary is None:
+            raise FileNotFoundError(f"{policy.source}: no summary.json of case {policy.case} found "
+                                    "above the run, so its seeds cannot be evaluated")
+        seed_evaluations = evaluate_seeds(_find_case_dir(policy.source, policy.case), duration,
+                                          progress)
     case = _case(policy.case)
     refined = meta.get("command") == "refine"
     info = {
@@ -711,10 +764,15 @@ def ship(
             "config": meta.get("config"),
             "source": str(policy.source),
         },
-        "seeds": {"succeeded": summary.get("succeeded"), "total": len(summary.get("seeds", []))}
+        "seeds": {"succeeded": summary.get("succeeded"), "total": len(summary.get("seeds", [])),
+                  "success_threshold_return": summary.get("success_threshold_return"),
+                  "evaluations": seed_evaluations,
+                  "meeting_target": None if seed_evaluations is None
+                  else sum(bool(e["meets_target"]) for e in seed_evaluations)}
         if summary else None,
         "evaluation": measured,
         "authors_mid_dx_10s_m": AUTHORS_DISTANCE_10S[policy.case],
+        "notes": notes,
     }
     _write_json(target / POLICY_JSON, info)
     (target / "MODEL_CARD.md").write_text(_model_card(info, summary))
@@ -722,14 +780,21 @@ def ship(
             "evaluation": measured, "files": sorted(p.name for p in target.iterdir())}
 
 
-def _find_summary(source: Path, case: str) -> dict[str, Any] | None:
-    """``summary.json`` of the case folder of a run (``<case>/seed<k>[/refined]/checkpoint.pt``)."""
+def _find_case_dir(source: Path, case: str) -> Path | None:
+    """The case folder of a run (``<case>/seed<k>[/refined]/checkpoint.pt``): the nearest parent
+    holding the ``summary.json`` of ``case``."""
     for parent in list(source.parents)[:4]:
         if (parent / "summary.json").is_file():
             summary = json.loads((parent / "summary.json").read_text())
             if summary.get("case") == case:
-                return summary
+                return parent
     return None
+
+
+def _find_summary(source: Path, case: str) -> dict[str, Any] | None:
+    """``summary.json`` of the case folder of a run, if there is one."""
+    case_dir = _find_case_dir(source, case)
+    return json.loads((case_dir / "summary.json").read_text()) if case_dir else None
 
 
 def _action_spec(field_limit: float) -> dict[str, Any]:
@@ -779,6 +844,24 @@ def _model_card(info: dict[str, Any], summary: dict[str, Any] | None) -> str:
         )
     else:
         lines.append("- seeds that succeeded: unknown (no summary.json found next to the run)")
+    evaluations = (info.get("seeds") or {}).get("evaluations")
+    if evaluations:
+        lines += [
+            "",
+            "## Every seed of the case (final checkpoints, accurate physics, field from zero)",
+            "",
+            f"{info['seeds']['meeting_target']} of {len(evaluations)} seeds move the robot at least "
+            f"as far as the authors' policy ({1e3 * target:+.1f} mm in 10 s).",
+            "",
+            "| seed | training steps | distance (mm) | meets the target |",
+            "|---|---|---|---|",
+        ]
+        for e in evaluations:
+            verdict = {True: "yes", False: "no", None: "n/a"}[e["meets_target"]]
+            if e["diverged"]:
+                verdict += f" (diverged: {e['diverged']})"
+            lines.append(f"| {e['seed']} | {e['global_step']} | {1e3 * e['mid_dx_m']:+.1f} "
+                         f"(in {e['duration_s']:g} s) | {verdict} |")
     lines += ["", "## Evaluation (accurate physics, field from zero, deterministic)", ""]
     if ev:
         if abs(ev["duration_s"] - 10.0) < 1e-6:
@@ -792,6 +875,8 @@ def _model_card(info: dict[str, Any], summary: dict[str, Any] | None) -> str:
         )
     else:
         lines.append(f"- not measured (the authors' policy: {1e3 * target:+.1f} mm in 10 s)")
+    if info.get("notes"):
+        lines += ["", "## Notes", "", info["notes"].strip()]
     lines += [
         "",
         "## Limitations",

@@ -147,6 +147,31 @@ def test_generate_json_and_files(refined, tmp_path, capsys):
     assert len(gait) == 21 and float(gait[0]["contact_back"]) == 1.0
 
 
+def test_ship_evaluates_every_seed_and_caches(refined, tmp_path, monkeypatch):
+    """``evaluate_all_seeds``: each seed's final checkpoint is rolled out (accurate physics, zero
+    field); the card lists them with the notes; a second ship reuses the per-seed cache."""
+    info = pipeline.ship(refined, "m1-4mT", dest=tmp_path, measure=False, duration=0.05,
+                         progress=False, evaluate_all_seeds=True, notes="Trained by a *test*.")
+    meta = json.loads((tmp_path / "m1-4mT" / "policy.json").read_text())
+    evaluations = meta["seeds"]["evaluations"]
+    assert [e["seed"] for e in evaluations] == [0, 1] and info["evaluation"] is None
+    assert all(e["global_step"] == TRAIN_STEPS and e["duration_s"] == 0.05 for e in evaluations)
+    assert all(e["meets_target"] is None for e in evaluations)  # 0.05 s: not the 10 s criterion
+    assert evaluations[0]["mid_dx_m"] != evaluations[1]["mid_dx_m"]  # two different actors
+    card = (tmp_path / "m1-4mT" / "MODEL_CARD.md").read_text()
+    assert "| 0 | 240 |" in card and "| 1 | 240 |" in card
+    assert "## Notes" in card and "Trained by a *test*." in card
+    cache = refined.parent / "evaluation.json"  # seed0/evaluation.json
+    assert json.loads(cache.read_text())["mid_dx_m"] == evaluations[0]["mid_dx_m"]
+
+    def no_rollout(*args, **kwargs):
+        raise AssertionError("the cached evaluation should have been reused")
+
+    monkeypatch.setattr(pipeline, "run_policy", no_rollout)
+    again = pipeline.evaluate_seeds(refined.parent.parent, duration=0.05, progress=False)
+    assert again == evaluations
+
+
 def test_ship_then_generate_by_folder_and_name(refined, tmp_path, monkeypatch, capsys):
     dest = tmp_path / "policies"
     info = pipeline.ship(refined, "m1-4mT", dest=dest, measure=True, duration=0.05, progress=False)
