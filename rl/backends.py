@@ -142,9 +142,10 @@ def _run_ray(fn, jobs, workers, address, progress) -> list[dict[str, Any]]:
                 results[k] = result
                 finished += 1
                 if progress:
-                    status = result.get("error") or (
-                        f"final mean return {result['final_mean_return']:.4g}, "
-                        f"{result['episodes']} episodes, {result['wall_s']:.1f} s")
+                    status = result.get("error") or "; ".join(
+                        f"seed{r['seed']} final mean return {r['final_mean_return']:.4g}, "
+                        f"{r['episodes']} episodes, {r['wall_s']:.1f} s"
+                        for r in result.get("group", [result]))
                     print(f"[ray] {job['case']} seed{seed} done ({finished}/{len(jobs)}, "
                           f"{time.perf_counter() - start:.0f} s): {status}", file=sys.stderr, flush=True)
     finally:

@@ -35,6 +35,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--envs", type=int, default=1,
                    help="crawlers per seed in one batched simulator (vector env; N transitions and "
                         "N TD3 updates per vector step; default 1: the single environment)")
+    p.add_argument("--seeds-per-simulator", type=int, default=1, metavar="K",
+                   help="K seeds train side by side in one worker, their crawlers in one batched "
+                        "simulator; each seed's run is bit-identical to training it alone, the "
+                        "simulation costs less per robot (default 1)")
     p.add_argument("--backend", choices=("process", "ray"), default="process",
                    help="where the seeds run: worker processes on this machine (default) or Ray tasks "
                         "(a local Ray instance with --workers x --threads CPUs, or the cluster at "
@@ -166,6 +170,7 @@ def train_command(args: argparse.Namespace) -> int:
             physics=args.physics, episode_duration=args.episode_duration,
             progress=not args.no_progress, threads=args.threads, envs=args.envs,
             backend=args.backend, address=args.address,
+            seeds_per_simulator=args.seeds_per_simulator,
         )
     except (FileExistsError, ValueError, ConnectionError) as exc:  # ConnectionError: --address
         raise CommandError(str(exc)) from None

@@ -163,17 +163,7 @@ def _run_metadata(case: str, physics: str, duration: float, seed: int, **extra: 
             "physics": physics, "episode_duration_s": duration, "seed": int(seed), **extra}
 
 
-def _train_seed(job: dict[str, Any]) -> dict[str, Any]:
-    """Train one seed (runs in a worker process). ``job`` holds plain data only (picklable)."""
-    import torch
-
-    from .td3 import TD3Config, train
-
-    torch.set_num_threads(int(job["threads"]))
-    config = TD3Config.from_dict(job["config"])
-    run_dir = Path(job["run_dir"])
-    metadata = _run_metadata(job["case"], job["physics"], job["duration"], config.seed,
-                             command="train", envs=int(job.get("envs", 1)))
+def _write_run_json(job: dict[str, Any], config, run_dir: Path, metadata: dict[str, Any]) -> None:
     run_json = run_dir / RUN_JSON
     if job["resume"] and run_json.is_file() and (run_dir / "checkpoint.pt").is_file():
         # train() continues with the checkpoint's config: keep the record, update the target.
@@ -186,7 +176,42 @@ def _train_seed(job: dict[str, Any]) -> dict[str, Any]:
             **metadata, "steps": job["steps"], "config": config.to_dict(),
             "torch_threads": int(job["threads"]), "versions": _versions(),
         })
+
+
+def _train_seed(job: dict[str, Any]) -> dict[str, Any]:
+    """Train one seed, or a group of seeds sharing one simulator (runs in a worker process).
+    ``job`` holds plain data only (picklable). A group job (``job["group"]``: configs and run
+    directories) returns ``{"group": [one result per seed]}``."""
+    import torch
+
+    from .td3 import TD3Config, train, train_shared
+
+    torch.set_num_threads(int(job["threads"]))
     envs = int(job.get("envs", 1))
+    start = time.perf_counter()
+    if "group" in job:  # seeds side by side in one batched simulator, each as train() would run it
+        from .vector_env import make_vector_env
+
+        configs = [TD3Config.from_dict(c) for c in job["group"]["configs"]]
+        run_dirs = [Path(d) for d in job["group"]["run_dirs"]]
+        metadata = [_run_metadata(job["case"], job["physics"], job["duration"], c.seed,
+                                  command="train", envs=1, shared_simulator_seeds=len(configs))
+                    for c in configs]
+        for config, run_dir, meta in zip(configs, run_dirs, metadata, strict=True):
+            _write_run_json(job, config, run_dir, meta)
+        train_shared(functools.partial(make_vector_env, job["case"], physics=job["physics"],
+                                       duration=job["duration"]),
+                     configs, job["steps"], run_dirs, resume=job["resume"],
+                     progress=job["progress"], progress_desc=job["case"], metadata=metadata)
+        wall, peak = time.perf_counter() - start, _peak_rss_bytes()
+        return {"group": [{"seed": c.seed, **summarize_run(d), "wall_s": wall, "peak_rss_bytes": peak}
+                          for c, d in zip(configs, run_dirs, strict=True)]}
+
+    config = TD3Config.from_dict(job["config"])
+    run_dir = Path(job["run_dir"])
+    metadata = _run_metadata(job["case"], job["physics"], job["duration"], config.seed,
+                             command="train", envs=envs)
+    _write_run_json(job, config, run_dir, metadata)
     if envs > 1:  # N crawlers in one batched simulator (rl.vector_env), N updates per vector step
         from .td3 import train_vector
         from .vector_env import make_vector_env
@@ -197,7 +222,6 @@ def _train_seed(job: dict[str, Any]) -> dict[str, Any]:
     else:
         train_fn = train
         env_fn = functools.partial(make_env, job["case"], job["physics"], "random", job["duration"])
-    start = time.perf_counter()
     train_fn(env_fn, config, job["steps"], run_dir, resume=job["resume"], progress=job["progress"],
              progress_position=job["position"], progress_desc=f"{job['case']} seed{config.seed}",
              metadata=metadata)
@@ -258,6 +282,7 @@ def train_cases(
     envs: int = 1,
     backend: str = "process",
     address: str | None = None,
+    seeds_per_simulator: int = 1,
 ) -> dict[str, dict[str, Any]]:
     """Train seeds ``seed_offset .. seed_offset + seeds - 1`` of every case in ``cases`` for
     ``steps`` environment steps each: one sweep of ``len(cases) x seeds`` jobs, ``workers`` at a
@@ -285,6 +310,10 @@ def train_cases(
         address: Ray cluster to run on (``backend="ray"`` only; default: a local Ray instance with
             ``workers x threads`` CPUs, started and shut down here). The output folder must then be
             on a filesystem every node sees at the same path.
+        seeds_per_simulator: groups of this many seeds of a case train side by side in one worker,
+            their crawlers in one batched simulator (:func:`~rl.td3.train_shared`): each seed's run
+            is bit-identical to training it alone (single environment), the simulation costs less
+            per robot. 1 (default): one seed per worker job. Not with ``envs > 1``.
     """
     cases = list(dict.fromkeys(cases))  # in order, once each
     if not cases:
@@ -295,8 +324,11 @@ def train_cases(
         raise ValueError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
     if address is not None and backend != "ray":
         raise ValueError("--address is for the ray backend (--backend ray)")
-    if seeds < 1 or steps < 1 or workers < 1 or envs < 1:
-        raise ValueError("seeds, steps, workers and envs must be >= 1")
+    if seeds < 1 or steps < 1 or workers < 1 or envs < 1 or seeds_per_simulator < 1:
+        raise ValueError("seeds, steps, workers, envs and seeds_per_simulator must be >= 1")
+    if seeds_per_simulator > 1 and envs > 1:
+        raise ValueError("seeds_per_simulator > 1 (seeds sharing a simulator) excludes envs > 1 "
+                         "(one seed on several crawlers)")
     seed_list = [seed_offset + k for k in range(seeds)]
     if not resume:
         existing = [str(Path(out) / case / f"seed{s}") for case in cases for s in seed_list
@@ -304,28 +336,46 @@ def train_cases(
         if existing:
             raise FileExistsError(f"runs already exist: {', '.join(existing)} (use --resume, another "
                                   "--out, or --seed-offset)")
-    workers = min(workers, seeds * len(cases))
+    groups = [seed_list[i:i + seeds_per_simulator] for i in range(0, seeds, seeds_per_simulator)]
+    workers = min(workers, len(groups) * len(cases))
     if threads is None:  # on a Ray cluster this machine's CPU count says nothing: one per seed
         threads = 1 if address else max(1, (os.cpu_count() or 1) // workers)
-    jobs = [{
-        "case": case, "physics": physics, "duration": float(episode_duration), "steps": int(steps),
-        "run_dir": str(Path(out) / case / f"seed{s}"), "resume": resume, "progress": progress,
-        "position": len(seed_list) * c + k, "threads": threads, "envs": int(envs),
-        "config": crawler_config(s, **(config_overrides or {})).to_dict(),
-    } for c, case in enumerate(cases) for k, s in enumerate(seed_list)]
-    if backend == "ray":
-        # Ray workers may run elsewhere (another cwd, another node): give them absolute paths, and
-        # report the paths as the process backend does.
-        for job in jobs:
-            job["run_dir"] = str(Path(job["run_dir"]).resolve())
+
+    def run_dir(case: str, seed: int) -> str:
+        # Ray workers may run elsewhere (another cwd, another node): give them absolute paths
+        path = Path(out) / case / f"seed{seed}"
+        return str(path.resolve() if backend == "ray" else path)
+
+    jobs = []
+    for c, case in enumerate(cases):
+        for g, group in enumerate(groups):
+            configs = [crawler_config(s, **(config_overrides or {})).to_dict() for s in group]
+            job = {
+                "case": case, "physics": physics, "duration": float(episode_duration),
+                "steps": int(steps), "run_dir": run_dir(case, group[0]), "resume": resume,
+                "progress": progress, "position": len(groups) * c + g, "threads": threads,
+                "envs": int(envs), "config": configs[0],
+            }
+            if seeds_per_simulator > 1:
+                job["group"] = {"configs": configs, "run_dirs": [run_dir(case, s) for s in group]}
+            jobs.append(job)
     start = time.perf_counter()
-    results = run_jobs(_train_seed, jobs, workers, backend=backend, address=address, progress=progress)
+    results = []
+    for job, result in zip(jobs, run_jobs(_train_seed, jobs, workers, backend=backend,
+                                          address=address, progress=progress), strict=True):
+        if "group" in result:
+            results += [(job["case"], r) for r in result["group"]]
+        elif "group" in job and "error" in result:  # the whole group failed
+            results += [(job["case"], {"seed": c["seed"], "error": result["error"]})
+                        for c in job["group"]["configs"]]
+        else:
+            results.append((job["case"], result))
     wall = time.perf_counter() - start
 
     summaries = {}
     for case in cases:
         case_dir = Path(out) / case
-        mine = [r for job, r in zip(jobs, results, strict=True) if job["case"] == case]
+        mine = [r for c, r in results if c == case]
         for r in mine:
             if "run_dir" in r:
                 r["run_dir"] = str(case_dir / f"seed{r['seed']}")
@@ -344,6 +394,7 @@ def train_cases(
             "workers": workers,
             "backend": backend,
             "envs_per_seed": int(envs),
+            "seeds_per_simulator": int(seeds_per_simulator),
             "torch_threads_per_worker": threads,
             "success_threshold_return": threshold,
             "succeeded": sum(bool(r.get("succeeded")) for r in per_seed),

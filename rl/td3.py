@@ -591,6 +591,204 @@ def _truncate_episode_log(path: Path, keep_episodes: int) -> None:
     os.replace(tmp, path)
 
 
+class _SeedRun:
+    """The bookkeeping of one seed's training: its agent, replay buffer, episode log, TensorBoard
+    writer, progress bar and checkpoints in ``run_dir``. :func:`train` drives one with a single
+    environment; :func:`train_shared` drives several, one per crawler of a shared simulator.
+
+    The caller resets the environment (``episode_seed(config.seed, self.episode)``), asks
+    :meth:`act` for an action, steps, and hands the transition to :meth:`record`, which stores it,
+    learns, and at an episode end logs it and maybe checkpoints. :meth:`finish` writes the final
+    checkpoint; :meth:`close` closes the files.
+    """
+
+    def __init__(
+        self,
+        obs_dim: int,
+        act_dim: int,
+        action_low: np.ndarray,
+        action_high: np.ndarray,
+        config: TD3Config | None,
+        steps: int,
+        run_dir: str | os.PathLike,
+        resume: bool,
+        progress: bool,
+        log_fn: Callable[[dict[str, Any]], None] | None,
+        init_from: str | os.PathLike | None,
+        progress_position: int | None,
+        progress_desc: str | None,
+        metadata: dict[str, Any] | None,
+        seed_global_rngs: bool = True,
+    ) -> None:
+        from torch.utils.tensorboard import SummaryWriter
+        from tqdm.auto import tqdm
+
+        self.run_dir = run_dir = Path(run_dir)
+        run_dir.mkdir(parents=True, exist_ok=True)
+        self.ckpt_path = run_dir / CHECKPOINT_NAME
+        csv_path = run_dir / EPISODES_CSV
+
+        ckpt: dict[str, Any] | None = None
+        if self.ckpt_path.exists():
+            if not resume:
+                raise FileExistsError(f"{self.ckpt_path} exists: pass resume=True or use a new run_dir")
+            ckpt = load_checkpoint(self.ckpt_path)
+        elif resume:
+            warnings.warn(f"resume=True but no checkpoint in {run_dir}: starting fresh", stacklevel=3)
+        self.resumed_here = resumed_here = ckpt is not None
+        if ckpt is None and init_from is not None:
+            ckpt = load_checkpoint(init_from)
+
+        if ckpt is not None:
+            ckpt_cfg = TD3Config.from_dict(ckpt["config"])
+            if resumed_here or config is None:
+                if config is not None and config != ckpt_cfg:
+                    warnings.warn("resuming: using the checkpoint's config, not the one passed",
+                                  stacklevel=3)
+                config = ckpt_cfg
+        self.cfg = cfg = config if config is not None else TD3Config()
+        if metadata is None and resumed_here:
+            metadata = ckpt.get("metadata")
+        self.metadata = metadata
+        self.steps = int(steps)
+        self.log_fn = log_fn
+
+        self.agent = agent = TD3Agent(obs_dim, act_dim, action_low, action_high, cfg)
+        self.buffer = ReplayBuffer(min(cfg.buffer_size, self.steps), agent.obs_dim, agent.act_dim)
+        self.global_step, self.episode, self.elapsed_before = 0, 0, 0.0
+        if ckpt is not None:
+            if (ckpt["obs_dim"], ckpt["act_dim"]) != (agent.obs_dim, agent.act_dim):
+                raise ValueError("checkpoint does not match the environment's spaces")
+            agent.load_state_dict(ckpt["agent"])
+            self.buffer.load_state_dict(ckpt["buffer"])
+            self.global_step = int(ckpt["global_step"])
+            self.episode = int(ckpt["episode"]) + (0 if ckpt["at_episode_boundary"] else 1)
+            if seed_global_rngs:
+                random.setstate(ckpt["python_rng"])
+                torch.set_rng_state(ckpt["torch_cpu_rng"])
+            self.elapsed_before = float(ckpt["wall_time_s"]) if resumed_here else 0.0
+        elif seed_global_rngs:
+            random.seed(cfg.seed)
+            torch.manual_seed(cfg.seed)
+        self.start_step = self.global_step
+
+        if resumed_here:
+            _truncate_episode_log(csv_path, self.episode)
+        elif csv_path.exists():
+            csv_path.unlink()  # stale log of a run without checkpoint
+        self.writer = SummaryWriter(str(run_dir), purge_step=self.global_step if resumed_here else None)
+        if not resumed_here:
+            self.writer.add_text("config", str(cfg.to_dict()))
+        self.t_start = time.time()
+        self.next_checkpoint = (self.global_step // cfg.checkpoint_every + 1) * cfg.checkpoint_every
+        self.bar = tqdm(total=self.steps, initial=min(self.global_step, self.steps),
+                        disable=not progress, position=progress_position, desc=progress_desc,
+                        dynamic_ncols=True, leave=True)
+        self.csv_file = open(csv_path, "a", newline="")
+        self.csv_writer = csv.DictWriter(self.csv_file, fieldnames=EPISODE_FIELDS)
+        if csv_path.stat().st_size == 0:
+            self.csv_writer.writeheader()
+        self.sps_t, self.sps_step = time.time(), self.global_step
+        self.ep_return, self.ep_len = 0.0, 0
+        self.last_ended = False
+
+    @property
+    def done(self) -> bool:
+        return self.global_step >= self.steps
+
+    def reset_seed(self) -> int:
+        """Seed of the environment reset that starts the current episode."""
+        return episode_seed(self.cfg.seed, self.episode)
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        """Normalised action: uniform random during warm-up, then mu(s) + N(0, sigma^2 I)."""
+        if self.global_step < self.cfg.learning_starts:
+            return self.agent.random_action()
+        return self.agent.select_action(obs, explore=True)
+
+    def record(self, obs: np.ndarray, action: np.ndarray, reward: float, next_obs: np.ndarray,
+               terminated: bool, truncated: bool) -> bool:
+        """Store one transition, learn, and handle an episode end; returns whether it ended."""
+        cfg, agent = self.cfg, self.agent
+        # store terminated (not done): truncated transitions bootstrap from the real s'
+        self.buffer.add(obs, action, float(reward), next_obs, bool(terminated))
+        self.ep_return += float(reward)
+        self.ep_len += 1
+        self.global_step += 1
+        self.bar.update(1)
+
+        # learn: one (or updates_per_step) TD3 update per env step after warm-up
+        if self.global_step > cfg.learning_starts and len(self.buffer) >= cfg.batch_size:
+            for _ in range(cfg.updates_per_step):
+                info = agent.update(self.buffer.sample(cfg.batch_size, agent.rng))
+                if agent.num_updates % cfg.log_every == 0:
+                    for k, v in info.items():
+                        self.writer.add_scalar(f"losses/{k}", v, self.global_step)
+
+        self.last_ended = bool(terminated or truncated)
+        if not self.last_ended:
+            return False
+        # episode end: log, maybe checkpoint; the caller resets with the next seed of the sequence
+        row = {
+            "episode": self.episode,
+            "global_step": self.global_step,
+            "return": self.ep_return,
+            "length": self.ep_len,
+            "terminated": int(bool(terminated)),
+            "truncated": int(bool(truncated)),
+            "wall_time_s": round(self.elapsed_before + time.time() - self.t_start, 3),
+        }
+        self.csv_writer.writerow(row)
+        self.csv_file.flush()
+        self.writer.add_scalar("charts/episodic_return", self.ep_return, self.global_step)
+        self.writer.add_scalar("charts/episodic_length", self.ep_len, self.global_step)
+        now = time.time()
+        self.writer.add_scalar("charts/sps", (self.global_step - self.sps_step)
+                               / max(now - self.sps_t, 1e-9), self.global_step)
+        self.sps_t, self.sps_step = now, self.global_step
+        self.bar.set_postfix(ep=self.episode, ret=f"{self.ep_return:.3g}", refresh=False)
+        if self.log_fn is not None:
+            self.log_fn(row)
+        self.episode += 1
+        if self.next_checkpoint <= self.global_step < self.steps:
+            self.writer.flush()
+            self.checkpoint(at_episode_boundary=True)
+            self.next_checkpoint = (self.global_step // cfg.checkpoint_every + 1) * cfg.checkpoint_every
+        if self.global_step < self.steps:
+            self.ep_return, self.ep_len = 0.0, 0
+        return True
+
+    def checkpoint(self, at_episode_boundary: bool) -> None:
+        agent = self.agent
+        save_checkpoint(self.ckpt_path, {
+            "format": CHECKPOINT_FORMAT,
+            "config": self.cfg.to_dict(),
+            "obs_dim": agent.obs_dim,
+            "act_dim": agent.act_dim,
+            "action_low": torch.from_numpy(agent.action_low.copy()),
+            "action_high": torch.from_numpy(agent.action_high.copy()),
+            "agent": agent.state_dict(),
+            "buffer": self.buffer.state_dict(),
+            "global_step": self.global_step,
+            "episode": self.episode,  # index of the next episode (of the current one if mid-episode)
+            "at_episode_boundary": at_episode_boundary,
+            "python_rng": random.getstate(),
+            "torch_cpu_rng": torch.get_rng_state(),
+            "wall_time_s": self.elapsed_before + time.time() - self.t_start,
+            "metadata": self.metadata if self.metadata is not None else {},
+        })
+
+    def finish(self) -> None:
+        """The final checkpoint (unless a resumed run took no step)."""
+        if not (self.resumed_here and self.global_step == self.start_step):
+            self.checkpoint(at_episode_boundary=self.ep_len == 0 or self.last_ended)
+
+    def close(self) -> None:
+        self.csv_file.close()
+        self.bar.close()
+        self.writer.close()
+
+
 def train(
     env_fn: Callable[[], gym.Env],
     config: TD3Config | None = None,
@@ -629,162 +827,137 @@ def train(
             ``"metadata"`` (e.g. the environment's case), so a checkpoint describes itself. When
             ``None`` the metadata of the checkpoint resumed from (if any) is kept.
     """
-    from torch.utils.tensorboard import SummaryWriter
-    from tqdm.auto import tqdm
-
-    run_dir = Path(run_dir)
-    run_dir.mkdir(parents=True, exist_ok=True)
-    ckpt_path = run_dir / CHECKPOINT_NAME
-    csv_path = run_dir / EPISODES_CSV
-
-    ckpt: dict[str, Any] | None = None
-    if ckpt_path.exists():
-        if not resume:
-            raise FileExistsError(f"{ckpt_path} exists: pass resume=True or use a new run_dir")
-        ckpt = load_checkpoint(ckpt_path)
-    elif resume:
-        warnings.warn(f"resume=True but no checkpoint in {run_dir}: starting fresh", stacklevel=2)
-    resumed_here = ckpt is not None
-    if ckpt is None and init_from is not None:
-        ckpt = load_checkpoint(init_from)
-
-    if ckpt is not None:
-        ckpt_cfg = TD3Config.from_dict(ckpt["config"])
-        if resumed_here or config is None:
-            if config is not None and config != ckpt_cfg:
-                warnings.warn("resuming: using the checkpoint's config, not the one passed",
-                              stacklevel=2)
-            config = ckpt_cfg
-    cfg = config if config is not None else TD3Config()
-    if metadata is None and resumed_here:
-        metadata = ckpt.get("metadata")
-
     env = env_fn()
-    agent = TD3Agent.for_env(env, cfg)
-    buffer = ReplayBuffer(min(cfg.buffer_size, steps), agent.obs_dim, agent.act_dim)
-    global_step, episode, elapsed_before = 0, 0, 0.0
-    if ckpt is not None:
-        if (ckpt["obs_dim"], ckpt["act_dim"]) != (agent.obs_dim, agent.act_dim):
-            raise ValueError("checkpoint does not match the environment's spaces")
-        agent.load_state_dict(ckpt["agent"])
-        buffer.load_state_dict(ckpt["buffer"])
-        global_step = int(ckpt["global_step"])
-        episode = int(ckpt["episode"]) + (0 if ckpt["at_episode_boundary"] else 1)
-        random.setstate(ckpt["python_rng"])
-        torch.set_rng_state(ckpt["torch_cpu_rng"])
-        elapsed_before = float(ckpt["wall_time_s"]) if resumed_here else 0.0
-    else:
-        random.seed(cfg.seed)
-        torch.manual_seed(cfg.seed)
-
-    if resumed_here:
-        _truncate_episode_log(csv_path, episode)
-    elif csv_path.exists():
-        csv_path.unlink()  # stale log of a run without checkpoint
-    writer = SummaryWriter(str(run_dir), purge_step=global_step if resumed_here else None)
-    if not resumed_here:
-        writer.add_text("config", str(cfg.to_dict()))
-
-    def checkpoint(at_episode_boundary: bool) -> None:
-        save_checkpoint(ckpt_path, {
-            "format": CHECKPOINT_FORMAT,
-            "config": cfg.to_dict(),
-            "obs_dim": agent.obs_dim,
-            "act_dim": agent.act_dim,
-            "action_low": torch.from_numpy(agent.action_low.copy()),
-            "action_high": torch.from_numpy(agent.action_high.copy()),
-            "agent": agent.state_dict(),
-            "buffer": buffer.state_dict(),
-            "global_step": global_step,
-            "episode": episode,  # index of the next episode (of the current one if mid-episode)
-            "at_episode_boundary": at_episode_boundary,
-            "python_rng": random.getstate(),
-            "torch_cpu_rng": torch.get_rng_state(),
-            "wall_time_s": elapsed_before + time.time() - t_start,
-            "metadata": metadata if metadata is not None else {},
-        })
-
-    prev_deterministic = torch.are_deterministic_algorithms_enabled()
-    if cfg.torch_deterministic:
-        torch.use_deterministic_algorithms(True)
-    t_start = time.time()
-    next_checkpoint = (global_step // cfg.checkpoint_every + 1) * cfg.checkpoint_every
-    bar = tqdm(total=steps, initial=min(global_step, steps), disable=not progress,
-               position=progress_position, desc=progress_desc, dynamic_ncols=True, leave=True)
-    csv_file = open(csv_path, "a", newline="")
+    obs_space, act_space = env.observation_space, env.action_space
+    if not isinstance(act_space, gym.spaces.Box) or not isinstance(obs_space, gym.spaces.Box):
+        env.close()
+        raise TypeError("TD3 needs Box observation and action spaces")
     try:
-        csv_writer = csv.DictWriter(csv_file, fieldnames=EPISODE_FIELDS)
-        if csv_path.stat().st_size == 0:
-            csv_writer.writeheader()
-        sps_t, sps_step = time.time(), global_step
-        obs, _ = env.reset(seed=episode_seed(cfg.seed, episode))
+        run = _SeedRun(int(np.prod(obs_space.shape)), int(np.prod(act_space.shape)),
+                       act_space.low.reshape(-1), act_space.high.reshape(-1), config, steps, run_dir,
+                       resume, progress, log_fn, init_from, progress_position, progress_desc,
+                       metadata)
+    except BaseException:
+        env.close()
+        raise
+    prev_deterministic = torch.are_deterministic_algorithms_enabled()
+    if run.cfg.torch_deterministic:
+        torch.use_deterministic_algorithms(True)
+    try:
+        obs, _ = env.reset(seed=run.reset_seed())
         obs = _flat_obs(obs)
-        ep_return, ep_len = 0.0, 0
-        while global_step < steps:
-            # 1. act: uniform random during warm-up, then mu(s) + N(0, sigma^2 I)
-            if global_step < cfg.learning_starts:
-                action = agent.random_action()
-            else:
-                action = agent.select_action(obs, explore=True)
-            next_obs, reward, terminated, truncated, _ = env.step(agent.scale_action(action))
+        while not run.done:
+            action = run.act(obs)
+            next_obs, reward, terminated, truncated, _ = env.step(run.agent.scale_action(action))
             next_obs = _flat_obs(next_obs)
-            # 2. store terminated (not done): truncated transitions bootstrap from the real s'
-            buffer.add(obs, action, float(reward), next_obs, bool(terminated))
+            ended = run.record(obs, action, reward, next_obs, terminated, truncated)
             obs = next_obs
-            ep_return += float(reward)
-            ep_len += 1
-            global_step += 1
-            bar.update(1)
-
-            # 3. learn: one (or updates_per_step) TD3 update per env step after warm-up
-            if global_step > cfg.learning_starts and len(buffer) >= cfg.batch_size:
-                for _ in range(cfg.updates_per_step):
-                    info = agent.update(buffer.sample(cfg.batch_size, agent.rng))
-                    if agent.num_updates % cfg.log_every == 0:
-                        for k, v in info.items():
-                            writer.add_scalar(f"losses/{k}", v, global_step)
-
-            # 4. episode end: log, maybe checkpoint, reset with the next seed of the sequence
-            if terminated or truncated:
-                row = {
-                    "episode": episode,
-                    "global_step": global_step,
-                    "return": ep_return,
-                    "length": ep_len,
-                    "terminated": int(bool(terminated)),
-                    "truncated": int(bool(truncated)),
-                    "wall_time_s": round(elapsed_before + time.time() - t_start, 3),
-                }
-                csv_writer.writerow(row)
-                csv_file.flush()
-                writer.add_scalar("charts/episodic_return", ep_return, global_step)
-                writer.add_scalar("charts/episodic_length", ep_len, global_step)
-                now = time.time()
-                writer.add_scalar("charts/sps", (global_step - sps_step) / max(now - sps_t, 1e-9),
-                                  global_step)
-                sps_t, sps_step = now, global_step
-                bar.set_postfix(ep=episode, ret=f"{ep_return:.3g}", refresh=False)
-                if log_fn is not None:
-                    log_fn(row)
-                episode += 1
-                if global_step >= next_checkpoint and global_step < steps:
-                    writer.flush()
-                    checkpoint(at_episode_boundary=True)
-                    next_checkpoint = (global_step // cfg.checkpoint_every + 1) \
-                        * cfg.checkpoint_every
-                if global_step < steps:
-                    obs, _ = env.reset(seed=episode_seed(cfg.seed, episode))
-                    obs = _flat_obs(obs)
-                    ep_return, ep_len = 0.0, 0
-        if not (resumed_here and global_step == int(ckpt["global_step"])):
-            checkpoint(at_episode_boundary=ep_len == 0 or bool(terminated or truncated))
+            if ended and not run.done:
+                obs, _ = env.reset(seed=run.reset_seed())
+                obs = _flat_obs(obs)
+        run.finish()
     finally:
-        csv_file.close()
-        bar.close()
-        writer.close()
+        run.close()
         env.close()
         torch.use_deterministic_algorithms(prev_deterministic)
-    return agent
+    return run.agent
+
+
+def train_shared(
+    vec_env_fn: Callable[[int], gym.vector.VectorEnv],
+    configs: list[TD3Config],
+    steps: int,
+    run_dirs: list[str | os.PathLike],
+    resume: bool = False,
+    progress: bool = True,
+    *,
+    progress_desc: str | None = None,
+    metadata: list[dict[str, Any]] | None = None,
+) -> list[TD3Agent]:
+    """Train independent seeds side by side, one crawler each in one shared simulator.
+
+    ``vec_env_fn(K)`` makes a vector environment of ``K = len(configs)`` sub-environments with
+    ``SAME_STEP`` autoreset whose sub-environment ``k`` reproduces the single environment exactly
+    (:class:`~rl.vector_env.MagneticCrawlerVectorEnv`: all robots in one batched simulator). Agent
+    ``k`` (``configs[k]``, its own networks, buffer, RNGs and ``run_dirs[k]``) drives sub-environment
+    ``k`` only, and everything is done as :func:`train` does it for one seed: one transition and
+    one update per step, episodes reset with ``episode_seed(configs[k].seed, episode)`` (the
+    sub-environment is re-reset with that seed after its autoreset), checkpoints at episode
+    boundaries in :func:`train`'s format. So each seed's run is bit-identical to
+    ``train(single env, configs[k])`` (CPU, same thread count), its folder can be resumed by either
+    function, and only the simulation is shared: the batched physics costs less per robot.
+
+    A seed that reaches ``steps`` stops learning and acting (its crawler idles) while the others go
+    on. ``metadata[k]`` goes into seed ``k``'s checkpoints. Returns the agents.
+    """
+    from gymnasium.vector import AutoresetMode
+
+    if len(configs) < 1 or len(configs) != len(run_dirs):
+        raise ValueError("train_shared needs one run_dir per config, and at least one config")
+    if len({Path(d).resolve() for d in run_dirs}) != len(run_dirs):
+        raise ValueError("every seed needs its own run_dir")
+    k_runs = len(configs)
+    env = vec_env_fn(k_runs)
+    if env.metadata.get("autoreset_mode") != AutoresetMode.SAME_STEP or env.num_envs != k_runs:
+        env.close()
+        raise ValueError(f"train_shared needs a SAME_STEP vector env of {k_runs} sub-environments")
+    obs_dim = int(np.prod(env.single_observation_space.shape))
+    act_dim = int(np.prod(env.single_action_space.shape))
+    low = env.single_action_space.low.reshape(-1)
+    high = env.single_action_space.high.reshape(-1)
+    runs: list[_SeedRun] = []
+    try:
+        for k, (config, run_dir) in enumerate(zip(configs, run_dirs, strict=True)):
+            desc = f"{progress_desc or 'seed'} {config.seed}"
+            # the global RNGs are one per process: seeded (unused by the agents) from the first seed
+            runs.append(_SeedRun(obs_dim, act_dim, low, high, config, steps, run_dir, resume,
+                                 progress, None, None, k, desc,
+                                 metadata[k] if metadata is not None else None,
+                                 seed_global_rngs=k == 0))
+    except BaseException:
+        for run in runs:
+            run.close()
+        env.close()
+        raise
+    prev_deterministic = torch.are_deterministic_algorithms_enabled()
+    if any(run.cfg.torch_deterministic for run in runs):
+        torch.use_deterministic_algorithms(True)
+    try:
+        obs, _ = env.reset(seed=[run.reset_seed() for run in runs])
+        obs = np.asarray(obs, dtype=np.float32).reshape(k_runs, obs_dim)
+        actions = np.zeros((k_runs, act_dim), dtype=np.float32)  # idle crawlers: no field change
+        while not all(run.done for run in runs):
+            active = [k for k, run in enumerate(runs) if not run.done]
+            for k in active:
+                actions[k] = runs[k].act(obs[k])
+            for k in range(k_runs):
+                if runs[k].done:
+                    actions[k] = 0.0
+            scaled = np.stack([runs[k].agent.scale_action(actions[k]) for k in range(k_runs)])
+            next_obs, rewards, terminated, truncated, infos = env.step(scaled)
+            next_obs = np.asarray(next_obs, dtype=np.float32).reshape(k_runs, obs_dim)
+            reseed: list[int | None] = [None] * k_runs
+            for k in active:
+                ended = bool(terminated[k] or truncated[k])
+                real_next = (np.asarray(infos["final_obs"][k], dtype=np.float32).reshape(-1)
+                             if ended else next_obs[k])
+                if runs[k].record(obs[k], actions[k], float(rewards[k]), real_next,
+                                  bool(terminated[k]), bool(truncated[k])) and not runs[k].done:
+                    reseed[k] = runs[k].reset_seed()
+            mask = np.array([seed is not None for seed in reseed])
+            if mask.any():  # the next episode starts from its seed, as train() resets it
+                fresh, _ = env.reset(seed=reseed, options={"reset_mask": mask})
+                fresh = np.asarray(fresh, dtype=np.float32).reshape(k_runs, obs_dim)
+                next_obs[mask] = fresh[mask]
+            obs = next_obs
+        for run in runs:
+            run.finish()
+    finally:
+        for run in runs:
+            run.close()
+        env.close()
+        torch.use_deterministic_algorithms(prev_deterministic)
+    return [run.agent for run in runs]
 
 
 # ----------------------------------------------------------------------------------------------

@@ -74,6 +74,26 @@ def test_train_writes_run_dirs_and_summary(trained):
     assert not torch.equal(a0["net.0.weight"], a1["net.0.weight"])
 
 
+def test_train_seeds_sharing_a_simulator_equal_the_separate_runs(trained, tmp_path, capsys):
+    """``--seeds-per-simulator 2``: both seeds in one worker and one batched simulator end with the
+    same episodes and weights as the 2-process run of the ``trained`` fixture."""
+    summary = run_msr(capsys, "train", "--case", "m1-4mT", "--seeds", "2", "--workers", "1",
+                      "--threads", "1", "--seeds-per-simulator", "2", "--steps", str(TRAIN_STEPS),
+                      "--out", str(tmp_path), *SMOKE)
+    assert [s["seed"] for s in summary["seeds"]] == [0, 1] and summary["seeds_per_simulator"] == 2
+    for seed in (0, 1):
+        shared, alone = tmp_path / "m1-4mT" / f"seed{seed}", trained / "m1-4mT" / f"seed{seed}"
+        assert json.loads((shared / "run.json").read_text())["shared_simulator_seeds"] == 2
+        rows = [(tuple(r.values())[:-1]) for r in csv.DictReader(open(shared / "episodes.csv"))]
+        assert rows == [(tuple(r.values())[:-1]) for r in csv.DictReader(open(alone / "episodes.csv"))]
+        a, b = load_checkpoint(shared)["agent"], load_checkpoint(alone)["agent"]
+        for part in ("actor", "critic"):
+            for name, tensor in a[part].items():
+                assert torch.equal(tensor, b[part][name]), (seed, part, name)
+    assert msr(["train", "--case", "m1-4mT", "--seeds", "2", "--seeds-per-simulator", "2",
+                "--envs", "2", "--steps", "10", "--out", str(tmp_path / "x"), "--no-progress"]) == 2
+
+
 def test_train_refuses_to_overwrite(trained, capsys):
     assert msr(["train", "--case", "m1-4mT", "--seeds", "1", "--steps", "10", "--out",
                 str(trained), "--no-progress"]) == 2

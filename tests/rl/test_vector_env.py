@@ -191,3 +191,50 @@ def test_msr_train_envs_4_smoke(tmp_path, capsys):
     ckpt = load_checkpoint(run)
     assert ckpt["global_step"] == 240 and ckpt["buffer"]["size"] == 240
     assert ckpt["agent"]["num_updates"] == 240 - 60
+
+
+def _episodes_without_wall_time(run_dir) -> list[str]:
+    lines = (run_dir / "episodes.csv").read_text().splitlines()
+    return [line.rsplit(",", 1)[0] for line in lines]
+
+
+def test_train_shared_seeds_equal_separate_single_env_runs(tmp_path):
+    """Seeds 3 and 7 trained side by side in one simulator (``train_shared``; the second half after
+    a resume) end bit-identical to two separate ``train`` runs with single environments: same
+    episodes, weights, optimisers and buffers. Only the simulation is shared."""
+    from rl.pipeline import make_env
+    from rl.td3 import train, train_shared
+    from rl.vector_env import make_vector_env
+
+    duration, steps = 0.1, 40  # 10-step episodes; updates from step 20
+    configs = [TD3Config(seed=s, learning_starts=20, batch_size=16, hidden_sizes=(16,),
+                         checkpoint_every=10) for s in (3, 7)]
+    vec_env_fn = functools.partial(make_vector_env, "m1-4mT", duration=duration)
+    shared = [tmp_path / "shared" / f"seed{c.seed}" for c in configs]
+    train_shared(vec_env_fn, configs, steps // 2, shared, progress=False)
+    train_shared(vec_env_fn, configs, steps, shared, resume=True, progress=False)
+    for config, run in zip(configs, shared, strict=True):
+        single = tmp_path / "single" / f"seed{config.seed}"
+        train(functools.partial(make_env, "m1-4mT", duration=duration), config, steps, single,
+              progress=False)
+        assert _episodes_without_wall_time(run) == _episodes_without_wall_time(single)
+        a, b = load_checkpoint(run), load_checkpoint(single)
+        assert a["global_step"] == b["global_step"] == steps and a["episode"] == b["episode"] == 4
+        for part in ("actor", "critic", "actor_target", "critic_target"):
+            for name, tensor in a["agent"][part].items():
+                assert torch.equal(tensor, b["agent"][part][name]), (config.seed, part, name)
+        assert a["agent"]["numpy_rng"] == b["agent"]["numpy_rng"]
+        for key in ("obs", "next_obs", "actions", "rewards", "terminated"):
+            assert torch.equal(torch.as_tensor(a["buffer"][key]), torch.as_tensor(b["buffer"][key]))
+    w3 = load_checkpoint(shared[0])["agent"]["actor"]["net.0.weight"]
+    assert not torch.equal(w3, load_checkpoint(shared[1])["agent"]["actor"]["net.0.weight"])
+
+
+def test_train_shared_rejects_shared_run_dirs(tmp_path):
+    from rl.td3 import train_shared
+    from rl.vector_env import make_vector_env
+
+    configs = [TD3Config(seed=0), TD3Config(seed=1)]
+    with pytest.raises(ValueError, match="own run_dir"):
+        train_shared(functools.partial(make_vector_env, "m1-4mT"), configs, 10,
+                     [tmp_path / "a", tmp_path / "a"], progress=False)
