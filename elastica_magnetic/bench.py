@@ -558,7 +558,9 @@ def benchmark(
     ``vector_env_steps_per_s`` (transitions/s, ``vector_envs`` crawlers in one simulator),
     ``td3_updates_per_s`` (one torch thread), ``train_1e5_steps_s`` (projected wall time of a
     1e5-step seed on one core: ``1e5 * (1 / env_steps_per_s + 1 / td3_updates_per_s)``, s),
-    ``train_1e5_steps_vector_s`` (the same with the vector environment), the target (900 s),
+    ``train_1e5_steps_vector_s`` (the same with the vector environment's simulation cost: also
+    the per-seed cost of seeds sharing a simulator, ``msr train --seeds-per-simulator``), the
+    target (900 s),
     ``td3_roofline`` (:func:`td3_roofline`: the update's FLOP count against this core's
     matrix-product rate, and the floor it sets on 1e5 updates), the load average and the CPU
     count. ``quick``: tiny measurements (for tests; numbers are rough).

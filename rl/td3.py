@@ -58,6 +58,10 @@ simulator): N transitions per vector step, one TD3 update per transition, the re
 observation ``infos["final_obs"][i]`` stored for ended sub-environments (no transition across a
 reset), and checkpoints at vector-step boundaries that include the environment's full state
 (``env.get_state()``), so resume is exact at any checkpoint.
+
+:func:`train_shared` is the other use of a vector environment: K independent seeds, one crawler
+each, in one simulator. Every seed is trained exactly as :func:`train` trains it alone (same
+episodes, updates and checkpoints, bit for bit); only the cost of the simulation is shared.
 """
 
 from __future__ import annotations
