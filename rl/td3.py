@@ -595,6 +595,43 @@ def _truncate_episode_log(path: Path, keep_episodes: int) -> None:
     os.replace(tmp, path)
 
 
+def _starting_point(
+    ckpt_path: Path,
+    resume: bool,
+    init_from: str | os.PathLike | None,
+    config: TD3Config | None,
+    metadata: dict[str, Any] | None,
+) -> tuple[dict[str, Any] | None, bool, TD3Config, dict[str, Any] | None]:
+    """Where a run starts: ``(checkpoint or None, resumed from this run_dir, config, metadata)``.
+
+    An existing checkpoint in the run directory is refused unless ``resume``; without one,
+    ``init_from`` (another run's checkpoint) may seed the run. When resuming (or when no config is
+    passed) the checkpoint's config is used; a resumed run keeps its metadata unless given new.
+    """
+    ckpt: dict[str, Any] | None = None
+    if ckpt_path.exists():
+        if not resume:
+            raise FileExistsError(f"{ckpt_path} exists: pass resume=True or use a new run_dir")
+        ckpt = load_checkpoint(ckpt_path)
+    elif resume:
+        warnings.warn(f"resume=True but no checkpoint in {ckpt_path.parent}: starting fresh",
+                      stacklevel=3)
+    resumed_here = ckpt is not None
+    if ckpt is None and init_from is not None:
+        ckpt = load_checkpoint(init_from)
+    if ckpt is not None:
+        ckpt_cfg = TD3Config.from_dict(ckpt["config"])
+        if resumed_here or config is None:
+            if config is not None and config != ckpt_cfg:
+                warnings.warn("resuming: using the checkpoint's config, not the one passed",
+                              stacklevel=3)
+            config = ckpt_cfg
+    cfg = config if config is not None else TD3Config()
+    if metadata is None and resumed_here:
+        metadata = ckpt.get("metadata")
+    return ckpt, resumed_here, cfg, metadata
+
+
 class _SeedRun:
     """The bookkeeping of one seed's training: its agent, replay buffer, episode log, TensorBoard
     writer, progress bar and checkpoints in ``run_dir``. :func:`train` drives one with a single
@@ -632,27 +669,9 @@ class _SeedRun:
         self.ckpt_path = run_dir / CHECKPOINT_NAME
         csv_path = run_dir / EPISODES_CSV
 
-        ckpt: dict[str, Any] | None = None
-        if self.ckpt_path.exists():
-            if not resume:
-                raise FileExistsError(f"{self.ckpt_path} exists: pass resume=True or use a new run_dir")
-            ckpt = load_checkpoint(self.ckpt_path)
-        elif resume:
-            warnings.warn(f"resume=True but no checkpoint in {run_dir}: starting fresh", stacklevel=3)
-        self.resumed_here = resumed_here = ckpt is not None
-        if ckpt is None and init_from is not None:
-            ckpt = load_checkpoint(init_from)
-
-        if ckpt is not None:
-            ckpt_cfg = TD3Config.from_dict(ckpt["config"])
-            if resumed_here or config is None:
-                if config is not None and config != ckpt_cfg:
-                    warnings.warn("resuming: using the checkpoint's config, not the one passed",
-                                  stacklevel=3)
-                config = ckpt_cfg
-        self.cfg = cfg = config if config is not None else TD3Config()
-        if metadata is None and resumed_here:
-            metadata = ckpt.get("metadata")
+        ckpt, resumed_here, cfg, metadata = _starting_point(self.ckpt_path, resume, init_from,
+                                                            config, metadata)
+        self.resumed_here, self.cfg = resumed_here, cfg
         self.metadata = metadata
         self.steps = int(steps)
         self.log_fn = log_fn
@@ -1047,26 +1066,8 @@ def train_vector(
     ckpt_path = run_dir / CHECKPOINT_NAME
     csv_path = run_dir / EPISODES_CSV
 
-    ckpt: dict[str, Any] | None = None
-    if ckpt_path.exists():
-        if not resume:
-            raise FileExistsError(f"{ckpt_path} exists: pass resume=True or use a new run_dir")
-        ckpt = load_checkpoint(ckpt_path)
-    elif resume:
-        warnings.warn(f"resume=True but no checkpoint in {run_dir}: starting fresh", stacklevel=2)
-    resumed_here = ckpt is not None
-    if ckpt is None and init_from is not None:
-        ckpt = load_checkpoint(init_from)
-    if ckpt is not None:
-        ckpt_cfg = TD3Config.from_dict(ckpt["config"])
-        if resumed_here or config is None:
-            if config is not None and config != ckpt_cfg:
-                warnings.warn("resuming: using the checkpoint's config, not the one passed",
-                              stacklevel=2)
-            config = ckpt_cfg
-    cfg = config if config is not None else TD3Config()
-    if metadata is None and resumed_here:
-        metadata = ckpt.get("metadata")
+    ckpt, resumed_here, cfg, metadata = _starting_point(ckpt_path, resume, init_from, config,
+                                                        metadata)
 
     env = vec_env_fn()
     if env.metadata.get("autoreset_mode") != AutoresetMode.SAME_STEP:
