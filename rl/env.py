@@ -11,7 +11,7 @@ resting on the ground plane ``y = -r`` (``r`` the equivalent rod radius); gravit
 the robot bends in the x-y plane. Angles are counter-clockwise positive seen from +z.
 
 Observation (float32, shape ``(4 n + 4,)`` = ``(260,)`` for ``n = 64`` elements)
--------------------------------------------------------------------------------
+--------------------------------------------------------------------------------
 In the order of the authors' code (angular velocity first; see :data:`OBSERVATION_LAYOUT` for the
 index slices and :data:`OBSERVATION_SCALES` for the factors, :func:`observation_spec` for a JSON
 description):

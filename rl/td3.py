@@ -456,7 +456,9 @@ class TD3Agent:
     def compute_target(
         self, rewards: torch.Tensor, next_obs: torch.Tensor, terminated: torch.Tensor
     ) -> torch.Tensor:
-        """TD target with target policy smoothing and clipped double Q (shape (B, 1))::
+        """TD target with target policy smoothing and clipped double Q, shape ``(B, 1)``.
+
+        The equations::
 
             eps ~ N(0, sigma^2), per dimension;  a' = clip(mu'(s') + clip(eps, -c, c), -1, 1)
             y   = r + gamma * (1 - terminated) * min(Q1'(s', a'), Q2'(s', a'))
