@@ -54,6 +54,7 @@ def main() -> None:
     fig, ax = plt.subplots(figsize=(5.5, 3.8), constrained_layout=True)
     for path, label in (("batched", "BatchedRobots (one numba call)"), ("per_rod", "per-rod forcing")):
         ax.plot(ROBOTS, [robots[path][str(n)] for n in ROBOTS], "o-", label=label)
+    ax.axhline(12.0, color="gray", ls="--", lw=1, label="target at N = 16 (12 us)")
     ax.set_xscale("log", base=2)
     ax.set_xlabel("robots in one simulator N")
     ax.set_ylabel("us per robot-step")
