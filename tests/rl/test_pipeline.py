@@ -256,21 +256,29 @@ def test_unknown_policy_is_a_clear_error(tmp_path):
         pipeline.resolve_policy(tmp_path / "nothing-here")
 
 
-def test_shipped_m1_4mT_policy_generates_and_exports(tmp_path, capsys):
-    """The policy shipped in the package: generate a short run by name, export it, reload it."""
+@pytest.mark.parametrize("name", ["m1-4mT", "m2-4mT"])
+def test_shipped_policy_generates_and_exports(name, tmp_path, capsys):
+    """A policy shipped in the package: generate a short run by name, export it, reload it; its
+    card and policy.json agree with the case and report a 10 s distance."""
     import json
 
     import torch
 
-    assert msr(["generate", "m1-4mT", "--duration", "0.05", "--out", str(tmp_path / "gen"),
+    assert msr(["generate", name, "--duration", "0.05", "--out", str(tmp_path / "gen"),
                 "--no-gif", "--no-figures", "--json"]) == 0
     result = json.loads(capsys.readouterr().out)
     fields = np.loadtxt(result["fields_csv"], delimiter=",", skiprows=1)
     assert fields.shape == (5, 4)
     assert np.all(np.abs(fields[:, 1:3]) <= 5 * 0.3 + 1e-9)  # mT: from zero, +-0.3 mT per step
-    assert msr(["export", "m1-4mT", "--out", str(tmp_path / "exp")]) == 0
-    policy = pipeline.resolve_policy("m1-4mT")
+    assert msr(["export", name, "--out", str(tmp_path / "exp")]) == 0
+    policy = pipeline.resolve_policy(name)
+    assert policy.case == name
     obs = np.zeros(260, dtype=np.float32)
     module = torch.jit.load(str(next((tmp_path / "exp").glob("*.ts.pt"))))
     action = module(torch.from_numpy(obs)[None]).detach().numpy()[0]
     np.testing.assert_allclose(action, policy.act(obs), atol=1e-6)
+    info = json.loads((pipeline.POLICIES_DIR / name / "policy.json").read_text())
+    assert info["case"] == name and info["evaluation"]["duration_s"] == 10.0
+    assert info["evaluation"]["mid_dx_m"] >= info["authors_mid_dx_10s_m"]  # what the card claims
+    shipped_fields = np.loadtxt(pipeline.POLICIES_DIR / name / "fields.csv", delimiter=",", skiprows=1)
+    assert shipped_fields.shape == (1000, 4)  # the 10 s waveform, 100 rows/s
