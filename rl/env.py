@@ -228,6 +228,33 @@ CASES: dict[str, CaseSpec] = {
 }
 
 
+def crawler_task(
+    pattern: int,
+    physics: str,
+    field_limit: float,
+    initial_field: str,
+    duration: float,
+    spec: RobotSpec | None,
+) -> tuple[RobotSpec, int]:
+    """Check the crawler task's arguments (shared by the single and the vector environment) and
+    return the robot spec (the paper's robot of ``pattern`` unless ``spec`` is given) and the
+    episode length in 0.01 s steps. ``field_limit`` in T, ``duration`` in s."""
+    if spec is None:
+        if pattern not in (1, 2):
+            raise ValueError(f"pattern must be 1 or 2, got {pattern!r}")
+        spec = yao2023_robot(int(pattern), physics)
+    if spec.ground is None:
+        raise ValueError("the crawler environment needs a robot spec with a ground")
+    if not (field_limit > 0.0 and math.isfinite(field_limit)):
+        raise ValueError(f"field_limit must be a positive field in T, got {field_limit}")
+    if initial_field not in ("random", "zero"):
+        raise ValueError(f"initial_field must be 'random' or 'zero', got {initial_field!r}")
+    n_steps = int(round(duration / ACTION_PERIOD))
+    if n_steps < 1:
+        raise ValueError(f"duration must be at least one 0.01 s step, got {duration} s")
+    return spec, n_steps
+
+
 class MagneticCrawlerEnv(gym.Env):
     """The crawling robot driven by field increments (see the module docstring for the spaces).
 
@@ -271,19 +298,7 @@ class MagneticCrawlerEnv(gym.Env):
         max_increment: float = MAX_FIELD_INCREMENT,
         divergence_penalty: float = -10.0,
     ) -> None:
-        if spec is None:
-            if pattern not in (1, 2):
-                raise ValueError(f"pattern must be 1 or 2, got {pattern!r}")
-            spec = yao2023_robot(int(pattern), physics)
-        if spec.ground is None:
-            raise ValueError("the crawler environment needs a robot spec with a ground")
-        if not (field_limit > 0.0 and math.isfinite(field_limit)):
-            raise ValueError(f"field_limit must be a positive field in T, got {field_limit}")
-        if initial_field not in ("random", "zero"):
-            raise ValueError(f"initial_field must be 'random' or 'zero', got {initial_field!r}")
-        n_steps = int(round(duration / ACTION_PERIOD))
-        if n_steps < 1:
-            raise ValueError(f"duration must be at least one 0.01 s step, got {duration} s")
+        spec, n_steps = crawler_task(pattern, physics, field_limit, initial_field, duration, spec)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         self.robot_spec = spec

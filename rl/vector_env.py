@@ -52,7 +52,6 @@ Units: SI (m, s, T) as the single environment.
 
 from __future__ import annotations
 
-import math
 from typing import Any, Literal
 
 import gymnasium as gym
@@ -62,7 +61,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
-from elastica_magnetic import ControlledField, RobotSpec, yao2023_robot
+from elastica_magnetic import ControlledField, RobotSpec
 from elastica_magnetic.batch import BatchedRobots, BatchedSimulationDiverged
 from elastica_magnetic.presets import ACTION_PERIOD
 
@@ -71,6 +70,7 @@ from .env import (
     MAX_FIELD_INCREMENT,
     crawler_observation,
     crawler_observation_space,
+    crawler_task,
     initial_field_value,
     observation_layout,
 )
@@ -110,19 +110,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
     ) -> None:
         if int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
-        if spec is None:
-            if pattern not in (1, 2):
-                raise ValueError(f"pattern must be 1 or 2, got {pattern!r}")
-            spec = yao2023_robot(int(pattern), physics)
-        if spec.ground is None:
-            raise ValueError("the crawler environment needs a robot spec with a ground")
-        if not (field_limit > 0.0 and math.isfinite(field_limit)):
-            raise ValueError(f"field_limit must be a positive field in T, got {field_limit}")
-        if initial_field not in ("random", "zero"):
-            raise ValueError(f"initial_field must be 'random' or 'zero', got {initial_field!r}")
-        n_steps = int(round(duration / ACTION_PERIOD))
-        if n_steps < 1:
-            raise ValueError(f"duration must be at least one 0.01 s step, got {duration} s")
+        spec, n_steps = crawler_task(pattern, physics, field_limit, initial_field, duration, spec)
         self.num_envs = int(num_envs)
         self.robot_spec = spec
         self.pattern = int(pattern)
