@@ -441,9 +441,10 @@ def td3_roofline(updates_per_s: float, repeats: int = 3, quick: bool = False) ->
     shapes = [(cfg.batch_size, i, o) for net in (agent.actor, agent.critic.q1_net)
               for i, o in _linear_shapes(net)]
     rate = sgemm_gflops(shapes, repeats=1 if quick else repeats, min_time=0.02 if quick else 0.2)
-    achieved = flop * updates_per_s / 1e9
+    gflop = flop / 1e9
+    achieved = gflop * updates_per_s
     return {
-        "gflop_per_update": flop / 1e9,
+        "gflop_per_update": gflop,
         "sgemm_gflops": rate,
         "achieved_gflops": achieved,
         "fraction_of_sgemm": achieved / rate,
