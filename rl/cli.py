@@ -1,5 +1,6 @@
-"""``msr train``, ``refine``, ``generate``, ``ship``, ``export``, ``figures``, ``demo``: thin wrappers
-over :mod:`rl.pipeline` and :mod:`rl.figures` (heavy imports happen inside the commands)."""
+"""``msr train``, ``refine``, ``generate``, ``baseline``, ``ship``, ``export``, ``figures``,
+``demo``: thin wrappers over :mod:`rl.pipeline`, :mod:`rl.baselines` and :mod:`rl.figures` (heavy
+imports happen inside the commands)."""
 
 from __future__ import annotations
 
@@ -90,6 +91,26 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=generate_command)
+
+    p = sub.add_parser(
+        "baseline",
+        help="generate with a hand-designed rotating field (the yardstick for learned policies)",
+        description="Turn the field at the case's limit at a constant rate, through the agent's "
+        "own action channel (0.3 mT per axis per 0.01 s, field from zero), and write the same "
+        "files as `msr generate`: a rotating field rolls the robot, the gait to beat.",
+    )
+    p.add_argument("--case", choices=CASE_NAMES, required=True)
+    p.add_argument("--period", type=float, default=2.0, help="s per turn of the field (2)")
+    p.add_argument("--counterclockwise", action="store_true",
+                   help="turn counter-clockwise (rolls towards -x)")
+    p.add_argument("--duration", type=float, default=10.0, help="s")
+    p.add_argument("--out", type=Path, default=Path("out/baseline"))
+    p.add_argument("--physics", choices=("accurate", "training"), default="accurate")
+    p.add_argument("--no-figures", action="store_true", help="skip the figures and the GIF")
+    p.add_argument("--no-gif", action="store_true", help="skip the GIF")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=baseline_command)
 
     p = sub.add_parser(
         "ship",
@@ -200,6 +221,21 @@ def generate_command(args: argparse.Namespace) -> int:
     from .pipeline import generate
 
     result = generate(args.policy, duration=args.duration, out=args.out, physics=args.physics,
+                      progress=not args.no_progress, figures=not args.no_figures,
+                      gif=not args.no_gif)
+    print_result(result, args.json)
+    return 0 if not result["diverged"] else 1
+
+
+def baseline_command(args: argparse.Namespace) -> int:
+    from .baselines import RotatingFieldPolicy
+    from .pipeline import generate
+
+    try:
+        policy = RotatingFieldPolicy(args.case, args.period, clockwise=not args.counterclockwise)
+    except ValueError as exc:
+        raise CommandError(f"--period: {exc}") from None
+    result = generate(policy, duration=args.duration, out=args.out, physics=args.physics,
                       progress=not args.no_progress, figures=not args.no_figures,
                       gif=not args.no_gif)
     print_result(result, args.json)

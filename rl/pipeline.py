@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from .backends import BACKENDS, run_jobs
+from .baselines import RotatingFieldPolicy
 from .env import CASES, MAX_FIELD_INCREMENT, MagneticCrawlerEnv, observation_spec
 
 __all__ = [
@@ -568,7 +569,7 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
 # Generating fields
 # ----------------------------------------------------------------------------------------------
 def run_policy(
-    policy: LoadedPolicy,
+    policy: LoadedPolicy | RotatingFieldPolicy,
     duration: float = 10.0,
     physics: str = "accurate",
     initial_field: str = "zero",
@@ -673,7 +674,7 @@ def evaluate_seeds(
 
 
 def generate(
-    policy: str | Path | LoadedPolicy,
+    policy: str | Path | LoadedPolicy | RotatingFieldPolicy,
     duration: float = 10.0,
     out: str | Path = "out/generate",
     physics: str = "accurate",
@@ -682,6 +683,9 @@ def generate(
     gif: bool = True,
 ) -> dict[str, Any]:
     """Generate a field waveform with a policy: accurate physics, field from zero, deterministic.
+
+    ``policy`` is anything :func:`resolve_policy` accepts, a loaded policy, or a hand-designed
+    baseline such as :class:`~rl.baselines.RotatingFieldPolicy`.
 
     Writes into ``out``: ``fields.csv`` (paper format: index, mag_x, mag_y, mag_z in mT; row ``i``
     is the field held on ``[i/100, (i+1)/100)`` s), ``trajectory.csv`` (the columns of
@@ -699,7 +703,7 @@ def generate(
 
     from .figures import rollout_figures
 
-    loaded = policy if isinstance(policy, LoadedPolicy) else resolve_policy(policy)
+    loaded = resolve_policy(policy) if isinstance(policy, (str, Path)) else policy
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     rollout = run_policy(loaded, duration, physics, "zero", progress)
@@ -717,6 +721,7 @@ def generate(
     result: dict[str, Any] = {
         "case": loaded.case,
         "policy": str(loaded.source),
+        "policy_kind": loaded.kind,
         "physics": physics,
         "duration_s": float(rollout.times[-1]),
         "mid_dx_m": float(traj.mid_x_m.iloc[-1] - traj.mid_x_m.iloc[0]),

@@ -1,0 +1,80 @@
+"""Hand-designed policies to compare learned ones against.
+
+:class:`RotatingFieldPolicy` turns the field at a constant rate at the field limit, through the
+same action channel as the agent (increments of at most 0.3 mT per axis every 0.01 s, field
+starting at zero), so its waveform is one the coils could play and its distance is directly
+comparable with a learned policy's. A rotating field makes these robots roll (the paper's gait 2 at
+10 mT); it is the obvious open-loop gait a learned policy should beat.
+
+The policy is a function of the observation alone (it reads the field back from the observation's
+amplitude and angle), so it runs wherever a learned actor runs: ``msr baseline`` writes the same
+files as ``msr generate``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from elastica_magnetic.presets import ACTION_PERIOD
+
+from .env import CASES, MAX_FIELD_INCREMENT, OBSERVATION_SCALES, observation_layout
+
+__all__ = ["RotatingFieldPolicy"]
+
+
+@dataclass
+class RotatingFieldPolicy:
+    """Turn the field at the limit by ``2 pi / period`` rad/s, clockwise unless stated.
+
+    Each step asks for the field at the limit amplitude, rotated from the present field's angle by
+    ``2 pi * 0.01 s / period``; the action is the increment towards it in units of the 0.3 mT
+    maximum, clipped to [-1, 1] (so from a zero field the amplitude ramps up over the first
+    ~0.3 s, and a period shorter than the rate limit allows makes the field lag and shrink).
+
+    Args:
+        case: the case name (``"m1-10mT"`` ...), which sets the field limit and the robot.
+        period: time of one turn of the field, s.
+        clockwise: clockwise seen from +z (x right, y up): rolls the robot towards +x.
+        n_elements: the robot's element count (sets the observation layout).
+
+    The attributes ``critic``/``actor`` (None), ``obs_dim``, ``source`` and ``kind`` let it stand in
+    for a loaded policy in :func:`rl.pipeline.run_policy` and :func:`rl.pipeline.generate`.
+    """
+
+    case: str
+    period: float = 2.0
+    clockwise: bool = True
+    n_elements: int = 64
+
+    def __post_init__(self) -> None:
+        if self.case not in CASES:
+            raise ValueError(f"unknown case {self.case!r}; expected one of {', '.join(CASES)}")
+        if not (self.period > 0.0 and math.isfinite(self.period)):
+            raise ValueError(f"period must be a positive time in s, got {self.period}")
+        self.field_limit = CASES[self.case].field_limit
+        layout = observation_layout(self.n_elements)
+        self._amplitude = layout["field_amplitude"].start
+        self._angle = layout["field_angle"].start
+        self.obs_dim = 4 * self.n_elements + 4
+        self.act_dim = 2
+        self.critic = None
+        self.actor = None
+        self.kind = "baseline"
+        turn = "clockwise" if self.clockwise else "counter-clockwise"
+        self.source = Path(f"rotating field, {turn}, period {self.period:g} s")
+        self.meta = {"period_s": self.period, "clockwise": self.clockwise}
+
+    def act(self, obs: NDArray[np.float32]) -> NDArray[np.float32]:
+        """Normalised action in [-1, 1]^2 for one observation ``(4 n + 4,)``."""
+        amplitude = float(obs[self._amplitude]) / OBSERVATION_SCALES["field_amplitude"]  # T
+        angle = float(obs[self._angle]) / OBSERVATION_SCALES["field_angle"]  # rad
+        field = amplitude * np.array([math.cos(angle), math.sin(angle)])
+        step = 2.0 * math.pi * ACTION_PERIOD / self.period
+        target_angle = angle - step if self.clockwise else angle + step
+        target = self.field_limit * np.array([math.cos(target_angle), math.sin(target_angle)])
+        return np.clip((target - field) / MAX_FIELD_INCREMENT, -1.0, 1.0).astype(np.float32)
