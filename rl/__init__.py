@@ -10,7 +10,8 @@ and torch are imported only when an environment or agent is built)::
 
 Modules: :mod:`rl.env` (environment), :mod:`rl.vector_env` (N crawlers in one batched simulator,
 a Gymnasium vector environment), :mod:`rl.td3` (agent; ``train`` and ``train_vector``),
-:mod:`rl.pipeline` (train, refine, generate, ship, export), :mod:`rl.figures` (figures),
+:mod:`rl.pipeline` (train, refine, generate, ship, export), :mod:`rl.baselines` (a hand-designed
+rotating field to compare with), :mod:`rl.figures` (figures),
 :mod:`rl.cli` (``msr`` sub-commands).
 """
 

@@ -12,6 +12,17 @@ from elastica_magnetic.cli import CommandError, print_result
 CASE_NAMES = ("m1-4mT", "m2-4mT", "m1-10mT", "m2-10mT")
 
 
+def _add_rollout_options(p: argparse.ArgumentParser, out: Path) -> None:
+    """The options of the commands that roll a policy out and write what ``generate`` writes."""
+    p.add_argument("--duration", type=float, default=10.0, help="s")
+    p.add_argument("--out", type=Path, default=out)
+    p.add_argument("--physics", choices=("accurate", "training"), default="accurate")
+    p.add_argument("--no-figures", action="store_true", help="skip the figures and the GIF")
+    p.add_argument("--no-gif", action="store_true", help="skip the GIF")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true")
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "train",
@@ -83,13 +94,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("policy", help="run directory, checkpoint, shipped-policy folder or shipped name "
                                   "(e.g. m1-4mT)")
-    p.add_argument("--duration", type=float, default=10.0, help="s")
-    p.add_argument("--out", type=Path, default=Path("out/generate"))
-    p.add_argument("--physics", choices=("accurate", "training"), default="accurate")
-    p.add_argument("--no-figures", action="store_true", help="skip the figures and the GIF")
-    p.add_argument("--no-gif", action="store_true", help="skip the GIF")
-    p.add_argument("--no-progress", action="store_true")
-    p.add_argument("--json", action="store_true")
+    _add_rollout_options(p, Path("out/generate"))
     p.set_defaults(func=generate_command)
 
     p = sub.add_parser(
@@ -103,13 +108,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--period", type=float, default=2.0, help="s per turn of the field (2)")
     p.add_argument("--counterclockwise", action="store_true",
                    help="turn counter-clockwise (rolls towards -x)")
-    p.add_argument("--duration", type=float, default=10.0, help="s")
-    p.add_argument("--out", type=Path, default=Path("out/baseline"))
-    p.add_argument("--physics", choices=("accurate", "training"), default="accurate")
-    p.add_argument("--no-figures", action="store_true", help="skip the figures and the GIF")
-    p.add_argument("--no-gif", action="store_true", help="skip the GIF")
-    p.add_argument("--no-progress", action="store_true")
-    p.add_argument("--json", action="store_true")
+    _add_rollout_options(p, Path("out/baseline"))
     p.set_defaults(func=baseline_command)
 
     p = sub.add_parser(
