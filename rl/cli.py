@@ -65,6 +65,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--buffer-size", type=int, default=None, help="replay capacity (1e6)")
     g.add_argument("--target-noise-clip", type=float, default=None, help="(0.8, the authors')")
     g.add_argument("--checkpoint-every", type=int, default=None, help="steps (10000)")
+    g.add_argument("--eval-every", type=int, default=None,
+                   help="steps between evaluations of the deterministic policy from a zero field, "
+                        "10 s, best actor kept in best.pt (5000; 0: none)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=train_command)
@@ -168,7 +171,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _overrides(args: argparse.Namespace) -> dict:
     out = {}
     for name in ("learning_starts", "batch_size", "buffer_size", "target_noise_clip",
-                 "checkpoint_every"):
+                 "checkpoint_every", "eval_every"):
         value = getattr(args, name)
         if value is not None:
             out[name] = value
@@ -210,7 +213,7 @@ def refine_command(args: argparse.Namespace) -> int:
     try:
         result = refine(args.run, steps=args.steps, out=args.out, resume=args.resume,
                         progress=not args.no_progress, episode_duration=args.episode_duration)
-    except FileExistsError as exc:
+    except (FileExistsError, ValueError) as exc:
         raise CommandError(str(exc)) from None
     print_result(result, args.json)
     return 0

@@ -74,8 +74,14 @@ EXPORT_FORMAT = "msr-exported-policy-v1"
 AUTHORS_DISTANCE_10S = {"m1-4mT": 20.5e-3, "m2-4mT": 20.1e-3, "m1-10mT": 137e-3, "m2-10mT": 137e-3}
 
 #: TD3 settings of the crawler that differ from :class:`~rl.td3.TD3Config`'s defaults: the
-#: authors' target-noise clip 0.8 (Fujimoto's is 0.5). Everything else is the paper's setting.
-CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8}
+#: authors' target-noise clip 0.8 (Fujimoto's is 0.5); and an evaluation every 5000 steps (not in
+#: the paper; it changes no weight) that keeps the best actor in ``best.pt``. Everything else is
+#: the paper's setting.
+CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8, "eval_every": 5000}
+
+#: The evaluation during training: the shipping criterion's episode (field from zero,
+#: deterministic actions, 10 s) in the physics the run trains in.
+EVAL_DURATION = 10.0
 
 
 class PolicyNotFoundError(FileNotFoundError):
@@ -136,14 +142,20 @@ def _write_json(path: Path, data: dict[str, Any]) -> Path:
 # ----------------------------------------------------------------------------------------------
 def summarize_run(run_dir: str | Path, last: int = 5) -> dict[str, Any]:
     """Episodes, steps and the mean return of the last ``last`` episodes of a run (``nan`` if it has
-    no finished episode). ``final_mean_distance_m`` is that return / 1e4 (m per episode)."""
+    no finished episode). ``final_mean_distance_m`` is that return / 1e4 (m per episode). With
+    evaluations during training: ``best_eval_step`` and ``best_eval_return`` (the evaluation that
+    ``best.pt`` holds; its return / 1e4 is the 10 s distance from a zero field, m), else ``None``."""
     import csv
 
     run_dir = Path(run_dir)
-    rows = []
+    rows, evals = [], []
     if (run_dir / "episodes.csv").is_file():
         with open(run_dir / "episodes.csv", newline="") as f:
             rows = list(csv.DictReader(f))
+    if (run_dir / "evaluations.csv").is_file():
+        with open(run_dir / "evaluations.csv", newline="") as f:
+            evals = list(csv.DictReader(f))
+    best_eval = max(evals, key=lambda r: float(r["mean_return"])) if evals else None
     returns = [float(r["return"]) for r in rows]
     tail = returns[-last:]
     mean = float(np.mean(tail)) if tail else float("nan")
@@ -155,6 +167,8 @@ def summarize_run(run_dir: str | Path, last: int = 5) -> dict[str, Any]:
         "final_mean_distance_m": mean / 1e4,
         "best_return": max(returns) if returns else float("nan"),
         "terminated_episodes": sum(int(r["terminated"]) for r in rows),
+        "best_eval_step": int(best_eval["global_step"]) if best_eval else None,
+        "best_eval_return": float(best_eval["mean_return"]) if best_eval else None,
     }
 
 
@@ -189,6 +203,7 @@ def _train_seed(job: dict[str, Any]) -> dict[str, Any]:
 
     torch.set_num_threads(int(job["threads"]))
     envs = int(job.get("envs", 1))
+    eval_env_fn = functools.partial(make_env, job["case"], job["physics"], "zero", EVAL_DURATION)
     start = time.perf_counter()
     if "group" in job:  # seeds side by side in one batched simulator, each as train() would run it
         from .vector_env import make_vector_env
@@ -203,7 +218,8 @@ def _train_seed(job: dict[str, Any]) -> dict[str, Any]:
         train_shared(functools.partial(make_vector_env, job["case"], physics=job["physics"],
                                        duration=job["duration"]),
                      configs, job["steps"], run_dirs, resume=job["resume"],
-                     progress=job["progress"], progress_desc=job["case"], metadata=metadata)
+                     progress=job["progress"], progress_desc=job["case"], metadata=metadata,
+                     eval_env_fn=eval_env_fn)
         wall, peak = time.perf_counter() - start, _peak_rss_bytes()
         return {"group": [{"seed": c.seed, **summarize_run(d), "wall_s": wall, "peak_rss_bytes": peak}
                           for c, d in zip(configs, run_dirs, strict=True)]}
@@ -225,7 +241,7 @@ def _train_seed(job: dict[str, Any]) -> dict[str, Any]:
         env_fn = functools.partial(make_env, job["case"], job["physics"], "random", job["duration"])
     train_fn(env_fn, config, job["steps"], run_dir, resume=job["resume"], progress=job["progress"],
              progress_position=job["position"], progress_desc=f"{job['case']} seed{config.seed}",
-             metadata=metadata)
+             metadata=metadata, eval_env_fn=eval_env_fn)
     return {"seed": config.seed, **summarize_run(run_dir), "wall_s": time.perf_counter() - start,
             "peak_rss_bytes": _peak_rss_bytes()}
 
@@ -450,12 +466,13 @@ def refine(
 
     Cost: one accurate step is 1250 substeps (~0.1 s here), 12.5x a training step.
     """
-    from .td3 import TD3Config, load_checkpoint, train
+    from .td3 import TD3Config, _refuse_networks_only, load_checkpoint, train
 
     if steps < 1:
         raise ValueError("steps must be >= 1")
     source = _checkpoint_path(run)
     ckpt = load_checkpoint(source)
+    _refuse_networks_only(ckpt, source)
     meta = _checkpoint_metadata(ckpt, source)
     case = meta["case"]
     out = Path(out) if out is not None else source.parent / "refined"

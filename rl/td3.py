@@ -50,6 +50,14 @@ training when ``config.torch_deterministic``). The one checkpoint that may fall 
 is the final one written when ``steps`` is reached; continuing such a run to a larger ``steps``
 abandons that partial episode (its transitions stay in the buffer) and starts the next one.
 
+Evaluation during training
+--------------------------
+With ``TD3Config.eval_every > 0`` and an evaluation environment, the deterministic policy is
+evaluated periodically (``evaluations.csv``, TensorBoard ``eval/``) and the best networks so far
+are kept in ``best.pt`` (a networks-only checkpoint), as Stable-Baselines3's ``EvalCallback``
+does: a policy that finds a gait and later loses it is not lost. Evaluation uses no RNG of the
+training, so the weights are bit-identical with or without it.
+
 Vector environments
 -------------------
 :func:`train_vector` trains with a Gymnasium vector environment whose ``autoreset_mode`` is
@@ -69,6 +77,7 @@ from __future__ import annotations
 import copy
 import csv
 import dataclasses
+import math
 import os
 import random
 import time
@@ -87,6 +96,16 @@ import torch.nn.functional as F
 CHECKPOINT_NAME = "checkpoint.pt"
 EPISODES_CSV = "episodes.csv"
 CHECKPOINT_FORMAT = "td3-checkpoint-v1"
+BEST_NAME = "best.pt"
+EVALUATIONS_CSV = "evaluations.csv"
+EVALUATION_FIELDS = ("global_step", "mean_return", "std_return", "mean_length", "best_mean_return",
+                     "wall_time_s")
+#: Fields of :class:`TD3Config` that a resumed run takes from the config passed (they change no
+#: weight: when to checkpoint, log and evaluate); every other field comes from the checkpoint.
+RESUMABLE_SETTINGS = ("checkpoint_every", "log_every", "eval_every", "eval_episodes")
+#: Evaluation episode ``i`` is reset with seed ``EVAL_SEED + i``: the same episodes at every
+#: evaluation and for every seed of a sweep, so their returns compare.
+EVAL_SEED = 1_000_000
 EPISODE_FIELDS = (
     "episode",
     "global_step",
@@ -145,6 +164,13 @@ class TD3Config:
     steps, and at the end of the run."""
     log_every: int = 100
     """TensorBoard loss scalars every this many gradient updates."""
+    eval_every: int = 0
+    """Evaluate the deterministic policy at the first episode boundary after every multiple of
+    this many steps (and at the end of the run) in the evaluation environment given to the
+    training function, keeping the best actor in ``best.pt`` (Stable-Baselines3's
+    ``EvalCallback``); 0: never."""
+    eval_episodes: int = 1
+    """Episodes per evaluation (episode ``i`` reset with seed ``EVAL_SEED + i``)."""
 
     def __post_init__(self) -> None:
         self.hidden_sizes = tuple(int(h) for h in self.hidden_sizes)
@@ -155,7 +181,9 @@ class TD3Config:
         for name in ("batch_size", "buffer_size", "policy_delay", "checkpoint_every", "log_every"):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
-        for name in ("learning_starts", "updates_per_step"):
+        if self.eval_episodes < 1:
+            raise ValueError(f"eval_episodes must be >= 1, got {self.eval_episodes}")
+        for name in ("learning_starts", "updates_per_step", "eval_every"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         for name in ("exploration_noise", "policy_noise", "target_noise_clip"):
@@ -542,6 +570,7 @@ class TD3Agent:
     def from_checkpoint(cls, path: str | os.PathLike, device: str | None = None) -> TD3Agent:
         """Rebuild an agent (networks, optimisers, RNGs) from a :func:`train` checkpoint."""
         ckpt = load_checkpoint(path)
+        _refuse_networks_only(ckpt, path)
         cfg = TD3Config.from_dict(ckpt["config"])
         if device is not None:
             cfg.device = device
@@ -576,6 +605,13 @@ def load_checkpoint(path: str | os.PathLike) -> dict[str, Any]:
     return ckpt
 
 
+def _refuse_networks_only(ckpt: dict[str, Any], path: str | os.PathLike) -> None:
+    if ckpt.get("kind") == "best":
+        raise ValueError(f"{path} holds only the networks of the best evaluation (no optimisers, "
+                         f"buffer or RNG states): training can only continue from a run's "
+                         f"{CHECKPOINT_NAME}")
+
+
 # ----------------------------------------------------------------------------------------------
 # Training loop
 # ----------------------------------------------------------------------------------------------
@@ -583,18 +619,112 @@ def _flat_obs(obs: Any) -> np.ndarray:
     return np.asarray(obs, dtype=np.float32).reshape(-1)
 
 
-def _truncate_episode_log(path: Path, keep_episodes: int) -> None:
-    """Drop rows of episodes ``>= keep_episodes`` (logged after the checkpoint we resume from)."""
+def _truncate_csv(path: Path, fields: tuple[str, ...], keep: Callable[[dict[str, str]], bool]) -> None:
+    """Keep only the rows of a log for which ``keep(row)`` (those written before the checkpoint
+    a run resumes from)."""
     if not path.exists():
         return
     with open(path, newline="") as f:
-        rows = [r for r in csv.DictReader(f) if int(r["episode"]) < keep_episodes]
+        rows = [r for r in csv.DictReader(f) if keep(r)]
     tmp = path.with_name(path.name + ".tmp")
     with open(tmp, "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=EPISODE_FIELDS)
+        writer = csv.DictWriter(f, fieldnames=fields)
         writer.writeheader()
         writer.writerows(rows)
     os.replace(tmp, path)
+
+
+def _truncate_episode_log(path: Path, keep_episodes: int) -> None:
+    """Drop rows of episodes ``>= keep_episodes`` (logged after the checkpoint we resume from)."""
+    _truncate_csv(path, EPISODE_FIELDS, lambda row: int(row["episode"]) < keep_episodes)
+
+
+class _PeriodicEvaluation:
+    """Evaluation during training (``config.eval_every``, as Stable-Baselines3's
+    ``EvalCallback``): :func:`evaluate` runs the deterministic policy in its own environment, a row
+    goes to ``evaluations.csv`` and TensorBoard (``eval/``), and the actor and critic of the best
+    evaluation so far go to ``best.pt`` (loadable wherever a checkpoint's policy is read, e.g.
+    ``msr generate RUN/best.pt``).
+
+    It draws from none of the training's RNGs (its environment is reset with the fixed seeds
+    ``EVAL_SEED + i``), so a run's training is bit-identical with or without it. Its state (the
+    best networks included) is part of the checkpoints, so a resumed run keeps the right best.
+    """
+
+    def __init__(self, env_fn: Callable[[], gym.Env] | None, cfg: TD3Config, run_dir: Path,
+                 writer: Any, agent: TD3Agent, global_step: int, ckpt: dict[str, Any] | None,
+                 resumed_here: bool, metadata: dict[str, Any] | None) -> None:
+        self.env_fn, self.cfg, self.writer = env_fn, cfg, writer
+        self.enabled = env_fn is not None and cfg.eval_every > 0
+        self.csv_path = run_dir / EVALUATIONS_CSV
+        self.best_path = run_dir / BEST_NAME
+        state = ckpt.get("evaluation") if (resumed_here and ckpt is not None) else None
+        self.best_return = float(state["best_mean_return"]) if state else -math.inf
+        self.best_step = int(state["best_step"]) if state else -1
+        self.best_networks = state["best_networks"] if state else None
+        self.last_step = int(state["last_step"]) if state else -1
+        self.next_step = self._next(global_step)
+        if resumed_here:
+            _truncate_csv(self.csv_path, EVALUATION_FIELDS,
+                          lambda row: int(row["global_step"]) <= global_step)
+        else:  # leftovers of an earlier run in this folder that left no checkpoint
+            self.csv_path.unlink(missing_ok=True)
+        if self.best_networks is not None:  # the best as of the checkpoint (not a later one)
+            self.write_best(agent, metadata)
+        else:
+            self.best_path.unlink(missing_ok=True)
+
+    def _next(self, global_step: int) -> int:
+        every = max(self.cfg.eval_every, 1)
+        return (global_step // every + 1) * every
+
+    def due(self, global_step: int) -> bool:
+        return self.enabled and global_step >= self.next_step
+
+    def run(self, agent: TD3Agent, global_step: int, wall_time_s: float,
+            metadata: dict[str, Any] | None) -> EvalResult:
+        result = evaluate(agent, self.env_fn, self.cfg.eval_episodes, seed=EVAL_SEED)
+        if result.mean_return > self.best_return:
+            self.best_return, self.best_step = result.mean_return, global_step
+            self.best_networks = {"actor": copy.deepcopy(agent.actor.state_dict()),
+                                  "critic": copy.deepcopy(agent.critic.state_dict())}
+            self.write_best(agent, metadata)
+        row = {"global_step": global_step, "mean_return": result.mean_return,
+               "std_return": result.std_return, "mean_length": float(np.mean(result.lengths)),
+               "best_mean_return": self.best_return, "wall_time_s": round(wall_time_s, 3)}
+        new_file = not self.csv_path.exists() or self.csv_path.stat().st_size == 0
+        with open(self.csv_path, "a", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=EVALUATION_FIELDS)
+            if new_file:
+                writer.writeheader()
+            writer.writerow(row)
+        self.writer.add_scalar("eval/mean_return", result.mean_return, global_step)
+        self.writer.add_scalar("eval/best_mean_return", self.best_return, global_step)
+        self.last_step = global_step
+        self.next_step = self._next(global_step)
+        return result
+
+    def write_best(self, agent: TD3Agent, metadata: dict[str, Any] | None) -> None:
+        """``best.pt``: a checkpoint holding only the best networks (no optimisers, buffer or RNGs:
+        it cannot be resumed or refined), with the step and return of their evaluation."""
+        save_checkpoint(self.best_path, {
+            "format": CHECKPOINT_FORMAT,
+            "kind": "best",
+            "config": self.cfg.to_dict(),
+            "obs_dim": agent.obs_dim,
+            "act_dim": agent.act_dim,
+            "action_low": torch.from_numpy(agent.action_low.copy()),
+            "action_high": torch.from_numpy(agent.action_high.copy()),
+            "agent": self.best_networks,
+            "global_step": self.best_step,
+            "evaluation": {"mean_return": self.best_return, "episodes": self.cfg.eval_episodes,
+                           "seed": EVAL_SEED},
+            "metadata": metadata if metadata is not None else {},
+        })
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"best_mean_return": self.best_return, "best_step": self.best_step,
+                "best_networks": self.best_networks, "last_step": self.last_step}
 
 
 def _starting_point(
@@ -608,7 +738,8 @@ def _starting_point(
 
     An existing checkpoint in the run directory is refused unless ``resume``; without one,
     ``init_from`` (another run's checkpoint) may seed the run. When resuming (or when no config is
-    passed) the checkpoint's config is used; a resumed run keeps its metadata unless given new.
+    passed) the checkpoint's config is used, except for the :data:`RESUMABLE_SETTINGS` of a config
+    passed; a resumed run keeps its metadata unless given new.
     """
     ckpt: dict[str, Any] | None = None
     if ckpt_path.exists():
@@ -621,12 +752,18 @@ def _starting_point(
     resumed_here = ckpt is not None
     if ckpt is None and init_from is not None:
         ckpt = load_checkpoint(init_from)
+        _refuse_networks_only(ckpt, init_from)
     if ckpt is not None:
         ckpt_cfg = TD3Config.from_dict(ckpt["config"])
         if resumed_here or config is None:
-            if config is not None and config != ckpt_cfg:
-                warnings.warn("resuming: using the checkpoint's config, not the one passed",
-                              stacklevel=3)
+            if config is not None:
+                # run settings that change no weight may change on resume; the rest is the run's
+                passed = {k: getattr(config, k) for k in RESUMABLE_SETTINGS}
+                if dataclasses.replace(config, **{k: getattr(ckpt_cfg, k)
+                                                  for k in RESUMABLE_SETTINGS}) != ckpt_cfg:
+                    warnings.warn("resuming: using the checkpoint's hyperparameters, not the ones "
+                                  "passed", stacklevel=3)
+                ckpt_cfg = dataclasses.replace(ckpt_cfg, **passed)
             config = ckpt_cfg
     cfg = config if config is not None else TD3Config()
     if metadata is None and resumed_here:
@@ -662,6 +799,7 @@ class _SeedRun:
         progress_desc: str | None,
         metadata: dict[str, Any] | None,
         seed_global_rngs: bool = True,
+        eval_env_fn: Callable[[], gym.Env] | None = None,
     ) -> None:
         from torch.utils.tensorboard import SummaryWriter
         from tqdm.auto import tqdm
@@ -704,6 +842,8 @@ class _SeedRun:
         self.writer = SummaryWriter(str(run_dir), purge_step=self.global_step if resumed_here else None)
         if not resumed_here:
             self.writer.add_text("config", str(cfg.to_dict()))
+        self.evaluation = _PeriodicEvaluation(eval_env_fn, cfg, run_dir, self.writer, agent,
+                                              self.global_step, ckpt, resumed_here, metadata)
         self.t_start = time.time()
         self.next_checkpoint = (self.global_step // cfg.checkpoint_every + 1) * cfg.checkpoint_every
         self.bar = tqdm(total=self.steps, initial=min(self.global_step, self.steps),
@@ -761,7 +901,7 @@ class _SeedRun:
             "length": self.ep_len,
             "terminated": int(bool(terminated)),
             "truncated": int(bool(truncated)),
-            "wall_time_s": round(self.elapsed_before + time.time() - self.t_start, 3),
+            "wall_time_s": round(self.wall_time_s, 3),
         }
         self.csv_writer.writerow(row)
         self.csv_file.flush()
@@ -775,6 +915,8 @@ class _SeedRun:
         if self.log_fn is not None:
             self.log_fn(row)
         self.episode += 1
+        if self.evaluation.due(self.global_step):
+            self.evaluation.run(agent, self.global_step, self.wall_time_s, self.metadata)
         if self.next_checkpoint <= self.global_step < self.steps:
             self.writer.flush()
             self.checkpoint(at_episode_boundary=True)
@@ -799,13 +941,21 @@ class _SeedRun:
             "at_episode_boundary": at_episode_boundary,
             "python_rng": random.getstate(),
             "torch_cpu_rng": torch.get_rng_state(),
-            "wall_time_s": self.elapsed_before + time.time() - self.t_start,
+            "wall_time_s": self.wall_time_s,
             "metadata": self.metadata if self.metadata is not None else {},
+            "evaluation": self.evaluation.state_dict(),
         })
 
+    @property
+    def wall_time_s(self) -> float:
+        """Wall-clock time of the run so far, earlier sessions included, s."""
+        return self.elapsed_before + time.time() - self.t_start
+
     def finish(self) -> None:
-        """The final checkpoint (unless a resumed run took no step)."""
+        """The last evaluation and the final checkpoint (unless a resumed run took no step)."""
         if not (self.resumed_here and self.global_step == self.start_step):
+            if self.evaluation.enabled and self.evaluation.last_step != self.global_step:
+                self.evaluation.run(self.agent, self.global_step, self.wall_time_s, self.metadata)
             self.checkpoint(at_episode_boundary=self.ep_len == 0 or self.last_ended)
 
     def close(self) -> None:
@@ -827,6 +977,7 @@ def train(
     progress_position: int | None = None,
     progress_desc: str | None = None,
     metadata: dict[str, Any] | None = None,
+    eval_env_fn: Callable[[], gym.Env] | None = None,
 ) -> TD3Agent:
     """Train TD3 until ``steps`` environment steps in total and return the agent.
 
@@ -851,6 +1002,10 @@ def train(
         metadata: JSON-like dict (str, numbers, lists, dicts) stored in the checkpoint under
             ``"metadata"`` (e.g. the environment's case), so a checkpoint describes itself. When
             ``None`` the metadata of the checkpoint resumed from (if any) is kept.
+        eval_env_fn: makes the evaluation environment; with ``config.eval_every > 0`` the
+            deterministic policy is evaluated there periodically (``evaluations.csv``, ``eval/``
+            scalars, the best actor in ``best.pt``; see :class:`TD3Config`). The training itself
+            is bit-identical with or without it.
     """
     env = env_fn()
     obs_space, act_space = env.observation_space, env.action_space
@@ -861,7 +1016,7 @@ def train(
         run = _SeedRun(int(np.prod(obs_space.shape)), int(np.prod(act_space.shape)),
                        act_space.low.reshape(-1), act_space.high.reshape(-1), config, steps, run_dir,
                        resume, progress, log_fn, init_from, progress_position, progress_desc,
-                       metadata)
+                       metadata, eval_env_fn=eval_env_fn)
     except BaseException:
         env.close()
         raise
@@ -898,6 +1053,7 @@ def train_shared(
     *,
     progress_desc: str | None = None,
     metadata: list[dict[str, Any]] | None = None,
+    eval_env_fn: Callable[[], gym.Env] | None = None,
 ) -> list[TD3Agent]:
     """Train independent seeds side by side, one crawler each in one shared simulator.
 
@@ -913,7 +1069,8 @@ def train_shared(
     function, and only the simulation is shared: the batched physics costs less per robot.
 
     A seed that reaches ``steps`` stops learning and acting (its crawler idles) while the others go
-    on. ``metadata[k]`` goes into seed ``k``'s checkpoints. Returns the agents.
+    on. ``metadata[k]`` goes into seed ``k``'s checkpoints. ``eval_env_fn``: as :func:`train`
+    (each seed is evaluated in its own single environment). Returns the agents.
     """
     from gymnasium.vector import AutoresetMode
 
@@ -938,7 +1095,7 @@ def train_shared(
             runs.append(_SeedRun(obs_dim, act_dim, low, high, config, steps, run_dir, resume,
                                  progress, None, None, k, desc,
                                  metadata[k] if metadata is not None else None,
-                                 seed_global_rngs=k == 0))
+                                 seed_global_rngs=k == 0, eval_env_fn=eval_env_fn))
     except BaseException:
         for run in runs:
             run.close()
@@ -1023,6 +1180,7 @@ def train_vector(
     progress_position: int | None = None,
     progress_desc: str | None = None,
     metadata: dict[str, Any] | None = None,
+    eval_env_fn: Callable[[], gym.Env] | None = None,
 ) -> TD3Agent:
     """Train TD3 with a vector environment of ``N`` sub-environments (e.g.
     :class:`~rl.vector_env.MagneticCrawlerVectorEnv`): N transitions per vector step and, after
@@ -1057,6 +1215,8 @@ def train_vector(
         steps: total environment transitions (all sub-environments together) of the run; the run
             stops at the first vector step reaching it, so it takes ``ceil(steps / N)`` vector
             steps.
+        eval_env_fn: as :func:`train` (a single environment); evaluations fall on the first
+            vector step reaching each multiple of ``config.eval_every`` transitions.
         Others: as :func:`train`.
     """
     from gymnasium.vector import AutoresetMode
@@ -1111,6 +1271,8 @@ def train_vector(
     writer = SummaryWriter(str(run_dir), purge_step=global_step if resumed_here else None)
     if not resumed_here:
         writer.add_text("config", str(cfg.to_dict()))
+    evaluation = _PeriodicEvaluation(eval_env_fn, cfg, run_dir, writer, agent, global_step, ckpt,
+                                     resumed_here, metadata)
 
     if vector_state is not None:
         env.reset(seed=episode_seed(cfg.seed, episode))  # builds the simulator; then overwritten
@@ -1142,6 +1304,7 @@ def train_vector(
             "torch_cpu_rng": torch.get_rng_state(),
             "wall_time_s": elapsed_before + time.time() - t_start,
             "metadata": metadata if metadata is not None else {},
+            "evaluation": evaluation.state_dict(),
             "vector": None if env_state is None else {
                 "num_envs": n_envs,
                 "env_state": _to_tensors(env_state),
@@ -1227,11 +1390,15 @@ def train_vector(
                                   global_step)
                 sps_t, sps_step = now, global_step
             obs = next_obs
+            if evaluation.due(global_step):
+                evaluation.run(agent, global_step, elapsed_before + time.time() - t_start, metadata)
             if global_step >= next_checkpoint and global_step < steps:
                 writer.flush()
                 checkpoint()
                 next_checkpoint = (global_step // cfg.checkpoint_every + 1) * cfg.checkpoint_every
         if global_step != start_step or not resumed_here:
+            if evaluation.enabled and evaluation.last_step != global_step:
+                evaluation.run(agent, global_step, elapsed_before + time.time() - t_start, metadata)
             checkpoint()
     finally:
         csv_file.close()

@@ -21,7 +21,8 @@ from rl.td3 import TD3Agent, load_checkpoint
 
 TRAIN_STEPS = 240
 SMOKE = ["--learning-starts", "60", "--batch-size", "32", "--hidden", "32,32",
-         "--episode-duration", "0.8", "--checkpoint-every", "80", "--no-progress"]
+         "--episode-duration", "0.8", "--checkpoint-every", "80", "--eval-every", "120",
+         "--no-progress"]
 
 
 def run_msr(capsys, *argv: str) -> dict:
@@ -65,9 +66,18 @@ def test_train_writes_run_dirs_and_summary(trained):
         assert all(r["truncated"] == "1" and r["terminated"] == "0" for r in rows)
         ckpt = load_checkpoint(run)
         assert ckpt["global_step"] == TRAIN_STEPS and ckpt["metadata"]["case"] == "m1-4mT"
+        # evaluations from a zero field, 10 s: at the episode end past 120 steps, and at the end
+        with open(run / "evaluations.csv") as f:
+            evals = list(csv.DictReader(f))
+        assert [int(r["global_step"]) for r in evals] == [160, TRAIN_STEPS]
+        assert all(float(r["mean_length"]) == 1000 for r in evals)
+        best = load_checkpoint(run / "best.pt")
+        assert best["kind"] == "best" and best["global_step"] in (160, TRAIN_STEPS)
+        assert best["metadata"]["case"] == "m1-4mT"
     summary = json.loads((case_dir / "summary.json").read_text())
     assert [s["seed"] for s in summary["seeds"]] == [0, 1] and not summary["failed"]
     assert all(np.isfinite(s["final_mean_return"]) for s in summary["seeds"])
+    assert all(s["best_eval_step"] in (160, TRAIN_STEPS) for s in summary["seeds"])
     # the two seeds really differ
     a0 = load_checkpoint(case_dir / "seed0")["agent"]["actor"]
     a1 = load_checkpoint(case_dir / "seed1")["agent"]["actor"]
@@ -86,12 +96,28 @@ def test_train_seeds_sharing_a_simulator_equal_the_separate_runs(trained, tmp_pa
         assert json.loads((shared / "run.json").read_text())["shared_simulator_seeds"] == 2
         rows = [(tuple(r.values())[:-1]) for r in csv.DictReader(open(shared / "episodes.csv"))]
         assert rows == [(tuple(r.values())[:-1]) for r in csv.DictReader(open(alone / "episodes.csv"))]
+        assert (_rows_without_wall_time(shared / "evaluations.csv")
+                == _rows_without_wall_time(alone / "evaluations.csv"))
         a, b = load_checkpoint(shared)["agent"], load_checkpoint(alone)["agent"]
         for part in ("actor", "critic"):
             for name, tensor in a[part].items():
                 assert torch.equal(tensor, b[part][name]), (seed, part, name)
     assert msr(["train", "--case", "m1-4mT", "--seeds", "2", "--seeds-per-simulator", "2",
                 "--envs", "2", "--steps", "10", "--out", str(tmp_path / "x"), "--no-progress"]) == 2
+
+
+def _rows_without_wall_time(path: Path) -> list[dict[str, str]]:
+    with open(path) as f:
+        return [{k: v for k, v in r.items() if k != "wall_time_s"} for r in csv.DictReader(f)]
+
+
+def test_best_actor_generates_but_does_not_refine(trained, tmp_path, capsys):
+    best = trained / "m1-4mT" / "seed0" / "best.pt"
+    result = run_msr(capsys, "generate", str(best), "--duration", "0.05", "--physics", "training",
+                     "--out", str(tmp_path / "gen"), "--no-figures", "--no-progress")
+    assert result["case"] == "m1-4mT" and result["policy"] == str(best)
+    assert msr(["refine", str(best), "--steps", "2", "--no-progress"]) == 2
+    assert "best evaluation" in capsys.readouterr().err
 
 
 def test_train_refuses_to_overwrite(trained, capsys):
