@@ -204,8 +204,12 @@ def test_ship_evaluates_every_seed_and_caches(refined, tmp_path, monkeypatch):
     assert all(e["global_step"] == TRAIN_STEPS and e["duration_s"] == 0.05 for e in evaluations)
     assert all(e["meets_target"] is None for e in evaluations)  # 0.05 s: not the 10 s criterion
     assert evaluations[0]["mid_dx_m"] != evaluations[1]["mid_dx_m"]  # two different actors
+    for e in evaluations:  # and each seed's best.pt, with its own step
+        best = load_checkpoint(refined.parent.parent / f"seed{e['seed']}" / "best.pt")
+        assert e["best"]["global_step"] == best["global_step"]
+        assert e["best"]["duration_s"] == 0.05 and e["best"]["meets_target"] is None
     card = (tmp_path / "m1-4mT" / "MODEL_CARD.md").read_text()
-    assert "| 0 | 240 |" in card and "| 1 | 240 |" in card
+    assert "| 0 | 240 |" in card and "| 1 | 240 |" in card and "best.pt" in card
     assert "## Notes" in card and "Trained by a *test*." in card
     cache = refined.parent / "evaluation.json"  # seed0/evaluation.json
     assert json.loads(cache.read_text())["mid_dx_m"] == evaluations[0]["mid_dx_m"]
@@ -216,6 +220,10 @@ def test_ship_evaluates_every_seed_and_caches(refined, tmp_path, monkeypatch):
     monkeypatch.setattr(pipeline, "run_policy", no_rollout)
     again = pipeline.evaluate_seeds(refined.parent.parent, duration=0.05, progress=False)
     assert again == evaluations
+    # shipping the best actor of a seed says so on the card
+    pipeline.ship(refined.parent / "best.pt", "m1-4mT-best", dest=tmp_path, measure=False)
+    card = (tmp_path / "m1-4mT-best" / "MODEL_CARD.md").read_text()
+    assert "best.pt" in card and "the best of the evaluations during training" in card
 
 
 def test_ship_then_generate_by_folder_and_name(refined, tmp_path, monkeypatch, capsys):
