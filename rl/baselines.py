@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
@@ -66,7 +65,7 @@ class RotatingFieldPolicy:
         self.actor = None
         self.kind = "baseline"
         turn = "clockwise" if self.clockwise else "counter-clockwise"
-        self.source = Path(f"rotating field, {turn}, period {self.period:g} s")
+        self.source = f"rotating field, {turn}, period {self.period:g} s"
         self.meta = {"period_s": self.period, "clockwise": self.clockwise}
 
     def act(self, obs: NDArray[np.float32]) -> NDArray[np.float32]:
