@@ -111,20 +111,36 @@ def plot_learning_curves(
     always over all seeds).
 
     The return of a 20 s episode is ``1e4 x`` the middle node's displacement in m (the authors'
-    ``10 x mm``), so 100 = 1 cm per episode.
+    ``10 x mm``), so 100 = 1 cm per episode. Runs with evaluations during training
+    (``evaluations.csv``) get a second panel: the distance of each evaluation (10 s from a zero
+    field, deterministic), mm.
     """
-    fig = _figure((7, 4), constrained_layout=True)
-    ax = fig.add_subplot()
+    runs = [Path(run) for run in runs]
+    evaluated = [run for run in runs if (run / "evaluations.csv").is_file()]
+    fig = _figure((7, 6.5 if evaluated else 4), constrained_layout=True)
+    if evaluated:
+        ax, ax_eval = fig.subplots(2, 1, sharex=True, height_ratios=(3, 2))
+    else:
+        ax, ax_eval = fig.add_subplot(), None
     curves = []
-    for run in runs:
-        run = Path(run)
+    for k, run in enumerate(runs):
         ep = _read_episodes(run)
         if ep.empty:
             continue
         smooth = ema(ep["return"].to_numpy(), alpha)
         steps = ep["global_step"].to_numpy()
-        ax.plot(steps, smooth, lw=0.8, alpha=0.5, label=run.name)
+        ax.plot(steps, smooth, lw=0.8, alpha=0.5, label=run.name, color=f"C{k % 10}")
         curves.append((steps, smooth))
+        if ax_eval is not None and run in evaluated:
+            ev = pd.read_csv(run / "evaluations.csv")
+            # reward = 1e4 x displacement (m) = 10 x mm
+            ax_eval.plot(ev["global_step"], ev["mean_return"] / 10.0, "o-", ms=3, lw=0.8,
+                         color=f"C{k % 10}", label=run.name)
+    if ax_eval is not None:
+        ax_eval.set_xlabel("environment steps")
+        ax_eval.set_ylabel("evaluation: 10 s from zero field (mm)")
+        ax_eval.grid(alpha=0.3)
+        ax_eval.legend(fontsize=7, ncol=2)
     if curves:
         grid = np.linspace(max(c[0][0] for c in curves), min(c[0][-1] for c in curves), n_grid)
         values = np.full((len(curves), n_grid), np.nan)
@@ -136,7 +152,8 @@ def plot_learning_curves(
             low, high = np.nanmin(values, axis=0), np.nanmax(values, axis=0)
         ax.fill_between(grid, low, high, color="k", alpha=0.12, lw=0, label="min-max over seeds")
         ax.plot(grid, mean, color="k", lw=2, label=f"mean of {len(curves)} seed(s)")
-    ax.set_xlabel("environment steps")
+    if ax_eval is None:
+        ax.set_xlabel("environment steps")
     ax.set_ylabel(f"episode return (EMA, alpha = {alpha:g})")
     ax.set_title(title or "learning curves")
     ax.grid(alpha=0.3)
