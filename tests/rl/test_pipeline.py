@@ -290,10 +290,21 @@ def test_unknown_policy_is_a_clear_error(tmp_path):
         pipeline.resolve_policy(tmp_path / "nothing-here")
 
 
-@pytest.mark.parametrize("name", ["m1-4mT", "m2-4mT"])
+#: Whether each shipped policy reaches the authors' 10 s distance, as rl/policies/README.md and
+#: the docs state it (a policy re-shipped with another result must update them, and this).
+SHIPPED_MEETS_TARGET = {"m1-4mT": True, "m2-4mT": True}
+
+
+def test_every_shipped_policy_is_tested():
+    shipped = {p.name for p in pipeline.POLICIES_DIR.iterdir() if (p / "policy.json").is_file()}
+    assert shipped == set(SHIPPED_MEETS_TARGET)
+
+
+@pytest.mark.parametrize("name", sorted(SHIPPED_MEETS_TARGET))
 def test_shipped_policy_generates_and_exports(name, tmp_path, capsys):
     """A policy shipped in the package: generate a short run by name, export it, reload it; its
-    card and policy.json agree with the case and report a 10 s distance."""
+    card and policy.json agree with the case and report a 10 s distance, on the side of the
+    authors' distance that the documentation states."""
     import json
 
     import torch
@@ -313,6 +324,9 @@ def test_shipped_policy_generates_and_exports(name, tmp_path, capsys):
     np.testing.assert_allclose(action, policy.act(obs), atol=1e-6)
     info = json.loads((pipeline.POLICIES_DIR / name / "policy.json").read_text())
     assert info["case"] == name and info["evaluation"]["duration_s"] == 10.0
-    assert info["evaluation"]["mid_dx_m"] >= info["authors_mid_dx_10s_m"]  # what the card claims
+    meets = info["evaluation"]["mid_dx_m"] >= info["authors_mid_dx_10s_m"]
+    assert meets == SHIPPED_MEETS_TARGET[name]
+    card = (pipeline.POLICIES_DIR / name / "MODEL_CARD.md").read_text()
+    assert ("meets the target" if meets else "falls short of the target") in card
     shipped_fields = np.loadtxt(pipeline.POLICIES_DIR / name / "fields.csv", delimiter=",", skiprows=1)
     assert shipped_fields.shape == (1000, 4)  # the 10 s waveform, 100 rows/s
