@@ -683,34 +683,30 @@ def evaluate_seeds(
         if (run_dir / BEST_NAME).is_file():
             best = _evaluate_cached(run_dir / BEST_NAME, cache.get("best") or {}, duration, progress)
         _write_json(cache_path, {"seed": seed, **final, "best": best})
-        target = AUTHORS_DISTANCE_10S[_case_name(case_dir, run_dir)]
-        for entry in (final, best):
-            if entry is not None:
-                entry["meets_target"] = (entry["mid_dx_m"] >= target and not entry["diverged"]
-                                         if abs(duration - 10.0) < 1e-9 else None)
         results.append({"seed": seed, **final, "best": best})
     return results
 
 
-def _case_name(case_dir: Path, run_dir: Path) -> str:
-    meta = json.loads((run_dir / RUN_JSON).read_text()) if (run_dir / RUN_JSON).is_file() else {}
-    return meta.get("case", case_dir.name)
-
-
 def _evaluate_cached(path: Path, cached: dict[str, Any], duration: float,
                      progress: bool) -> dict[str, Any]:
-    """The accurate 10 s evaluation of one checkpoint file, reusing ``cached`` when it is of the
-    same global step and duration."""
+    """The accurate evaluation of one checkpoint file with its ``meets_target`` verdict, reusing
+    ``cached`` when it is of the same global step and duration."""
     policy = resolve_policy(path)
     step = policy.meta.get("global_step")
     if cached.get("global_step") == step and cached.get("duration_s") == float(duration):
-        return {k: cached[k] for k in ("global_step", "duration_s", "physics", "initial_field",
-                                       "mid_dx_m", "diverged")}
-    rollout = run_policy(policy, duration, "accurate", "zero", progress)
-    traj = rollout.trajectory
-    return {"global_step": step, "duration_s": float(duration), "physics": "accurate",
-            "initial_field": "zero", "mid_dx_m": float(traj.mid_x_m.iloc[-1] - traj.mid_x_m.iloc[0]),
-            "diverged": rollout.meta["diverged"]}
+        entry = {k: cached[k] for k in ("global_step", "duration_s", "physics", "initial_field",
+                                        "mid_dx_m", "diverged")}
+    else:
+        rollout = run_policy(policy, duration, "accurate", "zero", progress)
+        traj = rollout.trajectory
+        entry = {"global_step": step, "duration_s": float(duration), "physics": "accurate",
+                 "initial_field": "zero",
+                 "mid_dx_m": float(traj.mid_x_m.iloc[-1] - traj.mid_x_m.iloc[0]),
+                 "diverged": rollout.meta["diverged"]}
+    target = AUTHORS_DISTANCE_10S[policy.case]
+    entry["meets_target"] = (entry["mid_dx_m"] >= target and not entry["diverged"]
+                             if abs(duration - 10.0) < 1e-9 else None)
+    return entry
 
 
 def generate(
