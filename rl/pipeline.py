@@ -698,10 +698,8 @@ def _evaluate_cached(path: Path, cached: dict[str, Any], duration: float,
                                         "mid_dx_m", "diverged")}
     else:
         rollout = run_policy(policy, duration, "accurate", "zero", progress)
-        traj = rollout.trajectory
         entry = {"global_step": step, "duration_s": float(duration), "physics": "accurate",
-                 "initial_field": "zero",
-                 "mid_dx_m": float(traj.mid_x_m.iloc[-1] - traj.mid_x_m.iloc[0]),
+                 "initial_field": "zero", "mid_dx_m": rollout.mid_dx,
                  "diverged": rollout.meta["diverged"]}
     target = AUTHORS_DISTANCE_10S[policy.case]
     entry["meets_target"] = (entry["mid_dx_m"] >= target and not entry["diverged"]
@@ -760,7 +758,7 @@ def generate(
         "policy_kind": loaded.kind,
         "physics": physics,
         "duration_s": float(rollout.times[-1]),
-        "mid_dx_m": float(traj.mid_x_m.iloc[-1] - traj.mid_x_m.iloc[0]),
+        "mid_dx_m": rollout.mid_dx,
         "node32_dx_m": float(rollout.positions[-1, 0, mid] - rollout.positions[0, 0, mid]),
         "return": float(np.sum(rollout.rewards)),
         "max_height_m": float(traj.height_max_m.max()),
@@ -822,9 +820,7 @@ def ship(
     measured = None
     if measure:
         rollout = run_policy(policy, duration, "accurate", "zero", progress)
-        traj = rollout.trajectory
-        measured = {"duration_s": float(rollout.times[-1]),
-                    "mid_dx_m": float(traj.mid_x_m.iloc[-1] - traj.mid_x_m.iloc[0]),
+        measured = {"duration_s": float(rollout.times[-1]), "mid_dx_m": rollout.mid_dx,
                     "diverged": rollout.meta["diverged"]}
         if rollout.n_steps:
             write_field_csv(target / "fields.csv", rollout.fields)

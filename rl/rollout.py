@@ -56,6 +56,11 @@ class Rollout:
     def n_steps(self) -> int:
         return int(self.fields.shape[0])
 
+    @property
+    def mid_dx(self) -> float:
+        """Displacement of the middle along x over the run (``mid_x_m`` of the trajectory), m."""
+        return float(self.trajectory.mid_x_m.iloc[-1] - self.trajectory.mid_x_m.iloc[0])
+
     def contact(self) -> NDArray[np.float32]:
         """Contact indicator per node and time, ``(n+1, n_nodes)`` (observation ``contact`` block)."""
         layout = observation_layout(int(self.meta.get("n_elements", 64)))
