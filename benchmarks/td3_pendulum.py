@@ -27,7 +27,8 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from rl.td3 import TD3Config, evaluate, train  # noqa: E402
+from rl.runner import evaluate, train  # noqa: E402
+from rl.td3 import TD3Config  # noqa: E402
 
 ENV_ID = "Pendulum-v1"
 TARGET = -200.0

@@ -5,6 +5,8 @@ imports happen inside the commands)."""
 from __future__ import annotations
 
 import argparse
+import math
+import sys
 from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, print_result
@@ -37,8 +39,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seeds", type=int, default=8, help="number of seeds (default 8)")
     p.add_argument("--seed-offset", type=int, default=0, help="first seed (default 0)")
     p.add_argument("--steps", type=int, default=100_000, help="environment steps per seed")
-    p.add_argument("--workers", type=int, default=1,
-                   help="seeds trained at a time (processes, or Ray tasks in flight)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="groups of seeds trained at a time (processes, or Ray tasks in flight; "
+                        "default: the fastest layout for this machine, one per core)")
     p.add_argument("--out", type=Path, default=Path("runs"), help="output folder")
     p.add_argument("--resume", action="store_true", help="continue runs from their checkpoints")
     p.add_argument("--physics", choices=("training", "accurate"), default="training")
@@ -47,10 +50,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--envs", type=int, default=1,
                    help="crawlers per seed in one batched simulator (vector env; N transitions and "
                         "N TD3 updates per vector step; default 1: the single environment)")
-    p.add_argument("--seeds-per-simulator", type=int, default=1, metavar="K",
+    p.add_argument("--seeds-per-simulator", type=int, default=None, metavar="K",
                    help="K seeds train side by side in one worker, their crawlers in one batched "
-                        "simulator; each seed's run is bit-identical to training it alone, the "
-                        "simulation costs less per robot (default 1)")
+                        "simulator and their networks updated as one computation; each seed's run "
+                        "is bit-identical to training it alone (default: the fastest layout, "
+                        "seeds / cores)")
     p.add_argument("--backend", choices=("process", "ray"), default="process",
                    help="where the seeds run: worker processes on this machine (default) or Ray tasks "
                         "(a local Ray instance with --workers x --threads CPUs, or the cluster at "
@@ -65,6 +69,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--buffer-size", type=int, default=None, help="replay capacity (1e6)")
     g.add_argument("--target-noise-clip", type=float, default=None, help="(0.8, the authors')")
     g.add_argument("--checkpoint-every", type=int, default=None, help="steps (10000)")
+    g.add_argument("--precision", choices=("fp32", "bf16"), default=None,
+                   help="arithmetic of the networks' matrix products in the updates: fp32 (the "
+                        "paper's, default) or bf16 (bfloat16 products on float32 weights; falls "
+                        "back to fp32 on a CPU without bfloat16 units)")
+    g.add_argument("--device", choices=("cpu", "cuda"), default=None,
+                   help="where the networks train (default cpu)")
     g.add_argument("--eval-every", type=int, default=None,
                    help="steps between evaluations of the deterministic policy from a zero field, "
                         "10 s, best actor kept in best.pt (5000; 0: none)")
@@ -84,6 +94,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, default=None, help="default: RUN/refined")
     p.add_argument("--resume", action="store_true", help="continue an interrupted refinement")
     p.add_argument("--episode-duration", type=float, default=20.0, help="s (truncation)")
+    p.add_argument("--device", choices=("cpu", "cuda"), default=None,
+                   help="where the networks train (default: the run's)")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=refine_command)
@@ -169,34 +181,75 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _overrides(args: argparse.Namespace) -> dict:
+    """TD3 settings given on the command line, checked before any work starts."""
     out = {}
     for name in ("learning_starts", "batch_size", "buffer_size", "target_noise_clip",
-                 "checkpoint_every", "eval_every"):
+                 "checkpoint_every", "eval_every", "precision", "device"):
         value = getattr(args, name)
         if value is not None:
             out[name] = value
+    for name, least in (("learning_starts", 0), ("batch_size", 1), ("buffer_size", 1),
+                        ("checkpoint_every", 1), ("eval_every", 0)):
+        if out.get(name, least) < least:
+            raise CommandError(f"--{name.replace('_', '-')} must be >= {least}, got {out[name]}")
+    clip = out.get("target_noise_clip", 0.0)
+    if not (math.isfinite(clip) and clip >= 0):
+        raise CommandError(f"--target-noise-clip must be a finite number >= 0 (a fraction of the "
+                           f"action half-range), got {clip}")
     if args.hidden:
         try:
             out["hidden_sizes"] = tuple(int(h) for h in args.hidden.split(","))
         except ValueError:
             raise CommandError(f"--hidden must be comma-separated integers, got {args.hidden!r}") from None
+        if not out["hidden_sizes"] or min(out["hidden_sizes"]) < 1:
+            raise CommandError(f"--hidden: every layer needs at least 1 unit, got {args.hidden!r}")
+    if args.device == "cuda":
+        import torch
+
+        if not torch.cuda.is_available():
+            raise CommandError("--device cuda: no CUDA device is available to this torch build")
     return out
+
+
+def _check_run_options(args: argparse.Namespace) -> None:
+    """Numeric options of train/refine, checked at parse time (finite, in range, with the unit)."""
+    duration = args.episode_duration
+    if not (math.isfinite(duration) and 0 < duration <= 3600):
+        raise CommandError(f"--episode-duration must be a finite duration in (0, 3600] s, got {duration}")
+    if args.steps < 1:
+        raise CommandError(f"--steps must be >= 1, got {args.steps}")
+    for name in ("seeds", "workers", "threads", "envs", "seeds_per_simulator"):
+        value = getattr(args, name, None)
+        if value is not None and value < 1:
+            raise CommandError(f"--{name.replace('_', '-')} must be >= 1, got {value}")
+    if getattr(args, "seed_offset", 0) < 0:
+        raise CommandError(f"--seed-offset must be >= 0, got {args.seed_offset}")
+
+
+def _interrupted(folders: str) -> int:
+    print(f"interrupted: training stopped. The last checkpoints are in {folders}; continue with "
+          "the same command and --resume", file=sys.stderr)
+    return 130
 
 
 def train_command(args: argparse.Namespace) -> int:
     from .pipeline import train_cases
 
+    _check_run_options(args)
+    overrides = _overrides(args)
     try:
         summaries = train_cases(
             args.case, seeds=args.seeds, steps=args.steps, workers=args.workers, out=args.out,
-            resume=args.resume, seed_offset=args.seed_offset, config_overrides=_overrides(args),
+            resume=args.resume, seed_offset=args.seed_offset, config_overrides=overrides,
             physics=args.physics, episode_duration=args.episode_duration,
             progress=not args.no_progress, threads=args.threads, envs=args.envs,
             backend=args.backend, address=args.address,
             seeds_per_simulator=args.seeds_per_simulator,
         )
-    except (FileExistsError, ValueError, ConnectionError) as exc:  # ConnectionError: --address
-        raise CommandError(str(exc)) from None
+    except (FileExistsError, FileNotFoundError, ValueError, ConnectionError) as exc:
+        raise CommandError(str(exc)) from None  # ConnectionError: --address
+    except KeyboardInterrupt:
+        return _interrupted(", ".join(str(args.out / case / "seed*") for case in args.case))
     failed = any(s["failed"] for s in summaries.values())
     if not args.json:
         summaries = {case: {k: v for k, v in summary.items() if k != "seeds"} | {
@@ -210,11 +263,15 @@ def train_command(args: argparse.Namespace) -> int:
 def refine_command(args: argparse.Namespace) -> int:
     from .pipeline import refine
 
+    _check_run_options(args)
     try:
         result = refine(args.run, steps=args.steps, out=args.out, resume=args.resume,
-                        progress=not args.no_progress, episode_duration=args.episode_duration)
-    except (FileExistsError, ValueError) as exc:
+                        progress=not args.no_progress, episode_duration=args.episode_duration,
+                        device=args.device)
+    except (FileExistsError, FileNotFoundError, ValueError) as exc:
         raise CommandError(str(exc)) from None
+    except KeyboardInterrupt:
+        return _interrupted(str(args.out or args.run / "refined"))
     print_result(result, args.json)
     return 0
 

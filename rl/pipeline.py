@@ -178,72 +178,99 @@ def _run_metadata(case: str, physics: str, duration: float, seed: int, **extra: 
             "physics": physics, "episode_duration_s": duration, "seed": int(seed), **extra}
 
 
-def _write_run_json(job: dict[str, Any], config, run_dir: Path, metadata: dict[str, Any]) -> None:
+#: Settings of a run that a resume must not change (they are the run's, in ``run.json``).
+_RUN_SETTINGS = ("case", "physics", "episode_duration_s")
+
+
+def _check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
+    """A resumed run keeps its case, physics and episode length: refuse other values, naming the
+    option and the run's value."""
     run_json = run_dir / RUN_JSON
-    if job["resume"] and run_json.is_file() and (run_dir / "checkpoint.pt").is_file():
-        # train() continues with the checkpoint's config: keep the record, update the target.
+    if not run_json.is_file():
+        return
+    try:
         record = json.loads(run_json.read_text())
-        record["steps"] = job["steps"]
-        record["resumed"] = int(record.get("resumed", 0)) + 1
-        _write_json(run_json, record)
-    else:
-        _write_json(run_json, {
-            **metadata, "steps": job["steps"], "config": config.to_dict(),
-            "torch_threads": int(job["threads"]), "versions": _versions(),
-        })
+    except ValueError as err:
+        raise ValueError(f"{run_json}: not readable JSON ({err})") from None
+    options = {"case": "--case", "physics": "--physics", "episode_duration_s": "--episode-duration"}
+    for key in _RUN_SETTINGS:
+        if key in record and record[key] != metadata[key]:
+            raise ValueError(f"{options[key]} {metadata[key]} differs from the run's {record[key]} "
+                             f"({run_json}): a resumed run keeps its settings")
 
 
-def _train_seed(job: dict[str, Any]) -> dict[str, Any]:
-    """Train one seed, or a group of seeds sharing one simulator (runs in a worker process).
-    ``job`` holds plain data only (picklable). A group job (``job["group"]``: configs and run
-    directories) returns ``{"group": [one result per seed]}``."""
+def _write_run_json(run_dir: Path, config, metadata: dict[str, Any], steps: int, threads: int,
+                    resumed_now: bool) -> None:
+    """``run.json``: the run's settings, the steps it has reached and how often it was resumed
+    (written when a new run starts, with 0 steps, and when a training call has finished)."""
+    record = {}
+    if (run_dir / RUN_JSON).is_file():
+        record = json.loads((run_dir / RUN_JSON).read_text())
+    _write_json(run_dir / RUN_JSON, {
+        **record, **metadata, "steps": int(steps), "config": config.to_dict(),
+        "torch_threads": int(threads), "versions": _versions(),
+        "resumed": int(record.get("resumed", 0)) + int(resumed_now)})
+
+
+def _train_group(job: dict[str, Any]) -> dict[str, Any]:
+    """Train a group of seeds of one case side by side in one worker process: their crawlers in
+    one batched simulator (``job["envs"]`` each), their networks updated as one computation
+    (:func:`~rl.runner.train_seeds`). ``job`` holds plain data only (picklable). Returns
+    ``{"group": [one result per seed]}``."""
     import torch
 
-    from .td3 import TD3Config, train, train_shared
+    from .checkpoint import load_checkpoint
+    from .runner import train_seeds
+    from .td3 import TD3Config, resolve_precision
+    from .vector_env import make_vector_env
 
     torch.set_num_threads(int(job["threads"]))
-    envs = int(job.get("envs", 1))
-    eval_env_fn = functools.partial(make_env, job["case"], job["physics"], "zero", EVAL_DURATION)
+    configs = [TD3Config.from_dict(c) for c in job["configs"]]
+    run_dirs = [Path(d) for d in job["run_dirs"]]
+    envs = int(job["envs"])
+    metadata = [_run_metadata(job["case"], job["physics"], job["duration"], c.seed, command="train",
+                              envs=envs, shared_simulator_seeds=len(configs),
+                              precision=resolve_precision(c.precision, c.device))
+                for c in configs]
+    for run_dir, meta in zip(run_dirs, metadata, strict=True):
+        if job["resume"]:
+            _check_resume_settings(run_dir, meta)
+    for config, run_dir, meta in zip(configs, run_dirs, metadata, strict=True):
+        if not job["resume"]:
+            run_dir.mkdir(parents=True, exist_ok=True)
+            (run_dir / RUN_JSON).unlink(missing_ok=True)  # a stale record of a run without checkpoint
+            _write_run_json(run_dir, config, meta, 0, job["threads"], resumed_now=False)
     start = time.perf_counter()
-    if "group" in job:  # seeds side by side in one batched simulator, each as train() would run it
-        from .vector_env import make_vector_env
+    train_seeds(functools.partial(make_vector_env, job["case"], physics=job["physics"],
+                                  initial_field="random", duration=job["duration"]),
+                configs, job["steps"], run_dirs, envs_per_seed=envs, resume=job["resume"],
+                progress=job["progress"], metadata=metadata,
+                eval_env_fn=functools.partial(make_env, job["case"], job["physics"], "zero",
+                                              EVAL_DURATION),
+                progress_position=job["position"], progress_desc=job["case"])
+    wall, peak = time.perf_counter() - start, _peak_rss_bytes()
+    results = []
+    for run_dir, meta in zip(run_dirs, metadata, strict=True):
+        ckpt = load_checkpoint(run_dir)  # what was actually done, with the settings actually used
+        _write_run_json(run_dir, TD3Config.from_dict(ckpt["config"]), meta,
+                        int(ckpt["global_step"]), job["threads"], resumed_now=job["resume"])
+        results.append({"seed": int(ckpt["config"]["seed"]), **summarize_run(run_dir),
+                        "wall_s": wall, "peak_rss_bytes": peak})
+    return {"group": results}
 
-        configs = [TD3Config.from_dict(c) for c in job["group"]["configs"]]
-        run_dirs = [Path(d) for d in job["group"]["run_dirs"]]
-        metadata = [_run_metadata(job["case"], job["physics"], job["duration"], c.seed,
-                                  command="train", envs=1, shared_simulator_seeds=len(configs))
-                    for c in configs]
-        for config, run_dir, meta in zip(configs, run_dirs, metadata, strict=True):
-            _write_run_json(job, config, run_dir, meta)
-        train_shared(functools.partial(make_vector_env, job["case"], physics=job["physics"],
-                                       duration=job["duration"]),
-                     configs, job["steps"], run_dirs, resume=job["resume"],
-                     progress=job["progress"], progress_desc=job["case"], metadata=metadata,
-                     eval_env_fn=eval_env_fn)
-        wall, peak = time.perf_counter() - start, _peak_rss_bytes()
-        return {"group": [{"seed": c.seed, **summarize_run(d), "wall_s": wall, "peak_rss_bytes": peak}
-                          for c, d in zip(configs, run_dirs, strict=True)]}
 
-    config = TD3Config.from_dict(job["config"])
-    run_dir = Path(job["run_dir"])
-    metadata = _run_metadata(job["case"], job["physics"], job["duration"], config.seed,
-                             command="train", envs=envs)
-    _write_run_json(job, config, run_dir, metadata)
-    if envs > 1:  # N crawlers in one batched simulator (rl.vector_env), N updates per vector step
-        from .td3 import train_vector
-        from .vector_env import make_vector_env
-
-        train_fn = train_vector
-        env_fn = functools.partial(make_vector_env, job["case"], envs, job["physics"], "random",
-                                   job["duration"])
-    else:
-        train_fn = train
-        env_fn = functools.partial(make_env, job["case"], job["physics"], "random", job["duration"])
-    train_fn(env_fn, config, job["steps"], run_dir, resume=job["resume"], progress=job["progress"],
-             progress_position=job["position"], progress_desc=f"{job['case']} seed{config.seed}",
-             metadata=metadata, eval_env_fn=eval_env_fn)
-    return {"seed": config.seed, **summarize_run(run_dir), "wall_s": time.perf_counter() - start,
-            "peak_rss_bytes": _peak_rss_bytes()}
+def default_layout(seeds: int, cases: int = 1, cpus: int | None = None) -> dict[str, int]:
+    """The fastest layout known for ``seeds`` seeds of each of ``cases`` cases on ``cpus`` cores:
+    one worker process per core, each training its share of a case's seeds side by side (one
+    batched simulator, one stacked update; measured in ``docs/performance.md``), one torch thread
+    each. Returns ``workers``, ``seeds_per_simulator`` and ``threads``."""
+    cpus = max(1, cpus if cpus is not None else (os.cpu_count() or 1))
+    workers_per_case = max(1, cpus // max(1, cases))
+    per_group = -(-seeds // min(seeds, workers_per_case))
+    groups = -(-seeds // per_group) * cases
+    workers = min(cpus, groups)
+    return {"workers": workers, "seeds_per_simulator": per_group,
+            "threads": max(1, cpus // workers)}
 
 
 def _peak_rss_bytes() -> int | None:
@@ -286,7 +313,7 @@ def train_cases(
     cases: Sequence[str],
     seeds: int = 8,
     steps: int = 100_000,
-    workers: int = 1,
+    workers: int | None = None,
     out: str | Path = "runs",
     resume: bool = False,
     seed_offset: int = 0,
@@ -299,11 +326,16 @@ def train_cases(
     envs: int = 1,
     backend: str = "process",
     address: str | None = None,
-    seeds_per_simulator: int = 1,
+    seeds_per_simulator: int | None = None,
 ) -> dict[str, dict[str, Any]]:
     """Train seeds ``seed_offset .. seed_offset + seeds - 1`` of every case in ``cases`` for
-    ``steps`` environment steps each: one sweep of ``len(cases) x seeds`` jobs, ``workers`` at a
-    time in separate processes (``spawn``, one progress bar each) or Ray tasks.
+    ``steps`` environment steps each, in groups of seeds of one case that train side by side in
+    one worker (:func:`_train_group`), ``workers`` groups at a time in separate processes
+    (``spawn``, one progress bar per seed) or Ray tasks.
+
+    The layout (``workers``, ``seeds_per_simulator``, ``threads``) defaults to
+    :func:`default_layout`, the fastest one known for this machine; the results do not depend on
+    it (a seed trained in a group is bit-identical to the same seed trained alone).
 
     Writes ``out/<case>/seed<k>/`` per seed and ``out/<case>/summary.json`` per case; returns the
     summaries by case. A summary covers every seed folder of its case, also those of earlier calls
@@ -313,24 +345,19 @@ def train_cases(
     length, x 1e4): a heuristic to count working seeds, reported with its threshold.
 
     Args:
-        config_overrides: :class:`~rl.td3.TD3Config` fields on top of :func:`crawler_config`.
-        threads: torch threads per worker (default: CPU count // workers, at least 1). Exact resume
-            needs the same thread count.
-        envs: crawlers per seed stepped together in one batched simulator
-            (:class:`~rl.vector_env.MagneticCrawlerVectorEnv`, trained by
-            :func:`~rl.td3.train_vector`: ``envs`` transitions and updates per vector step); 1
-            (default) is the single environment and :func:`~rl.td3.train`. Resume with the same
-            value.
+        config_overrides: :class:`~rl.td3.TD3Config` fields on top of :func:`crawler_config`
+            (e.g. ``precision="bf16"``, ``device="cuda"``).
+        workers: groups trained at a time (processes or Ray tasks in flight).
+        threads: torch threads per worker. Exact resume needs the same thread count.
+        envs: crawlers per seed (``envs`` transitions and updates per vector step); resume with
+            the same value.
         backend: ``"process"`` (default: worker processes on this machine) or ``"ray"`` (one Ray
-            task per seed, ``workers`` at a time; see :mod:`rl.backends`). Same function per seed,
-            same run directories and summaries.
+            task per group; see :mod:`rl.backends`). Same run directories and summaries.
         address: Ray cluster to run on (``backend="ray"`` only; default: a local Ray instance with
             ``workers x threads`` CPUs, started and shut down here). The output folder must then be
             on a filesystem every node sees at the same path.
-        seeds_per_simulator: groups of this many seeds of a case train side by side in one worker,
-            their crawlers in one batched simulator (:func:`~rl.td3.train_shared`): each seed's run
-            is bit-identical to training it alone (single environment), the simulation costs less
-            per robot. 1 (default): one seed per worker job. Not with ``envs > 1``.
+        seeds_per_simulator: seeds of a case per group (one batched simulator, one stacked
+            update).
     """
     cases = list(dict.fromkeys(cases))  # in order, once each
     if not cases:
@@ -341,22 +368,34 @@ def train_cases(
         raise ValueError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
     if address is not None and backend != "ray":
         raise ValueError("--address is for the ray backend (--backend ray)")
-    if seeds < 1 or steps < 1 or workers < 1 or envs < 1 or seeds_per_simulator < 1:
-        raise ValueError("seeds, steps, workers, envs and seeds_per_simulator must be >= 1")
-    if seeds_per_simulator > 1 and envs > 1:
-        raise ValueError("seeds_per_simulator > 1 (seeds sharing a simulator) excludes envs > 1 "
-                         "(one seed on several crawlers)")
+    for name, value in (("seeds", seeds), ("steps", steps), ("envs", envs), ("workers", workers),
+                        ("seeds_per_simulator", seeds_per_simulator), ("threads", threads)):
+        if value is not None and value < 1:
+            raise ValueError(f"{name} must be >= 1, got {value}")
+    if seed_offset < 0:
+        raise ValueError(f"seed_offset must be >= 0, got {seed_offset}")
+    layout = default_layout(seeds, len(cases), None if not address else seeds * len(cases))
+    manual = {k for k, v in (("workers", workers), ("seeds_per_simulator", seeds_per_simulator),
+                             ("threads", threads)) if v is not None}
+    seeds_per_simulator = min(seeds, seeds_per_simulator or layout["seeds_per_simulator"])
     seed_list = [seed_offset + k for k in range(seeds)]
+    groups = [seed_list[i:i + seeds_per_simulator] for i in range(0, seeds, seeds_per_simulator)]
+    workers = min(workers or layout["workers"], len(groups) * len(cases))
+    if threads is None:  # on a Ray cluster this machine's CPU count says nothing: one per worker
+        threads = 1 if address else max(1, (os.cpu_count() or 1) // workers)
+    configs = {s: crawler_config(s, **(config_overrides or {})) for s in seed_list}  # checks them
     if not resume:
         existing = [str(Path(out) / case / f"seed{s}") for case in cases for s in seed_list
                     if (Path(out) / case / f"seed{s}" / "checkpoint.pt").exists()]
         if existing:
             raise FileExistsError(f"runs already exist: {', '.join(existing)} (use --resume, another "
                                   "--out, or --seed-offset)")
-    groups = [seed_list[i:i + seeds_per_simulator] for i in range(0, seeds, seeds_per_simulator)]
-    workers = min(workers, len(groups) * len(cases))
-    if threads is None:  # on a Ray cluster this machine's CPU count says nothing: one per seed
-        threads = 1 if address else max(1, (os.cpu_count() or 1) // workers)
+    else:
+        missing = [str(Path(out) / case / f"seed{s}" / "checkpoint.pt") for case in cases
+                   for s in seed_list if not (Path(out) / case / f"seed{s}" / "checkpoint.pt").exists()]
+        if missing:
+            raise FileNotFoundError(f"cannot resume: no checkpoint {', '.join(missing)} (train those "
+                                    "seeds without --resume, or choose --seeds/--seed-offset)")
 
     def run_dir(case: str, seed: int) -> str:
         # Ray workers may run elsewhere (another cwd, another node): give them absolute paths
@@ -364,29 +403,29 @@ def train_cases(
         return str(path.resolve() if backend == "ray" else path)
 
     jobs = []
-    for c, case in enumerate(cases):
-        for g, group in enumerate(groups):
-            configs = [crawler_config(s, **(config_overrides or {})).to_dict() for s in group]
-            job = {
+    position = 0
+    for case in cases:
+        for group in groups:
+            jobs.append({
                 "case": case, "physics": physics, "duration": float(episode_duration),
-                "steps": int(steps), "run_dir": run_dir(case, group[0]), "resume": resume,
-                "progress": progress, "position": len(groups) * c + g, "threads": threads,
-                "envs": int(envs), "config": configs[0],
-            }
-            if seeds_per_simulator > 1:
-                job["group"] = {"configs": configs, "run_dirs": [run_dir(case, s) for s in group]}
-            jobs.append(job)
+                "steps": int(steps), "resume": resume, "progress": progress, "position": position,
+                "threads": threads, "envs": int(envs),
+                "configs": [configs[s].to_dict() for s in group],
+                "run_dirs": [run_dir(case, s) for s in group],
+                # for the backends' bookkeeping: the group's first seed and folder
+                "config": configs[group[0]].to_dict(), "run_dir": run_dir(case, group[0]),
+            })
+            position += len(group)
     start = time.perf_counter()
     results = []
-    for job, result in zip(jobs, run_jobs(_train_seed, jobs, workers, backend=backend,
+    for job, result in zip(jobs, run_jobs(_train_group, jobs, workers, backend=backend,
                                           address=address, progress=progress), strict=True):
         if "group" in result:
             results += [(job["case"], r) for r in result["group"]]
-        elif "group" in job and "error" in result:  # the whole group failed
-            results += [(job["case"], {"seed": c["seed"], "error": result["error"]})
-                        for c in job["group"]["configs"]]
-        else:
-            results.append((job["case"], result))
+        else:  # the whole group failed: what its folders hold is still reported
+            for c, d in zip(job["configs"], job["run_dirs"], strict=True):
+                entry = summarize_run(d) if (Path(d) / "episodes.csv").is_file() else {}
+                results.append((job["case"], {**entry, "seed": c["seed"], "error": result["error"]}))
     wall = time.perf_counter() - start
 
     summaries = {}
@@ -413,6 +452,9 @@ def train_cases(
             "envs_per_seed": int(envs),
             "seeds_per_simulator": int(seeds_per_simulator),
             "torch_threads_per_worker": threads,
+            "layout": "default" if not manual else f"set: {', '.join(sorted(manual))}",
+            "precision": configs[seed_list[0]].precision,
+            "device": configs[seed_list[0]].device,
             "success_threshold_return": threshold,
             "succeeded": sum(bool(r.get("succeeded")) for r in per_seed),
             "best_seed": best["seed"] if best else None,
@@ -454,8 +496,10 @@ def refine(
     progress: bool = True,
     episode_duration: float = 20.0,
     physics: str = "accurate",
+    device: str | None = None,
 ) -> dict[str, Any]:
-    """Continue training a run for ``steps`` more environment steps in the accurate physics.
+    """Continue training a run for ``steps`` more environment steps in the accurate physics
+    (on ``device``, default the run's).
 
     The agent (networks, targets, optimisers), its replay buffer, RNG states and counters come from
     the run's checkpoint (``init_from``), so learning continues at once (the counters are past the
@@ -466,19 +510,24 @@ def refine(
 
     Cost: one accurate step is 1250 substeps (~0.1 s here), 12.5x a training step.
     """
-    from .td3 import TD3Config, _refuse_networks_only, load_checkpoint, train
+    from .checkpoint import load_checkpoint, refuse_networks_only
+    from .runner import train_seeds
+    from .td3 import TD3Config
+    from .vector_env import make_vector_env
 
     if steps < 1:
         raise ValueError("steps must be >= 1")
     source = _checkpoint_path(run)
     ckpt = load_checkpoint(source)
-    _refuse_networks_only(ckpt, source)
+    refuse_networks_only(ckpt, source)
     meta = _checkpoint_metadata(ckpt, source)
     case = meta["case"]
     out = Path(out) if out is not None else source.parent / "refined"
     start_step = int(ckpt["global_step"])
     total = start_step + int(steps)
     config = TD3Config.from_dict(ckpt["config"])
+    if device is not None:
+        config.device = device
     metadata = _run_metadata(
         case, physics, episode_duration, config.seed, command="refine",
         refined_from=str(source), refine_start_step=start_step, refine_steps=int(steps),
@@ -488,10 +537,11 @@ def refine(
         raise FileExistsError(f"{out} already holds a refined checkpoint (use --resume or --out)")
     _write_json(out / RUN_JSON, {**metadata, "steps": total, "config": config.to_dict(),
                                  "versions": _versions()})
-    env_fn = functools.partial(make_env, case, physics, "random", episode_duration)
     begin = time.perf_counter()
-    train(env_fn, config, total, out, resume=resume, progress=progress, init_from=source,
-          progress_desc=f"refine {case} seed{config.seed}", metadata=metadata)
+    train_seeds(functools.partial(make_vector_env, case, physics=physics, initial_field="random",
+                                  duration=episode_duration),
+                [config], total, [out], resume=resume, progress=progress, init_from=[source],
+                progress_desc=f"refine {case} seed{config.seed}", metadata=[metadata])
     summary = summarize_run(out)
     return {"case": case, "source": str(source), "run_dir": str(out),
             "checkpoint": str(out / "checkpoint.pt"), "start_step": start_step, "steps": int(steps),
@@ -545,7 +595,7 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
     (``actor.pt`` + ``policy.json``), or a shipped name (``rl/policies/<name>``), in that order."""
     import torch
 
-    from .td3 import load_checkpoint
+    from .checkpoint import load_checkpoint
 
     policies_dir = Path(policies_dir) if policies_dir is not None else POLICIES_DIR
     path = Path(policy)
@@ -667,7 +717,7 @@ def evaluate_seeds(
     authors' distance in 10 s reached; ``None`` for other durations) of the final checkpoint, and
     ``best``: the same keys for ``best.pt``, or ``None``.
     """
-    from .td3 import BEST_NAME
+    from .checkpoint import BEST_NAME
 
     case_dir = Path(case_dir)
     results = []

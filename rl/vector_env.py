@@ -45,7 +45,7 @@ State
 :meth:`get_state` / :meth:`set_state` save and restore everything that determines the future of
 all sub-environments (the simulator's memory block, every field, the step counters, the last
 observations and the generators), as numpy arrays and plain data: used by
-:func:`rl.td3.train_vector` for checkpoints at any vector step.
+:func:`rl.runner.train_vector` for checkpoints at any vector step.
 
 Units: SI (m, s, T) as the single environment.
 """

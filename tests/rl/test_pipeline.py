@@ -16,8 +16,9 @@ from elastica_magnetic import read_field_csv
 from elastica_magnetic.cli import main as msr
 from elastica_magnetic.simulation import TRAJECTORY_COLUMNS
 from rl import pipeline
+from rl.checkpoint import load_checkpoint
 from rl.env import OBSERVATION_LAYOUT, MagneticCrawlerEnv
-from rl.td3 import TD3Agent, load_checkpoint
+from rl.td3 import TD3Agent
 
 TRAIN_STEPS = 240
 SMOKE = ["--learning-starts", "60", "--batch-size", "32", "--hidden", "32,32",
@@ -102,8 +103,11 @@ def test_train_seeds_sharing_a_simulator_equal_the_separate_runs(trained, tmp_pa
         for part in ("actor", "critic"):
             for name, tensor in a[part].items():
                 assert torch.equal(tensor, b[part][name]), (seed, part, name)
-    assert msr(["train", "--case", "m1-4mT", "--seeds", "2", "--seeds-per-simulator", "2",
-                "--envs", "2", "--steps", "10", "--out", str(tmp_path / "x"), "--no-progress"]) == 2
+    capsys.readouterr()
+    assert msr(["train", "--case", "m1-4mT", "--seeds", "2", "--seeds-per-simulator", "0",
+                "--steps", "10", "--out", str(tmp_path / "x"), "--no-progress"]) == 2
+    assert "--seeds-per-simulator must be >= 1" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
 
 
 def _rows_without_wall_time(path: Path) -> list[dict[str, str]]:

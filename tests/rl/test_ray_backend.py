@@ -18,7 +18,7 @@ import torch
 
 from elastica_magnetic.cli import main as msr
 from rl import pipeline
-from rl.td3 import load_checkpoint
+from rl.checkpoint import load_checkpoint
 
 STEPS = 200
 TINY = ["--case", "m1-4mT", "--seeds", "2", "--workers", "2", "--threads", "1",

@@ -10,15 +10,9 @@ import numpy as np
 import pytest
 import torch
 
-from rl.td3 import (
-    Batch,
-    ReplayBuffer,
-    TD3Agent,
-    TD3Config,
-    evaluate,
-    load_checkpoint,
-    train,
-)
+from rl.checkpoint import load_checkpoint
+from rl.runner import ActorPolicy, evaluate, train
+from rl.td3 import TD3, Batch, ReplayBuffer, TD3Agent, TD3Config
 
 torch.set_num_threads(1)
 
@@ -68,6 +62,14 @@ def toy_config(**kw) -> TD3Config:
 # ----------------------------------------------------------------------------------------------
 def _params(seq: torch.nn.Sequential) -> list[np.ndarray]:
     return [p.detach().numpy().astype(np.float64).copy() for p in seq.parameters()]
+
+
+def _last_grads(net) -> list[np.ndarray]:
+    """The last gradients of member 0 of a stacked network, in ``nn.Linear`` order and layout."""
+    out = []
+    for w, b in zip(net.weights, net.biases, strict=True):
+        out += [w.grad[0].T.numpy().astype(np.float64), b.grad[0, 0].numpy().astype(np.float64)]
+    return out
 
 
 def _fwd(p: list[np.ndarray], x: np.ndarray):
@@ -184,8 +186,8 @@ def test_update_matches_hand_computation():
     info2 = agent.update(batches[1])
     assert info2["critic_loss"] == pytest.approx(loss2, rel=1e-5)
     assert info2["actor_loss"] == pytest.approx(actor_loss, rel=1e-5)
-    for g_ref, p in zip(grads_a, agent.actor.net.parameters(), strict=True):
-        np.testing.assert_allclose(p.grad.numpy(), g_ref, rtol=1e-4, atol=1e-7)
+    for g_ref, g in zip(grads_a, _last_grads(agent.actor_net), strict=True):
+        np.testing.assert_allclose(g, g_ref, rtol=1e-4, atol=1e-7)
     pairs = [
         (q1, agent.critic.q1_net), (q2, agent.critic.q2_net), (actor, agent.actor.net),
         (q1_t, agent.critic_target.q1_net), (q2_t, agent.critic_target.q2_net),
@@ -296,8 +298,8 @@ def test_killed_and_resumed_run_is_bit_identical(tmp_path):
 def test_exploration_noise_is_drawn_per_dimension():
     agent = TD3Agent.for_env(ToyEnv(), TD3Config(hidden_sizes=(8,), exploration_noise=0.2))
     with torch.no_grad():  # mu(s) = 0: the explored action is pure noise
-        agent.actor.net[-1].weight.zero_()
-        agent.actor.net[-1].bias.zero_()
+        agent.actor_net.weights[-1].zero_()
+        agent.actor_net.biases[-1].zero_()
     obs = np.zeros(3, np.float32)
     noise = np.stack([agent.select_action(obs, explore=True) for _ in range(4000)])
     assert np.all(noise[:, 0] != noise[:, 1])
@@ -433,8 +435,8 @@ def test_periodic_evaluation_keeps_the_best_and_leaves_training_unchanged(tmp_pa
     assert ckpt["kind"] == "best" and ckpt["global_step"] == rows[i_best]["global_step"]
     assert ckpt["evaluation"]["mean_return"] == rows[i_best]["mean_return"]
     # the saved networks reproduce the recorded evaluation
-    replay = TD3Agent.for_env(ToyEnv(), cfg)
-    replay.actor.load_state_dict(ckpt["agent"]["actor"])
+    space = ToyEnv().action_space
+    replay = ActorPolicy(ckpt["agent"]["actor"], 3, 2, cfg.hidden_sizes, space.low, space.high)
     again = evaluate(replay, ToyEnv, episodes=3, seed=ckpt["evaluation"]["seed"])
     assert again.mean_return == rows[i_best]["mean_return"]
     # networks only: not a starting point for training
@@ -488,3 +490,79 @@ def test_resume_may_switch_on_evaluation_but_not_change_hyperparameters(tmp_path
         again = train(ToyEnv, toy_config(seed=5, tau=0.5), 220, tmp_path / "run", resume=True,
                       progress=False)
     assert again.config.tau == toy_config().tau
+
+
+# ----------------------------------------------------------------------------------------------
+# K seeds as one computation
+# ----------------------------------------------------------------------------------------------
+def test_k_seeds_update_equals_each_seed_alone():
+    """The stacked update of 3 seeds equals each seed's own update, bit for bit (every seed on
+    its own minibatches, noise and Adam moments)."""
+    obs_dim, act_dim = 5, 2
+    configs = [TD3Config(seed=s, hidden_sizes=(8, 8), batch_size=16) for s in (0, 4, 9)]
+    buffers = []
+    for k in range(3):
+        buf, rng = ReplayBuffer(200, obs_dim, act_dim), np.random.default_rng(k)
+        for i in range(100):
+            buf.add(rng.normal(size=obs_dim), rng.uniform(-1, 1, act_dim), rng.normal(),
+                    rng.normal(size=obs_dim), i % 7 == 0)
+        buffers.append(buf)
+    low, high = -np.ones(act_dim), np.ones(act_dim)
+    group = TD3(obs_dim, act_dim, low, high, configs)
+    alone = [TD3(obs_dim, act_dim, low, high, [c]) for c in configs]
+    for _ in range(5):  # critic steps and two delayed actor steps
+        group.update([b.sample(16, group.rngs[k]) for k, b in enumerate(buffers)])
+        for agent, b in zip(alone, buffers, strict=True):
+            agent.update([b.sample(16, agent.rngs[0])])
+    for k, agent in enumerate(alone):
+        _assert_state_equal(group.seed_state(k), agent.seed_state(0), f"seed {k}")
+    # and the seeds did learn different things
+    assert not torch.equal(group.actor_state(0)["net.0.weight"], group.actor_state(1)["net.0.weight"])
+
+
+def test_seeds_trained_together_equal_their_runs_alone(tmp_path):
+    from rl.runner import train_seeds
+
+    configs = [toy_config(seed=s) for s in (2, 5)]
+    train_seeds(lambda k: _sync(ToyEnv, k), configs, 150, [tmp_path / "g2", tmp_path / "g5"],
+                progress=False)
+    for s in (2, 5):
+        train(ToyEnv, toy_config(seed=s), 150, tmp_path / f"alone{s}", progress=False)
+        a, b = load_checkpoint(tmp_path / f"g{s}"), load_checkpoint(tmp_path / f"alone{s}")
+        for key in ("agent", "buffer", "global_step", "episode"):
+            _assert_state_equal(a[key], b[key], key)
+
+
+def _sync(env_fn, n):
+    from gymnasium.vector import AutoresetMode, SyncVectorEnv
+
+    return SyncVectorEnv([env_fn] * n, autoreset_mode=AutoresetMode.SAME_STEP)
+
+
+def test_checkpoints_append_only_the_new_transitions(tmp_path):
+    """The replay buffer goes to replay.bin, each checkpoint appending the rows since the last."""
+    train(ToyEnv, toy_config(seed=1), 100, tmp_path, progress=False)
+    ckpt = torch.load(tmp_path / "checkpoint.pt", weights_only=True)
+    assert ckpt["buffer"]["file"] == "replay.bin" and "obs" not in ckpt["buffer"]
+    width = 2 * 3 + 2 + 2
+    assert (tmp_path / "replay.bin").stat().st_size == ckpt["buffer"]["rows"] * width * 4
+    assert ckpt["buffer"]["rows"] == ckpt["buffer"]["size"] == 100
+    first = load_checkpoint(tmp_path)["buffer"]
+    # stray rows of a run killed between an append and its checkpoint are cut on resume
+    with open(tmp_path / "replay.bin", "ab") as f:
+        f.write(np.ones(width * 3, np.float32).tobytes())
+    train(ToyEnv, toy_config(seed=1), 120, tmp_path, resume=True, progress=False)
+    full = load_checkpoint(tmp_path)
+    assert full["buffer"]["size"] == 120
+    assert (tmp_path / "replay.bin").stat().st_size == 120 * width * 4
+    for key in ("obs", "actions", "rewards", "next_obs", "terminated"):
+        torch.testing.assert_close(full["buffer"][key][:100], first[key], rtol=0, atol=0)
+
+
+def test_resume_without_checkpoint_refuses_and_keeps_the_log(tmp_path):
+    train(ToyEnv, toy_config(seed=1), 60, tmp_path / "run", progress=False)
+    (tmp_path / "run" / "checkpoint.pt").unlink()
+    log = (tmp_path / "run" / "episodes.csv").read_text()
+    with pytest.raises(FileNotFoundError, match="checkpoint.pt does not exist"):
+        train(ToyEnv, toy_config(seed=1), 80, tmp_path / "run", resume=True, progress=False)
+    assert (tmp_path / "run" / "episodes.csv").read_text() == log

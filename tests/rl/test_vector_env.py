@@ -18,8 +18,10 @@ import torch
 from gymnasium.vector import AutoresetMode, VectorEnv
 
 from elastica_magnetic.cli import main as msr
+from rl.checkpoint import load_checkpoint
 from rl.env import OBSERVATION_LAYOUT, MagneticCrawlerEnv
-from rl.td3 import TD3Config, load_checkpoint, train_vector
+from rl.runner import train_vector
+from rl.td3 import TD3Config
 from rl.vector_env import MagneticCrawlerVectorEnv
 
 DURATION = 0.05  # s: 5 steps per episode, so short runs cross several autoresets
@@ -151,7 +153,9 @@ def one_thread():
 
 def test_train_vector_killed_and_resumed_is_bit_identical(tmp_path, one_thread):
     fn = functools.partial(MagneticCrawlerVectorEnv, 4, duration=0.1)
-    cfg, steps = _tiny_config(), 120
+    # checkpoints every 30 transitions fall inside the 40-transition episodes: the environments'
+    # state goes into the checkpoint
+    cfg, steps = _tiny_config(checkpoint_every=30), 120
     full = train_vector(fn, cfg, steps, tmp_path / "full", progress=False)
 
     def kill(row):
@@ -203,7 +207,7 @@ def test_train_shared_seeds_equal_separate_single_env_runs(tmp_path):
     a resume) end bit-identical to two separate ``train`` runs with single environments: same
     episodes, weights, optimisers and buffers. Only the simulation is shared."""
     from rl.pipeline import make_env
-    from rl.td3 import train, train_shared
+    from rl.runner import train, train_shared
     from rl.vector_env import make_vector_env
 
     duration, steps = 0.1, 40  # 10-step episodes; updates from step 20
@@ -231,7 +235,7 @@ def test_train_shared_seeds_equal_separate_single_env_runs(tmp_path):
 
 
 def test_train_shared_rejects_shared_run_dirs(tmp_path):
-    from rl.td3 import train_shared
+    from rl.runner import train_shared
     from rl.vector_env import make_vector_env
 
     configs = [TD3Config(seed=0), TD3Config(seed=1)]

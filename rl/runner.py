@@ -1,0 +1,795 @@
+"""The training loop: K seeds, each on N sub-environments of one vector environment, one loop.
+
+:func:`train_seeds` is the only training loop. Seed ``k`` drives sub-environments
+``k N .. k N + N - 1`` of a vector environment with ``SAME_STEP`` autoreset (for the crawler:
+:class:`~rl.vector_env.MagneticCrawlerVectorEnv`, every robot in one batched simulator; any other
+Gymnasium environment is wrapped in a ``SyncVectorEnv``). The K seeds' networks live in one
+:class:`~rl.td3.TD3` and are updated as one computation. Each seed keeps its own bookkeeping
+(:class:`SeedRun`): its run directory, replay buffer, ``episodes.csv``, TensorBoard scalars,
+evaluation with ``best.pt``, progress bar and checkpoints. The layouts of the previous API are
+special cases: :func:`train` (one seed, one environment), :func:`train_vector` (one seed, N
+environments) and :func:`train_shared` (K seeds, one environment each).
+
+Per vector step, for every seed: act (uniform random actions during the warm-up, then
+``mu(s) + N(0, sigma^2)``), step, store each transition (the real final observation of an ended
+episode, ``terminated`` not ``done``), then one update per new transition past the warm-up; ended
+episodes are logged and their sub-environments reset with the seed's episode seeds
+(:func:`~rl.td3.episode_seed`: episode ``e`` of seed ``s`` always starts from
+``episode_seed(s, e)``; episodes are numbered as they start).
+
+Equivalences (CPU, same thread count; tested): a seed trained beside others is bit-identical to the
+same seed trained alone, and a run killed and resumed from its checkpoint ends bit-identical to an
+uninterrupted one.
+
+Evaluations fall on the first vector step at or after each multiple of ``eval_every`` where all of
+the seed's sub-environments have just ended an episode (the same steps in every layout).
+Checkpoints fall on the first vector step at or after each multiple of ``checkpoint_every`` where
+every sub-environment of the group has just ended an episode; there the environments need not be
+saved (they restart from episode seeds), so each seed's folder can be resumed in any layout.
+Crawler episodes have a fixed length, so these steps come every episode. An environment that can
+save its state (``get_state``/``set_state``) also allows checkpoints inside episodes, with that
+state in every seed's checkpoint (``vector``): such a checkpoint resumes only in the same group of
+seeds. Evaluation uses no RNG of the training, so the weights are bit-identical with or without
+it.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+import os
+import random
+import time
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch
+
+from .checkpoint import (
+    BEST_NAME,
+    CHECKPOINT_FORMAT,
+    CHECKPOINT_NAME,
+    ReplayFile,
+    load_checkpoint,
+    refuse_networks_only,
+    save_checkpoint,
+)
+from .td3 import TD3, Actor, ReplayBuffer, TD3Agent, TD3Config, episode_seed
+
+EPISODES_CSV = "episodes.csv"
+EVALUATIONS_CSV = "evaluations.csv"
+EVALUATION_FIELDS = ("global_step", "mean_return", "std_return", "mean_length", "best_mean_return",
+                     "wall_time_s")
+EPISODE_FIELDS = ("episode", "global_step", "return", "length", "terminated", "truncated",
+                  "wall_time_s")
+#: Fields of :class:`~rl.td3.TD3Config` that a resumed run takes from the config passed (they
+#: change no weight: when to checkpoint, log and evaluate); every other field comes from the
+#: checkpoint.
+RESUMABLE_SETTINGS = ("checkpoint_every", "log_every", "eval_every", "eval_episodes")
+#: Evaluation episode ``i`` is reset with seed ``EVAL_SEED + i``: the same episodes at every
+#: evaluation and for every seed of a sweep, so their returns compare.
+EVAL_SEED = 1_000_000
+
+
+# ----------------------------------------------------------------------------------------------
+# Evaluation
+# ----------------------------------------------------------------------------------------------
+@dataclass
+class EvalResult:
+    """Returns and lengths of evaluation episodes (``mean_return``, ``std_return`` as SB3's
+    ``evaluate_policy``)."""
+
+    returns: list[float]
+    lengths: list[int]
+
+    @property
+    def mean_return(self) -> float:
+        return float(np.mean(self.returns))
+
+    @property
+    def std_return(self) -> float:
+        return float(np.std(self.returns))
+
+
+def evaluate(agent: Any, env_fn: Callable[[], gym.Env], episodes: int = 10, seed: int = 0) -> EvalResult:
+    """Run ``episodes`` full episodes with deterministic actions ``agent.act(obs)`` (no noise);
+    episode ``i`` is reset with ``seed + i``. Returns are undiscounted sums of rewards."""
+    env = env_fn()
+    returns, lengths = [], []
+    try:
+        for i in range(episodes):
+            obs, _ = env.reset(seed=seed + i)
+            done, ep_return, ep_len = False, 0.0, 0
+            while not done:
+                obs, reward, terminated, truncated, _ = env.step(agent.act(_flat(obs)))
+                ep_return += float(reward)
+                ep_len += 1
+                done = terminated or truncated
+            returns.append(ep_return)
+            lengths.append(ep_len)
+    finally:
+        env.close()
+    return EvalResult(returns, lengths)
+
+
+class ActorPolicy:
+    """A deterministic policy from an actor's state dict (plain :class:`~rl.td3.Actor`, float32):
+    what evaluation runs, so a ``best.pt`` replays its recorded evaluation exactly."""
+
+    def __init__(self, actor_state: dict[str, torch.Tensor], obs_dim: int, act_dim: int,
+                 hidden_sizes: tuple[int, ...], action_low: np.ndarray,
+                 action_high: np.ndarray) -> None:
+        self.actor = Actor(obs_dim, act_dim, tuple(hidden_sizes))
+        self.actor.load_state_dict(actor_state)
+        self.actor.eval().requires_grad_(False)
+        low, high = np.asarray(action_low, np.float64), np.asarray(action_high, np.float64)
+        self.center, self.half_range = (high + low) / 2.0, (high - low) / 2.0
+
+    @classmethod
+    def of_seed(cls, learner: TD3, k: int) -> ActorPolicy:
+        return cls(learner.actor_state(k), learner.obs_dim, learner.act_dim,
+                   learner.config.hidden_sizes, learner.action_low, learner.action_high)
+
+    @torch.no_grad()
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        """Action in environment units, ``(act_dim,)`` float32."""
+        obs_t = torch.as_tensor(np.asarray(obs, dtype=np.float32).reshape(1, -1))
+        action = self.actor(obs_t)[0].numpy().astype(np.float64)
+        return (self.center + self.half_range * action).astype(np.float32)
+
+
+class _PeriodicEvaluation:
+    """Evaluation during training (``config.eval_every``, as Stable-Baselines3's ``EvalCallback``):
+    :func:`evaluate` runs the deterministic policy in its own environment, a row goes to
+    ``evaluations.csv`` and TensorBoard (``eval/``), and the networks of the best evaluation so far
+    go to ``best.pt``. Its state (the best networks included) is part of the checkpoints."""
+
+    def __init__(self, env_fn: Callable[[], gym.Env] | None, cfg: TD3Config, run_dir: Path,
+                 writer: Any, global_step: int, ckpt: dict[str, Any] | None,
+                 resumed_here: bool) -> None:
+        self.env_fn, self.cfg, self.writer = env_fn, cfg, writer
+        self.enabled = env_fn is not None and cfg.eval_every > 0
+        self.csv_path = run_dir / EVALUATIONS_CSV
+        self.best_path = run_dir / BEST_NAME
+        state = ckpt.get("evaluation") if (resumed_here and ckpt is not None) else None
+        self.best_return = float(state["best_mean_return"]) if state else -math.inf
+        self.best_step = int(state["best_step"]) if state else -1
+        self.best_networks = state["best_networks"] if state else None
+        self.last_step = int(state["last_step"]) if state else -1
+        self.next_step = self._next(global_step)
+        self.restore_best = self.best_networks is not None and resumed_here
+        if resumed_here:
+            _truncate_csv(self.csv_path, EVALUATION_FIELDS,
+                          lambda row: int(row["global_step"]) <= global_step)
+        else:  # leftovers of an earlier run in this folder that left no checkpoint
+            self.csv_path.unlink(missing_ok=True)
+        if not self.restore_best:
+            self.best_path.unlink(missing_ok=True)
+
+    def _next(self, global_step: int) -> int:
+        every = max(self.cfg.eval_every, 1)
+        return (global_step // every + 1) * every
+
+    def due(self, global_step: int) -> bool:
+        return self.enabled and global_step >= self.next_step
+
+    def run(self, learner: TD3, k: int, global_step: int, wall_time_s: float,
+            header: dict[str, Any]) -> EvalResult:
+        result = evaluate(ActorPolicy.of_seed(learner, k), self.env_fn, self.cfg.eval_episodes,
+                          seed=EVAL_SEED)
+        if result.mean_return > self.best_return:
+            self.best_return, self.best_step = result.mean_return, global_step
+            self.best_networks = {"actor": learner.actor_state(k), "critic": learner.critic_state(k)}
+            self.write_best(header)
+        row = {"global_step": global_step, "mean_return": result.mean_return,
+               "std_return": result.std_return, "mean_length": float(np.mean(result.lengths)),
+               "best_mean_return": self.best_return, "wall_time_s": round(wall_time_s, 3)}
+        new_file = not self.csv_path.exists() or self.csv_path.stat().st_size == 0
+        with open(self.csv_path, "a", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=EVALUATION_FIELDS)
+            if new_file:
+                writer.writeheader()
+            writer.writerow(row)
+        self.writer.add_scalar("eval/mean_return", result.mean_return, global_step)
+        self.writer.add_scalar("eval/best_mean_return", self.best_return, global_step)
+        self.last_step = global_step
+        self.next_step = self._next(global_step)
+        return result
+
+    def write_best(self, header: dict[str, Any]) -> None:
+        """``best.pt``: only the best networks (it cannot be resumed or refined), with the step and
+        return of their evaluation."""
+        save_checkpoint(self.best_path, {
+            **header, "kind": "best", "agent": self.best_networks, "global_step": self.best_step,
+            "evaluation": {"mean_return": self.best_return, "episodes": self.cfg.eval_episodes,
+                           "seed": EVAL_SEED},
+        })
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"best_mean_return": self.best_return, "best_step": self.best_step,
+                "best_networks": self.best_networks, "last_step": self.last_step}
+
+
+# ----------------------------------------------------------------------------------------------
+# One seed's bookkeeping
+# ----------------------------------------------------------------------------------------------
+def _flat(obs: Any) -> np.ndarray:
+    return np.asarray(obs, dtype=np.float32).reshape(-1)
+
+
+def _truncate_csv(path: Path, fields: tuple[str, ...], keep: Callable[[dict[str, str]], bool]) -> None:
+    """Keep only the rows of a log for which ``keep(row)`` (those written before the checkpoint
+    a run resumes from)."""
+    if not path.exists():
+        return
+    with open(path, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if keep(r)]
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=fields)
+        writer.writeheader()
+        writer.writerows(rows)
+    os.replace(tmp, path)
+
+
+def starting_point(
+    ckpt_path: Path,
+    resume: bool,
+    init_from: str | os.PathLike | None,
+    config: TD3Config | None,
+    metadata: dict[str, Any] | None,
+) -> tuple[dict[str, Any] | None, bool, TD3Config, dict[str, Any] | None]:
+    """Where a run starts: ``(checkpoint or None, resumed from this run_dir, config, metadata)``.
+
+    An existing checkpoint in the run directory is refused unless ``resume``; ``resume`` without
+    one is refused too (nothing of the folder is touched). Without a checkpoint, ``init_from``
+    (another run's checkpoint) may seed the run. When resuming (or when no config is passed) the
+    checkpoint's config is used, except for the :data:`RESUMABLE_SETTINGS` of a config passed; a
+    resumed run keeps its metadata unless given new.
+    """
+    ckpt: dict[str, Any] | None = None
+    if ckpt_path.exists():
+        if not resume:
+            raise FileExistsError(f"{ckpt_path} exists: pass resume=True or use a new run_dir")
+        ckpt = load_checkpoint(ckpt_path)
+        refuse_networks_only(ckpt, ckpt_path)
+    elif resume:
+        raise FileNotFoundError(f"cannot resume: {ckpt_path} does not exist (start a new run "
+                                f"without resuming, or choose the folder that holds it)")
+    resumed_here = ckpt is not None
+    if ckpt is None and init_from is not None:
+        ckpt = load_checkpoint(init_from)
+        refuse_networks_only(ckpt, init_from)
+    if ckpt is not None:
+        ckpt_cfg = TD3Config.from_dict(ckpt["config"])
+        if resumed_here or config is None:
+            if config is not None:
+                # run settings that change no weight may change on resume; the rest is the run's
+                passed = {k: getattr(config, k) for k in RESUMABLE_SETTINGS}
+                if dataclasses.replace(config, **{k: getattr(ckpt_cfg, k)
+                                                  for k in RESUMABLE_SETTINGS}) != ckpt_cfg:
+                    warnings.warn("resuming: using the checkpoint's hyperparameters, not the ones "
+                                  "passed", stacklevel=3)
+                ckpt_cfg = dataclasses.replace(ckpt_cfg, **passed)
+            config = ckpt_cfg
+    cfg = config if config is not None else TD3Config()
+    if metadata is None and resumed_here:
+        metadata = ckpt.get("metadata")
+    return ckpt, resumed_here, cfg, metadata
+
+
+class SeedRun:
+    """The bookkeeping of one seed: replay buffer, counters, ``episodes.csv``, TensorBoard writer,
+    evaluation, progress bar and checkpoints in ``run_dir``. Its networks live in the shared
+    :class:`~rl.td3.TD3` (member ``k``)."""
+
+    def __init__(self, k: int, config: TD3Config | None, steps: int, run_dir: str | os.PathLike,
+                 resume: bool, init_from: str | os.PathLike | None, metadata: dict[str, Any] | None,
+                 obs_dim: int, act_dim: int, n_envs: int) -> None:
+        self.k, self.steps, self.n_envs = k, int(steps), n_envs
+        self.run_dir = Path(run_dir)
+        self.ckpt_path = self.run_dir / CHECKPOINT_NAME
+        self.ckpt, self.resumed_here, self.cfg, self.metadata = starting_point(
+            self.ckpt_path, resume, init_from, config, metadata)
+        ckpt = self.ckpt
+        # the buffer holds every transition of the run (rounded up to whole vector steps)
+        total = -(-self.steps // n_envs) * n_envs
+        self.buffer = ReplayBuffer(min(self.cfg.buffer_size, total), obs_dim, act_dim)
+        self.global_step, self.episode, self.elapsed_before = 0, 0, 0.0
+        self.replay = ReplayFile(self.run_dir)
+        if ckpt is not None:
+            if (ckpt["obs_dim"], ckpt["act_dim"]) != (obs_dim, act_dim):
+                raise ValueError(f"{self.ckpt_path}: the checkpoint's spaces (obs {ckpt['obs_dim']}, "
+                                 f"action {ckpt['act_dim']}) do not match the environment's "
+                                 f"({obs_dim}, {act_dim})")
+            self.buffer.load_state_dict(ckpt["buffer"])
+            self.global_step = int(ckpt["global_step"])
+            # the number the next episode gets (episodes cut by a checkpoint without the
+            # environments' state are abandoned: their transitions stay in the buffer)
+            self.episode = int(ckpt["episode"])
+            if self.resumed_here:
+                self.elapsed_before = float(ckpt["wall_time_s"])
+                if "rows" in ckpt["buffer"]:
+                    self.replay.rows = int(ckpt["buffer"]["rows"])
+        self.start_step = self.global_step
+        self.ep_return = np.zeros(n_envs, dtype=np.float64)
+        self.ep_len = np.zeros(n_envs, dtype=np.int64)
+        self.ep_id = np.zeros(n_envs, dtype=np.int64)  # episode number of each sub-env's episode
+
+    def open(self, progress: bool, position: int | None, desc: str | None,
+             eval_env_fn: Callable[[], gym.Env] | None) -> None:
+        """Open the logs (after every seed of the group has been checked): the episode log is cut
+        back to the checkpoint, or started anew."""
+        from torch.utils.tensorboard import SummaryWriter
+        from tqdm.auto import tqdm
+
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        csv_path = self.run_dir / EPISODES_CSV
+        if self.resumed_here:
+            _truncate_csv(csv_path, EPISODE_FIELDS,
+                          lambda row: int(row["global_step"]) <= self.global_step)
+            self.replay.truncate(2 * self.buffer.obs_dim + self.buffer.act_dim + 2)
+        else:
+            csv_path.unlink(missing_ok=True)  # stale log of a run without checkpoint
+        self.writer = SummaryWriter(str(self.run_dir),
+                                    purge_step=self.global_step if self.resumed_here else None)
+        if not self.resumed_here:
+            self.writer.add_text("config", str(self.cfg.to_dict()))
+        self.evaluation = _PeriodicEvaluation(eval_env_fn, self.cfg, self.run_dir, self.writer,
+                                              self.global_step, self.ckpt, self.resumed_here)
+        self.next_checkpoint = self._next_checkpoint()
+        self.bar = tqdm(total=self.steps, initial=min(self.global_step, self.steps),
+                        disable=not progress, position=position, desc=desc, dynamic_ncols=True,
+                        leave=True)
+        self.csv_file = open(csv_path, "a", newline="")
+        self.csv_writer = csv.DictWriter(self.csv_file, fieldnames=EPISODE_FIELDS)
+        if csv_path.stat().st_size == 0:
+            self.csv_writer.writeheader()
+        self.t_start = time.time()
+
+    def _next_checkpoint(self) -> int:
+        every = self.cfg.checkpoint_every
+        return (self.global_step // every + 1) * every
+
+    @property
+    def done(self) -> bool:
+        return self.global_step >= self.steps
+
+    @property
+    def wall_time_s(self) -> float:
+        """Wall-clock time of the run so far, earlier sessions included, s."""
+        return self.elapsed_before + time.time() - self.t_start
+
+    def next_episode_seeds(self, n: int) -> list[int]:
+        """Number the next ``n`` episodes and return their reset seeds."""
+        first = self.episode
+        self.episode += n
+        return [episode_seed(self.cfg.seed, e) for e in range(first, first + n)]
+
+    def log_episode(self, i: int, terminated: bool, truncated: bool,
+                    log_fn: Callable[[dict[str, Any]], None] | None) -> None:
+        row = {"episode": int(self.ep_id[i]), "global_step": self.global_step,
+               "return": float(self.ep_return[i]), "length": int(self.ep_len[i]),
+               "terminated": int(terminated), "truncated": int(truncated),
+               "wall_time_s": round(self.wall_time_s, 3)}
+        self.csv_writer.writerow(row)
+        self.writer.add_scalar("charts/episodic_return", row["return"], self.global_step)
+        self.writer.add_scalar("charts/episodic_length", row["length"], self.global_step)
+        self.bar.set_postfix(ep=row["episode"], ret=f"{row['return']:.3g}", refresh=False)
+        if log_fn is not None:
+            log_fn(row)
+        self.ep_return[i], self.ep_len[i] = 0.0, 0
+
+    def header(self, learner: TD3) -> dict[str, Any]:
+        """The keys every checkpoint of this seed starts with."""
+        return {"format": CHECKPOINT_FORMAT, "config": self.cfg.to_dict(),
+                "obs_dim": learner.obs_dim, "act_dim": learner.act_dim,
+                "action_low": torch.from_numpy(learner.action_low.copy()),
+                "action_high": torch.from_numpy(learner.action_high.copy()),
+                "metadata": self.metadata if self.metadata is not None else {}}
+
+    def checkpoint(self, learner: TD3, at_episode_boundary: bool,
+                   vector: dict[str, Any] | None) -> None:
+        """Write ``checkpoint.pt`` (atomically; the buffer's new rows appended to ``replay.bin``)."""
+        self.writer.flush()
+        save_checkpoint(self.ckpt_path, {
+            **self.header(learner),
+            "agent": learner.seed_state(self.k),
+            "buffer": self.replay.state(self.buffer),
+            "global_step": self.global_step,
+            "episode": self.episode,  # the number the next episode to start will get
+            "at_episode_boundary": at_episode_boundary,
+            "python_rng": random.getstate(),
+            "torch_cpu_rng": torch.get_rng_state(),
+            "wall_time_s": self.wall_time_s,
+            "evaluation": self.evaluation.state_dict(),
+            "vector": vector,
+        })
+        self.next_checkpoint = self._next_checkpoint()
+
+    def close(self) -> None:
+        for name in ("csv_file", "bar", "writer"):
+            if hasattr(self, name):
+                getattr(self, name).close()
+
+
+# ----------------------------------------------------------------------------------------------
+# The loop
+# ----------------------------------------------------------------------------------------------
+def _to_tensors(obj: Any) -> Any:
+    """numpy arrays -> CPU tensors, recursively (checkpoints load with ``weights_only=True``)."""
+    if isinstance(obj, np.ndarray):
+        return torch.from_numpy(obj.copy())
+    if isinstance(obj, dict):
+        return {k: _to_tensors(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return type(obj)(_to_tensors(v) for v in obj)
+    return obj
+
+
+def _to_numpy(obj: Any) -> Any:
+    """Inverse of :func:`_to_tensors`."""
+    if isinstance(obj, torch.Tensor):
+        return obj.numpy().copy()
+    if isinstance(obj, dict):
+        return {k: _to_numpy(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return type(obj)(_to_numpy(v) for v in obj)
+    return obj
+
+
+def _wrap(env_fn: Callable[[], gym.Env], n: int) -> gym.vector.VectorEnv:
+    """``n`` copies of a single environment as a ``SAME_STEP`` vector environment."""
+    from gymnasium.vector import AutoresetMode, SyncVectorEnv
+
+    return SyncVectorEnv([env_fn] * n, autoreset_mode=AutoresetMode.SAME_STEP)
+
+
+def train_seeds(
+    vec_env_fn: Callable[[int], gym.vector.VectorEnv],
+    configs: Sequence[TD3Config | None],
+    steps: int,
+    run_dirs: Sequence[str | os.PathLike],
+    *,
+    envs_per_seed: int = 1,
+    resume: bool = False,
+    progress: bool = True,
+    log_fn: Callable[[dict[str, Any]], None] | None = None,
+    init_from: Sequence[str | os.PathLike | None] | None = None,
+    metadata: Sequence[dict[str, Any] | None] | None = None,
+    eval_env_fn: Callable[[], gym.Env] | None = None,
+    progress_position: int | None = None,
+    progress_desc: str | None = None,
+) -> TD3:
+    """Train ``K = len(configs)`` seeds for ``steps`` environment transitions each and return the
+    :class:`~rl.td3.TD3` holding them.
+
+    Args:
+        vec_env_fn: ``vec_env_fn(K * envs_per_seed)`` makes a vector environment with
+            ``SAME_STEP`` autoreset and flat Box spaces; its sub-environments reset with a list of
+            seeds and ``options={"reset_mask": mask}`` (Gymnasium's ``SyncVectorEnv`` and
+            :class:`~rl.vector_env.MagneticCrawlerVectorEnv` do).
+        configs: one :class:`~rl.td3.TD3Config` per seed (``None``: the checkpoint's or the
+            defaults); they must agree on everything but ``seed`` and on ``torch_deterministic``.
+        steps: total transitions of each seed, counted from step 0 (steps done before a resume or
+            inherited through ``init_from`` included); a seed stops at the first vector step
+            reaching it.
+        run_dirs: one output folder per seed (``episodes.csv``, TensorBoard scalars,
+            ``checkpoint.pt``, ``replay.bin``, ``evaluations.csv``, ``best.pt``). A folder that
+            holds a checkpoint is refused unless ``resume``; ``resume`` needs one in every folder.
+        envs_per_seed: sub-environments (and so transitions and updates per vector step) of each
+            seed.
+        init_from: per seed, another run's checkpoint to start from (networks, optimisers,
+            buffer, RNGs and counters; e.g. to refine a policy in another physics).
+        metadata: per seed, a JSON-like dict stored in its checkpoints (e.g. the case).
+        eval_env_fn: makes a single evaluation environment; with ``config.eval_every > 0`` each
+            seed's deterministic policy is evaluated there periodically.
+        log_fn: called with each episode's row (a dict) after it is written.
+    """
+    k_seeds, n = len(configs), int(envs_per_seed)
+    if k_seeds < 1 or len(run_dirs) != k_seeds:
+        raise ValueError("train_seeds needs one run_dir per config, and at least one config")
+    if len({Path(d).resolve() for d in run_dirs}) != k_seeds:
+        raise ValueError("every seed needs its own run_dir")
+    if n < 1:
+        raise ValueError(f"envs_per_seed must be >= 1, got {n}")
+    from gymnasium.vector import AutoresetMode
+
+    env = vec_env_fn(k_seeds * n)
+    try:
+        if env.metadata.get("autoreset_mode") != AutoresetMode.SAME_STEP or env.num_envs != k_seeds * n:
+            raise ValueError(f"training needs a SAME_STEP vector environment of {k_seeds * n} "
+                             "sub-environments")
+        obs_space, act_space = env.single_observation_space, env.single_action_space
+        if not isinstance(act_space, gym.spaces.Box) or not isinstance(obs_space, gym.spaces.Box):
+            raise TypeError("TD3 needs Box observation and action spaces")
+        obs_dim, act_dim = int(np.prod(obs_space.shape)), int(np.prod(act_space.shape))
+        runs = [SeedRun(k, configs[k], steps, run_dirs[k], resume,
+                        init_from[k] if init_from is not None else None,
+                        metadata[k] if metadata is not None else None, obs_dim, act_dim, n)
+                for k in range(k_seeds)]
+        if len({r.global_step for r in runs}) != 1:
+            raise ValueError("the seeds of a group resume from checkpoints at different steps ("
+                             + ", ".join(f"{r.run_dir}: {r.global_step}" for r in runs) + "): resume "
+                             "each with the group it was trained in")
+        learner = TD3(obs_dim, act_dim, act_space.low.reshape(-1), act_space.high.reshape(-1),
+                      [r.cfg for r in runs])
+        for r in runs:
+            if r.ckpt is not None:
+                learner.load_seed_state(r.k, r.ckpt["agent"])
+        return _loop(env, runs, learner, n, progress, log_fn, eval_env_fn, progress_position,
+                     progress_desc)
+    finally:
+        env.close()
+
+
+def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, progress: bool,
+          log_fn: Callable[[dict[str, Any]], None] | None, eval_env_fn: Callable[[], gym.Env] | None,
+          position: int | None, desc: str | None) -> TD3:
+    cfg, k_seeds = learner.config, len(runs)
+    obs_dim, act_dim = learner.obs_dim, learner.act_dim
+    lead = runs[0]
+    # the global RNGs (unused by the agents) are one per process: seeded from the first seed
+    if lead.ckpt is not None:
+        random.setstate(lead.ckpt["python_rng"])
+        torch.set_rng_state(lead.ckpt["torch_cpu_rng"])
+    else:
+        random.seed(cfg.seed)
+        torch.manual_seed(cfg.seed)
+    vector_state = lead.ckpt.get("vector") if lead.resumed_here else None
+    if vector_state is not None and (int(vector_state["num_envs"]) != k_seeds * n
+                                     or list(vector_state["seeds"]) != [r.cfg.seed for r in runs]):
+        raise ValueError(f"{lead.ckpt_path} was written inside episodes by the group of seeds "
+                         f"{list(vector_state['seeds'])} with {int(vector_state['num_envs'])} "
+                         "environments: resume it in that same group")
+    for k, run in enumerate(runs):
+        run.open(progress, None if position is None else position + k,
+                 f"{desc or 'seed'} {run.cfg.seed}" if k_seeds > 1 else desc, eval_env_fn)
+        if run.evaluation.restore_best:
+            run.evaluation.write_best(run.header(learner))
+    can_save_env = hasattr(env, "get_state") and hasattr(env, "set_state")
+
+    def sub(k: int) -> slice:
+        return slice(k * n, (k + 1) * n)
+
+    if vector_state is not None:
+        env.reset(seed=[0] * (k_seeds * n))  # builds the simulator; then overwritten
+        env.set_state(_to_numpy(vector_state["env_state"]))
+        obs = _to_numpy(vector_state["obs"]).reshape(k_seeds * n, obs_dim)
+        for k, run in enumerate(runs):
+            run.ep_return[:] = _to_numpy(vector_state["ep_return"])[sub(k)]
+            run.ep_len[:] = _to_numpy(vector_state["ep_len"])[sub(k)]
+            run.ep_id[:] = _to_numpy(vector_state["ep_id"])[sub(k)]
+    else:
+        seeds = []
+        for run in runs:
+            run.ep_id[:] = np.arange(run.episode, run.episode + n)
+            seeds += run.next_episode_seeds(n)
+        obs, _ = env.reset(seed=seeds)
+        obs = np.asarray(obs, dtype=np.float32).reshape(k_seeds * n, obs_dim)
+
+    def vector(obs: np.ndarray) -> dict[str, Any] | None:
+        if not can_save_env:
+            return None
+        return {"num_envs": k_seeds * n, "seeds": [r.cfg.seed for r in runs],
+                "env_state": _to_tensors(env.get_state()),
+                "obs": torch.from_numpy(obs.copy()),
+                "ep_return": torch.from_numpy(np.concatenate([r.ep_return for r in runs])),
+                "ep_len": torch.from_numpy(np.concatenate([r.ep_len for r in runs])),
+                "ep_id": torch.from_numpy(np.concatenate([r.ep_id for r in runs]))}
+
+    prev_deterministic = torch.are_deterministic_algorithms_enabled()
+    if cfg.torch_deterministic:
+        torch.use_deterministic_algorithms(True)
+    start_step = lead.global_step
+    actions = np.zeros((k_seeds, n, act_dim), dtype=np.float32)
+    try:
+        while not lead.done:
+            # 1. act: transition global_step + i of a seed is random during warm-up, then mu + noise
+            n_random = int(np.clip(cfg.learning_starts - lead.global_step, 0, n))
+            if n_random < n:
+                mu = learner.select_actions(obs.reshape(k_seeds, n, obs_dim)[:, n_random:],
+                                            explore=False).astype(np.float64)
+            for k in range(k_seeds):
+                if n_random:
+                    actions[k, :n_random] = learner.random_actions(k, n_random)
+                if n_random < n:
+                    noise = learner.rngs[k].normal(0.0, cfg.exploration_noise,
+                                                   size=(n - n_random, act_dim))
+                    actions[k, n_random:] = np.clip(mu[k] + noise, -1.0, 1.0)
+            flat_actions = actions.reshape(k_seeds * n, act_dim)
+            next_obs, rewards, terminated, truncated, infos = env.step(
+                learner.scale_action(flat_actions))
+            next_obs = np.asarray(next_obs, dtype=np.float32).reshape(k_seeds * n, obs_dim)
+            terminated = np.asarray(terminated, dtype=bool)
+            truncated = np.asarray(truncated, dtype=bool)
+            rewards = np.asarray(rewards, dtype=np.float64)
+            ended = terminated | truncated
+
+            # 2. store: the real s' of an ended episode is infos["final_obs"][i] (SAME_STEP)
+            real_next = next_obs.copy()
+            for i in np.flatnonzero(ended):
+                real_next[i] = _flat(infos["final_obs"][i])
+            before = lead.global_step
+            for k, run in enumerate(runs):
+                for j in range(n):
+                    i = k * n + j
+                    run.buffer.add(obs[i], flat_actions[i], float(rewards[i]), real_next[i],
+                                   bool(terminated[i]))
+                run.ep_return += rewards[sub(k)]
+                run.ep_len += 1
+                run.global_step += n
+                run.bar.update(n)
+
+            # 3. learn: updates_per_step updates per transition past the warm-up, all seeds at once
+            n_learn = max(0, lead.global_step - max(before, cfg.learning_starts))
+            if n_learn and len(lead.buffer) >= cfg.batch_size:
+                for _ in range(n_learn * cfg.updates_per_step):
+                    info = learner.update([r.buffer.sample(cfg.batch_size, learner.rngs[k])
+                                           for k, r in enumerate(runs)])
+                    if learner.num_updates % cfg.log_every == 0:
+                        for name, values in info.items():
+                            for k, run in enumerate(runs):
+                                run.writer.add_scalar(f"losses/{name}", float(values[k]),
+                                                      run.global_step)
+
+            # 4. episode ends: log in sub-env order
+            for k, run in enumerate(runs):
+                for j in np.flatnonzero(ended[sub(k)]):
+                    run.log_episode(j, bool(terminated[k * n + j]), bool(truncated[k * n + j]), log_fn)
+                if ended[sub(k)].any():
+                    run.csv_file.flush()
+            all_ended = bool(ended.all())
+            if lead.done:
+                break
+            # 5. evaluation when all of a seed's episodes have just ended (so its timing does not
+            # depend on the layout); checkpoints at restorable points
+            restorable = all_ended or can_save_env
+            for k, run in enumerate(runs):
+                if ended[sub(k)].all() and run.evaluation.due(run.global_step):
+                    run.evaluation.run(learner, k, run.global_step, run.wall_time_s, run.header(learner))
+            # 6. the next episodes of the ended sub-envs start from their seeds
+            if ended.any():
+                reset_seeds: list[int | None] = [None] * (k_seeds * n)
+                for k, run in enumerate(runs):
+                    for j in np.flatnonzero(ended[sub(k)]):
+                        run.ep_id[j] = run.episode
+                        reset_seeds[k * n + j] = run.next_episode_seeds(1)[0]
+                checkpoint_due = restorable and lead.global_step >= lead.next_checkpoint
+                if checkpoint_due and all_ended:  # before the new episodes: nothing of them to save
+                    for run in runs:
+                        run.episode -= n
+                        run.checkpoint(learner, at_episode_boundary=True, vector=None)
+                        run.episode += n
+                    checkpoint_due = False
+                fresh, _ = env.reset(seed=reset_seeds, options={"reset_mask": ended})
+                fresh = np.asarray(fresh, dtype=np.float32).reshape(k_seeds * n, obs_dim)
+                next_obs[ended] = fresh[ended]
+            else:
+                checkpoint_due = restorable and lead.global_step >= lead.next_checkpoint
+            obs = next_obs
+            if checkpoint_due:  # inside episodes: the environments' state goes along
+                state = vector(obs)
+                for run in runs:
+                    run.checkpoint(learner, at_episode_boundary=False, vector=state)
+
+        # the last evaluation and the final checkpoint (unless a resumed run took no step)
+        if not (lead.resumed_here and lead.global_step == start_step):
+            for k, run in enumerate(runs):
+                if run.evaluation.enabled and run.evaluation.last_step != run.global_step:
+                    run.evaluation.run(learner, k, run.global_step, run.wall_time_s, run.header(learner))
+            all_ended = bool(ended.all()) if lead.global_step > start_step else True
+            state = None if all_ended else vector(obs)
+            for run in runs:
+                run.checkpoint(learner, at_episode_boundary=all_ended, vector=state)
+    finally:
+        for run in runs:
+            run.close()
+        torch.use_deterministic_algorithms(prev_deterministic)
+    return learner
+
+
+# ----------------------------------------------------------------------------------------------
+# The layouts of the single-seed API
+# ----------------------------------------------------------------------------------------------
+def _single(learner: TD3) -> TD3Agent:
+    """The one seed of ``learner`` as a :class:`~rl.td3.TD3Agent`."""
+    agent = TD3Agent(learner.obs_dim, learner.act_dim, learner.action_low, learner.action_high,
+                     learner.config)
+    agent.load_seed_state(0, learner.seed_state(0))
+    return agent
+
+
+def train(
+    env_fn: Callable[[], gym.Env],
+    config: TD3Config | None = None,
+    steps: int = 100_000,
+    run_dir: str | os.PathLike = "runs/td3",
+    resume: bool = False,
+    progress: bool = True,
+    log_fn: Callable[[dict[str, Any]], None] | None = None,
+    *,
+    init_from: str | os.PathLike | None = None,
+    progress_position: int | None = None,
+    progress_desc: str | None = None,
+    metadata: dict[str, Any] | None = None,
+    eval_env_fn: Callable[[], gym.Env] | None = None,
+) -> TD3Agent:
+    """One seed on one environment (:func:`train_seeds` with K = N = 1); returns its agent.
+
+    ``env_fn`` makes a single Gymnasium environment (flat Box observations, bounded Box actions).
+    Other arguments as :func:`train_seeds` (one of each).
+    """
+    learner = train_seeds(lambda k: _wrap(env_fn, k), [config], steps, [run_dir], resume=resume,
+                          progress=progress, log_fn=log_fn,
+                          init_from=[init_from] if init_from is not None else None,
+                          metadata=[metadata], eval_env_fn=eval_env_fn,
+                          progress_position=progress_position, progress_desc=progress_desc)
+    return _single(learner)
+
+
+def train_vector(
+    vec_env_fn: Callable[[], gym.vector.VectorEnv],
+    config: TD3Config | None = None,
+    steps: int = 100_000,
+    run_dir: str | os.PathLike = "runs/td3",
+    resume: bool = False,
+    progress: bool = True,
+    log_fn: Callable[[dict[str, Any]], None] | None = None,
+    *,
+    init_from: str | os.PathLike | None = None,
+    progress_position: int | None = None,
+    progress_desc: str | None = None,
+    metadata: dict[str, Any] | None = None,
+    eval_env_fn: Callable[[], gym.Env] | None = None,
+) -> TD3Agent:
+    """One seed on the N sub-environments of ``vec_env_fn()`` (:func:`train_seeds` with K = 1):
+    N transitions and N updates per vector step."""
+    probe: list[gym.vector.VectorEnv] = []
+
+    def make(total: int) -> gym.vector.VectorEnv:
+        return probe.pop() if probe else vec_env_fn()
+
+    probe.append(vec_env_fn())
+    n_envs = int(probe[0].num_envs)
+    learner = train_seeds(make, [config], steps, [run_dir], envs_per_seed=n_envs, resume=resume,
+                          progress=progress, log_fn=log_fn,
+                          init_from=[init_from] if init_from is not None else None,
+                          metadata=[metadata], eval_env_fn=eval_env_fn,
+                          progress_position=progress_position, progress_desc=progress_desc)
+    return _single(learner)
+
+
+def train_shared(
+    vec_env_fn: Callable[[int], gym.vector.VectorEnv],
+    configs: list[TD3Config],
+    steps: int,
+    run_dirs: list[str | os.PathLike],
+    resume: bool = False,
+    progress: bool = True,
+    *,
+    progress_desc: str | None = None,
+    metadata: list[dict[str, Any]] | None = None,
+    eval_env_fn: Callable[[], gym.Env] | None = None,
+) -> list[TD3Agent]:
+    """K seeds, one sub-environment each (:func:`train_seeds` with N = 1); returns one agent per
+    seed, each bit-identical to training that seed alone."""
+    learner = train_seeds(vec_env_fn, configs, steps, run_dirs, resume=resume, progress=progress,
+                          metadata=metadata, eval_env_fn=eval_env_fn, progress_desc=progress_desc)
+    agents = []
+    for k in range(learner.n_seeds):
+        agent = TD3Agent(learner.obs_dim, learner.act_dim, learner.action_low, learner.action_high,
+                         learner.configs[k])
+        agent.load_seed_state(0, learner.seed_state(k))
+        agents.append(agent)
+    return agents
+
+
+__all__ = ["ActorPolicy", "EvalResult", "SeedRun", "evaluate", "train", "train_seeds",
+           "train_shared", "train_vector"]
