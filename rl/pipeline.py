@@ -255,7 +255,9 @@ def _train_group(job: dict[str, Any]) -> dict[str, Any]:
         _write_run_json(run_dir, TD3Config.from_dict(ckpt["config"]), meta,
                         int(ckpt["global_step"]), job["threads"], resumed_now=job["resume"])
         results.append({"seed": int(ckpt["config"]["seed"]), **summarize_run(run_dir),
-                        "wall_s": wall, "peak_rss_bytes": peak})
+                        "wall_s": wall, "peak_rss_bytes": peak,
+                        "group_seeds": [c.seed for c in configs],
+                        "group_timing_s": ckpt.get("timing")})
     return {"group": results}
 
 

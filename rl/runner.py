@@ -75,6 +75,10 @@ RESUMABLE_SETTINGS = ("checkpoint_every", "log_every", "eval_every", "eval_episo
 #: Evaluation episode ``i`` is reset with seed ``EVAL_SEED + i``: the same episodes at every
 #: evaluation and for every seed of a sweep, so their returns compare.
 EVAL_SEED = 1_000_000
+#: Where a group's training time goes (``timing`` in every checkpoint, s): choosing actions,
+#: stepping and resetting the environments, storing transitions, TD3 updates, episode logs,
+#: evaluations, checkpoints.
+TIMING_KEYS = ("act", "env", "store", "update", "log", "evaluation", "checkpoint")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -321,6 +325,7 @@ class SeedRun:
         self.ep_return = np.zeros(n_envs, dtype=np.float64)
         self.ep_len = np.zeros(n_envs, dtype=np.int64)
         self.ep_id = np.zeros(n_envs, dtype=np.int64)  # episode number of each sub-env's episode
+        self.timing: dict[str, float] = {}  # the group's, shared (set by the loop)
 
     def open(self, progress: bool, position: int | None, desc: str | None,
              eval_env_fn: Callable[[], gym.Env] | None) -> None:
@@ -410,6 +415,7 @@ class SeedRun:
             "wall_time_s": self.wall_time_s,
             "evaluation": self.evaluation.state_dict(),
             "vector": vector,
+            "timing": dict(self.timing),
         })
         self.next_checkpoint = self._next_checkpoint()
 
@@ -589,6 +595,20 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
         torch.use_deterministic_algorithms(True)
     start_step = lead.global_step
     actions = np.zeros((k_seeds, n, act_dim), dtype=np.float32)
+    # where the group's wall time goes (s, cumulative over resumes): the profile of a run
+    timing = {key: 0.0 for key in TIMING_KEYS}
+    if lead.resumed_here and lead.ckpt.get("timing"):
+        timing.update({k: float(v) for k, v in lead.ckpt["timing"].items() if k in timing})
+    clock = time.perf_counter()
+
+    def lap(key: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        timing[key] += now - clock
+        clock = now
+
+    for run in runs:
+        run.timing = timing
     try:
         while not lead.done:
             # 1. act: transition global_step + i of a seed is random during warm-up, then mu + noise
@@ -604,8 +624,10 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
                                                    size=(n - n_random, act_dim))
                     actions[k, n_random:] = np.clip(mu[k] + noise, -1.0, 1.0)
             flat_actions = actions.reshape(k_seeds * n, act_dim)
+            lap("act")
             next_obs, rewards, terminated, truncated, infos = env.step(
                 learner.scale_action(flat_actions))
+            lap("env")
             next_obs = np.asarray(next_obs, dtype=np.float32).reshape(k_seeds * n, obs_dim)
             terminated = np.asarray(terminated, dtype=bool)
             truncated = np.asarray(truncated, dtype=bool)
@@ -627,6 +649,7 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
                 run.global_step += n
                 run.bar.update(n)
 
+            lap("store")
             # 3. learn: updates_per_step updates per transition past the warm-up, all seeds at once
             n_learn = max(0, lead.global_step - max(before, cfg.learning_starts))
             if n_learn and len(lead.buffer) >= cfg.batch_size:
@@ -639,6 +662,7 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
                                 run.writer.add_scalar(f"losses/{name}", float(values[k]),
                                                       run.global_step)
 
+            lap("update")
             # 4. episode ends: log in sub-env order
             for k, run in enumerate(runs):
                 for j in np.flatnonzero(ended[sub(k)]):
@@ -651,9 +675,11 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
             # 5. evaluation when all of a seed's episodes have just ended (so its timing does not
             # depend on the layout); checkpoints at restorable points
             restorable = all_ended or can_save_env
+            lap("log")
             for k, run in enumerate(runs):
                 if ended[sub(k)].all() and run.evaluation.due(run.global_step):
                     run.evaluation.run(learner, k, run.global_step, run.wall_time_s, run.header(learner))
+            lap("evaluation")
             # 6. the next episodes of the ended sub-envs start from their seeds
             if ended.any():
                 reset_seeds: list[int | None] = [None] * (k_seeds * n)
@@ -668,22 +694,27 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
                         run.checkpoint(learner, at_episode_boundary=True, vector=None)
                         run.episode += n
                     checkpoint_due = False
+                    lap("checkpoint")
                 fresh, _ = env.reset(seed=reset_seeds, options={"reset_mask": ended})
                 fresh = np.asarray(fresh, dtype=np.float32).reshape(k_seeds * n, obs_dim)
                 next_obs[ended] = fresh[ended]
             else:
                 checkpoint_due = restorable and lead.global_step >= lead.next_checkpoint
             obs = next_obs
+            lap("env")
             if checkpoint_due:  # inside episodes: the environments' state goes along
                 state = vector(obs)
                 for run in runs:
                     run.checkpoint(learner, at_episode_boundary=False, vector=state)
+                lap("checkpoint")
 
         # the last evaluation and the final checkpoint (unless a resumed run took no step)
         if not (lead.resumed_here and lead.global_step == start_step):
+            lap("log")
             for k, run in enumerate(runs):
                 if run.evaluation.enabled and run.evaluation.last_step != run.global_step:
                     run.evaluation.run(learner, k, run.global_step, run.wall_time_s, run.header(learner))
+            lap("evaluation")
             all_ended = bool(ended.all()) if lead.global_step > start_step else True
             state = None if all_ended else vector(obs)
             for run in runs:
