@@ -1,14 +1,17 @@
 """Check of the TD3 agent itself (a benchmark, not a test): TD3 on Pendulum-v1.
 
 Trains ``rl.td3`` for ``--steps`` environment steps (default 20k) on each of ``--seeds`` seeds with
-the paper's defaults (256-256, Adam 3e-4, batch 256, 2500 warm-up steps, sigma 0.2, ...) and
-reports the mean deterministic evaluation return; the target is -200 or better. If
+the paper's defaults (256-256, Adam 3e-4, batch 256, 2500 warm-up steps, sigma 0.2, ...), the seeds
+side by side in one process (``rl.runner.train_seeds``; each seed as it would train alone), once per
+``--precision`` (``fp32``, and ``bf16``: bfloat16 matrix products on float32 weights), and reports
+the mean deterministic evaluation return; the target is -200 or better. If
 ``stable_baselines3`` is importable, its TD3 is trained side by side with the same budget and
 comparable hyperparameters (same network sizes, learning rates, noise, warm-up, delays) and
 evaluated on the same evaluation episodes.
 
     python benchmarks/td3_pendulum.py                      # 3 seeds x 20k steps, table
     python benchmarks/td3_pendulum.py --seeds 1 --json     # quick check, JSON on stdout
+    python benchmarks/td3_pendulum.py --precision fp32 bf16 --no-sb3   # is bf16 safe?
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from rl.runner import evaluate, train  # noqa: E402
+from rl.runner import ActorPolicy, evaluate, train_seeds  # noqa: E402
 from rl.td3 import TD3Config  # noqa: E402
 
 ENV_ID = "Pendulum-v1"
@@ -39,15 +42,24 @@ def make_env() -> gym.Env:
     return gym.make(ENV_ID)
 
 
-def run_ours(seed: int, steps: int, eval_episodes: int, out: Path, progress: bool) -> dict:
-    cfg = TD3Config(seed=seed, checkpoint_every=max(steps, 1))
+def run_ours(seeds: list[int], steps: int, eval_episodes: int, out: Path, progress: bool,
+             precision: str = "fp32") -> list[dict]:
+    """Train ``seeds`` side by side (one stacked TD3), evaluate each seed's final actor."""
+    from gymnasium.vector import AutoresetMode, SyncVectorEnv
+
+    configs = [TD3Config(seed=s, checkpoint_every=max(steps, 1), precision=precision) for s in seeds]
     t0 = time.time()
-    agent = train(make_env, cfg, steps, out / f"rl_td3_seed{seed}", progress=progress,
-                  progress_desc=f"rl.td3 seed {seed}")
+    learner = train_seeds(
+        lambda k: SyncVectorEnv([make_env] * k, autoreset_mode=AutoresetMode.SAME_STEP), configs,
+        steps, [out / f"rl_td3_{precision}_seed{s}" for s in seeds], progress=progress,
+        progress_desc=f"rl.td3 {precision}")
     wall = time.time() - t0
-    res = evaluate(agent, make_env, episodes=eval_episodes, seed=EVAL_SEED)
-    return {"seed": seed, "eval_mean": res.mean_return, "eval_std": res.std_return,
-            "train_wall_s": wall}
+    results = []
+    for k, seed in enumerate(seeds):
+        res = evaluate(ActorPolicy.of_seed(learner, k), make_env, episodes=eval_episodes, seed=EVAL_SEED)
+        results.append({"seed": seed, "eval_mean": res.mean_return, "eval_std": res.std_return,
+                        "train_wall_s": wall / len(seeds)})
+    return results
 
 
 def _eval_callable(policy: Callable[[np.ndarray], np.ndarray], episodes: int) -> list[float]:
@@ -104,6 +116,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", type=int, default=3, help="number of seeds (0, 1, ...)")
     ap.add_argument("--eval-episodes", type=int, default=10)
     ap.add_argument("--threads", type=int, default=1, help="torch threads")
+    ap.add_argument("--precision", nargs="+", choices=("fp32", "bf16"), default=["fp32"],
+                    help="one run of ours per precision (default fp32)")
     ap.add_argument("--out", type=Path, default=None, help="run directory (default: temporary)")
     ap.add_argument("--no-sb3", action="store_true", help="skip Stable-Baselines3")
     ap.add_argument("--progress", action="store_true", help="progress bars")
@@ -121,8 +135,10 @@ def main(argv: list[str] | None = None) -> int:
     seeds = list(range(args.seeds))
 
     results: dict[str, dict] = {}
-    results["rl.td3"] = summarise(
-        [run_ours(s, args.steps, args.eval_episodes, out, args.progress) for s in seeds])
+    for precision in args.precision:
+        name = "rl.td3" if precision == "fp32" else f"rl.td3-{precision}"
+        results[name] = summarise(run_ours(seeds, args.steps, args.eval_episodes, out, args.progress,
+                                           precision))
     if args.no_sb3:
         results["sb3"] = {"skipped": "--no-sb3"}
     else:
@@ -143,18 +159,18 @@ def main(argv: list[str] | None = None) -> int:
     else:
         print(f"{ENV_ID}, {args.steps} steps, seeds {seeds}, {args.eval_episodes} eval episodes "
               f"(deterministic), target >= {TARGET:g}")
-        print(f"{'agent':<8} {'seed':>5} {'eval mean':>10} {'eval std':>9} {'train s':>8}")
+        print(f"{'agent':<12} {'seed':>5} {'eval mean':>10} {'eval std':>9} {'train s':>8}")
         for name, res in results.items():
             if "skipped" in res:
-                print(f"{name:<8} skipped: {res['skipped']}")
+                print(f"{name:<12} skipped: {res['skipped']}")
                 continue
             for r in res["per_seed"]:
-                print(f"{name:<8} {r['seed']:>5} {r['eval_mean']:>10.1f} {r['eval_std']:>9.1f} "
+                print(f"{name:<12} {r['seed']:>5} {r['eval_mean']:>10.1f} {r['eval_std']:>9.1f} "
                       f"{r['train_wall_s']:>8.1f}")
-            print(f"{name:<8} {'mean':>5} {res['mean_eval_return']:>10.1f} "
+            print(f"{name:<12} {'mean':>5} {res['mean_eval_return']:>10.1f} "
                   f"{res['std_over_seeds']:>9.1f} {res['mean_train_wall_s']:>8.1f}  "
                   f"{'PASS' if res['reaches_target'] else 'FAIL'}")
-    return 0 if results["rl.td3"]["reaches_target"] else 1
+    return 0 if all(r.get("reaches_target", True) for r in results.values()) else 1
 
 
 if __name__ == "__main__":

@@ -5,9 +5,8 @@ function, so this file stays a thin dispatcher:
 
 - ``elastica_magnetic.commands``: ``replay``, ``simulate``
 - ``validation.cli``: ``validate``
-- ``rl.cli``: ``train``, ``refine``, ``generate``, ``export``, ``demo``
+- ``rl.cli``: ``train``, ``bench``, ``refine``, ``generate``, ``export``, ``demo``
 - ``elastica_magnetic.hardware.cli``: ``stream``, ``export-firmware``, ``calibrate``
-- ``benchmarks`` (through ``elastica_magnetic.commands``): ``bench``
 """
 
 from __future__ import annotations

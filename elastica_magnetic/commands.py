@@ -1,4 +1,4 @@
-"""``msr replay``, ``msr simulate`` and ``msr bench``: thin wrappers over the library."""
+"""``msr replay`` and ``msr simulate``: thin wrappers over the library."""
 
 from __future__ import annotations
 
@@ -49,27 +49,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, default=Path("out/simulate"), help="output folder")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=simulate_command)
-
-    p = sub.add_parser(
-        "bench",
-        help="step cost, batched robots, environment and TD3 rates, projected training time",
-        description="In one run: the paper robot's step cost (ours vs per-element Python loops, "
-        "training and accurate physics), the per-robot-step cost of N = 1, 4, 16, 64 robots in one "
-        "batched simulator, environment steps/s (single and vector environment), TD3 updates/s on "
-        "one thread, and the projected wall time of a 1e5-step training seed. About a minute.",
-    )
-    p.add_argument("--steps", type=int, default=1000, help="time steps per step-cost measurement")
-    p.add_argument("--repeats", type=int, default=3, help="measurements per configuration")
-    p.add_argument("--vector-envs", type=int, default=16,
-                   help="crawlers in the vector environment measured (default 16)")
-    p.add_argument("--quick", action="store_true", help="tiny measurements (smoke test; rough numbers)")
-    p.add_argument("--memory-seeds", type=int, default=0, metavar="N",
-                   help="also measure the peak memory of a real N-seed training run, all seeds at "
-                   "once (Linux; a few minutes for N = 8; default 0: skip)")
-    p.add_argument("--memory-steps", type=int, default=3000,
-                   help="environment steps per seed of that run (default 3000: past the warm-up)")
-    p.add_argument("--json", action="store_true", help="print the result as JSON")
-    p.set_defaults(func=bench_command)
 
 
 def _progress(total: int, description: str):
@@ -141,21 +120,6 @@ def _summary(args, result, trajectory_csv: Path, figure: Path) -> dict[str, obje
         "wall_s": result.wall_s,
         "step_us": result.step_us,
     }
-
-
-def bench_command(args: argparse.Namespace) -> int:
-    from .bench import benchmark, training_peak_memory
-
-    if args.steps < 1 or args.repeats < 1 or args.vector_envs < 1:
-        raise CommandError("--steps, --repeats and --vector-envs must be >= 1")
-    if args.memory_seeds < 0 or args.memory_steps < 1:
-        raise CommandError("--memory-seeds must be >= 0 and --memory-steps >= 1")
-    result = benchmark(steps=args.steps, repeats=args.repeats, quick=args.quick,
-                       vector_envs=args.vector_envs)
-    if args.memory_seeds:
-        result["training_memory"] = training_peak_memory(args.memory_seeds, args.memory_steps)
-    print_result(result, args.json)
-    return 0
 
 
 def _read_reference(path: Path) -> pd.DataFrame:

@@ -83,6 +83,32 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=train_command)
 
     p = sub.add_parser(
+        "bench",
+        help="step cost, batched robots, environment and TD3 rates, training time of 8 seeds",
+        description="In one run: the paper robot's step cost (ours vs per-element Python loops, "
+        "training and accurate physics), the per-robot-step cost of N = 1, 4, 16, 64 robots in one "
+        "batched simulator, environment steps/s (single and vector environment), TD3 updates/s "
+        "(one seed, and seeds stacked, fp32 and bf16) against the matrix-product rate, and the wall "
+        "time of 8 seeds x 1e5 steps extrapolated from a real run in the default layout "
+        "(train_8_seeds_1e5_s). A few minutes.",
+    )
+    p.add_argument("--steps", type=int, default=1000, help="time steps per step-cost measurement")
+    p.add_argument("--repeats", type=int, default=3, help="measurements per configuration")
+    p.add_argument("--vector-envs", type=int, default=16,
+                   help="crawlers in the vector environment measured (default 16)")
+    p.add_argument("--train-seeds", type=int, default=8, metavar="N",
+                   help="seeds of the real training run behind train_8_seeds_1e5_s (default 8; "
+                        "0: skip it)")
+    p.add_argument("--quick", action="store_true", help="tiny measurements (smoke test; rough numbers)")
+    p.add_argument("--memory-seeds", type=int, default=0, metavar="N",
+                   help="also measure the peak memory of a real N-seed training run in the default "
+                   "layout (Linux; a few minutes for N = 8; default 0: skip)")
+    p.add_argument("--memory-steps", type=int, default=3000,
+                   help="environment steps per seed of that run (default 3000: past the warm-up)")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.set_defaults(func=bench_command)
+
+    p = sub.add_parser(
         "refine",
         help="continue training a run in the accurate physics (agent and replay buffer)",
         description="Load a run's agent and replay buffer and continue training for --steps "
@@ -258,6 +284,21 @@ def train_command(args: argparse.Namespace) -> int:
     # one case: its summary, as before; several: the summaries by case
     print_result(summaries[args.case[0]] if len(summaries) == 1 else summaries, args.json)
     return 1 if failed else 0
+
+
+def bench_command(args: argparse.Namespace) -> int:
+    from .bench import benchmark, training_peak_memory
+
+    if args.steps < 1 or args.repeats < 1 or args.vector_envs < 1:
+        raise CommandError("--steps, --repeats and --vector-envs must be >= 1")
+    if args.memory_seeds < 0 or args.memory_steps < 1 or args.train_seeds < 0:
+        raise CommandError("--memory-seeds and --train-seeds must be >= 0 and --memory-steps >= 1")
+    result = benchmark(steps=args.steps, repeats=args.repeats, quick=args.quick,
+                       vector_envs=args.vector_envs, train_seeds=args.train_seeds)
+    if args.memory_seeds:
+        result["training_memory"] = training_peak_memory(args.memory_seeds, args.memory_steps)
+    print_result(result, args.json)
+    return 0
 
 
 def refine_command(args: argparse.Namespace) -> int:

@@ -5,12 +5,14 @@ from __future__ import annotations
 import json
 import math
 
+import pytest
+
 from elastica_magnetic.cli import main as msr
 
 
 def test_bench_quick_json_keys(capsys):
     capsys.readouterr()
-    assert msr(["bench", "--quick", "--json", "--vector-envs", "4"]) == 0
+    assert msr(["bench", "--quick", "--json", "--vector-envs", "4", "--train-seeds", "2"]) == 0
     result = json.loads(capsys.readouterr().out)
     scalars = ("step_us", "naive_step_us", "speedup", "env_steps_per_s", "vector_env_steps_per_s",
                "td3_updates_per_s", "train_1e5_steps_s", "train_1e5_steps_vector_s")
@@ -24,6 +26,17 @@ def test_bench_quick_json_keys(capsys):
     roof = result["td3_roofline"]
     assert roof["achieved_gflops"] == roof["gflop_per_update"] * result["td3_updates_per_s"]
     assert math.isfinite(roof["sgemm_gflops"]) and roof["sgemm_gflops"] > 0
+    assert math.isfinite(roof["bf16_gemm_gflops"]) and roof["bf16_gemm_gflops"] > 0
+    for precision in ("fp32", "bf16"):
+        assert set(result["td3_stacked_updates_per_s"][precision]) == {"1", "4"}
+    # the 8-seed figure comes from a real run: two groups side by side on this 2-core machine's
+    # default layout, each reporting where its time went
+    timing = result["training_time"]
+    assert result["train_8_seeds_1e5_s"] == timing["projected_s"] > 0
+    assert len(timing["groups"]) * timing["seeds_per_simulator"] >= timing["seeds"] == 2
+    assert all(g["update_per_step_s"] > 0 and g["env_per_step_s"] > 0 for g in timing["groups"])
+    assert result["floor_8_seeds_1e5_s"] == pytest.approx(
+        roof["floor_1e5_updates_s"] * 2 / result["cpu_count"])
 
 
 def test_td3_update_flop_count_matches_torch_flop_counter():
@@ -33,7 +46,7 @@ def test_td3_update_flop_count_matches_torch_flop_counter():
     import numpy as np
     from torch.utils.flop_counter import FlopCounterMode
 
-    from elastica_magnetic.bench import td3_update_flops
+    from rl.bench import td3_update_flops
     from rl.td3 import Batch, TD3Agent, TD3Config
 
     agent = TD3Agent(260, 2, -np.ones(2), np.ones(2), TD3Config(seed=0, hidden_sizes=(64, 32)))
@@ -56,7 +69,7 @@ def test_training_peak_memory_of_a_two_seed_run():
     """A real 2-seed run in 2 worker processes: the sampled peak of the process tree exceeds the
     parent's own memory by at least the two workers' interpreters, and the projection adds exactly
     the replay-buffer growth to 1e5 transitions per seed."""
-    from elastica_magnetic.bench import replay_buffer_bytes, training_peak_memory
+    from rl.bench import replay_buffer_bytes, training_peak_memory
 
     result = training_peak_memory(seeds=2, steps=30, interval=0.05)
     assert result["peak_bytes"] > result["parent_baseline_bytes"] + 2 * 50e6
