@@ -11,6 +11,8 @@ from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, print_result
 
+from .recipes import DEFAULT_RECIPE, RECIPES
+
 CASE_NAMES = ("m1-4mT", "m2-4mT", "m1-10mT", "m2-10mT")
 
 
@@ -62,6 +64,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--address", default=None,
                    help="Ray cluster address for --backend ray (auto, HOST:PORT, ray://HOST:10001); "
                         "--out must then be on a filesystem all nodes see at the same path")
+    p.add_argument("--recipe", choices=tuple(RECIPES), default=DEFAULT_RECIPE,
+                   help="training recipe: paper (the authors' TD3 settings, default) or pink (the "
+                        "same with temporally correlated pink exploration noise); see "
+                        "docs/training.md")
     g = p.add_argument_group("TD3 overrides (default: the paper's settings)")
     g.add_argument("--learning-starts", type=int, default=None, help="warm-up steps (2500)")
     g.add_argument("--batch-size", type=int, default=None, help="minibatch (256)")
@@ -270,7 +276,7 @@ def train_command(args: argparse.Namespace) -> int:
             physics=args.physics, episode_duration=args.episode_duration,
             progress=not args.no_progress, threads=args.threads, envs=args.envs,
             backend=args.backend, address=args.address,
-            seeds_per_simulator=args.seeds_per_simulator,
+            seeds_per_simulator=args.seeds_per_simulator, recipe=args.recipe,
         )
     except (FileExistsError, FileNotFoundError, ValueError, ConnectionError) as exc:
         raise CommandError(str(exc)) from None  # ConnectionError: --address

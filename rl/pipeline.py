@@ -42,6 +42,7 @@ import numpy as np
 from .backends import BACKENDS, run_jobs
 from .baselines import RotatingFieldPolicy
 from .env import CASES, MAX_FIELD_INCREMENT, MagneticCrawlerEnv, observation_spec
+from .recipes import CRAWLER_TD3_OVERRIDES, DEFAULT_RECIPE, RECIPES
 
 __all__ = [
     "AUTHORS_DISTANCE_10S",
@@ -73,11 +74,6 @@ EXPORT_FORMAT = "msr-exported-policy-v1"
 #: released policies (m): the targets of the shipped ones (DESIGN.md section 3).
 AUTHORS_DISTANCE_10S = {"m1-4mT": 20.5e-3, "m2-4mT": 20.1e-3, "m1-10mT": 137e-3, "m2-10mT": 137e-3}
 
-#: TD3 settings of the crawler that differ from :class:`~rl.td3.TD3Config`'s defaults: the
-#: authors' target-noise clip 0.8 (Fujimoto's is 0.5); and an evaluation every 5000 steps (not in
-#: the paper; it changes no weight) that keeps the best actor in ``best.pt``. Everything else is
-#: the paper's setting.
-CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8, "eval_every": 5000}
 
 #: The evaluation during training: the shipping criterion's episode (field from zero,
 #: deterministic actions, 10 s) in the physics the run trains in.
@@ -111,12 +107,15 @@ def make_env(
     )
 
 
-def crawler_config(seed: int = 0, **overrides: Any):
+def crawler_config(seed: int = 0, recipe: str = DEFAULT_RECIPE, **overrides: Any):
     """The crawler's TD3 configuration: the paper's settings (:data:`CRAWLER_TD3_OVERRIDES` on
-    :class:`~rl.td3.TD3Config`), then ``overrides`` (e.g. ``learning_starts`` for smoke runs)."""
+    :class:`~rl.td3.TD3Config`), then the ``recipe``'s changes (:data:`RECIPES`), then
+    ``overrides`` (e.g. ``learning_starts`` for smoke runs)."""
     from .td3 import TD3Config
 
-    return TD3Config(**{**CRAWLER_TD3_OVERRIDES, **overrides, "seed": int(seed)})
+    if recipe not in RECIPES:
+        raise ValueError(f"unknown recipe {recipe!r}; choose one of {', '.join(RECIPES)}")
+    return TD3Config(**{**CRAWLER_TD3_OVERRIDES, **RECIPES[recipe], **overrides, "seed": int(seed)})
 
 
 def _versions() -> dict[str, str]:
@@ -179,7 +178,7 @@ def _run_metadata(case: str, physics: str, duration: float, seed: int, **extra: 
 
 
 #: Settings of a run that a resume must not change (they are the run's, in ``run.json``).
-_RUN_SETTINGS = ("case", "physics", "episode_duration_s")
+_RUN_SETTINGS = ("case", "physics", "episode_duration_s", "recipe")
 
 
 def _check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
@@ -192,7 +191,8 @@ def _check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
         record = json.loads(run_json.read_text())
     except ValueError as err:
         raise ValueError(f"{run_json}: not readable JSON ({err})") from None
-    options = {"case": "--case", "physics": "--physics", "episode_duration_s": "--episode-duration"}
+    options = {"case": "--case", "physics": "--physics", "episode_duration_s": "--episode-duration",
+               "recipe": "--recipe"}
     for key in _RUN_SETTINGS:
         if key in record and record[key] != metadata[key]:
             raise ValueError(f"{options[key]} {metadata[key]} differs from the run's {record[key]} "
@@ -230,11 +230,9 @@ def _train_group(job: dict[str, Any]) -> dict[str, Any]:
     envs = int(job["envs"])
     metadata = [_run_metadata(job["case"], job["physics"], job["duration"], c.seed, command="train",
                               envs=envs, shared_simulator_seeds=len(configs),
-                              precision=resolve_precision(c.precision, c.device))
+                              precision=resolve_precision(c.precision, c.device),
+                              recipe=job.get("recipe", DEFAULT_RECIPE))
                 for c in configs]
-    for run_dir, meta in zip(run_dirs, metadata, strict=True):
-        if job["resume"]:
-            _check_resume_settings(run_dir, meta)
     for config, run_dir, meta in zip(configs, run_dirs, metadata, strict=True):
         if not job["resume"]:
             run_dir.mkdir(parents=True, exist_ok=True)
@@ -329,6 +327,7 @@ def train_cases(
     backend: str = "process",
     address: str | None = None,
     seeds_per_simulator: int | None = None,
+    recipe: str = DEFAULT_RECIPE,
 ) -> dict[str, dict[str, Any]]:
     """Train seeds ``seed_offset .. seed_offset + seeds - 1`` of every case in ``cases`` for
     ``steps`` environment steps each, in groups of seeds of one case that train side by side in
@@ -360,6 +359,7 @@ def train_cases(
             on a filesystem every node sees at the same path.
         seeds_per_simulator: seeds of a case per group (one batched simulator, one stacked
             update).
+        recipe: the training recipe (:data:`RECIPES`), recorded in ``run.json`` and the summary.
     """
     cases = list(dict.fromkeys(cases))  # in order, once each
     if not cases:
@@ -385,7 +385,7 @@ def train_cases(
     workers = min(workers or layout["workers"], len(groups) * len(cases))
     if threads is None:  # on a Ray cluster this machine's CPU count says nothing: one per worker
         threads = 1 if address else max(1, (os.cpu_count() or 1) // workers)
-    configs = {s: crawler_config(s, **(config_overrides or {})) for s in seed_list}  # checks them
+    configs = {s: crawler_config(s, recipe, **(config_overrides or {})) for s in seed_list}
     if not resume:
         existing = [str(Path(out) / case / f"seed{s}") for case in cases for s in seed_list
                     if (Path(out) / case / f"seed{s}" / "checkpoint.pt").exists()]
@@ -398,6 +398,11 @@ def train_cases(
         if missing:
             raise FileNotFoundError(f"cannot resume: no checkpoint {', '.join(missing)} (train those "
                                     "seeds without --resume, or choose --seeds/--seed-offset)")
+        for case in cases:  # a resumed run keeps its settings: checked before any work
+            for s in seed_list:
+                _check_resume_settings(Path(out) / case / f"seed{s}", {
+                    "case": case, "physics": physics, "episode_duration_s": float(episode_duration),
+                    "recipe": recipe})
 
     def run_dir(case: str, seed: int) -> str:
         # Ray workers may run elsewhere (another cwd, another node): give them absolute paths
@@ -411,7 +416,7 @@ def train_cases(
             jobs.append({
                 "case": case, "physics": physics, "duration": float(episode_duration),
                 "steps": int(steps), "resume": resume, "progress": progress, "position": position,
-                "threads": threads, "envs": int(envs),
+                "threads": threads, "envs": int(envs), "recipe": recipe,
                 "configs": [configs[s].to_dict() for s in group],
                 "run_dirs": [run_dir(case, s) for s in group],
                 # for the backends' bookkeeping: the group's first seed and folder
@@ -455,6 +460,7 @@ def train_cases(
             "seeds_per_simulator": int(seeds_per_simulator),
             "torch_threads_per_worker": threads,
             "layout": "default" if not manual else f"set: {', '.join(sorted(manual))}",
+            "recipe": recipe,
             "precision": configs[seed_list[0]].precision,
             "device": configs[seed_list[0]].device,
             "success_threshold_return": threshold,

@@ -60,6 +60,7 @@ from .checkpoint import (
     refuse_networks_only,
     save_checkpoint,
 )
+from .exploration import colored_noise
 from .td3 import TD3, Actor, ReplayBuffer, TD3Agent, TD3Config, episode_seed
 
 EPISODES_CSV = "episodes.csv"
@@ -326,6 +327,29 @@ class SeedRun:
         self.ep_len = np.zeros(n_envs, dtype=np.int64)
         self.ep_id = np.zeros(n_envs, dtype=np.int64)  # episode number of each sub-env's episode
         self.timing: dict[str, float] = {}  # the group's, shared (set by the loop)
+        # colored exploration noise (noise_color > 0): one sequence per sub-env and its position
+        self.noise = np.zeros((n_envs, self.cfg.noise_horizon, act_dim))
+        self.noise_pos = np.zeros(n_envs, dtype=np.int64)
+
+    def draw_noise(self, j: int, rng: np.random.Generator) -> None:
+        """A new colored-noise sequence for sub-environment ``j`` (from the seed's generator)."""
+        if self.cfg.noise_color > 0:
+            self.noise[j] = colored_noise(self.cfg.noise_color, self.cfg.noise_horizon,
+                                          self.noise.shape[2], rng)
+            self.noise_pos[j] = 0
+
+    def exploration(self, first: int, rng: np.random.Generator) -> np.ndarray:
+        """The exploration noise of sub-envs ``first..N-1`` this step, ``(N - first, act_dim)``:
+        white (drawn now) or the next samples of their colored sequences; every sequence moves
+        on one step (a used-up one is replaced)."""
+        sigma, n = self.cfg.exploration_noise, self.n_envs
+        if self.cfg.noise_color == 0:
+            return rng.normal(0.0, sigma, size=(n - first, self.noise.shape[2]))
+        noise = sigma * self.noise[np.arange(first, n), self.noise_pos[first:]]
+        self.noise_pos += 1
+        for j in np.flatnonzero(self.noise_pos >= self.cfg.noise_horizon):
+            self.draw_noise(int(j), rng)
+        return noise
 
     def open(self, progress: bool, position: int | None, desc: str | None,
              eval_env_fn: Callable[[], gym.Env] | None) -> None:
@@ -572,6 +596,8 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
             run.ep_return[:] = _to_numpy(vector_state["ep_return"])[sub(k)]
             run.ep_len[:] = _to_numpy(vector_state["ep_len"])[sub(k)]
             run.ep_id[:] = _to_numpy(vector_state["ep_id"])[sub(k)]
+            run.noise[:] = _to_numpy(vector_state["noise"])[sub(k)]
+            run.noise_pos[:] = _to_numpy(vector_state["noise_pos"])[sub(k)]
     else:
         seeds = []
         for run in runs:
@@ -579,6 +605,9 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
             seeds += run.next_episode_seeds(n)
         obs, _ = env.reset(seed=seeds)
         obs = np.asarray(obs, dtype=np.float32).reshape(k_seeds * n, obs_dim)
+        for k, run in enumerate(runs):
+            for j in range(n):
+                run.draw_noise(j, learner.rngs[k])
 
     def vector(obs: np.ndarray) -> dict[str, Any] | None:
         if not can_save_env:
@@ -588,7 +617,9 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
                 "obs": torch.from_numpy(obs.copy()),
                 "ep_return": torch.from_numpy(np.concatenate([r.ep_return for r in runs])),
                 "ep_len": torch.from_numpy(np.concatenate([r.ep_len for r in runs])),
-                "ep_id": torch.from_numpy(np.concatenate([r.ep_id for r in runs]))}
+                "ep_id": torch.from_numpy(np.concatenate([r.ep_id for r in runs])),
+                "noise": torch.from_numpy(np.concatenate([r.noise for r in runs])),
+                "noise_pos": torch.from_numpy(np.concatenate([r.noise_pos for r in runs]))}
 
     prev_deterministic = torch.are_deterministic_algorithms_enabled()
     if cfg.torch_deterministic:
@@ -616,13 +647,14 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
             if n_random < n:
                 mu = learner.select_actions(obs.reshape(k_seeds, n, obs_dim)[:, n_random:],
                                             explore=False).astype(np.float64)
-            for k in range(k_seeds):
+            for k, run in enumerate(runs):
                 if n_random:
                     actions[k, :n_random] = learner.random_actions(k, n_random)
                 if n_random < n:
-                    noise = learner.rngs[k].normal(0.0, cfg.exploration_noise,
-                                                   size=(n - n_random, act_dim))
+                    noise = run.exploration(n_random, learner.rngs[k])
                     actions[k, n_random:] = np.clip(mu[k] + noise, -1.0, 1.0)
+                elif cfg.noise_color > 0:  # the sequences keep time during the warm-up too
+                    run.exploration(n, learner.rngs[k])
             flat_actions = actions.reshape(k_seeds * n, act_dim)
             lap("act")
             next_obs, rewards, terminated, truncated, infos = env.step(
@@ -698,6 +730,9 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
                 fresh, _ = env.reset(seed=reset_seeds, options={"reset_mask": ended})
                 fresh = np.asarray(fresh, dtype=np.float32).reshape(k_seeds * n, obs_dim)
                 next_obs[ended] = fresh[ended]
+                for k, run in enumerate(runs):  # the new episodes' noise (after any checkpoint)
+                    for j in np.flatnonzero(ended[sub(k)]):
+                        run.draw_noise(int(j), learner.rngs[k])
             else:
                 checkpoint_due = restorable and lead.global_step >= lead.next_checkpoint
             obs = next_obs

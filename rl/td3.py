@@ -56,6 +56,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import math
 import os
 import warnings
 from dataclasses import dataclass
@@ -96,7 +97,15 @@ class TD3Config:
     learning_starts: int = 2500
     """Warm-up: steps of uniform random actions before the policy acts and learning begins."""
     exploration_noise: float = 0.2
-    """Std of the Gaussian exploration noise, drawn independently per action dimension."""
+    """Std of the Gaussian exploration noise, per action dimension."""
+    noise_color: float = 0.0
+    """Exponent ``beta`` of the exploration noise's power spectrum ``1 / f^beta``: 0 is white
+    noise, drawn independently at every step (the paper's); 1 pink (Eberhard et al. 2023), 2 red.
+    Colored noise is drawn as whole sequences (:func:`rl.exploration.colored_noise`), one per
+    episode and sub-environment."""
+    noise_horizon: int = 2000
+    """Length of a colored-noise sequence, steps (a new one at every episode start, and when one
+    runs out); the crawler's 20 s episode is 2000 steps."""
     # TD3 specifics
     policy_noise: float = 0.2
     """Std of the target policy smoothing noise."""
@@ -146,9 +155,12 @@ class TD3Config:
         for name in ("learning_starts", "updates_per_step", "eval_every"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
-        for name in ("exploration_noise", "policy_noise", "target_noise_clip"):
-            if getattr(self, name) < 0:
-                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        for name in ("exploration_noise", "policy_noise", "target_noise_clip", "noise_color"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+        if self.noise_horizon < 2:
+            raise ValueError(f"noise_horizon must be >= 2 steps, got {self.noise_horizon}")
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)

@@ -153,6 +153,29 @@ def test_train_resume_extends_runs(tmp_path, capsys):
     assert [s["seed"] for s in on_disk["seeds"]] == [3, 4]
 
 
+def test_recipe_is_recorded_and_a_resume_keeps_the_runs_settings(tmp_path, capsys):
+    """``--recipe pink`` trains with pink exploration noise (run.json, the checkpoint's config);
+    a resume that changes the recipe or the episode length is refused before anything is touched."""
+    args = ["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), "--learning-starts",
+            "10", "--batch-size", "8", "--hidden", "8", "--episode-duration", "0.1", "--no-progress"]
+    assert msr([*args, "--steps", "20", "--recipe", "pink"]) == 0
+    run = tmp_path / "m1-4mT" / "seed0"
+    assert json.loads((run / "run.json").read_text())["recipe"] == "pink"
+    assert load_checkpoint(run)["config"]["noise_color"] == 1.0
+    before = (run / "episodes.csv").read_text()
+    capsys.readouterr()
+    assert msr([*args, "--steps", "30", "--resume"]) == 2  # the default recipe: paper
+    assert "--recipe paper differs from the run's pink" in capsys.readouterr().err
+    args[args.index("--episode-duration") + 1] = "0.2"
+    assert msr([*args, "--steps", "30", "--resume", "--recipe", "pink"]) == 2
+    assert "--episode-duration 0.2 differs from the run's 0.1" in capsys.readouterr().err
+    assert (run / "episodes.csv").read_text() == before
+    assert json.loads((run / "run.json").read_text())["steps"] == 20
+    # a resume of a seed that has no checkpoint is refused too, naming the file
+    assert msr([*args, "--steps", "30", "--resume", "--seed-offset", "5"]) == 2
+    assert "seed5/checkpoint.pt" in capsys.readouterr().err
+
+
 def test_refine_continues_agent_and_buffer_in_accurate_physics(trained, refined):
     source = load_checkpoint(trained / "m1-4mT" / "seed0")
     ckpt = load_checkpoint(refined)

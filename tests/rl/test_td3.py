@@ -566,3 +566,61 @@ def test_resume_without_checkpoint_refuses_and_keeps_the_log(tmp_path):
     with pytest.raises(FileNotFoundError, match="checkpoint.pt does not exist"):
         train(ToyEnv, toy_config(seed=1), 80, tmp_path / "run", resume=True, progress=False)
     assert (tmp_path / "run" / "episodes.csv").read_text() == log
+
+
+# ----------------------------------------------------------------------------------------------
+# colored exploration noise
+# ----------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("beta", [0.0, 1.0, 2.0])
+def test_colored_noise_has_the_power_law_spectrum_and_unit_variance(beta):
+    from rl.exploration import colored_noise
+
+    rng = np.random.default_rng(0)
+    # (draws, steps, dims); red noise needs many draws: its variance sits in a few low frequencies
+    x = np.stack([colored_noise(beta, 1000, 2, rng) for _ in range(2000)])
+    assert x.shape == (2000, 1000, 2)
+    assert np.abs(x.mean(axis=1)).max() < 1e-12  # every sequence has zero mean
+    assert abs(np.mean(x**2) - 1.0) < 0.05
+    power = (np.abs(np.fft.rfft(x, axis=1)) ** 2).mean(axis=(0, 2))
+    freqs = np.fft.rfftfreq(1000)
+    band = (freqs > 0.005) & (freqs < 0.4)
+    slope = np.polyfit(np.log(freqs[band]), np.log(power[band]), 1)[0]
+    assert slope == pytest.approx(-beta, abs=0.05)
+    again = colored_noise(beta, 1000, 2, np.random.default_rng(0))
+    np.testing.assert_array_equal(again, x[0])  # a function of the generator only
+    with pytest.raises(ValueError, match="beta"):
+        colored_noise(-1.0, 10, 1, rng)
+
+
+def test_pink_exploration_is_correlated_in_time_and_trains_reproducibly(tmp_path):
+    from rl.runner import SeedRun, train_seeds
+
+    def lag1(cfg):
+        run = SeedRun(0, cfg, 100, tmp_path / f"probe{cfg.noise_color}", False, None, None, 3, 2, 1)
+        rng = np.random.default_rng(0)
+        run.draw_noise(0, rng)
+        x = np.stack([run.exploration(0, rng)[0] for _ in range(3000)])  # crosses used-up sequences
+        return np.mean(x[1:] * x[:-1]) / np.mean(x * x), x.std()
+
+    white, pink = lag1(toy_config(noise_color=0.0)), lag1(toy_config(noise_color=1.0, noise_horizon=500))
+    assert abs(white[0]) < 0.05 and pink[0] > 0.5
+    assert white[1] == pytest.approx(0.2, rel=0.1) and pink[1] == pytest.approx(0.2, rel=0.2)
+
+    # with pink noise (sequences shorter than the run, so some run out mid-episode), a seed beside
+    # another equals its run alone, and a killed run resumes bit-identically
+    configs = [toy_config(seed=s, noise_color=1.0, noise_horizon=8) for s in (2, 5)]
+    train_seeds(lambda k: _sync(ToyEnv, k), configs, 150, [tmp_path / "g2", tmp_path / "g5"],
+                progress=False)
+    alone = train(ToyEnv, configs[0], 150, tmp_path / "alone", progress=False)
+    _assert_state_equal(load_checkpoint(tmp_path / "g2")["agent"], alone.state_dict())
+
+    def kill_late(row):
+        if row["global_step"] >= 130:
+            raise _Killed
+
+    with pytest.raises(_Killed):
+        train(ToyEnv, configs[0], 150, tmp_path / "killed", progress=False, log_fn=kill_late)
+    resumed = train(ToyEnv, configs[0], 150, tmp_path / "killed", resume=True, progress=False)
+    _assert_state_equal(alone.state_dict(), resumed.state_dict())
+    white_run = load_checkpoint(tmp_path / "g2")
+    assert white_run["config"]["noise_color"] == 1.0

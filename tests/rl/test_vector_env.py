@@ -151,11 +151,12 @@ def one_thread():
     torch.set_num_threads(previous)
 
 
-def test_train_vector_killed_and_resumed_is_bit_identical(tmp_path, one_thread):
+@pytest.mark.parametrize("noise_color", [0.0, 1.0])
+def test_train_vector_killed_and_resumed_is_bit_identical(tmp_path, one_thread, noise_color):
     fn = functools.partial(MagneticCrawlerVectorEnv, 4, duration=0.1)
     # checkpoints every 30 transitions fall inside the 40-transition episodes: the environments'
-    # state goes into the checkpoint
-    cfg, steps = _tiny_config(checkpoint_every=30), 120
+    # state (and the pink noise sequences) go into the checkpoint
+    cfg, steps = _tiny_config(checkpoint_every=30, noise_color=noise_color, noise_horizon=7), 120
     full = train_vector(fn, cfg, steps, tmp_path / "full", progress=False)
 
     def kill(row):
