@@ -115,6 +115,23 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=bench_command)
 
     p = sub.add_parser(
+        "export-seeds",
+        help="every seed of a case as a policy folder, with seeds.json (10 s distances)",
+        description="Evaluate every seed of a training case folder (OUT/<case>: its final "
+        "checkpoint and best.pt, 10 s in the accurate physics from a zero field, cached per seed) "
+        "and write, for each seed, the farther of the two actors as a policy folder "
+        "DEST/seed<k>/ (actor.pt, policy.json: msr generate accepts it) and DEST/seeds.json.",
+    )
+    p.add_argument("case_dir", type=Path, help="a case folder of msr train, e.g. runs/m1-4mT")
+    p.add_argument("--dest", type=Path, required=True,
+                   help="e.g. rl/policies/m1-4mT/seeds/paper")
+    p.add_argument("--duration", type=float, default=10.0, help="evaluation length, s")
+    p.add_argument("--workers", type=int, default=1, help="seeds evaluated at a time (processes)")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=export_seeds_command)
+
+    p = sub.add_parser(
         "refine",
         help="continue training a run in the accurate physics (agent and replay buffer)",
         description="Load a run's agent and replay buffer and continue training for --steps "
@@ -346,6 +363,22 @@ def baseline_command(args: argparse.Namespace) -> int:
                       gif=not args.no_gif)
     print_result(result, args.json)
     return 0 if not result["diverged"] else 1
+
+
+def export_seeds_command(args: argparse.Namespace) -> int:
+    from .pipeline import export_seeds
+
+    if not (math.isfinite(args.duration) and 0 < args.duration <= 600):
+        raise CommandError(f"--duration must be a finite time in (0, 600] s, got {args.duration}")
+    if args.workers < 1:
+        raise CommandError(f"--workers must be >= 1, got {args.workers}")
+    try:
+        result = export_seeds(args.case_dir, args.dest, args.duration,
+                              progress=not args.no_progress, workers=args.workers)
+    except (FileNotFoundError, ValueError) as exc:
+        raise CommandError(str(exc)) from None
+    print_result(result, args.json)
+    return 0
 
 
 def ship_command(args: argparse.Namespace) -> int:

@@ -53,6 +53,7 @@ __all__ = [
     "demo",
     "evaluate_seeds",
     "export_policy",
+    "export_seeds",
     "generate",
     "make_env",
     "refine",
@@ -713,6 +714,7 @@ def evaluate_seeds(
     case_dir: str | Path,
     duration: float = 10.0,
     progress: bool = True,
+    workers: int = 1,
 ) -> list[dict[str, Any]]:
     """Distance in ``duration`` s of every seed of a case, by the shipping criterion: the final
     checkpoint of ``case_dir/seed<k>/``, and its ``best.pt`` (best evaluation during training) when
@@ -725,7 +727,6 @@ def evaluate_seeds(
     authors' distance in 10 s reached; ``None`` for other durations) of the final checkpoint, and
     ``best``: the same keys for ``best.pt``, or ``None``.
     """
-    from .checkpoint import BEST_NAME
 
     case_dir = Path(case_dir)
     results = []
@@ -733,16 +734,72 @@ def evaluate_seeds(
                    if p.name[4:].isdigit() and (p / "checkpoint.pt").is_file())
     if not seeds:
         raise FileNotFoundError(f"{case_dir}: no seed<k>/checkpoint.pt to evaluate")
-    for seed, run_dir in seeds:
-        cache_path = run_dir / "evaluation.json"
-        cache = json.loads(cache_path.read_text()) if cache_path.is_file() else {}
-        final = _evaluate_cached(run_dir / "checkpoint.pt", cache, duration, progress)
-        best = None
-        if (run_dir / BEST_NAME).is_file():
-            best = _evaluate_cached(run_dir / BEST_NAME, cache.get("best") or {}, duration, progress)
-        _write_json(cache_path, {"seed": seed, **final, "best": best})
-        results.append({"seed": seed, **final, "best": best})
+    jobs = [(seed, run_dir, duration, progress and workers == 1) for seed, run_dir in seeds]
+    if workers > 1:  # each seed's rollouts in its own process
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        context = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+            results = list(pool.map(_evaluate_seed, jobs))
+    else:
+        results = [_evaluate_seed(job) for job in jobs]
     return results
+
+
+def _evaluate_seed(job: tuple[int, Path, float, bool]) -> dict[str, Any]:
+    """The final and ``best.pt`` evaluations of one seed folder (cached in ``evaluation.json``)."""
+    from .checkpoint import BEST_NAME
+
+    seed, run_dir, duration, progress = job
+    cache_path = run_dir / "evaluation.json"
+    cache = json.loads(cache_path.read_text()) if cache_path.is_file() else {}
+    final = _evaluate_cached(run_dir / "checkpoint.pt", cache, duration, progress)
+    best = None
+    if (run_dir / BEST_NAME).is_file():
+        best = _evaluate_cached(run_dir / BEST_NAME, cache.get("best") or {}, duration, progress)
+    _write_json(cache_path, {"seed": seed, **final, "best": best})
+    return {"seed": seed, **final, "best": best}
+
+
+def export_seeds(
+    case_dir: str | Path,
+    dest: str | Path,
+    duration: float = 10.0,
+    progress: bool = True,
+    workers: int = 1,
+) -> dict[str, Any]:
+    """Every seed of a case as a policy folder ``dest/seed<k>/`` (``actor.pt`` and
+    ``policy.json``: what ``msr generate`` reads; no critic, no buffer) and ``dest/seeds.json``:
+    one object per seed, ``{"seed", "steps", "distance_10s_m", "actor", "checkpoint",
+    "meets_target"}``.
+
+    Each seed's actor is the farther in ``duration`` s (accurate physics, zero field:
+    :func:`evaluate_seeds`) of its final checkpoint and its ``best.pt``; ``checkpoint`` says which,
+    ``steps`` is that actor's training step and ``distance_10s_m`` its distance (m). Returns
+    ``{"seeds": [...], "meeting_target": n, "total": n}``.
+    """
+    from .checkpoint import BEST_NAME
+
+    case_dir, dest = Path(case_dir), Path(dest)
+    evaluations = evaluate_seeds(case_dir, duration, progress, workers)
+    entries = []
+    for ev in evaluations:
+        best = ev.get("best")
+        use_best = best is not None and not best["diverged"] and (
+            ev["diverged"] or best["mid_dx_m"] > ev["mid_dx_m"])
+        chosen = best if use_best else ev
+        source = case_dir / f"seed{ev['seed']}" / (BEST_NAME if use_best else "checkpoint.pt")
+        folder = f"seed{ev['seed']}"
+        ship(source, folder, dest=dest, measure=False, progress=False, overwrite=True,
+             with_critic=False, with_card=False)
+        entries.append({"seed": ev["seed"], "steps": chosen["global_step"],
+                        "distance_10s_m": chosen["mid_dx_m"], "actor": folder,
+                        "checkpoint": "best" if use_best else "final",
+                        "meets_target": chosen["meets_target"]})
+    _write_json(dest / "seeds.json", entries)
+    return {"seeds": entries, "total": len(entries),
+            "meeting_target": sum(bool(e["meets_target"]) for e in entries)}
 
 
 def _evaluate_cached(path: Path, cached: dict[str, Any], duration: float,
@@ -846,6 +903,8 @@ def ship(
     overwrite: bool = False,
     evaluate_all_seeds: bool = False,
     notes: str | None = None,
+    with_critic: bool = True,
+    with_card: bool = True,
 ) -> dict[str, Any]:
     """Pack a run's checkpoint into the shipped-policy format ``dest/<name>/`` (default
     ``rl/policies/<name>/``): ``actor.pt`` and ``critic.pt`` (state dicts of
@@ -857,7 +916,8 @@ def ship(
     The success count over seeds comes from the case's ``summary.json`` when it is found; with
     ``evaluate_all_seeds`` every seed of the case is also run like this (:func:`evaluate_seeds`)
     and the card lists each seed's distance and how many reach the authors' distance. ``notes``
-    (Markdown) becomes the card's "Notes" section: what the numbers do not say.
+    (Markdown) becomes the card's "Notes" section: what the numbers do not say. ``with_critic`` /
+    ``with_card``: also write ``critic.pt`` / ``MODEL_CARD.md``.
     """
     import torch
 
@@ -871,7 +931,7 @@ def ship(
         raise FileExistsError(f"{target} already holds a policy (pass overwrite / --force)")
     target.mkdir(parents=True, exist_ok=True)
     torch.save(policy.actor.state_dict(), target / "actor.pt")
-    if policy.critic is not None:
+    if policy.critic is not None and with_critic:
         torch.save(policy.critic.state_dict(), target / "critic.pt")
     meta = policy.meta
     summary = _find_summary(policy.source, policy.case)
@@ -922,7 +982,8 @@ def ship(
         "notes": notes,
     }
     _write_json(target / POLICY_JSON, info)
-    (target / "MODEL_CARD.md").write_text(_model_card(info, summary))
+    if with_card:
+        (target / "MODEL_CARD.md").write_text(_model_card(info, summary))
     return {"name": name, "dir": str(target), "case": policy.case,
             "evaluation": measured, "files": sorted(p.name for p in target.iterdir())}
 

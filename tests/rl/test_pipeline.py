@@ -253,6 +253,26 @@ def test_ship_evaluates_every_seed_and_caches(refined, tmp_path, monkeypatch):
     assert "best.pt" in card and "the best of the evaluations during training" in card
 
 
+def test_export_seeds_writes_generate_ready_folders_and_seeds_json(trained, tmp_path, capsys):
+    dest = tmp_path / "seeds" / "paper"
+    result = run_msr(capsys, "export-seeds", str(trained / "m1-4mT"), "--dest", str(dest),
+                     "--duration", "0.05", "--no-progress")
+    entries = json.loads((dest / "seeds.json").read_text())
+    assert [e["seed"] for e in entries] == [0, 1] and result["total"] == 2
+    for e in entries:
+        assert set(e) >= {"seed", "steps", "distance_10s_m", "actor", "checkpoint"}
+        evaluation = json.loads((trained / "m1-4mT" / f"seed{e['seed']}" / "evaluation.json").read_text())
+        chosen = evaluation if e["checkpoint"] == "final" else evaluation["best"]
+        assert e["distance_10s_m"] == chosen["mid_dx_m"] and e["steps"] == chosen["global_step"]
+        other = evaluation["best"] if e["checkpoint"] == "final" else evaluation
+        assert other is None or e["distance_10s_m"] >= other["mid_dx_m"]  # the farther actor
+        folder = dest / e["actor"]
+        assert sorted(p.name for p in folder.iterdir()) == ["actor.pt", "policy.json"]
+    out = run_msr(capsys, "generate", str(dest / "seed0"), "--duration", "0.05", "--out",
+                  str(tmp_path / "gen"), "--no-figures", "--no-progress")
+    assert out["case"] == "m1-4mT"
+
+
 def test_ship_then_generate_by_folder_and_name(refined, tmp_path, monkeypatch, capsys):
     dest = tmp_path / "policies"
     info = pipeline.ship(refined, "m1-4mT", dest=dest, measure=True, duration=0.05, progress=False)
