@@ -51,9 +51,10 @@ def save_checkpoint(path: str | os.PathLike, checkpoint: dict[str, Any]) -> None
     os.replace(tmp, path)
 
 
-def load_checkpoint(path: str | os.PathLike) -> dict[str, Any]:
+def load_checkpoint(path: str | os.PathLike, with_buffer: bool = True) -> dict[str, Any]:
     """Load a checkpoint (a run directory or the file itself), the replay buffer's contents
-    included. Raises ``ValueError`` naming the file when it is not a readable TD3 checkpoint."""
+    included unless ``with_buffer`` is false (a quick check that it is readable). Raises
+    ``ValueError`` naming the file when it is not a readable TD3 checkpoint."""
     path = Path(path)
     if path.is_dir():
         path = path / CHECKPOINT_NAME
@@ -66,7 +67,7 @@ def load_checkpoint(path: str | os.PathLike) -> dict[str, Any]:
     if not isinstance(ckpt, dict) or ckpt.get("format") not in (CHECKPOINT_FORMAT, *LEGACY_FORMATS):
         raise ValueError(f"{path} is not a TD3 checkpoint ({CHECKPOINT_FORMAT})")
     buffer = ckpt.get("buffer")
-    if isinstance(buffer, dict) and "file" in buffer:
+    if with_buffer and isinstance(buffer, dict) and "file" in buffer:
         ckpt["buffer"] = {**buffer, **read_replay_rows(path.parent / buffer["file"], buffer)}
     return ckpt
 

@@ -399,8 +399,12 @@ def train_cases(
         if missing:
             raise FileNotFoundError(f"cannot resume: no checkpoint {', '.join(missing)} (train those "
                                     "seeds without --resume, or choose --seeds/--seed-offset)")
+        from .checkpoint import load_checkpoint, refuse_networks_only
+
         for case in cases:  # a resumed run keeps its settings: checked before any work
             for s in seed_list:
+                path = Path(out) / case / f"seed{s}" / "checkpoint.pt"
+                refuse_networks_only(load_checkpoint(path, with_buffer=False), path)
                 _check_resume_settings(Path(out) / case / f"seed{s}", {
                     "case": case, "physics": physics, "episode_duration_s": float(episode_duration),
                     "recipe": recipe})

@@ -377,3 +377,50 @@ def test_shipped_policy_generates_and_exports(name, tmp_path, capsys):
     assert ("meets the target" if meets else "falls short of the target") in card
     shipped_fields = np.loadtxt(pipeline.POLICIES_DIR / name / "fields.csv", delimiter=",", skiprows=1)
     assert shipped_fields.shape == (1000, 4)  # the 10 s waveform, 100 rows/s
+
+
+def test_resume_from_a_corrupted_checkpoint_is_refused_and_keeps_the_results(tmp_path, capsys):
+    args = ["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), "--learning-starts",
+            "10", "--batch-size", "8", "--hidden", "8", "--episode-duration", "0.1", "--no-progress"]
+    assert msr([*args, "--steps", "20"]) == 0
+    run = tmp_path / "m1-4mT" / "seed0"
+    ckpt = run / "checkpoint.pt"
+    ckpt.write_bytes(ckpt.read_bytes()[:100])  # truncated
+    kept = {p: p.read_bytes() for p in (tmp_path / "m1-4mT" / "summary.json", run / "run.json",
+                                        run / "episodes.csv", ckpt)}
+    capsys.readouterr()
+    assert msr([*args, "--steps", "40", "--resume"]) == 2
+    err = capsys.readouterr().err
+    assert f"{ckpt}: not a readable checkpoint" in err and "Traceback" not in err
+    assert all(p.read_bytes() == data for p, data in kept.items())
+
+
+def test_ctrl_c_stops_cleanly_and_the_run_resumes(tmp_path):
+    """SIGINT to a real 2-worker training: exit 130, no traceback, the message names the folders;
+    the checkpoints it left resume."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    args = [sys.executable, "-m", "elastica_magnetic.cli", "train", "--case", "m1-4mT", "--seeds", "2",
+            "--out", str(tmp_path), "--learning-starts", "10", "--batch-size", "8", "--hidden", "8",
+            "--episode-duration", "0.1", "--checkpoint-every", "10", "--no-progress"]
+    proc = subprocess.Popen([*args, "--steps", "100000"], stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    ckpts = [tmp_path / "m1-4mT" / f"seed{s}" / "checkpoint.pt" for s in (0, 1)]
+    deadline = time.time() + 120
+    while not all(p.exists() for p in ckpts) and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.2)
+    time.sleep(1.0)
+    os.killpg(proc.pid, signal.SIGINT)  # as Ctrl-C does: the whole foreground process group
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "interrupted" in err and "--resume" in err and "Traceback" not in err
+    steps = [load_checkpoint(p, with_buffer=False)["global_step"] for p in ckpts]
+    target = str(max(steps) + 20)
+    done = subprocess.run([*args, "--steps", target, "--resume"], capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert all(load_checkpoint(p)["global_step"] == int(target) for p in ckpts)
