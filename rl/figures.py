@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -448,12 +448,14 @@ def rollout_figures(
     return {k: str(v) for k, v in paths.items()}
 
 
-def make_figures(path: str | Path, out: str | Path | None = None, gif: bool = True) -> dict[str, str]:
+def make_figures(path: str | Path, out: str | Path | None = None, gif: bool = True,
+                 load_policy: Callable[[str], Any] | None = None) -> dict[str, str]:
     """Regenerate the figures of a generate output (``rollout.npz``) or of training runs.
 
     Training runs: one ``learning_curves_<case>.png`` per case folder, in ``out`` (default
-    ``path``). Generate output: every figure of :func:`rollout_figures` (the Q maps when the
-    policy recorded in the rollout can still be loaded).
+    ``path``). Generate output: every figure of :func:`rollout_figures`, with the Q maps when
+    ``load_policy`` (e.g. :func:`rl.pipeline.resolve_policy`: source -> an object with ``actor``
+    and ``critic``) can still load the policy recorded in the rollout.
     """
     path = Path(path)
     out = Path(out) if out is not None else path
@@ -461,11 +463,9 @@ def make_figures(path: str | Path, out: str | Path | None = None, gif: bool = Tr
         rollout = Rollout.load(path)
         critic = actor = None
         source = rollout.meta.get("policy_source")
-        if source:
+        if source and load_policy is not None:
             try:
-                from .pipeline import resolve_policy
-
-                policy = resolve_policy(source)
+                policy = load_policy(source)
                 critic, actor = policy.critic, policy.actor
             except (FileNotFoundError, ValueError, KeyError):
                 critic = actor = None

@@ -1,0 +1,81 @@
+"""The layering of the project, read from the source: the physics package imports neither the
+learning nor the validation package, and no two modules of a package import each other (directly
+or through others). The command line modules (``cli``) dispatch by name and are left out."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("elastica_magnetic", "rl", "validation")
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _imports(path: Path) -> set[str]:
+    """Project modules imported anywhere in ``path`` (top level or inside functions)."""
+    module = _module_name(path)
+    package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[: len(base) - node.level + 1]
+                prefix = ".".join(base + ([node.module] if node.module else []))
+            else:
+                prefix = node.module or ""
+            names = [prefix] + [f"{prefix}.{a.name}" for a in node.names]
+        else:
+            continue
+        found |= {n for n in names if n.split(".")[0] in PACKAGES}
+    return found
+
+
+def _graph() -> dict[str, set[str]]:
+    modules = {_module_name(p): p for pkg in PACKAGES for p in (ROOT / pkg).rglob("*.py")}
+    graph = {}
+    for name, path in modules.items():
+        targets = set()
+        for imported in _imports(path):
+            while imported and imported not in modules:  # `from .x import f` names x.f
+                imported = imported.rsplit(".", 1)[0] if "." in imported else ""
+            if imported and imported != name:
+                targets.add(imported)
+        graph[name] = targets
+    return graph
+
+
+def test_the_physics_package_imports_no_learning_or_validation():
+    graph = _graph()
+    upward = {(m, t) for m, targets in graph.items() if m.startswith("elastica_magnetic")
+              for t in targets if not t.startswith("elastica_magnetic") and not m.endswith(".cli")}
+    assert not upward, sorted(upward)
+
+
+def test_no_import_cycles_between_modules():
+    graph = {m: {t for t in ts if not t.endswith(".cli")} for m, ts in _graph().items()
+             if not m.endswith(".cli")}
+    for package in ("elastica_magnetic", "rl", "validation"):
+        # a module importing its own package's __init__ is not a cycle of concepts
+        graph[package] = set()
+    state: dict[str, int] = {}
+
+    def visit(node: str, path: list[str]) -> None:
+        state[node] = 1
+        for nxt in sorted(graph.get(node, ())):
+            if state.get(nxt) == 1:
+                raise AssertionError(" -> ".join([*path[path.index(nxt):], nxt]))
+            if nxt not in state:
+                visit(nxt, [*path, nxt])
+        state[node] = 2
+
+    for node in sorted(graph):
+        if node not in state:
+            visit(node, [node])
