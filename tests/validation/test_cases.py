@@ -1,6 +1,7 @@
 """Every validation case in its --quick form, through `msr validate`, as a user runs it."""
 
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -56,3 +57,18 @@ def test_validate_quick(case, tmp_path, capsys):
 def test_unknown_case_is_a_clear_error(tmp_path, capsys):
     assert main(["validate", "nonsense", "--out", str(tmp_path)]) == 2
     assert "unknown case(s) nonsense" in capsys.readouterr().err
+
+
+# The full 10 s replay costs 112 s (1.25 M steps, 2 shared cores, niced) to 143 s (idle) and
+# the suite's 15-minute budget goes first to the shipped policies' 10 s rollouts, so it is opt-in
+# here; `msr validate` (and the published report in docs/validation) always runs it in full.
+@pytest.mark.slow
+@pytest.mark.skipif(os.environ.get("MSR_FULL_REPLAY") != "1",
+                    reason="full 10 s replay (~2 min): set MSR_FULL_REPLAY=1")
+def test_validate_full_replay(tmp_path, capsys):
+    status = main(["validate", "replay-yao2023", "--out", str(tmp_path), "--json"])
+    result = json.loads(capsys.readouterr().out)
+    (case_result,) = result["cases"]
+    assert not case_result["quick"]
+    failed = [c for c in case_result["comparisons"] if not c["passed"]]
+    assert status == 0 and not failed, failed
