@@ -59,9 +59,10 @@ def test_unknown_case_is_a_clear_error(tmp_path, capsys):
     assert "unknown case(s) nonsense" in capsys.readouterr().err
 
 
-# The full 10 s replay costs 112 s (1.25 M steps, 2 shared cores, niced) to 143 s (idle) and
-# the suite's 15-minute budget goes first to the shipped policies' 10 s rollouts, so it is opt-in
-# here; `msr validate` (and the published report in docs/validation) always runs it in full.
+# The full 10 s replay costs 112 s (1.25 M steps, 2 shared cores, niced), a fifth of the 542 s
+# the rest of the suite took in the same conditions (docs/testing.md); the 15-minute budget left
+# goes first to the shipped policies' 10 s rollouts, so it is opt-in here, and the suite replays
+# the first second. `msr validate` (and the report in docs/validation) always runs it in full.
 @pytest.mark.slow
 @pytest.mark.skipif(os.environ.get("MSR_FULL_REPLAY") != "1",
                     reason="full 10 s replay (~2 min): set MSR_FULL_REPLAY=1")
