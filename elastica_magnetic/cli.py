@@ -72,4 +72,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    # Under ``python -m`` this file runs as ``__main__``, whose CommandError is not the class the
+    # sub-commands import and raise: run the package module's main so their errors are caught.
+    from elastica_magnetic.cli import main as package_main
+
+    sys.exit(package_main())

@@ -92,6 +92,9 @@ def _stream(args: argparse.Namespace) -> int:
         else:
             summary["max_code_error_lsb"] = None if not len(got) else -1
     _print(summary, args.json)
+    if result.safe is None:  # time-out: stream_field has sent STOP
+        raise _error(f"{args.port}: no SAFE report from the board within the time limit "
+                     f"({result.rows_applied} of {result.rows_total} rows reported played); STOP sent")
     ok = result.safe is not None and result.safe.reason == "end" and result.ended_safe
     if args.corrupt_row is not None:
         ok = result.safe is not None and result.safe.reason == "checksum" and result.ended_safe

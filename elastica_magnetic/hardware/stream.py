@@ -148,7 +148,10 @@ def stream_field(
     Raises
     ------
     StreamError
-        No answer to PING, or STREAM refused.
+        No answer to PING, STREAM refused, or the link failed (the port's error is kept).
+
+    A stream the board accepted and that ends without a SAFE report (time-out, link error,
+    interrupt) is followed by a best-effort STOP, so the board goes to mid-scale at once.
     """
     import serial  # pyserial; imported here so the module loads without it
     from tqdm import tqdm
@@ -162,6 +165,7 @@ def stream_field(
     log = open(log_path, "w") if log_path is not None else None  # noqa: SIM115
     bar = tqdm(total=n, unit="row", desc="stream", disable=not progress, leave=False)
     start = time.monotonic()
+    stream_sent = False
     try:
         reader = _LineReader(port, log)
         # 1. sync: PING until PONG (bytes sent before the board's UART is enabled are lost).
@@ -181,6 +185,7 @@ def stream_field(
             raise StreamError(f"{port_url}: no PONG within {SYNC_TIMEOUT_S:.0f} s (is the board running?)")
         # 2. start the session
         port.write(b"STREAM\n")
+        stream_sent = True
         credit = 0
         started = False
         t_start = time.monotonic()
@@ -224,7 +229,14 @@ def stream_field(
                 elif line.startswith("SAFE "):
                     result.safe = parse_safe(line)
         # 4. the safe-state DAC line precedes SAFE; nothing else to wait for
+    except serial.SerialException as exc:
+        raise StreamError(f"{port_url}: link failed: {exc}") from exc
     finally:
+        if stream_sent and result.safe is None:
+            try:  # the board may still be playing queued rows: mid-scale now
+                port.write(b"STOP\n")
+            except (serial.SerialException, OSError):
+                pass  # link gone: the firmware's underrun check ends at mid-scale
         result.duration_s = time.monotonic() - start
         bar.close()
         if log is not None:
