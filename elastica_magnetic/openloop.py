@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from .forcing import evaluate_field
 from .presets import ACTION_PERIOD, RobotSpec
 from .simulation import TRAJECTORY_COLUMNS, FieldFunction, build_simulation
 
@@ -99,7 +100,7 @@ def run_open_loop(
     fields = np.empty((n_actions, 3))
     start = wallclock.perf_counter()
     for i in range(n_actions):
-        fields[i] = field_source(simulation.time)
+        fields[i] = evaluate_field(field_source, simulation.time)
         simulation.step(steps)
         rows.append(simulation.markers())
         if i + 1 in shape_at:
