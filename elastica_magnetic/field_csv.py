@@ -10,6 +10,7 @@ Inside the package fields are in tesla; the conversion happens here and only her
 from __future__ import annotations
 
 import csv
+import io
 import math
 from pathlib import Path
 
@@ -52,8 +53,7 @@ def read_field_csv(path: str | Path) -> NDArray[np.float64]:
     path = Path(path)
     if not path.is_file():
         raise FieldCSVError(f"{path}: no such field CSV file")
-    with path.open(newline="") as handle:
-        rows = list(csv.reader(handle))
+    rows = _csv_rows(path, FieldCSVError)
     rows_with_lines = [(i + 1, r) for i, r in enumerate(rows) if any(c.strip() for c in r)]
     if not rows_with_lines:
         raise FieldCSVError(f"{path}: empty file, expected columns {', '.join(FIELD_COLUMNS)} (mT)")
@@ -114,6 +114,25 @@ def read_field_csv(path: str | Path) -> NDArray[np.float64]:
                     f"{path}: line {line}: index {text!r} out of sequence, expected {k}"
                 )
     return field
+
+
+def _csv_rows(path: Path, error: type[Exception]) -> list[list[str]]:
+    """Rows of a UTF-8 CSV file (a byte-order mark is skipped); decoding and CSV syntax errors are
+    raised as ``error`` naming the file and line."""
+    data = path.read_bytes()
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        raise error(
+            f"{path}: line {line}: byte {data[exc.start]:#04x} is not UTF-8 text; save the file as "
+            "UTF-8 (or plain ASCII) CSV"
+        ) from None
+    reader = csv.reader(io.StringIO(text, newline=""))
+    try:
+        return list(reader)
+    except csv.Error as exc:
+        raise error(f"{path}: line {reader.line_num}: {exc}") from None
 
 
 def write_field_csv(path: str | Path, field_tesla: NDArray[np.float64]) -> Path:
