@@ -17,6 +17,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from .io import atomic_write
+
 #: Rows per second of a field CSV (the paper's 100 Hz field update).
 FIELD_CSV_RATE_HZ = 100.0
 #: Column names of the field components, in mT.
@@ -138,7 +140,8 @@ def _csv_rows(path: Path, error: type[Exception]) -> list[list[str]]:
 def write_field_csv(path: str | Path, field_tesla: NDArray[np.float64]) -> Path:
     """Write a field (``(n_rows, 3)`` in tesla) as a field CSV in the paper's format (mT).
 
-    The header is ``,mag_x,mag_y,mag_z`` with an unnamed index column, as published.
+    The header is ``,mag_x,mag_y,mag_z`` with an unnamed index column, as published. The file is
+    written atomically (:func:`~elastica_magnetic.io.atomic_write`).
     """
     field_tesla = np.asarray(field_tesla, dtype=np.float64)
     if field_tesla.ndim != 2 or field_tesla.shape[1] != 3:
@@ -147,7 +150,7 @@ def write_field_csv(path: str | Path, field_tesla: NDArray[np.float64]) -> Path:
         raise ValueError("field contains non-finite values")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as handle:
+    with atomic_write(path, "w", newline="") as handle:
         writer = csv.writer(handle, lineterminator="\n")
         writer.writerow(["", *FIELD_COLUMNS])
         for i, b in enumerate(field_tesla / MILLITESLA):

@@ -39,6 +39,9 @@ from typing import Any
 
 import numpy as np
 
+from elastica_magnetic.io import atomic_save, atomic_write, atomic_write_text, prepare_output_dir
+from elastica_magnetic.openloop import check_duration
+
 from .backends import BACKENDS, run_jobs
 from .baselines import RotatingFieldPolicy
 from .env import CASES, MAX_FIELD_INCREMENT, MagneticCrawlerEnv, observation_spec
@@ -131,10 +134,7 @@ def _versions() -> dict[str, str]:
 
 def _write_json(path: Path, data: dict[str, Any]) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(data, indent=2, default=str) + "\n")
-    os.replace(tmp, path)
-    return path
+    return atomic_write_text(path, json.dumps(data, indent=2, default=str) + "\n")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -737,9 +737,9 @@ def generate(
 
     from .figures import rollout_figures
 
+    check_duration(duration)
     loaded = resolve_policy(policy) if isinstance(policy, (str, Path)) else policy
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = prepare_output_dir(out)
     rollout = run_policy(loaded, duration, physics, "zero", progress)
     fields_csv = write_field_csv(out / "fields.csv", rollout.fields) if rollout.n_steps else None
     trajectory_csv = write_trajectory_csv(rollout.trajectory, out / "trajectory.csv")
@@ -747,10 +747,11 @@ def generate(
     traj = rollout.trajectory
     contact = rollout.contact()
     gait_csv = out / "gait.csv"
-    pd.DataFrame({
-        "t_s": traj.t_s, "height_max_m": traj.height_max_m, "span_m": traj.span_m,
-        "contact_back": contact[:, 0], "contact_front": contact[:, -1],
-    }).to_csv(gait_csv, index=False, float_format="%.9g")
+    with atomic_write(gait_csv, "w", newline="") as handle:
+        pd.DataFrame({
+            "t_s": traj.t_s, "height_max_m": traj.height_max_m, "span_m": traj.span_m,
+            "contact_back": contact[:, 0], "contact_front": contact[:, -1],
+        }).to_csv(handle, index=False, float_format="%.9g")
     mid = rollout.positions.shape[2] // 2
     result: dict[str, Any] = {
         "case": loaded.case,
@@ -1010,8 +1011,7 @@ def export_policy(policy: str | Path, out: str | Path = "out/export") -> dict[st
     from .td3 import ScaledPolicy
 
     loaded = resolve_policy(policy)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = prepare_output_dir(out)
     module = ScaledPolicy(loaded.actor, np.full(loaded.act_dim, -1.0), np.full(loaded.act_dim, 1.0))
     module.eval().requires_grad_(False)
     example = torch.zeros(2, loaded.obs_dim)
@@ -1023,11 +1023,11 @@ def export_policy(policy: str | Path, out: str | Path = "out/export") -> dict[st
         warnings.simplefilter("ignore", DeprecationWarning)
         with torch.no_grad():
             traced = torch.jit.trace(module, example, check_trace=True)
-        traced.save(str(ts_path))
+        atomic_save(ts_path, lambda tmp: traced.save(str(tmp)))
         reloaded = torch.jit.load(str(ts_path))
     batch_dim = torch.export.Dim("batch", min=1)
     exported = torch.export.export(module, (example,), dynamic_shapes=({0: batch_dim},))
-    torch.export.save(exported, str(pt2_path))
+    atomic_save(pt2_path, lambda tmp: torch.export.save(exported, str(tmp)))
     reloaded_pt2 = torch.export.load(str(pt2_path)).module()
 
     # Check: the reloaded modules give the agent's actions on real and random observations.

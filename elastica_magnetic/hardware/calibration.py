@@ -26,6 +26,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from elastica_magnetic.io import atomic_write_text
+
 AXES = 3
 TESLA_PER_MILLITESLA = 1e-3
 DAC_MIDSCALE = 32768
@@ -186,13 +188,12 @@ def load_calibration(path: str | Path) -> Calibration:
 
 
 def save_calibration(path: str | Path, calibration: Calibration) -> Path:
-    """Write ``calibration`` as JSON (validated first)."""
+    """Write ``calibration`` as JSON (validated first; atomically)."""
     data = calibration.to_json_dict()
     calibration_from_dict(data, str(path))
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(data, indent=2) + "\n")
-    return path
+    return atomic_write_text(path, json.dumps(data, indent=2) + "\n")
 
 
 def default_calibration_path() -> Path:

@@ -116,13 +116,20 @@ def _calibrate(args: argparse.Namespace) -> int:
         load_calibration,
         save_calibration,
     )
+    from elastica_magnetic.io import prepare_output_file
 
     path = Path(args.measurements)
     if not path.is_file():
         raise _error(f"{path}: no such measurements file")
+    prepare_output_file(args.out)
     columns = ["current_x_A", "current_y_A", "current_z_A", "field_x_mT", "field_y_mT",
                "field_z_mT"]
-    table = pd.read_csv(path, skipinitialspace=True)
+    try:
+        table = pd.read_csv(path, skipinitialspace=True, encoding="utf-8-sig")
+    except pd.errors.EmptyDataError:
+        raise _error(f"{path}: empty file; expected columns {', '.join(columns)}") from None
+    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise _error(f"{path}: not a readable UTF-8 CSV: {exc}") from None
     missing = [c for c in columns if c not in table.columns]
     if missing:
         raise _error(f"{path}: missing column(s) {', '.join(missing)}; expected {', '.join(columns)}")

@@ -30,6 +30,7 @@ from elastica_magnetic.hardware.calibration import (
     load_calibration,
 )
 from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
+from elastica_magnetic.io import atomic_write, atomic_write_text, prepare_output_dir
 
 #: Flash left for the table after code (1 MB part): 3 doubles = 24 bytes per row.
 MAX_TABLE_ROWS = 40000
@@ -50,8 +51,8 @@ def waveform_table_source(rows_mT: NDArray[np.float64], source: str) -> str:
 
 
 def write_expected_codes(path: Path, codes: NDArray[np.int64]) -> Path:
-    """Write ``row,code_x,code_y,code_z``."""
-    with path.open("w") as handle:
+    """Write ``row,code_x,code_y,code_z`` (atomically)."""
+    with atomic_write(path, "w") as handle:
         handle.write("row,code_x,code_y,code_z\n")
         for i, (x, y, z) in enumerate(codes.tolist()):
             handle.write(f"{i},{x},{y},{z}\n")
@@ -82,13 +83,12 @@ def export_firmware(field_csv: str | Path, calibration: Calibration | str | Path
         )
     rows_mT = wire_values_mT(wire_rows_mT(field_T))
     codes = expected_dac_codes(cal, rows_mT)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = prepare_output_dir(out_dir)
     header = out / "calibration_gen.h"
     table = out / "waveform_table.c"
     expected = out / "expected_dac_codes.csv"
-    header.write_text(calibration_header(cal))
-    table.write_text(waveform_table_source(rows_mT, str(field_csv)))
+    atomic_write_text(header, calibration_header(cal))
+    atomic_write_text(table, waveform_table_source(rows_mT, str(field_csv)))
     write_expected_codes(expected, codes)
     return {
         "rows": len(rows_mT),
@@ -111,7 +111,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         summary = export_firmware(args.field_csv, args.calibration, args.out)
-    except (ValueError, FileNotFoundError) as exc:
+    except (ValueError, OSError) as exc:
         print(f"export: error: {exc}", file=sys.stderr)
         return 2
     if not args.quiet:
