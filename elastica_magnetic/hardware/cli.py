@@ -36,6 +36,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("field_csv", help="field CSV, mag_x,mag_y,mag_z in mT")
     p.add_argument("--calibration", required=True, help="calibration JSON")
     p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--allow-clipping", action="store_true",
+                   help="write a waveform beyond the coils' current limit or DAC span (the firmware "
+                   "clamps it); by default such a waveform is refused")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_export)
 
@@ -101,7 +104,7 @@ def _stream(args: argparse.Namespace) -> int:
 def _export(args: argparse.Namespace) -> int:
     from elastica_magnetic.hardware.export import export_firmware
 
-    _print(export_firmware(args.field_csv, args.calibration, args.out), args.json)
+    _print(export_firmware(args.field_csv, args.calibration, args.out, args.allow_clipping), args.json)
     return 0
 
 
