@@ -50,6 +50,7 @@ __all__ = [
     "AUTHORS_DISTANCE_10S",
     "LoadedPolicy",
     "POLICIES_DIR",
+    "PolicyFileError",
     "PolicyNotFoundError",
     "crawler_config",
     "demo",
@@ -63,6 +64,7 @@ __all__ = [
     "summarize_run",
     "train_case",
     "train_cases",
+    "weights_sha256",
 ]
 
 #: Folder of the shipped policies (``rl/policies/<name>/``).
@@ -89,6 +91,24 @@ EVAL_DURATION = 10.0
 
 class PolicyNotFoundError(FileNotFoundError):
     """A policy argument that names no run, checkpoint or shipped policy."""
+
+
+class PolicyFileError(ValueError):
+    """A policy file that is corrupted, truncated or does not match its ``policy.json``; the
+    message names the file."""
+
+
+def weights_sha256(state_dict: dict[str, Any]) -> str:
+    """SHA-256 of a network's weights (names, dtypes, shapes and values, in name order): stored in
+    ``policy.json`` to check that ``actor.pt`` is the actor it describes."""
+    import hashlib
+
+    digest = hashlib.sha256()
+    for name in sorted(state_dict):
+        tensor = state_dict[name].detach().cpu().contiguous()
+        digest.update(f"{name}|{tensor.dtype}|{tuple(tensor.shape)}|".encode())
+        digest.update(tensor.numpy().tobytes())
+    return digest.hexdigest()
 
 
 # ----------------------------------------------------------------------------------------------
@@ -526,24 +546,67 @@ class LoadedPolicy:
 
 
 def _build_networks(obs_dim: int, act_dim: int, hidden: tuple[int, ...], actor_state: dict,
-                    critic_state: dict | None):
+                    critic_state: dict | None, source: Path | None = None):
     from .td3 import Actor, TwinCritic
 
-    actor = Actor(obs_dim, act_dim, hidden)
-    actor.load_state_dict(actor_state)
-    actor.eval().requires_grad_(False)
+    def load(network, state, what: str):
+        try:
+            network.load_state_dict(state)
+        except (RuntimeError, KeyError, TypeError, AttributeError) as exc:
+            first = str(exc).strip().splitlines()
+            raise PolicyFileError(
+                f"{source}: the {what} weights do not fit the architecture it declares "
+                f"(observations {obs_dim}, actions {act_dim}, hidden sizes {list(hidden)}): "
+                f"{' '.join(first[1:3] or first)[:300]}"
+            ) from None
+        return network.eval().requires_grad_(False)
+
+    actor = load(Actor(obs_dim, act_dim, hidden), actor_state, "actor")
     critic = None
     if critic_state is not None:
-        critic = TwinCritic(obs_dim, act_dim, hidden)
-        critic.load_state_dict(critic_state)
-        critic.eval().requires_grad_(False)
+        critic = load(TwinCritic(obs_dim, act_dim, hidden), critic_state, "critic")
     return actor, critic
+
+
+def _torch_load(path: Path) -> Any:
+    """``torch.load`` of a policy file; a truncated or corrupted file is a PolicyFileError naming it."""
+    import torch
+
+    try:
+        return torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as exc:  # torch raises EOFError, RuntimeError, UnpicklingError, ...
+        raise PolicyFileError(
+            f"{path}: cannot be read as a torch file ({type(exc).__name__}: "
+            f"{str(exc).splitlines()[0][:200] if str(exc) else 'empty or truncated'}); "
+            "restore it from the run or the repository"
+        ) from None
+
+
+def _policy_json(path: Path) -> dict[str, Any]:
+    """``policy.json`` of a shipped-format folder, with the keys loading needs checked."""
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise PolicyFileError(f"{path}: not valid JSON ({exc})") from None
+    arch = meta.get("architecture") if isinstance(meta, dict) else None
+    if not isinstance(arch, dict) or not isinstance(meta.get("case"), str):
+        raise PolicyFileError(f"{path}: lacks 'case' or 'architecture' (not a {POLICY_FORMAT} file)")
+    missing = [k for k in ("obs_dim", "act_dim", "hidden_sizes") if k not in arch]
+    if missing:
+        raise PolicyFileError(f"{path}: architecture lacks {', '.join(missing)}")
+    try:
+        arch["hidden_sizes"] = [int(h) for h in arch["hidden_sizes"]]
+        arch["obs_dim"], arch["act_dim"] = int(arch["obs_dim"]), int(arch["act_dim"])
+    except (TypeError, ValueError):
+        raise PolicyFileError(f"{path}: architecture sizes must be integers, got {arch}") from None
+    if meta["case"] not in CASES:
+        raise PolicyFileError(f"{path}: unknown case {meta['case']!r}; known: {', '.join(CASES)}")
+    return meta
 
 
 def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -> LoadedPolicy:
     """Load a policy from a run directory, a checkpoint file, a shipped-format directory
     (``actor.pt`` + ``policy.json``), or a shipped name (``rl/policies/<name>``), in that order."""
-    import torch
 
     from .td3 import load_checkpoint
 
@@ -554,25 +617,43 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
     if path.is_dir() and (path / "checkpoint.pt").is_file():
         path = path / "checkpoint.pt"
     if path.is_file():
-        ckpt = load_checkpoint(path)
+        try:
+            ckpt = load_checkpoint(path)
+        except ValueError:
+            raise
+        except Exception as exc:  # a truncated or corrupted file
+            raise PolicyFileError(
+                f"{path}: cannot be read as a checkpoint ({type(exc).__name__}: "
+                f"{str(exc).splitlines()[0][:200] if str(exc) else 'empty or truncated'})"
+            ) from None
         meta = _checkpoint_metadata(ckpt, path)
-        hidden = tuple(ckpt["config"]["hidden_sizes"])
-        actor, critic = _build_networks(ckpt["obs_dim"], ckpt["act_dim"], hidden,
-                                        ckpt["agent"]["actor"], ckpt["agent"]["critic"])
+        try:
+            hidden = tuple(ckpt["config"]["hidden_sizes"])
+            actor_state, critic_state = ckpt["agent"]["actor"], ckpt["agent"]["critic"]
+            obs_dim, act_dim = ckpt["obs_dim"], ckpt["act_dim"]
+        except (KeyError, TypeError) as exc:
+            raise PolicyFileError(f"{path}: incomplete checkpoint (no {exc})") from None
+        actor, critic = _build_networks(obs_dim, act_dim, hidden, actor_state, critic_state, path)
         meta = {**meta, "global_step": int(ckpt["global_step"]), "config": ckpt["config"],
                 "checkpoint_kind": ckpt.get("kind", "full")}
         return LoadedPolicy(actor, critic, meta["case"], path, "checkpoint", meta,
                             ckpt["obs_dim"], ckpt["act_dim"], hidden)
     if path.is_dir() and (path / POLICY_JSON).is_file() and (path / "actor.pt").is_file():
-        meta = json.loads((path / POLICY_JSON).read_text())
+        meta = _policy_json(path / POLICY_JSON)
         arch = meta["architecture"]
         hidden = tuple(arch["hidden_sizes"])
-        actor_state = torch.load(path / "actor.pt", map_location="cpu", weights_only=True)
+        actor_state = _torch_load(path / "actor.pt")
+        expected = meta.get("actor_sha256")
+        if expected is not None and weights_sha256(actor_state) != expected:
+            raise PolicyFileError(
+                f"{path / 'actor.pt'}: its weights do not match the actor_sha256 of {path / POLICY_JSON} "
+                f"(case {meta['case']}): the files come from different policies"
+            )
         critic_state = None
         if (path / "critic.pt").is_file():
-            critic_state = torch.load(path / "critic.pt", map_location="cpu", weights_only=True)
+            critic_state = _torch_load(path / "critic.pt")
         actor, critic = _build_networks(arch["obs_dim"], arch["act_dim"], hidden, actor_state,
-                                        critic_state)
+                                        critic_state, path / "actor.pt")
         return LoadedPolicy(actor, critic, meta["case"], path, "shipped", meta, arch["obs_dim"],
                             arch["act_dim"], hidden)
     shipped = sorted(p.name for p in policies_dir.glob("*") if (p / POLICY_JSON).is_file()) \
@@ -840,6 +921,7 @@ def ship(
         "case": policy.case,
         "pattern": case.pattern,
         "field_limit_T": case.field_limit,
+        "actor_sha256": weights_sha256(policy.actor.state_dict()),
         "architecture": {"type": "mlp", "obs_dim": policy.obs_dim, "act_dim": policy.act_dim,
                          "hidden_sizes": list(policy.hidden_sizes), "activation": "relu",
                          "output": "tanh", "module": "rl.td3.Actor (net = Sequential of Linear/ReLU)"},
