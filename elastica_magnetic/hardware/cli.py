@@ -20,11 +20,12 @@ def register(subparsers: Any) -> None:
     p.add_argument("--port", required=True,
                    help="pyserial URL or device: socket://127.0.0.1:4321 (QEMU), /dev/ttyACM0")
     p.add_argument("--calibration", help="calibration JSON: compare reported codes with expected")
-    p.add_argument("--baud", type=int, default=115200)
-    p.add_argument("--timeout", type=float, default=None, help="overall limit in seconds")
+    p.add_argument("--baud", type=_number("baud", 1, integer=True), default=115200)
+    p.add_argument("--timeout", type=_number("s", 0.0, low_open=True), default=None,
+                   help="overall limit in seconds, handshake included")
     p.add_argument("--log", help="write every line the board sent to this file")
     p.add_argument("--codes-out", help="write the reported DAC codes as row,code_x,code_y,code_z")
-    p.add_argument("--corrupt-row", type=int, default=None,
+    p.add_argument("--corrupt-row", type=_number("", 0, integer=True), default=None,
                    help="fault injection: corrupt row N after its checksum (board must stop)")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
@@ -55,6 +56,12 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=_calibrate)
 
 
+def _number(*args: Any, **kwargs: Any) -> Any:
+    from elastica_magnetic.cli import number
+
+    return number(*args, **kwargs)
+
+
 def _print(result: dict[str, Any], as_json: bool) -> None:
     from elastica_magnetic.cli import print_result
 
@@ -72,9 +79,13 @@ def _stream(args: argparse.Namespace) -> int:
     from elastica_magnetic.hardware.export import write_expected_codes
     from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
     from elastica_magnetic.hardware.stream import StreamError, stream_field
+    from elastica_magnetic.io import prepare_output_file
 
     field_T = read_field_csv(args.field_csv)
     cal = load_calibration(args.calibration) if args.calibration else None
+    for option, path in (("--log", args.log), ("--codes-out", args.codes_out)):
+        if path:
+            prepare_output_file(path, option)
     try:
         result = stream_field(args.port, field_T, baudrate=args.baud, corrupt_row=args.corrupt_row,
                               timeout_s=args.timeout, log_path=args.log,
