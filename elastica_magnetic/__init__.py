@@ -8,7 +8,13 @@ ground with an adjustable tolerance, robot presets and a simulation builder. SI 
 from .batch import BatchedRobots, BatchedSimulationDiverged
 from .field_csv import FieldCSVError, read_field_csv, write_field_csv
 from .fields import ConstantField, ControlledField, RampedField, RotatingField, TabulatedField
-from .forcing import LegacyInternalDamping, MagneticTorques, RelativeVelocityDamping
+from .forcing import (
+    FieldValueError,
+    LegacyInternalDamping,
+    MagneticTorques,
+    RelativeVelocityDamping,
+    evaluate_field,
+)
 from .ground import FrictionalGroundContact
 from .magnetization import (
     YAO2023_MAGNETIZATION,
@@ -52,6 +58,7 @@ __all__ = [
     "ControlledField",
     "DampingSpec",
     "FieldCSVError",
+    "FieldValueError",
     "FrictionalGroundContact",
     "GroundSpec",
     "LegacyInternalDamping",
@@ -73,6 +80,7 @@ __all__ = [
     "build_simulation",
     "element_centres",
     "equivalent_radius",
+    "evaluate_field",
     "hu2018_robot",
     "magnetization_from_function",
     "read_field_csv",

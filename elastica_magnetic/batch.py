@@ -286,6 +286,8 @@ class BatchedRobots:
     @fields.setter
     def fields(self, value: ArrayLike) -> None:
         value = np.asarray(value, dtype=np.float64)
+        if not np.all(np.isfinite(value)):
+            raise ValueError(f"fields must be finite (tesla), got {value.tolist()}")
         try:
             self._fields[...] = value
         except ValueError:

@@ -29,7 +29,7 @@ from elastica.external_forces import NoForces
 from . import simulation as simulation_module
 from .batch import BatchedRobots
 from .fields import ControlledField, RotatingField
-from .forcing import LegacyInternalDamping, MagneticTorques, RelativeVelocityDamping
+from .forcing import LegacyInternalDamping, MagneticTorques, RelativeVelocityDamping, evaluate_field
 from .presets import RobotSpec, yao2023_robot
 from .simulation import (
     MagneticRodSimulator,
@@ -59,7 +59,7 @@ class NaiveMagneticTorques(MagneticTorques):
 
     def apply_torques(self, system, time=0.0) -> None:
         moment = self.moment_in_material_frame(system)
-        field = np.asarray(self.field(time))
+        field = evaluate_field(self.field, time)
         for i in range(system.n_elems):
             b = system.director_collection[:, :, i] @ field
             system.external_torques[:, i] += np.cross(moment[:, i], b)

@@ -14,8 +14,9 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 # Modules that provide ``register(subparsers)``; missing optional areas are skipped.
@@ -29,6 +30,56 @@ COMMAND_MODULES = (
 
 class CommandError(Exception):
     """An error to report to the user as one clear line (exit status 2)."""
+
+
+def number(
+    unit: str,
+    low: float | None = None,
+    high: float | None = None,
+    *,
+    integer: bool = False,
+    low_open: bool = False,
+    high_open: bool = False,
+) -> Callable[[str], Any]:
+    """An argparse ``type`` for a finite number (an integer with ``integer``) in a range, with its
+    unit in the message: ``type=number("s", 0, 3600, low_open=True)`` accepts ``(0, 3600]``."""
+    if low is not None and high is not None:
+        where = f"{'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}"
+    elif low is not None:
+        where = f"{'>' if low_open else '>='} {low:g}"
+    elif high is not None:
+        where = f"{'<' if high_open else '<='} {high:g}"
+    else:
+        where = ""
+    kind = "an integer" if integer else "a finite number"
+    if where:
+        where = f" in {where}" if where[0] in "[(" else f" {where}"
+    expected = f"{kind}{' of ' + unit if unit else ''}{where}"
+
+    def parse(text: str) -> Any:
+        try:
+            value: Any = int(text) if integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}") from None
+        ok = math.isfinite(value)
+        if ok and low is not None:
+            ok = value > low if low_open else value >= low
+        if ok and high is not None:
+            ok = value < high if high_open else value <= high
+        if not ok:
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}")
+        return value
+
+    parse.__name__ = f"number ({unit})" if unit else "number"
+    return parse
+
+
+def duration_option() -> Callable[[str], float]:
+    """The argparse ``type`` of ``--duration`` (s) of the commands that simulate."""
+    from .openloop import MAX_DURATION_S
+    from .presets import ACTION_PERIOD
+
+    return number("s", ACTION_PERIOD, MAX_DURATION_S)
 
 
 def print_result(result: dict[str, Any], as_json: bool) -> None:
@@ -65,7 +116,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         status = args.func(args)
-    except (CommandError, ValueError, FileNotFoundError, SimulationDiverged) as exc:
+    except (CommandError, ValueError, OSError, SimulationDiverged) as exc:
         print(f"msr {args.command}: error: {exc}", file=sys.stderr)
         return 2
     return int(status or 0)

@@ -8,12 +8,17 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .cli import CommandError, print_result
+from .cli import CommandError, duration_option, number, print_result
 from .fields import RotatingField, TabulatedField
+from .io import prepare_output_dir
 from .openloop import run_open_loop, write_trajectory_csv
 from .presets import ROBOTS, robot_by_name
 
 YAO_ROBOTS = tuple(r for r in ROBOTS if r.startswith("yao2023"))
+#: Largest ``msr simulate --amplitude``, T (the paper's fields are 4 and 10 mT).
+MAX_AMPLITUDE_T = 0.1
+#: Half the 100 Hz rate of the trajectory and field records: faster rotations would alias.
+NYQUIST_HZ = 50.0
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -26,7 +31,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("field_csv", type=Path, help="field CSV: mag_x, mag_y, mag_z in mT, 100 rows/s")
     p.add_argument("--robot", choices=YAO_ROBOTS, default="yao2023-m1")
     p.add_argument("--physics", choices=("accurate", "training"), default="accurate")
-    p.add_argument("--duration", type=float, default=None, help="s (default: the waveform's length)")
+    p.add_argument("--duration", type=duration_option(), default=None,
+                   help="s, at most the waveform's length (default: the waveform's length)")
     p.add_argument("--reference", type=Path, default=None,
                    help="a trajectory.csv to compare with (drawn dashed; differences reported)")
     p.add_argument("--out", type=Path, default=Path("out/replay"), help="output folder")
@@ -41,11 +47,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--robot", choices=YAO_ROBOTS, default="yao2023-m1")
     p.add_argument("--physics", choices=("accurate", "training"), default="accurate")
-    p.add_argument("--amplitude", type=float, default=4e-3, help="field amplitude, T")
-    p.add_argument("--frequency", type=float, default=-1.0,
-                   help="rotation frequency, Hz (negative: clockwise, rolls the robot towards +x)")
-    p.add_argument("--ramp", type=float, default=0.2, help="amplitude ramp-up time, s")
-    p.add_argument("--duration", type=float, default=3.0, help="s")
+    p.add_argument("--amplitude", type=number("T", 0.0, MAX_AMPLITUDE_T, low_open=True), default=4e-3,
+                   help=f"field amplitude, T (at most {MAX_AMPLITUDE_T:g})")
+    p.add_argument("--frequency", default=-1.0,
+                   type=number("Hz", -NYQUIST_HZ, NYQUIST_HZ, low_open=True, high_open=True),
+                   help="rotation frequency, Hz (negative: clockwise, rolls the robot "
+                   f"towards +x); |f| < {NYQUIST_HZ:g} Hz, the Nyquist limit of the 100 Hz output")
+    p.add_argument("--ramp", type=number("s", 0.0), default=None,
+                   help="amplitude ramp-up time, s (0: none; at most --duration; default 0.2 or "
+                   "--duration if shorter)")
+    p.add_argument("--duration", type=duration_option(), default=3.0, help="s")
     p.add_argument("--out", type=Path, default=Path("out/simulate"), help="output folder")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=simulate_command)
@@ -68,21 +79,27 @@ def _progress(total: int, description: str):
 def replay_command(args: argparse.Namespace) -> int:
     field = TabulatedField.from_csv(args.field_csv)
     duration = field.duration if args.duration is None else args.duration
+    if duration > field.duration + 1e-9:
+        raise CommandError(
+            f"--duration {duration:g} s is past the end of {args.field_csv} ({field.duration:g} s: "
+            f"{field.samples.shape[0]} rows at 100 Hz); the coil driver zeroes the field after the "
+            "last row, so give at most the file's length"
+        )
     spec = robot_by_name(args.robot, args.physics)
+    # Every input and the output folder are checked before the simulation starts.
+    reference = _read_reference(args.reference, duration) if args.reference is not None else None
+    out = prepare_output_dir(args.out)
     result = run_open_loop(
         spec, field, duration, progress=_progress(int(round(duration * 100)), "replay")
     )
-    args.out.mkdir(parents=True, exist_ok=True)
-    trajectory_csv = write_trajectory_csv(result.trajectory, args.out / "trajectory.csv")
-    reference = None
+    trajectory_csv = write_trajectory_csv(result.trajectory, out / "trajectory.csv")
     summary: dict[str, object] = {}
-    if args.reference is not None:
-        reference = _read_reference(args.reference)
+    if reference is not None:
         summary = compare_trajectories(result.trajectory, reference)
     from .plotting import plot_open_loop
 
     figure = plot_open_loop(
-        result, args.out / "replay.png",
+        result, out / "replay.png",
         title=f"{args.robot}, {args.physics} physics: {args.field_csv.name}", reference=reference,
     )
     print_result({**_summary(args, result, trajectory_csv, figure), **summary}, args.json)
@@ -90,17 +107,24 @@ def replay_command(args: argparse.Namespace) -> int:
 
 
 def simulate_command(args: argparse.Namespace) -> int:
+    if args.ramp is None:
+        args.ramp = min(0.2, args.duration)
+    if args.ramp > args.duration:
+        raise CommandError(
+            f"--ramp {args.ramp:g} s is longer than --duration {args.duration:g} s: the field would "
+            "never reach its amplitude"
+        )
     spec = robot_by_name(args.robot, args.physics)
     field = RotatingField(args.amplitude, args.frequency, phase=0.5 * np.pi, ramp_time=args.ramp)
+    out = prepare_output_dir(args.out)
     result = run_open_loop(
         spec, field, args.duration, progress=_progress(int(round(args.duration * 100)), "simulate")
     )
-    args.out.mkdir(parents=True, exist_ok=True)
-    trajectory_csv = write_trajectory_csv(result.trajectory, args.out / "trajectory.csv")
+    trajectory_csv = write_trajectory_csv(result.trajectory, out / "trajectory.csv")
     from .plotting import plot_open_loop
 
     figure = plot_open_loop(
-        result, args.out / "shapes.png",
+        result, out / "shapes.png",
         title=f"{args.robot} under a {1e3 * args.amplitude:g} mT field rotating at "
         f"{args.frequency:g} Hz ({args.physics} physics)",
     )
@@ -122,22 +146,49 @@ def _summary(args, result, trajectory_csv: Path, figure: Path) -> dict[str, obje
     }
 
 
-def _read_reference(path: Path) -> pd.DataFrame:
+def _read_reference(path: Path, duration: float) -> pd.DataFrame:
+    """The reference trajectory of ``msr replay --reference``, checked: the columns of
+    ``trajectory.csv``, numbers only, and at least two frames within ``[0, duration]`` s."""
     from .simulation import TRAJECTORY_COLUMNS
 
     if not path.is_file():
-        raise CommandError(f"{path}: no such reference trajectory")
-    reference = pd.read_csv(path)
+        raise CommandError(f"--reference {path}: no such reference trajectory")
+    try:
+        reference = pd.read_csv(path, encoding="utf-8-sig")
+    except pd.errors.EmptyDataError:
+        raise CommandError(
+            f"--reference {path}: empty file, expected the columns of trajectory.csv"
+        ) from None
+    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise CommandError(f"--reference {path}: not a readable UTF-8 CSV: {exc}") from None
     missing = [c for c in TRAJECTORY_COLUMNS if c not in reference.columns]
     if missing:
-        raise CommandError(f"{path}: reference trajectory lacks column(s) {', '.join(missing)}")
+        raise CommandError(f"--reference {path}: lacks column(s) {', '.join(missing)}")
+    if reference.empty:
+        raise CommandError(f"--reference {path}: header but no data rows")
+    reference = reference[list(TRAJECTORY_COLUMNS)]
+    values = reference.apply(pd.to_numeric, errors="coerce").to_numpy(dtype=np.float64)
+    bad = ~np.isfinite(values)
+    if bad.any():
+        row, col = (int(i) for i in np.argwhere(bad)[0])
+        raise CommandError(
+            f"--reference {path}: line {row + 2}, column {TRAJECTORY_COLUMNS[col]}: "
+            f"{reference.iloc[row, col]!r} is not a finite number (SI units: s, m)"
+        )
+    reference = pd.DataFrame(values, columns=list(TRAJECTORY_COLUMNS))
+    within = int(np.count_nonzero((reference.t_s >= -1e-9) & (reference.t_s <= duration + 1e-9)))
+    if within < 2:
+        raise CommandError(
+            f"--reference {path}: {within} frame(s) within the replayed 0 to {duration:g} s "
+            f"(its t_s spans {reference.t_s.min():g} to {reference.t_s.max():g} s); need at least 2"
+        )
     return reference
 
 
 def compare_trajectories(trajectory: pd.DataFrame, reference: pd.DataFrame) -> dict[str, float]:
     """Differences between a simulated trajectory and a reference, on the reference's frames
     within the simulated time span (linear interpolation of the simulation). Lengths in m."""
-    ref = reference[reference.t_s <= trajectory.t_s.iloc[-1] + 1e-9]
+    ref = reference[(reference.t_s >= -1e-9) & (reference.t_s <= trajectory.t_s.iloc[-1] + 1e-9)]
     out: dict[str, float] = {}
     for column in ("mid_x_m", "mid_y_m", "back_x_m", "front_x_m", "height_max_m", "span_m"):
         sim = np.interp(ref.t_s, trajectory.t_s, trajectory[column])

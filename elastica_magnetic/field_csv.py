@@ -10,11 +10,14 @@ Inside the package fields are in tesla; the conversion happens here and only her
 from __future__ import annotations
 
 import csv
+import io
 import math
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
+
+from .io import atomic_write
 
 #: Rows per second of a field CSV (the paper's 100 Hz field update).
 FIELD_CSV_RATE_HZ = 100.0
@@ -52,8 +55,7 @@ def read_field_csv(path: str | Path) -> NDArray[np.float64]:
     path = Path(path)
     if not path.is_file():
         raise FieldCSVError(f"{path}: no such field CSV file")
-    with path.open(newline="") as handle:
-        rows = list(csv.reader(handle))
+    rows = _csv_rows(path, FieldCSVError)
     rows_with_lines = [(i + 1, r) for i, r in enumerate(rows) if any(c.strip() for c in r)]
     if not rows_with_lines:
         raise FieldCSVError(f"{path}: empty file, expected columns {', '.join(FIELD_COLUMNS)} (mT)")
@@ -116,10 +118,30 @@ def read_field_csv(path: str | Path) -> NDArray[np.float64]:
     return field
 
 
+def _csv_rows(path: Path, error: type[Exception]) -> list[list[str]]:
+    """Rows of a UTF-8 CSV file (a byte-order mark is skipped); decoding and CSV syntax errors are
+    raised as ``error`` naming the file and line."""
+    data = path.read_bytes()
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        raise error(
+            f"{path}: line {line}: byte {data[exc.start]:#04x} is not UTF-8 text; save the file as "
+            "UTF-8 (or plain ASCII) CSV"
+        ) from None
+    reader = csv.reader(io.StringIO(text, newline=""))
+    try:
+        return list(reader)
+    except csv.Error as exc:
+        raise error(f"{path}: line {reader.line_num}: {exc}") from None
+
+
 def write_field_csv(path: str | Path, field_tesla: NDArray[np.float64]) -> Path:
     """Write a field (``(n_rows, 3)`` in tesla) as a field CSV in the paper's format (mT).
 
-    The header is ``,mag_x,mag_y,mag_z`` with an unnamed index column, as published.
+    The header is ``,mag_x,mag_y,mag_z`` with an unnamed index column, as published. The file is
+    written atomically (:func:`~elastica_magnetic.io.atomic_write`).
     """
     field_tesla = np.asarray(field_tesla, dtype=np.float64)
     if field_tesla.ndim != 2 or field_tesla.shape[1] != 3:
@@ -128,7 +150,7 @@ def write_field_csv(path: str | Path, field_tesla: NDArray[np.float64]) -> Path:
         raise ValueError("field contains non-finite values")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as handle:
+    with atomic_write(path, "w", newline="") as handle:
         writer = csv.writer(handle, lineterminator="\n")
         writer.writerow(["", *FIELD_COLUMNS])
         for i, b in enumerate(field_tesla / MILLITESLA):

@@ -10,8 +10,9 @@ Units are SI throughout: m, kg, s, N, T, A/m.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from elastica.external_forces import NoForces
@@ -19,12 +20,49 @@ from numba import njit
 from numpy.typing import NDArray
 
 __all__ = [
+    "FieldValueError",
     "MagneticTorques",
+    "evaluate_field",
     "RelativeVelocityDamping",
     "LegacyInternalDamping",
 ]
 
 FieldFunction = Callable[[float], NDArray[np.float64]]
+
+
+class FieldValueError(ValueError):
+    """A field callable returned something other than a finite ``(3,)`` field in tesla."""
+
+
+def evaluate_field(field: FieldFunction, time: float) -> NDArray[np.float64]:
+    """``field(time)``, checked: a finite float64 array of shape ``(3,)`` (T), else
+    :class:`FieldValueError` naming the time and what was returned. About 1 us per call."""
+    value = field(time)
+    if type(value) is not np.ndarray or value.dtype != np.float64 or value.shape != (3,):
+        value = _coerce_field(field, time, value)
+    if not all(map(math.isfinite, value.tolist())):
+        raise FieldValueError(_field_message(field, time, value, "non-finite value"))
+    return value
+
+
+def _coerce_field(field: FieldFunction, time: float, value: Any) -> NDArray[np.float64]:
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise FieldValueError(_field_message(field, time, value, "not numeric")) from None
+    if array.shape != (3,):
+        raise FieldValueError(_field_message(field, time, value, f"shape {array.shape}"))
+    return array
+
+
+def _field_message(field: FieldFunction, time: float, value: Any, problem: str) -> str:
+    text = np.array2string(value, threshold=8) if isinstance(value, np.ndarray) else repr(value)
+    text = " ".join(text.split())
+    if len(text) > 120:
+        text = text[:117] + "..."
+    return (f"field callable {getattr(field, '__qualname__', type(field).__name__)} returned "
+            f"{text} at t = {float(time):.6g} s ({problem}); expected a finite array of shape (3,) "
+            "in tesla")
 
 
 class MagneticTorques(NoForces):
@@ -108,10 +146,9 @@ class MagneticTorques(NoForces):
         return self._moment_material
 
     def apply_torques(self, system, time: np.float64 = np.float64(0.0)) -> None:
-        field = np.asarray(self.field(time), dtype=np.float64)
         _magnetic_torques(
             self.moment_in_material_frame(system),
-            field,
+            evaluate_field(self.field, time),
             system.director_collection,
             system.external_torques,
         )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time as wallclock
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -11,10 +12,26 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from .forcing import evaluate_field
+from .io import atomic_write
 from .presets import ACTION_PERIOD, RobotSpec
 from .simulation import TRAJECTORY_COLUMNS, FieldFunction, build_simulation
 
-__all__ = ["OpenLoopResult", "run_open_loop", "write_trajectory_csv"]
+__all__ = ["MAX_DURATION_S", "OpenLoopResult", "check_duration", "run_open_loop", "write_trajectory_csv"]
+
+#: Longest simulated time a run accepts, s (an hour: ~10 h of accurate physics, 360000 rows).
+MAX_DURATION_S = 3600.0
+
+
+def check_duration(duration: float) -> float:
+    """``duration`` (s) if it is finite, at least one 0.01 s interval and at most
+    :data:`MAX_DURATION_S`; else ValueError saying so."""
+    duration = float(duration)
+    if not (math.isfinite(duration) and ACTION_PERIOD - 1e-12 <= duration <= MAX_DURATION_S):
+        raise ValueError(
+            f"duration must be a time in s from {ACTION_PERIOD:g} to {MAX_DURATION_S:g}, got {duration}"
+        )
+    return duration
 
 
 @dataclass
@@ -86,11 +103,7 @@ def run_open_loop(
     SimulationDiverged
         On NaN or a runaway velocity, naming the time and element.
     """
-    if not (duration > 0.0 and np.isfinite(duration)):
-        raise ValueError(f"duration must be a positive time in s, got {duration}")
-    n_actions = int(round(duration / ACTION_PERIOD))
-    if n_actions < 1:
-        raise ValueError(f"duration {duration} s is shorter than one 0.01 s interval")
+    n_actions = int(round(check_duration(duration) / ACTION_PERIOD))
     simulation = build_simulation(spec, field_source)
     steps = spec.steps_per_action
     shape_at = set(np.linspace(0, n_actions, max(n_shapes, 2)).round().astype(int).tolist())
@@ -99,7 +112,7 @@ def run_open_loop(
     fields = np.empty((n_actions, 3))
     start = wallclock.perf_counter()
     for i in range(n_actions):
-        fields[i] = field_source(simulation.time)
+        fields[i] = evaluate_field(field_source, simulation.time)
         simulation.step(steps)
         rows.append(simulation.markers())
         if i + 1 in shape_at:
@@ -112,11 +125,11 @@ def run_open_loop(
 
 
 def write_trajectory_csv(trajectory: pd.DataFrame, path: str | Path) -> Path:
-    """Write a trajectory with the reference's columns and number format."""
+    """Write a trajectory with the reference's columns and number format (atomically)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     out = trajectory[list(TRAJECTORY_COLUMNS)]
-    with path.open("w", newline="") as handle:
+    with atomic_write(path, "w", newline="") as handle:
         handle.write(",".join(TRAJECTORY_COLUMNS) + "\n")
         for row in out.itertuples(index=False):
             handle.write(f"{row[0]:.6f}," + ",".join(f"{v:.9e}" for v in row[1:]) + "\n")

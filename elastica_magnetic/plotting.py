@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .io import atomic_save
 from .openloop import OpenLoopResult
 
 __all__ = ["plot_open_loop"]
@@ -84,6 +85,8 @@ def plot_open_loop(
     ax_b.legend(fontsize=7)
     if title:
         fig.suptitle(title)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    try:
+        atomic_save(path, lambda tmp: fig.savefig(tmp, dpi=110))
+    finally:
+        plt.close(fig)
     return path

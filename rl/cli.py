@@ -9,7 +9,7 @@ import math
 import sys
 from pathlib import Path
 
-from elastica_magnetic.cli import CommandError, print_result
+from elastica_magnetic.cli import CommandError, duration_option, number, print_result
 
 from .recipes import DEFAULT_RECIPE, RECIPES
 
@@ -18,7 +18,7 @@ CASE_NAMES = ("m1-4mT", "m2-4mT", "m1-10mT", "m2-10mT")
 
 def _add_rollout_options(p: argparse.ArgumentParser, out: Path) -> None:
     """The options of the commands that roll a policy out and write what ``generate`` writes."""
-    p.add_argument("--duration", type=float, default=10.0, help="s")
+    p.add_argument("--duration", type=duration_option(), default=10.0, help="s")
     p.add_argument("--out", type=Path, default=out)
     p.add_argument("--physics", choices=("accurate", "training"), default="accurate")
     p.add_argument("--no-figures", action="store_true", help="skip the figures and the GIF")
@@ -169,7 +169,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "files as `msr generate`: a rotating field rolls the robot, the gait to beat.",
     )
     p.add_argument("--case", choices=CASE_NAMES, required=True)
-    p.add_argument("--period", type=float, default=2.0, help="s per turn of the field (2)")
+    p.add_argument("--period", type=number("s", 0.0, low_open=True), default=2.0,
+                   help="s per turn of the field (2)")
     p.add_argument("--counterclockwise", action="store_true",
                    help="turn counter-clockwise (rolls towards -x)")
     _add_rollout_options(p, Path("out/baseline"))
@@ -186,7 +187,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--name", required=True, help="policy name, e.g. m1-4mT")
     p.add_argument("--dest", type=Path, default=None, help="default: the package's rl/policies")
     p.add_argument("--no-measure", action="store_true", help="skip the evaluation run")
-    p.add_argument("--duration", type=float, default=10.0, help="evaluation length, s")
+    p.add_argument("--duration", type=duration_option(), default=10.0, help="evaluation length, s")
     p.add_argument("--force", action="store_true", help="overwrite an existing policy")
     p.add_argument("--evaluate-seeds", action="store_true",
                    help="also run every seed of the case (final checkpoints) in the accurate physics "
@@ -223,7 +224,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="generate with the shipped pattern-1 4 mT policy (fields, figures, animation)",
     )
     p.add_argument("--out", type=Path, default=Path("out/demo"))
-    p.add_argument("--duration", type=float, default=10.0, help="s")
+    p.add_argument("--duration", type=duration_option(), default=10.0, help="s")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=demo_command)

@@ -379,7 +379,10 @@ class MagneticCrawlerEnv(gym.Env):
             raise RuntimeError("call reset() before step()")
         if self._diverged:
             raise RuntimeError("the simulation diverged (terminated=True): call reset()")
-        a = np.clip(np.asarray(action, dtype=np.float64).reshape(2), -1.0, 1.0)
+        a = np.asarray(action, dtype=np.float64)
+        if a.size != 2:
+            raise ValueError(f"action must have 2 components (normalised dB_x, dB_y), got shape {a.shape}")
+        a = np.clip(a.reshape(2), -1.0, 1.0)
         if not np.all(np.isfinite(a)):
             raise ValueError(f"action must be finite, got {action!r}")
         self.field.apply_increment(a * self.max_increment)

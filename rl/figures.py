@@ -24,6 +24,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from elastica_magnetic.io import atomic_save
+
 from .rollout import ROLLOUT_NPZ, Rollout
 
 __all__ = [
@@ -57,8 +59,7 @@ def _figure(figsize: tuple[float, float], **kw: Any):
 def _save(fig, path: str | Path, dpi: int = 110) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi)
-    return path
+    return atomic_save(path, lambda tmp: fig.savefig(tmp, dpi=dpi))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -405,17 +406,23 @@ def animate_gait(rollout: Rollout, path: str | Path, fps: int = 20, dpi: int = 8
     arrow_origin = (x1 - 0.12 * (x1 - x0), y1 - 0.35 * (y1 - y0))
     arrow = None
     writer = PillowWriter(fps=fps)
-    with writer.saving(fig, str(path), dpi):
-        for k in frames:
-            line.set_data(MM * positions[k, 0], MM * positions[k, 1])
-            trace.set_data(MM * positions[: k + 1, 0, mid], MM * positions[: k + 1, 1, mid])
-            field = rollout.fields[k - 1] if k > 0 else np.zeros(3)
-            if arrow is not None:
-                arrow.remove()
-            arrow = _draw_field_arrow(ax, field, limit, arrow_origin, MM * length)
-            text.set_text(f"t = {times[k]:.2f} s   B = ({MT * field[0]:+.2f}, {MT * field[1]:+.2f}) mT")
-            writer.grab_frame()
-    return path
+
+    def write(tmp: Path) -> None:
+        nonlocal arrow
+        with writer.saving(fig, str(tmp), dpi):
+            for k in frames:
+                line.set_data(MM * positions[k, 0], MM * positions[k, 1])
+                trace.set_data(MM * positions[: k + 1, 0, mid], MM * positions[: k + 1, 1, mid])
+                field = rollout.fields[k - 1] if k > 0 else np.zeros(3)
+                if arrow is not None:
+                    arrow.remove()
+                arrow = _draw_field_arrow(ax, field, limit, arrow_origin, MM * length)
+                text.set_text(
+                    f"t = {times[k]:.2f} s   B = ({MT * field[0]:+.2f}, {MT * field[1]:+.2f}) mT"
+                )
+                writer.grab_frame()
+
+    return atomic_save(path, write)
 
 
 def rollout_figures(

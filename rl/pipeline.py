@@ -39,6 +39,9 @@ from typing import Any
 
 import numpy as np
 
+from elastica_magnetic.io import atomic_save, atomic_write, atomic_write_text, prepare_output_dir
+from elastica_magnetic.openloop import check_duration
+
 from .backends import BACKENDS, run_jobs
 from .baselines import RotatingFieldPolicy
 from .env import CASES, MAX_FIELD_INCREMENT, MagneticCrawlerEnv, observation_spec
@@ -48,6 +51,7 @@ __all__ = [
     "AUTHORS_DISTANCE_10S",
     "LoadedPolicy",
     "POLICIES_DIR",
+    "PolicyFileError",
     "PolicyNotFoundError",
     "crawler_config",
     "demo",
@@ -62,6 +66,7 @@ __all__ = [
     "summarize_run",
     "train_case",
     "train_cases",
+    "weights_sha256",
 ]
 
 #: Folder of the shipped policies (``rl/policies/<name>/``).
@@ -83,6 +88,24 @@ EVAL_DURATION = 10.0
 
 class PolicyNotFoundError(FileNotFoundError):
     """A policy argument that names no run, checkpoint or shipped policy."""
+
+
+class PolicyFileError(ValueError):
+    """A policy file that is corrupted, truncated or does not match its ``policy.json``; the
+    message names the file."""
+
+
+def weights_sha256(state_dict: dict[str, Any]) -> str:
+    """SHA-256 of a network's weights (names, dtypes, shapes and values, in name order): stored in
+    ``policy.json`` to check that ``actor.pt`` is the actor it describes."""
+    import hashlib
+
+    digest = hashlib.sha256()
+    for name in sorted(state_dict):
+        tensor = state_dict[name].detach().cpu().contiguous()
+        digest.update(f"{name}|{tensor.dtype}|{tuple(tensor.shape)}|".encode())
+        digest.update(tensor.numpy().tobytes())
+    return digest.hexdigest()
 
 
 # ----------------------------------------------------------------------------------------------
@@ -131,10 +154,7 @@ def _versions() -> dict[str, str]:
 
 def _write_json(path: Path, data: dict[str, Any]) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(data, indent=2, default=str) + "\n")
-    os.replace(tmp, path)
-    return path
+    return atomic_write_text(path, json.dumps(data, indent=2, default=str) + "\n")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -589,24 +609,67 @@ class LoadedPolicy:
 
 
 def _build_networks(obs_dim: int, act_dim: int, hidden: tuple[int, ...], actor_state: dict,
-                    critic_state: dict | None):
+                    critic_state: dict | None, source: Path | None = None):
     from .td3 import Actor, TwinCritic
 
-    actor = Actor(obs_dim, act_dim, hidden)
-    actor.load_state_dict(actor_state)
-    actor.eval().requires_grad_(False)
+    def load(network, state, what: str):
+        try:
+            network.load_state_dict(state)
+        except (RuntimeError, KeyError, TypeError, AttributeError) as exc:
+            first = str(exc).strip().splitlines()
+            raise PolicyFileError(
+                f"{source}: the {what} weights do not fit the architecture it declares "
+                f"(observations {obs_dim}, actions {act_dim}, hidden sizes {list(hidden)}): "
+                f"{' '.join(first[1:3] or first)[:300]}"
+            ) from None
+        return network.eval().requires_grad_(False)
+
+    actor = load(Actor(obs_dim, act_dim, hidden), actor_state, "actor")
     critic = None
     if critic_state is not None:
-        critic = TwinCritic(obs_dim, act_dim, hidden)
-        critic.load_state_dict(critic_state)
-        critic.eval().requires_grad_(False)
+        critic = load(TwinCritic(obs_dim, act_dim, hidden), critic_state, "critic")
     return actor, critic
+
+
+def _torch_load(path: Path) -> Any:
+    """``torch.load`` of a policy file; a truncated or corrupted file is a PolicyFileError naming it."""
+    import torch
+
+    try:
+        return torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as exc:  # torch raises EOFError, RuntimeError, UnpicklingError, ...
+        raise PolicyFileError(
+            f"{path}: cannot be read as a torch file ({type(exc).__name__}: "
+            f"{str(exc).splitlines()[0][:200] if str(exc) else 'empty or truncated'}); "
+            "restore it from the run or the repository"
+        ) from None
+
+
+def _policy_json(path: Path) -> dict[str, Any]:
+    """``policy.json`` of a shipped-format folder, with the keys loading needs checked."""
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise PolicyFileError(f"{path}: not valid JSON ({exc})") from None
+    arch = meta.get("architecture") if isinstance(meta, dict) else None
+    if not isinstance(arch, dict) or not isinstance(meta.get("case"), str):
+        raise PolicyFileError(f"{path}: lacks 'case' or 'architecture' (not a {POLICY_FORMAT} file)")
+    missing = [k for k in ("obs_dim", "act_dim", "hidden_sizes") if k not in arch]
+    if missing:
+        raise PolicyFileError(f"{path}: architecture lacks {', '.join(missing)}")
+    try:
+        arch["hidden_sizes"] = [int(h) for h in arch["hidden_sizes"]]
+        arch["obs_dim"], arch["act_dim"] = int(arch["obs_dim"]), int(arch["act_dim"])
+    except (TypeError, ValueError):
+        raise PolicyFileError(f"{path}: architecture sizes must be integers, got {arch}") from None
+    if meta["case"] not in CASES:
+        raise PolicyFileError(f"{path}: unknown case {meta['case']!r}; known: {', '.join(CASES)}")
+    return meta
 
 
 def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -> LoadedPolicy:
     """Load a policy from a run directory, a checkpoint file, a shipped-format directory
     (``actor.pt`` + ``policy.json``), or a shipped name (``rl/policies/<name>``), in that order."""
-    import torch
 
     from .checkpoint import load_checkpoint
 
@@ -617,25 +680,43 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
     if path.is_dir() and (path / "checkpoint.pt").is_file():
         path = path / "checkpoint.pt"
     if path.is_file():
-        ckpt = load_checkpoint(path)
+        try:
+            ckpt = load_checkpoint(path)
+        except ValueError:
+            raise
+        except Exception as exc:  # a truncated or corrupted file
+            raise PolicyFileError(
+                f"{path}: cannot be read as a checkpoint ({type(exc).__name__}: "
+                f"{str(exc).splitlines()[0][:200] if str(exc) else 'empty or truncated'})"
+            ) from None
         meta = _checkpoint_metadata(ckpt, path)
-        hidden = tuple(ckpt["config"]["hidden_sizes"])
-        actor, critic = _build_networks(ckpt["obs_dim"], ckpt["act_dim"], hidden,
-                                        ckpt["agent"]["actor"], ckpt["agent"]["critic"])
+        try:
+            hidden = tuple(ckpt["config"]["hidden_sizes"])
+            actor_state, critic_state = ckpt["agent"]["actor"], ckpt["agent"]["critic"]
+            obs_dim, act_dim = ckpt["obs_dim"], ckpt["act_dim"]
+        except (KeyError, TypeError) as exc:
+            raise PolicyFileError(f"{path}: incomplete checkpoint (no {exc})") from None
+        actor, critic = _build_networks(obs_dim, act_dim, hidden, actor_state, critic_state, path)
         meta = {**meta, "global_step": int(ckpt["global_step"]), "config": ckpt["config"],
                 "checkpoint_kind": ckpt.get("kind", "full")}
         return LoadedPolicy(actor, critic, meta["case"], path, "checkpoint", meta,
                             ckpt["obs_dim"], ckpt["act_dim"], hidden)
     if path.is_dir() and (path / POLICY_JSON).is_file() and (path / "actor.pt").is_file():
-        meta = json.loads((path / POLICY_JSON).read_text())
+        meta = _policy_json(path / POLICY_JSON)
         arch = meta["architecture"]
         hidden = tuple(arch["hidden_sizes"])
-        actor_state = torch.load(path / "actor.pt", map_location="cpu", weights_only=True)
+        actor_state = _torch_load(path / "actor.pt")
+        expected = meta.get("actor_sha256")
+        if expected is not None and weights_sha256(actor_state) != expected:
+            raise PolicyFileError(
+                f"{path / 'actor.pt'}: its weights do not match the actor_sha256 of {path / POLICY_JSON} "
+                f"(case {meta['case']}): the files come from different policies"
+            )
         critic_state = None
         if (path / "critic.pt").is_file():
-            critic_state = torch.load(path / "critic.pt", map_location="cpu", weights_only=True)
+            critic_state = _torch_load(path / "critic.pt")
         actor, critic = _build_networks(arch["obs_dim"], arch["act_dim"], hidden, actor_state,
-                                        critic_state)
+                                        critic_state, path / "actor.pt")
         return LoadedPolicy(actor, critic, meta["case"], path, "shipped", meta, arch["obs_dim"],
                             arch["act_dim"], hidden)
     shipped = sorted(p.name for p in policies_dir.glob("*") if (p / POLICY_JSON).is_file()) \
@@ -856,9 +937,9 @@ def generate(
 
     from .figures import rollout_figures
 
+    check_duration(duration)
     loaded = resolve_policy(policy) if isinstance(policy, (str, Path)) else policy
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = prepare_output_dir(out)
     rollout = run_policy(loaded, duration, physics, "zero", progress)
     fields_csv = write_field_csv(out / "fields.csv", rollout.fields) if rollout.n_steps else None
     trajectory_csv = write_trajectory_csv(rollout.trajectory, out / "trajectory.csv")
@@ -866,10 +947,11 @@ def generate(
     traj = rollout.trajectory
     contact = rollout.contact()
     gait_csv = out / "gait.csv"
-    pd.DataFrame({
-        "t_s": traj.t_s, "height_max_m": traj.height_max_m, "span_m": traj.span_m,
-        "contact_back": contact[:, 0], "contact_front": contact[:, -1],
-    }).to_csv(gait_csv, index=False, float_format="%.9g")
+    with atomic_write(gait_csv, "w", newline="") as handle:
+        pd.DataFrame({
+            "t_s": traj.t_s, "height_max_m": traj.height_max_m, "span_m": traj.span_m,
+            "contact_back": contact[:, 0], "contact_front": contact[:, -1],
+        }).to_csv(handle, index=False, float_format="%.9g")
     mid = rollout.positions.shape[2] // 2
     result: dict[str, Any] = {
         "case": loaded.case,
@@ -961,6 +1043,7 @@ def ship(
         "case": policy.case,
         "pattern": case.pattern,
         "field_limit_T": case.field_limit,
+        "actor_sha256": weights_sha256(policy.actor.state_dict()),
         "architecture": {"type": "mlp", "obs_dim": policy.obs_dim, "act_dim": policy.act_dim,
                          "hidden_sizes": list(policy.hidden_sizes), "activation": "relu",
                          "output": "tanh", "module": "rl.td3.Actor (net = Sequential of Linear/ReLU)"},
@@ -1133,8 +1216,7 @@ def export_policy(policy: str | Path, out: str | Path = "out/export") -> dict[st
     from .td3 import ScaledPolicy
 
     loaded = resolve_policy(policy)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = prepare_output_dir(out)
     module = ScaledPolicy(loaded.actor, np.full(loaded.act_dim, -1.0), np.full(loaded.act_dim, 1.0))
     module.eval().requires_grad_(False)
     example = torch.zeros(2, loaded.obs_dim)
@@ -1146,11 +1228,11 @@ def export_policy(policy: str | Path, out: str | Path = "out/export") -> dict[st
         warnings.simplefilter("ignore", DeprecationWarning)
         with torch.no_grad():
             traced = torch.jit.trace(module, example, check_trace=True)
-        traced.save(str(ts_path))
+        atomic_save(ts_path, lambda tmp: traced.save(str(tmp)))
         reloaded = torch.jit.load(str(ts_path))
     batch_dim = torch.export.Dim("batch", min=1)
     exported = torch.export.export(module, (example,), dynamic_shapes=({0: batch_dim},))
-    torch.export.save(exported, str(pt2_path))
+    atomic_save(pt2_path, lambda tmp: torch.export.save(exported, str(tmp)))
     reloaded_pt2 = torch.export.load(str(pt2_path)).module()
 
     # Check: the reloaded modules give the agent's actions on real and random observations.

@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from elastica_magnetic.io import atomic_save
 from elastica_magnetic.simulation import TRAJECTORY_COLUMNS
 
 from .env import observation_layout
@@ -69,8 +70,8 @@ class Rollout:
     def save(self, directory: str | Path) -> Path:
         path = Path(directory) / ROLLOUT_NPZ
         path.parent.mkdir(parents=True, exist_ok=True)
-        np.savez_compressed(
-            path,
+        atomic_save(path, lambda tmp: np.savez_compressed(
+            tmp,
             times=self.times,
             positions=self.positions.astype(np.float32),
             fields=self.fields,
@@ -79,7 +80,7 @@ class Rollout:
             observations=self.observations,
             trajectory=self.trajectory[list(TRAJECTORY_COLUMNS)].to_numpy(),
             meta=np.array(json.dumps(self.meta, default=str)),
-        )
+        ))
         return path
 
     @classmethod

@@ -189,5 +189,8 @@ def test_fields_are_written_in_place_and_checked():
     np.testing.assert_array_equal(view[:, 1], [3e-3, 3e-3])
     with pytest.raises(ValueError, match=r"fields must broadcast to \(2, 3\)"):
         robots.fields = np.zeros((3, 3))
+    with pytest.raises(ValueError, match="fields must be finite"):
+        robots.fields = [0.0, np.nan, 0.0]
+    np.testing.assert_array_equal(view[:, 1], [3e-3, 3e-3])  # unchanged
     with pytest.raises(ValueError, match="n_robots must be a positive integer"):
         BatchedRobots(yao2023_robot(1, "training"), n_robots=0)

@@ -210,3 +210,42 @@ def test_legacy_damping_matches_old_pyelastica_formula():
     )
     with pytest.raises(ValueError, match="force_coefficient"):
         LegacyInternalDamping(-1.0, 0.0)
+
+
+@pytest.mark.parametrize(
+    "returned, problem",
+    [
+        (np.zeros(8)[:2], "shape (2,)"),
+        (np.zeros(4), "shape (4,)"),
+        (1e-3, "shape ()"),
+        (None, "shape ()"),
+        (np.zeros((3, 1)), "shape (3, 1)"),
+        ("abc", "not numeric"),
+        (np.array([0.0, np.nan, 1e-3]), "non-finite value"),
+        ([0.0, np.inf, 0.0], "non-finite value"),
+    ],
+)
+def test_bad_field_value_is_named_with_the_time(returned, problem):
+    """A field callable returning anything but a finite (3,) array: an error naming the time and
+    the value, before the kernel reads it (issue: (2,) read past the array, NaN gave NaN torques)."""
+    rod = make_rod()
+    forcing = MagneticTorques(lambda t: returned, uniform_magnetization(N, 6e4))
+    with pytest.raises(ValueError, match=r"returned .* at t = 0\.25 s") as info:
+        forcing.apply_torques(rod, 0.25)
+    assert problem in str(info.value) and "shape (3,)" in str(info.value)
+    assert np.all(rod.external_torques == 0.0)
+
+
+def test_field_as_a_list_or_int_array_still_works():
+    rod_a, rod_b = make_rod(), make_rod()
+    m = uniform_magnetization(N, 6e4)
+    MagneticTorques(lambda t: [0, 1, 0], m).apply_torques(rod_a, 0.0)
+    MagneticTorques(ConstantField([0.0, 1.0, 0.0]), m).apply_torques(rod_b, 0.0)
+    np.testing.assert_array_equal(rod_a.external_torques, rod_b.external_torques)
+
+
+def test_run_open_loop_checks_the_field_callable():
+    from elastica_magnetic import FieldValueError, run_open_loop, yao2023_robot
+
+    with pytest.raises(FieldValueError, match=r"at t = 0 s \(shape \(2,\)\)"):
+        run_open_loop(yao2023_robot(pattern=1, physics="training"), lambda t: np.zeros(2), 0.01)

@@ -26,6 +26,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from elastica_magnetic.io import atomic_write_text
+
 AXES = 3
 TESLA_PER_MILLITESLA = 1e-3
 DAC_MIDSCALE = 32768
@@ -186,13 +188,12 @@ def load_calibration(path: str | Path) -> Calibration:
 
 
 def save_calibration(path: str | Path, calibration: Calibration) -> Path:
-    """Write ``calibration`` as JSON (validated first)."""
+    """Write ``calibration`` as JSON (validated first; atomically)."""
     data = calibration.to_json_dict()
     calibration_from_dict(data, str(path))
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(data, indent=2) + "\n")
-    return path
+    return atomic_write_text(path, json.dumps(data, indent=2) + "\n")
 
 
 def default_calibration_path() -> Path:
@@ -300,6 +301,88 @@ def expected_dac_codes(calibration: Calibration, rows_mT: NDArray[np.float64]) -
     model = DacCodeModel(calibration)
     rows_mT = np.asarray(rows_mT, dtype=np.float64)
     return np.array([model.codes(r) for r in rows_mT.tolist()], dtype=np.int64).reshape(-1, AXES)
+
+
+@dataclass
+class ClippingReport:
+    """How far the coils fall short of a waveform (see :func:`clipping_report`).
+
+    Attributes
+    ----------
+    rows : int
+        Rows whose field the coils cannot reach (current limit or DAC span); slew-limited rows are
+        reached late, not clipped, and counted apart.
+    current_rows, max_current_A, current_limit_A : int, float, float
+        Rows that need more than ``current_limit_A`` on some axis; the largest current needed (A)
+        and the limit of that axis.
+    slew_rows, max_slew_A_per_s : int, float
+        Rows that need a faster current change than ``slew_limit_A_per_s`` (from 0 A at the
+        first row); the fastest change needed after the current limit (A/s).
+    dac_rows : int
+        Rows whose amplifier input voltage exceeds the DAC's span.
+    first_row : int or None
+        First clipped row (0-based data row).
+    """
+
+    rows: int
+    current_rows: int
+    max_current_A: float
+    current_limit_A: float
+    slew_rows: int
+    max_slew_A_per_s: float
+    dac_rows: int
+    first_row: int | None
+
+    def describe(self) -> str:
+        """One line: how many rows and by how much."""
+        parts = []
+        if self.current_rows:
+            parts.append(f"{self.current_rows} row(s) need more than the current limit (up to "
+                         f"{self.max_current_A:.4g} A for a limit of {self.current_limit_A:.4g} A)")
+        if self.dac_rows:
+            parts.append(f"{self.dac_rows} row(s) exceed the DAC's output span")
+        return (f"{self.rows} row(s) clipped, first at data row {self.first_row}: " + "; ".join(parts)
+                if self.rows else "no row clipped")
+
+
+def clipping_report(calibration: Calibration, rows_mT: NDArray[np.float64]) -> ClippingReport:
+    """Rows of a waveform (field in mT) that the firmware clamps to the current limit or the DAC
+    span, and rows it slew-limits, in the order :class:`DacCodeModel` applies them (from a reset
+    state)."""
+    cal = calibration
+    inverse = np.array(invert3(cal.actuation_matrix_T_per_A))
+    currents = np.asarray(rows_mT, dtype=np.float64).reshape(-1, AXES) * TESLA_PER_MILLITESLA @ inverse.T
+    limit = np.array(cal.current_limit_A)
+    over = np.abs(currents) > limit
+    ratio = np.abs(currents) / limit
+    clamped = np.clip(currents, -limit, limit)
+    max_step = np.array(cal.slew_limit_A_per_s) / cal.tick_hz
+    slew_rows = np.zeros(len(clamped), dtype=bool)
+    dac_rows = np.zeros(len(clamped), dtype=bool)
+    last = np.zeros(AXES)
+    max_slew = 0.0
+    gain = np.array(cal.transconductance_A_per_V)
+    offset = np.array(cal.input_offset_V)
+    for k, target in enumerate(clamped):
+        step = target - last
+        slewed = np.abs(step) > max_step
+        if slewed.any():
+            slew_rows[k] = True
+            max_slew = max(max_slew, float(np.max(np.abs(step))) * cal.tick_hz)
+        last = last + np.clip(step, -max_step, max_step)
+        dac_rows[k] = bool(np.any(np.abs(last / gain + offset) > cal.dac_half_span_V))
+    clipped = over.any(axis=1) | dac_rows
+    axis = np.unravel_index(int(np.argmax(ratio)), ratio.shape)[1] if ratio.size else 0
+    return ClippingReport(
+        rows=int(clipped.sum()),
+        current_rows=int(over.any(axis=1).sum()),
+        max_current_A=float(np.abs(currents).reshape(-1, AXES)[:, axis].max()) if ratio.size else 0.0,
+        current_limit_A=float(limit[axis]),
+        slew_rows=int(slew_rows.sum()),
+        max_slew_A_per_s=max_slew,
+        dac_rows=int(dac_rows.sum()),
+        first_row=int(np.flatnonzero(clipped)[0]) if clipped.any() else None,
+    )
 
 
 def calibration_header(calibration: Calibration) -> str:

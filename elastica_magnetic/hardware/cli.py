@@ -20,11 +20,12 @@ def register(subparsers: Any) -> None:
     p.add_argument("--port", required=True,
                    help="pyserial URL or device: socket://127.0.0.1:4321 (QEMU), /dev/ttyACM0")
     p.add_argument("--calibration", help="calibration JSON: compare reported codes with expected")
-    p.add_argument("--baud", type=int, default=115200)
-    p.add_argument("--timeout", type=float, default=None, help="overall limit in seconds")
+    p.add_argument("--baud", type=_number("baud", 1, integer=True), default=115200)
+    p.add_argument("--timeout", type=_number("s", 0.0, low_open=True), default=None,
+                   help="overall limit in seconds, handshake included")
     p.add_argument("--log", help="write every line the board sent to this file")
     p.add_argument("--codes-out", help="write the reported DAC codes as row,code_x,code_y,code_z")
-    p.add_argument("--corrupt-row", type=int, default=None,
+    p.add_argument("--corrupt-row", type=_number("", 0, integer=True), default=None,
                    help="fault injection: corrupt row N after its checksum (board must stop)")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
@@ -36,6 +37,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("field_csv", help="field CSV, mag_x,mag_y,mag_z in mT")
     p.add_argument("--calibration", required=True, help="calibration JSON")
     p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--allow-clipping", action="store_true",
+                   help="write a waveform beyond the coils' current limit or DAC span (the firmware "
+                   "clamps it); by default such a waveform is refused")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_export)
 
@@ -50,6 +54,12 @@ def register(subparsers: Any) -> None:
     p.add_argument("--name", default="measured", help="calibration name compiled into firmware")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_calibrate)
+
+
+def _number(*args: Any, **kwargs: Any) -> Any:
+    from elastica_magnetic.cli import number
+
+    return number(*args, **kwargs)
 
 
 def _print(result: dict[str, Any], as_json: bool) -> None:
@@ -69,9 +79,13 @@ def _stream(args: argparse.Namespace) -> int:
     from elastica_magnetic.hardware.export import write_expected_codes
     from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
     from elastica_magnetic.hardware.stream import StreamError, stream_field
+    from elastica_magnetic.io import prepare_output_file
 
     field_T = read_field_csv(args.field_csv)
     cal = load_calibration(args.calibration) if args.calibration else None
+    for option, path in (("--log", args.log), ("--codes-out", args.codes_out)):
+        if path:
+            prepare_output_file(path, option)
     try:
         result = stream_field(args.port, field_T, baudrate=args.baud, corrupt_row=args.corrupt_row,
                               timeout_s=args.timeout, log_path=args.log,
@@ -104,7 +118,7 @@ def _stream(args: argparse.Namespace) -> int:
 def _export(args: argparse.Namespace) -> int:
     from elastica_magnetic.hardware.export import export_firmware
 
-    _print(export_firmware(args.field_csv, args.calibration, args.out), args.json)
+    _print(export_firmware(args.field_csv, args.calibration, args.out, args.allow_clipping), args.json)
     return 0
 
 
@@ -119,13 +133,20 @@ def _calibrate(args: argparse.Namespace) -> int:
         load_calibration,
         save_calibration,
     )
+    from elastica_magnetic.io import prepare_output_file
 
     path = Path(args.measurements)
     if not path.is_file():
         raise _error(f"{path}: no such measurements file")
+    prepare_output_file(args.out)
     columns = ["current_x_A", "current_y_A", "current_z_A", "field_x_mT", "field_y_mT",
                "field_z_mT"]
-    table = pd.read_csv(path, skipinitialspace=True)
+    try:
+        table = pd.read_csv(path, skipinitialspace=True, encoding="utf-8-sig")
+    except pd.errors.EmptyDataError:
+        raise _error(f"{path}: empty file; expected columns {', '.join(columns)}") from None
+    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise _error(f"{path}: not a readable UTF-8 CSV: {exc}") from None
     missing = [c for c in columns if c not in table.columns]
     if missing:
         raise _error(f"{path}: missing column(s) {', '.join(missing)}; expected {', '.join(columns)}")

@@ -26,10 +26,12 @@ from elastica_magnetic.field_csv import read_field_csv
 from elastica_magnetic.hardware.calibration import (
     Calibration,
     calibration_header,
+    clipping_report,
     expected_dac_codes,
     load_calibration,
 )
 from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
+from elastica_magnetic.io import atomic_write, atomic_write_text, prepare_output_dir
 
 #: Flash left for the table after code (1 MB part): 3 doubles = 24 bytes per row.
 MAX_TABLE_ROWS = 40000
@@ -50,8 +52,8 @@ def waveform_table_source(rows_mT: NDArray[np.float64], source: str) -> str:
 
 
 def write_expected_codes(path: Path, codes: NDArray[np.int64]) -> Path:
-    """Write ``row,code_x,code_y,code_z``."""
-    with path.open("w") as handle:
+    """Write ``row,code_x,code_y,code_z`` (atomically)."""
+    with atomic_write(path, "w") as handle:
         handle.write("row,code_x,code_y,code_z\n")
         for i, (x, y, z) in enumerate(codes.tolist()):
             handle.write(f"{i},{x},{y},{z}\n")
@@ -71,8 +73,13 @@ def read_expected_codes(path: str | Path) -> NDArray[np.int64]:
 
 
 def export_firmware(field_csv: str | Path, calibration: Calibration | str | Path,
-                    out_dir: str | Path) -> dict[str, Any]:
-    """Write the three build inputs for ``field_csv`` into ``out_dir``; return a summary."""
+                    out_dir: str | Path, allow_clipping: bool = False) -> dict[str, Any]:
+    """Write the three build inputs for ``field_csv`` into ``out_dir``; return a summary.
+
+    A waveform the coils cannot reach (current limit or DAC span of the calibration,
+    see :func:`~elastica_magnetic.hardware.calibration.clipping_report`) is refused with a
+    ValueError saying how many rows and by how much, unless ``allow_clipping``; the summary reports
+    ``rows_clipped`` either way."""
     cal = calibration if isinstance(calibration, Calibration) else load_calibration(calibration)
     field_T = read_field_csv(field_csv)
     if len(field_T) > MAX_TABLE_ROWS:
@@ -81,14 +88,19 @@ def export_firmware(field_csv: str | Path, calibration: Calibration | str | Path
             "(stream longer waveforms with 'msr stream')"
         )
     rows_mT = wire_values_mT(wire_rows_mT(field_T))
+    clipping = clipping_report(cal, rows_mT)
+    if clipping.rows and not allow_clipping:
+        raise ValueError(
+            f"{field_csv}: the coils of calibration {cal.name!r} cannot follow this waveform: "
+            f"{clipping.describe()}. Lower the field, or pass --allow-clipping to play it clipped"
+        )
     codes = expected_dac_codes(cal, rows_mT)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = prepare_output_dir(out_dir)
     header = out / "calibration_gen.h"
     table = out / "waveform_table.c"
     expected = out / "expected_dac_codes.csv"
-    header.write_text(calibration_header(cal))
-    table.write_text(waveform_table_source(rows_mT, str(field_csv)))
+    atomic_write_text(header, calibration_header(cal))
+    atomic_write_text(table, waveform_table_source(rows_mT, str(field_csv)))
     write_expected_codes(expected, codes)
     return {
         "rows": len(rows_mT),
@@ -96,6 +108,9 @@ def export_firmware(field_csv: str | Path, calibration: Calibration | str | Path
         "calibration_header": str(header),
         "waveform_table": str(table),
         "expected_dac_codes": str(expected),
+        "rows_clipped": clipping.rows,
+        "clipping": clipping.describe(),
+        "rows_slew_limited": clipping.slew_rows,
         "code_min": int(codes.min()) if len(codes) else None,
         "code_max": int(codes.max()) if len(codes) else None,
     }
@@ -108,10 +123,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--calibration", required=True)
     parser.add_argument("--out", required=True)
     parser.add_argument("--quiet", action="store_true")
+    parser.add_argument("--allow-clipping", action="store_true",
+                        help="write a waveform the coils cannot follow (clamped, as the firmware does)")
     args = parser.parse_args(argv)
     try:
-        summary = export_firmware(args.field_csv, args.calibration, args.out)
-    except (ValueError, FileNotFoundError) as exc:
+        summary = export_firmware(args.field_csv, args.calibration, args.out, args.allow_clipping)
+    except (ValueError, OSError) as exc:
         print(f"export: error: {exc}", file=sys.stderr)
         return 2
     if not args.quiet:

@@ -7,6 +7,8 @@ never exceeds it, so a waveform longer than the board's memory plays without gap
 
 from __future__ import annotations
 
+import contextlib
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -134,7 +136,8 @@ def stream_field(
         Fault injection: row ``corrupt_row`` is sent with a digit changed after its checksum, so
         the firmware must stop at it with reason ``checksum``.
     timeout_s : float, optional
-        Overall limit (default: playback time + 30 s).
+        Overall limit in s, handshake included (default: playback time + 30 s; the handshake
+        waits at most 10 s either way).
     log_path : path, optional
         Every line the board sent is written there.
     progress : bool
@@ -148,30 +151,40 @@ def stream_field(
     Raises
     ------
     StreamError
-        No answer to PING, STREAM refused, or the link failed (the port's error is kept).
-
-    A stream the board accepted and that ends without a SAFE report (time-out, link error,
-    interrupt) is followed by a best-effort STOP, so the board goes to mid-scale at once.
+        The port cannot be opened, no answer to PING, STREAM refused, or the link broke; the
+        message names the port. On any failure or time-out after the port opened, ``STOP`` is
+        sent (best effort) so that the board sets zero current.
     """
     import serial  # pyserial; imported here so the module loads without it
     from tqdm import tqdm
 
+    if timeout_s is not None and not (math.isfinite(timeout_s) and timeout_s > 0):
+        raise ValueError(f"timeout_s must be a positive time in s, got {timeout_s}")
     rows = wire_rows_mT(field_T)
     n = len(rows)
     deadline_s = timeout_s if timeout_s is not None else n / PLAYBACK_HZ + 30.0
+    sync_s = min(SYNC_TIMEOUT_S, deadline_s)
     result = StreamResult(rows_total=n)
     opener = open_port or serial.serial_for_url
-    port = opener(port_url, baudrate=baudrate, timeout=READ_TIMEOUT_S)
-    log = open(log_path, "w") if log_path is not None else None  # noqa: SIM115
+    try:
+        log = open(log_path, "w") if log_path is not None else None  # noqa: SIM115
+    except OSError as exc:
+        raise StreamError(f"--log {log_path}: cannot write: {exc.strerror or exc}") from None
+    try:
+        port = opener(port_url, baudrate=baudrate, timeout=READ_TIMEOUT_S)
+    except (OSError, ValueError, serial.SerialException) as exc:
+        if log is not None:
+            log.close()
+        raise StreamError(f"{port_url}: cannot open the port ({exc}); nothing was sent") from None
     bar = tqdm(total=n, unit="row", desc="stream", disable=not progress, leave=False)
     start = time.monotonic()
-    stream_sent = False
+    finished = False
     try:
         reader = _LineReader(port, log)
         # 1. sync: PING until PONG (bytes sent before the board's UART is enabled are lost).
         last_ping = -PING_INTERVAL_S
         synced = False
-        while time.monotonic() - start < SYNC_TIMEOUT_S and not synced:
+        while time.monotonic() - start < sync_s and not synced:
             now = time.monotonic() - start
             if now - last_ping >= PING_INTERVAL_S:
                 port.write(b"\nPING\n")
@@ -182,16 +195,14 @@ def stream_field(
                     result.banner = line
                 synced = synced or line == "PONG"
         if not synced:
-            raise StreamError(f"{port_url}: no PONG within {SYNC_TIMEOUT_S:.0f} s (is the board running?)")
+            raise StreamError(f"{port_url}: no PONG within {sync_s:g} s (is the board running?)")
         # 2. start the session
         port.write(b"STREAM\n")
-        stream_sent = True
         credit = 0
         started = False
-        t_start = time.monotonic()
         while not started:
-            if time.monotonic() - t_start > SYNC_TIMEOUT_S:
-                raise StreamError(f"{port_url}: no answer to STREAM")
+            if time.monotonic() - start > deadline_s:
+                raise StreamError(f"{port_url}: no answer to STREAM within {deadline_s:g} s")
             for line in reader.poll():
                 result.lines.append(line)
                 if line.startswith("OK STREAM"):
@@ -201,11 +212,10 @@ def stream_field(
                 elif line.startswith("SAFE "):
                     result.safe = parse_safe(line)
                     raise StreamError(f"{port_url}: STREAM refused: {line}")
-        # 3. rows within the credit, then END; read reports until SAFE
+        # 3. rows within the credit, then END; read reports until SAFE or the overall time limit
         next_row = 0
         end_sent = False
-        t0 = time.monotonic()
-        while result.safe is None and time.monotonic() - t0 < deadline_s:
+        while result.safe is None and time.monotonic() - start < deadline_s:
             if next_row < n and next_row < credit:
                 upto = min(n, credit)
                 chunk = b"".join(format_row(i, rows[i], corrupt=(i == corrupt_row))
@@ -229,17 +239,28 @@ def stream_field(
                 elif line.startswith("SAFE "):
                     result.safe = parse_safe(line)
         # 4. the safe-state DAC line precedes SAFE; nothing else to wait for
-    except serial.SerialException as exc:
-        raise StreamError(f"{port_url}: link failed: {exc}") from exc
+        finished = True
+    except (OSError, serial.SerialException) as exc:
+        raise StreamError(
+            f"{port_url}: link lost after {result.rows_sent} of {n} rows ({exc}); a STOP was sent "
+            "if the port still accepted it, and the board zeroes the coils when its rows run out"
+        ) from None
     finally:
-        if stream_sent and result.safe is None:
-            try:  # the board may still be playing queued rows: mid-scale now
-                port.write(b"STOP\n")
-            except (serial.SerialException, OSError):
-                pass  # link gone: the firmware's underrun check ends at mid-scale
         result.duration_s = time.monotonic() - start
         bar.close()
         if log is not None:
             log.close()
-        port.close()
+        if not finished or result.safe is None:
+            _stop(port)  # fail safe: the board goes to zero current on STOP
+        with contextlib.suppress(Exception):
+            port.close()
     return result
+
+
+def _stop(port: Any) -> None:
+    """Best effort: ask the board for its safe state (mid-scale DAC, zero current)."""
+    with contextlib.suppress(Exception):
+        port.write(b"\nSTOP\n")
+        flush = getattr(port, "flush", None)
+        if flush is not None:
+            flush()

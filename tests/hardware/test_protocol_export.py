@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 import numpy as np
@@ -136,3 +137,23 @@ def test_cli_calibrate_bad_row_names_line(tmp_path: Path) -> None:
     args = _parser().parse_args(["calibrate", str(meas), "--out", str(tmp_path / "c.json")])
     with pytest.raises(CommandError, match="line 4"):
         args.func(args)
+
+
+def test_export_refuses_a_clipped_waveform_unless_allowed(tmp_path, capsys):
+    """A 100 mT waveform is beyond the default coils' 2.4 A: say how many rows and by how much."""
+    from elastica_magnetic.cli import main
+    from elastica_magnetic.hardware.calibration import default_calibration_path
+
+    csv_path = tmp_path / "strong.csv"
+    csv_path.write_text("mag_x,mag_y,mag_z\n" + "0,0,0\n" * 3 + "100,0,0\n" * 4 + "1,0,0\n" * 100)
+    argv = ["export-firmware", str(csv_path), "--calibration", str(default_calibration_path()),
+            "--out", str(tmp_path / "out"), "--json"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "strong.csv: the coils of calibration 'default' cannot follow this waveform" in err
+    assert "4 row(s) need more than the current limit (up to 50.03 A for a limit of 2.4 A)" in err
+    assert "4 row(s) clipped, first at data row 3" in err and "--allow-clipping" in err
+    assert not (tmp_path / "out").exists()
+    assert main([*argv, "--allow-clipping"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["rows_clipped"] == 4 and result["rows_slew_limited"] > 0

@@ -123,3 +123,83 @@ def test_stream_corrupt_row_stops_with_reason(default_calibration_path: Path) ->
     assert (result.safe.reason, result.safe.row) == ("checksum", 300)
     assert result.ended_safe
     assert result.rows_applied < 300
+
+
+class SilentPort:
+    """A port whose board never answers (or breaks after ``fail_after`` reads); records writes."""
+
+    def __init__(self, fail_after: int | None = None) -> None:
+        self.written = b""
+        self.reads = 0
+        self.fail_after = fail_after
+        self.closed = False
+
+    in_waiting = 0
+
+    def write(self, data: bytes) -> int:
+        self.written += data
+        return len(data)
+
+    def read(self, n: int) -> bytes:
+        self.reads += 1
+        if self.fail_after is not None and self.reads > self.fail_after:
+            raise OSError(5, "Input/output error")
+        return b"PONG\nOK STREAM\nCREDIT 4\n" if self.reads == 1 and self.fail_after else b""
+
+    def close(self) -> None:
+        self.closed = True
+
+
+def test_unreachable_ports_are_named() -> None:
+    import pytest
+
+    from elastica_magnetic.hardware.stream import StreamError
+
+    for url in ("socket://127.0.0.1:1", "/dev/ttyMSR_no_such_device"):
+        with pytest.raises(StreamError, match=rf"{url}: cannot open the port .*nothing was sent"):
+            stream_field(url, np.zeros((3, 3)), progress=False, timeout_s=1.0)
+
+
+def test_handshake_honours_the_timeout_and_stops_the_board() -> None:
+    import time
+
+    import pytest
+
+    from elastica_magnetic.hardware.stream import StreamError
+
+    port = SilentPort()
+    begin = time.monotonic()
+    with pytest.raises(StreamError, match="fake: no PONG within 0.2 s"):
+        stream_field("fake", np.zeros((3, 3)), progress=False, timeout_s=0.2,
+                     open_port=lambda *a, **k: port)
+    assert time.monotonic() - begin < 2.0
+    assert port.written.endswith(b"\nSTOP\n") and port.closed
+
+
+def test_board_that_disconnects_is_named_and_stopped() -> None:
+    import pytest
+
+    from elastica_magnetic.hardware.stream import StreamError
+
+    port = SilentPort(fail_after=3)
+    with pytest.raises(StreamError, match=r"fake: link lost after \d+ of 10 rows \(\[Errno 5\] Input/output"):
+        stream_field("fake", np.zeros((10, 3)), progress=False, timeout_s=5.0,
+                     open_port=lambda *a, **k: port)
+    assert port.written.endswith(b"\nSTOP\n") and port.closed
+
+
+def test_stream_options_checked_at_parse_time(capsys, tmp_path: Path) -> None:
+    import pytest
+
+    from elastica_magnetic.cli import main
+
+    for option, value in (("--timeout", "-1"), ("--timeout", "nan"), ("--baud", "0"),
+                          ("--corrupt-row", "-2")):
+        with pytest.raises(SystemExit):
+            main(["stream", "f.csv", "--port", "socket://127.0.0.1:1", option, value])
+        assert f"argument {option}: expected" in capsys.readouterr().err
+    csv_path = tmp_path / "f.csv"
+    csv_path.write_text("1,2,3\n")
+    assert main(["stream", str(csv_path), "--port", "socket://127.0.0.1:1", "--timeout", "1",
+                 "--no-progress"]) == 2
+    assert "msr stream: error: socket://127.0.0.1:1: cannot open the port" in capsys.readouterr().err

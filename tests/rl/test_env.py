@@ -164,6 +164,15 @@ def test_action_is_a_field_increment_with_clipping():
     assert np.hypot(*info["field_T"][:2]) == pytest.approx(4e-3)  # amplitude limit
 
 
+def test_bad_action_is_named():
+    env = make(initial_field="zero", field_limit=4e-3)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"action must have 2 components .* got shape \(3,\)"):
+        env.step(np.zeros(3, np.float32))
+    with pytest.raises(ValueError, match="action must be finite"):
+        env.step(np.array([np.nan, 0.0], np.float32))
+
+
 def test_random_initial_field_within_0p7_limit():
     env = make(field_limit=10e-3)
     fields = []

@@ -280,6 +280,7 @@ def test_ship_then_generate_by_folder_and_name(refined, tmp_path, monkeypatch, c
     assert {"actor.pt", "critic.pt", "policy.json", "MODEL_CARD.md", "fields.csv"} <= set(info["files"])
     meta = json.loads((folder / "policy.json").read_text())
     assert meta["case"] == "m1-4mT" and meta["architecture"]["hidden_sizes"] == [32, 32]
+    assert meta["actor_sha256"] == pipeline.weights_sha256(torch.load(folder / "actor.pt", weights_only=True))
     assert meta["training"]["refine_steps"] == 3 and meta["seeds"]["total"] == 2
     card = (folder / "MODEL_CARD.md").read_text()
     assert "m1-4mT" in card and "refinement steps" in card and "seeds that succeeded" in card

@@ -1,0 +1,114 @@
+"""Output locations and atomic writes of result files.
+
+Every result file is written under a temporary name in its own folder, then renamed over the
+target (``os.replace``), so a failure (full disk, killed process) never leaves half a file and
+never destroys what was there. Command-line tools check their output location with
+:func:`prepare_output_dir` / :func:`prepare_output_file` before any long work starts.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import IO, Any
+
+__all__ = [
+    "OutputPathError",
+    "atomic_save",
+    "atomic_write",
+    "atomic_write_text",
+    "prepare_output_dir",
+    "prepare_output_file",
+]
+
+
+class OutputPathError(OSError):
+    """An output location that cannot be used; the message names the option or file."""
+
+    def __str__(self) -> str:  # OSError's own formatting adds "[Errno ...]" noise
+        return str(self.args[0]) if self.args else ""
+
+
+def _temporary_name(path: Path) -> Path:
+    # Same folder (os.replace stays atomic) and same suffix (savefig and np.savez use it).
+    return path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")
+
+
+def atomic_save(path: str | Path, write: Callable[[Path], Any]) -> Path:
+    """Call ``write(temporary_path)``, then rename the temporary file to ``path``.
+
+    For writers that take a path (``savefig``, ``np.savez``, ``torch.save``). On any failure the
+    temporary file is removed, ``path`` is left as it was and :class:`OutputPathError` (for
+    ``OSError``) or the writer's own exception is raised.
+    """
+    path = Path(path)
+    tmp = _temporary_name(path)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise OutputPathError(f"{path}: cannot write: {exc.strerror or exc}") from exc
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
+
+
+@contextlib.contextmanager
+def atomic_write(path: str | Path, mode: str = "w", **open_kwargs: Any) -> Iterator[IO[Any]]:
+    """``with atomic_write(path) as handle:`` writes to a temporary file renamed to ``path`` on
+    success (removed on failure; ``path`` is then untouched)."""
+    path = Path(path)
+    tmp = _temporary_name(path)
+    try:
+        with open(tmp, mode, **open_kwargs) as handle:
+            yield handle
+        os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise OutputPathError(f"{path}: cannot write: {exc.strerror or exc}") from exc
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def atomic_write_text(path: str | Path, text: str) -> Path:
+    """Write ``text`` to ``path`` atomically; returns ``path``."""
+    with atomic_write(path, "w", newline="") as handle:
+        handle.write(text)
+    return Path(path)
+
+
+def prepare_output_dir(path: str | Path, option: str = "--out") -> Path:
+    """Create the output folder ``path`` (and its parents) and check that files can be created in
+    it. Raises :class:`OutputPathError` naming ``option`` when it is a file, lies under a file, or
+    cannot be created or written."""
+    path = Path(path)
+    _writable_folder(path, f"{option} {path}")
+    return path
+
+
+def prepare_output_file(path: str | Path, option: str = "--out") -> Path:
+    """Check that the file ``path`` can be written (its folder is created); an existing file is
+    replaced only when the write succeeds (see :func:`atomic_write`)."""
+    path = Path(path)
+    if path.is_dir():
+        raise OutputPathError(f"{option} {path}: is a folder, expected a file name")
+    _writable_folder(path.parent, f"{option} {path}")
+    return path
+
+
+def _writable_folder(folder: Path, what: str) -> None:
+    for parent in (folder, *folder.parents):
+        if parent.exists() and not parent.is_dir():
+            raise OutputPathError(f"{what}: {parent} is a file, not a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        raise OutputPathError(f"{what}: cannot write in {folder}: {exc.strerror or exc}") from None

@@ -1,0 +1,151 @@
+"""Bad command-line input gets one named error before any simulation starts (issue 15, items 4, 6,
+8 and 9). No test here runs a simulation: ``run_open_loop`` is replaced by one that fails."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+import elastica_magnetic.commands as commands
+from elastica_magnetic.cli import main
+
+
+@pytest.fixture
+def no_simulation(monkeypatch):
+    def fail(*args, **kwargs):
+        raise AssertionError("the simulation started before the input was checked")
+
+    monkeypatch.setattr(commands, "run_open_loop", fail)
+
+
+@pytest.fixture
+def field_csv(tmp_path):
+    path = tmp_path / "field.csv"
+    path.write_text("mag_x,mag_y,mag_z\n" + "1,0,0\n" * 50)  # 0.5 s
+    return path
+
+
+def _parse_error(argv, capsys) -> str:
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    assert info.value.code == 2
+    return capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["replay", "F", "--duration", "inf"], "argument --duration: expected a finite number of s in "
+         "[0.01, 3600], got 'inf'"),
+        (["replay", "F", "--duration", "1e12"], "argument --duration: expected a finite number of s"),
+        (["replay", "F", "--duration", "nan"], "got 'nan'"),
+        (["replay", "F", "--duration", "0"], "got '0'"),
+        (["simulate", "--ramp", "inf"], "argument --ramp: expected a finite number of s >= 0, got 'inf'"),
+        (["simulate", "--ramp", "nan"], "argument --ramp: expected a finite number of s >= 0, got 'nan'"),
+        (["simulate", "--frequency", "60"], "argument --frequency: expected a finite number of Hz in "
+         "(-50, 50), got '60'"),
+        (["simulate", "--amplitude", "0"], "argument --amplitude: expected a finite number of T in (0, 0.1]"),
+        (["simulate", "--amplitude", "abc"], "got 'abc'"),
+        (["generate", "m1-4mT", "--duration", "-1"], "argument --duration"),
+        (["baseline", "--case", "m1-4mT", "--period", "0"], "argument --period: expected a finite "
+         "number of s > 0"),
+        (["demo", "--duration", "inf"], "argument --duration"),
+        (["bench", "--steps", "0"], "argument --steps: expected an integer >= 1, got '0'"),
+        (["bench", "--memory-seeds", "-1"], "argument --memory-seeds: expected an integer >= 0"),
+    ],
+)
+def test_numeric_options_are_checked_at_parse_time(argv, message, capsys):
+    assert message in _parse_error(argv, capsys)
+
+
+def test_ramp_longer_than_the_run(no_simulation, tmp_path, capsys):
+    assert main(["simulate", "--ramp", "5", "--duration", "1", "--out", str(tmp_path)]) == 2
+    assert "--ramp 5 s is longer than --duration 1 s" in capsys.readouterr().err
+
+
+def test_replay_past_the_end_of_the_file_is_refused(no_simulation, field_csv, tmp_path, capsys):
+    assert main(["replay", str(field_csv), "--duration", "0.6", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "--duration 0.6 s is past the end of" in err and "(0.5 s: 50 rows at 100 Hz)" in err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("command", [["simulate"], ["replay", "FIELD"]])
+def test_out_that_is_a_file_or_under_a_file(no_simulation, field_csv, tmp_path, capsys, command):
+    command = [str(field_csv) if c == "FIELD" else c for c in command]
+    afile = tmp_path / "afile"
+    afile.write_text("keep")
+    for out in (afile, afile / "sub"):
+        assert main([*command, "--duration", "0.1", "--out", str(out)]) == 2
+        assert f"--out {out}: {afile} is a file, not a folder" in capsys.readouterr().err
+    assert afile.read_text() == "keep"
+
+
+@pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="root ignores permissions")
+def test_out_read_only(no_simulation, tmp_path, capsys):
+    folder = tmp_path / "ro"
+    folder.mkdir()
+    folder.chmod(0o500)
+    try:
+        assert main(["simulate", "--duration", "0.1", "--out", str(folder)]) == 2
+        assert "cannot write in" in capsys.readouterr().err
+    finally:
+        folder.chmod(0o700)
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("", "empty file"),
+        ("t_s,mid_x_m,mid_y_m,back_x_m,back_y_m,front_x_m,front_y_m,height_max_m,span_m\n",
+         "header but no data rows"),
+        ("t_s,mid_x_m\n0,1\n", "lacks column(s) mid_y_m"),
+        ("t_s,mid_x_m,mid_y_m,back_x_m,back_y_m,front_x_m,front_y_m,height_max_m,span_m\n"
+         "0,0,0,0,0,0,0,0,0\n0.1,0,abc,0,0,0,0,0,0\n",
+         "line 3, column mid_y_m: 'abc' is not a finite number"),
+        ("t_s,mid_x_m,mid_y_m,back_x_m,back_y_m,front_x_m,front_y_m,height_max_m,span_m\n"
+         "5,0,0,0,0,0,0,0,0\n6,0,0,0,0,0,0,0,0\n", "0 frame(s) within the replayed 0 to 0.5 s"),
+    ],
+)
+def test_replay_reference_checked_before_the_run(no_simulation, field_csv, tmp_path, capsys, text, message):
+    reference = tmp_path / "reference.csv"
+    reference.write_text(text)
+    out = tmp_path / "out"
+    assert main(["replay", str(field_csv), "--reference", str(reference), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"--reference {reference}: " in err and message in err
+    assert not (out / "trajectory.csv").exists()
+
+
+@pytest.mark.parametrize("command", ["generate", "export", "export-firmware", "calibrate"])
+def test_out_that_is_a_file_other_commands(field_csv, tmp_path, capsys, command):
+    from elastica_magnetic.hardware.calibration import default_calibration_path
+
+    afile = tmp_path / "afile"
+    afile.write_text("keep")
+    out = afile / "sub"
+    measurements = tmp_path / "m.csv"
+    measurements.write_text("current_x_A,current_y_A,current_z_A,field_x_mT,field_y_mT,field_z_mT\n"
+                            "1,0,0,1,0,0\n0,1,0,0,1,0\n0,0,1,0,0,1\n")
+    argv = {
+        "generate": ["generate", "m1-4mT", "--duration", "0.01", "--no-progress"],
+        "export": ["export", "m1-4mT"],
+        "export-firmware": ["export-firmware", str(field_csv), "--calibration",
+                            str(default_calibration_path())],
+        "calibrate": ["calibrate", str(measurements)],
+    }[command]
+    assert main([*argv, "--out", str(out / "c.json" if command == "calibrate" else out)]) == 2
+    assert f"{afile} is a file, not a folder" in capsys.readouterr().err
+    assert afile.read_text() == "keep"
+
+
+@pytest.mark.parametrize(
+    "data, message",
+    [(b"", "empty file"), (b"current_x_A,\xb5\n", "not a readable UTF-8 CSV")],
+)
+def test_calibrate_measurements_unreadable(tmp_path, capsys, data, message):
+    measurements = tmp_path / "m.csv"
+    measurements.write_bytes(data)
+    assert main(["calibrate", str(measurements), "--out", str(tmp_path / "c.json")]) == 2
+    assert f"{measurements}: {message}" in capsys.readouterr().err

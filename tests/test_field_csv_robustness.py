@@ -1,0 +1,79 @@
+"""Field CSV reader: encodings (issue 15, item 10) and a fuzz test of random mutations of a valid
+file: every outcome is a correct parse or a FieldCSVError naming the file, never a traceback."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from elastica_magnetic import FieldCSVError, read_field_csv
+from elastica_magnetic.field_csv import MILLITESLA
+
+BOM = b"\xef\xbb\xbf"
+VALID = b",mag_x,mag_y,mag_z\n0,1.5,-2.0,0.0\n1,1.25,-1.75,0.0\n2,1.0,-1.5,0.25\n3,0.5,-1.0,0.5\n"
+
+
+@pytest.mark.parametrize(
+    "data",
+    [BOM + b"mag_x,mag_y,mag_z\n1,2,3\n4,5,6\n", BOM + b"1,2,3\n4,5,6\n",
+     BOM + b",mag_x,mag_y,mag_z\r\n0,1,2,3\r\n1,4,5,6\r\n"],
+)
+def test_utf8_byte_order_mark_is_accepted(tmp_path, data):
+    path = tmp_path / "excel.csv"
+    path.write_bytes(data)
+    np.testing.assert_allclose(read_field_csv(path), np.array([[1, 2, 3], [4, 5, 6]]) * MILLITESLA)
+
+
+def test_non_utf8_file_names_the_file_and_line(tmp_path):
+    path = tmp_path / "latin1.csv"
+    path.write_bytes("mag_x,mag_y,mag_z\n1,2,3\n4,5,6 # \u00b5T\n".encode("latin-1"))
+    with pytest.raises(FieldCSVError, match=r"latin1\.csv: line 3: byte 0xb5 is not UTF-8"):
+        read_field_csv(path)
+
+
+def test_csv_syntax_error_names_the_file(tmp_path):
+    path = tmp_path / "nul.csv"
+    path.write_bytes(b"1,2,3\n4,\x005,6\n")
+    with pytest.raises(FieldCSVError, match=r"nul\.csv: line 2"):
+        read_field_csv(path)
+
+
+_PIECES = [b",", b"\n", b"\r", b"\r\n", b'"', b"-", b".", b"e", b"e999", b"nan", b"inf", b"0", b"7",
+           b" ", b"\x00", b"\xff", b"\xc3", BOM, b"mag_x", b"mag_z", b";", b"\t", b"1_0", b"#"]
+
+
+def _mutate(data: bytes, rng: np.random.Generator) -> bytes:
+    data = bytearray(data)
+    for _ in range(int(rng.integers(1, 4))):
+        kind = int(rng.integers(0, 5))
+        pos = int(rng.integers(0, len(data) + 1))
+        if kind == 0 and data:  # delete a span
+            del data[pos:pos + int(rng.integers(1, 6))]
+        elif kind == 1:  # insert a piece
+            data[pos:pos] = _PIECES[int(rng.integers(len(_PIECES)))]
+        elif kind == 2 and data:  # replace one byte
+            data[min(pos, len(data) - 1)] = int(rng.integers(0, 256))
+        elif kind == 3:  # duplicate a span
+            data[pos:pos] = data[pos:pos + int(rng.integers(1, 20))]
+        else:  # truncate
+            data = data[:pos]
+    return bytes(data)
+
+
+def test_fuzz_mutated_field_csv_parses_or_names_the_error(tmp_path):
+    rng = np.random.default_rng(15)
+    path = tmp_path / "fuzz.csv"
+    outcomes = {"parsed": 0, "error": 0}
+    for _ in range(600):
+        path.write_bytes(_mutate(VALID, rng))
+        try:
+            field = read_field_csv(path)
+        except FieldCSVError as exc:
+            assert str(exc).startswith(str(path) + ":"), str(exc)
+            outcomes["error"] += 1
+            continue
+        # A parse is a correct one: rows of 3 finite components, within what the text can hold.
+        assert field.ndim == 2 and field.shape[1] == 3 and field.shape[0] >= 1
+        assert field.dtype == np.float64 and np.all(np.isfinite(field))
+        outcomes["parsed"] += 1
+    assert outcomes["parsed"] > 20 and outcomes["error"] > 20, outcomes
