@@ -18,6 +18,24 @@ CASES = {
 }
 
 
+#: Not a comparison with a reference but a check of claims: every shipped policy, re-run for 10 s
+#: in the accurate physics (``--quick``: 0.3 s), reproduces its recorded distance and waveform
+#: and reaches the authors' distance (:func:`rl.shipped.verify_shipped`). Run only when named.
+SHIPPED = "shipped"
+
+
+def verify_all_shipped(quick: bool) -> list[dict]:
+    """:func:`rl.shipped.verify_shipped` of every shipped policy."""
+    from rl.shipped import shipped_names, verify_shipped
+
+    results = []
+    for name in shipped_names():
+        print(f"[validate] shipped policy {name}{' (quick)' if quick else ''} ...", file=sys.stderr,
+              flush=True)
+        results.append(verify_shipped(name, duration=0.3 if quick else 10.0))
+    return results
+
+
 def available_cases() -> list[str]:
     """Cases whose module is present in this checkout."""
     found = []
@@ -50,7 +68,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "exit non-zero when any case is outside its tolerance.",
     )
     p.add_argument("cases", nargs="*", metavar="CASE", help=f"cases to run (default: all of "
-                   f"{', '.join(CASES)})")
+                   f"{', '.join(CASES)}); '{SHIPPED}': re-run every shipped policy for 10 s and "
+                   "check its recorded distance and waveform (a few minutes each)")
     p.add_argument("--quick", action="store_true", help="reduced grid (for the test suite)")
     p.add_argument("--out", type=Path, default=Path("out/validation"), help="report folder")
     p.add_argument("--json", action="store_true", help="print every compared number as JSON")
@@ -61,7 +80,21 @@ def validate_command(args: argparse.Namespace) -> int:
     from elastica_magnetic.cli import CommandError
 
     available = available_cases()
-    names = args.cases or available
+    names = [n for n in args.cases if n != SHIPPED] if args.cases else available
+    shipped = verify_all_shipped(args.quick) if SHIPPED in args.cases else None
+    if shipped is not None and not names:
+        passed = all(r["passed"] for r in shipped)
+        if args.json:
+            print(json.dumps({"passed": passed, "shipped": shipped}, indent=2, default=str))
+        else:
+            for r in shipped:
+                extra = (f", distance {r['mid_dx_m'] * 1e3:+.2f} mm (recorded "
+                         f"{r['recorded_mid_dx_m'] * 1e3:+.2f}, relative difference "
+                         f"{r['relative_diff']:.1e}, authors {r['authors_mid_dx_m'] * 1e3:+.1f})"
+                         if "recorded_mid_dx_m" in r else "")
+                print(f"shipped {r['name']}: {'pass' if r['passed'] else 'FAIL'}: waveform within "
+                      f"{r['max_field_diff_mT']:.1e} mT over {r['rows_compared']} rows{extra}")
+        return 0 if passed else 1
     unknown = [n for n in names if n not in CASES]
     if unknown:
         raise CommandError(f"unknown case(s) {', '.join(unknown)}; choose from {', '.join(CASES)}")
@@ -73,10 +106,11 @@ def validate_command(args: argparse.Namespace) -> int:
         [*args.cases, *(["--quick"] if args.quick else []), "--out", str(args.out)]
     )
     report = write_report(results, args.out, command)
-    passed = all(r.passed for r in results)
+    passed = all(r.passed for r in results) and all(r["passed"] for r in shipped or [])
     if args.json:
         print(json.dumps(
-            {"passed": passed, "report": str(report), "cases": [r.as_dict() for r in results]},
+            {"passed": passed, "report": str(report), "cases": [r.as_dict() for r in results],
+             **({"shipped": shipped} if shipped is not None else {})},
             indent=2, default=str,
         ))
     else:

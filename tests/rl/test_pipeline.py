@@ -340,19 +340,20 @@ def test_unknown_policy_is_a_clear_error(tmp_path):
 
 #: Whether each shipped policy reaches the authors' 10 s distance, as rl/policies/README.md and
 #: the docs state it (a policy re-shipped with another result must update them, and this).
-SHIPPED_MEETS_TARGET = {"m1-4mT": True, "m2-4mT": True, "m1-10mT": True, "m2-10mT": True}
+SHIPPED = ("m1-10mT", "m1-4mT", "m2-10mT", "m2-4mT")
 
 
 def test_every_shipped_policy_is_tested():
-    shipped = {p.name for p in pipeline.POLICIES_DIR.iterdir() if (p / "policy.json").is_file()}
-    assert shipped == set(SHIPPED_MEETS_TARGET)
+    from rl.shipped import shipped_names
+
+    assert shipped_names() == list(SHIPPED)
 
 
-@pytest.mark.parametrize("name", sorted(SHIPPED_MEETS_TARGET))
+@pytest.mark.parametrize("name", SHIPPED)
 def test_shipped_policy_generates_and_exports(name, tmp_path, capsys):
     """A policy shipped in the package: generate a short run by name, export it, reload it; its
-    card and policy.json agree with the case and report a 10 s distance, on the side of the
-    authors' distance that the documentation states."""
+    card and policy.json agree with the case and report a 10 s distance that reaches the authors'
+    (as the README states for every shipped policy)."""
     import json
 
     import torch
@@ -372,12 +373,27 @@ def test_shipped_policy_generates_and_exports(name, tmp_path, capsys):
     np.testing.assert_allclose(action, policy.act(obs), atol=1e-6)
     info = json.loads((pipeline.POLICIES_DIR / name / "policy.json").read_text())
     assert info["case"] == name and info["evaluation"]["duration_s"] == 10.0
-    meets = info["evaluation"]["mid_dx_m"] >= info["authors_mid_dx_10s_m"]
-    assert meets == SHIPPED_MEETS_TARGET[name]
+    assert info["evaluation"]["mid_dx_m"] >= info["authors_mid_dx_10s_m"]
     card = (pipeline.POLICIES_DIR / name / "MODEL_CARD.md").read_text()
-    assert ("meets the target" if meets else "falls short of the target") in card
+    assert "meets the target" in card
     shipped_fields = np.loadtxt(pipeline.POLICIES_DIR / name / "fields.csv", delimiter=",", skiprows=1)
     assert shipped_fields.shape == (1000, 4)  # the 10 s waveform, 100 rows/s
+
+
+def test_one_shipped_distance_is_re_run_in_full():
+    """The whole 10 s accurate rollout of one shipped policy (a different one each day, in turn;
+    ``msr validate shipped`` runs all four; ``--quick``, in the validation tests, their first 0.3 s)
+    reproduces policy.json's distance to 1e-3 relative, the shipped waveform row by row, and reaches
+    the authors' distance."""
+    import datetime
+
+    from rl.shipped import verify_shipped
+
+    name = SHIPPED[datetime.date.today().toordinal() % len(SHIPPED)]
+    result = verify_shipped(name)
+    assert result["rows_compared"] == 1000
+    assert result["relative_diff"] <= result["distance_rtol"] == 1e-3, result
+    assert result["meets_authors"] and result["passed"], result
 
 
 def test_resume_from_a_corrupted_checkpoint_is_refused_and_keeps_the_results(tmp_path, capsys):

@@ -73,3 +73,14 @@ def test_validate_full_replay(tmp_path, capsys):
     assert not case_result["quick"]
     failed = [c for c in case_result["comparisons"] if not c["passed"]]
     assert status == 0 and not failed, failed
+
+
+def test_validate_shipped_quick_checks_every_shipped_policy(capsys):
+    """``msr validate shipped --quick``: every shipped policy's first 0.3 s reproduce its waveform
+    (the full 10 s check of all four is ``msr validate shipped``)."""
+    from rl.shipped import shipped_names
+
+    assert main(["validate", "shipped", "--quick", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert [r["name"] for r in result["shipped"]] == shipped_names() and result["passed"]
+    assert all(r["rows_compared"] == 30 and r["max_field_diff_mT"] <= 1e-6 for r in result["shipped"])
