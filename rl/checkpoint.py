@@ -95,6 +95,8 @@ def read_replay_rows(path: Path, state: dict[str, Any]) -> dict[str, torch.Tenso
     """The first ``state["rows"]`` transitions of ``path`` as the tensors of a buffer state."""
     obs_dim, act_dim, rows = int(state["obs_dim"]), int(state["act_dim"]), int(state["rows"])
     width = _row_width(obs_dim, act_dim)
+    if rows and not path.is_file():
+        raise ValueError(f"{path} is missing: the checkpoint needs its {rows} transitions")
     data = np.fromfile(path, dtype=np.float32, count=rows * width) if rows else np.zeros(0, np.float32)
     if data.size != rows * width:
         raise ValueError(f"{path}: holds {data.size // width} transitions, the checkpoint needs {rows}")

@@ -429,6 +429,12 @@ def train_cases(
                     "case": case, "physics": physics, "episode_duration_s": float(episode_duration),
                     "recipe": recipe})
 
+    from elastica_magnetic.io import prepare_output_dir
+
+    for case in cases:  # every seed's folder can be written, before any work
+        for s in seed_list:
+            prepare_output_dir(Path(out) / case / f"seed{s}", "--out")
+
     def run_dir(case: str, seed: int) -> str:
         # Ray workers may run elsewhere (another cwd, another node): give them absolute paths
         path = Path(out) / case / f"seed{seed}"

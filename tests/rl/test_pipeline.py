@@ -441,3 +441,77 @@ def test_ctrl_c_stops_cleanly_and_the_run_resumes(tmp_path):
                           timeout=300)
     assert done.returncode == 0, done.stderr
     assert all(load_checkpoint(p)["global_step"] == int(target) for p in ckpts)
+
+
+def _tiny_train(out, *extra):
+    return ["train", "--case", "m1-4mT", "--out", str(out), "--learning-starts", "10", "--batch-size",
+            "8", "--hidden", "8", "--episode-duration", "0.1", "--no-progress", *extra]
+
+
+def test_train_output_that_is_a_file_is_refused_before_any_work(tmp_path, capsys):
+    (tmp_path / "taken").write_text("a file")
+    capsys.readouterr()
+    assert msr(_tiny_train(tmp_path / "taken", "--seeds", "1", "--steps", "20")) == 2
+    err = capsys.readouterr().err
+    assert f"--out {tmp_path / 'taken'}" in err and "is a file" in err and "Traceback" not in err
+    assert (tmp_path / "taken").read_text() == "a file"
+
+
+def test_a_failing_worker_is_reported_and_the_other_seeds_finish(tmp_path, capsys):
+    """Two seeds in two worker processes; on resume seed 1's replay file is gone, so its worker
+    raises: exit status 1, ``failed`` names it, seed 0 finishes, seed 1 keeps its earlier numbers."""
+    assert msr(_tiny_train(tmp_path, "--seeds", "2", "--steps", "20")) == 0
+    (tmp_path / "m1-4mT" / "seed1" / "replay.bin").unlink()
+    capsys.readouterr()
+    assert msr([*_tiny_train(tmp_path, "--seeds", "2", "--steps", "40", "--resume"), "--json"]) == 1
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["failed"] == [1]
+    seed0, seed1 = summary["seeds"]
+    assert seed0["global_step"] == 40 and "error" not in seed0
+    assert "replay.bin is missing" in seed1["error"] and seed1["global_step"] == 20
+    assert load_checkpoint(tmp_path / "m1-4mT" / "seed0")["global_step"] == 40
+
+
+def test_sigkill_then_resume_equals_an_uninterrupted_run(tmp_path):
+    """A real training process killed with SIGKILL (here after its first checkpoints, with what a
+    kill inside a checkpoint write leaves: a partial ``checkpoint.pt.tmp`` and stray rows in
+    ``replay.bin``) resumes to the same weights as a run never interrupted."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    base = [sys.executable, "-m", "elastica_magnetic.cli", *_tiny_train(tmp_path / "killed"),
+            "--seeds", "1", "--checkpoint-every", "10", "--threads", "1"]
+    proc = subprocess.Popen([*base, "--steps", "100000"], start_new_session=True,
+                            stderr=subprocess.DEVNULL)
+    ckpt = tmp_path / "killed" / "m1-4mT" / "seed0" / "checkpoint.pt"
+    deadline = time.time() + 120
+    while time.time() < deadline and proc.poll() is None and (
+            not ckpt.exists() or load_checkpoint(ckpt, with_buffer=False)["global_step"] < 30):
+        time.sleep(0.2)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=60)
+    assert proc.returncode == -signal.SIGKILL
+    run = ckpt.parent
+    (run / "checkpoint.pt.tmp").write_bytes(ckpt.read_bytes()[:64])
+    with open(run / "replay.bin", "ab") as f:
+        f.write(b"\0" * 1000)
+    target = load_checkpoint(ckpt, with_buffer=False)["global_step"] + 30
+    done = subprocess.run([*base, "--steps", str(target), "--resume"], capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr
+    straight = subprocess.run([sys.executable, "-m", "elastica_magnetic.cli",
+                               *_tiny_train(tmp_path / "straight"), "--seeds", "1", "--checkpoint-every",
+                               "10", "--threads", "1", "--steps", str(target)],
+                              capture_output=True, text=True, timeout=300)
+    assert straight.returncode == 0, straight.stderr
+    a = load_checkpoint(ckpt)
+    b = load_checkpoint(tmp_path / "straight" / "m1-4mT" / "seed0")
+    assert a["global_step"] == b["global_step"] == target
+    for part in ("actor", "critic"):
+        for key, value in a["agent"][part].items():
+            assert torch.equal(value, b["agent"][part][key]), (part, key)
+    for key in ("obs", "actions", "rewards"):
+        assert torch.equal(a["buffer"][key], b["buffer"][key])
