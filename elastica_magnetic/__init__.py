@@ -10,6 +10,7 @@ from .field_csv import FieldCSVError, read_field_csv, write_field_csv
 from .fields import ConstantField, ControlledField, RampedField, RotatingField, TabulatedField
 from .forcing import LegacyInternalDamping, MagneticTorques, RelativeVelocityDamping
 from .ground import FrictionalGroundContact
+from .interaction import MagneticInteraction
 from .magnetization import (
     YAO2023_MAGNETIZATION,
     element_centres,
@@ -24,6 +25,7 @@ from .presets import (
     YAO2023_MASS_SCALE,
     DampingSpec,
     GroundSpec,
+    InteractionSpec,
     RobotSpec,
     hu2018_robot,
     robot_by_name,
@@ -42,6 +44,7 @@ from .simulation import (
     build_simulation,
 )
 from .units import MM_MG_S, SI, UnitSystem
+from .viscoelastic import KelvinVoigtDamping
 
 __version__ = "0.1.0"
 
@@ -54,8 +57,11 @@ __all__ = [
     "FieldCSVError",
     "FrictionalGroundContact",
     "GroundSpec",
+    "InteractionSpec",
+    "KelvinVoigtDamping",
     "LegacyInternalDamping",
     "MM_MG_S",
+    "MagneticInteraction",
     "MagneticRodSimulator",
     "MagneticTorques",
     "OpenLoopResult",

@@ -186,3 +186,27 @@ def test_rejects_bad_arguments():
     forcing = MagneticInteraction(np.zeros((3, 5)))
     with pytest.raises(ValueError, match="5 columns"):
         forcing.apply_forces(make_rod(4), 0.0)
+
+
+def test_robot_spec_interaction_is_opt_in(monkeypatch):
+    from dataclasses import replace
+
+    from elastica_magnetic import ConstantField, InteractionSpec, build_simulation, yao2023_robot
+
+    scales = []
+    original = MagneticInteraction.apply_forces
+
+    def counted(self, system, time=0.0):
+        original(self, system, time)
+        scales.append(self._source_scale)
+
+    monkeypatch.setattr(MagneticInteraction, "apply_forces", counted)
+    default = yao2023_robot(2)
+    assert default.interaction is None
+    build_simulation(default, ConstantField(np.zeros(3))).step(3)
+    assert scales == []
+    spec = replace(default, interaction=InteractionSpec(self_contact_k=1.0, self_contact_nu=1e-3))
+    simulation = build_simulation(spec, ConstantField(np.array([0.0, 0.0, 10e-3])))
+    simulation.step(3)
+    band_over_rod = (W * H) / (np.pi * (H / np.sqrt(3)) ** 2)
+    assert scales == pytest.approx([band_over_rod] * 3)
