@@ -41,7 +41,7 @@ class MagneticInteraction(NoForces):
     smaller than ``cutoff`` are left out: their interaction is local, part of the material's
     measured elastic behaviour (its energy density is at most ``mu0 M^2 / 2``, 2.4 kPa for 61.3 kA/m,
     3% of the robot's Young's modulus), and the remaining double sum converges to the continuum
-    double integral as elements are refined (see :doc:`/interaction`). The pair list is fixed in the
+    double integral as elements are refined (see :doc:`/extra_physics`). The pair list is fixed in the
     rest configuration, so the forces stay conservative.
 
     *Nodes.* The force on element ``i`` acts at its centre, the midpoint of nodes ``i`` and

@@ -41,7 +41,7 @@ class KelvinVoigtDamping(NoForces):
 
     *Time step.* With an explicit integrator the viscous term is stable only for
     ``dt < 2 E / (eta omega_max^2)``, with ``omega_max`` the rod's highest frequency (element-scale
-    bending and stretching): stiff viscosities need small steps (see :doc:`/damping`).
+    bending and stretching): stiff viscosities need small steps (see :doc:`/extra_physics`).
 
     Parameters
     ----------
