@@ -16,6 +16,7 @@ from .forcing import (
     evaluate_field,
 )
 from .ground import FrictionalGroundContact
+from .interaction import MagneticInteraction
 from .magnetization import (
     YAO2023_MAGNETIZATION,
     element_centres,
@@ -30,6 +31,7 @@ from .presets import (
     YAO2023_MASS_SCALE,
     DampingSpec,
     GroundSpec,
+    InteractionSpec,
     RobotSpec,
     hu2018_robot,
     robot_by_name,
@@ -48,6 +50,7 @@ from .simulation import (
     build_simulation,
 )
 from .units import MM_MG_S, SI, UnitSystem
+from .viscoelastic import KelvinVoigtDamping
 
 __version__ = "0.1.0"
 
@@ -61,8 +64,11 @@ __all__ = [
     "FieldValueError",
     "FrictionalGroundContact",
     "GroundSpec",
+    "InteractionSpec",
+    "KelvinVoigtDamping",
     "LegacyInternalDamping",
     "MM_MG_S",
+    "MagneticInteraction",
     "MagneticRodSimulator",
     "MagneticTorques",
     "OpenLoopResult",

@@ -31,6 +31,7 @@ from .units import SI, UnitSystem
 __all__ = [
     "GroundSpec",
     "DampingSpec",
+    "InteractionSpec",
     "RobotSpec",
     "Physics",
     "YAO2023_MASS_SCALE",
@@ -78,6 +79,26 @@ class DampingSpec:
     node_offset: int = 4
     legacy_force: float = 0.15
     legacy_torque: float = 1.5e-7
+    #: Kelvin-Voigt internal viscosity, Pa s (:class:`~elastica_magnetic.KelvinVoigtDamping`); 0: off.
+    #: Not part of the paper's model: set the other three to 0 to use it instead of the paper's dampings.
+    kelvin_voigt: float = 0.0
+
+
+@dataclass(frozen=True)
+class InteractionSpec:
+    """Opt-in physics the paper left out: the magnetic interaction between the robot's own elements
+    (:class:`~elastica_magnetic.MagneticInteraction`) and the rod's contact with itself.
+
+    ``cutoff`` (m): pairs closer than this rest arclength do not interact (``None``: four radii).
+    ``band_source``: the field is made by the band's moment (area ``width x height``), the response
+    uses the equivalent rod's moment as the magnetic torque does (see the class). ``self_contact_k``
+    (N/m) and ``self_contact_nu`` (N s/m): PyElastica's ``RodSelfContact``; ``k = 0`` leaves it out.
+    """
+
+    cutoff: float | None = None
+    band_source: bool = True
+    self_contact_k: float = 0.0
+    self_contact_nu: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -105,6 +126,7 @@ class RobotSpec:
     ground: GroundSpec | None = GroundSpec()
     damping: DampingSpec | None = DampingSpec()
     units: UnitSystem = SI
+    interaction: InteractionSpec | None = None
 
     def __post_init__(self) -> None:
         for name in ("length", "width", "height", "density", "youngs_modulus", "shear_modulus"):
@@ -164,6 +186,16 @@ class RobotSpec:
                 relative_nu=self.damping.relative_nu * f("damping_per_length"),
                 legacy_force=self.damping.legacy_force * f("damping_per_length"),
                 legacy_torque=self.damping.legacy_torque * f("rotational_damping"),
+                kelvin_voigt=self.damping.kelvin_voigt * f("viscosity"),
+            )
+        interaction = None
+        if self.interaction is not None:
+            cutoff = self.interaction.cutoff
+            interaction = replace(
+                self.interaction,
+                cutoff=None if cutoff is None else cutoff * f("length"),
+                self_contact_k=self.interaction.self_contact_k * f("stiffness"),
+                self_contact_nu=self.interaction.self_contact_nu * f("damping"),
             )
         return replace(
             self,
@@ -179,6 +211,7 @@ class RobotSpec:
             ground=ground,
             damping=damping,
             units=units,
+            interaction=interaction,
         )
 
 

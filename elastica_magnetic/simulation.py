@@ -18,8 +18,10 @@ from numpy.typing import NDArray
 
 from .forcing import LegacyInternalDamping, MagneticTorques, RelativeVelocityDamping
 from .ground import FrictionalGroundContact
+from .interaction import MagneticInteraction
 from .presets import RobotSpec
 from .section import rectangular_band_rod
+from .viscoelastic import KelvinVoigtDamping
 
 __all__ = [
     "MagneticRodSimulator",
@@ -187,12 +189,24 @@ def register_robot_forcing(
     field_source: FieldFunction,
     plane: ea.Plane | None,
 ) -> None:
-    """Register the per-rod forcing of ``spec`` on ``rod``: magnetic torques, the dampings, gravity,
-    then the ground contact with ``plane`` (already appended). Order matters: every load on the rod
+    """Register the per-rod forcing of ``spec`` on ``rod``: magnetic torques (and, opt-in, the
+    magnetic interaction), the dampings, gravity, (opt-in) self-contact, then the ground contact with
+    ``plane`` (already appended). Order matters: every load on the rod
     must be in place before the ground contact runs."""
     simulator.add_forcing_to(rod).using(
         MagneticTorques, field=field_source, magnetization=spec.magnetization, frame="lab"
     )
+    interaction = spec.interaction
+    if interaction is not None:
+        simulator.add_forcing_to(rod).using(
+            MagneticInteraction,
+            magnetization=spec.magnetization,
+            frame="lab",
+            cutoff=interaction.cutoff,
+            source_area=spec.width * spec.height if interaction.band_source else None,
+        )
+    if spec.damping is not None and spec.damping.kelvin_voigt > 0.0:
+        simulator.add_forcing_to(rod).using(KelvinVoigtDamping, viscosity=spec.damping.kelvin_voigt)
     if spec.damping is not None:
         simulator.add_forcing_to(rod).using(
             RelativeVelocityDamping, nu=spec.damping.relative_nu, node_offset=spec.damping.node_offset
@@ -205,6 +219,10 @@ def register_robot_forcing(
     if spec.gravity > 0.0:
         simulator.add_forcing_to(rod).using(
             ea.GravityForces, acc_gravity=np.array([0.0, -spec.effective_gravity, 0.0])
+        )
+    if interaction is not None and interaction.self_contact_k > 0.0:
+        simulator.detect_contact_between(rod, rod).using(
+            ea.RodSelfContact, k=interaction.self_contact_k, nu=interaction.self_contact_nu
         )
     if spec.ground is not None and plane is not None:
         g = spec.ground

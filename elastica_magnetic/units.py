@@ -32,6 +32,7 @@ DIMENSIONS: dict[str, tuple[int, int, int]] = {
     "damping": (0, 1, -1),  # N s/m
     "damping_per_length": (-1, 1, -1),  # N s/m^2
     "rotational_damping": (1, 1, -1),  # N s (torque per angular velocity per length)
+    "viscosity": (-1, 1, -1),  # Pa s
 }
 
 
