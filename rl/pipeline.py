@@ -77,7 +77,7 @@ POLICY_FORMAT = "msr-policy-v1"
 EXPORT_FORMAT = "msr-exported-policy-v1"
 
 #: Distance of the middle of the robot in 10 s, accurate physics, field from zero, of the authors'
-#: released policies (m): the targets of the shipped ones (DESIGN.md section 3).
+#: released policies (m): the targets of the shipped ones (from the authors' released trajectories).
 AUTHORS_DISTANCE_10S = {"m1-4mT": 20.5e-3, "m2-4mT": 20.1e-3, "m1-10mT": 137e-3, "m2-10mT": 137e-3}
 
 
@@ -1061,7 +1061,7 @@ def ship(
             "refine_steps": meta.get("refine_steps", 0) if refined else 0,
             "global_step": meta.get("global_step"),
             "config": meta.get("config"),
-            "source": str(policy.source),
+            "source": _portable_source(policy.source, policy.case),
             "best_evaluation": meta.get("checkpoint_kind") == "best",
         },
         "seeds": {"succeeded": summary.get("succeeded"), "total": len(summary.get("seeds", [])),
@@ -1079,6 +1079,15 @@ def ship(
         (target / "MODEL_CARD.md").write_text(_model_card(info, summary))
     return {"name": name, "dir": str(target), "case": policy.case,
             "evaluation": measured, "files": sorted(p.name for p in target.iterdir())}
+
+
+def _portable_source(path: Path, case: str) -> str:
+    """Where a shipped policy came from, without this machine's folders: the path from the case's
+    training folder on (``m1-4mT/seed3/refined/checkpoint.pt``), else the file's name."""
+    parts = Path(path).parts
+    if case in parts:
+        return "/".join(parts[len(parts) - 1 - parts[::-1].index(case):])
+    return Path(path).name
 
 
 def _seed_meets_target(evaluation: dict[str, Any]) -> bool:

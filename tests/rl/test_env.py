@@ -264,7 +264,7 @@ def test_render_rgb_array():
 
 
 def test_pattern_2_is_pattern_1_with_the_field_turned_a_quarter_turn():
-    """Pattern 2's magnetization is pattern 1's turned by +90 degrees about z (DESIGN.md), and the
+    """Pattern 2's magnetization is pattern 1's turned by +90 degrees about z (the authors' code), and the
     motion is planar (rotations about z commute), so pattern 2 under the field turned by +90 degrees
     must move exactly as pattern 1: the two cases are the same control problem. A sign or index
     slip in either pattern, the torque or the field clipping breaks this."""

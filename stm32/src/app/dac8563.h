@@ -3,7 +3,7 @@
  * TI DAC8563 (dual 16-bit DAC, SPI) frame encoding and the three-axis DAC bank.
  *
  * Frame: 24 bits, MSB first: DB21-19 command, DB18-16 address, DB15-0 data (DB23-22 don't care).
- * Facts marked "secondary source" in DESIGN.md section 7 live in one named constant each so they
+ * Facts from secondary sources (not the datasheet) live in one named constant each so they
  * are easy to correct on the bench.
  *
  * Bank wiring: axis x = chip 0 channel A, y = chip 0 channel B, z = chip 1 channel A; every chip
