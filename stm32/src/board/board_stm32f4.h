@@ -29,7 +29,7 @@
 #define SYSCLK_PLL_HZ 168000000u
 #define APB1_TIMER_PLL_HZ 84000000u
 #define APB2_PLL_HZ 84000000u
-/** QEMU's STM32 timers count at 1 GHz under -icount (measured; docs/firmware.md). */
+/** QEMU's STM32 timers count at 1 GHz under -icount (measured with QEMU 7.2). */
 #define QEMU_TIMER_CLOCK_HZ 1000000000u
 /** Polling iterations before a clock, SPI or UART wait gives up. */
 #define CLOCK_START_TIMEOUT 200000u
