@@ -252,7 +252,7 @@ def training_peak_memory(
     """
     import threading
 
-    from .pipeline import train_case
+    from .training import train_case
 
     if not os.path.isdir("/proc"):
         raise RuntimeError("training_peak_memory reads /proc: Linux only")
@@ -316,7 +316,7 @@ def training_time(
     overrides: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Wall time of ``seeds`` seeds x ``full_steps`` steps of ``case`` in the default layout
-    (:func:`rl.pipeline.default_layout`), extrapolated from a real run: the warm-up, then
+    (:func:`rl.training.default_layout`), extrapolated from a real run: the warm-up, then
     ``window`` steps of learning (a resume of the same run), each group's time split by the
     training loop into acting, environment, storing, updates, logs, evaluations and checkpoints.
 
@@ -325,7 +325,8 @@ def training_time(
     checkpoint per ``checkpoint_every`` (10000) at their measured costs. Groups run side by side on
     the workers, so the wall time is the slowest group's x the number of rounds of groups.
     """
-    from .pipeline import crawler_config, train_case
+    from .pipeline import crawler_config
+    from .training import train_case
 
     settings = {"precision": precision, **(overrides or {})}
     cfg = crawler_config(0, **settings)

@@ -283,7 +283,7 @@ def _interrupted(folders: str) -> int:
 
 
 def train_command(args: argparse.Namespace) -> int:
-    from .pipeline import train_cases
+    from .training import train_cases
 
     _check_run_options(args)
     overrides = _overrides(args)
@@ -326,7 +326,7 @@ def bench_command(args: argparse.Namespace) -> int:
 
 
 def refine_command(args: argparse.Namespace) -> int:
-    from .pipeline import refine
+    from .training import refine
 
     _check_run_options(args)
     try:

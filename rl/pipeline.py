@@ -1,14 +1,15 @@
-"""Train, refine, generate, ship and export crawling policies (the library behind ``msr``).
+"""Generate, ship and export crawling policies (the library behind ``msr``); training and
+refinement are :mod:`rl.training`.
 
 Workflow (paper "Miscellaneous training tips"):
 
-1. :func:`train_case`: TD3 on one case (``m1-4mT``, ``m2-4mT``, ``m1-10mT``, ``m2-10mT``) for several
-   seeds in parallel processes or Ray tasks (:mod:`rl.backends`), in the mass-scaled *training*
-   physics, random initial fields, 20 s episodes (truncated, not terminal). Each seed writes
-   ``OUT/<case>/seed<k>/`` (``episodes.csv``, TensorBoard scalars, ``checkpoint.pt``,
-   ``run.json``); a ``summary.json`` per case collects each seed's final mean episode return.
-2. :func:`refine`: load a run's agent *and replay buffer* and keep training (~1000 steps) in the
-   *accurate* physics (12.5x more substeps per step). Written to ``RUN/refined/``.
+1. :func:`rl.training.train_case`: TD3 on one case (``m1-4mT``, ``m2-4mT``, ``m1-10mT``,
+   ``m2-10mT``) for several seeds in parallel processes or Ray tasks (:mod:`rl.backends`), in the
+   mass-scaled *training* physics, random initial fields, 20 s episodes (truncated, not terminal).
+   Each seed writes ``OUT/<case>/seed<k>/`` (``episodes.csv``, TensorBoard scalars,
+   ``checkpoint.pt``, ``run.json``); a ``summary.json`` per case collects every seed.
+2. :func:`rl.training.refine`: load a run's agent *and replay buffer* and keep training (~1000
+   steps) in the *accurate* physics (12.5x more substeps per step). Written to ``RUN/refined/``.
 3. :func:`generate`: run the deterministic policy in the accurate physics with the field starting at
    zero; write the field CSV (mT, 100 Hz), ``trajectory.csv``, ``rollout.npz``, figures and a GIF.
 4. :func:`ship`: pack a run into the shipped-policy format ``rl/policies/<name>/`` (``actor.pt``
@@ -24,15 +25,10 @@ shipped-format directory (``actor.pt`` + ``policy.json``), or the name of a ship
 
 from __future__ import annotations
 
-import functools
 import json
-import math
-import os
 import platform
-import sys
 import time
 import warnings
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -42,7 +38,6 @@ import numpy as np
 from elastica_magnetic.io import atomic_save, atomic_write, atomic_write_text, prepare_output_dir
 from elastica_magnetic.openloop import check_duration
 
-from .backends import BACKENDS, run_jobs
 from .baselines import RotatingFieldPolicy
 from .env import CASES, MAX_FIELD_INCREMENT, MagneticCrawlerEnv, observation_spec
 from .recipes import CRAWLER_TD3_OVERRIDES, DEFAULT_RECIPE, RECIPES
@@ -60,12 +55,8 @@ __all__ = [
     "export_seeds",
     "generate",
     "make_env",
-    "refine",
     "resolve_policy",
     "ship",
-    "summarize_run",
-    "train_case",
-    "train_cases",
     "weights_sha256",
 ]
 
@@ -160,355 +151,6 @@ def _write_json(path: Path, data: dict[str, Any]) -> Path:
 # ----------------------------------------------------------------------------------------------
 # Training
 # ----------------------------------------------------------------------------------------------
-def summarize_run(run_dir: str | Path, last: int = 5) -> dict[str, Any]:
-    """Episodes, steps and the mean return of the last ``last`` episodes of a run (``nan`` if it has
-    no finished episode). ``final_mean_distance_m`` is that return / 1e4 (m per episode). With
-    evaluations during training: ``best_eval_step`` and ``best_eval_return`` (the evaluation that
-    ``best.pt`` holds; its return / 1e4 is the 10 s distance from a zero field, m), else ``None``."""
-    import csv
-
-    run_dir = Path(run_dir)
-    rows, evals = [], []
-    if (run_dir / "episodes.csv").is_file():
-        with open(run_dir / "episodes.csv", newline="") as f:
-            rows = list(csv.DictReader(f))
-    if (run_dir / "evaluations.csv").is_file():
-        with open(run_dir / "evaluations.csv", newline="") as f:
-            evals = list(csv.DictReader(f))
-    best_eval = max(evals, key=lambda r: float(r["mean_return"])) if evals else None
-    returns = [float(r["return"]) for r in rows]
-    tail = returns[-last:]
-    mean = float(np.mean(tail)) if tail else float("nan")
-    return {
-        "run_dir": str(run_dir),
-        "episodes": len(rows),
-        "global_step": int(rows[-1]["global_step"]) if rows else 0,
-        "final_mean_return": mean,
-        "final_mean_distance_m": mean / 1e4,
-        "best_return": max(returns) if returns else float("nan"),
-        "terminated_episodes": sum(int(r["terminated"]) for r in rows),
-        "best_eval_step": int(best_eval["global_step"]) if best_eval else None,
-        "best_eval_return": float(best_eval["mean_return"]) if best_eval else None,
-    }
-
-
-def _run_metadata(case: str, physics: str, duration: float, seed: int, **extra: Any) -> dict:
-    spec = _case(case)
-    return {"case": case, "pattern": spec.pattern, "field_limit_T": spec.field_limit,
-            "physics": physics, "episode_duration_s": duration, "seed": int(seed), **extra}
-
-
-#: Settings of a run that a resume must not change (they are the run's, in ``run.json``).
-_RUN_SETTINGS = ("case", "physics", "episode_duration_s", "recipe")
-
-
-def _check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
-    """A resumed run keeps its case, physics and episode length: refuse other values, naming the
-    option and the run's value."""
-    run_json = run_dir / RUN_JSON
-    if not run_json.is_file():
-        return
-    try:
-        record = json.loads(run_json.read_text())
-    except ValueError as err:
-        raise ValueError(f"{run_json}: not readable JSON ({err})") from None
-    options = {"case": "--case", "physics": "--physics", "episode_duration_s": "--episode-duration",
-               "recipe": "--recipe"}
-    for key in _RUN_SETTINGS:
-        if key in record and record[key] != metadata[key]:
-            raise ValueError(f"{options[key]} {metadata[key]} differs from the run's {record[key]} "
-                             f"({run_json}): a resumed run keeps its settings")
-
-
-def _write_run_json(run_dir: Path, config, metadata: dict[str, Any], steps: int, threads: int,
-                    resumed_now: bool) -> None:
-    """``run.json``: the run's settings, the steps it has reached and how often it was resumed
-    (written when a new run starts, with 0 steps, and when a training call has finished)."""
-    record = {}
-    if (run_dir / RUN_JSON).is_file():
-        record = json.loads((run_dir / RUN_JSON).read_text())
-    _write_json(run_dir / RUN_JSON, {
-        **record, **metadata, "steps": int(steps), "config": config.to_dict(),
-        "torch_threads": int(threads), "versions": _versions(),
-        "resumed": int(record.get("resumed", 0)) + int(resumed_now)})
-
-
-def _train_group(job: dict[str, Any]) -> dict[str, Any]:
-    """Train a group of seeds of one case side by side in one worker process: their crawlers in
-    one batched simulator (``job["envs"]`` each), their networks updated as one computation
-    (:func:`~rl.runner.train_seeds`). ``job`` holds plain data only (picklable). Returns
-    ``{"group": [one result per seed]}``."""
-    import torch
-
-    from .checkpoint import load_checkpoint
-    from .runner import train_seeds
-    from .td3 import TD3Config, resolve_precision
-    from .vector_env import make_vector_env
-
-    torch.set_num_threads(int(job["threads"]))
-    configs = [TD3Config.from_dict(c) for c in job["configs"]]
-    run_dirs = [Path(d) for d in job["run_dirs"]]
-    envs = int(job["envs"])
-    metadata = [_run_metadata(job["case"], job["physics"], job["duration"], c.seed, command="train",
-                              envs=envs, shared_simulator_seeds=len(configs),
-                              precision=resolve_precision(c.precision, c.device),
-                              recipe=job.get("recipe", DEFAULT_RECIPE))
-                for c in configs]
-    for config, run_dir, meta in zip(configs, run_dirs, metadata, strict=True):
-        if not job["resume"]:
-            run_dir.mkdir(parents=True, exist_ok=True)
-            (run_dir / RUN_JSON).unlink(missing_ok=True)  # a stale record of a run without checkpoint
-            _write_run_json(run_dir, config, meta, 0, job["threads"], resumed_now=False)
-    start = time.perf_counter()
-    train_seeds(functools.partial(make_vector_env, job["case"], physics=job["physics"],
-                                  initial_field="random", duration=job["duration"]),
-                configs, job["steps"], run_dirs, envs_per_seed=envs, resume=job["resume"],
-                progress=job["progress"], metadata=metadata,
-                eval_env_fn=functools.partial(make_env, job["case"], job["physics"], "zero",
-                                              EVAL_DURATION),
-                progress_position=job["position"], progress_desc=job["case"])
-    wall, peak = time.perf_counter() - start, _peak_rss_bytes()
-    results = []
-    for run_dir, meta in zip(run_dirs, metadata, strict=True):
-        ckpt = load_checkpoint(run_dir)  # what was actually done, with the settings actually used
-        _write_run_json(run_dir, TD3Config.from_dict(ckpt["config"]), meta,
-                        int(ckpt["global_step"]), job["threads"], resumed_now=job["resume"])
-        results.append({"seed": int(ckpt["config"]["seed"]), **summarize_run(run_dir),
-                        "wall_s": wall, "peak_rss_bytes": peak,
-                        "group_seeds": [c.seed for c in configs],
-                        "group_timing_s": ckpt.get("timing")})
-    return {"group": results}
-
-
-def default_layout(seeds: int, cases: int = 1, cpus: int | None = None) -> dict[str, int]:
-    """The fastest layout known for ``seeds`` seeds of each of ``cases`` cases on ``cpus`` cores:
-    one worker process per core, each training its share of a case's seeds side by side (one
-    batched simulator, one stacked update; measured in ``docs/performance.md``), one torch thread
-    each. Returns ``workers``, ``seeds_per_simulator`` and ``threads``."""
-    cpus = max(1, cpus if cpus is not None else (os.cpu_count() or 1))
-    workers_per_case = max(1, cpus // max(1, cases))
-    per_group = -(-seeds // min(seeds, workers_per_case))
-    groups = -(-seeds // per_group) * cases
-    workers = min(cpus, groups)
-    return {"workers": workers, "seeds_per_simulator": per_group,
-            "threads": max(1, cpus // workers)}
-
-
-def _peak_rss_bytes() -> int | None:
-    """Peak resident memory of this process so far (bytes; ``None`` where unavailable)."""
-    try:
-        import resource
-    except ImportError:  # not on Windows
-        return None
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    return int(peak if sys.platform == "darwin" else peak * 1024)  # macOS: bytes; Linux: KiB
-
-
-def _earlier_seeds(case_dir: Path, exclude: list[int]) -> list[dict[str, Any]]:
-    """Seeds of ``case_dir`` trained by earlier ``msr train`` calls (``--seed-offset``), so that
-    ``summary.json`` covers every seed of the case. Their entries from the previous summary are
-    kept (wall time, memory) and their episode statistics re-read from ``episodes.csv``."""
-    previous: dict[int, dict[str, Any]] = {}
-    if (case_dir / "summary.json").is_file():
-        try:
-            old = json.loads((case_dir / "summary.json").read_text())
-            previous = {int(r["seed"]): r for r in old.get("seeds", []) if "seed" in r}
-        except (ValueError, KeyError, TypeError):
-            previous = {}  # an unreadable summary is rebuilt from the run folders
-    found = []
-    for path in sorted(case_dir.glob("seed*")):
-        tail = path.name[len("seed"):]
-        if not tail.isdigit() or int(tail) in exclude or not (path / "episodes.csv").is_file():
-            continue
-        entry = {k: v for k, v in previous.get(int(tail), {}).items() if k != "succeeded"}
-        found.append({**entry, "seed": int(tail), **summarize_run(path), "run_dir": str(path)})
-    return found
-
-
-def train_case(case: str, seeds: int = 8, **kwargs: Any) -> dict[str, Any]:
-    """Train seeds of one case: :func:`train_cases` with ``[case]``; returns its summary."""
-    return train_cases([case], seeds, **kwargs)[case]
-
-
-def train_cases(
-    cases: Sequence[str],
-    seeds: int = 8,
-    steps: int = 100_000,
-    workers: int | None = None,
-    out: str | Path = "runs",
-    resume: bool = False,
-    seed_offset: int = 0,
-    config_overrides: dict[str, Any] | None = None,
-    physics: str = "training",
-    episode_duration: float = 20.0,
-    progress: bool = True,
-    threads: int | None = None,
-    success_fraction: float = 0.5,
-    envs: int = 1,
-    backend: str = "process",
-    address: str | None = None,
-    seeds_per_simulator: int | None = None,
-    recipe: str = DEFAULT_RECIPE,
-) -> dict[str, dict[str, Any]]:
-    """Train seeds ``seed_offset .. seed_offset + seeds - 1`` of every case in ``cases`` for
-    ``steps`` environment steps each, in groups of seeds of one case that train side by side in
-    one worker (:func:`_train_group`), ``workers`` groups at a time in separate processes
-    (``spawn``, one progress bar per seed) or Ray tasks.
-
-    The layout (``workers``, ``seeds_per_simulator``, ``threads``) defaults to
-    :func:`default_layout`, the fastest one known for this machine; the results do not depend on
-    it (a seed trained in a group is bit-identical to the same seed trained alone).
-
-    Writes ``out/<case>/seed<k>/`` per seed and ``out/<case>/summary.json`` per case; returns the
-    summaries by case. A summary covers every seed folder of its case, also those of earlier calls
-    (trained with another ``seed_offset``), so success counts and the best seed are over all of
-    them. A seed counts as *succeeded* when its final mean episode return reaches
-    ``success_fraction`` of the authors' distance rate (their 10 s distance, scaled to the episode
-    length, x 1e4): a heuristic to count working seeds, reported with its threshold.
-
-    Args:
-        config_overrides: :class:`~rl.td3.TD3Config` fields on top of :func:`crawler_config`
-            (e.g. ``precision="bf16"``, ``device="cuda"``).
-        workers: groups trained at a time (processes or Ray tasks in flight).
-        threads: torch threads per worker. Exact resume needs the same thread count.
-        envs: crawlers per seed (``envs`` transitions and updates per vector step); resume with
-            the same value.
-        backend: ``"process"`` (default: worker processes on this machine) or ``"ray"`` (one Ray
-            task per group; see :mod:`rl.backends`). Same run directories and summaries.
-        address: Ray cluster to run on (``backend="ray"`` only; default: a local Ray instance with
-            ``workers x threads`` CPUs, started and shut down here). The output folder must then be
-            on a filesystem every node sees at the same path.
-        seeds_per_simulator: seeds of a case per group (one batched simulator, one stacked
-            update).
-        recipe: the training recipe (:data:`RECIPES`), recorded in ``run.json`` and the summary.
-    """
-    cases = list(dict.fromkeys(cases))  # in order, once each
-    if not cases:
-        raise ValueError("no case to train")
-    for case in cases:
-        _case(case)
-    if backend not in BACKENDS:
-        raise ValueError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
-    if address is not None and backend != "ray":
-        raise ValueError("--address is for the ray backend (--backend ray)")
-    for name, value in (("seeds", seeds), ("steps", steps), ("envs", envs), ("workers", workers),
-                        ("seeds_per_simulator", seeds_per_simulator), ("threads", threads)):
-        if value is not None and value < 1:
-            raise ValueError(f"{name} must be >= 1, got {value}")
-    if seed_offset < 0:
-        raise ValueError(f"seed_offset must be >= 0, got {seed_offset}")
-    layout = default_layout(seeds, len(cases), None if not address else seeds * len(cases))
-    manual = {k for k, v in (("workers", workers), ("seeds_per_simulator", seeds_per_simulator),
-                             ("threads", threads)) if v is not None}
-    seeds_per_simulator = min(seeds, seeds_per_simulator or layout["seeds_per_simulator"])
-    seed_list = [seed_offset + k for k in range(seeds)]
-    groups = [seed_list[i:i + seeds_per_simulator] for i in range(0, seeds, seeds_per_simulator)]
-    workers = min(workers or layout["workers"], len(groups) * len(cases))
-    if threads is None:  # on a Ray cluster this machine's CPU count says nothing: one per worker
-        threads = 1 if address else max(1, (os.cpu_count() or 1) // workers)
-    configs = {s: crawler_config(s, recipe, **(config_overrides or {})) for s in seed_list}
-    if not resume:
-        existing = [str(Path(out) / case / f"seed{s}") for case in cases for s in seed_list
-                    if (Path(out) / case / f"seed{s}" / "checkpoint.pt").exists()]
-        if existing:
-            raise FileExistsError(f"runs already exist: {', '.join(existing)} (use --resume, another "
-                                  "--out, or --seed-offset)")
-    else:
-        missing = [str(Path(out) / case / f"seed{s}" / "checkpoint.pt") for case in cases
-                   for s in seed_list if not (Path(out) / case / f"seed{s}" / "checkpoint.pt").exists()]
-        if missing:
-            raise FileNotFoundError(f"cannot resume: no checkpoint {', '.join(missing)} (train those "
-                                    "seeds without --resume, or choose --seeds/--seed-offset)")
-        from .checkpoint import load_checkpoint, refuse_networks_only
-
-        for case in cases:  # a resumed run keeps its settings: checked before any work
-            for s in seed_list:
-                path = Path(out) / case / f"seed{s}" / "checkpoint.pt"
-                refuse_networks_only(load_checkpoint(path, with_buffer=False), path)
-                _check_resume_settings(Path(out) / case / f"seed{s}", {
-                    "case": case, "physics": physics, "episode_duration_s": float(episode_duration),
-                    "recipe": recipe})
-
-    from elastica_magnetic.io import prepare_output_dir
-
-    for case in cases:  # every seed's folder can be written, before any work
-        for s in seed_list:
-            prepare_output_dir(Path(out) / case / f"seed{s}", "--out")
-
-    def run_dir(case: str, seed: int) -> str:
-        # Ray workers may run elsewhere (another cwd, another node): give them absolute paths
-        path = Path(out) / case / f"seed{seed}"
-        return str(path.resolve() if backend == "ray" else path)
-
-    jobs = []
-    position = 0
-    for case in cases:
-        for group in groups:
-            jobs.append({
-                "case": case, "physics": physics, "duration": float(episode_duration),
-                "steps": int(steps), "resume": resume, "progress": progress, "position": position,
-                "threads": threads, "envs": int(envs), "recipe": recipe,
-                "configs": [configs[s].to_dict() for s in group],
-                "run_dirs": [run_dir(case, s) for s in group],
-                # for the backends' bookkeeping: the group's first seed and folder
-                "config": configs[group[0]].to_dict(), "run_dir": run_dir(case, group[0]),
-            })
-            position += len(group)
-    start = time.perf_counter()
-    results = []
-    for job, result in zip(jobs, run_jobs(_train_group, jobs, workers, backend=backend,
-                                          address=address, progress=progress), strict=True):
-        if "group" in result:
-            results += [(job["case"], r) for r in result["group"]]
-        else:  # the whole group failed: what its folders hold is still reported
-            for c, d in zip(job["configs"], job["run_dirs"], strict=True):
-                entry = summarize_run(d) if (Path(d) / "episodes.csv").is_file() else {}
-                results.append((job["case"], {**entry, "seed": c["seed"], "error": result["error"]}))
-    wall = time.perf_counter() - start
-
-    summaries = {}
-    for case in cases:
-        case_dir = Path(out) / case
-        mine = [r for c, r in results if c == case]
-        for r in mine:
-            if "run_dir" in r:
-                r["run_dir"] = str(case_dir / f"seed{r['seed']}")
-        threshold = success_fraction * AUTHORS_DISTANCE_10S[case] * (episode_duration / 10.0) * 1e4
-        per_seed = sorted(mine + _earlier_seeds(case_dir, seed_list), key=lambda r: r["seed"])
-        for r in per_seed:
-            if "error" not in r:
-                r["succeeded"] = bool(r["final_mean_return"] >= threshold)
-        ok = [r for r in per_seed if "error" not in r and math.isfinite(r["final_mean_return"])]
-        best = max(ok, key=lambda r: r["final_mean_return"]) if ok else None
-        summary = {
-            "case": case,
-            "steps": int(steps),
-            "physics": physics,
-            "episode_duration_s": float(episode_duration),
-            "workers": workers,
-            "backend": backend,
-            "envs_per_seed": int(envs),
-            "seeds_per_simulator": int(seeds_per_simulator),
-            "torch_threads_per_worker": threads,
-            "layout": "default" if not manual else f"set: {', '.join(sorted(manual))}",
-            "recipe": recipe,
-            "precision": configs[seed_list[0]].precision,
-            "device": configs[seed_list[0]].device,
-            "success_threshold_return": threshold,
-            "succeeded": sum(bool(r.get("succeeded")) for r in per_seed),
-            "best_seed": best["seed"] if best else None,
-            "best_run_dir": best["run_dir"] if best else None,
-            "wall_s": wall,
-            "seeds": per_seed,
-            "failed": [r["seed"] for r in per_seed if "error" in r],
-        }
-        case_dir.mkdir(parents=True, exist_ok=True)
-        _write_json(case_dir / "summary.json", summary)
-        summary["summary_json"] = str(case_dir / "summary.json")
-        summaries[case] = summary
-    return summaries
-
-
 def _checkpoint_path(run: str | Path) -> Path:
     run = Path(run)
     path = run / "checkpoint.pt" if run.is_dir() else run
@@ -527,70 +169,6 @@ def _checkpoint_metadata(ckpt: dict[str, Any], path: Path) -> dict[str, Any]:
     return meta
 
 
-def refine(
-    run: str | Path,
-    steps: int = 1000,
-    out: str | Path | None = None,
-    resume: bool = False,
-    progress: bool = True,
-    episode_duration: float = 20.0,
-    physics: str = "accurate",
-    device: str | None = None,
-) -> dict[str, Any]:
-    """Continue training a run for ``steps`` more environment steps in the accurate physics
-    (on ``device``, default the run's).
-
-    The agent (networks, targets, optimisers), its replay buffer, RNG states and counters come from
-    the run's checkpoint (``init_from``), so learning continues at once (the counters are past the
-    warm-up) with the training-physics transitions still in the buffer, gradually displaced by
-    accurate ones. Episodes keep the training setting (random initial field, 20 s). The refined
-    run goes to ``out`` (default ``RUN/refined``) with its own ``episodes.csv``, TensorBoard scalars,
-    ``checkpoint.pt`` and ``run.json``; ``resume`` continues an interrupted refinement.
-
-    Cost: one accurate step is 1250 substeps (~0.1 s here), 12.5x a training step.
-    """
-    from .checkpoint import load_checkpoint, refuse_networks_only
-    from .runner import train_seeds
-    from .td3 import TD3Config
-    from .vector_env import make_vector_env
-
-    if steps < 1:
-        raise ValueError("steps must be >= 1")
-    source = _checkpoint_path(run)
-    ckpt = load_checkpoint(source)
-    refuse_networks_only(ckpt, source)
-    meta = _checkpoint_metadata(ckpt, source)
-    case = meta["case"]
-    out = Path(out) if out is not None else source.parent / "refined"
-    start_step = int(ckpt["global_step"])
-    total = start_step + int(steps)
-    config = TD3Config.from_dict(ckpt["config"])
-    if device is not None:
-        config.device = device
-    metadata = _run_metadata(
-        case, physics, episode_duration, config.seed, command="refine",
-        refined_from=str(source), refine_start_step=start_step, refine_steps=int(steps),
-        training_steps=int(meta.get("training_steps", start_step)),
-    )
-    if (out / "checkpoint.pt").exists() and not resume:
-        raise FileExistsError(f"{out} already holds a refined checkpoint (use --resume or --out)")
-    _write_json(out / RUN_JSON, {**metadata, "steps": total, "config": config.to_dict(),
-                                 "versions": _versions()})
-    begin = time.perf_counter()
-    train_seeds(functools.partial(make_vector_env, case, physics=physics, initial_field="random",
-                                  duration=episode_duration),
-                [config], total, [out], resume=resume, progress=progress, init_from=[source],
-                progress_desc=f"refine {case} seed{config.seed}", metadata=[metadata])
-    summary = summarize_run(out)
-    return {"case": case, "source": str(source), "run_dir": str(out),
-            "checkpoint": str(out / "checkpoint.pt"), "start_step": start_step, "steps": int(steps),
-            "physics": physics, **{k: summary[k] for k in ("episodes", "final_mean_return")},
-            "wall_s": time.perf_counter() - begin}
-
-
-# ----------------------------------------------------------------------------------------------
-# Policies: loading, shipping, exporting
-# ----------------------------------------------------------------------------------------------
 @dataclass
 class LoadedPolicy:
     """A policy ready to act: the actor (normalised actions), the critic if known, and its case."""

@@ -17,7 +17,7 @@ import pytest
 import torch
 
 from elastica_magnetic.cli import main as msr
-from rl import pipeline
+from rl import training
 from rl.checkpoint import load_checkpoint
 
 STEPS = 200
@@ -133,7 +133,7 @@ def test_address_needs_the_ray_backend(tmp_path, capsys):
     assert msr(["train", *TINY, "--steps", "10", "--out", str(tmp_path), "--address", "auto"]) == 2
     assert "--backend ray" in capsys.readouterr().err
     with pytest.raises(ValueError, match="backend"):
-        pipeline.train_case("m1-4mT", seeds=1, steps=1, out=tmp_path, backend="dask")
+        training.train_case("m1-4mT", seeds=1, steps=1, out=tmp_path, backend="dask")
 
 
 def test_ray_sweep_over_two_cases(tmp_path, capsys):
