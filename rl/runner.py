@@ -123,6 +123,40 @@ def evaluate(agent: Any, env_fn: Callable[[], gym.Env], episodes: int = 10, seed
     return EvalResult(returns, lengths)
 
 
+def evaluate_many(policies: Sequence[Any], vec_env_fn: Callable[[int], gym.vector.VectorEnv],
+                  episodes: int = 1, seed: int = 0) -> list[EvalResult]:
+    """:func:`evaluate` of several policies at once, policy ``i`` on sub-environment ``i`` of
+    ``vec_env_fn(len(policies))`` (``SAME_STEP`` autoreset): episode ``e`` of every policy starts
+    from ``seed + e``, as :func:`evaluate` starts it, so each result equals that policy's
+    :func:`evaluate` in a single environment whose sub-environment counterpart behaves alike
+    (the crawler's vector environment does, bit for bit); the simulation is shared."""
+    env = vec_env_fn(len(policies))
+    returns = [[] for _ in policies]
+    lengths = [[] for _ in policies]
+    try:
+        act_dim = int(np.prod(env.single_action_space.shape))
+        for e in range(episodes):
+            obs, _ = env.reset(seed=[seed + e] * len(policies))
+            running = np.ones(len(policies), dtype=bool)
+            ep_return = np.zeros(len(policies))
+            ep_len = np.zeros(len(policies), dtype=np.int64)
+            while running.any():
+                actions = np.zeros((len(policies), act_dim), dtype=np.float32)
+                for i in np.flatnonzero(running):
+                    actions[i] = policies[i].act(_flat(obs[i]))
+                obs, rewards, terminated, truncated, _ = env.step(actions)
+                for i in np.flatnonzero(running):
+                    ep_return[i] += float(rewards[i])
+                    ep_len[i] += 1
+                    if terminated[i] or truncated[i]:
+                        running[i] = False
+                        returns[i].append(float(ep_return[i]))
+                        lengths[i].append(int(ep_len[i]))
+    finally:
+        env.close()
+    return [EvalResult(r, n) for r, n in zip(returns, lengths, strict=True)]
+
+
 class ActorPolicy:
     """A deterministic policy from an actor's state dict (plain :class:`~rl.td3.Actor`, float32):
     what evaluation runs, so a ``best.pt`` replays its recorded evaluation exactly."""
@@ -188,6 +222,11 @@ class _PeriodicEvaluation:
             header: dict[str, Any]) -> EvalResult:
         result = evaluate(ActorPolicy.of_seed(learner, k), self.env_fn, self.cfg.eval_episodes,
                           seed=EVAL_SEED)
+        return self.record(result, learner, k, global_step, wall_time_s, header)
+
+    def record(self, result: EvalResult, learner: TD3, k: int, global_step: int,
+               wall_time_s: float, header: dict[str, Any]) -> EvalResult:
+        """Log an evaluation of seed ``k``'s current policy; keep its networks if the best."""
         if result.mean_return > self.best_return:
             self.best_return, self.best_step = result.mean_return, global_step
             self.best_networks = {"actor": learner.actor_state(k), "critic": learner.critic_state(k)}
@@ -496,6 +535,7 @@ def train_seeds(
     eval_env_fn: Callable[[], gym.Env] | None = None,
     progress_position: int | None = None,
     progress_desc: str | None = None,
+    eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None,
 ) -> TD3:
     """Train ``K = len(configs)`` seeds for ``steps`` environment transitions each and return the
     :class:`~rl.td3.TD3` holding them.
@@ -521,6 +561,10 @@ def train_seeds(
         eval_env_fn: makes a single evaluation environment; with ``config.eval_every > 0`` each
             seed's deterministic policy is evaluated there periodically.
         log_fn: called with each episode's row (a dict) after it is written.
+        eval_vec_env_fn: ``eval_vec_env_fn(m)`` makes ``m`` evaluation environments in one
+            vector environment (``SAME_STEP``), each behaving as ``eval_env_fn()``: seeds due for
+            evaluation at the same step are then evaluated together (same returns, the
+            simulation shared).
     """
     k_seeds, n = len(configs), int(envs_per_seed)
     if k_seeds < 1 or len(run_dirs) != k_seeds:
@@ -554,14 +598,15 @@ def train_seeds(
             if r.ckpt is not None:
                 learner.load_seed_state(r.k, r.ckpt["agent"])
         return _loop(env, runs, learner, n, progress, log_fn, eval_env_fn, progress_position,
-                     progress_desc)
+                     progress_desc, eval_vec_env_fn)
     finally:
         env.close()
 
 
 def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, progress: bool,
           log_fn: Callable[[dict[str, Any]], None] | None, eval_env_fn: Callable[[], gym.Env] | None,
-          position: int | None, desc: str | None) -> TD3:
+          position: int | None, desc: str | None,
+          eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None) -> TD3:
     cfg, k_seeds = learner.config, len(runs)
     obs_dim, act_dim = learner.obs_dim, learner.act_dim
     lead = runs[0]
@@ -587,6 +632,21 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
 
     def sub(k: int) -> slice:
         return slice(k * n, (k + 1) * n)
+
+    def evaluate_seeds(due: list[int]) -> None:
+        """Evaluate the seeds ``due``: together in one vector environment when there is one (the
+        same returns as one by one), else one after the other."""
+        if len(due) > 1 and eval_vec_env_fn is not None:
+            results = evaluate_many([ActorPolicy.of_seed(learner, k) for k in due], eval_vec_env_fn,
+                                    cfg.eval_episodes, EVAL_SEED)
+            for k, result in zip(due, results, strict=True):
+                run = runs[k]
+                run.evaluation.record(result, learner, k, run.global_step, run.wall_time_s,
+                                      run.header(learner))
+        else:
+            for k in due:
+                run = runs[k]
+                run.evaluation.run(learner, k, run.global_step, run.wall_time_s, run.header(learner))
 
     if vector_state is not None:
         env.reset(seed=[0] * (k_seeds * n))  # builds the simulator; then overwritten
@@ -708,9 +768,8 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
             # depend on the layout); checkpoints at restorable points
             restorable = all_ended or can_save_env
             lap("log")
-            for k, run in enumerate(runs):
-                if ended[sub(k)].all() and run.evaluation.due(run.global_step):
-                    run.evaluation.run(learner, k, run.global_step, run.wall_time_s, run.header(learner))
+            evaluate_seeds([k for k, run in enumerate(runs)
+                            if ended[sub(k)].all() and run.evaluation.due(run.global_step)])
             lap("evaluation")
             # 6. the next episodes of the ended sub-envs start from their seeds
             if ended.any():
@@ -746,9 +805,8 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
         # the last evaluation and the final checkpoint (unless a resumed run took no step)
         if not (lead.resumed_here and lead.global_step == start_step):
             lap("log")
-            for k, run in enumerate(runs):
-                if run.evaluation.enabled and run.evaluation.last_step != run.global_step:
-                    run.evaluation.run(learner, k, run.global_step, run.wall_time_s, run.header(learner))
+            evaluate_seeds([k for k, run in enumerate(runs)
+                            if run.evaluation.enabled and run.evaluation.last_step != run.global_step])
             lap("evaluation")
             all_ended = bool(ended.all()) if lead.global_step > start_step else True
             state = None if all_ended else vector(obs)

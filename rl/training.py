@@ -145,6 +145,9 @@ def _train_group(job: dict[str, Any]) -> dict[str, Any]:
                 progress=job["progress"], metadata=metadata,
                 eval_env_fn=functools.partial(make_env, job["case"], job["physics"], "zero",
                                               EVAL_DURATION),
+                eval_vec_env_fn=functools.partial(make_vector_env, job["case"],
+                                                  physics=job["physics"], initial_field="zero",
+                                                  duration=EVAL_DURATION),
                 progress_position=job["position"], progress_desc=job["case"])
     wall, peak = time.perf_counter() - start, _peak_rss_bytes()
     results = []

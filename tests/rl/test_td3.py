@@ -624,3 +624,20 @@ def test_pink_exploration_is_correlated_in_time_and_trains_reproducibly(tmp_path
     _assert_state_equal(alone.state_dict(), resumed.state_dict())
     white_run = load_checkpoint(tmp_path / "g2")
     assert white_run["config"]["noise_color"] == 1.0
+
+
+def test_seeds_evaluated_together_log_what_each_alone_logs(tmp_path):
+    """Evaluations of a group's seeds in one vector environment record the same returns (and keep
+    the same best.pt) as each seed evaluated alone in a single environment."""
+    from rl.runner import train_seeds
+
+    configs = [toy_config(seed=s, eval_every=40, eval_episodes=2) for s in (2, 5)]
+    train_seeds(lambda k: _sync(ToyEnv, k), configs, 150, [tmp_path / "g2", tmp_path / "g5"],
+                progress=False, eval_env_fn=ToyEnv, eval_vec_env_fn=lambda k: _sync(ToyEnv, k))
+    for s in (2, 5):
+        train(ToyEnv, toy_config(seed=s, eval_every=40, eval_episodes=2), 150, tmp_path / f"alone{s}",
+              progress=False, eval_env_fn=ToyEnv)
+        together, alone = _evaluations(tmp_path / f"g{s}"), _evaluations(tmp_path / f"alone{s}")
+        assert together == alone and len(alone) >= 3
+        a = load_checkpoint(tmp_path / f"g{s}" / "best.pt")
+        _assert_state_equal(a["agent"], load_checkpoint(tmp_path / f"alone{s}" / "best.pt")["agent"])

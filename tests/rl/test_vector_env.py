@@ -243,3 +243,21 @@ def test_train_shared_rejects_shared_run_dirs(tmp_path):
     with pytest.raises(ValueError, match="own run_dir"):
         train_shared(functools.partial(make_vector_env, "m1-4mT"), configs, 10,
                      [tmp_path / "a", tmp_path / "a"], progress=False)
+
+
+def test_policies_evaluated_together_equal_each_alone():
+    """rl.runner.evaluate_many on the crawler's vector environment returns, for each policy, what
+    rl.runner.evaluate returns with a single environment (the evaluation during training)."""
+    from rl.pipeline import make_env
+    from rl.runner import ActorPolicy, evaluate, evaluate_many
+    from rl.td3 import TD3
+    from rl.vector_env import make_vector_env
+
+    learner = TD3(260, 2, -np.ones(2), np.ones(2), [TD3Config(seed=s, hidden_sizes=(16,)) for s in (0, 1)])
+    policies = [ActorPolicy.of_seed(learner, k) for k in range(2)]
+    together = evaluate_many(policies, functools.partial(make_vector_env, "m1-4mT", initial_field="zero",
+                                                         duration=0.05), episodes=2, seed=7)
+    for policy, result in zip(policies, together, strict=True):
+        alone = evaluate(policy, functools.partial(make_env, "m1-4mT", "training", "zero", 0.05), 2, 7)
+        assert result.returns == alone.returns and result.lengths == alone.lengths == [5, 5]
+    assert together[0].returns != together[1].returns
