@@ -131,11 +131,12 @@ def assert_clean_failure(proc: subprocess.CompletedProcess[str], board: Board) -
 
 
 def test_board_that_never_answers(field_csv: Path) -> None:
-    # waits the handshake time-out (10 s): no PONG, so nothing past PING may be sent
+    # waits the handshake time-out (10 s): no PONG, so nothing past PING is sent but the
+    # fail-safe STOP that ends every failed session (zero current whatever the board was doing)
     board = Board("silent")
     proc = run_stream(board, field_csv)
     assert_clean_failure(proc, board)
-    assert set(board.commands()) == {"PING"}
+    assert set(board.commands()) == {"PING", "STOP"} and board.commands()[-1] == "STOP"
     assert board.rows() == []
     assert board.outputs == MIDSCALE
 
