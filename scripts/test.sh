@@ -17,7 +17,7 @@ if [ -x stm32/ci.sh ] || [ -f stm32/ci.sh ]; then
 fi
 
 echo "== pytest =="
-python -m pytest -q "$@"
+python -m pytest -q --durations=15 "$@"
 
 echo "== docs =="
 python -m sphinx -W --keep-going -q -b html docs docs/_build/html
