@@ -822,11 +822,11 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
 # ----------------------------------------------------------------------------------------------
 # The layouts of the single-seed API
 # ----------------------------------------------------------------------------------------------
-def _single(learner: TD3) -> TD3Agent:
-    """The one seed of ``learner`` as a :class:`~rl.td3.TD3Agent`."""
+def _single(learner: TD3, k: int = 0) -> TD3Agent:
+    """Seed ``k`` of ``learner`` as a :class:`~rl.td3.TD3Agent`."""
     agent = TD3Agent(learner.obs_dim, learner.act_dim, learner.action_low, learner.action_high,
-                     learner.config)
-    agent.load_seed_state(0, learner.seed_state(0))
+                     learner.configs[k])
+    agent.load_seed_state(0, learner.seed_state(k))
     return agent
 
 
@@ -906,13 +906,7 @@ def train_shared(
     seed, each bit-identical to training that seed alone."""
     learner = train_seeds(vec_env_fn, configs, steps, run_dirs, resume=resume, progress=progress,
                           metadata=metadata, eval_env_fn=eval_env_fn, progress_desc=progress_desc)
-    agents = []
-    for k in range(learner.n_seeds):
-        agent = TD3Agent(learner.obs_dim, learner.act_dim, learner.action_low, learner.action_high,
-                         learner.configs[k])
-        agent.load_seed_state(0, learner.seed_state(k))
-        agents.append(agent)
-    return agents
+    return [_single(learner, k) for k in range(learner.n_seeds)]
 
 
 __all__ = ["ActorPolicy", "EvalResult", "SeedRun", "evaluate", "train", "train_seeds",
