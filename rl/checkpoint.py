@@ -63,7 +63,9 @@ def load_checkpoint(path: str | os.PathLike, with_buffer: bool = True) -> dict[s
     except FileNotFoundError:
         raise
     except Exception as err:  # truncated, empty or foreign files
-        raise ValueError(f"{path}: not a readable checkpoint ({type(err).__name__}: {err})") from err
+        first = str(err).splitlines()[0][:200] if str(err) else "empty or truncated"
+        raise ValueError(f"{path}: cannot be read as a checkpoint ({type(err).__name__}: {first})") \
+            from None
     if not isinstance(ckpt, dict) or ckpt.get("format") not in (CHECKPOINT_FORMAT, *LEGACY_FORMATS):
         raise ValueError(f"{path} is not a TD3 checkpoint ({CHECKPOINT_FORMAT})")
     buffer = ckpt.get("buffer")

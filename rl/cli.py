@@ -98,18 +98,20 @@ def register(sub: argparse._SubParsersAction) -> None:
         "time of 8 seeds x 1e5 steps extrapolated from a real run in the default layout "
         "(train_8_seeds_1e5_s). A few minutes.",
     )
-    p.add_argument("--steps", type=int, default=1000, help="time steps per step-cost measurement")
-    p.add_argument("--repeats", type=int, default=3, help="measurements per configuration")
-    p.add_argument("--vector-envs", type=int, default=16,
+    p.add_argument("--steps", type=number("", 1, integer=True), default=1000,
+                   help="time steps per step-cost measurement")
+    p.add_argument("--repeats", type=number("", 1, integer=True), default=3,
+                   help="measurements per configuration")
+    p.add_argument("--vector-envs", type=number("", 1, integer=True), default=16,
                    help="crawlers in the vector environment measured (default 16)")
-    p.add_argument("--train-seeds", type=int, default=8, metavar="N",
+    p.add_argument("--train-seeds", type=number("", 0, integer=True), default=8, metavar="N",
                    help="seeds of the real training run behind train_8_seeds_1e5_s (default 8; "
                         "0: skip it)")
     p.add_argument("--quick", action="store_true", help="tiny measurements (smoke test; rough numbers)")
-    p.add_argument("--memory-seeds", type=int, default=0, metavar="N",
+    p.add_argument("--memory-seeds", type=number("", 0, integer=True), default=0, metavar="N",
                    help="also measure the peak memory of a real N-seed training run in the default "
                    "layout (Linux; a few minutes for N = 8; default 0: skip)")
-    p.add_argument("--memory-steps", type=int, default=3000,
+    p.add_argument("--memory-steps", type=number("", 1, integer=True), default=3000,
                    help="environment steps per seed of that run (default 3000: past the warm-up)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=bench_command)

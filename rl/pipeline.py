@@ -266,8 +266,8 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
     if path.is_file():
         try:
             ckpt = load_checkpoint(path)
-        except ValueError:
-            raise
+        except ValueError as exc:  # unreadable, or not a checkpoint: named by load_checkpoint
+            raise PolicyFileError(str(exc)) from None
         except Exception as exc:  # a truncated or corrupted file
             raise PolicyFileError(
                 f"{path}: cannot be read as a checkpoint ({type(exc).__name__}: "

@@ -408,7 +408,7 @@ def test_resume_from_a_corrupted_checkpoint_is_refused_and_keeps_the_results(tmp
     capsys.readouterr()
     assert msr([*args, "--steps", "40", "--resume"]) == 2
     err = capsys.readouterr().err
-    assert f"{ckpt}: not a readable checkpoint" in err and "Traceback" not in err
+    assert f"{ckpt}: cannot be read as a checkpoint" in err and "Traceback" not in err
     assert all(p.read_bytes() == data for p, data in kept.items())
 
 

@@ -94,7 +94,7 @@ def test_ray_and_process_backends_agree(sweeps):
     assert proc_summary["backend"] == "process"
 
     def comparable(summary: dict, out: str) -> dict:
-        seeds = [{k: v for k, v in s.items() if k not in {"wall_s", "peak_rss_bytes"}}
+        seeds = [{k: v for k, v in s.items() if k not in {"wall_s", "peak_rss_bytes", "group_timing_s"}}
                  | {"run_dir": s["run_dir"].replace(out, "")}
                  for s in summary["seeds"]]
         rest = {k: v for k, v in summary.items() if k not in RUN_SPECIFIC | {"seeds", "best_run_dir"}}
