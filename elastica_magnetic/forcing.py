@@ -65,6 +65,22 @@ def _field_message(field: FieldFunction, time: float, value: Any, problem: str) 
             "in tesla")
 
 
+
+def material_magnetization(magnetization: NDArray[np.float64], frame: str, system) -> NDArray[np.float64]:
+    """Magnetization ``(3, 1)`` or ``(3, n_elements)`` (A/m) as ``(3, n_elements)`` in the rod's
+    material frame (``frame="lab"``: given in the lab frame of the rod's current directors)."""
+    n_elements = system.n_elems
+    if magnetization.shape[1] == 1:
+        magnetization = np.repeat(magnetization, n_elements, axis=1)
+    if magnetization.shape[1] != n_elements:
+        raise ValueError(
+            f"magnetization has {magnetization.shape[1]} columns but the rod has "
+            f"{n_elements} elements; expected shape (3, {n_elements}) in A/m"
+        )
+    if frame == "lab":
+        magnetization = np.einsum("ijk,jk->ik", system.director_collection, magnetization)
+    return magnetization
+
 class MagneticTorques(NoForces):
     """Magnetic torques on a rod whose magnetization moves with the material (paper Eq. 3).
 
@@ -131,17 +147,7 @@ class MagneticTorques(NoForces):
     def moment_in_material_frame(self, system) -> NDArray[np.float64]:
         """The ``(3, n_elements)`` magnetic moments ``V M`` (A m^2) in the material frame."""
         if self._moment_material is None:
-            n_elements = system.n_elems
-            magnetization = self.magnetization
-            if magnetization.shape[1] == 1:
-                magnetization = np.repeat(magnetization, n_elements, axis=1)
-            if magnetization.shape[1] != n_elements:
-                raise ValueError(
-                    f"magnetization has {magnetization.shape[1]} columns but the rod has "
-                    f"{n_elements} elements; expected shape (3, {n_elements}) in A/m"
-                )
-            if self.frame == "lab":
-                magnetization = np.einsum("ijk,jk->ik", system.director_collection, magnetization)
+            magnetization = material_magnetization(self.magnetization, self.frame, system)
             self._moment_material = np.ascontiguousarray(magnetization * system.volume[None, :])
         return self._moment_material
 

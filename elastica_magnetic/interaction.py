@@ -21,6 +21,8 @@ from elastica.external_forces import NoForces
 from numba import njit
 from numpy.typing import NDArray
 
+from .forcing import material_magnetization
+
 __all__ = ["MagneticInteraction", "MU0"]
 
 #: Vacuum permeability, T m / A.
@@ -117,16 +119,7 @@ class MagneticInteraction(NoForces):
         if self._moment_material is not None:
             return
         n_elements = system.n_elems
-        magnetization = self.magnetization
-        if magnetization.shape[1] == 1:
-            magnetization = np.repeat(magnetization, n_elements, axis=1)
-        if magnetization.shape[1] != n_elements:
-            raise ValueError(
-                f"magnetization has {magnetization.shape[1]} columns but the rod has {n_elements} "
-                f"elements; expected shape (3, {n_elements}) in A/m"
-            )
-        if self.frame == "lab":
-            magnetization = np.einsum("ijk,jk->ik", system.director_collection, magnetization)
+        magnetization = material_magnetization(self.magnetization, self.frame, system)
         rest_lengths = np.asarray(system.rest_lengths, dtype=np.float64)
         cutoff = 4.0 * float(np.max(system.radius)) if self.cutoff is None else float(self.cutoff)
         # Rest arclength of the element centres; partner j of i interacts when s_j - s_i >= cutoff.
