@@ -1,8 +1,8 @@
 """Check of the TD3 agent itself (a benchmark, not a test): TD3 on Pendulum-v1.
 
-Trains ``rl.td3`` for ``--steps`` environment steps (default 20k) on each of ``--seeds`` seeds with
+Trains ``elastica_magnetic_rl.td3`` for ``--steps`` environment steps (default 20k) on each of ``--seeds`` seeds with
 the paper's defaults (256-256, Adam 3e-4, batch 256, 2500 warm-up steps, sigma 0.2, ...), the seeds
-side by side in one process (``rl.runner.train_seeds``; each seed as it would train alone), once per
+side by side in one process (``elastica_magnetic_rl.runner.train_seeds``; each seed as it would train alone), once per
 ``--precision`` (``fp32``, and ``bf16``: bfloat16 matrix products on float32 weights), and reports
 the mean deterministic evaluation return; the target is -200 or better. If
 ``stable_baselines3`` is importable, its TD3 is trained side by side with the same budget and
@@ -30,8 +30,8 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from rl.runner import ActorPolicy, evaluate, train_seeds  # noqa: E402
-from rl.td3 import TD3Config  # noqa: E402
+from elastica_magnetic_rl.runner import ActorPolicy, evaluate, train_seeds  # noqa: E402
+from elastica_magnetic_rl.td3 import TD3Config  # noqa: E402
 
 ENV_ID = "Pendulum-v1"
 TARGET = -200.0
@@ -52,7 +52,7 @@ def run_ours(seeds: list[int], steps: int, eval_episodes: int, out: Path, progre
     learner = train_seeds(
         lambda k: SyncVectorEnv([make_env] * k, autoreset_mode=AutoresetMode.SAME_STEP), configs,
         steps, [out / f"rl_td3_{precision}_seed{s}" for s in seeds], progress=progress,
-        progress_desc=f"rl.td3 {precision}")
+        progress_desc=f"elastica_magnetic_rl.td3 {precision}")
     wall = time.time() - t0
     results = []
     for k, seed in enumerate(seeds):
@@ -83,7 +83,7 @@ def run_sb3(seed: int, steps: int, eval_episodes: int, progress: bool) -> dict:
 
     env = make_env()
     act_dim = env.action_space.shape[0]
-    # SB3 works in normalised action units like rl.td3: sigma 0.2 of the half-range.
+    # SB3 works in normalised action units like elastica_magnetic_rl.td3: sigma 0.2 of the half-range.
     model = TD3(
         "MlpPolicy", env, learning_rate=3e-4, buffer_size=steps, learning_starts=2500,
         batch_size=256, tau=0.005, gamma=0.99, train_freq=1, gradient_steps=1,
@@ -136,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
 
     results: dict[str, dict] = {}
     for precision in args.precision:
-        name = "rl.td3" if precision == "fp32" else f"rl.td3-{precision}"
+        name = "elastica_magnetic_rl.td3" if precision == "fp32" else f"elastica_magnetic_rl.td3-{precision}"
         results[name] = summarise(run_ours(seeds, args.steps, args.eval_episodes, out, args.progress,
                                            precision))
     if args.no_sb3:

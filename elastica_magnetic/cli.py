@@ -4,8 +4,8 @@ Each area of the project registers its own sub-commands through a ``register(sub
 function, so this file stays a thin dispatcher:
 
 - ``elastica_magnetic.commands``: ``replay``, ``simulate``
-- ``validation.cli``: ``validate``
-- ``rl.cli``: ``train``, ``bench``, ``refine``, ``generate``, ``export``, ``demo``
+- ``elastica_magnetic_validation.cli``: ``validate``
+- ``elastica_magnetic_rl.cli``: ``train``, ``bench``, ``refine``, ``generate``, ``export``, ``demo``
 - ``elastica_magnetic.hardware.cli``: ``stream``, ``export-firmware``, ``calibrate``
 """
 
@@ -22,8 +22,8 @@ from typing import Any
 # Modules that provide ``register(subparsers)``; missing optional areas are skipped.
 COMMAND_MODULES = (
     "elastica_magnetic.commands",
-    "validation.cli",
-    "rl.cli",
+    "elastica_magnetic_validation.cli",
+    "elastica_magnetic_rl.cli",
     "elastica_magnetic.hardware.cli",
 )
 

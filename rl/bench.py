@@ -2,7 +2,7 @@
 matrix-product rate, the wall time of a real multi-seed training run, and its peak memory.
 
 They sit on top of the physics package (its step-cost benchmarks are
-:mod:`elastica_magnetic.bench`) and of :mod:`rl`; :func:`benchmark` is everything ``msr bench``
+:mod:`elastica_magnetic.bench`) and of :mod:`elastica_magnetic_rl`; :func:`benchmark` is everything ``msr bench``
 reports, measured in one run. Medians over repeated measurements; machines here are noisy, so
 compare numbers within one run.
 """
@@ -51,7 +51,7 @@ def _timed_rate(step: Callable[[], Any], count: int, repeats: int, per_call: int
 
 
 def env_steps_per_s(steps: int = 200, repeats: int = 3, physics: str = "training") -> float:
-    """Steps per second of :class:`rl.env.MagneticCrawlerEnv` (pattern 1, 4 mT; 0.01 s each:
+    """Steps per second of :class:`elastica_magnetic_rl.env.MagneticCrawlerEnv` (pattern 1, 4 mT; 0.01 s each:
     100 substeps in training physics), random actions, episodes never ending during the run."""
     from .env import MagneticCrawlerEnv
 
@@ -64,7 +64,7 @@ def env_steps_per_s(steps: int = 200, repeats: int = 3, physics: str = "training
 def vector_env_steps_per_s(
     n_envs: int = 16, vector_steps: int = 20, repeats: int = 3, physics: str = "training"
 ) -> float:
-    """Environment transitions per second of :class:`rl.vector_env.MagneticCrawlerVectorEnv` with
+    """Environment transitions per second of :class:`elastica_magnetic_rl.vector_env.MagneticCrawlerVectorEnv` with
     ``n_envs`` crawlers in one simulator (``n_envs`` transitions per vector step)."""
     from .vector_env import MagneticCrawlerVectorEnv
 
@@ -82,7 +82,7 @@ def td3_updates_per_s(updates: int = 200, repeats: int = 3, threads: int = 1, se
                       precision: str = "fp32") -> float:
     """TD3 gradient updates per second *per seed* with the crawler's settings (260 observations,
     2 actions, 256-256 networks, minibatch 256, target-noise clip 0.8) on ``threads`` torch
-    threads, ``seeds`` seeds updated as one stacked computation (:class:`rl.td3.TD3`), from
+    threads, ``seeds`` seeds updated as one stacked computation (:class:`elastica_magnetic_rl.td3.TD3`), from
     replay buffers of random transitions."""
     import torch
 
@@ -116,7 +116,7 @@ def _linear_shapes(module: Any) -> list[tuple[int, int]]:
 
 
 def td3_update_flops(agent: Any, batch_size: int) -> float:
-    """Floating-point operations of one seed's :meth:`rl.td3.TD3.update`, averaged over the policy
+    """Floating-point operations of one seed's :meth:`elastica_magnetic_rl.td3.TD3.update`, averaged over the policy
     delay, counting the matrix products only (``2 * batch * in * out`` per product; biases,
     activations and Adam are below 1 % here).
 
@@ -228,7 +228,7 @@ def _process_tree_rss(root: int) -> int:
 
 
 def replay_buffer_bytes(capacity: int, obs_dim: int = 260, act_dim: int = 2) -> int:
-    """Bytes of a full :class:`rl.td3.ReplayBuffer`: float32 obs, next obs, action, reward and
+    """Bytes of a full :class:`elastica_magnetic_rl.td3.ReplayBuffer`: float32 obs, next obs, action, reward and
     terminated per transition."""
     return int(capacity) * (2 * obs_dim + act_dim + 2) * 4
 
@@ -316,7 +316,7 @@ def training_time(
     overrides: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Wall time of ``seeds`` seeds x ``full_steps`` steps of ``case`` in the default layout
-    (:func:`rl.training.default_layout`), extrapolated from a real run: the warm-up, then
+    (:func:`elastica_magnetic_rl.training.default_layout`), extrapolated from a real run: the warm-up, then
     ``window`` steps of learning (a resume of the same run), each group's time split by the
     training loop into acting, environment, storing, updates, logs, evaluations and checkpoints.
 

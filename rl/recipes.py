@@ -5,14 +5,14 @@ from __future__ import annotations
 
 from typing import Any
 
-#: TD3 settings of the crawler that differ from :class:`~rl.td3.TD3Config`'s defaults: the
+#: TD3 settings of the crawler that differ from :class:`~elastica_magnetic_rl.td3.TD3Config`'s defaults: the
 #: authors' target-noise clip 0.8 (Fujimoto's is 0.5); and an evaluation every 5000 steps (not in
 #: the paper; it changes no weight) that keeps the best actor in ``best.pt``. Everything else is
 #: the paper's setting.
 CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8, "eval_every": 5000}
 
 #: Training recipes: named changes of the TD3 configuration on top of
-#: :data:`CRAWLER_TD3_OVERRIDES`, each change an explicit :class:`~rl.td3.TD3Config` field. The
+#: :data:`CRAWLER_TD3_OVERRIDES`, each change an explicit :class:`~elastica_magnetic_rl.td3.TD3Config` field. The
 #: task, reward, observation, action limits, physics, episode length and step budget are the same
 #: in every recipe. ``paper``: the authors' recipe. ``pink``: the paper's with temporally
 #: correlated (pink, ``1/f``) exploration noise instead of independent Gaussian steps (Eberhard et

@@ -2,9 +2,9 @@
 
 :func:`train_seeds` is the only training loop. Seed ``k`` drives sub-environments
 ``k N .. k N + N - 1`` of a vector environment with ``SAME_STEP`` autoreset (for the crawler:
-:class:`~rl.vector_env.MagneticCrawlerVectorEnv`, every robot in one batched simulator; any other
+:class:`~elastica_magnetic_rl.vector_env.MagneticCrawlerVectorEnv`, every robot in one batched simulator; any other
 Gymnasium environment is wrapped in a ``SyncVectorEnv``). The K seeds' networks live in one
-:class:`~rl.td3.TD3` and are updated as one computation. Each seed keeps its own bookkeeping
+:class:`~elastica_magnetic_rl.td3.TD3` and are updated as one computation. Each seed keeps its own bookkeeping
 (:class:`SeedRun`): its run directory, replay buffer, ``episodes.csv``, TensorBoard scalars,
 evaluation with ``best.pt``, progress bar and checkpoints. The layouts of the previous API are
 special cases: :func:`train` (one seed, one environment), :func:`train_vector` (one seed, N
@@ -14,7 +14,7 @@ Per vector step, for every seed: act (uniform random actions during the warm-up,
 ``mu(s) + N(0, sigma^2)``), step, store each transition (the real final observation of an ended
 episode, ``terminated`` not ``done``), then one update per new transition past the warm-up; ended
 episodes are logged and their sub-environments reset with the seed's episode seeds
-(:func:`~rl.td3.episode_seed`: episode ``e`` of seed ``s`` always starts from
+(:func:`~elastica_magnetic_rl.td3.episode_seed`: episode ``e`` of seed ``s`` always starts from
 ``episode_seed(s, e)``; episodes are numbered as they start).
 
 Equivalences (CPU, same thread count; tested): a seed trained beside others is bit-identical to the
@@ -69,7 +69,7 @@ EVALUATION_FIELDS = ("global_step", "mean_return", "std_return", "mean_length", 
                      "wall_time_s")
 EPISODE_FIELDS = ("episode", "global_step", "return", "length", "terminated", "truncated",
                   "wall_time_s")
-#: Fields of :class:`~rl.td3.TD3Config` that a resumed run takes from the config passed (they
+#: Fields of :class:`~elastica_magnetic_rl.td3.TD3Config` that a resumed run takes from the config passed (they
 #: change no weight: when to checkpoint, log and evaluate); every other field comes from the
 #: checkpoint.
 RESUMABLE_SETTINGS = ("checkpoint_every", "log_every", "eval_every", "eval_episodes")
@@ -158,7 +158,7 @@ def evaluate_many(policies: Sequence[Any], vec_env_fn: Callable[[int], gym.vecto
 
 
 class ActorPolicy:
-    """A deterministic policy from an actor's state dict (plain :class:`~rl.td3.Actor`, float32):
+    """A deterministic policy from an actor's state dict (plain :class:`~elastica_magnetic_rl.td3.Actor`, float32):
     what evaluation runs, so a ``best.pt`` replays its recorded evaluation exactly."""
 
     def __init__(self, actor_state: dict[str, torch.Tensor], obs_dim: int, act_dim: int,
@@ -331,7 +331,7 @@ def starting_point(
 class SeedRun:
     """The bookkeeping of one seed: replay buffer, counters, ``episodes.csv``, TensorBoard writer,
     evaluation, progress bar and checkpoints in ``run_dir``. Its networks live in the shared
-    :class:`~rl.td3.TD3` (member ``k``)."""
+    :class:`~elastica_magnetic_rl.td3.TD3` (member ``k``)."""
 
     def __init__(self, k: int, config: TD3Config | None, steps: int, run_dir: str | os.PathLike,
                  resume: bool, init_from: str | os.PathLike | None, metadata: dict[str, Any] | None,
@@ -538,14 +538,14 @@ def train_seeds(
     eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None,
 ) -> TD3:
     """Train ``K = len(configs)`` seeds for ``steps`` environment transitions each and return the
-    :class:`~rl.td3.TD3` holding them.
+    :class:`~elastica_magnetic_rl.td3.TD3` holding them.
 
     Args:
         vec_env_fn: ``vec_env_fn(K * envs_per_seed)`` makes a vector environment with
             ``SAME_STEP`` autoreset and flat Box spaces; its sub-environments reset with a list of
             seeds and ``options={"reset_mask": mask}`` (Gymnasium's ``SyncVectorEnv`` and
-            :class:`~rl.vector_env.MagneticCrawlerVectorEnv` do).
-        configs: one :class:`~rl.td3.TD3Config` per seed (``None``: the checkpoint's or the
+            :class:`~elastica_magnetic_rl.vector_env.MagneticCrawlerVectorEnv` do).
+        configs: one :class:`~elastica_magnetic_rl.td3.TD3Config` per seed (``None``: the checkpoint's or the
             defaults); they must agree on everything but ``seed`` and on ``torch_deterministic``.
         steps: total transitions of each seed, counted from step 0 (steps done before a resume or
             inherited through ``init_from`` included); a seed stops at the first vector step
@@ -823,7 +823,7 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
 # The layouts of the single-seed API
 # ----------------------------------------------------------------------------------------------
 def _single(learner: TD3, k: int = 0) -> TD3Agent:
-    """Seed ``k`` of ``learner`` as a :class:`~rl.td3.TD3Agent`."""
+    """Seed ``k`` of ``learner`` as a :class:`~elastica_magnetic_rl.td3.TD3Agent`."""
     agent = TD3Agent(learner.obs_dim, learner.act_dim, learner.action_low, learner.action_high,
                      learner.configs[k])
     agent.load_seed_state(0, learner.seed_state(k))

@@ -1,6 +1,6 @@
 """Training and refinement of crawling policies (``msr train``, ``msr refine``): seeds in groups
-that train side by side (:func:`rl.runner.train_seeds`), groups in worker processes or Ray tasks
-(:mod:`rl.backends`), one summary per case.
+that train side by side (:func:`elastica_magnetic_rl.runner.train_seeds`), groups in worker processes or Ray tasks
+(:mod:`elastica_magnetic_rl.backends`), one summary per case.
 
 Each seed writes ``OUT/<case>/seed<k>/`` (``episodes.csv``, TensorBoard scalars, ``checkpoint.pt``
 and ``replay.bin``, ``evaluations.csv`` and ``best.pt``, ``run.json``); ``OUT/<case>/summary.json``
@@ -115,7 +115,7 @@ def _write_run_json(run_dir: Path, config, metadata: dict[str, Any], steps: int,
 def _train_group(job: dict[str, Any]) -> dict[str, Any]:
     """Train a group of seeds of one case side by side in one worker process: their crawlers in
     one batched simulator (``job["envs"]`` each), their networks updated as one computation
-    (:func:`~rl.runner.train_seeds`). ``job`` holds plain data only (picklable). Returns
+    (:func:`~elastica_magnetic_rl.runner.train_seeds`). ``job`` holds plain data only (picklable). Returns
     ``{"group": [one result per seed]}``."""
     import torch
 
@@ -249,14 +249,14 @@ def train_cases(
     length, x 1e4): a heuristic to count working seeds, reported with its threshold.
 
     Args:
-        config_overrides: :class:`~rl.td3.TD3Config` fields on top of :func:`crawler_config`
+        config_overrides: :class:`~elastica_magnetic_rl.td3.TD3Config` fields on top of :func:`crawler_config`
             (e.g. ``precision="bf16"``, ``device="cuda"``).
         workers: groups trained at a time (processes or Ray tasks in flight).
         threads: torch threads per worker. Exact resume needs the same thread count.
         envs: crawlers per seed (``envs`` transitions and updates per vector step); resume with
             the same value.
         backend: ``"process"`` (default: worker processes on this machine) or ``"ray"`` (one Ray
-            task per group; see :mod:`rl.backends`). Same run directories and summaries.
+            task per group; see :mod:`elastica_magnetic_rl.backends`). Same run directories and summaries.
         address: Ray cluster to run on (``backend="ray"`` only; default: a local Ray instance with
             ``workers x threads`` CPUs, started and shut down here). The output folder must then be
             on a filesystem every node sees at the same path.

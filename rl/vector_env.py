@@ -1,6 +1,6 @@
 """N crawlers in one simulator: a Gymnasium 1.x vector environment (``MagneticCrawlerVectorEnv``).
 
-Each sub-environment ``i`` is the task of :class:`~rl.env.MagneticCrawlerEnv` (same observation,
+Each sub-environment ``i`` is the task of :class:`~elastica_magnetic_rl.env.MagneticCrawlerEnv` (same observation,
 action, reward, truncation and blow-up rules, same options), but all N robots live in one
 :class:`~elastica_magnetic.batch.BatchedRobots` simulator: one PyElastica memory block, all forcing
 and contact in one numba call per time step, each robot driven by its own
@@ -45,7 +45,7 @@ State
 :meth:`get_state` / :meth:`set_state` save and restore everything that determines the future of
 all sub-environments (the simulator's memory block, every field, the step counters, the last
 observations and the generators), as numpy arrays and plain data: used by
-:func:`rl.runner.train_vector` for checkpoints at any vector step.
+:func:`elastica_magnetic_rl.runner.train_vector` for checkpoints at any vector step.
 
 Units: SI (m, s, T) as the single environment.
 """
@@ -88,7 +88,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
     num_envs : int
         Number of sub-environments (robots) ``N`` >= 1.
     pattern, field_limit, physics, initial_field, duration, spec, max_increment, divergence_penalty
-        As :class:`~rl.env.MagneticCrawlerEnv` (``field_limit`` in T, ``duration`` in s,
+        As :class:`~elastica_magnetic_rl.env.MagneticCrawlerEnv` (``field_limit`` in T, ``duration`` in s,
         ``max_increment`` in T per unit action), the same for every sub-environment.
         ``reset(options={"initial_field": ...})`` overrides ``initial_field`` for the episodes
         started by that reset (not for later autoresets).

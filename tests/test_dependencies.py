@@ -8,11 +8,14 @@ import ast
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("elastica_magnetic", "rl", "validation")
+#: Installed package name -> its folder in the repository (setup.cfg's package_dir).
+PACKAGES = {"elastica_magnetic": "elastica_magnetic", "elastica_magnetic_rl": "rl",
+            "elastica_magnetic_validation": "validation"}
 
 
 def _module_name(path: Path) -> str:
-    parts = path.relative_to(ROOT).with_suffix("").parts
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    parts[0] = {folder: name for name, folder in PACKAGES.items()}[parts[0]]
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
@@ -39,7 +42,7 @@ def _imports(path: Path) -> set[str]:
 
 
 def _graph() -> dict[str, set[str]]:
-    modules = {_module_name(p): p for pkg in PACKAGES for p in (ROOT / pkg).rglob("*.py")}
+    modules = {_module_name(p): p for folder in PACKAGES.values() for p in (ROOT / folder).rglob("*.py")}
     graph = {}
     for name, path in modules.items():
         targets = set()
@@ -54,15 +57,16 @@ def _graph() -> dict[str, set[str]]:
 
 def test_the_physics_package_imports_no_learning_or_validation():
     graph = _graph()
-    upward = {(m, t) for m, targets in graph.items() if m.startswith("elastica_magnetic")
-              for t in targets if not t.startswith("elastica_magnetic") and not m.endswith(".cli")}
+    physics = "elastica_magnetic"
+    upward = {(m, t) for m, targets in graph.items() if m.split(".")[0] == physics
+              for t in targets if t.split(".")[0] != physics and not m.endswith(".cli")}
     assert not upward, sorted(upward)
 
 
 def test_no_import_cycles_between_modules():
     graph = {m: {t for t in ts if not t.endswith(".cli")} for m, ts in _graph().items()
              if not m.endswith(".cli")}
-    for package in ("elastica_magnetic", "rl", "validation"):
+    for package in PACKAGES:
         # a module importing its own package's __init__ is not a cycle of concepts
         graph[package] = set()
     state: dict[str, int] = {}
@@ -79,3 +83,33 @@ def test_no_import_cycles_between_modules():
     for node in sorted(graph):
         if node not in state:
             visit(node, [node])
+
+
+def test_no_module_imports_the_folder_names():
+    """``rl`` and ``validation`` are folders of the repository, installed as ``elastica_magnetic_rl``
+    and ``elastica_magnetic_validation``: importing them by folder name would load a second copy."""
+    bare = []
+    for folder in (*PACKAGES.values(), "tests", "benchmarks", "scripts", "docs"):
+        for path in (ROOT / folder).rglob("*.py"):
+            if "_build" in path.parts:
+                continue
+            for node in ast.walk(ast.parse(path.read_text())):
+                names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
+                         [node.module or ""] if isinstance(node, ast.ImportFrom) and not node.level
+                         else [])
+                bare += [f"{path.relative_to(ROOT)}: {n}" for n in names
+                         if n.split(".")[0] in ("rl", "validation")]
+    assert not bare, bare
+
+
+def test_installation_puts_no_generic_names_on_the_path(tmp_path):
+    """Outside the repository, ``rl`` and ``validation`` are not importable; the package's own names are."""
+    import subprocess
+    import sys
+
+    code = ("import importlib.util as u; "
+            "print([n for n in ('rl', 'validation') if u.find_spec(n)], "
+            "[n for n in ('elastica_magnetic_rl', 'elastica_magnetic_validation') if not u.find_spec(n)])")
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True,
+                         check=True, env={"PATH": "/usr/bin:/bin"}).stdout.strip()
+    assert out == "[] []", out

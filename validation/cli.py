@@ -12,21 +12,21 @@ from .report import CaseResult, write_report
 
 #: Case name -> module with ``run(out: Path, quick: bool) -> CaseResult``.
 CASES = {
-    "cantilever": "validation.cantilever_case",
-    "hu2018": "validation.hu2018_case",
-    "replay-yao2023": "validation.replay_case",
+    "cantilever": "elastica_magnetic_validation.cantilever_case",
+    "hu2018": "elastica_magnetic_validation.hu2018_case",
+    "replay-yao2023": "elastica_magnetic_validation.replay_case",
 }
 
 
 #: Not a comparison with a reference but a check of claims: every shipped policy, re-run for 10 s
 #: in the accurate physics (``--quick``: 0.3 s), reproduces its recorded distance and waveform
-#: and reaches the authors' distance (:func:`rl.shipped.verify_shipped`). Run only when named.
+#: and reaches the authors' distance (:func:`elastica_magnetic_rl.shipped.verify_shipped`). Run only when named.
 SHIPPED = "shipped"
 
 
 def verify_all_shipped(quick: bool) -> list[dict]:
-    """:func:`rl.shipped.verify_shipped` of every shipped policy."""
-    from rl.shipped import shipped_names, verify_shipped
+    """:func:`elastica_magnetic_rl.shipped.verify_shipped` of every shipped policy."""
+    from elastica_magnetic_rl.shipped import shipped_names, verify_shipped
 
     results = []
     for name in shipped_names():

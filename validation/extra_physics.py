@@ -2,8 +2,8 @@
 
 Run (each writes a JSON summary and a small PNG into ``--out``)::
 
-    python -m validation.extra_physics s2 --duration 3 --out docs/figures/physics
-    python -m validation.extra_physics damping --duration 1.5 --out docs/figures/physics
+    python -m elastica_magnetic_validation.extra_physics s2 --duration 3 --out docs/figures/physics
+    python -m elastica_magnetic_validation.extra_physics damping --duration 1.5 --out docs/figures/physics
 
 ``s2``: pattern 2 under the shipped ``m2-10mT`` waveform with and without the magnetic interaction
 between the robot's elements (plus self-contact), and pattern 1 under its shipped ``m1-10mT``

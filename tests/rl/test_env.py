@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-import rl
+import elastica_magnetic_rl
 from elastica_magnetic import yao2023_robot
-from rl.env import (
+from elastica_magnetic_rl.env import (
     CASES,
     OBSERVATION_LAYOUT,
     OBSERVATION_SCALES,
@@ -32,7 +32,7 @@ def make(**kw) -> MagneticCrawlerEnv:
 
 
 def test_check_env_passes_through_gym_make():
-    env = gym.make(rl.ENV_ID, duration=0.1, render_mode="rgb_array")
+    env = gym.make(elastica_magnetic_rl.ENV_ID, duration=0.1, render_mode="rgb_array")
     with warnings.catch_warnings():
         # Unbounded blocks (angular velocity, contact) are honest infinities.
         warnings.filterwarnings("ignore", message=".*infinity.*")
@@ -42,7 +42,7 @@ def test_check_env_passes_through_gym_make():
 
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_registered_cases(case):
-    env = gym.make(rl.ENV_ID, **CASES[case].env_kwargs, duration=0.05)
+    env = gym.make(elastica_magnetic_rl.ENV_ID, **CASES[case].env_kwargs, duration=0.05)
     obs, info = env.reset(seed=1)
     assert obs.shape == (260,) and env.observation_space.shape == (260,)
     assert env.unwrapped.field_limit == CASES[case].field_limit

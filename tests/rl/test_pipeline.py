@@ -15,10 +15,10 @@ import torch
 from elastica_magnetic import read_field_csv
 from elastica_magnetic.cli import main as msr
 from elastica_magnetic.simulation import TRAJECTORY_COLUMNS
-from rl import pipeline
-from rl.checkpoint import load_checkpoint
-from rl.env import OBSERVATION_LAYOUT, MagneticCrawlerEnv
-from rl.td3 import TD3Agent
+from elastica_magnetic_rl import pipeline
+from elastica_magnetic_rl.checkpoint import load_checkpoint
+from elastica_magnetic_rl.env import OBSERVATION_LAYOUT, MagneticCrawlerEnv
+from elastica_magnetic_rl.td3 import TD3Agent
 
 TRAIN_STEPS = 240
 SMOKE = ["--learning-starts", "60", "--batch-size", "32", "--hidden", "32,32",
@@ -344,7 +344,7 @@ SHIPPED = ("m1-10mT", "m1-4mT", "m2-10mT", "m2-4mT")
 
 
 def test_every_shipped_policy_is_tested():
-    from rl.shipped import shipped_names
+    from elastica_magnetic_rl.shipped import shipped_names
 
     assert shipped_names() == list(SHIPPED)
 
@@ -387,7 +387,7 @@ def test_one_shipped_distance_is_re_run_in_full():
     the authors' distance."""
     import datetime
 
-    from rl.shipped import verify_shipped
+    from elastica_magnetic_rl.shipped import verify_shipped
 
     name = SHIPPED[datetime.date.today().toordinal() % len(SHIPPED)]
     result = verify_shipped(name)

@@ -8,7 +8,7 @@ import shutil
 import pytest
 
 from elastica_magnetic.cli import main
-from rl.pipeline import POLICIES_DIR, PolicyFileError, resolve_policy
+from elastica_magnetic_rl.pipeline import POLICIES_DIR, PolicyFileError, resolve_policy
 
 
 @pytest.fixture

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 import torch
 
-from rl.checkpoint import load_checkpoint
-from rl.runner import ActorPolicy, evaluate, train
-from rl.td3 import TD3, Batch, ReplayBuffer, TD3Agent, TD3Config
+from elastica_magnetic_rl.checkpoint import load_checkpoint
+from elastica_magnetic_rl.runner import ActorPolicy, evaluate, train
+from elastica_magnetic_rl.td3 import TD3, Batch, ReplayBuffer, TD3Agent, TD3Config
 
 torch.set_num_threads(1)
 
@@ -521,7 +521,7 @@ def test_k_seeds_update_equals_each_seed_alone():
 
 
 def test_seeds_trained_together_equal_their_runs_alone(tmp_path):
-    from rl.runner import train_seeds
+    from elastica_magnetic_rl.runner import train_seeds
 
     configs = [toy_config(seed=s) for s in (2, 5)]
     train_seeds(lambda k: _sync(ToyEnv, k), configs, 150, [tmp_path / "g2", tmp_path / "g5"],
@@ -573,7 +573,7 @@ def test_resume_without_checkpoint_refuses_and_keeps_the_log(tmp_path):
 # ----------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("beta", [0.0, 1.0, 2.0])
 def test_colored_noise_has_the_power_law_spectrum_and_unit_variance(beta):
-    from rl.exploration import colored_noise
+    from elastica_magnetic_rl.exploration import colored_noise
 
     rng = np.random.default_rng(0)
     # (draws, steps, dims); red noise needs many draws: its variance sits in a few low frequencies
@@ -593,7 +593,7 @@ def test_colored_noise_has_the_power_law_spectrum_and_unit_variance(beta):
 
 
 def test_pink_exploration_is_correlated_in_time_and_trains_reproducibly(tmp_path):
-    from rl.runner import SeedRun, train_seeds
+    from elastica_magnetic_rl.runner import SeedRun, train_seeds
 
     def lag1(cfg):
         run = SeedRun(0, cfg, 100, tmp_path / f"probe{cfg.noise_color}", False, None, None, 3, 2, 1)
@@ -629,7 +629,7 @@ def test_pink_exploration_is_correlated_in_time_and_trains_reproducibly(tmp_path
 def test_seeds_evaluated_together_log_what_each_alone_logs(tmp_path):
     """Evaluations of a group's seeds in one vector environment record the same returns (and keep
     the same best.pt) as each seed evaluated alone in a single environment."""
-    from rl.runner import train_seeds
+    from elastica_magnetic_rl.runner import train_seeds
 
     configs = [toy_config(seed=s, eval_every=40, eval_episodes=2) for s in (2, 5)]
     train_seeds(lambda k: _sync(ToyEnv, k), configs, 150, [tmp_path / "g2", tmp_path / "g5"],

@@ -18,11 +18,11 @@ import torch
 from gymnasium.vector import AutoresetMode, VectorEnv
 
 from elastica_magnetic.cli import main as msr
-from rl.checkpoint import load_checkpoint
-from rl.env import OBSERVATION_LAYOUT, MagneticCrawlerEnv
-from rl.runner import train_vector
-from rl.td3 import TD3Config
-from rl.vector_env import MagneticCrawlerVectorEnv
+from elastica_magnetic_rl.checkpoint import load_checkpoint
+from elastica_magnetic_rl.env import OBSERVATION_LAYOUT, MagneticCrawlerEnv
+from elastica_magnetic_rl.runner import train_vector
+from elastica_magnetic_rl.td3 import TD3Config
+from elastica_magnetic_rl.vector_env import MagneticCrawlerVectorEnv
 
 DURATION = 0.05  # s: 5 steps per episode, so short runs cross several autoresets
 
@@ -207,9 +207,9 @@ def test_train_shared_seeds_equal_separate_single_env_runs(tmp_path):
     """Seeds 3 and 7 trained side by side in one simulator (``train_shared``; the second half after
     a resume) end bit-identical to two separate ``train`` runs with single environments: same
     episodes, weights, optimisers and buffers. Only the simulation is shared."""
-    from rl.pipeline import make_env
-    from rl.runner import train, train_shared
-    from rl.vector_env import make_vector_env
+    from elastica_magnetic_rl.pipeline import make_env
+    from elastica_magnetic_rl.runner import train, train_shared
+    from elastica_magnetic_rl.vector_env import make_vector_env
 
     duration, steps = 0.1, 40  # 10-step episodes; updates from step 20
     configs = [TD3Config(seed=s, learning_starts=20, batch_size=16, hidden_sizes=(16,),
@@ -236,8 +236,8 @@ def test_train_shared_seeds_equal_separate_single_env_runs(tmp_path):
 
 
 def test_train_shared_rejects_shared_run_dirs(tmp_path):
-    from rl.runner import train_shared
-    from rl.vector_env import make_vector_env
+    from elastica_magnetic_rl.runner import train_shared
+    from elastica_magnetic_rl.vector_env import make_vector_env
 
     configs = [TD3Config(seed=0), TD3Config(seed=1)]
     with pytest.raises(ValueError, match="own run_dir"):
@@ -246,12 +246,12 @@ def test_train_shared_rejects_shared_run_dirs(tmp_path):
 
 
 def test_policies_evaluated_together_equal_each_alone():
-    """rl.runner.evaluate_many on the crawler's vector environment returns, for each policy, what
-    rl.runner.evaluate returns with a single environment (the evaluation during training)."""
-    from rl.pipeline import make_env
-    from rl.runner import ActorPolicy, evaluate, evaluate_many
-    from rl.td3 import TD3
-    from rl.vector_env import make_vector_env
+    """elastica_magnetic_rl.runner.evaluate_many on the crawler's vector environment returns, for each policy, what
+    elastica_magnetic_rl.runner.evaluate returns with a single environment (the evaluation during training)."""
+    from elastica_magnetic_rl.pipeline import make_env
+    from elastica_magnetic_rl.runner import ActorPolicy, evaluate, evaluate_many
+    from elastica_magnetic_rl.td3 import TD3
+    from elastica_magnetic_rl.vector_env import make_vector_env
 
     learner = TD3(260, 2, -np.ones(2), np.ones(2), [TD3Config(seed=s, hidden_sizes=(16,)) for s in (0, 1)])
     policies = [ActorPolicy.of_seed(learner, k) for k in range(2)]

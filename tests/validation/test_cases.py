@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 
 from elastica_magnetic.cli import main
-from validation.cli import CASES, available_cases
-from validation.report import MARGIN
+from elastica_magnetic_validation.cli import CASES, available_cases
+from elastica_magnetic_validation.report import MARGIN
 
 # A tolerance set from a measured error must stay tight: at most this many times the error the
 # quick run achieves now (MARGIN, plus the rounding up of the recorded error to two digits).
@@ -78,7 +78,7 @@ def test_validate_full_replay(tmp_path, capsys):
 def test_validate_shipped_quick_checks_every_shipped_policy(capsys):
     """``msr validate shipped --quick``: every shipped policy's first 0.3 s reproduce its waveform
     (the full 10 s check of all four is ``msr validate shipped``)."""
-    from rl.shipped import shipped_names
+    from elastica_magnetic_rl.shipped import shipped_names
 
     assert main(["validate", "shipped", "--quick", "--json"]) == 0
     result = json.loads(capsys.readouterr().out)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.special import ellipk
 
-from validation.elastica_bvp import (
+from elastica_magnetic_validation.elastica_bvp import (
     ElasticaConvergenceError,
     Equilibria,
     MagneticRod,
