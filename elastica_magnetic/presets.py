@@ -107,7 +107,8 @@ class RobotSpec:
 
     The rod is the equivalent circular rod of a ``length x width x height`` band (radius
     ``height / sqrt(3)``, shear coefficient ``alpha_c``), straight along +x from the origin at
-    ``t = 0``, bending in the x-y plane; gravity acts along -y.
+    ``t = 0``, bending in the x-y plane; gravity acts along -y. ``section="round"``: a round rod
+    whose diameter is ``width`` = ``height`` (radius ``height / 2``).
     """
 
     name: str
@@ -127,8 +128,14 @@ class RobotSpec:
     damping: DampingSpec | None = DampingSpec()
     units: UnitSystem = SI
     interaction: InteractionSpec | None = None
+    section: Literal["band", "round"] = "band"
 
     def __post_init__(self) -> None:
+        if self.section not in ("band", "round"):
+            raise ValueError(f"RobotSpec.section must be 'band' or 'round', got {self.section!r}")
+        if self.section == "round" and self.width != self.height:
+            raise ValueError("a round RobotSpec has width == height == its diameter, got "
+                             f"{self.width} and {self.height}")
         for name in ("length", "width", "height", "density", "youngs_modulus", "shear_modulus"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
@@ -147,7 +154,10 @@ class RobotSpec:
 
     @property
     def radius(self) -> float:
-        """Radius of the equivalent circular rod, ``height / sqrt(3)``."""
+        """Radius of the rod, m: ``height / sqrt(3)`` for a band (the equivalent circular rod),
+        ``height / 2`` for a round section."""
+        if self.section == "round":
+            return 0.5 * self.height
         return equivalent_radius(self.height)
 
     @property

@@ -76,6 +76,7 @@ def rectangular_band_rod(
     direction: ArrayLike = (1.0, 0.0, 0.0),
     normal: ArrayLike = (0.0, 1.0, 0.0),
     alpha_c: float = 1.0,
+    radius: float | None = None,
 ) -> CosseratRod:
     """A straight PyElastica rod equivalent to a rectangular band (radius ``h/sqrt(3)``, ``alpha_c``).
 
@@ -97,6 +98,9 @@ def rectangular_band_rod(
         Position of the first node (m), rod axis, and the normal ``d1`` of the reference directors.
     alpha_c : float
         Shear coefficient (1 for the paper's equivalent band).
+    radius : float, optional
+        A round rod of this radius (m) instead of the band's equivalent one (``width`` and
+        ``height`` are then only checked).
     """
     _check_positive(
         length=length,
@@ -115,7 +119,7 @@ def rectangular_band_rod(
             np.asarray(direction, dtype=np.float64),
             np.asarray(normal, dtype=np.float64),
             float(length),
-            equivalent_radius(height),
+            equivalent_radius(height) if radius is None else float(radius),
             float(density),
             youngs_modulus=float(youngs_modulus),
             shear_modulus=float(shear_modulus),

@@ -172,6 +172,7 @@ def robot_rod(spec: RobotSpec) -> ea.CosseratRod:
         spec.youngs_modulus,
         spec.shear_modulus,
         alpha_c=spec.alpha_c,
+        radius=spec.radius if spec.section == "round" else None,
     )
 
 
@@ -203,7 +204,8 @@ def register_robot_forcing(
             magnetization=spec.magnetization,
             frame="lab",
             cutoff=interaction.cutoff,
-            source_area=spec.width * spec.height if interaction.band_source else None,
+            source_area=(spec.width * spec.height
+                         if interaction.band_source and spec.section == "band" else None),
         )
     if spec.damping is not None and spec.damping.kelvin_voigt > 0.0:
         simulator.add_forcing_to(rod).using(KelvinVoigtDamping, viscosity=spec.damping.kelvin_voigt)

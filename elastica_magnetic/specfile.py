@@ -1,0 +1,489 @@
+"""Spec files: a robot and its physics as plain TOML data, checked key by key.
+
+A *spec* is a TOML file (read with :mod:`tomllib`) that describes a case completely. This module
+owns the file format's reading and writing and the two tables that describe the physical robot:
+
+- ``[robot]`` (geometry, material, gravity) with ``[robot.magnetization]`` (required),
+  ``[robot.ground]``, ``[robot.damping]`` and ``[robot.interaction]`` (optional);
+- ``[physics.training]`` and ``[physics.accurate]``: mass scaling and time step of the two physics
+  settings (see :mod:`elastica_magnetic.presets`).
+
+The learning package reads the other tables (``[actuation]``, ``[task]``, ``[training]``,
+``[yardstick]``). Every value is SI; the keys, units and defaults are listed in
+:data:`ROBOT_KEYS` and written next to each value by :func:`dumps`. Unknown keys, missing required
+keys, wrong types and non-physical values raise :class:`SpecError`, which names the file, the
+table and the key and states the expected unit or range.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .magnetization import (
+    YAO2023_MAGNETIZATION,
+    sinusoidal_magnetization,
+    two_segment_magnetization,
+    uniform_magnetization,
+    yao2023_magnetization,
+)
+from .presets import (
+    ACTION_PERIOD,
+    STANDARD_GRAVITY,
+    YAO2023_MASS_SCALE,
+    DampingSpec,
+    GroundSpec,
+    InteractionSpec,
+    Physics,
+    RobotSpec,
+)
+
+__all__ = [
+    "SPEC_TABLES",
+    "MAGNETIZATION_KINDS",
+    "SpecError",
+    "SpecTable",
+    "RobotDescription",
+    "read_spec",
+    "loads",
+    "dumps",
+    "describe_robot",
+]
+
+#: Top-level keys of a spec file (the learning package reads the last four).
+SPEC_TABLES = ("name", "description", "robot", "physics", "actuation", "task", "training", "yardstick")
+
+#: Named magnetization patterns and their parameters (besides ``kind``); ``table`` gives the
+#: per-element values directly.
+MAGNETIZATION_KINDS: dict[str, tuple[str, ...]] = {
+    "uniform": ("magnitude", "direction"),
+    "two-segment": ("magnitude", "first", "second", "split"),
+    "yao2023-pattern1": ("magnitude",),
+    "yao2023-pattern2": ("magnitude",),
+    "sinusoid": ("magnitude", "phase"),
+    "table": ("values",),
+}
+
+#: The two physics settings and their defaults (the paper's): mass scale, time step (s).
+PHYSICS_DEFAULTS: dict[str, dict[str, float]] = {
+    "training": {"mass_scale": YAO2023_MASS_SCALE, "dt": 1e-4},
+    "accurate": {"mass_scale": 1.0, "dt": 8e-6},
+}
+
+#: Units written next to values by :func:`dumps` (table path, key) -> unit.
+UNITS: dict[tuple[str, str], str] = {
+    ("robot", "length"): "m", ("robot", "width"): "m", ("robot", "thickness"): "m",
+    ("robot", "radius"): "m", ("robot", "density"): "kg/m^3", ("robot", "youngs_modulus"): "Pa",
+    ("robot", "shear_modulus"): "Pa", ("robot", "gravity"): "m/s^2 along -y",
+    ("robot", "shear_coefficient"): "alpha_c, 1", ("robot", "poisson_ratio"): "1",
+    ("robot.magnetization", "magnitude"): "A/m", ("robot.magnetization", "phase"): "rad",
+    ("robot.magnetization", "split"): "elements in the first segment",
+    ("robot.magnetization", "values"): "A/m, [[m_x...], [m_y...], [m_z...]], lab frame, rod along +x",
+    ("robot.ground", "stiffness"): "N/m", ("robot.ground", "damping"): "N s/m",
+    ("robot.ground", "surface_tolerance"): "m", ("robot.ground", "slip_velocity_tolerance"): "m/s",
+    ("robot.ground", "static_mu"): "1", ("robot.ground", "kinetic_mu"): "1",
+    ("robot.damping", "relative"): "N s/m^2", ("robot.damping", "node_offset"): "nodes",
+    ("robot.damping", "legacy_force"): "N s/m^2", ("robot.damping", "legacy_torque"): "N s",
+    ("robot.damping", "kelvin_voigt"): "Pa s",
+    ("robot.interaction", "cutoff"): "m", ("robot.interaction", "self_contact_stiffness"): "N/m",
+    ("robot.interaction", "self_contact_damping"): "N s/m",
+    ("physics.training", "dt"): "s", ("physics.accurate", "dt"): "s",
+    ("physics.training", "mass_scale"): "density x s, gravity / s",
+    ("physics.accurate", "mass_scale"): "density x s, gravity / s",
+}
+
+_REQUIRED = object()
+
+
+class SpecError(ValueError):
+    """A spec that does not describe a valid case; the message names the file, table and key."""
+
+
+class SpecTable:
+    """Checked, typed access to one table of a spec; :meth:`finish` rejects keys never read.
+
+    ``source`` names the file (or ``"<spec>"``), ``path`` the table (``"robot.ground"``; ``""`` for
+    the top level). Every getter records the key and returns a plain Python value.
+    """
+
+    def __init__(self, data: Any, source: str, path: str = "") -> None:
+        if not isinstance(data, Mapping):
+            raise SpecError(f"{source}: {self._name(path) or 'the spec'} must be a table, "
+                            f"got {type(data).__name__}")
+        self.data, self.source, self.path = data, source, path
+        self._read: set[str] = set()
+
+    @staticmethod
+    def _name(path: str) -> str:
+        return f"[{path}]" if path else ""
+
+    def where(self, key: str) -> str:
+        """``file: [table] key`` for error messages."""
+        table = self._name(self.path)
+        return f"{self.source}: {table + ' ' if table else ''}{key}"
+
+    def error(self, key: str, message: str) -> SpecError:
+        return SpecError(f"{self.where(key)}: {message}")
+
+    def has(self, key: str) -> bool:
+        return key in self.data
+
+    def _get(self, key: str, default: Any) -> Any:
+        self._read.add(key)
+        if key in self.data:
+            return self.data[key]
+        if default is _REQUIRED:
+            raise self.error(key, "missing (required)")
+        return default
+
+    def number(self, key: str, unit: str, default: Any = _REQUIRED, *, low: float | None = None,
+               low_open: bool = False, high: float | None = None, integer: bool = False) -> Any:
+        """A finite number in ``[low, high]`` (``(low, high]`` if ``low_open``), ``unit`` for the
+        message; ``integer``: a TOML integer. A missing optional key returns ``default`` as is."""
+        value = self._get(key, default)
+        if key not in self.data:
+            return value
+        kind = "an integer" if integer else "a number"
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or (
+                integer and not isinstance(value, int)):
+            raise self.error(key, f"expected {kind} ({unit}), got {value!r}")
+        if not math.isfinite(value):
+            raise self.error(key, f"expected a finite number ({unit}), got {value!r}")
+        if low is not None and (value <= low if low_open else value < low):
+            raise self.error(key, f"must be {'>' if low_open else '>='} {low:g} ({unit}), got {value!r}")
+        if high is not None and value > high:
+            raise self.error(key, f"must be <= {high:g} ({unit}), got {value!r}")
+        return int(value) if integer else float(value)
+
+    def string(self, key: str, default: Any = _REQUIRED, choices: tuple[str, ...] | None = None) -> Any:
+        value = self._get(key, default)
+        if key not in self.data:
+            return value
+        if not isinstance(value, str):
+            raise self.error(key, f"expected a string, got {value!r}")
+        if choices is not None and value not in choices:
+            raise self.error(key, f"expected one of {', '.join(choices)}; got {value!r}")
+        return value
+
+    def boolean(self, key: str, default: Any = _REQUIRED) -> Any:
+        value = self._get(key, default)
+        if key in self.data and not isinstance(value, bool):
+            raise self.error(key, f"expected true or false, got {value!r}")
+        return value
+
+    def vector(self, key: str, unit: str, size: int, default: Any = _REQUIRED) -> Any:
+        """A list of ``size`` finite numbers."""
+        value = self._get(key, default)
+        if key not in self.data:
+            return value
+        if (not isinstance(value, list) or len(value) != size or any(
+                isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
+                for v in value)):
+            raise self.error(key, f"expected a list of {size} finite numbers ({unit}), got {value!r}")
+        return [float(v) for v in value]
+
+    def table(self, key: str, required: bool = True) -> SpecTable | None:
+        """A sub-table (``None`` if optional and absent)."""
+        value = self._get(key, _REQUIRED if required else None)
+        if value is None:
+            return None
+        path = f"{self.path}.{key}" if self.path else key
+        if not isinstance(value, Mapping):
+            raise SpecError(f"{self.source}: [{path}] must be a table, got {value!r}")
+        return SpecTable(value, self.source, path)
+
+    def raw(self, key: str, default: Any = _REQUIRED) -> Any:
+        """The value as written (checked by the caller)."""
+        return self._get(key, default)
+
+    def finish(self) -> None:
+        """Raise on keys that were never read (typos, keys of another kind)."""
+        unknown = sorted(set(self.data) - self._read)
+        if unknown:
+            known = ", ".join(sorted(self._read)) or "none"
+            raise SpecError(f"{self.where(unknown[0])}: unknown key (this table takes: {known})")
+
+
+def read_spec(path: str | Path) -> dict[str, Any]:
+    """The TOML data of a spec file; a missing file or a syntax error is a :class:`SpecError`."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SpecError(f"{path}: no such spec file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SpecError(f"{path}: cannot be read as a spec file ({exc})") from None
+    return loads(text, str(path))
+
+
+def loads(text: str, source: str = "<spec>") -> dict[str, Any]:
+    """Parse spec text (TOML); syntax errors name ``source`` and the line."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError(f"{source}: not valid TOML: {exc}") from None
+
+
+def dumps(data: Mapping[str, Any]) -> str:
+    """TOML text of a spec, with the unit of each value in a comment (written with ``tomli_w``)."""
+    import tomli_w
+
+    lines, table = [], ""
+    for line in tomli_w.dumps(_plain(data), multiline_strings=False).splitlines():
+        stripped = line.strip()
+        if stripped.startswith("[") and not stripped.startswith("[["):
+            table = stripped.strip("[]")
+        elif " = " in line and not line.startswith(" "):
+            unit = UNITS.get((table, line.split(" = ", 1)[0]))
+            if unit is not None and not line.rstrip().endswith("["):
+                line = f"{line}  # {unit}"
+        lines.append(line)
+    return "\n".join(lines) + "\n"
+
+
+def _plain(value: Any) -> Any:
+    """Numpy scalars/arrays and tuples as plain TOML-able Python values."""
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_plain(v) for v in (value.tolist() if isinstance(value, np.ndarray) else value)]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+# -- the robot and its physics --------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class RobotDescription:
+    """The ``[robot]`` and ``[physics]`` tables of a spec, checked and complete (every default
+    written out, SI): :attr:`tables` is plain data (``{"robot": ..., "physics": ...}``) that
+    round-trips through TOML and JSON; :meth:`robot` builds the :class:`RobotSpec`."""
+
+    tables: dict[str, Any]
+
+    @property
+    def n_elements(self) -> int:
+        return int(self.tables["robot"]["n_elements"])
+
+    @property
+    def name(self) -> str:
+        return str(self.tables["robot"]["name"])
+
+    def robot(self, physics: Physics = "accurate") -> RobotSpec:
+        """The robot in one physics setting (``"accurate"`` or ``"training"``)."""
+        if physics not in PHYSICS_DEFAULTS:
+            raise ValueError(f"physics must be 'accurate' or 'training', got {physics!r}")
+        r = self.tables["robot"]
+        setting = self.tables["physics"][physics]
+        n = int(r["n_elements"])
+        if "radius" in r:
+            section, width, height = "round", 2.0 * r["radius"], 2.0 * r["radius"]
+        else:
+            section, width, height = "band", r["width"], r["thickness"]
+        if "shear_modulus" in r:
+            shear_modulus = r["shear_modulus"]
+        else:
+            shear_modulus = r["youngs_modulus"] / (2.0 * (1.0 + r["poisson_ratio"]))
+        ground = r.get("ground")
+        damping = r.get("damping")
+        interaction = r.get("interaction")
+        return RobotSpec(
+            name=r["name"],
+            n_elements=n,
+            length=r["length"],
+            width=width,
+            height=height,
+            section=section,
+            density=r["density"],
+            youngs_modulus=r["youngs_modulus"],
+            shear_modulus=shear_modulus,
+            magnetization=magnetization_array(r["magnetization"], n),
+            alpha_c=r["shear_coefficient"],
+            gravity=r["gravity"],
+            mass_scale=setting["mass_scale"],
+            dt=setting["dt"],
+            ground=None if ground is None else GroundSpec(
+                k=ground["stiffness"], nu=ground["damping"], static_mu=ground["static_mu"],
+                kinetic_mu=ground["kinetic_mu"], surface_tolerance=ground["surface_tolerance"],
+                slip_velocity_tol=ground["slip_velocity_tolerance"]),
+            damping=None if damping is None else DampingSpec(
+                relative_nu=damping["relative"], node_offset=damping["node_offset"],
+                legacy_force=damping["legacy_force"], legacy_torque=damping["legacy_torque"],
+                kelvin_voigt=damping["kelvin_voigt"]),
+            interaction=None if interaction is None else InteractionSpec(
+                cutoff=interaction.get("cutoff"), band_source=interaction["band_source"],
+                self_contact_k=interaction["self_contact_stiffness"],
+                self_contact_nu=interaction["self_contact_damping"]),
+        )
+
+
+def describe_robot(spec: Mapping[str, Any], source: str = "<spec>") -> RobotDescription:
+    """Check the ``[robot]`` and ``[physics]`` tables of ``spec`` (a parsed spec file) and return
+    them complete. Other top-level keys must be among :data:`SPEC_TABLES` (they are checked by
+    their owners); anything else is an error naming ``source`` and the key."""
+    top = SpecTable(spec, source)
+    for key in spec:
+        if key not in SPEC_TABLES:
+            raise top.error(key, f"unknown top-level key (a spec has: {', '.join(SPEC_TABLES)})")
+    robot = _robot_table(top.table("robot"))
+    physics = _physics_table(top.table("physics", required=False), source, robot)
+    return RobotDescription({"robot": robot, "physics": physics})
+
+
+def _robot_table(t: SpecTable) -> dict[str, Any]:
+    out: dict[str, Any] = {"name": t.string("name", "custom")}
+    if not out["name"]:
+        raise t.error("name", "must not be empty")
+    out["length"] = t.number("length", "m", low=0.0, low_open=True)
+    out["n_elements"] = t.number("n_elements", "elements", low=2, integer=True)
+    if t.has("radius"):
+        for other in ("width", "thickness"):
+            if t.has(other):
+                raise t.error(other, "give either radius (round rod) or width and thickness (band)")
+        out["radius"] = t.number("radius", "m", low=0.0, low_open=True)
+    else:
+        if not (t.has("width") or t.has("thickness")):
+            raise t.error("thickness", "missing: give width and thickness (m, a band) or radius (m)")
+        out["width"] = t.number("width", "m", low=0.0, low_open=True)
+        out["thickness"] = t.number("thickness", "m", low=0.0, low_open=True)
+    out["density"] = t.number("density", "kg/m^3", low=0.0, low_open=True)
+    out["youngs_modulus"] = t.number("youngs_modulus", "Pa", low=0.0, low_open=True)
+    if t.has("shear_modulus") and t.has("poisson_ratio"):
+        raise t.error("poisson_ratio", "give either shear_modulus (Pa) or poisson_ratio, not both")
+    if t.has("poisson_ratio"):
+        nu = t.number("poisson_ratio", "1", high=0.5)
+        if nu <= -1.0:
+            raise t.error("poisson_ratio", f"must be in (-1, 0.5], got {nu!r}")
+        out["poisson_ratio"] = nu
+    else:
+        out["shear_modulus"] = t.number("shear_modulus", "Pa, or give poisson_ratio", low=0.0,
+                                        low_open=True)
+    out["shear_coefficient"] = t.number("shear_coefficient", "alpha_c, 1", 1.0, low=0.0, low_open=True)
+    out["gravity"] = t.number("gravity", "m/s^2", STANDARD_GRAVITY, low=0.0)
+    out["magnetization"] = _magnetization_table(t.table("magnetization"), out["n_elements"])
+    ground = t.table("ground", required=False)
+    if ground is not None:
+        d = GroundSpec()
+        out["ground"] = {
+            "static_mu": ground.number("static_mu", "1", d.static_mu, low=0.0),
+            "kinetic_mu": ground.number("kinetic_mu", "1", d.kinetic_mu, low=0.0),
+            "stiffness": ground.number("stiffness", "N/m", d.k, low=0.0, low_open=True),
+            "damping": ground.number("damping", "N s/m", d.nu, low=0.0),
+            "surface_tolerance": ground.number("surface_tolerance", "m", d.surface_tolerance, low=0.0),
+            "slip_velocity_tolerance": ground.number("slip_velocity_tolerance", "m/s",
+                                                     d.slip_velocity_tol, low=0.0, low_open=True),
+        }
+        ground.finish()
+    damping = t.table("damping", required=False)
+    if damping is not None:
+        d = DampingSpec()
+        out["damping"] = {
+            "relative": damping.number("relative", "N s/m^2", d.relative_nu, low=0.0),
+            "node_offset": damping.number("node_offset", "nodes", d.node_offset, low=1, integer=True),
+            "legacy_force": damping.number("legacy_force", "N s/m^2", d.legacy_force, low=0.0),
+            "legacy_torque": damping.number("legacy_torque", "N s", d.legacy_torque, low=0.0),
+            "kelvin_voigt": damping.number("kelvin_voigt", "Pa s", d.kelvin_voigt, low=0.0),
+        }
+        if out["damping"]["node_offset"] > out["n_elements"]:
+            raise damping.error("node_offset", f"must be at most n_elements = {out['n_elements']}, "
+                                f"got {out['damping']['node_offset']}")
+        damping.finish()
+    interaction = t.table("interaction", required=False)
+    if interaction is not None:
+        out["interaction"] = {}
+        if interaction.has("cutoff"):  # absent: four radii (see InteractionSpec)
+            out["interaction"]["cutoff"] = interaction.number("cutoff", "m", low=0.0)
+        out["interaction"].update(
+            band_source=interaction.boolean("band_source", True),
+            self_contact_stiffness=interaction.number("self_contact_stiffness", "N/m", 0.0, low=0.0),
+            self_contact_damping=interaction.number("self_contact_damping", "N s/m", 0.0, low=0.0),
+        )
+        interaction.finish()
+    t.finish()
+    return out
+
+
+def _magnetization_table(t: SpecTable, n_elements: int) -> dict[str, Any]:
+    kind = t.string("kind", choices=tuple(MAGNETIZATION_KINDS))
+    out: dict[str, Any] = {"kind": kind}
+    if kind == "table":
+        values = t.raw("values")
+        try:
+            array = np.asarray(values, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise t.error("values", "expected three lists of numbers (A/m): "
+                                    "[[m_x...], [m_y...], [m_z...]]") from None
+        if array.shape != (3, n_elements):
+            raise t.error("values", f"expected shape (3, {n_elements}) (three lists of n_elements "
+                                    f"values, A/m), got {array.shape}")
+        if not np.all(np.isfinite(array)):
+            raise t.error("values", "must be finite (A/m)")
+        out["values"] = array.tolist()
+    else:
+        out["magnitude"] = t.number("magnitude", "A/m", YAO2023_MAGNETIZATION, low=0.0)
+        if kind == "uniform":
+            out["direction"] = _direction(t, "direction", [1.0, 0.0, 0.0])
+        elif kind == "two-segment":
+            out["first"] = _direction(t, "first")
+            out["second"] = _direction(t, "second")
+            out["split"] = t.number("split", "elements", n_elements // 2, low=0, high=n_elements,
+                                    integer=True)
+        elif kind == "sinusoid":
+            out["phase"] = t.number("phase", "rad", 0.0)
+    t.finish()
+    return out
+
+
+def _direction(t: SpecTable, key: str, default: Any = _REQUIRED) -> list[float]:
+    value = t.vector(key, "a direction [x, y, z]", 3, default)
+    if not any(value):
+        raise t.error(key, f"must be a non-zero direction [x, y, z], got {value!r}")
+    return value
+
+
+def magnetization_array(table: Mapping[str, Any], n_elements: int) -> NDArray[np.float64]:
+    """The ``(3, n_elements)`` magnetization (A/m, lab frame of the straight rod along +x) of a
+    checked ``[robot.magnetization]`` table."""
+    kind, magnitude = table["kind"], table.get("magnitude")
+    if kind == "table":
+        return np.array(table["values"], dtype=np.float64)
+    if kind == "uniform":
+        return uniform_magnetization(n_elements, magnitude, table["direction"])
+    if kind == "two-segment":
+        return two_segment_magnetization(n_elements, magnitude, table["first"], table["second"],
+                                         table["split"])
+    if kind in ("yao2023-pattern1", "yao2023-pattern2"):
+        return yao2023_magnetization(int(kind[-1]), n_elements, magnitude)
+    if kind == "sinusoid":
+        return sinusoidal_magnetization(n_elements, magnitude, table["phase"])
+    raise ValueError(f"unknown magnetization kind {kind!r}")
+
+
+def _physics_table(t: SpecTable | None, source: str, robot: Mapping[str, Any]) -> dict[str, Any]:
+    out = {}
+    for setting, defaults in PHYSICS_DEFAULTS.items():
+        sub = t.table(setting, required=False) if t is not None else None
+        if sub is None:
+            out[setting] = dict(defaults)
+            continue
+        dt = sub.number("dt", "s", defaults["dt"], low=0.0, low_open=True)
+        steps = ACTION_PERIOD / dt
+        if abs(steps - round(steps)) > 1e-6 * steps:
+            raise sub.error("dt", f"must divide the {ACTION_PERIOD:g} s control period into whole "
+                                  f"steps (e.g. 1e-4, 8e-6), got {dt!r}")
+        out[setting] = {"mass_scale": sub.number("mass_scale", "1", defaults["mass_scale"], low=0.0,
+                                                 low_open=True),
+                        "dt": dt}
+        sub.finish()
+    if t is not None:
+        t.finish()
+    return out
