@@ -1,8 +1,10 @@
 """Check of the TD3 agent itself (a benchmark, not a test): TD3 on Pendulum-v1.
 
-Trains ``elastica_magnetic_rl.td3`` for ``--steps`` environment steps (default 20k) on each of ``--seeds`` seeds with
+Trains ``elastica_magnetic_rl.td3`` for ``--steps`` environment steps (default 20k) on each of ``--seeds``
+seeds with
 the paper's defaults (256-256, Adam 3e-4, batch 256, 2500 warm-up steps, sigma 0.2, ...), the seeds
-side by side in one process (``elastica_magnetic_rl.runner.train_seeds``; each seed as it would train alone), once per
+side by side in one process (``elastica_magnetic_rl.runner.train_seeds``; each seed as it would train
+alone), once per
 ``--precision`` (``fp32``, and ``bf16``: bfloat16 matrix products on float32 weights), and reports
 the mean deterministic evaluation return; the target is -200 or better. If
 ``stable_baselines3`` is importable, its TD3 is trained side by side with the same budget and

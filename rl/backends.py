@@ -1,6 +1,7 @@
 """Where the seeds of a sweep run: worker processes on this machine, or Ray tasks.
 
-:func:`run_jobs` runs one function (``elastica_magnetic_rl.pipeline._train_seed``: the training of one seed) on a list
+:func:`run_jobs` runs one function (``elastica_magnetic_rl.pipeline._train_seed``: the training of one
+seed) on a list
 of jobs (plain, picklable dicts) and gathers its results by seed. Both backends call the same
 function with the same job; only the transport differs, so the run directories, checkpoints and
 returned summaries are the same whichever backend ran them.

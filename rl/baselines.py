@@ -42,7 +42,8 @@ class RotatingFieldPolicy:
         n_elements: the robot's element count (sets the observation layout).
 
     The attributes ``critic``/``actor`` (None), ``obs_dim``, ``source`` and ``kind`` let it stand in
-    for a loaded policy in :func:`elastica_magnetic_rl.pipeline.run_policy` and :func:`elastica_magnetic_rl.pipeline.generate`.
+    for a loaded policy in :func:`elastica_magnetic_rl.pipeline.run_policy` and
+    :func:`elastica_magnetic_rl.pipeline.generate`.
     """
 
     case: str

@@ -2,7 +2,8 @@
 matrix-product rate, the wall time of a real multi-seed training run, and its peak memory.
 
 They sit on top of the physics package (its step-cost benchmarks are
-:mod:`elastica_magnetic.bench`) and of :mod:`elastica_magnetic_rl`; :func:`benchmark` is everything ``msr bench``
+:mod:`elastica_magnetic.bench`) and of :mod:`elastica_magnetic_rl`; :func:`benchmark` is everything ``msr
+bench``
 reports, measured in one run. Medians over repeated measurements; machines here are noisy, so
 compare numbers within one run.
 """
@@ -64,7 +65,8 @@ def env_steps_per_s(steps: int = 200, repeats: int = 3, physics: str = "training
 def vector_env_steps_per_s(
     n_envs: int = 16, vector_steps: int = 20, repeats: int = 3, physics: str = "training"
 ) -> float:
-    """Environment transitions per second of :class:`elastica_magnetic_rl.vector_env.MagneticCrawlerVectorEnv` with
+    """Environment transitions per second of
+    :class:`elastica_magnetic_rl.vector_env.MagneticCrawlerVectorEnv` with
     ``n_envs`` crawlers in one simulator (``n_envs`` transitions per vector step)."""
     from .vector_env import MagneticCrawlerVectorEnv
 
@@ -116,7 +118,8 @@ def _linear_shapes(module: Any) -> list[tuple[int, int]]:
 
 
 def td3_update_flops(agent: Any, batch_size: int) -> float:
-    """Floating-point operations of one seed's :meth:`elastica_magnetic_rl.td3.TD3.update`, averaged over the policy
+    """Floating-point operations of one seed's :meth:`elastica_magnetic_rl.td3.TD3.update`, averaged over
+    the policy
     delay, counting the matrix products only (``2 * batch * in * out`` per product; biases,
     activations and Adam are below 1 % here).
 
@@ -228,7 +231,8 @@ def _process_tree_rss(root: int) -> int:
 
 
 def replay_buffer_bytes(capacity: int, obs_dim: int = 260, act_dim: int = 2) -> int:
-    """Bytes of a full :class:`elastica_magnetic_rl.td3.ReplayBuffer`: float32 obs, next obs, action, reward and
+    """Bytes of a full :class:`elastica_magnetic_rl.td3.ReplayBuffer`: float32 obs, next obs, action,
+    reward and
     terminated per transition."""
     return int(capacity) * (2 * obs_dim + act_dim + 2) * 4
 

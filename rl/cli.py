@@ -1,5 +1,6 @@
 """``msr train``, ``refine``, ``generate``, ``baseline``, ``ship``, ``export``, ``figures``,
-``demo``: thin wrappers over :mod:`elastica_magnetic_rl.pipeline`, :mod:`elastica_magnetic_rl.baselines` and :mod:`elastica_magnetic_rl.figures` (heavy
+``demo``: thin wrappers over :mod:`elastica_magnetic_rl.pipeline`, :mod:`elastica_magnetic_rl.baselines`
+and :mod:`elastica_magnetic_rl.figures` (heavy
 imports happen inside the commands)."""
 
 from __future__ import annotations

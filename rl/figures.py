@@ -289,7 +289,8 @@ def plot_q_heatmaps(
     """Heat maps of ``Q1(s, a)`` over the 2-D action grid at the given states (paper Fig. 5), axes
     in mT of field increment; the actor's action is marked (x) and the grid maximum (+).
 
-    ``critic`` is a :class:`~elastica_magnetic_rl.td3.TwinCritic`, ``actor`` an :class:`~elastica_magnetic_rl.td3.Actor` (normalised
+    ``critic`` is a :class:`~elastica_magnetic_rl.td3.TwinCritic`, ``actor`` an
+    :class:`~elastica_magnetic_rl.td3.Actor` (normalised
     actions).
     """
     import torch
@@ -461,7 +462,8 @@ def make_figures(path: str | Path, out: str | Path | None = None, gif: bool = Tr
 
     Training runs: one ``learning_curves_<case>.png`` per case folder, in ``out`` (default
     ``path``). Generate output: every figure of :func:`rollout_figures`, with the Q maps when
-    ``load_policy`` (e.g. :func:`elastica_magnetic_rl.pipeline.resolve_policy`: source -> an object with ``actor``
+    ``load_policy`` (e.g. :func:`elastica_magnetic_rl.pipeline.resolve_policy`: source -> an object with
+    ``actor``
     and ``critic``) can still load the policy recorded in the rollout.
     """
     path = Path(path)

@@ -4,11 +4,13 @@ refinement are :mod:`elastica_magnetic_rl.training`.
 Workflow (paper "Miscellaneous training tips"):
 
 1. :func:`elastica_magnetic_rl.training.train_case`: TD3 on one case (``m1-4mT``, ``m2-4mT``, ``m1-10mT``,
-   ``m2-10mT``) for several seeds in parallel processes or Ray tasks (:mod:`elastica_magnetic_rl.backends`), in the
+   ``m2-10mT``) for several seeds in parallel processes or Ray tasks
+   (:mod:`elastica_magnetic_rl.backends`), in the
    mass-scaled *training* physics, random initial fields, 20 s episodes (truncated, not terminal).
    Each seed writes ``OUT/<case>/seed<k>/`` (``episodes.csv``, TensorBoard scalars,
    ``checkpoint.pt``, ``run.json``); a ``summary.json`` per case collects every seed.
-2. :func:`elastica_magnetic_rl.training.refine`: load a run's agent *and replay buffer* and keep training (~1000
+2. :func:`elastica_magnetic_rl.training.refine`: load a run's agent *and replay buffer* and keep training
+   (~1000
    steps) in the *accurate* physics (12.5x more substeps per step). Written to ``RUN/refined/``.
 3. :func:`generate`: run the deterministic policy in the accurate physics with the field starting at
    zero; write the field CSV (mT, 100 Hz), ``trajectory.csv``, ``rollout.npz``, figures and a GIF.
@@ -321,7 +323,8 @@ def run_policy(
     initial_field: str = "zero",
     progress: bool = True,
 ):
-    """Roll out ``policy`` deterministically for ``duration`` s; returns a :class:`~elastica_magnetic_rl.rollout.Rollout`
+    """Roll out ``policy`` deterministically for ``duration`` s; returns a
+    :class:`~elastica_magnetic_rl.rollout.Rollout`
     (stops early, with ``meta["diverged"]``, if the simulation blows up)."""
     import pandas as pd
     from tqdm.auto import tqdm
@@ -578,7 +581,8 @@ def ship(
 ) -> dict[str, Any]:
     """Pack a run's checkpoint into the shipped-policy format ``dest/<name>/`` (default
     ``rl/policies/<name>/``): ``actor.pt`` and ``critic.pt`` (state dicts of
-    :class:`~elastica_magnetic_rl.td3.Actor` / :class:`~elastica_magnetic_rl.td3.TwinCritic`), ``policy.json`` (case, observation
+    :class:`~elastica_magnetic_rl.td3.Actor` / :class:`~elastica_magnetic_rl.td3.TwinCritic`),
+    ``policy.json`` (case, observation
     layout and scaling, action scaling, architecture, provenance) and ``MODEL_CARD.md``.
 
     With ``measure`` the policy is run for ``duration`` s in the accurate physics from a zero field
@@ -630,7 +634,8 @@ def ship(
         "actor_sha256": weights_sha256(policy.actor.state_dict()),
         "architecture": {"type": "mlp", "obs_dim": policy.obs_dim, "act_dim": policy.act_dim,
                          "hidden_sizes": list(policy.hidden_sizes), "activation": "relu",
-                         "output": "tanh", "module": "elastica_magnetic_rl.td3.Actor (net = Sequential of Linear/ReLU)"},
+                         "output": "tanh",
+                         "module": "elastica_magnetic_rl.td3.Actor (net = Sequential of Linear/ReLU)"},
         "observation": observation_spec(),
         "action": _action_spec(case.field_limit),
         "training": {

@@ -12,7 +12,8 @@ from typing import Any
 CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8, "eval_every": 5000}
 
 #: Training recipes: named changes of the TD3 configuration on top of
-#: :data:`CRAWLER_TD3_OVERRIDES`, each change an explicit :class:`~elastica_magnetic_rl.td3.TD3Config` field. The
+#: :data:`CRAWLER_TD3_OVERRIDES`, each change an explicit :class:`~elastica_magnetic_rl.td3.TD3Config`
+#: field. The
 #: task, reward, observation, action limits, physics, episode length and step budget are the same
 #: in every recipe. ``paper``: the authors' recipe. ``pink``: the paper's with temporally
 #: correlated (pink, ``1/f``) exploration noise instead of independent Gaussian steps (Eberhard et

@@ -2,7 +2,8 @@
 
 :func:`train_seeds` is the only training loop. Seed ``k`` drives sub-environments
 ``k N .. k N + N - 1`` of a vector environment with ``SAME_STEP`` autoreset (for the crawler:
-:class:`~elastica_magnetic_rl.vector_env.MagneticCrawlerVectorEnv`, every robot in one batched simulator; any other
+:class:`~elastica_magnetic_rl.vector_env.MagneticCrawlerVectorEnv`, every robot in one batched simulator;
+any other
 Gymnasium environment is wrapped in a ``SyncVectorEnv``). The K seeds' networks live in one
 :class:`~elastica_magnetic_rl.td3.TD3` and are updated as one computation. Each seed keeps its own bookkeeping
 (:class:`SeedRun`): its run directory, replay buffer, ``episodes.csv``, TensorBoard scalars,
@@ -69,7 +70,8 @@ EVALUATION_FIELDS = ("global_step", "mean_return", "std_return", "mean_length", 
                      "wall_time_s")
 EPISODE_FIELDS = ("episode", "global_step", "return", "length", "terminated", "truncated",
                   "wall_time_s")
-#: Fields of :class:`~elastica_magnetic_rl.td3.TD3Config` that a resumed run takes from the config passed (they
+#: Fields of :class:`~elastica_magnetic_rl.td3.TD3Config` that a resumed run takes from the config passed
+#: (they
 #: change no weight: when to checkpoint, log and evaluate); every other field comes from the
 #: checkpoint.
 RESUMABLE_SETTINGS = ("checkpoint_every", "log_every", "eval_every", "eval_episodes")
@@ -158,7 +160,8 @@ def evaluate_many(policies: Sequence[Any], vec_env_fn: Callable[[int], gym.vecto
 
 
 class ActorPolicy:
-    """A deterministic policy from an actor's state dict (plain :class:`~elastica_magnetic_rl.td3.Actor`, float32):
+    """A deterministic policy from an actor's state dict (plain :class:`~elastica_magnetic_rl.td3.Actor`,
+    float32):
     what evaluation runs, so a ``best.pt`` replays its recorded evaluation exactly."""
 
     def __init__(self, actor_state: dict[str, torch.Tensor], obs_dim: int, act_dim: int,

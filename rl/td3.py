@@ -48,7 +48,8 @@ Conventions of this implementation
 * Adam is PyTorch's (defaults: betas 0.9/0.999, eps 1e-8), its fused kernel where the device has
   one; its moments are elementwise, so they too are sliced per seed for a checkpoint.
 
-The training loop (environments, logs, evaluation, checkpoints) is :mod:`elastica_magnetic_rl.runner`; the checkpoint
+The training loop (environments, logs, evaluation, checkpoints) is :mod:`elastica_magnetic_rl.runner`; the
+checkpoint
 format is :mod:`elastica_magnetic_rl.checkpoint`.
 """
 
@@ -101,7 +102,8 @@ class TD3Config:
     noise_color: float = 0.0
     """Exponent ``beta`` of the exploration noise's power spectrum ``1 / f^beta``: 0 is white
     noise, drawn independently at every step (the paper's); 1 pink (Eberhard et al. 2023), 2 red.
-    Colored noise is drawn as whole sequences (:func:`elastica_magnetic_rl.exploration.colored_noise`), one per
+    Colored noise is drawn as whole sequences (:func:`elastica_magnetic_rl.exploration.colored_noise`), one
+    per
     episode and sub-environment."""
     noise_horizon: int = 2000
     """Length of a colored-noise sequence, steps (a new one at every episode start, and when one

@@ -1,5 +1,6 @@
 """Training and refinement of crawling policies (``msr train``, ``msr refine``): seeds in groups
-that train side by side (:func:`elastica_magnetic_rl.runner.train_seeds`), groups in worker processes or Ray tasks
+that train side by side (:func:`elastica_magnetic_rl.runner.train_seeds`), groups in worker processes or
+Ray tasks
 (:mod:`elastica_magnetic_rl.backends`), one summary per case.
 
 Each seed writes ``OUT/<case>/seed<k>/`` (``episodes.csv``, TensorBoard scalars, ``checkpoint.pt``

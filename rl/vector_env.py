@@ -1,6 +1,7 @@
 """N crawlers in one simulator: a Gymnasium 1.x vector environment (``MagneticCrawlerVectorEnv``).
 
-Each sub-environment ``i`` is the task of :class:`~elastica_magnetic_rl.env.MagneticCrawlerEnv` (same observation,
+Each sub-environment ``i`` is the task of :class:`~elastica_magnetic_rl.env.MagneticCrawlerEnv` (same
+observation,
 action, reward, truncation and blow-up rules, same options), but all N robots live in one
 :class:`~elastica_magnetic.batch.BatchedRobots` simulator: one PyElastica memory block, all forcing
 and contact in one numba call per time step, each robot driven by its own

@@ -20,7 +20,8 @@ CASES = {
 
 #: Not a comparison with a reference but a check of claims: every shipped policy, re-run for 10 s
 #: in the accurate physics (``--quick``: 0.3 s), reproduces its recorded distance and waveform
-#: and reaches the authors' distance (:func:`elastica_magnetic_rl.shipped.verify_shipped`). Run only when named.
+#: and reaches the authors' distance (:func:`elastica_magnetic_rl.shipped.verify_shipped`). Run only when
+#: named.
 SHIPPED = "shipped"
 
 

@@ -9,11 +9,11 @@ import math
 
 import numpy as np
 import pytest
+from elastica_magnetic_rl.baselines import RotatingFieldPolicy
+from elastica_magnetic_rl.env import MagneticCrawlerEnv
 
 from elastica_magnetic import read_field_csv
 from elastica_magnetic.cli import main as msr
-from elastica_magnetic_rl.baselines import RotatingFieldPolicy
-from elastica_magnetic_rl.env import MagneticCrawlerEnv
 
 
 def roll(case: str, period: float, clockwise: bool, steps: int):

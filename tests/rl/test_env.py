@@ -9,13 +9,10 @@ import json
 import math
 import warnings
 
+import elastica_magnetic_rl
 import gymnasium as gym
 import numpy as np
 import pytest
-from gymnasium.utils.env_checker import check_env
-
-import elastica_magnetic_rl
-from elastica_magnetic import yao2023_robot
 from elastica_magnetic_rl.env import (
     CASES,
     OBSERVATION_LAYOUT,
@@ -24,6 +21,9 @@ from elastica_magnetic_rl.env import (
     observation_layout,
     observation_spec,
 )
+from gymnasium.utils.env_checker import check_env
+
+from elastica_magnetic import yao2023_robot
 
 
 def make(**kw) -> MagneticCrawlerEnv:

@@ -11,14 +11,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-
-from elastica_magnetic import read_field_csv
-from elastica_magnetic.cli import main as msr
-from elastica_magnetic.simulation import TRAJECTORY_COLUMNS
 from elastica_magnetic_rl import pipeline
 from elastica_magnetic_rl.checkpoint import load_checkpoint
 from elastica_magnetic_rl.env import OBSERVATION_LAYOUT, MagneticCrawlerEnv
 from elastica_magnetic_rl.td3 import TD3Agent
+
+from elastica_magnetic import read_field_csv
+from elastica_magnetic.cli import main as msr
+from elastica_magnetic.simulation import TRAJECTORY_COLUMNS
 
 TRAIN_STEPS = 240
 SMOKE = ["--learning-starts", "60", "--batch-size", "32", "--hidden", "32,32",

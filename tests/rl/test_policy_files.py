@@ -6,9 +6,9 @@ import json
 import shutil
 
 import pytest
+from elastica_magnetic_rl.pipeline import POLICIES_DIR, PolicyFileError, resolve_policy
 
 from elastica_magnetic.cli import main
-from elastica_magnetic_rl.pipeline import POLICIES_DIR, PolicyFileError, resolve_policy
 
 
 @pytest.fixture

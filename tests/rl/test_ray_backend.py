@@ -15,10 +15,10 @@ from pathlib import Path
 
 import pytest
 import torch
-
-from elastica_magnetic.cli import main as msr
 from elastica_magnetic_rl import training
 from elastica_magnetic_rl.checkpoint import load_checkpoint
+
+from elastica_magnetic.cli import main as msr
 
 STEPS = 200
 TINY = ["--case", "m1-4mT", "--seeds", "2", "--workers", "2", "--threads", "1",

@@ -9,7 +9,6 @@ import gymnasium as gym
 import numpy as np
 import pytest
 import torch
-
 from elastica_magnetic_rl.checkpoint import load_checkpoint
 from elastica_magnetic_rl.runner import ActorPolicy, evaluate, train
 from elastica_magnetic_rl.td3 import TD3, Batch, ReplayBuffer, TD3Agent, TD3Config

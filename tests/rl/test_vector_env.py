@@ -15,14 +15,14 @@ import json
 import numpy as np
 import pytest
 import torch
-from gymnasium.vector import AutoresetMode, VectorEnv
-
-from elastica_magnetic.cli import main as msr
 from elastica_magnetic_rl.checkpoint import load_checkpoint
 from elastica_magnetic_rl.env import OBSERVATION_LAYOUT, MagneticCrawlerEnv
 from elastica_magnetic_rl.runner import train_vector
 from elastica_magnetic_rl.td3 import TD3Config
 from elastica_magnetic_rl.vector_env import MagneticCrawlerVectorEnv
+from gymnasium.vector import AutoresetMode, VectorEnv
+
+from elastica_magnetic.cli import main as msr
 
 DURATION = 0.05  # s: 5 steps per episode, so short runs cross several autoresets
 
@@ -246,8 +246,10 @@ def test_train_shared_rejects_shared_run_dirs(tmp_path):
 
 
 def test_policies_evaluated_together_equal_each_alone():
-    """elastica_magnetic_rl.runner.evaluate_many on the crawler's vector environment returns, for each policy, what
-    elastica_magnetic_rl.runner.evaluate returns with a single environment (the evaluation during training)."""
+    """elastica_magnetic_rl.runner.evaluate_many on the crawler's vector environment returns, for each
+    policy, what
+    elastica_magnetic_rl.runner.evaluate returns with a single environment (the evaluation during
+    training)."""
     from elastica_magnetic_rl.pipeline import make_env
     from elastica_magnetic_rl.runner import ActorPolicy, evaluate, evaluate_many
     from elastica_magnetic_rl.td3 import TD3

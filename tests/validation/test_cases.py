@@ -5,10 +5,10 @@ import os
 from pathlib import Path
 
 import pytest
-
-from elastica_magnetic.cli import main
 from elastica_magnetic_validation.cli import CASES, available_cases
 from elastica_magnetic_validation.report import MARGIN
+
+from elastica_magnetic.cli import main
 
 # A tolerance set from a measured error must stay tight: at most this many times the error the
 # quick run achieves now (MARGIN, plus the rounding up of the recorded error to two digits).

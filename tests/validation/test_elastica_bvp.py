@@ -6,8 +6,6 @@ import math
 
 import numpy as np
 import pytest
-from scipy.special import ellipk
-
 from elastica_magnetic_validation.elastica_bvp import (
     ElasticaConvergenceError,
     Equilibria,
@@ -19,6 +17,7 @@ from elastica_magnetic_validation.elastica_bvp import (
     max_matched_distance,
     solve_elastica,
 )
+from scipy.special import ellipk
 
 Q_CRIT = math.pi**2 / 4.0  # buckling load of the cantilever at phi = 180 deg
 
