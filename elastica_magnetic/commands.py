@@ -12,24 +12,36 @@ from .cli import CommandError, duration_option, number, print_result
 from .fields import RotatingField, TabulatedField
 from .io import prepare_output_dir
 from .openloop import run_open_loop, write_trajectory_csv
-from .presets import ROBOTS, robot_by_name
+from .presets import ROBOTS
+from .specfile import SpecError, load_robot
 
-YAO_ROBOTS = tuple(r for r in ROBOTS if r.startswith("yao2023"))
+ROBOT_HELP = (f"a preset ({', '.join(ROBOTS)}) or a spec file (.toml, e.g. from "
+              "`msr case show m1-4mT --toml`); default yao2023-m1")
 #: Largest ``msr simulate --amplitude``, T (the paper's fields are 4 and 10 mT).
 MAX_AMPLITUDE_T = 0.1
 #: Half the 100 Hz rate of the trajectory and field records: faster rotations would alias.
 NYQUIST_HZ = 50.0
 
 
+def robot_option(value: str) -> str:
+    """``--robot NAME_OR_PATH``, checked at parse time (a bad spec file names the file and key)."""
+    try:
+        load_robot(value)
+    except SpecError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return value
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "replay",
-        help="play a field CSV (mT, 100 Hz) open loop on the paper's robot",
-        description="Play a field CSV open loop on the paper's robot and write trajectory.csv "
-        "(100 Hz, first row t = 0) and a figure.",
+        help="play a field CSV (mT, 100 Hz) open loop on a robot (the paper's by default)",
+        description="Play a field CSV open loop on a robot (a preset or a spec file; the paper's "
+        "pattern-1 robot by default) and write trajectory.csv (100 Hz, first row t = 0) and a "
+        "figure.",
     )
     p.add_argument("field_csv", type=Path, help="field CSV: mag_x, mag_y, mag_z in mT, 100 rows/s")
-    p.add_argument("--robot", choices=YAO_ROBOTS, default="yao2023-m1")
+    p.add_argument("--robot", type=robot_option, default="yao2023-m1", help=ROBOT_HELP)
     p.add_argument("--physics", choices=("accurate", "training"), default="accurate")
     p.add_argument("--duration", type=duration_option(), default=None,
                    help="s, at most the waveform's length (default: the waveform's length)")
@@ -41,11 +53,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     p = sub.add_parser(
         "simulate",
-        help="simulate the paper's robot under a rotating field",
-        description="Simulate the paper's robot under a field rotating in the x-y plane; write "
-        "trajectory.csv and a picture of the robot's shapes.",
+        help="simulate a robot under a rotating field (the paper's by default)",
+        description="Simulate a robot (a preset or a spec file; the paper's pattern-1 robot by "
+        "default) under a field rotating in the x-y plane; write trajectory.csv and a picture of "
+        "the robot's shapes.",
     )
-    p.add_argument("--robot", choices=YAO_ROBOTS, default="yao2023-m1")
+    p.add_argument("--robot", type=robot_option, default="yao2023-m1", help=ROBOT_HELP)
     p.add_argument("--physics", choices=("accurate", "training"), default="accurate")
     p.add_argument("--amplitude", type=number("T", 0.0, MAX_AMPLITUDE_T, low_open=True), default=4e-3,
                    help=f"field amplitude, T (at most {MAX_AMPLITUDE_T:g})")
@@ -85,7 +98,7 @@ def replay_command(args: argparse.Namespace) -> int:
             f"{field.samples.shape[0]} rows at 100 Hz); the coil driver zeroes the field after the "
             "last row, so give at most the file's length"
         )
-    spec = robot_by_name(args.robot, args.physics)
+    spec = load_robot(args.robot, args.physics)
     # Every input and the output folder are checked before the simulation starts.
     reference = _read_reference(args.reference, duration) if args.reference is not None else None
     out = prepare_output_dir(args.out)
@@ -114,7 +127,7 @@ def simulate_command(args: argparse.Namespace) -> int:
             f"--ramp {args.ramp:g} s is longer than --duration {args.duration:g} s: the field would "
             "never reach its amplitude"
         )
-    spec = robot_by_name(args.robot, args.physics)
+    spec = load_robot(args.robot, args.physics)
     field = RotatingField(args.amplitude, args.frequency, phase=0.5 * np.pi, ramp_time=args.ramp)
     out = prepare_output_dir(args.out)
     result = run_open_loop(

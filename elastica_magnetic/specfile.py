@@ -55,6 +55,7 @@ __all__ = [
     "loads",
     "dumps",
     "describe_robot",
+    "load_robot",
 ]
 
 #: Top-level keys of a spec file (the learning package reads the last four).
@@ -82,13 +83,14 @@ UNITS: dict[tuple[str, str], str] = {
     ("robot", "length"): "m", ("robot", "width"): "m", ("robot", "thickness"): "m",
     ("robot", "radius"): "m", ("robot", "density"): "kg/m^3", ("robot", "youngs_modulus"): "Pa",
     ("robot", "shear_modulus"): "Pa", ("robot", "gravity"): "m/s^2 along -y",
-    ("robot", "shear_coefficient"): "alpha_c, 1", ("robot", "poisson_ratio"): "1",
+    ("robot", "shear_coefficient"): "alpha_c", ("robot", "poisson_ratio"): "Poisson ratio",
     ("robot.magnetization", "magnitude"): "A/m", ("robot.magnetization", "phase"): "rad",
     ("robot.magnetization", "split"): "elements in the first segment",
     ("robot.magnetization", "values"): "A/m, [[m_x...], [m_y...], [m_z...]], lab frame, rod along +x",
     ("robot.ground", "stiffness"): "N/m", ("robot.ground", "damping"): "N s/m",
     ("robot.ground", "surface_tolerance"): "m", ("robot.ground", "slip_velocity_tolerance"): "m/s",
-    ("robot.ground", "static_mu"): "1", ("robot.ground", "kinetic_mu"): "1",
+    ("robot.ground", "static_mu"): "friction coefficient",
+    ("robot.ground", "kinetic_mu"): "friction coefficient",
     ("robot.damping", "relative"): "N s/m^2", ("robot.damping", "node_offset"): "nodes",
     ("robot.damping", "legacy_force"): "N s/m^2", ("robot.damping", "legacy_torque"): "N s",
     ("robot.damping", "kelvin_voigt"): "Pa s",
@@ -231,17 +233,19 @@ def loads(text: str, source: str = "<spec>") -> dict[str, Any]:
         raise SpecError(f"{source}: not valid TOML: {exc}") from None
 
 
-def dumps(data: Mapping[str, Any]) -> str:
-    """TOML text of a spec, with the unit of each value in a comment (written with ``tomli_w``)."""
+def dumps(data: Mapping[str, Any], units: Mapping[tuple[str, str], str] | None = None) -> str:
+    """TOML text of a spec, with the unit of each value in a comment (written with ``tomli_w``):
+    :data:`UNITS` and ``units`` ((table, key) -> unit) for the tables of other packages."""
     import tomli_w
 
+    units = {**UNITS, **(units or {})}
     lines, table = [], ""
     for line in tomli_w.dumps(_plain(data), multiline_strings=False).splitlines():
         stripped = line.strip()
         if stripped.startswith("[") and not stripped.startswith("[["):
             table = stripped.strip("[]")
         elif " = " in line and not line.startswith(" "):
-            unit = UNITS.get((table, line.split(" = ", 1)[0]))
+            unit = units.get((table, line.split(" = ", 1)[0]))
             if unit is not None and not line.rstrip().endswith("["):
                 line = f"{line}  # {unit}"
         lines.append(line)
@@ -487,3 +491,18 @@ def _physics_table(t: SpecTable | None, source: str, robot: Mapping[str, Any]) -
     if t is not None:
         t.finish()
     return out
+
+
+def load_robot(robot: str | Path, physics: Physics = "accurate") -> RobotSpec:
+    """A robot by preset name (``yao2023-m1``, ``yao2023-m2``, ``hu2018``) or from a spec file's
+    ``[robot]`` and ``[physics]`` tables (e.g. ``msr case show m1-4mT --toml > my.toml``), in one
+    physics setting. A bad file is a :class:`SpecError` naming the file and the key."""
+    from .presets import ROBOTS, robot_by_name
+
+    if str(robot) in ROBOTS:
+        return robot_by_name(str(robot), physics)
+    path = Path(robot)
+    if path.suffix != ".toml" and not path.exists():
+        raise SpecError(f"unknown robot {str(robot)!r}: not a preset ({', '.join(ROBOTS)}) and not a "
+                        "spec file (.toml)")
+    return describe_robot(read_spec(path), str(path)).robot(physics)

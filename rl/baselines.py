@@ -21,7 +21,8 @@ from numpy.typing import NDArray
 
 from elastica_magnetic.presets import ACTION_PERIOD
 
-from .env import CASES, MAX_FIELD_INCREMENT, OBSERVATION_SCALES, observation_layout
+from .cases import Case, load_case
+from .env import OBSERVATION_SCALES, observation_layout
 
 __all__ = ["RotatingFieldPolicy"]
 
@@ -36,31 +37,30 @@ class RotatingFieldPolicy:
     ~0.3 s, and a period shorter than the rate limit allows makes the field lag and shrink).
 
     Args:
-        case: the case name (``"m1-10mT"`` ...), which sets the field limit and the robot.
+        case: the case (a shipped name such as ``"m1-10mT"``, a spec file or a
+            :class:`~elastica_magnetic_rl.cases.Case`): its robot, field limit and increment.
         period: time of one turn of the field, s.
         clockwise: clockwise seen from +z (x right, y up): rolls the robot towards +x.
-        n_elements: the robot's element count (sets the observation layout).
 
     The attributes ``critic``/``actor`` (None), ``obs_dim``, ``source`` and ``kind`` let it stand in
     for a loaded policy in :func:`elastica_magnetic_rl.pipeline.run_policy` and
     :func:`elastica_magnetic_rl.pipeline.generate`.
     """
 
-    case: str
+    case: str | Case
     period: float = 2.0
     clockwise: bool = True
-    n_elements: int = 64
 
     def __post_init__(self) -> None:
-        if self.case not in CASES:
-            raise ValueError(f"unknown case {self.case!r}; expected one of {', '.join(CASES)}")
+        self.case = load_case(self.case)
         if not (self.period > 0.0 and math.isfinite(self.period)):
             raise ValueError(f"period must be a positive time in s, got {self.period}")
-        self.field_limit = CASES[self.case].field_limit
-        layout = observation_layout(self.n_elements)
+        self.field_limit = self.case.field_limit
+        self.max_increment = self.case.actuation.max_increment
+        layout = observation_layout(self.case.n_elements, self.case.task.extra_observation)
         self._amplitude = layout["field_amplitude"].start
         self._angle = layout["field_angle"].start
-        self.obs_dim = 4 * self.n_elements + 4
+        self.obs_dim = self.case.obs_dim
         self.act_dim = 2
         self.critic = None
         self.actor = None
@@ -70,11 +70,11 @@ class RotatingFieldPolicy:
         self.meta = {"period_s": self.period, "clockwise": self.clockwise}
 
     def act(self, obs: NDArray[np.float32]) -> NDArray[np.float32]:
-        """Normalised action in [-1, 1]^2 for one observation ``(4 n + 4,)``."""
+        """Normalised action in [-1, 1]^2 for one observation ``(obs_dim,)``."""
         amplitude = float(obs[self._amplitude]) / OBSERVATION_SCALES["field_amplitude"]  # T
         angle = float(obs[self._angle]) / OBSERVATION_SCALES["field_angle"]  # rad
         field = amplitude * np.array([math.cos(angle), math.sin(angle)])
         step = 2.0 * math.pi * ACTION_PERIOD / self.period
         target_angle = angle - step if self.clockwise else angle + step
         target = self.field_limit * np.array([math.cos(target_angle), math.sin(target_angle)])
-        return np.clip((target - field) / MAX_FIELD_INCREMENT, -1.0, 1.0).astype(np.float32)
+        return np.clip((target - field) / self.max_increment, -1.0, 1.0).astype(np.float32)

@@ -1,7 +1,8 @@
-"""``msr train``, ``refine``, ``generate``, ``baseline``, ``ship``, ``export``, ``figures``,
-``demo``: thin wrappers over :mod:`elastica_magnetic_rl.pipeline`, :mod:`elastica_magnetic_rl.baselines`
-and :mod:`elastica_magnetic_rl.figures` (heavy
-imports happen inside the commands)."""
+"""``msr case``, ``train``, ``refine``, ``generate``, ``baseline``, ``ship``, ``export``,
+``figures``, ``demo``: thin wrappers over :mod:`elastica_magnetic_rl.cases`,
+:mod:`elastica_magnetic_rl.training`, :mod:`elastica_magnetic_rl.pipeline`,
+:mod:`elastica_magnetic_rl.baselines` and :mod:`elastica_magnetic_rl.figures` (heavy imports
+happen inside the commands)."""
 
 from __future__ import annotations
 
@@ -12,9 +13,22 @@ from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, duration_option, number, print_result
 
-from .recipes import DEFAULT_RECIPE, RECIPES
+from .recipes import RECIPES
 
-CASE_NAMES = ("m1-4mT", "m2-4mT", "m1-10mT", "m2-10mT")
+CASE_HELP = "a shipped case (`msr case list`: m1-4mT, m2-4mT, m1-10mT, m2-10mT, ...) or a spec file (.toml)"
+
+
+def case_option(value: str):
+    """``--case NAME_OR_PATH``: the case, loaded and checked at parse time (a bad spec file is an
+    argparse error naming the file and the key, before any work starts)."""
+    from elastica_magnetic.specfile import SpecError
+
+    from .cases import load_case
+
+    try:
+        return load_case(value)
+    except SpecError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _add_rollout_options(p: argparse.ArgumentParser, out: Path) -> None:
@@ -30,25 +44,46 @@ def _add_rollout_options(p: argparse.ArgumentParser, out: Path) -> None:
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
+        "case",
+        help="list the shipped cases, or show one as a spec file to copy and edit",
+        description="`msr case list`: the shipped cases (robot, field limit, task, yardstick). "
+        "`msr case show NAME_OR_PATH --toml > my.toml`: the complete spec, every default written "
+        "out, units in comments; edit it and use it anywhere a case is taken (msr train --case "
+        "my.toml, msr simulate --robot my.toml).",
+    )
+    case_sub = p.add_subparsers(dest="case_command", required=True, metavar="{list,show}")
+    q = case_sub.add_parser("list", help="the shipped cases")
+    q.add_argument("--json", action="store_true")
+    q.set_defaults(func=case_list_command)
+    q = case_sub.add_parser("show", help="one case's complete spec")
+    q.add_argument("case", type=case_option, help=CASE_HELP)
+    q.add_argument("--toml", action="store_true", help="print the spec as TOML (a file to edit)")
+    q.add_argument("--json", action="store_true")
+    q.set_defaults(func=case_show_command)
+
+    p = sub.add_parser(
         "train",
         help="train TD3 crawling policies for one or more cases, several seeds in parallel",
         description="Train TD3 on one or more cases in the mass-scaled training physics (random "
-        "initial fields, 20 s truncated episodes). Each seed writes OUT/<case>/seed<k>/ "
-        "(episodes.csv, TensorBoard scalars, checkpoint.pt, run.json); OUT/<case>/summary.json "
-        "collects the final mean episode returns of every seed of the case.",
+        "initial fields, 20 s truncated episodes by default: the case's). Each seed writes "
+        "OUT/<case>/seed<k>/ (episodes.csv, TensorBoard scalars, checkpoint.pt, run.json, which "
+        "store the complete case spec); OUT/<case>/summary.json collects the final mean episode "
+        "returns of every seed of the case.",
     )
-    p.add_argument("--case", choices=CASE_NAMES, required=True, nargs="+",
-                   help="one or more cases; several make one sweep (cases x seeds jobs)")
+    p.add_argument("--case", type=case_option, required=True, nargs="+",
+                   help=CASE_HELP + "; several make one sweep (cases x seeds jobs)")
     p.add_argument("--seeds", type=int, default=8, help="number of seeds (default 8)")
     p.add_argument("--seed-offset", type=int, default=0, help="first seed (default 0)")
-    p.add_argument("--steps", type=int, default=100_000, help="environment steps per seed")
+    p.add_argument("--steps", type=int, default=None,
+                   help="environment steps per seed (default: the case's, 100000 for the paper's)")
     p.add_argument("--workers", type=int, default=None,
                    help="groups of seeds trained at a time (processes, or Ray tasks in flight; "
                         "default: the fastest layout for this machine, one per core)")
     p.add_argument("--out", type=Path, default=Path("runs"), help="output folder")
     p.add_argument("--resume", action="store_true", help="continue runs from their checkpoints")
     p.add_argument("--physics", choices=("training", "accurate"), default="training")
-    p.add_argument("--episode-duration", type=float, default=20.0, help="s (truncation)")
+    p.add_argument("--episode-duration", type=float, default=None,
+                   help="s (truncation; default: the case's, 20 s for the paper's)")
     p.add_argument("--threads", type=int, default=None, help="torch threads per worker")
     p.add_argument("--envs", type=int, default=1,
                    help="crawlers per seed in one batched simulator (vector env; N transitions and "
@@ -65,10 +100,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--address", default=None,
                    help="Ray cluster address for --backend ray (auto, HOST:PORT, ray://HOST:10001); "
                         "--out must then be on a filesystem all nodes see at the same path")
-    p.add_argument("--recipe", choices=tuple(RECIPES), default=DEFAULT_RECIPE,
-                   help="training recipe: paper (the authors' TD3 settings, default) or pink (the "
-                        "same with temporally correlated pink exploration noise); see "
-                        "docs/training.md")
+    p.add_argument("--recipe", choices=tuple(RECIPES), default=None,
+                   help="training recipe (default: the case's; paper for the paper's cases): paper "
+                        "(the authors' TD3 settings) or pink (the same with temporally correlated "
+                        "pink exploration noise); see docs/training.md")
     g = p.add_argument_group("TD3 overrides (default: the paper's settings)")
     g.add_argument("--learning-starts", type=int, default=None, help="warm-up steps (2500)")
     g.add_argument("--batch-size", type=int, default=None, help="minibatch (256)")
@@ -171,7 +206,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "own action channel (0.3 mT per axis per 0.01 s, field from zero), and write the same "
         "files as `msr generate`: a rotating field rolls the robot, the gait to beat.",
     )
-    p.add_argument("--case", choices=CASE_NAMES, required=True)
+    p.add_argument("--case", type=case_option, required=True, help=CASE_HELP)
     p.add_argument("--period", type=number("s", 0.0, low_open=True), default=2.0,
                    help="s per turn of the field (2)")
     p.add_argument("--counterclockwise", action="store_true",
@@ -267,9 +302,9 @@ def _overrides(args: argparse.Namespace) -> dict:
 def _check_run_options(args: argparse.Namespace) -> None:
     """Numeric options of train/refine, checked at parse time (finite, in range, with the unit)."""
     duration = args.episode_duration
-    if not (math.isfinite(duration) and 0 < duration <= 3600):
+    if duration is not None and not (math.isfinite(duration) and 0 < duration <= 3600):
         raise CommandError(f"--episode-duration must be a finite duration in (0, 3600] s, got {duration}")
-    if args.steps < 1:
+    if args.steps is not None and args.steps < 1:
         raise CommandError(f"--steps must be >= 1, got {args.steps}")
     for name in ("seeds", "workers", "threads", "envs", "seeds_per_simulator"):
         value = getattr(args, name, None)
@@ -302,15 +337,43 @@ def train_command(args: argparse.Namespace) -> int:
     except (FileExistsError, FileNotFoundError, ValueError, ConnectionError) as exc:
         raise CommandError(str(exc)) from None  # ConnectionError: --address
     except KeyboardInterrupt:
-        return _interrupted(", ".join(str(args.out / case / "seed*") for case in args.case))
+        return _interrupted(", ".join(str(args.out / case.name / "seed*") for case in args.case))
     failed = any(s["failed"] for s in summaries.values())
     if not args.json:
         summaries = {case: {k: v for k, v in summary.items() if k != "seeds"} | {
             f"seed{r['seed']}": r.get("error") or f"final mean return {r['final_mean_return']:.4g} "
             f"({r['episodes']} episodes)" for r in summary["seeds"]} for case, summary in summaries.items()}
     # one case: its summary, as before; several: the summaries by case
-    print_result(summaries[args.case[0]] if len(summaries) == 1 else summaries, args.json)
+    print_result(next(iter(summaries.values())) if len(summaries) == 1 else summaries, args.json)
     return 1 if failed else 0
+
+
+def case_list_command(args: argparse.Namespace) -> int:
+    from .cases import case_names, load_case
+
+    rows = []
+    for name in case_names():
+        case = load_case(name)
+        rows.append({"name": name, "robot": case.robot.name,
+                     "magnetization": case.robot.tables["robot"]["magnetization"]["kind"],
+                     "field_limit_mT": 1e3 * case.field_limit, "task": case.task.kind,
+                     "target": case.target_label, "description": case.description})
+    if args.json:
+        print_result({"cases": rows}, True)
+    else:
+        for r in rows:
+            print(f"{r['name']:<14} {r['robot']:<12} {r['magnetization']:<18} "
+                  f"{r['field_limit_mT']:>5g} mT  {r['task']:<6} target {r['target']}")
+    return 0
+
+
+def case_show_command(args: argparse.Namespace) -> int:
+    case = args.case
+    if args.toml:
+        sys.stdout.write(case.toml())
+    else:
+        print_result(case.to_dict(), args.json)
+    return 0
 
 
 def bench_command(args: argparse.Namespace) -> int:

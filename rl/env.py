@@ -65,15 +65,18 @@ from elastica_magnetic import (
 )
 from elastica_magnetic.presets import ACTION_PERIOD
 
+from .cases import Case, load_case
+from .tasks import CrawlTask, Task
+
 __all__ = [
-    "CASES",
-    "CaseSpec",
+    "CrawlerSetup",
     "MagneticCrawlerEnv",
     "OBSERVATION_LAYOUT",
     "OBSERVATION_SCALES",
     "MAX_FIELD_INCREMENT",
     "crawler_observation",
     "crawler_observation_space",
+    "crawler_setup",
     "initial_field_value",
     "observation_layout",
     "observation_spec",
@@ -94,11 +97,14 @@ OBSERVATION_SCALES: dict[str, float] = {
 }
 
 
-def observation_layout(n_elements: int = 64) -> dict[str, slice]:
-    """Index slices of each observation block for a rod of ``n_elements`` elements."""
+def observation_layout(
+    n_elements: int = 64, extra: tuple[tuple[str, int], ...] = ()
+) -> dict[str, slice]:
+    """Index slices of each observation block for a rod of ``n_elements`` elements, then the
+    task's ``extra`` blocks (name, size), e.g. the reach task's ``target_offset``."""
     n, m = int(n_elements), int(n_elements) + 1
     sizes = (("angular_velocity", n), ("orientation", n), ("height", m), ("contact", m),
-             ("field_amplitude", 1), ("field_angle", 1))
+             ("field_amplitude", 1), ("field_angle", 1), *extra)
     out, start = {}, 0
     for name, size in sizes:
         out[name] = slice(start, start + size)
@@ -110,11 +116,14 @@ def observation_layout(n_elements: int = 64) -> dict[str, slice]:
 OBSERVATION_LAYOUT: dict[str, slice] = observation_layout(64)
 
 
-def observation_spec(n_elements: int = 64, surface_tolerance: float = 1e-7) -> dict[str, Any]:
+def observation_spec(n_elements: int = 64, surface_tolerance: float = 1e-7,
+                     task: Task | None = None) -> dict[str, Any]:
     """JSON-ready description of the observation (layout, scales, formulas), for exported policies."""
-    layout = observation_layout(n_elements)
+    extra = () if task is None else task.extra_observation
+    layout = observation_layout(n_elements, extra)
+    formulas = {"target_offset": "100 * (target_x - x_mid) [m]: the reach task's distance to go"}
     return {
-        "size": layout["field_angle"].stop,
+        "size": next(reversed(layout.values())).stop,
         "dtype": "float32",
         "blocks": [
             {"name": name, "start": s.start, "stop": s.stop} for name, s in layout.items()
@@ -130,19 +139,23 @@ def observation_spec(n_elements: int = 64, surface_tolerance: float = 1e-7) -> d
                        "(touching the ground), else 0",
             "field_amplitude": "200 * |B| [T]",
             "field_angle": "atan2(B_y, B_x) [rad]",
+            **{name: formulas[name] for name, _ in extra},
         },
         "units": "SI (m, s, rad, T)",
     }
 
 
-def crawler_observation_space(n_elements: int, field_limit: float) -> gym.spaces.Box:
-    """The float32 ``Box`` of one observation, shape ``(4 n + 4,)`` (bounds per block: angles in
-    ``[-pi, pi]``, heights, contacts and the amplitude non-negative, the amplitude at most
-    ``200 * field_limit`` (T) plus round-off)."""
+def crawler_observation_space(
+    n_elements: int, field_limit: float, extra: tuple[tuple[str, int], ...] = ()
+) -> gym.spaces.Box:
+    """The float32 ``Box`` of one observation, shape ``(4 n + 4 + extra,)`` (bounds per block:
+    angles in ``[-pi, pi]``, heights, contacts and the amplitude non-negative, the amplitude at most
+    ``200 * field_limit`` (T) plus round-off; the task's extra blocks unbounded)."""
     n = int(n_elements)
-    layout = observation_layout(n)
-    low = np.full(4 * n + 4, -np.inf, dtype=np.float32)
-    high = np.full(4 * n + 4, np.inf, dtype=np.float32)
+    layout = observation_layout(n, extra)
+    size = next(reversed(layout.values())).stop
+    low = np.full(size, -np.inf, dtype=np.float32)
+    high = np.full(size, np.inf, dtype=np.float32)
     for name in ("orientation", "field_angle"):
         low[layout[name]], high[layout[name]] = -np.pi, np.pi
     for name in ("height", "contact", "field_amplitude"):
@@ -154,19 +167,23 @@ def crawler_observation_space(n_elements: int, field_limit: float) -> gym.spaces
 
 
 def crawler_observation(
-    rod: Any, field: NDArray[np.float64], layout: dict[str, slice], surface_tolerance: float
+    rod: Any, field: NDArray[np.float64], layout: dict[str, slice], surface_tolerance: float,
+    extra: NDArray[np.float64] | None = None,
 ) -> NDArray[np.float32]:
-    """Observation of one rod (see the module docstring), float32 ``(4 n + 4,)``.
+    """Observation of one rod (see the module docstring), float32 ``(4 n + 4 + k,)``.
 
     Args:
         rod: a :class:`elastica.CosseratRod` (or a view of one robot of a memory block).
         field: the field now applied, ``(3,)`` in T (lab frame).
-        layout: :func:`observation_layout` of the rod's element count.
+        layout: :func:`observation_layout` of the rod's element count and the task's blocks.
         surface_tolerance: largest height of a node counted as touching the ground, m.
+        extra: the task's extra observation values ``(k,)`` (see :mod:`elastica_magnetic_rl.tasks`).
     """
-    n = rod.n_elems
     sc = OBSERVATION_SCALES
-    obs = np.empty(4 * n + 4, dtype=np.float64)
+    stop = layout["field_angle"].stop
+    obs = np.empty(stop if extra is None else stop + len(extra), dtype=np.float64)
+    if extra is not None:
+        obs[stop:] = extra
     # omega is in the material frame; lab components are Q^T omega. Bending about lab z is
     # sum_k Q[k, 2] omega[k] (= omega[1] when d2 = +z, as for this planar robot).
     directors = rod.director_collection
@@ -208,51 +225,79 @@ def initial_field_value(
 
 
 @dataclass(frozen=True)
-class CaseSpec:
-    """A training case of the paper: magnetization pattern and field limit (T)."""
+class CrawlerSetup:
+    """Everything an environment needs, checked: the robot (in the chosen physics), the field
+    limit (T) and increment per unit action (T), the initial field of episodes, the episode length
+    (s and 0.01 s steps), the task and the case it comes from (``None`` for a bare robot)."""
 
-    pattern: int
+    robot_spec: RobotSpec
     field_limit: float
-
-    @property
-    def env_kwargs(self) -> dict[str, Any]:
-        return {"pattern": self.pattern, "field_limit": self.field_limit}
-
-
-#: The paper's four cases, by command-line name.
-CASES: dict[str, CaseSpec] = {
-    "m1-4mT": CaseSpec(1, 4e-3),
-    "m2-4mT": CaseSpec(2, 4e-3),
-    "m1-10mT": CaseSpec(1, 10e-3),
-    "m2-10mT": CaseSpec(2, 10e-3),
-}
+    max_increment: float
+    initial_field: str
+    duration: float
+    n_steps: int
+    task: Task
+    case: Case | None
 
 
-def crawler_task(
-    pattern: int,
-    physics: str,
-    field_limit: float,
-    initial_field: str,
-    duration: float,
-    spec: RobotSpec | None,
-) -> tuple[RobotSpec, int]:
-    """Check the crawler task's arguments (shared by the single and the vector environment) and
-    return the robot spec (the paper's robot of ``pattern`` unless ``spec`` is given) and the
-    episode length in 0.01 s steps. ``field_limit`` in T, ``duration`` in s."""
-    if spec is None:
-        if pattern not in (1, 2):
-            raise ValueError(f"pattern must be 1 or 2, got {pattern!r}")
-        spec = yao2023_robot(int(pattern), physics)
+def crawler_setup(
+    case: str | Case | None = None,
+    *,
+    pattern: int | None = None,
+    field_limit: float | None = None,
+    physics: str = "training",
+    initial_field: str | None = None,
+    duration: float | None = None,
+    spec: RobotSpec | None = None,
+    max_increment: float | None = None,
+    task: Task | None = None,
+) -> CrawlerSetup:
+    """Check an environment's arguments (shared by the single and the vector environment).
+
+    With ``case`` (a shipped name, a spec file path or a :class:`~elastica_magnetic_rl.cases.Case`),
+    the robot, field limit, increment, task, initial field and episode length come from it;
+    ``initial_field`` and ``duration`` may still be given (evaluations: zero field, 10 s), the
+    others may not. Without it: the paper's robot of ``pattern`` (default 1) or ``spec``, field
+    limit (default 4e-3 T), the crawl task, random initial fields, 20 s episodes.
+    """
+    if physics not in ("training", "accurate"):
+        raise ValueError(f"physics must be 'training' or 'accurate', got {physics!r}")
+    loaded = None
+    if case is not None:
+        given = {k: v for k, v in (("pattern", pattern), ("field_limit", field_limit), ("spec", spec),
+                                   ("max_increment", max_increment), ("task", task)) if v is not None}
+        if given:
+            raise ValueError(f"give either case or {', '.join(given)}, not both")
+        loaded = load_case(case)
+        spec = loaded.robot_spec(physics)  # type: ignore[arg-type]
+        field_limit, max_increment, task = (loaded.field_limit, loaded.actuation.max_increment,
+                                            loaded.task)
+        initial_field = loaded.actuation.initial_field if initial_field is None else initial_field
+        duration = loaded.task.episode_duration if duration is None else duration
+    else:
+        if spec is None:
+            pattern = 1 if pattern is None else pattern
+            if pattern not in (1, 2):
+                raise ValueError(f"pattern must be 1 or 2, got {pattern!r}")
+            spec = yao2023_robot(int(pattern), physics)  # type: ignore[arg-type]
+        field_limit = 4e-3 if field_limit is None else field_limit
+        max_increment = MAX_FIELD_INCREMENT if max_increment is None else max_increment
+        task = CrawlTask() if task is None else task
+        initial_field = "random" if initial_field is None else initial_field
+        duration = 20.0 if duration is None else duration
     if spec.ground is None:
         raise ValueError("the crawler environment needs a robot spec with a ground")
     if not (field_limit > 0.0 and math.isfinite(field_limit)):
         raise ValueError(f"field_limit must be a positive field in T, got {field_limit}")
+    if not (max_increment > 0.0 and math.isfinite(max_increment)):
+        raise ValueError(f"max_increment must be a positive field in T, got {max_increment}")
     if initial_field not in ("random", "zero"):
         raise ValueError(f"initial_field must be 'random' or 'zero', got {initial_field!r}")
     n_steps = int(round(duration / ACTION_PERIOD))
     if n_steps < 1:
         raise ValueError(f"duration must be at least one 0.01 s step, got {duration} s")
-    return spec, n_steps
+    return CrawlerSetup(spec, float(field_limit), float(max_increment), initial_field,
+                        float(duration), n_steps, task, loaded)
 
 
 class MagneticCrawlerEnv(gym.Env):
@@ -260,26 +305,33 @@ class MagneticCrawlerEnv(gym.Env):
 
     Parameters
     ----------
+    case : str, path or Case, optional
+        A shipped case name (``"m1-4mT"``), a spec file or a
+        :class:`~elastica_magnetic_rl.cases.Case`: robot, field limit, increment, task, initial
+        field and episode length from it (``gym.make("MagneticCrawler-v0", case="m1-4mT")``).
+        Then ``pattern``, ``field_limit``, ``spec``, ``max_increment`` and ``task`` are not given.
     pattern : int
-        Magnetization pattern, 1 (along -x / +x) or 2 (along -y / +y).
+        Magnetization pattern of the paper's robot, 1 (along -x / +x, default) or 2 (along -y / +y).
     field_limit : float
-        Largest field component and amplitude, T (the paper: 4e-3 or 10e-3).
+        Largest field component and amplitude, T (default 4e-3; the paper: 4e-3 or 10e-3).
     physics : {"training", "accurate"}
         ``"training"``: mass-scaled, dt = 1e-4 s (100 substeps per step); ``"accurate"``: true
-        density, dt = 8e-6 s (1250 substeps per step, ~12.5x the cost).
+        density, dt = 8e-6 s (1250 substeps per step, ~12.5x the cost) (the case's time steps).
     initial_field : {"random", "zero"}
         Field at reset: each of B_x, B_y uniform in ``+-0.7 * field_limit`` then clipped (the
-        authors' training setting), or zero (the coils start from zero current: for generating
-        fields). ``reset(options={"initial_field": ...})`` overrides it for one episode; there it
-        may also be a 2- or 3-vector in T.
+        authors' training setting, the default), or zero (the coils start from zero current: for
+        generating fields). ``reset(options={"initial_field": ...})`` overrides it for one episode;
+        there it may also be a 2- or 3-vector in T.
     duration : float
-        Episode length, s (100 steps per s); reaching it **truncates** the episode.
+        Episode length, s (100 steps per s; default 20 or the case's); reaching it **truncates**.
     render_mode : None or "rgb_array"
     spec : RobotSpec, optional
         A robot/physics to use instead of ``yao2023_robot(pattern, physics)`` (custom robots,
         tests). Must have a ground.
     max_increment : float
-        Field increment per unit action, T.
+        Field increment per unit action, T (default 0.3e-3).
+    task : CrawlTask or ReachTask, optional
+        The reward and success rule (default: crawl, the paper's).
     divergence_penalty : float
         Reward of the step on which the simulation blows up (then ``terminated=True``).
     """
@@ -288,50 +340,67 @@ class MagneticCrawlerEnv(gym.Env):
 
     def __init__(
         self,
-        pattern: int = 1,
-        field_limit: float = 4e-3,
+        pattern: int | None = None,
+        field_limit: float | None = None,
         physics: Literal["training", "accurate"] = "training",
-        initial_field: Literal["random", "zero"] = "random",
-        duration: float = 20.0,
+        initial_field: Literal["random", "zero"] | None = None,
+        duration: float | None = None,
         render_mode: str | None = None,
         spec: RobotSpec | None = None,
-        max_increment: float = MAX_FIELD_INCREMENT,
+        max_increment: float | None = None,
         divergence_penalty: float = -10.0,
+        case: str | Case | None = None,
+        task: Task | None = None,
     ) -> None:
-        spec, n_steps = crawler_task(pattern, physics, field_limit, initial_field, duration, spec)
+        setup = crawler_setup(case, pattern=pattern, field_limit=field_limit, physics=physics,
+                              initial_field=initial_field, duration=duration, spec=spec,
+                              max_increment=max_increment, task=task)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        self.robot_spec = spec
-        self.pattern = int(pattern)
+        self.setup = setup
+        self.case = setup.case
+        self.task = setup.task
+        self.robot_spec = spec = setup.robot_spec
+        self.pattern = None if pattern is None and (case is not None or spec is not None) else (
+            1 if pattern is None else int(pattern))
         self.physics = physics
-        self.field_limit = float(field_limit)
-        self.initial_field = initial_field
-        self.duration = float(duration)
-        self.max_episode_steps = n_steps
+        self.field_limit = setup.field_limit
+        self.initial_field = setup.initial_field
+        self.duration = setup.duration
+        self.max_episode_steps = setup.n_steps
         self.render_mode = render_mode
-        self.max_increment = float(max_increment)
+        self.max_increment = setup.max_increment
         self.divergence_penalty = float(divergence_penalty)
 
         n = spec.n_elements
         self.n_elements = n
         self.middle_node = n // 2
-        self.layout = observation_layout(n)
+        extra = self.task.extra_observation
+        self.layout = observation_layout(n, extra)
         self.surface_tolerance = float(spec.ground.surface_tolerance)
-        self.observation_space = crawler_observation_space(n, self.field_limit)
+        self.observation_space = crawler_observation_space(n, self.field_limit, extra)
         self.action_space = gym.spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
 
         self.simulation = None
         self.field: ControlledField | None = None
         self.steps = 0
+        self.task_state: NDArray[np.float64] | None = None
         self._last_obs: NDArray[np.float32] | None = None
         self._diverged = False
         self._renderer: _SideViewRenderer | None = None
 
     # -- observation ------------------------------------------------------------------------------
     def observation(self) -> NDArray[np.float32]:
-        """The observation of the current state (see the module docstring), float32 ``(4n+4,)``."""
+        """The observation of the current state (see the module docstring), float32
+        ``(4n+4+k,)`` (``k`` the task's extra entries)."""
+        extra = None
+        if self.task.extra_observation:
+            extra = self.task.observe(self._mid_x(), self.task_state)
         return crawler_observation(self.simulation.rod, self.field.value, self.layout,
-                                   self.surface_tolerance)
+                                   self.surface_tolerance, extra)
+
+    def _mid_x(self) -> float:
+        return float(self.simulation.rod.position_collection[0, self.middle_node])
 
     def contact_strength(self) -> NDArray[np.float64]:
         """Per-node contact indicator (the observation's ``contact`` block, float64 ``(n+1,)``)."""
@@ -349,7 +418,7 @@ class MagneticCrawlerEnv(gym.Env):
         return {
             "time_s": self.time,
             "field_T": self.field.value.copy(),
-            "mid_x_m": float(self.simulation.rod.position_collection[0, self.middle_node]),
+            "mid_x_m": self._mid_x(),
             "diverged": self._diverged,
         }
 
@@ -368,6 +437,7 @@ class MagneticCrawlerEnv(gym.Env):
         self.simulation = build_simulation(self.robot_spec, self.field)
         self.steps = 0
         self._diverged = False
+        self.task_state = self.task.start(self._mid_x())
         self._last_obs = self.observation()
         return self._last_obs.copy(), self._info()
 
@@ -394,7 +464,7 @@ class MagneticCrawlerEnv(gym.Env):
             obs = self.observation()
             if not np.all(np.isfinite(obs)):
                 raise SimulationDiverged("non-finite observation", self.simulation.time, -1)
-            reward = 1e4 * (float(position[0, self.middle_node]) - x_before)
+            reward = self.task.reward(x_before, float(position[0, self.middle_node]), self.task_state)
             self._last_obs = obs
         except SimulationDiverged as exc:
             terminated = True

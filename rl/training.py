@@ -23,11 +23,10 @@ from typing import Any
 import numpy as np
 
 from .backends import BACKENDS, run_jobs
+from .cases import Case, case_from_dict, case_from_metadata, load_case
 from .pipeline import (
-    AUTHORS_DISTANCE_10S,
     EVAL_DURATION,
     RUN_JSON,
-    _case,
     _checkpoint_metadata,
     _checkpoint_path,
     _versions,
@@ -35,16 +34,16 @@ from .pipeline import (
     crawler_config,
     make_env,
 )
-from .recipes import DEFAULT_RECIPE
 
 __all__ = ["default_layout", "refine", "summarize_run", "train_case", "train_cases"]
 
 
-def summarize_run(run_dir: str | Path, last: int = 5) -> dict[str, Any]:
+def summarize_run(run_dir: str | Path, last: int = 5, reward_scale: float = 1e4) -> dict[str, Any]:
     """Episodes, steps and the mean return of the last ``last`` episodes of a run (``nan`` if it has
-    no finished episode). ``final_mean_distance_m`` is that return / 1e4 (m per episode). With
-    evaluations during training: ``best_eval_step`` and ``best_eval_return`` (the evaluation that
-    ``best.pt`` holds; its return / 1e4 is the 10 s distance from a zero field, m), else ``None``."""
+    no finished episode). ``final_mean_distance_m`` is that return / ``reward_scale`` (the task's,
+    per m; for crawling: m per episode). With evaluations during training: ``best_eval_step`` and
+    ``best_eval_return`` (the evaluation that ``best.pt`` holds; for crawling its return /
+    ``reward_scale`` is the 10 s distance from a zero field, m), else ``None``."""
     import csv
 
     run_dir = Path(run_dir)
@@ -64,7 +63,7 @@ def summarize_run(run_dir: str | Path, last: int = 5) -> dict[str, Any]:
         "episodes": len(rows),
         "global_step": int(rows[-1]["global_step"]) if rows else 0,
         "final_mean_return": mean,
-        "final_mean_distance_m": mean / 1e4,
+        "final_mean_distance_m": mean / reward_scale,
         "best_return": max(returns) if returns else float("nan"),
         "terminated_episodes": sum(int(r["terminated"]) for r in rows),
         "best_eval_step": int(best_eval["global_step"]) if best_eval else None,
@@ -72,14 +71,16 @@ def summarize_run(run_dir: str | Path, last: int = 5) -> dict[str, Any]:
     }
 
 
-def _run_metadata(case: str, physics: str, duration: float, seed: int, **extra: Any) -> dict:
-    spec = _case(case)
-    return {"case": case, "pattern": spec.pattern, "field_limit_T": spec.field_limit,
-            "physics": physics, "episode_duration_s": duration, "seed": int(seed), **extra}
+def _run_metadata(case: Case, physics: str, duration: float, seed: int, **extra: Any) -> dict:
+    """A run's record: the case by name and complete (``case_spec``: what ``msr generate``,
+    ``refine``, ``ship`` and ``export`` rebuild it from, without the spec file), its settings."""
+    return {"case": case.name, "field_limit_T": case.field_limit, "task": case.task.kind,
+            "physics": physics, "episode_duration_s": duration, "seed": int(seed), **extra,
+            "case_spec": case.to_dict()}
 
 
 #: Settings of a run that a resume must not change (they are the run's, in ``run.json``).
-_RUN_SETTINGS = ("case", "physics", "episode_duration_s", "recipe")
+_RUN_SETTINGS = ("case", "case_spec", "physics", "episode_duration_s", "recipe")
 
 
 def _check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
@@ -95,9 +96,25 @@ def _check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
     options = {"case": "--case", "physics": "--physics", "episode_duration_s": "--episode-duration",
                "recipe": "--recipe"}
     for key in _RUN_SETTINGS:
-        if key in record and record[key] != metadata[key]:
+        if key == "case_spec" and key in record and record[key] != metadata[key]:
+            where = _first_difference(record[key], metadata[key])
+            raise ValueError(f"the spec of case {metadata['case']!r} differs from the run's at "
+                             f"{where} ({run_json}): a resumed run keeps its case")
+        if key in record and key != "case_spec" and record[key] != metadata[key]:
             raise ValueError(f"{options[key]} {metadata[key]} differs from the run's {record[key]} "
                              f"({run_json}): a resumed run keeps its settings")
+
+
+def _first_difference(a: Any, b: Any, path: str = "") -> str:
+    """The first key (``[table] key``) where two spec dicts differ."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        for key in sorted(set(a) | set(b)):
+            if a.get(key) != b.get(key):
+                return _first_difference(a.get(key), b.get(key), f"{path}.{key}" if path else key)
+    if "." in path:
+        table, key = path.rsplit(".", 1)
+        return f"[{table}] {key}"
+    return path or "the top level"
 
 
 def _write_run_json(run_dir: Path, config, metadata: dict[str, Any], steps: int, threads: int,
@@ -129,10 +146,11 @@ def _train_group(job: dict[str, Any]) -> dict[str, Any]:
     configs = [TD3Config.from_dict(c) for c in job["configs"]]
     run_dirs = [Path(d) for d in job["run_dirs"]]
     envs = int(job["envs"])
-    metadata = [_run_metadata(job["case"], job["physics"], job["duration"], c.seed, command="train",
+    case = case_from_dict(job["case_spec"], job["case"])
+    metadata = [_run_metadata(case, job["physics"], job["duration"], c.seed, command="train",
                               envs=envs, shared_simulator_seeds=len(configs),
                               precision=resolve_precision(c.precision, c.device),
-                              recipe=job.get("recipe", DEFAULT_RECIPE))
+                              recipe=job["recipe"])
                 for c in configs]
     for config, run_dir, meta in zip(configs, run_dirs, metadata, strict=True):
         if not job["resume"]:
@@ -140,13 +158,13 @@ def _train_group(job: dict[str, Any]) -> dict[str, Any]:
             (run_dir / RUN_JSON).unlink(missing_ok=True)  # a stale record of a run without checkpoint
             _write_run_json(run_dir, config, meta, 0, job["threads"], resumed_now=False)
     start = time.perf_counter()
-    train_seeds(functools.partial(make_vector_env, job["case"], physics=job["physics"],
+    train_seeds(functools.partial(make_vector_env, case, physics=job["physics"],
                                   initial_field="random", duration=job["duration"]),
                 configs, job["steps"], run_dirs, envs_per_seed=envs, resume=job["resume"],
                 progress=job["progress"], metadata=metadata,
-                eval_env_fn=functools.partial(make_env, job["case"], job["physics"], "zero",
+                eval_env_fn=functools.partial(make_env, case, job["physics"], "zero",
                                               EVAL_DURATION),
-                eval_vec_env_fn=functools.partial(make_vector_env, job["case"],
+                eval_vec_env_fn=functools.partial(make_vector_env, case,
                                                   physics=job["physics"], initial_field="zero",
                                                   duration=EVAL_DURATION),
                 progress_position=job["position"], progress_desc=job["case"])
@@ -156,7 +174,8 @@ def _train_group(job: dict[str, Any]) -> dict[str, Any]:
         ckpt = load_checkpoint(run_dir)  # what was actually done, with the settings actually used
         _write_run_json(run_dir, TD3Config.from_dict(ckpt["config"]), meta,
                         int(ckpt["global_step"]), job["threads"], resumed_now=job["resume"])
-        results.append({"seed": int(ckpt["config"]["seed"]), **summarize_run(run_dir),
+        results.append({"seed": int(ckpt["config"]["seed"]),
+                        **summarize_run(run_dir, reward_scale=case.task.reward_scale),
                         "wall_s": wall, "peak_rss_bytes": peak,
                         "group_seeds": [c.seed for c in configs],
                         "group_timing_s": ckpt.get("timing")})
@@ -187,7 +206,7 @@ def _peak_rss_bytes() -> int | None:
     return int(peak if sys.platform == "darwin" else peak * 1024)  # macOS: bytes; Linux: KiB
 
 
-def _earlier_seeds(case_dir: Path, exclude: list[int]) -> list[dict[str, Any]]:
+def _earlier_seeds(case_dir: Path, exclude: list[int], reward_scale: float) -> list[dict[str, Any]]:
     """Seeds of ``case_dir`` trained by earlier ``msr train`` calls (``--seed-offset``), so that
     ``summary.json`` covers every seed of the case. Their entries from the previous summary are
     kept (wall time, memory) and their episode statistics re-read from ``episodes.csv``."""
@@ -204,26 +223,27 @@ def _earlier_seeds(case_dir: Path, exclude: list[int]) -> list[dict[str, Any]]:
         if not tail.isdigit() or int(tail) in exclude or not (path / "episodes.csv").is_file():
             continue
         entry = {k: v for k, v in previous.get(int(tail), {}).items() if k != "succeeded"}
-        found.append({**entry, "seed": int(tail), **summarize_run(path), "run_dir": str(path)})
+        found.append({**entry, "seed": int(tail), **summarize_run(path, reward_scale=reward_scale),
+                      "run_dir": str(path)})
     return found
 
 
-def train_case(case: str, seeds: int = 8, **kwargs: Any) -> dict[str, Any]:
+def train_case(case: str | Path | Case, seeds: int = 8, **kwargs: Any) -> dict[str, Any]:
     """Train seeds of one case: :func:`train_cases` with ``[case]``; returns its summary."""
-    return train_cases([case], seeds, **kwargs)[case]
+    return train_cases([case], seeds, **kwargs)[load_case(case).name]
 
 
 def train_cases(
-    cases: Sequence[str],
+    cases: Sequence[str | Path | Case],
     seeds: int = 8,
-    steps: int = 100_000,
+    steps: int | None = None,
     workers: int | None = None,
     out: str | Path = "runs",
     resume: bool = False,
     seed_offset: int = 0,
     config_overrides: dict[str, Any] | None = None,
     physics: str = "training",
-    episode_duration: float = 20.0,
+    episode_duration: float | None = None,
     progress: bool = True,
     threads: int | None = None,
     success_fraction: float = 0.5,
@@ -231,7 +251,7 @@ def train_cases(
     backend: str = "process",
     address: str | None = None,
     seeds_per_simulator: int | None = None,
-    recipe: str = DEFAULT_RECIPE,
+    recipe: str | None = None,
 ) -> dict[str, dict[str, Any]]:
     """Train seeds ``seed_offset .. seed_offset + seeds - 1`` of every case in ``cases`` for
     ``steps`` environment steps each, in groups of seeds of one case that train side by side in
@@ -246,8 +266,14 @@ def train_cases(
     summaries by case. A summary covers every seed folder of its case, also those of earlier calls
     (trained with another ``seed_offset``), so success counts and the best seed are over all of
     them. A seed counts as *succeeded* when its final mean episode return reaches
-    ``success_fraction`` of the authors' distance rate (their 10 s distance, scaled to the episode
-    length, x 1e4): a heuristic to count working seeds, reported with its threshold.
+    ``success_fraction`` of the yardstick's distance rate (its 10 s distance, scaled to the episode
+    length, x the reward scale): a heuristic to count working seeds, reported with its threshold
+    (crawling cases with a yardstick distance only; the seeds' real test is ``msr export-seeds``).
+
+    ``cases`` are shipped names or spec files (or :class:`~elastica_magnetic_rl.cases.Case`); the
+    folders are named after the cases. ``steps``, ``episode_duration`` and ``recipe`` default to
+    each case's ``[training]`` / ``[task]`` values (so to one value when the cases agree), and
+    ``config_overrides`` go on top of the case's ``[training.td3]``.
 
     Args:
         config_overrides: :class:`~elastica_magnetic_rl.td3.TD3Config` fields on top of :func:`crawler_config`
@@ -265,11 +291,24 @@ def train_cases(
             update).
         recipe: the training recipe (:data:`RECIPES`), recorded in ``run.json`` and the summary.
     """
-    cases = list(dict.fromkeys(cases))  # in order, once each
+    loaded = {}
+    for case in cases:  # every spec checked before any work
+        c = load_case(case)
+        loaded.setdefault(c.name, c)
+        if loaded[c.name].to_dict() != c.to_dict():
+            raise ValueError(f"two different cases are named {c.name!r}: rename one spec file")
+    cases = list(loaded)  # names, in order, once each
     if not cases:
         raise ValueError("no case to train")
-    for case in cases:
-        _case(case)
+    first = loaded[cases[0]]
+    for key, value in (("steps", steps), ("episode_duration", episode_duration), ("recipe", recipe)):
+        defaults = {c.name: {"steps": c.training.steps, "episode_duration": c.task.episode_duration,
+                             "recipe": c.training.recipe}[key] for c in loaded.values()}
+        if value is None and len(set(defaults.values())) > 1:
+            raise ValueError(f"the cases' specs give different {key} ({defaults}): set it")
+    steps = first.training.steps if steps is None else steps
+    episode_duration = first.task.episode_duration if episode_duration is None else episode_duration
+    recipe = first.training.recipe if recipe is None else recipe
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
     if address is not None and backend != "ray":
@@ -289,7 +328,11 @@ def train_cases(
     workers = min(workers or layout["workers"], len(groups) * len(cases))
     if threads is None:  # on a Ray cluster this machine's CPU count says nothing: one per worker
         threads = 1 if address else max(1, (os.cpu_count() or 1) // workers)
-    configs = {s: crawler_config(s, recipe, **(config_overrides or {})) for s in seed_list}
+    td3_settings = [dict(c.training.td3) for c in loaded.values()]
+    if any(t != td3_settings[0] for t in td3_settings):
+        raise ValueError("the cases' specs give different [training.td3] settings: train them apart")
+    configs = {s: crawler_config(s, recipe, **{**td3_settings[0], **(config_overrides or {})})
+               for s in seed_list}
     if not resume:
         existing = [str(Path(out) / case / f"seed{s}") for case in cases for s in seed_list
                     if (Path(out) / case / f"seed{s}" / "checkpoint.pt").exists()]
@@ -309,8 +352,8 @@ def train_cases(
                 path = Path(out) / case / f"seed{s}" / "checkpoint.pt"
                 refuse_networks_only(load_checkpoint(path, with_buffer=False), path)
                 _check_resume_settings(Path(out) / case / f"seed{s}", {
-                    "case": case, "physics": physics, "episode_duration_s": float(episode_duration),
-                    "recipe": recipe})
+                    "case": case, "case_spec": loaded[case].to_dict(), "physics": physics,
+                    "episode_duration_s": float(episode_duration), "recipe": recipe})
 
     from elastica_magnetic.io import prepare_output_dir
 
@@ -328,7 +371,8 @@ def train_cases(
     for case in cases:
         for group in groups:
             jobs.append({
-                "case": case, "physics": physics, "duration": float(episode_duration),
+                "case": case, "case_spec": loaded[case].to_dict(), "physics": physics,
+                "duration": float(episode_duration),
                 "steps": int(steps), "resume": resume, "progress": progress, "position": position,
                 "threads": threads, "envs": int(envs), "recipe": recipe,
                 "configs": [configs[s].to_dict() for s in group],
@@ -356,15 +400,21 @@ def train_cases(
         for r in mine:
             if "run_dir" in r:
                 r["run_dir"] = str(case_dir / f"seed{r['seed']}")
-        threshold = success_fraction * AUTHORS_DISTANCE_10S[case] * (episode_duration / 10.0) * 1e4
-        per_seed = sorted(mine + _earlier_seeds(case_dir, seed_list), key=lambda r: r["seed"])
+        spec = loaded[case]
+        threshold = None
+        if spec.task.kind == "crawl" and spec.yardstick.distance_10s > 0.0:
+            threshold = (success_fraction * spec.yardstick.distance_10s * (episode_duration / 10.0)
+                         * spec.task.reward_scale)
+        per_seed = sorted(mine + _earlier_seeds(case_dir, seed_list, spec.task.reward_scale),
+                          key=lambda r: r["seed"])
         for r in per_seed:
-            if "error" not in r:
+            if "error" not in r and threshold is not None:
                 r["succeeded"] = bool(r["final_mean_return"] >= threshold)
         ok = [r for r in per_seed if "error" not in r and math.isfinite(r["final_mean_return"])]
         best = max(ok, key=lambda r: r["final_mean_return"]) if ok else None
         summary = {
             "case": case,
+            "task": spec.task.kind,
             "steps": int(steps),
             "physics": physics,
             "episode_duration_s": float(episode_duration),
@@ -378,7 +428,7 @@ def train_cases(
             "precision": configs[seed_list[0]].precision,
             "device": configs[seed_list[0]].device,
             "success_threshold_return": threshold,
-            "succeeded": sum(bool(r.get("succeeded")) for r in per_seed),
+            "succeeded": None if threshold is None else sum(bool(r.get("succeeded")) for r in per_seed),
             "best_seed": best["seed"] if best else None,
             "best_run_dir": best["run_dir"] if best else None,
             "wall_s": wall,
@@ -425,7 +475,7 @@ def refine(
     ckpt = load_checkpoint(source)
     refuse_networks_only(ckpt, source)
     meta = _checkpoint_metadata(ckpt, source)
-    case = meta["case"]
+    case = case_from_metadata(meta, str(source))
     out = Path(out) if out is not None else source.parent / "refined"
     start_step = int(ckpt["global_step"])
     total = start_step + int(steps)
@@ -445,9 +495,9 @@ def refine(
     train_seeds(functools.partial(make_vector_env, case, physics=physics, initial_field="random",
                                   duration=episode_duration),
                 [config], total, [out], resume=resume, progress=progress, init_from=[source],
-                progress_desc=f"refine {case} seed{config.seed}", metadata=[metadata])
-    summary = summarize_run(out)
-    return {"case": case, "source": str(source), "run_dir": str(out),
+                progress_desc=f"refine {case.name} seed{config.seed}", metadata=[metadata])
+    summary = summarize_run(out, reward_scale=case.task.reward_scale)
+    return {"case": case.name, "source": str(source), "run_dir": str(out),
             "checkpoint": str(out / "checkpoint.pt"), "start_step": start_step, "steps": int(steps),
             "physics": physics, **{k: summary[k] for k in ("episodes", "final_mean_return")},
             "wall_s": time.perf_counter() - begin}

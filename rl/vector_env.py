@@ -66,15 +66,15 @@ from elastica_magnetic import ControlledField, RobotSpec
 from elastica_magnetic.batch import BatchedRobots, BatchedSimulationDiverged
 from elastica_magnetic.presets import ACTION_PERIOD
 
+from .cases import Case
 from .env import (
-    CASES,
-    MAX_FIELD_INCREMENT,
     crawler_observation,
     crawler_observation_space,
-    crawler_task,
+    crawler_setup,
     initial_field_value,
     observation_layout,
 )
+from .tasks import Task
 
 __all__ = ["MagneticCrawlerVectorEnv", "make_vector_env"]
 
@@ -88,11 +88,14 @@ class MagneticCrawlerVectorEnv(VectorEnv):
     ----------
     num_envs : int
         Number of sub-environments (robots) ``N`` >= 1.
-    pattern, field_limit, physics, initial_field, duration, spec, max_increment, divergence_penalty
-        As :class:`~elastica_magnetic_rl.env.MagneticCrawlerEnv` (``field_limit`` in T, ``duration`` in s,
-        ``max_increment`` in T per unit action), the same for every sub-environment.
+    case, pattern, field_limit, physics, initial_field, duration, spec, max_increment, task
+        As :class:`~elastica_magnetic_rl.env.MagneticCrawlerEnv` (``field_limit`` in T,
+        ``duration`` in s, ``max_increment`` in T per unit action), the same for every
+        sub-environment.
         ``reset(options={"initial_field": ...})`` overrides ``initial_field`` for the episodes
         started by that reset (not for later autoresets).
+    divergence_penalty : float
+        Reward of a step on which a robot's simulation blows up (as the single environment).
     """
 
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
@@ -100,36 +103,43 @@ class MagneticCrawlerVectorEnv(VectorEnv):
     def __init__(
         self,
         num_envs: int = 4,
-        pattern: int = 1,
-        field_limit: float = 4e-3,
+        pattern: int | None = None,
+        field_limit: float | None = None,
         physics: Literal["training", "accurate"] = "training",
-        initial_field: Literal["random", "zero"] = "random",
-        duration: float = 20.0,
+        initial_field: Literal["random", "zero"] | None = None,
+        duration: float | None = None,
         spec: RobotSpec | None = None,
-        max_increment: float = MAX_FIELD_INCREMENT,
+        max_increment: float | None = None,
         divergence_penalty: float = -10.0,
+        case: str | Case | None = None,
+        task: Task | None = None,
     ) -> None:
         if int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
-        spec, n_steps = crawler_task(pattern, physics, field_limit, initial_field, duration, spec)
+        setup = crawler_setup(case, pattern=pattern, field_limit=field_limit, physics=physics,
+                              initial_field=initial_field, duration=duration, spec=spec,
+                              max_increment=max_increment, task=task)
         self.num_envs = int(num_envs)
-        self.robot_spec = spec
-        self.pattern = int(pattern)
+        self.setup = setup
+        self.case = setup.case
+        self.task = setup.task
+        self.robot_spec = spec = setup.robot_spec
         self.physics = physics
-        self.field_limit = float(field_limit)
-        self.initial_field = initial_field
-        self.duration = float(duration)
-        self.max_episode_steps = n_steps
-        self.max_increment = float(max_increment)
+        self.field_limit = setup.field_limit
+        self.initial_field = setup.initial_field
+        self.duration = setup.duration
+        self.max_episode_steps = setup.n_steps
+        self.max_increment = setup.max_increment
         self.divergence_penalty = float(divergence_penalty)
         self.render_mode = None
 
         n = spec.n_elements
         self.n_elements = n
         self.middle_node = n // 2
-        self.layout = observation_layout(n)
+        extra = self.task.extra_observation
+        self.layout = observation_layout(n, extra)
         self.surface_tolerance = float(spec.ground.surface_tolerance)
-        self.single_observation_space = crawler_observation_space(n, self.field_limit)
+        self.single_observation_space = crawler_observation_space(n, self.field_limit, extra)
         self.single_action_space = gym.spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -137,13 +147,20 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         self.robots: BatchedRobots | None = None
         self.fields: list[ControlledField] = []
         self.steps = np.zeros(self.num_envs, dtype=np.int64)  # steps of each current episode
-        self._obs = np.zeros((self.num_envs, 4 * n + 4), dtype=np.float32)
+        self._obs = np.zeros((self.num_envs,) + self.single_observation_space.shape, dtype=np.float32)
+        self._task_state = np.zeros(self.num_envs)  # the task's per-episode state (start or target)
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
 
     # -- helpers ------------------------------------------------------------------------------------
+    def _mid_x(self, i: int) -> float:
+        return float(self.robots.rods[i].position_collection[0, self.middle_node])
+
     def _observe(self, i: int) -> NDArray[np.float32]:
+        extra = None
+        if self.task.extra_observation:
+            extra = self.task.observe(self._mid_x(i), self._task_state[i])
         return crawler_observation(self.robots.rods[i], self.fields[i].value, self.layout,
-                                   self.surface_tolerance)
+                                   self.surface_tolerance, extra)
 
     def _rng(self, i: int) -> np.random.Generator:
         if self._rngs[i] is None:
@@ -157,6 +174,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         self.robots.reset_robot(i)
         self.robots.fields[i] = self.fields[i].value
         self.steps[i] = 0
+        self._task_state[i] = self.task.start(self._mid_x(i))
         self._obs[i] = self._observe(i)
 
     def _healthy(self, i: int) -> bool:
@@ -169,11 +187,10 @@ class MagneticCrawlerVectorEnv(VectorEnv):
     def _info(self) -> dict[str, Any]:
         """Per-sub-environment info arrays (all present, masks all True)."""
         n = self.num_envs
-        rods = self.robots.rods
         info = {
             "time_s": self.steps * ACTION_PERIOD,
             "field_T": np.stack([f.value.copy() for f in self.fields]),
-            "mid_x_m": np.array([float(r.position_collection[0, self.middle_node]) for r in rods]),
+            "mid_x_m": np.array([self._mid_x(i) for i in range(n)]),
         }
         for key in list(info):
             info[f"_{key}"] = np.ones(n, dtype=bool)
@@ -248,7 +265,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         x_before = np.empty(n)
         for i in range(n):
             robots.fields[i] = self.fields[i].apply_increment(a[i] * self.max_increment)
-            x_before[i] = float(robots.rods[i].position_collection[0, self.middle_node])
+            x_before[i] = self._mid_x(i)
         diverged = np.zeros(n, dtype=bool)
         messages: dict[int, str] = {}
         try:
@@ -262,8 +279,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
                 obs = self._observe(i)
                 if np.all(np.isfinite(obs)):
                     self._obs[i] = obs
-                    x_after = float(robots.rods[i].position_collection[0, self.middle_node])
-                    rewards[i] = 1e4 * (x_after - x_before[i])
+                    rewards[i] = self.task.reward(x_before[i], self._mid_x(i), self._task_state[i])
                     continue
                 diverged[i] = True
                 messages.setdefault(i, f"robot {i}: non-finite observation")
@@ -310,7 +326,8 @@ class MagneticCrawlerVectorEnv(VectorEnv):
 
         Keys: ``block`` (the memory block's base arrays, float64: positions, directors, rates,
         loads and derived geometry of every robot), ``fields`` ``(N, 3)`` T, ``steps`` ``(N,)``,
-        ``robot_step_count`` ``(N,)``, ``step_count``, ``obs`` float32 ``(N, 4 n + 4)``, ``rngs``
+        ``robot_step_count`` ``(N,)``, ``step_count``, ``obs`` float32 ``(N, 4 n + 4 + k)``,
+        ``task_state`` ``(N,)`` (the task's per-episode state, m), ``rngs``
         (each generator's ``bit_generator.state``).
         """
         if self.robots is None:
@@ -326,6 +343,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
             "robot_step_count": self.robots.robot_step_count.copy(),
             "step_count": int(self.robots.step_count),
             "obs": self._obs.copy(),
+            "task_state": self._task_state.copy(),
             "rngs": [r.bit_generator.state for r in self._rngs],
         }
 
@@ -348,6 +366,10 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         self.robots.robot_step_count[:] = np.asarray(state["robot_step_count"])
         self.robots.step_count = int(state["step_count"])
         self._obs[...] = np.asarray(state["obs"])
+        if "task_state" in state:
+            self._task_state[:] = np.asarray(state["task_state"])
+        elif self.task.kind != "crawl":  # states from before tasks: crawling, which needs none
+            raise ValueError("the saved state has no task state (it predates the reach task)")
         for i, rng_state in enumerate(state["rngs"]):
             rng, _ = seeding.np_random(0)
             rng.bit_generator.state = rng_state
@@ -365,14 +387,14 @@ def _block_base_arrays(robots: BatchedRobots) -> dict[str, NDArray[np.float64]]:
 
 
 def make_vector_env(
-    case: str,
+    case: str | Case,
     num_envs: int,
     physics: str = "training",
-    initial_field: str = "random",
-    duration: float = 20.0,
+    initial_field: str | None = None,
+    duration: float | None = None,
 ) -> MagneticCrawlerVectorEnv:
-    """The vector environment of a case (module level so that ``functools.partial`` of it pickles)."""
-    if case not in CASES:
-        raise ValueError(f"unknown case {case!r}; choose one of {', '.join(CASES)}")
-    return MagneticCrawlerVectorEnv(num_envs, **CASES[case].env_kwargs, physics=physics,
+    """The vector environment of a case (a name, a spec file or a
+    :class:`~elastica_magnetic_rl.cases.Case`; module level so that ``functools.partial`` of it
+    pickles)."""
+    return MagneticCrawlerVectorEnv(num_envs, case=case, physics=physics,
                                     initial_field=initial_field, duration=duration)

@@ -13,8 +13,8 @@ import elastica_magnetic_rl
 import gymnasium as gym
 import numpy as np
 import pytest
+from elastica_magnetic_rl.cases import PAPER_CASES, load_case
 from elastica_magnetic_rl.env import (
-    CASES,
     OBSERVATION_LAYOUT,
     OBSERVATION_SCALES,
     MagneticCrawlerEnv,
@@ -40,13 +40,24 @@ def test_check_env_passes_through_gym_make():
     env.close()
 
 
-@pytest.mark.parametrize("case", sorted(CASES))
+@pytest.mark.parametrize("case", PAPER_CASES)
 def test_registered_cases(case):
-    env = gym.make(elastica_magnetic_rl.ENV_ID, **CASES[case].env_kwargs, duration=0.05)
+    """``gym.make(..., case=NAME)`` gives the paper's robot of the case's pattern and limit, and
+    the same observations as the environment built from pattern and limit."""
+    env = gym.make(elastica_magnetic_rl.ENV_ID, case=case, duration=0.05)
     obs, info = env.reset(seed=1)
     assert obs.shape == (260,) and env.observation_space.shape == (260,)
-    assert env.unwrapped.field_limit == CASES[case].field_limit
-    assert env.unwrapped.pattern == CASES[case].pattern
+    limit = {"4mT": 4e-3, "10mT": 10e-3}[case.split("-")[1]]
+    assert env.unwrapped.field_limit == limit == load_case(case).field_limit
+    assert env.unwrapped.robot_spec.name == f"yao2023-m{case[1]}"
+    old = MagneticCrawlerEnv(pattern=int(case[1]), field_limit=limit, duration=0.05)
+    obs_old, _ = old.reset(seed=1)
+    for _ in range(3):
+        action = np.array([0.7, -0.4], dtype=np.float32)
+        a, ra, *_ = env.step(action)
+        b, rb, *_ = old.step(action)
+        assert np.array_equal(a, b) and ra == rb
+    assert np.array_equal(obs, obs_old)
     env.close()
 
 

@@ -23,7 +23,7 @@ def folder(tmp_path):
 def test_shipped_policies_carry_a_matching_checksum():
     for name in ("m1-4mT", "m2-4mT", "m1-10mT", "m2-10mT"):
         assert "actor_sha256" in json.loads((POLICIES_DIR / name / "policy.json").read_text())
-        assert resolve_policy(name).case == name
+        assert resolve_policy(name).case.name == name
 
 
 @pytest.mark.parametrize("size", [0, 1000])

@@ -153,4 +153,5 @@ def test_ray_sweep_over_two_cases(tmp_path, capsys):
         assert summary["case"] == case and [s["seed"] for s in summary["seeds"]] == [0]
         assert summary["seeds"][0]["global_step"] == 100 and not summary["failed"]  # 2 episodes
         meta = json.loads((tmp_path / case / "seed0" / "run.json").read_text())
-        assert (meta["case"], meta["pattern"], meta["field_limit_T"]) == (case, pattern, limit)
+        assert (meta["case"], meta["field_limit_T"]) == (case, limit)
+        assert meta["case_spec"]["robot"]["magnetization"]["kind"] == f"yao2023-pattern{pattern}"

@@ -76,11 +76,13 @@ def test_validate_full_replay(tmp_path, capsys):
 
 
 def test_validate_shipped_quick_checks_every_shipped_policy(capsys):
-    """``msr validate shipped --quick``: every shipped policy's first 0.3 s reproduce its waveform
-    (the full 10 s check of all four is ``msr validate shipped``)."""
+    """``msr validate shipped --quick``: every shipped policy's first 0.3 s run, and reproduce its
+    waveform where this machine is the one that recorded it (the full 10 s check of all four, with
+    their distances, is ``msr validate shipped``)."""
     from elastica_magnetic_rl.shipped import shipped_names
 
     assert main(["validate", "shipped", "--quick", "--json"]) == 0
     result = json.loads(capsys.readouterr().out)
     assert [r["name"] for r in result["shipped"]] == shipped_names() and result["passed"]
-    assert all(r["rows_compared"] == 30 and r["max_field_diff_mT"] <= 1e-6 for r in result["shipped"])
+    assert all(r["rows_compared"] == 30 and not r["diverged"] for r in result["shipped"])
+    assert all(r["max_field_diff_mT"] <= 1e-6 for r in result["shipped"] if r["waveform_check"] == "exact")
