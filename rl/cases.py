@@ -23,6 +23,7 @@ Tables of a spec (SI units; the robot's tables are described in
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 from collections.abc import Mapping
@@ -167,11 +168,12 @@ class Case:
         return bool(mid_dx_m > 0.0)
 
     def to_dict(self) -> dict[str, Any]:
-        """Every table, every default written out, plain data (round-trips through TOML/JSON)."""
+        """Every table, every default written out, plain data (round-trips through TOML/JSON); a
+        new copy each call (editing it changes no case)."""
         training = {"recipe": self.training.recipe, "steps": self.training.steps}
         if self.training.td3:
             training["td3"] = dict(self.training.td3)
-        return {
+        return copy.deepcopy({
             "name": self.name,
             "description": self.description,
             **self.robot.tables,
@@ -179,7 +181,7 @@ class Case:
             "task": self.task.to_dict(),
             "training": training,
             "yardstick": dataclasses.asdict(self.yardstick),
-        }
+        })
 
     def toml(self) -> str:
         """The complete spec as TOML with units in comments, every default written out: a file to
@@ -250,7 +252,8 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     training = _training(top.table("training", required=False), source)
     yardstick = _yardstick(top.table("yardstick", required=False))
     if robot.robot("training").ground is None:
-        raise top.error("robot", "the crawler tasks need a ground: add a [robot.ground] table")
+        raise SpecError(f"{source}: [robot.ground] missing: the crawler tasks need a ground (add the "
+                        "table; every key in it has a default)")
     for key in ("robot", "physics"):
         top.raw(key, None)
     top.finish()

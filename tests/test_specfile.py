@@ -1,0 +1,168 @@
+"""Spec files, the physics half: the [robot] and [physics] tables build the robot they describe,
+and every kind of bad input is an error naming the file, the table, the key and the unit."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from elastica_magnetic import hu2018_robot, yao2023_robot
+from elastica_magnetic.cli import main
+from elastica_magnetic.specfile import (
+    SpecError,
+    describe_robot,
+    dumps,
+    load_robot,
+    loads,
+    magnetization_array,
+)
+
+ROBOT = """
+[robot]
+length = 0.02
+n_elements = 8
+width = 0.008
+thickness = 0.0008
+density = 1860.0
+youngs_modulus = 84500.0
+poisson_ratio = 0.48
+
+[robot.magnetization]
+kind = "uniform"
+magnitude = 1000.0
+direction = [0.0, 2.0, 0.0]
+
+[robot.ground]
+"""
+
+
+def _same(a, b) -> bool:
+    return all(getattr(a, f.name) == getattr(b, f.name) for f in dataclasses.fields(a)
+               if f.name != "magnetization") and np.array_equal(a.magnetization, b.magnetization)
+
+
+def test_a_minimal_robot_gets_every_default_and_its_values():
+    description = describe_robot(loads(ROBOT, "r.toml"), "r.toml")
+    robot = description.robot("accurate")
+    assert robot.n_elements == 8 and robot.length == 0.02 and robot.section == "band"
+    assert robot.shear_modulus == pytest.approx(84500.0 / (2 * 1.48), rel=1e-15)
+    assert robot.radius == pytest.approx(0.0008 / math.sqrt(3.0))
+    assert np.allclose(robot.magnetization, [[0.0] * 8, [1000.0] * 8, [0.0] * 8])
+    assert robot.ground is not None and robot.ground.k == 0.08 and robot.damping is None
+    assert (robot.mass_scale, robot.dt) == (1.0, 8e-6)
+    training = description.robot("training")
+    assert training.mass_scale == pytest.approx(1000 / 95) and training.dt == 1e-4
+    # complete tables: every default written out, and they read back to the same robot
+    tables = description.tables
+    assert tables["robot"]["ground"]["stiffness"] == 0.08 and tables["robot"]["gravity"] == 9.80665
+    again = describe_robot(loads(dumps(tables), "again.toml"), "again.toml")
+    assert again.tables == tables and _same(again.robot("training"), training)
+
+
+def test_the_presets_as_spec_tables_are_the_presets():
+    """Writing the paper's robot as a spec (as the shipped case files do) loses nothing."""
+    for pattern in (1, 2):
+        text = f"""
+[robot]
+name = "yao2023-m{pattern}"
+length = 0.02
+n_elements = 64
+width = 0.008
+thickness = 0.0008
+density = 1860.0
+youngs_modulus = 84500.0
+shear_modulus = {84.5e3 / 1.48!r}
+[robot.magnetization]
+kind = "yao2023-pattern{pattern}"
+magnitude = 61300.0
+[robot.ground]
+[robot.damping]
+"""
+        description = describe_robot(loads(text))
+        for physics in ("accurate", "training"):
+            assert _same(description.robot(physics), yao2023_robot(pattern, physics))
+
+
+def test_sinusoid_and_table_magnetizations():
+    sinusoid = {"kind": "sinusoid", "magnitude": 61.3e3, "phase": 0.0}
+    assert np.array_equal(magnetization_array(sinusoid, 32), hu2018_robot(32).magnetization)
+    values = np.arange(24, dtype=float).reshape(3, 8).tolist()
+    text = ROBOT.replace('kind = "uniform"\nmagnitude = 1000.0\ndirection = [0.0, 2.0, 0.0]',
+                         f'kind = "table"\nvalues = {values}')
+    robot = describe_robot(loads(text)).robot()
+    assert np.array_equal(robot.magnetization, np.array(values))
+
+
+def test_a_round_rod():
+    text = ROBOT.replace("width = 0.008\nthickness = 0.0008", "radius = 0.0005")
+    robot = describe_robot(loads(text)).robot()
+    assert robot.section == "round" and robot.radius == 0.0005
+    from elastica_magnetic.simulation import robot_rod
+
+    assert np.allclose(robot_rod(robot).radius, 0.0005)
+
+
+BAD = [
+    ("length = 0.02", "length = -0.02", "[robot] length: must be > 0 (m), got -0.02"),
+    ("length = 0.02", "length = nan", "[robot] length: expected a finite number (m)"),
+    ("length = 0.02", 'length = "20 mm"', "[robot] length: expected a number (m)"),
+    ("length = 0.02\n", "", "[robot] length: missing (required)"),
+    ("youngs_modulus = 84500.0", "youngs_modulus = 0.0", "[robot] youngs_modulus: must be > 0 (Pa)"),
+    ("n_elements = 8", "n_elements = 1", "[robot] n_elements: must be >= 2 (elements)"),
+    ("n_elements = 8", "n_elements = 8.5", "[robot] n_elements: expected an integer"),
+    ("density = 1860.0", "density = 1860.0\ncolour = 1", "[robot] colour: unknown key"),
+    ("[robot.ground]", "[robot.ground]\nstifness = 1.0", "[robot.ground] stifness: unknown key"),
+    ('kind = "uniform"', 'kind = "helix"', "[robot.magnetization] kind: expected one of"),
+    ("direction = [0.0, 2.0, 0.0]", "direction = [0.0, 0.0]", "[robot.magnetization] direction: "
+     "expected a list of 3 finite numbers"),
+    ("direction = [0.0, 2.0, 0.0]", "direction = [0.0, 0.0, 0.0]", "must be a non-zero direction"),
+    ("poisson_ratio = 0.48", "poisson_ratio = 0.48\nshear_modulus = 1e4",
+     "give either shear_modulus (Pa) or poisson_ratio"),
+    ("[robot.ground]", "[robot.ground]\n[physics.training]\ndt = 3e-4",
+     "[physics.training] dt: must divide the 0.01 s control period"),
+    ("[robot]", "speed = 1\n[robot]", ": speed: unknown top-level key"),
+]
+
+
+@pytest.mark.parametrize(("old", "new", "message"), BAD, ids=[b[2][:40] for b in BAD])
+def test_bad_specs_name_the_file_table_key_and_unit(old, new, message):
+    assert old in ROBOT
+    with pytest.raises(SpecError) as err:
+        describe_robot(loads(ROBOT.replace(old, new, 1), "my.toml"), "my.toml")
+    assert str(err.value).startswith("my.toml: ") and message in str(err.value), str(err.value)
+
+
+def test_a_table_of_the_wrong_shape_and_bad_toml(tmp_path):
+    text = ROBOT.replace('kind = "uniform"\nmagnitude = 1000.0\ndirection = [0.0, 2.0, 0.0]',
+                         'kind = "table"\nvalues = [[1.0, 2.0], [0.0, 0.0], [0.0, 0.0]]')
+    with pytest.raises(SpecError, match=r"my.toml: \[robot.magnetization\] values: expected shape "
+                                        r"\(3, 8\).*A/m.*got \(3, 2\)"):
+        describe_robot(loads(text, "my.toml"), "my.toml")
+    broken = tmp_path / "broken.toml"
+    broken.write_text("[robot\nlength = 1")
+    with pytest.raises(SpecError, match=r"broken.toml: not valid TOML"):
+        load_robot(broken)
+    with pytest.raises(SpecError, match=r"nothere.toml: no such spec file"):
+        load_robot(tmp_path / "nothere.toml")
+    with pytest.raises(SpecError, match="unknown robot 'yao2024'"):
+        load_robot("yao2024")
+
+
+def test_simulate_takes_a_spec_file_and_refuses_a_bad_one(tmp_path, capsys):
+    good = tmp_path / "my.toml"
+    good.write_text(ROBOT.replace("[robot.ground]", "[robot.ground]\n[robot.damping]"))
+    out = tmp_path / "sim"
+    assert main(["simulate", "--robot", str(good), "--duration", "0.05", "--physics", "training",
+                 "--out", str(out), "--json"]) == 0
+    assert (out / "trajectory.csv").is_file()
+    bad = tmp_path / "bad.toml"
+    bad.write_text(ROBOT.replace("length = 0.02", "length = 0.0"))
+    with pytest.raises(SystemExit) as exit_:
+        main(["simulate", "--robot", str(bad), "--out", str(tmp_path / "never")])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert "argument --robot: " in err and "bad.toml: [robot] length: must be > 0 (m)" in err
+    assert not (tmp_path / "never").exists()
