@@ -475,7 +475,7 @@ def export_command(args: argparse.Namespace) -> int:
 
 def figures_command(args: argparse.Namespace) -> int:
     from .figures import make_figures
-    from .pipeline import resolve_policy
+    from .policy_files import resolve_policy
 
     print_result(make_figures(args.path, args.out, gif=not args.no_gif, load_policy=resolve_policy),
                  args.json)

@@ -31,7 +31,6 @@ import json
 import platform
 import time
 import warnings
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -41,8 +40,19 @@ from elastica_magnetic.io import atomic_save, atomic_write, atomic_write_text, p
 from elastica_magnetic.openloop import check_duration
 
 from .baselines import RotatingFieldPolicy
-from .cases import Case, case_from_metadata, load_case
+from .cases import Case, load_case
 from .env import MagneticCrawlerEnv, observation_spec
+from .model_card import model_card, seed_meets_target
+from .policy_files import (
+    POLICIES_DIR,
+    POLICY_FORMAT,
+    POLICY_JSON,
+    LoadedPolicy,
+    PolicyFileError,
+    PolicyNotFoundError,
+    resolve_policy,
+    weights_sha256,
+)
 from .recipes import CRAWLER_TD3_OVERRIDES, DEFAULT_RECIPE, RECIPES
 from .tasks import ReachTask
 
@@ -64,38 +74,12 @@ __all__ = [
     "weights_sha256",
 ]
 
-#: Folder of the shipped policies (``rl/policies/<name>/``).
-POLICIES_DIR = Path(__file__).resolve().parent / "policies"
-RUN_JSON = "run.json"
-POLICY_JSON = "policy.json"
-POLICY_FORMAT = "msr-policy-v1"
+#: Format of ``msr export``'s ``policy.json``.
 EXPORT_FORMAT = "msr-exported-policy-v1"
 
 #: The evaluation during training: the shipping criterion's episode (field from zero,
 #: deterministic actions, 10 s) in the physics the run trains in.
 EVAL_DURATION = 10.0
-
-
-class PolicyNotFoundError(FileNotFoundError):
-    """A policy argument that names no run, checkpoint or shipped policy."""
-
-
-class PolicyFileError(ValueError):
-    """A policy file that is corrupted, truncated or does not match its ``policy.json``; the
-    message names the file."""
-
-
-def weights_sha256(state_dict: dict[str, Any]) -> str:
-    """SHA-256 of a network's weights (names, dtypes, shapes and values, in name order): stored in
-    ``policy.json`` to check that ``actor.pt`` is the actor it describes."""
-    import hashlib
-
-    digest = hashlib.sha256()
-    for name in sorted(state_dict):
-        tensor = state_dict[name].detach().cpu().contiguous()
-        digest.update(f"{name}|{tensor.dtype}|{tuple(tensor.shape)}|".encode())
-        digest.update(tensor.numpy().tobytes())
-    return digest.hexdigest()
 
 
 # ----------------------------------------------------------------------------------------------
@@ -159,187 +143,6 @@ def machine_fingerprint() -> dict[str, str]:
 def _write_json(path: Path, data: dict[str, Any]) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     return atomic_write_text(path, json.dumps(data, indent=2, default=str) + "\n")
-
-
-# ----------------------------------------------------------------------------------------------
-# Training
-# ----------------------------------------------------------------------------------------------
-def _checkpoint_path(run: str | Path) -> Path:
-    run = Path(run)
-    path = run / "checkpoint.pt" if run.is_dir() else run
-    if not path.is_file():
-        raise PolicyNotFoundError(f"{run}: no checkpoint.pt (expected a run directory or a checkpoint)")
-    return path
-
-
-def _checkpoint_metadata(ckpt: dict[str, Any], path: Path) -> dict[str, Any]:
-    """The case and settings of a checkpoint: its own metadata, else ``run.json`` next to it."""
-    meta = dict(ckpt.get("metadata") or {})
-    if "case" not in meta and (path.parent / RUN_JSON).is_file():
-        meta = {**json.loads((path.parent / RUN_JSON).read_text()), **meta}
-    if "case" not in meta:
-        raise ValueError(f"{path}: the checkpoint names no case (no metadata, no {RUN_JSON})")
-    return meta
-
-
-@dataclass
-class LoadedPolicy:
-    """A policy ready to act: the actor (normalised actions), the critic if known, and its case."""
-
-    actor: Any  # elastica_magnetic_rl.td3.Actor in eval mode
-    critic: Any | None  # elastica_magnetic_rl.td3.TwinCritic or None
-    case: Case
-    source: Path
-    kind: str  # "checkpoint" or "shipped"
-    meta: dict[str, Any] = field(default_factory=dict)
-    obs_dim: int = 260
-    act_dim: int = 2
-    hidden_sizes: tuple[int, ...] = (256, 256)
-
-    def act(self, obs: np.ndarray) -> np.ndarray:
-        """Deterministic normalised action in [-1, 1]^2 for one observation (float32)."""
-        import torch
-
-        with torch.no_grad():
-            x = torch.as_tensor(np.asarray(obs, dtype=np.float32).reshape(1, -1))
-            return self.actor(x)[0].numpy().astype(np.float32)
-
-
-def _build_networks(obs_dim: int, act_dim: int, hidden: tuple[int, ...], actor_state: dict,
-                    critic_state: dict | None, source: Path | None = None):
-    from .td3 import Actor, TwinCritic
-
-    def load(network, state, what: str):
-        try:
-            network.load_state_dict(state)
-        except (RuntimeError, KeyError, TypeError, AttributeError) as exc:
-            first = str(exc).strip().splitlines()
-            raise PolicyFileError(
-                f"{source}: the {what} weights do not fit the architecture it declares "
-                f"(observations {obs_dim}, actions {act_dim}, hidden sizes {list(hidden)}): "
-                f"{' '.join(first[1:3] or first)[:300]}"
-            ) from None
-        return network.eval().requires_grad_(False)
-
-    actor = load(Actor(obs_dim, act_dim, hidden), actor_state, "actor")
-    critic = None
-    if critic_state is not None:
-        critic = load(TwinCritic(obs_dim, act_dim, hidden), critic_state, "critic")
-    return actor, critic
-
-
-def _torch_load(path: Path) -> Any:
-    """``torch.load`` of a policy file; a truncated or corrupted file is a PolicyFileError naming it."""
-    import torch
-
-    try:
-        return torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as exc:  # torch raises EOFError, RuntimeError, UnpicklingError, ...
-        raise PolicyFileError(
-            f"{path}: cannot be read as a torch file ({type(exc).__name__}: "
-            f"{str(exc).splitlines()[0][:200] if str(exc) else 'empty or truncated'}); "
-            "restore it from the run or the repository"
-        ) from None
-
-
-def _policy_json(path: Path) -> dict[str, Any]:
-    """``policy.json`` of a shipped-format folder, with the keys loading needs checked."""
-    try:
-        meta = json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise PolicyFileError(f"{path}: not valid JSON ({exc})") from None
-    arch = meta.get("architecture") if isinstance(meta, dict) else None
-    if not isinstance(arch, dict) or not isinstance(meta.get("case"), str):
-        raise PolicyFileError(f"{path}: lacks 'case' or 'architecture' (not a {POLICY_FORMAT} file)")
-    missing = [k for k in ("obs_dim", "act_dim", "hidden_sizes") if k not in arch]
-    if missing:
-        raise PolicyFileError(f"{path}: architecture lacks {', '.join(missing)}")
-    try:
-        arch["hidden_sizes"] = [int(h) for h in arch["hidden_sizes"]]
-        arch["obs_dim"], arch["act_dim"] = int(arch["obs_dim"]), int(arch["act_dim"])
-    except (TypeError, ValueError):
-        raise PolicyFileError(f"{path}: architecture sizes must be integers, got {arch}") from None
-    return meta
-
-
-def _policy_case(meta: dict[str, Any], path: Path) -> Case:
-    """The case of a policy's metadata; an unknown or invalid one is a PolicyFileError naming it."""
-    from elastica_magnetic.specfile import SpecError
-
-    try:
-        return case_from_metadata(meta, str(path))
-    except SpecError as exc:
-        raise PolicyFileError(str(exc)) from None
-
-
-def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -> LoadedPolicy:
-    """Load a policy from a run directory, a checkpoint file, a shipped-format directory
-    (``actor.pt`` + ``policy.json``), or a shipped name (``rl/policies/<name>``), in that order."""
-
-    from .checkpoint import load_checkpoint
-
-    policies_dir = Path(policies_dir) if policies_dir is not None else POLICIES_DIR
-    path = Path(policy)
-    if not path.exists() and (policies_dir / str(policy)).is_dir():
-        path = policies_dir / str(policy)
-    if path.is_dir() and (path / "checkpoint.pt").is_file():
-        path = path / "checkpoint.pt"
-    if path.is_file():
-        try:
-            ckpt = load_checkpoint(path)
-        except ValueError as exc:  # unreadable, or not a checkpoint: named by load_checkpoint
-            raise PolicyFileError(str(exc)) from None
-        except Exception as exc:  # a truncated or corrupted file
-            raise PolicyFileError(
-                f"{path}: cannot be read as a checkpoint ({type(exc).__name__}: "
-                f"{str(exc).splitlines()[0][:200] if str(exc) else 'empty or truncated'})"
-            ) from None
-        meta = _checkpoint_metadata(ckpt, path)
-        try:
-            hidden = tuple(ckpt["config"]["hidden_sizes"])
-            actor_state, critic_state = ckpt["agent"]["actor"], ckpt["agent"]["critic"]
-            obs_dim, act_dim = ckpt["obs_dim"], ckpt["act_dim"]
-        except (KeyError, TypeError) as exc:
-            raise PolicyFileError(f"{path}: incomplete checkpoint (no {exc})") from None
-        actor, critic = _build_networks(obs_dim, act_dim, hidden, actor_state, critic_state, path)
-        meta = {**meta, "global_step": int(ckpt["global_step"]), "config": ckpt["config"],
-                "checkpoint_kind": ckpt.get("kind", "full")}
-        case = _policy_case(meta, path)
-        _check_obs_dim(case, obs_dim, path)
-        return LoadedPolicy(actor, critic, case, path, "checkpoint", meta,
-                            ckpt["obs_dim"], ckpt["act_dim"], hidden)
-    if path.is_dir() and (path / POLICY_JSON).is_file() and (path / "actor.pt").is_file():
-        meta = _policy_json(path / POLICY_JSON)
-        case = _policy_case(meta, path / POLICY_JSON)
-        arch = meta["architecture"]
-        _check_obs_dim(case, arch["obs_dim"], path / POLICY_JSON)
-        hidden = tuple(arch["hidden_sizes"])
-        actor_state = _torch_load(path / "actor.pt")
-        expected = meta.get("actor_sha256")
-        if expected is not None and weights_sha256(actor_state) != expected:
-            raise PolicyFileError(
-                f"{path / 'actor.pt'}: its weights do not match the actor_sha256 of {path / POLICY_JSON} "
-                f"(case {meta['case']}): the files come from different policies"
-            )
-        critic_state = None
-        if (path / "critic.pt").is_file():
-            critic_state = _torch_load(path / "critic.pt")
-        actor, critic = _build_networks(arch["obs_dim"], arch["act_dim"], hidden, actor_state,
-                                        critic_state, path / "actor.pt")
-        return LoadedPolicy(actor, critic, case, path, "shipped", meta, arch["obs_dim"],
-                            arch["act_dim"], hidden)
-    shipped = sorted(p.name for p in policies_dir.glob("*") if (p / POLICY_JSON).is_file()) \
-        if policies_dir.is_dir() else []
-    raise PolicyNotFoundError(
-        f"{policy}: not a run directory, checkpoint, shipped-policy folder or shipped policy name "
-        f"(shipped in {policies_dir}: {', '.join(shipped) or 'none'})"
-    )
-
-
-def _check_obs_dim(case: Case, obs_dim: int, path: Path) -> None:
-    if int(obs_dim) != case.obs_dim:
-        raise PolicyFileError(f"{path}: the policy takes {obs_dim} observations, its case "
-                              f"{case.name!r} gives {case.obs_dim}")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -712,7 +515,7 @@ def ship(
                   "success_threshold_return": summary.get("success_threshold_return"),
                   "evaluations": seed_evaluations,
                   "meeting_target": None if seed_evaluations is None
-                  else sum(_seed_meets_target(e) for e in seed_evaluations)}
+                  else sum(seed_meets_target(e) for e in seed_evaluations)}
         if summary else None,
         "evaluation": measured,
         "authors_mid_dx_10s_m": case.yardstick.distance_10s or None,
@@ -722,7 +525,7 @@ def ship(
     }
     _write_json(target / POLICY_JSON, info)
     if with_card:
-        (target / "MODEL_CARD.md").write_text(_model_card(info, summary, case))
+        (target / "MODEL_CARD.md").write_text(model_card(info, summary, case))
     return {"name": name, "dir": str(target), "case": case.name,
             "evaluation": measured, "files": sorted(p.name for p in target.iterdir())}
 
@@ -734,12 +537,6 @@ def _portable_source(path: Path, case: str) -> str:
     if case in parts:
         return "/".join(parts[len(parts) - 1 - parts[::-1].index(case):])
     return Path(path).name
-
-
-def _seed_meets_target(evaluation: dict[str, Any]) -> bool:
-    """A seed succeeds when its final actor or its best evaluated one reaches the target."""
-    best = evaluation.get("best") or {}
-    return bool(evaluation["meets_target"]) or bool(best.get("meets_target"))
 
 
 def _find_case_dir(source: Path, case: str) -> Path | None:
@@ -779,113 +576,6 @@ def _action_spec(case: Case) -> dict[str, Any]:
                       "(100 Hz)",
         "control_period_s": 0.01,
     }
-
-
-def _model_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case) -> str:
-    tr, ev = info["training"], info["evaluation"]
-    target = case.target_label
-    robot = case.robot.tables["robot"]
-    training_dt = case.robot.tables["physics"]["training"]["dt"]
-    accurate_dt = case.robot.tables["physics"]["accurate"]["dt"]
-    increment = 1e3 * case.actuation.max_increment
-    what = "crawl forward" if case.task.kind == "crawl" else \
-        f"reach {1e3 * getattr(case.task, 'target', 0.0):+.1f} mm and stay there"
-    lines = [
-        f"# Model card: `{info['name']}`",
-        "",
-        f"TD3 actor that makes the robot `{case.robot.name}` {what} (case `{case.name}`), "
-        f"magnetization `{info['magnetization']}`, field limit {1e3 * case.field_limit:g} mT.",
-        "",
-        *( [case.description, ""] if case.description else [] ),
-        "## Use",
-        "",
-        f"- `msr generate {info['name']} --duration 10 --out DIR`: field CSV (mT, 100 Hz) from a "
-        "zero field in the accurate physics, trajectory, figures, GIF.",
-        f"- `msr export {info['name']} --out DIR`: TorchScript + observation/action JSON.",
-        f"- Input: {info['architecture']['obs_dim']} float32 observations (layout and scales in "
-        f"`policy.json`); output: 2 actions in [-1, 1], x {increment:g} mT = field increment per "
-        "0.01 s.",
-        "",
-        "## Training",
-        "",
-        f"- seed: {tr['seed']}",
-        f"- training steps (mass-scaled training physics, dt {training_dt:g} s): {tr['training_steps']}",
-        f"- refinement steps (accurate physics, dt {accurate_dt:g} s): {tr['refine_steps']}",
-        f"- checkpoint: `{tr['source']}` (global step {tr['global_step']}"
-        + ("; the best of the evaluations during training" if tr.get("best_evaluation") else "")
-        + ")",
-    ]
-    if summary and summary.get("success_threshold_return") is not None:
-        lines.append(
-            f"- seeds that succeeded: {summary.get('succeeded')} of {len(summary.get('seeds', []))} "
-            f"(final mean episode return >= {summary['success_threshold_return']:.0f}, "
-            "half the yardstick's distance rate)"
-        )
-    elif not summary:
-        lines.append("- seeds that succeeded: unknown (no summary.json found next to the run)")
-    evaluations = (info.get("seeds") or {}).get("evaluations")
-    if evaluations:
-        lines += [
-            "",
-            "## Every seed of the case (accurate physics, field from zero)",
-            "",
-            f"{info['seeds']['meeting_target']} of {len(evaluations)} seeds reach the target "
-            f"({target}) with their final actor or with the best actor of their evaluations "
-            "during training (`best.pt`, where the run has one).",
-            "",
-            "| seed | training steps | distance, final actor (mm) | best.pt: step, distance (mm) "
-            "| meets the target |",
-            "|---|---|---|---|---|",
-        ]
-        for e in evaluations:
-            best = e.get("best")
-            verdict = "n/a" if e["meets_target"] is None else \
-                ("yes" if _seed_meets_target(e) else "no")
-            for entry in (e, best):
-                if entry and entry["diverged"]:
-                    verdict += f" (diverged: {entry['diverged']})"
-            best_cell = (f"{best['global_step']}, {1e3 * best['mid_dx_m']:+.1f}" if best else "-")
-            lines.append(f"| {e['seed']} | {e['global_step']} | {1e3 * e['mid_dx_m']:+.1f} "
-                         f"(in {e['duration_s']:g} s) | {best_cell} | {verdict} |")
-    lines += ["", "## Evaluation (accurate physics, field from zero, deterministic)", ""]
-    if ev:
-        met = case.meets_yardstick(ev["mid_dx_m"], ev.get("node_dx_m", ev["mid_dx_m"]),
-                                   ev["duration_s"], ev["diverged"])
-        verdict = {True: "meets the target", False: "falls short of the target",
-                   None: "not comparable: the target is for 10 s"}[met]
-        lines.append(
-            f"- middle of the robot moved {1e3 * ev['mid_dx_m']:+.1f} mm in {ev['duration_s']:g} s; "
-            f"target: {target}"
-            + (f" ({case.yardstick.source})" if case.yardstick.source else "") + f": {verdict}"
-            + (f"; DIVERGED: {ev['diverged']}" if ev["diverged"] else "")
-        )
-        if ev.get("reach"):
-            r = ev["reach"]
-            settle = "never settles" if r["settle_time_s"] is None else \
-                f"settles within the tolerance after {r['settle_time_s']:.2f} s"
-            lines.append(f"- final position error {1e3 * r['final_error_m']:+.2f} mm; {settle}")
-    else:
-        lines.append(f"- not measured (target: {target})")
-    if info.get("notes"):
-        lines += ["", "## Notes", "", info["notes"].strip()]
-    size = (f"{1e3 * robot['length']:g} x {1e3 * robot['width']:g} x {1e3 * robot['thickness']:g} mm"
-            if "thickness" in robot else
-            f"{1e3 * robot['length']:g} mm long, radius {1e3 * robot['radius']:g} mm")
-    ground = robot.get("ground") or {}
-    lines += [
-        "",
-        "## Limitations",
-        "",
-        "- Simulation only: the model's rotational over-damping makes the simulated robot respond "
-        "~0.3 s slower than the real one (Yao et al. 2023, for their robot); check the waveform on "
-        "hardware at low amplitude first.",
-        f"- Trained for one robot ({size}, {robot['youngs_modulus'] / 1e3:g} kPa, magnetization "
-        f"`{robot['magnetization']['kind']}`) on a flat ground with friction "
-        f"{ground.get('static_mu', float('nan')):g}/{ground.get('kinetic_mu', float('nan')):g}; "
-        "other robots need retraining.",
-        "",
-    ]
-    return "\n".join(lines)
 
 
 def export_policy(policy: str | Path, out: str | Path = "out/export") -> dict[str, Any]:

@@ -20,14 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from .pipeline import (
-    POLICIES_DIR,
-    POLICY_JSON,
-    _node_dx,
-    machine_fingerprint,
-    resolve_policy,
-    run_policy,
-)
+from .pipeline import _node_dx, machine_fingerprint, run_policy
+from .policy_files import POLICIES_DIR, POLICY_JSON, resolve_policy
 
 #: A re-run must reproduce the recorded distance to this relative difference (the accurate
 #: physics is deterministic on one machine; this leaves room for other CPUs' round-off).

@@ -26,14 +26,12 @@ from .backends import BACKENDS, run_jobs
 from .cases import Case, case_from_dict, case_from_metadata, load_case
 from .pipeline import (
     EVAL_DURATION,
-    RUN_JSON,
-    _checkpoint_metadata,
-    _checkpoint_path,
     _versions,
     _write_json,
     crawler_config,
     make_env,
 )
+from .policy_files import RUN_JSON, _checkpoint_metadata, _checkpoint_path
 
 __all__ = ["default_layout", "refine", "summarize_run", "train_case", "train_cases"]
 

@@ -6,7 +6,7 @@ import json
 import shutil
 
 import pytest
-from elastica_magnetic_rl.pipeline import POLICIES_DIR, PolicyFileError, resolve_policy
+from elastica_magnetic_rl.policy_files import POLICIES_DIR, PolicyFileError, resolve_policy
 
 from elastica_magnetic.cli import main
 
