@@ -32,7 +32,8 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from elastica_magnetic_rl.runner import ActorPolicy, evaluate, train_seeds  # noqa: E402
+from elastica_magnetic_rl.evaluation import ActorPolicy, evaluate  # noqa: E402
+from elastica_magnetic_rl.runner import train_seeds  # noqa: E402
 from elastica_magnetic_rl.td3 import TD3Config  # noqa: E402
 
 ENV_ID = "Pendulum-v1"

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 import torch
 from elastica_magnetic_rl.checkpoint import load_checkpoint
-from elastica_magnetic_rl.runner import ActorPolicy, evaluate, train
+from elastica_magnetic_rl.evaluation import ActorPolicy, evaluate
+from elastica_magnetic_rl.runner import train
 from elastica_magnetic_rl.td3 import TD3, Batch, ReplayBuffer, TD3Agent, TD3Config
 
 torch.set_num_threads(1)

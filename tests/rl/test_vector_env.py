@@ -246,12 +246,12 @@ def test_train_shared_rejects_shared_run_dirs(tmp_path):
 
 
 def test_policies_evaluated_together_equal_each_alone():
-    """elastica_magnetic_rl.runner.evaluate_many on the crawler's vector environment returns, for each
+    """elastica_magnetic_rl.evaluation.evaluate_many on the crawler's vector environment returns, for each
     policy, what
-    elastica_magnetic_rl.runner.evaluate returns with a single environment (the evaluation during
+    elastica_magnetic_rl.evaluation.evaluate returns with a single environment (the evaluation during
     training)."""
+    from elastica_magnetic_rl.evaluation import ActorPolicy, evaluate, evaluate_many
     from elastica_magnetic_rl.pipeline import make_env
-    from elastica_magnetic_rl.runner import ActorPolicy, evaluate, evaluate_many
     from elastica_magnetic_rl.td3 import TD3
     from elastica_magnetic_rl.vector_env import make_vector_env
 
