@@ -14,6 +14,7 @@ evaluated on the same evaluation episodes.
     python benchmarks/td3_pendulum.py                      # 3 seeds x 20k steps, table
     python benchmarks/td3_pendulum.py --seeds 1 --json     # quick check, JSON on stdout
     python benchmarks/td3_pendulum.py --precision fp32 bf16 --no-sb3   # is bf16 safe?
+    python benchmarks/td3_pendulum.py --recipe paper pink             # the recipes side by side
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from elastica_magnetic_rl.evaluation import ActorPolicy, evaluate  # noqa: E402
+from elastica_magnetic_rl.recipes import RECIPES  # noqa: E402
 from elastica_magnetic_rl.runner import train_seeds  # noqa: E402
 from elastica_magnetic_rl.td3 import TD3Config  # noqa: E402
 
@@ -46,15 +48,18 @@ def make_env() -> gym.Env:
 
 
 def run_ours(seeds: list[int], steps: int, eval_episodes: int, out: Path, progress: bool,
-             precision: str = "fp32") -> list[dict]:
-    """Train ``seeds`` side by side (one stacked TD3), evaluate each seed's final actor."""
+             precision: str = "fp32", recipe: str = "paper") -> list[dict]:
+    """Train ``seeds`` side by side (one stacked TD3), evaluate each seed's final actor. ``recipe``:
+    the crawler's recipe changes (:data:`~elastica_magnetic_rl.recipes.RECIPES`, e.g. ``pink``
+    exploration noise) on TD3's defaults."""
     from gymnasium.vector import AutoresetMode, SyncVectorEnv
 
-    configs = [TD3Config(seed=s, checkpoint_every=max(steps, 1), precision=precision) for s in seeds]
+    configs = [TD3Config(seed=s, checkpoint_every=max(steps, 1), precision=precision,
+                         **RECIPES[recipe]) for s in seeds]
     t0 = time.time()
     learner = train_seeds(
         lambda k: SyncVectorEnv([make_env] * k, autoreset_mode=AutoresetMode.SAME_STEP), configs,
-        steps, [out / f"rl_td3_{precision}_seed{s}" for s in seeds], progress=progress,
+        steps, [out / f"rl_td3_{recipe}_{precision}_seed{s}" for s in seeds], progress=progress,
         progress_desc=f"elastica_magnetic_rl.td3 {precision}")
     wall = time.time() - t0
     results = []
@@ -121,6 +126,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--threads", type=int, default=1, help="torch threads")
     ap.add_argument("--precision", nargs="+", choices=("fp32", "bf16"), default=["fp32"],
                     help="one run of ours per precision (default fp32)")
+    ap.add_argument("--recipe", nargs="+", choices=tuple(RECIPES), default=["paper"],
+                    help="one run of ours per recipe (default paper; pink: temporally correlated "
+                         "exploration noise)")
     ap.add_argument("--out", type=Path, default=None, help="run directory (default: temporary)")
     ap.add_argument("--no-sb3", action="store_true", help="skip Stable-Baselines3")
     ap.add_argument("--progress", action="store_true", help="progress bars")
@@ -138,10 +146,12 @@ def main(argv: list[str] | None = None) -> int:
     seeds = list(range(args.seeds))
 
     results: dict[str, dict] = {}
-    for precision in args.precision:
-        name = "elastica_magnetic_rl.td3" if precision == "fp32" else f"elastica_magnetic_rl.td3-{precision}"
-        results[name] = summarise(run_ours(seeds, args.steps, args.eval_episodes, out, args.progress,
-                                           precision))
+    for recipe in args.recipe:
+        for precision in args.precision:
+            name = "elastica_magnetic_rl.td3" + ("" if recipe == "paper" else f"-{recipe}") + \
+                ("" if precision == "fp32" else f"-{precision}")
+            results[name] = summarise(run_ours(seeds, args.steps, args.eval_episodes, out,
+                                               args.progress, precision, recipe))
     if args.no_sb3:
         results["sb3"] = {"skipped": "--no-sb3"}
     else:
