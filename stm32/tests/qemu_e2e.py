@@ -38,7 +38,7 @@ if str(REPO) not in sys.path:
 
 DEFAULT_ELF = REPO / "stm32" / "build" / "arm" / "msr_firmware.elf"
 DEFAULT_CALIBRATION = REPO / "stm32" / "calibration" / "default.json"
-# The published waveform ships with the package (copy of ../shared/reference/yao2023).
+# The published waveform ships with the package (elastica_magnetic/data/yao2023).
 PUBLISHED_CSV = REPO / "elastica_magnetic" / "data" / "yao2023" / "magnetization1_4mT" / "magnetic_field.csv"
 QEMU = "qemu-system-arm"
 #: One LSB of tolerance between the host model and the firmware.

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-# The published waveform ships with the package (copy of ../shared/reference/yao2023).
+# The published waveform ships with the package (elastica_magnetic/data/yao2023).
 PUBLISHED_CSV = REPO / "elastica_magnetic" / "data" / "yao2023" / "magnetization1_4mT" / "magnetic_field.csv"
 DEFAULT_CALIBRATION = REPO / "stm32" / "calibration" / "default.json"
 
