@@ -41,6 +41,9 @@ def test_case_show_toml_round_trips_and_an_edited_copy_is_a_new_case(tmp_path, c
     mine = tmp_path / "my.toml"
     mine.write_text(text)
     case = load_case(mine)
+    env = gym.make("MagneticCrawler-v0", case=str(mine), duration=0.02)
+    assert env.reset(seed=0)[0].shape == (260,) and env.unwrapped.case.name == "my"
+    env.close()
     expected = load_case("m1-4mT").to_dict()
     assert case.name == "my" and {**case.to_dict(), "name": "m1-4mT"} == expected
     mine.write_text(text.replace('kind = "yao2023-pattern1"', 'kind = "yao2023-pattern2"'))
@@ -109,6 +112,17 @@ def test_train_takes_a_spec_file_and_the_run_keeps_it(tmp_path, capsys):
                  "--no-figures", "--json", "--no-progress"]) == 0
     result = json.loads(capsys.readouterr().out)
     assert result["case"] == "soft" and result["duration_s"] == pytest.approx(0.03)
+    assert main(["refine", str(run), "--steps", "2", "--episode-duration", "0.1", "--no-progress",
+                 "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["case"] == "soft"
+    assert main(["ship", str(run / "refined"), "--name", "soft", "--dest", str(tmp_path / "ship"),
+                 "--no-measure", "--json"]) == 0
+    capsys.readouterr()
+    shipped = json.loads((tmp_path / "ship" / "soft" / "policy.json").read_text())
+    assert shipped["case_spec"]["robot"]["magnetization"]["magnitude"] == 50000.0
+    assert main(["export", str(tmp_path / "ship" / "soft"), "--out", str(tmp_path / "exp"),
+                 "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["case"] == "soft"
 
 
 def test_train_refuses_a_bad_spec_before_any_work(tmp_path, capsys):
@@ -159,3 +173,22 @@ def test_a_case_and_explicit_robot_arguments_exclude_each_other():
         MagneticCrawlerEnv(case="m1-4mT", field_limit=4e-3)
     with pytest.raises(SpecError, match="unknown case 'm3-4mT'"):
         MagneticCrawlerEnv(case="m3-4mT")
+
+
+@pytest.mark.parametrize("name", ["m1-4mT", "m2-10mT"])
+def test_a_shipped_policy_through_its_spec_acts_as_through_the_old_arguments(name):
+    """The paper's cases through their spec files: a shipped policy's first 0.1 s in the accurate
+    physics, bit for bit the same as with the environment built from pattern and field limit."""
+    from elastica_magnetic_rl.pipeline import resolve_policy
+
+    policy = resolve_policy(name)
+    limit = {"4mT": 4e-3, "10mT": 10e-3}[name.split("-")[1]]
+    envs = [MagneticCrawlerEnv(case=name, physics="accurate", initial_field="zero", duration=0.1),
+            MagneticCrawlerEnv(pattern=int(name[1]), field_limit=limit, physics="accurate",
+                               initial_field="zero", duration=0.1)]
+    obs = [env.reset(seed=0)[0] for env in envs]
+    for _ in range(10):
+        assert np.array_equal(obs[0], obs[1])
+        steps = [env.step(policy.act(o)) for env, o in zip(envs, obs, strict=True)]
+        obs = [s[0] for s in steps]
+        assert steps[0][1] == steps[1][1] and np.array_equal(steps[0][4]["field_T"], steps[1][4]["field_T"])
