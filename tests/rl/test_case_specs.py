@@ -192,3 +192,13 @@ def test_a_shipped_policy_through_its_spec_acts_as_through_the_old_arguments(nam
         steps = [env.step(policy.act(o)) for env, o in zip(envs, obs, strict=True)]
         obs = [s[0] for s in steps]
         assert steps[0][1] == steps[1][1] and np.array_equal(steps[0][4]["field_T"], steps[1][4]["field_T"])
+
+
+@pytest.mark.parametrize("name", case_names())
+def test_every_shipped_spec_round_trips_through_its_toml(name, tmp_path):
+    case = load_case(name)
+    path = tmp_path / f"{name}.toml"
+    path.write_text(case.toml())
+    again = load_case(path)
+    assert again.to_dict() == case.to_dict() and again.name == name
+    assert again.robot_spec("training").ground is not None
