@@ -78,7 +78,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="environment steps per seed (default: the case's, 100000 for the paper's)")
     p.add_argument("--workers", type=int, default=None,
                    help="groups of seeds trained at a time (processes, or Ray tasks in flight; "
-                        "default: the fastest layout for this machine, one per core)")
+                        "default: the fastest layout for this machine, one per core); alone, a "
+                        "case's seeds are split among W workers (1: all side by side)")
     p.add_argument("--out", type=Path, default=Path("runs"), help="output folder")
     p.add_argument("--resume", action="store_true", help="continue runs from their checkpoints")
     p.add_argument("--physics", choices=("training", "accurate"), default="training")

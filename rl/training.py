@@ -317,7 +317,10 @@ def train_cases(
             raise ValueError(f"{name} must be >= 1, got {value}")
     if seed_offset < 0:
         raise ValueError(f"seed_offset must be >= 0, got {seed_offset}")
-    layout = default_layout(seeds, len(cases), None if not address else seeds * len(cases))
+    # --workers W alone: the fastest layout for W workers (a case's seeds split among them), so
+    # that e.g. --workers 1 trains all seeds of a case side by side instead of group after group
+    cpus = workers if workers is not None else (None if not address else seeds * len(cases))
+    layout = default_layout(seeds, len(cases), cpus)
     manual = {k for k, v in (("workers", workers), ("seeds_per_simulator", seeds_per_simulator),
                              ("threads", threads)) if v is not None}
     seeds_per_simulator = min(seeds, seeds_per_simulator or layout["seeds_per_simulator"])

@@ -202,3 +202,16 @@ def test_every_shipped_spec_round_trips_through_its_toml(name, tmp_path):
     again = load_case(path)
     assert again.to_dict() == case.to_dict() and again.name == name
     assert again.robot_spec("training").ground is not None
+
+
+def test_one_worker_trains_all_seeds_of_a_case_side_by_side(tmp_path, capsys):
+    """``--workers 1`` without ``--seeds-per-simulator``: one group of all the case's seeds, not
+    groups one after the other (the layout for one core)."""
+    from elastica_magnetic_rl.training import default_layout
+
+    assert default_layout(4, 1, cpus=1) == {"workers": 1, "seeds_per_simulator": 4, "threads": 1}
+    assert main(["train", "--case", "m1-4mT", *TINY, "--seeds", "3", "--workers", "1", "--steps", "20",
+                 "--out", str(tmp_path)]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["workers"] == 1 and summary["seeds_per_simulator"] == 3
+    assert [s["seed"] for s in summary["seeds"]] == [0, 1, 2]
