@@ -279,7 +279,8 @@ def export_seeds(
     "meets_target"}``.
 
     Each seed's actor is the farther in ``duration`` s (accurate physics, zero field:
-    :func:`evaluate_seeds`) of its final checkpoint and its ``best.pt``; ``checkpoint`` says which,
+    :func:`evaluate_seeds`) of its final checkpoint and its ``best.pt`` (for a reach task, the one
+    that ends closer to the target); ``checkpoint`` says which,
     ``steps`` is that actor's training step and ``distance_10s_m`` its distance (m). Returns
     ``{"seeds": [...], "meeting_target": n, "total": n}``.
     """
@@ -288,10 +289,17 @@ def export_seeds(
     case_dir, dest = Path(case_dir), Path(dest)
     evaluations = evaluate_seeds(case_dir, duration, progress, workers)
     entries = []
+    case = None
     for ev in evaluations:
         best = ev.get("best")
-        use_best = best is not None and not best["diverged"] and (
-            ev["diverged"] or best["mid_dx_m"] > ev["mid_dx_m"])
+        if case is None:
+            case = resolve_policy(case_dir / f"seed{ev['seed']}" / "checkpoint.pt").case
+        if isinstance(case.task, ReachTask):  # the closer to the target, not the farther
+            better = best is not None and (abs(best["node_dx_m"] - case.task.target)
+                                           < abs(ev["node_dx_m"] - case.task.target))
+        else:
+            better = best is not None and best["mid_dx_m"] > ev["mid_dx_m"]
+        use_best = best is not None and not best["diverged"] and (ev["diverged"] or better)
         chosen = best if use_best else ev
         source = case_dir / f"seed{ev['seed']}" / (BEST_NAME if use_best else "checkpoint.pt")
         folder = f"seed{ev['seed']}"
