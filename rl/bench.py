@@ -80,9 +80,16 @@ def vector_env_steps_per_s(
     return _timed_rate(step, vector_steps, repeats, per_call=n_envs)
 
 
+def _paper_obs_dim() -> int:
+    """Observation size of the benchmarked case (``m1-4mT``, the paper's robot: 260)."""
+    from .cases import load_case
+
+    return load_case("m1-4mT").obs_dim
+
+
 def td3_updates_per_s(updates: int = 200, repeats: int = 3, threads: int = 1, seeds: int = 1,
                       precision: str = "fp32") -> float:
-    """TD3 gradient updates per second *per seed* with the crawler's settings (260 observations,
+    """TD3 gradient updates per second *per seed* with the paper crawler's settings (260 observations,
     2 actions, 256-256 networks, minibatch 256, target-noise clip 0.8) on ``threads`` torch
     threads, ``seeds`` seeds updated as one stacked computation (:class:`elastica_magnetic_rl.td3.TD3`), from
     replay buffers of random transitions."""
@@ -95,7 +102,7 @@ def td3_updates_per_s(updates: int = 200, repeats: int = 3, threads: int = 1, se
     torch.set_num_threads(threads)
     try:
         configs = [crawler_config(s, precision=precision) for s in range(seeds)]
-        obs_dim, act_dim = 260, 2
+        obs_dim, act_dim = _paper_obs_dim(), 2
         learner = TD3(obs_dim, act_dim, -np.ones(act_dim), np.ones(act_dim), configs)
         buffer = ReplayBuffer(10_000, obs_dim, act_dim)
         rng = np.random.default_rng(0)
@@ -184,7 +191,7 @@ def td3_roofline(updates_per_s: float, repeats: int = 3, quick: bool = False) ->
     from .td3 import TD3Agent
 
     cfg = crawler_config(0)
-    agent = TD3Agent(260, 2, -np.ones(2), np.ones(2), cfg)
+    agent = TD3Agent(_paper_obs_dim(), 2, -np.ones(2), np.ones(2), cfg)
     flop = td3_update_flops(agent, cfg.batch_size)
     shapes = [(cfg.batch_size, i, o) for net in (agent.actor, agent.critic.q1_net)
               for i, o in _linear_shapes(net)]

@@ -89,7 +89,7 @@ class LoadedPolicy:
     source: Path
     kind: str  # "checkpoint" or "shipped"
     meta: dict[str, Any] = field(default_factory=dict)
-    obs_dim: int = 260
+    obs_dim: int = 260  # the case's (checked against it on loading)
     act_dim: int = 2
     hidden_sizes: tuple[int, ...] = (256, 256)
 
