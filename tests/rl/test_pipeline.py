@@ -290,7 +290,9 @@ def test_ship_then_generate_by_folder_and_name(refined, tmp_path, monkeypatch, c
     original = pipeline.resolve_policy(refined)
     np.testing.assert_array_equal(shipped.act(obs), original.act(obs))
     # by name, from the (patched) package folder of shipped policies
-    monkeypatch.setattr(pipeline, "POLICIES_DIR", dest)
+    from elastica_magnetic_rl import policy_files
+
+    monkeypatch.setattr(policy_files, "POLICIES_DIR", dest)
     result = run_msr(capsys, "generate", "m1-4mT", "--duration", "0.03", "--out",
                      str(tmp_path / "gen"), "--no-progress", "--no-gif")
     assert result["policy"] == str(folder) and "q_values" in result["figures"]
