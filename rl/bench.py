@@ -95,9 +95,11 @@ def td3_updates_per_s(updates: int = 200, repeats: int = 3, threads: int = 1, se
     replay buffers of random transitions."""
     import torch
 
+    from .allocator import retain_freed_memory
     from .pipeline import crawler_config
     from .td3 import TD3, ReplayBuffer
 
+    retain_freed_memory()  # as training does (rl/runner.py)
     previous = torch.get_num_threads()
     torch.set_num_threads(threads)
     try:

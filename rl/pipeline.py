@@ -111,12 +111,17 @@ def crawler_config(seed: int = 0, recipe: str = DEFAULT_RECIPE, **overrides: Any
 
 
 def _versions() -> dict[str, str]:
-    import elastica
+    import importlib.metadata
+
     import gymnasium
     import torch
 
+    try:  # PyElastica 1.0 has no ``elastica.__version__``; its distribution metadata has it
+        pyelastica = importlib.metadata.version("pyelastica")
+    except importlib.metadata.PackageNotFoundError:
+        pyelastica = "unknown"
     return {"python": platform.python_version(), "torch": torch.__version__,
-            "gymnasium": gymnasium.__version__, "pyelastica": getattr(elastica, "__version__", "?"),
+            "gymnasium": gymnasium.__version__, "pyelastica": pyelastica,
             "numpy": np.__version__}
 
 
@@ -214,6 +219,15 @@ def run_policy(
     )
 
 
+def _seed_run_dirs(case_dir: Path) -> list[tuple[int, Path]]:
+    """``(seed, run_dir)`` of every ``case_dir/seed<k>/`` holding a checkpoint, ordered by seed."""
+    seeds = sorted((int(p.name[4:]), p) for p in case_dir.glob("seed*")
+                   if p.name[4:].isdigit() and (p / "checkpoint.pt").is_file())
+    if not seeds:
+        raise FileNotFoundError(f"{case_dir}: no seed<k>/checkpoint.pt to evaluate")
+    return seeds
+
+
 def evaluate_seeds(
     case_dir: str | Path,
     duration: float = 10.0,
@@ -232,12 +246,8 @@ def evaluate_seeds(
     ``best``: the same keys for ``best.pt``, or ``None``.
     """
 
-    case_dir = Path(case_dir)
     results = []
-    seeds = sorted((int(p.name[4:]), p) for p in case_dir.glob("seed*")
-                   if p.name[4:].isdigit() and (p / "checkpoint.pt").is_file())
-    if not seeds:
-        raise FileNotFoundError(f"{case_dir}: no seed<k>/checkpoint.pt to evaluate")
+    seeds = _seed_run_dirs(Path(case_dir))
     jobs = [(seed, run_dir, duration, progress and workers == 1) for seed, run_dir in seeds]
     if workers > 1:  # each seed's rollouts in its own process
         import multiprocessing
@@ -283,17 +293,24 @@ def export_seeds(
     that ends closer to the target); ``checkpoint`` says which,
     ``steps`` is that actor's training step and ``distance_10s_m`` its distance (m). Returns
     ``{"seeds": [...], "meeting_target": n, "total": n}``.
+
+    Seeds trained in several runs collect in one ``dest``: the seeds already in
+    ``dest/seeds.json`` that this ``case_dir`` does not have are kept (a seed it has is replaced),
+    provided they were trained on the same case spec with the same hyperparameters; otherwise
+    nothing is written and a ``ValueError`` names the first difference.
     """
     from .checkpoint import BEST_NAME
 
     case_dir, dest = Path(case_dir), Path(dest)
+    seeds = _seed_run_dirs(case_dir)
+    first = resolve_policy(seeds[0][1] / "checkpoint.pt")
+    case = first.case
+    # checked before the long evaluations
+    earlier = _earlier_exported_seeds(dest, {seed for seed, _ in seeds}, first.meta)
     evaluations = evaluate_seeds(case_dir, duration, progress, workers)
     entries = []
-    case = None
     for ev in evaluations:
         best = ev.get("best")
-        if case is None:
-            case = resolve_policy(case_dir / f"seed{ev['seed']}" / "checkpoint.pt").case
         if isinstance(case.task, ReachTask):  # the closer to the target, not the farther
             better = best is not None and (abs(best["node_dx_m"] - case.task.target)
                                            < abs(ev["node_dx_m"] - case.task.target))
@@ -309,9 +326,53 @@ def export_seeds(
                         "distance_10s_m": chosen["mid_dx_m"], "actor": folder,
                         "checkpoint": "best" if use_best else "final",
                         "meets_target": chosen["meets_target"]})
+    entries = sorted(earlier + entries, key=lambda e: e["seed"])
     _write_json(dest / "seeds.json", entries)
     return {"seeds": entries, "total": len(entries),
-            "meeting_target": sum(bool(e["meets_target"]) for e in entries)}
+            "meeting_target": sum(bool(e.get("meets_target")) for e in entries)}
+
+
+def _earlier_exported_seeds(dest: Path, replaced: set[int], meta: dict[str, Any]) -> list[dict[str, Any]]:
+    """The entries of ``dest/seeds.json`` to keep beside a new export (seeds not in ``replaced``),
+    after checking that their actors were trained on the same case spec with the same
+    hyperparameters as the checkpoint whose metadata is ``meta``."""
+    path = dest / "seeds.json"
+    if not path.is_file():
+        return []
+    try:
+        earlier = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{path}: unreadable ({exc}); move it away to start a new seeds.json") from exc
+    if not isinstance(earlier, list) or not all(isinstance(e, dict) and "seed" in e and "actor" in e
+                                                for e in earlier):
+        raise ValueError(f"{path}: expected a JSON list of objects with 'seed' and 'actor'")
+    def as_json(x: Any) -> Any:  # checkpoints hold tuples where policy.json holds lists
+        return json.loads(json.dumps(x, default=str))
+
+    config = {k: v for k, v in as_json(meta.get("config") or {}).items() if k != "seed"}
+    kept = []
+    for entry in earlier:
+        if entry["seed"] in replaced:
+            continue
+        policy_json = dest / str(entry["actor"]) / "policy.json"
+        try:
+            other = json.loads(policy_json.read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ValueError(f"{path}: seed {entry['seed']}: its actor's {policy_json} is unreadable "
+                             f"({exc})") from exc
+        if other.get("case_spec") != as_json(meta.get("case_spec")):
+            raise ValueError(f"{dest}: seed {entry['seed']} was trained on another case spec "
+                             f"({other.get('case')!r}) than {meta.get('case')!r}: export into "
+                             "another folder")
+        other_config = {k: v for k, v in ((other.get("training") or {}).get("config") or {}).items()
+                        if k != "seed"}
+        if other_config != config:
+            differing = sorted(k for k in set(config) | set(other_config)
+                               if config.get(k) != other_config.get(k))
+            raise ValueError(f"{dest}: seed {entry['seed']} was trained with other hyperparameters "
+                             f"({', '.join(differing)} differ): export into another folder")
+        kept.append(entry)
+    return kept
 
 
 def _evaluate_cached(path: Path, cached: dict[str, Any], duration: float,

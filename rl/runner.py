@@ -50,6 +50,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
+from .allocator import retain_freed_memory
 from .checkpoint import (
     CHECKPOINT_FORMAT,
     CHECKPOINT_NAME,
@@ -379,6 +380,7 @@ def train_seeds(
         raise ValueError(f"envs_per_seed must be >= 1, got {n}")
     from gymnasium.vector import AutoresetMode
 
+    retain_freed_memory()  # the updates' temporaries reused, not page-faulted in (rl/allocator.py)
     env = vec_env_fn(k_seeds * n)
     try:
         if env.metadata.get("autoreset_mode") != AutoresetMode.SAME_STEP or env.num_envs != k_seeds * n:

@@ -384,7 +384,7 @@ class StackedMLP(nn.Module):
             else:
                 h = torch.baddbmm(b, h, w)
             if i < last:
-                h = torch.relu(h)
+                h = torch.relu_(h)  # in place: baddbmm's backward does not need its output
         return h.float()
 
     def member_state(self, m: int) -> dict[str, torch.Tensor]:

@@ -4,6 +4,7 @@ accurate physics, generate, ship, export (TorchScript reloaded with plain torch)
 from __future__ import annotations
 
 import csv
+import importlib.metadata
 import json
 import warnings
 from pathlib import Path
@@ -61,6 +62,7 @@ def test_train_writes_run_dirs_and_summary(trained):
         meta = json.loads((run / "run.json").read_text())
         assert meta["case"] == "m1-4mT" and meta["seed"] == seed and meta["physics"] == "training"
         assert meta["config"]["target_noise_clip"] == 0.8 and meta["config"]["batch_size"] == 32
+        assert meta["versions"]["pyelastica"] == importlib.metadata.version("pyelastica")
         with open(run / "episodes.csv") as f:
             rows = list(csv.DictReader(f))
         assert len(rows) == TRAIN_STEPS // 80 and int(rows[-1]["global_step"]) == TRAIN_STEPS
@@ -535,3 +537,34 @@ def test_sigkill_then_resume_equals_an_uninterrupted_run(tmp_path):
             assert torch.equal(value, b["agent"][part][key]), (part, key)
     for key in ("obs", "actions", "rewards"):
         assert torch.equal(a["buffer"][key], b["buffer"][key])
+
+
+def test_export_seeds_collects_seeds_of_several_runs_and_refuses_mixed_ones(trained, tmp_path, capsys):
+    """Seeds trained in two runs collect in one folder (the second export keeps the first's seeds it
+    does not replace); a folder of seeds trained with other hyperparameters is refused, unchanged."""
+    dest = tmp_path / "seeds" / "paper"
+    second_run = tmp_path / "second" / "m1-4mT"
+    second_run.mkdir(parents=True)
+    (second_run / "seed1").symlink_to(trained / "m1-4mT" / "seed1", target_is_directory=True)
+    only_seed0 = tmp_path / "first" / "m1-4mT"
+    only_seed0.mkdir(parents=True)
+    (only_seed0 / "seed0").symlink_to(trained / "m1-4mT" / "seed0", target_is_directory=True)
+    run_msr(capsys, "export-seeds", str(only_seed0), "--dest", str(dest), "--duration", "0.05",
+            "--no-progress")
+    result = run_msr(capsys, "export-seeds", str(second_run), "--dest", str(dest), "--duration",
+                     "0.05", "--no-progress")
+    entries = json.loads((dest / "seeds.json").read_text())
+    assert [e["seed"] for e in entries] == [0, 1] and result["total"] == 2
+    assert {"actor.pt", "policy.json"} <= {p.name for p in (dest / "seed0").iterdir()}
+    # seed 0's actor now claims another batch size: a mixed folder is refused before anything changes
+    policy_json = dest / "seed0" / "policy.json"
+    meta = json.loads(policy_json.read_text())
+    meta["training"]["config"]["batch_size"] = 64
+    policy_json.write_text(json.dumps(meta))
+    before = (dest / "seeds.json").read_bytes()
+    capsys.readouterr()
+    assert msr(["export-seeds", str(second_run), "--dest", str(dest), "--duration", "0.05",
+                "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "seed 0" in err and "batch_size" in err and "another folder" in err
+    assert (dest / "seeds.json").read_bytes() == before
