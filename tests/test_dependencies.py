@@ -113,3 +113,27 @@ def test_installation_puts_no_generic_names_on_the_path(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True,
                          check=True, env={"PATH": "/usr/bin:/bin"}).stdout.strip()
     assert out == "[] []", out
+
+
+def test_the_validation_reference_solver_depends_on_numpy_and_scipy_only():
+    """The boundary-value reference must be independent of the simulator it checks: its modules
+    import the standard library, numpy, scipy and each other, nothing else (not PyElastica, not
+    this project's physics)."""
+    import sys
+
+    reference = {"elastica_bvp", "bvp_problems"}
+    for name in sorted(reference):
+        path = ROOT / "validation" / f"{name}.py"
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                tops = [a.name.split(".")[0] for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                if node.level:
+                    assert node.module in reference, f"{path}: imports .{node.module}"
+                    continue
+                tops = [(node.module or "").split(".")[0]]
+            else:
+                continue
+            for top in tops:
+                assert top in {"numpy", "scipy", "__future__"} or top in sys.stdlib_module_names, \
+                    f"{path}: imports {top}"

@@ -3,7 +3,7 @@
 A rod clamped at ``s = 0``, magnetized uniformly along its axis, in a uniform field at angle
 ``phi`` from the clamp direction. With ``q = M B A L^2 / (E I)`` the inextensible, unshearable
 solution obeys ``theta'' = -q sin(phi - theta)``, ``theta(0) = 0``, ``theta'(1) = 0``. The
-reference is :func:`elastica_magnetic_validation.elastica_bvp.cantilever` (scipy ``solve_bvp`` with load
+reference is :func:`elastica_magnetic_validation.bvp_problems.cantilever` (scipy ``solve_bvp`` with load
 continuation).
 
 The PyElastica rod reaches rest by dynamic relaxation: the field is ramped from zero over a few
@@ -31,7 +31,7 @@ from elastica_magnetic import (
     uniform_magnetization,
 )
 
-from .elastica_bvp import cantilever
+from .bvp_problems import cantilever
 from .relaxation import relax
 from .report import CaseResult, Comparison, Gate
 

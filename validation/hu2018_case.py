@@ -33,7 +33,7 @@ from elastica_magnetic import (
 )
 from elastica_magnetic.magnetization import YAO2023_MAGNETIZATION
 
-from .elastica_bvp import (
+from .bvp_problems import (
     HU2018_LENGTH,
     HU2018_THICKNESS,
     HU2018_WIDTH,
@@ -41,8 +41,8 @@ from .elastica_bvp import (
     hu2018_free_free,
     hu2018_rod,
     lum2016_curvature,
-    solve_elastica,
 )
+from .elastica_bvp import solve_elastica
 from .relaxation import relax
 from .report import CaseResult, Comparison, Gate
 

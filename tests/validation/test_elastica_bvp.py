@@ -6,14 +6,16 @@ import math
 
 import numpy as np
 import pytest
-from elastica_magnetic_validation.elastica_bvp import (
-    ElasticaConvergenceError,
-    Equilibria,
-    MagneticRod,
+from elastica_magnetic_validation.bvp_problems import (
     cantilever,
     hu2018_free_free,
     hu2018_rod,
     lum2016_curvature,
+)
+from elastica_magnetic_validation.elastica_bvp import (
+    ElasticaConvergenceError,
+    Equilibria,
+    MagneticRod,
     max_matched_distance,
     solve_elastica,
 )
