@@ -171,6 +171,24 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=export_seeds_command)
 
     p = sub.add_parser(
+        "seeds",
+        help="every committed seed of a case, by recipe: successes and distances",
+        description="Read rl/policies/<case>/seeds/<recipe>/seeds.json (written by msr "
+        "export-seeds) for each case and print, per recipe, how many seeds meet the case's target "
+        "and each seed's 10 s distance; optionally draw them and keep the table in the case's "
+        "shipped model card.",
+    )
+    p.add_argument("case", nargs="+", type=case_option, help=CASE_HELP)
+    p.add_argument("--policies", type=Path, default=None,
+                   help="folder of policy folders (default: the shipped policies, rl/policies)")
+    p.add_argument("--figure", type=Path, default=None, metavar="DIR",
+                   help="write DIR/seeds_<case>.png: every seed's distance per recipe")
+    p.add_argument("--card", action="store_true",
+                   help="also write the table into <policies>/<case>/MODEL_CARD.md")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=seeds_command)
+
+    p = sub.add_parser(
         "refine",
         help="continue training a run in the accurate physics (agent and replay buffer)",
         description="Load a run's agent and replay buffer and continue training for --steps "
@@ -446,6 +464,40 @@ def export_seeds_command(args: argparse.Namespace) -> int:
     except (FileNotFoundError, ValueError) as exc:
         raise CommandError(str(exc)) from None
     print_result(result, args.json)
+    return 0
+
+
+def seeds_command(args: argparse.Namespace) -> int:
+    from .policy_files import POLICIES_DIR
+    from .seed_report import case_seeds, seeds_figure, seeds_markdown, update_model_card
+
+    policies = args.policies if args.policies is not None else POLICIES_DIR
+    if not policies.is_dir():
+        raise CommandError(f"--policies {policies}: no such folder")
+    if args.figure is not None and args.figure.exists() and not args.figure.is_dir():
+        raise CommandError(f"--figure {args.figure}: exists and is not a folder")
+    reports = []
+    for case in args.case:
+        try:
+            groups = case_seeds(case, policies)
+        except ValueError as exc:
+            raise CommandError(str(exc)) from None
+        report = {"case": case.name, "recipes": [g.to_dict() for g in groups],
+                  "table": seeds_markdown(case, groups)}
+        if args.figure is not None and groups:
+            args.figure.mkdir(parents=True, exist_ok=True)
+            report["figure"] = str(seeds_figure(case, groups, args.figure / f"seeds_{case.name}.png"))
+        if args.card:
+            card = policies / case.name / "MODEL_CARD.md"
+            if not card.is_file():
+                raise CommandError(f"--card: {card}: no model card (ship a policy of {case.name} first)")
+            report["card_updated"] = update_model_card(card, case, groups)
+        reports.append(report)
+    if args.json:
+        print_result({"cases": reports}, True)
+    else:
+        for report in reports:
+            print(f"## {report['case']}\n\n{report['table']}\n")
     return 0
 
 

@@ -1,0 +1,81 @@
+"""``msr seeds``: every committed seed of a case by recipe, judged by the case's own test."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from elastica_magnetic_rl.cases import load_case
+from elastica_magnetic_rl.seed_report import CARD_SECTION, case_seeds, update_model_card
+
+from elastica_magnetic.cli import main as msr
+
+
+def _write_seeds(root: Path, case: str, folder: str, distances: dict[int, float], **extra) -> None:
+    path = root / case / "seeds" / folder / "seeds.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps([{"seed": s, "steps": 100000, "distance_10s_m": d,
+                                 "actor": f"seed{s}", **extra} for s, d in distances.items()]))
+
+
+def test_seeds_are_judged_by_the_case_yardstick_paper_recipe_first(tmp_path):
+    case = load_case("m1-4mT")  # +20.5 mm in 10 s
+    _write_seeds(tmp_path, "m1-4mT", "pink", {1: 0.0204, 0: 0.0205})
+    _write_seeds(tmp_path, "m1-4mT", "paper", {0: 0.0221, 1: 0.0018, 2: 0.0300})
+    groups = case_seeds(case, tmp_path)
+    assert [g.folder for g in groups] == ["paper", "pink"]
+    assert groups[0].succeeded == [True, False, True] and groups[0].summary == "2 of 3"
+    assert [e["seed"] for e in groups[1].entries] == [0, 1]  # ordered by seed
+    assert groups[1].succeeded == [True, False]  # 20.5 mm meets the target, 20.4 mm does not
+
+
+def test_a_reach_case_needs_the_stored_verdicts(tmp_path):
+    case = load_case("m1-4mT-reach")
+    _write_seeds(tmp_path, "m1-4mT-reach", "paper", {0: 0.0094})
+    with pytest.raises(ValueError, match="meets_target"):
+        case_seeds(case, tmp_path)
+    _write_seeds(tmp_path, "m1-4mT-reach", "paper", {0: 0.0094}, meets_target=True)
+    assert case_seeds(case, tmp_path)[0].succeeded == [True]
+
+
+def test_msr_seeds_prints_draws_and_keeps_the_model_card_current(tmp_path, capsys):
+    _write_seeds(tmp_path, "m1-4mT", "paper", {0: 0.0221, 1: 0.0018})
+    card = tmp_path / "m1-4mT" / "MODEL_CARD.md"
+    card.write_text("# Model card\n\n## Training\n\n- seed: 0\n\n## Evaluation (accurate)\n\n- +22.1 mm\n")
+    capsys.readouterr()
+    assert msr(["seeds", "m1-4mT", "--policies", str(tmp_path), "--figure", str(tmp_path / "fig"),
+                "--card", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)["cases"][0]
+    assert report["recipes"][0]["succeeded"] == 1 and report["card_updated"] is True
+    assert (tmp_path / "fig" / "seeds_m1-4mT.png").stat().st_size > 1000
+    text = card.read_text()
+    assert text.index(CARD_SECTION) < text.index("## Evaluation") and "| `paper` | 1 of 2 |" in text
+    # a new seed replaces the section, which stays single; an unchanged table leaves the card alone
+    _write_seeds(tmp_path, "m1-4mT", "paper", {0: 0.0221, 1: 0.0018, 2: 0.0230})
+    case = load_case("m1-4mT")
+    assert update_model_card(card, case, case_seeds(case, tmp_path)) is True
+    text = card.read_text()
+    assert text.count(CARD_SECTION) == 1 and "| `paper` | 2 of 3 |" in text and "- +22.1 mm" in text
+    assert update_model_card(card, case, case_seeds(case, tmp_path)) is False
+
+
+def test_msr_seeds_names_a_broken_seeds_file(tmp_path, capsys):
+    path = tmp_path / "m1-4mT" / "seeds" / "paper" / "seeds.json"
+    path.parent.mkdir(parents=True)
+    path.write_text('[{"seed": 0}]')
+    assert msr(["seeds", "m1-4mT", "--policies", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert str(path) in err and "distance_10s_m" in err
+
+
+def test_the_shipped_seed_folders_read():
+    """Every committed seeds.json of a shipped case reads and has an actor folder per seed."""
+    from elastica_magnetic_rl.cases import case_names
+    from elastica_magnetic_rl.policy_files import POLICIES_DIR
+
+    for name in case_names():
+        for group in case_seeds(load_case(name)):
+            for entry in group.entries:
+                folder = POLICIES_DIR / name / "seeds" / group.folder / entry["actor"]
+                assert (folder / "actor.pt").is_file() and (folder / "policy.json").is_file()
