@@ -36,6 +36,7 @@ from .magnetization import (
 )
 from .presets import (
     ACTION_PERIOD,
+    ROBOTS,
     STANDARD_GRAVITY,
     YAO2023_MASS_SCALE,
     DampingSpec,
@@ -43,6 +44,7 @@ from .presets import (
     InteractionSpec,
     Physics,
     RobotSpec,
+    robot_by_name,
 )
 
 __all__ = [
@@ -497,8 +499,6 @@ def load_robot(robot: str | Path, physics: Physics = "accurate") -> RobotSpec:
     """A robot by preset name (``yao2023-m1``, ``yao2023-m2``, ``hu2018``) or from a spec file's
     ``[robot]`` and ``[physics]`` tables (e.g. ``msr case show m1-4mT --toml > my.toml``), in one
     physics setting. A bad file is a :class:`SpecError` naming the file and the key."""
-    from .presets import ROBOTS, robot_by_name
-
     if str(robot) in ROBOTS:
         return robot_by_name(str(robot), physics)
     path = Path(robot)

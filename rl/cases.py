@@ -160,7 +160,7 @@ class Case:
         if diverged:
             return False
         if isinstance(self.task, ReachTask):
-            return bool(abs(node_dx_m - self.task.target) <= self.task.tolerance)
+            return bool(self.task.within_tolerance(node_dx_m - self.task.target))
         if abs(duration_s - 10.0) > 1e-9:
             return None
         if self.yardstick.distance_10s > 0.0:

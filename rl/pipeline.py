@@ -409,7 +409,7 @@ def reach_metrics(rollout, task: ReachTask) -> dict[str, Any]:
     never settles)."""
     mid = rollout.positions.shape[2] // 2
     error = rollout.positions[:, 0, mid] - rollout.positions[0, 0, mid] - task.target
-    inside = np.abs(error) <= task.tolerance
+    inside = task.within_tolerance(error)
     settle = None
     if inside[-1]:
         outside = np.flatnonzero(~inside)

@@ -82,6 +82,10 @@ class ReachTask:
         moved = np.abs(np.asarray(x_after) - np.asarray(x_before))
         return self.reward_scale * ((e_before - e_after) - self.speed_penalty * moved * near)
 
+    def within_tolerance(self, error: Any) -> Any:
+        """The success test: a signed error (m, as :meth:`error`) within ``tolerance`` of zero."""
+        return np.abs(error) <= self.tolerance
+
     def observe(self, x_mid: Any, start: Any) -> NDArray[np.float64]:
         """``target_offset``: ``100 * (target_x - x_mid)`` per m, shape ``(..., 1)``."""
         return (TARGET_OFFSET_SCALE * -self.error(x_mid, start))[..., None]
