@@ -189,8 +189,8 @@ def td3_roofline(updates_per_s: float, repeats: int = 3, quick: bool = False) ->
     shapes, float32 and bfloat16), ``achieved_gflops`` (``gflop_per_update * updates_per_s``),
     ``fraction_of_sgemm`` and ``floor_1e5_updates_s`` (1e5 updates at the float32 rate: no
     float32 implementation on this core does them faster)."""
+    from .agent import TD3Agent
     from .pipeline import crawler_config
-    from .td3 import TD3Agent
 
     cfg = crawler_config(0)
     agent = TD3Agent(_paper_obs_dim(), 2, -np.ones(2), np.ones(2), cfg)

@@ -50,6 +50,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
+from .agent import TD3Agent
 from .allocator import retain_freed_memory
 from .checkpoint import (
     CHECKPOINT_FORMAT,
@@ -68,7 +69,7 @@ from .evaluation import (
     truncate_csv,
 )
 from .exploration import colored_noise
-from .td3 import TD3, ReplayBuffer, TD3Agent, TD3Config, episode_seed
+from .td3 import TD3, ReplayBuffer, TD3Config, episode_seed
 
 EPISODES_CSV = "episodes.csv"
 EPISODE_FIELDS = ("episode", "global_step", "return", "length", "terminated", "truncated",
@@ -629,7 +630,7 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
 # The layouts of the single-seed API
 # ----------------------------------------------------------------------------------------------
 def _single(learner: TD3, k: int = 0) -> TD3Agent:
-    """Seed ``k`` of ``learner`` as a :class:`~elastica_magnetic_rl.td3.TD3Agent`."""
+    """Seed ``k`` of ``learner`` as a :class:`~elastica_magnetic_rl.agent.TD3Agent`."""
     agent = TD3Agent(learner.obs_dim, learner.act_dim, learner.action_low, learner.action_high,
                      learner.configs[k])
     agent.load_seed_state(0, learner.seed_state(k))

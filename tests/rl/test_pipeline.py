@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 import torch
 from elastica_magnetic_rl import pipeline
+from elastica_magnetic_rl.agent import TD3Agent
 from elastica_magnetic_rl.checkpoint import load_checkpoint
 from elastica_magnetic_rl.env import OBSERVATION_LAYOUT, MagneticCrawlerEnv
-from elastica_magnetic_rl.td3 import TD3Agent
 
 from elastica_magnetic import read_field_csv
 from elastica_magnetic.cli import main as msr

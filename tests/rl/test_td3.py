@@ -11,10 +11,11 @@ import gymnasium as gym
 import numpy as np
 import pytest
 import torch
+from elastica_magnetic_rl.agent import TD3Agent
 from elastica_magnetic_rl.checkpoint import load_checkpoint
 from elastica_magnetic_rl.evaluation import ActorPolicy, evaluate
 from elastica_magnetic_rl.runner import train
-from elastica_magnetic_rl.td3 import TD3, Batch, ReplayBuffer, TD3Agent, TD3Config
+from elastica_magnetic_rl.td3 import TD3, Batch, ReplayBuffer, TD3Config
 
 torch.set_num_threads(1)
 
