@@ -182,7 +182,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--policies", type=Path, default=None,
                    help="folder of policy folders (default: the shipped policies, rl/policies)")
     p.add_argument("--figure", type=Path, default=None, metavar="DIR",
-                   help="write DIR/seeds_<case>.png: every seed's distance per recipe")
+                   help="write DIR/seeds_<case>.png (every seed's distance per recipe) and "
+                   "DIR/learning_curves_<case>.png (from the logs the exported seeds keep)")
     p.add_argument("--card", action="store_true",
                    help="also write the table into <policies>/<case>/MODEL_CARD.md")
     p.add_argument("--json", action="store_true")
@@ -469,7 +470,13 @@ def export_seeds_command(args: argparse.Namespace) -> int:
 
 def seeds_command(args: argparse.Namespace) -> int:
     from .policy_files import POLICIES_DIR
-    from .seed_report import case_seeds, seeds_figure, seeds_markdown, update_model_card
+    from .seed_report import (
+        case_seeds,
+        learning_curves_by_recipe,
+        seeds_figure,
+        seeds_markdown,
+        update_model_card,
+    )
 
     policies = args.policies if args.policies is not None else POLICIES_DIR
     if not policies.is_dir():
@@ -487,6 +494,10 @@ def seeds_command(args: argparse.Namespace) -> int:
         if args.figure is not None and groups:
             args.figure.mkdir(parents=True, exist_ok=True)
             report["figure"] = str(seeds_figure(case, groups, args.figure / f"seeds_{case.name}.png"))
+            curves = learning_curves_by_recipe(case, groups,
+                                               args.figure / f"learning_curves_{case.name}.png")
+            if curves is not None:
+                report["learning_curves"] = str(curves)
         if args.card:
             card = policies / case.name / "MODEL_CARD.md"
             if not card.is_file():

@@ -276,6 +276,11 @@ def _evaluate_seed(job: tuple[int, Path, float, bool]) -> dict[str, Any]:
     return {"seed": seed, **final, "best": best}
 
 
+#: The training logs :func:`export_seeds` keeps beside each seed's actor (small CSVs: one row per
+#: episode and per evaluation), so learning curves can be drawn from the committed seeds.
+SEED_TRAINING_LOGS = ("episodes.csv", "evaluations.csv")
+
+
 def export_seeds(
     case_dir: str | Path,
     dest: str | Path,
@@ -284,7 +289,8 @@ def export_seeds(
     workers: int = 1,
 ) -> dict[str, Any]:
     """Every seed of a case as a policy folder ``dest/seed<k>/`` (``actor.pt`` and
-    ``policy.json``: what ``msr generate`` reads; no critic, no buffer) and ``dest/seeds.json``:
+    ``policy.json``: what ``msr generate`` reads; no critic, no buffer; and the run's training
+    logs, :data:`SEED_TRAINING_LOGS`) and ``dest/seeds.json``:
     one object per seed, ``{"seed", "steps", "distance_10s_m", "actor", "checkpoint",
     "meets_target"}``.
 
@@ -322,6 +328,9 @@ def export_seeds(
         folder = f"seed{ev['seed']}"
         ship(source, folder, dest=dest, measure=False, progress=False, overwrite=True,
              with_critic=False, with_card=False)
+        for log in SEED_TRAINING_LOGS:  # the learning curve stays with the actor
+            if (case_dir / folder / log).is_file():
+                atomic_write_text(dest / folder / log, (case_dir / folder / log).read_text())
         entries.append({"seed": ev["seed"], "steps": chosen["global_step"],
                         "distance_10s_m": chosen["mid_dx_m"], "actor": folder,
                         "checkpoint": "best" if use_best else "final",

@@ -15,12 +15,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from elastica_magnetic.io import atomic_write_text
 
 from .cases import Case
 from .policy_files import POLICIES_DIR
 
-__all__ = ["RecipeSeeds", "case_seeds", "seeds_markdown", "update_model_card", "seeds_figure"]
+__all__ = ["RecipeSeeds", "case_seeds", "seeds_markdown", "update_model_card", "seeds_figure",
+           "learning_curves_by_recipe"]
 
 #: The model card's section that :func:`update_model_card` keeps current.
 CARD_SECTION = "## Every seed, by recipe"
@@ -33,6 +36,7 @@ class RecipeSeeds:
     folder: str  # e.g. "paper", "pink", "paper-bf16"
     entries: list[dict[str, Any]]  # seeds.json, ordered by seed
     succeeded: list[bool]  # per entry: the case's success test
+    path: Path | None = None  # the seeds folder
 
     @property
     def summary(self) -> str:
@@ -70,7 +74,7 @@ def case_seeds(case: Case, policies_dir: str | Path | None = None) -> list[Recip
                 raise ValueError(f"{path}: a {case.task.kind} task needs each seed's "
                                  "'meets_target' (true/false), as msr export-seeds writes it")
             succeeded = [e["meets_target"] for e in entries]
-        groups.append(RecipeSeeds(path.parent.name, entries, succeeded))
+        groups.append(RecipeSeeds(path.parent.name, entries, succeeded, path.parent))
     groups.sort(key=lambda g: (g.folder != "paper", g.folder))
     return groups
 
@@ -147,5 +151,62 @@ def seeds_figure(case: Case, groups: list[RecipeSeeds], path: str | Path) -> Pat
     fig.tight_layout()
     out = Path(path)
     atomic_save(out, lambda tmp: fig.savefig(tmp, dpi=120, format="png"))
+    plt.close(fig)
+    return out
+
+
+def learning_curves_by_recipe(case: Case, groups: list[RecipeSeeds], path: str | Path,
+                              alpha: float = 0.2) -> Path | None:
+    """One panel per recipe folder, side by side on one scale: every seed's episode return against
+    environment steps (EMA with ``alpha``; green: the seed succeeded, red: it did not), from the
+    training log each exported seed keeps (``episodes.csv``). Seeds exported without their log are
+    left out (named in the panel's title). Returns ``None`` when no seed has a log."""
+    import csv
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from elastica_magnetic.io import atomic_save
+
+    from .figures import ema
+
+    curves = []
+    for g in groups:
+        runs, missing = [], []
+        for e, ok in zip(g.entries, g.succeeded, strict=True):
+            log = (g.path / str(e["actor"]) / "episodes.csv") if g.path is not None else None
+            if log is None or not log.is_file():
+                missing.append(e["seed"])
+                continue
+            with open(log, newline="") as f:
+                rows = list(csv.DictReader(f))
+            steps = np.array([int(r["global_step"]) for r in rows])
+            returns = np.array([float(r["return"]) for r in rows])
+            if steps.size:
+                runs.append((e["seed"], ok, steps, ema(returns, alpha)))
+        curves.append((g, runs, missing))
+    if not any(runs for _, runs, _ in curves):
+        return None
+    fig, axes = plt.subplots(1, len(curves), figsize=(1.5 + 3.6 * len(curves), 3.8), sharey=True,
+                             squeeze=False)
+    for ax, (g, runs, missing) in zip(axes[0], curves, strict=True):
+        for seed, ok, steps, smooth in runs:
+            ax.plot(steps, smooth, lw=1.0, color="tab:green" if ok else "tab:red", alpha=0.8)
+            ax.annotate(str(seed), (steps[-1], smooth[-1]), xytext=(2, 0), textcoords="offset points",
+                        fontsize=7, va="center")
+        title = f"{g.folder}: {g.summary} succeed"
+        if missing:
+            title += f"\n(no log: seeds {', '.join(map(str, missing))})"
+        ax.set_title(title, fontsize=9)
+        ax.set_xlabel("environment steps")
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel(f"episode return (EMA, alpha = {alpha:g})")
+    fig.suptitle(f"{case.name}: learning curves by recipe (green: the seed succeeded)", fontsize=10)
+    fig.tight_layout()
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    atomic_save(out, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
     plt.close(fig)
     return out

@@ -269,7 +269,10 @@ def test_export_seeds_writes_generate_ready_folders_and_seeds_json(trained, tmp_
         other = evaluation["best"] if e["checkpoint"] == "final" else evaluation
         assert other is None or e["distance_10s_m"] >= other["mid_dx_m"]  # the farther actor
         folder = dest / e["actor"]
-        assert sorted(p.name for p in folder.iterdir()) == ["actor.pt", "policy.json"]
+        assert sorted(p.name for p in folder.iterdir()) == ["actor.pt", "episodes.csv",
+                                                            "evaluations.csv", "policy.json"]
+        run_dir = trained / "m1-4mT" / f"seed{e['seed']}"
+        assert (folder / "episodes.csv").read_text() == (run_dir / "episodes.csv").read_text()
     out = run_msr(capsys, "generate", str(dest / "seed0"), "--duration", "0.05", "--out",
                   str(tmp_path / "gen"), "--no-figures", "--no-progress")
     assert out["case"] == "m1-4mT"

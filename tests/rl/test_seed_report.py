@@ -7,7 +7,12 @@ from pathlib import Path
 
 import pytest
 from elastica_magnetic_rl.cases import load_case
-from elastica_magnetic_rl.seed_report import CARD_SECTION, case_seeds, update_model_card
+from elastica_magnetic_rl.seed_report import (
+    CARD_SECTION,
+    case_seeds,
+    learning_curves_by_recipe,
+    update_model_card,
+)
 
 from elastica_magnetic.cli import main as msr
 
@@ -49,6 +54,7 @@ def test_msr_seeds_prints_draws_and_keeps_the_model_card_current(tmp_path, capsy
     report = json.loads(capsys.readouterr().out)["cases"][0]
     assert report["recipes"][0]["succeeded"] == 1 and report["card_updated"] is True
     assert (tmp_path / "fig" / "seeds_m1-4mT.png").stat().st_size > 1000
+    assert "learning_curves" not in report  # no seed kept its training log
     text = card.read_text()
     assert text.index(CARD_SECTION) < text.index("## Evaluation") and "| `paper` | 1 of 2 |" in text
     # a new seed replaces the section, which stays single; an unchanged table leaves the card alone
@@ -79,3 +85,16 @@ def test_the_shipped_seed_folders_read():
             for entry in group.entries:
                 folder = POLICIES_DIR / name / "seeds" / group.folder / entry["actor"]
                 assert (folder / "actor.pt").is_file() and (folder / "policy.json").is_file()
+
+
+def test_learning_curves_come_from_the_logs_the_exported_seeds_keep(tmp_path):
+    case = load_case("m1-4mT")
+    _write_seeds(tmp_path, "m1-4mT", "paper", {0: 0.0221, 1: 0.0018})
+    _write_seeds(tmp_path, "m1-4mT", "pink", {0: 0.0230})
+    assert learning_curves_by_recipe(case, case_seeds(case, tmp_path), tmp_path / "c.png") is None
+    log = tmp_path / "m1-4mT" / "seeds" / "paper" / "seed0" / "episodes.csv"
+    log.parent.mkdir(parents=True)
+    log.write_text("episode,global_step,return,length,terminated,truncated,wall_time_s\n"
+                   + "".join(f"{i},{2000 * (i + 1)},{10.0 * i},2000,0,1,{i}.0\n" for i in range(10)))
+    out = learning_curves_by_recipe(case, case_seeds(case, tmp_path), tmp_path / "c.png")
+    assert out == tmp_path / "c.png" and out.stat().st_size > 1000

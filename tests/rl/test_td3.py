@@ -596,7 +596,8 @@ def test_colored_noise_has_the_power_law_spectrum_and_unit_variance(beta):
 
 
 def test_pink_exploration_is_correlated_in_time_and_trains_reproducibly(tmp_path):
-    from elastica_magnetic_rl.runner import SeedRun, train_seeds
+    from elastica_magnetic_rl.runner import train_seeds
+    from elastica_magnetic_rl.seed_run import SeedRun
 
     def lag1(cfg):
         run = SeedRun(0, cfg, 100, tmp_path / f"probe{cfg.noise_color}", False, None, None, 3, 2, 1)
