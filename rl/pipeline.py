@@ -345,6 +345,8 @@ def _earlier_exported_seeds(dest: Path, replaced: set[int], meta: dict[str, Any]
     """The entries of ``dest/seeds.json`` to keep beside a new export (seeds not in ``replaced``),
     after checking that their actors were trained on the same case spec with the same
     hyperparameters as the checkpoint whose metadata is ``meta``."""
+    from .td3 import TD3Config
+
     path = dest / "seeds.json"
     if not path.is_file():
         return []
@@ -358,7 +360,11 @@ def _earlier_exported_seeds(dest: Path, replaced: set[int], meta: dict[str, Any]
     def as_json(x: Any) -> Any:  # checkpoints hold tuples where policy.json holds lists
         return json.loads(json.dumps(x, default=str))
 
-    config = {k: v for k, v in as_json(meta.get("config") or {}).items() if k != "seed"}
+    def settings(config: dict[str, Any]) -> dict[str, Any]:
+        # a setting absent from an older run's config did not exist then: it ran as its default
+        return {k: v for k, v in as_json({**TD3Config().to_dict(), **config}).items() if k != "seed"}
+
+    config = settings(meta.get("config") or {})
     kept = []
     for entry in earlier:
         if entry["seed"] in replaced:
@@ -373,8 +379,7 @@ def _earlier_exported_seeds(dest: Path, replaced: set[int], meta: dict[str, Any]
             raise ValueError(f"{dest}: seed {entry['seed']} was trained on another case spec "
                              f"({other.get('case')!r}) than {meta.get('case')!r}: export into "
                              "another folder")
-        other_config = {k: v for k, v in ((other.get("training") or {}).get("config") or {}).items()
-                        if k != "seed"}
+        other_config = settings((other.get("training") or {}).get("config") or {})
         if other_config != config:
             differing = sorted(k for k in set(config) | set(other_config)
                                if config.get(k) != other_config.get(k))
@@ -577,7 +582,9 @@ def ship(
         "architecture": {"type": "mlp", "obs_dim": policy.obs_dim, "act_dim": policy.act_dim,
                          "hidden_sizes": list(policy.hidden_sizes), "activation": "relu",
                          "output": "tanh",
-                         "module": "elastica_magnetic_rl.td3.Actor (net = Sequential of Linear/ReLU)"},
+                         "module": "elastica_magnetic_rl.td3.Actor (net = Sequential of Linear/ReLU)",
+                         "critic_layer_norm": bool((meta.get("config") or {}).get(
+                             "critic_layer_norm", False))},
         "observation": _observation_spec(case),
         "action": _action_spec(case),
         "training": {

@@ -103,7 +103,8 @@ class LoadedPolicy:
 
 
 def _build_networks(obs_dim: int, act_dim: int, hidden: tuple[int, ...], actor_state: dict,
-                    critic_state: dict | None, source: Path | None = None):
+                    critic_state: dict | None, source: Path | None = None,
+                    critic_layer_norm: bool = False):
     from .td3 import Actor, TwinCritic
 
     def load(network, state, what: str):
@@ -121,7 +122,7 @@ def _build_networks(obs_dim: int, act_dim: int, hidden: tuple[int, ...], actor_s
     actor = load(Actor(obs_dim, act_dim, hidden), actor_state, "actor")
     critic = None
     if critic_state is not None:
-        critic = load(TwinCritic(obs_dim, act_dim, hidden), critic_state, "critic")
+        critic = load(TwinCritic(obs_dim, act_dim, hidden, critic_layer_norm), critic_state, "critic")
     return actor, critic
 
 
@@ -198,7 +199,8 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
             obs_dim, act_dim = ckpt["obs_dim"], ckpt["act_dim"]
         except (KeyError, TypeError) as exc:
             raise PolicyFileError(f"{path}: incomplete checkpoint (no {exc})") from None
-        actor, critic = _build_networks(obs_dim, act_dim, hidden, actor_state, critic_state, path)
+        actor, critic = _build_networks(obs_dim, act_dim, hidden, actor_state, critic_state, path,
+                                        bool(ckpt["config"].get("critic_layer_norm", False)))
         meta = {**meta, "global_step": int(ckpt["global_step"]), "config": ckpt["config"],
                 "checkpoint_kind": ckpt.get("kind", "full")}
         case = _policy_case(meta, path)
@@ -222,7 +224,8 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
         if (path / "critic.pt").is_file():
             critic_state = _torch_load(path / "critic.pt")
         actor, critic = _build_networks(arch["obs_dim"], arch["act_dim"], hidden, actor_state,
-                                        critic_state, path / "actor.pt")
+                                        critic_state, path / "actor.pt",
+                                        bool(arch.get("critic_layer_norm", False)))
         return LoadedPolicy(actor, critic, case, path, "shipped", meta, arch["obs_dim"],
                             arch["act_dim"], hidden)
     shipped = sorted(p.name for p in policies_dir.glob("*") if (p / POLICY_JSON).is_file()) \

@@ -17,9 +17,12 @@ CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8, "eval_every":
 #: task, reward, observation, action limits, physics, episode length and step budget are the same
 #: in every recipe. ``paper``: the authors' recipe. ``pink``: the paper's with temporally
 #: correlated (pink, ``1/f``) exploration noise instead of independent Gaussian steps (Eberhard et
-#: al., ICLR 2023), a sequence per 20 s episode, same standard deviation.
+#: al., ICLR 2023), a sequence per 20 s episode, same standard deviation. ``pink-ln``: ``pink`` with
+#: layer normalisation in the critics' hidden layers (Ball et al., ICML 2023), against the critics'
+#: overestimation that saturates the actor's ``tanh`` in the failed seeds (docs/training.md).
 RECIPES: dict[str, dict[str, Any]] = {
     "paper": {},
     "pink": {"noise_color": 1.0, "noise_horizon": 2000},
+    "pink-ln": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True},
 }
 DEFAULT_RECIPE = "paper"

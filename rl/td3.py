@@ -84,6 +84,10 @@ class TD3Config:
     # networks and optimisation
     hidden_sizes: tuple[int, ...] = (256, 256)
     """Hidden layer widths (ReLU) of the actor and of each critic."""
+    critic_layer_norm: bool = False
+    """Layer normalisation (PyTorch's ``LayerNorm``, learned gain and bias) after every hidden
+    linear layer of both critics, before the ReLU (Ball et al. 2023): bounds how far a critic
+    extrapolates beyond the replay data. Off in the paper's recipe; the actor never has it."""
     actor_lr: float = 3e-4
     critic_lr: float = 3e-4
     gamma: float = 0.99
@@ -297,12 +301,15 @@ class ReplayBuffer:
 # ----------------------------------------------------------------------------------------------
 # Networks
 # ----------------------------------------------------------------------------------------------
-def mlp(in_dim: int, out_dim: int, hidden_sizes: tuple[int, ...]) -> nn.Sequential:
-    """Linear-ReLU-...-Linear with PyTorch's default (Kaiming-uniform) initialisation."""
+def mlp(in_dim: int, out_dim: int, hidden_sizes: tuple[int, ...],
+        layer_norm: bool = False) -> nn.Sequential:
+    """Linear-ReLU-...-Linear (Linear-LayerNorm-ReLU-... with ``layer_norm``) with PyTorch's
+    default initialisation (Kaiming-uniform linear layers, unit gain and zero bias of the norms)."""
     layers: list[nn.Module] = []
     d = in_dim
     for h in hidden_sizes:
-        layers += [nn.Linear(d, h), nn.ReLU()]
+        layers += [nn.Linear(d, h), nn.LayerNorm(h), nn.ReLU()] if layer_norm else \
+            [nn.Linear(d, h), nn.ReLU()]
         d = h
     layers.append(nn.Linear(d, out_dim))
     return nn.Sequential(*layers)
@@ -321,12 +328,14 @@ class Actor(nn.Module):
 
 
 class TwinCritic(nn.Module):
-    """Two independent Q networks ``Q_i(s, a) = MLP_i([s, a])`` (one seed's, as plain modules)."""
+    """Two independent Q networks ``Q_i(s, a) = MLP_i([s, a])`` (one seed's, as plain modules;
+    ``layer_norm``: :attr:`TD3Config.critic_layer_norm`)."""
 
-    def __init__(self, obs_dim: int, act_dim: int, hidden_sizes: tuple[int, ...]) -> None:
+    def __init__(self, obs_dim: int, act_dim: int, hidden_sizes: tuple[int, ...],
+                 layer_norm: bool = False) -> None:
         super().__init__()
-        self.q1_net = mlp(obs_dim + act_dim, 1, hidden_sizes)
-        self.q2_net = mlp(obs_dim + act_dim, 1, hidden_sizes)
+        self.q1_net = mlp(obs_dim + act_dim, 1, hidden_sizes, layer_norm)
+        self.q2_net = mlp(obs_dim + act_dim, 1, hidden_sizes, layer_norm)
 
     def forward(self, obs: torch.Tensor, act: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         x = torch.cat([obs, act], dim=-1)
@@ -352,24 +361,34 @@ class ScaledPolicy(nn.Module):
 class StackedMLP(nn.Module):
     """``M`` MLPs of one shape evaluated as one computation: layer ``l`` holds ``weights[l]``
     ``(M, in, out)`` and ``biases[l]`` ``(M, 1, out)``; :meth:`forward` maps ``(M, B, in)`` to
-    ``(M, B, out)`` with one batched matrix product per layer (ReLU between layers).
+    ``(M, B, out)`` with one batched matrix product per layer (ReLU between layers). With
+    ``layer_norm``, each hidden layer's output is normalised over its features and scaled by
+    ``norm_gains[l]`` ``(M, 1, out)`` plus ``norm_biases[l]`` before the ReLU (as ``nn.LayerNorm``,
+    eps ``1e-5``).
 
-    Member ``m`` is an ordinary ``nn.Linear`` MLP whose ``weight`` is ``weights[l][m].T``
-    (:meth:`member_state` / :meth:`load_member_state` convert, in ``nn.Sequential`` naming).
+    Member ``m`` is an ordinary ``nn.Linear`` MLP (:func:`mlp`) whose ``weight`` is
+    ``weights[l][m].T`` (:meth:`member_state` / :meth:`load_member_state` convert, in
+    ``nn.Sequential`` naming).
 
     ``dtype=torch.bfloat16`` runs the products in bfloat16 on bfloat16 copies of the float32
     weights (cast once per layer and call; gradients flow back to the float32 masters, which Adam
-    updates in float32), and returns float32.
+    updates in float32), and returns float32; layer normalisation runs in float32.
     """
 
-    def __init__(self, members: int, sizes: tuple[int, ...]) -> None:
+    def __init__(self, members: int, sizes: tuple[int, ...], layer_norm: bool = False) -> None:
         super().__init__()
         self.members, self.sizes = int(members), tuple(int(s) for s in sizes)
+        self.layer_norm = bool(layer_norm)
         shapes = zip(sizes[:-1], sizes[1:], strict=False)
         self.weights = nn.ParameterList(
             [nn.Parameter(torch.zeros(self.members, i, o)) for i, o in shapes])
         self.biases = nn.ParameterList(
             [nn.Parameter(torch.zeros(self.members, 1, o)) for o in sizes[1:]])
+        hidden = sizes[1:-1] if self.layer_norm else ()
+        self.norm_gains = nn.ParameterList(
+            [nn.Parameter(torch.ones(self.members, 1, o)) for o in hidden])
+        self.norm_biases = nn.ParameterList(
+            [nn.Parameter(torch.zeros(self.members, 1, o)) for o in hidden])
 
     def forward(self, x: torch.Tensor, dtype: torch.dtype = torch.float32,
                 members: slice = slice(None)) -> torch.Tensor:
@@ -383,27 +402,48 @@ class StackedMLP(nn.Module):
             else:
                 h = torch.baddbmm(b, h, w)
             if i < last:
-                h = torch.relu_(h)  # in place: baddbmm's backward does not need its output
+                if self.layer_norm:
+                    h = nn.functional.layer_norm(h.float(), h.shape[-1:], eps=1e-5)
+                    h = torch.addcmul(self.norm_biases[i][members], h, self.norm_gains[i][members])
+                h = torch.relu_(h)  # in place: the backward of the op before needs not its output
         return h.float()
+
+    def _layer_names(self, i: int) -> tuple[str, str | None]:
+        """``nn.Sequential`` indices of hidden layer ``i``'s linear map and of its norm (or None)."""
+        if self.layer_norm:
+            return str(3 * i), (str(3 * i + 1) if i < len(self.weights) - 1 else None)
+        return str(2 * i), None
 
     def member_state(self, m: int) -> dict[str, torch.Tensor]:
         """Member ``m`` as an ``nn.Sequential`` state dict (``"0.weight"``, ``"0.bias"``, ...)."""
         state = {}
         for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True)):
-            state[f"{2 * i}.weight"] = w[m].detach().T.contiguous().clone()
-            state[f"{2 * i}.bias"] = b[m, 0].detach().clone()
+            linear, norm = self._layer_names(i)
+            state[f"{linear}.weight"] = w[m].detach().T.contiguous().clone()
+            state[f"{linear}.bias"] = b[m, 0].detach().clone()
+            if norm is not None:
+                state[f"{norm}.weight"] = self.norm_gains[i][m, 0].detach().clone()
+                state[f"{norm}.bias"] = self.norm_biases[i][m, 0].detach().clone()
         return state
 
     @torch.no_grad()
     def load_member_state(self, m: int, state: dict[str, torch.Tensor]) -> None:
         """Inverse of :meth:`member_state`."""
+        expected = set(self.member_state(m))
+        if set(state) != expected:
+            raise ValueError(f"the state's layers {sorted(state)} are not this network's "
+                             f"{sorted(expected)} (hidden sizes or layer normalisation differ)")
         for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True)):
-            weight, bias = state[f"{2 * i}.weight"], state[f"{2 * i}.bias"]
+            linear, norm = self._layer_names(i)
+            weight, bias = state[f"{linear}.weight"], state[f"{linear}.bias"]
             if tuple(weight.shape) != (w.shape[2], w.shape[1]):
                 raise ValueError(f"layer {i}: weight of shape {tuple(weight.shape)}, expected "
                                  f"{(w.shape[2], w.shape[1])} (hidden sizes differ)")
             w[m].copy_(weight.T)
             b[m, 0].copy_(bias)
+            if norm is not None:
+                self.norm_gains[i][m, 0].copy_(state[f"{norm}.weight"])
+                self.norm_biases[i][m, 0].copy_(state[f"{norm}.bias"])
 
 
 def _prefixed(state: dict[str, torch.Tensor], prefix: str) -> dict[str, torch.Tensor]:
@@ -484,7 +524,8 @@ class TD3:
         hidden = cfg.hidden_sizes
         self.actor_net = StackedMLP(k, (self.obs_dim, *hidden, self.act_dim))
         # the critics: members 0..K-1 are the seeds' Q1, members K..2K-1 their Q2
-        self.critic_net = StackedMLP(2 * k, (self.obs_dim + self.act_dim, *hidden, 1))
+        self.critic_net = StackedMLP(2 * k, (self.obs_dim + self.act_dim, *hidden, 1),
+                                     cfg.critic_layer_norm)
         for i, c in enumerate(configs):
             actor, critic = self._initial_networks(c.seed)
             self.actor_net.load_member_state(i, actor.net.state_dict())
@@ -509,7 +550,8 @@ class TD3:
         with torch.random.fork_rng(devices=[]):
             torch.manual_seed(seed)
             actor = Actor(self.obs_dim, self.act_dim, self.config.hidden_sizes)
-            critic = TwinCritic(self.obs_dim, self.act_dim, self.config.hidden_sizes)
+            critic = TwinCritic(self.obs_dim, self.act_dim, self.config.hidden_sizes,
+                                self.config.critic_layer_norm)
         return actor, critic
 
     # -- acting ---------------------------------------------------------------------------------
@@ -623,7 +665,8 @@ class TD3:
         return actor.eval().requires_grad_(False)
 
     def critic_module(self, k: int = 0, target: bool = False) -> TwinCritic:
-        critic = TwinCritic(self.obs_dim, self.act_dim, self.config.hidden_sizes)
+        critic = TwinCritic(self.obs_dim, self.act_dim, self.config.hidden_sizes,
+                            self.config.critic_layer_norm)
         critic.load_state_dict(self.critic_state(k, target))
         return critic.eval().requires_grad_(False)
 
@@ -640,7 +683,7 @@ class TD3:
         state = [optimizer.state.get(p, {}) for p in params]
         out: dict[str, Any] = {"step": int(state[0]["step"]) if state[0] else 0}
         for name in ("exp_avg", "exp_avg_sq"):
-            shadow = StackedMLP(net.members, net.sizes)
+            shadow = StackedMLP(net.members, net.sizes, net.layer_norm)
             if state[0]:
                 with torch.no_grad():
                     for p, s in zip(shadow.parameters(), state, strict=True):
@@ -659,7 +702,7 @@ class TD3:
                 optimizer.state[p] = {"step": torch.tensor(0.0), "exp_avg": torch.zeros_like(p),
                                       "exp_avg_sq": torch.zeros_like(p)}
         for name in ("exp_avg", "exp_avg_sq"):
-            shadow = StackedMLP(net.members, net.sizes)
+            shadow = StackedMLP(net.members, net.sizes, net.layer_norm)
             with torch.no_grad():
                 for p, q in zip(shadow.parameters(), params, strict=True):
                     p.copy_(optimizer.state[q][name])

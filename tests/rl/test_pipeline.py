@@ -155,6 +155,29 @@ def test_train_resume_extends_runs(tmp_path, capsys):
     assert [s["seed"] for s in on_disk["seeds"]] == [3, 4]
 
 
+def test_layer_norm_recipe_trains_ships_and_loads_with_its_critic(tmp_path):
+    """``--recipe pink-ln``: the critics get layer norms (checkpoint config), and the run and its
+    shipped folder (``critic.pt``, ``policy.json``'s architecture) load back with them."""
+    from elastica_magnetic_rl.pipeline import ship
+    from elastica_magnetic_rl.policy_files import resolve_policy
+
+    assert msr(["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), "--steps", "20",
+                "--learning-starts", "10", "--batch-size", "8", "--hidden", "8", "--episode-duration",
+                "0.1", "--no-progress", "--recipe", "pink-ln"]) == 0
+    run = tmp_path / "m1-4mT" / "seed0"
+    config = load_checkpoint(run)["config"]
+    assert config["critic_layer_norm"] is True and config["noise_color"] == 1.0
+    loaded = resolve_policy(run)
+    assert isinstance(loaded.critic.q1_net[1], torch.nn.LayerNorm)
+    ship(run, "ln", dest=tmp_path / "shipped", measure=False, progress=False, with_card=False)
+    meta = json.loads((tmp_path / "shipped" / "ln" / "policy.json").read_text())
+    assert meta["architecture"]["critic_layer_norm"] is True
+    again = resolve_policy(tmp_path / "shipped" / "ln")
+    for a, b in zip(again.critic.state_dict().values(), loaded.critic.state_dict().values(),
+                    strict=True):
+        assert torch.equal(a, b)
+
+
 def test_recipe_is_recorded_and_a_resume_keeps_the_runs_settings(tmp_path, capsys):
     """``--recipe pink`` trains with pink exploration noise (run.json, the checkpoint's config);
     a resume that changes the recipe or the episode length is refused before anything is touched."""
