@@ -1,8 +1,8 @@
 """``msr case``, ``train``, ``refine``, ``generate``, ``baseline``, ``ship``, ``export``,
-``figures``, ``demo``: thin wrappers over :mod:`elastica_magnetic_rl.cases`,
+``diagnose``, ``figures``, ``demo``: thin wrappers over :mod:`elastica_magnetic_rl.cases`,
 :mod:`elastica_magnetic_rl.training`, :mod:`elastica_magnetic_rl.pipeline`,
-:mod:`elastica_magnetic_rl.baselines` and :mod:`elastica_magnetic_rl.figures` (heavy imports
-happen inside the commands)."""
+:mod:`elastica_magnetic_rl.baselines`, :mod:`elastica_magnetic_rl.diagnostics` and
+:mod:`elastica_magnetic_rl.figures` (heavy imports happen inside the commands)."""
 
 from __future__ import annotations
 
@@ -264,6 +264,20 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, default=Path("out/export"))
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=export_command)
+
+    p = sub.add_parser(
+        "diagnose",
+        help="is a run's critic calibrated, is its actor saturated? (from its checkpoint)",
+        description="For each run (a run directory or its checkpoint.pt), on its last --recent "
+        "transitions: the critic's Q against the discounted return of the same transitions "
+        "(Monte-Carlo, from the stored rewards), and how often the actor's outputs before tanh "
+        "are beyond |3| (saturated: the actor stops learning). --figure DIR draws both per run.",
+    )
+    p.add_argument("run", type=Path, nargs="+", help="run directory or checkpoint")
+    p.add_argument("--recent", type=int, default=20_000, help="last transitions to use (default 20000)")
+    p.add_argument("--figure", type=Path, default=None, help="write health_<case>_seed<k>.png here")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=diagnose_command)
 
     p = sub.add_parser(
         "figures",
@@ -534,6 +548,43 @@ def export_command(args: argparse.Namespace) -> int:
     from .pipeline import export_policy
 
     print_result(export_policy(args.policy, args.out), args.json)
+    return 0
+
+
+def diagnose_command(args: argparse.Namespace) -> int:
+    from .diagnostics import health_figure, public, run_health
+
+    if args.recent < 2:
+        raise CommandError(f"--recent must be >= 2 transitions, got {args.recent}")
+    if args.figure is not None and args.figure.exists() and not args.figure.is_dir():
+        raise CommandError(f"--figure {args.figure}: exists and is not a folder")
+    for run in args.run:  # every path checked before the slow part
+        if not run.exists():
+            raise CommandError(f"{run}: no such run directory or checkpoint")
+    rows = []
+    for run in args.run:
+        try:
+            health = run_health(run, args.recent)
+        except ValueError as exc:
+            raise CommandError(str(exc)) from None
+        row = public(health)
+        if args.figure is not None:
+            folder = run if run.is_dir() else run.parent
+            name = f"health_{folder.parent.name}_{folder.name}.png"
+            row["figure"] = str(health_figure(health, args.figure / name))
+        rows.append(row)
+    if args.json:
+        print_result({"runs": rows}, True)
+        return 0
+    print(f"{'run':<40} {'step':>7} {'Q(s,a)':>9} {'return':>15} {'critic':>14} {'saturated':>12}")
+    for r in rows:
+        sat = "/".join(f"{100 * f:.0f}%" for f in r["saturated_fraction"])
+        print(f"{r['run'][-40:]:<40} {r['global_step']:>7} {r['q_data_mean']:>9.3g} "
+              f"{r['return_mean']:>8.3g} +-{r['return_std']:<5.2g} "
+              f"{'OVERESTIMATES' if r['critic_overestimates'] else 'ok':>14} "
+              f"{sat:>12}{' SATURATED' if r['actor_saturated'] else ''}")
+        if "figure" in r:
+            print(f"  figure: {r['figure']}")
     return 0
 
 
