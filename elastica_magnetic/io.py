@@ -83,6 +83,16 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     return Path(path)
 
 
+def atomic_write_json(path: str | Path, data: Any) -> Path:
+    """Write ``data`` as indented JSON (``str`` for what JSON lacks) to ``path`` atomically,
+    creating its folder; returns ``path``."""
+    import json
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return atomic_write_text(path, json.dumps(data, indent=2, default=str) + "\n")
+
+
 def prepare_output_dir(path: str | Path, option: str = "--out") -> Path:
     """Create the output folder ``path`` (and its parents) and check that files can be created in
     it. Raises :class:`OutputPathError` naming ``option`` when it is a file, lies under a file, or

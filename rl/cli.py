@@ -467,7 +467,7 @@ def baseline_command(args: argparse.Namespace) -> int:
 
 
 def export_seeds_command(args: argparse.Namespace) -> int:
-    from .pipeline import export_seeds
+    from .seed_export import export_seeds
 
     if not (math.isfinite(args.duration) and 0 < args.duration <= 600):
         raise CommandError(f"--duration must be a finite time in (0, 600] s, got {args.duration}")

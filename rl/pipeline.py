@@ -29,19 +29,23 @@ from __future__ import annotations
 
 import json
 import platform
-import time
 import warnings
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from elastica_magnetic.io import atomic_save, atomic_write, atomic_write_text, prepare_output_dir
+from elastica_magnetic.io import (
+    atomic_save,
+    atomic_write,
+    atomic_write_json,
+    prepare_output_dir,
+)
 from elastica_magnetic.openloop import check_duration
 
 from .baselines import RotatingFieldPolicy
-from .cases import Case, load_case
-from .env import MagneticCrawlerEnv, observation_spec
+from .cases import Case
+from .env import observation_spec
 from .model_card import model_card, seed_meets_target
 from .policy_files import (
     POLICIES_DIR,
@@ -53,6 +57,7 @@ from .policy_files import (
     resolve_policy,
     weights_sha256,
 )
+from .policy_runs import evaluate_seeds, machine_fingerprint, make_env, node_dx, run_policy
 from .recipes import CRAWLER_TD3_OVERRIDES, DEFAULT_RECIPE, RECIPES
 from .tasks import ReachTask
 
@@ -65,10 +70,10 @@ __all__ = [
     "demo",
     "evaluate_seeds",
     "export_policy",
-    "export_seeds",
     "generate",
     "machine_fingerprint",
     "make_env",
+    "run_policy",
     "resolve_policy",
     "ship",
     "weights_sha256",
@@ -85,20 +90,6 @@ EVAL_DURATION = 10.0
 # ----------------------------------------------------------------------------------------------
 # Environments and configuration
 # ----------------------------------------------------------------------------------------------
-def make_env(
-    case: str | Path | Case,
-    physics: str = "training",
-    initial_field: str | None = "random",
-    duration: float | None = 20.0,
-    render_mode: str | None = None,
-) -> MagneticCrawlerEnv:
-    """The environment of a case (a shipped name, a spec file or a
-    :class:`~elastica_magnetic_rl.cases.Case`; module-level so that ``functools.partial`` of it
-    pickles). ``initial_field`` / ``duration`` ``None``: the case's."""
-    return MagneticCrawlerEnv(case=load_case(case), physics=physics, initial_field=initial_field,
-                              duration=duration, render_mode=render_mode)
-
-
 def crawler_config(seed: int = 0, recipe: str = DEFAULT_RECIPE, **overrides: Any):
     """The crawler's TD3 configuration: the paper's settings (:data:`CRAWLER_TD3_OVERRIDES` on
     :class:`~elastica_magnetic_rl.td3.TD3Config`), then the ``recipe``'s changes (:data:`RECIPES`), then
@@ -125,297 +116,9 @@ def _versions() -> dict[str, str]:
             "numpy": np.__version__}
 
 
-def machine_fingerprint() -> dict[str, str]:
-    """What decides the round-off of a rollout: the CPU model and the numerical libraries. Two
-    rollouts of one policy are bit-identical when these agree; on another CPU the closed loop
-    amplifies round-off through contact switches (the waveforms part after a few rows while the
-    distance agrees to ~1e-4)."""
-    import llvmlite
-    import numba
-    import torch
-
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as handle:
-            cpu = next((line.split(":", 1)[1].strip() for line in handle
-                        if line.startswith("model name")), cpu)
-    except OSError:
-        pass
-    return {"cpu": cpu, "machine": platform.machine(), "numpy": np.__version__,
-            "numba": numba.__version__, "llvmlite": llvmlite.__version__, "torch": torch.__version__}
-
-
-def _write_json(path: Path, data: dict[str, Any]) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    return atomic_write_text(path, json.dumps(data, indent=2, default=str) + "\n")
-
-
 # ----------------------------------------------------------------------------------------------
 # Generating fields
 # ----------------------------------------------------------------------------------------------
-def run_policy(
-    policy: LoadedPolicy | RotatingFieldPolicy,
-    duration: float = 10.0,
-    physics: str = "accurate",
-    initial_field: str = "zero",
-    progress: bool = True,
-):
-    """Roll out ``policy`` deterministically for ``duration`` s; returns a
-    :class:`~elastica_magnetic_rl.rollout.Rollout`
-    (stops early, with ``meta["diverged"]``, if the simulation blows up)."""
-    import pandas as pd
-    from tqdm.auto import tqdm
-
-    from elastica_magnetic.simulation import TRAJECTORY_COLUMNS
-
-    from .rollout import Rollout
-
-    env = make_env(policy.case, physics, initial_field, duration)
-    obs, _ = env.reset(seed=0)
-    if obs.shape[0] != policy.obs_dim:
-        raise ValueError(f"policy expects {policy.obs_dim} observations, the environment gives "
-                         f"{obs.shape[0]}")
-    sim = env.simulation
-    n = env.max_episode_steps
-    times, positions, observations = [0.0], [sim.rod.position_collection[:2].copy()], [obs]
-    rows = [sim.markers()]
-    fields, actions, rewards = [], [], []
-    diverged = None
-    start = time.perf_counter()
-    with tqdm(total=n, desc=f"generate {policy.case.name}", unit="step", disable=not progress,
-              leave=False) as bar:
-        for _ in range(n):
-            action = policy.act(obs)
-            obs, reward, terminated, truncated, info = env.step(action)
-            if terminated:
-                diverged = info.get("divergence", "diverged")
-                break
-            fields.append(info["field_T"])
-            actions.append(action)
-            rewards.append(reward)
-            times.append(sim.time)
-            positions.append(sim.rod.position_collection[:2].copy())
-            observations.append(obs)
-            rows.append(sim.markers())
-            bar.update(1)
-            if truncated:
-                break
-    wall = time.perf_counter() - start
-    spec = env.robot_spec
-    env.close()
-    meta = {
-        "case": policy.case.name, "physics": physics, "initial_field": initial_field,
-        "duration_s": float(times[-1]), "field_limit_T": env.field_limit,
-        "max_increment_T": env.max_increment, "length_m": spec.length, "radius_m": spec.radius,
-        "n_elements": spec.n_elements, "policy_source": str(policy.source),
-        "policy_kind": policy.kind, "diverged": diverged, "wall_s": wall,
-        "step_ms": 1e3 * wall / max(len(actions), 1),
-    }
-    return Rollout(
-        times=np.asarray(times), positions=np.asarray(positions),
-        fields=np.asarray(fields).reshape(-1, 3), actions=np.asarray(actions).reshape(-1, 2),
-        rewards=np.asarray(rewards), observations=np.asarray(observations, dtype=np.float32),
-        trajectory=pd.DataFrame(rows, columns=list(TRAJECTORY_COLUMNS)), meta=meta,
-    )
-
-
-def _seed_run_dirs(case_dir: Path) -> list[tuple[int, Path]]:
-    """``(seed, run_dir)`` of every ``case_dir/seed<k>/`` holding a checkpoint, ordered by seed."""
-    seeds = sorted((int(p.name[4:]), p) for p in case_dir.glob("seed*")
-                   if p.name[4:].isdigit() and (p / "checkpoint.pt").is_file())
-    if not seeds:
-        raise FileNotFoundError(f"{case_dir}: no seed<k>/checkpoint.pt to evaluate")
-    return seeds
-
-
-def evaluate_seeds(
-    case_dir: str | Path,
-    duration: float = 10.0,
-    progress: bool = True,
-    workers: int = 1,
-) -> list[dict[str, Any]]:
-    """Distance in ``duration`` s of every seed of a case, by the shipping criterion: the final
-    checkpoint of ``case_dir/seed<k>/``, and its ``best.pt`` (best evaluation during training) when
-    there is one, run deterministically in the accurate physics from a zero field (as
-    :func:`generate`).
-
-    Each result is cached in the seed's folder (``evaluation.json``) and reused while the
-    checkpoint's global step and the duration are the same. Returns one dict per seed, ordered by
-    seed: ``seed``, ``global_step``, ``mid_dx_m`` (m), ``diverged``, ``meets_target`` (the
-    authors' distance in 10 s reached; ``None`` for other durations) of the final checkpoint, and
-    ``best``: the same keys for ``best.pt``, or ``None``.
-    """
-
-    results = []
-    seeds = _seed_run_dirs(Path(case_dir))
-    jobs = [(seed, run_dir, duration, progress and workers == 1) for seed, run_dir in seeds]
-    if workers > 1:  # each seed's rollouts in its own process
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
-
-        context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-            results = list(pool.map(_evaluate_seed, jobs))
-    else:
-        results = [_evaluate_seed(job) for job in jobs]
-    return results
-
-
-def _evaluate_seed(job: tuple[int, Path, float, bool]) -> dict[str, Any]:
-    """The final and ``best.pt`` evaluations of one seed folder (cached in ``evaluation.json``)."""
-    from .checkpoint import BEST_NAME
-
-    seed, run_dir, duration, progress = job
-    cache_path = run_dir / "evaluation.json"
-    cache = json.loads(cache_path.read_text()) if cache_path.is_file() else {}
-    final = _evaluate_cached(run_dir / "checkpoint.pt", cache, duration, progress)
-    best = None
-    if (run_dir / BEST_NAME).is_file():
-        best = _evaluate_cached(run_dir / BEST_NAME, cache.get("best") or {}, duration, progress)
-    _write_json(cache_path, {"seed": seed, **final, "best": best})
-    return {"seed": seed, **final, "best": best}
-
-
-#: The training logs :func:`export_seeds` keeps beside each seed's actor (small CSVs: one row per
-#: episode and per evaluation), so learning curves can be drawn from the committed seeds.
-SEED_TRAINING_LOGS = ("episodes.csv", "evaluations.csv")
-
-
-def export_seeds(
-    case_dir: str | Path,
-    dest: str | Path,
-    duration: float = 10.0,
-    progress: bool = True,
-    workers: int = 1,
-) -> dict[str, Any]:
-    """Every seed of a case as a policy folder ``dest/seed<k>/`` (``actor.pt`` and
-    ``policy.json``: what ``msr generate`` reads; no critic, no buffer; and the run's training
-    logs, :data:`SEED_TRAINING_LOGS`) and ``dest/seeds.json``:
-    one object per seed, ``{"seed", "steps", "distance_10s_m", "actor", "checkpoint",
-    "meets_target"}``.
-
-    Each seed's actor is the farther in ``duration`` s (accurate physics, zero field:
-    :func:`evaluate_seeds`) of its final checkpoint and its ``best.pt`` (for a reach task, the one
-    that ends closer to the target); ``checkpoint`` says which,
-    ``steps`` is that actor's training step and ``distance_10s_m`` its distance (m). Returns
-    ``{"seeds": [...], "meeting_target": n, "total": n}``.
-
-    Seeds trained in several runs collect in one ``dest``: the seeds already in
-    ``dest/seeds.json`` that this ``case_dir`` does not have are kept (a seed it has is replaced),
-    provided they were trained on the same case spec with the same hyperparameters; otherwise
-    nothing is written and a ``ValueError`` names the first difference.
-    """
-    from .checkpoint import BEST_NAME
-
-    case_dir, dest = Path(case_dir), Path(dest)
-    seeds = _seed_run_dirs(case_dir)
-    first = resolve_policy(seeds[0][1] / "checkpoint.pt")
-    case = first.case
-    # checked before the long evaluations
-    earlier = _earlier_exported_seeds(dest, {seed for seed, _ in seeds}, first.meta)
-    evaluations = evaluate_seeds(case_dir, duration, progress, workers)
-    entries = []
-    for ev in evaluations:
-        best = ev.get("best")
-        if isinstance(case.task, ReachTask):  # the closer to the target, not the farther
-            better = best is not None and (abs(best["node_dx_m"] - case.task.target)
-                                           < abs(ev["node_dx_m"] - case.task.target))
-        else:
-            better = best is not None and best["mid_dx_m"] > ev["mid_dx_m"]
-        use_best = best is not None and not best["diverged"] and (ev["diverged"] or better)
-        chosen = best if use_best else ev
-        source = case_dir / f"seed{ev['seed']}" / (BEST_NAME if use_best else "checkpoint.pt")
-        folder = f"seed{ev['seed']}"
-        ship(source, folder, dest=dest, measure=False, progress=False, overwrite=True,
-             with_critic=False, with_card=False)
-        for log in SEED_TRAINING_LOGS:  # the learning curve stays with the actor
-            if (case_dir / folder / log).is_file():
-                atomic_write_text(dest / folder / log, (case_dir / folder / log).read_text())
-        entries.append({"seed": ev["seed"], "steps": chosen["global_step"],
-                        "distance_10s_m": chosen["mid_dx_m"], "actor": folder,
-                        "checkpoint": "best" if use_best else "final",
-                        "meets_target": chosen["meets_target"]})
-    entries = sorted(earlier + entries, key=lambda e: e["seed"])
-    _write_json(dest / "seeds.json", entries)
-    return {"seeds": entries, "total": len(entries),
-            "meeting_target": sum(bool(e.get("meets_target")) for e in entries)}
-
-
-def _earlier_exported_seeds(dest: Path, replaced: set[int], meta: dict[str, Any]) -> list[dict[str, Any]]:
-    """The entries of ``dest/seeds.json`` to keep beside a new export (seeds not in ``replaced``),
-    after checking that their actors were trained on the same case spec with the same
-    hyperparameters as the checkpoint whose metadata is ``meta``."""
-    from .td3 import TD3Config
-
-    path = dest / "seeds.json"
-    if not path.is_file():
-        return []
-    try:
-        earlier = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ValueError(f"{path}: unreadable ({exc}); move it away to start a new seeds.json") from exc
-    if not isinstance(earlier, list) or not all(isinstance(e, dict) and "seed" in e and "actor" in e
-                                                for e in earlier):
-        raise ValueError(f"{path}: expected a JSON list of objects with 'seed' and 'actor'")
-    def as_json(x: Any) -> Any:  # checkpoints hold tuples where policy.json holds lists
-        return json.loads(json.dumps(x, default=str))
-
-    def settings(config: dict[str, Any]) -> dict[str, Any]:
-        # a setting absent from an older run's config did not exist then: it ran as its default
-        return {k: v for k, v in as_json({**TD3Config().to_dict(), **config}).items() if k != "seed"}
-
-    config = settings(meta.get("config") or {})
-    kept = []
-    for entry in earlier:
-        if entry["seed"] in replaced:
-            continue
-        policy_json = dest / str(entry["actor"]) / "policy.json"
-        try:
-            other = json.loads(policy_json.read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ValueError(f"{path}: seed {entry['seed']}: its actor's {policy_json} is unreadable "
-                             f"({exc})") from exc
-        if other.get("case_spec") != as_json(meta.get("case_spec")):
-            raise ValueError(f"{dest}: seed {entry['seed']} was trained on another case spec "
-                             f"({other.get('case')!r}) than {meta.get('case')!r}: export into "
-                             "another folder")
-        other_config = settings((other.get("training") or {}).get("config") or {})
-        if other_config != config:
-            differing = sorted(k for k in set(config) | set(other_config)
-                               if config.get(k) != other_config.get(k))
-            raise ValueError(f"{dest}: seed {entry['seed']} was trained with other hyperparameters "
-                             f"({', '.join(differing)} differ): export into another folder")
-        kept.append(entry)
-    return kept
-
-
-def _evaluate_cached(path: Path, cached: dict[str, Any], duration: float,
-                     progress: bool) -> dict[str, Any]:
-    """The accurate evaluation of one checkpoint file with its ``meets_target`` verdict, reusing
-    ``cached`` when it is of the same global step and duration."""
-    policy = resolve_policy(path)
-    step = policy.meta.get("global_step")
-    keys = ("global_step", "duration_s", "physics", "initial_field", "mid_dx_m", "node_dx_m",
-            "diverged")
-    if (cached.get("global_step") == step and cached.get("duration_s") == float(duration)
-            and all(k in cached for k in keys)):
-        entry = {k: cached[k] for k in keys}
-    else:
-        rollout = run_policy(policy, duration, "accurate", "zero", progress)
-        entry = {"global_step": step, "duration_s": float(duration), "physics": "accurate",
-                 "initial_field": "zero", "mid_dx_m": rollout.mid_dx,
-                 "node_dx_m": _node_dx(rollout), "diverged": rollout.meta["diverged"]}
-    entry["meets_target"] = policy.case.meets_yardstick(entry["mid_dx_m"], entry["node_dx_m"],
-                                                        duration, entry["diverged"])
-    return entry
-
-
-def _node_dx(rollout) -> float:
-    """x displacement of the reward's middle node (node ``n // 2``) over a rollout, m."""
-    mid = rollout.positions.shape[2] // 2
-    return float(rollout.positions[-1, 0, mid] - rollout.positions[0, 0, mid])
-
-
 def reach_metrics(rollout, task: ReachTask) -> dict[str, Any]:
     """The reach task's result of a rollout: final signed error (m; the middle node's
     displacement minus the target), whether it ends within the tolerance, and the settling time
@@ -485,13 +188,13 @@ def generate(
         "physics": physics,
         "duration_s": float(rollout.times[-1]),
         "mid_dx_m": rollout.mid_dx,
-        "node32_dx_m": _node_dx(rollout),
+        "node32_dx_m": node_dx(rollout),
         "return": float(np.sum(rollout.rewards)),
         "max_height_m": float(traj.height_max_m.max()),
         "max_field_T": float(np.max(np.hypot(rollout.fields[:, 0], rollout.fields[:, 1])))
         if rollout.n_steps else 0.0,
         "authors_mid_dx_10s_m": loaded.case.yardstick.distance_10s or None,
-        "meets_target": loaded.case.meets_yardstick(rollout.mid_dx, _node_dx(rollout),
+        "meets_target": loaded.case.meets_yardstick(rollout.mid_dx, node_dx(rollout),
                                                     float(rollout.times[-1]), rollout.meta["diverged"]),
         "diverged": rollout.meta["diverged"],
         "fields_csv": str(fields_csv) if fields_csv else None,
@@ -504,7 +207,7 @@ def generate(
         result["reach"] = reach_metrics(rollout, loaded.case.task)
     if figures and rollout.n_steps:
         result["figures"] = rollout_figures(rollout, out, loaded.critic, loaded.actor, gif=gif)
-    _write_json(out / "generate.json", result)
+    atomic_write_json(out / "generate.json", result)
     return result
 
 
@@ -556,7 +259,7 @@ def ship(
     if measure:
         rollout = run_policy(policy, duration, "accurate", "zero", progress)
         measured = {"duration_s": float(rollout.times[-1]), "mid_dx_m": rollout.mid_dx,
-                    "node_dx_m": _node_dx(rollout), "diverged": rollout.meta["diverged"],
+                    "node_dx_m": node_dx(rollout), "diverged": rollout.meta["diverged"],
                     "machine": machine_fingerprint()}
         if isinstance(case.task, ReachTask):
             measured["reach"] = reach_metrics(rollout, case.task)
@@ -608,7 +311,7 @@ def ship(
         "notes": notes,
         "case_spec": case.to_dict(),
     }
-    _write_json(target / POLICY_JSON, info)
+    atomic_write_json(target / POLICY_JSON, info)
     if with_card:
         (target / "MODEL_CARD.md").write_text(model_card(info, summary, case))
     return {"name": name, "dir": str(target), "case": case.name,
@@ -729,7 +432,7 @@ def export_policy(policy: str | Path, out: str | Path = "out/export") -> dict[st
                  f"dB_T = {case.actuation.max_increment:g} * a",
         "source": str(loaded.source),
     }
-    json_path = _write_json(out / "policy.json", info)
+    json_path = atomic_write_json(out / "policy.json", info)
     return {"torchscript": str(ts_path), "torch_export": str(pt2_path), "json": str(json_path),
             "case": case.name, "max_abs_diff": diff, "max_abs_diff_pt2": diff_pt2,
             "obs_dim": loaded.obs_dim, "act_dim": loaded.act_dim}

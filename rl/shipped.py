@@ -20,8 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from .pipeline import _node_dx, machine_fingerprint, run_policy
 from .policy_files import POLICIES_DIR, POLICY_JSON, resolve_policy
+from .policy_runs import machine_fingerprint, node_dx, run_policy
 
 #: A re-run must reproduce the recorded distance to this relative difference (the accurate
 #: physics is deterministic on one machine; this leaves room for other CPUs' round-off).
@@ -73,7 +73,7 @@ def verify_shipped(name: str, duration: float = 10.0, progress: bool = False,
     if abs(duration - float(info["evaluation"]["duration_s"])) < 1e-9:
         recorded = float(info["evaluation"]["mid_dx_m"])
         relative = abs(rollout.mid_dx - recorded) / abs(recorded)
-        met = policy.case.meets_yardstick(rollout.mid_dx, _node_dx(rollout), duration,
+        met = policy.case.meets_yardstick(rollout.mid_dx, node_dx(rollout), duration,
                                           rollout.meta["diverged"])
         result.update(recorded_mid_dx_m=recorded, relative_diff=relative,
                       distance_rtol=DISTANCE_RTOL,

@@ -24,12 +24,12 @@ K seeds as one computation
 --------------------------
 :class:`TD3` holds the networks of ``K`` independent seeds *stacked*: every layer is a batch of K
 weight matrices and a forward pass is one batched matrix product per layer
-(:class:`StackedMLP`); one :meth:`TD3.update` performs the update of every seed, each on its own
-minibatch, with its own noise generators and its own Adam moments. The seeds never mix: each seed's
-loss depends only on its own parameters, and the batched products compute every slice exactly as
-a product of that slice alone, so seed ``k`` of a K-seed :class:`TD3` is bit-identical to the
-same seed trained with ``K = 1`` (CPU; tested). The one-seed case with the conveniences of a single
-agent (``act``, ``policy_module``, ``from_checkpoint``) is
+(:class:`~elastica_magnetic_rl.stacked.StackedMLP`); one :meth:`TD3.update` performs the update of
+every seed, each on its own minibatch, with its own noise generators and its own Adam moments. The
+seeds never mix: each seed's loss depends only on its own parameters, and the batched products
+compute every slice exactly as a product of that slice alone, so seed ``k`` of a K-seed
+:class:`TD3` is bit-identical to the same seed trained with ``K = 1`` (CPU; tested). The one-seed
+case with the conveniences of a single agent (``act``, ``policy_module``, ``from_checkpoint``) is
 :class:`~elastica_magnetic_rl.agent.TD3Agent`.
 
 Conventions of this implementation
@@ -66,6 +66,8 @@ from typing import Any, NamedTuple
 import numpy as np
 import torch
 import torch.nn as nn
+
+from .stacked import StackedMLP, load_member_adam_state, member_adam_state, prefixed, unprefixed
 
 #: Arithmetic choices of :attr:`TD3Config.precision`.
 PRECISIONS = ("fp32", "bf16")
@@ -127,8 +129,8 @@ class TD3Config:
     """``"cpu"`` or ``"cuda"`` (any ``torch.device`` string)."""
     precision: str = "fp32"
     """Arithmetic of the networks' matrix products in the updates: ``"fp32"`` (the paper's) or
-    ``"bf16"`` (bfloat16 products on float32 master weights; see :class:`StackedMLP`). Acting
-    always runs in float32."""
+    ``"bf16"`` (bfloat16 products on float32 master weights; see
+    :class:`~elastica_magnetic_rl.stacked.StackedMLP`). Acting always runs in float32."""
     torch_deterministic: bool = True
     """Switch on ``torch.use_deterministic_algorithms`` while training (restored afterwards)."""
     checkpoint_every: int = 10_000
@@ -358,102 +360,6 @@ class ScaledPolicy(nn.Module):
         return self.center + self.scale * self.actor(obs)
 
 
-class StackedMLP(nn.Module):
-    """``M`` MLPs of one shape evaluated as one computation: layer ``l`` holds ``weights[l]``
-    ``(M, in, out)`` and ``biases[l]`` ``(M, 1, out)``; :meth:`forward` maps ``(M, B, in)`` to
-    ``(M, B, out)`` with one batched matrix product per layer (ReLU between layers). With
-    ``layer_norm``, each hidden layer's output is normalised over its features and scaled by
-    ``norm_gains[l]`` ``(M, 1, out)`` plus ``norm_biases[l]`` before the ReLU (as ``nn.LayerNorm``,
-    eps ``1e-5``).
-
-    Member ``m`` is an ordinary ``nn.Linear`` MLP (:func:`mlp`) whose ``weight`` is
-    ``weights[l][m].T`` (:meth:`member_state` / :meth:`load_member_state` convert, in
-    ``nn.Sequential`` naming).
-
-    ``dtype=torch.bfloat16`` runs the products in bfloat16 on bfloat16 copies of the float32
-    weights (cast once per layer and call; gradients flow back to the float32 masters, which Adam
-    updates in float32), and returns float32; layer normalisation runs in float32.
-    """
-
-    def __init__(self, members: int, sizes: tuple[int, ...], layer_norm: bool = False) -> None:
-        super().__init__()
-        self.members, self.sizes = int(members), tuple(int(s) for s in sizes)
-        self.layer_norm = bool(layer_norm)
-        shapes = zip(sizes[:-1], sizes[1:], strict=False)
-        self.weights = nn.ParameterList(
-            [nn.Parameter(torch.zeros(self.members, i, o)) for i, o in shapes])
-        self.biases = nn.ParameterList(
-            [nn.Parameter(torch.zeros(self.members, 1, o)) for o in sizes[1:]])
-        hidden = sizes[1:-1] if self.layer_norm else ()
-        self.norm_gains = nn.ParameterList(
-            [nn.Parameter(torch.ones(self.members, 1, o)) for o in hidden])
-        self.norm_biases = nn.ParameterList(
-            [nn.Parameter(torch.zeros(self.members, 1, o)) for o in hidden])
-
-    def forward(self, x: torch.Tensor, dtype: torch.dtype = torch.float32,
-                members: slice = slice(None)) -> torch.Tensor:
-        """``x`` ``(m, B, in)`` through members ``members`` (default all ``M``) -> ``(m, B, out)``."""
-        h = x
-        last = len(self.weights) - 1
-        for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True)):
-            w, b = w[members], b[members]
-            if dtype != torch.float32:
-                h = torch.baddbmm(b.to(dtype), h.to(dtype), w.to(dtype))
-            else:
-                h = torch.baddbmm(b, h, w)
-            if i < last:
-                if self.layer_norm:
-                    h = nn.functional.layer_norm(h.float(), h.shape[-1:], eps=1e-5)
-                    h = torch.addcmul(self.norm_biases[i][members], h, self.norm_gains[i][members])
-                h = torch.relu_(h)  # in place: the backward of the op before needs not its output
-        return h.float()
-
-    def _layer_names(self, i: int) -> tuple[str, str | None]:
-        """``nn.Sequential`` indices of hidden layer ``i``'s linear map and of its norm (or None)."""
-        if self.layer_norm:
-            return str(3 * i), (str(3 * i + 1) if i < len(self.weights) - 1 else None)
-        return str(2 * i), None
-
-    def member_state(self, m: int) -> dict[str, torch.Tensor]:
-        """Member ``m`` as an ``nn.Sequential`` state dict (``"0.weight"``, ``"0.bias"``, ...)."""
-        state = {}
-        for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True)):
-            linear, norm = self._layer_names(i)
-            state[f"{linear}.weight"] = w[m].detach().T.contiguous().clone()
-            state[f"{linear}.bias"] = b[m, 0].detach().clone()
-            if norm is not None:
-                state[f"{norm}.weight"] = self.norm_gains[i][m, 0].detach().clone()
-                state[f"{norm}.bias"] = self.norm_biases[i][m, 0].detach().clone()
-        return state
-
-    @torch.no_grad()
-    def load_member_state(self, m: int, state: dict[str, torch.Tensor]) -> None:
-        """Inverse of :meth:`member_state`."""
-        expected = set(self.member_state(m))
-        if set(state) != expected:
-            raise ValueError(f"the state's layers {sorted(state)} are not this network's "
-                             f"{sorted(expected)} (hidden sizes or layer normalisation differ)")
-        for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True)):
-            linear, norm = self._layer_names(i)
-            weight, bias = state[f"{linear}.weight"], state[f"{linear}.bias"]
-            if tuple(weight.shape) != (w.shape[2], w.shape[1]):
-                raise ValueError(f"layer {i}: weight of shape {tuple(weight.shape)}, expected "
-                                 f"{(w.shape[2], w.shape[1])} (hidden sizes differ)")
-            w[m].copy_(weight.T)
-            b[m, 0].copy_(bias)
-            if norm is not None:
-                self.norm_gains[i][m, 0].copy_(state[f"{norm}.weight"])
-                self.norm_biases[i][m, 0].copy_(state[f"{norm}.bias"])
-
-
-def _prefixed(state: dict[str, torch.Tensor], prefix: str) -> dict[str, torch.Tensor]:
-    return {f"{prefix}{k}": v for k, v in state.items()}
-
-
-def _unprefixed(state: dict[str, torch.Tensor], prefix: str) -> dict[str, torch.Tensor]:
-    return {k[len(prefix):]: v for k, v in state.items() if k.startswith(prefix)}
-
-
 def _adam(params: list[torch.Tensor], lr: float) -> torch.optim.Adam:
     """PyTorch's Adam (defaults), fused into one kernel per step where the device supports it."""
     return torch.optim.Adam(params, lr=lr, fused=True)
@@ -650,13 +556,13 @@ class TD3:
     # -- one seed's view ------------------------------------------------------------------------
     def actor_state(self, k: int, target: bool = False) -> dict[str, torch.Tensor]:
         """Seed ``k``'s actor (or target actor) as an :class:`Actor` state dict."""
-        return _prefixed((self.actor_target_net if target else self.actor_net).member_state(k), "net.")
+        return prefixed((self.actor_target_net if target else self.actor_net).member_state(k), "net.")
 
     def critic_state(self, k: int, target: bool = False) -> dict[str, torch.Tensor]:
         """Seed ``k``'s twin critic (or its target) as a :class:`TwinCritic` state dict."""
         net = self.critic_target_net if target else self.critic_net
-        return {**_prefixed(net.member_state(k), "q1_net."),
-                **_prefixed(net.member_state(self.n_seeds + k), "q2_net.")}
+        return {**prefixed(net.member_state(k), "q1_net."),
+                **prefixed(net.member_state(self.n_seeds + k), "q2_net.")}
 
     def actor_module(self, k: int = 0) -> Actor:
         """A standalone copy of seed ``k``'s actor (float32, CPU, eval mode)."""
@@ -675,44 +581,6 @@ class TD3:
         policy = ScaledPolicy(self.actor_module(k), self.action_low, self.action_high)
         return policy.eval().requires_grad_(False)
 
-    @staticmethod
-    def _optimizer_state(optimizer: torch.optim.Adam, net: StackedMLP, members: list[int],
-                         prefixes: list[str]) -> dict[str, Any]:
-        """Members' Adam moments in plain-module naming, and the step count."""
-        params = list(net.parameters())
-        state = [optimizer.state.get(p, {}) for p in params]
-        out: dict[str, Any] = {"step": int(state[0]["step"]) if state[0] else 0}
-        for name in ("exp_avg", "exp_avg_sq"):
-            shadow = StackedMLP(net.members, net.sizes, net.layer_norm)
-            if state[0]:
-                with torch.no_grad():
-                    for p, s in zip(shadow.parameters(), state, strict=True):
-                        p.copy_(s[name])
-            out[name] = {}
-            for m, prefix in zip(members, prefixes, strict=True):
-                out[name].update(_prefixed(shadow.member_state(m), prefix))
-        return out
-
-    @staticmethod
-    def _load_optimizer_state(optimizer: torch.optim.Adam, net: StackedMLP, members: list[int],
-                              prefixes: list[str], state: dict[str, Any]) -> None:
-        params = list(net.parameters())
-        if not optimizer.state.get(params[0]):
-            for p in params:
-                optimizer.state[p] = {"step": torch.tensor(0.0), "exp_avg": torch.zeros_like(p),
-                                      "exp_avg_sq": torch.zeros_like(p)}
-        for name in ("exp_avg", "exp_avg_sq"):
-            shadow = StackedMLP(net.members, net.sizes, net.layer_norm)
-            with torch.no_grad():
-                for p, q in zip(shadow.parameters(), params, strict=True):
-                    p.copy_(optimizer.state[q][name])
-                for m, prefix in zip(members, prefixes, strict=True):
-                    shadow.load_member_state(m, _unprefixed(state[name], prefix))
-                for p, q in zip(shadow.parameters(), params, strict=True):
-                    optimizer.state[q][name].copy_(p)
-        for q in params:
-            optimizer.state[q]["step"] = torch.tensor(float(state["step"]))
-
     def seed_state(self, k: int) -> dict[str, Any]:
         """Everything of seed ``k``: networks and targets (plain-module state dicts), Adam moments
         (same naming) and step counts, its RNG states and the update counter."""
@@ -721,9 +589,9 @@ class TD3:
             "critic": self.critic_state(k),
             "actor_target": self.actor_state(k, target=True),
             "critic_target": self.critic_state(k, target=True),
-            "actor_optimizer": self._optimizer_state(self.actor_optimizer, self.actor_net, [k],
+            "actor_optimizer": member_adam_state(self.actor_optimizer, self.actor_net, [k],
                                                      ["net."]),
-            "critic_optimizer": self._optimizer_state(
+            "critic_optimizer": member_adam_state(
                 self.critic_optimizer, self.critic_net, [k, self.n_seeds + k],
                 ["q1_net.", "q2_net."]),
             "numpy_rng": self.rngs[k].bit_generator.state,
@@ -737,15 +605,15 @@ class TD3:
                     int(state["critic_optimizer"]["step"]))
         if k > 0 and counters != self._counters():
             raise ValueError("seeds trained together must be at the same update count")
-        self.actor_net.load_member_state(k, _unprefixed(state["actor"], "net."))
-        self.actor_target_net.load_member_state(k, _unprefixed(state["actor_target"], "net."))
+        self.actor_net.load_member_state(k, unprefixed(state["actor"], "net."))
+        self.actor_target_net.load_member_state(k, unprefixed(state["actor_target"], "net."))
         for target, name in ((False, "critic"), (True, "critic_target")):
             net = self.critic_target_net if target else self.critic_net
-            net.load_member_state(k, _unprefixed(state[name], "q1_net."))
-            net.load_member_state(self.n_seeds + k, _unprefixed(state[name], "q2_net."))
-        self._load_optimizer_state(self.actor_optimizer, self.actor_net, [k], ["net."],
+            net.load_member_state(k, unprefixed(state[name], "q1_net."))
+            net.load_member_state(self.n_seeds + k, unprefixed(state[name], "q2_net."))
+        load_member_adam_state(self.actor_optimizer, self.actor_net, [k], ["net."],
                                    state["actor_optimizer"])
-        self._load_optimizer_state(self.critic_optimizer, self.critic_net, [k, self.n_seeds + k],
+        load_member_adam_state(self.critic_optimizer, self.critic_net, [k, self.n_seeds + k],
                                    ["q1_net.", "q2_net."], state["critic_optimizer"])
         self.rngs[k].bit_generator.state = state["numpy_rng"]
         self.torch_rngs[k].set_state(state["torch_rng"])
@@ -754,5 +622,5 @@ class TD3:
     def _counters(self) -> tuple[int, int, int]:
         """Critic updates, Adam steps of the actors and of the critics."""
         return (self.num_updates,
-                self._optimizer_state(self.actor_optimizer, self.actor_net, [], [])["step"],
-                self._optimizer_state(self.critic_optimizer, self.critic_net, [], [])["step"])
+                member_adam_state(self.actor_optimizer, self.actor_net, [], [])["step"],
+                member_adam_state(self.critic_optimizer, self.critic_net, [], [])["step"])

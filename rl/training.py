@@ -22,16 +22,13 @@ from typing import Any
 
 import numpy as np
 
+from elastica_magnetic.io import atomic_write_json
+
 from .backends import BACKENDS, run_jobs
 from .cases import Case, case_from_dict, case_from_metadata, load_case
-from .pipeline import (
-    EVAL_DURATION,
-    _versions,
-    _write_json,
-    crawler_config,
-    make_env,
-)
+from .pipeline import EVAL_DURATION, _versions, crawler_config
 from .policy_files import RUN_JSON, _checkpoint_metadata, _checkpoint_path
+from .policy_runs import make_env
 
 __all__ = ["default_layout", "refine", "summarize_run", "train_case", "train_cases"]
 
@@ -122,7 +119,7 @@ def _write_run_json(run_dir: Path, config, metadata: dict[str, Any], steps: int,
     record = {}
     if (run_dir / RUN_JSON).is_file():
         record = json.loads((run_dir / RUN_JSON).read_text())
-    _write_json(run_dir / RUN_JSON, {
+    atomic_write_json(run_dir / RUN_JSON, {
         **record, **metadata, "steps": int(steps), "config": config.to_dict(),
         "torch_threads": int(threads), "versions": _versions(),
         "resumed": int(record.get("resumed", 0)) + int(resumed_now)})
@@ -437,7 +434,7 @@ def train_cases(
             "failed": [r["seed"] for r in per_seed if "error" in r],
         }
         case_dir.mkdir(parents=True, exist_ok=True)
-        _write_json(case_dir / "summary.json", summary)
+        atomic_write_json(case_dir / "summary.json", summary)
         summary["summary_json"] = str(case_dir / "summary.json")
         summaries[case] = summary
     return summaries
@@ -490,7 +487,7 @@ def refine(
     )
     if (out / "checkpoint.pt").exists() and not resume:
         raise FileExistsError(f"{out} already holds a refined checkpoint (use --resume or --out)")
-    _write_json(out / RUN_JSON, {**metadata, "steps": total, "config": config.to_dict(),
+    atomic_write_json(out / RUN_JSON, {**metadata, "steps": total, "config": config.to_dict(),
                                  "versions": _versions()})
     begin = time.perf_counter()
     train_seeds(functools.partial(make_vector_env, case, physics=physics, initial_field="random",

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from elastica_magnetic_rl import pipeline
+from elastica_magnetic_rl import pipeline, policy_runs
 from elastica_magnetic_rl.agent import TD3Agent
 from elastica_magnetic_rl.checkpoint import load_checkpoint
 from elastica_magnetic_rl.env import OBSERVATION_LAYOUT, MagneticCrawlerEnv
@@ -269,8 +269,8 @@ def test_ship_evaluates_every_seed_and_caches(refined, tmp_path, monkeypatch):
     def no_rollout(*args, **kwargs):
         raise AssertionError("the cached evaluation should have been reused")
 
-    monkeypatch.setattr(pipeline, "run_policy", no_rollout)
-    again = pipeline.evaluate_seeds(refined.parent.parent, duration=0.05, progress=False)
+    monkeypatch.setattr(policy_runs, "run_policy", no_rollout)
+    again = policy_runs.evaluate_seeds(refined.parent.parent, duration=0.05, progress=False)
     assert again == evaluations
     # shipping the best actor of a seed says so on the card
     pipeline.ship(refined.parent / "best.pt", "m1-4mT-best", dest=tmp_path, measure=False)
@@ -436,7 +436,7 @@ def test_one_shipped_distance_is_re_run_in_full():
 def test_a_policy_rollout_is_deterministic_on_one_machine():
     """The claim behind the shipped waveforms: on one machine, two rollouts of a policy give the
     same waveform and trajectory bit for bit."""
-    from elastica_magnetic_rl.pipeline import resolve_policy, run_policy
+    from elastica_magnetic_rl.policy_runs import resolve_policy, run_policy
 
     policy = resolve_policy("m2-4mT")
     first, second = (run_policy(policy, 0.3, "accurate", "zero", False) for _ in range(2))

@@ -207,7 +207,7 @@ def test_train_shared_seeds_equal_separate_single_env_runs(tmp_path):
     """Seeds 3 and 7 trained side by side in one simulator (``train_shared``; the second half after
     a resume) end bit-identical to two separate ``train`` runs with single environments: same
     episodes, weights, optimisers and buffers. Only the simulation is shared."""
-    from elastica_magnetic_rl.pipeline import make_env
+    from elastica_magnetic_rl.policy_runs import make_env
     from elastica_magnetic_rl.runner import train, train_shared
     from elastica_magnetic_rl.vector_env import make_vector_env
 
@@ -251,7 +251,7 @@ def test_policies_evaluated_together_equal_each_alone():
     elastica_magnetic_rl.evaluation.evaluate returns with a single environment (the evaluation during
     training)."""
     from elastica_magnetic_rl.evaluation import ActorPolicy, evaluate, evaluate_many
-    from elastica_magnetic_rl.pipeline import make_env
+    from elastica_magnetic_rl.policy_runs import make_env
     from elastica_magnetic_rl.td3 import TD3
     from elastica_magnetic_rl.vector_env import make_vector_env
 
