@@ -487,6 +487,7 @@ def seeds_command(args: argparse.Namespace) -> int:
     from .seed_report import (
         case_seeds,
         learning_curves_by_recipe,
+        recipes_markdown,
         seeds_figure,
         seeds_markdown,
         update_model_card,
@@ -497,12 +498,13 @@ def seeds_command(args: argparse.Namespace) -> int:
         raise CommandError(f"--policies {policies}: no such folder")
     if args.figure is not None and args.figure.exists() and not args.figure.is_dir():
         raise CommandError(f"--figure {args.figure}: exists and is not a folder")
-    reports = []
+    reports, by_case = [], {}
     for case in args.case:
         try:
             groups = case_seeds(case, policies)
         except ValueError as exc:
             raise CommandError(str(exc)) from None
+        by_case[case.name] = groups
         report = {"case": case.name, "recipes": [g.to_dict() for g in groups],
                   "table": seeds_markdown(case, groups)}
         if args.figure is not None and groups:
@@ -518,11 +520,14 @@ def seeds_command(args: argparse.Namespace) -> int:
                 raise CommandError(f"--card: {card}: no model card (ship a policy of {case.name} first)")
             report["card_updated"] = update_model_card(card, case, groups)
         reports.append(report)
+    recipes = recipes_markdown(by_case)
     if args.json:
-        print_result({"cases": reports}, True)
+        print_result({"cases": reports, "recipes_table": recipes}, True)
     else:
         for report in reports:
             print(f"## {report['case']}\n\n{report['table']}\n")
+        if len(reports) > 1:
+            print(f"## Recipes across the cases\n\n{recipes}\n")
     return 0
 
 

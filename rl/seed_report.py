@@ -22,8 +22,8 @@ from elastica_magnetic.io import atomic_write_text
 from .cases import Case
 from .policy_files import POLICIES_DIR
 
-__all__ = ["RecipeSeeds", "case_seeds", "seeds_markdown", "update_model_card", "seeds_figure",
-           "learning_curves_by_recipe"]
+__all__ = ["RecipeSeeds", "case_seeds", "seeds_markdown", "recipes_markdown", "update_model_card",
+           "seeds_figure", "learning_curves_by_recipe"]
 
 #: The model card's section that :func:`update_model_card` keeps current.
 CARD_SECTION = "## Every seed, by recipe"
@@ -94,6 +94,35 @@ def seeds_markdown(case: Case, groups: list[RecipeSeeds]) -> str:
                            else f"{e['seed']}: {1e3 * e['distance_10s_m']:+.1f}")
                           for e, ok in zip(g.entries, g.succeeded, strict=True))
         lines.append(f"| `{g.folder}` | {g.summary} | {cells} |")
+    return "\n".join(lines)
+
+
+def recipe_change(folder: str) -> str:
+    """What a recipe folder's recipe changes from the paper's, as ``field = value`` settings of
+    :class:`~elastica_magnetic_rl.td3.TD3Config` (from :data:`~elastica_magnetic_rl.recipes.RECIPES`);
+    a folder that names no recipe (e.g. ``paper-bf16``) says so."""
+    from .recipes import RECIPES
+
+    if folder not in RECIPES:
+        return "(not a recipe: see the folder's seeds)"
+    changes = RECIPES[folder]
+    return ", ".join(f"`{k} = {v}`" for k, v in changes.items()) or "none (the authors' settings)"
+
+
+def recipes_markdown(by_case: dict[str, list[RecipeSeeds]]) -> str:
+    """The ablation across cases: one row per recipe folder (the paper's first), its change from
+    the paper's recipe, and per case the seeds that succeed (``k of n``; blank: none trained)."""
+    folders = sorted({g.folder for groups in by_case.values() for g in groups},
+                     key=lambda f: (f != "paper", f))
+    cases = list(by_case)
+    lines = ["| recipe (folder) | change from the paper's | " + " | ".join(cases) + " |",
+             "|---|---|" + "---|" * len(cases)]
+    for folder in folders:
+        cells = []
+        for case in cases:
+            group = next((g for g in by_case[case] if g.folder == folder), None)
+            cells.append(group.summary if group is not None else "")
+        lines.append(f"| `{folder}` | {recipe_change(folder)} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 

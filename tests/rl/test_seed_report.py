@@ -98,3 +98,18 @@ def test_learning_curves_come_from_the_logs_the_exported_seeds_keep(tmp_path):
                    + "".join(f"{i},{2000 * (i + 1)},{10.0 * i},2000,0,1,{i}.0\n" for i in range(10)))
     out = learning_curves_by_recipe(case, case_seeds(case, tmp_path), tmp_path / "c.png")
     assert out == tmp_path / "c.png" and out.stat().st_size > 1000
+
+
+def test_the_recipes_table_across_cases(tmp_path, capsys):
+    """One row per recipe folder with its change from the paper's recipe, one column per case."""
+    _write_seeds(tmp_path, "m1-4mT", "paper", {0: 0.0221, 1: 0.0018})
+    _write_seeds(tmp_path, "m1-4mT", "pink-ln", {0: 0.0221})
+    _write_seeds(tmp_path, "m1-10mT", "paper", {0: 0.170, 1: 0.019, 2: 0.150})
+    capsys.readouterr()
+    assert msr(["seeds", "m1-4mT", "m1-10mT", "--policies", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    table = out[out.index("## Recipes across the cases"):]
+    assert "| recipe (folder) | change from the paper's | m1-4mT | m1-10mT |" in table
+    assert "| `paper` | none (the authors' settings) | 1 of 2 | 2 of 3 |" in table
+    assert ("| `pink-ln` | `noise_color = 1.0`, `noise_horizon = 2000`, `critic_layer_norm = True` "
+            "| 1 of 1 |  |") in table
