@@ -1,0 +1,55 @@
+"""benchmarks/recipe_campaign.py: which seeds it trains, resumes, skips and exports."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def campaign():
+    spec = importlib.util.spec_from_file_location("recipe_campaign",
+                                                  ROOT / "benchmarks" / "recipe_campaign.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up there
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_plan_trains_what_is_missing_and_resumes_what_was_started(campaign, tmp_path,
+                                                                      monkeypatch, capsys):
+    policies, runs = tmp_path / "policies", tmp_path / "runs"
+    exported = policies / "m1-4mT" / "seeds" / "pink" / "seeds.json"
+    exported.parent.mkdir(parents=True)
+    exported.write_text(json.dumps([{"seed": s, "distance_10s_m": 0.02, "actor": f"seed{s}"}
+                                    for s in (0, 1, 5)]))
+    states = {("pink", 2): "partial", ("pink", 3): "partial", ("pink", 4): "done",
+              ("paper", 0): "partial"}
+
+    def fake_state(run_dir, steps):
+        assert steps == 100_000
+        return states.get((run_dir.parent.parent.name, int(run_dir.name[4:])), "none")
+
+    monkeypatch.setattr(campaign, "run_state", fake_state)
+    batches, exports = campaign.plan({"m1-4mT": 100_000}, ["paper", "pink"], 8, runs, policies)
+    assert [b.describe() for b in batches] == [
+        "m1-4mT paper: resume seed 0", "m1-4mT paper: train seeds 1-7",
+        "m1-4mT pink: resume seeds 2-3", "m1-4mT pink: train seeds 6-7"]
+    assert exports == [("m1-4mT", "paper"), ("m1-4mT", "pink")]  # pink's seed 4: exported only
+    # all eight exported: nothing to do
+    exported.write_text(json.dumps([{"seed": s, "distance_10s_m": 0.02, "actor": f"seed{s}"}
+                                    for s in range(8)]))
+    assert campaign.plan({"m1-4mT": 100_000}, ["pink"], 8, runs, policies) == ([], [])
+    # the dry run prints the plan and trains nothing; an unknown case fails before anything
+    assert campaign.main(["--cases", "m1-4mT", "--recipes", "pink", "--policies", str(policies),
+                          "--runs", str(runs), "--dry-run"]) == 0
+    assert "0 training calls, 0 exports" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        campaign.main(["--cases", "no-such-case", "--dry-run"])
+    assert "unknown case 'no-such-case'" in capsys.readouterr().err
