@@ -70,6 +70,19 @@ def discounted_returns(rewards: np.ndarray, terminated: np.ndarray, ends: np.nda
     return returns, complete
 
 
+def interleave_stride(obs: np.ndarray, next_obs: np.ndarray, most: int = 64) -> int:
+    """How many environments' transitions a replay buffer interleaves (a vector run stores each
+    step's ``N`` transitions one after the other): the smallest ``N`` for which a transition's
+    ``next_obs`` is, nearly always, the ``obs`` of the transition ``N`` rows later (1 when none
+    fits). ``obs``, ``next_obs``: ``(T, obs_dim)`` in storage order."""
+    rows = slice(max(0, len(obs) - 4000), len(obs))  # the recent rows are enough
+    obs, next_obs = obs[rows], next_obs[rows]
+    for n in range(1, min(most, len(obs) - 1) + 1):
+        if np.mean(np.all(next_obs[:-n] == obs[n:], axis=1)) > 0.5:
+            return n
+    return 1
+
+
 def _chronological(buffer: dict[str, Any]) -> dict[str, np.ndarray]:
     keys = ("obs", "actions", "rewards", "next_obs", "terminated")
     data = {k: buffer[k].numpy() for k in keys}
@@ -84,7 +97,9 @@ def run_health(run: str | os.PathLike, recent: int = 20_000) -> dict[str, Any]:
     """Critic calibration and actor saturation of a run (a run directory or its
     ``checkpoint.pt``) on its last ``recent`` transitions.
 
-    Returns a JSON-ready dict: ``global_step``; ``transitions`` used and ``complete_returns``
+    Returns a JSON-ready dict: ``global_step``; ``environments`` (sub-environments whose
+    transitions the buffer interleaves: :func:`interleave_stride`); ``transitions`` used and
+    ``complete_returns``
     (those with a complete discounted return); ``q_data_mean`` (mean of ``(Q1 + Q2) / 2`` at the
     stored actions, on the transitions with a complete return), ``q_policy_mean`` (``Q1(s, mu(s))``, what the
     actor ascends) and ``return_mean`` / ``return_std`` (the Monte-Carlo discounted returns, reward
@@ -109,7 +124,7 @@ def run_health(run: str | os.PathLike, recent: int = 20_000) -> dict[str, Any]:
         raise ValueError(f"{run}: its replay buffer holds {len(data['rewards'])} transitions; "
                          "diagnose a run that has trained")
     # a vector run stores its sub-environments' transitions interleaved, step by step
-    envs = max(1, int((ckpt.get("metadata") or {}).get("envs") or 1))
+    envs = interleave_stride(data["obs"], data["next_obs"])
     gamma = float(cfg["gamma"])
     returns, complete, rows = [], [], []
     total = len(data["rewards"])
@@ -146,6 +161,7 @@ def run_health(run: str | os.PathLike, recent: int = 20_000) -> dict[str, Any]:
         "global_step": int(ckpt["global_step"]),
         "gamma": gamma,
         "critic_layer_norm": bool(cfg.get("critic_layer_norm", False)),
+        "environments": envs,
         "transitions": int(len(g)),
         "complete_returns": int(c.sum()),
         "q_data_mean": q_mean,

@@ -109,3 +109,16 @@ def test_msr_diagnose(small_run, tmp_path, capsys):
     assert "nothing: no such run directory" in capsys.readouterr().err
     assert msr(["diagnose", str(small_run), "--recent", "1"]) == 2
     assert "--recent must be >= 2" in capsys.readouterr().err
+
+
+def test_the_interleaving_of_a_vector_runs_buffer_is_found():
+    from elastica_magnetic_rl.diagnostics import interleave_stride
+
+    rng = np.random.default_rng(0)
+    for n in (1, 3):  # n environments, 50 steps each, stored step by step
+        trajectories = rng.normal(size=(n, 51, 4))
+        obs = trajectories[:, :-1].transpose(1, 0, 2).reshape(-1, 4)
+        next_obs = trajectories[:, 1:].transpose(1, 0, 2).reshape(-1, 4)
+        assert interleave_stride(obs, next_obs) == n
+        ends = episode_ends(obs[n - 1::n], next_obs[n - 1::n])
+        assert ends.tolist() == [False] * 49 + [True]
