@@ -26,8 +26,10 @@ from typing import Any
 import numpy as np
 import torch
 
+from elastica_magnetic.io import atomic_save
+
 from .checkpoint import load_checkpoint, refuse_networks_only
-from .td3 import Actor, TwinCritic
+from .policy_files import build_networks
 
 #: ``|pre-tanh output|`` above which the actor counts as saturated (``tanh(3) = 0.995``).
 SATURATION_PREACTIVATION = 3.0
@@ -115,10 +117,8 @@ def run_health(run: str | os.PathLike, recent: int = 20_000) -> dict[str, Any]:
     refuse_networks_only(ckpt, run)
     cfg, agent = ckpt["config"], ckpt["agent"]
     obs_dim, act_dim, hidden = int(ckpt["obs_dim"]), int(ckpt["act_dim"]), tuple(cfg["hidden_sizes"])
-    actor = Actor(obs_dim, act_dim, hidden)
-    actor.load_state_dict(agent["actor"])
-    critic = TwinCritic(obs_dim, act_dim, hidden, bool(cfg.get("critic_layer_norm", False)))
-    critic.load_state_dict(agent["critic"])
+    actor, critic = build_networks(obs_dim, act_dim, hidden, agent["actor"], agent["critic"],
+                                   Path(run), bool(cfg.get("critic_layer_norm", False)))
     data = _chronological(ckpt["buffer"])
     if len(data["rewards"]) < 2:
         raise ValueError(f"{run}: its replay buffer holds {len(data['rewards'])} transitions; "
@@ -213,11 +213,10 @@ def health_figure(health: dict[str, Any], path: str | os.PathLike) -> Path:
     fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.stem + ".tmp" + path.suffix)
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    os.replace(tmp, path)
-    return path
+    try:
+        return atomic_save(path, lambda tmp: fig.savefig(tmp, dpi=110))
+    finally:
+        plt.close(fig)
 
 
 def public(health: dict[str, Any]) -> dict[str, Any]:

@@ -102,9 +102,12 @@ class LoadedPolicy:
             return self.actor(x)[0].numpy().astype(np.float32)
 
 
-def _build_networks(obs_dim: int, act_dim: int, hidden: tuple[int, ...], actor_state: dict,
-                    critic_state: dict | None, source: Path | None = None,
-                    critic_layer_norm: bool = False):
+def build_networks(obs_dim: int, act_dim: int, hidden: tuple[int, ...], actor_state: dict,
+                   critic_state: dict | None, source: Path | None = None,
+                   critic_layer_norm: bool = False):
+    """The actor (and the twin critic when ``critic_state`` is given) of a checkpoint or policy
+    file, loaded with ``actor_state``/``critic_state``, in eval mode and without gradients. Weights
+    that do not fit the declared architecture raise a :class:`PolicyFileError` naming ``source``."""
     from .td3 import Actor, TwinCritic
 
     def load(network, state, what: str):
@@ -199,7 +202,7 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
             obs_dim, act_dim = ckpt["obs_dim"], ckpt["act_dim"]
         except (KeyError, TypeError) as exc:
             raise PolicyFileError(f"{path}: incomplete checkpoint (no {exc})") from None
-        actor, critic = _build_networks(obs_dim, act_dim, hidden, actor_state, critic_state, path,
+        actor, critic = build_networks(obs_dim, act_dim, hidden, actor_state, critic_state, path,
                                         bool(ckpt["config"].get("critic_layer_norm", False)))
         meta = {**meta, "global_step": int(ckpt["global_step"]), "config": ckpt["config"],
                 "checkpoint_kind": ckpt.get("kind", "full")}
@@ -223,7 +226,7 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
         critic_state = None
         if (path / "critic.pt").is_file():
             critic_state = _torch_load(path / "critic.pt")
-        actor, critic = _build_networks(arch["obs_dim"], arch["act_dim"], hidden, actor_state,
+        actor, critic = build_networks(arch["obs_dim"], arch["act_dim"], hidden, actor_state,
                                         critic_state, path / "actor.pt",
                                         bool(arch.get("critic_layer_norm", False)))
         return LoadedPolicy(actor, critic, case, path, "shipped", meta, arch["obs_dim"],

@@ -4,7 +4,6 @@ resume, per-dimension exploration noise, a Pendulum smoke run and the replay buf
 from __future__ import annotations
 
 import csv
-import dataclasses
 import subprocess
 import sys
 
@@ -16,7 +15,8 @@ from elastica_magnetic_rl.agent import TD3Agent
 from elastica_magnetic_rl.checkpoint import load_checkpoint
 from elastica_magnetic_rl.evaluation import ActorPolicy, evaluate
 from elastica_magnetic_rl.runner import train
-from elastica_magnetic_rl.td3 import TD3, Batch, ReplayBuffer, TD3Config
+from elastica_magnetic_rl.td3 import Batch, ReplayBuffer, TD3Config
+from state_compare import assert_state_equal
 
 torch.set_num_threads(1)
 
@@ -248,21 +248,6 @@ class _Killed(Exception):
     pass
 
 
-def _assert_state_equal(a, b, path="state"):
-    if isinstance(a, torch.Tensor):
-        assert torch.equal(a, b), path
-    elif isinstance(a, dict):
-        assert a.keys() == b.keys(), path
-        for k in a:
-            _assert_state_equal(a[k], b[k], f"{path}.{k}")
-    elif isinstance(a, list | tuple):
-        assert len(a) == len(b), path
-        for i, (x, y) in enumerate(zip(a, b, strict=True)):
-            _assert_state_equal(x, y, f"{path}[{i}]")
-    else:
-        assert a == b, path
-
-
 def test_killed_and_resumed_run_is_bit_identical(tmp_path):
     steps, cfg = 200, toy_config(seed=7)
     full = train(ToyEnv, cfg, steps, tmp_path / "full", progress=False)
@@ -281,10 +266,10 @@ def test_killed_and_resumed_run_is_bit_identical(tmp_path):
         train(ToyEnv, cfg, steps, tmp_path / "killed", progress=False)
     resumed = train(ToyEnv, cfg, steps, tmp_path / "killed", resume=True, progress=False)
 
-    _assert_state_equal(full.state_dict(), resumed.state_dict())
+    assert_state_equal(full.state_dict(), resumed.state_dict())
     a, b = load_checkpoint(tmp_path / "full"), load_checkpoint(tmp_path / "killed")
     for key in ("agent", "buffer", "global_step", "episode", "python_rng", "torch_cpu_rng"):
-        _assert_state_equal(a[key], b[key], key)
+        assert_state_equal(a[key], b[key], key)
 
     def log(run):
         with open(tmp_path / run / "episodes.csv") as f:
@@ -424,7 +409,7 @@ def test_periodic_evaluation_keeps_the_best_and_leaves_training_unchanged(tmp_pa
     plain = train(ToyEnv, toy_config(seed=7), steps, tmp_path / "plain", progress=False)
     cfg = toy_config(seed=7, eval_every=50, eval_episodes=3)
     agent = train(ToyEnv, cfg, steps, tmp_path / "eval", progress=False, eval_env_fn=ToyEnv)
-    _assert_state_equal(plain.state_dict(), agent.state_dict())  # evaluation draws no training RNG
+    assert_state_equal(plain.state_dict(), agent.state_dict())  # evaluation draws no training RNG
 
     rows = _evaluations(tmp_path / "eval")
     episode_ends = [int(r["global_step"]) for r in csv.DictReader(open(tmp_path / "eval" / "episodes.csv"))]
@@ -469,7 +454,7 @@ def test_evaluation_survives_a_kill_and_resume(tmp_path):
     assert _evaluations(tmp_path / "full") == _evaluations(tmp_path / "killed")
     a, b = load_checkpoint(tmp_path / "full" / "best.pt"), load_checkpoint(tmp_path / "killed" / "best.pt")
     assert a["global_step"] == b["global_step"]
-    _assert_state_equal(a["agent"], b["agent"])
+    assert_state_equal(a["agent"], b["agent"])
 
 
 def test_resume_may_switch_on_evaluation_but_not_change_hyperparameters(tmp_path):
@@ -486,7 +471,7 @@ def test_resume_may_switch_on_evaluation_but_not_change_hyperparameters(tmp_path
     start = load_checkpoint(tmp_path / "run")["global_step"]
     resumed = train(ToyEnv, toy_config(seed=5, eval_every=40), 200, tmp_path / "run", resume=True,
                     progress=False, eval_env_fn=ToyEnv)
-    _assert_state_equal(straight.state_dict(), resumed.state_dict())
+    assert_state_equal(straight.state_dict(), resumed.state_dict())
     steps = [r["global_step"] for r in _evaluations(tmp_path / "run")]
     assert steps and all(start < s <= 200 for s in steps) and steps[-1] == 200
     assert load_checkpoint(tmp_path / "run")["config"]["eval_every"] == 40
@@ -497,105 +482,8 @@ def test_resume_may_switch_on_evaluation_but_not_change_hyperparameters(tmp_path
 
 
 # ----------------------------------------------------------------------------------------------
-# K seeds as one computation
+# K seeds side by side (their stacked update: tests/rl/test_stacked.py)
 # ----------------------------------------------------------------------------------------------
-@pytest.mark.parametrize("critic_layer_norm", [False, True])
-def test_k_seeds_update_equals_each_seed_alone(critic_layer_norm):
-    """The stacked update of 3 seeds equals each seed's own update, bit for bit (every seed on
-    its own minibatches, noise and Adam moments), with and without the critics' layer norms."""
-    obs_dim, act_dim = 5, 2
-    configs = [TD3Config(seed=s, hidden_sizes=(8, 8), batch_size=16,
-                         critic_layer_norm=critic_layer_norm) for s in (0, 4, 9)]
-    buffers = []
-    for k in range(3):
-        buf, rng = ReplayBuffer(200, obs_dim, act_dim), np.random.default_rng(k)
-        for i in range(100):
-            buf.add(rng.normal(size=obs_dim), rng.uniform(-1, 1, act_dim), rng.normal(),
-                    rng.normal(size=obs_dim), i % 7 == 0)
-        buffers.append(buf)
-    low, high = -np.ones(act_dim), np.ones(act_dim)
-    group = TD3(obs_dim, act_dim, low, high, configs)
-    alone = [TD3(obs_dim, act_dim, low, high, [c]) for c in configs]
-    for _ in range(5):  # critic steps and two delayed actor steps
-        group.update([b.sample(16, group.rngs[k]) for k, b in enumerate(buffers)])
-        for agent, b in zip(alone, buffers, strict=True):
-            agent.update([b.sample(16, agent.rngs[0])])
-    for k, agent in enumerate(alone):
-        _assert_state_equal(group.seed_state(k), agent.seed_state(0), f"seed {k}")
-    # and the seeds did learn different things
-    assert not torch.equal(group.actor_state(0)["net.0.weight"], group.actor_state(1)["net.0.weight"])
-
-
-def _ln_toy_batches(obs_dim, act_dim, n=64, seed=0):
-    rng = np.random.default_rng(seed)
-    buf = ReplayBuffer(n, obs_dim, act_dim)
-    for i in range(n):
-        buf.add(rng.normal(size=obs_dim), rng.uniform(-1, 1, act_dim), rng.normal(),
-                rng.normal(size=obs_dim), i % 9 == 0)
-    return buf
-
-
-def test_critic_layer_norm_is_pytorchs_layernorm_and_round_trips():
-    """With ``critic_layer_norm`` each stacked critic is the plain ``TwinCritic`` of
-    Linear-LayerNorm-ReLU layers (same outputs to round-off), starts from the same linear weights
-    as without the norms (unit gains, zero biases), and its state (weights, norms, Adam moments)
-    goes through ``seed_state``/``load_seed_state`` exactly, so a resumed run continues exactly."""
-    obs_dim, act_dim, hidden = 5, 2, (8, 8)
-    low, high = -np.ones(act_dim), np.ones(act_dim)
-    cfg = TD3Config(seed=3, hidden_sizes=hidden, batch_size=16, critic_layer_norm=True)
-    plain_cfg = dataclasses.replace(cfg, critic_layer_norm=False)
-    agent, plain = TD3(obs_dim, act_dim, low, high, [cfg]), TD3(obs_dim, act_dim, low, high, [plain_cfg])
-    state, plain_state = agent.critic_state(0), plain.critic_state(0)
-    # nn.Sequential naming: Linear 0, LayerNorm 1, (ReLU 2), Linear 3, LayerNorm 4, (ReLU 5), Linear 6
-    assert set(state) == {f"q{q}_net.{i}.{p}" for q in (1, 2) for i in (0, 1, 3, 4, 6)
-                          for p in ("weight", "bias")}
-    torch.testing.assert_close(state["q1_net.3.weight"], plain_state["q1_net.2.weight"], rtol=0, atol=0)
-    torch.testing.assert_close(state["q2_net.6.bias"], plain_state["q2_net.4.bias"], rtol=0, atol=0)
-    assert torch.equal(state["q1_net.1.weight"], torch.ones(8))
-    buf = _ln_toy_batches(obs_dim, act_dim)
-    for _ in range(4):  # moves the gains and biases of the norms away from 1 and 0
-        agent.update([buf.sample(16, agent.rngs[0])])
-    critic = agent.critic_module(0)
-    assert isinstance(critic.q1_net[1], torch.nn.LayerNorm)
-    assert not torch.equal(critic.q1_net[1].weight, torch.ones(8))
-    obs = torch.randn(7, obs_dim)
-    act = torch.rand(7, act_dim) * 2 - 1
-    stacked_q1, stacked_q2 = agent._q(agent.critic_net, obs[None], act[None], torch.float32)
-    q1, q2 = critic(obs, act)
-    torch.testing.assert_close(stacked_q1[0], q1, rtol=1e-5, atol=1e-6)
-    torch.testing.assert_close(stacked_q2[0], q2, rtol=1e-5, atol=1e-6)
-    # round trip, then both copies take the same next steps
-    copy_ = TD3(obs_dim, act_dim, low, high, [cfg])
-    copy_.load_seed_state(0, agent.seed_state(0))
-    _assert_state_equal(copy_.seed_state(0), agent.seed_state(0), "after loading")
-    for _ in range(3):
-        agent.update([buf.sample(16, agent.rngs[0])])
-        copy_.update([buf.sample(16, copy_.rngs[0])])
-    _assert_state_equal(copy_.seed_state(0), agent.seed_state(0), "after 3 more updates")
-    # a critic without norms does not load into one with them, and says why
-    with pytest.raises(ValueError, match="layer normalisation"):
-        agent.critic_net.load_member_state(0, plain.critic_net.member_state(0))
-
-
-def test_critic_layer_norm_bounds_the_critic_far_from_the_data():
-    """Why the recipe has it: a plain ReLU critic grows linearly with the size of its input, so
-    it can extrapolate without bound beyond the replay data; a layer-normalised critic's hidden
-    features have unit root mean square whatever the input, so its Q is bounded by the weights."""
-    obs_dim, act_dim = 5, 2
-    low, high = -np.ones(act_dim), np.ones(act_dim)
-    q_at = {}
-    for ln in (False, True):
-        agent = TD3(obs_dim, act_dim, low, high, [TD3Config(seed=1, hidden_sizes=(16, 16),
-                                                            critic_layer_norm=ln)])
-        obs = torch.randn(1, 1, obs_dim)
-        act = torch.zeros(1, 1, act_dim)
-        with torch.no_grad():
-            q_at[ln] = [abs(float(agent._q(agent.critic_net, s * obs, act, torch.float32)[0]))
-                        for s in (1.0, 1e3)]
-    assert q_at[False][1] > 100 * q_at[False][0]  # the plain critic scales with the input
-    assert q_at[True][1] < 10 * max(q_at[True][0], 1e-3)  # the normalised one does not
-
-
 def test_seeds_trained_together_equal_their_runs_alone(tmp_path):
     from elastica_magnetic_rl.runner import train_seeds
 
@@ -606,7 +494,7 @@ def test_seeds_trained_together_equal_their_runs_alone(tmp_path):
         train(ToyEnv, toy_config(seed=s), 150, tmp_path / f"alone{s}", progress=False)
         a, b = load_checkpoint(tmp_path / f"g{s}"), load_checkpoint(tmp_path / f"alone{s}")
         for key in ("agent", "buffer", "global_step", "episode"):
-            _assert_state_equal(a[key], b[key], key)
+            assert_state_equal(a[key], b[key], key)
 
 
 def _sync(env_fn, n):
@@ -689,7 +577,7 @@ def test_pink_exploration_is_correlated_in_time_and_trains_reproducibly(tmp_path
     train_seeds(lambda k: _sync(ToyEnv, k), configs, 150, [tmp_path / "g2", tmp_path / "g5"],
                 progress=False)
     alone = train(ToyEnv, configs[0], 150, tmp_path / "alone", progress=False)
-    _assert_state_equal(load_checkpoint(tmp_path / "g2")["agent"], alone.state_dict())
+    assert_state_equal(load_checkpoint(tmp_path / "g2")["agent"], alone.state_dict())
 
     def kill_late(row):
         if row["global_step"] >= 130:
@@ -698,7 +586,7 @@ def test_pink_exploration_is_correlated_in_time_and_trains_reproducibly(tmp_path
     with pytest.raises(_Killed):
         train(ToyEnv, configs[0], 150, tmp_path / "killed", progress=False, log_fn=kill_late)
     resumed = train(ToyEnv, configs[0], 150, tmp_path / "killed", resume=True, progress=False)
-    _assert_state_equal(alone.state_dict(), resumed.state_dict())
+    assert_state_equal(alone.state_dict(), resumed.state_dict())
     white_run = load_checkpoint(tmp_path / "g2")
     assert white_run["config"]["noise_color"] == 1.0
 
@@ -717,7 +605,7 @@ def test_seeds_evaluated_together_log_what_each_alone_logs(tmp_path):
         together, alone = _evaluations(tmp_path / f"g{s}"), _evaluations(tmp_path / f"alone{s}")
         assert together == alone and len(alone) >= 3
         a = load_checkpoint(tmp_path / f"g{s}" / "best.pt")
-        _assert_state_equal(a["agent"], load_checkpoint(tmp_path / f"alone{s}" / "best.pt")["agent"])
+        assert_state_equal(a["agent"], load_checkpoint(tmp_path / f"alone{s}" / "best.pt")["agent"])
 
 
 _FAULTS_SCRIPT = """
