@@ -39,6 +39,7 @@ from elastica_magnetic.io import (
     atomic_save,
     atomic_write,
     atomic_write_json,
+    atomic_write_text,
     prepare_output_dir,
 )
 from elastica_magnetic.openloop import check_duration
@@ -248,14 +249,12 @@ def ship(
     target = (Path(dest) if dest is not None else POLICIES_DIR) / name
     if (target / POLICY_JSON).exists() and not overwrite:
         raise FileExistsError(f"{target} already holds a policy (pass overwrite / --force)")
-    target.mkdir(parents=True, exist_ok=True)
-    torch.save(policy.actor.state_dict(), target / "actor.pt")
-    if policy.critic is not None and with_critic:
-        torch.save(policy.critic.state_dict(), target / "critic.pt")
+    # Everything is computed before the folder is touched: a failed or interrupted measurement
+    # leaves a policy being replaced (--force) as it was.
     meta = policy.meta
     case = policy.case
     summary = _find_summary(policy.source, case.name)
-    measured = None
+    measured, fields = None, None
     if measure:
         rollout = run_policy(policy, duration, "accurate", "zero", progress)
         measured = {"duration_s": float(rollout.times[-1]), "mid_dx_m": rollout.mid_dx,
@@ -264,7 +263,7 @@ def ship(
         if isinstance(case.task, ReachTask):
             measured["reach"] = reach_metrics(rollout, case.task)
         if rollout.n_steps:
-            write_field_csv(target / "fields.csv", rollout.fields)
+            fields = rollout.fields
     seed_evaluations = None
     if evaluate_all_seeds:
         if summary is None:
@@ -311,9 +310,23 @@ def ship(
         "notes": notes,
         "case_spec": case.to_dict(),
     }
+    card = model_card(info, summary, case) if with_card else None
+    # each file atomically; policy.json, which names the actor's checksum, after the weights
+    target.mkdir(parents=True, exist_ok=True)
+    atomic_save(target / "actor.pt", lambda tmp: torch.save(policy.actor.state_dict(), tmp))
+    written = {"actor.pt", POLICY_JSON}
+    if policy.critic is not None and with_critic:
+        atomic_save(target / "critic.pt", lambda tmp: torch.save(policy.critic.state_dict(), tmp))
+        written.add("critic.pt")
+    if fields is not None:
+        write_field_csv(target / "fields.csv", fields)
+        written.add("fields.csv")
     atomic_write_json(target / POLICY_JSON, info)
-    if with_card:
-        (target / "MODEL_CARD.md").write_text(model_card(info, summary, case))
+    if card is not None:
+        atomic_write_text(target / "MODEL_CARD.md", card)
+        written.add("MODEL_CARD.md")
+    for stale in {"critic.pt", "fields.csv", "MODEL_CARD.md"} - written:
+        (target / stale).unlink(missing_ok=True)  # the replaced policy's, not this one's
     return {"name": name, "dir": str(target), "case": case.name,
             "evaluation": measured, "files": sorted(p.name for p in target.iterdir())}
 

@@ -278,6 +278,31 @@ def test_ship_evaluates_every_seed_and_caches(refined, tmp_path, monkeypatch):
     assert "best.pt" in card and "the best of the evaluations during training" in card
 
 
+def test_ship_over_a_policy_keeps_it_when_the_measurement_fails(refined, tmp_path, monkeypatch):
+    """``ship --force`` computes everything before it writes: a measurement that fails (or is
+    interrupted) leaves the policy it was to replace byte for byte as it was; one that succeeds
+    replaces it, and the old waveform does not outlive its actor."""
+    dest = tmp_path / "policies"
+    pipeline.ship(refined, "m1-4mT", dest=dest, measure=True, duration=0.03, progress=False)
+    folder = dest / "m1-4mT"
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    assert "fields.csv" in before
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(pipeline, "run_policy", interrupted)
+    best = refined.parent / "best.pt"  # another actor
+    with pytest.raises(KeyboardInterrupt):
+        pipeline.ship(best, "m1-4mT", dest=dest, overwrite=True, progress=False)
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
+    # replaced without a measurement: the replaced policy's fields.csv goes with it
+    pipeline.ship(best, "m1-4mT", dest=dest, overwrite=True, measure=False, progress=False)
+    assert not (folder / "fields.csv").exists()
+    assert json.loads((folder / "policy.json").read_text())["training"]["best_evaluation"]
+    assert pipeline.resolve_policy(folder).kind == "shipped"  # the new files belong together
+
+
 def test_export_seeds_writes_generate_ready_folders_and_seeds_json(trained, tmp_path, capsys):
     dest = tmp_path / "seeds" / "paper"
     result = run_msr(capsys, "export-seeds", str(trained / "m1-4mT"), "--dest", str(dest),
