@@ -12,6 +12,7 @@ picks up where it stopped when run again with the same arguments.
     python benchmarks/recipe_campaign.py --dry-run                 # what is missing; nothing runs
     python benchmarks/recipe_campaign.py --cases m2-4mT --recipes paper pink
     python benchmarks/recipe_campaign.py --threads 1               # beside other work on the cores
+    python benchmarks/recipe_campaign.py --cases m1-10mT --recipes pink-ln-unsat --only 2 3  # a screen
 """
 
 from __future__ import annotations
@@ -68,14 +69,16 @@ def run_state(run_dir: Path, steps: int) -> str:
     return "done" if step >= steps else "partial"
 
 
-def plan(steps: dict[str, int], recipes: list[str], seeds: int, runs: Path,
+def plan(steps: dict[str, int], recipes: list[str], seeds: int | list[int], runs: Path,
          policies: Path) -> tuple[list[Batch], list[tuple[str, str]]]:
     """The training calls, and the (case, recipe) pairs to export afterwards, for the cases
-    ``steps`` names (each with its steps per seed)."""
+    ``steps`` names (each with its steps per seed); ``seeds``: a count (seeds ``0 .. seeds - 1``)
+    or the seeds themselves (a screen)."""
+    wanted = set(range(seeds)) if isinstance(seeds, int) else set(seeds)
     batches, exports = [], []
     for case in steps:
         for recipe in recipes:
-            missing = sorted(set(range(seeds)) - exported_seeds(policies, case, recipe))
+            missing = sorted(wanted - exported_seeds(policies, case, recipe))
             if not missing:
                 continue
             exports.append((case, recipe))
@@ -99,6 +102,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cases", nargs="+", default=list(PAPER_CASES))
     ap.add_argument("--recipes", nargs="+", choices=tuple(RECIPES), default=list(RECIPES))
     ap.add_argument("--seeds", type=int, default=8, help="seeds per case and recipe (0 .. N-1)")
+    ap.add_argument("--only", type=int, nargs="+", default=None, metavar="SEED",
+                    help="train and export only these seeds (a screen; instead of --seeds)")
     ap.add_argument("--runs", type=Path, default=Path("runs/campaign"), help="training output")
     ap.add_argument("--policies", type=Path, default=POLICIES_DIR,
                     help="where the seed folders go (default: the package's rl/policies)")
@@ -108,12 +113,15 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.seeds < 1:
         ap.error(f"--seeds must be >= 1, got {args.seeds}")
+    if args.only is not None and min(args.only) < 0:
+        ap.error(f"--only takes seeds >= 0, got {min(args.only)}")
     try:  # an unknown case or a bad spec fails here, before any work
         cases = [load_case(c) for c in args.cases]
     except ValueError as exc:
         ap.error(str(exc))
-    batches, exports = plan({c.name: c.training.steps for c in cases}, args.recipes, args.seeds,
-                            args.runs, args.policies)
+    batches, exports = plan({c.name: c.training.steps for c in cases}, args.recipes,
+                            args.only if args.only is not None else args.seeds, args.runs,
+                            args.policies)
     print(f"{len(batches)} training calls, {len(exports)} exports")
     for batch in batches:
         print(f"  {batch.describe()}")

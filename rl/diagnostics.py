@@ -30,9 +30,8 @@ from elastica_magnetic.io import atomic_save
 
 from .checkpoint import load_checkpoint, refuse_networks_only
 from .policy_files import build_networks
+from .td3 import SATURATION_PREACTIVATION
 
-#: ``|pre-tanh output|`` above which the actor counts as saturated (``tanh(3) = 0.995``).
-SATURATION_PREACTIVATION = 3.0
 #: Fraction of recent states with a saturated output (any action dimension) that flags the actor.
 SATURATED_FRACTION_FLAG = 0.9
 

@@ -20,6 +20,11 @@ The three ingredients of TD3, all in :meth:`TD3.update`:
 
        theta' <- tau * theta + (1 - tau) * theta'
 
+   With :attr:`TD3Config.actor_saturation_penalty` ``lambda > 0`` the actor's loss also holds
+   its pre-``tanh`` outputs ``u = MLP(s)`` below 3 in size::
+
+       L_actor = -mean Q1(s, tanh(u)) + lambda * mean(relu(|u| - 3)^2)
+
 K seeds as one computation
 --------------------------
 :class:`TD3` holds the networks of ``K`` independent seeds *stacked*: every layer is a batch of K
@@ -71,6 +76,9 @@ from .stacked import StackedMLP, load_member_adam_state, member_adam_state, pref
 
 #: Arithmetic choices of :attr:`TD3Config.precision`.
 PRECISIONS = ("fp32", "bf16")
+#: ``|pre-tanh output|`` of the actor above which it counts as saturated (``tanh(3) = 0.995``):
+#: there its gradient is below 1 % of the unsaturated one.
+SATURATION_PREACTIVATION = 3.0
 
 
 # ----------------------------------------------------------------------------------------------
@@ -90,6 +98,12 @@ class TD3Config:
     """Layer normalisation (PyTorch's ``LayerNorm``, learned gain and bias) after every hidden
     linear layer of both critics, before the ReLU (Ball et al. 2023): bounds how far a critic
     extrapolates beyond the replay data. Off in the paper's recipe; the actor never has it."""
+    actor_saturation_penalty: float = 0.0
+    """Weight ``lambda`` of a penalty on the actor's pre-``tanh`` outputs ``u`` beyond
+    :data:`SATURATION_PREACTIVATION`, added to its loss: ``lambda * mean(relu(|u| - 3)^2)``
+    (per action dimension and state). It keeps the outputs where ``tanh`` still passes the
+    critic's gradient, so a saturated actor can still learn; it leaves the reachable actions as
+    they are (``tanh(3) = 0.995``) and the reward untouched. 0 (the paper's recipe): off."""
     actor_lr: float = 3e-4
     critic_lr: float = 3e-4
     gamma: float = 0.99
@@ -162,7 +176,8 @@ class TD3Config:
         for name in ("learning_starts", "updates_per_step", "eval_every"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
-        for name in ("exploration_noise", "policy_noise", "target_noise_clip", "noise_color"):
+        for name in ("exploration_noise", "policy_noise", "target_noise_clip", "noise_color",
+                     "actor_saturation_penalty"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value}")
@@ -541,9 +556,13 @@ class TD3:
         # delayed actor and target updates: the actor ascends Q1(s, mu(s)), the critic held fixed
         # (only the actors' gradients are asked for, so none is computed for the critics' weights)
         if self.num_updates % cfg.policy_delay == 0:
-            mu = torch.tanh(self.actor_net(obs, dtype))
+            pre = self.actor_net(obs, dtype)
+            mu = torch.tanh(pre)
             q1_mu = self.critic_net(torch.cat([obs, mu], dim=-1), dtype, members=slice(0, self.n_seeds))
             actor_loss = -q1_mu.mean(dim=(1, 2))
+            if cfg.actor_saturation_penalty:  # lambda * mean(relu(|u| - 3)^2), each seed its own
+                excess = torch.relu(pre.abs() - SATURATION_PREACTIVATION)
+                actor_loss = actor_loss + cfg.actor_saturation_penalty * (excess ** 2).mean(dim=(1, 2))
             _step(self.actor_optimizer, torch.autograd.grad(actor_loss.sum(), self.actor_params))
             with torch.no_grad():  # theta' <- tau * theta + (1 - tau) * theta'
                 for net, target in ((self.actor_net, self.actor_target_net),

@@ -15,13 +15,15 @@ from state_compare import assert_state_equal
 torch.set_num_threads(1)
 
 
-@pytest.mark.parametrize("critic_layer_norm", [False, True])
-def test_k_seeds_update_equals_each_seed_alone(critic_layer_norm):
+@pytest.mark.parametrize("options", [{}, {"critic_layer_norm": True},
+                                     {"actor_saturation_penalty": 1.0}],
+                         ids=["plain", "critic_layer_norm", "actor_saturation_penalty"])
+def test_k_seeds_update_equals_each_seed_alone(options):
     """The stacked update of 3 seeds equals each seed's own update, bit for bit (every seed on
-    its own minibatches, noise and Adam moments), with and without the critics' layer norms."""
+    its own minibatches, noise and Adam moments), with and without the critics' layer norms and
+    the actor's saturation penalty."""
     obs_dim, act_dim = 5, 2
-    configs = [TD3Config(seed=s, hidden_sizes=(8, 8), batch_size=16,
-                         critic_layer_norm=critic_layer_norm) for s in (0, 4, 9)]
+    configs = [TD3Config(seed=s, hidden_sizes=(8, 8), batch_size=16, **options) for s in (0, 4, 9)]
     buffers = []
     for k in range(3):
         buf, rng = ReplayBuffer(200, obs_dim, act_dim), np.random.default_rng(k)
