@@ -12,7 +12,7 @@ picks up where it stopped when run again with the same arguments.
     python benchmarks/recipe_campaign.py --dry-run                 # what is missing; nothing runs
     python benchmarks/recipe_campaign.py --cases m2-4mT --recipes paper pink
     python benchmarks/recipe_campaign.py --threads 1               # beside other work on the cores
-    python benchmarks/recipe_campaign.py --cases m1-10mT --recipes pink-ln-unsat --only 2 3  # a screen
+    python benchmarks/recipe_campaign.py --cases m1-10mT --recipes pink --only 2 3  # a screen
 """
 
 from __future__ import annotations

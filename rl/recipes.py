@@ -20,14 +20,9 @@ CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8, "eval_every":
 #: al., ICLR 2023), a sequence per 20 s episode, same standard deviation. ``pink-ln``: ``pink`` with
 #: layer normalisation in the critics' hidden layers (Ball et al., ICML 2023), against the critics'
 #: overestimation that saturates the actor's ``tanh`` in the failed seeds (docs/training.md).
-#: ``pink-ln-unsat``: ``pink-ln`` with a penalty on the actor's pre-``tanh`` outputs beyond 3 in its
-#: loss (``actor_saturation_penalty``), against the saturated actors of the 10 mT seeds that stay
-#: at a half roll.
 RECIPES: dict[str, dict[str, Any]] = {
     "paper": {},
     "pink": {"noise_color": 1.0, "noise_horizon": 2000},
     "pink-ln": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True},
-    "pink-ln-unsat": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True,
-                      "actor_saturation_penalty": 1.0},
 }
 DEFAULT_RECIPE = "paper"

@@ -58,18 +58,18 @@ def test_the_plan_trains_what_is_missing_and_resumes_what_was_started(campaign, 
 def test_a_screen_trains_only_the_seeds_it_names(campaign, tmp_path, monkeypatch, capsys):
     """``--only 2 3 7``: those seeds and no other (seed 3 already exported: skipped)."""
     policies, runs = tmp_path / "policies", tmp_path / "runs"
-    exported = policies / "m1-10mT" / "seeds" / "pink-ln-unsat" / "seeds.json"
+    exported = policies / "m1-10mT" / "seeds" / "pink-ln" / "seeds.json"
     exported.parent.mkdir(parents=True)
     exported.write_text(json.dumps([{"seed": 3, "distance_10s_m": 0.2, "actor": "seed3"}]))
     monkeypatch.setattr(campaign, "run_state", lambda run_dir, steps: "none")
-    batches, exports = campaign.plan({"m1-10mT": 100_000}, ["pink-ln-unsat"], [2, 3, 7], runs,
+    batches, exports = campaign.plan({"m1-10mT": 100_000}, ["pink-ln"], [2, 3, 7], runs,
                                      policies)
-    assert [b.describe() for b in batches] == ["m1-10mT pink-ln-unsat: train seed 2",
-                                               "m1-10mT pink-ln-unsat: train seed 7"]
-    assert exports == [("m1-10mT", "pink-ln-unsat")]
-    assert campaign.main(["--cases", "m1-10mT", "--recipes", "pink-ln-unsat", "--only", "2", "3",
+    assert [b.describe() for b in batches] == ["m1-10mT pink-ln: train seed 2",
+                                               "m1-10mT pink-ln: train seed 7"]
+    assert exports == [("m1-10mT", "pink-ln")]
+    assert campaign.main(["--cases", "m1-10mT", "--recipes", "pink-ln", "--only", "2", "3",
                           "--policies", str(policies), "--runs", str(runs), "--dry-run"]) == 0
-    assert "m1-10mT pink-ln-unsat: train seed 2\n" in capsys.readouterr().out
+    assert "m1-10mT pink-ln: train seed 2\n" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         campaign.main(["--cases", "m1-10mT", "--only", "-1", "--dry-run"])
     assert "--only takes seeds >= 0" in capsys.readouterr().err
