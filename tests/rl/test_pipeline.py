@@ -497,8 +497,11 @@ def test_ctrl_c_stops_cleanly_and_the_run_resumes(tmp_path):
     args = [sys.executable, "-m", "elastica_magnetic.cli", "train", "--case", "m1-4mT", "--seeds", "2",
             "--out", str(tmp_path), "--learning-starts", "10", "--batch-size", "8", "--hidden", "8",
             "--episode-duration", "0.1", "--checkpoint-every", "10", "--no-progress"]
+    # as from a terminal: SIGINT delivered, also when the suite itself was started in the
+    # background (a shell starts background jobs with SIGINT ignored, and children inherit that)
     proc = subprocess.Popen([*args, "--steps", "100000"], stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+                            start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     ckpts = [tmp_path / "m1-4mT" / f"seed{s}" / "checkpoint.pt" for s in (0, 1)]
     # generous: on a loaded machine starting two workers (imports, numba JIT) takes minutes
     deadline = time.time() + 600
