@@ -10,6 +10,7 @@ import numpy as np
 import torch
 from elastica_magnetic_rl.td3 import SATURATION_PREACTIVATION, TD3, ReplayBuffer, TD3Config
 from state_compare import assert_state_equal
+from toy_data import random_replay_buffer
 
 torch.set_num_threads(1)
 OBS_DIM, ACT_DIM = 4, 2
@@ -17,12 +18,7 @@ LOW, HIGH = -np.ones(ACT_DIM), np.ones(ACT_DIM)
 
 
 def _buffer(seed: int = 0, n: int = 128) -> ReplayBuffer:
-    rng = np.random.default_rng(seed)
-    buf = ReplayBuffer(n, OBS_DIM, ACT_DIM)
-    for i in range(n):
-        buf.add(rng.normal(size=OBS_DIM), rng.uniform(-1, 1, ACT_DIM), rng.normal(),
-                rng.normal(size=OBS_DIM), i % 11 == 0)
-    return buf
+    return random_replay_buffer(OBS_DIM, ACT_DIM, n, seed, done_every=11)
 
 
 def _train(cfg: TD3Config, buf: ReplayBuffer, updates: int, actor_scale: float = 1.0) -> TD3:
