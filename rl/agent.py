@@ -15,7 +15,8 @@ import numpy as np
 import torch
 
 from .checkpoint import load_checkpoint, refuse_networks_only
-from .td3 import TD3, Actor, Batch, TD3Config, TwinCritic
+from .replay_buffer import Batch
+from .td3 import TD3, Actor, TD3Config, TwinCritic
 
 __all__ = ["TD3Agent"]
 

@@ -97,7 +97,8 @@ def td3_updates_per_s(updates: int = 200, repeats: int = 3, threads: int = 1, se
 
     from .allocator import retain_freed_memory
     from .pipeline import crawler_config
-    from .td3 import TD3, ReplayBuffer
+    from .replay_buffer import ReplayBuffer
+    from .td3 import TD3
 
     retain_freed_memory()  # as training does (rl/runner.py)
     previous = torch.get_num_threads()
@@ -240,9 +241,8 @@ def _process_tree_rss(root: int) -> int:
 
 
 def replay_buffer_bytes(capacity: int, obs_dim: int = 260, act_dim: int = 2) -> int:
-    """Bytes of a full :class:`elastica_magnetic_rl.td3.ReplayBuffer`: float32 obs, next obs, action,
-    reward and
-    terminated per transition."""
+    """Bytes of a full :class:`elastica_magnetic_rl.replay_buffer.ReplayBuffer`: float32 obs,
+    next obs, action, reward and terminated per transition."""
     return int(capacity) * (2 * obs_dim + act_dim + 2) * 4
 
 

@@ -12,8 +12,8 @@ around (a run longer than the buffer's capacity) is stored whole inside the chec
 Keys of a checkpoint (format :data:`CHECKPOINT_FORMAT`): ``config`` (the TD3 configuration),
 ``obs_dim``, ``act_dim``, ``action_low``, ``action_high``, ``agent`` (networks, targets and Adam
 moments as plain-module state dicts, RNG states, counters: :meth:`elastica_magnetic_rl.td3.TD3.seed_state`),
-``buffer`` (:meth:`elastica_magnetic_rl.td3.ReplayBuffer.state_dict` without contents, plus ``file`` and
-``rows``),
+``buffer`` (:meth:`elastica_magnetic_rl.replay_buffer.ReplayBuffer.state_dict` without contents,
+plus ``file`` and ``rows``),
 ``global_step``, ``episode``, ``at_episode_boundary``, ``python_rng``, ``torch_cpu_rng``,
 ``wall_time_s``, ``metadata``, ``evaluation`` and ``vector`` (the environments' state when the
 checkpoint falls inside episodes, else ``None``). ``best.pt`` (``kind: "best"``) holds only the

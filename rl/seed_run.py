@@ -31,7 +31,8 @@ from .checkpoint import (
 )
 from .evaluation import PeriodicEvaluation, truncate_csv
 from .exploration import colored_noise
-from .td3 import TD3, ReplayBuffer, TD3Config, episode_seed
+from .replay_buffer import ReplayBuffer
+from .td3 import TD3, TD3Config, episode_seed
 
 __all__ = ["EPISODES_CSV", "EPISODE_FIELDS", "RESUMABLE_SETTINGS", "SeedRun", "starting_point"]
 

@@ -46,7 +46,8 @@ def test_td3_update_flop_count_matches_torch_flop_counter():
     import numpy as np
     from elastica_magnetic_rl.agent import TD3Agent
     from elastica_magnetic_rl.bench import td3_update_flops
-    from elastica_magnetic_rl.td3 import Batch, TD3Config
+    from elastica_magnetic_rl.replay_buffer import Batch
+    from elastica_magnetic_rl.td3 import TD3Config
     from torch.utils.flop_counter import FlopCounterMode
 
     agent = TD3Agent(260, 2, -np.ones(2), np.ones(2), TD3Config(seed=0, hidden_sizes=(64, 32)))

@@ -8,7 +8,8 @@ import dataclasses
 
 import numpy as np
 import torch
-from elastica_magnetic_rl.td3 import SATURATION_PREACTIVATION, TD3, ReplayBuffer, TD3Config
+from elastica_magnetic_rl.replay_buffer import ReplayBuffer
+from elastica_magnetic_rl.td3 import SATURATION_PREACTIVATION, TD3, TD3Config
 from state_compare import assert_state_equal
 from toy_data import random_replay_buffer
 

@@ -14,8 +14,9 @@ import torch
 from elastica_magnetic_rl.agent import TD3Agent
 from elastica_magnetic_rl.checkpoint import load_checkpoint
 from elastica_magnetic_rl.evaluation import ActorPolicy, evaluate
+from elastica_magnetic_rl.replay_buffer import Batch, ReplayBuffer
 from elastica_magnetic_rl.runner import train
-from elastica_magnetic_rl.td3 import Batch, ReplayBuffer, TD3Config
+from elastica_magnetic_rl.td3 import TD3Config
 from state_compare import assert_state_equal
 
 torch.set_num_threads(1)
@@ -612,7 +613,8 @@ _FAULTS_SCRIPT = """
 import resource, sys
 import numpy as np, torch
 from elastica_magnetic_rl.allocator import retain_freed_memory
-from elastica_magnetic_rl.td3 import TD3, ReplayBuffer, TD3Config
+from elastica_magnetic_rl.replay_buffer import ReplayBuffer
+from elastica_magnetic_rl.td3 import TD3, TD3Config
 torch.set_num_threads(1)
 retained = retain_freed_memory()
 configs = [TD3Config(seed=s, batch_size=256, hidden_sizes=(256, 256)) for s in range(2)]
