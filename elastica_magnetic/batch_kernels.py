@@ -93,6 +93,90 @@ def _slip_function(v0: float, v1: float, v2: float, tolerance: float) -> float:
 
 
 @njit(cache=True, error_model="numpy")
+def _times(
+    directors: NDArray[np.float64], e: int, x0: float, x1: float, x2: float
+) -> tuple[float, float, float]:
+    """``Q_e x`` (rows of element ``e``'s director times ``x``), accumulated from zero."""
+    y0 = 0.0 + directors[0, 0, e] * x0
+    y0 += directors[0, 1, e] * x1
+    y0 += directors[0, 2, e] * x2
+    y1 = 0.0 + directors[1, 0, e] * x0
+    y1 += directors[1, 1, e] * x1
+    y1 += directors[1, 2, e] * x2
+    y2 = 0.0 + directors[2, 0, e] * x0
+    y2 += directors[2, 1, e] * x1
+    y2 += directors[2, 2, e] * x2
+    return y0, y1, y2
+
+
+@njit(cache=True, error_model="numpy")
+def _transpose_times(
+    directors: NDArray[np.float64], e: int, x0: float, x1: float, x2: float
+) -> tuple[float, float, float]:
+    """``Q_e^T x`` (columns of element ``e``'s director times ``x``), accumulated from zero."""
+    y0 = 0.0 + directors[0, 0, e] * x0
+    y0 += directors[1, 0, e] * x1
+    y0 += directors[2, 0, e] * x2
+    y1 = 0.0 + directors[0, 1, e] * x0
+    y1 += directors[1, 1, e] * x1
+    y1 += directors[2, 1, e] * x2
+    y2 = 0.0 + directors[0, 2, e] * x0
+    y2 += directors[1, 2, e] * x1
+    y2 += directors[2, 2, e] * x2
+    return y0, y1, y2
+
+
+@njit(cache=True, error_model="numpy")
+def _element_force(
+    internal_forces: NDArray[np.float64],
+    external_forces: NDArray[np.float64],
+    a: int,
+    first: bool,
+    last: bool,
+) -> tuple[float, float, float]:
+    """Total force on the element between nodes ``a`` and ``a + 1`` (N): PyElastica's
+    ``node_to_element_pos_or_vel`` of internal + external forces, the end elements taking the
+    whole load of their end node."""
+    ef0 = 0.0 + 0.5 * (
+        (internal_forces[0, a] + external_forces[0, a])
+        + (internal_forces[0, a + 1] + external_forces[0, a + 1])
+    )
+    ef1 = 0.0 + 0.5 * (
+        (internal_forces[1, a] + external_forces[1, a])
+        + (internal_forces[1, a + 1] + external_forces[1, a + 1])
+    )
+    ef2 = 0.0 + 0.5 * (
+        (internal_forces[2, a] + external_forces[2, a])
+        + (internal_forces[2, a + 1] + external_forces[2, a + 1])
+    )
+    if first:
+        ef0 += 0.5 * (internal_forces[0, a] + external_forces[0, a])
+        ef1 += 0.5 * (internal_forces[1, a] + external_forces[1, a])
+        ef2 += 0.5 * (internal_forces[2, a] + external_forces[2, a])
+    if last:
+        ef0 += 0.5 * (internal_forces[0, a + 1] + external_forces[0, a + 1])
+        ef1 += 0.5 * (internal_forces[1, a + 1] + external_forces[1, a + 1])
+        ef2 += 0.5 * (internal_forces[2, a + 1] + external_forces[2, a + 1])
+    return ef0, ef1, ef2
+
+
+@njit(cache=True, error_model="numpy")
+def _spread_to_nodes(
+    external_forces: NDArray[np.float64], s: NDArray[np.float64], row: int, ns: int, n: int
+) -> None:
+    """Half of each element's force (scratch rows ``row .. row + 2``) to each of its two nodes,
+    for the elements in contact."""
+    for k in range(n):
+        if s[S_NO_CONTACT, k] != 0.0:
+            continue
+        a = ns + k
+        for d in range(3):
+            half = 0.5 * s[row + d, k]
+            external_forces[d, a] += half
+            external_forces[d, a + 1] += half
+
+
+@njit(cache=True, error_model="numpy")
 def block_forcing(
     fields: NDArray[np.float64],
     moments: NDArray[np.float64],
@@ -257,26 +341,7 @@ def ground_contact(
             s[S_NO_CONTACT, k] = 1.0
             continue
         s[S_NO_CONTACT, k] = 0.0
-        ef0 = 0.0 + 0.5 * (
-            (internal_forces[0, a] + external_forces[0, a])
-            + (internal_forces[0, a + 1] + external_forces[0, a + 1])
-        )
-        ef1 = 0.0 + 0.5 * (
-            (internal_forces[1, a] + external_forces[1, a])
-            + (internal_forces[1, a + 1] + external_forces[1, a + 1])
-        )
-        ef2 = 0.0 + 0.5 * (
-            (internal_forces[2, a] + external_forces[2, a])
-            + (internal_forces[2, a + 1] + external_forces[2, a + 1])
-        )
-        if k == 0:
-            ef0 += 0.5 * (internal_forces[0, a] + external_forces[0, a])
-            ef1 += 0.5 * (internal_forces[1, a] + external_forces[1, a])
-            ef2 += 0.5 * (internal_forces[2, a] + external_forces[2, a])
-        if k == last:
-            ef0 += 0.5 * (internal_forces[0, a + 1] + external_forces[0, a + 1])
-            ef1 += 0.5 * (internal_forces[1, a + 1] + external_forces[1, a + 1])
-            ef2 += 0.5 * (internal_forces[2, a + 1] + external_forces[2, a + 1])
+        ef0, ef1, ef2 = _element_force(internal_forces, external_forces, a, k == 0, k == last)
         f_normal = 0.0 + n0 * ef0
         f_normal += n1 * ef1
         f_normal += n2 * ef2
@@ -306,14 +371,7 @@ def ground_contact(
         s[S_RESPONSE + 1, k] = t1
         s[S_RESPONSE + 2, k] = t2
         s[S_RESPONSE_MAG, k] = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
-    for k in range(n):
-        if s[S_NO_CONTACT, k] != 0.0:
-            continue
-        a = ns + k
-        for d in range(3):
-            half = 0.5 * s[S_RESPONSE + d, k]
-            external_forces[d, a] += half
-            external_forces[d, a + 1] += half
+    _spread_to_nodes(external_forces, s, S_RESPONSE, ns, n)
 
     # 2. Kinetic friction, axial then rolling (reads no loads: axial forces are spread in the loop).
     for k in range(n):
@@ -356,30 +414,14 @@ def ground_contact(
         v_rolling += v1 * ro1
         v_rolling += v2 * ro2
         # Q^T (omega x (Q arm))
-        q0 = 0.0 + directors[0, 0, e] * arm0
-        q0 += directors[0, 1, e] * arm1
-        q0 += directors[0, 2, e] * arm2
-        q1 = 0.0 + directors[1, 0, e] * arm0
-        q1 += directors[1, 1, e] * arm1
-        q1 += directors[1, 2, e] * arm2
-        q2 = 0.0 + directors[2, 0, e] * arm0
-        q2 += directors[2, 1, e] * arm1
-        q2 += directors[2, 2, e] * arm2
+        q0, q1, q2 = _times(directors, e, arm0, arm1, arm2)
         w0 = omegas[0, e]
         w1 = omegas[1, e]
         w2 = omegas[2, e]
         c0 = w1 * q2 - w2 * q1
         c1 = w2 * q0 - w0 * q2
         c2 = w0 * q1 - w1 * q0
-        rv0 = 0.0 + directors[0, 0, e] * c0
-        rv0 += directors[1, 0, e] * c1
-        rv0 += directors[2, 0, e] * c2
-        rv1 = 0.0 + directors[0, 1, e] * c0
-        rv1 += directors[1, 1, e] * c1
-        rv1 += directors[2, 1, e] * c2
-        rv2 = 0.0 + directors[0, 2, e] * c0
-        rv2 += directors[1, 2, e] * c1
-        rv2 += directors[2, 2, e] * c2
+        rv0, rv1, rv2 = _transpose_times(directors, e, c0, c1, c2)
         rv_rolling = 0.0 + rv0 * ro0
         rv_rolling += rv1 * ro1
         rv_rolling += rv2 * ro2
@@ -436,14 +478,7 @@ def ground_contact(
         s[S_FRICTION, k] = fr0
         s[S_FRICTION + 1, k] = fr1
         s[S_FRICTION + 2, k] = fr2
-    for k in range(n):
-        if s[S_NO_CONTACT, k] != 0.0:
-            continue
-        a = ns + k
-        for d in range(3):
-            half = 0.5 * s[S_FRICTION + d, k]
-            external_forces[d, a] += half
-            external_forces[d, a + 1] += half
+    _spread_to_nodes(external_forces, s, S_FRICTION, ns, n)
     for k in range(n):
         if s[S_NO_CONTACT, k] != 0.0:
             continue
@@ -456,26 +491,7 @@ def ground_contact(
         if s[S_NO_CONTACT, k] != 0.0:
             continue
         a = ns + k
-        ef0 = 0.0 + 0.5 * (
-            (internal_forces[0, a] + external_forces[0, a])
-            + (internal_forces[0, a + 1] + external_forces[0, a + 1])
-        )
-        ef1 = 0.0 + 0.5 * (
-            (internal_forces[1, a] + external_forces[1, a])
-            + (internal_forces[1, a + 1] + external_forces[1, a + 1])
-        )
-        ef2 = 0.0 + 0.5 * (
-            (internal_forces[2, a] + external_forces[2, a])
-            + (internal_forces[2, a + 1] + external_forces[2, a + 1])
-        )
-        if k == 0:
-            ef0 += 0.5 * (internal_forces[0, a] + external_forces[0, a])
-            ef1 += 0.5 * (internal_forces[1, a] + external_forces[1, a])
-            ef2 += 0.5 * (internal_forces[2, a] + external_forces[2, a])
-        if k == last:
-            ef0 += 0.5 * (internal_forces[0, a + 1] + external_forces[0, a + 1])
-            ef1 += 0.5 * (internal_forces[1, a + 1] + external_forces[1, a + 1])
-            ef2 += 0.5 * (internal_forces[2, a + 1] + external_forces[2, a + 1])
+        ef0, ef1, ef2 = _element_force(internal_forces, external_forces, a, k == 0, k == last)
         ax0 = s[S_AXIAL, k]
         ax1 = s[S_AXIAL + 1, k]
         ax2 = s[S_AXIAL + 2, k]
@@ -492,14 +508,7 @@ def ground_contact(
         s[S_ELEMENT_FORCE, k] = ef0
         s[S_ELEMENT_FORCE + 1, k] = ef1
         s[S_ELEMENT_FORCE + 2, k] = ef2
-    for k in range(n):
-        if s[S_NO_CONTACT, k] != 0.0:
-            continue
-        a = ns + k
-        for d in range(3):
-            half = 0.5 * s[S_FRICTION + d, k]
-            external_forces[d, a] += half
-            external_forces[d, a + 1] += half
+    _spread_to_nodes(external_forces, s, S_FRICTION, ns, n)
 
     # 4. Static rolling friction (reads element loads computed before the static axial friction and
     # the torques of its own element only, so it can be spread to the nodes in the loop).
@@ -511,15 +520,7 @@ def ground_contact(
         tw0 = internal_torques[0, e] + external_torques[0, e]
         tw1 = internal_torques[1, e] + external_torques[1, e]
         tw2 = internal_torques[2, e] + external_torques[2, e]
-        tt0 = 0.0 + directors[0, 0, e] * tw0
-        tt0 += directors[1, 0, e] * tw1
-        tt0 += directors[2, 0, e] * tw2
-        tt1 = 0.0 + directors[0, 1, e] * tw0
-        tt1 += directors[1, 1, e] * tw1
-        tt1 += directors[2, 1, e] * tw2
-        tt2 = 0.0 + directors[0, 2, e] * tw0
-        tt2 += directors[1, 2, e] * tw1
-        tt2 += directors[2, 2, e] * tw2
+        tt0, tt1, tt2 = _transpose_times(directors, e, tw0, tw1, tw2)
         tt_axial = 0.0 + tt0 * s[S_AXIAL, k]
         tt_axial += tt1 * s[S_AXIAL + 1, k]
         tt_axial += tt2 * s[S_AXIAL + 2, k]
@@ -570,11 +571,10 @@ def add_arm_torque(
     c0 = arm1 * f2 - arm2 * f1
     c1 = arm2 * f0 - arm0 * f2
     c2 = arm0 * f1 - arm1 * f0
-    for i in range(3):
-        t = 0.0 + directors[i, 0, e] * c0
-        t += directors[i, 1, e] * c1
-        t += directors[i, 2, e] * c2
-        external_torques[i, e] += t
+    t0, t1, t2 = _times(directors, e, c0, c1, c2)
+    external_torques[0, e] += t0
+    external_torques[1, e] += t1
+    external_torques[2, e] += t2
 
 
 @njit(cache=True, error_model="numpy")
