@@ -13,7 +13,7 @@ from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, duration_option, number, print_result
 
-from .recipes import RECIPES
+from .recipes import RECIPE_SUMMARIES, RECIPES
 
 CASE_HELP = "a shipped case (`msr case list`: m1-4mT, m2-4mT, m1-10mT, m2-10mT, ...) or a spec file (.toml)"
 
@@ -102,9 +102,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="Ray cluster address for --backend ray (auto, HOST:PORT, ray://HOST:10001); "
                         "--out must then be on a filesystem all nodes see at the same path")
     p.add_argument("--recipe", choices=tuple(RECIPES), default=None,
-                   help="training recipe (default: the case's; paper for the paper's cases): paper "
-                        "(the authors' TD3 settings) or pink (the same with temporally correlated "
-                        "pink exploration noise); see docs/training.md")
+                   help="training recipe (default: the case's; paper for the paper's cases): "
+                        + "; ".join(f"{name}: {line}" for name, line in RECIPE_SUMMARIES.items())
+                        + " (docs/training.md)")
     g = p.add_argument_group("TD3 overrides (default: the paper's settings)")
     g.add_argument("--learning-starts", type=int, default=None, help="warm-up steps (2500)")
     g.add_argument("--batch-size", type=int, default=None, help="minibatch (256)")

@@ -26,3 +26,10 @@ RECIPES: dict[str, dict[str, Any]] = {
     "pink-ln": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True},
 }
 DEFAULT_RECIPE = "paper"
+
+#: One line per recipe, for the command line's help.
+RECIPE_SUMMARIES: dict[str, str] = {
+    "paper": "the authors' TD3 settings",
+    "pink": "the paper's with temporally correlated (pink) exploration noise",
+    "pink-ln": "pink, and layer normalisation in the critics",
+}

@@ -629,3 +629,15 @@ def test_export_seeds_collects_seeds_of_several_runs_and_refuses_mixed_ones(trai
     err = capsys.readouterr().err
     assert "seed 0" in err and "batch_size" in err and "another folder" in err
     assert (dest / "seeds.json").read_bytes() == before
+
+
+def test_train_help_describes_every_recipe(capsys):
+    """``msr train --help`` names each recipe with its one-line summary (one home: recipes.py)."""
+    from elastica_magnetic_rl.recipes import RECIPE_SUMMARIES, RECIPES
+
+    assert set(RECIPE_SUMMARIES) == set(RECIPES)
+    with pytest.raises(SystemExit):
+        msr(["train", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for name, line in RECIPE_SUMMARIES.items():
+        assert f"{name}: {line}" in text
