@@ -5,7 +5,8 @@ For every case and recipe, the seeds ``0 .. --seeds - 1`` that
 ``rl/policies/<case>/seeds/<recipe>/seeds.json`` does not hold yet are trained (the paper's 1e5
 steps, float32, the default layout) into ``--runs/<recipe>/<case>/seed<k>/``; a seed whose run
 already has a checkpoint resumes from it, a finished one is only exported. Each case and recipe is
-then exported there (``msr export-seeds``, which keeps the seeds already in the folder), and the
+exported there as soon as its last seed is trained (``msr export-seeds``, which keeps the seeds
+already in the folder), and the
 recipes table across the cases is printed (``msr seeds``). Interrupted (Ctrl-C, a session's end), it
 picks up where it stopped when run again with the same arguments.
 
@@ -97,6 +98,20 @@ def plan(steps: dict[str, int], recipes: list[str], seeds: int | list[int], runs
     return batches, exports
 
 
+def schedule(batches: list[Batch], exports: list[tuple[str, str]]) -> list[Batch | tuple[str, str]]:
+    """The order of the work: each (case, recipe) export right after its last training call (first
+    if it has none), so a campaign cut short has exported every pair it finished."""
+    order: list[Batch | tuple[str, str]] = []
+    trained = {(b.case, b.recipe) for b in batches}
+    order += [pair for pair in exports if pair not in trained]
+    for i, batch in enumerate(batches):
+        order.append(batch)
+        pair = (batch.case, batch.recipe)
+        if pair in exports and all((b.case, b.recipe) != pair for b in batches[i + 1:]):
+            order.append(pair)
+    return order
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", nargs="+", default=list(PAPER_CASES))
@@ -131,13 +146,15 @@ def main(argv: list[str] | None = None) -> int:
     from elastica_magnetic_rl.seed_export import export_seeds
     from elastica_magnetic_rl.training import train_cases
 
-    for batch in batches:
-        print(f"== {batch.describe()}", flush=True)
-        train_cases([batch.case], seeds=batch.seeds, seed_offset=batch.first_seed,
-                    out=args.runs / batch.recipe, resume=batch.resume, recipe=batch.recipe,
-                    config_overrides={"precision": "fp32"}, threads=args.threads,
-                    workers=args.workers, progress=False)
-    for case, recipe in exports:
+    for work in schedule(batches, exports):
+        if isinstance(work, Batch):
+            print(f"== {work.describe()}", flush=True)
+            train_cases([work.case], seeds=work.seeds, seed_offset=work.first_seed,
+                        out=args.runs / work.recipe, resume=work.resume, recipe=work.recipe,
+                        config_overrides={"precision": "fp32"}, threads=args.threads,
+                        workers=args.workers, progress=False)
+            continue
+        case, recipe = work
         dest = args.policies / case / "seeds" / recipe
         result = export_seeds(args.runs / recipe / case, dest, progress=False, workers=2)
         print(f"== {case} {recipe}: {result['meeting_target']} of {result['total']} meet the target "

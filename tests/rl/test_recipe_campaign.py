@@ -73,3 +73,16 @@ def test_a_screen_trains_only_the_seeds_it_names(campaign, tmp_path, monkeypatch
     with pytest.raises(SystemExit):
         campaign.main(["--cases", "m1-10mT", "--only", "-1", "--dry-run"])
     assert "--only takes seeds >= 0" in capsys.readouterr().err
+
+
+def test_each_pair_is_exported_as_soon_as_its_last_seed_is_trained(campaign):
+    """A campaign cut short has exported every (case, recipe) it finished; a pair with nothing
+    left to train is exported first."""
+    Batch = campaign.Batch
+    batches = [Batch("m2-4mT", "pink-ln", 6, 2, True), Batch("m2-10mT", "pink-ln", 0, 4, False),
+               Batch("m2-10mT", "pink-ln", 4, 4, True)]
+    exports = [("m1-4mT", "paper"), ("m2-4mT", "pink-ln"), ("m2-10mT", "pink-ln")]
+    assert campaign.schedule(batches, exports) == [
+        ("m1-4mT", "paper"), batches[0], ("m2-4mT", "pink-ln"), batches[1], batches[2],
+        ("m2-10mT", "pink-ln")]
+    assert campaign.schedule([], []) == []
