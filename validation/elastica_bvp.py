@@ -338,6 +338,20 @@ def _build_solution(
     )
 
 
+def _solution_of_bvp(prob: _Problem, res, snapped: bool, n_out: int) -> ElasticaSolution:
+    """:func:`_build_solution` from a converged ``scipy.integrate.solve_bvp`` result."""
+    return _build_solution(
+        prob,
+        res.sol,
+        residual=float(np.max(res.rms_residuals)),
+        bc_residual=_bc_residual(prob, res),
+        message=res.message,
+        n_nodes=int(res.x.size),
+        snapped=snapped,
+        n_out=n_out,
+    )
+
+
 def _bc_residual(prob: _Problem, res) -> float:
     _, _, bc, _ = _bvp_functions(prob, 1.0)
     return float(np.max(np.abs(bc(res.y[:, 0], res.y[:, -1]))))
@@ -475,16 +489,7 @@ def solve_elastica(
             max_jump=max_jump,
             allow_snap=allow_snap,
         )
-    sol = _build_solution(
-        prob,
-        res.sol,
-        residual=float(np.max(res.rms_residuals)),
-        bc_residual=_bc_residual(prob, res),
-        message=res.message,
-        n_nodes=int(res.x.size),
-        snapped=snapped,
-        n_out=n_out,
-    )
+    sol = _solution_of_bvp(prob, res, snapped, n_out)
     if seek_stable and not sol.stable:
         sol = _seek_stable(prob, sol, tol=tol, n_mesh=n_mesh, max_nodes=max_nodes, n_out=n_out)
     return sol
@@ -566,15 +571,4 @@ def continue_from(
         max_jump=max_jump,
         allow_snap=allow_snap,
     )
-    return _build_solution(
-        prob,
-        res.sol,
-        residual=float(np.max(res.rms_residuals)),
-        bc_residual=_bc_residual(prob, res),
-        message=res.message,
-        n_nodes=int(res.x.size),
-        snapped=snapped,
-        n_out=n_out,
-    )
-
-
+    return _solution_of_bvp(prob, res, snapped, n_out)
