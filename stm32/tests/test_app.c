@@ -1,5 +1,6 @@
 /* The whole application over the fake board: what QEMU runs, minus the registers. */
 #include "test_common.h"
+#include "test_calib.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -9,15 +10,6 @@
 #include "fake_board.h"
 #include "link_helpers.h"
 
-static const calib_params_t k_params = {
-    .actuation_T_per_A = {{2e-3, 0, 0}, {0, 2e-3, 0}, {0, 0, 2e-3}},
-    .transconductance_A_per_V = {1, 1, 1},
-    .input_offset_V = {0, 0, 0},
-    .dac_half_span_V = 2.5,
-    .current_limit_A = {2, 2, 2},
-    .slew_limit_A_per_s = {1000, 1000, 1000},
-    .tick_hz = 100,
-};
 static const double k_table[1][3] = {{1, -1, 0}};
 
 static void boot(board_info_t info, const calib_params_t *params)
@@ -43,7 +35,7 @@ static const board_info_t k_normal = {true, false, false, 84000000u};
 static void test_boot_banner_and_midscale(void **state)
 {
     (void)state;
-    boot(k_normal, &k_params);
+    boot(k_normal, &k_test_calib);
     assert_non_null(fake_uart_find("MSR-FW 1.0 board=stm32f407 clock=pll calibration=test", 0));
     assert_non_null(fake_uart_find("READY", 0));
     assert_int_equal(fake_uart_count("SAFE"), 0);
@@ -55,7 +47,7 @@ static void test_boot_banner_and_midscale(void **state)
 static void test_stream_reports_codes_and_ends_safe(void **state)
 {
     (void)state;
-    boot(k_normal, &k_params);
+    boot(k_normal, &k_test_calib);
     char line[128];
     fake_rx_text("STREAM\n");
     for (unsigned i = 0; i < 3; ++i) {
@@ -81,7 +73,7 @@ static void test_stream_reports_codes_and_ends_safe(void **state)
 static void test_corrupted_row_reports_reason(void **state)
 {
     (void)state;
-    boot(k_normal, &k_params);
+    boot(k_normal, &k_test_calib);
     char line[128];
     fake_rx_text("STREAM\n");
     format_row(line, sizeof line, 0, "1", "0", "0");
@@ -99,14 +91,14 @@ static void test_watchdog_reset_reported(void **state)
     (void)state;
     board_info_t info = k_normal;
     info.watchdog_reset = true;
-    boot(info, &k_params);
+    boot(info, &k_test_calib);
     assert_non_null(fake_uart_find("SAFE watchdog-reset", 0));
 }
 
 static void test_uart_loss_while_streaming(void **state)
 {
     (void)state;
-    boot(k_normal, &k_params);
+    boot(k_normal, &k_test_calib);
     fake_rx_text("STREAM\n");
     app_poll();
     fake.lost = 3;
@@ -117,7 +109,7 @@ static void test_uart_loss_while_streaming(void **state)
 static void test_bad_calibration_and_dac_fault_at_boot(void **state)
 {
     (void)state;
-    calib_params_t bad = k_params;
+    calib_params_t bad = k_test_calib;
     bad.actuation_T_per_A[1][1] = 0;
     boot(k_normal, &bad);
     assert_non_null(fake_uart_find("SAFE calibration row=0 applied=0 detail=singular", 0));
@@ -127,7 +119,7 @@ static void test_bad_calibration_and_dac_fault_at_boot(void **state)
 
     fake_reset();
     fake.spi_fails = true;
-    app_config_t cfg = {"test", &k_params, k_table, 1};
+    app_config_t cfg = {"test", &k_test_calib, k_table, 1};
     app_init(&cfg, &k_normal);
     assert_non_null(fake_uart_find("SAFE dac-fault", 0));
 }
@@ -135,7 +127,7 @@ static void test_bad_calibration_and_dac_fault_at_boot(void **state)
 static void test_flash_table(void **state)
 {
     (void)state;
-    boot(k_normal, &k_params);
+    boot(k_normal, &k_test_calib);
     fake_rx_text("PLAY\n");
     app_poll();
     fake.ticks_pending = 2;

@@ -1,4 +1,5 @@
 #include "test_common.h"
+#include "test_calib.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -50,21 +51,12 @@ static const double k_table[2][3] = {{0.5, 0, 0}, {0, 0.5, 0}};
 static int setup(void **state)
 {
     (void)state;
-    static const calib_params_t p = {
-        .actuation_T_per_A = {{2e-3, 0, 0}, {0, 2e-3, 0}, {0, 0, 2e-3}},
-        .transconductance_A_per_V = {1, 1, 1},
-        .input_offset_V = {0, 0, 0},
-        .dac_half_span_V = 2.5,
-        .current_limit_A = {2, 2, 2},
-        .slew_limit_A_per_s = {1000, 1000, 1000},
-        .tick_hz = 100,
-    };
     out_len = 0;
     out[0] = '\0';
     n_applied = 0;
     n_safe = 0;
     memset(last_detail, 0, sizeof last_detail);
-    calib_init(&calib, &p);
+    calib_init(&calib, &k_test_calib);
     const player_io_t io = {NULL, apply, safe};
     player_init(&player, &calib, &io);
     link_init(&link_, &player, capture, NULL, k_table, 2);

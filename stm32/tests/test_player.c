@@ -1,4 +1,5 @@
 #include "test_common.h"
+#include "test_calib.h"
 
 #include <string.h>
 
@@ -47,17 +48,8 @@ static void safe(void *ctx, safe_reason_t reason, uint32_t row, uint32_t applied
 static int setup(void **state)
 {
     (void)state;
-    static const calib_params_t p = {
-        .actuation_T_per_A = {{2e-3, 0, 0}, {0, 2e-3, 0}, {0, 0, 2e-3}},
-        .transconductance_A_per_V = {1, 1, 1},
-        .input_offset_V = {0, 0, 0},
-        .dac_half_span_V = 2.5,
-        .current_limit_A = {2, 2, 2},
-        .slew_limit_A_per_s = {1000, 1000, 1000},
-        .tick_hz = 100,
-    };
     memset(&rec, 0, sizeof rec);
-    assert_int_equal(calib_init(&calib, &p), CALIB_OK);
+    assert_int_equal(calib_init(&calib, &k_test_calib), CALIB_OK);
     const player_io_t io = {NULL, apply, safe};
     player_init(&player, &calib, &io);
     return 0;

@@ -4,6 +4,7 @@
  * is CLR alone and the report says so ("clr-only"). Checking the SAFE text alone would let a
  * reason that forgets the DAC writes pass. */
 #include "test_common.h"
+#include "test_calib.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -14,15 +15,6 @@
 #include "link_helpers.h"
 #include "player.h"
 
-static const calib_params_t k_params = {
-    .actuation_T_per_A = {{2e-3, 0, 0}, {0, 2e-3, 0}, {0, 0, 2e-3}},
-    .transconductance_A_per_V = {1, 1, 1},
-    .input_offset_V = {0, 0, 0},
-    .dac_half_span_V = 2.5,
-    .current_limit_A = {2, 2, 2},
-    .slew_limit_A_per_s = {1000, 1000, 1000},
-    .tick_hz = 100,
-};
 static const double k_table[2][3] = {{1, -1, 0.5}, {0.5, 0.5, -0.5}};
 static const board_info_t k_normal = {true, false, false, 84000000u};
 
@@ -40,7 +32,7 @@ static void boot_with(board_info_t info, const calib_params_t *params)
     app_init(&cfg, &info);
 }
 
-static void boot(void) { boot_with(k_normal, &k_params); }
+static void boot(void) { boot_with(k_normal, &k_test_calib); }
 
 /* Feed everything queued on the fake UART, a poll at a time (256 bytes each). */
 static void poll_all(void)
@@ -224,7 +216,7 @@ static void test_watchdog_reset(void **state)
     (void)state;
     board_info_t info = k_normal;
     info.watchdog_reset = true;
-    boot_with(info, &k_params);
+    boot_with(info, &k_test_calib);
     assert_ends_safe("watchdog-reset");
 }
 
@@ -241,7 +233,7 @@ static void test_host_stop(void **state)
 static void test_calibration(void **state)
 {
     (void)state;
-    calib_params_t bad = k_params;
+    calib_params_t bad = k_test_calib;
     bad.actuation_T_per_A[2][2] = 0;
     boot_with(k_normal, &bad);
     assert_ends_safe("calibration");
@@ -275,7 +267,7 @@ static void test_dac_fault_at_boot_is_clr_only(void **state)
     (void)state;
     fake_reset();
     fake.spi_fails = true;
-    app_config_t cfg = {"test", &k_params, k_table, 2};
+    app_config_t cfg = {"test", &k_test_calib, k_table, 2};
     app_init(&cfg, &k_normal);
     assert_ends_clr_only("dac-fault", 0);
     assert_int_equal(fake.n_events, 2); /* dac_bank_init's CLR, then the fault's */
