@@ -38,7 +38,7 @@ import os
 import sys
 import time
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import ProcessPoolExecutor, as_completed, wait
 from pathlib import Path
 from typing import Any
 
@@ -89,15 +89,49 @@ def _run_processes(fn, jobs, workers) -> list[dict[str, Any]]:
                 results[k] = {"seed": job["config"]["seed"], "error": _error(exc)}
     else:
         context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-            futures = {pool.submit(fn, job): k for k, job in enumerate(jobs)}
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
+        futures = {pool.submit(fn, job): k for k, job in enumerate(jobs)}
+        try:
             for future in as_completed(futures):
                 k = futures[future]
                 try:
                     results[k] = future.result()
                 except Exception as exc:
                     results[k] = {"seed": jobs[k]["config"]["seed"], "error": _error(exc)}
+        except KeyboardInterrupt:
+            _stop_workers(pool, futures)
+            raise
+        pool.shutdown(wait=True)
     return results
+
+
+#: Seconds the workers get, after a Ctrl-C, to stop by themselves before they are ended.
+STOP_GRACE_S = 10.0
+
+
+def _stop_workers(pool: ProcessPoolExecutor, futures) -> None:
+    """Ctrl-C in this process: end the workers, never wait on them for good.
+
+    From a terminal the workers get the same SIGINT (it goes to the whole process group) and stop
+    at their next step; they get :data:`STOP_GRACE_S` for it. If a job still runs then, as after
+    a ``kill -INT`` of this process alone, where waiting on the pool would wait for the whole
+    training, every worker is ended (SIGTERM; the multiprocessing resource tracker may then warn
+    of the workers' semaphores, which it releases). Ending a worker loses at most the steps
+    since its last checkpoint, which is written atomically, so ``--resume`` continues from it.
+    """
+    for future in futures:
+        future.cancel()  # the jobs not started yet
+    try:
+        running = wait(futures, timeout=STOP_GRACE_S).not_done
+    except KeyboardInterrupt:  # a second Ctrl-C: end them now
+        running = {future for future in futures if not future.done()}
+    if running:
+        # no public handle on the processes before Python 3.14 (terminate_workers)
+        for process in list((getattr(pool, "_processes", None) or {}).values()):
+            if process.is_alive():
+                process.terminate()
+            process.join()
+    pool.shutdown(wait=True, cancel_futures=True)  # no job left running: this returns
 
 
 def _run_ray(fn, jobs, workers, address, progress) -> list[dict[str, Any]]:

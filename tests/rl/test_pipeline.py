@@ -526,6 +526,44 @@ def test_ctrl_c_stops_cleanly_and_the_run_resumes(tmp_path):
     assert all(load_checkpoint(p)["global_step"] == int(target) for p in ckpts)
 
 
+def test_sigint_to_the_main_process_alone_ends_the_workers(tmp_path):
+    """``kill -INT`` of the main process only (not its group): the workers do not get it, so the
+    main process ends them after its grace period instead of waiting on the whole training; exit
+    130, and the checkpoints they left resume."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from elastica_magnetic_rl.backends import STOP_GRACE_S
+
+    args = [sys.executable, "-m", "elastica_magnetic.cli", *_tiny_train(tmp_path, "--seeds", "2",
+            "--checkpoint-every", "10")]
+    proc = subprocess.Popen([*args, "--steps", "100000"], stderr=subprocess.PIPE, text=True,
+                            start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    ckpts = [tmp_path / "m1-4mT" / f"seed{s}" / "checkpoint.pt" for s in (0, 1)]
+    deadline = time.time() + 600
+    while not all(p.exists() for p in ckpts) and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.2)
+    try:
+        assert all(p.exists() for p in ckpts), "the training wrote no checkpoints to interrupt"
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=STOP_GRACE_S + 120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 130, err
+    assert "interrupted" in err and "--resume" in err and "Traceback" not in err
+    steps = [load_checkpoint(p, with_buffer=False)["global_step"] for p in ckpts]
+    target = str(max(steps) + 20)
+    done = subprocess.run([*args, "--steps", target, "--resume"], capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr
+
+
 def _tiny_train(out, *extra):
     return ["train", "--case", "m1-4mT", "--out", str(out), "--learning-starts", "10", "--batch-size",
             "8", "--hidden", "8", "--episode-duration", "0.1", "--no-progress", *extra]
