@@ -42,7 +42,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed, wait
 from pathlib import Path
 from typing import Any
 
-__all__ = ["BACKENDS", "run_jobs"]
+__all__ = ["BACKENDS", "run_in_processes", "run_jobs"]
 
 #: Backend names accepted by :func:`run_jobs` (and ``msr train --backend``).
 BACKENDS = ("process", "ray")
@@ -88,20 +88,45 @@ def _run_processes(fn, jobs, workers) -> list[dict[str, Any]]:
             except Exception as exc:  # keep the other seeds going; report the failure
                 results[k] = {"seed": job["config"]["seed"], "error": _error(exc)}
     else:
-        context = multiprocessing.get_context("spawn")
-        pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
-        futures = {pool.submit(fn, job): k for k, job in enumerate(jobs)}
-        try:
-            for future in as_completed(futures):
-                k = futures[future]
-                try:
-                    results[k] = future.result()
-                except Exception as exc:
-                    results[k] = {"seed": jobs[k]["config"]["seed"], "error": _error(exc)}
-        except KeyboardInterrupt:
-            _stop_workers(pool, futures)
-            raise
-        pool.shutdown(wait=True)
+        results = run_in_processes(fn, jobs, workers, on_error=lambda k, exc: {
+            "seed": jobs[k]["config"]["seed"], "error": _error(exc)})
+    return results
+
+
+def run_in_processes(
+    fn: Callable[[Any], Any],
+    jobs: list[Any],
+    workers: int,
+    on_error: Callable[[int, Exception], Any] | None = None,
+) -> list[Any]:
+    """``fn(job)`` for every job in ``workers`` processes (``spawn``), the results in the order of
+    ``jobs``. A job that raises gives ``on_error(k, exception)`` as its result, or, without
+    ``on_error``, the exception is raised here (the jobs not started are dropped).
+
+    Ctrl-C (KeyboardInterrupt) stops the workers within :data:`STOP_GRACE_S` (see
+    :func:`_stop_workers`) and is raised again; a plain ``ProcessPoolExecutor`` would wait for
+    every queued job, and for ever after a SIGINT to this process alone.
+    """
+    context = multiprocessing.get_context("spawn")
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
+    futures = {pool.submit(fn, job): k for k, job in enumerate(jobs)}
+    results: list[Any] = [None] * len(jobs)
+    try:
+        for future in as_completed(futures):
+            k = futures[future]
+            try:
+                results[k] = future.result()
+            except Exception as exc:
+                if on_error is None:
+                    raise
+                results[k] = on_error(k, exc)
+    except KeyboardInterrupt:
+        _stop_workers(pool, futures)
+        raise
+    except BaseException:
+        pool.shutdown(wait=True, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)
     return results
 
 

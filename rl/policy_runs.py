@@ -183,12 +183,9 @@ def evaluate_seeds(
     seeds = seed_run_dirs(Path(case_dir))
     jobs = [(seed, run_dir, duration, progress and workers == 1) for seed, run_dir in seeds]
     if workers > 1:  # each seed's rollouts in its own process
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
+        from .backends import run_in_processes
 
-        context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-            results = list(pool.map(_evaluate_seed, jobs))
+        results = run_in_processes(_evaluate_seed, jobs, workers)
     else:
         results = [_evaluate_seed(job) for job in jobs]
     return results

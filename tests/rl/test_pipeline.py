@@ -306,7 +306,7 @@ def test_ship_over_a_policy_keeps_it_when_the_measurement_fails(refined, tmp_pat
 def test_export_seeds_writes_generate_ready_folders_and_seeds_json(trained, tmp_path, capsys):
     dest = tmp_path / "seeds" / "paper"
     result = run_msr(capsys, "export-seeds", str(trained / "m1-4mT"), "--dest", str(dest),
-                     "--duration", "0.05", "--no-progress")
+                     "--duration", "0.05", "--no-progress", "--workers", "2")  # one process a seed
     entries = json.loads((dest / "seeds.json").read_text())
     assert [e["seed"] for e in entries] == [0, 1] and result["total"] == 2
     for e in entries:
