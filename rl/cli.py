@@ -1,4 +1,4 @@
-"""``msr case``, ``train``, ``refine``, ``generate``, ``baseline``, ``ship``, ``export``,
+"""``msr case``, ``train``, ``refine``, ``generate``, ``baseline``, ``ship``, ``notes``, ``export``,
 ``diagnose``, ``figures``, ``demo``: thin wrappers over :mod:`elastica_magnetic_rl.cases`,
 :mod:`elastica_magnetic_rl.training`, :mod:`elastica_magnetic_rl.pipeline`,
 :mod:`elastica_magnetic_rl.baselines`, :mod:`elastica_magnetic_rl.diagnostics` and
@@ -255,6 +255,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=ship_command)
+
+    p = sub.add_parser(
+        "notes",
+        help="show or replace a shipped policy's notes (policy.json and its model card's Notes)",
+        description="Without --file, print the notes. With --file, its Markdown replaces them in "
+        "policy.json and in MODEL_CARD.md's Notes section together (an empty file removes them).",
+    )
+    p.add_argument("policy", help="shipped-policy name or folder, e.g. m2-4mT")
+    p.add_argument("--file", type=Path, default=None, help="Markdown file with the new notes")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=notes_command)
 
     p = sub.add_parser(
         "export",
@@ -544,6 +555,28 @@ def ship_command(args: argparse.Namespace) -> int:
                       duration=args.duration, progress=not args.no_progress, overwrite=args.force,
                       evaluate_all_seeds=args.evaluate_seeds, notes=notes)
     except (FileExistsError, FileNotFoundError) as exc:
+        raise CommandError(str(exc)) from None
+    print_result(result, args.json)
+    return 0
+
+
+def notes_command(args: argparse.Namespace) -> int:
+    from .pipeline import set_notes
+    from .policy_files import resolve_policy
+
+    if args.file is None:
+        policy = resolve_policy(args.policy)
+        notes = policy.meta.get("notes") if policy.kind == "shipped" else None
+        if args.json:
+            print_result({"policy": str(policy.source), "notes": notes}, True)
+        else:
+            print(notes or "(no notes)")
+        return 0
+    if not args.file.is_file():
+        raise CommandError(f"--file {args.file}: no such file")
+    try:
+        result = set_notes(args.policy, args.file.read_text())
+    except ValueError as exc:
         raise CommandError(str(exc)) from None
     print_result(result, args.json)
     return 0

@@ -7,7 +7,10 @@ from typing import Any
 
 from .cases import Case
 
-__all__ = ["model_card", "seed_meets_target"]
+__all__ = ["model_card", "seed_meets_target", "card_section", "replace_card_section", "NOTES_SECTION"]
+
+#: The card's section rendered from ``policy.json``'s ``notes`` (their one home is policy.json).
+NOTES_SECTION = "## Notes"
 
 
 def seed_meets_target(evaluation: dict[str, Any]) -> bool:
@@ -102,7 +105,7 @@ def model_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case)
     else:
         lines.append(f"- not measured (target: {target})")
     if info.get("notes"):
-        lines += ["", "## Notes", "", info["notes"].strip()]
+        lines += ["", NOTES_SECTION, "", info["notes"].strip()]
     size = (f"{1e3 * robot['length']:g} x {1e3 * robot['width']:g} x {1e3 * robot['thickness']:g} mm"
             if "thickness" in robot else
             f"{1e3 * robot['length']:g} mm long, radius {1e3 * robot['radius']:g} mm")
@@ -121,3 +124,37 @@ def model_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case)
         "",
     ]
     return "\n".join(lines)
+
+
+def _section_bounds(lines: list[str], heading: str) -> tuple[int, int] | None:
+    """First and one-past-last line of the ``heading`` section (up to the next "## " heading)."""
+    if heading not in lines:
+        return None
+    start = lines.index(heading)
+    end = next((i for i in range(start + 1, len(lines)) if lines[i].startswith("## ")), len(lines))
+    return start, end
+
+
+def card_section(text: str, heading: str) -> str | None:
+    """The body of a card's section ``heading`` (e.g. ``"## Notes"``), stripped; None without it."""
+    lines = text.split("\n")
+    bounds = _section_bounds(lines, heading)
+    return None if bounds is None else "\n".join(lines[bounds[0] + 1:bounds[1]]).strip()
+
+
+def replace_card_section(text: str, heading: str, body: str | None, before: str) -> str:
+    """``text`` with its section ``heading`` holding ``body`` (Markdown): replaced where the card
+    has the section, else inserted before the first heading starting with ``before`` (or at the
+    end); ``body`` None or blank removes the section."""
+    lines = text.split("\n")
+    bounds = _section_bounds(lines, heading)
+    section = [] if not (body and body.strip()) else [heading, "", body.strip(), ""]
+    if bounds is not None:
+        lines = lines[:bounds[0]] + section + lines[bounds[1]:]
+    elif section:
+        anchor = next((i for i, line in enumerate(lines) if line.startswith(before)), None)
+        if anchor is None:
+            lines = [*text.rstrip("\n").split("\n"), "", *section]
+        else:
+            lines = lines[:anchor] + section + lines[anchor:]
+    return "\n".join(lines).rstrip("\n") + "\n"

@@ -47,7 +47,7 @@ from elastica_magnetic.openloop import check_duration
 from .baselines import RotatingFieldPolicy
 from .cases import Case
 from .env import observation_spec
-from .model_card import model_card, seed_meets_target
+from .model_card import NOTES_SECTION, model_card, replace_card_section, seed_meets_target
 from .policy_files import (
     POLICIES_DIR,
     POLICY_FORMAT,
@@ -60,6 +60,8 @@ from .policy_files import (
 )
 from .policy_runs import evaluate_seeds, machine_fingerprint, make_env, node_dx, run_policy
 from .recipes import CRAWLER_TD3_OVERRIDES, DEFAULT_RECIPE, RECIPES
+from .seed_report import CARD_SECTION as SEEDS_CARD_SECTION
+from .seed_report import case_seeds, seeds_markdown
 from .tasks import ReachTask
 
 __all__ = [
@@ -75,6 +77,7 @@ __all__ = [
     "machine_fingerprint",
     "make_env",
     "run_policy",
+    "set_notes",
     "resolve_policy",
     "ship",
     "weights_sha256",
@@ -311,6 +314,11 @@ def ship(
         "case_spec": case.to_dict(),
     }
     card = model_card(info, summary, case) if with_card else None
+    if card is not None:  # the committed seeds' table (msr seeds --card) survives a re-ship
+        groups = case_seeds(case, target.parent)
+        if groups:
+            card = replace_card_section(card, SEEDS_CARD_SECTION, seeds_markdown(case, groups),
+                                        before="## Evaluation")
     # each file atomically; policy.json, which names the actor's checksum, after the weights
     target.mkdir(parents=True, exist_ok=True)
     atomic_save(target / "actor.pt", lambda tmp: torch.save(policy.actor.state_dict(), tmp))
@@ -329,6 +337,31 @@ def ship(
         (target / stale).unlink(missing_ok=True)  # the replaced policy's, not this one's
     return {"name": name, "dir": str(target), "case": case.name,
             "evaluation": measured, "files": sorted(p.name for p in target.iterdir())}
+
+
+def set_notes(policy: str | Path, notes: str | None,
+              policies_dir: str | Path | None = None) -> dict[str, Any]:
+    """Replace a shipped policy's notes (Markdown: what the numbers do not say; None or blank
+    removes them). Their one home is ``policy.json``'s ``notes``; the model card's "Notes" section
+    is rendered from it, so the two never disagree. ``policy``: a shipped-policy folder or name.
+    Both files are written atomically, policy.json first; the actor is not touched."""
+    resolved = resolve_policy(policy, policies_dir)
+    if resolved.kind != "shipped":
+        raise ValueError(f"{policy}: notes belong to a shipped policy (a folder with policy.json), "
+                         "not to a run or checkpoint")
+    folder = resolved.source
+    notes = notes.strip() if notes and notes.strip() else None
+    info = json.loads((folder / POLICY_JSON).read_text()) | {"notes": notes}
+    card_path = folder / "MODEL_CARD.md"
+    card = None
+    if card_path.is_file():
+        card = replace_card_section(card_path.read_text(), NOTES_SECTION, notes,
+                                    before="## Limitations")
+    atomic_write_json(folder / POLICY_JSON, info)
+    if card is not None:
+        atomic_write_text(card_path, card)
+    return {"name": info.get("name", folder.name), "dir": str(folder), "notes": notes,
+            "card_updated": card is not None}
 
 
 def _portable_source(path: Path, case: str) -> str:

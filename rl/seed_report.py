@@ -20,6 +20,7 @@ import numpy as np
 from elastica_magnetic.io import atomic_write_text
 
 from .cases import Case
+from .model_card import replace_card_section
 from .policy_files import POLICIES_DIR
 
 __all__ = ["RecipeSeeds", "case_seeds", "seeds_markdown", "recipes_markdown", "update_model_card",
@@ -131,19 +132,7 @@ def update_model_card(card: Path, case: Case, groups: list[RecipeSeeds]) -> bool
     :data:`CARD_SECTION` (replacing the section if there is one, else before "## Evaluation"
     or at the end). Written atomically; returns whether the card changed."""
     text = card.read_text()
-    section = f"{CARD_SECTION}\n\n{seeds_markdown(case, groups)}\n"
-    lines = text.split("\n")
-    if CARD_SECTION in lines:
-        start = lines.index(CARD_SECTION)
-        end = next((i for i in range(start + 1, len(lines)) if lines[i].startswith("## ")), len(lines))
-        new = "\n".join(lines[:start]) + "\n" + section + "\n" + "\n".join(lines[end:])
-    else:
-        anchor = next((i for i, line in enumerate(lines) if line.startswith("## Evaluation")), None)
-        if anchor is None:
-            new = text.rstrip("\n") + "\n\n" + section
-        else:
-            new = "\n".join(lines[:anchor]) + "\n" + section + "\n" + "\n".join(lines[anchor:])
-    new = new.rstrip("\n") + "\n"
+    new = replace_card_section(text, CARD_SECTION, seeds_markdown(case, groups), before="## Evaluation")
     if new == text:
         return False
     atomic_write_text(card, new)

@@ -679,3 +679,48 @@ def test_train_help_describes_every_recipe(capsys):
     text = " ".join(capsys.readouterr().out.split())
     for name, line in RECIPE_SUMMARIES.items():
         assert f"{name}: {line}" in text
+
+
+def test_notes_have_one_home_and_a_re_ship_keeps_the_seeds_table(refined, tmp_path, capsys):
+    """A policy's notes live in policy.json and the card's Notes section is rendered from them:
+    ``msr notes`` changes both together and nothing else; ``ship --force`` keeps the table of
+    the case's committed seeds (``msr seeds --card``) in the new card."""
+    from elastica_magnetic_rl.model_card import NOTES_SECTION, card_section
+    from elastica_magnetic_rl.seed_report import CARD_SECTION
+
+    dest = tmp_path / "policies"
+    pipeline.ship(refined, "m1-4mT", dest=dest, measure=False, progress=False, notes="First.")
+    folder = dest / "m1-4mT"
+    seeds = folder / "seeds" / "paper" / "seeds.json"
+    seeds.parent.mkdir(parents=True)
+    seeds.write_text(json.dumps([{"seed": 0, "steps": 240, "distance_10s_m": 0.0221, "actor": "seed0"},
+                                 {"seed": 1, "steps": 240, "distance_10s_m": 0.0018, "actor": "seed1"}]))
+    pipeline.ship(refined.parent / "best.pt", "m1-4mT", dest=dest, overwrite=True, measure=False,
+                  progress=False, notes="Second.")
+    card = (folder / "MODEL_CARD.md").read_text()
+    assert "| `paper` | 1 of 2 |" in card and card.index(CARD_SECTION) < card.index("## Evaluation")
+    assert card_section(card, NOTES_SECTION) == "Second."
+
+    actor = (folder / "actor.pt").read_bytes()
+    new_notes = tmp_path / "notes.md"
+    new_notes.write_text("- Third, *edited*.\n\n")
+    assert msr(["notes", str(folder), "--file", str(new_notes)]) == 0
+    info = json.loads((folder / "policy.json").read_text())
+    card = (folder / "MODEL_CARD.md").read_text()
+    assert info["notes"] == card_section(card, NOTES_SECTION) == "- Third, *edited*."
+    assert card.count(NOTES_SECTION) == 1 and card.index(NOTES_SECTION) < card.index("## Limitations")
+    assert "| `paper` | 1 of 2 |" in card and (folder / "actor.pt").read_bytes() == actor
+    assert pipeline.resolve_policy(folder).kind == "shipped"
+    capsys.readouterr()
+    assert msr(["notes", str(folder)]) == 0 and capsys.readouterr().out.strip() == "- Third, *edited*."
+    new_notes.write_text("\n")  # an empty file removes them, from both
+    assert msr(["notes", str(folder), "--file", str(new_notes)]) == 0
+    assert json.loads((folder / "policy.json").read_text())["notes"] is None
+    assert NOTES_SECTION not in (folder / "MODEL_CARD.md").read_text()
+    capsys.readouterr()
+    before = {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
+    assert msr(["notes", str(refined), "--file", str(new_notes)]) == 2  # a run has no notes
+    assert "shipped policy" in capsys.readouterr().err
+    assert msr(["notes", str(folder), "--file", str(tmp_path / "missing.md")]) == 2
+    assert "missing.md: no such file" in capsys.readouterr().err
+    assert {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()} == before

@@ -113,3 +113,25 @@ def test_the_recipes_table_across_cases(tmp_path, capsys):
     assert "| `paper` | none (the authors' settings) | 1 of 2 | 2 of 3 |" in table
     assert ("| `pink-ln` | `noise_color = 1.0`, `noise_horizon = 2000`, `critic_layer_norm = True` "
             "| 1 of 1 |  |") in table
+
+
+def test_every_shipped_card_is_current_with_its_policy_and_seeds(tmp_path):
+    """A shipped card's Notes are its policy.json's notes, and its seeds table is the one the
+    committed seeds.json give (``msr seeds --card`` would not change it)."""
+    import shutil
+
+    from elastica_magnetic_rl.model_card import NOTES_SECTION, card_section
+    from elastica_magnetic_rl.policy_files import POLICIES_DIR
+
+    folders = sorted(p.parent for p in POLICIES_DIR.glob("*/MODEL_CARD.md"))
+    assert len(folders) >= 4
+    for folder in folders:
+        info = json.loads((folder / "policy.json").read_text())
+        card = (folder / "MODEL_CARD.md").read_text()
+        assert card_section(card, NOTES_SECTION) == ((info.get("notes") or "").strip() or None), folder
+        case = load_case(info["case"])
+        groups = case_seeds(case)
+        if groups:
+            copy = tmp_path / f"{folder.name}.md"
+            shutil.copy(folder / "MODEL_CARD.md", copy)
+            assert update_model_card(copy, case, groups) is False, f"{folder}: run msr seeds --card"
