@@ -5,7 +5,10 @@ function, so this file stays a thin dispatcher:
 
 - ``elastica_magnetic.commands``: ``replay``, ``simulate``
 - ``elastica_magnetic_validation.cli``: ``validate``
-- ``elastica_magnetic_rl.cli``: ``train``, ``bench``, ``refine``, ``generate``, ``export``, ``demo``
+- ``elastica_magnetic_rl.cli``: ``case``, ``train``, ``bench``, ``refine``, ``generate``, ``baseline``,
+  ``figures``, ``demo``
+- ``elastica_magnetic_rl.policy_cli``: ``export-seeds``, ``seeds``, ``ship``, ``notes``, ``export``,
+  ``diagnose``
 - ``elastica_magnetic.hardware.cli``: ``stream``, ``export-firmware``, ``calibrate``
 """
 
@@ -24,6 +27,7 @@ COMMAND_MODULES = (
     "elastica_magnetic.commands",
     "elastica_magnetic_validation.cli",
     "elastica_magnetic_rl.cli",
+    "elastica_magnetic_rl.policy_cli",
     "elastica_magnetic.hardware.cli",
 )
 

@@ -20,10 +20,15 @@ CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8, "eval_every":
 #: al., ICLR 2023), a sequence per 20 s episode, same standard deviation. ``pink-ln``: ``pink`` with
 #: layer normalisation in the critics' hidden layers (Ball et al., ICML 2023), against the critics'
 #: overestimation that saturates the actor's ``tanh`` in the failed seeds (docs/training.md).
+#: ``pink-ln-unsat``: ``pink-ln`` with a penalty on the actor's pre-``tanh`` outputs beyond 3,
+#: so that a saturated actor still receives the critic's gradient (``pink-ln``'s failed
+#: ``m2-10mT`` seeds stayed at a half roll with saturated actors and calibrated critics).
 RECIPES: dict[str, dict[str, Any]] = {
     "paper": {},
     "pink": {"noise_color": 1.0, "noise_horizon": 2000},
     "pink-ln": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True},
+    "pink-ln-unsat": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True,
+                      "actor_saturation_penalty": 1.0},
 }
 DEFAULT_RECIPE = "paper"
 
@@ -32,4 +37,5 @@ RECIPE_SUMMARIES: dict[str, str] = {
     "paper": "the authors' TD3 settings",
     "pink": "the paper's with temporally correlated (pink) exploration noise",
     "pink-ln": "pink, and layer normalisation in the critics",
+    "pink-ln-unsat": "pink-ln, and a penalty that keeps the actor out of tanh's saturation",
 }
