@@ -106,6 +106,12 @@ def _earlier_exported_seeds(dest: Path, replaced: set[int], meta: dict[str, Any]
         # a setting absent from an older run's config did not exist then: it ran as its default
         return {k: v for k, v in as_json({**TD3Config().to_dict(), **config}).items() if k != "seed"}
 
+    def physical(spec: Any) -> Any:
+        # a spec's [training] table holds the defaults a run started from; what the run really
+        # used is its config (compared below) and each entry's steps, so a spec whose default
+        # recipe changed still describes the same robot and task
+        return {k: v for k, v in spec.items() if k != "training"} if isinstance(spec, dict) else spec
+
     config = settings(meta.get("config") or {})
     kept = []
     for entry in earlier:
@@ -117,7 +123,7 @@ def _earlier_exported_seeds(dest: Path, replaced: set[int], meta: dict[str, Any]
         except (OSError, json.JSONDecodeError) as exc:
             raise ValueError(f"{path}: seed {entry['seed']}: its actor's {policy_json} is unreadable "
                              f"({exc})") from exc
-        if other.get("case_spec") != as_json(meta.get("case_spec")):
+        if physical(other.get("case_spec")) != physical(as_json(meta.get("case_spec"))):
             raise ValueError(f"{dest}: seed {entry['seed']} was trained on another case spec "
                              f"({other.get('case')!r}) than {meta.get('case')!r}: export into "
                              "another folder")

@@ -667,6 +667,21 @@ def test_export_seeds_collects_seeds_of_several_runs_and_refuses_mixed_ones(trai
     err = capsys.readouterr().err
     assert "seed 0" in err and "batch_size" in err and "another folder" in err
     assert (dest / "seeds.json").read_bytes() == before
+    # a spec whose default recipe changed since is the same robot and task: kept; another robot is not
+    meta["training"]["config"]["batch_size"] = json.loads(
+        (dest / "seed1" / "policy.json").read_text())["training"]["config"]["batch_size"]
+    meta["case_spec"]["training"]["recipe"] = "pink-ln"
+    policy_json.write_text(json.dumps(meta))
+    run_msr(capsys, "export-seeds", str(second_run), "--dest", str(dest), "--duration", "0.05",
+            "--no-progress")
+    assert [e["seed"] for e in json.loads((dest / "seeds.json").read_text())] == [0, 1]
+    meta["case_spec"]["robot"]["youngs_modulus"] *= 2
+    policy_json.write_text(json.dumps(meta))
+    before = (dest / "seeds.json").read_bytes()
+    assert msr(["export-seeds", str(second_run), "--dest", str(dest), "--duration", "0.05",
+                "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "seed 0" in err and "another case spec" in err and (dest / "seeds.json").read_bytes() == before
 
 
 def test_train_help_describes_every_recipe(capsys):
