@@ -91,13 +91,24 @@ def _check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
     options = {"case": "--case", "physics": "--physics", "episode_duration_s": "--episode-duration",
                "recipe": "--recipe"}
     for key in _RUN_SETTINGS:
-        if key == "case_spec" and key in record and record[key] != metadata[key]:
-            where = _first_difference(record[key], metadata[key])
+        if key == "case_spec" and key in record and \
+                _without_default_recipe(record[key]) != _without_default_recipe(metadata[key]):
+            where = _first_difference(_without_default_recipe(record[key]),
+                                      _without_default_recipe(metadata[key]))
             raise ValueError(f"the spec of case {metadata['case']!r} differs from the run's at "
                              f"{where} ({run_json}): a resumed run keeps its case")
         if key in record and key != "case_spec" and record[key] != metadata[key]:
             raise ValueError(f"{options[key]} {metadata[key]} differs from the run's {record[key]} "
                              f"({run_json}): a resumed run keeps its settings")
+
+
+def _without_default_recipe(spec: Any) -> Any:
+    """A case spec without its ``[training] recipe``: the recipe a run really used is its own
+    setting (``recipe``, compared on its own), so a spec whose default recipe changed since the
+    run started still resumes it."""
+    if not isinstance(spec, dict) or not isinstance(spec.get("training"), dict):
+        return spec
+    return {**spec, "training": {k: v for k, v in spec["training"].items() if k != "recipe"}}
 
 
 def _first_difference(a: Any, b: Any, path: str = "") -> str:

@@ -199,6 +199,13 @@ def test_recipe_is_recorded_and_a_resume_keeps_the_runs_settings(tmp_path, capsy
     # a resume of a seed that has no checkpoint is refused too, naming the file
     assert msr([*args, "--steps", "30", "--resume", "--seed-offset", "5"]) == 2
     assert "seed5/checkpoint.pt" in capsys.readouterr().err
+    # a run started when the case's default recipe was another one resumes with its own recipe
+    record = json.loads((run / "run.json").read_text())
+    record["case_spec"]["training"]["recipe"] = "pink-ln-unsat"
+    (run / "run.json").write_text(json.dumps(record))
+    args[args.index("--episode-duration") + 1] = "0.1"
+    assert msr([*args, "--steps", "30", "--resume", "--recipe", "pink"]) == 0
+    assert load_checkpoint(run)["global_step"] == 30
 
 
 def test_refine_continues_agent_and_buffer_in_accurate_physics(trained, refined):
