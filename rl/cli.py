@@ -102,7 +102,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="Ray cluster address for --backend ray (auto, HOST:PORT, ray://HOST:10001); "
                         "--out must then be on a filesystem all nodes see at the same path")
     p.add_argument("--recipe", choices=tuple(RECIPES), default=None,
-                   help="training recipe (default: the case's; paper for the paper's cases): "
+                   help="training recipe (default: the case's, pink-ln for the paper's cases; "
+                        "--recipe paper: the authors'): "
                         + "; ".join(f"{name}: {line}" for name, line in RECIPE_SUMMARIES.items())
                         + " (docs/training.md)")
     g = p.add_argument_group("TD3 overrides (default: the paper's settings)")

@@ -23,6 +23,7 @@ def test_bench_quick_json_keys(capsys):
     assert result["train_1e5_steps_s"] == 1e5 * (1 / result["env_steps_per_s"]
                                                  + 1 / result["td3_updates_per_s"])
     assert result["training"]["step_us"] == result["step_us"] and result["quick"] is True
+    assert result["recipe"] == "paper"  # the series of measurements is the paper recipe's
     roof = result["td3_roofline"]
     assert roof["achieved_gflops"] == roof["gflop_per_update"] * result["td3_updates_per_s"]
     assert math.isfinite(roof["sgemm_gflops"]) and roof["sgemm_gflops"] > 0

@@ -30,7 +30,7 @@ def test_the_registry_lists_the_paper_cases_first_and_their_yardsticks():
         case = load_case(name)
         assert case.name == name and case.yardstick.distance_10s == distance
         assert case.obs_dim == 260 and case.task == CrawlTask(1e4, 20.0)
-        assert case.training.recipe == "paper" and case.training.steps == 100_000
+        assert case.training.recipe == "pink-ln" and case.training.steps == 100_000
         assert case.builtin
 
 

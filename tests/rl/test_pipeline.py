@@ -189,8 +189,8 @@ def test_recipe_is_recorded_and_a_resume_keeps_the_runs_settings(tmp_path, capsy
     assert load_checkpoint(run)["config"]["noise_color"] == 1.0
     before = (run / "episodes.csv").read_text()
     capsys.readouterr()
-    assert msr([*args, "--steps", "30", "--resume"]) == 2  # the default recipe: paper
-    assert "--recipe paper differs from the run's pink" in capsys.readouterr().err
+    assert msr([*args, "--steps", "30", "--resume"]) == 2  # the case's recipe: pink-ln
+    assert "--recipe pink-ln differs from the run's pink" in capsys.readouterr().err
     args[args.index("--episode-duration") + 1] = "0.2"
     assert msr([*args, "--steps", "30", "--resume", "--recipe", "pink"]) == 2
     assert "--episode-duration 0.2 differs from the run's 0.1" in capsys.readouterr().err
@@ -691,9 +691,11 @@ def test_export_seeds_collects_seeds_of_several_runs_and_refuses_mixed_ones(trai
     assert "seed 0" in err and "another case spec" in err and (dest / "seeds.json").read_bytes() == before
 
 
-def test_train_help_describes_every_recipe(capsys):
+def test_train_help_describes_every_recipe(capsys, monkeypatch):
     """``msr train --help`` names each recipe with its one-line summary (one home: recipes.py)."""
     from elastica_magnetic_rl.recipes import RECIPE_SUMMARIES, RECIPES
+
+    monkeypatch.setenv("COLUMNS", "1000")  # argparse wraps at hyphens: one line per option
 
     assert set(RECIPE_SUMMARIES) == set(RECIPES)
     with pytest.raises(SystemExit):
