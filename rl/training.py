@@ -91,13 +91,13 @@ def _check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
     options = {"case": "--case", "physics": "--physics", "episode_duration_s": "--episode-duration",
                "recipe": "--recipe"}
     for key in _RUN_SETTINGS:
-        if key == "case_spec" and key in record and \
-                _without_default_recipe(record[key]) != _without_default_recipe(metadata[key]):
-            where = _first_difference(_without_default_recipe(record[key]),
-                                      _without_default_recipe(metadata[key]))
-            raise ValueError(f"the spec of case {metadata['case']!r} differs from the run's at "
-                             f"{where} ({run_json}): a resumed run keeps its case")
-        if key in record and key != "case_spec" and record[key] != metadata[key]:
+        if key == "case_spec" and key in record:
+            run_spec, spec = _without_default_recipe(record[key]), _without_default_recipe(metadata[key])
+            if run_spec != spec:
+                raise ValueError(f"the spec of case {metadata['case']!r} differs from the run's at "
+                                 f"{_first_difference(run_spec, spec)} ({run_json}): a resumed run "
+                                 "keeps its case")
+        elif key in record and record[key] != metadata[key]:
             raise ValueError(f"{options[key]} {metadata[key]} differs from the run's {record[key]} "
                              f"({run_json}): a resumed run keeps its settings")
 
