@@ -61,6 +61,7 @@ __all__ = [
     "dumps",
     "describe_robot",
     "load_robot",
+    "field_limit_of",
 ]
 
 #: Top-level keys of a spec file (the learning package reads the last four).
@@ -552,3 +553,18 @@ def load_robot(robot: str | Path, physics: Physics = "accurate") -> RobotSpec:
         raise SpecError(f"unknown robot {str(robot)!r}: not a preset ({', '.join(ROBOTS)}) and not a "
                         "spec file (.toml)")
     return describe_robot(read_spec(path), str(path)).robot(physics)
+
+
+def field_limit_of(robot: str | Path) -> float | None:
+    """The ``[actuation] field_limit`` (T) of a spec file, or ``None`` for a preset name or a spec
+    without an ``[actuation]`` table. The value is checked as the learning package checks it (a
+    number in ``(0, 1]`` T); a bad one is a :class:`SpecError` naming the file and key."""
+    if str(robot) in ROBOTS:
+        return None
+    path = Path(robot)
+    spec = read_spec(path)
+    actuation = spec.get("actuation")
+    if actuation is None:
+        return None
+    table = SpecTable(actuation, str(path), "actuation")
+    return table.number("field_limit", "T", low=0.0, low_open=True, high=1.0)

@@ -1,0 +1,89 @@
+"""Progress reporting: a tqdm bar on a terminal, sparse plain lines when the output is a file."""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+
+import pytest
+
+from elastica_magnetic.progress import PlainProgress, progress_bar
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.t = 0.0
+
+    def __call__(self) -> float:
+        return self.t
+
+
+class TTY(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_plain_lines_every_ten_percent_not_every_update():
+    out, clock = io.StringIO(), FakeClock()
+    bar = PlainProgress(1000, "simulate", "x10ms", stream=out, every_percent=10, every_s=1e9,
+                        clock=clock)
+    for _ in range(1000):
+        clock.t += 0.01
+        bar.update(1)
+    bar.close()
+    lines = out.getvalue().splitlines()
+    assert len(lines) == 11  # 10 %, 20 %, ..., 100 %, and the closing line
+    assert lines[0] == "simulate: 10% (100/1000 x10ms), 1 s elapsed, ~9 s left"
+    assert lines[-1] == "simulate: 100% (1000/1000 x10ms), 10 s elapsed"
+
+
+def test_plain_lines_at_least_every_every_s_and_postfix():
+    out, clock = io.StringIO(), FakeClock()
+    with PlainProgress(10_000, "train", "step", stream=out, every_percent=50, every_s=60,
+                       clock=clock, initial=2000) as bar:
+        bar.set_postfix(ep=3, ret="1.5", refresh=False)
+        for _ in range(10):  # 10 updates of one step, 30 s apart: a line each 60 s
+            clock.t += 30.0
+            bar.update(1)
+    lines = out.getvalue().splitlines()
+    assert len(lines) == 6  # 5 time lines and the closing one
+    assert lines[0] == "train: 20% (2002/10000 step), 1 min 00 s elapsed, ~66 h 39 min left, ep=3, ret=1.5"
+
+
+def test_progress_bar_chooses_by_terminal_and_disable():
+    from tqdm import tqdm
+
+    tty = TTY()
+    bar = progress_bar(10, "x", stream=tty, leave=False)
+    assert isinstance(bar, tqdm)
+    bar.close()
+    plain = progress_bar(10, "x", stream=io.StringIO(), leave=False)
+    assert isinstance(plain, PlainProgress)
+    silent = io.StringIO()
+    off = progress_bar(10, "x", stream=silent, disable=True)
+    off.update(10)
+    off.close()
+    assert silent.getvalue() == ""
+    with pytest.raises(ValueError, match="every_percent"):
+        PlainProgress(10, every_percent=0)
+
+
+def test_msr_simulate_defaults_to_the_specs_field_limit(tmp_path, capsys):
+    from elastica_magnetic.cli import main
+
+    spec = Path(__file__).resolve().parents[1] / "rl" / "specs" / "m1-10mT.toml"
+    assert main(["simulate", "--robot", str(spec), "--duration", "0.05", "--physics", "training",
+                 "--out", str(tmp_path / "a"), "--json"]) == 0
+    captured = capsys.readouterr()
+    result = json.loads(captured.out)
+    assert result["amplitude_T"] == 0.01 and result["amplitude_from"] == "[actuation] field_limit"
+    # not a terminal: plain progress lines, not a redrawn bar
+    assert "\r" not in captured.err and "simulate: 100% (5/5 x10ms)" in captured.err
+    assert main(["simulate", "--duration", "0.05", "--physics", "training", "--out",
+                 str(tmp_path / "b"), "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["amplitude_T"] == 0.004 and result["amplitude_from"].startswith("default")
+    assert main(["simulate", "--robot", str(spec), "--amplitude", "0.002", "--duration", "0.05",
+                 "--physics", "training", "--out", str(tmp_path / "c"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["amplitude_T"] == 0.002
