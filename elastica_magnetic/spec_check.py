@@ -57,7 +57,7 @@ from typing import Any
 import numpy as np
 
 from .presets import ACTION_PERIOD, RobotSpec
-from .specfile import RobotDescription, SpecTable, describe_robot
+from .specfile import RobotDescription, SpecTable, describe_robot, spec_field_limit
 
 __all__ = [
     "Issue",
@@ -303,10 +303,7 @@ def check_spec(spec: Mapping[str, Any], source: str = "<spec>", *, sag: bool = T
     package checks the rest of those tables). ``sag=False`` skips the sag simulations (seconds;
     the first run in a process also compiles the kernels)."""
     description = describe_robot(spec, source)
-    field_limit = None
-    if isinstance(spec.get("actuation"), Mapping):
-        actuation = SpecTable(spec["actuation"], source, "actuation")
-        field_limit = actuation.number("field_limit", "T", None, low=0.0, low_open=True, high=1.0)
+    field_limit = spec_field_limit(spec, source)
     task = spec.get("task")
     task_kind = task.get("kind") if isinstance(task, Mapping) else None
     yardstick: Any = None

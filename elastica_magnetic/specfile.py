@@ -62,6 +62,7 @@ __all__ = [
     "describe_robot",
     "load_robot",
     "field_limit_of",
+    "spec_field_limit",
 ]
 
 #: Top-level keys of a spec file (the learning package reads the last four).
@@ -561,10 +562,14 @@ def field_limit_of(robot: str | Path) -> float | None:
     number in ``(0, 1]`` T); a bad one is a :class:`SpecError` naming the file and key."""
     if str(robot) in ROBOTS:
         return None
-    path = Path(robot)
-    spec = read_spec(path)
+    return spec_field_limit(read_spec(robot), str(robot))
+
+
+def spec_field_limit(spec: Mapping[str, Any], source: str = "<spec>") -> float | None:
+    """The ``[actuation] field_limit`` (T) of a parsed spec, ``None`` without an ``[actuation]``
+    table; checked as the learning package checks it (a number in ``(0, 1]`` T)."""
     actuation = spec.get("actuation")
     if actuation is None:
         return None
-    table = SpecTable(actuation, str(path), "actuation")
+    table = SpecTable(actuation, source, "actuation")
     return table.number("field_limit", "T", low=0.0, low_open=True, high=1.0)

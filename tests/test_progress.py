@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import io
-import json
-from pathlib import Path
 
 import pytest
 
@@ -67,23 +65,3 @@ def test_progress_bar_chooses_by_terminal_and_disable():
     assert silent.getvalue() == ""
     with pytest.raises(ValueError, match="every_percent"):
         PlainProgress(10, every_percent=0)
-
-
-def test_msr_simulate_defaults_to_the_specs_field_limit(tmp_path, capsys):
-    from elastica_magnetic.cli import main
-
-    spec = Path(__file__).resolve().parents[1] / "rl" / "specs" / "m1-10mT.toml"
-    assert main(["simulate", "--robot", str(spec), "--duration", "0.05", "--physics", "training",
-                 "--out", str(tmp_path / "a"), "--json"]) == 0
-    captured = capsys.readouterr()
-    result = json.loads(captured.out)
-    assert result["amplitude_T"] == 0.01 and result["amplitude_from"] == "[actuation] field_limit"
-    # not a terminal: plain progress lines, not a redrawn bar
-    assert "\r" not in captured.err and "simulate: 100% (5/5 x10ms)" in captured.err
-    assert main(["simulate", "--duration", "0.05", "--physics", "training", "--out",
-                 str(tmp_path / "b"), "--json"]) == 0
-    result = json.loads(capsys.readouterr().out)
-    assert result["amplitude_T"] == 0.004 and result["amplitude_from"].startswith("default")
-    assert main(["simulate", "--robot", str(spec), "--amplitude", "0.002", "--duration", "0.05",
-                 "--physics", "training", "--out", str(tmp_path / "c"), "--json"]) == 0
-    assert json.loads(capsys.readouterr().out)["amplitude_T"] == 0.002
