@@ -70,14 +70,15 @@ class PlainProgress:
     def update(self, n: int = 1) -> None:
         """Count ``n`` more units done; write a line if one is due."""
         self.n += int(n)
-        self.refresh(only_if_due=True)
+        self.refresh()
 
-    def refresh(self, only_if_due: bool = False) -> None:
-        """Write a line now (or, with ``only_if_due``, only if the next slice or ``every_s`` has
-        been reached)."""
+    def refresh(self, force: bool = False) -> None:
+        """Write a line if one is due (the next ``every_percent`` slice reached, or ``every_s``
+        passed since the last line), or now with ``force``. Callers that set :attr:`n` directly
+        and refresh often (as for a tqdm bar) still get sparse lines."""
         now = self._clock()
         step = self._step(self.n)
-        if only_if_due and step <= self._last_step and now - self._last_time < self.every_s:
+        if not force and step <= self._last_step and now - self._last_time < self.every_s:
             return
         self._last_step, self._last_time = max(step, self._last_step), now
         self._write(self.line(now))
@@ -88,12 +89,12 @@ class PlainProgress:
         items = {**(ordered_dict or {}), **kwargs}
         self.postfix = ", ".join(f"{k}={v}" for k, v in items.items())
         if refresh:
-            self.refresh(only_if_due=True)
+            self.refresh()
 
     def set_postfix_str(self, s: str = "", refresh: bool = True) -> None:
         self.postfix = s
         if refresh:
-            self.refresh(only_if_due=True)
+            self.refresh()
 
     def line(self, now: float | None = None) -> str:
         """The current progress as one line (no newline)."""

@@ -65,3 +65,18 @@ def test_progress_bar_chooses_by_terminal_and_disable():
     assert silent.getvalue() == ""
     with pytest.raises(ValueError, match="every_percent"):
         PlainProgress(10, every_percent=0)
+
+
+def test_setting_n_and_refreshing_often_still_gives_sparse_lines():
+    """msr replay/simulate set ``n`` and refresh every 20 steps, as for a tqdm bar."""
+    out, clock = io.StringIO(), FakeClock()
+    bar = PlainProgress(1000, "replay", "x10ms", stream=out, clock=clock)
+    for done in range(1, 1001):
+        clock.t += 0.01
+        bar.n = done
+        if done % 20 == 0:
+            bar.refresh()
+    bar.close()
+    assert len(out.getvalue().splitlines()) == 11
+    bar.refresh(force=True)
+    assert len(out.getvalue().splitlines()) == 12
