@@ -59,6 +59,7 @@ class PlainProgress:
         self._start = self._last_time = clock()
         self._start_n = self.n
         self._last_step = self._step(self.n)
+        self._written_n: int | None = None
         self.closed = False
 
     def _step(self, n: int) -> int:
@@ -81,6 +82,7 @@ class PlainProgress:
         if not force and step <= self._last_step and now - self._last_time < self.every_s:
             return
         self._last_step, self._last_time = max(step, self._last_step), now
+        self._written_n = self.n
         self._write(self.line(now))
 
     def set_postfix(self, ordered_dict: dict[str, Any] | None = None, refresh: bool = True,
@@ -125,11 +127,11 @@ class PlainProgress:
         self._write(text)
 
     def close(self) -> None:
-        """Write the last line (once)."""
+        """Write the last line (once; not if the last line written already says the same)."""
         if self.closed:
             return
         self.closed = True
-        if self.n != self._start_n or self.total == 0:
+        if self._written_n != self.n and (self.n != self._start_n or self.total == 0):
             self._write(self.line())
 
     def __enter__(self) -> PlainProgress:
