@@ -372,8 +372,10 @@ def _time_step_issues(steps: list[TimeStepCheck]) -> list[Issue]:
             issues.append(Issue("error", key, f"{text}: likely unstable, use dt = "
                                               f"{s.suggested_dt_s:.3g} s or smaller"))
         elif s.margin < SAFETY_FACTOR:
-            issues.append(Issue("warning", key, f"{text}: close to the limit, consider dt = "
-                                                f"{s.suggested_dt_s:.3g} s"))
+            issues.append(Issue("warning", key, f"{text} < {SAFETY_FACTOR:g}: a stiffer, lighter "
+                                                "or finer robot may blow up; dt = "
+                                                f"{s.suggested_dt_s:.3g} s keeps a margin of "
+                                                f"{SAFETY_FACTOR:g}"))
     return issues
 
 
