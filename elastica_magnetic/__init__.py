@@ -19,8 +19,10 @@ from .ground import FrictionalGroundContact
 from .interaction import MagneticInteraction
 from .magnetization import (
     YAO2023_MAGNETIZATION,
+    MagnetizationSegment,
     element_centres,
     magnetization_from_function,
+    segments_magnetization,
     sinusoidal_magnetization,
     two_segment_magnetization,
     uniform_magnetization,
@@ -71,6 +73,7 @@ __all__ = [
     "MagneticInteraction",
     "MagneticRodSimulator",
     "MagneticTorques",
+    "MagnetizationSegment",
     "OpenLoopResult",
     "RampedField",
     "RelativeVelocityDamping",
@@ -93,6 +96,7 @@ __all__ = [
     "rectangular_band_rod",
     "robot_by_name",
     "run_open_loop",
+    "segments_magnetization",
     "set_shear_coefficient",
     "shear_coefficient",
     "sinusoidal_magnetization",

@@ -13,12 +13,15 @@ from .fields import RotatingField, TabulatedField
 from .io import prepare_output_dir
 from .openloop import run_open_loop, write_trajectory_csv
 from .presets import ROBOTS
-from .specfile import SpecError, load_robot
+from .progress import progress_bar
+from .specfile import SpecError, field_limit_of, load_robot
 
 ROBOT_HELP = (f"a preset ({', '.join(ROBOTS)}) or a spec file (.toml, e.g. from "
               "`msr case show m1-4mT --toml`); default yao2023-m1")
 #: Largest ``msr simulate --amplitude``, T (the paper's fields are 4 and 10 mT).
 MAX_AMPLITUDE_T = 0.1
+#: ``msr simulate`` amplitude for a robot whose spec has no ``[actuation] field_limit`` (a preset), T.
+DEFAULT_AMPLITUDE_T = 4e-3
 #: Half the 100 Hz rate of the trajectory and field records: faster rotations would alias.
 NYQUIST_HZ = 50.0
 
@@ -60,8 +63,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--robot", type=robot_option, default="yao2023-m1", help=ROBOT_HELP)
     p.add_argument("--physics", choices=("accurate", "training"), default="accurate")
-    p.add_argument("--amplitude", type=number("T", 0.0, MAX_AMPLITUDE_T, low_open=True), default=4e-3,
-                   help=f"field amplitude, T (at most {MAX_AMPLITUDE_T:g})")
+    p.add_argument("--amplitude", type=number("T", 0.0, MAX_AMPLITUDE_T, low_open=True), default=None,
+                   help=f"field amplitude, T (at most {MAX_AMPLITUDE_T:g}; default: the spec's "
+                   f"[actuation] field_limit, {1e3 * DEFAULT_AMPLITUDE_T:g} mT for a preset)")
     p.add_argument("--frequency", default=-1.0,
                    type=number("Hz", -NYQUIST_HZ, NYQUIST_HZ, low_open=True, high_open=True),
                    help="rotation frequency, Hz (negative: clockwise, rolls the robot "
@@ -76,17 +80,28 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _progress(total: int, description: str):
-    from tqdm import tqdm
-
-    bar = tqdm(total=total, desc=description, unit="x10ms", leave=False, disable=None)
+    """``progress(done)`` for :func:`run_open_loop`: a bar on a terminal, sparse lines otherwise."""
+    bar = progress_bar(total, description, unit="x10ms", leave=False)
 
     def update(done: int) -> None:
         bar.n = done
-        bar.refresh() if done == total or done % 20 == 0 else None
+        if done == total or done % 20 == 0:
+            bar.refresh()
         if done == total:
             bar.close()
 
     return update
+
+
+def simulate_amplitude(args: argparse.Namespace) -> tuple[float, str]:
+    """The ``msr simulate`` field amplitude (T) and where it comes from: ``--amplitude``, else the
+    spec's ``[actuation] field_limit``, else :data:`DEFAULT_AMPLITUDE_T`."""
+    if args.amplitude is not None:
+        return args.amplitude, "--amplitude"
+    limit = field_limit_of(args.robot)
+    if limit is None:
+        return DEFAULT_AMPLITUDE_T, "default (no [actuation] field_limit)"
+    return limit, "[actuation] field_limit"
 
 
 def replay_command(args: argparse.Namespace) -> int:
@@ -128,6 +143,7 @@ def simulate_command(args: argparse.Namespace) -> int:
             "never reach its amplitude"
         )
     spec = load_robot(args.robot, args.physics)
+    args.amplitude, amplitude_from = simulate_amplitude(args)
     field = RotatingField(args.amplitude, args.frequency, phase=0.5 * np.pi, ramp_time=args.ramp)
     out = prepare_output_dir(args.out)
     result = run_open_loop(
@@ -141,7 +157,8 @@ def simulate_command(args: argparse.Namespace) -> int:
         title=f"{args.robot} under a {1e3 * args.amplitude:g} mT field rotating at "
         f"{args.frequency:g} Hz ({args.physics} physics)",
     )
-    print_result(_summary(args, result, trajectory_csv, figure), args.json)
+    print_result({**_summary(args, result, trajectory_csv, figure), "amplitude_T": args.amplitude,
+                  "amplitude_from": amplitude_from}, args.json)
     return 0
 
 

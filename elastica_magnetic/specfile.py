@@ -29,6 +29,9 @@ from numpy.typing import NDArray
 
 from .magnetization import (
     YAO2023_MAGNETIZATION,
+    MagnetizationSegment,
+    segment_element_counts,
+    segments_magnetization,
     sinusoidal_magnetization,
     two_segment_magnetization,
     uniform_magnetization,
@@ -58,6 +61,8 @@ __all__ = [
     "dumps",
     "describe_robot",
     "load_robot",
+    "field_limit_of",
+    "spec_field_limit",
 ]
 
 #: Top-level keys of a spec file (the learning package reads the last four).
@@ -71,6 +76,7 @@ MAGNETIZATION_KINDS: dict[str, tuple[str, ...]] = {
     "yao2023-pattern1": ("magnitude",),
     "yao2023-pattern2": ("magnitude",),
     "sinusoid": ("magnitude", "phase"),
+    "segments": ("segments", "magnitude"),
     "table": ("values",),
 }
 
@@ -434,6 +440,8 @@ def _magnetization_table(t: SpecTable, n_elements: int) -> dict[str, Any]:
         if not np.all(np.isfinite(array)):
             raise t.error("values", "must be finite (A/m)")
         out["values"] = array.tolist()
+    elif kind == "segments":
+        out["segments"] = _segments(t, n_elements)
     else:
         out["magnitude"] = t.number("magnitude", "A/m", YAO2023_MAGNETIZATION, low=0.0)
         if kind == "uniform":
@@ -447,6 +455,44 @@ def _magnetization_table(t: SpecTable, n_elements: int) -> dict[str, Any]:
             out["phase"] = t.number("phase", "rad", 0.0)
     t.finish()
     return out
+
+
+def _segments(t: SpecTable, n_elements: int) -> list[dict[str, Any]]:
+    """``segments = [{elements = N | fraction = F, direction = [x, y, z], magnitude = M}, ...]``
+    (``magnitude`` defaults to the table's ``magnitude``), checked and complete."""
+    default_magnitude = t.number("magnitude", "A/m, the segments' default", YAO2023_MAGNETIZATION,
+                                 low=0.0)
+    raw = t.raw("segments")
+    if not isinstance(raw, list) or not raw:
+        raise t.error("segments", "expected a non-empty list of tables {elements = N or fraction = "
+                                  "F, direction = [x, y, z], magnitude = A/m}, back to front")
+    out = []
+    for k, item in enumerate(raw):
+        sub = SpecTable(item, t.source, f"{t.path}.segments[{k}]")
+        if sub.has("elements") == sub.has("fraction"):
+            raise sub.error("elements", "give either elements (a number of elements) or fraction "
+                                        "(of the length), not both or neither")
+        segment: dict[str, Any] = {}
+        if sub.has("elements"):
+            segment["elements"] = sub.number("elements", "elements", low=1, high=n_elements,
+                                             integer=True)
+        else:
+            segment["fraction"] = sub.number("fraction", "of the length", low=0.0, low_open=True,
+                                             high=1.0)
+        segment["direction"] = _direction(sub, "direction")
+        segment["magnitude"] = sub.number("magnitude", "A/m", default_magnitude, low=0.0)
+        sub.finish()
+        out.append(segment)
+    try:
+        segment_element_counts(n_elements, _segment_list(out))
+    except ValueError as exc:
+        raise t.error("segments", str(exc).removeprefix("segments: ")) from None
+    return out
+
+
+def _segment_list(segments: list[Mapping[str, Any]]) -> list[MagnetizationSegment]:
+    return [MagnetizationSegment(tuple(s["direction"]), s["magnitude"], s.get("elements"),
+                                 s.get("fraction")) for s in segments]
 
 
 def _direction(t: SpecTable, key: str, default: Any = _REQUIRED) -> list[float]:
@@ -471,6 +517,8 @@ def magnetization_array(table: Mapping[str, Any], n_elements: int) -> NDArray[np
         return yao2023_magnetization(int(kind[-1]), n_elements, magnitude)
     if kind == "sinusoid":
         return sinusoidal_magnetization(n_elements, magnitude, table["phase"])
+    if kind == "segments":
+        return segments_magnetization(n_elements, _segment_list(table["segments"]))
     raise ValueError(f"unknown magnetization kind {kind!r}")
 
 
@@ -506,3 +554,22 @@ def load_robot(robot: str | Path, physics: Physics = "accurate") -> RobotSpec:
         raise SpecError(f"unknown robot {str(robot)!r}: not a preset ({', '.join(ROBOTS)}) and not a "
                         "spec file (.toml)")
     return describe_robot(read_spec(path), str(path)).robot(physics)
+
+
+def field_limit_of(robot: str | Path) -> float | None:
+    """The ``[actuation] field_limit`` (T) of a spec file, or ``None`` for a preset name or a spec
+    without an ``[actuation]`` table. The value is checked as the learning package checks it (a
+    number in ``(0, 1]`` T); a bad one is a :class:`SpecError` naming the file and key."""
+    if str(robot) in ROBOTS:
+        return None
+    return spec_field_limit(read_spec(robot), str(robot))
+
+
+def spec_field_limit(spec: Mapping[str, Any], source: str = "<spec>") -> float | None:
+    """The ``[actuation] field_limit`` (T) of a parsed spec, ``None`` without an ``[actuation]``
+    table; checked as the learning package checks it (a number in ``(0, 1]`` T)."""
+    actuation = spec.get("actuation")
+    if actuation is None:
+        return None
+    table = SpecTable(actuation, source, "actuation")
+    return table.number("field_limit", "T", low=0.0, low_open=True, high=1.0)

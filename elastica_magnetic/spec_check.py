@@ -1,0 +1,505 @@
+"""What a researcher checks in a robot's spec before training on it: derived quantities, the
+stability of each physics' time step, how far the robot sinks into the ground, and where the spec
+leaves the model's validity.
+
+:func:`check_spec` takes a parsed spec file (its ``[robot]``, ``[physics]`` and, when present,
+``[actuation] field_limit``, ``[task] kind`` and ``[yardstick] distance_10s``);
+:func:`check_robot` takes the checked robot tables and those values directly (what the learning
+package's ``Case`` holds). Both return a :class:`SpecCheck` (SI units); :func:`format_check` gives
+a compact text summary and :meth:`SpecCheck.to_dict` plain JSON-able data.
+
+**Time step.** The integrator (position Verlet) is stable for a mode of angular frequency
+``omega`` while ``omega dt < 2``; a velocity damping of rate ``c / m`` needs ``dt < 2 m / c``. The
+estimate is the smallest of these limits, for elements of length ``dl``, mass per length
+``rho_s A`` (``rho_s``: the physics' density, ``rho x mass_scale``), rod radius ``r``:
+
+- axial and bending waves: ``dl / sqrt(E / rho_s)``;
+- shear with the rotation it couples to: ``1 / (c_s sqrt(1/dl^2 + 1/r^2))``,
+  ``c_s = sqrt(alpha_c G / rho_s)``;
+- relative-velocity damping (each node in two pairs, pairs moving apart): ``rho_s A / (2 nu)``;
+- legacy damping on forces and torques: ``2 rho_s A / c_f`` and ``2 rho_s I / c_t``;
+- Kelvin-Voigt viscosity ``eta``: ``rho_s dl^2 / (2 eta)``;
+- ground contact: ``2 sqrt(m_e / k)`` (spring) and ``2 m_e / nu_g`` (damping), ``m_e = rho_s A dl``.
+
+These bare limits ignore how the modes combine (and the rod's free ends), so the estimate is the
+smallest of them times :data:`CALIBRATION` = 0.7, measured: the paper's robot becomes unstable at
+0.80-0.89 of the bare axial limit without damping (3.7e-5 s stable, 4.1e-5 s not, accurate
+physics), 0.75-0.82 in the training physics (1.12e-4 s stable, 1.23e-4 s not) and 0.72-0.80 of
+the relative damping's limit with every damping on (2.25e-5 s stable, 2.49e-5 s not). The paper's
+steps have margins 1.05 (training, 1e-4 s) and 2.7 (accurate, 8e-6 s). A 30 x 6 x 1 mm band
+(48 elements, 150 kPa, 2000 kg/m^3) becomes unstable at 0.79-0.87 (training) and 0.71-0.79
+(accurate) of its smallest bare limit. The suggested step is
+the largest of 1, 2, 4, 5 or 8 x 10^k s that is at most half the estimate (each divides the
+0.01 s control period into whole steps).
+
+**Sag.** The ground (PyElastica's rod-plane contact, see :mod:`~elastica_magnetic.ground`) first
+cancels, element by element, the part of the loads on the rod that pushes into it (each element
+gets the mean of its two nodes' loads, the end elements their end node's in full), then adds a
+spring ``k`` per unit penetration and a damper. A node therefore gets back its own load less
+``(2 F_i - F_(i-1) - F_(i+1)) / 4``: a load uniform along the rod (the weight of a rod lying flat)
+is carried with **no penetration at all**, and only what varies from node to node (the shear the
+field's couples make where the magnetization changes, the rod's own bending) is left to the
+spring, resisted by the rod's stiffness as much as by ``k``. That residual has no closed form, so
+the check measures it: the robot lying on the ground, the field ramped to its limit in 0.1 s along
++x, -x, +y and -y and held, 0.5 s in all; the sag is the deepest element centre below its resting
+height. ``element weight / k`` is reported beside it: the depth at which the spring alone would
+hold an element's weight (an element landing on the ground has only the spring and the damper to
+stop it).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .presets import ACTION_PERIOD, RobotSpec
+from .specfile import RobotDescription, SpecTable, describe_robot, spec_field_limit
+
+__all__ = [
+    "Issue",
+    "TimeStepCheck",
+    "SagCheck",
+    "SpecCheck",
+    "stable_time_step",
+    "suggested_time_step",
+    "simulate_sag",
+    "check_robot",
+    "check_spec",
+    "format_check",
+    "SAG_DIRECTIONS",
+]
+
+#: A time step at most this fraction of the estimated stable one is what :func:`suggested_time_step`
+#: proposes; a margin (stable / chosen) below 1 is an error, below this factor a warning.
+SAFETY_FACTOR = 2.0
+#: The stable step, as a fraction of the smallest bare limit (measured, see the module docstring).
+CALIBRATION = 0.7
+#: Field directions of the sag check (unit vectors, lab frame).
+SAG_DIRECTIONS: dict[str, tuple[float, float, float]] = {
+    "+x": (1.0, 0.0, 0.0), "-x": (-1.0, 0.0, 0.0), "+y": (0.0, 1.0, 0.0), "-y": (0.0, -1.0, 0.0)}
+#: Ramp and total time of each sag simulation, s.
+SAG_RAMP_S, SAG_DURATION_S = 0.1, 0.5
+#: Longest sag simulation, time steps per field direction (beyond it the sag is not simulated).
+SAG_MAX_STEPS = 100_000
+
+
+@dataclass(frozen=True)
+class Issue:
+    """One finding: ``level`` ``"error"`` (the spec will not simulate what it means to) or
+    ``"warning"`` (outside the model's validity, or a result that misleads); ``key`` is the spec
+    key it concerns (``"[physics.accurate] dt"``), ``message`` says what and what to do."""
+
+    level: str
+    key: str
+    message: str
+
+
+@dataclass(frozen=True)
+class TimeStepCheck:
+    """The time step of one physics setting against its estimated stability limit (s)."""
+
+    physics: str
+    dt_s: float
+    mass_scale: float
+    stable_dt_s: float  # CALIBRATION x the smallest of limits_s
+    limiting: str  # the name of that limit
+    margin: float  # stable_dt_s / dt_s: below 1 the step is estimated unstable
+    suggested_dt_s: float
+    limits_s: dict[str, float] = field(default_factory=dict)  # every bare limit, s (inf: none)
+
+
+@dataclass(frozen=True)
+class SagCheck:
+    """Deepest penetration (m) of an element centre below its resting height: under the weight
+    alone and under the field limit along each of :data:`SAG_DIRECTIONS`, simulated in
+    ``physics`` for ``duration_s`` (``field_m`` empty without a field limit)."""
+
+    physics: str
+    duration_s: float
+    weight_m: float
+    field_limit_T: float | None
+    field_m: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def deepest_m(self) -> float:
+        return max([self.weight_m, *self.field_m.values()])
+
+
+@dataclass(frozen=True)
+class SpecCheck:
+    """Derived quantities of a robot (SI) and what is wrong with its spec.
+
+    The rod is the equivalent circular rod of the band (radius ``thickness / sqrt(3)``, the same
+    ratio of bending stiffness to area): its mass, area and bending stiffness are the simulated
+    ones; the ``band_`` values are those of the rectangular band itself, for comparison.
+    """
+
+    name: str
+    source: str
+    section: str  # "band" or "round"
+    n_elements: int
+    length_m: float
+    width_m: float
+    thickness_m: float
+    element_length_m: float
+    density_kg_m3: float
+    youngs_modulus_Pa: float
+    shear_modulus_Pa: float
+    shear_modulus_from: str  # "shear_modulus" or "poisson_ratio"
+    equivalent_radius_m: float
+    area_m2: float
+    second_moment_m4: float
+    mass_kg: float
+    band_mass_kg: float
+    weight_N: float
+    bending_stiffness_Nm2: float
+    band_bending_stiffness_Nm2: float
+    magnetization: list[str]  # runs of equal magnetization, summarized
+    max_magnetization_A_m: float
+    field_limit_T: float | None
+    magnetic_bending_number: float | None  # M B L^2 A / (E I) at the field limit
+    spring_only_sag_m: float | None  # element weight / ground stiffness
+    time_steps: list[TimeStepCheck]
+    sag: SagCheck | None
+    yardstick_m: float | None
+    issues: list[Issue]
+
+    @property
+    def has_errors(self) -> bool:
+        """True when an issue is an error (``msr case check`` then exits non-zero)."""
+        return any(i.level == "error" for i in self.issues)
+
+    @property
+    def warnings(self) -> list[Issue]:
+        return [i for i in self.issues if i.level == "warning"]
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON-able data (``inf`` limits as ``None``)."""
+        data = asdict(self)
+        data["has_errors"] = self.has_errors
+        return _finite(data)
+
+
+def _finite(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_finite(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+# -- time step -------------------------------------------------------------------------------------
+
+
+def stable_time_step(robot: RobotSpec) -> dict[str, float]:
+    """The bare stability limit of each mechanism of ``robot`` in its physics (s; ``inf`` where a
+    mechanism is absent); see the module docstring for the formulas. The estimated stable step
+    is the smallest of them times :data:`CALIBRATION`."""
+    rho = robot.effective_density
+    n, r = robot.n_elements, robot.radius
+    dl = robot.length / n
+    area, inertia = math.pi * r**2, math.pi * r**4 / 4.0
+    c_axial = math.sqrt(robot.youngs_modulus / rho)
+    c_shear = math.sqrt(robot.alpha_c * robot.shear_modulus / rho)
+    limits = {
+        "axial and bending waves": dl / c_axial,
+        "shear and rotation": 1.0 / (c_shear * math.sqrt(1.0 / dl**2 + 1.0 / r**2)),
+    }
+    inf = math.inf
+    d = robot.damping
+    if d is not None:
+        limits["relative damping"] = rho * area / (2.0 * d.relative_nu) if d.relative_nu > 0 else inf
+        limits["legacy force damping"] = (2.0 * rho * area / d.legacy_force
+                                          if d.legacy_force > 0 else inf)
+        limits["legacy torque damping"] = (2.0 * rho * inertia / d.legacy_torque
+                                           if d.legacy_torque > 0 else inf)
+        limits["Kelvin-Voigt viscosity"] = (rho * dl**2 / (2.0 * d.kelvin_voigt)
+                                            if d.kelvin_voigt > 0 else inf)
+    g = robot.ground
+    if g is not None:
+        m_e = rho * area * dl
+        limits["ground stiffness"] = 2.0 * math.sqrt(m_e / g.k)
+        limits["ground damping"] = 2.0 * m_e / g.nu if g.nu > 0 else inf
+    return limits
+
+
+def suggested_time_step(stable_dt: float) -> float:
+    """The largest step of 1, 2, 4, 5 or 8 x 10^k s (each divides the 0.01 s control period into
+    whole steps for k <= -2) at most ``stable_dt / SAFETY_FACTOR``, s; at most 0.01 s."""
+    target = min(stable_dt / SAFETY_FACTOR, ACTION_PERIOD)
+    exponent = math.floor(math.log10(target))
+    for k in (exponent, exponent - 1):
+        for digit in (8, 5, 4, 2, 1):
+            dt = float(f"{digit}e{k}")
+            if dt <= target * (1 + 1e-12):
+                return dt
+    raise AssertionError("unreachable")
+
+
+def _time_step_check(robot: RobotSpec, physics: str) -> TimeStepCheck:
+    limits = stable_time_step(robot)
+    limiting = min(limits, key=limits.__getitem__)
+    stable = CALIBRATION * limits[limiting]
+    return TimeStepCheck(physics, robot.dt, robot.mass_scale, stable, limiting, stable / robot.dt,
+                         suggested_time_step(stable), limits)
+
+
+# -- sag -------------------------------------------------------------------------------------------
+
+
+def simulate_sag(robot: RobotSpec, field_limit: float | None,
+                 duration: float = SAG_DURATION_S, ramp: float = SAG_RAMP_S,
+                 directions: Mapping[str, tuple[float, float, float]] = SAG_DIRECTIONS,
+                 physics: str | None = None) -> SagCheck:
+    """Simulate the robot lying on its ground, first under its weight alone, then under the field
+    ramped to ``field_limit`` (T) in ``ramp`` s along each of ``directions`` (label -> unit
+    vector) and held, for ``duration`` s each; the deepest element centre below its resting height
+    (m). ``physics`` labels the result (default: from the robot's mass scale). Raises
+    :class:`~elastica_magnetic.SimulationDiverged` if a run blows up."""
+    from .fields import ConstantField, RampedField
+    from .simulation import build_simulation
+
+    if robot.ground is None:
+        raise ValueError("the robot has no ground: nothing to sink into")
+
+    def deepest(source: Any) -> float:
+        sim = build_simulation(robot, source)
+        depth = 0.0
+        for _ in range(max(1, int(round(duration / ACTION_PERIOD)))):
+            sim.step(robot.steps_per_action)
+            position = sim.rod.position_collection
+            centre_y = 0.5 * (position[1, :-1] + position[1, 1:])
+            depth = max(depth, float(-centre_y.min()))
+        return depth
+
+    weight = deepest(ConstantField((0.0, 0.0, 0.0)))
+    field_m = {}
+    if field_limit is not None:
+        for label, direction in directions.items():
+            field_m[label] = deepest(RampedField(field_limit * np.array(direction), ramp))
+    label = physics if physics is not None else _physics_name(robot)
+    return SagCheck(label, duration, weight, field_limit, field_m)
+
+
+def _physics_name(robot: RobotSpec) -> str:
+    return "accurate" if robot.mass_scale == 1.0 else f"mass scale {robot.mass_scale:.4g}"
+
+
+# -- the check -------------------------------------------------------------------------------------
+
+
+def check_spec(spec: Mapping[str, Any], source: str = "<spec>", *, sag: bool = True) -> SpecCheck:
+    """Check a parsed spec file (e.g. :func:`~elastica_magnetic.specfile.read_spec`'s result).
+
+    Its ``[robot]`` and ``[physics]`` are checked as :func:`describe_robot` does (a bad key is a
+    :class:`~elastica_magnetic.specfile.SpecError`); ``[actuation] field_limit`` (T),
+    ``[task] kind`` and ``[yardstick] distance_10s`` (m) are read when present (the learning
+    package checks the rest of those tables). ``sag=False`` skips the sag simulations (seconds;
+    the first run in a process also compiles the kernels)."""
+    description = describe_robot(spec, source)
+    field_limit = spec_field_limit(spec, source)
+    task = spec.get("task")
+    task_kind = task.get("kind") if isinstance(task, Mapping) else None
+    yardstick: Any = None
+    if isinstance(spec.get("yardstick"), Mapping):
+        table = SpecTable(spec["yardstick"], source, "yardstick")
+        yardstick = table.number("distance_10s", "m", None)
+    name = spec.get("name") if isinstance(spec.get("name"), str) else description.name
+    return check_robot(description, field_limit=field_limit, task_kind=task_kind,
+                       yardstick_m=yardstick, name=name, source=source, sag=sag)
+
+
+def check_robot(description: RobotDescription, *, field_limit: float | None = None,
+                task_kind: str | None = None, yardstick_m: float | None = None,
+                name: str | None = None, source: str = "<spec>", sag: bool = True) -> SpecCheck:
+    """Check a robot (checked ``[robot]``/``[physics]`` tables) with, optionally, its field limit
+    (T), its task's kind (``"crawl"``/``"reach"``; ``None``: not a case) and its yardstick (m in
+    10 s; ``None``: none). See :func:`check_spec`."""
+    r = description.tables["robot"]
+    accurate = description.robot("accurate")
+    radius, n = accurate.radius, accurate.n_elements
+    dl = accurate.length / n
+    area, inertia = math.pi * radius**2, math.pi * radius**4 / 4.0
+    band_area = accurate.width * accurate.height if accurate.section == "band" else area
+    band_inertia = (accurate.width * accurate.height**3 / 12.0 if accurate.section == "band"
+                    else inertia)
+    mass = accurate.density * area * accurate.length
+    weight = mass * accurate.gravity
+    m_norm = np.linalg.norm(accurate.magnetization, axis=0)
+    magnetic_number = None
+    if field_limit is not None:
+        magnetic_number = (float(m_norm.max()) * field_limit * accurate.length**2 * area
+                           / (accurate.youngs_modulus * inertia))
+    spring_sag = None
+    if accurate.ground is not None:
+        spring_sag = weight / n / accurate.ground.k
+    steps = [_time_step_check(description.robot(p), p) for p in ("training", "accurate")]
+    issues = _time_step_issues(steps)
+    sag_check = None
+    if sag and accurate.ground is not None:
+        sag_check, sag_issues = _sag(description, steps, field_limit, radius)
+        issues += sag_issues
+    issues += _validity_issues(accurate, field_limit, task_kind, yardstick_m, spring_sag)
+    return SpecCheck(
+        name=name or description.name, source=source, section=accurate.section, n_elements=n,
+        length_m=accurate.length, width_m=accurate.width, thickness_m=accurate.height,
+        element_length_m=dl, density_kg_m3=accurate.density,
+        youngs_modulus_Pa=accurate.youngs_modulus, shear_modulus_Pa=accurate.shear_modulus,
+        shear_modulus_from="shear_modulus" if "shear_modulus" in r else "poisson_ratio",
+        equivalent_radius_m=radius, area_m2=area, second_moment_m4=inertia, mass_kg=mass,
+        band_mass_kg=accurate.density * band_area * accurate.length, weight_N=weight,
+        bending_stiffness_Nm2=accurate.youngs_modulus * inertia,
+        band_bending_stiffness_Nm2=accurate.youngs_modulus * band_inertia,
+        magnetization=_runs(accurate.magnetization), max_magnetization_A_m=float(m_norm.max()),
+        field_limit_T=field_limit, magnetic_bending_number=magnetic_number,
+        spring_only_sag_m=spring_sag, time_steps=steps, sag=sag_check, yardstick_m=yardstick_m,
+        issues=issues)
+
+
+def _time_step_issues(steps: list[TimeStepCheck]) -> list[Issue]:
+    issues = []
+    for s in steps:
+        key = f"[physics.{s.physics}] dt"
+        text = (f"dt = {s.dt_s:.3g} s against an estimated stable {s.stable_dt_s:.3g} s "
+                f"({s.limiting}); margin {s.margin:.3g}")
+        if s.margin < 1.0:
+            issues.append(Issue("error", key, f"{text}: likely unstable, use dt = "
+                                              f"{s.suggested_dt_s:.3g} s or smaller"))
+        elif s.margin < SAFETY_FACTOR:
+            issues.append(Issue("warning", key, f"{text} < {SAFETY_FACTOR:g}: a stiffer, lighter "
+                                                "or finer robot may blow up; dt = "
+                                                f"{s.suggested_dt_s:.3g} s keeps a margin of "
+                                                f"{SAFETY_FACTOR:g}"))
+    return issues
+
+
+def _sag(description: RobotDescription, steps: list[TimeStepCheck], field_limit: float | None,
+         radius: float) -> tuple[SagCheck | None, list[Issue]]:
+    """The sag simulated in the training physics (the statics are the same in both; it is ~10x
+    cheaper), or the accurate one if the training step is estimated unstable."""
+    from .simulation import SimulationDiverged
+
+    usable = [s for s in steps if s.margin >= 1.0]
+    if not usable:
+        return None, [Issue("warning", "[robot.ground]", "sag not simulated: no physics setting "
+                                                         "has a stable time step")]
+    chosen = usable[0]
+    robot = description.robot(chosen.physics)  # type: ignore[arg-type]
+    n_steps = int(round(SAG_DURATION_S / robot.dt))
+    if n_steps > SAG_MAX_STEPS:
+        return None, [Issue("warning", f"[physics.{chosen.physics}] dt", f"sag not simulated: "
+                            f"{n_steps} time steps per run (at most {SAG_MAX_STEPS})")]
+    try:
+        check = simulate_sag(robot, field_limit, physics=chosen.physics)
+    except SimulationDiverged as exc:
+        return None, [Issue("error", f"[physics.{chosen.physics}] dt",
+                            f"the robot resting on the ground under the field diverged: {exc}")]
+    issues = []
+    deepest = check.deepest_m
+    if deepest > radius:
+        where = max(check.field_m, key=check.field_m.__getitem__) if check.field_m else None
+        cause = f"the field limit along {where}" if where and check.field_m[where] == deepest else (
+            "its weight")
+        issues.append(Issue("warning", "[robot.ground] stiffness",
+                            f"under {cause} the robot sinks {1e3 * deepest:.3g} mm into the ground, "
+                            f"deeper than its equivalent radius {1e3 * radius:.3g} mm: the contact "
+                            "model no longer describes a robot on a surface; stiffen the ground "
+                            "(stiffness, N/m) or check the field limit and magnetization"))
+    return check, issues
+
+
+def _validity_issues(robot: RobotSpec, field_limit: float | None,
+                     task_kind: str | None, yardstick: float | None,
+                     spring_sag: float | None) -> list[Issue]:
+    issues = []
+    if robot.section == "band" and robot.width < robot.height:
+        issues.append(Issue("warning", "[robot] width",
+                            f"width {1e3 * robot.width:.3g} mm < thickness {1e3 * robot.height:.3g} "
+                            "mm: the equivalent-rod model assumes a thin band bending about its "
+                            "width (width >= thickness)"))
+    if spring_sag is not None and spring_sag > robot.radius:
+        issues.append(Issue("warning", "[robot.ground] stiffness",
+                            f"an element's weight on the ground spring alone is "
+                            f"{1e3 * spring_sag:.3g} mm of penetration, more than the equivalent "
+                            f"radius {1e3 * robot.radius:.3g} mm: a landing element sinks deep"))
+    if task_kind == "crawl":
+        if yardstick is None:
+            issues.append(Issue("warning", "[yardstick] distance_10s",
+                                "missing: every policy that moves forward at all will count as "
+                                "meeting the target; search one with msr baseline --case"))
+        elif yardstick == 0.0:
+            issues.append(Issue("warning", "[yardstick] distance_10s",
+                                "0 m: every policy that moves forward at all counts as meeting the "
+                                "target; search one with msr baseline --case and set it"))
+    if field_limit is None and task_kind is not None:
+        issues.append(Issue("warning", "[actuation] field_limit", "missing"))
+    if robot.gravity == 0.0 and robot.ground is not None:
+        issues.append(Issue("warning", "[robot] gravity", "0 with a ground: nothing holds the "
+                                                         "robot on it"))
+    return issues
+
+
+def _runs(magnetization: np.ndarray, most: int = 6) -> list[str]:
+    """Runs of equal magnetization, back to front: ``"elements 0-31: (-61300, 0, 0) A/m"``; more
+    than ``most`` runs are summarized in one line."""
+    n = magnetization.shape[1]
+    change = np.flatnonzero(np.any(np.diff(magnetization, axis=1) != 0.0, axis=0)) + 1
+    starts = [0, *change.tolist()]
+    ends = [*(change - 1).tolist(), n - 1]
+    if len(starts) > most:
+        norm = np.linalg.norm(magnetization, axis=0)
+        return [f"{len(starts)} runs over {n} elements (varies along the rod), |M| "
+                f"{norm.min():.4g} to {norm.max():.4g} A/m"]
+    return [f"elements {a}-{b}: ({', '.join(f'{v:.6g}' for v in magnetization[:, a])}) A/m"
+            for a, b in zip(starts, ends, strict=True)]
+
+
+def _mm(metres: float) -> str:
+    """A length in mm to the micrometre."""
+    return f"{1e3 * metres:.3f}"
+
+
+def format_check(check: SpecCheck) -> str:
+    """A compact, readable summary of a :class:`SpecCheck` (mm, mg, kPa for reading; the JSON of
+    :meth:`SpecCheck.to_dict` keeps SI)."""
+    c = check
+    lines = [f"{c.name} ({c.source})"]
+    shape = (f"{1e3 * c.length_m:g} x {1e3 * c.width_m:g} x {1e3 * c.thickness_m:g} mm band"
+             if c.section == "band" else f"{1e3 * c.length_m:g} mm round rod")
+    lines.append(f"  robot        {shape}, {c.n_elements} elements of {1e3 * c.element_length_m:.3g} mm")
+    lines.append(f"  material     {c.density_kg_m3:g} kg/m^3, E {1e-3 * c.youngs_modulus_Pa:.4g} kPa, "
+                 f"G {1e-3 * c.shear_modulus_Pa:.4g} kPa (from {c.shear_modulus_from})")
+    lines.append(f"  rod          equivalent radius {1e3 * c.equivalent_radius_m:.4g} mm, mass "
+                 f"{1e6 * c.mass_kg:.4g} mg (band {1e6 * c.band_mass_kg:.4g} mg), weight "
+                 f"{1e6 * c.weight_N:.4g} uN")
+    lines.append(f"  bending      EI {c.bending_stiffness_Nm2:.4g} N m^2 (band "
+                 f"{c.band_bending_stiffness_Nm2:.4g} N m^2)")
+    lines.append(f"  magnetized   {c.magnetization[0]}")
+    lines += [f"               {run}" for run in c.magnetization[1:]]
+    if c.field_limit_T is not None:
+        lines.append(f"  field limit  {1e3 * c.field_limit_T:g} mT: magnetic bending number M B L^2 A"
+                     f" / EI = {c.magnetic_bending_number:.3g}")
+    for s in c.time_steps:
+        lines.append(f"  dt {s.physics:<9} {s.dt_s:.3g} s, stable ~{s.stable_dt_s:.3g} s "
+                     f"({s.limiting}), margin {s.margin:.3g}, suggested {s.suggested_dt_s:.3g} s")
+    if c.spring_only_sag_m is not None:
+        lines.append(f"  ground       an element's weight on the spring alone: "
+                     f"{1e3 * c.spring_only_sag_m:.3g} mm")
+    if c.sag is not None:
+        parts = [f"weight {_mm(c.sag.weight_m)} mm"]
+        parts += [f"{k} {_mm(v)} mm" for k, v in c.sag.field_m.items()]
+        lines.append(f"  sag          {', '.join(parts)} (radius {1e3 * c.equivalent_radius_m:.3g} "
+                     f"mm; {c.sag.physics} physics, {c.sag.duration_s:g} s)")
+    if c.yardstick_m is not None:
+        lines.append(f"  yardstick    {1e3 * c.yardstick_m:g} mm in 10 s")
+    if not c.issues:
+        lines.append("  no errors, no warnings")
+    for issue in c.issues:
+        lines.append(f"  {issue.level}: {issue.key}: {issue.message}")
+    return "\n".join(lines)
