@@ -16,6 +16,7 @@ static volatile uint32_t g_rx_overruns;
 static sched_ticks_t g_ticks;
 static uint32_t g_timer_clock_hz = HSI_HZ;
 static uint32_t g_apb2_hz = HSI_HZ;
+static bool g_emulated;
 
 static bool wait_set(volatile uint32_t *reg, uint32_t mask, uint32_t timeout)
 {
@@ -98,6 +99,7 @@ void board_init(board_info_t *info)
     info->watchdog_reset = (RCC_CSR & RCC_CSR_IWDGRSTF) != 0u;
     RCC_CSR |= RCC_CSR_RMVF;
     info->emulated = !wait_set(&RCC_CR, RCC_CR_HSIRDY, CLOCK_START_TIMEOUT);
+    g_emulated = info->emulated;
     info->pll_locked = !info->emulated && clock_start_pll();
     if (info->emulated) {
         g_timer_clock_hz = QEMU_TIMER_CLOCK_HZ;
@@ -277,4 +279,102 @@ void board_idle(void)
         __asm volatile("wfi" ::: "memory"); /* a pending interrupt still wakes it */
     }
     __asm volatile("cpsie i" ::: "memory");
+}
+
+/* ------------------------------------------------------------------ calibration slots */
+
+static uint8_t *slot_base(unsigned slot)
+{
+    if (slot > 1u) {
+        return 0;
+    }
+    if (g_emulated) {
+        return (uint8_t *)(uintptr_t)(EMU_SLOT0_ADDR + slot * EMU_SLOT_BYTES);
+    }
+    return (uint8_t *)(uintptr_t)(slot == 0u ? CALIB_SLOT0_ADDR : CALIB_SLOT1_ADDR);
+}
+
+static bool flash_wait_idle(void)
+{
+    for (uint32_t i = 0; i < FLASH_TIMEOUT; ++i) {
+        if ((FLASH_SR & FLASH_SR_BSY) == 0u) {
+            return (FLASH_SR & FLASH_SR_ERRORS) == 0u;
+        }
+        if ((i % FLASH_KICK_EVERY_POLLS) == 0u) {
+            board_watchdog_kick();
+        }
+    }
+    return false;
+}
+
+static bool flash_unlock(void)
+{
+    FLASH_SR = FLASH_SR_ERRORS; /* rc_w1: clear old errors */
+    if ((FLASH_CR & FLASH_CR_LOCK) != 0u) {
+        FLASH_KEYR = FLASH_KEY1;
+        FLASH_KEYR = FLASH_KEY2;
+    }
+    return (FLASH_CR & FLASH_CR_LOCK) == 0u && flash_wait_idle();
+}
+
+bool board_calib_slot_erase(unsigned slot)
+{
+    uint8_t *base = slot_base(slot);
+    if (base == 0) {
+        return false;
+    }
+    if (g_emulated) {
+        for (uint32_t i = 0; i < EMU_SLOT_BYTES; ++i) {
+            base[i] = FLASH_ERASED_BYTE;
+        }
+        return true;
+    }
+    if (!flash_unlock()) {
+        return false;
+    }
+    FLASH_CR = FLASH_CR_SER | ((CALIB_SLOT_SECTOR_FIRST + slot) << FLASH_CR_SNB_SHIFT) |
+               (FLASH_CR_PSIZE_X8 << FLASH_CR_PSIZE_SHIFT);
+    FLASH_CR |= FLASH_CR_STRT;
+    bool ok = flash_wait_idle();
+    FLASH_CR = FLASH_CR_LOCK;
+    return ok;
+}
+
+bool board_calib_slot_program(unsigned slot, uint32_t offset, const uint8_t *data, size_t len)
+{
+    uint8_t *base = slot_base(slot);
+    if (base == 0 || offset + len > (g_emulated ? EMU_SLOT_BYTES : CALIB_SLOT_BYTES)) {
+        return false;
+    }
+    if (g_emulated) {
+        for (size_t i = 0; i < len; ++i) {
+            base[offset + i] &= data[i]; /* like flash: bits only go from 1 to 0 */
+        }
+        return true;
+    }
+    if (!flash_unlock()) {
+        return false;
+    }
+    FLASH_CR = FLASH_CR_PG | (FLASH_CR_PSIZE_X8 << FLASH_CR_PSIZE_SHIFT);
+    bool ok = true;
+    for (size_t i = 0; i < len && ok; ++i) {
+        *(volatile uint8_t *)(base + offset + i) = data[i];
+        ok = flash_wait_idle();
+    }
+    FLASH_CR = FLASH_CR_LOCK;
+    return ok;
+}
+
+const uint8_t *board_calib_slot_read(unsigned slot)
+{
+    return slot_base(slot);
+}
+
+void board_system_reset(void)
+{
+    __asm volatile("dsb" ::: "memory");
+    SCB_AIRCR = SCB_AIRCR_VECTKEY | SCB_AIRCR_SYSRESETREQ;
+    __asm volatile("dsb" ::: "memory");
+    for (;;) {
+    }
 }

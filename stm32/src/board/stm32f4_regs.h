@@ -57,6 +57,25 @@
 #define FLASH_ACR_PRFTEN BIT(8)
 #define FLASH_ACR_ICEN BIT(9)
 #define FLASH_ACR_DCEN BIT(10)
+#define FLASH_KEYR REG32(0x40023C04u)
+#define FLASH_SR REG32(0x40023C0Cu)
+#define FLASH_CR REG32(0x40023C10u)
+#define FLASH_KEY1 0x45670123u
+#define FLASH_KEY2 0xCDEF89ABu
+#define FLASH_SR_BSY BIT(16)
+#define FLASH_SR_ERRORS 0xF2u /* OPERR, WRPERR, PGAERR, PGPERR, PGSERR */
+#define FLASH_CR_PG BIT(0)
+#define FLASH_CR_SER BIT(1)
+#define FLASH_CR_SNB_SHIFT 3u
+#define FLASH_CR_PSIZE_X8 0u /* byte programming: any supply voltage */
+#define FLASH_CR_PSIZE_SHIFT 8u
+#define FLASH_CR_STRT BIT(16)
+#define FLASH_CR_LOCK BIT(31)
+
+/* System control block: AIRCR requests a system reset. */
+#define SCB_AIRCR REG32(0xE000ED0Cu)
+#define SCB_AIRCR_VECTKEY (0x05FAu << 16)
+#define SCB_AIRCR_SYSRESETREQ BIT(2)
 
 /* ---- GPIO ---- */
 #define GPIOA_BASE 0x40020000u
