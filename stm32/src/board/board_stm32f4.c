@@ -202,6 +202,12 @@ void board_uart_write(const char *text, size_t len)
     }
 }
 
+/** Wait (bounded) until the last byte has left the UART. */
+static void uart_drain(void)
+{
+    (void)wait_set(&USART1_SR, USART_SR_TC, UART_TX_TIMEOUT);
+}
+
 bool board_uart_read(uint8_t *byte)
 {
     return ring_get(&g_rx, byte);
@@ -232,6 +238,14 @@ bool board_tick_start(uint32_t tick_hz)
     sched_timer_cfg_t cfg;
     if (!sched_timer_config(g_timer_clock_hz, tick_hz, &cfg)) {
         return false;
+    }
+    if (g_emulated && (TIM2_CR1 & TIM_CR1_CEN) != 0u && TIM2_PSC == cfg.prescaler &&
+        TIM2_ARR == cfg.reload) {
+        /* Restarted by the emulated RESET: keep QEMU's timer running as programmed at boot
+         * (its model adds the virtual time of programming to every period). */
+        TIM2_SR = 0u;
+        nvic_enable(IRQ_TIM2);
+        return true;
     }
     TIM2_PSC = cfg.prescaler;
     TIM2_ARR = cfg.reload;
@@ -370,8 +384,34 @@ const uint8_t *board_calib_slot_read(unsigned slot)
     return slot_base(slot);
 }
 
+void Reset_Handler(void);
+extern uint32_t _estack;
+
+/** Under QEMU: the reset path without SYSRESETREQ. QEMU's STM32 timer model adds the virtual
+ * time at which it is programmed to every period, so a timer programmed again after a reset
+ * ticks seconds apart. The emulated reset masks every interrupt, reloads the stack pointer and
+ * runs Reset_Handler (startup code, board_init, app_init) with TIM2 left running as programmed
+ * at boot (board_tick_start keeps it): everything of a reset but the peripherals' own. */
+static void emulated_reset(void)
+{
+    __asm volatile("cpsid i" ::: "memory");
+    USART1_CR1 = 0u;
+    for (uint32_t i = 0; i < NVIC_ISER_WORDS; ++i) {
+        NVIC_ICER(i) = NVIC_ALL_IRQS;
+        NVIC_ICPR(i) = NVIC_ALL_IRQS;
+    }
+    __asm volatile("msr msp, %0\n\tcpsie i\n\tbx %1"
+                   :
+                   : "r"(&_estack), "r"(Reset_Handler)
+                   : "memory");
+}
+
 void board_system_reset(void)
 {
+    uart_drain(); /* "OK RESET" reaches the host */
+    if (g_emulated) {
+        emulated_reset();
+    }
     __asm volatile("dsb" ::: "memory");
     SCB_AIRCR = SCB_AIRCR_VECTKEY | SCB_AIRCR_SYSRESETREQ;
     __asm volatile("dsb" ::: "memory");

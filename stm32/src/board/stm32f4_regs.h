@@ -122,6 +122,7 @@
 #define USART_SR_ORE BIT(3)
 #define USART_SR_RXNE BIT(5)
 #define USART_SR_TXE BIT(7)
+#define USART_SR_TC BIT(6)
 #define USART_CR1_RE BIT(2)
 #define USART_CR1_TE BIT(3)
 #define USART_CR1_RXNEIE BIT(5)
@@ -154,6 +155,10 @@
 
 /* ---- Cortex-M4 core ---- */
 #define NVIC_ISER(n) REG32(0xE000E100u + 4u * (n))
+#define NVIC_ICER(n) REG32(0xE000E180u + 4u * (n))
+#define NVIC_ICPR(n) REG32(0xE000E280u + 4u * (n))
+#define NVIC_ISER_WORDS 8u
+#define NVIC_ALL_IRQS 0xFFFFFFFFu
 #define NVIC_IPR_BYTE(irq) (*(volatile uint8_t *)(uintptr_t)(0xE000E400u + (irq)))
 #define SCB_CPACR REG32(0xE000ED88u)
 #define SCB_CPACR_CP10_CP11_FULL (0xFu << 20)
