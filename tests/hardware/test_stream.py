@@ -7,6 +7,7 @@ import struct
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from elastica_magnetic.hardware.calibration import (
     DacCodeModel,
@@ -345,3 +346,25 @@ def test_failed_connection_keeps_the_previous_log(tmp_path: Path, default_calibr
     stream_field("fake://", field(20), progress=False, timeout_s=30, log_path=log,
                  open_port=lambda *a, **k: board)
     assert "SAFE end" in log.read_text()
+
+
+def test_calibrate_upload_writes_and_uploads(monkeypatch, tmp_path: Path, capsys,
+                                             default_calibration_path: Path) -> None:
+    import serial
+
+    from elastica_magnetic.cli import main
+
+    board = FakeBoard(default_calibration_path)
+    monkeypatch.setattr(serial, "serial_for_url", lambda *a, **k: board)
+    currents = np.vstack([np.eye(3) * a for a in (-2.0, -1.0, 1.0, 2.0)])
+    fields_mT = currents @ np.array([[2.1, 0.05, 0], [0.04, 1.9, 0], [0, 0.02, 2.0]]).T
+    meas = tmp_path / "m.csv"
+    np.savetxt(meas, np.hstack([currents, fields_mT]), delimiter=",", comments="",
+               header="current_x_A,current_y_A,current_z_A,field_x_mT,field_y_mT,field_z_mT")
+    out = tmp_path / "bench1.json"
+    assert main(["calibrate", str(meas), "--out", str(out), "--name", "bench1", "--upload",
+                 "fake://", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["uploaded"]["after"].startswith("STATUS state=safe calibration=bench1 hash=")
+    assert board.hash == calibration_hash(load_calibration(out))
+    assert board.calibration.actuation_matrix_T_per_A[0][0] == pytest.approx(2.1e-3)

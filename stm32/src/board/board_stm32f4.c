@@ -308,6 +308,15 @@ static uint8_t *slot_base(unsigned slot)
     return (uint8_t *)(uintptr_t)(slot == 0u ? CALIB_SLOT0_ADDR : CALIB_SLOT1_ADDR);
 }
 
+/** Reload the watchdog and give it a period of @p ms (1 kHz watchdog clock, at most 4095). */
+static void watchdog_period(uint32_t ms)
+{
+    IWDG_KR = IWDG_KEY_RELOAD;
+    IWDG_KR = IWDG_KEY_UNLOCK;
+    IWDG_RLR = ms;
+    IWDG_KR = IWDG_KEY_RELOAD;
+}
+
 static bool flash_wait_idle(void)
 {
     for (uint32_t i = 0; i < FLASH_TIMEOUT; ++i) {
@@ -346,11 +355,13 @@ bool board_calib_slot_erase(unsigned slot)
     if (!flash_unlock()) {
         return false;
     }
+    watchdog_period(IWDG_FLASH_ERASE_MS);
     FLASH_CR = FLASH_CR_SER | ((CALIB_SLOT_SECTOR_FIRST + slot) << FLASH_CR_SNB_SHIFT) |
                (FLASH_CR_PSIZE_X8 << FLASH_CR_PSIZE_SHIFT);
     FLASH_CR |= FLASH_CR_STRT;
     bool ok = flash_wait_idle();
     FLASH_CR = FLASH_CR_LOCK;
+    watchdog_period(IWDG_RELOAD_MS);
     return ok;
 }
 

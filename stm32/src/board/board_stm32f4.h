@@ -39,6 +39,9 @@
 #define PULSE_LOW_LOOPS 8u
 /** IWDG: LSI 32 kHz / 32 = 1 kHz; reload 250 -> 250 ms without a kick resets the chip. */
 #define IWDG_RELOAD_MS 250u
+/** While a calibration slot is erased: the CPU stalls on flash reads for up to ~0.8 s (16 KB
+ * sector, byte parallelism), so the watchdog period is widened for the erase only. */
+#define IWDG_FLASH_ERASE_MS 2000u
 
 /* Calibration slots: flash sectors 1 and 2 (16 KB each; linker/stm32f407.ld keeps code out). */
 #define CALIB_SLOT_SECTOR_FIRST 1u
