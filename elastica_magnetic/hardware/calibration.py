@@ -45,7 +45,7 @@ DAC_CODE_MAX = 65535
 MIN_RELATIVE_DET = 1e-9
 #: From 2**52 on every double is an integer.
 EXACT_INTEGER_LIMIT = 4503599627370496.0
-_NAME_RE = re.compile(r"^[A-Za-z0-9_.-]{1,40}$")
+_NAME_RE = re.compile(r"^[A-Za-z0-9_.-]{1,31}$")  # the board keeps 31 characters
 
 Matrix3 = list[list[float]]
 
@@ -149,7 +149,7 @@ def calibration_from_dict(data: dict[str, Any], source: str = "calibration") -> 
     name = data["name"]
     if not isinstance(name, str) or not _NAME_RE.match(name):
         raise CalibrationError(
-            f"{source}: name must be 1-40 characters of letters, digits, '_', '.', '-': {name!r}"
+            f"{source}: name must be 1-31 characters of letters, digits, '_', '.', '-': {name!r}"
         )
     matrix_raw = data["actuation_matrix_T_per_A"]
     if not isinstance(matrix_raw, list) or len(matrix_raw) != AXES:

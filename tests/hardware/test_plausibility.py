@@ -188,3 +188,9 @@ def test_yao2023_makes_every_shipped_policy_waveform(tmp_path: Path) -> None:
     ten = REPO / "rl" / "policies" / "m1-10mT" / "fields.csv"
     with pytest.raises(ValueError, match="cannot follow this waveform"):
         export_firmware(ten, DEFAULT_CALIBRATION, tmp_path / "default")
+
+
+def test_names_longer_than_the_board_keeps_are_refused(tmp_path: Path) -> None:
+    with pytest.raises(CalibrationError, match="name must be 1-31 characters"):
+        load_calibration(write_calibration(tmp_path, name="x" * 32))
+    load_calibration(write_calibration(tmp_path, name="x" * 31))
