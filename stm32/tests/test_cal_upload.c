@@ -147,12 +147,46 @@ static void test_hash_mismatch(void **state)
                                   "ERR cal-refused reason=hash-mismatch");
 }
 
+/* Garbage of every kind after a BEGIN: never a crash, never an out-of-range write, never an
+ * accepted calibration. */
+static void test_random_lines_change_nothing(void **state)
+{
+    (void)state;
+    static const char alphabet[] = "CAL DATCOMIT BEGN0123456789abcdefABCDEF*- xyz\t";
+    uint32_t seed = 12345u;
+    char line[160];
+    for (unsigned n = 0; n < 20000u; ++n) {
+        if (n % 7u == 0u) {
+            send("CAL BEGIN", true);
+        }
+        seed = seed * 1664525u + 1013904223u;
+        size_t len = (seed >> 8) % (sizeof line - 1u);
+        size_t start = 0;
+        if ((seed & 3u) != 0u) { /* mostly well-formed heads */
+            static const char *const heads[] = {"CAL DATA 0 ", "CAL DATA 48 ", "CAL COMMIT "};
+            const char *head = heads[(seed >> 4) % 3u];
+            start = strlen(head);
+            memcpy(line, head, start);
+        }
+        for (size_t i = start; i < len; ++i) {
+            seed = seed * 1664525u + 1013904223u;
+            line[i] = alphabet[(seed >> 16) % (sizeof alphabet - 1u)];
+        }
+        line[len > start ? len : start] = '\0';
+        send(line, (seed & 16u) != 0u);
+        assert_true(upload.received <= CALIB_RECORD_BYTES);
+    }
+    assert_int_equal(active.source, CALIB_SOURCE_COMPILED);
+    assert_string_equal(active.current.name, "compiled");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_upload_is_active_and_survives_reset, setup),
         cmocka_unit_test_setup(test_refusals_name_the_reason, setup),
         cmocka_unit_test_setup(test_hash_mismatch, setup),
+        cmocka_unit_test_setup(test_random_lines_change_nothing, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
