@@ -330,6 +330,16 @@ static bool flash_wait_idle(void)
     return false;
 }
 
+/** Drop the flash data cache (RM0090: reset it, while disabled, after an erase or program), so
+ * reading a slot back sees the new bytes. */
+static void flash_data_cache_reset(void)
+{
+    uint32_t acr = FLASH_ACR;
+    FLASH_ACR = acr & ~FLASH_ACR_DCEN;
+    FLASH_ACR = (acr & ~FLASH_ACR_DCEN) | FLASH_ACR_DCRST;
+    FLASH_ACR = acr & ~FLASH_ACR_DCRST;
+}
+
 static bool flash_unlock(void)
 {
     FLASH_SR = FLASH_SR_ERRORS; /* rc_w1: clear old errors */
@@ -362,6 +372,7 @@ bool board_calib_slot_erase(unsigned slot)
     bool ok = flash_wait_idle();
     FLASH_CR = FLASH_CR_LOCK;
     watchdog_period(IWDG_RELOAD_MS);
+    flash_data_cache_reset();
     return ok;
 }
 
@@ -387,6 +398,7 @@ bool board_calib_slot_program(unsigned slot, uint32_t offset, const uint8_t *dat
         ok = flash_wait_idle();
     }
     FLASH_CR = FLASH_CR_LOCK;
+    flash_data_cache_reset();
     return ok;
 }
 
