@@ -26,6 +26,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from elastica_magnetic.hardware.plausibility import (
+    CURRENT_CONDITION_REFUSE,
+    CURRENT_CONDITION_WARN,
+    check_drive,
+    check_matrix,
+    current_condition,
+)
 from elastica_magnetic.io import atomic_write_text
 
 AXES = 3
@@ -38,7 +45,7 @@ DAC_CODE_MAX = 65535
 MIN_RELATIVE_DET = 1e-9
 #: From 2**52 on every double is an integer.
 EXACT_INTEGER_LIMIT = 4503599627370496.0
-_NAME_RE = re.compile(r"^[A-Za-z0-9_.-]{1,40}$")
+_NAME_RE = re.compile(r"^[A-Za-z0-9_.-]{1,31}$")  # the board keeps 31 characters
 
 Matrix3 = list[list[float]]
 
@@ -128,6 +135,10 @@ def calibration_from_dict(data: dict[str, Any], source: str = "calibration") -> 
     CalibrationError
         Missing key, wrong shape, non-finite or non-positive value, or a singular matrix; the
         message names ``source`` and the key.
+    PlausibilityError
+        Values no Helmholtz coil set and coil driver can have (a matrix in mT/A, a current limit
+        in mA, ``tick_hz`` other than the firmware's 100 Hz...), see
+        :mod:`elastica_magnetic.hardware.plausibility`.
     """
     if not isinstance(data, dict):
         raise CalibrationError(f"{source}: expected a JSON object")
@@ -138,7 +149,7 @@ def calibration_from_dict(data: dict[str, Any], source: str = "calibration") -> 
     name = data["name"]
     if not isinstance(name, str) or not _NAME_RE.match(name):
         raise CalibrationError(
-            f"{source}: name must be 1-40 characters of letters, digits, '_', '.', '-': {name!r}"
+            f"{source}: name must be 1-31 characters of letters, digits, '_', '.', '-': {name!r}"
         )
     matrix_raw = data["actuation_matrix_T_per_A"]
     if not isinstance(matrix_raw, list) or len(matrix_raw) != AXES:
@@ -160,6 +171,9 @@ def calibration_from_dict(data: dict[str, Any], source: str = "calibration") -> 
         raise CalibrationError(f"{source}: tick_hz must be > 0, got {tick_hz}")
     if invert3(matrix) is None:
         raise CalibrationError(f"{source}: actuation_matrix_T_per_A is singular: {matrix}")
+    check_matrix(matrix, source)
+    check_drive(tick_hz, half_span, vectors["transconductance_A_per_V"], vectors["input_offset_V"],
+                vectors["current_limit_A"], vectors["slew_limit_A_per_s"], source)
     known = {"description", "tick_hz", *required}
     return Calibration(
         name=name,
@@ -433,12 +447,24 @@ class ActuationFit:
         Per-axis RMS of the residuals (T).
     max_abs_residual_T : float
         Largest absolute residual (T).
+    std_error_T_per_A : ndarray
+        3x3 standard errors of the matrix entries (T/A) from the residual scatter, NaN with only
+        3 measurements (no degree of freedom left).
+    current_condition : float
+        2-norm condition number of the measured currents (1 when each coil was driven alone at
+        equal amplitude).
+    warnings : list of str
+        Why the fit may be weak (condition number above
+        :data:`~elastica_magnetic.hardware.plausibility.CURRENT_CONDITION_WARN`).
     """
 
     matrix_T_per_A: NDArray[np.float64]
     residuals_T: NDArray[np.float64]
     rms_residual_T: NDArray[np.float64]
     max_abs_residual_T: float
+    std_error_T_per_A: NDArray[np.float64]
+    current_condition: float
+    warnings: list[str]
 
 
 def fit_actuation_matrix(currents_A: NDArray[np.float64], fields_T: NDArray[np.float64]) -> ActuationFit:
@@ -455,7 +481,8 @@ def fit_actuation_matrix(currents_A: NDArray[np.float64], fields_T: NDArray[np.f
     ------
     CalibrationError
         Wrong shapes, fewer than 3 measurements, non-finite data, or currents that do not excite
-        all three coils independently (rank < 3).
+        all three coils independently (rank < 3, or a condition number above
+        :data:`~elastica_magnetic.hardware.plausibility.CURRENT_CONDITION_REFUSE`).
     """
     currents = np.asarray(currents_A, dtype=np.float64)
     fields = np.asarray(fields_T, dtype=np.float64)
@@ -472,7 +499,26 @@ def fit_actuation_matrix(currents_A: NDArray[np.float64], fields_T: NDArray[np.f
         raise CalibrationError(
             f"the currents excite only {rank} independent direction(s); drive each coil on its own"
         )
+    cond = current_condition(currents)
+    if cond > CURRENT_CONDITION_REFUSE:
+        raise CalibrationError(
+            f"the measured currents are ill conditioned (condition number {cond:.3g} > "
+            f"{CURRENT_CONDITION_REFUSE:g}): the coils were driven together, so their fields cannot "
+            "be told apart; drive each coil on its own, at positive and negative currents")
+    warnings = []
+    if cond > CURRENT_CONDITION_WARN:
+        warnings.append(
+            f"the measured currents' condition number {cond:.3g} exceeds {CURRENT_CONDITION_WARN:g}: "
+            "the matrix is poorly determined (see std_error); drive each coil on its own")
     matrix = solution.T
     residuals = fields - currents @ solution
     rms = np.sqrt(np.mean(residuals**2, axis=0))
-    return ActuationFit(matrix, residuals, rms, float(np.max(np.abs(residuals))))
+    dof = currents.shape[0] - AXES
+    if dof > 0:
+        variance = np.sum(residuals**2, axis=0) / dof  # per field axis
+        diag = np.diag(np.linalg.inv(currents.T @ currents))  # per current axis
+        std_error = np.sqrt(np.outer(variance, diag))
+    else:
+        std_error = np.full((AXES, AXES), np.nan)
+    return ActuationFit(matrix, residuals, rms, float(np.max(np.abs(residuals))), std_error, cond,
+                        warnings)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +20,15 @@ def register(subparsers: Any) -> None:
     p.add_argument("field_csv", help="field CSV, mag_x,mag_y,mag_z in mT, 100 rows/s")
     p.add_argument("--port", required=True,
                    help="pyserial URL or device: socket://127.0.0.1:4321 (QEMU), /dev/ttyACM0")
-    p.add_argument("--calibration", help="calibration JSON: compare reported codes with expected")
+    p.add_argument("--calibration",
+                   help="calibration JSON: the board plays with it (uploaded first when the board's "
+                   "active calibration differs) and the reported codes are compared with it")
+    p.add_argument("--no-upload", action="store_true",
+                   help="with --calibration: refuse (exit 2) instead of uploading when the board's "
+                   "active calibration differs")
+    p.add_argument("--allow-clipping", action="store_true",
+                   help="stream a waveform beyond the calibration's current limit or DAC span "
+                   "(the firmware clamps it); by default such a waveform is refused")
     p.add_argument("--baud", type=_number("baud", 1, integer=True), default=115200)
     p.add_argument("--timeout", type=_number("s", 0.0, low_open=True), default=None,
                    help="overall limit in seconds, handshake included")
@@ -52,6 +61,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--base", help="calibration JSON providing the amplifier, DAC and limits "
                    "(default: stm32/calibration/default.json)")
     p.add_argument("--name", default="measured", help="calibration name compiled into firmware")
+    p.add_argument("--upload", metavar="PORT",
+                   help="also upload the fitted calibration to the board at this pyserial URL")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_calibrate)
 
@@ -74,8 +85,16 @@ def _error(message: str) -> Exception:
     return CommandError(message)
 
 
+#: Largest difference (LSB) between the board's reported codes and the host's model.
+CODE_TOLERANCE_LSB = 1
+
+
 def _stream(args: argparse.Namespace) -> int:
-    from elastica_magnetic.hardware.calibration import expected_dac_codes, load_calibration
+    from elastica_magnetic.hardware.calibration import (
+        clipping_report,
+        expected_dac_codes,
+        load_calibration,
+    )
     from elastica_magnetic.hardware.export import write_expected_codes
     from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
     from elastica_magnetic.hardware.stream import StreamError, stream_field
@@ -83,19 +102,30 @@ def _stream(args: argparse.Namespace) -> int:
 
     field_T = read_field_csv(args.field_csv)
     cal = load_calibration(args.calibration) if args.calibration else None
+    if args.no_upload and cal is None:
+        raise _error("--no-upload needs --calibration FILE")
+    if cal is not None:
+        clipping = clipping_report(cal, wire_values_mT(wire_rows_mT(field_T)))
+        if clipping.rows and not args.allow_clipping:
+            raise _error(
+                f"{args.field_csv}: the coils of calibration {cal.name!r} cannot follow this "
+                f"waveform: {clipping.describe()}. Lower the field, or pass --allow-clipping to "
+                "play it clipped; nothing was sent")
     for option, path in (("--log", args.log), ("--codes-out", args.codes_out)):
         if path:
             prepare_output_file(path, option)
     try:
         result = stream_field(args.port, field_T, baudrate=args.baud, corrupt_row=args.corrupt_row,
                               timeout_s=args.timeout, log_path=args.log,
-                              progress=not args.no_progress)
+                              progress=not args.no_progress, calibration=cal,
+                              upload=not args.no_upload)
     except StreamError as exc:
         raise _error(str(exc)) from None
     summary = result.summary()
     got = result.codes_array()
     if args.codes_out:
         write_expected_codes(Path(args.codes_out), got)
+    codes_ok = True
     if cal is not None:
         expected = expected_dac_codes(cal, wire_values_mT(wire_rows_mT(field_T)))
         rows = [d.row for d in result.row_codes]
@@ -105,10 +135,18 @@ def _stream(args: argparse.Namespace) -> int:
             summary["max_code_error_lsb"] = int(np.max(np.abs(got - expected[: len(got)])))
         else:
             summary["max_code_error_lsb"] = None if not len(got) else -1
+        error = summary["max_code_error_lsb"]
+        codes_ok = error is None or 0 <= error <= CODE_TOLERANCE_LSB
     _print(summary, args.json)
     if result.safe is None:  # time-out: stream_field has sent STOP
         raise _error(f"{args.port}: no SAFE report from the board within the time limit "
                      f"({result.rows_applied} of {result.rows_total} rows reported played); STOP sent")
+    if not codes_ok:
+        print(f"msr stream: error: the board's DAC codes differ from the host's by "
+              f"{summary['max_code_error_lsb']} LSB (tolerance {CODE_TOLERANCE_LSB}; -1: rows out "
+              "of order or more rows than sent): the board plays with another calibration or "
+              "firmware", file=sys.stderr)
+        return 1
     ok = result.safe is not None and result.safe.reason == "end" and result.ended_safe
     if args.corrupt_row is not None:
         ok = result.safe is not None and result.safe.reason == "checksum" and result.ended_safe
@@ -133,6 +171,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         load_calibration,
         save_calibration,
     )
+    from elastica_magnetic.hardware.plausibility import check_measurements
     from elastica_magnetic.io import prepare_output_file
 
     path = Path(args.measurements)
@@ -156,6 +195,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         first = int(np.flatnonzero(bad.to_numpy())[0])
         raise _error(f"{path}: line {first + 2}: missing or non-numeric value in {list(table.iloc[first])}")
     values = data.to_numpy(dtype=np.float64)
+    check_measurements(values[:, :3], values[:, 3:], str(path))
     fit = fit_actuation_matrix(values[:, :3], values[:, 3:] * MILLITESLA)
     base = load_calibration(args.base) if args.base else load_calibration(default_calibration_path())
     fitted: Calibration = calibration_from_dict(
@@ -164,11 +204,27 @@ def _calibrate(args: argparse.Namespace) -> int:
          "description": f"fitted by msr calibrate from {path.name} ({len(values)} measurements)"},
         str(args.out))
     save_calibration(args.out, fitted)
+    uploaded = _upload(args.upload, fitted) if args.upload else None
     _print({
         "measurements": len(values),
         "actuation_matrix_mT_per_A": np.round(fit.matrix_T_per_A / MILLITESLA, 6).tolist(),
         "rms_residual_mT": np.round(fit.rms_residual_T / MILLITESLA, 6).tolist(),
         "max_abs_residual_mT": round(fit.max_abs_residual_T / MILLITESLA, 6),
+        "std_error_mT_per_A": np.round(fit.std_error_T_per_A / MILLITESLA, 6).tolist(),
+        "current_condition_number": round(fit.current_condition, 3),
+        "warnings": fit.warnings,
         "calibration": str(args.out),
+        "uploaded": uploaded,
     }, args.json)
+    for warning in fit.warnings:
+        print(f"msr calibrate: warning: {warning}", file=sys.stderr)
     return 0
+
+
+def _upload(port: str, calibration: Any) -> dict[str, str]:
+    from elastica_magnetic.hardware.stream import StreamError, upload_calibration
+
+    try:
+        return upload_calibration(port, calibration)
+    except StreamError as exc:
+        raise _error(f"--upload {exc}") from None

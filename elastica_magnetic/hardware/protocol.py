@@ -8,7 +8,10 @@ CRC-16/CCITT-FALSE in 4 hex digits over everything before ``*``.
 from __future__ import annotations
 
 import re
+import struct
+import zlib
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -102,3 +105,67 @@ def parse_safe(line: str) -> SafeReport | None:
     row = int(kv["row"]) if kv.get("row", "").isdigit() else None
     applied = int(kv["applied"]) if kv.get("applied", "").isdigit() else None
     return SafeReport(m.group(1), row, applied, kv.get("detail", ""), line.strip())
+
+
+# --------------------------------------------------------------------------- calibration upload
+#: Order of the 23 doubles in a calibration record (firmware: calib_store.c).
+CALIBRATION_NAME_BYTES = 32
+CALIBRATION_RECORD_BYTES = 23 * 8 + CALIBRATION_NAME_BYTES
+#: Record bytes per ``CAL DATA`` line (96 hex digits; the line stays below the board's 128).
+CAL_DATA_CHUNK_BYTES = 48
+_STATUS_RE = re.compile(r"^STATUS(.*)$")
+
+
+def calibration_record(calibration: Any) -> bytes:
+    """The 216-byte calibration record the board stores (little-endian doubles + name).
+
+    Order: actuation matrix row-major (T/A), transconductance (A/V), input offset (V), DAC half
+    span (V), current limit (A), slew limit (A/s), tick rate (Hz), then the name in 32 bytes
+    padded with NUL. ``calibration`` is a :class:`~elastica_magnetic.hardware.calibration.Calibration`.
+    """
+    cal = calibration
+    values = [v for row in cal.actuation_matrix_T_per_A for v in row]
+    values += [*cal.transconductance_A_per_V, *cal.input_offset_V, cal.dac_half_span_V,
+               *cal.current_limit_A, *cal.slew_limit_A_per_s, cal.tick_hz]
+    name = cal.name.encode("ascii")
+    if len(name) >= CALIBRATION_NAME_BYTES:
+        raise ValueError(f"calibration name {cal.name!r} longer than {CALIBRATION_NAME_BYTES - 1}")
+    return struct.pack("<23d", *map(float, values)) + name.ljust(CALIBRATION_NAME_BYTES, b"\0")
+
+
+def calibration_hash(calibration: Any) -> str:
+    """CRC-32 (IEEE, as zlib) of :func:`calibration_record`, 8 lower-case hex digits: what the
+    board reports as ``hash=`` for its active calibration."""
+    return f"{zlib.crc32(calibration_record(calibration)) & 0xFFFFFFFF:08x}"
+
+
+def calibration_upload_lines(calibration: Any) -> list[bytes]:
+    """``CAL BEGIN``, the ``CAL DATA <offset> <hex>*<CRC16>`` lines, ``CAL COMMIT <crc32>``."""
+    record = calibration_record(calibration)
+    lines = [b"CAL BEGIN\n"]
+    for offset in range(0, len(record), CAL_DATA_CHUNK_BYTES):
+        payload = f"CAL DATA {offset} {record[offset:offset + CAL_DATA_CHUNK_BYTES].hex()}"
+        lines.append(f"{payload}*{crc16(payload.encode('ascii')):04X}\n".encode("ascii"))
+    lines.append(f"CAL COMMIT {calibration_hash(calibration)}\n".encode("ascii"))
+    return lines
+
+
+@dataclass
+class BoardStatus:
+    """A ``STATUS`` line: the active calibration (name, CRC-32 hash, ``compiled`` or ``flash``)."""
+
+    state: str
+    calibration: str
+    hash: str
+    source: str
+    text: str
+
+
+def parse_status(line: str) -> BoardStatus | None:
+    """Parse ``STATUS state=.. calibration=.. hash=.. source=..``, or None."""
+    m = _STATUS_RE.match(line.strip())
+    if not m:
+        return None
+    kv = dict(_KV_RE.findall(m.group(1)))
+    return BoardStatus(kv.get("state", ""), kv.get("calibration", ""), kv.get("hash", ""),
+                       kv.get("source", ""), line.strip())

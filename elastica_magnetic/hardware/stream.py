@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -18,13 +19,17 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from elastica_magnetic.hardware.calibration import DAC_MIDSCALE
+from elastica_magnetic.hardware.calibration import DAC_MIDSCALE, Calibration
 from elastica_magnetic.hardware.protocol import (
+    BoardStatus,
     DacReport,
     SafeReport,
+    calibration_hash,
+    calibration_upload_lines,
     format_row,
     parse_dac,
     parse_safe,
+    parse_status,
     wire_rows_mT,
 )
 
@@ -35,10 +40,16 @@ PLAYBACK_HZ = 100.0
 SYNC_TIMEOUT_S = 10.0
 PING_INTERVAL_S = 0.5
 READ_TIMEOUT_S = 0.02
+#: Seconds to wait for the answer to one command (STATUS, a CAL line: the flash write included).
+COMMAND_TIMEOUT_S = 10.0
 
 
 class StreamError(RuntimeError):
     """The board did not answer or the link broke; the message says at which step."""
+
+
+class CalibrationRefused(StreamError):
+    """The board refused an uploaded calibration; the message holds its reason code."""
 
 
 @dataclass
@@ -56,6 +67,8 @@ class StreamResult:
     banner: str = ""
     lines: list[str] = field(default_factory=list)
     duration_s: float = 0.0
+    calibration_before: str = ""
+    uploaded: str = ""
 
     @property
     def row_codes(self) -> list[DacReport]:
@@ -88,16 +101,54 @@ class StreamResult:
             "safe_detail": self.safe.detail if self.safe else None,
             "safe_line": self.safe.text if self.safe else None,
             "board": self.banner,
+            "calibration_before": self.calibration_before or None,
+            "calibration_uploaded": self.uploaded or None,
             "duration_s": round(self.duration_s, 3),
             "rows_per_s": round(rate, 1),
         }
 
 
+class _BoardLog:
+    """``--log FILE``: the board's lines go to a temporary sibling of FILE, moved over FILE only
+    once the board has said something, so a failed connection (port that does not open, board
+    that never answers) leaves the previous log byte for byte."""
+
+    def __init__(self, path: str | Path | None) -> None:
+        self.path = Path(path) if path is not None else None
+        self.handle: Any = None
+        self.lines = 0
+
+    def write(self, line: str) -> None:
+        if self.path is None:
+            return
+        if self.handle is None:
+            tmp = self.path.with_name(f".{self.path.name}.partial{os.getpid()}")
+            try:
+                self.handle = open(tmp, "w")  # noqa: SIM115
+            except OSError as exc:
+                raise StreamError(f"--log {self.path}: cannot write: {exc.strerror or exc}") from None
+        self.handle.write(line + "\n")
+        self.lines += 1
+
+    def close(self) -> None:
+        """Move the log into place when the board said anything; drop it otherwise."""
+        if self.handle is None:
+            return
+        tmp = Path(self.handle.name)
+        self.handle.close()
+        self.handle = None
+        if self.lines and self.path is not None:
+            os.replace(tmp, self.path)
+        else:
+            tmp.unlink(missing_ok=True)
+
+
 class _LineReader:
-    def __init__(self, port: Any, log: Any | None) -> None:
+    def __init__(self, port: Any, log: _BoardLog) -> None:
         self.port = port
         self.log = log
         self.pending = b""
+        self.lines: list[str] = []
 
     def poll(self) -> list[str]:
         waiting = getattr(self.port, "in_waiting", 0) or 1
@@ -107,10 +158,141 @@ class _LineReader:
         self.pending += data
         *lines, self.pending = self.pending.split(b"\n")
         out = [line.decode("ascii", "replace").rstrip("\r") for line in lines]
-        if self.log is not None:
-            for line in out:
-                self.log.write(line + "\n")
+        for line in out:
+            self.log.write(line)
+        self.lines.extend(out)
         return out
+
+    def wait_for(self, accept: Callable[[str], bool], timeout_s: float, what: str,
+                 port_url: str) -> str:
+        """Poll until a line satisfies ``accept`` (returned) or raise StreamError after ``timeout_s``."""
+        start = time.monotonic()
+        while time.monotonic() - start < timeout_s:
+            for line in self.poll():
+                if accept(line):
+                    return line
+        raise StreamError(f"{port_url}: no answer to {what} within {timeout_s:g} s")
+
+
+def _sync(port: Any, reader: _LineReader, port_url: str, sync_s: float) -> str:
+    """PING until PONG (bytes sent before the board's UART is enabled are lost); returns the banner
+    seen meanwhile ("" if none)."""
+    start = time.monotonic()
+    last_ping = -PING_INTERVAL_S
+    banner = ""
+    while time.monotonic() - start < sync_s:
+        now = time.monotonic() - start
+        if now - last_ping >= PING_INTERVAL_S:
+            port.write(b"\nPING\n")
+            last_ping = now
+        for line in reader.poll():
+            if line.startswith("MSR-FW"):
+                banner = line
+            if line == "PONG":
+                return banner
+    raise StreamError(f"{port_url}: no PONG within {sync_s:g} s (is the board running?)")
+
+
+def query_status(port: Any, reader: _LineReader, port_url: str) -> BoardStatus:
+    """Send ``STATUS`` and return the board's answer."""
+    port.write(b"STATUS\n")
+    line = reader.wait_for(lambda x: x.startswith("STATUS ") or x.startswith("ERR "),
+                           COMMAND_TIMEOUT_S, "STATUS", port_url)
+    status = parse_status(line)
+    if status is None or not status.hash:
+        raise StreamError(f"{port_url}: the board does not report its calibration ({line!r}); "
+                          "flash a firmware with calibration upload")
+    return status
+
+
+def upload_calibration_lines(port: Any, reader: _LineReader, port_url: str,
+                             calibration: Calibration) -> str:
+    """Upload ``calibration`` (``CAL BEGIN`` / ``DATA`` / ``COMMIT``, each acknowledged); returns
+    the board's ``OK CAL-COMMIT`` line.
+
+    Raises
+    ------
+    CalibrationRefused
+        The board refused it (``ERR cal-...``): the message holds its reason; the board keeps
+        its previous calibration.
+    """
+    for line in calibration_upload_lines(calibration):
+        port.write(line)
+        answer = reader.wait_for(lambda x: x.startswith("OK CAL") or x.startswith("ERR "),
+                                 COMMAND_TIMEOUT_S, line.decode().split("*")[0].strip()[:20],
+                                 port_url)
+        if answer.startswith("ERR "):
+            raise CalibrationRefused(f"{port_url}: the board refused calibration "
+                                     f"{calibration.name!r}: {answer}; it keeps its previous one")
+    return answer
+
+
+def _ensure_calibration(port: Any, reader: _LineReader, port_url: str, calibration: Calibration,
+                        upload: bool, result: StreamResult) -> None:
+    status = query_status(port, reader, port_url)
+    wanted = calibration_hash(calibration)
+    result.calibration_before = status.text
+    if status.hash == wanted:
+        return
+    if not upload:
+        raise StreamError(
+            f"{port_url}: the board's active calibration is {status.calibration!r} (hash "
+            f"{status.hash}, {status.source}), not {calibration.name!r} (hash {wanted}); "
+            "nothing was sent (--no-upload)")
+    result.uploaded = upload_calibration_lines(port, reader, port_url, calibration)
+    after = query_status(port, reader, port_url)
+    if after.hash != wanted:
+        raise StreamError(f"{port_url}: after the upload the board reports {after.text!r}, "
+                          f"expected hash {wanted}")
+
+
+def _start_stream(port: Any, reader: _LineReader, port_url: str, result: StreamResult,
+                  deadline: float) -> int:
+    """``STREAM``; returns the first credit."""
+    port.write(b"STREAM\n")
+    credit = 0
+    started = False
+    while not started:
+        if time.monotonic() > deadline:
+            raise StreamError(f"{port_url}: no answer to STREAM in time")
+        for line in reader.poll():
+            if line.startswith("OK STREAM"):
+                started = True
+            elif line.startswith("CREDIT "):
+                credit = int(line.split()[1])
+            elif line.startswith("SAFE "):
+                result.safe = parse_safe(line)
+                raise StreamError(f"{port_url}: STREAM refused: {line}")
+    return credit
+
+
+def _send_rows(port: Any, reader: _LineReader, rows: list[tuple[str, str, str]], credit: int,
+               corrupt_row: int | None, result: StreamResult, bar: Any, deadline: float) -> None:
+    """Rows within the credit, then END; read reports until SAFE or the deadline."""
+    n = len(rows)
+    next_row = 0
+    end_sent = False
+    while result.safe is None and time.monotonic() < deadline:
+        if next_row < n and next_row < credit:
+            upto = min(n, credit)
+            port.write(b"".join(format_row(i, rows[i], corrupt=(i == corrupt_row))
+                                for i in range(next_row, upto)))
+            next_row = upto
+            result.rows_sent = next_row
+        if next_row == n and not end_sent:
+            port.write(f"END {n}\n".encode("ascii"))
+            end_sent = True
+        for line in reader.poll():
+            if line.startswith("CREDIT "):
+                credit = max(credit, int(line.split()[1]))
+            elif line.startswith("DAC "):
+                report = parse_dac(line)
+                if report is not None:
+                    result.dac.append(report)
+                    if report.row is not None:
+                        bar.update(1)
+            elif line.startswith("SAFE "):
+                result.safe = parse_safe(line)
 
 
 def stream_field(
@@ -123,6 +305,8 @@ def stream_field(
     log_path: str | Path | None = None,
     progress: bool = True,
     open_port: Callable[..., Any] | None = None,
+    calibration: Calibration | None = None,
+    upload: bool = True,
 ) -> StreamResult:
     """Stream ``field_T`` (``(n, 3)`` tesla, 100 rows/s) to the board at ``port_url``.
 
@@ -139,9 +323,14 @@ def stream_field(
         Overall limit in s, handshake included (default: playback time + 30 s; the handshake
         waits at most 10 s either way).
     log_path : path, optional
-        Every line the board sent is written there.
+        Every line the board sent is written there (replaced only once the board answered).
     progress : bool
         Show a tqdm progress bar of rows played.
+    calibration : Calibration, optional
+        The calibration to play with: the board's active one is queried (``STATUS``) and, when its
+        hash differs, ``calibration`` is uploaded first (or, with ``upload=False``, StreamError).
+    upload : bool
+        Allow that upload.
 
     Returns
     -------
@@ -154,6 +343,8 @@ def stream_field(
         The port cannot be opened, no answer to PING, STREAM refused, or the link broke; the
         message names the port. On any failure or time-out after the port opened, ``STOP`` is
         sent (best effort) so that the board sets zero current.
+    CalibrationRefused
+        The board refused the uploaded calibration (its reason in the message).
     """
     import serial  # pyserial; imported here so the module loads without it
     from tqdm import tqdm
@@ -163,82 +354,20 @@ def stream_field(
     rows = wire_rows_mT(field_T)
     n = len(rows)
     deadline_s = timeout_s if timeout_s is not None else n / PLAYBACK_HZ + 30.0
-    sync_s = min(SYNC_TIMEOUT_S, deadline_s)
     result = StreamResult(rows_total=n)
-    opener = open_port or serial.serial_for_url
-    try:
-        log = open(log_path, "w") if log_path is not None else None  # noqa: SIM115
-    except OSError as exc:
-        raise StreamError(f"--log {log_path}: cannot write: {exc.strerror or exc}") from None
-    try:
-        port = opener(port_url, baudrate=baudrate, timeout=READ_TIMEOUT_S)
-    except (OSError, ValueError, serial.SerialException) as exc:
-        if log is not None:
-            log.close()
-        raise StreamError(f"{port_url}: cannot open the port ({exc}); nothing was sent") from None
+    log = _BoardLog(log_path)
+    port = _open(port_url, baudrate, open_port)
     bar = tqdm(total=n, unit="row", desc="stream", disable=not progress, leave=False)
     start = time.monotonic()
     finished = False
+    reader = _LineReader(port, log)
     try:
-        reader = _LineReader(port, log)
-        # 1. sync: PING until PONG (bytes sent before the board's UART is enabled are lost).
-        last_ping = -PING_INTERVAL_S
-        synced = False
-        while time.monotonic() - start < sync_s and not synced:
-            now = time.monotonic() - start
-            if now - last_ping >= PING_INTERVAL_S:
-                port.write(b"\nPING\n")
-                last_ping = now
-            for line in reader.poll():
-                result.lines.append(line)
-                if line.startswith("MSR-FW"):
-                    result.banner = line
-                synced = synced or line == "PONG"
-        if not synced:
-            raise StreamError(f"{port_url}: no PONG within {sync_s:g} s (is the board running?)")
-        # 2. start the session
-        port.write(b"STREAM\n")
-        credit = 0
-        started = False
-        while not started:
-            if time.monotonic() - start > deadline_s:
-                raise StreamError(f"{port_url}: no answer to STREAM within {deadline_s:g} s")
-            for line in reader.poll():
-                result.lines.append(line)
-                if line.startswith("OK STREAM"):
-                    started = True
-                elif line.startswith("CREDIT "):
-                    credit = int(line.split()[1])
-                elif line.startswith("SAFE "):
-                    result.safe = parse_safe(line)
-                    raise StreamError(f"{port_url}: STREAM refused: {line}")
-        # 3. rows within the credit, then END; read reports until SAFE or the overall time limit
-        next_row = 0
-        end_sent = False
-        while result.safe is None and time.monotonic() - start < deadline_s:
-            if next_row < n and next_row < credit:
-                upto = min(n, credit)
-                chunk = b"".join(format_row(i, rows[i], corrupt=(i == corrupt_row))
-                                 for i in range(next_row, upto))
-                port.write(chunk)
-                next_row = upto
-                result.rows_sent = next_row
-            if next_row == n and not end_sent:
-                port.write(f"END {n}\n".encode("ascii"))
-                end_sent = True
-            for line in reader.poll():
-                result.lines.append(line)
-                if line.startswith("CREDIT "):
-                    credit = max(credit, int(line.split()[1]))
-                elif line.startswith("DAC "):
-                    report = parse_dac(line)
-                    if report is not None:
-                        result.dac.append(report)
-                        if report.row is not None:
-                            bar.update(1)
-                elif line.startswith("SAFE "):
-                    result.safe = parse_safe(line)
-        # 4. the safe-state DAC line precedes SAFE; nothing else to wait for
+        result.banner = _sync(port, reader, port_url, min(SYNC_TIMEOUT_S, deadline_s))
+        if calibration is not None:
+            _ensure_calibration(port, reader, port_url, calibration, upload, result)
+        deadline = start + deadline_s
+        credit = _start_stream(port, reader, port_url, result, deadline)
+        _send_rows(port, reader, rows, credit, corrupt_row, result, bar, deadline)
         finished = True
     except (OSError, serial.SerialException) as exc:
         raise StreamError(
@@ -247,14 +376,53 @@ def stream_field(
         ) from None
     finally:
         result.duration_s = time.monotonic() - start
+        result.lines = reader.lines
         bar.close()
-        if log is not None:
-            log.close()
         if not finished or result.safe is None:
             _stop(port)  # fail safe: the board goes to zero current on STOP
         with contextlib.suppress(Exception):
             port.close()
+        log.close()
     return result
+
+
+def _open(port_url: str, baudrate: int, open_port: Callable[..., Any] | None) -> Any:
+    import serial
+
+    opener = open_port or serial.serial_for_url
+    try:
+        return opener(port_url, baudrate=baudrate, timeout=READ_TIMEOUT_S)
+    except (OSError, ValueError, serial.SerialException) as exc:
+        raise StreamError(f"{port_url}: cannot open the port ({exc}); nothing was sent") from None
+
+
+def upload_calibration(port_url: str, calibration: Calibration, *, baudrate: int = DEFAULT_BAUD,
+                       open_port: Callable[..., Any] | None = None) -> dict[str, str]:
+    """Upload ``calibration`` to the board at ``port_url`` (``msr calibrate --upload``); returns
+    the board's status before and after.
+
+    Raises
+    ------
+    StreamError, CalibrationRefused
+        No answer, or the board refused it (reason in the message; it keeps the previous one).
+    """
+    import serial
+
+    port = _open(port_url, baudrate, open_port)
+    reader = _LineReader(port, _BoardLog(None))
+    try:
+        _sync(port, reader, port_url, SYNC_TIMEOUT_S)
+        before = query_status(port, reader, port_url)
+        answer = upload_calibration_lines(port, reader, port_url, calibration)
+        after = query_status(port, reader, port_url)
+    except (OSError, serial.SerialException) as exc:
+        raise StreamError(f"{port_url}: link lost during the upload ({exc})") from None
+    finally:
+        with contextlib.suppress(Exception):
+            port.close()
+    if after.hash != calibration_hash(calibration):
+        raise StreamError(f"{port_url}: after the upload the board reports {after.text!r}")
+    return {"before": before.text, "answer": answer, "after": after.text}
 
 
 def _stop(port: Any) -> None:

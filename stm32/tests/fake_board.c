@@ -115,3 +115,48 @@ size_t fake_uart_count(const char *prefix)
     }
     return n;
 }
+
+fake_flash_t fake_flash;
+
+void fake_flash_blank(void)
+{
+    memset(fake_flash.slot, 0xFF, sizeof fake_flash.slot);
+    fake_flash.program_budget = FAKE_UNLIMITED;
+    fake_flash.erase_fails = false;
+    fake_flash.erases = 0;
+    fake_flash.resets = 0;
+}
+
+bool board_calib_slot_erase(unsigned slot)
+{
+    if (slot >= 2u || fake_flash.erase_fails) {
+        return false;
+    }
+    memset(fake_flash.slot[slot], 0xFF, FAKE_SLOT_BYTES);
+    fake_flash.erases++;
+    return true;
+}
+
+bool board_calib_slot_program(unsigned slot, uint32_t offset, const uint8_t *data, size_t len)
+{
+    if (slot >= 2u || offset + len > FAKE_SLOT_BYTES) {
+        return false;
+    }
+    for (size_t i = 0; i < len; ++i) {
+        if (fake_flash.program_budget == 0u) {
+            return false; /* power lost: the rest of the bytes stay erased */
+        }
+        if (fake_flash.program_budget != FAKE_UNLIMITED) {
+            fake_flash.program_budget--;
+        }
+        fake_flash.slot[slot][offset + i] &= data[i]; /* flash programs 1 -> 0 only */
+    }
+    return true;
+}
+
+const uint8_t *board_calib_slot_read(unsigned slot)
+{
+    return slot < 2u ? fake_flash.slot[slot] : NULL;
+}
+
+void board_system_reset(void) { fake_flash.resets++; }

@@ -36,6 +36,22 @@ typedef struct {
 
 extern fake_board_t fake;
 
+/** The calibration slots: kept across fake_reset() (like flash across a reset). */
+#define FAKE_SLOT_BYTES 512u
+#define FAKE_UNLIMITED 0xFFFFFFFFu
+typedef struct {
+    uint8_t slot[2][FAKE_SLOT_BYTES];
+    uint32_t program_budget; /**< bytes programmable before a simulated power loss */
+    bool erase_fails;
+    uint32_t erases;
+    uint32_t resets;         /**< board_system_reset() calls */
+} fake_flash_t;
+
+extern fake_flash_t fake_flash;
+
+/** Blank slots (0xFF), unlimited budget. */
+void fake_flash_blank(void);
+
 void fake_reset(void);
 void fake_rx_text(const char *text);
 /** Count of UART lines starting with @p prefix. */

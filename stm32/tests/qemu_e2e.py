@@ -13,6 +13,14 @@
 4. In the same boot, a second stream corrupts row N mid-stream: the firmware must stop there,
    go to mid-scale and report ``checksum``.
 
+``--calibration FILE`` plays with FILE: ``msr stream --calibration`` uploads it to the board when
+the board's active calibration (the compiled-in one after boot) differs. ``--upload-checks`` runs,
+in one QEMU session, the calibration life cycle instead: fallback to the compiled calibration, a
+bad upload refused with its reason, FILE uploaded and FILE's waveform played bit-exactly, another
+bad upload refused with FILE kept, then ``RESET`` (a real system reset: QEMU's netduinoplus2 does
+not model the flash controller, so under emulation the firmware keeps its two calibration slots in
+SRAM that a system reset leaves alone) and FILE active again, played with ``--no-upload``.
+
 The JSON result holds at least rows_sent, rows_applied, max_code_error_lsb and ended_safe. Every
 step has a hard time-out and QEMU is killed in a ``finally``.
 """
@@ -98,7 +106,7 @@ def start_qemu(qemu: str, elf: Path, port: int) -> subprocess.Popen[bytes]:
 
 
 def run_stream(csv: Path, port: int, calibration: Path, workdir: Path, tag: str, rows: int,
-               corrupt_row: int | None = None) -> dict[str, Any]:
+               corrupt_row: int | None = None, extra: tuple[str, ...] = ()) -> dict[str, Any]:
     """Run ``msr stream`` as a subprocess; returns its JSON summary plus the files it wrote."""
     log = workdir / f"{tag}.log"
     codes = workdir / f"{tag}_codes.csv"
@@ -109,6 +117,7 @@ def run_stream(csv: Path, port: int, calibration: Path, workdir: Path, tag: str,
            "--timeout", str(limit)]
     if corrupt_row is not None:
         cmd += ["--corrupt-row", str(corrupt_row)]
+    cmd += list(extra)
     env = {**os.environ, "PYTHONPATH": str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", "")}
     try:
         done = subprocess.run(cmd, capture_output=True, text=True, timeout=limit + 15, env=env,
@@ -186,6 +195,120 @@ def run_e2e(csv: Path, elf: Path = DEFAULT_ELF, calibration: Path = DEFAULT_CALI
     return result
 
 
+def _board_session(port: int) -> Any:
+    """Open the QEMU serial socket and PING until PONG; returns (port, reader, banner)."""
+    import serial
+
+    from elastica_magnetic.hardware import stream
+
+    url = f"socket://127.0.0.1:{port}"
+    link = serial.serial_for_url(url, timeout=stream.READ_TIMEOUT_S)
+    reader = stream._LineReader(link, stream._BoardLog(None))
+    banner = stream._sync(link, reader, url, stream.SYNC_TIMEOUT_S)
+    return link, reader, banner, url
+
+
+def _bad_calibration(base: Any, **changes: Any) -> Any:
+    """A Calibration built without the host's checks, to see the board refuse it."""
+    import dataclasses
+
+    return dataclasses.replace(base, **changes)
+
+
+def _try_upload(port: int, calibration: Any) -> dict[str, Any]:
+    from elastica_magnetic.hardware import stream
+
+    link, reader, banner, url = _board_session(port)
+    try:
+        try:
+            answer = stream.upload_calibration_lines(link, reader, url, calibration)
+        except stream.CalibrationRefused as exc:
+            answer = str(exc)
+        status = stream.query_status(link, reader, url)
+    finally:
+        link.close()
+    return {"answer": answer, "status": status.text, "status_hash": status.hash,
+            "status_source": status.source, "status_name": status.calibration}
+
+
+def _reset(port: int, timeout_s: float = 20.0) -> dict[str, Any]:
+    """Send RESET; return the banner the firmware prints when it boots again and its STATUS."""
+    from elastica_magnetic.hardware import stream
+
+    link, reader, _, url = _board_session(port)
+    try:
+        link.write(b"RESET\n")
+        banner = reader.wait_for(lambda x: x.startswith("MSR-FW"), timeout_s, "RESET", url)
+        reader.wait_for(lambda x: x == "READY", timeout_s, "RESET", url)
+        status = stream.query_status(link, reader, url)
+    finally:
+        link.close()
+    return {"banner": banner, "status": status.text, "status_hash": status.hash,
+            "status_source": status.source}
+
+
+def run_calibration_checks(csv: Path, calibration: Path, elf: Path = DEFAULT_ELF,
+                           workdir: Path | None = None) -> dict[str, Any]:
+    """The calibration life cycle in one QEMU session (see the module docstring).
+
+    ``csv`` must be a waveform the ELF's compiled calibration cannot make and ``calibration``
+    can: the result says whether the compiled one refused it (``compiled_refuses_csv``)."""
+    from elastica_magnetic.hardware.calibration import load_calibration
+    from elastica_magnetic.hardware.export import export_firmware, read_expected_codes
+    from elastica_magnetic.hardware.protocol import calibration_hash
+
+    qemu = check_prerequisites(elf)
+    work = Path(workdir) if workdir else Path(tempfile.mkdtemp(prefix="msr_cal_e2e_"))
+    cal = load_calibration(calibration)
+    try:
+        export_firmware(csv, DEFAULT_CALIBRATION, work / "compiled")
+        compiled_refuses = False
+    except ValueError:
+        compiled_refuses = True
+    expected = read_expected_codes(export_firmware(csv, cal, work / "export")["expected_dac_codes"])
+    rows = len(expected)
+    port = free_port()
+    proc = start_qemu(qemu, elf, port)
+    result: dict[str, Any] = {"csv": str(csv), "calibration": cal.name,
+                              "hash": calibration_hash(cal), "compiled_refuses_csv": compiled_refuses}
+    try:
+        bad_tick = _bad_calibration(cal, name="bad-tick", tick_hz=1000.0)
+        result["boot"] = _try_upload(port, bad_tick)
+        upload = run_stream(csv, port, calibration, work, "upload", rows)
+        result["upload_stream"] = {k: upload.get(k) for k in (
+            "calibration_before", "calibration_uploaded", "rows_applied", "max_code_error_lsb",
+            "safe_reason", "ended_safe", "exit_status")}
+        m = [list(r) for r in cal.actuation_matrix_T_per_A]
+        m[0][1], m[1][0] = m[0][0] * 0.99, m[1][1] * 0.99  # x and y coils nearly parallel
+        result["bad_after_upload"] = _try_upload(
+            port, _bad_calibration(cal, name="bad-cond", actuation_matrix_T_per_A=m))
+        result["reset"] = _reset(port)
+        after = run_stream(csv, port, calibration, work, "after_reset", rows, extra=("--no-upload",))
+        result["after_reset_stream"] = {k: after.get(k) for k in (
+            "calibration_before", "calibration_uploaded", "rows_applied", "max_code_error_lsb",
+            "safe_reason", "ended_safe", "exit_status")}
+    finally:
+        proc.kill()
+        try:
+            proc.communicate(timeout=10)
+        except subprocess.TimeoutExpired:
+            pass
+    h = result["hash"]
+    s1, s2 = result["upload_stream"], result["after_reset_stream"]
+    result["passed"] = bool(
+        compiled_refuses
+        and "reason=tick-rate" in result["boot"]["answer"]
+        and result["boot"]["status_source"] == "compiled"
+        and s1["calibration_uploaded"] and s1["max_code_error_lsb"] == 0
+        and s1["rows_applied"] == rows and s1["safe_reason"] == "end" and s1["exit_status"] == 0
+        and "reason=ill-conditioned" in result["bad_after_upload"]["answer"]
+        and result["bad_after_upload"]["status_hash"] == h
+        and f"hash={h}" in result["reset"]["banner"] and "source=flash" in result["reset"]["banner"]
+        and s2["calibration_uploaded"] is None and s2["max_code_error_lsb"] == 0
+        and s2["rows_applied"] == rows and s2["exit_status"] == 0)
+    return result
+
+
 def run_table_playback(elf: Path = DEFAULT_ELF, expected_csv: Path | None = None,
                        timeout_s: float = 60.0) -> dict[str, Any]:
     """Boot the ELF, send ``PLAY`` and compare the flash table's DAC codes with the build's
@@ -256,7 +379,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--csv", type=Path, default=PUBLISHED_CSV, help="field CSV (mT)")
     parser.add_argument("--elf", type=Path, default=DEFAULT_ELF)
     parser.add_argument("--calibration", type=Path, default=DEFAULT_CALIBRATION,
-                        help="the calibration the ELF was built with")
+                        help="the calibration to play with (uploaded first when the board's "
+                        "active one differs)")
+    parser.add_argument("--upload-checks", action="store_true",
+                        help="instead: the calibration life cycle (fallback, refusals, upload, "
+                        "reset) with --calibration and --csv")
     parser.add_argument("--corrupt-row", type=int, default=-1,
                         help="row to corrupt in the second stream (-1: middle)")
     parser.add_argument("--no-corrupt", action="store_true", help="skip the corrupted stream")
@@ -265,7 +392,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args(argv)
     try:
-        if args.play:
+        if args.upload_checks:
+            result = run_calibration_checks(args.csv, args.calibration, args.elf)
+        elif args.play:
             result = run_table_playback(args.elf)
             result["passed"] = bool(
                 result["rows_applied"] == result["rows_total"] and result["rows_in_order"]

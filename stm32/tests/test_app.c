@@ -15,6 +15,7 @@ static const double k_table[1][3] = {{1, -1, 0}};
 static void boot(board_info_t info, const calib_params_t *params)
 {
     fake_reset();
+    fake_flash_blank();
     app_config_t cfg = {"test", params, k_table, 1};
     app_init(&cfg, &info);
 }
@@ -124,6 +125,26 @@ static void test_bad_calibration_and_dac_fault_at_boot(void **state)
     assert_non_null(fake_uart_find("SAFE dac-fault", 0));
 }
 
+static void test_status_upload_refusal_and_reset(void **state)
+{
+    (void)state;
+    boot(k_normal, &k_test_calib);
+    /* k_test_calib named "test": hash computed by the host (protocol.calibration_hash) */
+    assert_line("MSR-FW", "MSR-FW 1.0 board=stm32f407 clock=pll calibration=test hash=c3b045e6 "
+                          "source=compiled table_rows=1 tick_hz=100");
+    fake_rx_text("STATUS\n");
+    app_poll();
+    assert_line("STATUS", "STATUS state=safe calibration=test hash=c3b045e6 source=compiled");
+    fake_rx_text("CAL COMMIT 00000000\n");
+    app_poll();
+    assert_line("ERR cal-refused", "ERR cal-refused reason=no-begin");
+    fake_rx_text("RESET\n");
+    app_poll();
+    assert_line("OK RESET", "OK RESET");
+    assert_int_equal(fake_flash.resets, 1);
+    assert_line("SAFE", "SAFE host-stop row=0 applied=0 detail=reset");
+}
+
 static void test_flash_table(void **state)
 {
     (void)state;
@@ -146,6 +167,7 @@ int main(void)
         cmocka_unit_test(test_uart_loss_while_streaming),
         cmocka_unit_test(test_bad_calibration_and_dac_fault_at_boot),
         cmocka_unit_test(test_flash_table),
+        cmocka_unit_test(test_status_upload_refusal_and_reset),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -56,3 +56,51 @@ def test_flash_table_playback_in_qemu() -> None:
     assert result["rows_applied"] == 200 and result["rows_in_order"], result
     assert result["max_code_error_lsb"] is not None and result["max_code_error_lsb"] <= 1, result
     assert result["ended_safe"] and result["end_reason"] == "end", result
+
+
+YAO2023 = REPO / "stm32" / "calibration" / "yao2023.json"
+#: The paper's four cases (magnetization 1 and 2, 4 and 10 mT).
+PAPER_CASES = ("m1-4mT", "m1-10mT", "m2-4mT", "m2-10mT")
+
+
+@pytest.mark.slow
+def test_calibration_upload_refusal_and_reset_in_qemu(tmp_path: Path) -> None:
+    """One QEMU session: the compiled calibration as fallback, a bad upload refused (tick-rate),
+    yao2023 uploaded and a 10 mT waveform the compiled one cannot make played bit-exactly, a
+    second bad upload refused (ill-conditioned) with yao2023 kept, RESET, yao2023 active from
+    the slot and played again without upload."""
+    e2e = _load_e2e()
+    csv = REPO / "rl" / "policies" / "m1-10mT" / "fields.csv"
+    try:
+        result = e2e.run_calibration_checks(csv, YAO2023, workdir=tmp_path)
+    except e2e.E2EError as exc:
+        pytest.fail(f"QEMU calibration test could not run: {exc}")
+    assert result["compiled_refuses_csv"], result
+    assert "reason=tick-rate" in result["boot"]["answer"], result["boot"]
+    assert result["boot"]["status_source"] == "compiled" and result["boot"]["status_name"] == "default"
+    up = result["upload_stream"]
+    assert up["calibration_uploaded"].startswith("OK CAL-COMMIT name=yao2023"), up
+    assert up["max_code_error_lsb"] == 0 and up["rows_applied"] == 1000 and up["exit_status"] == 0, up
+    bad = result["bad_after_upload"]
+    assert "reason=ill-conditioned" in bad["answer"], bad
+    assert bad["status_hash"] == result["hash"] and bad["status_source"] == "flash", bad
+    assert f"calibration=yao2023 hash={result['hash']} source=flash" in result["reset"]["banner"]
+    after = result["after_reset_stream"]
+    assert after["calibration_uploaded"] is None and after["max_code_error_lsb"] == 0, after
+    assert after["rows_applied"] == 1000 and after["safe_reason"] == "end", after
+    assert result["passed"], result
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", PAPER_CASES)
+def test_paper_waveforms_stream_with_yao2023(case: str, tmp_path: Path) -> None:
+    e2e = _load_e2e()
+    csv = REPO / "rl" / "policies" / case / "fields.csv"
+    try:
+        result = e2e.run_e2e(csv, calibration=YAO2023, corrupt_row=None, workdir=tmp_path)
+    except e2e.E2EError as exc:
+        pytest.fail(f"QEMU end-to-end test could not run: {exc}")
+    summary = {k: v for k, v in result.items() if k != "log"}
+    assert result["rows_applied"] == result["rows_total"] == 1000, summary
+    assert result["max_code_error_lsb"] == 0, summary
+    assert result["ended_safe"] and result["end_reason"] == "end" and result["passed"], summary

@@ -2,12 +2,25 @@
 
 from __future__ import annotations
 
+import json
+import struct
 from pathlib import Path
 
 import numpy as np
+import pytest
 
-from elastica_magnetic.hardware.calibration import DacCodeModel, expected_dac_codes, load_calibration
-from elastica_magnetic.hardware.protocol import crc16, wire_rows_mT, wire_values_mT
+from elastica_magnetic.hardware.calibration import (
+    DacCodeModel,
+    calibration_from_dict,
+    expected_dac_codes,
+    load_calibration,
+)
+from elastica_magnetic.hardware.protocol import (
+    calibration_hash,
+    crc16,
+    wire_rows_mT,
+    wire_values_mT,
+)
 from elastica_magnetic.hardware.stream import stream_field
 
 QUEUE = 256
@@ -17,7 +30,11 @@ class FakeBoard:
     """Minimal model of the firmware: PONG, credits, one DAC line per row played, SAFE."""
 
     def __init__(self, calibration_path: Path) -> None:
-        self.model = DacCodeModel(load_calibration(calibration_path))
+        self.calibration = load_calibration(calibration_path)
+        self.model = DacCodeModel(self.calibration)
+        self.hash = calibration_hash(self.calibration)  # what STATUS reports
+        self.upload = b""
+        self.commands: list[str] = []
         self.rx = b""
         self.tx = b""
         self.queue: list[list[float]] = []
@@ -58,8 +75,15 @@ class FakeBoard:
         self._send(f"SAFE {reason} row={row} applied={self.applied}{suffix}")
 
     def _line(self, line: str) -> None:
+        if line and not line[0].isdigit():
+            self.commands.append(line.split("*")[0][:12])
         if line == "PING":
             self._send("PONG")
+        elif line == "STATUS":
+            self._send(f"STATUS state=safe calibration={self.calibration.name} hash={self.hash} "
+                       "source=compiled")
+        elif line.startswith("CAL "):
+            self._cal(line)
         elif line == "STREAM":
             self.streaming = True
             self.model.reset()
@@ -79,6 +103,34 @@ class FakeBoard:
             assert self.received <= self.credit, "host exceeded its credit"
             self.queue.append([float(v) for v in vals])
             self.max_outstanding = max(self.max_outstanding, len(self.queue))
+
+    def _cal(self, line: str) -> None:
+        """The firmware's upload, modelled: record bytes, CRC-32, then the host's own checks."""
+        words = line.split("*")[0].split()
+        if words[1] == "BEGIN":
+            self.upload = b""
+            self._send("OK CAL-BEGIN bytes=216")
+        elif words[1] == "DATA":
+            assert int(words[2]) == len(self.upload)
+            self.upload += bytes.fromhex(words[3])
+            self._send(f"OK CAL-DATA next={len(self.upload)}")
+        elif words[1] == "COMMIT":
+            values = struct.unpack("<23d", self.upload[:184])
+            m = [list(values[0:3]), list(values[3:6]), list(values[6:9])]
+            data = {"name": self.upload[184:].rstrip(b"\0").decode(), "actuation_matrix_T_per_A": m,
+                    "transconductance_A_per_V": list(values[9:12]),
+                    "input_offset_V": list(values[12:15]), "dac_half_span_V": values[15],
+                    "current_limit_A": list(values[16:19]),
+                    "slew_limit_A_per_s": list(values[19:22]), "tick_hz": values[22]}
+            try:
+                cal = calibration_from_dict(data, "upload")
+            except ValueError:
+                self._send("ERR cal-refused reason=implausible")
+                return
+            self.calibration, self.model = cal, DacCodeModel(cal)
+            self.hash = calibration_hash(cal)
+            assert self.hash == words[2]
+            self._send(f"OK CAL-COMMIT name={cal.name} hash={self.hash} slot=0")
 
     def _tick(self) -> None:
         if not self.streaming:
@@ -203,3 +255,116 @@ def test_stream_options_checked_at_parse_time(capsys, tmp_path: Path) -> None:
     assert main(["stream", str(csv_path), "--port", "socket://127.0.0.1:1", "--timeout", "1",
                  "--no-progress"]) == 2
     assert "msr stream: error: socket://127.0.0.1:1: cannot open the port" in capsys.readouterr().err
+
+
+# ----------------------------------------------------------------- calibration and stream checks
+YAO2023 = Path(__file__).resolve().parents[2] / "stm32" / "calibration" / "yao2023.json"
+
+
+def csv_of(path: Path, field_mT: np.ndarray) -> Path:
+    path.write_text("mag_x,mag_y,mag_z\n" + "".join(f"{x},{y},{z}\n" for x, y, z in field_mT))
+    return path
+
+
+def test_stream_refuses_a_waveform_the_calibration_cannot_make(tmp_path: Path, capsys,
+                                                               default_calibration_path: Path) -> None:
+    from elastica_magnetic.cli import main
+
+    strong = csv_of(tmp_path / "strong.csv", np.tile([20.0, 0.0, 0.0], (50, 1)))
+    argv = ["stream", str(strong), "--port", "socket://127.0.0.1:1", "--no-progress",
+            "--calibration", str(default_calibration_path)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "cannot follow this waveform" in err and "nothing was sent" in err
+    # --allow-clipping lets it through to the port (here: none there)
+    assert main([*argv, "--allow-clipping", "--timeout", "1"]) == 2
+    assert "cannot open the port" in capsys.readouterr().err
+
+
+def test_stream_uploads_a_differing_calibration(monkeypatch, tmp_path: Path, capsys,
+                                                default_calibration_path: Path) -> None:
+    import serial
+
+    from elastica_magnetic.cli import main
+
+    board = FakeBoard(default_calibration_path)
+    monkeypatch.setattr(serial, "serial_for_url", lambda *a, **k: board)
+    ten = csv_of(tmp_path / "ten.csv", np.tile([10.0, -9.0, 0.0], (150, 1)))
+    argv = ["stream", str(ten), "--port", "fake://", "--no-progress", "--json", "--calibration",
+            str(YAO2023), "--timeout", "30"]
+    assert main([*argv, "--no-upload"]) == 2
+    assert "--no-upload" in capsys.readouterr().err and board.upload == b""
+    board2 = FakeBoard(default_calibration_path)
+    monkeypatch.setattr(serial, "serial_for_url", lambda *a, **k: board2)
+    assert main(argv) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["calibration_uploaded"].startswith("OK CAL-COMMIT name=yao2023")
+    assert summary["max_code_error_lsb"] == 0 and summary["rows_applied"] == 150
+    assert board2.calibration.name == "yao2023"
+    # the same again: the board already has it, nothing uploaded
+    board2.applied = board2.received = 0
+    board2.ended = False
+    assert main(argv) == 0
+    assert json.loads(capsys.readouterr().out)["calibration_uploaded"] is None
+
+
+def test_stream_exits_nonzero_when_the_codes_differ(monkeypatch, tmp_path: Path, capsys,
+                                                    default_calibration_path: Path) -> None:
+    import serial
+
+    from elastica_magnetic.cli import main
+
+    board = FakeBoard(default_calibration_path)
+    board.hash = calibration_hash(load_calibration(YAO2023))  # claims yao2023, plays default
+    monkeypatch.setattr(serial, "serial_for_url", lambda *a, **k: board)
+    weak = csv_of(tmp_path / "weak.csv", np.tile([3.0, 1.0, 0.0], (100, 1)))
+    assert main(["stream", str(weak), "--port", "fake://", "--no-progress", "--json",
+                 "--calibration", str(YAO2023), "--timeout", "30"]) == 1
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["max_code_error_lsb"] > 1
+    assert "differ from the host's by" in captured.err
+
+
+def test_failed_connection_keeps_the_previous_log(tmp_path: Path, default_calibration_path: Path) -> None:
+    import pytest
+
+    from elastica_magnetic.hardware.stream import StreamError
+
+    log = tmp_path / "board.log"
+    old = b"MSR-FW 1.0 previous stream\r\nSAFE end row=3 applied=3\n\x00\xff"
+    log.write_bytes(old)
+    with pytest.raises(StreamError, match="cannot open the port"):
+        stream_field("socket://127.0.0.1:1", np.zeros((3, 3)), progress=False, timeout_s=1.0,
+                     log_path=log)
+    assert log.read_bytes() == old
+    with pytest.raises(StreamError, match="no PONG"):  # port opens, board silent
+        stream_field("fake", np.zeros((3, 3)), progress=False, timeout_s=0.2, log_path=log,
+                     open_port=lambda *a, **k: SilentPort())
+    assert log.read_bytes() == old
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["board.log"]  # no temporary left
+    board = FakeBoard(default_calibration_path)  # a stream that runs replaces it
+    stream_field("fake://", field(20), progress=False, timeout_s=30, log_path=log,
+                 open_port=lambda *a, **k: board)
+    assert "SAFE end" in log.read_text()
+
+
+def test_calibrate_upload_writes_and_uploads(monkeypatch, tmp_path: Path, capsys,
+                                             default_calibration_path: Path) -> None:
+    import serial
+
+    from elastica_magnetic.cli import main
+
+    board = FakeBoard(default_calibration_path)
+    monkeypatch.setattr(serial, "serial_for_url", lambda *a, **k: board)
+    currents = np.vstack([np.eye(3) * a for a in (-2.0, -1.0, 1.0, 2.0)])
+    fields_mT = currents @ np.array([[2.1, 0.05, 0], [0.04, 1.9, 0], [0, 0.02, 2.0]]).T
+    meas = tmp_path / "m.csv"
+    np.savetxt(meas, np.hstack([currents, fields_mT]), delimiter=",", comments="",
+               header="current_x_A,current_y_A,current_z_A,field_x_mT,field_y_mT,field_z_mT")
+    out = tmp_path / "bench1.json"
+    assert main(["calibrate", str(meas), "--out", str(out), "--name", "bench1", "--upload",
+                 "fake://", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["uploaded"]["after"].startswith("STATUS state=safe calibration=bench1 hash=")
+    assert board.hash == calibration_hash(load_calibration(out))
+    assert board.calibration.actuation_matrix_T_per_A[0][0] == pytest.approx(2.1e-3)

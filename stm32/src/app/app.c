@@ -1,5 +1,6 @@
 #include "app.h"
 
+#include "calib_active.h"
 #include "dac8563.h"
 #include "link.h"
 #include "msg.h"
@@ -7,6 +8,7 @@
 #include "scheduler.h"
 
 static calib_t g_calib;
+static calib_active_t g_active;
 static player_t g_player;
 static link_t g_link;
 static uint32_t g_uart_lost;
@@ -79,20 +81,38 @@ static void go_safe(void *ctx, safe_reason_t reason, uint32_t row, uint32_t appl
     send_line(&msg);
 }
 
+static void compiled_calibration(const app_config_t *config, calib_named_t *out)
+{
+    out->params = *config->calibration;
+    unsigned i = 0;
+    for (; i + 1u < CALIB_NAME_BYTES && config->calibration_name[i] != '\0'; ++i) {
+        out->name[i] = config->calibration_name[i];
+    }
+    for (; i < CALIB_NAME_BYTES; ++i) {
+        out->name[i] = '\0';
+    }
+}
+
 void app_init(const app_config_t *config, const board_info_t *info)
 {
     static const player_io_t io = {0, apply_codes, go_safe};
+    calib_named_t compiled;
+    compiled_calibration(config, &compiled);
+    calib_status_t cst = calib_active_init(&g_active, &g_calib, &compiled);
+
     msg_t msg;
     msg_begin(&msg, "MSR-FW " APP_FIRMWARE_VERSION " board=stm32f407");
     msg_kv_str(&msg, "clock", info->emulated ? "emulated" : (info->pll_locked ? "pll" : "hsi"));
-    msg_kv_str(&msg, "calibration", config->calibration_name);
+    msg_kv_str(&msg, "calibration", g_active.current.name);
+    msg_kv_hex32(&msg, "hash", g_active.hash);
+    msg_kv_str(&msg, "source", calib_source_name(g_active.source));
     msg_kv_u32(&msg, "table_rows", config->table_rows);
     msg_kv_u32(&msg, "tick_hz", SCHED_TICK_HZ);
     send_line(&msg);
 
-    calib_status_t cst = calib_init(&g_calib, config->calibration);
     player_init(&g_player, &g_calib, &io);
     link_init(&g_link, &g_player, uart_send, 0, config->table, config->table_rows);
+    link_set_calibration(&g_link, &g_active);
     g_uart_lost = board_uart_lost();
 
     if (!dac_bank_init()) {

@@ -59,4 +59,21 @@ void board_watchdog_kick(void);
 /** Sleep until the next interrupt unless a byte or a tick is already waiting. */
 void board_idle(void);
 
+/* ------------------------------------------------------------------ calibration slots
+ * Two non-volatile slots of at least CALIB_STORE_SLOT_BYTES (calib_store.h) each. On the F407
+ * they are flash sectors 1 and 2; under QEMU, whose netduinoplus2 does not model the flash
+ * controller, two areas at the top of SRAM that survive a system reset (not a power cycle). */
+
+/** Erase slot @p slot (all bytes 0xFF); false on a time-out or error. */
+bool board_calib_slot_erase(unsigned slot);
+
+/** Program @p len bytes at @p offset of an erased slot; false on a time-out or error. */
+bool board_calib_slot_program(unsigned slot, uint32_t offset, const uint8_t *data, size_t len);
+
+/** The slot's bytes (memory-mapped), or NULL for a slot that does not exist. */
+const uint8_t *board_calib_slot_read(unsigned slot);
+
+/** Reset the microcontroller now (the RESET command): startup code, board_init, app_init. */
+void board_system_reset(void);
+
 #endif

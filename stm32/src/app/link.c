@@ -1,71 +1,14 @@
 #include "link.h"
 
+#include "board.h"
 #include "crc16.h"
 #include "msg.h"
-
-#define HEX_DIGIT_BITS 4u
-#define HEX_LETTER_OFFSET 10u
-#define DECIMAL_BASE 10u
+#include "text_parse.h"
 
 static void send_msg(link_t *link, msg_t *msg)
 {
     msg_end(msg);
     link->send(link->ctx, msg->text, msg->len);
-}
-
-static bool word_is(const char *text, size_t len, const char *word)
-{
-    size_t i = 0;
-    for (; i < len && word[i] != '\0'; ++i) {
-        if (text[i] != word[i]) {
-            return false;
-        }
-    }
-    return i == len && word[i] == '\0';
-}
-
-static bool parse_hex16(const char *text, size_t len, uint16_t *value)
-{
-    if (len != LINK_CHECKSUM_HEX_DIGITS) {
-        return false;
-    }
-    uint32_t v = 0;
-    for (size_t i = 0; i < len; ++i) {
-        char c = text[i];
-        uint32_t d;
-        if (c >= '0' && c <= '9') {
-            d = (uint32_t)(c - '0');
-        } else if (c >= 'A' && c <= 'F') {
-            d = (uint32_t)(c - 'A') + HEX_LETTER_OFFSET;
-        } else if (c >= 'a' && c <= 'f') {
-            d = (uint32_t)(c - 'a') + HEX_LETTER_OFFSET;
-        } else {
-            return false;
-        }
-        v = (v << HEX_DIGIT_BITS) | d;
-    }
-    *value = (uint16_t)v;
-    return true;
-}
-
-static bool parse_u32(const char *text, size_t len, uint32_t *value)
-{
-    if (len == 0) {
-        return false;
-    }
-    uint32_t v = 0;
-    for (size_t i = 0; i < len; ++i) {
-        if (text[i] < '0' || text[i] > '9') {
-            return false;
-        }
-        uint32_t d = (uint32_t)(text[i] - '0');
-        if (v > (UINT32_MAX - d) / DECIMAL_BASE) {
-            return false;
-        }
-        v = v * DECIMAL_BASE + d;
-    }
-    *value = v;
-    return true;
 }
 
 void link_init(link_t *link, player_t *player, link_send_fn send, void *ctx,
@@ -78,6 +21,52 @@ void link_init(link_t *link, player_t *player, link_send_fn send, void *ctx,
     link->credit_sent = 0;
     link->table = table;
     link->table_rows = table_rows;
+    link->active = 0;
+    cal_upload_init(&link->upload);
+}
+
+void link_set_calibration(link_t *link, calib_active_t *active)
+{
+    link->active = active;
+}
+
+static const char *state_name(player_state_t state)
+{
+    switch (state) {
+    case PLAYER_SAFE:
+        return "safe";
+    case PLAYER_PREFILL:
+        return "prefill";
+    case PLAYER_PLAYING:
+        return "playing";
+    }
+    return "unknown";
+}
+
+/** STATUS, CAL ... and RESET; false when @p text is none of them. */
+static bool handle_calibration_command(link_t *link, const char *text, size_t len, size_t word)
+{
+    msg_t msg;
+    if (text_is(text, len, "STATUS") && link->active != 0) {
+        msg_begin(&msg, "STATUS");
+        msg_kv_str(&msg, "state", state_name(link->player->state));
+        msg_kv_str(&msg, "calibration", link->active->current.name);
+        msg_kv_hex32(&msg, "hash", link->active->hash);
+        msg_kv_str(&msg, "source", calib_source_name(link->active->source));
+        send_msg(link, &msg);
+    } else if (text_is(text, word, "CAL") && link->active != 0) {
+        cal_upload_line(&link->upload, link->active, link->player->state == PLAYER_SAFE, text,
+                        len, &msg);
+        send_msg(link, &msg);
+    } else if (text_is(text, len, "RESET")) {
+        player_fault(link->player, SAFE_REASON_HOST_STOP, link->player->applied, "reset");
+        msg_begin(&msg, "OK RESET");
+        send_msg(link, &msg);
+        board_system_reset();
+    } else {
+        return false;
+    }
+    return true;
 }
 
 static void send_credit(link_t *link, uint32_t credit)
@@ -132,10 +121,13 @@ static void handle_row(link_t *link, const char *text, size_t len, uint32_t line
         reject(link, line_no, "no-checksum");
         return;
     }
-    if (!parse_hex16(text + star + 1, len - star - 1, &sent_crc)) {
+    uint32_t crc_field;
+    if (len - star - 1u != LINK_CHECKSUM_HEX_DIGITS ||
+        !parse_hex_u32(text + star + 1, len - star - 1u, &crc_field)) {
         reject(link, line_no, "bad-checksum-field");
         return;
     }
+    sent_crc = (uint16_t)crc_field;
     if (crc16((const uint8_t *)text, star) != sent_crc) {
         player_fault(link->player, SAFE_REASON_CHECKSUM, link->player->received, "crc-mismatch");
         return;
@@ -159,7 +151,7 @@ static void handle_command(link_t *link, const char *text, size_t len, uint32_t 
     const char *arg = word < len ? text + word + 1 : text + len;
     size_t arg_len = word < len ? len - word - 1 : 0;
     msg_t msg;
-    if (word_is(text, len, "STREAM")) {
+    if (text_is(text, len, "STREAM")) {
         player_start_stream(link->player);
         if (player_streaming(link->player)) {
             msg_begin(&msg, "OK STREAM");
@@ -168,7 +160,7 @@ static void handle_command(link_t *link, const char *text, size_t len, uint32_t 
             send_msg(link, &msg);
             send_credit(link, player_free_rows(link->player));
         }
-    } else if (word_is(text, word, "END")) {
+    } else if (text_is(text, word, "END")) {
         uint32_t rows;
         if (!parse_u32(arg, arg_len, &rows)) {
             reject(link, line_no, "bad-end");
@@ -180,19 +172,19 @@ static void handle_command(link_t *link, const char *text, size_t len, uint32_t 
                 send_msg(link, &msg);
             }
         }
-    } else if (word_is(text, len, "PLAY")) {
+    } else if (text_is(text, len, "PLAY")) {
         player_start_table(link->player, link->table, link->table_rows);
         if (link->player->state != PLAYER_SAFE) {
             msg_begin(&msg, "OK PLAY");
             msg_kv_u32(&msg, "rows", link->table_rows);
             send_msg(link, &msg);
         }
-    } else if (word_is(text, len, "STOP")) {
+    } else if (text_is(text, len, "STOP")) {
         player_fault(link->player, SAFE_REASON_HOST_STOP, link->player->applied, "");
-    } else if (word_is(text, len, "PING")) {
+    } else if (text_is(text, len, "PING")) {
         msg_begin(&msg, "PONG");
         send_msg(link, &msg);
-    } else {
+    } else if (!handle_calibration_command(link, text, len, word)) {
         reject(link, line_no, "unknown-command");
     }
 }

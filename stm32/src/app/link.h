@@ -10,6 +10,9 @@
  *   PLAY                         play the table compiled into flash
  *   STOP                         mid-scale now (reason "host-stop")
  *   PING                         answered with PONG
+ *   STATUS                       answered with STATUS state=.. calibration=.. hash=.. source=..
+ *   CAL BEGIN|DATA|COMMIT ...    upload a calibration (cal_upload.h)
+ *   RESET                        outputs to mid-scale, then a system reset
  *
  * Board -> host:
  *   MSR-FW ... / READY           banner after reset
@@ -25,6 +28,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "cal_upload.h"
+#include "calib_active.h"
 #include "csv_row.h"
 #include "player.h"
 
@@ -43,10 +48,15 @@ typedef struct {
     uint32_t credit_sent;
     const double (*table)[CALIB_AXES];
     uint32_t table_rows;
+    calib_active_t *active;  /**< for STATUS and CAL; NULL: both answered with ERR */
+    cal_upload_t upload;
 } link_t;
 
 void link_init(link_t *link, player_t *player, link_send_fn send, void *ctx,
                const double (*table)[CALIB_AXES], uint32_t table_rows);
+
+/** Give the link the active calibration (STATUS, CAL). */
+void link_set_calibration(link_t *link, calib_active_t *active);
 
 /** Feed one received byte. */
 void link_feed(link_t *link, uint8_t byte);

@@ -2,6 +2,9 @@
 
 #define DECIMAL_BASE 10u
 #define U32_MAX_DIGITS 10u
+#define U32_HEX_DIGITS 8u
+#define HEX_DIGIT_BITS 4u
+#define HEX_DIGIT_MASK 0xFu
 
 static void put(msg_t *msg, char c)
 {
@@ -50,6 +53,17 @@ void msg_kv_str(msg_t *msg, const char *key, const char *value)
     msg_str(msg, key);
     put(msg, '=');
     msg_str(msg, value);
+}
+
+void msg_kv_hex32(msg_t *msg, const char *key, uint32_t value)
+{
+    static const char digits[] = "0123456789abcdef";
+    put(msg, ' ');
+    msg_str(msg, key);
+    put(msg, '=');
+    for (unsigned i = U32_HEX_DIGITS; i > 0u; --i) {
+        put(msg, digits[(value >> (HEX_DIGIT_BITS * (i - 1u))) & HEX_DIGIT_MASK]);
+    }
 }
 
 void msg_end(msg_t *msg)

@@ -16,6 +16,7 @@ static volatile uint32_t g_rx_overruns;
 static sched_ticks_t g_ticks;
 static uint32_t g_timer_clock_hz = HSI_HZ;
 static uint32_t g_apb2_hz = HSI_HZ;
+static bool g_emulated;
 
 static bool wait_set(volatile uint32_t *reg, uint32_t mask, uint32_t timeout)
 {
@@ -98,6 +99,7 @@ void board_init(board_info_t *info)
     info->watchdog_reset = (RCC_CSR & RCC_CSR_IWDGRSTF) != 0u;
     RCC_CSR |= RCC_CSR_RMVF;
     info->emulated = !wait_set(&RCC_CR, RCC_CR_HSIRDY, CLOCK_START_TIMEOUT);
+    g_emulated = info->emulated;
     info->pll_locked = !info->emulated && clock_start_pll();
     if (info->emulated) {
         g_timer_clock_hz = QEMU_TIMER_CLOCK_HZ;
@@ -200,6 +202,12 @@ void board_uart_write(const char *text, size_t len)
     }
 }
 
+/** Wait (bounded) until the last byte has left the UART. */
+static void uart_drain(void)
+{
+    (void)wait_set(&USART1_SR, USART_SR_TC, UART_TX_TIMEOUT);
+}
+
 bool board_uart_read(uint8_t *byte)
 {
     return ring_get(&g_rx, byte);
@@ -230,6 +238,14 @@ bool board_tick_start(uint32_t tick_hz)
     sched_timer_cfg_t cfg;
     if (!sched_timer_config(g_timer_clock_hz, tick_hz, &cfg)) {
         return false;
+    }
+    if (g_emulated && (TIM2_CR1 & TIM_CR1_CEN) != 0u && TIM2_PSC == cfg.prescaler &&
+        TIM2_ARR == cfg.reload) {
+        /* Restarted by the emulated RESET: keep QEMU's timer running as programmed at boot
+         * (its model adds the virtual time of programming to every period). */
+        TIM2_SR = 0u;
+        nvic_enable(IRQ_TIM2);
+        return true;
     }
     TIM2_PSC = cfg.prescaler;
     TIM2_ARR = cfg.reload;
@@ -277,4 +293,151 @@ void board_idle(void)
         __asm volatile("wfi" ::: "memory"); /* a pending interrupt still wakes it */
     }
     __asm volatile("cpsie i" ::: "memory");
+}
+
+/* ------------------------------------------------------------------ calibration slots */
+
+static uint8_t *slot_base(unsigned slot)
+{
+    if (slot > 1u) {
+        return 0;
+    }
+    if (g_emulated) {
+        return (uint8_t *)(uintptr_t)(EMU_SLOT0_ADDR + slot * EMU_SLOT_BYTES);
+    }
+    return (uint8_t *)(uintptr_t)(slot == 0u ? CALIB_SLOT0_ADDR : CALIB_SLOT1_ADDR);
+}
+
+/** Reload the watchdog and give it a period of @p ms (1 kHz watchdog clock, at most 4095). */
+static void watchdog_period(uint32_t ms)
+{
+    IWDG_KR = IWDG_KEY_RELOAD;
+    IWDG_KR = IWDG_KEY_UNLOCK;
+    IWDG_RLR = ms;
+    IWDG_KR = IWDG_KEY_RELOAD;
+}
+
+static bool flash_wait_idle(void)
+{
+    for (uint32_t i = 0; i < FLASH_TIMEOUT; ++i) {
+        if ((FLASH_SR & FLASH_SR_BSY) == 0u) {
+            return (FLASH_SR & FLASH_SR_ERRORS) == 0u;
+        }
+        if ((i % FLASH_KICK_EVERY_POLLS) == 0u) {
+            board_watchdog_kick();
+        }
+    }
+    return false;
+}
+
+/** Drop the flash data cache (RM0090: reset it, while disabled, after an erase or program), so
+ * reading a slot back sees the new bytes. */
+static void flash_data_cache_reset(void)
+{
+    uint32_t acr = FLASH_ACR;
+    FLASH_ACR = acr & ~FLASH_ACR_DCEN;
+    FLASH_ACR = (acr & ~FLASH_ACR_DCEN) | FLASH_ACR_DCRST;
+    FLASH_ACR = acr & ~FLASH_ACR_DCRST;
+}
+
+static bool flash_unlock(void)
+{
+    FLASH_SR = FLASH_SR_ERRORS; /* rc_w1: clear old errors */
+    if ((FLASH_CR & FLASH_CR_LOCK) != 0u) {
+        FLASH_KEYR = FLASH_KEY1;
+        FLASH_KEYR = FLASH_KEY2;
+    }
+    return (FLASH_CR & FLASH_CR_LOCK) == 0u && flash_wait_idle();
+}
+
+bool board_calib_slot_erase(unsigned slot)
+{
+    uint8_t *base = slot_base(slot);
+    if (base == 0) {
+        return false;
+    }
+    if (g_emulated) {
+        for (uint32_t i = 0; i < EMU_SLOT_BYTES; ++i) {
+            base[i] = FLASH_ERASED_BYTE;
+        }
+        return true;
+    }
+    if (!flash_unlock()) {
+        return false;
+    }
+    watchdog_period(IWDG_FLASH_ERASE_MS);
+    FLASH_CR = FLASH_CR_SER | ((CALIB_SLOT_SECTOR_FIRST + slot) << FLASH_CR_SNB_SHIFT) |
+               (FLASH_CR_PSIZE_X8 << FLASH_CR_PSIZE_SHIFT);
+    FLASH_CR |= FLASH_CR_STRT;
+    bool ok = flash_wait_idle();
+    FLASH_CR = FLASH_CR_LOCK;
+    watchdog_period(IWDG_RELOAD_MS);
+    flash_data_cache_reset();
+    return ok;
+}
+
+bool board_calib_slot_program(unsigned slot, uint32_t offset, const uint8_t *data, size_t len)
+{
+    uint8_t *base = slot_base(slot);
+    if (base == 0 || offset + len > (g_emulated ? EMU_SLOT_BYTES : CALIB_SLOT_BYTES)) {
+        return false;
+    }
+    if (g_emulated) {
+        for (size_t i = 0; i < len; ++i) {
+            base[offset + i] &= data[i]; /* like flash: bits only go from 1 to 0 */
+        }
+        return true;
+    }
+    if (!flash_unlock()) {
+        return false;
+    }
+    FLASH_CR = FLASH_CR_PG | (FLASH_CR_PSIZE_X8 << FLASH_CR_PSIZE_SHIFT);
+    bool ok = true;
+    for (size_t i = 0; i < len && ok; ++i) {
+        *(volatile uint8_t *)(base + offset + i) = data[i];
+        ok = flash_wait_idle();
+    }
+    FLASH_CR = FLASH_CR_LOCK;
+    flash_data_cache_reset();
+    return ok;
+}
+
+const uint8_t *board_calib_slot_read(unsigned slot)
+{
+    return slot_base(slot);
+}
+
+void Reset_Handler(void);
+extern uint32_t _estack;
+
+/** Under QEMU: the reset path without SYSRESETREQ. QEMU's STM32 timer model adds the virtual
+ * time at which it is programmed to every period, so a timer programmed again after a reset
+ * ticks seconds apart. The emulated reset masks every interrupt, reloads the stack pointer and
+ * runs Reset_Handler (startup code, board_init, app_init) with TIM2 left running as programmed
+ * at boot (board_tick_start keeps it): everything of a reset but the peripherals' own. */
+static void emulated_reset(void)
+{
+    __asm volatile("cpsid i" ::: "memory");
+    USART1_CR1 = 0u;
+    for (uint32_t i = 0; i < NVIC_ISER_WORDS; ++i) {
+        NVIC_ICER(i) = NVIC_ALL_IRQS;
+        NVIC_ICPR(i) = NVIC_ALL_IRQS;
+    }
+    __asm volatile("msr msp, %0\n\tcpsie i\n\tbx %1"
+                   :
+                   : "r"(&_estack), "r"(Reset_Handler)
+                   : "memory");
+}
+
+void board_system_reset(void)
+{
+    uart_drain(); /* "OK RESET" reaches the host */
+    if (g_emulated) {
+        emulated_reset();
+    }
+    __asm volatile("dsb" ::: "memory");
+    SCB_AIRCR = SCB_AIRCR_VECTKEY | SCB_AIRCR_SYSRESETREQ;
+    __asm volatile("dsb" ::: "memory");
+    for (;;) {
+    }
 }

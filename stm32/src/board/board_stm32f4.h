@@ -39,6 +39,23 @@
 #define PULSE_LOW_LOOPS 8u
 /** IWDG: LSI 32 kHz / 32 = 1 kHz; reload 250 -> 250 ms without a kick resets the chip. */
 #define IWDG_RELOAD_MS 250u
+/** While a calibration slot is erased: the CPU stalls on flash reads for up to ~0.8 s (16 KB
+ * sector, byte parallelism), so the watchdog period is widened for the erase only. */
+#define IWDG_FLASH_ERASE_MS 2000u
+
+/* Calibration slots: flash sectors 1 and 2 (16 KB each; linker/stm32f407.ld keeps code out). */
+#define CALIB_SLOT_SECTOR_FIRST 1u
+#define CALIB_SLOT0_ADDR 0x08004000u
+#define CALIB_SLOT1_ADDR 0x08008000u
+#define CALIB_SLOT_BYTES (CALIB_SLOT1_ADDR - CALIB_SLOT0_ADDR)
+#define FLASH_ERASED_BYTE 0xFFu
+#define FLASH_KICK_EVERY_POLLS 65536u
+/* Polls of FLASH_SR.BSY: a 16 KB sector erase takes up to 500 ms (the watchdog is kicked). */
+#define FLASH_TIMEOUT 100000000u
+/* Under QEMU (no flash controller, no CCM RAM modelled): the slots are the last 2 KB of SRAM,
+ * the EMU_SLOTS region of linker/stm32f407.ld, kept across a system reset. */
+#define EMU_SLOT0_ADDR 0x2001F800u
+#define EMU_SLOT_BYTES 0x400u
 
 /** Fault path: CLR low (DACs to mid-scale) using registers only. */
 void board_fault_safe(void);

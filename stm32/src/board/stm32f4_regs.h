@@ -57,6 +57,26 @@
 #define FLASH_ACR_PRFTEN BIT(8)
 #define FLASH_ACR_ICEN BIT(9)
 #define FLASH_ACR_DCEN BIT(10)
+#define FLASH_ACR_DCRST BIT(12)
+#define FLASH_KEYR REG32(0x40023C04u)
+#define FLASH_SR REG32(0x40023C0Cu)
+#define FLASH_CR REG32(0x40023C10u)
+#define FLASH_KEY1 0x45670123u
+#define FLASH_KEY2 0xCDEF89ABu
+#define FLASH_SR_BSY BIT(16)
+#define FLASH_SR_ERRORS 0xF2u /* OPERR, WRPERR, PGAERR, PGPERR, PGSERR */
+#define FLASH_CR_PG BIT(0)
+#define FLASH_CR_SER BIT(1)
+#define FLASH_CR_SNB_SHIFT 3u
+#define FLASH_CR_PSIZE_X8 0u /* byte programming: any supply voltage */
+#define FLASH_CR_PSIZE_SHIFT 8u
+#define FLASH_CR_STRT BIT(16)
+#define FLASH_CR_LOCK BIT(31)
+
+/* System control block: AIRCR requests a system reset. */
+#define SCB_AIRCR REG32(0xE000ED0Cu)
+#define SCB_AIRCR_VECTKEY (0x05FAu << 16)
+#define SCB_AIRCR_SYSRESETREQ BIT(2)
 
 /* ---- GPIO ---- */
 #define GPIOA_BASE 0x40020000u
@@ -103,6 +123,7 @@
 #define USART_SR_ORE BIT(3)
 #define USART_SR_RXNE BIT(5)
 #define USART_SR_TXE BIT(7)
+#define USART_SR_TC BIT(6)
 #define USART_CR1_RE BIT(2)
 #define USART_CR1_TE BIT(3)
 #define USART_CR1_RXNEIE BIT(5)
@@ -135,6 +156,10 @@
 
 /* ---- Cortex-M4 core ---- */
 #define NVIC_ISER(n) REG32(0xE000E100u + 4u * (n))
+#define NVIC_ICER(n) REG32(0xE000E180u + 4u * (n))
+#define NVIC_ICPR(n) REG32(0xE000E280u + 4u * (n))
+#define NVIC_ISER_WORDS 8u
+#define NVIC_ALL_IRQS 0xFFFFFFFFu
 #define NVIC_IPR_BYTE(irq) (*(volatile uint8_t *)(uintptr_t)(0xE000E400u + (irq)))
 #define SCB_CPACR REG32(0xE000ED88u)
 #define SCB_CPACR_CP10_CP11_FULL (0xFu << 20)

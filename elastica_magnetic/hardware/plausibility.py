@@ -1,0 +1,172 @@
+"""Plausibility of calibration values, checked on the host before anything is sent or written.
+
+A calibration whose numbers are syntactically fine can still be physically impossible: a matrix
+written in mT/A where T/A is expected makes the board play 1/1000 of the field, measurements fed
+in T instead of mT fit a matrix 1000x off. These checks name the likely unit mistake.
+
+The absolute hardware ratings below are also compiled into the firmware
+(``stm32/src/app/hw_ratings.h``; ``tests/hardware/test_plausibility.py`` checks both agree): the
+board refuses an uploaded calibration outside them whatever the host says.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+#: The firmware's fixed row rate (Hz); a calibration's ``tick_hz`` must equal it.
+FIRMWARE_TICK_HZ = 100.0
+#: Absolute ratings of the coil driver the firmware accepts (hw_ratings.h).
+HW_MAX_CURRENT_A = 20.0
+HW_MAX_SLEW_A_PER_S = 2000.0
+HW_MAX_DAC_HALF_SPAN_V = 2.5
+HW_MAX_ABS_OFFSET_V = 0.5
+HW_MIN_TRANSCONDUCTANCE_A_PER_V = 0.01
+HW_MAX_TRANSCONDUCTANCE_A_PER_V = 100.0
+#: Largest 1-norm condition number of the actuation matrix (firmware and host alike).
+MAX_MATRIX_CONDITION = 100.0
+
+#: Coil constant (|actuation matrix entry|) of Helmholtz-type coils, T/A: from about 10 uT/A
+#: (a metre-sized pair with a few turns) to 50 mT/A (a centimetre-sized pair with ~1000 turns);
+#: B/I = (4/5)^(3/2) mu0 N / R at the centre of a pair of radius R with N turns per coil.
+COIL_CONSTANT_RANGE_T_PER_A = (1e-5, 5e-2)
+#: Units a matrix entry is often written in by mistake, with their size in T/A.
+_MATRIX_UNIT_MISTAKES = (("mT/A", 1e-3), ("G/A", 1e-4), ("uT/A", 1e-6))
+
+#: Fields a calibration measurement of such coils produces, mT (largest |field| of the data).
+MEASURED_FIELD_RANGE_MT = (0.05, 1000.0)
+#: Currents of such a measurement, A (largest |current| of the data).
+MEASURED_CURRENT_RANGE_A = (1e-3, HW_MAX_CURRENT_A)
+#: Condition number of the measured currents: above WARN the fit is reported as weak, above
+#: REFUSE it is refused (coils driven together: drive each coil on its own).
+CURRENT_CONDITION_WARN = 10.0
+CURRENT_CONDITION_REFUSE = 100.0
+
+
+class PlausibilityError(ValueError):
+    """A value that cannot be physically right; the message names the key and the likely mistake."""
+
+
+def _matrix_entry_problem(value: float, where: str, diagonal: bool) -> str | None:
+    """Diagonal entries (coil constants) must lie in the range; cross-coupling entries only below
+    its top (they may be tiny or zero)."""
+    low, high = COIL_CONSTANT_RANGE_T_PER_A
+    magnitude = abs(value)
+    if magnitude <= high and (not diagonal or magnitude >= low):
+        return None
+    if magnitude > high:
+        likely = [unit for unit, size in _MATRIX_UNIT_MISTAKES if low <= magnitude * size <= high]
+        hint = (f"it looks like {' or '.join(likely)} written where T/A is expected "
+                f"(e.g. 2 mT/A is 0.002 T/A)" if likely else "check the unit: T/A is expected")
+    else:
+        hint = "check the unit: T/A is expected (2 mT/A is 0.002 T/A)"
+    return (f"{where} = {value:g} T/A is outside {low:g}..{high:g} T/A, the range of "
+            f"Helmholtz-type coils: {hint}")
+
+
+def matrix_condition(matrix: Sequence[Sequence[float]]) -> float:
+    """1-norm condition number ``||A||_1 ||inv(A)||_1`` (as the firmware computes it)."""
+    a = np.asarray(matrix, dtype=np.float64)
+    try:
+        inverse = np.linalg.inv(a)
+    except np.linalg.LinAlgError:
+        return math.inf
+    return float(np.linalg.norm(a, 1) * np.linalg.norm(inverse, 1))
+
+
+def check_matrix(matrix: Sequence[Sequence[float]], source: str) -> None:
+    """Refuse an actuation matrix (T/A) outside the range of Helmholtz-type coils or ill conditioned.
+
+    Raises
+    ------
+    PlausibilityError
+        A diagonal entry outside :data:`COIL_CONSTANT_RANGE_T_PER_A` or an off-diagonal one above
+        it (the likely unit mistake named), or a condition number above
+        :data:`MAX_MATRIX_CONDITION`.
+    """
+    for i, row in enumerate(matrix):
+        for j, value in enumerate(row):
+            problem = _matrix_entry_problem(float(value), f"actuation_matrix_T_per_A[{i}][{j}]",
+                                            i == j)
+            if problem:
+                raise PlausibilityError(f"{source}: {problem}")
+    cond = matrix_condition(matrix)
+    if not cond <= MAX_MATRIX_CONDITION:
+        raise PlausibilityError(
+            f"{source}: actuation_matrix_T_per_A is ill conditioned (condition number {cond:.3g} > "
+            f"{MAX_MATRIX_CONDITION:g}): the coils' fields are nearly parallel; remeasure it")
+
+
+def check_drive(tick_hz: float, dac_half_span_V: float, transconductance_A_per_V: Sequence[float],
+                input_offset_V: Sequence[float], current_limit_A: Sequence[float],
+                slew_limit_A_per_s: Sequence[float], source: str) -> None:
+    """Refuse amplifier, DAC, limit and tick values the firmware cannot use (units: Hz, V, A/V, V,
+    A, A/s; three-element sequences per axis x, y, z)."""
+    if tick_hz != FIRMWARE_TICK_HZ:
+        raise PlausibilityError(
+            f"{source}: tick_hz = {tick_hz:g}, but the firmware ticks at a fixed "
+            f"{FIRMWARE_TICK_HZ:g} Hz (its slew limit would be applied {tick_hz / FIRMWARE_TICK_HZ:g}x "
+            "off); set tick_hz to 100")
+    if not dac_half_span_V <= HW_MAX_DAC_HALF_SPAN_V:
+        raise PlausibilityError(
+            f"{source}: dac_half_span_V = {dac_half_span_V:g} V exceeds the DAC8563's "
+            f"{HW_MAX_DAC_HALF_SPAN_V:g} V (internal reference, gain 2: 0..5 V around 2.5 V)")
+    for i in range(3):
+        g, off = transconductance_A_per_V[i], input_offset_V[i]
+        limit, slew = current_limit_A[i], slew_limit_A_per_s[i]
+        if not HW_MIN_TRANSCONDUCTANCE_A_PER_V <= abs(g) <= HW_MAX_TRANSCONDUCTANCE_A_PER_V:
+            raise PlausibilityError(
+                f"{source}: transconductance_A_per_V[{i}] = {g:g} A/V is outside "
+                f"{HW_MIN_TRANSCONDUCTANCE_A_PER_V:g}..{HW_MAX_TRANSCONDUCTANCE_A_PER_V:g} A/V "
+                "(mA/V written where A/V is expected?)")
+        if not abs(off) <= HW_MAX_ABS_OFFSET_V:
+            raise PlausibilityError(
+                f"{source}: input_offset_V[{i}] = {off:g} V exceeds +-{HW_MAX_ABS_OFFSET_V:g} V "
+                "(mV written where V is expected?)")
+        if not limit <= HW_MAX_CURRENT_A:
+            hint = " (mA written where A is expected?)" if limit / 1000.0 <= HW_MAX_CURRENT_A else ""
+            raise PlausibilityError(
+                f"{source}: current_limit_A[{i}] = {limit:g} A exceeds the hardware rating of "
+                f"{HW_MAX_CURRENT_A:g} A{hint}")
+        if not slew <= HW_MAX_SLEW_A_PER_S:
+            raise PlausibilityError(
+                f"{source}: slew_limit_A_per_s[{i}] = {slew:g} A/s exceeds the hardware rating of "
+                f"{HW_MAX_SLEW_A_PER_S:g} A/s (mA/s written where A/s is expected?)")
+
+
+def check_measurements(currents_A: NDArray[np.float64], fields_mT: NDArray[np.float64],
+                       source: str) -> None:
+    """Refuse calibration measurements whose magnitudes betray a unit mistake.
+
+    ``currents_A`` and ``fields_mT`` are ``(n, 3)``: coil currents in A and fields in mT.
+    """
+    peak_field = float(np.max(np.abs(fields_mT))) if fields_mT.size else 0.0
+    peak_current = float(np.max(np.abs(currents_A))) if currents_A.size else 0.0
+    f_low, f_high = MEASURED_FIELD_RANGE_MT
+    if peak_field < f_low:
+        raise PlausibilityError(
+            f"{source}: the largest field is {peak_field:g} mT, below {f_low:g} mT: the fields look "
+            "like tesla written where the field_*_mT columns expect mT (multiply by 1000)")
+    if peak_field > f_high:
+        raise PlausibilityError(
+            f"{source}: the largest field is {peak_field:g} mT, above {f_high:g} mT: the fields look "
+            "like uT or gauss written where the field_*_mT columns expect mT")
+    i_low, i_high = MEASURED_CURRENT_RANGE_A
+    if peak_current > i_high:
+        raise PlausibilityError(
+            f"{source}: the largest current is {peak_current:g} A, above the hardware rating of "
+            f"{i_high:g} A: the currents look like mA written where the current_*_A columns expect A "
+            "(divide by 1000)")
+    if peak_current < i_low:
+        raise PlausibilityError(
+            f"{source}: the largest current is {peak_current:g} A, below {i_low:g} A: too small to "
+            "calibrate (or kA written where A is expected)")
+
+
+def current_condition(currents_A: NDArray[np.float64]) -> float:
+    """2-norm condition number of the ``(n, 3)`` measured currents (inf when rank < 3)."""
+    s = np.linalg.svd(np.asarray(currents_A, dtype=np.float64), compute_uv=False)
+    return float(s[0] / s[-1]) if s[-1] > 0 else math.inf
