@@ -123,6 +123,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         status = args.func(args)
     except (CommandError, ValueError, OSError, SimulationDiverged) as exc:
+        print_notes(getattr(exc, "__notes__", ()))  # e.g. a killed run's leftovers cleaned first
         print(f"msr {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM/SIGHUP while a result was written

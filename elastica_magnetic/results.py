@@ -436,9 +436,7 @@ def check_result_folder(
     """
     final = Path(out)
     where = f"{option} {final}"
-    for parent in (final, *final.parents):
-        if parent.exists() and not parent.is_dir():
-            raise OutputPathError(f"{where}: {parent} is a file, not a folder")
+    _check_path(final, option)
     if not final.exists():
         return None
     if os.path.ismount(final):
@@ -482,6 +480,12 @@ def check_result_folder(
         raise ResultExistsError(f"{where}: already holds {_what(marker)}; pass {force_option} to "
                                 f"replace it, or choose another {option}")
     return marker
+
+
+def _check_path(final: Path, option: str) -> None:
+    for parent in (final, *final.parents):
+        if parent.exists() and not parent.is_dir():
+            raise OutputPathError(f"{option} {final}: {parent} is a file, not a folder")
 
 
 def _leftovers(target: Path) -> dict[str, list[Path]]:
@@ -639,8 +643,7 @@ def result_folder(
     """
     final = Path(out)
     known = tuple(known_files)
-    check_result_folder(final, kind=kind, subject=subject, force=force, option=option,
-                        known_files=known, force_option=force_option)
+    _check_path(final, option)
     target = Path(os.path.realpath(final)) if final.is_symlink() else final
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
@@ -649,9 +652,14 @@ def result_folder(
                               f"{exc.strerror or exc}") from None
     with _signals_raise(), FolderLock(target, option=option) as lock:
         notes = lock.notes + _recover_locked(target, final)
-        # Checked again under the lock: another process may have written it meanwhile.
-        replaced = check_result_folder(final, kind=kind, subject=subject, force=force,
-                                       option=option, known_files=known, force_option=force_option)
+        try:
+            replaced = check_result_folder(final, kind=kind, subject=subject, force=force,
+                                           option=option, known_files=known,
+                                           force_option=force_option)
+        except OutputPathError as exc:
+            for note in notes:  # the command line prints them before the error
+                exc.add_note(note)
+            raise
         staging = _sibling(target, "new")
         try:
             os.mkdir(staging)  # the umask's permissions, as a folder made by the user
@@ -671,7 +679,10 @@ def result_folder(
             _remove(staging)
             if not swapped:
                 _aborted.append(final)
-            if isinstance(exc, OSError) and not isinstance(exc, OutputPathError):
+            if isinstance(exc, OutputPathError):  # name the files where the user will look
+                text = str(exc).replace(str(staging), str(final))
+                raise type(exc)(f"{text}; {final} is left as it was") from exc
+            if isinstance(exc, OSError):
                 raise OutputPathError(f"{option} {final}: cannot write the result: "
                                       f"{exc.strerror or exc}; {final} is left as it was") from exc
             raise
