@@ -198,9 +198,9 @@ class SpecTable:
     def table(self, key: str, required: bool = True) -> SpecTable | None:
         """A sub-table (``None`` if optional and absent)."""
         value = self._get(key, _REQUIRED if required else None)
-        if value is None:
-            return None
         path = f"{self.path}.{key}" if self.path else key
+        if value is None and key not in self.data:
+            return None
         if not isinstance(value, Mapping):
             raise SpecError(f"{self.source}: [{path}] must be a table, got {value!r}")
         return SpecTable(value, self.source, path)
