@@ -1,4 +1,4 @@
-"""Result folders replaced whole or not at all, and folders locked while a process writes them.
+"""Result folders replaced whole or not at all, by one process at a time.
 
 A command that writes a folder of results (``msr simulate --out X``) never writes into ``X``
 itself. It builds the new content in a temporary sibling ``.X.msr-new-HOST-PID-RANDOM`` (same
@@ -30,7 +30,8 @@ What is guaranteed:
   result carries a marker file, :data:`MARKER` (``.msr-result.json``: kind, subject, command,
   time, host and the list of files written); a folder written before markers existed is
   recognised by ``known_files`` (every file in it must be one the command writes).
-- **One writer.** While the block runs, ``X`` is locked (:class:`FolderLock`, the lock file
+- **One writer.** While the block runs, ``X`` is locked
+  (:class:`~elastica_magnetic.locks.FolderLock`, the lock file
   ``.X.msr-lock`` beside it): a second process that wants to write ``X`` is refused, naming the
   first one's pid, host, command and start time.
 
@@ -50,18 +51,19 @@ what was done is in :attr:`ResultFolder.notes` (and returned by :func:`recover`)
 flushed to disk (``fsync``) before the swap.
 
 **Folders written in place** (a training seed's folder, appended to for hours and resumed later)
-are not swapped but locked: ``with FolderLock(seed_dir, option="--out"):``. The lock file names the
-process (pid, host, command, start time). It is held with ``flock`` where the system has it, so a
-process that dies (even by SIGKILL) releases it: the next process takes the lock over and
-:attr:`FolderLock.notes` says whose stale lock it was. A lock naming another host is never taken
-over automatically (whether that process still runs cannot be checked from here); the message
-says which file to remove. Checkpoints inside such a folder are single files: write them with
-:func:`elastica_magnetic.io.atomic_save`, which keeps the previous one until the new one is
-complete.
+are not swapped but locked for the whole run: :class:`elastica_magnetic.locks.FolderLock`; their
+checkpoints are single files written with :func:`elastica_magnetic.io.atomic_save`, which keeps
+the previous one until the new one is complete. **A set of files put into a folder that holds
+other things** (figures into ``docs/figures``) goes through
+:func:`elastica_magnetic.filesets.replace_files`.
 
 Commands adopting this: enter :func:`result_folder` before the long work (the refusal and the
-lock come first), write every file under :attr:`ResultFolder.path`, print paths mapped with
+lock come first), print :attr:`ResultFolder.notes` (``elastica_magnetic.cli.print_notes``), write
+every file under :attr:`ResultFolder.path`, print paths mapped with
 :meth:`ResultFolder.final_path`, add ``--force`` to the parser and pass ``force=args.force``.
+A command that writes into a folder another command owns (``refine --out RUN``) is refused by
+the ``kind`` check. Worker processes write their files into :attr:`ResultFolder.path` as well;
+only the parent process enters the block (signals are handled in its main thread).
 """
 
 from __future__ import annotations
@@ -69,37 +71,29 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-import re
 import secrets
 import shutil
 import signal
-import socket
-import sys
 import threading
-import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from .io import OutputPathError
-
-try:  # POSIX: the kernel releases the lock of a process that dies
-    import fcntl
-except ImportError:  # pragma: no cover - Windows: O_EXCL and a pid check instead
-    fcntl = None  # type: ignore[assignment]
+from .locks import FolderLock, command_line, host_name, name_tag, utc_now
 
 __all__ = [
     "MARKER",
-    "FolderLock",
-    "FolderLockedError",
     "Interrupted",
     "ResultExistsError",
     "ResultFolder",
     "aborted_results",
+    "remove_tree",
+    "signals_as_exceptions",
+    "signals_held",
+    "fsync_tree",
     "check_result_folder",
-    "lock_path",
-    "read_lock",
     "read_marker",
     "recover",
     "result_folder",
@@ -108,7 +102,6 @@ __all__ = [
 #: The marker file of a result folder (JSON: kind, subject, command, time, host, files).
 MARKER = ".msr-result.json"
 MARKER_FORMAT = 1
-_LOCK_SUFFIX = ".msr-lock"
 #: Folders that hold more files than this are not listed in full (they are not a result).
 _MAX_LISTED = 10_000
 
@@ -118,198 +111,12 @@ class ResultExistsError(OutputPathError):
     another robot's result, files it did not write, or its own result without ``force``)."""
 
 
-class FolderLockedError(OutputPathError):
-    """A folder another process is writing; the message names that process."""
-
-
 class Interrupted(KeyboardInterrupt):
     """SIGTERM or SIGHUP received while a result folder was being written (``signum``)."""
 
     def __init__(self, signum: int) -> None:
         super().__init__(signal.Signals(signum).name)
         self.signum = signum
-
-
-def _host() -> str:
-    return socket.gethostname() or "localhost"
-
-
-def _tag(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_-]", "_", text)[:40]
-
-
-def _now() -> str:
-    return time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
-
-
-def _command_line() -> str:
-    argv = list(sys.argv) or ["python"]
-    argv[0] = Path(argv[0]).name
-    return " ".join(argv)
-
-
-def _pid_alive(pid: int) -> bool:
-    if pid <= 0:
-        return False
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except (PermissionError, OSError):
-        return True  # exists (another user's) or cannot tell: assume alive
-    return True
-
-
-# -- locks ------------------------------------------------------------------------------------------
-
-
-def lock_path(folder: str | Path) -> Path:
-    """The lock file of ``folder``: ``.NAME.msr-lock`` beside it."""
-    folder = Path(folder)
-    return folder.parent / f".{folder.name}{_LOCK_SUFFIX}"
-
-
-def read_lock(folder: str | Path) -> dict[str, Any] | None:
-    """What the lock file of ``folder`` says (pid, host, command, started_utc), or ``None`` when
-    there is none. A lock file present does not mean its process still runs (see
-    :class:`FolderLock`)."""
-    try:
-        text = lock_path(folder).read_text(encoding="utf-8")
-    except (FileNotFoundError, NotADirectoryError):
-        return None
-    except OSError:
-        return {}
-    try:
-        data = json.loads(text)
-    except ValueError:
-        return {}
-    return data if isinstance(data, dict) else {}
-
-
-def _describe_owner(owner: dict[str, Any] | None) -> str:
-    if not owner:
-        return "another process (it is still writing its details)"
-    return (f"pid {owner.get('pid', '?')} on {owner.get('host', '?')} "
-            f"(`{owner.get('command', '?')}`, since {owner.get('started_utc', '?')})")
-
-
-class FolderLock:
-    """Exclusive right to write ``folder``, held by this process until :meth:`release`.
-
-    ``with FolderLock(folder, option="--out"):`` creates the lock file ``.NAME.msr-lock`` beside
-    ``folder`` (its parent is created) naming this process (pid, host, command, UTC start time).
-    A second process is refused with :class:`FolderLockedError` naming the owner. A lock left by a
-    process that died on this host is taken over and described in :attr:`notes`; one naming
-    another host is refused (remove the file when that process is known to be gone).
-    """
-
-    def __init__(self, folder: str | Path, *, option: str = "--out") -> None:
-        self.folder = Path(folder)
-        self.path = lock_path(self.folder)
-        self.option = option
-        self.notes: list[str] = []
-        self._fd: int | None = None
-
-    def _refuse(self, owner: dict[str, Any] | None, why: str = "") -> FolderLockedError:
-        return FolderLockedError(
-            f"{self.option} {self.folder}: being written by {_describe_owner(owner)}{why}; wait "
-            f"for it to finish or choose another {self.option}"
-        )
-
-    def _content(self) -> bytes:
-        return (json.dumps({"pid": os.getpid(), "host": _host(), "command": _command_line(),
-                            "started_utc": _now(), "folder": str(self.folder)}) + "\n").encode()
-
-    def _stale(self, previous: dict[str, Any] | None, alive_unknown: bool) -> None:
-        """Take over ``previous`` (a lock file whose process is gone) or refuse."""
-        if not previous:
-            return
-        if previous.get("host") != _host():
-            raise self._refuse(previous, f" (another host: whether it still runs cannot be checked "
-                                         f"from here; if it does not, remove {self.path})")
-        pid = previous.get("pid")
-        if alive_unknown and isinstance(pid, int) and _pid_alive(pid):
-            raise self._refuse(previous)
-        self.notes.append(f"{self.folder}: took over the stale lock of {_describe_owner(previous)}, "
-                          "which is no longer running")
-
-    def acquire(self) -> FolderLock:
-        """Take the lock or raise :class:`FolderLockedError`; returns ``self``."""
-        if self._fd is not None:
-            raise RuntimeError(f"{self.path}: already held by this FolderLock")
-        try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            self._fd = self._acquire_flock() if fcntl is not None else self._acquire_exclusive()
-        except OSError as exc:
-            if isinstance(exc, OutputPathError):
-                raise
-            raise OutputPathError(f"{self.option} {self.folder}: cannot create the lock file "
-                                  f"{self.path}: {exc.strerror or exc}") from None
-        return self
-
-    def _acquire_flock(self) -> int:
-        for _ in range(100):
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                os.close(fd)
-                raise self._refuse(read_lock(self.folder)) from None
-            except BaseException:
-                os.close(fd)
-                raise
-            try:
-                same = os.path.samestat(os.fstat(fd), os.stat(self.path))
-            except FileNotFoundError:
-                same = False
-            if not same:  # the owner released (unlinked) it between our open and flock: retry
-                os.close(fd)
-                continue
-            try:
-                previous = read_lock(self.folder)
-                # flock is held: whoever wrote ``previous`` on this host is gone.
-                self._stale(previous, alive_unknown=False)
-                content = self._content()
-                os.ftruncate(fd, 0)
-                os.pwrite(fd, content, 0)
-            except BaseException:
-                os.close(fd)
-                raise
-            return fd
-        raise self._refuse(read_lock(self.folder))
-
-    def _acquire_exclusive(self) -> int:  # pragma: no cover - exercised on systems without fcntl
-        for _ in range(100):
-            try:
-                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
-            except FileExistsError:
-                previous = read_lock(self.folder)
-                self._stale(previous, alive_unknown=True)
-                with contextlib.suppress(FileNotFoundError):
-                    os.unlink(self.path)
-                continue
-            os.write(fd, self._content())
-            return fd
-        raise self._refuse(read_lock(self.folder))
-
-    def release(self) -> None:
-        """Remove the lock file and let go (a no-op when not held)."""
-        if self._fd is None:
-            return
-        fd, self._fd = self._fd, None
-        with contextlib.suppress(OSError):
-            os.unlink(self.path)
-        os.close(fd)
-
-    @property
-    def held(self) -> bool:
-        return self._fd is not None
-
-    def __enter__(self) -> FolderLock:
-        return self.acquire()
-
-    def __exit__(self, *exc: object) -> None:
-        self.release()
 
 
 # -- signals ---------------------------------------------------------------------------------------
@@ -333,9 +140,10 @@ def _handler(signum: int, frame: object) -> None:
 
 
 @contextlib.contextmanager
-def _signals_raise() -> Iterator[None]:
+def signals_as_exceptions() -> Iterator[None]:
     """SIGINT, SIGTERM and SIGHUP raise in the main thread while this is entered (where their
-    handler was Python's default), so ``finally`` blocks run; nested uses share one installation."""
+    handler was Python's default: SIGINT :class:`KeyboardInterrupt`, the others
+    :class:`Interrupted`), so ``finally`` blocks run; nested uses share one installation."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -358,7 +166,7 @@ def _signals_raise() -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def _signals_deferred() -> Iterator[None]:
+def signals_held() -> Iterator[None]:
     """Hold SIGINT/SIGTERM/SIGHUP back (when our handler is installed) until the block is over."""
     _signal_state["deferring"] += 1
     try:
@@ -503,7 +311,8 @@ def _leftovers(target: Path) -> dict[str, list[Path]]:
     return found
 
 
-def _remove(path: Path) -> None:
+def remove_tree(path: Path) -> None:
+    """Remove a folder (or file, or link) and everything under it; a missing one is fine."""
     if path.is_dir() and not path.is_symlink():
         shutil.rmtree(path, ignore_errors=True)
     else:
@@ -522,22 +331,22 @@ def _recover_locked(target: Path, shown: Path) -> list[str]:
         notes.append(f"{shown}: restored the previous result from {restored.name} (a replacement "
                      "was killed between its two renames)")
     for leftover in [*olds, *found["new"], *found["trash"]]:
-        _remove(leftover)
+        remove_tree(leftover)
         notes.append(f"{shown}: removed {leftover.name}, left by a run that was killed")
     return notes
 
 
 def recover(out: str | Path, *, option: str = "--out") -> list[str]:
     """Finish the recovery of ``out`` after a killed writer (see the module docstring), under its
-    lock; returns what was done (empty: nothing to do). Raises :class:`FolderLockedError` when a
-    live process is writing ``out``."""
+    lock; returns what was done (empty: nothing to do). Raises
+    :class:`~elastica_magnetic.locks.FolderLockedError` when a live process is writing ``out``."""
     final = Path(out)
     target = Path(os.path.realpath(final)) if final.is_symlink() else final
     with FolderLock(target, option=option) as lock:
         return lock.notes + _recover_locked(target, final)
 
 
-def _fsync_tree(folder: Path) -> None:
+def fsync_tree(folder: Path) -> None:
     """Flush every file and folder under ``folder`` to disk (best effort where unsupported)."""
     for root, _dirs, names in os.walk(folder):
         for name in names:
@@ -563,7 +372,7 @@ def _fsync_dir(folder: Path) -> None:
 
 
 def _sibling(target: Path, stage: str) -> Path:
-    return target.with_name(f".{target.name}.msr-{stage}-{_tag(_host())}-{os.getpid()}-"
+    return target.with_name(f".{target.name}.msr-{stage}-{name_tag(host_name())}-{os.getpid()}-"
                             f"{secrets.token_hex(3)}")
 
 
@@ -586,7 +395,7 @@ def _swap(staging: Path, target: Path) -> None:
         os.rename(aside, trash)
     except OSError:  # pragma: no cover - the next run removes a leftover aside anyway
         trash = aside
-    _remove(trash)
+    remove_tree(trash)
 
 
 @dataclass
@@ -639,7 +448,7 @@ def result_folder(
     a result of the same kind and subject, ``option`` is the command-line option named in
     messages, ``known_files`` the relative paths the command writes (recognises results written
     before markers), ``info`` extra data for the marker. Raises :class:`OutputPathError`,
-    :class:`ResultExistsError` or :class:`FolderLockedError` before the block runs.
+    :class:`ResultExistsError` or :class:`~elastica_magnetic.locks.FolderLockedError` before the block runs.
     """
     final = Path(out)
     known = tuple(known_files)
@@ -650,7 +459,7 @@ def result_folder(
     except OSError as exc:
         raise OutputPathError(f"{option} {final}: cannot create {target.parent}: "
                               f"{exc.strerror or exc}") from None
-    with _signals_raise(), FolderLock(target, option=option) as lock:
+    with signals_as_exceptions(), FolderLock(target, option=option) as lock:
         notes = lock.notes + _recover_locked(target, final)
         try:
             replaced = check_result_folder(final, kind=kind, subject=subject, force=force,
@@ -671,12 +480,12 @@ def result_folder(
         try:
             yield result
             _write_marker(result)
-            _fsync_tree(staging)
-            with _signals_deferred():
+            fsync_tree(staging)
+            with signals_held():
                 _swap(staging, target)
                 swapped = True
         except BaseException as exc:
-            _remove(staging)
+            remove_tree(staging)
             if not swapped:
                 _aborted.append(final)
             if isinstance(exc, OutputPathError):  # name the files where the user will look
@@ -691,7 +500,7 @@ def result_folder(
 def _write_marker(result: ResultFolder) -> None:
     files = _files(result.path) or []
     data = {"format": MARKER_FORMAT, "kind": result.kind, "subject": result.subject,
-            "command": _command_line(), "written_utc": _now(), "host": _host(),
+            "command": command_line(), "written_utc": utc_now(), "host": host_name(),
             "files": [f for f in files if f != MARKER], **result.info}
     (result.path / MARKER).write_text(json.dumps(data, indent=2, default=str) + "\n",
                                       encoding="utf-8")
