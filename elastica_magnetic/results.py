@@ -296,6 +296,18 @@ def _check_path(final: Path, option: str) -> None:
             raise OutputPathError(f"{option} {final}: {parent} is a file, not a folder")
 
 
+def _target(final: Path, option: str) -> Path:
+    """The real folder that will be swapped (links resolved), refused when it cannot be renamed:
+    the file system's root, or the current folder or one above it (a shell would be left in a
+    deleted folder)."""
+    target = Path(os.path.realpath(final))
+    cwd = Path(os.path.realpath(os.getcwd()))
+    if target == target.parent or target == cwd or target in cwd.parents:
+        raise OutputPathError(f"{option} {final}: is the current folder or one above it; a result "
+                              "folder is replaced by renaming it, so give a folder inside it")
+    return target
+
+
 def _leftovers(target: Path) -> dict[str, list[Path]]:
     prefix = f".{target.name}.msr-"
     found: dict[str, list[Path]] = {"new": [], "old": [], "trash": []}
@@ -341,7 +353,7 @@ def recover(out: str | Path, *, option: str = "--out") -> list[str]:
     lock; returns what was done (empty: nothing to do). Raises
     :class:`~elastica_magnetic.locks.FolderLockedError` when a live process is writing ``out``."""
     final = Path(out)
-    target = Path(os.path.realpath(final)) if final.is_symlink() else final
+    target = _target(final, option)
     with FolderLock(target, option=option) as lock:
         return lock.notes + _recover_locked(target, final)
 
@@ -453,7 +465,7 @@ def result_folder(
     final = Path(out)
     known = tuple(known_files)
     _check_path(final, option)
-    target = Path(os.path.realpath(final)) if final.is_symlink() else final
+    target = _target(final, option)
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

@@ -300,3 +300,15 @@ def test_two_writers_never_mix(tmp_path):
     assert first.exitcode == 0
     assert (target / "a.txt").read_text() == "from the first process\n"
     assert sorted(os.listdir(tmp_path)) == ["res"]
+
+
+def test_the_current_folder_is_never_swapped(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    for out in (".", "..", str(tmp_path)):
+        with pytest.raises(OutputPathError, match="is the current folder or one above it"):
+            with result_folder(out, kind="demo", force=True):
+                pytest.fail("the block must not run")
+    with result_folder("sub", kind="demo") as r:  # a folder inside it is fine
+        (r.path / "a.txt").write_text("a")
+    assert (tmp_path / "sub" / "a.txt").read_text() == "a"
+    assert sorted(os.listdir(tmp_path)) == ["sub"]
