@@ -63,7 +63,9 @@ every file under :attr:`ResultFolder.path`, print paths mapped with
 :meth:`ResultFolder.final_path`, add ``--force`` to the parser and pass ``force=args.force``.
 A command that writes into a folder another command owns (``refine --out RUN``) is refused by
 the ``kind`` check. Worker processes write their files into :attr:`ResultFolder.path` as well;
-only the parent process enters the block (signals are handled in its main thread).
+only the parent process enters the block (signals are handled in its main thread), and the pool
+is entered inside it (``with result_folder(...) as r, Pool(...) as pool:``), so that the workers
+are ended before the temporary folder is removed.
 """
 
 from __future__ import annotations

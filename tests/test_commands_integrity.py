@@ -184,3 +184,34 @@ def test_validate_checks_its_folder_before_running(tmp_path, capsys):
     assert "holds files that `msr validate` does not write (thesis.tex)" in capsys.readouterr().err
     assert (mixed / "thesis.tex").read_text() == "mine"
     assert (published / "report.md").read_text() == "# Validation report\n"
+
+
+@pytest.fixture
+def small_filesystem(tmp_path):
+    """A 100 kB tmpfs (root only; skipped where it cannot be mounted)."""
+    if os.geteuid() != 0:
+        pytest.skip("mounting a tmpfs needs root")
+    mount = tmp_path / "small"
+    mount.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=100k", "tmpfs", str(mount)],
+                          capture_output=True, text=True)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.strip()}")
+    try:
+        yield mount
+    finally:
+        subprocess.run(["umount", str(mount)], check=True)
+
+
+def test_a_full_filesystem_keeps_the_old_result(small_filesystem, old_simulation, capsys):
+    """A real ENOSPC: the old result (about 70 kB) fits, the new one beside it does not."""
+    import shutil
+
+    out = small_filesystem / "sim"
+    shutil.copytree(old_simulation, out)
+    old = snapshot(out)
+    assert main([*SIMULATE, "--out", str(out), "--force"]) == 2
+    err = capsys.readouterr().err
+    assert "No space left on device" in err and f"{out} is left as it was" in err
+    assert ".msr-new-" not in err  # the message names the user's folder, not the temporary one
+    assert snapshot(out) == old and sorted(os.listdir(small_filesystem)) == ["sim"]
