@@ -53,7 +53,8 @@ flushed to disk (``fsync``) before the swap.
 **Folders written in place** (a training seed's folder, appended to for hours and resumed later)
 are not swapped but locked for the whole run: :class:`elastica_magnetic.locks.FolderLock`; their
 checkpoints are single files written with :func:`elastica_magnetic.io.atomic_save`, which keeps
-the previous one until the new one is complete. **A set of files put into a folder that holds
+the previous one until the new one is complete, and :func:`mark_folder` gives them a marker so that
+another command (``refine --out RUN``) is refused there. **A set of files put into a folder that holds
 other things** (figures into ``docs/figures``) goes through
 :func:`elastica_magnetic.filesets.replace_files`.
 
@@ -82,7 +83,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .io import OutputPathError
+from .io import OutputPathError, atomic_write_text
 from .locks import FolderLock, command_line, host_name, name_tag, utc_now
 
 __all__ = [
@@ -96,6 +97,7 @@ __all__ = [
     "signals_held",
     "fsync_tree",
     "check_result_folder",
+    "mark_folder",
     "read_marker",
     "recover",
     "result_folder",
@@ -512,9 +514,22 @@ def result_folder(
 
 
 def _write_marker(result: ResultFolder) -> None:
-    files = _files(result.path) or []
-    data = {"format": MARKER_FORMAT, "kind": result.kind, "subject": result.subject,
+    _marker_into(result.path, result.kind, result.subject, result.info)
+
+
+def _marker_into(folder: Path, kind: str, subject: str | None, info: dict[str, Any]) -> Path:
+    files = _files(folder) or []
+    data = {"format": MARKER_FORMAT, "kind": kind, "subject": subject,
             "command": command_line(), "written_utc": utc_now(), "host": host_name(),
-            "files": [f for f in files if f != MARKER], **result.info}
-    (result.path / MARKER).write_text(json.dumps(data, indent=2, default=str) + "\n",
-                                      encoding="utf-8")
+            "files": [f for f in files if f != MARKER], **info}
+    return atomic_write_text(folder / MARKER, json.dumps(data, indent=2, default=str) + "\n")
+
+
+def mark_folder(folder: str | Path, *, kind: str, subject: str | None = None,
+                info: dict[str, Any] | None = None) -> Path:
+    """Write (or rewrite) the marker of a folder written in place, such as a training seed's
+    folder held with :class:`~elastica_magnetic.locks.FolderLock`: ``kind`` and ``subject`` as
+    in :func:`result_folder`, the files it holds now. Another command's
+    :func:`check_result_folder` then refuses the folder naming it. Call it under the folder's
+    lock, after each set of files (a checkpoint and its logs) is written. Returns the marker."""
+    return _marker_into(Path(folder), kind, subject, dict(info or {}))

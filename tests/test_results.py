@@ -312,3 +312,16 @@ def test_the_current_folder_is_never_swapped(tmp_path, monkeypatch):
         (r.path / "a.txt").write_text("a")
     assert (tmp_path / "sub" / "a.txt").read_text() == "a"
     assert sorted(os.listdir(tmp_path)) == ["sub"]
+
+
+def test_a_folder_written_in_place_is_marked_and_refused_to_other_commands(tmp_path):
+    seed = tmp_path / "seed0"
+    seed.mkdir()
+    (seed / "checkpoint.pt").write_bytes(b"weights")
+    results.mark_folder(seed, kind="train", subject="case m1-4mT", info={"seed": 0})
+    assert read_marker(seed)["files"] == ["checkpoint.pt"] and read_marker(seed)["seed"] == 0
+    with pytest.raises(ResultExistsError, match=r"holds a result of `msr train` for case m1-4mT.*"
+                                                r"not of `msr refine`"):
+        with result_folder(seed, kind="refine", subject="case m1-4mT", force=True):
+            pytest.fail("the block must not run")
+    assert (seed / "checkpoint.pt").read_bytes() == b"weights"
