@@ -1,7 +1,9 @@
 """Figures for docs/performance.md: step cost against the number of robots and of elements.
 
 Run: ``python benchmarks/performance_figures.py [--out docs/figures] [--json]``. A few minutes.
-Writes ``perf_vs_robots.png``, ``perf_vs_elements.png`` and ``performance.json``.
+Writes ``perf_vs_robots.png``, ``perf_vs_elements.png`` and ``performance.json``, all three
+together or none (:func:`elastica_magnetic.filesets.replace_files`; it replaces its own earlier
+ones and touches nothing else in the folder).
 """
 
 import argparse
@@ -18,6 +20,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from elastica_magnetic import ConstantField, build_simulation, yao2023_magnetization, yao2023_robot  # noqa: E402
 from elastica_magnetic.bench import per_robot_step_cost  # noqa: E402
+from elastica_magnetic.filesets import replace_files  # noqa: E402
 
 ROBOTS = (1, 2, 4, 8, 16, 32, 64)
 ELEMENTS = (16, 32, 64, 128, 256)
@@ -45,11 +48,18 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("docs/figures"))
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
+    names = ("performance.json", "perf_vs_robots.png", "perf_vs_elements.png")
+    with replace_files(args.out, names, force=True) as files:
+        result = write_figures(files.path)
+    print(json.dumps(result, indent=2) if args.json else f"figures in {args.out}")
+
+
+def write_figures(out: Path) -> dict:
+    """Measure, then write the JSON and the two figures into ``out``; returns the measurements."""
     robots = per_robot_step_cost(ROBOTS, robot_steps=6400, repeats=3, paths=("batched", "per_rod"))
     elements = cost_vs_elements()
     result = {"per_robot_step_us": robots, "step_us_vs_elements": elements}
-    args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "performance.json").write_text(json.dumps(result, indent=2))
+    (out / "performance.json").write_text(json.dumps(result, indent=2))
 
     fig, ax = plt.subplots(figsize=(5.5, 3.8), constrained_layout=True)
     for path, label in (("batched", "BatchedRobots (one numba call)"), ("per_rod", "per-rod forcing")):
@@ -61,7 +71,7 @@ def main() -> None:
     ax.set_ylim(bottom=0)
     ax.set_title("paper robot, 64 elements, training physics")
     ax.legend()
-    fig.savefig(args.out / "perf_vs_robots.png", dpi=110)
+    fig.savefig(out / "perf_vs_robots.png", dpi=110)
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(5.5, 3.8), constrained_layout=True)
@@ -71,9 +81,9 @@ def main() -> None:
     ax.set_ylabel("us per step (one robot)")
     ax.set_ylim(bottom=0)
     ax.set_title("one robot, per-rod path, accurate physics")
-    fig.savefig(args.out / "perf_vs_elements.png", dpi=110)
+    fig.savefig(out / "perf_vs_elements.png", dpi=110)
     plt.close(fig)
-    print(json.dumps(result, indent=2) if args.json else f"figures in {args.out}")
+    return result
 
 
 if __name__ == "__main__":

@@ -114,16 +114,38 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    from .results import aborted_results
     from .simulation import SimulationDiverged
 
     parser = build_parser()
     args = parser.parse_args(argv)
+    already_aborted = len(aborted_results())
     try:
         status = args.func(args)
     except (CommandError, ValueError, OSError, SimulationDiverged) as exc:
+        print_notes(getattr(exc, "__notes__", ()))  # e.g. a killed run's leftovers cleaned first
         print(f"msr {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM/SIGHUP while a result was written
+        print(interrupted_message(args.command, exc, aborted_results()[already_aborted:]),
+              file=sys.stderr)
+        return 128 + getattr(exc, "signum", 2)
     return int(status or 0)
+
+
+def interrupted_message(command: str, exc: BaseException, kept: Sequence[object] = ()) -> str:
+    """The one line printed when ``msr COMMAND`` is interrupted: the signal and, for every result
+    folder in ``kept`` (those the interruption stopped), that it was left as it was."""
+    name = "SIGINT" if isinstance(exc, KeyboardInterrupt) and not hasattr(exc, "signum") else str(exc)
+    left = "".join(f"; {folder} was left as it was (a result folder is replaced whole or not at "
+                   "all)" for folder in kept)
+    return f"msr {command}: interrupted ({name}){left}"
+
+
+def print_notes(notes: Sequence[str]) -> None:
+    """Print recoveries done before a command's work (a stale lock, a killed run's leftovers)."""
+    for note in notes:
+        print(f"note: {note}", file=sys.stderr)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .cli import CommandError, duration_option, number, print_result
+from .cli import CommandError, duration_option, number, print_notes, print_result
 from .fields import RotatingField, TabulatedField
-from .io import prepare_output_dir
 from .openloop import run_open_loop, write_trajectory_csv
 from .presets import ROBOTS
 from .progress import progress_bar
+from .results import result_folder
 from .specfile import SpecError, field_limit_of, load_robot
 
 ROBOT_HELP = (f"a preset ({', '.join(ROBOTS)}) or a spec file (.toml, e.g. from "
@@ -22,6 +22,13 @@ ROBOT_HELP = (f"a preset ({', '.join(ROBOTS)}) or a spec file (.toml, e.g. from 
 MAX_AMPLITUDE_T = 0.1
 #: ``msr simulate`` amplitude for a robot whose spec has no ``[actuation] field_limit`` (a preset), T.
 DEFAULT_AMPLITUDE_T = 4e-3
+#: What ``msr replay`` / ``msr simulate`` write into ``--out`` (results written before the
+#: result marker are recognised by these names).
+REPLAY_FILES = ("trajectory.csv", "replay.png")
+SIMULATE_FILES = ("trajectory.csv", "shapes.png")
+FORCE_HELP = ("replace the result of an earlier run of this command for the same robot in --out "
+              "(another command's result, another robot's or files msr did not write are never "
+              "replaced)")
 #: Half the 100 Hz rate of the trajectory and field records: faster rotations would alias.
 NYQUIST_HZ = 50.0
 
@@ -51,6 +58,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--reference", type=Path, default=None,
                    help="a trajectory.csv to compare with (drawn dashed; differences reported)")
     p.add_argument("--out", type=Path, default=Path("out/replay"), help="output folder")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=replay_command)
 
@@ -75,6 +83,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "--duration if shorter)")
     p.add_argument("--duration", type=duration_option(), default=3.0, help="s")
     p.add_argument("--out", type=Path, default=Path("out/simulate"), help="output folder")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=simulate_command)
 
@@ -116,21 +125,24 @@ def replay_command(args: argparse.Namespace) -> int:
     spec = load_robot(args.robot, args.physics)
     # Every input and the output folder are checked before the simulation starts.
     reference = _read_reference(args.reference, duration) if args.reference is not None else None
-    out = prepare_output_dir(args.out)
-    result = run_open_loop(
-        spec, field, duration, progress=_progress(int(round(duration * 100)), "replay")
-    )
-    trajectory_csv = write_trajectory_csv(result.trajectory, out / "trajectory.csv")
-    summary: dict[str, object] = {}
-    if reference is not None:
-        summary = compare_trajectories(result.trajectory, reference)
-    from .plotting import plot_open_loop
+    with result_folder(args.out, kind="replay", subject=f"robot {spec.name}", force=args.force,
+                       known_files=REPLAY_FILES) as out:
+        print_notes(out.notes)
+        result = run_open_loop(
+            spec, field, duration, progress=_progress(int(round(duration * 100)), "replay")
+        )
+        trajectory_csv = write_trajectory_csv(result.trajectory, out.path / "trajectory.csv")
+        summary: dict[str, object] = {}
+        if reference is not None:
+            summary = compare_trajectories(result.trajectory, reference)
+        from .plotting import plot_open_loop
 
-    figure = plot_open_loop(
-        result, out / "replay.png",
-        title=f"{args.robot}, {args.physics} physics: {args.field_csv.name}", reference=reference,
-    )
-    print_result({**_summary(args, result, trajectory_csv, figure), **summary}, args.json)
+        figure = plot_open_loop(
+            result, out.path / "replay.png", reference=reference,
+            title=f"{args.robot}, {args.physics} physics: {args.field_csv.name}",
+        )
+    print_result({**_summary(args, result, out.final_path(trajectory_csv),
+                             out.final_path(figure)), **summary}, args.json)
     return 0
 
 
@@ -145,20 +157,23 @@ def simulate_command(args: argparse.Namespace) -> int:
     spec = load_robot(args.robot, args.physics)
     args.amplitude, amplitude_from = simulate_amplitude(args)
     field = RotatingField(args.amplitude, args.frequency, phase=0.5 * np.pi, ramp_time=args.ramp)
-    out = prepare_output_dir(args.out)
-    result = run_open_loop(
-        spec, field, args.duration, progress=_progress(int(round(args.duration * 100)), "simulate")
-    )
-    trajectory_csv = write_trajectory_csv(result.trajectory, out / "trajectory.csv")
-    from .plotting import plot_open_loop
+    with result_folder(args.out, kind="simulate", subject=f"robot {spec.name}", force=args.force,
+                       known_files=SIMULATE_FILES) as out:
+        print_notes(out.notes)
+        result = run_open_loop(
+            spec, field, args.duration,
+            progress=_progress(int(round(args.duration * 100)), "simulate"),
+        )
+        trajectory_csv = write_trajectory_csv(result.trajectory, out.path / "trajectory.csv")
+        from .plotting import plot_open_loop
 
-    figure = plot_open_loop(
-        result, out / "shapes.png",
-        title=f"{args.robot} under a {1e3 * args.amplitude:g} mT field rotating at "
-        f"{args.frequency:g} Hz ({args.physics} physics)",
-    )
-    print_result({**_summary(args, result, trajectory_csv, figure), "amplitude_T": args.amplitude,
-                  "amplitude_from": amplitude_from}, args.json)
+        figure = plot_open_loop(
+            result, out.path / "shapes.png",
+            title=f"{args.robot} under a {1e3 * args.amplitude:g} mT field rotating at "
+            f"{args.frequency:g} Hz ({args.physics} physics)",
+        )
+    print_result({**_summary(args, result, out.final_path(trajectory_csv), out.final_path(figure)),
+                  "amplitude_T": args.amplitude, "amplitude_from": amplitude_from}, args.json)
     return 0
 
 

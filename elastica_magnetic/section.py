@@ -25,6 +25,7 @@ __all__ = [
     "set_shear_coefficient",
     "shear_coefficient",
     "rectangular_band_rod",
+    "rigidity_scale",
 ]
 
 #: The shear coefficient PyElastica 1.0 hard-codes in ``rod/factory_function.py``.
@@ -112,6 +113,8 @@ def rectangular_band_rod(
     )
     if int(n_elements) != n_elements or n_elements < 2:
         raise ValueError(f"n_elements must be an integer >= 2, got {n_elements!r}")
+    rod_radius = equivalent_radius(height) if radius is None else float(radius)
+    scale = rigidity_scale(rod_radius, float(youngs_modulus), float(shear_modulus))
     with _quiet_small_inertia_warning():
         rod = CosseratRod.straight_rod(
             int(n_elements),
@@ -119,13 +122,41 @@ def rectangular_band_rod(
             np.asarray(direction, dtype=np.float64),
             np.asarray(normal, dtype=np.float64),
             float(length),
-            equivalent_radius(height) if radius is None else float(radius),
+            rod_radius,
             float(density),
-            youngs_modulus=float(youngs_modulus),
-            shear_modulus=float(shear_modulus),
+            youngs_modulus=float(youngs_modulus) * scale,
+            shear_modulus=float(shear_modulus) * scale,
         )
+    if scale != 1.0:  # the moduli only enter these two arrays; a power of two divides exactly
+        rod.shear_matrix /= scale
+        rod.bend_matrix /= scale
     set_shear_coefficient(rod, alpha_c)
     return rod
+
+
+def rigidity_scale(radius: float, youngs_modulus: float, shear_modulus: float) -> float:
+    """The power of two by which the rod is built stiffer, then made softer again.
+
+    PyElastica 1.0's rod factory asserts that every bending and twisting rigidity (``E I`` and
+    ``G J``, N m^2) exceeds ``Tolerance.atol()`` (about 2.2e-12): an absolute threshold, meant as
+    "positive", that in SI units refuses millimetre robots ("Bend matrix has to be greater than
+    0"; a 2 mm x 0.8 mm x 80 um band of 84.5 kPa has ``E I`` = 3.0e-13 N m^2). Nothing in the
+    simulation uses that threshold afterwards, and the moduli enter only the shear and bend
+    matrices, which are linear in them: :func:`rectangular_band_rod` builds the rod with both
+    moduli times this factor and divides the two matrices by it (exact, being a power of two).
+    Returns 1 when the rigidities are 16 times above the threshold or more.
+    """
+    from elastica.utils import Tolerance
+
+    second_moment = math.pi * radius**4 / 4.0  # m^4, about a diameter; J = 2 I
+    smallest = min(youngs_modulus * second_moment, shear_modulus * 2.0 * second_moment)
+    limit = 16.0 * Tolerance.atol()
+    if smallest >= limit:
+        return 1.0
+    if not smallest > limit * 2.0**-900:
+        raise ValueError(f"bending rigidity {smallest:.3g} N m^2 (radius {radius:.3g} m) is too small "
+                         "to represent; give a thicker band or a stiffer material")
+    return 2.0 ** math.ceil(math.log2(limit / smallest))
 
 
 def _check_positive(**values: float) -> None:

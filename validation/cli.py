@@ -25,6 +25,12 @@ CASES = {
 SHIPPED = "shipped"
 
 
+#: Every file a validation report folder may hold (recognises reports written before the result
+#: marker, e.g. the published one).
+REPORT_FILES = ("report.md", "results.json", "cantilever.png", "hu2018.png", "replay-yao2023.png",
+                "replay-yao2023_trajectory.csv")
+
+
 def verify_all_shipped(quick: bool) -> list[dict]:
     """:func:`elastica_magnetic_rl.shipped.verify_shipped` of every shipped policy."""
     from elastica_magnetic_rl.shipped import shipped_names, verify_shipped
@@ -73,12 +79,16 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "check its recorded distance and waveform (a few minutes each)")
     p.add_argument("--quick", action="store_true", help="reduced grid (for the test suite)")
     p.add_argument("--out", type=Path, default=Path("out/validation"), help="report folder")
+    p.add_argument("--force", action="store_true",
+                   help="replace the report of an earlier `msr validate` in --out (another "
+                   "command's result or files msr did not write are never replaced)")
     p.add_argument("--json", action="store_true", help="print every compared number as JSON")
     p.set_defaults(func=validate_command)
 
 
 def validate_command(args: argparse.Namespace) -> int:
-    from elastica_magnetic.cli import CommandError
+    from elastica_magnetic.cli import CommandError, print_notes
+    from elastica_magnetic.results import result_folder
 
     available = available_cases()
     names = [n for n in args.cases if n != SHIPPED] if args.cases else available
@@ -103,11 +113,17 @@ def validate_command(args: argparse.Namespace) -> int:
     missing = [n for n in names if n not in available]
     if missing:
         raise CommandError(f"case(s) {', '.join(missing)} not implemented in this checkout")
-    results = run_cases(names, args.out, args.quick)
     command = "msr validate " + " ".join(
         [*args.cases, *(["--quick"] if args.quick else []), "--out", str(args.out)]
     )
-    report = write_report(results, args.out, command)
+    # The report folder is replaced whole, or left as it was on a failure or an interruption.
+    with result_folder(args.out, kind="validate", force=args.force,
+                       known_files=REPORT_FILES) as out:
+        print_notes(out.notes)
+        results = run_cases(names, out.path, args.quick)
+        for r in results:
+            r.figures = [out.final_path(f) for f in r.figures]
+        report = out.final_path(write_report(results, out.path, command, final=out.final))
     passed = all(r.passed for r in results) and all(r["passed"] for r in shipped or [])
     if args.json:
         print(json.dumps(

@@ -32,6 +32,7 @@ from elastica_magnetic import (
     run_open_loop,
     yao2023_robot,
 )
+from elastica_magnetic.filesets import replace_files
 from elastica_magnetic.reference import reference_field_csv
 from elastica_magnetic.simulation import register_robot_forcing, robot_rod
 
@@ -255,6 +256,27 @@ def plot_damping(report: dict, path: Path) -> None:
     plt.close(fig)
 
 
+def write_report(report: str, duration: float, out: Path) -> None:
+    """Run the ``s2`` or ``damping`` cases for ``duration`` s and write the figure and JSON."""
+    if report == "s2":
+        results = s2_cases(duration)
+        plot_s2(results, out / "s2_end_to_end.png")
+        summary = {
+            k: {kk: vv for kk, vv in v.items() if kk not in ("t_s", "end_to_end_m")}
+            for k, v in results.items()
+        }
+        (out / "s2.json").write_text(json.dumps({"duration_s": duration, "cases": summary}, indent=1))
+    else:
+        damping = damping_report(duration)
+        plot_damping(damping, out / "damping_first_max.png")
+        summary = dict(damping)
+        summary["replays"] = {
+            k: {kk: vv for kk, vv in v.items() if kk not in ("t_s", "height_max_m")}
+            for k, v in damping["replays"].items()
+        }
+        (out / "damping.json").write_text(json.dumps({"duration_s": duration, **summary}, indent=1))
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -263,26 +285,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--duration", type=float, default=3.0, help="simulated time per case, s")
     parser.add_argument("--out", type=Path, default=Path("docs/figures/physics"))
     args = parser.parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
-    if args.report == "s2":
-        results = s2_cases(args.duration)
-        plot_s2(results, args.out / "s2_end_to_end.png")
-        summary = {
-            k: {kk: vv for kk, vv in v.items() if kk not in ("t_s", "end_to_end_m")}
-            for k, v in results.items()
-        }
-        (args.out / "s2.json").write_text(
-            json.dumps({"duration_s": args.duration, "cases": summary}, indent=1)
-        )
-    else:
-        report = damping_report(args.duration)
-        plot_damping(report, args.out / "damping_first_max.png")
-        summary = dict(report)
-        summary["replays"] = {
-            k: {kk: vv for kk, vv in v.items() if kk not in ("t_s", "height_max_m")}
-            for k, v in report["replays"].items()
-        }
-        (args.out / "damping.json").write_text(json.dumps({"duration_s": args.duration, **summary}, indent=1))
+    names = (("s2_end_to_end.png", "s2.json") if args.report == "s2"
+             else ("damping_first_max.png", "damping.json"))
+    # Both files go in together or neither changes; earlier ones are replaced, nothing else is.
+    with replace_files(args.out, names, force=True) as files:
+        write_report(args.report, args.duration, files.path)
     return 0
 
 

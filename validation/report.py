@@ -7,6 +7,8 @@ import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from elastica_magnetic.io import atomic_write_text
+
 __all__ = ["MARGIN", "Gate", "Comparison", "CaseResult", "write_report"]
 
 #: Every tolerance set from a measured error is this many times the worst error achieved, so a
@@ -138,9 +140,13 @@ def _headroom(tolerance: float, worst: float) -> str:
     return f"{tolerance / worst:.3g}"
 
 
-def write_report(results: list[CaseResult], out: Path, command: str) -> Path:
-    """Write ``report.md`` (tables and figures) and ``results.json`` into ``out``."""
+def write_report(results: list[CaseResult], out: Path, command: str,
+                 final: Path | None = None) -> Path:
+    """Write ``report.md`` (tables and figures) and ``results.json`` into ``out``; ``final``: the
+    folder the report will end up in when ``out`` is a temporary one (the figures' paths are
+    under it), else ``out``."""
     out.mkdir(parents=True, exist_ok=True)
+    base = out if final is None else final
     lines = [
         "# Validation report",
         "",
@@ -195,10 +201,8 @@ def write_report(results: list[CaseResult], out: Path, command: str) -> Path:
                 f"{tol} | {c.unit} | {verdict} |"
             )
         for figure in r.figures:
-            lines += ["", f"![{r.name}: {figure.stem}]({figure.relative_to(out).as_posix()})"]
-    report = out / "report.md"
-    report.write_text("\n".join(lines) + "\n")
-    (out / "results.json").write_text(
-        json.dumps({"cases": [r.as_dict() for r in results]}, indent=2, default=str)
-    )
+            lines += ["", f"![{r.name}: {figure.stem}]({figure.relative_to(base).as_posix()})"]
+    report = atomic_write_text(out / "report.md", "\n".join(lines) + "\n")
+    atomic_write_text(out / "results.json",
+                      json.dumps({"cases": [r.as_dict() for r in results]}, indent=2, default=str))
     return report

@@ -1,0 +1,176 @@
+"""A set of files put into a folder that holds other things, all of them or none.
+
+A result folder (:mod:`elastica_magnetic.results`) is swapped whole; a folder shared with other
+files (``docs/figures/physics``, a run folder that receives figures) cannot be. There the new
+files are written into a temporary folder inside it, ``.msr-files-HOST-PID-RANDOM``, and moved
+into place together::
+
+    from elastica_magnetic.filesets import replace_files
+
+    with replace_files(args.out, ["s2_end_to_end.png", "s2.json"], force=True) as files:
+        ...                                         # the long work
+        plot_s2(results, files.path / "s2_end_to_end.png")
+        (files.path / "s2.json").write_text(text)
+    # both files are in args.out now, or neither changed
+
+On an exception, Ctrl-C, SIGTERM or SIGHUP in the block the temporary folder is removed and
+nothing in the folder changed. On success a commit record (``.msr-commit``, the list of files) is
+written into the temporary folder, then each file is renamed into place (each rename is atomic;
+signals are held back meanwhile), then the temporary folder is removed. A process killed
+outright (SIGKILL, power loss) before the commit record leaves only the temporary folder, which
+the next :func:`replace_files` (or :func:`recover_files`) on that folder removes; killed after
+it, the folder may hold some new files beside some old ones until the next
+:func:`replace_files` / :func:`recover_files` on it finishes the moves (roll forward). Both run
+under the folder's lock (:class:`~elastica_magnetic.locks.FolderLock`), so a second writer is
+refused naming the first.
+
+Existing files among ``names`` are replaced only with ``force=True``; files of the folder not
+among them are never touched.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .io import OutputPathError
+from .locks import FolderLock, host_name, name_tag
+from .results import ResultExistsError, fsync_tree, remove_tree, signals_as_exceptions, signals_held
+
+__all__ = ["FileSet", "recover_files", "replace_files"]
+
+_PREFIX = ".msr-files-"
+_COMMIT = ".msr-commit"
+
+
+@dataclass
+class FileSet:
+    """Files being written (see :func:`replace_files`): ``path`` is the temporary folder to write
+    into (relative paths there are those in ``folder``), ``notes`` the recoveries done on entry."""
+
+    folder: Path
+    path: Path
+    names: tuple[str, ...]
+    notes: list[str] = field(default_factory=list)
+
+    def final_path(self, path: str | Path) -> Path:
+        """Where ``path`` (under :attr:`path`) will be once the files are in place."""
+        path = Path(path)
+        try:
+            return self.folder / path.relative_to(self.path)
+        except ValueError:
+            return path
+
+
+def _written(staging: Path) -> list[str]:
+    found = []
+    for root, _dirs, files in os.walk(staging):
+        for name in files:
+            relative = (Path(root) / name).relative_to(staging).as_posix()
+            if relative != _COMMIT:
+                found.append(relative)
+    return sorted(found)
+
+
+def _move_committed(staging: Path, folder: Path) -> int:
+    """Rename every file listed in the commit record into ``folder``; returns how many moved."""
+    names = json.loads((staging / _COMMIT).read_text(encoding="utf-8"))
+    moved = 0
+    for name in names:
+        source = staging / name
+        if source.exists() or source.is_symlink():
+            (folder / name).parent.mkdir(parents=True, exist_ok=True)
+            os.replace(source, folder / name)
+            moved += 1
+    return moved
+
+
+def _recover_locked(folder: Path) -> list[str]:
+    notes = []
+    for staging in sorted(folder.glob(f"{_PREFIX}*")) if folder.is_dir() else []:
+        if (staging / _COMMIT).is_file():
+            try:
+                moved = _move_committed(staging, folder)
+            except (OSError, ValueError) as exc:
+                raise OutputPathError(f"{folder}: cannot finish the interrupted replacement of "
+                                      f"files in {staging.name}: {exc}") from None
+            notes.append(f"{folder}: finished moving {moved} file(s) of a replacement that was "
+                         f"killed after it was complete ({staging.name})")
+        else:
+            notes.append(f"{folder}: removed {staging.name}, left by a run that was killed")
+        remove_tree(staging)
+    return notes
+
+
+def recover_files(folder: str | Path, *, option: str = "--out") -> list[str]:
+    """Finish or undo what a killed :func:`replace_files` left in ``folder`` (under its lock);
+    returns what was done."""
+    folder = Path(folder)
+    with FolderLock(folder, option=option) as lock:
+        return lock.notes + _recover_locked(folder)
+
+
+@contextlib.contextmanager
+def replace_files(
+    folder: str | Path,
+    names: Iterable[str],
+    *,
+    force: bool = False,
+    option: str = "--out",
+    force_option: str = "--force",
+) -> Iterator[FileSet]:
+    """Put the files ``names`` (relative paths) into ``folder`` (created if absent) all together
+    or not at all; write them under :attr:`FileSet.path` in the block. An existing one is
+    replaced only with ``force`` (:class:`~elastica_magnetic.results.ResultExistsError` before
+    the block otherwise); writing a file not in ``names`` is a :class:`ValueError` and nothing
+    is moved."""
+    folder = Path(folder)
+    names = tuple(names)
+    for parent in (folder, *folder.parents):
+        if parent.exists() and not parent.is_dir():
+            raise OutputPathError(f"{option} {folder}: {parent} is a file, not a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputPathError(f"{option} {folder}: cannot create it: {exc.strerror or exc}") from None
+    with signals_as_exceptions(), FolderLock(folder, option=option) as lock:
+        notes = lock.notes + _recover_locked(folder)
+        existing = [n for n in names if (folder / n).exists()]
+        if existing and not force:
+            raise ResultExistsError(f"{option} {folder}: already holds {', '.join(existing)}; pass "
+                                    f"{force_option} to replace, or choose another {option}")
+        staging = folder / f"{_PREFIX}{name_tag(host_name())}-{os.getpid()}-{os.urandom(3).hex()}"
+        try:
+            os.mkdir(staging)
+        except OSError as exc:
+            raise OutputPathError(f"{option} {folder}: cannot write in it: "
+                                  f"{exc.strerror or exc}") from None
+        files = FileSet(folder, staging, names, notes)
+        try:
+            yield files
+            written = _written(staging)
+            unexpected = sorted(set(written) - set(names))
+            if unexpected:
+                raise ValueError(f"replace_files({folder}): wrote {', '.join(unexpected)}, not "
+                                 f"among the declared names {', '.join(names)}")
+            fsync_tree(staging)
+            with signals_held():
+                record = staging / f"{_COMMIT}.tmp"
+                record.write_text(json.dumps(written), encoding="utf-8")
+                os.replace(record, staging / _COMMIT)  # from here on, the next run rolls forward
+                _move_committed(staging, folder)
+                remove_tree(staging)
+        except BaseException as exc:
+            committed = (staging / _COMMIT).exists()
+            if not committed:
+                remove_tree(staging)
+            if isinstance(exc, OSError) and not isinstance(exc, OutputPathError):
+                then = ("the next run on it finishes the replacement" if committed
+                        else "nothing in it changed")
+                raise OutputPathError(f"{option} {folder}: cannot write the files: "
+                                      f"{exc.strerror or exc}; {then}") from exc
+            raise

@@ -1,0 +1,233 @@
+"""Folders locked while a process writes them: one writer at a time, named to the others.
+
+``with FolderLock(folder, option="--out"):`` creates the lock file ``.NAME.msr-lock`` beside
+``folder`` naming this process (pid, host, command line, UTC start time). Another process that
+wants the same folder gets :class:`FolderLockedError` naming the owner. The lock is held with
+``flock`` where the system has it, so a process that dies (even by SIGKILL) releases it: the next
+process takes it over and :attr:`FolderLock.notes` says whose stale lock it was. A lock file
+naming another host is never taken over automatically (whether that process still runs cannot be
+checked from here); the message says which file to remove. Without ``flock`` (Windows) the file is
+created exclusively and a lock of a dead process on this host is recognised by its pid.
+
+Result folders (:func:`elastica_magnetic.results.result_folder`) take this lock themselves. A
+folder written in place for a long time (a training seed's folder, resumed later) holds it for
+the whole run::
+
+    from elastica_magnetic.locks import FolderLock
+
+    with FolderLock(seed_dir, option="--out") as lock:
+        for note in lock.notes:
+            print("note:", note)
+        ...  # train; write checkpoints with elastica_magnetic.io.atomic_save
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import re
+import socket
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from .io import OutputPathError
+
+try:  # POSIX: the kernel releases the lock of a process that dies
+    import fcntl
+except ImportError:  # pragma: no cover - Windows: O_EXCL and a pid check instead
+    fcntl = None  # type: ignore[assignment]
+
+__all__ = ["FolderLock", "FolderLockedError", "command_line", "host_name", "lock_path", "name_tag",
+           "read_lock", "utc_now"]
+
+_LOCK_SUFFIX = ".msr-lock"
+
+
+class FolderLockedError(OutputPathError):
+    """A folder another process is writing; the message names that process."""
+
+
+def host_name() -> str:
+    """This machine's host name (as lock files and result markers record it)."""
+    return socket.gethostname() or "localhost"
+
+
+def name_tag(text: str) -> str:
+    """``text`` reduced to characters safe in a file name (at most 40)."""
+    return re.sub(r"[^A-Za-z0-9_-]", "_", text)[:40]
+
+
+def utc_now() -> str:
+    """The time now, UTC, ISO 8601 to the second."""
+    return time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+
+
+def command_line() -> str:
+    """This process's command line, the program's name without its folder."""
+    argv = list(sys.argv) or ["python"]
+    argv[0] = Path(argv[0]).name
+    return " ".join(argv)
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True  # exists (another user's) or cannot tell: assume alive
+    return True
+
+
+def lock_path(folder: str | Path) -> Path:
+    """The lock file of ``folder``: ``.NAME.msr-lock`` beside it."""
+    folder = Path(folder)
+    return folder.parent / f".{folder.name}{_LOCK_SUFFIX}"
+
+
+def read_lock(folder: str | Path) -> dict[str, Any] | None:
+    """What the lock file of ``folder`` says (pid, host, command, started_utc), or ``None`` when
+    there is none. A lock file present does not mean its process still runs (see
+    :class:`FolderLock`)."""
+    try:
+        text = lock_path(folder).read_text(encoding="utf-8")
+    except (FileNotFoundError, NotADirectoryError):
+        return None
+    except OSError:
+        return {}
+    try:
+        data = json.loads(text)
+    except ValueError:
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def _describe_owner(owner: dict[str, Any] | None) -> str:
+    if not owner:
+        return "another process (it is still writing its details)"
+    return (f"pid {owner.get('pid', '?')} on {owner.get('host', '?')} "
+            f"(`{owner.get('command', '?')}`, since {owner.get('started_utc', '?')})")
+
+
+class FolderLock:
+    """Exclusive right to write ``folder``, held by this process until :meth:`release`.
+
+    ``with FolderLock(folder, option="--out"):`` creates the lock file ``.NAME.msr-lock`` beside
+    ``folder`` (its parent is created) naming this process (pid, host, command, UTC start time).
+    A second process is refused with :class:`FolderLockedError` naming the owner. A lock left by a
+    process that died on this host is taken over and described in :attr:`notes`; one naming
+    another host is refused (remove the file when that process is known to be gone).
+    """
+
+    def __init__(self, folder: str | Path, *, option: str = "--out") -> None:
+        self.folder = Path(folder)
+        self.path = lock_path(self.folder)
+        self.option = option
+        self.notes: list[str] = []
+        self._fd: int | None = None
+
+    def _refuse(self, owner: dict[str, Any] | None, why: str = "") -> FolderLockedError:
+        return FolderLockedError(
+            f"{self.option} {self.folder}: being written by {_describe_owner(owner)}{why}; wait "
+            f"for it to finish or choose another {self.option}"
+        )
+
+    def _content(self) -> bytes:
+        return (json.dumps({"pid": os.getpid(), "host": host_name(), "command": command_line(),
+                            "started_utc": utc_now(), "folder": str(self.folder)}) + "\n").encode()
+
+    def _stale(self, previous: dict[str, Any] | None, alive_unknown: bool) -> None:
+        """Take over ``previous`` (a lock file whose process is gone) or refuse."""
+        if not previous:
+            return
+        if previous.get("host") != host_name():
+            raise self._refuse(previous, f" (another host: whether it still runs cannot be checked "
+                                         f"from here; if it does not, remove {self.path})")
+        pid = previous.get("pid")
+        if alive_unknown and isinstance(pid, int) and _pid_alive(pid):
+            raise self._refuse(previous)
+        self.notes.append(f"{self.folder}: took over the stale lock of {_describe_owner(previous)}, "
+                          "which is no longer running")
+
+    def acquire(self) -> FolderLock:
+        """Take the lock or raise :class:`FolderLockedError`; returns ``self``."""
+        if self._fd is not None:
+            raise RuntimeError(f"{self.path}: already held by this FolderLock")
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._fd = self._acquire_flock() if fcntl is not None else self._acquire_exclusive()
+        except OSError as exc:
+            if isinstance(exc, OutputPathError):
+                raise
+            raise OutputPathError(f"{self.option} {self.folder}: cannot create the lock file "
+                                  f"{self.path}: {exc.strerror or exc}") from None
+        return self
+
+    def _acquire_flock(self) -> int:
+        for _ in range(100):
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                os.close(fd)
+                raise self._refuse(read_lock(self.folder)) from None
+            except BaseException:
+                os.close(fd)
+                raise
+            try:
+                same = os.path.samestat(os.fstat(fd), os.stat(self.path))
+            except FileNotFoundError:
+                same = False
+            if not same:  # the owner released (unlinked) it between our open and flock: retry
+                os.close(fd)
+                continue
+            try:
+                previous = read_lock(self.folder)
+                # flock is held: whoever wrote ``previous`` on this host is gone.
+                self._stale(previous, alive_unknown=False)
+                content = self._content()
+                os.ftruncate(fd, 0)
+                os.pwrite(fd, content, 0)
+            except BaseException:
+                os.close(fd)
+                raise
+            return fd
+        raise self._refuse(read_lock(self.folder))
+
+    def _acquire_exclusive(self) -> int:  # pragma: no cover - exercised on systems without fcntl
+        for _ in range(100):
+            try:
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
+            except FileExistsError:
+                previous = read_lock(self.folder)
+                self._stale(previous, alive_unknown=True)
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(self.path)
+                continue
+            os.write(fd, self._content())
+            return fd
+        raise self._refuse(read_lock(self.folder))
+
+    def release(self) -> None:
+        """Remove the lock file and let go (a no-op when not held)."""
+        if self._fd is None:
+            return
+        fd, self._fd = self._fd, None
+        with contextlib.suppress(OSError):
+            os.unlink(self.path)
+        os.close(fd)
+
+    @property
+    def held(self) -> bool:
+        return self._fd is not None
+
+    def __enter__(self) -> FolderLock:
+        return self.acquire()
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()

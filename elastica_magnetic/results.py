@@ -1,0 +1,535 @@
+"""Result folders replaced whole or not at all, by one process at a time.
+
+A command that writes a folder of results (``msr simulate --out X``) never writes into ``X``
+itself. It builds the new content in a temporary sibling ``.X.msr-new-HOST-PID-RANDOM`` (same
+parent, so the same filesystem and renames are atomic) and swaps it in only when everything was
+written::
+
+    from elastica_magnetic.results import result_folder
+
+    with result_folder(args.out, kind="simulate", subject=f"robot {spec.name}",
+                       force=args.force, known_files=("trajectory.csv", "shapes.png")) as result:
+        ...                                     # the long work
+        write_trajectory_csv(traj, result.path / "trajectory.csv")   # write into result.path
+    print(result.final_path(result.path / "trajectory.csv"))          # == args.out / "trajectory.csv"
+
+What is guaranteed:
+
+- **Whole or nothing.** On any exception in the block (a full disk, a bad value), on Ctrl-C
+  (SIGINT), SIGTERM or SIGHUP, the temporary folder is removed and ``X`` keeps its old content
+  byte for byte (or stays absent). The signals are turned into exceptions while the block runs
+  (SIGINT: :class:`KeyboardInterrupt`; SIGTERM, SIGHUP: :class:`Interrupted`, a subclass), in the
+  main thread and only where no other handler was installed; during the swap itself they are held
+  back until it is over. :func:`aborted_results` lists the folders an interruption left as they
+  were (the command line's message uses it).
+- **Replaced only when asked.** An existing ``X`` is checked before any work
+  (:func:`check_result_folder`): a result of another ``kind`` (another command), of another
+  ``subject`` (another robot or case, when the caller names one) or a folder holding files the
+  command did not write is refused, naming it, even with ``force``; a result of the same kind and
+  subject is replaced only with ``force=True`` (``--force``). An empty folder is used as is. Each
+  result carries a marker file, :data:`MARKER` (``.msr-result.json``: kind, subject, command,
+  time, host and the list of files written); a folder written before markers existed is
+  recognised by ``known_files`` (every file in it must be one the command writes).
+- **One writer.** While the block runs, ``X`` is locked
+  (:class:`~elastica_magnetic.locks.FolderLock`, the lock file
+  ``.X.msr-lock`` beside it): a second process that wants to write ``X`` is refused, naming the
+  first one's pid, host, command and start time.
+
+The swap is two renames (``X`` -> ``.X.msr-old-...``, the new folder -> ``X``), then the old one
+is renamed to ``.X.msr-trash-...`` and removed. A process killed outright (SIGKILL, power loss)
+can leave, beside ``X``:
+
+- ``.X.msr-new-...`` (killed while building): ``X`` is intact; the leftover is removed;
+- ``.X.msr-old-...`` with ``X`` absent (killed between the two renames): the old content is
+  renamed back to ``X`` (the new result was never reported, so it is dropped);
+- ``.X.msr-old-...`` with ``X`` present (killed after the new folder went in), or
+  ``.X.msr-trash-...`` (killed while removing the old one): the leftover is removed.
+
+This recovery runs at the start of the next :func:`result_folder` (or :func:`recover`) on the
+same ``X``, under its lock, so a leftover is never one another live process is still writing;
+what was done is in :attr:`ResultFolder.notes` (and returned by :func:`recover`). Files are
+flushed to disk (``fsync``) before the swap.
+
+**Folders written in place** (a training seed's folder, appended to for hours and resumed later)
+are not swapped but locked for the whole run: :class:`elastica_magnetic.locks.FolderLock`; their
+checkpoints are single files written with :func:`elastica_magnetic.io.atomic_save`, which keeps
+the previous one until the new one is complete, and :func:`mark_folder` gives them a marker so that
+another command (``refine --out RUN``) is refused there. **A set of files put into a folder that holds
+other things** (figures into ``docs/figures``) goes through
+:func:`elastica_magnetic.filesets.replace_files`.
+
+Commands adopting this: enter :func:`result_folder` before the long work (the refusal and the
+lock come first), print :attr:`ResultFolder.notes` (``elastica_magnetic.cli.print_notes``), write
+every file under :attr:`ResultFolder.path`, print paths mapped with
+:meth:`ResultFolder.final_path`, add ``--force`` to the parser and pass ``force=args.force``.
+A command that writes into a folder another command owns (``refine --out RUN``) is refused by
+the ``kind`` check. Worker processes write their files into :attr:`ResultFolder.path` as well;
+only the parent process enters the block (signals are handled in its main thread), and the pool
+is entered inside it (``with result_folder(...) as r, Pool(...) as pool:``), so that the workers
+are ended before the temporary folder is removed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import secrets
+import shutil
+import signal
+import threading
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .io import OutputPathError, atomic_write_text
+from .locks import FolderLock, command_line, host_name, name_tag, utc_now
+
+__all__ = [
+    "MARKER",
+    "Interrupted",
+    "ResultExistsError",
+    "ResultFolder",
+    "aborted_results",
+    "remove_tree",
+    "signals_as_exceptions",
+    "signals_held",
+    "fsync_tree",
+    "check_result_folder",
+    "mark_folder",
+    "read_marker",
+    "recover",
+    "result_folder",
+]
+
+#: The marker file of a result folder (JSON: kind, subject, command, time, host, files).
+MARKER = ".msr-result.json"
+MARKER_FORMAT = 1
+#: Folders that hold more files than this are not listed in full (they are not a result).
+_MAX_LISTED = 10_000
+
+
+class ResultExistsError(OutputPathError):
+    """An output folder that holds something the command will not replace (another command's or
+    another robot's result, files it did not write, or its own result without ``force``)."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """SIGTERM or SIGHUP received while a result folder was being written (``signum``)."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+# -- signals ---------------------------------------------------------------------------------------
+
+_SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
+_signal_state: dict[str, Any] = {"depth": 0, "previous": {}, "deferring": 0, "pending": None}
+_aborted: list[Path] = []
+
+
+def _raise_for(signum: int) -> None:
+    if signum == signal.SIGINT:
+        raise KeyboardInterrupt
+    raise Interrupted(signum)
+
+
+def _handler(signum: int, frame: object) -> None:
+    if _signal_state["deferring"]:
+        _signal_state["pending"] = _signal_state["pending"] or signum
+        return
+    _raise_for(signum)
+
+
+@contextlib.contextmanager
+def signals_as_exceptions() -> Iterator[None]:
+    """SIGINT, SIGTERM and SIGHUP raise in the main thread while this is entered (where their
+    handler was Python's default: SIGINT :class:`KeyboardInterrupt`, the others
+    :class:`Interrupted`), so ``finally`` blocks run; nested uses share one installation."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    state = _signal_state
+    if state["depth"] == 0:
+        for signum in _SIGNALS:
+            current = signal.getsignal(signum)
+            if current in (signal.SIG_DFL, signal.default_int_handler):
+                state["previous"][signum] = current
+                signal.signal(signum, _handler)
+    state["depth"] += 1
+    try:
+        yield
+    finally:
+        state["depth"] -= 1
+        if state["depth"] == 0:
+            for signum, previous in state["previous"].items():
+                signal.signal(signum, previous)
+            state["previous"] = {}
+
+
+@contextlib.contextmanager
+def signals_held() -> Iterator[None]:
+    """Hold SIGINT/SIGTERM/SIGHUP back (when our handler is installed) until the block is over."""
+    _signal_state["deferring"] += 1
+    try:
+        yield
+    finally:
+        _signal_state["deferring"] -= 1
+        pending = _signal_state["pending"]
+        if not _signal_state["deferring"] and pending is not None:
+            _signal_state["pending"] = None
+            _raise_for(pending)
+
+
+def aborted_results() -> list[Path]:
+    """The result folders (as the caller named them) whose writing an exception or a signal
+    stopped in this process, each left as it was; oldest first."""
+    return list(_aborted)
+
+
+# -- result folders --------------------------------------------------------------------------------
+
+
+def read_marker(folder: str | Path) -> dict[str, Any] | None:
+    """The marker of a result folder (kind, subject, command, written_utc, host, files), or
+    ``None`` when ``folder`` has none (or it is unreadable)."""
+    try:
+        data = json.loads((Path(folder) / MARKER).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) and isinstance(data.get("kind"), str) else None
+
+
+def _files(folder: Path) -> list[str] | None:
+    """Every file (and link) under ``folder``, relative POSIX paths, sorted; ``None`` past
+    :data:`_MAX_LISTED`."""
+    found: list[str] = []
+    for root, dirs, names in os.walk(folder):
+        base = Path(root).relative_to(folder)
+        links = [d for d in dirs if os.path.islink(os.path.join(root, d))]
+        for name in [*names, *links]:
+            found.append((base / name).as_posix())
+            if len(found) > _MAX_LISTED:
+                return None
+    return sorted(found)
+
+
+def _what(marker: dict[str, Any]) -> str:
+    subject = f" for {marker['subject']}" if marker.get("subject") else ""
+    written = f", written {marker['written_utc']}" if marker.get("written_utc") else ""
+    return f"a result of `msr {marker['kind']}`{subject}{written}"
+
+
+def _list(names: list[str]) -> str:
+    return ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
+
+
+def check_result_folder(
+    out: str | Path,
+    *,
+    kind: str,
+    subject: str | None = None,
+    force: bool = False,
+    option: str = "--out",
+    known_files: Iterable[str] = (),
+    force_option: str = "--force",
+) -> dict[str, Any] | None:
+    """Check that ``out`` may receive a result of ``kind`` (the command's name, e.g.
+    ``"simulate"``) for ``subject`` (e.g. ``"robot yao2023-m1"``; ``None``: any).
+
+    Returns ``None`` when ``out`` is absent or an empty folder, else the marker of the result
+    that will be replaced (``{"kind": kind, "legacy": True}`` for a folder written before markers,
+    recognised by ``known_files``: relative paths the command writes). Raises
+    :class:`OutputPathError` (a file, under a file, a mount point, not writable) or
+    :class:`ResultExistsError` (another kind or subject, files the command did not write, or
+    the same result without ``force``), naming ``option`` and the folder. Nothing is written.
+    """
+    final = Path(out)
+    where = f"{option} {final}"
+    _check_path(final, option)
+    if not final.exists():
+        return None
+    if os.path.ismount(final):
+        raise OutputPathError(f"{where}: is a mount point; a result folder is replaced by renaming "
+                              "it, so give a folder inside it")
+    if not os.access(final, os.W_OK | os.X_OK):
+        raise OutputPathError(f"{where}: cannot write in {final}: Permission denied")
+    listed = _files(final)
+    if listed is None:
+        raise ResultExistsError(f"{where}: holds more than {_MAX_LISTED} files, not a result of "
+                                f"`msr {kind}`; choose a new or empty folder")
+    marker = read_marker(final)
+    files = [f for f in listed if f != MARKER]
+    known = set(known_files)
+    if marker is None:
+        if not files and MARKER not in listed:
+            return None
+        unknown = [f for f in files if f not in known]
+        if unknown or not files:
+            raise ResultExistsError(f"{where}: holds files that `msr {kind}` does not write "
+                                    f"({_list(unknown or [MARKER])}); choose a new or empty folder")
+        marker = {"kind": kind, "subject": None, "legacy": True}
+    else:
+        if marker["kind"] != kind:
+            raise ResultExistsError(
+                f"{where}: holds {_what(marker)}, not of `msr {kind}`; choose another {option} "
+                f"({force_option} replaces only a result of the same command"
+                f"{' and subject' if subject else ''})")
+        if subject is not None and marker.get("subject") not in (None, subject):
+            raise ResultExistsError(
+                f"{where}: holds {_what(marker)}, not for {subject}; choose another {option} "
+                f"({force_option} replaces only a result for the same subject)")
+        written = set(marker.get("files") or ()) | known
+        unknown = [f for f in files if f not in written]
+        if unknown:
+            raise ResultExistsError(
+                f"{where}: holds {_what(marker)} and files it did not write ({_list(unknown)}); "
+                f"move them away or choose another {option} ({force_option} replaces only what "
+                "msr wrote)")
+    if not force:
+        raise ResultExistsError(f"{where}: already holds {_what(marker)}; pass {force_option} to "
+                                f"replace it, or choose another {option}")
+    return marker
+
+
+def _check_path(final: Path, option: str) -> None:
+    for parent in (final, *final.parents):
+        if parent.exists() and not parent.is_dir():
+            raise OutputPathError(f"{option} {final}: {parent} is a file, not a folder")
+
+
+def _target(final: Path, option: str) -> Path:
+    """The real folder that will be swapped (links resolved), refused when it cannot be renamed:
+    the file system's root, or the current folder or one above it (a shell would be left in a
+    deleted folder)."""
+    target = Path(os.path.realpath(final))
+    cwd = Path(os.path.realpath(os.getcwd()))
+    if target == target.parent or target == cwd or target in cwd.parents:
+        raise OutputPathError(f"{option} {final}: is the current folder or one above it; a result "
+                              "folder is replaced by renaming it, so give a folder inside it")
+    return target
+
+
+def _leftovers(target: Path) -> dict[str, list[Path]]:
+    prefix = f".{target.name}.msr-"
+    found: dict[str, list[Path]] = {"new": [], "old": [], "trash": []}
+    try:
+        entries = list(target.parent.iterdir())
+    except OSError:
+        return found
+    for entry in entries:
+        if entry.name.startswith(prefix):
+            stage = entry.name[len(prefix):].split("-", 1)[0]
+            if stage in found:
+                found[stage].append(entry)
+    return found
+
+
+def remove_tree(path: Path) -> None:
+    """Remove a folder (or file, or link) and everything under it; a missing one is fine."""
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
+    else:
+        with contextlib.suppress(FileNotFoundError):
+            path.unlink()
+
+
+def _recover_locked(target: Path, shown: Path) -> list[str]:
+    """Clean up after processes killed while writing ``target`` (the caller holds its lock)."""
+    notes: list[str] = []
+    found = _leftovers(target)
+    olds = sorted(found["old"], key=lambda p: p.stat().st_mtime if p.exists() else 0.0)
+    if olds and not target.exists():
+        restored = olds.pop()
+        os.rename(restored, target)
+        notes.append(f"{shown}: restored the previous result from {restored.name} (a replacement "
+                     "was killed between its two renames)")
+    for leftover in [*olds, *found["new"], *found["trash"]]:
+        remove_tree(leftover)
+        notes.append(f"{shown}: removed {leftover.name}, left by a run that was killed")
+    return notes
+
+
+def recover(out: str | Path, *, option: str = "--out") -> list[str]:
+    """Finish the recovery of ``out`` after a killed writer (see the module docstring), under its
+    lock; returns what was done (empty: nothing to do). Raises
+    :class:`~elastica_magnetic.locks.FolderLockedError` when a live process is writing ``out``."""
+    final = Path(out)
+    target = _target(final, option)
+    with FolderLock(target, option=option) as lock:
+        return lock.notes + _recover_locked(target, final)
+
+
+def fsync_tree(folder: Path) -> None:
+    """Flush every file and folder under ``folder`` to disk (best effort where unsupported)."""
+    for root, _dirs, names in os.walk(folder):
+        for name in names:
+            path = os.path.join(root, name)
+            if os.path.islink(path):
+                continue
+            with contextlib.suppress(OSError):
+                fd = os.open(path, os.O_RDONLY)
+                try:
+                    os.fsync(fd)
+                finally:
+                    os.close(fd)
+        _fsync_dir(Path(root))
+
+
+def _fsync_dir(folder: Path) -> None:
+    with contextlib.suppress(OSError, AttributeError):
+        fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+def _sibling(target: Path, stage: str) -> Path:
+    return target.with_name(f".{target.name}.msr-{stage}-{name_tag(host_name())}-{os.getpid()}-"
+                            f"{secrets.token_hex(3)}")
+
+
+def _swap(staging: Path, target: Path) -> None:
+    """Put ``staging`` at ``target`` (two renames when ``target`` exists), then drop the old."""
+    if not target.exists():
+        os.rename(staging, target)
+        _fsync_dir(target.parent)
+        return
+    aside = _sibling(target, "old")
+    os.rename(target, aside)
+    try:
+        os.rename(staging, target)
+    except BaseException:
+        os.rename(aside, target)
+        raise
+    _fsync_dir(target.parent)
+    trash = _sibling(target, "trash")
+    try:
+        os.rename(aside, trash)
+    except OSError:  # pragma: no cover - the next run removes a leftover aside anyway
+        trash = aside
+    remove_tree(trash)
+
+
+@dataclass
+class ResultFolder:
+    """A result folder being written (see :func:`result_folder`).
+
+    ``path``: the temporary folder to write into; ``final``: the folder as the caller named it
+    (where the result will be); ``replaced``: the marker of the result this one replaces
+    (``None``: none); ``notes``: recoveries done on entry (a stale lock taken over, leftovers
+    removed, an old result restored); ``info``: extra JSON-able data stored in the marker (the
+    caller may add to it until the block ends).
+    """
+
+    final: Path
+    path: Path
+    kind: str
+    subject: str | None
+    replaced: dict[str, Any] | None
+    notes: list[str] = field(default_factory=list)
+    info: dict[str, Any] = field(default_factory=dict)
+
+    def final_path(self, path: str | Path) -> Path:
+        """Where ``path`` (under :attr:`path`) will be once the result is in place; other paths
+        are returned unchanged."""
+        path = Path(path)
+        try:
+            return self.final / path.relative_to(self.path)
+        except ValueError:
+            return path
+
+
+@contextlib.contextmanager
+def result_folder(
+    out: str | Path,
+    *,
+    kind: str,
+    subject: str | None = None,
+    force: bool = False,
+    option: str = "--out",
+    known_files: Iterable[str] = (),
+    info: dict[str, Any] | None = None,
+    force_option: str = "--force",
+) -> Iterator[ResultFolder]:
+    """Write a result folder whole or not at all: ``with result_folder(out, kind=...) as r:``
+    write into ``r.path``; on a normal exit the new folder replaces ``out`` (see the module
+    docstring for the checks, the lock, signals and crash recovery).
+
+    ``kind`` names the command (``"simulate"``), ``subject`` what the result is about
+    (``"robot yao2023-m1"``, ``"case m1-4mT"``; ``None``: not checked), ``force`` allows replacing
+    a result of the same kind and subject, ``option`` is the command-line option named in
+    messages, ``known_files`` the relative paths the command writes (recognises results written
+    before markers), ``info`` extra data for the marker. Raises :class:`OutputPathError`,
+    :class:`ResultExistsError` or :class:`~elastica_magnetic.locks.FolderLockedError` before the block runs.
+    """
+    final = Path(out)
+    known = tuple(known_files)
+    _check_path(final, option)
+    target = _target(final, option)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputPathError(f"{option} {final}: cannot create {target.parent}: "
+                              f"{exc.strerror or exc}") from None
+    with signals_as_exceptions(), FolderLock(target, option=option) as lock:
+        notes = lock.notes + _recover_locked(target, final)
+        try:
+            replaced = check_result_folder(final, kind=kind, subject=subject, force=force,
+                                           option=option, known_files=known,
+                                           force_option=force_option)
+        except OutputPathError as exc:
+            for note in notes:  # the command line prints them before the error
+                exc.add_note(note)
+            raise
+        staging = _sibling(target, "new")
+        try:
+            os.mkdir(staging)  # the umask's permissions, as a folder made by the user
+        except OSError as exc:
+            raise OutputPathError(f"{option} {final}: cannot write in {target.parent}: "
+                                  f"{exc.strerror or exc}") from None
+        result = ResultFolder(final, staging, kind, subject, replaced, notes, dict(info or {}))
+        swapped = False
+        try:
+            yield result
+            _write_marker(result)
+            fsync_tree(staging)
+            with signals_held():
+                _swap(staging, target)
+                swapped = True
+        except BaseException as exc:
+            remove_tree(staging)
+            if not swapped:
+                _aborted.append(final)
+            if isinstance(exc, OutputPathError):  # name the files where the user will look
+                text = str(exc).replace(str(staging), str(final))
+                raise type(exc)(f"{text}; {final} is left as it was") from exc
+            if isinstance(exc, OSError):
+                raise OutputPathError(f"{option} {final}: cannot write the result: "
+                                      f"{exc.strerror or exc}; {final} is left as it was") from exc
+            raise
+
+
+def _write_marker(result: ResultFolder) -> None:
+    _marker_into(result.path, result.kind, result.subject, result.info)
+
+
+def _marker_into(folder: Path, kind: str, subject: str | None, info: dict[str, Any]) -> Path:
+    files = _files(folder) or []
+    data = {"format": MARKER_FORMAT, "kind": kind, "subject": subject,
+            "command": command_line(), "written_utc": utc_now(), "host": host_name(),
+            "files": [f for f in files if f != MARKER], **info}
+    return atomic_write_text(folder / MARKER, json.dumps(data, indent=2, default=str) + "\n")
+
+
+def mark_folder(folder: str | Path, *, kind: str, subject: str | None = None,
+                info: dict[str, Any] | None = None) -> Path:
+    """Write (or rewrite) the marker of a folder written in place, such as a training seed's
+    folder held with :class:`~elastica_magnetic.locks.FolderLock`: ``kind`` and ``subject`` as
+    in :func:`result_folder`, the files it holds now. Another command's
+    :func:`check_result_folder` then refuses the folder naming it. Call it under the folder's
+    lock, after each set of files (a checkpoint and its logs) is written. Returns the marker."""
+    return _marker_into(Path(folder), kind, subject, dict(info or {}))

@@ -1,0 +1,115 @@
+"""A set of files put into a shared folder all together or not at all (issue 35)."""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+import time
+
+import pytest
+
+from elastica_magnetic.filesets import recover_files, replace_files
+from elastica_magnetic.results import ResultExistsError
+
+pytestmark = pytest.mark.skipif(os.name != "posix", reason="signals and fork are POSIX")
+NAMES = ("fig.png", "data/summary.json")
+
+
+def shared(tmp_path):
+    folder = tmp_path / "figures"
+    (folder / "data").mkdir(parents=True)
+    (folder / "other.png").write_bytes(b"someone else's figure")
+    (folder / "fig.png").write_bytes(b"old figure")
+    (folder / "data" / "summary.json").write_text('{"old": true}')
+    return folder
+
+
+def contents(folder):
+    return {p.relative_to(folder).as_posix(): p.read_bytes()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def write(files, stop=None):
+    (files.path / "fig.png").write_bytes(b"new figure")
+    stop and stop("first")
+    (files.path / "data").mkdir()
+    (files.path / "data" / "summary.json").write_text('{"new": true}')
+
+
+NEW = {"data/summary.json": b'{"new": true}', "fig.png": b"new figure",
+       "other.png": b"someone else's figure"}
+
+
+def test_the_files_go_in_together_and_nothing_else_is_touched(tmp_path):
+    folder = shared(tmp_path)
+    old = contents(folder)
+    with pytest.raises(ResultExistsError, match=r"already holds fig.png, data/summary.json; pass "
+                                                r"--force to replace"):
+        with replace_files(folder, NAMES):
+            pytest.fail("the block must not run")
+    with pytest.raises(RuntimeError):
+        with replace_files(folder, NAMES, force=True) as files:
+            write(files)
+            raise RuntimeError("failed halfway")
+    with pytest.raises(ValueError, match="wrote extra.txt, not among the declared names"):
+        with replace_files(folder, NAMES, force=True) as files:
+            write(files)
+            (files.path / "extra.txt").write_text("x")
+    assert contents(folder) == old
+    with replace_files(folder, NAMES, force=True) as files:
+        write(files)
+        assert files.final_path(files.path / "fig.png") == folder / "fig.png"
+    assert contents(folder) == NEW
+    assert sorted(os.listdir(tmp_path)) == ["figures"]  # no lock left
+    new = tmp_path / "fresh"
+    with replace_files(new, NAMES) as files:
+        write(files)
+    assert contents(new) == {k: v for k, v in NEW.items() if k != "other.png"}
+
+
+def _child(folder, signum, at):
+    def stop(point):
+        if point == at:
+            os.kill(os.getpid(), signum)
+            time.sleep(5)
+
+    real_replace = os.replace
+    moves = [0]
+
+    def replace(a, b):
+        real_replace(a, b)
+        if str(a).endswith(".msr-commit.tmp"):
+            stop("commit")
+        else:
+            moves[0] += 1
+            stop(f"move{moves[0]}")
+
+    os.replace = replace
+    try:
+        with replace_files(folder, NAMES, force=True) as files:
+            write(files, stop)
+    except KeyboardInterrupt:
+        os._exit(130)
+    os._exit(0)
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGKILL], ids=["SIGINT", "SIGKILL"])
+@pytest.mark.parametrize("at", ["first", "commit", "move1"])
+def test_killed_at_any_point_the_set_is_old_or_new_after_recovery(tmp_path, signum, at):
+    folder = shared(tmp_path)
+    old = contents(folder)
+    process = multiprocessing.get_context("fork").Process(target=_child, args=(folder, signum, at))
+    process.start()
+    process.join(30)
+    if signum == signal.SIGKILL:
+        assert process.exitcode == -signal.SIGKILL
+        notes = recover_files(folder)
+        assert any("stale lock" in n for n in notes)
+        if at != "first":
+            assert any("finished moving" in n for n in notes)
+    else:
+        assert process.exitcode == 130  # held back during the moves: after them
+    assert contents(folder) == (old if at == "first" else NEW)
+    assert sorted(os.listdir(tmp_path)) == ["figures"]
+    assert not any(n.startswith(".msr-files-") for n in os.listdir(folder))

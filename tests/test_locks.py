@@ -1,0 +1,75 @@
+"""Folder locks between real processes (issue 35, mechanism 2): a second writer is refused
+naming the first; the lock of a process that died is taken over and reported; a lock naming
+another host is left to the user."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from elastica_magnetic.locks import FolderLock, FolderLockedError, lock_path
+from elastica_magnetic.results import result_folder
+
+pytestmark = pytest.mark.skipif(os.name != "posix", reason="flock and signals are POSIX")
+
+
+HOLDER = textwrap.dedent("""
+    import sys
+    from elastica_magnetic.locks import FolderLock
+    lock = FolderLock(sys.argv[1]).acquire()
+    print("held", flush=True)
+    sys.stdin.readline()
+    lock.release()
+""")
+
+
+def _holder(folder: Path) -> subprocess.Popen:
+    process = subprocess.Popen([sys.executable, "-c", HOLDER, str(folder)], stdin=subprocess.PIPE,
+                               stdout=subprocess.PIPE, text=True)
+    assert process.stdout.readline().strip() == "held"
+    return process
+
+
+def test_a_second_process_is_refused_and_a_dead_ones_lock_taken_over(tmp_path):
+    folder = tmp_path / "seed0"
+    holder = _holder(folder)
+    try:
+        owner = json.loads(lock_path(folder).read_text())
+        assert owner["pid"] == holder.pid and owner["host"]
+        with pytest.raises(FolderLockedError, match=rf"--out .*seed0: being written by pid "
+                                                    rf"{holder.pid} on .*; wait for it to finish"):
+            FolderLock(folder).acquire()
+        # A result folder there is refused as well, before anything is written.
+        with pytest.raises(FolderLockedError, match=f"pid {holder.pid}"):
+            with result_folder(folder, kind="demo"):
+                pytest.fail("the block must not run")
+        assert not folder.exists()
+        holder.kill()  # SIGKILL: the lock file stays, naming a process that is gone
+        holder.wait()
+        assert lock_path(folder).exists()
+        with FolderLock(folder) as lock:
+            assert lock.notes and f"stale lock of pid {holder.pid}" in lock.notes[0]
+            assert json.loads(lock_path(folder).read_text())["pid"] == os.getpid()
+        assert not lock_path(folder).exists()
+    finally:
+        holder.kill()
+        holder.wait()
+
+
+def test_a_released_lock_is_free_and_another_hosts_lock_is_not_taken(tmp_path):
+    folder = tmp_path / "seed1"
+    holder = _holder(folder)
+    holder.communicate("\n", timeout=30)  # released normally: no file left
+    assert holder.returncode == 0 and not lock_path(folder).exists()
+    FolderLock(folder).acquire().release()
+    lock_path(folder).write_text(json.dumps({"pid": 1, "host": "elsewhere", "command": "msr train",
+                                             "started_utc": "2026-01-01T00:00:00Z"}))
+    with pytest.raises(FolderLockedError, match=r"pid 1 on elsewhere \(`msr train`.*another host.*"
+                                                r"if it does not, remove .*\.seed1\.msr-lock"):
+        FolderLock(folder).acquire()
