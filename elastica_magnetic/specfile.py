@@ -49,6 +49,7 @@ from .presets import (
     RobotSpec,
     robot_by_name,
 )
+from .stability import CALIBRATION, estimated_stable_time_step, suggested_time_step
 
 __all__ = [
     "SPEC_TABLES",
@@ -64,7 +65,6 @@ __all__ = [
     "field_limit_of",
     "spec_field_limit",
     "check_plain_name",
-    "stable_time_step",
 ]
 
 #: Top-level keys of a spec file (the learning package reads the last four).
@@ -352,7 +352,9 @@ def describe_robot(spec: Mapping[str, Any], source: str = "<spec>") -> RobotDesc
         check_plain_name(top, "name", spec["name"])
     robot = _robot_table(top.table("robot"))
     physics = _physics_table(top.table("physics", required=False), source, robot)
-    return RobotDescription({"robot": robot, "physics": physics})
+    description = RobotDescription({"robot": robot, "physics": physics})
+    _check_time_steps(description, spec, source)
+    return description
 
 
 def _robot_table(t: SpecTable) -> dict[str, Any]:
@@ -545,9 +547,6 @@ def _physics_table(t: SpecTable | None, source: str, robot: Mapping[str, Any]) -
         sub.finish()
     if t is not None:
         t.finish()
-    for setting, values in out.items():
-        given = t is not None and isinstance(t.data.get(setting), Mapping) and "dt" in t.data[setting]
-        _check_time_step(source, setting, values, robot, given)
     return out
 
 
@@ -587,49 +586,23 @@ def _check_friction(t: SpecTable, ground: Mapping[str, float]) -> None:
                                     "(a sliding element would hold harder than a sticking one)")
 
 
-def stable_time_step(robot: Mapping[str, Any], mass_scale: float) -> tuple[float, str]:
-    """The largest time step (s) the explicit integrator is stable at for the checked ``[robot]``
-    table ``robot`` with ``mass_scale``, and the limit that sets it.
-
-    An element of length ``dl`` and mass ``m = rho s pi r^2 dl`` (``r`` the equivalent radius,
-    ``s`` the mass scale): the axial wave must not cross an element in one step (``dt < dl / c``,
-    ``c = sqrt(E / (rho s))``, the highest mode of the stretch chain); the ground's damping
-    ``nu`` (N s/m, per element) is integrated explicitly (``dt < 2 m / nu``) and so is its
-    stiffness ``k`` (``dt < 2 sqrt(m / k)``). Measured on a 2 mm x 0.8 mm x 80 um band (20
-    elements, 2 m / nu = 4.2e-7 s): at 0.95 of it the robot rises 0.86 mm (0.90 mm at 0.6 of it),
-    at 1.19 of it the ground throws it 11.9 mm high without any divergence detected.
-    """
-    radius = robot["radius"] if "radius" in robot else robot["thickness"] / math.sqrt(3.0)
-    dl = robot["length"] / robot["n_elements"]
-    density = robot["density"] * mass_scale
-    mass = density * math.pi * radius**2 * dl
-    limits = [(dl / math.sqrt(robot["youngs_modulus"] / density),
-               "the axial wave must not cross an element in one step (dl / sqrt(E / rho))")]
-    ground = robot.get("ground")
-    if ground is not None and ground["damping"] > 0.0:
-        limits.append((2.0 * mass / ground["damping"],
-                       "[robot.ground] damping is integrated explicitly (2 m / nu, m the mass of an "
-                       "element)"))
-    if ground is not None:
-        limits.append((2.0 * math.sqrt(mass / ground["stiffness"]),
-                       "[robot.ground] stiffness is integrated explicitly (2 sqrt(m / k))"))
-    return min(limits)
-
-
-def _check_time_step(source: str, setting: str, values: Mapping[str, float],
-                     robot: Mapping[str, Any], given: bool) -> None:
-    limit, why = stable_time_step(robot, values["mass_scale"])
-    if values["dt"] > limit:
-        # The largest 1, 2, 2.5, 4, 5 or 8 x 10^k at most half the limit that divides the period.
-        candidates = [m * 10.0**k for k in range(-12, -2) for m in (1, 2, 2.5, 4, 5, 8)]
-        fits = [c for c in candidates if c <= 0.5 * limit
-                and abs(ACTION_PERIOD / c - round(ACTION_PERIOD / c)) < 1e-6 * ACTION_PERIOD / c]
-        value = "the default" if not given else "given"
+def _check_time_steps(description: RobotDescription, spec: Mapping[str, Any], source: str) -> None:
+    """Refuse a physics setting whose ``dt`` is above the robot's estimated stable step
+    (:func:`~elastica_magnetic.stability.estimated_stable_time_step`), naming the mechanism that
+    limits it and a step that fits."""
+    physics = spec.get("physics")
+    for setting in description.tables["physics"]:
+        robot = description.robot(setting)
+        stable, limiting, _ = estimated_stable_time_step(robot)
+        if robot.dt <= stable:
+            continue
+        table = physics.get(setting) if isinstance(physics, Mapping) else None
+        value = "given" if isinstance(table, Mapping) and "dt" in table else "the default"
         raise SpecError(
-            f"{source}: [physics.{setting}] dt: {values['dt']:g} s ({value}) is above the stable "
-            f"time step {limit:.3g} s of this robot: {why}; the simulation would blow up or give a "
-            f"wrong result. Set dt = {max(fits, default=limit / 2):g} in [physics.{setting}] (half "
-            "the limit)")
+            f"{source}: [physics.{setting}] dt: {robot.dt:g} s ({value}) is above the stable time "
+            f"step {stable:.2e} s of this robot ({CALIBRATION:g} x the {limiting} limit, "
+            f"{stable / CALIBRATION:.2e} s); the simulation would blow up or give a wrong result. "
+            f"Set dt = {suggested_time_step(stable):g} in [physics.{setting}]")
 
 
 def load_robot(robot: str | Path, physics: Physics = "accurate") -> RobotSpec:

@@ -14,7 +14,8 @@ import pytest
 from elastica_magnetic import RotatingField, run_open_loop
 from elastica_magnetic.presets import ROBOTS, robot_by_name
 from elastica_magnetic.section import equivalent_radius, rectangular_band_rod, rigidity_scale
-from elastica_magnetic.specfile import SpecError, describe_robot, load_robot, loads, stable_time_step
+from elastica_magnetic.specfile import SpecError, describe_robot, load_robot, loads
+from elastica_magnetic.stability import estimated_stable_time_step
 
 BAND = """
 name = "{case}"
@@ -76,16 +77,8 @@ def test_kinetic_friction_above_static_is_refused():
 @pytest.mark.parametrize("physics", ["accurate", "training"])
 def test_the_presets_time_steps_are_within_the_stable_limit(name, physics):
     robot = robot_by_name(name, physics)
-    tables = {"length": robot.length, "n_elements": robot.n_elements, "density": robot.density,
-              "youngs_modulus": robot.youngs_modulus}
-    if robot.section == "band":
-        tables["thickness"] = robot.height
-    else:
-        tables["radius"] = robot.width / 2
-    if robot.ground is not None:
-        tables["ground"] = {"damping": robot.ground.nu, "stiffness": robot.ground.k}
-    limit, _ = stable_time_step(tables, robot.mass_scale)
-    assert robot.dt < limit
+    stable, _, _ = estimated_stable_time_step(robot)
+    assert robot.dt < stable
 
 
 MILLI = """
@@ -108,13 +101,13 @@ def test_a_millimetre_robot_with_the_default_time_step_is_refused_naming_the_lim
     path = tmp_path / "milli.toml"
     path.write_text(MILLI)
     with pytest.raises(SpecError, match=r"milli\.toml: \[physics\.training\] dt: 0\.0001 s \(the "
-                                        r"default\) is above the stable time step 8\.7\de-06 s of "
-                                        r"this robot: \[robot\.ground\] damping .* Set dt = 4e-06 in "
-                                        r"\[physics\.training\]"):
+                                        r"default\) is above the stable time step 6\.\d+e-06 s of "
+                                        r"this robot \(0\.7 x the ground damping limit, 8\.7\d+e-06 s\)"
+                                        r".* Set dt = 2e-06 in \[physics\.training\]"):
         load_robot(path, "accurate")
     path.write_text(MILLI + "[physics.training]\ndt = 4e-6\n[physics.accurate]\ndt = 1e-6\n")
     with pytest.raises(SpecError, match=r"\[physics\.accurate\] dt: 1e-06 s \(given\) is above the "
-                                        r"stable time step 8\.\d+e-07 s"):
+                                        r"stable time step \d\.\d+e-07 s"):
         load_robot(path, "accurate")
 
 
