@@ -271,3 +271,18 @@ def magnetic_torques_at_elements(moment_material, fields_lab, directors, externa
         external_torques[0, e] += m1 * b2 - m2 * b1
         external_torques[1, e] += m2 * b0 - m0 * b2
         external_torques[2, e] += m0 * b1 - m1 * b0
+
+
+@njit(cache=True)
+def first_nonfinite(b, g, with_gradient):
+    """Index of the first column of ``b`` (3, n) (or, ``with_gradient``, of ``g`` (3, 3, n)) that
+    holds NaN or an infinity; -1 if none."""
+    for k in range(b.shape[1]):
+        for i in range(3):
+            if not math.isfinite(b[i, k]):
+                return k
+            if with_gradient:
+                for j in range(3):
+                    if not math.isfinite(g[i, j, k]):
+                        return k
+    return -1

@@ -20,7 +20,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from . import _spatial_kernels as spatial_kernels
-from .spatial_fields import is_spatial
+from .spatial_fields import SpatialField, is_spatial
 
 __all__ = [
     "FieldValueError",
@@ -158,6 +158,8 @@ class MagneticTorques(NoForces):
         self.frame = frame
         self._moment_material: NDArray[np.float64] | None = None
         self._centres: NDArray[np.float64] | None = None
+        self._b: NDArray[np.float64] | None = None
+        self._g: NDArray[np.float64] | None = None
         self._fresh_field: NDArray[np.float64] | None = None  # B at the centres, from apply_forces
         self._fresh_time = math.nan
 
@@ -180,6 +182,22 @@ class MagneticTorques(NoForces):
         the pair ``(B, G)`` with ``G`` ``(3, 3, n)`` T/m; shapes and finiteness checked."""
         centres = self.element_centres(system)
         n = centres.shape[1]
+        if isinstance(self.field, SpatialField):
+            # The package's own sources: buffers reused, one finiteness check in numba.
+            if self._b is None:
+                self._b, self._g = np.empty((3, n)), np.empty((3, 3, n))
+            b, g = self._b, self._g
+            b.fill(0.0)
+            if gradient:
+                g.fill(0.0)
+            self.field._add(centres, float(time), b, g, gradient)
+            bad = spatial_kernels.first_nonfinite(b, g, gradient)
+            if bad >= 0:
+                raise FieldValueError(
+                    f"spatial source {type(self.field).__name__} returned a non-finite B (T) or "
+                    f"gradient (T/m) at element {bad} at t = {float(time):.6g} s (an element at a "
+                    "dipole or on a wire?)")
+            return (b, g) if gradient else b
         if gradient:
             evaluate = getattr(self.field, "evaluate", None)
             if evaluate is not None:

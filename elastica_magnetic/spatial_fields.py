@@ -25,6 +25,7 @@ callables of time (e.g. :class:`Waypoints`).
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Callable
 from pathlib import Path
@@ -151,19 +152,24 @@ class Waypoints:
             raise SpatialFieldError(f"times must increase strictly (s), got {times.tolist()}")
         self.times = times
         self.values = np.ascontiguousarray(values)
+        self._times = times.tolist()
+        self._rows = [row.tolist() for row in self.values]
         self._value = np.empty(3)
 
     def __call__(self, time: float) -> NDArray[np.float64]:
-        times = self.times
+        times = self._times
         if time <= times[0]:
             return self.values[0]
         if time >= times[-1]:
             return self.values[-1]
-        i = int(np.searchsorted(times, time, side="right")) - 1
+        i = bisect.bisect_right(times, time) - 1
         w = (time - times[i]) / (times[i + 1] - times[i])
-        np.multiply(self.values[i], 1.0 - w, out=self._value)
-        self._value += w * self.values[i + 1]
-        return self._value
+        a, b = self._rows[i], self._rows[i + 1]
+        value = self._value
+        value[0] = a[0] + w * (b[0] - a[0])
+        value[1] = a[1] + w * (b[1] - a[1])
+        value[2] = a[2] + w * (b[2] - a[2])
+        return value
 
 
 class SpatialField:
