@@ -9,10 +9,12 @@ import numpy as np
 import pandas as pd
 
 from .cli import CommandError, duration_option, number, print_result
+from .field_spec import load_field
 from .fields import RotatingField, TabulatedField
 from .io import prepare_output_dir
 from .openloop import run_open_loop, write_trajectory_csv
 from .presets import ROBOTS
+from .spatial_fields import FieldSum
 from .specfile import SpecError, load_robot
 
 ROBOT_HELP = (f"a preset ({', '.join(ROBOTS)}) or a spec file (.toml, e.g. from "
@@ -27,6 +29,7 @@ def robot_option(value: str) -> str:
     """``--robot NAME_OR_PATH``, checked at parse time (a bad spec file names the file and key)."""
     try:
         load_robot(value)
+        load_field(value)
     except SpecError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
     return value
@@ -55,17 +58,19 @@ def register(sub: argparse._SubParsersAction) -> None:
         "simulate",
         help="simulate a robot under a rotating field (the paper's by default)",
         description="Simulate a robot (a preset or a spec file; the paper's pattern-1 robot by "
-        "default) under a field rotating in the x-y plane; write trajectory.csv and a picture of "
-        "the robot's shapes.",
+        "default) under a field rotating in the x-y plane, or under the field source of the spec's "
+        "[field] table (a magnet or coils, with the clamp of its [boundary] table); write "
+        "trajectory.csv and a picture of the robot's shapes (and, with a [field], of the tip's path).",
     )
     p.add_argument("--robot", type=robot_option, default="yao2023-m1", help=ROBOT_HELP)
     p.add_argument("--physics", choices=("accurate", "training"), default="accurate")
-    p.add_argument("--amplitude", type=number("T", 0.0, MAX_AMPLITUDE_T, low_open=True), default=4e-3,
-                   help=f"field amplitude, T (at most {MAX_AMPLITUDE_T:g})")
-    p.add_argument("--frequency", default=-1.0,
+    p.add_argument("--amplitude", type=number("T", 0.0, MAX_AMPLITUDE_T, low_open=True), default=None,
+                   help=f"field amplitude, T (at most {MAX_AMPLITUDE_T:g}; default 4e-3)")
+    p.add_argument("--frequency", default=None,
                    type=number("Hz", -NYQUIST_HZ, NYQUIST_HZ, low_open=True, high_open=True),
                    help="rotation frequency, Hz (negative: clockwise, rolls the robot "
-                   f"towards +x); |f| < {NYQUIST_HZ:g} Hz, the Nyquist limit of the 100 Hz output")
+                   f"towards +x; default -1); |f| < {NYQUIST_HZ:g} Hz, the Nyquist limit of the 100 "
+                   "Hz output")
     p.add_argument("--ramp", type=number("s", 0.0), default=None,
                    help="amplitude ramp-up time, s (0: none; at most --duration; default 0.2 or "
                    "--duration if shorter)")
@@ -99,11 +104,16 @@ def replay_command(args: argparse.Namespace) -> int:
             "last row, so give at most the file's length"
         )
     spec = load_robot(args.robot, args.physics)
+    setup = load_field(args.robot)
+    source = setup.source() if setup is not None else None
+    if source is not None:  # the coils' uniform waveform plus the spec's field in space
+        field = FieldSum(field, source)
     # Every input and the output folder are checked before the simulation starts.
     reference = _read_reference(args.reference, duration) if args.reference is not None else None
     out = prepare_output_dir(args.out)
     result = run_open_loop(
-        spec, field, duration, progress=_progress(int(round(duration * 100)), "replay")
+        spec, field, duration, progress=_progress(int(round(duration * 100)), "replay"),
+        clamp=setup is not None and setup.clamp,
     )
     trajectory_csv = write_trajectory_csv(result.trajectory, out / "trajectory.csv")
     summary: dict[str, object] = {}
@@ -120,6 +130,11 @@ def replay_command(args: argparse.Namespace) -> int:
 
 
 def simulate_command(args: argparse.Namespace) -> int:
+    setup = load_field(args.robot)
+    if setup is not None and setup.table is not None:
+        return _simulate_spatial(args, setup)
+    args.amplitude = 4e-3 if args.amplitude is None else args.amplitude
+    args.frequency = -1.0 if args.frequency is None else args.frequency
     if args.ramp is None:
         args.ramp = min(0.2, args.duration)
     if args.ramp > args.duration:
@@ -131,7 +146,8 @@ def simulate_command(args: argparse.Namespace) -> int:
     field = RotatingField(args.amplitude, args.frequency, phase=0.5 * np.pi, ramp_time=args.ramp)
     out = prepare_output_dir(args.out)
     result = run_open_loop(
-        spec, field, args.duration, progress=_progress(int(round(args.duration * 100)), "simulate")
+        spec, field, args.duration, progress=_progress(int(round(args.duration * 100)), "simulate"),
+        clamp=setup is not None and setup.clamp,
     )
     trajectory_csv = write_trajectory_csv(result.trajectory, out / "trajectory.csv")
     from .plotting import plot_open_loop
@@ -142,6 +158,35 @@ def simulate_command(args: argparse.Namespace) -> int:
         f"{args.frequency:g} Hz ({args.physics} physics)",
     )
     print_result(_summary(args, result, trajectory_csv, figure), args.json)
+    return 0
+
+
+def _simulate_spatial(args: argparse.Namespace, setup) -> int:
+    """``msr simulate`` with a spec whose ``[field]`` names a source in space (no rotating field)."""
+    given = [f"--{name}" for name in ("amplitude", "frequency", "ramp") if getattr(args, name) is not None]
+    if given:
+        raise CommandError(f"{' and '.join(given)} set the rotating field, but {args.robot} names its "
+                           f"own field ([field] kind = {setup.table['kind']!r}); drop them or the [field] "
+                           "table")
+    spec = load_robot(args.robot, args.physics)
+    source = setup.source()
+    out = prepare_output_dir(args.out)
+    result = run_open_loop(
+        spec, source, args.duration, progress=_progress(int(round(args.duration * 100)), "simulate"),
+        clamp=setup.clamp,
+    )
+    trajectory_csv = write_trajectory_csv(result.trajectory, out / "trajectory.csv")
+    from .plotting import plot_open_loop, plot_tip_path
+
+    kind = setup.table["kind"]
+    title = f"{Path(args.robot).name} in a {kind} field ({args.physics} physics)"
+    figure = plot_open_loop(result, out / "shapes.png", title=title)
+    tip = plot_tip_path(result, source, out / "tip_path.png", title=title)
+    summary = _summary(args, result, trajectory_csv, figure)
+    summary.update(field=kind, clamp=setup.clamp, tip_path_figure=str(tip),
+                   tip_final_m=[float(result.trajectory.front_x_m.iloc[-1]),
+                                float(result.trajectory.front_y_m.iloc[-1])])
+    print_result(summary, args.json)
     return 0
 
 
