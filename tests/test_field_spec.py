@@ -82,7 +82,8 @@ points = [[0.0, 0.0, -0.05], [0.02, 0.0, -0.05]]
 def test_a_field_map_file_is_found_next_to_the_spec(tmp_path):
     axes = [np.linspace(-0.05, 0.05, 5)] * 3
     np.savez(tmp_path / "map.npz", x=axes[0], y=axes[1], z=axes[2], B=np.ones((5, 5, 5, 3)) * 1e-3)
-    (tmp_path / "spec.toml").write_text(ROBOT + '[field]\nkind = "field-map"\nfile = "map.npz"\nscale = 2.0\n')
+    (tmp_path / "spec.toml").write_text(
+        ROBOT + '[field]\nkind = "field-map"\nfile = "map.npz"\nscale = 2.0\n')
     source = load_field(tmp_path / "spec.toml").source()
     np.testing.assert_allclose(source.at(POINTS), 2e-3)
 
@@ -126,7 +127,8 @@ position = [0.05, 0.03, 0.0]
     assert trajectory["front_y_m"][-1] > 1e-4
     assert abs(trajectory["back_x_m"][-1] - trajectory["back_x_m"][0]) < 1e-5
     assert abs(trajectory["back_y_m"][-1]) < 0.05 * trajectory["front_y_m"][-1]
-    assert main(["simulate", "--robot", str(spec), "--amplitude", "0.004", "--out", str(tmp_path / "o2")]) == 2
+    assert main(["simulate", "--robot", str(spec), "--amplitude", "0.004",
+                 "--out", str(tmp_path / "o2")]) == 2
     assert "--amplitude set the rotating field" in capsys.readouterr().err
 
 
