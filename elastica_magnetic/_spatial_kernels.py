@@ -75,7 +75,7 @@ def elliptic_ke(m):
         a = a_next
         power *= 2.0
         total += power * c * c
-        if abs(c) < 1e-17 * a:
+        if abs(c) <= 1e-15 * a:  # the next terms are below 1e-30: converged (and no ulp cycling)
             break
     k = 0.5 * math.pi / a
     return k, k * (1.0 - total)
@@ -140,20 +140,23 @@ def loops_field(centres, frames, radii, currents, points, b_out, g_out, with_gra
     ``(e1, e2, axis)`` of each loop, ``radii`` (L,) m, ``currents`` (L,) A (counter-clockwise about
     ``axis``; turns included). Adds B and its gradient at ``points`` (3, n)."""
     n_points = points.shape[1]
-    local_b = np.empty(3)
-    local_g = np.empty((3, 3))
     for ell in range(radii.shape[0]):
         scale = MU0_OVER_2PI * currents[ell]
         if scale == 0.0:
             continue
-        rot = frames[:, :, ell]
+        # Frame columns e1 = (r00, r10, r20), e2 = (r01, r11, r21), axis = (r02, r12, r22).
+        r00, r01, r02 = frames[0, 0, ell], frames[0, 1, ell], frames[0, 2, ell]
+        r10, r11, r12 = frames[1, 0, ell], frames[1, 1, ell], frames[1, 2, ell]
+        r20, r21, r22 = frames[2, 0, ell], frames[2, 1, ell], frames[2, 2, ell]
+        cx, cy, cz = centres[0, ell], centres[1, ell], centres[2, ell]
+        radius = radii[ell]
         for k in range(n_points):
-            d0 = points[0, k] - centres[0, ell]
-            d1 = points[1, k] - centres[1, ell]
-            d2 = points[2, k] - centres[2, ell]
-            x = rot[0, 0] * d0 + rot[1, 0] * d1 + rot[2, 0] * d2
-            y = rot[0, 1] * d0 + rot[1, 1] * d1 + rot[2, 1] * d2
-            z = rot[0, 2] * d0 + rot[1, 2] * d1 + rot[2, 2] * d2
+            d0 = points[0, k] - cx
+            d1 = points[1, k] - cy
+            d2 = points[2, k] - cz
+            x = r00 * d0 + r10 * d1 + r20 * d2
+            y = r01 * d0 + r11 * d1 + r21 * d2
+            z = r02 * d0 + r12 * d1 + r22 * d2
             rho = math.sqrt(x * x + y * y)
             if rho > 0.0:
                 c = x / rho
@@ -161,37 +164,47 @@ def loops_field(centres, frames, radii, currents, points, b_out, g_out, with_gra
             else:
                 c = 1.0
                 s = 0.0
-            b_rho, b_z, db_rho, b_rho_over_rho, db_z_drho, db_z_dz = loop_local(radii[ell], rho, z)
-            local_b[0] = b_rho * c
-            local_b[1] = b_rho * s
-            local_b[2] = b_z
-            for i in range(3):
-                value = 0.0
-                for j in range(3):
-                    value += rot[i, j] * local_b[j]
-                b_out[i, k] += scale * value
+            b_rho, b_z, db_rho, brr, dbzr, dbzz = loop_local(radius, rho, z)
+            # Local field (b_rho c, b_rho s, b_z), to the lab frame: B = R b.
+            bx = b_rho * c
+            by = b_rho * s
+            b_out[0, k] += scale * (r00 * bx + r01 * by + r02 * b_z)
+            b_out[1, k] += scale * (r10 * bx + r11 * by + r12 * b_z)
+            b_out[2, k] += scale * (r20 * bx + r21 * by + r22 * b_z)
             if not with_gradient:
                 continue
-            local_g[0, 0] = db_rho * c * c + b_rho_over_rho * s * s
-            local_g[0, 1] = (db_rho - b_rho_over_rho) * c * s
-            local_g[1, 0] = local_g[0, 1]
-            local_g[1, 1] = db_rho * s * s + b_rho_over_rho * c * c
-            local_g[0, 2] = db_z_drho * c  # d b_rho / dz = d b_z / d rho
-            local_g[1, 2] = db_z_drho * s
-            local_g[2, 0] = db_z_drho * c
-            local_g[2, 1] = db_z_drho * s
-            local_g[2, 2] = db_z_dz
-            # G_lab = R G_local R^T.
-            for i in range(3):
-                for j in range(3):
-                    value = 0.0
-                    for p in range(3):
-                        row = rot[i, p]
-                        if row == 0.0:
-                            continue
-                        for q in range(3):
-                            value += row * local_g[p, q] * rot[j, q]
-                    g_out[i, j, k] += scale * value
+            # Local gradient (symmetric: curl-free), d b_rho/dz = d b_z/d rho.
+            gxx = db_rho * c * c + brr * s * s
+            gxy = (db_rho - brr) * c * s
+            gyy = db_rho * s * s + brr * c * c
+            gxz = dbzr * c
+            gyz = dbzr * s
+            gzz = dbzz
+            # T = R G_local (rows i), then G_lab = T R^T.
+            t00 = r00 * gxx + r01 * gxy + r02 * gxz
+            t01 = r00 * gxy + r01 * gyy + r02 * gyz
+            t02 = r00 * gxz + r01 * gyz + r02 * gzz
+            t10 = r10 * gxx + r11 * gxy + r12 * gxz
+            t11 = r10 * gxy + r11 * gyy + r12 * gyz
+            t12 = r10 * gxz + r11 * gyz + r12 * gzz
+            t20 = r20 * gxx + r21 * gxy + r22 * gxz
+            t21 = r20 * gxy + r21 * gyy + r22 * gyz
+            t22 = r20 * gxz + r21 * gyz + r22 * gzz
+            g00 = t00 * r00 + t01 * r01 + t02 * r02
+            g01 = t00 * r10 + t01 * r11 + t02 * r12
+            g02 = t00 * r20 + t01 * r21 + t02 * r22
+            g11 = t10 * r10 + t11 * r11 + t12 * r12
+            g12 = t10 * r20 + t11 * r21 + t12 * r22
+            g22 = t20 * r20 + t21 * r21 + t22 * r22
+            g_out[0, 0, k] += scale * g00
+            g_out[0, 1, k] += scale * g01
+            g_out[0, 2, k] += scale * g02
+            g_out[1, 0, k] += scale * g01
+            g_out[1, 1, k] += scale * g11
+            g_out[1, 2, k] += scale * g12
+            g_out[2, 0, k] += scale * g02
+            g_out[2, 1, k] += scale * g12
+            g_out[2, 2, k] += scale * g22
 
 
 @njit(cache=True)
