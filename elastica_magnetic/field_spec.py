@@ -1,22 +1,20 @@
 """The ``[field]`` and ``[boundary]`` tables of a spec file: a field source that varies in space
-and a clamp, for ``msr simulate`` and ``msr replay``.
+and a clamp, for ``msr simulate`` and ``msr replay``::
 
-```toml
-[boundary]
-clamp = "first"            # clamp the first node and element (a catheter held at its base)
+    [boundary]
+    clamp = "first"            # clamp the first node and element (a catheter held at its base)
 
-[field]
-kind = "point-dipole"      # point-dipole, current-loop, helmholtz, maxwell, field-map
-moment = [0.0, 0.0, 2.0]   # A m^2 (point-dipole)
-position = [0.0, 0.05, 0.0]  # m; or a [field.path] table
-ramp = 0.2                 # s: the strength grows linearly from zero (default 0)
-frequency = 0.0            # Hz: strength x cos(2 pi f t + phase) (default 0: constant)
-phase = 0.0                # rad
+    [field]
+    kind = "point-dipole"      # point-dipole, current-loop, helmholtz, maxwell, field-map
+    moment = [0.0, 0.0, 2.0]   # A m^2 (point-dipole)
+    # position = [0.0, 0.05, 0.0]  # m: a fixed pose, or the [field.path] table below
+    ramp = 0.2                 # s: the strength grows linearly from zero (default 0)
+    frequency = 0.0            # Hz: strength x cos(2 pi f t + phase) (default 0: constant)
+    phase = 0.0                # rad
 
-[field.path]               # the pose follows waypoints (linear between, held after)
-times = [0.0, 1.0, 2.0]    # s
-points = [[0.0, 0.05, 0.0], [0.02, 0.05, 0.0], [0.04, 0.05, 0.0]]  # m
-```
+    [field.path]               # the pose follows waypoints (linear between, held after)
+    times = [0.0, 1.0, 2.0]    # s
+    points = [[0.0, 0.05, 0.0], [0.02, 0.05, 0.0], [0.04, 0.05, 0.0]]  # m
 
 Coils (``current-loop``, ``helmholtz``, ``maxwell``) take ``radius`` (m), ``current`` (A),
 ``turns`` (default 1), ``axis`` (default ``[0, 0, 1]``) and ``centre`` (m) or ``[field.path]``;
