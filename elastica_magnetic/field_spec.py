@@ -5,7 +5,8 @@ and a clamp, for ``msr simulate`` and ``msr replay``::
     clamp = "first"            # clamp the first node and element (a catheter held at its base)
 
     [field]
-    kind = "point-dipole"      # point-dipole, current-loop, helmholtz, maxwell, field-map
+    kind = "point-dipole"      # point-dipole, current-loop, helmholtz, maxwell, field-map,
+                               # cuboid-magnet, cylinder-magnet
     moment = [0.0, 0.0, 2.0]   # A m^2 (point-dipole)
     # position = [0.0, 0.05, 0.0]  # m: a fixed pose, or the [field.path] table below
     ramp = 0.2                 # s: the strength grows linearly from zero (default 0)
@@ -19,7 +20,11 @@ and a clamp, for ``msr simulate`` and ``msr replay``::
 Coils (``current-loop``, ``helmholtz``, ``maxwell``) take ``radius`` (m), ``current`` (A),
 ``turns`` (default 1), ``axis`` (default ``[0, 0, 1]``) and ``centre`` (m) or ``[field.path]``;
 ``field-map`` takes ``file`` (``.npz`` or ``.csv``, relative to the spec file; see
-:class:`~elastica_magnetic.FieldMap`) and ``scale`` (default 1). Every value is SI. Errors are
+:class:`~elastica_magnetic.FieldMap`) and ``scale`` (default 1). Finite magnets (Magpylib, see
+:mod:`elastica_magnetic.magnet_fields`): ``cuboid-magnet`` takes ``dimension`` (m, 3 edges),
+``cylinder-magnet`` ``diameter`` and ``height`` (m); both take ``polarization`` (T, ``mu0 M`` in
+the magnet's own frame), ``axis`` (lab direction of the magnet's own z) and ``position`` (m) or
+``[field.path]``. Every value is SI. Errors are
 :class:`~elastica_magnetic.specfile.SpecError` naming the file, the table and the key.
 """
 
@@ -51,6 +56,8 @@ FIELD_KINDS: dict[str, tuple[str, ...]] = {
     "helmholtz": ("radius", "current", "turns", "axis", "centre", "path"),
     "maxwell": ("radius", "current", "turns", "axis", "centre", "path"),
     "field-map": ("file", "scale"),
+    "cuboid-magnet": ("dimension", "polarization", "axis", "position", "path"),
+    "cylinder-magnet": ("diameter", "height", "polarization", "axis", "position", "path"),
 }
 #: Values of ``[boundary] clamp``.
 CLAMPS = ("none", "first")
@@ -89,6 +96,19 @@ def describe_field(spec: Mapping[str, Any], source: str = "<spec>") -> FieldSetu
     elif kind == "field-map":
         out["file"] = t.string("file")
         out["scale"] = t.number("scale", "1", 1.0)
+    elif kind in ("cuboid-magnet", "cylinder-magnet"):
+        if kind == "cuboid-magnet":
+            out["dimension"] = t.vector("dimension", "m", 3)
+            if min(out["dimension"]) <= 0.0:
+                raise t.error("dimension", f"must be positive lengths (m), got {out['dimension']!r}")
+        else:
+            out["diameter"] = t.number("diameter", "m", low=0.0, low_open=True)
+            out["height"] = t.number("height", "m", low=0.0, low_open=True)
+        out["polarization"] = t.vector("polarization", "T, J = mu0 M in the magnet's own frame", 3)
+        out["axis"] = t.vector("axis", "a direction [x, y, z]", 3, [0.0, 0.0, 1.0])
+        if not any(out["axis"]):
+            raise t.error("axis", "must be a non-zero direction [x, y, z]")
+        _pose(t, out, "position")
     else:
         out["radius"] = t.number("radius", "m", low=0.0, low_open=True)
         out["current"] = t.number("current", "A")
@@ -151,7 +171,7 @@ def field_source(table: Mapping[str, Any], base: Path = Path("."), source: str =
     """The spatial source of a checked ``[field]`` table (see :func:`describe_field`)."""
     kind = table["kind"]
     strength = _waveform(table)
-    pose_key = "position" if kind == "point-dipole" else "centre"
+    pose_key = "position" if kind in ("point-dipole", "cuboid-magnet", "cylinder-magnet") else "centre"
     pose: Any = table.get(pose_key)
     if "path" in table:
         pose = Waypoints(table["path"]["times"], table["path"]["points"])
@@ -163,6 +183,15 @@ def field_source(table: Mapping[str, Any], base: Path = Path("."), source: str =
             vector = np.asarray(moment, dtype=float)
             return PointDipoleField(lambda t: vector * strength(t), pose)
         return PointDipoleField(moment, pose)
+    if kind in ("cuboid-magnet", "cylinder-magnet"):
+        from .magnet_fields import CuboidMagnetField, CylinderMagnetField
+
+        factor = 1.0 if strength is None else strength
+        if kind == "cuboid-magnet":
+            return CuboidMagnetField(table["dimension"], table["polarization"], pose, table["axis"],
+                                     scale=factor)
+        return CylinderMagnetField(table["diameter"], table["height"], table["polarization"], pose,
+                                   table["axis"], scale=factor)
     if kind == "field-map":
         path = Path(table["file"])
         if not path.is_absolute():

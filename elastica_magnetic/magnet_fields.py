@@ -20,7 +20,15 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .spatial_fields import SpatialField, SpatialFieldError, VectorOrPath, _Vector, _vector3
+from .spatial_fields import (
+    ScalarOrWaveform,
+    SpatialField,
+    SpatialFieldError,
+    VectorOrPath,
+    _Scalar,
+    _Vector,
+    _vector3,
+)
 
 __all__ = ["CuboidMagnetField", "CylinderMagnetField", "DEFAULT_STEP"]
 
@@ -38,13 +46,15 @@ def _magpylib():
 
 
 class _MagpylibMagnet(SpatialField):
-    """A Magpylib magnet that moves along ``position(time)`` (m) with a fixed orientation."""
+    """A Magpylib magnet that moves along ``position(time)`` (m) with a fixed orientation, its
+    field times ``scale(time)``."""
 
-    def __init__(self, magnet, position: VectorOrPath, step: float) -> None:
+    def __init__(self, magnet, position: VectorOrPath, step: float, scale: ScalarOrWaveform = 1.0) -> None:
         if not (step > 0.0 and np.isfinite(step)):
             raise SpatialFieldError(f"step must be a positive length in m, got {step}")
         self.magnet = magnet
         self.position = _Vector(position, "position", "m")
+        self.scale = _Scalar(scale, "scale", "1")
         self.step = float(step)
         offsets = np.zeros((7, 3))
         for j in range(3):
@@ -54,12 +64,14 @@ class _MagpylibMagnet(SpatialField):
 
     def _add(self, points, time, b, g, with_gradient) -> None:
         self.magnet.position = self.position(time)
+        scale = self.scale(time)
         n = points.shape[1]
         if not with_gradient:
-            b += np.asarray(self.magnet.getB(points.T), dtype=np.float64).reshape(n, 3).T
+            b += scale * np.asarray(self.magnet.getB(points.T), dtype=np.float64).reshape(n, 3).T
             return
         shifted = points.T[None, :, :] + self._offsets[:, None, :]  # (7, n, 3)
-        values = np.asarray(self.magnet.getB(shifted.reshape(-1, 3)), dtype=np.float64).reshape(7, n, 3)
+        values = np.asarray(self.magnet.getB(shifted.reshape(-1, 3)), dtype=np.float64)
+        values = scale * values.reshape(7, n, 3)
         b += values[0].T
         for j in range(3):
             g[:, j, :] += ((values[1 + 2 * j] - values[2 + 2 * j]) / (2.0 * self.step)).T
@@ -94,18 +106,20 @@ class CuboidMagnetField(_MagpylibMagnet):
         Lab direction of the magnet's own z (default +z: own frame = lab frame).
     step : float
         Finite-difference step of the gradient, m.
+    scale : float or callable
+        Factor on the field, or ``scale(time)`` (e.g. a ramp).
     """
 
     def __init__(self, dimension: ArrayLike, polarization: ArrayLike,
                  position: VectorOrPath = (0.0, 0.0, 0.0), axis: ArrayLike = (0.0, 0.0, 1.0),
-                 step: float = DEFAULT_STEP) -> None:
+                 step: float = DEFAULT_STEP, scale: ScalarOrWaveform = 1.0) -> None:
         dimension = _vector3(dimension, "dimension", "m")
         if np.any(dimension <= 0.0):
             raise SpatialFieldError(f"dimension must be positive lengths in m, got {dimension.tolist()}")
         magnet = _magpylib().magnet.Cuboid(dimension=dimension,
                                            polarization=_vector3(polarization, "polarization", "T"),
                                            orientation=_orientation(axis))
-        super().__init__(magnet, position, step)
+        super().__init__(magnet, position, step, scale)
 
 
 class CylinderMagnetField(_MagpylibMagnet):
@@ -118,20 +132,20 @@ class CylinderMagnetField(_MagpylibMagnet):
     polarization : array_like
         ``(3,)`` ``J = mu0 M`` in T, in the magnet's own frame (``(0, 0, J)``: magnetized along
         its axis).
-    position, axis, step
+    position, axis, step, scale
         As for :class:`CuboidMagnetField`.
     """
 
     def __init__(self, diameter: float, height: float, polarization: ArrayLike,
                  position: VectorOrPath | Callable = (0.0, 0.0, 0.0), axis: ArrayLike = (0.0, 0.0, 1.0),
-                 step: float = DEFAULT_STEP) -> None:
+                 step: float = DEFAULT_STEP, scale: ScalarOrWaveform = 1.0) -> None:
         if not (diameter > 0.0 and height > 0.0 and np.isfinite(diameter) and np.isfinite(height)):
             raise SpatialFieldError(
                 f"diameter and height must be positive lengths in m, got {diameter}, {height}")
         magnet = _magpylib().magnet.Cylinder(dimension=(diameter, height),
                                              polarization=_vector3(polarization, "polarization", "T"),
                                              orientation=_orientation(axis))
-        super().__init__(magnet, position, step)
+        super().__init__(magnet, position, step, scale)
 
     @property
     def moment(self) -> NDArray[np.float64]:

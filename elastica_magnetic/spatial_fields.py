@@ -99,6 +99,8 @@ class _Vector:
     def __call__(self, time: float) -> NDArray[np.float64]:
         if self.constant is not None:
             return self.constant
+        if type(self.function) is Waypoints:  # checked when built: finite (3,) values
+            return self.function(time)
         return _vector3(self.function(time), f"{self.name} at t = {float(time):.6g} s", self.unit)
 
 

@@ -79,6 +79,27 @@ points = [[0.0, 0.0, -0.05], [0.02, 0.0, -0.05]]
     np.testing.assert_array_equal(moving.at(POINTS, 0.4), expected.at(POINTS, 0.4))
 
 
+def test_finite_magnet_tables():
+    pytest.importorskip("magpylib")
+    from elastica_magnetic.magnet_fields import CylinderMagnetField
+
+    source = describe_field(loads(ROBOT + """
+[field]
+kind = "cylinder-magnet"
+diameter = 0.01
+height = 0.02
+polarization = [0.0, 0.0, 1.3]
+axis = [1.0, 0.0, 0.0]
+position = [0.0, 0.05, 0.0]
+ramp = 0.5
+""")).source()
+    reference = CylinderMagnetField(0.01, 0.02, [0, 0, 1.3], [0.0, 0.05, 0.0], axis=[1.0, 0, 0])
+    np.testing.assert_allclose(source.at(POINTS, 0.25), 0.5 * reference.at(POINTS), rtol=1e-12)
+    with pytest.raises(SpecError, match=r"\[field\] dimension: must be positive lengths"):
+        describe_field(loads(ROBOT + '[field]\nkind = "cuboid-magnet"\ndimension = [0.01, 0, 0.01]\n'
+                             'polarization = [0, 0, 1.3]\n'))
+
+
 def test_a_field_map_file_is_found_next_to_the_spec(tmp_path):
     axes = [np.linspace(-0.05, 0.05, 5)] * 3
     np.savez(tmp_path / "map.npz", x=axes[0], y=axes[1], z=axes[2], B=np.ones((5, 5, 5, 3)) * 1e-3)
