@@ -8,9 +8,10 @@ nothing here, since a finite magnet costs Magpylib's per-call overhead either wa
 :doc:`/spatial_fields`).
 
 The gradient is Magpylib's field differentiated by central differences with step ``step``
-(default 1e-6 m; truncation ``~ step^2 B''' / 6``, round-off ``~ 1e-16 |B| / step``: about 1e-7
-relative at 1 mm from a magnet of a few mm; the tests check it against a finer Richardson
-estimate). Each evaluation calls Magpylib once for the 7 point sets together.
+(default 1e-6 m; truncation ``~ step^2 B''' / 6``, round-off ``~ 1e-16 |B| / step``). Measured
+against Richardson-extrapolated differences (step 1e-4 m) for 10 mm cubes and cylinders (J = 1.3 T):
+4e-7 of the largest gradient component at 1 mm outside the magnet's circumscribed sphere, 1e-8 at
+10 mm, 3e-9 at 30 mm. Each evaluation calls Magpylib once for the 7 point sets together.
 """
 
 from __future__ import annotations
