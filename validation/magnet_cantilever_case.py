@@ -200,7 +200,9 @@ def _figure(runs, solution: DipoleCantileverSolution, path: Path) -> Path:
     ax_s.set_ylabel("y (mm)")
     ax_s.legend(fontsize=7)
     ns = [r.n_elements for r in runs]
-    ax_c.plot(ns, [1e3 * r.delta_y for r in runs], "o-")
+    ax_c.plot(ns, [1e3 * r.delta_y for r in runs], "o-", label="PyElastica")
+    ax_c.axhline(1e3 * solution.tip[1], color="k", ls="--", lw=1, label="Cosserat BVP")
+    ax_c.legend(fontsize=7)
     ax_c.set_xscale("log")
     ax_c.set_xlabel("elements n")
     ax_c.set_ylabel("tip delta_y (mm)")
