@@ -5,9 +5,16 @@ field sources, magnetization patterns, the equivalent circular section of a band
 ground with an adjustable tolerance, robot presets and a simulation builder. SI units throughout.
 """
 
-from .batch import BatchedRobots, BatchedSimulationDiverged
+from .batch import BatchedRobots, BatchedSimulationDiverged, SpatialFieldNotSupported
 from .field_csv import FieldCSVError, read_field_csv, write_field_csv
-from .fields import ConstantField, ControlledField, RampedField, RotatingField, TabulatedField
+from .fields import (
+    ConstantField,
+    ControlledField,
+    RampedField,
+    RotatingField,
+    TabulatedField,
+    UniformField,
+)
 from .forcing import (
     FieldValueError,
     LegacyInternalDamping,
@@ -51,12 +58,36 @@ from .simulation import (
     SimulationDiverged,
     build_simulation,
 )
+from .spatial_fields import (
+    CurrentLoopField,
+    CurrentLoopsField,
+    FieldMap,
+    FieldMapDomainError,
+    FieldSum,
+    HelmholtzCoils,
+    MaxwellCoils,
+    PointDipoleField,
+    SpatialFieldError,
+    Waypoints,
+)
 from .units import MM_MG_S, SI, UnitSystem
 from .viscoelastic import KelvinVoigtDamping
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "SpatialFieldNotSupported",
+    "UniformField",
+    "Waypoints",
+    "SpatialFieldError",
+    "PointDipoleField",
+    "MaxwellCoils",
+    "HelmholtzCoils",
+    "FieldSum",
+    "FieldMapDomainError",
+    "FieldMap",
+    "CurrentLoopsField",
+    "CurrentLoopField",
     "BatchedRobots",
     "BatchedSimulationDiverged",
     "ConstantField",

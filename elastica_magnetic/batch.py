@@ -68,8 +68,15 @@ from .batch_kernels import (
 )
 from .presets import RobotSpec
 from .simulation import SimulationDiverged, robot_rod, trajectory_row
+from .spatial_fields import is_spatial
 
-__all__ = ["BatchedRobots", "BatchedRobotSimulator", "BatchedSimulationDiverged"]
+__all__ = ["BatchedRobots", "BatchedRobotSimulator", "BatchedSimulationDiverged", "SpatialFieldNotSupported"]
+
+
+class SpatialFieldNotSupported(TypeError):
+    """The batched simulator drives each robot with a uniform field (a row of ``fields``); a source
+    that varies in space (``at``/``gradient``) needs :func:`~elastica_magnetic.build_simulation`
+    or :class:`~elastica_magnetic.MagneticTorques` in a simulator of its own."""
 
 
 class BatchedRobotSimulator(ea.BaseSystemCollection, ea.Constraints, ea.Forcing, ea.CallBacks):
@@ -271,6 +278,11 @@ class BatchedRobots:
 
     @fields.setter
     def fields(self, value: ArrayLike) -> None:
+        if is_spatial(value):
+            raise SpatialFieldNotSupported(
+                f"BatchedRobots takes uniform fields only ((N, 3) in tesla), got the spatial source "
+                f"{type(value).__name__}; simulate each robot with build_simulation (or "
+                "MagneticTorques) to feel a field that varies in space")
         value = np.asarray(value, dtype=np.float64)
         if not np.all(np.isfinite(value)):
             raise ValueError(f"fields must be finite (tesla), got {value.tolist()}")

@@ -38,6 +38,7 @@ from .simulation import (
     register_robot_forcing,
     robot_rod,
 )
+from .spatial_fields import HelmholtzCoils, PointDipoleField, Waypoints
 
 __all__ = [
     "BATCH_SIZES",
@@ -48,6 +49,8 @@ __all__ = [
     "measure_batched",
     "per_robot_step_cost",
     "per_rod_simulator",
+    "spatial_sources",
+    "spatial_step_cost",
 ]
 
 #: Numbers of robots per simulator of the batched benchmark.
@@ -138,11 +141,15 @@ def _step_cost(physics: str, variant: str, steps: int, repeats: int) -> float:
 
 
 def benchmark_step_cost(
-    steps: int = 2000, repeats: int = 5, physics_settings: Sequence[str] = ("training", "accurate")
+    steps: int = 2000, repeats: int = 5, physics_settings: Sequence[str] = ("training", "accurate"),
+    spatial: bool = True,
 ) -> dict[str, object]:
     """Median step cost (us) of the paper's robot in both physics settings, and the ratios.
 
-    Targets (issue 2): ``naive / ours >= 20`` and ``ours / bare <= 1.5``.
+    Targets (issue 2): ``naive / ours >= 20`` and ``ours / bare <= 1.5``. With ``spatial``, each
+    setting also reports :func:`spatial_step_cost` (``spatial_step_us``, ``spatial_ratio_to_uniform``:
+    a point dipole, a moving dipole and a Helmholtz pair next to the uniform field; target
+    (issue 33) at most 2x).
     """
     result: dict[str, object] = {"steps": steps, "repeats": repeats}
     for physics in physics_settings:
@@ -160,6 +167,11 @@ def benchmark_step_cost(
             "action_ms": ours * substeps / 1e3,
             "substeps_per_action": substeps,
         }
+        if spatial:
+            # Fields in space next to the uniform one (issue 33), interleaved in their own run.
+            cost = spatial_step_cost(physics, steps, repeats)
+            result[physics]["spatial_step_us"] = cost["step_us"]
+            result[physics]["spatial_ratio_to_uniform"] = cost["ratio_to_uniform"]
     return result
 
 
@@ -285,3 +297,42 @@ def per_robot_step_cost(
         for name in paths:
             out[name][str(n)] = result[name]
     return out
+
+
+def spatial_sources() -> dict[str, Any]:
+    """The field sources of :func:`spatial_step_cost`, each about 4 mT at the paper's robot (a band
+    20 mm long along +x from the origin): the uniform rotating field of ``msr bench``, a point
+    dipole 50 mm above the robot (2.5 A m^2), the same dipole moving along a path, and a Helmholtz
+    pair of radius 100 mm around it."""
+    above = np.array([0.01, 0.05, 0.0])
+    path = Waypoints([0.0, 1.0], [above, above + np.array([0.02, 0.0, 0.0])])
+    current = 4e-3 * 0.1 / (0.8**1.5 * 4e-7 * np.pi)  # A turns for 4 mT at the centre
+    return {
+        "uniform": RotatingField(4e-3, -1.0, phase=0.5 * np.pi),
+        "point_dipole": PointDipoleField([0.0, 2.5, 0.0], above),
+        "moving_dipole": PointDipoleField([0.0, 2.5, 0.0], path),
+        "helmholtz_pair": HelmholtzCoils(0.1, current=current, centre=[0.01, 0.0, 0.0], axis=[0, 1, 0]),
+    }
+
+
+def spatial_step_cost(physics: str = "accurate", steps: int = 2000, repeats: int = 5) -> dict[str, Any]:
+    """Median step cost (us) of the paper's robot (:func:`~elastica_magnetic.yao2023_robot`, 64
+    elements, ground and dampings) under each source of :func:`spatial_sources`, and its ratio to
+    the uniform field's. The variants are measured in turn within each repeat, so drifts of a
+    shared machine touch all of them alike. Target (issue 33): point dipole and coil pair at most
+    2x the uniform field."""
+    spec = yao2023_robot(1, physics)
+    sims = {name: build_simulation(spec, source) for name, source in spatial_sources().items()}
+    for sim in sims.values():
+        sim.step(50)  # JIT and caches warm
+    times: dict[str, list[float]] = {name: [] for name in sims}
+    for _ in range(repeats):
+        for name, sim in sims.items():
+            start = time.perf_counter()
+            sim.step(steps)
+            times[name].append((time.perf_counter() - start) / steps * 1e6)
+    medians = {name: statistics.median(values) for name, values in times.items()}
+    return {
+        "physics": physics, "steps": steps, "repeats": repeats, "step_us": medians,
+        "ratio_to_uniform": {name: medians[name] / medians["uniform"] for name in medians},
+    }

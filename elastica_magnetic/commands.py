@@ -9,11 +9,13 @@ import numpy as np
 import pandas as pd
 
 from .cli import CommandError, duration_option, number, print_notes, print_result
+from .field_spec import load_field
 from .fields import RotatingField, TabulatedField
 from .openloop import run_open_loop, write_trajectory_csv
 from .presets import ROBOTS
 from .progress import progress_bar
 from .results import result_folder
+from .spatial_fields import FieldSum
 from .specfile import SpecError, field_limit_of, load_robot
 
 ROBOT_HELP = (f"a preset ({', '.join(ROBOTS)}) or a spec file (.toml, e.g. from "
@@ -25,7 +27,7 @@ DEFAULT_AMPLITUDE_T = 4e-3
 #: What ``msr replay`` / ``msr simulate`` write into ``--out`` (results written before the
 #: result marker are recognised by these names).
 REPLAY_FILES = ("trajectory.csv", "replay.png")
-SIMULATE_FILES = ("trajectory.csv", "shapes.png")
+SIMULATE_FILES = ("trajectory.csv", "shapes.png", "tip_path.png")
 FORCE_HELP = ("replace the result of an earlier run of this command for the same robot in --out "
               "(another command's result, another robot's or files msr did not write are never "
               "replaced)")
@@ -74,10 +76,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--amplitude", type=number("T", 0.0, MAX_AMPLITUDE_T, low_open=True), default=None,
                    help=f"field amplitude, T (at most {MAX_AMPLITUDE_T:g}; default: the spec's "
                    f"[actuation] field_limit, {1e3 * DEFAULT_AMPLITUDE_T:g} mT for a preset)")
-    p.add_argument("--frequency", default=-1.0,
+    p.add_argument("--frequency", default=None,
                    type=number("Hz", -NYQUIST_HZ, NYQUIST_HZ, low_open=True, high_open=True),
                    help="rotation frequency, Hz (negative: clockwise, rolls the robot "
-                   f"towards +x); |f| < {NYQUIST_HZ:g} Hz, the Nyquist limit of the 100 Hz output")
+                   f"towards +x; default -1); |f| < {NYQUIST_HZ:g} Hz, the Nyquist limit of the 100 "
+                   "Hz output")
     p.add_argument("--ramp", type=number("s", 0.0), default=None,
                    help="amplitude ramp-up time, s (0: none; at most --duration; default 0.2 or "
                    "--duration if shorter)")
@@ -123,13 +126,18 @@ def replay_command(args: argparse.Namespace) -> int:
             "last row, so give at most the file's length"
         )
     spec = load_robot(args.robot, args.physics)
+    setup = load_field(args.robot)
+    source = setup.source() if setup is not None else None
+    if source is not None:  # the coils' uniform waveform plus the spec's field in space
+        field = FieldSum(field, source)
     # Every input and the output folder are checked before the simulation starts.
     reference = _read_reference(args.reference, duration) if args.reference is not None else None
     with result_folder(args.out, kind="replay", subject=f"robot {spec.name}", force=args.force,
                        known_files=REPLAY_FILES) as out:
         print_notes(out.notes)
         result = run_open_loop(
-            spec, field, duration, progress=_progress(int(round(duration * 100)), "replay")
+            spec, field, duration, progress=_progress(int(round(duration * 100)), "replay"),
+            clamp=setup is not None and setup.clamp,
         )
         trajectory_csv = write_trajectory_csv(result.trajectory, out.path / "trajectory.csv")
         summary: dict[str, object] = {}
@@ -147,6 +155,10 @@ def replay_command(args: argparse.Namespace) -> int:
 
 
 def simulate_command(args: argparse.Namespace) -> int:
+    setup = load_field(args.robot)
+    if setup is not None and setup.table is not None:
+        return _simulate_spatial(args, setup)
+    args.frequency = -1.0 if args.frequency is None else args.frequency
     if args.ramp is None:
         args.ramp = min(0.2, args.duration)
     if args.ramp > args.duration:
@@ -163,6 +175,7 @@ def simulate_command(args: argparse.Namespace) -> int:
         result = run_open_loop(
             spec, field, args.duration,
             progress=_progress(int(round(args.duration * 100)), "simulate"),
+            clamp=setup is not None and setup.clamp,
         )
         trajectory_csv = write_trajectory_csv(result.trajectory, out.path / "trajectory.csv")
         from .plotting import plot_open_loop
@@ -174,6 +187,37 @@ def simulate_command(args: argparse.Namespace) -> int:
         )
     print_result({**_summary(args, result, out.final_path(trajectory_csv), out.final_path(figure)),
                   "amplitude_T": args.amplitude, "amplitude_from": amplitude_from}, args.json)
+    return 0
+
+
+def _simulate_spatial(args: argparse.Namespace, setup) -> int:
+    """``msr simulate`` with a spec whose ``[field]`` names a source in space (no rotating field)."""
+    given = [f"--{name}" for name in ("amplitude", "frequency", "ramp") if getattr(args, name) is not None]
+    if given:
+        raise CommandError(f"{' and '.join(given)} set the rotating field, but {args.robot} names its "
+                           f"own field ([field] kind = {setup.table['kind']!r}); drop them or the [field] "
+                           "table")
+    spec = load_robot(args.robot, args.physics)
+    source = setup.source()
+    with result_folder(args.out, kind="simulate", subject=f"robot {spec.name}", force=args.force,
+                       known_files=SIMULATE_FILES) as out:
+        print_notes(out.notes)
+        result = run_open_loop(
+            spec, source, args.duration,
+            progress=_progress(int(round(args.duration * 100)), "simulate"), clamp=setup.clamp,
+        )
+        trajectory_csv = write_trajectory_csv(result.trajectory, out.path / "trajectory.csv")
+        from .plotting import plot_open_loop, plot_tip_path
+
+        kind = setup.table["kind"]
+        title = f"{Path(args.robot).name} in a {kind} field ({args.physics} physics)"
+        figure = plot_open_loop(result, out.path / "shapes.png", title=title)
+        tip = plot_tip_path(result, source, out.path / "tip_path.png", title=title)
+    summary = _summary(args, result, out.final_path(trajectory_csv), out.final_path(figure))
+    summary.update(field=kind, clamp=setup.clamp, tip_path_figure=str(out.final_path(tip)),
+                   tip_final_m=[float(result.trajectory.front_x_m.iloc[-1]),
+                                float(result.trajectory.front_y_m.iloc[-1])])
+    print_result(summary, args.json)
     return 0
 
 

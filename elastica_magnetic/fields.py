@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 from .field_csv import FIELD_CSV_RATE_HZ, read_field_csv
 
 __all__ = [
+    "UniformField",
     "ConstantField",
     "RampedField",
     "RotatingField",
@@ -33,7 +34,44 @@ def _vector3(value: ArrayLike, name: str) -> NDArray[np.float64]:
     return array
 
 
-class ConstantField:
+class UniformField:
+    """Base of the uniform sources: ``field(time) -> (3,)`` (T), the same at every point.
+
+    Besides the call, it offers the methods of the spatial sources
+    (:mod:`elastica_magnetic.spatial_fields`): ``at(points, time)`` gives the field broadcast to
+    ``(3, n)`` and ``gradient(points, time)`` zeros ``(3, 3, n)``. ``uniform = True`` keeps such a
+    source on :class:`~elastica_magnetic.MagneticTorques`'s uniform path (torques only, no force).
+    """
+
+    uniform = True
+
+    def __call__(self, time: float) -> NDArray[np.float64]:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    @staticmethod
+    def _count(points: ArrayLike) -> int:
+        shape = np.shape(points)
+        if len(shape) != 2 or shape[0] != 3:
+            raise ValueError(f"points must have shape (3, n) in m, got {shape}")
+        return shape[1]
+
+    def at(self, points: ArrayLike, time: float = 0.0) -> NDArray[np.float64]:
+        """The field (T) at every one of ``points`` ``(3, n)``: shape ``(3, n)``."""
+        n = self._count(points)
+        return np.repeat(np.asarray(self(time), dtype=np.float64)[:, None], n, axis=1)
+
+    def gradient(self, points: ArrayLike, time: float = 0.0) -> NDArray[np.float64]:
+        """Zero, shape ``(3, 3, n)`` (T/m)."""
+        return np.zeros((3, 3, self._count(points)))
+
+    def evaluate(
+        self, points: ArrayLike, time: float = 0.0
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``(at(points, time), gradient(points, time))``."""
+        return self.at(points, time), self.gradient(points, time)
+
+
+class ConstantField(UniformField):
     """A constant uniform field ``B`` (T)."""
 
     def __init__(self, field: ArrayLike) -> None:
@@ -43,7 +81,7 @@ class ConstantField:
         return self.value
 
 
-class RampedField:
+class RampedField(UniformField):
     """A field that grows linearly from zero to ``field`` (T) over ``ramp_time`` (s), then holds.
 
     Useful to reach a static equilibrium by dynamic relaxation without exciting vibrations.
@@ -62,7 +100,7 @@ class RampedField:
         return self._value
 
 
-class RotatingField:
+class RotatingField(UniformField):
     """A field of constant amplitude rotating in the x-y plane.
 
     ``B(t) = amplitude * (cos(2 pi f t + phase), sin(2 pi f t + phase), 0)``; a positive frequency
@@ -106,7 +144,7 @@ class RotatingField:
         return self._value
 
 
-class TabulatedField:
+class TabulatedField(UniformField):
     """A field sampled at a fixed rate and played with a zero-order hold.
 
     Sample ``i`` holds on ``[i / rate, (i + 1) / rate)``. Before ``t = 0`` the first sample holds;
@@ -165,7 +203,7 @@ class TabulatedField:
         return self.samples[i]
 
 
-class ControlledField:
+class ControlledField(UniformField):
     """A field changed by increments, as an agent does at 100 Hz (the paper's actuation rule).
 
     Each :meth:`apply_increment` adds ``delta`` (each component clipped to

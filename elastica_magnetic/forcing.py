@@ -19,6 +19,9 @@ from elastica.external_forces import NoForces
 from numba import njit
 from numpy.typing import NDArray
 
+from . import _spatial_kernels as spatial_kernels
+from .spatial_fields import SpatialField, is_spatial
+
 __all__ = [
     "FieldValueError",
     "MagneticTorques",
@@ -91,12 +94,21 @@ class MagneticTorques(NoForces):
     equivalent circular section, the circular volume: see :func:`~elastica_magnetic.equivalent_radius`).
     A uniform field gives no net force, so only torques are applied.
 
+    *Fields in space.* When ``field`` is a spatial source (``at(points, time)`` and
+    ``gradient(points, time)``, see :mod:`elastica_magnetic.spatial_fields`), each element gets
+    the field at its centre ``x_e`` (the midpoint of its nodes): the torque ``m_e x B(x_e)`` and,
+    in :meth:`apply_forces`, the force ``F_e = (grad B(x_e))^T m_e`` (``F_j = sum_i m_i dB_i/dx_j``,
+    ``m_e`` in the lab frame), half on each of the element's two nodes. Both derive from the
+    energy ``U = -sum_e m_e . B(x_e)``. The uniform sources of :mod:`elastica_magnetic.fields` (and
+    any plain callable) keep the uniform path, bit for bit.
+
     Parameters
     ----------
-    field : callable
+    field : callable or spatial source
         ``field(time) -> (3,)`` magnetic flux density in the lab frame, tesla. Any callable works;
         see :mod:`elastica_magnetic.fields` for constant, ramped, rotating, tabulated and controlled
-        fields.
+        fields. Or a spatial source (e.g. :class:`~elastica_magnetic.PointDipoleField`), which
+        adds the magnetic force.
     magnetization : numpy.ndarray
         ``(3, n_elements)`` magnetization in A/m, or ``(3,)`` for a uniform one.
     frame : {"lab", "material"}
@@ -120,8 +132,10 @@ class MagneticTorques(NoForces):
         frame: Literal["lab", "material"] = "lab",
     ) -> None:
         super().__init__()
-        if not callable(field):
-            raise TypeError(f"field must be a callable field(time) -> (3,) in tesla, got {field!r}")
+        self.spatial = is_spatial(field)
+        if not (callable(field) or self.spatial):
+            raise TypeError(f"field must be a callable field(time) -> (3,) in tesla or a spatial "
+                            f"source with at(points, time) and gradient(points, time), got {field!r}")
         if frame not in ("lab", "material"):
             raise ValueError(f"frame must be 'lab' or 'material', got {frame!r}")
         magnetization = np.asarray(magnetization, dtype=np.float64)
@@ -143,6 +157,11 @@ class MagneticTorques(NoForces):
         self.magnetization = magnetization
         self.frame = frame
         self._moment_material: NDArray[np.float64] | None = None
+        self._centres: NDArray[np.float64] | None = None
+        self._b: NDArray[np.float64] | None = None
+        self._g: NDArray[np.float64] | None = None
+        self._fresh_field: NDArray[np.float64] | None = None  # B at the centres, from apply_forces
+        self._fresh_time = math.nan
 
     def moment_in_material_frame(self, system) -> NDArray[np.float64]:
         """The ``(3, n_elements)`` magnetic moments ``V M`` (A m^2) in the material frame."""
@@ -151,13 +170,87 @@ class MagneticTorques(NoForces):
             self._moment_material = np.ascontiguousarray(magnetization * system.volume[None, :])
         return self._moment_material
 
+    def element_centres(self, system) -> NDArray[np.float64]:
+        """``(3, n_elements)`` midpoints of the rod's nodes, m (a buffer reused every call)."""
+        if self._centres is None:
+            self._centres = np.empty((3, system.n_elems))
+        spatial_kernels.element_centres(system.position_collection, self._centres)
+        return self._centres
+
+    def field_at_elements(self, system, time: float, gradient: bool = False):
+        """The spatial source at the element centres: ``B`` ``(3, n)`` T, and with ``gradient``
+        the pair ``(B, G)`` with ``G`` ``(3, 3, n)`` T/m; shapes and finiteness checked."""
+        centres = self.element_centres(system)
+        n = centres.shape[1]
+        if isinstance(self.field, SpatialField):
+            # The package's own sources: buffers reused, one finiteness check in numba.
+            if self._b is None:
+                self._b, self._g = np.empty((3, n)), np.empty((3, 3, n))
+            b, g = self._b, self._g
+            b.fill(0.0)
+            if gradient:
+                g.fill(0.0)
+            self.field._add(centres, float(time), b, g, gradient)
+            bad = spatial_kernels.first_nonfinite(b, g, gradient)
+            if bad >= 0:
+                raise FieldValueError(
+                    f"spatial source {type(self.field).__name__} returned a non-finite B (T) or "
+                    f"gradient (T/m) at element {bad} at t = {float(time):.6g} s (an element at a "
+                    "dipole or on a wire?)")
+            return (b, g) if gradient else b
+        if gradient:
+            evaluate = getattr(self.field, "evaluate", None)
+            if evaluate is not None:
+                b, g = evaluate(centres, time)
+            else:
+                b, g = self.field.at(centres, time), self.field.gradient(centres, time)
+            _check_spatial(self.field, time, b, (3, n), "B (T)")
+            _check_spatial(self.field, time, g, (3, 3, n), "gradient (T/m)")
+            return b, g
+        b = self.field.at(centres, time)
+        _check_spatial(self.field, time, b, (3, n), "B (T)")
+        return b
+
+    def apply_forces(self, system, time: np.float64 = np.float64(0.0)) -> None:
+        if not self.spatial:
+            return
+        b, g = self.field_at_elements(system, time, gradient=True)
+        spatial_kernels.magnetic_forces(
+            self.moment_in_material_frame(system), system.director_collection, g, system.external_forces
+        )
+        # PyElastica calls apply_torques right after, on the same state: it reuses this B once.
+        self._fresh_field, self._fresh_time = b, float(time)
+
     def apply_torques(self, system, time: np.float64 = np.float64(0.0)) -> None:
+        if self.spatial:
+            b = self._fresh_field
+            if b is None or self._fresh_time != float(time):
+                b = self.field_at_elements(system, time)
+            self._fresh_field = None
+            spatial_kernels.magnetic_torques_at_elements(
+                self.moment_in_material_frame(system), b, system.director_collection,
+                system.external_torques,
+            )
+            return
         _magnetic_torques(
             self.moment_in_material_frame(system),
             evaluate_field(self.field, time),
             system.director_collection,
             system.external_torques,
         )
+
+
+def _check_spatial(field: Any, time: float, value: Any, shape: tuple[int, ...], what: str) -> None:
+    if type(value) is not np.ndarray or value.shape != shape or value.dtype != np.float64:
+        raise FieldValueError(
+            f"spatial source {type(field).__name__} returned {what} of "
+            f"{getattr(value, 'shape', type(value).__name__)} at t = {float(time):.6g} s; expected a "
+            f"float64 array of shape {shape}")
+    if not np.isfinite(value).all():
+        column = int(np.argwhere(~np.isfinite(value.reshape(-1, shape[-1])))[0, 1])
+        raise FieldValueError(
+            f"spatial source {type(field).__name__} returned a non-finite {what} at element "
+            f"{column} at t = {float(time):.6g} s (an element at a dipole or on a wire?)")
 
 
 @njit(cache=True)

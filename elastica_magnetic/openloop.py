@@ -16,6 +16,7 @@ from .forcing import evaluate_field
 from .io import atomic_write
 from .presets import ACTION_PERIOD, RobotSpec
 from .simulation import TRAJECTORY_COLUMNS, FieldFunction, build_simulation
+from .spatial_fields import is_spatial
 
 __all__ = ["MAX_DURATION_S", "OpenLoopResult", "check_duration", "run_open_loop", "write_trajectory_csv"]
 
@@ -82,6 +83,7 @@ def run_open_loop(
     *,
     n_shapes: int = 11,
     progress: Callable[[int], None] | None = None,
+    clamp: bool = False,
 ) -> OpenLoopResult:
     """Simulate ``spec`` under ``field_source`` for ``duration`` seconds, sampling at 100 Hz.
 
@@ -89,14 +91,18 @@ def run_open_loop(
     ----------
     spec : RobotSpec
         Robot and physics (SI).
-    field_source : callable
-        ``field(time) -> (3,)`` in tesla.
+    field_source : callable or spatial source
+        ``field(time) -> (3,)`` in tesla, or a source that varies in space
+        (:mod:`elastica_magnetic.spatial_fields`): :attr:`OpenLoopResult.fields` then records
+        the field at the last element's centre.
     duration : float
         s, rounded to whole 0.01 s intervals.
     n_shapes : int
         Number of shape snapshots, evenly spaced in time (first and last included).
     progress : callable, optional
         Called with the number of 0.01 s intervals done after each one (for progress bars).
+    clamp : bool
+        Clamp the first node and element (see :func:`~elastica_magnetic.build_simulation`).
 
     Raises
     ------
@@ -104,7 +110,8 @@ def run_open_loop(
         On NaN or a runaway velocity, naming the time and element.
     """
     n_actions = int(round(check_duration(duration) / ACTION_PERIOD))
-    simulation = build_simulation(spec, field_source)
+    simulation = build_simulation(spec, field_source, clamp=clamp)
+    spatial = is_spatial(field_source)
     steps = spec.steps_per_action
     shape_at = set(np.linspace(0, n_actions, max(n_shapes, 2)).round().astype(int).tolist())
     rows = [simulation.markers()]
@@ -112,7 +119,11 @@ def run_open_loop(
     fields = np.empty((n_actions, 3))
     start = wallclock.perf_counter()
     for i in range(n_actions):
-        fields[i] = evaluate_field(field_source, simulation.time)
+        if spatial:
+            tip = simulation.rod.position_collection[:, -2:].mean(axis=1)[:, None]
+            fields[i] = field_source.at(tip, simulation.time)[:, 0]
+        else:
+            fields[i] = evaluate_field(field_source, simulation.time)
         simulation.step(steps)
         rows.append(simulation.markers())
         if i + 1 in shape_at:

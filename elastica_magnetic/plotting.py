@@ -10,7 +10,7 @@ import pandas as pd
 from .io import atomic_save
 from .openloop import OpenLoopResult
 
-__all__ = ["plot_open_loop"]
+__all__ = ["plot_open_loop", "plot_tip_path"]
 
 
 def plot_open_loop(
@@ -89,4 +89,39 @@ def plot_open_loop(
         atomic_save(path, lambda tmp: fig.savefig(tmp, dpi=110))
     finally:
         plt.close(fig)
+    return path
+
+
+def plot_tip_path(result: OpenLoopResult, source, path: str | Path, title: str = "") -> Path:
+    """Save a PNG, top view (x-y): the path of the rod's last element centre over time, the rod's
+    shapes, and the path of the field source's pose (a magnet's ``position`` or a coil's
+    ``centre``) when it has one. Lengths in mm."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    trajectory = result.trajectory
+    fig, ax = plt.subplots(figsize=(8, 5), constrained_layout=True)
+    for k, (_, positions) in enumerate(result.shapes):
+        shade = 0.2 + 0.8 * k / max(len(result.shapes) - 1, 1)
+        ax.plot(1e3 * positions[0], 1e3 * positions[1], "-", color=(0.3, 0.3, 0.3, shade), lw=1,
+                label="rod shapes" if k == len(result.shapes) - 1 else None)
+    points = ax.scatter(1e3 * trajectory.front_x_m, 1e3 * trajectory.front_y_m, c=trajectory.t_s,
+                        s=6, cmap="viridis", label="tip")
+    fig.colorbar(points, ax=ax, label="t (s)", shrink=0.8)
+    pose = getattr(source, "position", None) or getattr(source, "centre", None)
+    if callable(pose):
+        poses = np.array([pose(t) for t in trajectory.t_s])
+        ax.plot(1e3 * poses[:, 0], 1e3 * poses[:, 1], "r--", lw=1.2, label="magnet / coil centre")
+        ax.plot(1e3 * poses[-1, 0], 1e3 * poses[-1, 1], "rs")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.legend(fontsize=8, loc="best")
+    ax.set_title(title or "tip path", fontsize=10)
+    atomic_save(path, lambda tmp: fig.savefig(tmp, dpi=110))
+    plt.close(fig)
     return path

@@ -21,6 +21,7 @@ from .ground import FrictionalGroundContact
 from .interaction import MagneticInteraction
 from .presets import RobotSpec
 from .section import rectangular_band_rod
+from .spatial_fields import is_spatial
 from .viscoelastic import KelvinVoigtDamping
 
 __all__ = [
@@ -240,7 +241,8 @@ def register_robot_forcing(
 
 
 def build_simulation(
-    spec: RobotSpec, field_source: FieldFunction, *, max_speed: float | None = None
+    spec: RobotSpec, field_source: FieldFunction, *, max_speed: float | None = None,
+    clamp: bool = False,
 ) -> RobotSimulation:
     """Build and finalize the simulator of ``spec`` driven by ``field_source``.
 
@@ -248,16 +250,30 @@ def build_simulation(
     ----------
     spec : RobotSpec
         Robot and physics (e.g. :func:`~elastica_magnetic.yao2023_robot`).
-    field_source : callable
-        ``field(time) -> (3,)`` in tesla (in the spec's unit system).
+    field_source : callable or spatial source
+        ``field(time) -> (3,)`` in tesla (in the spec's unit system), or a source that varies in
+        space (:mod:`elastica_magnetic.spatial_fields`; SI specs only), which adds the magnetic
+        force.
     max_speed : float, optional
         Blow-up threshold for node speeds; default 10 m/s (in the spec's units).
+    clamp : bool
+        Clamp the rod's first node and element (position and directors), e.g. a catheter held at
+        its base.
     """
-    if not callable(field_source):
-        raise TypeError("field_source must be a callable field(time) -> (3,)")
+    spatial = is_spatial(field_source)
+    if not (callable(field_source) or spatial):
+        raise TypeError("field_source must be a callable field(time) -> (3,) or a spatial source "
+                        "(at(points, time), gradient(points, time))")
+    if spatial and spec.units.factor("length") != 1.0:
+        raise ValueError(f"a spatial field source works in SI (m, T); the spec is in "
+                         f"{spec.units.name}: build it in SI")
     simulator = MagneticRodSimulator()
     rod = robot_rod(spec)
     simulator.append(rod)
+    if clamp:
+        simulator.constrain(rod).using(
+            ea.OneEndFixedBC, constrained_position_idx=(0,), constrained_director_idx=(0,)
+        )
     plane = ground_plane(spec)
     if plane is not None:
         simulator.append(plane)

@@ -28,3 +28,14 @@ def test_training_tutorial_environment_snippet():
     exec(compile(block, "training.md", "exec"), namespace)
     assert namespace["obs"].shape == (260,)
     assert not namespace["terminated"] and not namespace["truncated"]
+
+
+def test_spatial_fields_page_code_runs():
+    page = TUTORIAL.parent / "spatial_fields.md"
+    (block,) = re.findall(r"```python\n(.*?)```", page.read_text(), flags=re.S)
+    namespace: dict = {}
+    exec(compile(block.replace("range(100_000)", "range(300)"), str(page), "exec"), namespace)
+    assert namespace["B"].shape == (3, 1) and namespace["G"].shape == (3, 3, 1)
+    rod = namespace["rod"]
+    assert np.all(np.isfinite(rod.position_collection))
+    assert abs(rod.position_collection[1, -1]) > 0  # the magnet did something

@@ -15,6 +15,8 @@ CASES = {
     "cantilever": "elastica_magnetic_validation.cantilever_case",
     "hu2018": "elastica_magnetic_validation.hu2018_case",
     "replay-yao2023": "elastica_magnetic_validation.replay_case",
+    "spatial-fields": "elastica_magnetic_validation.spatial_fields_case",
+    "magnet-cantilever": "elastica_magnetic_validation.magnet_cantilever_case",
 }
 
 

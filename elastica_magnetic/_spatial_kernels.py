@@ -1,0 +1,301 @@
+"""Numba kernels of :mod:`elastica_magnetic.spatial_fields` and of the spatial branch of
+:class:`~elastica_magnetic.MagneticTorques` (private). SI units: m, T, A, A m^2, N, N m.
+
+Field kernels *add* into ``b_out`` ``(3, n)`` (T) and ``g_out`` ``(3, 3, n)`` (``g[i, j]`` =
+``dB_i/dx_j``, T/m), so that a sum of sources shares two buffers.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+#: mu0 / (4 pi), T m / A.
+MU0_OVER_4PI = 1e-7
+#: mu0 / (2 pi), T m / A.
+MU0_OVER_2PI = 2e-7
+#: Where ``rho^2 < AXIS_SERIES (a^2 + z^2)`` a loop's field is taken from its series about the
+#: axis (truncated after ``rho^3``: relative error ~``AXIS_SERIES^2``); farther out, from the closed
+#: form, whose ``B_rho / rho`` loses ~``eps / m^2`` to cancellation (``m`` the elliptic parameter).
+AXIS_SERIES = 1e-6
+
+
+@njit(cache=True)
+def dipole_field(moment, position, points, b_out, g_out, with_gradient):
+    """Point dipole ``moment`` (3,) A m^2 at ``position`` (3,) m, at ``points`` (3, n) m:
+    ``B = mu0/(4 pi r^3) (3 (m.n) n - m)``, ``dB_i/dx_j = 3 mu0/(4 pi r^5) (m_i r_j + m_j r_i +
+    (m.r) delta_ij - 5 (m.r) r_i r_j / r^2)``. A point at the dipole gets NaN."""
+    m0, m1, m2 = moment[0], moment[1], moment[2]
+    for k in range(points.shape[1]):
+        r0 = points[0, k] - position[0]
+        r1 = points[1, k] - position[1]
+        r2 = points[2, k] - position[2]
+        r_sq = r0 * r0 + r1 * r1 + r2 * r2
+        if r_sq == 0.0:
+            for i in range(3):
+                b_out[i, k] = np.nan
+            continue
+        inv_r = 1.0 / math.sqrt(r_sq)
+        inv_r2 = inv_r * inv_r
+        inv_r3 = inv_r2 * inv_r
+        mr = m0 * r0 + m1 * r1 + m2 * r2
+        c = MU0_OVER_4PI * inv_r3
+        s = 3.0 * mr * inv_r2
+        b_out[0, k] += c * (s * r0 - m0)
+        b_out[1, k] += c * (s * r1 - m1)
+        b_out[2, k] += c * (s * r2 - m2)
+        if with_gradient:
+            cg = 3.0 * MU0_OVER_4PI * inv_r3 * inv_r2
+            q = 5.0 * mr * inv_r2
+            r = (r0, r1, r2)
+            m = (m0, m1, m2)
+            for i in range(3):
+                for j in range(3):
+                    value = m[i] * r[j] + m[j] * r[i] - q * r[i] * r[j]
+                    if i == j:
+                        value += mr
+                    g_out[i, j, k] += cg * value
+
+
+@njit(cache=True)
+def elliptic_ke(m):
+    """Complete elliptic integrals ``K(m)``, ``E(m)`` (parameter ``m = k^2`` in [0, 1)) by the
+    arithmetic-geometric mean, to round-off."""
+    a = 1.0
+    b = math.sqrt(1.0 - m)
+    c_sq = m
+    total = 0.5 * c_sq
+    power = 0.5
+    for _ in range(40):
+        a_next = 0.5 * (a + b)
+        c = 0.5 * (a - b)
+        b = math.sqrt(a * b)
+        a = a_next
+        power *= 2.0
+        total += power * c * c
+        if abs(c) <= 1e-15 * a:  # the next terms are below 1e-30: converged (and no ulp cycling)
+            break
+    k = 0.5 * math.pi / a
+    return k, k * (1.0 - total)
+
+
+@njit(cache=True)
+def loop_local(radius, rho, z):
+    """Field and gradient of a unit-current loop (radius m, in the plane z = 0, axis +z, current
+    counter-clockwise seen from +z), in cylindrical components at ``(rho, z)``, divided by
+    ``mu0 / (2 pi)``: returns ``b_rho, b_z, d b_rho/d rho, b_rho / rho, d b_z/d rho, d b_z/d z``
+    (``d b_rho/dz = d b_z/d rho``: the field is curl-free)."""
+    a = radius
+    alpha = (a + rho) ** 2 + z * z
+    beta = (a - rho) ** 2 + z * z
+    m = 4.0 * a * rho / alpha
+    u = a * a + z * z
+    if rho * rho < AXIS_SERIES * u:
+        # Series about the axis: b_z = f - rho^2 f''/4, b_rho = -rho f'/2 + rho^3 f'''/16 with
+        # f(z) = pi a^2 / u^(3/2) (mu0 I a^2 / (2 u^(3/2)) over mu0 / (2 pi)), u = a^2 + z^2.
+        c = math.pi * a * a
+        f = c * u**-1.5
+        f1 = -3.0 * c * z * u**-2.5
+        f2 = c * (-3.0 * u**-2.5 + 15.0 * z * z * u**-3.5)
+        f3 = c * (45.0 * z * u**-3.5 - 105.0 * z**3 * u**-4.5)
+        f4 = c * (45.0 * u**-3.5 - 630.0 * z * z * u**-4.5 + 945.0 * z**4 * u**-5.5)
+        rho_sq = rho * rho
+        b_rho_over_rho = -0.5 * f1 + rho_sq * f3 / 16.0
+        b_rho = rho * b_rho_over_rho
+        b_z = f - 0.25 * rho_sq * f2
+        db_rho = -0.5 * f1 + 3.0 * rho_sq * f3 / 16.0
+        db_z_drho = -0.5 * rho * f2 + rho * rho_sq * f4 / 16.0
+        db_z_dz = f1 - 0.25 * rho_sq * f3
+        return b_rho, b_z, db_rho, b_rho_over_rho, db_z_drho, db_z_dz
+    k, e = elliptic_ke(m)
+    sqrt_alpha = math.sqrt(alpha)
+    gamma = a * a - rho * rho - z * z
+    b_z = (k + gamma / beta * e) / sqrt_alpha
+    b_rho_over_rho = z / (rho * sqrt_alpha) * (-k + (a * a + rho * rho + z * z) / beta * e) / rho
+    b_rho = b_rho_over_rho * rho
+    # d/dm of K and E.
+    dk = (e - (1.0 - m) * k) / (2.0 * m * (1.0 - m))
+    de = (e - k) / (2.0 * m)
+    bracket = k + gamma / beta * e
+    # d/dz: alpha_z = beta_z = 2 z, gamma_z = -2 z, m_z = -2 z m / alpha.
+    m_z = -2.0 * z * m / alpha
+    d_bracket_z = dk * m_z + (-2.0 * z / beta - gamma * 2.0 * z / (beta * beta)) * e + gamma / beta * de * m_z
+    db_z_dz = -z / (alpha * sqrt_alpha) * bracket + d_bracket_z / sqrt_alpha
+    # d/drho: alpha_r = 2 (a + rho), beta_r = -2 (a - rho), gamma_r = -2 rho,
+    # m_r = 4 a / alpha - 2 m (a + rho) / alpha.
+    m_r = (4.0 * a - 2.0 * m * (a + rho)) / alpha
+    d_bracket_r = (dk * m_r + (-2.0 * rho / beta + gamma * 2.0 * (a - rho) / (beta * beta)) * e
+                   + gamma / beta * de * m_r)
+    db_z_drho = -(a + rho) / (alpha * sqrt_alpha) * bracket + d_bracket_r / sqrt_alpha
+    # div B = 0: d b_rho / d rho = -b_rho / rho - d b_z / d z.
+    db_rho = -b_rho_over_rho - db_z_dz
+    return b_rho, b_z, db_rho, b_rho_over_rho, db_z_drho, db_z_dz
+
+
+@njit(cache=True)
+def loops_field(centres, frames, radii, currents, points, b_out, g_out, with_gradient):
+    """Circular current loops: ``centres`` (3, L) m, ``frames`` (3, 3, L) with columns
+    ``(e1, e2, axis)`` of each loop, ``radii`` (L,) m, ``currents`` (L,) A (counter-clockwise about
+    ``axis``; turns included). Adds B and its gradient at ``points`` (3, n)."""
+    n_points = points.shape[1]
+    for ell in range(radii.shape[0]):
+        scale = MU0_OVER_2PI * currents[ell]
+        if scale == 0.0:
+            continue
+        # Frame columns e1 = (r00, r10, r20), e2 = (r01, r11, r21), axis = (r02, r12, r22).
+        r00, r01, r02 = frames[0, 0, ell], frames[0, 1, ell], frames[0, 2, ell]
+        r10, r11, r12 = frames[1, 0, ell], frames[1, 1, ell], frames[1, 2, ell]
+        r20, r21, r22 = frames[2, 0, ell], frames[2, 1, ell], frames[2, 2, ell]
+        cx, cy, cz = centres[0, ell], centres[1, ell], centres[2, ell]
+        radius = radii[ell]
+        for k in range(n_points):
+            d0 = points[0, k] - cx
+            d1 = points[1, k] - cy
+            d2 = points[2, k] - cz
+            x = r00 * d0 + r10 * d1 + r20 * d2
+            y = r01 * d0 + r11 * d1 + r21 * d2
+            z = r02 * d0 + r12 * d1 + r22 * d2
+            rho = math.sqrt(x * x + y * y)
+            if rho > 0.0:
+                c = x / rho
+                s = y / rho
+            else:
+                c = 1.0
+                s = 0.0
+            b_rho, b_z, db_rho, brr, dbzr, dbzz = loop_local(radius, rho, z)
+            # Local field (b_rho c, b_rho s, b_z), to the lab frame: B = R b.
+            bx = b_rho * c
+            by = b_rho * s
+            b_out[0, k] += scale * (r00 * bx + r01 * by + r02 * b_z)
+            b_out[1, k] += scale * (r10 * bx + r11 * by + r12 * b_z)
+            b_out[2, k] += scale * (r20 * bx + r21 * by + r22 * b_z)
+            if not with_gradient:
+                continue
+            # Local gradient (symmetric: curl-free), d b_rho/dz = d b_z/d rho.
+            gxx = db_rho * c * c + brr * s * s
+            gxy = (db_rho - brr) * c * s
+            gyy = db_rho * s * s + brr * c * c
+            gxz = dbzr * c
+            gyz = dbzr * s
+            gzz = dbzz
+            # T = R G_local (rows i), then G_lab = T R^T.
+            t00 = r00 * gxx + r01 * gxy + r02 * gxz
+            t01 = r00 * gxy + r01 * gyy + r02 * gyz
+            t02 = r00 * gxz + r01 * gyz + r02 * gzz
+            t10 = r10 * gxx + r11 * gxy + r12 * gxz
+            t11 = r10 * gxy + r11 * gyy + r12 * gyz
+            t12 = r10 * gxz + r11 * gyz + r12 * gzz
+            t20 = r20 * gxx + r21 * gxy + r22 * gxz
+            t21 = r20 * gxy + r21 * gyy + r22 * gyz
+            t22 = r20 * gxz + r21 * gyz + r22 * gzz
+            g00 = t00 * r00 + t01 * r01 + t02 * r02
+            g01 = t00 * r10 + t01 * r11 + t02 * r12
+            g02 = t00 * r20 + t01 * r21 + t02 * r22
+            g11 = t10 * r10 + t11 * r11 + t12 * r12
+            g12 = t10 * r20 + t11 * r21 + t12 * r22
+            g22 = t20 * r20 + t21 * r21 + t22 * r22
+            g_out[0, 0, k] += scale * g00
+            g_out[0, 1, k] += scale * g01
+            g_out[0, 2, k] += scale * g02
+            g_out[1, 0, k] += scale * g01
+            g_out[1, 1, k] += scale * g11
+            g_out[1, 2, k] += scale * g12
+            g_out[2, 0, k] += scale * g02
+            g_out[2, 1, k] += scale * g12
+            g_out[2, 2, k] += scale * g22
+
+
+@njit(cache=True)
+def grid_field(origin, spacing, shape, samples, gradients, scale, points, b_out, g_out, with_gradient):
+    """Trilinear interpolation of ``samples`` (3, nx, ny, nz) T and ``gradients`` (3, 3, nx, ny, nz)
+    T/m on a regular grid (``origin``, ``spacing`` (3,) m), times ``scale``. Returns the index of
+    the first point outside the grid, or -1."""
+    idx = np.empty(3, dtype=np.int64)
+    frac = np.empty(3)
+    for k in range(points.shape[1]):
+        for d in range(3):
+            u = (points[d, k] - origin[d]) / spacing[d]
+            if not (u >= -1e-9 and u <= shape[d] - 1 + 1e-9):
+                return k
+            i = int(math.floor(u))
+            i = min(max(i, 0), shape[d] - 2)
+            idx[d] = i
+            frac[d] = u - i
+        for corner in range(8):
+            cx = corner & 1
+            cy = (corner >> 1) & 1
+            cz = (corner >> 2) & 1
+            w = ((frac[0] if cx else 1.0 - frac[0]) * (frac[1] if cy else 1.0 - frac[1])
+                 * (frac[2] if cz else 1.0 - frac[2])) * scale
+            if w == 0.0:
+                continue
+            ix, iy, iz = idx[0] + cx, idx[1] + cy, idx[2] + cz
+            for i in range(3):
+                b_out[i, k] += w * samples[i, ix, iy, iz]
+            if with_gradient:
+                for i in range(3):
+                    for j in range(3):
+                        g_out[i, j, k] += w * gradients[i, j, ix, iy, iz]
+    return -1
+
+
+@njit(cache=True)
+def element_centres(positions, out):
+    """Midpoints of consecutive nodes: ``positions`` (3, n + 1) -> ``out`` (3, n)."""
+    for k in range(out.shape[1]):
+        for d in range(3):
+            out[d, k] = 0.5 * (positions[d, k] + positions[d, k + 1])
+
+
+@njit(cache=True)
+def magnetic_forces(moment_material, directors, gradients, external_forces):
+    """Add ``F_e = (grad B)^T m_e`` (``m_e = Q_e^T m_material``, lab frame) half to node ``e`` and
+    half to node ``e + 1``. Shapes ``(3, n)``, ``(3, 3, n)``, ``(3, 3, n)``, ``(3, n + 1)``."""
+    for e in range(moment_material.shape[1]):
+        # Lab-frame moment: m_lab = Q^T m (rows of Q are d1, d2, d3).
+        ml0 = (directors[0, 0, e] * moment_material[0, e] + directors[1, 0, e] * moment_material[1, e]
+               + directors[2, 0, e] * moment_material[2, e])
+        ml1 = (directors[0, 1, e] * moment_material[0, e] + directors[1, 1, e] * moment_material[1, e]
+               + directors[2, 1, e] * moment_material[2, e])
+        ml2 = (directors[0, 2, e] * moment_material[0, e] + directors[1, 2, e] * moment_material[1, e]
+               + directors[2, 2, e] * moment_material[2, e])
+        for j in range(3):
+            f = 0.5 * (gradients[0, j, e] * ml0 + gradients[1, j, e] * ml1 + gradients[2, j, e] * ml2)
+            external_forces[j, e] += f
+            external_forces[j, e + 1] += f
+
+
+@njit(cache=True)
+def magnetic_torques_at_elements(moment_material, fields_lab, directors, external_torques):
+    """Add ``m x (Q_e B_e)`` to the material-frame torques; ``B_e`` is element ``e``'s own field.
+    Shapes ``(3, n)``, ``(3, n)``, ``(3, 3, n)``, ``(3, n)``."""
+    for e in range(moment_material.shape[1]):
+        f0 = fields_lab[0, e]
+        f1 = fields_lab[1, e]
+        f2 = fields_lab[2, e]
+        b0 = directors[0, 0, e] * f0 + directors[0, 1, e] * f1 + directors[0, 2, e] * f2
+        b1 = directors[1, 0, e] * f0 + directors[1, 1, e] * f1 + directors[1, 2, e] * f2
+        b2 = directors[2, 0, e] * f0 + directors[2, 1, e] * f1 + directors[2, 2, e] * f2
+        m0 = moment_material[0, e]
+        m1 = moment_material[1, e]
+        m2 = moment_material[2, e]
+        external_torques[0, e] += m1 * b2 - m2 * b1
+        external_torques[1, e] += m2 * b0 - m0 * b2
+        external_torques[2, e] += m0 * b1 - m1 * b0
+
+
+@njit(cache=True)
+def first_nonfinite(b, g, with_gradient):
+    """Index of the first column of ``b`` (3, n) (or, ``with_gradient``, of ``g`` (3, 3, n)) that
+    holds NaN or an infinity; -1 if none."""
+    for k in range(b.shape[1]):
+        for i in range(3):
+            if not math.isfinite(b[i, k]):
+                return k
+            if with_gradient:
+                for j in range(3):
+                    if not math.isfinite(g[i, j, k]):
+                        return k
+    return -1

@@ -1,0 +1,485 @@
+"""Magnetic field sources that vary in space: ``B(x, t)`` and its gradient at many points at once.
+
+Every source here offers
+
+- ``at(points, time) -> (3, n)``: the flux density ``B`` in tesla at ``points`` ``(3, n)`` (m,
+  lab frame);
+- ``gradient(points, time) -> (3, 3, n)``: ``G[i, j] = dB_i / dx_j`` in T/m;
+- ``evaluate(points, time) -> (B, G)``: both at once (what the forcing calls, once per step).
+
+Give one to :class:`~elastica_magnetic.MagneticTorques` as its ``field``: it then applies the
+torque ``m x B(x_e)`` at each element centre ``x_e`` and the force ``(grad B)^T m``. The uniform
+sources of :mod:`elastica_magnetic.fields` offer ``at`` and ``gradient`` too (zero gradient) and
+keep their own, unchanged path through the forcing.
+
+Closed forms, in numba (:mod:`elastica_magnetic._spatial_kernels`): the point dipole and its
+analytic gradient; circular current loops by complete elliptic integrals (arithmetic-geometric
+mean) with analytic gradients, and a series about the axis where the closed form cancels. They
+agree with Magpylib to round-off and cost a few hundred times less per call
+(:doc:`/spatial_fields`). Finite magnets (cuboid, cylinder) come from Magpylib, an optional
+dependency: :mod:`elastica_magnetic.magnet_fields`.
+
+A pose may follow a trajectory in time: positions, moments and currents are either constants or
+callables of time (e.g. :class:`Waypoints`).
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from collections.abc import Callable
+from pathlib import Path
+from typing import Union
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from . import _spatial_kernels as kernels
+
+__all__ = [
+    "SpatialFieldError",
+    "FieldMapDomainError",
+    "Waypoints",
+    "SpatialField",
+    "PointDipoleField",
+    "CurrentLoopsField",
+    "CurrentLoopField",
+    "HelmholtzCoils",
+    "MaxwellCoils",
+    "FieldMap",
+    "FieldSum",
+    "is_spatial",
+]
+
+#: A vector (3,) that is constant or a callable of time (s).
+VectorOrPath = Union[ArrayLike, Callable[[float], ArrayLike]]  # noqa: UP007 (a runtime alias)
+#: A scalar that is constant or a callable of time (s).
+ScalarOrWaveform = Union[float, Callable[[float], float]]  # noqa: UP007
+
+
+class SpatialFieldError(ValueError):
+    """Bad input to a spatial field source (points, pose, waveform); the message names it."""
+
+
+class FieldMapDomainError(SpatialFieldError):
+    """A point outside the grid of a :class:`FieldMap`."""
+
+
+def is_spatial(field: object) -> bool:
+    """Whether ``field`` is a source whose value depends on position: it has ``at`` and
+    ``gradient`` and is not marked ``uniform = True`` (the sources of :mod:`~elastica_magnetic.fields`)."""
+    return hasattr(field, "at") and hasattr(field, "gradient") and not getattr(field, "uniform", False)
+
+
+def _vector3(value: ArrayLike, name: str, unit: str) -> NDArray[np.float64]:
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise SpatialFieldError(f"{name} must be a 3-vector in {unit}, got {value!r}") from None
+    if array.shape != (3,):
+        raise SpatialFieldError(f"{name} must be a 3-vector in {unit}, got shape {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise SpatialFieldError(f"{name} must be finite ({unit}), got {array.tolist()}")
+    return array
+
+
+class _Vector:
+    """A (3,) vector that is constant or a callable of time, checked where it is evaluated."""
+
+    def __init__(self, value: VectorOrPath, name: str, unit: str) -> None:
+        self.name, self.unit = name, unit
+        if callable(value):
+            self.function = value
+            self.constant = None
+            self(0.0)  # fail now on a bad path, not mid-run
+        else:
+            self.function = None
+            self.constant = _vector3(value, name, unit)
+
+    def __call__(self, time: float) -> NDArray[np.float64]:
+        if self.constant is not None:
+            return self.constant
+        if type(self.function) is Waypoints:  # checked when built: finite (3,) values
+            return self.function(time)
+        return _vector3(self.function(time), f"{self.name} at t = {float(time):.6g} s", self.unit)
+
+
+class _Scalar:
+    def __init__(self, value: ScalarOrWaveform, name: str, unit: str) -> None:
+        self.name, self.unit = name, unit
+        self.function = value if callable(value) else None
+        self.constant = None if callable(value) else self._check(value, name)
+        if self.function is not None:
+            self(0.0)
+
+    def _check(self, value, name) -> float:
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            raise SpatialFieldError(f"{name} must be a number in {self.unit}, got {value!r}") from None
+        if not math.isfinite(number):
+            raise SpatialFieldError(f"{name} must be finite ({self.unit}), got {value!r}")
+        return number
+
+    def __call__(self, time: float) -> float:
+        if self.constant is not None:
+            return self.constant
+        return self._check(self.function(time), f"{self.name} at t = {float(time):.6g} s")
+
+
+class Waypoints:
+    """A path through ``values`` at ``times``, linear between them and held before and after:
+    a callable ``path(time) -> (3,)`` for a pose that follows a trajectory.
+
+    Parameters
+    ----------
+    times : array_like
+        ``(k,)`` strictly increasing times, s.
+    values : array_like
+        ``(k, 3)`` positions (m) or moments (A m^2) at those times.
+    """
+
+    def __init__(self, times: ArrayLike, values: ArrayLike) -> None:
+        times = np.asarray(times, dtype=np.float64)
+        values = np.asarray(values, dtype=np.float64)
+        if times.ndim != 1 or times.shape[0] < 1:
+            raise SpatialFieldError(
+                f"times must be a list of at least one time in s, got shape {times.shape}")
+        if values.shape != (times.shape[0], 3):
+            raise SpatialFieldError(f"values must have shape ({times.shape[0]}, 3) (one 3-vector per "
+                                    f"time), got {values.shape}")
+        if not (np.all(np.isfinite(times)) and np.all(np.isfinite(values))):
+            raise SpatialFieldError("times and values must be finite")
+        if np.any(np.diff(times) <= 0.0):
+            raise SpatialFieldError(f"times must increase strictly (s), got {times.tolist()}")
+        self.times = times
+        self.values = np.ascontiguousarray(values)
+        self._times = times.tolist()
+        self._rows = [row.tolist() for row in self.values]
+        self._value = np.empty(3)
+
+    def __call__(self, time: float) -> NDArray[np.float64]:
+        times = self._times
+        if time <= times[0]:
+            return self.values[0]
+        if time >= times[-1]:
+            return self.values[-1]
+        i = bisect.bisect_right(times, time) - 1
+        w = (time - times[i]) / (times[i + 1] - times[i])
+        a, b = self._rows[i], self._rows[i + 1]
+        value = self._value
+        value[0] = a[0] + w * (b[0] - a[0])
+        value[1] = a[1] + w * (b[1] - a[1])
+        value[2] = a[2] + w * (b[2] - a[2])
+        return value
+
+
+class SpatialField:
+    """Base class of the sources in this module: subclasses implement :meth:`_add`."""
+
+    uniform = False
+
+    def _add(self, points: NDArray[np.float64], time: float, b: NDArray[np.float64],
+             g: NDArray[np.float64], with_gradient: bool) -> None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    @staticmethod
+    def _points(points: ArrayLike) -> NDArray[np.float64]:
+        array = np.asarray(points, dtype=np.float64)
+        if array.ndim != 2 or array.shape[0] != 3:
+            raise SpatialFieldError(f"points must have shape (3, n) in m, got {array.shape}")
+        if not np.all(np.isfinite(array)):
+            raise SpatialFieldError("points must be finite (m)")
+        return np.ascontiguousarray(array)
+
+    def at(self, points: ArrayLike, time: float = 0.0) -> NDArray[np.float64]:
+        """``B`` (T), shape ``(3, n)``, at ``points`` ``(3, n)`` (m, lab frame) and ``time`` (s)."""
+        points = self._points(points)
+        b = np.zeros(points.shape)
+        self._add(points, float(time), b, np.zeros((3, 3, 0)), False)
+        return b
+
+    def gradient(self, points: ArrayLike, time: float = 0.0) -> NDArray[np.float64]:
+        """``G[i, j] = dB_i/dx_j`` (T/m), shape ``(3, 3, n)``, at ``points`` ``(3, n)`` (m)."""
+        return self.evaluate(points, time)[1]
+
+    def evaluate(
+        self, points: ArrayLike, time: float = 0.0
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``(B, G)``: ``(3, n)`` T and ``(3, 3, n)`` T/m at ``points`` ``(3, n)`` (m)."""
+        points = self._points(points)
+        b = np.zeros(points.shape)
+        g = np.zeros((3, 3, points.shape[1]))
+        self._add(points, float(time), b, g, True)
+        return b, g
+
+    def __add__(self, other: object) -> FieldSum:
+        return FieldSum(self, other)
+
+
+class PointDipoleField(SpatialField):
+    """The field of a point magnetic dipole (a permanent magnet seen from afar).
+
+    ``B(x) = mu0 / (4 pi r^3) (3 (m . n) n - m)``, ``r = x - position``, ``n = r / |r|``; the
+    gradient is analytic. A sphere magnetized uniformly makes exactly this field outside itself
+    (``m = M V``).
+
+    Parameters
+    ----------
+    moment : array_like (3,) or callable
+        Magnetic moment, A m^2 (lab frame), or ``moment(time) -> (3,)``.
+    position : array_like (3,) or callable
+        Dipole position, m, or ``position(time) -> (3,)`` (e.g. :class:`Waypoints`).
+    """
+
+    def __init__(self, moment: VectorOrPath, position: VectorOrPath = (0.0, 0.0, 0.0)) -> None:
+        self.moment = _Vector(moment, "moment", "A m^2")
+        self.position = _Vector(position, "position", "m")
+
+    def _add(self, points, time, b, g, with_gradient) -> None:
+        kernels.dipole_field(self.moment(time), self.position(time), points, b, g, with_gradient)
+
+
+def _frame(axis: NDArray[np.float64]) -> NDArray[np.float64]:
+    """A right-handed orthonormal frame, columns ``(e1, e2, axis)``."""
+    axis = axis / np.linalg.norm(axis)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(helper, axis)
+    e1 /= np.linalg.norm(e1)
+    return np.column_stack([e1, np.cross(axis, e1), axis])
+
+
+class CurrentLoopsField(SpatialField):
+    """Coaxial circular current loops that move together (a coil set), driven by one current.
+
+    Loop ``l`` has radius ``radii[l]`` (m), sits at ``centre + offsets[l] * axis`` and carries
+    ``current(t) * weights[l]`` amperes, counter-clockwise about ``axis`` (``weights``: turns, with
+    a sign for reversed loops). Each loop is a filament: a wound coil of small cross-section is
+    well described by its ``turns`` at the mean radius.
+
+    Parameters
+    ----------
+    radii, offsets, weights : array_like
+        ``(L,)`` m, m, turns.
+    current : float or callable
+        A, or ``current(time) -> float`` (the waveform).
+    centre : array_like (3,) or callable
+        m, or ``centre(time) -> (3,)``.
+    axis : array_like (3,)
+        Direction of the common axis (normalized here).
+    """
+
+    def __init__(self, radii: ArrayLike, offsets: ArrayLike, weights: ArrayLike,
+                 current: ScalarOrWaveform = 1.0, centre: VectorOrPath = (0.0, 0.0, 0.0),
+                 axis: ArrayLike = (0.0, 0.0, 1.0)) -> None:
+        radii = np.atleast_1d(np.asarray(radii, dtype=np.float64))
+        offsets = np.atleast_1d(np.asarray(offsets, dtype=np.float64))
+        weights = np.atleast_1d(np.asarray(weights, dtype=np.float64))
+        if not (radii.ndim == 1 and radii.shape == offsets.shape == weights.shape):
+            raise SpatialFieldError(f"radii, offsets and weights must be lists of one length, got "
+                                    f"{radii.shape}, {offsets.shape}, {weights.shape}")
+        if not np.all(np.isfinite(radii)) or np.any(radii <= 0.0):
+            raise SpatialFieldError(f"radii must be positive lengths in m, got {radii.tolist()}")
+        if not (np.all(np.isfinite(offsets)) and np.all(np.isfinite(weights))):
+            raise SpatialFieldError("offsets (m) and weights (turns) must be finite")
+        axis = _vector3(axis, "axis", "a direction")
+        if not np.any(axis):
+            raise SpatialFieldError("axis must be a non-zero direction")
+        self.radii, self.offsets, self.weights = radii, offsets, weights
+        self.frame = _frame(axis)
+        self.axis = self.frame[:, 2].copy()
+        self.current = _Scalar(current, "current", "A")
+        self.centre = _Vector(centre, "centre", "m")
+        n = radii.shape[0]
+        self._frames = np.ascontiguousarray(np.repeat(self.frame[:, :, None], n, axis=2))
+        self._centres = np.empty((3, n))
+        self._currents = np.empty(n)
+
+    def _add(self, points, time, b, g, with_gradient) -> None:
+        centre = self.centre(time)
+        np.add(centre[:, None], self.axis[:, None] * self.offsets[None, :], out=self._centres)
+        np.multiply(self.weights, self.current(time), out=self._currents)
+        kernels.loops_field(self._centres, self._frames, self.radii, self._currents, points, b, g,
+                            with_gradient)
+
+
+class CurrentLoopField(CurrentLoopsField):
+    """One circular loop of ``turns`` turns, radius ``radius`` (m), carrying ``current`` (A,
+    counter-clockwise about ``axis``), centred at ``centre`` (m; may be a path)."""
+
+    def __init__(self, radius: float, current: ScalarOrWaveform = 1.0, centre: VectorOrPath = (0.0, 0.0, 0.0),
+                 axis: ArrayLike = (0.0, 0.0, 1.0), turns: float = 1.0) -> None:
+        super().__init__([radius], [0.0], [turns], current, centre, axis)
+
+
+class HelmholtzCoils(CurrentLoopsField):
+    """A Helmholtz pair: two coaxial loops of radius ``R`` at ``+-R/2`` from ``centre``, same
+    current; the most uniform field of two loops, ``B = (4/5)^(3/2) mu0 N I / R`` at the centre.
+
+    Parameters
+    ----------
+    radius : float
+        m. ``current``: A (or a waveform). ``turns``: turns per coil.
+    """
+
+    def __init__(self, radius: float, current: ScalarOrWaveform = 1.0, centre: VectorOrPath = (0.0, 0.0, 0.0),
+                 axis: ArrayLike = (0.0, 0.0, 1.0), turns: float = 1.0) -> None:
+        super().__init__([radius, radius], [-0.5 * radius, 0.5 * radius], [turns, turns], current,
+                         centre, axis)
+
+
+class MaxwellCoils(CurrentLoopsField):
+    """A Maxwell gradient pair (anti-Helmholtz): two coaxial loops of radius ``R`` at
+    ``+-sqrt(3) R / 2`` with opposite currents; zero field at the centre and the most uniform
+    gradient, ``dB_z/dz = 48 sqrt(3) / 7^(5/2) mu0 N I / R^2 = 0.6413 mu0 N I / R^2`` along
+    ``axis`` (the loop at ``+sqrt(3) R / 2`` carries ``+I`` about ``axis``, the other ``-I``).
+    """
+
+    def __init__(self, radius: float, current: ScalarOrWaveform = 1.0, centre: VectorOrPath = (0.0, 0.0, 0.0),
+                 axis: ArrayLike = (0.0, 0.0, 1.0), turns: float = 1.0) -> None:
+        half = 0.5 * math.sqrt(3.0) * radius
+        super().__init__([radius, radius], [-half, half], [-turns, turns], current, centre, axis)
+
+
+class FieldMap(SpatialField):
+    """A field tabulated on a regular 3D grid (e.g. exported from a finite-element tool).
+
+    ``B`` and its gradient are interpolated trilinearly; the gradient table is computed once from
+    the samples by second-order central differences (one-sided at the faces). Both are continuous,
+    and the gradient is accurate to ``O(h^2)`` for a smooth field (``h`` the spacing). A point
+    outside the grid raises :class:`FieldMapDomainError`.
+
+    Parameters
+    ----------
+    x, y, z : array_like
+        Grid coordinates, m: evenly spaced, increasing, at least 3 each.
+    samples : array_like
+        ``(nx, ny, nz, 3)`` flux density, T.
+    scale : float or callable
+        Factor on the whole map (e.g. a coil current waveform), or ``scale(time) -> float``.
+    """
+
+    def __init__(self, x: ArrayLike, y: ArrayLike, z: ArrayLike, samples: ArrayLike,
+                 scale: ScalarOrWaveform = 1.0, source: str = "field map") -> None:
+        axes = []
+        for name, values in (("x", x), ("y", y), ("z", z)):
+            values = np.asarray(values, dtype=np.float64)
+            if values.ndim != 1 or values.shape[0] < 3:
+                raise SpatialFieldError(f"{source}: {name} must list at least 3 grid coordinates (m), "
+                                        f"got shape {values.shape}")
+            steps = np.diff(values)
+            if not np.all(np.isfinite(values)) or np.any(steps <= 0.0) or np.ptp(steps) > 1e-6 * steps.mean():
+                raise SpatialFieldError(f"{source}: {name} must be evenly spaced and increasing (m)")
+            axes.append(values)
+        shape = tuple(a.shape[0] for a in axes)
+        samples = np.asarray(samples, dtype=np.float64)
+        if samples.shape != (*shape, 3):
+            raise SpatialFieldError(f"{source}: samples must have shape {(*shape, 3)} (nx, ny, nz, 3) "
+                                    f"in T, got {samples.shape}")
+        if not np.all(np.isfinite(samples)):
+            raise SpatialFieldError(f"{source}: samples contain NaN or infinite values")
+        self.source = source
+        self.axes = axes
+        self.origin = np.array([a[0] for a in axes])
+        self.spacing = np.array([(a[-1] - a[0]) / (a.shape[0] - 1) for a in axes])
+        self.shape = np.array(shape, dtype=np.int64)
+        self.samples = np.ascontiguousarray(np.moveaxis(samples, -1, 0))
+        gradients = np.empty((3, 3, *shape))
+        for i in range(3):
+            for j in range(3):
+                gradients[i, j] = np.gradient(self.samples[i], self.spacing[j], axis=j, edge_order=2)
+        self.gradients = np.ascontiguousarray(gradients)
+        self.scale = _Scalar(scale, "scale", "1")
+
+    @classmethod
+    def from_npz(cls, path: str | Path, scale: ScalarOrWaveform = 1.0) -> FieldMap:
+        """Load ``x``, ``y``, ``z`` (m) and ``B`` (``(nx, ny, nz, 3)``, T) from an ``.npz`` file."""
+        path = Path(path)
+        try:
+            data = np.load(path)
+        except (OSError, ValueError) as exc:
+            raise SpatialFieldError(f"{path}: cannot be read as an .npz field map ({exc})") from None
+        missing = [k for k in ("x", "y", "z", "B") if k not in data]
+        if missing:
+            raise SpatialFieldError(f"{path}: lacks array(s) {', '.join(missing)} (x, y, z in m; B in T, "
+                                    "shape (nx, ny, nz, 3))")
+        return cls(data["x"], data["y"], data["z"], data["B"], scale, source=str(path))
+
+    @classmethod
+    def from_csv(cls, path: str | Path, scale: ScalarOrWaveform = 1.0) -> FieldMap:
+        """Load a CSV with header ``x_m,y_m,z_m,Bx_mT,By_mT,Bz_mT``: one row per grid point, in any
+        order, every point of a regular grid present once (field in mT, as the field CSV files)."""
+        path = Path(path)
+        columns = ("x_m", "y_m", "z_m", "Bx_mT", "By_mT", "Bz_mT")
+        try:
+            with open(path, encoding="utf-8-sig") as handle:
+                header = [h.strip() for h in handle.readline().split(",")]
+                if tuple(header) != columns:
+                    raise SpatialFieldError(f"{path}: header must be {','.join(columns)}, got "
+                                            f"{','.join(header)}")
+                table = np.loadtxt(handle, delimiter=",", ndmin=2)
+        except (OSError, UnicodeDecodeError) as exc:
+            raise SpatialFieldError(f"{path}: cannot be read ({exc})") from None
+        except ValueError as exc:
+            raise SpatialFieldError(f"{path}: every row must hold 6 numbers ({exc})") from None
+        if table.shape[1] != 6:
+            raise SpatialFieldError(f"{path}: expected 6 columns, got {table.shape[1]}")
+        if not np.all(np.isfinite(table)):
+            row = int(np.argwhere(~np.isfinite(table))[0, 0])
+            raise SpatialFieldError(f"{path}: line {row + 2}: non-finite value")
+        axes = [np.unique(table[:, d]) for d in range(3)]
+        shape = tuple(a.shape[0] for a in axes)
+        if table.shape[0] != shape[0] * shape[1] * shape[2]:
+            raise SpatialFieldError(f"{path}: {table.shape[0]} rows do not fill a regular "
+                                    f"{shape[0]} x {shape[1]} x {shape[2]} grid once")
+        index = tuple(np.searchsorted(axes[d], table[:, d]) for d in range(3))
+        samples = np.full((*shape, 3), np.nan)
+        samples[index] = 1e-3 * table[:, 3:]
+        if np.isnan(samples).any():
+            raise SpatialFieldError(f"{path}: a grid point appears twice and another is missing")
+        return cls(*axes, samples, scale, source=str(path))
+
+    def _add(self, points, time, b, g, with_gradient) -> None:
+        outside = kernels.grid_field(self.origin, self.spacing, self.shape, self.samples, self.gradients,
+                                     self.scale(time), points, b, g, with_gradient)
+        if outside >= 0:
+            lo = self.origin
+            hi = self.origin + self.spacing * (self.shape - 1)
+            raise FieldMapDomainError(
+                f"{self.source}: point {points[:, outside].tolist()} m (column {outside}) at "
+                f"t = {time:.6g} s is outside the map's grid [{lo.tolist()}, {hi.tolist()}] m")
+
+
+class _UniformCallable(SpatialField):
+    """A uniform callable ``field(time) -> (3,)`` (T) as a spatial source (zero gradient)."""
+
+    def __init__(self, field: Callable[[float], ArrayLike]) -> None:
+        self.field = field
+
+    def _add(self, points, time, b, g, with_gradient) -> None:
+        b += _vector3(self.field(time), f"uniform field at t = {time:.6g} s", "T")[:, None]
+
+
+class FieldSum(SpatialField):
+    """The sum of field sources: spatial ones, and uniform ones (any ``field(time) -> (3,)``,
+    e.g. :class:`~elastica_magnetic.ConstantField`) added everywhere with zero gradient."""
+
+    def __init__(self, *sources: object) -> None:
+        if not sources:
+            raise SpatialFieldError("FieldSum needs at least one source")
+        parts: list[SpatialField] = []
+        for i, source in enumerate(sources):
+            if isinstance(source, FieldSum):
+                parts.extend(source.sources)
+            elif isinstance(source, SpatialField):
+                parts.append(source)
+            elif callable(source):
+                parts.append(_UniformCallable(source))
+            else:
+                raise SpatialFieldError(f"source {i} of FieldSum is neither a spatial source (at, gradient) "
+                                        f"nor a field(time) -> (3,) callable: {source!r}")
+        self.sources = parts
+
+    def _add(self, points, time, b, g, with_gradient) -> None:
+        for source in self.sources:
+            source._add(points, time, b, g, with_gradient)

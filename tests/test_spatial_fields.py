@@ -1,0 +1,220 @@
+"""Spatial field sources: closed forms against Magpylib and finite differences, poses in time,
+field maps, sums, and bad input."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from elastica_magnetic import (
+    ConstantField,
+    CurrentLoopField,
+    FieldMap,
+    FieldMapDomainError,
+    FieldSum,
+    HelmholtzCoils,
+    MaxwellCoils,
+    PointDipoleField,
+    RotatingField,
+    SpatialFieldError,
+    Waypoints,
+)
+from elastica_magnetic.spatial_fields import is_spatial
+
+MU0 = 4e-7 * math.pi
+RNG = np.random.default_rng(7)
+POINTS = RNG.normal(size=(3, 25)) * 0.04 + np.array([[0.0], [0.0], [0.03]])
+
+
+def fd_gradient(source, points, h, time=0.0):
+    """Richardson-extrapolated central differences of ``source.at``: (3, 3, n)."""
+    def central(step):
+        return np.stack([(source.at(points + step * np.eye(3)[:, [j]], time)
+                          - source.at(points - step * np.eye(3)[:, [j]], time)) / (2 * step)
+                         for j in range(3)], axis=1)
+    return (4.0 * central(h / 2) - central(h)) / 3.0
+
+
+def test_point_dipole_closed_form_and_gradient():
+    moment, position = np.array([0.1, -0.2, 0.9]), np.array([0.01, 0.0, -0.02])
+    source = PointDipoleField(moment, position)
+    b, g = source.evaluate(POINTS)
+    r = POINTS - position[:, None]
+    d = np.linalg.norm(r, axis=0)
+    n = r / d
+    expected = MU0 / (4 * np.pi * d**3) * (3 * n * (moment @ n) - moment[:, None])
+    np.testing.assert_allclose(b, expected, rtol=1e-13)
+    assert b.shape == (3, 25) and g.shape == (3, 3, 25)
+    np.testing.assert_allclose(source.at(POINTS), b)
+    np.testing.assert_allclose(source.gradient(POINTS), g)
+    np.testing.assert_allclose(g, fd_gradient(source, POINTS, 1e-5), rtol=0, atol=1e-9 * np.abs(g).max())
+    # curl-free and divergence-free outside the source
+    np.testing.assert_allclose(g, np.transpose(g, (1, 0, 2)), atol=1e-12 * np.abs(g).max())
+    np.testing.assert_allclose(np.trace(g), 0.0, atol=1e-12 * np.abs(g).max())
+
+
+def test_point_dipole_matches_magpylib():
+    magpy = pytest.importorskip("magpylib")
+    moment, position = np.array([0.3, 0.1, -0.5]), np.array([0.0, 0.02, 0.0])
+    ours = PointDipoleField(moment, position).at(POINTS)
+    theirs = magpy.misc.Dipole(moment=moment, position=position).getB(POINTS.T).T
+    # Magpylib's mu0 is CODATA 2018's (1.25663706212e-6), ours 4 pi 1e-7: 5e-10 apart.
+    np.testing.assert_allclose(ours, theirs, rtol=2e-9)
+
+
+@pytest.mark.parametrize("cls", [CurrentLoopField, HelmholtzCoils, MaxwellCoils])
+def test_loops_match_magpylib_and_their_gradient(cls):
+    magpy = pytest.importorskip("magpylib")
+    from scipy.spatial.transform import Rotation
+
+    centre, current, turns = np.array([0.01, 0.02, 0.0]), 2.5, 30
+    source = cls(0.05, current=current, centre=centre, axis=[0.3, 0.1, 1.0], turns=turns)
+    b, g = source.evaluate(POINTS)
+    loops = magpy.Collection()
+    for radius, offset, weight in zip(source.radii, source.offsets, source.weights, strict=True):
+        loops.add(magpy.current.Circle(current=current * weight, diameter=2 * radius,
+                                       position=centre + offset * source.axis,
+                                       orientation=Rotation.from_matrix(source.frame)))
+    np.testing.assert_allclose(b, loops.getB(POINTS.T).T, rtol=0, atol=2e-9 * np.abs(b).max())
+    np.testing.assert_allclose(g, fd_gradient(source, POINTS, 1e-5), rtol=0, atol=1e-8 * np.abs(g).max())
+    np.testing.assert_allclose(np.trace(g), 0.0, atol=1e-12 * np.abs(g).max())
+
+
+def test_loop_near_and_on_its_axis():
+    """The series about the axis and the closed form meet smoothly; on the axis, the textbook
+    ``B_z = mu0 I a^2 / (2 (a^2 + z^2)^(3/2))``."""
+    a, z = 0.05, 0.03
+    loop = CurrentLoopField(a, current=1.0)
+    on_axis = loop.at(np.array([[0.0], [0.0], [z]]))[:, 0]
+    np.testing.assert_allclose(on_axis, [0, 0, MU0 * a * a / (2 * (a * a + z * z) ** 1.5)], rtol=1e-14)
+    rho = np.geomspace(1e-9, 1e-2, 60)
+    points = np.vstack([0.6 * rho, 0.8 * rho, np.full_like(rho, z)])
+    b, g = loop.evaluate(points)
+    h = 1e-6
+    reference = fd_gradient(loop, points, h)
+    scale = np.abs(b).max() / a
+    assert np.abs(g - reference).max() < 1e-7 * scale
+    # B_rho / rho and B_z are continuous across the switch (rho^2 = 1e-6 (a^2 + z^2))
+    switch = math.sqrt(1e-6 * (a * a + z * z))
+    pair = np.array([[switch * (1 - 1e-12), switch * (1 + 1e-12)], [0, 0], [z, z]])
+    ratio = loop.at(pair) / np.array([[switch], [1.0], [1.0]])
+    np.testing.assert_allclose(ratio[:, 1], ratio[:, 0], rtol=1e-10)
+
+
+def test_coil_pair_centre_values():
+    radius, current, turns = 0.1, 3.0, 50
+    centre = np.zeros((3, 1))
+    helmholtz = HelmholtzCoils(radius, current=current, turns=turns)
+    np.testing.assert_allclose(helmholtz.at(centre)[:, 0],
+                               [0, 0, 0.8**1.5 * MU0 * turns * current / radius], rtol=1e-14)
+    maxwell = MaxwellCoils(radius, current=current, turns=turns)
+    b, g = maxwell.evaluate(centre)
+    assert np.abs(b).max() < 1e-18
+    gz = 48 * math.sqrt(3) / 7**2.5 * MU0 * turns * current / radius**2
+    np.testing.assert_allclose(np.diag(g[:, :, 0]), [-gz / 2, -gz / 2, gz], rtol=1e-12)
+
+
+def test_pose_and_current_follow_time():
+    path = Waypoints([0.0, 1.0, 3.0], [[0, 0, 0], [0.01, 0, 0], [0.01, 0.02, 0]])
+    np.testing.assert_allclose(path(0.5), [0.005, 0, 0])
+    np.testing.assert_allclose(path(2.0), [0.01, 0.01, 0])
+    np.testing.assert_allclose(path(-1.0), [0, 0, 0])
+    np.testing.assert_allclose(path(9.0), [0.01, 0.02, 0])
+    moving = PointDipoleField([0, 0, 1.0], path)
+    fixed = PointDipoleField([0, 0, 1.0], [0.01, 0.01, 0.0])
+    np.testing.assert_array_equal(moving.at(POINTS, 2.0), fixed.at(POINTS, 0.0))
+    coil = HelmholtzCoils(0.1, current=lambda t: 2.0 * math.sin(t))
+    np.testing.assert_allclose(coil.at(POINTS, 0.5), HelmholtzCoils(0.1, 2.0 * math.sin(0.5)).at(POINTS))
+
+
+def test_sum_of_sources_and_uniform_sources():
+    dipole = PointDipoleField([0, 0.5, 0], [0, 0, -0.05])
+    loop = CurrentLoopField(0.04, 2.0)
+    uniform = ConstantField([1e-3, 0.0, 2e-3])
+    total = FieldSum(dipole, loop, uniform)
+    b, g = total.evaluate(POINTS)
+    np.testing.assert_allclose(b, dipole.at(POINTS) + loop.at(POINTS) + uniform.at(POINTS), rtol=1e-14)
+    np.testing.assert_allclose(g, dipole.gradient(POINTS) + loop.gradient(POINTS), rtol=1e-14)
+    assert is_spatial(total) and is_spatial(dipole + loop)
+    # uniform sources: the same methods, zero gradient, and still not "spatial"
+    rotating = RotatingField(4e-3, 1.0)
+    np.testing.assert_array_equal(rotating.at(POINTS, 0.1), np.repeat(rotating(0.1)[:, None], 25, axis=1))
+    np.testing.assert_array_equal(rotating.gradient(POINTS, 0.1), np.zeros((3, 3, 25)))
+    assert not is_spatial(rotating) and not is_spatial(uniform)
+
+
+def _dipole_grid(n):
+    source = PointDipoleField([0.0, 0.0, 0.2], [0.0, 0.0, -0.06])
+    axes = [np.linspace(-0.02, 0.02, n)] * 3
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)  # (n, n, n, 3)
+    samples = source.at(grid.reshape(-1, 3).T).T.reshape(n, n, n, 3)
+    return source, axes, samples
+
+
+def test_field_map_converges_at_second_order(tmp_path):
+    inner = RNG.uniform(-0.015, 0.015, size=(3, 40))
+    errors = []
+    for n in (11, 21, 41):
+        source, axes, samples = _dipole_grid(n)
+        fmap = FieldMap(*axes, samples)
+        b, g = fmap.evaluate(inner)
+        b_ref, g_ref = source.evaluate(inner)
+        errors.append((np.abs(b - b_ref).max() / np.abs(b_ref).max(),
+                       np.abs(g - g_ref).max() / np.abs(g_ref).max()))
+    errors = np.array(errors)
+    orders = np.log2(errors[0] / errors[-1]) / 2.0  # over two halvings of the spacing
+    assert np.all(orders > 1.8), (errors, orders)
+    assert errors[-1, 0] < 2e-3 and errors[-1, 1] < 2e-3
+
+
+def test_field_map_files_round_trip(tmp_path):
+    _, axes, samples = _dipole_grid(5)
+    np.savez(tmp_path / "map.npz", x=axes[0], y=axes[1], z=axes[2], B=samples)
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    rows = np.hstack([grid, 1e3 * samples.reshape(-1, 3)])[RNG.permutation(125)]
+    csv = tmp_path / "map.csv"
+    np.savetxt(csv, rows, delimiter=",", header="x_m,y_m,z_m,Bx_mT,By_mT,Bz_mT", comments="")
+    direct = FieldMap(*axes, samples)
+    for loaded in (FieldMap.from_npz(tmp_path / "map.npz"), FieldMap.from_csv(csv)):
+        np.testing.assert_allclose(loaded.samples, direct.samples, rtol=1e-14, atol=0)
+    with pytest.raises(FieldMapDomainError, match=r"outside the map's grid"):
+        direct.at(np.array([[0.0], [0.0], [0.05]]))
+    bad = tmp_path / "bad.csv"
+    bad.write_text("x,y,z,Bx,By,Bz\n0,0,0,1,1,1\n")
+    with pytest.raises(SpatialFieldError, match="header must be x_m,y_m,z_m,Bx_mT,By_mT,Bz_mT"):
+        FieldMap.from_csv(bad)
+    np.savetxt(csv, rows[:-1], delimiter=",", header="x_m,y_m,z_m,Bx_mT,By_mT,Bz_mT", comments="")
+    with pytest.raises(SpatialFieldError, match="do not fill a regular"):
+        FieldMap.from_csv(csv)
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: PointDipoleField([1, 0], [0, 0, 0]), "moment must be a 3-vector in A m\\^2"),
+    (lambda: PointDipoleField([1, 0, 0], lambda t: [0, np.nan, 0]), "position at t = 0 s must be finite"),
+    (lambda: HelmholtzCoils(-0.1), "radii must be positive lengths in m"),
+    (lambda: CurrentLoopField(0.1, axis=[0, 0, 0]), "axis must be a non-zero direction"),
+    (lambda: Waypoints([0, 0], [[0, 0, 0], [1, 0, 0]]), "times must increase strictly"),
+    (lambda: PointDipoleField([1, 0, 0]).at(np.zeros((2, 4))), r"points must have shape \(3, n\)"),
+    (lambda: FieldMap([0, 1], [0, 1, 2], [0, 1, 2], np.zeros((2, 3, 3, 3))), "at least 3 grid"),
+])
+def test_bad_input_is_named(make, message):
+    with pytest.raises(SpatialFieldError, match=message):
+        make()
+
+
+def test_finite_magnets_match_dipole_far_away_and_their_gradient():
+    pytest.importorskip("magpylib")
+    from elastica_magnetic.magnet_fields import CuboidMagnetField, CylinderMagnetField
+
+    cylinder = CylinderMagnetField(0.01, 0.01, [0, 0, 1.3], position=[0, 0, -0.02])
+    far = np.array([[0.0, 0.3, 0.2], [0.0, 0.0, 0.1], [0.5, 0.1, 0.3]])
+    dipole = PointDipoleField(cylinder.moment, [0, 0, -0.02])
+    np.testing.assert_allclose(cylinder.at(far), dipole.at(far), rtol=2e-3, atol=0)
+    cuboid = CuboidMagnetField([0.01, 0.02, 0.01], [1.2, 0, 0], position=lambda t: [0, 0, -0.03 - t])
+    near = np.array([[0.001, 0.003, -0.002], [0.0, 0.004, 0.0], [-0.015, -0.01, -0.005]])
+    b, g = cuboid.evaluate(near, 0.0)
+    np.testing.assert_allclose(g, fd_gradient(cuboid, near, 1e-4), rtol=0, atol=1e-6 * np.abs(g).max())
+    np.testing.assert_allclose(np.trace(g), 0.0, atol=1e-6 * np.abs(g).max())
+    assert not np.allclose(cuboid.at(near, 0.01), b)  # it moved
