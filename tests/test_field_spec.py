@@ -33,6 +33,8 @@ legacy_force = 0.03
 legacy_torque = 1e-9
 [physics.accurate]
 dt = 1e-5
+[physics.training]
+dt = 1e-5
 """
 POINTS = np.array([[0.01, 0.02, 0.03], [0.0, -0.01, 0.02], [0.02, 0.0, -0.01]])
 
