@@ -65,6 +65,9 @@ SPECS_DIR = Path(__file__).resolve().parents[1] / "specs"
 PAPER_CASES = ("m1-4mT", "m2-4mT", "m1-10mT", "m2-10mT")
 #: Control rates the environments play, Hz.
 CONTROL_RATE = 1.0 / ACTION_PERIOD
+#: The evaluation during training, s: the shipping criterion's episode (field from zero,
+#: deterministic actions, the yardstick's 10 s) in the physics the run trains in.
+EVAL_DURATION = 10.0
 #: Units of the case tables, written next to values by :meth:`Case.toml`.
 CASE_UNITS: dict[tuple[str, str], str] = {
     ("actuation", "field_limit"): "T", ("actuation", "max_increment"): "T per action",

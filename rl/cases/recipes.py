@@ -40,3 +40,14 @@ RECIPE_SUMMARIES: dict[str, str] = {
     "pink-ln": "pink, and layer normalisation in the critics",
     "pink-ln-unsat": "pink-ln, and a penalty that keeps the actor out of tanh's saturation",
 }
+
+
+def crawler_config(seed: int = 0, recipe: str = DEFAULT_RECIPE, **overrides: Any):
+    """The crawler's TD3 configuration: the paper's settings (:data:`CRAWLER_TD3_OVERRIDES` on
+    :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config`), then the ``recipe``'s changes (:data:`RECIPES`),
+    then ``overrides`` (e.g. ``learning_starts`` for smoke runs)."""
+    from ..td3.algorithm import TD3Config
+
+    if recipe not in RECIPES:
+        raise ValueError(f"unknown recipe {recipe!r}; choose one of {', '.join(RECIPES)}")
+    return TD3Config(**{**CRAWLER_TD3_OVERRIDES, **RECIPES[recipe], **overrides, "seed": int(seed)})

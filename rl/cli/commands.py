@@ -14,6 +14,7 @@ from pathlib import Path
 from elastica_magnetic.cli import CommandError, duration_option, number, print_result
 
 from ..cases.recipes import RECIPE_SUMMARIES, RECIPES
+from ..runfiles.rundir import CaseDir, RunDir
 
 CASE_HELP = "a shipped case (`msr case list`: m1-4mT, m2-4mT, m1-10mT, m2-10mT, ...) or a spec file (.toml)"
 
@@ -291,11 +292,12 @@ def train_command(args: argparse.Namespace) -> int:
     except (FileExistsError, FileNotFoundError, ValueError, ConnectionError) as exc:
         raise CommandError(str(exc)) from None  # ConnectionError: --address
     except KeyboardInterrupt:
-        return _interrupted(", ".join(str(args.out / case.name / "seed*") for case in args.case))
+        return _interrupted(", ".join(str(args.out / case.name / f"{CaseDir.SEED_PREFIX}*")
+                                      for case in args.case))
     failed = any(s["failed"] for s in summaries.values())
     if not args.json:
         summaries = {case: {k: v for k, v in summary.items() if k != "seeds"} | {
-            f"seed{r['seed']}": r.get("error") or f"final mean return {r['final_mean_return']:.4g} "
+            CaseDir.seed_name(r["seed"]): r.get("error") or f"final mean return {r['final_mean_return']:.4g} "
             f"({r['episodes']} episodes)" for r in summary["seeds"]} for case, summary in summaries.items()}
     # one case: its summary, as before; several: the summaries by case
     print_result(next(iter(summaries.values())) if len(summaries) == 1 else summaries, args.json)
@@ -356,7 +358,7 @@ def refine_command(args: argparse.Namespace) -> int:
     except (FileExistsError, FileNotFoundError, ValueError) as exc:
         raise CommandError(str(exc)) from None
     except KeyboardInterrupt:
-        return _interrupted(str(args.out or args.run / "refined"))
+        return _interrupted(str(args.out or RunDir(args.run).refined.path))
     print_result(result, args.json)
     return 0
 

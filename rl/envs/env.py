@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Literal
 
 import gymnasium as gym
@@ -544,3 +545,17 @@ class _SideViewRenderer:
 
     def close(self) -> None:
         self.fig.clear()
+
+
+def make_env(
+    case: str | Path | Case,
+    physics: str = "training",
+    initial_field: str | None = "random",
+    duration: float | None = 20.0,
+    render_mode: str | None = None,
+) -> MagneticCrawlerEnv:
+    """The environment of a case (a shipped name, a spec file or a
+    :class:`~elastica_magnetic_rl.cases.case.Case`; module-level so that ``functools.partial`` of it
+    pickles). ``initial_field`` / ``duration`` ``None``: the case's."""
+    return MagneticCrawlerEnv(case=load_case(case), physics=physics, initial_field=initial_field,
+                              duration=duration, render_mode=render_mode)

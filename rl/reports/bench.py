@@ -15,12 +15,13 @@ import statistics
 import tempfile
 import time
 from collections.abc import Callable, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from elastica_magnetic.bench import BATCH_SIZES, benchmark_step_cost, per_robot_step_cost
+
+from ..runfiles.rundir import CaseDir
 
 #: The recipe every TD3 and training measurement here uses: the paper's, with which the series of
 #: measurements began (docs/performance.md), whatever the cases' default recipe is now.
@@ -99,8 +100,8 @@ def td3_updates_per_s(updates: int = 200, repeats: int = 3, threads: int = 1, se
     buffers of random transitions."""
     import torch
 
+    from ..cases.recipes import crawler_config
     from ..runner.allocator import retain_freed_memory
-    from ..shipping.pipeline import crawler_config
     from ..td3.algorithm import TD3
     from ..td3.replay_buffer import ReplayBuffer
 
@@ -193,7 +194,7 @@ def td3_roofline(updates_per_s: float, repeats: int = 3, quick: bool = False) ->
     shapes, float32 and bfloat16), ``achieved_gflops`` (``gflop_per_update * updates_per_s``),
     ``fraction_of_sgemm`` and ``floor_1e5_updates_s`` (1e5 updates at the float32 rate: no
     float32 implementation on this core does them faster)."""
-    from ..shipping.pipeline import crawler_config
+    from ..cases.recipes import crawler_config
     from ..td3.agent import TD3Agent
 
     cfg = crawler_config(0, BENCH_RECIPE)
@@ -246,7 +247,9 @@ def _process_tree_rss(root: int) -> int:
 def replay_buffer_bytes(capacity: int, obs_dim: int = 260, act_dim: int = 2) -> int:
     """Bytes of a full :class:`elastica_magnetic_rl.td3.replay_buffer.ReplayBuffer`: float32 obs,
     next obs, action, reward and terminated per transition."""
-    return int(capacity) * (2 * obs_dim + act_dim + 2) * 4
+    from ..runfiles.checkpoint import replay_row_width
+
+    return int(capacity) * replay_row_width(obs_dim, act_dim) * 4
 
 
 def training_peak_memory(
@@ -341,7 +344,7 @@ def training_time(
     checkpoint per ``checkpoint_every`` (10000) at their measured costs. Groups run side by side on
     the workers, so the wall time is the slowest group's x the number of rounds of groups.
     """
-    from ..shipping.pipeline import crawler_config
+    from ..cases.recipes import crawler_config
     from ..sweep.training import train_case
 
     settings = {"precision": precision, **(overrides or {})}
@@ -356,7 +359,7 @@ def training_time(
         wall = time.perf_counter() - start
         evaluations = []
         for r in second["seeds"]:
-            path = Path(tmp) / case / f"seed{r['seed']}" / "evaluations.csv"
+            path = CaseDir.of(tmp, case).seed(r["seed"]).evaluations_csv
             evaluations.append(max(0, len(path.read_text().splitlines()) - 1) if path.is_file() else 0)
     if first["failed"] or second["failed"]:
         raise RuntimeError(f"seeds {first['failed'] or second['failed']} failed")

@@ -29,8 +29,7 @@ import torch
 from elastica_magnetic.io import atomic_save
 
 from ..runfiles.checkpoint import load_checkpoint, refuse_networks_only
-from ..shipping.policy_files import build_networks
-from ..td3.algorithm import SATURATION_PREACTIVATION
+from ..td3.algorithm import SATURATION_PREACTIVATION, networks_from_state
 
 #: Fraction of recent states with a saturated output (any action dimension) that flags the actor.
 SATURATED_FRACTION_FLAG = 0.9
@@ -116,8 +115,8 @@ def run_health(run: str | os.PathLike, recent: int = 20_000) -> dict[str, Any]:
     refuse_networks_only(ckpt, run)
     cfg, agent = ckpt["config"], ckpt["agent"]
     obs_dim, act_dim, hidden = int(ckpt["obs_dim"]), int(ckpt["act_dim"]), tuple(cfg["hidden_sizes"])
-    actor, critic = build_networks(obs_dim, act_dim, hidden, agent["actor"], agent["critic"],
-                                   Path(run), bool(cfg.get("critic_layer_norm", False)))
+    actor, critic = networks_from_state(obs_dim, act_dim, hidden, agent["actor"], agent["critic"],
+                                        Path(run), bool(cfg.get("critic_layer_norm", False)))
     data = _chronological(ckpt["buffer"])
     if len(data["rewards"]) < 2:
         raise ValueError(f"{run}: its replay buffer holds {len(data['rewards'])} transitions; "

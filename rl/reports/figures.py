@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 from elastica_magnetic.io import atomic_save
 
 from ..envs.rollout import ROLLOUT_NPZ, Rollout
+from ..runfiles.rundir import RunDir
 
 __all__ = [
     "animate_gait",
@@ -77,7 +78,7 @@ def ema(values: Sequence[float], alpha: float = 0.2) -> NDArray[np.float64]:
 
 
 def _read_episodes(run_dir: Path) -> pd.DataFrame:
-    with open(run_dir / "episodes.csv", newline="") as f:
+    with open(RunDir(run_dir).episodes_csv, newline="") as f:
         rows = list(csv.DictReader(f))
     return pd.DataFrame({
         "global_step": [int(r["global_step"]) for r in rows],
@@ -92,12 +93,12 @@ def find_runs(path: str | Path) -> dict[str, list[Path]]:
     runs (``seed<k>/refined``) are left out: they continue in another physics.
     """
     path = Path(path)
-    if (path / "episodes.csv").is_file():
+    if RunDir(path).has_episodes():
         return {path.parent.name or path.name: [path]}
     groups: dict[str, list[Path]] = {}
-    for csv_path in sorted(path.rglob("episodes.csv")):
+    for csv_path in sorted(path.rglob(RunDir.EPISODES_CSV)):
         run = csv_path.parent
-        if run.name == "refined" or "refined" in run.relative_to(path).parts:
+        if RunDir.REFINED in run.relative_to(path).parts:
             continue
         groups.setdefault(run.parent.name if run.parent != path else path.name, []).append(run)
     return groups
@@ -117,7 +118,7 @@ def plot_learning_curves(
     field, deterministic), mm.
     """
     runs = [Path(run) for run in runs]
-    evaluated = [run for run in runs if (run / "evaluations.csv").is_file()]
+    evaluated = [run for run in runs if RunDir(run).evaluations_csv.is_file()]
     fig = _figure((7, 6.5 if evaluated else 4), constrained_layout=True)
     if evaluated:
         ax, ax_eval = fig.subplots(2, 1, sharex=True, height_ratios=(3, 2))
@@ -133,7 +134,7 @@ def plot_learning_curves(
         ax.plot(steps, smooth, lw=0.8, alpha=0.5, label=run.name, color=f"C{k % 10}")
         curves.append((steps, smooth))
         if ax_eval is not None and run in evaluated:
-            ev = pd.read_csv(run / "evaluations.csv")
+            ev = pd.read_csv(RunDir(run).evaluations_csv)
             # reward = 1e4 x displacement (m) = 10 x mm
             ax_eval.plot(ev["global_step"], ev["mean_return"] / 10.0, "o-", ms=3, lw=0.8,
                          color=f"C{k % 10}", label=run.name)
@@ -462,7 +463,7 @@ def make_figures(path: str | Path, out: str | Path | None = None, gif: bool = Tr
 
     Training runs: one ``learning_curves_<case>.png`` per case folder, in ``out`` (default ``path``). Generate
     output: every figure of :func:`rollout_figures`, with the Q maps when ``load_policy`` (e.g.
-    :func:`elastica_magnetic_rl.shipping.pipeline.resolve_policy`: source -> an object with ``actor`` and
+    :func:`elastica_magnetic_rl.shipping.policy_files.resolve_policy`: source -> an object with ``actor`` and
     ``critic``) can still load the policy recorded in the rollout.
     """
     path = Path(path)

@@ -1,13 +1,13 @@
 """The training checkpoint format: one home for file names, the format tag, atomic writes and the
 replay buffer's append-only file.
 
-A run directory holds ``checkpoint.pt`` (a ``torch.save`` dict, written atomically), and, next to
-it, ``replay.bin``: the replay buffer's transitions as float32 rows appended at each checkpoint
-(``obs``, ``action``, ``reward``, ``next_obs``, ``terminated``), so a checkpoint writes only the
-transitions collected since the previous one instead of the whole buffer. The checkpoint records
-how many rows are valid; rows beyond that (written by a run killed between the append and the
-checkpoint's rename) are ignored and cut off when the run resumes. A buffer that has wrapped
-around (a run longer than the buffer's capacity) is stored whole inside the checkpoint instead.
+A run directory (:class:`~elastica_magnetic_rl.runfiles.rundir.RunDir`) holds ``checkpoint.pt`` (a
+``torch.save`` dict, written atomically), and, next to it, ``replay.bin``: the replay buffer's transitions as
+float32 rows appended at each checkpoint (``obs``, ``action``, ``reward``, ``next_obs``, ``terminated``), so a
+checkpoint writes only the transitions collected since the previous one instead of the whole buffer. The
+checkpoint records how many rows are valid; rows beyond that (written by a run killed between the append and
+the checkpoint's rename) are ignored and cut off when the run resumes. A buffer that has wrapped around (a run
+longer than the buffer's capacity) is stored whole inside the checkpoint instead.
 
 Keys of a checkpoint (format :data:`CHECKPOINT_FORMAT`): ``config`` (the TD3 configuration), ``obs_dim``,
 ``act_dim``, ``action_low``, ``action_high``, ``agent`` (networks, targets and Adam moments as plain-module
@@ -24,6 +24,7 @@ format held them), so readers need not know about ``replay.bin``.
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 from typing import Any
@@ -31,9 +32,8 @@ from typing import Any
 import numpy as np
 import torch
 
-CHECKPOINT_NAME = "checkpoint.pt"
-BEST_NAME = "best.pt"
-REPLAY_NAME = "replay.bin"
+from .rundir import RunDir
+
 CHECKPOINT_FORMAT = "td3-checkpoint-v2"
 #: Earlier format: its networks can still be read (generate, export), not resumed or refined.
 LEGACY_FORMATS = ("td3-checkpoint-v1",)
@@ -57,7 +57,7 @@ def load_checkpoint(path: str | os.PathLike, with_buffer: bool = True) -> dict[s
     ``ValueError`` naming the file when it is not a readable TD3 checkpoint."""
     path = Path(path)
     if path.is_dir():
-        path = path / CHECKPOINT_NAME
+        path = RunDir(path).checkpoint
     try:
         ckpt = torch.load(path, map_location="cpu", weights_only=True)
     except FileNotFoundError:
@@ -74,12 +74,24 @@ def load_checkpoint(path: str | os.PathLike, with_buffer: bool = True) -> dict[s
     return ckpt
 
 
+def checkpoint_metadata(ckpt: dict[str, Any], path: str | os.PathLike) -> dict[str, Any]:
+    """The case and settings of a checkpoint (loaded from ``path``): its own metadata, else
+    ``run.json`` next to it. Raises ``ValueError`` naming ``path`` when neither names a case."""
+    meta = dict(ckpt.get("metadata") or {})
+    run_json = RunDir.of_checkpoint(path).run_json
+    if "case" not in meta and run_json.is_file():
+        meta = {**json.loads(run_json.read_text()), **meta}
+    if "case" not in meta:
+        raise ValueError(f"{path}: the checkpoint names no case (no metadata, no {RunDir.RUN_JSON})")
+    return meta
+
+
 def refuse_networks_only(ckpt: dict[str, Any], path: str | os.PathLike) -> None:
     """Raise if ``ckpt`` cannot be a starting point for training (``best.pt``, or an older format)."""
     if ckpt.get("kind") == "best":
         raise ValueError(f"{path} holds only the networks of the best evaluation (no optimisers, "
                          f"buffer or RNG states): training can only continue from a run's "
-                         f"{CHECKPOINT_NAME}")
+                         f"{RunDir.CHECKPOINT}")
     if ckpt.get("format") != CHECKPOINT_FORMAT:
         raise ValueError(f"{path} is a {ckpt.get('format')} checkpoint: its policy can be used "
                          f"(generate, export, ship) but training cannot continue from it "
@@ -89,14 +101,16 @@ def refuse_networks_only(ckpt: dict[str, Any], path: str | os.PathLike) -> None:
 # ----------------------------------------------------------------------------------------------
 # The replay buffer's append-only file
 # ----------------------------------------------------------------------------------------------
-def _row_width(obs_dim: int, act_dim: int) -> int:
+def replay_row_width(obs_dim: int, act_dim: int) -> int:
+    """float32 values per transition (a row of ``replay.bin``, and of a replay buffer in memory):
+    ``obs``, ``action``, ``reward``, ``next_obs``, ``terminated``."""
     return 2 * obs_dim + act_dim + 2
 
 
 def read_replay_rows(path: Path, state: dict[str, Any]) -> dict[str, torch.Tensor]:
     """The first ``state["rows"]`` transitions of ``path`` as the tensors of a buffer state."""
     obs_dim, act_dim, rows = int(state["obs_dim"]), int(state["act_dim"]), int(state["rows"])
-    width = _row_width(obs_dim, act_dim)
+    width = replay_row_width(obs_dim, act_dim)
     if rows and not path.is_file():
         raise ValueError(f"{path} is missing: the checkpoint needs its {rows} transitions")
     data = np.fromfile(path, dtype=np.float32, count=rows * width) if rows else np.zeros(0, np.float32)
@@ -118,10 +132,13 @@ class ReplayFile:
     """
 
     def __init__(self, run_dir: Path, rows: int = 0) -> None:
-        self.path = Path(run_dir) / REPLAY_NAME
+        self.path = RunDir(run_dir).replay
         self.rows = int(rows)
 
-    def truncate(self, width: int) -> None:
+    def truncate(self, obs_dim: int, act_dim: int) -> None:
+        """Cut the file to the checkpoint's rows (of a buffer of ``obs_dim`` observations and
+        ``act_dim`` actions)."""
+        width = replay_row_width(obs_dim, act_dim)
         if self.path.exists():
             os.truncate(self.path, self.rows * width * 4)
         elif self.rows:
@@ -133,7 +150,7 @@ class ReplayFile:
         meta = {k: getattr(buffer, k) for k in ("capacity", "obs_dim", "act_dim", "ptr", "size")}
         if buffer.total_added != buffer.size:  # wrapped: rows were overwritten, store it whole
             return buffer.state_dict()
-        width = _row_width(buffer.obs_dim, buffer.act_dim)
+        width = replay_row_width(buffer.obs_dim, buffer.act_dim)
         if self.rows == 0:
             self.path.unlink(missing_ok=True)
         if buffer.size > self.rows:
@@ -146,4 +163,4 @@ class ReplayFile:
                 f.flush()
                 os.fsync(f.fileno())
             self.rows = buffer.size
-        return {**meta, "total_added": buffer.total_added, "file": REPLAY_NAME, "rows": self.rows}
+        return {**meta, "total_added": buffer.total_added, "file": RunDir.REPLAY, "rows": self.rows}

@@ -16,12 +16,12 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from ..runfiles.checkpoint import BEST_NAME, save_checkpoint
+from ..runfiles.checkpoint import save_checkpoint
+from ..runfiles.rundir import RunDir
 from ..td3.algorithm import TD3, Actor, TD3Config
 
 __all__ = ["ActorPolicy", "EvalResult", "PeriodicEvaluation", "evaluate", "evaluate_many"]
 
-EVALUATIONS_CSV = "evaluations.csv"
 EVALUATION_FIELDS = ("global_step", "mean_return", "std_return", "mean_length", "best_mean_return",
                      "wall_time_s")
 #: Evaluation episode ``i`` is reset with seed ``EVAL_SEED + i``: the same episodes at every
@@ -144,8 +144,8 @@ class PeriodicEvaluation:
                  resumed_here: bool) -> None:
         self.env_fn, self.cfg, self.writer = env_fn, cfg, writer
         self.enabled = env_fn is not None and cfg.eval_every > 0
-        self.csv_path = run_dir / EVALUATIONS_CSV
-        self.best_path = run_dir / BEST_NAME
+        self.csv_path = RunDir(run_dir).evaluations_csv
+        self.best_path = RunDir(run_dir).best
         state = ckpt.get("evaluation") if (resumed_here and ckpt is not None) else None
         self.best_return = float(state["best_mean_return"]) if state else -math.inf
         self.best_step = int(state["best_step"]) if state else -1

@@ -23,20 +23,19 @@ import torch
 
 from ..runfiles.checkpoint import (
     CHECKPOINT_FORMAT,
-    CHECKPOINT_NAME,
     ReplayFile,
     load_checkpoint,
     refuse_networks_only,
     save_checkpoint,
 )
+from ..runfiles.rundir import RunDir
 from ..td3.algorithm import TD3, TD3Config, episode_seed
 from ..td3.exploration import colored_noise
 from ..td3.replay_buffer import ReplayBuffer
 from .evaluation import PeriodicEvaluation, truncate_csv
 
-__all__ = ["EPISODES_CSV", "EPISODE_FIELDS", "RESUMABLE_SETTINGS", "SeedRun", "starting_point"]
+__all__ = ["EPISODE_FIELDS", "RESUMABLE_SETTINGS", "SeedRun", "starting_point"]
 
-EPISODES_CSV = "episodes.csv"
 EPISODE_FIELDS = ("episode", "global_step", "return", "length", "terminated", "truncated",
                   "wall_time_s")
 #: Fields of :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` that a resumed run takes from the config
@@ -104,7 +103,7 @@ class SeedRun:
                  obs_dim: int, act_dim: int, n_envs: int) -> None:
         self.k, self.steps, self.n_envs = k, int(steps), n_envs
         self.run_dir = Path(run_dir)
-        self.ckpt_path = self.run_dir / CHECKPOINT_NAME
+        self.ckpt_path = RunDir(self.run_dir).checkpoint
         self.ckpt, self.resumed_here, self.cfg, self.metadata = starting_point(
             self.ckpt_path, resume, init_from, config, metadata)
         ckpt = self.ckpt
@@ -164,11 +163,11 @@ class SeedRun:
         from tqdm.auto import tqdm
 
         self.run_dir.mkdir(parents=True, exist_ok=True)
-        csv_path = self.run_dir / EPISODES_CSV
+        csv_path = RunDir(self.run_dir).episodes_csv
         if self.resumed_here:
             truncate_csv(csv_path, EPISODE_FIELDS,
                           lambda row: int(row["global_step"]) <= self.global_step)
-            self.replay.truncate(2 * self.buffer.obs_dim + self.buffer.act_dim + 2)
+            self.replay.truncate(self.buffer.obs_dim, self.buffer.act_dim)
         else:
             csv_path.unlink(missing_ok=True)  # stale log of a run without checkpoint
         self.writer = SummaryWriter(str(self.run_dir),

@@ -28,7 +28,6 @@ shipped-format directory (``actor.pt`` + ``policy.json``), or the name of a ship
 from __future__ import annotations
 
 import json
-import platform
 import warnings
 from pathlib import Path
 from typing import Any
@@ -45,9 +44,10 @@ from elastica_magnetic.io import (
 from elastica_magnetic.openloop import check_duration
 
 from ..cases.case import Case
-from ..cases.recipes import CRAWLER_TD3_OVERRIDES, DEFAULT_RECIPE, RECIPES
 from ..cases.tasks import ReachTask
-from ..envs.env import observation_spec
+from ..envs.env import make_env, observation_spec
+from ..runfiles.provenance import machine_fingerprint
+from ..runfiles.rundir import CaseDir
 from .baselines import RotatingFieldPolicy
 from .model_card import NOTES_SECTION, model_card, replace_card_section, seed_meets_target
 from .policy_files import (
@@ -55,69 +55,25 @@ from .policy_files import (
     POLICY_FORMAT,
     POLICY_JSON,
     LoadedPolicy,
-    PolicyFileError,
     PolicyNotFoundError,
     resolve_policy,
     weights_sha256,
 )
-from .policy_runs import evaluate_seeds, machine_fingerprint, make_env, node_dx, run_policy
+from .policy_runs import evaluate_seeds, node_dx, run_policy
 from .seed_report import CARD_SECTION as SEEDS_CARD_SECTION
 from .seed_report import case_seeds, seeds_markdown
 
 __all__ = [
-    "LoadedPolicy",
-    "POLICIES_DIR",
-    "PolicyFileError",
-    "PolicyNotFoundError",
-    "crawler_config",
     "demo",
-    "evaluate_seeds",
     "export_policy",
     "generate",
-    "machine_fingerprint",
-    "make_env",
-    "run_policy",
+    "reach_metrics",
     "set_notes",
-    "resolve_policy",
     "ship",
-    "weights_sha256",
 ]
 
 #: Format of ``msr export``'s ``policy.json``.
 EXPORT_FORMAT = "msr-exported-policy-v1"
-
-#: The evaluation during training: the shipping criterion's episode (field from zero,
-#: deterministic actions, 10 s) in the physics the run trains in.
-EVAL_DURATION = 10.0
-
-
-# ----------------------------------------------------------------------------------------------
-# Environments and configuration
-# ----------------------------------------------------------------------------------------------
-def crawler_config(seed: int = 0, recipe: str = DEFAULT_RECIPE, **overrides: Any):
-    """The crawler's TD3 configuration: the paper's settings (:data:`CRAWLER_TD3_OVERRIDES` on
-    :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config`), then the ``recipe``'s changes (:data:`RECIPES`),
-    then ``overrides`` (e.g. ``learning_starts`` for smoke runs)."""
-    from ..td3.algorithm import TD3Config
-
-    if recipe not in RECIPES:
-        raise ValueError(f"unknown recipe {recipe!r}; choose one of {', '.join(RECIPES)}")
-    return TD3Config(**{**CRAWLER_TD3_OVERRIDES, **RECIPES[recipe], **overrides, "seed": int(seed)})
-
-
-def _versions() -> dict[str, str]:
-    import importlib.metadata
-
-    import gymnasium
-    import torch
-
-    try:  # PyElastica 1.0 has no ``elastica.__version__``; its distribution metadata has it
-        pyelastica = importlib.metadata.version("pyelastica")
-    except importlib.metadata.PackageNotFoundError:
-        pyelastica = "unknown"
-    return {"python": platform.python_version(), "torch": torch.__version__,
-            "gymnasium": gymnasium.__version__, "pyelastica": pyelastica,
-            "numpy": np.__version__}
 
 
 # ----------------------------------------------------------------------------------------------
@@ -378,8 +334,9 @@ def _find_case_dir(source: Path, case: str) -> Path | None:
     """The case folder of a run (``<case>/seed<k>[/refined]/checkpoint.pt``): the nearest parent
     holding the ``summary.json`` of ``case``."""
     for parent in list(source.parents)[:4]:
-        if (parent / "summary.json").is_file():
-            summary = json.loads((parent / "summary.json").read_text())
+        summary_json = CaseDir(parent).summary_json
+        if summary_json.is_file():
+            summary = json.loads(summary_json.read_text())
             if summary.get("case") == case:
                 return parent
     return None
@@ -388,7 +345,7 @@ def _find_case_dir(source: Path, case: str) -> Path | None:
 def _find_summary(source: Path, case: str) -> dict[str, Any] | None:
     """``summary.json`` of the case folder of a run, if there is one."""
     case_dir = _find_case_dir(source, case)
-    return json.loads((case_dir / "summary.json").read_text()) if case_dir else None
+    return json.loads(CaseDir(case_dir).summary_json.read_text()) if case_dir else None
 
 
 def _observation_spec(case: Case) -> dict[str, Any]:

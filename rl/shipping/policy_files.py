@@ -24,14 +24,12 @@ __all__ = [
     "POLICY_JSON",
     "PolicyFileError",
     "PolicyNotFoundError",
-    "RUN_JSON",
     "resolve_policy",
     "weights_sha256",
 ]
 
 #: Folder of the shipped policies (``rl/policies/<name>/``).
 POLICIES_DIR = Path(__file__).resolve().parents[1] / "policies"
-RUN_JSON = "run.json"
 POLICY_JSON = "policy.json"
 POLICY_FORMAT = "msr-policy-v1"
 
@@ -56,27 +54,6 @@ def weights_sha256(state_dict: dict[str, Any]) -> str:
         digest.update(f"{name}|{tensor.dtype}|{tuple(tensor.shape)}|".encode())
         digest.update(tensor.numpy().tobytes())
     return digest.hexdigest()
-
-
-# ----------------------------------------------------------------------------------------------
-# Training
-# ----------------------------------------------------------------------------------------------
-def _checkpoint_path(run: str | Path) -> Path:
-    run = Path(run)
-    path = run / "checkpoint.pt" if run.is_dir() else run
-    if not path.is_file():
-        raise PolicyNotFoundError(f"{run}: no checkpoint.pt (expected a run directory or a checkpoint)")
-    return path
-
-
-def _checkpoint_metadata(ckpt: dict[str, Any], path: Path) -> dict[str, Any]:
-    """The case and settings of a checkpoint: its own metadata, else ``run.json`` next to it."""
-    meta = dict(ckpt.get("metadata") or {})
-    if "case" not in meta and (path.parent / RUN_JSON).is_file():
-        meta = {**json.loads((path.parent / RUN_JSON).read_text()), **meta}
-    if "case" not in meta:
-        raise ValueError(f"{path}: the checkpoint names no case (no metadata, no {RUN_JSON})")
-    return meta
 
 
 @dataclass
@@ -106,27 +83,15 @@ def build_networks(obs_dim: int, act_dim: int, hidden: tuple[int, ...], actor_st
                    critic_state: dict | None, source: Path | None = None,
                    critic_layer_norm: bool = False):
     """The actor (and the twin critic when ``critic_state`` is given) of a checkpoint or policy
-    file, loaded with ``actor_state``/``critic_state``, in eval mode and without gradients. Weights
-    that do not fit the declared architecture raise a :class:`PolicyFileError` naming ``source``."""
-    from ..td3.algorithm import Actor, TwinCritic
+    file (:func:`~elastica_magnetic_rl.td3.algorithm.networks_from_state`). Weights that do not fit
+    the declared architecture raise a :class:`PolicyFileError` naming ``source``."""
+    from ..td3.algorithm import networks_from_state
 
-    def load(network, state, what: str):
-        try:
-            network.load_state_dict(state)
-        except (RuntimeError, KeyError, TypeError, AttributeError) as exc:
-            first = str(exc).strip().splitlines()
-            raise PolicyFileError(
-                f"{source}: the {what} weights do not fit the architecture it declares "
-                f"(observations {obs_dim}, actions {act_dim}, hidden sizes {list(hidden)}): "
-                f"{' '.join(first[1:3] or first)[:300]}"
-            ) from None
-        return network.eval().requires_grad_(False)
-
-    actor = load(Actor(obs_dim, act_dim, hidden), actor_state, "actor")
-    critic = None
-    if critic_state is not None:
-        critic = load(TwinCritic(obs_dim, act_dim, hidden, critic_layer_norm), critic_state, "critic")
-    return actor, critic
+    try:
+        return networks_from_state(obs_dim, act_dim, hidden, actor_state, critic_state, source,
+                                   critic_layer_norm)
+    except ValueError as exc:
+        raise PolicyFileError(str(exc)) from None
 
 
 def _torch_load(path: Path) -> Any:
@@ -177,14 +142,15 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
     """Load a policy from a run directory, a checkpoint file, a shipped-format directory
     (``actor.pt`` + ``policy.json``), or a shipped name (``rl/policies/<name>``), in that order."""
 
-    from ..runfiles.checkpoint import load_checkpoint
+    from ..runfiles.checkpoint import checkpoint_metadata, load_checkpoint
+    from ..runfiles.rundir import RunDir
 
     policies_dir = Path(policies_dir) if policies_dir is not None else POLICIES_DIR
     path = Path(policy)
     if not path.exists() and (policies_dir / str(policy)).is_dir():
         path = policies_dir / str(policy)
-    if path.is_dir() and (path / "checkpoint.pt").is_file():
-        path = path / "checkpoint.pt"
+    if path.is_dir() and RunDir(path).has_checkpoint():
+        path = RunDir(path).checkpoint
     if path.is_file():
         try:
             ckpt = load_checkpoint(path)
@@ -195,7 +161,7 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
                 f"{path}: cannot be read as a checkpoint ({type(exc).__name__}: "
                 f"{str(exc).splitlines()[0][:200] if str(exc) else 'empty or truncated'})"
             ) from None
-        meta = _checkpoint_metadata(ckpt, path)
+        meta = checkpoint_metadata(ckpt, path)
         try:
             hidden = tuple(ckpt["config"]["hidden_sizes"])
             actor_state, critic_state = ckpt["agent"]["actor"], ckpt["agent"]["critic"]

@@ -7,7 +7,6 @@ physics from a zero field, against the case's yardstick) and cached per seed
 from __future__ import annotations
 
 import json
-import platform
 import time
 from pathlib import Path
 from typing import Any
@@ -16,47 +15,13 @@ import numpy as np
 
 from elastica_magnetic.io import atomic_write_json
 
-from ..cases.case import Case, load_case
-from ..envs.env import MagneticCrawlerEnv
+from ..envs.env import make_env
+from ..runfiles.rundir import CaseDir, RunDir
 from .baselines import RotatingFieldPolicy
 from .policy_files import LoadedPolicy, resolve_policy
 
-__all__ = ["evaluate_checkpoint", "evaluate_seeds", "machine_fingerprint", "make_env", "node_dx",
+__all__ = ["evaluate_checkpoint", "evaluate_seeds", "node_dx",
            "run_policy", "seed_run_dirs"]
-
-
-def make_env(
-    case: str | Path | Case,
-    physics: str = "training",
-    initial_field: str | None = "random",
-    duration: float | None = 20.0,
-    render_mode: str | None = None,
-) -> MagneticCrawlerEnv:
-    """The environment of a case (a shipped name, a spec file or a
-    :class:`~elastica_magnetic_rl.cases.case.Case`; module-level so that ``functools.partial`` of it
-    pickles). ``initial_field`` / ``duration`` ``None``: the case's."""
-    return MagneticCrawlerEnv(case=load_case(case), physics=physics, initial_field=initial_field,
-                              duration=duration, render_mode=render_mode)
-
-
-def machine_fingerprint() -> dict[str, str]:
-    """What decides the round-off of a rollout: the CPU model and the numerical libraries. Two
-    rollouts of one policy are bit-identical when these agree; on another CPU the closed loop
-    amplifies round-off through contact switches (the waveforms part after a few rows while the
-    distance agrees to ~1e-4)."""
-    import llvmlite
-    import numba
-    import torch
-
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as handle:
-            cpu = next((line.split(":", 1)[1].strip() for line in handle
-                        if line.startswith("model name")), cpu)
-    except OSError:
-        pass
-    return {"cpu": cpu, "machine": platform.machine(), "numpy": np.__version__,
-            "numba": numba.__version__, "llvmlite": llvmlite.__version__, "torch": torch.__version__}
 
 
 def run_policy(
@@ -154,10 +119,10 @@ def evaluate_checkpoint(path: Path, cached: dict[str, Any], duration: float,
 
 def seed_run_dirs(case_dir: Path) -> list[tuple[int, Path]]:
     """``(seed, run_dir)`` of every ``case_dir/seed<k>/`` holding a checkpoint, ordered by seed."""
-    seeds = sorted((int(p.name[4:]), p) for p in case_dir.glob("seed*")
-                   if p.name[4:].isdigit() and (p / "checkpoint.pt").is_file())
+    seeds = [(seed, run.path) for seed, run in CaseDir(case_dir).seeds() if run.has_checkpoint()]
     if not seeds:
-        raise FileNotFoundError(f"{case_dir}: no seed<k>/checkpoint.pt to evaluate")
+        raise FileNotFoundError(f"{case_dir}: no {CaseDir.SEED_PREFIX}<k>/{RunDir.CHECKPOINT} to "
+                                "evaluate")
     return seeds
 
 
@@ -193,14 +158,13 @@ def evaluate_seeds(
 
 def _evaluate_seed(job: tuple[int, Path, float, bool]) -> dict[str, Any]:
     """The final and ``best.pt`` evaluations of one seed folder (cached in ``evaluation.json``)."""
-    from ..runfiles.checkpoint import BEST_NAME
-
     seed, run_dir, duration, progress = job
-    cache_path = run_dir / "evaluation.json"
+    run = RunDir(run_dir)
+    cache_path = run.evaluation_json
     cache = json.loads(cache_path.read_text()) if cache_path.is_file() else {}
-    final = evaluate_checkpoint(run_dir / "checkpoint.pt", cache, duration, progress)
+    final = evaluate_checkpoint(run.checkpoint, cache, duration, progress)
     best = None
-    if (run_dir / BEST_NAME).is_file():
-        best = evaluate_checkpoint(run_dir / BEST_NAME, cache.get("best") or {}, duration, progress)
+    if run.best.is_file():
+        best = evaluate_checkpoint(run.best, cache.get("best") or {}, duration, progress)
     atomic_write_json(cache_path, {"seed": seed, **final, "best": best})
     return {"seed": seed, **final, "best": best}

@@ -12,7 +12,7 @@ from typing import Any
 from elastica_magnetic.io import atomic_write_json, atomic_write_text
 
 from ..cases.tasks import ReachTask
-from ..runfiles.checkpoint import BEST_NAME
+from ..runfiles.rundir import CaseDir, RunDir
 from .pipeline import ship
 from .policy_files import resolve_policy
 from .policy_runs import evaluate_seeds, seed_run_dirs
@@ -22,7 +22,7 @@ __all__ = ["SEED_TRAINING_LOGS", "export_seeds"]
 
 #: The training logs :func:`export_seeds` keeps beside each seed's actor (small CSVs: one row per
 #: episode and per evaluation), so learning curves can be drawn from the committed seeds.
-SEED_TRAINING_LOGS = ("episodes.csv", "evaluations.csv")
+SEED_TRAINING_LOGS = RunDir.TRAINING_LOGS
 
 
 def export_seeds(
@@ -51,7 +51,7 @@ def export_seeds(
     """
     case_dir, dest = Path(case_dir), Path(dest)
     seeds = seed_run_dirs(case_dir)
-    first = resolve_policy(seeds[0][1] / "checkpoint.pt")
+    first = resolve_policy(RunDir(seeds[0][1]).checkpoint)
     case = first.case
     # checked before the long evaluations
     earlier = _earlier_exported_seeds(dest, {seed for seed, _ in seeds}, first.meta)
@@ -66,13 +66,14 @@ def export_seeds(
             better = best is not None and best["mid_dx_m"] > ev["mid_dx_m"]
         use_best = best is not None and not best["diverged"] and (ev["diverged"] or better)
         chosen = best if use_best else ev
-        source = case_dir / f"seed{ev['seed']}" / (BEST_NAME if use_best else "checkpoint.pt")
-        folder = f"seed{ev['seed']}"
+        run = CaseDir(case_dir).seed(ev["seed"])
+        source = run.best if use_best else run.checkpoint
+        folder = CaseDir.seed_name(ev["seed"])
         ship(source, folder, dest=dest, measure=False, progress=False, overwrite=True,
              with_critic=False, with_card=False)
         for log in SEED_TRAINING_LOGS:  # the learning curve stays with the actor
-            if (case_dir / folder / log).is_file():
-                atomic_write_text(dest / folder / log, (case_dir / folder / log).read_text())
+            if (run.path / log).is_file():
+                atomic_write_text(dest / folder / log, (run.path / log).read_text())
         entries.append({"seed": ev["seed"], "steps": chosen["global_step"],
                         "distance_10s_m": chosen["mid_dx_m"], "actor": folder,
                         "checkpoint": "best" if use_best else "final",

@@ -19,6 +19,7 @@ import numpy as np
 from elastica_magnetic.io import atomic_write_text
 
 from ..cases.case import Case
+from ..runfiles.rundir import RunDir
 from .model_card import replace_card_section
 from .policy_files import POLICIES_DIR
 
@@ -194,7 +195,7 @@ def learning_curves_by_recipe(case: Case, groups: list[RecipeSeeds], path: str |
     for g in groups:
         runs, missing = [], []
         for e, ok in zip(g.entries, g.succeeded, strict=True):
-            log = (g.path / str(e["actor"]) / "episodes.csv") if g.path is not None else None
+            log = RunDir(g.path / str(e["actor"])).episodes_csv if g.path is not None else None
             if log is None or not log.is_file():
                 missing.append(e["seed"])
                 continue

@@ -20,8 +20,9 @@ from typing import Any
 
 import numpy as np
 
+from ..runfiles.provenance import machine_fingerprint
 from .policy_files import POLICIES_DIR, POLICY_JSON, resolve_policy
-from .policy_runs import machine_fingerprint, node_dx, run_policy
+from .policy_runs import node_dx, run_policy
 
 #: A re-run must reproduce the recorded distance to this relative difference (the accurate
 #: physics is deterministic on one machine; this leaves room for other CPUs' round-off).

@@ -38,8 +38,9 @@ import sys
 import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed, wait
-from pathlib import Path
 from typing import Any
+
+from ..runfiles.rundir import CaseDir, RunDir
 
 __all__ = ["BACKENDS", "run_in_processes", "run_jobs"]
 
@@ -194,7 +195,7 @@ def _run_ray(fn, jobs, workers, address, progress) -> list[dict[str, Any]]:
                     result = ray.get(ref)
                 except Exception as exc:  # RayTaskError wraps the worker's exception
                     result = {"seed": seed, "error": _error(getattr(exc, "cause", None) or exc)}
-                if "error" not in result and not (Path(job["run_dir"]) / "checkpoint.pt").is_file():
+                if "error" not in result and not RunDir(job["run_dir"]).has_checkpoint():
                     result = {"seed": seed, "error": f"{job['run_dir']}: the run directory written by "
                               "the Ray worker is not visible here (put --out on a filesystem shared "
                               "by all nodes, at the same path)"}
@@ -202,10 +203,10 @@ def _run_ray(fn, jobs, workers, address, progress) -> list[dict[str, Any]]:
                 finished += 1
                 if progress:
                     status = result.get("error") or "; ".join(
-                        f"seed{r['seed']} final mean return {r['final_mean_return']:.4g}, "
+                        f"{CaseDir.seed_name(r['seed'])} final mean return {r['final_mean_return']:.4g}, "
                         f"{r['episodes']} episodes, {r['wall_s']:.1f} s"
                         for r in result.get("group", [result]))
-                    print(f"[ray] {job['case']} seed{seed} done ({finished}/{len(jobs)}, "
+                    print(f"[ray] {job['case']} {CaseDir.seed_name(seed)} done ({finished}/{len(jobs)}, "
                           f"{time.perf_counter() - start:.0f} s): {status}", file=sys.stderr, flush=True)
     finally:
         if started:

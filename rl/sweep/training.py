@@ -23,10 +23,12 @@ import numpy as np
 
 from elastica_magnetic.io import atomic_write_json
 
-from ..cases.case import Case, case_from_dict, case_from_metadata, load_case
-from ..shipping.pipeline import EVAL_DURATION, _versions, crawler_config
-from ..shipping.policy_files import RUN_JSON, _checkpoint_metadata, _checkpoint_path
-from ..shipping.policy_runs import make_env
+from ..cases.case import EVAL_DURATION, Case, case_from_dict, case_from_metadata, load_case
+from ..cases.recipes import crawler_config
+from ..envs.env import make_env
+from ..runfiles.checkpoint import checkpoint_metadata
+from ..runfiles.provenance import versions
+from ..runfiles.rundir import CaseDir, RunDir
 from .backends import BACKENDS, run_jobs
 
 __all__ = ["default_layout", "refine", "summarize_run", "train_case", "train_cases"]
@@ -40,20 +42,20 @@ def summarize_run(run_dir: str | Path, last: int = 5, reward_scale: float = 1e4)
     ``reward_scale`` is the 10 s distance from a zero field, m), else ``None``."""
     import csv
 
-    run_dir = Path(run_dir)
+    run = RunDir(run_dir)
     rows, evals = [], []
-    if (run_dir / "episodes.csv").is_file():
-        with open(run_dir / "episodes.csv", newline="") as f:
+    if run.episodes_csv.is_file():
+        with open(run.episodes_csv, newline="") as f:
             rows = list(csv.DictReader(f))
-    if (run_dir / "evaluations.csv").is_file():
-        with open(run_dir / "evaluations.csv", newline="") as f:
+    if run.evaluations_csv.is_file():
+        with open(run.evaluations_csv, newline="") as f:
             evals = list(csv.DictReader(f))
     best_eval = max(evals, key=lambda r: float(r["mean_return"])) if evals else None
     returns = [float(r["return"]) for r in rows]
     tail = returns[-last:]
     mean = float(np.mean(tail)) if tail else float("nan")
     return {
-        "run_dir": str(run_dir),
+        "run_dir": str(run.path),
         "episodes": len(rows),
         "global_step": int(rows[-1]["global_step"]) if rows else 0,
         "final_mean_return": mean,
@@ -80,7 +82,7 @@ _RUN_SETTINGS = ("case", "case_spec", "physics", "episode_duration_s", "recipe")
 def _check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
     """A resumed run keeps its case, physics and episode length: refuse other values, naming the
     option and the run's value."""
-    run_json = run_dir / RUN_JSON
+    run_json = RunDir(run_dir).run_json
     if not run_json.is_file():
         return
     try:
@@ -127,11 +129,12 @@ def _write_run_json(run_dir: Path, config, metadata: dict[str, Any], steps: int,
     """``run.json``: the run's settings, the steps it has reached and how often it was resumed
     (written when a new run starts, with 0 steps, and when a training call has finished)."""
     record = {}
-    if (run_dir / RUN_JSON).is_file():
-        record = json.loads((run_dir / RUN_JSON).read_text())
-    atomic_write_json(run_dir / RUN_JSON, {
+    run_json = RunDir(run_dir).run_json
+    if run_json.is_file():
+        record = json.loads(run_json.read_text())
+    atomic_write_json(run_json, {
         **record, **metadata, "steps": int(steps), "config": config.to_dict(),
-        "torch_threads": int(threads), "versions": _versions(),
+        "torch_threads": int(threads), "versions": versions(),
         "resumed": int(record.get("resumed", 0)) + int(resumed_now)})
 
 
@@ -160,7 +163,7 @@ def _train_group(job: dict[str, Any]) -> dict[str, Any]:
     for config, run_dir, meta in zip(configs, run_dirs, metadata, strict=True):
         if not job["resume"]:
             run_dir.mkdir(parents=True, exist_ok=True)
-            (run_dir / RUN_JSON).unlink(missing_ok=True)  # a stale record of a run without checkpoint
+            RunDir(run_dir).run_json.unlink(missing_ok=True)  # a stale record of a run without checkpoint
             _write_run_json(run_dir, config, meta, 0, job["threads"], resumed_now=False)
     start = time.perf_counter()
     train_seeds(functools.partial(make_vector_env, case, physics=job["physics"],
@@ -216,20 +219,20 @@ def _earlier_seeds(case_dir: Path, exclude: list[int], reward_scale: float) -> l
     ``summary.json`` covers every seed of the case. Their entries from the previous summary are
     kept (wall time, memory) and their episode statistics re-read from ``episodes.csv``."""
     previous: dict[int, dict[str, Any]] = {}
-    if (case_dir / "summary.json").is_file():
+    summary_json = CaseDir(case_dir).summary_json
+    if summary_json.is_file():
         try:
-            old = json.loads((case_dir / "summary.json").read_text())
+            old = json.loads(summary_json.read_text())
             previous = {int(r["seed"]): r for r in old.get("seeds", []) if "seed" in r}
         except (ValueError, KeyError, TypeError):
             previous = {}  # an unreadable summary is rebuilt from the run folders
     found = []
-    for path in sorted(case_dir.glob("seed*")):
-        tail = path.name[len("seed"):]
-        if not tail.isdigit() or int(tail) in exclude or not (path / "episodes.csv").is_file():
+    for seed, run in CaseDir(case_dir).seeds():
+        if seed in exclude or not run.has_episodes():
             continue
-        entry = {k: v for k, v in previous.get(int(tail), {}).items() if k != "succeeded"}
-        found.append({**entry, "seed": int(tail), **summarize_run(path, reward_scale=reward_scale),
-                      "run_dir": str(path)})
+        entry = {k: v for k, v in previous.get(seed, {}).items() if k != "succeeded"}
+        found.append({**entry, "seed": seed, **summarize_run(run.path, reward_scale=reward_scale),
+                      "run_dir": str(run.path)})
     return found
 
 
@@ -342,15 +345,18 @@ def train_cases(
         raise ValueError("the cases' specs give different [training.td3] settings: train them apart")
     configs = {s: crawler_config(s, recipe, **{**td3_settings[0], **(config_overrides or {})})
                for s in seed_list}
+    def run_of(case: str, seed: int) -> RunDir:
+        return CaseDir.of(out, case).seed(seed)
+
     if not resume:
-        existing = [str(Path(out) / case / f"seed{s}") for case in cases for s in seed_list
-                    if (Path(out) / case / f"seed{s}" / "checkpoint.pt").exists()]
+        existing = [str(run_of(case, s).path) for case in cases for s in seed_list
+                    if run_of(case, s).checkpoint.exists()]
         if existing:
             raise FileExistsError(f"runs already exist: {', '.join(existing)} (use --resume, another "
                                   "--out, or --seed-offset)")
     else:
-        missing = [str(Path(out) / case / f"seed{s}" / "checkpoint.pt") for case in cases
-                   for s in seed_list if not (Path(out) / case / f"seed{s}" / "checkpoint.pt").exists()]
+        missing = [str(run_of(case, s).checkpoint) for case in cases
+                   for s in seed_list if not run_of(case, s).checkpoint.exists()]
         if missing:
             raise FileNotFoundError(f"cannot resume: no checkpoint {', '.join(missing)} (train those "
                                     "seeds without --resume, or choose --seeds/--seed-offset)")
@@ -358,9 +364,9 @@ def train_cases(
 
         for case in cases:  # a resumed run keeps its settings: checked before any work
             for s in seed_list:
-                path = Path(out) / case / f"seed{s}" / "checkpoint.pt"
+                path = run_of(case, s).checkpoint
                 refuse_networks_only(load_checkpoint(path, with_buffer=False), path)
-                _check_resume_settings(Path(out) / case / f"seed{s}", {
+                _check_resume_settings(run_of(case, s).path, {
                     "case": case, "case_spec": loaded[case].to_dict(), "physics": physics,
                     "episode_duration_s": float(episode_duration), "recipe": recipe})
 
@@ -368,11 +374,11 @@ def train_cases(
 
     for case in cases:  # every seed's folder can be written, before any work
         for s in seed_list:
-            prepare_output_dir(Path(out) / case / f"seed{s}", "--out")
+            prepare_output_dir(run_of(case, s).path, "--out")
 
     def run_dir(case: str, seed: int) -> str:
         # Ray workers may run elsewhere (another cwd, another node): give them absolute paths
-        path = Path(out) / case / f"seed{seed}"
+        path = run_of(case, seed).path
         return str(path.resolve() if backend == "ray" else path)
 
     jobs = []
@@ -398,23 +404,23 @@ def train_cases(
             results += [(job["case"], r) for r in result["group"]]
         else:  # the whole group failed: what its folders hold is still reported
             for c, d in zip(job["configs"], job["run_dirs"], strict=True):
-                entry = summarize_run(d) if (Path(d) / "episodes.csv").is_file() else {}
+                entry = summarize_run(d) if RunDir(d).has_episodes() else {}
                 results.append((job["case"], {**entry, "seed": c["seed"], "error": result["error"]}))
     wall = time.perf_counter() - start
 
     summaries = {}
     for case in cases:
-        case_dir = Path(out) / case
+        case_dir = CaseDir.of(out, case)
         mine = [r for c, r in results if c == case]
         for r in mine:
             if "run_dir" in r:
-                r["run_dir"] = str(case_dir / f"seed{r['seed']}")
+                r["run_dir"] = str(case_dir.seed(r["seed"]).path)
         spec = loaded[case]
         threshold = None
         if spec.task.kind == "crawl" and spec.yardstick.distance_10s > 0.0:
             threshold = (success_fraction * spec.yardstick.distance_10s * (episode_duration / 10.0)
                          * spec.task.reward_scale)
-        per_seed = sorted(mine + _earlier_seeds(case_dir, seed_list, spec.task.reward_scale),
+        per_seed = sorted(mine + _earlier_seeds(case_dir.path, seed_list, spec.task.reward_scale),
                           key=lambda r: r["seed"])
         for r in per_seed:
             if "error" not in r and threshold is not None:
@@ -444,9 +450,9 @@ def train_cases(
             "seeds": per_seed,
             "failed": [r["seed"] for r in per_seed if "error" in r],
         }
-        case_dir.mkdir(parents=True, exist_ok=True)
-        atomic_write_json(case_dir / "summary.json", summary)
-        summary["summary_json"] = str(case_dir / "summary.json")
+        case_dir.path.mkdir(parents=True, exist_ok=True)
+        atomic_write_json(case_dir.summary_json, summary)
+        summary["summary_json"] = str(case_dir.summary_json)
         summaries[case] = summary
     return summaries
 
@@ -480,12 +486,12 @@ def refine(
 
     if steps < 1:
         raise ValueError("steps must be >= 1")
-    source = _checkpoint_path(run)
+    source = RunDir.checkpoint_of(run)
     ckpt = load_checkpoint(source)
     refuse_networks_only(ckpt, source)
-    meta = _checkpoint_metadata(ckpt, source)
+    meta = checkpoint_metadata(ckpt, source)
     case = case_from_metadata(meta, str(source))
-    out = Path(out) if out is not None else source.parent / "refined"
+    out = RunDir(out) if out is not None else RunDir.of_checkpoint(source).refined
     start_step = int(ckpt["global_step"])
     total = start_step + int(steps)
     config = TD3Config.from_dict(ckpt["config"])
@@ -496,18 +502,18 @@ def refine(
         refined_from=str(source), refine_start_step=start_step, refine_steps=int(steps),
         training_steps=int(meta.get("training_steps", start_step)),
     )
-    if (out / "checkpoint.pt").exists() and not resume:
-        raise FileExistsError(f"{out} already holds a refined checkpoint (use --resume or --out)")
-    atomic_write_json(out / RUN_JSON, {**metadata, "steps": total, "config": config.to_dict(),
-                                 "versions": _versions()})
+    if out.checkpoint.exists() and not resume:
+        raise FileExistsError(f"{out.path} already holds a refined checkpoint (use --resume or --out)")
+    atomic_write_json(out.run_json, {**metadata, "steps": total, "config": config.to_dict(),
+                                     "versions": versions()})
     begin = time.perf_counter()
     train_seeds(functools.partial(make_vector_env, case, physics=physics, initial_field="random",
                                   duration=episode_duration),
-                [config], total, [out], resume=resume, progress=progress, init_from=[source],
-                progress_desc=f"refine {case.name} seed{config.seed}", metadata=[metadata])
-    summary = summarize_run(out, reward_scale=case.task.reward_scale)
-    return {"case": case.name, "source": str(source), "run_dir": str(out),
-            "checkpoint": str(out / "checkpoint.pt"), "start_step": start_step, "steps": int(steps),
+                [config], total, [out.path], resume=resume, progress=progress, init_from=[source],
+                progress_desc=f"refine {case.name} {CaseDir.seed_name(config.seed)}", metadata=[metadata])
+    summary = summarize_run(out.path, reward_scale=case.task.reward_scale)
+    return {"case": case.name, "source": str(source), "run_dir": str(out.path),
+            "checkpoint": str(out.checkpoint), "start_step": start_step, "steps": int(steps),
             "physics": physics, **{k: summary[k] for k in ("episodes", "final_mean_return")},
             "wall_s": time.perf_counter() - begin}
 

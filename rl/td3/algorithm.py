@@ -248,6 +248,33 @@ class TwinCritic(nn.Module):
         return self.q1_net(torch.cat([obs, act], dim=-1))
 
 
+def networks_from_state(obs_dim: int, act_dim: int, hidden: tuple[int, ...], actor_state: dict,
+                        critic_state: dict | None, source: Any = None,
+                        critic_layer_norm: bool = False) -> tuple[Actor, TwinCritic | None]:
+    """The actor (and the twin critic when ``critic_state`` is given) loaded with
+    ``actor_state``/``critic_state``, in eval mode and without gradients. Weights that do not fit
+    the architecture (``obs_dim``, ``act_dim``, ``hidden``) raise a ``ValueError`` naming
+    ``source`` (the file they came from)."""
+
+    def load(network: nn.Module, state: dict, what: str) -> nn.Module:
+        try:
+            network.load_state_dict(state)
+        except (RuntimeError, KeyError, TypeError, AttributeError) as exc:
+            first = str(exc).strip().splitlines()
+            raise ValueError(
+                f"{source}: the {what} weights do not fit the architecture it declares "
+                f"(observations {obs_dim}, actions {act_dim}, hidden sizes {list(hidden)}): "
+                f"{' '.join(first[1:3] or first)[:300]}"
+            ) from None
+        return network.eval().requires_grad_(False)
+
+    actor = load(Actor(obs_dim, act_dim, hidden), actor_state, "actor")
+    critic = None
+    if critic_state is not None:
+        critic = load(TwinCritic(obs_dim, act_dim, hidden, critic_layer_norm), critic_state, "critic")
+    return actor, critic
+
+
 class ScaledPolicy(nn.Module):
     """Actor followed by the affine map onto the environment's action box (for export)."""
 

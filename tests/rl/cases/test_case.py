@@ -179,7 +179,7 @@ def test_a_case_and_explicit_robot_arguments_exclude_each_other():
 def test_a_shipped_policy_through_its_spec_acts_as_through_the_old_arguments(name):
     """The paper's cases through their spec files: a shipped policy's first 0.1 s in the accurate
     physics, bit for bit the same as with the environment built from pattern and field limit."""
-    from elastica_magnetic_rl.shipping.pipeline import resolve_policy
+    from elastica_magnetic_rl.shipping.policy_files import resolve_policy
 
     policy = resolve_policy(name)
     limit = {"4mT": 4e-3, "10mT": 10e-3}[name.split("-")[1]]

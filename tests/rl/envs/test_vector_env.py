@@ -207,9 +207,9 @@ def test_train_shared_seeds_equal_separate_single_env_runs(tmp_path):
     """Seeds 3 and 7 trained side by side in one simulator (``train_shared``; the second half after
     a resume) end bit-identical to two separate ``train`` runs with single environments: same
     episodes, weights, optimisers and buffers. Only the simulation is shared."""
+    from elastica_magnetic_rl.envs.env import make_env
     from elastica_magnetic_rl.envs.vector_env import make_vector_env
     from elastica_magnetic_rl.runner.loop import train, train_shared
-    from elastica_magnetic_rl.shipping.policy_runs import make_env
 
     duration, steps = 0.1, 40  # 10-step episodes; updates from step 20
     configs = [TD3Config(seed=s, learning_starts=20, batch_size=16, hidden_sizes=(16,),
@@ -249,9 +249,9 @@ def test_policies_evaluated_together_equal_each_alone():
     """elastica_magnetic_rl.runner.evaluation.evaluate_many on the crawler's vector environment returns, for
     each policy, what elastica_magnetic_rl.runner.evaluation.evaluate returns with a single environment (the
     evaluation during training)."""
+    from elastica_magnetic_rl.envs.env import make_env
     from elastica_magnetic_rl.envs.vector_env import make_vector_env
     from elastica_magnetic_rl.runner.evaluation import ActorPolicy, evaluate, evaluate_many
-    from elastica_magnetic_rl.shipping.policy_runs import make_env
     from elastica_magnetic_rl.td3.algorithm import TD3
 
     learner = TD3(260, 2, -np.ones(2), np.ones(2), [TD3Config(seed=s, hidden_sizes=(16,)) for s in (0, 1)])

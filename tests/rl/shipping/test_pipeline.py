@@ -14,7 +14,7 @@ import pytest
 import torch
 from elastica_magnetic_rl.envs.env import OBSERVATION_LAYOUT, MagneticCrawlerEnv
 from elastica_magnetic_rl.runfiles.checkpoint import load_checkpoint
-from elastica_magnetic_rl.shipping import pipeline, policy_runs
+from elastica_magnetic_rl.shipping import pipeline, policy_files, policy_runs
 from elastica_magnetic_rl.td3.agent import TD3Agent
 
 from elastica_magnetic import read_field_csv
@@ -307,7 +307,7 @@ def test_ship_over_a_policy_keeps_it_when_the_measurement_fails(refined, tmp_pat
     pipeline.ship(best, "m1-4mT", dest=dest, overwrite=True, measure=False, progress=False)
     assert not (folder / "fields.csv").exists()
     assert json.loads((folder / "policy.json").read_text())["training"]["best_evaluation"]
-    assert pipeline.resolve_policy(folder).kind == "shipped"  # the new files belong together
+    assert policy_files.resolve_policy(folder).kind == "shipped"  # the new files belong together
 
 
 def test_export_seeds_writes_generate_ready_folders_and_seeds_json(trained, tmp_path, capsys):
@@ -340,17 +340,17 @@ def test_ship_then_generate_by_folder_and_name(refined, tmp_path, monkeypatch, c
     assert {"actor.pt", "critic.pt", "policy.json", "MODEL_CARD.md", "fields.csv"} <= set(info["files"])
     meta = json.loads((folder / "policy.json").read_text())
     assert meta["case"] == "m1-4mT" and meta["architecture"]["hidden_sizes"] == [32, 32]
-    assert meta["actor_sha256"] == pipeline.weights_sha256(torch.load(folder / "actor.pt", weights_only=True))
+    actor_state = torch.load(folder / "actor.pt", weights_only=True)
+    assert meta["actor_sha256"] == policy_files.weights_sha256(actor_state)
     assert meta["training"]["refine_steps"] == 3 and meta["seeds"]["total"] == 2
     card = (folder / "MODEL_CARD.md").read_text()
     assert "m1-4mT" in card and "refinement steps" in card and "seeds that succeeded" in card
     # the shipped actor acts exactly as the checkpoint's
     obs = np.random.default_rng(1).normal(size=260).astype(np.float32)
-    shipped = pipeline.resolve_policy(folder)
-    original = pipeline.resolve_policy(refined)
+    shipped = policy_files.resolve_policy(folder)
+    original = policy_files.resolve_policy(refined)
     np.testing.assert_array_equal(shipped.act(obs), original.act(obs))
     # by name, from the (patched) package folder of shipped policies
-    from elastica_magnetic_rl.shipping import policy_files
 
     monkeypatch.setattr(policy_files, "POLICIES_DIR", dest)
     result = run_msr(capsys, "generate", "m1-4mT", "--duration", "0.03", "--out",
@@ -396,8 +396,8 @@ def test_demo_names_the_missing_policy(tmp_path, monkeypatch, capsys):
 
 
 def test_unknown_policy_is_a_clear_error(tmp_path):
-    with pytest.raises(pipeline.PolicyNotFoundError, match="shipped"):
-        pipeline.resolve_policy(tmp_path / "nothing-here")
+    with pytest.raises(policy_files.PolicyNotFoundError, match="shipped"):
+        policy_files.resolve_policy(tmp_path / "nothing-here")
 
 
 #: Whether each shipped policy reaches the authors' 10 s distance, as rl/policies/README.md and
@@ -427,22 +427,22 @@ def test_shipped_policy_generates_and_exports(name, tmp_path, capsys):
     assert fields.shape == (5, 4)
     assert np.all(np.abs(fields[:, 1:3]) <= 5 * 0.3 + 1e-9)  # mT: from zero, +-0.3 mT per step
     assert msr(["export", name, "--out", str(tmp_path / "exp")]) == 0
-    policy = pipeline.resolve_policy(name)
+    policy = policy_files.resolve_policy(name)
     assert policy.case.name == name
     obs = np.zeros(policy.case.obs_dim, dtype=np.float32)
     module = torch.jit.load(str(next((tmp_path / "exp").glob("*.ts.pt"))))
     action = module(torch.from_numpy(obs)[None]).detach().numpy()[0]
     np.testing.assert_allclose(action, policy.act(obs), atol=1e-6)
-    info = json.loads((pipeline.POLICIES_DIR / name / "policy.json").read_text())
+    info = json.loads((policy_files.POLICIES_DIR / name / "policy.json").read_text())
     assert info["case"] == name and info["evaluation"]["duration_s"] == 10.0
     ev = info["evaluation"]
     assert policy.case.meets_yardstick(ev["mid_dx_m"], ev.get("node_dx_m", ev["mid_dx_m"]),
                                        ev["duration_s"], ev["diverged"])
     if name in ("m1-10mT", "m1-4mT", "m2-10mT", "m2-4mT"):
         assert ev["mid_dx_m"] >= info["authors_mid_dx_10s_m"]
-    card = (pipeline.POLICIES_DIR / name / "MODEL_CARD.md").read_text()
+    card = (policy_files.POLICIES_DIR / name / "MODEL_CARD.md").read_text()
     assert "meets the target" in card
-    shipped_fields = np.loadtxt(pipeline.POLICIES_DIR / name / "fields.csv", delimiter=",", skiprows=1)
+    shipped_fields = np.loadtxt(policy_files.POLICIES_DIR / name / "fields.csv", delimiter=",", skiprows=1)
     assert shipped_fields.shape == (1000, 4)  # the 10 s waveform, 100 rows/s
 
 
@@ -734,7 +734,7 @@ def test_notes_have_one_home_and_a_re_ship_keeps_the_seeds_table(refined, tmp_pa
     assert info["notes"] == card_section(card, NOTES_SECTION) == "- Third, *edited*."
     assert card.count(NOTES_SECTION) == 1 and card.index(NOTES_SECTION) < card.index("## Limitations")
     assert "| `paper` | 1 of 2 |" in card and (folder / "actor.pt").read_bytes() == actor
-    assert pipeline.resolve_policy(folder).kind == "shipped"
+    assert policy_files.resolve_policy(folder).kind == "shipped"
     capsys.readouterr()
     assert msr(["notes", str(folder)]) == 0 and capsys.readouterr().out.strip() == "- Third, *edited*."
     new_notes.write_text("\n")  # an empty file removes them, from both
