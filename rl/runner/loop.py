@@ -185,38 +185,161 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
           log_fn: Callable[[dict[str, Any]], None] | None, eval_env_fn: Callable[[], gym.Env] | None,
           position: int | None, desc: str | None,
           eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None) -> TD3:
-    cfg, k_seeds = learner.config, len(runs)
-    obs_dim, act_dim = learner.obs_dim, learner.act_dim
-    lead = runs[0]
-    # the global RNGs (unused by the agents) are one per process: seeded from the first seed
-    if lead.ckpt is not None:
-        random.setstate(lead.ckpt["python_rng"])
-        torch.set_rng_state(lead.ckpt["torch_cpu_rng"])
-    else:
-        random.seed(cfg.seed)
-        torch.manual_seed(cfg.seed)
-    vector_state = lead.ckpt.get("vector") if lead.resumed_here else None
-    if vector_state is not None and (int(vector_state["num_envs"]) != k_seeds * n
-                                     or list(vector_state["seeds"]) != [r.cfg.seed for r in runs]):
-        raise ValueError(f"{lead.ckpt_path} was written inside episodes by the group of seeds "
-                         f"{list(vector_state['seeds'])} with {int(vector_state['num_envs'])} "
-                         "environments: resume it in that same group")
+    """Train ``runs`` (K seeds, ``n`` sub-environments each of ``env``) to their step budget: the
+    global RNGs and the environments restored or started, then :meth:`_GroupLoop.run`."""
+    loop = _GroupLoop(env, runs, learner, n, log_fn, eval_vec_env_fn)
+    vector_state = loop.restore_global_rngs()
     for k, run in enumerate(runs):
         run.open(progress, None if position is None else position + k,
-                 f"{desc or 'seed'} {run.cfg.seed}" if k_seeds > 1 else desc, eval_env_fn)
+                 f"{desc or 'seed'} {run.cfg.seed}" if len(runs) > 1 else desc, eval_env_fn)
         if run.evaluation.restore_best:
             run.evaluation.write_best(run.header(learner))
-    can_save_env = hasattr(env, "get_state") and hasattr(env, "set_state")
+    return loop.run(loop.first_observations(vector_state))
 
-    def sub(k: int) -> slice:
-        return slice(k * n, (k + 1) * n)
 
-    def evaluate_seeds(due: list[int]) -> None:
+class _GroupLoop:
+    """The training loop of one group of K seeds on one vector environment, in its named steps:
+    :meth:`act`, the environments' step, :meth:`store`, :meth:`learn`, :meth:`log_episode_ends`,
+    :meth:`evaluate`, :meth:`start_next_episodes` and the checkpoints (at episode boundaries, or
+    inside episodes with the environments' state). The order of these steps, and of the RNG draws
+    in them, is what makes a seed bit-identical alone and in a group, and after a resume."""
+
+    def __init__(self, env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int,
+                 log_fn: Callable[[dict[str, Any]], None] | None,
+                 eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None) -> None:
+        self.env, self.runs, self.learner, self.n = env, runs, learner, n
+        self.log_fn, self.eval_vec_env_fn = log_fn, eval_vec_env_fn
+        self.cfg, self.k_seeds, self.lead = learner.config, len(runs), runs[0]
+        self.obs_dim, self.act_dim = learner.obs_dim, learner.act_dim
+        # a Gymnasium vector environment that can save its state allows checkpoints inside episodes
+        self.can_save_env = hasattr(env, "get_state") and hasattr(env, "set_state")
+        self.actions = np.zeros((self.k_seeds, n, self.act_dim), dtype=np.float32)
+        self.timing = {key: 0.0 for key in TIMING_KEYS}
+        self.clock = time.perf_counter()
+
+    def sub(self, k: int) -> slice:
+        """Seed ``k``'s sub-environments."""
+        return slice(k * self.n, (k + 1) * self.n)
+
+    # -- start -------------------------------------------------------------------------------
+    def restore_global_rngs(self) -> dict[str, Any] | None:
+        """Seed (or restore) the process's global RNGs, one per process, from the first seed;
+        returns the environments' saved state of a checkpoint written inside episodes (checked to
+        belong to this group), else ``None``."""
+        lead, cfg = self.lead, self.cfg
+        if lead.ckpt is not None:
+            random.setstate(lead.ckpt["python_rng"])
+            torch.set_rng_state(lead.ckpt["torch_cpu_rng"])
+        else:
+            random.seed(cfg.seed)
+            torch.manual_seed(cfg.seed)
+        vector_state = lead.ckpt.get("vector") if lead.resumed_here else None
+        if vector_state is not None and (int(vector_state["num_envs"]) != self.k_seeds * self.n
+                                         or list(vector_state["seeds"]) != [r.cfg.seed for r in self.runs]):
+            raise ValueError(f"{lead.ckpt_path} was written inside episodes by the group of seeds "
+                             f"{list(vector_state['seeds'])} with {int(vector_state['num_envs'])} "
+                             "environments: resume it in that same group")
+        return vector_state
+
+    def first_observations(self, vector_state: dict[str, Any] | None) -> np.ndarray:
+        """The environments restored from ``vector_state``, or reset with each seed's episode
+        seeds (and the first episodes' exploration noise drawn); their observations ``(K n,
+        obs_dim)``."""
+        runs, n, total = self.runs, self.n, self.k_seeds * self.n
+        if vector_state is not None:
+            self.env.reset(seed=[0] * total)  # builds the simulator; then overwritten
+            self.env.set_state(_to_numpy(vector_state["env_state"]))
+            for k, run in enumerate(runs):
+                for key, field in (("ep_return", run.ep_return), ("ep_len", run.ep_len),
+                                   ("ep_id", run.ep_id), ("noise", run.noise),
+                                   ("noise_pos", run.noise_pos)):
+                    field[:] = _to_numpy(vector_state[key])[self.sub(k)]
+            return _to_numpy(vector_state["obs"]).reshape(total, self.obs_dim)
+        seeds = []
+        for run in runs:
+            run.ep_id[:] = np.arange(run.episode, run.episode + n)
+            seeds += run.next_episode_seeds(n)
+        obs, _ = self.env.reset(seed=seeds)
+        obs = np.asarray(obs, dtype=np.float32).reshape(total, self.obs_dim)
+        for k, run in enumerate(runs):
+            for j in range(n):
+                run.draw_noise(j, self.learner.rngs[k])
+        return obs
+
+    def lap(self, key: str) -> None:
+        """Add the time since the last lap to ``timing[key]``."""
+        now = time.perf_counter()
+        self.timing[key] += now - self.clock
+        self.clock = now
+
+    # -- one vector step -----------------------------------------------------------------------
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        """Actions ``(K n, act_dim)`` in [-1, 1]: transition ``global_step + i`` of a seed is
+        random during the warm-up, then ``mu + noise``."""
+        learner, cfg, n = self.learner, self.cfg, self.n
+        n_random = int(np.clip(cfg.learning_starts - self.lead.global_step, 0, n))
+        if n_random < n:
+            mu = learner.select_actions(obs.reshape(self.k_seeds, n, self.obs_dim)[:, n_random:],
+                                        explore=False).astype(np.float64)
+        for k, run in enumerate(self.runs):
+            if n_random:
+                self.actions[k, :n_random] = learner.random_actions(k, n_random)
+            if n_random < n:
+                noise = run.exploration(n_random, learner.rngs[k])
+                self.actions[k, n_random:] = np.clip(mu[k] + noise, -1.0, 1.0)
+            elif cfg.noise_color > 0:  # the sequences keep time during the warm-up too
+                run.exploration(n, learner.rngs[k])
+        return self.actions.reshape(self.k_seeds * n, self.act_dim)
+
+    def store(self, obs: np.ndarray, actions: np.ndarray, rewards: np.ndarray, next_obs: np.ndarray,
+              terminated: np.ndarray, ended: np.ndarray, infos: dict[str, Any]) -> None:
+        """Each seed's transitions into its buffer (the real s' of an ended episode is
+        ``infos["final_obs"][i]``: ``SAME_STEP`` autoreset), its episode sums and counters."""
+        real_next = next_obs.copy()
+        for i in np.flatnonzero(ended):
+            real_next[i] = flat_observation(infos["final_obs"][i])
+        n = self.n
+        for k, run in enumerate(self.runs):
+            for j in range(n):
+                i = k * n + j
+                run.buffer.add(obs[i], actions[i], float(rewards[i]), real_next[i], bool(terminated[i]))
+            run.ep_return += rewards[self.sub(k)]
+            run.ep_len += 1
+            run.global_step += n
+            run.bar.update(n)
+
+    def learn(self, before: int) -> None:
+        """``updates_per_step`` updates per transition past the warm-up (``before``: the step
+        count before this vector step), all seeds at once; losses logged every ``log_every``."""
+        cfg, learner, runs = self.cfg, self.learner, self.runs
+        n_learn = max(0, self.lead.global_step - max(before, cfg.learning_starts))
+        if not n_learn or len(self.lead.buffer) < cfg.batch_size:
+            return
+        for _ in range(n_learn * cfg.updates_per_step):
+            info = learner.update([r.buffer.sample(cfg.batch_size, learner.rngs[k])
+                                   for k, r in enumerate(runs)])
+            if learner.num_updates % cfg.log_every == 0:
+                for name, values in info.items():
+                    for k, run in enumerate(runs):
+                        run.writer.add_scalar(f"losses/{name}", float(values[k]), run.global_step)
+
+    def log_episode_ends(self, ended: np.ndarray, terminated: np.ndarray,
+                         truncated: np.ndarray) -> None:
+        """The ended episodes into each seed's ``episodes.csv``, in sub-environment order."""
+        n = self.n
+        for k, run in enumerate(self.runs):
+            for j in np.flatnonzero(ended[self.sub(k)]):
+                run.log_episode(j, bool(terminated[k * n + j]), bool(truncated[k * n + j]), self.log_fn)
+            if ended[self.sub(k)].any():
+                run.csv_file.flush()
+
+    def evaluate(self, due: list[int]) -> None:
         """Evaluate the seeds ``due``: together in one vector environment when there is one (the
         same returns as one by one), else one after the other."""
-        if len(due) > 1 and eval_vec_env_fn is not None:
-            results = evaluate_many([ActorPolicy.of_seed(learner, k) for k in due], eval_vec_env_fn,
-                                    cfg.eval_episodes, EVAL_SEED)
+        learner, runs = self.learner, self.runs
+        if len(due) > 1 and self.eval_vec_env_fn is not None:
+            results = evaluate_many([ActorPolicy.of_seed(learner, k) for k in due],
+                                    self.eval_vec_env_fn, self.cfg.eval_episodes, EVAL_SEED)
             for k, result in zip(due, results, strict=True):
                 run = runs[k]
                 run.evaluation.record(result, learner, k, run.global_step, run.wall_time_s,
@@ -226,175 +349,139 @@ def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, 
                 run = runs[k]
                 run.evaluation.run(learner, k, run.global_step, run.wall_time_s, run.header(learner))
 
-    if vector_state is not None:
-        env.reset(seed=[0] * (k_seeds * n))  # builds the simulator; then overwritten
-        env.set_state(_to_numpy(vector_state["env_state"]))
-        obs = _to_numpy(vector_state["obs"]).reshape(k_seeds * n, obs_dim)
-        for k, run in enumerate(runs):
-            run.ep_return[:] = _to_numpy(vector_state["ep_return"])[sub(k)]
-            run.ep_len[:] = _to_numpy(vector_state["ep_len"])[sub(k)]
-            run.ep_id[:] = _to_numpy(vector_state["ep_id"])[sub(k)]
-            run.noise[:] = _to_numpy(vector_state["noise"])[sub(k)]
-            run.noise_pos[:] = _to_numpy(vector_state["noise_pos"])[sub(k)]
-    else:
-        seeds = []
-        for run in runs:
-            run.ep_id[:] = np.arange(run.episode, run.episode + n)
-            seeds += run.next_episode_seeds(n)
-        obs, _ = env.reset(seed=seeds)
-        obs = np.asarray(obs, dtype=np.float32).reshape(k_seeds * n, obs_dim)
-        for k, run in enumerate(runs):
-            for j in range(n):
-                run.draw_noise(j, learner.rngs[k])
+    def next_episode_seeds(self, ended: np.ndarray) -> list[int | None]:
+        """The reset seeds of the ended sub-environments (``None`` for the others); their new
+        episodes are numbered now."""
+        reset_seeds: list[int | None] = [None] * (self.k_seeds * self.n)
+        for k, run in enumerate(self.runs):
+            for j in np.flatnonzero(ended[self.sub(k)]):
+                run.ep_id[j] = run.episode
+                reset_seeds[k * self.n + j] = run.next_episode_seeds(1)[0]
+        return reset_seeds
 
-    def vector(obs: np.ndarray) -> dict[str, Any] | None:
-        if not can_save_env:
+    def start_next_episodes(self, ended: np.ndarray, reset_seeds: list[int | None],
+                            next_obs: np.ndarray) -> None:
+        """Reset the ended sub-environments (their first observations into ``next_obs``) and draw
+        their new episodes' exploration noise."""
+        fresh, _ = self.env.reset(seed=reset_seeds, options={"reset_mask": ended})
+        fresh = np.asarray(fresh, dtype=np.float32).reshape(self.k_seeds * self.n, self.obs_dim)
+        next_obs[ended] = fresh[ended]
+        for k, run in enumerate(self.runs):
+            for j in np.flatnonzero(ended[self.sub(k)]):
+                run.draw_noise(int(j), self.learner.rngs[k])
+
+    # -- checkpoints ---------------------------------------------------------------------------
+    def vector_state(self, obs: np.ndarray) -> dict[str, Any] | None:
+        """The environments' state and each seed's episode state, for a checkpoint inside
+        episodes (``None`` when the environments cannot save theirs)."""
+        if not self.can_save_env:
             return None
-        return {"num_envs": k_seeds * n, "seeds": [r.cfg.seed for r in runs],
-                "env_state": _to_tensors(env.get_state()),
+        runs = self.runs
+        return {"num_envs": self.k_seeds * self.n, "seeds": [r.cfg.seed for r in runs],
+                "env_state": _to_tensors(self.env.get_state()),
                 "obs": torch.from_numpy(obs.copy()),
-                "ep_return": torch.from_numpy(np.concatenate([r.ep_return for r in runs])),
-                "ep_len": torch.from_numpy(np.concatenate([r.ep_len for r in runs])),
-                "ep_id": torch.from_numpy(np.concatenate([r.ep_id for r in runs])),
-                "noise": torch.from_numpy(np.concatenate([r.noise for r in runs])),
-                "noise_pos": torch.from_numpy(np.concatenate([r.noise_pos for r in runs]))}
+                **{key: torch.from_numpy(np.concatenate([getattr(r, key) for r in runs]))
+                   for key in ("ep_return", "ep_len", "ep_id", "noise", "noise_pos")}}
 
-    prev_deterministic = torch.are_deterministic_algorithms_enabled()
-    if cfg.torch_deterministic:
-        torch.use_deterministic_algorithms(True)
-    start_step = lead.global_step
-    actions = np.zeros((k_seeds, n, act_dim), dtype=np.float32)
-    # where the group's wall time goes (s, cumulative over resumes): the profile of a run
-    timing = {key: 0.0 for key in TIMING_KEYS}
-    if lead.resumed_here and lead.ckpt.get("timing"):
-        timing.update({k: float(v) for k, v in lead.ckpt["timing"].items() if k in timing})
-    clock = time.perf_counter()
+    def checkpoint_between_episodes(self) -> None:
+        """Every seed's checkpoint at an episode boundary (before the new episodes are counted)."""
+        for run in self.runs:
+            run.episode -= self.n
+            run.checkpoint(self.learner, at_episode_boundary=True, vector=None)
+            run.episode += self.n
 
-    def lap(key: str) -> None:
-        nonlocal clock
-        now = time.perf_counter()
-        timing[key] += now - clock
-        clock = now
+    def checkpoint_inside_episodes(self, obs: np.ndarray) -> None:
+        """Every seed's checkpoint with the environments' state."""
+        state = self.vector_state(obs)
+        for run in self.runs:
+            run.checkpoint(self.learner, at_episode_boundary=False, vector=state)
 
-    for run in runs:
-        run.timing = timing
-    try:
-        while not lead.done:
-            # 1. act: transition global_step + i of a seed is random during warm-up, then mu + noise
-            n_random = int(np.clip(cfg.learning_starts - lead.global_step, 0, n))
-            if n_random < n:
-                mu = learner.select_actions(obs.reshape(k_seeds, n, obs_dim)[:, n_random:],
-                                            explore=False).astype(np.float64)
-            for k, run in enumerate(runs):
-                if n_random:
-                    actions[k, :n_random] = learner.random_actions(k, n_random)
-                if n_random < n:
-                    noise = run.exploration(n_random, learner.rngs[k])
-                    actions[k, n_random:] = np.clip(mu[k] + noise, -1.0, 1.0)
-                elif cfg.noise_color > 0:  # the sequences keep time during the warm-up too
-                    run.exploration(n, learner.rngs[k])
-            flat_actions = actions.reshape(k_seeds * n, act_dim)
-            lap("act")
-            next_obs, rewards, terminated, truncated, infos = env.step(
-                learner.scale_action(flat_actions))
-            lap("env")
-            next_obs = np.asarray(next_obs, dtype=np.float32).reshape(k_seeds * n, obs_dim)
-            terminated = np.asarray(terminated, dtype=bool)
-            truncated = np.asarray(truncated, dtype=bool)
-            rewards = np.asarray(rewards, dtype=np.float64)
-            ended = terminated | truncated
+    # -- the loop ------------------------------------------------------------------------------
+    def step(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+        """One vector step of every seed from ``obs``: act, step, store, learn, log. Returns the
+        next observations (before any reset), which sub-environments ended, and whether the
+        group's step budget is reached."""
+        flat_actions = self.act(obs)
+        self.lap("act")
+        next_obs, rewards, terminated, truncated, infos = self.env.step(
+            self.learner.scale_action(flat_actions))
+        self.lap("env")
+        next_obs = np.asarray(next_obs, dtype=np.float32).reshape(self.k_seeds * self.n, self.obs_dim)
+        terminated = np.asarray(terminated, dtype=bool)
+        truncated = np.asarray(truncated, dtype=bool)
+        rewards = np.asarray(rewards, dtype=np.float64)
+        ended = terminated | truncated
+        before = self.lead.global_step
+        self.store(obs, flat_actions, rewards, next_obs, terminated, ended, infos)
+        self.lap("store")
+        self.learn(before)
+        self.lap("update")
+        self.log_episode_ends(ended, terminated, truncated)
+        return next_obs, ended, self.lead.done
 
-            # 2. store: the real s' of an ended episode is infos["final_obs"][i] (SAME_STEP)
-            real_next = next_obs.copy()
-            for i in np.flatnonzero(ended):
-                real_next[i] = flat_observation(infos["final_obs"][i])
-            before = lead.global_step
-            for k, run in enumerate(runs):
-                for j in range(n):
-                    i = k * n + j
-                    run.buffer.add(obs[i], flat_actions[i], float(rewards[i]), real_next[i],
-                                   bool(terminated[i]))
-                run.ep_return += rewards[sub(k)]
-                run.ep_len += 1
-                run.global_step += n
-                run.bar.update(n)
+    def between_steps(self, next_obs: np.ndarray, ended: np.ndarray) -> None:
+        """After a vector step: evaluations when all of a seed's episodes have just ended (so
+        their timing does not depend on the layout), the ended episodes restarted, and the
+        checkpoints due at restorable points (``next_obs`` becomes the new episodes' start)."""
+        lead, all_ended = self.lead, bool(ended.all())
+        restorable = all_ended or self.can_save_env
+        self.lap("log")
+        self.evaluate([k for k, run in enumerate(self.runs)
+                       if ended[self.sub(k)].all() and run.evaluation.due(run.global_step)])
+        self.lap("evaluation")
+        checkpoint_due = restorable and lead.global_step >= lead.next_checkpoint
+        if ended.any():
+            reset_seeds = self.next_episode_seeds(ended)
+            if checkpoint_due and all_ended:  # before the new episodes: nothing of them to save
+                self.checkpoint_between_episodes()
+                checkpoint_due = False
+                self.lap("checkpoint")
+            self.start_next_episodes(ended, reset_seeds, next_obs)
+        self.lap("env")
+        if checkpoint_due:  # inside episodes: the environments' state goes along
+            self.checkpoint_inside_episodes(next_obs)
+            self.lap("checkpoint")
 
-            lap("store")
-            # 3. learn: updates_per_step updates per transition past the warm-up, all seeds at once
-            n_learn = max(0, lead.global_step - max(before, cfg.learning_starts))
-            if n_learn and len(lead.buffer) >= cfg.batch_size:
-                for _ in range(n_learn * cfg.updates_per_step):
-                    info = learner.update([r.buffer.sample(cfg.batch_size, learner.rngs[k])
-                                           for k, r in enumerate(runs)])
-                    if learner.num_updates % cfg.log_every == 0:
-                        for name, values in info.items():
-                            for k, run in enumerate(runs):
-                                run.writer.add_scalar(f"losses/{name}", float(values[k]),
-                                                      run.global_step)
+    def finish(self, obs: np.ndarray, ended: np.ndarray | None, start_step: int) -> None:
+        """The last evaluation and the final checkpoint."""
+        self.lap("log")
+        self.evaluate([k for k, run in enumerate(self.runs)
+                       if run.evaluation.enabled and run.evaluation.last_step != run.global_step])
+        self.lap("evaluation")
+        all_ended = bool(ended.all()) if self.lead.global_step > start_step else True
+        state = None if all_ended else self.vector_state(obs)
+        for run in self.runs:
+            run.checkpoint(self.learner, at_episode_boundary=all_ended, vector=state)
 
-            lap("update")
-            # 4. episode ends: log in sub-env order
-            for k, run in enumerate(runs):
-                for j in np.flatnonzero(ended[sub(k)]):
-                    run.log_episode(j, bool(terminated[k * n + j]), bool(truncated[k * n + j]), log_fn)
-                if ended[sub(k)].any():
-                    run.csv_file.flush()
-            all_ended = bool(ended.all())
-            if lead.done:
-                break
-            # 5. evaluation when all of a seed's episodes have just ended (so its timing does not
-            # depend on the layout); checkpoints at restorable points
-            restorable = all_ended or can_save_env
-            lap("log")
-            evaluate_seeds([k for k, run in enumerate(runs)
-                            if ended[sub(k)].all() and run.evaluation.due(run.global_step)])
-            lap("evaluation")
-            # 6. the next episodes of the ended sub-envs start from their seeds
-            if ended.any():
-                reset_seeds: list[int | None] = [None] * (k_seeds * n)
-                for k, run in enumerate(runs):
-                    for j in np.flatnonzero(ended[sub(k)]):
-                        run.ep_id[j] = run.episode
-                        reset_seeds[k * n + j] = run.next_episode_seeds(1)[0]
-                checkpoint_due = restorable and lead.global_step >= lead.next_checkpoint
-                if checkpoint_due and all_ended:  # before the new episodes: nothing of them to save
-                    for run in runs:
-                        run.episode -= n
-                        run.checkpoint(learner, at_episode_boundary=True, vector=None)
-                        run.episode += n
-                    checkpoint_due = False
-                    lap("checkpoint")
-                fresh, _ = env.reset(seed=reset_seeds, options={"reset_mask": ended})
-                fresh = np.asarray(fresh, dtype=np.float32).reshape(k_seeds * n, obs_dim)
-                next_obs[ended] = fresh[ended]
-                for k, run in enumerate(runs):  # the new episodes' noise (after any checkpoint)
-                    for j in np.flatnonzero(ended[sub(k)]):
-                        run.draw_noise(int(j), learner.rngs[k])
-            else:
-                checkpoint_due = restorable and lead.global_step >= lead.next_checkpoint
-            obs = next_obs
-            lap("env")
-            if checkpoint_due:  # inside episodes: the environments' state goes along
-                state = vector(obs)
-                for run in runs:
-                    run.checkpoint(learner, at_episode_boundary=False, vector=state)
-                lap("checkpoint")
-
-        # the last evaluation and the final checkpoint (unless a resumed run took no step)
-        if not (lead.resumed_here and lead.global_step == start_step):
-            lap("log")
-            evaluate_seeds([k for k, run in enumerate(runs)
-                            if run.evaluation.enabled and run.evaluation.last_step != run.global_step])
-            lap("evaluation")
-            all_ended = bool(ended.all()) if lead.global_step > start_step else True
-            state = None if all_ended else vector(obs)
-            for run in runs:
-                run.checkpoint(learner, at_episode_boundary=all_ended, vector=state)
-    finally:
-        for run in runs:
-            run.close()
-        torch.use_deterministic_algorithms(prev_deterministic)
-    return learner
+    def run(self, obs: np.ndarray) -> TD3:
+        """Vector steps until the seeds' budget, then the final evaluation and checkpoint (unless
+        a resumed run took no step); returns the learner."""
+        lead = self.lead
+        prev_deterministic = torch.are_deterministic_algorithms_enabled()
+        if self.cfg.torch_deterministic:
+            torch.use_deterministic_algorithms(True)
+        start_step = lead.global_step
+        # where the group's wall time goes (s, cumulative over resumes): the profile of a run
+        if lead.resumed_here and lead.ckpt.get("timing"):
+            self.timing.update({k: float(v) for k, v in lead.ckpt["timing"].items() if k in self.timing})
+        self.clock = time.perf_counter()
+        for run in self.runs:
+            run.timing = self.timing
+        ended = None
+        try:
+            while not lead.done:
+                next_obs, ended, done = self.step(obs)
+                if done:  # ``obs`` stays this step's start: what the final checkpoint has held
+                    break
+                self.between_steps(next_obs, ended)
+                obs = next_obs
+            if not (lead.resumed_here and lead.global_step == start_step):
+                self.finish(obs, ended, start_step)
+        finally:
+            for run in self.runs:
+                run.close()
+            torch.use_deterministic_algorithms(prev_deterministic)
+        return self.learner
 
 
 # ----------------------------------------------------------------------------------------------
