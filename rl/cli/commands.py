@@ -44,6 +44,14 @@ def _add_rollout_options(p: argparse.ArgumentParser, out: Path) -> None:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add this module's sub-commands to ``msr``."""
+    for add in (_add_case_command, _add_train_command, _add_bench_command, _add_refine_command,
+                _add_generate_command, _add_baseline_command, _add_figures_command, _add_demo_command):
+        add(sub)
+
+
+def _add_case_command(sub: argparse._SubParsersAction) -> None:
+    """``msr case``."""
     p = sub.add_parser(
         "case",
         help="list the shipped cases, or show one as a spec file to copy and edit",
@@ -62,6 +70,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     q.add_argument("--json", action="store_true")
     q.set_defaults(func=case_show_command)
 
+
+def _add_train_command(sub: argparse._SubParsersAction) -> None:
+    """``msr train``."""
     p = sub.add_parser(
         "train",
         help="train TD3 crawling policies for one or more cases, several seeds in parallel",
@@ -127,6 +138,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=train_command)
 
+
+def _add_bench_command(sub: argparse._SubParsersAction) -> None:
+    """``msr bench``."""
     p = sub.add_parser(
         "bench",
         help="step cost, batched robots, environment and TD3 rates, training time of 8 seeds",
@@ -155,6 +169,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=bench_command)
 
+
+def _add_refine_command(sub: argparse._SubParsersAction) -> None:
+    """``msr refine``."""
     p = sub.add_parser(
         "refine",
         help="continue training a run in the accurate physics (agent and replay buffer)",
@@ -173,6 +190,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=refine_command)
 
+
+def _add_generate_command(sub: argparse._SubParsersAction) -> None:
+    """``msr generate``."""
     p = sub.add_parser(
         "generate",
         help="generate a field waveform with a policy (accurate physics, field from zero)",
@@ -185,6 +205,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     _add_rollout_options(p, Path("out/generate"))
     p.set_defaults(func=generate_command)
 
+
+def _add_baseline_command(sub: argparse._SubParsersAction) -> None:
+    """``msr baseline``."""
     p = sub.add_parser(
         "baseline",
         help="generate with a hand-designed rotating field (the yardstick for learned policies)",
@@ -200,6 +223,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     _add_rollout_options(p, Path("out/baseline"))
     p.set_defaults(func=baseline_command)
 
+
+def _add_figures_command(sub: argparse._SubParsersAction) -> None:
+    """``msr figures``."""
     p = sub.add_parser(
         "figures",
         help="regenerate figures of training runs or of a generate output",
@@ -212,6 +238,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=figures_command)
 
+
+def _add_demo_command(sub: argparse._SubParsersAction) -> None:
+    """``msr demo``."""
     p = sub.add_parser(
         "demo",
         help="generate with the shipped pattern-1 4 mT policy (fields, figures, animation)",

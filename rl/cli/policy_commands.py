@@ -16,6 +16,14 @@ from .commands import CASE_HELP, case_option
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add this module's sub-commands to ``msr``."""
+    for add in (_add_export_seeds_command, _add_seeds_command, _add_ship_command, _add_notes_command,
+                _add_export_command, _add_diagnose_command):
+        add(sub)
+
+
+def _add_export_seeds_command(sub: argparse._SubParsersAction) -> None:
+    """``msr export-seeds``."""
     p = sub.add_parser(
         "export-seeds",
         help="every seed of a case as a policy folder, with seeds.json (10 s distances)",
@@ -33,6 +41,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=export_seeds_command)
 
+
+def _add_seeds_command(sub: argparse._SubParsersAction) -> None:
+    """``msr seeds``."""
     p = sub.add_parser(
         "seeds",
         help="every committed seed of a case, by recipe: successes and distances",
@@ -52,6 +63,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=seeds_command)
 
+
+def _add_ship_command(sub: argparse._SubParsersAction) -> None:
+    """``msr ship``."""
     p = sub.add_parser(
         "ship",
         help="pack a run into a shipped policy (rl/policies/<name>/) with a model card",
@@ -74,6 +88,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=ship_command)
 
+
+def _add_notes_command(sub: argparse._SubParsersAction) -> None:
+    """``msr notes``."""
     p = sub.add_parser(
         "notes",
         help="show or replace a shipped policy's notes (policy.json and its model card's Notes)",
@@ -85,6 +102,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=notes_command)
 
+
+def _add_export_command(sub: argparse._SubParsersAction) -> None:
+    """``msr export``."""
     p = sub.add_parser(
         "export",
         help="export a policy's actor as TorchScript plus its observation/action JSON",
@@ -94,6 +114,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=export_command)
 
+
+def _add_diagnose_command(sub: argparse._SubParsersAction) -> None:
+    """``msr diagnose``."""
     p = sub.add_parser(
         "diagnose",
         help="is a run's critic calibrated, is its actor saturated? (from its checkpoint)",
@@ -107,7 +130,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--figure", type=Path, default=None, help="write health_<case>_seed<k>.png here")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=diagnose_command)
-
 
 
 def export_seeds_command(args: argparse.Namespace) -> int:

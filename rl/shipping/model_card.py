@@ -20,15 +20,22 @@ def seed_meets_target(evaluation: dict[str, Any]) -> bool:
 
 
 def model_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case) -> str:
-    tr, ev = info["training"], info["evaluation"]
-    target = case.target_label
-    robot = case.robot.tables["robot"]
-    training_dt = case.robot.tables["physics"]["training"]["dt"]
-    accurate_dt = case.robot.tables["physics"]["accurate"]["dt"]
+    """The card (Markdown) of the policy described by ``info`` (its ``policy.json``), with the
+    case's training ``summary`` (``summary.json``; ``None`` when not found): what it does and how
+    to use it, its training, every seed of its case, its evaluation, notes and limitations."""
+    lines = [*_use_section(info, case), *_training_section(info, summary, case),
+             *_seeds_section(info, case), *_evaluation_section(info, case)]
+    if info.get("notes"):
+        lines += ["", NOTES_SECTION, "", info["notes"].strip()]
+    lines += _limitations_section(case)
+    return "\n".join(lines)
+
+
+def _use_section(info: dict[str, Any], case: Case) -> list[str]:
     increment = 1e3 * case.actuation.max_increment
     what = "crawl forward" if case.task.kind == "crawl" else \
         f"reach {1e3 * getattr(case.task, 'target', 0.0):+.1f} mm and stay there"
-    lines = [
+    return [
         f"# Model card: `{info['name']}`",
         "",
         f"TD3 actor that makes the robot `{case.robot.name}` {what} (case `{case.name}`), "
@@ -44,6 +51,14 @@ def model_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case)
         f"`policy.json`); output: 2 actions in [-1, 1], x {increment:g} mT = field increment per "
         "0.01 s.",
         "",
+    ]
+
+
+def _training_section(info: dict[str, Any], summary: dict[str, Any] | None, case: Case) -> list[str]:
+    tr = info["training"]
+    training_dt = case.robot.tables["physics"]["training"]["dt"]
+    accurate_dt = case.robot.tables["physics"]["accurate"]["dt"]
+    lines = [
         "## Training",
         "",
         f"- seed: {tr['seed']}",
@@ -61,56 +76,68 @@ def model_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case)
         )
     elif not summary:
         lines.append("- seeds that succeeded: unknown (no summary.json found next to the run)")
+    return lines
+
+
+def _seeds_section(info: dict[str, Any], case: Case) -> list[str]:
     evaluations = (info.get("seeds") or {}).get("evaluations")
-    if evaluations:
-        lines += [
-            "",
-            "## Every seed of the case (accurate physics, field from zero)",
-            "",
-            f"{info['seeds']['meeting_target']} of {len(evaluations)} seeds reach the target "
-            f"({target}) with their final actor or with the best actor of their evaluations "
-            "during training (`best.pt`, where the run has one).",
-            "",
-            "| seed | training steps | distance, final actor (mm) | best.pt: step, distance (mm) "
-            "| meets the target |",
-            "|---|---|---|---|---|",
-        ]
-        for e in evaluations:
-            best = e.get("best")
-            verdict = "n/a" if e["meets_target"] is None else \
-                ("yes" if seed_meets_target(e) else "no")
-            for entry in (e, best):
-                if entry and entry["diverged"]:
-                    verdict += f" (diverged: {entry['diverged']})"
-            best_cell = (f"{best['global_step']}, {1e3 * best['mid_dx_m']:+.1f}" if best else "-")
-            lines.append(f"| {e['seed']} | {e['global_step']} | {1e3 * e['mid_dx_m']:+.1f} "
-                         f"(in {e['duration_s']:g} s) | {best_cell} | {verdict} |")
-    lines += ["", "## Evaluation (accurate physics, field from zero, deterministic)", ""]
-    if ev:
-        met = case.meets_yardstick(ev["mid_dx_m"], ev.get("node_dx_m", ev["mid_dx_m"]),
-                                   ev["duration_s"], ev["diverged"])
-        verdict = {True: "meets the target", False: "falls short of the target",
-                   None: "not comparable: the target is for 10 s"}[met]
-        lines.append(
-            f"- middle of the robot moved {1e3 * ev['mid_dx_m']:+.1f} mm in {ev['duration_s']:g} s; "
-            f"target: {target}"
-            + (f" ({case.yardstick.source})" if case.yardstick.source else "") + f": {verdict}"
-            + (f"; DIVERGED: {ev['diverged']}" if ev["diverged"] else "")
-        )
-        if ev.get("reach"):
-            r = ev["reach"]
-            settle = "never settles" if r["settle_time_s"] is None else \
-                f"settles within the tolerance after {r['settle_time_s']:.2f} s"
-            lines.append(f"- final position error {1e3 * r['final_error_m']:+.2f} mm; {settle}")
-    else:
-        lines.append(f"- not measured (target: {target})")
-    if info.get("notes"):
-        lines += ["", NOTES_SECTION, "", info["notes"].strip()]
+    if not evaluations:
+        return []
+    lines = [
+        "",
+        "## Every seed of the case (accurate physics, field from zero)",
+        "",
+        f"{info['seeds']['meeting_target']} of {len(evaluations)} seeds reach the target "
+        f"({case.target_label}) with their final actor or with the best actor of their evaluations "
+        "during training (`best.pt`, where the run has one).",
+        "",
+        "| seed | training steps | distance, final actor (mm) | best.pt: step, distance (mm) "
+        "| meets the target |",
+        "|---|---|---|---|---|",
+    ]
+    for e in evaluations:
+        best = e.get("best")
+        verdict = "n/a" if e["meets_target"] is None else \
+            ("yes" if seed_meets_target(e) else "no")
+        for entry in (e, best):
+            if entry and entry["diverged"]:
+                verdict += f" (diverged: {entry['diverged']})"
+        best_cell = (f"{best['global_step']}, {1e3 * best['mid_dx_m']:+.1f}" if best else "-")
+        lines.append(f"| {e['seed']} | {e['global_step']} | {1e3 * e['mid_dx_m']:+.1f} "
+                     f"(in {e['duration_s']:g} s) | {best_cell} | {verdict} |")
+    return lines
+
+
+def _evaluation_section(info: dict[str, Any], case: Case) -> list[str]:
+    ev, target = info["evaluation"], case.target_label
+    lines = ["", "## Evaluation (accurate physics, field from zero, deterministic)", ""]
+    if not ev:
+        return [*lines, f"- not measured (target: {target})"]
+    met = case.meets_yardstick(ev["mid_dx_m"], ev.get("node_dx_m", ev["mid_dx_m"]),
+                               ev["duration_s"], ev["diverged"])
+    verdict = {True: "meets the target", False: "falls short of the target",
+               None: "not comparable: the target is for 10 s"}[met]
+    lines.append(
+        f"- middle of the robot moved {1e3 * ev['mid_dx_m']:+.1f} mm in {ev['duration_s']:g} s; "
+        f"target: {target}"
+        + (f" ({case.yardstick.source})" if case.yardstick.source else "") + f": {verdict}"
+        + (f"; DIVERGED: {ev['diverged']}" if ev["diverged"] else "")
+    )
+    if ev.get("reach"):
+        r = ev["reach"]
+        settle = "never settles" if r["settle_time_s"] is None else \
+            f"settles within the tolerance after {r['settle_time_s']:.2f} s"
+        lines.append(f"- final position error {1e3 * r['final_error_m']:+.2f} mm; {settle}")
+    return lines
+
+
+def _limitations_section(case: Case) -> list[str]:
+    robot = case.robot.tables["robot"]
     size = (f"{1e3 * robot['length']:g} x {1e3 * robot['width']:g} x {1e3 * robot['thickness']:g} mm"
             if "thickness" in robot else
             f"{1e3 * robot['length']:g} mm long, radius {1e3 * robot['radius']:g} mm")
     ground = robot.get("ground") or {}
-    lines += [
+    return [
         "",
         "## Limitations",
         "",
@@ -123,7 +150,6 @@ def model_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case)
         "other robots need retraining.",
         "",
     ]
-    return "\n".join(lines)
 
 
 def _section_bounds(lines: list[str], heading: str) -> tuple[int, int] | None:

@@ -198,10 +198,6 @@ def ship(
     (Markdown) becomes the card's "Notes" section: what the numbers do not say. ``with_critic`` /
     ``with_card``: also write ``critic.pt`` / ``MODEL_CARD.md``.
     """
-    import torch
-
-    from elastica_magnetic import write_field_csv
-
     policy = resolve_policy(run)
     if policy.kind != "checkpoint":
         raise ValueError(f"{run}: ship takes a run directory or checkpoint, not a shipped policy")
@@ -210,19 +206,9 @@ def ship(
         raise FileExistsError(f"{target} already holds a policy (pass overwrite / --force)")
     # Everything is computed before the folder is touched: a failed or interrupted measurement
     # leaves a policy being replaced (--force) as it was.
-    meta = policy.meta
     case = policy.case
     summary = _find_summary(policy.source, case.name)
-    measured, fields = None, None
-    if measure:
-        rollout = run_policy(policy, duration, "accurate", "zero", progress)
-        measured = {"duration_s": float(rollout.times[-1]), "mid_dx_m": rollout.mid_dx,
-                    "node_dx_m": node_dx(rollout), "diverged": rollout.meta["diverged"],
-                    "machine": machine_fingerprint()}
-        if isinstance(case.task, ReachTask):
-            measured["reach"] = reach_metrics(rollout, case.task)
-        if rollout.n_steps:
-            fields = rollout.fields
+    measured, fields = _measure(policy, duration, progress) if measure else (None, None)
     seed_evaluations = None
     if evaluate_all_seeds:
         if summary is None:
@@ -230,8 +216,34 @@ def ship(
                                     "above the run, so its seeds cannot be evaluated")
         seed_evaluations = evaluate_seeds(_find_case_dir(policy.source, case.name), duration,
                                           progress)
+    info = _policy_info(policy, name, summary, seed_evaluations, measured, notes)
+    card = _ship_card(info, summary, case, target) if with_card else None
+    _write_policy_folder(target, policy, info, fields, card, with_critic)
+    return {"name": name, "dir": str(target), "case": case.name,
+            "evaluation": measured, "files": sorted(p.name for p in target.iterdir())}
+
+
+def _measure(policy: LoadedPolicy, duration: float,
+             progress: bool) -> tuple[dict[str, Any], np.ndarray | None]:
+    """The shipping criterion's run of a policy (``duration`` s, accurate physics, zero field):
+    its ``evaluation`` entry of ``policy.json`` and its field waveform ``(steps, 3)`` (T; ``None``
+    when it took no step)."""
+    rollout = run_policy(policy, duration, "accurate", "zero", progress)
+    measured = {"duration_s": float(rollout.times[-1]), "mid_dx_m": rollout.mid_dx,
+                "node_dx_m": node_dx(rollout), "diverged": rollout.meta["diverged"],
+                "machine": machine_fingerprint()}
+    if isinstance(policy.case.task, ReachTask):
+        measured["reach"] = reach_metrics(rollout, policy.case.task)
+    return measured, (rollout.fields if rollout.n_steps else None)
+
+
+def _policy_info(policy: LoadedPolicy, name: str, summary: dict[str, Any] | None,
+                 seed_evaluations: list[dict[str, Any]] | None, measured: dict[str, Any] | None,
+                 notes: str | None) -> dict[str, Any]:
+    """The shipped policy's ``policy.json`` (format :data:`POLICY_FORMAT`)."""
+    meta, case = policy.meta, policy.case
     refined = meta.get("command") == "refine"
-    info = {
+    return {
         "format": POLICY_FORMAT,
         "name": name,
         "case": case.name,
@@ -270,13 +282,27 @@ def ship(
         "notes": notes,
         "case_spec": case.to_dict(),
     }
-    card = model_card(info, summary, case) if with_card else None
-    if card is not None:  # the committed seeds' table (msr seeds --card) survives a re-ship
-        groups = case_seeds(case, target.parent)
-        if groups:
-            card = replace_card_section(card, SEEDS_CARD_SECTION, seeds_markdown(case, groups),
-                                        before="## Evaluation")
-    # each file atomically; policy.json, which names the actor's checksum, after the weights
+
+
+def _ship_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case,
+               target: Path) -> str:
+    """The model card; the committed seeds' table (``msr seeds --card``) survives a re-ship."""
+    card = model_card(info, summary, case)
+    groups = case_seeds(case, target.parent)
+    if groups:
+        card = replace_card_section(card, SEEDS_CARD_SECTION, seeds_markdown(case, groups),
+                                    before="## Evaluation")
+    return card
+
+
+def _write_policy_folder(target: Path, policy: LoadedPolicy, info: dict[str, Any],
+                         fields: np.ndarray | None, card: str | None, with_critic: bool) -> None:
+    """Each file atomically; ``policy.json``, which names the actor's checksum, after the weights;
+    the optional files a replaced policy had and this one has not are removed."""
+    import torch
+
+    from elastica_magnetic import write_field_csv
+
     target.mkdir(parents=True, exist_ok=True)
     atomic_save(target / "actor.pt", lambda tmp: torch.save(policy.actor.state_dict(), tmp))
     written = {"actor.pt", POLICY_JSON}
@@ -292,8 +318,6 @@ def ship(
         written.add("MODEL_CARD.md")
     for stale in {"critic.pt", "fields.csv", "MODEL_CARD.md"} - written:
         (target / stale).unlink(missing_ok=True)  # the replaced policy's, not this one's
-    return {"name": name, "dir": str(target), "case": case.name,
-            "evaluation": measured, "files": sorted(p.name for p in target.iterdir())}
 
 
 def set_notes(policy: str | Path, notes: str | None,

@@ -1,23 +1,23 @@
 """Where the seeds of a sweep run: worker processes on this machine, or Ray tasks.
 
 :func:`run_jobs` runs one function (``elastica_magnetic_rl.sweep.training._train_group``: the training of a
-group of seeds side by side) on a list of jobs (plain, picklable dicts) and gathers its results by seed. Both
+group of seeds side by side) on a list of jobs (:class:`~elastica_magnetic_rl.sweep.jobs.GroupJob`: plain,
+picklable data) and gathers its results by seed. Both
 backends call the same function with the same job; only the transport differs, so the run directories,
 checkpoints and returned summaries are the same whichever backend ran them.
 
 ``"process"`` (default)
-    ``workers == 1``: in this process, one seed after the other. Otherwise a
+    ``workers == 1``: in this process, one group after the other. Otherwise a
     :class:`~concurrent.futures.ProcessPoolExecutor` (``spawn``) of ``workers`` processes, each seed
     with its own progress bar.
 
 ``"ray"``
-    Each seed is a ``ray.remote`` task (``num_cpus`` = the torch threads of a seed, no retries), at
-    most ``workers`` in flight at a time. Without an ``address`` a private local Ray instance is
-    started with ``workers x threads`` CPUs (no dashboard, usage statistics off unless
-    ``RAY_USAGE_STATS_ENABLED`` says otherwise, quiet logging) and shut down at the end; with an
-    ``address`` (``auto``, ``HOST:PORT``, ``ray://HOST:10001``) the driver connects to that cluster
-    and disconnects at the end (the cluster keeps running). When Ray is already initialised in this
-    process, it is used as it is and left running.
+    Each group of seeds is a ``ray.remote`` task (``num_cpus`` = the torch threads of a worker, no retries),
+    at most ``workers`` in flight at a time. Without an ``address`` a private local Ray instance is started
+    with ``workers x threads`` CPUs (no dashboard, usage statistics off unless ``RAY_USAGE_STATS_ENABLED``
+    says otherwise, quiet logging) and shut down at the end; with an ``address`` (``auto``, ``HOST:PORT``,
+    ``ray://HOST:10001``) the driver connects to that cluster and disconnects at the end (the cluster keeps
+    running). When Ray is already initialised in this process, it is used as it is and left running.
 
     The workers write the run directories themselves, so the output folder must be a path that
     every node sees at the same place: on a single machine it is just the same folder; on a
@@ -38,9 +38,11 @@ import sys
 import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed, wait
+from dataclasses import replace
 from typing import Any
 
 from ..runfiles.rundir import CaseDir, RunDir
+from .jobs import GroupJob
 
 __all__ = ["BACKENDS", "run_in_processes", "run_jobs"]
 
@@ -56,8 +58,8 @@ def _error(exc: BaseException) -> str:
 
 
 def run_jobs(
-    fn: Callable[[dict[str, Any]], dict[str, Any]],
-    jobs: list[dict[str, Any]],
+    fn: Callable[[GroupJob], dict[str, Any]],
+    jobs: list[GroupJob],
     workers: int,
     backend: str = "process",
     address: str | None = None,
@@ -86,10 +88,10 @@ def _run_processes(fn, jobs, workers) -> list[dict[str, Any]]:
             try:
                 results[k] = fn(job)
             except Exception as exc:  # keep the other seeds going; report the failure
-                results[k] = {"seed": job["config"]["seed"], "error": _error(exc)}
+                results[k] = {"seed": job.seed, "error": _error(exc)}
     else:
         results = run_in_processes(fn, jobs, workers, on_error=lambda k, exc: {
-            "seed": jobs[k]["config"]["seed"], "error": _error(exc)})
+            "seed": jobs[k].seed, "error": _error(exc)})
     return results
 
 
@@ -164,7 +166,7 @@ def _run_ray(fn, jobs, workers, address, progress) -> list[dict[str, Any]]:
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
     import ray
 
-    threads = max(int(job.get("threads", 1)) for job in jobs) if jobs else 1
+    threads = max(int(job.threads) for job in jobs) if jobs else 1
     started = False
     if not ray.is_initialized():
         quiet = {"log_to_driver": False, "logging_level": logging.ERROR}
@@ -181,8 +183,8 @@ def _run_ray(fn, jobs, workers, address, progress) -> list[dict[str, Any]]:
     start = time.perf_counter()
     try:
         task = ray.remote(num_cpus=threads, max_retries=0)(fn)
-        queue = [(k, {**job, "progress": False}) for k, job in enumerate(jobs)]  # no bars in Ray
-        pending: dict[Any, tuple[int, dict[str, Any]]] = {}
+        queue = [(k, replace(job, progress=False)) for k, job in enumerate(jobs)]  # no bars in Ray
+        pending: dict[Any, tuple[int, GroupJob]] = {}
         while queue or pending:
             while queue and len(pending) < workers:
                 k, job = queue.pop(0)
@@ -190,13 +192,13 @@ def _run_ray(fn, jobs, workers, address, progress) -> list[dict[str, Any]]:
             done, _ = ray.wait(list(pending), num_returns=1)
             for ref in done:
                 k, job = pending.pop(ref)
-                seed = job["config"]["seed"]
+                seed = job.seed
                 try:
                     result = ray.get(ref)
                 except Exception as exc:  # RayTaskError wraps the worker's exception
                     result = {"seed": seed, "error": _error(getattr(exc, "cause", None) or exc)}
-                if "error" not in result and not RunDir(job["run_dir"]).has_checkpoint():
-                    result = {"seed": seed, "error": f"{job['run_dir']}: the run directory written by "
+                if "error" not in result and not RunDir(job.run_dir).has_checkpoint():
+                    result = {"seed": seed, "error": f"{job.run_dir}: the run directory written by "
                               "the Ray worker is not visible here (put --out on a filesystem shared "
                               "by all nodes, at the same path)"}
                 results[k] = result
@@ -206,7 +208,7 @@ def _run_ray(fn, jobs, workers, address, progress) -> list[dict[str, Any]]:
                         f"{CaseDir.seed_name(r['seed'])} final mean return {r['final_mean_return']:.4g}, "
                         f"{r['episodes']} episodes, {r['wall_s']:.1f} s"
                         for r in result.get("group", [result]))
-                    print(f"[ray] {job['case']} {CaseDir.seed_name(seed)} done ({finished}/{len(jobs)}, "
+                    print(f"[ray] {job.case} {CaseDir.seed_name(seed)} done ({finished}/{len(jobs)}, "
                           f"{time.perf_counter() - start:.0f} s): {status}", file=sys.stderr, flush=True)
     finally:
         if started:

@@ -30,6 +30,7 @@ from ..runfiles.checkpoint import checkpoint_metadata
 from ..runfiles.provenance import versions
 from ..runfiles.rundir import CaseDir, RunDir
 from .backends import BACKENDS, run_jobs
+from .jobs import GroupJob
 
 __all__ = ["default_layout", "refine", "summarize_run", "train_case", "train_cases"]
 
@@ -138,11 +139,11 @@ def _write_run_json(run_dir: Path, config, metadata: dict[str, Any], steps: int,
         "resumed": int(record.get("resumed", 0)) + int(resumed_now)})
 
 
-def _train_group(job: dict[str, Any]) -> dict[str, Any]:
-    """Train a group of seeds of one case side by side in one worker process: their crawlers in one batched
-    simulator (``job["envs"]`` each), their networks updated as one computation
-    (:func:`~elastica_magnetic_rl.runner.loop.train_seeds`). ``job`` holds plain data only (picklable).
-    Returns ``{"group": [one result per seed]}``."""
+def _train_group(job: GroupJob) -> dict[str, Any]:
+    """Train a group of seeds of one case side by side in one worker process: their crawlers in
+    one batched simulator (``job.envs`` each), their networks updated as one computation
+    (:func:`~elastica_magnetic_rl.runner.loop.train_seeds`). Returns ``{"group": [one result per
+    seed]}``."""
     import torch
 
     from ..envs.vector_env import make_vector_env
@@ -150,38 +151,34 @@ def _train_group(job: dict[str, Any]) -> dict[str, Any]:
     from ..runner.loop import train_seeds
     from ..td3.algorithm import TD3Config, resolve_precision
 
-    torch.set_num_threads(int(job["threads"]))
-    configs = [TD3Config.from_dict(c) for c in job["configs"]]
-    run_dirs = [Path(d) for d in job["run_dirs"]]
-    envs = int(job["envs"])
-    case = case_from_dict(job["case_spec"], job["case"])
-    metadata = [_run_metadata(case, job["physics"], job["duration"], c.seed, command="train",
-                              envs=envs, shared_simulator_seeds=len(configs),
-                              precision=resolve_precision(c.precision, c.device),
-                              recipe=job["recipe"])
+    torch.set_num_threads(int(job.threads))
+    configs = [TD3Config.from_dict(c) for c in job.configs]
+    run_dirs = [Path(d) for d in job.run_dirs]
+    case = case_from_dict(job.case_spec, job.case)
+    metadata = [_run_metadata(case, job.physics, job.duration, c.seed, command="train",
+                              envs=job.envs, shared_simulator_seeds=len(configs),
+                              precision=resolve_precision(c.precision, c.device), recipe=job.recipe)
                 for c in configs]
     for config, run_dir, meta in zip(configs, run_dirs, metadata, strict=True):
-        if not job["resume"]:
+        if not job.resume:
             run_dir.mkdir(parents=True, exist_ok=True)
             RunDir(run_dir).run_json.unlink(missing_ok=True)  # a stale record of a run without checkpoint
-            _write_run_json(run_dir, config, meta, 0, job["threads"], resumed_now=False)
+            _write_run_json(run_dir, config, meta, 0, job.threads, resumed_now=False)
     start = time.perf_counter()
-    train_seeds(functools.partial(make_vector_env, case, physics=job["physics"],
-                                  initial_field="random", duration=job["duration"]),
-                configs, job["steps"], run_dirs, envs_per_seed=envs, resume=job["resume"],
-                progress=job["progress"], metadata=metadata,
-                eval_env_fn=functools.partial(make_env, case, job["physics"], "zero",
-                                              EVAL_DURATION),
-                eval_vec_env_fn=functools.partial(make_vector_env, case,
-                                                  physics=job["physics"], initial_field="zero",
-                                                  duration=EVAL_DURATION),
-                progress_position=job["position"], progress_desc=job["case"])
+    train_seeds(functools.partial(make_vector_env, case, physics=job.physics,
+                                  initial_field="random", duration=job.duration),
+                configs, job.steps, run_dirs, envs_per_seed=job.envs, resume=job.resume,
+                progress=job.progress, metadata=metadata,
+                eval_env_fn=functools.partial(make_env, case, job.physics, "zero", EVAL_DURATION),
+                eval_vec_env_fn=functools.partial(make_vector_env, case, physics=job.physics,
+                                                  initial_field="zero", duration=EVAL_DURATION),
+                progress_position=job.position, progress_desc=job.case)
     wall, peak = time.perf_counter() - start, _peak_rss_bytes()
     results = []
     for run_dir, meta in zip(run_dirs, metadata, strict=True):
         ckpt = load_checkpoint(run_dir)  # what was actually done, with the settings actually used
         _write_run_json(run_dir, TD3Config.from_dict(ckpt["config"]), meta,
-                        int(ckpt["global_step"]), job["threads"], resumed_now=job["resume"])
+                        int(ckpt["global_step"]), job.threads, resumed_now=job.resume)
         results.append({"seed": int(ckpt["config"]["seed"]),
                         **summarize_run(run_dir, reward_scale=case.task.reward_scale),
                         "wall_s": wall, "peak_rss_bytes": peak,
@@ -300,24 +297,71 @@ def train_cases(
             update).
         recipe: the training recipe (:data:`RECIPES`), recorded in ``run.json`` and the summary.
     """
-    loaded = {}
-    for case in cases:  # every spec checked before any work
+    loaded = _load_cases(cases)
+    cases = list(loaded)  # names, in order, once each
+    steps, episode_duration, recipe = _case_defaults(loaded, steps, episode_duration, recipe)
+    _check_sweep_options(seeds=seeds, steps=steps, envs=envs, workers=workers,
+                         seeds_per_simulator=seeds_per_simulator, threads=threads,
+                         seed_offset=seed_offset, backend=backend, address=address)
+    layout = _sweep_layout(seeds, len(cases), workers, seeds_per_simulator, threads, address)
+    seed_list = [seed_offset + k for k in range(seeds)]
+    per_group = layout["seeds_per_simulator"]
+    groups = [seed_list[i:i + per_group] for i in range(0, seeds, per_group)]
+    workers = min(layout["workers"], len(groups) * len(cases))
+    if threads is None:  # on a Ray cluster this machine's CPU count says nothing: one per worker
+        threads = 1 if address else max(1, (os.cpu_count() or 1) // workers)
+    configs = _seed_configs(loaded, seed_list, recipe, config_overrides)
+    _check_run_folders(out, loaded, seed_list, resume, physics, episode_duration, recipe)
+    jobs = _group_jobs(out, loaded, groups, configs, backend, physics=physics,
+                       duration=float(episode_duration), steps=int(steps), resume=resume,
+                       progress=progress, threads=threads, envs=int(envs), recipe=recipe)
+    start = time.perf_counter()
+    results = _run_groups(jobs, workers, backend, address, progress)
+    sweep = {"steps": int(steps), "physics": physics, "episode_duration_s": float(episode_duration),
+             "workers": workers, "backend": backend, "envs_per_seed": int(envs),
+             "seeds_per_simulator": int(per_group), "torch_threads_per_worker": threads,
+             "layout": layout["layout"], "recipe": recipe,
+             "precision": configs[seed_list[0]].precision, "device": configs[seed_list[0]].device}
+    wall = time.perf_counter() - start
+    return {case: _case_summary(CaseDir.of(out, case), loaded[case],
+                                [r for c, r in results if c == case], seed_list, success_fraction,
+                                sweep, wall)
+            for case in cases}
+
+
+def _load_cases(cases: Sequence[str | Path | Case]) -> dict[str, Case]:
+    """The cases by name, every spec checked before any work (two different specs may not share
+    a name)."""
+    loaded: dict[str, Case] = {}
+    for case in cases:
         c = load_case(case)
         loaded.setdefault(c.name, c)
         if loaded[c.name].to_dict() != c.to_dict():
             raise ValueError(f"two different cases are named {c.name!r}: rename one spec file")
-    cases = list(loaded)  # names, in order, once each
-    if not cases:
+    if not loaded:
         raise ValueError("no case to train")
-    first = loaded[cases[0]]
+    return loaded
+
+
+def _case_defaults(loaded: dict[str, Case], steps: int | None, episode_duration: float | None,
+                   recipe: str | None) -> tuple[int, float, str]:
+    """``steps``, ``episode_duration`` (s) and ``recipe``, each the cases' own value when not
+    given (they must then agree)."""
     for key, value in (("steps", steps), ("episode_duration", episode_duration), ("recipe", recipe)):
         defaults = {c.name: {"steps": c.training.steps, "episode_duration": c.task.episode_duration,
                              "recipe": c.training.recipe}[key] for c in loaded.values()}
         if value is None and len(set(defaults.values())) > 1:
             raise ValueError(f"the cases' specs give different {key} ({defaults}): set it")
-    steps = first.training.steps if steps is None else steps
-    episode_duration = first.task.episode_duration if episode_duration is None else episode_duration
-    recipe = first.training.recipe if recipe is None else recipe
+    first = next(iter(loaded.values()))
+    return (first.training.steps if steps is None else steps,
+            first.task.episode_duration if episode_duration is None else episode_duration,
+            first.training.recipe if recipe is None else recipe)
+
+
+def _check_sweep_options(*, seeds: int, steps: int, envs: int, workers: int | None,
+                         seeds_per_simulator: int | None, threads: int | None, seed_offset: int,
+                         backend: str, address: str | None) -> None:
+    """Refuse a bad option, naming it, before any work."""
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
     if address is not None and backend != "ray":
@@ -328,133 +372,131 @@ def train_cases(
             raise ValueError(f"{name} must be >= 1, got {value}")
     if seed_offset < 0:
         raise ValueError(f"seed_offset must be >= 0, got {seed_offset}")
+
+
+def _sweep_layout(seeds: int, cases: int, workers: int | None, seeds_per_simulator: int | None,
+                  threads: int | None, address: str | None) -> dict[str, Any]:
+    """``workers`` and ``seeds_per_simulator``: the ones given, else :func:`default_layout`'s;
+    ``layout`` says which of them (and ``threads``) were given."""
     # --workers W alone: the fastest layout for W workers (a case's seeds split among them), so
     # that e.g. --workers 1 trains all seeds of a case side by side instead of group after group
-    cpus = workers if workers is not None else (None if not address else seeds * len(cases))
-    layout = default_layout(seeds, len(cases), cpus)
+    cpus = workers if workers is not None else (None if not address else seeds * cases)
+    layout = default_layout(seeds, cases, cpus)
     manual = {k for k, v in (("workers", workers), ("seeds_per_simulator", seeds_per_simulator),
                              ("threads", threads)) if v is not None}
-    seeds_per_simulator = min(seeds, seeds_per_simulator or layout["seeds_per_simulator"])
-    seed_list = [seed_offset + k for k in range(seeds)]
-    groups = [seed_list[i:i + seeds_per_simulator] for i in range(0, seeds, seeds_per_simulator)]
-    workers = min(workers or layout["workers"], len(groups) * len(cases))
-    if threads is None:  # on a Ray cluster this machine's CPU count says nothing: one per worker
-        threads = 1 if address else max(1, (os.cpu_count() or 1) // workers)
+    return {"workers": workers or layout["workers"],
+            "seeds_per_simulator": min(seeds, seeds_per_simulator or layout["seeds_per_simulator"]),
+            "layout": "default" if not manual else f"set: {', '.join(sorted(manual))}"}
+
+
+def _seed_configs(loaded: dict[str, Case], seed_list: list[int], recipe: str,
+                  config_overrides: dict[str, Any] | None) -> dict[int, Any]:
+    """Each seed's TD3 configuration: the recipe, the cases' ``[training.td3]``, the overrides."""
     td3_settings = [dict(c.training.td3) for c in loaded.values()]
     if any(t != td3_settings[0] for t in td3_settings):
         raise ValueError("the cases' specs give different [training.td3] settings: train them apart")
-    configs = {s: crawler_config(s, recipe, **{**td3_settings[0], **(config_overrides or {})})
-               for s in seed_list}
-    def run_of(case: str, seed: int) -> RunDir:
-        return CaseDir.of(out, case).seed(seed)
+    return {s: crawler_config(s, recipe, **{**td3_settings[0], **(config_overrides or {})})
+            for s in seed_list}
 
+
+def _check_run_folders(out: str | Path, loaded: dict[str, Case], seed_list: list[int], resume: bool,
+                       physics: str, episode_duration: float, recipe: str) -> None:
+    """Before any work: no run is overwritten; a resumed run exists, can continue and keeps its
+    settings; every seed's folder can be written."""
+    from elastica_magnetic.io import prepare_output_dir
+
+    from ..runfiles.checkpoint import load_checkpoint, refuse_networks_only
+
+    runs = [(case, s, CaseDir.of(out, case).seed(s)) for case in loaded for s in seed_list]
     if not resume:
-        existing = [str(run_of(case, s).path) for case in cases for s in seed_list
-                    if run_of(case, s).checkpoint.exists()]
+        existing = [str(run.path) for _, _, run in runs if run.checkpoint.exists()]
         if existing:
             raise FileExistsError(f"runs already exist: {', '.join(existing)} (use --resume, another "
                                   "--out, or --seed-offset)")
     else:
-        missing = [str(run_of(case, s).checkpoint) for case in cases
-                   for s in seed_list if not run_of(case, s).checkpoint.exists()]
+        missing = [str(run.checkpoint) for _, _, run in runs if not run.checkpoint.exists()]
         if missing:
             raise FileNotFoundError(f"cannot resume: no checkpoint {', '.join(missing)} (train those "
                                     "seeds without --resume, or choose --seeds/--seed-offset)")
-        from ..runfiles.checkpoint import load_checkpoint, refuse_networks_only
+        for case, _, run in runs:  # a resumed run keeps its settings: checked before any work
+            refuse_networks_only(load_checkpoint(run.checkpoint, with_buffer=False), run.checkpoint)
+            _check_resume_settings(run.path, {
+                "case": case, "case_spec": loaded[case].to_dict(), "physics": physics,
+                "episode_duration_s": float(episode_duration), "recipe": recipe})
+    for _, _, run in runs:  # every seed's folder can be written, before any work
+        prepare_output_dir(run.path, "--out")
 
-        for case in cases:  # a resumed run keeps its settings: checked before any work
-            for s in seed_list:
-                path = run_of(case, s).checkpoint
-                refuse_networks_only(load_checkpoint(path, with_buffer=False), path)
-                _check_resume_settings(run_of(case, s).path, {
-                    "case": case, "case_spec": loaded[case].to_dict(), "physics": physics,
-                    "episode_duration_s": float(episode_duration), "recipe": recipe})
 
-    from elastica_magnetic.io import prepare_output_dir
-
-    for case in cases:  # every seed's folder can be written, before any work
-        for s in seed_list:
-            prepare_output_dir(run_of(case, s).path, "--out")
+def _group_jobs(out: str | Path, loaded: dict[str, Case], groups: list[list[int]],
+                configs: dict[int, Any], backend: str, **settings: Any) -> list[GroupJob]:
+    """One job per case and group of seeds, progress bars numbered across them."""
 
     def run_dir(case: str, seed: int) -> str:
         # Ray workers may run elsewhere (another cwd, another node): give them absolute paths
-        path = run_of(case, seed).path
+        path = CaseDir.of(out, case).seed(seed).path
         return str(path.resolve() if backend == "ray" else path)
 
-    jobs = []
-    position = 0
-    for case in cases:
+    jobs, position = [], 0
+    for case, spec in loaded.items():
         for group in groups:
-            jobs.append({
-                "case": case, "case_spec": loaded[case].to_dict(), "physics": physics,
-                "duration": float(episode_duration),
-                "steps": int(steps), "resume": resume, "progress": progress, "position": position,
-                "threads": threads, "envs": int(envs), "recipe": recipe,
-                "configs": [configs[s].to_dict() for s in group],
-                "run_dirs": [run_dir(case, s) for s in group],
-                # for the backends' bookkeeping: the group's first seed and folder
-                "config": configs[group[0]].to_dict(), "run_dir": run_dir(case, group[0]),
-            })
+            jobs.append(GroupJob(case=case, case_spec=spec.to_dict(), position=position,
+                                 configs=tuple(configs[s].to_dict() for s in group),
+                                 run_dirs=tuple(run_dir(case, s) for s in group), **settings))
             position += len(group)
-    start = time.perf_counter()
+    return jobs
+
+
+def _run_groups(jobs: list[GroupJob], workers: int, backend: str, address: str | None,
+                progress: bool) -> list[tuple[str, dict[str, Any]]]:
+    """``(case, result)`` of every seed; a failed group reports what its folders hold."""
     results = []
     for job, result in zip(jobs, run_jobs(_train_group, jobs, workers, backend=backend,
                                           address=address, progress=progress), strict=True):
         if "group" in result:
-            results += [(job["case"], r) for r in result["group"]]
+            results += [(job.case, r) for r in result["group"]]
         else:  # the whole group failed: what its folders hold is still reported
-            for c, d in zip(job["configs"], job["run_dirs"], strict=True):
+            for c, d in zip(job.configs, job.run_dirs, strict=True):
                 entry = summarize_run(d) if RunDir(d).has_episodes() else {}
-                results.append((job["case"], {**entry, "seed": c["seed"], "error": result["error"]}))
-    wall = time.perf_counter() - start
+                results.append((job.case, {**entry, "seed": c["seed"], "error": result["error"]}))
+    return results
 
-    summaries = {}
-    for case in cases:
-        case_dir = CaseDir.of(out, case)
-        mine = [r for c, r in results if c == case]
-        for r in mine:
-            if "run_dir" in r:
-                r["run_dir"] = str(case_dir.seed(r["seed"]).path)
-        spec = loaded[case]
-        threshold = None
-        if spec.task.kind == "crawl" and spec.yardstick.distance_10s > 0.0:
-            threshold = (success_fraction * spec.yardstick.distance_10s * (episode_duration / 10.0)
-                         * spec.task.reward_scale)
-        per_seed = sorted(mine + _earlier_seeds(case_dir.path, seed_list, spec.task.reward_scale),
-                          key=lambda r: r["seed"])
-        for r in per_seed:
-            if "error" not in r and threshold is not None:
-                r["succeeded"] = bool(r["final_mean_return"] >= threshold)
-        ok = [r for r in per_seed if "error" not in r and math.isfinite(r["final_mean_return"])]
-        best = max(ok, key=lambda r: r["final_mean_return"]) if ok else None
-        summary = {
-            "case": case,
-            "task": spec.task.kind,
-            "steps": int(steps),
-            "physics": physics,
-            "episode_duration_s": float(episode_duration),
-            "workers": workers,
-            "backend": backend,
-            "envs_per_seed": int(envs),
-            "seeds_per_simulator": int(seeds_per_simulator),
-            "torch_threads_per_worker": threads,
-            "layout": "default" if not manual else f"set: {', '.join(sorted(manual))}",
-            "recipe": recipe,
-            "precision": configs[seed_list[0]].precision,
-            "device": configs[seed_list[0]].device,
-            "success_threshold_return": threshold,
-            "succeeded": None if threshold is None else sum(bool(r.get("succeeded")) for r in per_seed),
-            "best_seed": best["seed"] if best else None,
-            "best_run_dir": best["run_dir"] if best else None,
-            "wall_s": wall,
-            "seeds": per_seed,
-            "failed": [r["seed"] for r in per_seed if "error" in r],
-        }
-        case_dir.path.mkdir(parents=True, exist_ok=True)
-        atomic_write_json(case_dir.summary_json, summary)
-        summary["summary_json"] = str(case_dir.summary_json)
-        summaries[case] = summary
-    return summaries
+
+def _case_summary(case_dir: CaseDir, spec: Case, mine: list[dict[str, Any]], seed_list: list[int],
+                  success_fraction: float, sweep: dict[str, Any], wall: float) -> dict[str, Any]:
+    """A case's ``summary.json`` (written, and returned with its path): every seed folder of the
+    case, this call's and earlier ones', the succeeded ones counted against the threshold."""
+    for r in mine:
+        if "run_dir" in r:
+            r["run_dir"] = str(case_dir.seed(r["seed"]).path)
+    threshold = None
+    if spec.task.kind == "crawl" and spec.yardstick.distance_10s > 0.0:
+        threshold = (success_fraction * spec.yardstick.distance_10s
+                     * (sweep["episode_duration_s"] / 10.0) * spec.task.reward_scale)
+    per_seed = sorted(mine + _earlier_seeds(case_dir.path, seed_list, spec.task.reward_scale),
+                      key=lambda r: r["seed"])
+    for r in per_seed:
+        if "error" not in r and threshold is not None:
+            r["succeeded"] = bool(r["final_mean_return"] >= threshold)
+    ok = [r for r in per_seed if "error" not in r and math.isfinite(r["final_mean_return"])]
+    best = max(ok, key=lambda r: r["final_mean_return"]) if ok else None
+    summary = {
+        "case": spec.name,
+        "task": spec.task.kind,
+        **{k: sweep[k] for k in ("steps", "physics", "episode_duration_s", "workers", "backend",
+                                 "envs_per_seed", "seeds_per_simulator", "torch_threads_per_worker",
+                                 "layout", "recipe", "precision", "device")},
+        "success_threshold_return": threshold,
+        "succeeded": None if threshold is None else sum(bool(r.get("succeeded")) for r in per_seed),
+        "best_seed": best["seed"] if best else None,
+        "best_run_dir": best["run_dir"] if best else None,
+        "wall_s": wall,
+        "seeds": per_seed,
+        "failed": [r["seed"] for r in per_seed if "error" in r],
+    }
+    case_dir.path.mkdir(parents=True, exist_ok=True)
+    atomic_write_json(case_dir.summary_json, summary)
+    summary["summary_json"] = str(case_dir.summary_json)
+    return summary
 
 
 def refine(
