@@ -6,7 +6,12 @@ import json
 import shutil
 
 import pytest
-from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR, PolicyFileError, resolve_policy
+from elastica_magnetic_rl.shipping.policy_files import (
+    POLICIES_DIR,
+    PolicyFileError,
+    PolicyNotFoundError,
+    resolve_policy,
+)
 
 from elastica_magnetic.cli import main
 
@@ -67,3 +72,8 @@ def test_corrupted_checkpoint(tmp_path, capsys):
         resolve_policy(tmp_path)
     assert main(["generate", str(tmp_path), "--out", str(tmp_path / "g"), "--no-progress"]) == 2
     assert "checkpoint.pt: cannot be read as a checkpoint" in capsys.readouterr().err
+
+
+def test_unknown_policy_is_a_clear_error(tmp_path):
+    with pytest.raises(PolicyNotFoundError, match="shipped"):
+        resolve_policy(tmp_path / "nothing-here")
