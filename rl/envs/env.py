@@ -306,7 +306,7 @@ class MagneticCrawlerEnv(gym.Env):
 
     Parameters
     ----------
-    case : str, path or Case, optional
+    case : str, os.PathLike or Case, optional
         A shipped case name (``"m1-4mT"``), a spec file or a
         :class:`~elastica_magnetic_rl.cases.case.Case`: robot, field limit, increment, task, initial
         field and episode length from it (``gym.make("MagneticCrawler-v0", case="m1-4mT")``).
