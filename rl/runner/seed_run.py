@@ -134,6 +134,10 @@ class SeedRun:
         # colored exploration noise (noise_color > 0): one sequence per sub-env and its position
         self.noise = np.zeros((n_envs, self.cfg.noise_horizon, act_dim))
         self.noise_pos = np.zeros(n_envs, dtype=np.int64)
+        # the logs, opened by :meth:`open` once every seed of the group has been checked
+        self.writer: Any = None
+        self.bar: Any = None
+        self.csv_file: Any = None
 
     def draw_noise(self, j: int, rng: np.random.Generator) -> None:
         """A new colored-noise sequence for sub-environment ``j`` (from the seed's generator)."""
@@ -248,6 +252,6 @@ class SeedRun:
         self.next_checkpoint = self._next_checkpoint()
 
     def close(self) -> None:
-        for name in ("csv_file", "bar", "writer"):
-            if hasattr(self, name):
-                getattr(self, name).close()
+        for log in (self.csv_file, self.bar, self.writer):  # those opened
+            if log is not None:
+                log.close()
