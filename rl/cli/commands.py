@@ -1,7 +1,7 @@
 """``msr case``, ``train``, ``bench``, ``refine``, ``generate``, ``baseline``, ``figures``, ``demo``
 (the policy commands are :mod:`elastica_magnetic_rl.cli.policy_commands`): thin wrappers over
 :mod:`elastica_magnetic_rl.cases.case`, :mod:`elastica_magnetic_rl.sweep.training`,
-:mod:`elastica_magnetic_rl.shipping.pipeline`, :mod:`elastica_magnetic_rl.shipping.baselines` and
+:mod:`elastica_magnetic_rl.shipping.generate`, :mod:`elastica_magnetic_rl.shipping.baselines` and
 :mod:`elastica_magnetic_rl.reports.figures` (heavy imports happen inside the commands)."""
 
 from __future__ import annotations
@@ -393,7 +393,7 @@ def refine_command(args: argparse.Namespace) -> int:
 
 
 def generate_command(args: argparse.Namespace) -> int:
-    from ..shipping.pipeline import generate
+    from ..shipping.generate import generate
 
     result = generate(args.policy, duration=args.duration, out=args.out, physics=args.physics,
                       progress=not args.no_progress, figures=not args.no_figures,
@@ -404,7 +404,7 @@ def generate_command(args: argparse.Namespace) -> int:
 
 def baseline_command(args: argparse.Namespace) -> int:
     from ..shipping.baselines import RotatingFieldPolicy
-    from ..shipping.pipeline import generate
+    from ..shipping.generate import generate
 
     try:
         policy = RotatingFieldPolicy(args.case, args.period, clockwise=not args.counterclockwise)
@@ -427,7 +427,7 @@ def figures_command(args: argparse.Namespace) -> int:
 
 
 def demo_command(args: argparse.Namespace) -> int:
-    from ..shipping.pipeline import demo
+    from ..shipping.generate import demo
 
     result = demo(args.out, duration=args.duration, progress=not args.no_progress)
     print_result(result, args.json)

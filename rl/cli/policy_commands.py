@@ -1,8 +1,9 @@
 """``msr export-seeds``, ``seeds``, ``ship``, ``notes``, ``export``, ``diagnose``: what a user does with
 trained policies (collect every seed, compare recipes, pack, annotate, export, diagnose). Thin wrappers over
 :mod:`elastica_magnetic_rl.shipping.seed_export`, :mod:`elastica_magnetic_rl.shipping.seed_report`,
-:mod:`elastica_magnetic_rl.shipping.pipeline` and :mod:`elastica_magnetic_rl.reports.diagnostics` (heavy
-imports happen inside the commands); training and rollouts are in :mod:`elastica_magnetic_rl.cli.commands`."""
+:mod:`elastica_magnetic_rl.shipping.ship`, :mod:`elastica_magnetic_rl.shipping.export` and
+:mod:`elastica_magnetic_rl.reports.diagnostics` (heavy imports happen inside the commands); training and
+rollouts are in :mod:`elastica_magnetic_rl.cli.commands`."""
 
 from __future__ import annotations
 
@@ -198,7 +199,7 @@ def seeds_command(args: argparse.Namespace) -> int:
 
 
 def ship_command(args: argparse.Namespace) -> int:
-    from ..shipping.pipeline import ship
+    from ..shipping.ship import ship
 
     notes = None
     if args.notes is not None:
@@ -216,8 +217,8 @@ def ship_command(args: argparse.Namespace) -> int:
 
 
 def notes_command(args: argparse.Namespace) -> int:
-    from ..shipping.pipeline import set_notes
     from ..shipping.policy_files import resolve_policy
+    from ..shipping.ship import set_notes
 
     if args.file is None:
         policy = resolve_policy(args.policy)
@@ -238,7 +239,7 @@ def notes_command(args: argparse.Namespace) -> int:
 
 
 def export_command(args: argparse.Namespace) -> int:
-    from ..shipping.pipeline import export_policy
+    from ..shipping.export import export_policy
 
     print_result(export_policy(args.policy, args.out), args.json)
     return 0

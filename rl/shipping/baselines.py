@@ -43,8 +43,8 @@ class RotatingFieldPolicy:
         clockwise: clockwise seen from +z (x right, y up): rolls the robot towards +x.
 
     The attributes ``critic``/``actor`` (None), ``obs_dim``, ``source`` and ``kind`` let it stand in
-    for a loaded policy in :func:`elastica_magnetic_rl.shipping.pipeline.run_policy` and
-    :func:`elastica_magnetic_rl.shipping.pipeline.generate`.
+    for a loaded policy in :func:`elastica_magnetic_rl.shipping.policy_runs.run_policy` and
+    :func:`elastica_magnetic_rl.shipping.generate.generate`.
     """
 
     case: str | Case

@@ -209,3 +209,31 @@ def _check_obs_dim(case: Case, obs_dim: int, path: Path) -> None:
     if int(obs_dim) != case.obs_dim:
         raise PolicyFileError(f"{path}: the policy takes {obs_dim} observations, its case "
                               f"{case.name!r} gives {case.obs_dim}")
+
+
+def observation_spec_of(case: Case) -> dict[str, Any]:
+    """The ``observation`` entry of a policy's ``policy.json``: the case's observation layout and
+    scaling (:func:`~elastica_magnetic_rl.envs.env.observation_spec`)."""
+    from ..envs.env import observation_spec
+
+    ground = case.robot_spec("training").ground
+    return observation_spec(case.n_elements, ground.surface_tolerance, case.task)
+
+
+def action_spec_of(case: Case) -> dict[str, Any]:
+    """The ``action`` entry of a policy's ``policy.json``: the action's scaling to a field increment
+    (T) and the field rule."""
+    increment = case.actuation.max_increment
+    return {
+        "shape": [2],
+        "low": -1.0,
+        "high": 1.0,
+        "meaning": "field increment (dB_x, dB_y) = field_increment_T_per_unit * action",
+        "field_increment_T_per_unit": increment,
+        "field_increment_mT_per_unit": increment * 1e3,
+        "field_limit_T": case.field_limit,
+        "field_rule": f"B += clip(dB, -{1e3 * increment:g} mT, {1e3 * increment:g} mT); clip each "
+                      "component to +-limit; if |B| > limit scale B to |B| = limit; hold for 0.01 s "
+                      "(100 Hz)",
+        "control_period_s": 0.01,
+    }

@@ -1,7 +1,7 @@
-"""Rolling a policy out, and the shipping criterion's evaluation of a case's seeds: one home for
-how a policy is run (:func:`run_policy`), judged (:func:`evaluate_checkpoint`: 10 s in the accurate
-physics from a zero field, against the case's yardstick) and cached per seed
-(:func:`evaluate_seeds`); :mod:`elastica_magnetic_rl.shipping.pipeline` (generate, ship) and
+"""Rolling a policy out, and the shipping criterion's evaluation of a case's seeds: one home for how a policy
+is run (:func:`run_policy`), judged (:func:`evaluate_checkpoint`: 10 s in the accurate physics from a zero
+field, against the case's yardstick) and cached per seed (:func:`evaluate_seeds`);
+:mod:`~elastica_magnetic_rl.shipping.generate`, :mod:`~elastica_magnetic_rl.shipping.ship` and
 :mod:`elastica_magnetic_rl.shipping.seed_export` build on it."""
 
 from __future__ import annotations

@@ -13,9 +13,9 @@ from elastica_magnetic.io import atomic_write_json, atomic_write_text
 
 from ..cases.tasks import ReachTask
 from ..runfiles.rundir import CaseDir, RunDir
-from .pipeline import ship
 from .policy_files import resolve_policy
 from .policy_runs import evaluate_seeds, seed_run_dirs
+from .ship import ship
 
 __all__ = ["SEED_TRAINING_LOGS", "export_seeds"]
 

@@ -1,40 +1,23 @@
-"""Generate, ship and export through ``msr`` (rl/shipping/pipeline.py), on the runs trained once for
-the learning package's tests (tests/rl/conftest.py: ``trained``, ``refined``)."""
+"""``msr ship`` and ``msr notes`` (rl/shipping/ship.py), on the runs trained once for the learning
+package's tests (tests/rl/conftest.py: ``trained``, ``refined``)."""
 
 from __future__ import annotations
 
-import csv
 import json
-import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 import torch
-from elastica_magnetic_rl.envs.env import OBSERVATION_LAYOUT, MagneticCrawlerEnv
 from elastica_magnetic_rl.runfiles.checkpoint import load_checkpoint
-from elastica_magnetic_rl.shipping import pipeline, policy_files, policy_runs
-from elastica_magnetic_rl.td3.agent import TD3Agent
+from elastica_magnetic_rl.shipping import policy_files, policy_runs, ship
 from smoke import TRAIN_STEPS, run_msr
 
-from elastica_magnetic import read_field_csv
 from elastica_magnetic.cli import main as msr
-from elastica_magnetic.simulation import TRAJECTORY_COLUMNS
-
-
-def test_best_actor_generates_but_does_not_refine(trained, tmp_path, capsys):
-    best = trained / "m1-4mT" / "seed0" / "best.pt"
-    result = run_msr(capsys, "generate", str(best), "--duration", "0.05", "--physics", "training",
-                     "--out", str(tmp_path / "gen"), "--no-figures", "--no-progress")
-    assert result["case"] == "m1-4mT" and result["policy"] == str(best)
-    assert msr(["refine", str(best), "--steps", "2", "--no-progress"]) == 2
-    assert "best evaluation" in capsys.readouterr().err
 
 
 def test_layer_norm_recipe_trains_ships_and_loads_with_its_critic(tmp_path):
     """``--recipe pink-ln``: the critics get layer norms (checkpoint config), and the run and its
     shipped folder (``critic.pt``, ``policy.json``'s architecture) load back with them."""
-    from elastica_magnetic_rl.shipping.pipeline import ship
     from elastica_magnetic_rl.shipping.policy_files import resolve_policy
 
     assert msr(["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), "--steps", "20",
@@ -45,7 +28,7 @@ def test_layer_norm_recipe_trains_ships_and_loads_with_its_critic(tmp_path):
     assert config["critic_layer_norm"] is True and config["noise_color"] == 1.0
     loaded = resolve_policy(run)
     assert isinstance(loaded.critic.q1_net[1], torch.nn.LayerNorm)
-    ship(run, "ln", dest=tmp_path / "shipped", measure=False, progress=False, with_card=False)
+    ship.ship(run, "ln", dest=tmp_path / "shipped", measure=False, progress=False, with_card=False)
     meta = json.loads((tmp_path / "shipped" / "ln" / "policy.json").read_text())
     assert meta["architecture"]["critic_layer_norm"] is True
     again = resolve_policy(tmp_path / "shipped" / "ln")
@@ -54,38 +37,10 @@ def test_layer_norm_recipe_trains_ships_and_loads_with_its_critic(tmp_path):
         assert torch.equal(a, b)
 
 
-def test_generate_json_and_files(refined, tmp_path, capsys):
-    out = tmp_path / "gen"
-    result = run_msr(capsys, "generate", str(refined), "--duration", "0.2", "--out", str(out),
-                     "--no-progress")
-    for key in ("mid_dx_m", "fields_csv", "trajectory_csv"):
-        assert key in result
-    assert np.isfinite(result["mid_dx_m"]) and result["physics"] == "accurate"
-    assert not result["diverged"]
-    header = Path(result["fields_csv"]).read_text().splitlines()[0]
-    assert header == ",mag_x,mag_y,mag_z"
-    fields = read_field_csv(result["fields_csv"])
-    assert fields.shape == (20, 3)
-    assert np.all(np.abs(fields[0, :2]) <= 0.3e-3 + 1e-12)  # from zero, one increment
-    assert np.all(np.abs(np.diff(fields[:, :2], axis=0)) <= 0.3e-3 + 1e-12)
-    with open(result["trajectory_csv"]) as f:
-        rows = list(csv.reader(f))
-    assert tuple(rows[0]) == TRAJECTORY_COLUMNS and len(rows) == 22 and float(rows[1][0]) == 0.0
-    assert float(rows[-1][0]) == pytest.approx(0.2)
-    figures = result["figures"]
-    for name in ("positions_velocities", "field_waveforms", "field_polar", "height_span_contact",
-                 "q_values", "filmstrip", "gait_gif"):
-        assert Path(figures[name]).stat().st_size > 1000, name
-    assert Path(figures["gait_gif"]).read_bytes()[:3] == b"GIF"
-    with open(result["gait_csv"]) as f:
-        gait = list(csv.DictReader(f))
-    assert len(gait) == 21 and float(gait[0]["contact_back"]) == 1.0
-
-
 def test_ship_evaluates_every_seed_and_caches(refined, tmp_path, monkeypatch):
     """``evaluate_all_seeds``: each seed's final checkpoint is rolled out (accurate physics, zero
     field); the card lists them with the notes; a second ship reuses the per-seed cache."""
-    info = pipeline.ship(refined, "m1-4mT", dest=tmp_path, measure=False, duration=0.05,
+    info = ship.ship(refined, "m1-4mT", dest=tmp_path, measure=False, duration=0.05,
                          progress=False, evaluate_all_seeds=True, notes="Trained by a *test*.")
     meta = json.loads((tmp_path / "m1-4mT" / "policy.json").read_text())
     evaluations = meta["seeds"]["evaluations"]
@@ -110,7 +65,7 @@ def test_ship_evaluates_every_seed_and_caches(refined, tmp_path, monkeypatch):
     again = policy_runs.evaluate_seeds(refined.parent.parent, duration=0.05, progress=False)
     assert again == evaluations
     # shipping the best actor of a seed says so on the card
-    pipeline.ship(refined.parent / "best.pt", "m1-4mT-best", dest=tmp_path, measure=False)
+    ship.ship(refined.parent / "best.pt", "m1-4mT-best", dest=tmp_path, measure=False)
     card = (tmp_path / "m1-4mT-best" / "MODEL_CARD.md").read_text()
     assert "best.pt" in card and "the best of the evaluations during training" in card
 
@@ -120,7 +75,7 @@ def test_ship_over_a_policy_keeps_it_when_the_measurement_fails(refined, tmp_pat
     interrupted) leaves the policy it was to replace byte for byte as it was; one that succeeds
     replaces it, and the old waveform does not outlive its actor."""
     dest = tmp_path / "policies"
-    pipeline.ship(refined, "m1-4mT", dest=dest, measure=True, duration=0.03, progress=False)
+    ship.ship(refined, "m1-4mT", dest=dest, measure=True, duration=0.03, progress=False)
     folder = dest / "m1-4mT"
     before = {p.name: p.read_bytes() for p in folder.iterdir()}
     assert "fields.csv" in before
@@ -128,13 +83,13 @@ def test_ship_over_a_policy_keeps_it_when_the_measurement_fails(refined, tmp_pat
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(pipeline, "run_policy", interrupted)
+    monkeypatch.setattr(ship, "run_policy", interrupted)
     best = refined.parent / "best.pt"  # another actor
     with pytest.raises(KeyboardInterrupt):
-        pipeline.ship(best, "m1-4mT", dest=dest, overwrite=True, progress=False)
+        ship.ship(best, "m1-4mT", dest=dest, overwrite=True, progress=False)
     assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
     # replaced without a measurement: the replaced policy's fields.csv goes with it
-    pipeline.ship(best, "m1-4mT", dest=dest, overwrite=True, measure=False, progress=False)
+    ship.ship(best, "m1-4mT", dest=dest, overwrite=True, measure=False, progress=False)
     assert not (folder / "fields.csv").exists()
     assert json.loads((folder / "policy.json").read_text())["training"]["best_evaluation"]
     assert policy_files.resolve_policy(folder).kind == "shipped"  # the new files belong together
@@ -142,7 +97,7 @@ def test_ship_over_a_policy_keeps_it_when_the_measurement_fails(refined, tmp_pat
 
 def test_ship_then_generate_by_folder_and_name(refined, tmp_path, monkeypatch, capsys):
     dest = tmp_path / "policies"
-    info = pipeline.ship(refined, "m1-4mT", dest=dest, measure=True, duration=0.05, progress=False)
+    info = ship.ship(refined, "m1-4mT", dest=dest, measure=True, duration=0.05, progress=False)
     folder = dest / "m1-4mT"
     assert {"actor.pt", "critic.pt", "policy.json", "MODEL_CARD.md", "fields.csv"} <= set(info["files"])
     meta = json.loads((folder / "policy.json").read_text())
@@ -164,37 +119,7 @@ def test_ship_then_generate_by_folder_and_name(refined, tmp_path, monkeypatch, c
                      str(tmp_path / "gen"), "--no-progress", "--no-gif")
     assert result["policy"] == str(folder) and "q_values" in result["figures"]
     with pytest.raises(FileExistsError):
-        pipeline.ship(refined, "m1-4mT", dest=dest, measure=False)
-
-
-def test_export_torchscript_matches_agent(trained, tmp_path, capsys):
-    run = trained / "m1-4mT" / "seed1"
-    result = run_msr(capsys, "export", str(run), "--out", str(tmp_path / "export"))
-    assert result["max_abs_diff"] < 1e-6 and result["max_abs_diff_pt2"] < 1e-6
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)  # torch.jit is deprecated in 2.13
-        module = torch.jit.load(result["torchscript"])  # plain torch, no package code
-    program = torch.export.load(result["torch_export"]).module()
-    layout = json.loads(Path(result["json"]).read_text())
-    assert layout["observation"]["size"] == 260
-    assert layout["action"]["field_increment_T_per_unit"] == 3e-4
-    agent = TD3Agent.from_checkpoint(run / "checkpoint.pt")
-    env = MagneticCrawlerEnv(duration=0.05)
-    obs, _ = env.reset(seed=5)
-    obs, *_ = env.step(np.array([0.5, -0.5], np.float32))
-    with torch.no_grad():
-        exported = module(torch.from_numpy(obs[None]))[0].numpy()
-        exported_pt2 = program(torch.from_numpy(obs[None]))[0].numpy()
-    np.testing.assert_allclose(exported, agent.act(obs), atol=1e-6)
-    np.testing.assert_allclose(exported_pt2, agent.act(obs), atol=1e-6)
-    assert obs[OBSERVATION_LAYOUT["field_amplitude"]][0] > 0
-
-
-def test_demo_names_the_missing_policy(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr(pipeline, "POLICIES_DIR", tmp_path / "none")
-    assert msr(["demo", "--out", str(tmp_path / "demo"), "--no-progress"]) == 2
-    err = capsys.readouterr().err
-    assert "m1-4mT" in err and "actor.pt" in err and "msr ship" in err
+        ship.ship(refined, "m1-4mT", dest=dest, measure=False)
 
 
 def test_notes_have_one_home_and_a_re_ship_keeps_the_seeds_table(refined, tmp_path, capsys):
@@ -205,13 +130,13 @@ def test_notes_have_one_home_and_a_re_ship_keeps_the_seeds_table(refined, tmp_pa
     from elastica_magnetic_rl.shipping.seed_report import CARD_SECTION
 
     dest = tmp_path / "policies"
-    pipeline.ship(refined, "m1-4mT", dest=dest, measure=False, progress=False, notes="First.")
+    ship.ship(refined, "m1-4mT", dest=dest, measure=False, progress=False, notes="First.")
     folder = dest / "m1-4mT"
     seeds = folder / "seeds" / "paper" / "seeds.json"
     seeds.parent.mkdir(parents=True)
     seeds.write_text(json.dumps([{"seed": 0, "steps": 240, "distance_10s_m": 0.0221, "actor": "seed0"},
                                  {"seed": 1, "steps": 240, "distance_10s_m": 0.0018, "actor": "seed1"}]))
-    pipeline.ship(refined.parent / "best.pt", "m1-4mT", dest=dest, overwrite=True, measure=False,
+    ship.ship(refined.parent / "best.pt", "m1-4mT", dest=dest, overwrite=True, measure=False,
                   progress=False, notes="Second.")
     card = (folder / "MODEL_CARD.md").read_text()
     assert "| `paper` | 1 of 2 |" in card and card.index(CARD_SECTION) < card.index("## Evaluation")
