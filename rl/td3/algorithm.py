@@ -65,7 +65,7 @@ import dataclasses
 import math
 import warnings
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import torch
@@ -84,12 +84,14 @@ SATURATION_PREACTIVATION = 3.0
 # ----------------------------------------------------------------------------------------------
 # Hyperparameters
 # ----------------------------------------------------------------------------------------------
-@dataclass
-class TD3Config:
-    """All TD3 hyperparameters and run settings (defaults: the paper's / Fujimoto's values).
+_Part = TypeVar("_Part")
 
-    Noise scales are in normalised action units (fractions of the action half-range).
-    """
+
+@dataclass
+class Hyperparameters:
+    """What TD3 learns with: networks, optimisation, replay, exploration and TD3's own settings
+    (defaults: the paper's / Fujimoto's values). Noise scales are in normalised action units
+    (fractions of the action half-range)."""
 
     # networks and optimisation
     hidden_sizes: tuple[int, ...] = (256, 256)
@@ -136,7 +138,13 @@ class TD3Config:
     """Actor and target networks are updated once every ``policy_delay`` critic updates."""
     updates_per_step: int = 1
     """Gradient steps per environment step (after warm-up)."""
-    # run settings
+
+
+@dataclass
+class RunSettings:
+    """How a seed's run computes, not what it learns from: its seed, where and in which precision
+    its networks compute, and determinism."""
+
     seed: int = 0
     device: str = "cpu"
     """``"cpu"`` or ``"cuda"`` (any ``torch.device`` string)."""
@@ -146,6 +154,13 @@ class TD3Config:
     :class:`~elastica_magnetic_rl.td3.stacked.StackedMLP`). Acting always runs in float32."""
     torch_deterministic: bool = True
     """Switch on ``torch.use_deterministic_algorithms`` while training (restored afterwards)."""
+
+
+@dataclass
+class Schedule:
+    """When a run checkpoints, logs and evaluates (what Stable-Baselines3 leaves to ``learn()``'s
+    callbacks): these change no weight, so a resumed run may change them."""
+
     checkpoint_every: int = 10_000
     """A checkpoint is written at the first episode boundary after every multiple of this many
     steps, and at the end of the run."""
@@ -158,6 +173,13 @@ class TD3Config:
     ``EvalCallback``); 0: never."""
     eval_episodes: int = 1
     """Episodes per evaluation (episode ``i`` reset with seed ``EVAL_SEED + i``)."""
+
+
+@dataclass
+class TD3Config(Schedule, RunSettings, Hyperparameters):
+    """A seed's settings in one flat record, the ``config`` of its checkpoints and ``run.json``:
+    its :class:`Hyperparameters`, :class:`RunSettings` and :class:`Schedule` (fields in that
+    order), checked together."""
 
     def __post_init__(self) -> None:
         self.hidden_sizes = tuple(int(h) for h in self.hidden_sizes)
@@ -185,6 +207,10 @@ class TD3Config:
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
+
+    def part(self, kind: type[_Part]) -> _Part:
+        """Its :class:`Hyperparameters`, :class:`RunSettings` or :class:`Schedule`."""
+        return kind(**{f.name: getattr(self, f.name) for f in dataclasses.fields(kind)})
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> TD3Config:
