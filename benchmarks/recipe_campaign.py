@@ -26,9 +26,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from elastica_magnetic_rl.cases import load_case  # noqa: E402
-from elastica_magnetic_rl.policy_files import POLICIES_DIR  # noqa: E402
-from elastica_magnetic_rl.recipes import RECIPES  # noqa: E402
+from elastica_magnetic_rl.cases.case import load_case  # noqa: E402
+from elastica_magnetic_rl.cases.recipes import RECIPES  # noqa: E402
+from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR  # noqa: E402
 
 PAPER_CASES = ("m1-4mT", "m2-4mT", "m1-10mT", "m2-10mT")
 
@@ -62,7 +62,7 @@ def exported_seeds(policies: Path, case: str, recipe: str) -> set[int]:
 
 def run_state(run_dir: Path, steps: int) -> str:
     """``"none"`` (no checkpoint), ``"partial"`` or ``"done"`` (``steps`` reached)."""
-    from elastica_magnetic_rl.checkpoint import load_checkpoint
+    from elastica_magnetic_rl.runfiles.checkpoint import load_checkpoint
 
     if not (run_dir / "checkpoint.pt").is_file():
         return "none"
@@ -143,8 +143,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.dry_run:
         return 0
 
-    from elastica_magnetic_rl.seed_export import export_seeds
-    from elastica_magnetic_rl.training import train_cases
+    from elastica_magnetic_rl.shipping.seed_export import export_seeds
+    from elastica_magnetic_rl.sweep.training import train_cases
 
     for work in schedule(batches, exports):
         if isinstance(work, Batch):

@@ -3,7 +3,7 @@
 Trains ``elastica_magnetic_rl.td3`` for ``--steps`` environment steps (default 20k) on each of ``--seeds``
 seeds with
 the paper's defaults (256-256, Adam 3e-4, batch 256, 2500 warm-up steps, sigma 0.2, ...), the seeds
-side by side in one process (``elastica_magnetic_rl.runner.train_seeds``; each seed as it would train
+side by side in one process (``elastica_magnetic_rl.runner.loop.train_seeds``; each seed as it would train
 alone), once per
 ``--precision`` (``fp32``, and ``bf16``: bfloat16 matrix products on float32 weights), and reports
 the mean deterministic evaluation return; the target is -200 or better. If
@@ -33,10 +33,10 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from elastica_magnetic_rl.evaluation import ActorPolicy, evaluate  # noqa: E402
-from elastica_magnetic_rl.recipes import RECIPES  # noqa: E402
-from elastica_magnetic_rl.runner import train_seeds  # noqa: E402
-from elastica_magnetic_rl.td3 import TD3Config  # noqa: E402
+from elastica_magnetic_rl.cases.recipes import RECIPES  # noqa: E402
+from elastica_magnetic_rl.runner.evaluation import ActorPolicy, evaluate  # noqa: E402
+from elastica_magnetic_rl.runner.loop import train_seeds  # noqa: E402
+from elastica_magnetic_rl.td3.algorithm import TD3Config  # noqa: E402
 
 ENV_ID = "Pendulum-v1"
 TARGET = -200.0
@@ -50,7 +50,7 @@ def make_env() -> gym.Env:
 def run_ours(seeds: list[int], steps: int, eval_episodes: int, out: Path, progress: bool,
              precision: str = "fp32", recipe: str = "paper") -> list[dict]:
     """Train ``seeds`` side by side (one stacked TD3), evaluate each seed's final actor. ``recipe``:
-    the crawler's recipe changes (:data:`~elastica_magnetic_rl.recipes.RECIPES`, e.g. ``pink``
+    the crawler's recipe changes (:data:`~elastica_magnetic_rl.cases.recipes.RECIPES`, e.g. ``pink``
     exploration noise) on TD3's defaults."""
     from gymnasium.vector import AutoresetMode, SyncVectorEnv
 

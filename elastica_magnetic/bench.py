@@ -11,7 +11,7 @@ Medians over repeated measurements; machines here are noisy, so compare ratios w
 :func:`per_robot_step_cost` measures the per-robot-step cost of N robots in one batched simulator
 (:func:`measure_batched`, shared with ``benchmarks/batched_step_cost.py``). The learning benchmarks
 (environment and TD3 rates, training time and memory) and ``msr bench`` itself are in
-:mod:`elastica_magnetic_rl.bench`, on top of this package.
+:mod:`elastica_magnetic_rl.reports.bench`, on top of this package.
 """
 
 from __future__ import annotations

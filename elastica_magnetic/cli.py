@@ -5,9 +5,9 @@ function, so this file stays a thin dispatcher:
 
 - ``elastica_magnetic.commands``: ``replay``, ``simulate``
 - ``elastica_magnetic_validation.cli``: ``validate``
-- ``elastica_magnetic_rl.cli``: ``case``, ``train``, ``bench``, ``refine``, ``generate``, ``baseline``,
-  ``figures``, ``demo``
-- ``elastica_magnetic_rl.policy_cli``: ``export-seeds``, ``seeds``, ``ship``, ``notes``, ``export``,
+- ``elastica_magnetic_rl.cli.commands``: ``case``, ``train``, ``bench``, ``refine``, ``generate``,
+  ``baseline``, ``figures``, ``demo``
+- ``elastica_magnetic_rl.cli.policy_commands``: ``export-seeds``, ``seeds``, ``ship``, ``notes``, ``export``,
   ``diagnose``
 - ``elastica_magnetic.hardware.cli``: ``stream``, ``export-firmware``, ``calibrate``
 """
@@ -26,8 +26,8 @@ from typing import Any
 COMMAND_MODULES = (
     "elastica_magnetic.commands",
     "elastica_magnetic_validation.cli",
-    "elastica_magnetic_rl.cli",
-    "elastica_magnetic_rl.policy_cli",
+    "elastica_magnetic_rl.cli.commands",
+    "elastica_magnetic_rl.cli.policy_commands",
     "elastica_magnetic.hardware.cli",
 )
 

@@ -9,11 +9,20 @@ environment or agent is built)::
 
     env = gym.make("MagneticCrawler-v0", pattern=1, field_limit=4e-3, physics="training")
 
-Modules: ``env`` (environment), ``vector_env`` (N crawlers in one batched simulator, a Gymnasium
-vector environment), ``td3`` (the algorithm), ``runner`` (the training loop), ``training``
-(``msr train`` / ``msr refine``), ``pipeline`` (generate, ship, export), ``baselines`` (a
-hand-designed rotating field to compare with), ``figures`` (figures), ``cli`` (``msr``
-sub-commands).
+Subpackages, from the bottom layer up (each imports only the ones listed before it; the map is
+docs/architecture.md):
+
+- ``runfiles``: the files of a training run (the run folder's names, the checkpoint format);
+- ``td3``: the algorithm (hyperparameters, networks, the update, replay buffer, exploration);
+- ``cases``: what to learn (case spec files, tasks, training recipes);
+- ``envs``: the crawler as a Gymnasium environment, single and vector, and recorded rollouts;
+- ``runner``: the training loop of K seeds, each seed's bookkeeping, evaluation;
+- ``sweep``: ``msr train`` / ``msr refine``: seeds and cases over worker processes or Ray;
+- ``reports``: figures, the networks' health (``msr diagnose``), benchmarks (``msr bench``);
+- ``shipping``: policy files, generate, ship, export, every seed's report, shipped-policy checks;
+- ``cli``: the ``msr`` sub-commands (thin wrappers).
+
+Data: ``specs/`` (the cases' spec files) and ``policies/`` (the shipped policies).
 """
 
 from gymnasium.envs.registration import register as _register
@@ -23,6 +32,6 @@ ENV_ID = "MagneticCrawler-v0"
 
 if ENV_ID not in _registry:
     # The time limit is enforced (as a truncation) by the environment's own ``duration`` option.
-    _register(id=ENV_ID, entry_point="elastica_magnetic_rl.env:MagneticCrawlerEnv")
+    _register(id=ENV_ID, entry_point="elastica_magnetic_rl.envs.env:MagneticCrawlerEnv")
 
 __all__ = ["ENV_ID"]

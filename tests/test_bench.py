@@ -45,10 +45,10 @@ def test_td3_update_flop_count_matches_torch_flop_counter():
     (two updates: one without and one with the delayed actor step). It would differ if the actor
     step still computed the critic's weight gradients."""
     import numpy as np
-    from elastica_magnetic_rl.agent import TD3Agent
-    from elastica_magnetic_rl.bench import td3_update_flops
-    from elastica_magnetic_rl.replay_buffer import Batch
-    from elastica_magnetic_rl.td3 import TD3Config
+    from elastica_magnetic_rl.reports.bench import td3_update_flops
+    from elastica_magnetic_rl.td3.agent import TD3Agent
+    from elastica_magnetic_rl.td3.algorithm import TD3Config
+    from elastica_magnetic_rl.td3.replay_buffer import Batch
     from torch.utils.flop_counter import FlopCounterMode
 
     agent = TD3Agent(260, 2, -np.ones(2), np.ones(2), TD3Config(seed=0, hidden_sizes=(64, 32)))
@@ -71,7 +71,7 @@ def test_training_peak_memory_of_a_two_seed_run():
     """A real 2-seed run in 2 worker processes: the sampled peak of the process tree exceeds the
     parent's own memory by at least the two workers' interpreters, and the projection adds exactly
     the replay-buffer growth to 1e5 transitions per seed."""
-    from elastica_magnetic_rl.bench import replay_buffer_bytes, training_peak_memory
+    from elastica_magnetic_rl.reports.bench import replay_buffer_bytes, training_peak_memory
 
     result = training_peak_memory(seeds=2, steps=30, interval=0.05)
     assert result["peak_bytes"] > result["parent_baseline_bytes"] + 2 * 50e6

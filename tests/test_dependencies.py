@@ -63,6 +63,27 @@ def test_the_physics_package_imports_no_learning_or_validation():
     assert not upward, sorted(upward)
 
 
+#: The learning package's subpackages, bottom layer first: each imports only itself and the layers
+#: before it (docs/architecture.md). Its top-level modules (``__init__``) import none of them.
+RL_LAYERS = ("runfiles", "td3", "cases", "envs", "runner", "sweep", "reports", "shipping", "cli")
+
+
+def test_the_learning_subpackages_import_only_lower_layers():
+    graph = _graph()
+    rl = "elastica_magnetic_rl"
+    folders = {p.name for p in (ROOT / PACKAGES[rl]).iterdir() if (p / "__init__.py").is_file()}
+    assert folders == set(RL_LAYERS), f"subpackages {sorted(folders)} against the layers {RL_LAYERS}"
+
+    def layer(module: str) -> int | None:
+        parts = module.split(".")
+        return RL_LAYERS.index(parts[1]) if parts[0] == rl and len(parts) > 1 and parts[1] in RL_LAYERS \
+            else None
+
+    upward = sorted(f"{m} -> {t}" for m, targets in graph.items() if layer(m) is not None
+                    for t in targets if layer(t) is not None and layer(t) > layer(m))
+    assert not upward, upward
+
+
 def test_no_import_cycles_between_modules():
     graph = {m: {t for t in ts if not t.endswith(".cli")} for m, ts in _graph().items()
              if not m.endswith(".cli")}

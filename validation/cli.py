@@ -23,7 +23,7 @@ CASES = {
 #: Not a comparison with a reference but a check of claims: every shipped policy, re-run for 10 s
 #: in the accurate physics (``--quick``: 0.3 s), reproduces its recorded distance (and its
 #: waveform, on the machine that recorded it) and reaches its target
-#: (:func:`elastica_magnetic_rl.shipped.verify_shipped`). Run only when named.
+#: (:func:`elastica_magnetic_rl.shipping.shipped.verify_shipped`). Run only when named.
 SHIPPED = "shipped"
 
 
@@ -34,8 +34,8 @@ REPORT_FILES = ("report.md", "results.json", "cantilever.png", "hu2018.png", "re
 
 
 def verify_all_shipped(quick: bool) -> list[dict]:
-    """:func:`elastica_magnetic_rl.shipped.verify_shipped` of every shipped policy."""
-    from elastica_magnetic_rl.shipped import shipped_names, verify_shipped
+    """:func:`elastica_magnetic_rl.shipping.shipped.verify_shipped` of every shipped policy."""
+    from elastica_magnetic_rl.shipping.shipped import shipped_names, verify_shipped
 
     results = []
     for name in shipped_names():

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from elastica_magnetic_rl.replay_buffer import ReplayBuffer
+from elastica_magnetic_rl.td3.replay_buffer import ReplayBuffer
 
 
 def random_replay_buffer(obs_dim: int, act_dim: int, n: int, seed: int = 0,

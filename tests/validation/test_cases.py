@@ -79,7 +79,7 @@ def test_validate_shipped_quick_checks_every_shipped_policy(capsys):
     """``msr validate shipped --quick``: every shipped policy's first 0.3 s run, and reproduce its
     waveform where this machine is the one that recorded it (the full 10 s check of all four, with
     their distances, is ``msr validate shipped``)."""
-    from elastica_magnetic_rl.shipped import shipped_names
+    from elastica_magnetic_rl.shipping.shipped import shipped_names
 
     assert main(["validate", "shipped", "--quick", "--json"]) == 0
     result = json.loads(capsys.readouterr().out)

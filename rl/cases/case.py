@@ -1,0 +1,344 @@
+"""Cases: a robot, its actuation, a task, a training recipe and a yardstick, from one spec file.
+
+The one registry of cases. The paper's four cases (``m1-4mT``, ``m2-4mT``, ``m1-10mT``,
+``m2-10mT``) and the others shipped with the package are TOML spec files in this package's
+``specs/`` folder; a user's case is a spec file anywhere. :func:`load_case` takes either a
+registered name or a path, so every workflow (``msr train --case``, ``gym.make(...,
+case=...)``) accepts both. A case is named after its file (``my.toml`` -> ``my``) unless the
+file sets ``name``.
+
+Tables of a spec (SI units; the robot's tables are described in
+:mod:`elastica_magnetic.specfile`):
+
+- ``[actuation]``: ``field_limit`` (T), ``max_increment`` (T per action), ``control_rate`` (Hz;
+  100, the only rate the environments and the firmware play), ``initial_field`` (``"random"``
+  or ``"zero"``: training episodes; generated fields always start from zero).
+- ``[task]``: ``kind`` (``"crawl"`` or ``"reach"``, see :mod:`elastica_magnetic_rl.cases.tasks`) and its
+  parameters, ``episode_duration`` (s, training episodes).
+- ``[training]``: ``recipe`` (:data:`~elastica_magnetic_rl.cases.recipes.RECIPES`), ``steps`` per seed,
+  and ``[training.td3]``: :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` fields on top of the recipe.
+- ``[yardstick]``: ``distance_10s`` (m, crawl: the distance in 10 s of accurate physics from a
+  zero field that counts as success; 0 for none) and ``source`` (where it comes from).
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+from elastica_magnetic import RobotSpec
+from elastica_magnetic.presets import ACTION_PERIOD, Physics
+from elastica_magnetic.specfile import (
+    RobotDescription,
+    SpecError,
+    SpecTable,
+    describe_robot,
+    dumps,
+    read_spec,
+)
+
+from .recipes import DEFAULT_RECIPE, RECIPES
+from .tasks import TASK_KINDS, ReachTask, Task
+
+__all__ = [
+    "Actuation",
+    "Case",
+    "SPECS_DIR",
+    "Training",
+    "Yardstick",
+    "case_from_dict",
+    "case_from_metadata",
+    "case_names",
+    "load_case",
+    "PAPER_CASES",
+]
+
+#: Folder of the spec files shipped with the package.
+SPECS_DIR = Path(__file__).resolve().parents[1] / "specs"
+#: The paper's four cases (the first shipped specs).
+PAPER_CASES = ("m1-4mT", "m2-4mT", "m1-10mT", "m2-10mT")
+#: Control rates the environments play, Hz.
+CONTROL_RATE = 1.0 / ACTION_PERIOD
+#: The evaluation during training, s: the shipping criterion's episode (field from zero,
+#: deterministic actions, the yardstick's 10 s) in the physics the run trains in.
+EVAL_DURATION = 10.0
+#: Units of the case tables, written next to values by :meth:`Case.toml`.
+CASE_UNITS: dict[tuple[str, str], str] = {
+    ("actuation", "field_limit"): "T", ("actuation", "max_increment"): "T per action",
+    ("actuation", "control_rate"): "Hz", ("actuation", "initial_field"): "training episodes",
+    ("task", "reward_scale"): "per m", ("task", "episode_duration"): "s, training episodes",
+    ("task", "target"): "m ahead of the start", ("task", "tolerance"): "m",
+    ("task", "slow_zone"): "m", ("task", "speed_penalty"): "x reward_scale per m moved near the target",
+    ("training", "steps"): "environment steps per seed",
+    ("yardstick", "distance_10s"): "m in 10 s, accurate physics, field from zero",
+}
+
+
+@dataclass(frozen=True)
+class Actuation:
+    """The field the policy controls: limit (T), increment per action (T), rate (Hz), initial field
+    of training episodes."""
+
+    field_limit: float
+    max_increment: float = 0.3e-3
+    control_rate: float = CONTROL_RATE
+    initial_field: str = "random"
+
+
+@dataclass(frozen=True)
+class Training:
+    """The training recipe: its name, the steps per seed and TD3 settings on top of it."""
+
+    recipe: str = DEFAULT_RECIPE
+    steps: int = 100_000
+    td3: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Yardstick:
+    """What counts as success for a seed's actor (10 s, accurate physics, field from zero): for
+    ``crawl``, reaching ``distance_10s`` m (0: moving forward at all); for ``reach``, ending within
+    the task's tolerance. ``source`` says where the number comes from."""
+
+    distance_10s: float = 0.0
+    source: str = ""
+
+
+@dataclass(frozen=True)
+class Case:
+    """A complete case (see the module docstring); :meth:`to_dict` is its canonical plain data."""
+
+    name: str
+    description: str
+    robot: RobotDescription
+    actuation: Actuation
+    task: Task
+    training: Training
+    yardstick: Yardstick
+    source: str = "<spec>"
+
+    def robot_spec(self, physics: Physics = "training") -> RobotSpec:
+        """The robot in one physics setting."""
+        return self.robot.robot(physics)
+
+    @property
+    def field_limit(self) -> float:
+        return self.actuation.field_limit
+
+    @property
+    def n_elements(self) -> int:
+        return self.robot.n_elements
+
+    @property
+    def obs_dim(self) -> int:
+        """Observation size: the robot's ``4 n + 4`` plus the task's extra blocks."""
+        return 4 * self.n_elements + 4 + sum(size for _, size in self.task.extra_observation)
+
+    @property
+    def builtin(self) -> bool:
+        """Whether this is the registered case of its name, unchanged."""
+        return self.name in case_names() and load_case(self.name).to_dict() == self.to_dict()
+
+    @property
+    def target_label(self) -> str:
+        """The yardstick in words, e.g. ``"+20.5 mm in 10 s"`` or ``"within 1.0 mm of +10.0 mm"``."""
+        if isinstance(self.task, ReachTask):
+            return f"within {1e3 * self.task.tolerance:.1f} mm of {1e3 * self.task.target:+.1f} mm"
+        if self.yardstick.distance_10s > 0.0:
+            return f"{1e3 * self.yardstick.distance_10s:+.1f} mm in 10 s"
+        return "forward motion in 10 s"
+
+    def meets_yardstick(self, mid_dx_m: float, node_dx_m: float, duration_s: float,
+                        diverged: Any = None) -> bool | None:
+        """Whether an evaluation (accurate physics, field from zero) succeeds: crawl, the middle's
+        displacement ``mid_dx_m`` (m) in 10 s reaches ``distance_10s`` (or is positive when that is
+        0); reach, the reward's middle node ends (``node_dx_m``, m) within the tolerance of the
+        target. ``None`` when the evaluation is not 10 s long (crawl) or diverged counts as a fail."""
+        if diverged:
+            return False
+        if isinstance(self.task, ReachTask):
+            return bool(self.task.within_tolerance(node_dx_m - self.task.target))
+        if abs(duration_s - 10.0) > 1e-9:
+            return None
+        if self.yardstick.distance_10s > 0.0:
+            return bool(mid_dx_m >= self.yardstick.distance_10s)
+        return bool(mid_dx_m > 0.0)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Every table, every default written out, plain data (round-trips through TOML/JSON); a
+        new copy each call (editing it changes no case)."""
+        training = {"recipe": self.training.recipe, "steps": self.training.steps}
+        if self.training.td3:
+            training["td3"] = dict(self.training.td3)
+        return copy.deepcopy({
+            "name": self.name,
+            "description": self.description,
+            **self.robot.tables,
+            "actuation": dataclasses.asdict(self.actuation),
+            "task": self.task.to_dict(),
+            "training": training,
+            "yardstick": dataclasses.asdict(self.yardstick),
+        })
+
+    def toml(self) -> str:
+        """The complete spec as TOML with units in comments, every default written out: a file to
+        copy and edit. ``name`` is left out: a case from a file is named after the file."""
+        data = self.to_dict()
+        del data["name"]
+        header = (f"# Case spec, from the case {self.name!r}. SI units (m, kg, s, Pa, A/m, T).\n"
+                  "# The case is named after this file (my.toml -> my) unless you set name = \"...\".\n"
+                  "# Every key is described in the package's docs (Spec files).\n")
+        return header + dumps(data, CASE_UNITS)
+
+
+def case_names() -> tuple[str, ...]:
+    """Names of the shipped cases: the paper's four first, then the others alphabetically."""
+    found = sorted(p.stem for p in SPECS_DIR.glob("*.toml"))
+    return tuple([n for n in PAPER_CASES if n in found] + [n for n in found if n not in PAPER_CASES])
+
+
+@cache
+def _shipped(name: str) -> Case:
+    return case_from_dict(read_spec(SPECS_DIR / f"{name}.toml"), f"{name}.toml", default_name=name)
+
+
+def load_case(case: str | Path | Case | Mapping[str, Any]) -> Case:
+    """A case from a shipped name (``"m1-4mT"``), a spec file path, a :class:`Case` or a spec dict.
+
+    Raises:
+        SpecError: unknown name, unreadable file or invalid spec (the message names the file and
+            the key).
+    """
+    if isinstance(case, Case):
+        return case
+    if isinstance(case, Mapping):
+        return case_from_dict(case, "<spec>")
+    text = str(case)
+    if text in case_names():
+        return _shipped(text)
+    path = Path(case)
+    if path.suffix == ".toml" or path.exists():
+        return case_from_dict(read_spec(path), str(path), default_name=path.stem)
+    raise SpecError(f"unknown case {text!r}: not a shipped case ({', '.join(case_names())}) "
+                    "and not a spec file (.toml)")
+
+
+def case_from_metadata(meta: Mapping[str, Any], source: str) -> Case:
+    """The case of a run or policy file: its stored ``case_spec`` (complete, so the original spec
+    file is not needed), else the shipped case named by ``case`` (files from before specs)."""
+    spec = meta.get("case_spec")
+    if spec is not None:
+        return case_from_dict(spec, f"{source} (case_spec)")
+    name = meta.get("case")
+    if isinstance(name, str) and name in case_names():
+        return load_case(name)
+    raise SpecError(f"{source}: case {name!r} is not a shipped case ({', '.join(case_names())}) "
+                    "and the file stores no case_spec")
+
+
+def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name: str | None = None) -> Case:
+    """Check a parsed spec (see the module docstring) and return the :class:`Case`."""
+    robot = describe_robot(spec, source)
+    top = SpecTable(spec, source)
+    name = top.string("name", default_name)
+    if not name:
+        raise top.error("name", "missing: set name = \"...\" (or load the spec from a file)")
+    description = top.string("description", "")
+    actuation = _actuation(top.table("actuation"))
+    task = _task(top.table("task"))
+    training = _training(top.table("training", required=False), source)
+    yardstick = _yardstick(top.table("yardstick", required=False))
+    if robot.robot("training").ground is None:
+        raise SpecError(f"{source}: [robot.ground] missing: the crawler tasks need a ground (add the "
+                        "table; every key in it has a default)")
+    for key in ("robot", "physics"):
+        top.raw(key, None)
+    top.finish()
+    return Case(name, description, robot, actuation, task, training, yardstick, source)
+
+
+def _actuation(t: SpecTable) -> Actuation:
+    d = Actuation(field_limit=0.0)
+    out = Actuation(
+        field_limit=t.number("field_limit", "T", low=0.0, low_open=True, high=1.0),
+        max_increment=t.number("max_increment", "T per action", d.max_increment, low=0.0,
+                               low_open=True),
+        control_rate=t.number("control_rate", "Hz", d.control_rate, low=0.0, low_open=True),
+        initial_field=t.string("initial_field", d.initial_field, choices=("random", "zero")),
+    )
+    if not math.isclose(out.control_rate, CONTROL_RATE):
+        raise t.error("control_rate", f"only {CONTROL_RATE:g} Hz is supported (the environments' "
+                                      f"0.01 s step and the firmware's playback rate), got "
+                                      f"{out.control_rate:g}")
+    t.finish()
+    return out
+
+
+def _task(t: SpecTable) -> Task:
+    kind = t.string("kind", choices=tuple(TASK_KINDS))
+    cls = TASK_KINDS[kind]
+    d = cls()
+    values: dict[str, Any] = {
+        "reward_scale": t.number("reward_scale", "per m", d.reward_scale, low=0.0, low_open=True),
+        "episode_duration": t.number("episode_duration", "s", d.episode_duration,
+                                     low=ACTION_PERIOD),
+    }
+    if cls is ReachTask:
+        values.update(
+            target=t.number("target", "m ahead of the start", d.target),
+            tolerance=t.number("tolerance", "m", d.tolerance, low=0.0, low_open=True),
+            slow_zone=t.number("slow_zone", "m", d.slow_zone, low=0.0),
+            speed_penalty=t.number("speed_penalty", "1", d.speed_penalty, low=0.0),
+        )
+    t.finish()
+    return cls(**values)
+
+
+def _training(t: SpecTable | None, source: str) -> Training:
+    if t is None:
+        return Training()
+    d = Training()
+    recipe = t.string("recipe", d.recipe, choices=tuple(RECIPES))
+    steps = t.number("steps", "environment steps per seed", d.steps, low=1, integer=True)
+    td3 = t.table("td3", required=False)
+    overrides: dict[str, Any] = {}
+    if td3 is not None:
+        from ..td3.algorithm import TD3Config
+
+        fields = {f.name: f for f in dataclasses.fields(TD3Config)}
+        for key in td3.data:
+            if key not in fields or key == "seed":
+                raise td3.error(key, "not a TD3 setting (see TD3Config; the seed is set per run)")
+            default = getattr(TD3Config(), key)
+            value = td3.raw(key)
+            if isinstance(default, bool) or isinstance(value, bool):
+                ok = isinstance(value, bool) and isinstance(default, bool)
+            elif isinstance(default, (int, float)):
+                ok = isinstance(value, (int, float)) and (isinstance(value, int) or
+                                                          isinstance(default, float))
+            elif isinstance(default, tuple):
+                ok = isinstance(value, list) and all(isinstance(v, int) for v in value)
+                value = tuple(value)
+            else:
+                ok = isinstance(value, type(default))
+            if not ok:
+                raise td3.error(key, f"expected a value like {default!r}, got {value!r}")
+            overrides[key] = value
+        td3.finish()
+    t.finish()
+    return Training(recipe, steps, overrides)
+
+
+def _yardstick(t: SpecTable | None) -> Yardstick:
+    if t is None:
+        return Yardstick()
+    out = Yardstick(distance_10s=t.number("distance_10s", "m", 0.0, low=0.0),
+                    source=t.string("source", ""))
+    t.finish()
+    return out

@@ -1,0 +1,434 @@
+"""``msr case``, ``train``, ``bench``, ``refine``, ``generate``, ``baseline``, ``figures``, ``demo``
+(the policy commands are :mod:`elastica_magnetic_rl.cli.policy_commands`): thin wrappers over
+:mod:`elastica_magnetic_rl.cases.case`, :mod:`elastica_magnetic_rl.sweep.training`,
+:mod:`elastica_magnetic_rl.shipping.generate`, :mod:`elastica_magnetic_rl.shipping.baselines` and
+:mod:`elastica_magnetic_rl.reports.figures` (heavy imports happen inside the commands)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+from elastica_magnetic.cli import CommandError, duration_option, number, print_result
+
+from ..cases.recipes import RECIPE_SUMMARIES, RECIPES
+from ..runfiles.rundir import CaseDir, RunDir
+
+CASE_HELP = "a shipped case (`msr case list`: m1-4mT, m2-4mT, m1-10mT, m2-10mT, ...) or a spec file (.toml)"
+
+
+def case_option(value: str):
+    """``--case NAME_OR_PATH``: the case, loaded and checked at parse time (a bad spec file is an
+    argparse error naming the file and the key, before any work starts)."""
+    from elastica_magnetic.specfile import SpecError
+
+    from ..cases.case import load_case
+
+    try:
+        return load_case(value)
+    except SpecError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _add_rollout_options(p: argparse.ArgumentParser, out: Path) -> None:
+    """The options of the commands that roll a policy out and write what ``generate`` writes."""
+    p.add_argument("--duration", type=duration_option(), default=10.0, help="s")
+    p.add_argument("--out", type=Path, default=out)
+    p.add_argument("--physics", choices=("accurate", "training"), default="accurate")
+    p.add_argument("--no-figures", action="store_true", help="skip the figures and the GIF")
+    p.add_argument("--no-gif", action="store_true", help="skip the GIF")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add this module's sub-commands to ``msr``."""
+    for add in (_add_case_command, _add_train_command, _add_bench_command, _add_refine_command,
+                _add_generate_command, _add_baseline_command, _add_figures_command, _add_demo_command):
+        add(sub)
+
+
+def _add_case_command(sub: argparse._SubParsersAction) -> None:
+    """``msr case``."""
+    p = sub.add_parser(
+        "case",
+        help="list the shipped cases, or show one as a spec file to copy and edit",
+        description="`msr case list`: the shipped cases (robot, field limit, task, yardstick). "
+        "`msr case show NAME_OR_PATH --toml > my.toml`: the complete spec, every default written "
+        "out, units in comments; edit it and use it anywhere a case is taken (msr train --case "
+        "my.toml, msr simulate --robot my.toml).",
+    )
+    case_sub = p.add_subparsers(dest="case_command", required=True, metavar="{list,show}")
+    q = case_sub.add_parser("list", help="the shipped cases")
+    q.add_argument("--json", action="store_true")
+    q.set_defaults(func=case_list_command)
+    q = case_sub.add_parser("show", help="one case's complete spec")
+    q.add_argument("case", type=case_option, help=CASE_HELP)
+    q.add_argument("--toml", action="store_true", help="print the spec as TOML (a file to edit)")
+    q.add_argument("--json", action="store_true")
+    q.set_defaults(func=case_show_command)
+
+
+def _add_train_command(sub: argparse._SubParsersAction) -> None:
+    """``msr train``."""
+    p = sub.add_parser(
+        "train",
+        help="train TD3 crawling policies for one or more cases, several seeds in parallel",
+        description="Train TD3 on one or more cases in the mass-scaled training physics (random "
+        "initial fields, 20 s truncated episodes by default: the case's). Each seed writes "
+        "OUT/<case>/seed<k>/ (episodes.csv, TensorBoard scalars, checkpoint.pt, run.json, which "
+        "store the complete case spec); OUT/<case>/summary.json collects the final mean episode "
+        "returns of every seed of the case.",
+    )
+    p.add_argument("--case", type=case_option, required=True, nargs="+",
+                   help=CASE_HELP + "; several make one sweep (cases x seeds jobs)")
+    p.add_argument("--seeds", type=int, default=8, help="number of seeds (default 8)")
+    p.add_argument("--seed-offset", type=int, default=0, help="first seed (default 0)")
+    p.add_argument("--steps", type=int, default=None,
+                   help="environment steps per seed (default: the case's, 100000 for the paper's)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="groups of seeds trained at a time (processes, or Ray tasks in flight; "
+                        "default: the fastest layout for this machine, one per core); alone, a "
+                        "case's seeds are split among W workers (1: all side by side)")
+    p.add_argument("--out", type=Path, default=Path("runs"), help="output folder")
+    p.add_argument("--resume", action="store_true", help="continue runs from their checkpoints")
+    p.add_argument("--physics", choices=("training", "accurate"), default="training")
+    p.add_argument("--episode-duration", type=float, default=None,
+                   help="s (truncation; default: the case's, 20 s for the paper's)")
+    p.add_argument("--threads", type=int, default=None, help="torch threads per worker")
+    p.add_argument("--envs", type=int, default=1,
+                   help="crawlers per seed in one batched simulator (vector env; N transitions and "
+                        "N TD3 updates per vector step; default 1: the single environment)")
+    p.add_argument("--seeds-per-simulator", type=int, default=None, metavar="K",
+                   help="K seeds train side by side in one worker, their crawlers in one batched "
+                        "simulator and their networks updated as one computation; each seed's run "
+                        "is bit-identical to training it alone (default: the fastest layout, "
+                        "seeds / cores)")
+    p.add_argument("--backend", choices=("process", "ray"), default="process",
+                   help="where the seeds run: worker processes on this machine (default) or Ray tasks "
+                        "(a local Ray instance with --workers x --threads CPUs, or the cluster at "
+                        "--address); same run directories and summary.json")
+    p.add_argument("--address", default=None,
+                   help="Ray cluster address for --backend ray (auto, HOST:PORT, ray://HOST:10001); "
+                        "--out must then be on a filesystem all nodes see at the same path")
+    p.add_argument("--recipe", choices=tuple(RECIPES), default=None,
+                   help="training recipe (default: the case's, pink-ln for the paper's cases; "
+                        "--recipe paper: the authors'): "
+                        + "; ".join(f"{name}: {line}" for name, line in RECIPE_SUMMARIES.items())
+                        + " (docs/training.md)")
+    g = p.add_argument_group("TD3 overrides (default: the paper's settings)")
+    g.add_argument("--learning-starts", type=int, default=None, help="warm-up steps (2500)")
+    g.add_argument("--batch-size", type=int, default=None, help="minibatch (256)")
+    g.add_argument("--hidden", type=str, default=None, help="hidden sizes, e.g. 256,256")
+    g.add_argument("--buffer-size", type=int, default=None, help="replay capacity (1e6)")
+    g.add_argument("--target-noise-clip", type=float, default=None, help="(0.8, the authors')")
+    g.add_argument("--checkpoint-every", type=int, default=None, help="steps (10000)")
+    g.add_argument("--precision", choices=("fp32", "bf16"), default=None,
+                   help="arithmetic of the networks' matrix products in the updates: fp32 (the "
+                        "paper's, default) or bf16 (bfloat16 products on float32 weights; falls "
+                        "back to fp32 on a CPU without bfloat16 units)")
+    g.add_argument("--device", choices=("cpu", "cuda"), default=None,
+                   help="where the networks train (default cpu)")
+    g.add_argument("--eval-every", type=int, default=None,
+                   help="steps between evaluations of the deterministic policy from a zero field, "
+                        "10 s, best actor kept in best.pt (5000; 0: none)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.set_defaults(func=train_command)
+
+
+def _add_bench_command(sub: argparse._SubParsersAction) -> None:
+    """``msr bench``."""
+    p = sub.add_parser(
+        "bench",
+        help="step cost, batched robots, environment and TD3 rates, training time of 8 seeds",
+        description="In one run: the paper robot's step cost (ours vs per-element Python loops, "
+        "training and accurate physics), the per-robot-step cost of N = 1, 4, 16, 64 robots in one "
+        "batched simulator, environment steps/s (single and vector environment), TD3 updates/s "
+        "(one seed, and seeds stacked, fp32 and bf16) against the matrix-product rate, and the wall "
+        "time of 8 seeds x 1e5 steps extrapolated from a real run in the default layout "
+        "(train_8_seeds_1e5_s). A few minutes.",
+    )
+    p.add_argument("--steps", type=number("", 1, integer=True), default=1000,
+                   help="time steps per step-cost measurement")
+    p.add_argument("--repeats", type=number("", 1, integer=True), default=3,
+                   help="measurements per configuration")
+    p.add_argument("--vector-envs", type=number("", 1, integer=True), default=16,
+                   help="crawlers in the vector environment measured (default 16)")
+    p.add_argument("--train-seeds", type=number("", 0, integer=True), default=8, metavar="N",
+                   help="seeds of the real training run behind train_8_seeds_1e5_s (default 8; "
+                        "0: skip it)")
+    p.add_argument("--quick", action="store_true", help="tiny measurements (smoke test; rough numbers)")
+    p.add_argument("--memory-seeds", type=number("", 0, integer=True), default=0, metavar="N",
+                   help="also measure the peak memory of a real N-seed training run in the default "
+                   "layout (Linux; a few minutes for N = 8; default 0: skip)")
+    p.add_argument("--memory-steps", type=number("", 1, integer=True), default=3000,
+                   help="environment steps per seed of that run (default 3000: past the warm-up)")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.set_defaults(func=bench_command)
+
+
+def _add_refine_command(sub: argparse._SubParsersAction) -> None:
+    """``msr refine``."""
+    p = sub.add_parser(
+        "refine",
+        help="continue training a run in the accurate physics (agent and replay buffer)",
+        description="Load a run's agent and replay buffer and continue training for --steps "
+        "environment steps in the accurate physics (true density, dt 8e-6 s: ~12.5x the cost of a "
+        "training step). Writes RUN/refined/ unless --out is given.",
+    )
+    p.add_argument("run", type=Path, help="run directory (or its checkpoint.pt)")
+    p.add_argument("--steps", type=int, default=1000)
+    p.add_argument("--out", type=Path, default=None, help="default: RUN/refined")
+    p.add_argument("--resume", action="store_true", help="continue an interrupted refinement")
+    p.add_argument("--episode-duration", type=float, default=20.0, help="s (truncation)")
+    p.add_argument("--device", choices=("cpu", "cuda"), default=None,
+                   help="where the networks train (default: the run's)")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=refine_command)
+
+
+def _add_generate_command(sub: argparse._SubParsersAction) -> None:
+    """``msr generate``."""
+    p = sub.add_parser(
+        "generate",
+        help="generate a field waveform with a policy (accurate physics, field from zero)",
+        description="Run a policy deterministically in the accurate physics with the field starting "
+        "at zero; write fields.csv (index, mag_x, mag_y, mag_z in mT, 100 rows/s), trajectory.csv, "
+        "rollout.npz, generate.json, the figures and gait.gif.",
+    )
+    p.add_argument("policy", help="run directory, checkpoint, shipped-policy folder or shipped name "
+                                  "(e.g. m1-4mT)")
+    _add_rollout_options(p, Path("out/generate"))
+    p.set_defaults(func=generate_command)
+
+
+def _add_baseline_command(sub: argparse._SubParsersAction) -> None:
+    """``msr baseline``."""
+    p = sub.add_parser(
+        "baseline",
+        help="generate with a hand-designed rotating field (the yardstick for learned policies)",
+        description="Turn the field at the case's limit at a constant rate, through the agent's "
+        "own action channel (0.3 mT per axis per 0.01 s, field from zero), and write the same "
+        "files as `msr generate`: a rotating field rolls the robot, the gait to beat.",
+    )
+    p.add_argument("--case", type=case_option, required=True, help=CASE_HELP)
+    p.add_argument("--period", type=number("s", 0.0, low_open=True), default=2.0,
+                   help="s per turn of the field (2)")
+    p.add_argument("--counterclockwise", action="store_true",
+                   help="turn counter-clockwise (rolls towards -x)")
+    _add_rollout_options(p, Path("out/baseline"))
+    p.set_defaults(func=baseline_command)
+
+
+def _add_figures_command(sub: argparse._SubParsersAction) -> None:
+    """``msr figures``."""
+    p = sub.add_parser(
+        "figures",
+        help="regenerate figures of training runs or of a generate output",
+        description="PATH is a training output (learning curves per case) or a generate output "
+        "(holding rollout.npz: gait, field, contact and Q-value figures, GIF).",
+    )
+    p.add_argument("path", type=Path)
+    p.add_argument("--out", type=Path, default=None, help="default: PATH")
+    p.add_argument("--no-gif", action="store_true")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=figures_command)
+
+
+def _add_demo_command(sub: argparse._SubParsersAction) -> None:
+    """``msr demo``."""
+    p = sub.add_parser(
+        "demo",
+        help="generate with the shipped pattern-1 4 mT policy (fields, figures, animation)",
+    )
+    p.add_argument("--out", type=Path, default=Path("out/demo"))
+    p.add_argument("--duration", type=duration_option(), default=10.0, help="s")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=demo_command)
+
+
+def _overrides(args: argparse.Namespace) -> dict:
+    """TD3 settings given on the command line, checked before any work starts."""
+    out = {}
+    for name in ("learning_starts", "batch_size", "buffer_size", "target_noise_clip",
+                 "checkpoint_every", "eval_every", "precision", "device"):
+        value = getattr(args, name)
+        if value is not None:
+            out[name] = value
+    for name, least in (("learning_starts", 0), ("batch_size", 1), ("buffer_size", 1),
+                        ("checkpoint_every", 1), ("eval_every", 0)):
+        if out.get(name, least) < least:
+            raise CommandError(f"--{name.replace('_', '-')} must be >= {least}, got {out[name]}")
+    clip = out.get("target_noise_clip", 0.0)
+    if not (math.isfinite(clip) and clip >= 0):
+        raise CommandError(f"--target-noise-clip must be a finite number >= 0 (a fraction of the "
+                           f"action half-range), got {clip}")
+    if args.hidden:
+        try:
+            out["hidden_sizes"] = tuple(int(h) for h in args.hidden.split(","))
+        except ValueError:
+            raise CommandError(f"--hidden must be comma-separated integers, got {args.hidden!r}") from None
+        if not out["hidden_sizes"] or min(out["hidden_sizes"]) < 1:
+            raise CommandError(f"--hidden: every layer needs at least 1 unit, got {args.hidden!r}")
+    if args.device == "cuda":
+        import torch
+
+        if not torch.cuda.is_available():
+            raise CommandError("--device cuda: no CUDA device is available to this torch build")
+    return out
+
+
+def _check_run_options(args: argparse.Namespace) -> None:
+    """Numeric options of train/refine, checked at parse time (finite, in range, with the unit)."""
+    duration = args.episode_duration
+    if duration is not None and not (math.isfinite(duration) and 0 < duration <= 3600):
+        raise CommandError(f"--episode-duration must be a finite duration in (0, 3600] s, got {duration}")
+    if args.steps is not None and args.steps < 1:
+        raise CommandError(f"--steps must be >= 1, got {args.steps}")
+    for name in ("seeds", "workers", "threads", "envs", "seeds_per_simulator"):
+        value = getattr(args, name, None)
+        if value is not None and value < 1:
+            raise CommandError(f"--{name.replace('_', '-')} must be >= 1, got {value}")
+    if getattr(args, "seed_offset", 0) < 0:
+        raise CommandError(f"--seed-offset must be >= 0, got {args.seed_offset}")
+
+
+def _interrupted(folders: str) -> int:
+    print(f"interrupted: training stopped. The last checkpoints are in {folders}; continue with "
+          "the same command and --resume", file=sys.stderr)
+    return 130
+
+
+def train_command(args: argparse.Namespace) -> int:
+    from ..sweep.training import train_cases
+
+    _check_run_options(args)
+    overrides = _overrides(args)
+    try:
+        summaries = train_cases(
+            args.case, seeds=args.seeds, steps=args.steps, workers=args.workers, out=args.out,
+            resume=args.resume, seed_offset=args.seed_offset, config_overrides=overrides,
+            physics=args.physics, episode_duration=args.episode_duration,
+            progress=not args.no_progress, threads=args.threads, envs=args.envs,
+            backend=args.backend, address=args.address,
+            seeds_per_simulator=args.seeds_per_simulator, recipe=args.recipe,
+        )
+    except (FileExistsError, FileNotFoundError, ValueError, ConnectionError) as exc:
+        raise CommandError(str(exc)) from None  # ConnectionError: --address
+    except KeyboardInterrupt:
+        return _interrupted(", ".join(str(args.out / case.name / f"{CaseDir.SEED_PREFIX}*")
+                                      for case in args.case))
+    failed = any(s["failed"] for s in summaries.values())
+    if not args.json:
+        summaries = {case: {k: v for k, v in summary.items() if k != "seeds"} | {
+            CaseDir.seed_name(r["seed"]): r.get("error") or f"final mean return {r['final_mean_return']:.4g} "
+            f"({r['episodes']} episodes)" for r in summary["seeds"]} for case, summary in summaries.items()}
+    # one case: its summary, as before; several: the summaries by case
+    print_result(next(iter(summaries.values())) if len(summaries) == 1 else summaries, args.json)
+    return 1 if failed else 0
+
+
+def case_list_command(args: argparse.Namespace) -> int:
+    from ..cases.case import case_names, load_case
+
+    rows = []
+    for name in case_names():
+        case = load_case(name)
+        rows.append({"name": name, "robot": case.robot.name,
+                     "magnetization": case.robot.tables["robot"]["magnetization"]["kind"],
+                     "field_limit_mT": 1e3 * case.field_limit, "task": case.task.kind,
+                     "target": case.target_label, "description": case.description})
+    if args.json:
+        print_result({"cases": rows}, True)
+    else:
+        for r in rows:
+            print(f"{r['name']:<14} {r['robot']:<12} {r['magnetization']:<18} "
+                  f"{r['field_limit_mT']:>5g} mT  {r['task']:<6} target {r['target']}")
+    return 0
+
+
+def case_show_command(args: argparse.Namespace) -> int:
+    case = args.case
+    if args.toml:
+        sys.stdout.write(case.toml())
+    else:
+        print_result(case.to_dict(), args.json)
+    return 0
+
+
+def bench_command(args: argparse.Namespace) -> int:
+    from ..reports.bench import benchmark, training_peak_memory
+
+    if args.steps < 1 or args.repeats < 1 or args.vector_envs < 1:
+        raise CommandError("--steps, --repeats and --vector-envs must be >= 1")
+    if args.memory_seeds < 0 or args.memory_steps < 1 or args.train_seeds < 0:
+        raise CommandError("--memory-seeds and --train-seeds must be >= 0 and --memory-steps >= 1")
+    result = benchmark(steps=args.steps, repeats=args.repeats, quick=args.quick,
+                       vector_envs=args.vector_envs, train_seeds=args.train_seeds)
+    if args.memory_seeds:
+        result["training_memory"] = training_peak_memory(args.memory_seeds, args.memory_steps)
+    print_result(result, args.json)
+    return 0
+
+
+def refine_command(args: argparse.Namespace) -> int:
+    from ..sweep.training import refine
+
+    _check_run_options(args)
+    try:
+        result = refine(args.run, steps=args.steps, out=args.out, resume=args.resume,
+                        progress=not args.no_progress, episode_duration=args.episode_duration,
+                        device=args.device)
+    except (FileExistsError, FileNotFoundError, ValueError) as exc:
+        raise CommandError(str(exc)) from None
+    except KeyboardInterrupt:
+        return _interrupted(str(args.out or RunDir(args.run).refined.path))
+    print_result(result, args.json)
+    return 0
+
+
+def generate_command(args: argparse.Namespace) -> int:
+    from ..shipping.generate import generate
+
+    result = generate(args.policy, duration=args.duration, out=args.out, physics=args.physics,
+                      progress=not args.no_progress, figures=not args.no_figures,
+                      gif=not args.no_gif)
+    print_result(result, args.json)
+    return 0 if not result["diverged"] else 1
+
+
+def baseline_command(args: argparse.Namespace) -> int:
+    from ..shipping.baselines import RotatingFieldPolicy
+    from ..shipping.generate import generate
+
+    try:
+        policy = RotatingFieldPolicy(args.case, args.period, clockwise=not args.counterclockwise)
+    except ValueError as exc:
+        raise CommandError(f"--period: {exc}") from None
+    result = generate(policy, duration=args.duration, out=args.out, physics=args.physics,
+                      progress=not args.no_progress, figures=not args.no_figures,
+                      gif=not args.no_gif)
+    print_result(result, args.json)
+    return 0 if not result["diverged"] else 1
+
+
+def figures_command(args: argparse.Namespace) -> int:
+    from ..reports.figures import make_figures
+    from ..shipping.policy_files import resolve_policy
+
+    print_result(make_figures(args.path, args.out, gif=not args.no_gif, load_policy=resolve_policy),
+                 args.json)
+    return 0
+
+
+def demo_command(args: argparse.Namespace) -> int:
+    from ..shipping.generate import demo
+
+    result = demo(args.out, duration=args.duration, progress=not args.no_progress)
+    print_result(result, args.json)
+    return 0 if not result["diverged"] else 1

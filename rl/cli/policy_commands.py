@@ -1,0 +1,282 @@
+"""``msr export-seeds``, ``seeds``, ``ship``, ``notes``, ``export``, ``diagnose``: what a user does with
+trained policies (collect every seed, compare recipes, pack, annotate, export, diagnose). Thin wrappers over
+:mod:`elastica_magnetic_rl.shipping.seed_export`, :mod:`elastica_magnetic_rl.shipping.seed_report`,
+:mod:`elastica_magnetic_rl.shipping.ship`, :mod:`elastica_magnetic_rl.shipping.export` and
+:mod:`elastica_magnetic_rl.reports.diagnostics` (heavy imports happen inside the commands); training and
+rollouts are in :mod:`elastica_magnetic_rl.cli.commands`."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+from elastica_magnetic.cli import CommandError, duration_option, print_result
+
+from .commands import CASE_HELP, case_option
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add this module's sub-commands to ``msr``."""
+    for add in (_add_export_seeds_command, _add_seeds_command, _add_ship_command, _add_notes_command,
+                _add_export_command, _add_diagnose_command):
+        add(sub)
+
+
+def _add_export_seeds_command(sub: argparse._SubParsersAction) -> None:
+    """``msr export-seeds``."""
+    p = sub.add_parser(
+        "export-seeds",
+        help="every seed of a case as a policy folder, with seeds.json (10 s distances)",
+        description="Evaluate every seed of a training case folder (OUT/<case>: its final "
+        "checkpoint and best.pt, 10 s in the accurate physics from a zero field, cached per seed) "
+        "and write, for each seed, the farther of the two actors as a policy folder "
+        "DEST/seed<k>/ (actor.pt, policy.json: msr generate accepts it) and DEST/seeds.json.",
+    )
+    p.add_argument("case_dir", type=Path, help="a case folder of msr train, e.g. runs/m1-4mT")
+    p.add_argument("--dest", type=Path, required=True,
+                   help="e.g. rl/policies/m1-4mT/seeds/paper")
+    p.add_argument("--duration", type=float, default=10.0, help="evaluation length, s")
+    p.add_argument("--workers", type=int, default=1, help="seeds evaluated at a time (processes)")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=export_seeds_command)
+
+
+def _add_seeds_command(sub: argparse._SubParsersAction) -> None:
+    """``msr seeds``."""
+    p = sub.add_parser(
+        "seeds",
+        help="every committed seed of a case, by recipe: successes and distances",
+        description="Read rl/policies/<case>/seeds/<recipe>/seeds.json (written by msr "
+        "export-seeds) for each case and print, per recipe, how many seeds meet the case's target "
+        "and each seed's 10 s distance; optionally draw them and keep the table in the case's "
+        "shipped model card.",
+    )
+    p.add_argument("case", nargs="+", type=case_option, help=CASE_HELP)
+    p.add_argument("--policies", type=Path, default=None,
+                   help="folder of policy folders (default: the shipped policies, rl/policies)")
+    p.add_argument("--figure", type=Path, default=None, metavar="DIR",
+                   help="write DIR/seeds_<case>.png (every seed's distance per recipe) and "
+                   "DIR/learning_curves_<case>.png (from the logs the exported seeds keep)")
+    p.add_argument("--card", action="store_true",
+                   help="also write the table into <policies>/<case>/MODEL_CARD.md")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=seeds_command)
+
+
+def _add_ship_command(sub: argparse._SubParsersAction) -> None:
+    """``msr ship``."""
+    p = sub.add_parser(
+        "ship",
+        help="pack a run into a shipped policy (rl/policies/<name>/) with a model card",
+        description="Write actor.pt, critic.pt, policy.json and MODEL_CARD.md for a run's checkpoint "
+        "into DEST/<name> (default rl/policies/<name>); measures the 10 s distance in the accurate "
+        "physics unless --no-measure.",
+    )
+    p.add_argument("run", type=Path, help="run directory or checkpoint (e.g. runs/m1-4mT/seed3/refined)")
+    p.add_argument("--name", required=True, help="policy name, e.g. m1-4mT")
+    p.add_argument("--dest", type=Path, default=None, help="default: the package's rl/policies")
+    p.add_argument("--no-measure", action="store_true", help="skip the evaluation run")
+    p.add_argument("--duration", type=duration_option(), default=10.0, help="evaluation length, s")
+    p.add_argument("--force", action="store_true", help="overwrite an existing policy")
+    p.add_argument("--evaluate-seeds", action="store_true",
+                   help="also run every seed of the case (final checkpoints) in the accurate physics "
+                   "and list their distances in the model card (cached per seed)")
+    p.add_argument("--notes", type=Path, default=None,
+                   help="Markdown file whose text becomes the model card's Notes section")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=ship_command)
+
+
+def _add_notes_command(sub: argparse._SubParsersAction) -> None:
+    """``msr notes``."""
+    p = sub.add_parser(
+        "notes",
+        help="show or replace a shipped policy's notes (policy.json and its model card's Notes)",
+        description="Without --file, print the notes. With --file, its Markdown replaces them in "
+        "policy.json and in MODEL_CARD.md's Notes section together (an empty file removes them).",
+    )
+    p.add_argument("policy", help="shipped-policy name or folder, e.g. m2-4mT")
+    p.add_argument("--file", type=Path, default=None, help="Markdown file with the new notes")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=notes_command)
+
+
+def _add_export_command(sub: argparse._SubParsersAction) -> None:
+    """``msr export``."""
+    p = sub.add_parser(
+        "export",
+        help="export a policy's actor as TorchScript plus its observation/action JSON",
+    )
+    p.add_argument("policy", help="run directory, checkpoint, shipped-policy folder or shipped name")
+    p.add_argument("--out", type=Path, default=Path("out/export"))
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=export_command)
+
+
+def _add_diagnose_command(sub: argparse._SubParsersAction) -> None:
+    """``msr diagnose``."""
+    p = sub.add_parser(
+        "diagnose",
+        help="is a run's critic calibrated, is its actor saturated? (from its checkpoint)",
+        description="For each run (a run directory or its checkpoint.pt), on its last --recent "
+        "transitions: the critic's Q against the discounted return of the same transitions "
+        "(Monte-Carlo, from the stored rewards), and how often the actor's outputs before tanh "
+        "are beyond |3| (saturated: the actor stops learning). --figure DIR draws both per run.",
+    )
+    p.add_argument("run", type=Path, nargs="+", help="run directory or checkpoint")
+    p.add_argument("--recent", type=int, default=20_000, help="last transitions to use (default 20000)")
+    p.add_argument("--figure", type=Path, default=None, help="write health_<case>_seed<k>.png here")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=diagnose_command)
+
+
+def export_seeds_command(args: argparse.Namespace) -> int:
+    from ..shipping.seed_export import export_seeds
+
+    if not (math.isfinite(args.duration) and 0 < args.duration <= 600):
+        raise CommandError(f"--duration must be a finite time in (0, 600] s, got {args.duration}")
+    if args.workers < 1:
+        raise CommandError(f"--workers must be >= 1, got {args.workers}")
+    try:
+        result = export_seeds(args.case_dir, args.dest, args.duration,
+                              progress=not args.no_progress, workers=args.workers)
+    except (FileNotFoundError, ValueError) as exc:
+        raise CommandError(str(exc)) from None
+    print_result(result, args.json)
+    return 0
+
+
+def seeds_command(args: argparse.Namespace) -> int:
+    from ..shipping.policy_files import POLICIES_DIR
+    from ..shipping.seed_report import (
+        case_seeds,
+        learning_curves_by_recipe,
+        recipes_markdown,
+        seeds_figure,
+        seeds_markdown,
+        update_model_card,
+    )
+
+    policies = args.policies if args.policies is not None else POLICIES_DIR
+    if not policies.is_dir():
+        raise CommandError(f"--policies {policies}: no such folder")
+    if args.figure is not None and args.figure.exists() and not args.figure.is_dir():
+        raise CommandError(f"--figure {args.figure}: exists and is not a folder")
+    reports, by_case = [], {}
+    for case in args.case:
+        try:
+            groups = case_seeds(case, policies)
+        except ValueError as exc:
+            raise CommandError(str(exc)) from None
+        by_case[case.name] = groups
+        report = {"case": case.name, "recipes": [g.to_dict() for g in groups],
+                  "table": seeds_markdown(case, groups)}
+        if args.figure is not None and groups:
+            args.figure.mkdir(parents=True, exist_ok=True)
+            report["figure"] = str(seeds_figure(case, groups, args.figure / f"seeds_{case.name}.png"))
+            curves = learning_curves_by_recipe(case, groups,
+                                               args.figure / f"learning_curves_{case.name}.png")
+            if curves is not None:
+                report["learning_curves"] = str(curves)
+        if args.card:
+            card = policies / case.name / "MODEL_CARD.md"
+            if not card.is_file():
+                raise CommandError(f"--card: {card}: no model card (ship a policy of {case.name} first)")
+            report["card_updated"] = update_model_card(card, case, groups)
+        reports.append(report)
+    recipes = recipes_markdown(by_case)
+    if args.json:
+        print_result({"cases": reports, "recipes_table": recipes}, True)
+    else:
+        for report in reports:
+            print(f"## {report['case']}\n\n{report['table']}\n")
+        if len(reports) > 1:
+            print(f"## Recipes across the cases\n\n{recipes}\n")
+    return 0
+
+
+def ship_command(args: argparse.Namespace) -> int:
+    from ..shipping.ship import ship
+
+    notes = None
+    if args.notes is not None:
+        if not args.notes.is_file():
+            raise CommandError(f"--notes {args.notes}: no such file")
+        notes = args.notes.read_text()
+    try:
+        result = ship(args.run, args.name, dest=args.dest, measure=not args.no_measure,
+                      duration=args.duration, progress=not args.no_progress, overwrite=args.force,
+                      evaluate_all_seeds=args.evaluate_seeds, notes=notes)
+    except (FileExistsError, FileNotFoundError) as exc:
+        raise CommandError(str(exc)) from None
+    print_result(result, args.json)
+    return 0
+
+
+def notes_command(args: argparse.Namespace) -> int:
+    from ..shipping.policy_files import resolve_policy
+    from ..shipping.ship import set_notes
+
+    if args.file is None:
+        policy = resolve_policy(args.policy)
+        notes = policy.meta.get("notes") if policy.kind == "shipped" else None
+        if args.json:
+            print_result({"policy": str(policy.source), "notes": notes}, True)
+        else:
+            print(notes or "(no notes)")
+        return 0
+    if not args.file.is_file():
+        raise CommandError(f"--file {args.file}: no such file")
+    try:
+        result = set_notes(args.policy, args.file.read_text())
+    except ValueError as exc:
+        raise CommandError(str(exc)) from None
+    print_result(result, args.json)
+    return 0
+
+
+def export_command(args: argparse.Namespace) -> int:
+    from ..shipping.export import export_policy
+
+    print_result(export_policy(args.policy, args.out), args.json)
+    return 0
+
+
+def diagnose_command(args: argparse.Namespace) -> int:
+    from ..reports.diagnostics import health_figure, public, run_health
+
+    if args.recent < 2:
+        raise CommandError(f"--recent must be >= 2 transitions, got {args.recent}")
+    if args.figure is not None and args.figure.exists() and not args.figure.is_dir():
+        raise CommandError(f"--figure {args.figure}: exists and is not a folder")
+    for run in args.run:  # every path checked before the slow part
+        if not run.exists():
+            raise CommandError(f"{run}: no such run directory or checkpoint")
+    rows = []
+    for run in args.run:
+        try:
+            health = run_health(run, args.recent)
+        except ValueError as exc:
+            raise CommandError(str(exc)) from None
+        row = public(health)
+        if args.figure is not None:
+            folder = run if run.is_dir() else run.parent
+            name = f"health_{folder.parent.name}_{folder.name}.png"
+            row["figure"] = str(health_figure(health, args.figure / name))
+        rows.append(row)
+    if args.json:
+        print_result({"runs": rows}, True)
+        return 0
+    print(f"{'run':<40} {'step':>7} {'Q(s,a)':>9} {'return':>15} {'critic':>14} {'saturated':>12}")
+    for r in rows:
+        sat = "/".join(f"{100 * f:.0f}%" for f in r["saturated_fraction"])
+        print(f"{r['run'][-40:]:<40} {r['global_step']:>7} {r['q_data_mean']:>9.3g} "
+              f"{r['return_mean']:>8.3g} +-{r['return_std']:<5.2g} "
+              f"{'OVERESTIMATES' if r['critic_overestimates'] else 'ok':>14} "
+              f"{sat:>12}{' SATURATED' if r['actor_saturated'] else ''}")
+        if "figure" in r:
+            print(f"  figure: {r['figure']}")
+    return 0

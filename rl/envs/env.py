@@ -1,0 +1,561 @@
+"""Gymnasium environment of the crawling magnetic robot of Yao et al. 2023 (``MagneticCrawler-v0``).
+
+The agent changes a uniform field in the x-y plane by small increments at 100 Hz; the reward is the
+forward (+x) displacement of the robot's middle node. Everything is SI inside; the observation is
+scaled so that the network sees the same numbers as the authors' network did in their mm units.
+
+Geometry and conventions
+------------------------
+The robot (64 elements, 65 nodes) starts straight along +x from the origin, centreline at ``y = 0``
+resting on the ground plane ``y = -r`` (``r`` the equivalent rod radius); gravity acts along -y and
+the robot bends in the x-y plane. Angles are counter-clockwise positive seen from +z.
+
+Observation (float32, shape ``(4 n + 4,)`` = ``(260,)`` for ``n = 64`` elements)
+--------------------------------------------------------------------------------
+In the order of the authors' code (angular velocity first; see :data:`OBSERVATION_LAYOUT` for the
+index slices and :data:`OBSERVATION_SCALES` for the factors, :func:`observation_spec` for a JSON
+description):
+
+========================  ======  ============================================================
+block                     size    value
+========================  ======  ============================================================
+``angular_velocity``      n       ``0.25 * omega_z`` per element, omega_z in rad/s: the bending
+                                  angular velocity about lab +z (= ``omega_collection[1]``,
+                                  the material ``d2`` axis, for planar motion), CCW positive
+``orientation``           n       ``atan2(t_y, t_x)`` per element, rad, ``t = d3`` the tangent
+                                  director (equal to the unit tangent up to shear)
+``height``                n + 1   ``100 * y`` per node where ``y > 0`` else 0, ``y`` in m
+                                  (the authors' ``0.1 * y[mm]``)
+``contact``               n + 1   per node, ``1 + 1e4 * max(-y, 0)`` if the node touches the ground
+                                  (``y <= surface_tolerance``, 1e-7 m) else 0, ``y`` in m (the
+                                  authors' ``1 + 10 * penetration[mm]``)
+``field_amplitude``       1       ``200 * |B|``, ``|B|`` in T (the authors' ``0.2 * |B|[mT]``)
+``field_angle``           1       ``atan2(B_y, B_x)``, rad (0 for a zero field)
+========================  ======  ============================================================
+
+Action: ``Box([-1, 1]^2)`` float32, mapped to a field increment ``(dB_x, dB_y) = 0.3 mT * a``; the
+new field is clipped per component and by amplitude to the field limit (4 or 10 mT) by
+:class:`~elastica_magnetic.ControlledField`, then held for the 0.01 s of the step.
+
+Reward: ``1e4 * dx`` with ``dx`` (m) the x displacement of node 32 (the middle node, as the
+authors) during the step: the authors' ``10 x displacement in mm``.
+
+Episode end: the time limit (default 20 s = 2000 steps) is a **truncation** (the task is
+continuing; bootstrap through it). Only a numerical blow-up terminates: ``terminated=True`` with
+the reward :attr:`MagneticCrawlerEnv.divergence_penalty` (default -10) and the last finite
+observation.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import gymnasium as gym
+import numpy as np
+from numpy.typing import NDArray
+
+from elastica_magnetic import (
+    ControlledField,
+    RobotSpec,
+    SimulationDiverged,
+    build_simulation,
+    yao2023_robot,
+)
+from elastica_magnetic.presets import ACTION_PERIOD
+
+from ..cases.case import Case, load_case
+from ..cases.tasks import CrawlTask, Task
+
+__all__ = [
+    "CrawlerSetup",
+    "MagneticCrawlerEnv",
+    "OBSERVATION_LAYOUT",
+    "OBSERVATION_SCALES",
+    "MAX_FIELD_INCREMENT",
+    "crawler_observation",
+    "crawler_observation_space",
+    "crawler_setup",
+    "initial_field_value",
+    "observation_layout",
+    "observation_spec",
+]
+
+#: Largest change of a field component per step, T (the paper's 0.3 mT).
+MAX_FIELD_INCREMENT = 0.3e-3
+
+#: Scale factors of the observation, SI input units (see the module docstring).
+OBSERVATION_SCALES: dict[str, float] = {
+    "angular_velocity": 0.25,  # per rad/s
+    "orientation": 1.0,  # per rad
+    "height": 100.0,  # per m (y > 0 only)
+    "contact_base": 1.0,  # value of a touching node with no penetration
+    "contact_penetration": 1e4,  # per m of penetration
+    "field_amplitude": 200.0,  # per T
+    "field_angle": 1.0,  # per rad
+}
+
+
+def observation_layout(
+    n_elements: int = 64, extra: tuple[tuple[str, int], ...] = ()
+) -> dict[str, slice]:
+    """Index slices of each observation block for a rod of ``n_elements`` elements, then the
+    task's ``extra`` blocks (name, size), e.g. the reach task's ``target_offset``."""
+    n, m = int(n_elements), int(n_elements) + 1
+    sizes = (("angular_velocity", n), ("orientation", n), ("height", m), ("contact", m),
+             ("field_amplitude", 1), ("field_angle", 1), *extra)
+    out, start = {}, 0
+    for name, size in sizes:
+        out[name] = slice(start, start + size)
+        start += size
+    return out
+
+
+#: Index slices of the observation of the paper's 64-element robot (260 entries).
+OBSERVATION_LAYOUT: dict[str, slice] = observation_layout(64)
+
+
+def observation_spec(n_elements: int = 64, surface_tolerance: float = 1e-7,
+                     task: Task | None = None) -> dict[str, Any]:
+    """JSON-ready description of the observation (layout, scales, formulas), for exported policies."""
+    extra = () if task is None else task.extra_observation
+    layout = observation_layout(n_elements, extra)
+    formulas = {"target_offset": "100 * (target_x - x_mid) [m]: the reach task's distance to go"}
+    return {
+        "size": next(reversed(layout.values())).stop,
+        "dtype": "float32",
+        "blocks": [
+            {"name": name, "start": s.start, "stop": s.stop} for name, s in layout.items()
+        ],
+        "scales": dict(OBSERVATION_SCALES),
+        "formulas": {
+            "angular_velocity": "0.25 * omega_z [rad/s] per element (bending angular velocity about "
+                                "lab +z, counter-clockwise positive)",
+            "orientation": "atan2(t_y, t_x) per element [rad], t = tangent director d3",
+            "height": "100 * y [m] per node where y > 0, else 0 (y: node centreline height above "
+                      "its resting value; ground plane at y = -r)",
+            "contact": f"1 + 1e4 * max(-y, 0) [m] per node where y <= {surface_tolerance:g} m "
+                       "(touching the ground), else 0",
+            "field_amplitude": "200 * |B| [T]",
+            "field_angle": "atan2(B_y, B_x) [rad]",
+            **{name: formulas[name] for name, _ in extra},
+        },
+        "units": "SI (m, s, rad, T)",
+    }
+
+
+def crawler_observation_space(
+    n_elements: int, field_limit: float, extra: tuple[tuple[str, int], ...] = ()
+) -> gym.spaces.Box:
+    """The float32 ``Box`` of one observation, shape ``(4 n + 4 + extra,)`` (bounds per block:
+    angles in ``[-pi, pi]``, heights, contacts and the amplitude non-negative, the amplitude at most
+    ``200 * field_limit`` (T) plus round-off; the task's extra blocks unbounded)."""
+    n = int(n_elements)
+    layout = observation_layout(n, extra)
+    size = next(reversed(layout.values())).stop
+    low = np.full(size, -np.inf, dtype=np.float32)
+    high = np.full(size, np.inf, dtype=np.float32)
+    for name in ("orientation", "field_angle"):
+        low[layout[name]], high[layout[name]] = -np.pi, np.pi
+    for name in ("height", "contact", "field_amplitude"):
+        low[layout[name]] = 0.0
+    high[layout["field_amplitude"]] = np.float32(
+        OBSERVATION_SCALES["field_amplitude"] * float(field_limit) * (1.0 + 1e-5)
+    )
+    return gym.spaces.Box(low, high, dtype=np.float32)
+
+
+def crawler_observation(
+    rod: Any, field: NDArray[np.float64], layout: dict[str, slice], surface_tolerance: float,
+    extra: NDArray[np.float64] | None = None,
+) -> NDArray[np.float32]:
+    """Observation of one rod (see the module docstring), float32 ``(4 n + 4 + k,)``.
+
+    Args:
+        rod: a :class:`elastica.CosseratRod` (or a view of one robot of a memory block).
+        field: the field now applied, ``(3,)`` in T (lab frame).
+        layout: :func:`observation_layout` of the rod's element count and the task's blocks.
+        surface_tolerance: largest height of a node counted as touching the ground, m.
+        extra: the task's extra observation values ``(k,)`` (see :mod:`elastica_magnetic_rl.cases.tasks`).
+    """
+    sc = OBSERVATION_SCALES
+    stop = layout["field_angle"].stop
+    obs = np.empty(stop if extra is None else stop + len(extra), dtype=np.float64)
+    if extra is not None:
+        obs[stop:] = extra
+    # omega is in the material frame; lab components are Q^T omega. Bending about lab z is
+    # sum_k Q[k, 2] omega[k] (= omega[1] when d2 = +z, as for this planar robot).
+    directors = rod.director_collection
+    omega_z = np.einsum("ki,ki->i", directors[:, 2, :], rod.omega_collection)
+    obs[layout["angular_velocity"]] = sc["angular_velocity"] * omega_z
+    obs[layout["orientation"]] = np.arctan2(directors[2, 1, :], directors[2, 0, :])
+    y = rod.position_collection[1]
+    obs[layout["height"]] = sc["height"] * np.maximum(y, 0.0)
+    touching = y <= surface_tolerance
+    penetration = np.maximum(-y, 0.0)
+    obs[layout["contact"]] = np.where(
+        touching, sc["contact_base"] + sc["contact_penetration"] * penetration, 0.0
+    )
+    obs[layout["field_amplitude"]] = sc["field_amplitude"] * math.hypot(field[0], field[1])
+    obs[layout["field_angle"]] = math.atan2(field[1], field[0])
+    return obs.astype(np.float32)
+
+
+def initial_field_value(
+    initial: str | Any, field_limit: float, rng: np.random.Generator
+) -> Any:
+    """Initial field of an episode, T: ``(3,)`` tuple or array (clipped later by the field rule).
+
+    ``"random"``: B_x, B_y uniform in ``+-0.7 * field_limit`` (two draws from ``rng``, in this
+    order), B_z = 0; ``"zero"``; or a 2- or 3-vector in T (a 2-vector gets B_z = 0).
+    """
+    if isinstance(initial, str):
+        if initial == "random":
+            bound = 0.7 * field_limit
+            bxy = rng.uniform(-bound, bound, size=2)
+            return (bxy[0], bxy[1], 0.0)
+        if initial == "zero":
+            return (0.0, 0.0, 0.0)
+        raise ValueError(f"initial_field must be 'random', 'zero' or a vector, got {initial!r}")
+    initial = np.asarray(initial, dtype=np.float64).reshape(-1)
+    if initial.shape == (2,):
+        initial = np.append(initial, 0.0)
+    return initial
+
+
+@dataclass(frozen=True)
+class CrawlerSetup:
+    """Everything an environment needs, checked: the robot (in the chosen physics), the field
+    limit (T) and increment per unit action (T), the initial field of episodes, the episode length
+    (s and 0.01 s steps), the task and the case it comes from (``None`` for a bare robot)."""
+
+    robot_spec: RobotSpec
+    field_limit: float
+    max_increment: float
+    initial_field: str
+    duration: float
+    n_steps: int
+    task: Task
+    case: Case | None
+
+
+def crawler_setup(
+    case: str | Case | None = None,
+    *,
+    pattern: int | None = None,
+    field_limit: float | None = None,
+    physics: str = "training",
+    initial_field: str | None = None,
+    duration: float | None = None,
+    spec: RobotSpec | None = None,
+    max_increment: float | None = None,
+    task: Task | None = None,
+) -> CrawlerSetup:
+    """Check an environment's arguments (shared by the single and the vector environment).
+
+    With ``case`` (a shipped name, a spec file path or a :class:`~elastica_magnetic_rl.cases.case.Case`),
+    the robot, field limit, increment, task, initial field and episode length come from it;
+    ``initial_field`` and ``duration`` may still be given (evaluations: zero field, 10 s), the
+    others may not. Without it: the paper's robot of ``pattern`` (default 1) or ``spec``, field
+    limit (default 4e-3 T), the crawl task, random initial fields, 20 s episodes.
+    """
+    if physics not in ("training", "accurate"):
+        raise ValueError(f"physics must be 'training' or 'accurate', got {physics!r}")
+    loaded = None
+    if case is not None:
+        given = {k: v for k, v in (("pattern", pattern), ("field_limit", field_limit), ("spec", spec),
+                                   ("max_increment", max_increment), ("task", task)) if v is not None}
+        if given:
+            raise ValueError(f"give either case or {', '.join(given)}, not both")
+        loaded = load_case(case)
+        spec = loaded.robot_spec(physics)  # type: ignore[arg-type]
+        field_limit, max_increment, task = (loaded.field_limit, loaded.actuation.max_increment,
+                                            loaded.task)
+        initial_field = loaded.actuation.initial_field if initial_field is None else initial_field
+        duration = loaded.task.episode_duration if duration is None else duration
+    else:
+        if spec is None:
+            pattern = 1 if pattern is None else pattern
+            if pattern not in (1, 2):
+                raise ValueError(f"pattern must be 1 or 2, got {pattern!r}")
+            spec = yao2023_robot(int(pattern), physics)  # type: ignore[arg-type]
+        field_limit = 4e-3 if field_limit is None else field_limit
+        max_increment = MAX_FIELD_INCREMENT if max_increment is None else max_increment
+        task = CrawlTask() if task is None else task
+        initial_field = "random" if initial_field is None else initial_field
+        duration = 20.0 if duration is None else duration
+    if spec.ground is None:
+        raise ValueError("the crawler environment needs a robot spec with a ground")
+    if not (field_limit > 0.0 and math.isfinite(field_limit)):
+        raise ValueError(f"field_limit must be a positive field in T, got {field_limit}")
+    if not (max_increment > 0.0 and math.isfinite(max_increment)):
+        raise ValueError(f"max_increment must be a positive field in T, got {max_increment}")
+    if initial_field not in ("random", "zero"):
+        raise ValueError(f"initial_field must be 'random' or 'zero', got {initial_field!r}")
+    n_steps = int(round(duration / ACTION_PERIOD))
+    if n_steps < 1:
+        raise ValueError(f"duration must be at least one 0.01 s step, got {duration} s")
+    return CrawlerSetup(spec, float(field_limit), float(max_increment), initial_field,
+                        float(duration), n_steps, task, loaded)
+
+
+class MagneticCrawlerEnv(gym.Env):
+    """The crawling robot driven by field increments (see the module docstring for the spaces).
+
+    Parameters
+    ----------
+    case : str, os.PathLike or Case, optional
+        A shipped case name (``"m1-4mT"``), a spec file or a
+        :class:`~elastica_magnetic_rl.cases.case.Case`: robot, field limit, increment, task, initial
+        field and episode length from it (``gym.make("MagneticCrawler-v0", case="m1-4mT")``).
+        Then ``pattern``, ``field_limit``, ``spec``, ``max_increment`` and ``task`` are not given.
+    pattern : int
+        Magnetization pattern of the paper's robot, 1 (along -x / +x, default) or 2 (along -y / +y).
+    field_limit : float
+        Largest field component and amplitude, T (default 4e-3; the paper: 4e-3 or 10e-3).
+    physics : {"training", "accurate"}
+        ``"training"``: mass-scaled, dt = 1e-4 s (100 substeps per step); ``"accurate"``: true
+        density, dt = 8e-6 s (1250 substeps per step, ~12.5x the cost) (the case's time steps).
+    initial_field : {"random", "zero"}
+        Field at reset: each of B_x, B_y uniform in ``+-0.7 * field_limit`` then clipped (the
+        authors' training setting, the default), or zero (the coils start from zero current: for
+        generating fields). ``reset(options={"initial_field": ...})`` overrides it for one episode;
+        there it may also be a 2- or 3-vector in T.
+    duration : float
+        Episode length, s (100 steps per s; default 20 or the case's); reaching it **truncates**.
+    render_mode : None or "rgb_array"
+    spec : RobotSpec, optional
+        A robot/physics to use instead of ``yao2023_robot(pattern, physics)`` (custom robots,
+        tests). Must have a ground.
+    max_increment : float
+        Field increment per unit action, T (default 0.3e-3).
+    task : CrawlTask or ReachTask, optional
+        The reward and success rule (default: crawl, the paper's).
+    divergence_penalty : float
+        Reward of the step on which the simulation blows up (then ``terminated=True``).
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 100}
+
+    def __init__(
+        self,
+        pattern: int | None = None,
+        field_limit: float | None = None,
+        physics: Literal["training", "accurate"] = "training",
+        initial_field: Literal["random", "zero"] | None = None,
+        duration: float | None = None,
+        render_mode: str | None = None,
+        spec: RobotSpec | None = None,
+        max_increment: float | None = None,
+        divergence_penalty: float = -10.0,
+        case: str | Case | None = None,
+        task: Task | None = None,
+    ) -> None:
+        setup = crawler_setup(case, pattern=pattern, field_limit=field_limit, physics=physics,
+                              initial_field=initial_field, duration=duration, spec=spec,
+                              max_increment=max_increment, task=task)
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        self.setup = setup
+        self.case = setup.case
+        self.task = setup.task
+        self.robot_spec = spec = setup.robot_spec
+        self.pattern = None if pattern is None and (case is not None or spec is not None) else (
+            1 if pattern is None else int(pattern))
+        self.physics = physics
+        self.field_limit = setup.field_limit
+        self.initial_field = setup.initial_field
+        self.duration = setup.duration
+        self.max_episode_steps = setup.n_steps
+        self.render_mode = render_mode
+        self.max_increment = setup.max_increment
+        self.divergence_penalty = float(divergence_penalty)
+
+        n = spec.n_elements
+        self.n_elements = n
+        self.middle_node = n // 2
+        extra = self.task.extra_observation
+        self.layout = observation_layout(n, extra)
+        self.surface_tolerance = float(spec.ground.surface_tolerance)
+        self.observation_space = crawler_observation_space(n, self.field_limit, extra)
+        self.action_space = gym.spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+
+        self.simulation = None
+        self.field: ControlledField | None = None
+        self.steps = 0
+        self.task_state: NDArray[np.float64] | None = None
+        self._last_obs: NDArray[np.float32] | None = None
+        self._diverged = False
+        self._renderer: _SideViewRenderer | None = None
+
+    # -- observation ------------------------------------------------------------------------------
+    def observation(self) -> NDArray[np.float32]:
+        """The observation of the current state (see the module docstring), float32
+        ``(4n+4+k,)`` (``k`` the task's extra entries)."""
+        extra = None
+        if self.task.extra_observation:
+            extra = self.task.observe(self._mid_x(), self.task_state)
+        return crawler_observation(self.simulation.rod, self.field.value, self.layout,
+                                   self.surface_tolerance, extra)
+
+    def _mid_x(self) -> float:
+        return float(self.simulation.rod.position_collection[0, self.middle_node])
+
+    def contact_strength(self) -> NDArray[np.float64]:
+        """Per-node contact indicator (the observation's ``contact`` block, float64 ``(n+1,)``)."""
+        y = self.simulation.rod.position_collection[1]
+        sc = OBSERVATION_SCALES
+        return np.where(y <= self.surface_tolerance,
+                        sc["contact_base"] + sc["contact_penetration"] * np.maximum(-y, 0.0), 0.0)
+
+    @property
+    def time(self) -> float:
+        """Simulated time of the episode, s."""
+        return self.steps * ACTION_PERIOD
+
+    def _info(self) -> dict[str, Any]:
+        return {
+            "time_s": self.time,
+            "field_T": self.field.value.copy(),
+            "mid_x_m": self._mid_x(),
+            "diverged": self._diverged,
+        }
+
+    # -- Gymnasium API ------------------------------------------------------------------------------
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[NDArray[np.float32], dict[str, Any]]:
+        """Rebuild the straight robot at rest and set the initial field (random or zero).
+
+        ``options``: ``{"initial_field": "random" | "zero" | (Bx, By[, Bz]) in T}``.
+        """
+        super().reset(seed=seed)
+        initial = initial_field_value((options or {}).get("initial_field", self.initial_field),
+                                      self.field_limit, self.np_random)
+        self.field = ControlledField(self.field_limit, self.max_increment, initial)
+        self.simulation = build_simulation(self.robot_spec, self.field)
+        self.steps = 0
+        self._diverged = False
+        self.task_state = self.task.start(self._mid_x())
+        self._last_obs = self.observation()
+        return self._last_obs.copy(), self._info()
+
+    def step(
+        self, action: NDArray[np.float32]
+    ) -> tuple[NDArray[np.float32], float, bool, bool, dict[str, Any]]:
+        """Apply the field increment ``0.3 mT * action`` and simulate 0.01 s."""
+        if self.simulation is None:
+            raise RuntimeError("call reset() before step()")
+        if self._diverged:
+            raise RuntimeError("the simulation diverged (terminated=True): call reset()")
+        a = np.asarray(action, dtype=np.float64)
+        if a.size != 2:
+            raise ValueError(f"action must have 2 components (normalised dB_x, dB_y), got shape {a.shape}")
+        a = np.clip(a.reshape(2), -1.0, 1.0)
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"action must be finite, got {action!r}")
+        self.field.apply_increment(a * self.max_increment)
+        position = self.simulation.rod.position_collection
+        x_before = float(position[0, self.middle_node])
+        terminated = False
+        try:
+            self.simulation.step(self.robot_spec.steps_per_action)
+            obs = self.observation()
+            if not np.all(np.isfinite(obs)):
+                raise SimulationDiverged("non-finite observation", self.simulation.time, -1)
+            reward = self.task.reward(x_before, float(position[0, self.middle_node]), self.task_state)
+            self._last_obs = obs
+        except SimulationDiverged as exc:
+            terminated = True
+            self._diverged = True
+            obs = self._last_obs
+            reward = self.divergence_penalty
+            info_extra = {"divergence": str(exc)}
+        else:
+            info_extra = {}
+        self.steps += 1
+        truncated = (not terminated) and self.steps >= self.max_episode_steps
+        info = self._info()
+        info.update(info_extra)
+        return obs.copy(), float(reward), terminated, truncated, info
+
+    def render(self) -> NDArray[np.uint8] | None:
+        """``rgb_array``: side view of the rod (mm), the ground line and an arrow for the field."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without render_mode; use render_mode='rgb_array'")
+            return None
+        if self.simulation is None:
+            raise RuntimeError("call reset() before render()")
+        if self._renderer is None:
+            self._renderer = _SideViewRenderer(self.robot_spec, self.field_limit)
+        return self._renderer.draw(
+            self.simulation.rod.position_collection, self.field.value, self.time
+        )
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+class _SideViewRenderer:
+    """Draws the rod from the side with matplotlib (Agg) into an RGB array; the figure is reused."""
+
+    def __init__(self, spec: RobotSpec, field_limit: float, size_px: tuple[int, int] = (480, 240)):
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        dpi = 80
+        self.fig = Figure(figsize=(size_px[0] / dpi, size_px[1] / dpi), dpi=dpi)
+        self.canvas = FigureCanvasAgg(self.fig)
+        self.ax = self.fig.add_axes((0.08, 0.15, 0.9, 0.8))
+        self.length_mm = 1e3 * spec.length
+        self.ground_mm = -1e3 * spec.radius
+        self.field_limit = field_limit
+        (self.rod_line,) = self.ax.plot([], [], "-", color="C0", lw=3, solid_capstyle="round")
+        (self.ground_line,) = self.ax.plot([], [], "-", color="0.4", lw=1.5)
+        self.arrow = None
+        self.text = self.ax.text(0.01, 0.95, "", transform=self.ax.transAxes, va="top", fontsize=8)
+        self.ax.set_aspect("equal")
+        self.ax.set_xlabel("x (mm)", fontsize=8)
+        self.ax.tick_params(labelsize=7)
+
+    def draw(self, positions: NDArray[np.float64], field: NDArray[np.float64], time: float):
+        x, y = 1e3 * positions[0], 1e3 * positions[1]
+        centre = float(x.mean())
+        half = 0.8 * self.length_mm
+        self.ax.set_xlim(centre - half, centre + half)
+        self.ax.set_ylim(self.ground_mm - 2.0, self.ground_mm - 2.0 + half)
+        self.rod_line.set_data(x, y)
+        self.ground_line.set_data([centre - 2 * half, centre + 2 * half], [self.ground_mm] * 2)
+        if self.arrow is not None:
+            self.arrow.remove()
+        scale = 0.25 * half / self.field_limit  # full field = a quarter of the view width
+        ox, oy = centre + 0.7 * half, self.ground_mm + 0.5 * half
+        self.arrow = self.ax.annotate(
+            "", xy=(ox + scale * field[0], oy + scale * field[1]), xytext=(ox, oy),
+            arrowprops={"arrowstyle": "->", "color": "C3", "lw": 2},
+        )
+        self.text.set_text(f"t = {time:.2f} s   |B| = {1e3 * math.hypot(field[0], field[1]):.2f} mT")
+        self.canvas.draw()
+        rgba = np.asarray(self.canvas.buffer_rgba())
+        return np.ascontiguousarray(rgba[..., :3])
+
+    def close(self) -> None:
+        self.fig.clear()
+
+
+def make_env(
+    case: str | Path | Case,
+    physics: str = "training",
+    initial_field: str | None = "random",
+    duration: float | None = 20.0,
+    render_mode: str | None = None,
+) -> MagneticCrawlerEnv:
+    """The environment of a case (a shipped name, a spec file or a
+    :class:`~elastica_magnetic_rl.cases.case.Case`; module-level so that ``functools.partial`` of it
+    pickles). ``initial_field`` / ``duration`` ``None``: the case's."""
+    return MagneticCrawlerEnv(case=load_case(case), physics=physics, initial_field=initial_field,
+                              duration=duration, render_mode=render_mode)

@@ -1,0 +1,400 @@
+"""N crawlers in one simulator: a Gymnasium 1.x vector environment (``MagneticCrawlerVectorEnv``).
+
+Each sub-environment ``i`` is the task of :class:`~elastica_magnetic_rl.envs.env.MagneticCrawlerEnv` (same
+observation,
+action, reward, truncation and blow-up rules, same options), but all N robots live in one
+:class:`~elastica_magnetic.batch.BatchedRobots` simulator: one PyElastica memory block, all forcing
+and contact in one numba call per time step, each robot driven by its own
+:class:`~elastica_magnetic.ControlledField`. The batched physics is bit-for-bit the per-rod physics,
+so sub-environment ``i`` reproduces a single environment exactly (see *Seeding*).
+
+Spaces (float32): ``observation_space`` ``Box`` of shape ``(N, 4 n + 4)`` (``(N, 260)`` for the
+paper's robot), ``action_space`` ``Box([-1, 1])`` of shape ``(N, 2)``; ``single_observation_space``
+and ``single_action_space`` are those of the single environment. Rewards ``(N,)`` float64,
+``terminated``/``truncated`` ``(N,)`` bool.
+
+Autoreset: ``AutoresetMode.SAME_STEP``
+--------------------------------------
+``metadata["autoreset_mode"] = gymnasium.vector.AutoresetMode.SAME_STEP``. When sub-environment
+``i`` ends on a ``step`` (time limit: ``truncated[i]``; blow-up: ``terminated[i]``), it is reset
+*within the same call*:
+
+- ``obs[i]`` returned by that ``step`` is the **first observation of the new episode**;
+- the true last observation of the ended episode is ``infos["final_obs"][i]`` (an object array of
+  length N, ``None`` where nothing ended; ``infos["_final_obs"]`` is the bool mask), and its info
+  dict is ``infos["final_info"]`` (arrays masked by ``infos["final_info"]["_<key>"]``);
+- ``reward[i]``, ``terminated[i]``, ``truncated[i]`` are those of the ended episode's last step.
+
+So a learner stores ``(obs[i], action[i], reward[i], final_obs[i], terminated[i])`` for an ended
+sub-environment and never a transition across a reset (unlike ``NEXT_STEP``, there is no dummy
+step whose action is ignored). These keys are present only on steps where some sub-environment
+ended, as in :class:`gymnasium.vector.SyncVectorEnv`.
+
+Seeding
+-------
+Every sub-environment has its own numpy ``Generator`` (used only to draw its random initial
+fields). ``reset(seed=s)`` seeds sub-environment ``i`` with ``s + i`` (the Gymnasium convention,
+as ``SyncVectorEnv``); ``reset(seed=[s_0, ..., s_{N-1}])`` seeds each explicitly; ``seed=None``
+leaves the generators as they are (fresh entropy on the very first reset). An autoreset draws from
+the sub-environment's generator, exactly as ``MagneticCrawlerEnv.reset()`` without a seed does.
+Hence, with the same actions, sub-environment ``i`` after ``reset(seed=s)`` produces exactly the
+observations, rewards and flags of ``MagneticCrawlerEnv`` after ``reset(seed=s + i)`` and then
+``reset()`` (no seed) after each of its episodes.
+
+State
+-----
+:meth:`get_state` / :meth:`set_state` save and restore everything that determines the future of
+all sub-environments (the simulator's memory block, every field, the step counters, the last
+observations and the generators), as numpy arrays and plain data: used by
+:func:`elastica_magnetic_rl.runner.loop.train_vector` for checkpoints at any vector step.
+
+Units: SI (m, s, T) as the single environment.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+from numpy.typing import NDArray
+
+from elastica_magnetic import ControlledField, RobotSpec
+from elastica_magnetic.batch import BatchedRobots, BatchedSimulationDiverged
+from elastica_magnetic.presets import ACTION_PERIOD
+
+from ..cases.case import Case
+from ..cases.tasks import Task
+from .env import (
+    crawler_observation,
+    crawler_observation_space,
+    crawler_setup,
+    initial_field_value,
+    observation_layout,
+)
+
+__all__ = ["MagneticCrawlerVectorEnv", "make_vector_env"]
+
+STATE_FORMAT = "msr-crawler-vector-state-v1"
+
+
+class MagneticCrawlerVectorEnv(VectorEnv):
+    """``num_envs`` crawlers stepped together in one batched simulator (see the module docstring).
+
+    Parameters
+    ----------
+    num_envs : int
+        Number of sub-environments (robots) ``N`` >= 1.
+    case, pattern, field_limit, physics, initial_field, duration, spec, max_increment, task
+        As :class:`~elastica_magnetic_rl.envs.env.MagneticCrawlerEnv` (``field_limit`` in T,
+        ``duration`` in s, ``max_increment`` in T per unit action), the same for every
+        sub-environment.
+        ``reset(options={"initial_field": ...})`` overrides ``initial_field`` for the episodes
+        started by that reset (not for later autoresets).
+    divergence_penalty : float
+        Reward of a step on which a robot's simulation blows up (as the single environment).
+    """
+
+    metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
+
+    def __init__(
+        self,
+        num_envs: int = 4,
+        pattern: int | None = None,
+        field_limit: float | None = None,
+        physics: Literal["training", "accurate"] = "training",
+        initial_field: Literal["random", "zero"] | None = None,
+        duration: float | None = None,
+        spec: RobotSpec | None = None,
+        max_increment: float | None = None,
+        divergence_penalty: float = -10.0,
+        case: str | Case | None = None,
+        task: Task | None = None,
+    ) -> None:
+        if int(num_envs) != num_envs or num_envs < 1:
+            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        setup = crawler_setup(case, pattern=pattern, field_limit=field_limit, physics=physics,
+                              initial_field=initial_field, duration=duration, spec=spec,
+                              max_increment=max_increment, task=task)
+        self.num_envs = int(num_envs)
+        self.setup = setup
+        self.case = setup.case
+        self.task = setup.task
+        self.robot_spec = spec = setup.robot_spec
+        self.physics = physics
+        self.field_limit = setup.field_limit
+        self.initial_field = setup.initial_field
+        self.duration = setup.duration
+        self.max_episode_steps = setup.n_steps
+        self.max_increment = setup.max_increment
+        self.divergence_penalty = float(divergence_penalty)
+        self.render_mode = None
+
+        n = spec.n_elements
+        self.n_elements = n
+        self.middle_node = n // 2
+        extra = self.task.extra_observation
+        self.layout = observation_layout(n, extra)
+        self.surface_tolerance = float(spec.ground.surface_tolerance)
+        self.single_observation_space = crawler_observation_space(n, self.field_limit, extra)
+        self.single_action_space = gym.spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+
+        self.robots: BatchedRobots | None = None
+        self.fields: list[ControlledField] = []
+        self.steps = np.zeros(self.num_envs, dtype=np.int64)  # steps of each current episode
+        self._obs = np.zeros((self.num_envs,) + self.single_observation_space.shape, dtype=np.float32)
+        self._task_state = np.zeros(self.num_envs)  # the task's per-episode state (start or target)
+        self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
+
+    # -- helpers ------------------------------------------------------------------------------------
+    def _mid_x(self, i: int) -> float:
+        return float(self.robots.rods[i].position_collection[0, self.middle_node])
+
+    def _observe(self, i: int) -> NDArray[np.float32]:
+        extra = None
+        if self.task.extra_observation:
+            extra = self.task.observe(self._mid_x(i), self._task_state[i])
+        return crawler_observation(self.robots.rods[i], self.fields[i].value, self.layout,
+                                   self.surface_tolerance, extra)
+
+    def _rng(self, i: int) -> np.random.Generator:
+        if self._rngs[i] is None:
+            self._rngs[i], _ = seeding.np_random(None)
+        return self._rngs[i]
+
+    def _reset_one(self, i: int, initial: Any) -> None:
+        """Put robot ``i`` back at rest, straight, with a new initial field; new episode."""
+        value = initial_field_value(initial, self.field_limit, self._rng(i))
+        self.fields[i] = ControlledField(self.field_limit, self.max_increment, value)
+        self.robots.reset_robot(i)
+        self.robots.fields[i] = self.fields[i].value
+        self.steps[i] = 0
+        self._task_state[i] = self.task.start(self._mid_x(i))
+        self._obs[i] = self._observe(i)
+
+    def _healthy(self, i: int) -> bool:
+        """Robot ``i`` finite and no node faster than ``max_speed`` (the single env's rule)."""
+        rod = self.robots.rods[i]
+        v, x = rod.velocity_collection, rod.position_collection
+        speed2 = np.einsum("ij,ij->j", v, v)
+        return bool(np.all(speed2 <= self.robots.max_speed ** 2) and np.all(np.isfinite(x)))
+
+    def _info(self) -> dict[str, Any]:
+        """Per-sub-environment info arrays (all present, masks all True)."""
+        n = self.num_envs
+        info = {
+            "time_s": self.steps * ACTION_PERIOD,
+            "field_T": np.stack([f.value.copy() for f in self.fields]),
+            "mid_x_m": np.array([self._mid_x(i) for i in range(n)]),
+        }
+        for key in list(info):
+            info[f"_{key}"] = np.ones(n, dtype=bool)
+        return info
+
+    # -- Gymnasium API -----------------------------------------------------------------------------
+    def reset(
+        self,
+        *,
+        seed: int | list[int | None] | None = None,
+        options: dict[str, Any] | None = None,
+    ) -> tuple[NDArray[np.float32], dict[str, Any]]:
+        """Reset all sub-environments (or those of ``options["reset_mask"]``, a bool ``(N,)``).
+
+        Args:
+            seed: ``int`` s: sub-environment ``i`` is seeded with ``s + i``; a list: one seed (or
+                ``None``) per sub-environment; ``None``: keep the generators.
+            options: ``{"initial_field": "random" | "zero" | (Bx, By[, Bz]) in T,
+                "reset_mask": bool array (N,)}``.
+
+        Returns:
+            ``obs`` float32 ``(N, 4 n + 4)`` and the info dict of arrays.
+        """
+        options = dict(options or {})
+        mask = np.asarray(options.pop("reset_mask", np.ones(self.num_envs, dtype=bool)), dtype=bool)
+        if mask.shape != (self.num_envs,):
+            raise ValueError(f"reset_mask must have shape ({self.num_envs},), got {mask.shape}")
+        if seed is None:
+            seeds: list[int | None] = [None] * self.num_envs
+        elif isinstance(seed, (int, np.integer)):
+            super().reset(seed=int(seed))
+            seeds = [int(seed) + i for i in range(self.num_envs)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != self.num_envs:
+                raise ValueError(f"seed list must have {self.num_envs} entries, got {len(seeds)}")
+        for i in np.flatnonzero(mask):
+            if seeds[i] is not None:
+                self._rngs[i], _ = seeding.np_random(int(seeds[i]))
+        if self.robots is None:
+            if not mask.all():
+                raise RuntimeError("the first reset must reset every sub-environment")
+            self.robots = BatchedRobots(self.robot_spec, self.num_envs)
+            self.fields = [ControlledField(self.field_limit, self.max_increment)
+                           for _ in range(self.num_envs)]
+        initial = options.get("initial_field", self.initial_field)
+        for i in np.flatnonzero(mask):
+            self._reset_one(int(i), initial)
+        return self._obs.copy(), self._info()
+
+    def step(
+        self, actions: NDArray[np.float32]
+    ) -> tuple[NDArray[np.float32], NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_],
+               dict[str, Any]]:
+        """Apply the field increments ``0.3 mT * actions[i]`` and simulate 0.01 s for all robots.
+
+        Args:
+            actions: ``(N, 2)`` in ``[-1, 1]`` (clipped), one row per sub-environment.
+
+        Returns:
+            ``obs`` float32 ``(N, 4 n + 4)`` (first observation of a new episode where one ended),
+            ``rewards`` float64 ``(N,)``, ``terminated`` and ``truncated`` bool ``(N,)``, ``infos``
+            (``final_obs`` / ``final_info`` where an episode ended: see the module docstring).
+        """
+        if self.robots is None:
+            raise RuntimeError("call reset() before step()")
+        n = self.num_envs
+        a = np.clip(np.asarray(actions, dtype=np.float64).reshape(n, 2), -1.0, 1.0)
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"actions must be finite, got {actions!r}")
+        robots = self.robots
+        x_before = np.empty(n)
+        for i in range(n):
+            robots.fields[i] = self.fields[i].apply_increment(a[i] * self.max_increment)
+            x_before[i] = self._mid_x(i)
+        diverged = np.zeros(n, dtype=bool)
+        messages: dict[int, str] = {}
+        try:
+            robots.step(self.robot_spec.steps_per_action)
+        except BatchedSimulationDiverged as exc:
+            diverged = np.array([not self._healthy(i) for i in range(n)])
+            messages[exc.robot] = str(exc)
+        rewards = np.empty(n, dtype=np.float64)
+        for i in range(n):
+            if not diverged[i]:
+                obs = self._observe(i)
+                if np.all(np.isfinite(obs)):
+                    self._obs[i] = obs
+                    rewards[i] = self.task.reward(x_before[i], self._mid_x(i), self._task_state[i])
+                    continue
+                diverged[i] = True
+                messages.setdefault(i, f"robot {i}: non-finite observation")
+            rewards[i] = self.divergence_penalty  # obs[i] stays the last finite observation
+        self.steps += 1
+        terminated = diverged
+        truncated = ~terminated & (self.steps >= self.max_episode_steps)
+        info = self._info()
+        info["diverged"] = diverged.copy()
+        info["_diverged"] = np.ones(n, dtype=bool)
+        ended = np.flatnonzero(terminated | truncated)
+        if ended.size:
+            final_obs = np.full(n, None, dtype=object)
+            final_info: dict[str, Any] = {}
+            for key in ("time_s", "field_T", "mid_x_m", "diverged"):
+                final_info[key] = info[key].copy()
+                final_info[f"_{key}"] = np.zeros(n, dtype=bool)
+            divergence = np.full(n, None, dtype=object)
+            for i in ended:
+                final_obs[i] = self._obs[i].copy()
+                for key in ("time_s", "field_T", "mid_x_m", "diverged"):
+                    final_info[f"_{key}"][i] = True
+                if terminated[i]:
+                    divergence[i] = messages.get(int(i), "diverged")
+            if terminated.any():
+                final_info["divergence"] = divergence
+                final_info["_divergence"] = terminated.copy()
+            for i in ended:
+                self._reset_one(int(i), self.initial_field)
+            # the info of the new episodes (time 0, new field) replaces those entries
+            fresh = self._info()
+            for key in ("time_s", "field_T", "mid_x_m"):
+                info[key] = fresh[key]
+            info["final_obs"] = final_obs
+            info["_final_obs"] = np.isin(np.arange(n), ended)
+            info["final_info"] = final_info
+            info["_final_info"] = info["_final_obs"].copy()
+        return self._obs.copy(), rewards, terminated.copy(), truncated, info
+
+    # -- state -------------------------------------------------------------------------------------
+    def get_state(self) -> dict[str, Any]:
+        """Everything that determines the future of all sub-environments (numpy arrays and plain
+        data; restore with :meth:`set_state` on an environment built with the same arguments).
+
+        Keys: ``block`` (the memory block's base arrays, float64: positions, directors, rates,
+        loads and derived geometry of every robot), ``fields`` ``(N, 3)`` T, ``steps`` ``(N,)``,
+        ``robot_step_count`` ``(N,)``, ``step_count``, ``obs`` float32 ``(N, 4 n + 4 + k)``,
+        ``task_state`` ``(N,)`` (the task's per-episode state, m), ``rngs``
+        (each generator's ``bit_generator.state``).
+        """
+        if self.robots is None:
+            raise RuntimeError("call reset() before get_state()")
+        if any(r is None for r in self._rngs):
+            raise RuntimeError("every sub-environment needs a generator (reset with a seed)")
+        return {
+            "format": STATE_FORMAT,
+            "num_envs": self.num_envs,
+            "block": {name: value.copy() for name, value in _block_base_arrays(self.robots).items()},
+            "fields": np.stack([f.value.copy() for f in self.fields]),
+            "steps": self.steps.copy(),
+            "robot_step_count": self.robots.robot_step_count.copy(),
+            "step_count": int(self.robots.step_count),
+            "obs": self._obs.copy(),
+            "task_state": self._task_state.copy(),
+            "rngs": [r.bit_generator.state for r in self._rngs],
+        }
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Restore a :meth:`get_state` snapshot (arrays may be numpy arrays or CPU tensors)."""
+        if state.get("format") != STATE_FORMAT or int(state["num_envs"]) != self.num_envs:
+            raise ValueError("not a state of this vector environment (format or num_envs differ)")
+        if self.robots is None:
+            self.reset(seed=0)
+        arrays = _block_base_arrays(self.robots)
+        if set(arrays) != set(state["block"]):
+            raise ValueError("the saved simulator block does not match this environment")
+        for name, value in arrays.items():
+            value[...] = np.asarray(state["block"][name])
+        fields = np.asarray(state["fields"], dtype=np.float64)
+        for i in range(self.num_envs):
+            self.fields[i].value[:] = fields[i]
+            self.robots.fields[i] = self.fields[i].value
+        self.steps[:] = np.asarray(state["steps"])
+        self.robots.robot_step_count[:] = np.asarray(state["robot_step_count"])
+        self.robots.step_count = int(state["step_count"])
+        self._obs[...] = np.asarray(state["obs"])
+        if "task_state" in state:
+            self._task_state[:] = np.asarray(state["task_state"])
+        elif self.task.kind != "crawl":  # states from before tasks: crawling, which needs none
+            raise ValueError("the saved state has no task state (it predates the reach task)")
+        for i, rng_state in enumerate(state["rngs"]):
+            rng, _ = seeding.np_random(0)
+            rng.bit_generator.state = rng_state
+            self._rngs[i] = rng
+
+    def close_extras(self, **kwargs: Any) -> None:
+        self.robots = None
+
+
+def _block_base_arrays(robots: BatchedRobots) -> dict[str, NDArray[np.float64]]:
+    """The float arrays of the memory block that own their memory (every rod array is a view of
+    one of them), by attribute name."""
+    return {name: value for name, value in vars(robots.block).items()
+            if isinstance(value, np.ndarray) and value.dtype.kind == "f" and value.base is None}
+
+
+def make_vector_env(
+    case: str | Case,
+    num_envs: int,
+    physics: str = "training",
+    initial_field: str | None = None,
+    duration: float | None = None,
+) -> MagneticCrawlerVectorEnv:
+    """The vector environment of a case (a name, a spec file or a
+    :class:`~elastica_magnetic_rl.cases.case.Case`; module level so that ``functools.partial`` of it
+    pickles)."""
+    return MagneticCrawlerVectorEnv(num_envs, case=case, physics=physics,
+                                    initial_field=initial_field, duration=duration)

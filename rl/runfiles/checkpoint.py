@@ -1,0 +1,166 @@
+"""The training checkpoint format: one home for file names, the format tag, atomic writes and the
+replay buffer's append-only file.
+
+A run directory (:class:`~elastica_magnetic_rl.runfiles.rundir.RunDir`) holds ``checkpoint.pt`` (a
+``torch.save`` dict, written atomically), and, next to it, ``replay.bin``: the replay buffer's transitions as
+float32 rows appended at each checkpoint (``obs``, ``action``, ``reward``, ``next_obs``, ``terminated``), so a
+checkpoint writes only the transitions collected since the previous one instead of the whole buffer. The
+checkpoint records how many rows are valid; rows beyond that (written by a run killed between the append and
+the checkpoint's rename) are ignored and cut off when the run resumes. A buffer that has wrapped around (a run
+longer than the buffer's capacity) is stored whole inside the checkpoint instead.
+
+Keys of a checkpoint (format :data:`CHECKPOINT_FORMAT`): ``config`` (the TD3 configuration), ``obs_dim``,
+``act_dim``, ``action_low``, ``action_high``, ``agent`` (networks, targets and Adam moments as plain-module
+state dicts, RNG states, counters: :meth:`elastica_magnetic_rl.td3.algorithm.TD3.seed_state`), ``buffer``
+(:meth:`elastica_magnetic_rl.td3.replay_buffer.ReplayBuffer.state_dict` without contents, plus ``file`` and
+``rows``), ``global_step``, ``episode``, ``at_episode_boundary``, ``python_rng``, ``torch_cpu_rng``,
+``wall_time_s``, ``metadata``, ``evaluation`` and ``vector`` (the environments' state when the checkpoint
+falls inside episodes, else ``None``). ``best.pt`` (``kind: "best"``) holds only the networks of the best
+evaluation.
+
+:func:`load_checkpoint` returns the buffer with its contents (as a checkpoint of the previous
+format held them), so readers need not know about ``replay.bin``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from .rundir import RunDir
+
+CHECKPOINT_FORMAT = "td3-checkpoint-v2"
+#: Earlier format: its networks can still be read (generate, export), not resumed or refined.
+LEGACY_FORMATS = ("td3-checkpoint-v1",)
+_BUFFER_KEYS = ("obs", "actions", "rewards", "next_obs", "terminated")
+
+
+def save_checkpoint(path: str | os.PathLike, checkpoint: dict[str, Any]) -> None:
+    """Write ``checkpoint`` atomically: to a temporary file in the same directory, then rename."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "wb") as f:
+        torch.save(checkpoint, f)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def load_checkpoint(path: str | os.PathLike, with_buffer: bool = True) -> dict[str, Any]:
+    """Load a checkpoint (a run directory or the file itself), the replay buffer's contents
+    included unless ``with_buffer`` is false (a quick check that it is readable). Raises
+    ``ValueError`` naming the file when it is not a readable TD3 checkpoint."""
+    path = Path(path)
+    if path.is_dir():
+        path = RunDir(path).checkpoint
+    try:
+        ckpt = torch.load(path, map_location="cpu", weights_only=True)
+    except FileNotFoundError:
+        raise
+    except Exception as err:  # truncated, empty or foreign files
+        first = str(err).splitlines()[0][:200] if str(err) else "empty or truncated"
+        raise ValueError(f"{path}: cannot be read as a checkpoint ({type(err).__name__}: {first})") \
+            from None
+    if not isinstance(ckpt, dict) or ckpt.get("format") not in (CHECKPOINT_FORMAT, *LEGACY_FORMATS):
+        raise ValueError(f"{path} is not a TD3 checkpoint ({CHECKPOINT_FORMAT})")
+    buffer = ckpt.get("buffer")
+    if with_buffer and isinstance(buffer, dict) and "file" in buffer:
+        ckpt["buffer"] = {**buffer, **read_replay_rows(path.parent / buffer["file"], buffer)}
+    return ckpt
+
+
+def checkpoint_metadata(ckpt: dict[str, Any], path: str | os.PathLike) -> dict[str, Any]:
+    """The case and settings of a checkpoint (loaded from ``path``): its own metadata, else
+    ``run.json`` next to it. Raises ``ValueError`` naming ``path`` when neither names a case."""
+    meta = dict(ckpt.get("metadata") or {})
+    run_json = RunDir.of_checkpoint(path).run_json
+    if "case" not in meta and run_json.is_file():
+        meta = {**json.loads(run_json.read_text()), **meta}
+    if "case" not in meta:
+        raise ValueError(f"{path}: the checkpoint names no case (no metadata, no {RunDir.RUN_JSON})")
+    return meta
+
+
+def refuse_networks_only(ckpt: dict[str, Any], path: str | os.PathLike) -> None:
+    """Raise if ``ckpt`` cannot be a starting point for training (``best.pt``, or an older format)."""
+    if ckpt.get("kind") == "best":
+        raise ValueError(f"{path} holds only the networks of the best evaluation (no optimisers, "
+                         f"buffer or RNG states): training can only continue from a run's "
+                         f"{RunDir.CHECKPOINT}")
+    if ckpt.get("format") != CHECKPOINT_FORMAT:
+        raise ValueError(f"{path} is a {ckpt.get('format')} checkpoint: its policy can be used "
+                         f"(generate, export, ship) but training cannot continue from it "
+                         f"(needs {CHECKPOINT_FORMAT})")
+
+
+# ----------------------------------------------------------------------------------------------
+# The replay buffer's append-only file
+# ----------------------------------------------------------------------------------------------
+def replay_row_width(obs_dim: int, act_dim: int) -> int:
+    """float32 values per transition (a row of ``replay.bin``, and of a replay buffer in memory):
+    ``obs``, ``action``, ``reward``, ``next_obs``, ``terminated``."""
+    return 2 * obs_dim + act_dim + 2
+
+
+def read_replay_rows(path: Path, state: dict[str, Any]) -> dict[str, torch.Tensor]:
+    """The first ``state["rows"]`` transitions of ``path`` as the tensors of a buffer state."""
+    obs_dim, act_dim, rows = int(state["obs_dim"]), int(state["act_dim"]), int(state["rows"])
+    width = replay_row_width(obs_dim, act_dim)
+    if rows and not path.is_file():
+        raise ValueError(f"{path} is missing: the checkpoint needs its {rows} transitions")
+    data = np.fromfile(path, dtype=np.float32, count=rows * width) if rows else np.zeros(0, np.float32)
+    if data.size != rows * width:
+        raise ValueError(f"{path}: holds {data.size // width} transitions, the checkpoint needs {rows}")
+    data = data.reshape(rows, width)
+    cuts = np.cumsum([obs_dim, act_dim, 1, obs_dim])
+    obs, actions, rewards, next_obs, terminated = np.split(data, cuts, axis=1)
+    return {k: torch.from_numpy(np.ascontiguousarray(v)) for k, v in zip(
+        _BUFFER_KEYS, (obs, actions, rewards[:, 0], next_obs, terminated[:, 0]), strict=True)}
+
+
+class ReplayFile:
+    """Appends a replay buffer's new transitions to ``run_dir/replay.bin`` at each checkpoint.
+
+    ``rows``: transitions already in the file (and referenced by the last checkpoint). On resume
+    the file is cut to the checkpoint's row count first, so a crash between an append and the
+    checkpoint's rename leaves no stray rows behind.
+    """
+
+    def __init__(self, run_dir: Path, rows: int = 0) -> None:
+        self.path = RunDir(run_dir).replay
+        self.rows = int(rows)
+
+    def truncate(self, obs_dim: int, act_dim: int) -> None:
+        """Cut the file to the checkpoint's rows (of a buffer of ``obs_dim`` observations and
+        ``act_dim`` actions)."""
+        width = replay_row_width(obs_dim, act_dim)
+        if self.path.exists():
+            os.truncate(self.path, self.rows * width * 4)
+        elif self.rows:
+            raise ValueError(f"{self.path} is missing: the checkpoint needs its {self.rows} transitions")
+
+    def state(self, buffer: Any) -> dict[str, Any]:
+        """Append the transitions added since the last call; returns the buffer's checkpoint entry
+        (the whole buffer inline if it has wrapped around)."""
+        meta = {k: getattr(buffer, k) for k in ("capacity", "obs_dim", "act_dim", "ptr", "size")}
+        if buffer.total_added != buffer.size:  # wrapped: rows were overwritten, store it whole
+            return buffer.state_dict()
+        width = replay_row_width(buffer.obs_dim, buffer.act_dim)
+        if self.rows == 0:
+            self.path.unlink(missing_ok=True)
+        if buffer.size > self.rows:
+            new = slice(self.rows, buffer.size)
+            rows = np.concatenate([buffer.obs[new], buffer.actions[new], buffer.rewards[new, None],
+                                   buffer.next_obs[new], buffer.terminated[new, None]], axis=1)
+            assert rows.shape[1] == width
+            with open(self.path, "ab") as f:
+                f.write(np.ascontiguousarray(rows, dtype=np.float32).tobytes())
+                f.flush()
+                os.fsync(f.fileno())
+            self.rows = buffer.size
+        return {**meta, "total_added": buffer.total_added, "file": RunDir.REPLAY, "rows": self.rows}

@@ -1,0 +1,577 @@
+"""The training loop: K seeds, each on N sub-environments of one vector environment, one loop.
+
+:func:`train_seeds` is the only training loop. Seed ``k`` drives sub-environments
+``k N .. k N + N - 1`` of a vector environment with ``SAME_STEP`` autoreset (for the crawler:
+:class:`~elastica_magnetic_rl.envs.vector_env.MagneticCrawlerVectorEnv`, every robot in one batched simulator;
+any other Gymnasium environment is wrapped in a ``SyncVectorEnv``). The K seeds' networks live in one
+:class:`~elastica_magnetic_rl.td3.algorithm.TD3` and are updated as one computation. Each seed keeps its own
+bookkeeping (:class:`~elastica_magnetic_rl.runner.seed_run.SeedRun`): its run directory, replay buffer,
+``episodes.csv``, TensorBoard scalars, evaluation with ``best.pt``, progress bar and checkpoints. The layouts
+of the previous API are special cases: :func:`train` (one seed, one environment),
+:func:`train_vector` (one seed, N environments) and :func:`train_shared` (K seeds, one
+environment each).
+
+Per vector step, for every seed: act (uniform random actions during the warm-up, then
+``mu(s) + N(0, sigma^2)``), step, store each transition (the real final observation of an ended
+episode, ``terminated`` not ``done``), then one update per new transition past the warm-up; ended
+episodes are logged and their sub-environments reset with the seed's episode seeds
+(:func:`~elastica_magnetic_rl.td3.algorithm.episode_seed`: episode ``e`` of seed ``s`` always starts from
+``episode_seed(s, e)``; episodes are numbered as they start).
+
+Equivalences (CPU, same thread count; tested): a seed trained beside others is bit-identical to the
+same seed trained alone, and a run killed and resumed from its checkpoint ends bit-identical to an
+uninterrupted one.
+
+Evaluations fall on the first vector step at or after each multiple of ``eval_every`` where all of
+the seed's sub-environments have just ended an episode (the same steps in every layout).
+Checkpoints fall on the first vector step at or after each multiple of ``checkpoint_every`` where
+every sub-environment of the group has just ended an episode; there the environments need not be
+saved (they restart from episode seeds), so each seed's folder can be resumed in any layout.
+Crawler episodes have a fixed length, so these steps come every episode. An environment that can
+save its state (``get_state``/``set_state``) also allows checkpoints inside episodes, with that
+state in every seed's checkpoint (``vector``): such a checkpoint resumes only in the same group of
+seeds. Evaluation uses no RNG of the training, so the weights are bit-identical with or without
+it.
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch
+
+from ..td3.agent import TD3Agent
+from ..td3.algorithm import TD3, TD3Config
+from .allocator import retain_freed_memory
+from .evaluation import (
+    EVAL_SEED,
+    ActorPolicy,
+    evaluate_many,
+    flat_observation,
+)
+from .seed_run import SeedRun
+
+#: Where a group's training time goes (``timing`` in every checkpoint, s): choosing actions,
+#: stepping and resetting the environments, storing transitions, TD3 updates, episode logs,
+#: evaluations, checkpoints.
+TIMING_KEYS = ("act", "env", "store", "update", "log", "evaluation", "checkpoint")
+
+
+# ----------------------------------------------------------------------------------------------
+# The loop
+# ----------------------------------------------------------------------------------------------
+def _to_tensors(obj: Any) -> Any:
+    """numpy arrays -> CPU tensors, recursively (checkpoints load with ``weights_only=True``)."""
+    if isinstance(obj, np.ndarray):
+        return torch.from_numpy(obj.copy())
+    if isinstance(obj, dict):
+        return {k: _to_tensors(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return type(obj)(_to_tensors(v) for v in obj)
+    return obj
+
+
+def _to_numpy(obj: Any) -> Any:
+    """Inverse of :func:`_to_tensors`."""
+    if isinstance(obj, torch.Tensor):
+        return obj.numpy().copy()
+    if isinstance(obj, dict):
+        return {k: _to_numpy(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return type(obj)(_to_numpy(v) for v in obj)
+    return obj
+
+
+def _wrap(env_fn: Callable[[], gym.Env], n: int) -> gym.vector.VectorEnv:
+    """``n`` copies of a single environment as a ``SAME_STEP`` vector environment."""
+    from gymnasium.vector import AutoresetMode, SyncVectorEnv
+
+    return SyncVectorEnv([env_fn] * n, autoreset_mode=AutoresetMode.SAME_STEP)
+
+
+def train_seeds(
+    vec_env_fn: Callable[[int], gym.vector.VectorEnv],
+    configs: Sequence[TD3Config | None],
+    steps: int,
+    run_dirs: Sequence[str | os.PathLike],
+    *,
+    envs_per_seed: int = 1,
+    resume: bool = False,
+    progress: bool = True,
+    log_fn: Callable[[dict[str, Any]], None] | None = None,
+    init_from: Sequence[str | os.PathLike | None] | None = None,
+    metadata: Sequence[dict[str, Any] | None] | None = None,
+    eval_env_fn: Callable[[], gym.Env] | None = None,
+    progress_position: int | None = None,
+    progress_desc: str | None = None,
+    eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None,
+) -> TD3:
+    """Train ``K = len(configs)`` seeds for ``steps`` environment transitions each and return the
+    :class:`~elastica_magnetic_rl.td3.algorithm.TD3` holding them.
+
+    Args:
+        vec_env_fn: ``vec_env_fn(K * envs_per_seed)`` makes a vector environment with
+            ``SAME_STEP`` autoreset and flat Box spaces; its sub-environments reset with a list of
+            seeds and ``options={"reset_mask": mask}`` (Gymnasium's ``SyncVectorEnv`` and
+            :class:`~elastica_magnetic_rl.envs.vector_env.MagneticCrawlerVectorEnv` do).
+        configs: one :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` per seed (``None``: the
+            checkpoint's or the defaults); they must agree on everything but ``seed`` and on
+            ``torch_deterministic``.
+        steps: total transitions of each seed, counted from step 0 (steps done before a resume or
+            inherited through ``init_from`` included); a seed stops at the first vector step
+            reaching it.
+        run_dirs: one output folder per seed (``episodes.csv``, TensorBoard scalars,
+            ``checkpoint.pt``, ``replay.bin``, ``evaluations.csv``, ``best.pt``). A folder that
+            holds a checkpoint is refused unless ``resume``; ``resume`` needs one in every folder.
+        envs_per_seed: sub-environments (and so transitions and updates per vector step) of each
+            seed.
+        init_from: per seed, another run's checkpoint to start from (networks, optimisers,
+            buffer, RNGs and counters; e.g. to refine a policy in another physics).
+        metadata: per seed, a JSON-like dict stored in its checkpoints (e.g. the case).
+        eval_env_fn: makes a single evaluation environment; with ``config.eval_every > 0`` each
+            seed's deterministic policy is evaluated there periodically.
+        log_fn: called with each episode's row (a dict) after it is written.
+        eval_vec_env_fn: ``eval_vec_env_fn(m)`` makes ``m`` evaluation environments in one
+            vector environment (``SAME_STEP``), each behaving as ``eval_env_fn()``: seeds due for
+            evaluation at the same step are then evaluated together (same returns, the
+            simulation shared).
+    """
+    k_seeds, n = len(configs), int(envs_per_seed)
+    if k_seeds < 1 or len(run_dirs) != k_seeds:
+        raise ValueError("train_seeds needs one run_dir per config, and at least one config")
+    if len({Path(d).resolve() for d in run_dirs}) != k_seeds:
+        raise ValueError("every seed needs its own run_dir")
+    if n < 1:
+        raise ValueError(f"envs_per_seed must be >= 1, got {n}")
+    from gymnasium.vector import AutoresetMode
+
+    retain_freed_memory()  # the updates' temporaries reused, not page-faulted in (rl/runner/allocator.py)
+    env = vec_env_fn(k_seeds * n)
+    try:
+        if env.metadata.get("autoreset_mode") != AutoresetMode.SAME_STEP or env.num_envs != k_seeds * n:
+            raise ValueError(f"training needs a SAME_STEP vector environment of {k_seeds * n} "
+                             "sub-environments")
+        obs_space, act_space = env.single_observation_space, env.single_action_space
+        if not isinstance(act_space, gym.spaces.Box) or not isinstance(obs_space, gym.spaces.Box):
+            raise TypeError("TD3 needs Box observation and action spaces")
+        obs_dim, act_dim = int(np.prod(obs_space.shape)), int(np.prod(act_space.shape))
+        runs = [SeedRun(k, configs[k], steps, run_dirs[k], resume,
+                        init_from[k] if init_from is not None else None,
+                        metadata[k] if metadata is not None else None, obs_dim, act_dim, n)
+                for k in range(k_seeds)]
+        if len({r.global_step for r in runs}) != 1:
+            raise ValueError("the seeds of a group resume from checkpoints at different steps ("
+                             + ", ".join(f"{r.run_dir}: {r.global_step}" for r in runs) + "): resume "
+                             "each with the group it was trained in")
+        learner = TD3(obs_dim, act_dim, act_space.low.reshape(-1), act_space.high.reshape(-1),
+                      [r.cfg for r in runs])
+        for r in runs:
+            if r.ckpt is not None:
+                learner.load_seed_state(r.k, r.ckpt["agent"])
+        return _loop(env, runs, learner, n, progress, log_fn, eval_env_fn, progress_position,
+                     progress_desc, eval_vec_env_fn)
+    finally:
+        env.close()
+
+
+def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, progress: bool,
+          log_fn: Callable[[dict[str, Any]], None] | None, eval_env_fn: Callable[[], gym.Env] | None,
+          position: int | None, desc: str | None,
+          eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None) -> TD3:
+    """Train ``runs`` (K seeds, ``n`` sub-environments each of ``env``) to their step budget: the
+    global RNGs and the environments restored or started, then :meth:`_GroupLoop.run`."""
+    loop = _GroupLoop(env, runs, learner, n, log_fn, eval_vec_env_fn)
+    vector_state = loop.restore_global_rngs()
+    for k, run in enumerate(runs):
+        run.open(progress, None if position is None else position + k,
+                 f"{desc or 'seed'} {run.cfg.seed}" if len(runs) > 1 else desc, eval_env_fn)
+        if run.evaluation.restore_best:
+            run.evaluation.write_best(run.header(learner))
+    return loop.run(loop.first_observations(vector_state))
+
+
+class _GroupLoop:
+    """The training loop of one group of K seeds on one vector environment, in its named steps:
+    :meth:`act`, the environments' step, :meth:`store`, :meth:`learn`, :meth:`log_episode_ends`,
+    :meth:`evaluate`, :meth:`start_next_episodes` and the checkpoints (at episode boundaries, or
+    inside episodes with the environments' state). The order of these steps, and of the RNG draws
+    in them, is what makes a seed bit-identical alone and in a group, and after a resume."""
+
+    def __init__(self, env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int,
+                 log_fn: Callable[[dict[str, Any]], None] | None,
+                 eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None) -> None:
+        self.env, self.runs, self.learner, self.n = env, runs, learner, n
+        self.log_fn, self.eval_vec_env_fn = log_fn, eval_vec_env_fn
+        self.cfg, self.k_seeds, self.lead = learner.config, len(runs), runs[0]
+        self.obs_dim, self.act_dim = learner.obs_dim, learner.act_dim
+        # a Gymnasium vector environment that can save its state allows checkpoints inside episodes
+        self.can_save_env = hasattr(env, "get_state") and hasattr(env, "set_state")
+        self.actions = np.zeros((self.k_seeds, n, self.act_dim), dtype=np.float32)
+        self.timing = {key: 0.0 for key in TIMING_KEYS}
+        self.clock = time.perf_counter()
+
+    def sub(self, k: int) -> slice:
+        """Seed ``k``'s sub-environments."""
+        return slice(k * self.n, (k + 1) * self.n)
+
+    # -- start -------------------------------------------------------------------------------
+    def restore_global_rngs(self) -> dict[str, Any] | None:
+        """Seed (or restore) the process's global RNGs, one per process, from the first seed;
+        returns the environments' saved state of a checkpoint written inside episodes (checked to
+        belong to this group), else ``None``."""
+        lead, cfg = self.lead, self.cfg
+        if lead.ckpt is not None:
+            random.setstate(lead.ckpt["python_rng"])
+            torch.set_rng_state(lead.ckpt["torch_cpu_rng"])
+        else:
+            random.seed(cfg.seed)
+            torch.manual_seed(cfg.seed)
+        vector_state = lead.ckpt.get("vector") if lead.resumed_here else None
+        if vector_state is not None and (int(vector_state["num_envs"]) != self.k_seeds * self.n
+                                         or list(vector_state["seeds"]) != [r.cfg.seed for r in self.runs]):
+            raise ValueError(f"{lead.ckpt_path} was written inside episodes by the group of seeds "
+                             f"{list(vector_state['seeds'])} with {int(vector_state['num_envs'])} "
+                             "environments: resume it in that same group")
+        return vector_state
+
+    def first_observations(self, vector_state: dict[str, Any] | None) -> np.ndarray:
+        """The environments restored from ``vector_state``, or reset with each seed's episode
+        seeds (and the first episodes' exploration noise drawn); their observations ``(K n,
+        obs_dim)``."""
+        runs, n, total = self.runs, self.n, self.k_seeds * self.n
+        if vector_state is not None:
+            self.env.reset(seed=[0] * total)  # builds the simulator; then overwritten
+            self.env.set_state(_to_numpy(vector_state["env_state"]))
+            for k, run in enumerate(runs):
+                for key, field in (("ep_return", run.ep_return), ("ep_len", run.ep_len),
+                                   ("ep_id", run.ep_id), ("noise", run.noise),
+                                   ("noise_pos", run.noise_pos)):
+                    field[:] = _to_numpy(vector_state[key])[self.sub(k)]
+            return _to_numpy(vector_state["obs"]).reshape(total, self.obs_dim)
+        seeds = []
+        for run in runs:
+            run.ep_id[:] = np.arange(run.episode, run.episode + n)
+            seeds += run.next_episode_seeds(n)
+        obs, _ = self.env.reset(seed=seeds)
+        obs = np.asarray(obs, dtype=np.float32).reshape(total, self.obs_dim)
+        for k, run in enumerate(runs):
+            for j in range(n):
+                run.draw_noise(j, self.learner.rngs[k])
+        return obs
+
+    def lap(self, key: str) -> None:
+        """Add the time since the last lap to ``timing[key]``."""
+        now = time.perf_counter()
+        self.timing[key] += now - self.clock
+        self.clock = now
+
+    # -- one vector step -----------------------------------------------------------------------
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        """Actions ``(K n, act_dim)`` in [-1, 1]: transition ``global_step + i`` of a seed is
+        random during the warm-up, then ``mu + noise``."""
+        learner, cfg, n = self.learner, self.cfg, self.n
+        n_random = int(np.clip(cfg.learning_starts - self.lead.global_step, 0, n))
+        if n_random < n:
+            mu = learner.select_actions(obs.reshape(self.k_seeds, n, self.obs_dim)[:, n_random:],
+                                        explore=False).astype(np.float64)
+        for k, run in enumerate(self.runs):
+            if n_random:
+                self.actions[k, :n_random] = learner.random_actions(k, n_random)
+            if n_random < n:
+                noise = run.exploration(n_random, learner.rngs[k])
+                self.actions[k, n_random:] = np.clip(mu[k] + noise, -1.0, 1.0)
+            elif cfg.noise_color > 0:  # the sequences keep time during the warm-up too
+                run.exploration(n, learner.rngs[k])
+        return self.actions.reshape(self.k_seeds * n, self.act_dim)
+
+    def store(self, obs: np.ndarray, actions: np.ndarray, rewards: np.ndarray, next_obs: np.ndarray,
+              terminated: np.ndarray, ended: np.ndarray, infos: dict[str, Any]) -> None:
+        """Each seed's transitions into its buffer (the real s' of an ended episode is
+        ``infos["final_obs"][i]``: ``SAME_STEP`` autoreset), its episode sums and counters."""
+        real_next = next_obs.copy()
+        for i in np.flatnonzero(ended):
+            real_next[i] = flat_observation(infos["final_obs"][i])
+        n = self.n
+        for k, run in enumerate(self.runs):
+            for j in range(n):
+                i = k * n + j
+                run.buffer.add(obs[i], actions[i], float(rewards[i]), real_next[i], bool(terminated[i]))
+            run.ep_return += rewards[self.sub(k)]
+            run.ep_len += 1
+            run.global_step += n
+            run.bar.update(n)
+
+    def learn(self, before: int) -> None:
+        """``updates_per_step`` updates per transition past the warm-up (``before``: the step
+        count before this vector step), all seeds at once; losses logged every ``log_every``."""
+        cfg, learner, runs = self.cfg, self.learner, self.runs
+        n_learn = max(0, self.lead.global_step - max(before, cfg.learning_starts))
+        if not n_learn or len(self.lead.buffer) < cfg.batch_size:
+            return
+        for _ in range(n_learn * cfg.updates_per_step):
+            info = learner.update([r.buffer.sample(cfg.batch_size, learner.rngs[k])
+                                   for k, r in enumerate(runs)])
+            if learner.num_updates % cfg.log_every == 0:
+                for name, values in info.items():
+                    for k, run in enumerate(runs):
+                        run.writer.add_scalar(f"losses/{name}", float(values[k]), run.global_step)
+
+    def log_episode_ends(self, ended: np.ndarray, terminated: np.ndarray,
+                         truncated: np.ndarray) -> None:
+        """The ended episodes into each seed's ``episodes.csv``, in sub-environment order."""
+        n = self.n
+        for k, run in enumerate(self.runs):
+            for j in np.flatnonzero(ended[self.sub(k)]):
+                run.log_episode(j, bool(terminated[k * n + j]), bool(truncated[k * n + j]), self.log_fn)
+            if ended[self.sub(k)].any():
+                run.csv_file.flush()
+
+    def evaluate(self, due: list[int]) -> None:
+        """Evaluate the seeds ``due``: together in one vector environment when there is one (the
+        same returns as one by one), else one after the other."""
+        learner, runs = self.learner, self.runs
+        if len(due) > 1 and self.eval_vec_env_fn is not None:
+            results = evaluate_many([ActorPolicy.of_seed(learner, k) for k in due],
+                                    self.eval_vec_env_fn, self.cfg.eval_episodes, EVAL_SEED)
+            for k, result in zip(due, results, strict=True):
+                run = runs[k]
+                run.evaluation.record(result, learner, k, run.global_step, run.wall_time_s,
+                                      run.header(learner))
+        else:
+            for k in due:
+                run = runs[k]
+                run.evaluation.run(learner, k, run.global_step, run.wall_time_s, run.header(learner))
+
+    def next_episode_seeds(self, ended: np.ndarray) -> list[int | None]:
+        """The reset seeds of the ended sub-environments (``None`` for the others); their new
+        episodes are numbered now."""
+        reset_seeds: list[int | None] = [None] * (self.k_seeds * self.n)
+        for k, run in enumerate(self.runs):
+            for j in np.flatnonzero(ended[self.sub(k)]):
+                run.ep_id[j] = run.episode
+                reset_seeds[k * self.n + j] = run.next_episode_seeds(1)[0]
+        return reset_seeds
+
+    def start_next_episodes(self, ended: np.ndarray, reset_seeds: list[int | None],
+                            next_obs: np.ndarray) -> None:
+        """Reset the ended sub-environments (their first observations into ``next_obs``) and draw
+        their new episodes' exploration noise."""
+        fresh, _ = self.env.reset(seed=reset_seeds, options={"reset_mask": ended})
+        fresh = np.asarray(fresh, dtype=np.float32).reshape(self.k_seeds * self.n, self.obs_dim)
+        next_obs[ended] = fresh[ended]
+        for k, run in enumerate(self.runs):
+            for j in np.flatnonzero(ended[self.sub(k)]):
+                run.draw_noise(int(j), self.learner.rngs[k])
+
+    # -- checkpoints ---------------------------------------------------------------------------
+    def vector_state(self, obs: np.ndarray) -> dict[str, Any] | None:
+        """The environments' state and each seed's episode state, for a checkpoint inside
+        episodes (``None`` when the environments cannot save theirs)."""
+        if not self.can_save_env:
+            return None
+        runs = self.runs
+        return {"num_envs": self.k_seeds * self.n, "seeds": [r.cfg.seed for r in runs],
+                "env_state": _to_tensors(self.env.get_state()),
+                "obs": torch.from_numpy(obs.copy()),
+                **{key: torch.from_numpy(np.concatenate([getattr(r, key) for r in runs]))
+                   for key in ("ep_return", "ep_len", "ep_id", "noise", "noise_pos")}}
+
+    def checkpoint_between_episodes(self) -> None:
+        """Every seed's checkpoint at an episode boundary (before the new episodes are counted)."""
+        for run in self.runs:
+            run.episode -= self.n
+            run.checkpoint(self.learner, at_episode_boundary=True, vector=None)
+            run.episode += self.n
+
+    def checkpoint_inside_episodes(self, obs: np.ndarray) -> None:
+        """Every seed's checkpoint with the environments' state."""
+        state = self.vector_state(obs)
+        for run in self.runs:
+            run.checkpoint(self.learner, at_episode_boundary=False, vector=state)
+
+    # -- the loop ------------------------------------------------------------------------------
+    def step(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+        """One vector step of every seed from ``obs``: act, step, store, learn, log. Returns the
+        next observations (before any reset), which sub-environments ended, and whether the
+        group's step budget is reached."""
+        flat_actions = self.act(obs)
+        self.lap("act")
+        next_obs, rewards, terminated, truncated, infos = self.env.step(
+            self.learner.scale_action(flat_actions))
+        self.lap("env")
+        next_obs = np.asarray(next_obs, dtype=np.float32).reshape(self.k_seeds * self.n, self.obs_dim)
+        terminated = np.asarray(terminated, dtype=bool)
+        truncated = np.asarray(truncated, dtype=bool)
+        rewards = np.asarray(rewards, dtype=np.float64)
+        ended = terminated | truncated
+        before = self.lead.global_step
+        self.store(obs, flat_actions, rewards, next_obs, terminated, ended, infos)
+        self.lap("store")
+        self.learn(before)
+        self.lap("update")
+        self.log_episode_ends(ended, terminated, truncated)
+        return next_obs, ended, self.lead.done
+
+    def between_steps(self, next_obs: np.ndarray, ended: np.ndarray) -> None:
+        """After a vector step: evaluations when all of a seed's episodes have just ended (so
+        their timing does not depend on the layout), the ended episodes restarted, and the
+        checkpoints due at restorable points (``next_obs`` becomes the new episodes' start)."""
+        lead, all_ended = self.lead, bool(ended.all())
+        restorable = all_ended or self.can_save_env
+        self.lap("log")
+        self.evaluate([k for k, run in enumerate(self.runs)
+                       if ended[self.sub(k)].all() and run.evaluation.due(run.global_step)])
+        self.lap("evaluation")
+        checkpoint_due = restorable and lead.global_step >= lead.next_checkpoint
+        if ended.any():
+            reset_seeds = self.next_episode_seeds(ended)
+            if checkpoint_due and all_ended:  # before the new episodes: nothing of them to save
+                self.checkpoint_between_episodes()
+                checkpoint_due = False
+                self.lap("checkpoint")
+            self.start_next_episodes(ended, reset_seeds, next_obs)
+        self.lap("env")
+        if checkpoint_due:  # inside episodes: the environments' state goes along
+            self.checkpoint_inside_episodes(next_obs)
+            self.lap("checkpoint")
+
+    def finish(self, obs: np.ndarray, ended: np.ndarray | None, start_step: int) -> None:
+        """The last evaluation and the final checkpoint."""
+        self.lap("log")
+        self.evaluate([k for k, run in enumerate(self.runs)
+                       if run.evaluation.enabled and run.evaluation.last_step != run.global_step])
+        self.lap("evaluation")
+        all_ended = bool(ended.all()) if self.lead.global_step > start_step else True
+        state = None if all_ended else self.vector_state(obs)
+        for run in self.runs:
+            run.checkpoint(self.learner, at_episode_boundary=all_ended, vector=state)
+
+    def run(self, obs: np.ndarray) -> TD3:
+        """Vector steps until the seeds' budget, then the final evaluation and checkpoint (unless
+        a resumed run took no step); returns the learner."""
+        lead = self.lead
+        prev_deterministic = torch.are_deterministic_algorithms_enabled()
+        if self.cfg.torch_deterministic:
+            torch.use_deterministic_algorithms(True)
+        start_step = lead.global_step
+        # where the group's wall time goes (s, cumulative over resumes): the profile of a run
+        if lead.resumed_here and lead.ckpt.get("timing"):
+            self.timing.update({k: float(v) for k, v in lead.ckpt["timing"].items() if k in self.timing})
+        self.clock = time.perf_counter()
+        for run in self.runs:
+            run.timing = self.timing
+        ended = None
+        try:
+            while not lead.done:
+                next_obs, ended, done = self.step(obs)
+                if done:  # ``obs`` stays this step's start: what the final checkpoint has held
+                    break
+                self.between_steps(next_obs, ended)
+                obs = next_obs
+            if not (lead.resumed_here and lead.global_step == start_step):
+                self.finish(obs, ended, start_step)
+        finally:
+            for run in self.runs:
+                run.close()
+            torch.use_deterministic_algorithms(prev_deterministic)
+        return self.learner
+
+
+# ----------------------------------------------------------------------------------------------
+# The layouts of the single-seed API
+# ----------------------------------------------------------------------------------------------
+def _single(learner: TD3, k: int = 0) -> TD3Agent:
+    """Seed ``k`` of ``learner`` as a :class:`~elastica_magnetic_rl.td3.agent.TD3Agent`."""
+    agent = TD3Agent(learner.obs_dim, learner.act_dim, learner.action_low, learner.action_high,
+                     learner.configs[k])
+    agent.load_seed_state(0, learner.seed_state(k))
+    return agent
+
+
+def train(
+    env_fn: Callable[[], gym.Env],
+    config: TD3Config | None = None,
+    steps: int = 100_000,
+    run_dir: str | os.PathLike = "runs/td3",
+    resume: bool = False,
+    progress: bool = True,
+    log_fn: Callable[[dict[str, Any]], None] | None = None,
+    *,
+    init_from: str | os.PathLike | None = None,
+    progress_position: int | None = None,
+    progress_desc: str | None = None,
+    metadata: dict[str, Any] | None = None,
+    eval_env_fn: Callable[[], gym.Env] | None = None,
+) -> TD3Agent:
+    """One seed on one environment (:func:`train_seeds` with K = N = 1); returns its agent.
+
+    ``env_fn`` makes a single Gymnasium environment (flat Box observations, bounded Box actions).
+    Other arguments as :func:`train_seeds` (one of each).
+    """
+    learner = train_seeds(lambda k: _wrap(env_fn, k), [config], steps, [run_dir], resume=resume,
+                          progress=progress, log_fn=log_fn,
+                          init_from=[init_from] if init_from is not None else None,
+                          metadata=[metadata], eval_env_fn=eval_env_fn,
+                          progress_position=progress_position, progress_desc=progress_desc)
+    return _single(learner)
+
+
+def train_vector(
+    vec_env_fn: Callable[[], gym.vector.VectorEnv],
+    config: TD3Config | None = None,
+    steps: int = 100_000,
+    run_dir: str | os.PathLike = "runs/td3",
+    resume: bool = False,
+    progress: bool = True,
+    log_fn: Callable[[dict[str, Any]], None] | None = None,
+    *,
+    init_from: str | os.PathLike | None = None,
+    progress_position: int | None = None,
+    progress_desc: str | None = None,
+    metadata: dict[str, Any] | None = None,
+    eval_env_fn: Callable[[], gym.Env] | None = None,
+) -> TD3Agent:
+    """One seed on the N sub-environments of ``vec_env_fn()`` (:func:`train_seeds` with K = 1):
+    N transitions and N updates per vector step."""
+    probe: list[gym.vector.VectorEnv] = []
+
+    def make(total: int) -> gym.vector.VectorEnv:
+        return probe.pop() if probe else vec_env_fn()
+
+    probe.append(vec_env_fn())
+    n_envs = int(probe[0].num_envs)
+    learner = train_seeds(make, [config], steps, [run_dir], envs_per_seed=n_envs, resume=resume,
+                          progress=progress, log_fn=log_fn,
+                          init_from=[init_from] if init_from is not None else None,
+                          metadata=[metadata], eval_env_fn=eval_env_fn,
+                          progress_position=progress_position, progress_desc=progress_desc)
+    return _single(learner)
+
+
+def train_shared(
+    vec_env_fn: Callable[[int], gym.vector.VectorEnv],
+    configs: list[TD3Config],
+    steps: int,
+    run_dirs: list[str | os.PathLike],
+    resume: bool = False,
+    progress: bool = True,
+    *,
+    progress_desc: str | None = None,
+    metadata: list[dict[str, Any]] | None = None,
+    eval_env_fn: Callable[[], gym.Env] | None = None,
+) -> list[TD3Agent]:
+    """K seeds, one sub-environment each (:func:`train_seeds` with N = 1); returns one agent per
+    seed, each bit-identical to training that seed alone."""
+    learner = train_seeds(vec_env_fn, configs, steps, run_dirs, resume=resume, progress=progress,
+                          metadata=metadata, eval_env_fn=eval_env_fn, progress_desc=progress_desc)
+    return [_single(learner, k) for k in range(learner.n_seeds)]
+
+
+__all__ = ["train", "train_seeds", "train_shared", "train_vector"]

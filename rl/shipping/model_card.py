@@ -1,0 +1,186 @@
+"""The model card of a shipped policy (``MODEL_CARD.md``): what it does, how it was trained, how far
+it goes against its target, every seed of its case, and its limits."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..cases.case import Case
+
+__all__ = ["model_card", "seed_meets_target", "card_section", "replace_card_section", "NOTES_SECTION"]
+
+#: The card's section rendered from ``policy.json``'s ``notes`` (their one home is policy.json).
+NOTES_SECTION = "## Notes"
+
+
+def seed_meets_target(evaluation: dict[str, Any]) -> bool:
+    """A seed succeeds when its final actor or its best evaluated one reaches the target."""
+    best = evaluation.get("best") or {}
+    return bool(evaluation["meets_target"]) or bool(best.get("meets_target"))
+
+
+def model_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case) -> str:
+    """The card (Markdown) of the policy described by ``info`` (its ``policy.json``), with the
+    case's training ``summary`` (``summary.json``; ``None`` when not found): what it does and how
+    to use it, its training, every seed of its case, its evaluation, notes and limitations."""
+    lines = [*_use_section(info, case), *_training_section(info, summary, case),
+             *_seeds_section(info, case), *_evaluation_section(info, case)]
+    if info.get("notes"):
+        lines += ["", NOTES_SECTION, "", info["notes"].strip()]
+    lines += _limitations_section(case)
+    return "\n".join(lines)
+
+
+def _use_section(info: dict[str, Any], case: Case) -> list[str]:
+    increment = 1e3 * case.actuation.max_increment
+    what = "crawl forward" if case.task.kind == "crawl" else \
+        f"reach {1e3 * getattr(case.task, 'target', 0.0):+.1f} mm and stay there"
+    return [
+        f"# Model card: `{info['name']}`",
+        "",
+        f"TD3 actor that makes the robot `{case.robot.name}` {what} (case `{case.name}`), "
+        f"magnetization `{info['magnetization']}`, field limit {1e3 * case.field_limit:g} mT.",
+        "",
+        *( [case.description, ""] if case.description else [] ),
+        "## Use",
+        "",
+        f"- `msr generate {info['name']} --duration 10 --out DIR`: field CSV (mT, 100 Hz) from a "
+        "zero field in the accurate physics, trajectory, figures, GIF.",
+        f"- `msr export {info['name']} --out DIR`: TorchScript + observation/action JSON.",
+        f"- Input: {info['architecture']['obs_dim']} float32 observations (layout and scales in "
+        f"`policy.json`); output: 2 actions in [-1, 1], x {increment:g} mT = field increment per "
+        "0.01 s.",
+        "",
+    ]
+
+
+def _training_section(info: dict[str, Any], summary: dict[str, Any] | None, case: Case) -> list[str]:
+    tr = info["training"]
+    training_dt = case.robot.tables["physics"]["training"]["dt"]
+    accurate_dt = case.robot.tables["physics"]["accurate"]["dt"]
+    lines = [
+        "## Training",
+        "",
+        f"- seed: {tr['seed']}",
+        f"- training steps (mass-scaled training physics, dt {training_dt:g} s): {tr['training_steps']}",
+        f"- refinement steps (accurate physics, dt {accurate_dt:g} s): {tr['refine_steps']}",
+        f"- checkpoint: `{tr['source']}` (global step {tr['global_step']}"
+        + ("; the best of the evaluations during training" if tr.get("best_evaluation") else "")
+        + ")",
+    ]
+    if summary and summary.get("success_threshold_return") is not None:
+        lines.append(
+            f"- seeds that succeeded: {summary.get('succeeded')} of {len(summary.get('seeds', []))} "
+            f"(final mean episode return >= {summary['success_threshold_return']:.0f}, "
+            "half the yardstick's distance rate)"
+        )
+    elif not summary:
+        lines.append("- seeds that succeeded: unknown (no summary.json found next to the run)")
+    return lines
+
+
+def _seeds_section(info: dict[str, Any], case: Case) -> list[str]:
+    evaluations = (info.get("seeds") or {}).get("evaluations")
+    if not evaluations:
+        return []
+    lines = [
+        "",
+        "## Every seed of the case (accurate physics, field from zero)",
+        "",
+        f"{info['seeds']['meeting_target']} of {len(evaluations)} seeds reach the target "
+        f"({case.target_label}) with their final actor or with the best actor of their evaluations "
+        "during training (`best.pt`, where the run has one).",
+        "",
+        "| seed | training steps | distance, final actor (mm) | best.pt: step, distance (mm) "
+        "| meets the target |",
+        "|---|---|---|---|---|",
+    ]
+    for e in evaluations:
+        best = e.get("best")
+        verdict = "n/a" if e["meets_target"] is None else \
+            ("yes" if seed_meets_target(e) else "no")
+        for entry in (e, best):
+            if entry and entry["diverged"]:
+                verdict += f" (diverged: {entry['diverged']})"
+        best_cell = (f"{best['global_step']}, {1e3 * best['mid_dx_m']:+.1f}" if best else "-")
+        lines.append(f"| {e['seed']} | {e['global_step']} | {1e3 * e['mid_dx_m']:+.1f} "
+                     f"(in {e['duration_s']:g} s) | {best_cell} | {verdict} |")
+    return lines
+
+
+def _evaluation_section(info: dict[str, Any], case: Case) -> list[str]:
+    ev, target = info["evaluation"], case.target_label
+    lines = ["", "## Evaluation (accurate physics, field from zero, deterministic)", ""]
+    if not ev:
+        return [*lines, f"- not measured (target: {target})"]
+    met = case.meets_yardstick(ev["mid_dx_m"], ev.get("node_dx_m", ev["mid_dx_m"]),
+                               ev["duration_s"], ev["diverged"])
+    verdict = {True: "meets the target", False: "falls short of the target",
+               None: "not comparable: the target is for 10 s"}[met]
+    lines.append(
+        f"- middle of the robot moved {1e3 * ev['mid_dx_m']:+.1f} mm in {ev['duration_s']:g} s; "
+        f"target: {target}"
+        + (f" ({case.yardstick.source})" if case.yardstick.source else "") + f": {verdict}"
+        + (f"; DIVERGED: {ev['diverged']}" if ev["diverged"] else "")
+    )
+    if ev.get("reach"):
+        r = ev["reach"]
+        settle = "never settles" if r["settle_time_s"] is None else \
+            f"settles within the tolerance after {r['settle_time_s']:.2f} s"
+        lines.append(f"- final position error {1e3 * r['final_error_m']:+.2f} mm; {settle}")
+    return lines
+
+
+def _limitations_section(case: Case) -> list[str]:
+    robot = case.robot.tables["robot"]
+    size = (f"{1e3 * robot['length']:g} x {1e3 * robot['width']:g} x {1e3 * robot['thickness']:g} mm"
+            if "thickness" in robot else
+            f"{1e3 * robot['length']:g} mm long, radius {1e3 * robot['radius']:g} mm")
+    ground = robot.get("ground") or {}
+    return [
+        "",
+        "## Limitations",
+        "",
+        "- Simulation only: the model's rotational over-damping makes the simulated robot respond "
+        "~0.3 s slower than the real one (Yao et al. 2023, for their robot); check the waveform on "
+        "hardware at low amplitude first.",
+        f"- Trained for one robot ({size}, {robot['youngs_modulus'] / 1e3:g} kPa, magnetization "
+        f"`{robot['magnetization']['kind']}`) on a flat ground with friction "
+        f"{ground.get('static_mu', float('nan')):g}/{ground.get('kinetic_mu', float('nan')):g}; "
+        "other robots need retraining.",
+        "",
+    ]
+
+
+def _section_bounds(lines: list[str], heading: str) -> tuple[int, int] | None:
+    """First and one-past-last line of the ``heading`` section (up to the next "## " heading)."""
+    if heading not in lines:
+        return None
+    start = lines.index(heading)
+    end = next((i for i in range(start + 1, len(lines)) if lines[i].startswith("## ")), len(lines))
+    return start, end
+
+
+def card_section(text: str, heading: str) -> str | None:
+    """The body of a card's section ``heading`` (e.g. ``"## Notes"``), stripped; None without it."""
+    lines = text.split("\n")
+    bounds = _section_bounds(lines, heading)
+    return None if bounds is None else "\n".join(lines[bounds[0] + 1:bounds[1]]).strip()
+
+
+def replace_card_section(text: str, heading: str, body: str | None, before: str) -> str:
+    """``text`` with its section ``heading`` holding ``body`` (Markdown): replaced where the card
+    has the section, else inserted before the first heading starting with ``before`` (or at the
+    end); ``body`` None or blank removes the section."""
+    lines = text.split("\n")
+    bounds = _section_bounds(lines, heading)
+    section = [] if not (body and body.strip()) else [heading, "", body.strip(), ""]
+    if bounds is not None:
+        lines = lines[:bounds[0]] + section + lines[bounds[1]:]
+    elif section:
+        anchor = next((i for i, line in enumerate(lines) if line.startswith(before)), None)
+        if anchor is None:
+            lines = [*text.rstrip("\n").split("\n"), "", *section]
+        else:
+            lines = lines[:anchor] + section + lines[anchor:]
+    return "\n".join(lines).rstrip("\n") + "\n"

@@ -1,0 +1,239 @@
+"""Policy files: where shipped policies live, how a policy argument (a run directory, a checkpoint,
+a shipped-format folder or a shipped name) is loaded, and the errors that name a bad file.
+
+A shipped-format folder holds ``actor.pt`` (state dict of :class:`~elastica_magnetic_rl.td3.algorithm.Actor`),
+optionally ``critic.pt``, and ``policy.json`` (format ``msr-policy-v1``: case and ``case_spec``,
+architecture, observation and action layout, provenance, ``actor_sha256``).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..cases.case import Case, case_from_metadata
+
+__all__ = [
+    "LoadedPolicy",
+    "POLICIES_DIR",
+    "POLICY_FORMAT",
+    "POLICY_JSON",
+    "PolicyFileError",
+    "PolicyNotFoundError",
+    "resolve_policy",
+    "weights_sha256",
+]
+
+#: Folder of the shipped policies (``rl/policies/<name>/``).
+POLICIES_DIR = Path(__file__).resolve().parents[1] / "policies"
+POLICY_JSON = "policy.json"
+POLICY_FORMAT = "msr-policy-v1"
+
+
+class PolicyNotFoundError(FileNotFoundError):
+    """A policy argument that names no run, checkpoint or shipped policy."""
+
+
+class PolicyFileError(ValueError):
+    """A policy file that is corrupted, truncated or does not match its ``policy.json``; the
+    message names the file."""
+
+
+def weights_sha256(state_dict: dict[str, Any]) -> str:
+    """SHA-256 of a network's weights (names, dtypes, shapes and values, in name order): stored in
+    ``policy.json`` to check that ``actor.pt`` is the actor it describes."""
+    import hashlib
+
+    digest = hashlib.sha256()
+    for name in sorted(state_dict):
+        tensor = state_dict[name].detach().cpu().contiguous()
+        digest.update(f"{name}|{tensor.dtype}|{tuple(tensor.shape)}|".encode())
+        digest.update(tensor.numpy().tobytes())
+    return digest.hexdigest()
+
+
+@dataclass
+class LoadedPolicy:
+    """A policy ready to act: the actor (normalised actions), the critic if known, and its case."""
+
+    actor: Any  # elastica_magnetic_rl.td3.algorithm.Actor in eval mode
+    critic: Any | None  # elastica_magnetic_rl.td3.algorithm.TwinCritic or None
+    case: Case
+    source: Path
+    kind: str  # "checkpoint" or "shipped"
+    meta: dict[str, Any] = field(default_factory=dict)
+    obs_dim: int = 260  # the case's (checked against it on loading)
+    act_dim: int = 2
+    hidden_sizes: tuple[int, ...] = (256, 256)
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        """Deterministic normalised action in [-1, 1]^2 for one observation (float32)."""
+        import torch
+
+        with torch.no_grad():
+            x = torch.as_tensor(np.asarray(obs, dtype=np.float32).reshape(1, -1))
+            return self.actor(x)[0].numpy().astype(np.float32)
+
+
+def build_networks(obs_dim: int, act_dim: int, hidden: tuple[int, ...], actor_state: dict,
+                   critic_state: dict | None, source: Path | None = None,
+                   critic_layer_norm: bool = False):
+    """The actor (and the twin critic when ``critic_state`` is given) of a checkpoint or policy
+    file (:func:`~elastica_magnetic_rl.td3.algorithm.networks_from_state`). Weights that do not fit
+    the declared architecture raise a :class:`PolicyFileError` naming ``source``."""
+    from ..td3.algorithm import networks_from_state
+
+    try:
+        return networks_from_state(obs_dim, act_dim, hidden, actor_state, critic_state, source,
+                                   critic_layer_norm)
+    except ValueError as exc:
+        raise PolicyFileError(str(exc)) from None
+
+
+def _torch_load(path: Path) -> Any:
+    """``torch.load`` of a policy file; a truncated or corrupted file is a PolicyFileError naming it."""
+    import torch
+
+    try:
+        return torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as exc:  # torch raises EOFError, RuntimeError, UnpicklingError, ...
+        raise PolicyFileError(
+            f"{path}: cannot be read as a torch file ({type(exc).__name__}: "
+            f"{str(exc).splitlines()[0][:200] if str(exc) else 'empty or truncated'}); "
+            "restore it from the run or the repository"
+        ) from None
+
+
+def _policy_json(path: Path) -> dict[str, Any]:
+    """``policy.json`` of a shipped-format folder, with the keys loading needs checked."""
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise PolicyFileError(f"{path}: not valid JSON ({exc})") from None
+    arch = meta.get("architecture") if isinstance(meta, dict) else None
+    if not isinstance(arch, dict) or not isinstance(meta.get("case"), str):
+        raise PolicyFileError(f"{path}: lacks 'case' or 'architecture' (not a {POLICY_FORMAT} file)")
+    missing = [k for k in ("obs_dim", "act_dim", "hidden_sizes") if k not in arch]
+    if missing:
+        raise PolicyFileError(f"{path}: architecture lacks {', '.join(missing)}")
+    try:
+        arch["hidden_sizes"] = [int(h) for h in arch["hidden_sizes"]]
+        arch["obs_dim"], arch["act_dim"] = int(arch["obs_dim"]), int(arch["act_dim"])
+    except (TypeError, ValueError):
+        raise PolicyFileError(f"{path}: architecture sizes must be integers, got {arch}") from None
+    return meta
+
+
+def _policy_case(meta: dict[str, Any], path: Path) -> Case:
+    """The case of a policy's metadata; an unknown or invalid one is a PolicyFileError naming it."""
+    from elastica_magnetic.specfile import SpecError
+
+    try:
+        return case_from_metadata(meta, str(path))
+    except SpecError as exc:
+        raise PolicyFileError(str(exc)) from None
+
+
+def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -> LoadedPolicy:
+    """Load a policy from a run directory, a checkpoint file, a shipped-format directory
+    (``actor.pt`` + ``policy.json``), or a shipped name (``rl/policies/<name>``), in that order."""
+
+    from ..runfiles.checkpoint import checkpoint_metadata, load_checkpoint
+    from ..runfiles.rundir import RunDir
+
+    policies_dir = Path(policies_dir) if policies_dir is not None else POLICIES_DIR
+    path = Path(policy)
+    if not path.exists() and (policies_dir / str(policy)).is_dir():
+        path = policies_dir / str(policy)
+    if path.is_dir() and RunDir(path).has_checkpoint():
+        path = RunDir(path).checkpoint
+    if path.is_file():
+        try:
+            ckpt = load_checkpoint(path)
+        except ValueError as exc:  # unreadable, or not a checkpoint: named by load_checkpoint
+            raise PolicyFileError(str(exc)) from None
+        except Exception as exc:  # a truncated or corrupted file
+            raise PolicyFileError(
+                f"{path}: cannot be read as a checkpoint ({type(exc).__name__}: "
+                f"{str(exc).splitlines()[0][:200] if str(exc) else 'empty or truncated'})"
+            ) from None
+        meta = checkpoint_metadata(ckpt, path)
+        try:
+            hidden = tuple(ckpt["config"]["hidden_sizes"])
+            actor_state, critic_state = ckpt["agent"]["actor"], ckpt["agent"]["critic"]
+            obs_dim, act_dim = ckpt["obs_dim"], ckpt["act_dim"]
+        except (KeyError, TypeError) as exc:
+            raise PolicyFileError(f"{path}: incomplete checkpoint (no {exc})") from None
+        actor, critic = build_networks(obs_dim, act_dim, hidden, actor_state, critic_state, path,
+                                        bool(ckpt["config"].get("critic_layer_norm", False)))
+        meta = {**meta, "global_step": int(ckpt["global_step"]), "config": ckpt["config"],
+                "checkpoint_kind": ckpt.get("kind", "full")}
+        case = _policy_case(meta, path)
+        _check_obs_dim(case, obs_dim, path)
+        return LoadedPolicy(actor, critic, case, path, "checkpoint", meta,
+                            ckpt["obs_dim"], ckpt["act_dim"], hidden)
+    if path.is_dir() and (path / POLICY_JSON).is_file() and (path / "actor.pt").is_file():
+        meta = _policy_json(path / POLICY_JSON)
+        case = _policy_case(meta, path / POLICY_JSON)
+        arch = meta["architecture"]
+        _check_obs_dim(case, arch["obs_dim"], path / POLICY_JSON)
+        hidden = tuple(arch["hidden_sizes"])
+        actor_state = _torch_load(path / "actor.pt")
+        expected = meta.get("actor_sha256")
+        if expected is not None and weights_sha256(actor_state) != expected:
+            raise PolicyFileError(
+                f"{path / 'actor.pt'}: its weights do not match the actor_sha256 of {path / POLICY_JSON} "
+                f"(case {meta['case']}): the files come from different policies"
+            )
+        critic_state = None
+        if (path / "critic.pt").is_file():
+            critic_state = _torch_load(path / "critic.pt")
+        actor, critic = build_networks(arch["obs_dim"], arch["act_dim"], hidden, actor_state,
+                                        critic_state, path / "actor.pt",
+                                        bool(arch.get("critic_layer_norm", False)))
+        return LoadedPolicy(actor, critic, case, path, "shipped", meta, arch["obs_dim"],
+                            arch["act_dim"], hidden)
+    shipped = sorted(p.name for p in policies_dir.glob("*") if (p / POLICY_JSON).is_file()) \
+        if policies_dir.is_dir() else []
+    raise PolicyNotFoundError(
+        f"{policy}: not a run directory, checkpoint, shipped-policy folder or shipped policy name "
+        f"(shipped in {policies_dir}: {', '.join(shipped) or 'none'})"
+    )
+
+
+def _check_obs_dim(case: Case, obs_dim: int, path: Path) -> None:
+    if int(obs_dim) != case.obs_dim:
+        raise PolicyFileError(f"{path}: the policy takes {obs_dim} observations, its case "
+                              f"{case.name!r} gives {case.obs_dim}")
+
+
+def observation_spec_of(case: Case) -> dict[str, Any]:
+    """The ``observation`` entry of a policy's ``policy.json``: the case's observation layout and
+    scaling (:func:`~elastica_magnetic_rl.envs.env.observation_spec`)."""
+    from ..envs.env import observation_spec
+
+    ground = case.robot_spec("training").ground
+    return observation_spec(case.n_elements, ground.surface_tolerance, case.task)
+
+
+def action_spec_of(case: Case) -> dict[str, Any]:
+    """The ``action`` entry of a policy's ``policy.json``: the action's scaling to a field increment
+    (T) and the field rule."""
+    increment = case.actuation.max_increment
+    return {
+        "shape": [2],
+        "low": -1.0,
+        "high": 1.0,
+        "meaning": "field increment (dB_x, dB_y) = field_increment_T_per_unit * action",
+        "field_increment_T_per_unit": increment,
+        "field_increment_mT_per_unit": increment * 1e3,
+        "field_limit_T": case.field_limit,
+        "field_rule": f"B += clip(dB, -{1e3 * increment:g} mT, {1e3 * increment:g} mT); clip each "
+                      "component to +-limit; if |B| > limit scale B to |B| = limit; hold for 0.01 s "
+                      "(100 Hz)",
+        "control_period_s": 0.01,
+    }

@@ -1,0 +1,170 @@
+"""Rolling a policy out, and the shipping criterion's evaluation of a case's seeds: one home for how a policy
+is run (:func:`run_policy`), judged (:func:`evaluate_checkpoint`: 10 s in the accurate physics from a zero
+field, against the case's yardstick) and cached per seed (:func:`evaluate_seeds`);
+:mod:`~elastica_magnetic_rl.shipping.generate`, :mod:`~elastica_magnetic_rl.shipping.ship` and
+:mod:`elastica_magnetic_rl.shipping.seed_export` build on it."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from elastica_magnetic.io import atomic_write_json
+
+from ..envs.env import make_env
+from ..runfiles.rundir import CaseDir, RunDir
+from .baselines import RotatingFieldPolicy
+from .policy_files import LoadedPolicy, resolve_policy
+
+__all__ = ["evaluate_checkpoint", "evaluate_seeds", "node_dx",
+           "run_policy", "seed_run_dirs"]
+
+
+def run_policy(
+    policy: LoadedPolicy | RotatingFieldPolicy,
+    duration: float = 10.0,
+    physics: str = "accurate",
+    initial_field: str = "zero",
+    progress: bool = True,
+):
+    """Roll out ``policy`` deterministically for ``duration`` s; returns a
+    :class:`~elastica_magnetic_rl.envs.rollout.Rollout`
+    (stops early, with ``meta["diverged"]``, if the simulation blows up)."""
+    import pandas as pd
+    from tqdm.auto import tqdm
+
+    from elastica_magnetic.simulation import TRAJECTORY_COLUMNS
+
+    from ..envs.rollout import Rollout
+
+    env = make_env(policy.case, physics, initial_field, duration)
+    obs, _ = env.reset(seed=0)
+    if obs.shape[0] != policy.obs_dim:
+        raise ValueError(f"policy expects {policy.obs_dim} observations, the environment gives "
+                         f"{obs.shape[0]}")
+    sim = env.simulation
+    n = env.max_episode_steps
+    times, positions, observations = [0.0], [sim.rod.position_collection[:2].copy()], [obs]
+    rows = [sim.markers()]
+    fields, actions, rewards = [], [], []
+    diverged = None
+    start = time.perf_counter()
+    with tqdm(total=n, desc=f"generate {policy.case.name}", unit="step", disable=not progress,
+              leave=False) as bar:
+        for _ in range(n):
+            action = policy.act(obs)
+            obs, reward, terminated, truncated, info = env.step(action)
+            if terminated:
+                diverged = info.get("divergence", "diverged")
+                break
+            fields.append(info["field_T"])
+            actions.append(action)
+            rewards.append(reward)
+            times.append(sim.time)
+            positions.append(sim.rod.position_collection[:2].copy())
+            observations.append(obs)
+            rows.append(sim.markers())
+            bar.update(1)
+            if truncated:
+                break
+    wall = time.perf_counter() - start
+    spec = env.robot_spec
+    env.close()
+    meta = {
+        "case": policy.case.name, "physics": physics, "initial_field": initial_field,
+        "duration_s": float(times[-1]), "field_limit_T": env.field_limit,
+        "max_increment_T": env.max_increment, "length_m": spec.length, "radius_m": spec.radius,
+        "n_elements": spec.n_elements, "policy_source": str(policy.source),
+        "policy_kind": policy.kind, "diverged": diverged, "wall_s": wall,
+        "step_ms": 1e3 * wall / max(len(actions), 1),
+    }
+    return Rollout(
+        times=np.asarray(times), positions=np.asarray(positions),
+        fields=np.asarray(fields).reshape(-1, 3), actions=np.asarray(actions).reshape(-1, 2),
+        rewards=np.asarray(rewards), observations=np.asarray(observations, dtype=np.float32),
+        trajectory=pd.DataFrame(rows, columns=list(TRAJECTORY_COLUMNS)), meta=meta,
+    )
+
+
+def node_dx(rollout) -> float:
+    """x displacement of the reward's middle node (node ``n // 2``) over a rollout, m."""
+    mid = rollout.positions.shape[2] // 2
+    return float(rollout.positions[-1, 0, mid] - rollout.positions[0, 0, mid])
+
+
+def evaluate_checkpoint(path: Path, cached: dict[str, Any], duration: float,
+                     progress: bool) -> dict[str, Any]:
+    """The accurate evaluation of one checkpoint file with its ``meets_target`` verdict, reusing
+    ``cached`` when it is of the same global step and duration."""
+    policy = resolve_policy(path)
+    step = policy.meta.get("global_step")
+    keys = ("global_step", "duration_s", "physics", "initial_field", "mid_dx_m", "node_dx_m",
+            "diverged")
+    if (cached.get("global_step") == step and cached.get("duration_s") == float(duration)
+            and all(k in cached for k in keys)):
+        entry = {k: cached[k] for k in keys}
+    else:
+        rollout = run_policy(policy, duration, "accurate", "zero", progress)
+        entry = {"global_step": step, "duration_s": float(duration), "physics": "accurate",
+                 "initial_field": "zero", "mid_dx_m": rollout.mid_dx,
+                 "node_dx_m": node_dx(rollout), "diverged": rollout.meta["diverged"]}
+    entry["meets_target"] = policy.case.meets_yardstick(entry["mid_dx_m"], entry["node_dx_m"],
+                                                        duration, entry["diverged"])
+    return entry
+
+
+def seed_run_dirs(case_dir: Path) -> list[tuple[int, Path]]:
+    """``(seed, run_dir)`` of every ``case_dir/seed<k>/`` holding a checkpoint, ordered by seed."""
+    seeds = [(seed, run.path) for seed, run in CaseDir(case_dir).seeds() if run.has_checkpoint()]
+    if not seeds:
+        raise FileNotFoundError(f"{case_dir}: no {CaseDir.SEED_PREFIX}<k>/{RunDir.CHECKPOINT} to "
+                                "evaluate")
+    return seeds
+
+
+def evaluate_seeds(
+    case_dir: str | Path,
+    duration: float = 10.0,
+    progress: bool = True,
+    workers: int = 1,
+) -> list[dict[str, Any]]:
+    """Distance in ``duration`` s of every seed of a case, by the shipping criterion: the final
+    checkpoint of ``case_dir/seed<k>/``, and its ``best.pt`` (best evaluation during training) when
+    there is one, run deterministically in the accurate physics from a zero field (as
+    :func:`generate`).
+
+    Each result is cached in the seed's folder (``evaluation.json``) and reused while the
+    checkpoint's global step and the duration are the same. Returns one dict per seed, ordered by
+    seed: ``seed``, ``global_step``, ``mid_dx_m`` (m), ``diverged``, ``meets_target`` (the
+    authors' distance in 10 s reached; ``None`` for other durations) of the final checkpoint, and
+    ``best``: the same keys for ``best.pt``, or ``None``.
+    """
+
+    results = []
+    seeds = seed_run_dirs(Path(case_dir))
+    jobs = [(seed, run_dir, duration, progress and workers == 1) for seed, run_dir in seeds]
+    if workers > 1:  # each seed's rollouts in its own process
+        from ..sweep.backends import run_in_processes
+
+        results = run_in_processes(_evaluate_seed, jobs, workers)
+    else:
+        results = [_evaluate_seed(job) for job in jobs]
+    return results
+
+
+def _evaluate_seed(job: tuple[int, Path, float, bool]) -> dict[str, Any]:
+    """The final and ``best.pt`` evaluations of one seed folder (cached in ``evaluation.json``)."""
+    seed, run_dir, duration, progress = job
+    run = RunDir(run_dir)
+    cache_path = run.evaluation_json
+    cache = json.loads(cache_path.read_text()) if cache_path.is_file() else {}
+    final = evaluate_checkpoint(run.checkpoint, cache, duration, progress)
+    best = None
+    if run.best.is_file():
+        best = evaluate_checkpoint(run.best, cache.get("best") or {}, duration, progress)
+    atomic_write_json(cache_path, {"seed": seed, **final, "best": best})
+    return {"seed": seed, **final, "best": best}

@@ -1,0 +1,138 @@
+"""Every seed of a case as a checkable policy folder (``msr export-seeds``): each seed's actor (the
+farther of its final checkpoint and its ``best.pt`` in the shipping criterion's evaluation,
+:func:`~elastica_magnetic_rl.shipping.policy_runs.evaluate_seeds`) in the shipped-policy format, its training
+logs, and ``seeds.json``; seeds of several runs collect in one folder."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from elastica_magnetic.io import atomic_write_json, atomic_write_text
+
+from ..cases.tasks import ReachTask
+from ..runfiles.rundir import CaseDir, RunDir
+from .policy_files import resolve_policy
+from .policy_runs import evaluate_seeds, seed_run_dirs
+from .ship import ship
+
+__all__ = ["SEED_TRAINING_LOGS", "export_seeds"]
+
+
+#: The training logs :func:`export_seeds` keeps beside each seed's actor (small CSVs: one row per
+#: episode and per evaluation), so learning curves can be drawn from the committed seeds.
+SEED_TRAINING_LOGS = RunDir.TRAINING_LOGS
+
+
+def export_seeds(
+    case_dir: str | Path,
+    dest: str | Path,
+    duration: float = 10.0,
+    progress: bool = True,
+    workers: int = 1,
+) -> dict[str, Any]:
+    """Every seed of a case as a policy folder ``dest/seed<k>/`` (``actor.pt`` and
+    ``policy.json``: what ``msr generate`` reads; no critic, no buffer; and the run's training
+    logs, :data:`SEED_TRAINING_LOGS`) and ``dest/seeds.json``:
+    one object per seed, ``{"seed", "steps", "distance_10s_m", "actor", "checkpoint",
+    "meets_target"}``.
+
+    Each seed's actor is the farther in ``duration`` s (accurate physics, zero field:
+    :func:`evaluate_seeds`) of its final checkpoint and its ``best.pt`` (for a reach task, the one
+    that ends closer to the target); ``checkpoint`` says which,
+    ``steps`` is that actor's training step and ``distance_10s_m`` its distance (m). Returns
+    ``{"seeds": [...], "meeting_target": n, "total": n}``.
+
+    Seeds trained in several runs collect in one ``dest``: the seeds already in
+    ``dest/seeds.json`` that this ``case_dir`` does not have are kept (a seed it has is replaced),
+    provided they were trained on the same case spec with the same hyperparameters; otherwise
+    nothing is written and a ``ValueError`` names the first difference.
+    """
+    case_dir, dest = Path(case_dir), Path(dest)
+    seeds = seed_run_dirs(case_dir)
+    first = resolve_policy(RunDir(seeds[0][1]).checkpoint)
+    case = first.case
+    # checked before the long evaluations
+    earlier = _earlier_exported_seeds(dest, {seed for seed, _ in seeds}, first.meta)
+    evaluations = evaluate_seeds(case_dir, duration, progress, workers)
+    entries = []
+    for ev in evaluations:
+        best = ev.get("best")
+        if isinstance(case.task, ReachTask):  # the closer to the target, not the farther
+            better = best is not None and (abs(best["node_dx_m"] - case.task.target)
+                                           < abs(ev["node_dx_m"] - case.task.target))
+        else:
+            better = best is not None and best["mid_dx_m"] > ev["mid_dx_m"]
+        use_best = best is not None and not best["diverged"] and (ev["diverged"] or better)
+        chosen = best if use_best else ev
+        run = CaseDir(case_dir).seed(ev["seed"])
+        source = run.best if use_best else run.checkpoint
+        folder = CaseDir.seed_name(ev["seed"])
+        ship(source, folder, dest=dest, measure=False, progress=False, overwrite=True,
+             with_critic=False, with_card=False)
+        for log in SEED_TRAINING_LOGS:  # the learning curve stays with the actor
+            if (run.path / log).is_file():
+                atomic_write_text(dest / folder / log, (run.path / log).read_text())
+        entries.append({"seed": ev["seed"], "steps": chosen["global_step"],
+                        "distance_10s_m": chosen["mid_dx_m"], "actor": folder,
+                        "checkpoint": "best" if use_best else "final",
+                        "meets_target": chosen["meets_target"]})
+    entries = sorted(earlier + entries, key=lambda e: e["seed"])
+    atomic_write_json(dest / "seeds.json", entries)
+    return {"seeds": entries, "total": len(entries),
+            "meeting_target": sum(bool(e.get("meets_target")) for e in entries)}
+
+
+def _earlier_exported_seeds(dest: Path, replaced: set[int], meta: dict[str, Any]) -> list[dict[str, Any]]:
+    """The entries of ``dest/seeds.json`` to keep beside a new export (seeds not in ``replaced``),
+    after checking that their actors were trained on the same case spec with the same
+    hyperparameters as the checkpoint whose metadata is ``meta``."""
+    from ..td3.algorithm import TD3Config
+
+    path = dest / "seeds.json"
+    if not path.is_file():
+        return []
+    try:
+        earlier = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{path}: unreadable ({exc}); move it away to start a new seeds.json") from exc
+    if not isinstance(earlier, list) or not all(isinstance(e, dict) and "seed" in e and "actor" in e
+                                                for e in earlier):
+        raise ValueError(f"{path}: expected a JSON list of objects with 'seed' and 'actor'")
+    def as_json(x: Any) -> Any:  # checkpoints hold tuples where policy.json holds lists
+        return json.loads(json.dumps(x, default=str))
+
+    def settings(config: dict[str, Any]) -> dict[str, Any]:
+        # a setting absent from an older run's config did not exist then: it ran as its default
+        return {k: v for k, v in as_json({**TD3Config().to_dict(), **config}).items() if k != "seed"}
+
+    def physical(spec: Any) -> Any:
+        # a spec's [training] table holds the defaults a run started from; what the run really
+        # used is its config (compared below) and each entry's steps, so a spec whose default
+        # recipe changed still describes the same robot and task
+        return {k: v for k, v in spec.items() if k != "training"} if isinstance(spec, dict) else spec
+
+    config = settings(meta.get("config") or {})
+    kept = []
+    for entry in earlier:
+        if entry["seed"] in replaced:
+            continue
+        policy_json = dest / str(entry["actor"]) / "policy.json"
+        try:
+            other = json.loads(policy_json.read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ValueError(f"{path}: seed {entry['seed']}: its actor's {policy_json} is unreadable "
+                             f"({exc})") from exc
+        if physical(other.get("case_spec")) != physical(as_json(meta.get("case_spec"))):
+            raise ValueError(f"{dest}: seed {entry['seed']} was trained on another case spec "
+                             f"({other.get('case')!r}) than {meta.get('case')!r}: export into "
+                             "another folder")
+        other_config = settings((other.get("training") or {}).get("config") or {})
+        if other_config != config:
+            differing = sorted(k for k in set(config) | set(other_config)
+                               if config.get(k) != other_config.get(k))
+            raise ValueError(f"{dest}: seed {entry['seed']} was trained with other hyperparameters "
+                             f"({', '.join(differing)} differ): export into another folder")
+        kept.append(entry)
+    return kept

@@ -1,0 +1,231 @@
+"""Every seed of a case, by recipe: how many succeed, how far each goes.
+
+Reads the committed seed folders ``<policies>/<case>/seeds/<recipe>/seeds.json`` (written by ``msr
+export-seeds``; one object per seed with ``seed``, ``steps``, ``distance_10s_m``, ``actor``) and judges each
+seed by the case's own success test (:meth:`~elastica_magnetic_rl.cases.case.Case.meets_yardstick`: 10 s in
+the accurate physics from a zero field reach the yardstick). ``msr seeds`` prints the table, draws the seeds'
+distances per recipe, and keeps the table in the shipped policy's model card.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from elastica_magnetic.io import atomic_write_text
+
+from ..cases.case import Case
+from ..runfiles.rundir import RunDir
+from .model_card import replace_card_section
+from .policy_files import POLICIES_DIR
+
+__all__ = ["RecipeSeeds", "case_seeds", "seeds_markdown", "recipes_markdown", "update_model_card",
+           "seeds_figure", "learning_curves_by_recipe"]
+
+#: The model card's section that :func:`update_model_card` keeps current.
+CARD_SECTION = "## Every seed, by recipe"
+
+
+@dataclass
+class RecipeSeeds:
+    """The committed seeds of one case trained with one recipe (one ``seeds/<folder>/``)."""
+
+    folder: str  # e.g. "paper", "pink", "paper-bf16"
+    entries: list[dict[str, Any]]  # seeds.json, ordered by seed
+    succeeded: list[bool]  # per entry: the case's success test
+    path: Path | None = None  # the seeds folder
+
+    @property
+    def summary(self) -> str:
+        return f"{sum(self.succeeded)} of {len(self.entries)}"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"folder": self.folder, "seeds": len(self.entries), "succeeded": sum(self.succeeded),
+                "per_seed": [{"seed": e["seed"], "steps": e.get("steps"),
+                              "distance_10s_m": e["distance_10s_m"], "succeeded": ok}
+                             for e, ok in zip(self.entries, self.succeeded, strict=True)]}
+
+
+def case_seeds(case: Case, policies_dir: str | Path | None = None) -> list[RecipeSeeds]:
+    """The seed folders of ``case`` under ``policies_dir/<case>/seeds/`` (default: the shipped
+    policies), the paper's recipe first, then by name. A ``seeds.json`` that is not a list of seed
+    objects is a ``ValueError`` naming the file."""
+    root = Path(policies_dir) if policies_dir is not None else POLICIES_DIR
+    groups = []
+    for path in sorted((root / case.name / "seeds").glob("*/seeds.json")):
+        try:
+            entries = json.loads(path.read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ValueError(f"{path}: unreadable ({exc})") from None
+        if not isinstance(entries, list) or not all(
+                isinstance(e, dict) and isinstance(e.get("seed"), int)
+                and isinstance(e.get("distance_10s_m"), int | float) for e in entries):
+            raise ValueError(f"{path}: expected a JSON list of objects with an integer 'seed' and "
+                             "a number 'distance_10s_m' (m)")
+        entries = sorted(entries, key=lambda e: e["seed"])
+        if case.task.kind == "crawl":  # judged here, by the case's rule, from the distance
+            succeeded = [bool(case.meets_yardstick(e["distance_10s_m"], e["distance_10s_m"], 10.0))
+                         for e in entries]
+        else:  # a reach task judges the end node, which seeds.json does not hold: its verdict
+            if not all(isinstance(e.get("meets_target"), bool) for e in entries):
+                raise ValueError(f"{path}: a {case.task.kind} task needs each seed's "
+                                 "'meets_target' (true/false), as msr export-seeds writes it")
+            succeeded = [e["meets_target"] for e in entries]
+        groups.append(RecipeSeeds(path.parent.name, entries, succeeded, path.parent))
+    groups.sort(key=lambda g: (g.folder != "paper", g.folder))
+    return groups
+
+
+def seeds_markdown(case: Case, groups: list[RecipeSeeds]) -> str:
+    """A Markdown table: one row per recipe folder, its success count and every seed's distance
+    (mm, bold where it succeeds)."""
+    if not groups:
+        return f"No committed seeds for `{case.name}`."
+    lines = [f"A seed succeeds when its actor, run for 10 s in the accurate physics from a zero "
+             f"field, meets the target ({case.target_label}); each seed's actor is the better of "
+             "its final one and its `best.pt` (`msr export-seeds`). Bold: succeeded.", "",
+             "| recipe (folder) | seeds that succeed | distance of each seed in 10 s (mm) |",
+             "|---|---|---|"]
+    for g in groups:
+        cells = ", ".join((f"{e['seed']}: **{1e3 * e['distance_10s_m']:+.1f}**" if ok
+                           else f"{e['seed']}: {1e3 * e['distance_10s_m']:+.1f}")
+                          for e, ok in zip(g.entries, g.succeeded, strict=True))
+        lines.append(f"| `{g.folder}` | {g.summary} | {cells} |")
+    return "\n".join(lines)
+
+
+def recipe_change(folder: str) -> str:
+    """What a recipe folder's recipe changes from the paper's, as ``field = value`` settings of
+    :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` (from
+    :data:`~elastica_magnetic_rl.cases.recipes.RECIPES`); a folder that names no recipe (e.g. ``paper-bf16``)
+    says so."""
+    from ..cases.recipes import RECIPES
+
+    if folder not in RECIPES:
+        return "(not a recipe: see the folder's seeds)"
+    changes = RECIPES[folder]
+    return ", ".join(f"`{k} = {v}`" for k, v in changes.items()) or "none (the authors' settings)"
+
+
+def recipes_markdown(by_case: dict[str, list[RecipeSeeds]]) -> str:
+    """The ablation across cases: one row per recipe folder (the paper's first), its change from
+    the paper's recipe, and per case the seeds that succeed (``k of n``; blank: none trained)."""
+    folders = sorted({g.folder for groups in by_case.values() for g in groups},
+                     key=lambda f: (f != "paper", f))
+    cases = list(by_case)
+    lines = ["| recipe (folder) | change from the paper's | " + " | ".join(cases) + " |",
+             "|---|---|" + "---|" * len(cases)]
+    for folder in folders:
+        cells = []
+        for case in cases:
+            group = next((g for g in by_case[case] if g.folder == folder), None)
+            cells.append(group.summary if group is not None else "")
+        lines.append(f"| `{folder}` | {recipe_change(folder)} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def update_model_card(card: Path, case: Case, groups: list[RecipeSeeds]) -> bool:
+    """Put the table of :func:`seeds_markdown` into the model card ``card`` as its
+    :data:`CARD_SECTION` (replacing the section if there is one, else before "## Evaluation"
+    or at the end). Written atomically; returns whether the card changed."""
+    text = card.read_text()
+    new = replace_card_section(text, CARD_SECTION, seeds_markdown(case, groups), before="## Evaluation")
+    if new == text:
+        return False
+    atomic_write_text(card, new)
+    return True
+
+
+def seeds_figure(case: Case, groups: list[RecipeSeeds], path: str | Path) -> Path:
+    """Every seed's 10 s distance (mm) per recipe folder, the success threshold as a line; PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from elastica_magnetic.io import atomic_save
+
+    fig, ax = plt.subplots(figsize=(2.8 + 1.6 * max(len(groups), 1), 3.8))
+    for i, g in enumerate(groups):
+        n = len(g.entries)
+        for j, (e, ok) in enumerate(zip(g.entries, g.succeeded, strict=True)):
+            x = i + (0.5 * (j / (n - 1) - 0.5) if n > 1 else 0.0)  # seeds side by side, in order
+            ax.scatter(x, 1e3 * e["distance_10s_m"], s=36, color="tab:green" if ok else "tab:red",
+                       edgecolor="black", linewidth=0.5, zorder=3)
+            ax.annotate(str(e["seed"]), (x, 1e3 * e["distance_10s_m"]), xytext=(0, 5),
+                        textcoords="offset points", fontsize=7, ha="center")
+    if case.yardstick.distance_10s > 0 and case.task.kind == "crawl":
+        ax.axhline(1e3 * case.yardstick.distance_10s, color="gray", linestyle="--", linewidth=1,
+                   label=case.target_label)
+        ax.legend(loc="best", fontsize=7)
+    ax.set_xticks(range(len(groups)), [f"{g.folder}\n{g.summary}" for g in groups])
+    ax.set_xlim(-0.6, len(groups) - 0.4)
+    ax.set_ylabel("distance in 10 s (mm)")
+    ax.set_title(f"{case.name}: each seed's actor, 10 s from a zero field", fontsize=9)
+    ax.grid(axis="y", alpha=0.3)
+    fig.tight_layout()
+    out = Path(path)
+    atomic_save(out, lambda tmp: fig.savefig(tmp, dpi=120, format="png"))
+    plt.close(fig)
+    return out
+
+
+def learning_curves_by_recipe(case: Case, groups: list[RecipeSeeds], path: str | Path,
+                              alpha: float = 0.2) -> Path | None:
+    """One panel per recipe folder, side by side on one scale: every seed's episode return against
+    environment steps (EMA with ``alpha``; green: the seed succeeded, red: it did not), from the
+    training log each exported seed keeps (``episodes.csv``). Seeds exported without their log are
+    left out (named in the panel's title). Returns ``None`` when no seed has a log."""
+    import csv
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from elastica_magnetic.io import atomic_save
+
+    from ..reports.figures import ema
+
+    curves = []
+    for g in groups:
+        runs, missing = [], []
+        for e, ok in zip(g.entries, g.succeeded, strict=True):
+            log = RunDir(g.path / str(e["actor"])).episodes_csv if g.path is not None else None
+            if log is None or not log.is_file():
+                missing.append(e["seed"])
+                continue
+            with open(log, newline="") as f:
+                rows = list(csv.DictReader(f))
+            steps = np.array([int(r["global_step"]) for r in rows])
+            returns = np.array([float(r["return"]) for r in rows])
+            if steps.size:
+                runs.append((e["seed"], ok, steps, ema(returns, alpha)))
+        curves.append((g, runs, missing))
+    if not any(runs for _, runs, _ in curves):
+        return None
+    fig, axes = plt.subplots(1, len(curves), figsize=(1.5 + 3.6 * len(curves), 3.8), sharey=True,
+                             squeeze=False)
+    for ax, (g, runs, missing) in zip(axes[0], curves, strict=True):
+        for seed, ok, steps, smooth in runs:
+            ax.plot(steps, smooth, lw=1.0, color="tab:green" if ok else "tab:red", alpha=0.8)
+            ax.annotate(str(seed), (steps[-1], smooth[-1]), xytext=(2, 0), textcoords="offset points",
+                        fontsize=7, va="center")
+        title = f"{g.folder}: {g.summary} succeed"
+        if missing:
+            title += f"\n(no log: seeds {', '.join(map(str, missing))})"
+        ax.set_title(title, fontsize=9)
+        ax.set_xlabel("environment steps")
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel(f"episode return (EMA, alpha = {alpha:g})")
+    fig.suptitle(f"{case.name}: learning curves by recipe (green: the seed succeeded)", fontsize=10)
+    fig.tight_layout()
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    atomic_save(out, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
+    plt.close(fig)
+    return out

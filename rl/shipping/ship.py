@@ -1,0 +1,247 @@
+"""Ship a trained run as a policy folder in the shipped format (``msr ship``): ``actor.pt``,
+``critic.pt``, ``policy.json`` (:data:`~elastica_magnetic_rl.shipping.policy_files.POLICY_FORMAT`), the
+measured waveform ``fields.csv`` and ``MODEL_CARD.md``; and a shipped policy's notes (``msr notes``).
+
+A *policy* argument is a run directory (holding ``checkpoint.pt``), a checkpoint file, a
+shipped-format directory (``actor.pt`` + ``policy.json``), or the name of a shipped policy in
+``rl/policies/`` (see :func:`~elastica_magnetic_rl.shipping.policy_files.resolve_policy`).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from elastica_magnetic.io import (
+    atomic_save,
+    atomic_write_json,
+    atomic_write_text,
+)
+
+from ..cases.case import Case
+from ..cases.tasks import ReachTask
+from ..runfiles.provenance import machine_fingerprint
+from ..runfiles.rundir import CaseDir
+from .generate import reach_metrics
+from .model_card import NOTES_SECTION, model_card, replace_card_section, seed_meets_target
+from .policy_files import (
+    POLICIES_DIR,
+    POLICY_FORMAT,
+    POLICY_JSON,
+    LoadedPolicy,
+    action_spec_of,
+    observation_spec_of,
+    resolve_policy,
+    weights_sha256,
+)
+from .policy_runs import evaluate_seeds, node_dx, run_policy
+from .seed_report import CARD_SECTION as SEEDS_CARD_SECTION
+from .seed_report import case_seeds, seeds_markdown
+
+__all__ = ["set_notes", "ship"]
+
+
+def ship(
+    run: str | Path,
+    name: str,
+    dest: str | Path | None = None,
+    measure: bool = True,
+    duration: float = 10.0,
+    progress: bool = True,
+    overwrite: bool = False,
+    evaluate_all_seeds: bool = False,
+    notes: str | None = None,
+    with_critic: bool = True,
+    with_card: bool = True,
+) -> dict[str, Any]:
+    """Pack a run's checkpoint into the shipped-policy format ``dest/<name>/`` (default
+    ``rl/policies/<name>/``): ``actor.pt`` and ``critic.pt`` (state dicts of
+    :class:`~elastica_magnetic_rl.td3.algorithm.Actor` /
+    :class:`~elastica_magnetic_rl.td3.algorithm.TwinCritic`), ``policy.json`` (case, observation layout and
+    scaling, action scaling, architecture, provenance) and ``MODEL_CARD.md``.
+
+    With ``measure`` the policy is run for ``duration`` s in the accurate physics from a zero field
+    (as :func:`generate`); the distance goes into the card and the waveform into ``fields.csv``.
+    The success count over seeds comes from the case's ``summary.json`` when it is found; with
+    ``evaluate_all_seeds`` every seed of the case is also run like this (:func:`evaluate_seeds`)
+    and the card lists each seed's distance and how many reach the authors' distance. ``notes``
+    (Markdown) becomes the card's "Notes" section: what the numbers do not say. ``with_critic`` /
+    ``with_card``: also write ``critic.pt`` / ``MODEL_CARD.md``.
+    """
+    policy = resolve_policy(run)
+    if policy.kind != "checkpoint":
+        raise ValueError(f"{run}: ship takes a run directory or checkpoint, not a shipped policy")
+    target = (Path(dest) if dest is not None else POLICIES_DIR) / name
+    if (target / POLICY_JSON).exists() and not overwrite:
+        raise FileExistsError(f"{target} already holds a policy (pass overwrite / --force)")
+    # Everything is computed before the folder is touched: a failed or interrupted measurement
+    # leaves a policy being replaced (--force) as it was.
+    case = policy.case
+    summary = _find_summary(policy.source, case.name)
+    measured, fields = _measure(policy, duration, progress) if measure else (None, None)
+    seed_evaluations = None
+    if evaluate_all_seeds:
+        if summary is None:
+            raise FileNotFoundError(f"{policy.source}: no summary.json of case {case.name} found "
+                                    "above the run, so its seeds cannot be evaluated")
+        seed_evaluations = evaluate_seeds(_find_case_dir(policy.source, case.name), duration,
+                                          progress)
+    info = _policy_info(policy, name, summary, seed_evaluations, measured, notes)
+    card = _ship_card(info, summary, case, target) if with_card else None
+    _write_policy_folder(target, policy, info, fields, card, with_critic)
+    return {"name": name, "dir": str(target), "case": case.name,
+            "evaluation": measured, "files": sorted(p.name for p in target.iterdir())}
+
+
+def _measure(policy: LoadedPolicy, duration: float,
+             progress: bool) -> tuple[dict[str, Any], np.ndarray | None]:
+    """The shipping criterion's run of a policy (``duration`` s, accurate physics, zero field):
+    its ``evaluation`` entry of ``policy.json`` and its field waveform ``(steps, 3)`` (T; ``None``
+    when it took no step)."""
+    rollout = run_policy(policy, duration, "accurate", "zero", progress)
+    measured = {"duration_s": float(rollout.times[-1]), "mid_dx_m": rollout.mid_dx,
+                "node_dx_m": node_dx(rollout), "diverged": rollout.meta["diverged"],
+                "machine": machine_fingerprint()}
+    if isinstance(policy.case.task, ReachTask):
+        measured["reach"] = reach_metrics(rollout, policy.case.task)
+    return measured, (rollout.fields if rollout.n_steps else None)
+
+
+def _policy_info(policy: LoadedPolicy, name: str, summary: dict[str, Any] | None,
+                 seed_evaluations: list[dict[str, Any]] | None, measured: dict[str, Any] | None,
+                 notes: str | None) -> dict[str, Any]:
+    """The shipped policy's ``policy.json`` (format :data:`POLICY_FORMAT`)."""
+    meta, case = policy.meta, policy.case
+    refined = meta.get("command") == "refine"
+    return {
+        "format": POLICY_FORMAT,
+        "name": name,
+        "case": case.name,
+        "robot": case.robot.name,
+        "magnetization": case.robot.tables["robot"]["magnetization"]["kind"],
+        "field_limit_T": case.field_limit,
+        "task": case.task.kind,
+        "actor_sha256": weights_sha256(policy.actor.state_dict()),
+        "architecture": {"type": "mlp", "obs_dim": policy.obs_dim, "act_dim": policy.act_dim,
+                         "hidden_sizes": list(policy.hidden_sizes), "activation": "relu",
+                         "output": "tanh",
+                         "module": "elastica_magnetic_rl.td3.algorithm.Actor "
+                                   "(net = Sequential of Linear/ReLU)",
+                         "critic_layer_norm": bool((meta.get("config") or {}).get(
+                             "critic_layer_norm", False))},
+        "observation": observation_spec_of(case),
+        "action": action_spec_of(case),
+        "training": {
+            "seed": meta.get("seed"),
+            "training_steps": meta.get("training_steps", meta.get("global_step")),
+            "refine_steps": meta.get("refine_steps", 0) if refined else 0,
+            "global_step": meta.get("global_step"),
+            "config": meta.get("config"),
+            "source": _portable_source(policy.source, case.name),
+            "best_evaluation": meta.get("checkpoint_kind") == "best",
+        },
+        "seeds": {"succeeded": summary.get("succeeded"), "total": len(summary.get("seeds", [])),
+                  "success_threshold_return": summary.get("success_threshold_return"),
+                  "evaluations": seed_evaluations,
+                  "meeting_target": None if seed_evaluations is None
+                  else sum(seed_meets_target(e) for e in seed_evaluations)}
+        if summary else None,
+        "evaluation": measured,
+        "authors_mid_dx_10s_m": case.yardstick.distance_10s or None,
+        "target": case.target_label,
+        "notes": notes,
+        "case_spec": case.to_dict(),
+    }
+
+
+def _ship_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case,
+               target: Path) -> str:
+    """The model card; the committed seeds' table (``msr seeds --card``) survives a re-ship."""
+    card = model_card(info, summary, case)
+    groups = case_seeds(case, target.parent)
+    if groups:
+        card = replace_card_section(card, SEEDS_CARD_SECTION, seeds_markdown(case, groups),
+                                    before="## Evaluation")
+    return card
+
+
+def _write_policy_folder(target: Path, policy: LoadedPolicy, info: dict[str, Any],
+                         fields: np.ndarray | None, card: str | None, with_critic: bool) -> None:
+    """Each file atomically; ``policy.json``, which names the actor's checksum, after the weights;
+    the optional files a replaced policy had and this one has not are removed."""
+    import torch
+
+    from elastica_magnetic import write_field_csv
+
+    target.mkdir(parents=True, exist_ok=True)
+    atomic_save(target / "actor.pt", lambda tmp: torch.save(policy.actor.state_dict(), tmp))
+    written = {"actor.pt", POLICY_JSON}
+    if policy.critic is not None and with_critic:
+        atomic_save(target / "critic.pt", lambda tmp: torch.save(policy.critic.state_dict(), tmp))
+        written.add("critic.pt")
+    if fields is not None:
+        write_field_csv(target / "fields.csv", fields)
+        written.add("fields.csv")
+    atomic_write_json(target / POLICY_JSON, info)
+    if card is not None:
+        atomic_write_text(target / "MODEL_CARD.md", card)
+        written.add("MODEL_CARD.md")
+    for stale in {"critic.pt", "fields.csv", "MODEL_CARD.md"} - written:
+        (target / stale).unlink(missing_ok=True)  # the replaced policy's, not this one's
+
+
+def set_notes(policy: str | Path, notes: str | None,
+              policies_dir: str | Path | None = None) -> dict[str, Any]:
+    """Replace a shipped policy's notes (Markdown: what the numbers do not say; None or blank
+    removes them). Their one home is ``policy.json``'s ``notes``; the model card's "Notes" section
+    is rendered from it, so the two never disagree. ``policy``: a shipped-policy folder or name.
+    Both files are written atomically, policy.json first; the actor is not touched."""
+    resolved = resolve_policy(policy, policies_dir)
+    if resolved.kind != "shipped":
+        raise ValueError(f"{policy}: notes belong to a shipped policy (a folder with policy.json), "
+                         "not to a run or checkpoint")
+    folder = resolved.source
+    notes = notes.strip() if notes and notes.strip() else None
+    info = json.loads((folder / POLICY_JSON).read_text()) | {"notes": notes}
+    card_path = folder / "MODEL_CARD.md"
+    card = None
+    if card_path.is_file():
+        card = replace_card_section(card_path.read_text(), NOTES_SECTION, notes,
+                                    before="## Limitations")
+    atomic_write_json(folder / POLICY_JSON, info)
+    if card is not None:
+        atomic_write_text(card_path, card)
+    return {"name": info.get("name", folder.name), "dir": str(folder), "notes": notes,
+            "card_updated": card is not None}
+
+
+def _portable_source(path: Path, case: str) -> str:
+    """Where a shipped policy came from, without this machine's folders: the path from the case's
+    training folder on (``m1-4mT/seed3/refined/checkpoint.pt``), else the file's name."""
+    parts = Path(path).parts
+    if case in parts:
+        return "/".join(parts[len(parts) - 1 - parts[::-1].index(case):])
+    return Path(path).name
+
+
+def _find_case_dir(source: Path, case: str) -> Path | None:
+    """The case folder of a run (``<case>/seed<k>[/refined]/checkpoint.pt``): the nearest parent
+    holding the ``summary.json`` of ``case``."""
+    for parent in list(source.parents)[:4]:
+        summary_json = CaseDir(parent).summary_json
+        if summary_json.is_file():
+            summary = json.loads(summary_json.read_text())
+            if summary.get("case") == case:
+                return parent
+    return None
+
+
+def _find_summary(source: Path, case: str) -> dict[str, Any] | None:
+    """``summary.json`` of the case folder of a run, if there is one."""
+    case_dir = _find_case_dir(source, case)
+    return json.loads(CaseDir(case_dir).summary_json.read_text()) if case_dir else None
+
+

@@ -1,0 +1,85 @@
+"""Checks of the shipped policies against what their files claim (``rl/policies/<name>/``).
+
+Each shipped policy records, in ``policy.json``, the distance its actor makes the robot's middle
+move in 10 s in the accurate physics from a zero field, and ships that run's waveform as
+``fields.csv``. :func:`verify_shipped` runs the actor again and compares: the distance to a relative
+tolerance, the distance against the target, and the waveform row by row.
+
+The waveform is reproduced bit for bit on the kind of machine that recorded it (the same CPU model
+and numerical libraries: ``evaluation.machine`` in ``policy.json``). On another CPU the round-off
+differs at the last bit, and the closed loop amplifies it through contact switches (a node that
+touches the ground or not changes the observation by 1): the waveforms part after a few rows
+while the distance agrees to ~1e-4. There the waveform difference is reported, not required.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..runfiles.provenance import machine_fingerprint
+from .policy_files import POLICIES_DIR, POLICY_JSON, resolve_policy
+from .policy_runs import node_dx, run_policy
+
+#: A re-run must reproduce the recorded distance to this relative difference (the accurate
+#: physics is deterministic on one machine; this leaves room for other CPUs' round-off).
+DISTANCE_RTOL = 1e-3
+#: ... and the shipped waveform to this, mT (the CSV holds full double precision).
+FIELD_ATOL_MT = 1e-6
+
+
+def shipped_names(policies_dir: Path = POLICIES_DIR) -> list[str]:
+    """Names of the shipped policies (folders with a ``policy.json``), sorted."""
+    return sorted(p.name for p in Path(policies_dir).iterdir() if (p / POLICY_JSON).is_file())
+
+
+def verify_shipped(name: str, duration: float = 10.0, progress: bool = False,
+                   policies_dir: Path = POLICIES_DIR) -> dict[str, Any]:
+    """Roll the shipped policy ``name`` out for ``duration`` s (accurate physics, zero field) and
+    compare with its files. Returns the measured and recorded distances (m), their relative
+    difference, the largest field difference from ``fields.csv`` over the rows run (mT), the first
+    row that differs by more than the tolerance, whether the waveform must match (``waveform_check``:
+    ``"exact"`` on the recording machine, else why not), whether the target is reached (``None``
+    for a shorter run) and ``passed``."""
+    from elastica_magnetic import read_field_csv
+
+    folder = Path(policies_dir) / name
+    info = json.loads((folder / POLICY_JSON).read_text())
+    policy = resolve_policy(folder)
+    rollout = run_policy(policy, duration, "accurate", "zero", progress)
+    shipped = read_field_csv(folder / "fields.csv")
+    rows = min(len(rollout.fields), len(shipped))
+    row_diff_mt = np.max(np.abs(rollout.fields[:rows] - shipped[:rows]), axis=1) * 1e3
+    field_diff_mt = float(row_diff_mt.max()) if rows else 0.0
+    apart = np.flatnonzero(row_diff_mt > FIELD_ATOL_MT)
+    recorded_on = (info.get("evaluation") or {}).get("machine")
+    here = machine_fingerprint()
+    if recorded_on == here:
+        waveform_check = "exact"
+    elif recorded_on is None:
+        waveform_check = "reported: policy.json does not record the machine that made fields.csv"
+    else:
+        changed = ", ".join(k for k in here if recorded_on.get(k) != here[k])
+        waveform_check = f"reported: fields.csv was recorded on another machine ({changed} differ)"
+    result: dict[str, Any] = {
+        "name": name, "case": info["case"], "duration_s": float(duration), "rows_compared": rows,
+        "max_field_diff_mT": field_diff_mt, "field_atol_mT": FIELD_ATOL_MT,
+        "first_row_apart": int(apart[0]) if apart.size else None, "waveform_check": waveform_check,
+        "mid_dx_m": rollout.mid_dx, "diverged": bool(rollout.meta["diverged"]),
+    }
+    passed = not result["diverged"] and (waveform_check != "exact" or field_diff_mt <= FIELD_ATOL_MT)
+    if abs(duration - float(info["evaluation"]["duration_s"])) < 1e-9:
+        recorded = float(info["evaluation"]["mid_dx_m"])
+        relative = abs(rollout.mid_dx - recorded) / abs(recorded)
+        met = policy.case.meets_yardstick(rollout.mid_dx, node_dx(rollout), duration,
+                                          rollout.meta["diverged"])
+        result.update(recorded_mid_dx_m=recorded, relative_diff=relative,
+                      distance_rtol=DISTANCE_RTOL,
+                      authors_mid_dx_m=policy.case.yardstick.distance_10s or None,
+                      target=policy.case.target_label, meets_authors=bool(met))
+        passed = passed and relative <= DISTANCE_RTOL and result["meets_authors"]
+    result["passed"] = bool(passed)
+    return result

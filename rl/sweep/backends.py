@@ -1,0 +1,216 @@
+"""Where the seeds of a sweep run: worker processes on this machine, or Ray tasks.
+
+:func:`run_jobs` runs one function (``elastica_magnetic_rl.sweep.training._train_group``: the training of a
+group of seeds side by side) on a list of jobs (:class:`~elastica_magnetic_rl.sweep.jobs.GroupJob`: plain,
+picklable data) and gathers its results by seed. Both
+backends call the same function with the same job; only the transport differs, so the run directories,
+checkpoints and returned summaries are the same whichever backend ran them.
+
+``"process"`` (default)
+    ``workers == 1``: in this process, one group after the other. Otherwise a
+    :class:`~concurrent.futures.ProcessPoolExecutor` (``spawn``) of ``workers`` processes, each seed
+    with its own progress bar.
+
+``"ray"``
+    Each group of seeds is a ``ray.remote`` task (``num_cpus`` = the torch threads of a worker, no retries),
+    at most ``workers`` in flight at a time. Without an ``address`` a private local Ray instance is started
+    with ``workers x threads`` CPUs (no dashboard, usage statistics off unless ``RAY_USAGE_STATS_ENABLED``
+    says otherwise, quiet logging) and shut down at the end; with an ``address`` (``auto``, ``HOST:PORT``,
+    ``ray://HOST:10001``) the driver connects to that cluster and disconnects at the end (the cluster keeps
+    running). When Ray is already initialised in this process, it is used as it is and left running.
+
+    The workers write the run directories themselves, so the output folder must be a path that
+    every node sees at the same place: on a single machine it is just the same folder; on a
+    cluster use a shared filesystem (NFS, a mounted bucket) mounted at the same path on every
+    node, and install this package (same version) on every node. A seed whose finished run
+    directory the driver cannot see is reported as failed with that reason.
+
+    Progress: the workers' output goes to Ray's log files (not the terminal), so there is no
+    per-seed bar; the driver prints one line per finished seed on stderr instead.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing
+import os
+import sys
+import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed, wait
+from dataclasses import replace
+from typing import Any
+
+from ..runfiles.rundir import CaseDir, RunDir
+from .jobs import GroupJob
+
+__all__ = ["BACKENDS", "run_in_processes", "run_jobs"]
+
+#: Backend names accepted by :func:`run_jobs` (and ``msr train --backend``).
+BACKENDS = ("process", "ray")
+
+#: Object store of a local Ray instance: only small result dicts travel through it.
+LOCAL_OBJECT_STORE_BYTES = 128 * 1024**2
+
+
+def _error(exc: BaseException) -> str:
+    return f"{type(exc).__name__}: {exc}"
+
+
+def run_jobs(
+    fn: Callable[[GroupJob], dict[str, Any]],
+    jobs: list[GroupJob],
+    workers: int,
+    backend: str = "process",
+    address: str | None = None,
+    progress: bool = True,
+) -> list[dict[str, Any]]:
+    """Run ``fn(job)`` for every job and return the results in the order of ``jobs`` (jobs may
+    differ in case and seed: a sweep is one list).
+
+    A job that raises does not stop the others: its result is ``{"seed": s, "error": "Type: msg"}``.
+    ``address`` (a Ray cluster) is only for ``backend="ray"``; ``progress`` only affects the Ray
+    backend's per-seed lines (the process backend's bars are set in the jobs).
+    """
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
+    if address is not None and backend != "ray":
+        raise ValueError("an address is for the ray backend (--backend ray)")
+    if backend == "ray":
+        return _run_ray(fn, jobs, workers, address, progress)
+    return _run_processes(fn, jobs, workers)
+
+
+def _run_processes(fn, jobs, workers) -> list[dict[str, Any]]:
+    results: list[dict[str, Any]] = [{} for _ in jobs]
+    if workers == 1:
+        for k, job in enumerate(jobs):
+            try:
+                results[k] = fn(job)
+            except Exception as exc:  # keep the other seeds going; report the failure
+                results[k] = {"seed": job.seed, "error": _error(exc)}
+    else:
+        results = run_in_processes(fn, jobs, workers, on_error=lambda k, exc: {
+            "seed": jobs[k].seed, "error": _error(exc)})
+    return results
+
+
+def run_in_processes(
+    fn: Callable[[Any], Any],
+    jobs: list[Any],
+    workers: int,
+    on_error: Callable[[int, Exception], Any] | None = None,
+) -> list[Any]:
+    """``fn(job)`` for every job in ``workers`` processes (``spawn``), the results in the order of
+    ``jobs``. A job that raises gives ``on_error(k, exception)`` as its result, or, without
+    ``on_error``, the exception is raised here (the jobs not started are dropped).
+
+    Ctrl-C (KeyboardInterrupt) stops the workers within :data:`STOP_GRACE_S` (see
+    :func:`_stop_workers`) and is raised again; a plain ``ProcessPoolExecutor`` would wait for
+    every queued job, and for ever after a SIGINT to this process alone.
+    """
+    context = multiprocessing.get_context("spawn")
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
+    futures = {pool.submit(fn, job): k for k, job in enumerate(jobs)}
+    results: list[Any] = [None] * len(jobs)
+    try:
+        for future in as_completed(futures):
+            k = futures[future]
+            try:
+                results[k] = future.result()
+            except Exception as exc:
+                if on_error is None:
+                    raise
+                results[k] = on_error(k, exc)
+    except KeyboardInterrupt:
+        _stop_workers(pool, futures)
+        raise
+    except BaseException:
+        pool.shutdown(wait=True, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)
+    return results
+
+
+#: Seconds the workers get, after a Ctrl-C, to stop by themselves before they are ended.
+STOP_GRACE_S = 10.0
+
+
+def _stop_workers(pool: ProcessPoolExecutor, futures) -> None:
+    """Ctrl-C in this process: end the workers, never wait on them for good.
+
+    From a terminal the workers get the same SIGINT (it goes to the whole process group) and stop
+    at their next step; they get :data:`STOP_GRACE_S` for it. If a job still runs then, as after
+    a ``kill -INT`` of this process alone, where waiting on the pool would wait for the whole
+    training, every worker is ended (SIGTERM; the multiprocessing resource tracker may then warn
+    of the workers' semaphores, which it releases). Ending a worker loses at most the steps
+    since its last checkpoint, which is written atomically, so ``--resume`` continues from it.
+    """
+    for future in futures:
+        future.cancel()  # the jobs not started yet
+    try:
+        running = wait(futures, timeout=STOP_GRACE_S).not_done
+    except KeyboardInterrupt:  # a second Ctrl-C: end them now
+        running = {future for future in futures if not future.done()}
+    if running:
+        # no public handle on the processes before Python 3.14 (terminate_workers)
+        for process in list((getattr(pool, "_processes", None) or {}).values()):
+            if process.is_alive():
+                process.terminate()
+            process.join()
+    pool.shutdown(wait=True, cancel_futures=True)  # no job left running: this returns
+
+
+def _run_ray(fn, jobs, workers, address, progress) -> list[dict[str, Any]]:
+    # Before importing ray: a local instance must not report usage statistics (no network).
+    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+    import ray
+
+    threads = max(int(job.threads) for job in jobs) if jobs else 1
+    started = False
+    if not ray.is_initialized():
+        quiet = {"log_to_driver": False, "logging_level": logging.ERROR}
+        if address and address.startswith("ray://"):  # Ray Client: the cluster's own settings
+            ray.init(address=address)
+        elif address:
+            ray.init(address=address, **quiet)
+        else:
+            ray.init(address="local", num_cpus=workers * threads, include_dashboard=False,
+                     object_store_memory=LOCAL_OBJECT_STORE_BYTES, **quiet)
+        started = True
+    results: list[dict[str, Any]] = [{} for _ in jobs]
+    finished = 0
+    start = time.perf_counter()
+    try:
+        task = ray.remote(num_cpus=threads, max_retries=0)(fn)
+        queue = [(k, replace(job, progress=False)) for k, job in enumerate(jobs)]  # no bars in Ray
+        pending: dict[Any, tuple[int, GroupJob]] = {}
+        while queue or pending:
+            while queue and len(pending) < workers:
+                k, job = queue.pop(0)
+                pending[task.remote(job)] = (k, job)
+            done, _ = ray.wait(list(pending), num_returns=1)
+            for ref in done:
+                k, job = pending.pop(ref)
+                seed = job.seed
+                try:
+                    result = ray.get(ref)
+                except Exception as exc:  # RayTaskError wraps the worker's exception
+                    result = {"seed": seed, "error": _error(getattr(exc, "cause", None) or exc)}
+                if "error" not in result and not RunDir(job.run_dir).has_checkpoint():
+                    result = {"seed": seed, "error": f"{job.run_dir}: the run directory written by "
+                              "the Ray worker is not visible here (put --out on a filesystem shared "
+                              "by all nodes, at the same path)"}
+                results[k] = result
+                finished += 1
+                if progress:
+                    status = result.get("error") or "; ".join(
+                        f"{CaseDir.seed_name(r['seed'])} final mean return {r['final_mean_return']:.4g}, "
+                        f"{r['episodes']} episodes, {r['wall_s']:.1f} s"
+                        for r in result.get("group", [result]))
+                    print(f"[ray] {job.case} {CaseDir.seed_name(seed)} done ({finished}/{len(jobs)}, "
+                          f"{time.perf_counter() - start:.0f} s): {status}", file=sys.stderr, flush=True)
+    finally:
+        if started:
+            ray.shutdown()
+    return results

@@ -1,0 +1,203 @@
+"""The training loop (rl/runner/loop.py): terminated stored (not done), exact resume after a kill, a
+Pendulum smoke run, buffer sizing, init_from, seeds together equal to alone, coloured exploration
+reproducible."""
+
+from __future__ import annotations
+
+import csv
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+from elastica_magnetic_rl.runfiles.checkpoint import load_checkpoint
+from elastica_magnetic_rl.runner.evaluation import evaluate
+from elastica_magnetic_rl.runner.loop import train
+from elastica_magnetic_rl.td3.agent import TD3Agent
+from elastica_magnetic_rl.td3.algorithm import TD3Config
+from state_compare import assert_state_equal
+from toy_env import Killed, ToyEnv, sync_vector_env, toy_config
+
+torch.set_num_threads(1)
+
+
+def test_training_loop_stores_terminated_not_done(tmp_path):
+    # no learning needed: learning_starts beyond the run
+    train(ToyEnv, toy_config(learning_starts=10_000), 150, tmp_path, progress=False)
+    ckpt = load_checkpoint(tmp_path)
+    buf = ckpt["buffer"]
+    next_obs, term = buf["next_obs"].numpy(), buf["terminated"].numpy()
+    with open(tmp_path / "episodes.csv") as f:
+        rows = list(csv.DictReader(f))
+    n_trunc = sum(int(r["truncated"]) for r in rows)
+    n_term = sum(int(r["terminated"]) for r in rows)
+    assert n_trunc > 0 and n_term > 0  # both kinds occurred
+    # truncated steps: the stored s' is the real final observation (t/T == 1), not the reset one,
+    # and terminated = 0 so the target bootstraps
+    at_limit = np.isclose(next_obs[:, 2], 1.0)
+    assert at_limit.sum() == n_trunc
+    assert np.all(term[at_limit] == 0.0)
+    assert term.sum() == n_term
+
+
+def test_killed_and_resumed_run_is_bit_identical(tmp_path):
+    steps, cfg = 200, toy_config(seed=7)
+    full = train(ToyEnv, cfg, steps, tmp_path / "full", progress=False)
+
+    def kill_late(row):
+        if row["global_step"] >= 130:
+            raise Killed
+
+    with pytest.raises(Killed):
+        train(ToyEnv, cfg, steps, tmp_path / "killed", progress=False, log_fn=kill_late)
+    ckpt = load_checkpoint(tmp_path / "killed")
+    assert cfg.learning_starts < ckpt["global_step"] < 130 and ckpt["at_episode_boundary"]
+    assert ckpt["agent"]["num_updates"] > 0
+    del ckpt
+    with pytest.raises(FileExistsError):
+        train(ToyEnv, cfg, steps, tmp_path / "killed", progress=False)
+    resumed = train(ToyEnv, cfg, steps, tmp_path / "killed", resume=True, progress=False)
+
+    assert_state_equal(full.state_dict(), resumed.state_dict())
+    a, b = load_checkpoint(tmp_path / "full"), load_checkpoint(tmp_path / "killed")
+    for key in ("agent", "buffer", "global_step", "episode", "python_rng", "torch_cpu_rng"):
+        assert_state_equal(a[key], b[key], key)
+
+    def log(run):
+        with open(tmp_path / run / "episodes.csv") as f:
+            return [{k: v for k, v in r.items() if k != "wall_time_s"} for r in csv.DictReader(f)]
+
+    assert log("full") == log("killed")
+    # and the run was not trivially deterministic: another seed learns different weights
+    other = TD3Agent.for_env(ToyEnv(), toy_config(seed=8))
+    assert not torch.equal(other.actor.net[0].weight, full.actor.net[0].weight)
+
+
+# ----------------------------------------------------------------------------------------------
+# (5) smoke training on Pendulum-v1
+# ----------------------------------------------------------------------------------------------
+def test_pendulum_smoke_writes_log_tensorboard_and_checkpoint(tmp_path):
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    cfg = TD3Config(hidden_sizes=(32, 32), batch_size=32, learning_starts=100, log_every=50)
+    agent = train(lambda: gym.make("Pendulum-v1"), cfg, 300, tmp_path, progress=False)
+
+    with open(tmp_path / "episodes.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 1
+    assert rows[0]["episode"] == "0" and rows[0]["global_step"] == "200"
+    assert rows[0]["length"] == "200" and rows[0]["truncated"] == "1"
+    assert rows[0]["terminated"] == "0" and float(rows[0]["return"]) < 0
+
+    events = list(tmp_path.glob("events.out.tfevents.*"))
+    assert events
+    acc = EventAccumulator(str(tmp_path))
+    acc.Reload()
+    tags = acc.Tags()["scalars"]
+    assert "charts/episodic_return" in tags and "losses/critic_loss" in tags
+    assert "losses/actor_loss" in tags
+
+    ckpt = load_checkpoint(tmp_path / "checkpoint.pt")
+    assert ckpt["global_step"] == 300 and not ckpt["at_episode_boundary"]
+    assert ckpt["agent"]["num_updates"] == 200
+    restored = TD3Agent.from_checkpoint(tmp_path)
+    obs = np.array([0.1, -0.5, 0.3], np.float32)
+    np.testing.assert_array_equal(restored.act(obs), agent.act(obs))
+    assert np.all(np.abs(agent.act(obs)) <= 2.0)
+    policy = agent.policy_module()  # standalone obs -> env action module (for export)
+    with torch.no_grad():
+        np.testing.assert_allclose(policy(torch.from_numpy(obs)[None])[0].numpy(),
+                                   agent.act(obs), rtol=1e-6)
+
+    res = evaluate(agent, lambda: gym.make("Pendulum-v1"), episodes=1, seed=5)
+    assert res.lengths == [200] and np.isfinite(res.mean_return)
+    assert evaluate(agent, lambda: gym.make("Pendulum-v1"), 1, 5).returns == res.returns
+
+    # (6) the replay buffer is sized to the run, not to buffer_size = 1e6
+    assert cfg.buffer_size == 1_000_000
+    assert ckpt["buffer"]["capacity"] == 300 and ckpt["buffer"]["obs"].shape == (300, 3)
+
+
+# ----------------------------------------------------------------------------------------------
+# (6) replay buffer
+# ----------------------------------------------------------------------------------------------
+def test_buffer_capacity_is_min_of_buffer_size_and_run(tmp_path):
+    train(ToyEnv, toy_config(buffer_size=50, learning_starts=1000), 80, tmp_path, progress=False)
+    buf = load_checkpoint(tmp_path)["buffer"]
+    assert buf["capacity"] == 50 and buf["size"] == 50 and buf["ptr"] == 30
+
+
+def test_init_from_continues_without_new_warmup(tmp_path):
+    """Refinement: start from another run's checkpoint (agent, buffer, counters) in a new dir."""
+    train(ToyEnv, toy_config(), 100, tmp_path / "base", progress=False)
+    base = load_checkpoint(tmp_path / "base")
+    agent = train(ToyEnv, None, 130, tmp_path / "refine", progress=False,
+                  init_from=tmp_path / "base")
+    ckpt = load_checkpoint(tmp_path / "refine")
+    assert ckpt["global_step"] == 130
+    assert agent.num_updates == base["agent"]["num_updates"] + 30  # learning from the first step
+    assert ckpt["buffer"]["capacity"] == 130 and ckpt["buffer"]["size"] == 130
+    torch.testing.assert_close(ckpt["buffer"]["obs"][:100], base["buffer"]["obs"])
+    with open(tmp_path / "refine" / "episodes.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert rows and int(rows[0]["episode"]) >= base["episode"]
+
+
+# ----------------------------------------------------------------------------------------------
+# K seeds side by side (their stacked update: tests/rl/td3/test_stacked.py)
+# ----------------------------------------------------------------------------------------------
+def test_seeds_trained_together_equal_their_runs_alone(tmp_path):
+    from elastica_magnetic_rl.runner.loop import train_seeds
+
+    configs = [toy_config(seed=s) for s in (2, 5)]
+    train_seeds(lambda k: sync_vector_env(ToyEnv, k), configs, 150, [tmp_path / "g2", tmp_path / "g5"],
+                progress=False)
+    for s in (2, 5):
+        train(ToyEnv, toy_config(seed=s), 150, tmp_path / f"alone{s}", progress=False)
+        a, b = load_checkpoint(tmp_path / f"g{s}"), load_checkpoint(tmp_path / f"alone{s}")
+        for key in ("agent", "buffer", "global_step", "episode"):
+            assert_state_equal(a[key], b[key], key)
+
+
+def test_resume_without_checkpoint_refuses_and_keeps_the_log(tmp_path):
+    train(ToyEnv, toy_config(seed=1), 60, tmp_path / "run", progress=False)
+    (tmp_path / "run" / "checkpoint.pt").unlink()
+    log = (tmp_path / "run" / "episodes.csv").read_text()
+    with pytest.raises(FileNotFoundError, match="checkpoint.pt does not exist"):
+        train(ToyEnv, toy_config(seed=1), 80, tmp_path / "run", resume=True, progress=False)
+    assert (tmp_path / "run" / "episodes.csv").read_text() == log
+
+
+def test_pink_exploration_is_correlated_in_time_and_trains_reproducibly(tmp_path):
+    from elastica_magnetic_rl.runner.loop import train_seeds
+    from elastica_magnetic_rl.runner.seed_run import SeedRun
+
+    def lag1(cfg):
+        run = SeedRun(0, cfg, 100, tmp_path / f"probe{cfg.noise_color}", False, None, None, 3, 2, 1)
+        rng = np.random.default_rng(0)
+        run.draw_noise(0, rng)
+        x = np.stack([run.exploration(0, rng)[0] for _ in range(3000)])  # crosses used-up sequences
+        return np.mean(x[1:] * x[:-1]) / np.mean(x * x), x.std()
+
+    white, pink = lag1(toy_config(noise_color=0.0)), lag1(toy_config(noise_color=1.0, noise_horizon=500))
+    assert abs(white[0]) < 0.05 and pink[0] > 0.5
+    assert white[1] == pytest.approx(0.2, rel=0.1) and pink[1] == pytest.approx(0.2, rel=0.2)
+
+    # with pink noise (sequences shorter than the run, so some run out mid-episode), a seed beside
+    # another equals its run alone, and a killed run resumes bit-identically
+    configs = [toy_config(seed=s, noise_color=1.0, noise_horizon=8) for s in (2, 5)]
+    train_seeds(lambda k: sync_vector_env(ToyEnv, k), configs, 150, [tmp_path / "g2", tmp_path / "g5"],
+                progress=False)
+    alone = train(ToyEnv, configs[0], 150, tmp_path / "alone", progress=False)
+    assert_state_equal(load_checkpoint(tmp_path / "g2")["agent"], alone.state_dict())
+
+    def kill_late(row):
+        if row["global_step"] >= 130:
+            raise Killed
+
+    with pytest.raises(Killed):
+        train(ToyEnv, configs[0], 150, tmp_path / "killed", progress=False, log_fn=kill_late)
+    resumed = train(ToyEnv, configs[0], 150, tmp_path / "killed", resume=True, progress=False)
+    assert_state_equal(alone.state_dict(), resumed.state_dict())
+    white_run = load_checkpoint(tmp_path / "g2")
+    assert white_run["config"]["noise_color"] == 1.0

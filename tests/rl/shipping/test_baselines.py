@@ -1,0 +1,75 @@
+"""The rotating-field baseline: it turns the field as stated through the agent's action channel,
+rolls the robot (forward clockwise, backward counter-clockwise) and ``msr baseline`` writes what
+``msr generate`` writes."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from elastica_magnetic_rl.envs.env import MagneticCrawlerEnv
+from elastica_magnetic_rl.shipping.baselines import RotatingFieldPolicy
+
+from elastica_magnetic import read_field_csv
+from elastica_magnetic.cli import main as msr
+
+
+def roll(case: str, period: float, clockwise: bool, steps: int):
+    """Fields (steps, 2) in T and the middle node's x displacement (m) in the training physics."""
+    policy = RotatingFieldPolicy(case, period, clockwise=clockwise)
+    env = MagneticCrawlerEnv(pattern=int(case[1]), field_limit=policy.field_limit,
+                             physics="training", initial_field="zero", duration=steps / 100)
+    obs, info = env.reset(seed=0)
+    x0, fields = info["mid_x_m"], []
+    for _ in range(steps):
+        obs, _, terminated, _, info = env.step(policy.act(obs))
+        assert not terminated
+        fields.append(info["field_T"][:2])
+    return np.asarray(fields), info["mid_x_m"] - x0
+
+
+def test_field_ramps_up_then_turns_at_the_stated_rate():
+    fields, _ = roll("m1-10mT", period=4.0, clockwise=True, steps=120)
+    # From zero, at most 0.3 mT per axis per step (0.42 mT in amplitude): the 10 mT limit takes
+    # at least 24 steps.
+    assert np.all(np.abs(np.diff(fields, axis=0)) <= 0.3e-3 + 1e-12)
+    amplitude = np.hypot(fields[:, 0], fields[:, 1])
+    assert np.all(amplitude[:23] < 10e-3 - 1e-4)
+    assert np.allclose(amplitude[60:], 10e-3, rtol=1e-6)
+    angle = np.unwrap(np.arctan2(fields[60:, 1], fields[60:, 0]))
+    rate = np.diff(angle) / 0.01  # rad/s, clockwise negative
+    assert np.allclose(rate, -2 * math.pi / 4.0, rtol=1e-3)
+
+
+def test_clockwise_rolls_forward_and_counterclockwise_backward():
+    _, forward = roll("m1-10mT", period=2.0, clockwise=True, steps=300)
+    _, backward = roll("m1-10mT", period=2.0, clockwise=False, steps=300)
+    # 3 s of rolling at 10 mT: more than a body length (20 mm) each way.
+    assert forward > 20e-3
+    assert backward < -20e-3
+
+
+def test_bad_arguments_are_named():
+    with pytest.raises(ValueError, match="period"):
+        RotatingFieldPolicy("m1-4mT", period=0.0)
+    with pytest.raises(ValueError, match="unknown case"):
+        RotatingFieldPolicy("m3-4mT")
+
+
+def test_msr_baseline_writes_the_generate_files(tmp_path, capsys):
+    out = tmp_path / "baseline"
+    capsys.readouterr()
+    status = msr(["baseline", "--case", "m2-4mT", "--period", "1.5", "--duration", "0.3",
+                  "--physics", "training", "--out", str(out), "--no-gif", "--no-progress",
+                  "--json"])
+    result = json.loads(capsys.readouterr().out)
+    assert status == 0
+    assert result["policy_kind"] == "baseline" and result["case"] == "m2-4mT"
+    assert "period 1.5 s" in result["policy"]
+    fields = read_field_csv(result["fields_csv"])
+    assert fields.shape == (30, 3)
+    assert np.all(np.abs(np.diff(fields[:, :2], axis=0)) <= 0.3e-3 + 1e-12)
+    assert (out / "generate.json").is_file() and (out / "field_waveforms.png").is_file()
+    assert "q_values" not in result["figures"]  # no critic to draw

@@ -1,0 +1,79 @@
+"""Corrupted or mismatched policy files get an error naming the file (issue 15, item 7)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import pytest
+from elastica_magnetic_rl.shipping.policy_files import (
+    POLICIES_DIR,
+    PolicyFileError,
+    PolicyNotFoundError,
+    resolve_policy,
+)
+
+from elastica_magnetic.cli import main
+
+
+@pytest.fixture
+def folder(tmp_path):
+    target = tmp_path / "m1"
+    target.mkdir()
+    for name in ("actor.pt", "critic.pt", "policy.json"):
+        shutil.copy(POLICIES_DIR / "m1-4mT" / name, target / name)
+    return target
+
+
+def test_shipped_policies_carry_a_matching_checksum():
+    for name in ("m1-4mT", "m2-4mT", "m1-10mT", "m2-10mT"):
+        assert "actor_sha256" in json.loads((POLICIES_DIR / name / "policy.json").read_text())
+        assert resolve_policy(name).case.name == name
+
+
+@pytest.mark.parametrize("size", [0, 1000])
+def test_empty_or_truncated_actor(folder, size):
+    data = (folder / "actor.pt").read_bytes()
+    (folder / "actor.pt").write_bytes(data[:size])
+    with pytest.raises(PolicyFileError, match=r"actor\.pt: cannot be read as a torch file"):
+        resolve_policy(folder)
+
+
+def test_truncated_policy_json(folder):
+    text = (folder / "policy.json").read_text()
+    (folder / "policy.json").write_text(text[: len(text) // 2])
+    with pytest.raises(PolicyFileError, match=r"policy\.json: not valid JSON"):
+        resolve_policy(folder)
+
+
+def test_hidden_sizes_that_do_not_match_the_weights(folder):
+    meta = json.loads((folder / "policy.json").read_text())
+    meta["architecture"]["hidden_sizes"] = [128, 128]
+    del meta["actor_sha256"]
+    (folder / "policy.json").write_text(json.dumps(meta))
+    with pytest.raises(PolicyFileError, match=r"actor\.pt: the actor weights do not fit the "
+                       r"architecture it declares \(observations 260, actions 2, "
+                       r"hidden sizes \[128, 128\]\)"):
+        resolve_policy(folder)
+
+
+def test_actor_of_another_policy_is_refused(folder, capsys):
+    shutil.copy(POLICIES_DIR / "m2-4mT" / "actor.pt", folder / "actor.pt")
+    with pytest.raises(PolicyFileError, match=r"actor\.pt: its weights do not match the actor_sha256"):
+        resolve_policy(folder)
+    assert main(["export", str(folder), "--out", str(folder / "export")]) == 2
+    assert "the files come from different policies" in capsys.readouterr().err
+    assert not (folder / "export").exists()
+
+
+def test_corrupted_checkpoint(tmp_path, capsys):
+    (tmp_path / "checkpoint.pt").write_bytes(b"PK\x03\x04 not a checkpoint")
+    with pytest.raises(PolicyFileError, match=r"checkpoint\.pt: cannot be read as a checkpoint"):
+        resolve_policy(tmp_path)
+    assert main(["generate", str(tmp_path), "--out", str(tmp_path / "g"), "--no-progress"]) == 2
+    assert "checkpoint.pt: cannot be read as a checkpoint" in capsys.readouterr().err
+
+
+def test_unknown_policy_is_a_clear_error(tmp_path):
+    with pytest.raises(PolicyNotFoundError, match="shipped"):
+        resolve_policy(tmp_path / "nothing-here")

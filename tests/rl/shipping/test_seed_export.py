@@ -1,0 +1,79 @@
+"""``msr export-seeds`` (rl/shipping/seed_export.py): every seed as a generate-ready folder with
+seeds.json, seeds of several runs collected, mixed ones refused."""
+
+from __future__ import annotations
+
+import json
+
+from smoke import run_msr
+
+from elastica_magnetic.cli import main as msr
+
+
+def test_export_seeds_writes_generate_ready_folders_and_seeds_json(trained, tmp_path, capsys):
+    dest = tmp_path / "seeds" / "paper"
+    result = run_msr(capsys, "export-seeds", str(trained / "m1-4mT"), "--dest", str(dest),
+                     "--duration", "0.05", "--no-progress", "--workers", "2")  # one process a seed
+    entries = json.loads((dest / "seeds.json").read_text())
+    assert [e["seed"] for e in entries] == [0, 1] and result["total"] == 2
+    for e in entries:
+        assert set(e) >= {"seed", "steps", "distance_10s_m", "actor", "checkpoint"}
+        evaluation = json.loads((trained / "m1-4mT" / f"seed{e['seed']}" / "evaluation.json").read_text())
+        chosen = evaluation if e["checkpoint"] == "final" else evaluation["best"]
+        assert e["distance_10s_m"] == chosen["mid_dx_m"] and e["steps"] == chosen["global_step"]
+        other = evaluation["best"] if e["checkpoint"] == "final" else evaluation
+        assert other is None or e["distance_10s_m"] >= other["mid_dx_m"]  # the farther actor
+        folder = dest / e["actor"]
+        assert sorted(p.name for p in folder.iterdir()) == ["actor.pt", "episodes.csv",
+                                                            "evaluations.csv", "policy.json"]
+        run_dir = trained / "m1-4mT" / f"seed{e['seed']}"
+        assert (folder / "episodes.csv").read_text() == (run_dir / "episodes.csv").read_text()
+    out = run_msr(capsys, "generate", str(dest / "seed0"), "--duration", "0.05", "--out",
+                  str(tmp_path / "gen"), "--no-figures", "--no-progress")
+    assert out["case"] == "m1-4mT"
+
+
+def test_export_seeds_collects_seeds_of_several_runs_and_refuses_mixed_ones(trained, tmp_path, capsys):
+    """Seeds trained in two runs collect in one folder (the second export keeps the first's seeds it
+    does not replace); a folder of seeds trained with other hyperparameters is refused, unchanged."""
+    dest = tmp_path / "seeds" / "paper"
+    second_run = tmp_path / "second" / "m1-4mT"
+    second_run.mkdir(parents=True)
+    (second_run / "seed1").symlink_to(trained / "m1-4mT" / "seed1", target_is_directory=True)
+    only_seed0 = tmp_path / "first" / "m1-4mT"
+    only_seed0.mkdir(parents=True)
+    (only_seed0 / "seed0").symlink_to(trained / "m1-4mT" / "seed0", target_is_directory=True)
+    run_msr(capsys, "export-seeds", str(only_seed0), "--dest", str(dest), "--duration", "0.05",
+            "--no-progress")
+    result = run_msr(capsys, "export-seeds", str(second_run), "--dest", str(dest), "--duration",
+                     "0.05", "--no-progress")
+    entries = json.loads((dest / "seeds.json").read_text())
+    assert [e["seed"] for e in entries] == [0, 1] and result["total"] == 2
+    assert {"actor.pt", "policy.json"} <= {p.name for p in (dest / "seed0").iterdir()}
+    # seed 0's actor now claims another batch size: a mixed folder is refused before anything changes
+    policy_json = dest / "seed0" / "policy.json"
+    meta = json.loads(policy_json.read_text())
+    meta["training"]["config"]["batch_size"] = 64
+    policy_json.write_text(json.dumps(meta))
+    before = (dest / "seeds.json").read_bytes()
+    capsys.readouterr()
+    assert msr(["export-seeds", str(second_run), "--dest", str(dest), "--duration", "0.05",
+                "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "seed 0" in err and "batch_size" in err and "another folder" in err
+    assert (dest / "seeds.json").read_bytes() == before
+    # a spec whose default recipe changed since is the same robot and task: kept; another robot is not
+    meta["training"]["config"]["batch_size"] = json.loads(
+        (dest / "seed1" / "policy.json").read_text())["training"]["config"]["batch_size"]
+    meta["case_spec"]["training"]["recipe"] = "pink-ln"
+    policy_json.write_text(json.dumps(meta))
+    run_msr(capsys, "export-seeds", str(second_run), "--dest", str(dest), "--duration", "0.05",
+            "--no-progress")
+    assert [e["seed"] for e in json.loads((dest / "seeds.json").read_text())] == [0, 1]
+    meta["case_spec"]["robot"]["youngs_modulus"] *= 2
+    policy_json.write_text(json.dumps(meta))
+    before = (dest / "seeds.json").read_bytes()
+    assert msr(["export-seeds", str(second_run), "--dest", str(dest), "--duration", "0.05",
+                "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "seed 0" in err and "another case spec" in err and (dest / "seeds.json").read_bytes() == before

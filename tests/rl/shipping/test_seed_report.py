@@ -1,0 +1,137 @@
+"""``msr seeds``: every committed seed of a case by recipe, judged by the case's own test."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from elastica_magnetic_rl.cases.case import load_case
+from elastica_magnetic_rl.shipping.seed_report import (
+    CARD_SECTION,
+    case_seeds,
+    learning_curves_by_recipe,
+    update_model_card,
+)
+
+from elastica_magnetic.cli import main as msr
+
+
+def _write_seeds(root: Path, case: str, folder: str, distances: dict[int, float], **extra) -> None:
+    path = root / case / "seeds" / folder / "seeds.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps([{"seed": s, "steps": 100000, "distance_10s_m": d,
+                                 "actor": f"seed{s}", **extra} for s, d in distances.items()]))
+
+
+def test_seeds_are_judged_by_the_case_yardstick_paper_recipe_first(tmp_path):
+    case = load_case("m1-4mT")  # +20.5 mm in 10 s
+    _write_seeds(tmp_path, "m1-4mT", "pink", {1: 0.0204, 0: 0.0205})
+    _write_seeds(tmp_path, "m1-4mT", "paper", {0: 0.0221, 1: 0.0018, 2: 0.0300})
+    groups = case_seeds(case, tmp_path)
+    assert [g.folder for g in groups] == ["paper", "pink"]
+    assert groups[0].succeeded == [True, False, True] and groups[0].summary == "2 of 3"
+    assert [e["seed"] for e in groups[1].entries] == [0, 1]  # ordered by seed
+    assert groups[1].succeeded == [True, False]  # 20.5 mm meets the target, 20.4 mm does not
+
+
+def test_a_reach_case_needs_the_stored_verdicts(tmp_path):
+    case = load_case("m1-4mT-reach")
+    _write_seeds(tmp_path, "m1-4mT-reach", "paper", {0: 0.0094})
+    with pytest.raises(ValueError, match="meets_target"):
+        case_seeds(case, tmp_path)
+    _write_seeds(tmp_path, "m1-4mT-reach", "paper", {0: 0.0094}, meets_target=True)
+    assert case_seeds(case, tmp_path)[0].succeeded == [True]
+
+
+def test_msr_seeds_prints_draws_and_keeps_the_model_card_current(tmp_path, capsys):
+    _write_seeds(tmp_path, "m1-4mT", "paper", {0: 0.0221, 1: 0.0018})
+    card = tmp_path / "m1-4mT" / "MODEL_CARD.md"
+    card.write_text("# Model card\n\n## Training\n\n- seed: 0\n\n## Evaluation (accurate)\n\n- +22.1 mm\n")
+    capsys.readouterr()
+    assert msr(["seeds", "m1-4mT", "--policies", str(tmp_path), "--figure", str(tmp_path / "fig"),
+                "--card", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)["cases"][0]
+    assert report["recipes"][0]["succeeded"] == 1 and report["card_updated"] is True
+    assert (tmp_path / "fig" / "seeds_m1-4mT.png").stat().st_size > 1000
+    assert "learning_curves" not in report  # no seed kept its training log
+    text = card.read_text()
+    assert text.index(CARD_SECTION) < text.index("## Evaluation") and "| `paper` | 1 of 2 |" in text
+    # a new seed replaces the section, which stays single; an unchanged table leaves the card alone
+    _write_seeds(tmp_path, "m1-4mT", "paper", {0: 0.0221, 1: 0.0018, 2: 0.0230})
+    case = load_case("m1-4mT")
+    assert update_model_card(card, case, case_seeds(case, tmp_path)) is True
+    text = card.read_text()
+    assert text.count(CARD_SECTION) == 1 and "| `paper` | 2 of 3 |" in text and "- +22.1 mm" in text
+    assert update_model_card(card, case, case_seeds(case, tmp_path)) is False
+
+
+def test_msr_seeds_names_a_broken_seeds_file(tmp_path, capsys):
+    path = tmp_path / "m1-4mT" / "seeds" / "paper" / "seeds.json"
+    path.parent.mkdir(parents=True)
+    path.write_text('[{"seed": 0}]')
+    assert msr(["seeds", "m1-4mT", "--policies", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert str(path) in err and "distance_10s_m" in err
+
+
+def test_the_shipped_seed_folders_read():
+    """Every committed seeds.json of a shipped case reads and has an actor folder per seed."""
+    from elastica_magnetic_rl.cases.case import case_names
+    from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR
+
+    for name in case_names():
+        for group in case_seeds(load_case(name)):
+            for entry in group.entries:
+                folder = POLICIES_DIR / name / "seeds" / group.folder / entry["actor"]
+                assert (folder / "actor.pt").is_file() and (folder / "policy.json").is_file()
+
+
+def test_learning_curves_come_from_the_logs_the_exported_seeds_keep(tmp_path):
+    case = load_case("m1-4mT")
+    _write_seeds(tmp_path, "m1-4mT", "paper", {0: 0.0221, 1: 0.0018})
+    _write_seeds(tmp_path, "m1-4mT", "pink", {0: 0.0230})
+    assert learning_curves_by_recipe(case, case_seeds(case, tmp_path), tmp_path / "c.png") is None
+    log = tmp_path / "m1-4mT" / "seeds" / "paper" / "seed0" / "episodes.csv"
+    log.parent.mkdir(parents=True)
+    log.write_text("episode,global_step,return,length,terminated,truncated,wall_time_s\n"
+                   + "".join(f"{i},{2000 * (i + 1)},{10.0 * i},2000,0,1,{i}.0\n" for i in range(10)))
+    out = learning_curves_by_recipe(case, case_seeds(case, tmp_path), tmp_path / "c.png")
+    assert out == tmp_path / "c.png" and out.stat().st_size > 1000
+
+
+def test_the_recipes_table_across_cases(tmp_path, capsys):
+    """One row per recipe folder with its change from the paper's recipe, one column per case."""
+    _write_seeds(tmp_path, "m1-4mT", "paper", {0: 0.0221, 1: 0.0018})
+    _write_seeds(tmp_path, "m1-4mT", "pink-ln", {0: 0.0221})
+    _write_seeds(tmp_path, "m1-10mT", "paper", {0: 0.170, 1: 0.019, 2: 0.150})
+    capsys.readouterr()
+    assert msr(["seeds", "m1-4mT", "m1-10mT", "--policies", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    table = out[out.index("## Recipes across the cases"):]
+    assert "| recipe (folder) | change from the paper's | m1-4mT | m1-10mT |" in table
+    assert "| `paper` | none (the authors' settings) | 1 of 2 | 2 of 3 |" in table
+    assert ("| `pink-ln` | `noise_color = 1.0`, `noise_horizon = 2000`, `critic_layer_norm = True` "
+            "| 1 of 1 |  |") in table
+
+
+def test_every_shipped_card_is_current_with_its_policy_and_seeds(tmp_path):
+    """A shipped card's Notes are its policy.json's notes, and its seeds table is the one the
+    committed seeds.json give (``msr seeds --card`` would not change it)."""
+    import shutil
+
+    from elastica_magnetic_rl.shipping.model_card import NOTES_SECTION, card_section
+    from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR
+
+    folders = sorted(p.parent for p in POLICIES_DIR.glob("*/MODEL_CARD.md"))
+    assert len(folders) >= 4
+    for folder in folders:
+        info = json.loads((folder / "policy.json").read_text())
+        card = (folder / "MODEL_CARD.md").read_text()
+        assert card_section(card, NOTES_SECTION) == ((info.get("notes") or "").strip() or None), folder
+        case = load_case(info["case"])
+        groups = case_seeds(case)
+        if groups:
+            copy = tmp_path / f"{folder.name}.md"
+            shutil.copy(folder / "MODEL_CARD.md", copy)
+            assert update_model_card(copy, case, groups) is False, f"{folder}: run msr seeds --card"

@@ -1,0 +1,86 @@
+"""The shipped policies (rl/shipping/shipped.py, rl/policies/): each generates, exports and reaches
+what its files claim; one distance re-run in full; a rollout is deterministic."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import torch
+from elastica_magnetic_rl.shipping import policy_files
+
+from elastica_magnetic.cli import main as msr
+
+#: Whether each shipped policy reaches the authors' 10 s distance, as rl/policies/README.md and
+#: the docs state it (a policy re-shipped with another result must update them, and this).
+SHIPPED = ("hu2018-crawl", "m1-10mT", "m1-4mT", "m1-4mT-reach", "m2-10mT", "m2-4mT")
+
+
+def test_every_shipped_policy_is_tested():
+    from elastica_magnetic_rl.shipping.shipped import shipped_names
+
+    assert shipped_names() == list(SHIPPED)
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_shipped_policy_generates_and_exports(name, tmp_path, capsys):
+    """A policy shipped in the package: generate a short run by name, export it, reload it; its
+    card and policy.json agree with the case and report a 10 s distance that reaches the authors'
+    (as the README states for every shipped policy), or its target for cases beyond the paper."""
+
+
+    assert msr(["generate", name, "--duration", "0.05", "--out", str(tmp_path / "gen"),
+                "--no-gif", "--no-figures", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    fields = np.loadtxt(result["fields_csv"], delimiter=",", skiprows=1)
+    assert fields.shape == (5, 4)
+    assert np.all(np.abs(fields[:, 1:3]) <= 5 * 0.3 + 1e-9)  # mT: from zero, +-0.3 mT per step
+    assert msr(["export", name, "--out", str(tmp_path / "exp")]) == 0
+    policy = policy_files.resolve_policy(name)
+    assert policy.case.name == name
+    obs = np.zeros(policy.case.obs_dim, dtype=np.float32)
+    module = torch.jit.load(str(next((tmp_path / "exp").glob("*.ts.pt"))))
+    action = module(torch.from_numpy(obs)[None]).detach().numpy()[0]
+    np.testing.assert_allclose(action, policy.act(obs), atol=1e-6)
+    info = json.loads((policy_files.POLICIES_DIR / name / "policy.json").read_text())
+    assert info["case"] == name and info["evaluation"]["duration_s"] == 10.0
+    ev = info["evaluation"]
+    assert policy.case.meets_yardstick(ev["mid_dx_m"], ev.get("node_dx_m", ev["mid_dx_m"]),
+                                       ev["duration_s"], ev["diverged"])
+    if name in ("m1-10mT", "m1-4mT", "m2-10mT", "m2-4mT"):
+        assert ev["mid_dx_m"] >= info["authors_mid_dx_10s_m"]
+    card = (policy_files.POLICIES_DIR / name / "MODEL_CARD.md").read_text()
+    assert "meets the target" in card
+    shipped_fields = np.loadtxt(policy_files.POLICIES_DIR / name / "fields.csv", delimiter=",", skiprows=1)
+    assert shipped_fields.shape == (1000, 4)  # the 10 s waveform, 100 rows/s
+
+
+def test_one_shipped_distance_is_re_run_in_full():
+    """The whole 10 s accurate rollout of one shipped policy (a different one each day, in turn;
+    ``msr validate shipped`` runs all four; ``--quick``, in the validation tests, their first 0.3 s)
+    reproduces policy.json's distance to 1e-3 relative and reaches the authors' distance, and the
+    shipped waveform row by row on the machine that recorded it (elsewhere round-off, amplified
+    by contact switches, parts the waveforms; see elastica_magnetic_rl.shipping.shipped)."""
+    import datetime
+
+    from elastica_magnetic_rl.shipping.shipped import verify_shipped
+
+    name = SHIPPED[datetime.date.today().toordinal() % len(SHIPPED)]
+    result = verify_shipped(name)
+    assert result["rows_compared"] == 1000
+    assert result["relative_diff"] <= result["distance_rtol"] == 1e-3, result
+    assert result["meets_authors"] and result["passed"], result
+    if result["waveform_check"] == "exact":
+        assert result["max_field_diff_mT"] <= 1e-6
+
+
+def test_a_policy_rollout_is_deterministic_on_one_machine():
+    """The claim behind the shipped waveforms: on one machine, two rollouts of a policy give the
+    same waveform and trajectory bit for bit."""
+    from elastica_magnetic_rl.shipping.policy_runs import resolve_policy, run_policy
+
+    policy = resolve_policy("m2-4mT")
+    first, second = (run_policy(policy, 0.3, "accurate", "zero", False) for _ in range(2))
+    assert np.array_equal(first.fields, second.fields)
+    assert np.array_equal(first.positions, second.positions)

@@ -1,0 +1,23 @@
+"""The smoke settings of the learning package's ``msr`` tests, and running ``msr`` for its JSON."""
+
+from __future__ import annotations
+
+import json
+
+from elastica_magnetic.cli import main as msr
+
+#: Steps per seed of the shared training run (tests/rl/conftest.py's ``trained``).
+TRAIN_STEPS = 240
+#: Tiny networks and short episodes: a training run of seconds.
+SMOKE = ["--learning-starts", "60", "--batch-size", "32", "--hidden", "32,32",
+         "--episode-duration", "0.8", "--checkpoint-every", "80", "--eval-every", "120",
+         "--no-progress"]
+
+
+def run_msr(capsys, *argv: str) -> dict:
+    """``msr ARGV --json``, which must succeed; its printed JSON."""
+    capsys.readouterr()
+    status = msr([*argv, "--json"])
+    out = capsys.readouterr().out
+    assert status == 0, out
+    return json.loads(out)

@@ -1,0 +1,103 @@
+"""The stacked networks of K seeds (``rl/td3/stacked.py``) as used by TD3: K seeds updated as one
+computation equal each seed updated alone, bit for bit, and the critics' layer normalisation
+(``TD3Config.critic_layer_norm``) is PyTorch's, round-trips exactly and bounds the critic."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+import torch
+from elastica_magnetic_rl.td3.algorithm import TD3, TD3Config
+from state_compare import assert_state_equal
+from toy_data import random_replay_buffer
+
+torch.set_num_threads(1)
+
+
+@pytest.mark.parametrize("options", [{}, {"critic_layer_norm": True},
+                                     {"actor_saturation_penalty": 1.0}],
+                         ids=["plain", "critic_layer_norm", "actor_saturation_penalty"])
+def test_k_seeds_update_equals_each_seed_alone(options):
+    """The stacked update of 3 seeds equals each seed's own update, bit for bit (every seed on
+    its own minibatches, noise and Adam moments), with and without the critics' layer norms and
+    the actor's saturation penalty."""
+    obs_dim, act_dim = 5, 2
+    configs = [TD3Config(seed=s, hidden_sizes=(8, 8), batch_size=16, **options) for s in (0, 4, 9)]
+    buffers = [random_replay_buffer(obs_dim, act_dim, 100, k, done_every=7, capacity=200)
+               for k in range(3)]
+    low, high = -np.ones(act_dim), np.ones(act_dim)
+    group = TD3(obs_dim, act_dim, low, high, configs)
+    alone = [TD3(obs_dim, act_dim, low, high, [c]) for c in configs]
+    for _ in range(5):  # critic steps and two delayed actor steps
+        group.update([b.sample(16, group.rngs[k]) for k, b in enumerate(buffers)])
+        for agent, b in zip(alone, buffers, strict=True):
+            agent.update([b.sample(16, agent.rngs[0])])
+    for k, agent in enumerate(alone):
+        assert_state_equal(group.seed_state(k), agent.seed_state(0), f"seed {k}")
+    # and the seeds did learn different things
+    assert not torch.equal(group.actor_state(0)["net.0.weight"], group.actor_state(1)["net.0.weight"])
+
+
+def test_critic_layer_norm_is_pytorchs_layernorm_and_round_trips():
+    """With ``critic_layer_norm`` each stacked critic is the plain ``TwinCritic`` of
+    Linear-LayerNorm-ReLU layers (same outputs to round-off), starts from the same linear weights
+    as without the norms (unit gains, zero biases), and its state (weights, norms, Adam moments)
+    goes through ``seed_state``/``load_seed_state`` exactly, so a resumed run continues exactly."""
+    obs_dim, act_dim, hidden = 5, 2, (8, 8)
+    low, high = -np.ones(act_dim), np.ones(act_dim)
+    cfg = TD3Config(seed=3, hidden_sizes=hidden, batch_size=16, critic_layer_norm=True)
+    plain_cfg = dataclasses.replace(cfg, critic_layer_norm=False)
+    agent, plain = TD3(obs_dim, act_dim, low, high, [cfg]), TD3(obs_dim, act_dim, low, high, [plain_cfg])
+    state, plain_state = agent.critic_state(0), plain.critic_state(0)
+    # nn.Sequential naming: Linear 0, LayerNorm 1, (ReLU 2), Linear 3, LayerNorm 4, (ReLU 5), Linear 6
+    assert set(state) == {f"q{q}_net.{i}.{p}" for q in (1, 2) for i in (0, 1, 3, 4, 6)
+                          for p in ("weight", "bias")}
+    torch.testing.assert_close(state["q1_net.3.weight"], plain_state["q1_net.2.weight"], rtol=0, atol=0)
+    torch.testing.assert_close(state["q2_net.6.bias"], plain_state["q2_net.4.bias"], rtol=0, atol=0)
+    assert torch.equal(state["q1_net.1.weight"], torch.ones(8))
+    buf = random_replay_buffer(obs_dim, act_dim, 64)
+    for _ in range(4):  # moves the gains and biases of the norms away from 1 and 0
+        agent.update([buf.sample(16, agent.rngs[0])])
+    critic = agent.critic_module(0)
+    assert isinstance(critic.q1_net[1], torch.nn.LayerNorm)
+    assert not torch.equal(critic.q1_net[1].weight, torch.ones(8))
+    obs = torch.randn(7, obs_dim)
+    act = torch.rand(7, act_dim) * 2 - 1
+    stacked_q1, stacked_q2 = agent._q(agent.critic_net, obs[None], act[None], torch.float32)
+    q1, q2 = critic(obs, act)
+    torch.testing.assert_close(stacked_q1[0], q1, rtol=1e-5, atol=1e-6)
+    torch.testing.assert_close(stacked_q2[0], q2, rtol=1e-5, atol=1e-6)
+    # round trip, then both copies take the same next steps
+    copy_ = TD3(obs_dim, act_dim, low, high, [cfg])
+    copy_.load_seed_state(0, agent.seed_state(0))
+    assert_state_equal(copy_.seed_state(0), agent.seed_state(0), "after loading")
+    for _ in range(3):
+        agent.update([buf.sample(16, agent.rngs[0])])
+        copy_.update([buf.sample(16, copy_.rngs[0])])
+    assert_state_equal(copy_.seed_state(0), agent.seed_state(0), "after 3 more updates")
+    # a critic without norms does not load into one with them, and says why
+    with pytest.raises(ValueError, match="layer normalisation"):
+        agent.critic_net.load_member_state(0, plain.critic_net.member_state(0))
+
+
+def test_critic_layer_norm_bounds_the_critic_far_from_the_data():
+    """Why the recipe has it: a plain ReLU critic grows linearly with the size of its input, so
+    it can extrapolate without bound beyond the replay data; a layer-normalised critic's hidden
+    features have unit root mean square whatever the input, so its Q is bounded by the weights."""
+    obs_dim, act_dim, directions = 5, 2, 32
+    low, high = -np.ones(act_dim), np.ones(act_dim)
+    # many directions from a seeded generator: the largest |Q| over them is far from zero, so the
+    # ratios below do not hinge on one draw (nor on the global RNG's state left by earlier tests)
+    obs = torch.randn(1, directions, obs_dim, generator=torch.Generator().manual_seed(0))
+    act = torch.zeros(1, directions, act_dim)
+    q_at = {}
+    for ln in (False, True):
+        agent = TD3(obs_dim, act_dim, low, high, [TD3Config(seed=1, hidden_sizes=(16, 16),
+                                                            critic_layer_norm=ln)])
+        with torch.no_grad():
+            q_at[ln] = [float(agent._q(agent.critic_net, s * obs, act, torch.float32)[0].abs().max())
+                        for s in (1.0, 1e3)]
+    assert q_at[False][1] > 100 * q_at[False][0]  # the plain critic scales with the input
+    assert q_at[True][1] < 10 * q_at[True][0]  # the normalised one does not
