@@ -29,6 +29,7 @@ COMMAND_MODULES = (
     "elastica_magnetic_rl.cli",
     "elastica_magnetic_rl.policy_cli",
     "elastica_magnetic.hardware.cli",
+    "elastica_magnetic_rl.sim2real.cli",
 )
 
 

@@ -1,0 +1,96 @@
+"""``msr robustness`` and ``msr identify``: thin wrappers over
+:mod:`elastica_magnetic_rl.sim2real.robustness` and :mod:`elastica_magnetic_rl.sim2real.identify`
+(heavy imports happen inside the commands)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+from pathlib import Path
+
+from elastica_magnetic.cli import CommandError, duration_option, number
+
+from .variations import DEFAULT_RANGES, GROUPS, VariationError, parse_variation
+
+_DEFAULT_SET = ", ".join(f"{name} ({'+'.join(GROUPS[name])}) x{low:g}:{high:g}"
+                         for name, (low, high) in DEFAULT_RANGES.items())
+
+
+def variation_option(text: str):
+    """``--vary KEY[+KEY...]=LOW:HIGH``, parsed at parse time (keys are checked against the spec
+    once it is loaded)."""
+    try:
+        return parse_variation(text)
+    except VariationError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "robustness",
+        help="how far a waveform (and its policy) carries robots whose spec values differ",
+        description="Replay a waveform open loop (as the coils play it) and, for a policy, also "
+        "run the policy closed loop, on robots whose spec values are varied; report each "
+        "variant's distance, the nominal, worst and 10th-percentile distance and their fraction "
+        "of the case's yardstick; write OUT/robustness.json, OUT/robustness.png and "
+        "OUT/fields.csv (the waveform played).",
+    )
+    p.add_argument("source", metavar="POLICY_OR_FIELD_CSV",
+                   help="a shipped policy name (m1-10mT, ...), a run folder, a checkpoint, or a "
+                   "field CSV (mT, 100 Hz; give --case)")
+    p.add_argument("--case", default=None,
+                   help="for a field CSV: the case it is played on (a shipped case or a spec file)")
+    p.add_argument("--fields", type=Path, default=None,
+                   help="for a policy: its waveform (default: the shipped fields.csv, else generated "
+                   "as msr generate does: accurate physics, field from zero, --duration s)")
+    p.add_argument("--vary", type=variation_option, action="append", default=None,
+                   metavar="KEY=LOW:HIGH",
+                   help="vary dotted spec keys (KEY or KEY+KEY or a group: "
+                   f"{', '.join(GROUPS)}) by factors LOW:HIGH of the nominal value, or to "
+                   f"absolute values abs:LOW:HIGH (SI; one key); repeatable. Default: {_DEFAULT_SET}")
+    p.add_argument("--samples", type=number("", 0, 10_000, integer=True), default=0,
+                   help="Latin-hypercube draws besides one-at-a-time and corners (default 0)")
+    p.add_argument("--seed", type=number("", 0, 2**32 - 1, integer=True), default=0,
+                   help="seed of the Latin-hypercube draws")
+    p.add_argument("--no-corners", action="store_true",
+                   help="leave out the corners (every combination of range ends)")
+    p.add_argument("--open-loop-only", action="store_true", help="for a policy: skip the closed loop")
+    p.add_argument("--physics", choices=("training", "accurate"), default="training")
+    p.add_argument("--duration", type=duration_option(), default=10.0, help="s (default 10)")
+    p.add_argument("--workers", type=number("processes", 1, 1024, integer=True), default=None,
+                   help=f"worker processes (default: every core, {os.cpu_count()} here)")
+    p.add_argument("--out", type=Path, default=Path("out/robustness"),
+                   help="output folder, written whole (must not exist unless --force)")
+    p.add_argument("--force", action="store_true", help="replace an existing output folder")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true", help="print the report as JSON")
+    p.set_defaults(func=robustness_command)
+
+
+def robustness_command(args: argparse.Namespace) -> int:
+    from elastica_magnetic_rl.policy_files import PolicyNotFoundError
+
+    from .output import prepare_output_folder
+    from .report import robustness_table
+    from .robustness import plan_robustness, run_robustness, write_robustness
+
+    prepare_output_folder(args.out, args.force)
+    try:
+        plan = plan_robustness(
+            args.source, case=args.case, fields_csv=args.fields, variations=args.vary,
+            corners=not args.no_corners, samples=args.samples, seed=args.seed,
+            physics=args.physics, duration=args.duration, progress=not args.no_progress,
+        )
+    except PolicyNotFoundError as exc:
+        raise CommandError(str(exc)) from None
+    report = run_robustness(plan, closed_loop=not args.open_loop_only, workers=args.workers,
+                            progress=not args.no_progress)
+    out = write_robustness(report, plan, args.out, force=args.force)
+    if args.json:
+        print(json.dumps({**report, "out": str(out)}, indent=2, default=str))
+    else:
+        print(robustness_table(report))
+        print(f"\nwritten: {out / 'robustness.json'}, {out / 'robustness.png'}, {out / 'fields.csv'}")
+    return 0
+
