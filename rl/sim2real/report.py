@@ -10,7 +10,7 @@ import numpy as np
 
 from elastica_magnetic.io import atomic_save
 
-__all__ = ["plot_robustness", "robustness_table"]
+__all__ = ["plot_identify", "plot_robustness", "robustness_table"]
 
 _MODE_NAMES = {"open_loop": "open loop", "closed_loop": "closed loop"}
 
@@ -103,6 +103,43 @@ def plot_robustness(report: dict[str, Any], path: str | Path) -> Path:
     fig.suptitle(f"{report['case']}, {report['physics']} physics, {report['duration_s']:g} s: "
                  f"{worst}\nlines: one parameter at a time; points: all corners and samples",
                  fontsize=10)
+    path = Path(path)
+    atomic_save(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
+    return path
+
+
+def plot_identify(report: dict[str, Any], measured: Any, path: str | Path) -> Path:
+    """Measured against simulated motion of each tracked point: x and y displacement from the
+    first frame (mm) over time; measured as dots, the fitted robot as lines, the nominal robot
+    dashed. ``report`` is :func:`~elastica_magnetic_rl.sim2real.identify.identify`'s result (with
+    ``predicted``), ``measured`` the :class:`~elastica_magnetic_rl.sim2real.tracking.MeasuredTrajectory`."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(11, 6.5), constrained_layout=True)
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(2, 1, sharex=True)
+    shown = measured.displacements()
+    for j, point in enumerate(measured.points):
+        colour = f"C{j % 10}"
+        for c, ax in enumerate(axes):
+            ax.plot(measured.times, 1e3 * shown[:, j, c], ".", ms=3, color=colour,
+                    label=f"{point} measured" if c == 0 else None)
+            ax.plot(measured.times, 1e3 * report["predicted"]["fitted"][:, j, c], "-", lw=1.4,
+                    color=colour, label=f"{point} fitted" if c == 0 else None)
+            ax.plot(measured.times, 1e3 * report["predicted"]["nominal"][:, j, c], "--", lw=0.9,
+                    color=colour, alpha=0.6)
+    axes[0].set_ylabel("x displacement (mm)")
+    axes[1].set_ylabel("y displacement (mm)")
+    axes[1].set_xlabel("time (s)")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7, ncol=min(len(measured.points), 6), loc="best")
+    fitted = ", ".join(f"{name} x{f['factor']:.3f} +- {f['factor_sigma']:.3f}"
+                       for name, f in report["fitted"].items())
+    r = report["residual_m"]
+    fig.suptitle(f"{report['physics']} physics: {fitted}\nresidual RMS {1e3 * r['rms']:.3f} mm (nominal "
+                 f"robot, dashed: {1e3 * r['nominal_rms']:.3f} mm)", fontsize=10)
     path = Path(path)
     atomic_save(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
     return path

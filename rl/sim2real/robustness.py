@@ -124,7 +124,8 @@ def plan_robustness(
         if fields_csv is not None:
             fields, waveform = read_field_csv(fields_csv), str(fields_csv)
         elif shipped_csv is not None and shipped_csv.is_file():
-            fields, waveform = read_field_csv(shipped_csv), str(shipped_csv)
+            fields = read_field_csv(shipped_csv)
+            waveform = f"fields.csv of the shipped-format policy {Path(policy.source).name}"
         else:
             fields, waveform = None, "generated"
     spec = the_case.to_dict()
