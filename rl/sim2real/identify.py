@@ -44,6 +44,12 @@ STAGES = 3
 #: Scale of the fitted log factors and the relative step that ends a fit.
 X_SCALE = 1.0
 XTOL = 1e-8
+#: Step of the log factors that ends the polish (0.1 %), and how far the polish may go from the
+#: least-squares solution (log factor).
+POLISH_XTOL = 1e-3
+POLISH_REACH = 0.2
+#: Residual of every frame of a simulation that diverged, m.
+DIVERGED_RESIDUAL_M = 1.0
 
 
 def load_spec(robot: str | Path) -> dict[str, Any]:
@@ -94,6 +100,7 @@ class FitModel:
     measured: MeasuredTrajectory
     physics: str = "training"
     evaluations: int = 0
+    diverged: int = 0
     _cache: dict = field(default_factory=dict, repr=False)
 
     def values(self, factors: Sequence[float]) -> dict[str, float]:
@@ -129,8 +136,14 @@ class FitModel:
         """Simulated minus measured displacements at every frame, each point's x and y centred on
         its mean over the frames (the tracker's origin is free, and a centred residual does not
         carry the first frame's tracking error into every other frame), flattened (m)."""
-        simulated = self.displacements(factors, physics)
+        from elastica_magnetic.simulation import SimulationDiverged
+
         measured = self.measured.displacements()
+        try:
+            simulated = self.displacements(factors, physics)
+        except SimulationDiverged:  # values far from the robot's: as bad as a residual can be
+            self.diverged += 1
+            return np.full(measured.size, DIVERGED_RESIDUAL_M)
         return ((simulated - simulated.mean(axis=0)) - (measured - measured.mean(axis=0))).ravel()
 
 
@@ -170,6 +183,40 @@ def _least_squares(model: FitModel, x0, bounds, diff_step: float, budget: int, p
                          ftol=1e-10, xtol=XTOL, gtol=1e-10)
 
 
+def _polish(model: FitModel, x0, bounds, budget: int, progress, done: int):
+    """Powell's derivative-free line searches from the least-squares solution, on the whole
+    trajectory: the forward-difference Jacobian of a motion with contacts is rough at the 1 %
+    scale, so least squares can stop short of the minimum along a weak direction (friction)."""
+    from scipy.optimize import minimize
+
+    start = model.evaluations
+
+    def cost(log_factors: NDArray[np.float64]) -> float:
+        r = model.residuals(np.exp(log_factors))
+        if progress is not None:
+            progress(done + model.evaluations - start, _rms(r))
+        return float(r @ r)
+
+    n = len(x0)
+    reach = [(max(bounds[0], v - POLISH_REACH), min(bounds[1], v + POLISH_REACH)) for v in x0]
+    result = minimize(cost, x0, method="Powell", bounds=reach,
+                      options={"xtol": POLISH_XTOL, "ftol": 1e-6, "maxfev": max(budget, 1),
+                               "direc": np.eye(n) * 0.02})
+    x = result.x if result.fun <= cost(x0) else np.asarray(x0)
+    return x, {"method": "scipy.optimize.minimize (Powell)", "simulations": model.evaluations - start,
+               "rms_m": _rms(model.residuals(np.exp(x))), "message": str(result.message)}
+
+
+def _jacobian(model: FitModel, x, residual, step: float) -> NDArray[np.float64]:
+    """Forward-difference Jacobian of the residuals in the log factors at ``x``."""
+    columns = []
+    for k in range(len(x)):
+        shifted = np.array(x, dtype=np.float64)
+        shifted[k] += step
+        columns.append((model.residuals(np.exp(shifted)) - residual) / step)
+    return np.stack(columns, axis=1)
+
+
 def identify(
     fields: NDArray[np.float64],
     measured: MeasuredTrajectory,
@@ -186,7 +233,8 @@ def identify(
     """Fit the values of ``fits`` (one factor per fit, within :data:`FIT_BOUNDS`) so that the robot
     of ``spec`` (complete, see :func:`load_spec`) under ``fields`` (``(n, 3)`` T, 100 Hz) moves its
     points as ``measured``; in ``physics`` (training), then confirmed in the accurate physics
-    (``confirm``). ``max_evaluations`` bounds the fit's simulations (Jacobian ones included).
+    (``confirm``). ``max_evaluations`` bounds the fit's simulations (Jacobian ones included; the
+    polish gets what the least squares left, the uncertainty's Jacobian one more per fitted value).
     ``progress(evaluations, rms_m)`` is called after each simulation of the fit.
 
     Returns the content of ``identify.json``: per fit its factor, values and standard errors,
@@ -212,10 +260,16 @@ def identify(
         used += model.evaluations
         x = result.x
         stages.append({"horizon_s": horizon, "factors": np.exp(x).tolist(),
-                       "rms_m": _rms(result.fun), "simulations": model.evaluations})
-    jac, status, message = result.jac, int(result.status), str(result.message)
+                       "rms_m": _rms(result.fun), "simulations": model.evaluations,
+                       "diverged": model.diverged})
+    status, message = int(result.status), str(result.message)
+    x, polish = _polish(model, x, (low, high), max_evaluations - used, progress, used)
+    used += polish["simulations"]
+    residual = model.residuals(np.exp(x))  # cached
+    jac = _jacobian(model, x, residual, diff_step)
     fit_wall = time.perf_counter() - start
-    residual = result.fun
+    total = model.evaluations + sum(stage["simulations"] for stage in stages[:-1])
+    diverged = model.diverged + sum(stage["diverged"] for stage in stages[:-1])
     dof = max(residual.size - len(fits), 1)
     variance = float(residual @ residual) / dof
     cov = variance * np.linalg.pinv(jac.T @ jac)
@@ -242,7 +296,9 @@ def identify(
                        "count": int(residual.size)},
         "optimizer": {"method": "scipy.optimize.least_squares (trf, 2-point Jacobian)",
                       "diff_step": diff_step, "bounds_factor": list(FIT_BOUNDS), "status": status,
-                      "message": message, "simulations": used, "stages": stages, "wall_s": fit_wall},
+                      "message": message, "simulations": total,
+                      "stages": stages, "polish": polish, "diverged_simulations": diverged,
+                      "wall_s": fit_wall},
         "measured": {"source": measured.source, "kind": measured.kind, "frames": int(measured.times.size),
                      "points": list(measured.points), "duration_s": measured.duration},
     }
