@@ -217,6 +217,33 @@ def _jacobian(model: FitModel, x, residual, step: float) -> NDArray[np.float64]:
     return np.stack(columns, axis=1)
 
 
+def _uncertainty(residual: NDArray[np.float64], jac: NDArray[np.float64]):
+    """Standard errors of the log factors and their correlation matrix: ``s^2 (J^T J)^-1`` with
+    ``s^2`` the residual variance (residuals minus unknowns degrees of freedom)."""
+    dof = max(residual.size - jac.shape[1], 1)
+    cov = float(residual @ residual) / dof * np.linalg.pinv(jac.T @ jac)
+    sigma = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    return sigma, cov / np.outer(np.maximum(sigma, 1e-300), np.maximum(sigma, 1e-300))
+
+
+def _fitted(spec: Mapping[str, Any], fits: Sequence[Variation], x, sigma, bounds) -> dict[str, Any]:
+    """Per fit: its keys, factor and its standard error, fitted and nominal values (SI) and their
+    standard errors, whether the factor ended on a bound of the fit."""
+    out = {}
+    for k, fit in enumerate(fits):
+        factor = float(np.exp(x[k]))
+        out[fit.name] = {
+            "keys": list(fit.keys),
+            "factor": factor,
+            "factor_sigma": factor * float(sigma[k]),
+            "values": {key: get_value(spec, key) * factor for key in fit.keys},
+            "nominal_values": {key: get_value(spec, key) for key in fit.keys},
+            "sigma": {key: get_value(spec, key) * factor * float(sigma[k]) for key in fit.keys},
+            "at_bound": bool(np.isclose(x[k], bounds[0]) or np.isclose(x[k], bounds[1])),
+        }
+    return out
+
+
 def identify(
     fields: NDArray[np.float64],
     measured: MeasuredTrajectory,
@@ -270,23 +297,9 @@ def identify(
     fit_wall = time.perf_counter() - start
     total = model.evaluations + sum(stage["simulations"] for stage in stages[:-1])
     diverged = model.diverged + sum(stage["diverged"] for stage in stages[:-1])
-    dof = max(residual.size - len(fits), 1)
-    variance = float(residual @ residual) / dof
-    cov = variance * np.linalg.pinv(jac.T @ jac)
-    sigma = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    corr = cov / np.outer(np.maximum(sigma, 1e-300), np.maximum(sigma, 1e-300))
+    sigma, corr = _uncertainty(residual, jac)
     factors = np.exp(x)
-    fitted = {}
-    for k, fit in enumerate(fits):
-        fitted[fit.name] = {
-            "keys": list(fit.keys),
-            "factor": float(factors[k]),
-            "factor_sigma": float(factors[k] * sigma[k]),
-            "values": {key: get_value(spec, key) * float(factors[k]) for key in fit.keys},
-            "nominal_values": {key: get_value(spec, key) for key in fit.keys},
-            "sigma": {key: get_value(spec, key) * float(factors[k] * sigma[k]) for key in fit.keys},
-            "at_bound": bool(np.isclose(x[k], low) or np.isclose(x[k], high)),
-        }
+    fitted = _fitted(spec, fits, x, sigma, (low, high))
     report: dict[str, Any] = {
         "physics": physics,
         "fitted": fitted,

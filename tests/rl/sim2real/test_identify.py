@@ -42,12 +42,13 @@ def test_one_value_from_msr_trajectory_csv_through_the_command(tmp_path, spec, c
     write_trajectory_csv(run.trajectory, tmp_path / "trajectory.csv")
     out = tmp_path / "id"
     assert main(["identify", str(tmp_path / "fields.csv"), str(tmp_path / "trajectory.csv"),
-                 "--robot", CASE, "--fit", "magnetization", "--out", str(out), "--no-confirm",
-                 "--no-progress", "--json"]) == 0
+                 "--robot", CASE, "--fit", "magnetization", "--out", str(out), "--no-progress",
+                 "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
     fitted = report["fitted"]["magnetization"]
     assert fitted["factor"] == pytest.approx(0.9, rel=2e-3)  # the file's 9 digits: not exact
     assert report["residual_m"]["rms"] < 0.05 * report["residual_m"]["nominal_rms"]
+    assert report["confirm"]["physics"] == "accurate" and np.isfinite(report["confirm"]["rms_m"])
     assert sorted(p.name for p in out.iterdir()) == ["identified.toml", "identify.json", "identify.png"]
     robot = load_robot(out / "identified.toml", "training")
     assert robot.magnetization.max() == pytest.approx(fitted["values"]["robot.magnetization.magnitude"])
