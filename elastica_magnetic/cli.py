@@ -29,6 +29,7 @@ COMMAND_MODULES = (
     "elastica_magnetic_rl.cli.commands",
     "elastica_magnetic_rl.cli.policy_commands",
     "elastica_magnetic.hardware.cli",
+    "elastica_magnetic_rl.sim2real.cli",
 )
 
 

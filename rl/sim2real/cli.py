@@ -1,0 +1,181 @@
+"""``msr robustness`` and ``msr identify``: thin wrappers over
+:mod:`elastica_magnetic_rl.sim2real.robustness` and :mod:`elastica_magnetic_rl.sim2real.identify`
+(heavy imports happen inside the commands)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+from pathlib import Path
+
+from elastica_magnetic.cli import CommandError, duration_option, number
+
+from .variations import DEFAULT_RANGES, GROUPS, VariationError, parse_variation
+
+_DEFAULT_SET = ", ".join(f"{name} ({'+'.join(GROUPS[name])}) x{low:g}:{high:g}"
+                         for name, (low, high) in DEFAULT_RANGES.items())
+
+
+def variation_option(text: str):
+    """``--vary KEY[+KEY...]=LOW:HIGH``, parsed at parse time (keys are checked against the spec
+    once it is loaded)."""
+    try:
+        return parse_variation(text)
+    except VariationError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "robustness",
+        help="how far a waveform (and its policy) carries robots whose spec values differ",
+        description="Replay a waveform open loop (as the coils play it) and, for a policy, also "
+        "run the policy closed loop, on robots whose spec values are varied; report each "
+        "variant's distance, the nominal, worst and 10th-percentile distance and their fraction "
+        "of the case's yardstick; write OUT/robustness.json, OUT/robustness.png and "
+        "OUT/fields.csv (the waveform played).",
+    )
+    p.add_argument("source", metavar="POLICY_OR_FIELD_CSV",
+                   help="a shipped policy name (m1-10mT, ...), a run folder, a checkpoint, or a "
+                   "field CSV (mT, 100 Hz; give --case)")
+    p.add_argument("--case", default=None,
+                   help="for a field CSV: the case it is played on (a shipped case or a spec file)")
+    p.add_argument("--fields", type=Path, default=None,
+                   help="for a policy: its waveform (default: the shipped fields.csv, else generated "
+                   "as msr generate does: accurate physics, field from zero, --duration s)")
+    p.add_argument("--vary", type=variation_option, action="append", default=None,
+                   metavar="KEY=LOW:HIGH",
+                   help="vary dotted spec keys (KEY or KEY+KEY or a group: "
+                   f"{', '.join(GROUPS)}) by factors LOW:HIGH of the nominal value, or to "
+                   f"absolute values abs:LOW:HIGH (SI; one key); repeatable. Default: {_DEFAULT_SET}")
+    p.add_argument("--samples", type=number("", 0, 10_000, integer=True), default=0,
+                   help="Latin-hypercube draws besides one-at-a-time and corners (default 0)")
+    p.add_argument("--seed", type=number("", 0, 2**32 - 1, integer=True), default=0,
+                   help="seed of the Latin-hypercube draws")
+    p.add_argument("--no-corners", action="store_true",
+                   help="leave out the corners (every combination of range ends)")
+    p.add_argument("--open-loop-only", action="store_true", help="for a policy: skip the closed loop")
+    p.add_argument("--physics", choices=("training", "accurate"), default="training")
+    p.add_argument("--duration", type=duration_option(), default=10.0, help="s (default 10)")
+    p.add_argument("--workers", type=number("processes", 1, 1024, integer=True), default=None,
+                   help=f"worker processes (default: every core, {os.cpu_count()} here)")
+    p.add_argument("--out", type=Path, default=Path("out/robustness"),
+                   help="output folder, written whole (must not exist unless --force)")
+    p.add_argument("--force", action="store_true", help="replace an existing output folder")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true", help="print the report as JSON")
+    p.set_defaults(func=robustness_command)
+
+    p = sub.add_parser(
+        "identify",
+        help="fit spec values so that the simulated robot moves as a measured trajectory",
+        description="Fit spec values (dotted keys) so that the robot of a spec, under the waveform "
+        "that was played, moves its tracked points as measured: least squares in the training "
+        "physics, confirmed in the accurate physics. Writes DIR/identified.toml (the whole spec "
+        "with the fitted values), DIR/identify.json (values, uncertainties, residuals in m) and "
+        "DIR/identify.png (measured against fitted motion).",
+    )
+    p.add_argument("field_csv", type=Path, metavar="FIELD_CSV",
+                   help="the waveform played (mT, 100 rows/s; row 0 starts at t = 0)")
+    p.add_argument("trajectory_csv", type=Path, metavar="TRAJECTORY_CSV",
+                   help="the measured motion: msr's trajectory.csv, or a tracker's CSV: t_s (s), then "
+                   "x_<s>_m, y_<s>_m (m) per tracked point, <s> its place along the body from 0 "
+                   "(back end) to 1 (front end); any frame rate")
+    p.add_argument("--robot", required=True, metavar="SPEC",
+                   help="the nominal robot: a spec file (.toml) or a shipped case name")
+    p.add_argument("--fit", required=True, metavar="KEY[,KEY...]",
+                   help="the values to fit: dotted spec keys (robot.magnetization.magnitude, ...), "
+                   f"keys joined by + fitted as one factor, or groups ({', '.join(GROUPS)})")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR",
+                   help="output folder, written whole (must not exist unless --force)")
+    p.add_argument("--physics", choices=("training", "accurate"), default="training",
+                   help="physics of the fit (the other one confirms it)")
+    p.add_argument("--no-confirm", action="store_true", help="skip the confirmation run")
+    p.add_argument("--max-evaluations", type=number("simulations", 10, 100_000, integer=True),
+                   default=300, help="most simulations the fit may run (default 300)")
+    p.add_argument("--force", action="store_true", help="replace an existing output folder")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true", help="print identify.json")
+    p.set_defaults(func=identify_command)
+
+
+def robustness_command(args: argparse.Namespace) -> int:
+    from elastica_magnetic_rl.shipping.policy_files import PolicyNotFoundError
+
+    from .output import prepare_output_folder
+    from .report import robustness_table
+    from .robustness import plan_robustness, run_robustness, write_robustness
+
+    prepare_output_folder(args.out, args.force)
+    try:
+        plan = plan_robustness(
+            args.source, case=args.case, fields_csv=args.fields, variations=args.vary,
+            corners=not args.no_corners, samples=args.samples, seed=args.seed,
+            physics=args.physics, duration=args.duration, progress=not args.no_progress,
+        )
+    except PolicyNotFoundError as exc:
+        raise CommandError(str(exc)) from None
+    report = run_robustness(plan, closed_loop=not args.open_loop_only, workers=args.workers,
+                            progress=not args.no_progress)
+    out = write_robustness(report, plan, args.out, force=args.force)
+    if args.json:
+        print(json.dumps({**report, "out": str(out)}, indent=2, default=str))
+    else:
+        print(robustness_table(report))
+        print(f"\nwritten: {out / 'robustness.json'}, {out / 'robustness.png'}, {out / 'fields.csv'}")
+    return 0
+
+
+
+def identify_command(args: argparse.Namespace) -> int:
+    import sys
+
+    from elastica_magnetic.field_csv import read_field_csv
+    from elastica_magnetic.presets import ACTION_PERIOD
+
+    from .identify import identify, load_spec, parse_fit, write_identified
+    from .output import prepare_output_folder
+    from .tracking import check_against_robot, read_trajectory
+
+    prepare_output_folder(args.out, args.force)
+    fields = read_field_csv(args.field_csv)
+    measured = read_trajectory(args.trajectory_csv)
+    spec = load_spec(args.robot)
+    try:
+        fits = parse_fit(args.fit, spec)
+    except VariationError as exc:
+        raise CommandError(str(exc)) from None
+    check_against_robot(measured, float(spec["robot"]["length"]), fields.shape[0] * ACTION_PERIOD)
+
+    def progress(evaluations: int, rms: float) -> None:
+        print(f"\rmsr identify: simulation {evaluations}, residual RMS {1e3 * rms:.4f} mm",
+              end="", file=sys.stderr, flush=True)
+
+    report = identify(fields, measured, spec, fits, physics=args.physics,
+                      confirm=not args.no_confirm, max_evaluations=args.max_evaluations,
+                      progress=None if args.no_progress else progress)
+    if not args.no_progress:
+        print(file=sys.stderr)
+    report = {"field_csv": str(args.field_csv), "robot": str(args.robot), "fit": args.fit, **report}
+    header = (f"Identified by msr identify from {args.field_csv} and {args.trajectory_csv} "
+              f"({args.physics} physics), nominal spec {args.robot}.")
+    out = write_identified(report, spec, measured, args.out, args.force, header)
+    public = {k: v for k, v in report.items() if k != "predicted"}
+    if args.json:
+        print(json.dumps({**public, "out": str(out)}, indent=2, default=str))
+        return 0
+    for fit in report["fitted"].values():
+        for key, value in fit["values"].items():
+            print(f"{key}: {value:.6g} +- {fit['sigma'][key]:.2g} (nominal "
+                  f"{fit['nominal_values'][key]:.6g}, x{fit['factor']:.4f})"
+                  + ("  AT THE BOUND of the fit" if fit["at_bound"] else ""))
+    r = report["residual_m"]
+    print(f"residual RMS {1e3 * r['rms']:.4f} mm, largest {1e3 * r['max_abs']:.4f} mm "
+          f"(nominal robot: {1e3 * r['nominal_rms']:.4f} mm)")
+    if "confirm" in report:
+        c = report["confirm"]
+        print(f"{c['physics']} physics, fitted values: residual RMS {1e3 * c['rms_m']:.4f} mm, "
+              f"largest {1e3 * c['max_abs_m']:.4f} mm")
+    print(f"written: {out / 'identified.toml'}, {out / 'identify.json'}, {out / 'identify.png'}")
+    return 0

@@ -1,0 +1,145 @@
+"""The robustness report read by a person: a text table and a figure (matplotlib, PNG)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from elastica_magnetic.io import atomic_save
+
+__all__ = ["plot_identify", "plot_robustness", "robustness_table"]
+
+_MODE_NAMES = {"open_loop": "open loop", "closed_loop": "closed loop"}
+
+
+def _mm(distance: float | None, fraction: float | None = None) -> str:
+    if distance is None:
+        return "diverged"
+    text = f"{1e3 * distance:+.1f} mm"
+    return text + (f" ({100 * fraction:.0f} %)" if fraction is not None else "")
+
+
+def robustness_table(report: dict[str, Any]) -> str:
+    """The report as text: one line per variant (distance in mm and, in brackets, the fraction of
+    the yardstick), then per mode the nominal, worst and 10th-percentile distance."""
+    modes = [m for m in _MODE_NAMES if m in report["summary"]]
+    width = max(len(v["label"]) for v in report["variants"])
+    yard = report["yardstick_m"]
+    lines = [f"{report['case']}: {report['waveform']}",
+             f"{report['physics']} physics, {report['duration_s']:g} s; yardstick "
+             + (f"{1e3 * yard:.1f} mm in 10 s (accurate physics)" if yard else "none"), ""]
+    lines.append(f"{'variant':<{width}}  " + "  ".join(f"{_MODE_NAMES[m]:>18}" for m in modes))
+    for v in report["variants"]:
+        cells = [_mm(v[m]["distance_m"], v[m]["fraction_of_yardstick"]) for m in modes]
+        lines.append(f"{v['label']:<{width}}  " + "  ".join(f"{c:>18}" for c in cells))
+    lines.append("")
+    for m in modes:
+        s = report["summary"][m]
+        lines.append(f"{_MODE_NAMES[m]}: nominal {_mm(s['nominal_m'], s['nominal_fraction'])}, worst "
+                     f"{_mm(s['worst_m'], s['worst_fraction'])} ({s['worst_variant']}), 10th "
+                     f"percentile {_mm(s['p10_m'], s['p10_fraction'])}"
+                     + (f", {len(s['diverged'])} diverged" if s["diverged"] else ""))
+    return "\n".join(lines)
+
+
+def plot_robustness(report: dict[str, Any], path: str | Path) -> Path:
+    """One panel per variation: the distance (mm) of every variant against that variation's
+    setting (factor or value), open loop (blue circles) and closed loop (orange triangles); the
+    one-at-a-time variants and the nominal robot joined by a line, the others (corners, samples)
+    as small points; the yardstick and 80 % of it as horizontal lines (for a 10 s run: the
+    yardstick is the distance in 10 s)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    variations = report["variations"]
+    n = max(len(variations), 1)
+    cols = min(n, 4)
+    rows = math.ceil(n / cols)
+    fig = Figure(figsize=(3.6 * cols + 0.6, 3.2 * rows + 0.9), constrained_layout=True)
+    FigureCanvasAgg(fig)
+    axes = np.atleast_1d(fig.subplots(rows, cols, sharey=True, squeeze=False)).ravel()
+    styles = {"open_loop": ("C0", "o"), "closed_loop": ("C1", "^")}
+    yard = report["yardstick_m"]
+    variants = report["variants"]
+    for ax, variation in zip(axes, variations, strict=False):
+        name = variation["name"]
+        others = [w["name"] for w in variations if w["name"] != name]
+        nominal = variants[0]["settings"]
+        for mode, (colour, marker) in styles.items():
+            if mode not in report["summary"]:
+                continue
+            points = [(v["settings"][name], v[mode]["distance_m"]) for v in variants
+                      if v[mode]["distance_m"] is not None]
+            if points:
+                xs, ys = zip(*points, strict=True)
+                ax.scatter(xs, 1e3 * np.array(ys), s=12, color=colour, marker=marker, alpha=0.35,
+                           linewidths=0)
+            line = sorted((v["settings"][name], v[mode]["distance_m"]) for v in variants
+                          if v[mode]["distance_m"] is not None
+                          and all(v["settings"][o] == nominal[o] for o in others)
+                          and v["kind"] in ("nominal", "one-at-a-time"))
+            if line:
+                xs, ys = zip(*line, strict=True)
+                ax.plot(xs, 1e3 * np.array(ys), color=colour, marker=marker, ms=6, lw=1.8,
+                        label=_MODE_NAMES[mode])
+        if yard and abs(report["duration_s"] - 10.0) < 1e-9:  # the yardstick is a 10 s distance
+            ax.axhline(1e3 * yard, color="0.3", ls="--", lw=1, label=f"yardstick {1e3 * yard:.1f} mm")
+            ax.axhline(0.8 * 1e3 * yard, color="0.5", ls=":", lw=1, label="80 % of it")
+        ax.axvline(nominal[name], color="0.8", lw=0.8, zorder=0)
+        unit = "value" if variation["absolute"] else "x nominal"
+        ax.set_xlabel(f"{name} ({unit})", fontsize=8 if len(name) > 30 else 10)
+        ax.grid(alpha=0.3)
+    for ax in axes[len(variations):]:
+        ax.set_visible(False)
+    for ax in axes[::cols]:
+        ax.set_ylabel(f"distance in {report['duration_s']:g} s (mm)")
+    axes[0].legend(fontsize=7, loc="best")
+    summary = report["summary"]
+    worst = ", ".join(f"{_MODE_NAMES[m]} worst {_mm(s['worst_m'], s['worst_fraction'])}"
+                      for m, s in summary.items())
+    fig.suptitle(f"{report['case']}, {report['physics']} physics, {report['duration_s']:g} s: "
+                 f"{worst}\nlines: one parameter at a time; points: all corners and samples",
+                 fontsize=10)
+    path = Path(path)
+    atomic_save(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
+    return path
+
+
+def plot_identify(report: dict[str, Any], measured: Any, path: str | Path) -> Path:
+    """Measured against simulated motion of each tracked point: x and y displacement from the
+    first frame (mm) over time; measured as dots, the fitted robot as lines, the nominal robot
+    dashed. ``report`` is :func:`~elastica_magnetic_rl.sim2real.identify.identify`'s result (with
+    ``predicted``), ``measured`` the :class:`~elastica_magnetic_rl.sim2real.tracking.MeasuredTrajectory`."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(11, 6.5), constrained_layout=True)
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(2, 1, sharex=True)
+    shown = measured.displacements()
+    for j, point in enumerate(measured.points):
+        colour = f"C{j % 10}"
+        for c, ax in enumerate(axes):
+            ax.plot(measured.times, 1e3 * shown[:, j, c], ".", ms=3, color=colour,
+                    label=f"{point} measured" if c == 0 else None)
+            ax.plot(measured.times, 1e3 * report["predicted"]["fitted"][:, j, c], "-", lw=1.4,
+                    color=colour, label=f"{point} fitted" if c == 0 else None)
+            ax.plot(measured.times, 1e3 * report["predicted"]["nominal"][:, j, c], "--", lw=0.9,
+                    color=colour, alpha=0.6)
+    axes[0].set_ylabel("x displacement (mm)")
+    axes[1].set_ylabel("y displacement (mm)")
+    axes[1].set_xlabel("time (s)")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7, ncol=min(len(measured.points), 6), loc="best")
+    fitted = ", ".join(f"{name} x{f['factor']:.3f} +- {f['factor_sigma']:.3f}"
+                       for name, f in report["fitted"].items())
+    r = report["residual_m"]
+    fig.suptitle(f"{report['physics']} physics: {fitted}\nresidual RMS {1e3 * r['rms']:.3f} mm (nominal "
+                 f"robot, dashed: {1e3 * r['nominal_rms']:.3f} mm)", fontsize=10)
+    path = Path(path)
+    atomic_save(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
+    return path

@@ -1,0 +1,310 @@
+"""How far a waveform (and its policy) carries robots whose spec values differ from the nominal one
+(what ``msr robustness`` runs).
+
+*Open loop*: the waveform as the coils play it (a field CSV, or a policy's generated
+``fields.csv``) replayed on each varied robot. *Closed loop* (a policy only): the policy acting on
+each varied robot from a zero field. Each run's distance is the middle's x displacement over
+``duration`` s (``mid_x_m`` of ``trajectory.csv``), compared with the case's yardstick (the
+authors' distance in 10 s).
+
+Everything is checked before the first simulation: the source, the waveform's length, the
+variations and every varied spec (through the normal spec parser, so an invalid variant gets its
+named error). The runs go to worker processes (:func:`~elastica_magnetic_rl.sweep.backends.run_in_processes`),
+one run per job.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from elastica_magnetic.field_csv import read_field_csv, write_field_csv
+from elastica_magnetic.io import atomic_write_json
+from elastica_magnetic.openloop import check_duration
+from elastica_magnetic.presets import ACTION_PERIOD
+
+from ..cases.case import Case, case_from_dict, load_case
+from ..shipping.policy_files import LoadedPolicy, resolve_policy
+from .output import write_folder_whole
+from .variations import (
+    Variant,
+    Variation,
+    apply_variant,
+    default_variations,
+    design,
+    resolve_variations,
+    variant_values,
+)
+
+__all__ = ["MODES", "REPORT_FORMAT", "RobustnessPlan", "plan_robustness", "run_robustness",
+           "run_variant", "summarize", "write_robustness"]
+
+REPORT_FORMAT = "msr-robustness-v1"
+#: The two ways a variant is run.
+MODES = ("open_loop", "closed_loop")
+#: Percentile reported besides the worst case.
+PERCENTILE = 10.0
+
+
+@dataclass
+class RobustnessPlan:
+    """Everything a robustness study needs, checked: the case, the waveform (``(n, 3)`` T, row
+    ``i`` held on ``[i/100, (i+1)/100)`` s), the policy (``None`` for a field CSV), the variations
+    and the variants with their checked specs."""
+
+    source: str
+    case: Case
+    fields: NDArray[np.float64]
+    waveform: str
+    policy: LoadedPolicy | None
+    variations: list[Variation]
+    variants: list[Variant]
+    specs: list[dict[str, Any]]
+    physics: str
+    duration: float
+    design: dict[str, Any]
+
+
+def _is_field_csv(source: str | Path) -> bool:
+    return Path(source).suffix.lower() == ".csv"
+
+
+def plan_robustness(
+    source: str | Path,
+    *,
+    case: str | Path | Case | None = None,
+    fields_csv: str | Path | None = None,
+    variations: Sequence[Variation] | None = None,
+    one_at_a_time: bool = True,
+    corners: bool = True,
+    samples: int = 0,
+    seed: int = 0,
+    physics: str = "training",
+    duration: float = 10.0,
+    progress: bool = True,
+) -> RobustnessPlan:
+    """Check a robustness study and load what it needs (nothing is simulated, except a policy's
+    waveform when it has none: see below).
+
+    ``source`` is a field CSV (mT, 100 Hz; then ``case``, a shipped name or a spec file, gives the
+    robot and the yardstick) or a policy (a shipped name, a run folder, a checkpoint). A policy's
+    waveform is ``fields_csv`` when given, else the ``fields.csv`` of a shipped policy, else it is
+    generated as ``msr generate`` does (the policy on the nominal robot, accurate physics, field
+    from zero, ``duration`` s). ``variations`` default to :func:`default_variations`.
+
+    Raises ValueError (SpecError, FieldCSVError, VariationError, PolicyFileError) or
+    FileNotFoundError naming the problem.
+    """
+    if physics not in ("training", "accurate"):
+        raise ValueError(f"--physics must be 'training' or 'accurate', got {physics!r}")
+    duration = check_duration(duration)
+    policy = None
+    if _is_field_csv(source):
+        if case is None:
+            raise ValueError(f"{source}: a field CSV needs --case (the robot it is played on: a "
+                             "shipped case or a spec file)")
+        if fields_csv is not None:
+            raise ValueError("--fields is for a policy's waveform; the source is already a field CSV")
+        the_case = load_case(case)
+        fields, waveform = read_field_csv(source), str(source)
+    else:
+        if case is not None:
+            raise ValueError(f"{source}: a policy carries its case; --case is for a field CSV")
+        policy = resolve_policy(source)
+        the_case = policy.case
+        shipped_csv = Path(policy.source) / "fields.csv" if policy.kind == "shipped" else None
+        if fields_csv is not None:
+            fields, waveform = read_field_csv(fields_csv), str(fields_csv)
+        elif shipped_csv is not None and shipped_csv.is_file():
+            fields = read_field_csv(shipped_csv)
+            waveform = f"fields.csv of the shipped-format policy {Path(policy.source).name}"
+        else:
+            fields, waveform = None, "generated"
+    spec = the_case.to_dict()
+    chosen = resolve_variations(list(variations) if variations else default_variations(spec), spec)
+    variants = design(chosen, spec, one_at_a_time=one_at_a_time, corners=corners, samples=samples,
+                      seed=seed)
+    specs = []
+    for variant in variants:
+        varied = apply_variant(spec, chosen, variant)
+        checked = case_from_dict(varied, f"variant {variant.label!r}", default_name=the_case.name)
+        checked.robot_spec(physics)  # builds the robot: its own checks
+        specs.append(varied)
+    if fields is None:  # a run or checkpoint without a waveform: generate it, as msr generate
+        from ..shipping.policy_runs import run_policy
+
+        rollout = run_policy(policy, duration, "accurate", "zero", progress)
+        if rollout.meta["diverged"]:
+            raise ValueError(f"{source}: generating the waveform diverged ({rollout.meta['diverged']})")
+        fields = rollout.fields
+        waveform = f"generated: {source} on the nominal robot, accurate physics, field from zero"
+    rows = int(round(duration / ACTION_PERIOD))
+    if rows > fields.shape[0]:
+        raise ValueError(f"--duration {duration:g} s is past the end of the waveform {waveform} "
+                         f"({fields.shape[0] * ACTION_PERIOD:g} s: {fields.shape[0]} rows at 100 Hz)")
+    info = {"one_at_a_time": one_at_a_time, "corners": corners, "samples": samples, "seed": seed}
+    return RobustnessPlan(str(source), the_case, fields, waveform, policy, chosen, variants, specs,
+                          physics, duration, info)
+
+
+# -- running --------------------------------------------------------------------------------------
+
+
+def run_variant(job: dict[str, Any]) -> dict[str, Any]:
+    """One run of one variant (module level: it runs in worker processes). ``job``: ``mode``
+    (:data:`MODES`), ``spec`` (the varied spec, plain data), ``physics``, ``duration`` (s), and
+    ``fields`` (``(n, 3)`` T, open loop) or ``policy`` (its path, closed loop). Returns
+    ``distance_m`` (m, ``None`` when the run diverged), ``diverged`` (the reason or ``None``) and
+    ``wall_s``."""
+    from elastica_magnetic.simulation import SimulationDiverged
+
+    start = time.perf_counter()
+    case = case_from_dict(job["spec"], "variant", default_name=job.get("case_name"))
+    distance, diverged = None, None
+    if job["mode"] == "open_loop":
+        from elastica_magnetic.fields import TabulatedField
+        from elastica_magnetic.openloop import run_open_loop
+
+        try:
+            result = run_open_loop(case.robot_spec(job["physics"]), TabulatedField(job["fields"]),
+                                   job["duration"])
+            distance = result.mid_dx
+        except SimulationDiverged as exc:
+            diverged = str(exc)
+    else:
+        import torch
+
+        from ..shipping.policy_runs import run_policy
+
+        torch.set_num_threads(1)
+        policy = dataclasses.replace(resolve_policy(job["policy"]), case=case)
+        rollout = run_policy(policy, job["duration"], job["physics"], "zero", progress=False)
+        diverged = rollout.meta["diverged"]
+        distance = None if diverged else rollout.mid_dx
+    return {"distance_m": distance, "diverged": diverged, "wall_s": time.perf_counter() - start}
+
+
+def _jobs(plan: RobustnessPlan, closed_loop: bool) -> list[dict[str, Any]]:
+    modes = [m for m in MODES if m == "open_loop" or (closed_loop and plan.policy is not None)]
+    jobs = []
+    for k, spec in enumerate(plan.specs):
+        for mode in modes:
+            job = {"variant": k, "mode": mode, "spec": spec, "case_name": plan.case.name,
+                   "physics": plan.physics, "duration": plan.duration}
+            if mode == "open_loop":
+                job["fields"] = plan.fields
+            else:
+                job["policy"] = str(plan.policy.source)
+            jobs.append(job)
+    return jobs
+
+
+def run_robustness(
+    plan: RobustnessPlan,
+    *,
+    closed_loop: bool = True,
+    workers: int | None = None,
+    progress: bool = True,
+) -> dict[str, Any]:
+    """Run every variant of ``plan`` open loop and (a policy, ``closed_loop``) closed loop, in
+    ``workers`` processes (default: every core; 1: in this process). Returns the report written
+    to ``robustness.json`` (see :func:`summarize`)."""
+    jobs = _jobs(plan, closed_loop)
+    workers = max(1, min(int(workers or os.cpu_count() or 1), len(jobs)))
+    start = time.perf_counter()
+    if workers == 1:
+        from tqdm.auto import tqdm
+
+        results = [run_variant(job) for job in tqdm(jobs, desc="robustness", unit="run",
+                                                    disable=not progress, leave=False)]
+    else:
+        from ..sweep.backends import run_in_processes
+
+        results = run_in_processes(run_variant, jobs, workers, on_error=lambda k, exc: {
+            "distance_m": None, "diverged": f"{type(exc).__name__}: {exc}", "wall_s": None})
+    wall = time.perf_counter() - start
+    return summarize(plan, jobs, results, wall, workers)
+
+
+def _fraction(distance: float | None, yardstick: float) -> float | None:
+    return None if distance is None or yardstick <= 0.0 else distance / yardstick
+
+
+def summarize(plan: RobustnessPlan, jobs: list[dict[str, Any]], results: list[dict[str, Any]],
+              wall_s: float, workers: int) -> dict[str, Any]:
+    """The report: each variant's settings, spec values and per-mode result (distance in m, its
+    fraction of the yardstick, divergence), and per mode the nominal, worst and 10th-percentile
+    distance (over the variants that did not diverge) with their fractions."""
+    spec = plan.case.to_dict()
+    yardstick = float(plan.case.yardstick.distance_10s)
+    variants = [{"label": v.label, "kind": v.kind, "settings": dict(v.settings),
+                 "values": variant_values(plan.variations, v, spec)} for v in plan.variants]
+    for job, result in zip(jobs, results, strict=True):
+        entry = dict(result)
+        entry["fraction_of_yardstick"] = _fraction(result["distance_m"], yardstick)
+        variants[job["variant"]][job["mode"]] = entry
+    summary = {}
+    for mode in MODES:
+        runs = [(v["label"], v[mode]) for v in variants if mode in v]
+        if not runs:
+            continue
+        done = [(label, r["distance_m"]) for label, r in runs if r["distance_m"] is not None]
+        distances = np.array([d for _, d in done])
+        worst = min(done, key=lambda item: item[1]) if done else (None, None)
+        p10 = float(np.percentile(distances, PERCENTILE)) if done else None
+        nominal = runs[0][1]["distance_m"]
+        summary[mode] = {
+            "nominal_m": nominal, "worst_m": worst[1], "worst_variant": worst[0],
+            "p10_m": p10, "best_m": float(distances.max()) if done else None,
+            "nominal_fraction": _fraction(nominal, yardstick),
+            "worst_fraction": _fraction(worst[1], yardstick),
+            "p10_fraction": _fraction(p10, yardstick),
+            "runs": len(runs), "diverged": [label for label, r in runs if r["distance_m"] is None],
+        }
+    return {
+        "format": REPORT_FORMAT,
+        "source": plan.source,
+        "kind": "field_csv" if plan.policy is None else "policy",
+        "case": plan.case.name,
+        "waveform": plan.waveform,
+        "physics": plan.physics,
+        "duration_s": plan.duration,
+        "yardstick_m": yardstick or None,
+        "yardstick_note": plan.case.yardstick.source or None,
+        "variations": [v.to_dict() for v in plan.variations],
+        "design": plan.design,
+        "summary": summary,
+        "variants": variants,
+        "workers": workers,
+        "wall_s": wall_s,
+    }
+
+
+# -- output ---------------------------------------------------------------------------------------
+
+
+def write_robustness(report: dict[str, Any], plan: RobustnessPlan, out: str | Path,
+                     force: bool = False, figure: bool = True) -> Path:
+    """Write ``out/robustness.json``, ``out/robustness.png`` (see
+    :func:`~elastica_magnetic_rl.sim2real.report.plot_robustness`) and ``out/fields.csv`` (the
+    waveform played, mT) as one folder (see :func:`write_folder_whole`). Returns ``out``."""
+
+    def fill(folder: Path) -> None:
+        write_field_csv(folder / "fields.csv", plan.fields[: int(round(plan.duration / ACTION_PERIOD))])
+        if figure:
+            from .report import plot_robustness
+
+            plot_robustness(report, folder / "robustness.png")
+        atomic_write_json(folder / "robustness.json", report)
+
+    write_folder_whole(out, fill, force)
+    return Path(out)
+

@@ -1,0 +1,231 @@
+"""Measured trajectories: reading them, checking them, and the simulated motion of the same points.
+
+Two formats are read (CSV, a header line, SI units):
+
+- the ``trajectory.csv`` that ``msr replay`` and ``msr generate`` write: ``t_s`` and the markers
+  ``back``, ``mid`` and ``front`` (``<name>_x_m``, ``<name>_y_m``; element centres: the first,
+  the mean of the two central ones, the last);
+- a tracker's CSV: ``t_s`` (s, from the moment the waveform's first row starts) and, for each
+  tracked point, ``x_<s>_m`` and ``y_<s>_m`` (m), where ``<s>`` is the point's place along the body
+  as a fraction of its length, from the back end (0, the end at smaller x when the robot lies
+  straight) to the front end (1): e.g. ``t_s,x_0_m,y_0_m,x_0.5_m,y_0.5_m,x_1_m,y_1_m``. Any frame
+  rate; x along the ground in the direction of the robot's front, y up; the origin is free (only
+  displacements from the first frame are compared).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+__all__ = [
+    "MARKERS",
+    "MAX_COORDINATE_M",
+    "MIN_DURATION_S",
+    "MIN_FRAMES",
+    "MeasuredTrajectory",
+    "TrajectoryError",
+    "check_against_robot",
+    "points_at_rows",
+    "read_trajectory",
+]
+
+#: The markers of ``trajectory.csv`` used as tracked points.
+MARKERS = ("back", "mid", "front")
+#: Fewest frames and shortest time span of a trajectory to fit.
+MIN_FRAMES = 5
+MIN_DURATION_S = 0.1
+#: A coordinate beyond this (m) is taken for millimetres.
+MAX_COORDINATE_M = 10.0
+#: Least motion to fit: the largest displacement of a point, as a fraction of the body length.
+MIN_MOTION = 0.01
+#: Most a point may move (in body lengths) or two points be apart (x the length) before the
+#: values are taken for another unit.
+MAX_MOTION_LENGTHS = 100.0
+MAX_SEPARATION = 1.5
+
+_TRACKER_COLUMN = re.compile(r"^([xy])_([0-9]*\.?[0-9]+)_m$")
+
+
+class TrajectoryError(ValueError):
+    """A measured trajectory that cannot be fitted: the message names the file, the line or column
+    and the problem (units, too short, no motion, ...)."""
+
+
+@dataclass(frozen=True)
+class MeasuredTrajectory:
+    """Positions of tracked points over time.
+
+    Attributes
+    ----------
+    times : ndarray (n,)
+        s, strictly increasing, from the start of the waveform.
+    positions : ndarray (n, k, 2)
+        x and y of the ``k`` points, m.
+    points : tuple of str
+        Their names (``"back"``, ``"mid"``, ``"front"``, or ``"s=0.5"``).
+    fractions : tuple
+        For a tracker's points, their place along the body (0 back end, 1 front end); ``None``
+        for the markers of ``trajectory.csv``.
+    """
+
+    source: str
+    kind: str  # "trajectory.csv" or "tracker"
+    times: NDArray[np.float64]
+    positions: NDArray[np.float64]
+    points: tuple[str, ...]
+    fractions: tuple[float, ...] | None
+
+    @property
+    def duration(self) -> float:
+        return float(self.times[-1])
+
+    def until(self, horizon: float) -> MeasuredTrajectory:
+        """The frames at or before ``horizon`` s (the first two at least)."""
+        n = max(int(np.searchsorted(self.times, horizon + 1e-9, side="right")), 2)
+        return MeasuredTrajectory(self.source, self.kind, self.times[:n], self.positions[:n],
+                                  self.points, self.fractions)
+
+    def displacements(self) -> NDArray[np.float64]:
+        """``(n, k, 2)`` positions minus the first frame's, m."""
+        return self.positions - self.positions[:1]
+
+
+def _read_csv(path: Path) -> pd.DataFrame:
+    if not path.is_file():
+        raise TrajectoryError(f"{path}: no such trajectory file")
+    try:
+        table = pd.read_csv(path, encoding="utf-8-sig", dtype=str, keep_default_na=False)
+    except pd.errors.EmptyDataError:
+        raise TrajectoryError(f"{path}: empty file; expected a header line (t_s, ...)") from None
+    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise TrajectoryError(f"{path}: not a readable UTF-8 CSV ({exc})") from None
+    table.columns = [str(c).strip() for c in table.columns]
+    return table
+
+
+def _layout(path: Path, columns: list[str]) -> tuple[str, list[tuple[str, str, str]], tuple | None]:
+    """The kind of file and its points: ``(name, x column, y column)``."""
+    if "t_s" not in columns:
+        raise TrajectoryError(
+            f"{path}: no t_s column (found {', '.join(columns)}); expected msr's trajectory.csv or a "
+            "tracker's CSV: t_s (s), then x_<s>_m, y_<s>_m (m) per tracked point, <s> its place "
+            "along the body from 0 (back end) to 1 (front end)")
+    markers = [(n, f"{n}_x_m", f"{n}_y_m") for n in MARKERS
+               if f"{n}_x_m" in columns and f"{n}_y_m" in columns]
+    if markers:
+        return "trajectory.csv", markers, None
+    found: dict[float, dict[str, str]] = {}
+    for column in columns:
+        match = _TRACKER_COLUMN.match(column)
+        if match:
+            found.setdefault(float(match.group(2)), {})[match.group(1)] = column
+    bad = [s for s in found if not 0.0 <= s <= 1.0]
+    if bad:
+        raise TrajectoryError(f"{path}: tracked point at s = {bad[0]:g}: s is a fraction of the body "
+                              "length, from 0 (back end) to 1 (front end)")
+    single = [s for s, xy in found.items() if len(xy) != 2]
+    if single:
+        raise TrajectoryError(f"{path}: the point at s = {single[0]:g} needs both x_{single[0]:g}_m "
+                              f"and y_{single[0]:g}_m")
+    if not found:
+        raise TrajectoryError(
+            f"{path}: no tracked points (columns {', '.join(columns)}); expected x_<s>_m and y_<s>_m "
+            "(m) per point, <s> its place along the body from 0 (back end) to 1 (front end), or "
+            "the markers of msr's trajectory.csv (mid_x_m, mid_y_m, ...)")
+    fractions = tuple(sorted(found))
+    return "tracker", [(f"s={s:g}", found[s]["x"], found[s]["y"]) for s in fractions], fractions
+
+
+def read_trajectory(path: str | Path) -> MeasuredTrajectory:
+    """Read and check a measured trajectory (see the module docstring for the formats).
+
+    Raises :class:`TrajectoryError` naming the file and the line or column: missing columns, a
+    value that is not a finite number (NaN, empty), fewer than :data:`MIN_FRAMES` frames or less
+    than :data:`MIN_DURATION_S`, time that does not increase or starts before 0, coordinates past
+    :data:`MAX_COORDINATE_M` (millimetres given for metres)."""
+    path = Path(path)
+    table = _read_csv(path)
+    kind, layout, fractions = _layout(path, list(table.columns))
+    used = ["t_s"] + [c for _, x, y in layout for c in (x, y)]
+    values = table[used].apply(pd.to_numeric, errors="coerce").to_numpy(dtype=np.float64)
+    bad = ~np.isfinite(values)
+    if bad.any():
+        row, col = (int(i) for i in np.argwhere(bad)[0])
+        raise TrajectoryError(f"{path}: line {row + 2}, column {used[col]}: {table[used[col]].iloc[row]!r} "
+                              "is not a finite number (SI units: s, m)")
+    times = values[:, 0]
+    if times.shape[0] < MIN_FRAMES:
+        raise TrajectoryError(f"{path}: {times.shape[0]} frame(s); too short to fit, need at least "
+                              f"{MIN_FRAMES} spanning {MIN_DURATION_S:g} s or more")
+    steps = np.diff(times)
+    if (steps <= 0).any():
+        k = int(np.flatnonzero(steps <= 0)[0])
+        raise TrajectoryError(f"{path}: line {k + 3}: t_s {times[k + 1]:g} s does not increase (line "
+                              f"{k + 2} has {times[k]:g} s); frames must be in time order, once each")
+    if times[0] < 0.0:
+        raise TrajectoryError(f"{path}: line 2: t_s {times[0]:g} s is before the waveform starts; t_s "
+                              "counts from the moment the waveform's first row is played")
+    if times[-1] - times[0] < MIN_DURATION_S:
+        raise TrajectoryError(f"{path}: spans {times[-1] - times[0]:g} s; too short to fit, need at "
+                              f"least {MIN_DURATION_S:g} s")
+    coordinates = values[:, 1:]
+    if np.abs(coordinates).max() > MAX_COORDINATE_M:
+        row, col = (int(i) for i in np.argwhere(np.abs(coordinates) > MAX_COORDINATE_M)[0])
+        raise TrajectoryError(
+            f"{path}: line {row + 2}, column {used[col + 1]}: {coordinates[row, col]:g} m; positions "
+            f"past {MAX_COORDINATE_M:g} m look like millimetres: give metres (divide by 1000)")
+    positions = coordinates.reshape(times.shape[0], len(layout), 2)
+    return MeasuredTrajectory(str(path), kind, times, positions, tuple(n for n, _, _ in layout),
+                              fractions)
+
+
+def check_against_robot(measured: MeasuredTrajectory, length: float, field_duration: float) -> None:
+    """Checks that need the robot (``length``, m) and the waveform (``field_duration``, s): the
+    frames lie within the waveform, the points move (at least :data:`MIN_MOTION` of the length)
+    and their motion and spacing fit the body (else the unit is wrong by 1000)."""
+    where = measured.source
+    if measured.duration > field_duration + 1e-9:
+        raise TrajectoryError(f"{where}: its frames reach {measured.duration:g} s, past the end of the "
+                              f"waveform ({field_duration:g} s); cut the trajectory to the waveform")
+    moved = np.linalg.norm(measured.displacements(), axis=2).max()
+    if moved < MIN_MOTION * length:
+        raise TrajectoryError(f"{where}: no motion to fit: the points move at most {1e3 * moved:.3g} mm, "
+                              f"under {100 * MIN_MOTION:g} % of the {1e3 * length:g} mm body (are the "
+                              "values in m? is this the right recording?)")
+    if moved > MAX_MOTION_LENGTHS * length:
+        raise TrajectoryError(f"{where}: a point moves {moved:g} m, {moved / length:.0f} body lengths: "
+                              "the values look like millimetres; give metres (divide by 1000)")
+    if measured.positions.shape[1] > 1:
+        spread = np.ptp(measured.positions, axis=1)  # (n, 2): extent of the points per frame
+        widest = float(np.hypot(spread[:, 0], spread[:, 1]).max())
+        if widest > MAX_SEPARATION * length:
+            raise TrajectoryError(f"{where}: tracked points {widest:g} m apart on a {length:g} m body: the "
+                                  "values look like millimetres (give metres) or the points are "
+                                  "not on the robot")
+
+
+def points_at_rows(measured: MeasuredTrajectory, trajectory: pd.DataFrame,
+                   shapes: list[tuple[float, NDArray[np.float64]]]) -> NDArray[np.float64]:
+    """The simulated positions of ``measured``'s points at each 0.01 s row of an open-loop run,
+    ``(n_rows, k, 2)`` m: the markers of ``trajectory`` (``trajectory.csv`` points) or the rod's
+    nodes interpolated at each point's fraction of the length (``shapes`` at every row, as
+    ``run_open_loop(..., n_shapes=rows)`` gives)."""
+    if measured.fractions is None:
+        columns = [(f"{n}_x_m", f"{n}_y_m") for n in measured.points]
+        return np.stack([trajectory[[x, y]].to_numpy() for x, y in columns], axis=1)
+    nodes = np.stack([pos[:2] for _, pos in shapes])  # (rows, 2, n_nodes)
+    n_elements = nodes.shape[2] - 1
+    out = np.empty((nodes.shape[0], len(measured.fractions), 2))
+    for j, s in enumerate(measured.fractions):
+        f = s * n_elements
+        lo = min(int(math.floor(f)), n_elements - 1)
+        w = f - lo
+        out[:, j, :] = (1.0 - w) * nodes[:, :, lo] + w * nodes[:, :, lo + 1]
+    return out

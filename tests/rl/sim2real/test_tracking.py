@@ -1,0 +1,114 @@
+"""Measured trajectories: both formats are read, bad ones get a named error before any fitting,
+and the simulated points are where the formats say."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from elastica_magnetic_rl.sim2real.tracking import (
+    TrajectoryError,
+    check_against_robot,
+    points_at_rows,
+    read_trajectory,
+)
+
+from elastica_magnetic.fields import RotatingField
+from elastica_magnetic.openloop import run_open_loop, write_trajectory_csv
+from elastica_magnetic.presets import robot_by_name
+
+LENGTH = 0.02
+
+
+def _tracker(tmp_path, rows, header="t_s,x_0_m,y_0_m,x_1_m,y_1_m", name="track.csv"):
+    path = tmp_path / name
+    path.write_text(header + "\n" + "\n".join(",".join(str(v) for v in row) for row in rows) + "\n")
+    return path
+
+
+def _moving(n=10, dt=1 / 30, speed=0.01):
+    return [[k * dt, speed * k * dt, 0.0, 0.02 + speed * k * dt, 0.001] for k in range(n)]
+
+
+@pytest.fixture(scope="module")
+def run():
+    robot = robot_by_name("yao2023-m1", "training")
+    return run_open_loop(robot, RotatingField(10e-3, -2.0, phase=0.5 * np.pi, ramp_time=0.05), 0.2,
+                         n_shapes=21)
+
+
+def test_reads_msr_trajectory_csv_and_its_points_are_the_markers(tmp_path, run):
+    path = write_trajectory_csv(run.trajectory, tmp_path / "trajectory.csv")
+    measured = read_trajectory(path)
+    assert measured.kind == "trajectory.csv" and measured.points == ("back", "mid", "front")
+    assert measured.fractions is None and measured.times.shape == (21,)
+    simulated = points_at_rows(measured, run.trajectory, run.shapes)
+    np.testing.assert_allclose(simulated, measured.positions, atol=1e-9)  # 9 digits in the file
+
+
+def test_reads_a_tracker_csv_and_interpolates_along_the_body(tmp_path, run):
+    path = _tracker(tmp_path, _moving(), "t_s,x_0.5_m,y_0.5_m,x_0_m,y_0_m,x_1_m,y_1_m,x_0.25_m,y_0.25_m")
+    path.write_text("t_s,x_0.5_m,y_0.5_m,x_0_m,y_0_m,x_1_m,y_1_m,x_0.25_m,y_0.25_m\n"
+                    + "\n".join(f"{r[0]},{r[1] + 0.01},0,{r[1]},0,{r[3]},0,{r[1] + 0.005},0"
+                                for r in _moving()) + "\n")
+    measured = read_trajectory(path)
+    assert measured.kind == "tracker" and measured.fractions == (0.0, 0.25, 0.5, 1.0)
+    assert measured.positions.shape == (10, 4, 2)
+    np.testing.assert_allclose(measured.positions[:, 2, 0] - measured.positions[:, 0, 0], 0.01)
+    simulated = points_at_rows(measured, run.trajectory, run.shapes)
+    nodes = np.stack([pos[:2] for _, pos in run.shapes])  # (rows, 2, 65)
+    np.testing.assert_array_equal(simulated[:, 0], nodes[:, :, 0])
+    np.testing.assert_array_equal(simulated[:, 3], nodes[:, :, 64])
+    np.testing.assert_allclose(simulated[:, 1], nodes[:, :, 16])
+    np.testing.assert_allclose(simulated[:, 2], nodes[:, :, 32])
+
+
+@pytest.mark.parametrize("rows, header, message", [
+    (_moving(), "time,x_0_m,y_0_m,x_1_m,y_1_m", "no t_s column"),
+    (_moving(), "t_s,a,b,c,d", "no tracked points"),
+    (_moving(), "t_s,x_0_m,y_0_m,x_1_m,q", "needs both x_1_m and y_1_m"),
+    (_moving(), "t_s,x_0_m,y_0_m,x_2_m,y_2_m", "s = 2: s is a fraction of the body length"),
+    (_moving(4), None, "4 frame(s); too short"),
+    (_moving(10, dt=0.005), None, "too short to fit, need at least 0.1 s"),
+    ([[0.0, 12, 0, 32, 0]] + _moving()[1:], None, "look like millimetres"),
+])
+def test_bad_files_are_named(tmp_path, rows, header, message):
+    path = _tracker(tmp_path, rows, header or "t_s,x_0_m,y_0_m,x_1_m,y_1_m")
+    with pytest.raises(TrajectoryError) as info:
+        read_trajectory(path)
+    assert message in str(info.value) and str(path) in str(info.value)
+
+
+def test_nan_and_time_order_name_the_line(tmp_path):
+    rows = _moving()
+    rows[3][2] = "nan"
+    with pytest.raises(TrajectoryError, match=r"line 5, column y_0_m: 'nan' is not a finite number"):
+        read_trajectory(_tracker(tmp_path, rows))
+    rows = _moving()
+    rows[6][0] = rows[5][0]
+    with pytest.raises(TrajectoryError, match=r"line 8: t_s .* does not increase"):
+        read_trajectory(_tracker(tmp_path, rows))
+    with pytest.raises(TrajectoryError, match="no such trajectory file"):
+        read_trajectory(tmp_path / "missing.csv")
+    (tmp_path / "empty.csv").write_text("")
+    with pytest.raises(TrajectoryError, match="empty file"):
+        read_trajectory(tmp_path / "empty.csv")
+
+
+def test_checks_against_the_robot_and_the_waveform(tmp_path):
+    good = read_trajectory(_tracker(tmp_path, _moving()))
+    check_against_robot(good, LENGTH, 1.0)
+    with pytest.raises(TrajectoryError, match=r"past the end of the waveform \(0.2 s\)"):
+        check_against_robot(good, LENGTH, 0.2)
+    still = [[r[0], 1e-6 * r[0], 0, 0.02, 0] for r in _moving()]
+    with pytest.raises(TrajectoryError, match="no motion to fit"):
+        check_against_robot(read_trajectory(_tracker(tmp_path, still, name="still.csv")), LENGTH, 1.0)
+    # millimetres of a robot near the origin: under 10 (m), but the points are 20 "m" apart
+    mm = [[r[0], 1e3 * r[1], 0, 1e3 * r[3] / 4, 0] for r in _moving()]
+    with pytest.raises(TrajectoryError, match="look like millimetres"):
+        check_against_robot(read_trajectory(_tracker(tmp_path, mm, name="mm.csv")), LENGTH, 1.0)
+    # one point moving 8 "m" in 0.3 s (millimetres of a point near the origin): 400 body lengths
+    path = tmp_path / "one.csv"
+    times = [r[0] for r in _moving()]
+    pd.DataFrame({"t_s": times, "x_0.5_m": [8.0 * t / times[-1] for t in times],
+                  "y_0.5_m": 0.0}).to_csv(path, index=False)
+    with pytest.raises(TrajectoryError, match="body lengths: the values look like millimetres"):
+        check_against_robot(read_trajectory(path), LENGTH, 1.0)
