@@ -49,7 +49,7 @@ from .presets import (
     RobotSpec,
     robot_by_name,
 )
-from .stability import CALIBRATION, estimated_stable_time_step, suggested_time_step
+from .stability import estimated_stable_time_step, suggested_time_step
 
 __all__ = [
     "SPEC_TABLES",
@@ -589,22 +589,24 @@ def _check_friction(t: SpecTable, ground: Mapping[str, float]) -> None:
 
 
 def _check_time_steps(description: RobotDescription, spec: Mapping[str, Any], source: str) -> None:
-    """Refuse a physics setting whose ``dt`` is above the robot's estimated stable step
-    (:func:`~elastica_magnetic.stability.estimated_stable_time_step`), naming the mechanism that
-    limits it and a step that fits."""
+    """Refuse a physics setting whose ``dt`` is above the robot's smallest bare stability limit
+    (:func:`~elastica_magnetic.stability.time_step_limits`: every blow-up measured came below it),
+    naming the mechanism and a step that fits. Steps between the calibrated estimate and that
+    limit are likely unstable: ``msr case check`` reports them."""
     physics = spec.get("physics")
     for setting in description.tables["physics"]:
         robot = description.robot(setting)
-        stable, limiting, _ = estimated_stable_time_step(robot)
-        if robot.dt <= stable:
+        stable, limiting, limits = estimated_stable_time_step(robot)
+        if robot.dt <= limits[limiting]:
             continue
         table = physics.get(setting) if isinstance(physics, Mapping) else None
         value = "given" if isinstance(table, Mapping) and "dt" in table else "the default"
         raise SpecError(
-            f"{source}: [physics.{setting}] dt: {robot.dt:g} s ({value}) is above the stable time "
-            f"step {stable:.2e} s of this robot ({CALIBRATION:g} x the {limiting} limit, "
-            f"{stable / CALIBRATION:.2e} s); the simulation would blow up or give a wrong result. "
-            f"Set dt = {suggested_time_step(stable):g} in [physics.{setting}]")
+            f"{source}: [physics.{setting}] dt: {robot.dt:g} s ({value}) is above this robot's "
+            f"stability limit {limits[limiting]:.2e} s (the {limiting} limit; robots measured blew up "
+            f"at 0.72-0.89 of it, estimated stable step {stable:.2e} s); the simulation would blow "
+            f"up or give a wrong result. Set dt = {suggested_time_step(stable):g} in "
+            f"[physics.{setting}]")
 
 
 def load_robot(robot: str | Path, physics: Physics = "accurate") -> RobotSpec:

@@ -130,11 +130,17 @@ def test_a_thick_band_and_an_unstable_step_are_reported():
     # a band narrower than thick is refused by the spec parser itself (the check reads it first)
     with pytest.raises(SpecError, match=r"\[robot\] width: .*width >= thickness"):
         check_spec(_variant(("width = 0.008", "width = 0.0005")), "t.toml", sag=False)
-    # a training step past the estimated stable step is refused by the spec parser, naming a step
-    # that fits; an accurate step at 2e-5 s (margin 1.1) is accepted with a warning
+    # a training step past the bare stability limit is refused by the spec parser, naming a step
+    # that fits; one between the estimate and the limit (1.25e-4 s: measured to blow up at
+    # 1.23e-4 s) is an error of the check; an accurate step at 2e-5 s (margin 1.1) a warning
     with pytest.raises(SpecError, match=r"u\.toml: \[physics\.training\] dt: 0\.0002 s \(given\) is "
-                                        r"above the stable time step 1\.05e-04 s .* Set dt = 5e-05"):
+                                        r"above this robot's stability limit 1\.50e-04 s .* Set dt = 5e-05"):
         check_spec(_variant(("dt = 0.0001", "dt = 0.0002")), "u.toml", sag=False)
+    check = check_spec(_variant(("dt = 0.0001", "dt = 0.000125")), "c.toml", sag=False)
+    assert check.has_errors
+    (issue,) = [i for i in check.issues if i.level == "error"]
+    assert issue.key == "[physics.training] dt" and "likely unstable, use dt = 5e-05 s" in issue.message
+    assert "error: [physics.training] dt" in format_check(check)
     near = check_spec(_variant(("dt = 8e-06", "dt = 2e-05")), "n.toml", sag=False)
     assert not near.has_errors
     (issue,) = [i for i in near.issues if i.key == "[physics.accurate] dt"]

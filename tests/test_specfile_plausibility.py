@@ -77,8 +77,8 @@ def test_kinetic_friction_above_static_is_refused():
 @pytest.mark.parametrize("physics", ["accurate", "training"])
 def test_the_presets_time_steps_are_within_the_stable_limit(name, physics):
     robot = robot_by_name(name, physics)
-    stable, _, _ = estimated_stable_time_step(robot)
-    assert robot.dt < stable
+    stable, limiting, limits = estimated_stable_time_step(robot)
+    assert robot.dt < stable < limits[limiting]
 
 
 MILLI = """
@@ -101,13 +101,13 @@ def test_a_millimetre_robot_with_the_default_time_step_is_refused_naming_the_lim
     path = tmp_path / "milli.toml"
     path.write_text(MILLI)
     with pytest.raises(SpecError, match=r"milli\.toml: \[physics\.training\] dt: 0\.0001 s \(the "
-                                        r"default\) is above the stable time step 6\.\d+e-06 s of "
-                                        r"this robot \(0\.7 x the ground damping limit, 8\.7\d+e-06 s\)"
-                                        r".* Set dt = 2e-06 in \[physics\.training\]"):
+                                        r"default\) is above this robot's stability limit 8\.7\de-06 s \(the "
+                                        r"ground damping limit; .* Set dt = 2e-06 in "
+                                        r"\[physics\.training\]"):
         load_robot(path, "accurate")
     path.write_text(MILLI + "[physics.training]\ndt = 4e-6\n[physics.accurate]\ndt = 1e-6\n")
-    with pytest.raises(SpecError, match=r"\[physics\.accurate\] dt: 1e-06 s \(given\) is above the "
-                                        r"stable time step \d\.\d+e-07 s"):
+    with pytest.raises(SpecError, match=r"\[physics\.accurate\] dt: 1e-06 s \(given\) is above this "
+                                        r"robot's stability limit 8\.\d+e-07 s"):
         load_robot(path, "accurate")
 
 
