@@ -156,7 +156,9 @@ def main(argv: list[str] | None = None) -> int:
             continue
         case, recipe = work
         dest = args.policies / case / "seeds" / recipe
-        result = export_seeds(args.runs / recipe / case, dest, progress=False, workers=2)
+        # the campaign refreshes its own seeds in place: replacing them is what it is for
+        result = export_seeds(args.runs / recipe / case, dest, progress=False, workers=2,
+                              force=True)
         print(f"== {case} {recipe}: {result['meeting_target']} of {result['total']} meet the target "
               f"({dest})", flush=True)
     from elastica_magnetic.cli import main as msr

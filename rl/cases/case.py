@@ -296,6 +296,11 @@ def _task(t: SpecTable) -> Task:
             slow_zone=t.number("slow_zone", "m", d.slow_zone, low=0.0),
             speed_penalty=t.number("speed_penalty", "1", d.speed_penalty, low=0.0),
         )
+        if values["tolerance"] >= abs(values["target"]):
+            # a robot that stays put (or moves backwards) would end "within the tolerance"
+            raise t.error("tolerance", f"{values['tolerance']:g} m must be smaller than the "
+                          f"target distance |target| = {abs(values['target']):g} m, or staying "
+                          "at the start counts as reaching the target")
     t.finish()
     return cls(**values)
 
@@ -330,6 +335,11 @@ def _training(t: SpecTable | None, source: str) -> Training:
             if not ok:
                 raise td3.error(key, f"expected a value like {default!r}, got {value!r}")
             overrides[key] = value
+        try:  # each value in range, checked now, naming the key
+            TD3Config(**overrides)
+        except ValueError as exc:
+            named = [k for k in overrides if str(exc).startswith(k)] or list(overrides)
+            raise td3.error(named[0], str(exc)) from None
         td3.finish()
     t.finish()
     return Training(recipe, steps, overrides)

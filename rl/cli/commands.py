@@ -11,7 +11,7 @@ import math
 import sys
 from pathlib import Path
 
-from elastica_magnetic.cli import CommandError, duration_option, number, print_result
+from elastica_magnetic.cli import CommandError, duration_option, number, print_notes, print_result
 
 from ..cases.recipes import RECIPE_SUMMARIES, RECIPES
 from ..runfiles.rundir import CaseDir, RunDir
@@ -41,6 +41,18 @@ def _add_rollout_options(p: argparse.ArgumentParser, out: Path) -> None:
     p.add_argument("--no-gif", action="store_true", help="skip the GIF")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
+
+
+FORCE_HELP = ("replace an earlier result of this command for the same case in --out (without it "
+              "an existing result is refused; another command's or case's result always is)")
+
+
+def _print_rollout_result(result: dict, as_json: bool) -> int:
+    """Print a generate-like result (its notes first, on stderr); 1 if the rollout diverged."""
+    print_notes(result.pop("notes", ()))
+    print_result(result, as_json)
+    return 0 if not result["diverged"] else 1
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -82,7 +94,7 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
         "store the complete case spec); OUT/<case>/summary.json collects the final mean episode "
         "returns of every seed of the case.",
     )
-    p.add_argument("--case", type=case_option, required=True, nargs="+",
+    p.add_argument("--case", type=case_option, required=True, nargs="+", action="extend",
                    help=CASE_HELP + "; several make one sweep (cases x seeds jobs)")
     p.add_argument("--seeds", type=int, default=8, help="number of seeds (default 8)")
     p.add_argument("--seed-offset", type=int, default=0, help="first seed (default 0)")
@@ -397,9 +409,8 @@ def generate_command(args: argparse.Namespace) -> int:
 
     result = generate(args.policy, duration=args.duration, out=args.out, physics=args.physics,
                       progress=not args.no_progress, figures=not args.no_figures,
-                      gif=not args.no_gif)
-    print_result(result, args.json)
-    return 0 if not result["diverged"] else 1
+                      gif=not args.no_gif, force=args.force)
+    return _print_rollout_result(result, args.json)
 
 
 def baseline_command(args: argparse.Namespace) -> int:
@@ -412,9 +423,8 @@ def baseline_command(args: argparse.Namespace) -> int:
         raise CommandError(f"--period: {exc}") from None
     result = generate(policy, duration=args.duration, out=args.out, physics=args.physics,
                       progress=not args.no_progress, figures=not args.no_figures,
-                      gif=not args.no_gif)
-    print_result(result, args.json)
-    return 0 if not result["diverged"] else 1
+                      gif=not args.no_gif, force=args.force, kind="baseline")
+    return _print_rollout_result(result, args.json)
 
 
 def figures_command(args: argparse.Namespace) -> int:
@@ -430,5 +440,4 @@ def demo_command(args: argparse.Namespace) -> int:
     from ..shipping.generate import demo
 
     result = demo(args.out, duration=args.duration, progress=not args.no_progress)
-    print_result(result, args.json)
-    return 0 if not result["diverged"] else 1
+    return _print_rollout_result(result, args.json)

@@ -11,9 +11,9 @@ import argparse
 import math
 from pathlib import Path
 
-from elastica_magnetic.cli import CommandError, duration_option, print_result
+from elastica_magnetic.cli import CommandError, duration_option, print_notes, print_result
 
-from .commands import CASE_HELP, case_option
+from .commands import CASE_HELP, FORCE_HELP, case_option
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -38,6 +38,9 @@ def _add_export_seeds_command(sub: argparse._SubParsersAction) -> None:
                    help="e.g. rl/policies/m1-4mT/seeds/paper")
     p.add_argument("--duration", type=float, default=10.0, help="evaluation length, s")
     p.add_argument("--workers", type=int, default=1, help="seeds evaluated at a time (processes)")
+    p.add_argument("--force", action="store_true",
+                   help="replace seeds of the same case already in --dest (seeds of another case, "
+                        "or other files, are never replaced)")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=export_seeds_command)
@@ -79,7 +82,8 @@ def _add_ship_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--dest", type=Path, default=None, help="default: the package's rl/policies")
     p.add_argument("--no-measure", action="store_true", help="skip the evaluation run")
     p.add_argument("--duration", type=duration_option(), default=10.0, help="evaluation length, s")
-    p.add_argument("--force", action="store_true", help="overwrite an existing policy")
+    p.add_argument("--force", action="store_true",
+                   help="replace an existing policy's files in DEST/<name> (other files stay)")
     p.add_argument("--evaluate-seeds", action="store_true",
                    help="also run every seed of the case (final checkpoints) in the accurate physics "
                    "and list their distances in the model card (cached per seed)")
@@ -112,6 +116,7 @@ def _add_export_command(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("policy", help="run directory, checkpoint, shipped-policy folder or shipped name")
     p.add_argument("--out", type=Path, default=Path("out/export"))
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=export_command)
 
@@ -142,9 +147,10 @@ def export_seeds_command(args: argparse.Namespace) -> int:
         raise CommandError(f"--workers must be >= 1, got {args.workers}")
     try:
         result = export_seeds(args.case_dir, args.dest, args.duration,
-                              progress=not args.no_progress, workers=args.workers)
+                              progress=not args.no_progress, workers=args.workers, force=args.force)
     except (FileNotFoundError, ValueError) as exc:
         raise CommandError(str(exc)) from None
+    print_notes(result.pop("notes", ()))
     print_result(result, args.json)
     return 0
 
@@ -203,14 +209,12 @@ def ship_command(args: argparse.Namespace) -> int:
 
     notes = None
     if args.notes is not None:
-        if not args.notes.is_file():
-            raise CommandError(f"--notes {args.notes}: no such file")
-        notes = args.notes.read_text()
+        notes = _read_markdown(args.notes, "--notes")
     try:
         result = ship(args.run, args.name, dest=args.dest, measure=not args.no_measure,
                       duration=args.duration, progress=not args.no_progress, overwrite=args.force,
                       evaluate_all_seeds=args.evaluate_seeds, notes=notes)
-    except (FileExistsError, FileNotFoundError) as exc:
+    except (FileExistsError, FileNotFoundError, ValueError) as exc:
         raise CommandError(str(exc)) from None
     print_result(result, args.json)
     return 0
@@ -222,26 +226,44 @@ def notes_command(args: argparse.Namespace) -> int:
 
     if args.file is None:
         policy = resolve_policy(args.policy)
-        notes = policy.meta.get("notes") if policy.kind == "shipped" else None
+        if policy.kind != "shipped":
+            raise CommandError(f"{args.policy}: a {policy.kind}, not a shipped policy: notes belong "
+                               "to a shipped policy (a folder with policy.json), and a run's cannot "
+                               "be written either; ship it first (msr ship)")
+        notes = policy.meta.get("notes")
         if args.json:
             print_result({"policy": str(policy.source), "notes": notes}, True)
         else:
             print(notes or "(no notes)")
         return 0
-    if not args.file.is_file():
-        raise CommandError(f"--file {args.file}: no such file")
+    text = _read_markdown(args.file, "--file")
     try:
-        result = set_notes(args.policy, args.file.read_text())
+        result = set_notes(args.policy, text)
     except ValueError as exc:
         raise CommandError(str(exc)) from None
     print_result(result, args.json)
     return 0
 
 
+def _read_markdown(path: Path, option: str) -> str:
+    """A Markdown file's text (UTF-8), or an error naming the option and the file."""
+    if not path.is_file():
+        raise CommandError(f"{option} {path}: no such file")
+    try:
+        return path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise CommandError(f"{option} {path}: not UTF-8 text (byte {exc.start}: "
+                           f"{exc.object[exc.start:exc.start + 1]!r}); save it as UTF-8") from None
+    except OSError as exc:
+        raise CommandError(f"{option} {path}: cannot read it: {exc.strerror or exc}") from None
+
+
 def export_command(args: argparse.Namespace) -> int:
     from ..shipping.export import export_policy
 
-    print_result(export_policy(args.policy, args.out), args.json)
+    result = export_policy(args.policy, args.out, force=args.force)
+    print_notes(result.pop("notes", ()))
+    print_result(result, args.json)
     return 0
 
 

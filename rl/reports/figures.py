@@ -14,7 +14,6 @@
 
 from __future__ import annotations
 
-import csv
 import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -27,6 +26,7 @@ from numpy.typing import NDArray
 from elastica_magnetic.io import atomic_save
 
 from ..envs.rollout import ROLLOUT_NPZ, Rollout
+from ..runfiles.logs import read_log
 from ..runfiles.rundir import RunDir
 
 __all__ = [
@@ -78,8 +78,7 @@ def ema(values: Sequence[float], alpha: float = 0.2) -> NDArray[np.float64]:
 
 
 def _read_episodes(run_dir: Path) -> pd.DataFrame:
-    with open(RunDir(run_dir).episodes_csv, newline="") as f:
-        rows = list(csv.DictReader(f))
+    rows = read_log(RunDir(run_dir).episodes_csv, ("global_step", "return"))
     return pd.DataFrame({
         "global_step": [int(r["global_step"]) for r in rows],
         "return": [float(r["return"]) for r in rows],
@@ -457,6 +456,11 @@ def rollout_figures(
     return {k: str(v) for k, v in paths.items()}
 
 
+#: The files :func:`rollout_figures` writes (at most).
+ROLLOUT_FIGURES = ("positions_velocities.png", "field_waveforms.png", "field_polar.png",
+                   "height_span_contact.png", "filmstrip.png", "q_values.png", "gait.gif")
+
+
 def make_figures(path: str | Path, out: str | Path | None = None, gif: bool = True,
                  load_policy: Callable[[str], Any] | None = None) -> dict[str, str]:
     """Regenerate the figures of a generate output (``rollout.npz``) or of training runs.
@@ -466,8 +470,31 @@ def make_figures(path: str | Path, out: str | Path | None = None, gif: bool = Tr
     :func:`elastica_magnetic_rl.shipping.policy_files.resolve_policy`: source -> an object with ``actor`` and
     ``critic``) can still load the policy recorded in the rollout.
     """
+    from elastica_magnetic.filesets import replace_files
+
     path = Path(path)
     out = Path(out) if out is not None else path
+    names = _figure_names(path)
+    # the figures go in together (the folder holds other things: a run's logs, a rollout):
+    # an interruption leaves the earlier figures, never a mix; regenerating them is the command
+    with replace_files(out, names, force=True) as files:
+        result = _make_figures(path, files.path, gif, load_policy)
+    return {k: str(files.final_path(v)) for k, v in result.items()}
+
+
+def _figure_names(path: Path) -> list[str]:
+    """The files :func:`make_figures` may write for ``path``."""
+    if (path / ROLLOUT_NPZ).is_file():
+        return list(ROLLOUT_FIGURES)
+    groups = find_runs(path)
+    if not groups:
+        raise FileNotFoundError(f"{path}: neither a generate output ({ROLLOUT_NPZ}) nor training "
+                                "runs (episodes.csv)")
+    return [f"learning_curves_{case}.png" for case in groups]
+
+
+def _make_figures(path: Path, out: Path, gif: bool,
+                  load_policy: Callable[[str], Any] | None) -> dict[str, str]:
     if (path / ROLLOUT_NPZ).is_file():
         rollout = Rollout.load(path)
         critic = actor = None

@@ -24,6 +24,7 @@ format held them), so readers need not know about ``replay.bin``.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from pathlib import Path
@@ -41,14 +42,28 @@ _BUFFER_KEYS = ("obs", "actions", "rewards", "next_obs", "terminated")
 
 
 def save_checkpoint(path: str | os.PathLike, checkpoint: dict[str, Any]) -> None:
-    """Write ``checkpoint`` atomically: to a temporary file in the same directory, then rename."""
+    """Write ``checkpoint`` atomically: to a temporary file in the same directory, then rename.
+
+    The previous checkpoint stays until the new one is complete: on any failure (a full disk) or
+    interruption the temporary file is removed and ``path`` is left as it was; an ``OSError``
+    becomes :class:`~elastica_magnetic.io.OutputPathError` naming the file."""
+    from elastica_magnetic.io import OutputPathError
+
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "wb") as f:
-        torch.save(checkpoint, f)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
+    try:
+        with open(tmp, "wb") as f:
+            torch.save(checkpoint, f)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException as exc:
+        tmp.unlink(missing_ok=True)
+        if isinstance(exc, OSError) and not isinstance(exc, OutputPathError):
+            kept = "the previous checkpoint is kept" if path.exists() else "no checkpoint yet"
+            raise OutputPathError(f"{path}: cannot write the checkpoint: {exc.strerror or exc} "
+                                  f"({kept}; --resume continues from it)") from exc
+        raise
 
 
 def load_checkpoint(path: str | os.PathLike, with_buffer: bool = True) -> dict[str, Any]:
@@ -158,9 +173,14 @@ class ReplayFile:
             rows = np.concatenate([buffer.obs[new], buffer.actions[new], buffer.rewards[new, None],
                                    buffer.next_obs[new], buffer.terminated[new, None]], axis=1)
             assert rows.shape[1] == width
-            with open(self.path, "ab") as f:
-                f.write(np.ascontiguousarray(rows, dtype=np.float32).tobytes())
-                f.flush()
-                os.fsync(f.fileno())
+            try:
+                with open(self.path, "ab") as f:
+                    f.write(np.ascontiguousarray(rows, dtype=np.float32).tobytes())
+                    f.flush()
+                    os.fsync(f.fileno())
+            except BaseException:  # a full disk: the rows the last checkpoint needs stay
+                with contextlib.suppress(OSError):
+                    os.truncate(self.path, self.rows * width * 4)
+                raise
             self.rows = buffer.size
         return {**meta, "total_added": buffer.total_added, "file": RunDir.REPLAY, "rows": self.rows}

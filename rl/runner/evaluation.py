@@ -17,6 +17,7 @@ import numpy as np
 import torch
 
 from ..runfiles.checkpoint import save_checkpoint
+from ..runfiles.logs import read_log
 from ..runfiles.rundir import RunDir
 from ..td3.algorithm import TD3, Actor, TD3Config
 
@@ -215,8 +216,7 @@ def truncate_csv(path: Path, fields: tuple[str, ...], keep: Callable[[dict[str, 
     a run resumes from)."""
     if not path.exists():
         return
-    with open(path, newline="") as f:
-        rows = [r for r in csv.DictReader(f) if keep(r)]
+    rows = [r for r in read_log(path, ("global_step",)) if keep(r)]
     tmp = path.with_name(path.name + ".tmp")
     with open(tmp, "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=fields)

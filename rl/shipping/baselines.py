@@ -55,6 +55,15 @@ class RotatingFieldPolicy:
         self.case = load_case(self.case)
         if not (self.period > 0.0 and math.isfinite(self.period)):
             raise ValueError(f"period must be a positive time in s, got {self.period}")
+        if self.period <= 2.0 * ACTION_PERIOD:
+            # half a turn or more per 0.01 s step: the sampled field does not turn this way (a
+            # period of 0.001 s asks for ten whole turns per step, a static field)
+            raise ValueError(f"period {self.period:g} s is at or under 2 x the {ACTION_PERIOD:g} s "
+                             f"control period (the Nyquist limit of the {1 / ACTION_PERIOD:g} Hz "
+                             "field updates): the field would alias to a slower or static one; "
+                             f"give more than {2 * ACTION_PERIOD:g} s (the rate limit of "
+                             f"{1e3 * self.case.actuation.max_increment:g} mT per step keeps the "
+                             "field at the limit only for much longer periods)")
         self.field_limit = self.case.field_limit
         self.max_increment = self.case.actuation.max_increment
         layout = observation_layout(self.case.n_elements, self.case.task.extra_observation)

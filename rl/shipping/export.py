@@ -11,11 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from elastica_magnetic.io import (
-    atomic_save,
-    atomic_write_json,
-    prepare_output_dir,
-)
+from elastica_magnetic.io import atomic_save, atomic_write_json
+from elastica_magnetic.results import result_folder
 
 from ..envs.env import make_env
 from .policy_files import (
@@ -24,18 +21,25 @@ from .policy_files import (
     resolve_policy,
 )
 
-__all__ = ["EXPORT_FORMAT", "export_policy"]
+__all__ = ["EXPORT_FILES", "EXPORT_FORMAT", "export_policy"]
+
+#: The files ``msr export`` writes.
+EXPORT_FILES = ("policy.ts.pt", "policy.pt2", "policy.json")
 
 #: Format of ``msr export``'s ``policy.json``.
 EXPORT_FORMAT = "msr-exported-policy-v1"
 
 
-def export_policy(policy: str | Path, out: str | Path = "out/export") -> dict[str, Any]:
+def export_policy(policy: str | Path, out: str | Path = "out/export",
+                  force: bool = False) -> dict[str, Any]:
     """Export the actor as TorchScript (``policy.ts.pt``, traced: float32 ``(N, 260)`` observations
     -> ``(N, 2)`` actions in [-1, 1]), as a ``torch.export`` program (``policy.pt2``, dynamic batch;
     torch 2.13 deprecates TorchScript), and ``policy.json`` (observation layout and scaling, action
     scaling and field rule, case). Both files are checked by reloading them with plain torch
     (``torch.jit.load``, ``torch.export.load``).
+
+    ``out`` is written whole or not at all (:func:`elastica_magnetic.results.result_folder`): an
+    earlier export of the same case is replaced only with ``force``, anything else is refused.
 
     Returns the paths, ``max_abs_diff`` / ``max_abs_diff_pt2`` between the reloaded modules and the
     agent's actor on a batch of observations, and the sizes.
@@ -45,58 +49,61 @@ def export_policy(policy: str | Path, out: str | Path = "out/export") -> dict[st
     from ..td3.algorithm import ScaledPolicy
 
     loaded = resolve_policy(policy)
-    out = prepare_output_dir(out)
-    module = ScaledPolicy(loaded.actor, np.full(loaded.act_dim, -1.0), np.full(loaded.act_dim, 1.0))
-    module.eval().requires_grad_(False)
-    example = torch.zeros(2, loaded.obs_dim)
-    ts_path = out / "policy.ts.pt"
-    pt2_path = out / "policy.pt2"
-    with warnings.catch_warnings():
-        # torch 2.13 deprecates torch.jit (trace, save, load) in favour of torch.export; TorchScript
-        # is still what C++/LibTorch and older runtimes load, so both formats are written.
-        warnings.simplefilter("ignore", DeprecationWarning)
-        with torch.no_grad():
-            traced = torch.jit.trace(module, example, check_trace=True)
-        atomic_save(ts_path, lambda tmp: traced.save(str(tmp)))
-        reloaded = torch.jit.load(str(ts_path))
-    batch_dim = torch.export.Dim("batch", min=1)
-    exported = torch.export.export(module, (example,), dynamic_shapes=({0: batch_dim},))
-    atomic_save(pt2_path, lambda tmp: torch.export.save(exported, str(tmp)))
-    reloaded_pt2 = torch.export.load(str(pt2_path)).module()
+    with result_folder(out, kind="export", subject=f"case {loaded.case.name}", force=force,
+                       known_files=EXPORT_FILES) as folder:
+        out = folder.path
+        module = ScaledPolicy(loaded.actor, np.full(loaded.act_dim, -1.0), np.full(loaded.act_dim, 1.0))
+        module.eval().requires_grad_(False)
+        example = torch.zeros(2, loaded.obs_dim)
+        ts_path = out / "policy.ts.pt"
+        pt2_path = out / "policy.pt2"
+        with warnings.catch_warnings():
+            # torch 2.13 deprecates torch.jit (trace, save, load) in favour of torch.export; TorchScript
+            # is still what C++/LibTorch and older runtimes load, so both formats are written.
+            warnings.simplefilter("ignore", DeprecationWarning)
+            with torch.no_grad():
+                traced = torch.jit.trace(module, example, check_trace=True)
+            atomic_save(ts_path, lambda tmp: traced.save(str(tmp)))
+            reloaded = torch.jit.load(str(ts_path))
+        batch_dim = torch.export.Dim("batch", min=1)
+        exported = torch.export.export(module, (example,), dynamic_shapes=({0: batch_dim},))
+        atomic_save(pt2_path, lambda tmp: torch.export.save(exported, str(tmp)))
+        reloaded_pt2 = torch.export.load(str(pt2_path)).module()
 
-    # Check: the reloaded modules give the agent's actions on real and random observations.
-    env = make_env(loaded.case, "training", "random", 0.05)  # a few real observations
-    obs, _ = env.reset(seed=0)
-    batch = [obs]
-    for _ in range(3):
-        obs, *_ = env.step(env.action_space.sample())
-        batch.append(obs)
-    env.close()
-    rng = np.random.default_rng(0)
-    batch = np.concatenate([np.asarray(batch, dtype=np.float32),
-                            rng.normal(0.0, 1.0, (12, loaded.obs_dim)).astype(np.float32)])
-    with torch.no_grad():
-        x = torch.from_numpy(batch)
-        reference = loaded.actor(x)
-        diff = float((reloaded(x) - reference).abs().max())
-        diff_pt2 = float((reloaded_pt2(x) - reference).abs().max())
-    case = loaded.case
-    info = {
-        "format": EXPORT_FORMAT,
-        "case": case.name,
-        "case_spec": case.to_dict(),
-        "torchscript": ts_path.name,
-        "torch_export": pt2_path.name,
-        "input": {"shape": ["N", loaded.obs_dim], "dtype": "float32"},
-        "output": {"shape": ["N", loaded.act_dim], "dtype": "float32", "range": [-1.0, 1.0]},
-        "observation": observation_spec_of(case),
-        "action": action_spec_of(case),
-        "usage": "m = torch.jit.load('policy.ts.pt')  # or torch.export.load('policy.pt2').module(); "
-                 "a = m(torch.tensor(obs[None], dtype=torch.float32))[0]; "
-                 f"dB_T = {case.actuation.max_increment:g} * a",
-        "source": str(loaded.source),
-    }
-    json_path = atomic_write_json(out / "policy.json", info)
+        # Check: the reloaded modules give the agent's actions on real and random observations.
+        env = make_env(loaded.case, "training", "random", 0.05)  # a few real observations
+        obs, _ = env.reset(seed=0)
+        batch = [obs]
+        for _ in range(3):
+            obs, *_ = env.step(env.action_space.sample())
+            batch.append(obs)
+        env.close()
+        rng = np.random.default_rng(0)
+        batch = np.concatenate([np.asarray(batch, dtype=np.float32),
+                                rng.normal(0.0, 1.0, (12, loaded.obs_dim)).astype(np.float32)])
+        with torch.no_grad():
+            x = torch.from_numpy(batch)
+            reference = loaded.actor(x)
+            diff = float((reloaded(x) - reference).abs().max())
+            diff_pt2 = float((reloaded_pt2(x) - reference).abs().max())
+        case = loaded.case
+        info = {
+            "format": EXPORT_FORMAT,
+            "case": case.name,
+            "case_spec": case.to_dict(),
+            "torchscript": ts_path.name,
+            "torch_export": pt2_path.name,
+            "input": {"shape": ["N", loaded.obs_dim], "dtype": "float32"},
+            "output": {"shape": ["N", loaded.act_dim], "dtype": "float32", "range": [-1.0, 1.0]},
+            "observation": observation_spec_of(case),
+            "action": action_spec_of(case),
+            "usage": "m = torch.jit.load('policy.ts.pt')  # or torch.export.load('policy.pt2').module(); "
+                     "a = m(torch.tensor(obs[None], dtype=torch.float32))[0]; "
+                     f"dB_T = {case.actuation.max_increment:g} * a",
+            "source": str(loaded.source),
+        }
+        json_path = atomic_write_json(out / "policy.json", info)
+    ts_path, pt2_path, json_path = (folder.final_path(p) for p in (ts_path, pt2_path, json_path))
     return {"torchscript": str(ts_path), "torch_export": str(pt2_path), "json": str(json_path),
             "case": case.name, "max_abs_diff": diff, "max_abs_diff_pt2": diff_pt2,
-            "obs_dim": loaded.obs_dim, "act_dim": loaded.act_dim}
+            "obs_dim": loaded.obs_dim, "act_dim": loaded.act_dim, "notes": folder.notes}

@@ -5,19 +5,18 @@ deterministically in the accurate physics with the field starting at zero and wr
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from elastica_magnetic.io import (
-    atomic_write,
-    atomic_write_json,
-    prepare_output_dir,
-)
+from elastica_magnetic.io import atomic_write, atomic_write_json
 from elastica_magnetic.openloop import check_duration
+from elastica_magnetic.results import result_folder
 
 from ..cases.tasks import ReachTask
+from ..reports.figures import ROLLOUT_FIGURES
 from .baselines import RotatingFieldPolicy
 from .policy_files import (
     POLICIES_DIR,
@@ -28,7 +27,12 @@ from .policy_files import (
 )
 from .policy_runs import node_dx, run_policy
 
-__all__ = ["demo", "generate", "reach_metrics"]
+__all__ = ["GENERATE_FILES", "demo", "generate", "reach_metrics"]
+
+#: The files ``msr generate`` (``baseline``, ``demo``) writes: recognises an output folder written
+#: before result folders carried a marker.
+GENERATE_FILES = ("fields.csv", "trajectory.csv", "gait.csv", "rollout.npz", "generate.json",
+                  *ROLLOUT_FIGURES)
 
 
 def reach_metrics(rollout, task: ReachTask) -> dict[str, Any]:
@@ -56,6 +60,8 @@ def generate(
     progress: bool = True,
     figures: bool = True,
     gif: bool = True,
+    force: bool = False,
+    kind: str = "generate",
 ) -> dict[str, Any]:
     """Generate a field waveform with a policy: accurate physics, field from zero, deterministic.
 
@@ -67,6 +73,12 @@ def generate(
     ``msr replay``, 100 Hz, first row t = 0), ``gait.csv`` (height, span and the contact strength
     of the back and front nodes, 100 Hz), ``rollout.npz`` (every node position, observation, action
     and field), ``generate.json`` (this result), the figures and ``gait.gif``.
+
+    ``out`` is written whole or not at all (:func:`elastica_magnetic.results.result_folder`, as
+    the result of ``msr <kind>`` for the policy's case): an existing result of the same command and
+    case is replaced only with ``force``; another command's or case's result is refused before the
+    rollout; an interruption leaves ``out`` as it was. ``notes`` in the result: what was
+    recovered on entry (a stale lock, a killed run's leftovers).
 
     Returns a dict with at least ``mid_dx_m`` (x displacement of the middle, mean of the two central
     element centres as in ``trajectory.csv``, m), ``node32_dx_m`` (of the reward's middle node),
@@ -80,52 +92,64 @@ def generate(
 
     check_duration(duration)
     loaded = resolve_policy(policy) if isinstance(policy, (str, Path)) else policy
-    out = prepare_output_dir(out)
-    rollout = run_policy(loaded, duration, physics, "zero", progress)
-    fields_csv = write_field_csv(out / "fields.csv", rollout.fields) if rollout.n_steps else None
-    trajectory_csv = write_trajectory_csv(rollout.trajectory, out / "trajectory.csv")
-    rollout_npz = rollout.save(out)
-    traj = rollout.trajectory
-    contact = rollout.contact()
-    gait_csv = out / "gait.csv"
-    with atomic_write(gait_csv, "w", newline="") as handle:
-        pd.DataFrame({
-            "t_s": traj.t_s, "height_max_m": traj.height_max_m, "span_m": traj.span_m,
-            "contact_back": contact[:, 0], "contact_front": contact[:, -1],
-        }).to_csv(handle, index=False, float_format="%.9g")
-    result: dict[str, Any] = {
-        "case": loaded.case.name,
-        "policy": str(loaded.source),
-        "policy_kind": loaded.kind,
-        "physics": physics,
-        "duration_s": float(rollout.times[-1]),
-        "mid_dx_m": rollout.mid_dx,
-        "node32_dx_m": node_dx(rollout),
-        "return": float(np.sum(rollout.rewards)),
-        "max_height_m": float(traj.height_max_m.max()),
-        "max_field_T": float(np.max(np.hypot(rollout.fields[:, 0], rollout.fields[:, 1])))
-        if rollout.n_steps else 0.0,
-        "authors_mid_dx_10s_m": loaded.case.yardstick.distance_10s or None,
-        "meets_target": loaded.case.meets_yardstick(rollout.mid_dx, node_dx(rollout),
-                                                    float(rollout.times[-1]), rollout.meta["diverged"]),
-        "diverged": rollout.meta["diverged"],
-        "fields_csv": str(fields_csv) if fields_csv else None,
-        "trajectory_csv": str(trajectory_csv),
-        "rollout_npz": str(rollout_npz),
-        "gait_csv": str(gait_csv),
-        "step_ms": rollout.meta["step_ms"],
-    }
-    if isinstance(loaded.case.task, ReachTask):
-        result["reach"] = reach_metrics(rollout, loaded.case.task)
-    if figures and rollout.n_steps:
-        result["figures"] = rollout_figures(rollout, out, loaded.critic, loaded.actor, gif=gif)
-    atomic_write_json(out / "generate.json", result)
-    return result
+    with result_folder(out, kind=kind, subject=f"case {loaded.case.name}", force=force,
+                       known_files=GENERATE_FILES) as folder:
+        out = folder.path
+        rollout = run_policy(loaded, duration, physics, "zero", progress)
+        fields_csv = write_field_csv(out / "fields.csv", rollout.fields) if rollout.n_steps else None
+        trajectory_csv = write_trajectory_csv(rollout.trajectory, out / "trajectory.csv")
+        rollout_npz = rollout.save(out)
+        traj = rollout.trajectory
+        contact = rollout.contact()
+        gait_csv = out / "gait.csv"
+        with atomic_write(gait_csv, "w", newline="") as handle:
+            pd.DataFrame({
+                "t_s": traj.t_s, "height_max_m": traj.height_max_m, "span_m": traj.span_m,
+                "contact_back": contact[:, 0], "contact_front": contact[:, -1],
+            }).to_csv(handle, index=False, float_format="%.9g")
+        result: dict[str, Any] = {
+            "case": loaded.case.name,
+            "policy": str(loaded.source),
+            "policy_kind": loaded.kind,
+            "physics": physics,
+            "duration_s": float(rollout.times[-1]),
+            "mid_dx_m": rollout.mid_dx,
+            "node32_dx_m": node_dx(rollout),
+            "return": float(np.sum(rollout.rewards)),
+            "max_height_m": float(traj.height_max_m.max()),
+            "max_field_T": float(np.max(np.hypot(rollout.fields[:, 0], rollout.fields[:, 1])))
+            if rollout.n_steps else 0.0,
+            "authors_mid_dx_10s_m": loaded.case.yardstick.distance_10s or None,
+            "meets_target": loaded.case.meets_yardstick(rollout.mid_dx, node_dx(rollout),
+                                                        float(rollout.times[-1]), rollout.meta["diverged"]),
+            "diverged": rollout.meta["diverged"],
+            "fields_csv": str(fields_csv) if fields_csv else None,
+            "trajectory_csv": str(trajectory_csv),
+            "rollout_npz": str(rollout_npz),
+            "gait_csv": str(gait_csv),
+            "step_ms": rollout.meta["step_ms"],
+        }
+        if isinstance(loaded.case.task, ReachTask):
+            result["reach"] = reach_metrics(rollout, loaded.case.task)
+        if figures and rollout.n_steps:
+            result["figures"] = rollout_figures(rollout, out, loaded.critic, loaded.actor, gif=gif)
+        result = _final_paths(result, folder)  # generate.json names where the files will be
+        atomic_write_json(out / "generate.json", result)
+    return result | {"notes": folder.notes}
+
+
+def _final_paths(result: dict[str, Any], folder) -> dict[str, Any]:
+    """``result`` with the paths under the temporary folder replaced by where they are now."""
+    staged = str(folder.path)
+    text = json.dumps(result, default=str).replace(staged, str(folder.final))
+    return json.loads(text)
 
 
 def demo(out: str | Path = "out/demo", duration: float = 10.0, progress: bool = True,
          name: str = "m1-4mT") -> dict[str, Any]:
-    """``msr demo``: generate with the shipped pattern-1 4 mT policy ``m1-4mT``."""
+    """``msr demo``: generate with the shipped pattern-1 4 mT policy ``m1-4mT``. The demo replaces
+    its own earlier demo in ``out`` without being asked (the README's first command stays
+    re-runnable); any other folder's content is refused as by :func:`generate`."""
     folder = POLICIES_DIR / name
     missing = [f for f in ("actor.pt", POLICY_JSON) if not (folder / f).is_file()]
     if missing:
@@ -135,4 +159,4 @@ def demo(out: str | Path = "out/demo", duration: float = 10.0, progress: bool = 
             f"`msr refine runs/{name}/seed<best>`, `msr ship runs/{name}/seed<best>/refined "
             f"--name {name}`"
         )
-    return generate(name, duration=duration, out=out, progress=progress)
+    return generate(name, duration=duration, out=out, progress=progress, force=True, kind="demo")

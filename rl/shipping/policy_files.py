@@ -179,6 +179,7 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
     if path.is_dir() and (path / POLICY_JSON).is_file() and (path / "actor.pt").is_file():
         meta = _policy_json(path / POLICY_JSON)
         case = _policy_case(meta, path / POLICY_JSON)
+        _check_recorded_limits(case, meta, path / POLICY_JSON)
         arch = meta["architecture"]
         _check_obs_dim(case, arch["obs_dim"], path / POLICY_JSON)
         hidden = tuple(arch["hidden_sizes"])
@@ -203,6 +204,24 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
         f"{policy}: not a run directory, checkpoint, shipped-policy folder or shipped policy name "
         f"(shipped in {policies_dir}: {', '.join(shipped) or 'none'})"
     )
+
+
+def _check_recorded_limits(case: Case, meta: dict[str, Any], path: Path) -> None:
+    """A policy.json whose ``case_spec`` disagrees with the limits it records (``field_limit_T``,
+    the action's scaling) was edited by hand: the policy would run with limits it was not trained
+    for. Refused naming the value."""
+    action = meta.get("action") if isinstance(meta.get("action"), dict) else {}
+    recorded = {"field_limit_T": meta.get("field_limit_T", action.get("field_limit_T")),
+                "action.field_limit_T": action.get("field_limit_T"),
+                "action.field_increment_T_per_unit": action.get("field_increment_T_per_unit")}
+    spec = {"field_limit_T": case.field_limit, "action.field_limit_T": case.field_limit,
+            "action.field_increment_T_per_unit": case.actuation.max_increment}
+    for key, value in recorded.items():
+        if value is not None and not (isinstance(value, int | float)
+                                      and abs(float(value) - spec[key]) <= 1e-9 * max(1.0, abs(spec[key]))):
+            raise PolicyFileError(f"{path}: {key} = {value!r} but its case_spec gives {spec[key]:g}: "
+                                  "the file contradicts itself (edited by hand?); restore it (e.g. "
+                                  "from git) or ship the policy again")
 
 
 def _check_obs_dim(case: Case, obs_dim: int, path: Path) -> None:

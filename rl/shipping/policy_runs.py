@@ -150,7 +150,9 @@ def evaluate_seeds(
     if workers > 1:  # each seed's rollouts in its own process
         from ..sweep.backends import run_in_processes
 
-        results = run_in_processes(_evaluate_seed, jobs, workers)
+        # an evaluation loses nothing when ended: Ctrl-C ends the workers at once, quietly
+        results = run_in_processes(_evaluate_seed, jobs, workers, stop_grace_s=0.0,
+                                   quiet_interrupt=True)
     else:
         results = [_evaluate_seed(job) for job in jobs]
     return results

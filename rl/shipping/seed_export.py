@@ -6,10 +6,13 @@ logs, and ``seeds.json``; seeds of several runs collect in one folder."""
 from __future__ import annotations
 
 import json
+import re
+import shutil
 from pathlib import Path
 from typing import Any
 
 from elastica_magnetic.io import atomic_write_json, atomic_write_text
+from elastica_magnetic.results import ResultExistsError, check_result_folder, result_folder
 
 from ..cases.tasks import ReachTask
 from ..runfiles.rundir import CaseDir, RunDir
@@ -31,6 +34,7 @@ def export_seeds(
     duration: float = 10.0,
     progress: bool = True,
     workers: int = 1,
+    force: bool = False,
 ) -> dict[str, Any]:
     """Every seed of a case as a policy folder ``dest/seed<k>/`` (``actor.pt`` and
     ``policy.json``: what ``msr generate`` reads; no critic, no buffer; and the run's training
@@ -47,14 +51,72 @@ def export_seeds(
     Seeds trained in several runs collect in one ``dest``: the seeds already in
     ``dest/seeds.json`` that this ``case_dir`` does not have are kept (a seed it has is replaced),
     provided they were trained on the same case spec with the same hyperparameters; otherwise
-    nothing is written and a ``ValueError`` names the first difference.
+    nothing is written and a ``ValueError`` names the first difference. A seed already in
+    ``dest`` is replaced only with ``force``; a ``dest`` holding another case's seeds (or anything
+    else) is refused even with it.
+
+    ``dest`` is written whole or not at all (:func:`elastica_magnetic.results.result_folder`,
+    ``--dest``): an interruption or a failure leaves it as it was. Only ``duration`` = 10 s gives
+    ``distance_10s_m``; another duration's distance is stored as ``distance_m`` with
+    ``duration_s``.
     """
     case_dir, dest = Path(case_dir), Path(dest)
     seeds = seed_run_dirs(case_dir)
     first = resolve_policy(RunDir(seeds[0][1]).checkpoint)
     case = first.case
+    subject = f"case {case.name}"
     # checked before the long evaluations
-    earlier = _earlier_exported_seeds(dest, {seed for seed, _ in seeds}, first.meta)
+    new_seeds = {seed for seed, _ in seeds}
+    known = _known_files(dest)
+    try:
+        check_result_folder(dest, kind="export-seeds", subject=subject, force=True,
+                            option="--dest", known_files=known)
+    except ResultExistsError as exc:
+        raise ValueError(str(exc)) from None
+    earlier = _earlier_exported_seeds(dest, new_seeds, first.meta)
+    again = sorted(new_seeds & set(_exported_seed_numbers(dest)))
+    if again and not force:
+        raise ValueError(f"--dest {dest}: already holds seeds {', '.join(map(str, again))} of case "
+                         f"{case.name}; pass --force to replace them, or choose another --dest")
+    with result_folder(dest, kind="export-seeds", subject=subject, force=True, option="--dest",
+                       known_files=known) as folder:
+        for entry in earlier:  # the seeds of earlier runs that stay
+            shutil.copytree(dest / str(entry["actor"]), folder.path / str(entry["actor"]))
+        entries = _export_evaluated(case_dir, folder.path, case, duration, progress, workers)
+        entries = sorted(earlier + entries, key=lambda e: e["seed"])
+        atomic_write_json(folder.path / "seeds.json", entries)
+    return {"seeds": entries, "total": len(entries), "notes": folder.notes,
+            "meeting_target": sum(bool(e.get("meets_target")) for e in entries)}
+
+
+_SEED_FILE = re.compile(r"seed\d+/(actor\.pt|policy\.json|" + "|".join(
+    re.escape(log) for log in SEED_TRAINING_LOGS) + ")")
+
+
+def _known_files(dest: Path) -> list[str]:
+    """The files of ``dest`` that ``export-seeds`` writes (recognises a folder written before
+    result folders carried a marker, such as the committed seeds)."""
+    if not dest.is_dir():
+        return []
+    found = ["seeds.json"]
+    for path in dest.glob("seed*/*"):
+        relative = path.relative_to(dest).as_posix()
+        if _SEED_FILE.fullmatch(relative):
+            found.append(relative)
+    return found
+
+
+def _exported_seed_numbers(dest: Path) -> list[int]:
+    try:
+        entries = json.loads((dest / "seeds.json").read_text())
+    except (OSError, ValueError):
+        return []
+    return [e["seed"] for e in entries if isinstance(e, dict) and isinstance(e.get("seed"), int)]
+
+
+def _export_evaluated(case_dir: Path, dest: Path, case, duration: float, progress: bool,
+                      workers: int) -> list[dict[str, Any]]:
+    """Evaluate every seed of ``case_dir`` and write each one's chosen actor into ``dest``."""
     evaluations = evaluate_seeds(case_dir, duration, progress, workers)
     entries = []
     for ev in evaluations:
@@ -70,18 +132,16 @@ def export_seeds(
         source = run.best if use_best else run.checkpoint
         folder = CaseDir.seed_name(ev["seed"])
         ship(source, folder, dest=dest, measure=False, progress=False, overwrite=True,
-             with_critic=False, with_card=False)
+             with_critic=False, with_card=False, lock=False)
         for log in SEED_TRAINING_LOGS:  # the learning curve stays with the actor
             if (run.path / log).is_file():
                 atomic_write_text(dest / folder / log, (run.path / log).read_text())
-        entries.append({"seed": ev["seed"], "steps": chosen["global_step"],
-                        "distance_10s_m": chosen["mid_dx_m"], "actor": folder,
-                        "checkpoint": "best" if use_best else "final",
+        distance = ({"distance_10s_m": chosen["mid_dx_m"]} if duration == 10.0
+                    else {"distance_m": chosen["mid_dx_m"], "duration_s": duration})
+        entries.append({"seed": ev["seed"], "steps": chosen["global_step"], **distance,
+                        "actor": folder, "checkpoint": "best" if use_best else "final",
                         "meets_target": chosen["meets_target"]})
-    entries = sorted(earlier + entries, key=lambda e: e["seed"])
-    atomic_write_json(dest / "seeds.json", entries)
-    return {"seeds": entries, "total": len(entries),
-            "meeting_target": sum(bool(e.get("meets_target")) for e in entries)}
+    return entries
 
 
 def _earlier_exported_seeds(dest: Path, replaced: set[int], meta: dict[str, Any]) -> list[dict[str, Any]]:
@@ -116,8 +176,6 @@ def _earlier_exported_seeds(dest: Path, replaced: set[int], meta: dict[str, Any]
     config = settings(meta.get("config") or {})
     kept = []
     for entry in earlier:
-        if entry["seed"] in replaced:
-            continue
         policy_json = dest / str(entry["actor"]) / "policy.json"
         try:
             other = json.loads(policy_json.read_text())
@@ -125,9 +183,11 @@ def _earlier_exported_seeds(dest: Path, replaced: set[int], meta: dict[str, Any]
             raise ValueError(f"{path}: seed {entry['seed']}: its actor's {policy_json} is unreadable "
                              f"({exc})") from exc
         if physical(other.get("case_spec")) != physical(as_json(meta.get("case_spec"))):
-            raise ValueError(f"{dest}: seed {entry['seed']} was trained on another case spec "
-                             f"({other.get('case')!r}) than {meta.get('case')!r}: export into "
-                             "another folder")
+            raise ValueError(f"--dest {dest}: seed {entry['seed']} there was trained on another case "
+                             f"spec ({other.get('case')!r}) than {meta.get('case')!r}; export into "
+                             "another folder (--force replaces only seeds of the same case)")
+        if entry["seed"] in replaced:
+            continue
         other_config = settings((other.get("training") or {}).get("config") or {})
         if other_config != config:
             differing = sorted(k for k in set(config) | set(other_config)

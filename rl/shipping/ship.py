@@ -15,7 +15,9 @@ from typing import Any
 
 import numpy as np
 
+from elastica_magnetic.filesets import replace_files
 from elastica_magnetic.io import (
+    OutputPathError,
     atomic_save,
     atomic_write_json,
     atomic_write_text,
@@ -41,7 +43,20 @@ from .policy_runs import evaluate_seeds, node_dx, run_policy
 from .seed_report import CARD_SECTION as SEEDS_CARD_SECTION
 from .seed_report import case_seeds, seeds_markdown
 
-__all__ = ["set_notes", "ship"]
+__all__ = ["SHIPPED_FILES", "check_policy_name", "set_notes", "ship"]
+
+#: The files of a shipped policy (``actor.pt`` and ``policy.json`` always, the others optional).
+SHIPPED_FILES = ("actor.pt", POLICY_JSON, "critic.pt", "fields.csv", "MODEL_CARD.md")
+
+
+def check_policy_name(name: str) -> str:
+    """A policy name is one folder name: no separator, not ``.``/``..``, not hidden, printable;
+    else a ``ValueError`` naming ``--name`` (a name must not write outside ``--dest``)."""
+    if (not name or name in (".", "..") or name.startswith(".") or "/" in name or "\\" in name
+            or not name.isprintable() or Path(name).name != name):
+        raise ValueError(f"--name {name!r}: a policy name is one folder name (letters, digits, "
+                         "'-', '_', no '/' and not starting with '.'), e.g. m1-4mT")
+    return name
 
 
 def ship(
@@ -56,6 +71,7 @@ def ship(
     notes: str | None = None,
     with_critic: bool = True,
     with_card: bool = True,
+    lock: bool = True,
 ) -> dict[str, Any]:
     """Pack a run's checkpoint into the shipped-policy format ``dest/<name>/`` (default
     ``rl/policies/<name>/``): ``actor.pt`` and ``critic.pt`` (state dicts of
@@ -70,13 +86,25 @@ def ship(
     and the card lists each seed's distance and how many reach the authors' distance. ``notes``
     (Markdown) becomes the card's "Notes" section: what the numbers do not say. ``with_critic`` /
     ``with_card``: also write ``critic.pt`` / ``MODEL_CARD.md``.
+
+    The policy's files are put into ``dest/<name>/`` all together or not at all
+    (:func:`elastica_magnetic.filesets.replace_files`: the folder may hold other things, such as
+    ``seeds/``), under its lock; ``lock=False`` writes them directly (for a caller that writes a
+    temporary result folder of its own). ``dest`` and ``name`` are checked before any measuring.
     """
+    check_policy_name(name)
+    if dest is not None:
+        for parent in (Path(dest), *Path(dest).parents):
+            if parent.exists() and not parent.is_dir():
+                raise OutputPathError(f"--dest {dest}: {parent} is a file, not a folder")
     policy = resolve_policy(run)
     if policy.kind != "checkpoint":
         raise ValueError(f"{run}: ship takes a run directory or checkpoint, not a shipped policy")
     target = (Path(dest) if dest is not None else POLICIES_DIR) / name
-    if (target / POLICY_JSON).exists() and not overwrite:
-        raise FileExistsError(f"{target} already holds a policy (pass overwrite / --force)")
+    present = [f for f in SHIPPED_FILES if (target / f).exists()]
+    if present and not overwrite:
+        raise FileExistsError(f"{target} already holds a policy ({', '.join(present)}); pass "
+                              "--force to replace it")
     # Everything is computed before the folder is touched: a failed or interrupted measurement
     # leaves a policy being replaced (--force) as it was.
     case = policy.case
@@ -91,7 +119,14 @@ def ship(
                                           progress)
     info = _policy_info(policy, name, summary, seed_evaluations, measured, notes)
     card = _ship_card(info, summary, case, target) if with_card else None
-    _write_policy_folder(target, policy, info, fields, card, with_critic)
+    if lock:
+        written = _policy_files(policy, fields, card, with_critic)
+        with replace_files(target, written, force=overwrite, option="--dest") as files:
+            _write_policy_folder(files.path, policy, info, fields, card, with_critic)
+        for stale in set(SHIPPED_FILES) - set(written):  # the replaced policy's, not this one's
+            (target / stale).unlink(missing_ok=True)
+    else:
+        _write_policy_folder(target, policy, info, fields, card, with_critic)
     return {"name": name, "dir": str(target), "case": case.name,
             "evaluation": measured, "files": sorted(p.name for p in target.iterdir())}
 
@@ -168,6 +203,14 @@ def _ship_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case,
     return card
 
 
+def _policy_files(policy: LoadedPolicy, fields: np.ndarray | None, card: str | None,
+                  with_critic: bool) -> list[str]:
+    """The files :func:`_write_policy_folder` writes."""
+    return ["actor.pt", POLICY_JSON, *(["critic.pt"] if policy.critic is not None and with_critic
+                                      else []),
+            *(["fields.csv"] if fields is not None else []), *(["MODEL_CARD.md"] if card else [])]
+
+
 def _write_policy_folder(target: Path, policy: LoadedPolicy, info: dict[str, Any],
                          fields: np.ndarray | None, card: str | None, with_critic: bool) -> None:
     """Each file atomically; ``policy.json``, which names the actor's checksum, after the weights;
@@ -198,7 +241,8 @@ def set_notes(policy: str | Path, notes: str | None,
     """Replace a shipped policy's notes (Markdown: what the numbers do not say; None or blank
     removes them). Their one home is ``policy.json``'s ``notes``; the model card's "Notes" section
     is rendered from it, so the two never disagree. ``policy``: a shipped-policy folder or name.
-    Both files are written atomically, policy.json first; the actor is not touched."""
+    Both files are replaced together (:func:`elastica_magnetic.filesets.replace_files`); the actor
+    is not touched."""
     resolved = resolve_policy(policy, policies_dir)
     if resolved.kind != "shipped":
         raise ValueError(f"{policy}: notes belong to a shipped policy (a folder with policy.json), "
@@ -211,9 +255,11 @@ def set_notes(policy: str | Path, notes: str | None,
     if card_path.is_file():
         card = replace_card_section(card_path.read_text(), NOTES_SECTION, notes,
                                     before="## Limitations")
-    atomic_write_json(folder / POLICY_JSON, info)
-    if card is not None:
-        atomic_write_text(card_path, card)
+    names = [POLICY_JSON, *(["MODEL_CARD.md"] if card is not None else [])]
+    with replace_files(folder, names, force=True, option="policy") as files:
+        atomic_write_json(files.path / POLICY_JSON, info)
+        if card is not None:
+            atomic_write_text(files.path / "MODEL_CARD.md", card)
     return {"name": info.get("name", folder.name), "dir": str(folder), "notes": notes,
             "card_updated": card is not None}
 

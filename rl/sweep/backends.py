@@ -31,6 +31,7 @@ checkpoints and returned summaries are the same whichever backend ran them.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import multiprocessing
 import os
@@ -100,6 +101,8 @@ def run_in_processes(
     jobs: list[Any],
     workers: int,
     on_error: Callable[[int, Exception], Any] | None = None,
+    stop_grace_s: float | None = None,
+    quiet_interrupt: bool = False,
 ) -> list[Any]:
     """``fn(job)`` for every job in ``workers`` processes (``spawn``), the results in the order of
     ``jobs``. A job that raises gives ``on_error(k, exception)`` as its result, or, without
@@ -107,11 +110,17 @@ def run_in_processes(
 
     Ctrl-C (KeyboardInterrupt) stops the workers within :data:`STOP_GRACE_S` (see
     :func:`_stop_workers`) and is raised again; a plain ``ProcessPoolExecutor`` would wait for
-    every queued job, and for ever after a SIGINT to this process alone.
+    every queued job, and for ever after a SIGINT to this process alone. ``stop_grace_s``
+    (default :data:`STOP_GRACE_S`) is how long the workers get; ``quiet_interrupt``: the workers
+    ignore SIGINT (no traceback of theirs on a Ctrl-C from the terminal) and are ended by this
+    process (for jobs that lose nothing when ended, such as evaluations).
     """
     context = multiprocessing.get_context("spawn")
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
-    futures = {pool.submit(fn, job): k for k, job in enumerate(jobs)}
+    grace = STOP_GRACE_S if stop_grace_s is None else stop_grace_s
+    with _sigint_ignored_while_spawning(quiet_interrupt):  # the workers inherit SIG_IGN
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=context,
+                                   initializer=_ignore_sigint if quiet_interrupt else None)
+        futures = {pool.submit(fn, job): k for k, job in enumerate(jobs)}
     results: list[Any] = [None] * len(jobs)
     try:
         for future in as_completed(futures):
@@ -123,7 +132,7 @@ def run_in_processes(
                     raise
                 results[k] = on_error(k, exc)
     except KeyboardInterrupt:
-        _stop_workers(pool, futures)
+        _stop_workers(pool, futures, grace)
         raise
     except BaseException:
         pool.shutdown(wait=True, cancel_futures=True)
@@ -136,7 +145,32 @@ def run_in_processes(
 STOP_GRACE_S = 10.0
 
 
-def _stop_workers(pool: ProcessPoolExecutor, futures) -> None:
+@contextlib.contextmanager
+def _sigint_ignored_while_spawning(active: bool):
+    """SIGINT ignored in this process while the workers start (``active``, main thread only): a
+    spawned worker keeps the ignored disposition from its first instruction, so a Ctrl-C while it
+    imports prints no traceback of its own; restored after."""
+    import signal
+    import threading
+
+    if not active or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _ignore_sigint() -> None:
+    """Worker initializer: Ctrl-C is the parent's to handle (it ends the worker)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _stop_workers(pool: ProcessPoolExecutor, futures, grace: float = STOP_GRACE_S) -> None:
     """Ctrl-C in this process: end the workers, never wait on them for good.
 
     From a terminal the workers get the same SIGINT (it goes to the whole process group) and stop
@@ -149,7 +183,8 @@ def _stop_workers(pool: ProcessPoolExecutor, futures) -> None:
     for future in futures:
         future.cancel()  # the jobs not started yet
     try:
-        running = wait(futures, timeout=STOP_GRACE_S).not_done
+        running = wait(futures, timeout=grace).not_done if grace > 0 else {
+            future for future in futures if not future.done()}
     except KeyboardInterrupt:  # a second Ctrl-C: end them now
         running = {future for future in futures if not future.done()}
     if running:

@@ -27,10 +27,19 @@ from ..cases.case import EVAL_DURATION, Case, case_from_dict, case_from_metadata
 from ..cases.recipes import crawler_config
 from ..envs.env import make_env
 from ..runfiles.checkpoint import checkpoint_metadata
+from ..runfiles.locking import (
+    briefly_locked,
+    check_not_owned,
+    check_unlocked,
+    held_run_folders,
+    mark_run_folder,
+)
+from ..runfiles.logs import read_log
 from ..runfiles.provenance import versions
 from ..runfiles.rundir import CaseDir, RunDir
 from .backends import BACKENDS, run_jobs
 from .jobs import GroupJob
+from .resume_checks import check_resumed_checkpoints
 
 __all__ = ["default_layout", "refine", "summarize_run", "train_case", "train_cases"]
 
@@ -41,16 +50,13 @@ def summarize_run(run_dir: str | Path, last: int = 5, reward_scale: float = 1e4)
     per m; for crawling: m per episode). With evaluations during training: ``best_eval_step`` and
     ``best_eval_return`` (the evaluation that ``best.pt`` holds; for crawling its return /
     ``reward_scale`` is the 10 s distance from a zero field, m), else ``None``."""
-    import csv
 
     run = RunDir(run_dir)
     rows, evals = [], []
     if run.episodes_csv.is_file():
-        with open(run.episodes_csv, newline="") as f:
-            rows = list(csv.DictReader(f))
+        rows = read_log(run.episodes_csv, ("global_step", "return", "terminated"))
     if run.evaluations_csv.is_file():
-        with open(run.evaluations_csv, newline="") as f:
-            evals = list(csv.DictReader(f))
+        evals = read_log(run.evaluations_csv, ("global_step", "mean_return"))
     best_eval = max(evals, key=lambda r: float(r["mean_return"])) if evals else None
     returns = [float(r["return"]) for r in rows]
     tail = returns[-last:]
@@ -58,7 +64,7 @@ def summarize_run(run_dir: str | Path, last: int = 5, reward_scale: float = 1e4)
     return {
         "run_dir": str(run.path),
         "episodes": len(rows),
-        "global_step": int(rows[-1]["global_step"]) if rows else 0,
+        "global_step": _checkpoint_step(run, rows),
         "final_mean_return": mean,
         "final_mean_distance_m": mean / reward_scale,
         "best_return": max(returns) if returns else float("nan"),
@@ -66,6 +72,19 @@ def summarize_run(run_dir: str | Path, last: int = 5, reward_scale: float = 1e4)
         "best_eval_step": int(best_eval["global_step"]) if best_eval else None,
         "best_eval_return": float(best_eval["mean_return"]) if best_eval else None,
     }
+
+
+def _checkpoint_step(run: RunDir, rows: list[dict[str, str]]) -> int:
+    """The step a run has reached: its checkpoint's (episodes cut by the last checkpoint are not in
+    ``episodes.csv``), else the last logged episode's, else 0."""
+    from ..runfiles.checkpoint import load_checkpoint
+
+    if run.checkpoint.is_file():
+        try:
+            return int(load_checkpoint(run.checkpoint, with_buffer=False)["global_step"])
+        except (ValueError, KeyError, TypeError):
+            pass  # an unreadable checkpoint: what the log says
+    return int(float(rows[-1]["global_step"])) if rows else 0
 
 
 def _run_metadata(case: Case, physics: str, duration: float, seed: int, **extra: Any) -> dict:
@@ -140,6 +159,20 @@ def _write_run_json(run_dir: Path, config, metadata: dict[str, Any], steps: int,
 
 
 def _train_group(job: GroupJob) -> dict[str, Any]:
+    """:func:`_train_group_unlocked` holding each seed's folder (a second process on one of them
+    is refused, naming this one) and marking it as a training run's."""
+    with held_run_folders(job.run_dirs) as notes:
+        for note in notes:  # a stale lock of a killed run taken over
+            print(f"note: {note}", file=sys.stderr)
+        for run_dir in job.run_dirs:
+            mark_run_folder(run_dir, "train", job.case)
+        result = _train_group_unlocked(job)
+        for run_dir in job.run_dirs:
+            mark_run_folder(run_dir, "train", job.case)
+    return result
+
+
+def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
     """Train a group of seeds of one case side by side in one worker process: their crawlers in
     one batched simulator (``job.envs`` each), their networks updated as one computation
     (:func:`~elastica_magnetic_rl.runner.loop.train_seeds`). Returns ``{"group": [one result per
@@ -312,6 +345,9 @@ def train_cases(
         threads = 1 if address else max(1, (os.cpu_count() or 1) // workers)
     configs = _seed_configs(loaded, seed_list, recipe, config_overrides)
     _check_run_folders(out, loaded, seed_list, resume, physics, episode_duration, recipe)
+    if resume:  # the checkpoints are these cases', and no hyperparameter given differs
+        check_resumed_checkpoints([(c, CaseDir.of(out, c).seed(s)) for c in loaded
+                                   for s in seed_list], config_overrides)
     jobs = _group_jobs(out, loaded, groups, configs, backend, physics=physics,
                        duration=float(episode_duration), steps=int(steps), resume=resume,
                        progress=progress, threads=threads, envs=int(envs), recipe=recipe)
@@ -419,12 +455,15 @@ def _check_run_folders(out: str | Path, loaded: dict[str, Case], seed_list: list
             raise FileNotFoundError(f"cannot resume: no checkpoint {', '.join(missing)} (train those "
                                     "seeds without --resume, or choose --seeds/--seed-offset)")
         for case, _, run in runs:  # a resumed run keeps its settings: checked before any work
+            if run.episodes_csv.is_file():  # a damaged log is named before any work
+                read_log(run.episodes_csv, ("global_step", "return"))
             refuse_networks_only(load_checkpoint(run.checkpoint, with_buffer=False), run.checkpoint)
             _check_resume_settings(run.path, {
                 "case": case, "case_spec": loaded[case].to_dict(), "physics": physics,
                 "episode_duration_s": float(episode_duration), "recipe": recipe})
     for _, _, run in runs:  # every seed's folder can be written, before any work
         prepare_output_dir(run.path, "--out")
+    check_unlocked(run.path for _, _, run in runs)  # no other process trains one of them now
 
 
 def _group_jobs(out: str | Path, loaded: dict[str, Case], groups: list[list[int]],
@@ -472,6 +511,13 @@ def _case_summary(case_dir: CaseDir, spec: Case, mine: list[dict[str, Any]], see
     if spec.task.kind == "crawl" and spec.yardstick.distance_10s > 0.0:
         threshold = (success_fraction * spec.yardstick.distance_10s
                      * (sweep["episode_duration_s"] / 10.0) * spec.task.reward_scale)
+    with briefly_locked(case_dir.path):  # read-modify-write: processes training other seeds
+        return _write_case_summary(case_dir, spec, mine, seed_list, threshold, sweep, wall)
+
+
+def _write_case_summary(case_dir: CaseDir, spec: Case, mine: list[dict[str, Any]],
+                        seed_list: list[int], threshold: float | None, sweep: dict[str, Any],
+                        wall: float) -> dict[str, Any]:
     per_seed = sorted(mine + _earlier_seeds(case_dir.path, seed_list, spec.task.reward_scale),
                       key=lambda r: r["seed"])
     for r in per_seed:
@@ -544,15 +590,20 @@ def refine(
         refined_from=str(source), refine_start_step=start_step, refine_steps=int(steps),
         training_steps=int(meta.get("training_steps", start_step)),
     )
+    check_not_owned(out.path, "refine")  # never a training run's folder (its checkpoint, run.json)
     if out.checkpoint.exists() and not resume:
         raise FileExistsError(f"{out.path} already holds a refined checkpoint (use --resume or --out)")
-    atomic_write_json(out.run_json, {**metadata, "steps": total, "config": config.to_dict(),
-                                     "versions": versions()})
     begin = time.perf_counter()
-    train_seeds(functools.partial(make_vector_env, case, physics=physics, initial_field="random",
-                                  duration=episode_duration),
-                [config], total, [out.path], resume=resume, progress=progress, init_from=[source],
-                progress_desc=f"refine {case.name} {CaseDir.seed_name(config.seed)}", metadata=[metadata])
+    with held_run_folders([out.path]):
+        mark_run_folder(out.path, "refine", case.name)
+        atomic_write_json(out.run_json, {**metadata, "steps": total, "config": config.to_dict(),
+                                         "versions": versions()})
+        train_seeds(functools.partial(make_vector_env, case, physics=physics,
+                                      initial_field="random", duration=episode_duration),
+                    [config], total, [out.path], resume=resume, progress=progress,
+                    init_from=[source], metadata=[metadata],
+                    progress_desc=f"refine {case.name} {CaseDir.seed_name(config.seed)}")
+        mark_run_folder(out.path, "refine", case.name)
     summary = summarize_run(out.path, reward_scale=case.task.reward_scale)
     return {"case": case.name, "source": str(source), "run_dir": str(out.path),
             "checkpoint": str(out.checkpoint), "start_step": start_step, "steps": int(steps),

@@ -204,6 +204,13 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value}")
         if self.noise_horizon < 2:
             raise ValueError(f"noise_horizon must be >= 2 steps, got {self.noise_horizon}")
+        if not self.hidden_sizes or min(self.hidden_sizes) < 1:
+            raise ValueError(f"hidden_sizes must be one or more layers of >= 1 unit, got "
+                             f"{list(self.hidden_sizes)}")
+        if self.buffer_size < self.batch_size:
+            raise ValueError(f"buffer_size ({self.buffer_size}) must be >= batch_size "
+                             f"({self.batch_size}): a minibatch is drawn from the replay buffer, so "
+                             "a smaller buffer never gives one and no weight is ever updated")
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)

@@ -73,3 +73,12 @@ def test_msr_baseline_writes_the_generate_files(tmp_path, capsys):
     assert np.all(np.abs(np.diff(fields[:, :2], axis=0)) <= 0.3e-3 + 1e-12)
     assert (out / "generate.json").is_file() and (out / "field_waveforms.png").is_file()
     assert "q_values" not in result["figures"]  # no critic to draw
+
+
+@pytest.mark.parametrize("period", [0.001, 0.01, 0.02])
+def test_a_period_that_aliases_under_the_control_rate_is_refused(period, capsys):
+    with pytest.raises(ValueError, match="Nyquist limit of the 100 Hz field updates"):
+        RotatingFieldPolicy("m1-4mT", period=period)
+    assert msr(["baseline", "--case", "m1-4mT", "--period", str(period), "--no-progress"]) == 2
+    assert "--period: period" in capsys.readouterr().err
+    assert RotatingFieldPolicy("m1-4mT", period=0.05).period == 0.05

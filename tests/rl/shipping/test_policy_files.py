@@ -77,3 +77,15 @@ def test_corrupted_checkpoint(tmp_path, capsys):
 def test_unknown_policy_is_a_clear_error(tmp_path):
     with pytest.raises(PolicyNotFoundError, match="shipped"):
         resolve_policy(tmp_path / "nothing-here")
+
+
+def test_a_case_spec_that_contradicts_the_recorded_limits_is_refused(folder, capsys):
+    meta = json.loads((folder / "policy.json").read_text())
+    meta["case_spec"]["actuation"]["field_limit"] = 0.010  # edited: 10 mT, trained for 4 mT
+    (folder / "policy.json").write_text(json.dumps(meta))
+    with pytest.raises(PolicyFileError, match=r"policy\.json: field_limit_T = 0\.004 but its "
+                       r"case_spec gives 0\.01: the file contradicts itself"):
+        resolve_policy(folder)
+    assert main(["generate", str(folder), "--out", str(folder.parent / "gen"), "--no-progress"]) == 2
+    assert "contradicts itself" in capsys.readouterr().err
+    assert not (folder.parent / "gen").exists()

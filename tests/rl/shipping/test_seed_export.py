@@ -17,12 +17,14 @@ def test_export_seeds_writes_generate_ready_folders_and_seeds_json(trained, tmp_
     entries = json.loads((dest / "seeds.json").read_text())
     assert [e["seed"] for e in entries] == [0, 1] and result["total"] == 2
     for e in entries:
-        assert set(e) >= {"seed", "steps", "distance_10s_m", "actor", "checkpoint"}
+        # evaluated for 0.05 s: the distance is labelled with its duration, not stored as 10 s's
+        assert set(e) >= {"seed", "steps", "distance_m", "duration_s", "actor", "checkpoint"}
+        assert "distance_10s_m" not in e and e["duration_s"] == 0.05
         evaluation = json.loads((trained / "m1-4mT" / f"seed{e['seed']}" / "evaluation.json").read_text())
         chosen = evaluation if e["checkpoint"] == "final" else evaluation["best"]
-        assert e["distance_10s_m"] == chosen["mid_dx_m"] and e["steps"] == chosen["global_step"]
+        assert e["distance_m"] == chosen["mid_dx_m"] and e["steps"] == chosen["global_step"]
         other = evaluation["best"] if e["checkpoint"] == "final" else evaluation
-        assert other is None or e["distance_10s_m"] >= other["mid_dx_m"]  # the farther actor
+        assert other is None or e["distance_m"] >= other["mid_dx_m"]  # the farther actor
         folder = dest / e["actor"]
         assert sorted(p.name for p in folder.iterdir()) == ["actor.pt", "episodes.csv",
                                                             "evaluations.csv", "policy.json"]
@@ -68,12 +70,12 @@ def test_export_seeds_collects_seeds_of_several_runs_and_refuses_mixed_ones(trai
     meta["case_spec"]["training"]["recipe"] = "pink-ln"
     policy_json.write_text(json.dumps(meta))
     run_msr(capsys, "export-seeds", str(second_run), "--dest", str(dest), "--duration", "0.05",
-            "--no-progress")
+            "--no-progress", "--force")  # seed 1 is there already: replaced only when asked
     assert [e["seed"] for e in json.loads((dest / "seeds.json").read_text())] == [0, 1]
     meta["case_spec"]["robot"]["youngs_modulus"] *= 2
     policy_json.write_text(json.dumps(meta))
     before = (dest / "seeds.json").read_bytes()
     assert msr(["export-seeds", str(second_run), "--dest", str(dest), "--duration", "0.05",
-                "--no-progress"]) == 2
+                "--no-progress", "--force"]) == 2
     err = capsys.readouterr().err
     assert "seed 0" in err and "another case spec" in err and (dest / "seeds.json").read_bytes() == before

@@ -1,0 +1,99 @@
+"""Who writes a run folder: a seed's folder is locked for as long as a process trains in it
+(:class:`elastica_magnetic.locks.FolderLock`, the lock file ``.seed<k>.msr-lock`` beside it) and
+carries a marker (:func:`elastica_magnetic.results.mark_folder`) naming the command that owns it,
+so that another command (``msr refine RUN --out RUN``, ``msr generate --out RUN``) is refused
+there; a case folder is locked only for the moment its ``summary.json`` is read and rewritten."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import time
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+from typing import Any
+
+from elastica_magnetic.locks import FolderLock, FolderLockedError
+from elastica_magnetic.results import MARKER, mark_folder, read_marker
+
+from .rundir import RunDir
+
+__all__ = ["check_not_owned", "check_unlocked", "held_run_folders", "mark_run_folder",
+           "briefly_locked"]
+
+
+def check_unlocked(folders: Iterable[str | Path], option: str = "--out") -> None:
+    """Refuse, naming the owner (pid, host, command), a folder another live process is writing;
+    a stale lock of a dead process is left for the writer to take over. Nothing is written when
+    no lock exists."""
+    for folder in folders:
+        folder = Path(folder)
+        if not folder.parent.is_dir():
+            continue
+        with FolderLock(folder, option=option):
+            pass
+
+
+@contextlib.contextmanager
+def held_run_folders(folders: Iterable[str | Path], option: str = "--out") -> Iterator[list[str]]:
+    """Hold the lock of every run folder (created if absent) for the block; yields the notes
+    (stale locks taken over). Raises :class:`~elastica_magnetic.locks.FolderLockedError` naming
+    the process that holds one, before any is written."""
+    notes: list[str] = []
+    with contextlib.ExitStack() as stack:
+        for folder in folders:
+            folder = Path(folder)
+            folder.parent.mkdir(parents=True, exist_ok=True)
+            notes += stack.enter_context(FolderLock(folder, option=option)).notes
+        yield notes
+
+
+def mark_run_folder(folder: str | Path, kind: str, case: str) -> None:
+    """The marker of a run folder (``kind``: ``"train"`` or ``"refine"``) for ``case``."""
+    Path(folder).mkdir(parents=True, exist_ok=True)
+    mark_folder(folder, kind=kind, subject=f"case {case}")
+
+
+def check_not_owned(out: str | Path, kind: str, option: str = "--out") -> None:
+    """Refuse an ``out`` folder that belongs to another command: a marker of another kind, or,
+    for a folder written before markers, a ``run.json`` of another command (a training run's
+    folder). ``ValueError`` naming the owner."""
+    out = Path(out)
+    marker = read_marker(out)
+    owner: dict[str, Any] | None = None
+    if marker is not None and marker["kind"] != kind:
+        owner = marker
+    elif marker is None and RunDir(out).run_json.is_file():
+        try:
+            command = json.loads(RunDir(out).run_json.read_text()).get("command") or "train"
+        except (OSError, ValueError, AttributeError):
+            command = "train"
+        if command != kind:
+            owner = {"kind": command, "subject": None}
+    if owner is not None:
+        subject = f" for {owner['subject']}" if owner.get("subject") else ""
+        raise ValueError(f"{option} {out}: is the folder of a `msr {owner['kind']}` run{subject} "
+                         f"({MARKER if marker else 'run.json'}); `msr {kind}` never writes into a "
+                         f"folder another command owns: choose another {option}")
+
+
+@contextlib.contextmanager
+def briefly_locked(folder: str | Path, timeout_s: float = 60.0,
+                   option: str = "--out") -> Iterator[FolderLock]:
+    """Hold ``folder``'s lock for a short read-modify-write (a case's ``summary.json``), waiting up
+    to ``timeout_s`` s for another process holding it for the same reason."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    deadline = time.monotonic() + timeout_s
+    while True:
+        try:
+            lock = FolderLock(folder, option=option).acquire()
+            break
+        except FolderLockedError:
+            if time.monotonic() > deadline:
+                raise
+            time.sleep(0.1)
+    try:
+        yield lock
+    finally:
+        lock.release()

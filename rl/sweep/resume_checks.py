@@ -1,0 +1,51 @@
+"""What ``msr train --resume`` checks in each seed's checkpoint before any work (issue 35): the
+checkpoint is of the case being resumed (not another case's checkpoint copied into the folder),
+and no hyperparameter given on the command line differs from the one the run was trained with
+(the run keeps its own; a silently ignored option would be a wrong record)."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+from ..runfiles.checkpoint import load_checkpoint
+from ..runfiles.rundir import RunDir
+from ..td3.algorithm import Schedule
+
+__all__ = ["check_resumed_checkpoints"]
+
+#: Settings a resumed run may change (when to checkpoint, log and evaluate: no weight changes).
+_MAY_CHANGE = frozenset(f.name for f in dataclasses.fields(Schedule))
+
+
+def _option(key: str) -> str:
+    return "--hidden" if key == "hidden_sizes" else f"--{key.replace('_', '-')}"
+
+
+def _same(a: Any, b: Any) -> bool:
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return list(a) == list(b)
+    return a == b
+
+
+def check_resumed_checkpoints(runs: Iterable[tuple[str, RunDir]],
+                              overrides: Mapping[str, Any] | None) -> None:
+    """For each ``(case name, run folder)`` resumed: refuse (``ValueError``) a checkpoint whose
+    metadata names another case, and any of ``overrides`` (the TD3 settings given on the command
+    line) that differs from the checkpoint's, naming the option, the run's value and the new one."""
+    for case, run in runs:
+        ckpt = load_checkpoint(run.checkpoint, with_buffer=False)
+        meta = ckpt.get("metadata") or {}
+        if meta.get("case") not in (None, case):
+            raise ValueError(f"{run.checkpoint}: a checkpoint of case {meta['case']!r}, not of "
+                             f"{case!r}: cannot resume it as {case} (was it copied here?)")
+        config = ckpt.get("config") or {}
+        changed = [f"{_option(k)}: the run's {config[k]!r}, given {v!r}"
+                   for k, v in (overrides or {}).items()
+                   if k not in _MAY_CHANGE and k in config and not _same(config[k], v)]
+        if changed:
+            raise ValueError(f"cannot resume {run.path} with other hyperparameters ("
+                             + "; ".join(changed) + "): a resumed run keeps the ones it was "
+                             "trained with; drop these options, or train a new run (another "
+                             "--out or --seed-offset)")

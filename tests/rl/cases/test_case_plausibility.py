@@ -1,0 +1,44 @@
+"""Values that cannot be right are refused when a spec is read, naming the file, the table and
+the key (rl/cases/case.py; issue 35)."""
+
+from __future__ import annotations
+
+import pytest
+from elastica_magnetic_rl.cases.case import case_from_dict, load_case
+
+from elastica_magnetic.specfile import SpecError
+
+
+def _reach(**task):
+    data = load_case("m1-4mT-reach").to_dict()
+    data["task"].update(task)
+    return data
+
+
+@pytest.mark.parametrize(("target", "tolerance"), [(0.01, 0.01), (0.01, 0.02), (-0.005, 0.006)])
+def test_a_reach_tolerance_not_under_the_target_distance_is_refused(target, tolerance):
+    with pytest.raises(SpecError) as err:
+        case_from_dict(_reach(target=target, tolerance=tolerance), "my.toml")
+    text = str(err.value)
+    assert text.startswith("my.toml") and "[task] tolerance" in text
+    assert "must be smaller than the target distance" in text
+
+
+def test_a_reach_tolerance_under_the_target_is_accepted():
+    assert case_from_dict(_reach(target=-0.01, tolerance=0.002), "my.toml").task.tolerance == 0.002
+
+
+@pytest.mark.parametrize(("td3", "message"), [
+    ({"batch_size": 0}, "[training.td3] batch_size: batch_size must be >= 1, got 0"),
+    ({"hidden_sizes": []}, "[training.td3] hidden_sizes: hidden_sizes must be one or more layers"),
+    ({"hidden_sizes": [64, 0]}, "[training.td3] hidden_sizes: hidden_sizes must be one or more"),
+    ({"buffer_size": 16, "batch_size": 64}, "[training.td3] buffer_size: buffer_size (16) must be "
+                                            ">= batch_size (64)"),
+    ({"tau": 2.0}, "[training.td3] tau: tau must be in (0, 1]"),
+])
+def test_training_td3_values_are_checked_when_the_spec_is_read(td3, message):
+    data = load_case("m1-4mT").to_dict()
+    data["training"]["td3"] = td3
+    with pytest.raises(SpecError) as err:
+        case_from_dict(data, "my.toml")
+    assert str(err.value).startswith("my.toml") and message in str(err.value), str(err.value)

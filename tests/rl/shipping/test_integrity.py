@@ -1,0 +1,249 @@
+"""The learning package's writing commands against an existing result (issue 35): ``msr
+generate``, ``baseline``, ``demo``, ``export``, ``export-seeds``, ``ship``, ``notes`` and
+``figures`` replace a result whole or not at all, only with ``--force``, never another command's
+or case's; Ctrl-C in a real ``msr generate`` / ``msr export-seeds --workers 2`` process prints one
+line and leaves the earlier result byte for byte."""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from smoke import run_msr
+
+from elastica_magnetic.cli import main as msr
+from elastica_magnetic.results import MARKER
+
+QUICK = ["--duration", "0.05", "--physics", "training", "--no-figures", "--no-progress"]
+
+
+def snapshot(folder: Path) -> dict[str, bytes]:
+    """Every file under ``folder`` (relative path -> bytes)."""
+    return {p.relative_to(folder).as_posix(): p.read_bytes()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def leftovers(folder: Path) -> list[str]:
+    """Temporary folders or lock files of the mechanism beside or inside ``folder``."""
+    beside = [p.name for p in folder.parent.iterdir() if p.name.startswith(f".{folder.name}.msr-")]
+    inside = [p.name for p in folder.rglob(".msr-files-*")] if folder.is_dir() else []
+    return beside + inside
+
+
+def test_generate_replaces_only_its_own_result_and_only_with_force(trained, tmp_path, capsys):
+    run = trained / "m1-4mT" / "seed0"
+    out = tmp_path / "gen"
+    first = run_msr(capsys, "generate", str(run), *QUICK, "--out", str(out))
+    assert ".msr-new" not in json.dumps(first) and Path(first["fields_csv"]).parent == out
+    stored = json.loads((out / "generate.json").read_text())
+    assert stored["trajectory_csv"] == str(out / "trajectory.csv")  # where the file is now
+    assert json.loads((out / MARKER).read_text())["subject"] == "case m1-4mT"
+    before = snapshot(out)
+
+    assert msr(["generate", str(run), *QUICK, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "already holds a result of `msr generate` for case m1-4mT" in err and "--force" in err
+    assert msr(["baseline", "--case", "m1-4mT", *QUICK, "--out", str(out), "--force"]) == 2
+    assert "not of `msr baseline`" in capsys.readouterr().err
+    assert snapshot(out) == before and not leftovers(out)
+
+    run_msr(capsys, "generate", str(run), *QUICK, "--out", str(out), "--force")
+    assert (out / "fields.csv").is_file() and not leftovers(out)
+
+
+def test_generate_never_writes_into_a_training_run(trained, tmp_path, capsys):
+    run = tmp_path / "seed1"
+    shutil.copytree(trained / "m1-4mT" / "seed1", run)
+    before = snapshot(run)
+    assert msr(["generate", str(trained / "m1-4mT" / "seed0"), *QUICK, "--out", str(run),
+                "--force"]) == 2
+    assert "a result of `msr train` for case m1-4mT" in capsys.readouterr().err
+    assert snapshot(run) == before
+
+
+def test_demo_replaces_its_own_demo(monkeypatch, trained, tmp_path, capsys):
+    from elastica_magnetic_rl.shipping import generate as generate_module
+
+    calls = []
+    real = generate_module.generate
+
+    def short(policy, **kwargs):
+        calls.append(kwargs)
+        return real(run_policy_source, **{**kwargs, "duration": 0.05, "physics": "training",
+                                          "figures": False})
+
+    run_policy_source = str(trained / "m1-4mT" / "seed0")
+    monkeypatch.setattr(generate_module, "generate", short)
+    out = tmp_path / "demo"
+    for _ in range(2):  # the README's main command stays re-runnable
+        assert msr(["demo", "--out", str(out), "--no-progress", "--json"]) == 0
+    assert calls[-1]["force"] is True and calls[-1]["kind"] == "demo"
+    assert json.loads((out / MARKER).read_text())["kind"] == "demo"
+
+
+def test_export_needs_force_to_replace(trained, tmp_path, capsys):
+    run = str(trained / "m1-4mT" / "seed0")
+    out = tmp_path / "export"
+    run_msr(capsys, "export", run, "--out", str(out))
+    before = snapshot(out)
+    assert msr(["export", run, "--out", str(out)]) == 2
+    assert "already holds a result of `msr export`" in capsys.readouterr().err
+    assert snapshot(out) == before
+    result = run_msr(capsys, "export", run, "--out", str(out), "--force")
+    assert result["json"] == str(out / "policy.json") and not leftovers(out)
+
+
+def test_ship_checks_name_and_dest_first_and_keeps_the_old_policy_on_a_full_disk(
+        trained, tmp_path, capsys, monkeypatch):
+    run = str(trained / "m1-4mT" / "seed0")
+    for bad in ("../x", ".hidden", "a/b"):
+        assert msr(["ship", run, "--name", bad, "--dest", str(tmp_path), "--no-progress"]) == 2
+        assert "--name" in capsys.readouterr().err
+    assert not (tmp_path.parent / "x").exists()
+    a_file = tmp_path / "file.txt"
+    a_file.write_text("x")
+    begin = time.perf_counter()
+    assert msr(["ship", run, "--name", "p", "--dest", str(a_file), "--no-progress"]) == 2
+    assert "is a file" in capsys.readouterr().err and time.perf_counter() - begin < 10
+
+    dest = tmp_path / "policies"
+    run_msr(capsys, "ship", run, "--name", "p", "--dest", str(dest), "--no-measure")
+    (dest / "p" / "seeds").mkdir()  # export-seeds' folder inside a shipped policy stays
+    (dest / "p" / "seeds" / "keep.txt").write_text("mine")
+    before = snapshot(dest / "p")
+    assert msr(["ship", run, "--name", "p", "--dest", str(dest), "--no-measure"]) == 2
+    assert "already holds a policy" in capsys.readouterr().err
+
+    from elastica_magnetic_rl.shipping import ship as ship_module
+
+    def full_disk(path, data):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(ship_module, "atomic_write_json", full_disk)  # after actor.pt
+    assert msr(["ship", run, "--name", "p", "--dest", str(dest), "--no-measure", "--force"]) == 2
+    assert "No space left on device" in capsys.readouterr().err
+    assert snapshot(dest / "p") == before and not leftovers(dest / "p")
+    monkeypatch.undo()
+    run_msr(capsys, "ship", run, "--name", "p", "--dest", str(dest), "--no-measure", "--force")
+    assert (dest / "p" / "seeds" / "keep.txt").read_text() == "mine"
+
+
+def test_notes_of_a_run_and_a_non_utf8_notes_file(trained, tmp_path, capsys):
+    run = str(trained / "m1-4mT" / "seed0")
+    assert msr(["notes", run]) == 2
+    assert "not a shipped policy" in capsys.readouterr().err
+    latin = tmp_path / "notes.md"
+    latin.write_bytes("Kalibrierung f\xfcr 4 mT".encode("latin-1"))
+    assert msr(["ship", run, "--name", "p", "--dest", str(tmp_path), "--no-measure",
+                "--notes", str(latin)]) == 2
+    err = capsys.readouterr().err
+    assert f"--notes {latin}: not UTF-8" in err and not (tmp_path / "p").exists()
+
+
+def test_export_seeds_merges_refuses_another_case_and_labels_the_duration(trained, tmp_path, capsys):
+    dest = tmp_path / "seeds"
+    case_dir = str(trained / "m1-4mT")
+    args = ["export-seeds", case_dir, "--dest", str(dest), "--duration", "0.05", "--no-progress"]
+    result = run_msr(capsys, *args)
+    entry = result["seeds"][0]
+    assert "distance_10s_m" not in entry and entry["duration_s"] == 0.05  # not the 10 s distance
+    before = snapshot(dest)
+    assert msr(args) == 2
+    assert "already holds seeds 0, 1 of case m1-4mT" in capsys.readouterr().err
+    # the folder now holds another case's seeds (as m2-4mT's would be)
+    policy_json = dest / "seed0" / "policy.json"
+    info = json.loads(policy_json.read_text())
+    info["case"], info["case_spec"]["name"] = "m2-4mT", "m2-4mT"
+    policy_json.write_text(json.dumps(info))
+    before = snapshot(dest)
+    assert msr([*args, "--force"]) == 2
+    assert "trained on another case spec ('m2-4mT')" in capsys.readouterr().err
+    assert snapshot(dest) == before and not leftovers(dest)
+
+
+def test_figures_name_a_damaged_log_and_replace_their_own_figures(trained, tmp_path, capsys):
+    runs = tmp_path / "runs"
+    shutil.copytree(trained, runs)
+    first = run_msr(capsys, "figures", str(runs))
+    again = run_msr(capsys, "figures", str(runs))  # regenerating is the command: no --force
+    assert first == again and Path(first["learning_curves_m1-4mT"]).is_file()
+    episodes = runs / "m1-4mT" / "seed1" / "episodes.csv"
+    lines = episodes.read_text().splitlines()
+    lines[2] = lines[2].replace(lines[2].split(",")[2], "abc", 1)
+    episodes.write_text("\n".join(lines) + "\n")
+    assert msr(["figures", str(runs)]) == 2
+    err = capsys.readouterr().err
+    assert f"{episodes}: damaged log: row 3, column 'return': 'abc'" in err
+    assert not leftovers(runs)
+
+
+# -- Ctrl-C in a real process ----------------------------------------------------------------------
+
+MSR = "import sys; from elastica_magnetic.cli import main; sys.exit(main(sys.argv[1:]))"
+
+
+def interrupt_when_writing(args: list[str], out: Path, cwd: Path,
+                           delay: float) -> subprocess.CompletedProcess:
+    """Run ``msr ARGS`` in its own process group; once its temporary result folder beside
+    ``out`` exists, wait ``delay`` s and send SIGINT to the group (as a terminal's Ctrl-C)."""
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    proc = subprocess.Popen([sys.executable, "-c", MSR, *args], cwd=cwd, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    deadline = time.monotonic() + 180
+    while not any(p.name.startswith(f".{out.name}.msr-new-") for p in out.parent.iterdir()):
+        if proc.poll() is not None or time.monotonic() > deadline:
+            proc.kill()
+            raise AssertionError(f"never started writing: {proc.communicate()}")
+        time.sleep(0.05)
+    time.sleep(delay)
+    os.killpg(proc.pid, signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=60)
+    return subprocess.CompletedProcess(args, proc.returncode, stdout, stderr)
+
+
+@pytest.mark.skipif(os.name != "posix", reason="signals are POSIX")
+def test_ctrl_c_in_generate_leaves_the_earlier_result(refined, tmp_path, capsys):
+    out = tmp_path / "gen"
+    run_msr(capsys, "generate", str(refined), *QUICK, "--out", str(out))
+    before = snapshot(out)
+    begin = time.perf_counter()
+    done = interrupt_when_writing(["generate", str(refined), "--duration", "5", "--no-progress",
+                                   "--out", str(out), "--force"], out, tmp_path, 0.5)
+    assert done.returncode == 130, done.stderr
+    assert done.stderr.strip().splitlines() == [
+        f"msr generate: interrupted (SIGINT); {out} was left as it was (a result folder is "
+        "replaced whole or not at all)"]
+    assert time.perf_counter() - begin < 60
+    assert snapshot(out) == before and not leftovers(out)
+
+
+@pytest.mark.skipif(os.name != "posix", reason="signals are POSIX")
+def test_ctrl_c_in_export_seeds_with_workers_leaves_the_earlier_result(trained, tmp_path, capsys):
+    dest = tmp_path / "seeds"
+    runs = tmp_path / "runs"
+    shutil.copytree(trained / "m1-4mT", runs / "m1-4mT")
+    args = ["export-seeds", str(runs / "m1-4mT"), "--dest", str(dest), "--duration", "0.05",
+            "--no-progress"]
+    run_msr(capsys, *args)
+    before = snapshot(dest)
+    for evaluation in (runs / "m1-4mT").glob("seed*/evaluation.json"):
+        evaluation.unlink()  # no cached evaluation: the workers have minutes of work
+    done = interrupt_when_writing(["export-seeds", str(runs / "m1-4mT"), "--dest", str(dest),
+                                   "--duration", "20", "--workers", "2", "--no-progress",
+                                   "--force"], dest, tmp_path, 3.0)
+    assert done.returncode == 130, done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert "Traceback" not in done.stderr, done.stderr
+    assert lines[0] == (f"msr export-seeds: interrupted (SIGINT); {dest} was left as it was (a "
+                        "result folder is replaced whole or not at all)"), done.stderr
+    assert len(lines) == 1, done.stderr
+    assert snapshot(dest) == before and not leftovers(dest)

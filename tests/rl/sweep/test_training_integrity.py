@@ -1,0 +1,136 @@
+"""Training runs and their folders (issue 35): a seed's folder has one writer, processes
+training different seeds of one ``--out`` share its ``summary.json``, ``msr refine`` never
+writes into a training run, a damaged log is named before any work, ``summary.json`` reports the
+checkpoint's step."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+from smoke import SMOKE
+
+from elastica_magnetic.cli import main as msr
+from elastica_magnetic.locks import FolderLock
+from elastica_magnetic.results import read_marker
+
+
+def test_a_seed_being_trained_is_refused_naming_the_owner(tmp_path, capsys):
+    seed = tmp_path / "runs" / "m1-4mT" / "seed0"
+    seed.parent.mkdir(parents=True)
+    with FolderLock(seed):  # another process trains seed0 (this one holds its lock)
+        status = msr(["train", "--case", "m1-4mT", "--seeds", "1", "--steps", "80", "--out",
+                      str(tmp_path / "runs"), *SMOKE])
+    assert status == 2
+    err = capsys.readouterr().err
+    assert f"being written by pid {os.getpid()}" in err
+    assert not (seed / "checkpoint.pt").exists()
+
+
+def test_seed_folders_are_marked_and_summary_reports_the_checkpoint_step(trained):
+    from elastica_magnetic_rl.runfiles.checkpoint import load_checkpoint
+
+    summary = json.loads((trained / "m1-4mT" / "summary.json").read_text())
+    for entry in summary["seeds"]:
+        run = trained / "m1-4mT" / f"seed{entry['seed']}"
+        assert entry["global_step"] == int(load_checkpoint(run, with_buffer=False)["global_step"])
+        marker = read_marker(run)
+        assert marker["kind"] == "train" and marker["subject"] == "case m1-4mT"
+
+
+def test_refine_never_writes_into_a_training_run(trained, tmp_path, capsys):
+    run = tmp_path / "seed0"
+    shutil.copytree(trained / "m1-4mT" / "seed0", run)
+    before = {p.name: p.read_bytes() for p in run.iterdir() if p.is_file()}
+    assert msr(["refine", str(run), "--resume", "--out", str(run), "--steps", "2",
+                "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert f"--out {run}: is the folder of a `msr train` run for case m1-4mT" in err
+    assert {p.name: p.read_bytes() for p in run.iterdir() if p.is_file()} == before
+
+
+def test_a_damaged_episode_log_is_named_before_resuming(trained, tmp_path, capsys):
+    runs = tmp_path / "runs"
+    shutil.copytree(trained, runs)
+    episodes = runs / "m1-4mT" / "seed0" / "episodes.csv"
+    text = episodes.read_text()
+    episodes.write_text(text[: len(text) // 2] + "\n\x00\x00garbage,,\n")
+    before = (runs / "m1-4mT" / "seed0" / "checkpoint.pt").read_bytes()
+    assert msr(["train", "--case", "m1-4mT", "--seeds", "2", "--steps", "400", "--resume",
+                "--out", str(runs), *SMOKE]) == 2
+    err = capsys.readouterr().err
+    assert f"{episodes}: damaged log: row" in err
+    assert (runs / "m1-4mT" / "seed0" / "checkpoint.pt").read_bytes() == before
+
+
+MSR = "import sys; from elastica_magnetic.cli import main; sys.exit(main(sys.argv[1:]))"
+
+
+def test_two_processes_train_different_seeds_of_one_out(tmp_path):
+    out = tmp_path / "runs"
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    procs = [subprocess.Popen([sys.executable, "-c", MSR, "train", "--case", "m1-4mT", "--seeds",
+                               "1", "--seed-offset", str(k), "--steps", "80", "--workers", "1",
+                               "--out", str(out), *SMOKE], env=env, stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True)
+             for k in (0, 1)]
+    for proc in procs:
+        stdout, stderr = proc.communicate(timeout=300)
+        assert proc.returncode == 0, stderr
+    summary = json.loads((out / "m1-4mT" / "summary.json").read_text())
+    assert sorted(e["seed"] for e in summary["seeds"]) == [0, 1]
+    assert not list((out / "m1-4mT").glob(".*.msr-lock")) and not list(out.glob(".*.msr-lock"))
+
+
+def test_case_given_twice_trains_both(monkeypatch):
+    from elastica_magnetic_rl.sweep import training
+
+    seen = {}
+
+    def fake(cases, **kwargs):
+        seen["cases"] = [c.name for c in cases]
+        return {}
+
+    monkeypatch.setattr(training, "train_cases", fake)
+    msr(["train", "--case", "m1-4mT", "--case", "m2-4mT", "--seeds", "1", "--no-progress"])
+    assert seen["cases"] == ["m1-4mT", "m2-4mT"]
+
+
+def _copy_runs(trained, tmp_path) -> Path:
+    runs = tmp_path / "runs"
+    shutil.copytree(trained, runs)
+    return runs
+
+
+def test_resume_refuses_a_changed_hyperparameter_naming_both_values(trained, tmp_path, capsys):
+    runs = _copy_runs(trained, tmp_path)
+    before = (runs / "m1-4mT" / "seed0" / "checkpoint.pt").read_bytes()
+    base = ["train", "--case", "m1-4mT", "--seeds", "2", "--steps", "400", "--resume", "--out",
+            str(runs)]
+    smoke = [a for a in SMOKE]
+    for option, value, expected in (("--hidden", "64,64", "--hidden: the run's (32, 32), given (64, 64)"),
+                                    ("--batch-size", "64", "--batch-size: the run's 32, given 64")):
+        args = list(smoke)
+        args[args.index(option) + 1] = value
+        assert msr([*base, *args]) == 2
+        err = capsys.readouterr().err
+        assert "cannot resume" in err and expected in err, err
+    assert (runs / "m1-4mT" / "seed0" / "checkpoint.pt").read_bytes() == before
+
+
+def test_resume_refuses_another_cases_checkpoint(trained, tmp_path, capsys):
+    import torch
+
+    runs = _copy_runs(trained, tmp_path)
+    path = runs / "m1-4mT" / "seed1" / "checkpoint.pt"
+    ckpt = torch.load(path, weights_only=True)
+    ckpt["metadata"]["case"] = "m2-4mT"  # as if m2-4mT's checkpoint had been copied here
+    torch.save(ckpt, path)
+    assert msr(["train", "--case", "m1-4mT", "--seeds", "2", "--steps", "400", "--resume",
+                "--out", str(runs), *SMOKE]) == 2
+    err = capsys.readouterr().err
+    assert f"{path}: a checkpoint of case 'm2-4mT', not of 'm1-4mT'" in err
