@@ -107,7 +107,7 @@ def robustness_command(args: argparse.Namespace) -> int:
     from .report import robustness_table
     from .robustness import plan_robustness, run_robustness, write_robustness
 
-    prepare_output_folder(args.out, args.force)
+    prepare_output_folder(args.out, args.force, kind="robustness")
     try:
         plan = plan_robustness(
             args.source, case=args.case, fields_csv=args.fields, variations=args.vary,
@@ -138,7 +138,7 @@ def identify_command(args: argparse.Namespace) -> int:
     from .output import prepare_output_folder
     from .tracking import check_against_robot, read_trajectory
 
-    prepare_output_folder(args.out, args.force)
+    prepare_output_folder(args.out, args.force, kind="identify")
     fields = read_field_csv(args.field_csv)
     measured = read_trajectory(args.trajectory_csv)
     spec = load_spec(args.robot)

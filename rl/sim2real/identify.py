@@ -350,5 +350,5 @@ def write_identified(report: dict[str, Any], spec: Mapping[str, Any], measured: 
         plot_identify(report, measured, folder / "identify.png")
         atomic_write_json(folder / "identify.json", {k: v for k, v in report.items() if k != "predicted"})
 
-    write_folder_whole(out, fill, force)
+    write_folder_whole(out, fill, force, kind="identify")
     return Path(out)

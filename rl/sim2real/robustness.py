@@ -305,6 +305,6 @@ def write_robustness(report: dict[str, Any], plan: RobustnessPlan, out: str | Pa
             plot_robustness(report, folder / "robustness.png")
         atomic_write_json(folder / "robustness.json", report)
 
-    write_folder_whole(out, fill, force)
+    write_folder_whole(out, fill, force, kind="robustness")
     return Path(out)
 

@@ -70,7 +70,8 @@ def test_command_writes_the_folder_whole_and_refuses_an_existing_one(tmp_path, c
             "--no-progress", "--workers", "1"]
     assert main(argv) == 0
     printed = json.loads(capsys.readouterr().out)
-    assert sorted(p.name for p in out.iterdir()) == ["fields.csv", "robustness.json", "robustness.png"]
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
+        "fields.csv", "robustness.json", "robustness.png"]
     report = json.loads((out / "robustness.json").read_text())
     assert [v["kind"] for v in report["variants"]] == ["nominal", "one-at-a-time", "one-at-a-time",
                                                        "sample", "sample"]
@@ -78,11 +79,13 @@ def test_command_writes_the_folder_whole_and_refuses_an_existing_one(tmp_path, c
     values = report["variants"][1]["values"]
     assert values == {"robot.ground.static_mu": 0.8 * 0.75, "robot.ground.kinetic_mu": 0.6 * 0.75}
     assert main(argv) == 2
-    assert "already exists (pass --force" in capsys.readouterr().err
-    (out / "stale.txt").write_text("old")
+    assert "already holds a result of `msr robustness`" in capsys.readouterr().err
+    (out / "stale.txt").write_text("old")  # a file msr did not write: never replaced, even with --force
+    assert main([*argv, "--force", "--samples", "0"]) == 2
+    assert "stale.txt" in capsys.readouterr().err and (out / "stale.txt").read_text() == "old"
+    (out / "stale.txt").unlink()
     assert main([*argv, "--force", "--samples", "0"]) == 0
     capsys.readouterr()
-    assert not (out / "stale.txt").exists()
     assert len(json.loads((out / "robustness.json").read_text())["variants"]) == 3
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary left
 
