@@ -16,6 +16,9 @@ from elastica_magnetic.cli import CommandError, duration_option, number, print_r
 from ..cases.recipes import RECIPE_SUMMARIES, RECIPES
 from ..runfiles.rundir import CaseDir, RunDir
 
+CHECKPOINT_HELP = ("which actor of a run: auto (default: the final actor and best.pt evaluated in "
+                   "the accurate physics from a zero field, the farther used), final, best, or a "
+                   "checkpoint file")
 CASE_HELP = "a shipped case (`msr case list`: m1-4mT, m2-4mT, m1-10mT, m2-10mT, ...) or a spec file (.toml)"
 
 
@@ -202,6 +205,8 @@ def _add_generate_command(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("policy", help="run directory, checkpoint, shipped-policy folder or shipped name "
                                   "(e.g. m1-4mT)")
+    p.add_argument("--checkpoint", default="auto", metavar="auto|final|best|PATH",
+                   help=CHECKPOINT_HELP + " (evaluated for --duration s)")
     _add_rollout_options(p, Path("out/generate"))
     p.set_defaults(func=generate_command)
 
@@ -395,11 +400,23 @@ def refine_command(args: argparse.Namespace) -> int:
 def generate_command(args: argparse.Namespace) -> int:
     from ..shipping.generate import generate
 
-    result = generate(args.policy, duration=args.duration, out=args.out, physics=args.physics,
-                      progress=not args.no_progress, figures=not args.no_figures,
-                      gif=not args.no_gif)
-    print_result(result, args.json)
+    try:
+        result = generate(args.policy, duration=args.duration, out=args.out, physics=args.physics,
+                          progress=not args.no_progress, figures=not args.no_figures,
+                          gif=not args.no_gif, checkpoint=args.checkpoint)
+    except FileNotFoundError as exc:
+        raise CommandError(str(exc)) from None
+    print_rollout_result(result, args.json)
     return 0 if not result["diverged"] else 1
+
+
+def print_rollout_result(result: dict, as_json: bool) -> None:
+    """A rollout's result; in text, the actor a run's choice used comes first, in one line."""
+    if as_json or "actor_choice" not in result:
+        print_result(result, as_json)
+        return
+    print(f"actor: {result['actor_choice']['summary']}")
+    print_result({k: v for k, v in result.items() if k != "actor_choice"}, False)
 
 
 def baseline_command(args: argparse.Namespace) -> int:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, duration_option, print_result
 
-from .commands import CASE_HELP, case_option
+from .commands import CASE_HELP, CHECKPOINT_HELP, case_option, print_rollout_result
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -76,6 +76,8 @@ def _add_ship_command(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("run", type=Path, help="run directory or checkpoint (e.g. runs/m1-4mT/seed3/refined)")
     p.add_argument("--name", required=True, help="policy name, e.g. m1-4mT")
+    p.add_argument("--checkpoint", default="auto", metavar="auto|final|best|PATH",
+                   help=CHECKPOINT_HELP + " (evaluated for --duration s)")
     p.add_argument("--dest", type=Path, default=None, help="default: the package's rl/policies")
     p.add_argument("--no-measure", action="store_true", help="skip the evaluation run")
     p.add_argument("--duration", type=duration_option(), default=10.0, help="evaluation length, s")
@@ -111,6 +113,9 @@ def _add_export_command(sub: argparse._SubParsersAction) -> None:
         help="export a policy's actor as TorchScript plus its observation/action JSON",
     )
     p.add_argument("policy", help="run directory, checkpoint, shipped-policy folder or shipped name")
+    p.add_argument("--checkpoint", default="auto", metavar="auto|final|best|PATH",
+                   help=CHECKPOINT_HELP + " (10 s)")
+    p.add_argument("--no-progress", action="store_true")
     p.add_argument("--out", type=Path, default=Path("out/export"))
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=export_command)
@@ -206,14 +211,33 @@ def ship_command(args: argparse.Namespace) -> int:
         if not args.notes.is_file():
             raise CommandError(f"--notes {args.notes}: no such file")
         notes = args.notes.read_text()
+    choice = _actor_choice(args.run, args.checkpoint, args.duration, not args.no_progress)
     try:
-        result = ship(args.run, args.name, dest=args.dest, measure=not args.no_measure,
+        result = ship(choice.path if choice else args.run, args.name, dest=args.dest,
+                      measure=not args.no_measure,
                       duration=args.duration, progress=not args.no_progress, overwrite=args.force,
                       evaluate_all_seeds=args.evaluate_seeds, notes=notes)
     except (FileExistsError, FileNotFoundError) as exc:
         raise CommandError(str(exc)) from None
-    print_result(result, args.json)
+    _print_with_choice(result, choice, args.json)
     return 0
+
+
+def _actor_choice(run, checkpoint: str, duration: float, progress: bool):
+    """The actor of a run a command uses (``--checkpoint``): see
+    :func:`~elastica_magnetic_rl.shipping.policy_runs.choose_actor`."""
+    from ..shipping.policy_runs import choose_actor
+
+    try:
+        return choose_actor(run, checkpoint, duration, progress)
+    except FileNotFoundError as exc:
+        raise CommandError(str(exc)) from None
+
+
+def _print_with_choice(result: dict, choice, as_json: bool) -> None:
+    if choice is not None:
+        result = {**result, "actor_choice": {**choice.to_dict(), "summary": choice.describe()}}
+    print_rollout_result(result, as_json)
 
 
 def notes_command(args: argparse.Namespace) -> int:
@@ -241,7 +265,9 @@ def notes_command(args: argparse.Namespace) -> int:
 def export_command(args: argparse.Namespace) -> int:
     from ..shipping.export import export_policy
 
-    print_result(export_policy(args.policy, args.out), args.json)
+    choice = _actor_choice(args.policy, args.checkpoint, 10.0, not args.no_progress)
+    result = export_policy(choice.path if choice else args.policy, args.out)
+    _print_with_choice(result, choice, args.json)
     return 0
 
 

@@ -26,7 +26,7 @@ from .policy_files import (
     PolicyNotFoundError,
     resolve_policy,
 )
-from .policy_runs import node_dx, run_policy
+from .policy_runs import choose_actor, node_dx, run_policy
 
 __all__ = ["demo", "generate", "reach_metrics"]
 
@@ -56,11 +56,17 @@ def generate(
     progress: bool = True,
     figures: bool = True,
     gif: bool = True,
+    checkpoint: str = "auto",
 ) -> dict[str, Any]:
     """Generate a field waveform with a policy: accurate physics, field from zero, deterministic.
 
     ``policy`` is anything :func:`resolve_policy` accepts, a loaded policy, or a hand-designed
     baseline such as :class:`~elastica_magnetic_rl.shipping.baselines.RotatingFieldPolicy`.
+    For a run folder (or its ``checkpoint.pt``), ``checkpoint`` picks the actor
+    (:func:`~elastica_magnetic_rl.shipping.policy_runs.choose_actor`): ``"auto"`` evaluates the final
+    actor and ``best.pt`` for ``duration`` s in the accurate physics from a zero field and uses the
+    farther; ``"final"``, ``"best"`` or a checkpoint path choose it. The result's ``actor_choice``
+    says which and gives both distances.
 
     Writes into ``out``: ``fields.csv`` (paper format: index, mag_x, mag_y, mag_z in mT; row ``i``
     is the field held on ``[i/100, (i+1)/100)`` s), ``trajectory.csv`` (the columns of
@@ -79,7 +85,12 @@ def generate(
     from ..reports.figures import rollout_figures
 
     check_duration(duration)
-    loaded = resolve_policy(policy) if isinstance(policy, (str, Path)) else policy
+    choice = None
+    if isinstance(policy, (str, Path)):
+        choice = choose_actor(policy, checkpoint, duration, progress)
+        loaded = resolve_policy(choice.path if choice is not None else policy)
+    else:
+        loaded = policy
     out = prepare_output_dir(out)
     rollout = run_policy(loaded, duration, physics, "zero", progress)
     fields_csv = write_field_csv(out / "fields.csv", rollout.fields) if rollout.n_steps else None
@@ -115,6 +126,8 @@ def generate(
         "gait_csv": str(gait_csv),
         "step_ms": rollout.meta["step_ms"],
     }
+    if choice is not None:
+        result["actor_choice"] = {**choice.to_dict(), "summary": choice.describe()}
     if isinstance(loaded.case.task, ReachTask):
         result["reach"] = reach_metrics(rollout, loaded.case.task)
     if figures and rollout.n_steps:
