@@ -59,19 +59,31 @@ def _add_case_command(sub: argparse._SubParsersAction) -> None:
         "case",
         help="list the shipped cases, or show one as a spec file to copy and edit",
         description="`msr case list`: the shipped cases (robot, field limit, task, yardstick). "
-        "`msr case show NAME_OR_PATH --toml > my.toml`: the complete spec, every default written "
+        "`msr case show NAME_OR_PATH`: a readable summary; `msr case check NAME_OR_PATH`: the spec's "
+        "derived quantities, time-step margins, sag and warnings; `msr case show NAME_OR_PATH "
+        "--toml > my.toml`: the complete spec, every default written "
         "out, units in comments; edit it and use it anywhere a case is taken (msr train --case "
         "my.toml, msr simulate --robot my.toml).",
     )
-    case_sub = p.add_subparsers(dest="case_command", required=True, metavar="{list,show}")
+    case_sub = p.add_subparsers(dest="case_command", required=True, metavar="{list,show,check}")
     q = case_sub.add_parser("list", help="the shipped cases")
     q.add_argument("--json", action="store_true")
     q.set_defaults(func=case_list_command)
     q = case_sub.add_parser("show", help="one case's complete spec")
     q.add_argument("case", type=case_option, help=CASE_HELP)
     q.add_argument("--toml", action="store_true", help="print the spec as TOML (a file to edit)")
-    q.add_argument("--json", action="store_true")
+    q.add_argument("--json", action="store_true", help="print the complete spec as JSON")
     q.set_defaults(func=case_show_command)
+    q = case_sub.add_parser(
+        "check", help="what a spec's numbers amount to, and what in them is outside the model",
+        description="Derived quantities (shear modulus, equivalent radius, mass, bending "
+        "stiffness, magnetic bending number), each physics' time step against its estimated "
+        "stable step, the static sag into the ground under the weight and at the field limit "
+        "(simulated, a few seconds), and warnings; exits 1 when it finds an error.")
+    q.add_argument("case", type=case_option, help=CASE_HELP)
+    q.add_argument("--no-sag", action="store_true", help="skip the sag simulations")
+    q.add_argument("--json", action="store_true")
+    q.set_defaults(func=case_check_command)
 
 
 def _add_train_command(sub: argparse._SubParsersAction) -> None:
@@ -361,9 +373,26 @@ def case_show_command(args: argparse.Namespace) -> int:
     case = args.case
     if args.toml:
         sys.stdout.write(case.toml())
+    elif args.json:
+        print_result(case.to_dict(), True)
     else:
-        print_result(case.to_dict(), args.json)
+        from ..cases.check import case_summary
+
+        print(case_summary(case))
     return 0
+
+
+def case_check_command(args: argparse.Namespace) -> int:
+    from elastica_magnetic.spec_check import format_check
+
+    from ..cases.check import check_case
+
+    check = check_case(args.case, sag=not args.no_sag)
+    if args.json:
+        print_result(check.to_dict(), True)
+    else:
+        print(format_check(check))
+    return 1 if check.has_errors else 0
 
 
 def bench_command(args: argparse.Namespace) -> int:
