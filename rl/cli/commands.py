@@ -230,13 +230,25 @@ def _add_baseline_command(sub: argparse._SubParsersAction) -> None:
         help="generate with a hand-designed rotating field (the yardstick for learned policies)",
         description="Turn the field at the case's limit at a constant rate, through the agent's "
         "own action channel (0.3 mT per axis per 0.01 s, field from zero), and write the same "
-        "files as `msr generate`: a rotating field rolls the robot, the gait to beat.",
+        "files as `msr generate`: a rotating field rolls the robot, the gait to beat. Without "
+        "--period, sweep the periods in both directions (worker processes; sweep.csv, sweep.png) "
+        "and keep the farthest; the period the field really turned at under the rate limit is "
+        "reported. Each 10 s run in the accurate physics takes about a minute; --physics training "
+        "--duration 2 gives a quick look.",
     )
     p.add_argument("--case", type=case_option, required=True, help=CASE_HELP)
-    p.add_argument("--period", type=number("s", 0.0, low_open=True), default=2.0,
-                   help="s per turn of the field (2)")
+    p.add_argument("--period", type=number("s", 0.0, low_open=True), default=None,
+                   help="s per turn of the field; without it, a sweep of --periods in both "
+                        "directions, the farthest one's files written")
     p.add_argument("--counterclockwise", action="store_true",
-                   help="turn counter-clockwise (rolls towards -x)")
+                   help="turn counter-clockwise (rolls towards -x; with --period)")
+    p.add_argument("--periods", type=str, default=None, metavar="P1,P2,...",
+                   help="the sweep's periods, s (default 0.5,0.75,1,1.5,2,2.5,3,4,5,6)")
+    p.add_argument("--workers", type=number("", 1, integer=True), default=None,
+                   help="sweep runs at a time (processes; default one per core)")
+    p.add_argument("--set-yardstick", type=Path, default=None, metavar="OUT.toml",
+                   help="write a copy of the case's spec with the sweep's best distance as "
+                        "[yardstick] distance_10s (needs the accurate physics and 10 s)")
     _add_rollout_options(p, Path("out/baseline"))
     p.set_defaults(func=baseline_command)
 
@@ -449,9 +461,19 @@ def print_rollout_result(result: dict, as_json: bool) -> None:
 
 
 def baseline_command(args: argparse.Namespace) -> int:
+    from elastica_magnetic import read_field_csv
+
+    from ..shipping.baseline_sweep import achieved_period
     from ..shipping.baselines import RotatingFieldPolicy
     from ..shipping.generate import generate
 
+    if args.set_yardstick is not None and (args.physics != "accurate" or args.duration != 10.0):
+        raise CommandError("--set-yardstick: a yardstick is the distance in 10 s of the accurate "
+                           f"physics; got --physics {args.physics} --duration {args.duration:g}")
+    if args.period is None:
+        return _baseline_sweep(args)
+    if args.periods is not None or args.set_yardstick is not None:
+        raise CommandError("--periods and --set-yardstick belong to the sweep: leave out --period")
     try:
         policy = RotatingFieldPolicy(args.case, args.period, clockwise=not args.counterclockwise)
     except ValueError as exc:
@@ -459,8 +481,56 @@ def baseline_command(args: argparse.Namespace) -> int:
     result = generate(policy, duration=args.duration, out=args.out, physics=args.physics,
                       progress=not args.no_progress, figures=not args.no_figures,
                       gif=not args.no_gif)
+    if result["fields_csv"]:
+        result |= achieved_period(read_field_csv(result["fields_csv"]), args.period, args.case)
+        if result["warning"]:
+            print(f"warning: {result['warning']}", file=sys.stderr)
     print_result(result, args.json)
     return 0 if not result["diverged"] else 1
+
+
+def _baseline_sweep(args: argparse.Namespace) -> int:
+    """``msr baseline`` without ``--period``: the sweep, its table and the best run."""
+    from ..shipping.baseline_sweep import DEFAULT_PERIODS, sweep_baseline, yardstick_spec
+
+    periods = DEFAULT_PERIODS
+    if args.periods is not None:
+        try:
+            periods = tuple(float(p) for p in args.periods.split(","))
+        except ValueError:
+            raise CommandError(f"--periods must be comma-separated times in s, got {args.periods!r}") \
+                from None
+        if not all(math.isfinite(p) and p > 0 for p in periods):
+            raise CommandError(f"--periods must be positive finite times in s, got {args.periods!r}")
+    if args.counterclockwise:
+        raise CommandError("--counterclockwise needs --period (the sweep tries both directions)")
+    try:
+        result = sweep_baseline(args.case, periods, args.duration, args.physics, args.out,
+                                args.workers, not args.no_progress, not args.no_figures,
+                                not args.no_gif)
+    except ValueError as exc:
+        raise CommandError(str(exc)) from None
+    best = result["best"]
+    if args.set_yardstick is not None:
+        result["yardstick_spec"] = str(yardstick_spec(args.case, best, args.set_yardstick))
+    if args.json:
+        print_result(result, True)
+        return 0
+    print(f"{result['case']}: rotating field at {1e3 * args.case.field_limit:g} mT, distance in "
+          f"{result['duration_s']:g} s of {result['physics']} physics from a zero field")
+    print(f"{'period s':>9} {'turned s':>9} {'direction':>18} {'distance mm':>12}")
+    for r in sorted(result["runs"], key=lambda r: (r["period_s"], not r["clockwise"])):
+        moved = "diverged" if r["diverged"] else f"{1e3 * r['mid_dx_m']:+.2f}"
+        mark = "  <- best" if r == best else ""
+        print(f"{r['period_s']:>9g} {r['period_achieved_s']:>9.4g} "
+              f"{'clockwise' if r['clockwise'] else 'counter-clockwise':>18} {moved:>12}{mark}")
+    if best["warning"]:
+        print(f"warning: the best run {best['warning']}")
+    for key in ("table_csv", "figure", "yardstick_spec"):
+        if result.get(key):
+            print(f"{key}: {result[key]}")
+    print(f"best run's files: {args.out} (fields.csv, trajectory.csv, generate.json)")
+    return 0
 
 
 def figures_command(args: argparse.Namespace) -> int:
