@@ -28,7 +28,7 @@ from .policy_files import (
 )
 from .policy_runs import choose_actor, node_dx, run_policy
 
-__all__ = ["demo", "generate", "reach_metrics"]
+__all__ = ["MID_NODE_KEY", "demo", "generate", "reach_metrics", "read_generate_json"]
 
 
 def reach_metrics(rollout, task: ReachTask) -> dict[str, Any]:
@@ -74,9 +74,12 @@ def generate(
     of the back and front nodes, 100 Hz), ``rollout.npz`` (every node position, observation, action
     and field), ``generate.json`` (this result), the figures and ``gait.gif``.
 
-    Returns a dict with at least ``mid_dx_m`` (x displacement of the middle, mean of the two central
-    element centres as in ``trajectory.csv``, m), ``node32_dx_m`` (of the reward's middle node),
-    ``fields_csv`` and ``trajectory_csv``.
+    Returns a dict with at least ``physics``, ``duration_s`` and ``initial_field`` (what every
+    distance in it was measured in), ``mid_dx_m`` (x displacement of the middle, mean of the two
+    central element centres as in ``trajectory.csv``, m), ``mid_node_dx_m`` (of the reward's middle
+    node, node ``n // 2``), ``target``, ``fields_csv`` and ``trajectory_csv``; ``yardstick_10s_m``
+    when the case has one and ``meets_target`` only for a 10 s run in the accurate physics of a
+    case with a target.
     """
     import pandas as pd
 
@@ -110,15 +113,14 @@ def generate(
         "policy_kind": loaded.kind,
         "physics": physics,
         "duration_s": float(rollout.times[-1]),
+        "initial_field": "zero",
         "mid_dx_m": rollout.mid_dx,
-        "node32_dx_m": node_dx(rollout),
+        MID_NODE_KEY: node_dx(rollout),
         "return": float(np.sum(rollout.rewards)),
         "max_height_m": float(traj.height_max_m.max()),
         "max_field_T": float(np.max(np.hypot(rollout.fields[:, 0], rollout.fields[:, 1])))
         if rollout.n_steps else 0.0,
-        "authors_mid_dx_10s_m": loaded.case.yardstick.distance_10s or None,
-        "meets_target": loaded.case.meets_yardstick(rollout.mid_dx, node_dx(rollout),
-                                                    float(rollout.times[-1]), rollout.meta["diverged"]),
+        **_verdict(loaded.case, rollout, physics),
         "diverged": rollout.meta["diverged"],
         "fields_csv": str(fields_csv) if fields_csv else None,
         "trajectory_csv": str(trajectory_csv),
@@ -134,6 +136,41 @@ def generate(
         result["figures"] = rollout_figures(rollout, out, loaded.critic, loaded.actor, gif=gif)
     atomic_write_json(out / "generate.json", result)
     return result
+
+
+#: ``generate.json``'s key of the reward's middle node's displacement (node ``n // 2``, m), and
+#: the names older files gave it and the yardstick (read by :func:`read_generate_json`).
+MID_NODE_KEY = "mid_node_dx_m"
+OLD_KEYS = {"node32_dx_m": MID_NODE_KEY, "authors_mid_dx_10s_m": "yardstick_10s_m"}
+
+
+def _verdict(case, rollout, physics: str) -> dict[str, Any]:
+    """The yardstick and whether the rollout meets it, only where both mean something: a crawl
+    case with a yardstick (or a reach task), a 10 s run in the accurate physics from a zero field.
+    A case without a yardstick gives neither (not a success for any forward motion)."""
+    duration = float(rollout.times[-1])
+    out: dict[str, Any] = {"target": case.target_label}
+    has_target = isinstance(case.task, ReachTask) or case.yardstick.distance_10s > 0.0
+    if case.yardstick.distance_10s > 0.0:
+        out["yardstick_10s_m"] = case.yardstick.distance_10s
+    if not has_target:
+        out["target"] = "none (the case has no yardstick: msr baseline --case searches one)"
+    elif physics == "accurate" and abs(duration - 10.0) < 1e-9:
+        out["meets_target"] = case.meets_yardstick(rollout.mid_dx, node_dx(rollout), duration,
+                                                   rollout.meta["diverged"])
+    return out
+
+
+def read_generate_json(path: str | Path) -> dict[str, Any]:
+    """A ``generate.json`` (:func:`generate`'s result), older files' key names mapped to today's
+    (:data:`OLD_KEYS`)."""
+    import json
+
+    data = json.loads(Path(path).read_text())
+    for old, new in OLD_KEYS.items():
+        if old in data and new not in data:
+            data[new] = data.pop(old)
+    return data
 
 
 def demo(out: str | Path = "out/demo", duration: float = 10.0, progress: bool = True,
