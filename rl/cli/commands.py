@@ -355,8 +355,10 @@ def train_command(args: argparse.Namespace) -> int:
     failed = any(s["failed"] for s in summaries.values())
     if not args.json:
         summaries = {case: {k: v for k, v in summary.items() if k != "seeds"} | {
-            CaseDir.seed_name(r["seed"]): r.get("error") or f"final mean return {r['final_mean_return']:.4g} "
-            f"({r['episodes']} episodes)" for r in summary["seeds"]} for case, summary in summaries.items()}
+            CaseDir.seed_name(r["seed"]): r.get("error") or f"final mean training return "
+            f"{r['final_mean_return']:.4g} ({r['episodes']} episodes from random initial fields; not a "
+            "distance: msr export-seeds measures each seed's)" for r in summary["seeds"]}
+            for case, summary in summaries.items()}
     # one case: its summary, as before; several: the summaries by case
     print_result(next(iter(summaries.values())) if len(summaries) == 1 else summaries, args.json)
     return 1 if failed else 0

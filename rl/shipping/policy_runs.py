@@ -43,8 +43,8 @@ def run_policy(
     :class:`~elastica_magnetic_rl.envs.rollout.Rollout`
     (stops early, with ``meta["diverged"]``, if the simulation blows up)."""
     import pandas as pd
-    from tqdm.auto import tqdm
 
+    from elastica_magnetic.progress import progress_bar
     from elastica_magnetic.simulation import TRAJECTORY_COLUMNS
 
     from ..envs.rollout import Rollout
@@ -61,8 +61,8 @@ def run_policy(
     fields, actions, rewards = [], [], []
     diverged = None
     start = time.perf_counter()
-    with tqdm(total=n, desc=f"generate {policy.case.name}", unit="step", disable=not progress,
-              leave=False) as bar:
+    with progress_bar(n, f"{policy.case.name} ({physics} physics)", "step", disable=not progress,
+                      leave=False) as bar:
         for _ in range(n):
             action = policy.act(obs)
             obs, reward, terminated, truncated, info = env.step(action)
