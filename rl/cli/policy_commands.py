@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, duration_option, print_result
@@ -178,7 +179,7 @@ def seeds_command(args: argparse.Namespace) -> int:
             raise CommandError(str(exc)) from None
         by_case[case.name] = groups
         report = {"case": case.name, "recipes": [g.to_dict() for g in groups],
-                  "table": seeds_markdown(case, groups)}
+                  "table": seeds_markdown(case, groups, policies)}
         if args.figure is not None and groups:
             args.figure.mkdir(parents=True, exist_ok=True)
             report["figure"] = str(seeds_figure(case, groups, args.figure / f"seeds_{case.name}.png"))
@@ -187,6 +188,9 @@ def seeds_command(args: argparse.Namespace) -> int:
             if curves is not None:
                 report["learning_curves"] = str(curves)
         if args.card:
+            if not groups:  # a card's seed section is never replaced by nothing
+                raise CommandError(f"--card: {seeds_markdown(case, groups, policies)} The model "
+                                   "card is left as it is.")
             card = policies / case.name / "MODEL_CARD.md"
             if not card.is_file():
                 raise CommandError(f"--card: {card}: no model card (ship a policy of {case.name} first)")
@@ -211,7 +215,21 @@ def ship_command(args: argparse.Namespace) -> int:
         if not args.notes.is_file():
             raise CommandError(f"--notes {args.notes}: no such file")
         notes = args.notes.read_text()
-    choice = _actor_choice(args.run, args.checkpoint, args.duration, not args.no_progress)
+    from ..shipping.policy_files import POLICIES_DIR, POLICY_JSON
+
+    target = (args.dest if args.dest is not None else POLICIES_DIR) / args.name
+    if (target / POLICY_JSON).exists() and not args.force:  # before the actors' evaluations
+        raise CommandError(f"{target} already holds a policy (pass --force to replace it)")
+    checkpoint = args.checkpoint
+    from ..runfiles.rundir import RunDir
+
+    is_run = (args.run.is_dir() and RunDir(args.run).has_checkpoint()) or (
+        args.run.name == RunDir.CHECKPOINT)
+    if args.no_measure and checkpoint == "auto" and is_run:  # no evaluation: the final actor, said
+        checkpoint = "final"
+        print("--no-measure: the final actor is shipped without comparing it with best.pt "
+              "(--checkpoint best ships best.pt)", file=sys.stderr)
+    choice = _actor_choice(args.run, checkpoint, args.duration, not args.no_progress)
     try:
         result = ship(choice.path if choice else args.run, args.name, dest=args.dest,
                       measure=not args.no_measure,
