@@ -90,3 +90,20 @@ def test_checkpoint_option_chooses_explicitly(best_is_farther, tmp_path, capsys)
     assert msr(["generate", str(run), "--checkpoint", str(tmp_path / "nope.pt"), "--out",
                 str(tmp_path / "g3"), "--no-progress"]) == 2
     assert "nope.pt" in capsys.readouterr().err
+
+
+def test_ship_and_export_take_the_checkpoint_option(best_is_farther, tmp_path, capsys):
+    import json
+
+    run, _, _ = best_is_farther
+    shipped = run_msr(capsys, "ship", str(run), "--name", "b", "--dest", str(tmp_path),
+                      "--checkpoint", "best", "--no-measure", "--no-progress")
+    assert shipped["actor_choice"]["actor"] == "best"
+    meta = json.loads((tmp_path / "b" / "policy.json").read_text())
+    assert meta["training"]["best_evaluation"] is True
+    # an existing policy is refused before the actors are evaluated
+    assert msr(["ship", str(run), "--name", "b", "--dest", str(tmp_path), "--no-progress"]) == 2
+    assert "already holds a policy" in capsys.readouterr().err
+    exported = run_msr(capsys, "export", str(run), "--checkpoint", "final", "--out",
+                       str(tmp_path / "exp"))
+    assert exported["actor_choice"]["actor"] == "final"
