@@ -16,6 +16,9 @@ from elastica_magnetic.cli import CommandError, duration_option, number, print_n
 from ..cases.recipes import RECIPE_SUMMARIES, RECIPES
 from ..runfiles.rundir import CaseDir, RunDir
 
+CHECKPOINT_HELP = ("which actor of a run: auto (default: the final actor and best.pt evaluated in "
+                   "the accurate physics from a zero field, the farther used), final, best, or a "
+                   "checkpoint file")
 CASE_HELP = "a shipped case (`msr case list`: m1-4mT, m2-4mT, m1-10mT, m2-10mT, ...) or a spec file (.toml)"
 
 
@@ -51,7 +54,7 @@ FORCE_HELP = ("replace an earlier result of this command for the same case in --
 def _print_rollout_result(result: dict, as_json: bool) -> int:
     """Print a generate-like result (its notes first, on stderr); 1 if the rollout diverged."""
     print_notes(result.pop("notes", ()))
-    print_result(result, as_json)
+    print_rollout_result(result, as_json)
     return 0 if not result["diverged"] else 1
 
 
@@ -68,19 +71,31 @@ def _add_case_command(sub: argparse._SubParsersAction) -> None:
         "case",
         help="list the shipped cases, or show one as a spec file to copy and edit",
         description="`msr case list`: the shipped cases (robot, field limit, task, yardstick). "
-        "`msr case show NAME_OR_PATH --toml > my.toml`: the complete spec, every default written "
+        "`msr case show NAME_OR_PATH`: a readable summary; `msr case check NAME_OR_PATH`: the spec's "
+        "derived quantities, time-step margins, sag and warnings; `msr case show NAME_OR_PATH "
+        "--toml > my.toml`: the complete spec, every default written "
         "out, units in comments; edit it and use it anywhere a case is taken (msr train --case "
         "my.toml, msr simulate --robot my.toml).",
     )
-    case_sub = p.add_subparsers(dest="case_command", required=True, metavar="{list,show}")
+    case_sub = p.add_subparsers(dest="case_command", required=True, metavar="{list,show,check}")
     q = case_sub.add_parser("list", help="the shipped cases")
     q.add_argument("--json", action="store_true")
     q.set_defaults(func=case_list_command)
     q = case_sub.add_parser("show", help="one case's complete spec")
     q.add_argument("case", type=case_option, help=CASE_HELP)
     q.add_argument("--toml", action="store_true", help="print the spec as TOML (a file to edit)")
-    q.add_argument("--json", action="store_true")
+    q.add_argument("--json", action="store_true", help="print the complete spec as JSON")
     q.set_defaults(func=case_show_command)
+    q = case_sub.add_parser(
+        "check", help="what a spec's numbers amount to, and what in them is outside the model",
+        description="Derived quantities (shear modulus, equivalent radius, mass, bending "
+        "stiffness, magnetic bending number), each physics' time step against its estimated "
+        "stable step, the static sag into the ground under the weight and at the field limit "
+        "(simulated, a few seconds), and warnings; exits 1 when it finds an error.")
+    q.add_argument("case", type=case_option, help=CASE_HELP)
+    q.add_argument("--no-sag", action="store_true", help="skip the sag simulations")
+    q.add_argument("--json", action="store_true")
+    q.set_defaults(func=case_check_command)
 
 
 def _add_train_command(sub: argparse._SubParsersAction) -> None:
@@ -214,6 +229,8 @@ def _add_generate_command(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("policy", help="run directory, checkpoint, shipped-policy folder or shipped name "
                                   "(e.g. m1-4mT)")
+    p.add_argument("--checkpoint", default="auto", metavar="auto|final|best|PATH",
+                   help=CHECKPOINT_HELP + " (evaluated for --duration s)")
     _add_rollout_options(p, Path("out/generate"))
     p.set_defaults(func=generate_command)
 
@@ -225,13 +242,25 @@ def _add_baseline_command(sub: argparse._SubParsersAction) -> None:
         help="generate with a hand-designed rotating field (the yardstick for learned policies)",
         description="Turn the field at the case's limit at a constant rate, through the agent's "
         "own action channel (0.3 mT per axis per 0.01 s, field from zero), and write the same "
-        "files as `msr generate`: a rotating field rolls the robot, the gait to beat.",
+        "files as `msr generate`: a rotating field rolls the robot, the gait to beat. Without "
+        "--period, sweep the periods in both directions (worker processes; sweep.csv, sweep.png) "
+        "and keep the farthest; the period the field really turned at under the rate limit is "
+        "reported. Each 10 s run in the accurate physics takes about a minute; --physics training "
+        "--duration 2 gives a quick look.",
     )
     p.add_argument("--case", type=case_option, required=True, help=CASE_HELP)
-    p.add_argument("--period", type=number("s", 0.0, low_open=True), default=2.0,
-                   help="s per turn of the field (2)")
+    p.add_argument("--period", type=number("s", 0.0, low_open=True), default=None,
+                   help="s per turn of the field; without it, a sweep of --periods in both "
+                        "directions, the farthest one's files written")
     p.add_argument("--counterclockwise", action="store_true",
-                   help="turn counter-clockwise (rolls towards -x)")
+                   help="turn counter-clockwise (rolls towards -x; with --period)")
+    p.add_argument("--periods", type=str, default=None, metavar="P1,P2,...",
+                   help="the sweep's periods, s (default 0.5,0.75,1,1.5,2,2.5,3,4,5,6)")
+    p.add_argument("--workers", type=number("", 1, integer=True), default=None,
+                   help="sweep runs at a time (processes; default one per core)")
+    p.add_argument("--set-yardstick", type=Path, default=None, metavar="OUT.toml",
+                   help="write a copy of the case's spec with the sweep's best distance as "
+                        "[yardstick] distance_10s (needs the accurate physics and 10 s)")
     _add_rollout_options(p, Path("out/baseline"))
     p.set_defaults(func=baseline_command)
 
@@ -338,8 +367,10 @@ def train_command(args: argparse.Namespace) -> int:
     failed = any(s["failed"] for s in summaries.values())
     if not args.json:
         summaries = {case: {k: v for k, v in summary.items() if k != "seeds"} | {
-            CaseDir.seed_name(r["seed"]): r.get("error") or f"final mean return {r['final_mean_return']:.4g} "
-            f"({r['episodes']} episodes)" for r in summary["seeds"]} for case, summary in summaries.items()}
+            CaseDir.seed_name(r["seed"]): r.get("error") or f"final mean training return "
+            f"{r['final_mean_return']:.4g} ({r['episodes']} episodes from random initial fields; not a "
+            "distance: msr export-seeds measures each seed's)" for r in summary["seeds"]}
+            for case, summary in summaries.items()}
     # one case: its summary, as before; several: the summaries by case
     print_result(next(iter(summaries.values())) if len(summaries) == 1 else summaries, args.json)
     return 1 if failed else 0
@@ -368,9 +399,26 @@ def case_show_command(args: argparse.Namespace) -> int:
     case = args.case
     if args.toml:
         sys.stdout.write(case.toml())
+    elif args.json:
+        print_result(case.to_dict(), True)
     else:
-        print_result(case.to_dict(), args.json)
+        from ..cases.check import case_summary
+
+        print(case_summary(case))
     return 0
+
+
+def case_check_command(args: argparse.Namespace) -> int:
+    from elastica_magnetic.spec_check import format_check
+
+    from ..cases.check import check_case
+
+    check = check_case(args.case, sag=not args.no_sag)
+    if args.json:
+        print_result(check.to_dict(), True)
+    else:
+        print(format_check(check))
+    return 1 if check.has_errors else 0
 
 
 def bench_command(args: argparse.Namespace) -> int:
@@ -407,16 +455,38 @@ def refine_command(args: argparse.Namespace) -> int:
 def generate_command(args: argparse.Namespace) -> int:
     from ..shipping.generate import generate
 
-    result = generate(args.policy, duration=args.duration, out=args.out, physics=args.physics,
-                      progress=not args.no_progress, figures=not args.no_figures,
-                      gif=not args.no_gif, force=args.force)
+    try:
+        result = generate(args.policy, duration=args.duration, out=args.out, physics=args.physics,
+                          progress=not args.no_progress, figures=not args.no_figures,
+                          gif=not args.no_gif, checkpoint=args.checkpoint, force=args.force)
+    except FileNotFoundError as exc:
+        raise CommandError(str(exc)) from None
     return _print_rollout_result(result, args.json)
 
 
+def print_rollout_result(result: dict, as_json: bool) -> None:
+    """A rollout's result; in text, the actor a run's choice used comes first, in one line."""
+    if as_json or "actor_choice" not in result:
+        print_result(result, as_json)
+        return
+    print(f"actor: {result['actor_choice']['summary']}")
+    print_result({k: v for k, v in result.items() if k != "actor_choice"}, False)
+
+
 def baseline_command(args: argparse.Namespace) -> int:
+    from elastica_magnetic import read_field_csv
+
+    from ..shipping.baseline_sweep import achieved_period
     from ..shipping.baselines import RotatingFieldPolicy
     from ..shipping.generate import generate
 
+    if args.set_yardstick is not None and (args.physics != "accurate" or args.duration != 10.0):
+        raise CommandError("--set-yardstick: a yardstick is the distance in 10 s of the accurate "
+                           f"physics; got --physics {args.physics} --duration {args.duration:g}")
+    if args.period is None:
+        return _baseline_sweep(args)
+    if args.periods is not None or args.set_yardstick is not None:
+        raise CommandError("--periods and --set-yardstick belong to the sweep: leave out --period")
     try:
         policy = RotatingFieldPolicy(args.case, args.period, clockwise=not args.counterclockwise)
     except ValueError as exc:
@@ -424,7 +494,55 @@ def baseline_command(args: argparse.Namespace) -> int:
     result = generate(policy, duration=args.duration, out=args.out, physics=args.physics,
                       progress=not args.no_progress, figures=not args.no_figures,
                       gif=not args.no_gif, force=args.force, kind="baseline")
+    if result["fields_csv"]:
+        result |= achieved_period(read_field_csv(result["fields_csv"]), args.period, args.case)
+        if result["warning"]:
+            print(f"warning: {result['warning']}", file=sys.stderr)
     return _print_rollout_result(result, args.json)
+
+
+def _baseline_sweep(args: argparse.Namespace) -> int:
+    """``msr baseline`` without ``--period``: the sweep, its table and the best run."""
+    from ..shipping.baseline_sweep import DEFAULT_PERIODS, sweep_baseline, yardstick_spec
+
+    periods = DEFAULT_PERIODS
+    if args.periods is not None:
+        try:
+            periods = tuple(float(p) for p in args.periods.split(","))
+        except ValueError:
+            raise CommandError(f"--periods must be comma-separated times in s, got {args.periods!r}") \
+                from None
+        if not all(math.isfinite(p) and p > 0 for p in periods):
+            raise CommandError(f"--periods must be positive finite times in s, got {args.periods!r}")
+    if args.counterclockwise:
+        raise CommandError("--counterclockwise needs --period (the sweep tries both directions)")
+    try:
+        result = sweep_baseline(args.case, periods, args.duration, args.physics, args.out,
+                                args.workers, not args.no_progress, not args.no_figures,
+                                not args.no_gif, force=args.force)
+    except ValueError as exc:
+        raise CommandError(str(exc)) from None
+    best = result["best"]
+    if args.set_yardstick is not None:
+        result["yardstick_spec"] = str(yardstick_spec(args.case, best, args.set_yardstick))
+    if args.json:
+        print_result(result, True)
+        return 0
+    print(f"{result['case']}: rotating field at {1e3 * args.case.field_limit:g} mT, distance in "
+          f"{result['duration_s']:g} s of {result['physics']} physics from a zero field")
+    print(f"{'period s':>9} {'turned s':>9} {'direction':>18} {'distance mm':>12}")
+    for r in sorted(result["runs"], key=lambda r: (r["period_s"], not r["clockwise"])):
+        moved = "diverged" if r["diverged"] else f"{1e3 * r['mid_dx_m']:+.2f}"
+        mark = "  <- best" if r == best else ""
+        print(f"{r['period_s']:>9g} {r['period_achieved_s']:>9.4g} "
+              f"{'clockwise' if r['clockwise'] else 'counter-clockwise':>18} {moved:>12}{mark}")
+    if best["warning"]:
+        print(f"warning: the best run {best['warning']}")
+    for key in ("table_csv", "figure", "yardstick_spec"):
+        if result.get(key):
+            print(f"{key}: {result[key]}")
+    print(f"best run's files: {args.out} (fields.csv, trajectory.csv, generate.json)")
+    return 0
 
 
 def figures_command(args: argparse.Namespace) -> int:

@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, duration_option, print_notes, print_result
 
-from .commands import CASE_HELP, FORCE_HELP, case_option
+from .commands import CASE_HELP, CHECKPOINT_HELP, FORCE_HELP, case_option, print_rollout_result
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -79,6 +80,8 @@ def _add_ship_command(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("run", type=Path, help="run directory or checkpoint (e.g. runs/m1-4mT/seed3/refined)")
     p.add_argument("--name", required=True, help="policy name, e.g. m1-4mT")
+    p.add_argument("--checkpoint", default="auto", metavar="auto|final|best|PATH",
+                   help=CHECKPOINT_HELP + " (evaluated for --duration s)")
     p.add_argument("--dest", type=Path, default=None, help="default: the package's rl/policies")
     p.add_argument("--no-measure", action="store_true", help="skip the evaluation run")
     p.add_argument("--duration", type=duration_option(), default=10.0, help="evaluation length, s")
@@ -115,6 +118,9 @@ def _add_export_command(sub: argparse._SubParsersAction) -> None:
         help="export a policy's actor as TorchScript plus its observation/action JSON",
     )
     p.add_argument("policy", help="run directory, checkpoint, shipped-policy folder or shipped name")
+    p.add_argument("--checkpoint", default="auto", metavar="auto|final|best|PATH",
+                   help=CHECKPOINT_HELP + " (10 s)")
+    p.add_argument("--no-progress", action="store_true")
     p.add_argument("--out", type=Path, default=Path("out/export"))
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--json", action="store_true")
@@ -179,7 +185,7 @@ def seeds_command(args: argparse.Namespace) -> int:
             raise CommandError(str(exc)) from None
         by_case[case.name] = groups
         report = {"case": case.name, "recipes": [g.to_dict() for g in groups],
-                  "table": seeds_markdown(case, groups)}
+                  "table": seeds_markdown(case, groups, policies)}
         if args.figure is not None and groups:
             args.figure.mkdir(parents=True, exist_ok=True)
             report["figure"] = str(seeds_figure(case, groups, args.figure / f"seeds_{case.name}.png"))
@@ -188,6 +194,9 @@ def seeds_command(args: argparse.Namespace) -> int:
             if curves is not None:
                 report["learning_curves"] = str(curves)
         if args.card:
+            if not groups:  # a card's seed section is never replaced by nothing
+                raise CommandError(f"--card: {seeds_markdown(case, groups, policies)} The model "
+                                   "card is left as it is.")
             card = policies / case.name / "MODEL_CARD.md"
             if not card.is_file():
                 raise CommandError(f"--card: {card}: no model card (ship a policy of {case.name} first)")
@@ -210,14 +219,47 @@ def ship_command(args: argparse.Namespace) -> int:
     notes = None
     if args.notes is not None:
         notes = _read_markdown(args.notes, "--notes")
+    from ..shipping.policy_files import POLICIES_DIR, POLICY_JSON
+
+    target = (args.dest if args.dest is not None else POLICIES_DIR) / args.name
+    if (target / POLICY_JSON).exists() and not args.force:  # before the actors' evaluations
+        raise CommandError(f"{target} already holds a policy (pass --force to replace it)")
+    checkpoint = args.checkpoint
+    from ..runfiles.rundir import RunDir
+
+    is_run = (args.run.is_dir() and RunDir(args.run).has_checkpoint()) or (
+        args.run.name == RunDir.CHECKPOINT)
+    if args.no_measure and checkpoint == "auto" and is_run:  # no evaluation: the final actor, said
+        checkpoint = "final"
+        print("--no-measure: the final actor is shipped without comparing it with best.pt "
+              "(--checkpoint best ships best.pt)", file=sys.stderr)
+    choice = _actor_choice(args.run, checkpoint, args.duration, not args.no_progress)
     try:
-        result = ship(args.run, args.name, dest=args.dest, measure=not args.no_measure,
+        result = ship(choice.path if choice else args.run, args.name, dest=args.dest,
+                      measure=not args.no_measure,
                       duration=args.duration, progress=not args.no_progress, overwrite=args.force,
                       evaluate_all_seeds=args.evaluate_seeds, notes=notes)
     except (FileExistsError, FileNotFoundError, ValueError) as exc:
         raise CommandError(str(exc)) from None
-    print_result(result, args.json)
+    _print_with_choice(result, choice, args.json)
     return 0
+
+
+def _actor_choice(run, checkpoint: str, duration: float, progress: bool):
+    """The actor of a run a command uses (``--checkpoint``): see
+    :func:`~elastica_magnetic_rl.shipping.policy_runs.choose_actor`."""
+    from ..shipping.policy_runs import choose_actor
+
+    try:
+        return choose_actor(run, checkpoint, duration, progress)
+    except FileNotFoundError as exc:
+        raise CommandError(str(exc)) from None
+
+
+def _print_with_choice(result: dict, choice, as_json: bool) -> None:
+    if choice is not None:
+        result = {**result, "actor_choice": {**choice.to_dict(), "summary": choice.describe()}}
+    print_rollout_result(result, as_json)
 
 
 def notes_command(args: argparse.Namespace) -> int:
@@ -261,9 +303,10 @@ def _read_markdown(path: Path, option: str) -> str:
 def export_command(args: argparse.Namespace) -> int:
     from ..shipping.export import export_policy
 
-    result = export_policy(args.policy, args.out, force=args.force)
+    choice = _actor_choice(args.policy, args.checkpoint, 10.0, not args.no_progress)
+    result = export_policy(choice.path if choice else args.policy, args.out, force=args.force)
     print_notes(result.pop("notes", ()))
-    print_result(result, args.json)
+    _print_with_choice(result, choice, args.json)
     return 0
 
 

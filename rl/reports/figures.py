@@ -137,9 +137,10 @@ def plot_learning_curves(
             # reward = 1e4 x displacement (m) = 10 x mm
             ax_eval.plot(ev["global_step"], ev["mean_return"] / 10.0, "o-", ms=3, lw=0.8,
                          color=f"C{k % 10}", label=run.name)
+    physics = _runs_physics(runs)
     if ax_eval is not None:
         ax_eval.set_xlabel("environment steps")
-        ax_eval.set_ylabel("evaluation: 10 s from zero field (mm)")
+        ax_eval.set_ylabel(f"evaluation: 10 s, {physics} physics,\nfrom zero field (mm)")
         ax_eval.grid(alpha=0.3)
         ax_eval.legend(fontsize=7, ncol=2)
     if curves:
@@ -155,11 +156,27 @@ def plot_learning_curves(
         ax.plot(grid, mean, color="k", lw=2, label=f"mean of {len(curves)} seed(s)")
     if ax_eval is None:
         ax.set_xlabel("environment steps")
-    ax.set_ylabel(f"episode return (EMA, alpha = {alpha:g})")
+    ax.set_ylabel(f"training episode return\n(EMA, alpha = {alpha:g}; {physics} physics)")
     ax.set_title(title or "learning curves")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
     return _save(fig, path)
+
+
+def _runs_physics(runs: Sequence[Path]) -> str:
+    """The physics the runs trained (and were evaluated) in, from their ``run.json``: one name,
+    ``"a, b"`` when they differ, ``"training"`` (the default of ``msr train``) when none says."""
+    import json
+
+    found = []
+    for run in runs:
+        try:
+            physics = json.loads(RunDir(run).run_json.read_text()).get("physics")
+        except (OSError, ValueError, AttributeError):
+            physics = None
+        if physics and physics not in found:
+            found.append(str(physics))
+    return ", ".join(found) or "training"
 
 
 class _quiet_nan_warnings:

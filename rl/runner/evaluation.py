@@ -152,6 +152,7 @@ class PeriodicEvaluation:
         self.best_step = int(state["best_step"]) if state else -1
         self.best_networks = state["best_networks"] if state else None
         self.last_step = int(state["last_step"]) if state else -1
+        self.last_return: float | None = None  # mean return of the latest evaluation in this process
         self.next_step = self._next(global_step)
         self.restore_best = self.best_networks is not None and resumed_here
         if resumed_here:
@@ -194,6 +195,7 @@ class PeriodicEvaluation:
         self.writer.add_scalar("eval/mean_return", result.mean_return, global_step)
         self.writer.add_scalar("eval/best_mean_return", self.best_return, global_step)
         self.last_step = global_step
+        self.last_return = result.mean_return
         self.next_step = self._next(global_step)
         return result
 

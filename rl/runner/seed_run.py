@@ -164,7 +164,8 @@ class SeedRun:
         """Open the logs (after every seed of the group has been checked): the episode log is cut
         back to the checkpoint, or started anew."""
         from torch.utils.tensorboard import SummaryWriter
-        from tqdm.auto import tqdm
+
+        from elastica_magnetic.progress import progress_bar
 
         self.run_dir.mkdir(parents=True, exist_ok=True)
         csv_path = RunDir(self.run_dir).episodes_csv
@@ -181,14 +182,26 @@ class SeedRun:
         self.evaluation = PeriodicEvaluation(eval_env_fn, self.cfg, self.run_dir, self.writer,
                                               self.global_step, self.ckpt, self.resumed_here)
         self.next_checkpoint = self._next_checkpoint()
-        self.bar = tqdm(total=self.steps, initial=min(self.global_step, self.steps),
-                        disable=not progress, position=position, desc=desc, dynamic_ncols=True,
-                        leave=True)
+        self.bar = progress_bar(self.steps, desc or "", "step",
+                                initial=min(self.global_step, self.steps), disable=not progress,
+                                position=position, dynamic_ncols=True, leave=True)
         self.csv_file = open(csv_path, "a", newline="")
         self.csv_writer = csv.DictWriter(self.csv_file, fieldnames=EPISODE_FIELDS)
         if csv_path.stat().st_size == 0:
             self.csv_writer.writeheader()
         self.t_start = time.time()
+
+    def postfix(self, row: dict[str, Any]) -> dict[str, str]:
+        """The progress line's fields: the last episode's training return, and, once evaluated,
+        the latest evaluation's mean return (deterministic, field from zero, in the run's physics)
+        and the best so far (``best.pt``'s)."""
+        out = {"ep": str(row["episode"]), "train ret": f"{row['return']:.3g}"}
+        ev = self.evaluation
+        if ev is not None and ev.last_return is not None:
+            physics = (self.metadata or {}).get("physics", "training")
+            out[f"eval ({physics})"] = f"{ev.last_return:.3g}"
+            out["best"] = f"{ev.best_return:.3g} @{ev.best_step}"
+        return out
 
     def _next_checkpoint(self) -> int:
         every = self.cfg.checkpoint_every
@@ -218,7 +231,7 @@ class SeedRun:
         self.csv_writer.writerow(row)
         self.writer.add_scalar("charts/episodic_return", row["return"], self.global_step)
         self.writer.add_scalar("charts/episodic_length", row["length"], self.global_step)
-        self.bar.set_postfix(ep=row["episode"], ret=f"{row['return']:.3g}", refresh=False)
+        self.bar.set_postfix(self.postfix(row), refresh=False)
         if log_fn is not None:
             log_fn(row)
         self.ep_return[i], self.ep_len[i] = 0.0, 0

@@ -13,7 +13,7 @@ import numpy as np
 
 from elastica_magnetic.io import atomic_write, atomic_write_json
 from elastica_magnetic.openloop import check_duration
-from elastica_magnetic.results import result_folder
+from elastica_magnetic.results import check_result_folder, result_folder
 
 from ..cases.tasks import ReachTask
 from ..reports.figures import ROLLOUT_FIGURES
@@ -25,9 +25,9 @@ from .policy_files import (
     PolicyNotFoundError,
     resolve_policy,
 )
-from .policy_runs import node_dx, run_policy
+from .policy_runs import choose_actor, node_dx, run_policy
 
-__all__ = ["GENERATE_FILES", "demo", "generate", "reach_metrics"]
+__all__ = ["GENERATE_FILES", "MID_NODE_KEY", "demo", "generate", "reach_metrics", "read_generate_json"]
 
 #: The files ``msr generate`` (``baseline``, ``demo``) writes: recognises an output folder written
 #: before result folders carried a marker.
@@ -60,6 +60,7 @@ def generate(
     progress: bool = True,
     figures: bool = True,
     gif: bool = True,
+    checkpoint: str = "auto",
     force: bool = False,
     kind: str = "generate",
 ) -> dict[str, Any]:
@@ -67,6 +68,11 @@ def generate(
 
     ``policy`` is anything :func:`resolve_policy` accepts, a loaded policy, or a hand-designed
     baseline such as :class:`~elastica_magnetic_rl.shipping.baselines.RotatingFieldPolicy`.
+    For a run folder (or its ``checkpoint.pt``), ``checkpoint`` picks the actor
+    (:func:`~elastica_magnetic_rl.shipping.policy_runs.choose_actor`): ``"auto"`` evaluates the final
+    actor and ``best.pt`` for ``duration`` s in the accurate physics from a zero field and uses the
+    farther; ``"final"``, ``"best"`` or a checkpoint path choose it. The result's ``actor_choice``
+    says which and gives both distances.
 
     Writes into ``out``: ``fields.csv`` (paper format: index, mag_x, mag_y, mag_z in mT; row ``i``
     is the field held on ``[i/100, (i+1)/100)`` s), ``trajectory.csv`` (the columns of
@@ -77,65 +83,85 @@ def generate(
     ``out`` is written whole or not at all (:func:`elastica_magnetic.results.result_folder`, as
     the result of ``msr <kind>`` for the policy's case): an existing result of the same command and
     case is replaced only with ``force``; another command's or case's result is refused before the
-    rollout; an interruption leaves ``out`` as it was. ``notes`` in the result: what was
-    recovered on entry (a stale lock, a killed run's leftovers).
+    actors' evaluation and the rollout; an interruption leaves ``out`` as it was. ``notes`` in the
+    result: what was recovered on entry (a stale lock, a killed run's leftovers).
 
-    Returns a dict with at least ``mid_dx_m`` (x displacement of the middle, mean of the two central
-    element centres as in ``trajectory.csv``, m), ``node32_dx_m`` (of the reward's middle node),
-    ``fields_csv`` and ``trajectory_csv``.
+    Returns a dict with at least ``physics``, ``duration_s`` and ``initial_field`` (what every
+    distance in it was measured in), ``mid_dx_m`` (x displacement of the middle, mean of the two
+    central element centres as in ``trajectory.csv``, m), ``mid_node_dx_m`` (of the reward's middle
+    node, node ``n // 2``), ``target``, ``fields_csv`` and ``trajectory_csv``; ``yardstick_10s_m``
+    when the case has one and ``meets_target`` only for a 10 s run in the accurate physics of a
+    case with a target.
     """
+
+
+
+    check_duration(duration)
+    loaded = resolve_policy(policy) if isinstance(policy, (str, Path)) else policy
+    subject = f"case {loaded.case.name}"
+    check_result_folder(out, kind=kind, subject=subject, force=force, known_files=GENERATE_FILES)
+    choice = None
+    if isinstance(policy, (str, Path)):
+        choice = choose_actor(policy, checkpoint, duration, progress)
+        if choice is not None:
+            loaded = resolve_policy(choice.path)
+    with result_folder(out, kind=kind, subject=subject, force=force,
+                       known_files=GENERATE_FILES) as folder:
+        result = _write_rollout(loaded, folder.path, duration, physics, progress, figures, gif, choice)
+        result = _final_paths(result, folder)  # generate.json names where the files will be
+        atomic_write_json(folder.path / "generate.json", result)
+    return result | {"notes": folder.notes}
+
+
+def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: str, progress: bool,
+                   figures: bool, gif: bool, choice) -> dict[str, Any]:
+    """Run ``loaded`` and write the files of :func:`generate` into ``out``; its result."""
     import pandas as pd
 
     from elastica_magnetic import write_field_csv, write_trajectory_csv
 
     from ..reports.figures import rollout_figures
 
-    check_duration(duration)
-    loaded = resolve_policy(policy) if isinstance(policy, (str, Path)) else policy
-    with result_folder(out, kind=kind, subject=f"case {loaded.case.name}", force=force,
-                       known_files=GENERATE_FILES) as folder:
-        out = folder.path
-        rollout = run_policy(loaded, duration, physics, "zero", progress)
-        fields_csv = write_field_csv(out / "fields.csv", rollout.fields) if rollout.n_steps else None
-        trajectory_csv = write_trajectory_csv(rollout.trajectory, out / "trajectory.csv")
-        rollout_npz = rollout.save(out)
-        traj = rollout.trajectory
-        contact = rollout.contact()
-        gait_csv = out / "gait.csv"
-        with atomic_write(gait_csv, "w", newline="") as handle:
-            pd.DataFrame({
-                "t_s": traj.t_s, "height_max_m": traj.height_max_m, "span_m": traj.span_m,
-                "contact_back": contact[:, 0], "contact_front": contact[:, -1],
-            }).to_csv(handle, index=False, float_format="%.9g")
-        result: dict[str, Any] = {
-            "case": loaded.case.name,
-            "policy": str(loaded.source),
-            "policy_kind": loaded.kind,
-            "physics": physics,
-            "duration_s": float(rollout.times[-1]),
-            "mid_dx_m": rollout.mid_dx,
-            "node32_dx_m": node_dx(rollout),
-            "return": float(np.sum(rollout.rewards)),
-            "max_height_m": float(traj.height_max_m.max()),
-            "max_field_T": float(np.max(np.hypot(rollout.fields[:, 0], rollout.fields[:, 1])))
-            if rollout.n_steps else 0.0,
-            "authors_mid_dx_10s_m": loaded.case.yardstick.distance_10s or None,
-            "meets_target": loaded.case.meets_yardstick(rollout.mid_dx, node_dx(rollout),
-                                                        float(rollout.times[-1]), rollout.meta["diverged"]),
-            "diverged": rollout.meta["diverged"],
-            "fields_csv": str(fields_csv) if fields_csv else None,
-            "trajectory_csv": str(trajectory_csv),
-            "rollout_npz": str(rollout_npz),
-            "gait_csv": str(gait_csv),
-            "step_ms": rollout.meta["step_ms"],
-        }
-        if isinstance(loaded.case.task, ReachTask):
-            result["reach"] = reach_metrics(rollout, loaded.case.task)
-        if figures and rollout.n_steps:
-            result["figures"] = rollout_figures(rollout, out, loaded.critic, loaded.actor, gif=gif)
-        result = _final_paths(result, folder)  # generate.json names where the files will be
-        atomic_write_json(out / "generate.json", result)
-    return result | {"notes": folder.notes}
+    rollout = run_policy(loaded, duration, physics, "zero", progress)
+    fields_csv = write_field_csv(out / "fields.csv", rollout.fields) if rollout.n_steps else None
+    trajectory_csv = write_trajectory_csv(rollout.trajectory, out / "trajectory.csv")
+    rollout_npz = rollout.save(out)
+    traj = rollout.trajectory
+    contact = rollout.contact()
+    gait_csv = out / "gait.csv"
+    with atomic_write(gait_csv, "w", newline="") as handle:
+        pd.DataFrame({
+            "t_s": traj.t_s, "height_max_m": traj.height_max_m, "span_m": traj.span_m,
+            "contact_back": contact[:, 0], "contact_front": contact[:, -1],
+        }).to_csv(handle, index=False, float_format="%.9g")
+    result: dict[str, Any] = {
+        "case": loaded.case.name,
+        "policy": str(loaded.source),
+        "policy_kind": loaded.kind,
+        "physics": physics,
+        "duration_s": float(rollout.times[-1]),
+        "initial_field": "zero",
+        "mid_dx_m": rollout.mid_dx,
+        MID_NODE_KEY: node_dx(rollout),
+        "return": float(np.sum(rollout.rewards)),
+        "max_height_m": float(traj.height_max_m.max()),
+        "max_field_T": float(np.max(np.hypot(rollout.fields[:, 0], rollout.fields[:, 1])))
+        if rollout.n_steps else 0.0,
+        **_verdict(loaded.case, rollout, physics),
+        "diverged": rollout.meta["diverged"],
+        "fields_csv": str(fields_csv) if fields_csv else None,
+        "trajectory_csv": str(trajectory_csv),
+        "rollout_npz": str(rollout_npz),
+        "gait_csv": str(gait_csv),
+        "step_ms": rollout.meta["step_ms"],
+    }
+    if choice is not None:
+        result["actor_choice"] = {**choice.to_dict(), "summary": choice.describe()}
+    if isinstance(loaded.case.task, ReachTask):
+        result["reach"] = reach_metrics(rollout, loaded.case.task)
+    if figures and rollout.n_steps:
+        result["figures"] = rollout_figures(rollout, out, loaded.critic, loaded.actor, gif=gif)
+    return result
 
 
 def _final_paths(result: dict[str, Any], folder) -> dict[str, Any]:
@@ -143,6 +169,41 @@ def _final_paths(result: dict[str, Any], folder) -> dict[str, Any]:
     staged = str(folder.path)
     text = json.dumps(result, default=str).replace(staged, str(folder.final))
     return json.loads(text)
+
+
+#: ``generate.json``'s key of the reward's middle node's displacement (node ``n // 2``, m), and
+#: the names older files gave it and the yardstick (read by :func:`read_generate_json`).
+MID_NODE_KEY = "mid_node_dx_m"
+OLD_KEYS = {"node32_dx_m": MID_NODE_KEY, "authors_mid_dx_10s_m": "yardstick_10s_m"}
+
+
+def _verdict(case, rollout, physics: str) -> dict[str, Any]:
+    """The yardstick and whether the rollout meets it, only where both mean something: a crawl
+    case with a yardstick (or a reach task), a 10 s run in the accurate physics from a zero field.
+    A case without a yardstick gives neither (not a success for any forward motion)."""
+    duration = float(rollout.times[-1])
+    out: dict[str, Any] = {"target": case.target_label}
+    has_target = isinstance(case.task, ReachTask) or case.yardstick.distance_10s > 0.0
+    if case.yardstick.distance_10s > 0.0:
+        out["yardstick_10s_m"] = case.yardstick.distance_10s
+    if not has_target:
+        out["target"] = "none (the case has no yardstick: msr baseline --case searches one)"
+    elif physics == "accurate" and abs(duration - 10.0) < 1e-9:
+        out["meets_target"] = case.meets_yardstick(rollout.mid_dx, node_dx(rollout), duration,
+                                                   rollout.meta["diverged"])
+    return out
+
+
+def read_generate_json(path: str | Path) -> dict[str, Any]:
+    """A ``generate.json`` (:func:`generate`'s result), older files' key names mapped to today's
+    (:data:`OLD_KEYS`)."""
+    import json
+
+    data = json.loads(Path(path).read_text())
+    for old, new in OLD_KEYS.items():
+        if old in data and new not in data:
+            data[new] = data.pop(old)
+    return data
 
 
 def demo(out: str | Path = "out/demo", duration: float = 10.0, progress: bool = True,

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -15,13 +16,20 @@ import numpy as np
 
 from elastica_magnetic.io import atomic_write_json
 
+from ..cases.case import Case
+from ..cases.tasks import ReachTask
 from ..envs.env import make_env
 from ..runfiles.rundir import CaseDir, RunDir
 from .baselines import RotatingFieldPolicy
 from .policy_files import LoadedPolicy, resolve_policy
 
-__all__ = ["evaluate_checkpoint", "evaluate_seeds", "node_dx",
-           "run_policy", "seed_run_dirs"]
+__all__ = ["ActorChoice", "CHECKPOINT_CHOICES", "choose_actor", "evaluate_checkpoint",
+           "evaluate_run", "evaluate_seeds", "node_dx", "prefer_best", "run_policy",
+           "seed_run_dirs"]
+
+#: ``--checkpoint`` values besides a path: ``auto`` (the farther of the two, :func:`prefer_best`),
+#: ``final`` (``checkpoint.pt``), ``best`` (``best.pt``).
+CHECKPOINT_CHOICES = ("auto", "final", "best")
 
 
 def run_policy(
@@ -35,8 +43,8 @@ def run_policy(
     :class:`~elastica_magnetic_rl.envs.rollout.Rollout`
     (stops early, with ``meta["diverged"]``, if the simulation blows up)."""
     import pandas as pd
-    from tqdm.auto import tqdm
 
+    from elastica_magnetic.progress import progress_bar
     from elastica_magnetic.simulation import TRAJECTORY_COLUMNS
 
     from ..envs.rollout import Rollout
@@ -53,8 +61,8 @@ def run_policy(
     fields, actions, rewards = [], [], []
     diverged = None
     start = time.perf_counter()
-    with tqdm(total=n, desc=f"generate {policy.case.name}", unit="step", disable=not progress,
-              leave=False) as bar:
+    with progress_bar(n, f"{policy.case.name} ({physics} physics)", "step", disable=not progress,
+                      leave=False) as bar:
         for _ in range(n):
             action = policy.act(obs)
             obs, reward, terminated, truncated, info = env.step(action)
@@ -161,6 +169,17 @@ def evaluate_seeds(
 def _evaluate_seed(job: tuple[int, Path, float, bool]) -> dict[str, Any]:
     """The final and ``best.pt`` evaluations of one seed folder (cached in ``evaluation.json``)."""
     seed, run_dir, duration, progress = job
+    final, best = evaluate_run(run_dir, duration, progress, seed=seed)
+    return {"seed": seed, **final, "best": best}
+
+
+def evaluate_run(run_dir: str | Path, duration: float = 10.0, progress: bool = True,
+                 seed: int | None = None) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """The shipping criterion's evaluations (``duration`` s, accurate physics, field from zero) of a
+    run folder's final checkpoint and of its ``best.pt`` (``None`` without one): each a dict of
+    ``global_step``, ``duration_s``, ``physics``, ``initial_field``, ``mid_dx_m``, ``node_dx_m``
+    (m), ``diverged`` and ``meets_target``. Cached in the folder's ``evaluation.json`` and reused
+    while the checkpoint's step and the duration are the same."""
     run = RunDir(run_dir)
     cache_path = run.evaluation_json
     cache = json.loads(cache_path.read_text()) if cache_path.is_file() else {}
@@ -168,5 +187,100 @@ def _evaluate_seed(job: tuple[int, Path, float, bool]) -> dict[str, Any]:
     best = None
     if run.best.is_file():
         best = evaluate_checkpoint(run.best, cache.get("best") or {}, duration, progress)
+    if seed is None:
+        seed = cache.get("seed")
     atomic_write_json(cache_path, {"seed": seed, **final, "best": best})
-    return {"seed": seed, **final, "best": best}
+    return final, best
+
+
+def prefer_best(case: Case, final: dict[str, Any], best: dict[str, Any] | None) -> bool:
+    """The one rule for which of a run's two actors to use: ``best.pt`` when it did not diverge
+    and either the final actor diverged or ``best.pt`` is better in the same evaluation (farther:
+    larger ``mid_dx_m``; for a reach task, ending closer to the target by ``node_dx_m``). ``final``
+    and ``best``: :func:`evaluate_checkpoint` entries (``best`` ``None``: no ``best.pt``)."""
+    if best is None or best["diverged"]:
+        return False
+    if final["diverged"]:
+        return True
+    if isinstance(case.task, ReachTask):
+        return abs(best["node_dx_m"] - case.task.target) < abs(final["node_dx_m"] - case.task.target)
+    return best["mid_dx_m"] > final["mid_dx_m"]
+
+
+@dataclass(frozen=True)
+class ActorChoice:
+    """Which actor of a run a command uses, and why.
+
+    ``path``: the checkpoint file used; ``which``: ``"final"`` (``checkpoint.pt``), ``"best"``
+    (``best.pt``) or ``"given"`` (a file named with ``--checkpoint PATH``); ``rule``: ``"farther"``
+    (:func:`prefer_best` on both evaluations), ``"asked"`` or ``"only"`` (the run has no
+    ``best.pt``); ``final`` / ``best``: their
+    :func:`evaluate_run` entries when both were evaluated (else ``None``)."""
+
+    path: Path
+    which: str
+    rule: str
+    final: dict[str, Any] | None = None
+    best: dict[str, Any] | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"checkpoint": str(self.path), "actor": self.which, "rule": self.rule,
+                "final": self.final, "best": self.best}
+
+    def describe(self) -> str:
+        """One line: the actor used and, when both were evaluated, both distances with their
+        physics, duration and initial field."""
+        name = {"final": f"the final actor ({RunDir.CHECKPOINT})", "best": RunDir.BEST,
+                "given": str(self.path)}[self.which]
+        if self.rule == "only":
+            return f"{name} (the run has no {RunDir.BEST})"
+        if self.rule == "asked" or self.final is None:
+            return f"{name} (as asked)"
+        def one(label: str, e: dict[str, Any] | None) -> str:
+            if e is None:
+                return f"{label}: none"
+            moved = "diverged" if e["diverged"] else f"{1e3 * e['mid_dx_m']:+.3g} mm"
+            return f"{label} (step {e['global_step']}) {moved}"
+        e = self.final
+        return (f"{name}, the farther of the two in {e['duration_s']:g} s of {e['physics']} physics "
+                f"from a {e['initial_field']} field: {one('final', self.final)}, "
+                f"{one('best.pt', self.best)}")
+
+
+def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10.0,
+                 progress: bool = True) -> ActorChoice | None:
+    """The actor of a run to use: ``run`` is a run folder or its ``checkpoint.pt``; ``checkpoint``
+    is ``"auto"`` (both actors evaluated, :func:`evaluate_run`, and the better by
+    :func:`prefer_best`), ``"final"``, ``"best"`` or a checkpoint file's path. Returns ``None``
+    when ``run`` is not a run (a shipped policy, a ``best.pt`` named directly) and ``checkpoint``
+    is ``"auto"``. Raises ``FileNotFoundError`` naming what is missing."""
+    path = Path(run)
+    run_dir = path if path.is_dir() else path.parent
+    is_run = (path.is_dir() and RunDir(path).has_checkpoint()) or (
+        path.is_file() and path.name == RunDir.CHECKPOINT)
+    if checkpoint not in CHECKPOINT_CHOICES:
+        given = Path(checkpoint)
+        if not given.is_file():
+            raise FileNotFoundError(f"--checkpoint {checkpoint}: no such checkpoint file (or auto, "
+                                    "final, best)")
+        return ActorChoice(given, "given", "asked")
+    if not is_run:
+        if checkpoint == "auto":
+            return None
+        raise FileNotFoundError(f"--checkpoint {checkpoint}: {run} is not a run folder (or its "
+                                f"{RunDir.CHECKPOINT})")
+    run_files = RunDir(run_dir)
+    if checkpoint == "final":
+        return ActorChoice(run_files.checkpoint, "final", "asked")
+    if checkpoint == "best":
+        if not run_files.best.is_file():
+            raise FileNotFoundError(f"--checkpoint best: {run_files.best}: no such file (the run "
+                                    "made no evaluation during training)")
+        return ActorChoice(run_files.best, "best", "asked")
+    if not run_files.best.is_file():
+        return ActorChoice(run_files.checkpoint, "final", "only")
+    final, best = evaluate_run(run_dir, duration, progress)
+    case = resolve_policy(run_files.checkpoint).case
+    if prefer_best(case, final, best):
+        return ActorChoice(run_files.best, "best", "farther", final, best)
+    return ActorChoice(run_files.checkpoint, "final", "farther", final, best)

@@ -14,10 +14,9 @@ from typing import Any
 from elastica_magnetic.io import atomic_write_json, atomic_write_text
 from elastica_magnetic.results import ResultExistsError, check_result_folder, result_folder
 
-from ..cases.tasks import ReachTask
 from ..runfiles.rundir import CaseDir, RunDir
 from .policy_files import resolve_policy
-from .policy_runs import evaluate_seeds, seed_run_dirs
+from .policy_runs import evaluate_seeds, prefer_best, seed_run_dirs
 from .ship import ship
 
 __all__ = ["SEED_TRAINING_LOGS", "export_seeds"]
@@ -121,12 +120,7 @@ def _export_evaluated(case_dir: Path, dest: Path, case, duration: float, progres
     entries = []
     for ev in evaluations:
         best = ev.get("best")
-        if isinstance(case.task, ReachTask):  # the closer to the target, not the farther
-            better = best is not None and (abs(best["node_dx_m"] - case.task.target)
-                                           < abs(ev["node_dx_m"] - case.task.target))
-        else:
-            better = best is not None and best["mid_dx_m"] > ev["mid_dx_m"]
-        use_best = best is not None and not best["diverged"] and (ev["diverged"] or better)
+        use_best = prefer_best(case, ev, best)  # for a reach task, the closer to the target
         chosen = best if use_best else ev
         run = CaseDir(case_dir).seed(ev["seed"])
         source = run.best if use_best else run.checkpoint

@@ -23,8 +23,8 @@ from ..runfiles.rundir import RunDir
 from .model_card import replace_card_section
 from .policy_files import POLICIES_DIR
 
-__all__ = ["RecipeSeeds", "case_seeds", "seeds_markdown", "recipes_markdown", "update_model_card",
-           "seeds_figure", "learning_curves_by_recipe"]
+__all__ = ["REPOSITORY_SEEDS", "RecipeSeeds", "case_seeds", "no_seeds_message", "seeds_markdown",
+           "recipes_markdown", "update_model_card", "seeds_figure", "learning_curves_by_recipe"]
 
 #: The model card's section that :func:`update_model_card` keeps current.
 CARD_SECTION = "## Every seed, by recipe"
@@ -80,11 +80,31 @@ def case_seeds(case: Case, policies_dir: str | Path | None = None) -> list[Recip
     return groups
 
 
-def seeds_markdown(case: Case, groups: list[RecipeSeeds]) -> str:
+#: Where the shipped cases' seed campaigns are when an installed package lacks them.
+REPOSITORY_SEEDS = ("the seed campaigns of the shipped cases are in the elastica-magnetic "
+                    "repository, not in the installed package: clone it and pass "
+                    "--policies <clone>/rl/policies")
+
+
+def no_seeds_message(case: Case, policies_dir: str | Path | None = None) -> str:
+    """Why no seeds of ``case`` were found and where to get them: for a shipped case read from the
+    installed package's policies, the repository (:data:`REPOSITORY_SEEDS`); otherwise the folder
+    looked in and how ``msr export-seeds`` fills it."""
+    root = Path(policies_dir) if policies_dir is not None else POLICIES_DIR
+    folder = root / case.name / "seeds"
+    if root.resolve() == POLICIES_DIR.resolve() and case.builtin and not folder.is_dir():
+        return f"No seeds of `{case.name}` here: {REPOSITORY_SEEDS}."
+    return (f"No seeds of `{case.name}` in {folder} (msr export-seeds RUNS/{case.name} --dest "
+            f"{folder}/<recipe> writes them).")
+
+
+def seeds_markdown(case: Case, groups: list[RecipeSeeds],
+                   policies_dir: str | Path | None = None) -> str:
     """A Markdown table: one row per recipe folder, its success count and every seed's distance
-    (mm, bold where it succeeds)."""
+    (mm, bold where it succeeds); without seeds, :func:`no_seeds_message` (``policies_dir``:
+    where they were looked for)."""
     if not groups:
-        return f"No committed seeds for `{case.name}`."
+        return no_seeds_message(case, policies_dir)
     lines = [f"A seed succeeds when its actor, run for 10 s in the accurate physics from a zero "
              f"field, meets the target ({case.target_label}); each seed's actor is the better of "
              "its final one and its `best.pt` (`msr export-seeds`). Bold: succeeded.", "",
@@ -131,7 +151,12 @@ def recipes_markdown(by_case: dict[str, list[RecipeSeeds]]) -> str:
 def update_model_card(card: Path, case: Case, groups: list[RecipeSeeds]) -> bool:
     """Put the table of :func:`seeds_markdown` into the model card ``card`` as its
     :data:`CARD_SECTION` (replacing the section if there is one, else before "## Evaluation"
-    or at the end). Written atomically; returns whether the card changed."""
+    or at the end). Written atomically; returns whether the card changed. Without seeds
+    (``groups`` empty) it raises ``ValueError``: a card's seed section is never replaced by
+    nothing."""
+    if not groups:
+        raise ValueError(f"{card}: {no_seeds_message(case, card.parent.parent)} The card is left "
+                         "as it is.")
     text = card.read_text()
     new = replace_card_section(text, CARD_SECTION, seeds_markdown(case, groups), before="## Evaluation")
     if new == text:

@@ -137,7 +137,8 @@ def _measure(policy: LoadedPolicy, duration: float,
     its ``evaluation`` entry of ``policy.json`` and its field waveform ``(steps, 3)`` (T; ``None``
     when it took no step)."""
     rollout = run_policy(policy, duration, "accurate", "zero", progress)
-    measured = {"duration_s": float(rollout.times[-1]), "mid_dx_m": rollout.mid_dx,
+    measured = {"duration_s": float(rollout.times[-1]), "physics": "accurate",
+                "initial_field": "zero", "mid_dx_m": rollout.mid_dx,
                 "node_dx_m": node_dx(rollout), "diverged": rollout.meta["diverged"],
                 "machine": machine_fingerprint()}
     if isinstance(policy.case.task, ReachTask):

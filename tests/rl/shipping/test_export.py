@@ -15,7 +15,9 @@ from smoke import run_msr
 
 def test_export_torchscript_matches_agent(trained, tmp_path, capsys):
     run = trained / "m1-4mT" / "seed1"
-    result = run_msr(capsys, "export", str(run), "--out", str(tmp_path / "export"))
+    result = run_msr(capsys, "export", str(run), "--checkpoint", "final", "--out",
+                     str(tmp_path / "export"))  # checkpoint.pt's actor, compared below
+    assert result["actor_choice"]["actor"] == "final"
     assert result["max_abs_diff"] < 1e-6 and result["max_abs_diff_pt2"] < 1e-6
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)  # torch.jit is deprecated in 2.13

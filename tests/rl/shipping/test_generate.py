@@ -57,3 +57,36 @@ def test_demo_names_the_missing_policy(tmp_path, monkeypatch, capsys):
     assert msr(["demo", "--out", str(tmp_path / "demo"), "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert "m1-4mT" in err and "actor.pt" in err and "msr ship" in err
+
+
+def test_output_names_its_physics_and_claims_no_target_without_a_yardstick(tmp_path, capsys):
+    from elastica_magnetic_rl.cases.case import load_case
+
+    from elastica_magnetic.specfile import dumps
+
+    spec = load_case("m1-4mT").to_dict()
+    spec["yardstick"] = {"distance_10s": 0.0, "source": ""}
+    del spec["name"]
+    (tmp_path / "nostick.toml").write_text(dumps(spec))
+    result = run_msr(capsys, "baseline", "--case", str(tmp_path / "nostick.toml"), "--period", "2",
+                     "--duration", "0.05", "--physics", "training", "--out", str(tmp_path / "b"),
+                     "--no-figures", "--no-progress")
+    assert "meets_target" not in result and result["target"].startswith("none")
+    assert "yardstick_10s_m" not in result and "authors_mid_dx_10s_m" not in result
+    assert (result["physics"], result["initial_field"]) == ("training", "zero")
+    assert "mid_node_dx_m" in result and "node32_dx_m" not in result
+    with_stick = run_msr(capsys, "baseline", "--case", "m1-4mT", "--period", "2", "--duration",
+                         "0.05", "--out", str(tmp_path / "c"), "--no-figures", "--no-progress")
+    assert with_stick["yardstick_10s_m"] == 0.0205
+    assert "meets_target" not in with_stick  # 0.05 s is not the yardstick's 10 s
+
+
+def test_old_generate_json_keys_are_read(tmp_path):
+    import json
+
+    from elastica_magnetic_rl.shipping.generate import read_generate_json
+
+    (tmp_path / "generate.json").write_text(json.dumps({"node32_dx_m": 0.01, "mid_dx_m": 0.02,
+                                                        "authors_mid_dx_10s_m": 0.0205}))
+    data = read_generate_json(tmp_path / "generate.json")
+    assert data["mid_node_dx_m"] == 0.01 and data["yardstick_10s_m"] == 0.0205

@@ -135,3 +135,26 @@ def test_every_shipped_card_is_current_with_its_policy_and_seeds(tmp_path):
             copy = tmp_path / f"{folder.name}.md"
             shutil.copy(folder / "MODEL_CARD.md", copy)
             assert update_model_card(copy, case, groups) is False, f"{folder}: run msr seeds --card"
+
+
+def test_absent_seeds_say_where_they_are_and_leave_the_card(tmp_path, monkeypatch, capsys):
+    from elastica_magnetic_rl.shipping import seed_report
+
+    # an installed package: its policies folder holds the shipped policy, not its seeds/
+    installed = tmp_path / "site" / "policies"
+    (installed / "m1-4mT").mkdir(parents=True)
+    card = installed / "m1-4mT" / "MODEL_CARD.md"
+    card.write_text(f"# Model card\n\n{CARD_SECTION}\n\n| `paper` | 5 of 8 | ... |\n\n## Evaluation\n")
+    monkeypatch.setattr(seed_report, "POLICIES_DIR", installed)
+    case = load_case("m1-4mT")
+    message = seed_report.no_seeds_message(case, installed)
+    assert "repository" in message and "--policies <clone>/rl/policies" in message
+    mine = tmp_path / "mine"
+    assert "msr export-seeds" in seed_report.no_seeds_message(case, mine)  # a folder of the user's
+    assert msr(["seeds", "m1-4mT", "--policies", str(installed)]) == 0
+    assert "--policies <clone>/rl/policies" in capsys.readouterr().out
+    before = card.read_text()
+    assert msr(["seeds", "m1-4mT", "--policies", str(installed), "--card"]) == 2
+    assert "left as it is" in capsys.readouterr().err and card.read_text() == before
+    with pytest.raises(ValueError, match="left as it is"):
+        update_model_card(card, case, [])

@@ -1,0 +1,182 @@
+"""The yardstick that searches (``msr baseline --case C`` without ``--period``): the rotating-field
+baseline (:class:`~elastica_magnetic_rl.shipping.baselines.RotatingFieldPolicy`) over a grid of
+periods and both directions, each in a worker process; the distance of each, the period the field
+actually turned at under the rate limit (:func:`elastica_magnetic.rotation.measure_rotation` on
+the played field), a table, a figure of distance against period, and the farthest one's files as
+a single-period ``msr baseline`` writes them. :func:`yardstick_spec` writes a spec copy with the
+best distance as the case's ``[yardstick] distance_10s``."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+from elastica_magnetic.io import atomic_write, atomic_write_json, atomic_write_text
+from elastica_magnetic.results import check_result_folder, result_folder
+from elastica_magnetic.rotation import measure_rotation, min_rotation_period
+
+from ..cases.case import EVAL_DURATION, Case, case_from_dict, load_case
+from .baselines import RotatingFieldPolicy
+from .generate import GENERATE_FILES, generate
+
+__all__ = ["DEFAULT_PERIODS", "PERIOD_TOLERANCE", "achieved_period", "sweep_baseline",
+           "yardstick_spec"]
+
+#: What the sweep writes beside the best run's files (:data:`GENERATE_FILES`).
+SWEEP_FILES = ("sweep.csv", "sweep.png", "sweep.json", *GENERATE_FILES)
+#: The periods the sweep tries, s (each in both directions): from faster than the rate limit
+#: allows at the paper's fields to slow turns.
+DEFAULT_PERIODS = (0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0)
+#: Relative difference between the asked and the achieved period beyond which it is reported.
+PERIOD_TOLERANCE = 0.05
+
+
+def achieved_period(fields_T: Any, asked_s: float, case: Case) -> dict[str, Any]:
+    """The period a played field ``(steps, 3)`` (T, 100 Hz) turned at, against the ``asked_s``
+    one: ``period_asked_s``, ``period_achieved_s`` (``inf``: it did not turn a full step),
+    ``min_period_s`` (the rate limit's shortest uniform turn at the case's field limit) and
+    ``warning`` (text, or ``None`` when they agree within :data:`PERIOD_TOLERANCE`)."""
+    fastest = min_rotation_period(case.field_limit, case.actuation.max_increment)
+    achieved = math.inf
+    if len(fields_T) >= 2:
+        achieved = measure_rotation(fields_T).period_s
+    warning = None
+    if not (abs(achieved - asked_s) <= PERIOD_TOLERANCE * asked_s):
+        warning = (f"asked for a period of {asked_s:g} s, the field turned once per {achieved:.4g} s "
+                   f"(at most {1e3 * case.actuation.max_increment:g} mT per axis per 0.01 s: at "
+                   f"{1e3 * case.field_limit:g} mT the shortest uniform turn takes {fastest:.4g} s)")
+    return {"period_asked_s": asked_s, "period_achieved_s": achieved, "min_period_s": fastest,
+            "warning": warning}
+
+
+def _run_one(job: tuple[dict[str, Any], float, bool, float, str]) -> dict[str, Any]:
+    """One baseline run of the sweep (in a worker): its distance and achieved period."""
+    from .policy_runs import node_dx, run_policy
+
+    spec, period, clockwise, duration, physics = job
+    policy = RotatingFieldPolicy(load_case(spec), period, clockwise=clockwise)
+    rollout = run_policy(policy, duration, physics, "zero", progress=False)
+    return {"period_s": period, "clockwise": clockwise, "mid_dx_m": rollout.mid_dx,
+            "node_dx_m": node_dx(rollout), "diverged": rollout.meta["diverged"],
+            **{k: v for k, v in achieved_period(rollout.fields, period, policy.case).items()
+               if k != "period_asked_s"}}
+
+
+def sweep_baseline(
+    case: str | Path | Case,
+    periods: tuple[float, ...] = DEFAULT_PERIODS,
+    duration: float = EVAL_DURATION,
+    physics: str = "accurate",
+    out: str | Path = "out/baseline",
+    workers: int | None = None,
+    progress: bool = True,
+    figures: bool = True,
+    gif: bool = True,
+    force: bool = False,
+) -> dict[str, Any]:
+    """Run the rotating-field baseline for every period in ``periods`` (s) in both directions,
+    ``duration`` s in ``physics`` from a zero field, ``workers`` processes at a time (default: one
+    per core); write ``out/sweep.csv`` (one row per run), ``out/sweep.png`` (distance against the
+    asked period, per direction) and the farthest run's files (:func:`generate` into ``out``), the
+    folder written whole as the result of ``msr baseline`` for the case (an earlier one replaced
+    only with ``force``; checked before the runs).
+
+    Returns ``{"case", "physics", "duration_s", "initial_field", "runs": [...], "best": {...},
+    "table_csv", "figure", "generate": <generate's result for the best>}``; each run has
+    ``period_s``, ``clockwise``, ``mid_dx_m`` (m), ``diverged``, ``period_achieved_s``,
+    ``min_period_s`` and ``warning``."""
+    import os
+
+    from ..sweep.backends import run_in_processes
+
+    case = load_case(case)
+    if not periods or not all(math.isfinite(p) and p > 0 for p in periods):
+        raise ValueError(f"periods must be positive times in s, got {periods}")
+    subject = f"case {case.name}"
+    check_result_folder(out, kind="baseline", subject=subject, force=force, known_files=SWEEP_FILES)
+    spec = case.to_dict()
+    jobs = [(spec, float(p), cw, duration, physics) for p in periods for cw in (True, False)]
+    workers = max(1, min(len(jobs), workers or os.cpu_count() or 1))
+    if workers == 1:
+        runs = [_run_one(job) for job in jobs]
+    else:
+        runs = run_in_processes(_run_one, jobs, workers)
+    moving = [r for r in runs if not r["diverged"]]
+    if not moving:
+        raise ValueError(f"{case.name}: every baseline run diverged ({physics} physics)")
+    best = max(moving, key=lambda r: r["mid_dx_m"])
+    policy = RotatingFieldPolicy(case, best["period_s"], clockwise=best["clockwise"])
+    with result_folder(out, kind="baseline", subject=subject, force=force,
+                       known_files=SWEEP_FILES) as folder:
+        generated = generate(policy, duration=duration, out=folder.path, physics=physics,
+                             progress=progress, figures=figures, gif=gif, kind="baseline")
+        generated.pop("notes", None)
+        table = _write_table(folder.path / "sweep.csv", runs)
+        figure = (_sweep_figure(folder.path / "sweep.png", runs, best, case, physics, duration)
+                  if figures else None)
+        result = {"case": case.name, "physics": physics, "duration_s": duration,
+                  "initial_field": "zero", "runs": runs, "best": best, "table_csv": str(table),
+                  "figure": str(figure) if figure else None, "generate": generated}
+        result = json.loads(json.dumps(result, default=str).replace(str(folder.path), str(folder.final)))
+        atomic_write_json(folder.path / "sweep.json", result)
+    return result
+
+
+def _write_table(path: Path, runs: list[dict[str, Any]]) -> Path:
+    columns = ("period_s", "clockwise", "period_achieved_s", "mid_dx_m", "node_dx_m", "diverged")
+    with atomic_write(path, "w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(columns)
+        for r in runs:
+            writer.writerow([r[c] if r[c] is not None else "" for c in columns])
+    return path
+
+
+def _sweep_figure(path: Path, runs: list[dict[str, Any]], best: dict[str, Any], case: Case,
+                  physics: str, duration: float) -> Path:
+    """Distance against the asked period, one line per direction, the best run marked."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    for clockwise, label in ((True, "clockwise (towards +x)"), (False, "counter-clockwise")):
+        rows = sorted((r for r in runs if r["clockwise"] == clockwise and not r["diverged"]),
+                      key=lambda r: r["period_s"])
+        ax.plot([r["period_s"] for r in rows], [1e3 * r["mid_dx_m"] for r in rows], "o-", label=label)
+    ax.plot([best["period_s"]], [1e3 * best["mid_dx_m"]], "k*", markersize=14,
+            label=f"best: {best['period_s']:g} s, {1e3 * best['mid_dx_m']:+.1f} mm")
+    fastest = best["min_period_s"]
+    if fastest > 0:
+        ax.axvline(fastest, color="grey", linestyle=":", label=f"rate limit: {fastest:.3g} s")
+    ax.axhline(0.0, color="grey", linewidth=0.5)
+    ax.set_xlabel("asked period of the rotating field, s")
+    ax.set_ylabel(f"distance in {duration:g} s, mm")
+    ax.set_title(f"{case.name}: rotating field at {1e3 * case.field_limit:g} mT ({physics} physics, "
+                 "from a zero field)", fontsize=9)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    with atomic_write(path, "wb") as handle:
+        fig.savefig(handle, format="png", dpi=120)
+    plt.close(fig)
+    return path
+
+
+def yardstick_spec(case: Case, best: dict[str, Any], path: str | Path) -> Path:
+    """Write a copy of ``case``'s spec to ``path`` (TOML, units in comments) with ``best``'s
+    distance (m, from a 10 s accurate-physics run) as ``[yardstick] distance_10s`` and a
+    ``source`` saying which baseline it is."""
+    spec = case.to_dict()
+    turn = "clockwise" if best["clockwise"] else "counter-clockwise"
+    spec["yardstick"] = {
+        "distance_10s": float(best["mid_dx_m"]),
+        "source": f"msr baseline sweep: rotating field {turn}, period {best['period_s']:g} s "
+                  f"(turned once per {best['period_achieved_s']:.4g} s), "
+                  f"{1e3 * best['mid_dx_m']:+.1f} mm in 10 s, accurate physics, field from zero",
+    }
+    copy = case_from_dict(spec, str(path), default_name=case.name)
+    return Path(atomic_write_text(Path(path), copy.toml()))

@@ -1,0 +1,72 @@
+"""``msr baseline`` without ``--period``: the sweep (rl/shipping/baseline_sweep.py)."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from elastica_magnetic_rl.cases.case import load_case
+from elastica_magnetic_rl.shipping.baseline_sweep import achieved_period, yardstick_spec
+from smoke import run_msr
+
+from elastica_magnetic.cli import main as msr
+from elastica_magnetic.rotation import min_rotation_period
+
+QUICK = ["--physics", "training", "--duration", "0.5", "--no-figures", "--no-progress"]
+
+
+def test_the_sweep_picks_the_farthest_of_the_single_runs(tmp_path, capsys):
+    single = {}
+    for period in ("1", "2"):
+        for direction in ((), ("--counterclockwise",)):
+            r = run_msr(capsys, "baseline", "--case", "m1-4mT", "--period", period, *direction,
+                        "--out", str(tmp_path / f"p{period}{len(direction)}"), *QUICK)
+            single[(float(period), not direction)] = r["mid_dx_m"]
+    assert len(set(single.values())) == 4  # distinct: the answer is known
+    sweep = run_msr(capsys, "baseline", "--case", "m1-4mT", "--periods", "1,2", "--workers", "2",
+                    "--out", str(tmp_path / "sweep"), *QUICK)
+    assert sweep["physics"] == "training" and sweep["duration_s"] == 0.5
+    assert {(r["period_s"], r["clockwise"]): r["mid_dx_m"] for r in sweep["runs"]} == single
+    best_key = max(single, key=single.get)
+    assert (sweep["best"]["period_s"], sweep["best"]["clockwise"]) == best_key
+    assert sweep["generate"]["mid_dx_m"] == single[best_key]  # the best one's files
+    with open(sweep["table_csv"]) as f:
+        assert len(list(csv.DictReader(f))) == 4
+    assert Path(tmp_path / "sweep" / "fields.csv").is_file()
+
+
+def test_single_period_reports_the_period_achieved(tmp_path, capsys):
+    case = load_case("m1-10mT")
+    fastest = min_rotation_period(case.field_limit, case.actuation.max_increment)
+    assert fastest > 1.0  # 10 mT at 0.3 mT per step cannot turn once a second
+    r = run_msr(capsys, "baseline", "--case", "m1-10mT", "--period", "1", "--out",
+                str(tmp_path / "b"), "--physics", "training", "--duration", "3", "--no-figures",
+                "--no-progress")
+    assert r["period_asked_s"] == 1.0 and r["period_achieved_s"] > 1.05
+    assert r["warning"] and "turned once per" in r["warning"]
+
+
+def test_achieved_period_of_a_slow_turn_agrees():
+    case = load_case("m1-4mT")
+    t = np.arange(400) * 0.01
+    field = 4e-3 * np.stack([np.cos(-2 * np.pi * t / 2.0), np.sin(-2 * np.pi * t / 2.0),
+                             0 * t], axis=1)
+    result = achieved_period(field, 2.0, case)
+    assert result["period_achieved_s"] == pytest.approx(2.0, rel=1e-6) and result["warning"] is None
+    assert math.isinf(achieved_period(np.zeros((10, 3)), 2.0, case)["period_achieved_s"])
+
+
+def test_set_yardstick_writes_a_spec_copy(tmp_path, capsys):
+    case = load_case("m1-4mT")
+    best = {"period_s": 3.0, "clockwise": True, "period_achieved_s": 3.0, "mid_dx_m": 0.0421}
+    path = yardstick_spec(case, best, tmp_path / "mine.toml")
+    copy = load_case(path)
+    assert copy.yardstick.distance_10s == 0.0421 and "period 3 s" in copy.yardstick.source
+    assert copy.robot.tables == case.robot.tables and copy.name == "mine"
+    # the yardstick is the accurate physics' 10 s: a quick sweep cannot set it
+    assert msr(["baseline", "--case", "m1-4mT", "--set-yardstick", str(tmp_path / "x.toml"),
+                *QUICK]) == 2
+    assert "--set-yardstick" in capsys.readouterr().err and not (tmp_path / "x.toml").exists()

@@ -1,0 +1,109 @@
+"""Which actor of a run is used (rl/shipping/policy_runs.py: ``choose_actor``, ``prefer_best``)."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+import torch
+from elastica_magnetic_rl.cases.case import load_case
+from elastica_magnetic_rl.runfiles.rundir import RunDir
+from elastica_magnetic_rl.shipping.policy_runs import choose_actor, evaluate_checkpoint, prefer_best
+from smoke import run_msr
+
+from elastica_magnetic.cli import main as msr
+
+DURATION = 0.3  # s of accurate physics per evaluation
+
+
+def _entry(dx: float, diverged: str | None = None, node: float | None = None) -> dict:
+    return {"global_step": 1, "duration_s": 10.0, "physics": "accurate", "initial_field": "zero",
+            "mid_dx_m": dx, "node_dx_m": dx if node is None else node, "diverged": diverged}
+
+
+def test_prefer_best_is_the_farther_that_did_not_diverge():
+    crawl = load_case("m1-4mT")
+    assert prefer_best(crawl, _entry(0.001), _entry(0.002))
+    assert not prefer_best(crawl, _entry(0.002), _entry(0.001))
+    assert not prefer_best(crawl, _entry(0.001), None)
+    assert not prefer_best(crawl, _entry(0.001), _entry(0.009, diverged="nan"))
+    assert prefer_best(crawl, _entry(0.009, diverged="nan"), _entry(-0.001))
+    reach = load_case("m1-4mT-reach")  # the closer to the target, not the farther
+    target = reach.task.target
+    assert prefer_best(reach, _entry(0.0, node=target + 0.004), _entry(0.0, node=target - 0.001))
+    assert not prefer_best(reach, _entry(0.0, node=target), _entry(0.0, node=target + 0.003))
+
+
+@pytest.fixture(scope="module")
+def best_is_farther(trained, tmp_path_factory) -> tuple[Path, float, float]:
+    """A copy of a trained seed whose ``best.pt`` holds the farther of two trained actors (the
+    final ones of seeds 0 and 1: the tiny run's best.pt is its final actor) and ``checkpoint.pt``
+    the nearer (in DURATION s, accurate physics, field from zero); with both distances (m),
+    measured here."""
+    run = tmp_path_factory.mktemp("choice") / "seed0"
+    shutil.copytree(trained / "m1-4mT" / "seed0", run)
+    files = RunDir(run)
+    files.evaluation_json.unlink(missing_ok=True)
+    other = RunDir(trained / "m1-4mT" / "seed1").checkpoint
+    d_own = evaluate_checkpoint(files.checkpoint, {}, DURATION, False)["mid_dx_m"]
+    d_other = evaluate_checkpoint(other, {}, DURATION, False)["mid_dx_m"]
+    assert d_own != d_other
+    own = torch.load(files.checkpoint, weights_only=True)
+    actors = [own["agent"]["actor"], torch.load(other, weights_only=True)["agent"]["actor"]]
+    near, far = (actors[0], actors[1]) if d_own < d_other else (actors[1], actors[0])
+    best = torch.load(files.best, weights_only=True)
+    own["agent"]["actor"], best["agent"]["actor"] = near, far
+    torch.save(own, files.checkpoint)
+    torch.save(best, files.best)
+    return run, min(d_own, d_other), max(d_own, d_other)
+
+
+def test_generate_uses_the_farther_actor_and_says_so(best_is_farther, tmp_path, capsys):
+    run, near, far = best_is_farther
+    result = run_msr(capsys, "generate", str(run), "--duration", str(DURATION), "--out",
+                     str(tmp_path / "gen"), "--no-figures", "--no-progress")
+    choice = result["actor_choice"]
+    assert choice["actor"] == "best" and choice["rule"] == "farther"
+    assert result["policy"] == str(RunDir(run).best)
+    assert choice["best"]["mid_dx_m"] == pytest.approx(far, rel=1e-9, abs=1e-15)
+    assert choice["final"]["mid_dx_m"] == pytest.approx(near, rel=1e-9, abs=1e-15)
+    assert result["mid_dx_m"] == pytest.approx(far, rel=1e-9, abs=1e-15)  # the same rollout
+    # the text output names the actor, both distances, the physics, duration and initial field
+    assert msr(["generate", str(run), "--duration", str(DURATION), "--out", str(tmp_path / "g2"),
+                "--no-figures", "--no-progress"]) == 0
+    line = capsys.readouterr().out.splitlines()[0]
+    assert line.startswith("actor: best.pt") and "accurate physics" in line and "zero field" in line
+    assert f"{1e3 * far:+.3g} mm" in line and f"{1e3 * near:+.3g} mm" in line
+    assert f"in {DURATION:g} s" in line
+
+
+def test_checkpoint_option_chooses_explicitly(best_is_farther, tmp_path, capsys):
+    run, _, _ = best_is_farther
+    result = run_msr(capsys, "generate", str(run), "--checkpoint", "final", "--duration", "0.05",
+                     "--physics", "training", "--out", str(tmp_path / "gen"), "--no-figures",
+                     "--no-progress")
+    assert result["policy"] == str(RunDir(run).checkpoint)
+    assert result["actor_choice"]["actor"] == "final" and result["actor_choice"]["rule"] == "asked"
+    assert choose_actor(run, "best").path == RunDir(run).best
+    assert choose_actor(RunDir(run).best, "auto") is None  # a best.pt named directly: used as is
+    assert msr(["generate", str(run), "--checkpoint", str(tmp_path / "nope.pt"), "--out",
+                str(tmp_path / "g3"), "--no-progress"]) == 2
+    assert "nope.pt" in capsys.readouterr().err
+
+
+def test_ship_and_export_take_the_checkpoint_option(best_is_farther, tmp_path, capsys):
+    import json
+
+    run, _, _ = best_is_farther
+    shipped = run_msr(capsys, "ship", str(run), "--name", "b", "--dest", str(tmp_path),
+                      "--checkpoint", "best", "--no-measure", "--no-progress")
+    assert shipped["actor_choice"]["actor"] == "best"
+    meta = json.loads((tmp_path / "b" / "policy.json").read_text())
+    assert meta["training"]["best_evaluation"] is True
+    # an existing policy is refused before the actors are evaluated
+    assert msr(["ship", str(run), "--name", "b", "--dest", str(tmp_path), "--no-progress"]) == 2
+    assert "already holds a policy" in capsys.readouterr().err
+    exported = run_msr(capsys, "export", str(run), "--checkpoint", "final", "--out",
+                       str(tmp_path / "exp"))
+    assert exported["actor_choice"]["actor"] == "final"
