@@ -153,9 +153,13 @@ class PeriodicEvaluation:
         self.last_step = int(state["last_step"]) if state else -1
         self.next_step = self._next(global_step)
         self.restore_best = self.best_networks is not None and resumed_here
+        self.returns: list[float] = []  # every evaluation's mean return, in order
         if resumed_here:
             truncate_csv(self.csv_path, EVALUATION_FIELDS,
                           lambda row: int(row["global_step"]) <= global_step)
+            if self.csv_path.exists():
+                with open(self.csv_path, newline="") as f:
+                    self.returns = [float(r["mean_return"]) for r in csv.DictReader(f)]
         else:  # leftovers of an earlier run in this folder that left no checkpoint
             self.csv_path.unlink(missing_ok=True)
         if not self.restore_best:
@@ -181,6 +185,7 @@ class PeriodicEvaluation:
             self.best_return, self.best_step = result.mean_return, global_step
             self.best_networks = {"actor": learner.actor_state(k), "critic": learner.critic_state(k)}
             self.write_best(header)
+        self.returns.append(float(result.mean_return))
         row = {"global_step": global_step, "mean_return": result.mean_return,
                "std_return": result.std_return, "mean_length": float(np.mean(result.lengths)),
                "best_mean_return": self.best_return, "wall_time_s": round(wall_time_s, 3)}

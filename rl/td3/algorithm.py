@@ -557,11 +557,13 @@ class TD3:
             "num_updates": self.num_updates,
         }
 
-    def load_seed_state(self, k: int, state: dict[str, Any]) -> None:
-        """Inverse of :meth:`seed_state` (the seeds of one :class:`TD3` must share their counters)."""
+    def load_seed_state(self, k: int, state: dict[str, Any], same_counters: bool = True) -> None:
+        """Inverse of :meth:`seed_state` (the seeds of one :class:`TD3` must share their counters
+        to train on together; ``same_counters=False`` lets a learner that only holds seeds at
+        their ends, e.g. some stopped early, take them all)."""
         counters = (int(state["num_updates"]), int(state["actor_optimizer"]["step"]),
                     int(state["critic_optimizer"]["step"]))
-        if k > 0 and counters != self._counters():
+        if same_counters and k > 0 and counters != self._counters():
             raise ValueError("seeds trained together must be at the same update count")
         self.actor_net.load_member_state(k, unprefixed(state["actor"], "net."))
         self.actor_target_net.load_member_state(k, unprefixed(state["actor_target"], "net."))

@@ -201,3 +201,63 @@ def test_pink_exploration_is_correlated_in_time_and_trains_reproducibly(tmp_path
     assert_state_equal(alone.state_dict(), resumed.state_dict())
     white_run = load_checkpoint(tmp_path / "g2")
     assert white_run["config"]["noise_color"] == 1.0
+
+
+# ----------------------------------------------------------------------------------------------
+# Stopping seeds that have learned (rl/runner/stopping.py): a stopped seed leaves its group
+# ----------------------------------------------------------------------------------------------
+def _fixed_episodes():
+    return ToyEnv(p_terminate=0.0)  # 20-step episodes: every seed's episodes end together
+
+
+def _group(tmp_path, name, seeds, steps, rules=None, resume=False):
+    from elastica_magnetic_rl.runner.loop import train_seeds
+
+    return train_seeds(lambda k: sync_vector_env(_fixed_episodes, k),
+                       [toy_config(seed=s, eval_every=40, checkpoint_every=1000) for s in seeds], steps,
+                       [tmp_path / name / f"seed{s}" for s in seeds], progress=False, resume=resume,
+                       eval_env_fn=_fixed_episodes, stop_rules=rules)
+
+
+def test_a_stopped_seed_leaves_the_group_and_the_others_go_on_bit_identical(tmp_path):
+    from elastica_magnetic_rl.runner.stopping import StopRule
+
+    # a rule that only seed 5 has: it fires at seed 5's second evaluation (step 80)
+    always = StopRule("target", threshold=-1e9, consecutive=2)
+    learner = _group(tmp_path, "stop", (2, 5, 7), 200, [None, always, None])
+    _group(tmp_path, "ref", (2, 7), 200)
+    for s in (2, 7):  # the others: as if seed 5 had never been there
+        a, b = load_checkpoint(tmp_path / "stop" / f"seed{s}"), load_checkpoint(tmp_path / "ref" / f"seed{s}")
+        for key in ("agent", "buffer", "global_step", "episode"):
+            assert_state_equal(a[key], b[key], key)
+        assert a["stopped"] is None and a["global_step"] == 200
+    stopped = load_checkpoint(tmp_path / "stop" / "seed5")
+    assert stopped["global_step"] == 80
+    assert stopped["stopped"]["step"] == 80 and stopped["stopped"]["reason"].startswith("target")
+    assert stopped["stopped"]["rule"] == always.to_dict() == stopped["stop_rule"]
+    with open(tmp_path / "stop" / "seed5" / "episodes.csv") as f:
+        assert max(int(r["global_step"]) for r in csv.DictReader(f)) == 80
+    # the stopped seed is the same seed trained alone to its stop
+    _group(tmp_path, "alone", (5,), 80)
+    assert_state_equal(stopped["agent"], load_checkpoint(tmp_path / "alone" / "seed5")["agent"])
+    # the learner returned holds every seed at its end, in order
+    assert learner.n_seeds == 3
+    assert_state_equal(learner.seed_state(1)["actor"], stopped["agent"]["actor"])
+
+    # resume after a stop: the stopped seed is not trained further, the others continue exactly
+    before = (tmp_path / "stop" / "seed5" / "checkpoint.pt").read_bytes()
+    _group(tmp_path, "stop", (2, 5, 7), 260, [None, always, None], resume=True)
+    _group(tmp_path, "ref", (2, 7), 260, resume=True)
+    assert (tmp_path / "stop" / "seed5" / "checkpoint.pt").read_bytes() == before
+    for s in (2, 7):
+        a, b = load_checkpoint(tmp_path / "stop" / f"seed{s}"), load_checkpoint(tmp_path / "ref" / f"seed{s}")
+        assert a["global_step"] == 260
+        assert_state_equal(a["agent"], b["agent"], "agent")
+
+
+def test_resume_refuses_another_stop_rule_naming_both(tmp_path):
+    from elastica_magnetic_rl.runner.stopping import StopRule
+
+    _group(tmp_path, "run", (3,), 60, [StopRule("plateau", patience=3)])
+    with pytest.raises(ValueError, match="stop rule is .*plateau.* not none"):
+        _group(tmp_path, "run", (3,), 80, [None], resume=True)
