@@ -29,6 +29,11 @@ RECIPES: dict[str, dict[str, Any]] = {
     "pink-ln-unsat": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True,
                       "actor_saturation_penalty": 1.0},
 }
+#: Run settings a recipe carries besides its TD3 changes (not hyperparameters: they change when a
+#: seed stops, not what it learns), each overridable on the command line: ``stop_when``, the
+#: default of ``msr train --stop-when`` (``--stop-when none`` turns it off).
+RECIPE_RUN_SETTINGS: dict[str, dict[str, Any]] = {}
+
 #: The recipe of a spec file that names none, and of the paper's four cases: ``pink-ln`` made more
 #: seeds succeed than the paper's recipe in each of the four, 8 seeds against 8 (docs/training.md).
 DEFAULT_RECIPE = "pink-ln"

@@ -118,6 +118,7 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
                         "--recipe paper: the authors'): "
                         + "; ".join(f"{name}: {line}" for name, line in RECIPE_SUMMARIES.items())
                         + " (docs/training.md)")
+    _add_stop_options(p)
     g = p.add_argument_group("TD3 overrides (default: the paper's settings)")
     g.add_argument("--learning-starts", type=int, default=None, help="warm-up steps (2500)")
     g.add_argument("--batch-size", type=int, default=None, help="minibatch (256)")
@@ -137,6 +138,25 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=train_command)
+
+
+def _add_stop_options(p: argparse.ArgumentParser) -> None:
+    """``msr train --stop-when`` and its settings (rl/sweep/stop_settings.py)."""
+    from ..sweep.stop_settings import STOP_CHOICES
+
+    g = p.add_argument_group("stopping seeds that have learned (default: off, or the recipe's)")
+    g.add_argument("--stop-when", choices=STOP_CHOICES, default=None,
+                   help="target: a seed stops once its evaluation return reached the case's yardstick "
+                        "(reward scale x [yardstick] distance_10s) in K consecutive evaluations; "
+                        "plateau: once its best evaluation has not improved by more than a tolerance "
+                        "for N evaluations; none: off (also for a recipe that has a rule). A stopped "
+                        "seed frees its share of the worker; recorded in the run, kept by --resume")
+    g.add_argument("--stop-consecutive", type=int, default=None, metavar="K",
+                   help="target: evaluations in a row at the threshold (default 2)")
+    g.add_argument("--stop-patience", type=int, default=None, metavar="N",
+                   help="plateau: evaluations without improvement (default 6)")
+    g.add_argument("--stop-tolerance", type=float, default=None, metavar="F",
+                   help="plateau: an improvement counts above F x |best| (default 0.02)")
 
 
 def _add_bench_command(sub: argparse._SubParsersAction) -> None:
@@ -317,6 +337,7 @@ def train_command(args: argparse.Namespace) -> int:
             progress=not args.no_progress, threads=args.threads, envs=args.envs,
             backend=args.backend, address=args.address,
             seeds_per_simulator=args.seeds_per_simulator, recipe=args.recipe,
+            stop_when=args.stop_when, stop_options=_stop_options(args),
         )
     except (FileExistsError, FileNotFoundError, ValueError, ConnectionError) as exc:
         raise CommandError(str(exc)) from None  # ConnectionError: --address
@@ -326,11 +347,26 @@ def train_command(args: argparse.Namespace) -> int:
     failed = any(s["failed"] for s in summaries.values())
     if not args.json:
         summaries = {case: {k: v for k, v in summary.items() if k != "seeds"} | {
-            CaseDir.seed_name(r["seed"]): r.get("error") or f"final mean return {r['final_mean_return']:.4g} "
-            f"({r['episodes']} episodes)" for r in summary["seeds"]} for case, summary in summaries.items()}
+            CaseDir.seed_name(r["seed"]): r.get("error") or _seed_line(r)
+            for r in summary["seeds"]} for case, summary in summaries.items()}
     # one case: its summary, as before; several: the summaries by case
     print_result(next(iter(summaries.values())) if len(summaries) == 1 else summaries, args.json)
     return 1 if failed else 0
+
+
+def _stop_options(args: argparse.Namespace) -> dict:
+    """The stop rule's settings given (checked by the library, naming the option)."""
+    return {k: v for k, v in (("consecutive", args.stop_consecutive), ("patience", args.stop_patience),
+                              ("tolerance", args.stop_tolerance)) if v is not None}
+
+
+def _seed_line(r: dict) -> str:
+    """One seed of the final summary: its state (learned / stopped / still improving), return."""
+    state = r.get("state", "")
+    if r.get("stopped_early"):
+        state = f"stopped at step {r['stop_step']} ({r['stop_reason']})"
+    return (f"{state + ': ' if state else ''}final mean return {r['final_mean_return']:.4g} "
+            f"({r['episodes']} episodes)")
 
 
 def case_list_command(args: argparse.Namespace) -> int:
