@@ -122,7 +122,13 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
     g = p.add_argument_group("TD3 overrides (default: the paper's settings)")
     g.add_argument("--learning-starts", type=int, default=None, help="warm-up steps (2500)")
     g.add_argument("--batch-size", type=int, default=None, help="minibatch (256)")
-    g.add_argument("--hidden", type=str, default=None, help="hidden sizes, e.g. 256,256")
+    g.add_argument("--hidden", type=str, default=None,
+                   help="hidden sizes of the critics, and of the actor unless --actor-hidden, e.g. 256,256")
+    g.add_argument("--actor-hidden", type=str, default=None,
+                   help="hidden sizes of the actor when they differ from the critics', e.g. 64,64")
+    g.add_argument("--updates-per-step", type=float, default=None,
+                   help="TD3 updates per environment transition after the warm-up (1; a fraction "
+                        "such as 0.5 makes one update every second transition)")
     g.add_argument("--buffer-size", type=int, default=None, help="replay capacity (1e6)")
     g.add_argument("--target-noise-clip", type=float, default=None, help="(0.8, the authors')")
     g.add_argument("--checkpoint-every", type=int, default=None, help="steps (10000)")
@@ -288,19 +294,32 @@ def _overrides(args: argparse.Namespace) -> dict:
     if not (math.isfinite(clip) and clip >= 0):
         raise CommandError(f"--target-noise-clip must be a finite number >= 0 (a fraction of the "
                            f"action half-range), got {clip}")
-    if args.hidden:
-        try:
-            out["hidden_sizes"] = tuple(int(h) for h in args.hidden.split(","))
-        except ValueError:
-            raise CommandError(f"--hidden must be comma-separated integers, got {args.hidden!r}") from None
-        if not out["hidden_sizes"] or min(out["hidden_sizes"]) < 1:
-            raise CommandError(f"--hidden: every layer needs at least 1 unit, got {args.hidden!r}")
+    for option, name in (("hidden", "hidden_sizes"), ("actor_hidden", "actor_hidden_sizes")):
+        if getattr(args, option, None):
+            out[name] = _widths(f"--{option.replace('_', '-')}", getattr(args, option))
+    ratio = getattr(args, "updates_per_step", None)
+    if ratio is not None:
+        if not (math.isfinite(ratio) and ratio > 0):
+            raise CommandError(f"--updates-per-step must be a finite number > 0 (updates per "
+                               f"transition), got {ratio}")
+        out["updates_per_step"] = ratio
     if args.device == "cuda":
         import torch
 
         if not torch.cuda.is_available():
             raise CommandError("--device cuda: no CUDA device is available to this torch build")
     return out
+
+
+def _widths(option: str, text: str) -> tuple[int, ...]:
+    """Hidden layer widths from ``"256,256"``."""
+    try:
+        widths = tuple(int(h) for h in text.split(","))
+    except ValueError:
+        raise CommandError(f"{option} must be comma-separated integers, got {text!r}") from None
+    if not widths or min(widths) < 1:
+        raise CommandError(f"{option}: every layer needs at least 1 unit, got {text!r}")
+    return widths
 
 
 def _check_run_options(args: argparse.Namespace) -> None:

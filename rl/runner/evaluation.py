@@ -123,7 +123,7 @@ class ActorPolicy:
     @classmethod
     def of_seed(cls, learner: TD3, k: int) -> ActorPolicy:
         return cls(learner.actor_state(k), learner.obs_dim, learner.act_dim,
-                   learner.config.hidden_sizes, learner.action_low, learner.action_high)
+                   learner.config.actor_widths, learner.action_low, learner.action_high)
 
     @torch.no_grad()
     def act(self, obs: np.ndarray) -> np.ndarray:

@@ -48,7 +48,7 @@ import numpy as np
 import torch
 
 from ..td3.agent import TD3Agent
-from ..td3.algorithm import TD3, TD3Config
+from ..td3.algorithm import TD3, TD3Config, update_ratio
 from .allocator import retain_freed_memory
 from .evaluation import (
     EVAL_SEED,
@@ -276,6 +276,9 @@ class _GroupLoop:
         self.actions = np.zeros((self.k_seeds, n, self.act_dim), dtype=np.float32)
         self.timing = {key: 0.0 for key in TIMING_KEYS}
         self.clock = time.perf_counter()
+        # the unspent fraction of an update of a fractional updates_per_step (the group's seeds
+        # are in lockstep: one value, kept in every seed's checkpoint)
+        self.update_credit = self.lead.update_credit
 
     @property
     def lead(self) -> SeedRun:
@@ -383,12 +386,19 @@ class _GroupLoop:
 
     def learn(self, before: int) -> None:
         """``updates_per_step`` updates per transition past the warm-up (``before``: the step
-        count before this vector step), all seeds at once; losses logged every ``log_every``."""
+        count before this vector step), all seeds at once; losses logged every ``log_every``. A
+        fractional ratio owes ``n x ratio`` updates after ``n`` such transitions: the whole ones
+        are made now, the rest (:attr:`update_credit`, exact) carried to the next steps."""
         cfg, learner, runs = self.cfg, self.learner, self.runs
         n_learn = max(0, self.lead.global_step - max(before, cfg.learning_starts))
         if not n_learn or len(self.lead.buffer) < cfg.batch_size:
             return
-        for _ in range(n_learn * cfg.updates_per_step):
+        owed = self.update_credit + n_learn * update_ratio(cfg.updates_per_step)
+        n_updates = int(owed)  # floor: owed >= 0
+        self.update_credit = owed - n_updates
+        for run in self.runs:
+            run.update_credit = self.update_credit
+        for _ in range(n_updates):
             info = learner.update([r.buffer.sample(cfg.batch_size, learner.rngs[k])
                                    for k, r in enumerate(runs)])
             if learner.num_updates % cfg.log_every == 0:

@@ -14,6 +14,7 @@ import random
 import time
 import warnings
 from collections.abc import Callable
+from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
@@ -129,6 +130,9 @@ class SeedRun:
                 if "rows" in ckpt["buffer"]:
                     self.replay.rows = int(ckpt["buffer"]["rows"])
         self.start_step = self.global_step
+        # the unspent fraction of an update (fractional updates_per_step), exact
+        self.update_credit = Fraction(str(ckpt.get("update_credit", "0"))) if ckpt is not None \
+            else Fraction(0)
         self.stop_rule, self.stopped = _stop_setting(self.ckpt if self.resumed_here else None,
                                                      stop_rule, self.ckpt_path)
         self.final_state: dict[str, Any] | None = None  # its networks' state when it stopped
@@ -265,6 +269,7 @@ class SeedRun:
             "vector": vector,
             "timing": dict(self.timing),
             "stopped": self.stopped,
+            "update_credit": str(self.update_credit),
         })
         self.next_checkpoint = self._next_checkpoint()
 

@@ -261,3 +261,55 @@ def test_resume_refuses_another_stop_rule_naming_both(tmp_path):
     _group(tmp_path, "run", (3,), 60, [StopRule("plateau", patience=3)])
     with pytest.raises(ValueError, match="stop rule is .*plateau.* not none"):
         _group(tmp_path, "run", (3,), 80, [None], resume=True)
+
+
+# ----------------------------------------------------------------------------------------------
+# A fractional update-to-data ratio and an actor narrower than its critics
+# ----------------------------------------------------------------------------------------------
+def test_a_fractional_update_ratio_makes_exactly_its_updates_and_resumes_exactly(tmp_path):
+    from fractions import Fraction
+
+    from elastica_magnetic_rl.runner.loop import train_vector
+
+    cfg = toy_config(seed=4, updates_per_step=0.5, learning_starts=31)
+
+    def three():  # 3 transitions per vector step (credit carries over); checkpoints at step 60, 120
+        return sync_vector_env(_fixed_episodes, 3)
+
+    whole = train_vector(three, cfg, 150, tmp_path / "whole", progress=False)
+    ckpt = load_checkpoint(tmp_path / "whole")
+    # the learning transitions (past the warm-up, buffer >= batch) owed 0.5 update each
+    learned = ckpt["global_step"] - 31  # every transition past the warm-up
+    assert whole.num_updates == int(Fraction(learned, 2))
+    assert Fraction(ckpt["update_credit"]) == Fraction(learned, 2) - whole.num_updates
+
+    def kill_late(row):
+        if row["global_step"] >= 100:
+            raise Killed
+
+    with pytest.raises(Killed):
+        train_vector(three, cfg, 150, tmp_path / "killed", progress=False, log_fn=kill_late)
+    assert Fraction(load_checkpoint(tmp_path / "killed")["update_credit"]) == Fraction(1, 2)  # 29 x 0.5
+    resumed = train_vector(three, cfg, 150, tmp_path / "killed", resume=True, progress=False)
+    assert_state_equal(whole.state_dict(), resumed.state_dict())
+    with pytest.raises(ValueError, match="updates_per_step must be a finite number > 0"):
+        toy_config(updates_per_step=0)
+    assert toy_config(updates_per_step=2.0).updates_per_step == 2  # an integer stays one
+
+
+def test_a_narrower_actor_than_critics(tmp_path):
+    from elastica_magnetic_rl.shipping.policy_files import build_networks
+
+    cfg = toy_config(seed=1, hidden_sizes=(16, 16), actor_hidden_sizes=(4,))
+    agent = train(ToyEnv, cfg, 60, tmp_path / "run", progress=False)
+    assert agent.actor.net[0].out_features == 4 and agent.critic.q1_net[0].out_features == 16
+    again = TD3Agent.from_checkpoint(tmp_path / "run")
+    assert_state_equal(again.state_dict(), agent.state_dict())
+    ckpt = load_checkpoint(tmp_path / "run")
+    actor, critic = build_networks(3, 2, (4,), ckpt["agent"]["actor"], ckpt["agent"]["critic"],
+                                   critic_hidden=(16, 16))
+    assert actor.net[0].out_features == 4 and critic.q1_net[0].out_features == 16
+    # a checkpoint written before the key existed: the actor as wide as the critics
+    old = toy_config(seed=1).to_dict()
+    del old["actor_hidden_sizes"]
+    assert TD3Config.from_dict(old).actor_widths == (16, 16)
