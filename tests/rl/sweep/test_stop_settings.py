@@ -86,3 +86,14 @@ def test_summary_entries_of_a_stopped_seed(tmp_path):
     summary = stop_summary([{"seed": 0, **record}, {"seed": 1, **stop_record({}, 100_000)}], 100_000,
                            None)
     assert summary["stopped_early"] == [0] and summary["steps_run_fraction"] == pytest.approx(0.7)
+
+
+def test_the_fast_recipe_carries_the_target_rule_and_none_turns_it_off():
+    from elastica_magnetic_rl.cases.recipes import crawler_config
+
+    assert recipe_stop_when(None, "fast") == "target"
+    assert recipe_stop_when("none", "fast") is None
+    assert recipe_stop_when("plateau", "fast") == "plateau"
+    cfg = crawler_config(0, "fast")
+    assert cfg.hidden_sizes == (128, 128) and cfg.actor_widths == (128, 128)
+    assert cfg.critic_layer_norm and cfg.noise_color == 1.0
