@@ -313,3 +313,31 @@ def test_a_narrower_actor_than_critics(tmp_path):
     old = toy_config(seed=1).to_dict()
     del old["actor_hidden_sizes"]
     assert TD3Config.from_dict(old).actor_widths == (16, 16)
+
+
+def test_a_crawler_that_stops_leaves_the_batched_simulator_and_the_other_goes_on_exactly(tmp_path):
+    """The crawler's vector environment (one batched simulator): a seed that stops leaves it and
+    the other seed goes on as if alone."""
+    import functools
+
+    from elastica_magnetic_rl.envs.env import make_env
+    from elastica_magnetic_rl.envs.vector_env import make_vector_env
+    from elastica_magnetic_rl.runner.loop import train_seeds
+    from elastica_magnetic_rl.runner.stopping import StopRule
+
+    vec = functools.partial(make_vector_env, "m1-4mT", physics="training", initial_field="random",
+                            duration=0.05)
+    evaluation = functools.partial(make_env, "m1-4mT", "training", "zero", 0.05)
+
+    def run(name, seeds, rules):
+        cfgs = [toy_config(seed=s, learning_starts=10, batch_size=8, hidden_sizes=(8,), eval_every=10)
+                for s in seeds]
+        train_seeds(vec, cfgs, 30, [tmp_path / name / f"seed{s}" for s in seeds], envs_per_seed=2,
+                    progress=False, eval_env_fn=evaluation, stop_rules=rules)
+
+    run("group", (0, 1), [None, StopRule("target", threshold=-1e9, consecutive=1)])
+    run("alone", (0,), None)
+    a, b = load_checkpoint(tmp_path / "group" / "seed0"), load_checkpoint(tmp_path / "alone" / "seed0")
+    for key in ("agent", "buffer", "global_step", "episode"):
+        assert_state_equal(a[key], b[key], key)
+    assert load_checkpoint(tmp_path / "group" / "seed1")["stopped"]["step"] == 10
