@@ -56,6 +56,7 @@ from .evaluation import (
     evaluate_many,
     flat_observation,
 )
+from .progress import GroupProgress
 from .seed_run import SeedRun
 from .stopping import StopRule
 
@@ -524,6 +525,10 @@ class _GroupLoop:
                and ended[self.sub(k)].all() and run.evaluation.due(run.global_step)]
         self.evaluate(due)
         self.lap("evaluation")
+        if due:
+            self.progress.evaluated()
+        if all_ended or due:
+            self.show_progress()
         self.apply_stop_rules(due)
         self.lap("checkpoint")
         if not any(not r.stopped for r in self.runs):
@@ -544,6 +549,17 @@ class _GroupLoop:
             self.checkpoint_inside_episodes(next_obs)
             self.lap("checkpoint")
         return next_obs
+
+    def show_progress(self) -> None:
+        """The group's rate and ETA (evaluations included) on its first seed's progress bar."""
+        lead = self.lead
+        estimate = self.progress.estimate(self.timing, lead.global_step, lead.steps,
+                                          sum(not r.stopped for r in self.runs), self.cfg.eval_every
+                                          if lead.evaluation.enabled else 0, lead.evaluation.last_step)
+        if lead.bar is not None and not getattr(lead.bar, "disable", True):
+            base = self.bar_desc.get(id(lead), "")
+            lead.bar.set_description_str(f"{base} | {GroupProgress.describe(estimate)}".lstrip(" |"),
+                                         refresh=False)
 
     def apply_stop_rules(self, evaluated: list[int]) -> None:
         """The seeds just evaluated whose stop rule fires write their final checkpoint and stop
@@ -607,6 +623,8 @@ class _GroupLoop:
         if lead.resumed_here and lead.ckpt.get("timing"):
             self.timing.update({k: float(v) for k, v in lead.ckpt["timing"].items() if k in self.timing})
         self.clock = time.perf_counter()
+        self.progress = GroupProgress(self.timing, start_step)
+        self.bar_desc = {id(r): getattr(r.bar, "desc", "") or "" for r in self.runs}
         for run in self.runs:
             run.timing = self.timing
         ended = None
