@@ -342,6 +342,9 @@ def train_cases(
         folders = {case: [CaseDir.of(out, case).seed(s).path for s in seed_list] for case in loaded}
         if keep_stop_rules:
             stop_rules = {case: resumed_stop_rule(dirs) for case, dirs in folders.items()}
+            if any(stop_rules.values()) and configs[seed_list[0]].eval_every <= 0:
+                raise ValueError("the runs stop by a rule decided at their evaluations: resume them "
+                                 "with --eval-every > 0")
         for case, dirs in folders.items():
             check_resumed_stop_rules(dirs, stop_rules[case])
     jobs = _group_jobs(out, loaded, groups, configs, backend, physics=physics,
