@@ -145,10 +145,17 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
                         "--recipe paper: the authors'): "
                         + "; ".join(f"{name}: {line}" for name, line in RECIPE_SUMMARIES.items())
                         + " (docs/training.md)")
+    _add_stop_options(p)
     g = p.add_argument_group("TD3 overrides (default: the paper's settings)")
     g.add_argument("--learning-starts", type=int, default=None, help="warm-up steps (2500)")
     g.add_argument("--batch-size", type=int, default=None, help="minibatch (256)")
-    g.add_argument("--hidden", type=str, default=None, help="hidden sizes, e.g. 256,256")
+    g.add_argument("--hidden", type=str, default=None,
+                   help="hidden sizes of the critics, and of the actor unless --actor-hidden, e.g. 256,256")
+    g.add_argument("--actor-hidden", type=str, default=None,
+                   help="hidden sizes of the actor when they differ from the critics', e.g. 64,64")
+    g.add_argument("--updates-per-step", type=float, default=None,
+                   help="TD3 updates per environment transition after the warm-up (1; a fraction "
+                        "such as 0.5 makes one update every second transition)")
     g.add_argument("--buffer-size", type=int, default=None, help="replay capacity (1e6)")
     g.add_argument("--target-noise-clip", type=float, default=None, help="(0.8, the authors')")
     g.add_argument("--checkpoint-every", type=int, default=None, help="steps (10000)")
@@ -164,6 +171,25 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=train_command)
+
+
+def _add_stop_options(p: argparse.ArgumentParser) -> None:
+    """``msr train --stop-when`` and its settings (rl/sweep/stop_settings.py)."""
+    from ..sweep.stop_settings import STOP_CHOICES
+
+    g = p.add_argument_group("stopping seeds that have learned (default: off, or the recipe's)")
+    g.add_argument("--stop-when", choices=STOP_CHOICES, default=None,
+                   help="target: a seed stops once its evaluation return reached the case's yardstick "
+                        "(reward scale x [yardstick] distance_10s) in K consecutive evaluations; "
+                        "plateau: once its best evaluation has not improved by more than a tolerance "
+                        "for N evaluations; none: off (also for a recipe that has a rule). A stopped "
+                        "seed frees its share of the worker; recorded in the run, kept by --resume")
+    g.add_argument("--stop-consecutive", type=int, default=None, metavar="K",
+                   help="target: evaluations in a row at the threshold (default 2)")
+    g.add_argument("--stop-patience", type=int, default=None, metavar="N",
+                   help="plateau: evaluations without improvement (default 6)")
+    g.add_argument("--stop-tolerance", type=float, default=None, metavar="F",
+                   help="plateau: an improvement counts above F x |best| (default 0.02)")
 
 
 def _add_bench_command(sub: argparse._SubParsersAction) -> None:
@@ -309,19 +335,32 @@ def _overrides(args: argparse.Namespace) -> dict:
     if not (math.isfinite(clip) and clip >= 0):
         raise CommandError(f"--target-noise-clip must be a finite number >= 0 (a fraction of the "
                            f"action half-range), got {clip}")
-    if args.hidden:
-        try:
-            out["hidden_sizes"] = tuple(int(h) for h in args.hidden.split(","))
-        except ValueError:
-            raise CommandError(f"--hidden must be comma-separated integers, got {args.hidden!r}") from None
-        if not out["hidden_sizes"] or min(out["hidden_sizes"]) < 1:
-            raise CommandError(f"--hidden: every layer needs at least 1 unit, got {args.hidden!r}")
+    for option, name in (("hidden", "hidden_sizes"), ("actor_hidden", "actor_hidden_sizes")):
+        if getattr(args, option, None):
+            out[name] = _widths(f"--{option.replace('_', '-')}", getattr(args, option))
+    ratio = getattr(args, "updates_per_step", None)
+    if ratio is not None:
+        if not (math.isfinite(ratio) and ratio > 0):
+            raise CommandError(f"--updates-per-step must be a finite number > 0 (updates per "
+                               f"transition), got {ratio}")
+        out["updates_per_step"] = ratio
     if args.device == "cuda":
         import torch
 
         if not torch.cuda.is_available():
             raise CommandError("--device cuda: no CUDA device is available to this torch build")
     return out
+
+
+def _widths(option: str, text: str) -> tuple[int, ...]:
+    """Hidden layer widths from ``"256,256"``."""
+    try:
+        widths = tuple(int(h) for h in text.split(","))
+    except ValueError:
+        raise CommandError(f"{option} must be comma-separated integers, got {text!r}") from None
+    if not widths or min(widths) < 1:
+        raise CommandError(f"{option}: every layer needs at least 1 unit, got {text!r}")
+    return widths
 
 
 def _check_run_options(args: argparse.Namespace) -> None:
@@ -358,6 +397,7 @@ def train_command(args: argparse.Namespace) -> int:
             progress=not args.no_progress, threads=args.threads, envs=args.envs,
             backend=args.backend, address=args.address,
             seeds_per_simulator=args.seeds_per_simulator, recipe=args.recipe,
+            stop_when=args.stop_when, stop_options=_stop_options(args),
         )
     except (FileExistsError, FileNotFoundError, ValueError, ConnectionError) as exc:
         raise CommandError(str(exc)) from None  # ConnectionError: --address
@@ -367,13 +407,27 @@ def train_command(args: argparse.Namespace) -> int:
     failed = any(s["failed"] for s in summaries.values())
     if not args.json:
         summaries = {case: {k: v for k, v in summary.items() if k != "seeds"} | {
-            CaseDir.seed_name(r["seed"]): r.get("error") or f"final mean training return "
-            f"{r['final_mean_return']:.4g} ({r['episodes']} episodes from random initial fields; not a "
-            "distance: msr export-seeds measures each seed's)" for r in summary["seeds"]}
-            for case, summary in summaries.items()}
+            CaseDir.seed_name(r["seed"]): r.get("error") or _seed_line(r)
+            for r in summary["seeds"]} for case, summary in summaries.items()}
     # one case: its summary, as before; several: the summaries by case
     print_result(next(iter(summaries.values())) if len(summaries) == 1 else summaries, args.json)
     return 1 if failed else 0
+
+
+def _stop_options(args: argparse.Namespace) -> dict:
+    """The stop rule's settings given (checked by the library, naming the option)."""
+    return {k: v for k, v in (("consecutive", args.stop_consecutive), ("patience", args.stop_patience),
+                              ("tolerance", args.stop_tolerance)) if v is not None}
+
+
+def _seed_line(r: dict) -> str:
+    """One seed of the final summary: its state (learned / stopped / still improving), return."""
+    state = r.get("state", "")
+    if r.get("stopped_early"):
+        state = f"stopped at step {r['stop_step']} ({r['stop_reason']})"
+    return (f"{state + ': ' if state else ''}final mean training return "
+            f"{r['final_mean_return']:.4g} ({r['episodes']} episodes from random initial fields; not "
+            "a distance: msr export-seeds measures each seed's)")
 
 
 def case_list_command(args: argparse.Namespace) -> int:

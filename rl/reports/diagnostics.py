@@ -115,8 +115,9 @@ def run_health(run: str | os.PathLike, recent: int = 20_000) -> dict[str, Any]:
     refuse_networks_only(ckpt, run)
     cfg, agent = ckpt["config"], ckpt["agent"]
     obs_dim, act_dim, hidden = int(ckpt["obs_dim"]), int(ckpt["act_dim"]), tuple(cfg["hidden_sizes"])
-    actor, critic = networks_from_state(obs_dim, act_dim, hidden, agent["actor"], agent["critic"],
-                                        Path(run), bool(cfg.get("critic_layer_norm", False)))
+    actor, critic = networks_from_state(obs_dim, act_dim, tuple(cfg.get("actor_hidden_sizes") or hidden),
+                                        agent["actor"], agent["critic"], Path(run),
+                                        bool(cfg.get("critic_layer_norm", False)), hidden)
     data = _chronological(ckpt["buffer"])
     if len(data["rewards"]) < 2:
         raise ValueError(f"{run}: its replay buffer holds {len(data['rewards'])} transitions; "

@@ -124,7 +124,7 @@ class ActorPolicy:
     @classmethod
     def of_seed(cls, learner: TD3, k: int) -> ActorPolicy:
         return cls(learner.actor_state(k), learner.obs_dim, learner.act_dim,
-                   learner.config.hidden_sizes, learner.action_low, learner.action_high)
+                   learner.config.actor_widths, learner.action_low, learner.action_high)
 
     @torch.no_grad()
     def act(self, obs: np.ndarray) -> np.ndarray:
@@ -155,9 +155,13 @@ class PeriodicEvaluation:
         self.last_return: float | None = None  # mean return of the latest evaluation in this process
         self.next_step = self._next(global_step)
         self.restore_best = self.best_networks is not None and resumed_here
+        self.returns: list[float] = []  # every evaluation's mean return, in order
         if resumed_here:
             truncate_csv(self.csv_path, EVALUATION_FIELDS,
                           lambda row: int(row["global_step"]) <= global_step)
+            if self.csv_path.exists():
+                with open(self.csv_path, newline="") as f:
+                    self.returns = [float(r["mean_return"]) for r in csv.DictReader(f)]
         else:  # leftovers of an earlier run in this folder that left no checkpoint
             self.csv_path.unlink(missing_ok=True)
         if not self.restore_best:
@@ -183,6 +187,7 @@ class PeriodicEvaluation:
             self.best_return, self.best_step = result.mean_return, global_step
             self.best_networks = {"actor": learner.actor_state(k), "critic": learner.critic_state(k)}
             self.write_best(header)
+        self.returns.append(float(result.mean_return))
         row = {"global_step": global_step, "mean_return": result.mean_return,
                "std_return": result.std_return, "mean_length": float(np.mean(result.lengths)),
                "best_mean_return": self.best_return, "wall_time_s": round(wall_time_s, 3)}

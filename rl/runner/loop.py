@@ -48,7 +48,7 @@ import numpy as np
 import torch
 
 from ..td3.agent import TD3Agent
-from ..td3.algorithm import TD3, TD3Config
+from ..td3.algorithm import TD3, TD3Config, update_ratio
 from .allocator import retain_freed_memory
 from .evaluation import (
     EVAL_SEED,
@@ -56,7 +56,9 @@ from .evaluation import (
     evaluate_many,
     flat_observation,
 )
+from .progress import GroupProgress
 from .seed_run import SeedRun
+from .stopping import StopRule
 
 #: Where a group's training time goes (``timing`` in every checkpoint, s): choosing actions,
 #: stepping and resetting the environments, storing transitions, TD3 updates, episode logs,
@@ -112,6 +114,7 @@ def train_seeds(
     progress_position: int | None = None,
     progress_desc: str | None = None,
     eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None,
+    stop_rules: Sequence[StopRule | None] | None = None,
 ) -> TD3:
     """Train ``K = len(configs)`` seeds for ``steps`` environment transitions each and return the
     :class:`~elastica_magnetic_rl.td3.algorithm.TD3` holding them.
@@ -142,6 +145,17 @@ def train_seeds(
             vector environment (``SAME_STEP``), each behaving as ``eval_env_fn()``: seeds due for
             evaluation at the same step are then evaluated together (same returns, the
             simulation shared).
+        stop_rules: per seed, when it stops before ``steps``
+            (:class:`~elastica_magnetic_rl.runner.stopping.StopRule`, decided at each of its
+            evaluations; ``None``: never). A stopped seed writes its final checkpoint marked
+            ``stopped`` and leaves the group at the next step where every sub-environment of the
+            group has just ended an episode (at once for crawlers): its sub-environments and its
+            slot in the stacked update are gone, the others go on bit-identical to a run without
+            it. Resuming keeps each run's rule (a different one is refused); not given: the
+            checkpoints' (new runs: none). A stopped seed is never trained further.
+
+    Returns the learner holding every seed in the order given, each at its end (a stopped seed
+    at its stop; the update counter is then the last seed's).
     """
     k_seeds, n = len(configs), int(envs_per_seed)
     if k_seeds < 1 or len(run_dirs) != k_seeds:
@@ -164,8 +178,15 @@ def train_seeds(
         obs_dim, act_dim = int(np.prod(obs_space.shape)), int(np.prod(act_space.shape))
         runs = [SeedRun(k, configs[k], steps, run_dirs[k], resume,
                         init_from[k] if init_from is not None else None,
-                        metadata[k] if metadata is not None else None, obs_dim, act_dim, n)
+                        metadata[k] if metadata is not None else None, obs_dim, act_dim, n,
+                        "checkpoint" if stop_rules is None else stop_rules[k])
                 for k in range(k_seeds)]
+        if stop_rules is not None and len(stop_rules) != k_seeds:
+            raise ValueError("train_seeds needs one stop rule (or None) per config")
+        if any(r.stopped for r in runs):  # seeds stopped earlier are not trained further
+            return _without_stopped(vec_env_fn, env, runs, configs, steps, run_dirs, n, resume,
+                                    progress, log_fn, metadata, eval_env_fn, progress_position,
+                                    progress_desc, eval_vec_env_fn, obs_dim, act_dim, act_space)
         if len({r.global_step for r in runs}) != 1:
             raise ValueError("the seeds of a group resume from checkpoints at different steps ("
                              + ", ".join(f"{r.run_dir}: {r.global_step}" for r in runs) + "): resume "
@@ -175,19 +196,58 @@ def train_seeds(
         for r in runs:
             if r.ckpt is not None:
                 learner.load_seed_state(r.k, r.ckpt["agent"])
-        return _loop(env, runs, learner, n, progress, log_fn, eval_env_fn, progress_position,
-                     progress_desc, eval_vec_env_fn)
+        loop = _GroupLoop(env, runs, learner, n, log_fn, eval_vec_env_fn, vec_env_fn)
+        learner = _loop(loop, progress, eval_env_fn, progress_position, progress_desc)
+        env = loop.env  # a smaller one once seeds have stopped
+        if any(r.final_state is not None for r in runs):
+            return _assemble(learner, runs, act_space)
+        return learner
     finally:
         env.close()
 
 
-def _loop(env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int, progress: bool,
-          log_fn: Callable[[dict[str, Any]], None] | None, eval_env_fn: Callable[[], gym.Env] | None,
-          position: int | None, desc: str | None,
-          eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None) -> TD3:
-    """Train ``runs`` (K seeds, ``n`` sub-environments each of ``env``) to their step budget: the
-    global RNGs and the environments restored or started, then :meth:`_GroupLoop.run`."""
-    loop = _GroupLoop(env, runs, learner, n, log_fn, eval_vec_env_fn)
+def _assemble(learner: TD3, runs: list[SeedRun], act_space: gym.spaces.Box,
+              states: list[dict[str, Any]] | None = None) -> TD3:
+    """One learner with every seed of ``runs`` in order, each at its end: a stopped seed's state
+    when it stopped, the others' from ``learner`` (their member ``run.k``) or ``states``."""
+    if states is None:
+        states = [r.final_state if r.final_state is not None else learner.seed_state(r.k)
+                  for r in runs]
+    whole = TD3(learner.obs_dim, learner.act_dim, act_space.low.reshape(-1),
+                act_space.high.reshape(-1), [r.cfg for r in runs])
+    for k, state in enumerate(states):
+        whole.load_seed_state(k, state, same_counters=False)
+    return whole
+
+
+def _without_stopped(vec_env_fn, env, runs, configs, steps, run_dirs, n, resume, progress, log_fn,
+                     metadata, eval_env_fn, progress_position, progress_desc, eval_vec_env_fn,
+                     obs_dim, act_dim, act_space) -> TD3:
+    """``train_seeds`` of a group some of whose seeds stopped in an earlier call: those are left
+    as they are, the others trained (resumed) on their own; the learner of them all."""
+    env.close()
+    active = [k for k, r in enumerate(runs) if not r.stopped]
+    for r in runs:
+        r.buffer = None  # the active seeds' are loaded again below
+    states: dict[int, dict[str, Any]] = {k: r.ckpt["agent"] for k, r in enumerate(runs) if r.stopped}
+    if active:
+        sub = train_seeds(vec_env_fn, [configs[k] for k in active], steps, [run_dirs[k] for k in active],
+                          envs_per_seed=n, resume=resume, progress=progress, log_fn=log_fn,
+                          metadata=None if metadata is None else [metadata[k] for k in active],
+                          eval_env_fn=eval_env_fn, progress_position=progress_position,
+                          progress_desc=progress_desc, eval_vec_env_fn=eval_vec_env_fn,
+                          stop_rules=[runs[k].stop_rule for k in active])
+        states.update({k: sub.seed_state(i) for i, k in enumerate(active)})
+    probe = TD3(obs_dim, act_dim, act_space.low.reshape(-1), act_space.high.reshape(-1),
+                [r.cfg for r in runs[:1]])
+    return _assemble(probe, runs, act_space, [states[k] for k in range(len(runs))])
+
+
+def _loop(loop: _GroupLoop, progress: bool, eval_env_fn: Callable[[], gym.Env] | None,
+          position: int | None, desc: str | None) -> TD3:
+    """Train the group's seeds to their step budget: the global RNGs and the environments
+    restored or started, then :meth:`_GroupLoop.run`."""
+    runs, learner = loop.runs, loop.learner
     vector_state = loop.restore_global_rngs()
     for k, run in enumerate(runs):
         run.open(progress, None if position is None else position + k,
@@ -206,16 +266,31 @@ class _GroupLoop:
 
     def __init__(self, env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int,
                  log_fn: Callable[[dict[str, Any]], None] | None,
-                 eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None) -> None:
+                 eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None,
+                 vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None) -> None:
         self.env, self.runs, self.learner, self.n = env, runs, learner, n
-        self.log_fn, self.eval_vec_env_fn = log_fn, eval_vec_env_fn
-        self.cfg, self.k_seeds, self.lead = learner.config, len(runs), runs[0]
+        self.log_fn, self.eval_vec_env_fn, self.vec_env_fn = log_fn, eval_vec_env_fn, vec_env_fn
+        self.cfg, self.k_seeds = learner.config, len(runs)
         self.obs_dim, self.act_dim = learner.obs_dim, learner.act_dim
         # a Gymnasium vector environment that can save its state allows checkpoints inside episodes
         self.can_save_env = hasattr(env, "get_state") and hasattr(env, "set_state")
         self.actions = np.zeros((self.k_seeds, n, self.act_dim), dtype=np.float32)
         self.timing = {key: 0.0 for key in TIMING_KEYS}
         self.clock = time.perf_counter()
+        # the unspent fraction of an update of a fractional updates_per_step (the group's seeds
+        # are in lockstep: one value, kept in every seed's checkpoint)
+        self.update_credit = self.lead.update_credit
+
+    @property
+    def lead(self) -> SeedRun:
+        """The first seed still training (the group's step count; all such seeds are in
+        lockstep), else the first seed."""
+        return next((r for r in self.runs if not r.stopped), self.runs[0])
+
+    @property
+    def training(self) -> bool:
+        """Whether a seed of the group still trains towards its budget."""
+        return any(not r.stopped for r in self.runs) and not self.lead.done
 
     def sub(self, k: int) -> slice:
         """Seed ``k``'s sub-environments."""
@@ -300,6 +375,8 @@ class _GroupLoop:
             real_next[i] = flat_observation(infos["final_obs"][i])
         n = self.n
         for k, run in enumerate(self.runs):
+            if run.stopped:  # waiting to leave the group: nothing of it is recorded
+                continue
             for j in range(n):
                 i = k * n + j
                 run.buffer.add(obs[i], actions[i], float(rewards[i]), real_next[i], bool(terminated[i]))
@@ -310,12 +387,19 @@ class _GroupLoop:
 
     def learn(self, before: int) -> None:
         """``updates_per_step`` updates per transition past the warm-up (``before``: the step
-        count before this vector step), all seeds at once; losses logged every ``log_every``."""
+        count before this vector step), all seeds at once; losses logged every ``log_every``. A
+        fractional ratio owes ``n x ratio`` updates after ``n`` such transitions: the whole ones
+        are made now, the rest (:attr:`update_credit`, exact) carried to the next steps."""
         cfg, learner, runs = self.cfg, self.learner, self.runs
         n_learn = max(0, self.lead.global_step - max(before, cfg.learning_starts))
         if not n_learn or len(self.lead.buffer) < cfg.batch_size:
             return
-        for _ in range(n_learn * cfg.updates_per_step):
+        owed = self.update_credit + n_learn * update_ratio(cfg.updates_per_step)
+        n_updates = int(owed)  # floor: owed >= 0
+        self.update_credit = owed - n_updates
+        for run in self.runs:
+            run.update_credit = self.update_credit
+        for _ in range(n_updates):
             info = learner.update([r.buffer.sample(cfg.batch_size, learner.rngs[k])
                                    for k, r in enumerate(runs)])
             if learner.num_updates % cfg.log_every == 0:
@@ -328,6 +412,8 @@ class _GroupLoop:
         """The ended episodes into each seed's ``episodes.csv``, in sub-environment order."""
         n = self.n
         for k, run in enumerate(self.runs):
+            if run.stopped:
+                continue
             for j in np.flatnonzero(ended[self.sub(k)]):
                 run.log_episode(j, bool(terminated[k * n + j]), bool(truncated[k * n + j]), self.log_fn)
             if ended[self.sub(k)].any():
@@ -363,7 +449,11 @@ class _GroupLoop:
                             next_obs: np.ndarray) -> None:
         """Reset the ended sub-environments (their first observations into ``next_obs``) and draw
         their new episodes' exploration noise."""
-        fresh, _ = self.env.reset(seed=reset_seeds, options={"reset_mask": ended})
+        if getattr(self, "fresh_env", False):  # a new environment's first reset: all of it
+            fresh, _ = self.env.reset(seed=reset_seeds)
+            self.fresh_env = False
+        else:
+            fresh, _ = self.env.reset(seed=reset_seeds, options={"reset_mask": ended})
         fresh = np.asarray(fresh, dtype=np.float32).reshape(self.k_seeds * self.n, self.obs_dim)
         next_obs[ended] = fresh[ended]
         for k, run in enumerate(self.runs):
@@ -386,6 +476,8 @@ class _GroupLoop:
     def checkpoint_between_episodes(self) -> None:
         """Every seed's checkpoint at an episode boundary (before the new episodes are counted)."""
         for run in self.runs:
+            if run.stopped:  # its final checkpoint is written
+                continue
             run.episode -= self.n
             run.checkpoint(self.learner, at_episode_boundary=True, vector=None)
             run.episode += self.n
@@ -394,7 +486,8 @@ class _GroupLoop:
         """Every seed's checkpoint with the environments' state."""
         state = self.vector_state(obs)
         for run in self.runs:
-            run.checkpoint(self.learner, at_episode_boundary=False, vector=state)
+            if not run.stopped:
+                run.checkpoint(self.learner, at_episode_boundary=False, vector=state)
 
     # -- the loop ------------------------------------------------------------------------------
     def step(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
@@ -419,16 +512,30 @@ class _GroupLoop:
         self.log_episode_ends(ended, terminated, truncated)
         return next_obs, ended, self.lead.done
 
-    def between_steps(self, next_obs: np.ndarray, ended: np.ndarray) -> None:
+    def between_steps(self, next_obs: np.ndarray, ended: np.ndarray) -> np.ndarray:
         """After a vector step: evaluations when all of a seed's episodes have just ended (so
-        their timing does not depend on the layout), the ended episodes restarted, and the
-        checkpoints due at restorable points (``next_obs`` becomes the new episodes' start)."""
-        lead, all_ended = self.lead, bool(ended.all())
+        their timing does not depend on the layout), and the stop rules there; the ended episodes
+        restarted, and the checkpoints due at restorable points. Returns the observations the
+        next step starts from (``next_obs``, the new episodes' starts filled in; fewer rows once
+        stopped seeds have left the group)."""
+        all_ended = bool(ended.all())
         restorable = all_ended or self.can_save_env
         self.lap("log")
-        self.evaluate([k for k, run in enumerate(self.runs)
-                       if ended[self.sub(k)].all() and run.evaluation.due(run.global_step)])
+        due = [k for k, run in enumerate(self.runs) if not run.stopped
+               and ended[self.sub(k)].all() and run.evaluation.due(run.global_step)]
+        self.evaluate(due)
         self.lap("evaluation")
+        if due:
+            self.progress.evaluated()
+        if all_ended or due:
+            self.show_progress()
+        self.apply_stop_rules(due)
+        self.lap("checkpoint")
+        if not any(not r.stopped for r in self.runs):
+            return next_obs  # every seed has stopped: the loop ends
+        if all_ended and any(r.stopped for r in self.runs):
+            next_obs, ended = self.drop_stopped(), np.ones(self.k_seeds * self.n, dtype=bool)
+        lead = self.lead
         checkpoint_due = restorable and lead.global_step >= lead.next_checkpoint
         if ended.any():
             reset_seeds = self.next_episode_seeds(ended)
@@ -441,22 +548,73 @@ class _GroupLoop:
         if checkpoint_due:  # inside episodes: the environments' state goes along
             self.checkpoint_inside_episodes(next_obs)
             self.lap("checkpoint")
+        return next_obs
+
+    def show_progress(self) -> None:
+        """The group's rate and ETA (evaluations included) on its first seed's progress bar."""
+        lead = self.lead
+        estimate = self.progress.estimate(self.timing, lead.global_step, lead.steps,
+                                          sum(not r.stopped for r in self.runs), self.cfg.eval_every
+                                          if lead.evaluation.enabled else 0, lead.evaluation.last_step)
+        if lead.bar is not None and not getattr(lead.bar, "disable", True):
+            base = self.bar_desc.get(id(lead), "")
+            lead.bar.set_description_str(f"{base} | {GroupProgress.describe(estimate)}".lstrip(" |"),
+                                         refresh=False)
+
+    def apply_stop_rules(self, evaluated: list[int]) -> None:
+        """The seeds just evaluated whose stop rule fires write their final checkpoint and stop
+        (they leave the group at its next common episode boundary)."""
+        for k in evaluated:
+            run = self.runs[k]
+            reason = None if run.stop_rule is None else run.stop_rule.decide(run.evaluation_returns())
+            if reason is not None:
+                run.stop(self.learner, reason)
+
+    def drop_stopped(self) -> np.ndarray:
+        """At a step where every episode of the group has just ended: the stopped seeds leave.
+        The others' states go into a new learner of them alone and their sub-environments into a
+        new, smaller vector environment (as a resume in a smaller group would: at an episode
+        boundary the environments restart from episode seeds). Returns an observation array of
+        the new size (filled by the resets that follow)."""
+        if self.vec_env_fn is None:
+            raise RuntimeError("a group whose seeds stop needs its vector-environment factory")
+        keep = [r for r in self.runs if not r.stopped]
+        old = self.learner
+        learner = TD3(old.obs_dim, old.act_dim, old.action_low, old.action_high, [r.cfg for r in keep])
+        for i, run in enumerate(keep):
+            learner.load_seed_state(i, old.seed_state(run.k))
+            run.k = i
+        for run in self.runs:
+            if run.stopped:
+                run.close()
+                run.buffer = None  # its memory freed
+        self.env.close()
+        self.learner, self.runs, self.k_seeds = learner, keep, len(keep)
+        self.env = self.vec_env_fn(self.k_seeds * self.n)
+        self.fresh_env = True
+        self.actions = np.zeros((self.k_seeds, self.n, self.act_dim), dtype=np.float32)
+        return np.zeros((self.k_seeds * self.n, self.obs_dim), dtype=np.float32)
 
     def finish(self, obs: np.ndarray, ended: np.ndarray | None, start_step: int) -> None:
         """The last evaluation and the final checkpoint."""
         self.lap("log")
-        self.evaluate([k for k, run in enumerate(self.runs)
-                       if run.evaluation.enabled and run.evaluation.last_step != run.global_step])
+        self.evaluate([k for k, run in enumerate(self.runs) if not run.stopped
+                       and run.evaluation.enabled and run.evaluation.last_step != run.global_step])
         self.lap("evaluation")
+        if not any(not r.stopped for r in self.runs):
+            return
         all_ended = bool(ended.all()) if self.lead.global_step > start_step else True
         state = None if all_ended else self.vector_state(obs)
         for run in self.runs:
+            if run.stopped:
+                continue
             run.checkpoint(self.learner, at_episode_boundary=all_ended, vector=state)
 
     def run(self, obs: np.ndarray) -> TD3:
         """Vector steps until the seeds' budget, then the final evaluation and checkpoint (unless
         a resumed run took no step); returns the learner."""
         lead = self.lead
+        every_run = list(self.runs)  # the group shrinks when seeds stop
         prev_deterministic = torch.are_deterministic_algorithms_enabled()
         if self.cfg.torch_deterministic:
             torch.use_deterministic_algorithms(True)
@@ -465,20 +623,21 @@ class _GroupLoop:
         if lead.resumed_here and lead.ckpt.get("timing"):
             self.timing.update({k: float(v) for k, v in lead.ckpt["timing"].items() if k in self.timing})
         self.clock = time.perf_counter()
+        self.progress = GroupProgress(self.timing, start_step)
+        self.bar_desc = {id(r): getattr(r.bar, "desc", "") or "" for r in self.runs}
         for run in self.runs:
             run.timing = self.timing
         ended = None
         try:
-            while not lead.done:
+            while self.training:
                 next_obs, ended, done = self.step(obs)
                 if done:  # ``obs`` stays this step's start: what the final checkpoint has held
                     break
-                self.between_steps(next_obs, ended)
-                obs = next_obs
+                obs = self.between_steps(next_obs, ended)
             if not (lead.resumed_here and lead.global_step == start_step):
                 self.finish(obs, ended, start_step)
         finally:
-            for run in self.runs:
+            for run in every_run:
                 run.close()
             torch.use_deterministic_algorithms(prev_deterministic)
         return self.learner

@@ -14,6 +14,7 @@ import random
 import time
 import warnings
 from collections.abc import Callable
+from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +34,7 @@ from ..td3.algorithm import TD3, Schedule, TD3Config, episode_seed
 from ..td3.exploration import colored_noise
 from ..td3.replay_buffer import ReplayBuffer
 from .evaluation import PeriodicEvaluation, truncate_csv
+from .stopping import StopRule
 
 __all__ = ["EPISODE_FIELDS", "RESUMABLE_SETTINGS", "SeedRun", "starting_point"]
 
@@ -100,7 +102,8 @@ class SeedRun:
 
     def __init__(self, k: int, config: TD3Config | None, steps: int, run_dir: str | os.PathLike,
                  resume: bool, init_from: str | os.PathLike | None, metadata: dict[str, Any] | None,
-                 obs_dim: int, act_dim: int, n_envs: int) -> None:
+                 obs_dim: int, act_dim: int, n_envs: int,
+                 stop_rule: StopRule | None | str = "checkpoint") -> None:
         self.k, self.steps, self.n_envs = k, int(steps), n_envs
         self.run_dir = Path(run_dir)
         self.ckpt_path = RunDir(self.run_dir).checkpoint
@@ -127,6 +130,12 @@ class SeedRun:
                 if "rows" in ckpt["buffer"]:
                     self.replay.rows = int(ckpt["buffer"]["rows"])
         self.start_step = self.global_step
+        # the unspent fraction of an update (fractional updates_per_step), exact
+        self.update_credit = Fraction(str(ckpt.get("update_credit", "0"))) if ckpt is not None \
+            else Fraction(0)
+        self.stop_rule, self.stopped = _stop_setting(self.ckpt if self.resumed_here else None,
+                                                     stop_rule, self.ckpt_path)
+        self.final_state: dict[str, Any] | None = None  # its networks' state when it stopped
         self.ep_return = np.zeros(n_envs, dtype=np.float64)
         self.ep_len = np.zeros(n_envs, dtype=np.int64)
         self.ep_id = np.zeros(n_envs, dtype=np.int64)  # episode number of each sub-env's episode
@@ -242,7 +251,18 @@ class SeedRun:
                 "obs_dim": learner.obs_dim, "act_dim": learner.act_dim,
                 "action_low": torch.from_numpy(learner.action_low.copy()),
                 "action_high": torch.from_numpy(learner.action_high.copy()),
-                "metadata": self.metadata if self.metadata is not None else {}}
+                "metadata": self.metadata if self.metadata is not None else {},
+                "stop_rule": None if self.stop_rule is None else self.stop_rule.to_dict()}
+
+    def stop(self, learner: TD3, reason: str) -> None:
+        """The seed's rule has fired at its evaluation now (all its episodes just ended): its
+        final checkpoint, marked ``stopped`` (step, reason, rule), so that no resume trains it
+        further; its networks' state is kept for the learner :func:`train_seeds` returns."""
+        assert self.stop_rule is not None
+        self.stopped = {"step": self.global_step, "reason": reason, "rule": self.stop_rule.to_dict()}
+        self.checkpoint(learner, at_episode_boundary=True, vector=None)
+        self.final_state = learner.seed_state(self.k)
+        self.bar.set_postfix_str(f"stopped: {reason}", refresh=True)
 
     def checkpoint(self, learner: TD3, at_episode_boundary: bool,
                    vector: dict[str, Any] | None) -> None:
@@ -261,10 +281,34 @@ class SeedRun:
             "evaluation": self.evaluation.state_dict(),
             "vector": vector,
             "timing": dict(self.timing),
+            "stopped": self.stopped,
+            "update_credit": str(self.update_credit),
         })
         self.next_checkpoint = self._next_checkpoint()
+
+    def evaluation_returns(self) -> list[float]:
+        """The returns of the seed's periodic evaluations so far, in order (what its stop rule
+        decides from)."""
+        return self.evaluation.returns
 
     def close(self) -> None:
         for log in (self.csv_file, self.bar, self.writer):  # those opened
             if log is not None:
                 log.close()
+
+
+def _stop_setting(ckpt: dict[str, Any] | None, passed: StopRule | None | str,
+                  ckpt_path: Path) -> tuple[StopRule | None, dict[str, Any] | None]:
+    """The stop rule of a run and whether it has stopped: a new run takes the rule passed
+    (``"checkpoint"``: none); a resumed one keeps its checkpoint's, and a different rule passed is
+    refused naming both (a checkpoint without the key had none)."""
+    if ckpt is None:
+        return (None if isinstance(passed, str) else passed), None
+    saved = ckpt.get("stop_rule")
+    rule = None if saved is None else StopRule.from_dict(saved)
+    if not isinstance(passed, str) and passed != rule:
+        def name(r: StopRule | None) -> str:
+            return "none" if r is None else str(r.to_dict())
+        raise ValueError(f"{ckpt_path}: the run's stop rule is {name(rule)}, not {name(passed)}: a "
+                         "resumed run keeps its stop rule")
+    return rule, ckpt.get("stopped")

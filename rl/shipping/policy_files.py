@@ -81,7 +81,7 @@ class LoadedPolicy:
 
 def build_networks(obs_dim: int, act_dim: int, hidden: tuple[int, ...], actor_state: dict,
                    critic_state: dict | None, source: Path | None = None,
-                   critic_layer_norm: bool = False):
+                   critic_layer_norm: bool = False, critic_hidden: tuple[int, ...] | None = None):
     """The actor (and the twin critic when ``critic_state`` is given) of a checkpoint or policy
     file (:func:`~elastica_magnetic_rl.td3.algorithm.networks_from_state`). Weights that do not fit
     the declared architecture raise a :class:`PolicyFileError` naming ``source``."""
@@ -89,7 +89,7 @@ def build_networks(obs_dim: int, act_dim: int, hidden: tuple[int, ...], actor_st
 
     try:
         return networks_from_state(obs_dim, act_dim, hidden, actor_state, critic_state, source,
-                                   critic_layer_norm)
+                                   critic_layer_norm, critic_hidden)
     except ValueError as exc:
         raise PolicyFileError(str(exc)) from None
 
@@ -163,13 +163,15 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
             ) from None
         meta = checkpoint_metadata(ckpt, path)
         try:
-            hidden = tuple(ckpt["config"]["hidden_sizes"])
+            critic_hidden = tuple(ckpt["config"]["hidden_sizes"])
+            hidden = tuple(ckpt["config"].get("actor_hidden_sizes") or critic_hidden)  # the actor's
             actor_state, critic_state = ckpt["agent"]["actor"], ckpt["agent"]["critic"]
             obs_dim, act_dim = ckpt["obs_dim"], ckpt["act_dim"]
         except (KeyError, TypeError) as exc:
             raise PolicyFileError(f"{path}: incomplete checkpoint (no {exc})") from None
         actor, critic = build_networks(obs_dim, act_dim, hidden, actor_state, critic_state, path,
-                                        bool(ckpt["config"].get("critic_layer_norm", False)))
+                                        bool(ckpt["config"].get("critic_layer_norm", False)),
+                                        critic_hidden)
         meta = {**meta, "global_step": int(ckpt["global_step"]), "config": ckpt["config"],
                 "checkpoint_kind": ckpt.get("kind", "full")}
         case = _policy_case(meta, path)
@@ -195,7 +197,8 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
             critic_state = _torch_load(path / "critic.pt")
         actor, critic = build_networks(arch["obs_dim"], arch["act_dim"], hidden, actor_state,
                                         critic_state, path / "actor.pt",
-                                        bool(arch.get("critic_layer_norm", False)))
+                                        bool(arch.get("critic_layer_norm", False)),
+                                        tuple(arch.get("critic_hidden_sizes") or hidden))
         return LoadedPolicy(actor, critic, case, path, "shipped", meta, arch["obs_dim"],
                             arch["act_dim"], hidden)
     shipped = sorted(p.name for p in policies_dir.glob("*") if (p / POLICY_JSON).is_file()) \

@@ -167,7 +167,8 @@ def _policy_info(policy: LoadedPolicy, name: str, summary: dict[str, Any] | None
                          "module": "elastica_magnetic_rl.td3.algorithm.Actor "
                                    "(net = Sequential of Linear/ReLU)",
                          "critic_layer_norm": bool((meta.get("config") or {}).get(
-                             "critic_layer_norm", False))},
+                             "critic_layer_norm", False)),
+                         **_critic_widths(meta.get("config") or {})},
         "observation": observation_spec_of(case),
         "action": action_spec_of(case),
         "training": {
@@ -292,3 +293,11 @@ def _find_summary(source: Path, case: str) -> dict[str, Any] | None:
     return json.loads(CaseDir(case_dir).summary_json.read_text()) if case_dir else None
 
 
+
+
+def _critic_widths(config: dict[str, Any]) -> dict[str, Any]:
+    """``critic_hidden_sizes`` of a policy whose actor is narrower or wider than its critics (the
+    architecture's ``hidden_sizes`` are the actor's); nothing when they agree."""
+    if not config.get("actor_hidden_sizes"):
+        return {}
+    return {"critic_hidden_sizes": [int(h) for h in config["hidden_sizes"]]}

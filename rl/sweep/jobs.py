@@ -17,7 +17,7 @@ class GroupJob:
     ``run_dirs``: one run folder per seed (absolute for Ray: workers may run elsewhere);
     ``duration``: episode length, s; ``steps``: each seed's total environment steps;
     ``envs``: crawlers per seed; ``threads``: torch threads of the worker; ``position``: the
-    progress bar of the group's first seed.
+    progress bar of the group's first seed; ``stop_rule``: when a seed stops early.
     """
 
     case: str
@@ -33,6 +33,8 @@ class GroupJob:
     recipe: str
     configs: tuple[dict[str, Any], ...]
     run_dirs: tuple[str, ...]
+    stop_rule: dict[str, Any] | None = None
+    """The seeds' stop rule (:meth:`StopRule.to_dict`), ``None``: they run their whole budget."""
 
     @property
     def seed(self) -> int:

@@ -40,6 +40,16 @@ from ..runfiles.rundir import CaseDir, RunDir
 from .backends import BACKENDS, run_jobs
 from .jobs import GroupJob
 from .resume_checks import check_resumed_checkpoints
+from .stop_settings import (
+    case_stop_rule,
+    check_resumed_stop_rules,
+    recipe_stop_when,
+    resumed_stop_rule,
+    seed_state,
+    stop_record,
+    stop_summary,
+    target_return,
+)
 
 __all__ = ["default_layout", "refine", "summarize_run", "train_case", "train_cases"]
 
@@ -96,7 +106,7 @@ def _run_metadata(case: Case, physics: str, duration: float, seed: int, **extra:
 
 
 #: Settings of a run that a resume must not change (they are the run's, in ``run.json``).
-_RUN_SETTINGS = ("case", "case_spec", "physics", "episode_duration_s", "recipe")
+_RUN_SETTINGS = ("case", "case_spec", "physics", "episode_duration_s", "recipe", "stop_rule")
 
 
 def _check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
@@ -110,7 +120,7 @@ def _check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
     except ValueError as err:
         raise ValueError(f"{run_json}: not readable JSON ({err})") from None
     options = {"case": "--case", "physics": "--physics", "episode_duration_s": "--episode-duration",
-               "recipe": "--recipe"}
+               "recipe": "--recipe", "stop_rule": "--stop-when"}
     for key in _RUN_SETTINGS:
         if key == "case_spec" and key in record:
             run_spec, spec = _without_default_recipe(record[key]), _without_default_recipe(metadata[key])
@@ -118,7 +128,7 @@ def _check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
                 raise ValueError(f"the spec of case {metadata['case']!r} differs from the run's at "
                                  f"{_first_difference(run_spec, spec)} ({run_json}): a resumed run "
                                  "keeps its case")
-        elif key in record and record[key] != metadata[key]:
+        elif key in record and key in metadata and record[key] != metadata[key]:
             raise ValueError(f"{options[key]} {metadata[key]} differs from the run's {record[key]} "
                              f"({run_json}): a resumed run keeps its settings")
 
@@ -182,6 +192,7 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
     from ..envs.vector_env import make_vector_env
     from ..runfiles.checkpoint import load_checkpoint
     from ..runner.loop import train_seeds
+    from ..runner.stopping import StopRule
     from ..td3.algorithm import TD3Config, resolve_precision
 
     torch.set_num_threads(int(job.threads))
@@ -190,7 +201,8 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
     case = case_from_dict(job.case_spec, job.case)
     metadata = [_run_metadata(case, job.physics, job.duration, c.seed, command="train",
                               envs=job.envs, shared_simulator_seeds=len(configs),
-                              precision=resolve_precision(c.precision, c.device), recipe=job.recipe)
+                              precision=resolve_precision(c.precision, c.device), recipe=job.recipe,
+                              stop_rule=job.stop_rule)
                 for c in configs]
     for config, run_dir, meta in zip(configs, run_dirs, metadata, strict=True):
         if not job.resume:
@@ -205,15 +217,19 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
                 eval_env_fn=functools.partial(make_env, case, job.physics, "zero", EVAL_DURATION),
                 eval_vec_env_fn=functools.partial(make_vector_env, case, physics=job.physics,
                                                   initial_field="zero", duration=EVAL_DURATION),
-                progress_position=job.position, progress_desc=job.case)
+                progress_position=job.position, progress_desc=job.case,
+                stop_rules=[None if job.stop_rule is None else StopRule.from_dict(job.stop_rule)]
+                * len(configs))
     wall, peak = time.perf_counter() - start, _peak_rss_bytes()
     results = []
     for run_dir, meta in zip(run_dirs, metadata, strict=True):
         ckpt = load_checkpoint(run_dir)  # what was actually done, with the settings actually used
         _write_run_json(run_dir, TD3Config.from_dict(ckpt["config"]), meta,
                         int(ckpt["global_step"]), job.threads, resumed_now=job.resume)
+        record = stop_record(ckpt, job.steps)
         results.append({"seed": int(ckpt["config"]["seed"]),
-                        **summarize_run(run_dir, reward_scale=case.task.reward_scale),
+                        **summarize_run(run_dir, reward_scale=case.task.reward_scale), **record,
+                        "state": seed_state(run_dir, record, target_return(case)),
                         "wall_s": wall, "peak_rss_bytes": peak,
                         "group_seeds": [c.seed for c in configs],
                         "group_timing_s": ckpt.get("timing")})
@@ -290,6 +306,8 @@ def train_cases(
     address: str | None = None,
     seeds_per_simulator: int | None = None,
     recipe: str | None = None,
+    stop_when: str | None = None,
+    stop_options: dict[str, Any] | None = None,
 ) -> dict[str, dict[str, Any]]:
     """Train seeds ``seed_offset .. seed_offset + seeds - 1`` of every case in ``cases`` for
     ``steps`` environment steps each, in groups of seeds of one case that train side by side in
@@ -329,6 +347,10 @@ def train_cases(
         seeds_per_simulator: seeds of a case per group (one batched simulator, one stacked
             update).
         recipe: the training recipe (:data:`RECIPES`), recorded in ``run.json`` and the summary.
+        stop_when: stop a seed that has learned (``"target"``, ``"plateau"``; ``"none"``: off;
+            default: the recipe's run setting, else off): see
+            :mod:`elastica_magnetic_rl.sweep.stop_settings`. Recorded in each run; a resume keeps it.
+        stop_options: ``consecutive``, ``patience``, ``tolerance`` of the rule.
     """
     loaded = _load_cases(cases)
     cases = list(loaded)  # names, in order, once each
@@ -344,25 +366,47 @@ def train_cases(
     if threads is None:  # on a Ray cluster this machine's CPU count says nothing: one per worker
         threads = 1 if address else max(1, (os.cpu_count() or 1) // workers)
     configs = _seed_configs(loaded, seed_list, recipe, config_overrides)
+    keep_stop_rules = resume and stop_when is None and not stop_options
+    if not keep_stop_rules:
+        stop_rules = _stop_rules(loaded, recipe_stop_when(stop_when, recipe), stop_options,
+                                 configs[seed_list[0]].eval_every)
     _check_run_folders(out, loaded, seed_list, resume, physics, episode_duration, recipe)
     if resume:  # the checkpoints are these cases', and no hyperparameter given differs
         check_resumed_checkpoints([(c, CaseDir.of(out, c).seed(s)) for c in loaded
                                    for s in seed_list], config_overrides)
+    if resume:  # a resumed run keeps its stop rule: the runs' own, or the same one given
+        folders = {case: [CaseDir.of(out, case).seed(s).path for s in seed_list] for case in loaded}
+        if keep_stop_rules:
+            stop_rules = {case: resumed_stop_rule(dirs) for case, dirs in folders.items()}
+            if any(stop_rules.values()) and configs[seed_list[0]].eval_every <= 0:
+                raise ValueError("the runs stop by a rule decided at their evaluations: resume them "
+                                 "with --eval-every > 0")
+        for case, dirs in folders.items():
+            check_resumed_stop_rules(dirs, stop_rules[case])
     jobs = _group_jobs(out, loaded, groups, configs, backend, physics=physics,
                        duration=float(episode_duration), steps=int(steps), resume=resume,
-                       progress=progress, threads=threads, envs=int(envs), recipe=recipe)
+                       progress=progress, threads=threads, envs=int(envs), recipe=recipe,
+                       stop_rules=stop_rules)
     start = time.perf_counter()
     results = _run_groups(jobs, workers, backend, address, progress)
     sweep = {"steps": int(steps), "physics": physics, "episode_duration_s": float(episode_duration),
              "workers": workers, "backend": backend, "envs_per_seed": int(envs),
              "seeds_per_simulator": int(per_group), "torch_threads_per_worker": threads,
              "layout": layout["layout"], "recipe": recipe,
-             "precision": configs[seed_list[0]].precision, "device": configs[seed_list[0]].device}
+             "precision": configs[seed_list[0]].precision, "device": configs[seed_list[0]].device,
+             "stop_rules": stop_rules}
     wall = time.perf_counter() - start
     return {case: _case_summary(CaseDir.of(out, case), loaded[case],
                                 [r for c, r in results if c == case], seed_list, success_fraction,
                                 sweep, wall)
             for case in cases}
+
+
+def _stop_rules(loaded: dict[str, Case], kind: str | None, options: dict[str, Any] | None,
+                eval_every: int) -> dict[str, Any]:
+    """Each case's stop rule (``None``: off), checked before any work."""
+    return {name: case_stop_rule(case, kind, eval_every=eval_every, **(options or {}))
+            for name, case in loaded.items()}
 
 
 def _load_cases(cases: Sequence[str | Path | Case]) -> dict[str, Case]:
@@ -467,7 +511,8 @@ def _check_run_folders(out: str | Path, loaded: dict[str, Case], seed_list: list
 
 
 def _group_jobs(out: str | Path, loaded: dict[str, Case], groups: list[list[int]],
-                configs: dict[int, Any], backend: str, **settings: Any) -> list[GroupJob]:
+                configs: dict[int, Any], backend: str, stop_rules: dict[str, Any] | None = None,
+                **settings: Any) -> list[GroupJob]:
     """One job per case and group of seeds, progress bars numbered across them."""
 
     def run_dir(case: str, seed: int) -> str:
@@ -480,9 +525,14 @@ def _group_jobs(out: str | Path, loaded: dict[str, Case], groups: list[list[int]
         for group in groups:
             jobs.append(GroupJob(case=case, case_spec=spec.to_dict(), position=position,
                                  configs=tuple(configs[s].to_dict() for s in group),
-                                 run_dirs=tuple(run_dir(case, s) for s in group), **settings))
+                                 run_dirs=tuple(run_dir(case, s) for s in group),
+                                 stop_rule=_rule_dict((stop_rules or {}).get(case)), **settings))
             position += len(group)
     return jobs
+
+
+def _rule_dict(rule: Any) -> dict[str, Any] | None:
+    return None if rule is None else rule.to_dict()
 
 
 def _run_groups(jobs: list[GroupJob], workers: int, backend: str, address: str | None,
@@ -538,6 +588,7 @@ def _write_case_summary(case_dir: CaseDir, spec: Case, mine: list[dict[str, Any]
         "wall_s": wall,
         "seeds": per_seed,
         "failed": [r["seed"] for r in per_seed if "error" in r],
+        **stop_summary(per_seed, sweep["steps"], sweep["stop_rules"].get(spec.name)),
     }
     case_dir.path.mkdir(parents=True, exist_ok=True)
     atomic_write_json(case_dir.summary_json, summary)

@@ -78,7 +78,7 @@ class TD3Agent(TD3):
 
     @property
     def actor_target(self) -> Actor:
-        actor = Actor(self.obs_dim, self.act_dim, self.config.hidden_sizes)
+        actor = Actor(self.obs_dim, self.act_dim, self.config.actor_widths)
         actor.load_state_dict(self.actor_state(0, target=True))
         return actor.eval().requires_grad_(False)
 

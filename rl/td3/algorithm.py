@@ -65,6 +65,7 @@ import dataclasses
 import math
 import warnings
 from dataclasses import dataclass
+from fractions import Fraction
 from typing import Any, TypeVar
 
 import numpy as np
@@ -95,7 +96,11 @@ class Hyperparameters:
 
     # networks and optimisation
     hidden_sizes: tuple[int, ...] = (256, 256)
-    """Hidden layer widths (ReLU) of the actor and of each critic."""
+    """Hidden layer widths (ReLU) of each critic, and of the actor unless
+    :attr:`actor_hidden_sizes` says otherwise."""
+    actor_hidden_sizes: tuple[int, ...] | None = None
+    """Hidden layer widths of the actor when they differ from the critics' (e.g. a narrower
+    actor); ``None`` (and a checkpoint without the key): the same as :attr:`hidden_sizes`."""
     critic_layer_norm: bool = False
     """Layer normalisation (PyTorch's ``LayerNorm``, learned gain and bias) after every hidden
     linear layer of both critics, before the ReLU (Ball et al. 2023): bounds how far a critic
@@ -136,8 +141,11 @@ class Hyperparameters:
     used 0.8."""
     policy_delay: int = 2
     """Actor and target networks are updated once every ``policy_delay`` critic updates."""
-    updates_per_step: int = 1
-    """Gradient steps per environment step (after warm-up)."""
+    updates_per_step: float = 1
+    """Gradient steps per environment transition (after warm-up): an integer, or a fraction (e.g.
+    0.5: one update every second transition), the updates then due at the end of each vector step
+    counted exactly (an accumulator of the unspent fraction, kept in the checkpoints); see
+    :func:`update_ratio`."""
 
 
 @dataclass
@@ -183,6 +191,12 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
 
     def __post_init__(self) -> None:
         self.hidden_sizes = tuple(int(h) for h in self.hidden_sizes)
+        if self.actor_hidden_sizes is not None:
+            self.actor_hidden_sizes = tuple(int(h) for h in self.actor_hidden_sizes)
+        for name in ("hidden_sizes", "actor_hidden_sizes"):
+            widths = getattr(self, name)
+            if widths is not None and (not widths or min(widths) < 1):
+                raise ValueError(f"{name}: every hidden layer needs at least 1 unit, got {widths}")
         if not 0.0 < self.tau <= 1.0:
             raise ValueError(f"tau must be in (0, 1], got {self.tau}")
         if not 0.0 <= self.gamma <= 1.0:
@@ -194,7 +208,13 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
             raise ValueError(f"precision must be one of {', '.join(PRECISIONS)}, got {self.precision!r}")
         if self.eval_episodes < 1:
             raise ValueError(f"eval_episodes must be >= 1, got {self.eval_episodes}")
-        for name in ("learning_starts", "updates_per_step", "eval_every"):
+        ratio = self.updates_per_step
+        if not (isinstance(ratio, int | float) and math.isfinite(ratio) and ratio > 0):
+            raise ValueError(f"updates_per_step must be a finite number > 0 (updates per transition), "
+                             f"got {ratio}")
+        if float(ratio).is_integer():
+            self.updates_per_step = int(ratio)
+        for name in ("learning_starts", "eval_every"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         for name in ("exploration_noise", "policy_noise", "target_noise_clip", "noise_color",
@@ -215,6 +235,11 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
 
+    @property
+    def actor_widths(self) -> tuple[int, ...]:
+        """The actor's hidden layer widths (:attr:`actor_hidden_sizes`, else :attr:`hidden_sizes`)."""
+        return self.actor_hidden_sizes if self.actor_hidden_sizes is not None else self.hidden_sizes
+
     def part(self, kind: type[_Part]) -> _Part:
         """Its :class:`Hyperparameters`, :class:`RunSettings` or :class:`Schedule`."""
         return kind(**{f.name: getattr(self, f.name) for f in dataclasses.fields(kind)})
@@ -223,6 +248,12 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
     def from_dict(cls, d: dict[str, Any]) -> TD3Config:
         names = {f.name for f in dataclasses.fields(cls)}
         return cls(**{k: v for k, v in d.items() if k in names})
+
+
+def update_ratio(updates_per_step: float) -> Fraction:
+    """``updates_per_step`` as an exact fraction (its decimal value as written: 0.1 is 1/10), so
+    that the updates due after ``n`` transitions, ``floor(n x ratio)`` over a run, never drift."""
+    return Fraction(str(float(updates_per_step))).limit_denominator(1_000_000)
 
 
 def episode_seed(base_seed: int, episode: int) -> int:
@@ -283,9 +314,11 @@ class TwinCritic(nn.Module):
 
 def networks_from_state(obs_dim: int, act_dim: int, hidden: tuple[int, ...], actor_state: dict,
                         critic_state: dict | None, source: Any = None,
-                        critic_layer_norm: bool = False) -> tuple[Actor, TwinCritic | None]:
-    """The actor (and the twin critic when ``critic_state`` is given) loaded with
-    ``actor_state``/``critic_state``, in eval mode and without gradients. Weights that do not fit
+                        critic_layer_norm: bool = False,
+                        critic_hidden: tuple[int, ...] | None = None) -> tuple[Actor, TwinCritic | None]:
+    """The actor (hidden widths ``hidden``) and the twin critic when ``critic_state`` is given
+    (``critic_hidden``, default ``hidden``) loaded with ``actor_state``/``critic_state``, in eval
+    mode and without gradients. Weights that do not fit
     the architecture (``obs_dim``, ``act_dim``, ``hidden``) raise a ``ValueError`` naming
     ``source`` (the file they came from)."""
 
@@ -304,7 +337,8 @@ def networks_from_state(obs_dim: int, act_dim: int, hidden: tuple[int, ...], act
     actor = load(Actor(obs_dim, act_dim, hidden), actor_state, "actor")
     critic = None
     if critic_state is not None:
-        critic = load(TwinCritic(obs_dim, act_dim, hidden, critic_layer_norm), critic_state, "critic")
+        critic = load(TwinCritic(obs_dim, act_dim, critic_hidden or hidden, critic_layer_norm),
+                      critic_state, "critic")
     return actor, critic
 
 
@@ -389,7 +423,7 @@ class TD3:
             resolve_precision(cfg.precision, cfg.device)]
 
         hidden = cfg.hidden_sizes
-        self.actor_net = StackedMLP(k, (self.obs_dim, *hidden, self.act_dim))
+        self.actor_net = StackedMLP(k, (self.obs_dim, *cfg.actor_widths, self.act_dim))
         # the critics: members 0..K-1 are the seeds' Q1, members K..2K-1 their Q2
         self.critic_net = StackedMLP(2 * k, (self.obs_dim + self.act_dim, *hidden, 1),
                                      cfg.critic_layer_norm)
@@ -416,7 +450,7 @@ class TD3:
         (actor first, then Q1, Q2)."""
         with torch.random.fork_rng(devices=[]):
             torch.manual_seed(seed)
-            actor = Actor(self.obs_dim, self.act_dim, self.config.hidden_sizes)
+            actor = Actor(self.obs_dim, self.act_dim, self.config.actor_widths)
             critic = TwinCritic(self.obs_dim, self.act_dim, self.config.hidden_sizes,
                                 self.config.critic_layer_norm)
         return actor, critic
@@ -531,7 +565,7 @@ class TD3:
 
     def actor_module(self, k: int = 0) -> Actor:
         """A standalone copy of seed ``k``'s actor (float32, CPU, eval mode)."""
-        actor = Actor(self.obs_dim, self.act_dim, self.config.hidden_sizes)
+        actor = Actor(self.obs_dim, self.act_dim, self.config.actor_widths)
         actor.load_state_dict(self.actor_state(k))
         return actor.eval().requires_grad_(False)
 
@@ -564,11 +598,13 @@ class TD3:
             "num_updates": self.num_updates,
         }
 
-    def load_seed_state(self, k: int, state: dict[str, Any]) -> None:
-        """Inverse of :meth:`seed_state` (the seeds of one :class:`TD3` must share their counters)."""
+    def load_seed_state(self, k: int, state: dict[str, Any], same_counters: bool = True) -> None:
+        """Inverse of :meth:`seed_state` (the seeds of one :class:`TD3` must share their counters
+        to train on together; ``same_counters=False`` lets a learner that only holds seeds at
+        their ends, e.g. some stopped early, take them all)."""
         counters = (int(state["num_updates"]), int(state["actor_optimizer"]["step"]),
                     int(state["critic_optimizer"]["step"]))
-        if k > 0 and counters != self._counters():
+        if same_counters and k > 0 and counters != self._counters():
             raise ValueError("seeds trained together must be at the same update count")
         self.actor_net.load_member_state(k, unprefixed(state["actor"], "net."))
         self.actor_target_net.load_member_state(k, unprefixed(state["actor_target"], "net."))

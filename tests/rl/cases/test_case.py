@@ -77,7 +77,7 @@ def _spec(**changes):
     ("actuation.initial_field", "half", "[actuation] initial_field: expected one of random, zero"),
     ("task.kind", "swim", "[task] kind: expected one of crawl, reach"),
     ("task.target", 0.01, "[task] target: unknown key"),
-    ("training.recipe", "fast", "[training] recipe: expected one of paper, pink"),
+    ("training.recipe", "fastest", "[training] recipe: expected one of paper, pink"),
     ("training.steps", 0, "[training] steps: must be >= 1"),
     ("training.td3", {"learning_rate": 1e-3}, "[training.td3] learning_rate: not a TD3 setting"),
     ("training.td3", {"batch_size": "big"}, "[training.td3] batch_size: expected a value like 256"),

@@ -201,3 +201,143 @@ def test_pink_exploration_is_correlated_in_time_and_trains_reproducibly(tmp_path
     assert_state_equal(alone.state_dict(), resumed.state_dict())
     white_run = load_checkpoint(tmp_path / "g2")
     assert white_run["config"]["noise_color"] == 1.0
+
+
+# ----------------------------------------------------------------------------------------------
+# Stopping seeds that have learned (rl/runner/stopping.py): a stopped seed leaves its group
+# ----------------------------------------------------------------------------------------------
+def _fixed_episodes():
+    return ToyEnv(p_terminate=0.0)  # 20-step episodes: every seed's episodes end together
+
+
+def _group(tmp_path, name, seeds, steps, rules=None, resume=False):
+    from elastica_magnetic_rl.runner.loop import train_seeds
+
+    return train_seeds(lambda k: sync_vector_env(_fixed_episodes, k),
+                       [toy_config(seed=s, eval_every=40, checkpoint_every=1000) for s in seeds], steps,
+                       [tmp_path / name / f"seed{s}" for s in seeds], progress=False, resume=resume,
+                       eval_env_fn=_fixed_episodes, stop_rules=rules)
+
+
+def test_a_stopped_seed_leaves_the_group_and_the_others_go_on_bit_identical(tmp_path):
+    from elastica_magnetic_rl.runner.stopping import StopRule
+
+    # a rule that only seed 5 has: it fires at seed 5's second evaluation (step 80)
+    always = StopRule("target", threshold=-1e9, consecutive=2)
+    learner = _group(tmp_path, "stop", (2, 5, 7), 200, [None, always, None])
+    _group(tmp_path, "ref", (2, 7), 200)
+    for s in (2, 7):  # the others: as if seed 5 had never been there
+        a, b = load_checkpoint(tmp_path / "stop" / f"seed{s}"), load_checkpoint(tmp_path / "ref" / f"seed{s}")
+        for key in ("agent", "buffer", "global_step", "episode"):
+            assert_state_equal(a[key], b[key], key)
+        assert a["stopped"] is None and a["global_step"] == 200
+    stopped = load_checkpoint(tmp_path / "stop" / "seed5")
+    assert stopped["global_step"] == 80
+    assert stopped["stopped"]["step"] == 80 and stopped["stopped"]["reason"].startswith("target")
+    assert stopped["stopped"]["rule"] == always.to_dict() == stopped["stop_rule"]
+    with open(tmp_path / "stop" / "seed5" / "episodes.csv") as f:
+        assert max(int(r["global_step"]) for r in csv.DictReader(f)) == 80
+    # the stopped seed is the same seed trained alone to its stop
+    _group(tmp_path, "alone", (5,), 80)
+    assert_state_equal(stopped["agent"], load_checkpoint(tmp_path / "alone" / "seed5")["agent"])
+    # the learner returned holds every seed at its end, in order
+    assert learner.n_seeds == 3
+    assert_state_equal(learner.seed_state(1)["actor"], stopped["agent"]["actor"])
+
+    # resume after a stop: the stopped seed is not trained further, the others continue exactly
+    before = (tmp_path / "stop" / "seed5" / "checkpoint.pt").read_bytes()
+    _group(tmp_path, "stop", (2, 5, 7), 260, [None, always, None], resume=True)
+    _group(tmp_path, "ref", (2, 7), 260, resume=True)
+    assert (tmp_path / "stop" / "seed5" / "checkpoint.pt").read_bytes() == before
+    for s in (2, 7):
+        a, b = load_checkpoint(tmp_path / "stop" / f"seed{s}"), load_checkpoint(tmp_path / "ref" / f"seed{s}")
+        assert a["global_step"] == 260
+        assert_state_equal(a["agent"], b["agent"], "agent")
+
+
+def test_resume_refuses_another_stop_rule_naming_both(tmp_path):
+    from elastica_magnetic_rl.runner.stopping import StopRule
+
+    _group(tmp_path, "run", (3,), 60, [StopRule("plateau", patience=3)])
+    with pytest.raises(ValueError, match="stop rule is .*plateau.* not none"):
+        _group(tmp_path, "run", (3,), 80, [None], resume=True)
+
+
+# ----------------------------------------------------------------------------------------------
+# A fractional update-to-data ratio and an actor narrower than its critics
+# ----------------------------------------------------------------------------------------------
+def test_a_fractional_update_ratio_makes_exactly_its_updates_and_resumes_exactly(tmp_path):
+    from fractions import Fraction
+
+    from elastica_magnetic_rl.runner.loop import train_vector
+
+    cfg = toy_config(seed=4, updates_per_step=0.5, learning_starts=31)
+
+    def three():  # 3 transitions per vector step (credit carries over); checkpoints at step 60, 120
+        return sync_vector_env(_fixed_episodes, 3)
+
+    whole = train_vector(three, cfg, 150, tmp_path / "whole", progress=False)
+    ckpt = load_checkpoint(tmp_path / "whole")
+    # the learning transitions (past the warm-up, buffer >= batch) owed 0.5 update each
+    learned = ckpt["global_step"] - 31  # every transition past the warm-up
+    assert whole.num_updates == int(Fraction(learned, 2))
+    assert Fraction(ckpt["update_credit"]) == Fraction(learned, 2) - whole.num_updates
+
+    def kill_late(row):
+        if row["global_step"] >= 100:
+            raise Killed
+
+    with pytest.raises(Killed):
+        train_vector(three, cfg, 150, tmp_path / "killed", progress=False, log_fn=kill_late)
+    assert Fraction(load_checkpoint(tmp_path / "killed")["update_credit"]) == Fraction(1, 2)  # 29 x 0.5
+    resumed = train_vector(three, cfg, 150, tmp_path / "killed", resume=True, progress=False)
+    assert_state_equal(whole.state_dict(), resumed.state_dict())
+    with pytest.raises(ValueError, match="updates_per_step must be a finite number > 0"):
+        toy_config(updates_per_step=0)
+    assert toy_config(updates_per_step=2.0).updates_per_step == 2  # an integer stays one
+
+
+def test_a_narrower_actor_than_critics(tmp_path):
+    from elastica_magnetic_rl.shipping.policy_files import build_networks
+
+    cfg = toy_config(seed=1, hidden_sizes=(16, 16), actor_hidden_sizes=(4,))
+    agent = train(ToyEnv, cfg, 60, tmp_path / "run", progress=False)
+    assert agent.actor.net[0].out_features == 4 and agent.critic.q1_net[0].out_features == 16
+    again = TD3Agent.from_checkpoint(tmp_path / "run")
+    assert_state_equal(again.state_dict(), agent.state_dict())
+    ckpt = load_checkpoint(tmp_path / "run")
+    actor, critic = build_networks(3, 2, (4,), ckpt["agent"]["actor"], ckpt["agent"]["critic"],
+                                   critic_hidden=(16, 16))
+    assert actor.net[0].out_features == 4 and critic.q1_net[0].out_features == 16
+    # a checkpoint written before the key existed: the actor as wide as the critics
+    old = toy_config(seed=1).to_dict()
+    del old["actor_hidden_sizes"]
+    assert TD3Config.from_dict(old).actor_widths == (16, 16)
+
+
+def test_a_crawler_that_stops_leaves_the_batched_simulator_and_the_other_goes_on_exactly(tmp_path):
+    """The crawler's vector environment (one batched simulator): a seed that stops leaves it and
+    the other seed goes on as if alone."""
+    import functools
+
+    from elastica_magnetic_rl.envs.env import make_env
+    from elastica_magnetic_rl.envs.vector_env import make_vector_env
+    from elastica_magnetic_rl.runner.loop import train_seeds
+    from elastica_magnetic_rl.runner.stopping import StopRule
+
+    vec = functools.partial(make_vector_env, "m1-4mT", physics="training", initial_field="random",
+                            duration=0.05)
+    evaluation = functools.partial(make_env, "m1-4mT", "training", "zero", 0.05)
+
+    def run(name, seeds, rules):
+        cfgs = [toy_config(seed=s, learning_starts=10, batch_size=8, hidden_sizes=(8,), eval_every=10)
+                for s in seeds]
+        train_seeds(vec, cfgs, 30, [tmp_path / name / f"seed{s}" for s in seeds], envs_per_seed=2,
+                    progress=False, eval_env_fn=evaluation, stop_rules=rules)
+
+    run("group", (0, 1), [None, StopRule("target", threshold=-1e9, consecutive=1)])
+    run("alone", (0,), None)
+    a, b = load_checkpoint(tmp_path / "group" / "seed0"), load_checkpoint(tmp_path / "alone" / "seed0")
+    for key in ("agent", "buffer", "global_step", "episode"):
+        assert_state_equal(a[key], b[key], key)
+    assert load_checkpoint(tmp_path / "group" / "seed1")["stopped"]["step"] == 10

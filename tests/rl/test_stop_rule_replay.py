@@ -1,0 +1,43 @@
+"""benchmarks/stop_rule_replay.py: the replay of the ``target`` stop rule on the committed
+``pink-ln`` seeds reproduces the numbers quoted in rl/cases/recipes.py (recipe ``fast``)."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def replay():
+    spec = importlib.util.spec_from_file_location("stop_rule_replay",
+                                                  ROOT / "benchmarks" / "stop_rule_replay.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_quoted_fractions_come_from_the_committed_evaluations(replay, capsys):
+    quoted = {"m1-4mT": 0.54, "m1-10mT": 0.52, "m2-4mT": 0.54, "m2-10mT": 0.52}
+    for case, fraction in quoted.items():
+        r = replay.replay(case, "pink-ln", 2, 100_000)
+        assert len(r["seeds"]) == 8 and round(r["steps_run_fraction"], 2) == fraction
+    k3 = [replay.replay(case, "pink-ln", 3, 100_000)["steps_run_fraction"] for case in quoted]
+    assert k3 == pytest.approx([0.58, 0.615, 0.5775, 0.5975])
+    assert replay.main(["--consecutive", "2"]) == 0
+    assert "m1-10mT" in capsys.readouterr().out
+
+
+def test_the_rule_fires_at_the_first_step_with_k_evaluations_at_the_threshold(replay):
+    from elastica_magnetic_rl.runner.stopping import StopRule
+
+    rows = [{"global_step": str(s), "mean_return": str(r)}
+            for s, r in ((5000, 10), (10000, 300), (15000, 100), (20000, 250), (25000, 260))]
+    assert replay.stop_step(rows, StopRule("target", threshold=205.0, consecutive=2)) == 25000
+    assert replay.stop_step(rows, StopRule("target", threshold=205.0, consecutive=1)) == 10000
+    assert replay.stop_step(rows, StopRule("target", threshold=500.0)) is None
