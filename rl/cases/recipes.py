@@ -24,24 +24,23 @@ CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8, "eval_every":
 #: seeds stayed at a half roll with saturated actors and calibrated critics).
 #:
 #: ``fast``: a CANDIDATE for a design loop measured in minutes, not yet measured as a recipe:
-#: ``pink-ln`` with 128-128 networks (actor and critics; the update is ~2x cheaper than 256-256's:
-#: 5.2 ms against 11.2 ms per seed-update, stacked update of 4 seeds, one thread), and the ``target``
-#: stop rule on by default (:data:`RECIPE_RUN_SETTINGS`; ``--stop-when none`` turns it off). The
-#: measurements so far: (a) replaying the ``target`` rule with k = 2 on the committed ``pink-ln``
-#: seeds' evaluations (``benchmarks/stop_rule_replay.py``), the seeds would have run 52-54 % of their
-#: steps in every paper case (m1-4mT 0.54, m1-10mT 0.52, m2-4mT 0.54, m2-10mT 0.52; k = 3: 0.58,
-#: 0.615, 0.5775, 0.5975), a replay that says nothing yet of the stopped actors' distances;
-#: (b) 128-128 ``pink-ln`` on m1-10mT seeds 0-3 (no stopping): 3 of 4 reached the authors' distance
-#: (168.9, 168.3, 167.6 mm; seed 1 13.5 mm) in 28.4 min on 2 workers, where 256-256 made 4 of 4;
-#: seeds 4-7 in progress. The 8-seed campaigns of the four paper cases decide whether it stays.
+#: ``pink-ln`` (its 256-256 networks) with the ``target`` stop rule on by default
+#: (:data:`RECIPE_RUN_SETTINGS`; ``--stop-when none`` turns it off). The measurements so far:
+#: (a) replaying the ``target`` rule with k = 2 on the committed ``pink-ln`` seeds' evaluations
+#: (``benchmarks/stop_rule_replay.py``), the seeds would have run 52-54 % of their steps in every
+#: paper case (m1-4mT 0.54, m1-10mT 0.52, m2-4mT 0.54, m2-10mT 0.52; k = 3: 0.58, 0.615, 0.5775,
+#: 0.5975), a replay that says nothing yet of the stopped actors' distances; (b) narrower networks
+#: were tried and not taken: 128-128 ``pink-ln`` on m1-10mT seeds 0-3 made 3 of 4 (where 256-256 made
+#: 4 of 4), and on seeds 4-7 only seed 5 reached the authors' distance by 80k steps (at 54k;
+#: 256-256: all four by 56k; ``benchmarks/results/probe_fast_h128_m1-10mT_seeds4-7.json``); 64-64
+#: made 1 of 4. The 8-seed campaigns of the four paper cases decide whether it stays.
 RECIPES: dict[str, dict[str, Any]] = {
     "paper": {},
     "pink": {"noise_color": 1.0, "noise_horizon": 2000},
     "pink-ln": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True},
     "pink-ln-unsat": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True,
                       "actor_saturation_penalty": 1.0},
-    "fast": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True,
-             "hidden_sizes": (128, 128)},
+    "fast": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True},
 }
 #: Run settings a recipe carries besides its TD3 changes (not hyperparameters: they change when a
 #: seed stops, not what it learns), each overridable on the command line: ``stop_when``, the
@@ -58,8 +57,8 @@ RECIPE_SUMMARIES: dict[str, str] = {
     "pink": "the paper's with temporally correlated (pink) exploration noise",
     "pink-ln": "pink, and layer normalisation in the critics",
     "pink-ln-unsat": "pink-ln, and a penalty that keeps the actor out of tanh's saturation",
-    "fast": "CANDIDATE, being measured: pink-ln with 128-128 networks, seeds stop at the case's "
-            "yardstick (--stop-when target by default)",
+    "fast": "CANDIDATE, being measured: pink-ln whose seeds stop at the case's yardstick "
+            "(--stop-when target by default)",
 }
 
 

@@ -95,5 +95,5 @@ def test_the_fast_recipe_carries_the_target_rule_and_none_turns_it_off():
     assert recipe_stop_when("none", "fast") is None
     assert recipe_stop_when("plateau", "fast") == "plateau"
     cfg = crawler_config(0, "fast")
-    assert cfg.hidden_sizes == (128, 128) and cfg.actor_widths == (128, 128)
+    assert cfg.hidden_sizes == (256, 256) and cfg.actor_widths == (256, 256)
     assert cfg.critic_layer_norm and cfg.noise_color == 1.0
