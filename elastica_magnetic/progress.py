@@ -98,6 +98,15 @@ class PlainProgress:
         if refresh:
             self.refresh()
 
+    def set_description_str(self, desc: str | None = None, refresh: bool = True) -> None:
+        """The text at the start of the following lines (as tqdm's)."""
+        self.desc = desc or ""
+        if refresh:
+            self.refresh()
+
+    def set_description(self, desc: str | None = None, refresh: bool = True) -> None:
+        self.set_description_str(desc, refresh)
+
     def line(self, now: float | None = None) -> str:
         """The current progress as one line (no newline)."""
         now = self._clock() if now is None else now

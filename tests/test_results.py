@@ -176,6 +176,11 @@ STOPS = (1, 1.5, 2, 3, "fsync", "rename1", "rename2", "rename3")
 
 
 def _child(target: Path, signum: int, stop_at) -> None:
+    # a fresh command's signal handlers: the forked pytest process may carry others (Ray's driver
+    # installs its own SIGTERM handler when an earlier test started it)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    for other in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(other, signal.SIG_DFL)
     def stop(point) -> None:
         if point == stop_at:
             os.kill(os.getpid(), signum)

@@ -196,7 +196,8 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
         for name in ("hidden_sizes", "actor_hidden_sizes"):
             widths = getattr(self, name)
             if widths is not None and (not widths or min(widths) < 1):
-                raise ValueError(f"{name}: every hidden layer needs at least 1 unit, got {widths}")
+                raise ValueError(f"{name} must be one or more layers of >= 1 unit, got "
+                                 f"{list(widths)}")
         if not 0.0 < self.tau <= 1.0:
             raise ValueError(f"tau must be in (0, 1], got {self.tau}")
         if not 0.0 <= self.gamma <= 1.0:
@@ -224,9 +225,6 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value}")
         if self.noise_horizon < 2:
             raise ValueError(f"noise_horizon must be >= 2 steps, got {self.noise_horizon}")
-        if not self.hidden_sizes or min(self.hidden_sizes) < 1:
-            raise ValueError(f"hidden_sizes must be one or more layers of >= 1 unit, got "
-                             f"{list(self.hidden_sizes)}")
         if self.buffer_size < self.batch_size:
             raise ValueError(f"buffer_size ({self.buffer_size}) must be >= batch_size "
                              f"({self.batch_size}): a minibatch is drawn from the replay buffer, so "
