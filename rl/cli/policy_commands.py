@@ -214,7 +214,9 @@ def seeds_command(args: argparse.Namespace) -> int:
 
 
 def ship_command(args: argparse.Namespace) -> int:
-    from ..shipping.ship import ship
+    from ..shipping.ship import check_ship_target, ship
+
+    check_ship_target(args.name, args.dest)  # before the actors' evaluations
 
     notes = None
     if args.notes is not None:
@@ -301,8 +303,14 @@ def _read_markdown(path: Path, option: str) -> str:
 
 
 def export_command(args: argparse.Namespace) -> int:
-    from ..shipping.export import export_policy
+    from elastica_magnetic.results import check_result_folder
 
+    from ..shipping.export import EXPORT_FILES, export_policy
+    from ..shipping.policy_files import resolve_policy
+
+    # the output folder before the actors' evaluations (minutes in the accurate physics)
+    check_result_folder(args.out, kind="export", subject=f"case {resolve_policy(args.policy).case.name}",
+                        force=args.force, known_files=EXPORT_FILES)
     choice = _actor_choice(args.policy, args.checkpoint, 10.0, not args.no_progress)
     result = export_policy(choice.path if choice else args.policy, args.out, force=args.force)
     print_notes(result.pop("notes", ()))

@@ -43,7 +43,7 @@ from .policy_runs import evaluate_seeds, node_dx, run_policy
 from .seed_report import CARD_SECTION as SEEDS_CARD_SECTION
 from .seed_report import case_seeds, seeds_markdown
 
-__all__ = ["SHIPPED_FILES", "check_policy_name", "set_notes", "ship"]
+__all__ = ["SHIPPED_FILES", "check_policy_name", "check_ship_target", "set_notes", "ship"]
 
 #: The files of a shipped policy (``actor.pt`` and ``policy.json`` always, the others optional).
 SHIPPED_FILES = ("actor.pt", POLICY_JSON, "critic.pt", "fields.csv", "MODEL_CARD.md")
@@ -57,6 +57,16 @@ def check_policy_name(name: str) -> str:
         raise ValueError(f"--name {name!r}: a policy name is one folder name (letters, digits, "
                          "'-', '_', no '/' and not starting with '.'), e.g. m1-4mT")
     return name
+
+
+def check_ship_target(name: str, dest: str | Path | None) -> None:
+    """``--name`` a plain name and ``--dest`` a folder (or a path to one): checked before any
+    measuring, else the named error."""
+    check_policy_name(name)
+    if dest is not None:
+        for parent in (Path(dest), *Path(dest).parents):
+            if parent.exists() and not parent.is_dir():
+                raise OutputPathError(f"--dest {dest}: {parent} is a file, not a folder")
 
 
 def ship(
@@ -92,11 +102,7 @@ def ship(
     ``seeds/``), under its lock; ``lock=False`` writes them directly (for a caller that writes a
     temporary result folder of its own). ``dest`` and ``name`` are checked before any measuring.
     """
-    check_policy_name(name)
-    if dest is not None:
-        for parent in (Path(dest), *Path(dest).parents):
-            if parent.exists() and not parent.is_dir():
-                raise OutputPathError(f"--dest {dest}: {parent} is a file, not a folder")
+    check_ship_target(name, dest)
     policy = resolve_policy(run)
     if policy.kind != "checkpoint":
         raise ValueError(f"{run}: ship takes a run directory or checkpoint, not a shipped policy")

@@ -92,12 +92,14 @@ def test_demo_replaces_its_own_demo(monkeypatch, trained, tmp_path, capsys):
 def test_export_needs_force_to_replace(trained, tmp_path, capsys):
     run = str(trained / "m1-4mT" / "seed0")
     out = tmp_path / "export"
-    run_msr(capsys, "export", run, "--out", str(out))
+    run_msr(capsys, "export", run, "--out", str(out), "--checkpoint", "final")
     before = snapshot(out)
+    begin = time.perf_counter()  # refused before the actors' 10 s evaluations (--checkpoint auto)
     assert msr(["export", run, "--out", str(out)]) == 2
+    assert time.perf_counter() - begin < 20
     assert "already holds a result of `msr export`" in capsys.readouterr().err
     assert snapshot(out) == before
-    result = run_msr(capsys, "export", run, "--out", str(out), "--force")
+    result = run_msr(capsys, "export", run, "--out", str(out), "--force", "--checkpoint", "final")
     assert result["json"] == str(out / "policy.json") and not leftovers(out)
 
 
