@@ -23,6 +23,11 @@ def test_bench_quick_json_keys(capsys):
     assert result["train_1e5_steps_s"] == 1e5 * (1 / result["env_steps_per_s"]
                                                  + 1 / result["td3_updates_per_s"])
     assert result["training"]["step_us"] == result["step_us"] and result["quick"] is True
+    for physics in ("training", "accurate"):  # fields in space next to the uniform field (issue 33)
+        spatial, ratio = result[physics]["spatial_step_us"], result[physics]["spatial_ratio_to_uniform"]
+        assert set(spatial) == set(ratio) == {"uniform", "point_dipole", "moving_dipole", "helmholtz_pair"}
+        assert all(math.isfinite(v) and v > 0 for v in spatial.values())
+        assert all(ratio[k] == spatial[k] / spatial["uniform"] for k in spatial)
     assert result["recipe"] == "paper"  # the series of measurements is the paper recipe's
     roof = result["td3_roofline"]
     assert roof["achieved_gflops"] == roof["gflop_per_update"] * result["td3_updates_per_s"]
@@ -78,3 +83,34 @@ def test_training_peak_memory_of_a_two_seed_run():
     assert replay_buffer_bytes(100_000) == 100_000 * (2 * 260 + 2 + 2) * 4  # 209.6 MB
     growth = 2 * (replay_buffer_bytes(100_000) - replay_buffer_bytes(30))
     assert result["projected_full_run_peak_bytes"] == result["peak_bytes"] + growth
+
+
+def test_bench_text_prints_the_spatial_step_cost_and_its_ratio():
+    """``msr bench`` in plain text: one line per source and physics with its cost and its ratio to
+    the uniform field, flagged against the 2x target; a setting measured without the spatial
+    sources is left out, and the nested dicts are not dumped raw."""
+    from elastica_magnetic_rl.reports.bench import benchmark_text
+
+    def cost(step: float, spatial: dict[str, float] | None) -> dict:
+        out = {"step_us": step, "naive_step_us": 40 * step, "bare_step_us": 0.9 * step,
+               "speedup_vs_naive": 40.0, "overhead_vs_bare": 1 / 0.9, "action_ms": step * 0.1,
+               "substeps_per_action": 100}
+        if spatial is not None:
+            out["spatial_step_us"] = spatial
+            out["spatial_ratio_to_uniform"] = {k: v / spatial["uniform"] for k, v in spatial.items()}
+        return out
+
+    result = {"step_us": 10.0, "training": cost(10.0, {"uniform": 10.0, "point_dipole": 14.0,
+                                                       "helmholtz_pair": 25.0}),
+              "accurate": cost(20.0, None)}
+    text = benchmark_text(result)
+    lines = text.splitlines()
+    assert lines[0] == "step_us: 10.0"
+    assert not any(line.startswith(("training:", "accurate:")) for line in lines)
+    assert "fields in space, training physics" in text and "target <= 2x" in text
+    assert "fields in space, accurate physics" not in text  # measured without the spatial sources
+    dipole = next(line for line in lines if line.strip().startswith("point_dipole"))
+    assert "14.00 us" in dipole and "1.40x" in dipole and dipole.endswith("ok")
+    pair = next(line for line in lines if line.strip().startswith("helmholtz_pair"))
+    assert "2.50x" in pair and pair.endswith("ABOVE TARGET")
+    assert any(line.startswith("step cost, accurate physics: 20.00 us") for line in lines)

@@ -202,7 +202,9 @@ def _add_bench_command(sub: argparse._SubParsersAction) -> None:
         "batched simulator, environment steps/s (single and vector environment), TD3 updates/s "
         "(one seed, and seeds stacked, fp32 and bf16) against the matrix-product rate, and the wall "
         "time of 8 seeds x 1e5 steps extrapolated from a real run in the default layout "
-        "(train_8_seeds_1e5_s). A few minutes.",
+        "(train_8_seeds_1e5_s), and the step cost under fields in space (a point dipole, a moving "
+        "dipole, a Helmholtz pair) with its ratio to the uniform field's (target at most 2x). A few "
+        "minutes; --quick --train-seeds 0 for a rough look in under a minute.",
     )
     p.add_argument("--steps", type=number("", 1, integer=True), default=1000,
                    help="time steps per step-cost measurement")
@@ -476,7 +478,7 @@ def case_check_command(args: argparse.Namespace) -> int:
 
 
 def bench_command(args: argparse.Namespace) -> int:
-    from ..reports.bench import benchmark, training_peak_memory
+    from ..reports.bench import benchmark, benchmark_text, training_peak_memory
 
     if args.steps < 1 or args.repeats < 1 or args.vector_envs < 1:
         raise CommandError("--steps, --repeats and --vector-envs must be >= 1")
@@ -486,7 +488,10 @@ def bench_command(args: argparse.Namespace) -> int:
                        vector_envs=args.vector_envs, train_seeds=args.train_seeds)
     if args.memory_seeds:
         result["training_memory"] = training_peak_memory(args.memory_seeds, args.memory_steps)
-    print_result(result, args.json)
+    if args.json:
+        print_result(result, True)
+    else:
+        print(benchmark_text(result))
     return 0
 
 

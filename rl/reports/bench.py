@@ -29,9 +29,12 @@ BENCH_RECIPE = "paper"
 
 __all__ = [
     "benchmark",
+    "benchmark_text",
     "env_steps_per_s",
     "gemm_gflops",
     "replay_buffer_bytes",
+    "spatial_cost_lines",
+    "step_cost_lines",
     "td3_roofline",
     "td3_update_flops",
     "td3_updates_per_s",
@@ -392,6 +395,56 @@ def training_time(
     }
 
 
+def _sizes(steps: int, repeats: int, quick: bool) -> dict[str, int]:
+    """How much each measurement of :func:`benchmark` runs (``quick``: tiny, for tests)."""
+    if quick:
+        return {"steps": min(steps, 200), "repeats": 1, "robot_steps": 100, "env_steps": 10,
+                "vector_steps": 3, "updates": 10}
+    return {"steps": steps, "repeats": repeats, "robot_steps": 6400, "env_steps": 200,
+            "vector_steps": 20, "updates": 200}
+
+
+def _simulation_rates(sizes: dict[str, int], vector_envs: int) -> dict[str, Any]:
+    """Step cost of the paper's robot (both physics, with the fields in space next to the uniform
+    one), per-robot-step cost of the batched simulator, and environment steps/s."""
+    repeats = sizes["repeats"]
+    cost = benchmark_step_cost(sizes["steps"], repeats)
+    training = cost["training"]
+    return {
+        "step_us": training["step_us"],
+        "naive_step_us": training["naive_step_us"],
+        "speedup": training["speedup_vs_naive"],
+        "per_robot_step_us": per_robot_step_cost(BATCH_SIZES, sizes["robot_steps"], repeats)["batched"],
+        "env_steps_per_s": env_steps_per_s(sizes["env_steps"], repeats),
+        "vector_envs": vector_envs,
+        "vector_env_steps_per_s": vector_env_steps_per_s(vector_envs, sizes["vector_steps"], repeats),
+        "training": cost["training"],
+        "accurate": cost["accurate"],
+    }
+
+
+def _learning_rates(sizes: dict[str, int], quick: bool) -> dict[str, Any]:
+    """TD3 updates/s (one seed; 1 and 4 seeds stacked, fp32 and bf16) and their roofline."""
+    updates, repeats = sizes["updates"], sizes["repeats"]
+    td3_rate = td3_updates_per_s(updates, repeats)
+    stacked = {precision: {str(k): td3_updates_per_s(max(1, updates // k), repeats, seeds=k,
+                                                     precision=precision) for k in (1, 4)}
+               for precision in ("fp32", "bf16")}
+    return {"td3_updates_per_s": td3_rate, "td3_stacked_updates_per_s": stacked,
+            "td3_roofline": td3_roofline(td3_rate, repeats, quick)}
+
+
+def _training_figures(train_seeds: int, quick: bool, floor_1e5_updates_s: float, cpus: int) -> dict[str, Any]:
+    """The wall time of ``train_seeds`` seeds x 1e5 steps, from a real run (:func:`training_time`),
+    next to the floor the matrix-product rate sets."""
+    timing = (training_time(train_seeds, window=20, full_steps=100_000,
+                            overrides={"learning_starts": 20, "hidden_sizes": (32, 32), "batch_size": 16})
+              if quick else training_time(train_seeds))
+    return {"training_time": timing, "train_8_seeds_1e5_s": timing["projected_s"],
+            "floor_8_seeds_1e5_s": floor_1e5_updates_s * train_seeds / cpus,
+            "train_8_seeds_target_s": 45 * 60.0}
+
+
 def benchmark(
     steps: int = 1000,
     repeats: int = 3,
@@ -402,7 +455,9 @@ def benchmark(
     """Everything ``msr bench`` reports, measured in one run (training physics unless noted).
 
     Keys: ``step_us``, ``naive_step_us``, ``speedup`` (one time step of the paper's robot, us, ours
-    vs per-element Python loops, training physics; both physics in ``training`` / ``accurate``),
+    vs per-element Python loops, training physics; both physics in ``training`` / ``accurate``,
+    each with ``spatial_step_us`` and ``spatial_ratio_to_uniform``: the step under a point dipole,
+    a moving dipole and a Helmholtz pair next to the uniform field, target at most 2x),
     ``per_robot_step_us`` ``{"1", "4", "16", "64"}`` (us per robot-step, batched simulator),
     ``env_steps_per_s`` (single environment, one 0.01 s action = 100 substeps),
     ``vector_env_steps_per_s`` (transitions/s, ``vector_envs`` crawlers in one simulator),
@@ -418,55 +473,23 @@ def benchmark(
     (``floor_1e5_updates_s x train_seeds / cores``), the load average and the CPU count. Every TD3
     and training number uses ``recipe`` (:data:`BENCH_RECIPE`, the paper's).
     ``quick``: tiny measurements (for tests; numbers are rough). ``train_seeds = 0`` skips the
-    training run.
+    training run. :func:`benchmark_text` writes the result as plain text.
     """
-    if quick:
-        steps, repeats = min(steps, 200), 1
-    robot_steps = 100 if quick else 6400
-    env_steps, vector_steps, updates = (10, 3, 10) if quick else (200, 20, 200)
+    sizes = _sizes(steps, repeats, quick)
     load_before = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     cpus = os.cpu_count() or 1
     start = time.perf_counter()
-    cost = benchmark_step_cost(steps, repeats)
-    training = cost["training"]
-    batched = per_robot_step_cost(BATCH_SIZES, robot_steps, repeats)["batched"]
-    env_rate = env_steps_per_s(env_steps, repeats)
-    vector_rate = vector_env_steps_per_s(vector_envs, vector_steps, repeats)
-    td3_rate = td3_updates_per_s(updates, repeats)
-    stacked = {precision: {str(k): td3_updates_per_s(max(1, updates // k), repeats, seeds=k,
-                                                     precision=precision) for k in (1, 4)}
-               for precision in ("fp32", "bf16")}
-    roofline = td3_roofline(td3_rate, repeats, quick)
-    result = {
-        "step_us": training["step_us"],
-        "naive_step_us": training["naive_step_us"],
-        "speedup": training["speedup_vs_naive"],
-        "per_robot_step_us": batched,
-        "env_steps_per_s": env_rate,
-        "vector_envs": vector_envs,
-        "vector_env_steps_per_s": vector_rate,
-        "td3_updates_per_s": td3_rate,
-        "td3_stacked_updates_per_s": stacked,
-        "train_1e5_steps_s": 1e5 * (1.0 / env_rate + 1.0 / td3_rate),
-        "train_1e5_steps_vector_s": 1e5 * (1.0 / vector_rate + 1.0 / td3_rate),
-        "td3_roofline": roofline,
-        "per_robot_step_target_us_at_16": 12.0,
-    }
+    result = _simulation_rates(sizes, vector_envs) | _learning_rates(sizes, quick)
+    td3_rate = result["td3_updates_per_s"]
+    result["train_1e5_steps_s"] = 1e5 * (1.0 / result["env_steps_per_s"] + 1.0 / td3_rate)
+    result["train_1e5_steps_vector_s"] = 1e5 * (1.0 / result["vector_env_steps_per_s"] + 1.0 / td3_rate)
+    result["per_robot_step_target_us_at_16"] = 12.0
     if train_seeds:
-        timing = (training_time(train_seeds, window=20, full_steps=100_000,
-                                overrides={"learning_starts": 20, "hidden_sizes": (32, 32),
-                                           "batch_size": 16})
-                  if quick else training_time(train_seeds))
-        result["training_time"] = timing
-        result["train_8_seeds_1e5_s"] = timing["projected_s"]
-        result["floor_8_seeds_1e5_s"] = roofline["floor_1e5_updates_s"] * train_seeds / cpus
-        result["train_8_seeds_target_s"] = 45 * 60.0
+        result |= _training_figures(train_seeds, quick, result["td3_roofline"]["floor_1e5_updates_s"], cpus)
     return {
         **result,
-        "training": cost["training"],
-        "accurate": cost["accurate"],
-        "steps": steps,
-        "repeats": repeats,
+        "steps": sizes["steps"],
+        "repeats": sizes["repeats"],
         "quick": quick,
         "recipe": BENCH_RECIPE,
         "cpu_count": cpus,
@@ -476,3 +499,57 @@ def benchmark(
                 "environment steps and TD3 updates of one seed on one core, one after the other; "
                 "train_8_seeds_1e5_s: extrapolated from a real run in the default layout",
     }
+
+
+# --------------------------------------------------------------------------------------------------
+# Plain-text report
+# --------------------------------------------------------------------------------------------------
+#: Issue 33's target: a step under a point dipole or a coil pair costs at most this many times the
+#: uniform field's.
+SPATIAL_TARGET_RATIO = 2.0
+
+
+def spatial_cost_lines(result: dict[str, Any]) -> list[str]:
+    """The step cost under fields in space next to the uniform field, one line per physics setting
+    and source: ``us`` per time step and the ratio to the uniform field of the same run, against
+    :data:`SPATIAL_TARGET_RATIO`. ``result``: :func:`benchmark`'s (or
+    :func:`elastica_magnetic.bench.benchmark_step_cost`'s) dict; settings without spatial numbers
+    are left out."""
+    lines = []
+    for physics in ("training", "accurate"):
+        cost = result.get(physics)
+        if not isinstance(cost, dict) or "spatial_step_us" not in cost:
+            continue
+        step_us, ratio = cost["spatial_step_us"], cost["spatial_ratio_to_uniform"]
+        uniform = step_us["uniform"]
+        lines.append(f"fields in space, {physics} physics (us per time step of the paper's robot; "
+                     f"ratio to the uniform field, target <= {SPATIAL_TARGET_RATIO:g}x):")
+        lines.append(f"  {'uniform':16s} {uniform:9.2f} us")
+        for name, value in step_us.items():
+            if name == "uniform":
+                continue
+            verdict = "ok" if ratio[name] <= SPATIAL_TARGET_RATIO else "ABOVE TARGET"
+            lines.append(f"  {name:16s} {value:9.2f} us  {ratio[name]:5.2f}x  {verdict}")
+    return lines
+
+
+def step_cost_lines(result: dict[str, Any]) -> list[str]:
+    """One line per physics setting: our step, the per-element Python loops' and the bare rod's."""
+    lines = []
+    for physics in ("training", "accurate"):
+        cost = result.get(physics)
+        if not isinstance(cost, dict) or "step_us" not in cost:
+            continue
+        lines.append(f"step cost, {physics} physics: {cost['step_us']:.2f} us per time step "
+                     f"({cost['speedup_vs_naive']:.1f}x faster than per-element loops, "
+                     f"{cost['overhead_vs_bare']:.2f}x the bare rod's), "
+                     f"{cost['action_ms']:.2f} ms per action of {cost['substeps_per_action']} steps")
+    return lines
+
+
+def benchmark_text(result: dict[str, Any]) -> str:
+    """:func:`benchmark`'s result as plain text: ``key: value`` lines for the scalar figures, then
+    the step cost of both physics settings and the fields-in-space table (:func:`spatial_cost_lines`)."""
+    nested = ("training", "accurate")
+    lines = [f"{key}: {value}" for key, value in result.items() if key not in nested]
+    return "\n".join(lines + step_cost_lines(result) + spatial_cost_lines(result))
