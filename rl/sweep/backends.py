@@ -119,18 +119,19 @@ def run_in_processes(
     grace = STOP_GRACE_S if stop_grace_s is None else stop_grace_s
     with _sigint_ignored_while_spawning(quiet_interrupt):  # the workers inherit SIG_IGN
         pool = ProcessPoolExecutor(max_workers=workers, mp_context=context,
-                                   initializer=_ignore_sigint if quiet_interrupt else None)
+                                   initializer=_init_worker, initargs=(os.getpid(), quiet_interrupt))
         futures = {pool.submit(fn, job): k for k, job in enumerate(jobs)}
     results: list[Any] = [None] * len(jobs)
     try:
-        for future in as_completed(futures):
-            k = futures[future]
-            try:
-                results[k] = future.result()
-            except Exception as exc:
-                if on_error is None:
-                    raise
-                results[k] = on_error(k, exc)
+        with _termination_as_interrupt():
+            for future in as_completed(futures):
+                k = futures[future]
+                try:
+                    results[k] = future.result()
+                except Exception as exc:
+                    if on_error is None:
+                        raise
+                    results[k] = on_error(k, exc)
     except KeyboardInterrupt:
         _stop_workers(pool, futures, grace)
         raise
@@ -163,11 +164,53 @@ def _sigint_ignored_while_spawning(active: bool):
         signal.signal(signal.SIGINT, previous)
 
 
-def _ignore_sigint() -> None:
-    """Worker initializer: Ctrl-C is the parent's to handle (it ends the worker)."""
-    import signal
+#: Seconds between a worker's checks that the process that started it is still alive.
+PARENT_POLL_S = 1.0
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+def _init_worker(parent_pid: int, ignore_sigint: bool) -> None:
+    """Worker initializer: with ``ignore_sigint``, Ctrl-C is the parent's to handle (it ends the
+    worker); in every case the worker ends itself (SIGTERM, as the parent would) once the process
+    that started it is gone (killed with SIGKILL, or ended by a signal it could not catch), so an
+    orphaned worker never goes on writing a run folder that nobody owns any more. A worker loses
+    at most the steps since its last checkpoint, which is written atomically."""
+    import signal
+    import threading
+
+    if ignore_sigint:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(PARENT_POLL_S)
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    threading.Thread(target=watch, name="msr-parent-watch", daemon=True).start()
+
+
+@contextlib.contextmanager
+def _termination_as_interrupt():
+    """SIGTERM and SIGHUP in this process (main thread only) raise :class:`KeyboardInterrupt`
+    while the workers run, so ``kill PID`` or a closed terminal stops the workers as Ctrl-C does
+    (a shell's background job ignores SIGINT, which leaves SIGTERM as the way to stop it); the
+    previous handlers are restored after."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt(f"signal {signal.Signals(signum).name}")
+
+    names = [n for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n)]
+    previous = {n: signal.signal(getattr(signal, n), interrupt) for n in names}
+    try:
+        yield
+    finally:
+        for n, handler in previous.items():
+            signal.signal(getattr(signal, n), handler)
 
 
 def _stop_workers(pool: ProcessPoolExecutor, futures, grace: float = STOP_GRACE_S) -> None:

@@ -1,8 +1,15 @@
-"""The process backend's job runner: results in job order, errors reported or raised."""
+"""The process backend's job runner: results in job order, errors reported or raised; SIGTERM
+stops it as Ctrl-C does, and its workers never outlive it."""
 
 from __future__ import annotations
 
 import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 import pytest
 from elastica_magnetic_rl.sweep.backends import run_in_processes
@@ -17,3 +24,79 @@ def test_results_keep_the_job_order_and_a_failing_job_is_reported():
 def test_without_an_error_handler_the_jobs_exception_is_raised():
     with pytest.raises(ValueError, match="math domain error"):
         run_in_processes(math.sqrt, [4.0, -1.0, 9.0], 2)
+
+
+# -- signals: the workers never outlive the sweep that started them ---------------------------
+
+SLEEPER = '''
+import os, pathlib, time
+def sleep_and_record(k):
+    pathlib.Path(os.environ["MSR_TEST_PIDS"], str(k)).write_text(str(os.getpid()))
+    time.sleep(120)
+    return k
+'''
+
+DRIVER = '''
+import sys
+sys.path.insert(0, {folder!r})
+from sleeper import sleep_and_record
+from elastica_magnetic_rl.sweep.backends import run_in_processes
+if __name__ == "__main__":
+    try:
+        run_in_processes(sleep_and_record, [0, 1], 2, stop_grace_s=1.0)
+    except KeyboardInterrupt as exc:
+        print("stopped:", exc, flush=True)
+        sys.exit(130)
+'''
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+    return state not in ("Z", "X")
+
+
+def _start_sweep(tmp_path: Path) -> tuple[subprocess.Popen, list[int]]:
+    """A driver process running two sleeping workers, started as a shell's background job
+    (SIGINT ignored); returns it and its workers' pids once both jobs run."""
+    (tmp_path / "sleeper.py").write_text(SLEEPER)
+    (tmp_path / "driver.py").write_text(DRIVER.format(folder=str(tmp_path)))
+    pids = tmp_path / "pids"
+    pids.mkdir()
+    env = {**os.environ, "MSR_TEST_PIDS": str(pids)}
+    proc = subprocess.Popen([sys.executable, str(tmp_path / "driver.py")], env=env, text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    deadline = time.monotonic() + 120
+    while len(list(pids.iterdir())) < 2:
+        assert proc.poll() is None, proc.stdout.read()
+        assert time.monotonic() < deadline, "the workers did not start"
+        time.sleep(0.2)
+    return proc, [int(p.read_text()) for p in pids.iterdir()]
+
+
+def _wait_gone(pids: list[int], timeout: float) -> list[int]:
+    deadline = time.monotonic() + timeout
+    while any(_alive(p) for p in pids) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    return [p for p in pids if _alive(p)]
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_sigterm_stops_the_sweep_and_its_workers_as_ctrl_c_does(tmp_path):
+    proc, workers = _start_sweep(tmp_path)
+    proc.send_signal(signal.SIGTERM)
+    out, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 130, out
+    assert "stopped: signal SIGTERM" in out
+    assert _wait_gone(workers, 10) == []
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_workers_end_themselves_when_the_sweep_is_killed(tmp_path):
+    proc, workers = _start_sweep(tmp_path)
+    proc.kill()
+    proc.wait(timeout=30)
+    assert _wait_gone(workers, 15) == []  # they poll their parent every second
