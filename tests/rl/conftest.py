@@ -5,8 +5,7 @@ imported by name from the test folders below it: pytest puts this folder on ``sy
 holds a ``conftest.py``.
 
 The training runs that many tests read are made here, once per test session (``trained``: ``msr
-train`` of 2 seeds; ``refined``: ``msr refine`` of its seed 0), whichever test modules use them;
-``fault_server`` runs ``msr`` commands with injected faults in processes of their own.
+train`` of 2 seeds; ``refined``: ``msr refine`` of its seed 0), whichever test modules use them.
 """
 
 from __future__ import annotations
@@ -27,16 +26,6 @@ def trained(tmp_path_factory) -> Path:
                   str(TRAIN_STEPS), "--out", str(out), *SMOKE])
     assert status == 0
     return out
-
-
-@pytest.fixture(scope="session")
-def fault_server(tmp_path_factory):
-    """The warm parent of the fault-injection tests' ``msr`` processes (``tests/faults.py``)."""
-    from faults import FaultServer
-
-    server = FaultServer(tmp_path_factory.mktemp("faults"))
-    yield server
-    server.close()
 
 
 @pytest.fixture(scope="session")
