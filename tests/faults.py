@@ -28,6 +28,7 @@ import errno
 import json
 import os
 import re
+import select
 import signal
 import subprocess
 import sys
@@ -199,8 +200,10 @@ class FaultServer:
             self.close()
             raise RuntimeError("the fault server did not start")
 
-    def run(self, argv: list[str], fault: Fault | None = None, cwd: Path | None = None) -> Done:
-        """``msr ARGV`` in a fresh child process with ``fault``; waits for its end."""
+    def run(self, argv: list[str], fault: Fault | None = None, cwd: Path | None = None,
+            timeout_s: float = 300.0) -> Done:
+        """``msr ARGV`` in a fresh child process with ``fault``; waits for its end (at most
+        ``timeout_s``: then the server and its child are killed and the test fails)."""
         self.runs += 1
         out = self.workdir / f"run{self.runs}"
         request = {"argv": [str(a) for a in argv], "fault": asdict(fault) if fault else None,
@@ -208,6 +211,11 @@ class FaultServer:
                    "stderr": f"{out}.err"}
         self.proc.stdin.write(json.dumps(request) + "\n")
         self.proc.stdin.flush()
+        ready, _, _ = select.select([self.proc.stdout], [], [], timeout_s)
+        if not ready:
+            os.killpg(self.proc.pid, signal.SIGKILL)  # the server and the hanging command
+            self.proc.wait()
+            raise TimeoutError(f"msr {' '.join(request['argv'])} did not end in {timeout_s:g} s")
         line = self.proc.stdout.readline()
         if not line:
             raise RuntimeError("the fault server ended")
