@@ -45,10 +45,11 @@ can leave, beside ``X``:
 - ``.X.msr-old-...`` with ``X`` present (killed after the new folder went in), or
   ``.X.msr-trash-...`` (killed while removing the old one): the leftover is removed.
 
-This recovery runs at the start of the next :func:`result_folder` (or :func:`recover`) on the
-same ``X``, under its lock, so a leftover is never one another live process is still writing;
-what was done is in :attr:`ResultFolder.notes` (and returned by :func:`recover`). Files are
-flushed to disk (``fsync``) before the swap.
+This recovery runs at the start of the next :func:`result_folder`, :func:`check_result_folder`
+(a command's pre-check) or :func:`recover` on the same ``X``, under its lock, so a leftover is
+never one another live process is still writing; what was done is in
+:attr:`ResultFolder.notes` (and returned by :func:`recover`). Files are flushed to disk
+(``fsync``) before the swap.
 
 **Folders written in place** (a training seed's folder, appended to for hours and resumed later)
 are not swapped but locked for the whole run: :class:`elastica_magnetic.locks.FolderLock`; their
