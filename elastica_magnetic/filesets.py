@@ -16,11 +16,14 @@ into place together::
 On an exception, Ctrl-C, SIGTERM or SIGHUP in the block the temporary folder is removed and
 nothing in the folder changed. On success a commit record (``.msr-commit``, the list of files) is
 written into the temporary folder, then each file is renamed into place (each rename is atomic;
-signals are held back meanwhile), then the temporary folder is removed. A process killed
+signals are held back meanwhile), the files the commit removes (``remove=``) are removed, then the
+temporary folder is removed. A process killed
 outright (SIGKILL, power loss) before the commit record leaves only the temporary folder, which
 the next :func:`replace_files` (or :func:`recover_files`) on that folder removes; killed after
 it, the folder may hold some new files beside some old ones until the next
-:func:`replace_files` / :func:`recover_files` on it finishes the moves (roll forward). Both run
+:func:`replace_files` / :func:`recover_files` on it finishes the moves (roll forward); a reader
+of such a folder checks :func:`interrupted_replacements` and calls :func:`recover_files` first
+(a shipped policy: ``elastica_magnetic_rl.shipping.policy_files.resolve_policy``). Both run
 under the folder's lock (:class:`~elastica_magnetic.locks.FolderLock`), so a second writer is
 refused naming the first.
 
@@ -41,7 +44,7 @@ from .io import OutputPathError
 from .locks import FolderLock, host_name, name_tag
 from .results import ResultExistsError, fsync_tree, remove_tree, signals_as_exceptions, signals_held
 
-__all__ = ["FileSet", "recover_files", "replace_files"]
+__all__ = ["FileSet", "interrupted_replacements", "recover_files", "replace_files"]
 
 _PREFIX = ".msr-files-"
 _COMMIT = ".msr-commit"
@@ -77,21 +80,34 @@ def _written(staging: Path) -> list[str]:
 
 
 def _move_committed(staging: Path, folder: Path) -> int:
-    """Rename every file listed in the commit record into ``folder``; returns how many moved."""
-    names = json.loads((staging / _COMMIT).read_text(encoding="utf-8"))
+    """Rename every file listed in the commit record into ``folder``, then remove those it lists
+    to remove; returns how many moved."""
+    record = json.loads((staging / _COMMIT).read_text(encoding="utf-8"))
+    if isinstance(record, list):  # the record of an earlier version: the files only
+        record = {"files": record, "remove": []}
     moved = 0
-    for name in names:
+    for name in record["files"]:
         source = staging / name
         if source.exists() or source.is_symlink():
             (folder / name).parent.mkdir(parents=True, exist_ok=True)
             os.replace(source, folder / name)
             moved += 1
+    for name in record.get("remove") or ():
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(folder / name)
     return moved
+
+
+def interrupted_replacements(folder: str | Path) -> list[Path]:
+    """The temporary folders a killed :func:`replace_files` left in ``folder`` (empty when none:
+    the folder is consistent). A reader that finds one calls :func:`recover_files` first."""
+    folder = Path(folder)
+    return sorted(folder.glob(f"{_PREFIX}*")) if folder.is_dir() else []
 
 
 def _recover_locked(folder: Path) -> list[str]:
     notes = []
-    for staging in sorted(folder.glob(f"{_PREFIX}*")) if folder.is_dir() else []:
+    for staging in interrupted_replacements(folder):
         if (staging / _COMMIT).is_file():
             try:
                 moved = _move_committed(staging, folder)
@@ -122,14 +138,20 @@ def replace_files(
     force: bool = False,
     option: str = "--out",
     force_option: str = "--force",
+    remove: Iterable[str] = (),
 ) -> Iterator[FileSet]:
     """Put the files ``names`` (relative paths) into ``folder`` (created if absent) all together
     or not at all; write them under :attr:`FileSet.path` in the block. An existing one is
     replaced only with ``force`` (:class:`~elastica_magnetic.results.ResultExistsError` before
     the block otherwise); writing a file not in ``names`` is a :class:`ValueError` and nothing
-    is moved."""
+    is moved. ``remove``: files of ``folder`` (not among ``names``) removed in the same commit,
+    after the new ones are in place (those of a replaced set that the new one lacks)."""
     folder = Path(folder)
     names = tuple(names)
+    remove = tuple(sorted(set(remove)))
+    if set(remove) & set(names):
+        raise ValueError(f"replace_files({folder}): {', '.join(sorted(set(remove) & set(names)))} "
+                         "both written and removed")
     for parent in (folder, *folder.parents):
         if parent.exists() and not parent.is_dir():
             raise OutputPathError(f"{option} {folder}: {parent} is a file, not a folder")
@@ -160,7 +182,8 @@ def replace_files(
             fsync_tree(staging)
             with signals_held():
                 record = staging / f"{_COMMIT}.tmp"
-                record.write_text(json.dumps(written), encoding="utf-8")
+                record.write_text(json.dumps({"files": written, "remove": list(remove)}),
+                                  encoding="utf-8")
                 os.replace(record, staging / _COMMIT)  # from here on, the next run rolls forward
                 _move_committed(staging, folder)
                 remove_tree(staging)

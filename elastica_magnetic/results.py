@@ -45,10 +45,11 @@ can leave, beside ``X``:
 - ``.X.msr-old-...`` with ``X`` present (killed after the new folder went in), or
   ``.X.msr-trash-...`` (killed while removing the old one): the leftover is removed.
 
-This recovery runs at the start of the next :func:`result_folder` (or :func:`recover`) on the
-same ``X``, under its lock, so a leftover is never one another live process is still writing;
-what was done is in :attr:`ResultFolder.notes` (and returned by :func:`recover`). Files are
-flushed to disk (``fsync``) before the swap.
+This recovery runs at the start of the next :func:`result_folder`, :func:`check_result_folder`
+(a command's pre-check) or :func:`recover` on the same ``X``, under its lock, so a leftover is
+never one another live process is still writing; what was done is in
+:attr:`ResultFolder.notes` (and returned by :func:`recover`). Files are flushed to disk
+(``fsync``) before the swap.
 
 **Folders written in place** (a training seed's folder, appended to for hours and resumed later)
 are not swapped but locked for the whole run: :class:`elastica_magnetic.locks.FolderLock`; their
@@ -97,6 +98,7 @@ __all__ = [
     "signals_held",
     "fsync_tree",
     "check_result_folder",
+    "interrupted",
     "mark_folder",
     "read_marker",
     "recover",
@@ -244,11 +246,35 @@ def check_result_folder(
     recognised by ``known_files``: relative paths the command writes). Raises
     :class:`OutputPathError` (a file, under a file, a mount point, not writable) or
     :class:`ResultExistsError` (another kind or subject, files the command did not write, or
-    the same result without ``force``), naming ``option`` and the folder. Nothing is written.
+    the same result without ``force``), naming ``option`` and the folder.
+
+    Nothing is written, except when a writer of ``out`` was killed and left something beside it
+    (:func:`interrupted`): that is recovered first, as the next :func:`result_folder` would (under
+    the lock: a live writer is refused, naming it), so the check sees the result the user has
+    (a command's pre-check before long work, too). What was done goes into the notes of an
+    error raised here, or of the next :func:`result_folder` on ``out`` in this process.
     """
     final = Path(out)
-    where = f"{option} {final}"
     _check_path(final, option)
+    notes = recover(final, option=option) if interrupted(final) else []
+    if notes:
+        _recovered_notes.setdefault(os.path.realpath(final), []).extend(notes)
+    try:
+        return _check_result_folder(final, kind, subject, force, option, known_files, force_option)
+    except OutputPathError as exc:
+        for note in notes:  # the command line prints them before the error
+            exc.add_note(note)
+        raise
+
+
+#: Notes of recoveries done by :func:`check_result_folder` (a command's pre-check), by folder,
+#: for the :func:`result_folder` that follows to report.
+_recovered_notes: dict[str, list[str]] = {}
+
+
+def _check_result_folder(final: Path, kind: str, subject: str | None, force: bool, option: str,
+                         known_files: Iterable[str], force_option: str) -> dict[str, Any] | None:
+    where = f"{option} {final}"
     if not final.exists():
         return None
     if os.path.ismount(final):
@@ -292,6 +318,16 @@ def check_result_folder(
         raise ResultExistsError(f"{where}: already holds {_what(marker)}; pass {force_option} to "
                                 f"replace it, or choose another {option}")
     return marker
+
+
+def interrupted(out: str | Path) -> bool:
+    """Whether a writer of ``out`` was killed and left something beside it (a temporary folder,
+    an aside to restore, one being removed) that :func:`recover` cleans up."""
+    return any(_leftovers(Path(os.path.realpath(Path(out)))).values())
+
+
+def _mtime(path: Path) -> float:
+    return path.stat().st_mtime if path.exists() else 0.0
 
 
 def _check_path(final: Path, option: str) -> None:
@@ -340,7 +376,7 @@ def _recover_locked(target: Path, shown: Path) -> list[str]:
     """Clean up after processes killed while writing ``target`` (the caller holds its lock)."""
     notes: list[str] = []
     found = _leftovers(target)
-    olds = sorted(found["old"], key=lambda p: p.stat().st_mtime if p.exists() else 0.0)
+    olds = sorted(found["old"], key=_mtime)
     if olds and not target.exists():
         restored = olds.pop()
         os.rename(restored, target)
@@ -476,11 +512,11 @@ def result_folder(
         raise OutputPathError(f"{option} {final}: cannot create {target.parent}: "
                               f"{exc.strerror or exc}") from None
     with signals_as_exceptions(), FolderLock(target, option=option) as lock:
-        notes = lock.notes + _recover_locked(target, final)
+        notes = (_recovered_notes.pop(str(target), []) + lock.notes
+                 + _recover_locked(target, final))
         try:
-            replaced = check_result_folder(final, kind=kind, subject=subject, force=force,
-                                           option=option, known_files=known,
-                                           force_option=force_option)
+            replaced = _check_result_folder(final, kind, subject, force, option, known,
+                                            force_option)
         except OutputPathError as exc:
             for note in notes:  # the command line prints them before the error
                 exc.add_note(note)

@@ -3,8 +3,9 @@
 after N files opened for writing, or between the swap's renames) or fail (ENOSPC after N bytes)
 in a real process; the old result must survive byte for byte and nothing partial be left.
 
-Each case is one ``msr`` process (about 4 s: imports and a 0.05 s simulation), so the suite keeps
-a handful of points here; every point of the mechanism itself is covered in ``test_results.py``.
+Each case is one ``msr`` process forked from a warm server (``tests/faults.py``: about 1 s, a
+0.05 s simulation), so the suite keeps a handful of points here; every point of the mechanism
+itself is covered in ``test_results.py``.
 """
 
 from __future__ import annotations
@@ -13,65 +14,14 @@ import json
 import os
 import signal
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from faults import Fault
 
 from elastica_magnetic.cli import main
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="signals are POSIX")
-
-#: Runs ``msr ARGS`` with a fault: ``open N SIGNAL`` sends SIGNAL to itself once the N-th file
-#: under a result's temporary folder is opened for writing; ``rename N SIGNAL`` after the N-th
-#: ``os.rename`` (the swap's); ``enospc N -`` fails writes there with ENOSPC past N bytes.
-DRIVER = r"""
-import builtins, errno, os, signal, sys
-mode, limit, sig = sys.argv[1], int(sys.argv[2]), sys.argv[3]
-count = {"opens": 0, "bytes": 0, "renames": 0}
-
-def fire():
-    os.kill(os.getpid(), getattr(signal, sig))
-
-class Full:
-    def __init__(self, handle):
-        self._handle = handle
-    def write(self, data):
-        count["bytes"] += len(data)
-        if count["bytes"] > limit:
-            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-        return self._handle.write(data)
-    def __getattr__(self, name):
-        return getattr(self._handle, name)
-    def __enter__(self):
-        return self
-    def __exit__(self, *exc):
-        return self._handle.__exit__(*exc)
-    def __iter__(self):
-        return iter(self._handle)
-
-real_open, real_rename = builtins.open, os.rename
-
-def patched_open(file, mode_="r", *args, **kwargs):
-    handle = real_open(file, mode_, *args, **kwargs)
-    if any(c in mode_ for c in "wax+") and ".msr-new-" in str(file):
-        count["opens"] += 1
-        if mode == "open" and count["opens"] == limit:
-            fire()
-        if mode == "enospc":
-            return Full(handle)
-    return handle
-
-def patched_rename(a, b):
-    real_rename(a, b)
-    count["renames"] += 1
-    if mode == "rename" and count["renames"] == limit:
-        fire()
-
-builtins.open, os.rename = patched_open, patched_rename
-from elastica_magnetic.cli import main
-sys.exit(main(sys.argv[4:]))
-"""
 
 SIMULATE = ["simulate", "--duration", "0.05", "--physics", "training", "--amplitude", "0.004"]
 
@@ -81,10 +31,17 @@ def snapshot(folder: Path) -> dict[str, bytes]:
             for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
-def run_with_fault(fault: tuple[str, int, str], argv: list[str]) -> subprocess.CompletedProcess:
-    env = {**os.environ, "MPLBACKEND": "Agg", "OMP_NUM_THREADS": "1"}
-    return subprocess.run([sys.executable, "-c", DRIVER, fault[0], str(fault[1]), fault[2], *argv],
-                          capture_output=True, text=True, timeout=300, env=env)
+def run_with_fault(server, fault: tuple[str, int, str], argv: list[str]):
+    """``msr ARGV`` in a process of its own (``tests/faults.py``) with ``fault``: ``open N SIGNAL``
+    sends SIGNAL to itself once the N-th file under a result's temporary folder is opened for
+    writing; ``rename N SIGNAL`` right after the N-th rename of the swap; ``enospc N -`` fails
+    the writes of the first file there with ENOSPC past N bytes."""
+    action, n, sig = fault
+    if action == "rename":
+        return server.run(argv, Fault("rename", r"/\.sim\.msr-old-", sig, nth=n))
+    if action == "enospc":
+        return server.run(argv, Fault("enospc", r"\.msr-new-", after=n))
+    return server.run(argv, Fault("open", r"\.msr-new-", sig, nth=n))
 
 
 @pytest.fixture(scope="module")
@@ -109,9 +66,10 @@ def existing(old_simulation, tmp_path) -> tuple[Path, dict[str, bytes]]:
     (("open", 2, "SIGTERM"), 143, "interrupted (SIGTERM)"),
     (("enospc", 300, "-"), 2, "No space left on device"),
 ], ids=["SIGINT-after-trajectory", "SIGTERM-in-figure", "ENOSPC-300-bytes"])
-def test_simulate_interrupted_or_failing_keeps_the_old_result(existing, fault, status, message):
+def test_simulate_interrupted_or_failing_keeps_the_old_result(fault_server, existing, fault, status,
+                                                              message):
     out, old = existing
-    done = run_with_fault(fault, [*SIMULATE, "--out", str(out), "--force"])
+    done = run_with_fault(fault_server, fault, [*SIMULATE, "--out", str(out), "--force"])
     assert done.returncode == status, done.stderr
     assert message in done.stderr and "Traceback" not in done.stderr
     assert f"{out} was left as it was" in done.stderr or f"{out} is left as it was" in done.stderr
@@ -119,10 +77,10 @@ def test_simulate_interrupted_or_failing_keeps_the_old_result(existing, fault, s
     assert sorted(os.listdir(out.parent)) == ["sim"]  # no temporary folder, no lock
 
 
-def test_simulate_killed_then_the_next_run_recovers(existing, capsys):
+def test_simulate_killed_then_the_next_run_recovers(fault_server, existing, capsys):
     out, old = existing
     for fault in (("open", 2, "SIGKILL"), ("rename", 1, "SIGKILL")):
-        done = run_with_fault(fault, [*SIMULATE, "--out", str(out), "--force"])
+        done = run_with_fault(fault_server, fault, [*SIMULATE, "--out", str(out), "--force"])
         assert done.returncode == -signal.SIGKILL
         assert any(name.startswith(".sim.msr-") for name in os.listdir(out.parent))
         # The next run, without --force: cleans up (restoring the old result when the kill came
@@ -153,7 +111,7 @@ def test_simulate_replaces_only_with_force_and_never_another_commands_result(exi
     assert new.keys() == old.keys() and new["trajectory.csv"] != old["trajectory.csv"]
 
 
-def test_replay_over_another_robots_result_is_refused(existing, reference_dir, capsys):
+def test_replay_over_another_robots_result_is_refused(fault_server, existing, reference_dir, capsys):
     out, old = existing
     field_csv = reference_dir / "magnetic_field.csv"
     replay = ["replay", str(field_csv), "--duration", "0.05", "--physics", "training"]
@@ -164,7 +122,8 @@ def test_replay_over_another_robots_result_is_refused(existing, reference_dir, c
     assert main([*replay, "--robot", "yao2023-m2", "--out", str(replay_out), "--force"]) == 2
     assert "not for robot yao2023-m2" in capsys.readouterr().err
     replayed = snapshot(replay_out)
-    done = run_with_fault(("open", 1, "SIGINT"), [*replay, "--out", str(replay_out), "--force"])
+    done = run_with_fault(fault_server, ("open", 1, "SIGINT"),
+                          [*replay, "--out", str(replay_out), "--force"])
     assert done.returncode == 130 and "left as it was" in done.stderr
     assert snapshot(replay_out) == replayed and snapshot(out) == old
     assert sorted(os.listdir(out.parent)) == ["replay", "sim"]

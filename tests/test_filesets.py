@@ -113,3 +113,32 @@ def test_killed_at_any_point_the_set_is_old_or_new_after_recovery(tmp_path, sign
     assert contents(folder) == (old if at == "first" else NEW)
     assert sorted(os.listdir(tmp_path)) == ["figures"]
     assert not any(n.startswith(".msr-files-") for n in os.listdir(folder))
+
+
+def test_files_the_new_set_lacks_are_removed_in_the_same_commit(tmp_path, monkeypatch):
+    folder = shared(tmp_path)
+    (folder / "critic.pt").write_bytes(b"the old set's optional file")
+    with pytest.raises(ValueError, match="fig.png both written and removed"):
+        with replace_files(folder, NAMES, force=True, remove=["fig.png"]):
+            pytest.fail("the block must not run")
+    # killed after the first move (the commit record was written): the next run rolls forward,
+    # and removes what the commit removes
+    real_replace, moves = os.replace, [0]
+
+    def replace_then_die(a, b):
+        real_replace(a, b)
+        if not str(a).endswith(".msr-commit.tmp"):
+            moves[0] += 1
+            raise SystemExit("killed")  # stands for SIGKILL: no clean-up runs after it
+
+    monkeypatch.setattr(os, "replace", replace_then_die)
+    monkeypatch.setattr("elastica_magnetic.filesets.remove_tree", lambda path: None)
+    with pytest.raises(SystemExit):
+        with replace_files(folder, NAMES, force=True, remove=["critic.pt", "absent.txt"]) as files:
+            write(files)
+    monkeypatch.undo()
+    assert moves == [1] and (folder / "critic.pt").exists()  # a mix, until recovered
+    notes = recover_files(folder)
+    assert any("finished moving 1 file(s)" in n for n in notes), notes
+    assert contents(folder) == NEW  # critic.pt is gone with the old set
+    assert not any(n.startswith(".msr-files-") for n in os.listdir(folder))

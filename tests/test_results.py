@@ -330,3 +330,26 @@ def test_a_folder_written_in_place_is_marked_and_refused_to_other_commands(tmp_p
         with result_folder(seed, kind="refine", subject="case m1-4mT", force=True):
             pytest.fail("the block must not run")
     assert (seed / "checkpoint.pt").read_bytes() == b"weights"
+
+
+def test_a_pre_check_after_a_kill_recovers_first_and_reports_it(tmp_path):
+    """A command's pre-check (check_result_folder before long work) sees the result the user has:
+    killed between the renames, the old result is aside and ``res`` absent; the check restores
+    it (and would refuse without force), and the notes reach the error or the result."""
+    target = tmp_path / "res"
+    old = write_old(target)
+    assert _run_child(target, signal.SIGKILL, "rename1") == -signal.SIGKILL
+    assert not target.exists() and results.interrupted(target)
+    with pytest.raises(ResultExistsError, match="already holds a result of `msr demo`") as caught:
+        check_result_folder(target, kind="demo", subject="robot a")
+    notes = caught.value.__notes__
+    assert any("restored the previous result" in n for n in notes)
+    assert any("took over the stale lock" in n for n in notes)
+    assert snapshot(target) == old and sorted(os.listdir(tmp_path)) == ["res"]
+
+    assert _run_child(target, signal.SIGKILL, "rename1") == -signal.SIGKILL
+    assert check_result_folder(target, kind="demo", subject="robot a", force=True)["kind"] == "demo"
+    with result_folder(target, kind="demo", subject="robot a", force=True) as r:
+        write_new(r.path)
+    assert any("restored the previous result" in n for n in r.notes)  # reported with the result
+    assert as_new(target) == NEW and sorted(os.listdir(tmp_path)) == ["res"]

@@ -195,7 +195,10 @@ def load_calibration(path: str | Path) -> Calibration:
     if not path.is_file():
         raise CalibrationError(f"{path}: no such calibration file")
     try:
-        data = json.loads(path.read_text())
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as exc:
+        raise CalibrationError(f"{path}: not UTF-8 text (byte {exc.start}): a calibration is a "
+                               "JSON file written by 'msr calibrate'") from None
     except json.JSONDecodeError as exc:
         raise CalibrationError(f"{path}: not valid JSON: {exc}") from None
     return calibration_from_dict(data, str(path))

@@ -25,6 +25,7 @@ WIRE_DIGITS = 15
 
 _DAC_RE = re.compile(r"^DAC (\d+|safe) (\d+) (\d+) (\d+)$")
 _SAFE_RE = re.compile(r"^SAFE (\S+)(.*)$")
+_CREDIT_RE = re.compile(r"^CREDIT ([0-9]+)$")
 _KV_RE = re.compile(r"(\w+)=(\S+)")
 
 
@@ -94,6 +95,13 @@ def parse_dac(line: str) -> DacReport | None:
         return None
     row = None if m.group(1) == "safe" else int(m.group(1))
     return DacReport(row, (int(m.group(2)), int(m.group(3)), int(m.group(4))))
+
+
+def parse_credit(line: str) -> int | None:
+    """The row count of a ``CREDIT <n>`` line (``n`` a non-negative integer: rows with
+    ``seq < n`` may be sent), or None when the line is not one (``CREDIT abc``, ``CREDIT -1``)."""
+    m = _CREDIT_RE.match(line.strip())
+    return int(m.group(1)) if m else None
 
 
 def parse_safe(line: str) -> SafeReport | None:

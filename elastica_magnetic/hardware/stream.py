@@ -27,6 +27,7 @@ from elastica_magnetic.hardware.protocol import (
     calibration_hash,
     calibration_upload_lines,
     format_row,
+    parse_credit,
     parse_dac,
     parse_safe,
     parse_status,
@@ -258,16 +259,28 @@ def _start_stream(port: Any, reader: _LineReader, port_url: str, result: StreamR
         for line in reader.poll():
             if line.startswith("OK STREAM"):
                 started = True
-            elif line.startswith("CREDIT "):
-                credit = int(line.split()[1])
+            elif line.startswith("CREDIT"):
+                credit = _credit(line, port_url, result)
             elif line.startswith("SAFE "):
                 result.safe = parse_safe(line)
                 raise StreamError(f"{port_url}: STREAM refused: {line}")
     return credit
 
 
-def _send_rows(port: Any, reader: _LineReader, rows: list[tuple[str, str, str]], credit: int,
-               corrupt_row: int | None, result: StreamResult, bar: Any, deadline: float) -> None:
+def _credit(line: str, port_url: str, result: StreamResult) -> int:
+    """The rows a ``CREDIT n`` line allows; a malformed one (``CREDIT abc``) is a StreamError
+    naming it (the stream is then stopped: the host cannot know how many rows it may send)."""
+    credit = parse_credit(line)
+    if credit is None:
+        raise StreamError(f"{port_url}: the board sent a malformed credit line {line!r} after "
+                          f"{result.rows_sent} rows (expected 'CREDIT <n>', n a whole number of "
+                          "rows); the stream was stopped: check the firmware version and the link")
+    return credit
+
+
+def _send_rows(port: Any, reader: _LineReader, port_url: str, rows: list[tuple[str, str, str]],
+               credit: int, corrupt_row: int | None, result: StreamResult, bar: Any,
+               deadline: float) -> None:
     """Rows within the credit, then END; read reports until SAFE or the deadline."""
     n = len(rows)
     next_row = 0
@@ -283,8 +296,8 @@ def _send_rows(port: Any, reader: _LineReader, rows: list[tuple[str, str, str]],
             port.write(f"END {n}\n".encode("ascii"))
             end_sent = True
         for line in reader.poll():
-            if line.startswith("CREDIT "):
-                credit = max(credit, int(line.split()[1]))
+            if line.startswith("CREDIT"):
+                credit = max(credit, _credit(line, port_url, result))
             elif line.startswith("DAC "):
                 report = parse_dac(line)
                 if report is not None:
@@ -346,44 +359,63 @@ def stream_field(
     CalibrationRefused
         The board refused the uploaded calibration (its reason in the message).
     """
-    import serial  # pyserial; imported here so the module loads without it
-    from tqdm import tqdm
-
     if timeout_s is not None and not (math.isfinite(timeout_s) and timeout_s > 0):
         raise ValueError(f"timeout_s must be a positive time in s, got {timeout_s}")
     rows = wire_rows_mT(field_T)
-    n = len(rows)
-    deadline_s = timeout_s if timeout_s is not None else n / PLAYBACK_HZ + 30.0
-    result = StreamResult(rows_total=n)
+    deadline_s = timeout_s if timeout_s is not None else len(rows) / PLAYBACK_HZ + 30.0
+    result = StreamResult(rows_total=len(rows))
     log = _BoardLog(log_path)
     port = _open(port_url, baudrate, open_port)
-    bar = tqdm(total=n, unit="row", desc="stream", disable=not progress, leave=False)
-    start = time.monotonic()
-    finished = False
-    reader = _LineReader(port, log)
+    session = _Session(port, _LineReader(port, log), port_url, result)
     try:
-        result.banner = _sync(port, reader, port_url, min(SYNC_TIMEOUT_S, deadline_s))
-        if calibration is not None:
-            _ensure_calibration(port, reader, port_url, calibration, upload, result)
-        deadline = start + deadline_s
-        credit = _start_stream(port, reader, port_url, result, deadline)
-        _send_rows(port, reader, rows, credit, corrupt_row, result, bar, deadline)
-        finished = True
-    except (OSError, serial.SerialException) as exc:
-        raise StreamError(
-            f"{port_url}: link lost after {result.rows_sent} of {n} rows ({exc}); a STOP was sent "
-            "if the port still accepted it, and the board zeroes the coils when its rows run out"
-        ) from None
+        session.run(rows, deadline_s, calibration, upload, corrupt_row, progress)
     finally:
-        result.duration_s = time.monotonic() - start
-        result.lines = reader.lines
-        bar.close()
-        if not finished or result.safe is None:
-            _stop(port)  # fail safe: the board goes to zero current on STOP
-        with contextlib.suppress(Exception):
-            port.close()
         log.close()
     return result
+
+
+@dataclass
+class _Session:
+    """One stream over an open ``port``: its steps, and the fail-safe end of every one."""
+
+    port: Any
+    reader: _LineReader
+    port_url: str
+    result: StreamResult
+
+    def run(self, rows: list[tuple[str, str, str]], deadline_s: float,
+            calibration: Calibration | None, upload: bool, corrupt_row: int | None,
+            progress: bool) -> None:
+        """Handshake, calibration, STREAM, the rows; STOP unless the board ended the stream with
+        SAFE; the port is closed in every case."""
+        import serial  # pyserial; imported here so the module loads without it
+        from tqdm import tqdm
+
+        port, reader, port_url, result = self.port, self.reader, self.port_url, self.result
+        bar = tqdm(total=len(rows), unit="row", desc="stream", disable=not progress, leave=False)
+        start = time.monotonic()
+        finished = False
+        try:
+            result.banner = _sync(port, reader, port_url, min(SYNC_TIMEOUT_S, deadline_s))
+            if calibration is not None:
+                _ensure_calibration(port, reader, port_url, calibration, upload, result)
+            deadline = start + deadline_s
+            credit = _start_stream(port, reader, port_url, result, deadline)
+            _send_rows(port, reader, port_url, rows, credit, corrupt_row, result, bar, deadline)
+            finished = True
+        except (OSError, serial.SerialException) as exc:
+            raise StreamError(
+                f"{port_url}: link lost after {result.rows_sent} of {len(rows)} rows ({exc}); a "
+                "STOP was sent if the port still accepted it, and the board zeroes the coils when "
+                "its rows run out") from None
+        finally:
+            result.duration_s = time.monotonic() - start
+            result.lines = reader.lines
+            bar.close()
+            if not finished or result.safe is None:
+                _stop(port)  # fail safe: the board goes to zero current on STOP
+            with contextlib.suppress(Exception):
+                port.close()
 
 
 def _open(port_url: str, baudrate: int, open_port: Callable[..., Any] | None) -> Any:

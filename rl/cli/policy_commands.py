@@ -155,7 +155,10 @@ def export_seeds_command(args: argparse.Namespace) -> int:
         result = export_seeds(args.case_dir, args.dest, args.duration,
                               progress=not args.no_progress, workers=args.workers, force=args.force)
     except (FileNotFoundError, ValueError) as exc:
-        raise CommandError(str(exc)) from None
+        error = CommandError(str(exc))
+        for note in getattr(exc, "__notes__", ()):  # a killed export's leftovers recovered first
+            error.add_note(note)
+        raise error from None
     print_notes(result.pop("notes", ()))
     print_result(result, args.json)
     return 0

@@ -53,7 +53,14 @@ def save_checkpoint(path: str | os.PathLike, checkpoint: dict[str, Any]) -> None
     tmp = path.with_name(path.name + ".tmp")
     try:
         with open(tmp, "wb") as f:
-            torch.save(checkpoint, f)
+            writer = _Writer(f)
+            try:
+                torch.save(checkpoint, writer)
+            except RuntimeError:
+                # torch's writer turns the file's own error (a full disk) into "unexpected pos"
+                if writer.error is not None:
+                    raise writer.error from None
+                raise
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
@@ -64,6 +71,24 @@ def save_checkpoint(path: str | os.PathLike, checkpoint: dict[str, Any]) -> None
             raise OutputPathError(f"{path}: cannot write the checkpoint: {exc.strerror or exc} "
                                   f"({kept}; --resume continues from it)") from exc
         raise
+
+
+class _Writer:
+    """The file ``torch.save`` writes to, keeping the ``OSError`` a write raised (``error``)."""
+
+    def __init__(self, handle: Any) -> None:
+        self.handle = handle
+        self.error: OSError | None = None
+
+    def write(self, data: Any) -> int:
+        try:
+            return self.handle.write(data)
+        except OSError as exc:
+            self.error = exc
+            raise
+
+    def flush(self) -> None:
+        self.handle.flush()
 
 
 def load_checkpoint(path: str | os.PathLike, with_buffer: bool = True) -> dict[str, Any]:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import sys
 import time
 from collections.abc import Iterable, Iterator
 from pathlib import Path
@@ -19,33 +20,54 @@ from elastica_magnetic.results import MARKER, mark_folder, read_marker
 from .rundir import RunDir
 
 __all__ = ["check_not_owned", "check_unlocked", "held_run_folders", "mark_run_folder",
-           "briefly_locked"]
+           "briefly_locked", "remove_leftovers"]
 
 
-def check_unlocked(folders: Iterable[str | Path], option: str = "--out") -> None:
-    """Refuse, naming the owner (pid, host, command), a folder another live process is writing;
-    a stale lock of a dead process is left for the writer to take over. Nothing is written when
-    no lock exists."""
+def check_unlocked(folders: Iterable[str | Path], option: str = "--out") -> list[str]:
+    """Refuse, naming the owner (pid, host, command), a folder another live process is writing
+    (:class:`~elastica_magnetic.locks.FolderLockedError`). A stale lock of a process that died
+    (killed, power loss) is taken over and removed: each is reported on stderr (``note: ...``,
+    naming the dead process, its host and command) and returned. Nothing is written when no
+    lock exists."""
+    notes: list[str] = []
     for folder in folders:
         folder = Path(folder)
         if not folder.parent.is_dir():
             continue
-        with FolderLock(folder, option=option):
-            pass
+        with FolderLock(folder, option=option) as lock:
+            notes += lock.notes
+    for note in notes:  # the command's own pre-check: the user sees it before any work
+        print(f"note: {note}", file=sys.stderr)
+    return notes
 
 
 @contextlib.contextmanager
 def held_run_folders(folders: Iterable[str | Path], option: str = "--out") -> Iterator[list[str]]:
     """Hold the lock of every run folder (created if absent) for the block; yields the notes
-    (stale locks taken over). Raises :class:`~elastica_magnetic.locks.FolderLockedError` naming
-    the process that holds one, before any is written."""
+    (stale locks taken over, temporary files of a writer killed mid-write removed: the
+    checkpoint it was writing, ``checkpoint.pt.tmp``; the previous ``checkpoint.pt`` is intact).
+    Raises :class:`~elastica_magnetic.locks.FolderLockedError` naming the process that holds
+    one, before any is written."""
     notes: list[str] = []
     with contextlib.ExitStack() as stack:
         for folder in folders:
             folder = Path(folder)
             folder.parent.mkdir(parents=True, exist_ok=True)
             notes += stack.enter_context(FolderLock(folder, option=option)).notes
+            notes += remove_leftovers(folder)
         yield notes
+
+
+def remove_leftovers(folder: str | Path) -> list[str]:
+    """Remove the temporary files a writer killed mid-write left in the run folder ``folder``
+    (:meth:`RunDir.leftover_temporaries`; call it holding the folder's lock); returns a note per
+    file removed."""
+    notes = []
+    for path in RunDir(folder).leftover_temporaries():
+        path.unlink(missing_ok=True)
+        notes.append(f"{folder}: removed {path.name}, the unfinished file of a run that was killed "
+                     "while writing it (the previous complete file is kept)")
+    return notes
 
 
 def mark_run_folder(folder: str | Path, kind: str, case: str) -> None:

@@ -84,6 +84,20 @@ class RunDir:
         """The folder ``msr refine`` writes by default: ``<run>/refined/``."""
         return RunDir(self.path / self.REFINED)
 
+    def leftover_temporaries(self) -> list[Path]:
+        """Temporary files a writer of this folder leaves only when it is killed mid-write: the
+        checkpoints' and logs' ``NAME.tmp`` and the ``.STEM.tmpPID.SUFFIX`` of an atomic write
+        (:func:`elastica_magnetic.io.atomic_write`) of a run file. Safe to remove only under the
+        folder's lock."""
+        names = (self.CHECKPOINT, self.BEST, self.EPISODES_CSV, self.EVALUATIONS_CSV,
+                 self.RUN_JSON, self.EVALUATION_JSON)
+        found = [self.path / f"{name}.tmp" for name in names]
+        for name in names:
+            stem, suffix = os.path.splitext(name)
+            found += [p for p in self.path.glob(f".{stem}.tmp*{suffix}")
+                      if p.name[len(stem) + 5:len(p.name) - len(suffix)].isdigit()]
+        return [p for p in found if p.is_file()]
+
     def has_checkpoint(self) -> bool:
         return self.checkpoint.is_file()
 

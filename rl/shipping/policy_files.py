@@ -24,6 +24,7 @@ __all__ = [
     "POLICY_JSON",
     "PolicyFileError",
     "PolicyNotFoundError",
+    "finish_interrupted_ship",
     "resolve_policy",
     "weights_sha256",
 ]
@@ -151,6 +152,8 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
         path = policies_dir / str(policy)
     if path.is_dir() and RunDir(path).has_checkpoint():
         path = RunDir(path).checkpoint
+    if path.is_dir():
+        finish_interrupted_ship(path)
     if path.is_file():
         try:
             ckpt = load_checkpoint(path)
@@ -207,6 +210,27 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
         f"{policy}: not a run directory, checkpoint, shipped-policy folder or shipped policy name "
         f"(shipped in {policies_dir}: {', '.join(shipped) or 'none'})"
     )
+
+
+def finish_interrupted_ship(folder: Path) -> list[str]:
+    """Before a shipped-policy folder is read: when an ``msr ship --force`` (or ``msr notes
+    --file``) was killed while it replaced the folder's files, finish that replacement (its new
+    files were complete: roll forward) or drop the unfinished one, so the folder holds one whole
+    policy, never the new ``actor.pt`` beside the old ``policy.json``
+    (:func:`elastica_magnetic.filesets.recover_files`). What was done is printed on stderr
+    (``note: ...``) and returned. Raises
+    :class:`~elastica_magnetic.locks.FolderLockedError` naming the process when a live one is
+    writing the folder now."""
+    import sys
+
+    from elastica_magnetic.filesets import interrupted_replacements, recover_files
+
+    if not interrupted_replacements(folder):
+        return []
+    notes = recover_files(folder, option="policy")
+    for note in notes:
+        print(f"note: {note}", file=sys.stderr)
+    return notes
 
 
 def _check_recorded_limits(case: Case, meta: dict[str, Any], path: Path) -> None:

@@ -12,7 +12,13 @@ from pathlib import Path
 from typing import Any
 
 from elastica_magnetic.io import atomic_write_json, atomic_write_text
-from elastica_magnetic.results import ResultExistsError, check_result_folder, result_folder
+from elastica_magnetic.results import (
+    ResultExistsError,
+    check_result_folder,
+    interrupted,
+    recover,
+    result_folder,
+)
 
 from ..runfiles.rundir import CaseDir, RunDir
 from .policy_files import resolve_policy
@@ -64,19 +70,16 @@ def export_seeds(
     first = resolve_policy(RunDir(seeds[0][1]).checkpoint)
     case = first.case
     subject = f"case {case.name}"
-    # checked before the long evaluations
+    # an export killed between its renames left the earlier seeds aside: put them back before
+    # they are read (else they would be neither kept nor protected by --force)
+    recovered = recover(dest, option="--dest") if interrupted(dest) else []
     new_seeds = {seed for seed, _ in seeds}
-    known = _known_files(dest)
-    try:
-        check_result_folder(dest, kind="export-seeds", subject=subject, force=True,
-                            option="--dest", known_files=known)
-    except ResultExistsError as exc:
-        raise ValueError(str(exc)) from None
-    earlier = _earlier_exported_seeds(dest, new_seeds, first.meta)
-    again = sorted(new_seeds & set(_exported_seed_numbers(dest)))
-    if again and not force:
-        raise ValueError(f"--dest {dest}: already holds seeds {', '.join(map(str, again))} of case "
-                         f"{case.name}; pass --force to replace them, or choose another --dest")
+    try:  # checked before the long evaluations
+        known, earlier = _check_dest(dest, subject, new_seeds, first.meta, force)
+    except (ValueError, OSError) as exc:
+        for note in recovered:  # the command line prints them before the error
+            exc.add_note(note)
+        raise
     with result_folder(dest, kind="export-seeds", subject=subject, force=True, option="--dest",
                        known_files=known) as folder:
         for entry in earlier:  # the seeds of earlier runs that stay
@@ -84,12 +87,31 @@ def export_seeds(
         entries = _export_evaluated(case_dir, folder.path, case, duration, progress, workers)
         entries = sorted(earlier + entries, key=lambda e: e["seed"])
         atomic_write_json(folder.path / "seeds.json", entries)
-    return {"seeds": entries, "total": len(entries), "notes": folder.notes,
+    return {"seeds": entries, "total": len(entries), "notes": recovered + folder.notes,
             "meeting_target": sum(bool(e.get("meets_target")) for e in entries)}
 
 
 _SEED_FILE = re.compile(r"seed\d+/(actor\.pt|policy\.json|" + "|".join(
     re.escape(log) for log in SEED_TRAINING_LOGS) + ")")
+
+
+def _check_dest(dest: Path, subject: str, new_seeds: set[int], meta: dict[str, Any],
+                force: bool) -> tuple[list[str], list[dict[str, Any]]]:
+    """``dest`` may receive the seeds ``new_seeds`` (another case's, or the same seeds without
+    ``force``, are refused); returns its known files and the earlier seeds that stay."""
+    known = _known_files(dest)
+    try:
+        check_result_folder(dest, kind="export-seeds", subject=subject, force=True,
+                            option="--dest", known_files=known)
+    except ResultExistsError as exc:
+        raise ValueError(str(exc)) from None
+    earlier = _earlier_exported_seeds(dest, new_seeds, meta)
+    again = sorted(new_seeds & set(_exported_seed_numbers(dest)))
+    if again and not force:
+        raise ValueError(f"--dest {dest}: already holds seeds {', '.join(map(str, again))} of case "
+                         f"{subject.removeprefix('case ')}; pass --force to replace them, or "
+                         "choose another --dest")
+    return known, earlier
 
 
 def _known_files(dest: Path) -> list[str]:

@@ -127,10 +127,11 @@ def ship(
     card = _ship_card(info, summary, case, target) if with_card else None
     if lock:
         written = _policy_files(policy, fields, card, with_critic)
-        with replace_files(target, written, force=overwrite, option="--dest") as files:
+        # the replaced policy's optional files this one lacks go in the same commit
+        stale = [f for f in SHIPPED_FILES if f not in written]
+        with replace_files(target, written, force=overwrite, option="--dest",
+                           remove=stale) as files:
             _write_policy_folder(files.path, policy, info, fields, card, with_critic)
-        for stale in set(SHIPPED_FILES) - set(written):  # the replaced policy's, not this one's
-            (target / stale).unlink(missing_ok=True)
     else:
         _write_policy_folder(target, policy, info, fields, card, with_critic)
     return {"name": name, "dir": str(target), "case": case.name,

@@ -47,8 +47,8 @@ def verify_shipped(name: str, duration: float = 10.0, progress: bool = False,
     from elastica_magnetic import read_field_csv
 
     folder = Path(policies_dir) / name
+    policy = resolve_policy(folder)  # first: it finishes a replacement a killed ship left
     info = json.loads((folder / POLICY_JSON).read_text())
-    policy = resolve_policy(folder)
     rollout = run_policy(policy, duration, "accurate", "zero", progress)
     shipped = read_field_csv(folder / "fields.csv")
     rows = min(len(rollout.fields), len(shipped))

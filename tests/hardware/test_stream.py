@@ -368,3 +368,36 @@ def test_calibrate_upload_writes_and_uploads(monkeypatch, tmp_path: Path, capsys
     assert summary["uploaded"]["after"].startswith("STATUS state=safe calibration=bench1 hash=")
     assert board.hash == calibration_hash(load_calibration(out))
     assert board.calibration.actuation_matrix_T_per_A[0][0] == pytest.approx(2.1e-3)
+
+
+class GarbledCreditBoard(FakeBoard):
+    """A board whose second credit line arrives garbled (``CREDIT abc``), mid-stream."""
+
+    credits_sent = 0
+
+    def _send(self, text: str) -> None:
+        if text.startswith("CREDIT "):
+            self.credits_sent += 1
+            if self.credits_sent == 2:
+                text = "CREDIT abc"
+        super()._send(text)
+
+
+def test_a_malformed_credit_line_is_named_and_the_board_stopped(default_calibration_path: Path,
+                                                                 tmp_path: Path) -> None:
+    from elastica_magnetic.hardware.protocol import parse_credit
+    from elastica_magnetic.hardware.stream import StreamError
+
+    assert [parse_credit(x) for x in ("CREDIT 256", "CREDIT abc", "CREDIT -1", "CREDIT", "CREDIT 1 2",
+                                      "CREDIT ４")] == [256, None, None, None, None, None]
+    board = GarbledCreditBoard(default_calibration_path)
+    log = tmp_path / "board.log"
+    with pytest.raises(StreamError) as caught:
+        stream_field("fake://", field(600), progress=False, timeout_s=30, log_path=log,
+                     open_port=lambda *a, **k: board)
+    message = str(caught.value)
+    assert message.startswith("fake://: the board sent a malformed credit line 'CREDIT abc' after "
+                              f"{QUEUE} rows (expected 'CREDIT <n>'"), message
+    assert board.received == QUEUE  # not a row beyond the last valid credit
+    assert board.commands[-1] == "STOP"  # the fail-safe end: zero current
+    assert "CREDIT abc" in log.read_text()  # the log keeps what the board said

@@ -29,6 +29,7 @@ class Board:
 
     ``mode``: ``silent`` accepts the connection and never writes; ``refuse`` answers PING but
     refuses STREAM with a SAFE report (as the firmware does with an invalid calibration);
+    ``badcredit`` accepts the stream with a garbled credit line (``CREDIT abc``);
     ``stall`` accepts the stream, plays a few rows and then sends nothing more while still
     reading; ``hangup`` plays a few rows and closes the connection. ``outputs`` follows what the
     firmware would drive: the codes of the last row played, mid-scale after STOP or a fault.
@@ -84,6 +85,8 @@ class Board:
                     elif line == "STREAM" and self.mode == "refuse":
                         reply = ("DAC safe 32768 32768 32768\n"
                                  "SAFE calibration row=0 applied=0 detail=singular\n")
+                    elif line == "STREAM" and self.mode == "badcredit":
+                        reply = "OK STREAM queue=256 prefill=64\nCREDIT abc\n"
                     elif line == "STREAM":
                         streaming = True
                         reply = "OK STREAM queue=256 prefill=64\nCREDIT 256\n"
@@ -164,3 +167,12 @@ def test_board_that_hangs_up_mid_stream(field_csv: Path) -> None:
     proc = run_stream(board, field_csv, "--timeout", "10")
     assert_clean_failure(proc, board)
     assert board.closed.is_set()
+
+
+def test_board_that_sends_a_malformed_credit(field_csv: Path) -> None:
+    board = Board("badcredit")
+    proc = run_stream(board, field_csv, "--timeout", "10")
+    assert_clean_failure(proc, board)
+    assert "malformed credit line 'CREDIT abc'" in proc.stderr, proc.stderr
+    assert board.rows() == []  # no credit, no row
+    assert board.commands()[-1] == "STOP" and board.outputs == MIDSCALE
