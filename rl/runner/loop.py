@@ -246,7 +246,7 @@ def _single(learner: TD3, k: int = 0) -> TD3Agent:
     """Seed ``k`` of ``learner`` as a :class:`~elastica_magnetic_rl.td3.agent.TD3Agent`."""
     agent = TD3Agent(learner.obs_dim, learner.act_dim, learner.action_low, learner.action_high,
                      learner.configs[k])
-    agent.load_seed_state(0, learner.seed_state(k))
+    agent.load_state_dict(learner.seed_state(k))
     return agent
 
 
