@@ -5,8 +5,9 @@ function, so this file stays a thin dispatcher:
 
 - ``elastica_magnetic.commands``: ``replay``, ``simulate``
 - ``elastica_magnetic_validation.cli``: ``validate``
-- ``elastica_magnetic_rl.cli.commands``: ``case``, ``train``, ``bench``, ``refine``, ``generate``,
-  ``baseline``, ``figures``, ``demo``
+- ``elastica_magnetic_rl.cli.commands``: ``case``, ``bench``, ``generate``, ``baseline``, ``figures``,
+  ``demo``
+- ``elastica_magnetic_rl.cli.train_commands``: ``train``, ``refine``
 - ``elastica_magnetic_rl.cli.policy_commands``: ``export-seeds``, ``seeds``, ``ship``, ``notes``, ``export``,
   ``diagnose``
 - ``elastica_magnetic.hardware.cli``: ``stream``, ``export-firmware``, ``calibrate``
@@ -27,6 +28,7 @@ COMMAND_MODULES = (
     "elastica_magnetic.commands",
     "elastica_magnetic_validation.cli",
     "elastica_magnetic_rl.cli.commands",
+    "elastica_magnetic_rl.cli.train_commands",
     "elastica_magnetic_rl.cli.policy_commands",
     "elastica_magnetic.hardware.cli",
     "elastica_magnetic_rl.sim2real.cli",
