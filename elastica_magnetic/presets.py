@@ -30,13 +30,7 @@ from .robot_spec import (  # noqa: F401
 )
 
 __all__ = [
-    "GroundSpec",
-    "DampingSpec",
-    "InteractionSpec",
-    "RobotSpec",
-    "Physics",
     "YAO2023_MASS_SCALE",
-    "ACTION_PERIOD",
     "yao2023_robot",
     "hu2018_robot",
     "ROBOTS",

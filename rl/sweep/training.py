@@ -2,12 +2,13 @@
 (:func:`elastica_magnetic_rl.runner.loop.train_seeds`), groups in worker processes or Ray tasks
 (:mod:`elastica_magnetic_rl.sweep.backends`), one summary per case
 (:mod:`elastica_magnetic_rl.sweep.summaries`). Refinement (``msr refine``) is in
-:mod:`elastica_magnetic_rl.sweep.refine`; :func:`refine` and :func:`summarize_run` are importable from
-here too.
+:mod:`elastica_magnetic_rl.sweep.refine`; ``refine`` and ``summarize_run`` are importable from here
+too.
 
 Each seed writes ``OUT/<case>/seed<k>/`` (``episodes.csv``, TensorBoard scalars, ``checkpoint.pt``
-and ``replay.bin``, ``evaluations.csv`` and ``best.pt``, ``run.json``: :mod:`.run_records`);
-``OUT/<case>/summary.json`` collects every seed of the case.
+and ``replay.bin``, ``evaluations.csv`` and ``best.pt``, ``run.json``:
+:mod:`elastica_magnetic_rl.sweep.run_records`); ``OUT/<case>/summary.json`` collects every seed of the
+case.
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from ..runfiles.rundir import CaseDir, RunDir
 from ..runner.memory import peak_rss_bytes
 from .backends import BACKENDS, run_jobs
 from .jobs import GroupJob
-from .refine import refine
+from .refine import refine  # noqa: F401  (importable from here, as before)
 from .resume_checks import check_resumed_checkpoints
 from .run_records import check_resume_settings, run_metadata, write_run_json
 from .stop_settings import (
@@ -43,7 +44,7 @@ from .stop_settings import (
 )
 from .summaries import case_summary, summarize_run
 
-__all__ = ["default_layout", "refine", "summarize_run", "train_case", "train_cases"]
+__all__ = ["default_layout", "train_case", "train_cases"]
 
 
 def _train_group(job: GroupJob) -> dict[str, Any]:
