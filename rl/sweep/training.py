@@ -156,24 +156,24 @@ def train_cases(
     stop_when: str | None = None,
     stop_options: dict[str, Any] | None = None,
 ) -> dict[str, dict[str, Any]]:
-    """Train seeds ``seed_offset .. seed_offset + seeds - 1`` of every case in ``cases`` for
-    ``steps`` environment steps each, in groups of seeds of one case that train side by side in
-    one worker (:func:`_train_group`), ``workers`` groups at a time in separate processes
-    (``spawn``, one progress bar per seed) or Ray tasks.
+    """Train seeds ``seed_offset .. seed_offset + seeds - 1`` of every case in ``cases`` for ``steps``
+    environment steps each, in groups of seeds of one case that train side by side in one worker
+    (:func:`_train_group`), ``workers`` groups at a time in separate processes (``spawn``, one progress
+    bar per seed) or Ray tasks.
 
-    The layout (``workers``, ``seeds_per_simulator``, ``threads``) defaults to
-    :func:`default_layout`, the fastest one known for this machine; the results do not depend on
-    it (a seed trained in a group is bit-identical to the same seed trained alone).
+    The layout (``workers``, ``seeds_per_simulator``, ``threads``) defaults to :func:`default_layout`, the
+    fastest one known for this machine; the results do not depend on it (a seed trained in a group is
+    bit-identical to the same seed trained alone).
 
     Writes ``out/<case>/seed<k>/`` per seed and ``out/<case>/summary.json`` per case; returns the
     summaries by case. A summary covers every seed folder of its case, also those of earlier calls
-    (trained with another ``seed_offset``), so success counts and the best seed are over all of
-    them; a seed *succeeded* when its final mean return reaches ``success_fraction`` of the
-    yardstick's (:func:`~elastica_magnetic_rl.sweep.summaries.case_summary`).
+    (trained with another ``seed_offset``), so success counts and the best seed are over all of them; a
+    seed *succeeded* when its final mean return reaches ``success_fraction`` of the yardstick's
+    (:func:`~elastica_magnetic_rl.sweep.summaries.case_summary`).
 
     ``cases`` are shipped names or spec files (or :class:`~elastica_magnetic_rl.cases.case.Case`); the
-    folders are named after the cases. ``steps``, ``episode_duration`` and ``recipe`` default to
-    each case's ``[training]`` / ``[task]`` values (so to one value when the cases agree), and
+    folders are named after the cases. ``steps``, ``episode_duration`` and ``recipe`` default to each
+    case's ``[training]`` / ``[task]`` values (so to one value when the cases agree), and
     ``config_overrides`` go on top of the case's ``[training.td3]``.
 
     Args:
@@ -181,20 +181,18 @@ def train_cases(
             :func:`crawler_config` (e.g. ``precision="bf16"``, ``device="cuda"``).
         workers: groups trained at a time (processes or Ray tasks in flight).
         threads: torch threads per worker. Exact resume needs the same thread count.
-        envs: crawlers per seed (``envs`` transitions and updates per vector step); resume with
-            the same value.
-        backend: ``"process"`` (default: worker processes on this machine) or ``"ray"`` (one Ray
-            task per group; see :mod:`elastica_magnetic_rl.sweep.backends`). Same run directories and
-            summaries.
+        envs: crawlers per seed (``envs`` transitions and updates per vector step); resume with the same
+            value.
+        backend: ``"process"`` (default: worker processes on this machine) or ``"ray"`` (one Ray task per
+            group; see :mod:`elastica_magnetic_rl.sweep.backends`). Same run directories and summaries.
         address: Ray cluster to run on (``backend="ray"`` only; default: a local Ray instance with
-            ``workers x threads`` CPUs, started and shut down here). The output folder must then be
-            on a filesystem every node sees at the same path.
-        seeds_per_simulator: seeds of a case per group (one batched simulator, one stacked
-            update).
+            ``workers x threads`` CPUs, started and shut down here). The output folder must then be on a
+            filesystem every node sees at the same path.
+        seeds_per_simulator: seeds of a case per group (one batched simulator, one stacked update).
         recipe: the training recipe (:data:`RECIPES`), recorded in ``run.json`` and the summary.
-        stop_when: stop a seed that has learned (``"target"``, ``"plateau"``; ``"none"``: off;
-            default: the recipe's run setting, else off): see
-            :mod:`elastica_magnetic_rl.sweep.stop_settings`. Recorded in each run; a resume keeps it.
+        stop_when: stop a seed that has learned (``"target"``, ``"plateau"``; ``"none"``: off; default:
+            the recipe's run setting, else off): see :mod:`elastica_magnetic_rl.sweep.stop_settings`.
+            Recorded in each run; a resume keeps it.
         stop_options: ``consecutive``, ``patience``, ``tolerance`` of the rule.
     """
     loaded = _load_cases(cases)
