@@ -36,9 +36,8 @@ import time
 import numpy as np
 from numba import njit
 
-import elastica_magnetic.batch as batch_module
 from elastica_magnetic import yao2023_robot
-from elastica_magnetic.batch import BatchedRobots, _block_forcing
+from elastica_magnetic.batch import BatchedRobots
 from elastica_magnetic.bench import batched_fields as _fields
 from elastica_magnetic.bench import measure_batched, per_rod_simulator  # noqa: F401  (re-exported)
 from elastica_magnetic.presets import RobotSpec
@@ -55,7 +54,7 @@ def profile_batched(spec: RobotSpec, n: int, calls: int, repeats: int) -> dict[s
     robots.step(200)
     block, simulator = robots.block, robots.simulator
     t, dt, zero = np.float64(0.0), np.float64(spec.dt), np.float64(0.0)
-    args = robots._kernel_args
+    args = robots.kernel_arguments
 
     def timed(fn) -> float:
         fn()
@@ -72,7 +71,7 @@ def profile_batched(spec: RobotSpec, n: int, calls: int, repeats: int) -> dict[s
         # PyElastica's forcing call), accelerations + dynamics, constraint/callback groups, zeroing.
         "full_step": timed(lambda: robots.stepper.step(simulator, t, dt)),
         "internal_forces": timed(lambda: block.compute_internal_forces_and_torques(t)),
-        "kernel_direct": timed(lambda: _block_forcing(*args)),
+        "kernel_direct": timed(robots.apply_forcing),
         "synchronize": timed(lambda: simulator.synchronize(t)),
         "kinematic_update_x2": 2.0 * timed(lambda: block.update_kinematics(t, zero)),
         "dynamic_update": timed(lambda: (block.update_accelerations(t, dt), block.update_dynamics(t, zero))),
@@ -82,10 +81,10 @@ def profile_batched(spec: RobotSpec, n: int, calls: int, repeats: int) -> dict[s
     block.zeroed_out_external_forces_and_torques(t)
     # Share of elements touching the ground in the state the kernel was timed in (lifted elements
     # cost almost nothing), and the kernel with every element on the ground (zero field, at rest).
-    parts["contact_fraction"] = float(1.0 - robots._scratch[7].mean())  # row _S_NO_CONTACT, last robot
+    parts["contact_fraction"] = robots.contact_fraction()  # of the last robot
     flat = BatchedRobots(spec, n)
     flat.step(200)
-    parts["kernel_all_in_contact"] = timed(lambda: _block_forcing(*flat._kernel_args))
+    parts["kernel_all_in_contact"] = timed(flat.apply_forcing)
     accounted = (
         parts["internal_forces"]
         + parts["synchronize"]
@@ -119,13 +118,9 @@ def _python_overhead(spec: RobotSpec, n: int, timed) -> float:
         "zeroed_out_external_forces_and_torques",
     ):
         setattr(block, name, noop)  # instance attributes shadow the methods
-    kernel = batch_module._block_forcing
-    batch_module._block_forcing = noop
-    try:
-        t, dt = np.float64(0.0), np.float64(spec.dt)
-        return timed(lambda: robots.stepper.step(robots.simulator, t, dt))
-    finally:
-        batch_module._block_forcing = kernel
+    robots.apply_forcing = noop  # the block kernel's call, shadowed on this instance
+    t, dt = np.float64(0.0), np.float64(spec.dt)
+    return timed(lambda: robots.stepper.step(robots.simulator, t, dt))
 
 
 def run_benchmark(

@@ -37,6 +37,7 @@ Units: those of the spec (SI for the presets): m, kg, s, N, T.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import elastica as ea
 import numpy as np
@@ -44,7 +45,7 @@ from elastica.external_forces import NoForces
 from elastica.memory_block.memory_block_rod import MemoryBlockCosseratRod
 from numpy.typing import ArrayLike, NDArray
 
-from .batch_kernels import (
+from ._batch_kernels import (
     N_PARAMS,
     N_SCRATCH,
     O_DAMPING,
@@ -63,10 +64,11 @@ from .batch_kernels import (
     P_SLIP_TOL,
     P_STATIC_MU,
     P_SURFACE_TOL,
+    S_NO_CONTACT,
     block_forcing,
     first_unhealthy,
 )
-from .presets import RobotSpec
+from .robot_spec import RobotSpec
 from .simulation import SimulationDiverged, robot_rod, trajectory_row
 from .spatial_fields import is_spatial
 
@@ -100,7 +102,7 @@ class _BlockForcing(NoForces):
 
     def apply_forces(self, system, time: np.float64 = np.float64(0.0)) -> None:
         # ``system`` is the first rod; the kernel works on the whole memory block instead.
-        block_forcing(*self._owner._kernel_args)
+        self._owner.apply_forcing()
 
     def apply_torques(self, system, time: np.float64 = np.float64(0.0)) -> None:
         pass  # torques are applied together with the forces, in the kernel
@@ -168,78 +170,12 @@ class BatchedRobots:
         self._fields = np.zeros((n_robots, 3), dtype=np.float64)
         if fields is not None:
             self.fields = fields  # type: ignore[assignment]
-
-        simulator = BatchedRobotSimulator()
-        rods = []
-        for _ in range(n_robots):
-            rod = robot_rod(spec)
-            simulator.append(rod)
-            rods.append(rod)
-        simulator.add_forcing_to(rods[0]).using(_BlockForcing, owner=self)
-        simulator.finalize()
-        self.simulator = simulator
-        self.rods = rods
-
-        blocks = [s for s in simulator.final_systems() if isinstance(s, MemoryBlockCosseratRod)]
-        if len(blocks) != 1 or blocks[0].n_rods != n_robots:
-            raise RuntimeError("expected all robots in one PyElastica memory block")
-        block = blocks[0]
-        self.block = block
-        # Block position of each robot (PyElastica may reorder systems inside the block).
-        order = [int(np.flatnonzero(block.system_idx_list == i)[0]) for i in range(n_robots)]
-        self._node_start = np.array([block.start_idx_in_rod_nodes[j] for j in order], dtype=np.int64)
-        self._node_end = np.array([block.end_idx_in_rod_nodes[j] for j in order], dtype=np.int64)
-        self._elem_start = np.array([block.start_idx_in_rod_elems[j] for j in order], dtype=np.int64)
-        self._elem_end = np.array([block.end_idx_in_rod_elems[j] for j in order], dtype=np.int64)
-        for i, rod in enumerate(rods):
-            n0, e0 = self._node_start[i], self._elem_start[i]
-            if (
-                self._node_end[i] - n0 != rod.n_elems + 1
-                or self._elem_end[i] - e0 != rod.n_elems
-                or not np.shares_memory(rod.position_collection, block.position_collection[:, n0 : n0 + 1])
-                or not np.shares_memory(rod.director_collection, block.director_collection[..., e0 : e0 + 1])
-            ):
-                raise RuntimeError(f"robot {i} is not where the memory block index arrays say")
-
-        # Magnetic moments V M in the material frame, (3, n_block_elements), A m^2: the same numpy
-        # expression as MagneticTorques with frame="lab" (the rods start at rest, so the directors
-        # of the initial configuration are those MagneticTorques sees at its first call).
-        self._moments = np.zeros((3, block.n_elems))
-        magnetization = np.asarray(spec.magnetization, dtype=np.float64)
-        for i, rod in enumerate(rods):
-            moment = np.einsum("ijk,jk->ik", rod.director_collection, magnetization)
-            self._moments[:, self._elem_start[i] : self._elem_end[i]] = moment * rod.volume[None, :]
-
-        params = np.zeros(N_PARAMS)
-        options = np.zeros(4, dtype=np.int64)
-        if spec.damping is not None:
-            options[O_DAMPING] = 1
-            options[O_NODE_OFFSET] = spec.damping.node_offset
-            if spec.damping.node_offset >= spec.n_elements + 1:
-                raise ValueError(
-                    f"node_offset {spec.damping.node_offset} must be smaller than the number of nodes "
-                    f"({spec.n_elements + 1})"
-                )
-            params[P_RELATIVE_NU] = spec.damping.relative_nu
-            params[P_LEGACY_FORCE] = spec.damping.legacy_force
-            params[P_LEGACY_TORQUE] = spec.damping.legacy_torque
-        if spec.gravity > 0.0:
-            options[O_GRAVITY] = 1
-            params[P_GRAVITY : P_GRAVITY + 3] = [0.0, -spec.effective_gravity, 0.0]
-        if spec.ground is not None:
-            g = spec.ground
-            options[O_GROUND] = 1
-            params[P_PLANE_ORIGIN : P_PLANE_ORIGIN + 3] = [0.0, -spec.radius, 0.0]
-            params[P_PLANE_NORMAL : P_PLANE_NORMAL + 3] = [0.0, 1.0, 0.0]
-            params[P_K] = g.k
-            params[P_NU] = g.nu
-            params[P_SURFACE_TOL] = g.surface_tolerance
-            params[P_SLIP_TOL] = g.slip_velocity_tol
-            params[P_STATIC_MU : P_STATIC_MU + 3] = _mu3(g.static_mu)
-            params[P_KINETIC_MU : P_KINETIC_MU + 3] = _mu3(g.kinetic_mu)
-        self._params = params
-        self._options = options
+        self.simulator, self.rods = self._build_simulator()
+        self.block = self._locate_robots()
+        self._moments = self._magnetic_moments()
+        self._params, self._options = _kernel_parameters(spec)
         self._scratch = np.zeros((N_SCRATCH, spec.n_elements))
+        block = self.block
         self._kernel_args = (
             self._fields,
             self._moments,
@@ -267,8 +203,74 @@ class BatchedRobots:
         # loads and the derived geometry: a reset robot is indistinguishable from a fresh one).
         self._initial_state = [
             {name: value.copy() for name, value in vars(rod).items() if isinstance(value, np.ndarray)}
-            for rod in rods
+            for rod in self.rods
         ]
+
+    def _build_simulator(self) -> tuple[BatchedRobotSimulator, list[ea.CosseratRod]]:
+        """The finalized simulator of ``n_robots`` rods of the spec, the block forcing registered
+        once (on the first rod), and the rods."""
+        simulator = BatchedRobotSimulator()
+        rods = []
+        for _ in range(self.n_robots):
+            rod = robot_rod(self.spec)
+            simulator.append(rod)
+            rods.append(rod)
+        simulator.add_forcing_to(rods[0]).using(_BlockForcing, owner=self)
+        simulator.finalize()
+        return simulator, rods
+
+    def _locate_robots(self) -> MemoryBlockCosseratRod:
+        """The one memory block of all robots, and each robot's node and element ranges in it
+        (``_node_start`` .. ``_elem_end``, ``(N,)``), checked to be views of that robot's arrays."""
+        n_robots, rods = self.n_robots, self.rods
+        blocks = [s for s in self.simulator.final_systems() if isinstance(s, MemoryBlockCosseratRod)]
+        if len(blocks) != 1 or blocks[0].n_rods != n_robots:
+            raise RuntimeError("expected all robots in one PyElastica memory block")
+        block = blocks[0]
+        # Block position of each robot (PyElastica may reorder systems inside the block).
+        order = [int(np.flatnonzero(block.system_idx_list == i)[0]) for i in range(n_robots)]
+        self._node_start = np.array([block.start_idx_in_rod_nodes[j] for j in order], dtype=np.int64)
+        self._node_end = np.array([block.end_idx_in_rod_nodes[j] for j in order], dtype=np.int64)
+        self._elem_start = np.array([block.start_idx_in_rod_elems[j] for j in order], dtype=np.int64)
+        self._elem_end = np.array([block.end_idx_in_rod_elems[j] for j in order], dtype=np.int64)
+        for i, rod in enumerate(rods):
+            n0, e0 = self._node_start[i], self._elem_start[i]
+            if (
+                self._node_end[i] - n0 != rod.n_elems + 1
+                or self._elem_end[i] - e0 != rod.n_elems
+                or not np.shares_memory(rod.position_collection, block.position_collection[:, n0 : n0 + 1])
+                or not np.shares_memory(rod.director_collection, block.director_collection[..., e0 : e0 + 1])
+            ):
+                raise RuntimeError(f"robot {i} is not where the memory block index arrays say")
+        return block
+
+    def _magnetic_moments(self) -> NDArray[np.float64]:
+        """Magnetic moments V M in the material frame, ``(3, n_block_elements)``, A m^2: the same
+        numpy expression as MagneticTorques with frame="lab" (the rods start at rest, so the
+        directors of the initial configuration are those MagneticTorques sees at its first call)."""
+        moments = np.zeros((3, self.block.n_elems))
+        magnetization = np.asarray(self.spec.magnetization, dtype=np.float64)
+        for i, rod in enumerate(self.rods):
+            moment = np.einsum("ijk,jk->ik", rod.director_collection, magnetization)
+            moments[:, self._elem_start[i] : self._elem_end[i]] = moment * rod.volume[None, :]
+        return moments
+
+    def apply_forcing(self) -> None:
+        """One call of the block kernel: every robot's magnetic torque, damping, gravity and ground
+        contact added to the block's external loads (N, N m), what each time step runs once
+        (public for benchmarks: step the simulator with :meth:`step`)."""
+        block_forcing(*self._kernel_args)
+
+    @property
+    def kernel_arguments(self) -> tuple[Any, ...]:
+        """The arrays the block kernel reads and writes, in its argument order (for benchmarks of
+        the call overhead)."""
+        return self._kernel_args
+
+    def contact_fraction(self) -> float:
+        """Share of the elements of the last robot the kernel handled that touched the ground at
+        its last call (0 to 1)."""
+        return float(1.0 - self._scratch[S_NO_CONTACT].mean())
 
     # ----------------------------------------------------------------------------------------------
     @property
@@ -363,6 +365,40 @@ class BatchedRobots:
         for name, value in self._initial_state[i].items():
             getattr(rod, name)[...] = value
         self.robot_step_count[i] = 0
+
+
+def _kernel_parameters(spec: RobotSpec) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The block kernel's parameter vector ``(N_PARAMS,)`` (damping, gravity in m/s^2, the ground
+    plane, its stiffness, damping and friction) and option flags ``(4,)`` for ``spec``; refuses a
+    damping ``node_offset`` beyond the rod's nodes."""
+    params = np.zeros(N_PARAMS)
+    options = np.zeros(4, dtype=np.int64)
+    if spec.damping is not None:
+        options[O_DAMPING] = 1
+        options[O_NODE_OFFSET] = spec.damping.node_offset
+        if spec.damping.node_offset >= spec.n_elements + 1:
+            raise ValueError(
+                f"node_offset {spec.damping.node_offset} must be smaller than the number of nodes "
+                f"({spec.n_elements + 1})"
+            )
+        params[P_RELATIVE_NU] = spec.damping.relative_nu
+        params[P_LEGACY_FORCE] = spec.damping.legacy_force
+        params[P_LEGACY_TORQUE] = spec.damping.legacy_torque
+    if spec.gravity > 0.0:
+        options[O_GRAVITY] = 1
+        params[P_GRAVITY : P_GRAVITY + 3] = [0.0, -spec.effective_gravity, 0.0]
+    if spec.ground is not None:
+        g = spec.ground
+        options[O_GROUND] = 1
+        params[P_PLANE_ORIGIN : P_PLANE_ORIGIN + 3] = [0.0, -spec.radius, 0.0]
+        params[P_PLANE_NORMAL : P_PLANE_NORMAL + 3] = [0.0, 1.0, 0.0]
+        params[P_K] = g.k
+        params[P_NU] = g.nu
+        params[P_SURFACE_TOL] = g.surface_tolerance
+        params[P_SLIP_TOL] = g.slip_velocity_tol
+        params[P_STATIC_MU : P_STATIC_MU + 3] = _mu3(g.static_mu)
+        params[P_KINETIC_MU : P_KINETIC_MU + 3] = _mu3(g.kinetic_mu)
+    return params, options
 
 
 def _mu3(mu: float | ArrayLike) -> NDArray[np.float64]:

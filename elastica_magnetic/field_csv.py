@@ -59,62 +59,71 @@ def read_field_csv(path: str | Path) -> NDArray[np.float64]:
     rows_with_lines = [(i + 1, r) for i, r in enumerate(rows) if any(c.strip() for c in r)]
     if not rows_with_lines:
         raise FieldCSVError(f"{path}: empty file, expected columns {', '.join(FIELD_COLUMNS)} (mT)")
-
-    first_line, first = rows_with_lines[0]
-    has_header = not _is_number(first[-1])
-    if has_header:
-        names = [c.strip() for c in first]
-        missing = [c for c in FIELD_COLUMNS if c not in names]
-        if missing:
-            raise FieldCSVError(
-                f"{path}: header on line {first_line} lacks column(s) {', '.join(missing)}; "
-                f"expected {', '.join(FIELD_COLUMNS)} in mT (found {names})"
-            )
-        columns = [names.index(c) for c in FIELD_COLUMNS]
-        index_column = 0 if len(names) == 4 and columns == [1, 2, 3] else None
-        ncols = len(names)
-        body = rows_with_lines[1:]
-    else:
-        ncols = len(first)
-        if ncols == 3:
-            columns, index_column = [0, 1, 2], None
-        elif ncols == 4:
-            columns, index_column = [1, 2, 3], 0
-        else:
-            raise FieldCSVError(
-                f"{path}: line {first_line} has {ncols} columns; expected 3 (mag_x, mag_y, mag_z "
-                "in mT) or 4 (index first)"
-            )
-        body = rows_with_lines
-
+    columns, index_column, ncols, body = _column_layout(path, rows_with_lines)
     if not body:
         raise FieldCSVError(f"{path}: header but no data rows")
     field = np.empty((len(body), 3))
     for k, (line, row) in enumerate(body):
-        if len(row) != ncols:
+        field[k] = _field_row(path, line, row, k, columns, index_column, ncols)
+    return field
+
+
+def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
+                   ) -> tuple[list[int], int | None, int, list[tuple[int, list[str]]]]:
+    """Where the field components are: their column indices, the index column (``None``: none),
+    the number of columns every row must have, and the data rows (after a header, if any)."""
+    first_line, first = rows_with_lines[0]
+    if _is_number(first[-1]):  # no header
+        ncols = len(first)
+        if ncols == 3:
+            return [0, 1, 2], None, ncols, rows_with_lines
+        if ncols == 4:
+            return [1, 2, 3], 0, ncols, rows_with_lines
+        raise FieldCSVError(
+            f"{path}: line {first_line} has {ncols} columns; expected 3 (mag_x, mag_y, mag_z "
+            "in mT) or 4 (index first)"
+        )
+    names = [c.strip() for c in first]
+    missing = [c for c in FIELD_COLUMNS if c not in names]
+    if missing:
+        raise FieldCSVError(
+            f"{path}: header on line {first_line} lacks column(s) {', '.join(missing)}; "
+            f"expected {', '.join(FIELD_COLUMNS)} in mT (found {names})"
+        )
+    columns = [names.index(c) for c in FIELD_COLUMNS]
+    index_column = 0 if len(names) == 4 and columns == [1, 2, 3] else None
+    return columns, index_column, len(names), rows_with_lines[1:]
+
+
+def _field_row(path: Path, line: int, row: list[str], k: int, columns: list[int],
+               index_column: int | None, ncols: int) -> NDArray[np.float64]:
+    """Data row ``k`` (on file line ``line``) as a field ``(3,)`` in tesla, its columns and index
+    checked."""
+    if len(row) != ncols:
+        raise FieldCSVError(
+            f"{path}: line {line} has {len(row)} columns, expected {ncols}: {','.join(row)!r}"
+        )
+    field = np.empty(3)
+    for j, c in enumerate(columns):
+        text = row[c].strip()
+        try:
+            value = float(text)
+        except ValueError:
             raise FieldCSVError(
-                f"{path}: line {line} has {len(row)} columns, expected {ncols}: {','.join(row)!r}"
+                f"{path}: line {line}, column {FIELD_COLUMNS[j]}: {text!r} is not a number "
+                "(field in mT)"
+            ) from None
+        if not math.isfinite(value):
+            raise FieldCSVError(
+                f"{path}: line {line}, column {FIELD_COLUMNS[j]}: non-finite value {text!r}"
             )
-        for j, c in enumerate(columns):
-            text = row[c].strip()
-            try:
-                value = float(text)
-            except ValueError:
-                raise FieldCSVError(
-                    f"{path}: line {line}, column {FIELD_COLUMNS[j]}: {text!r} is not a number "
-                    "(field in mT)"
-                ) from None
-            if not math.isfinite(value):
-                raise FieldCSVError(
-                    f"{path}: line {line}, column {FIELD_COLUMNS[j]}: non-finite value {text!r}"
-                )
-            field[k, j] = value * MILLITESLA
-        if index_column is not None:
-            text = row[index_column].strip()
-            if text and (not _is_number(text) or float(text) != k):
-                raise FieldCSVError(
-                    f"{path}: line {line}: index {text!r} out of sequence, expected {k}"
-                )
+        field[j] = value * MILLITESLA
+    if index_column is not None:
+        text = row[index_column].strip()
+        if text and (not _is_number(text) or float(text) != k):
+            raise FieldCSVError(
+                f"{path}: line {line}: index {text!r} out of sequence, expected {k}"
+            )
     return field
 
 

@@ -45,7 +45,7 @@ from .spatial_fields import (
     SpatialFieldError,
     Waypoints,
 )
-from .specfile import SpecError, SpecTable, read_spec
+from .spec_format import SpecError, SpecTable, read_spec
 
 __all__ = ["FIELD_KINDS", "CLAMPS", "FieldSetup", "describe_field", "field_source", "load_field"]
 

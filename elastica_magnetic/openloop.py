@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from .forcing import evaluate_field
 from .io import atomic_write
-from .presets import ACTION_PERIOD, RobotSpec
+from .robot_spec import ACTION_PERIOD, RobotSpec
 from .simulation import TRAJECTORY_COLUMNS, FieldFunction, build_simulation
 from .spatial_fields import is_spatial
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .presets import ACTION_PERIOD
+from .robot_spec import ACTION_PERIOD
 
 __all__ = ["RotationMeasurement", "min_rotation_period", "measure_rotation"]
 

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 from .forcing import LegacyInternalDamping, MagneticTorques, RelativeVelocityDamping
 from .ground import FrictionalGroundContact
 from .interaction import MagneticInteraction
-from .presets import RobotSpec
+from .robot_spec import RobotSpec
 from .section import rectangular_band_rod
 from .spatial_fields import is_spatial
 from .viscoelastic import KelvinVoigtDamping

@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from .presets import ACTION_PERIOD, RobotSpec
+from .robot_spec import ACTION_PERIOD, RobotSpec
 from .specfile import RobotDescription, SpecTable, describe_robot, spec_field_limit
 from .stability import SAFETY_FACTOR, estimated_stable_time_step, suggested_time_step
 

@@ -1,7 +1,9 @@
 """Spec files: a robot and its physics as plain TOML data, checked key by key.
 
-A *spec* is a TOML file (read with :mod:`tomllib`) that describes a case completely. This module
-owns the file format's reading and writing and the two tables that describe the physical robot:
+A *spec* is a TOML file (read with :mod:`tomllib`) that describes a case completely. The file
+format (reading, writing, a table read key by key, :class:`SpecError`) is
+:mod:`elastica_magnetic.spec_format`, its names importable from here too; this module owns the two
+tables that describe the physical robot:
 
 - ``[robot]`` (geometry, material, gravity) with ``[robot.magnetization]`` (required),
   ``[robot.ground]``, ``[robot.damping]`` and ``[robot.interaction]`` (optional);
@@ -17,8 +19,6 @@ table and the key and states the expected unit or range.
 
 from __future__ import annotations
 
-import math
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,28 +37,25 @@ from .magnetization import (
     uniform_magnetization,
     yao2023_magnetization,
 )
-from .presets import (
+from .presets import ROBOTS, YAO2023_MASS_SCALE, robot_by_name
+from .robot_spec import (
     ACTION_PERIOD,
-    ROBOTS,
     STANDARD_GRAVITY,
-    YAO2023_MASS_SCALE,
     DampingSpec,
     GroundSpec,
     InteractionSpec,
     Physics,
     RobotSpec,
-    robot_by_name,
 )
+
+# the file format's home is .spec_format; SpecError, SpecTable, read_spec, loads stay importable from here
+from .spec_format import REQUIRED, SpecError, SpecTable, loads, read_spec, toml_with_units  # noqa: F401
 from .stability import estimated_stable_time_step, suggested_time_step
 
 __all__ = [
     "SPEC_TABLES",
     "MAGNETIZATION_KINDS",
-    "SpecError",
-    "SpecTable",
     "RobotDescription",
-    "read_spec",
-    "loads",
     "dumps",
     "describe_robot",
     "load_robot",
@@ -113,166 +110,10 @@ UNITS: dict[tuple[str, str], str] = {
     ("physics.accurate", "mass_scale"): "density x s, gravity / s",
 }
 
-_REQUIRED = object()
-
-
-class SpecError(ValueError):
-    """A spec that does not describe a valid case; the message names the file, table and key."""
-
-
-class SpecTable:
-    """Checked, typed access to one table of a spec; :meth:`finish` rejects keys never read.
-
-    ``source`` names the file (or ``"<spec>"``), ``path`` the table (``"robot.ground"``; ``""`` for
-    the top level). Every getter records the key and returns a plain Python value.
-    """
-
-    def __init__(self, data: Any, source: str, path: str = "") -> None:
-        if not isinstance(data, Mapping):
-            raise SpecError(f"{source}: {self._name(path) or 'the spec'} must be a table, "
-                            f"got {type(data).__name__}")
-        self.data, self.source, self.path = data, source, path
-        self._read: set[str] = set()
-
-    @staticmethod
-    def _name(path: str) -> str:
-        return f"[{path}]" if path else ""
-
-    def where(self, key: str) -> str:
-        """``file: [table] key`` for error messages."""
-        table = self._name(self.path)
-        return f"{self.source}: {table + ' ' if table else ''}{key}"
-
-    def error(self, key: str, message: str) -> SpecError:
-        return SpecError(f"{self.where(key)}: {message}")
-
-    def has(self, key: str) -> bool:
-        return key in self.data
-
-    def _get(self, key: str, default: Any) -> Any:
-        self._read.add(key)
-        if key in self.data:
-            return self.data[key]
-        if default is _REQUIRED:
-            raise self.error(key, "missing (required)")
-        return default
-
-    def number(self, key: str, unit: str, default: Any = _REQUIRED, *, low: float | None = None,
-               low_open: bool = False, high: float | None = None, integer: bool = False) -> Any:
-        """A finite number in ``[low, high]`` (``(low, high]`` if ``low_open``), ``unit`` for the
-        message; ``integer``: a TOML integer. A missing optional key returns ``default`` as is."""
-        value = self._get(key, default)
-        if key not in self.data:
-            return value
-        kind = "an integer" if integer else "a number"
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or (
-                integer and not isinstance(value, int)):
-            raise self.error(key, f"expected {kind} ({unit}), got {value!r}")
-        if not math.isfinite(value):
-            raise self.error(key, f"expected a finite number ({unit}), got {value!r}")
-        if low is not None and (value <= low if low_open else value < low):
-            raise self.error(key, f"must be {'>' if low_open else '>='} {low:g} ({unit}), got {value!r}")
-        if high is not None and value > high:
-            raise self.error(key, f"must be <= {high:g} ({unit}), got {value!r}")
-        return int(value) if integer else float(value)
-
-    def string(self, key: str, default: Any = _REQUIRED, choices: tuple[str, ...] | None = None) -> Any:
-        value = self._get(key, default)
-        if key not in self.data:
-            return value
-        if not isinstance(value, str):
-            raise self.error(key, f"expected a string, got {value!r}")
-        if choices is not None and value not in choices:
-            raise self.error(key, f"expected one of {', '.join(choices)}; got {value!r}")
-        return value
-
-    def boolean(self, key: str, default: Any = _REQUIRED) -> Any:
-        value = self._get(key, default)
-        if key in self.data and not isinstance(value, bool):
-            raise self.error(key, f"expected true or false, got {value!r}")
-        return value
-
-    def vector(self, key: str, unit: str, size: int, default: Any = _REQUIRED) -> Any:
-        """A list of ``size`` finite numbers."""
-        value = self._get(key, default)
-        if key not in self.data:
-            return value
-        if (not isinstance(value, list) or len(value) != size or any(
-                isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
-                for v in value)):
-            raise self.error(key, f"expected a list of {size} finite numbers ({unit}), got {value!r}")
-        return [float(v) for v in value]
-
-    def table(self, key: str, required: bool = True) -> SpecTable | None:
-        """A sub-table (``None`` if optional and absent)."""
-        value = self._get(key, _REQUIRED if required else None)
-        path = f"{self.path}.{key}" if self.path else key
-        if value is None and key not in self.data:
-            return None
-        if not isinstance(value, Mapping):
-            raise SpecError(f"{self.source}: [{path}] must be a table, got {value!r}")
-        return SpecTable(value, self.source, path)
-
-    def raw(self, key: str, default: Any = _REQUIRED) -> Any:
-        """The value as written (checked by the caller)."""
-        return self._get(key, default)
-
-    def finish(self) -> None:
-        """Raise on keys that were never read (typos, keys of another kind)."""
-        unknown = sorted(set(self.data) - self._read)
-        if unknown:
-            known = ", ".join(sorted(self._read)) or "none"
-            raise SpecError(f"{self.where(unknown[0])}: unknown key (this table takes: {known})")
-
-
-def read_spec(path: str | Path) -> dict[str, Any]:
-    """The TOML data of a spec file; a missing file or a syntax error is a :class:`SpecError`."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SpecError(f"{path}: no such spec file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpecError(f"{path}: cannot be read as a spec file ({exc})") from None
-    return loads(text, str(path))
-
-
-def loads(text: str, source: str = "<spec>") -> dict[str, Any]:
-    """Parse spec text (TOML); syntax errors name ``source`` and the line."""
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"{source}: not valid TOML: {exc}") from None
-
-
 def dumps(data: Mapping[str, Any], units: Mapping[tuple[str, str], str] | None = None) -> str:
     """TOML text of a spec, with the unit of each value in a comment (written with ``tomli_w``):
     :data:`UNITS` and ``units`` ((table, key) -> unit) for the tables of other packages."""
-    import tomli_w
-
-    units = {**UNITS, **(units or {})}
-    lines, table = [], ""
-    for line in tomli_w.dumps(_plain(data), multiline_strings=False).splitlines():
-        stripped = line.strip()
-        if stripped.startswith("[") and not stripped.startswith("[["):
-            table = stripped.strip("[]")
-        elif " = " in line and not line.startswith(" "):
-            unit = units.get((table, line.split(" = ", 1)[0]))
-            if unit is not None and not line.rstrip().endswith("["):
-                line = f"{line}  # {unit}"
-        lines.append(line)
-    return "\n".join(lines) + "\n"
-
-
-def _plain(value: Any) -> Any:
-    """Numpy scalars/arrays and tuples as plain TOML-able Python values."""
-    if isinstance(value, Mapping):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return [_plain(v) for v in (value.tolist() if isinstance(value, np.ndarray) else value)]
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
+    return toml_with_units(data, {**UNITS, **(units or {})})
 
 
 # -- the robot and its physics --------------------------------------------------------------------
@@ -504,7 +345,7 @@ def _segment_list(segments: list[Mapping[str, Any]]) -> list[MagnetizationSegmen
                                  s.get("fraction")) for s in segments]
 
 
-def _direction(t: SpecTable, key: str, default: Any = _REQUIRED) -> list[float]:
+def _direction(t: SpecTable, key: str, default: Any = REQUIRED) -> list[float]:
     value = t.vector(key, "a direction [x, y, z]", 3, default)
     if not any(value):
         raise t.error(key, f"must be a non-zero direction [x, y, z], got {value!r}")

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 
-from .presets import ACTION_PERIOD, RobotSpec
+from .robot_spec import ACTION_PERIOD, RobotSpec
 
 __all__ = ["CALIBRATION", "SAFETY_FACTOR", "estimated_stable_time_step", "suggested_time_step",
            "time_step_limits"]

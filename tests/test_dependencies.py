@@ -159,3 +159,24 @@ def test_the_validation_reference_solver_depends_on_numpy_and_scipy_only():
             for top in tops:
                 assert top in {"numpy", "scipy", "__future__"} or top in sys.stdlib_module_names, \
                     f"{path}: imports {top}"
+
+
+def test_benchmarks_import_public_names_only():
+    """The benchmarks are users of the packages: no private name (``_x``) and no private module
+    (``elastica_magnetic._batch_kernels``) of them is imported."""
+    private = []
+    for path in sorted((ROOT / "benchmarks").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and not node.level and node.module:
+                modules, names = [node.module], [a.name for a in node.names]
+            elif isinstance(node, ast.Import):
+                modules, names = [a.name for a in node.names], []
+            else:
+                continue
+            for module in modules:
+                if module.split(".")[0] not in PACKAGES:
+                    continue
+                if any(part.startswith("_") for part in module.split(".")) or \
+                        any(name.startswith("_") for name in names):
+                    private.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    assert not private, private

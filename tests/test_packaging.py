@@ -54,7 +54,7 @@ def test_the_wheel_holds_the_shipped_policies_and_no_seed_campaigns(tmp_path):
     data = [p.relative_to(ROOT).as_posix() for p in (ROOT / "elastica_magnetic" / "data").rglob("*")
             if p.is_file()]
     assert data and all(d in names for d in data)
-    assert "elastica_magnetic/cli.py" in names and "elastica_magnetic_rl/cli/commands.py" in names
+    assert "elastica_magnetic/cli/app.py" in names and "elastica_magnetic_rl/cli/commands.py" in names
     assert "elastica_magnetic_rl/sim2real/cli.py" in names
     size = wheel.stat().st_size
     print(f"wheel {wheel.name}: {size / 1e6:.1f} MB, {len(names)} files")

@@ -18,7 +18,7 @@ from elastica_magnetic import (
     yao2023_robot,
 )
 from elastica_magnetic.cli import main
-from elastica_magnetic.commands import compare_trajectories
+from elastica_magnetic.cli.commands import compare_trajectories
 from elastica_magnetic.forcing import (
     LegacyInternalDamping,
     MagneticTorques,

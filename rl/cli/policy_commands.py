@@ -2,8 +2,8 @@
 trained policies (collect every seed, compare recipes, pack, annotate, export, diagnose). Thin wrappers over
 :mod:`elastica_magnetic_rl.shipping.seed_export`, :mod:`elastica_magnetic_rl.shipping.seed_report`,
 :mod:`elastica_magnetic_rl.shipping.ship`, :mod:`elastica_magnetic_rl.shipping.export` and
-:mod:`elastica_magnetic_rl.reports.diagnostics` (heavy imports happen inside the commands); training and
-rollouts are in :mod:`elastica_magnetic_rl.cli.commands`."""
+:mod:`elastica_magnetic_rl.reports.diagnostics` (heavy imports happen inside the commands); training is in
+:mod:`elastica_magnetic_rl.cli.train_commands`, rollouts in :mod:`elastica_magnetic_rl.cli.commands`."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, duration_option, print_notes, print_result
 
-from .commands import CASE_HELP, CHECKPOINT_HELP, FORCE_HELP, case_option, print_rollout_result
+from .options import CASE_HELP, CHECKPOINT_HELP, FORCE_HELP, case_option, print_rollout_result
 
 
 def register(sub: argparse._SubParsersAction) -> None:

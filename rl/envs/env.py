@@ -301,6 +301,31 @@ def crawler_setup(
                         float(duration), n_steps, task, loaded)
 
 
+def adopt_setup(env: Any, setup: CrawlerSetup, physics: str,
+                divergence_penalty: float) -> gym.spaces.Box:
+    """The attributes the single and the vector environment both take from their checked
+    ``setup`` (robot, physics, field limit and increment in T, initial field, episode length in s
+    and steps, task, the observation layout); returns the observation space of one robot."""
+    env.setup = setup
+    env.case = setup.case
+    env.task = setup.task
+    env.robot_spec = spec = setup.robot_spec
+    env.physics = physics
+    env.field_limit = setup.field_limit
+    env.initial_field = setup.initial_field
+    env.duration = setup.duration
+    env.max_episode_steps = setup.n_steps
+    env.max_increment = setup.max_increment
+    env.divergence_penalty = float(divergence_penalty)
+    n = spec.n_elements
+    env.n_elements = n
+    env.middle_node = n // 2
+    extra = env.task.extra_observation
+    env.layout = observation_layout(n, extra)
+    env.surface_tolerance = float(spec.ground.surface_tolerance)
+    return crawler_observation_space(n, env.field_limit, extra)
+
+
 class MagneticCrawlerEnv(gym.Env):
     """The crawling robot driven by field increments (see the module docstring for the spaces).
 
@@ -358,28 +383,11 @@ class MagneticCrawlerEnv(gym.Env):
                               max_increment=max_increment, task=task)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        self.setup = setup
-        self.case = setup.case
-        self.task = setup.task
-        self.robot_spec = spec = setup.robot_spec
+        self.observation_space = adopt_setup(self, setup, physics, divergence_penalty)
+        spec = setup.robot_spec
         self.pattern = None if pattern is None and (case is not None or spec is not None) else (
             1 if pattern is None else int(pattern))
-        self.physics = physics
-        self.field_limit = setup.field_limit
-        self.initial_field = setup.initial_field
-        self.duration = setup.duration
-        self.max_episode_steps = setup.n_steps
         self.render_mode = render_mode
-        self.max_increment = setup.max_increment
-        self.divergence_penalty = float(divergence_penalty)
-
-        n = spec.n_elements
-        self.n_elements = n
-        self.middle_node = n // 2
-        extra = self.task.extra_observation
-        self.layout = observation_layout(n, extra)
-        self.surface_tolerance = float(spec.ground.surface_tolerance)
-        self.observation_space = crawler_observation_space(n, self.field_limit, extra)
         self.action_space = gym.spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
 
         self.simulation = None

@@ -69,11 +69,10 @@ from elastica_magnetic.presets import ACTION_PERIOD
 from ..cases.case import Case
 from ..cases.tasks import Task
 from .env import (
+    adopt_setup,
     crawler_observation,
-    crawler_observation_space,
     crawler_setup,
     initial_field_value,
-    observation_layout,
 )
 
 __all__ = ["MagneticCrawlerVectorEnv", "make_vector_env"]
@@ -120,26 +119,8 @@ class MagneticCrawlerVectorEnv(VectorEnv):
                               initial_field=initial_field, duration=duration, spec=spec,
                               max_increment=max_increment, task=task)
         self.num_envs = int(num_envs)
-        self.setup = setup
-        self.case = setup.case
-        self.task = setup.task
-        self.robot_spec = spec = setup.robot_spec
-        self.physics = physics
-        self.field_limit = setup.field_limit
-        self.initial_field = setup.initial_field
-        self.duration = setup.duration
-        self.max_episode_steps = setup.n_steps
-        self.max_increment = setup.max_increment
-        self.divergence_penalty = float(divergence_penalty)
+        self.single_observation_space = adopt_setup(self, setup, physics, divergence_penalty)
         self.render_mode = None
-
-        n = spec.n_elements
-        self.n_elements = n
-        self.middle_node = n // 2
-        extra = self.task.extra_observation
-        self.layout = observation_layout(n, extra)
-        self.surface_tolerance = float(spec.ground.surface_tolerance)
-        self.single_observation_space = crawler_observation_space(n, self.field_limit, extra)
         self.single_action_space = gym.spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)

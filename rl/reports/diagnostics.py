@@ -29,7 +29,8 @@ import torch
 from elastica_magnetic.io import atomic_save
 
 from ..runfiles.checkpoint import load_checkpoint, refuse_networks_only
-from ..td3.algorithm import SATURATION_PREACTIVATION, networks_from_state
+from ..td3.algorithm import SATURATION_PREACTIVATION
+from ..td3.networks import networks_from_state
 
 #: Fraction of recent states with a saturated output (any action dimension) that flags the actor.
 SATURATED_FRACTION_FLAG = 0.9
@@ -111,40 +112,14 @@ def run_health(run: str | os.PathLike, recent: int = 20_000) -> dict[str, Any]:
     """
     if recent < 2:
         raise ValueError(f"recent must be >= 2 transitions, got {recent}")
-    ckpt = load_checkpoint(run)
-    refuse_networks_only(ckpt, run)
-    cfg, agent = ckpt["config"], ckpt["agent"]
-    obs_dim, act_dim, hidden = int(ckpt["obs_dim"]), int(ckpt["act_dim"]), tuple(cfg["hidden_sizes"])
-    actor, critic = networks_from_state(obs_dim, act_dim, tuple(cfg.get("actor_hidden_sizes") or hidden),
-                                        agent["actor"], agent["critic"], Path(run),
-                                        bool(cfg.get("critic_layer_norm", False)), hidden)
-    data = _chronological(ckpt["buffer"])
-    if len(data["rewards"]) < 2:
-        raise ValueError(f"{run}: its replay buffer holds {len(data['rewards'])} transitions; "
-                         "diagnose a run that has trained")
+    ckpt, actor, critic, data = _health_inputs(run)
+    cfg, gamma = ckpt["config"], float(ckpt["config"]["gamma"])
     # a vector run stores its sub-environments' transitions interleaved, step by step
     envs = interleave_stride(data["obs"], data["next_obs"])
-    gamma = float(cfg["gamma"])
-    returns, complete, rows = [], [], []
-    total = len(data["rewards"])
-    for j in range(envs):
-        idx = np.arange(j, total, envs)
-        ends = episode_ends(data["obs"][idx], data["next_obs"][idx])
-        g, c = discounted_returns(data["rewards"][idx], data["terminated"][idx] > 0.5, ends, gamma)
-        returns.append(g)
-        complete.append(c)
-        rows.append(idx)
-    order = np.argsort(np.concatenate(rows))
-    g_all, c_all = np.concatenate(returns)[order], np.concatenate(complete)[order]
-    start = max(0, total - int(recent))
-    obs = torch.as_tensor(data["obs"][start:], dtype=torch.float32)
-    actions = torch.as_tensor(data["actions"][start:], dtype=torch.float32)
+    g_all, c_all = _interleaved_returns(data, envs, gamma)
+    start = max(0, len(data["rewards"]) - int(recent))
     g, c = g_all[start:], c_all[start:]
-    with torch.no_grad():
-        pre = actor.net(obs)
-        q1, q2 = critic(obs, actions)
-        q_data = (0.5 * (q1 + q2))[:, 0].double().numpy()
-        q_policy = critic.q1(obs, torch.tanh(pre))[:, 0].double().numpy()
+    pre, q_data, q_policy = _critic_and_actor_outputs(actor, critic, data, start)
     saturated = (pre.abs() > SATURATION_PREACTIVATION).numpy()
     if not c.any():
         raise ValueError(f"{run}: no recent transition has a complete discounted return "
@@ -174,6 +149,56 @@ def run_health(run: str | os.PathLike, recent: int = 20_000) -> dict[str, Any]:
         "actor_saturated": bool(saturated.any(axis=1).mean() > SATURATED_FRACTION_FLAG),
         "_samples": {"q": q_data[c], "g": g[c], "pre": pre.numpy()},
     }
+
+
+def _health_inputs(run: str | os.PathLike) -> tuple[dict[str, Any], Any, Any, dict[str, np.ndarray]]:
+    """A run's checkpoint, its actor and critic, and its replay buffer in the order the
+    transitions were collected; refuses a networks-only checkpoint or a buffer of fewer than two
+    transitions."""
+    ckpt = load_checkpoint(run)
+    refuse_networks_only(ckpt, run)
+    cfg, agent = ckpt["config"], ckpt["agent"]
+    obs_dim, act_dim, hidden = int(ckpt["obs_dim"]), int(ckpt["act_dim"]), tuple(cfg["hidden_sizes"])
+    actor, critic = networks_from_state(obs_dim, act_dim, tuple(cfg.get("actor_hidden_sizes") or hidden),
+                                        agent["actor"], agent["critic"], Path(run),
+                                        bool(cfg.get("critic_layer_norm", False)), hidden)
+    data = _chronological(ckpt["buffer"])
+    if len(data["rewards"]) < 2:
+        raise ValueError(f"{run}: its replay buffer holds {len(data['rewards'])} transitions; "
+                         "diagnose a run that has trained")
+    return ckpt, actor, critic, data
+
+
+def _interleaved_returns(data: dict[str, np.ndarray], envs: int,
+                         gamma: float) -> tuple[np.ndarray, np.ndarray]:
+    """The discounted return of every stored transition and whether it is complete (both shape
+    ``(transitions,)``, in buffer order), each of the ``envs`` interleaved sub-environments'
+    episodes followed on its own."""
+    returns, complete, rows = [], [], []
+    total = len(data["rewards"])
+    for j in range(envs):
+        idx = np.arange(j, total, envs)
+        ends = episode_ends(data["obs"][idx], data["next_obs"][idx])
+        g, c = discounted_returns(data["rewards"][idx], data["terminated"][idx] > 0.5, ends, gamma)
+        returns.append(g)
+        complete.append(c)
+        rows.append(idx)
+    order = np.argsort(np.concatenate(rows))
+    return np.concatenate(returns)[order], np.concatenate(complete)[order]
+
+
+def _critic_and_actor_outputs(actor: Any, critic: Any, data: dict[str, np.ndarray],
+                              start: int) -> tuple[torch.Tensor, np.ndarray, np.ndarray]:
+    """On the transitions from ``start`` on: the actor's pre-``tanh`` outputs ``(n, act_dim)``,
+    ``(Q1 + Q2) / 2`` at the stored actions and ``Q1(s, mu(s))`` (both ``(n,)``)."""
+    obs = torch.as_tensor(data["obs"][start:], dtype=torch.float32)
+    actions = torch.as_tensor(data["actions"][start:], dtype=torch.float32)
+    with torch.no_grad():
+        pre = actor.net(obs)
+        q1, q2 = critic(obs, actions)
+        q_data = (0.5 * (q1 + q2))[:, 0].double().numpy()
+        q_policy = critic.q1(obs, torch.tanh(pre))[:, 0].double().numpy()
+    return pre, q_data, q_policy
 
 
 def health_figure(health: dict[str, Any], path: str | os.PathLike) -> Path:

@@ -41,6 +41,29 @@ LEGACY_FORMATS = ("td3-checkpoint-v1",)
 _BUFFER_KEYS = ("obs", "actions", "rewards", "next_obs", "terminated")
 
 
+def state_to_tensors(obj: Any) -> Any:
+    """numpy arrays -> CPU tensors, recursively (checkpoints load with ``weights_only=True``)."""
+    if isinstance(obj, np.ndarray):
+        return torch.from_numpy(obj.copy())
+    if isinstance(obj, dict):
+        return {k: state_to_tensors(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return type(obj)(state_to_tensors(v) for v in obj)
+    return obj
+
+
+def state_to_numpy(obj: Any) -> Any:
+    """Inverse of :func:`state_to_tensors`."""
+    if isinstance(obj, torch.Tensor):
+        return obj.numpy().copy()
+    if isinstance(obj, dict):
+        return {k: state_to_numpy(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return type(obj)(state_to_numpy(v) for v in obj)
+    return obj
+
+
+
 def save_checkpoint(path: str | os.PathLike, checkpoint: dict[str, Any]) -> None:
     """Write ``checkpoint`` atomically: to a temporary file in the same directory, then rename.
 

@@ -19,7 +19,8 @@ import torch
 from ..runfiles.checkpoint import save_checkpoint
 from ..runfiles.logs import read_log
 from ..runfiles.rundir import RunDir
-from ..td3.algorithm import TD3, Actor, TD3Config
+from ..td3.algorithm import TD3, TD3Config
+from ..td3.networks import Actor
 
 __all__ = ["ActorPolicy", "EvalResult", "PeriodicEvaluation", "evaluate", "evaluate_many"]
 

@@ -38,7 +38,7 @@ def format_duration(seconds: float) -> str:
 
 class GroupProgress:
     """The rate and ETA of one group of seeds, from the loop's cumulative ``timing`` (s by part,
-    :data:`~elastica_magnetic_rl.runner.loop.TIMING_KEYS`), taken at the start of this session."""
+    :data:`~elastica_magnetic_rl.runner.group.TIMING_KEYS`), taken at the start of this session."""
 
     def __init__(self, timing: Mapping[str, float], start_step: int) -> None:
         self.start_train = sum(v for k, v in timing.items() if k != "evaluation")

@@ -7,6 +7,6 @@ model card, the checks of the shipped policies (``shipped``) and the hand-design
 
 The workflow of the paper's "Miscellaneous training tips": train a case's seeds
 (:func:`elastica_magnetic_rl.sweep.training.train_case`), refine the best in the accurate physics
-(:func:`elastica_magnetic_rl.sweep.training.refine`), then generate its waveform, ship it into
+(:func:`elastica_magnetic_rl.sweep.refine.refine`), then generate its waveform, ship it into
 ``rl/policies/<name>/`` and export it to run without this package.
 """

@@ -46,7 +46,7 @@ def export_policy(policy: str | Path, out: str | Path = "out/export",
     """
     import torch
 
-    from ..td3.algorithm import ScaledPolicy
+    from ..td3.networks import ScaledPolicy
 
     loaded = resolve_policy(policy)
     with result_folder(out, kind="export", subject=f"case {loaded.case.name}", force=force,

@@ -86,7 +86,7 @@ def build_networks(obs_dim: int, act_dim: int, hidden: tuple[int, ...], actor_st
     """The actor (and the twin critic when ``critic_state`` is given) of a checkpoint or policy
     file (:func:`~elastica_magnetic_rl.td3.algorithm.networks_from_state`). Weights that do not fit
     the declared architecture raise a :class:`PolicyFileError` naming ``source``."""
-    from ..td3.algorithm import networks_from_state
+    from ..td3.networks import networks_from_state
 
     try:
         return networks_from_state(obs_dim, act_dim, hidden, actor_state, critic_state, source,

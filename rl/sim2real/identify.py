@@ -274,24 +274,12 @@ def identify(
     check_against_robot(measured, length, fields.shape[0] * ACTION_PERIOD)
     fields = np.asarray(fields, dtype=np.float64)
     start = time.perf_counter()
-    low, high = np.log(FIT_BOUNDS[0]), np.log(FIT_BOUNDS[1])
-    x = np.zeros(len(fits))
-    used = 0
-    stages = []
-    for horizon in fit_horizons(measured, stages_count):
-        model = FitModel(spec, list(fits), fields, measured.until(horizon), physics)
-        if horizon == measured.duration:
-            nominal = model.residuals(np.ones(len(fits)))
-        result = _least_squares(model, x, (low, high), diff_step, max_evaluations - used, progress,
-                                used)
-        used += model.evaluations
-        x = result.x
-        stages.append({"horizon_s": horizon, "factors": np.exp(x).tolist(),
-                       "rms_m": _rms(result.fun), "simulations": model.evaluations,
-                       "diverged": model.diverged})
+    bounds = (np.log(FIT_BOUNDS[0]), np.log(FIT_BOUNDS[1]))
+    model, x, result, stages, nominal, used = _fit_in_stages(
+        spec, fits, fields, measured, physics, bounds, diff_step, max_evaluations, stages_count,
+        progress)
     status, message = int(result.status), str(result.message)
-    x, polish = _polish(model, x, (low, high), max_evaluations - used, progress, used)
-    used += polish["simulations"]
+    x, polish = _polish(model, x, bounds, max_evaluations - used, progress, used)
     residual = model.residuals(np.exp(x))  # cached
     jac = _jacobian(model, x, residual, diff_step)
     fit_wall = time.perf_counter() - start
@@ -299,10 +287,9 @@ def identify(
     diverged = model.diverged + sum(stage["diverged"] for stage in stages[:-1])
     sigma, corr = _uncertainty(residual, jac)
     factors = np.exp(x)
-    fitted = _fitted(spec, fits, x, sigma, (low, high))
     report: dict[str, Any] = {
         "physics": physics,
-        "fitted": fitted,
+        "fitted": _fitted(spec, fits, x, sigma, bounds),
         "correlation": corr.round(6).tolist(),
         "residual_m": {"rms": _rms(residual), "max_abs": float(np.abs(residual).max()),
                        "nominal_rms": _rms(nominal), "nominal_max_abs": float(np.abs(nominal).max()),
@@ -318,14 +305,44 @@ def identify(
     predicted = {"nominal": model.displacements(np.ones(len(fits))),
                  "fitted": model.displacements(factors)}
     if confirm:
-        other = "accurate" if physics == "training" else "training"
-        t0 = time.perf_counter()
-        confirmed = model.residuals(factors, other)
-        report["confirm"] = {"physics": other, "rms_m": _rms(confirmed),
-                             "max_abs_m": float(np.abs(confirmed).max()),
-                             "wall_s": time.perf_counter() - t0}
+        report["confirm"] = _confirmation(model, factors, physics)
     report["predicted"] = predicted
     return report
+
+
+def _fit_in_stages(spec: dict[str, Any], fits: Sequence[Variation], fields: NDArray[np.float64],
+                   measured: MeasuredTrajectory, physics: str, bounds: tuple[float, float],
+                   diff_step: float, max_evaluations: int, stages_count: int,
+                   progress: Callable[[int, float], None] | None) -> tuple[Any, ...]:
+    """The least-squares fit over growing horizons (:func:`fit_horizons`), each stage starting
+    from the last one's log-factors. Returns the last stage's model, the log-factors, the
+    optimizer's result, one record per stage, the nominal robot's residuals over the whole
+    measurement (m) and the simulations used."""
+    x = np.zeros(len(fits))
+    used = 0
+    stages = []
+    for horizon in fit_horizons(measured, stages_count):
+        model = FitModel(spec, list(fits), fields, measured.until(horizon), physics)
+        if horizon == measured.duration:
+            nominal = model.residuals(np.ones(len(fits)))
+        result = _least_squares(model, x, bounds, diff_step, max_evaluations - used, progress,
+                                used)
+        used += model.evaluations
+        x = result.x
+        stages.append({"horizon_s": horizon, "factors": np.exp(x).tolist(),
+                       "rms_m": _rms(result.fun), "simulations": model.evaluations,
+                       "diverged": model.diverged})
+    return model, x, result, stages, nominal, used
+
+
+def _confirmation(model: FitModel, factors: NDArray[np.float64], physics: str) -> dict[str, Any]:
+    """The fitted robot's residuals in the other physics (the accurate one after a fit in the
+    training physics): RMS and largest absolute residual (m), wall time (s)."""
+    other = "accurate" if physics == "training" else "training"
+    t0 = time.perf_counter()
+    confirmed = model.residuals(factors, other)
+    return {"physics": other, "rms_m": _rms(confirmed), "max_abs_m": float(np.abs(confirmed).max()),
+            "wall_s": time.perf_counter() - t0}
 
 
 def write_identified(report: dict[str, Any], spec: Mapping[str, Any], measured: MeasuredTrajectory,

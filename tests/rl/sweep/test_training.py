@@ -1,6 +1,6 @@
-"""``msr train`` and ``msr refine`` (rl/sweep/training.py): run folders and summaries, seeds sharing a
-simulator equal to separate runs, resume, recipes, interruptions (Ctrl-C, SIGINT, SIGKILL), a failing
-worker, refinement in the accurate physics."""
+"""``msr train`` (rl/sweep/training.py, summaries.py, run_records.py): run folders and summaries, seeds
+sharing a simulator equal to separate runs, resume, recipes, interruptions (Ctrl-C, SIGINT, SIGKILL), a
+failing worker. Refinement: test_refine.py."""
 
 from __future__ import annotations
 
@@ -139,22 +139,6 @@ def test_recipe_is_recorded_and_a_resume_keeps_the_runs_settings(tmp_path, capsy
     args[args.index("--episode-duration") + 1] = "0.1"
     assert msr([*args, "--steps", "30", "--resume", "--recipe", "pink"]) == 0
     assert load_checkpoint(run)["global_step"] == 30
-
-
-def test_refine_continues_agent_and_buffer_in_accurate_physics(trained, refined):
-    source = load_checkpoint(trained / "m1-4mT" / "seed0")
-    ckpt = load_checkpoint(refined)
-    assert ckpt["global_step"] == TRAIN_STEPS + 3
-    assert ckpt["buffer"]["size"] == TRAIN_STEPS + 3  # the training transitions are kept
-    assert torch.equal(ckpt["buffer"]["obs"][:TRAIN_STEPS], source["buffer"]["obs"])
-    # learning happened (past the warm-up): more critic updates, different weights
-    assert ckpt["agent"]["num_updates"] == source["agent"]["num_updates"] + 3
-    assert not torch.equal(ckpt["agent"]["critic"]["q1_net.0.weight"],
-                           source["agent"]["critic"]["q1_net.0.weight"])
-    meta = ckpt["metadata"]
-    assert meta["physics"] == "accurate" and meta["command"] == "refine"
-    assert meta["refine_steps"] == 3 and meta["training_steps"] == TRAIN_STEPS
-    assert json.loads((refined / "run.json").read_text())["physics"] == "accurate"
 
 
 def test_resume_from_a_corrupted_checkpoint_is_refused_and_keeps_the_results(tmp_path, capsys):

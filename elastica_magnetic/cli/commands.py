@@ -8,15 +8,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .cli import CommandError, duration_option, number, print_notes, print_result
-from .field_spec import load_field
-from .fields import RotatingField, TabulatedField
-from .openloop import run_open_loop, write_trajectory_csv
-from .presets import ROBOTS
-from .progress import progress_bar
-from .results import result_folder
-from .spatial_fields import FieldSum
-from .specfile import SpecError, field_limit_of, load_robot
+from ..field_spec import load_field
+from ..fields import RotatingField, TabulatedField
+from ..openloop import run_open_loop, write_trajectory_csv
+from ..presets import ROBOTS
+from ..progress import progress_bar
+from ..results import result_folder
+from ..spatial_fields import FieldSum
+from ..specfile import SpecError, field_limit_of, load_robot
+from .app import CommandError, duration_option, number, print_notes, print_result
 
 ROBOT_HELP = (f"a preset ({', '.join(ROBOTS)}) or a spec file (.toml, e.g. from "
               "`msr case show m1-4mT --toml`); default yao2023-m1")
@@ -143,7 +143,7 @@ def replay_command(args: argparse.Namespace) -> int:
         summary: dict[str, object] = {}
         if reference is not None:
             summary = compare_trajectories(result.trajectory, reference)
-        from .plotting import plot_open_loop
+        from ..plotting import plot_open_loop
 
         figure = plot_open_loop(
             result, out.path / "replay.png", reference=reference,
@@ -178,7 +178,7 @@ def simulate_command(args: argparse.Namespace) -> int:
             clamp=setup is not None and setup.clamp,
         )
         trajectory_csv = write_trajectory_csv(result.trajectory, out.path / "trajectory.csv")
-        from .plotting import plot_open_loop
+        from ..plotting import plot_open_loop
 
         figure = plot_open_loop(
             result, out.path / "shapes.png",
@@ -207,7 +207,7 @@ def _simulate_spatial(args: argparse.Namespace, setup) -> int:
             progress=_progress(int(round(args.duration * 100)), "simulate"), clamp=setup.clamp,
         )
         trajectory_csv = write_trajectory_csv(result.trajectory, out.path / "trajectory.csv")
-        from .plotting import plot_open_loop, plot_tip_path
+        from ..plotting import plot_open_loop, plot_tip_path
 
         kind = setup.table["kind"]
         title = f"{Path(args.robot).name} in a {kind} field ({args.physics} physics)"
@@ -238,7 +238,7 @@ def _summary(args, result, trajectory_csv: Path, figure: Path) -> dict[str, obje
 def _read_reference(path: Path, duration: float) -> pd.DataFrame:
     """The reference trajectory of ``msr replay --reference``, checked: the columns of
     ``trajectory.csv``, numbers only, and at least two frames within ``[0, duration]`` s."""
-    from .simulation import TRAJECTORY_COLUMNS
+    from ..simulation import TRAJECTORY_COLUMNS
 
     if not path.is_file():
         raise CommandError(f"--reference {path}: no such reference trajectory")

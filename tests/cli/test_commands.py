@@ -8,7 +8,7 @@ from pathlib import Path
 
 from elastica_magnetic.cli import main
 
-SPECS = Path(__file__).resolve().parents[1] / "rl" / "specs"
+SPECS = Path(__file__).resolve().parents[2] / "rl" / "specs"  # the repository root
 
 
 def test_msr_simulate_defaults_to_the_specs_field_limit(tmp_path, capsys):

@@ -3,10 +3,11 @@
 Each area of the project registers its own sub-commands through a ``register(subparsers)``
 function, so this file stays a thin dispatcher:
 
-- ``elastica_magnetic.commands``: ``replay``, ``simulate``
+- ``elastica_magnetic.cli.commands``: ``replay``, ``simulate``
 - ``elastica_magnetic_validation.cli``: ``validate``
-- ``elastica_magnetic_rl.cli.commands``: ``case``, ``train``, ``bench``, ``refine``, ``generate``,
-  ``baseline``, ``figures``, ``demo``
+- ``elastica_magnetic_rl.cli.commands``: ``case``, ``bench``, ``generate``, ``baseline``, ``figures``,
+  ``demo``
+- ``elastica_magnetic_rl.cli.train_commands``: ``train``, ``refine``
 - ``elastica_magnetic_rl.cli.policy_commands``: ``export-seeds``, ``seeds``, ``ship``, ``notes``, ``export``,
   ``diagnose``
 - ``elastica_magnetic.hardware.cli``: ``stream``, ``export-firmware``, ``calibrate``
@@ -24,9 +25,10 @@ from typing import Any
 
 # Modules that provide ``register(subparsers)``; missing optional areas are skipped.
 COMMAND_MODULES = (
-    "elastica_magnetic.commands",
+    "elastica_magnetic.cli.commands",
     "elastica_magnetic_validation.cli",
     "elastica_magnetic_rl.cli.commands",
+    "elastica_magnetic_rl.cli.train_commands",
     "elastica_magnetic_rl.cli.policy_commands",
     "elastica_magnetic.hardware.cli",
     "elastica_magnetic_rl.sim2real.cli",
@@ -81,8 +83,8 @@ def number(
 
 def duration_option() -> Callable[[str], float]:
     """The argparse ``type`` of ``--duration`` (s) of the commands that simulate."""
-    from .openloop import MAX_DURATION_S
-    from .presets import ACTION_PERIOD
+    from ..openloop import MAX_DURATION_S
+    from ..robot_spec import ACTION_PERIOD
 
     return number("s", ACTION_PERIOD, MAX_DURATION_S)
 
@@ -115,8 +117,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from .results import aborted_results
-    from .simulation import SimulationDiverged
+    from ..results import aborted_results
+    from ..simulation import SimulationDiverged
 
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -147,11 +149,3 @@ def print_notes(notes: Sequence[str]) -> None:
     """Print recoveries done before a command's work (a stale lock, a killed run's leftovers)."""
     for note in notes:
         print(f"note: {note}", file=sys.stderr)
-
-
-if __name__ == "__main__":  # pragma: no cover
-    # Under ``python -m`` this file runs as ``__main__``, whose CommandError is not the class the
-    # sub-commands import and raise: run the package module's main so their errors are caught.
-    from elastica_magnetic.cli import main as package_main
-
-    sys.exit(package_main())

@@ -7,7 +7,7 @@ import os
 
 import pytest
 
-import elastica_magnetic.commands as commands
+import elastica_magnetic.cli.commands as commands
 from elastica_magnetic.cli import main
 
 

@@ -1,5 +1,7 @@
-"""The numba kernels of :mod:`elastica_magnetic.batch`: the forcing of every robot of a PyElastica
-memory block in one call, and the health check of the block.
+"""The numba kernels of :mod:`elastica_magnetic.batch` (private: its
+:class:`~elastica_magnetic.batch.BatchedRobots` is the public entry, and
+:meth:`~elastica_magnetic.batch.BatchedRobots.apply_forcing` runs the block kernel once): the forcing
+of every robot of a PyElastica memory block in one call, and the health check of the block.
 
 They repeat, element by element, the floating-point operations of the per-rod forcing classes and
 of PyElastica's array code, in the same order, so a batched robot's trajectory is bit-identical to
@@ -8,6 +10,10 @@ kernels read are laid out by the constants below; :class:`~elastica_magnetic.bat
 fills them.
 
 Units: those of the spec (SI for the presets): m, kg, s, N, T.
+
+:func:`block_forcing` and :func:`ground_contact` are longer than the project's ~80 lines, and this
+file longer than its ~600, on purpose: they mirror PyElastica's operations one for one (see their
+docstrings), the one allowed exception to those limits.
 """
 
 from __future__ import annotations
@@ -202,6 +208,12 @@ def block_forcing(
 ) -> None:
     """All forcing of all robots of a memory block, in the per-rod registration order.
 
+    Longer than the project's ~80 lines on purpose: it mirrors, operation for operation, the
+    per-rod forcing classes PyElastica would call one after the other (magnetic torques, damping,
+    gravity, the ground), so that the batched trajectory is bit-identical to the per-rod one;
+    split into functions, the order of the floating-point operations would be harder to check
+    against them.
+
     Shapes: ``fields (N, 3)`` T; ``moments (3, n_elems)`` A m^2 (material frame); index arrays
     ``(N,)`` (start inclusive, end exclusive, block indices, ghosts excluded); block arrays as in
     :class:`~elastica.memory_block.memory_block_rod.MemoryBlockCosseratRod` (``(n_nodes,)``,
@@ -305,6 +317,8 @@ def ground_contact(
 
     PyElastica's ``_calculate_contact_forces_rod_plane_with_anisotropic_friction`` restricted to
     nodes ``ns .. ns + n`` and elements ``es .. es + n - 1``; ``s`` is scratch ``(N_SCRATCH, >= n)``.
+    Longer than the project's ~80 lines on purpose: it mirrors that PyElastica function operation
+    for operation (bit-identical loads, ``tests/test_batch.py``), so it keeps its structure.
     Elements farther than the surface tolerance from the plane are skipped: PyElastica computes
     their response and friction and then sets all of them to zero, so skipping them gives the same
     loads (up to the sign of zero).

@@ -1,0 +1,177 @@
+"""The spec file format: TOML text read and written (units in comments), and one table of it read
+key by key (:class:`SpecTable`: typed getters with units and ranges, unknown keys refused), every
+problem a :class:`SpecError` naming the file, the table and the key. What the tables mean is
+:mod:`elastica_magnetic.specfile` (the robot and its physics) and the learning package (the rest).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["REQUIRED", "SpecError", "SpecTable", "loads", "read_spec", "toml_with_units"]
+
+#: The default of a key that must be given (its getter raises :class:`SpecError` when it is missing).
+REQUIRED = object()
+
+class SpecError(ValueError):
+    """A spec that does not describe a valid case; the message names the file, table and key."""
+
+
+class SpecTable:
+    """Checked, typed access to one table of a spec; :meth:`finish` rejects keys never read.
+
+    ``source`` names the file (or ``"<spec>"``), ``path`` the table (``"robot.ground"``; ``""`` for
+    the top level). Every getter records the key and returns a plain Python value.
+    """
+
+    def __init__(self, data: Any, source: str, path: str = "") -> None:
+        if not isinstance(data, Mapping):
+            raise SpecError(f"{source}: {self._name(path) or 'the spec'} must be a table, "
+                            f"got {type(data).__name__}")
+        self.data, self.source, self.path = data, source, path
+        self._read: set[str] = set()
+
+    @staticmethod
+    def _name(path: str) -> str:
+        return f"[{path}]" if path else ""
+
+    def where(self, key: str) -> str:
+        """``file: [table] key`` for error messages."""
+        table = self._name(self.path)
+        return f"{self.source}: {table + ' ' if table else ''}{key}"
+
+    def error(self, key: str, message: str) -> SpecError:
+        return SpecError(f"{self.where(key)}: {message}")
+
+    def has(self, key: str) -> bool:
+        return key in self.data
+
+    def _get(self, key: str, default: Any) -> Any:
+        self._read.add(key)
+        if key in self.data:
+            return self.data[key]
+        if default is REQUIRED:
+            raise self.error(key, "missing (required)")
+        return default
+
+    def number(self, key: str, unit: str, default: Any = REQUIRED, *, low: float | None = None,
+               low_open: bool = False, high: float | None = None, integer: bool = False) -> Any:
+        """A finite number in ``[low, high]`` (``(low, high]`` if ``low_open``), ``unit`` for the
+        message; ``integer``: a TOML integer. A missing optional key returns ``default`` as is."""
+        value = self._get(key, default)
+        if key not in self.data:
+            return value
+        kind = "an integer" if integer else "a number"
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or (
+                integer and not isinstance(value, int)):
+            raise self.error(key, f"expected {kind} ({unit}), got {value!r}")
+        if not math.isfinite(value):
+            raise self.error(key, f"expected a finite number ({unit}), got {value!r}")
+        if low is not None and (value <= low if low_open else value < low):
+            raise self.error(key, f"must be {'>' if low_open else '>='} {low:g} ({unit}), got {value!r}")
+        if high is not None and value > high:
+            raise self.error(key, f"must be <= {high:g} ({unit}), got {value!r}")
+        return int(value) if integer else float(value)
+
+    def string(self, key: str, default: Any = REQUIRED, choices: tuple[str, ...] | None = None) -> Any:
+        value = self._get(key, default)
+        if key not in self.data:
+            return value
+        if not isinstance(value, str):
+            raise self.error(key, f"expected a string, got {value!r}")
+        if choices is not None and value not in choices:
+            raise self.error(key, f"expected one of {', '.join(choices)}; got {value!r}")
+        return value
+
+    def boolean(self, key: str, default: Any = REQUIRED) -> Any:
+        value = self._get(key, default)
+        if key in self.data and not isinstance(value, bool):
+            raise self.error(key, f"expected true or false, got {value!r}")
+        return value
+
+    def vector(self, key: str, unit: str, size: int, default: Any = REQUIRED) -> Any:
+        """A list of ``size`` finite numbers."""
+        value = self._get(key, default)
+        if key not in self.data:
+            return value
+        if (not isinstance(value, list) or len(value) != size or any(
+                isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
+                for v in value)):
+            raise self.error(key, f"expected a list of {size} finite numbers ({unit}), got {value!r}")
+        return [float(v) for v in value]
+
+    def table(self, key: str, required: bool = True) -> SpecTable | None:
+        """A sub-table (``None`` if optional and absent)."""
+        value = self._get(key, REQUIRED if required else None)
+        path = f"{self.path}.{key}" if self.path else key
+        if value is None and key not in self.data:
+            return None
+        if not isinstance(value, Mapping):
+            raise SpecError(f"{self.source}: [{path}] must be a table, got {value!r}")
+        return SpecTable(value, self.source, path)
+
+    def raw(self, key: str, default: Any = REQUIRED) -> Any:
+        """The value as written (checked by the caller)."""
+        return self._get(key, default)
+
+    def finish(self) -> None:
+        """Raise on keys that were never read (typos, keys of another kind)."""
+        unknown = sorted(set(self.data) - self._read)
+        if unknown:
+            known = ", ".join(sorted(self._read)) or "none"
+            raise SpecError(f"{self.where(unknown[0])}: unknown key (this table takes: {known})")
+
+
+def read_spec(path: str | Path) -> dict[str, Any]:
+    """The TOML data of a spec file; a missing file or a syntax error is a :class:`SpecError`."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SpecError(f"{path}: no such spec file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SpecError(f"{path}: cannot be read as a spec file ({exc})") from None
+    return loads(text, str(path))
+
+
+def loads(text: str, source: str = "<spec>") -> dict[str, Any]:
+    """Parse spec text (TOML); syntax errors name ``source`` and the line."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError(f"{source}: not valid TOML: {exc}") from None
+
+
+def toml_with_units(data: Mapping[str, Any], units: Mapping[tuple[str, str], str]) -> str:
+    """TOML text of ``data`` (written with ``tomli_w``), with ``units[(table, key)]`` in a comment
+    after each value that has one."""
+    import tomli_w
+
+    lines, table = [], ""
+    for line in tomli_w.dumps(_plain(data), multiline_strings=False).splitlines():
+        stripped = line.strip()
+        if stripped.startswith("[") and not stripped.startswith("[["):
+            table = stripped.strip("[]")
+        elif " = " in line and not line.startswith(" "):
+            unit = units.get((table, line.split(" = ", 1)[0]))
+            if unit is not None and not line.rstrip().endswith("["):
+                line = f"{line}  # {unit}"
+        lines.append(line)
+    return "\n".join(lines) + "\n"
+
+
+def _plain(value: Any) -> Any:
+    """Numpy scalars/arrays and tuples as plain TOML-able Python values."""
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_plain(v) for v in (value.tolist() if isinstance(value, np.ndarray) else value)]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value

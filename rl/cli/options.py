@@ -1,0 +1,40 @@
+"""What the learning package's ``msr`` sub-commands share: the help of ``--case`` and of the checkpoint
+choice, ``--case`` parsed and checked at parse time, and a rollout's result printed."""
+
+from __future__ import annotations
+
+import argparse
+
+from elastica_magnetic.cli import print_result
+
+__all__ = ["CASE_HELP", "CHECKPOINT_HELP", "FORCE_HELP", "case_option", "print_rollout_result"]
+
+CHECKPOINT_HELP = ("which actor of a run: auto (default: the final actor and best.pt evaluated in "
+                   "the accurate physics from a zero field, the farther used), final, best, or a "
+                   "checkpoint file")
+
+CASE_HELP = "a shipped case (`msr case list`: m1-4mT, m2-4mT, m1-10mT, m2-10mT, ...) or a spec file (.toml)"
+
+FORCE_HELP = ("replace an earlier result of this command for the same case in --out (without it "
+              "an existing result is refused; another command's or case's result always is)")
+
+def case_option(value: str):
+    """``--case NAME_OR_PATH``: the case, loaded and checked at parse time (a bad spec file is an
+    argparse error naming the file and the key, before any work starts)."""
+    from elastica_magnetic.specfile import SpecError
+
+    from ..cases.case import load_case
+
+    try:
+        return load_case(value)
+    except SpecError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def print_rollout_result(result: dict, as_json: bool) -> None:
+    """A rollout's result; in text, the actor a run's choice used comes first, in one line."""
+    if as_json or "actor_choice" not in result:
+        print_result(result, as_json)
+        return
+    print(f"actor: {result['actor_choice']['summary']}")
+    print_result({k: v for k, v in result.items() if k != "actor_choice"}, False)

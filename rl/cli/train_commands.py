@@ -1,0 +1,265 @@
+"""``msr train`` and ``msr refine``: thin wrappers over
+:func:`elastica_magnetic_rl.sweep.training.train_cases` and :func:`elastica_magnetic_rl.sweep.refine.refine`
+(heavy imports happen inside the commands); their options checked at parse time, the TD3 overrides
+among them."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+from elastica_magnetic.cli import CommandError, print_result
+
+from ..cases.recipes import RECIPE_SUMMARIES, RECIPES
+from ..runfiles.rundir import CaseDir, RunDir
+from .options import CASE_HELP, case_option
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add this module's sub-commands to ``msr``."""
+    for add in (_add_train_command, _add_refine_command):
+        add(sub)
+
+
+def _add_train_command(sub: argparse._SubParsersAction) -> None:
+    """``msr train``."""
+    p = sub.add_parser(
+        "train",
+        help="train TD3 crawling policies for one or more cases, several seeds in parallel",
+        description="Train TD3 on one or more cases in the mass-scaled training physics (random "
+        "initial fields, 20 s truncated episodes by default: the case's). Each seed writes "
+        "OUT/<case>/seed<k>/ (episodes.csv, TensorBoard scalars, checkpoint.pt, run.json, which "
+        "store the complete case spec); OUT/<case>/summary.json collects the final mean episode "
+        "returns of every seed of the case.",
+    )
+    p.add_argument("--case", type=case_option, required=True, nargs="+", action="extend",
+                   help=CASE_HELP + "; several make one sweep (cases x seeds jobs)")
+    p.add_argument("--seeds", type=int, default=8, help="number of seeds (default 8)")
+    p.add_argument("--seed-offset", type=int, default=0, help="first seed (default 0)")
+    p.add_argument("--steps", type=int, default=None,
+                   help="environment steps per seed (default: the case's, 100000 for the paper's)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="groups of seeds trained at a time (processes, or Ray tasks in flight; "
+                        "default: the fastest layout for this machine, one per core); alone, a "
+                        "case's seeds are split among W workers (1: all side by side)")
+    p.add_argument("--out", type=Path, default=Path("runs"), help="output folder")
+    p.add_argument("--resume", action="store_true", help="continue runs from their checkpoints")
+    p.add_argument("--physics", choices=("training", "accurate"), default="training")
+    p.add_argument("--episode-duration", type=float, default=None,
+                   help="s (truncation; default: the case's, 20 s for the paper's)")
+    p.add_argument("--threads", type=int, default=None, help="torch threads per worker")
+    p.add_argument("--envs", type=int, default=1,
+                   help="crawlers per seed in one batched simulator (vector env; N transitions and "
+                        "N TD3 updates per vector step; default 1: the single environment)")
+    p.add_argument("--seeds-per-simulator", type=int, default=None, metavar="K",
+                   help="K seeds train side by side in one worker, their crawlers in one batched "
+                        "simulator and their networks updated as one computation; each seed's run "
+                        "is bit-identical to training it alone (default: the fastest layout, "
+                        "seeds / cores)")
+    p.add_argument("--backend", choices=("process", "ray"), default="process",
+                   help="where the seeds run: worker processes on this machine (default) or Ray tasks "
+                        "(a local Ray instance with --workers x --threads CPUs, or the cluster at "
+                        "--address); same run directories and summary.json")
+    p.add_argument("--address", default=None,
+                   help="Ray cluster address for --backend ray (auto, HOST:PORT, ray://HOST:10001); "
+                        "--out must then be on a filesystem all nodes see at the same path")
+    p.add_argument("--recipe", choices=tuple(RECIPES), default=None,
+                   help="training recipe (default: the case's, pink-ln for the paper's cases; "
+                        "--recipe paper: the authors'): "
+                        + "; ".join(f"{name}: {line}" for name, line in RECIPE_SUMMARIES.items())
+                        + " (docs/training.md)")
+    _add_stop_options(p)
+    g = p.add_argument_group("TD3 overrides (default: the paper's settings)")
+    g.add_argument("--learning-starts", type=int, default=None, help="warm-up steps (2500)")
+    g.add_argument("--batch-size", type=int, default=None, help="minibatch (256)")
+    g.add_argument("--hidden", type=str, default=None,
+                   help="hidden sizes of the critics, and of the actor unless --actor-hidden, e.g. 256,256")
+    g.add_argument("--actor-hidden", type=str, default=None,
+                   help="hidden sizes of the actor when they differ from the critics', e.g. 64,64")
+    g.add_argument("--updates-per-step", type=float, default=None,
+                   help="TD3 updates per environment transition after the warm-up (1; a fraction "
+                        "such as 0.5 makes one update every second transition)")
+    g.add_argument("--buffer-size", type=int, default=None, help="replay capacity (1e6)")
+    g.add_argument("--target-noise-clip", type=float, default=None, help="(0.8, the authors')")
+    g.add_argument("--checkpoint-every", type=int, default=None, help="steps (10000)")
+    g.add_argument("--precision", choices=("fp32", "bf16"), default=None,
+                   help="arithmetic of the networks' matrix products in the updates: fp32 (the "
+                        "paper's, default) or bf16 (bfloat16 products on float32 weights; falls "
+                        "back to fp32 on a CPU without bfloat16 units)")
+    g.add_argument("--device", choices=("cpu", "cuda"), default=None,
+                   help="where the networks train (default cpu)")
+    g.add_argument("--eval-every", type=int, default=None,
+                   help="steps between evaluations of the deterministic policy from a zero field, "
+                        "10 s, best actor kept in best.pt (5000; 0: none)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.set_defaults(func=train_command)
+
+
+def _add_stop_options(p: argparse.ArgumentParser) -> None:
+    """``msr train --stop-when`` and its settings (rl/sweep/stop_settings.py)."""
+    from ..sweep.stop_settings import STOP_CHOICES
+
+    g = p.add_argument_group("stopping seeds that have learned (default: off, or the recipe's)")
+    g.add_argument("--stop-when", choices=STOP_CHOICES, default=None,
+                   help="target: a seed stops once its evaluation return reached the case's yardstick "
+                        "(reward scale x [yardstick] distance_10s) in K consecutive evaluations; "
+                        "plateau: once its best evaluation has not improved by more than a tolerance "
+                        "for N evaluations; none: off (also for a recipe that has a rule). A stopped "
+                        "seed frees its share of the worker; recorded in the run, kept by --resume")
+    g.add_argument("--stop-consecutive", type=int, default=None, metavar="K",
+                   help="target: evaluations in a row at the threshold (default 2)")
+    g.add_argument("--stop-patience", type=int, default=None, metavar="N",
+                   help="plateau: evaluations without improvement (default 6)")
+    g.add_argument("--stop-tolerance", type=float, default=None, metavar="F",
+                   help="plateau: an improvement counts above F x |best| (default 0.02)")
+
+
+def _add_refine_command(sub: argparse._SubParsersAction) -> None:
+    """``msr refine``."""
+    p = sub.add_parser(
+        "refine",
+        help="continue training a run in the accurate physics (agent and replay buffer)",
+        description="Load a run's agent and replay buffer and continue training for --steps "
+        "environment steps in the accurate physics (true density, dt 8e-6 s: ~12.5x the cost of a "
+        "training step). Writes RUN/refined/ unless --out is given.",
+    )
+    p.add_argument("run", type=Path, help="run directory (or its checkpoint.pt)")
+    p.add_argument("--steps", type=int, default=1000)
+    p.add_argument("--out", type=Path, default=None, help="default: RUN/refined")
+    p.add_argument("--resume", action="store_true", help="continue an interrupted refinement")
+    p.add_argument("--episode-duration", type=float, default=20.0, help="s (truncation)")
+    p.add_argument("--device", choices=("cpu", "cuda"), default=None,
+                   help="where the networks train (default: the run's)")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=refine_command)
+
+
+def _overrides(args: argparse.Namespace) -> dict:
+    """TD3 settings given on the command line, checked before any work starts."""
+    out = {}
+    for name in ("learning_starts", "batch_size", "buffer_size", "target_noise_clip",
+                 "checkpoint_every", "eval_every", "precision", "device"):
+        value = getattr(args, name)
+        if value is not None:
+            out[name] = value
+    for name, least in (("learning_starts", 0), ("batch_size", 1), ("buffer_size", 1),
+                        ("checkpoint_every", 1), ("eval_every", 0)):
+        if out.get(name, least) < least:
+            raise CommandError(f"--{name.replace('_', '-')} must be >= {least}, got {out[name]}")
+    clip = out.get("target_noise_clip", 0.0)
+    if not (math.isfinite(clip) and clip >= 0):
+        raise CommandError(f"--target-noise-clip must be a finite number >= 0 (a fraction of the "
+                           f"action half-range), got {clip}")
+    for option, name in (("hidden", "hidden_sizes"), ("actor_hidden", "actor_hidden_sizes")):
+        if getattr(args, option, None):
+            out[name] = _widths(f"--{option.replace('_', '-')}", getattr(args, option))
+    ratio = getattr(args, "updates_per_step", None)
+    if ratio is not None:
+        if not (math.isfinite(ratio) and ratio > 0):
+            raise CommandError(f"--updates-per-step must be a finite number > 0 (updates per "
+                               f"transition), got {ratio}")
+        out["updates_per_step"] = ratio
+    if args.device == "cuda":
+        import torch
+
+        if not torch.cuda.is_available():
+            raise CommandError("--device cuda: no CUDA device is available to this torch build")
+    return out
+
+
+def _widths(option: str, text: str) -> tuple[int, ...]:
+    """Hidden layer widths from ``"256,256"``."""
+    try:
+        widths = tuple(int(h) for h in text.split(","))
+    except ValueError:
+        raise CommandError(f"{option} must be comma-separated integers, got {text!r}") from None
+    if not widths or min(widths) < 1:
+        raise CommandError(f"{option}: every layer needs at least 1 unit, got {text!r}")
+    return widths
+
+
+def _check_run_options(args: argparse.Namespace) -> None:
+    """Numeric options of train/refine, checked at parse time (finite, in range, with the unit)."""
+    duration = args.episode_duration
+    if duration is not None and not (math.isfinite(duration) and 0 < duration <= 3600):
+        raise CommandError(f"--episode-duration must be a finite duration in (0, 3600] s, got {duration}")
+    if args.steps is not None and args.steps < 1:
+        raise CommandError(f"--steps must be >= 1, got {args.steps}")
+    for name in ("seeds", "workers", "threads", "envs", "seeds_per_simulator"):
+        value = getattr(args, name, None)
+        if value is not None and value < 1:
+            raise CommandError(f"--{name.replace('_', '-')} must be >= 1, got {value}")
+    if getattr(args, "seed_offset", 0) < 0:
+        raise CommandError(f"--seed-offset must be >= 0, got {args.seed_offset}")
+
+
+def _interrupted(folders: str) -> int:
+    print(f"interrupted: training stopped. The last checkpoints are in {folders}; continue with "
+          "the same command and --resume", file=sys.stderr)
+    return 130
+
+
+def train_command(args: argparse.Namespace) -> int:
+    from ..sweep.training import train_cases
+
+    _check_run_options(args)
+    overrides = _overrides(args)
+    try:
+        summaries = train_cases(
+            args.case, seeds=args.seeds, steps=args.steps, workers=args.workers, out=args.out,
+            resume=args.resume, seed_offset=args.seed_offset, config_overrides=overrides,
+            physics=args.physics, episode_duration=args.episode_duration,
+            progress=not args.no_progress, threads=args.threads, envs=args.envs,
+            backend=args.backend, address=args.address,
+            seeds_per_simulator=args.seeds_per_simulator, recipe=args.recipe,
+            stop_when=args.stop_when, stop_options=_stop_options(args),
+        )
+    except (FileExistsError, FileNotFoundError, ValueError, ConnectionError) as exc:
+        raise CommandError(str(exc)) from None  # ConnectionError: --address
+    except KeyboardInterrupt:
+        return _interrupted(", ".join(str(args.out / case.name / f"{CaseDir.SEED_PREFIX}*")
+                                      for case in args.case))
+    failed = any(s["failed"] for s in summaries.values())
+    if not args.json:
+        summaries = {case: {k: v for k, v in summary.items() if k != "seeds"} | {
+            CaseDir.seed_name(r["seed"]): r.get("error") or _seed_line(r)
+            for r in summary["seeds"]} for case, summary in summaries.items()}
+    # one case: its summary, as before; several: the summaries by case
+    print_result(next(iter(summaries.values())) if len(summaries) == 1 else summaries, args.json)
+    return 1 if failed else 0
+
+
+def _stop_options(args: argparse.Namespace) -> dict:
+    """The stop rule's settings given (checked by the library, naming the option)."""
+    return {k: v for k, v in (("consecutive", args.stop_consecutive), ("patience", args.stop_patience),
+                              ("tolerance", args.stop_tolerance)) if v is not None}
+
+
+def _seed_line(r: dict) -> str:
+    """One seed of the final summary: its state (learned / stopped / still improving), return."""
+    state = r.get("state", "")
+    if r.get("stopped_early"):
+        state = f"stopped at step {r['stop_step']} ({r['stop_reason']})"
+    return (f"{state + ': ' if state else ''}final mean training return "
+            f"{r['final_mean_return']:.4g} ({r['episodes']} episodes from random initial fields; not "
+            "a distance: msr export-seeds measures each seed's)")
+
+
+def refine_command(args: argparse.Namespace) -> int:
+    from ..sweep.refine import refine
+
+    _check_run_options(args)
+    try:
+        result = refine(args.run, steps=args.steps, out=args.out, resume=args.resume,
+                        progress=not args.no_progress, episode_duration=args.episode_duration,
+                        device=args.device)
+    except (FileExistsError, FileNotFoundError, ValueError) as exc:
+        raise CommandError(str(exc)) from None
+    except KeyboardInterrupt:
+        return _interrupted(str(args.out or RunDir(args.run).refined.path))
+    print_result(result, args.json)
+    return 0

@@ -1,0 +1,433 @@
+"""One group of seeds in one training loop, in its named steps (:class:`GroupLoop`).
+
+:func:`~elastica_magnetic_rl.runner.loop.train_seeds` checks its arguments, opens each seed's
+:class:`~elastica_magnetic_rl.runner.seed_run.SeedRun` and builds the stacked learner; a
+:class:`GroupLoop` then runs the vector steps: act, step the environments, store, learn, log the
+ended episodes, evaluate, apply the stop rules, restart the ended episodes and write the checkpoints
+(between episodes, or inside them with the environments' state). The scheduling rules (which
+vector steps evaluate and checkpoint) are in :mod:`elastica_magnetic_rl.runner.loop`'s docstring.
+"""
+
+from __future__ import annotations
+
+import random
+import time
+from collections.abc import Callable
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch
+
+from ..runfiles.checkpoint import state_to_numpy, state_to_tensors
+from ..td3.algorithm import TD3, update_ratio
+from .evaluation import EVAL_SEED, ActorPolicy, evaluate_many, flat_observation
+from .progress import GroupProgress
+from .seed_run import SeedRun
+
+#: Where a group's training time goes (``timing`` in every checkpoint, s): choosing actions,
+#: stepping and resetting the environments, storing transitions, TD3 updates, episode logs,
+#: evaluations, checkpoints.
+TIMING_KEYS = ("act", "env", "store", "update", "log", "evaluation", "checkpoint")
+
+
+class GroupLoop:
+    """The training loop of one group of K seeds on one vector environment, in its named steps:
+    :meth:`act`, the environments' step, :meth:`store`, :meth:`learn`, :meth:`log_episode_ends`,
+    :meth:`evaluate`, :meth:`start_next_episodes` and the checkpoints (at episode boundaries, or
+    inside episodes with the environments' state). The order of these steps, and of the RNG draws
+    in them, is what makes a seed bit-identical alone and in a group, and after a resume."""
+
+    def __init__(self, env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int,
+                 log_fn: Callable[[dict[str, Any]], None] | None,
+                 eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None,
+                 vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None) -> None:
+        self.env, self.runs, self.learner, self.n = env, runs, learner, n
+        self.log_fn, self.eval_vec_env_fn, self.vec_env_fn = log_fn, eval_vec_env_fn, vec_env_fn
+        self.cfg, self.k_seeds = learner.config, len(runs)
+        self.obs_dim, self.act_dim = learner.obs_dim, learner.act_dim
+        # a Gymnasium vector environment that can save its state allows checkpoints inside episodes
+        self.can_save_env = hasattr(env, "get_state") and hasattr(env, "set_state")
+        self.actions = np.zeros((self.k_seeds, n, self.act_dim), dtype=np.float32)
+        self.timing = {key: 0.0 for key in TIMING_KEYS}
+        self.clock = time.perf_counter()
+        # the unspent fraction of an update of a fractional updates_per_step (the group's seeds
+        # are in lockstep: one value, kept in every seed's checkpoint)
+        self.update_credit = self.lead.update_credit
+
+    @property
+    def lead(self) -> SeedRun:
+        """The first seed still training (the group's step count; all such seeds are in
+        lockstep), else the first seed."""
+        return next((r for r in self.runs if not r.stopped), self.runs[0])
+
+    @property
+    def training(self) -> bool:
+        """Whether a seed of the group still trains towards its budget."""
+        return any(not r.stopped for r in self.runs) and not self.lead.done
+
+    def sub(self, k: int) -> slice:
+        """Seed ``k``'s sub-environments."""
+        return slice(k * self.n, (k + 1) * self.n)
+
+    # -- start -------------------------------------------------------------------------------
+    def restore_global_rngs(self) -> dict[str, Any] | None:
+        """Seed (or restore) the process's global RNGs, one per process, from the first seed;
+        returns the environments' saved state of a checkpoint written inside episodes (checked to
+        belong to this group), else ``None``."""
+        lead, cfg = self.lead, self.cfg
+        if lead.ckpt is not None:
+            random.setstate(lead.ckpt["python_rng"])
+            torch.set_rng_state(lead.ckpt["torch_cpu_rng"])
+        else:
+            random.seed(cfg.seed)
+            torch.manual_seed(cfg.seed)
+        vector_state = lead.ckpt.get("vector") if lead.resumed_here else None
+        if vector_state is not None and (int(vector_state["num_envs"]) != self.k_seeds * self.n
+                                         or list(vector_state["seeds"]) != [r.cfg.seed for r in self.runs]):
+            raise ValueError(f"{lead.ckpt_path} was written inside episodes by the group of seeds "
+                             f"{list(vector_state['seeds'])} with {int(vector_state['num_envs'])} "
+                             "environments: resume it in that same group")
+        return vector_state
+
+    def first_observations(self, vector_state: dict[str, Any] | None) -> np.ndarray:
+        """The environments restored from ``vector_state``, or reset with each seed's episode
+        seeds (and the first episodes' exploration noise drawn); their observations ``(K n,
+        obs_dim)``."""
+        runs, n, total = self.runs, self.n, self.k_seeds * self.n
+        if vector_state is not None:
+            self.env.reset(seed=[0] * total)  # builds the simulator; then overwritten
+            self.env.set_state(state_to_numpy(vector_state["env_state"]))
+            for k, run in enumerate(runs):
+                for key, field in (("ep_return", run.ep_return), ("ep_len", run.ep_len),
+                                   ("ep_id", run.ep_id), ("noise", run.noise),
+                                   ("noise_pos", run.noise_pos)):
+                    field[:] = state_to_numpy(vector_state[key])[self.sub(k)]
+            return state_to_numpy(vector_state["obs"]).reshape(total, self.obs_dim)
+        seeds = []
+        for run in runs:
+            run.ep_id[:] = np.arange(run.episode, run.episode + n)
+            seeds += run.next_episode_seeds(n)
+        obs, _ = self.env.reset(seed=seeds)
+        obs = np.asarray(obs, dtype=np.float32).reshape(total, self.obs_dim)
+        for k, run in enumerate(runs):
+            for j in range(n):
+                run.draw_noise(j, self.learner.rngs[k])
+        return obs
+
+    def lap(self, key: str) -> None:
+        """Add the time since the last lap to ``timing[key]``."""
+        now = time.perf_counter()
+        self.timing[key] += now - self.clock
+        self.clock = now
+
+    # -- one vector step -----------------------------------------------------------------------
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        """Actions ``(K n, act_dim)`` in [-1, 1]: transition ``global_step + i`` of a seed is
+        random during the warm-up, then ``mu + noise``."""
+        learner, cfg, n = self.learner, self.cfg, self.n
+        n_random = int(np.clip(cfg.learning_starts - self.lead.global_step, 0, n))
+        if n_random < n:
+            mu = learner.select_actions(obs.reshape(self.k_seeds, n, self.obs_dim)[:, n_random:],
+                                        explore=False).astype(np.float64)
+        for k, run in enumerate(self.runs):
+            if n_random:
+                self.actions[k, :n_random] = learner.random_actions(k, n_random)
+            if n_random < n:
+                noise = run.exploration(n_random, learner.rngs[k])
+                self.actions[k, n_random:] = np.clip(mu[k] + noise, -1.0, 1.0)
+            elif cfg.noise_color > 0:  # the sequences keep time during the warm-up too
+                run.exploration(n, learner.rngs[k])
+        return self.actions.reshape(self.k_seeds * n, self.act_dim)
+
+    def store(self, obs: np.ndarray, actions: np.ndarray, rewards: np.ndarray, next_obs: np.ndarray,
+              terminated: np.ndarray, ended: np.ndarray, infos: dict[str, Any]) -> None:
+        """Each seed's transitions into its buffer (the real s' of an ended episode is
+        ``infos["final_obs"][i]``: ``SAME_STEP`` autoreset), its episode sums and counters."""
+        real_next = next_obs.copy()
+        for i in np.flatnonzero(ended):
+            real_next[i] = flat_observation(infos["final_obs"][i])
+        n = self.n
+        for k, run in enumerate(self.runs):
+            if run.stopped:  # waiting to leave the group: nothing of it is recorded
+                continue
+            for j in range(n):
+                i = k * n + j
+                run.buffer.add(obs[i], actions[i], float(rewards[i]), real_next[i], bool(terminated[i]))
+            run.ep_return += rewards[self.sub(k)]
+            run.ep_len += 1
+            run.global_step += n
+            run.bar.update(n)
+
+    def learn(self, before: int) -> None:
+        """``updates_per_step`` updates per transition past the warm-up (``before``: the step
+        count before this vector step), all seeds at once; losses logged every ``log_every``. A
+        fractional ratio owes ``n x ratio`` updates after ``n`` such transitions: the whole ones
+        are made now, the rest (:attr:`update_credit`, exact) carried to the next steps."""
+        cfg, learner, runs = self.cfg, self.learner, self.runs
+        n_learn = max(0, self.lead.global_step - max(before, cfg.learning_starts))
+        if not n_learn or len(self.lead.buffer) < cfg.batch_size:
+            return
+        owed = self.update_credit + n_learn * update_ratio(cfg.updates_per_step)
+        n_updates = int(owed)  # floor: owed >= 0
+        self.update_credit = owed - n_updates
+        for run in self.runs:
+            run.update_credit = self.update_credit
+        for _ in range(n_updates):
+            info = learner.update([r.buffer.sample(cfg.batch_size, learner.rngs[k])
+                                   for k, r in enumerate(runs)])
+            if learner.num_updates % cfg.log_every == 0:
+                for name, values in info.items():
+                    for k, run in enumerate(runs):
+                        run.writer.add_scalar(f"losses/{name}", float(values[k]), run.global_step)
+
+    def log_episode_ends(self, ended: np.ndarray, terminated: np.ndarray,
+                         truncated: np.ndarray) -> None:
+        """The ended episodes into each seed's ``episodes.csv``, in sub-environment order."""
+        n = self.n
+        for k, run in enumerate(self.runs):
+            if run.stopped:
+                continue
+            for j in np.flatnonzero(ended[self.sub(k)]):
+                run.log_episode(j, bool(terminated[k * n + j]), bool(truncated[k * n + j]), self.log_fn)
+            if ended[self.sub(k)].any():
+                run.csv_file.flush()
+
+    def evaluate(self, due: list[int]) -> None:
+        """Evaluate the seeds ``due``: together in one vector environment when there is one (the
+        same returns as one by one), else one after the other."""
+        learner, runs = self.learner, self.runs
+        if len(due) > 1 and self.eval_vec_env_fn is not None:
+            results = evaluate_many([ActorPolicy.of_seed(learner, k) for k in due],
+                                    self.eval_vec_env_fn, self.cfg.eval_episodes, EVAL_SEED)
+            for k, result in zip(due, results, strict=True):
+                run = runs[k]
+                run.evaluation.record(result, learner, k, run.global_step, run.wall_time_s,
+                                      run.header(learner))
+        else:
+            for k in due:
+                run = runs[k]
+                run.evaluation.run(learner, k, run.global_step, run.wall_time_s, run.header(learner))
+
+    def next_episode_seeds(self, ended: np.ndarray) -> list[int | None]:
+        """The reset seeds of the ended sub-environments (``None`` for the others); their new
+        episodes are numbered now."""
+        reset_seeds: list[int | None] = [None] * (self.k_seeds * self.n)
+        for k, run in enumerate(self.runs):
+            for j in np.flatnonzero(ended[self.sub(k)]):
+                run.ep_id[j] = run.episode
+                reset_seeds[k * self.n + j] = run.next_episode_seeds(1)[0]
+        return reset_seeds
+
+    def start_next_episodes(self, ended: np.ndarray, reset_seeds: list[int | None],
+                            next_obs: np.ndarray) -> None:
+        """Reset the ended sub-environments (their first observations into ``next_obs``) and draw
+        their new episodes' exploration noise."""
+        if getattr(self, "fresh_env", False):  # a new environment's first reset: all of it
+            fresh, _ = self.env.reset(seed=reset_seeds)
+            self.fresh_env = False
+        else:
+            fresh, _ = self.env.reset(seed=reset_seeds, options={"reset_mask": ended})
+        fresh = np.asarray(fresh, dtype=np.float32).reshape(self.k_seeds * self.n, self.obs_dim)
+        next_obs[ended] = fresh[ended]
+        for k, run in enumerate(self.runs):
+            for j in np.flatnonzero(ended[self.sub(k)]):
+                run.draw_noise(int(j), self.learner.rngs[k])
+
+    # -- checkpoints ---------------------------------------------------------------------------
+    def vector_state(self, obs: np.ndarray) -> dict[str, Any] | None:
+        """The environments' state and each seed's episode state, for a checkpoint inside
+        episodes (``None`` when the environments cannot save theirs)."""
+        if not self.can_save_env:
+            return None
+        runs = self.runs
+        return {"num_envs": self.k_seeds * self.n, "seeds": [r.cfg.seed for r in runs],
+                "env_state": state_to_tensors(self.env.get_state()),
+                "obs": torch.from_numpy(obs.copy()),
+                **{key: torch.from_numpy(np.concatenate([getattr(r, key) for r in runs]))
+                   for key in ("ep_return", "ep_len", "ep_id", "noise", "noise_pos")}}
+
+    def checkpoint_between_episodes(self) -> None:
+        """Every seed's checkpoint at an episode boundary (before the new episodes are counted)."""
+        for run in self.runs:
+            if run.stopped:  # its final checkpoint is written
+                continue
+            run.episode -= self.n
+            run.checkpoint(self.learner, at_episode_boundary=True, vector=None)
+            run.episode += self.n
+
+    def checkpoint_inside_episodes(self, obs: np.ndarray) -> None:
+        """Every seed's checkpoint with the environments' state."""
+        state = self.vector_state(obs)
+        for run in self.runs:
+            if not run.stopped:
+                run.checkpoint(self.learner, at_episode_boundary=False, vector=state)
+
+    # -- the loop ------------------------------------------------------------------------------
+    def step(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+        """One vector step of every seed from ``obs``: act, step, store, learn, log. Returns the
+        next observations (before any reset), which sub-environments ended, and whether the
+        group's step budget is reached."""
+        flat_actions = self.act(obs)
+        self.lap("act")
+        next_obs, rewards, terminated, truncated, infos = self.env.step(
+            self.learner.scale_action(flat_actions))
+        self.lap("env")
+        next_obs = np.asarray(next_obs, dtype=np.float32).reshape(self.k_seeds * self.n, self.obs_dim)
+        terminated = np.asarray(terminated, dtype=bool)
+        truncated = np.asarray(truncated, dtype=bool)
+        rewards = np.asarray(rewards, dtype=np.float64)
+        ended = terminated | truncated
+        before = self.lead.global_step
+        self.store(obs, flat_actions, rewards, next_obs, terminated, ended, infos)
+        self.lap("store")
+        self.learn(before)
+        self.lap("update")
+        self.log_episode_ends(ended, terminated, truncated)
+        return next_obs, ended, self.lead.done
+
+    def between_steps(self, next_obs: np.ndarray, ended: np.ndarray) -> np.ndarray:
+        """After a vector step: evaluations when all of a seed's episodes have just ended (so
+        their timing does not depend on the layout), and the stop rules there; the ended episodes
+        restarted, and the checkpoints due at restorable points. Returns the observations the
+        next step starts from (``next_obs``, the new episodes' starts filled in; fewer rows once
+        stopped seeds have left the group)."""
+        all_ended = bool(ended.all())
+        restorable = all_ended or self.can_save_env
+        self.lap("log")
+        due = [k for k, run in enumerate(self.runs) if not run.stopped
+               and ended[self.sub(k)].all() and run.evaluation.due(run.global_step)]
+        self.evaluate(due)
+        self.lap("evaluation")
+        if due:
+            self.progress.evaluated()
+        if all_ended or due:
+            self.show_progress()
+        self.apply_stop_rules(due)
+        self.lap("checkpoint")
+        if not any(not r.stopped for r in self.runs):
+            return next_obs  # every seed has stopped: the loop ends
+        if all_ended and any(r.stopped for r in self.runs):
+            next_obs, ended = self.drop_stopped(), np.ones(self.k_seeds * self.n, dtype=bool)
+        lead = self.lead
+        checkpoint_due = restorable and lead.global_step >= lead.next_checkpoint
+        if ended.any():
+            reset_seeds = self.next_episode_seeds(ended)
+            if checkpoint_due and all_ended:  # before the new episodes: nothing of them to save
+                self.checkpoint_between_episodes()
+                checkpoint_due = False
+                self.lap("checkpoint")
+            self.start_next_episodes(ended, reset_seeds, next_obs)
+        self.lap("env")
+        if checkpoint_due:  # inside episodes: the environments' state goes along
+            self.checkpoint_inside_episodes(next_obs)
+            self.lap("checkpoint")
+        return next_obs
+
+    def show_progress(self) -> None:
+        """The group's rate and ETA (evaluations included) on its first seed's progress bar."""
+        lead = self.lead
+        estimate = self.progress.estimate(self.timing, lead.global_step, lead.steps,
+                                          sum(not r.stopped for r in self.runs), self.cfg.eval_every
+                                          if lead.evaluation.enabled else 0, lead.evaluation.last_step)
+        if lead.bar is not None and not getattr(lead.bar, "disable", True):
+            base = self.bar_desc.get(id(lead), "")
+            lead.bar.set_description_str(f"{base} | {GroupProgress.describe(estimate)}".lstrip(" |"),
+                                         refresh=False)
+
+    def apply_stop_rules(self, evaluated: list[int]) -> None:
+        """The seeds just evaluated whose stop rule fires write their final checkpoint and stop
+        (they leave the group at its next common episode boundary)."""
+        for k in evaluated:
+            run = self.runs[k]
+            reason = None if run.stop_rule is None else run.stop_rule.decide(run.evaluation_returns())
+            if reason is not None:
+                run.stop(self.learner, reason)
+
+    def drop_stopped(self) -> np.ndarray:
+        """At a step where every episode of the group has just ended: the stopped seeds leave.
+        The others' states go into a new learner of them alone and their sub-environments into a
+        new, smaller vector environment (as a resume in a smaller group would: at an episode
+        boundary the environments restart from episode seeds). Returns an observation array of
+        the new size (filled by the resets that follow)."""
+        if self.vec_env_fn is None:
+            raise RuntimeError("a group whose seeds stop needs its vector-environment factory")
+        keep = [r for r in self.runs if not r.stopped]
+        old = self.learner
+        learner = TD3(old.obs_dim, old.act_dim, old.action_low, old.action_high, [r.cfg for r in keep])
+        for i, run in enumerate(keep):
+            learner.load_seed_state(i, old.seed_state(run.k))
+            run.k = i
+        for run in self.runs:
+            if run.stopped:
+                run.close()
+                run.buffer = None  # its memory freed
+        self.env.close()
+        self.learner, self.runs, self.k_seeds = learner, keep, len(keep)
+        self.env = self.vec_env_fn(self.k_seeds * self.n)
+        self.fresh_env = True
+        self.actions = np.zeros((self.k_seeds, self.n, self.act_dim), dtype=np.float32)
+        return np.zeros((self.k_seeds * self.n, self.obs_dim), dtype=np.float32)
+
+    def finish(self, obs: np.ndarray, ended: np.ndarray | None, start_step: int) -> None:
+        """The last evaluation and the final checkpoint."""
+        self.lap("log")
+        self.evaluate([k for k, run in enumerate(self.runs) if not run.stopped
+                       and run.evaluation.enabled and run.evaluation.last_step != run.global_step])
+        self.lap("evaluation")
+        if not any(not r.stopped for r in self.runs):
+            return
+        all_ended = bool(ended.all()) if self.lead.global_step > start_step else True
+        state = None if all_ended else self.vector_state(obs)
+        for run in self.runs:
+            if run.stopped:
+                continue
+            run.checkpoint(self.learner, at_episode_boundary=all_ended, vector=state)
+
+    def train(self, progress: bool, eval_env_fn: Callable[[], gym.Env] | None,
+              position: int | None, desc: str | None) -> TD3:
+        """Train the group's seeds to their step budget: the global RNGs and the environments
+        restored or started, each seed's logs and progress bar opened, then :meth:`run`."""
+        runs, learner = self.runs, self.learner
+        vector_state = self.restore_global_rngs()
+        for k, run in enumerate(runs):
+            run.open(progress, None if position is None else position + k,
+                     f"{desc or 'seed'} {run.cfg.seed}" if len(runs) > 1 else desc, eval_env_fn)
+            if run.evaluation.restore_best:
+                run.evaluation.write_best(run.header(learner))
+        return self.run(self.first_observations(vector_state))
+
+    def run(self, obs: np.ndarray) -> TD3:
+        """Vector steps until the seeds' budget, then the final evaluation and checkpoint (unless
+        a resumed run took no step); returns the learner."""
+        lead = self.lead
+        every_run = list(self.runs)  # the group shrinks when seeds stop
+        prev_deterministic = torch.are_deterministic_algorithms_enabled()
+        if self.cfg.torch_deterministic:
+            torch.use_deterministic_algorithms(True)
+        start_step = lead.global_step
+        # where the group's wall time goes (s, cumulative over resumes): the profile of a run
+        if lead.resumed_here and lead.ckpt.get("timing"):
+            self.timing.update({k: float(v) for k, v in lead.ckpt["timing"].items() if k in self.timing})
+        self.clock = time.perf_counter()
+        self.progress = GroupProgress(self.timing, start_step)
+        self.bar_desc = {id(r): getattr(r.bar, "desc", "") or "" for r in self.runs}
+        for run in self.runs:
+            run.timing = self.timing
+        ended = None
+        try:
+            while self.training:
+                next_obs, ended, done = self.step(obs)
+                if done:  # ``obs`` stays this step's start: what the final checkpoint has held
+                    break
+                obs = self.between_steps(next_obs, ended)
+            if not (lead.resumed_here and lead.global_step == start_step):
+                self.finish(obs, ended, start_step)
+        finally:
+            for run in every_run:
+                run.close()
+            torch.use_deterministic_algorithms(prev_deterministic)
+        return self.learner
+
+
+__all__ = ["TIMING_KEYS", "GroupLoop"]

@@ -1,0 +1,89 @@
+"""A run's record, ``run.json``: its settings (the case by name and complete, physics, episode
+length, recipe, stop rule), the steps it has reached and how often it was resumed; and the check
+that a resumed run keeps those settings (:func:`check_resume_settings`).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from elastica_magnetic.io import atomic_write_json
+
+from ..cases.case import Case
+from ..runfiles.provenance import versions
+from ..runfiles.rundir import RunDir
+
+__all__ = ["check_resume_settings", "run_metadata", "write_run_json"]
+
+
+def run_metadata(case: Case, physics: str, duration: float, seed: int, **extra: Any) -> dict:
+    """A run's record: the case by name and complete (``case_spec``: what ``msr generate``,
+    ``refine``, ``ship`` and ``export`` rebuild it from, without the spec file), its settings."""
+    return {"case": case.name, "field_limit_T": case.field_limit, "task": case.task.kind,
+            "physics": physics, "episode_duration_s": duration, "seed": int(seed), **extra,
+            "case_spec": case.to_dict()}
+
+
+#: Settings of a run that a resume must not change (they are the run's, in ``run.json``).
+_RUN_SETTINGS = ("case", "case_spec", "physics", "episode_duration_s", "recipe", "stop_rule")
+
+
+def check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
+    """A resumed run keeps its case, physics and episode length: refuse other values, naming the
+    option and the run's value."""
+    run_json = RunDir(run_dir).run_json
+    if not run_json.is_file():
+        return
+    try:
+        record = json.loads(run_json.read_text())
+    except ValueError as err:
+        raise ValueError(f"{run_json}: not readable JSON ({err})") from None
+    options = {"case": "--case", "physics": "--physics", "episode_duration_s": "--episode-duration",
+               "recipe": "--recipe", "stop_rule": "--stop-when"}
+    for key in _RUN_SETTINGS:
+        if key == "case_spec" and key in record:
+            run_spec, spec = _without_default_recipe(record[key]), _without_default_recipe(metadata[key])
+            if run_spec != spec:
+                raise ValueError(f"the spec of case {metadata['case']!r} differs from the run's at "
+                                 f"{_first_difference(run_spec, spec)} ({run_json}): a resumed run "
+                                 "keeps its case")
+        elif key in record and key in metadata and record[key] != metadata[key]:
+            raise ValueError(f"{options[key]} {metadata[key]} differs from the run's {record[key]} "
+                             f"({run_json}): a resumed run keeps its settings")
+
+
+def _without_default_recipe(spec: Any) -> Any:
+    """A case spec without its ``[training] recipe``: the recipe a run really used is its own
+    setting (``recipe``, compared on its own), so a spec whose default recipe changed since the
+    run started still resumes it."""
+    if not isinstance(spec, dict) or not isinstance(spec.get("training"), dict):
+        return spec
+    return {**spec, "training": {k: v for k, v in spec["training"].items() if k != "recipe"}}
+
+
+def _first_difference(a: Any, b: Any, path: str = "") -> str:
+    """The first key (``[table] key``) where two spec dicts differ."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        for key in sorted(set(a) | set(b)):
+            if a.get(key) != b.get(key):
+                return _first_difference(a.get(key), b.get(key), f"{path}.{key}" if path else key)
+    if "." in path:
+        table, key = path.rsplit(".", 1)
+        return f"[{table}] {key}"
+    return path or "the top level"
+
+
+def write_run_json(run_dir: Path, config, metadata: dict[str, Any], steps: int, threads: int,
+                    resumed_now: bool) -> None:
+    """``run.json``: the run's settings, the steps it has reached and how often it was resumed
+    (written when a new run starts, with 0 steps, and when a training call has finished)."""
+    record = {}
+    run_json = RunDir(run_dir).run_json
+    if run_json.is_file():
+        record = json.loads(run_json.read_text())
+    atomic_write_json(run_json, {
+        **record, **metadata, "steps": int(steps), "config": config.to_dict(),
+        "torch_threads": int(threads), "versions": versions(),
+        "resumed": int(record.get("resumed", 0)) + int(resumed_now)})

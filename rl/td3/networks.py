@@ -1,0 +1,103 @@
+"""One seed's networks as plain PyTorch modules: the actor ``mu(s) = tanh(MLP(s))``, the twin critic,
+the actor scaled onto the environment's action box, and their loading from saved weights with a clear
+error. :class:`~elastica_magnetic_rl.td3.algorithm.TD3` trains them stacked
+(:class:`~elastica_magnetic_rl.td3.stacked.StackedMLP`); these are what acting, evaluation, diagnosis and
+export use.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+import torch.nn as nn
+
+__all__ = ["Actor", "ScaledPolicy", "TwinCritic", "mlp", "networks_from_state"]
+
+
+def mlp(in_dim: int, out_dim: int, hidden_sizes: tuple[int, ...],
+        layer_norm: bool = False) -> nn.Sequential:
+    """Linear-ReLU-...-Linear (Linear-LayerNorm-ReLU-... with ``layer_norm``) with PyTorch's
+    default initialisation (Kaiming-uniform linear layers, unit gain and zero bias of the norms)."""
+    layers: list[nn.Module] = []
+    d = in_dim
+    for h in hidden_sizes:
+        layers += [nn.Linear(d, h), nn.LayerNorm(h), nn.ReLU()] if layer_norm else \
+            [nn.Linear(d, h), nn.ReLU()]
+        d = h
+    layers.append(nn.Linear(d, out_dim))
+    return nn.Sequential(*layers)
+
+
+class Actor(nn.Module):
+    """Deterministic policy ``mu(s) = tanh(MLP(s))`` in normalised action units [-1, 1] (one
+    seed's actor as a plain module: for acting, evaluation and export)."""
+
+    def __init__(self, obs_dim: int, act_dim: int, hidden_sizes: tuple[int, ...]) -> None:
+        super().__init__()
+        self.net = mlp(obs_dim, act_dim, hidden_sizes)
+
+    def forward(self, obs: torch.Tensor) -> torch.Tensor:
+        return torch.tanh(self.net(obs))
+
+
+class TwinCritic(nn.Module):
+    """Two independent Q networks ``Q_i(s, a) = MLP_i([s, a])`` (one seed's, as plain modules;
+    ``layer_norm``: :attr:`~elastica_magnetic_rl.td3.algorithm.TD3Config.critic_layer_norm`)."""
+
+    def __init__(self, obs_dim: int, act_dim: int, hidden_sizes: tuple[int, ...],
+                 layer_norm: bool = False) -> None:
+        super().__init__()
+        self.q1_net = mlp(obs_dim + act_dim, 1, hidden_sizes, layer_norm)
+        self.q2_net = mlp(obs_dim + act_dim, 1, hidden_sizes, layer_norm)
+
+    def forward(self, obs: torch.Tensor, act: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        x = torch.cat([obs, act], dim=-1)
+        return self.q1_net(x), self.q2_net(x)
+
+    def q1(self, obs: torch.Tensor, act: torch.Tensor) -> torch.Tensor:
+        return self.q1_net(torch.cat([obs, act], dim=-1))
+
+
+def networks_from_state(obs_dim: int, act_dim: int, hidden: tuple[int, ...], actor_state: dict,
+                        critic_state: dict | None, source: Any = None,
+                        critic_layer_norm: bool = False,
+                        critic_hidden: tuple[int, ...] | None = None) -> tuple[Actor, TwinCritic | None]:
+    """The actor (hidden widths ``hidden``) and the twin critic when ``critic_state`` is given
+    (``critic_hidden``, default ``hidden``) loaded with ``actor_state``/``critic_state``, in eval
+    mode and without gradients. Weights that do not fit
+    the architecture (``obs_dim``, ``act_dim``, ``hidden``) raise a ``ValueError`` naming
+    ``source`` (the file they came from)."""
+
+    def load(network: nn.Module, state: dict, what: str) -> nn.Module:
+        try:
+            network.load_state_dict(state)
+        except (RuntimeError, KeyError, TypeError, AttributeError) as exc:
+            first = str(exc).strip().splitlines()
+            raise ValueError(
+                f"{source}: the {what} weights do not fit the architecture it declares "
+                f"(observations {obs_dim}, actions {act_dim}, hidden sizes {list(hidden)}): "
+                f"{' '.join(first[1:3] or first)[:300]}"
+            ) from None
+        return network.eval().requires_grad_(False)
+
+    actor = load(Actor(obs_dim, act_dim, hidden), actor_state, "actor")
+    critic = None
+    if critic_state is not None:
+        critic = load(TwinCritic(obs_dim, act_dim, critic_hidden or hidden, critic_layer_norm),
+                      critic_state, "critic")
+    return actor, critic
+
+
+class ScaledPolicy(nn.Module):
+    """Actor followed by the affine map onto the environment's action box (for export)."""
+
+    def __init__(self, actor: Actor, low: np.ndarray, high: np.ndarray) -> None:
+        super().__init__()
+        self.actor = actor
+        self.register_buffer("scale", torch.as_tensor((high - low) / 2.0, dtype=torch.float32))
+        self.register_buffer("center", torch.as_tensor((high + low) / 2.0, dtype=torch.float32))
+
+    def forward(self, obs: torch.Tensor) -> torch.Tensor:
+        return self.center + self.scale * self.actor(obs)
