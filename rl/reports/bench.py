@@ -22,6 +22,7 @@ import numpy as np
 from elastica_magnetic.bench import BATCH_SIZES, benchmark_step_cost, per_robot_step_cost
 
 from ..runfiles.rundir import CaseDir
+from ..runner.memory import process_tree_rss
 
 #: The recipe every TD3 and training measurement here uses: the paper's, with which the series of
 #: measurements began (docs/performance.md), whatever the cases' default recipe is now.
@@ -224,29 +225,6 @@ def td3_roofline(updates_per_s: float, repeats: int = 3, quick: bool = False) ->
 # --------------------------------------------------------------------------------------------------
 # Memory of a multi-seed training run
 # --------------------------------------------------------------------------------------------------
-def _process_tree_rss(root: int) -> int:
-    """Resident memory (bytes) of process ``root`` and all its descendants, from ``/proc`` (Linux)."""
-    children: dict[int, list[int]] = {}
-    rss: dict[int, int] = {}
-    for entry in os.listdir("/proc"):
-        if not entry.isdigit():
-            continue
-        try:
-            with open(f"/proc/{entry}/status") as f:
-                fields = dict(line.split(":", 1) for line in f if ":" in line)
-        except OSError:  # the process ended while we looked
-            continue
-        pid = int(entry)
-        children.setdefault(int(fields["PPid"]), []).append(pid)
-        rss[pid] = int(fields.get("VmRSS", "0 kB").split()[0]) * 1024
-    total, stack = 0, [root]
-    while stack:
-        pid = stack.pop()
-        total += rss.get(pid, 0)
-        stack.extend(children.get(pid, []))
-    return total
-
-
 def replay_buffer_bytes(capacity: int, obs_dim: int = 260, act_dim: int = 2) -> int:
     """Bytes of a full :class:`elastica_magnetic_rl.td3.replay_buffer.ReplayBuffer`: float32 obs,
     next obs, action, reward and terminated per transition."""
@@ -279,13 +257,13 @@ def training_peak_memory(
     if not os.path.isdir("/proc"):
         raise RuntimeError("training_peak_memory reads /proc: Linux only")
     root = os.getpid()
-    baseline = _process_tree_rss(root)
+    baseline = process_tree_rss(root)
     peak = [baseline]
     done = threading.Event()
 
     def sample() -> None:
         while not done.wait(interval):
-            peak[0] = max(peak[0], _process_tree_rss(root))
+            peak[0] = max(peak[0], process_tree_rss(root))
 
     start = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
