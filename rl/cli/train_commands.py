@@ -115,6 +115,10 @@ def _add_stop_options(p: argparse.ArgumentParser) -> None:
                    help="plateau: evaluations without improvement (default 6)")
     g.add_argument("--stop-tolerance", type=float, default=None, metavar="F",
                    help="plateau: an improvement counts above F x |best| (default 0.02)")
+    g.add_argument("--stop-confirm", choices=("accurate", "none"), default=None,
+                   help="target: when the rule fires, the seed's actor runs 10 s from a zero field "
+                        "in the accurate physics (about a minute) and the seed stops only if it "
+                        "reaches the yardstick there too (default accurate; none: no confirmation)")
 
 
 def _add_refine_command(sub: argparse._SubParsersAction) -> None:
@@ -236,7 +240,8 @@ def train_command(args: argparse.Namespace) -> int:
 def _stop_options(args: argparse.Namespace) -> dict:
     """The stop rule's settings given (checked by the library, naming the option)."""
     return {k: v for k, v in (("consecutive", args.stop_consecutive), ("patience", args.stop_patience),
-                              ("tolerance", args.stop_tolerance)) if v is not None}
+                              ("tolerance", args.stop_tolerance), ("confirm", args.stop_confirm))
+            if v is not None}
 
 
 def _seed_line(r: dict) -> str:

@@ -21,7 +21,7 @@ import torch
 
 from ..runfiles.checkpoint import state_to_numpy, state_to_tensors
 from ..td3.algorithm import TD3, update_ratio
-from .evaluation import EVAL_SEED, ActorPolicy, evaluate_many, flat_observation
+from .evaluation import EVAL_SEED, ActorPolicy, evaluate, evaluate_many, flat_observation
 from .progress import GroupProgress
 from .seed_run import SeedRun
 
@@ -41,9 +41,11 @@ class GroupLoop:
     def __init__(self, env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int,
                  log_fn: Callable[[dict[str, Any]], None] | None,
                  eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None,
-                 vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None) -> None:
+                 vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None,
+                 confirm_env_fn: Callable[[], gym.Env] | None = None) -> None:
         self.env, self.runs, self.learner, self.n = env, runs, learner, n
         self.log_fn, self.eval_vec_env_fn, self.vec_env_fn = log_fn, eval_vec_env_fn, vec_env_fn
+        self.confirm_env_fn = confirm_env_fn
         self.cfg, self.k_seeds = learner.config, len(runs)
         self.obs_dim, self.act_dim = learner.obs_dim, learner.act_dim
         # a Gymnasium vector environment that can save its state allows checkpoints inside episodes
@@ -336,13 +338,40 @@ class GroupLoop:
                                          refresh=False)
 
     def apply_stop_rules(self, evaluated: list[int]) -> None:
-        """The seeds just evaluated whose stop rule fires write their final checkpoint and stop
-        (they leave the group at its next common episode boundary)."""
+        """The seeds just evaluated whose stop rule fires (and, for a rule with a confirmation,
+        whose actor passes it) write their final checkpoint and stop (they leave the group at its
+        next common episode boundary)."""
         for k in evaluated:
             run = self.runs[k]
             reason = None if run.stop_rule is None else run.stop_rule.decide(run.evaluation_returns())
+            if reason is not None and run.stop_rule.confirm is not None:
+                self.lap("checkpoint")
+                reason = self.confirm_stop(k, reason)
+                self.lap("evaluation")
             if reason is not None:
                 run.stop(self.learner, reason)
+
+    def confirm_stop(self, k: int, reason: str) -> str | None:
+        """The fired rule of seed ``k`` confirmed: one episode of its deterministic actor in
+        ``confirm_env_fn`` (for the crawler: 10 s from a zero field in the accurate physics);
+        the reason with the confirmation if its return reaches the rule's threshold, else
+        ``None`` (the seed trains on). Either way the return is logged (TensorBoard
+        ``eval/confirmation_return``) and shown on the seed's progress output."""
+        run = self.runs[k]
+        rule = run.stop_rule
+        result = evaluate(ActorPolicy.of_seed(self.learner, k), self.confirm_env_fn, 1, EVAL_SEED)
+        confirmed = float(result.mean_return)
+        run.writer.add_scalar("eval/confirmation_return", confirmed, run.global_step)
+        passed = confirmed >= rule.threshold
+        message = (f"seed {run.cfg.seed} at step {run.global_step}: {reason}; "
+                   f"{'confirmed' if passed else 'NOT confirmed'} in the {rule.confirm} physics "
+                   f"(return {confirmed:.4g}, threshold {rule.threshold:.4g})"
+                   f"{'' if passed else ': training goes on'}")
+        if run.bar is not None and not getattr(run.bar, "disable", True):
+            run.bar.write(message)
+        if not passed:
+            return None
+        return f"{reason}; confirmed in the {rule.confirm} physics (return {confirmed:.4g})"
 
     def drop_stopped(self) -> np.ndarray:
         """At a step where every episode of the group has just ended: the stopped seeds leave.

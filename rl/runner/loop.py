@@ -79,6 +79,7 @@ def train_seeds(
     progress_desc: str | None = None,
     eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None,
     stop_rules: Sequence[StopRule | None] | None = None,
+    confirm_env_fn: Callable[[], gym.Env] | None = None,
 ) -> TD3:
     """Train ``K = len(configs)`` seeds for ``steps`` environment transitions each and return the
     :class:`~elastica_magnetic_rl.td3.algorithm.TD3` holding them.
@@ -117,12 +118,19 @@ def train_seeds(
             slot in the stacked update are gone, the others go on bit-identical to a run without
             it. Resuming keeps each run's rule (a different one is refused); not given: the
             checkpoints' (new runs: none). A stopped seed is never trained further.
+        confirm_env_fn: makes the environment in which a fired rule with a confirmation
+            (``StopRule.confirm``) is confirmed: one episode of the seed's deterministic actor
+            from :data:`~elastica_magnetic_rl.runner.evaluation.EVAL_SEED`, whose return must
+            reach the rule's threshold too (for the crawler: 10 s from a zero field in the
+            accurate physics). Needed when a rule asks for a confirmation.
 
     Returns the learner holding every seed in the order given, each at its end (a stopped seed
     at its stop; the update counter is then the last seed's).
     """
     k_seeds, n = len(configs), int(envs_per_seed)
     _check_group(run_dirs, k_seeds, n, stop_rules)
+    if confirm_env_fn is None and any(r is not None and r.confirm for r in stop_rules or ()):
+        raise ValueError("a stop rule with a confirmation (StopRule.confirm) needs confirm_env_fn")
     retain_freed_memory()  # the updates' temporaries reused, not page-faulted in (rl/runner/allocator.py)
     env = vec_env_fn(k_seeds * n)
     try:
@@ -132,9 +140,10 @@ def train_seeds(
         if any(r.stopped for r in runs):  # seeds stopped earlier are not trained further
             return _without_stopped(vec_env_fn, env, runs, configs, steps, run_dirs, n, resume,
                                     progress, log_fn, metadata, eval_env_fn, progress_position,
-                                    progress_desc, eval_vec_env_fn, obs_dim, act_dim, act_space)
+                                    progress_desc, eval_vec_env_fn, obs_dim, act_dim, act_space,
+                                    confirm_env_fn)
         learner = _group_learner(runs, obs_dim, act_dim, act_space)
-        loop = GroupLoop(env, runs, learner, n, log_fn, eval_vec_env_fn, vec_env_fn)
+        loop = GroupLoop(env, runs, learner, n, log_fn, eval_vec_env_fn, vec_env_fn, confirm_env_fn)
         learner = loop.train(progress, eval_env_fn, progress_position, progress_desc)
         env = loop.env  # a smaller one once seeds have stopped
         if any(r.final_state is not None for r in runs):
@@ -218,7 +227,7 @@ def _assemble(learner: TD3, runs: list[SeedRun], act_space: gym.spaces.Box,
 
 def _without_stopped(vec_env_fn, env, runs, configs, steps, run_dirs, n, resume, progress, log_fn,
                      metadata, eval_env_fn, progress_position, progress_desc, eval_vec_env_fn,
-                     obs_dim, act_dim, act_space) -> TD3:
+                     obs_dim, act_dim, act_space, confirm_env_fn=None) -> TD3:
     """``train_seeds`` of a group some of whose seeds stopped in an earlier call: those are left
     as they are, the others trained (resumed) on their own; the learner of them all."""
     env.close()
@@ -232,7 +241,8 @@ def _without_stopped(vec_env_fn, env, runs, configs, steps, run_dirs, n, resume,
                           metadata=None if metadata is None else [metadata[k] for k in active],
                           eval_env_fn=eval_env_fn, progress_position=progress_position,
                           progress_desc=progress_desc, eval_vec_env_fn=eval_vec_env_fn,
-                          stop_rules=[runs[k].stop_rule for k in active])
+                          stop_rules=[runs[k].stop_rule for k in active],
+                          confirm_env_fn=confirm_env_fn)
         states.update({k: sub.seed_state(i) for i, k in enumerate(active)})
     probe = TD3(obs_dim, act_dim, act_space.low.reshape(-1), act_space.high.reshape(-1),
                 [r.cfg for r in runs[:1]])

@@ -14,6 +14,14 @@ and decides as the uninterrupted one would. Two rules:
   best return's magnitude, at least ``abs_tolerance`` in return units) for ``patience``
   evaluations, counted once ``min_evaluations`` have been made.
 
+A ``target`` rule may ask for a **confirmation** (``confirm = "accurate"``): the evaluations
+run in the training physics, and an actor that reaches the yardstick there may not reach it in
+the accurate physics the yardstick was measured in. When such a rule fires, the training loop
+runs the seed's actor once more, 10 s from a zero field in the accurate physics, and the seed
+stops only if that return reaches ``threshold`` too; otherwise it trains on and the rule is asked
+again at its next evaluation. The confirmation depends only on the actor's weights, so a resumed
+seed confirms as the uninterrupted one.
+
 Stopping is off by default (the paper's numbers are for runs of the full step budget).
 """
 
@@ -26,6 +34,9 @@ from typing import Any
 
 #: The rules ``--stop-when`` accepts.
 STOP_KINDS = ("target", "plateau")
+
+#: Where a fired ``target`` rule may be confirmed before the seed stops (``--stop-confirm``).
+CONFIRM_PHYSICS = ("accurate",)
 
 
 @dataclass(frozen=True)
@@ -42,6 +53,8 @@ class StopRule:
             by more than ``tolerance`` x ``|best|`` (and more than ``abs_tolerance``).
         abs_tolerance: ``plateau``: the smallest improvement that counts, return units.
         min_evaluations: ``plateau``: evaluations made before the rule may stop a seed.
+        confirm: ``target``: the physics (``"accurate"``) in which a fired rule is confirmed by
+            one more evaluation of the actor before the seed stops; ``None``: no confirmation.
     """
 
     kind: str
@@ -51,6 +64,7 @@ class StopRule:
     tolerance: float = 0.02
     abs_tolerance: float = 1.0
     min_evaluations: int = 4
+    confirm: str | None = None
 
     def __post_init__(self) -> None:
         if self.kind not in STOP_KINDS:
@@ -69,6 +83,12 @@ class StopRule:
             raise ValueError(f"abs_tolerance must be >= 0, got {self.abs_tolerance}")
         if int(self.min_evaluations) < 1:
             raise ValueError(f"min_evaluations must be >= 1, got {self.min_evaluations}")
+        if self.confirm is not None:
+            if self.kind != "target":
+                raise ValueError("--stop-confirm is for --stop-when target")
+            if self.confirm not in CONFIRM_PHYSICS:
+                raise ValueError(f"--stop-confirm must be one of {', '.join(CONFIRM_PHYSICS)} or none, "
+                                 f"got {self.confirm!r}")
 
     def decide(self, returns: Sequence[float]) -> str | None:
         """Why the seed stops after the evaluations ``returns`` (in order), or None to go on."""
@@ -100,8 +120,12 @@ class StopRule:
         return None
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-able form (stored in the run's ``run.json`` and checkpoints)."""
-        return asdict(self)
+        """JSON-able form (stored in the run's ``run.json`` and checkpoints); ``confirm`` only
+        when set, so a rule without it reads as the rules stored before confirmations existed."""
+        data = asdict(self)
+        if data["confirm"] is None:
+            del data["confirm"]
+        return data
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> StopRule:
@@ -117,4 +141,4 @@ def stop_reason(rule: StopRule | None, returns: Sequence[float]) -> str | None:
     return None if rule is None else rule.decide(returns)
 
 
-__all__ = ["STOP_KINDS", "StopRule", "stop_reason"]
+__all__ = ["CONFIRM_PHYSICS", "STOP_KINDS", "StopRule", "stop_reason"]

@@ -88,6 +88,7 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
             run_dir.mkdir(parents=True, exist_ok=True)
             RunDir(run_dir).run_json.unlink(missing_ok=True)  # a stale record of a run without checkpoint
             write_run_json(run_dir, config, meta, 0, job.threads, resumed_now=False)
+    rule = None if job.stop_rule is None else StopRule.from_dict(job.stop_rule)
     start = time.perf_counter()
     train_seeds(functools.partial(make_vector_env, case, physics=job.physics,
                                   initial_field="random", duration=job.duration),
@@ -97,8 +98,9 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
                 eval_vec_env_fn=functools.partial(make_vector_env, case, physics=job.physics,
                                                   initial_field="zero", duration=EVAL_DURATION),
                 progress_position=job.position, progress_desc=job.case,
-                stop_rules=[None if job.stop_rule is None else StopRule.from_dict(job.stop_rule)]
-                * len(configs))
+                stop_rules=[rule] * len(configs),
+                confirm_env_fn=None if rule is None or rule.confirm is None else functools.partial(
+                    make_env, case, rule.confirm, "zero", EVAL_DURATION))
     wall, peak = time.perf_counter() - start, peak_rss_bytes()
     results = []
     for run_dir, meta in zip(run_dirs, metadata, strict=True):
@@ -193,7 +195,7 @@ def train_cases(
         stop_when: stop a seed that has learned (``"target"``, ``"plateau"``; ``"none"``: off; default:
             the recipe's run setting, else off): see :mod:`elastica_magnetic_rl.sweep.stop_settings`.
             Recorded in each run; a resume keeps it.
-        stop_options: ``consecutive``, ``patience``, ``tolerance`` of the rule.
+        stop_options: ``consecutive``, ``patience``, ``tolerance``, ``confirm`` of the rule.
     """
     loaded = _load_cases(cases)
     steps, episode_duration, recipe = _case_defaults(loaded, steps, episode_duration, recipe)

@@ -255,6 +255,48 @@ def test_a_stopped_seed_leaves_the_group_and_the_others_go_on_bit_identical(tmp_
         assert_state_equal(a["agent"], b["agent"], "agent")
 
 
+class _Offset(gym.Wrapper):
+    """The toy environment with every reward shifted (a confirmation environment that a rule's
+    threshold can pass or fail)."""
+
+    def __init__(self, env, offset):
+        super().__init__(env)
+        self.offset = offset
+
+    def step(self, action):
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        return obs, reward + self.offset, terminated, truncated, info
+
+
+def test_a_fired_rule_stops_the_seed_only_if_its_confirmation_passes(tmp_path):
+    from elastica_magnetic_rl.runner.loop import train_seeds
+    from elastica_magnetic_rl.runner.stopping import StopRule
+
+    # fires at every evaluation from the second on (step 80): the confirmation decides
+    rule = StopRule("target", threshold=-1e3, consecutive=2, confirm="accurate")
+
+    def group(name, offset, steps=200):
+        return train_seeds(lambda k: sync_vector_env(_fixed_episodes, k),
+                           [toy_config(seed=s, eval_every=40, checkpoint_every=1000) for s in (2, 5)],
+                           steps, [tmp_path / name / f"seed{s}" for s in (2, 5)], progress=False,
+                           eval_env_fn=_fixed_episodes, stop_rules=[None, rule],
+                           confirm_env_fn=lambda: _Offset(_fixed_episodes(), offset))
+
+    group("fails", -1e3)  # 20-step episodes: a return near -2e4, below the threshold
+    failed = load_checkpoint(tmp_path / "fails" / "seed5")
+    assert failed["stopped"] is None and failed["global_step"] == 200  # trained on to the end
+    group("passes", 0.0)
+    passed = load_checkpoint(tmp_path / "passes" / "seed5")
+    assert passed["global_step"] == 80 and passed["stopped"]["step"] == 80
+    assert "confirmed in the accurate physics (return " in passed["stopped"]["reason"]
+    # the seed beside it is untouched by either: bit-identical in both groups
+    assert_state_equal(load_checkpoint(tmp_path / "fails" / "seed2")["agent"],
+                       load_checkpoint(tmp_path / "passes" / "seed2")["agent"], "agent")
+    with pytest.raises(ValueError, match="needs confirm_env_fn"):
+        train_seeds(lambda k: sync_vector_env(_fixed_episodes, k), [toy_config(seed=1)], 10,
+                    [tmp_path / "none" / "seed1"], progress=False, stop_rules=[rule])
+
+
 def test_resume_refuses_another_stop_rule_naming_both(tmp_path):
     from elastica_magnetic_rl.runner.stopping import StopRule
 

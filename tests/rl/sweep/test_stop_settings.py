@@ -24,7 +24,14 @@ from elastica_magnetic.cli import main as msr
 
 def test_the_target_is_the_yardstick_as_an_evaluation_return():
     rule = case_stop_rule(load_case("m1-4mT"), "target", consecutive=3, eval_every=5000)
-    assert rule == StopRule("target", threshold=1e4 * 0.0205, consecutive=3)  # 1/m x m
+    # 1/m x m; confirmed in the accurate physics unless asked not to
+    assert rule == StopRule("target", threshold=1e4 * 0.0205, consecutive=3, confirm="accurate")
+    unconfirmed = case_stop_rule(load_case("m1-4mT"), "target", confirm="none", eval_every=5000)
+    assert unconfirmed == StopRule("target", threshold=1e4 * 0.0205) and "confirm" not in unconfirmed.to_dict()
+    with pytest.raises(ValueError, match="--stop-confirm is for --stop-when target"):
+        case_stop_rule(load_case("m1-4mT"), "plateau", confirm="accurate")
+    with pytest.raises(ValueError, match="--stop-confirm needs --stop-when"):
+        case_stop_rule(load_case("m1-4mT"), None, confirm="accurate")
     assert case_stop_rule(load_case("m1-4mT"), None) is None
     with pytest.raises(ValueError, match="'m1-4mT-reach' has no target return.*'reach'"):
         case_stop_rule(load_case("m1-4mT-reach"), "target")
@@ -56,7 +63,7 @@ def test_the_rule_is_recorded_and_a_resume_keeps_it(tmp_path, capsys):
             "10", "--no-progress"]
     summary = run_msr(capsys, *args, "--steps", "20", "--stop-when", "target")
     run = tmp_path / "m1-4mT" / "seed0"
-    rule = StopRule("target", threshold=205.0).to_dict()
+    rule = StopRule("target", threshold=205.0, confirm="accurate").to_dict()
     assert json.loads((run / "run.json").read_text())["stop_rule"] == rule
     assert load_checkpoint(run)["stop_rule"] == rule
     seed = summary["seeds"][0]  # an untrained crawler is nowhere near 20.5 mm: it runs on
