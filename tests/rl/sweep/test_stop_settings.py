@@ -27,7 +27,8 @@ def test_the_target_is_the_yardstick_as_an_evaluation_return():
     # 1/m x m; confirmed in the accurate physics unless asked not to
     assert rule == StopRule("target", threshold=1e4 * 0.0205, consecutive=3, confirm="accurate")
     unconfirmed = case_stop_rule(load_case("m1-4mT"), "target", confirm="none", eval_every=5000)
-    assert unconfirmed == StopRule("target", threshold=1e4 * 0.0205) and "confirm" not in unconfirmed.to_dict()
+    assert unconfirmed == StopRule("target", threshold=1e4 * 0.0205)
+    assert "confirm" not in unconfirmed.to_dict()
     with pytest.raises(ValueError, match="--stop-confirm is for --stop-when target"):
         case_stop_rule(load_case("m1-4mT"), "plateau", confirm="accurate")
     with pytest.raises(ValueError, match="--stop-confirm needs --stop-when"):
