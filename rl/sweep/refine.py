@@ -5,6 +5,7 @@ RNGs and counters continued for more steps in ``RUN/refined/``.
 from __future__ import annotations
 
 import functools
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -71,7 +72,9 @@ def refine(
     if out.checkpoint.exists() and not resume:
         raise FileExistsError(f"{out.path} already holds a refined checkpoint (use --resume or --out)")
     begin = time.perf_counter()
-    with held_run_folders([out.path]):
+    with held_run_folders([out.path]) as notes:
+        for note in notes:  # a stale lock of a killed refinement taken over, its leftovers removed
+            print(f"note: {note}", file=sys.stderr)
         mark_run_folder(out.path, "refine", case.name)
         atomic_write_json(out.run_json, {**metadata, "steps": total, "config": config.to_dict(),
                                          "versions": versions()})

@@ -24,3 +24,26 @@ def test_refine_continues_agent_and_buffer_in_accurate_physics(trained, refined)
     assert meta["physics"] == "accurate" and meta["command"] == "refine"
     assert meta["refine_steps"] == 3 and meta["training_steps"] == TRAIN_STEPS
     assert json.loads((refined / "run.json").read_text())["physics"] == "accurate"
+
+
+def test_refine_reports_a_stale_lock_it_takes_over(trained, tmp_path, capsys):
+    import json
+    import shutil
+    import subprocess
+    import sys
+
+    from elastica_magnetic.cli import main as msr
+    from elastica_magnetic.locks import host_name, lock_path
+
+    run = tmp_path / "seed0"
+    shutil.copytree(trained / "m1-4mT" / "seed0", run, ignore=shutil.ignore_patterns("refined", "*.msr-lock"))
+    (run / "refined").mkdir()
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    stale = {"pid": dead.pid, "host": host_name(), "command": "msr refine",
+             "started_utc": "2026-01-01T00:00:00Z"}
+    lock_path(run / "refined").write_text(json.dumps(stale))
+    assert msr(["refine", str(run), "--steps", "3", "--episode-duration", "0.02", "--no-progress"]) == 0
+    err = capsys.readouterr().err
+    assert f"took over the stale lock of pid {dead.pid} on {host_name()} (`msr refine`" in err
+    assert not lock_path(run / "refined").exists()
