@@ -39,3 +39,30 @@ def test_spatial_fields_page_code_runs():
     rod = namespace["rod"]
     assert np.all(np.isfinite(rod.position_collection))
     assert abs(rod.position_collection[1, -1]) > 0  # the magnet did something
+
+
+def test_the_own_robot_example_spec_is_the_pages_robot():
+    """docs/examples/band20.toml, the robot docs/own_robot.md was walked with, is the robot the
+    page describes: its magnetization table is the page's ``segments`` example, and it gives the
+    element ranges the page's ``msr case check`` output shows."""
+    import tomllib
+
+    from elastica_magnetic_rl.cases.case import load_case
+
+    from elastica_magnetic.specfile import magnetization_array
+
+    spec = TUTORIAL.parent / "examples" / "band20.toml"
+    page = (TUTORIAL.parent / "own_robot.md").read_text()
+    case = load_case(spec)
+    assert case.field_limit == 0.006 and case.yardstick.distance_10s == 0.0
+    table = case.robot.tables["robot"]["magnetization"]
+    (block,) = [b for b in re.findall(r"```toml\n(.*?)```", page, flags=re.S) if "segments" in b]
+    m = magnetization_array(table, case.robot.n_elements)
+    on_page = load_case({**case.to_dict(), "robot": {
+        **case.to_dict()["robot"], "magnetization": tomllib.loads(block)["robot"]["magnetization"]}})
+    assert np.array_equal(magnetization_array(on_page.robot.tables["robot"]["magnetization"], 32), m)
+    assert m.shape == (3, 32)
+    expected = [(0, 11, (0, 80e3, 0)), (11, 21, (80e3, 0, 0)), (21, 32, (0, -80e3, 0))]
+    for start, stop, value in expected:
+        assert np.array_equal(m[:, start:stop], np.tile(np.array(value)[:, None], stop - start))
+        assert f"elements {start}-{stop - 1}: ({value[0]:g}, {value[1]:g}, {value[2]:g}) A/m" in page

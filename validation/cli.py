@@ -103,7 +103,7 @@ def validate_command(args: argparse.Namespace) -> int:
             for r in shipped:
                 extra = (f", distance {r['mid_dx_m'] * 1e3:+.2f} mm (recorded "
                          f"{r['recorded_mid_dx_m'] * 1e3:+.2f}, relative difference "
-                         f"{r['relative_diff']:.1e}, authors {r['authors_mid_dx_m'] * 1e3:+.1f})"
+                         f"{r['relative_diff']:.1e}, target {r['target']})"
                          if "recorded_mid_dx_m" in r else "")
                 print(f"shipped {r['name']}: {'pass' if r['passed'] else 'FAIL'}: waveform within "
                       f"{r['max_field_diff_mT']:.1e} mT over {r['rows_compared']} rows "

@@ -14,7 +14,7 @@ from elastica_magnetic.cli import CommandError, print_result
 
 from ..cases.recipes import RECIPE_SUMMARIES, RECIPES
 from ..runfiles.rundir import CaseDir, RunDir
-from .options import CASE_HELP, case_option
+from .options import CASE_HELP, CHECKPOINT_HELP, case_option, print_rollout_result
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -131,6 +131,9 @@ def _add_refine_command(sub: argparse._SubParsersAction) -> None:
         "training step). Writes RUN/refined/ unless --out is given.",
     )
     p.add_argument("run", type=Path, help="run directory (or its checkpoint.pt)")
+    p.add_argument("--checkpoint", default="auto", metavar="auto|final|best|PATH",
+                   help=CHECKPOINT_HELP + " (evaluated for 10 s); best.pt's networks continue with "
+                   "the run's replay buffer and optimisers")
     p.add_argument("--steps", type=int, default=1000)
     p.add_argument("--out", type=Path, default=None, help="default: RUN/refined")
     p.add_argument("--resume", action="store_true", help="continue an interrupted refinement")
@@ -254,17 +257,28 @@ def _seed_line(r: dict) -> str:
             "a distance: msr export-seeds measures each seed's)")
 
 
+#: s of the accurate evaluations that choose the actor ``msr refine`` continues (the yardstick's).
+REFINE_CHOICE_DURATION = 10.0
+
+
 def refine_command(args: argparse.Namespace) -> int:
+    from ..shipping.policy_runs import CHECKPOINT_CHOICES, choose_actor
     from ..sweep.refine import refine
+    from ..sweep.refine_start import check_refine_output, default_refine_output
 
     _check_run_options(args)
-    try:
-        result = refine(args.run, steps=args.steps, out=args.out, resume=args.resume,
-                        progress=not args.no_progress, episode_duration=args.episode_duration,
-                        device=args.device)
+    try:  # the output is checked before the actors' 10 s evaluations
+        source = args.run if args.checkpoint in CHECKPOINT_CHOICES else Path(args.checkpoint)
+        check_refine_output(args.out or default_refine_output(source), args.resume)
+        choice = choose_actor(args.run, args.checkpoint, REFINE_CHOICE_DURATION, not args.no_progress)
+        result = refine(choice.path if choice else args.run, steps=args.steps, out=args.out,
+                        resume=args.resume, progress=not args.no_progress,
+                        episode_duration=args.episode_duration, device=args.device)
     except (FileExistsError, FileNotFoundError, ValueError) as exc:
         raise CommandError(str(exc)) from None
     except KeyboardInterrupt:
         return _interrupted(str(args.out or RunDir(args.run).refined.path))
-    print_result(result, args.json)
+    if choice is not None:
+        result = {**result, "actor_choice": {**choice.to_dict(), "summary": choice.describe()}}
+    print_rollout_result(result, args.json)
     return 0

@@ -24,7 +24,9 @@ __all__ = [
     "POLICY_JSON",
     "PolicyFileError",
     "PolicyNotFoundError",
+    "OLD_POLICY_KEYS",
     "finish_interrupted_ship",
+    "read_policy_json",
     "resolve_policy",
     "weights_sha256",
 ]
@@ -33,6 +35,9 @@ __all__ = [
 POLICIES_DIR = Path(__file__).resolve().parents[1] / "policies"
 POLICY_JSON = "policy.json"
 POLICY_FORMAT = "msr-policy-v1"
+#: ``policy.json`` keys older files used -> today's (:func:`read_policy_json` maps them):
+#: the yardstick was named for the paper's robot, whichever case it was.
+OLD_POLICY_KEYS = {"authors_mid_dx_10s_m": "yardstick_10s_m"}
 
 
 class PolicyNotFoundError(FileNotFoundError):
@@ -109,12 +114,20 @@ def _torch_load(path: Path) -> Any:
         ) from None
 
 
-def _policy_json(path: Path) -> dict[str, Any]:
-    """``policy.json`` of a shipped-format folder, with the keys loading needs checked."""
+def read_policy_json(path: str | Path) -> dict[str, Any]:
+    """``policy.json`` of a shipped-format folder, with the keys loading needs checked and older
+    files' key names mapped to today's (:data:`OLD_POLICY_KEYS`; an old yardstick of ``None``, a
+    case without one, is dropped)."""
+    path = Path(path)
     try:
         meta = json.loads(path.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise PolicyFileError(f"{path}: not valid JSON ({exc})") from None
+    if isinstance(meta, dict):
+        for old, new in OLD_POLICY_KEYS.items():
+            value = meta.pop(old, None)
+            if value is not None and new not in meta:
+                meta[new] = value
     arch = meta.get("architecture") if isinstance(meta, dict) else None
     if not isinstance(arch, dict) or not isinstance(meta.get("case"), str):
         raise PolicyFileError(f"{path}: lacks 'case' or 'architecture' (not a {POLICY_FORMAT} file)")
@@ -182,7 +195,7 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
         return LoadedPolicy(actor, critic, case, path, "checkpoint", meta,
                             ckpt["obs_dim"], ckpt["act_dim"], hidden)
     if path.is_dir() and (path / POLICY_JSON).is_file() and (path / "actor.pt").is_file():
-        meta = _policy_json(path / POLICY_JSON)
+        meta = read_policy_json(path / POLICY_JSON)
         case = _policy_case(meta, path / POLICY_JSON)
         _check_recorded_limits(case, meta, path / POLICY_JSON)
         arch = meta["architecture"]

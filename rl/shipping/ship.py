@@ -194,11 +194,21 @@ def _policy_info(policy: LoadedPolicy, name: str, summary: dict[str, Any] | None
                   else sum(seed_meets_target(e) for e in seed_evaluations)}
         if summary else None,
         "evaluation": measured,
-        "authors_mid_dx_10s_m": case.yardstick.distance_10s or None,
+        **_yardstick_info(case),
         "target": case.target_label,
         "notes": notes,
         "case_spec": case.to_dict(),
     }
+
+
+def _yardstick_info(case: Case) -> dict[str, Any]:
+    """``policy.json``'s yardstick: ``yardstick_10s_m`` (m in 10 s, accurate physics, field from
+    zero) and its ``yardstick_source`` (the authors' policy, a baseline sweep, ...); nothing for a
+    case without one (older files named it ``authors_mid_dx_10s_m`` whatever the case)."""
+    if case.yardstick.distance_10s <= 0.0:
+        return {}
+    return {"yardstick_10s_m": case.yardstick.distance_10s,
+            "yardstick_source": case.yardstick.source}
 
 
 def _ship_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case,

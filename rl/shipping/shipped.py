@@ -14,14 +14,13 @@ while the distance agrees to ~1e-4. There the waveform difference is reported, n
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..runfiles.provenance import machine_fingerprint
-from .policy_files import POLICIES_DIR, POLICY_JSON, resolve_policy
+from .policy_files import POLICIES_DIR, POLICY_JSON, read_policy_json, resolve_policy
 from .policy_runs import node_dx, run_policy
 
 #: A re-run must reproduce the recorded distance to this relative difference (the accurate
@@ -48,7 +47,7 @@ def verify_shipped(name: str, duration: float = 10.0, progress: bool = False,
 
     folder = Path(policies_dir) / name
     policy = resolve_policy(folder)  # first: it finishes a replacement a killed ship left
-    info = json.loads((folder / POLICY_JSON).read_text())
+    info = read_policy_json(folder / POLICY_JSON)
     rollout = run_policy(policy, duration, "accurate", "zero", progress)
     shipped = read_field_csv(folder / "fields.csv")
     rows = min(len(rollout.fields), len(shipped))
@@ -78,8 +77,8 @@ def verify_shipped(name: str, duration: float = 10.0, progress: bool = False,
                                           rollout.meta["diverged"])
         result.update(recorded_mid_dx_m=recorded, relative_diff=relative,
                       distance_rtol=DISTANCE_RTOL,
-                      authors_mid_dx_m=policy.case.yardstick.distance_10s or None,
-                      target=policy.case.target_label, meets_authors=bool(met))
-        passed = passed and relative <= DISTANCE_RTOL and result["meets_authors"]
+                      yardstick_10s_m=policy.case.yardstick.distance_10s or None,
+                      target=policy.case.target_label, meets_target=bool(met))
+        passed = passed and relative <= DISTANCE_RTOL and result["meets_target"]
     result["passed"] = bool(passed)
     return result

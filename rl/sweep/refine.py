@@ -14,9 +14,10 @@ from elastica_magnetic.io import atomic_write_json
 
 from ..cases.case import case_from_metadata
 from ..runfiles.checkpoint import checkpoint_metadata
-from ..runfiles.locking import check_not_owned, held_run_folders, mark_run_folder
+from ..runfiles.locking import held_run_folders, mark_run_folder
 from ..runfiles.provenance import versions
 from ..runfiles.rundir import CaseDir, RunDir
+from .refine_start import check_refine_output, default_refine_output, refine_source, starting_file
 from .run_records import run_metadata
 from .summaries import summarize_run
 
@@ -36,28 +37,30 @@ def refine(
     """Continue training a run for ``steps`` more environment steps in the accurate physics
     (on ``device``, default the run's).
 
-    The agent (networks, targets, optimisers), its replay buffer, RNG states and counters come from
-    the run's checkpoint (``init_from``), so learning continues at once (the counters are past the
-    warm-up) with the training-physics transitions still in the buffer, gradually displaced by
-    accurate ones. Episodes keep the training setting (random initial field, 20 s). The refined
-    run goes to ``out`` (default ``RUN/refined``) with its own ``episodes.csv``, TensorBoard scalars,
-    ``checkpoint.pt`` and ``run.json``; ``resume`` continues an interrupted refinement.
+    ``run``: a run folder or its ``checkpoint.pt``, whose final actor is refined, or its ``best.pt``
+    (:func:`~elastica_magnetic_rl.sweep.refine_start.refine_source`: best.pt's networks, the rest of
+    the run's training state; which actor to refine is the command line's choice, the rule of
+    ``msr generate``). The agent (networks, targets, optimisers), its replay buffer, RNG states and
+    counters come from the run's checkpoint (``init_from``), so learning continues at once (the
+    counters are past the warm-up) with the training-physics transitions still in the buffer,
+    gradually displaced by accurate ones. Episodes keep the training setting (random initial
+    field, 20 s). The refined run goes to ``out`` (default ``RUN/refined``) with its own
+    ``episodes.csv``, TensorBoard scalars, ``checkpoint.pt`` and ``run.json``; ``resume``
+    continues an interrupted refinement.
 
     Cost: one accurate step is 1250 substeps (~0.1 s here), 12.5x a training step.
     """
     from ..envs.vector_env import make_vector_env
-    from ..runfiles.checkpoint import load_checkpoint, refuse_networks_only
     from ..runner.loop import train_seeds
     from ..td3.algorithm import TD3Config
 
     if steps < 1:
         raise ValueError("steps must be >= 1")
     source = RunDir.checkpoint_of(run)
-    ckpt = load_checkpoint(source)
-    refuse_networks_only(ckpt, source)
-    meta = checkpoint_metadata(ckpt, source)
+    ckpt, start = refine_source(source)
+    meta = checkpoint_metadata(ckpt, start["state_from"])
     case = case_from_metadata(meta, str(source))
-    out = RunDir(out) if out is not None else RunDir.of_checkpoint(source).refined
+    out = RunDir(out if out is not None else default_refine_output(source))
     start_step = int(ckpt["global_step"])
     total = start_step + int(steps)
     config = TD3Config.from_dict(ckpt["config"])
@@ -66,11 +69,10 @@ def refine(
     metadata = run_metadata(
         case, physics, episode_duration, config.seed, command="refine",
         refined_from=str(source), refine_start_step=start_step, refine_steps=int(steps),
-        training_steps=int(meta.get("training_steps", start_step)),
+        training_steps=int(meta.get("training_steps", start_step)), refined_actor=start["actor"],
+        refined_actor_step=start["actor_step"],
     )
-    check_not_owned(out.path, "refine")  # never a training run's folder (its checkpoint, run.json)
-    if out.checkpoint.exists() and not resume:
-        raise FileExistsError(f"{out.path} already holds a refined checkpoint (use --resume or --out)")
+    check_refine_output(out.path, resume)
     begin = time.perf_counter()
     with held_run_folders([out.path]) as notes:
         for note in notes:  # a stale lock of a killed refinement taken over, its leftovers removed
@@ -78,14 +80,16 @@ def refine(
         mark_run_folder(out.path, "refine", case.name)
         atomic_write_json(out.run_json, {**metadata, "steps": total, "config": config.to_dict(),
                                          "versions": versions()})
-        train_seeds(functools.partial(make_vector_env, case, physics=physics,
-                                      initial_field="random", duration=episode_duration),
-                    [config], total, [out.path], resume=resume, progress=progress,
-                    init_from=[source], metadata=[metadata],
-                    progress_desc=f"refine {case.name} {CaseDir.seed_name(config.seed)}")
+        with starting_file(ckpt, start, out.path) as init_from:
+            train_seeds(functools.partial(make_vector_env, case, physics=physics,
+                                          initial_field="random", duration=episode_duration),
+                        [config], total, [out.path], resume=resume, progress=progress,
+                        init_from=[init_from], metadata=[metadata],
+                        progress_desc=f"refine {case.name} {CaseDir.seed_name(config.seed)}")
         mark_run_folder(out.path, "refine", case.name)
     summary = summarize_run(out.path, reward_scale=case.task.reward_scale)
     return {"case": case.name, "source": str(source), "run_dir": str(out.path),
             "checkpoint": str(out.checkpoint), "start_step": start_step, "steps": int(steps),
+            "actor": start["actor"], "actor_step": start["actor_step"],
             "physics": physics, **{k: summary[k] for k in ("episodes", "final_mean_return")},
             "wall_s": time.perf_counter() - begin}

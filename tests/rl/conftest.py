@@ -32,6 +32,6 @@ def trained(tmp_path_factory) -> Path:
 def refined(trained) -> Path:
     """``msr refine`` of ``trained``'s seed 0 (3 steps in the accurate physics)."""
     run = trained / "m1-4mT" / "seed0"
-    assert msr(["refine", str(run), "--steps", "3", "--episode-duration", "0.02",
-                "--no-progress"]) == 0
+    assert msr(["refine", str(run), "--checkpoint", "final", "--steps", "3",
+                "--episode-duration", "0.02", "--no-progress"]) == 0
     return run / "refined"

@@ -10,6 +10,7 @@ from elastica_magnetic_rl.shipping.policy_files import (
     POLICIES_DIR,
     PolicyFileError,
     PolicyNotFoundError,
+    read_policy_json,
     resolve_policy,
 )
 
@@ -89,3 +90,19 @@ def test_a_case_spec_that_contradicts_the_recorded_limits_is_refused(folder, cap
     assert main(["generate", str(folder), "--out", str(folder.parent / "gen"), "--no-progress"]) == 2
     assert "contradicts itself" in capsys.readouterr().err
     assert not (folder.parent / "gen").exists()
+
+
+@pytest.mark.parametrize("old", [0.0205, None])
+def test_older_policy_json_keys_are_read_by_todays_names(folder, old):
+    """Files shipped before the yardstick was named for what it is (``authors_mid_dx_10s_m``,
+    ``None`` for a case without one) load, their yardstick read as ``yardstick_10s_m``."""
+    path = folder / "policy.json"
+    info = json.loads(path.read_text())
+    info.pop("yardstick_10s_m", None)
+    info.pop("yardstick_source", None)
+    info["authors_mid_dx_10s_m"] = old
+    path.write_text(json.dumps(info))
+    read = read_policy_json(path)
+    assert "authors_mid_dx_10s_m" not in read
+    assert read.get("yardstick_10s_m") == old
+    assert resolve_policy(folder).case.name == "m1-4mT"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -107,3 +108,26 @@ def test_ship_and_export_take_the_checkpoint_option(best_is_farther, tmp_path, c
     exported = run_msr(capsys, "export", str(run), "--checkpoint", "final", "--out",
                        str(tmp_path / "exp"))
     assert exported["actor_choice"]["actor"] == "final"
+
+
+def test_refine_continues_the_farther_actor_and_says_so(best_is_farther, tmp_path, monkeypatch,
+                                                        capsys):
+    from elastica_magnetic_rl.cli import commands
+
+    run, near, far = best_is_farther
+    monkeypatch.setattr(commands, "REFINE_CHOICE_DURATION", DURATION)  # 10 s in use
+    args = ["--steps", "2", "--episode-duration", "0.02", "--no-progress"]
+    capsys.readouterr()
+    assert msr(["refine", str(run), "--out", str(tmp_path / "r1"), *args]) == 0
+    line = capsys.readouterr().out.splitlines()[0]
+    assert line.startswith("actor: best.pt") and "accurate physics" in line
+    assert f"{1e3 * far:+.3g} mm" in line and f"{1e3 * near:+.3g} mm" in line
+    meta = json.loads((tmp_path / "r1" / "run.json").read_text())
+    assert meta["refined_actor"] == "best" and meta["refined_from"] == str(RunDir(run).best)
+    assert not list((tmp_path / "r1").glob(".refine-start-*"))  # the temporary start is gone
+    result = run_msr(capsys, "refine", str(run), "--checkpoint", "final", "--out",
+                     str(tmp_path / "r2"), *args)
+    assert result["actor"] == "final" and result["actor_choice"]["rule"] == "asked"
+    # the output is refused before any evaluation
+    assert msr(["refine", str(run), "--out", str(tmp_path / "r2"), *args]) == 2
+    assert "already holds a refined checkpoint" in capsys.readouterr().err

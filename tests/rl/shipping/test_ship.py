@@ -102,6 +102,12 @@ def test_ship_then_generate_by_folder_and_name(refined, tmp_path, monkeypatch, c
     assert {"actor.pt", "critic.pt", "policy.json", "MODEL_CARD.md", "fields.csv"} <= set(info["files"])
     meta = json.loads((folder / "policy.json").read_text())
     assert meta["case"] == "m1-4mT" and meta["architecture"]["hidden_sizes"] == [32, 32]
+    # the yardstick is named for what it is, with its source; no label of the paper's robot
+    assert meta["yardstick_10s_m"] == 0.0205 and "authors" in meta["yardstick_source"]
+    assert "authors_mid_dx_10s_m" not in meta
+    ev = meta["evaluation"]
+    assert (ev["physics"], ev["initial_field"]) == ("accurate", "zero")
+    assert ev["duration_s"] == pytest.approx(0.05)
     actor_state = torch.load(folder / "actor.pt", weights_only=True)
     assert meta["actor_sha256"] == policy_files.weights_sha256(actor_state)
     assert meta["training"]["refine_steps"] == 3 and meta["seeds"]["total"] == 2
@@ -165,3 +171,13 @@ def test_notes_have_one_home_and_a_re_ship_keeps_the_seeds_table(refined, tmp_pa
     assert msr(["notes", str(folder), "--file", str(tmp_path / "missing.md")]) == 2
     assert "missing.md: no such file" in capsys.readouterr().err
     assert {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()} == before
+
+
+def test_a_case_without_a_yardstick_ships_none():
+    from elastica_magnetic_rl.cases.case import case_from_dict, load_case
+
+    spec = load_case("m1-4mT").to_dict()
+    spec["yardstick"] = {"distance_10s": 0.0, "source": ""}
+    mine = case_from_dict(spec, "mine.toml", default_name="mine")
+    assert ship._yardstick_info(mine) == {}
+    assert ship._yardstick_info(load_case("m1-4mT"))["yardstick_10s_m"] == 0.0205

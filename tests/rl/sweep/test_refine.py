@@ -43,7 +43,8 @@ def test_refine_reports_a_stale_lock_it_takes_over(trained, tmp_path, capsys):
     stale = {"pid": dead.pid, "host": host_name(), "command": "msr refine",
              "started_utc": "2026-01-01T00:00:00Z"}
     lock_path(run / "refined").write_text(json.dumps(stale))
-    assert msr(["refine", str(run), "--steps", "3", "--episode-duration", "0.02", "--no-progress"]) == 0
+    assert msr(["refine", str(run), "--checkpoint", "final", "--steps", "3", "--episode-duration", "0.02",
+                "--no-progress"]) == 0
     err = capsys.readouterr().err
     assert f"took over the stale lock of pid {dead.pid} on {host_name()} (`msr refine`" in err
     assert not lock_path(run / "refined").exists()

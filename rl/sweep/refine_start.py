@@ -1,0 +1,92 @@
+"""Where ``msr refine`` starts: a run's training state (``checkpoint.pt``: replay buffer, Adam
+moments, RNG states, counters) with the networks of the actor it refines, the final one's own or
+``best.pt``'s (which holds only networks: :mod:`~elastica_magnetic_rl.runfiles.checkpoint`)."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from ..runfiles.checkpoint import load_checkpoint, refuse_networks_only, save_checkpoint
+from ..runfiles.locking import check_not_owned
+from ..runfiles.rundir import RunDir
+
+__all__ = ["check_refine_output", "default_refine_output", "refine_source", "starting_file"]
+
+#: The networks ``best.pt`` holds, and the target networks that start equal to them.
+_NETWORKS = {"actor": "actor_target", "critic": "critic_target"}
+
+
+def default_refine_output(source: str | os.PathLike) -> Path:
+    """Where a refinement of ``source`` (a run folder or one of its checkpoint files) goes without
+    ``--out``: the run folder's ``refined/``."""
+    source = Path(source)
+    return (RunDir(source) if source.is_dir() else RunDir.of_checkpoint(source)).refined.path
+
+
+def check_refine_output(out: str | os.PathLike, resume: bool) -> None:
+    """Refuse ``out`` before anything runs: a folder of another command (a training run's) or, unless
+    ``resume``, one already holding a refined checkpoint. ``FileExistsError`` / ``ValueError``
+    naming it."""
+    check_not_owned(out, "refine")  # never a training run's folder (its checkpoint, run.json)
+    if RunDir(out).checkpoint.exists() and not resume:
+        raise FileExistsError(f"{out} already holds a refined checkpoint (use --resume or --out)")
+
+
+def refine_source(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The checkpoint a refinement of ``path`` starts from, and where it came from.
+
+    ``path``: a run's ``checkpoint.pt`` (returned as loaded) or a ``best.pt`` (its actor and critic,
+    also as the target networks, put into the training state of the ``checkpoint.pt`` beside it:
+    that run's replay buffer, Adam moments, RNG states and counters, so learning continues at
+    once). Returns ``(checkpoint, provenance)``; ``provenance``: ``actor`` (``"final"`` or
+    ``"best"``), ``actor_step`` (the global step the networks are from) and ``state_from`` (the file
+    the training state is from). Raises ``ValueError`` naming the file for a checkpoint that cannot
+    be continued (an older format, a ``best.pt`` of other networks than its run's) and
+    ``FileNotFoundError`` for a ``best.pt`` without its run's ``checkpoint.pt``."""
+    path = Path(path)
+    ckpt = load_checkpoint(path)
+    if ckpt.get("kind") != "best":
+        refuse_networks_only(ckpt, path)
+        return ckpt, {"actor": "final", "actor_step": int(ckpt["global_step"]),
+                      "state_from": str(path)}
+    state_path = RunDir.of_checkpoint(path).checkpoint
+    if not state_path.is_file():
+        raise FileNotFoundError(f"{path} holds only the networks of the best evaluation; refining "
+                                f"them needs the training state of its run's {RunDir.CHECKPOINT} "
+                                f"(replay buffer, optimisers), and {state_path} does not exist")
+    state = load_checkpoint(state_path)
+    refuse_networks_only(state, state_path)
+    for key in ("obs_dim", "act_dim"):
+        if ckpt.get(key) != state.get(key):
+            raise ValueError(f"{path}: its networks ({key} {ckpt.get(key)}) are not those of "
+                             f"{state_path} ({key} {state.get(key)})")
+    agent = dict(state["agent"])
+    for name, target in _NETWORKS.items():
+        shapes = {k: tuple(v.shape) for k, v in agent[name].items()}
+        if {k: tuple(v.shape) for k, v in ckpt["agent"][name].items()} != shapes:
+            raise ValueError(f"{path}: its {name} has other layers than {state_path}'s")
+        agent[name] = agent[target] = ckpt["agent"][name]
+    state["agent"] = agent
+    return state, {"actor": "best", "actor_step": int(ckpt["global_step"]),
+                   "state_from": str(state_path)}
+
+
+@contextlib.contextmanager
+def starting_file(ckpt: dict[str, Any], provenance: dict[str, Any],
+                  folder: str | os.PathLike) -> Iterator[Path]:
+    """A file holding ``ckpt`` (from :func:`refine_source`) to start training from: the run's
+    ``checkpoint.pt`` itself for its final actor, else a temporary file in ``folder`` (the replay
+    buffer inside it), removed on leaving."""
+    if provenance["actor"] == "final":
+        yield Path(provenance["state_from"])
+        return
+    with tempfile.TemporaryDirectory(prefix=".refine-start-", dir=folder) as tmp:
+        path = Path(tmp) / RunDir.CHECKPOINT
+        buffer = {k: v for k, v in ckpt["buffer"].items() if k not in ("file", "rows")}
+        save_checkpoint(path, {**ckpt, "buffer": buffer})
+        yield path
