@@ -112,10 +112,10 @@ def test_ship_and_export_take_the_checkpoint_option(best_is_farther, tmp_path, c
 
 def test_refine_continues_the_farther_actor_and_says_so(best_is_farther, tmp_path, monkeypatch,
                                                         capsys):
-    from elastica_magnetic_rl.cli import commands
+    from elastica_magnetic_rl.cli import train_commands
 
     run, near, far = best_is_farther
-    monkeypatch.setattr(commands, "REFINE_CHOICE_DURATION", DURATION)  # 10 s in use
+    monkeypatch.setattr(train_commands, "REFINE_CHOICE_DURATION", DURATION)  # 10 s in use
     args = ["--steps", "2", "--episode-duration", "0.02", "--no-progress"]
     capsys.readouterr()
     assert msr(["refine", str(run), "--out", str(tmp_path / "r1"), *args]) == 0
