@@ -118,19 +118,14 @@ def train_seeds(
             slot in the stacked update are gone, the others go on bit-identical to a run without
             it. Resuming keeps each run's rule (a different one is refused); not given: the
             checkpoints' (new runs: none). A stopped seed is never trained further.
-        confirm_env_fn: makes the environment in which a fired rule with a confirmation
-            (``StopRule.confirm``) is confirmed: one episode of the seed's deterministic actor
-            from :data:`~elastica_magnetic_rl.runner.evaluation.EVAL_SEED`, whose return must
-            reach the rule's threshold too (for the crawler: 10 s from a zero field in the
-            accurate physics). Needed when a rule asks for a confirmation.
+        confirm_env_fn: where a fired rule with ``confirm`` is confirmed (one deterministic
+            episode whose return must reach the threshold too; the crawler's: 10 s, accurate).
 
     Returns the learner holding every seed in the order given, each at its end (a stopped seed
     at its stop; the update counter is then the last seed's).
     """
     k_seeds, n = len(configs), int(envs_per_seed)
-    _check_group(run_dirs, k_seeds, n, stop_rules)
-    if confirm_env_fn is None and any(r is not None and r.confirm for r in stop_rules or ()):
-        raise ValueError("a stop rule with a confirmation (StopRule.confirm) needs confirm_env_fn")
+    _check_group(run_dirs, k_seeds, n, stop_rules, confirm_env_fn)
     retain_freed_memory()  # the updates' temporaries reused, not page-faulted in (rl/runner/allocator.py)
     env = vec_env_fn(k_seeds * n)
     try:
@@ -154,9 +149,11 @@ def train_seeds(
 
 
 def _check_group(run_dirs: Sequence[str | os.PathLike], k_seeds: int, n: int,
-                 stop_rules: Sequence[StopRule | None] | None) -> None:
+                 stop_rules: Sequence[StopRule | None] | None,
+                 confirm_env_fn: Callable[[], gym.Env] | None = None) -> None:
     """Refuse a group without seeds, or whose seeds share a run folder, or whose per-seed
-    arguments do not match its seeds, before any environment is built."""
+    arguments do not match its seeds, or a confirmed rule without its environment, before any
+    environment is built."""
     if k_seeds < 1 or len(run_dirs) != k_seeds:
         raise ValueError("train_seeds needs one run_dir per config, and at least one config")
     if len({Path(d).resolve() for d in run_dirs}) != k_seeds:
@@ -165,6 +162,8 @@ def _check_group(run_dirs: Sequence[str | os.PathLike], k_seeds: int, n: int,
         raise ValueError(f"envs_per_seed must be >= 1, got {n}")
     if stop_rules is not None and len(stop_rules) != k_seeds:
         raise ValueError("train_seeds needs one stop rule (or None) per config")
+    if confirm_env_fn is None and any(r is not None and r.confirm for r in stop_rules or ()):
+        raise ValueError("a stop rule with a confirmation (StopRule.confirm) needs confirm_env_fn")
 
 
 def _flat_spaces(env: gym.vector.VectorEnv, total: int) -> tuple[int, int, gym.spaces.Box]:
