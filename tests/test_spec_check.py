@@ -159,22 +159,15 @@ def test_the_estimate_is_below_the_measured_blow_up():
 
 
 def test_the_tutorials_check_output_is_the_real_one():
-    """docs/own_robot.md shows the check of a 30 x 6 x 1 mm three-segment band: the same text."""
+    """docs/own_robot.md shows ``msr case check my.toml`` of its example robot
+    (docs/examples/band20.toml copied to my.toml, so named ``my``): the same text."""
     import re
 
-    docs = (Path(__file__).resolve().parents[1] / "docs" / "own_robot.md").read_text()
-    (shown,) = [b for b in re.findall(r"```text\n(.*?)```", docs, flags=re.S) if b.startswith("band30")]
-    spec = _variant(
-        ('name = "yao2023-m1"', 'name = "band30"'), ("length = 0.02", "length = 0.03"),
-        ("n_elements = 64", "n_elements = 48"), ("width = 0.008", "width = 0.006"),
-        ("thickness = 0.0008", "thickness = 0.001"), ("density = 1860.0", "density = 2000.0"),
-        ("youngs_modulus = 84500.0", "youngs_modulus = 150000.0"),
-        ("shear_modulus = 57094.59459459459", "poisson_ratio = 0.45"),
-        ('kind = "yao2023-pattern1"\nmagnitude = 61300.0',
-         'kind = "segments"\nmagnitude = 80000.0\nsegments = ['
-         '{fraction = 0.3333333333333333, direction = [0.0, 1.0, 0.0]}, '
-         '{fraction = 0.3333333333333334, direction = [1.0, 0.0, 0.0]}, '
-         '{fraction = 0.3333333333333333, direction = [0.0, -1.0, 0.0]}]'),
-        ("static_mu = 0.8", "static_mu = 0.6"), ("kinetic_mu = 0.6", "kinetic_mu = 0.5"),
-        ("field_limit = 0.004", "field_limit = 0.006"), ("distance_10s = 0.0205", "distance_10s = 0.0"))
-    assert format_check(check_spec(spec, "my.toml")) == shown.rstrip("\n")
+    root = Path(__file__).resolve().parents[1]
+    docs = (root / "docs" / "own_robot.md").read_text()
+    (shown,) = [b for b in re.findall(r"```text\n(.*?)```", docs, flags=re.S)
+                if b.startswith("$ msr case check my.toml\n")]
+    example = (root / "docs" / "examples" / "band20.toml").read_text()
+    assert 'name = "band20"' in example
+    spec = loads(example.replace('name = "band20"', 'name = "my"'), "my.toml")
+    assert format_check(check_spec(spec, "my.toml")) == shown.split("\n", 1)[1].rstrip("\n")
