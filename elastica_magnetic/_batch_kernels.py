@@ -214,7 +214,9 @@ def block_forcing(
     split into functions, the order of the floating-point operations would be harder to check
     against them.
 
-    Shapes: ``fields (N, 3)`` T; ``moments (3, n_elems)`` A m^2 (material frame); index arrays
+    Shapes: ``fields (N, 3)`` T; ``moments (3, n_elems)`` A m^2 (material frame); ``params
+    (N, N_PARAMS)``, one row per robot (each robot may have its own damping, gravity, ground and
+    friction; ``options`` are shared); index arrays
     ``(N,)`` (start inclusive, end exclusive, block indices, ghosts excluded); block arrays as in
     :class:`~elastica.memory_block.memory_block_rod.MemoryBlockCosseratRod` (``(n_nodes,)``,
     ``(3, n_nodes)``, ``(n_elems,)``, ``(3, n_elems)``, ``(3, 3, n_elems)``); ``scratch
@@ -227,6 +229,7 @@ def block_forcing(
         ne = node_end[r]
         es = elem_start[r]
         ee = elem_end[r]
+        p = params[r]
         # Magnetic torques, m x (Q B) (MagneticTorques).
         bx = fields[r, 0]
         by = fields[r, 1]
@@ -246,7 +249,7 @@ def block_forcing(
             external_torques[2, e] += m0 * b1 - m1 * b0
         if options[O_DAMPING]:
             # RelativeVelocityDamping.
-            nu = params[P_RELATIVE_NU]
+            nu = p[P_RELATIVE_NU]
             for j in range(ne - ns - offset):
                 c = nu * lengths[es + j]
                 a = ns + j
@@ -255,7 +258,7 @@ def block_forcing(
                     external_forces[d, a] += f
                     external_forces[d, a + offset] -= f
             # LegacyInternalDamping: forces, then torques.
-            coefficient = params[P_LEGACY_FORCE]
+            coefficient = p[P_LEGACY_FORCE]
             for k in range(ee - es):
                 c = 0.25 * coefficient * lengths[es + k]
                 a = ns + k
@@ -263,14 +266,14 @@ def block_forcing(
                     f = c * (velocities[d, a] + velocities[d, a + 1])
                     external_forces[d, a] -= f
                     external_forces[d, a + 1] -= f
-            coefficient = params[P_LEGACY_TORQUE]
+            coefficient = p[P_LEGACY_TORQUE]
             for e in range(es, ee):
                 c = coefficient * lengths[e]
                 for d in range(3):
                     external_torques[d, e] -= c * omegas[d, e]
         if options[O_GRAVITY]:
             for d in range(3):
-                g = params[P_GRAVITY + d]
+                g = p[P_GRAVITY + d]
                 for a in range(ns, ne):
                     external_forces[d, a] += g * mass[a]
         if options[O_GROUND]:
@@ -278,7 +281,7 @@ def block_forcing(
                 ns,
                 es,
                 ee - es,
-                params,
+                p,
                 mass,
                 radius,
                 tangents,

@@ -109,7 +109,8 @@ class _BlockForcing(NoForces):
 
 
 class BatchedRobots:
-    """``n_robots`` copies of one robot in one simulator, each with its own uniform field.
+    """``n_robots`` copies of one robot in one simulator, each with its own uniform field (and,
+    after :meth:`set_robot`, its own material values, magnetization and friction).
 
     The robots are plain :class:`elastica.CosseratRod` objects in one PyElastica memory block,
     all starting in the spec's initial configuration (straight along +x from the origin, resting on
@@ -130,6 +131,9 @@ class BatchedRobots:
     Attributes
     ----------
     spec : RobotSpec
+        The batch's robot (the one every robot starts as).
+    specs : list of RobotSpec
+        ``specs[i]`` is robot ``i``'s (``spec`` until :meth:`set_robot` changes it).
     simulator : BatchedRobotSimulator
         Finalized; step it only through :meth:`step`.
     rods : list of elastica.CosseratRod
@@ -170,10 +174,14 @@ class BatchedRobots:
         self._fields = np.zeros((n_robots, 3), dtype=np.float64)
         if fields is not None:
             self.fields = fields  # type: ignore[assignment]
+        self.specs = [spec] * n_robots
         self.simulator, self.rods = self._build_simulator()
         self.block = self._locate_robots()
-        self._moments = self._magnetic_moments()
-        self._params, self._options = _kernel_parameters(spec)
+        self._moments = np.zeros((3, self.block.n_elems))
+        for i in range(n_robots):
+            self._moments[:, self._elem_start[i] : self._elem_end[i]] = self._robot_moments(i, spec)
+        params, self._options = _kernel_parameters(spec)
+        self._params = np.tile(params, (n_robots, 1))
         self._scratch = np.zeros((N_SCRATCH, spec.n_elements))
         block = self.block
         self._kernel_args = (
@@ -244,16 +252,14 @@ class BatchedRobots:
                 raise RuntimeError(f"robot {i} is not where the memory block index arrays say")
         return block
 
-    def _magnetic_moments(self) -> NDArray[np.float64]:
-        """Magnetic moments V M in the material frame, ``(3, n_block_elements)``, A m^2: the same
-        numpy expression as MagneticTorques with frame="lab" (the rods start at rest, so the
-        directors of the initial configuration are those MagneticTorques sees at its first call)."""
-        moments = np.zeros((3, self.block.n_elems))
-        magnetization = np.asarray(self.spec.magnetization, dtype=np.float64)
-        for i, rod in enumerate(self.rods):
-            moment = np.einsum("ijk,jk->ik", rod.director_collection, magnetization)
-            moments[:, self._elem_start[i] : self._elem_end[i]] = moment * rod.volume[None, :]
-        return moments
+    def _robot_moments(self, i: int, spec: RobotSpec) -> NDArray[np.float64]:
+        """Magnetic moments V M of robot ``i`` in the material frame, ``(3, n_elements)``, A m^2:
+        the same numpy expression as MagneticTorques with frame="lab" (called while the robot is
+        in its initial configuration, whose directors MagneticTorques sees at its first call)."""
+        rod = self.rods[i]
+        magnetization = np.asarray(spec.magnetization, dtype=np.float64)
+        moment = np.einsum("ijk,jk->ik", rod.director_collection, magnetization)
+        return moment * rod.volume[None, :]
 
     def apply_forcing(self) -> None:
         """One call of the block kernel: every robot's magnetic torque, damping, gravity and ground
@@ -352,6 +358,40 @@ class BatchedRobots:
             robot=robot,
         )
 
+    def set_robot(self, i: int, spec: RobotSpec) -> None:
+        """Make robot ``i`` the robot of ``spec`` (other material values, magnetization, friction,
+        damping or gravity; the same number of elements, time step and forcing), put it in its
+        initial state and keep that state for :meth:`reset_robot`; the others are untouched.
+
+        The robot then follows the same trajectory as a robot of ``spec`` built by
+        :func:`~elastica_magnetic.build_simulation` (every array of its rod is that rod's:
+        masses, stiffnesses, inertias, geometry, state). Raises ``ValueError`` naming what differs
+        when ``spec`` cannot share this block (elements, time step, which forcing it has).
+        """
+        if not 0 <= i < self.n_robots:
+            raise IndexError(f"robot index {i} out of range for {self.n_robots} robots")
+        nominal = self.spec
+        for name in ("n_elements", "dt"):
+            if getattr(spec, name) != getattr(nominal, name):
+                raise ValueError(f"robot {i}: {name} {getattr(spec, name)!r} differs from the "
+                                 f"batch's {getattr(nominal, name)!r} (robots of one batch share it)")
+        params, options = _kernel_parameters(spec)
+        if not np.array_equal(options, self._options):
+            raise ValueError(f"robot {i}: its forcing (damping, node offset, gravity, ground) differs "
+                             "from the batch's (robots of one batch share which forcing they have)")
+        fresh = robot_rod(spec)
+        state = {}
+        for name, value in self._initial_state[i].items():
+            new = getattr(fresh, name, None)
+            if not isinstance(new, np.ndarray) or new.shape != value.shape:
+                raise ValueError(f"robot {i}: the rod array {name!r} of the new spec does not fit")
+            state[name] = np.array(new, dtype=value.dtype)
+        self._initial_state[i] = state
+        self.specs[i] = spec
+        self.reset_robot(i)
+        self._moments[:, self._elem_start[i] : self._elem_end[i]] = self._robot_moments(i, spec)
+        self._params[i] = params
+
     def reset_robot(self, i: int) -> None:
         """Put robot ``i`` back in its initial state (the others are untouched).
 
@@ -368,7 +408,7 @@ class BatchedRobots:
 
 
 def _kernel_parameters(spec: RobotSpec) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    """The block kernel's parameter vector ``(N_PARAMS,)`` (damping, gravity in m/s^2, the ground
+    """One robot's row of the block kernel's parameters ``(N_PARAMS,)`` (damping, gravity in m/s^2, the ground
     plane, its stiffness, damping and friction) and option flags ``(4,)`` for ``spec``; refuses a
     damping ``node_offset`` beyond the rod's nodes."""
     params = np.zeros(N_PARAMS)

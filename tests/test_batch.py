@@ -194,3 +194,48 @@ def test_fields_are_written_in_place_and_checked():
     np.testing.assert_array_equal(view[:, 1], [3e-3, 3e-3])  # unchanged
     with pytest.raises(ValueError, match="n_robots must be a positive integer"):
         BatchedRobots(yao2023_robot(1, "training"), n_robots=0)
+
+
+def _varied(spec, factor):
+    """``spec`` with its material values, magnetization and friction scaled by ``factor``."""
+    ground = replace(spec.ground, static_mu=spec.ground.static_mu * factor,
+                     kinetic_mu=spec.ground.kinetic_mu * factor)
+    return replace(spec, density=spec.density * factor, youngs_modulus=spec.youngs_modulus * factor,
+                   shear_modulus=spec.shear_modulus * factor,
+                   magnetization=spec.magnetization * factor, ground=ground)
+
+
+def test_set_robot_gives_a_robot_its_own_spec_and_matches_its_per_rod_simulation():
+    spec = yao2023_robot(1, "training")
+    robots = BatchedRobots(spec, n_robots=3)
+    _drive(robots, [None] * 3, SOURCES, 0.0, 0.05)  # the robots have moved: set_robot restarts one
+    varied = [spec, _varied(spec, 0.85), _varied(spec, 1.2)]
+    for i in (1, 2):
+        robots.set_robot(i, varied[i])
+    robots.reset_robot(0)
+    assert robots.specs == varied
+    sims = [build_simulation(s, ControlledField(limit=1.0, max_increment=1.0)) for s in varied]
+    _drive(robots, sims, SOURCES[:1] * 3, 0.0, 0.2)
+    for i, sim in enumerate(sims):
+        _assert_same_state(robots.rod(i), sim.rod, f"robot {i}")
+    # the variants really move differently under the same field
+    xs = [robots.markers(i)["mid_x_m"] for i in range(3)]
+    assert len(set(xs)) == 3
+    # a reset keeps the robot's own spec: it reruns like its per-rod simulation
+    robots.reset_robot(2)
+    sims[2] = build_simulation(varied[2], ControlledField(limit=1.0, max_increment=1.0))
+    _drive(robots, [None, None, sims[2]], SOURCES[:1] * 3, 0.0, 0.1)
+    _assert_same_state(robots.rod(2), sims[2].rod, "robot 2 after its reset")
+
+
+def test_set_robot_refuses_a_spec_that_cannot_share_the_block():
+    spec = yao2023_robot(1, "training")
+    robots = BatchedRobots(spec, n_robots=2)
+    with pytest.raises(ValueError, match="n_elements"):
+        robots.set_robot(0, hu2018_robot(n_elements=32))
+    with pytest.raises(ValueError, match="dt"):
+        robots.set_robot(0, replace(spec, dt=spec.dt / 2))
+    with pytest.raises(ValueError, match="forcing"):
+        robots.set_robot(1, replace(spec, damping=None))
+    with pytest.raises(IndexError):
+        robots.set_robot(2, spec)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, duration_option, number
 
-from .variations import DEFAULT_RANGES, GROUPS, VariationError, parse_variation
+from ..cases.variations import DEFAULT_RANGES, GROUPS, VariationError, parse_variation
 
 _DEFAULT_SET = ", ".join(f"{name} ({'+'.join(GROUPS[name])}) x{low:g}:{high:g}"
                          for name, (low, high) in DEFAULT_RANGES.items())

@@ -28,8 +28,8 @@ from numpy.typing import NDArray
 from elastica_magnetic.presets import ACTION_PERIOD
 from elastica_magnetic.specfile import SpecError, describe_robot, read_spec
 
+from ..cases.variations import Variation, apply_values, get_value, parse_group, resolve_variations
 from .tracking import MIN_DURATION_S, MeasuredTrajectory, check_against_robot, points_at_rows
-from .variations import Variation, apply_values, get_value, parse_group, resolve_variations
 
 __all__ = ["DIFF_STEP", "FIT_BOUNDS", "FitBudgetExceeded", "FitModel", "fit_horizons", "identify",
            "load_spec", "parse_fit", "write_identified"]

@@ -32,9 +32,7 @@ from elastica_magnetic.openloop import check_duration
 from elastica_magnetic.presets import ACTION_PERIOD
 
 from ..cases.case import Case, case_from_dict, load_case
-from ..shipping.policy_files import LoadedPolicy, resolve_policy
-from .output import write_folder_whole
-from .variations import (
+from ..cases.variations import (
     Variant,
     Variation,
     apply_variant,
@@ -43,6 +41,8 @@ from .variations import (
     resolve_variations,
     variant_values,
 )
+from ..shipping.policy_files import LoadedPolicy, resolve_policy
+from .output import write_folder_whole
 
 __all__ = ["MODES", "REPORT_FORMAT", "RobustnessPlan", "plan_robustness", "run_robustness",
            "run_variant", "summarize", "write_robustness"]

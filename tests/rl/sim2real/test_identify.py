@@ -7,9 +7,9 @@ import time
 
 import numpy as np
 import pytest
+from elastica_magnetic_rl.cases.variations import apply_values
 from elastica_magnetic_rl.sim2real.identify import FitModel, identify, load_spec, parse_fit
 from elastica_magnetic_rl.sim2real.tracking import MeasuredTrajectory
-from elastica_magnetic_rl.sim2real.variations import apply_values
 
 from elastica_magnetic.cli import main
 from elastica_magnetic.field_csv import read_field_csv, write_field_csv

@@ -7,10 +7,10 @@ import shutil
 import numpy as np
 import pytest
 from elastica_magnetic_rl.cases.case import load_case
+from elastica_magnetic_rl.cases.variations import parse_variation
 from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR, resolve_policy
 from elastica_magnetic_rl.shipping.policy_runs import run_policy
 from elastica_magnetic_rl.sim2real.robustness import plan_robustness, run_robustness
-from elastica_magnetic_rl.sim2real.variations import parse_variation
 
 from elastica_magnetic.cli import main
 from elastica_magnetic.fields import TabulatedField

@@ -3,7 +3,7 @@ normal spec parser."""
 
 import pytest
 from elastica_magnetic_rl.cases.case import case_from_dict, load_case
-from elastica_magnetic_rl.sim2real.variations import (
+from elastica_magnetic_rl.cases.variations import (
     Variation,
     VariationError,
     apply_variant,

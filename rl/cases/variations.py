@@ -1,0 +1,337 @@
+"""Varied robots: spec values changed by dotted keys, ranges and the designs that sample them.
+
+A *variation* is a group of spec keys varied together over a range, written
+``KEY[+KEY...]=LOW:HIGH``:
+
+- keys are dotted paths into the spec, e.g. ``robot.magnetization.magnitude``,
+  ``robot.ground.kinetic_mu`` (only the real-valued keys of the ``[robot]`` tables: see
+  :func:`variable_keys`); keys joined by ``+`` are varied together, by the same factor;
+- ``LOW:HIGH`` is relative (factors of the spec's nominal value, both > 0), ``abs:LOW:HIGH`` is
+  absolute (in the key's SI unit; one key only);
+- a group name stands for its keys: ``magnetization``, ``modulus`` (Young's and shear modulus),
+  ``friction`` (static and kinetic friction), ``density``.
+
+The default set (:data:`DEFAULT_RANGES`, what a silicone-NdFeB robot on a lab surface varies by):
+magnetization magnitude +-15 %, Young's and shear modulus +-20 % together, static and kinetic
+friction +-25 % together, density +-10 %.
+
+A *variant* sets every variation to one value (a factor, or an absolute value); :func:`design`
+lists the nominal robot, the one-at-a-time variants (each variation at its low and high end, the
+others nominal), all corners (every combination of ends) and Latin-hypercube samples (seeded).
+:func:`apply_variant` writes a variant into a copy of a spec; the caller passes that copy through
+the normal spec parser, so an invalid variant gets the parser's named error.
+"""
+
+from __future__ import annotations
+
+import copy
+import difflib
+import itertools
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "DEFAULT_RANGES",
+    "GROUPS",
+    "Variant",
+    "Variation",
+    "VariationError",
+    "apply_variant",
+    "apply_values",
+    "default_variations",
+    "design",
+    "get_value",
+    "parse_group",
+    "parse_variation",
+    "resolve_variations",
+    "variable_keys",
+    "variant_values",
+]
+
+#: Named groups of keys varied together (a name may stand for its keys on the command line).
+GROUPS: dict[str, tuple[str, ...]] = {
+    "magnetization": ("robot.magnetization.magnitude",),
+    "modulus": ("robot.youngs_modulus", "robot.shear_modulus"),
+    "friction": ("robot.ground.static_mu", "robot.ground.kinetic_mu"),
+    "density": ("robot.density",),
+}
+#: The default variation set: group -> (low, high) factors of the nominal values.
+DEFAULT_RANGES: dict[str, tuple[float, float]] = {
+    "magnetization": (0.85, 1.15),
+    "modulus": (0.8, 1.2),
+    "friction": (0.75, 1.25),
+    "density": (0.9, 1.1),
+}
+#: Most variations whose corners are listed (2 ** 8 = 256 variants).
+MAX_CORNER_VARIATIONS = 8
+
+
+class VariationError(ValueError):
+    """A variation that cannot be applied: the message names the option text, the key and the
+    expected syntax or range."""
+
+
+@dataclass(frozen=True)
+class Variation:
+    """Keys varied together over ``[low, high]``: factors of the nominal values (relative) or
+    values in the keys' SI unit (``absolute``, one key). ``name``: a group name or the keys
+    joined by ``+``."""
+
+    name: str
+    keys: tuple[str, ...]
+    low: float
+    high: float
+    absolute: bool = False
+
+    @property
+    def nominal_setting(self) -> float | None:
+        """The setting of the nominal robot: factor 1 (relative); ``None`` (absolute: the spec's
+        value, see :meth:`nominal_value`)."""
+        return None if self.absolute else 1.0
+
+    def nominal_value(self, spec: Mapping[str, Any]) -> float:
+        """The nominal setting in ``spec``: 1 (relative) or the key's value (absolute)."""
+        return get_value(spec, self.keys[0]) if self.absolute else 1.0
+
+    def label(self, setting: float) -> str:
+        """``"magnetization x0.85"`` or ``"robot.ground.kinetic_mu = 0.4"``."""
+        return f"{self.name} = {setting:.6g}" if self.absolute else f"{self.name} x{setting:.6g}"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "keys": list(self.keys), "low": self.low, "high": self.high,
+                "absolute": self.absolute}
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One varied robot: ``settings`` maps each variation's name to its factor (relative) or value
+    (absolute); ``kind`` is ``"nominal"``, ``"one-at-a-time"``, ``"corner"`` or ``"sample"``."""
+
+    label: str
+    kind: str
+    settings: dict[str, float] = field(default_factory=dict)
+
+
+# -- keys of a spec -------------------------------------------------------------------------------
+
+
+def variable_keys(spec: Mapping[str, Any]) -> list[str]:
+    """The dotted keys that can be varied in ``spec`` (a complete spec, every default written out,
+    e.g. ``Case.to_dict()``): every real-valued (float) value under ``robot``, sorted."""
+    found: list[str] = []
+
+    def walk(table: Any, path: str) -> None:
+        if isinstance(table, Mapping):
+            for key, value in table.items():
+                walk(value, f"{path}.{key}")
+        elif isinstance(table, float):
+            found.append(path)
+
+    walk(spec.get("robot", {}), "robot")
+    return sorted(found)
+
+
+def get_value(spec: Mapping[str, Any], key: str) -> float:
+    """The value at a dotted key (KeyError if absent)."""
+    table: Any = spec
+    for part in key.split("."):
+        if not isinstance(table, Mapping) or part not in table:
+            raise KeyError(key)
+        table = table[part]
+    return table
+
+
+def apply_values(spec: Mapping[str, Any], values: Mapping[str, float]) -> dict[str, Any]:
+    """A deep copy of ``spec`` with ``values`` (dotted key -> value) written in; the keys must
+    exist (see :func:`variable_keys`). The copy is not checked: parse it (``case_from_dict``,
+    ``describe_robot``) to get the spec parser's errors."""
+    out = copy.deepcopy(dict(spec))
+    for key, value in values.items():
+        *tables, last = key.split(".")
+        table: Any = out
+        for part in tables:
+            table = table[part]
+        if last not in table:
+            raise KeyError(key)
+        table[last] = float(value)
+    return out
+
+
+def _unknown_key(key: str, valid: Sequence[str], where: str) -> VariationError:
+    close = difflib.get_close_matches(key, valid, n=2, cutoff=0.8)
+    hint = f"; did you mean {' or '.join(close)}?" if close else ""
+    groups = ", ".join(f"{name} = {'+'.join(keys)}" for name, keys in GROUPS.items())
+    return VariationError(
+        f"{where}: unknown key {key!r}{hint} (variable keys of this spec: {', '.join(valid)}; "
+        f"groups: {groups})"
+    )
+
+
+# -- parsing --------------------------------------------------------------------------------------
+
+
+def parse_group(text: str, where: str | None = None) -> tuple[str, tuple[str, ...]]:
+    """``KEY[+KEY...]`` or a group name -> ``(name, keys)``; keys are checked against a spec by
+    :func:`resolve_variations`."""
+    where = where or repr(text)
+    text = text.strip()
+    if text in GROUPS:
+        return text, GROUPS[text]
+    keys = tuple(k.strip() for k in text.split("+"))
+    if not text or any(not k for k in keys):
+        raise VariationError(f"{where}: expected KEY[+KEY...] (dotted spec keys such as "
+                             f"robot.magnetization.magnitude) or a group ({', '.join(GROUPS)})")
+    expanded: list[str] = []
+    for key in keys:
+        expanded.extend(GROUPS.get(key, (key,)))
+    if len(set(expanded)) != len(expanded):
+        raise VariationError(f"{where}: a key appears twice in the group")
+    return text, tuple(expanded)
+
+
+def _number(text: str, what: str, where: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise VariationError(f"{where}: {what} {text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise VariationError(f"{where}: {what} must be finite, got {text!r}")
+    return value
+
+
+def parse_variation(text: str) -> Variation:
+    """Parse ``KEY[+KEY...]=LOW:HIGH`` (relative factors) or ``KEY=abs:LOW:HIGH`` (absolute, SI)
+    (see the module docstring). Raises :class:`VariationError` naming the problem: no ``=``, a
+    range that is not two numbers, ``LOW > HIGH``, a factor that is not > 0, an absolute range on
+    several keys."""
+    where = f"--vary {text!r}"
+    if "=" not in text:
+        raise VariationError(f"{where}: expected KEY=LOW:HIGH (factors of the nominal value, e.g. "
+                             "robot.magnetization.magnitude=0.85:1.15) or KEY=abs:LOW:HIGH (SI)")
+    group, _, spec_range = text.partition("=")
+    name, keys = parse_group(group, where)
+    absolute = spec_range.strip().startswith("abs:")
+    parts = spec_range.strip()[4 if absolute else 0:].split(":")
+    if len(parts) != 2:
+        raise VariationError(f"{where}: the range must be LOW:HIGH or abs:LOW:HIGH, got "
+                             f"{spec_range!r}")
+    low = _number(parts[0], "LOW", where)
+    high = _number(parts[1], "HIGH", where)
+    if low > high:
+        raise VariationError(f"{where}: LOW {low:g} is greater than HIGH {high:g}")
+    if absolute and len(keys) > 1:
+        raise VariationError(f"{where}: an absolute range (abs:) sets one key; the keys of a group "
+                             f"({'+'.join(keys)}) are varied together by a factor (LOW:HIGH)")
+    if not absolute and low <= 0.0:
+        raise VariationError(f"{where}: relative factors must be > 0 (1 = the nominal value), got "
+                             f"LOW {low:g}; for absolute values write abs:LOW:HIGH")
+    return Variation(name, keys, low, high, absolute)
+
+
+def resolve_variations(variations: Sequence[Variation], spec: Mapping[str, Any],
+                       option: str = "--vary") -> list[Variation]:
+    """Check ``variations`` against a complete spec: every key exists and is variable, no key is
+    varied twice, a relative variation's nominal value is not 0. Returns them unchanged; errors
+    name ``option``."""
+    valid = variable_keys(spec)
+    seen: dict[str, str] = {}
+    for variation in variations:
+        where = f"{option} {variation.name}"
+        for key in variation.keys:
+            if key not in valid:
+                raise _unknown_key(key, valid, where)
+            if key in seen:
+                raise VariationError(f"{where}: {key} is already varied by {seen[key]}")
+            seen[key] = variation.name
+            if not variation.absolute and get_value(spec, key) == 0.0:
+                raise VariationError(f"{where}: {key} is 0 in this spec, so a factor leaves it 0; "
+                                     "give an absolute range (abs:LOW:HIGH)")
+    return list(variations)
+
+
+def default_variations(spec: Mapping[str, Any]) -> list[Variation]:
+    """The default set (:data:`DEFAULT_RANGES`) for ``spec``; a key the spec does not have is left
+    out of its group (a spec with ``poisson_ratio`` has no ``shear_modulus``: it follows Young's
+    modulus anyway) and a group without keys is dropped."""
+    valid = set(variable_keys(spec))
+    out = []
+    for name, (low, high) in DEFAULT_RANGES.items():
+        keys = tuple(k for k in GROUPS[name] if k in valid)
+        if keys:
+            out.append(Variation(name, keys, low, high))
+    return out
+
+
+# -- designs --------------------------------------------------------------------------------------
+
+
+def design(
+    variations: Sequence[Variation],
+    spec: Mapping[str, Any],
+    *,
+    one_at_a_time: bool = True,
+    corners: bool = True,
+    samples: int = 0,
+    seed: int = 0,
+) -> list[Variant]:
+    """The variants to run: the nominal robot first, then each variation at its low and high end
+    alone (``one_at_a_time``), every combination of ends (``corners``; at most
+    :data:`MAX_CORNER_VARIATIONS` variations), and ``samples`` Latin-hypercube draws (each
+    variation's range cut into ``samples`` equal strata, one draw in each, strata paired at
+    random; uniform in the factor or value; ``seed`` fixes them). A variant equal to an earlier one
+    (e.g. the corners of a single variation) is listed once."""
+    if samples < 0:
+        raise VariationError(f"--samples must be >= 0, got {samples}")
+    if corners and len(variations) > MAX_CORNER_VARIATIONS:
+        raise VariationError(f"{len(variations)} variations have {2 ** len(variations)} corners; "
+                             f"at most {MAX_CORNER_VARIATIONS} variations take corners (leave "
+                             "the corners out, or vary fewer groups)")
+    nominal = {v.name: v.nominal_value(spec) for v in variations}
+    variants = [Variant("nominal", "nominal", dict(nominal))]
+    if one_at_a_time:
+        for v in variations:
+            for end in (v.low, v.high):
+                variants.append(Variant(v.label(end), "one-at-a-time", {**nominal, v.name: end}))
+    if corners and variations:
+        for ends in itertools.product(*[(v.low, v.high) for v in variations]):
+            settings = {v.name: end for v, end in zip(variations, ends, strict=True)}
+            label = "corner: " + ", ".join(v.label(e) for v, e in zip(variations, ends, strict=True))
+            variants.append(Variant(label, "corner", settings))
+    if samples and variations:
+        rng = np.random.default_rng(seed)
+        strata = np.stack([(rng.permutation(samples) + rng.random(samples)) / samples
+                           for _ in variations], axis=1)  # (samples, n_variations) in [0, 1)
+        for k, row in enumerate(strata):
+            settings = {v.name: float(v.low + u * (v.high - v.low))
+                        for v, u in zip(variations, row, strict=True)}
+            label = f"sample {k + 1}: " + ", ".join(v.label(settings[v.name]) for v in variations)
+            variants.append(Variant(label, "sample", settings))
+    unique: list[Variant] = []
+    seen: set[tuple[float, ...]] = set()
+    for variant in variants:
+        signature = tuple(round(variant.settings[v.name], 12) for v in variations)
+        if signature not in seen:
+            seen.add(signature)
+            unique.append(variant)
+    return unique
+
+
+def variant_values(variations: Sequence[Variation], variant: Variant,
+                   spec: Mapping[str, Any]) -> dict[str, float]:
+    """Dotted key -> value of ``variant`` on ``spec`` (nominal value x factor, or the value)."""
+    values = {}
+    for v in variations:
+        setting = variant.settings[v.name]
+        for key in v.keys:
+            values[key] = setting if v.absolute else get_value(spec, key) * setting
+    return values
+
+
+def apply_variant(spec: Mapping[str, Any], variations: Sequence[Variation],
+                  variant: Variant) -> dict[str, Any]:
+    """A copy of ``spec`` with ``variant`` written in (not yet checked by the spec parser)."""
+    return apply_values(spec, variant_values(variations, variant, spec))
