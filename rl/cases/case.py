@@ -16,7 +16,9 @@ Tables of a spec (SI units; the robot's tables are described in
 - ``[task]``: ``kind`` (``"crawl"`` or ``"reach"``, see :mod:`elastica_magnetic_rl.cases.tasks`) and its
   parameters, ``episode_duration`` (s, training episodes).
 - ``[training]``: ``recipe`` (:data:`~elastica_magnetic_rl.cases.recipes.RECIPES`), ``steps`` per seed,
-  and ``[training.td3]``: :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` fields on top of the recipe.
+  ``[training.td3]``: :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` fields on top of the recipe,
+  and ``[training.randomize]``: robot values drawn anew per training episode and crawler (domain
+  randomization; ``KEY = "LOW:HIGH"`` as ``msr robustness --vary``, or ``randomize = "default"``).
 - ``[yardstick]``: ``distance_10s`` (m, crawl: the distance in 10 s of accurate physics from a
   zero field that counts as success; 0 for none) and ``source`` (where it comes from).
 """
@@ -45,6 +47,7 @@ from elastica_magnetic.specfile import (
 
 from .recipes import DEFAULT_RECIPE, RECIPES
 from .tasks import TASK_KINDS, ReachTask, Task
+from .variations import Variation, VariationError, default_variations, parse_variation, resolve_variations
 
 __all__ = [
     "Actuation",
@@ -57,6 +60,8 @@ __all__ = [
     "case_names",
     "load_case",
     "PAPER_CASES",
+    "randomize_table",
+    "with_randomize",
 ]
 
 #: Folder of the spec files shipped with the package.
@@ -93,11 +98,14 @@ class Actuation:
 
 @dataclass(frozen=True)
 class Training:
-    """The training recipe: its name, the steps per seed and TD3 settings on top of it."""
+    """The training recipe: its name, the steps per seed, TD3 settings on top of it, and the
+    robot's values randomized in training episodes (``randomize``: variations of the spec's
+    ``[robot]`` values, drawn per episode and per crawler; empty: the nominal robot only)."""
 
     recipe: str = DEFAULT_RECIPE
     steps: int = 100_000
     td3: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    randomize: tuple[Variation, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -176,6 +184,8 @@ class Case:
         training = {"recipe": self.training.recipe, "steps": self.training.steps}
         if self.training.td3:
             training["td3"] = dict(self.training.td3)
+        if self.training.randomize:
+            training["randomize"] = randomize_table(self.training.randomize)
         return copy.deepcopy({
             "name": self.name,
             "description": self.description,
@@ -252,7 +262,7 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     description = top.string("description", "")
     actuation = _actuation(top.table("actuation"))
     task = _task(top.table("task"))
-    training = _training(top.table("training", required=False), source)
+    training = _training(top.table("training", required=False), source, robot)
     yardstick = _yardstick(top.table("yardstick", required=False))
     if robot.robot("training").ground is None:
         raise SpecError(f"{source}: [robot.ground] missing: the crawler tasks need a ground (add the "
@@ -305,12 +315,13 @@ def _task(t: SpecTable) -> Task:
     return cls(**values)
 
 
-def _training(t: SpecTable | None, source: str) -> Training:
+def _training(t: SpecTable | None, source: str, robot: RobotDescription) -> Training:
     if t is None:
         return Training()
     d = Training()
     recipe = t.string("recipe", d.recipe, choices=tuple(RECIPES))
     steps = t.number("steps", "environment steps per seed", d.steps, low=1, integer=True)
+    randomize = _randomize(t, robot)
     td3 = t.table("td3", required=False)
     overrides: dict[str, Any] = {}
     if td3 is not None:
@@ -342,7 +353,49 @@ def _training(t: SpecTable | None, source: str) -> Training:
             raise td3.error(named[0], str(exc)) from None
         td3.finish()
     t.finish()
-    return Training(recipe, steps, overrides)
+    return Training(recipe, steps, overrides, randomize)
+
+
+def _randomize(t: SpecTable, robot: RobotDescription) -> tuple[Variation, ...]:
+    """``[training.randomize]``: ``KEY = "LOW:HIGH"`` (factors of the nominal value) or
+    ``"abs:LOW:HIGH"`` (SI), KEY a dotted ``[robot]`` key, keys joined by ``+`` or a group name
+    (:data:`~elastica_magnetic_rl.cases.variations.GROUPS`), as ``msr robustness --vary``; or
+    ``randomize = "default"`` for the default set (magnetization +-15 %, modulus +-20 %, friction
+    +-25 %, density +-10 %)."""
+    if not t.has("randomize"):
+        return ()
+    value = t.raw("randomize")
+    where = t.where("randomize")
+    if isinstance(value, str):
+        if value != "default":
+            raise t.error("randomize", f"expected \"default\" or a table of KEY = \"LOW:HIGH\" "
+                                       f"ranges, got {value!r}")
+        return tuple(default_variations(robot.tables))
+    if not isinstance(value, Mapping):
+        raise t.error("randomize", "expected a table of KEY = \"LOW:HIGH\" ranges (or \"default\")")
+    variations = []
+    try:
+        for key, text in value.items():
+            if not isinstance(text, str):
+                raise VariationError(f"{where}: {key} = {text!r}: expected a string \"LOW:HIGH\" "
+                                     "(factors) or \"abs:LOW:HIGH\" (SI)")
+            variations.append(parse_variation(f"{key}={text}"))
+        resolve_variations(variations, robot.tables, option=where)
+    except VariationError as err:
+        raise SpecError(str(err).replace("--vary ", f"{where}: ", 1)) from None
+    return tuple(variations)
+
+
+def randomize_table(variations: tuple[Variation, ...]) -> dict[str, str]:
+    """``[training.randomize]`` as plain data: variation name -> ``"LOW:HIGH"`` / ``"abs:LOW:HIGH"``."""
+    return {v.name: f"{'abs:' if v.absolute else ''}{v.low!r}:{v.high!r}" for v in variations}
+
+
+def with_randomize(case: Case, variations: tuple[Variation, ...]) -> Case:
+    """``case`` training on robots randomized by ``variations`` (checked against its robot)."""
+    resolve_variations(list(variations), case.robot.tables, option="randomize")
+    return dataclasses.replace(case, training=dataclasses.replace(case.training,
+                                                                  randomize=tuple(variations)))
 
 
 def _yardstick(t: SpecTable | None) -> Yardstick:

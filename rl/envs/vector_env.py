@@ -53,6 +53,7 @@ Units: SI (m, s, T) as the single environment.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any, Literal
 
 import gymnasium as gym
@@ -68,12 +69,14 @@ from elastica_magnetic.presets import ACTION_PERIOD
 
 from ..cases.case import Case
 from ..cases.tasks import Task
+from ..cases.variations import Variation
 from .env import (
     adopt_setup,
     crawler_observation,
     crawler_setup,
     initial_field_value,
 )
+from .randomization import RobotRandomizer
 
 __all__ = ["MagneticCrawlerVectorEnv", "make_vector_env"]
 
@@ -95,6 +98,13 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         started by that reset (not for later autoresets).
     divergence_penalty : float
         Reward of a step on which a robot's simulation blows up (as the single environment).
+    randomize : sequence of Variation, optional
+        Domain randomization (needs ``case``): each episode of each sub-environment runs on a
+        robot whose ``[robot]`` values are drawn anew from these variations
+        (:class:`~elastica_magnetic_rl.envs.randomization.RobotRandomizer`, drawn with the
+        sub-environment's generator); training passes the case's ``[training.randomize]``.
+        Default: the case's nominal robot in every episode. :attr:`robot_settings` holds each
+        sub-environment's current draw.
     """
 
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
@@ -112,6 +122,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         divergence_penalty: float = -10.0,
         case: str | Case | None = None,
         task: Task | None = None,
+        randomize: Sequence[Variation] | None = None,
     ) -> None:
         if int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
@@ -131,6 +142,12 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         self._obs = np.zeros((self.num_envs,) + self.single_observation_space.shape, dtype=np.float32)
         self._task_state = np.zeros(self.num_envs)  # the task's per-episode state (start or target)
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
+        self.randomizer: RobotRandomizer | None = None
+        if randomize:
+            if setup.case is None:
+                raise ValueError("randomize needs a case (its [robot] values are what is varied)")
+            self.randomizer = RobotRandomizer(setup.case.robot.tables, randomize, physics)
+        self.robot_settings: list[dict[str, float] | None] = [None] * self.num_envs
 
     # -- helpers ------------------------------------------------------------------------------------
     def _mid_x(self, i: int) -> float:
@@ -152,11 +169,18 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         """Put robot ``i`` back at rest, straight, with a new initial field; new episode."""
         value = initial_field_value(initial, self.field_limit, self._rng(i))
         self.fields[i] = ControlledField(self.field_limit, self.max_increment, value)
+        if self.randomizer is not None:
+            self._set_robot(i, self.randomizer.draw(self._rng(i)))
         self.robots.reset_robot(i)
         self.robots.fields[i] = self.fields[i].value
         self.steps[i] = 0
         self._task_state[i] = self.task.start(self._mid_x(i))
         self._obs[i] = self._observe(i)
+
+    def _set_robot(self, i: int, settings: dict[str, float]) -> None:
+        """Make robot ``i`` the randomized robot of ``settings`` (in its initial state)."""
+        self.robots.set_robot(i, self.randomizer.robot(settings))
+        self.robot_settings[i] = dict(settings)
 
     def _healthy(self, i: int) -> bool:
         """Robot ``i`` finite and no node faster than ``max_speed`` (the single env's rule)."""
@@ -309,13 +333,14 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         loads and derived geometry of every robot), ``fields`` ``(N, 3)`` T, ``steps`` ``(N,)``,
         ``robot_step_count`` ``(N,)``, ``step_count``, ``obs`` float32 ``(N, 4 n + 4 + k)``,
         ``task_state`` ``(N,)`` (the task's per-episode state, m), ``rngs``
-        (each generator's ``bit_generator.state``).
+        (each generator's ``bit_generator.state``); with randomization, ``robot_settings``
+        ``(N, k)`` (each robot's draw, in ``randomizer.names`` order).
         """
         if self.robots is None:
             raise RuntimeError("call reset() before get_state()")
         if any(r is None for r in self._rngs):
             raise RuntimeError("every sub-environment needs a generator (reset with a seed)")
-        return {
+        state = {
             "format": STATE_FORMAT,
             "num_envs": self.num_envs,
             "block": {name: value.copy() for name, value in _block_base_arrays(self.robots).items()},
@@ -327,6 +352,9 @@ class MagneticCrawlerVectorEnv(VectorEnv):
             "task_state": self._task_state.copy(),
             "rngs": [r.bit_generator.state for r in self._rngs],
         }
+        if self.randomizer is not None:
+            state["robot_settings"] = np.stack([self.randomizer.as_array(s) for s in self.robot_settings])
+        return state
 
     def set_state(self, state: dict[str, Any]) -> None:
         """Restore a :meth:`get_state` snapshot (arrays may be numpy arrays or CPU tensors)."""
@@ -334,6 +362,14 @@ class MagneticCrawlerVectorEnv(VectorEnv):
             raise ValueError("not a state of this vector environment (format or num_envs differ)")
         if self.robots is None:
             self.reset(seed=0)
+        if self.randomizer is not None:  # each robot's own values first, its state below
+            if "robot_settings" not in state:
+                raise ValueError("the saved state has no robot settings: it was not saved by an "
+                                 "environment with the same randomization")
+            for i, row in enumerate(np.asarray(state["robot_settings"], dtype=np.float64)):
+                self._set_robot(i, self.randomizer.from_array(row))
+        elif "robot_settings" in state:
+            raise ValueError("the saved state comes from a randomized environment, this one is not")
         arrays = _block_base_arrays(self.robots)
         if set(arrays) != set(state["block"]):
             raise ValueError("the saved simulator block does not match this environment")
@@ -373,9 +409,11 @@ def make_vector_env(
     physics: str = "training",
     initial_field: str | None = None,
     duration: float | None = None,
+    randomize: Sequence[Variation] | None = None,
 ) -> MagneticCrawlerVectorEnv:
     """The vector environment of a case (a name, a spec file or a
     :class:`~elastica_magnetic_rl.cases.case.Case`; module level so that ``functools.partial`` of it
     pickles)."""
     return MagneticCrawlerVectorEnv(num_envs, case=case, physics=physics,
-                                    initial_field=initial_field, duration=duration)
+                                    initial_field=initial_field, duration=duration,
+                                    randomize=randomize)
