@@ -34,6 +34,11 @@ CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8, "eval_every":
 #: 4 of 4), and on seeds 4-7 only seed 5 reached the authors' distance by 80k steps (at 54k;
 #: 256-256: all four by 56k; ``benchmarks/results/probe_fast_h128_m1-10mT_seeds4-7.json``); 64-64
 #: made 1 of 4. The 8-seed campaigns of the four paper cases decide whether it stays.
+#:
+#: ``robust``: ``pink-ln`` trained on robots drawn anew for every episode and crawler from the
+#: default variation set (domain randomization, Tobin et al. 2017; the run setting ``randomize``
+#: of :data:`RECIPE_RUN_SETTINGS`), so that one waveform works on the robot a lab actually built;
+#: the observation is unchanged and evaluations stay on the nominal robot.
 RECIPES: dict[str, dict[str, Any]] = {
     "paper": {},
     "pink": {"noise_color": 1.0, "noise_horizon": 2000},
@@ -41,11 +46,15 @@ RECIPES: dict[str, dict[str, Any]] = {
     "pink-ln-unsat": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True,
                       "actor_saturation_penalty": 1.0},
     "fast": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True},
+    "robust": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True},
 }
 #: Run settings a recipe carries besides its TD3 changes (not hyperparameters: they change when a
 #: seed stops, not what it learns), each overridable on the command line: ``stop_when``, the
-#: default of ``msr train --stop-when`` (``--stop-when none`` turns it off).
-RECIPE_RUN_SETTINGS: dict[str, dict[str, Any]] = {"fast": {"stop_when": "target"}}
+#: default of ``msr train --stop-when`` (``--stop-when none`` turns it off); ``randomize``, the
+#: default of ``msr train --randomize`` for a case whose spec has no ``[training.randomize]``
+#: (``"default"``: the default variation set; ``--randomize none`` turns it off).
+RECIPE_RUN_SETTINGS: dict[str, dict[str, Any]] = {"fast": {"stop_when": "target"},
+                                                  "robust": {"randomize": "default"}}
 
 #: The recipe of a spec file that names none, and of the paper's four cases: ``pink-ln`` made more
 #: seeds succeed than the paper's recipe in each of the four, 8 seeds against 8 (docs/training.md).
@@ -59,6 +68,8 @@ RECIPE_SUMMARIES: dict[str, str] = {
     "pink-ln-unsat": "pink-ln, and a penalty that keeps the actor out of tanh's saturation",
     "fast": "CANDIDATE, being measured: pink-ln whose seeds stop at the case's yardstick "
             "(--stop-when target by default)",
+    "robust": "pink-ln on robots randomized per episode (the default variation set: magnetization "
+              "+-15 %, modulus +-20 %, friction +-25 %, density +-10 %; --randomize)",
 }
 
 

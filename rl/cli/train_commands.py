@@ -70,6 +70,12 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
                         "--recipe paper: the authors'): "
                         + "; ".join(f"{name}: {line}" for name, line in RECIPE_SUMMARIES.items())
                         + " (docs/training.md)")
+    p.add_argument("--randomize", choices=("default", "none"), default=None,
+                   help="robots of the training episodes: default: drawn anew per episode and "
+                        "crawler from the default variation set (magnetization +-15 %%, modulus "
+                        "+-20 %%, friction +-25 %%, density +-10 %%); none: the nominal robot "
+                        "(default: the spec's [training.randomize], else the recipe's: robust "
+                        "randomizes); evaluations stay on the nominal robot")
     _add_stop_options(p)
     g = p.add_argument_group("TD3 overrides (default: the paper's settings)")
     g.add_argument("--learning-starts", type=int, default=None, help="warm-up steps (2500)")
@@ -224,6 +230,7 @@ def train_command(args: argparse.Namespace) -> int:
             backend=args.backend, address=args.address,
             seeds_per_simulator=args.seeds_per_simulator, recipe=args.recipe,
             stop_when=args.stop_when, stop_options=_stop_options(args),
+            randomize=args.randomize,
         )
     except (FileExistsError, FileNotFoundError, ValueError, ConnectionError) as exc:
         raise CommandError(str(exc)) from None  # ConnectionError: --address

@@ -82,7 +82,8 @@ def refine(
                                          "versions": versions()})
         with starting_file(ckpt, start, out.path) as init_from:
             train_seeds(functools.partial(make_vector_env, case, physics=physics,
-                                          initial_field="random", duration=episode_duration),
+                                          initial_field="random", duration=episode_duration,
+                                          randomize=case.training.randomize),
                         [config], total, [out.path], resume=resume, progress=progress,
                         init_from=[init_from], metadata=[metadata],
                         progress_desc=f"refine {case.name} {CaseDir.seed_name(config.seed)}")

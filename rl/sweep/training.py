@@ -21,8 +21,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ..cases.case import EVAL_DURATION, Case, case_from_dict, load_case
-from ..cases.recipes import crawler_config
+from ..cases.case import EVAL_DURATION, Case, case_from_dict, load_case, with_randomize
+from ..cases.recipes import RECIPE_RUN_SETTINGS, crawler_config
+from ..cases.variations import default_variations
 from ..envs.env import make_env
 from ..runfiles.locking import check_unlocked, held_run_folders, mark_run_folder
 from ..runfiles.logs import read_log
@@ -91,7 +92,8 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
     rule = None if job.stop_rule is None else StopRule.from_dict(job.stop_rule)
     start = time.perf_counter()
     train_seeds(functools.partial(make_vector_env, case, physics=job.physics,
-                                  initial_field="random", duration=job.duration),
+                                  initial_field="random", duration=job.duration,
+                                  randomize=case.training.randomize),
                 configs, job.steps, run_dirs, envs_per_seed=job.envs, resume=job.resume,
                 progress=job.progress, metadata=metadata,
                 eval_env_fn=functools.partial(make_env, case, job.physics, "zero", EVAL_DURATION),
@@ -157,6 +159,7 @@ def train_cases(
     recipe: str | None = None,
     stop_when: str | None = None,
     stop_options: dict[str, Any] | None = None,
+    randomize: str | None = None,
 ) -> dict[str, dict[str, Any]]:
     """Train seeds ``seed_offset .. seed_offset + seeds - 1`` of every case in ``cases`` for ``steps``
     environment steps each, in groups of seeds of one case that train side by side in one worker
@@ -196,9 +199,13 @@ def train_cases(
             the recipe's run setting, else off): see :mod:`elastica_magnetic_rl.sweep.stop_settings`.
             Recorded in each run; a resume keeps it.
         stop_options: ``consecutive``, ``patience``, ``tolerance``, ``confirm`` of the rule.
+        randomize: the robots of the training episodes (:func:`randomized_cases`): ``"default"``
+            (the default variation set), ``"none"`` (the nominal robot), ``None`` (the spec's
+            ``[training.randomize]``, else the recipe's run setting). Stored in each run's case.
     """
     loaded = _load_cases(cases)
     steps, episode_duration, recipe = _case_defaults(loaded, steps, episode_duration, recipe)
+    loaded = randomized_cases(loaded, randomize, recipe)
     _check_sweep_options(seeds=seeds, steps=steps, envs=envs, workers=workers,
                          seeds_per_simulator=seeds_per_simulator, threads=threads,
                          seed_offset=seed_offset, backend=backend, address=address)
@@ -287,6 +294,24 @@ def _stop_rules(loaded: dict[str, Case], kind: str | None, options: dict[str, An
     """Each case's stop rule (``None``: off), checked before any work."""
     return {name: case_stop_rule(case, kind, eval_every=eval_every, **(options or {}))
             for name, case in loaded.items()}
+
+
+def randomized_cases(loaded: dict[str, Case], randomize: str | None, recipe: str) -> dict[str, Case]:
+    """The cases as they train: with ``randomize="default"`` the default variation set in their
+    ``[training.randomize]``, with ``"none"`` none; with ``None`` the spec's own table, or, for a
+    spec without one, the recipe's ``randomize`` run setting."""
+    if randomize not in (None, "default", "none"):
+        raise ValueError(f"--randomize must be default or none, got {randomize!r} (ranges of "
+                         "your own go in the spec's [training.randomize] table)")
+    setting = randomize or RECIPE_RUN_SETTINGS.get(recipe, {}).get("randomize")
+    out = {}
+    for name, case in loaded.items():
+        if randomize == "none":
+            case = with_randomize(case, ())
+        elif setting == "default" and (randomize == "default" or not case.training.randomize):
+            case = with_randomize(case, tuple(default_variations(case.robot.tables)))
+        out[name] = case
+    return out
 
 
 def _load_cases(cases: Sequence[str | Path | Case]) -> dict[str, Case]:
