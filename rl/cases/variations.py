@@ -47,6 +47,7 @@ __all__ = [
     "get_value",
     "parse_group",
     "parse_variation",
+    "physical_differences",
     "resolve_variations",
     "variable_keys",
     "variant_values",
@@ -159,6 +160,41 @@ def apply_values(spec: Mapping[str, Any], values: Mapping[str, float]) -> dict[s
             raise KeyError(key)
         table[last] = float(value)
     return out
+
+
+#: Top-level tables of a spec that say nothing about the robot or its task (a robot varied in its
+#: physical values may differ there freely).
+NON_ROBOT_TABLES = ("name", "description", "yardstick", "training")
+
+
+def _flatten(table: Any, path: str = "") -> dict[str, Any]:
+    if isinstance(table, Mapping):
+        out: dict[str, Any] = {}
+        for key, value in table.items():
+            out.update(_flatten(value, f"{path}.{key}" if path else str(key)))
+        return out
+    return {path: table}
+
+
+def physical_differences(base: Mapping[str, Any], other: Mapping[str, Any]) -> dict[str, tuple[float, float]]:
+    """Dotted key -> ``(base value, other value)`` of every physical value (a variable key, see
+    :func:`variable_keys`) in which two complete specs differ. Raises :class:`VariationError`
+    naming the first other difference (elements, magnetization pattern, task, actuation,
+    physics settings: what makes ``other`` another robot or task, not the same robot with other
+    values); ``name``, ``description``, ``yardstick`` and ``training`` may differ."""
+    variable = set(variable_keys(base))
+    a, b = _flatten(base), _flatten(other)
+    physical: dict[str, tuple[float, float]] = {}
+    for key in sorted(set(a) | set(b)):
+        if a.get(key) == b.get(key) or key.split(".")[0] in NON_ROBOT_TABLES:
+            continue
+        if key in variable and isinstance(b.get(key), float):
+            physical[key] = (float(a[key]), float(b[key]))
+            continue
+        raise VariationError(f"{key}: {a.get(key, '(absent)')!r} in the run's spec, "
+                             f"{b.get(key, '(absent)')!r} in the new one: only physical values "
+                             f"({', '.join(sorted(variable))}) may differ")
+    return physical
 
 
 def _unknown_key(key: str, valid: Sequence[str], where: str) -> VariationError:

@@ -143,6 +143,9 @@ def _add_refine_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--steps", type=int, default=1000)
     p.add_argument("--out", type=Path, default=None, help="default: RUN/refined")
     p.add_argument("--resume", action="store_true", help="continue an interrupted refinement")
+    p.add_argument("--spec", type=Path, default=None,
+                   help="train on this spec's robot: the run's robot with other physical values "
+                        "(e.g. msr identify's identified.toml); recorded in run.json")
     p.add_argument("--episode-duration", type=float, default=20.0, help="s (truncation)")
     p.add_argument("--device", choices=("cpu", "cuda"), default=None,
                    help="where the networks train (default: the run's)")
@@ -280,7 +283,8 @@ def refine_command(args: argparse.Namespace) -> int:
         choice = choose_actor(args.run, args.checkpoint, REFINE_CHOICE_DURATION, not args.no_progress)
         result = refine(choice.path if choice else args.run, steps=args.steps, out=args.out,
                         resume=args.resume, progress=not args.no_progress,
-                        episode_duration=args.episode_duration, device=args.device)
+                        episode_duration=args.episode_duration, device=args.device,
+                        spec=args.spec)
     except (FileExistsError, FileNotFoundError, ValueError) as exc:
         raise CommandError(str(exc)) from None
     except KeyboardInterrupt:

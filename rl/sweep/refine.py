@@ -4,6 +4,7 @@ RNGs and counters continued for more steps in ``RUN/refined/``.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import sys
 import time
@@ -12,7 +13,8 @@ from typing import Any
 
 from elastica_magnetic.io import atomic_write_json
 
-from ..cases.case import case_from_metadata
+from ..cases.case import Case, case_from_metadata, load_case
+from ..cases.variations import VariationError, physical_differences
 from ..runfiles.checkpoint import checkpoint_metadata
 from ..runfiles.locking import held_run_folders, mark_run_folder
 from ..runfiles.provenance import versions
@@ -33,6 +35,7 @@ def refine(
     episode_duration: float = 20.0,
     physics: str = "accurate",
     device: str | None = None,
+    spec: str | Path | None = None,
 ) -> dict[str, Any]:
     """Continue training a run for ``steps`` more environment steps in the accurate physics
     (on ``device``, default the run's).
@@ -48,6 +51,12 @@ def refine(
     ``episodes.csv``, TensorBoard scalars, ``checkpoint.pt`` and ``run.json``; ``resume``
     continues an interrupted refinement.
 
+    ``spec``: a spec file (or shipped case) of the same robot with other physical values (e.g.
+    the ``identified.toml`` of ``msr identify``): the refinement trains on that robot. Anything
+    else that differs (elements, magnetization pattern, task, actuation) is refused, naming the
+    key; the changed values are recorded in ``run.json`` (``spec_from``, ``physical_changes``:
+    key -> [run's value, new value], SI).
+
     Cost: one accurate step is 1250 substeps (~0.1 s here), 12.5x a training step.
     """
     from ..envs.vector_env import make_vector_env
@@ -60,6 +69,9 @@ def refine(
     ckpt, start = refine_source(source)
     meta = checkpoint_metadata(ckpt, start["state_from"])
     case = case_from_metadata(meta, str(source))
+    changes: dict[str, Any] = {}
+    if spec is not None:
+        case, changes = _other_robot(case, spec)
     out = RunDir(out if out is not None else default_refine_output(source))
     start_step = int(ckpt["global_step"])
     total = start_step + int(steps)
@@ -70,7 +82,7 @@ def refine(
         case, physics, episode_duration, config.seed, command="refine",
         refined_from=str(source), refine_start_step=start_step, refine_steps=int(steps),
         training_steps=int(meta.get("training_steps", start_step)), refined_actor=start["actor"],
-        refined_actor_step=start["actor_step"],
+        refined_actor_step=start["actor_step"], **changes,
     )
     check_refine_output(out.path, resume)
     begin = time.perf_counter()
@@ -94,3 +106,17 @@ def refine(
             "actor": start["actor"], "actor_step": start["actor_step"],
             "physics": physics, **{k: summary[k] for k in ("episodes", "final_mean_return")},
             "wall_s": time.perf_counter() - begin}
+
+
+def _other_robot(case: Case, spec: str | Path) -> tuple[Case, dict[str, Any]]:
+    """The case of ``spec`` and what the refined run records of it, after checking that it is the
+    run's robot with other physical values only (its name and yardstick stay the run's)."""
+    try:
+        other = load_case(spec)
+        changes = physical_differences(case.to_dict(), other.to_dict())
+    except VariationError as err:
+        raise ValueError(f"--spec {spec}: not the run's robot with other physical values: {err}") from None
+    other = dataclasses.replace(other, name=case.name, yardstick=case.yardstick,
+                                training=case.training)
+    return other, {"spec_from": str(spec),
+                   "physical_changes": {k: [a, b] for k, (a, b) in changes.items()}}

@@ -31,10 +31,10 @@ def test_which_robots_a_sweep_trains_on():
 
     default = [(name, low, high) for name, (low, high) in DEFAULT_RANGES.items()]
     # no option: the spec's own table; the plain case follows its recipe (pink-ln: nominal)
-    assert names(randomized_cases(cases, None, "pink-ln")) == {"m1-4mT": [], "own": [("magnetization", 0.9, 1.1)]}
+    own_table = [("magnetization", 0.9, 1.1)]
+    assert names(randomized_cases(cases, None, "pink-ln")) == {"m1-4mT": [], "own": own_table}
     # recipe robust: the default set where the spec has no table of its own
-    assert names(randomized_cases(cases, None, "robust")) == {"m1-4mT": default,
-                                                             "own": [("magnetization", 0.9, 1.1)]}
+    assert names(randomized_cases(cases, None, "robust")) == {"m1-4mT": default, "own": own_table}
     # --randomize default / none override both
     assert names(randomized_cases(cases, "default", "pink-ln")) == {"m1-4mT": default, "own": default}
     assert names(randomized_cases(cases, "none", "robust")) == {"m1-4mT": [], "own": []}

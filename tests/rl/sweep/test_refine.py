@@ -48,3 +48,42 @@ def test_refine_reports_a_stale_lock_it_takes_over(trained, tmp_path, capsys):
     err = capsys.readouterr().err
     assert f"took over the stale lock of pid {dead.pid} on {host_name()} (`msr refine`" in err
     assert not lock_path(run / "refined").exists()
+
+
+def test_refine_on_a_spec_with_other_physical_values_records_them(trained, tmp_path, capsys):
+    """--spec: the run's robot with other physical values (as msr identify writes it) is refined
+    on that robot, the changes recorded; another robot (elements, task) is refused by name."""
+    from elastica_magnetic_rl.cases.case import load_case
+
+    from elastica_magnetic.cli import main as msr
+    from elastica_magnetic.specfile import dumps
+
+    spec = load_case("m1-4mT").to_dict()
+    spec["robot"]["magnetization"]["magnitude"] *= 0.9
+    spec["robot"]["ground"]["kinetic_mu"] = 0.5
+    identified = tmp_path / "identified.toml"
+    identified.write_text(dumps(spec))
+    run = trained / "m1-4mT" / "seed0"
+    out = tmp_path / "refined"
+    args = ["refine", str(run), "--checkpoint", "final", "--steps", "2", "--episode-duration", "0.02",
+            "--no-progress"]
+    assert msr([*args, "--out", str(out), "--spec", str(identified)]) == 0
+    capsys.readouterr()
+    record = json.loads((out / "run.json").read_text())
+    assert record["spec_from"] == str(identified)
+    nominal = load_case("m1-4mT").to_dict()["robot"]
+    assert record["physical_changes"] == {
+        "robot.ground.kinetic_mu": [nominal["ground"]["kinetic_mu"], 0.5],
+        "robot.magnetization.magnitude": [nominal["magnetization"]["magnitude"],
+                                          spec["robot"]["magnetization"]["magnitude"]]}
+    magnitude = spec["robot"]["magnetization"]["magnitude"]
+    assert record["case_spec"]["robot"]["magnetization"]["magnitude"] == magnitude
+    assert record["case"] == "m1-4mT"
+    other = load_case("m1-4mT").to_dict()
+    other["robot"]["n_elements"] = 32
+    bad = tmp_path / "other.toml"
+    bad.write_text(dumps(other))
+    assert msr([*args, "--out", str(tmp_path / "refused"), "--spec", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "robot.n_elements" in err and "only physical values" in err
+    assert not (tmp_path / "refused").exists()
