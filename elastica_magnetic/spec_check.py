@@ -357,12 +357,14 @@ def _validity_issues(robot: RobotSpec, field_limit: float | None,
     if task_kind == "crawl":
         if yardstick is None:
             issues.append(Issue("warning", "[yardstick] distance_10s",
-                                "missing: every policy that moves forward at all will count as "
-                                "meeting the target; search one with msr baseline --case"))
+                                "missing: the case has no yardstick, so no policy of it is judged "
+                                "(no meets_target, no success count); search one with msr "
+                                "baseline --case"))
         elif yardstick == 0.0:
             issues.append(Issue("warning", "[yardstick] distance_10s",
-                                "0 m: every policy that moves forward at all counts as meeting the "
-                                "target; search one with msr baseline --case and set it"))
+                                "0 m: the case has no yardstick, so no policy of it is judged (no "
+                                "meets_target, no success count); search one with msr baseline "
+                                "--case and set it"))
     if field_limit is None and task_kind is not None:
         issues.append(Issue("warning", "[actuation] field_limit", "missing"))
     if robot.gravity == 0.0 and robot.ground is not None:

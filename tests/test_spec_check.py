@@ -117,7 +117,7 @@ def test_a_soft_heavy_robot_on_a_soft_ground_warns_without_simulating():
 def test_a_zero_or_missing_yardstick_warns():
     zero = check_spec(_variant(("distance_10s = 0.0205", "distance_10s = 0.0")), "z.toml", sag=False)
     (issue,) = [i for i in zero.issues if i.key == "[yardstick] distance_10s"]
-    assert issue.level == "warning" and issue.message.startswith("0 m: every policy that moves")
+    assert issue.level == "warning" and issue.message.startswith("0 m: the case has no yardstick")
     text = PAPER.split("[yardstick]")[0]
     missing = check_spec(loads(text), "m.toml", sag=False)
     assert [i.message[:8] for i in missing.issues if i.key == "[yardstick] distance_10s"] == ["missing:"]

@@ -20,7 +20,8 @@ Tables of a spec (SI units; the robot's tables are described in
   and ``[training.randomize]``: robot values drawn anew per training episode and crawler (domain
   randomization; ``KEY = "LOW:HIGH"`` as ``msr robustness --vary``, or ``randomize = "default"``).
 - ``[yardstick]``: ``distance_10s`` (m, crawl: the distance in 10 s of accurate physics from a
-  zero field that counts as success; 0 for none) and ``source`` (where it comes from).
+  zero field that counts as success; 0: the case has none, and no run of it is judged) and
+  ``source`` (where it comes from).
 """
 
 from __future__ import annotations
@@ -55,6 +56,7 @@ __all__ = [
     "SPECS_DIR",
     "Training",
     "Yardstick",
+    "NO_TARGET",
     "case_from_dict",
     "case_from_metadata",
     "case_names",
@@ -73,6 +75,8 @@ CONTROL_RATE = 1.0 / ACTION_PERIOD
 #: The evaluation during training, s: the shipping criterion's episode (field from zero,
 #: deterministic actions, the yardstick's 10 s) in the physics the run trains in.
 EVAL_DURATION = 10.0
+#: :attr:`Case.target_label` of a case without a yardstick (crawl, ``distance_10s`` = 0).
+NO_TARGET = "none (the case has no yardstick: msr baseline --case measures one)"
 #: Units of the case tables, written next to values by :meth:`Case.toml`.
 CASE_UNITS: dict[tuple[str, str], str] = {
     ("actuation", "field_limit"): "T", ("actuation", "max_increment"): "T per action",
@@ -111,8 +115,9 @@ class Training:
 @dataclass(frozen=True)
 class Yardstick:
     """What counts as success for a seed's actor (10 s, accurate physics, field from zero): for
-    ``crawl``, reaching ``distance_10s`` m (0: moving forward at all); for ``reach``, ending within
-    the task's tolerance. ``source`` says where the number comes from."""
+    ``crawl``, reaching ``distance_10s`` m (0: no yardstick, so no success or failure either: a
+    verdict is absent, not "any forward motion"); for ``reach``, ending within the task's
+    tolerance. ``source`` says where the number comes from."""
 
     distance_10s: float = 0.0
     source: str = ""
@@ -154,29 +159,38 @@ class Case:
         return self.name in case_names() and load_case(self.name).to_dict() == self.to_dict()
 
     @property
+    def has_yardstick(self) -> bool:
+        """Whether the case has a success test: a reach task (its tolerance) or a crawl task with a
+        ``[yardstick] distance_10s`` above 0."""
+        return isinstance(self.task, ReachTask) or self.yardstick.distance_10s > 0.0
+
+    @property
     def target_label(self) -> str:
-        """The yardstick in words, e.g. ``"+20.5 mm in 10 s"`` or ``"within 1.0 mm of +10.0 mm"``."""
+        """The yardstick in words, e.g. ``"+20.5 mm in 10 s"`` or ``"within 1.0 mm of +10.0 mm"``;
+        for a case without one, :data:`NO_TARGET`."""
         if isinstance(self.task, ReachTask):
             return f"within {1e3 * self.task.tolerance:.1f} mm of {1e3 * self.task.target:+.1f} mm"
         if self.yardstick.distance_10s > 0.0:
             return f"{1e3 * self.yardstick.distance_10s:+.1f} mm in 10 s"
-        return "forward motion in 10 s"
+        return NO_TARGET
 
     def meets_yardstick(self, mid_dx_m: float, node_dx_m: float, duration_s: float,
                         diverged: Any = None) -> bool | None:
         """Whether an evaluation (accurate physics, field from zero) succeeds: crawl, the middle's
-        displacement ``mid_dx_m`` (m) in 10 s reaches ``distance_10s`` (or is positive when that is
-        0); reach, the reward's middle node ends (``node_dx_m``, m) within the tolerance of the
-        target. ``None`` when the evaluation is not 10 s long (crawl) or diverged counts as a fail."""
+        displacement ``mid_dx_m`` (m) in 10 s reaches ``distance_10s``; reach, the reward's middle
+        node ends (``node_dx_m``, m) within the tolerance of the target. ``None`` (no verdict: the
+        writers of results then leave ``meets_target`` out) for a case without a yardstick
+        (:attr:`has_yardstick`) and for a crawl evaluation not 10 s long; otherwise a diverged
+        evaluation is a fail."""
+        if not self.has_yardstick:
+            return None
         if diverged:
             return False
         if isinstance(self.task, ReachTask):
             return bool(self.task.within_tolerance(node_dx_m - self.task.target))
         if abs(duration_s - 10.0) > 1e-9:
             return None
-        if self.yardstick.distance_10s > 0.0:
-            return bool(mid_dx_m >= self.yardstick.distance_10s)
-        return bool(mid_dx_m > 0.0)
+        return bool(mid_dx_m >= self.yardstick.distance_10s)
 
     def to_dict(self) -> dict[str, Any]:
         """Every table, every default written out, plain data (round-trips through TOML/JSON); a

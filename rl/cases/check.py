@@ -13,8 +13,8 @@ __all__ = ["case_summary", "check_case"]
 
 def check_case(case: Case, sag: bool = True) -> SpecCheck:
     """:func:`~elastica_magnetic.spec_check.check_robot` of a case's robot with its field limit
-    (T), task kind and yardstick (m in 10 s; 0 is checked as none: any forward motion would
-    count). ``sag``: simulate the sag into the ground (a few seconds)."""
+    (T), task kind and yardstick (m in 10 s; 0 is checked as none: no run of the case would be
+    judged). ``sag``: simulate the sag into the ground (a few seconds)."""
     return check_robot(case.robot, field_limit=case.field_limit, task_kind=case.task.kind,
                        yardstick_m=case.yardstick.distance_10s, name=case.name,
                        source=str(case.source), sag=sag)

@@ -13,10 +13,17 @@ __all__ = ["model_card", "seed_meets_target", "card_section", "replace_card_sect
 NOTES_SECTION = "## Notes"
 
 
-def seed_meets_target(evaluation: dict[str, Any]) -> bool:
-    """A seed succeeds when its final actor or its best evaluated one reaches the target."""
-    best = evaluation.get("best") or {}
-    return bool(evaluation["meets_target"]) or bool(best.get("meets_target"))
+def seed_meets_target(evaluation: dict[str, Any], case: Case) -> bool | None:
+    """A seed succeeds when its final actor or its best evaluated one reaches the target
+    (``evaluation``: an entry of
+    :func:`~elastica_magnetic_rl.shipping.policy_runs.evaluate_seeds`). ``None``, no verdict, for
+    a case without a yardstick (whatever an older file stored) and where neither actor has one
+    (not a 10 s evaluation)."""
+    if not case.has_yardstick:
+        return None
+    verdicts = [e.get("meets_target") for e in (evaluation, evaluation.get("best") or {})]
+    verdicts = [v for v in verdicts if isinstance(v, bool)]
+    return any(verdicts) if verdicts else None
 
 
 def model_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case) -> str:
@@ -83,13 +90,18 @@ def _seeds_section(info: dict[str, Any], case: Case) -> list[str]:
     evaluations = (info.get("seeds") or {}).get("evaluations")
     if not evaluations:
         return []
+    meeting = info["seeds"].get("meeting_target") if case.has_yardstick else None
+    best_actor = ("the best actor of their evaluations during training (`best.pt`, where the run "
+                  "has one)")
+    count = (f"{meeting} of {len(evaluations)} seeds reach the target ({case.target_label}) with "
+             f"their final actor or with {best_actor}." if meeting is not None else
+             f"Each seed's distance with its final actor and with {best_actor}; no seed is judged "
+             f"(target: {case.target_label}).")
     lines = [
         "",
         "## Every seed of the case (accurate physics, field from zero)",
         "",
-        f"{info['seeds']['meeting_target']} of {len(evaluations)} seeds reach the target "
-        f"({case.target_label}) with their final actor or with the best actor of their evaluations "
-        "during training (`best.pt`, where the run has one).",
+        count,
         "",
         "| seed | training steps | distance, final actor (mm) | best.pt: step, distance (mm) "
         "| meets the target |",
@@ -97,8 +109,8 @@ def _seeds_section(info: dict[str, Any], case: Case) -> list[str]:
     ]
     for e in evaluations:
         best = e.get("best")
-        verdict = "n/a" if e["meets_target"] is None else \
-            ("yes" if seed_meets_target(e) else "no")
+        met = seed_meets_target(e, case)
+        verdict = "n/a" if met is None else ("yes" if met else "no")
         for entry in (e, best):
             if entry and entry["diverged"]:
                 verdict += f" (diverged: {entry['diverged']})"
@@ -116,7 +128,8 @@ def _evaluation_section(info: dict[str, Any], case: Case) -> list[str]:
     met = case.meets_yardstick(ev["mid_dx_m"], ev.get("node_dx_m", ev["mid_dx_m"]),
                                ev["duration_s"], ev["diverged"])
     verdict = {True: "meets the target", False: "falls short of the target",
-               None: "not comparable: the target is for 10 s"}[met]
+               None: "not comparable: the target is for 10 s" if case.has_yardstick
+               else "not judged"}[met]
     lines.append(
         f"- middle of the robot moved {1e3 * ev['mid_dx_m']:+.1f} mm in {ev['duration_s']:g} s; "
         f"target: {target}"

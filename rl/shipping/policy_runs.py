@@ -106,8 +106,10 @@ def node_dx(rollout) -> float:
 
 def evaluate_checkpoint(path: Path, cached: dict[str, Any], duration: float,
                      progress: bool) -> dict[str, Any]:
-    """The accurate evaluation of one checkpoint file with its ``meets_target`` verdict, reusing
-    ``cached`` when it is of the same global step and duration."""
+    """The accurate evaluation of one checkpoint file with its ``meets_target`` verdict (left out
+    where there is none: a case without a yardstick, a crawl run not 10 s long), reusing ``cached``
+    when it is of the same global step and duration (its stored verdict is not reused: an older
+    file's ``meets_target`` of a case without a yardstick is dropped)."""
     policy = resolve_policy(path)
     step = policy.meta.get("global_step")
     keys = ("global_step", "duration_s", "physics", "initial_field", "mid_dx_m", "node_dx_m",
@@ -120,8 +122,10 @@ def evaluate_checkpoint(path: Path, cached: dict[str, Any], duration: float,
         entry = {"global_step": step, "duration_s": float(duration), "physics": "accurate",
                  "initial_field": "zero", "mid_dx_m": rollout.mid_dx,
                  "node_dx_m": node_dx(rollout), "diverged": rollout.meta["diverged"]}
-    entry["meets_target"] = policy.case.meets_yardstick(entry["mid_dx_m"], entry["node_dx_m"],
-                                                        duration, entry["diverged"])
+    met = policy.case.meets_yardstick(entry["mid_dx_m"], entry["node_dx_m"], duration,
+                                      entry["diverged"])
+    if met is not None:
+        entry["meets_target"] = met
     return entry
 
 
@@ -147,9 +151,9 @@ def evaluate_seeds(
 
     Each result is cached in the seed's folder (``evaluation.json``) and reused while the
     checkpoint's global step and the duration are the same. Returns one dict per seed, ordered by
-    seed: ``seed``, ``global_step``, ``mid_dx_m`` (m), ``diverged``, ``meets_target`` (the
-    authors' distance in 10 s reached; ``None`` for other durations) of the final checkpoint, and
-    ``best``: the same keys for ``best.pt``, or ``None``.
+    seed: ``seed``, ``global_step``, ``mid_dx_m`` (m), ``diverged``, ``meets_target`` (the case's
+    yardstick met; absent for a case without one and for other durations than 10 s) of the final
+    checkpoint, and ``best``: the same keys for ``best.pt``, or ``None``.
     """
 
     results = []
@@ -178,8 +182,9 @@ def evaluate_run(run_dir: str | Path, duration: float = 10.0, progress: bool = T
     """The shipping criterion's evaluations (``duration`` s, accurate physics, field from zero) of a
     run folder's final checkpoint and of its ``best.pt`` (``None`` without one): each a dict of
     ``global_step``, ``duration_s``, ``physics``, ``initial_field``, ``mid_dx_m``, ``node_dx_m``
-    (m), ``diverged`` and ``meets_target``. Cached in the folder's ``evaluation.json`` and reused
-    while the checkpoint's step and the duration are the same."""
+    (m), ``diverged`` and ``meets_target`` (absent without a verdict,
+    :func:`evaluate_checkpoint`). Cached in the folder's ``evaluation.json`` and reused while the
+    checkpoint's step and the duration are the same."""
     run = RunDir(run_dir)
     cache_path = run.evaluation_json
     cache = json.loads(cache_path.read_text()) if cache_path.is_file() else {}
@@ -196,8 +201,9 @@ def evaluate_run(run_dir: str | Path, duration: float = 10.0, progress: bool = T
 def prefer_best(case: Case, final: dict[str, Any], best: dict[str, Any] | None) -> bool:
     """The one rule for which of a run's two actors to use: ``best.pt`` when it did not diverge
     and either the final actor diverged or ``best.pt`` is better in the same evaluation (farther:
-    larger ``mid_dx_m``; for a reach task, ending closer to the target by ``node_dx_m``). ``final``
-    and ``best``: :func:`evaluate_checkpoint` entries (``best`` ``None``: no ``best.pt``)."""
+    larger ``mid_dx_m``; for a reach task, ending closer to the target by ``node_dx_m``); never by
+    ``meets_target``. ``final`` and ``best``: :func:`evaluate_checkpoint` entries (``best``
+    ``None``: no ``best.pt``)."""
     if best is None or best["diverged"]:
         return False
     if final["diverged"]:

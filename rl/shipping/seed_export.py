@@ -45,13 +45,15 @@ def export_seeds(
     ``policy.json``: what ``msr generate`` reads; no critic, no buffer; and the run's training
     logs, :data:`SEED_TRAINING_LOGS`) and ``dest/seeds.json``:
     one object per seed, ``{"seed", "steps", "distance_10s_m", "actor", "checkpoint",
-    "meets_target"}``.
+    "meets_target"}``; ``meets_target`` is left out where there is no verdict (a case without a
+    yardstick, another duration than 10 s).
 
     Each seed's actor is the farther in ``duration`` s (accurate physics, zero field:
     :func:`evaluate_seeds`) of its final checkpoint and its ``best.pt`` (for a reach task, the one
     that ends closer to the target); ``checkpoint`` says which,
     ``steps`` is that actor's training step and ``distance_10s_m`` its distance (m). Returns
-    ``{"seeds": [...], "meeting_target": n, "total": n}``.
+    ``{"seeds": [...], "meeting_target": n, "total": n}``; ``meeting_target`` is ``None`` where no
+    seed has a verdict (never a count of seeds that merely moved).
 
     Seeds trained in several runs collect in one ``dest``: the seeds already in
     ``dest/seeds.json`` that this ``case_dir`` does not have are kept (a seed it has is replaced),
@@ -85,10 +87,13 @@ def export_seeds(
         for entry in earlier:  # the seeds of earlier runs that stay
             shutil.copytree(dest / str(entry["actor"]), folder.path / str(entry["actor"]))
         entries = _export_evaluated(case_dir, folder.path, case, duration, progress, workers)
+        if not case.has_yardstick:  # an older export's verdicts of a case without a yardstick
+            earlier = [{k: v for k, v in e.items() if k != "meets_target"} for e in earlier]
         entries = sorted(earlier + entries, key=lambda e: e["seed"])
         atomic_write_json(folder.path / "seeds.json", entries)
+    verdicts = [e["meets_target"] for e in entries if isinstance(e.get("meets_target"), bool)]
     return {"seeds": entries, "total": len(entries), "notes": recovered + folder.notes,
-            "meeting_target": sum(bool(e.get("meets_target")) for e in entries)}
+            "meeting_target": sum(verdicts) if verdicts else None}
 
 
 _SEED_FILE = re.compile(r"seed\d+/(actor\.pt|policy\.json|" + "|".join(
@@ -154,9 +159,9 @@ def _export_evaluated(case_dir: Path, dest: Path, case, duration: float, progres
                 atomic_write_text(dest / folder / log, (run.path / log).read_text())
         distance = ({"distance_10s_m": chosen["mid_dx_m"]} if duration == 10.0
                     else {"distance_m": chosen["mid_dx_m"], "duration_s": duration})
+        verdict = ({"meets_target": chosen["meets_target"]} if "meets_target" in chosen else {})
         entries.append({"seed": ev["seed"], "steps": chosen["global_step"], **distance,
-                        "actor": folder, "checkpoint": "best" if use_best else "final",
-                        "meets_target": chosen["meets_target"]})
+                        "actor": folder, "checkpoint": "best" if use_best else "final", **verdict})
     return entries
 
 

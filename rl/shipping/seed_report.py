@@ -3,8 +3,10 @@
 Reads the committed seed folders ``<policies>/<case>/seeds/<recipe>/seeds.json`` (written by ``msr
 export-seeds``; one object per seed with ``seed``, ``steps``, ``distance_10s_m``, ``actor``) and judges each
 seed by the case's own success test (:meth:`~elastica_magnetic_rl.cases.case.Case.meets_yardstick`: 10 s in
-the accurate physics from a zero field reach the yardstick). ``msr seeds`` prints the table, draws the seeds'
-distances per recipe, and keeps the table in the shipped policy's model card.
+the accurate physics from a zero field reach the yardstick). A case without a yardstick judges no seed:
+its successes are not applicable ("n/a"), whatever ``meets_target`` an older file stored. ``msr seeds``
+prints the table, draws the seeds' distances per recipe, and keeps the table in the shipped policy's
+model card.
 """
 
 from __future__ import annotations
@@ -36,15 +38,25 @@ class RecipeSeeds:
 
     folder: str  # e.g. "paper", "pink", "paper-bf16"
     entries: list[dict[str, Any]]  # seeds.json, ordered by seed
-    succeeded: list[bool]  # per entry: the case's success test
+    succeeded: list[bool | None]  # per entry: the case's success test (None: the case has none)
     path: Path | None = None  # the seeds folder
 
     @property
+    def judged(self) -> bool:
+        """Whether the seeds have verdicts (not for a case without a yardstick)."""
+        return all(ok is not None for ok in self.succeeded)
+
+    @property
+    def count(self) -> int | None:
+        """The seeds that succeed; ``None`` when they are not judged (never a count of movers)."""
+        return sum(bool(ok) for ok in self.succeeded) if self.judged else None
+
+    @property
     def summary(self) -> str:
-        return f"{sum(self.succeeded)} of {len(self.entries)}"
+        return f"{self.count} of {len(self.entries)}" if self.judged else f"n/a ({len(self.entries)} seeds)"
 
     def to_dict(self) -> dict[str, Any]:
-        return {"folder": self.folder, "seeds": len(self.entries), "succeeded": sum(self.succeeded),
+        return {"folder": self.folder, "seeds": len(self.entries), "succeeded": self.count,
                 "per_seed": [{"seed": e["seed"], "steps": e.get("steps"),
                               "distance_10s_m": e["distance_10s_m"], "succeeded": ok}
                              for e, ok in zip(self.entries, self.succeeded, strict=True)]}
@@ -67,7 +79,9 @@ def case_seeds(case: Case, policies_dir: str | Path | None = None) -> list[Recip
             raise ValueError(f"{path}: expected a JSON list of objects with an integer 'seed' and "
                              "a number 'distance_10s_m' (m)")
         entries = sorted(entries, key=lambda e: e["seed"])
-        if case.task.kind == "crawl":  # judged here, by the case's rule, from the distance
+        if not case.has_yardstick:  # nothing to judge by (a stored meets_target is ignored)
+            succeeded: list[bool | None] = [None] * len(entries)
+        elif case.task.kind == "crawl":  # judged here, by the case's rule, from the distance
             succeeded = [bool(case.meets_yardstick(e["distance_10s_m"], e["distance_10s_m"], 10.0))
                          for e in entries]
         else:  # a reach task judges the end node, which seeds.json does not hold: its verdict
@@ -105,9 +119,12 @@ def seeds_markdown(case: Case, groups: list[RecipeSeeds],
     where they were looked for)."""
     if not groups:
         return no_seeds_message(case, policies_dir)
-    lines = [f"A seed succeeds when its actor, run for 10 s in the accurate physics from a zero "
-             f"field, meets the target ({case.target_label}); each seed's actor is the better of "
-             "its final one and its `best.pt` (`msr export-seeds`). Bold: succeeded.", "",
+    rule = (f"A seed succeeds when its actor, run for 10 s in the accurate physics from a zero "
+            f"field, meets the target ({case.target_label})" if case.has_yardstick else
+            f"Each seed's distance in 10 s of accurate physics from a zero field; no seed is judged "
+            f"(target: {case.target_label})")
+    lines = [f"{rule}; each seed's actor is the better of its final one and its `best.pt` (`msr "
+             "export-seeds`)." + (" Bold: succeeded." if case.has_yardstick else ""), "",
              "| recipe (folder) | seeds that succeed | distance of each seed in 10 s (mm) |",
              "|---|---|---|"]
     for g in groups:
@@ -165,6 +182,11 @@ def update_model_card(card: Path, case: Case, groups: list[RecipeSeeds]) -> bool
     return True
 
 
+def _colour(ok: bool | None) -> str:
+    """A seed's colour in the figures: succeeded, failed, or not judged (no yardstick)."""
+    return "tab:gray" if ok is None else ("tab:green" if ok else "tab:red")
+
+
 def seeds_figure(case: Case, groups: list[RecipeSeeds], path: str | Path) -> Path:
     """Every seed's 10 s distance (mm) per recipe folder, the success threshold as a line; PNG."""
     import matplotlib
@@ -179,7 +201,7 @@ def seeds_figure(case: Case, groups: list[RecipeSeeds], path: str | Path) -> Pat
         n = len(g.entries)
         for j, (e, ok) in enumerate(zip(g.entries, g.succeeded, strict=True)):
             x = i + (0.5 * (j / (n - 1) - 0.5) if n > 1 else 0.0)  # seeds side by side, in order
-            ax.scatter(x, 1e3 * e["distance_10s_m"], s=36, color="tab:green" if ok else "tab:red",
+            ax.scatter(x, 1e3 * e["distance_10s_m"], s=36, color=_colour(ok),
                        edgecolor="black", linewidth=0.5, zorder=3)
             ax.annotate(str(e["seed"]), (x, 1e3 * e["distance_10s_m"]), xytext=(0, 5),
                         textcoords="offset points", fontsize=7, ha="center")
@@ -237,17 +259,18 @@ def learning_curves_by_recipe(case: Case, groups: list[RecipeSeeds], path: str |
                              squeeze=False)
     for ax, (g, runs, missing) in zip(axes[0], curves, strict=True):
         for seed, ok, steps, smooth in runs:
-            ax.plot(steps, smooth, lw=1.0, color="tab:green" if ok else "tab:red", alpha=0.8)
+            ax.plot(steps, smooth, lw=1.0, color=_colour(ok), alpha=0.8)
             ax.annotate(str(seed), (steps[-1], smooth[-1]), xytext=(2, 0), textcoords="offset points",
                         fontsize=7, va="center")
-        title = f"{g.folder}: {g.summary} succeed"
+        title = f"{g.folder}: {g.summary} succeed" if g.judged else f"{g.folder}: {g.summary}"
         if missing:
             title += f"\n(no log: seeds {', '.join(map(str, missing))})"
         ax.set_title(title, fontsize=9)
         ax.set_xlabel("environment steps")
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel(f"episode return (EMA, alpha = {alpha:g})")
-    fig.suptitle(f"{case.name}: learning curves by recipe (green: the seed succeeded)", fontsize=10)
+    legend = "green: the seed succeeded" if case.has_yardstick else "no yardstick: not judged"
+    fig.suptitle(f"{case.name}: learning curves by recipe ({legend})", fontsize=10)
     fig.tight_layout()
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)

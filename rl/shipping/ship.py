@@ -93,7 +93,8 @@ def ship(
     (as :func:`generate`); the distance goes into the card and the waveform into ``fields.csv``.
     The success count over seeds comes from the case's ``summary.json`` when it is found; with
     ``evaluate_all_seeds`` every seed of the case is also run like this (:func:`evaluate_seeds`)
-    and the card lists each seed's distance and how many reach the authors' distance. ``notes``
+    and the card lists each seed's distance and how many reach the case's target (none are
+    counted for a case without a yardstick: ``meeting_target`` is ``None``). ``notes``
     (Markdown) becomes the card's "Notes" section: what the numbers do not say. ``with_critic`` /
     ``with_card``: also write ``critic.pt`` / ``MODEL_CARD.md``.
 
@@ -190,8 +191,7 @@ def _policy_info(policy: LoadedPolicy, name: str, summary: dict[str, Any] | None
         "seeds": {"succeeded": summary.get("succeeded"), "total": len(summary.get("seeds", [])),
                   "success_threshold_return": summary.get("success_threshold_return"),
                   "evaluations": seed_evaluations,
-                  "meeting_target": None if seed_evaluations is None
-                  else sum(seed_meets_target(e) for e in seed_evaluations)}
+                  "meeting_target": _meeting_target(seed_evaluations, case)}
         if summary else None,
         "evaluation": measured,
         **_yardstick_info(case),
@@ -199,6 +199,14 @@ def _policy_info(policy: LoadedPolicy, name: str, summary: dict[str, Any] | None
         "notes": notes,
         "case_spec": case.to_dict(),
     }
+
+
+def _meeting_target(seed_evaluations: list[dict[str, Any]] | None, case: Case) -> int | None:
+    """How many seeds reach the target (:func:`seed_meets_target`); ``None`` where no seed has a
+    verdict (a case without a yardstick, evaluations not 10 s long, none made)."""
+    verdicts = [seed_meets_target(e, case) for e in seed_evaluations or []]
+    verdicts = [v for v in verdicts if v is not None]
+    return sum(verdicts) if verdicts else None
 
 
 def _yardstick_info(case: Case) -> dict[str, Any]:

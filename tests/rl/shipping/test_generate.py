@@ -88,3 +88,24 @@ def test_old_generate_json_keys_are_read(tmp_path):
                                                         "authors_mid_dx_10s_m": 0.0205}))
     data = read_generate_json(tmp_path / "generate.json")
     assert data["mid_node_dx_m"] == 0.01 and data["yardstick_10s_m"] == 0.0205
+
+
+def test_a_10s_accurate_run_of_a_case_without_a_yardstick_has_no_verdict():
+    """Issue 34: ``meets_target`` is absent (not true for any forward motion) in generate's result
+    of a case without a yardstick, and present for one with a yardstick."""
+    from types import SimpleNamespace
+
+    from elastica_magnetic_rl.cases.case import NO_TARGET, case_from_dict, load_case
+
+    spec = load_case("m1-4mT").to_dict() | {"name": "nostick"}
+    spec["yardstick"] = {"distance_10s": 0.0, "source": ""}
+    nostick = case_from_dict(spec, "nostick.toml")
+    positions = np.zeros((2, 3, 33))
+    positions[1, 0, :] = 0.03  # every node 30 mm forward
+    rollout = SimpleNamespace(times=np.array([0.0, 10.0]), mid_dx=0.03, positions=positions,
+                              meta={"diverged": None})
+    verdict = generate._verdict(nostick, rollout, "accurate")
+    assert verdict == {"target": NO_TARGET}
+    paper = generate._verdict(load_case("m1-4mT"), rollout, "accurate")
+    assert paper["meets_target"] is True and paper["yardstick_10s_m"] == 0.0205
+    assert "meets_target" not in generate._verdict(load_case("m1-4mT"), rollout, "training")

@@ -131,3 +131,26 @@ def test_refine_continues_the_farther_actor_and_says_so(best_is_farther, tmp_pat
     # the output is refused before any evaluation
     assert msr(["refine", str(run), "--out", str(tmp_path / "r2"), *args]) == 2
     assert "already holds a refined checkpoint" in capsys.readouterr().err
+
+
+def test_an_evaluation_of_a_case_without_a_yardstick_has_no_verdict(monkeypatch):
+    """Issue 34: ``evaluation.json`` entries (cached or new) carry no ``meets_target`` for a case
+    without a yardstick, also when an older cache stored ``true``; the actor choice ignores it."""
+    from types import SimpleNamespace
+
+    from elastica_magnetic_rl.cases.case import case_from_dict
+    from elastica_magnetic_rl.shipping import policy_runs
+
+    spec = load_case("m1-4mT").to_dict() | {"name": "nostick"}
+    spec["yardstick"] = {"distance_10s": 0.0, "source": ""}
+    nostick = case_from_dict(spec, "nostick.toml")
+    cases = {"nostick.pt": nostick, "paper.pt": load_case("m1-4mT")}
+    monkeypatch.setattr(policy_runs, "resolve_policy", lambda path: SimpleNamespace(
+        case=cases[Path(path).name], meta={"global_step": 1}))
+    old = _entry(0.03) | {"meets_target": True}  # an older file's verdict: moved, so "met"
+    entry = evaluate_checkpoint(Path("nostick.pt"), old, 10.0, False)
+    assert "meets_target" not in entry and entry["mid_dx_m"] == 0.03
+    assert evaluate_checkpoint(Path("paper.pt"), old, 10.0, False)["meets_target"] is True
+    # the farther actor, whatever the stored verdicts say
+    assert prefer_best(nostick, _entry(0.01) | {"meets_target": True}, _entry(0.02))
+    assert not prefer_best(load_case("m1-4mT"), _entry(0.03), _entry(0.02) | {"meets_target": True})

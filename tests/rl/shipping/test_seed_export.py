@@ -79,3 +79,51 @@ def test_export_seeds_collects_seeds_of_several_runs_and_refuses_mixed_ones(trai
                 "--no-progress", "--force"]) == 2
     err = capsys.readouterr().err
     assert "seed 0" in err and "another case spec" in err and (dest / "seeds.json").read_bytes() == before
+
+
+def test_export_seeds_of_a_case_without_a_yardstick_writes_no_verdict(tmp_path, monkeypatch):
+    """Issue 34: seeds.json of a case without a yardstick holds no ``meets_target`` (an earlier
+    export's ``true`` is dropped) and the result's ``meeting_target`` is None, not a count of the
+    seeds that moved; ``msr seeds`` then reports them as not applicable."""
+    from pathlib import Path
+    from types import SimpleNamespace
+
+    from elastica_magnetic_rl.cases.case import case_from_dict, load_case
+    from elastica_magnetic_rl.shipping import seed_export
+    from elastica_magnetic_rl.shipping.seed_report import case_seeds
+
+    spec = load_case("m1-4mT").to_dict() | {"name": "nostick"}
+    spec["yardstick"] = {"distance_10s": 0.0, "source": ""}
+    case = case_from_dict(spec, "nostick.toml")
+    meta = {"config": {}, "case_spec": case.to_dict(), "case": "nostick"}
+    runs = tmp_path / "runs" / "nostick"
+    for seed in (0, 1):
+        (runs / f"seed{seed}").mkdir(parents=True)
+    dest = tmp_path / "policies" / "nostick" / "seeds" / "paper"
+    (dest / "seed5").mkdir(parents=True)  # an earlier export, when no yardstick meant "moved"
+    (dest / "seed5" / "policy.json").write_text(json.dumps({"case": "nostick", **meta,
+                                                           "training": {"config": {}}}))
+    (dest / "seeds.json").write_text(json.dumps([{"seed": 5, "steps": 10, "distance_10s_m": 0.002,
+                                                  "actor": "seed5", "checkpoint": "final",
+                                                  "meets_target": True}]))
+
+    def evaluation(dx):  # evaluate_checkpoint's entry: no verdict for this case
+        return {"global_step": 10, "duration_s": 10.0, "physics": "accurate", "initial_field": "zero",
+                "mid_dx_m": dx, "node_dx_m": dx, "diverged": None}
+
+    def fake_ship(source, folder, dest, **kwargs):
+        (Path(dest) / folder).mkdir(parents=True, exist_ok=True)
+        (Path(dest) / folder / "policy.json").write_text(json.dumps(meta))
+        (Path(dest) / folder / "actor.pt").write_bytes(b"")
+
+    monkeypatch.setattr(seed_export, "seed_run_dirs", lambda d: [(0, runs / "seed0"), (1, runs / "seed1")])
+    monkeypatch.setattr(seed_export, "resolve_policy", lambda p: SimpleNamespace(case=case, meta=meta))
+    monkeypatch.setattr(seed_export, "evaluate_seeds", lambda *a: [
+        {"seed": 0, **evaluation(0.03), "best": None}, {"seed": 1, **evaluation(0.001), "best": None}])
+    monkeypatch.setattr(seed_export, "ship", fake_ship)
+    result = seed_export.export_seeds(runs, dest, progress=False)
+    entries = json.loads((dest / "seeds.json").read_text())
+    assert [e["seed"] for e in entries] == [0, 1, 5] and result["total"] == 3
+    assert all("meets_target" not in e for e in entries) and result["meeting_target"] is None
+    (group,) = case_seeds(case, tmp_path / "policies")
+    assert group.count is None and group.summary == "n/a (3 seeds)"

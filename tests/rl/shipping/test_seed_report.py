@@ -158,3 +158,48 @@ def test_absent_seeds_say_where_they_are_and_leave_the_card(tmp_path, monkeypatc
     assert "left as it is" in capsys.readouterr().err and card.read_text() == before
     with pytest.raises(ValueError, match="left as it is"):
         update_model_card(card, case, [])
+
+
+def _no_yardstick_case():
+    from elastica_magnetic_rl.cases.case import case_from_dict
+
+    spec = load_case("m1-4mT").to_dict() | {"name": "nostick"}
+    spec["yardstick"] = {"distance_10s": 0.0, "source": ""}
+    return case_from_dict(spec, "nostick.toml")
+
+
+def test_seeds_of_a_case_without_a_yardstick_are_not_judged(tmp_path):
+    """Issue 34: no success count for a case without a yardstick, even from an older seeds.json
+    that stored ``meets_target: true`` for every seed that moved."""
+    from elastica_magnetic_rl.shipping.seed_report import recipes_markdown, seeds_figure, seeds_markdown
+
+    case = _no_yardstick_case()
+    _write_seeds(tmp_path, "nostick", "paper", {0: 0.0339, 1: 0.0001}, meets_target=True)
+    (group,) = case_seeds(case, tmp_path)
+    assert group.succeeded == [None, None] and group.count is None and not group.judged
+    assert group.summary == "n/a (2 seeds)"
+    data = group.to_dict()
+    assert data["succeeded"] is None and [s["succeeded"] for s in data["per_seed"]] == [None, None]
+    table = seeds_markdown(case, [group])
+    assert "| `paper` | n/a (2 seeds) | 0: +33.9, 1: +0.1 |" in table
+    assert "**" not in table and "no seed is judged" in table
+    assert "n/a (2 seeds)" in recipes_markdown({"nostick": [group]})
+    assert seeds_figure(case, [group], tmp_path / "s.png").stat().st_size > 1000
+
+
+def test_hu2018_crawls_committed_seeds_meet_its_yardstick():
+    """The committed hu2018-crawl material agrees with its spec's yardstick (+25.3 mm): both seeds
+    meet it in msr seeds, seeds.json and the shipped policy.json, whose case_spec is the spec's."""
+    from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR, read_policy_json, resolve_policy
+
+    case = load_case("hu2018-crawl")
+    (group,) = case_seeds(case)
+    assert group.folder == "paper" and group.succeeded == [True, True] and group.summary == "2 of 2"
+    assert all(e["meets_target"] is True and e["distance_10s_m"] >= 0.0253 for e in group.entries)
+    info = read_policy_json(POLICIES_DIR / "hu2018-crawl" / "policy.json")
+    assert info["yardstick_10s_m"] == 0.0253 and info["target"] == "+25.3 mm in 10 s"
+    assert info["seeds"]["meeting_target"] == 2
+    assert resolve_policy("hu2018-crawl").case.to_dict() == case.to_dict()
+    for entry in group.entries:
+        seed_info = read_policy_json(group.path / entry["actor"] / "policy.json")
+        assert seed_info["case_spec"] == case.to_dict() and seed_info["yardstick_10s_m"] == 0.0253

@@ -46,12 +46,13 @@ def test_ship_evaluates_every_seed_and_caches(refined, tmp_path, monkeypatch):
     evaluations = meta["seeds"]["evaluations"]
     assert [e["seed"] for e in evaluations] == [0, 1] and info["evaluation"] is None
     assert all(e["global_step"] == TRAIN_STEPS and e["duration_s"] == 0.05 for e in evaluations)
-    assert all(e["meets_target"] is None for e in evaluations)  # 0.05 s: not the 10 s criterion
+    assert all("meets_target" not in e for e in evaluations)  # 0.05 s: not the 10 s criterion
+    assert meta["seeds"]["meeting_target"] is None  # no verdict, so no count
     assert evaluations[0]["mid_dx_m"] != evaluations[1]["mid_dx_m"]  # two different actors
     for e in evaluations:  # and each seed's best.pt, with its own step
         best = load_checkpoint(refined.parent.parent / f"seed{e['seed']}" / "best.pt")
         assert e["best"]["global_step"] == best["global_step"]
-        assert e["best"]["duration_s"] == 0.05 and e["best"]["meets_target"] is None
+        assert e["best"]["duration_s"] == 0.05 and "meets_target" not in e["best"]
     card = (tmp_path / "m1-4mT" / "MODEL_CARD.md").read_text()
     assert "| 0 | 240 |" in card and "| 1 | 240 |" in card and "best.pt" in card
     assert "## Notes" in card and "Trained by a *test*." in card
@@ -181,3 +182,30 @@ def test_a_case_without_a_yardstick_ships_none():
     mine = case_from_dict(spec, "mine.toml", default_name="mine")
     assert ship._yardstick_info(mine) == {}
     assert ship._yardstick_info(load_case("m1-4mT"))["yardstick_10s_m"] == 0.0205
+
+
+def test_the_card_of_a_case_without_a_yardstick_counts_no_seed():
+    """Issue 34: for a case without a yardstick, ``meeting_target`` is None and every seed's
+    verdict on the card is "n/a", also from an older file's ``meets_target: true``."""
+    from elastica_magnetic_rl.cases.case import case_from_dict, load_case
+    from elastica_magnetic_rl.shipping.model_card import _seeds_section, seed_meets_target
+
+    spec = load_case("m1-4mT").to_dict()
+    spec["yardstick"] = {"distance_10s": 0.0, "source": ""}
+    mine = case_from_dict(spec, "mine.toml", default_name="mine")
+    base = {"global_step": 100, "duration_s": 10.0, "physics": "accurate", "initial_field": "zero",
+            "node_dx_m": 0.03, "diverged": None}
+    old = [{"seed": 0, **base, "mid_dx_m": 0.03, "meets_target": True,
+            "best": {**base, "mid_dx_m": 0.031, "meets_target": True}},
+           {"seed": 1, **base, "mid_dx_m": 0.001, "meets_target": True, "best": None}]
+    assert [seed_meets_target(e, mine) for e in old] == [None, None]
+    assert ship._meeting_target(old, mine) is None
+    card = "\n".join(_seeds_section({"seeds": {"evaluations": old, "meeting_target": 2}}, mine))
+    assert "| n/a |" in card and "| yes |" not in card and "2 of 2" not in card
+    assert "no seed is judged" in card
+    # with a yardstick the same distances are judged: +30 mm and +1 mm against +20.5 mm
+    paper = load_case("m1-4mT")
+    fresh = [{k: v for k, v in e.items() if k != "meets_target"} | {"meets_target": e["mid_dx_m"] >= 0.0205}
+             for e in old]
+    assert [seed_meets_target(e, paper) for e in fresh] == [True, False]
+    assert ship._meeting_target(fresh, paper) == 1

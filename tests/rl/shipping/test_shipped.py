@@ -84,3 +84,35 @@ def test_a_policy_rollout_is_deterministic_on_one_machine():
     first, second = (run_policy(policy, 0.3, "accurate", "zero", False) for _ in range(2))
     assert np.array_equal(first.fields, second.fields)
     assert np.array_equal(first.positions, second.positions)
+
+
+def test_a_shipped_policy_of_a_case_without_a_yardstick_passes_without_a_verdict(tmp_path, monkeypatch):
+    """Issue 34: ``msr validate shipped`` of a policy whose case has no yardstick reports no
+    ``meets_target`` and passes on the distance alone (the rollout is stood in for: its recorded
+    distance and waveform)."""
+    import shutil
+    from types import SimpleNamespace
+
+    from elastica_magnetic_rl.shipping import shipped
+
+    from elastica_magnetic import read_field_csv
+
+    folder = tmp_path / "hu2018-crawl"
+    shutil.copytree(policy_files.POLICIES_DIR / "hu2018-crawl", folder,
+                    ignore=shutil.ignore_patterns("seeds"))
+    info = json.loads((folder / "policy.json").read_text())
+    info["case_spec"]["yardstick"] = {"distance_10s": 0.0, "source": ""}
+    (folder / "policy.json").write_text(json.dumps(info))
+    recorded = info["evaluation"]["mid_dx_m"]
+    fields = read_field_csv(folder / "fields.csv")
+    positions = np.zeros((2, 3, 17))
+    positions[1, 0, :] = recorded
+    rollout = SimpleNamespace(mid_dx=recorded, fields=fields, positions=positions,
+                              meta={"diverged": None})
+    monkeypatch.setattr(shipped, "run_policy", lambda *a, **k: rollout)
+    result = shipped.verify_shipped("hu2018-crawl", policies_dir=tmp_path)
+    assert "meets_target" not in result and "yardstick_10s_m" not in result and result["passed"]
+    # the committed policy, with its yardstick (+25.3 mm): judged, and met
+    committed = shipped.verify_shipped("hu2018-crawl")
+    assert committed["meets_target"] is True and committed["passed"]
+    assert committed["yardstick_10s_m"] == 0.0253

@@ -36,8 +36,13 @@ def test_the_target_is_the_yardstick_as_an_evaluation_return():
     assert case_stop_rule(load_case("m1-4mT"), None) is None
     with pytest.raises(ValueError, match="'m1-4mT-reach' has no target return.*'reach'"):
         case_stop_rule(load_case("m1-4mT-reach"), "target")
-    with pytest.raises(ValueError, match="'hu2018-crawl' has no target return.*distance_10s = 0 m"):
-        case_stop_rule(load_case("hu2018-crawl"), "target")
+    no_stick = load_case("m1-4mT").to_dict() | {"name": "no-stick"}
+    no_stick["yardstick"] = {"distance_10s": 0.0, "source": ""}
+    with pytest.raises(ValueError, match="'no-stick' has no target return.*distance_10s = 0 m"):
+        case_stop_rule(load_case(no_stick), "target")
+    # hu2018-crawl's yardstick: the rotating field's +25.3 mm (docs/training.md)
+    assert case_stop_rule(load_case("hu2018-crawl"), "target", confirm="none").threshold == \
+        pytest.approx(1e4 * 0.0253)
     with pytest.raises(ValueError, match="needs --eval-every > 0"):
         case_stop_rule(load_case("m1-4mT"), "plateau", eval_every=0)
     with pytest.raises(ValueError, match="--stop-consecutive is for --stop-when target"):
