@@ -69,6 +69,7 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
                    help="training recipe (default: the case's, pink-ln for the paper's cases; "
                         "--recipe paper: the authors'): "
                         + "; ".join(f"{name}: {line}" for name, line in RECIPE_SUMMARIES.items())
+                        .replace("%", "%%")  # argparse formats help with %
                         + " (docs/training.md)")
     p.add_argument("--randomize", choices=("default", "none"), default=None,
                    help="robots of the training episodes: default: drawn anew per episode and "
