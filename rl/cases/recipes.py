@@ -23,9 +23,12 @@ CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8, "eval_every":
 #: beyond 3, so that a saturated actor still receives the critic's gradient (``pink-ln``'s failed ``m2-10mT``
 #: seeds stayed at a half roll with saturated actors and calibrated critics).
 #:
-#: ``fast``: a CANDIDATE for a design loop measured in minutes, not yet measured as a recipe:
-#: ``pink-ln`` (its 256-256 networks) with the ``target`` stop rule on by default
-#: (:data:`RECIPE_RUN_SETTINGS`; ``--stop-when none`` turns it off). The measurements so far:
+#: ``fast``: a CANDIDATE for a design loop measured in minutes: ``pink-ln`` (its 256-256 networks)
+#: with minibatches of 128, bfloat16 matrix products in the updates (``fp32`` on a CPU without
+#: bfloat16 units) and the ``target`` stop rule, confirmed in the accurate physics, on by default
+#: (:data:`RECIPE_RUN_SETTINGS`; ``--stop-when none`` turns it off). Measured on ``m1-10mT``, 8
+#: seeds each: batch 128 + bf16 made 7 of 8 twice (docs/training.md); one update per two
+#: transitions (``--envs 2 --updates-per-step 0.5``) made 4 of 8 and was not taken. Earlier:
 #: (a) replaying the ``target`` rule with k = 2 on the committed ``pink-ln`` seeds' evaluations
 #: (``benchmarks/stop_rule_replay.py``), the seeds would have run 52-54 % of their steps in every
 #: paper case (m1-4mT 0.54, m1-10mT 0.52, m2-4mT 0.54, m2-10mT 0.52; k = 3: 0.58, 0.615, 0.5775,
@@ -45,7 +48,8 @@ RECIPES: dict[str, dict[str, Any]] = {
     "pink-ln": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True},
     "pink-ln-unsat": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True,
                       "actor_saturation_penalty": 1.0},
-    "fast": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True},
+    "fast": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True,
+             "batch_size": 128, "precision": "bf16"},
     "robust": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True},
 }
 #: Run settings a recipe carries besides its TD3 changes (not hyperparameters: they change when a
@@ -66,8 +70,8 @@ RECIPE_SUMMARIES: dict[str, str] = {
     "pink": "the paper's with temporally correlated (pink) exploration noise",
     "pink-ln": "pink, and layer normalisation in the critics",
     "pink-ln-unsat": "pink-ln, and a penalty that keeps the actor out of tanh's saturation",
-    "fast": "CANDIDATE, being measured: pink-ln whose seeds stop at the case's yardstick "
-            "(--stop-when target by default)",
+    "fast": "CANDIDATE, being measured: pink-ln with minibatches of 128 and bfloat16 updates, "
+            "whose seeds stop at the case's yardstick (--stop-when target by default)",
     "robust": "pink-ln on robots randomized per episode (the default variation set: magnetization "
               "+-15 %, modulus +-20 %, friction +-25 %, density +-10 %; --randomize)",
 }

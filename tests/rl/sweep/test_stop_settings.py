@@ -110,3 +110,4 @@ def test_the_fast_recipe_carries_the_target_rule_and_none_turns_it_off():
     cfg = crawler_config(0, "fast")
     assert cfg.hidden_sizes == (256, 256) and cfg.actor_widths == (256, 256)
     assert cfg.critic_layer_norm and cfg.noise_color == 1.0
+    assert cfg.batch_size == 128 and cfg.precision == "bf16"
