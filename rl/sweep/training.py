@@ -199,9 +199,7 @@ def train_cases(
             the recipe's run setting, else off): see :mod:`elastica_magnetic_rl.sweep.stop_settings`.
             Recorded in each run; a resume keeps it.
         stop_options: ``consecutive``, ``patience``, ``tolerance``, ``confirm`` of the rule.
-        randomize: the robots of the training episodes (:func:`randomized_cases`): ``"default"``
-            (the default variation set), ``"none"`` (the nominal robot), ``None`` (the spec's
-            ``[training.randomize]``, else the recipe's run setting). Stored in each run's case.
+        randomize: ``"default"``, ``"none"`` or ``None`` (:func:`randomized_cases`).
     """
     loaded = _load_cases(cases)
     steps, episode_duration, recipe = _case_defaults(loaded, steps, episode_duration, recipe)
