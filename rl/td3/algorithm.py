@@ -453,13 +453,21 @@ class TD3:
                 excess = torch.relu(pre.abs() - SATURATION_PREACTIVATION)
                 actor_loss = actor_loss + cfg.actor_saturation_penalty * (excess ** 2).mean(dim=(1, 2))
             _step(self.actor_optimizer, torch.autograd.grad(actor_loss.sum(), self.actor_params))
-            with torch.no_grad():  # theta' <- tau * theta + (1 - tau) * theta'
-                for net, target in ((self.actor_net, self.actor_target_net),
-                                    (self.critic_net, self.critic_target_net)):
-                    for p, p_targ in zip(net.parameters(), target.parameters(), strict=True):
-                        p_targ.copy_(cfg.tau * p + (1.0 - cfg.tau) * p_targ)
+            self._polyak()
             info["actor_loss"] = actor_loss.detach()
         return info
+
+    @torch.no_grad()
+    def _polyak(self) -> None:
+        """theta' <- tau * theta + (1 - tau) * theta' for every target parameter, as three
+        multi-tensor operations (each product rounded, then the sum: the same floats as the
+        per-parameter expression, in a tenth of the calls)."""
+        tau = self.config.tau
+        params = self.actor_params + self.critic_params
+        targets = [*self.actor_target_net.parameters(), *self.critic_target_net.parameters()]
+        pulled = torch._foreach_mul(params, tau)
+        torch._foreach_mul_(targets, 1.0 - tau)
+        torch._foreach_add_(targets, pulled)
 
     # -- one seed's view ------------------------------------------------------------------------
     def actor_state(self, k: int, target: bool = False) -> dict[str, torch.Tensor]:

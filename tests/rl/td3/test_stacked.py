@@ -101,3 +101,20 @@ def test_critic_layer_norm_bounds_the_critic_far_from_the_data():
                         for s in (1.0, 1e3)]
     assert q_at[False][1] > 100 * q_at[False][0]  # the plain critic scales with the input
     assert q_at[True][1] < 10 * q_at[True][0]  # the normalised one does not
+
+
+def test_polyak_update_gives_the_per_parameter_expressions_floats():
+    """The multi-tensor Polyak step is theta' <- tau * theta + (1 - tau) * theta', float for float."""
+    cfg = TD3Config(seed=0, tau=0.005)
+    learner = TD3(5, 2, np.array([-1.0, -1.0]), np.array([1.0, 1.0]), [cfg, dataclasses.replace(cfg, seed=1)])
+    with torch.no_grad():
+        for p in learner.actor_params + learner.critic_params:
+            p.add_(torch.randn_like(p))  # online and target networks now differ
+    nets = ((learner.actor_net, learner.actor_target_net), (learner.critic_net, learner.critic_target_net))
+    expected = [(cfg.tau * p + (1.0 - cfg.tau) * t).clone()
+                for net, target in nets for p, t in zip(net.parameters(), target.parameters(), strict=True)]
+    learner._polyak()
+    got = [t for _, target in nets for t in target.parameters()]
+    assert len(got) == len(expected)
+    for g, e in zip(got, expected, strict=True):
+        assert torch.equal(g, e)
