@@ -1,6 +1,7 @@
 """Shared pieces of the learning package's tests.
 
-The helper modules beside this file (``smoke``, ``state_compare``, ``toy_data``, ``toy_env``) are
+The helper modules beside this file (``benchmark_scripts``, ``smoke``, ``state_compare``, ``toy_data``,
+``toy_env``) are
 imported by name from the test folders below it: pytest puts this folder on ``sys.path`` because it
 holds a ``conftest.py``.
 

@@ -4,24 +4,16 @@ replaced by a stand-in here; msr robustness has its own tests), its choice in se
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import pytest
-
-ROOT = Path(__file__).resolve().parents[2]
+from benchmark_scripts import load_benchmark
 
 
 @pytest.fixture(scope="module")
 def selection():
-    spec = importlib.util.spec_from_file_location("robust_selection",
-                                                  ROOT / "benchmarks" / "robust_selection.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_benchmark("robust_selection")
 
 
 def test_the_choice_is_the_largest_worst_case_among_seeds_that_reach_the_yardstick(selection):
