@@ -1,9 +1,8 @@
 """Shared pieces of the learning package's tests.
 
-The helper modules beside this file (``benchmark_scripts``, ``smoke``, ``state_compare``, ``toy_data``,
-``toy_env``) are
-imported by name from the test folders below it: pytest puts this folder on ``sys.path`` because it
-holds a ``conftest.py``.
+The helper modules beside this file (``benchmark_scripts``, ``smoke``, ``state_compare``,
+``toy_data``, ``toy_env``) are imported by name from the test folders below it: pytest puts this
+folder on ``sys.path`` because it holds a ``conftest.py``.
 
 The training runs that many tests read are made here, once per test session (``trained``: ``msr
 train`` of 2 seeds; ``refined``: ``msr refine`` of its seed 0), whichever test modules use them.
