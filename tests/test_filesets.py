@@ -69,6 +69,9 @@ def test_the_files_go_in_together_and_nothing_else_is_touched(tmp_path):
 
 
 def _child(folder, signum, at):
+    # Ctrl-C's Python behaviour, also when the suite runs as a background job (SIGINT ignored)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+
     def stop(point):
         if point == at:
             os.kill(os.getpid(), signum)

@@ -25,6 +25,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def _add_train_command(sub: argparse._SubParsersAction) -> None:
     """``msr train``."""
+    from ..sweep.randomize_settings import RANDOMIZE_CHOICES
+
     p = sub.add_parser(
         "train",
         help="train TD3 crawling policies for one or more cases, several seeds in parallel",
@@ -71,7 +73,7 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
                         + "; ".join(f"{name}: {line}" for name, line in RECIPE_SUMMARIES.items())
                         .replace("%", "%%")  # argparse formats help with %
                         + " (docs/training.md)")
-    p.add_argument("--randomize", choices=("default", "none"), default=None,
+    p.add_argument("--randomize", choices=RANDOMIZE_CHOICES, default=None,
                    help="robots of the training episodes: default: drawn anew per episode and "
                         "crawler from the default variation set (magnetization +-15 %%, modulus "
                         "+-20 %%, friction +-25 %%, density +-10 %%); none: the nominal robot "
@@ -130,12 +132,17 @@ def _add_stop_options(p: argparse.ArgumentParser) -> None:
 
 def _add_refine_command(sub: argparse._SubParsersAction) -> None:
     """``msr refine``."""
+    from ..sweep.randomize_settings import RANDOMIZE_CHOICES
+
     p = sub.add_parser(
         "refine",
-        help="continue training a run in the accurate physics (agent and replay buffer)",
+        help="continue training a run (agent and replay buffer): in the accurate physics, on "
+             "another robot's values or on randomized robots",
         description="Load a run's agent and replay buffer and continue training for --steps "
-        "environment steps in the accurate physics (true density, dt 8e-6 s: ~12.5x the cost of a "
-        "training step). Writes RUN/refined/ unless --out is given.",
+        "environment steps, by default in the accurate physics (true density, dt 8e-6 s: ~12.5x the "
+        "cost of a training step); --spec: on the run's robot with other physical values; "
+        "--physics training --randomize default: fine-tune the policy for robots drawn from the "
+        "default variation set. Writes RUN/refined/ unless --out is given.",
     )
     p.add_argument("run", type=Path, help="run directory (or its checkpoint.pt)")
     p.add_argument("--checkpoint", default="auto", metavar="auto|final|best|PATH",
@@ -147,6 +154,14 @@ def _add_refine_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--spec", type=Path, default=None,
                    help="train on this spec's robot: the run's robot with other physical values "
                         "(e.g. msr identify's identified.toml); recorded in run.json")
+    p.add_argument("--physics", choices=("accurate", "training"), default="accurate",
+                   help="physics of the refinement's episodes (default accurate; training: the "
+                        "mass-scaled physics the run trained in, 12.5x cheaper)")
+    p.add_argument("--randomize", choices=RANDOMIZE_CHOICES, default=None,
+                   help="robots of the refinement's episodes: default: drawn anew per episode "
+                        "from the default variation set (magnetization +-15 %%, modulus +-20 %%, "
+                        "friction +-25 %%, density +-10 %%), none: the nominal robot (default: the "
+                        "run's setting); evaluations stay on the nominal robot; recorded in run.json")
     p.add_argument("--episode-duration", type=float, default=20.0, help="s (truncation)")
     p.add_argument("--device", choices=("cpu", "cuda"), default=None,
                    help="where the networks train (default: the run's)")
@@ -285,7 +300,7 @@ def refine_command(args: argparse.Namespace) -> int:
         result = refine(choice.path if choice else args.run, steps=args.steps, out=args.out,
                         resume=args.resume, progress=not args.no_progress,
                         episode_duration=args.episode_duration, device=args.device,
-                        spec=args.spec)
+                        spec=args.spec, physics=args.physics, randomize=args.randomize)
     except (FileExistsError, FileNotFoundError, ValueError) as exc:
         raise CommandError(str(exc)) from None
     except KeyboardInterrupt:

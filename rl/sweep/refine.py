@@ -1,5 +1,6 @@
-"""Refinement of a trained run in the accurate physics (``msr refine``): its agent, replay buffer,
-RNGs and counters continued for more steps in ``RUN/refined/``.
+"""Refinement of a trained run (``msr refine``): its agent, replay buffer, RNGs and counters
+continued for more steps in ``RUN/refined/``, in the accurate physics, on another robot's values,
+or on randomized robots (a nominal policy fine-tuned for the robots a lab may build).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from ..runfiles.checkpoint import checkpoint_metadata
 from ..runfiles.locking import held_run_folders, mark_run_folder
 from ..runfiles.provenance import versions
 from ..runfiles.rundir import CaseDir, RunDir
+from .randomize_settings import randomized_cases
 from .refine_start import check_refine_output, default_refine_output, refine_source, starting_file
 from .run_records import run_metadata
 from .summaries import summarize_run
@@ -36,9 +38,10 @@ def refine(
     physics: str = "accurate",
     device: str | None = None,
     spec: str | Path | None = None,
+    randomize: str | None = None,
 ) -> dict[str, Any]:
-    """Continue training a run for ``steps`` more environment steps in the accurate physics
-    (on ``device``, default the run's).
+    """Continue training a run for ``steps`` more environment steps in ``physics`` (``"accurate"``,
+    default, or ``"training"``) on ``device`` (default the run's).
 
     ``run``: a run folder or its ``checkpoint.pt``, whose final actor is refined, or its ``best.pt``
     (:func:`~elastica_magnetic_rl.sweep.refine_start.refine_source`: best.pt's networks, the rest of
@@ -57,6 +60,12 @@ def refine(
     key; the changed values are recorded in ``run.json`` (``spec_from``, ``physical_changes``:
     key -> [run's value, new value], SI).
 
+    ``randomize``: the robots of the refinement's episodes: ``"default"``, drawn anew per episode
+    from the default variation set (domain randomization; with ``physics="training"`` this
+    fine-tunes a policy learned on the nominal robot for the robots a lab may build), ``"none"``,
+    the nominal robot, ``None``, the run's own setting. Recorded in ``run.json`` (the case's
+    ``[training.randomize]`` and ``refine_randomize``); evaluations stay on the nominal robot.
+
     Cost: one accurate step is 1250 substeps (~0.1 s here), 12.5x a training step.
     """
     from ..envs.vector_env import make_vector_env
@@ -72,6 +81,9 @@ def refine(
     changes: dict[str, Any] = {}
     if spec is not None:
         case, changes = _other_robot(case, spec)
+    if randomize is not None:
+        case = randomized_cases({case.name: case}, randomize, case.training.recipe)[case.name]
+        changes["refine_randomize"] = randomize
     out = RunDir(out if out is not None else default_refine_output(source))
     start_step = int(ckpt["global_step"])
     total = start_step + int(steps)

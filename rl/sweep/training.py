@@ -21,9 +21,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ..cases.case import EVAL_DURATION, Case, case_from_dict, load_case, with_randomize
-from ..cases.recipes import RECIPE_RUN_SETTINGS, crawler_config
-from ..cases.variations import default_variations
+from ..cases.case import EVAL_DURATION, Case, case_from_dict, load_case
+from ..cases.recipes import crawler_config
 from ..envs.env import make_env
 from ..runfiles.locking import check_unlocked, held_run_folders, mark_run_folder
 from ..runfiles.logs import read_log
@@ -31,6 +30,7 @@ from ..runfiles.rundir import CaseDir, RunDir
 from ..runner.memory import peak_rss_bytes
 from .backends import BACKENDS, run_jobs
 from .jobs import GroupJob
+from .randomize_settings import randomized_cases
 from .refine import refine  # noqa: F401  (importable from here, as before)
 from .resume_checks import check_resumed_checkpoints
 from .run_records import check_resume_settings, run_metadata, write_run_json
@@ -292,24 +292,6 @@ def _stop_rules(loaded: dict[str, Case], kind: str | None, options: dict[str, An
     """Each case's stop rule (``None``: off), checked before any work."""
     return {name: case_stop_rule(case, kind, eval_every=eval_every, **(options or {}))
             for name, case in loaded.items()}
-
-
-def randomized_cases(loaded: dict[str, Case], randomize: str | None, recipe: str) -> dict[str, Case]:
-    """The cases as they train: with ``randomize="default"`` the default variation set in their
-    ``[training.randomize]``, with ``"none"`` none; with ``None`` the spec's own table, or, for a
-    spec without one, the recipe's ``randomize`` run setting."""
-    if randomize not in (None, "default", "none"):
-        raise ValueError(f"--randomize must be default or none, got {randomize!r} (ranges of "
-                         "your own go in the spec's [training.randomize] table)")
-    setting = randomize or RECIPE_RUN_SETTINGS.get(recipe, {}).get("randomize")
-    out = {}
-    for name, case in loaded.items():
-        if randomize == "none":
-            case = with_randomize(case, ())
-        elif setting == "default" and (randomize == "default" or not case.training.randomize):
-            case = with_randomize(case, tuple(default_variations(case.robot.tables)))
-        out[name] = case
-    return out
 
 
 def _load_cases(cases: Sequence[str | Path | Case]) -> dict[str, Case]:

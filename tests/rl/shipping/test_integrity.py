@@ -199,7 +199,10 @@ def interrupt_when_writing(args: list[str], out: Path, cwd: Path,
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     proc = subprocess.Popen([sys.executable, "-c", MSR, *args], cwd=cwd, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+                            start_new_session=True,
+                            # as from a terminal, also when the suite runs as a background job
+                            # (which starts with SIGINT ignored, and children inherit that)
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 180
     while not any(p.name.startswith(f".{out.name}.msr-new-") for p in out.parent.iterdir()):
         if proc.poll() is not None or time.monotonic() > deadline:

@@ -10,7 +10,7 @@ import pytest
 from elastica_magnetic_rl.cases.case import case_from_dict, load_case
 from elastica_magnetic_rl.cases.variations import DEFAULT_RANGES
 from elastica_magnetic_rl.runfiles.checkpoint import load_checkpoint
-from elastica_magnetic_rl.sweep.training import randomized_cases
+from elastica_magnetic_rl.sweep.randomize_settings import randomized_cases
 from smoke import run_msr
 
 from elastica_magnetic.cli import main as msr

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 
+import pytest
 import torch
 from elastica_magnetic_rl.runfiles.checkpoint import load_checkpoint
 from smoke import TRAIN_STEPS
@@ -87,3 +88,38 @@ def test_refine_on_a_spec_with_other_physical_values_records_them(trained, tmp_p
     err = capsys.readouterr().err
     assert "robot.n_elements" in err and "only physical values" in err
     assert not (tmp_path / "refused").exists()
+
+
+def test_refine_fine_tunes_on_randomized_robots_in_the_training_physics(trained, tmp_path, capsys):
+    """--physics training --randomize default: the nominal run's agent continues on robots drawn
+    from the default variation set (each crawler's draw in the checkpoint, not all nominal), the
+    setting recorded; --randomize none on a nominal run keeps the nominal robot."""
+    import numpy as np
+
+    from elastica_magnetic.cli import main as msr
+
+    run = trained / "m1-4mT" / "seed0"
+    args = ["refine", str(run), "--checkpoint", "final", "--physics", "training", "--steps", "162",
+            "--episode-duration", "0.04", "--no-progress"]
+    out = tmp_path / "robust"
+    assert msr([*args, "--randomize", "default", "--out", str(out)]) == 0
+    record = json.loads((out / "run.json").read_text())
+    assert record["physics"] == "training" and record["refine_randomize"] == "default"
+    varied = record["case_spec"]["training"]["randomize"]
+    assert varied == {"magnetization": "0.85:1.15", "modulus": "0.8:1.2", "friction": "0.75:1.25",
+                      "density": "0.9:1.1"}
+    ckpt = load_checkpoint(out)
+    assert ckpt["global_step"] == TRAIN_STEPS + 162  # 40 episodes of 4 steps, 2 steps into the next
+    assert ckpt["metadata"]["physics"] == "training"
+    drawn = np.asarray(ckpt["vector"]["env_state"]["robot_settings"])  # the robot of that episode
+    assert drawn.shape[1] == len(varied) and not np.allclose(drawn, 1.0)
+    # the source run was nominal: without --randomize its refinement stays nominal
+    assert msr([*args, "--steps", "2", "--out", str(tmp_path / "nominal")]) == 0
+    nominal = json.loads((tmp_path / "nominal" / "run.json").read_text())
+    assert "randomize" not in nominal["case_spec"].get("training", {})
+    assert "refine_randomize" not in nominal
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exit_info:  # argparse's choices
+        msr([*args, "--randomize", "corners", "--out", str(tmp_path / "bad")])
+    assert exit_info.value.code == 2
+    assert "--randomize: invalid choice: 'corners'" in capsys.readouterr().err
