@@ -17,7 +17,8 @@ if [ -x stm32/ci.sh ] || [ -f stm32/ci.sh ]; then
 fi
 
 echo "== pytest =="
-python -m pytest -q --durations=15 "$@"
+# two worker processes (pytest-xdist), a test file each at a time: module fixtures are built once
+python -m pytest -q -n "${MSR_TEST_WORKERS:-2}" --dist loadfile --durations=15 "$@"
 
 echo "== docs =="
 python -m sphinx -W --keep-going -q -b html docs docs/_build/html
