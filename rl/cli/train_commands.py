@@ -161,7 +161,7 @@ def _add_refine_command(sub: argparse._SubParsersAction) -> None:
                    help="robots of the refinement's episodes: default: drawn anew per episode "
                         "from the default variation set (magnetization +-15 %%, modulus +-20 %%, "
                         "friction +-25 %%, density +-10 %%), none: the nominal robot (default: the "
-                        "run's setting); evaluations stay on the nominal robot; recorded in run.json")
+                        "run's setting); recorded in run.json")
     p.add_argument("--episode-duration", type=float, default=20.0, help="s (truncation)")
     p.add_argument("--device", choices=("cpu", "cuda"), default=None,
                    help="where the networks train (default: the run's)")

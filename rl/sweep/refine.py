@@ -64,7 +64,8 @@ def refine(
     from the default variation set (domain randomization; with ``physics="training"`` this
     fine-tunes a policy learned on the nominal robot for the robots a lab may build), ``"none"``,
     the nominal robot, ``None``, the run's own setting. Recorded in ``run.json`` (the case's
-    ``[training.randomize]`` and ``refine_randomize``); evaluations stay on the nominal robot.
+    ``[training.randomize]`` and ``refine_randomize``). A refinement runs no evaluations: its
+    final actor is what ``msr generate`` and ``msr robustness`` play.
 
     Cost: one accurate step is 1250 substeps (~0.1 s here), 12.5x a training step.
     """
