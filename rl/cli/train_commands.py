@@ -80,6 +80,14 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
                         "(default: the spec's [training.randomize], else the recipe's: robust "
                         "randomizes); evaluations stay on the nominal robot")
     _add_stop_options(p)
+    _add_td3_overrides(p)
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.set_defaults(func=train_command)
+
+
+def _add_td3_overrides(p: argparse.ArgumentParser) -> None:
+    """``msr train``'s TD3 settings that override the recipe's (read by :func:`_overrides`)."""
     g = p.add_argument_group("TD3 overrides (default: the paper's settings)")
     g.add_argument("--learning-starts", type=int, default=None, help="warm-up steps (2500)")
     g.add_argument("--batch-size", type=int, default=None, help="minibatch (256)")
@@ -102,9 +110,6 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--eval-every", type=int, default=None,
                    help="steps between evaluations of the deterministic policy from a zero field, "
                         "10 s, best actor kept in best.pt (5000; 0: none)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bars")
-    p.add_argument("--json", action="store_true", help="print the result as JSON")
-    p.set_defaults(func=train_command)
 
 
 def _add_stop_options(p: argparse.ArgumentParser) -> None:

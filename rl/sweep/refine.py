@@ -10,7 +10,7 @@ import functools
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from elastica_magnetic.io import atomic_write_json
 
@@ -24,6 +24,9 @@ from .randomize_settings import randomized_cases
 from .refine_start import check_refine_output, default_refine_output, refine_source, starting_file
 from .run_records import run_metadata
 from .summaries import summarize_run
+
+if TYPE_CHECKING:  # torch is imported only when a refinement runs
+    from ..td3.algorithm import TD3Config
 
 __all__ = ["refine"]
 
@@ -69,8 +72,6 @@ def refine(
 
     Cost: one accurate step is 1250 substeps (~0.1 s here), 12.5x a training step.
     """
-    from ..envs.vector_env import make_vector_env
-    from ..runner.loop import train_seeds
     from ..td3.algorithm import TD3Config
 
     if steps < 1:
@@ -78,16 +79,9 @@ def refine(
     source = RunDir.checkpoint_of(run)
     ckpt, start = refine_source(source)
     meta = checkpoint_metadata(ckpt, start["state_from"])
-    case = case_from_metadata(meta, str(source))
-    changes: dict[str, Any] = {}
-    if spec is not None:
-        case, changes = _other_robot(case, spec)
-    if randomize is not None:
-        case = randomized_cases({case.name: case}, randomize, case.training.recipe)[case.name]
-        changes["refine_randomize"] = randomize
+    case, changes = _refined_case(case_from_metadata(meta, str(source)), spec, randomize)
     out = RunDir(out if out is not None else default_refine_output(source))
     start_step = int(ckpt["global_step"])
-    total = start_step + int(steps)
     config = TD3Config.from_dict(ckpt["config"])
     if device is not None:
         config.device = device
@@ -99,6 +93,38 @@ def refine(
     )
     check_refine_output(out.path, resume)
     begin = time.perf_counter()
+    _train_refinement(case, ckpt, start, out, config, metadata, start_step + int(steps),
+                      physics=physics, episode_duration=episode_duration, resume=resume,
+                      progress=progress)
+    summary = summarize_run(out.path, reward_scale=case.task.reward_scale)
+    return {"case": case.name, "source": str(source), "run_dir": str(out.path),
+            "checkpoint": str(out.checkpoint), "start_step": start_step, "steps": int(steps),
+            "actor": start["actor"], "actor_step": start["actor_step"],
+            "physics": physics, **{k: summary[k] for k in ("episodes", "final_mean_return")},
+            "wall_s": time.perf_counter() - begin}
+
+
+def _refined_case(case: Case, spec: str | Path | None, randomize: str | None
+                  ) -> tuple[Case, dict[str, Any]]:
+    """The case the refinement of a run of ``case`` trains on (the run's, another robot's values,
+    randomized robots) and what ``run.json`` records of the change."""
+    changes: dict[str, Any] = {}
+    if spec is not None:
+        case, changes = _other_robot(case, spec)
+    if randomize is not None:
+        case = randomized_cases({case.name: case}, randomize, case.training.recipe)[case.name]
+        changes["refine_randomize"] = randomize
+    return case, changes
+
+
+def _train_refinement(case: Case, ckpt: dict[str, Any], start: dict[str, Any], out: RunDir,
+                      config: TD3Config, metadata: dict[str, Any], total: int, *, physics: str,
+                      episode_duration: float, resume: bool, progress: bool) -> None:
+    """Train ``out`` to ``total`` steps from ``ckpt`` under the run-folder lock, its ``run.json``
+    written first (a killed refinement leaves a folder that ``resume`` continues)."""
+    from ..envs.vector_env import make_vector_env
+    from ..runner.loop import train_seeds
+
     with held_run_folders([out.path]) as notes:
         for note in notes:  # a stale lock of a killed refinement taken over, its leftovers removed
             print(f"note: {note}", file=sys.stderr)
@@ -113,12 +139,6 @@ def refine(
                         init_from=[init_from], metadata=[metadata],
                         progress_desc=f"refine {case.name} {CaseDir.seed_name(config.seed)}")
         mark_run_folder(out.path, "refine", case.name)
-    summary = summarize_run(out.path, reward_scale=case.task.reward_scale)
-    return {"case": case.name, "source": str(source), "run_dir": str(out.path),
-            "checkpoint": str(out.checkpoint), "start_step": start_step, "steps": int(steps),
-            "actor": start["actor"], "actor_step": start["actor_step"],
-            "physics": physics, **{k: summary[k] for k in ("episodes", "final_mean_return")},
-            "wall_s": time.perf_counter() - begin}
 
 
 def _other_robot(case: Case, spec: str | Path) -> tuple[Case, dict[str, Any]]:
