@@ -64,13 +64,14 @@ def _use_section(info: dict[str, Any], case: Case) -> list[str]:
 def _training_section(info: dict[str, Any], summary: dict[str, Any] | None, case: Case) -> list[str]:
     tr = info["training"]
     training_dt = case.robot.tables["physics"]["training"]["dt"]
-    accurate_dt = case.robot.tables["physics"]["accurate"]["dt"]
+    refine_physics = tr.get("refine_physics", "accurate")  # older files: refinements were accurate
+    refine_dt = case.robot.tables["physics"][refine_physics]["dt"]
     lines = [
         "## Training",
         "",
         f"- seed: {tr['seed']}",
         f"- training steps (mass-scaled training physics, dt {training_dt:g} s): {tr['training_steps']}",
-        f"- refinement steps (accurate physics, dt {accurate_dt:g} s): {tr['refine_steps']}",
+        f"- refinement steps ({refine_physics} physics, dt {refine_dt:g} s): {tr['refine_steps']}",
         f"- checkpoint: `{tr['source']}` (global step {tr['global_step']}"
         + ("; the best of the evaluations during training" if tr.get("best_evaluation") else "")
         + ")",
@@ -150,6 +151,18 @@ def _limitations_section(case: Case) -> list[str]:
             if "thickness" in robot else
             f"{1e3 * robot['length']:g} mm long, radius {1e3 * robot['radius']:g} mm")
     ground = robot.get("ground") or {}
+    design = (f"{size}, {robot['youngs_modulus'] / 1e3:g} kPa, "
+              f"magnetization `{robot['magnetization']['kind']}`")
+    friction = f"{ground.get('static_mu', float('nan')):g}/{ground.get('kinetic_mu', float('nan')):g}"
+    randomized = (case.to_dict().get("training") or {}).get("randomize")
+    trained_for = (
+        f"- Trained on robots drawn per episode around one design ({design}; a flat ground with "
+        f"friction {friction}), its values varied by these factors: "
+        + ", ".join(f"{k} {v}" for k, v in randomized.items()) + "; other designs need retraining."
+        if randomized else
+        f"- Trained for one robot ({design}) on a flat ground with friction {friction}; other "
+        "robots need retraining."
+    )
     return [
         "",
         "## Limitations",
@@ -157,10 +170,7 @@ def _limitations_section(case: Case) -> list[str]:
         "- Simulation only: the model's rotational over-damping makes the simulated robot respond "
         "~0.3 s slower than the real one (Yao et al. 2023, for their robot); check the waveform on "
         "hardware at low amplitude first.",
-        f"- Trained for one robot ({size}, {robot['youngs_modulus'] / 1e3:g} kPa, magnetization "
-        f"`{robot['magnetization']['kind']}`) on a flat ground with friction "
-        f"{ground.get('static_mu', float('nan')):g}/{ground.get('kinetic_mu', float('nan')):g}; "
-        "other robots need retraining.",
+        trained_for,
         "",
     ]
 

@@ -183,6 +183,8 @@ def _policy_info(policy: LoadedPolicy, name: str, summary: dict[str, Any] | None
             "seed": meta.get("seed"),
             "training_steps": meta.get("training_steps", meta.get("global_step")),
             "refine_steps": meta.get("refine_steps", 0) if refined else 0,
+            # a refinement ran in the accurate physics unless its run says otherwise
+            **({"refine_physics": meta.get("physics", "accurate")} if refined else {}),
             "global_step": meta.get("global_step"),
             "config": meta.get("config"),
             "source": _portable_source(policy.source, case.name),

@@ -112,6 +112,7 @@ def test_ship_then_generate_by_folder_and_name(refined, tmp_path, monkeypatch, c
     actor_state = torch.load(folder / "actor.pt", weights_only=True)
     assert meta["actor_sha256"] == policy_files.weights_sha256(actor_state)
     assert meta["training"]["refine_steps"] == 3 and meta["seeds"]["total"] == 2
+    assert meta["training"]["refine_physics"] == "accurate"  # the refinement's own run.json says so
     card = (folder / "MODEL_CARD.md").read_text()
     assert "m1-4mT" in card and "refinement steps" in card and "seeds that succeeded" in card
     # the shipped actor acts exactly as the checkpoint's
@@ -209,3 +210,25 @@ def test_the_card_of_a_case_without_a_yardstick_counts_no_seed():
              for e in old]
     assert [seed_meets_target(e, paper) for e in fresh] == [True, False]
     assert ship._meeting_target(fresh, paper) == 1
+
+
+def test_the_card_says_where_a_refinement_ran_and_on_which_robots():
+    """A policy fine-tuned in the training physics on randomized robots (``msr refine --physics
+    training --randomize default``) must not be described as refined in the accurate physics nor
+    as trained for one robot; an older policy.json without ``refine_physics`` was refined in the
+    accurate physics."""
+    from elastica_magnetic_rl.cases.case import load_case, with_randomize
+    from elastica_magnetic_rl.cases.variations import default_variations
+    from elastica_magnetic_rl.shipping.model_card import model_card
+
+    case = load_case("m1-10mT")
+    info = json.loads((policy_files.POLICIES_DIR / "m1-10mT" / "policy.json").read_text())
+    older = model_card(info, None, case)
+    assert "refinement steps (accurate physics, dt 8e-06 s): 0" in older
+    assert "Trained for one robot" in older and "drawn per episode" not in older
+    info["training"].update(refine_physics="training", refine_steps=10000)
+    randomized = with_randomize(case, tuple(default_variations(case.robot.tables)))
+    card = model_card(info, None, randomized)
+    assert "refinement steps (training physics, dt 0.0001 s): 10000" in card
+    assert "Trained for one robot" not in card
+    assert "magnetization 0.85:1.15" in card and "friction 0.75:1.25" in card
