@@ -64,7 +64,8 @@ def _add_seeds_command(sub: argparse._SubParsersAction) -> None:
                    help="write DIR/seeds_<case>.png (every seed's distance per recipe) and "
                    "DIR/learning_curves_<case>.png (from the logs the exported seeds keep)")
     p.add_argument("--card", action="store_true",
-                   help="also write the table into <policies>/<case>/MODEL_CARD.md")
+                   help="also write the table into the model card of every policy of the case "
+                        "(<policies>/<case>/MODEL_CARD.md, and e.g. <case>-robust's)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=seeds_command)
 
@@ -167,6 +168,7 @@ def export_seeds_command(args: argparse.Namespace) -> int:
 def seeds_command(args: argparse.Namespace) -> int:
     from ..shipping.policy_files import POLICIES_DIR
     from ..shipping.seed_report import (
+        case_cards,
         case_seeds,
         learning_curves_by_recipe,
         recipes_markdown,
@@ -200,10 +202,12 @@ def seeds_command(args: argparse.Namespace) -> int:
             if not groups:  # a card's seed section is never replaced by nothing
                 raise CommandError(f"--card: {seeds_markdown(case, groups, policies)} The model "
                                    "card is left as it is.")
-            card = policies / case.name / "MODEL_CARD.md"
-            if not card.is_file():
-                raise CommandError(f"--card: {card}: no model card (ship a policy of {case.name} first)")
-            report["card_updated"] = update_model_card(card, case, groups)
+            cards = case_cards(case, policies)
+            if not cards:
+                raise CommandError(f"--card: {policies / case.name / 'MODEL_CARD.md'}: no model "
+                                   f"card (ship a policy of {case.name} first)")
+            report["cards"] = [str(card) for card in cards]
+            report["card_updated"] = any([update_model_card(card, case, groups) for card in cards])
         reports.append(report)
     recipes = recipes_markdown(by_case)
     if args.json:

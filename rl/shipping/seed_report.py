@@ -23,10 +23,11 @@ from elastica_magnetic.io import atomic_write_text
 from ..cases.case import Case
 from ..runfiles.rundir import RunDir
 from .model_card import replace_card_section
-from .policy_files import POLICIES_DIR
+from .policy_files import POLICIES_DIR, POLICY_JSON
 
 __all__ = ["REPOSITORY_SEEDS", "RecipeSeeds", "case_seeds", "no_seeds_message", "seeds_markdown",
-           "recipes_markdown", "update_model_card", "seeds_figure", "learning_curves_by_recipe"]
+           "recipes_markdown", "update_model_card", "case_cards", "seeds_figure",
+           "learning_curves_by_recipe"]
 
 #: The model card's section that :func:`update_model_card` keeps current.
 CARD_SECTION = "## Every seed, by recipe"
@@ -180,6 +181,27 @@ def update_model_card(card: Path, case: Case, groups: list[RecipeSeeds]) -> bool
         return False
     atomic_write_text(card, new)
     return True
+
+
+def case_cards(case: Case, policies: Path = POLICIES_DIR) -> list[Path]:
+    """The model cards that carry ``case``'s seeds table: its own folder's (``policies/<case>``)
+    and that of every other policy whose ``policy.json`` names the case (a ``<case>-robust``
+    one, say); sorted by folder."""
+    cards = []
+    for folder in sorted(p for p in Path(policies).iterdir() if p.is_dir()):
+        card = folder / "MODEL_CARD.md"
+        if not card.is_file():
+            continue
+        if folder.name == case.name:
+            cards.append(card)
+            continue
+        try:
+            named = json.loads((folder / POLICY_JSON).read_text()).get("case")
+        except (OSError, ValueError, AttributeError):
+            continue  # not a policy of this case that can be read; ``msr validate shipped`` reports it
+        if named == case.name:
+            cards.append(card)
+    return cards
 
 
 def _colour(ok: bool | None) -> str:

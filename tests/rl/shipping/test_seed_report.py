@@ -64,6 +64,18 @@ def test_msr_seeds_prints_draws_and_keeps_the_model_card_current(tmp_path, capsy
     text = card.read_text()
     assert text.count(CARD_SECTION) == 1 and "| `paper` | 2 of 3 |" in text and "- +22.1 mm" in text
     assert update_model_card(card, case, case_seeds(case, tmp_path)) is False
+    # another policy of the case (say m1-4mT-robust) carries the same table; another case's does not
+    for name, its_case in (("m1-4mT-robust", "m1-4mT"), ("m2-4mT", "m2-4mT")):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "policy.json").write_text(json.dumps({"case": its_case}))
+        (tmp_path / name / "MODEL_CARD.md").write_text(f"# {name}\n\n## Evaluation (accurate)\n")
+    capsys.readouterr()
+    assert msr(["seeds", "m1-4mT", "--policies", str(tmp_path), "--card", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)["cases"][0]
+    assert report["cards"] == [str(card), str(tmp_path / "m1-4mT-robust" / "MODEL_CARD.md")]
+    assert report["card_updated"] is True
+    assert "| `paper` | 2 of 3 |" in (tmp_path / "m1-4mT-robust" / "MODEL_CARD.md").read_text()
+    assert CARD_SECTION not in (tmp_path / "m2-4mT" / "MODEL_CARD.md").read_text()
 
 
 def test_msr_seeds_names_a_broken_seeds_file(tmp_path, capsys):
