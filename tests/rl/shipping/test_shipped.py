@@ -14,7 +14,16 @@ from elastica_magnetic.cli import main as msr
 
 #: Whether each shipped policy reaches the authors' 10 s distance, as rl/policies/README.md and
 #: the docs state it (a policy re-shipped with another result must update them, and this).
-SHIPPED = ("hu2018-crawl", "m1-10mT", "m1-4mT", "m1-4mT-reach", "m2-10mT", "m2-4mT")
+PAPER_CASES = ("m1-10mT", "m1-4mT", "m2-10mT", "m2-4mT")
+#: Each paper case's waveform for the robots a lab may build (``<case>-robust``: a policy of the
+#: case, fine-tuned on randomized robots; docs/sim_to_real.md).
+ROBUST = tuple(f"{case}-robust" for case in PAPER_CASES)
+SHIPPED = tuple(sorted(("hu2018-crawl", "m1-4mT-reach", *PAPER_CASES, *ROBUST)))
+
+
+def case_of(name: str) -> str:
+    """The case a shipped policy drives (a ``<case>-robust`` policy drives ``<case>``)."""
+    return name.removesuffix("-robust") if name in ROBUST else name
 
 
 def test_every_shipped_policy_is_tested():
@@ -38,17 +47,18 @@ def test_shipped_policy_generates_and_exports(name, tmp_path, capsys):
     assert np.all(np.abs(fields[:, 1:3]) <= 5 * 0.3 + 1e-9)  # mT: from zero, +-0.3 mT per step
     assert msr(["export", name, "--out", str(tmp_path / "exp")]) == 0
     policy = policy_files.resolve_policy(name)
-    assert policy.case.name == name
+    assert policy.case.name == case_of(name)
     obs = np.zeros(policy.case.obs_dim, dtype=np.float32)
     module = torch.jit.load(str(next((tmp_path / "exp").glob("*.ts.pt"))))
     action = module(torch.from_numpy(obs)[None]).detach().numpy()[0]
     np.testing.assert_allclose(action, policy.act(obs), atol=1e-6)
     info = policy_files.read_policy_json(policy_files.POLICIES_DIR / name / "policy.json")
-    assert info["case"] == name and info["evaluation"]["duration_s"] == 10.0
+    assert info["case"] == case_of(name) and info["name"] == name
+    assert info["evaluation"]["duration_s"] == 10.0
     ev = info["evaluation"]
     assert policy.case.meets_yardstick(ev["mid_dx_m"], ev.get("node_dx_m", ev["mid_dx_m"]),
                                        ev["duration_s"], ev["diverged"])
-    if name in ("m1-10mT", "m1-4mT", "m2-10mT", "m2-4mT"):
+    if case_of(name) in PAPER_CASES:
         assert ev["mid_dx_m"] >= info["yardstick_10s_m"]  # older files: authors_mid_dx_10s_m
     card = (policy_files.POLICIES_DIR / name / "MODEL_CARD.md").read_text()
     assert "meets the target" in card
