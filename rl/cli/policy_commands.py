@@ -207,6 +207,7 @@ def seeds_command(args: argparse.Namespace) -> int:
                 raise CommandError(f"--card: {policies / case.name / 'MODEL_CARD.md'}: no model "
                                    f"card (ship a policy of {case.name} first)")
             report["cards"] = [str(card) for card in cards]
+            # a list, not a generator: any() must not stop before every card is updated
             report["card_updated"] = any([update_model_card(card, case, groups) for card in cards])
         reports.append(report)
     recipes = recipes_markdown(by_case)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..cases.case import Case
+from ..cases.case import Case, randomize_table
 
 __all__ = ["model_card", "seed_meets_target", "card_section", "replace_card_section", "NOTES_SECTION"]
 
@@ -154,7 +154,7 @@ def _limitations_section(case: Case) -> list[str]:
     design = (f"{size}, {robot['youngs_modulus'] / 1e3:g} kPa, "
               f"magnetization `{robot['magnetization']['kind']}`")
     friction = f"{ground.get('static_mu', float('nan')):g}/{ground.get('kinetic_mu', float('nan')):g}"
-    randomized = (case.to_dict().get("training") or {}).get("randomize")
+    randomized = randomize_table(case.training.randomize)
     trained_for = (
         f"- Trained on robots drawn per episode around one design ({design}; a flat ground with "
         f"friction {friction}), its values varied by these factors: "

@@ -23,7 +23,7 @@ from elastica_magnetic.io import atomic_write_text
 from ..cases.case import Case
 from ..runfiles.rundir import RunDir
 from .model_card import replace_card_section
-from .policy_files import POLICIES_DIR, POLICY_JSON
+from .policy_files import POLICIES_DIR, POLICY_JSON, read_policy_json
 
 __all__ = ["REPOSITORY_SEEDS", "RecipeSeeds", "case_seeds", "no_seeds_message", "seeds_markdown",
            "recipes_markdown", "update_model_card", "case_cards", "seeds_figure",
@@ -196,9 +196,9 @@ def case_cards(case: Case, policies: Path = POLICIES_DIR) -> list[Path]:
             cards.append(card)
             continue
         try:
-            named = json.loads((folder / POLICY_JSON).read_text()).get("case")
-        except (OSError, ValueError, AttributeError):
-            continue  # not a policy of this case that can be read; ``msr validate shipped`` reports it
+            named = read_policy_json(folder / POLICY_JSON)["case"]
+        except (OSError, ValueError):  # PolicyFileError is a ValueError
+            continue  # not a policy that can be read; ``msr validate shipped`` reports it
         if named == case.name:
             cards.append(card)
     return cards

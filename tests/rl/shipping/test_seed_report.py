@@ -67,7 +67,8 @@ def test_msr_seeds_prints_draws_and_keeps_the_model_card_current(tmp_path, capsy
     # another policy of the case (say m1-4mT-robust) carries the same table; another case's does not
     for name, its_case in (("m1-4mT-robust", "m1-4mT"), ("m2-4mT", "m2-4mT")):
         (tmp_path / name).mkdir()
-        (tmp_path / name / "policy.json").write_text(json.dumps({"case": its_case}))
+        (tmp_path / name / "policy.json").write_text(json.dumps(
+            {"case": its_case, "architecture": {"obs_dim": 260, "act_dim": 2, "hidden_sizes": [8]}}))
         (tmp_path / name / "MODEL_CARD.md").write_text(f"# {name}\n\n## Evaluation (accurate)\n")
     capsys.readouterr()
     assert msr(["seeds", "m1-4mT", "--policies", str(tmp_path), "--card", "--json"]) == 0
