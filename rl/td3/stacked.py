@@ -25,9 +25,10 @@ class StackedMLP(nn.Module):
     ``weights[l][m].T`` (:meth:`member_state` / :meth:`load_member_state` convert, in
     ``nn.Sequential`` naming).
 
-    ``dtype=torch.bfloat16`` runs the products in bfloat16 on bfloat16 copies of the float32
-    weights (cast once per layer and call; gradients flow back to the float32 masters, which Adam
-    updates in float32), and returns float32; layer normalisation runs in float32.
+    ``dtype=torch.bfloat16`` runs the network in bfloat16 on bfloat16 copies of the float32
+    parameters (cast once per layer and call; gradients flow back to the float32 masters, which
+    Adam updates in float32): products, activations and the norms' affine maps in bfloat16, the
+    norms' statistics accumulated in float32; the output is float32.
     """
 
     def __init__(self, members: int, sizes: tuple[int, ...], layer_norm: bool = False) -> None:
@@ -47,26 +48,28 @@ class StackedMLP(nn.Module):
 
     def forward(self, x: torch.Tensor, dtype: torch.dtype = torch.float32,
                 members: slice = slice(None)) -> torch.Tensor:
-        """``x`` ``(m, B, in)`` through members ``members`` (default all ``M``) -> ``(m, B, out)``."""
-        h = x
-        last = len(self.weights) - 1
+        """``x`` ``(m, B, in)`` through members ``members`` (default all ``M``) -> ``(m, B, out)``,
+        float32."""
         # indexing even with the full slice records a slice op whose backward allocates and fills
         # a zero tensor of every weight's size: ~8 % of an update
         every_member = members == slice(None)
+
+        def own(p: torch.Tensor) -> torch.Tensor:
+            """The members' slice of a parameter, in the products' dtype."""
+            p = p if every_member else p[members]
+            return p if p.dtype == dtype else p.to(dtype)
+
+        # in a low precision the activations stay in it from layer to layer (the layer norm
+        # accumulates in float32 and returns the input's dtype): casting them to float32 and back
+        # at every layer cost ~15 % of an update, and the next product rounds them anyway
+        h = x.to(dtype)
+        last = len(self.weights) - 1
         for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True)):
-            if not every_member:
-                w, b = w[members], b[members]
-            if dtype != torch.float32:
-                h = torch.baddbmm(b.to(dtype), h.to(dtype), w.to(dtype))
-            else:
-                h = torch.baddbmm(b, h, w)
+            h = torch.baddbmm(own(b), h, own(w))
             if i < last:
                 if self.layer_norm:
-                    h = nn.functional.layer_norm(h.float(), h.shape[-1:], eps=1e-5)
-                    gain, bias = self.norm_gains[i], self.norm_biases[i]
-                    if not every_member:
-                        gain, bias = gain[members], bias[members]
-                    h = torch.addcmul(bias, h, gain)
+                    h = nn.functional.layer_norm(h, h.shape[-1:], eps=1e-5)
+                    h = torch.addcmul(own(self.norm_biases[i]), h, own(self.norm_gains[i]))
                 h = torch.relu_(h)  # in place: the backward of the op before needs not its output
         return h.float()
 

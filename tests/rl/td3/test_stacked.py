@@ -9,7 +9,7 @@ import dataclasses
 import numpy as np
 import pytest
 import torch
-from elastica_magnetic_rl.td3.algorithm import TD3, TD3Config
+from elastica_magnetic_rl.td3.algorithm import TD3, TD3Config, cpu_supports_bf16
 from state_compare import assert_state_equal
 from toy_data import random_replay_buffer
 
@@ -17,12 +17,15 @@ torch.set_num_threads(1)
 
 
 @pytest.mark.parametrize("options", [{}, {"critic_layer_norm": True},
-                                     {"actor_saturation_penalty": 1.0}],
-                         ids=["plain", "critic_layer_norm", "actor_saturation_penalty"])
+                                     {"actor_saturation_penalty": 1.0},
+                                     {"critic_layer_norm": True, "precision": "bf16"}],
+                         ids=["plain", "critic_layer_norm", "actor_saturation_penalty", "bf16"])
 def test_k_seeds_update_equals_each_seed_alone(options):
     """The stacked update of 3 seeds equals each seed's own update, bit for bit (every seed on
     its own minibatches, noise and Adam moments), with and without the critics' layer norms and
-    the actor's saturation penalty."""
+    the actor's saturation penalty, and in bfloat16 (activations kept in it between layers)."""
+    if options.get("precision") == "bf16" and not cpu_supports_bf16():
+        pytest.skip("no bfloat16 matrix units on this CPU: bf16 falls back to fp32")
     obs_dim, act_dim = 5, 2
     configs = [TD3Config(seed=s, hidden_sizes=(8, 8), batch_size=16, **options) for s in (0, 4, 9)]
     buffers = [random_replay_buffer(obs_dim, act_dim, 100, k, done_every=7, capacity=200)
@@ -118,3 +121,20 @@ def test_polyak_update_gives_the_per_parameter_expressions_floats():
     assert len(got) == len(expected)
     for g, e in zip(got, expected, strict=True):
         assert torch.equal(g, e)
+
+
+def test_bf16_network_follows_the_float32_one():
+    """In bfloat16 (products, activations and the norms' affine maps; statistics in float32) a
+    critic with layer norms gives the float32 critic's values to bfloat16's precision (8 bits of
+    mantissa: a few tenths of a percent per layer), not something else."""
+    obs_dim, act_dim = 40, 2
+    cfg = TD3Config(seed=1, hidden_sizes=(64, 64), critic_layer_norm=True)
+    agent = TD3(obs_dim, act_dim, -np.ones(act_dim), np.ones(act_dim), [cfg])
+    x = torch.as_tensor(np.random.default_rng(0).normal(size=(2, 256, obs_dim + act_dim)),
+                        dtype=torch.float32)
+    with torch.no_grad():
+        exact = agent.critic_net(x)
+        low = agent.critic_net(x, torch.bfloat16)
+    assert low.dtype == torch.float32 and low.shape == exact.shape
+    error = (low - exact).abs().max() / exact.abs().max()
+    assert 0 < error < 0.03, error
