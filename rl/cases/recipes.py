@@ -24,19 +24,15 @@ CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8, "eval_every":
 #: seeds stayed at a half roll with saturated actors and calibrated critics).
 #:
 #: ``fast``: a CANDIDATE for a design loop measured in minutes: ``pink-ln`` (its 256-256 networks)
-#: with minibatches of 128, bfloat16 matrix products in the updates (``fp32`` on a CPU without
-#: bfloat16 units) and the ``target`` stop rule, confirmed in the accurate physics, on by default
-#: (:data:`RECIPE_RUN_SETTINGS`; ``--stop-when none`` turns it off). Measured on ``m1-10mT``, 8
-#: seeds each: batch 128 + bf16 made 7 of 8 twice (docs/training.md); one update per two
-#: transitions (``--envs 2 --updates-per-step 0.5``) made 4 of 8 and was not taken. Earlier:
-#: (a) replaying the ``target`` rule with k = 2 on the committed ``pink-ln`` seeds' evaluations
-#: (``benchmarks/stop_rule_replay.py``), the seeds would have run 52-54 % of their steps in every
-#: paper case (m1-4mT 0.54, m1-10mT 0.52, m2-4mT 0.54, m2-10mT 0.52; k = 3: 0.58, 0.615, 0.5775,
-#: 0.5975), a replay that says nothing yet of the stopped actors' distances; (b) narrower networks
-#: were tried and not taken: 128-128 ``pink-ln`` on m1-10mT seeds 0-3 made 3 of 4 (where 256-256 made
-#: 4 of 4), and on seeds 4-7 only seed 5 reached the authors' distance by 80k steps (at 54k;
-#: 256-256: all four by 56k; ``benchmarks/results/probe_fast_h128_m1-10mT_seeds4-7.json``); 64-64
-#: made 1 of 4. The 8-seed campaigns of the four paper cases decide whether it stays.
+#: with minibatches of 64 (DDPG's, Lillicrap et al. 2016), bfloat16 networks in the updates
+#: (``fp32`` on a CPU without bfloat16 units), the ``target`` stop rule, confirmed in the accurate
+#: physics, on by default, and 0.8 of the case's steps (:data:`RECIPE_RUN_SETTINGS`; ``--stop-when
+#: none`` and ``--steps`` override them). Measured on the four paper cases with minibatches of 128
+#: and the whole budget: 7, 7, 5 and 6 of 8 seeds (m1-10mT, m2-10mT, m1-4mT, m2-4mT) in 41.6-50.5
+#: min; no seed of the committed ``fast`` or ``pink-ln`` runs at 4 mT first reached the yardstick
+#: after 80k steps, one of 16 ``fast`` seeds at 10 mT did; the update of 4 stacked seeds costs ~0.7x
+#: with 64 (docs/training.md). Not taken: one update per two transitions (4 of 8 on m1-10mT),
+#: 128-128 networks (3 of 4, then 1 of 4 by 80k), 64-64 (1 of 4).
 #:
 #: ``robust``: ``pink-ln`` trained on robots drawn anew for every episode and crawler from the
 #: default variation set (domain randomization, Tobin et al. 2017; the run setting ``randomize``
@@ -49,15 +45,17 @@ RECIPES: dict[str, dict[str, Any]] = {
     "pink-ln-unsat": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True,
                       "actor_saturation_penalty": 1.0},
     "fast": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True,
-             "batch_size": 128, "precision": "bf16"},
+             "batch_size": 64, "precision": "bf16"},
     "robust": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True},
 }
 #: Run settings a recipe carries besides its TD3 changes (not hyperparameters: they change when a
 #: seed stops, not what it learns), each overridable on the command line: ``stop_when``, the
 #: default of ``msr train --stop-when`` (``--stop-when none`` turns it off); ``randomize``, the
 #: default of ``msr train --randomize`` for a case whose spec has no ``[training.randomize]``
-#: (``"default"``: the default variation set; ``--randomize none`` turns it off).
-RECIPE_RUN_SETTINGS: dict[str, dict[str, Any]] = {"fast": {"stop_when": "target"},
+#: (``"default"``: the default variation set; ``--randomize none`` turns it off); ``step_budget``,
+#: the fraction of the case's steps per seed a run of the recipe takes when ``--steps`` is not
+#: given (:func:`recipe_steps`).
+RECIPE_RUN_SETTINGS: dict[str, dict[str, Any]] = {"fast": {"stop_when": "target", "step_budget": 0.8},
                                                   "robust": {"randomize": "default"}}
 
 #: The recipe of a spec file that names none, and of the paper's four cases: ``pink-ln`` made more
@@ -70,11 +68,20 @@ RECIPE_SUMMARIES: dict[str, str] = {
     "pink": "the paper's with temporally correlated (pink) exploration noise",
     "pink-ln": "pink, and layer normalisation in the critics",
     "pink-ln-unsat": "pink-ln, and a penalty that keeps the actor out of tanh's saturation",
-    "fast": "CANDIDATE, being measured: pink-ln with minibatches of 128 and bfloat16 updates, "
-            "whose seeds stop at the case's yardstick (--stop-when target by default)",
+    "fast": "CANDIDATE, being measured: pink-ln with minibatches of 64 and bfloat16 updates, "
+            "whose seeds stop at the case's yardstick (--stop-when target by default), within 0.8 "
+            "of the case's steps",
     "robust": "pink-ln on robots randomized per episode (the default variation set: magnetization "
               "+-15 %, modulus +-20 %, friction +-25 %, density +-10 %; --randomize)",
 }
+
+
+def recipe_steps(case_steps: int, recipe: str) -> int:
+    """Environment steps per seed of a run of ``recipe`` on a case whose spec gives
+    ``case_steps``: the recipe's ``step_budget`` fraction of them (:data:`RECIPE_RUN_SETTINGS`),
+    rounded to a whole step, else all of them."""
+    fraction = RECIPE_RUN_SETTINGS.get(recipe, {}).get("step_budget", 1.0)
+    return max(1, round(int(case_steps) * fraction))
 
 
 def crawler_config(seed: int = 0, recipe: str = DEFAULT_RECIPE, **overrides: Any):
