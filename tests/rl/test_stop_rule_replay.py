@@ -1,5 +1,5 @@
 """benchmarks/stop_rule_replay.py: the replay of the ``target`` stop rule on the committed
-``pink-ln`` seeds reproduces the numbers quoted in rl/cases/recipes.py (recipe ``fast``)."""
+``pink-ln`` seeds reproduces the numbers quoted in docs/training.md (stopping seeds that have learned)."""
 
 from __future__ import annotations
 
