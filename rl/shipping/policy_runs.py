@@ -191,11 +191,25 @@ def evaluate_run(run_dir: str | Path, duration: float = 10.0, progress: bool = T
     final = evaluate_checkpoint(run.checkpoint, cache, duration, progress)
     best = None
     if run.best.is_file():
-        best = evaluate_checkpoint(run.best, cache.get("best") or {}, duration, progress)
+        # a best.pt holding the final actor (a seed stopped by its rule right after that
+        # evaluation, or the last evaluation the best) has the final actor's evaluation
+        prior = final if _same_actor(run.checkpoint, run.best) else cache.get("best") or {}
+        best = evaluate_checkpoint(run.best, prior, duration, progress)
     if seed is None:
         seed = cache.get("seed")
     atomic_write_json(cache_path, {"seed": seed, **final, "best": best})
     return final, best
+
+
+def _same_actor(a: Path, b: Path) -> bool:
+    """Whether two checkpoint files hold the same actor: same global step, equal weights."""
+    import torch
+
+    pa, pb = resolve_policy(a), resolve_policy(b)
+    if pa.meta.get("global_step") != pb.meta.get("global_step"):
+        return False
+    sa, sb = pa.actor.state_dict(), pb.actor.state_dict()
+    return sa.keys() == sb.keys() and all(torch.equal(sa[k], sb[k]) for k in sa)
 
 
 def prefer_best(case: Case, final: dict[str, Any], best: dict[str, Any] | None) -> bool:

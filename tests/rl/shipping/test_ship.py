@@ -232,3 +232,30 @@ def test_the_card_says_where_a_refinement_ran_and_on_which_robots():
     assert "refinement steps (training physics, dt 0.0001 s): 10000" in card
     assert "Trained for one robot" not in card
     assert "magnetization 0.85:1.15" in card and "friction 0.75:1.25" in card
+
+
+def test_a_best_pt_holding_the_final_actor_is_not_rolled_out_twice(trained, tmp_path, monkeypatch):
+    """``evaluate_run``: when ``best.pt`` holds the final actor (same step and weights: a seed
+    stopped right after its best evaluation), its evaluation is the final one's, one rollout;
+    a ``best.pt`` with other weights is rolled out on its own."""
+    import shutil
+
+    run = tmp_path / "seed0"
+    shutil.copytree(trained / "m1-4mT" / "seed0", run)
+    shutil.copyfile(run / "checkpoint.pt", run / "best.pt")
+    (run / "evaluation.json").unlink(missing_ok=True)
+    calls = []
+    real = policy_runs.run_policy
+    monkeypatch.setattr(policy_runs, "run_policy", lambda *a, **k: calls.append(1) or real(*a, **k))
+    final, best = policy_runs.evaluate_run(run, duration=0.05, progress=False)
+    assert len(calls) == 1 and best == final
+
+    other = torch.load(run / "best.pt", weights_only=False)  # same step, one weight changed
+    actor = other["agent"]["actor"]
+    name = next(iter(actor))
+    actor[name] = actor[name] + 1.0
+    torch.save(other, run / "best.pt")
+    (run / "evaluation.json").unlink()
+    calls.clear()
+    policy_runs.evaluate_run(run, duration=0.05, progress=False)
+    assert len(calls) == 2
