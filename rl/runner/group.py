@@ -42,8 +42,12 @@ class GroupLoop:
                  log_fn: Callable[[dict[str, Any]], None] | None,
                  eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None,
                  vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None,
-                 confirm_env_fn: Callable[[], gym.Env] | None = None) -> None:
+                 confirm_env_fn: Callable[[], gym.Env] | None = None,
+                 hand_back: Callable[[], bool] | None = None) -> None:
         self.env, self.runs, self.learner, self.n = env, runs, learner, n
+        # asked at each step where every episode has just ended: hand the seeds back (see
+        # :meth:`hands_back`); ``handed_back`` once done
+        self.hand_back, self.handed_back = hand_back, False
         self.log_fn, self.eval_vec_env_fn, self.vec_env_fn = log_fn, eval_vec_env_fn, vec_env_fn
         self.confirm_env_fn = confirm_env_fn
         self.cfg, self.k_seeds = learner.config, len(runs)
@@ -315,16 +319,28 @@ class GroupLoop:
         checkpoint_due = restorable and lead.global_step >= lead.next_checkpoint
         if ended.any():
             reset_seeds = self.next_episode_seeds(ended)
-            if checkpoint_due and all_ended:  # before the new episodes: nothing of them to save
+            handing_back = all_ended and self.hands_back()
+            if (checkpoint_due or handing_back) and all_ended:  # nothing of the new episodes to save
                 self.checkpoint_between_episodes()
                 checkpoint_due = False
                 self.lap("checkpoint")
+            if handing_back:  # the seeds go on elsewhere, from these checkpoints
+                self.handed_back = True
+                return next_obs
             self.start_next_episodes(ended, reset_seeds, next_obs)
         self.lap("env")
         if checkpoint_due:  # inside episodes: the environments' state goes along
             self.checkpoint_inside_episodes(next_obs)
             self.lap("checkpoint")
         return next_obs
+
+    def hands_back(self) -> bool:
+        """Whether the group stops here so that its seeds go on in other groups (the caller's
+        ``hand_back`` says yes, and at least two seeds still train: one alone has nowhere better
+        to go). Asked only where every episode has just ended: the checkpoints written there
+        resume in any grouping, bit-identical (:mod:`elastica_magnetic_rl.runner.loop`)."""
+        return (self.hand_back is not None and sum(not r.stopped for r in self.runs) >= 2
+                and bool(self.hand_back()))
 
     def show_progress(self) -> None:
         """The group's rate and ETA (evaluations included) on its first seed's progress bar."""
@@ -450,7 +466,9 @@ class GroupLoop:
                 if done:  # ``obs`` stays this step's start: what the final checkpoint has held
                     break
                 obs = self.between_steps(next_obs, ended)
-            if not (lead.resumed_here and lead.global_step == start_step):
+                if self.handed_back:  # checkpointed: no final evaluation here
+                    break
+            if not self.handed_back and not (lead.resumed_here and lead.global_step == start_step):
                 self.finish(obs, ended, start_step)
         finally:
             for run in every_run:

@@ -80,6 +80,7 @@ def train_seeds(
     eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None,
     stop_rules: Sequence[StopRule | None] | None = None,
     confirm_env_fn: Callable[[], gym.Env] | None = None,
+    hand_back: Callable[[], bool] | None = None,
 ) -> TD3:
     """Train ``K = len(configs)`` seeds for ``steps`` environment transitions each and return the
     :class:`~elastica_magnetic_rl.td3.algorithm.TD3` holding them.
@@ -120,9 +121,15 @@ def train_seeds(
             checkpoints' (new runs: none). A stopped seed is never trained further.
         confirm_env_fn: where a fired rule with ``confirm`` is confirmed (one deterministic
             episode whose return must reach the threshold too; the crawler's: 10 s, accurate).
+        hand_back: asked at each vector step where every episode of the group has just ended;
+            when it returns true while at least two seeds still train, every seed's checkpoint is
+            written there and the call returns before the budget (no final evaluation): the
+            seeds go on from their folders with ``resume``, in any grouping, bit-identical to an
+            uninterrupted run. How a sweep keeps an idle core busy
+            (:mod:`elastica_magnetic_rl.sweep.rebalance`).
 
     Returns the learner holding every seed in the order given, each at its end (a stopped seed
-    at its stop; the update counter is then the last seed's).
+    at its stop; the update counter is then the last seed's; after a hand-back, where it was).
     """
     k_seeds, n = len(configs), int(envs_per_seed)
     _check_group(run_dirs, k_seeds, n, stop_rules, confirm_env_fn)
@@ -136,9 +143,10 @@ def train_seeds(
             return _without_stopped(vec_env_fn, env, runs, configs, steps, run_dirs, n, resume,
                                     progress, log_fn, metadata, eval_env_fn, progress_position,
                                     progress_desc, eval_vec_env_fn, obs_dim, act_dim, act_space,
-                                    confirm_env_fn)
+                                    confirm_env_fn, hand_back)
         learner = _group_learner(runs, obs_dim, act_dim, act_space)
-        loop = GroupLoop(env, runs, learner, n, log_fn, eval_vec_env_fn, vec_env_fn, confirm_env_fn)
+        loop = GroupLoop(env, runs, learner, n, log_fn, eval_vec_env_fn, vec_env_fn, confirm_env_fn,
+                         hand_back)
         learner = loop.train(progress, eval_env_fn, progress_position, progress_desc)
         env = loop.env  # a smaller one once seeds have stopped
         if any(r.final_state is not None for r in runs):
@@ -226,7 +234,7 @@ def _assemble(learner: TD3, runs: list[SeedRun], act_space: gym.spaces.Box,
 
 def _without_stopped(vec_env_fn, env, runs, configs, steps, run_dirs, n, resume, progress, log_fn,
                      metadata, eval_env_fn, progress_position, progress_desc, eval_vec_env_fn,
-                     obs_dim, act_dim, act_space, confirm_env_fn=None) -> TD3:
+                     obs_dim, act_dim, act_space, confirm_env_fn=None, hand_back=None) -> TD3:
     """``train_seeds`` of a group some of whose seeds stopped in an earlier call: those are left
     as they are, the others trained (resumed) on their own; the learner of them all."""
     env.close()
@@ -241,7 +249,7 @@ def _without_stopped(vec_env_fn, env, runs, configs, steps, run_dirs, n, resume,
                           eval_env_fn=eval_env_fn, progress_position=progress_position,
                           progress_desc=progress_desc, eval_vec_env_fn=eval_vec_env_fn,
                           stop_rules=[runs[k].stop_rule for k in active],
-                          confirm_env_fn=confirm_env_fn)
+                          confirm_env_fn=confirm_env_fn, hand_back=hand_back)
         states.update({k: sub.seed_state(i) for i, k in enumerate(active)})
     probe = TD3(obs_dim, act_dim, act_space.low.reshape(-1), act_space.high.reshape(-1),
                 [r.cfg for r in runs[:1]])

@@ -38,14 +38,14 @@ import os
 import sys
 import time
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, as_completed, wait
-from dataclasses import replace
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from dataclasses import dataclass, replace
 from typing import Any
 
 from ..runfiles.rundir import CaseDir, RunDir
 from .jobs import GroupJob
 
-__all__ = ["BACKENDS", "run_in_processes", "run_jobs"]
+__all__ = ["BACKENDS", "Rebalancing", "run_in_processes", "run_jobs"]
 
 #: Backend names accepted by :func:`run_jobs` (and ``msr train --backend``).
 BACKENDS = ("process", "ray")
@@ -58,6 +58,21 @@ def _error(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
+@dataclass(frozen=True)
+class Rebalancing:
+    """How a pool of worker processes keeps every worker busy once no job is waiting: it asks the
+    running jobs to hand back the work they have not done (``request``: called once per running
+    job while a worker is idle and the queue is empty), continues a job that handed some back in
+    new jobs over the free workers (``split(job, result, free_workers)``: the continuation jobs,
+    ``[]`` when the job finished whole), and folds each continuation's result, or the exception
+    it raised, into the result of the job it continues (``merge(result, continuation, outcome)``).
+    The training of groups of seeds is the user (:mod:`elastica_magnetic_rl.sweep.rebalance`)."""
+
+    request: Callable[[Any], None]
+    split: Callable[[Any, Any, int], list[Any]]
+    merge: Callable[[Any, Any, Any], Any]
+
+
 def run_jobs(
     fn: Callable[[GroupJob], dict[str, Any]],
     jobs: list[GroupJob],
@@ -65,13 +80,15 @@ def run_jobs(
     backend: str = "process",
     address: str | None = None,
     progress: bool = True,
+    rebalancing: Rebalancing | None = None,
 ) -> list[dict[str, Any]]:
     """Run ``fn(job)`` for every job and return the results in the order of ``jobs`` (jobs may
     differ in case and seed: a sweep is one list).
 
     A job that raises does not stop the others: its result is ``{"seed": s, "error": "Type: msg"}``.
     ``address`` (a Ray cluster) is only for ``backend="ray"``; ``progress`` only affects the Ray
-    backend's per-seed lines (the process backend's bars are set in the jobs).
+    backend's per-seed lines (the process backend's bars are set in the jobs). ``rebalancing``
+    (process backend with several workers only; ignored otherwise): see :class:`Rebalancing`.
     """
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
@@ -79,10 +96,10 @@ def run_jobs(
         raise ValueError("an address is for the ray backend (--backend ray)")
     if backend == "ray":
         return _run_ray(fn, jobs, workers, address, progress)
-    return _run_processes(fn, jobs, workers)
+    return _run_processes(fn, jobs, workers, rebalancing)
 
 
-def _run_processes(fn, jobs, workers) -> list[dict[str, Any]]:
+def _run_processes(fn, jobs, workers, rebalancing=None) -> list[dict[str, Any]]:
     results: list[dict[str, Any]] = [{} for _ in jobs]
     if workers == 1:
         for k, job in enumerate(jobs):
@@ -92,7 +109,7 @@ def _run_processes(fn, jobs, workers) -> list[dict[str, Any]]:
                 results[k] = {"seed": job.seed, "error": _error(exc)}
     else:
         results = run_in_processes(fn, jobs, workers, on_error=lambda k, exc: {
-            "seed": jobs[k].seed, "error": _error(exc)})
+            "seed": jobs[k].seed, "error": _error(exc)}, rebalancing=rebalancing)
     return results
 
 
@@ -103,10 +120,12 @@ def run_in_processes(
     on_error: Callable[[int, Exception], Any] | None = None,
     stop_grace_s: float | None = None,
     quiet_interrupt: bool = False,
+    rebalancing: Rebalancing | None = None,
 ) -> list[Any]:
     """``fn(job)`` for every job in ``workers`` processes (``spawn``), the results in the order of
     ``jobs``. A job that raises gives ``on_error(k, exception)`` as its result, or, without
-    ``on_error``, the exception is raised here (the jobs not started are dropped).
+    ``on_error``, the exception is raised here (the jobs not started are dropped). With
+    ``rebalancing`` (:class:`Rebalancing`), a job's result includes those of its continuations.
 
     Ctrl-C (KeyboardInterrupt) stops the workers within :data:`STOP_GRACE_S` (see
     :func:`_stop_workers`) and is raised again; a plain ``ProcessPoolExecutor`` would wait for
@@ -120,18 +139,36 @@ def run_in_processes(
     with _sigint_ignored_while_spawning(quiet_interrupt):  # the workers inherit SIG_IGN
         pool = ProcessPoolExecutor(max_workers=workers, mp_context=context,
                                    initializer=_init_worker, initargs=(os.getpid(), quiet_interrupt))
-        futures = {pool.submit(fn, job): k for k, job in enumerate(jobs)}
+        futures = {pool.submit(fn, job): (k, job) for k, job in enumerate(jobs)}
     results: list[Any] = [None] * len(jobs)
+    running = set(futures)
+    asked: set[Any] = set()  # the futures asked to hand work back
     try:
         with _termination_as_interrupt():
-            for future in as_completed(futures):
-                k = futures[future]
-                try:
-                    results[k] = future.result()
-                except Exception as exc:
-                    if on_error is None:
-                        raise
-                    results[k] = on_error(k, exc)
+            while running:
+                done, running = wait(running, return_when=FIRST_COMPLETED)
+                for future in done:
+                    k, job = futures[future]
+                    try:
+                        outcome = future.result()
+                    except Exception as exc:
+                        if on_error is None and (rebalancing is None or job is jobs[k]):
+                            raise
+                        outcome = exc
+                    if job is not jobs[k]:  # a continuation of job k
+                        results[k] = rebalancing.merge(results[k], job, outcome)
+                    else:
+                        results[k] = on_error(k, outcome) if isinstance(outcome, Exception) \
+                            else outcome
+                    if rebalancing is not None and not isinstance(outcome, Exception):
+                        for more in rebalancing.split(job, outcome, workers - len(running)):
+                            new = pool.submit(fn, more)
+                            futures[new] = (k, more)
+                            running.add(new)
+                if rebalancing is not None and len(running) < workers:
+                    for future in running - asked:  # a worker is idle: hand work over to it
+                        rebalancing.request(futures[future][1])
+                        asked.add(future)
     except KeyboardInterrupt:
         _stop_workers(pool, futures, grace)
         raise

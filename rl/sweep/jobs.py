@@ -35,6 +35,12 @@ class GroupJob:
     run_dirs: tuple[str, ...]
     stop_rule: dict[str, Any] | None = None
     """The seeds' stop rule (:meth:`StopRule.to_dict`), ``None``: they run their whole budget."""
+    hand_back_file: str | None = None
+    """A file whose existence asks the group to hand its unfinished seeds back at its next
+    episode boundary (:mod:`elastica_magnetic_rl.sweep.rebalance`); ``None``: never asked."""
+    continued: bool = False
+    """The job goes on with seeds another job handed back (a resume the user did not ask for:
+    not counted as one in ``run.json``)."""
 
     @property
     def seed(self) -> int:

@@ -21,7 +21,7 @@ from ..runfiles.logs import read_log
 from ..runfiles.rundir import CaseDir, RunDir
 from .stop_settings import stop_summary
 
-__all__ = ["case_summary", "summarize_run"]
+__all__ = ["case_summary", "failed_group_results", "summarize_run"]
 
 
 def summarize_run(run_dir: str | Path, last: int = 5, reward_scale: float = 1e4) -> dict[str, Any]:
@@ -52,6 +52,17 @@ def summarize_run(run_dir: str | Path, last: int = 5, reward_scale: float = 1e4)
         "best_eval_step": int(best_eval["global_step"]) if best_eval else None,
         "best_eval_return": float(best_eval["mean_return"]) if best_eval else None,
     }
+
+
+def failed_group_results(configs: Any, run_dirs: Any, error: str) -> list[dict[str, Any]]:
+    """One result per seed of a group whose worker failed (``configs``: the seeds' TD3
+    configurations as dicts, ``run_dirs`` their folders): what each folder holds
+    (:func:`summarize_run`, when it has episodes) with the seed and the ``error``."""
+    results = []
+    for config, run_dir in zip(configs, run_dirs, strict=True):
+        entry = summarize_run(run_dir) if RunDir(run_dir).has_episodes() else {}
+        results.append({**entry, "seed": config["seed"], "error": error})
+    return results
 
 
 def _checkpoint_step(run: RunDir, rows: list[dict[str, str]]) -> int:

@@ -383,3 +383,49 @@ def test_a_crawler_that_stops_leaves_the_batched_simulator_and_the_other_goes_on
     for key in ("agent", "buffer", "global_step", "episode"):
         assert_state_equal(a[key], b[key], key)
     assert load_checkpoint(tmp_path / "group" / "seed1")["stopped"]["step"] == 10
+
+
+# ----------------------------------------------------------------------------------------------
+# Handing seeds back (rl/sweep/rebalance.py moves them onto an idle worker)
+# ----------------------------------------------------------------------------------------------
+def _asked_from(calls: int):
+    """A ``hand_back`` that says yes from its ``calls``-th question on (one question per common
+    episode boundary: every 20 steps of the fixed episodes)."""
+    asked = []
+
+    def hand_back() -> bool:
+        asked.append(1)
+        return len(asked) >= calls
+
+    return hand_back
+
+
+def test_a_group_hands_its_seeds_back_and_they_end_bit_identical_in_other_groups(tmp_path):
+    from elastica_magnetic_rl.runner.loop import train_seeds
+
+    def group(name, seeds, steps, resume=False, hand_back=None):
+        return train_seeds(lambda k: sync_vector_env(_fixed_episodes, k),
+                           [toy_config(seed=s, eval_every=40, checkpoint_every=1000) for s in seeds],
+                           steps, [tmp_path / name / f"seed{s}" for s in seeds], progress=False,
+                           resume=resume, eval_env_fn=_fixed_episodes, hand_back=hand_back)
+
+    group("moved", (2, 5, 7), 200, hand_back=_asked_from(3))  # handed back at step 60
+    for s in (2, 5, 7):
+        ckpt = load_checkpoint(tmp_path / "moved" / f"seed{s}")
+        assert ckpt["global_step"] == 60 and ckpt["at_episode_boundary"] and ckpt["stopped"] is None
+    group("moved", (2, 5), 200, resume=True)  # the seeds go on in two other groups
+    group("moved", (7,), 200, resume=True)
+    group("ref", (2, 5, 7), 200)  # never moved
+    for s in (2, 5, 7):
+        a = load_checkpoint(tmp_path / "moved" / f"seed{s}")
+        b = load_checkpoint(tmp_path / "ref" / f"seed{s}")
+        for key in ("agent", "buffer", "global_step", "episode", "evaluation"):
+            assert_state_equal(a[key], b[key], key)
+        for log in ("episodes.csv", "evaluations.csv"):
+            rows = [[{k: v for k, v in r.items() if k != "wall_time_s"} for r in
+                     csv.DictReader(open(tmp_path / run / f"seed{s}" / log))] for run in ("moved", "ref")]
+            assert rows[0] == rows[1], log
+
+    # one seed still training has nowhere better to go: it is not handed back
+    group("alone", (2,), 100, hand_back=lambda: True)
+    assert load_checkpoint(tmp_path / "alone" / "seed2")["global_step"] == 100
