@@ -25,6 +25,7 @@ so seeds are not moved there.
 from __future__ import annotations
 
 import shutil
+import sys
 import tempfile
 from dataclasses import replace
 from pathlib import Path
@@ -98,7 +99,11 @@ class GroupRebalancing:
             raise ValueError(f"the group of seeds {job.seeds} handed back folders it does not "
                              f"hold: {', '.join(unknown)}")
         jobs = []
-        for chunk in split_evenly([index[d] for d in handed], free_workers):
+        chunks = split_evenly([index[d] for d in handed], free_workers)
+        groups = " and ".join(str([job.seeds[i] for i in chunk]) for chunk in chunks)
+        print(f"note: {job.case}: seeds of a busy worker move to an idle one: they go on as "
+              f"{groups}", file=sys.stderr, flush=True)
+        for chunk in chunks:
             jobs.append(self._askable(replace(
                 job, configs=tuple(job.configs[i] for i in chunk),
                 run_dirs=tuple(job.run_dirs[i] for i in chunk), position=job.position + chunk[0],
