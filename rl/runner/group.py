@@ -43,13 +43,14 @@ class GroupLoop:
                  eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None,
                  vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None,
                  confirm_env_fn: Callable[[], gym.Env] | None = None,
-                 hand_back: Callable[[], bool] | None = None) -> None:
+                 hand_back: Callable[[], bool] | None = None,
+                 confirm_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None) -> None:
         self.env, self.runs, self.learner, self.n = env, runs, learner, n
         # asked at each step where every episode has just ended: hand the seeds back (see
         # :meth:`hands_back`); ``handed_back`` once done
         self.hand_back, self.handed_back = hand_back, False
         self.log_fn, self.eval_vec_env_fn, self.vec_env_fn = log_fn, eval_vec_env_fn, vec_env_fn
-        self.confirm_env_fn = confirm_env_fn
+        self.confirm_env_fn, self.confirm_vec_env_fn = confirm_env_fn, confirm_vec_env_fn
         self.cfg, self.k_seeds = learner.config, len(runs)
         self.obs_dim, self.act_dim = learner.obs_dim, learner.act_dim
         # a Gymnasium vector environment that can save its state allows checkpoints inside episodes
@@ -201,9 +202,10 @@ class GroupLoop:
 
     def evaluate(self, due: list[int]) -> None:
         """Evaluate the seeds ``due``: together in one vector environment when there is one (the
-        same returns as one by one), else one after the other."""
+        same returns as one by one; for the crawler also faster for one seed alone: the batched
+        simulator), else one after the other."""
         learner, runs = self.learner, self.runs
-        if len(due) > 1 and self.eval_vec_env_fn is not None:
+        if due and self.eval_vec_env_fn is not None:
             results = evaluate_many([ActorPolicy.of_seed(learner, k) for k in due],
                                     self.eval_vec_env_fn, self.cfg.eval_episodes, EVAL_SEED)
             for k, result in zip(due, results, strict=True):
@@ -369,13 +371,19 @@ class GroupLoop:
 
     def confirm_stop(self, k: int, reason: str) -> str | None:
         """The fired rule of seed ``k`` confirmed: one episode of its deterministic actor in
-        ``confirm_env_fn`` (for the crawler: 10 s from a zero field in the accurate physics);
+        ``confirm_vec_env_fn`` (one sub-environment: the same return, the batched simulator's
+        speed) or ``confirm_env_fn`` (for the crawler: 10 s from a zero field in the accurate
+        physics);
         the reason with the confirmation if its return reaches the rule's threshold, else
         ``None`` (the seed trains on). Either way the return is logged (TensorBoard
         ``eval/confirmation_return``) and shown on the seed's progress output."""
         run = self.runs[k]
         rule = run.stop_rule
-        result = evaluate(ActorPolicy.of_seed(self.learner, k), self.confirm_env_fn, 1, EVAL_SEED)
+        policy = ActorPolicy.of_seed(self.learner, k)
+        if self.confirm_vec_env_fn is not None:
+            result = evaluate_many([policy], self.confirm_vec_env_fn, 1, EVAL_SEED)[0]
+        else:
+            result = evaluate(policy, self.confirm_env_fn, 1, EVAL_SEED)
         confirmed = float(result.mean_return)
         run.writer.add_scalar("eval/confirmation_return", confirmed, run.global_step)
         passed = confirmed >= rule.threshold

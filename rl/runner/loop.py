@@ -81,6 +81,7 @@ def train_seeds(
     stop_rules: Sequence[StopRule | None] | None = None,
     confirm_env_fn: Callable[[], gym.Env] | None = None,
     hand_back: Callable[[], bool] | None = None,
+    confirm_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None,
 ) -> TD3:
     """Train ``K = len(configs)`` seeds for ``steps`` environment transitions each and return the
     :class:`~elastica_magnetic_rl.td3.algorithm.TD3` holding them.
@@ -121,6 +122,9 @@ def train_seeds(
             checkpoints' (new runs: none). A stopped seed is never trained further.
         confirm_env_fn: where a fired rule with ``confirm`` is confirmed (one deterministic
             episode whose return must reach the threshold too; the crawler's: 10 s, accurate).
+        confirm_vec_env_fn: the same as a vector environment (``confirm_vec_env_fn(1)``; used
+            instead of ``confirm_env_fn`` when given: the crawler's batched simulator returns the
+            same, faster).
         hand_back: asked at each vector step where every episode of the group has just ended;
             when it returns true while at least two seeds still train, every seed's checkpoint is
             written there and the call returns before the budget (no final evaluation): the
@@ -132,7 +136,7 @@ def train_seeds(
     at its stop; the update counter is then the last seed's; after a hand-back, where it was).
     """
     k_seeds, n = len(configs), int(envs_per_seed)
-    _check_group(run_dirs, k_seeds, n, stop_rules, confirm_env_fn)
+    _check_group(run_dirs, k_seeds, n, stop_rules, confirm_env_fn or confirm_vec_env_fn)
     retain_freed_memory()  # the updates' temporaries reused, not page-faulted in (rl/runner/allocator.py)
     env = vec_env_fn(k_seeds * n)
     try:
@@ -143,10 +147,10 @@ def train_seeds(
             return _without_stopped(vec_env_fn, env, runs, configs, steps, run_dirs, n, resume,
                                     progress, log_fn, metadata, eval_env_fn, progress_position,
                                     progress_desc, eval_vec_env_fn, obs_dim, act_dim, act_space,
-                                    confirm_env_fn, hand_back)
+                                    confirm_env_fn, hand_back, confirm_vec_env_fn)
         learner = _group_learner(runs, obs_dim, act_dim, act_space)
         loop = GroupLoop(env, runs, learner, n, log_fn, eval_vec_env_fn, vec_env_fn, confirm_env_fn,
-                         hand_back)
+                         hand_back, confirm_vec_env_fn)
         learner = loop.train(progress, eval_env_fn, progress_position, progress_desc)
         env = loop.env  # a smaller one once seeds have stopped
         if any(r.final_state is not None for r in runs):
@@ -158,7 +162,7 @@ def train_seeds(
 
 def _check_group(run_dirs: Sequence[str | os.PathLike], k_seeds: int, n: int,
                  stop_rules: Sequence[StopRule | None] | None,
-                 confirm_env_fn: Callable[[], gym.Env] | None = None) -> None:
+                 confirm_env_fn: Callable[..., Any] | None = None) -> None:
     """Refuse a group without seeds, or whose seeds share a run folder, or whose per-seed
     arguments do not match its seeds, or a confirmed rule without its environment, before any
     environment is built."""
@@ -171,7 +175,8 @@ def _check_group(run_dirs: Sequence[str | os.PathLike], k_seeds: int, n: int,
     if stop_rules is not None and len(stop_rules) != k_seeds:
         raise ValueError("train_seeds needs one stop rule (or None) per config")
     if confirm_env_fn is None and any(r is not None and r.confirm for r in stop_rules or ()):
-        raise ValueError("a stop rule with a confirmation (StopRule.confirm) needs confirm_env_fn")
+        raise ValueError("a stop rule with a confirmation (StopRule.confirm) needs confirm_env_fn "
+                         "or confirm_vec_env_fn")
 
 
 def _flat_spaces(env: gym.vector.VectorEnv, total: int) -> tuple[int, int, gym.spaces.Box]:
@@ -234,7 +239,8 @@ def _assemble(learner: TD3, runs: list[SeedRun], act_space: gym.spaces.Box,
 
 def _without_stopped(vec_env_fn, env, runs, configs, steps, run_dirs, n, resume, progress, log_fn,
                      metadata, eval_env_fn, progress_position, progress_desc, eval_vec_env_fn,
-                     obs_dim, act_dim, act_space, confirm_env_fn=None, hand_back=None) -> TD3:
+                     obs_dim, act_dim, act_space, confirm_env_fn=None, hand_back=None,
+                     confirm_vec_env_fn=None) -> TD3:
     """``train_seeds`` of a group some of whose seeds stopped in an earlier call: those are left
     as they are, the others trained (resumed) on their own; the learner of them all."""
     env.close()
@@ -249,7 +255,8 @@ def _without_stopped(vec_env_fn, env, runs, configs, steps, run_dirs, n, resume,
                           eval_env_fn=eval_env_fn, progress_position=progress_position,
                           progress_desc=progress_desc, eval_vec_env_fn=eval_vec_env_fn,
                           stop_rules=[runs[k].stop_rule for k in active],
-                          confirm_env_fn=confirm_env_fn, hand_back=hand_back)
+                          confirm_env_fn=confirm_env_fn, hand_back=hand_back,
+                          confirm_vec_env_fn=confirm_vec_env_fn)
         states.update({k: sub.seed_state(i) for i, k in enumerate(active)})
     probe = TD3(obs_dim, act_dim, act_space.low.reshape(-1), act_space.high.reshape(-1),
                 [r.cfg for r in runs[:1]])

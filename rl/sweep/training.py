@@ -104,8 +104,9 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
                                                   initial_field="zero", duration=EVAL_DURATION),
                 progress_position=job.position, progress_desc=job.case,
                 stop_rules=[rule] * len(configs),
-                confirm_env_fn=None if rule is None or rule.confirm is None else functools.partial(
-                    make_env, case, rule.confirm, "zero", EVAL_DURATION),
+                confirm_vec_env_fn=None if rule is None or rule.confirm is None else functools.partial(
+                    make_vector_env, case, physics=rule.confirm, initial_field="zero",
+                    duration=EVAL_DURATION),
                 hand_back=None if job.hand_back_file is None else functools.partial(
                     os.path.exists, job.hand_back_file))
     wall, peak = time.perf_counter() - start, peak_rss_bytes()

@@ -429,3 +429,41 @@ def test_a_group_hands_its_seeds_back_and_they_end_bit_identical_in_other_groups
     # one seed still training has nowhere better to go: it is not handed back
     group("alone", (2,), 100, hand_back=lambda: True)
     assert load_checkpoint(tmp_path / "alone" / "seed2")["global_step"] == 100
+
+
+def test_a_lone_seed_is_evaluated_and_confirmed_on_the_batched_simulator_with_the_same_returns(tmp_path):
+    """One seed's evaluations (``eval_vec_env_fn``) and its rule's confirmation
+    (``confirm_vec_env_fn``) on one crawler of the batched simulator give what the single
+    environments give: the same evaluation log, the same stop and weights."""
+    import functools
+
+    from elastica_magnetic_rl.envs.env import make_env
+    from elastica_magnetic_rl.envs.vector_env import make_vector_env
+    from elastica_magnetic_rl.runner.loop import train_seeds
+    from elastica_magnetic_rl.runner.stopping import StopRule
+
+    vec = functools.partial(make_vector_env, "m1-4mT", physics="training", initial_field="random",
+                            duration=0.05)
+    rule = StopRule("target", threshold=-1e9, consecutive=2, confirm="accurate")
+
+    def run(name, batched):
+        kw = (dict(eval_vec_env_fn=functools.partial(make_vector_env, "m1-4mT", physics="training",
+                                                     initial_field="zero", duration=0.05),
+                   confirm_vec_env_fn=functools.partial(make_vector_env, "m1-4mT",
+                                                        physics="accurate", initial_field="zero",
+                                                        duration=0.05))
+              if batched else
+              dict(confirm_env_fn=functools.partial(make_env, "m1-4mT", "accurate", "zero", 0.05)))
+        cfg = toy_config(seed=3, learning_starts=10, batch_size=8, hidden_sizes=(8,), eval_every=10)
+        train_seeds(vec, [cfg], 40, [tmp_path / name / "seed3"], progress=False,
+                    eval_env_fn=functools.partial(make_env, "m1-4mT", "training", "zero", 0.05),
+                    stop_rules=[rule], **kw)
+        rows = [{k: v for k, v in r.items() if k != "wall_time_s"}
+                for r in csv.DictReader(open(tmp_path / name / "seed3" / "evaluations.csv"))]
+        return rows, load_checkpoint(tmp_path / name / "seed3")
+
+    (rows_a, a), (rows_b, b) = run("single", False), run("batched", True)
+    assert rows_a == rows_b and len(rows_a) == 2
+    assert a["stopped"] == b["stopped"] and a["stopped"]["step"] == 20
+    assert "confirmed in the accurate physics" in a["stopped"]["reason"]
+    assert_state_equal(a["agent"], b["agent"], "agent")
