@@ -17,6 +17,10 @@ same seed trained alone, so the seeds end exactly as they would have without the
 wall time changes (each move costs a new worker's start, ~10 s, and the stacked update of fewer
 seeds costs more per seed).
 
+Every running group is asked at once: with several groups running beside an idle worker (a
+sweep of several cases), the one that hands back last may find no worker free and go on as one
+group again (a restart, ~10 s, nothing else lost).
+
 Used by ``msr train`` with the process backend, several workers and one torch thread per worker
 (the default layout): with more threads a stack of seeds and a seed alone may round differently,
 so seeds are not moved there.
