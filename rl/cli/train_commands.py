@@ -57,9 +57,13 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
                         "N TD3 updates per vector step; default 1: the single environment)")
     p.add_argument("--seeds-per-simulator", type=int, default=None, metavar="K",
                    help="K seeds train side by side in one worker, their crawlers in one batched "
-                        "simulator and their networks updated as one computation; each seed's run "
-                        "is bit-identical to training it alone (default: the fastest layout, "
-                        "seeds / cores)")
+                        "simulator and their networks updated as one computation (default: the "
+                        "fastest layout, seeds / cores; docs/performance.md says how exactly a "
+                        "seed's run equals training it alone)")
+    p.add_argument("--rebalance", action="store_true",
+                   help="when a worker is idle at the end, move seeds of a busy one onto it "
+                        "(bit-identical to not moving them in the tests; off by default until "
+                        "a whole campaign confirms it: docs/training.md)")
     p.add_argument("--backend", choices=("process", "ray"), default="process",
                    help="where the seeds run: worker processes on this machine (default) or Ray tasks "
                         "(a local Ray instance with --workers x --threads CPUs, or the cluster at "
@@ -254,7 +258,7 @@ def train_command(args: argparse.Namespace) -> int:
             backend=args.backend, address=args.address,
             seeds_per_simulator=args.seeds_per_simulator, recipe=args.recipe,
             stop_when=args.stop_when, stop_options=_stop_options(args),
-            randomize=args.randomize,
+            randomize=args.randomize, rebalance=args.rebalance,
         )
     except (FileExistsError, FileNotFoundError, ValueError, ConnectionError) as exc:
         raise CommandError(str(exc)) from None  # ConnectionError: --address

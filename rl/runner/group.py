@@ -340,7 +340,7 @@ class GroupLoop:
         """Whether the group stops here so that its seeds go on in other groups (the caller's
         ``hand_back`` says yes, and at least two seeds still train: one alone has nowhere better
         to go). Asked only where every episode has just ended: the checkpoints written there
-        resume in any grouping, bit-identical (:mod:`elastica_magnetic_rl.runner.loop`)."""
+        resume in any grouping (:mod:`elastica_magnetic_rl.runner.loop` says how exactly)."""
         return (self.hand_back is not None and sum(not r.stopped for r in self.runs) >= 2
                 and bool(self.hand_back()))
 

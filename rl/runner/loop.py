@@ -18,9 +18,10 @@ episodes are logged and their sub-environments reset with the seed's episode see
 (:func:`~elastica_magnetic_rl.td3.algorithm.episode_seed`: episode ``e`` of seed ``s`` always starts from
 ``episode_seed(s, e)``; episodes are numbered as they start).
 
-Equivalences (CPU, same thread count; tested): a seed trained beside others is bit-identical to the
-same seed trained alone, and a run killed and resumed from its checkpoint ends bit-identical to an
-uninterrupted one.
+Equivalences (CPU, same thread count; tested): a seed trained beside others is bit-identical to
+the same seed trained alone (:mod:`elastica_magnetic_rl.td3.algorithm` says how far that is
+tested), and a run killed and resumed from its checkpoint ends bit-identical to an uninterrupted
+one.
 
 Evaluations fall on the first vector step at or after each multiple of ``eval_every`` where all of
 the seed's sub-environments have just ended an episode (the same steps in every layout).
@@ -117,9 +118,10 @@ def train_seeds(
             evaluations; ``None``: never). A stopped seed writes its final checkpoint marked
             ``stopped`` and leaves the group at the next step where every sub-environment of the
             group has just ended an episode (at once for crawlers): its sub-environments and its
-            slot in the stacked update are gone, the others go on bit-identical to a run without
-            it. Resuming keeps each run's rule (a different one is refused); not given: the
-            checkpoints' (new runs: none). A stopped seed is never trained further.
+            slot in the stacked update are gone, the others go on bit-identical to a run
+            without it. Resuming keeps each run's rule (a
+            different one is refused); not given: the checkpoints' (new runs: none). A stopped
+            seed is never trained further.
         confirm_env_fn: where a fired rule with ``confirm`` is confirmed (one deterministic
             episode whose return must reach the threshold too; the crawler's: 10 s, accurate).
         confirm_vec_env_fn: the same as a vector environment (``confirm_vec_env_fn(1)``; used
@@ -129,7 +131,7 @@ def train_seeds(
             when it returns true while at least two seeds still train, every seed's checkpoint is
             written there and the call returns before the budget (no final evaluation): the
             seeds go on from their folders with ``resume``, in any grouping, bit-identical to an
-            uninterrupted run. How a sweep keeps an idle core busy
+            uninterrupted run (see the equivalences above). How a sweep keeps an idle core busy
             (:mod:`elastica_magnetic_rl.sweep.rebalance`).
 
     Returns the learner holding every seed in the order given, each at its end (a stopped seed

@@ -12,18 +12,22 @@ just ended: each seed's checkpoint is written there, the worker returns the resu
 finished seeds and the folders of the others
 (:func:`~elastica_magnetic_rl.runner.loop.train_seeds`, ``hand_back``). Those seeds are split
 into as many new groups as there are free workers and resumed there. At such a step the
-environments restart from episode seeds, and a seed trained in a group is bit-identical to the
-same seed trained alone, so the seeds end exactly as they would have without the move; only the
-wall time changes (each move costs a new worker's start, ~10 s, and the stacked update of fewer
-seeds costs more per seed).
+environments restart from episode seeds, so the move changes nothing but the size of the moved
+seeds' stacks, and a seed's training does not depend on that
+(:mod:`elastica_magnetic_rl.td3.algorithm`): the moved seeds end bit-identical to seeds never
+moved (tested). The first campaign with moves (``m1-10mT``, ``fast``, 8 seeds) found three moved
+seeds leaving their first course within 1-9 episodes: PyTorch's fused Adam then rounded the
+last layers' biases by the stack's size, fixed since by padding each seed's share of a
+parameter (:class:`~elastica_magnetic_rl.td3.stacked.StackedMLP`). Until a whole campaign
+confirms it, moves are asked for (``msr train --rebalance``), not the default. A move saves the
+idle core's time (~1.5 min measured in that run) and costs a restart (~10 s).
 
 Every running group is asked at once: with several groups running beside an idle worker (a
 sweep of several cases), the one that hands back last may find no worker free and go on as one
 group again (a restart, ~10 s, nothing else lost).
 
-Used by ``msr train`` with the process backend, several workers and one torch thread per worker
-(the default layout): with more threads a stack of seeds and a seed alone may round differently,
-so seeds are not moved there.
+Used by ``msr train --rebalance`` with the process backend, several workers and one torch thread
+per worker (the default layout; with more threads the products also round by the stack's size).
 """
 
 from __future__ import annotations

@@ -13,6 +13,20 @@ import torch.nn as nn
 __all__ = ["StackedMLP", "load_member_adam_state", "member_adam_state", "prefixed", "unprefixed"]
 
 
+#: Floats per vector of the optimizer's fused kernel (AVX-512): each member's share of a stacked
+#: parameter is padded to a whole number of them (see :class:`StackedMLP`).
+MEMBER_ALIGN = 16
+
+
+def _padded(rows: int, out: int) -> int:
+    """The smallest width ``>= out`` whose ``rows x width`` block is a whole number of
+    :data:`MEMBER_ALIGN` floats."""
+    width = out
+    while (rows * width) % MEMBER_ALIGN:
+        width += 1
+    return width
+
+
 class StackedMLP(nn.Module):
     """``M`` MLPs of one shape evaluated as one computation: layer ``l`` holds ``weights[l]``
     ``(M, in, out)`` and ``biases[l]`` ``(M, 1, out)``; :meth:`forward` maps ``(M, B, in)`` to
@@ -24,6 +38,14 @@ class StackedMLP(nn.Module):
     Member ``m`` is an ordinary ``nn.Linear`` MLP (:func:`mlp`) whose ``weight`` is
     ``weights[l][m].T`` (:meth:`member_state` / :meth:`load_member_state` convert, in
     ``nn.Sequential`` naming).
+
+    Each member's block of a parameter is padded (zeros the network never reads, whose gradient
+    and so Adam step are zero) to a whole number of :data:`MEMBER_ALIGN` floats: PyTorch's fused
+    Adam runs a tensor's whole vectors in one code path and the rest in another that rounds
+    differently, so an unpadded ``(M, 1, 2)`` bias would put a member's elements in one path or
+    the other depending on ``M``, and a seed's training on how many seeds share its stack
+    (measured: the first difference after 11-104 updates). Padded, every member takes the same
+    path whatever ``M``. Only the last layers' biases (and unusual widths) need it.
 
     ``dtype=torch.bfloat16`` runs the network in bfloat16 on bfloat16 copies of the float32
     parameters (cast once per layer and call; gradients flow back to the float32 masters, which
@@ -37,14 +59,14 @@ class StackedMLP(nn.Module):
         self.layer_norm = bool(layer_norm)
         shapes = zip(sizes[:-1], sizes[1:], strict=False)
         self.weights = nn.ParameterList(
-            [nn.Parameter(torch.zeros(self.members, i, o)) for i, o in shapes])
+            [nn.Parameter(torch.zeros(self.members, i, _padded(i, o))) for i, o in shapes])
         self.biases = nn.ParameterList(
-            [nn.Parameter(torch.zeros(self.members, 1, o)) for o in sizes[1:]])
+            [nn.Parameter(torch.zeros(self.members, 1, _padded(1, o))) for o in sizes[1:]])
         hidden = sizes[1:-1] if self.layer_norm else ()
         self.norm_gains = nn.ParameterList(
-            [nn.Parameter(torch.ones(self.members, 1, o)) for o in hidden])
+            [nn.Parameter(torch.ones(self.members, 1, _padded(1, o))) for o in hidden])
         self.norm_biases = nn.ParameterList(
-            [nn.Parameter(torch.zeros(self.members, 1, o)) for o in hidden])
+            [nn.Parameter(torch.zeros(self.members, 1, _padded(1, o))) for o in hidden])
 
     def forward(self, x: torch.Tensor, dtype: torch.dtype = torch.float32,
                 members: slice = slice(None)) -> torch.Tensor:
@@ -54,9 +76,10 @@ class StackedMLP(nn.Module):
         # a zero tensor of every weight's size: ~8 % of an update
         every_member = members == slice(None)
 
-        def own(p: torch.Tensor) -> torch.Tensor:
-            """The members' slice of a parameter, in the products' dtype."""
+        def own(p: torch.Tensor, width: int) -> torch.Tensor:
+            """The members' slice of a parameter without its padding, in the products' dtype."""
             p = p if every_member else p[members]
+            p = p if p.shape[-1] == width else p[..., :width]
             return p if p.dtype == dtype else p.to(dtype)
 
         # in a low precision the activations stay in it from layer to layer (the layer norm
@@ -65,11 +88,13 @@ class StackedMLP(nn.Module):
         h = x.to(dtype)
         last = len(self.weights) - 1
         for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True)):
-            h = torch.baddbmm(own(b), h, own(w))
+            width = self.sizes[i + 1]
+            h = torch.baddbmm(own(b, width), h, own(w, width))
             if i < last:
                 if self.layer_norm:
                     h = nn.functional.layer_norm(h, h.shape[-1:], eps=1e-5)
-                    h = torch.addcmul(own(self.norm_biases[i]), h, own(self.norm_gains[i]))
+                    h = torch.addcmul(own(self.norm_biases[i], width), h,
+                                      own(self.norm_gains[i], width))
                 h = torch.relu_(h)  # in place: the backward of the op before needs not its output
         return h.float()
 
@@ -84,11 +109,12 @@ class StackedMLP(nn.Module):
         state = {}
         for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True)):
             linear, norm = self._layer_names(i)
-            state[f"{linear}.weight"] = w[m].detach().T.contiguous().clone()
-            state[f"{linear}.bias"] = b[m, 0].detach().clone()
+            o = self.sizes[i + 1]
+            state[f"{linear}.weight"] = w[m, :, :o].detach().T.contiguous().clone()
+            state[f"{linear}.bias"] = b[m, 0, :o].detach().clone()
             if norm is not None:
-                state[f"{norm}.weight"] = self.norm_gains[i][m, 0].detach().clone()
-                state[f"{norm}.bias"] = self.norm_biases[i][m, 0].detach().clone()
+                state[f"{norm}.weight"] = self.norm_gains[i][m, 0, :o].detach().clone()
+                state[f"{norm}.bias"] = self.norm_biases[i][m, 0, :o].detach().clone()
         return state
 
     @torch.no_grad()
@@ -101,14 +127,15 @@ class StackedMLP(nn.Module):
         for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True)):
             linear, norm = self._layer_names(i)
             weight, bias = state[f"{linear}.weight"], state[f"{linear}.bias"]
-            if tuple(weight.shape) != (w.shape[2], w.shape[1]):
+            o = self.sizes[i + 1]
+            if tuple(weight.shape) != (o, w.shape[1]):
                 raise ValueError(f"layer {i}: weight of shape {tuple(weight.shape)}, expected "
-                                 f"{(w.shape[2], w.shape[1])} (hidden sizes differ)")
-            w[m].copy_(weight.T)
-            b[m, 0].copy_(bias)
+                                 f"{(o, w.shape[1])} (hidden sizes differ)")
+            w[m, :, :o].copy_(weight.T)
+            b[m, 0, :o].copy_(bias)
             if norm is not None:
-                self.norm_gains[i][m, 0].copy_(state[f"{norm}.weight"])
-                self.norm_biases[i][m, 0].copy_(state[f"{norm}.bias"])
+                self.norm_gains[i][m, 0, :o].copy_(state[f"{norm}.weight"])
+                self.norm_biases[i][m, 0, :o].copy_(state[f"{norm}.bias"])
 
 
 def prefixed(state: dict[str, torch.Tensor], prefix: str) -> dict[str, torch.Tensor]:

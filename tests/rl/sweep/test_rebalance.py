@@ -5,6 +5,7 @@ training whose group hands its seeds back and ends bit-identical to one that nev
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import pytest
 from elastica_magnetic_rl.runfiles.checkpoint import load_checkpoint
@@ -59,7 +60,7 @@ def test_a_group_handed_back_and_resumed_apart_equals_one_never_moved(tmp_path, 
     """``msr train`` of 2 seeds whose group is asked at once to hand them back (as an idle worker
     would): each seed goes on in a group of its own, ends bit-identical to the group that never
     moved, and its ``run.json`` counts no resume."""
-    def moved_at_once(jobs, workers, backend, address, progress):
+    def moved_at_once(jobs, workers, backend, address, progress, rebalance=False):
         with GroupRebalancing() as rebalancing:
             results = []
             for job in rebalancing.askable(jobs):
@@ -87,3 +88,21 @@ def test_a_group_handed_back_and_resumed_apart_equals_one_never_moved(tmp_path, 
             assert_state_equal(a[key], b[key], key)
         run = json.loads((tmp_path / "moved" / "m1-4mT" / f"seed{s}" / "run.json").read_text())
         assert run["resumed"] == 0 and run["shared_simulator_seeds"] == 1
+
+
+def test_seeds_move_only_when_asked_and_only_on_one_thread_per_worker(tmp_path, monkeypatch):
+    """``--rebalance`` (``train_cases(rebalance=True)``) gives the pool its rebalancing and each
+    group a request file; without it, or with two threads per worker, neither."""
+    seen = []
+
+    def fake_run_jobs(fn, jobs, workers, backend, address, progress, rebalancing=None):
+        seen.append((rebalancing is not None, [j.hand_back_file is not None for j in jobs]))
+        return [{"group": []} for _ in jobs]
+
+    monkeypatch.setattr(training, "run_jobs", fake_run_jobs)
+    jobs = [_job("ok", [0, 1], tmp_path), _job("ok", [2, 3], tmp_path)]
+    training._run_groups(jobs, 2, "process", None, False)
+    training._run_groups(jobs, 2, "process", None, False, rebalance=True)
+    two_threads = [replace(j, threads=2) for j in jobs]
+    training._run_groups(two_threads, 2, "process", None, False, rebalance=True)
+    assert seen == [(False, [False, False]), (True, [True, True]), (False, [False, False])]
