@@ -22,10 +22,13 @@ def _params(seq: torch.nn.Sequential) -> list[np.ndarray]:
 
 
 def _last_grads(net) -> list[np.ndarray]:
-    """The last gradients of member 0 of a stacked network, in ``nn.Linear`` order and layout."""
+    """The last gradients of member 0 of a stacked network, in ``nn.Linear`` order and layout
+    (without the padding of each member's block, ``StackedMLP``)."""
     out = []
-    for w, b in zip(net.weights, net.biases, strict=True):
-        out += [w.grad[0].T.numpy().astype(np.float64), b.grad[0, 0].numpy().astype(np.float64)]
+    for i, (w, b) in enumerate(zip(net.weights, net.biases, strict=True)):
+        width = net.sizes[i + 1]
+        out += [w.grad[0, :, :width].T.numpy().astype(np.float64),
+                b.grad[0, 0, :width].numpy().astype(np.float64)]
     return out
 
 
