@@ -222,6 +222,32 @@ def train_cases(
     loaded = _load_cases(cases)
     steps, episode_duration, recipe = _case_defaults(loaded, steps, episode_duration, recipe)
     loaded = randomized_cases(loaded, randomize, recipe)
+    seed_list, groups, workers, configs, sweep = _plan_sweep(
+        out, loaded, seeds=seeds, steps=steps, episode_duration=episode_duration, recipe=recipe,
+        workers=workers, threads=threads, seeds_per_simulator=seeds_per_simulator,
+        seed_offset=seed_offset, envs=envs, backend=backend, address=address, resume=resume,
+        physics=physics, stop_when=stop_when, stop_options=stop_options,
+        config_overrides=config_overrides)
+    start = time.perf_counter()
+    results = _run_groups(_group_jobs(out, loaded, groups, configs, sweep, resume, progress),
+                          workers, backend, address, progress, rebalance)
+    wall = time.perf_counter() - start
+    return {case: case_summary(CaseDir.of(out, case), loaded[case],
+                               [r for c, r in results if c == case], seed_list, success_fraction,
+                               sweep, wall)
+            for case in loaded}
+
+
+def _plan_sweep(out: str | Path, loaded: dict[str, Case], *, seeds: int, steps: int,
+                episode_duration: float, recipe: str, workers: int | None, threads: int | None,
+                seeds_per_simulator: int | None, seed_offset: int, envs: int, backend: str,
+                address: str | None, resume: bool, physics: str, stop_when: str | None,
+                stop_options: dict[str, Any] | None,
+                config_overrides: dict[str, Any] | None) -> tuple[list[int], list[list[int]], int,
+                                                                  dict[int, Any], dict[str, Any]]:
+    """Every check of a sweep before any work (options, run folders, resumed runs), then its
+    plan: the seeds, their groups, the worker count, each seed's TD3 configuration and the
+    settings ``summary.json`` records (:func:`_sweep_record`)."""
     _check_sweep_options(seeds=seeds, steps=steps, envs=envs, workers=workers,
                          seeds_per_simulator=seeds_per_simulator, threads=threads,
                          seed_offset=seed_offset, backend=backend, address=address)
@@ -237,14 +263,7 @@ def train_cases(
                           episode_duration_s=float(episode_duration), workers=workers,
                           backend=backend, envs_per_seed=int(envs), torch_threads_per_worker=threads,
                           recipe=recipe, stop_rules=stop_rules)
-    start = time.perf_counter()
-    results = _run_groups(_group_jobs(out, loaded, groups, configs, sweep, resume, progress),
-                          workers, backend, address, progress, rebalance)
-    wall = time.perf_counter() - start
-    return {case: case_summary(CaseDir.of(out, case), loaded[case],
-                               [r for c, r in results if c == case], seed_list, success_fraction,
-                               sweep, wall)
-            for case in loaded}
+    return seed_list, groups, workers, configs, sweep
 
 
 def _sweep_record(layout: dict[str, Any], config: Any, **settings: Any) -> dict[str, Any]:
