@@ -59,6 +59,7 @@ from .simulation import (
     build_simulation,
 )
 from .spatial_fields import (
+    ConstantGradientField,
     CurrentLoopField,
     CurrentLoopsField,
     FieldMap,
@@ -81,6 +82,7 @@ __all__ = [
     "Waypoints",
     "SpatialFieldError",
     "PointDipoleField",
+    "ConstantGradientField",
     "MaxwellCoils",
     "HelmholtzCoils",
     "FieldSum",

@@ -46,6 +46,7 @@ __all__ = [
     "CurrentLoopField",
     "HelmholtzCoils",
     "MaxwellCoils",
+    "ConstantGradientField",
     "FieldMap",
     "FieldSum",
     "is_spatial",
@@ -339,6 +340,54 @@ class MaxwellCoils(CurrentLoopsField):
                  axis: ArrayLike = (0.0, 0.0, 1.0), turns: float = 1.0) -> None:
         half = 0.5 * math.sqrt(3.0) * radius
         super().__init__([radius, radius], [-half, half], [-turns, turns], current, centre, axis)
+
+
+class ConstantGradientField(SpatialField):
+    """A field that grows linearly in space: ``B(x, t) = s(t) G (x - origin(t))``.
+
+    The field near the centre of gradient coils (on a Maxwell pair's axis
+    ``G = g diag(-1/2, -1/2, 1)``, :class:`MaxwellCoils`), and the constant-gradient loads of
+    the hard-magnetic beam literature. Add a uniform part with :class:`FieldSum`
+    (``ConstantGradientField(...) + ConstantField(...)``).
+
+    Parameters
+    ----------
+    gradient : array_like (3, 3)
+        ``G[i, j] = dB_i/dx_j``, T/m. A field in a region free of currents and magnets has no
+        curl and no divergence, so ``G`` must be symmetric and traceless (within 1e-9 of its
+        largest entry); anything else is refused with the offending entries named.
+    scale : float or callable
+        Dimensionless factor ``s`` (e.g. a coil current's waveform, ramp), or ``scale(time)``.
+    origin : array_like (3,) or callable
+        Where the field is zero, m (may be a path).
+    """
+
+    def __init__(self, gradient: ArrayLike, scale: ScalarOrWaveform = 1.0,
+                 origin: VectorOrPath = (0.0, 0.0, 0.0)) -> None:
+        matrix = np.asarray(gradient, dtype=np.float64)
+        if matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
+            raise SpatialFieldError(f"gradient must be a finite 3x3 matrix dB_i/dx_j in T/m, got "
+                                    f"{np.asarray(gradient).tolist()!r}")
+        tolerance = 1e-9 * max(float(np.abs(matrix).max()), 1e-300)
+        asymmetry = np.abs(matrix - matrix.T)
+        if asymmetry.max() > tolerance:
+            i, j = np.unravel_index(int(asymmetry.argmax()), (3, 3))
+            raise SpatialFieldError(
+                f"gradient must be symmetric (a curl-free field): G[{i}][{j}] = {matrix[i, j]:g} but "
+                f"G[{j}][{i}] = {matrix[j, i]:g} T/m")
+        if abs(np.trace(matrix)) > tolerance:
+            raise SpatialFieldError(
+                f"gradient must be traceless (a divergence-free field): its trace is "
+                f"{np.trace(matrix):g} T/m")
+        self.matrix = np.ascontiguousarray(matrix)
+        self.scale = _Scalar(scale, "scale", "1")
+        self.origin = _Vector(origin, "origin", "m")
+
+    def _add(self, points, time, b, g, with_gradient) -> None:
+        scaled = self.scale(time) * self.matrix
+        b += scaled @ (points - self.origin(time)[:, None])
+        if with_gradient:
+            g += scaled[:, :, None]
 
 
 class FieldMap(SpatialField):

@@ -10,6 +10,7 @@ import pytest
 
 from elastica_magnetic import (
     ConstantField,
+    ConstantGradientField,
     CurrentLoopField,
     FieldMap,
     FieldMapDomainError,
@@ -116,6 +117,23 @@ def test_coil_pair_centre_values():
     np.testing.assert_allclose(np.diag(g[:, :, 0]), [-gz / 2, -gz / 2, gz], rtol=1e-12)
 
 
+def test_constant_gradient_field_is_a_maxwell_pair_near_its_centre():
+    g = 0.2  # T/m
+    source = ConstantGradientField(np.diag([-g / 2, -g / 2, g]), scale=lambda t: min(t, 1.0),
+                                   origin=[0.0, 0.0, 0.01])
+    b, grad = source.evaluate(POINTS, 0.5)
+    np.testing.assert_allclose(b, 0.5 * np.diag([-g / 2, -g / 2, g]) @ (POINTS - [[0], [0], [0.01]]),
+                               rtol=1e-14)
+    np.testing.assert_allclose(grad, fd_gradient(source, POINTS, 1e-3, 0.5), rtol=1e-10, atol=1e-15)
+    assert is_spatial(source)
+    radius = 0.2  # a pair large enough that its gradient is uniform to 1e-3 within 2 mm
+    maxwell = MaxwellCoils(radius, current=10.0, turns=100)
+    gz = maxwell.gradient(np.zeros((3, 1)))[2, 2, 0]
+    near = RNG.normal(size=(3, 8)) * 1e-3
+    linear = ConstantGradientField(np.diag([-gz / 2, -gz / 2, gz]))
+    np.testing.assert_allclose(maxwell.at(near), linear.at(near), rtol=0, atol=1e-3 * gz * 3e-3)
+
+
 def test_pose_and_current_follow_time():
     path = Waypoints([0.0, 1.0, 3.0], [[0, 0, 0], [0.01, 0, 0], [0.01, 0.02, 0]])
     np.testing.assert_allclose(path(0.5), [0.005, 0, 0])
@@ -198,6 +216,10 @@ def test_field_map_files_round_trip(tmp_path):
     (lambda: Waypoints([0, 0], [[0, 0, 0], [1, 0, 0]]), "times must increase strictly"),
     (lambda: PointDipoleField([1, 0, 0]).at(np.zeros((2, 4))), r"points must have shape \(3, n\)"),
     (lambda: FieldMap([0, 1], [0, 1, 2], [0, 1, 2], np.zeros((2, 3, 3, 3))), "at least 3 grid"),
+    (lambda: ConstantGradientField(np.diag([1.0, 1.0, 1.0])), "traceless .* trace is 3 T/m"),
+    (lambda: ConstantGradientField([[0, 1, 0], [0, 0, 0], [0, 0, 0]]),
+     r"symmetric .* G\[0\]\[1\] = 1 but G\[1\]\[0\] = 0 T/m"),
+    (lambda: ConstantGradientField(np.eye(2)), "finite 3x3 matrix dB_i/dx_j in T/m"),
 ])
 def test_bad_input_is_named(make, message):
     with pytest.raises(SpatialFieldError, match=message):

@@ -1,4 +1,5 @@
-"""Independent reference: a planar elastica clamped at one end in the field of a point dipole.
+"""Independent reference: a planar elastica clamped at one end in a field that varies in space (a
+point dipole, a constant gradient, any planar field given with its gradient).
 
 Like :mod:`elastica_magnetic_validation.elastica_bvp`, this module depends on numpy and scipy only
 (not PyElastica, nothing of the package it checks), so that agreement means something.
@@ -7,9 +8,10 @@ Model: a planar Cosserat (Reissner) rod of rest length ``L`` (``s`` the rest arc
 stiffness ``EI``, axial stiffness ``EA`` and shear stiffness ``GA_s`` (``inf``: inextensible,
 unshearable), cross-section ``A``, clamped at the origin along +x (``theta(0) = 0``), its material
 tangent ``d3 = (cos theta, sin theta)``, normal ``d1 = (-sin theta, cos theta)``. It carries the
-magnetization ``|M|`` along ``d3``, in the field ``B(x, y)`` of a point dipole (moment ``m`` at
-``p``, in the x-y plane): per unit rest length the couple ``c = A |M| (cos theta B_y - sin theta B_x)``
-and the force ``f_j = A sum_i M_i dB_i/dx_j``. With the internal force ``n``, its components
+magnetization ``|M|`` at a fixed angle ``alpha`` from ``d3`` towards ``d1`` (0: along the axis),
+in a field ``B(x, y)`` (e.g. of a point dipole, moment ``m`` at ``p`` in the x-y plane): per unit
+rest length the couple ``c = A |M| (cos(theta + alpha) B_y - sin(theta + alpha) B_x)`` and the
+force ``f_j = A sum_i M_i dB_i/dx_j``. With the internal force ``n``, its components
 ``n_t = n . d3``, ``n_n = n . d1``, the strains ``nu3 = 1 + n_t / EA``, ``nu1 = n_n / GA_s`` and the
 bending moment ``k = EI theta'``::
 
@@ -28,7 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import solve_bvp
 
-__all__ = ["DipoleCantileverSolution", "dipole_field_2d", "solve_dipole_cantilever"]
+__all__ = ["DipoleCantileverSolution", "dipole_field_2d", "linear_field_2d", "solve_dipole_cantilever",
+           "solve_magnetic_cantilever"]
 
 MU0 = 4e-7 * math.pi
 
@@ -69,13 +72,44 @@ def solve_dipole_cantilever(length: float, bending_stiffness: float, area: float
                             moment, position, steps: int = 40, nodes: int = 400,
                             tol: float = 1e-9, guess=None, axial_stiffness: float = math.inf,
                             shear_stiffness: float = math.inf) -> DipoleCantileverSolution:
-    """Solve the clamped rod in the dipole's field (SI units), continuing the moment from zero in
-    ``steps`` equal steps (``RuntimeError`` if a step fails), or, with ``guess = (s, x, y, theta)``
-    (arrays, SI: e.g. a simulated shape), by one Newton solve at the full moment started there:
-    past a snap-through (the tip pulled in towards the magnet) continuation from zero stops at the
-    fold, and the guess selects the branch."""
+    """Solve the clamped rod, magnetized along its axis, in the dipole's field (SI units),
+    continuing the moment from zero in ``steps`` equal steps (``RuntimeError`` if a step fails),
+    or, with ``guess = (s, x, y, theta)`` (arrays, SI: e.g. a simulated shape), by one Newton
+    solve at the full moment started there: past a snap-through (the tip pulled in towards the
+    magnet) continuation from zero stops at the fold, and the guess selects the branch."""
     moment = np.asarray(moment, dtype=float)[:2]
     position = np.asarray(position, dtype=float)[:2]
+
+    def field(x, y, scale):
+        return dipole_field_2d(scale * moment, position, x, y)
+
+    return solve_magnetic_cantilever(length, bending_stiffness, area, magnetization, field, 0.0, steps,
+                                     nodes, tol, guess, axial_stiffness, shear_stiffness)
+
+
+def linear_field_2d(gradient):
+    """The in-plane field ``B = G (x, y)`` of a constant gradient ``G`` (2x2, T/m), as a ``field(x,
+    y, scale)`` of :func:`solve_magnetic_cantilever` (the load ``scale`` multiplies ``G``)."""
+    g = np.asarray(gradient, dtype=float)
+
+    def field(x, y, scale):
+        gs = scale * g
+        return (gs[0, 0] * x + gs[0, 1] * y, gs[1, 0] * x + gs[1, 1] * y,
+                [[gs[0, 0], gs[0, 1]], [gs[1, 0], gs[1, 1]]])
+
+    return field
+
+
+def solve_magnetic_cantilever(length: float, bending_stiffness: float, area: float, magnetization: float,
+                              field, magnetization_angle: float = 0.0, steps: int = 40, nodes: int = 400,
+                              tol: float = 1e-9, guess=None, axial_stiffness: float = math.inf,
+                              shear_stiffness: float = math.inf) -> DipoleCantileverSolution:
+    """Solve the clamped rod in a planar field ``field(x, y, scale) -> (Bx, By, [[dBx/dx, dBx/dy],
+    [dBy/dx, dBy/dy]])`` (T, T/m, at arrays ``x``, ``y`` in m; ``scale`` the load, continued from
+    zero to one in ``steps`` equal steps, or one solve at one from ``guess``, as
+    :func:`solve_dipole_cantilever`). The magnetization ``|M|`` (A/m) makes the angle
+    ``magnetization_angle`` (rad) with the tangent ``d3``, towards the normal ``d1``: 0 along the
+    axis, ``pi/2`` across it."""
     am = area * magnetization
 
     # Scaled unknowns on xi = s / L: x / L, y / L, theta, n L^2 / EI, k L / EI.
@@ -86,11 +120,12 @@ def solve_dipole_cantilever(length: float, bending_stiffness: float, area: float
 
     def rhs(xi, u, scale):
         x, y, theta, nx, ny, k = u
-        bx, by, g = dipole_field_2d(scale * moment, position, length * x, length * y)
+        bx, by, g = field(length * x, length * y, scale)
         ct, st = np.cos(theta), np.sin(theta)
-        couple = am * (ct * by - st * bx) * couple_scale
-        fx = am * (ct * g[0][0] + st * g[1][0]) * force_scale
-        fy = am * (ct * g[0][1] + st * g[1][1]) * force_scale
+        cm, sm = np.cos(theta + magnetization_angle), np.sin(theta + magnetization_angle)
+        couple = am * (cm * by - sm * bx) * couple_scale
+        fx = am * (cm * g[0][0] + sm * g[1][0]) * force_scale
+        fy = am * (cm * g[0][1] + sm * g[1][1]) * force_scale
         nu3 = 1.0 + axial * (ct * nx + st * ny)
         nu1 = shear * (-st * nx + ct * ny)
         dx = nu3 * ct - nu1 * st
