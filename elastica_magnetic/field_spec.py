@@ -6,7 +6,7 @@ and a clamp, for ``msr simulate`` and ``msr replay``::
 
     [field]
     kind = "point-dipole"      # point-dipole, current-loop, helmholtz, maxwell, field-map,
-                               # cuboid-magnet, cylinder-magnet
+                               # cuboid-magnet, cylinder-magnet, constant-gradient
     moment = [0.0, 0.0, 2.0]   # A m^2 (point-dipole)
     # position = [0.0, 0.05, 0.0]  # m: a fixed pose, or the [field.path] table below
     ramp = 0.2                 # s: the strength grows linearly from zero (default 0)
@@ -24,7 +24,9 @@ Coils (``current-loop``, ``helmholtz``, ``maxwell``) take ``radius`` (m), ``curr
 :mod:`elastica_magnetic.magnet_fields`): ``cuboid-magnet`` takes ``dimension`` (m, 3 edges),
 ``cylinder-magnet`` ``diameter`` and ``height`` (m); both take ``polarization`` (T, ``mu0 M`` in
 the magnet's own frame), ``axis`` (lab direction of the magnet's own z) and ``position`` (m) or
-``[field.path]``. Every value is SI. Errors are
+``[field.path]``. ``constant-gradient`` (:class:`~elastica_magnetic.ConstantGradientField`) takes
+``gradient`` (T/m, three rows ``[dB_i/dx, dB_i/dy, dB_i/dz]``, symmetric and traceless) and
+``origin`` (m, where the field is zero) or ``[field.path]``. Every value is SI. Errors are
 :class:`~elastica_magnetic.specfile.SpecError` naming the file, the table and the key.
 """
 
@@ -36,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from .spatial_fields import (
+    ConstantGradientField,
     CurrentLoopField,
     FieldMap,
     HelmholtzCoils,
@@ -58,6 +61,7 @@ FIELD_KINDS: dict[str, tuple[str, ...]] = {
     "field-map": ("file", "scale"),
     "cuboid-magnet": ("dimension", "polarization", "axis", "position", "path"),
     "cylinder-magnet": ("diameter", "height", "polarization", "axis", "position", "path"),
+    "constant-gradient": ("gradient", "origin", "path"),
 }
 #: Values of ``[boundary] clamp``.
 CLAMPS = ("none", "first")
@@ -93,6 +97,9 @@ def describe_field(spec: Mapping[str, Any], source: str = "<spec>") -> FieldSetu
     if kind == "point-dipole":
         out["moment"] = t.vector("moment", "A m^2", 3)
         _pose(t, out, "position")
+    elif kind == "constant-gradient":
+        out["gradient"] = _matrix3(t, "gradient", "T/m")
+        _pose(t, out, "origin")
     elif kind == "field-map":
         out["file"] = t.string("file")
         out["scale"] = t.number("scale", "1", 1.0)
@@ -127,6 +134,16 @@ def describe_field(spec: Mapping[str, Any], source: str = "<spec>") -> FieldSetu
     except SpatialFieldError as exc:
         raise SpecError(f"{source}: [field]: {exc}") from None
     return setup
+
+
+def _matrix3(t: SpecTable, key: str, unit: str) -> list[list[float]]:
+    rows = t.raw(key)
+    if (not isinstance(rows, list) or len(rows) != 3 or any(
+            not isinstance(row, list) or len(row) != 3 or any(
+                isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) for v in row)
+            for row in rows)):
+        raise t.error(key, f"expected 3 rows of 3 finite numbers ({unit}), got {rows!r}")
+    return [[float(v) for v in row] for row in rows]
 
 
 def _pose(t: SpecTable, out: dict[str, Any], key: str) -> None:
@@ -171,7 +188,8 @@ def field_source(table: Mapping[str, Any], base: Path = Path("."), source: str =
     """The spatial source of a checked ``[field]`` table (see :func:`describe_field`)."""
     kind = table["kind"]
     strength = _waveform(table)
-    pose_key = "position" if kind in ("point-dipole", "cuboid-magnet", "cylinder-magnet") else "centre"
+    pose_key = ("position" if kind in ("point-dipole", "cuboid-magnet", "cylinder-magnet") else
+                "origin" if kind == "constant-gradient" else "centre")
     pose: Any = table.get(pose_key)
     if "path" in table:
         pose = Waypoints(table["path"]["times"], table["path"]["points"])
@@ -192,6 +210,8 @@ def field_source(table: Mapping[str, Any], base: Path = Path("."), source: str =
                                      scale=factor)
         return CylinderMagnetField(table["diameter"], table["height"], table["polarization"], pose,
                                    table["axis"], scale=factor)
+    if kind == "constant-gradient":
+        return ConstantGradientField(table["gradient"], 1.0 if strength is None else strength, pose)
     if kind == "field-map":
         path = Path(table["file"])
         if not path.is_absolute():

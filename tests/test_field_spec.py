@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from elastica_magnetic import HelmholtzCoils, PointDipoleField, Waypoints
+from elastica_magnetic import ConstantGradientField, HelmholtzCoils, PointDipoleField, Waypoints
 from elastica_magnetic.cli import main
 from elastica_magnetic.field_spec import describe_field, load_field
 from elastica_magnetic.specfile import SpecError, loads
@@ -81,6 +81,19 @@ points = [[0.0, 0.0, -0.05], [0.02, 0.0, -0.05]]
     np.testing.assert_array_equal(moving.at(POINTS, 0.4), expected.at(POINTS, 0.4))
 
 
+def test_a_constant_gradient_table():
+    source = describe_field(loads(ROBOT + """
+[field]
+kind = "constant-gradient"
+gradient = [[-0.1, 0.0, 0.0], [0.0, 0.2, 0.0], [0.0, 0.0, -0.1]]
+origin = [0.0, 0.0, 0.01]
+ramp = 0.5
+""")).source()
+    reference = ConstantGradientField(np.diag([-0.1, 0.2, -0.1]), origin=[0.0, 0.0, 0.01])
+    np.testing.assert_allclose(source.at(POINTS, 0.25), 0.5 * reference.at(POINTS), rtol=1e-15)
+    np.testing.assert_allclose(source.gradient(POINTS, 1.0), reference.gradient(POINTS))
+
+
 def test_finite_magnet_tables():
     pytest.importorskip("magpylib")
     from elastica_magnetic.magnet_fields import CylinderMagnetField
@@ -123,6 +136,10 @@ def test_a_field_map_file_is_found_next_to_the_spec(tmp_path):
      r"\[field\] moment: unknown key"),
     ('[field]\nkind = "field-map"\nfile = "nowhere.npz"\n', "no such field map"),
     ('[boundary]\nclamp = "last"\n', r"\[boundary\] clamp: expected one of none, first"),
+    ('[field]\nkind = "constant-gradient"\ngradient = [[1, 0], [0, 1]]\n',
+     r"\[field\] gradient: expected 3 rows of 3 finite numbers \(T/m\)"),
+    ('[field]\nkind = "constant-gradient"\ngradient = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]\n',
+     r"spec.toml: \[field\]: gradient must be traceless"),
 ])
 def test_bad_field_tables_name_the_key(table, message):
     with pytest.raises(SpecError, match=message):
