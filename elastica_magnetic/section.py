@@ -25,6 +25,7 @@ __all__ = [
     "set_shear_coefficient",
     "shear_coefficient",
     "rectangular_band_rod",
+    "quiet_small_inertia_warning",
     "rigidity_scale",
 ]
 
@@ -115,7 +116,7 @@ def rectangular_band_rod(
         raise ValueError(f"n_elements must be an integer >= 2, got {n_elements!r}")
     rod_radius = equivalent_radius(height) if radius is None else float(radius)
     scale = rigidity_scale(rod_radius, float(youngs_modulus), float(shear_modulus))
-    with _quiet_small_inertia_warning():
+    with quiet_small_inertia_warning():
         rod = CosseratRod.straight_rod(
             int(n_elements),
             np.asarray(start, dtype=np.float64),
@@ -183,7 +184,7 @@ class _DropMessage(logging.Filter):
 
 
 @contextmanager
-def _quiet_small_inertia_warning():
+def quiet_small_inertia_warning():
     """Silence PyElastica's 'mass moment of inertia smaller than tolerance' warning.
 
     Its tolerance is absolute (about 1e-12 in whatever units), so every millimetre-scale robot in

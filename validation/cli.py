@@ -17,6 +17,7 @@ CASES = {
     "replay-yao2023": "elastica_magnetic_validation.replay_case",
     "spatial-fields": "elastica_magnetic_validation.spatial_fields_case",
     "magnet-cantilever": "elastica_magnetic_validation.magnet_cantilever_case",
+    "gradient-beam": "elastica_magnetic_validation.gradient_beam_case",
 }
 
 
@@ -30,7 +31,7 @@ SHIPPED = "shipped"
 #: Every file a validation report folder may hold (recognises reports written before the result
 #: marker, e.g. the published one).
 REPORT_FILES = ("report.md", "results.json", "cantilever.png", "hu2018.png", "replay-yao2023.png",
-                "replay-yao2023_trajectory.csv")
+                "replay-yao2023_trajectory.csv", "magnet_cantilever.png", "gradient_beam.png")
 
 
 def verify_all_shipped(quick: bool) -> list[dict]:

@@ -5,7 +5,7 @@ import os
 from pathlib import Path
 
 import pytest
-from elastica_magnetic_validation.cli import CASES, available_cases
+from elastica_magnetic_validation.cli import CASES, REPORT_FILES, available_cases
 from elastica_magnetic_validation.report import MARGIN
 
 from elastica_magnetic.cli import main
@@ -30,6 +30,9 @@ def test_validate_quick(case, tmp_path, capsys):
     assert case in report
     for figure in case_result["figures"]:
         assert (tmp_path / figure).exists() or Path(figure).exists()
+        # a report folder written before result markers (the published one) is replaced only when
+        # it holds nothing but files the command writes
+        assert Path(figure).name in REPORT_FILES, f"{figure} missing from validation/cli.py REPORT_FILES"
 
     # every printed comparison gates, or says why it does not
     gates = {g["name"]: g for g in case_result["gates"]}
