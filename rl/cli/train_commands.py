@@ -60,10 +60,11 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
                         "simulator and their networks updated as one computation (default: the "
                         "fastest layout, seeds / cores; docs/performance.md says how exactly a "
                         "seed's run equals training it alone)")
-    p.add_argument("--rebalance", action="store_true",
-                   help="when a worker is idle at the end, move seeds of a busy one onto it "
-                        "(bit-identical to not moving them in the tests; off by default until "
-                        "a whole campaign confirms it: docs/training.md)")
+    p.add_argument("--rebalance", action=argparse.BooleanOptionalAction, default=True,
+                   help="when a worker is idle at the end, move seeds of a busy one onto it at "
+                        "their next common episode end (default; each moved seed ends bit-identical "
+                        "to staying, tested and confirmed on an 8-seed campaign: docs/training.md); "
+                        "--no-rebalance keeps every group on its worker")
     p.add_argument("--backend", choices=("process", "ray"), default="process",
                    help="where the seeds run: worker processes on this machine (default) or Ray tasks "
                         "(a local Ray instance with --workers x --threads CPUs, or the cluster at "

@@ -18,16 +18,20 @@ seeds' stacks, and a seed's training does not depend on that
 moved (tested). The first campaign with moves (``m1-10mT``, ``fast``, 8 seeds) found three moved
 seeds leaving their first course within 1-9 episodes: PyTorch's fused Adam then rounded the
 last layers' biases by the stack's size, fixed since by padding each seed's share of a
-parameter (:class:`~elastica_magnetic_rl.td3.stacked.StackedMLP`). Until a whole campaign
-confirms it, moves are asked for (``msr train --rebalance``), not the default. A move saves the
-idle core's time (~1.5 min measured in that run) and costs a restart (~10 s).
+parameter (:class:`~elastica_magnetic_rl.td3.stacked.StackedMLP`). A second campaign
+(``m1-10mT``, 2026-11-27) moved four seeds as [4, 5] and [6, 7] at 78k steps; continued instead as
+one group from a copy taken at the move, they end bit-identical (weights, replay buffers, every
+episode and evaluation). Moves are therefore on by default (``msr train --no-rebalance``: off). A
+move saves the idle core's time (~1.5 min measured in the first campaign) and costs a restart
+(~10 s).
 
 Every running group is asked at once: with several groups running beside an idle worker (a
 sweep of several cases), the one that hands back last may find no worker free and go on as one
 group again (a restart, ~10 s, nothing else lost).
 
-Used by ``msr train --rebalance`` with the process backend, several workers and one torch thread
-per worker (the default layout; with more threads the products also round by the stack's size).
+Used by ``msr train`` (unless ``--no-rebalance``) with the process backend, several workers and
+one torch thread per worker (the default layout; with more threads the products also round by the
+stack's size).
 """
 
 from __future__ import annotations

@@ -18,6 +18,7 @@ from state_compare import assert_state_equal
 from toy_jobs import fake_group
 
 from elastica_magnetic.cli import main as msr
+from elastica_magnetic.cli.app import build_parser
 
 
 def test_split_evenly_keeps_order_and_sizes_within_one():
@@ -90,9 +91,9 @@ def test_a_group_handed_back_and_resumed_apart_equals_one_never_moved(tmp_path, 
         assert run["resumed"] == 0 and run["shared_simulator_seeds"] == 1
 
 
-def test_seeds_move_only_when_asked_and_only_on_one_thread_per_worker(tmp_path, monkeypatch):
-    """``--rebalance`` (``train_cases(rebalance=True)``) gives the pool its rebalancing and each
-    group a request file; without it, or with two threads per worker, neither."""
+def test_seeds_move_by_default_and_only_on_one_thread_per_worker(tmp_path, monkeypatch):
+    """By default (``--rebalance``, ``train_cases(rebalance=True)``) the pool gets its rebalancing
+    and each group a request file; with ``--no-rebalance``, or two threads per worker, neither."""
     seen = []
 
     def fake_run_jobs(fn, jobs, workers, backend, address, progress, rebalancing=None):
@@ -101,8 +102,11 @@ def test_seeds_move_only_when_asked_and_only_on_one_thread_per_worker(tmp_path, 
 
     monkeypatch.setattr(training, "run_jobs", fake_run_jobs)
     jobs = [_job("ok", [0, 1], tmp_path), _job("ok", [2, 3], tmp_path)]
+    training._run_groups(jobs, 2, "process", None, False, rebalance=False)
     training._run_groups(jobs, 2, "process", None, False)
-    training._run_groups(jobs, 2, "process", None, False, rebalance=True)
     two_threads = [replace(j, threads=2) for j in jobs]
-    training._run_groups(two_threads, 2, "process", None, False, rebalance=True)
+    training._run_groups(two_threads, 2, "process", None, False)
     assert seen == [(False, [False, False]), (True, [True, True]), (False, [False, False])]
+    options = build_parser().parse_args(["train", "--case", "m1-4mT"])
+    assert options.rebalance is True
+    assert build_parser().parse_args(["train", "--case", "m1-4mT", "--no-rebalance"]).rebalance is False
