@@ -121,7 +121,8 @@ def train_seeds(
             slot in the stacked update are gone, the others go on bit-identical to a run
             without it. Resuming keeps each run's rule (a
             different one is refused); not given: the checkpoints' (new runs: none). A stopped
-            seed is never trained further.
+            seed is never trained further, nor one resumed at its ``steps`` (seeds of one group
+            may then stand at different steps: trained in other groupings).
         confirm_env_fn: where a fired rule with ``confirm`` is confirmed (one deterministic
             episode whose return must reach the threshold too; the crawler's: 10 s, accurate).
         confirm_vec_env_fn: the same as a vector environment (``confirm_vec_env_fn(1)``; used
@@ -145,7 +146,8 @@ def train_seeds(
         obs_dim, act_dim, act_space = _flat_spaces(env, k_seeds * n)
         runs = _seed_runs(configs, steps, run_dirs, resume, init_from, metadata, stop_rules,
                           obs_dim, act_dim, n)
-        if any(r.stopped for r in runs):  # seeds stopped earlier are not trained further
+        done = [_done(r, steps) for r in runs]
+        if any(r.stopped for r in runs) or (any(done) and not all(done)):  # not trained further
             return _without_stopped(vec_env_fn, env, runs, configs, steps, run_dirs, n, resume,
                                     progress, log_fn, metadata, eval_env_fn, progress_position,
                                     progress_desc, eval_vec_env_fn, obs_dim, act_dim, act_space,
@@ -209,6 +211,12 @@ def _seed_runs(configs: Sequence[TD3Config | None], steps: int, run_dirs: Sequen
             for k in range(len(configs))]
 
 
+def _done(run: SeedRun, steps: int) -> bool:
+    """Whether a seed has nothing left to train: stopped by its rule, or resumed at (or past) the
+    step budget."""
+    return bool(run.stopped) or (run.resumed_here and run.global_step >= steps)
+
+
 def _group_learner(runs: list[SeedRun], obs_dim: int, act_dim: int,
                    act_space: gym.spaces.Box) -> TD3:
     """The stacked learner of the group's seeds, each resumed from its checkpoint (if any); the
@@ -243,13 +251,14 @@ def _without_stopped(vec_env_fn, env, runs, configs, steps, run_dirs, n, resume,
                      metadata, eval_env_fn, progress_position, progress_desc, eval_vec_env_fn,
                      obs_dim, act_dim, act_space, confirm_env_fn=None, hand_back=None,
                      confirm_vec_env_fn=None) -> TD3:
-    """``train_seeds`` of a group some of whose seeds stopped in an earlier call: those are left
-    as they are, the others trained (resumed) on their own; the learner of them all."""
+    """``train_seeds`` of a group some of whose seeds stopped or finished their ``steps`` in an
+    earlier call (e.g. resumed in another grouping than they trained in): those are left as they
+    are, the others trained (resumed) on their own; the learner of them all."""
     env.close()
-    active = [k for k, r in enumerate(runs) if not r.stopped]
+    active = [k for k, r in enumerate(runs) if not _done(r, steps)]
     for r in runs:
         r.buffer = None  # the active seeds' are loaded again below
-    states: dict[int, dict[str, Any]] = {k: r.ckpt["agent"] for k, r in enumerate(runs) if r.stopped}
+    states: dict[int, dict[str, Any]] = {k: r.ckpt["agent"] for k, r in enumerate(runs) if _done(r, steps)}
     if active:
         sub = train_seeds(vec_env_fn, [configs[k] for k in active], steps, [run_dirs[k] for k in active],
                           envs_per_seed=n, resume=resume, progress=progress, log_fn=log_fn,

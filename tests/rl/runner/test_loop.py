@@ -255,6 +255,23 @@ def test_a_stopped_seed_leaves_the_group_and_the_others_go_on_bit_identical(tmp_
         assert_state_equal(a["agent"], b["agent"], "agent")
 
 
+def test_a_group_resumed_in_another_grouping_leaves_its_finished_seeds_as_they_are(tmp_path):
+    """Seeds that trained in different groups may stand at different steps (one finished its
+    budget, one was handed back earlier): resumed as one group, the finished seed is left as it is
+    and the other trains on, as it would alone."""
+    _group(tmp_path, "mixed", (2, 5), 60)
+    _group(tmp_path, "mixed", (5,), 120, resume=True)  # seed 5 finishes alone
+    before = (tmp_path / "mixed" / "seed5" / "checkpoint.pt").read_bytes()
+    learner = _group(tmp_path, "mixed", (2, 5), 120, resume=True)
+    assert (tmp_path / "mixed" / "seed5" / "checkpoint.pt").read_bytes() == before
+    _group(tmp_path, "ref", (2,), 120)
+    a, b = load_checkpoint(tmp_path / "mixed" / "seed2"), load_checkpoint(tmp_path / "ref" / "seed2")
+    assert a["global_step"] == 120
+    for key in ("agent", "buffer", "episode"):
+        assert_state_equal(a[key], b[key], key)
+    assert learner.n_seeds == 2
+
+
 class _Offset(gym.Wrapper):
     """The toy environment with every reward shifted (a confirmation environment that a rule's
     threshold can pass or fail)."""
