@@ -37,6 +37,7 @@ it.
 
 from __future__ import annotations
 
+import functools
 import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -148,10 +149,15 @@ def train_seeds(
                           obs_dim, act_dim, n)
         done = [_done(r, steps) for r in runs]
         if any(r.stopped for r in runs) or (any(done) and not all(done)):  # not trained further
-            return _without_stopped(vec_env_fn, env, runs, configs, steps, run_dirs, n, resume,
-                                    progress, log_fn, metadata, eval_env_fn, progress_position,
-                                    progress_desc, eval_vec_env_fn, obs_dim, act_dim, act_space,
-                                    confirm_env_fn, hand_back, confirm_vec_env_fn)
+            env.close()
+            same_settings = functools.partial(
+                train_seeds, vec_env_fn, envs_per_seed=n, resume=resume, progress=progress,
+                log_fn=log_fn, eval_env_fn=eval_env_fn, progress_position=progress_position,
+                progress_desc=progress_desc, eval_vec_env_fn=eval_vec_env_fn,
+                confirm_env_fn=confirm_env_fn, hand_back=hand_back,
+                confirm_vec_env_fn=confirm_vec_env_fn)
+            return _without_done(same_settings, runs, configs, run_dirs, metadata, steps,
+                                 (obs_dim, act_dim, act_space))
         learner = _group_learner(runs, obs_dim, act_dim, act_space)
         loop = GroupLoop(env, runs, learner, n, log_fn, eval_vec_env_fn, vec_env_fn, confirm_env_fn,
                          hand_back, confirm_vec_env_fn)
@@ -247,28 +253,25 @@ def _assemble(learner: TD3, runs: list[SeedRun], act_space: gym.spaces.Box,
     return whole
 
 
-def _without_stopped(vec_env_fn, env, runs, configs, steps, run_dirs, n, resume, progress, log_fn,
-                     metadata, eval_env_fn, progress_position, progress_desc, eval_vec_env_fn,
-                     obs_dim, act_dim, act_space, confirm_env_fn=None, hand_back=None,
-                     confirm_vec_env_fn=None) -> TD3:
+def _without_done(train_more: Callable[..., TD3], runs: list[SeedRun],
+                  configs: Sequence[TD3Config | None], run_dirs: Sequence[str | os.PathLike],
+                  metadata: Sequence[dict[str, Any] | None] | None, steps: int,
+                  spaces: tuple[int, int, gym.spaces.Box]) -> TD3:
     """``train_seeds`` of a group some of whose seeds stopped or finished their ``steps`` in an
     earlier call (e.g. resumed in another grouping than they trained in): those are left as they
-    are, the others trained (resumed) on their own; the learner of them all."""
-    env.close()
+    are, the others trained (resumed) on their own by ``train_more(configs, steps, run_dirs,
+    metadata=, stop_rules=)`` (``train_seeds`` with the call's other settings); the learner of
+    them all."""
     active = [k for k, r in enumerate(runs) if not _done(r, steps)]
     for r in runs:
         r.buffer = None  # the active seeds' are loaded again below
     states: dict[int, dict[str, Any]] = {k: r.ckpt["agent"] for k, r in enumerate(runs) if _done(r, steps)}
     if active:
-        sub = train_seeds(vec_env_fn, [configs[k] for k in active], steps, [run_dirs[k] for k in active],
-                          envs_per_seed=n, resume=resume, progress=progress, log_fn=log_fn,
-                          metadata=None if metadata is None else [metadata[k] for k in active],
-                          eval_env_fn=eval_env_fn, progress_position=progress_position,
-                          progress_desc=progress_desc, eval_vec_env_fn=eval_vec_env_fn,
-                          stop_rules=[runs[k].stop_rule for k in active],
-                          confirm_env_fn=confirm_env_fn, hand_back=hand_back,
-                          confirm_vec_env_fn=confirm_vec_env_fn)
+        sub = train_more([configs[k] for k in active], steps, [run_dirs[k] for k in active],
+                         metadata=None if metadata is None else [metadata[k] for k in active],
+                         stop_rules=[runs[k].stop_rule for k in active])
         states.update({k: sub.seed_state(i) for i, k in enumerate(active)})
+    obs_dim, act_dim, act_space = spaces
     probe = TD3(obs_dim, act_dim, act_space.low.reshape(-1), act_space.high.reshape(-1),
                 [r.cfg for r in runs[:1]])
     return _assemble(probe, runs, act_space, [states[k] for k in range(len(runs))])
