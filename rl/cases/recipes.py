@@ -23,16 +23,17 @@ CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8, "eval_every":
 #: beyond 3, so that a saturated actor still receives the critic's gradient (``pink-ln``'s failed ``m2-10mT``
 #: seeds stayed at a half roll with saturated actors and calibrated critics).
 #:
-#: ``fast``: a CANDIDATE for a design loop measured in minutes: ``pink-ln`` (its 256-256 networks)
-#: with minibatches of 64 (DDPG's, Lillicrap et al. 2016), bfloat16 networks in the updates
-#: (``fp32`` on a CPU without bfloat16 units), the ``target`` stop rule, confirmed in the accurate
-#: physics, on by default, and 0.8 of the case's steps (:data:`RECIPE_RUN_SETTINGS`; ``--stop-when
-#: none`` and ``--steps`` override them). Measured on the four paper cases with minibatches of 128
-#: and the whole budget: 7, 7, 5 and 6 of 8 seeds (m1-10mT, m2-10mT, m1-4mT, m2-4mT) in 41.6-50.5
-#: min; no seed of the committed ``fast`` or ``pink-ln`` runs at 4 mT first reached the yardstick
-#: after 80k steps, one of 16 ``fast`` seeds at 10 mT did; the update of 4 stacked seeds costs ~0.7x
-#: with 64 (docs/training.md). Not taken: one update per two transitions (4 of 8 on m1-10mT),
-#: 128-128 networks (3 of 4, then 1 of 4 by 80k), 64-64 (1 of 4).
+#: ``fast``: the design loop measured in minutes: ``pink-ln`` (its 256-256 networks) with
+#: minibatches of 128 (half the paper's), bfloat16 networks in the updates (``fp32`` on a CPU
+#: without bfloat16 units) and the ``target`` stop rule, confirmed in the accurate physics, on by
+#: default (:data:`RECIPE_RUN_SETTINGS`; ``--stop-when none`` turns it off): a seed that has met
+#: the case's yardstick stops and frees its share of the worker. Measured with 8 seeds of each of
+#: the four paper cases on a 2-core AMD EPYC (Zen 5): 7, 6, 6 and 6 of 8 (m1-10mT, m2-10mT,
+#: m1-4mT, m2-4mT) in 21-27 min; on a 2-core Intel Xeon with AMX 7, 7, 5 and 6 of 8 in 42-51 min
+#: (docs/training.md). Not taken: minibatches of 64 with 0.8 of the steps (a second version: 6,
+#: 6, 5, 7 of 8 on the Intel machine in 27-40 min, 2 of 8 on m1-10mT on the AMD one), one update
+#: per two transitions (4 of 8 on m1-10mT), 128-128 networks (3 of 4, then 1 of 4 by 80k), 64-64
+#: (1 of 4).
 #:
 #: ``robust``: ``pink-ln`` trained on robots drawn anew for every episode and crawler from the
 #: default variation set (domain randomization, Tobin et al. 2017; the run setting ``randomize``
@@ -45,17 +46,15 @@ RECIPES: dict[str, dict[str, Any]] = {
     "pink-ln-unsat": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True,
                       "actor_saturation_penalty": 1.0},
     "fast": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True,
-             "batch_size": 64, "precision": "bf16"},
+             "batch_size": 128, "precision": "bf16"},
     "robust": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True},
 }
 #: Run settings a recipe carries besides its TD3 changes (not hyperparameters: they change when a
 #: seed stops, not what it learns), each overridable on the command line: ``stop_when``, the
 #: default of ``msr train --stop-when`` (``--stop-when none`` turns it off); ``randomize``, the
 #: default of ``msr train --randomize`` for a case whose spec has no ``[training.randomize]``
-#: (``"default"``: the default variation set; ``--randomize none`` turns it off); ``step_budget``,
-#: the fraction of the case's steps per seed a run of the recipe takes when ``--steps`` is not
-#: given (:func:`recipe_steps`).
-RECIPE_RUN_SETTINGS: dict[str, dict[str, Any]] = {"fast": {"stop_when": "target", "step_budget": 0.8},
+#: (``"default"``: the default variation set; ``--randomize none`` turns it off).
+RECIPE_RUN_SETTINGS: dict[str, dict[str, Any]] = {"fast": {"stop_when": "target"},
                                                   "robust": {"randomize": "default"}}
 
 #: The recipe of a spec file that names none, and of the paper's four cases: ``pink-ln`` made more
@@ -68,20 +67,12 @@ RECIPE_SUMMARIES: dict[str, str] = {
     "pink": "the paper's with temporally correlated (pink) exploration noise",
     "pink-ln": "pink, and layer normalisation in the critics",
     "pink-ln-unsat": "pink-ln, and a penalty that keeps the actor out of tanh's saturation",
-    "fast": "CANDIDATE, being measured: pink-ln with minibatches of 64 and bfloat16 updates, "
-            "whose seeds stop at the case's yardstick (--stop-when target by default), within 0.8 "
-            "of the case's steps",
+    "fast": "pink-ln with minibatches of 128 and bfloat16 updates, whose seeds stop once they "
+            "meet the case's yardstick (--stop-when target by default): 8 seeds of a paper case "
+            "in 21-27 min on 2 cores (AMD Zen 5)",
     "robust": "pink-ln on robots randomized per episode (the default variation set: magnetization "
               "+-15 %, modulus +-20 %, friction +-25 %, density +-10 %; --randomize)",
 }
-
-
-def recipe_steps(case_steps: int, recipe: str) -> int:
-    """Environment steps per seed of a run of ``recipe`` on a case whose spec gives
-    ``case_steps``: the recipe's ``step_budget`` fraction of them (:data:`RECIPE_RUN_SETTINGS`),
-    rounded to a whole step, else all of them."""
-    fraction = RECIPE_RUN_SETTINGS.get(recipe, {}).get("step_budget", 1.0)
-    return max(1, round(int(case_steps) * fraction))
 
 
 def crawler_config(seed: int = 0, recipe: str = DEFAULT_RECIPE, **overrides: Any):

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from ..cases.case import EVAL_DURATION, Case, case_from_dict, load_case
-from ..cases.recipes import crawler_config, recipe_steps
+from ..cases.recipes import crawler_config
 from ..envs.env import make_env
 from ..runfiles.locking import check_unlocked, held_run_folders, mark_run_folder
 from ..runfiles.logs import read_log
@@ -348,8 +348,7 @@ def _load_cases(cases: Sequence[str | Path | Case]) -> dict[str, Case]:
 def _case_defaults(loaded: dict[str, Case], steps: int | None, episode_duration: float | None,
                    recipe: str | None) -> tuple[int, float, str]:
     """``steps``, ``episode_duration`` (s) and ``recipe``, each the cases' own value when not
-    given (they must then agree); the steps not given are the case's within the recipe's budget
-    (:func:`recipe_steps`)."""
+    given (they must then agree)."""
     for key, value in (("steps", steps), ("episode_duration", episode_duration), ("recipe", recipe)):
         defaults = {c.name: {"steps": c.training.steps, "episode_duration": c.task.episode_duration,
                              "recipe": c.training.recipe}[key] for c in loaded.values()}
@@ -357,7 +356,7 @@ def _case_defaults(loaded: dict[str, Case], steps: int | None, episode_duration:
             raise ValueError(f"the cases' specs give different {key} ({defaults}): set it")
     first = next(iter(loaded.values()))
     recipe = first.training.recipe if recipe is None else recipe
-    return (recipe_steps(first.training.steps, recipe) if steps is None else steps,
+    return (first.training.steps if steps is None else steps,
             first.task.episode_duration if episode_duration is None else episode_duration,
             recipe)
 

@@ -110,20 +110,18 @@ def test_the_fast_recipe_carries_the_target_rule_and_none_turns_it_off():
     cfg = crawler_config(0, "fast")
     assert cfg.hidden_sizes == (256, 256) and cfg.actor_widths == (256, 256)
     assert cfg.critic_layer_norm and cfg.noise_color == 1.0
-    assert cfg.batch_size == 64 and cfg.precision == "bf16"
+    assert cfg.batch_size == 128 and cfg.precision == "bf16"
 
 
-def test_the_fast_recipe_runs_a_fraction_of_the_cases_steps_unless_steps_are_given():
-    """``fast`` takes its ``step_budget`` (0.8) of the case's steps per seed when ``--steps`` is
-    not given; given steps win, and the other recipes keep the case's."""
+def test_every_recipe_runs_the_cases_steps_unless_steps_are_given():
+    """A run takes the case's steps per seed (a ``fast`` seed may stop before them); given
+    steps win."""
     from elastica_magnetic_rl.cases.case import load_case
-    from elastica_magnetic_rl.cases.recipes import recipe_steps
     from elastica_magnetic_rl.sweep.training import _case_defaults
 
     case = load_case("m1-4mT")
     assert case.training.steps == 100_000
     loaded = {case.name: case}
-    assert _case_defaults(loaded, None, None, "fast")[0] == 80_000
+    assert _case_defaults(loaded, None, None, "fast")[0] == 100_000
     assert _case_defaults(loaded, 30_000, None, "fast")[0] == 30_000
     assert _case_defaults(loaded, None, None, None) == (100_000, case.task.episode_duration, "pink-ln")
-    assert recipe_steps(48_000, "fast") == 38_400 and recipe_steps(3, "paper") == 3
