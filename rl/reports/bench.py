@@ -312,10 +312,13 @@ def training_time(
     case: str = "m1-4mT",
     window: int = 1000,
     full_steps: int = 100_000,
-    precision: str = "fp32",
+    precision: str | None = None,
     overrides: dict[str, Any] | None = None,
+    recipe: str = BENCH_RECIPE,
 ) -> dict[str, Any]:
-    """Wall time of ``seeds`` seeds x ``full_steps`` steps of ``case`` in the default layout
+    """Wall time of ``seeds`` seeds x ``full_steps`` steps of ``case`` with ``recipe`` (without
+    its stop rule: every seed runs the whole budget; ``precision``: the recipe's unless given) in
+    the default layout
     (:func:`elastica_magnetic_rl.sweep.training.default_layout`), extrapolated from a real run: the warm-up,
     then ``window`` steps of learning (a resume of the same run), each group's time split by the training loop
     into acting, environment, storing, updates, logs, evaluations and checkpoints.
@@ -328,15 +331,16 @@ def training_time(
     from ..cases.recipes import crawler_config
     from ..sweep.training import train_case
 
-    settings = {"precision": precision, **(overrides or {})}
-    cfg = crawler_config(0, BENCH_RECIPE, **settings)
+    settings = {**({"precision": precision} if precision else {}), **(overrides or {})}
+    cfg = crawler_config(0, recipe, **settings)
     warm = cfg.learning_starts
     with tempfile.TemporaryDirectory() as tmp:
         start = time.perf_counter()
         first = train_case(case, seeds=seeds, steps=warm, out=tmp, config_overrides=settings,
-                           recipe=BENCH_RECIPE, progress=False)
+                           recipe=recipe, stop_when="none", progress=False)
         second = train_case(case, seeds=seeds, steps=warm + window, out=tmp, resume=True,
-                            config_overrides=settings, recipe=BENCH_RECIPE, progress=False)
+                            config_overrides=settings, recipe=recipe, stop_when="none",
+                            progress=False)
         wall = time.perf_counter() - start
         evaluations = []
         for r in second["seeds"]:
@@ -363,7 +367,8 @@ def training_time(
                           "evaluation_round_s": t_eval, "checkpoint_s": t_ckpt})
     rounds = -(-groups // max(1, workers))
     return {
-        "seeds": seeds, "case": case, "precision": precision, "full_steps": full_steps,
+        "seeds": seeds, "case": case, "recipe": recipe, "precision": cfg.precision,
+        "full_steps": full_steps,
         "window_steps": window, "workers": workers,
         "seeds_per_simulator": int(second["seeds_per_simulator"]),
         "threads_per_worker": int(second["torch_threads_per_worker"]),
