@@ -28,7 +28,7 @@ CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8, "eval_every":
 #: without bfloat16 units) and the ``target`` stop rule, confirmed in the accurate physics, on by
 #: default (:data:`RECIPE_RUN_SETTINGS`; ``--stop-when none`` turns it off): a seed that has met
 #: the case's yardstick stops and frees its share of the worker. Measured with 8 seeds of each of
-#: the four paper cases on a 2-core AMD EPYC (Zen 5): 7, 6, 6 and 6 of 8 (m1-10mT, m2-10mT,
+#: the four paper cases on a 2-core AMD EPYC (Zen 5): 7, 6, 6 and 7 of 8 (m1-10mT, m2-10mT,
 #: m1-4mT, m2-4mT) in 21-27 min; on a 2-core Intel Xeon with AMX 7, 7, 5 and 6 of 8 in 42-51 min
 #: (docs/training.md). Not taken: minibatches of 64 with 0.8 of the steps (a second version: 6,
 #: 6, 5, 7 of 8 on the Intel machine in 27-40 min, 2 of 8 on m1-10mT on the AMD one), one update
