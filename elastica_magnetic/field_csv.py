@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .io import atomic_write
+from .plausibility import judge, warn_implausible
 
 #: Rows per second of a field CSV (the paper's 100 Hz field update).
 FIELD_CSV_RATE_HZ = 100.0
@@ -30,7 +31,7 @@ class FieldCSVError(ValueError):
     """A field CSV file that cannot be read; the message names the file, row and problem."""
 
 
-def read_field_csv(path: str | Path) -> NDArray[np.float64]:
+def read_field_csv(path: str | Path, *, plausible: bool = False) -> NDArray[np.float64]:
     """Read a field CSV (mT) and return the field in tesla.
 
     Parameters
@@ -38,6 +39,11 @@ def read_field_csv(path: str | Path) -> NDArray[np.float64]:
     path : str or Path
         CSV file with columns ``mag_x, mag_y, mag_z`` in mT, optionally preceded by an index
         column and a header line.
+    plausible : bool
+        Also judge the largest field as a coil field (what the doors that play a file do:
+        ``msr replay``, ``export-firmware``, ``stream``): refuse one below 0.05 mT or above 1 T
+        (tesla or gauss written as mT), warn about one below 0.5 mT or above 100 mT
+        (:class:`~elastica_magnetic.plausibility.ImplausibleValueWarning`).
 
     Returns
     -------
@@ -48,9 +54,9 @@ def read_field_csv(path: str | Path) -> NDArray[np.float64]:
     Raises
     ------
     FieldCSVError
-        Missing file, missing columns, a malformed or non-numeric row, a non-finite value, or an
-        index column that does not count 0, 1, 2, ... The message names the file and the row
-        (1-based line number in the file).
+        Missing file, missing columns, a malformed or non-numeric row, a non-finite value, an
+        index column that does not count 0, 1, 2, ..., or (``plausible``) a largest field no coil
+        makes. The message names the file and the row (1-based line number in the file).
     """
     path = Path(path)
     if not path.is_file():
@@ -65,7 +71,23 @@ def read_field_csv(path: str | Path) -> NDArray[np.float64]:
     field = np.empty((len(body), 3))
     for k, (line, row) in enumerate(body):
         field[k] = _field_row(path, line, row, k, columns, index_column, ncols)
+    if plausible:
+        _check_plausible(path, field, [line for line, _ in body])
     return field
+
+
+def _check_plausible(path: Path, field: NDArray[np.float64], lines: list[int]) -> None:
+    """Judge the largest |field| of the file as a coil field (:mod:`~elastica_magnetic.plausibility`):
+    refuse one no coil makes around a robot (tesla or gauss written as mT), warn about an unusual one."""
+    strength = np.linalg.norm(field, axis=1) / MILLITESLA
+    k = int(np.argmax(strength))
+    finding = judge("coil field", float(strength[k]), "mT", MILLITESLA)
+    if finding is None:
+        return
+    text = f"{path}: line {lines[k]}: the largest |field| = {finding.text}"
+    if finding.refuse:
+        raise FieldCSVError(text)
+    warn_implausible(f"{text}; the file is played as written", stacklevel=4)
 
 
 def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]

@@ -27,7 +27,11 @@ the magnet's own frame), ``axis`` (lab direction of the magnet's own z) and ``po
 ``[field.path]``. ``constant-gradient`` (:class:`~elastica_magnetic.ConstantGradientField`) takes
 ``gradient`` (T/m, three rows ``[dB_i/dx, dB_i/dy, dB_i/dz]``, symmetric and traceless) and
 ``origin`` (m, where the field is zero) or ``[field.path]``. Every value is SI. Errors are
-:class:`~elastica_magnetic.specfile.SpecError` naming the file, the table and the key.
+:class:`~elastica_magnetic.specfile.SpecError` naming the file, the table and the key. Values are
+judged against physical ranges (:mod:`~elastica_magnetic.plausibility`: a unit mistake is refused
+or warned about, naming it), and the source against the spec's robot
+(:mod:`~elastica_magnetic.field_plausibility`: a magnet or a wire on the rod, a field the rod
+cannot resolve).
 """
 
 from __future__ import annotations
@@ -96,9 +100,12 @@ def describe_field(spec: Mapping[str, Any], source: str = "<spec>") -> FieldSetu
     out: dict[str, Any] = {"kind": kind}
     if kind == "point-dipole":
         out["moment"] = t.vector("moment", "A m^2", 3)
+        t.check_plausible("moment", _norm(out["moment"]), "magnetic moment", "|moment|")
         _pose(t, out, "position")
     elif kind == "constant-gradient":
         out["gradient"] = _matrix3(t, "gradient", "T/m")
+        t.check_plausible("gradient", max(abs(v) for row in out["gradient"] for v in row), "gradient",
+                          "its largest |dB_i/dx_j|")
         _pose(t, out, "origin")
     elif kind == "field-map":
         out["file"] = t.string("file")
@@ -108,17 +115,21 @@ def describe_field(spec: Mapping[str, Any], source: str = "<spec>") -> FieldSetu
             out["dimension"] = t.vector("dimension", "m", 3)
             if min(out["dimension"]) <= 0.0:
                 raise t.error("dimension", f"must be positive lengths (m), got {out['dimension']!r}")
+            for edge in out["dimension"]:
+                t.check_plausible("dimension", edge, "magnet dimension", "an edge")
         else:
-            out["diameter"] = t.number("diameter", "m", low=0.0, low_open=True)
-            out["height"] = t.number("height", "m", low=0.0, low_open=True)
+            out["diameter"] = t.number("diameter", "m", low=0.0, low_open=True,
+                                       plausible="magnet dimension")
+            out["height"] = t.number("height", "m", low=0.0, low_open=True, plausible="magnet dimension")
         out["polarization"] = t.vector("polarization", "T, J = mu0 M in the magnet's own frame", 3)
+        t.check_plausible("polarization", _norm(out["polarization"]), "polarization", "|polarization|")
         out["axis"] = t.vector("axis", "a direction [x, y, z]", 3, [0.0, 0.0, 1.0])
         if not any(out["axis"]):
             raise t.error("axis", "must be a non-zero direction [x, y, z]")
         _pose(t, out, "position")
     else:
-        out["radius"] = t.number("radius", "m", low=0.0, low_open=True)
-        out["current"] = t.number("current", "A")
+        out["radius"] = t.number("radius", "m", low=0.0, low_open=True, plausible="coil radius")
+        out["current"] = t.number("current", "A", plausible="coil current")
         out["turns"] = t.number("turns", "turns", 1.0, low=0.0, low_open=True)
         out["axis"] = t.vector("axis", "a direction [x, y, z]", 3, [0.0, 0.0, 1.0])
         if not any(out["axis"]):
@@ -131,9 +142,32 @@ def describe_field(spec: Mapping[str, Any], source: str = "<spec>") -> FieldSetu
     setup = FieldSetup(out, clamp, base, source)
     try:
         setup.source()  # a missing or bad map file is an error now, naming the key
+        _check_source(t, out, spec, base, source)
     except SpatialFieldError as exc:
         raise SpecError(f"{source}: [field]: {exc}") from None
     return setup
+
+
+def _norm(vector: list[float]) -> float:
+    return math.sqrt(sum(v * v for v in vector))
+
+
+def _check_source(t: SpecTable, table: dict[str, Any], spec: Mapping[str, Any], base: Path,
+                  source: str) -> None:
+    """The plausibility of the source as a whole (:mod:`~elastica_magnetic.field_plausibility`):
+    a field map's grid and samples, and, when the spec has a ``[robot]``, the source against the
+    rod (the source at full strength, without its waveform)."""
+    from .field_plausibility import check_field_map, check_field_on_rod
+    from .specfile import describe_robot
+
+    bare = field_source({**table, "ramp": 0.0, "frequency": 0.0, "phase": 0.0}, base, source)
+    if isinstance(bare, FieldMap):
+        check_field_map(t, bare, table["scale"])
+    if "robot" not in spec:
+        return
+    description = describe_robot(spec, source)
+    time_steps = {name: setting["dt"] for name, setting in description.tables["physics"].items()}
+    check_field_on_rod(t, table, bare, description.robot("accurate"), time_steps)
 
 
 def _matrix3(t: SpecTable, key: str, unit: str) -> list[list[float]]:
@@ -150,6 +184,7 @@ def _pose(t: SpecTable, out: dict[str, Any], key: str) -> None:
     path = t.table("path", required=False)
     if path is None:
         out[key] = t.vector(key, "m", 3, [0.0, 0.0, 0.0])
+        t.check_plausible(key, _norm(out[key]), "position", f"|{key}|")
         return
     if t.has(key):
         raise t.error(key, f"give either {key} (m) or a [field.path] table, not both")
@@ -167,6 +202,8 @@ def _pose(t: SpecTable, out: dict[str, Any], key: str) -> None:
         raise path.error("points", f"expected {len(times)} points [x, y, z] (m), one per time")
     path.finish()
     out["path"] = {"times": [float(v) for v in times], "points": [[float(v) for v in p] for p in points]}
+    path.check_plausible("points", max(_norm(p) for p in out["path"]["points"]), "position",
+                         "the farthest point's distance from the origin")
 
 
 def _waveform(table: Mapping[str, Any]):

@@ -182,8 +182,9 @@ class TabulatedField(UniformField):
 
     @classmethod
     def from_csv(cls, path: str | Path, after_end: Literal["hold", "zero"] = "hold"):
-        """Load a field CSV file (mT, 100 rows per second; see :mod:`elastica_magnetic.field_csv`)."""
-        return cls(read_field_csv(path), rate=FIELD_CSV_RATE_HZ, after_end=after_end)
+        """Load a field CSV file (mT, 100 rows per second; see :mod:`elastica_magnetic.field_csv`),
+        its largest field judged as a coil field (``read_field_csv(path, plausible=True)``)."""
+        return cls(read_field_csv(path, plausible=True), rate=FIELD_CSV_RATE_HZ, after_end=after_end)
 
     @property
     def duration(self) -> float:

@@ -29,6 +29,11 @@ refused naming the first.
 
 Existing files among ``names`` are replaced only with ``force=True``; files of the folder not
 among them are never touched.
+
+**A single result file** (``msr calibrate --out cal.json``, ``msr stream --log``) goes through
+:func:`result_file`: refused when it exists unless ``force``, written beside itself under a
+temporary name, flushed and renamed over it in one step, under a lock beside it
+(``.NAME.msr-lock``), so two processes never write it and an interruption leaves the old file.
 """
 
 from __future__ import annotations
@@ -40,11 +45,12 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .io import OutputPathError
-from .locks import FolderLock, host_name, name_tag
+from .io import OutputPathError, display_path, normalized_path
+from .locks import FolderLock, host_name, lock_path, name_tag
 from .results import ResultExistsError, fsync_tree, remove_tree, signals_as_exceptions, signals_held
 
-__all__ = ["FileSet", "interrupted_replacements", "recover_files", "replace_files"]
+__all__ = ["FileSet", "ResultFile", "check_files", "check_result_file", "interrupted_replacements",
+           "recover_files", "replace_files", "result_file"]
 
 _PREFIX = ".msr-files-"
 _COMMIT = ".msr-commit"
@@ -101,7 +107,7 @@ def _move_committed(staging: Path, folder: Path) -> int:
 def interrupted_replacements(folder: str | Path) -> list[Path]:
     """The temporary folders a killed :func:`replace_files` left in ``folder`` (empty when none:
     the folder is consistent). A reader that finds one calls :func:`recover_files` first."""
-    folder = Path(folder)
+    folder = normalized_path(folder)
     return sorted(folder.glob(f"{_PREFIX}*")) if folder.is_dir() else []
 
 
@@ -112,12 +118,12 @@ def _recover_locked(folder: Path) -> list[str]:
             try:
                 moved = _move_committed(staging, folder)
             except (OSError, ValueError) as exc:
-                raise OutputPathError(f"{folder}: cannot finish the interrupted replacement of "
+                raise OutputPathError(f"{display_path(folder)}: cannot finish the interrupted replacement of "
                                       f"files in {staging.name}: {exc}") from None
-            notes.append(f"{folder}: finished moving {moved} file(s) of a replacement that was "
+            notes.append(f"{display_path(folder)}: finished moving {moved} file(s) of a replacement that was "
                          f"killed after it was complete ({staging.name})")
         else:
-            notes.append(f"{folder}: removed {staging.name}, left by a run that was killed")
+            notes.append(f"{display_path(folder)}: removed {staging.name}, left by a run that was killed")
         remove_tree(staging)
     return notes
 
@@ -125,9 +131,26 @@ def _recover_locked(folder: Path) -> list[str]:
 def recover_files(folder: str | Path, *, option: str = "--out") -> list[str]:
     """Finish or undo what a killed :func:`replace_files` left in ``folder`` (under its lock);
     returns what was done."""
-    folder = Path(folder)
+    folder = normalized_path(folder)
     with FolderLock(folder, option=option) as lock:
         return lock.notes + _recover_locked(folder)
+
+
+def check_files(folder: str | Path, names: Iterable[str], *, force: bool = False,
+                option: str = "--out", force_option: str = "--force") -> Path:
+    """The check :func:`replace_files` makes, made before any long work: ``folder`` is not a
+    file (nor under one) and holds none of ``names`` unless ``force``. Returns it normalized."""
+    folder = normalized_path(folder)
+    for parent in (folder, *folder.parents):
+        if parent.exists() and not parent.is_dir():
+            raise OutputPathError(f"{option} {display_path(folder)}: {display_path(parent)} is a "
+                                  "file, not a folder")
+    existing = [n for n in names if (folder / n).exists()]
+    if existing and not force:
+        raise ResultExistsError(f"{option} {display_path(folder)}: already holds "
+                                f"{', '.join(existing)}; pass {force_option} to replace, or "
+                                f"choose another {option}")
+    return folder
 
 
 @contextlib.contextmanager
@@ -146,7 +169,7 @@ def replace_files(
     the block otherwise); writing a file not in ``names`` is a :class:`ValueError` and nothing
     is moved. ``remove``: files of ``folder`` (not among ``names``) removed in the same commit,
     after the new ones are in place (those of a replaced set that the new one lacks)."""
-    folder = Path(folder)
+    folder = normalized_path(folder)
     names = tuple(names)
     remove = tuple(sorted(set(remove)))
     if set(remove) & set(names):
@@ -154,22 +177,24 @@ def replace_files(
                          "both written and removed")
     for parent in (folder, *folder.parents):
         if parent.exists() and not parent.is_dir():
-            raise OutputPathError(f"{option} {folder}: {parent} is a file, not a folder")
+            raise OutputPathError(f"{option} {display_path(folder)}: {parent} is a file, not a folder")
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise OutputPathError(f"{option} {folder}: cannot create it: {exc.strerror or exc}") from None
+        raise OutputPathError(f"{option} {display_path(folder)}: cannot create it: "
+                              f"{exc.strerror or exc}") from None
     with signals_as_exceptions(), FolderLock(folder, option=option) as lock:
         notes = lock.notes + _recover_locked(folder)
         existing = [n for n in names if (folder / n).exists()]
         if existing and not force:
-            raise ResultExistsError(f"{option} {folder}: already holds {', '.join(existing)}; pass "
+            raise ResultExistsError(f"{option} {display_path(folder)}: already holds "
+                                    f"{', '.join(existing)}; pass "
                                     f"{force_option} to replace, or choose another {option}")
         staging = folder / f"{_PREFIX}{name_tag(host_name())}-{os.getpid()}-{os.urandom(3).hex()}"
         try:
             os.mkdir(staging)
         except OSError as exc:
-            raise OutputPathError(f"{option} {folder}: cannot write in it: "
+            raise OutputPathError(f"{option} {display_path(folder)}: cannot write in it: "
                                   f"{exc.strerror or exc}") from None
         files = FileSet(folder, staging, names, notes)
         try:
@@ -194,6 +219,117 @@ def replace_files(
             if isinstance(exc, OSError) and not isinstance(exc, OutputPathError):
                 then = ("the next run on it finishes the replacement" if committed
                         else "nothing in it changed")
-                raise OutputPathError(f"{option} {folder}: cannot write the files: "
+                raise OutputPathError(f"{option} {display_path(folder)}: cannot write the files: "
                                       f"{exc.strerror or exc}; {then}") from exc
+            raise
+
+
+_NEW_FILE = ".msr-new-"
+
+
+@dataclass
+class ResultFile:
+    """One result file being written (see :func:`result_file`): write :attr:`path` (a temporary
+    file beside :attr:`final`); ``notes``: recoveries done on entry."""
+
+    final: Path
+    path: Path
+    notes: list[str] = field(default_factory=list)
+
+
+def check_result_file(path: str | Path, *, force: bool = False, option: str = "--out",
+                      force_option: str = "--force") -> Path:
+    """Check, before any long work, that the file ``path`` may be written: not a folder, not under
+    a file, its folder writable, and absent unless ``force``. Returns the normalized path."""
+    final = normalized_path(path)
+    notes = _recover_file(final, option)
+    try:
+        _check_file(final, force, option, force_option)
+    except OutputPathError as exc:
+        for note in notes:  # the command line prints them before the error
+            exc.add_note(note)
+        raise
+    _recovered_file_notes.setdefault(str(final), []).extend(notes)
+    return final
+
+
+#: Notes of recoveries done by :func:`check_result_file`, for the :func:`result_file` that follows.
+_recovered_file_notes: dict[str, list[str]] = {}
+
+
+def _recover_file(final: Path, option: str) -> list[str]:
+    """Remove, under the lock, the temporary files of a writer of ``final`` that was killed."""
+    if not final.parent.is_dir() or not (_new_files(final) or lock_path(final).exists()):
+        return []
+    with FolderLock(final, option=option) as lock:
+        return lock.notes + _remove_new_files(final)
+
+
+def _new_files(final: Path) -> list[Path]:
+    """The temporary files of writers of ``final``, and the temporaries of an atomic write
+    (:func:`elastica_magnetic.io.atomic_write`) into one of those."""
+    temporary = f".{final.stem}{_NEW_FILE}*"
+    return sorted({*final.parent.glob(temporary), *final.parent.glob(f".{temporary}")})
+
+
+def _check_file(final: Path, force: bool, option: str, force_option: str) -> None:
+    where = f"{option} {display_path(final)}"
+    if final.is_dir():
+        raise OutputPathError(f"{where}: is a folder, expected a file name")
+    for parent in final.parents:
+        if parent.exists() and not parent.is_dir():
+            raise OutputPathError(f"{where}: {display_path(parent)} is a file, not a folder")
+    if final.exists() and not force:
+        raise ResultExistsError(f"{where}: already exists; pass {force_option} to replace it, or "
+                                f"choose another {option}")
+    if final.parent.exists() and not os.access(final.parent, os.W_OK | os.X_OK):
+        raise OutputPathError(f"{where}: cannot write in {display_path(final.parent)}: "
+                              "Permission denied")
+
+
+def _remove_new_files(final: Path) -> list[str]:
+    notes = []
+    for leftover in _new_files(final):
+        remove_tree(leftover)
+        notes.append(f"{display_path(final)}: removed {leftover.name}, left by a run that was killed")
+    return notes
+
+
+@contextlib.contextmanager
+def result_file(path: str | Path, *, force: bool = False, option: str = "--out",
+                force_option: str = "--force") -> Iterator[ResultFile]:
+    """Write one result file whole or not at all: ``with result_file(out, force=...) as f:``
+    write ``f.path``; on a normal exit it is flushed and renamed over ``out`` in one step. The
+    checks of :func:`check_result_file` come first (an existing file without ``force`` is a
+    :class:`~elastica_magnetic.results.ResultExistsError`), then the lock beside ``out``; an
+    exception, Ctrl-C, SIGTERM or SIGHUP in the block removes the temporary file and leaves
+    ``out`` as it was."""
+    final = check_result_file(path, force=force, option=option, force_option=force_option)
+    shown = display_path(final)
+    try:
+        final.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputPathError(f"{option} {shown}: cannot create {display_path(final.parent)}: "
+                              f"{exc.strerror or exc}") from None
+    with signals_as_exceptions(), FolderLock(final, option=option) as lock:
+        notes = (_recovered_file_notes.pop(str(final), []) + lock.notes
+                 + _remove_new_files(final))
+        _check_file(final, force, option, force_option)
+        # same folder (the rename is atomic) and same suffix (writers such as savefig read it)
+        temporary = final.parent / (f".{final.stem}{_NEW_FILE}{name_tag(host_name())}-"
+                                    f"{os.getpid()}-{os.urandom(3).hex()}{final.suffix}")
+        try:
+            yield ResultFile(final, temporary, notes)
+            with open(temporary, "rb+") as handle:
+                os.fsync(handle.fileno())
+            with signals_held():
+                os.replace(temporary, final)
+        except BaseException as exc:
+            remove_tree(temporary)
+            if isinstance(exc, OSError) and not isinstance(exc, OutputPathError):
+                raise OutputPathError(f"{option} {shown}: cannot write it: {exc.strerror or exc}; "
+                                      f"{shown} is left as it was") from exc
+            if isinstance(exc, OutputPathError):
+                text = str(exc).replace(str(temporary), shown)
+                raise OutputPathError(f"{text}; {shown} is left as it was") from exc
             raise

@@ -4,6 +4,8 @@ Every result file is written under a temporary name in its own folder, then rena
 target (``os.replace``), so a failure (full disk, killed process) never leaves half a file and
 never destroys what was there. Command-line tools check their output location with
 :func:`prepare_output_dir` / :func:`prepare_output_file` before any long work starts.
+:func:`byte_order_mark_problem` is the one message for an input document (a spec, a calibration)
+saved with a byte-order mark.
 """
 
 from __future__ import annotations
@@ -17,12 +19,32 @@ from typing import IO, Any
 
 __all__ = [
     "OutputPathError",
+    "UTF8_BOM",
     "atomic_save",
     "atomic_write",
+    "atomic_write_bytes",
     "atomic_write_text",
+    "byte_order_mark_problem",
+    "display_path",
+    "normalized_path",
     "prepare_output_dir",
     "prepare_output_file",
 ]
+
+
+#: What Excel and Notepad put at the start of a file saved as "UTF-8 with BOM" (as decoded text).
+UTF8_BOM = "\ufeff"
+
+
+def byte_order_mark_problem(path: str | os.PathLike[str], text: str) -> str | None:
+    """The message for a document whose ``text`` (decoded as UTF-8) starts with a byte-order mark,
+    ``None`` otherwise. Documents (TOML specs, JSON calibrations) are refused with it: their
+    formats have no byte-order mark and other readers (``tomllib``, ``json``) refuse it too. CSV
+    tables skip it instead (``encoding="utf-8-sig"``): there it only hides the first header."""
+    if not text.startswith(UTF8_BOM):
+        return None
+    return (f"{path} starts with a UTF-8 byte-order mark (saved by Excel/Notepad as 'UTF-8 with "
+            "BOM'); save it as plain UTF-8")
 
 
 class OutputPathError(OSError):
@@ -30,6 +52,31 @@ class OutputPathError(OSError):
 
     def __str__(self) -> str:  # OSError's own formatting adds "[Errno ...]" noise
         return str(self.args[0]) if self.args else ""
+
+
+def normalized_path(path: str | os.PathLike[str]) -> Path:
+    """The one spelling of a location every check and every write uses: absolute, ``~`` expanded,
+    ``.``, ``..``, repeated and trailing separators and symbolic links resolved (``DIR/missing/..``,
+    ``./DIR/``, ``DIR`` and a link to ``DIR`` are all ``/abs/DIR``). ``..`` is resolved after the
+    links before it, as the operating system does. Command-line options are parsed with it
+    (:func:`elastica_magnetic.cli.output_path`), and the result-folder, lock and file-set
+    mechanisms apply it again to whatever a library caller gives them."""
+    return Path(os.path.realpath(os.path.expanduser(os.fspath(path))))
+
+
+def display_path(path: str | os.PathLike[str]) -> str:
+    """``path`` as a person reads it: relative to the current folder when it lies inside it
+    (``out/sim``), else absolute."""
+    absolute = normalized_path(path)
+    try:
+        here = Path(os.path.realpath(os.getcwd()))
+    except OSError:  # the current folder was removed
+        return str(absolute)
+    if absolute == here:
+        return "."
+    if here in absolute.parents:
+        return str(absolute.relative_to(here))
+    return str(absolute)
 
 
 def _temporary_name(path: Path) -> Path:
@@ -80,6 +127,16 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     """Write ``text`` to ``path`` atomically; returns ``path``."""
     with atomic_write(path, "w", newline="") as handle:
         handle.write(text)
+    return Path(path)
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically; returns ``path``. For files that a library writes
+    with its own C++ writer (``torch.jit.save``, ``torch.export.save``): saved to memory first
+    (``io.BytesIO``) and written here, a full disk is an :class:`OutputPathError` naming the file,
+    not an abort of the process in the writer's destructor."""
+    with atomic_write(path, "wb") as handle:
+        handle.write(data)
     return Path(path)
 
 

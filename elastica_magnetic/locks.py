@@ -33,7 +33,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from .io import OutputPathError
+from .io import OutputPathError, display_path, normalized_path
 
 try:  # POSIX: the kernel releases the lock of a process that dies
     import fcntl
@@ -86,7 +86,7 @@ def _pid_alive(pid: int) -> bool:
 
 def lock_path(folder: str | Path) -> Path:
     """The lock file of ``folder``: ``.NAME.msr-lock`` beside it."""
-    folder = Path(folder)
+    folder = normalized_path(folder)
     return folder.parent / f".{folder.name}{_LOCK_SUFFIX}"
 
 
@@ -125,7 +125,7 @@ class FolderLock:
     """
 
     def __init__(self, folder: str | Path, *, option: str = "--out") -> None:
-        self.folder = Path(folder)
+        self.folder = normalized_path(folder)
         self.path = lock_path(self.folder)
         self.option = option
         self.notes: list[str] = []
@@ -133,8 +133,8 @@ class FolderLock:
 
     def _refuse(self, owner: dict[str, Any] | None, why: str = "") -> FolderLockedError:
         return FolderLockedError(
-            f"{self.option} {self.folder}: being written by {_describe_owner(owner)}{why}; wait "
-            f"for it to finish or choose another {self.option}"
+            f"{self.option} {display_path(self.folder)}: being written by "
+            f"{_describe_owner(owner)}{why}; wait for it to finish or choose another {self.option}"
         )
 
     def _content(self) -> bytes:
@@ -151,7 +151,8 @@ class FolderLock:
         pid = previous.get("pid")
         if alive_unknown and isinstance(pid, int) and _pid_alive(pid):
             raise self._refuse(previous)
-        self.notes.append(f"{self.folder}: took over the stale lock of {_describe_owner(previous)}, "
+        self.notes.append(f"{display_path(self.folder)}: took over the stale lock of "
+                          f"{_describe_owner(previous)}, "
                           "which is no longer running")
 
     def acquire(self) -> FolderLock:
@@ -164,7 +165,7 @@ class FolderLock:
         except OSError as exc:
             if isinstance(exc, OutputPathError):
                 raise
-            raise OutputPathError(f"{self.option} {self.folder}: cannot create the lock file "
+            raise OutputPathError(f"{self.option} {display_path(self.folder)}: cannot create the lock file "
                                   f"{self.path}: {exc.strerror or exc}") from None
         return self
 

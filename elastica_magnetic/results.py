@@ -84,7 +84,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .io import OutputPathError, atomic_write_text
+from .io import OutputPathError, atomic_write_text, display_path, normalized_path
 from .locks import FolderLock, command_line, host_name, name_tag, utc_now
 
 __all__ = [
@@ -198,7 +198,7 @@ def read_marker(folder: str | Path) -> dict[str, Any] | None:
     """The marker of a result folder (kind, subject, command, written_utc, host, files), or
     ``None`` when ``folder`` has none (or it is unreadable)."""
     try:
-        data = json.loads((Path(folder) / MARKER).read_text(encoding="utf-8"))
+        data = json.loads((normalized_path(folder) / MARKER).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return None
     return data if isinstance(data, dict) and isinstance(data.get("kind"), str) else None
@@ -254,8 +254,9 @@ def check_result_folder(
     (a command's pre-check before long work, too). What was done goes into the notes of an
     error raised here, or of the next :func:`result_folder` on ``out`` in this process.
     """
-    final = Path(out)
+    final = normalized_path(out)
     _check_path(final, option)
+    _check_creatable(_target(final, option), option)
     notes = recover(final, option=option) if interrupted(final) else []
     if notes:
         _recovered_notes.setdefault(os.path.realpath(final), []).extend(notes)
@@ -274,14 +275,14 @@ _recovered_notes: dict[str, list[str]] = {}
 
 def _check_result_folder(final: Path, kind: str, subject: str | None, force: bool, option: str,
                          known_files: Iterable[str], force_option: str) -> dict[str, Any] | None:
-    where = f"{option} {final}"
+    where = f"{option} {display_path(final)}"
     if not final.exists():
         return None
     if os.path.ismount(final):
         raise OutputPathError(f"{where}: is a mount point; a result folder is replaced by renaming "
                               "it, so give a folder inside it")
     if not os.access(final, os.W_OK | os.X_OK):
-        raise OutputPathError(f"{where}: cannot write in {final}: Permission denied")
+        raise OutputPathError(f"{where}: cannot write in {display_path(final)}: Permission denied")
     listed = _files(final)
     if listed is None:
         raise ResultExistsError(f"{where}: holds more than {_MAX_LISTED} files, not a result of "
@@ -323,7 +324,7 @@ def _check_result_folder(final: Path, kind: str, subject: str | None, force: boo
 def interrupted(out: str | Path) -> bool:
     """Whether a writer of ``out`` was killed and left something beside it (a temporary folder,
     an aside to restore, one being removed) that :func:`recover` cleans up."""
-    return any(_leftovers(Path(os.path.realpath(Path(out)))).values())
+    return any(_leftovers(normalized_path(out)).values())
 
 
 def _mtime(path: Path) -> float:
@@ -333,18 +334,29 @@ def _mtime(path: Path) -> float:
 def _check_path(final: Path, option: str) -> None:
     for parent in (final, *final.parents):
         if parent.exists() and not parent.is_dir():
-            raise OutputPathError(f"{option} {final}: {parent} is a file, not a folder")
+            raise OutputPathError(f"{option} {display_path(final)}: {display_path(parent)} is a "
+                                  "file, not a folder")
+
+
+def _check_creatable(target: Path, option: str) -> None:
+    """The folder that will receive ``target``'s temporary sibling (its parent, or the nearest
+    existing folder above, where the parents will be made) must be writable: found before any
+    work, not when the result is swapped in."""
+    existing = next(p for p in target.parents if p.exists())
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise OutputPathError(f"{option} {display_path(target)}: cannot write in "
+                              f"{display_path(existing)}: Permission denied")
 
 
 def _target(final: Path, option: str) -> Path:
     """The real folder that will be swapped (links resolved), refused when it cannot be renamed:
     the file system's root, or the current folder or one above it (a shell would be left in a
     deleted folder)."""
-    target = Path(os.path.realpath(final))
+    target = normalized_path(final)
     cwd = Path(os.path.realpath(os.getcwd()))
     if target == target.parent or target == cwd or target in cwd.parents:
-        raise OutputPathError(f"{option} {final}: is the current folder or one above it; a result "
-                              "folder is replaced by renaming it, so give a folder inside it")
+        raise OutputPathError(f"{option} {display_path(final)}: is the current folder or one above "
+                              "it; a result folder is replaced by renaming it, so give a folder inside it")
     return target
 
 
@@ -372,9 +384,10 @@ def remove_tree(path: Path) -> None:
             path.unlink()
 
 
-def _recover_locked(target: Path, shown: Path) -> list[str]:
+def _recover_locked(target: Path, final: Path) -> list[str]:
     """Clean up after processes killed while writing ``target`` (the caller holds its lock)."""
     notes: list[str] = []
+    shown = display_path(final)
     found = _leftovers(target)
     olds = sorted(found["old"], key=_mtime)
     if olds and not target.exists():
@@ -392,7 +405,7 @@ def recover(out: str | Path, *, option: str = "--out") -> list[str]:
     """Finish the recovery of ``out`` after a killed writer (see the module docstring), under its
     lock; returns what was done (empty: nothing to do). Raises
     :class:`~elastica_magnetic.locks.FolderLockedError` when a live process is writing ``out``."""
-    final = Path(out)
+    final = normalized_path(out)
     target = _target(final, option)
     with FolderLock(target, option=option) as lock:
         return lock.notes + _recover_locked(target, final)
@@ -502,14 +515,15 @@ def result_folder(
     before markers), ``info`` extra data for the marker. Raises :class:`OutputPathError`,
     :class:`ResultExistsError` or :class:`~elastica_magnetic.locks.FolderLockedError` before the block runs.
     """
-    final = Path(out)
+    final = normalized_path(out)
+    shown = display_path(final)
     known = tuple(known_files)
     _check_path(final, option)
     target = _target(final, option)
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise OutputPathError(f"{option} {final}: cannot create {target.parent}: "
+        raise OutputPathError(f"{option} {shown}: cannot create {display_path(target.parent)}: "
                               f"{exc.strerror or exc}") from None
     with signals_as_exceptions(), FolderLock(target, option=option) as lock:
         notes = (_recovered_notes.pop(str(target), []) + lock.notes
@@ -525,7 +539,7 @@ def result_folder(
         try:
             os.mkdir(staging)  # the umask's permissions, as a folder made by the user
         except OSError as exc:
-            raise OutputPathError(f"{option} {final}: cannot write in {target.parent}: "
+            raise OutputPathError(f"{option} {shown}: cannot write in {display_path(target.parent)}: "
                                   f"{exc.strerror or exc}") from None
         result = ResultFolder(final, staging, kind, subject, replaced, notes, dict(info or {}))
         swapped = False
@@ -539,13 +553,13 @@ def result_folder(
         except BaseException as exc:
             remove_tree(staging)
             if not swapped:
-                _aborted.append(final)
+                _aborted.append(Path(shown))
             if isinstance(exc, OutputPathError):  # name the files where the user will look
-                text = str(exc).replace(str(staging), str(final))
-                raise type(exc)(f"{text}; {final} is left as it was") from exc
+                text = str(exc).replace(str(staging), shown)
+                raise type(exc)(f"{text}; {shown} is left as it was") from exc
             if isinstance(exc, OSError):
-                raise OutputPathError(f"{option} {final}: cannot write the result: "
-                                      f"{exc.strerror or exc}; {final} is left as it was") from exc
+                raise OutputPathError(f"{option} {shown}: cannot write the result: "
+                                      f"{exc.strerror or exc}; {shown} is left as it was") from exc
             raise
 
 
@@ -568,4 +582,4 @@ def mark_folder(folder: str | Path, *, kind: str, subject: str | None = None,
     in :func:`result_folder`, the files it holds now. Another command's
     :func:`check_result_folder` then refuses the folder naming it. Call it under the folder's
     lock, after each set of files (a checkpoint and its logs) is written. Returns the marker."""
-    return _marker_into(Path(folder), kind, subject, dict(info or {}))
+    return _marker_into(normalized_path(folder), kind, subject, dict(info or {}))

@@ -300,8 +300,29 @@ class CurrentLoopsField(SpatialField):
         centre = self.centre(time)
         np.add(centre[:, None], self.axis[:, None] * self.offsets[None, :], out=self._centres)
         np.multiply(self.weights, self.current(time), out=self._currents)
-        kernels.loops_field(self._centres, self._frames, self.radii, self._currents, points, b, g,
-                            with_gradient)
+        try:
+            kernels.loops_field(self._centres, self._frames, self.radii, self._currents, points, b, g,
+                                with_gradient)
+        except ZeroDivisionError:
+            raise self._on_wire(points, time) from None
+
+    def _on_wire(self, points: NDArray[np.float64], time: float) -> SpatialFieldError:
+        """The error for a point on a loop's wire, where the field is infinite (the closed form
+        divides by the distance to the wire)."""
+        best = (math.inf, 0, 0)
+        for ell, radius in enumerate(self.radii):
+            q = points - self._centres[:, ell][:, None]
+            axial = self.axis @ q
+            radial = np.linalg.norm(q - np.outer(self.axis, axial), axis=0)
+            distance = np.hypot(radial - radius, axial)
+            k = int(np.argmin(distance))
+            best = min(best, (float(distance[k]), ell, k))
+        _, ell, k = best
+        return SpatialFieldError(
+            f"point {points[:, k].tolist()} m (column {k}) at t = {time:.6g} s lies on the wire of "
+            f"current loop {ell} (radius {self.radii[ell]:g} m, centre {self._centres[:, ell].tolist()} m, "
+            "axis {}): the field is infinite there; keep the robot off the coil's wire".format(
+                self.axis.tolist()))
 
 
 class CurrentLoopField(CurrentLoopsField):
@@ -442,17 +463,12 @@ class FieldMap(SpatialField):
 
     @classmethod
     def from_npz(cls, path: str | Path, scale: ScalarOrWaveform = 1.0) -> FieldMap:
-        """Load ``x``, ``y``, ``z`` (m) and ``B`` (``(nx, ny, nz, 3)``, T) from an ``.npz`` file."""
+        """Load ``x``, ``y``, ``z`` (m) and ``B`` (``(nx, ny, nz, 3)``, T) from an ``.npz`` file.
+        A file that is not an ``.npz`` archive, a damaged (truncated) one, a missing array or one
+        that does not hold plain numbers is a :class:`SpatialFieldError` naming the file."""
         path = Path(path)
-        try:
-            data = np.load(path)
-        except (OSError, ValueError) as exc:
-            raise SpatialFieldError(f"{path}: cannot be read as an .npz field map ({exc})") from None
-        missing = [k for k in ("x", "y", "z", "B") if k not in data]
-        if missing:
-            raise SpatialFieldError(f"{path}: lacks array(s) {', '.join(missing)} (x, y, z in m; B in T, "
-                                    "shape (nx, ny, nz, 3))")
-        return cls(data["x"], data["y"], data["z"], data["B"], scale, source=str(path))
+        arrays = _npz_arrays(path, ("x", "y", "z", "B"))
+        return cls(arrays["x"], arrays["y"], arrays["z"], arrays["B"], scale, source=str(path))
 
     @classmethod
     def from_csv(cls, path: str | Path, scale: ScalarOrWaveform = 1.0) -> FieldMap:
@@ -497,6 +513,40 @@ class FieldMap(SpatialField):
             raise FieldMapDomainError(
                 f"{self.source}: point {points[:, outside].tolist()} m (column {outside}) at "
                 f"t = {time:.6g} s is outside the map's grid [{lo.tolist()}, {hi.tolist()}] m")
+
+
+def _npz_arrays(path: Path, names: tuple[str, ...]) -> dict[str, NDArray[np.float64]]:
+    """The named arrays of an ``.npz`` file as float64, every problem a :class:`SpatialFieldError`
+    naming the file and what is wrong (no traceback of numpy or zipfile)."""
+    import zipfile
+
+    expected = "x, y, z in m; B in T, shape (nx, ny, nz, 3)"
+    arrays = {}
+    try:
+        with open(path, "rb") as handle:
+            magic = handle.read(6)
+        if magic.startswith(b"\x93NUMPY"):
+            raise SpatialFieldError(f"{path}: is a single .npy array, not an .npz archive of arrays "
+                                    f"({expected}); save it with numpy.savez")
+        if not magic.startswith(b"PK"):
+            raise SpatialFieldError(f"{path}: is not an .npz archive (a zip file of .npy arrays: "
+                                    f"{expected}); save it with numpy.savez")
+        with np.load(path, allow_pickle=False) as data:
+            missing = [k for k in names if k not in data.files]
+            if missing:
+                raise SpatialFieldError(f"{path}: lacks array(s) {', '.join(missing)} ({expected})")
+            for name in names:
+                arrays[name] = data[name]  # read (and decompressed) here: a damaged member fails now
+    except SpatialFieldError:
+        raise
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        raise SpatialFieldError(f"{path}: cannot be read as an .npz field map: the file is damaged "
+                                f"or not an .npz archive ({type(exc).__name__}: {exc})") from None
+    for name, array in arrays.items():
+        if array.dtype.kind not in "iuf":
+            raise SpatialFieldError(f"{path}: array {name} holds {array.dtype} values, expected "
+                                    f"numbers ({expected})")
+    return {name: array.astype(np.float64) for name, array in arrays.items()}
 
 
 class _UniformCallable(SpatialField):

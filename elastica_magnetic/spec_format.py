@@ -14,7 +14,11 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["REQUIRED", "SpecError", "SpecTable", "loads", "read_spec", "toml_with_units"]
+from .io import byte_order_mark_problem
+from .plausibility import NAMED_CHECKS, judge, mistake_hint, warn_implausible
+
+__all__ = ["REQUIRED", "SpecError", "SpecTable", "accepted_keys", "loads", "read_spec",
+           "toml_with_units"]
 
 #: The default of a key that must be given (its getter raises :class:`SpecError` when it is missing).
 REQUIRED = object()
@@ -30,12 +34,16 @@ class SpecTable:
     the top level). Every getter records the key and returns a plain Python value.
     """
 
-    def __init__(self, data: Any, source: str, path: str = "") -> None:
+    def __init__(self, data: Any, source: str, path: str = "",
+                 accept: frozenset[str] | None = None) -> None:
         if not isinstance(data, Mapping):
             raise SpecError(f"{source}: {self._name(path) or 'the spec'} must be a table, "
                             f"got {type(data).__name__}")
         self.data, self.source, self.path = data, source, path
         self._read: set[str] = set()
+        #: Dotted keys whose plausibility warnings the spec accepts (``[checks] accept``).
+        self.accept = accepted_keys(data, source) if accept is None and not path else (
+            accept or frozenset())
 
     @staticmethod
     def _name(path: str) -> str:
@@ -61,12 +69,51 @@ class SpecTable:
         return default
 
     def number(self, key: str, unit: str, default: Any = REQUIRED, *, low: float | None = None,
-               low_open: bool = False, high: float | None = None, integer: bool = False) -> Any:
+               low_open: bool = False, high: float | None = None, integer: bool = False,
+               plausible: str | None = None) -> Any:
         """A finite number in ``[low, high]`` (``(low, high]`` if ``low_open``), ``unit`` for the
-        message; ``integer``: a TOML integer. A missing optional key returns ``default`` as is."""
+        message; ``integer``: a TOML integer. A missing optional key returns ``default`` as is.
+        ``plausible``: a quantity of :data:`~elastica_magnetic.plausibility.QUANTITIES` the given
+        value is judged as (:meth:`check_plausible`)."""
         value = self._get(key, default)
         if key not in self.data:
             return value
+        number = self._number(key, value, unit, integer, low, low_open, high, plausible)
+        if plausible is not None:
+            self.check_plausible(key, number, plausible)
+        return number
+
+    def dotted(self, key: str) -> str:
+        """``robot.youngs_modulus``: the key as ``[checks] accept`` names it."""
+        return f"{self.path}.{key}" if self.path else key
+
+    def check_plausible(self, key: str, value: float, quantity: str, shown: str | None = None) -> None:
+        """Judge ``value`` (SI) of ``key`` as ``quantity``: refuse (:class:`SpecError`) a value that
+        cannot be physical, warn (:class:`~elastica_magnetic.plausibility.ImplausibleValueWarning`)
+        about an unusual one unless ``[checks] accept`` names the key. ``shown``: how the message
+        names the value (default ``key = value``, e.g. ``"|moment| = 2e+04"``)."""
+        finding = judge(quantity, value)
+        if finding is None:
+            return
+        text = (f"{self.where(key)} = {finding.text}" if shown is None else
+                f"{self.where(key)}: {shown} = {finding.text}")
+        if finding.refuse:
+            raise SpecError(text)
+        self._warn(key, text)
+
+    def warn(self, key: str, message: str) -> None:
+        """Warn that ``key`` (or a check of :data:`~elastica_magnetic.plausibility.NAMED_CHECKS`,
+        ``"resolution"`` in ``[field]``) is unusual, unless ``[checks] accept`` names it."""
+        self._warn(key, f"{self.where(key)}: {message}")
+
+    def _warn(self, key: str, text: str) -> None:
+        dotted = self.dotted(key)
+        if dotted not in self.accept:
+            warn_implausible(f"{text}; if it is meant, add \"{dotted}\" to [checks] accept", dotted,
+                             stacklevel=5)
+
+    def _number(self, key: str, value: Any, unit: str, integer: bool, low: float | None,
+                low_open: bool, high: float | None, plausible: str | None) -> Any:
         kind = "an integer" if integer else "a number"
         if isinstance(value, bool) or not isinstance(value, (int, float)) or (
                 integer and not isinstance(value, int)):
@@ -76,7 +123,8 @@ class SpecTable:
         if low is not None and (value <= low if low_open else value < low):
             raise self.error(key, f"must be {'>' if low_open else '>='} {low:g} ({unit}), got {value!r}")
         if high is not None and value > high:
-            raise self.error(key, f"must be <= {high:g} ({unit}), got {value!r}")
+            hint = "" if plausible is None else mistake_hint(plausible, value)
+            raise self.error(key, f"must be <= {high:g} ({unit}), got {value!r}{hint}")
         return int(value) if integer else float(value)
 
     def string(self, key: str, default: Any = REQUIRED, choices: tuple[str, ...] | None = None) -> Any:
@@ -114,7 +162,7 @@ class SpecTable:
             return None
         if not isinstance(value, Mapping):
             raise SpecError(f"{self.source}: [{path}] must be a table, got {value!r}")
-        return SpecTable(value, self.source, path)
+        return SpecTable(value, self.source, path, self.accept)
 
     def raw(self, key: str, default: Any = REQUIRED) -> Any:
         """The value as written (checked by the caller)."""
@@ -128,6 +176,46 @@ class SpecTable:
             raise SpecError(f"{self.where(unknown[0])}: unknown key (this table takes: {known})")
 
 
+def accepted_keys(spec: Mapping[str, Any], source: str = "<spec>") -> frozenset[str]:
+    """The dotted keys of ``[checks] accept = ["robot.youngs_modulus", ...]``: unusual values the
+    spec's author accepts on purpose (their plausibility warnings are not shown; values that cannot
+    be physical are refused all the same). Each must name a key of the spec or one of
+    :data:`~elastica_magnetic.plausibility.NAMED_CHECKS`."""
+    checks = spec.get("checks")
+    if checks is None:
+        return frozenset()
+    if not isinstance(checks, Mapping):
+        raise SpecError(f"{source}: [checks] must be a table, got {checks!r}")
+    unknown = sorted(set(checks) - {"accept"})
+    if unknown:
+        raise SpecError(f"{source}: [checks] {unknown[0]}: unknown key (this table takes: accept)")
+    keys = checks.get("accept", [])
+    if not isinstance(keys, list) or not all(isinstance(k, str) for k in keys):
+        raise SpecError(f"{source}: [checks] accept: expected a list of dotted keys such as "
+                        f"\"robot.youngs_modulus\", got {keys!r}")
+    for key in keys:
+        if key not in NAMED_CHECKS and not _has_dotted(spec, key):
+            raise SpecError(f"{source}: [checks] accept: {key!r} names no key of this spec (give "
+                            "dotted keys such as \"robot.youngs_modulus\", or one of "
+                            f"{', '.join(NAMED_CHECKS)})")
+    return frozenset(keys)
+
+
+def _has_dotted(spec: Mapping[str, Any], key: str) -> bool:
+    table: Any = spec
+    for part in key.split("."):
+        name, _, index = part.partition("[")
+        if not isinstance(table, Mapping) or name not in table:
+            return False
+        table = table[name]
+        if index:  # segments[0]
+            k = index.rstrip("]")
+            if not (k.isdigit() and isinstance(table, list) and int(k) < len(table)):
+                return False
+            table = table[int(k)]
+    return key != "checks" and not key.startswith("checks.")
+
+
 def read_spec(path: str | Path) -> dict[str, Any]:
     """The TOML data of a spec file; a missing file or a syntax error is a :class:`SpecError`."""
     path = Path(path)
@@ -137,6 +225,9 @@ def read_spec(path: str | Path) -> dict[str, Any]:
         raise SpecError(f"{path}: no such spec file") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise SpecError(f"{path}: cannot be read as a spec file ({exc})") from None
+    problem = byte_order_mark_problem(path, text)
+    if problem is not None:  # else "not valid TOML: Invalid statement (at line 1, column 1)"
+        raise SpecError(problem)
     return loads(text, str(path))
 
 

@@ -49,7 +49,15 @@ from .robot_spec import (
 )
 
 # the file format's home is .spec_format; SpecError, SpecTable, read_spec, loads stay importable from here
-from .spec_format import REQUIRED, SpecError, SpecTable, loads, read_spec, toml_with_units  # noqa: F401
+from .spec_format import (  # noqa: F401
+    REQUIRED,
+    SpecError,
+    SpecTable,
+    accepted_keys,
+    loads,
+    read_spec,
+    toml_with_units,
+)
 from .stability import estimated_stable_time_step, suggested_time_step
 
 __all__ = [
@@ -67,7 +75,7 @@ __all__ = [
 #: Top-level keys of a spec file (the learning package reads ``actuation`` to ``yardstick``;
 #: :mod:`elastica_magnetic.field_spec` reads ``field`` and ``boundary``).
 SPEC_TABLES = ("name", "description", "robot", "physics", "actuation", "task", "training", "yardstick",
-               "field", "boundary")
+               "field", "boundary", "checks")
 
 #: Named magnetization patterns and their parameters (besides ``kind``); ``table`` gives the
 #: per-element values directly.
@@ -122,8 +130,10 @@ def dumps(data: Mapping[str, Any], units: Mapping[tuple[str, str], str] | None =
 @dataclass(frozen=True)
 class RobotDescription:
     """The ``[robot]`` and ``[physics]`` tables of a spec, checked and complete (every default
-    written out, SI): :attr:`tables` is plain data (``{"robot": ..., "physics": ...}``) that
-    round-trips through TOML and JSON; :meth:`robot` builds the :class:`RobotSpec`."""
+    written out, SI): :attr:`tables` is plain data (``{"robot": ..., "physics": ...}``, and
+    ``"checks"`` when the spec accepts unusual values, see
+    :func:`~elastica_magnetic.spec_format.accepted_keys`) that round-trips through TOML and JSON;
+    :meth:`robot` builds the :class:`RobotSpec`."""
 
     tables: dict[str, Any]
 
@@ -195,7 +205,10 @@ def describe_robot(spec: Mapping[str, Any], source: str = "<spec>") -> RobotDesc
         check_plain_name(top, "name", spec["name"])
     robot = _robot_table(top.table("robot"))
     physics = _physics_table(top.table("physics", required=False), source, robot)
-    description = RobotDescription({"robot": robot, "physics": physics})
+    tables = {"robot": robot, "physics": physics}
+    if top.accept:  # kept with the robot, so that a run's stored spec accepts the same values
+        tables["checks"] = {"accept": list(spec["checks"]["accept"])}
+    description = RobotDescription(tables)
     _check_time_steps(description, spec, source)
     return description
 
@@ -203,31 +216,33 @@ def describe_robot(spec: Mapping[str, Any], source: str = "<spec>") -> RobotDesc
 def _robot_table(t: SpecTable) -> dict[str, Any]:
     out: dict[str, Any] = {"name": t.string("name", "custom")}
     check_plain_name(t, "name", out["name"])
-    out["length"] = t.number("length", "m", low=0.0, low_open=True)
+    out["length"] = t.number("length", "m", low=0.0, low_open=True, plausible="rod length")
     out["n_elements"] = t.number("n_elements", "elements", low=2, integer=True)
     if t.has("radius"):
         for other in ("width", "thickness"):
             if t.has(other):
                 raise t.error(other, "give either radius (round rod) or width and thickness (band)")
-        out["radius"] = t.number("radius", "m", low=0.0, low_open=True)
+        out["radius"] = t.number("radius", "m", low=0.0, low_open=True, plausible="section")
     else:
         if not (t.has("width") or t.has("thickness")):
             raise t.error("thickness", "missing: give width and thickness (m, a band) or radius (m)")
-        out["width"] = t.number("width", "m", low=0.0, low_open=True)
-        out["thickness"] = t.number("thickness", "m", low=0.0, low_open=True)
+        out["width"] = t.number("width", "m", low=0.0, low_open=True, plausible="section")
+        out["thickness"] = t.number("thickness", "m", low=0.0, low_open=True, plausible="section")
         _check_thin_band(t, out["width"], out["thickness"])
-    out["density"] = t.number("density", "kg/m^3", low=0.0, low_open=True)
-    out["youngs_modulus"] = t.number("youngs_modulus", "Pa", low=0.0, low_open=True)
+    out["density"] = t.number("density", "kg/m^3", low=0.0, low_open=True, plausible="density")
+    out["youngs_modulus"] = t.number("youngs_modulus", "Pa", low=0.0, low_open=True,
+                                     plausible="youngs modulus")
     if t.has("shear_modulus") and t.has("poisson_ratio"):
         raise t.error("poisson_ratio", "give either shear_modulus (Pa) or poisson_ratio, not both")
     if t.has("poisson_ratio"):
         nu = t.number("poisson_ratio", "1", high=0.5)
         if nu <= -1.0:
             raise t.error("poisson_ratio", f"must be in (-1, 0.5], got {nu!r}")
+        t.check_plausible("poisson_ratio", nu, "poisson ratio")
         out["poisson_ratio"] = nu
     else:
         out["shear_modulus"] = t.number("shear_modulus", "Pa, or give poisson_ratio", low=0.0,
-                                        low_open=True)
+                                        low_open=True, plausible="shear modulus")
     out["shear_coefficient"] = t.number("shear_coefficient", "alpha_c, 1", 1.0, low=0.0, low_open=True)
     out["gravity"] = t.number("gravity", "m/s^2", STANDARD_GRAVITY, low=0.0)
     out["magnetization"] = _magnetization_table(t.table("magnetization"), out["n_elements"])
@@ -235,8 +250,10 @@ def _robot_table(t: SpecTable) -> dict[str, Any]:
     if ground is not None:
         d = GroundSpec()
         out["ground"] = {
-            "static_mu": ground.number("static_mu", "1", d.static_mu, low=0.0),
-            "kinetic_mu": ground.number("kinetic_mu", "1", d.kinetic_mu, low=0.0),
+            "static_mu": ground.number("static_mu", "1", d.static_mu, low=0.0,
+                                       plausible="friction coefficient"),
+            "kinetic_mu": ground.number("kinetic_mu", "1", d.kinetic_mu, low=0.0,
+                                        plausible="friction coefficient"),
             "stiffness": ground.number("stiffness", "N/m", d.k, low=0.0, low_open=True),
             "damping": ground.number("damping", "N s/m", d.nu, low=0.0),
             "surface_tolerance": ground.number("surface_tolerance", "m", d.surface_tolerance, low=0.0),
@@ -289,11 +306,14 @@ def _magnetization_table(t: SpecTable, n_elements: int) -> dict[str, Any]:
                                     f"values, A/m), got {array.shape}")
         if not np.all(np.isfinite(array)):
             raise t.error("values", "must be finite (A/m)")
+        t.check_plausible("values", float(np.linalg.norm(array, axis=0).max()), "magnetization",
+                          "the largest |M|")
         out["values"] = array.tolist()
     elif kind == "segments":
         out["segments"] = _segments(t, n_elements)
     else:
-        out["magnitude"] = t.number("magnitude", "A/m", YAO2023_MAGNETIZATION, low=0.0)
+        out["magnitude"] = t.number("magnitude", "A/m", YAO2023_MAGNETIZATION, low=0.0,
+                                    plausible="magnetization")
         if kind == "uniform":
             out["direction"] = _direction(t, "direction", [1.0, 0.0, 0.0])
         elif kind == "two-segment":
@@ -311,14 +331,14 @@ def _segments(t: SpecTable, n_elements: int) -> list[dict[str, Any]]:
     """``segments = [{elements = N | fraction = F, direction = [x, y, z], magnitude = M}, ...]``
     (``magnitude`` defaults to the table's ``magnitude``), checked and complete."""
     default_magnitude = t.number("magnitude", "A/m, the segments' default", YAO2023_MAGNETIZATION,
-                                 low=0.0)
+                                 low=0.0, plausible="magnetization")
     raw = t.raw("segments")
     if not isinstance(raw, list) or not raw:
         raise t.error("segments", "expected a non-empty list of tables {elements = N or fraction = "
                                   "F, direction = [x, y, z], magnitude = A/m}, back to front")
     out = []
     for k, item in enumerate(raw):
-        sub = SpecTable(item, t.source, f"{t.path}.segments[{k}]")
+        sub = SpecTable(item, t.source, f"{t.path}.segments[{k}]", t.accept)
         if sub.has("elements") == sub.has("fraction"):
             raise sub.error("elements", "give either elements (a number of elements) or fraction "
                                         "(of the length), not both or neither")
@@ -330,7 +350,8 @@ def _segments(t: SpecTable, n_elements: int) -> list[dict[str, Any]]:
             segment["fraction"] = sub.number("fraction", "of the length", low=0.0, low_open=True,
                                              high=1.0)
         segment["direction"] = _direction(sub, "direction")
-        segment["magnitude"] = sub.number("magnitude", "A/m", default_magnitude, low=0.0)
+        segment["magnitude"] = sub.number("magnitude", "A/m", default_magnitude, low=0.0,
+                                          plausible="magnetization")
         sub.finish()
         out.append(segment)
     try:
@@ -379,7 +400,7 @@ def _physics_table(t: SpecTable | None, source: str, robot: Mapping[str, Any]) -
         if sub is None:
             out[setting] = dict(defaults)
             continue
-        dt = sub.number("dt", "s", defaults["dt"], low=0.0, low_open=True)
+        dt = sub.number("dt", "s", defaults["dt"], low=0.0, low_open=True, plausible="time step")
         steps = ACTION_PERIOD / dt
         if abs(steps - round(steps)) > 1e-6 * steps:
             raise sub.error("dt", f"must divide the {ACTION_PERIOD:g} s control period into whole "
@@ -478,5 +499,5 @@ def spec_field_limit(spec: Mapping[str, Any], source: str = "<spec>") -> float |
     actuation = spec.get("actuation")
     if actuation is None:
         return None
-    table = SpecTable(actuation, source, "actuation")
-    return table.number("field_limit", "T", low=0.0, low_open=True, high=1.0)
+    table = SpecTable(actuation, source, "actuation", accepted_keys(spec, source))
+    return table.number("field_limit", "T", low=0.0, low_open=True, high=1.0, plausible="coil field")

@@ -8,6 +8,8 @@ import json
 import sys
 from pathlib import Path
 
+from elastica_magnetic.cli import output_path
+
 from .report import CaseResult, write_report
 
 #: Case name -> module with ``run(out: Path, quick: bool) -> CaseResult``.
@@ -81,7 +83,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    f"{', '.join(CASES)}); '{SHIPPED}': re-run every shipped policy for 10 s and "
                    "check its recorded distance and waveform (a few minutes each)")
     p.add_argument("--quick", action="store_true", help="reduced grid (for the test suite)")
-    p.add_argument("--out", type=Path, default=Path("out/validation"), help="report folder")
+    p.add_argument("--out", type=output_path, default="out/validation", help="report folder")
     p.add_argument("--force", action="store_true",
                    help="replace the report of an earlier `msr validate` in --out (another "
                    "command's result or files msr did not write are never replaced)")

@@ -32,6 +32,7 @@ from elastica_magnetic import (
     run_open_loop,
     yao2023_robot,
 )
+from elastica_magnetic.cli import output_path
 from elastica_magnetic.filesets import replace_files
 from elastica_magnetic.reference import reference_field_csv
 from elastica_magnetic.simulation import register_robot_forcing, robot_rod
@@ -283,7 +284,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("report", choices=("s2", "damping"))
     parser.add_argument("--duration", type=float, default=3.0, help="simulated time per case, s")
-    parser.add_argument("--out", type=Path, default=Path("docs/figures/physics"))
+    parser.add_argument("--out", type=output_path, default="docs/figures/physics")
     args = parser.parse_args(argv)
     names = (("s2_end_to_end.png", "s2.json") if args.report == "s2"
              else ("damping_first_max.png", "damping.json"))

@@ -6,15 +6,17 @@ module uses) and ``commands`` (the physics package's own sub-commands, ``replay`
 
 from .app import (
     COMMAND_MODULES,
+    OUTPUT_TYPES,
     CommandError,
     build_parser,
     duration_option,
     interrupted_message,
     main,
     number,
+    output_path,
     print_notes,
     print_result,
 )
 
-__all__ = ["COMMAND_MODULES", "CommandError", "build_parser", "duration_option", "interrupted_message",
-           "main", "number", "print_notes", "print_result"]
+__all__ = ["COMMAND_MODULES", "OUTPUT_TYPES", "CommandError", "build_parser", "duration_option",
+           "interrupted_message", "main", "number", "output_path", "print_notes", "print_result"]

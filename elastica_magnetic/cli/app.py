@@ -16,11 +16,13 @@ function, so this file stays a thin dispatcher:
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import json
 import math
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
 from typing import Any
 
 # Modules that provide ``register(subparsers)``; missing optional areas are skipped.
@@ -81,6 +83,26 @@ def number(
     return parse
 
 
+def output_path(text: str) -> Path:
+    """The argparse ``type`` of every option naming where a command writes (``--out``, ``--dest``,
+    ``--figure``, ``--log``, ...): the one path rule. The path is made absolute and normalized once,
+    here (``..``, ``.``, repeated and trailing separators, ``~`` and symbolic links resolved:
+    :func:`elastica_magnetic.io.normalized_path`), so every later check and every write sees the
+    same folder however it was spelled (``DIR``, ``./DIR/``, ``DIR/missing/..``, a link to
+    ``DIR``)."""
+    from ..io import normalized_path
+
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a path, got an empty string")
+    if "\0" in text:
+        raise argparse.ArgumentTypeError(f"expected a path, got {text!r} (it holds a NUL character)")
+    return normalized_path(text)
+
+
+#: The argparse types that mark an option as an output location (tests walk the parser for them).
+OUTPUT_TYPES = (output_path,)
+
+
 def duration_option() -> Callable[[str], float]:
     """The argparse ``type`` of ``--duration`` (s) of the commands that simulate."""
     from ..openloop import MAX_DURATION_S
@@ -90,12 +112,15 @@ def duration_option() -> Callable[[str], float]:
 
 
 def print_result(result: dict[str, Any], as_json: bool) -> None:
-    """Print a command's result: JSON on one document with ``--json``, else ``key: value`` lines."""
+    """Print a command's result: JSON on one document with ``--json`` (paths absolute), else
+    ``key: value`` lines (paths relative to the current folder where they lie inside it)."""
     if as_json:
         print(json.dumps(result, indent=2, default=str))
     else:
+        from ..io import display_path
+
         for key, value in result.items():
-            print(f"{key}: {value}")
+            print(f"{key}: {display_path(value) if isinstance(value, Path) else value}")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -116,24 +141,90 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+@contextlib.contextmanager
+def _plausibility_warnings(command: Callable[[], str]) -> Iterator[None]:
+    """Show each unusual value (:class:`~elastica_magnetic.plausibility.ImplausibleValueWarning`)
+    once, as one line ``msr CMD: warning: ...`` on stderr rather than Python's ``file:line`` form."""
+    import warnings
+
+    from ..plausibility import ImplausibleValueWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("once", ImplausibleValueWarning)
+        original = warnings.showwarning
+
+        def show(message, category, filename, lineno, file=None, line=None):
+            if issubclass(category, ImplausibleValueWarning):
+                print(f"msr {command()}: warning: {message}", file=sys.stderr)
+            else:
+                original(message, category, filename, lineno, file, line)
+
+        warnings.showwarning = show
+        yield
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     from ..results import aborted_results
     from ..simulation import SimulationDiverged
 
-    parser = build_parser()
-    args = parser.parse_args(argv)
     already_aborted = len(aborted_results())
+    command = _command_word(sys.argv[1:] if argv is None else argv)  # until parsed
+    swallowed: list[KeyboardInterrupt] = []
     try:
-        status = args.func(args)
-    except (CommandError, ValueError, OSError, SimulationDiverged) as exc:
-        print_notes(getattr(exc, "__notes__", ()))  # e.g. a killed run's leftovers cleaned first
-        print(f"msr {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        # parsing imports the command modules and loads --case specs: Ctrl-C may come there too
+        with _interruptions_not_swallowed(swallowed), _plausibility_warnings(lambda: command):
+            args = build_parser().parse_args(argv)
+            command = args.command
+            status = args.func(args)
     except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM/SIGHUP while a result was written
-        print(interrupted_message(args.command, exc, aborted_results()[already_aborted:]),
-              file=sys.stderr)
-        return 128 + getattr(exc, "signum", 2)
+        return _interrupted(command, exc, aborted_results()[already_aborted:])
+    except Exception as exc:
+        if swallowed:  # the error is the interruption's consequence (numba's compiler cut short)
+            return _interrupted(command, swallowed[0], aborted_results()[already_aborted:])
+        if not isinstance(exc, (CommandError, ValueError, OSError, SimulationDiverged)):
+            raise
+        print_notes(getattr(exc, "__notes__", ()))  # e.g. a killed run's leftovers cleaned first
+        print(f"msr {command}: error: {exc}", file=sys.stderr)
+        return 2
+    if swallowed:  # the compilation survived it: say why the command did not stop
+        print(f"msr {command}: note: a Ctrl-C came where it cannot stop the command (in a callback "
+              "from C, such as numba's compiler); it ran to its end", file=sys.stderr)
     return int(status or 0)
+
+
+def _command_word(argv: Sequence[str]) -> str:
+    """The sub-command named in ``argv`` (its first word not starting with ``-``), or ``""``."""
+    return next((str(a) for a in argv if not str(a).startswith("-")), "")
+
+
+def _interrupted(command: str, exc: KeyboardInterrupt, kept: Sequence[object]) -> int:
+    """Print the one line of an interruption; the exit status, 128 + the signal's number."""
+    print(interrupted_message(command, exc, kept), file=sys.stderr)
+    return 128 + getattr(exc, "signum", 2)
+
+
+@contextlib.contextmanager
+def _interruptions_not_swallowed(swallowed: list[KeyboardInterrupt]) -> Iterator[None]:
+    """Keep a Ctrl-C that lands in Python code called back from C. A signal that comes while
+    numba's compiler runs LLVM is handled in the first Python code run after it: llvmlite's
+    object-cache hook, called through ctypes, which cannot pass an exception on. It prints
+    "Exception ignored on calling ctypes callback function", and the compilation then fails with
+    an unrelated ``RuntimeError`` ("no compiled object yet", the cached kernels' object was lost).
+    While this is entered, such a :class:`KeyboardInterrupt` is appended to ``swallowed`` instead
+    of printed; :func:`main` reports the error that follows as the interruption."""
+    previous = sys.unraisablehook
+
+    def hook(unraisable: Any) -> None:
+        if isinstance(unraisable.exc_value, KeyboardInterrupt):
+            swallowed.append(unraisable.exc_value)
+        else:
+            previous(unraisable)
+
+    sys.unraisablehook = hook
+    try:
+        yield
+    finally:
+        sys.unraisablehook = previous
 
 
 def interrupted_message(command: str, exc: BaseException, kept: Sequence[object] = ()) -> str:
@@ -142,7 +233,7 @@ def interrupted_message(command: str, exc: BaseException, kept: Sequence[object]
     name = "SIGINT" if isinstance(exc, KeyboardInterrupt) and not hasattr(exc, "signum") else str(exc)
     left = "".join(f"; {folder} was left as it was (a result folder is replaced whole or not at "
                    "all)" for folder in kept)
-    return f"msr {command}: interrupted ({name}){left}"
+    return f"{f'msr {command}' if command else 'msr'}: interrupted ({name}){left}"
 
 
 def print_notes(notes: Sequence[str]) -> None:

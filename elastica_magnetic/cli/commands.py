@@ -16,7 +16,7 @@ from ..progress import progress_bar
 from ..results import result_folder
 from ..spatial_fields import FieldSum
 from ..specfile import SpecError, field_limit_of, load_robot
-from .app import CommandError, duration_option, number, print_notes, print_result
+from .app import CommandError, duration_option, number, output_path, print_notes, print_result
 
 ROBOT_HELP = (f"a preset ({', '.join(ROBOTS)}) or a spec file (.toml, e.g. from "
               "`msr case show m1-4mT --toml`); default yao2023-m1")
@@ -59,7 +59,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="s, at most the waveform's length (default: the waveform's length)")
     p.add_argument("--reference", type=Path, default=None,
                    help="a trajectory.csv to compare with (drawn dashed; differences reported)")
-    p.add_argument("--out", type=Path, default=Path("out/replay"), help="output folder")
+    p.add_argument("--out", type=output_path, default="out/replay", help="output folder")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=replay_command)
@@ -85,7 +85,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="amplitude ramp-up time, s (0: none; at most --duration; default 0.2 or "
                    "--duration if shorter)")
     p.add_argument("--duration", type=duration_option(), default=3.0, help="s")
-    p.add_argument("--out", type=Path, default=Path("out/simulate"), help="output folder")
+    p.add_argument("--out", type=output_path, default="out/simulate", help="output folder")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=simulate_command)

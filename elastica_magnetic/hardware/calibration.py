@@ -33,7 +33,7 @@ from elastica_magnetic.hardware.plausibility import (
     check_matrix,
     current_condition,
 )
-from elastica_magnetic.io import atomic_write_text
+from elastica_magnetic.io import atomic_write_text, byte_order_mark_problem
 
 AXES = 3
 TESLA_PER_MILLITESLA = 1e-3
@@ -195,7 +195,11 @@ def load_calibration(path: str | Path) -> Calibration:
     if not path.is_file():
         raise CalibrationError(f"{path}: no such calibration file")
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        text = path.read_text(encoding="utf-8")
+        problem = byte_order_mark_problem(path, text)
+        if problem is not None:  # else json's "Unexpected UTF-8 BOM (decode using utf-8-sig)"
+            raise CalibrationError(problem)
+        data = json.loads(text)
     except UnicodeDecodeError as exc:
         raise CalibrationError(f"{path}: not UTF-8 text (byte {exc.start}): a calibration is a "
                                "JSON file written by 'msr calibrate'") from None

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from elastica_magnetic.cli.app import output_path
 from elastica_magnetic.field_csv import MILLITESLA, read_field_csv
 
 
@@ -32,10 +33,13 @@ def register(subparsers: Any) -> None:
     p.add_argument("--baud", type=_number("baud", 1, integer=True), default=115200)
     p.add_argument("--timeout", type=_number("s", 0.0, low_open=True), default=None,
                    help="overall limit in seconds, handshake included")
-    p.add_argument("--log", help="write every line the board sent to this file")
-    p.add_argument("--codes-out", help="write the reported DAC codes as row,code_x,code_y,code_z")
+    p.add_argument("--log", type=output_path, help="write every line the board sent to this file")
+    p.add_argument("--codes-out", type=output_path,
+                   help="write the reported DAC codes as row,code_x,code_y,code_z")
     p.add_argument("--corrupt-row", type=_number("", 0, integer=True), default=None,
                    help="fault injection: corrupt row N after its checksum (board must stop)")
+    p.add_argument("--force", action="store_true",
+                   help="replace an existing --log or --codes-out file")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.set_defaults(func=_stream)
@@ -45,10 +49,13 @@ def register(subparsers: Any) -> None:
         description="Write calibration_gen.h, waveform_table.c and expected_dac_codes.csv.")
     p.add_argument("field_csv", help="field CSV, mag_x,mag_y,mag_z in mT")
     p.add_argument("--calibration", required=True, help="calibration JSON")
-    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--out", type=output_path, required=True, help="output directory")
     p.add_argument("--allow-clipping", action="store_true",
                    help="write a waveform beyond the coils' current limit or DAC span (the firmware "
                    "clamps it); by default such a waveform is refused")
+    p.add_argument("--force", action="store_true",
+                   help="replace an earlier export-firmware result in --out (the folder is replaced "
+                   "whole; a folder holding other files is refused)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_export)
 
@@ -57,12 +64,13 @@ def register(subparsers: Any) -> None:
         description="Least-squares fit of field = A @ current; writes a calibration JSON.")
     p.add_argument("measurements", help="CSV with columns current_x_A,current_y_A,current_z_A,"
                    "field_x_mT,field_y_mT,field_z_mT (one row per measurement)")
-    p.add_argument("--out", required=True, help="calibration JSON to write")
+    p.add_argument("--out", type=output_path, required=True, help="calibration JSON to write")
     p.add_argument("--base", help="calibration JSON providing the amplifier, DAC and limits "
                    "(default: stm32/calibration/default.json)")
     p.add_argument("--name", default="measured", help="calibration name compiled into firmware")
     p.add_argument("--upload", metavar="PORT",
                    help="also upload the fitted calibration to the board at this pyserial URL")
+    p.add_argument("--force", action="store_true", help="replace an existing --out file")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_calibrate)
 
@@ -85,11 +93,21 @@ def _error(message: str) -> Exception:
     return CommandError(message)
 
 
+def _check_port(option: str, port: str) -> None:
+    """Refuse a network URL without a usable TCP port, naming the option."""
+    from elastica_magnetic.hardware.stream import port_url_problem
+
+    problem = port_url_problem(port)
+    if problem is not None:
+        raise _error(f"{option} {problem}")
+
+
 #: Largest difference (LSB) between the board's reported codes and the host's model.
 CODE_TOLERANCE_LSB = 1
 
 
 def _stream(args: argparse.Namespace) -> int:
+    from elastica_magnetic.filesets import check_result_file
     from elastica_magnetic.hardware.calibration import (
         clipping_report,
         expected_dac_codes,
@@ -97,10 +115,10 @@ def _stream(args: argparse.Namespace) -> int:
     )
     from elastica_magnetic.hardware.export import write_expected_codes
     from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
-    from elastica_magnetic.hardware.stream import StreamError, stream_field
-    from elastica_magnetic.io import prepare_output_file
+    from elastica_magnetic.hardware.stream import StreamError
 
-    field_T = read_field_csv(args.field_csv)
+    _check_port("--port", args.port)  # before the files are read, and not as pyserial words it
+    field_T = read_field_csv(args.field_csv, plausible=True)
     cal = load_calibration(args.calibration) if args.calibration else None
     if args.no_upload and cal is None:
         raise _error("--no-upload needs --calibration FILE")
@@ -111,20 +129,22 @@ def _stream(args: argparse.Namespace) -> int:
                 f"{args.field_csv}: the coils of calibration {cal.name!r} cannot follow this "
                 f"waveform: {clipping.describe()}. Lower the field, or pass --allow-clipping to "
                 "play it clipped; nothing was sent")
+    if args.log and args.codes_out and args.log == args.codes_out:
+        raise _error(f"--log and --codes-out name the same file, {args.log}")
     for option, path in (("--log", args.log), ("--codes-out", args.codes_out)):
         if path:
-            prepare_output_file(path, option)
+            check_result_file(path, force=args.force, option=option)
     try:
-        result = stream_field(args.port, field_T, baudrate=args.baud, corrupt_row=args.corrupt_row,
-                              timeout_s=args.timeout, log_path=args.log,
-                              progress=not args.no_progress, calibration=cal,
-                              upload=not args.no_upload)
+        result = _stream_logged(args, field_T, cal)
     except StreamError as exc:
         raise _error(str(exc)) from None
     summary = result.summary()
     got = result.codes_array()
     if args.codes_out:
-        write_expected_codes(Path(args.codes_out), got)
+        from elastica_magnetic.filesets import result_file
+
+        with result_file(args.codes_out, force=args.force, option="--codes-out") as codes:
+            write_expected_codes(codes.path, got)
     codes_ok = True
     if cal is not None:
         expected = expected_dac_codes(cal, wire_values_mT(wire_rows_mT(field_T)))
@@ -153,16 +173,45 @@ def _stream(args: argparse.Namespace) -> int:
     return 0 if ok else 1
 
 
+def _stream_logged(args: argparse.Namespace, field_T: Any, cal: Any) -> Any:
+    """Stream with ``--log`` written as one result file: the log of a stream that failed is kept
+    too (it says what the board did), an interrupted one leaves the earlier log."""
+    from elastica_magnetic.filesets import result_file
+    from elastica_magnetic.hardware.stream import StreamError, stream_field
+
+    def run(log_path: Path | None) -> Any:
+        return stream_field(args.port, field_T, baudrate=args.baud, corrupt_row=args.corrupt_row,
+                            timeout_s=args.timeout, log_path=log_path,
+                            progress=not args.no_progress, calibration=cal,
+                            upload=not args.no_upload)
+
+    if not args.log:
+        return run(None)
+    failure: StreamError | None = None
+    with result_file(args.log, force=args.force, option="--log") as log:
+        try:
+            result = run(log.path)
+        except StreamError as exc:
+            failure = exc
+        if not log.path.exists():  # nothing was sent: an empty log says so
+            log.path.write_text("")
+    if failure is not None:
+        raise failure
+    return result
+
+
 def _export(args: argparse.Namespace) -> int:
     from elastica_magnetic.hardware.export import export_firmware
 
-    _print(export_firmware(args.field_csv, args.calibration, args.out, args.allow_clipping), args.json)
+    _print(export_firmware(args.field_csv, args.calibration, args.out, args.allow_clipping,
+                           force=args.force), args.json)
     return 0
 
 
 def _calibrate(args: argparse.Namespace) -> int:
     import pandas as pd
 
+    from elastica_magnetic.filesets import check_result_file, result_file
     from elastica_magnetic.hardware.calibration import (
         Calibration,
         calibration_from_dict,
@@ -172,12 +221,13 @@ def _calibrate(args: argparse.Namespace) -> int:
         save_calibration,
     )
     from elastica_magnetic.hardware.plausibility import check_measurements
-    from elastica_magnetic.io import prepare_output_file
 
+    if args.upload:
+        _check_port("--upload", args.upload)
     path = Path(args.measurements)
     if not path.is_file():
         raise _error(f"{path}: no such measurements file")
-    prepare_output_file(args.out)
+    check_result_file(args.out, force=args.force)
     columns = ["current_x_A", "current_y_A", "current_z_A", "field_x_mT", "field_y_mT",
                "field_z_mT"]
     try:
@@ -203,7 +253,8 @@ def _calibrate(args: argparse.Namespace) -> int:
          "actuation_matrix_T_per_A": fit.matrix_T_per_A.tolist(),
          "description": f"fitted by msr calibrate from {path.name} ({len(values)} measurements)"},
         str(args.out))
-    save_calibration(args.out, fitted)
+    with result_file(args.out, force=args.force) as written:
+        save_calibration(written.path, fitted)
     uploaded = _upload(args.upload, fitted) if args.upload else None
     _print({
         "measurements": len(values),

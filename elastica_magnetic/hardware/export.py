@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from elastica_magnetic.cli.app import output_path
 from elastica_magnetic.field_csv import read_field_csv
 from elastica_magnetic.hardware.calibration import (
     Calibration,
@@ -31,7 +32,8 @@ from elastica_magnetic.hardware.calibration import (
     load_calibration,
 )
 from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
-from elastica_magnetic.io import atomic_write, atomic_write_text, prepare_output_dir
+from elastica_magnetic.io import atomic_write, atomic_write_text
+from elastica_magnetic.results import check_result_folder, result_folder
 
 #: Flash left for the table after code (1 MB part): 3 doubles = 24 bytes per row.
 MAX_TABLE_ROWS = 40000
@@ -72,16 +74,28 @@ def read_expected_codes(path: str | Path) -> NDArray[np.int64]:
     return data[:, 1:]
 
 
+#: The files of an export (the result folder holds these and its marker).
+EXPORT_FIRMWARE_FILES = ("calibration_gen.h", "waveform_table.c", "expected_dac_codes.csv")
+
+
 def export_firmware(field_csv: str | Path, calibration: Calibration | str | Path,
-                    out_dir: str | Path, allow_clipping: bool = False) -> dict[str, Any]:
+                    out_dir: str | Path, allow_clipping: bool = False, *,
+                    force: bool = False) -> dict[str, Any]:
     """Write the three build inputs for ``field_csv`` into ``out_dir``; return a summary.
+
+    ``out_dir`` is a result folder (:func:`elastica_magnetic.results.result_folder`): checked
+    before anything is read, replaced whole (the header and the table always of the same export)
+    or not at all, an earlier export replaced only with ``force``, a folder holding other files
+    refused.
 
     A waveform the coils cannot reach (current limit or DAC span of the calibration,
     see :func:`~elastica_magnetic.hardware.calibration.clipping_report`) is refused with a
     ValueError saying how many rows and by how much, unless ``allow_clipping``; the summary reports
     ``rows_clipped`` either way."""
+    check_result_folder(out_dir, kind="export-firmware", force=force,
+                        known_files=EXPORT_FIRMWARE_FILES)
     cal = calibration if isinstance(calibration, Calibration) else load_calibration(calibration)
-    field_T = read_field_csv(field_csv)
+    field_T = read_field_csv(field_csv, plausible=True)
     if len(field_T) > MAX_TABLE_ROWS:
         raise ValueError(
             f"{field_csv}: {len(field_T)} rows exceed the flash table limit of {MAX_TABLE_ROWS} "
@@ -95,13 +109,13 @@ def export_firmware(field_csv: str | Path, calibration: Calibration | str | Path
             f"{clipping.describe()}. Lower the field, or pass --allow-clipping to play it clipped"
         )
     codes = expected_dac_codes(cal, rows_mT)
-    out = prepare_output_dir(out_dir)
-    header = out / "calibration_gen.h"
-    table = out / "waveform_table.c"
-    expected = out / "expected_dac_codes.csv"
-    atomic_write_text(header, calibration_header(cal))
-    atomic_write_text(table, waveform_table_source(rows_mT, str(field_csv)))
-    write_expected_codes(expected, codes)
+    with result_folder(out_dir, kind="export-firmware", force=force,
+                       known_files=EXPORT_FIRMWARE_FILES) as folder:
+        names = [folder.path / name for name in EXPORT_FIRMWARE_FILES]
+        atomic_write_text(names[0], calibration_header(cal))
+        atomic_write_text(names[1], waveform_table_source(rows_mT, str(field_csv)))
+        write_expected_codes(names[2], codes)
+    header, table, expected = (folder.final_path(name) for name in names)
     return {
         "rows": len(rows_mT),
         "calibration": cal.name,
@@ -121,13 +135,16 @@ def main(argv: Sequence[str] | None = None) -> int:
                                      description=__doc__.splitlines()[0])
     parser.add_argument("field_csv")
     parser.add_argument("--calibration", required=True)
-    parser.add_argument("--out", required=True)
+    parser.add_argument("--out", type=output_path, required=True)
     parser.add_argument("--quiet", action="store_true")
     parser.add_argument("--allow-clipping", action="store_true",
                         help="write a waveform the coils cannot follow (clamped, as the firmware does)")
+    parser.add_argument("--force", action="store_true",
+                        help="replace an earlier export in --out (a build folder: CMake passes it)")
     args = parser.parse_args(argv)
     try:
-        summary = export_firmware(args.field_csv, args.calibration, args.out, args.allow_clipping)
+        summary = export_firmware(args.field_csv, args.calibration, args.out, args.allow_clipping,
+                                  force=args.force)
     except (ValueError, OSError) as exc:
         print(f"export: error: {exc}", file=sys.stderr)
         return 2

@@ -17,6 +17,8 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from ..plausibility import QUANTITIES
+
 #: The firmware's fixed row rate (Hz); a calibration's ``tick_hz`` must equal it.
 FIRMWARE_TICK_HZ = 100.0
 #: Absolute ratings of the coil driver the firmware accepts (hw_ratings.h).
@@ -29,15 +31,22 @@ HW_MAX_TRANSCONDUCTANCE_A_PER_V = 100.0
 #: Largest 1-norm condition number of the actuation matrix (firmware and host alike).
 MAX_MATRIX_CONDITION = 100.0
 
+def _refuse_range(name: str, scale: float = 1.0) -> tuple[float, float]:
+    """The refuse range of a quantity of the physical ranges' table, in units of ``scale``."""
+    low, high = QUANTITIES[name].refuse
+    return (low.value / scale, high.value / scale)  # type: ignore[union-attr]
+
+
 #: Coil constant (|actuation matrix entry|) of Helmholtz-type coils, T/A: from about 10 uT/A
 #: (a metre-sized pair with a few turns) to 50 mT/A (a centimetre-sized pair with ~1000 turns);
-#: B/I = (4/5)^(3/2) mu0 N / R at the centre of a pair of radius R with N turns per coil.
-COIL_CONSTANT_RANGE_T_PER_A = (1e-5, 5e-2)
+#: the table of physical ranges (:mod:`elastica_magnetic.plausibility`) holds it.
+COIL_CONSTANT_RANGE_T_PER_A = _refuse_range("coil constant")
 #: Units a matrix entry is often written in by mistake, with their size in T/A.
-_MATRIX_UNIT_MISTAKES = (("mT/A", 1e-3), ("G/A", 1e-4), ("uT/A", 1e-6))
+_MATRIX_UNIT_MISTAKES = QUANTITIES["coil constant"].mistakes
 
-#: Fields a calibration measurement of such coils produces, mT (largest |field| of the data).
-MEASURED_FIELD_RANGE_MT = (0.05, 1000.0)
+#: Fields a calibration measurement of such coils produces, mT (largest |field| of the data): the
+#: fields coils make around a robot, from the table of physical ranges.
+MEASURED_FIELD_RANGE_MT = _refuse_range("coil field", 1e-3)
 #: Currents of such a measurement, A (largest |current| of the data).
 MEASURED_CURRENT_RANGE_A = (1e-3, HW_MAX_CURRENT_A)
 #: Condition number of the measured currents: above WARN the fit is reported as weak, above

@@ -11,6 +11,7 @@ import contextlib
 import math
 import os
 import time
+import urllib.parse
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,6 +44,12 @@ PING_INTERVAL_S = 0.5
 READ_TIMEOUT_S = 0.02
 #: Seconds to wait for the answer to one command (STATUS, a CAL line: the flash write included).
 COMMAND_TIMEOUT_S = 10.0
+
+
+#: The pyserial URL schemes that reach a board over the network, ``SCHEME://HOST:PORT``.
+NETWORK_SCHEMES = ("socket", "rfc2217")
+#: The port the examples in messages give (the QEMU board's, ``stm32/tests/qemu_e2e.py``).
+EXAMPLE_TCP_PORT = 4321
 
 
 class StreamError(RuntimeError):
@@ -418,9 +425,33 @@ class _Session:
                 port.close()
 
 
+def port_url_problem(port_url: str) -> str | None:
+    """What is wrong with the TCP port of a network URL (``socket://HOST:PORT``,
+    ``rfc2217://HOST:PORT``): none given, not a number, outside 1 to 65535; ``None`` when it is
+    fine or ``port_url`` is not such a URL (a device, ``loop://``). pyserial's own message for a
+    missing port is "'<=' not supported between instances of 'int' and 'NoneType'"."""
+    scheme, sep, _ = port_url.partition("://")
+    if not sep or scheme.lower() not in NETWORK_SCHEMES:
+        return None
+    netloc = urllib.parse.urlsplit(port_url).netloc
+    host, colon, port_text = netloc.rpartition(":")
+    if not colon or netloc.endswith("]"):  # "HOST" or "[::1]": no port at all
+        host, port_text = netloc, ""
+    example = f"e.g. {scheme}://{host or '127.0.0.1'}:{EXAMPLE_TCP_PORT}"
+    if not port_text:
+        return f"{port_url}: the URL has no port; {example}"
+    if not (port_text.isascii() and port_text.isdigit() and 1 <= int(port_text) <= 65535):
+        return (f"{port_url}: the port {port_text!r} is not a TCP port (a whole number from 1 to "
+                f"65535); {example}")
+    return None
+
+
 def _open(port_url: str, baudrate: int, open_port: Callable[..., Any] | None) -> Any:
     import serial
 
+    problem = port_url_problem(port_url)
+    if problem is not None:
+        raise StreamError(f"{problem}; nothing was sent")
     opener = open_port or serial.serial_for_url
     try:
         return opener(port_url, baudrate=baudrate, timeout=READ_TIMEOUT_S)

@@ -281,7 +281,7 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     if robot.robot("training").ground is None:
         raise SpecError(f"{source}: [robot.ground] missing: the crawler tasks need a ground (add the "
                         "table; every key in it has a default)")
-    for key in ("robot", "physics"):
+    for key in ("robot", "physics", "checks"):  # read by describe_robot
         top.raw(key, None)
     top.finish()
     return Case(name, description, robot, actuation, task, training, yardstick, source)
@@ -290,7 +290,8 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
 def _actuation(t: SpecTable) -> Actuation:
     d = Actuation(field_limit=0.0)
     out = Actuation(
-        field_limit=t.number("field_limit", "T", low=0.0, low_open=True, high=1.0),
+        field_limit=t.number("field_limit", "T", low=0.0, low_open=True, high=1.0,
+                             plausible="coil field"),
         max_increment=t.number("max_increment", "T per action", d.max_increment, low=0.0,
                                low_open=True),
         control_rate=t.number("control_rate", "Hz", d.control_rate, low=0.0, low_open=True),

@@ -4,11 +4,66 @@ derived quantities, time steps, sag and validity warnings
 
 from __future__ import annotations
 
-from elastica_magnetic.spec_check import SpecCheck, check_robot, format_check
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
-from .case import Case
+from elastica_magnetic.spec_check import SpecCheck, check_robot, check_spec, format_check
+from elastica_magnetic.specfile import describe_robot, read_spec
 
-__all__ = ["case_summary", "check_case"]
+from .case import Case, case_names
+
+__all__ = ["RobotOnlySpec", "case_summary", "check_case", "check_robot_only", "coverage",
+           "robot_only_spec"]
+
+
+@dataclass(frozen=True)
+class RobotOnlySpec:
+    """A spec file without a ``[task]`` table: a robot that ``msr simulate --robot`` simulates,
+    not a case that ``msr train`` trains (``data``: its parsed TOML)."""
+
+    source: str
+    data: Mapping[str, Any]
+
+
+def robot_only_spec(value: str | Path) -> RobotOnlySpec | None:
+    """The spec file ``value`` when it has no ``[task]`` table, its ``[robot]`` and ``[physics]``
+    checked (a :class:`~elastica_magnetic.specfile.SpecError` names the key); ``None`` for a
+    shipped case's name, a file with a task or a path that is no file (``load_case`` takes or
+    names those)."""
+    if str(value) in case_names() or not Path(value).is_file():
+        return None
+    data = read_spec(value)
+    if "task" in data:
+        return None
+    describe_robot(data, str(value))  # a bad key is named now, before the sag simulations
+    return RobotOnlySpec(str(value), data)
+
+
+def check_robot_only(spec: RobotOnlySpec, sag: bool = True) -> SpecCheck:
+    """:func:`~elastica_magnetic.spec_check.check_spec` of a spec without a task: its robot, time
+    steps, sag and, with an ``[actuation]`` table, its field limit (T)."""
+    return check_spec(spec.data, spec.source, sag=sag)
+
+
+def coverage(spec: RobotOnlySpec, check: SpecCheck, sag: bool = True) -> dict[str, list[str]]:
+    """What ``msr case check`` checked of a spec without a task, and what not, and why."""
+    checked, not_checked = ["robot", "time steps"], []
+    if check.field_limit_T is not None:
+        checked.append("field limit")
+    else:
+        not_checked.append("field limit (no [actuation] field_limit)")
+    if check.sag is not None:
+        checked.append("sag")
+    else:
+        why = "--no-sag" if not sag else ("no [robot.ground]" if check.spring_only_sag_m is None
+                                          else "see the warnings")
+        not_checked.append(f"sag ({why})")
+    unread = ", so its [training] table is not read either" if "training" in spec.data else ""
+    not_checked.append(f"training (the spec has no [task] table{unread}; it can be simulated "
+                       f"with msr simulate --robot {spec.source}, not trained)")
+    return {"checked": checked, "not_checked": not_checked}
 
 
 def check_case(case: Case, sag: bool = True) -> SpecCheck:

@@ -163,8 +163,8 @@ def apply_values(spec: Mapping[str, Any], values: Mapping[str, float]) -> dict[s
 
 
 #: Top-level tables of a spec that say nothing about the robot or its task (a robot varied in its
-#: physical values may differ there freely).
-NON_ROBOT_TABLES = ("name", "description", "yardstick", "training")
+#: physical values may differ there freely; ``checks`` only silences plausibility warnings).
+NON_ROBOT_TABLES = ("name", "description", "yardstick", "training", "checks")
 
 
 def _flatten(table: Any, path: str = "") -> dict[str, Any]:

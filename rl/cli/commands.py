@@ -12,7 +12,14 @@ import math
 import sys
 from pathlib import Path
 
-from elastica_magnetic.cli import CommandError, duration_option, number, print_notes, print_result
+from elastica_magnetic.cli import (
+    CommandError,
+    duration_option,
+    number,
+    output_path,
+    print_notes,
+    print_result,
+)
 
 # importable from here as before (their home is .options)
 from .options import (  # noqa: F401
@@ -20,14 +27,15 @@ from .options import (  # noqa: F401
     CHECKPOINT_HELP,
     FORCE_HELP,
     case_option,
+    checked_spec_option,
     print_rollout_result,
 )
 
 
-def _add_rollout_options(p: argparse.ArgumentParser, out: Path) -> None:
+def _add_rollout_options(p: argparse.ArgumentParser, out: str) -> None:
     """The options of the commands that roll a policy out and write what ``generate`` writes."""
     p.add_argument("--duration", type=duration_option(), default=10.0, help="s")
-    p.add_argument("--out", type=Path, default=out)
+    p.add_argument("--out", type=output_path, default=out)
     p.add_argument("--physics", choices=("accurate", "training"), default="accurate")
     p.add_argument("--no-figures", action="store_true", help="skip the figures and the GIF")
     p.add_argument("--no-gif", action="store_true", help="skip the GIF")
@@ -77,7 +85,9 @@ def _add_case_command(sub: argparse._SubParsersAction) -> None:
         "stiffness, magnetic bending number), each physics' time step against its estimated "
         "stable step, the static sag into the ground under the weight and at the field limit "
         "(simulated, a few seconds), and warnings; exits 1 when it finds an error.")
-    q.add_argument("case", type=case_option, help=CASE_HELP)
+    q.add_argument("case", type=checked_spec_option,
+                   help=CASE_HELP + "; a spec without [task] (a robot for msr simulate --robot) "
+                   "has its robot checked")
     q.add_argument("--no-sag", action="store_true", help="skip the sag simulations")
     q.add_argument("--json", action="store_true")
     q.set_defaults(func=case_check_command)
@@ -129,7 +139,7 @@ def _add_generate_command(sub: argparse._SubParsersAction) -> None:
                                   "(e.g. m1-4mT)")
     p.add_argument("--checkpoint", default="auto", metavar="auto|final|best|PATH",
                    help=CHECKPOINT_HELP + " (evaluated for --duration s)")
-    _add_rollout_options(p, Path("out/generate"))
+    _add_rollout_options(p, "out/generate")
     p.set_defaults(func=generate_command)
 
 
@@ -156,10 +166,10 @@ def _add_baseline_command(sub: argparse._SubParsersAction) -> None:
                    help="the sweep's periods, s (default 0.5,0.75,1,1.5,2,2.5,3,4,5,6)")
     p.add_argument("--workers", type=number("", 1, integer=True), default=None,
                    help="sweep runs at a time (processes; default one per core)")
-    p.add_argument("--set-yardstick", type=Path, default=None, metavar="OUT.toml",
+    p.add_argument("--set-yardstick", type=output_path, default=None, metavar="OUT.toml",
                    help="write a copy of the case's spec with the sweep's best distance as "
                         "[yardstick] distance_10s (needs the accurate physics and 10 s)")
-    _add_rollout_options(p, Path("out/baseline"))
+    _add_rollout_options(p, "out/baseline")
     p.set_defaults(func=baseline_command)
 
 
@@ -172,7 +182,9 @@ def _add_figures_command(sub: argparse._SubParsersAction) -> None:
         "(holding rollout.npz: gait, field, contact and Q-value figures, GIF).",
     )
     p.add_argument("path", type=Path)
-    p.add_argument("--out", type=Path, default=None, help="default: PATH")
+    p.add_argument("--out", type=output_path, default=None, help="default: PATH")
+    p.add_argument("--force", action="store_true",
+                   help="replace figures already in --out (other files there are never touched)")
     p.add_argument("--no-gif", action="store_true")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=figures_command)
@@ -184,7 +196,7 @@ def _add_demo_command(sub: argparse._SubParsersAction) -> None:
         "demo",
         help="generate with the shipped pattern-1 4 mT policy (fields, figures, animation)",
     )
-    p.add_argument("--out", type=Path, default=Path("out/demo"))
+    p.add_argument("--out", type=output_path, default="out/demo")
     p.add_argument("--duration", type=duration_option(), default=10.0, help="s")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true")
@@ -226,13 +238,21 @@ def case_show_command(args: argparse.Namespace) -> int:
 def case_check_command(args: argparse.Namespace) -> int:
     from elastica_magnetic.spec_check import format_check
 
-    from ..cases.check import check_case
+    from ..cases.check import RobotOnlySpec, check_case, check_robot_only, coverage
 
-    check = check_case(args.case, sag=not args.no_sag)
+    sag = not args.no_sag
+    if isinstance(args.case, RobotOnlySpec):  # what is checked, and what cannot be, is said
+        check = check_robot_only(args.case, sag=sag)
+        covered = coverage(args.case, check, sag=sag)
+    else:
+        check, covered = check_case(args.case, sag=sag), {}
     if args.json:
-        print_result(check.to_dict(), True)
+        print_result({**check.to_dict(), **covered}, True)
     else:
         print(format_check(check))
+        if covered:
+            print(f"  checked: {', '.join(covered['checked'])}; not checked: "
+                  f"{'; '.join(covered['not_checked'])}")
     return 1 if check.has_errors else 0
 
 
@@ -309,6 +329,10 @@ def _baseline_sweep(args: argparse.Namespace) -> int:
             raise CommandError(f"--periods must be positive finite times in s, got {args.periods!r}")
     if args.counterclockwise:
         raise CommandError("--counterclockwise needs --period (the sweep tries both directions)")
+    if args.set_yardstick is not None:  # checked before the sweep's minutes
+        from elastica_magnetic.filesets import check_result_file
+
+        check_result_file(args.set_yardstick, force=args.force, option="--set-yardstick")
     try:
         result = sweep_baseline(args.case, periods, args.duration, args.physics, args.out,
                                 args.workers, not args.no_progress, not args.no_figures,
@@ -317,7 +341,8 @@ def _baseline_sweep(args: argparse.Namespace) -> int:
         raise CommandError(str(exc)) from None
     best = result["best"]
     if args.set_yardstick is not None:
-        result["yardstick_spec"] = str(yardstick_spec(args.case, best, args.set_yardstick))
+        result["yardstick_spec"] = str(yardstick_spec(args.case, best, args.set_yardstick,
+                                                      force=args.force))
     if args.json:
         print_result(result, True)
         return 0
@@ -342,8 +367,8 @@ def figures_command(args: argparse.Namespace) -> int:
     from ..reports.figures import make_figures
     from ..shipping.policy_files import resolve_policy
 
-    print_result(make_figures(args.path, args.out, gif=not args.no_gif, load_policy=resolve_policy),
-                 args.json)
+    print_result(make_figures(args.path, args.out, gif=not args.no_gif, load_policy=resolve_policy,
+                              force=args.force), args.json)
     return 0
 
 

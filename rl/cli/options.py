@@ -7,7 +7,8 @@ import argparse
 
 from elastica_magnetic.cli import print_result
 
-__all__ = ["CASE_HELP", "CHECKPOINT_HELP", "FORCE_HELP", "case_option", "print_rollout_result"]
+__all__ = ["CASE_HELP", "CHECKPOINT_HELP", "FORCE_HELP", "case_option", "checked_spec_option",
+           "print_rollout_result"]
 
 CHECKPOINT_HELP = ("which actor of a run: auto (default: the final actor and best.pt evaluated in "
                    "the accurate physics from a zero field, the farther used), final, best, or a "
@@ -29,6 +30,21 @@ def case_option(value: str):
         return load_case(value)
     except SpecError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def checked_spec_option(value: str):
+    """``msr case check NAME_OR_PATH``: a case (:func:`case_option`), or a spec file without a
+    ``[task]`` table, a robot to simulate rather than a case to train
+    (:class:`~elastica_magnetic_rl.cases.check.RobotOnlySpec`); checked at parse time alike."""
+    from elastica_magnetic.specfile import SpecError
+
+    from ..cases.check import robot_only_spec
+
+    try:
+        spec = robot_only_spec(value)
+    except SpecError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return spec if spec is not None else case_option(value)
 
 
 def print_rollout_result(result: dict, as_json: bool) -> None:

@@ -12,7 +12,8 @@ import math
 import sys
 from pathlib import Path
 
-from elastica_magnetic.cli import CommandError, duration_option, print_notes, print_result
+from elastica_magnetic.cli import CommandError, duration_option, output_path, print_notes, print_result
+from elastica_magnetic.filesets import check_files, replace_files
 
 from .options import CASE_HELP, CHECKPOINT_HELP, FORCE_HELP, case_option, print_rollout_result
 
@@ -35,7 +36,7 @@ def _add_export_seeds_command(sub: argparse._SubParsersAction) -> None:
         "DEST/seed<k>/ (actor.pt, policy.json: msr generate accepts it) and DEST/seeds.json.",
     )
     p.add_argument("case_dir", type=Path, help="a case folder of msr train, e.g. runs/m1-4mT")
-    p.add_argument("--dest", type=Path, required=True,
+    p.add_argument("--dest", type=output_path, required=True,
                    help="e.g. rl/policies/m1-4mT/seeds/paper")
     p.add_argument("--duration", type=float, default=10.0, help="evaluation length, s")
     p.add_argument("--workers", type=int, default=1, help="seeds evaluated at a time (processes)")
@@ -60,9 +61,11 @@ def _add_seeds_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("case", nargs="+", type=case_option, help=CASE_HELP)
     p.add_argument("--policies", type=Path, default=None,
                    help="folder of policy folders (default: the shipped policies, rl/policies)")
-    p.add_argument("--figure", type=Path, default=None, metavar="DIR",
+    p.add_argument("--figure", type=output_path, default=None, metavar="DIR",
                    help="write DIR/seeds_<case>.png (every seed's distance per recipe) and "
                    "DIR/learning_curves_<case>.png (from the logs the exported seeds keep)")
+    p.add_argument("--force", action="store_true",
+                   help="replace the figures already in --figure (other files there stay)")
     p.add_argument("--card", action="store_true",
                    help="also write the table into the model card of every policy of the case "
                         "(<policies>/<case>/MODEL_CARD.md, and e.g. <case>-robust's)")
@@ -83,7 +86,7 @@ def _add_ship_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--name", required=True, help="policy name, e.g. m1-4mT")
     p.add_argument("--checkpoint", default="auto", metavar="auto|final|best|PATH",
                    help=CHECKPOINT_HELP + " (evaluated for --duration s)")
-    p.add_argument("--dest", type=Path, default=None, help="default: the package's rl/policies")
+    p.add_argument("--dest", type=output_path, default=None, help="default: the package's rl/policies")
     p.add_argument("--no-measure", action="store_true", help="skip the evaluation run")
     p.add_argument("--duration", type=duration_option(), default=10.0, help="evaluation length, s")
     p.add_argument("--force", action="store_true",
@@ -122,7 +125,7 @@ def _add_export_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--checkpoint", default="auto", metavar="auto|final|best|PATH",
                    help=CHECKPOINT_HELP + " (10 s)")
     p.add_argument("--no-progress", action="store_true")
-    p.add_argument("--out", type=Path, default=Path("out/export"))
+    p.add_argument("--out", type=output_path, default="out/export")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=export_command)
@@ -140,7 +143,9 @@ def _add_diagnose_command(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("run", type=Path, nargs="+", help="run directory or checkpoint")
     p.add_argument("--recent", type=int, default=20_000, help="last transitions to use (default 20000)")
-    p.add_argument("--figure", type=Path, default=None, help="write health_<case>_seed<k>.png here")
+    p.add_argument("--figure", type=output_path, default=None, help="write health_<case>_seed<k>.png here")
+    p.add_argument("--force", action="store_true",
+                   help="replace the figures already in --figure (other files there stay)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=diagnose_command)
 
@@ -180,8 +185,9 @@ def seeds_command(args: argparse.Namespace) -> int:
     policies = args.policies if args.policies is not None else POLICIES_DIR
     if not policies.is_dir():
         raise CommandError(f"--policies {policies}: no such folder")
-    if args.figure is not None and args.figure.exists() and not args.figure.is_dir():
-        raise CommandError(f"--figure {args.figure}: exists and is not a folder")
+    if args.figure is not None:  # before any figure is drawn
+        check_files(args.figure, [name for case in args.case for name in _seed_figure_names(case)],
+                    force=args.force, option="--figure")
     reports, by_case = [], {}
     for case in args.case:
         try:
@@ -192,12 +198,13 @@ def seeds_command(args: argparse.Namespace) -> int:
         report = {"case": case.name, "recipes": [g.to_dict() for g in groups],
                   "table": seeds_markdown(case, groups, policies)}
         if args.figure is not None and groups:
-            args.figure.mkdir(parents=True, exist_ok=True)
-            report["figure"] = str(seeds_figure(case, groups, args.figure / f"seeds_{case.name}.png"))
-            curves = learning_curves_by_recipe(case, groups,
-                                               args.figure / f"learning_curves_{case.name}.png")
+            names = _seed_figure_names(case)
+            with replace_files(args.figure, names, force=args.force, option="--figure") as files:
+                report["figure"] = str(files.final_path(seeds_figure(case, groups,
+                                                                     files.path / names[0])))
+                curves = learning_curves_by_recipe(case, groups, files.path / names[1])
             if curves is not None:
-                report["learning_curves"] = str(curves)
+                report["learning_curves"] = str(files.final_path(curves))
         if args.card:
             if not groups:  # a card's seed section is never replaced by nothing
                 raise CommandError(f"--card: {seeds_markdown(case, groups, policies)} The model "
@@ -219,6 +226,10 @@ def seeds_command(args: argparse.Namespace) -> int:
         if len(reports) > 1:
             print(f"## Recipes across the cases\n\n{recipes}\n")
     return 0
+
+
+def _seed_figure_names(case) -> list[str]:
+    return [f"seeds_{case.name}.png", f"learning_curves_{case.name}.png"]
 
 
 def ship_command(args: argparse.Namespace) -> int:
@@ -326,28 +337,35 @@ def export_command(args: argparse.Namespace) -> int:
     return 0
 
 
+def _health_figure_name(run: Path) -> str:
+    folder = run if run.is_dir() else run.parent
+    return f"health_{folder.parent.name}_{folder.name}.png"
+
+
 def diagnose_command(args: argparse.Namespace) -> int:
     from ..reports.diagnostics import health_figure, public, run_health
 
     if args.recent < 2:
         raise CommandError(f"--recent must be >= 2 transitions, got {args.recent}")
-    if args.figure is not None and args.figure.exists() and not args.figure.is_dir():
-        raise CommandError(f"--figure {args.figure}: exists and is not a folder")
     for run in args.run:  # every path checked before the slow part
         if not run.exists():
             raise CommandError(f"{run}: no such run directory or checkpoint")
-    rows = []
+    names = [_health_figure_name(run) for run in args.run]
+    if args.figure is not None:
+        if len(set(names)) < len(names):
+            raise CommandError(f"--figure: two runs would draw the same figure ({', '.join(names)})")
+        check_files(args.figure, names, force=args.force, option="--figure")
+    healths = []
     for run in args.run:
         try:
-            health = run_health(run, args.recent)
+            healths.append(run_health(run, args.recent))
         except ValueError as exc:
             raise CommandError(str(exc)) from None
-        row = public(health)
-        if args.figure is not None:
-            folder = run if run.is_dir() else run.parent
-            name = f"health_{folder.parent.name}_{folder.name}.png"
-            row["figure"] = str(health_figure(health, args.figure / name))
-        rows.append(row)
+    rows = [public(health) for health in healths]
+    if args.figure is not None:  # all the figures go in together
+        with replace_files(args.figure, names, force=args.force, option="--figure") as files:
+            for row, health, name in zip(rows, healths, names, strict=True):
+                row["figure"] = str(files.final_path(health_figure(health, files.path / name)))
     if args.json:
         print_result({"runs": rows}, True)
         return 0

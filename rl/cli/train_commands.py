@@ -10,7 +10,7 @@ import math
 import sys
 from pathlib import Path
 
-from elastica_magnetic.cli import CommandError, print_result
+from elastica_magnetic.cli import CommandError, output_path, print_result
 
 from ..cases.recipes import RECIPE_SUMMARIES, RECIPES
 from ..runfiles.rundir import CaseDir, RunDir
@@ -46,7 +46,7 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
                    help="groups of seeds trained at a time (processes, or Ray tasks in flight; "
                         "default: the fastest layout for this machine, one per core); alone, a "
                         "case's seeds are split among W workers (1: all side by side)")
-    p.add_argument("--out", type=Path, default=Path("runs"), help="output folder")
+    p.add_argument("--out", type=output_path, default="runs", help="output folder")
     p.add_argument("--resume", action="store_true", help="continue runs from their checkpoints")
     p.add_argument("--physics", choices=("training", "accurate"), default="training")
     p.add_argument("--episode-duration", type=float, default=None,
@@ -159,11 +159,12 @@ def _add_refine_command(sub: argparse._SubParsersAction) -> None:
                    help=CHECKPOINT_HELP + " (evaluated for 10 s); best.pt's networks continue with "
                    "the run's replay buffer and optimisers")
     p.add_argument("--steps", type=int, default=1000)
-    p.add_argument("--out", type=Path, default=None, help="default: RUN/refined")
+    p.add_argument("--out", type=output_path, default=None, help="default: RUN/refined")
     p.add_argument("--resume", action="store_true", help="continue an interrupted refinement")
     p.add_argument("--spec", type=Path, default=None,
                    help="train on this spec's robot: the run's robot with other physical values "
-                        "(e.g. msr identify's identified.toml); recorded in run.json")
+                        "(e.g. msr identify's identified.toml), randomized by its "
+                        "[training.randomize] if it has one; recorded in run.json")
     p.add_argument("--physics", choices=("accurate", "training"), default="accurate",
                    help="physics of the refinement's episodes (default accurate; training: the "
                         "mass-scaled physics the run trained in, 12.5x cheaper)")
@@ -171,7 +172,8 @@ def _add_refine_command(sub: argparse._SubParsersAction) -> None:
                    help="robots of the refinement's episodes: default: drawn anew per episode "
                         "from the default variation set (magnetization +-15 %%, modulus +-20 %%, "
                         "friction +-25 %%, density +-10 %%), none: the nominal robot (default: the "
-                        "run's setting); recorded in run.json")
+                        "--spec's [training.randomize], else the run's setting; one that "
+                        "disagrees with the spec's table is refused); recorded in run.json")
     p.add_argument("--episode-duration", type=float, default=20.0, help="s (truncation)")
     p.add_argument("--device", choices=("cpu", "cuda"), default=None,
                    help="where the networks train (default: the run's)")
@@ -299,13 +301,14 @@ REFINE_CHOICE_DURATION = 10.0
 
 def refine_command(args: argparse.Namespace) -> int:
     from ..shipping.policy_runs import CHECKPOINT_CHOICES, choose_actor
-    from ..sweep.refine import refine
+    from ..sweep.refine import check_refined_case, refine
     from ..sweep.refine_start import check_refine_output, default_refine_output
 
     _check_run_options(args)
-    try:  # the output is checked before the actors' 10 s evaluations
+    try:  # the output, --spec and --randomize are checked before the actors' 10 s evaluations
         source = args.run if args.checkpoint in CHECKPOINT_CHOICES else Path(args.checkpoint)
         check_refine_output(args.out or default_refine_output(source), args.resume)
+        check_refined_case(source, args.steps, args.spec, args.randomize)
         choice = choose_actor(args.run, args.checkpoint, REFINE_CHOICE_DURATION, not args.no_progress)
         result = refine(choice.path if choice else args.run, steps=args.steps, out=args.out,
                         resume=args.resume, progress=not args.no_progress,

@@ -11,12 +11,14 @@ policy is not told the robot's values), and evaluations stay on the nominal robo
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from elastica_magnetic import RobotSpec
+from elastica_magnetic.plausibility import ImplausibleValueWarning
 from elastica_magnetic.specfile import describe_robot
 
 from ..cases.variations import Variant, Variation, apply_variant
@@ -61,7 +63,9 @@ class RobotRandomizer:
         """The robot of ``settings`` in the randomizer's physics (the spec parser checks it)."""
         variant = Variant("randomized", "sample", dict(settings))
         spec = apply_variant(self.tables, self.variations, variant)
-        return describe_robot(spec, "[training.randomize]").robot(self.physics)
+        with warnings.catch_warnings():  # the nominal robot's unusual values were reported once
+            warnings.simplefilter("ignore", ImplausibleValueWarning)
+            return describe_robot(spec, "[training.randomize]").robot(self.physics)
 
     def as_array(self, settings: Mapping[str, float]) -> np.ndarray:
         """``settings`` as a float64 array in :attr:`names` order (for saved states)."""

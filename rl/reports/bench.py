@@ -270,8 +270,10 @@ def training_peak_memory(
         monitor = threading.Thread(target=sample, daemon=True)
         monitor.start()
         try:
+            # warm_up_only: a run shorter than the warm-up (a quick measure) is still measured
             summary = train_case(case, seeds=seeds, steps=steps, recipe=BENCH_RECIPE,
-                                 out=out if out is not None else tmp, progress=False)
+                                 out=out if out is not None else tmp, progress=False,
+                                 warm_up_only=True)
         finally:
             done.set()
             monitor.join()
@@ -337,7 +339,8 @@ def training_time(
     with tempfile.TemporaryDirectory() as tmp:
         start = time.perf_counter()
         first = train_case(case, seeds=seeds, steps=warm, out=tmp, config_overrides=settings,
-                           recipe=recipe, stop_when="none", progress=False)
+                           recipe=recipe, stop_when="none", progress=False,
+                           warm_up_only=True)  # the warm-up alone, timed; learning resumes it
         second = train_case(case, seeds=seeds, steps=warm + window, out=tmp, resume=True,
                             config_overrides=settings, recipe=recipe, stop_when="none",
                             progress=False)

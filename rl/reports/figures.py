@@ -479,13 +479,15 @@ ROLLOUT_FIGURES = ("positions_velocities.png", "field_waveforms.png", "field_pol
 
 
 def make_figures(path: str | Path, out: str | Path | None = None, gif: bool = True,
-                 load_policy: Callable[[str], Any] | None = None) -> dict[str, str]:
+                 load_policy: Callable[[str], Any] | None = None, *,
+                 force: bool = False) -> dict[str, str]:
     """Regenerate the figures of a generate output (``rollout.npz``) or of training runs.
 
     Training runs: one ``learning_curves_<case>.png`` per case folder, in ``out`` (default ``path``). Generate
     output: every figure of :func:`rollout_figures`, with the Q maps when ``load_policy`` (e.g.
     :func:`elastica_magnetic_rl.shipping.policy_files.resolve_policy`: source -> an object with ``actor`` and
-    ``critic``) can still load the policy recorded in the rollout.
+    ``critic``) can still load the policy recorded in the rollout. Figures already in ``out``
+    are replaced only with ``force`` (all together, or none when interrupted).
     """
     from elastica_magnetic.filesets import replace_files
 
@@ -493,8 +495,8 @@ def make_figures(path: str | Path, out: str | Path | None = None, gif: bool = Tr
     out = Path(out) if out is not None else path
     names = _figure_names(path)
     # the figures go in together (the folder holds other things: a run's logs, a rollout):
-    # an interruption leaves the earlier figures, never a mix; regenerating them is the command
-    with replace_files(out, names, force=True) as files:
+    # an interruption leaves the earlier figures, never a mix
+    with replace_files(out, names, force=force) as files:
         result = _make_figures(path, files.path, gif, load_policy)
     return {k: str(files.final_path(v)) for k, v in result.items()}
 

@@ -14,6 +14,7 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
+from elastica_magnetic.io import display_path, normalized_path
 from elastica_magnetic.locks import FolderLock, FolderLockedError
 from elastica_magnetic.results import MARKER, mark_folder, read_marker
 
@@ -80,7 +81,7 @@ def check_not_owned(out: str | Path, kind: str, option: str = "--out") -> None:
     """Refuse an ``out`` folder that belongs to another command: a marker of another kind, or,
     for a folder written before markers, a ``run.json`` of another command (a training run's
     folder). ``ValueError`` naming the owner."""
-    out = Path(out)
+    out = normalized_path(out)
     marker = read_marker(out)
     owner: dict[str, Any] | None = None
     if marker is not None and marker["kind"] != kind:
@@ -94,9 +95,28 @@ def check_not_owned(out: str | Path, kind: str, option: str = "--out") -> None:
             owner = {"kind": command, "subject": None}
     if owner is not None:
         subject = f" for {owner['subject']}" if owner.get("subject") else ""
-        raise ValueError(f"{option} {out}: is the folder of a `msr {owner['kind']}` run{subject} "
-                         f"({MARKER if marker else 'run.json'}); `msr {kind}` never writes into a "
-                         f"folder another command owns: choose another {option}")
+        raise ValueError(f"{option} {display_path(out)}: is the folder of a `msr {owner['kind']}` "
+                         f"run{subject} ({MARKER if marker else 'run.json'}); `msr {kind}` never "
+                         f"writes into a folder another command owns: choose another {option}")
+    if marker is None and not RunDir(out).run_json.is_file():
+        foreign = _foreign_entries(out)
+        if foreign:  # a folder of the user's: a run would write its files among theirs
+            raise ValueError(f"{option} {display_path(out)}: holds files that `msr {kind}` does not "
+                             f"write ({', '.join(foreign[:5])}{' ...' if len(foreign) > 5 else ''}); "
+                             "choose a new or empty folder")
+
+
+def _foreign_entries(folder: Path) -> list[str]:
+    """What a run folder without marker holds besides a run's own files (those a run killed
+    during start-up may have left, and their temporaries)."""
+    if not folder.is_dir():
+        return []
+    own = {RunDir.CHECKPOINT, RunDir.BEST, RunDir.REPLAY, RunDir.EPISODES_CSV,
+           RunDir.EVALUATIONS_CSV, RunDir.RUN_JSON, RunDir.EVALUATION_JSON, RunDir.REFINED, MARKER}
+    temporaries = {p.name for p in RunDir(folder).leftover_temporaries()}
+    return sorted(p.name for p in folder.iterdir()
+                  if p.name not in own and p.name not in temporaries
+                  and not p.name.endswith(".tmp"))
 
 
 @contextlib.contextmanager

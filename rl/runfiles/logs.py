@@ -1,26 +1,48 @@
 """Reading a run's CSV logs (``episodes.csv``, ``evaluations.csv``) with every row checked: a
 damaged log (cut by a full disk, edited by hand) is an error naming the file, the row and the
-column, never a traceback or a silently wrong curve."""
+column, never a traceback or a silently wrong curve. A log cut by a kill while it was written (its
+last line, or its header, without the line's end; an empty file) can be read back to its last
+whole row instead (``whole_rows_only``): what a resumed run keeps of it."""
 
 from __future__ import annotations
 
 import csv
+import io
 import math
 from collections.abc import Iterable
 from pathlib import Path
 
-__all__ = ["read_log"]
+__all__ = ["read_log", "unfinished_line"]
 
 
-def read_log(path: str | Path, numeric: Iterable[str]) -> list[dict[str, str]]:
+def unfinished_line(path: str | Path) -> str:
+    """The text after the last line end of the log ``path``: a row or header that a kill cut
+    while it was being written (``""`` for a log of whole lines; the whole text of a log that has
+    no line end, an empty file giving ``""``)."""
+    data = Path(path).read_bytes()
+    return data[data.rfind(b"\n") + 1:].decode("utf-8", errors="replace")
+
+
+def read_log(path: str | Path, numeric: Iterable[str], *,
+             whole_rows_only: bool = False) -> list[dict[str, str]]:
     """The rows of the CSV log ``path`` (dicts of strings), after checking that its header has
     the columns ``numeric`` and that each row's value in them is a number (``nan``/``inf`` are
     not accepted). Raises ``ValueError`` naming the file, the row (1 = the header) and the
-    column; ``FileNotFoundError`` when it is absent."""
+    column; ``FileNotFoundError`` when it is absent.
+
+    ``whole_rows_only``: the text after the last line end (:func:`unfinished_line`: a row, or the
+    header, that a kill cut while it was written) is left out, and a log without a whole header
+    line (an empty file, a header cut short) has no rows; damage before the last line end is
+    still an error."""
     path = Path(path)
     numeric = tuple(numeric)
     try:
-        with open(path, newline="", encoding="utf-8") as f:
+        data = path.read_bytes()
+        if whole_rows_only:
+            data = data[:data.rfind(b"\n") + 1]
+            if not data:
+                return []  # no whole header line: nothing was logged before the kill
+        with io.StringIO(data.decode("utf-8"), newline="") as f:
             reader = csv.DictReader(f)
             fields = reader.fieldnames or []
             missing = [c for c in numeric if c not in fields]

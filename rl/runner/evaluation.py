@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import math
 import os
+import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,7 +18,7 @@ import numpy as np
 import torch
 
 from ..runfiles.checkpoint import save_checkpoint
-from ..runfiles.logs import read_log
+from ..runfiles.logs import read_log, unfinished_line
 from ..runfiles.rundir import RunDir
 from ..td3.algorithm import TD3, TD3Config
 from ..td3.networks import Actor
@@ -221,13 +222,20 @@ class PeriodicEvaluation:
 
 def truncate_csv(path: Path, fields: tuple[str, ...], keep: Callable[[dict[str, str]], bool]) -> None:
     """Keep only the rows of a log for which ``keep(row)`` (those written before the checkpoint
-    a run resumes from)."""
+    a run resumes from), rewritten whole with its header. A row or header that a kill cut short
+    (the text after the last line end; an empty log) is dropped with a note on stderr: the log
+    then ends at its last whole row, which is at or before the checkpoint's step."""
     if not path.exists():
         return
-    rows = [r for r in read_log(path, ("global_step",)) if keep(r)]
+    cut, empty = unfinished_line(path), path.stat().st_size == 0
+    rows = [r for r in read_log(path, ("global_step",), whole_rows_only=True) if keep(r)]
     tmp = path.with_name(path.name + ".tmp")
     with open(tmp, "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=fields)
         writer.writeheader()
         writer.writerows(rows)
     os.replace(tmp, path)
+    if cut or empty:  # what a kill while the log was written leaves
+        what = f"dropped its unfinished last line {cut!r}" if cut else "it was empty"
+        print(f"note: {path}: {what} (a kill while it was written); repaired: its header and "
+              f"{len(rows)} whole row(s) up to the checkpoint", file=sys.stderr)

@@ -90,6 +90,14 @@ class StopRule:
                 raise ValueError(f"--stop-confirm must be one of {', '.join(CONFIRM_PHYSICS)} or none, "
                                  f"got {self.confirm!r}")
 
+    @property
+    def evaluations_needed(self) -> int:
+        """The fewest evaluations after which the rule can fire: ``target``, ``consecutive``;
+        ``plateau``, ``patience`` after a first one, and at least ``min_evaluations``."""
+        if self.kind == "target":
+            return int(self.consecutive)
+        return max(int(self.min_evaluations), int(self.patience) + 1)
+
     def decide(self, returns: Sequence[float]) -> str | None:
         """Why the seed stops after the evaluations ``returns`` (in order), or None to go on."""
         if self.kind == "target":

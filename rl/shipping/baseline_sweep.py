@@ -14,6 +14,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from elastica_magnetic.filesets import result_file
 from elastica_magnetic.io import atomic_write, atomic_write_json, atomic_write_text
 from elastica_magnetic.results import check_result_folder, result_folder
 from elastica_magnetic.rotation import measure_rotation, min_rotation_period
@@ -166,10 +167,12 @@ def _sweep_figure(path: Path, runs: list[dict[str, Any]], best: dict[str, Any], 
     return path
 
 
-def yardstick_spec(case: Case, best: dict[str, Any], path: str | Path) -> Path:
+def yardstick_spec(case: Case, best: dict[str, Any], path: str | Path, *,
+                   force: bool = False) -> Path:
     """Write a copy of ``case``'s spec to ``path`` (TOML, units in comments) with ``best``'s
     distance (m, from a 10 s accurate-physics run) as ``[yardstick] distance_10s`` and a
-    ``source`` saying which baseline it is."""
+    ``source`` saying which baseline it is. An existing file is replaced only with ``force``
+    (:func:`elastica_magnetic.filesets.result_file`)."""
     spec = case.to_dict()
     turn = "clockwise" if best["clockwise"] else "counter-clockwise"
     spec["yardstick"] = {
@@ -179,4 +182,6 @@ def yardstick_spec(case: Case, best: dict[str, Any], path: str | Path) -> Path:
                   f"{1e3 * best['mid_dx_m']:+.1f} mm in 10 s, accurate physics, field from zero",
     }
     copy = case_from_dict(spec, str(path), default_name=case.name)
-    return Path(atomic_write_text(Path(path), copy.toml()))
+    with result_file(path, force=force, option="--set-yardstick") as written:
+        atomic_write_text(written.path, copy.toml())
+    return written.final

@@ -5,13 +5,15 @@ scaling.
 
 from __future__ import annotations
 
+import io
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from elastica_magnetic.io import atomic_save, atomic_write_json
+from elastica_magnetic.io import atomic_write_bytes, atomic_write_json
 from elastica_magnetic.results import result_folder
 
 from ..envs.env import make_env
@@ -63,11 +65,11 @@ def export_policy(policy: str | Path, out: str | Path = "out/export",
             warnings.simplefilter("ignore", DeprecationWarning)
             with torch.no_grad():
                 traced = torch.jit.trace(module, example, check_trace=True)
-            atomic_save(ts_path, lambda tmp: traced.save(str(tmp)))
+            atomic_write_bytes(ts_path, _saved(lambda buffer: torch.jit.save(traced, buffer)))
             reloaded = torch.jit.load(str(ts_path))
         batch_dim = torch.export.Dim("batch", min=1)
         exported = torch.export.export(module, (example,), dynamic_shapes=({0: batch_dim},))
-        atomic_save(pt2_path, lambda tmp: torch.export.save(exported, str(tmp)))
+        atomic_write_bytes(pt2_path, _saved(lambda buffer: torch.export.save(exported, buffer)))
         reloaded_pt2 = torch.export.load(str(pt2_path)).module()
 
         # Check: the reloaded modules give the agent's actions on real and random observations.
@@ -107,3 +109,12 @@ def export_policy(policy: str | Path, out: str | Path = "out/export",
     return {"torchscript": str(ts_path), "torch_export": str(pt2_path), "json": str(json_path),
             "case": case.name, "max_abs_diff": diff, "max_abs_diff_pt2": diff_pt2,
             "obs_dim": loaded.obs_dim, "act_dim": loaded.act_dim, "notes": folder.notes}
+
+
+def _saved(save: Callable[[io.BytesIO], Any]) -> bytes:
+    """The bytes ``save(buffer)`` writes to an in-memory file. torch's C++ writer, given a path,
+    aborts the process on a full disk (``unexpected pos`` in its destructor); the bytes are written
+    with Python's I/O instead (a TorchScript actor is a few hundred kB)."""
+    buffer = io.BytesIO()
+    save(buffer)
+    return buffer.getvalue()

@@ -9,6 +9,7 @@ shipped-format directory (``actor.pt`` + ``policy.json``), or the name of a ship
 
 from __future__ import annotations
 
+import io
 import json
 from pathlib import Path
 from typing import Any
@@ -18,7 +19,7 @@ import numpy as np
 from elastica_magnetic.filesets import replace_files
 from elastica_magnetic.io import (
     OutputPathError,
-    atomic_save,
+    atomic_write_bytes,
     atomic_write_json,
     atomic_write_text,
 )
@@ -248,11 +249,18 @@ def _write_policy_folder(target: Path, policy: LoadedPolicy, info: dict[str, Any
 
     from elastica_magnetic import write_field_csv
 
+    def save_weights(name: str, network: Any) -> None:
+        # saved to memory, then written by Python: on a full disk torch's own file writer aborts
+        # with "unexpected pos" instead of an error naming the file
+        buffer = io.BytesIO()
+        torch.save(network.state_dict(), buffer)
+        atomic_write_bytes(target / name, buffer.getvalue())
+
     target.mkdir(parents=True, exist_ok=True)
-    atomic_save(target / "actor.pt", lambda tmp: torch.save(policy.actor.state_dict(), tmp))
+    save_weights("actor.pt", policy.actor)
     written = {"actor.pt", POLICY_JSON}
     if policy.critic is not None and with_critic:
-        atomic_save(target / "critic.pt", lambda tmp: torch.save(policy.critic.state_dict(), tmp))
+        save_weights("critic.pt", policy.critic)
         written.add("critic.pt")
     if fields is not None:
         write_field_csv(target / "fields.csv", fields)

@@ -9,7 +9,7 @@ import json
 import os
 from pathlib import Path
 
-from elastica_magnetic.cli import CommandError, duration_option, number
+from elastica_magnetic.cli import CommandError, duration_option, number, output_path
 
 from ..cases.variations import DEFAULT_RANGES, GROUPS, VariationError, parse_variation
 
@@ -60,7 +60,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=duration_option(), default=10.0, help="s (default 10)")
     p.add_argument("--workers", type=number("processes", 1, 1024, integer=True), default=None,
                    help=f"worker processes (default: every core, {os.cpu_count()} here)")
-    p.add_argument("--out", type=Path, default=Path("out/robustness"),
+    p.add_argument("--out", type=output_path, default="out/robustness",
                    help="output folder, written whole (must not exist unless --force)")
     p.add_argument("--force", action="store_true", help="replace an existing output folder")
     p.add_argument("--no-progress", action="store_true")
@@ -87,7 +87,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--fit", required=True, metavar="KEY[,KEY...]",
                    help="the values to fit: dotted spec keys (robot.magnetization.magnitude, ...), "
                    f"keys joined by + fitted as one factor, or groups ({', '.join(GROUPS)})")
-    p.add_argument("--out", type=Path, required=True, metavar="DIR",
+    p.add_argument("--out", type=output_path, required=True, metavar="DIR",
                    help="output folder, written whole (must not exist unless --force)")
     p.add_argument("--physics", choices=("training", "accurate"), default="training",
                    help="physics of the fit (the other one confirms it)")

@@ -14,8 +14,8 @@ from typing import TYPE_CHECKING, Any
 
 from elastica_magnetic.io import atomic_write_json
 
-from ..cases.case import Case, case_from_metadata, load_case
-from ..cases.variations import VariationError, physical_differences
+from ..cases.case import Case, case_from_metadata, load_case, randomize_table
+from ..cases.variations import VariationError, default_variations, physical_differences
 from ..runfiles.checkpoint import checkpoint_metadata
 from ..runfiles.locking import held_run_folders, mark_run_folder
 from ..runfiles.provenance import versions
@@ -28,7 +28,7 @@ from .summaries import summarize_run
 if TYPE_CHECKING:  # torch is imported only when a refinement runs
     from ..td3.algorithm import TD3Config
 
-__all__ = ["refine"]
+__all__ = ["check_refined_case", "refine"]
 
 
 def refine(
@@ -61,7 +61,10 @@ def refine(
     the ``identified.toml`` of ``msr identify``): the refinement trains on that robot. Anything
     else that differs (elements, magnetization pattern, task, actuation) is refused, naming the
     key; the changed values are recorded in ``run.json`` (``spec_from``, ``physical_changes``:
-    key -> [run's value, new value], SI).
+    key -> [run's value, new value], SI). The spec's ``[training.randomize]``, when it has one,
+    randomizes the refinement's robots around that robot (as ``randomize`` would; recorded as
+    ``refine_randomize = "spec"``); a ``randomize`` that disagrees with it is refused, naming
+    both. Its other ``[training]`` settings are the run's (the agent continues as it trained).
 
     ``randomize``: the robots of the refinement's episodes: ``"default"``, drawn anew per episode
     from the default variation set (domain randomization; with ``physics="training"`` this
@@ -85,6 +88,7 @@ def refine(
     config = TD3Config.from_dict(ckpt["config"])
     if device is not None:
         config.device = device
+    _check_refinement_learns(ckpt, source, steps)
     metadata = run_metadata(
         case, physics, episode_duration, config.seed, command="refine",
         refined_from=str(source), refine_start_step=start_step, refine_steps=int(steps),
@@ -104,13 +108,43 @@ def refine(
             "wall_s": time.perf_counter() - begin}
 
 
+def check_refined_case(source: str | Path, steps: int, spec: str | Path | None,
+                       randomize: str | None) -> None:
+    """Check a refinement of ``source`` (a run folder or one of its checkpoint files) for
+    ``steps`` more steps on ``spec`` with ``randomize`` before any work (the command line's
+    evaluations that choose the actor take a minute): ``ValueError`` naming the key or the
+    setting, as :func:`refine` would raise it."""
+    from ..runfiles.checkpoint import load_checkpoint
+
+    path = RunDir.checkpoint_of(source)
+    ckpt = load_checkpoint(path, with_buffer=False)
+    meta = checkpoint_metadata(ckpt, path)
+    _refined_case(case_from_metadata(meta, str(path)), spec, randomize)
+    state = RunDir.of_checkpoint(path).checkpoint  # best.pt's training state is beside it
+    if ckpt.get("kind") == "best" and state.is_file():
+        ckpt, path = load_checkpoint(state, with_buffer=False), state
+    if "config" in ckpt and "global_step" in ckpt:
+        _check_refinement_learns(ckpt, path, steps)
+
+
+def _check_refinement_learns(ckpt: dict[str, Any], source: str | Path, steps: int) -> None:
+    """Refuse a refinement that ends inside its run's warm-up (no update: a run of its warm-up
+    only, e.g. a benchmark's)."""
+    start, warm_up = int(ckpt["global_step"]), int(ckpt["config"].get("learning_starts", 0))
+    if start + int(steps) <= warm_up:
+        raise ValueError(f"the refinement would not learn: {source} is at step {start}, inside its "
+                         f"warm-up (learning_starts {warm_up}: random actions, no update), and "
+                         f"--steps {steps} ends it at step {start + int(steps)}; give --steps "
+                         f"above {warm_up - start}")
+
+
 def _refined_case(case: Case, spec: str | Path | None, randomize: str | None
                   ) -> tuple[Case, dict[str, Any]]:
     """The case the refinement of a run of ``case`` trains on (the run's, another robot's values,
     randomized robots) and what ``run.json`` records of the change."""
     changes: dict[str, Any] = {}
     if spec is not None:
-        case, changes = _other_robot(case, spec)
+        case, changes = _other_robot(case, spec, randomize)
     if randomize is not None:
         case = randomized_cases({case.name: case}, randomize, case.training.recipe)[case.name]
         changes["refine_randomize"] = randomize
@@ -141,15 +175,39 @@ def _train_refinement(case: Case, ckpt: dict[str, Any], start: dict[str, Any], o
         mark_run_folder(out.path, "refine", case.name)
 
 
-def _other_robot(case: Case, spec: str | Path) -> tuple[Case, dict[str, Any]]:
+def _other_robot(case: Case, spec: str | Path, randomize: str | None
+                 ) -> tuple[Case, dict[str, Any]]:
     """The case of ``spec`` and what the refined run records of it, after checking that it is the
-    run's robot with other physical values only (its name and yardstick stay the run's)."""
+    run's robot with other physical values only (its name, yardstick and training settings stay
+    the run's, but for the spec's ``[training.randomize]``, applied when it has one)."""
     try:
         other = load_case(spec)
         changes = physical_differences(case.to_dict(), other.to_dict())
     except VariationError as err:
         raise ValueError(f"--spec {spec}: not the run's robot with other physical values: {err}") from None
-    other = dataclasses.replace(other, name=case.name, yardstick=case.yardstick,
-                                training=case.training)
-    return other, {"spec_from": str(spec),
-                   "physical_changes": {k: [a, b] for k, (a, b) in changes.items()}}
+    record = {"spec_from": str(spec),
+              "physical_changes": {k: [a, b] for k, (a, b) in changes.items()}}
+    training = case.training
+    if other.training.randomize:
+        _check_same_randomize(spec, other, randomize)
+        training = dataclasses.replace(training, randomize=other.training.randomize)
+        record["refine_randomize"] = "spec"
+    other = dataclasses.replace(other, name=case.name, yardstick=case.yardstick, training=training)
+    return other, record
+
+
+def _check_same_randomize(spec: str | Path, other: Case, randomize: str | None) -> None:
+    """Refuse a ``--randomize`` that disagrees with the ``[training.randomize]`` of ``spec``
+    (whose case is ``other``), naming both."""
+    if randomize is None:
+        return
+    table = randomize_table(other.training.randomize)
+    wanted = {} if randomize == "none" else randomize_table(
+        tuple(default_variations(other.robot.tables)))
+    if table != wanted:
+        ranges = ", ".join(f"{k} = {v!r}" for k, v in table.items())
+        meant = "the nominal robot" if randomize == "none" else "the default variation set: " + \
+            ", ".join(f"{k} = {v!r}" for k, v in wanted.items())
+        raise ValueError(f"--spec {spec}: its [training.randomize] ({ranges}) disagrees with "
+                         f"--randomize {randomize} ({meant}); give one of them (without "
+                         "--randomize the spec's table applies)")

@@ -29,14 +29,16 @@ def summarize_run(run_dir: str | Path, last: int = 5, reward_scale: float = 1e4)
     no finished episode). ``final_mean_distance_m`` is that return / ``reward_scale`` (the task's,
     per m; for crawling: m per episode). With evaluations during training: ``best_eval_step`` and
     ``best_eval_return`` (the evaluation that ``best.pt`` holds; for crawling its return /
-    ``reward_scale`` is the 10 s distance from a zero field, m), else ``None``."""
+    ``reward_scale`` is the 10 s distance from a zero field, m), else ``None``. A log's row cut
+    short by a kill is left out (its whole rows are read; a resume repairs the file); other damage
+    raises ``ValueError`` naming the file and row."""
 
     run = RunDir(run_dir)
     rows, evals = [], []
     if run.episodes_csv.is_file():
-        rows = read_log(run.episodes_csv, ("global_step", "return", "terminated"))
+        rows = read_log(run.episodes_csv, ("global_step", "return", "terminated"), whole_rows_only=True)
     if run.evaluations_csv.is_file():
-        evals = read_log(run.evaluations_csv, ("global_step", "mean_return"))
+        evals = read_log(run.evaluations_csv, ("global_step", "mean_return"), whole_rows_only=True)
     best_eval = max(evals, key=lambda r: float(r["mean_return"])) if evals else None
     returns = [float(r["return"]) for r in rows]
     tail = returns[-last:]
@@ -60,9 +62,21 @@ def failed_group_results(configs: Any, run_dirs: Any, error: str) -> list[dict[s
     (:func:`summarize_run`, when it has episodes) with the seed and the ``error``."""
     results = []
     for config, run_dir in zip(configs, run_dirs, strict=True):
-        entry = summarize_run(run_dir) if RunDir(run_dir).has_episodes() else {}
-        results.append({**entry, "seed": config["seed"], "error": error})
+        entry = _readable_summary(run_dir) if RunDir(run_dir).has_episodes() else {}
+        damaged = entry.pop("error", None)  # its log, besides the worker's error
+        results.append({**entry, "seed": config["seed"],
+                        "error": error if damaged is None else f"{error}; {damaged}"})
     return results
+
+
+def _readable_summary(run_dir: str | Path, **kwargs: Any) -> dict[str, Any]:
+    """:func:`summarize_run`, or, for a folder whose log is damaged (not just cut by a kill),
+    ``run_dir`` and an ``error`` naming the file, the row and the fix: one damaged seed folder
+    never keeps the summary of the others from being written."""
+    try:
+        return summarize_run(run_dir, **kwargs)
+    except ValueError as err:
+        return {"run_dir": str(run_dir), "error": str(err)}
 
 
 def _checkpoint_step(run: RunDir, rows: list[dict[str, str]]) -> int:
@@ -95,7 +109,7 @@ def _earlier_seeds(case_dir: Path, exclude: list[int], reward_scale: float) -> l
         if seed in exclude or not run.has_episodes():
             continue
         entry = {k: v for k, v in previous.get(seed, {}).items() if k != "succeeded"}
-        found.append({**entry, "seed": seed, **summarize_run(run.path, reward_scale=reward_scale),
+        found.append({**entry, "seed": seed, **_readable_summary(run.path, reward_scale=reward_scale),
                       "run_dir": str(run.path)})
     return found
 

@@ -13,11 +13,12 @@ case.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import os
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -29,11 +30,12 @@ from ..runfiles.logs import read_log
 from ..runfiles.rundir import CaseDir, RunDir
 from ..runner.memory import peak_rss_bytes
 from .backends import BACKENDS, run_jobs
+from .inert_settings import SettingSources, check_run_learns, check_stop_rule_decides
 from .jobs import GroupJob
 from .randomize_settings import randomized_cases
 from .rebalance import GroupRebalancing
 from .refine import refine  # noqa: F401  (importable from here, as before)
-from .resume_checks import check_resumed_checkpoints
+from .resume_checks import check_resumed_checkpoints, check_steps_left
 from .run_records import check_resume_settings, run_metadata, write_run_json
 from .stop_settings import (
     case_stop_rule,
@@ -171,6 +173,7 @@ def train_cases(
     stop_options: dict[str, Any] | None = None,
     randomize: str | None = None,
     rebalance: bool = True,
+    warm_up_only: bool = False,
 ) -> dict[str, dict[str, Any]]:
     """Train seeds ``seed_offset .. seed_offset + seeds - 1`` of every case in ``cases`` for ``steps``
     environment steps each, in groups of seeds of one case that train side by side in one worker
@@ -218,7 +221,12 @@ def train_cases(
             (:mod:`elastica_magnetic_rl.sweep.rebalance`; process backend, several workers, one
             torch thread each). On by default: a moved seed ends bit-identical to one that stayed
             (tested; confirmed on an 8-seed ``m1-10mT`` campaign, docs/training.md).
+        warm_up_only: allow runs that never leave the warm-up (``steps`` at or below
+            ``learning_starts``: they only fill their replay buffers, e.g. a benchmark's first
+            stage, resumed later); otherwise a run whose weights would never be updated is refused
+            before any work (:mod:`elastica_magnetic_rl.sweep.inert_settings`).
     """
+    steps_given = steps is not None
     loaded = _load_cases(cases)
     steps, episode_duration, recipe = _case_defaults(loaded, steps, episode_duration, recipe)
     loaded = randomized_cases(loaded, randomize, recipe)
@@ -227,7 +235,7 @@ def train_cases(
         workers=workers, threads=threads, seeds_per_simulator=seeds_per_simulator,
         seed_offset=seed_offset, envs=envs, backend=backend, address=address, resume=resume,
         physics=physics, stop_when=stop_when, stop_options=stop_options,
-        config_overrides=config_overrides)
+        config_overrides=config_overrides, steps_given=steps_given, warm_up_only=warm_up_only)
     start = time.perf_counter()
     results = _run_groups(_group_jobs(out, loaded, groups, configs, sweep, resume, progress),
                           workers, backend, address, progress, rebalance)
@@ -242,9 +250,9 @@ def _plan_sweep(out: str | Path, loaded: dict[str, Case], *, seeds: int, steps: 
                 episode_duration: float, recipe: str, workers: int | None, threads: int | None,
                 seeds_per_simulator: int | None, seed_offset: int, envs: int, backend: str,
                 address: str | None, resume: bool, physics: str, stop_when: str | None,
-                stop_options: dict[str, Any] | None,
-                config_overrides: dict[str, Any] | None) -> tuple[list[int], list[list[int]], int,
-                                                                  dict[int, Any], dict[str, Any]]:
+                stop_options: dict[str, Any] | None, config_overrides: dict[str, Any] | None,
+                steps_given: bool = True, warm_up_only: bool = False
+                ) -> tuple[list[int], list[list[int]], int, dict[int, Any], dict[str, Any]]:
     """Every check of a sweep before any work (options, run folders, resumed runs), then its
     plan: the seeds, their groups, the worker count, each seed's TD3 configuration and the
     settings ``summary.json`` records (:func:`_sweep_record`)."""
@@ -255,7 +263,11 @@ def _plan_sweep(out: str | Path, loaded: dict[str, Case], *, seeds: int, steps: 
     seed_list = [seed_offset + k for k in range(seeds)]
     groups, workers, threads = _groups_and_workers(seed_list, layout, len(loaded), threads, address)
     configs = _seed_configs(loaded, seed_list, recipe, config_overrides)
-    stop_rules = _check_before_work(out, loaded, seed_list, configs[seed_list[0]].eval_every,
+    first = next(iter(loaded.values()))
+    acting = _ActingChecks(configs[seed_list[0]], int(steps), int(envs), SettingSources(
+        config_overrides or {}, first.training.td3, first.source, steps_given, recipe=recipe),
+        stop_given=stop_when not in (None, "none") or bool(stop_options), warm_up_only=warm_up_only)
+    stop_rules = _check_before_work(out, loaded, seed_list, acting,
                                     resume=resume, stop_when=stop_when, stop_options=stop_options,
                                     recipe=recipe, physics=physics, episode_duration=episode_duration,
                                     config_overrides=config_overrides)
@@ -274,21 +286,58 @@ def _sweep_record(layout: dict[str, Any], config: Any, **settings: Any) -> dict[
             "layout": layout["layout"], "precision": config.precision, "device": config.device}
 
 
+@dataclasses.dataclass(frozen=True)
+class _ActingChecks:
+    """That every setting of a sweep can act (:mod:`~elastica_magnetic_rl.sweep.inert_settings`):
+    ``config`` (a seed's TD3 configuration) trained to ``steps`` per seed, ``envs`` crawlers each."""
+
+    config: Any
+    steps: int
+    envs: int
+    sources: SettingSources
+    stop_given: bool  # --stop-when (or a stop option) given, not just the recipe's rule
+    warm_up_only: bool
+
+    def new_runs(self, stop_rules: dict[str, Any] | None) -> None:
+        """New runs: their weights are updated, and a stop rule asked for can decide."""
+        if not self.warm_up_only:
+            check_run_learns(self.config, self.steps, self.sources)
+        for rule in (stop_rules or {}).values() if self.stop_given else ():
+            check_stop_rule_decides(rule, self.config, self.steps, self.envs, self.sources)
+
+    def resumed_runs(self, runs: list[tuple[str, RunDir]]) -> None:
+        """Resumed runs: something is left to train, and their own settings update weights."""
+        from ..runfiles.checkpoint import load_checkpoint
+        from ..td3.algorithm import TD3Config
+
+        check_steps_left(runs, self.steps)
+        if self.warm_up_only:
+            return
+        sources = dataclasses.replace(self.sources, resumed=True)
+        for _, run in runs:
+            config = load_checkpoint(run.checkpoint, with_buffer=False)["config"]
+            check_run_learns(TD3Config.from_dict(config), self.steps, sources)
+
+
 def _check_before_work(out: str | Path, loaded: dict[str, Case], seed_list: list[int],
-                       eval_every: int, *, resume: bool, stop_when: str | None,
+                       acting: _ActingChecks, *, resume: bool, stop_when: str | None,
                        stop_options: dict[str, Any] | None, recipe: str, physics: str,
                        episode_duration: float,
                        config_overrides: dict[str, Any] | None) -> dict[str, Any]:
-    """Every check of a sweep before any work: the stop rule given (or the recipe's), the run
-    folders (:func:`_check_run_folders`) and, for a resume, the runs themselves
-    (:func:`_check_resumed_runs`). Returns each case's stop rule (``None``: off)."""
+    """Every check of a sweep before any work: the stop rule given (or the recipe's), that the
+    settings can act (``acting``), the run folders (:func:`_check_run_folders`) and, for a
+    resume, the runs themselves (:func:`_check_resumed_runs`). Returns each case's stop rule
+    (``None``: off)."""
+    eval_every = acting.config.eval_every
     keep_stop_rules = resume and stop_when is None and not stop_options
     stop_rules = None if keep_stop_rules else _stop_rules(
         loaded, recipe_stop_when(stop_when, recipe), stop_options, eval_every)
-    _check_run_folders(out, loaded, seed_list, resume, physics, episode_duration, recipe)
+    _check_run_folders(out, loaded, seed_list, resume, physics, episode_duration, recipe,
+                       before_making=None if resume else functools.partial(acting.new_runs, stop_rules))
     if resume:
         stop_rules = _check_resumed_runs(out, loaded, seed_list, config_overrides, stop_rules,
                                          eval_every)
+        acting.resumed_runs([(c, CaseDir.of(out, c).seed(s)) for c in loaded for s in seed_list])
     return stop_rules
 
 
@@ -403,9 +452,11 @@ def _seed_configs(loaded: dict[str, Case], seed_list: list[int], recipe: str,
 
 
 def _check_run_folders(out: str | Path, loaded: dict[str, Case], seed_list: list[int], resume: bool,
-                       physics: str, episode_duration: float, recipe: str) -> None:
+                       physics: str, episode_duration: float, recipe: str,
+                       before_making: Callable[[], None] | None = None) -> None:
     """Before any work: no run is overwritten; a resumed run exists, can continue and keeps its
-    settings; every seed's folder can be written."""
+    settings; ``before_making()`` (further checks, before a folder is made); every seed's folder
+    can be written."""
     from elastica_magnetic.io import prepare_output_dir
 
     from ..runfiles.checkpoint import load_checkpoint, refuse_networks_only
@@ -422,12 +473,18 @@ def _check_run_folders(out: str | Path, loaded: dict[str, Case], seed_list: list
             raise FileNotFoundError(f"cannot resume: no checkpoint {', '.join(missing)} (train those "
                                     "seeds without --resume, or choose --seeds/--seed-offset)")
         for case, _, run in runs:  # a resumed run keeps its settings: checked before any work
-            if run.episodes_csv.is_file():  # a damaged log is named before any work
-                read_log(run.episodes_csv, ("global_step", "return"))
+            # a damaged log is named before any work; a row a kill cut short is repaired
+            # (cut off) when the seed resumes, so it blocks no seed
+            for log, numeric in ((run.episodes_csv, ("global_step", "return")),
+                                 (run.evaluations_csv, ("global_step", "mean_return"))):
+                if log.is_file():
+                    read_log(log, numeric, whole_rows_only=True)
             refuse_networks_only(load_checkpoint(run.checkpoint, with_buffer=False), run.checkpoint)
             check_resume_settings(run.path, {
                 "case": case, "case_spec": loaded[case].to_dict(), "physics": physics,
                 "episode_duration_s": float(episode_duration), "recipe": recipe})
+    if before_making is not None:
+        before_making()
     for _, _, run in runs:  # every seed's folder can be written, before any work
         prepare_output_dir(run.path, "--out")
     check_unlocked(run.path for _, _, run in runs)  # no other process trains one of them now

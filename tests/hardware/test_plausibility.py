@@ -194,3 +194,16 @@ def test_names_longer_than_the_board_keeps_are_refused(tmp_path: Path) -> None:
     with pytest.raises(CalibrationError, match="name must be 1-31 characters"):
         load_calibration(write_calibration(tmp_path, name="x" * 32))
     load_calibration(write_calibration(tmp_path, name="x" * 31))
+
+
+def test_the_coil_ranges_are_read_from_the_one_table_of_physical_ranges() -> None:
+    """Issue 48: the calibration checks read the coil constant and the coil field from
+    elastica_magnetic.plausibility (one home per range), with unchanged values."""
+    from elastica_magnetic.plausibility import QUANTITIES
+
+    coil_constant, coil_field = QUANTITIES["coil constant"], QUANTITIES["coil field"]
+    assert plausibility.COIL_CONSTANT_RANGE_T_PER_A == (1e-5, 5e-2) == tuple(
+        b.value for b in coil_constant.refuse)
+    assert plausibility._MATRIX_UNIT_MISTAKES is coil_constant.mistakes
+    assert plausibility.MEASURED_FIELD_RANGE_MT == (0.05, 1000.0) == tuple(
+        1e3 * b.value for b in coil_field.refuse)

@@ -142,6 +142,7 @@ def test_ray_sweep_over_two_cases(tmp_path, capsys):
     argv = [a for a in TINY if a not in {"m1-4mT"}]
     argv[argv.index("--case") + 1:argv.index("--case") + 1] = ["m1-4mT", "m2-10mT"]
     argv[argv.index("--seeds") + 1] = "1"
+    argv[argv.index("--learning-starts") + 1] = "50"  # below --steps 100: a run of its warm-up is refused
     capsys.readouterr()
     status = msr(["train", *argv, "--steps", "100", "--out", str(tmp_path), "--backend", "ray"])
     captured = capsys.readouterr()

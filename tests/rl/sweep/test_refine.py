@@ -123,3 +123,51 @@ def test_refine_fine_tunes_on_randomized_robots_in_the_training_physics(trained,
         msr([*args, "--randomize", "corners", "--out", str(tmp_path / "bad")])
     assert exit_info.value.code == 2
     assert "--randomize: invalid choice: 'corners'" in capsys.readouterr().err
+
+
+def test_refine_on_a_spec_applies_its_randomize_table_and_refuses_a_disagreeing_option(
+        trained, tmp_path, capsys):
+    """--spec with a [training.randomize] table: the refinement's robots are drawn from it (each
+    crawler's draw in the checkpoint) and run.json records it; a --randomize that disagrees with
+    the table is refused by name before any work."""
+    import numpy as np
+    from elastica_magnetic_rl.cases.case import load_case
+
+    from elastica_magnetic.cli import main as msr
+    from elastica_magnetic.specfile import dumps
+
+    spec = load_case("m1-4mT").to_dict()
+    spec["robot"]["ground"]["kinetic_mu"] = 0.5
+    spec["training"]["randomize"] = {"friction": "0.5:1.5"}
+    identified = tmp_path / "identified.toml"
+    identified.write_text(dumps(spec))
+    run = trained / "m1-4mT" / "seed0"
+    args = ["refine", str(run), "--checkpoint", "final", "--physics", "training", "--steps", "2",
+            "--episode-duration", "0.04", "--no-progress", "--spec", str(identified)]
+    out = tmp_path / "refined"
+    assert msr([*args, "--out", str(out)]) == 0
+    record = json.loads((out / "run.json").read_text())
+    assert record["refine_randomize"] == "spec" and record["spec_from"] == str(identified)
+    assert record["case_spec"]["training"]["randomize"] == {"friction": "0.5:1.5"}
+    ckpt = load_checkpoint(out)
+    assert ckpt["metadata"]["case_spec"]["training"]["randomize"] == {"friction": "0.5:1.5"}
+    drawn = np.asarray(ckpt["vector"]["env_state"]["robot_settings"])  # mid-episode: saved
+    assert drawn.shape[1] == 1 and not np.allclose(drawn, 1.0)
+    capsys.readouterr()
+    for option, meant in (("none", "the nominal robot"), ("default", "the default variation set")):
+        assert msr([*args, "--randomize", option, "--out", str(tmp_path / option)]) == 2
+        err = capsys.readouterr().err
+        assert (f"msr refine: error: --spec {identified}: its [training.randomize] (friction = "
+                f"'0.5:1.5') disagrees with --randomize {option} ({meant}") in err
+        assert not (tmp_path / option).exists()
+
+
+def test_a_refinement_inside_its_runs_warm_up_is_refused():
+    from elastica_magnetic_rl.sweep.refine import _check_refinement_learns
+
+    ckpt = {"global_step": 2000, "config": {"learning_starts": 2500}}
+    with pytest.raises(ValueError, match=r"run/checkpoint.pt is at step 2000, inside its warm-up "
+                                         r"\(learning_starts 2500.*--steps 500 ends it at step "
+                                         r"2500; give --steps above 500"):
+        _check_refinement_learns(ckpt, "run/checkpoint.pt", 500)
+    _check_refinement_learns(ckpt, "run/checkpoint.pt", 501)

@@ -91,8 +91,8 @@ def test_train_refuses_to_overwrite(trained, capsys):
 def test_train_resume_extends_runs(tmp_path, capsys):
     """``--resume`` continues a finished run to a larger step count (one seed, in-process)."""
     args = ["train", "--case", "m2-4mT", "--seeds", "1", "--seed-offset", "3", "--out", str(tmp_path),
-            "--learning-starts", "20", "--batch-size", "8", "--hidden", "8", "--episode-duration",
-            "0.2", "--no-progress"]
+            "--learning-starts", "10", "--batch-size", "8", "--hidden", "8", "--episode-duration",
+            "0.2", "--no-progress"]  # a warm-up below --steps 20: a run of its warm-up is refused
     assert msr([*args, "--steps", "20"]) == 0
     summary = run_msr(capsys, *args, "--steps", "40", "--resume")
     assert summary["seeds"][0]["global_step"] == 40 and summary["seeds"][0]["episodes"] == 2

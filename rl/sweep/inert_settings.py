@@ -1,0 +1,114 @@
+"""Training settings that cannot act, refused before any work (``docs/errors.md``, "Training
+options that cannot act"): a run whose weights would never be updated (its warm-up at or beyond
+its steps, a minibatch larger than the run, too few updates per transition to make one), a warm-up
+longer than the replay buffer keeps, and a stop rule asked for that cannot decide within the run.
+
+Each message names the setting as the user gave it (``--learning-starts 3000``, ``[training.td3]
+learning_starts = 3000 (my.toml)``, or the default and where to change it), both numbers, and the
+change that makes it act. Settings that still act at the end of a run are not refused: an
+evaluation or checkpoint interval longer than the run leaves the final evaluation (``best.pt``)
+and the final checkpoint, which every run makes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from ..cases.recipes import RECIPES
+
+if TYPE_CHECKING:  # torch is imported only when a run is planned
+    from ..runner.stopping import StopRule
+    from ..td3.algorithm import TD3Config
+
+__all__ = ["SettingSources", "check_run_learns", "check_stop_rule_decides"]
+
+
+@dataclass(frozen=True)
+class SettingSources:
+    """Where a run's settings come from, to name them: the TD3 settings given as options
+    (``given``), the spec's ``[training.td3]`` (``spec_td3``, of the spec ``source``), whether
+    ``--steps`` was given (else the spec's ``[training] steps``), the ``recipe`` and ``resumed``:
+    the run's hyperparameters are its checkpoint's (a resumed run keeps them)."""
+
+    given: Mapping[str, Any] = field(default_factory=dict)
+    spec_td3: Mapping[str, Any] = field(default_factory=dict)
+    source: str = "the spec"
+    steps_given: bool = True
+    resumed: bool = False
+    recipe: str = ""
+
+    def setting(self, key: str, value: Any) -> str:
+        """``key = value`` as the user set it, e.g. ``--batch-size 64``."""
+        option = f"--{key.replace('_', '-')}"
+        if self.resumed:
+            return f"the run's {key} {value} (a resumed run keeps it)"
+        if key in self.given:
+            return f"{option} {value}"
+        if key in self.spec_td3:
+            return f"[training.td3] {key} = {value} ({self.source})"
+        whose = f"the {self.recipe} recipe's" if key in RECIPES.get(self.recipe, {}) else "the default"
+        return f"{key} {value} ({whose}; {option} or [training.td3] {key} sets it)"
+
+    def steps(self, steps: int) -> str:
+        """The run's steps as the user set them."""
+        return f"--steps {steps}" if self.steps_given else f"[training] steps = {steps} ({self.source})"
+
+
+def check_run_learns(config: TD3Config, steps: int, sources: SettingSources) -> None:
+    """Refuse (``ValueError``) a run of ``config`` trained to ``steps`` per seed whose weights
+    would never be updated, or (a new run) whose warm-up outgrows its replay buffer. A resumed
+    run (``sources.resumed``) keeps its hyperparameters: only more ``--steps`` is suggested."""
+    from ..td3.algorithm import update_ratio
+
+    warm_up, batch = config.learning_starts, config.batch_size
+    name, resumed = sources.setting, sources.resumed
+    if warm_up >= steps:
+        raise ValueError(
+            f"the warm-up is the whole run: {name('learning_starts', warm_up)} is at or beyond "
+            f"{sources.steps(steps)}, so every action is random and no weight is ever updated (the "
+            f"seeds would end untrained); give "
+            + ("" if resumed else f"--learning-starts below {steps} or ") + f"--steps above {warm_up}")
+    if batch > steps:
+        raise ValueError(
+            f"no minibatch in the whole run: {name('batch_size', batch)} is larger than "
+            f"{sources.steps(steps)}: the replay buffer never holds a minibatch, so no weight is "
+            "ever updated; give " + ("" if resumed else f"--batch-size of at most {steps} or ")
+            + f"--steps of at least {batch}")
+    learning = steps - max(warm_up, batch - 1)  # transitions followed by updates
+    made = learning * update_ratio(config.updates_per_step)
+    if made < 1:
+        raise ValueError(
+            f"not one update in the whole run: {name('updates_per_step', config.updates_per_step)}"
+            f" over the {learning} transitions after the warm-up and the first minibatch makes "
+            f"{float(made):.3g} updates; "
+            "give " + ("" if resumed else f"--updates-per-step of at least {1 / learning:.3g}, or ")
+            + "more --steps")
+    if config.buffer_size < warm_up and not resumed:
+        raise ValueError(
+            f"the warm-up outgrows the replay buffer: {name('learning_starts', warm_up)} is above "
+            f"{name('buffer_size', config.buffer_size)}: the buffer keeps only the last "
+            f"{config.buffer_size} random transitions, so the first {warm_up - config.buffer_size} "
+            f"are overwritten before any update reads them; give --learning-starts of at most "
+            f"{config.buffer_size} or --buffer-size of at least {warm_up}")
+
+
+def check_stop_rule_decides(rule: StopRule | None, config: TD3Config, steps: int, envs: int,
+                            sources: SettingSources) -> None:
+    """Refuse (``ValueError``) a stop rule that a new run of ``steps`` steps per seed (``envs``
+    crawlers each) cannot fire: its evaluations (at the first episode end after each multiple of
+    ``eval_every`` steps, and at the end of the run) are fewer than the rule needs to decide."""
+    if rule is None or config.eval_every <= 0:
+        return
+    every = config.eval_every
+    last = -(-steps // envs) * envs  # the run ends at the first vector step at or past ``steps``
+    most = -(-last // every)  # one per interval begun, the last one at the end of the run
+    needed = rule.evaluations_needed
+    if most >= needed:
+        return
+    raise ValueError(
+        f"--stop-when {rule.kind} cannot decide within the run: it needs {needed} evaluations, and "
+        f"{sources.steps(steps)} with {sources.setting('eval_every', every)} makes at most {most}; "
+        f"give --eval-every of at most {(last - 1) // (needed - 1)} or --steps of at least "
+        f"{(needed - 1) * every + 1}, or --stop-when none")
