@@ -276,6 +276,12 @@ def _check_file(final: Path, force: bool, option: str, force_option: str) -> Non
     where = f"{option} {display_path(final)}"
     if final.is_dir():
         raise OutputPathError(f"{where}: is a folder, expected a file name")
+    if final.exists() and not final.is_file():  # a device, a pipe, a socket: never replaced
+        kind = ("a character device" if final.is_char_device() else "a block device"
+                if final.is_block_device() else "a named pipe" if final.is_fifo()
+                else "a socket" if final.is_socket() else "not a regular file")
+        raise OutputPathError(f"{where}: is {kind}, not a regular file; a result file is replaced "
+                              "by renaming a new one over it, so give a file name")
     for parent in final.parents:
         if parent.exists() and not parent.is_dir():
             raise OutputPathError(f"{where}: {display_path(parent)} is a file, not a folder")

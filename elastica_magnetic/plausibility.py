@@ -161,6 +161,12 @@ QUANTITIES: dict[str, Quantity] = {q.name: q for q in (
         (1.0, "beyond electromagnetic coils around a robot")),
        ((5e-4, "weak for moving a robot"), (0.1, "the strongest coil systems")),
        (("mT", 1e-3), ("T", 1.0), ("uT", 1e-6), ("G", 1e-4))),
+    _q("field increment", "T",  # the largest change of a field component per 0.01 s action
+       # (a case also refuses one above its own field limit: it would limit nothing)
+       (None, (1.0, "above the largest field limit (1 T): it would limit nothing")),
+       ((1e-5, "10 uT per 0.01 s step (1 mT/s), a field of a few mT takes seconds to build"),
+        (0.01, "10 mT per 0.01 s step (1 T/s), faster than lab coil drivers slew")),
+       (("mT", 1e-3), ("uT", 1e-6))),
     _q("field in space", "T",  # a field map's or a source's largest field on the robot
        ((5e-5, "the Earth's field"),
         (3.0, "beyond any permanent magnet's surface field (~1.5 T) or lab electromagnet")),

@@ -3,7 +3,8 @@ stability of each physics' time step, how far the robot sinks into the ground, a
 leaves the model's validity.
 
 :func:`check_spec` takes a parsed spec file (its ``[robot]``, ``[physics]`` and, when present,
-``[actuation] field_limit``, ``[task] kind`` and ``[yardstick] distance_10s``);
+``[field]``, ``[boundary]``, ``[actuation] field_limit``, ``[task] kind`` and ``[yardstick]
+distance_10s``);
 :func:`check_robot` takes the checked robot tables and those values directly (what the learning
 package's ``Case`` holds). Both return a :class:`SpecCheck` (SI units); :func:`format_check` gives
 a compact text summary and :meth:`SpecCheck.to_dict` plain JSON-able data.
@@ -35,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from .field_spec import describe_field
 from .robot_spec import ACTION_PERIOD, RobotSpec
 from .specfile import RobotDescription, SpecTable, describe_robot, spec_field_limit
 from .stability import SAFETY_FACTOR, estimated_stable_time_step, suggested_time_step
@@ -224,12 +226,17 @@ def check_spec(spec: Mapping[str, Any], source: str = "<spec>", *, sag: bool = T
     """Check a parsed spec file (e.g. :func:`~elastica_magnetic.specfile.read_spec`'s result).
 
     Its ``[robot]`` and ``[physics]`` are checked as :func:`describe_robot` does (a bad key is a
-    :class:`~elastica_magnetic.specfile.SpecError`); ``[actuation] field_limit`` (T),
-    ``[task] kind`` and ``[yardstick] distance_10s`` (m) are read when present (the learning
-    package checks the rest of those tables). ``sag=False`` skips the sag simulations (seconds;
+    :class:`~elastica_magnetic.specfile.SpecError`), its ``[field]`` and ``[boundary]`` as
+    :func:`~elastica_magnetic.field_spec.describe_field` does for ``msr simulate`` (a unit mistake
+    or a source on the rod is a ``SpecError``, an unusual value a warning); ``[actuation]
+    field_limit`` (T), ``[task] kind`` and ``[yardstick] distance_10s`` (m) are read when present
+    (the learning package checks the rest of those tables). ``sag=False`` skips the sag simulations (seconds;
     the first run in a process also compiles the kernels)."""
     description = describe_robot(spec, source)
     field_limit = spec_field_limit(spec, source)
+    # The [field] in space and [boundary], as msr simulate builds them (same errors and warnings,
+    # the source against the rod), before the sag simulations.
+    describe_field(spec, source)
     task = spec.get("task")
     task_kind = task.get("kind") if isinstance(task, Mapping) else None
     yardstick: Any = None

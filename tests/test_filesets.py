@@ -145,3 +145,55 @@ def test_files_the_new_set_lacks_are_removed_in_the_same_commit(tmp_path, monkey
     assert any("finished moving 1 file(s)" in n for n in notes), notes
     assert contents(folder) == NEW  # critic.pt is gone with the old set
     assert not any(n.startswith(".msr-files-") for n in os.listdir(folder))
+
+
+# -- one result file (issue 48) --------------------------------------------------------------------
+
+def test_a_result_file_is_refused_without_force_and_replaced_whole_with_it(tmp_path):
+    from elastica_magnetic.filesets import result_file
+    from elastica_magnetic.results import ResultExistsError
+
+    target = tmp_path / "cal.json"
+    target.write_text("old")
+    with pytest.raises(ResultExistsError, match="cal.json: already exists; pass --force"):
+        with result_file(target):
+            raise AssertionError("the block must not run")
+    with pytest.raises(RuntimeError), result_file(target, force=True) as written:
+        written.path.write_text("half")
+        raise RuntimeError("a failure in the middle")
+    assert target.read_text() == "old" and sorted(os.listdir(tmp_path)) == ["cal.json"]
+    with result_file(tmp_path / "missing" / ".." / "cal.json", force=True) as written:
+        assert written.path.parent == tmp_path and written.path.suffix == ".json"
+        written.path.write_text("new")
+    assert target.read_text() == "new" and sorted(os.listdir(tmp_path)) == ["cal.json"]
+
+
+@pytest.mark.parametrize("make, kind", [
+    (lambda p: os.mkfifo(p), "a named pipe"),
+    (lambda p: p.mkdir(), "a folder"),
+])
+def test_a_result_file_never_replaces_what_is_not_a_regular_file(tmp_path, make, kind):
+    from elastica_magnetic.filesets import check_result_file
+    from elastica_magnetic.io import OutputPathError
+
+    target = tmp_path / "out.json"
+    make(target)
+    with pytest.raises(OutputPathError, match=f"out.json: is {kind}"):
+        check_result_file(target, force=True)
+    assert target.exists() and not target.is_file()
+
+
+def test_a_killed_writer_of_a_result_file_is_cleaned_up_by_the_next(tmp_path):
+    from elastica_magnetic.filesets import check_result_file, result_file
+    from elastica_magnetic.results import ResultExistsError
+
+    target = tmp_path / "log.txt"
+    target.write_text("old")
+    (tmp_path / ".log.msr-new-vm-1-abcdef.txt").write_text("half")  # a writer killed outright
+    with pytest.raises(ResultExistsError) as refused:
+        check_result_file(target)
+    assert any("removed .log.msr-new-vm-1-abcdef.txt" in note for note in refused.value.__notes__)
+    assert sorted(os.listdir(tmp_path)) == ["log.txt"]
+    with result_file(target, force=True) as written:
+        written.path.write_text("new")
+    assert target.read_text() == "new"

@@ -343,6 +343,14 @@ class ClippingReport:
         Rows whose amplifier input voltage exceeds the DAC's span.
     first_row : int or None
         First clipped row (0-based data row).
+    first_slew_row : int or None
+        First slew-limited row (0-based data row).
+    max_rate_A_per_s, slew_limit_A_per_s : float
+        The waveform's own fastest current change (A/s, from 0 A at the first row; the lag of
+        earlier rows not added), on the axis most above its slew limit, and that limit (A/s).
+    max_lag_mT : float
+        The largest field the coils lag behind the (current-limited) waveform, mT: how far a
+        slew-limited row falls short when it is played.
     """
 
     rows: int
@@ -353,6 +361,10 @@ class ClippingReport:
     max_slew_A_per_s: float
     dac_rows: int
     first_row: int | None
+    first_slew_row: int | None = None
+    max_rate_A_per_s: float = 0.0
+    slew_limit_A_per_s: float = 0.0
+    max_lag_mT: float = 0.0
 
     def describe(self) -> str:
         """One line: how many rows and by how much."""
@@ -364,6 +376,26 @@ class ClippingReport:
             parts.append(f"{self.dac_rows} row(s) exceed the DAC's output span")
         return (f"{self.rows} row(s) clipped, first at data row {self.first_row}: " + "; ".join(parts)
                 if self.rows else "no row clipped")
+
+    def describe_slew(self) -> str:
+        """One line: how many rows are slew-limited and by how much."""
+        if not self.slew_rows:
+            return "no row slew-limited"
+        return (f"{self.slew_rows} row(s) slew-limited, first at data row {self.first_slew_row}: "
+                f"the waveform changes a current at up to {self.max_rate_A_per_s:.4g} A/s for a slew "
+                f"limit of {self.slew_limit_A_per_s:.4g} A/s, so the field lags it by up to "
+                f"{self.max_lag_mT:.3g} mT")
+
+
+def slew_warning(report: ClippingReport, field_csv: str | Path, calibration_name: str) -> str | None:
+    """The warning for a waveform the coils follow late (slew-limited rows), ``None`` without.
+    Such rows are played (reached late, not clipped: a step from 0 A is slew-limited by design),
+    so they are not refused; but a user should know the coils will not follow the waveform."""
+    if not report.slew_rows:
+        return None
+    return (f"{field_csv}: the coils of calibration {calibration_name!r} follow this waveform late: "
+            f"{report.describe_slew()}; check the calibration's slew_limit_A_per_s (A/s), or slow "
+            "the waveform")
 
 
 def clipping_report(calibration: Calibration, rows_mT: NDArray[np.float64]) -> ClippingReport:
@@ -381,7 +413,8 @@ def clipping_report(calibration: Calibration, rows_mT: NDArray[np.float64]) -> C
     slew_rows = np.zeros(len(clamped), dtype=bool)
     dac_rows = np.zeros(len(clamped), dtype=bool)
     last = np.zeros(AXES)
-    max_slew = 0.0
+    max_slew, max_lag_T = 0.0, 0.0
+    matrix = np.array(cal.actuation_matrix_T_per_A)
     gain = np.array(cal.transconductance_A_per_V)
     offset = np.array(cal.input_offset_V)
     for k, target in enumerate(clamped):
@@ -391,8 +424,13 @@ def clipping_report(calibration: Calibration, rows_mT: NDArray[np.float64]) -> C
             slew_rows[k] = True
             max_slew = max(max_slew, float(np.max(np.abs(step))) * cal.tick_hz)
         last = last + np.clip(step, -max_step, max_step)
+        max_lag_T = max(max_lag_T, float(np.linalg.norm(matrix @ (target - last))))
         dac_rows[k] = bool(np.any(np.abs(last / gain + offset) > cal.dac_half_span_V))
     clipped = over.any(axis=1) | dac_rows
+    # the waveform's own fastest change (A/s, from 0 A), on the axis most above its slew limit
+    rates = np.abs(np.diff(clamped, axis=0, prepend=np.zeros((1, AXES)))) * cal.tick_hz
+    worst = (np.unravel_index(int(np.argmax(rates / (max_step * cal.tick_hz))), rates.shape)
+             if rates.size else (0, 0))
     axis = np.unravel_index(int(np.argmax(ratio)), ratio.shape)[1] if ratio.size else 0
     return ClippingReport(
         rows=int(clipped.sum()),
@@ -403,6 +441,10 @@ def clipping_report(calibration: Calibration, rows_mT: NDArray[np.float64]) -> C
         max_slew_A_per_s=max_slew,
         dac_rows=int(dac_rows.sum()),
         first_row=int(np.flatnonzero(clipped)[0]) if clipped.any() else None,
+        first_slew_row=int(np.flatnonzero(slew_rows)[0]) if slew_rows.any() else None,
+        max_rate_A_per_s=float(rates[worst]) if rates.size else 0.0,
+        slew_limit_A_per_s=float(cal.slew_limit_A_per_s[worst[1]]),
+        max_lag_mT=max_lag_T / TESLA_PER_MILLITESLA,
     )
 
 

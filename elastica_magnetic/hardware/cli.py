@@ -112,6 +112,7 @@ def _stream(args: argparse.Namespace) -> int:
         clipping_report,
         expected_dac_codes,
         load_calibration,
+        slew_warning,
     )
     from elastica_magnetic.hardware.export import write_expected_codes
     from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
@@ -129,6 +130,9 @@ def _stream(args: argparse.Namespace) -> int:
                 f"{args.field_csv}: the coils of calibration {cal.name!r} cannot follow this "
                 f"waveform: {clipping.describe()}. Lower the field, or pass --allow-clipping to "
                 "play it clipped; nothing was sent")
+        warning = slew_warning(clipping, args.field_csv, cal.name)
+        if warning:  # played (reached late, not clipped), but the user should know
+            print(f"msr stream: warning: {warning}", file=sys.stderr)
     if args.log and args.codes_out and args.log == args.codes_out:
         raise _error(f"--log and --codes-out name the same file, {args.log}")
     for option, path in (("--log", args.log), ("--codes-out", args.codes_out)):
@@ -203,8 +207,11 @@ def _stream_logged(args: argparse.Namespace, field_T: Any, cal: Any) -> Any:
 def _export(args: argparse.Namespace) -> int:
     from elastica_magnetic.hardware.export import export_firmware
 
-    _print(export_firmware(args.field_csv, args.calibration, args.out, args.allow_clipping,
-                           force=args.force), args.json)
+    summary = export_firmware(args.field_csv, args.calibration, args.out, args.allow_clipping,
+                              force=args.force)
+    for warning in summary["warnings"]:  # slew-limited rows: written, but the coils lag
+        print(f"msr export-firmware: warning: {warning}", file=sys.stderr)
+    _print(summary, args.json)
     return 0
 
 

@@ -30,6 +30,7 @@ from elastica_magnetic.hardware.calibration import (
     clipping_report,
     expected_dac_codes,
     load_calibration,
+    slew_warning,
 )
 from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
 from elastica_magnetic.io import atomic_write, atomic_write_text
@@ -91,7 +92,8 @@ def export_firmware(field_csv: str | Path, calibration: Calibration | str | Path
     A waveform the coils cannot reach (current limit or DAC span of the calibration,
     see :func:`~elastica_magnetic.hardware.calibration.clipping_report`) is refused with a
     ValueError saying how many rows and by how much, unless ``allow_clipping``; the summary reports
-    ``rows_clipped`` either way."""
+    ``rows_clipped`` either way. Slew-limited rows (reached late, not clipped) are written; the
+    summary's ``warnings`` says how many and by how much the field lags (the CLIs print it)."""
     check_result_folder(out_dir, kind="export-firmware", force=force,
                         known_files=EXPORT_FIRMWARE_FILES)
     cal = calibration if isinstance(calibration, Calibration) else load_calibration(calibration)
@@ -125,6 +127,8 @@ def export_firmware(field_csv: str | Path, calibration: Calibration | str | Path
         "rows_clipped": clipping.rows,
         "clipping": clipping.describe(),
         "rows_slew_limited": clipping.slew_rows,
+        "slew_limiting": clipping.describe_slew(),
+        "warnings": [w for w in [slew_warning(clipping, field_csv, cal.name)] if w],
         "code_min": int(codes.min()) if len(codes) else None,
         "code_max": int(codes.max()) if len(codes) else None,
     }
@@ -148,6 +152,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ValueError, OSError) as exc:
         print(f"export: error: {exc}", file=sys.stderr)
         return 2
+    for warning in summary["warnings"]:
+        print(f"export: warning: {warning}", file=sys.stderr)
     if not args.quiet:
         for key, value in summary.items():
             print(f"{key}: {value}")

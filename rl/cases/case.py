@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from elastica_magnetic import RobotSpec
+from elastica_magnetic.plausibility import mistake_hint
 from elastica_magnetic.presets import ACTION_PERIOD, Physics
 from elastica_magnetic.specfile import (
     RobotDescription,
@@ -297,12 +298,26 @@ def _actuation(t: SpecTable) -> Actuation:
         control_rate=t.number("control_rate", "Hz", d.control_rate, low=0.0, low_open=True),
         initial_field=t.string("initial_field", d.initial_field, choices=("random", "zero")),
     )
+    if t.has("max_increment"):
+        _check_increment(t, out.max_increment, out.field_limit, d.max_increment)
     if not math.isclose(out.control_rate, CONTROL_RATE):
         raise t.error("control_rate", f"only {CONTROL_RATE:g} Hz is supported (the environments' "
                                       f"0.01 s step and the firmware's playback rate), got "
                                       f"{out.control_rate:g}")
     t.finish()
     return out
+
+
+def _check_increment(t: SpecTable, increment: float, field_limit: float, papers: float) -> None:
+    """Refuse an increment (T per action) above the field limit (T): one action could then jump
+    the field from zero past the limit, so it limits no rate (mT written for T, most likely);
+    judge it against the plausible increments otherwise (a warning where unusual)."""
+    if increment > field_limit:
+        raise t.error("max_increment", f"{increment:g} T per action is larger than the field limit "
+                      f"{field_limit:g} T: it cannot act as a limit (one action may jump the field "
+                      f"from zero past the limit){mistake_hint('field increment', increment)}; the "
+                      f"paper's is {papers:g} T")
+    t.check_plausible("max_increment", increment, "field increment")
 
 
 def _task(t: SpecTable) -> Task:
@@ -395,7 +410,7 @@ def _randomize(t: SpecTable, robot: RobotDescription) -> tuple[Variation, ...]:
                 raise VariationError(f"{where}: {key} = {text!r}: expected a string \"LOW:HIGH\" "
                                      "(factors) or \"abs:LOW:HIGH\" (SI)")
             variations.append(parse_variation(f"{key}={text}"))
-        resolve_variations(variations, robot.tables, option=where)
+        variations = resolve_variations(variations, robot.tables, option=where)
     except VariationError as err:
         raise SpecError(str(err).replace("--vary ", f"{where}: ", 1)) from None
     return tuple(variations)
@@ -408,9 +423,9 @@ def randomize_table(variations: tuple[Variation, ...]) -> dict[str, str]:
 
 def with_randomize(case: Case, variations: tuple[Variation, ...]) -> Case:
     """``case`` training on robots randomized by ``variations`` (checked against its robot)."""
-    resolve_variations(list(variations), case.robot.tables, option="randomize")
+    variations = tuple(resolve_variations(list(variations), case.robot.tables, option="randomize"))
     return dataclasses.replace(case, training=dataclasses.replace(case.training,
-                                                                  randomize=tuple(variations)))
+                                                                  randomize=variations))
 
 
 def _yardstick(t: SpecTable | None) -> Yardstick:

@@ -43,13 +43,16 @@ def robot_only_spec(value: str | Path) -> RobotOnlySpec | None:
 
 def check_robot_only(spec: RobotOnlySpec, sag: bool = True) -> SpecCheck:
     """:func:`~elastica_magnetic.spec_check.check_spec` of a spec without a task: its robot, time
-    steps, sag and, with an ``[actuation]`` table, its field limit (T)."""
+    steps, sag, its ``[field]`` in space and ``[boundary]`` (as ``msr simulate`` builds them) and,
+    with an ``[actuation]`` table, its field limit (T)."""
     return check_spec(spec.data, spec.source, sag=sag)
 
 
 def coverage(spec: RobotOnlySpec, check: SpecCheck, sag: bool = True) -> dict[str, list[str]]:
     """What ``msr case check`` checked of a spec without a task, and what not, and why."""
     checked, not_checked = ["robot", "time steps"], []
+    # check_spec built these as msr simulate does (a mistake there is an error before the report)
+    checked += [table for table in ("field", "boundary") if table in spec.data]
     if check.field_limit_T is not None:
         checked.append("field limit")
     else:

@@ -4,12 +4,19 @@ A *variation* is a group of spec keys varied together over a range, written
 ``KEY[+KEY...]=LOW:HIGH``:
 
 - keys are dotted paths into the spec, e.g. ``robot.magnetization.magnitude``,
-  ``robot.ground.kinetic_mu`` (only the real-valued keys of the ``[robot]`` tables: see
+  ``robot.ground.kinetic_mu``, ``robot.magnetization.segments.2.magnitude`` (a list's items by
+  their index from 0), ``robot.magnetization.values`` (a per-element table, scaled as a whole:
+  only by a factor) (only the real-valued keys of the ``[robot]`` tables: see
   :func:`variable_keys`); keys joined by ``+`` are varied together, by the same factor;
 - ``LOW:HIGH`` is relative (factors of the spec's nominal value, both > 0), ``abs:LOW:HIGH`` is
   absolute (in the key's SI unit; one key only);
-- a group name stands for its keys: ``magnetization``, ``modulus`` (Young's and shear modulus),
-  ``friction`` (static and kinetic friction), ``density``.
+- a group name stands for its keys *in the spec at hand* (:func:`group_keys`), so it means the
+  same on every spec: ``magnetization`` (the magnitude of a named pattern, every segment's
+  magnitude, or a per-element table), ``modulus`` (Young's and shear modulus together, or Young's
+  modulus alone where the spec gives a Poisson ratio, which is then kept, so the shear modulus
+  follows), ``friction`` (static and kinetic friction), ``density``. A spec's own key that its
+  complete form stores elsewhere is accepted as written: ``robot.magnetization.magnitude`` of a
+  ``segments`` magnetization (the default magnitude of its segments) stands for every segment's.
 
 The default set (:data:`DEFAULT_RANGES`, what a silicone-NdFeB robot on a lab surface varies by):
 magnetization magnitude +-15 %, Young's and shear modulus +-20 % together, static and kinetic
@@ -45,10 +52,13 @@ __all__ = [
     "default_variations",
     "design",
     "get_value",
+    "group_keys",
     "parse_group",
     "parse_variation",
     "physical_differences",
     "resolve_variations",
+    "scaled",
+    "magnitude_of",
     "variable_keys",
     "variant_values",
 ]
@@ -120,15 +130,32 @@ class Variant:
 # -- keys of a spec -------------------------------------------------------------------------------
 
 
+def _is_array(value: Any) -> bool:
+    """A (nested) list of numbers with at least one float: a table varied as a whole."""
+    if not isinstance(value, list) or not value:
+        return False
+    leaves = np.asarray(value, dtype=object).ravel()
+    return (all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in leaves)
+            and any(isinstance(v, float) for v in leaves))
+
+
 def variable_keys(spec: Mapping[str, Any]) -> list[str]:
     """The dotted keys that can be varied in ``spec`` (a complete spec, every default written out,
-    e.g. ``Case.to_dict()``): every real-valued (float) value under ``robot``, sorted."""
+    e.g. ``Case.to_dict()``): every real-valued (float) value under ``robot``, the items of its
+    lists of tables by index (``robot.magnetization.segments.0.magnitude``) and its tables of
+    numbers as a whole (``robot.magnetization.values``), sorted."""
     found: list[str] = []
 
     def walk(table: Any, path: str) -> None:
         if isinstance(table, Mapping):
             for key, value in table.items():
                 walk(value, f"{path}.{key}")
+        elif _is_array(table):
+            found.append(path)
+        elif isinstance(table, list):
+            for index, value in enumerate(table):
+                if isinstance(value, Mapping):
+                    walk(value, f"{path}.{index}")
         elif isinstance(table, float):
             found.append(path)
 
@@ -136,29 +163,54 @@ def variable_keys(spec: Mapping[str, Any]) -> list[str]:
     return sorted(found)
 
 
-def get_value(spec: Mapping[str, Any], key: str) -> float:
-    """The value at a dotted key (KeyError if absent)."""
+def _child(table: Any, part: str, key: str) -> Any:
+    if isinstance(table, Mapping) and part in table:
+        return table[part]
+    if isinstance(table, list) and part.isdigit() and int(part) < len(table):
+        return table[int(part)]
+    raise KeyError(key)
+
+
+def get_value(spec: Mapping[str, Any], key: str) -> Any:
+    """The value at a dotted key: a float, or a (nested) list of numbers for a table (KeyError if
+    absent)."""
     table: Any = spec
     for part in key.split("."):
-        if not isinstance(table, Mapping) or part not in table:
-            raise KeyError(key)
-        table = table[part]
+        table = _child(table, part, key)
     return table
 
 
-def apply_values(spec: Mapping[str, Any], values: Mapping[str, float]) -> dict[str, Any]:
-    """A deep copy of ``spec`` with ``values`` (dotted key -> value) written in; the keys must
-    exist (see :func:`variable_keys`). The copy is not checked: parse it (``case_from_dict``,
-    ``describe_robot``) to get the spec parser's errors."""
+def scaled(value: Any, factor: float) -> Any:
+    """``value`` (a number, or a nested list of numbers) times ``factor``, in the same form."""
+    if isinstance(value, list):
+        return np.multiply(np.asarray(value, dtype=np.float64), factor).tolist()
+    return float(value) * factor
+
+
+def magnitude_of(value: Any) -> float:
+    """One number for a value in reports: the value itself, or for a table of vectors (3, n) the
+    largest vector length (for a per-element magnetization: the strongest element's |M|)."""
+    if isinstance(value, list):
+        array = np.asarray(value, dtype=np.float64)
+        return float(np.linalg.norm(array, axis=0).max()) if array.ndim == 2 else \
+            float(np.abs(array).max())
+    return float(value)
+
+
+def apply_values(spec: Mapping[str, Any], values: Mapping[str, Any]) -> dict[str, Any]:
+    """A deep copy of ``spec`` with ``values`` (dotted key -> value: a number, or a nested list
+    for a table key) written in; the keys must exist (see :func:`variable_keys`). The copy is not
+    checked: parse it (``case_from_dict``, ``describe_robot``) to get the spec parser's errors."""
     out = copy.deepcopy(dict(spec))
     for key, value in values.items():
         *tables, last = key.split(".")
         table: Any = out
         for part in tables:
-            table = table[part]
-        if last not in table:
-            raise KeyError(key)
-        table[last] = float(value)
+            table = _child(table, part, key)
+        _child(table, last, key)  # must exist
+        item = int(last) if isinstance(table, list) else last
+        table[item] = (np.asarray(value, dtype=np.float64).tolist() if isinstance(value, list)
+                       else float(value))
     return out
 
 
@@ -168,20 +220,27 @@ NON_ROBOT_TABLES = ("name", "description", "yardstick", "training", "checks")
 
 
 def _flatten(table: Any, path: str = "") -> dict[str, Any]:
+    """Dotted key -> value, lists of tables by index (as :func:`variable_keys` names them)."""
     if isinstance(table, Mapping):
         out: dict[str, Any] = {}
         for key, value in table.items():
             out.update(_flatten(value, f"{path}.{key}" if path else str(key)))
         return out
+    if isinstance(table, list) and table and all(isinstance(v, Mapping) for v in table):
+        out = {f"{path}.length": len(table)}  # a different count of items is another robot
+        for index, value in enumerate(table):
+            out.update(_flatten(value, f"{path}.{index}"))
+        return out
     return {path: table}
 
 
-def physical_differences(base: Mapping[str, Any], other: Mapping[str, Any]) -> dict[str, tuple[float, float]]:
+def physical_differences(base: Mapping[str, Any], other: Mapping[str, Any]) -> dict[str, tuple[Any, Any]]:
     """Dotted key -> ``(base value, other value)`` of every physical value (a variable key, see
-    :func:`variable_keys`) in which two complete specs differ. Raises :class:`VariationError`
-    naming the first other difference (elements, magnetization pattern, task, actuation,
-    physics settings: what makes ``other`` another robot or task, not the same robot with other
-    values); ``name``, ``description``, ``yardstick`` and ``training`` may differ."""
+    :func:`variable_keys`; a table's values as nested lists) in which two complete specs differ.
+    Raises :class:`VariationError` naming the first other difference (elements, magnetization
+    pattern, task, actuation, physics settings: what makes ``other`` another robot or task, not
+    the same robot with other values); ``name``, ``description``, ``yardstick`` and ``training``
+    may differ."""
     variable = set(variable_keys(base))
     a, b = _flatten(base), _flatten(other)
     physical: dict[str, tuple[float, float]] = {}
@@ -190,6 +249,10 @@ def physical_differences(base: Mapping[str, Any], other: Mapping[str, Any]) -> d
             continue
         if key in variable and isinstance(b.get(key), float):
             physical[key] = (float(a[key]), float(b[key]))
+            continue
+        if key in variable and _is_array(b.get(key)) and \
+                np.shape(a[key]) == np.shape(b[key]):
+            physical[key] = (a[key], b[key])
             continue
         raise VariationError(f"{key}: {a.get(key, '(absent)')!r} in the run's spec, "
                              f"{b.get(key, '(absent)')!r} in the new one: only physical values "
@@ -268,35 +331,78 @@ def parse_variation(text: str) -> Variation:
     return Variation(name, keys, low, high, absolute)
 
 
+_MAGNETIZATION = "robot.magnetization"
+
+
+def group_keys(name: str, spec: Mapping[str, Any]) -> tuple[str, ...]:
+    """The keys the group ``name`` (:data:`GROUPS`) stands for in ``spec`` (complete): the
+    magnetization wherever the spec keeps it (a pattern's ``magnitude``, every segment's
+    ``magnitude``, a per-element ``values`` table); the group's other keys that the spec has (a
+    spec with ``poisson_ratio`` has no ``shear_modulus``: it follows Young's modulus, the Poisson
+    ratio kept). Empty when the spec has none of them."""
+    valid = variable_keys(spec)
+    if name == "magnetization":
+        return tuple(k for k in valid if k.startswith(f"{_MAGNETIZATION}.")
+                     and (k.endswith(".magnitude") or k == f"{_MAGNETIZATION}.values"))
+    return tuple(k for k in GROUPS[name] if k in valid)
+
+
+def _expand_key(key: str, spec: Mapping[str, Any], valid: Sequence[str], where: str) -> tuple[str, ...]:
+    """A key as the user's spec writes it, in the keys of the complete spec: the default
+    ``magnitude`` of a ``segments`` magnetization stands for every segment's; a key the spec
+    computes (the shear modulus of a spec with a Poisson ratio) is named as such."""
+    if key in valid:
+        return (key,)
+    robot = spec.get("robot", {})
+    if key == f"{_MAGNETIZATION}.magnitude" and robot.get("magnetization", {}).get("kind") == "segments":
+        return group_keys("magnetization", spec)
+    if key == "robot.shear_modulus" and "poisson_ratio" in robot:
+        raise VariationError(f"{where}: this spec gives poisson_ratio, so its shear modulus is "
+                             "E / (2 (1 + poisson_ratio)) and follows robot.youngs_modulus; vary "
+                             "robot.youngs_modulus (or the group modulus), or robot.poisson_ratio")
+    raise _unknown_key(key, valid, where)
+
+
 def resolve_variations(variations: Sequence[Variation], spec: Mapping[str, Any],
                        option: str = "--vary") -> list[Variation]:
-    """Check ``variations`` against a complete spec: every key exists and is variable, no key is
-    varied twice, a relative variation's nominal value is not 0. Returns them unchanged; errors
-    name ``option``."""
+    """Check ``variations`` against a complete spec and return them with the keys they stand
+    for in it: a group's keys in this spec (:func:`group_keys`), a key the user's spec writes
+    in the keys of its complete form; every key variable, no key varied twice, a relative
+    variation's nominal value not 0, a table varied only by a factor. Errors name ``option``."""
     valid = variable_keys(spec)
     seen: dict[str, str] = {}
+    resolved = []
     for variation in variations:
         where = f"{option} {variation.name}"
-        for key in variation.keys:
-            if key not in valid:
-                raise _unknown_key(key, valid, where)
+        if variation.name in GROUPS:
+            keys = group_keys(variation.name, spec)
+            if not keys:
+                raise VariationError(f"{where}: this spec has none of the group's keys "
+                                     f"({', '.join(GROUPS[variation.name])})")
+        else:
+            keys = tuple(k for key in variation.keys for k in _expand_key(key, spec, valid, where))
+        for key in keys:
             if key in seen:
                 raise VariationError(f"{where}: {key} is already varied by {seen[key]}")
             seen[key] = variation.name
-            if not variation.absolute and get_value(spec, key) == 0.0:
+            value = get_value(spec, key)
+            if isinstance(value, list) and variation.absolute:
+                raise VariationError(f"{where}: {key} is a table; it is varied by a factor "
+                                     "(LOW:HIGH), not set to an absolute value")
+            if not variation.absolute and not np.any(np.asarray(value, dtype=np.float64)):
                 raise VariationError(f"{where}: {key} is 0 in this spec, so a factor leaves it 0; "
                                      "give an absolute range (abs:LOW:HIGH)")
-    return list(variations)
+        resolved.append(Variation(variation.name, keys, variation.low, variation.high,
+                                  variation.absolute))
+    return resolved
 
 
 def default_variations(spec: Mapping[str, Any]) -> list[Variation]:
-    """The default set (:data:`DEFAULT_RANGES`) for ``spec``; a key the spec does not have is left
-    out of its group (a spec with ``poisson_ratio`` has no ``shear_modulus``: it follows Young's
-    modulus anyway) and a group without keys is dropped."""
-    valid = set(variable_keys(spec))
+    """The default set (:data:`DEFAULT_RANGES`) for ``spec``, each group with its keys in this
+    spec (:func:`group_keys`); a group without keys is dropped."""
     out = []
     for name, (low, high) in DEFAULT_RANGES.items():
-        keys = tuple(k for k in GROUPS[name] if k in valid)
+        keys = group_keys(name, spec)
         if keys:
             out.append(Variation(name, keys, low, high))
     return out
@@ -357,13 +463,14 @@ def design(
 
 
 def variant_values(variations: Sequence[Variation], variant: Variant,
-                   spec: Mapping[str, Any]) -> dict[str, float]:
-    """Dotted key -> value of ``variant`` on ``spec`` (nominal value x factor, or the value)."""
+                   spec: Mapping[str, Any]) -> dict[str, Any]:
+    """Dotted key -> value of ``variant`` on ``spec`` (nominal value x factor, or the value; a
+    table key's value is the scaled table)."""
     values = {}
     for v in variations:
         setting = variant.settings[v.name]
         for key in v.keys:
-            values[key] = setting if v.absolute else get_value(spec, key) * setting
+            values[key] = setting if v.absolute else scaled(get_value(spec, key), setting)
     return values
 
 

@@ -309,11 +309,18 @@ def notes_command(args: argparse.Namespace) -> int:
 
 
 def _read_markdown(path: Path, option: str) -> str:
-    """A Markdown file's text (UTF-8), or an error naming the option and the file."""
+    """A Markdown file's text (UTF-8, a leading byte-order mark dropped), or an error naming the
+    option and the file."""
+    from elastica_magnetic.io import UTF8_BOM
+
+    if path.is_dir():
+        raise CommandError(f"{option} {path}: is a folder, expected a Markdown file")
     if not path.is_file():
         raise CommandError(f"{option} {path}: no such file")
     try:
-        return path.read_text(encoding="utf-8")
+        # "UTF-8 with BOM" (Notepad): the mark is no text, and would land in policy.json and the
+        # card; Markdown has no use for it, so it is dropped, as CSV tables skip it
+        return path.read_text(encoding="utf-8").removeprefix(UTF8_BOM)
     except UnicodeDecodeError as exc:
         raise CommandError(f"{option} {path}: not UTF-8 text (byte {exc.start}: "
                            f"{exc.object[exc.start:exc.start + 1]!r}); save it as UTF-8") from None

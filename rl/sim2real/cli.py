@@ -11,7 +11,7 @@ from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, duration_option, number, output_path
 
-from ..cases.variations import DEFAULT_RANGES, GROUPS, VariationError, parse_variation
+from ..cases.variations import DEFAULT_RANGES, GROUPS, VariationError, magnitude_of, parse_variation
 
 _DEFAULT_SET = ", ".join(f"{name} ({'+'.join(GROUPS[name])}) x{low:g}:{high:g}"
                          for name, (low, high) in DEFAULT_RANGES.items())
@@ -167,8 +167,10 @@ def identify_command(args: argparse.Namespace) -> int:
         return 0
     for fit in report["fitted"].values():
         for key, value in fit["values"].items():
-            print(f"{key}: {value:.6g} +- {fit['sigma'][key]:.2g} (nominal "
-                  f"{fit['nominal_values'][key]:.6g}, x{fit['factor']:.4f})"
+            # a table (a per-element magnetization) is shown by its largest vector
+            print(f"{key}: {magnitude_of(value):.6g} +- {magnitude_of(fit['sigma'][key]):.2g} "
+                  f"(nominal {magnitude_of(fit['nominal_values'][key]):.6g}, "
+                  f"x{fit['factor']:.4f})"
                   + ("  AT THE BOUND of the fit" if fit["at_bound"] else ""))
     r = report["residual_m"]
     print(f"residual RMS {1e3 * r['rms']:.4f} mm, largest {1e3 * r['max_abs']:.4f} mm "

@@ -28,7 +28,15 @@ from numpy.typing import NDArray
 from elastica_magnetic.presets import ACTION_PERIOD
 from elastica_magnetic.specfile import SpecError, describe_robot, read_spec
 
-from ..cases.variations import Variation, apply_values, get_value, parse_group, resolve_variations
+from ..cases.variations import (
+    Variation,
+    apply_values,
+    get_value,
+    magnitude_of,
+    parse_group,
+    resolve_variations,
+    scaled,
+)
 from .tracking import MIN_DURATION_S, MeasuredTrajectory, check_against_robot, points_at_rows
 
 __all__ = ["DIFF_STEP", "FIT_BOUNDS", "FitBudgetExceeded", "FitModel", "fit_horizons", "identify",
@@ -103,9 +111,9 @@ class FitModel:
     diverged: int = 0
     _cache: dict = field(default_factory=dict, repr=False)
 
-    def values(self, factors: Sequence[float]) -> dict[str, float]:
-        """Dotted key -> value for one factor per fit."""
-        return {key: get_value(self.spec, key) * float(f)
+    def values(self, factors: Sequence[float]) -> dict[str, Any]:
+        """Dotted key -> value for one factor per fit (a table key's value: the scaled table)."""
+        return {key: scaled(get_value(self.spec, key), float(f))
                 for fit, f in zip(self.fits, factors, strict=True) for key in fit.keys}
 
     def displacements(self, factors: Sequence[float], physics: str | None = None) -> NDArray[np.float64]:
@@ -236,9 +244,10 @@ def _fitted(spec: Mapping[str, Any], fits: Sequence[Variation], x, sigma, bounds
             "keys": list(fit.keys),
             "factor": factor,
             "factor_sigma": factor * float(sigma[k]),
-            "values": {key: get_value(spec, key) * factor for key in fit.keys},
+            "values": {key: scaled(get_value(spec, key), factor) for key in fit.keys},
             "nominal_values": {key: get_value(spec, key) for key in fit.keys},
-            "sigma": {key: get_value(spec, key) * factor * float(sigma[k]) for key in fit.keys},
+            "sigma": {key: scaled(get_value(spec, key), factor * float(sigma[k]))
+                      for key in fit.keys},
             "at_bound": bool(np.isclose(x[k], bounds[0]) or np.isclose(x[k], bounds[1])),
         }
     return out
@@ -362,7 +371,8 @@ def write_identified(report: dict[str, Any], spec: Mapping[str, Any], measured: 
 
     def fill(folder: Path) -> None:
         lines = [f"# {line}" for line in header.splitlines()] + [
-            f"# {key} = {value:.6g} (nominal {get_value(spec, key):.6g})" for key, value in values.items()]
+            f"# {key} = {magnitude_of(value):.6g} (nominal {magnitude_of(get_value(spec, key)):.6g})"
+            for key, value in values.items()]
         atomic_write_text(folder / "identified.toml", "\n".join(lines) + "\n" + dumps(identified, CASE_UNITS))
         plot_identify(report, measured, folder / "identify.png")
         atomic_write_json(folder / "identify.json", {k: v for k, v in report.items() if k != "predicted"})

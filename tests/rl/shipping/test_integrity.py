@@ -175,13 +175,17 @@ def test_figures_name_a_damaged_log_and_replace_their_own_figures(trained, tmp_p
     runs = tmp_path / "runs"
     shutil.copytree(trained, runs)
     first = run_msr(capsys, "figures", str(runs))
-    again = run_msr(capsys, "figures", str(runs))  # regenerating is the command: no --force
+    drawn = Path(first["learning_curves_m1-4mT"]).read_bytes()
+    assert msr(["figures", str(runs)]) == 2  # an existing figure is replaced only with --force
+    assert "already holds learning_curves_m1-4mT.png; pass --force" in capsys.readouterr().err
+    assert Path(first["learning_curves_m1-4mT"]).read_bytes() == drawn
+    again = run_msr(capsys, "figures", str(runs), "--force")
     assert first == again and Path(first["learning_curves_m1-4mT"]).is_file()
     episodes = runs / "m1-4mT" / "seed1" / "episodes.csv"
     lines = episodes.read_text().splitlines()
     lines[2] = lines[2].replace(lines[2].split(",")[2], "abc", 1)
     episodes.write_text("\n".join(lines) + "\n")
-    assert msr(["figures", str(runs)]) == 2
+    assert msr(["figures", str(runs), "--force"]) == 2
     err = capsys.readouterr().err
     assert f"{episodes}: damaged log: row 3, column 'return': 'abc'" in err
     assert not leftovers(runs)

@@ -1,0 +1,91 @@
+"""The spec matrix (issue 49): ``hypothesis`` strategies of valid spec files covering every form
+the format allows for what the features read (a named magnetization pattern, ``segments`` by
+elements or by fractions with and without their own magnitudes, a per-element ``table``; an
+explicit shear modulus or a Poisson ratio; a crawl or a reach task; a band or a round section),
+written as a user writes them (the shortest form: the parser completes them). Tests of any
+feature draw from :func:`user_specs` rather than trusting the shipped cases alone.
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+from hypothesis import strategies as st
+
+#: A user's robot, shortest form (every other key takes its default).
+BASE: dict[str, Any] = {
+    "name": "drawn",
+    "robot": {
+        "name": "drawn", "length": 0.02, "n_elements": 24, "width": 0.008, "thickness": 0.0008,
+        "density": 1860.0, "youngs_modulus": 84500.0,
+        "magnetization": {"kind": "yao2023-pattern1"},
+        "ground": {"static_mu": 0.8, "kinetic_mu": 0.6},
+    },
+    "actuation": {"field_limit": 0.004},
+    "task": {"kind": "crawl"},
+}
+
+_DIRECTIONS = st.sampled_from([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0],
+                               [0.0, -1.0, 0.0], [0.6, 0.8, 0.0], [0.0, 0.0, 1.0]])
+_MAGNITUDES = st.floats(20_000.0, 120_000.0)
+
+
+@st.composite
+def magnetizations(draw, n_elements: int) -> dict[str, Any]:
+    """A ``[robot.magnetization]`` table of any kind."""
+    kind = draw(st.sampled_from(["yao2023-pattern1", "yao2023-pattern2", "uniform", "sinusoid",
+                                 "two-segment", "segments", "table"]))
+    table: dict[str, Any] = {"kind": kind}
+    if kind == "table":
+        values = draw(st.lists(st.lists(st.floats(-80_000.0, 80_000.0), min_size=n_elements,
+                                        max_size=n_elements), min_size=3, max_size=3))
+        values[0][0] = 50_000.0  # never all zero
+        table["values"] = values
+        return table
+    if kind == "segments":
+        count = draw(st.integers(2, min(12, n_elements)))
+        by_fraction = draw(st.booleans())
+        cuts = sorted(draw(st.lists(st.integers(1, n_elements - 1), min_size=count - 1,
+                                    max_size=count - 1, unique=True)))
+        sizes = [b - a for a, b in zip([0, *cuts], [*cuts, n_elements], strict=True)]
+        segments = []
+        for size in sizes:
+            segment: dict[str, Any] = {"direction": draw(_DIRECTIONS)}
+            if by_fraction:
+                segment["fraction"] = size / n_elements
+            else:
+                segment["elements"] = size
+            if draw(st.booleans()):
+                segment["magnitude"] = draw(_MAGNITUDES)
+            segments.append(segment)
+        if by_fraction:  # fractions that sum to 1 exactly, as a user would round them
+            segments[-1]["fraction"] = 1.0 - sum(s["fraction"] for s in segments[:-1])
+        table["segments"] = segments
+    if draw(st.booleans()):
+        table["magnitude"] = draw(_MAGNITUDES)
+    if kind == "uniform":
+        table["direction"] = draw(_DIRECTIONS)
+    if kind == "two-segment":
+        table["first"], table["second"] = draw(_DIRECTIONS), draw(_DIRECTIONS)
+    return table
+
+
+@st.composite
+def user_specs(draw) -> dict[str, Any]:
+    """A valid spec as a user writes it, in every form the format allows for the robot's
+    magnetization, its moduli, its section and its task."""
+    spec = copy.deepcopy(BASE)
+    robot = spec["robot"]
+    robot["n_elements"] = draw(st.sampled_from([16, 24, 32]))
+    robot["magnetization"] = draw(magnetizations(robot["n_elements"]))
+    if draw(st.booleans()):
+        robot["poisson_ratio"] = draw(st.floats(0.3, 0.499))
+    else:
+        robot["shear_modulus"] = robot["youngs_modulus"] / draw(st.floats(2.6, 3.0))
+    if draw(st.booleans()):
+        del robot["width"], robot["thickness"]
+        robot["radius"] = 0.0005
+    if draw(st.booleans()):
+        spec["task"] = {"kind": "reach", "target": 0.01, "tolerance": 0.001}
+    return spec
