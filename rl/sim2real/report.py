@@ -24,13 +24,20 @@ def _mm(distance: float | None, fraction: float | None = None) -> str:
 
 def robustness_table(report: dict[str, Any]) -> str:
     """The report as text: one line per variant (distance in mm and, in brackets, the fraction of
-    the yardstick), then per mode the nominal, worst and 10th-percentile distance."""
+    the yardstick where the run is comparable with it, 10 s of the accurate physics), then per
+    mode the nominal, worst and 10th-percentile distance (and, in another physics or duration,
+    the worst and 10th percentile as fractions of the nominal robot in the same physics)."""
     modes = [m for m in _MODE_NAMES if m in report["summary"]]
     width = max(len(v["label"]) for v in report["variants"])
     yard = report["yardstick_m"]
+    comparable = report.get("yardstick_comparable", True)
     lines = [f"{report['case']}: {report['waveform']}",
              f"{report['physics']} physics, {report['duration_s']:g} s; yardstick "
-             + (f"{1e3 * yard:.1f} mm in 10 s (accurate physics)" if yard else "none"), ""]
+             + (f"{1e3 * yard:.1f} mm in 10 s (accurate physics)" if yard else "none")
+             + ("" if comparable or not yard else
+                f": not comparable with {report['duration_s']:g} s of the {report['physics']} "
+                "physics, so no percentage of it is given (run --physics accurate --duration 10 "
+                "for those; below: percentages of the nominal robot, same physics)"), ""]
     lines.append(f"{'variant':<{width}}  " + "  ".join(f"{_MODE_NAMES[m]:>18}" for m in modes))
     for v in report["variants"]:
         cells = [_mm(v[m]["distance_m"], v[m]["fraction_of_yardstick"]) for m in modes]
@@ -38,9 +45,14 @@ def robustness_table(report: dict[str, Any]) -> str:
     lines.append("")
     for m in modes:
         s = report["summary"][m]
+        worst, p10 = s["worst_fraction"], s["p10_fraction"]
+        if not comparable:  # fractions of the nominal robot in the same physics
+            worst, p10 = s.get("worst_of_nominal"), s.get("p10_of_nominal")
+        of = "" if comparable else " of nominal"
         lines.append(f"{_MODE_NAMES[m]}: nominal {_mm(s['nominal_m'], s['nominal_fraction'])}, worst "
-                     f"{_mm(s['worst_m'], s['worst_fraction'])} ({s['worst_variant']}), 10th "
-                     f"percentile {_mm(s['p10_m'], s['p10_fraction'])}"
+                     f"{_mm(s['worst_m'], worst)}{of if worst is not None else ''} "
+                     f"({s['worst_variant']}), 10th percentile {_mm(s['p10_m'], p10)}"
+                     f"{of if p10 is not None else ''}"
                      + (f", {len(s['diverged'])} diverged" if s["diverged"] else ""))
     return "\n".join(lines)
 
@@ -85,7 +97,7 @@ def plot_robustness(report: dict[str, Any], path: str | Path) -> Path:
                 xs, ys = zip(*line, strict=True)
                 ax.plot(xs, 1e3 * np.array(ys), color=colour, marker=marker, ms=6, lw=1.8,
                         label=_MODE_NAMES[mode])
-        if yard and abs(report["duration_s"] - 10.0) < 1e-9:  # the yardstick is a 10 s distance
+        if yard and report.get("yardstick_comparable", abs(report["duration_s"] - 10.0) < 1e-9):
             ax.axhline(1e3 * yard, color="0.3", ls="--", lw=1, label=f"yardstick {1e3 * yard:.1f} mm")
             ax.axhline(0.8 * 1e3 * yard, color="0.5", ls=":", lw=1, label="80 % of it")
         ax.axvline(nominal[name], color="0.8", lw=0.8, zorder=0)

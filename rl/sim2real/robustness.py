@@ -238,13 +238,24 @@ def _fraction(distance: float | None, yardstick: float) -> float | None:
     return None if distance is None or yardstick <= 0.0 else distance / yardstick
 
 
+def yardstick_comparable(physics: str, duration: float) -> bool:
+    """Whether a distance is comparable with the yardstick: the yardstick is a 10 s distance in
+    the accurate physics (the training physics moves the robot otherwise: its heavier, slower
+    robot and larger time step)."""
+    return physics == "accurate" and abs(duration - 10.0) < 1e-9
+
+
 def summarize(plan: RobustnessPlan, jobs: list[dict[str, Any]], results: list[dict[str, Any]],
               wall_s: float, workers: int) -> dict[str, Any]:
     """The report: each variant's settings, spec values and per-mode result (distance in m, its
     fraction of the yardstick, divergence), and per mode the nominal, worst and 10th-percentile
-    distance (over the variants that did not diverge) with their fractions."""
+    distance (over the variants that did not diverge) with their fractions: of the yardstick
+    (``*_fraction``) only where the run is comparable with it (:func:`yardstick_comparable`: 10 s
+    of the accurate physics; ``None`` otherwise), and of the nominal robot in the same physics
+    (``*_of_nominal``) always."""
     spec = plan.case.to_dict()
-    yardstick = float(plan.case.yardstick.distance_10s)
+    comparable = yardstick_comparable(plan.physics, plan.duration)
+    yardstick = float(plan.case.yardstick.distance_10s) if comparable else 0.0
     variants = [{"label": v.label, "kind": v.kind, "settings": dict(v.settings),
                  "values": variant_values(plan.variations, v, spec)} for v in plan.variants]
     for job, result in zip(jobs, results, strict=True):
@@ -261,12 +272,15 @@ def summarize(plan: RobustnessPlan, jobs: list[dict[str, Any]], results: list[di
         worst = min(done, key=lambda item: item[1]) if done else (None, None)
         p10 = float(np.percentile(distances, PERCENTILE)) if done else None
         nominal = runs[0][1]["distance_m"]
+        reference = nominal if nominal is not None and nominal > 0.0 else 0.0
         summary[mode] = {
             "nominal_m": nominal, "worst_m": worst[1], "worst_variant": worst[0],
             "p10_m": p10, "best_m": float(distances.max()) if done else None,
             "nominal_fraction": _fraction(nominal, yardstick),
             "worst_fraction": _fraction(worst[1], yardstick),
             "p10_fraction": _fraction(p10, yardstick),
+            "worst_of_nominal": _fraction(worst[1], reference),
+            "p10_of_nominal": _fraction(p10, reference),
             "runs": len(runs), "diverged": [label for label, r in runs if r["distance_m"] is None],
         }
     return {
@@ -277,7 +291,8 @@ def summarize(plan: RobustnessPlan, jobs: list[dict[str, Any]], results: list[di
         "waveform": plan.waveform,
         "physics": plan.physics,
         "duration_s": plan.duration,
-        "yardstick_m": yardstick or None,
+        "yardstick_m": float(plan.case.yardstick.distance_10s) or None,
+        "yardstick_comparable": comparable,
         "yardstick_note": plan.case.yardstick.source or None,
         "variations": [v.to_dict() for v in plan.variations],
         "design": plan.design,
