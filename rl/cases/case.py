@@ -211,11 +211,14 @@ class Case:
             "yardstick": dataclasses.asdict(self.yardstick),
         })
 
-    def toml(self) -> str:
+    def toml(self, *, with_name: bool = False) -> str:
         """The complete spec as TOML with units in comments, every default written out: a file to
-        copy and edit. ``name`` is left out: a case from a file is named after the file."""
+        copy and edit. ``name`` is left out (a case from a file is named after the file) unless
+        ``with_name``: a copy of this very case under another file name (its runs, policies and
+        results keep the case's name)."""
         data = self.to_dict()
-        del data["name"]
+        if not with_name:
+            del data["name"]
         header = (f"# Case spec, from the case {self.name!r}. SI units (m, kg, s, Pa, A/m, T).\n"
                   "# The case is named after this file (my.toml -> my) unless you set name = \"...\".\n"
                   "# Every key is described in the package's docs (Spec files).\n")

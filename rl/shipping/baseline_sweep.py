@@ -183,5 +183,7 @@ def yardstick_spec(case: Case, best: dict[str, Any], path: str | Path, *,
     }
     copy = case_from_dict(spec, str(path), default_name=case.name)
     with result_file(path, force=force, option="--set-yardstick") as written:
-        atomic_write_text(written.path, copy.toml())
+        # a name the spec set itself (not its file's) is kept: the copy is the same case
+        named = case.name != Path(case.source).stem
+        atomic_write_text(written.path, copy.toml(with_name=named))
     return written.final

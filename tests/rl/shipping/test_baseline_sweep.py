@@ -66,6 +66,11 @@ def test_set_yardstick_writes_a_spec_copy(tmp_path, capsys):
     copy = load_case(path)
     assert copy.yardstick.distance_10s == 0.0421 and "period 3 s" in copy.yardstick.source
     assert copy.robot.tables == case.robot.tables and copy.name == "mine"
+    # a spec that names itself keeps its name in the copy (it was dropped)
+    own = tmp_path / "own.toml"
+    own.write_text('name = "crawler"\n' + case.toml())
+    named = yardstick_spec(load_case(own), best, tmp_path / "own-yardstick.toml")
+    assert load_case(named).name == "crawler"
     # the yardstick is the accurate physics' 10 s: a quick sweep cannot set it
     assert msr(["baseline", "--case", "m1-4mT", "--set-yardstick", str(tmp_path / "x.toml"),
                 *QUICK]) == 2
