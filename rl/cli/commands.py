@@ -161,7 +161,9 @@ def _add_baseline_command(sub: argparse._SubParsersAction) -> None:
                    help="s per turn of the field; without it, a sweep of --periods in both "
                         "directions, the farthest one's files written")
     p.add_argument("--counterclockwise", action="store_true",
-                   help="turn counter-clockwise (rolls towards -x; with --period)")
+                   help="turn the field counter-clockwise in the x-y plane, seen from +z (with "
+                   "--period; default clockwise). Which way the robot then moves depends on its "
+                   "magnetization: the paper's robots roll towards -x; the sweep tries both")
     p.add_argument("--periods", type=str, default=None, metavar="P1,P2,...",
                    help="the sweep's periods, s (default 0.5,0.75,1,1.5,2,2.5,3,4,5,6)")
     p.add_argument("--workers", type=number("", 1, integer=True), default=None,

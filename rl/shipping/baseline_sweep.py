@@ -121,9 +121,17 @@ def sweep_baseline(
         result = {"case": case.name, "physics": physics, "duration_s": duration,
                   "initial_field": "zero", "runs": runs, "best": best, "table_csv": str(table),
                   "figure": str(figure) if figure else None, "generate": generated}
-        result = json.loads(json.dumps(result, default=str).replace(str(folder.path), str(folder.final)))
+        result = _final_paths(result, folder)
         atomic_write_json(folder.path / "sweep.json", result)
+        # generate wrote its generate.json naming this temporary folder: name where it will be
+        generate_json = folder.path / "generate.json"
+        atomic_write_json(generate_json, _final_paths(json.loads(generate_json.read_text()), folder))
     return result
+
+
+def _final_paths(data: Any, folder: Any) -> Any:
+    """``data`` with the paths under the result's temporary folder replaced by where they will be."""
+    return json.loads(json.dumps(data, default=str).replace(str(folder.path), str(folder.final)))
 
 
 def _write_table(path: Path, runs: list[dict[str, Any]]) -> Path:

@@ -36,6 +36,9 @@ def test_the_sweep_picks_the_farthest_of_the_single_runs(tmp_path, capsys):
     with open(sweep["table_csv"]) as f:
         assert len(list(csv.DictReader(f))) == 4
     assert Path(tmp_path / "sweep" / "fields.csv").is_file()
+    # generate.json names the files where they are, not the sweep's temporary folder
+    text = (tmp_path / "sweep" / "generate.json").read_text()
+    assert ".msr-new-" not in text and str(tmp_path / "sweep" / "fields.csv") in text
 
 
 def test_single_period_reports_the_period_achieved(tmp_path, capsys):
