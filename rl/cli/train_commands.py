@@ -158,14 +158,19 @@ def _add_refine_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--checkpoint", default="auto", metavar="auto|final|best|PATH",
                    help=CHECKPOINT_HELP + " (evaluated for 10 s); best.pt's networks continue with "
                    "the run's replay buffer and optimisers")
-    p.add_argument("--steps", type=int, default=1000)
+    p.add_argument("--steps", type=int, default=None,
+                   help="environment steps of the refinement (default 1000; --resume: its own, "
+                        "counted from where it started)")
     p.add_argument("--out", type=output_path, default=None, help="default: RUN/refined")
-    p.add_argument("--resume", action="store_true", help="continue an interrupted refinement")
+    p.add_argument("--resume", action="store_true",
+                   help="continue an interrupted refinement as its run.json records it (robot, "
+                        "--spec, --randomize, --physics, --episode-duration); options that "
+                        "contradict the record are refused")
     p.add_argument("--spec", type=Path, default=None,
                    help="train on this spec's robot: the run's robot with other physical values "
                         "(e.g. msr identify's identified.toml), randomized by its "
                         "[training.randomize] if it has one; recorded in run.json")
-    p.add_argument("--physics", choices=("accurate", "training"), default="accurate",
+    p.add_argument("--physics", choices=("accurate", "training"), default=None,
                    help="physics of the refinement's episodes (default accurate; training: the "
                         "mass-scaled physics the run trained in, 12.5x cheaper)")
     p.add_argument("--randomize", choices=RANDOMIZE_CHOICES, default=None,
@@ -174,7 +179,8 @@ def _add_refine_command(sub: argparse._SubParsersAction) -> None:
                         "friction +-25 %%, density +-10 %%), none: the nominal robot (default: the "
                         "--spec's [training.randomize], else the run's setting; one that "
                         "disagrees with the spec's table is refused); recorded in run.json")
-    p.add_argument("--episode-duration", type=float, default=20.0, help="s (truncation)")
+    p.add_argument("--episode-duration", type=float, default=None,
+                   help="s (truncation; default 20, at least one 0.01 s control step)")
     p.add_argument("--device", choices=("cpu", "cuda"), default=None,
                    help="where the networks train (default: the run's)")
     p.add_argument("--no-progress", action="store_true")
@@ -207,11 +213,6 @@ def _overrides(args: argparse.Namespace) -> dict:
             raise CommandError(f"--updates-per-step must be a finite number > 0 (updates per "
                                f"transition), got {ratio}")
         out["updates_per_step"] = ratio
-    if args.device == "cuda":
-        import torch
-
-        if not torch.cuda.is_available():
-            raise CommandError("--device cuda: no CUDA device is available to this torch build")
     return out
 
 
@@ -227,10 +228,9 @@ def _widths(option: str, text: str) -> tuple[int, ...]:
 
 
 def _check_run_options(args: argparse.Namespace) -> None:
-    """Numeric options of train/refine, checked at parse time (finite, in range, with the unit)."""
-    duration = args.episode_duration
-    if duration is not None and not (math.isfinite(duration) and 0 < duration <= 3600):
-        raise CommandError(f"--episode-duration must be a finite duration in (0, 3600] s, got {duration}")
+    """Numeric options of train/refine, checked at parse time (finite, in range, with the unit),
+    and ``--device`` (one this PyTorch has)."""
+    _check_episode_duration(args.episode_duration)
     if args.steps is not None and args.steps < 1:
         raise CommandError(f"--steps must be >= 1, got {args.steps}")
     for name in ("seeds", "workers", "threads", "envs", "seeds_per_simulator"):
@@ -239,6 +239,39 @@ def _check_run_options(args: argparse.Namespace) -> None:
             raise CommandError(f"--{name.replace('_', '-')} must be >= 1, got {value}")
     if getattr(args, "seed_offset", 0) < 0:
         raise CommandError(f"--seed-offset must be >= 0, got {args.seed_offset}")
+    if args.device is not None:
+        _check_device(args.device)
+
+
+#: The longest ``--episode-duration`` (s) train and refine take.
+MAX_EPISODE_DURATION_S = 3600.0
+
+
+def _check_episode_duration(duration: float | None) -> None:
+    """``--episode-duration`` (s): finite, at least one control step (an episode with no action
+    fails only after start-up, with a run folder written) and at most an hour."""
+    from elastica_magnetic.robot_spec import ACTION_PERIOD
+
+    if duration is None:
+        return
+    if not (math.isfinite(duration) and 0 < duration <= MAX_EPISODE_DURATION_S):
+        raise CommandError(f"--episode-duration must be a finite duration in [{ACTION_PERIOD:g}, "
+                           f"{MAX_EPISODE_DURATION_S:g}] s, got {duration}")
+    if duration < ACTION_PERIOD:
+        raise CommandError(f"--episode-duration {duration:g} s is shorter than one control step "
+                           f"({ACTION_PERIOD:g} s, {1 / ACTION_PERIOD:g} Hz): an episode needs at "
+                           f"least one action; give a duration in [{ACTION_PERIOD:g}, "
+                           f"{MAX_EPISODE_DURATION_S:g}] s")
+
+
+def _check_device(device: str) -> None:
+    """``--device``: refused unless this PyTorch can put the networks there (a CPU build has no
+    CUDA), before any run folder is made."""
+    from ..td3.devices import device_problem
+
+    problem = device_problem(device)
+    if problem is not None:
+        raise CommandError(f"--device {device}: {problem}; use --device cpu")
 
 
 def _interrupted(folders: str) -> int:
@@ -301,15 +334,20 @@ REFINE_CHOICE_DURATION = 10.0
 
 def refine_command(args: argparse.Namespace) -> int:
     from ..shipping.policy_runs import CHECKPOINT_CHOICES, choose_actor
-    from ..sweep.refine import check_refined_case, refine
+    from ..sweep.refine import DEFAULT_STEPS, check_refined_case, refine
     from ..sweep.refine_start import check_refine_output, default_refine_output
 
     _check_run_options(args)
     try:  # the output, --spec and --randomize are checked before the actors' 10 s evaluations
         source = args.run if args.checkpoint in CHECKPOINT_CHOICES else Path(args.checkpoint)
         check_refine_output(args.out or default_refine_output(source), args.resume)
-        check_refined_case(source, args.steps, args.spec, args.randomize)
-        choice = choose_actor(args.run, args.checkpoint, REFINE_CHOICE_DURATION, not args.no_progress)
+        if args.resume:  # continues its own checkpoint: no actor to choose (refine checks the record)
+            choice = None if args.checkpoint == "auto" else choose_actor(args.run, args.checkpoint)
+        else:
+            check_refined_case(source, args.steps or DEFAULT_STEPS, args.spec, args.randomize,
+                               args.device)
+            choice = choose_actor(args.run, args.checkpoint, REFINE_CHOICE_DURATION,
+                                  not args.no_progress)
         result = refine(choice.path if choice else args.run, steps=args.steps, out=args.out,
                         resume=args.resume, progress=not args.no_progress,
                         episode_duration=args.episode_duration, device=args.device,
@@ -318,7 +356,7 @@ def refine_command(args: argparse.Namespace) -> int:
         raise CommandError(str(exc)) from None
     except KeyboardInterrupt:
         return _interrupted(str(args.out or RunDir(args.run).refined.path))
-    if choice is not None:
+    if choice is not None and not args.resume:
         result = {**result, "actor_choice": {**choice.to_dict(), "summary": choice.describe()}}
     print_rollout_result(result, args.json)
     return 0

@@ -27,6 +27,7 @@ import numpy as np
 import torch
 
 from elastica_magnetic.io import atomic_save
+from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..runfiles.checkpoint import load_checkpoint, refuse_networks_only
 from ..td3.algorithm import SATURATION_PREACTIVATION
@@ -50,13 +51,9 @@ def discounted_returns(rewards: np.ndarray, terminated: np.ndarray, ends: np.nda
                        gamma: float) -> tuple[np.ndarray, np.ndarray]:
     """Monte-Carlo discounted returns ``G_t = r_t + gamma G_{t+1}`` within each episode, ``(T,)``,
     and ``(T,)`` bool ``complete``: ``G_t`` misses less than 1 % of the discount weight (the
-    episode terminated, or ends at least ``H`` steps later with ``gamma^H < 0.01``)."""
-    if gamma <= 0.0:
-        horizon = 1.0
-    elif gamma >= 1.0:
-        horizon = math.inf
-    else:
-        horizon = math.ceil(math.log(0.01) / math.log(gamma))
+    episode terminated, or ends at least ``H`` steps later with ``gamma^H < 0.01``:
+    :func:`discount_horizon`)."""
+    horizon = discount_horizon(gamma)
     n = len(rewards)
     returns = np.zeros(n, dtype=np.float64)
     complete = np.zeros(n, dtype=bool)
@@ -69,6 +66,16 @@ def discounted_returns(rewards: np.ndarray, terminated: np.ndarray, ends: np.nda
         returns[t] = g
         complete[t] = exact or to_end >= horizon
     return returns, complete
+
+
+def discount_horizon(gamma: float) -> float:
+    """The steps ``H`` a discounted return needs to miss less than 1 % of its weight
+    (``gamma^H < 0.01``): 1 for ``gamma <= 0``, ``inf`` for ``gamma >= 1``."""
+    if gamma <= 0.0:
+        return 1.0
+    if gamma >= 1.0:
+        return math.inf
+    return float(math.ceil(math.log(0.01) / math.log(gamma)))
 
 
 def interleave_stride(obs: np.ndarray, next_obs: np.ndarray, most: int = 64) -> int:
@@ -122,8 +129,8 @@ def run_health(run: str | os.PathLike, recent: int = 20_000) -> dict[str, Any]:
     pre, q_data, q_policy = _critic_and_actor_outputs(actor, critic, data, start)
     saturated = (pre.abs() > SATURATION_PREACTIVATION).numpy()
     if not c.any():
-        raise ValueError(f"{run}: no recent transition has a complete discounted return "
-                         f"(episodes shorter than the discount horizon); use a larger --recent")
+        raise ValueError(_no_complete_return(run, c_all, start, gamma, _longest_episode(data, envs),
+                                             ckpt.get("metadata") or {}))
     q_mean, g_mean, g_std = float(q_data[c].mean()), float(g[c].mean()), float(g[c].std())
     gap = q_mean - g_mean
     meta = ckpt.get("metadata") or {}
@@ -185,6 +192,45 @@ def _interleaved_returns(data: dict[str, np.ndarray], envs: int,
         rows.append(idx)
     order = np.argsort(np.concatenate(rows))
     return np.concatenate(returns)[order], np.concatenate(complete)[order]
+
+
+def _longest_episode(data: dict[str, np.ndarray], envs: int) -> int:
+    """Transitions in the longest episode the buffer holds (of any of its ``envs`` interleaved
+    sub-environments; the first and last may be cut by the buffer's ends)."""
+    longest, total = 1, len(data["rewards"])
+    for j in range(envs):
+        idx = np.arange(j, total, envs)
+        ends = np.flatnonzero(episode_ends(data["obs"][idx], data["next_obs"][idx]))
+        longest = max(longest, int(np.diff(ends, prepend=-1).max()))
+    return longest
+
+
+def _steps(n: float) -> str:
+    """``n`` transitions and their time at one control step each (the crawler's)."""
+    if math.isinf(n):
+        return "infinite (gamma 1)"
+    return f"{int(n)} steps, {n * ACTION_PERIOD:g} s"
+
+
+def _no_complete_return(run: str | os.PathLike, complete: np.ndarray, start: int, gamma: float,
+                        longest: int, meta: dict[str, Any]) -> str:
+    """Why no transition from ``start`` on has a complete discounted return (``complete``: every
+    stored transition's), with the change that would give one: a larger ``--recent`` when older
+    transitions have one, else longer training episodes (no ``--recent`` can help)."""
+    total, horizon = len(complete), discount_horizon(gamma)
+    if complete.any():
+        needed = total - int(np.flatnonzero(complete)[-1])
+        return (f"{run}: none of the last {total - start} of its {total} transitions has a "
+                f"complete discounted return (the discount horizon is {_steps(horizon)}, gamma "
+                f"{gamma:g}: gamma^H < 0.01); give --recent {needed} or more")
+    where = f"the discount horizon of {_steps(horizon)} (gamma {gamma:g}: gamma^H < 0.01)"
+    duration = meta.get("episode_duration_s")
+    length = f"longest stored: {_steps(longest)}" + (
+        f"; the run's episode length {duration:g} s" if isinstance(duration, (int, float)) else "")
+    return (f"{run}: none of its {total} transitions has a complete discounted return: its "
+            f"episodes ({length}) are shorter than {where}; a larger --recent cannot help: train "
+            f"with episodes of at least {_steps(horizon)} (msr train --episode-duration, or the "
+            "spec's [task] episode_duration) to compare the critic with returns")
 
 
 def _critic_and_actor_outputs(actor: Any, critic: Any, data: dict[str, np.ndarray],

@@ -21,6 +21,7 @@ from ..runfiles.locking import held_run_folders, mark_run_folder
 from ..runfiles.provenance import versions
 from ..runfiles.rundir import CaseDir, RunDir
 from .randomize_settings import randomized_cases
+from .refine_resume import resumed_refinement
 from .refine_start import check_refine_output, default_refine_output, refine_source, starting_file
 from .run_records import run_metadata
 from .summaries import summarize_run
@@ -28,23 +29,32 @@ from .summaries import summarize_run
 if TYPE_CHECKING:  # torch is imported only when a refinement runs
     from ..td3.algorithm import TD3Config
 
-__all__ = ["check_refined_case", "refine"]
+__all__ = ["DEFAULT_EPISODE_DURATION", "DEFAULT_PHYSICS", "DEFAULT_STEPS", "check_refined_case",
+           "refine"]
+
+
+#: A new refinement's environment steps, physics and episode length (s) when not given (a resume
+#: takes its own record's).
+DEFAULT_STEPS = 1000
+DEFAULT_PHYSICS = "accurate"
+DEFAULT_EPISODE_DURATION = 20.0
 
 
 def refine(
     run: str | Path,
-    steps: int = 1000,
+    steps: int | None = None,
     out: str | Path | None = None,
     resume: bool = False,
     progress: bool = True,
-    episode_duration: float = 20.0,
-    physics: str = "accurate",
+    episode_duration: float | None = None,
+    physics: str | None = None,
     device: str | None = None,
     spec: str | Path | None = None,
     randomize: str | None = None,
 ) -> dict[str, Any]:
-    """Continue training a run for ``steps`` more environment steps in ``physics`` (``"accurate"``,
-    default, or ``"training"``) on ``device`` (default the run's).
+    """Continue training a run for ``steps`` more environment steps (default
+    :data:`DEFAULT_STEPS`) in ``physics`` (``"accurate"``, default, or ``"training"``) on
+    ``device`` (default the run's), episodes of ``episode_duration`` s (default 20).
 
     ``run``: a run folder or its ``checkpoint.pt``, whose final actor is refined, or its ``best.pt``
     (:func:`~elastica_magnetic_rl.sweep.refine_start.refine_source`: best.pt's networks, the rest of
@@ -55,7 +65,10 @@ def refine(
     gradually displaced by accurate ones. Episodes keep the training setting (random initial
     field, 20 s). The refined run goes to ``out`` (default ``RUN/refined``) with its own
     ``episodes.csv``, TensorBoard scalars, ``checkpoint.pt`` and ``run.json``; ``resume``
-    continues an interrupted refinement.
+    continues an interrupted refinement as its ``run.json`` records it (robot, randomization,
+    physics, episode length, provenance; ``steps`` counted from its start, default its own): an
+    option given that contradicts the record is refused, and so is a resume at its target
+    (:mod:`~elastica_magnetic_rl.sweep.refine_resume`).
 
     ``spec``: a spec file (or shipped case) of the same robot with other physical values (e.g.
     the ``identified.toml`` of ``msr identify``): the refinement trains on that robot. Anything
@@ -75,45 +88,117 @@ def refine(
 
     Cost: one accurate step is 1250 substeps (~0.1 s here), 12.5x a training step.
     """
-    from ..td3.algorithm import TD3Config
-
-    if steps < 1:
+    if steps is not None and steps < 1:
         raise ValueError("steps must be >= 1")
     source = RunDir.checkpoint_of(run)
+    out = RunDir(out if out is not None else default_refine_output(source))
+    check_refine_output(out.path, resume)
+    if resume:
+        return _resume_refinement(run, source, out, steps, physics, episode_duration, device,
+                                  spec, randomize, progress)
     ckpt, start = refine_source(source)
     meta = checkpoint_metadata(ckpt, start["state_from"])
     case, changes = _refined_case(case_from_metadata(meta, str(source)), spec, randomize)
-    out = RunDir(out if out is not None else default_refine_output(source))
+    physics = physics or DEFAULT_PHYSICS
+    duration = DEFAULT_EPISODE_DURATION if episode_duration is None else episode_duration
+    steps = DEFAULT_STEPS if steps is None else int(steps)
     start_step = int(ckpt["global_step"])
-    config = TD3Config.from_dict(ckpt["config"])
-    if device is not None:
-        config.device = device
+    config = _refinement_config(ckpt, device, source)
     _check_refinement_learns(ckpt, source, steps)
     metadata = run_metadata(
-        case, physics, episode_duration, config.seed, command="refine",
-        refined_from=str(source), refine_start_step=start_step, refine_steps=int(steps),
+        case, physics, duration, config.seed, command="refine",
+        refined_from=str(source), refine_start_step=start_step, refine_steps=steps,
         training_steps=int(meta.get("training_steps", start_step)), refined_actor=start["actor"],
         refined_actor_step=start["actor_step"], **changes,
     )
-    check_refine_output(out.path, resume)
     begin = time.perf_counter()
-    _train_refinement(case, ckpt, start, out, config, metadata, start_step + int(steps),
-                      physics=physics, episode_duration=episode_duration, resume=resume,
+    _train_refinement(case, (ckpt, start), out, config, metadata, start_step + steps,
                       progress=progress)
+    return _refinement_result(case, out, metadata, begin)
+
+
+def _resume_refinement(run: str | Path, source: Path, out: RunDir, steps: int | None,
+                       physics: str | None, episode_duration: float | None, device: str | None,
+                       spec: str | Path | None, randomize: str | None,
+                       progress: bool) -> dict[str, Any]:
+    """:func:`refine` with ``resume``: the refinement in ``out`` continued as its ``run.json``
+    records it, after the checks of
+    :func:`~elastica_magnetic_rl.sweep.refine_resume.resumed_refinement` (nothing is written
+    before them)."""
+    from ..runfiles.checkpoint import load_checkpoint
+
+    spec_case = None
+    if spec is not None:  # the case the --spec makes from the run's, to compare with the record
+        source_ckpt = load_checkpoint(source, with_buffer=False)
+        source_case = case_from_metadata(checkpoint_metadata(source_ckpt, source), str(source))
+        options = f"--spec {spec}" + (f" --randomize {randomize}" if randomize else "")
+        spec_case = (options, _refined_case(source_case, spec, randomize)[0])
+    plan = resumed_refinement(out, run, steps=steps, physics=physics,
+                              episode_duration=episode_duration, randomize=randomize,
+                              spec_case=spec_case)
+    config = _resumed_config(out, device)
+    begin = time.perf_counter()
+    _train_refinement(plan.case, None, out, config, plan.metadata, plan.total, progress=progress)
+    return _refinement_result(plan.case, out, plan.metadata, begin)
+
+
+def _resumed_config(out: RunDir, device: str | None) -> TD3Config:
+    """The TD3 settings of the refinement in ``out``, resumed on its checkpoint's device (the
+    runner keeps it): a ``device`` given that differs, or one this PyTorch lacks, is refused
+    (``ValueError``) before any work."""
+    from ..runfiles.checkpoint import load_checkpoint
+    from ..td3.algorithm import TD3Config
+    from ..td3.devices import device_problem
+
+    config = TD3Config.from_dict(load_checkpoint(out.checkpoint, with_buffer=False)["config"])
+    if device is not None and device != config.device:
+        raise ValueError(f"cannot resume the refinement in {out.path} on --device {device}: it "
+                         f"trains on {config.device!r} (a resume keeps its checkpoint's device); "
+                         "drop --device, or refine into another --out")
+    problem = device_problem(config.device)
+    if problem is not None:
+        raise ValueError(f"cannot resume the refinement in {out.path} here: it trains on "
+                         f"{config.device!r} and {problem} (a resume keeps its checkpoint's "
+                         "device); resume it where PyTorch has that device")
+    return config
+
+
+def _refinement_config(ckpt: dict[str, Any], device: str | None, source: str | Path) -> TD3Config:
+    """The TD3 settings a refinement continues with: ``ckpt``'s, on ``device`` when given,
+    refused (``ValueError``) before any work when this PyTorch has no such device (a run trained
+    on a GPU, refined on a machine without one)."""
+    from ..td3.algorithm import TD3Config
+    from ..td3.devices import device_problem
+
+    config = TD3Config.from_dict(ckpt["config"])
+    if device is not None:
+        config.device = device
+    problem = device_problem(config.device)
+    if problem is not None:
+        given = f"--device {device}" if device is not None else \
+            f"{source} trained on device {config.device!r}"
+        raise ValueError(f"{given}: {problem}; use --device cpu")
+    return config
+
+
+def _refinement_result(case: Case, out: RunDir, metadata: dict[str, Any],
+                       begin: float) -> dict[str, Any]:
+    """What :func:`refine` returns: the refinement's provenance and its episodes' summary."""
     summary = summarize_run(out.path, reward_scale=case.task.reward_scale)
-    return {"case": case.name, "source": str(source), "run_dir": str(out.path),
-            "checkpoint": str(out.checkpoint), "start_step": start_step, "steps": int(steps),
-            "actor": start["actor"], "actor_step": start["actor_step"],
-            "physics": physics, **{k: summary[k] for k in ("episodes", "final_mean_return")},
+    return {"case": case.name, "source": metadata["refined_from"], "run_dir": str(out.path),
+            "checkpoint": str(out.checkpoint), "start_step": metadata["refine_start_step"],
+            "steps": metadata["refine_steps"], "actor": metadata["refined_actor"],
+            "actor_step": metadata["refined_actor_step"], "physics": metadata["physics"],
+            **{k: summary[k] for k in ("episodes", "final_mean_return")},
             "wall_s": time.perf_counter() - begin}
 
 
 def check_refined_case(source: str | Path, steps: int, spec: str | Path | None,
-                       randomize: str | None) -> None:
+                       randomize: str | None, device: str | None = None) -> None:
     """Check a refinement of ``source`` (a run folder or one of its checkpoint files) for
-    ``steps`` more steps on ``spec`` with ``randomize`` before any work (the command line's
-    evaluations that choose the actor take a minute): ``ValueError`` naming the key or the
-    setting, as :func:`refine` would raise it."""
+    ``steps`` more steps on ``spec`` with ``randomize`` on ``device`` (default the run's) before
+    any work (the command line's evaluations that choose the actor take a minute): ``ValueError``
+    naming the key or the setting, as :func:`refine` would raise it."""
     from ..runfiles.checkpoint import load_checkpoint
 
     path = RunDir.checkpoint_of(source)
@@ -125,6 +210,7 @@ def check_refined_case(source: str | Path, steps: int, spec: str | Path | None,
         ckpt, path = load_checkpoint(state, with_buffer=False), state
     if "config" in ckpt and "global_step" in ckpt:
         _check_refinement_learns(ckpt, path, steps)
+        _refinement_config(ckpt, device, path)
 
 
 def _check_refinement_learns(ckpt: dict[str, Any], source: str | Path, steps: int) -> None:
@@ -151,11 +237,13 @@ def _refined_case(case: Case, spec: str | Path | None, randomize: str | None
     return case, changes
 
 
-def _train_refinement(case: Case, ckpt: dict[str, Any], start: dict[str, Any], out: RunDir,
-                      config: TD3Config, metadata: dict[str, Any], total: int, *, physics: str,
-                      episode_duration: float, resume: bool, progress: bool) -> None:
-    """Train ``out`` to ``total`` steps from ``ckpt`` under the run-folder lock, its ``run.json``
-    written first (a killed refinement leaves a folder that ``resume`` continues)."""
+def _train_refinement(case: Case, start: tuple[dict[str, Any], dict[str, Any]] | None,
+                      out: RunDir, config: TD3Config, metadata: dict[str, Any], total: int, *,
+                      progress: bool) -> None:
+    """Train ``out`` to ``total`` steps under the run-folder lock, from ``start`` (the checkpoint
+    and provenance of :func:`refine_source`) or, with ``None``, resumed from ``out``'s own
+    checkpoint; its ``run.json`` written first (a killed refinement leaves a folder that
+    ``resume`` continues). Physics and episode length: ``metadata``'s."""
     from ..envs.vector_env import make_vector_env
     from ..runner.loop import train_seeds
 
@@ -165,13 +253,18 @@ def _train_refinement(case: Case, ckpt: dict[str, Any], start: dict[str, Any], o
         mark_run_folder(out.path, "refine", case.name)
         atomic_write_json(out.run_json, {**metadata, "steps": total, "config": config.to_dict(),
                                          "versions": versions()})
-        with starting_file(ckpt, start, out.path) as init_from:
-            train_seeds(functools.partial(make_vector_env, case, physics=physics,
-                                          initial_field="random", duration=episode_duration,
-                                          randomize=case.training.randomize),
-                        [config], total, [out.path], resume=resume, progress=progress,
-                        init_from=[init_from], metadata=[metadata],
-                        progress_desc=f"refine {case.name} {CaseDir.seed_name(config.seed)}")
+        env_fn = functools.partial(make_vector_env, case, physics=metadata["physics"],
+                                   initial_field="random", duration=metadata["episode_duration_s"],
+                                   randomize=case.training.randomize)
+        train = functools.partial(
+            train_seeds, env_fn, [config], total, [out.path], resume=start is None,
+            progress=progress, metadata=[metadata],
+            progress_desc=f"refine {case.name} {CaseDir.seed_name(config.seed)}")
+        if start is None:
+            train()
+        else:
+            with starting_file(*start, out.path) as init_from:
+                train(init_from=[init_from])
         mark_run_folder(out.path, "refine", case.name)
 
 

@@ -29,12 +29,17 @@ def default_refine_output(source: str | os.PathLike) -> Path:
 
 
 def check_refine_output(out: str | os.PathLike, resume: bool) -> None:
-    """Refuse ``out`` before anything runs: a folder of another command (a training run's) or, unless
-    ``resume``, one already holding a refined checkpoint. ``FileExistsError`` / ``ValueError``
-    naming it."""
+    """Refuse ``out`` before anything runs: a folder of another command (a training run's),
+    unless ``resume`` one already holding a refined checkpoint, and with ``resume`` one without
+    (nothing to continue). ``FileExistsError`` / ``FileNotFoundError`` / ``ValueError`` naming
+    it."""
     check_not_owned(out, "refine")  # never a training run's folder (its checkpoint, run.json)
-    if RunDir(out).checkpoint.exists() and not resume:
+    held = RunDir(out).checkpoint.exists()
+    if held and not resume:
         raise FileExistsError(f"{out} already holds a refined checkpoint (use --resume or --out)")
+    if resume and not held:
+        raise FileNotFoundError(f"cannot resume: {out} holds no refined {RunDir.CHECKPOINT} "
+                                "(drop --resume to start the refinement)")
 
 
 def refine_source(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, Any]]:

@@ -15,7 +15,7 @@ from ..cases.case import Case
 from ..runfiles.provenance import versions
 from ..runfiles.rundir import RunDir
 
-__all__ = ["check_resume_settings", "run_metadata", "write_run_json"]
+__all__ = ["check_resume_settings", "first_difference", "run_metadata", "write_run_json"]
 
 
 def run_metadata(case: Case, physics: str, duration: float, seed: int, **extra: Any) -> dict:
@@ -47,7 +47,7 @@ def check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
             run_spec, spec = _without_default_recipe(record[key]), _without_default_recipe(metadata[key])
             if run_spec != spec:
                 raise ValueError(f"the spec of case {metadata['case']!r} differs from the run's at "
-                                 f"{_first_difference(run_spec, spec)} ({run_json}): a resumed run "
+                                 f"{first_difference(run_spec, spec)} ({run_json}): a resumed run "
                                  "keeps its case")
         elif key in record and key in metadata and record[key] != metadata[key]:
             raise ValueError(f"{options[key]} {metadata[key]} differs from the run's {record[key]} "
@@ -63,12 +63,12 @@ def _without_default_recipe(spec: Any) -> Any:
     return {**spec, "training": {k: v for k, v in spec["training"].items() if k != "recipe"}}
 
 
-def _first_difference(a: Any, b: Any, path: str = "") -> str:
+def first_difference(a: Any, b: Any, path: str = "") -> str:
     """The first key (``[table] key``) where two spec dicts differ."""
     if isinstance(a, dict) and isinstance(b, dict):
         for key in sorted(set(a) | set(b)):
             if a.get(key) != b.get(key):
-                return _first_difference(a.get(key), b.get(key), f"{path}.{key}" if path else key)
+                return first_difference(a.get(key), b.get(key), f"{path}.{key}" if path else key)
     if "." in path:
         table, key = path.rsplit(".", 1)
         return f"[{table}] {key}"

@@ -122,3 +122,63 @@ def test_the_interleaving_of_a_vector_runs_buffer_is_found():
         assert interleave_stride(obs, next_obs) == n
         ends = episode_ends(obs[n - 1::n], next_obs[n - 1::n])
         assert ends.tolist() == [False] * 49 + [True]
+
+
+def _with_gamma(run, tmp_path, gamma: float, episode_duration_s: float):
+    """A copy of ``run`` whose config says ``gamma`` and whose record says its episode length."""
+    import shutil
+
+    copy = tmp_path / "regamma"
+    shutil.copytree(run, copy)
+    ckpt = torch.load(copy / "checkpoint.pt", weights_only=False)
+    ckpt["config"]["gamma"] = gamma
+    ckpt["metadata"] = {**(ckpt.get("metadata") or {}), "episode_duration_s": episode_duration_s}
+    save_checkpoint(copy / "checkpoint.pt", ckpt)
+    return copy
+
+
+def test_no_complete_return_names_the_horizon_the_episodes_and_a_fix_that_acts(
+        small_run, tmp_path, capsys):
+    """Tries p15/p15b (issue 48): "use a larger --recent" was the advice even when no --recent
+    could help (episodes shorter than the discount horizon). Now: the horizon (steps and s), the
+    episode length and the transition count, and the change that acts."""
+    # gamma 0.9: 44 steps; the last complete return is 44 rows before the end (row 356 of 400)
+    with pytest.raises(ValueError) as info:
+        run_health(small_run, recent=10)
+    assert str(info.value) == (
+        f"{small_run}: none of the last 10 of its 400 transitions has a complete discounted "
+        "return (the discount horizon is 44 steps, 0.44 s, gamma 0.9: gamma^H < 0.01); give "
+        "--recent 44 or more")
+    assert run_health(small_run, recent=44)["complete_returns"] == 1
+    # gamma 0.999: 4603 steps, the 100-step episodes can never give a complete return
+    short = _with_gamma(small_run, tmp_path, 0.999, 1.0)
+    capsys.readouterr()
+    assert msr(["diagnose", str(short), "--recent", "1000000"]) == 2
+    err = capsys.readouterr().err
+    assert (f"msr diagnose: error: {short}: none of its 400 transitions has a complete discounted "
+            "return: its episodes (longest stored: 100 steps, 1 s; the run's episode length 1 s) "
+            "are shorter than the discount horizon of 4603 steps, 46.03 s (gamma 0.999: gamma^H "
+            "< 0.01); a larger --recent cannot help: train with episodes of at least 4603 steps, "
+            "46.03 s (msr train --episode-duration, or the spec's [task] episode_duration)") in err
+    assert "use a larger --recent" not in err
+
+
+def test_diagnose_figures_interrupted_leave_the_earlier_ones(fault_server, small_run, tmp_path,
+                                                             capsys):
+    """Issue 48's fault-injection suite: the figures go in together or not at all, and an earlier
+    figure is replaced only with --force."""
+    import os
+
+    from faults import Fault
+
+    figures = tmp_path / "health"
+    figures.mkdir()
+    argv = ["diagnose", str(small_run), "--recent", "300", "--figure", str(figures)]
+    assert msr(argv) == 0
+    capsys.readouterr()
+    before = {p.name: p.read_bytes() for p in figures.iterdir()}
+    assert msr(argv) == 2 and "pass --force" in capsys.readouterr().err
+    done = fault_server.run([*argv, "--force"], Fault("open", r"\.msr-files-", "SIGINT", nth=1))
+    assert done.returncode == 130, done.stderr
+    assert {p.name: p.read_bytes() for p in figures.iterdir()} == before
+    assert sorted(os.listdir(tmp_path)) == ["health"]

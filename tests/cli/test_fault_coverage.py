@@ -1,0 +1,177 @@
+"""Every command that writes is in the fault-injection suite (issue 48), checked against the
+parser's own list: a new writing command fails :func:`test_every_writing_command_has_a_fault_test`
+until a test kills it while it writes. The result-folder writers not covered elsewhere are run here
+over an earlier result of theirs, in a real process (``tests/faults.py``), with SIGKILL at the
+first file of their temporary folder, then SIGINT, then a full disk: the earlier result survives
+byte for byte, nothing is left beside it, a file of the user's beside it is untouched.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+from pathlib import Path
+
+import numpy as np
+import pytest
+from faults import Fault
+
+from elastica_magnetic.cli import OUTPUT_TYPES, build_parser, main
+from elastica_magnetic.field_csv import write_field_csv
+
+pytestmark = pytest.mark.skipif(os.name != "posix", reason="fork and signals are POSIX")
+
+#: Writing command -> the fault-injection tests that cover it ("tests/PATH.py::FUNCTION").
+FAULT_TESTS: dict[str, tuple[str, ...]] = {
+    "replay": ("cli/test_commands_integrity.py::test_replay_over_another_robots_result_is_refused",),
+    "simulate": ("cli/test_commands_integrity.py::test_simulate_killed_then_the_next_run_recovers",
+                 "cli/test_commands_integrity.py::test_a_full_filesystem_keeps_the_old_result"),
+    "validate": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
+    "generate": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
+    "baseline": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
+    "demo": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
+    "robustness": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
+    "identify": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
+    "stream": ("cli/test_fault_coverage.py::test_stream_log_interrupted_keeps_the_old_log",),
+    "figures": ("cli/test_writer_faults.py::test_figures_interrupted_leave_the_earlier_figures",),
+    "seeds": ("cli/test_fault_coverage.py::test_seeds_figures_interrupted_leave_the_earlier_ones",),
+    "export-firmware": ("cli/test_writer_faults.py::test_killed_while_writing_then_the_next_run_cleans_up",
+                        "cli/test_writer_faults.py::test_interrupted_or_full_disk_keeps_the_old_result_whole"),
+    "calibrate": ("cli/test_writer_faults.py::test_killed_while_writing_then_the_next_run_cleans_up",),
+    "export": ("rl/shipping/test_command_faults.py::"
+               "test_export_killed_while_building_and_between_the_renames",
+               "rl/shipping/test_export_full_disk.py::test_export_on_a_full_disk_is_a_named_error"),
+    "export-seeds": ("rl/shipping/test_command_faults.py::"
+                     "test_export_seeds_killed_while_building_and_between_the_renames",),
+    "ship": ("rl/shipping/test_command_faults.py::test_ship_killed_mid_swap_is_finished_by_the_next_reader",
+             "rl/shipping/test_export_full_disk.py::test_ship_on_a_full_disk_is_a_named_error"),
+    "train": ("rl/sweep/test_training_faults.py::"
+              "test_a_full_disk_then_a_kill_mid_checkpoint_keep_the_last_good_one",),
+    "refine": ("rl/cli/test_run_writer_faults.py::test_refine_killed_mid_checkpoint_resumes",),
+    "diagnose": ("rl/reports/test_diagnostics.py::"
+                 "test_diagnose_figures_interrupted_leave_the_earlier_ones",),
+    "notes": ("rl/cli/test_run_writer_faults.py::test_notes_interrupted_leave_the_policy_whole",),
+}
+
+TESTS = Path(__file__).resolve().parents[1]
+ROOT = TESTS.parent
+PUBLISHED = ROOT / "elastica_magnetic" / "data" / "yao2023" / "magnetization1_4mT"
+
+
+def _writing_commands() -> set[str]:
+    """Commands with an option parsed by the path rule, or that rewrite what they are given."""
+    found = {"notes"}  # writes into the policy folder it names (a positional argument)
+
+    def walk(parser: argparse.ArgumentParser, prefix: str) -> None:
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for name, sub in action.choices.items():
+                    full = f"{prefix} {name}".strip()
+                    if any(a.type in OUTPUT_TYPES for a in sub._actions):
+                        found.add(full)
+                    walk(sub, full)
+
+    walk(build_parser(), "")
+    return found
+
+
+def test_every_writing_command_has_a_fault_test():
+    assert set(FAULT_TESTS) == _writing_commands()
+    for tests in FAULT_TESTS.values():
+        for test in tests:
+            path, _, function = test.partition("::")
+            assert (TESTS / path).is_file(), test
+            assert f"def {function}(" in (TESTS / path).read_text(), test
+
+
+def snapshot(folder: Path) -> dict[str, bytes]:
+    return {p.relative_to(folder).as_posix(): p.read_bytes()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def _rotating_field(path: Path, seconds: float = 0.3) -> Path:
+    t = np.arange(int(round(100 * seconds))) / 100
+    write_field_csv(path, 4e-3 * np.stack([np.cos(-4 * np.pi * t), np.sin(-4 * np.pi * t), 0 * t],
+                                          axis=1))
+    return path
+
+
+def _identify_inputs(lab: Path) -> list[str]:
+    from elastica_magnetic_rl.cases.case import load_case
+
+    from elastica_magnetic.fields import TabulatedField
+    from elastica_magnetic.openloop import run_open_loop, write_trajectory_csv
+
+    fields = _rotating_field(lab / "fields.csv")
+    run = run_open_loop(load_case("m1-4mT").robot_spec("training"),
+                        TabulatedField.from_csv(fields), 0.3)
+    write_trajectory_csv(run.trajectory, lab / "trajectory.csv")
+    return ["identify", str(fields), str(lab / "trajectory.csv"), "--robot", "m1-4mT", "--fit", "friction",
+            "--max-evaluations", "10", "--no-confirm", "--no-progress"]
+
+
+#: Cheap invocations of the result-folder writers (an earlier result is made with the same).
+WRITERS = {
+    "generate": lambda lab: ["generate", "m1-4mT", "--duration", "0.05", "--physics", "training",
+                             "--no-gif", "--no-progress"],
+    "baseline": lambda lab: ["baseline", "--case", "m1-4mT", "--period", "1", "--duration", "0.05",
+                             "--physics", "training", "--no-figures", "--no-progress"],
+    "demo": lambda lab: ["demo", "--duration", "0.05", "--no-progress"],
+    "robustness": lambda lab: ["robustness", str(_rotating_field(lab / "w.csv")), "--case",
+                               "m1-4mT", "--duration", "0.05", "--vary", "density=0.9:1.1",
+                               "--no-corners", "--workers", "1", "--no-progress"],
+    "identify": _identify_inputs,
+    "validate": lambda lab: ["validate", "spatial-fields", "--quick"],
+}
+
+
+@pytest.mark.parametrize("command", sorted(WRITERS))
+def test_a_writer_killed_interrupted_or_on_a_full_disk(fault_server, tmp_path, capsys, command):
+    lab = tmp_path / "lab"
+    lab.mkdir()
+    (lab / "notes.txt").write_text("the user's notes\n")
+    argv = [*WRITERS[command](lab), "--out", str(lab / "res")]
+    assert main(argv) in (0, 1), capsys.readouterr().err  # the earlier result (1: a failed check)
+    capsys.readouterr()
+    before = snapshot(lab)
+    # the demo replaces its own earlier demo unasked (the README's first command is re-runnable)
+    again = argv if command == "demo" else [*argv, "--force"]
+    for fault, status in ((Fault("open", r"\.res\.msr-new-", "SIGKILL", nth=1), -signal.SIGKILL),
+                          (Fault("open", r"\.res\.msr-new-", "SIGINT", nth=1), 130),
+                          (Fault("enospc", r"\.res\.msr-new-", after=50), 2)):
+        done = fault_server.run(again, fault)
+        assert done.returncode == status, (fault, done.stderr)
+        assert "Traceback" not in done.stderr, done.stderr
+        assert {k: v for k, v in snapshot(lab).items() if not k.startswith(".")} == before
+        if status != -signal.SIGKILL:
+            assert sorted(p.name for p in lab.iterdir()) == sorted(
+                {k.split("/")[0] for k in before}), "something left beside the result"
+    if command != "demo":
+        assert main(argv) == 2  # an earlier result is refused without --force
+        assert "pass --force" in capsys.readouterr().err
+    assert snapshot(lab) == before
+
+
+def test_stream_log_interrupted_keeps_the_old_log(fault_server, tmp_path):
+    log = tmp_path / "board.log"
+    log.write_text("the earlier stream's log\n")
+    argv = ["stream", str(PUBLISHED / "magnetic_field.csv"), "--port", "socket://127.0.0.1:9",
+            "--timeout", "2", "--log", str(log), "--force", "--no-progress"]
+    done = fault_server.run(argv, Fault("open", r"\.board\.msr-new-", "SIGINT", nth=1))
+    assert done.returncode == 130, done.stderr
+    assert log.read_text() == "the earlier stream's log\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["board.log"]
+
+
+def test_seeds_figures_interrupted_leave_the_earlier_ones(fault_server, tmp_path, capsys):
+    figures = tmp_path / "figs"
+    figures.mkdir()
+    (figures / "notes.txt").write_text("the user's notes\n")
+    assert main(["seeds", "m1-4mT", "--figure", str(figures), "--json"]) == 0
+    capsys.readouterr()
+    before = snapshot(figures)
+    done = fault_server.run(["seeds", "m1-4mT", "--figure", str(figures), "--force"],
+                            Fault("open", r"\.msr-files-", "SIGINT", nth=1))
+    assert done.returncode == 130, done.stderr
+    assert snapshot(figures) == before

@@ -1,0 +1,86 @@
+"""``msr train`` and ``msr refine`` options refused before any work (rl/cli/train_commands.py,
+issue 48): a --device this PyTorch lacks (try rf8: a traceback after run.json was written) and an
+--episode-duration below one control step (try o4: a run folder and a summary with nan)."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+
+from elastica_magnetic.cli import main as msr
+
+#: A run that would start (its warm-up and minibatch inside its 20 steps).
+_TINY_TRAIN = ["train", "--case", "m1-4mT", "--steps", "20", "--seeds", "1", "--workers", "1",
+               "--learning-starts", "5", "--batch-size", "4", "--hidden", "8,8", "--no-progress"]
+
+
+@pytest.fixture
+def cpu_only_torch(monkeypatch):
+    """This PyTorch as a CPU build (whatever the machine running the tests has)."""
+    monkeypatch.setattr(torch.version, "cuda", None)
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+
+
+def test_refine_on_cuda_with_a_cpu_build_is_refused_writing_nothing(trained, tmp_path, capsys,
+                                                                    cpu_only_torch):
+    out = tmp_path / "rf8"
+    assert msr(["refine", str(trained / "m1-4mT" / "seed0"), "--checkpoint", "final", "--steps",
+                "2", "--episode-duration", "0.02", "--no-progress", "--device", "cuda",
+                "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "msr refine: error: --device cuda: this PyTorch has no CUDA (CPU build); use " \
+           "--device cpu" in err, err
+    assert "Traceback" not in err and not out.exists()
+
+
+def test_train_on_cuda_with_a_cpu_build_is_refused_writing_nothing(tmp_path, capsys,
+                                                                   cpu_only_torch):
+    out = tmp_path / "runs"
+    assert msr([*_TINY_TRAIN, "--device", "cuda", "--out", str(out)]) == 2
+    assert "msr train: error: --device cuda: this PyTorch has no CUDA (CPU build); use " \
+           "--device cpu" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_refining_a_run_trained_on_cuda_on_a_cpu_build_is_refused_naming_it(cpu_only_torch):
+    from elastica_magnetic_rl.sweep.refine import _refinement_config
+    from elastica_magnetic_rl.td3.algorithm import TD3Config
+
+    ckpt = {"config": TD3Config(device="cuda").to_dict()}
+    with pytest.raises(ValueError, match=r"^run/checkpoint.pt trained on device 'cuda': this "
+                                         r"PyTorch has no CUDA \(CPU build\); use --device cpu$"):
+        _refinement_config(ckpt, None, "run/checkpoint.pt")
+    assert _refinement_config(ckpt, "cpu", "run/checkpoint.pt").device == "cpu"
+
+
+@pytest.mark.parametrize("duration", ["0.001", "0.009"])
+def test_an_episode_shorter_than_one_control_step_is_refused_naming_the_option(
+        duration, tmp_path, capsys):
+    out = tmp_path / "runs_o4"
+    assert msr([*_TINY_TRAIN, "--episode-duration", duration, "--out", str(out)]) == 2
+    assert (f"msr train: error: --episode-duration {duration} s is shorter than one control step "
+            "(0.01 s, 100 Hz): an episode needs at least one action; give a duration in "
+            "[0.01, 3600] s") in capsys.readouterr().err
+    assert not out.exists()
+    assert msr(["refine", str(tmp_path / "run"), "--episode-duration", duration, "--out",
+                str(tmp_path / "rf")]) == 2
+    assert f"msr refine: error: --episode-duration {duration} s is shorter than one control " \
+           "step" in capsys.readouterr().err
+    assert not (tmp_path / "rf").exists()
+
+
+def test_the_spec_key_of_the_episode_length_is_checked_alike(tmp_path, capsys):
+    """[task] episode_duration sets the same length: refused at parse time, naming the key."""
+    from elastica_magnetic_rl.cases.case import load_case
+
+    from elastica_magnetic.specfile import dumps
+
+    spec = load_case("m1-4mT").to_dict()
+    spec["task"]["episode_duration"] = 0.001
+    short = tmp_path / "short.toml"
+    short.write_text(dumps(spec))
+    with pytest.raises(SystemExit) as exit_info:
+        msr(["train", "--case", str(short), "--out", str(tmp_path / "runs"), "--no-progress"])
+    assert exit_info.value.code == 2
+    assert "[task] episode_duration: must be >= 0.01 (s), got 0.001" in capsys.readouterr().err
+    assert not (tmp_path / "runs").exists()
