@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, output_path, print_result
+from elastica_magnetic.io import display_path
 
 from ..cases.recipes import RECIPE_SUMMARIES, RECIPES
 from ..runfiles.rundir import CaseDir, RunDir
@@ -274,9 +275,18 @@ def _check_device(device: str) -> None:
         raise CommandError(f"--device {device}: {problem}; use --device cpu")
 
 
-def _interrupted(folders: str) -> int:
-    print(f"interrupted: training stopped. The last checkpoints are in {folders}; continue with "
-          "the same command and --resume", file=sys.stderr)
+def _interrupted(folders: list[Path]) -> int:
+    """The message of an interrupted training or refinement: where its checkpoints are, only
+    those that exist (a run stopped before its first checkpoint has none to resume from)."""
+    saved = [f for f in folders if RunDir(f).has_checkpoint()]
+    if saved:
+        print(f"interrupted: training stopped. The last checkpoints are in "
+              f"{', '.join(display_path(f) for f in saved)}; continue with the same command and "
+              "--resume", file=sys.stderr)
+    else:
+        print("interrupted: training stopped before its first checkpoint, so there is nothing to "
+              "resume; run the same command again (without --resume) to start over",
+              file=sys.stderr)
     return 130
 
 
@@ -299,8 +309,9 @@ def train_command(args: argparse.Namespace) -> int:
     except (FileExistsError, FileNotFoundError, ValueError, ConnectionError) as exc:
         raise CommandError(str(exc)) from None  # ConnectionError: --address
     except KeyboardInterrupt:
-        return _interrupted(", ".join(str(args.out / case.name / f"{CaseDir.SEED_PREFIX}*")
-                                      for case in args.case))
+        return _interrupted(sorted(f for case in args.case
+                                   for f in (args.out / case.name).glob(f"{CaseDir.SEED_PREFIX}*")
+                                   if f.is_dir()))
     failed = any(s["failed"] for s in summaries.values())
     if not args.json:
         summaries = {case: {k: v for k, v in summary.items() if k != "seeds"} | {
@@ -355,7 +366,7 @@ def refine_command(args: argparse.Namespace) -> int:
     except (FileExistsError, FileNotFoundError, ValueError) as exc:
         raise CommandError(str(exc)) from None
     except KeyboardInterrupt:
-        return _interrupted(str(args.out or RunDir(args.run).refined.path))
+        return _interrupted([args.out or default_refine_output(source)])
     if choice is not None and not args.resume:
         result = {**result, "actor_choice": {**choice.to_dict(), "summary": choice.describe()}}
     print_rollout_result(result, args.json)

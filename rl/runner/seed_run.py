@@ -191,8 +191,11 @@ class SeedRun:
         self.evaluation = PeriodicEvaluation(eval_env_fn, self.cfg, self.run_dir, self.writer,
                                               self.global_step, self.ckpt, self.resumed_here)
         self.next_checkpoint = self._next_checkpoint()
-        self.bar = progress_bar(self.steps, desc or "", "step",
-                                initial=min(self.global_step, self.steps), disable=not progress,
+        # a refinement counts its own steps, not its parent run's (metadata's refine_start_step)
+        base = int((self.metadata or {}).get("refine_start_step", 0))
+        self.bar = progress_bar(self.steps - base, desc or "", "step",
+                                initial=min(self.global_step, self.steps) - base,
+                                disable=not progress,
                                 position=position, dynamic_ncols=True, leave=True)
         self.csv_file = open(csv_path, "a", newline="")
         self.csv_writer = csv.DictWriter(self.csv_file, fieldnames=EPISODE_FIELDS)

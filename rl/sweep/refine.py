@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from elastica_magnetic.io import atomic_write_json
+from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..cases.case import Case, case_from_metadata, load_case, randomize_table
 from ..cases.variations import VariationError, default_variations, physical_differences
@@ -103,7 +104,7 @@ def refine(
     duration = DEFAULT_EPISODE_DURATION if episode_duration is None else episode_duration
     steps = DEFAULT_STEPS if steps is None else int(steps)
     start_step = int(ckpt["global_step"])
-    config = _refinement_config(ckpt, device, source)
+    config = _refinement_config(ckpt, device, source, physics)
     _check_refinement_learns(ckpt, source, steps)
     metadata = run_metadata(
         case, physics, duration, config.seed, command="refine",
@@ -115,6 +116,11 @@ def refine(
     _train_refinement(case, (ckpt, start), out, config, metadata, start_step + steps,
                       progress=progress)
     return _refinement_result(case, out, metadata, begin)
+
+
+#: Steps between a refinement's checkpoints, by physics: about a minute of either on one core (an
+#: accurate step is 1250 substeps, ~0.1 s; a training step ~15 ms with its update).
+REFINE_CHECKPOINT_STEPS = {"accurate": 500, "training": 5000}
 
 
 def _resume_refinement(run: str | Path, source: Path, out: RunDir, steps: int | None,
@@ -163,14 +169,18 @@ def _resumed_config(out: RunDir, device: str | None) -> TD3Config:
     return config
 
 
-def _refinement_config(ckpt: dict[str, Any], device: str | None, source: str | Path) -> TD3Config:
+def _refinement_config(ckpt: dict[str, Any], device: str | None, source: str | Path,
+                       physics: str = DEFAULT_PHYSICS) -> TD3Config:
     """The TD3 settings a refinement continues with: ``ckpt``'s, on ``device`` when given,
     refused (``ValueError``) before any work when this PyTorch has no such device (a run trained
-    on a GPU, refined on a machine without one)."""
+    on a GPU, refined on a machine without one); checkpoints at least every
+    :data:`REFINE_CHECKPOINT_STEPS` of ``physics`` (the run's own interval, 10000 steps, is
+    minutes to hours of refinement: an interrupted refinement resumes instead of starting over)."""
     from ..td3.algorithm import TD3Config
     from ..td3.devices import device_problem
 
     config = TD3Config.from_dict(ckpt["config"])
+    config.checkpoint_every = min(config.checkpoint_every, REFINE_CHECKPOINT_STEPS[physics])
     if device is not None:
         config.device = device
     problem = device_problem(config.device)
@@ -185,12 +195,31 @@ def _refinement_result(case: Case, out: RunDir, metadata: dict[str, Any],
                        begin: float) -> dict[str, Any]:
     """What :func:`refine` returns: the refinement's provenance and its episodes' summary."""
     summary = summarize_run(out.path, reward_scale=case.task.reward_scale)
-    return {"case": case.name, "source": metadata["refined_from"], "run_dir": str(out.path),
-            "checkpoint": str(out.checkpoint), "start_step": metadata["refine_start_step"],
-            "steps": metadata["refine_steps"], "actor": metadata["refined_actor"],
-            "actor_step": metadata["refined_actor_step"], "physics": metadata["physics"],
-            **{k: summary[k] for k in ("episodes", "final_mean_return")},
-            "wall_s": time.perf_counter() - begin}
+    result = {"case": case.name, "source": metadata["refined_from"], "run_dir": str(out.path),
+              "checkpoint": str(out.checkpoint), "start_step": metadata["refine_start_step"],
+              "steps": metadata["refine_steps"], "actor": metadata["refined_actor"],
+              "actor_step": metadata["refined_actor_step"], "physics": metadata["physics"],
+              **{k: summary[k] for k in ("episodes", "final_mean_return")},
+              **_robots_trained_on(case, metadata, summary["episodes"]),
+              "wall_s": time.perf_counter() - begin}
+    if not summary["episodes"]:
+        episode_steps = int(round(metadata["episode_duration_s"] / ACTION_PERIOD))
+        result["note"] = (f"no episode finished: the refinement's {metadata['refine_steps']} steps "
+                          f"are fewer than one episode ({metadata['episode_duration_s']:g} s = "
+                          f"{episode_steps} steps), so there is no mean return; the agent learned "
+                          "from the steps of the unfinished episode all the same")
+    return result
+
+
+def _robots_trained_on(case: Case, metadata: dict[str, Any], episodes: int) -> dict[str, Any]:
+    """How many robots the refinement's episodes ran: one per episode begun (each draws anew
+    from the randomization; the vector environment's episodes in progress included); one, the
+    nominal, without randomization."""
+    if not case.training.randomize:
+        return {"robots": "the nominal robot (no randomization)"}
+    envs = int(metadata.get("envs", 1) or 1)
+    return {"randomized_robots": episodes + envs,
+            "randomize": randomize_table(case.training.randomize)}
 
 
 def check_refined_case(source: str | Path, steps: int, spec: str | Path | None,
