@@ -281,7 +281,8 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     actuation = _actuation(top.table("actuation"))
     task = _task(top.table("task"))
     training = _training(top.table("training", required=False), source, robot)
-    yardstick = _yardstick(top.table("yardstick", required=False))
+    yardstick = _yardstick(top.table("yardstick", required=False),
+                           float(robot.tables["robot"]["length"]))
     if robot.robot("training").ground is None:
         raise SpecError(f"{source}: [robot.ground] missing: the crawler tasks need a ground (add the "
                         "table; every key in it has a default)")
@@ -431,10 +432,23 @@ def with_randomize(case: Case, variations: tuple[Variation, ...]) -> Case:
                                                                   randomize=variations))
 
 
-def _yardstick(t: SpecTable | None) -> Yardstick:
+#: Most body lengths a yardstick may cover in its 10 s: the paper's fastest gait rolls about 10
+#: (198 mm for a 20 mm robot); 100 is no crawler's, and a distance in mm written as m gives 1000x.
+MAX_YARDSTICK_BODY_LENGTHS = 100.0
+
+
+def _yardstick(t: SpecTable | None, robot_length: float) -> Yardstick:
     if t is None:
         return Yardstick()
     out = Yardstick(distance_10s=t.number("distance_10s", "m", 0.0, low=0.0),
                     source=t.string("source", ""))
+    lengths = out.distance_10s / robot_length
+    if lengths > MAX_YARDSTICK_BODY_LENGTHS:
+        hint = (f"; it looks like mm written where m is expected ({out.distance_10s:g} mm is "
+                f"{1e-3 * out.distance_10s:g} m)" if lengths / 1e3 <= MAX_YARDSTICK_BODY_LENGTHS
+                else "")
+        raise t.error("distance_10s", f"{out.distance_10s:g} m in 10 s is {lengths:.0f} body "
+                                      f"lengths of this {robot_length:g} m robot, more than "
+                                      f"{MAX_YARDSTICK_BODY_LENGTHS:g}: no crawler's{hint}")
     t.finish()
     return out

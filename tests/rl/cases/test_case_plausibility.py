@@ -42,3 +42,19 @@ def test_training_td3_values_are_checked_when_the_spec_is_read(td3, message):
     with pytest.raises(SpecError) as err:
         case_from_dict(data, "my.toml")
     assert str(err.value).startswith("my.toml") and message in str(err.value), str(err.value)
+
+
+def test_a_yardstick_in_mm_is_refused_naming_the_mistake():
+    """Issue 48: a yardstick beyond 100 body lengths in 10 s is no crawler's (mm written as m)."""
+    import pytest
+    from elastica_magnetic_rl.cases.case import case_from_dict, load_case
+
+    from elastica_magnetic.specfile import SpecError
+
+    spec = load_case("m1-4mT").to_dict()
+    spec["yardstick"]["distance_10s"] = 20.5  # the authors' 20.5 mm, written as m
+    with pytest.raises(SpecError, match=r"distance_10s: 20.5 m in 10 s is 1025 body lengths .* "
+                                         r"it looks like mm written where m is expected"):
+        case_from_dict(spec, "my.toml")
+    spec["yardstick"]["distance_10s"] = 0.198  # the rolling gait's 10 body lengths: fine
+    assert case_from_dict(spec, "my.toml").yardstick.distance_10s == 0.198
