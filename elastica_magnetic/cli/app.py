@@ -11,6 +11,8 @@ function, so this file stays a thin dispatcher:
 - ``elastica_magnetic_rl.cli.policy_commands``: ``export-seeds``, ``seeds``, ``ship``, ``notes``, ``export``,
   ``diagnose``
 - ``elastica_magnetic.hardware.cli``: ``stream``, ``export-firmware``, ``calibrate``
+- ``elastica_magnetic_rl.sim2real.cli``: ``robustness``, ``identify``
+- ``elastica_magnetic_rl.loop.cli``: ``loop``
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ COMMAND_MODULES = (
     "elastica_magnetic_rl.cli.policy_commands",
     "elastica_magnetic.hardware.cli",
     "elastica_magnetic_rl.sim2real.cli",
+    "elastica_magnetic_rl.loop.cli",
 )
 
 

@@ -189,7 +189,7 @@ def scaled(value: Any, factor: float) -> Any:
 
 def magnitude_of(value: Any) -> float:
     """One number for a value in reports: the value itself, or for a table of vectors (3, n) the
-    largest vector length (for a per-element magnetization: the strongest element's |M|)."""
+    largest vector length (for a per-element magnetization: the strongest element's magnitude)."""
     if isinstance(value, list):
         array = np.asarray(value, dtype=np.float64)
         return float(np.linalg.norm(array, axis=0).max()) if array.ndim == 2 else \

@@ -52,6 +52,10 @@ FAULT_TESTS: dict[str, tuple[str, ...]] = {
     "diagnose": ("rl/reports/test_diagnostics.py::"
                  "test_diagnose_figures_interrupted_leave_the_earlier_ones",),
     "notes": ("rl/cli/test_run_writer_faults.py::test_notes_interrupted_leave_the_policy_whole",),
+    # interrupted in-process (Ctrl-C at a step; killed between a step and its record): each step
+    # is one of the writers above, through the same mechanisms
+    "loop": ("rl/loop/test_msr_loop.py::test_an_interrupted_loop_keeps_its_finished_steps",
+             "rl/loop/test_msr_loop.py::test_a_training_killed_before_its_record_is_resumed_not_restarted"),
 }
 
 TESTS = Path(__file__).resolve().parents[1]

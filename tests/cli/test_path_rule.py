@@ -61,6 +61,7 @@ WRITERS: dict[str, tuple[list[str], str, str]] = {
                    "--out"),
     "identify": (["identify", FIELD_CSV, str(PUBLISHED / "trajectory.csv"), "--robot", "m1-4mT",
                   "--fit", "friction", "--out", "{o}", "--force"], "folder", "--out"),
+    "loop": (["loop", "m1-4mT", "--out", "{o}", "--force"], "folder", "--out"),
     "stream --log": (["stream", FIELD_CSV, "--port", "socket://127.0.0.1:9", "--log", "{f}"], "file",
                      "--log"),
     "stream --codes-out": (["stream", FIELD_CSV, "--port", "socket://127.0.0.1:9", "--codes-out",

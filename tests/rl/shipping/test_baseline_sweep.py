@@ -78,3 +78,17 @@ def test_set_yardstick_writes_a_spec_copy(tmp_path, capsys):
     assert msr(["baseline", "--case", "m1-4mT", "--set-yardstick", str(tmp_path / "x.toml"),
                 *QUICK]) == 2
     assert "--set-yardstick" in capsys.readouterr().err and not (tmp_path / "x.toml").exists()
+
+
+def test_a_yardstick_copy_says_what_it_was_measured_in(tmp_path):
+    """``msr loop --quick`` writes its spec copy from a short training-physics sweep: the copy's
+    source says so (it used to claim 10 s of the accurate physics whatever was run)."""
+    case = load_case("m1-4mT")
+    best = {"period_s": 1.0, "clockwise": True, "period_achieved_s": 1.0, "mid_dx_m": 0.005}
+    copy = load_case(yardstick_spec(case, best, tmp_path / "quick.toml", physics="training",
+                                    duration=0.5))
+    assert "in 0.5 s, training physics" in copy.yardstick.source
+    assert "not a yardstick" in copy.yardstick.source
+    real = load_case(yardstick_spec(case, best, tmp_path / "real.toml"))
+    assert "in 10 s, accurate physics" in real.yardstick.source
+    assert "not a yardstick" not in real.yardstick.source

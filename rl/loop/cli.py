@@ -1,0 +1,112 @@
+"""``msr loop SPEC --out DIR``: the whole path for a new robot in one resumable command (a thin
+wrapper over :func:`elastica_magnetic_rl.loop.runner.run_loop`; heavy imports inside)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from elastica_magnetic.cli import CommandError, number, output_path
+
+from ..cli.options import CASE_HELP, case_option
+from .settings import ROBUSTNESS_PHYSICS
+from .state import STEPS
+
+_STEP_LIST = ", ".join(STEPS)
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add ``msr loop``."""
+    p = sub.add_parser(
+        "loop",
+        help="the whole path for a new robot in one resumable command: check, yardstick, train, "
+             "generate, robustness, refine, robustness, firmware",
+        description="Run, in order, what docs/own_robot.md and docs/sim_to_real.md walk by hand: "
+        "msr case check; the rotating-field sweep in 10 s of the accurate physics, written into a "
+        "spec copy as its yardstick; msr train --recipe fast on that copy; each seed's distance "
+        "and msr generate with the farthest seed's farther actor; msr robustness (the default "
+        "variation set, open and closed loop); msr refine --physics training --randomize default; "
+        f"msr robustness of the refined policy; msr export-firmware. Steps: {_STEP_LIST}; each "
+        "writes DIR/<step>/. DIR/loop.json records each finished step: the same command again "
+        "skips them and resumes an interrupted training. DIR/report.md and DIR/report.html (self-"
+        "contained) are rewritten after every step.",
+    )
+    p.add_argument("spec", type=case_option, metavar="SPEC", help=CASE_HELP)
+    p.add_argument("--out", type=output_path, required=True, metavar="DIR",
+                   help="the loop's folder: new, empty, or a loop of the same SPEC to resume")
+    p.add_argument("--seeds", type=number("seeds", 1, 1024, integer=True), default=2,
+                   help="seeds trained (default 2)")
+    p.add_argument("--steps", type=number("environment steps", 1, integer=True), default=None,
+                   help="environment steps per seed (default: the case's step budget)")
+    p.add_argument("--workers", type=number("processes", 1, 1024, integer=True), default=None,
+                   help="worker processes of the sweep, the training and the robustness runs "
+                        "(default: one per core)")
+    p.add_argument("--skip", default=None, metavar="STEP,...",
+                   help=f"steps not to run (recorded as skipped; a step that needs one is refused): "
+                        f"{_STEP_LIST}")
+    p.add_argument("--redo", default=None, metavar="STEP,...",
+                   help="run these steps again, and every step that needs them")
+    p.add_argument("--calibration", type=Path, default=None, metavar="FILE",
+                   help="calibration JSON of the firmware step (default "
+                        "stm32/calibration/default.json)")
+    p.add_argument("--physics-robustness", choices=ROBUSTNESS_PHYSICS, default="training",
+                   help="physics of the robustness steps' runs (default training; accurate: "
+                        "comparable with the yardstick, about 12x the cost)")
+    p.add_argument("--quick", action="store_true",
+                   help="a smoke run of every step in about a minute (tiny step budgets and "
+                        "durations in the training physics; its distances mean nothing)")
+    p.add_argument("--force", action="store_true",
+                   help="start over a loop in DIR whose spec or settings differ from these")
+    p.add_argument("--json", action="store_true", help="print loop.json at the end")
+    p.set_defaults(func=loop_command)
+
+
+def _settings(args: argparse.Namespace):
+    """The steps' settings from the options, every file checked before any work."""
+    import dataclasses
+
+    from elastica_magnetic.hardware.calibration import load_calibration
+
+    from .settings import LoopSettings
+
+    if args.calibration is not None:
+        if not args.calibration.is_file():
+            raise CommandError(f"--calibration {args.calibration}: no such file (a calibration "
+                               "JSON, e.g. stm32/calibration/default.json or msr calibrate's)")
+        load_calibration(args.calibration)  # its named error now, not after the training
+    base = LoopSettings.smoke() if args.quick else LoopSettings()
+    changes = {"seeds": args.seeds, "workers": args.workers,
+               "robustness_physics": args.physics_robustness,
+               "calibration": args.calibration.resolve() if args.calibration else None}
+    if args.steps is not None:
+        changes["steps"] = args.steps
+    return dataclasses.replace(base, **changes)
+
+
+def loop_command(args: argparse.Namespace) -> int:
+    from .runner import run_loop
+    from .state import LoopError, parse_steps
+
+    try:
+        skip, redo = parse_steps(args.skip, "--skip"), parse_steps(args.redo, "--redo")
+        state = run_loop(args.spec, args.out, _settings(args), skip=skip, redo=redo,
+                         force=args.force)
+    except LoopError as exc:
+        raise CommandError(str(exc)) from None
+    except FileNotFoundError as exc:
+        raise CommandError(str(exc)) from None
+    except KeyboardInterrupt:
+        print(f"loop: interrupted; the finished steps are recorded in {args.out / 'loop.json'}: "
+              "run the same command again to go on from there", file=sys.stderr)
+        raise
+    if args.json:
+        print(json.dumps({"out": str(args.out), "case": state.case, "steps": state.steps},
+                         indent=2, default=str))
+    else:
+        done = sum(1 for r in state.steps.values() if r["status"] == "done")
+        print(f"loop: {done} of {len(STEPS)} steps done in {args.out}")
+        print(f"report: {args.out / 'report.md'}, {args.out / 'report.html'}")
+    sys.stdout.flush()
+    return 0

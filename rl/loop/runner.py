@@ -1,0 +1,137 @@
+"""Running the loop (:func:`run_loop`): the loop's folder checked, marked and locked, the plan
+checked before any work, each step run in order with a line on stderr at its start and end, its
+record written to ``loop.json`` and the report rewritten after it."""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, TextIO
+
+from elastica_magnetic.io import normalized_path
+from elastica_magnetic.locks import FolderLock
+from elastica_magnetic.results import check_result_folder, mark_folder, read_marker, remove_tree
+
+from ..cases.case import Case
+from .report import write_report
+from .settings import LoopSettings
+from .state import STEPS, LoopPlan, LoopState, plan_loop
+from .steps import STEP_FUNCTIONS, LoopContext
+
+__all__ = ["LOOP_KIND", "check_loop_folder", "headline", "run_loop", "step_line"]
+
+#: The loop's folder's marker kind (:func:`elastica_magnetic.results.mark_folder`).
+LOOP_KIND = "loop"
+
+
+def check_loop_folder(out: str | Path) -> LoopState | None:
+    """Refuse, before any work, an ``out`` that is not a loop's folder: one holding other files,
+    or another command's result (``ResultExistsError`` / ``OutputPathError`` naming ``--out``).
+    Returns the loop's recorded state (``None``: a new or empty folder)."""
+    folder = normalized_path(out)
+    marker = read_marker(folder) if folder.is_dir() else None
+    if marker is None or marker.get("kind") != LOOP_KIND:
+        check_result_folder(folder, kind=LOOP_KIND, force=True, option="--out")  # raises unless empty
+        return None
+    return LoopState.read(folder)
+
+
+def step_line(number: int, step: str, text: str) -> str:
+    """One progress line: ``loop: [3/8] train: started``."""
+    return f"loop: [{number}/{len(STEPS)}] {step}: {text}"
+
+
+def _duration(seconds: float) -> str:
+    return f"{seconds:.1f} s" if seconds < 60 else f"{seconds / 60:.1f} min"
+
+
+def _mm(distance: float | None) -> str:
+    return "diverged" if distance is None else f"{1e3 * distance:+.3g} mm"
+
+
+def headline(step: str, summary: dict[str, Any]) -> str:
+    """The result of a step in a few words, for its progress line."""
+    if step == "check":
+        return f"{len(summary['warnings'])} warning(s)"
+    if step == "yardstick":
+        return f"rotating field {_mm(summary['distance_m'])} (period {summary['period_s']:g} s)"
+    if step == "train":
+        return f"best seed {summary['best_seed']} {_mm(summary['best_distance_m'])}"
+    if step == "generate":
+        ratio = summary["of_yardstick"]
+        return _mm(summary["distance_m"]) + (f", {ratio:.3g}x the yardstick" if ratio else "")
+    if step in ("robustness", "robustness-refined"):
+        parts = [f"{m.replace('_', ' ')} worst {_mm(s['worst_m'])}"
+                 for m, s in summary["summary"].items()]
+        return ", ".join(parts)
+    if step == "refine":
+        return f"{summary['steps']} steps ({summary['physics']} physics)"
+    if step == "firmware":
+        return f"{summary['rows']} rows, calibration {summary['calibration']}"
+    return ""
+
+
+def run_loop(case: Case, out: str | Path, settings: LoopSettings, *, skip: tuple[str, ...] = (),
+             redo: tuple[str, ...] = (), force: bool = False, progress: bool | None = None,
+             log: TextIO | None = None,
+             steps: dict[str, Callable[[LoopContext], dict[str, Any]]] | None = None) -> LoopState:
+    """Run the loop for ``case`` in ``out`` (see :mod:`elastica_magnetic_rl.loop`): steps already
+    done (``loop.json``) are skipped, ``redo`` ones (and those needing them) run again, ``skip``
+    ones are recorded as skipped. Everything is checked before the first step; the folder is
+    locked while the loop runs. ``progress``: progress bars (default: when ``log`` is a terminal);
+    ``log``: where the step lines go (default stderr). Returns the final state."""
+    log = log or sys.stderr
+    if progress is None:
+        progress = log.isatty()
+    folder = normalized_path(out)
+    check_loop_folder(folder)
+    with FolderLock(folder, option="--out") as lock:
+        for note in lock.notes:
+            print(f"note: {note}", file=log)
+        state = check_loop_folder(folder)  # again, under the lock: no one else changed it since
+        spec, recorded = case.to_dict(), settings.recorded()
+        plan = plan_loop(state, spec, recorded, skip, redo, force)
+        folder.mkdir(parents=True, exist_ok=True)
+        if state is None or plan.redo == STEPS:
+            state = LoopState(folder / "loop.json", case.name, spec, recorded)
+        state.spec, state.settings = spec, recorded
+        _forget(state, plan)
+        state.write()
+        mark_folder(folder, kind=LOOP_KIND, subject=f"case {case.name}")
+        ctx = LoopContext(folder, case, settings, state, progress)
+        write_report(ctx)
+        _run_steps(ctx, plan, log, steps or STEP_FUNCTIONS)
+    return state
+
+
+def _forget(state: LoopState, plan: LoopPlan) -> None:
+    """Drop the records (and folders) of the steps run again: a redone step starts afresh."""
+    for step in plan.redo:
+        state.steps.pop(step, None)
+        folder = state.path.parent / step
+        if folder.exists():
+            remove_tree(folder)
+
+
+def _run_steps(ctx: LoopContext, plan: LoopPlan, log: TextIO,
+               functions: dict[str, Callable[[LoopContext], dict[str, Any]]]) -> None:
+    for number, step in enumerate(STEPS, start=1):
+        if step in plan.done:
+            print(step_line(number, step, "already done (loop.json), skipped"), file=log)
+            continue
+        if step in plan.skip:
+            ctx.state.record(step, "skipped")
+            print(step_line(number, step, "skipped (--skip)"), file=log)
+        else:
+            print(step_line(number, step, "started"), file=log, flush=True)
+            begin = time.perf_counter()
+            summary = functions[step](ctx)
+            wall = time.perf_counter() - begin
+            ctx.state.record(step, "done", summary, wall)
+            print(step_line(number, step, f"done in {_duration(wall)}: {headline(step, summary)}"),
+                  file=log, flush=True)
+        mark_folder(ctx.folder, kind=LOOP_KIND, subject=f"case {ctx.case.name}")
+        write_report(ctx)
+

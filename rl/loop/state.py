@@ -1,0 +1,163 @@
+"""The loop's resumable state, ``DIR/loop.json``: the spec and settings it runs with, and each
+step's record (``done`` with its result summary and wall time, or ``skipped``), written
+atomically after every step; and the plan of a (re-)run: which steps run, which are already done,
+which are skipped, checked before any work."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from elastica_magnetic.io import atomic_write_json, display_path
+from elastica_magnetic.locks import utc_now
+
+__all__ = ["LOOP_FORMAT", "LOOP_JSON", "NEEDS", "STEPS", "LoopError", "LoopPlan", "LoopState",
+           "parse_steps", "plan_loop"]
+
+LOOP_JSON = "loop.json"
+LOOP_FORMAT = "msr-loop-v1"
+#: The steps, in order; each writes the subfolder of the loop's folder of its name.
+STEPS = ("check", "yardstick", "train", "generate", "robustness", "refine", "robustness-refined",
+         "firmware")
+#: The steps each step needs (their results are its input).
+NEEDS: dict[str, tuple[str, ...]] = {
+    "check": (), "yardstick": (), "train": ("yardstick",), "generate": ("train",),
+    "robustness": ("generate",), "refine": ("train",), "robustness-refined": ("refine",),
+    "firmware": ("generate",),
+}
+
+
+class LoopError(ValueError):
+    """A loop that cannot run as asked (a bad step name, a skipped step another one needs, a
+    changed spec); the command line prints it as one line."""
+
+
+def parse_steps(text: str | None, option: str) -> tuple[str, ...]:
+    """``--skip`` / ``--redo`` ``STEP,...``: known step names (:data:`STEPS`)."""
+    if not text:
+        return ()
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    unknown = [n for n in names if n not in STEPS]
+    if unknown or not names:
+        raise LoopError(f"{option}: unknown step {', '.join(map(repr, unknown)) or repr(text)}; "
+                        f"the steps are {', '.join(STEPS)}")
+    return names
+
+
+def dependents(step: str) -> list[str]:
+    """``step`` and every step that needs it, directly or not, in order."""
+    found = {step}
+    for name in STEPS:  # NEEDS point backwards, so one pass in order suffices
+        if any(need in found for need in NEEDS[name]):
+            found.add(name)
+    return [n for n in STEPS if n in found]
+
+
+@dataclass
+class LoopState:
+    """``loop.json``: ``spec`` (the case's complete spec), ``settings``
+    (:meth:`~elastica_magnetic_rl.loop.settings.LoopSettings.recorded`) and ``steps``: by name,
+    ``{"status": "done" | "skipped", "summary": {...}, "wall_s": s, "finished_utc": ...}``."""
+
+    path: Path
+    case: str
+    spec: dict[str, Any]
+    settings: dict[str, Any]
+    steps: dict[str, dict[str, Any]] = field(default_factory=dict)
+
+    @classmethod
+    def read(cls, folder: Path) -> LoopState | None:
+        """The state in ``folder`` (``None`` when it has no ``loop.json``)."""
+        path = folder / LOOP_JSON
+        if not path.is_file():
+            return None
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+            return cls(path, data["case"], data["spec"], data["settings"], dict(data["steps"]))
+        except (ValueError, KeyError, TypeError) as exc:
+            raise LoopError(f"{display_path(path)}: not a loop state this msr can read ({exc}); "
+                            "choose another --out") from None
+
+    def write(self) -> None:
+        atomic_write_json(self.path, {"format": LOOP_FORMAT, "case": self.case, "spec": self.spec,
+                                      "settings": self.settings, "steps": self.steps})
+
+    def done(self, step: str) -> bool:
+        return self.steps.get(step, {}).get("status") == "done"
+
+    def summary(self, step: str) -> dict[str, Any]:
+        """A done step's result summary; :class:`LoopError` naming it when it is not done."""
+        if not self.done(step):
+            raise LoopError(f"step {step} has no result in {display_path(self.path)}")
+        return self.steps[step]["summary"]
+
+    def record(self, step: str, status: str, summary: dict[str, Any] | None = None,
+               wall_s: float | None = None) -> None:
+        """Record a step as ``done`` (its summary, wall time) or ``skipped``; written at once."""
+        self.steps[step] = {"status": status, "summary": summary or {}, "wall_s": wall_s,
+                            "finished_utc": utc_now()}
+        self.write()
+
+
+@dataclass(frozen=True)
+class LoopPlan:
+    """What a run of the loop does with each step: ``run`` (in order), ``done`` (finished
+    earlier: left as they are), ``skip`` (recorded as skipped)."""
+
+    run: tuple[str, ...]
+    done: tuple[str, ...]
+    skip: tuple[str, ...]
+    redo: tuple[str, ...]
+
+
+def _changed(old: dict[str, Any], new: dict[str, Any], prefix: str = "") -> list[str]:
+    """The dotted keys whose values differ between two JSON-like dicts."""
+    keys = []
+    for key in sorted(set(old) | set(new)):
+        a, b = old.get(key), new.get(key)
+        if isinstance(a, dict) and isinstance(b, dict):
+            keys += _changed(a, b, f"{prefix}{key}.")
+        elif json.dumps(a, default=str) != json.dumps(b, default=str):
+            keys.append(f"{prefix}{key}")
+    return keys
+
+
+def plan_loop(state: LoopState | None, spec: dict[str, Any], settings: dict[str, Any],
+              skip: tuple[str, ...], redo: tuple[str, ...], force: bool) -> LoopPlan:
+    """Check a (re-)run against the recorded ``state`` and plan it, before any work:
+
+    - a changed spec or setting is refused, naming the keys, unless ``force`` (which then redoes
+      every step);
+    - ``redo`` steps and every step that needs them run again;
+    - a step in ``skip`` is skipped; a step that would run but needs a skipped step (skipped now,
+      or recorded as skipped) is refused, naming both."""
+    both = sorted(set(skip) & set(redo))
+    if both:
+        raise LoopError(f"--skip and --redo both name {', '.join(both)}")
+    redone: set[str] = set()
+    if state is not None:
+        changed = _changed({"spec": state.spec, "settings": state.settings},
+                           {"spec": spec, "settings": settings})
+        if changed and not force:
+            shown = ", ".join(changed[:6]) + (f" and {len(changed) - 6} more" if len(changed) > 6
+                                               else "")
+            raise LoopError(f"--out {display_path(state.path.parent)}: holds a loop of another spec "
+                            f"or other settings (changed: {shown}); pass --force to start it over "
+                            "with these, or choose another --out")
+        if changed:
+            redo = STEPS
+    for step in redo:
+        redone.update(dependents(step))
+    done = tuple(s for s in STEPS if state is not None and state.done(s) and s not in redone)
+    skipped = tuple(s for s in STEPS if s in skip and s not in done)
+    run = tuple(s for s in STEPS if s not in done and s not in skipped)
+    missing = {s: n for s in run for n in NEEDS[s] if n not in done and n not in run}
+    if missing:
+        first, need = next(iter(missing.items()))
+        also = [s for s in run if s in missing]
+        raise LoopError(f"step {first} needs step {need}, which is skipped (--skip {need}, or "
+                        f"skipped by an earlier run and not done): skip {', '.join(also)} too, "
+                        f"or run {need}")
+    return LoopPlan(run, done, skipped, tuple(s for s in STEPS if s in redone and s not in skip))

@@ -1,0 +1,225 @@
+"""``msr loop`` (issue 49): the whole path of a robot that is none of the shipped cases (four
+``segments`` of magnetization, a Poisson ratio) as a smoke run (``--quick``), interrupted and
+resumed; ``--redo`` and ``--skip``; a changed spec refused; the plan's rules."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+from pathlib import Path
+
+import pytest
+import tomli_w
+from elastica_magnetic_rl.loop import steps as loop_steps
+from elastica_magnetic_rl.loop.state import STEPS, LoopError, LoopState, plan_loop
+
+from elastica_magnetic.cli import main as msr
+
+#: A robot none of the shipped cases has: four magnetized segments, moduli from a Poisson ratio.
+SPEC = {
+    "name": "seg4",
+    "robot": {
+        "name": "seg4", "length": 0.02, "n_elements": 24, "width": 0.008, "thickness": 0.0008,
+        "density": 1860.0, "youngs_modulus": 84500.0, "poisson_ratio": 0.45,
+        "magnetization": {"kind": "segments", "magnitude": 60000.0, "segments": [
+            {"elements": 6, "direction": [0.0, 1.0, 0.0]},
+            {"elements": 6, "direction": [1.0, 0.0, 0.0]},
+            {"elements": 6, "direction": [0.0, -1.0, 0.0]},
+            {"elements": 6, "direction": [-1.0, 0.0, 0.0]},
+        ]},
+        "ground": {"static_mu": 0.8, "kinetic_mu": 0.6},
+    },
+    "actuation": {"field_limit": 0.004},
+    "task": {"kind": "crawl"},
+}
+
+
+def _write_spec(path: Path, **actuation: float) -> Path:
+    spec = json.loads(json.dumps(SPEC))
+    spec["actuation"].update(actuation)
+    path.write_bytes(tomli_w.dumps(spec).encode())
+    return path
+
+
+def _loop(*argv: str) -> tuple[int, str, str]:
+    """``msr loop ... --quick --workers 1``: exit status, stdout, stderr."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            status = msr(["loop", *argv, "--quick", "--workers", "1"])
+        except SystemExit as exc:  # argparse
+            status = exc.code
+    return status, out.getvalue(), err.getvalue()
+
+
+def _interrupt(ctx):
+    raise KeyboardInterrupt
+
+
+@pytest.fixture(scope="module")
+def interrupted_then_resumed(tmp_path_factory):
+    """The loop interrupted at its robustness step (a Ctrl-C), then the same command again."""
+    root = tmp_path_factory.mktemp("loop")
+    spec = _write_spec(root / "seg4.toml")
+    folder = root / "out"
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setitem(loop_steps.STEP_FUNCTIONS, "robustness", _interrupt)
+        first = _loop(str(spec), "--out", str(folder))
+    partial = {"state": json.loads((folder / "loop.json").read_text()),
+               "report": (folder / "report.md").read_text()}
+    second = _loop(str(spec), "--out", str(folder))
+    return {"spec": spec, "folder": folder, "first": first, "partial": partial, "second": second}
+
+
+def test_an_interrupted_loop_keeps_its_finished_steps(interrupted_then_resumed):
+    status, _, err = interrupted_then_resumed["first"]
+    assert status == 130, err
+    assert "loop: [5/8] robustness: started" in err
+    assert "run the same command again" in err
+    partial = interrupted_then_resumed["partial"]
+    state, report = partial["state"], partial["report"]
+    assert [s for s in STEPS if state["steps"].get(s, {}).get("status") == "done"] == [
+        "check", "yardstick", "train", "generate"]
+    assert "4 of 8 steps done" in report and "Not run yet." in report  # a partial report
+
+
+def test_the_same_command_skips_finished_steps_and_runs_the_rest(interrupted_then_resumed):
+    status, out, err = interrupted_then_resumed["second"]
+    assert status == 0, err
+    for number, step in enumerate(STEPS[:4], start=1):
+        assert f"loop: [{number}/8] {step}: already done (loop.json), skipped" in err
+    for number, step in enumerate(STEPS[4:], start=5):
+        assert f"loop: [{number}/8] {step}: started" in err
+        assert f"loop: [{number}/8] {step}: done in " in err
+    assert "\r" not in err  # no progress bars: stderr is not a terminal
+    assert "8 of 8 steps done" in out
+
+
+def test_each_step_writes_its_folder_and_the_report_is_complete(interrupted_then_resumed):
+    folder = interrupted_then_resumed["folder"]
+    state = LoopState.read(folder)
+    assert all(state.done(s) for s in STEPS)
+    for step in STEPS:
+        assert (folder / step).is_dir(), step
+        assert isinstance(state.steps[step]["wall_s"], float)
+    assert (folder / "firmware" / "waveform_table.c").is_file()
+    assert (folder / "refine" / "checkpoint.pt").is_file()
+    assert len(state.summary("train")["seeds"]) == 2
+    # the spec the loop trained on carries the sweep's distance, labelled as a smoke run's
+    copy = (folder / "seg4.toml").read_text()
+    assert "not a yardstick" in copy and "training physics" in copy
+    for step in ("robustness", "robustness-refined"):
+        summary = state.summary(step)
+        assert summary["physics"] == "training" and summary["yardstick_comparable"] is False
+        assert {"open_loop", "closed_loop"} <= set(summary["summary"])
+        labels = {v["label"].split(" x")[0] for v in summary["variants"]}
+        assert {"magnetization", "modulus", "friction", "density"} <= labels
+    report = (folder / "report.md").read_text()
+    assert "8 of 8 steps done" in report and "Not run yet." not in report
+    assert "open loop (training)" in report and "closed loop (training)" in report
+    assert "the yardstick" in report
+    page = (folder / "report.html").read_text()
+    assert page.count("data:image/png;base64,") >= 4  # sweep, gait, waveform, robustness x2
+    assert 'src="generate/' not in page  # self-contained: no figure linked
+
+
+def test_redo_runs_a_step_again_and_those_that_need_it(interrupted_then_resumed):
+    folder, spec = interrupted_then_resumed["folder"], interrupted_then_resumed["spec"]
+    before = LoopState.read(folder)
+    status, _, err = _loop(str(spec), "--out", str(folder), "--redo", "robustness")
+    assert status == 0, err
+    assert "loop: [5/8] robustness: started" in err
+    assert "loop: [8/8] firmware: already done" in err  # firmware does not need robustness
+    after = LoopState.read(folder)
+    assert after.steps["robustness"]["finished_utc"] >= before.steps["robustness"]["finished_utc"]
+    assert after.steps["train"] == before.steps["train"]
+
+
+def test_a_changed_spec_or_setting_is_refused(interrupted_then_resumed, tmp_path):
+    folder = interrupted_then_resumed["folder"]
+    before = (folder / "loop.json").read_bytes()
+    changed = _write_spec(tmp_path / "seg4.toml", field_limit=0.005)
+    status, _, err = _loop(str(changed), "--out", str(folder))
+    assert status == 2
+    assert "spec.actuation.field_limit" in err and "--force" in err
+    status, _, err = _loop(str(interrupted_then_resumed["spec"]), "--out", str(folder), "--seeds", "3")
+    assert status == 2 and "settings.seeds" in err
+    assert (folder / "loop.json").read_bytes() == before
+
+
+def test_skip_is_recorded_and_a_step_that_needs_a_skipped_one_is_refused(tmp_path):
+    spec = _write_spec(tmp_path / "seg4.toml")
+    folder = tmp_path / "out"
+    status, _, err = _loop(str(spec), "--out", str(folder), "--skip", "yardstick")
+    assert status == 2
+    assert "step train needs step yardstick" in err
+    assert not folder.exists()  # refused before any work
+    rest = ",".join(STEPS[1:])
+    status, _, err = _loop(str(spec), "--out", str(folder), "--skip", rest)
+    assert status == 0, err
+    state = LoopState.read(folder)
+    assert state.done("check")
+    assert all(state.steps[s]["status"] == "skipped" for s in STEPS[1:])
+    assert "Skipped (`--skip`)." in (folder / "report.md").read_text()
+    status, _, err = _loop(str(spec), "--out", str(folder), "--skip", rest)
+    assert status == 0 and "check: already done" in err
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--skip", "trian"], "--skip: unknown step 'trian'"),
+    (["--skip", "train", "--redo", "train"], "--skip and --redo both name train"),
+    (["--calibration", "missing.json"], "--calibration missing.json: no such file"),
+])
+def test_bad_options_are_refused_before_any_work(tmp_path, argv, message):
+    spec = _write_spec(tmp_path / "seg4.toml")
+    status, _, err = _loop(str(spec), "--out", str(tmp_path / "out"), *argv)
+    assert status == 2 and message in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_folder_holding_other_files_is_refused(tmp_path):
+    spec = _write_spec(tmp_path / "seg4.toml")
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "notes.txt").write_text("mine")
+    status, _, err = _loop(str(spec), "--out", str(tmp_path / "out"), "--force")
+    assert status == 2 and "does not write (notes.txt)" in err, err
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["notes.txt"]
+
+
+def test_redo_plans_every_step_that_needs_the_redone_one(tmp_path):
+    state = LoopState(tmp_path / "loop.json", "c", {}, {},
+                      {s: {"status": "done"} for s in STEPS})
+    plan = plan_loop(state, {}, {}, (), ("train",), False)
+    assert plan.done == ("check", "yardstick")
+    assert plan.run == ("train", "generate", "robustness", "refine", "robustness-refined",
+                        "firmware")
+    plan = plan_loop(state, {}, {}, (), ("refine",), False)
+    assert plan.run == ("refine", "robustness-refined")
+    with pytest.raises(LoopError, match="step robustness needs step generate"):
+        plan_loop(None, {}, {}, ("generate", "firmware"), (), False)
+
+
+def test_a_training_killed_before_its_record_is_resumed_not_restarted(interrupted_then_resumed,
+                                                                      tmp_path):
+    """Killed after the training ended but before ``loop.json`` recorded it: the train step
+    resumes the runs (``msr train --resume``: nothing left to train), keeping their checkpoints,
+    and measures the seeds again."""
+    import shutil
+
+    folder = tmp_path / "out"
+    shutil.copytree(interrupted_then_resumed["folder"], folder)
+    state = LoopState.read(folder)
+    for step in STEPS[2:]:
+        del state.steps[step]
+    state.write()
+    checkpoint = folder / "train" / "seg4" / "seed0" / "checkpoint.pt"
+    before = checkpoint.read_bytes()
+    status, _, err = _loop(str(interrupted_then_resumed["spec"]), "--out", str(folder), "--skip",
+                           ",".join(STEPS[3:]))
+    assert status == 0, err
+    assert "loop: [3/8] train: done in" in err
+    state = LoopState.read(folder)
+    assert state.summary("train")["resumed"] is True
+    assert len(state.summary("train")["seeds"]) == 2
+    assert checkpoint.read_bytes() == before
