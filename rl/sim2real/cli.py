@@ -12,6 +12,12 @@ from pathlib import Path
 from elastica_magnetic.cli import CommandError, duration_option, number, output_path
 
 from ..cases.variations import DEFAULT_RANGES, GROUPS, VariationError, magnitude_of, parse_variation
+from .identify import MAX_EVALUATIONS, STARTS
+
+#: Largest ``--noise-m`` (m) anywhere, and the largest as a fraction of the body length: a noise
+#: past it is a unit mistake (millimetres given for metres), not a tracker.
+MAX_NOISE_M = 0.1
+MAX_NOISE_LENGTHS = 0.1
 
 _DEFAULT_SET = ", ".join(f"{name} ({'+'.join(GROUPS[name])}) x{low:g}:{high:g}"
                          for name, (low, high) in DEFAULT_RANGES.items())
@@ -72,8 +78,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="fit spec values so that the simulated robot moves as a measured trajectory",
         description="Fit spec values (dotted keys) so that the robot of a spec, under the waveform "
         "that was played, moves its tracked points as measured: least squares in the training "
-        "physics, confirmed in the accurate physics. Writes DIR/identified.toml (the whole spec "
-        "with the fitted values), DIR/identify.json (values, uncertainties, residuals in m) and "
+        "physics from several starts, confirmed in the accurate physics; each value gets an "
+        "interval or is reported not identifiable, and the residual is judged against --noise-m. "
+        "Writes DIR/identified.toml (the whole spec with the fitted values), DIR/identify.json "
+        "(values, intervals, residuals in m, warnings, every start) and "
         "DIR/identify.png (measured against fitted motion).",
     )
     p.add_argument("field_csv", type=Path, metavar="FIELD_CSV",
@@ -93,7 +101,16 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="physics of the fit (the other one confirms it)")
     p.add_argument("--no-confirm", action="store_true", help="skip the confirmation run")
     p.add_argument("--max-evaluations", type=number("simulations", 10, 100_000, integer=True),
-                   default=300, help="most simulations the fit may run (default 300)")
+                   default=MAX_EVALUATIONS, help="most simulations the fit may run, every start "
+                   f"together (default {MAX_EVALUATIONS})")
+    p.add_argument("--starts", type=number("", 1, 64, integer=True), default=STARTS,
+                   help=f"fits from the nominal values and from perturbed ones (default {STARTS}); "
+                   "the best is kept, their spread shows a value the trajectory does not fix")
+    p.add_argument("--seed", type=number("", 0, 2**32 - 1, integer=True), default=0,
+                   help="seed of the perturbed starts")
+    p.add_argument("--noise-m", type=number("m", 0, MAX_NOISE_M, low_open=True), default=None,
+                   metavar="M", help="the tracker's noise per coordinate (m; 0.05 mm is 5e-5), to "
+                   "judge the residual by (default: none, the residual is not judged)")
     p.add_argument("--force", action="store_true", help="replace an existing output folder")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true", help="print identify.json")
@@ -147,6 +164,7 @@ def identify_command(args: argparse.Namespace) -> int:
     except VariationError as exc:
         raise CommandError(str(exc)) from None
     check_against_robot(measured, float(spec["robot"]["length"]), fields.shape[0] * ACTION_PERIOD)
+    _check_noise(args.noise_m, float(spec["robot"]["length"]))
 
     def progress(evaluations: int, rms: float) -> None:
         print(f"\rmsr identify: simulation {evaluations}, residual RMS {1e3 * rms:.4f} mm",
@@ -154,9 +172,12 @@ def identify_command(args: argparse.Namespace) -> int:
 
     report = identify(fields, measured, spec, fits, physics=args.physics,
                       confirm=not args.no_confirm, max_evaluations=args.max_evaluations,
+                      starts=args.starts, seed=args.seed, noise_m=args.noise_m,
                       progress=None if args.no_progress else progress)
     if not args.no_progress:
         print(file=sys.stderr)
+    for warning in report["warnings"]:
+        print(f"msr identify: warning: {warning}", file=sys.stderr)
     report = {"field_csv": str(args.field_csv), "robot": str(args.robot), "fit": args.fit, **report}
     header = (f"Identified by msr identify from {args.field_csv} and {args.trajectory_csv} "
               f"({args.physics} physics), nominal spec {args.robot}.")
@@ -165,19 +186,48 @@ def identify_command(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({**public, "out": str(out)}, indent=2, default=str))
         return 0
-    for fit in report["fitted"].values():
-        for key, value in fit["values"].items():
-            # a table (a per-element magnetization) is shown by its largest vector
-            print(f"{key}: {magnitude_of(value):.6g} +- {magnitude_of(fit['sigma'][key]):.2g} "
-                  f"(nominal {magnitude_of(fit['nominal_values'][key]):.6g}, "
-                  f"x{fit['factor']:.4f})"
-                  + ("  AT THE BOUND of the fit" if fit["at_bound"] else ""))
-    r = report["residual_m"]
-    print(f"residual RMS {1e3 * r['rms']:.4f} mm, largest {1e3 * r['max_abs']:.4f} mm "
-          f"(nominal robot: {1e3 * r['nominal_rms']:.4f} mm)")
+    print_identified(report)
     if "confirm" in report:
         c = report["confirm"]
         print(f"{c['physics']} physics, fitted values: residual RMS {1e3 * c['rms_m']:.4f} mm, "
               f"largest {1e3 * c['max_abs_m']:.4f} mm")
     print(f"written: {out / 'identified.toml'}, {out / 'identify.json'}, {out / 'identify.png'}")
     return 0
+
+
+def _check_noise(noise_m: float | None, length: float) -> None:
+    """``--noise-m`` against the body (``length``, m): a noise past MAX_NOISE_LENGTHS of it is
+    millimetres given for metres."""
+    if noise_m is not None and noise_m > MAX_NOISE_LENGTHS * length:
+        raise CommandError(f"--noise-m {noise_m:g}: {noise_m / length:.2g} x the {1e3 * length:g} mm "
+                           "body; the tracker's noise is in metres (0.05 mm is 5e-5): a value in "
+                           "millimetres given for metres?")
+
+
+def print_identified(report: dict) -> None:
+    """The text report of ``msr identify``: each fitted value with its standard error, its
+    interval (and where it comes from) or why it is not identifiable, the residual and its ratio
+    to the noise, and the starts."""
+    for fit in report["fitted"].values():
+        interval = fit["interval"]
+        span = (f"factor in [{interval[0]:.4f}, {interval[1]:.4f}]" if interval is not None
+                else "factor unbounded") + f" (from the {fit['interval_from']})"
+        for key, value in fit["values"].items():
+            sigma = fit["sigma"][key]
+            # a table (a per-element magnetization) is shown by its largest vector
+            print(f"{key}: {magnitude_of(value):.6g} +- "
+                  f"{'inf' if sigma is None else format(magnitude_of(sigma), '.2g')} "
+                  f"(nominal {magnitude_of(fit['nominal_values'][key]):.6g}, "
+                  f"x{fit['factor']:.4f}), {span}"
+                  + ("  AT THE BOUND of the fit" if fit["at_bound"] else ""))
+        if not fit["identifiable"]:
+            print(f"  NOT IDENTIFIABLE: {fit['reason']}")
+    r = report["residual_m"]
+    ratio = report["residual_vs_noise"]
+    judged = (f"{ratio:.2f} x the noise" if ratio is not None else report["residual_judged"])
+    print(f"residual RMS {1e3 * r['rms']:.4f} mm ({judged}), largest {1e3 * r['max_abs']:.4f} mm "
+          f"(nominal robot: {1e3 * r['nominal_rms']:.4f} mm)")
+    o = report["optimizer"]
+    print(f"{len(o['starts'])} start(s), {o['simulations']} simulations: best start {o['best_start']} "
+          f"{'converged' if o['converged'] else 'did NOT converge'}; the starts "
+          f"{'agree' if o['starts_agree'] else 'do NOT agree'}")

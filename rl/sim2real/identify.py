@@ -8,8 +8,14 @@ factors of the nominal values, in the training physics; the residuals are the di
 points' displacements from the first frame (x and y, m) at every measured frame. The fitted robot
 is then run in the accurate physics to confirm the fit.
 
-Uncertainty: the standard error of each factor from the Jacobian at the solution
-(``s^2 (J^T J)^-1``, ``s^2`` the residual variance), propagated to the value. It assumes
+The fit runs from several starts (the nominal values and ``starts - 1`` perturbed ones, seeded),
+sharing ``max_evaluations``; the start with the lowest cost is kept and every start is reported.
+
+Uncertainty: the standard error of each factor from a central-difference Jacobian at the best
+solution (``s^2 (J^T J)^-1``, ``s^2`` the residual variance), and the spread of the starts that
+end as good as the best: the stated interval is the larger of the two, and a value whose interval
+is wide is reported as not identifiable, with the reason (:mod:`.identifiability`). The residual
+is compared with the tracker's noise where it is given (``noise_m``). The standard error assumes
 independent residuals; a tracker's errors are correlated from frame to frame, so take it as a
 lower bound.
 """
@@ -39,8 +45,8 @@ from ..cases.variations import (
 )
 from .tracking import MIN_DURATION_S, MeasuredTrajectory, check_against_robot, points_at_rows
 
-__all__ = ["DIFF_STEP", "FIT_BOUNDS", "FitBudgetExceeded", "FitModel", "fit_horizons", "identify",
-           "load_spec", "parse_fit", "write_identified"]
+__all__ = ["DIFF_STEP", "FIT_BOUNDS", "MAX_EVALUATIONS", "STARTS", "FitBudgetExceeded", "FitModel",
+           "fit_horizons", "identify", "load_spec", "parse_fit", "start_points", "write_identified"]
 
 #: Bounds of a fitted factor (x the nominal value).
 FIT_BOUNDS = (0.2, 5.0)
@@ -51,13 +57,28 @@ DIFF_STEP = 1e-2
 STAGES = 3
 #: Scale of the fitted log factors and the relative step that ends a fit.
 X_SCALE = 1.0
-XTOL = 1e-8
+XTOL = 1e-6
+#: Relative decrease of the cost that ends a fit (least squares, polish): far below the noise's
+#: share of it (1 / number of residuals), so stopping there loses nothing the data can tell.
+FTOL = 1e-6
 #: Step of the log factors that ends the polish (0.1 %), and how far the polish may go from the
 #: least-squares solution (log factor).
 POLISH_XTOL = 1e-3
 POLISH_REACH = 0.2
 #: Residual of every frame of a simulation that diverged, m.
 DIVERGED_RESIDUAL_M = 1.0
+#: Simulations of a fit, every start together (about 200 per start: what a start needs for
+#: two or three values on a second of motion).
+MAX_EVALUATIONS = 600
+#: Starts of the fit (the nominal values, then perturbed ones) and how far the perturbed ones lie
+#: (log factor: x0.74 ... x1.35, about the spread of a built robot's values).
+STARTS = 3
+START_SPREAD = 0.3
+#: Step (log factor) of the central-difference Jacobian of the uncertainty: wider than
+#: DIFF_STEP so that the roughness of a motion with contacts does not pass for a slope.
+UNCERTAINTY_STEP = 0.05
+#: Two starts agree when their factors differ by less than this fraction.
+AGREE_WITHIN = 0.01
 
 
 def load_spec(robot: str | Path) -> dict[str, Any]:
@@ -109,6 +130,7 @@ class FitModel:
     physics: str = "training"
     evaluations: int = 0
     diverged: int = 0
+    refused: int = 0  # factors whose spec the parser refused
     _cache: dict = field(default_factory=dict, repr=False)
 
     def values(self, factors: Sequence[float]) -> dict[str, Any]:
@@ -152,6 +174,9 @@ class FitModel:
         except SimulationDiverged:  # values far from the robot's: as bad as a residual can be
             self.diverged += 1
             return np.full(measured.size, DIVERGED_RESIDUAL_M)
+        except SpecError:  # values no robot has (kinetic friction above static): as bad
+            self.refused += 1
+            return np.full(measured.size, DIVERGED_RESIDUAL_M)
         return ((simulated - simulated.mean(axis=0)) - (measured - measured.mean(axis=0))).ravel()
 
 
@@ -172,85 +197,226 @@ class FitBudgetExceeded(ValueError):
     """The fit used its simulations without converging."""
 
 
-def _least_squares(model: FitModel, x0, bounds, diff_step: float, budget: int, progress, done: int):
-    """One ``least_squares`` run on ``model`` from ``x0`` (log factors), at most ``budget``
-    simulations."""
-    from scipy.optimize import least_squares
+@dataclass
+class _Problem:
+    """What every start of a fit shares: the spec, the fitted values, the waveform, the
+    measurement, the physics, the bounds of the log factors, the Jacobian step, the number of
+    horizons, the progress callback, and the model of the whole trajectory (its cache shared)."""
 
-    def fun(log_factors: NDArray[np.float64]) -> NDArray[np.float64]:
-        if model.evaluations >= budget:
-            raise FitBudgetExceeded(
-                f"the fit used its {done + budget} simulations without converging; raise "
-                "--max-evaluations or fit fewer keys")
+    spec: dict[str, Any]
+    fits: list[Variation]
+    fields: NDArray[np.float64]
+    measured: MeasuredTrajectory
+    physics: str
+    bounds: tuple[float, float]
+    diff_step: float
+    stages_count: int
+    progress: Callable[[int, float], None] | None
+    whole: FitModel = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.whole = FitModel(self.spec, self.fits, self.fields, self.measured, self.physics)
+
+    def model(self, horizon: float) -> FitModel:
+        if horizon >= self.measured.duration:
+            return self.whole
+        return FitModel(self.spec, self.fits, self.fields, self.measured.until(horizon), self.physics)
+
+
+class _Budget:
+    """The simulations a start may run (``limit``), counted over the models it uses; the best
+    log factors seen on the current model (so that a start stopped by the budget keeps them)."""
+
+    def __init__(self, limit: int, done: int, progress: Callable[[int, float], None] | None):
+        self.limit, self.done, self.progress = limit, done, progress
+        self.used = self.diverged = 0
+        self.best: tuple[float, NDArray[np.float64]] | None = None
+
+    def evaluate(self, model: FitModel, log_factors: NDArray[np.float64]) -> NDArray[np.float64]:
+        before, diverged = model.evaluations, model.diverged
+        if (tuple(float(f) for f in np.exp(log_factors)), model.physics) not in model._cache \
+                and self.used >= self.limit:
+            raise FitBudgetExceeded("this start's share of the simulations ran out")
         r = model.residuals(np.exp(log_factors))
-        if progress is not None:
-            progress(done + model.evaluations, _rms(r))
+        self.used += model.evaluations - before
+        self.diverged += model.diverged - diverged
+        cost = float(r @ r)
+        if self.best is None or cost < self.best[0]:
+            self.best = (cost, np.array(log_factors, dtype=np.float64))
+        if self.progress is not None:
+            self.progress(self.done + self.used, _rms(r))
         return r
 
-    return least_squares(fun, x0, bounds=bounds, method="trf", diff_step=diff_step, x_scale=X_SCALE,
-                         ftol=1e-10, xtol=XTOL, gtol=1e-10)
+
+def _least_squares(model: FitModel, x0, problem: _Problem, budget: _Budget):
+    """One ``least_squares`` run on ``model`` from ``x0`` (log factors) within ``budget``."""
+    from scipy.optimize import least_squares
+
+    return least_squares(lambda x: budget.evaluate(model, x), x0, bounds=problem.bounds,
+                         method="trf", diff_step=problem.diff_step, x_scale=X_SCALE, ftol=FTOL,
+                         xtol=XTOL, gtol=1e-10)
 
 
-def _polish(model: FitModel, x0, bounds, budget: int, progress, done: int):
+def _polish(problem: _Problem, x0, budget: _Budget) -> tuple[NDArray[np.float64], dict[str, Any]]:
     """Powell's derivative-free line searches from the least-squares solution, on the whole
     trajectory: the forward-difference Jacobian of a motion with contacts is rough at the 1 %
     scale, so least squares can stop short of the minimum along a weak direction (friction)."""
     from scipy.optimize import minimize
 
-    start = model.evaluations
+    model, start = problem.whole, budget.used
+    lo, hi = problem.bounds
+    reach = [(max(lo, v - POLISH_REACH), min(hi, v + POLISH_REACH)) for v in x0]
+    budget.best = None
+    try:
+        r0 = budget.evaluate(model, np.asarray(x0, dtype=np.float64))
+        result = minimize(lambda x: float(np.sum(budget.evaluate(model, x) ** 2)), x0,
+                          method="Powell", bounds=reach,
+                          options={"xtol": POLISH_XTOL, "ftol": FTOL,
+                                   "maxfev": max(budget.limit - budget.used, 1),
+                                   "direc": np.eye(len(x0)) * 0.02})
+        x = result.x if result.fun <= float(r0 @ r0) else np.asarray(x0)
+        message, converged = str(result.message), bool(result.success)
+    except FitBudgetExceeded:
+        if budget.best is None:
+            raise
+        x, converged = budget.best[1], False
+        message = "stopped: this start's share of the simulations ran out"
+    return x, {"method": "scipy.optimize.minimize (Powell)", "simulations": budget.used - start,
+               "message": message, "converged": converged}
 
-    def cost(log_factors: NDArray[np.float64]) -> float:
-        r = model.residuals(np.exp(log_factors))
-        if progress is not None:
-            progress(done + model.evaluations - start, _rms(r))
-        return float(r @ r)
 
-    n = len(x0)
-    reach = [(max(bounds[0], v - POLISH_REACH), min(bounds[1], v + POLISH_REACH)) for v in x0]
-    result = minimize(cost, x0, method="Powell", bounds=reach,
-                      options={"xtol": POLISH_XTOL, "ftol": 1e-6, "maxfev": max(budget, 1),
-                               "direc": np.eye(n) * 0.02})
-    x = result.x if result.fun <= cost(x0) else np.asarray(x0)
-    return x, {"method": "scipy.optimize.minimize (Powell)", "simulations": model.evaluations - start,
-               "rms_m": _rms(model.residuals(np.exp(x))), "message": str(result.message)}
+def _fit_one_start(problem: _Problem, x0: NDArray[np.float64], budget: _Budget) -> dict[str, Any]:
+    """The least-squares fit over growing horizons (:func:`fit_horizons`) from ``x0`` (log
+    factors), each stage starting from the last one's solution, then the polish. Returns the
+    start's record: its log factors ``x``, cost (m^2) and RMS (m) over the whole trajectory,
+    whether it converged, one record per stage and the polish's."""
+    x = np.asarray(x0, dtype=np.float64)
+    stages, converged, status, message = [], True, None, ""
+    for horizon in fit_horizons(problem.measured, problem.stages_count):
+        model = problem.model(horizon)
+        budget.best, before, diverged = None, budget.used, budget.diverged
+        try:
+            result = _least_squares(model, x, problem, budget)
+            x, status, message = result.x, int(result.status), str(result.message)
+            converged = converged and status > 0
+        except FitBudgetExceeded:
+            if budget.best is None:
+                return {"x": None, "converged": False, "stages": stages,
+                        "message": "no simulation left for this start"}
+            x, status, converged = budget.best[1], None, False
+            message = "stopped: this start's share of the simulations ran out"
+        stages.append({"horizon_s": horizon, "factors": np.exp(x).tolist(), "status": status,
+                       "message": message, "simulations": budget.used - before,
+                       "diverged": budget.diverged - diverged})
+        if status is None:
+            break
+    polish = None
+    if status is not None:
+        x, polish = _polish(problem, x, budget)
+        converged = converged and polish["converged"]
+    r = problem.whole.residuals(np.exp(x))  # cached: the polish evaluated it
+    return {"x": x, "cost": float(r @ r), "rms_m": _rms(r), "converged": converged,
+            "status": status, "message": message, "stages": stages, "polish": polish}
 
 
-def _jacobian(model: FitModel, x, residual, step: float) -> NDArray[np.float64]:
-    """Forward-difference Jacobian of the residuals in the log factors at ``x``."""
+def start_points(n_values: int, starts: int, seed: int) -> list[NDArray[np.float64]]:
+    """The log factors each start begins from: the nominal values (0), then ``starts - 1`` points
+    whose every coordinate takes the levels of ``[-START_SPREAD, START_SPREAD]`` once, in a
+    seeded order (so the starts lie on both sides of the nominal value of each fitted value)."""
+    rng = np.random.default_rng(seed)
+    points = [np.zeros(n_values)]
+    extra = starts - 1
+    if extra == 1:
+        return [*points, START_SPREAD * rng.choice([-1.0, 1.0], n_values)]
+    if extra > 1:
+        levels = np.linspace(-START_SPREAD, START_SPREAD, extra)
+        columns = np.stack([rng.permutation(levels) for _ in range(n_values)], axis=1)
+        points += list(columns)
+    return points
+
+
+def _accepted_start(problem: _Problem, x0: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``x0`` moved towards the nominal values (halving) until the spec parser accepts its values
+    (a start with kinetic friction above static would begin on the refused side of the cost)."""
+    for _ in range(6):
+        try:
+            describe_robot(apply_values(problem.spec, problem.whole.values(np.exp(x0))), "start")
+            return x0
+        except SpecError:
+            x0 = x0 / 2
+    return np.zeros_like(x0)
+
+
+def _run_starts(problem: _Problem, starts: int, seed: int, max_evaluations: int
+                ) -> list[dict[str, Any]]:
+    """Fit from every start (:func:`start_points`), each given an even share of what the earlier
+    ones left of ``max_evaluations``. Raises FitBudgetExceeded when no start got anywhere."""
+    records, used = [], 0
+    points = start_points(len(problem.fits), starts, seed)
+    for i, x0 in enumerate(points):
+        x0 = _accepted_start(problem, x0)
+        budget = _Budget((max_evaluations - used) // (len(points) - i), used, problem.progress)
+        record = _fit_one_start(problem, x0, budget)
+        used += budget.used
+        records.append({"start_factors": np.exp(x0).tolist(), "simulations": budget.used,
+                        "diverged": budget.diverged, **record})
+    if all(r["x"] is None for r in records):
+        raise FitBudgetExceeded(f"the fit used its {max_evaluations} simulations without a result; "
+                                "raise --max-evaluations, or fit fewer keys or from fewer --starts")
+    return records
+
+
+def _central_jacobian(model: FitModel, x, step: float) -> NDArray[np.float64]:
+    """Central-difference Jacobian of the residuals in the log factors at ``x``."""
     columns = []
     for k in range(len(x)):
-        shifted = np.array(x, dtype=np.float64)
-        shifted[k] += step
-        columns.append((model.residuals(np.exp(shifted)) - residual) / step)
+        up, down = np.array(x, dtype=np.float64), np.array(x, dtype=np.float64)
+        up[k] += step
+        down[k] -= step
+        columns.append((model.residuals(np.exp(up)) - model.residuals(np.exp(down))) / (2 * step))
     return np.stack(columns, axis=1)
 
 
-def _uncertainty(residual: NDArray[np.float64], jac: NDArray[np.float64]):
-    """Standard errors of the log factors and their correlation matrix: ``s^2 (J^T J)^-1`` with
-    ``s^2`` the residual variance (residuals minus unknowns degrees of freedom)."""
-    dof = max(residual.size - jac.shape[1], 1)
-    cov = float(residual @ residual) / dof * np.linalg.pinv(jac.T @ jac)
-    sigma = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    return sigma, cov / np.outer(np.maximum(sigma, 1e-300), np.maximum(sigma, 1e-300))
-
-
-def _fitted(spec: Mapping[str, Any], fits: Sequence[Variation], x, sigma, bounds) -> dict[str, Any]:
+def _fitted(spec: Mapping[str, Any], fits: Sequence[Variation], x, sigma, bounds,
+            judged: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """Per fit: its keys, factor and its standard error, fitted and nominal values (SI) and their
-    standard errors, whether the factor ended on a bound of the fit."""
+    standard errors, whether the factor ended on a bound of the fit, its interval (factors) and
+    whether it is identifiable (:func:`~.identifiability.judge_values`)."""
     out = {}
     for k, fit in enumerate(fits):
         factor = float(np.exp(x[k]))
+        sigma_k = float(sigma[k]) if np.isfinite(sigma[k]) else None
         out[fit.name] = {
             "keys": list(fit.keys),
             "factor": factor,
-            "factor_sigma": factor * float(sigma[k]),
+            "factor_sigma": None if sigma_k is None else factor * sigma_k,
             "values": {key: scaled(get_value(spec, key), factor) for key in fit.keys},
             "nominal_values": {key: get_value(spec, key) for key in fit.keys},
-            "sigma": {key: scaled(get_value(spec, key), factor * float(sigma[k]))
+            "sigma": {key: None if sigma_k is None else scaled(get_value(spec, key), factor * sigma_k)
                       for key in fit.keys},
             "at_bound": bool(np.isclose(x[k], bounds[0]) or np.isclose(x[k], bounds[1])),
+            **judged[k],
         }
     return out
+
+
+def _starts_report(records: Sequence[dict[str, Any]], near: Sequence[bool], best: int
+                   ) -> tuple[list[dict[str, Any]], bool]:
+    """Each start's public record (factors, RMS, converged, near the best cost) and whether the
+    starts agree (each ended near the best cost, its factors within AGREE_WITHIN of the best)."""
+    out, agree, x_best = [], True, records[best]["x"]
+    finished = iter(near)
+    for i, r in enumerate(records):
+        entry = {"start_factors": r["start_factors"], "simulations": r["simulations"],
+                 "converged": r["converged"], "message": r["message"], "stages": r["stages"],
+                 "polish": r.get("polish"), "best": i == best}
+        if r["x"] is not None:
+            close = next(finished)
+            same = bool(np.all(np.abs(np.exp(r["x"] - x_best) - 1) <= AGREE_WITHIN))
+            entry.update(factors=np.exp(r["x"]).tolist(), rms_m=r["rms_m"], near_best=close)
+            agree = agree and close and same
+        out.append(entry)
+    return out, agree
 
 
 def identify(
@@ -261,87 +427,138 @@ def identify(
     *,
     physics: str = "training",
     confirm: bool = True,
-    max_evaluations: int = 300,
+    max_evaluations: int = MAX_EVALUATIONS,
     diff_step: float = DIFF_STEP,
     stages_count: int = STAGES,
+    starts: int = STARTS,
+    seed: int = 0,
+    noise_m: float | None = None,
     progress: Callable[[int, float], None] | None = None,
 ) -> dict[str, Any]:
     """Fit the values of ``fits`` (one factor per fit, within :data:`FIT_BOUNDS`) so that the robot
     of ``spec`` (complete, see :func:`load_spec`) under ``fields`` (``(n, 3)`` T, 100 Hz) moves its
-    points as ``measured``; in ``physics`` (training), then confirmed in the accurate physics
-    (``confirm``). ``max_evaluations`` bounds the fit's simulations (Jacobian ones included; the
-    polish gets what the least squares left, the uncertainty's Jacobian one more per fitted value).
-    ``progress(evaluations, rms_m)`` is called after each simulation of the fit.
+    points as ``measured``; in ``physics`` (training), from ``starts`` starts (:func:`start_points`,
+    ``seed``), then confirmed in the accurate physics (``confirm``). ``max_evaluations`` bounds the
+    simulations of all starts together (Jacobian ones included; the uncertainty's Jacobian takes
+    two more per fitted value, the nominal robot's residual one). ``noise_m``: the tracker's noise
+    per coordinate (m), to judge the residual by. ``progress(evaluations, rms_m)`` is called after
+    each simulation of the fit.
 
-    Returns the content of ``identify.json``: per fit its factor, values and standard errors,
-    the residual RMS and largest absolute residual (m) of the nominal and the fitted robot, the
+    Returns the content of ``identify.json``: per fit its factor, values, standard errors,
+    interval and identifiability, the residual RMS and largest absolute residual (m) of the
+    nominal and the fitted robot and their ratio to the noise, warnings, every start's result, the
     accurate-physics confirmation, the optimizer's report, and ``predicted`` (nominal and fitted
     displacements, for the figure; not written to JSON).
     """
+    from .identifiability import (
+        IDENTIFIABLE_WITHIN,
+        INTERVAL_SIGMAS,
+        NEAR_BEST_CHI2,
+        residual_against_noise,
+    )
+
     spec = dict(spec)
-    length = float(spec["robot"]["length"])
-    check_against_robot(measured, length, fields.shape[0] * ACTION_PERIOD)
+    check_against_robot(measured, float(spec["robot"]["length"]), fields.shape[0] * ACTION_PERIOD)
     fields = np.asarray(fields, dtype=np.float64)
-    start = time.perf_counter()
+    began = time.perf_counter()
     bounds = (np.log(FIT_BOUNDS[0]), np.log(FIT_BOUNDS[1]))
-    model, x, result, stages, nominal, used = _fit_in_stages(
-        spec, fits, fields, measured, physics, bounds, diff_step, max_evaluations, stages_count,
-        progress)
-    status, message = int(result.status), str(result.message)
-    x, polish = _polish(model, x, bounds, max_evaluations - used, progress, used)
+    problem = _Problem(spec, list(fits), fields, measured, physics, bounds, diff_step, stages_count,
+                       progress)
+    records = _run_starts(problem, starts, seed, max_evaluations)
+    finished = [i for i, r in enumerate(records) if r["x"] is not None]
+    best = min(finished, key=lambda i: records[i]["cost"])
+    x = records[best]["x"]
+    model = problem.whole
     residual = model.residuals(np.exp(x))  # cached
-    jac = _jacobian(model, x, residual, diff_step)
-    fit_wall = time.perf_counter() - start
-    total = model.evaluations + sum(stage["simulations"] for stage in stages[:-1])
-    diverged = model.diverged + sum(stage["diverged"] for stage in stages[:-1])
-    sigma, corr = _uncertainty(residual, jac)
-    factors = np.exp(x)
+    nominal = model.residuals(np.ones(len(fits)))
+    before = model.evaluations
+    sigma, corr, judged, near, profile = _judge(model, x, residual, fits,
+                                                [records[i] for i in finished], bounds)
+    starts_public, agree = _starts_report(records, near, best)
+    judged_residual, warnings = residual_against_noise(_rms(residual), noise_m)
+    warnings += _fit_warnings(records[best], judged, fits)
     report: dict[str, Any] = {
         "physics": physics,
-        "fitted": _fitted(spec, fits, x, sigma, bounds),
-        "correlation": corr.round(6).tolist(),
+        "fitted": _fitted(spec, fits, x, sigma, bounds, judged),
+        "correlation": [[None if not np.isfinite(c) else round(float(c), 6) for c in row]
+                        for row in corr],
         "residual_m": {"rms": _rms(residual), "max_abs": float(np.abs(residual).max()),
                        "nominal_rms": _rms(nominal), "nominal_max_abs": float(np.abs(nominal).max()),
                        "count": int(residual.size)},
-        "optimizer": {"method": "scipy.optimize.least_squares (trf, 2-point Jacobian)",
-                      "diff_step": diff_step, "bounds_factor": list(FIT_BOUNDS), "status": status,
-                      "message": message, "simulations": total,
-                      "stages": stages, "polish": polish, "diverged_simulations": diverged,
-                      "wall_s": fit_wall},
+        **judged_residual,
+        "warnings": warnings,
+        "identifiability": {"near_best_chi2": NEAR_BEST_CHI2, "interval_sigmas": INTERVAL_SIGMAS,
+                            "identifiable_within": IDENTIFIABLE_WITHIN, "profile": profile,
+                            "simulations": model.evaluations - before},
+        "optimizer": _optimizer_report(records, best, agree, diff_step, time.perf_counter() - began,
+                                       starts_public),
         "measured": {"source": measured.source, "kind": measured.kind, "frames": int(measured.times.size),
                      "points": list(measured.points), "duration_s": measured.duration},
     }
     predicted = {"nominal": model.displacements(np.ones(len(fits))),
-                 "fitted": model.displacements(factors)}
+                 "fitted": model.displacements(np.exp(x))}
     if confirm:
-        report["confirm"] = _confirmation(model, factors, physics)
+        report["confirm"] = _confirmation(model, np.exp(x), physics)
     report["predicted"] = predicted
     return report
 
 
-def _fit_in_stages(spec: dict[str, Any], fits: Sequence[Variation], fields: NDArray[np.float64],
-                   measured: MeasuredTrajectory, physics: str, bounds: tuple[float, float],
-                   diff_step: float, max_evaluations: int, stages_count: int,
-                   progress: Callable[[int, float], None] | None) -> tuple[Any, ...]:
-    """The least-squares fit over growing horizons (:func:`fit_horizons`), each stage starting
-    from the last one's log-factors. Returns the last stage's model, the log-factors, the
-    optimizer's result, one record per stage, the nominal robot's residuals over the whole
-    measurement (m) and the simulations used."""
-    x = np.zeros(len(fits))
-    used = 0
-    stages = []
-    for horizon in fit_horizons(measured, stages_count):
-        model = FitModel(spec, list(fits), fields, measured.until(horizon), physics)
-        if horizon == measured.duration:
-            nominal = model.residuals(np.ones(len(fits)))
-        result = _least_squares(model, x, bounds, diff_step, max_evaluations - used, progress,
-                                used)
-        used += model.evaluations
-        x = result.x
-        stages.append({"horizon_s": horizon, "factors": np.exp(x).tolist(),
-                       "rms_m": _rms(result.fun), "simulations": model.evaluations,
-                       "diverged": model.diverged})
-    return model, x, result, stages, nominal, used
+def _judge(model: FitModel, x: NDArray[np.float64], residual: NDArray[np.float64],
+           fits: Sequence[Variation], finished: Sequence[dict[str, Any]],
+           bounds: tuple[float, float]) -> tuple[Any, ...]:
+    """The uncertainty of the best fit ``x`` (log factors; ``residual`` its residuals, m) from the
+    Jacobian, the ``finished`` starts and the profile (:mod:`.identifiability`). Returns the
+    standard errors and correlation of the log factors, each value's verdict, which starts ended
+    as good as the best, and the profile's records."""
+    from .identifiability import (
+        IDENTIFIABLE_WITHIN,
+        first_halfwidths,
+        judge_values,
+        near_best,
+        profile_halfwidths,
+        uncertainty,
+    )
+
+    jac = _central_jacobian(model, x, UNCERTAINTY_STEP)
+    sigma, corr = uncertainty(residual, jac)
+    s2 = float(residual @ residual) / max(residual.size - len(fits), 1)
+    near = near_best([r["cost"] for r in finished], s2)
+    halves, sources = first_halfwidths(sigma, x, [r["x"] for r in finished], near)
+    profiled, profile = profile_halfwidths(lambda y: model.residuals(np.exp(y)), x, s2, halves,
+                                           corr, sigma, bounds)
+    widened = (profiled > halves) & (halves <= np.log1p(IDENTIFIABLE_WITHIN))  # by the profile
+    sources = ["profile" if widened[k] else src for k, src in enumerate(sources)]
+    judged = judge_values([f.name for f in fits], x, profiled, sources, corr, jac, s2)
+    return sigma, corr, judged, near, profile
+
+
+def _fit_warnings(best: Mapping[str, Any], judged: Sequence[Mapping[str, Any]],
+                  fits: Sequence[Variation]) -> list[str]:
+    """Warnings on the best start (stopped by the budget) and on values not identifiable."""
+    out = []
+    if not best["converged"]:
+        out.append(f"the best start did not converge ({best['message']}); raise --max-evaluations")
+    for fit, entry in zip(fits, judged, strict=True):
+        if not entry["identifiable"]:
+            out.append(f"{fit.name} is not identifiable from this trajectory: {entry['reason']}")
+    return out
+
+
+def _optimizer_report(records: Sequence[dict[str, Any]], best: int, agree: bool, diff_step: float,
+                      wall_s: float, starts_public: list[dict[str, Any]]) -> dict[str, Any]:
+    """The optimizer's part of ``identify.json``: the method, the best start's status, whether
+    it converged and the starts agree, the simulations of the fit (every start) and of the
+    uncertainty, and every start's record."""
+    used = sum(r["simulations"] for r in records)
+    return {"method": "scipy.optimize.least_squares (trf, 2-point Jacobian) on growing horizons, "
+                      "then scipy.optimize.minimize (Powell), from several starts",
+            "diff_step": diff_step, "uncertainty_step": UNCERTAINTY_STEP,
+            "bounds_factor": list(FIT_BOUNDS), "best_start": best,
+            "status": records[best]["status"], "message": records[best]["message"],
+            "converged": records[best]["converged"], "starts_agree": agree,
+            "simulations": used, "diverged_simulations": sum(r["diverged"] for r in records),
+            "wall_s": wall_s, "starts": starts_public,
+            "stages": records[best]["stages"], "polish": records[best]["polish"]}
 
 
 def _confirmation(model: FitModel, factors: NDArray[np.float64], physics: str) -> dict[str, Any]:

@@ -147,7 +147,9 @@ def plot_identify(report: dict[str, Any], measured: Any, path: str | Path) -> Pa
     for ax in axes:
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7, ncol=min(len(measured.points), 6), loc="best")
-    fitted = ", ".join(f"{name} x{f['factor']:.3f} +- {f['factor_sigma']:.3f}"
+    fitted = ", ".join(f"{name} x{f['factor']:.3f} "
+                       + (f"[{f['interval'][0]:.3f}, {f['interval'][1]:.3f}]"
+                          if f.get("interval") is not None else "(not identifiable)")
                        for name, f in report["fitted"].items())
     r = report["residual_m"]
     fig.suptitle(f"{report['physics']} physics: {fitted}\nresidual RMS {1e3 * r['rms']:.3f} mm (nominal "
