@@ -90,6 +90,7 @@ from .locks import FolderLock, command_line, host_name, name_tag, utc_now
 __all__ = [
     "MARKER",
     "Interrupted",
+    "LeftoverWarning",
     "ResultExistsError",
     "ResultFolder",
     "aborted_results",
@@ -115,6 +116,12 @@ _MAX_LISTED = 10_000
 class ResultExistsError(OutputPathError):
     """An output folder that holds something the command will not replace (another command's or
     another robot's result, files it did not write, or its own result without ``force``)."""
+
+
+class LeftoverWarning(UserWarning):
+    """Something beside a result folder that could not be removed (an earlier result renamed
+    aside, a killed run's temporary folder): the result itself is whole; the message names the
+    leftover and why it stayed."""
 
 
 class Interrupted(KeyboardInterrupt):
@@ -397,7 +404,16 @@ def _recover_locked(target: Path, final: Path) -> list[str]:
                      "was killed between its two renames)")
     for leftover in [*olds, *found["new"], *found["trash"]]:
         remove_tree(leftover)
-        notes.append(f"{shown}: removed {leftover.name}, left by a run that was killed")
+        if leftover.exists():  # e.g. an immutable or read-only file in it
+            notes.append(f"{shown}: could not remove {leftover.name}, left beside it by an earlier "
+                         f"run (killed, or its old result could not be deleted: "
+                         f"{_why_not_removed(leftover)}); remove it by hand")
+        elif leftover in found["trash"]:
+            notes.append(f"{shown}: removed {leftover.name}, an earlier result that an earlier run "
+                         "replaced but could not delete (killed while deleting it, or a file in "
+                         "it could not be removed then)")
+        else:
+            notes.append(f"{shown}: removed {leftover.name}, left by a run that was killed")
     return notes
 
 
@@ -461,6 +477,26 @@ def _swap(staging: Path, target: Path) -> None:
     except OSError:  # pragma: no cover - the next run removes a leftover aside anyway
         trash = aside
     remove_tree(trash)
+    if trash.exists():  # the new result is in place; say what stayed, and why
+        import warnings
+
+        warnings.warn(f"{display_path(target)}: the new result is in place, but the earlier one, "
+                      f"renamed {trash.name} beside it, could not be deleted "
+                      f"({_why_not_removed(trash)}); remove it by hand (the next run on "
+                      f"{display_path(target)} tries again)", LeftoverWarning, stacklevel=2)
+
+
+def _why_not_removed(path: Path) -> str:
+    """The error that keeps ``path`` (a folder) from being removed, for a message."""
+    for root, dirs, files in os.walk(path):
+        for name in [*files, *dirs]:
+            try:
+                os.lstat(os.path.join(root, name))
+                if name in files:
+                    os.unlink(os.path.join(root, name))
+            except OSError as exc:
+                return f"{os.path.relpath(os.path.join(root, name), path.parent)}: {exc.strerror}"
+    return "unknown reason"
 
 
 @dataclass

@@ -355,3 +355,29 @@ def test_a_pre_check_after_a_kill_recovers_first_and_reports_it(tmp_path):
         write_new(r.path)
     assert any("restored the previous result" in n for n in r.notes)  # reported with the result
     assert as_new(target) == NEW and sorted(os.listdir(tmp_path)) == ["res"]
+
+
+def test_an_earlier_result_that_cannot_be_deleted_is_named_not_called_a_killed_run(tmp_path,
+                                                                                   monkeypatch):
+    """Issue 48 (try b6b): an immutable file kept the earlier result's trash beside the new one,
+    silently; the next run then said it removed what 'a run that was killed' left."""
+    import elastica_magnetic.results as results
+
+    target = tmp_path / "res"
+    write_old(target)
+    kept = []
+    real_remove = results.remove_tree
+    monkeypatch.setattr(results, "remove_tree",
+                        lambda path: kept.append(path) if ".msr-trash-" in path.name
+                        else real_remove(path))
+    with pytest.warns(results.LeftoverWarning, match=r"the new result is in place, but the "
+                                                     r"earlier one, renamed \.res\.msr-trash-"):
+        with result_folder(target, kind="demo", subject="robot a", force=True) as r:
+            write_new(r.path)
+    assert as_new(target) == NEW and kept
+    monkeypatch.setattr(results, "remove_tree", real_remove)
+    with result_folder(target, kind="demo", subject="robot a", force=True) as r:
+        write_new(r.path)
+    assert any("an earlier result that an earlier run replaced but could not delete" in note
+               for note in r.notes)
+    assert not any("left by a run that was killed" in note for note in r.notes)

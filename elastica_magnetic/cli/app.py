@@ -147,17 +147,20 @@ def build_parser() -> argparse.ArgumentParser:
 @contextlib.contextmanager
 def _plausibility_warnings(command: Callable[[], str]) -> Iterator[None]:
     """Show each unusual value (:class:`~elastica_magnetic.plausibility.ImplausibleValueWarning`)
-    once, as one line ``msr CMD: warning: ...`` on stderr rather than Python's ``file:line`` form."""
+    once, and each leftover that could not be removed
+    (:class:`~elastica_magnetic.results.LeftoverWarning`), as one line ``msr CMD: warning: ...``
+    on stderr rather than Python's ``file:line`` form."""
     import warnings
 
     from ..plausibility import ImplausibleValueWarning
+    from ..results import LeftoverWarning
 
     with warnings.catch_warnings():
         warnings.simplefilter("once", ImplausibleValueWarning)
         original = warnings.showwarning
 
         def show(message, category, filename, lineno, file=None, line=None):
-            if issubclass(category, ImplausibleValueWarning):
+            if issubclass(category, (ImplausibleValueWarning, LeftoverWarning)):
                 print(f"msr {command()}: warning: {message}", file=sys.stderr)
             else:
                 original(message, category, filename, lineno, file, line)
