@@ -135,7 +135,7 @@ def describe_field(spec: Mapping[str, Any], source: str = "<spec>") -> FieldSetu
         if not any(out["axis"]):
             raise t.error("axis", "must be a non-zero direction [x, y, z]")
         _pose(t, out, "centre")
-    out["ramp"] = t.number("ramp", "s", 0.0, low=0.0)
+    out["ramp"] = t.number("ramp", "s", 0.0, low=0.0, plausible="field time")
     out["frequency"] = t.number("frequency", "Hz", 0.0)
     out["phase"] = t.number("phase", "rad", 0.0)
     t.finish()
@@ -204,6 +204,7 @@ def _pose(t: SpecTable, out: dict[str, Any], key: str) -> None:
     out["path"] = {"times": [float(v) for v in times], "points": [[float(v) for v in p] for p in points]}
     path.check_plausible("points", max(_norm(p) for p in out["path"]["points"]), "position",
                          "the farthest point's distance from the origin")
+    path.check_plausible("times", out["path"]["times"][-1], "field time", "the last time")
 
 
 def _waveform(table: Mapping[str, Any]):

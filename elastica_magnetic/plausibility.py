@@ -195,6 +195,20 @@ QUANTITIES: dict[str, Quantity] = {q.name: q for q in (
        (None, (10.0, "beyond any dry friction (rubber on rough ground ~1-2)")),
        (None, (2.0, "rubber on rough ground")),
        (("%", 1e-2),)),
+    _q("gravity", "m/s^2",  # judged when not 0 (0: no gravity, e.g. a free rod's statics)
+       (None, (1000.0, "100 g: no robot moves on such a ground")),
+       ((9.7, "below the Earth's 9.78 m/s^2: a robot in a buoyant liquid, or 1 g written as 1"),
+        (9.9, "above the Earth's 9.83 m/s^2")),
+       (("g", 9.80665), ("cm/s^2", 1e-2))),
+    _q("episode duration", "s",  # a training episode
+       (None, (86400.0, "a day of simulated time per episode")),
+       (None, (600.0, "10 minutes of simulated time per episode (the paper's: 20 s)")),
+       (("ms", 1e-3),)),
+    _q("field time", "s",  # a field's ramp, a magnet path's times
+       (None, (86400.0, "a day")),
+       (None, (60.0, "a minute of simulated time (every shipped run is 10 s or less; a minute "
+                     "of the accurate physics is an hour of computing)")),
+       (("ms", 1e-3),)),
     _q("time step", "s",
        ((1e-10, "1e8 steps per 0.01 s: a run that never ends"),
         (0.01, "the 0.01 s control period")),

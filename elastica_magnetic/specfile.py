@@ -245,6 +245,8 @@ def _robot_table(t: SpecTable) -> dict[str, Any]:
                                         low_open=True, plausible="shear modulus")
     out["shear_coefficient"] = t.number("shear_coefficient", "alpha_c, 1", 1.0, low=0.0, low_open=True)
     out["gravity"] = t.number("gravity", "m/s^2", STANDARD_GRAVITY, low=0.0)
+    if out["gravity"] != 0.0:  # 0: no gravity, on purpose
+        t.check_plausible("gravity", out["gravity"], "gravity")
     out["magnetization"] = _magnetization_table(t.table("magnetization"), out["n_elements"])
     ground = t.table("ground", required=False)
     if ground is not None:

@@ -331,7 +331,7 @@ def _task(t: SpecTable) -> Task:
     values: dict[str, Any] = {
         "reward_scale": t.number("reward_scale", "per m", d.reward_scale, low=0.0, low_open=True),
         "episode_duration": t.number("episode_duration", "s", d.episode_duration,
-                                     low=ACTION_PERIOD),
+                                     low=ACTION_PERIOD, plausible="episode duration"),
     }
     if cls is ReachTask:
         values.update(
