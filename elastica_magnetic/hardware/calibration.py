@@ -15,6 +15,7 @@ Mid-scale (32768, 0 A) is the safe state.
 
 from __future__ import annotations
 
+import difflib
 import json
 import math
 import re
@@ -27,11 +28,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from elastica_magnetic.hardware.plausibility import (
+    CURRENT_COLUMNS,
     CURRENT_CONDITION_REFUSE,
     CURRENT_CONDITION_WARN,
     check_drive,
+    check_fit_residuals,
     check_matrix,
     current_condition,
+    fit_warnings,
 )
 from elastica_magnetic.io import atomic_write_text, byte_order_mark_problem
 
@@ -78,6 +82,8 @@ class Calibration:
         Row rate (100 Hz).
     description : str
         Free text (where and how it was measured).
+    extra : dict
+        The other notes of :data:`NOTE_KEYS` (``estimates``), kept as written.
     """
 
     name: str
@@ -110,6 +116,12 @@ class Calibration:
 
 _VECTOR_KEYS = ("transconductance_A_per_V", "input_offset_V", "current_limit_A",
                 "slew_limit_A_per_s")
+_REQUIRED_KEYS = ("name", "actuation_matrix_T_per_A", "dac_half_span_V", *_VECTOR_KEYS)
+#: Free-text notes a calibration may carry: where it was measured, how each estimate was reached
+#: (``stm32/calibration/yao2023.json``).
+NOTE_KEYS = ("description", "estimates")
+#: Every key a calibration JSON may hold; any other (a typo, a key in another unit) is refused.
+CALIBRATION_KEYS = (*_REQUIRED_KEYS, "tick_hz", *NOTE_KEYS)
 
 
 def _number(value: Any, where: str) -> float:
@@ -133,8 +145,8 @@ def calibration_from_dict(data: dict[str, Any], source: str = "calibration") -> 
     Raises
     ------
     CalibrationError
-        Missing key, wrong shape, non-finite or non-positive value, or a singular matrix; the
-        message names ``source`` and the key.
+        Unknown key (with its close match), missing key, wrong shape, non-finite or non-positive
+        value, or a singular matrix; the message names ``source`` and the key.
     PlausibilityError
         Values no Helmholtz coil set and coil driver can have (a matrix in mT/A, a current limit
         in mA, ``tick_hz`` other than the firmware's 100 Hz...), see
@@ -142,8 +154,8 @@ def calibration_from_dict(data: dict[str, Any], source: str = "calibration") -> 
     """
     if not isinstance(data, dict):
         raise CalibrationError(f"{source}: expected a JSON object")
-    required = ("name", "actuation_matrix_T_per_A", "dac_half_span_V", *_VECTOR_KEYS)
-    missing = [k for k in required if k not in data]
+    _refuse_unknown_keys(data, source)  # first: a misspelt key also leaves its right one missing
+    missing = [k for k in _REQUIRED_KEYS if k not in data]
     if missing:
         raise CalibrationError(f"{source}: missing key(s) {', '.join(missing)}")
     name = data["name"]
@@ -174,7 +186,6 @@ def calibration_from_dict(data: dict[str, Any], source: str = "calibration") -> 
     check_matrix(matrix, source)
     check_drive(tick_hz, half_span, vectors["transconductance_A_per_V"], vectors["input_offset_V"],
                 vectors["current_limit_A"], vectors["slew_limit_A_per_s"], source)
-    known = {"description", "tick_hz", *required}
     return Calibration(
         name=name,
         actuation_matrix_T_per_A=matrix,
@@ -185,8 +196,20 @@ def calibration_from_dict(data: dict[str, Any], source: str = "calibration") -> 
         slew_limit_A_per_s=vectors["slew_limit_A_per_s"],
         tick_hz=tick_hz,
         description=str(data.get("description", "")),
-        extra={k: v for k, v in data.items() if k not in known},
+        extra={k: data[k] for k in NOTE_KEYS if k in data and k != "description"},
     )
+
+
+def _refuse_unknown_keys(data: dict[Any, Any], source: str) -> None:
+    """Refuse a key a calibration does not have (ignored, a misspelt ``transconductance_A_per_mV``
+    would leave the value the user meant unused), naming the close match and the keys it takes."""
+    unknown = [str(k) for k in data if k not in CALIBRATION_KEYS]
+    if not unknown:
+        return
+    close = difflib.get_close_matches(unknown[0], CALIBRATION_KEYS, n=2, cutoff=0.8)
+    hint = f"; did you mean {' or '.join(close)}?" if close else ""
+    raise CalibrationError(f"{source}: {unknown[0]}: unknown key{hint} (a calibration takes: "
+                           f"{', '.join(CALIBRATION_KEYS)})")
 
 
 def load_calibration(path: str | Path) -> Calibration:
@@ -504,7 +527,9 @@ class ActuationFit:
         equal amplitude).
     warnings : list of str
         Why the fit may be weak (condition number above
-        :data:`~elastica_magnetic.hardware.plausibility.CURRENT_CONDITION_WARN`).
+        :data:`~elastica_magnetic.hardware.plausibility.CURRENT_CONDITION_WARN`, a negative
+        diagonal entry, standard errors large against a coil constant; see
+        :func:`~elastica_magnetic.hardware.plausibility.fit_warnings`).
     """
 
     matrix_T_per_A: NDArray[np.float64]
@@ -516,7 +541,8 @@ class ActuationFit:
     warnings: list[str]
 
 
-def fit_actuation_matrix(currents_A: NDArray[np.float64], fields_T: NDArray[np.float64]) -> ActuationFit:
+def fit_actuation_matrix(currents_A: NDArray[np.float64], fields_T: NDArray[np.float64],
+                         source: str = "measurements") -> ActuationFit:
     """Least-squares fit of ``A`` in ``field = A @ current`` from measured pairs.
 
     Parameters
@@ -525,6 +551,8 @@ def fit_actuation_matrix(currents_A: NDArray[np.float64], fields_T: NDArray[np.f
         Coil currents (A) applied in each measurement.
     fields_T : array, shape (n, 3)
         Field measured at the workspace centre (T).
+    source : str
+        The measurements file, named in every message.
 
     Raises
     ------
@@ -532,35 +560,32 @@ def fit_actuation_matrix(currents_A: NDArray[np.float64], fields_T: NDArray[np.f
         Wrong shapes, fewer than 3 measurements, non-finite data, or currents that do not excite
         all three coils independently (rank < 3, or a condition number above
         :data:`~elastica_magnetic.hardware.plausibility.CURRENT_CONDITION_REFUSE`).
+    PlausibilityError
+        A fit that explains nothing (see
+        :func:`~elastica_magnetic.hardware.plausibility.check_fit_residuals`).
     """
     currents = np.asarray(currents_A, dtype=np.float64)
     fields = np.asarray(fields_T, dtype=np.float64)
-    if currents.ndim != 2 or currents.shape[1] != AXES or fields.shape != currents.shape:
-        raise CalibrationError(
-            f"currents and fields must both have shape (n, 3), got {currents.shape} and {fields.shape}"
-        )
-    if currents.shape[0] < AXES:
-        raise CalibrationError(f"need at least 3 measurements, got {currents.shape[0]}")
-    if not (np.all(np.isfinite(currents)) and np.all(np.isfinite(fields))):
-        raise CalibrationError("measurements contain non-finite values")
+    _check_fit_input(currents, fields, source)
     solution, _, rank, _ = np.linalg.lstsq(currents, fields, rcond=None)
     if rank < AXES:
-        raise CalibrationError(
-            f"the currents excite only {rank} independent direction(s); drive each coil on its own"
-        )
+        raise _too_few_directions(currents, int(rank), source)
     cond = current_condition(currents)
+    columns = ", ".join(CURRENT_COLUMNS)
     if cond > CURRENT_CONDITION_REFUSE:
         raise CalibrationError(
-            f"the measured currents are ill conditioned (condition number {cond:.3g} > "
-            f"{CURRENT_CONDITION_REFUSE:g}): the coils were driven together, so their fields cannot "
-            "be told apart; drive each coil on its own, at positive and negative currents")
+            f"{source}: the measured currents ({columns}) are ill conditioned (condition number "
+            f"{cond:.3g} > {CURRENT_CONDITION_REFUSE:g}): the coils were driven together, so their "
+            "fields cannot be told apart; drive each coil on its own, at positive and negative currents")
     warnings = []
     if cond > CURRENT_CONDITION_WARN:
         warnings.append(
-            f"the measured currents' condition number {cond:.3g} exceeds {CURRENT_CONDITION_WARN:g}: "
-            "the matrix is poorly determined (see std_error); drive each coil on its own")
+            f"{source}: the measured currents' condition number {cond:.3g} exceeds "
+            f"{CURRENT_CONDITION_WARN:g}: the matrix is poorly determined (see std_error); drive "
+            "each coil on its own")
     matrix = solution.T
     residuals = fields - currents @ solution
+    check_fit_residuals(fields, residuals, source)
     rms = np.sqrt(np.mean(residuals**2, axis=0))
     dof = currents.shape[0] - AXES
     if dof > 0:
@@ -569,5 +594,36 @@ def fit_actuation_matrix(currents_A: NDArray[np.float64], fields_T: NDArray[np.f
         std_error = np.sqrt(np.outer(variance, diag))
     else:
         std_error = np.full((AXES, AXES), np.nan)
+    warnings += fit_warnings(matrix, std_error, source)
     return ActuationFit(matrix, residuals, rms, float(np.max(np.abs(residuals))), std_error, cond,
                         warnings)
+
+
+def _check_fit_input(currents: NDArray[np.float64], fields: NDArray[np.float64], source: str) -> None:
+    """Shapes, enough rows, finite values."""
+    if currents.ndim != 2 or currents.shape[1] != AXES or fields.shape != currents.shape:
+        raise CalibrationError(f"{source}: currents and fields must both have shape (n, 3), got "
+                               f"{currents.shape} and {fields.shape}")
+    if currents.shape[0] < AXES:
+        raise CalibrationError(
+            f"{source}: need at least 3 measurements (rows of {', '.join(CURRENT_COLUMNS)} and the "
+            f"fields they made), got {currents.shape[0]}; drive each coil on its own, at positive "
+            "and negative currents")
+    if not (np.all(np.isfinite(currents)) and np.all(np.isfinite(fields))):
+        raise CalibrationError(f"{source}: measurements contain non-finite values")
+
+
+def _too_few_directions(currents: NDArray[np.float64], rank: int, source: str) -> CalibrationError:
+    """Currents that cannot tell the three coils apart; identical rows said as such."""
+    columns = ", ".join(CURRENT_COLUMNS)
+    settings = np.unique(currents, axis=0)
+    if len(settings) == 1:
+        values = ", ".join(f"{v:g}" for v in settings[0])
+        return CalibrationError(
+            f"{source}: {len(currents)} rows, all the same currents ({columns} = {values} A): one "
+            "setting cannot tell the three coils apart; drive each coil on its own, at positive and "
+            "negative currents")
+    return CalibrationError(
+        f"{source}: the currents ({columns}) of the {len(currents)} rows ({len(settings)} different "
+        f"settings) excite only {rank} independent direction(s); drive each coil on its own, at "
+        "positive and negative currents")

@@ -227,7 +227,11 @@ def _calibrate(args: argparse.Namespace) -> int:
         load_calibration,
         save_calibration,
     )
-    from elastica_magnetic.hardware.plausibility import check_measurements
+    from elastica_magnetic.hardware.plausibility import (
+        CURRENT_COLUMNS,
+        FIELD_COLUMNS,
+        check_measurements,
+    )
 
     if args.upload:
         _check_port("--upload", args.upload)
@@ -235,8 +239,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     if not path.is_file():
         raise _error(f"{path}: no such measurements file")
     check_result_file(args.out, force=args.force)
-    columns = ["current_x_A", "current_y_A", "current_z_A", "field_x_mT", "field_y_mT",
-               "field_z_mT"]
+    columns = [*CURRENT_COLUMNS, *FIELD_COLUMNS]
     try:
         table = pd.read_csv(path, skipinitialspace=True, encoding="utf-8-sig")
     except pd.errors.EmptyDataError:
@@ -253,7 +256,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         raise _error(f"{path}: line {first + 2}: missing or non-numeric value in {list(table.iloc[first])}")
     values = data.to_numpy(dtype=np.float64)
     check_measurements(values[:, :3], values[:, 3:], str(path))
-    fit = fit_actuation_matrix(values[:, :3], values[:, 3:] * MILLITESLA)
+    fit = fit_actuation_matrix(values[:, :3], values[:, 3:] * MILLITESLA, str(path))
     base = load_calibration(args.base) if args.base else load_calibration(default_calibration_path())
     fitted: Calibration = calibration_from_dict(
         {**base.to_json_dict(), "name": args.name,

@@ -53,6 +53,17 @@ MEASURED_CURRENT_RANGE_A = (1e-3, HW_MAX_CURRENT_A)
 #: REFUSE it is refused (coils driven together: drive each coil on its own).
 CURRENT_CONDITION_WARN = 10.0
 CURRENT_CONDITION_REFUSE = 100.0
+#: Columns of an ``msr calibrate`` measurements CSV: coil currents (A) and measured fields (mT);
+#: the CLI reads them, the fit's messages name them.
+CURRENT_COLUMNS = ("current_x_A", "current_y_A", "current_z_A")
+FIELD_COLUMNS = ("field_x_mT", "field_y_mT", "field_z_mT")
+#: A fit whose residual RMS on a field column exceeds this fraction of that column's own RMS explains
+#: nothing (signs flipped, columns swapped, rows of different setups): refused.
+FIT_RESIDUAL_FRACTION_REFUSE = 0.5
+#: A matrix entry whose standard error exceeds this fraction of its coil's constant (the diagonal
+#: entry of its column) is poorly determined: warned.
+FIT_STD_ERROR_FRACTION_WARN = 0.1
+_MILLITESLA = 1e-3
 
 
 class PlausibilityError(ValueError):
@@ -179,3 +190,58 @@ def current_condition(currents_A: NDArray[np.float64]) -> float:
     """2-norm condition number of the ``(n, 3)`` measured currents (inf when rank < 3)."""
     s = np.linalg.svd(np.asarray(currents_A, dtype=np.float64), compute_uv=False)
     return float(s[0] / s[-1]) if s[-1] > 0 else math.inf
+
+
+def check_fit_residuals(fields_T: NDArray[np.float64], residuals_T: NDArray[np.float64],
+                        source: str) -> None:
+    """Refuse a fit of ``field = A @ current`` that explains nothing.
+
+    ``fields_T`` and ``residuals_T`` are ``(n, 3)`` in T. Residuals that are a large fraction of
+    the fields mean the fields do not follow the currents linearly: no matrix is right then, and
+    writing one would drive the coils with a wrong field.
+
+    Raises
+    ------
+    PlausibilityError
+        A field column whose residual RMS exceeds :data:`FIT_RESIDUAL_FRACTION_REFUSE` of its RMS.
+    """
+    field_rms = np.sqrt(np.mean(np.square(fields_T), axis=0))
+    residual_rms = np.sqrt(np.mean(np.square(residuals_T), axis=0))
+    bad = [i for i in range(3) if residual_rms[i] > FIT_RESIDUAL_FRACTION_REFUSE * field_rms[i]]
+    if not bad:
+        return
+    numbers = "; ".join(f"{FIELD_COLUMNS[i]}: residual RMS {residual_rms[i] / _MILLITESLA:.3g} mT "
+                        f"for a measured RMS of {field_rms[i] / _MILLITESLA:.3g} mT" for i in bad)
+    raise PlausibilityError(
+        f"{source}: the fitted matrix explains nothing: the residuals are more than "
+        f"{FIT_RESIDUAL_FRACTION_REFUSE:.0%} of the measured fields ({numbers}), so the fields do not "
+        f"follow the currents ({', '.join(CURRENT_COLUMNS)}) linearly. Likely causes: field signs "
+        "flipped on some rows, columns swapped, or rows from different setups in one file; "
+        "nothing was written")
+
+
+def fit_warnings(matrix_T_per_A: NDArray[np.float64], std_error_T_per_A: NDArray[np.float64],
+                 source: str) -> list[str]:
+    """Why a fitted actuation matrix (T/A; standard errors T/A, NaN without spare rows) may be wrong:
+    a negative diagonal entry, or entries poorly determined compared with their coil's constant."""
+    warnings = []
+    diagonal = np.diag(matrix_T_per_A)
+    for i in range(3):
+        if diagonal[i] < 0:  # playable (the inverse copes), but rarely meant
+            warnings.append(
+                f"{source}: actuation_matrix_T_per_A[{i}][{i}] = {diagonal[i] / _MILLITESLA:.3g} "
+                f"mT/A is negative: coil {'xyz'[i]} makes {FIELD_COLUMNS[i]} against "
+                f"{CURRENT_COLUMNS[i]}: a coil wired backwards, or a current or probe sign "
+                "convention opposite to the other axes; check the wiring if this is not meant")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.abs(std_error_T_per_A) / np.abs(diagonal)[None, :]  # column j: coil j
+    ratio = np.where(np.isfinite(ratio), ratio, 0.0)
+    i, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+    if ratio[i, j] > FIT_STD_ERROR_FRACTION_WARN:
+        warnings.append(
+            f"{source}: the standard error of actuation_matrix_T_per_A[{i}][{j}] is "
+            f"{std_error_T_per_A[i, j] / _MILLITESLA:.3g} mT/A, {ratio[i, j]:.0%} of coil "
+            f"{'xyz'[j]}'s constant {diagonal[j] / _MILLITESLA:.3g} mT/A (more than "
+            f"{FIT_STD_ERROR_FRACTION_WARN:.0%}): the matrix is poorly determined; check for noisy "
+            "or inconsistent rows, or measure more rows at larger currents")
+    return warnings

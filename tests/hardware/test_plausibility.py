@@ -133,7 +133,7 @@ def test_calibrate_warns_and_reports_uncertainties(tmp_path: Path, capsys) -> No
     captured = capsys.readouterr()
     summary = json.loads(captured.out)
     assert summary["current_condition_number"] > 10 and summary["warnings"]
-    assert "warning: the measured currents' condition number" in captured.err
+    assert f"warning: {meas}: the measured currents' condition number" in captured.err
     se = np.array(summary["std_error_mT_per_A"])
     assert se.shape == (3, 3) and np.all(se > 0) and np.all(se < 0.05)
 

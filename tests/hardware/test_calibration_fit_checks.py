@@ -1,0 +1,182 @@
+"""Issue 48, second round of tries: a calibration JSON with an unknown (misspelt) key is refused by
+name, a fit that explains nothing is refused before anything is written, a doubtful fit is warned
+about, and the fit's refusals name the measurements file and its columns."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from elastica_magnetic.cli import main
+from elastica_magnetic.hardware.calibration import (
+    CalibrationError,
+    calibration_from_dict,
+    fit_actuation_matrix,
+    load_calibration,
+    save_calibration,
+)
+
+from .conftest import PUBLISHED_CSV, REPO
+
+SHIPPED = sorted((REPO / "stm32" / "calibration").glob("*.json"))
+YAO2023 = REPO / "stm32" / "calibration" / "yao2023.json"
+HEADER = "current_x_A,current_y_A,current_z_A,field_x_mT,field_y_mT,field_z_mT"
+COLUMNS = "current_x_A, current_y_A, current_z_A"
+#: Coil constants (T/A), 2 mT/A with a little cross-coupling.
+TRUE = np.array([[2e-3, 5e-5, 0.0], [4e-5, 2e-3, 0.0], [0.0, 2e-5, 1.8e-3]])
+
+
+def write_measurements(path: Path, currents: np.ndarray, fields_mT: np.ndarray) -> Path:
+    np.savetxt(path, np.hstack([currents, fields_mT]), delimiter=",", header=HEADER, comments="")
+    return path
+
+
+def random_currents(rows: int = 12, seed: int = 0) -> np.ndarray:
+    return np.random.default_rng(seed).uniform(-3.0, 3.0, size=(rows, 3))
+
+
+# -- unknown keys in a calibration JSON (cj_unknown) ---------------------------------------------
+
+
+def test_export_firmware_refuses_a_misspelt_calibration_key(tmp_path: Path, capsys) -> None:
+    data = json.loads(YAO2023.read_text())
+    data["transconductance_A_per_mV"] = [4000.0, 3000.0, 1500.0]  # the tester's file: extra key
+    calibration = tmp_path / "cal.json"
+    calibration.write_text(json.dumps(data))
+    out = tmp_path / "fw"
+    assert main(["export-firmware", str(PUBLISHED_CSV), "--calibration", str(calibration),
+                 "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"msr export-firmware: error: {calibration}: transconductance_A_per_mV: "
+                          "unknown key; did you mean transconductance_A_per_V? (a calibration "
+                          "takes: name, "), err
+    assert "description" in err and "estimates" in err
+    assert not out.exists()
+
+
+def test_a_misspelt_key_is_named_before_the_key_it_leaves_missing() -> None:
+    data = json.loads(YAO2023.read_text())
+    data["slew_limit_A_per_S"] = data.pop("slew_limit_A_per_s")
+    with pytest.raises(CalibrationError, match=r"^cal.json: slew_limit_A_per_S: unknown key; did "
+                       r"you mean slew_limit_A_per_s\?"):
+        calibration_from_dict(data, "cal.json")
+
+
+def test_an_unknown_key_without_a_close_match_lists_the_keys() -> None:
+    data = json.loads(YAO2023.read_text())
+    data["operator"] = "me"
+    with pytest.raises(CalibrationError, match=r"^cal.json: operator: unknown key \(a calibration "
+                       r"takes: name, actuation_matrix_T_per_A, "):
+        calibration_from_dict(data, "cal.json")
+
+
+@pytest.mark.parametrize("path", SHIPPED, ids=[p.name for p in SHIPPED])
+def test_every_shipped_calibration_loads_and_keeps_its_notes(path: Path, tmp_path: Path) -> None:
+    data = json.loads(path.read_text())
+    cal = load_calibration(path)
+    again = load_calibration(save_calibration(tmp_path / path.name, cal))
+    assert again.to_json_dict() == cal.to_json_dict()
+    assert again.to_json_dict().keys() == data.keys() | {"tick_hz", "description"}
+
+
+def test_a_calibration_fitted_on_a_base_with_notes_loads(tmp_path: Path) -> None:
+    currents = np.vstack([np.eye(3) * a for a in (-2.0, -1.0, 1.0, 2.0)])
+    meas = write_measurements(tmp_path / "m.csv", currents, currents @ TRUE.T * 1e3)
+    out = tmp_path / "cal.json"
+    assert main(["calibrate", str(meas), "--base", str(YAO2023), "--out", str(out)]) == 0
+    assert load_calibration(out).name == "measured"
+
+
+# -- fits that explain nothing (mc_inconsistent) ---------------------------------------------------
+
+
+def test_calibrate_refuses_fields_whose_signs_flip_every_other_row(tmp_path: Path, capsys) -> None:
+    currents = random_currents()
+    fields_mT = currents @ TRUE.T * 1e3
+    fields_mT[1::2] *= -1.0  # the tester's file: every other row's field signs flipped
+    meas = write_measurements(tmp_path / "m.csv", currents, fields_mT)
+    out = tmp_path / "cal.json"
+    assert main(["calibrate", str(meas), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"msr calibrate: error: {meas}: the fitted matrix explains nothing: the "
+                          "residuals are more than 50% of the measured fields (field_x_mT: "
+                          "residual RMS "), err
+    assert "signs flipped" in err and "columns swapped" in err and "different setups" in err
+    assert not out.exists()
+
+
+def test_a_noisy_but_consistent_fit_is_not_refused() -> None:
+    currents = random_currents(seed=1)
+    noise = np.random.default_rng(2).normal(0.0, 0.5e-3, (12, 3))  # 0.5 mT on ~3.5 mT fields
+    fit = fit_actuation_matrix(currents, currents @ TRUE.T + noise, "m.csv")
+    assert np.all(fit.rms_residual_T < 0.5 * np.sqrt(np.mean((currents @ TRUE.T) ** 2, axis=0)))
+
+
+def test_a_negative_diagonal_is_warned_about() -> None:
+    backwards = TRUE.copy()
+    backwards[1, 1] *= -1.0  # coil y wired backwards
+    currents = random_currents()
+    fit = fit_actuation_matrix(currents, currents @ backwards.T, "m.csv")
+    assert fit.warnings == [
+        "m.csv: actuation_matrix_T_per_A[1][1] = -2 mT/A is negative: coil y makes field_y_mT "
+        "against current_y_A: a coil wired backwards, or a current or probe sign convention "
+        "opposite to the other axes; check the wiring if this is not meant"]
+
+
+def test_standard_errors_large_against_a_coil_constant_are_warned_about(tmp_path: Path,
+                                                                        capsys) -> None:
+    currents = np.vstack([np.eye(3) * a for a in (-2.0, -1.0, 1.0, 2.0)])
+    noise_mT = np.random.default_rng(4).normal(0.0, 0.8, (12, 3))
+    fields_mT = currents @ TRUE.T * 1e3 + noise_mT
+    meas = write_measurements(tmp_path / "m.csv", currents, fields_mT)
+    assert main(["calibrate", str(meas), "--out", str(tmp_path / "cal.json"), "--json"]) == 0
+    captured = capsys.readouterr()
+    summary = json.loads(captured.out)
+    se = np.array(summary["std_error_mT_per_A"])
+    assert se.max() > 0.1 * 1.8  # the premise: above 10 % of the weakest coil's 1.8 mT/A
+    assert len(summary["warnings"]) == 1
+    assert summary["warnings"][0].startswith(f"{meas}: the standard error of actuation_matrix_T_per_A[")
+    assert "the matrix is poorly determined" in summary["warnings"][0]
+    assert f"msr calibrate: warning: {meas}: the standard error" in captured.err
+
+
+def test_a_good_fit_has_no_warning() -> None:
+    currents = random_currents(seed=3)
+    noise = np.random.default_rng(5).normal(0.0, 1e-6, (12, 3))
+    assert fit_actuation_matrix(currents, currents @ TRUE.T + noise, "m.csv").warnings == []
+
+
+# -- the fit's refusals name the file and its columns (mc_two, mc_collinear, mc_dup) -------------
+
+
+def _refusal(tmp_path: Path, capsys, currents: np.ndarray) -> tuple[Path, str]:
+    meas = write_measurements(tmp_path / "m.csv", currents, currents @ TRUE.T * 1e3)
+    assert main(["calibrate", str(meas), "--out", str(tmp_path / "cal.json")]) == 2
+    assert not (tmp_path / "cal.json").exists()
+    return meas, capsys.readouterr().err.strip()
+
+
+def test_two_measurements_name_the_file(tmp_path: Path, capsys) -> None:
+    meas, err = _refusal(tmp_path, capsys, random_currents(rows=2))
+    assert err.startswith(f"msr calibrate: error: {meas}: need at least 3 measurements (rows of "
+                          f"{COLUMNS} and the fields they made), got 2"), err
+
+
+def test_currents_along_one_direction_name_the_file_and_columns(tmp_path: Path, capsys) -> None:
+    currents = np.zeros((12, 3))
+    currents[:, 0] = random_currents()[:, 0]
+    meas, err = _refusal(tmp_path, capsys, currents)
+    assert err.startswith(f"msr calibrate: error: {meas}: the currents ({COLUMNS}) of the 12 rows "
+                          "(12 different settings) excite only 1 independent direction(s); drive "
+                          "each coil on its own"), err
+
+
+def test_identical_rows_are_said_to_be_identical(tmp_path: Path, capsys) -> None:
+    currents = np.tile([[0.5, -1.25, 2.0]], (12, 1))
+    meas, err = _refusal(tmp_path, capsys, currents)
+    assert err == (f"msr calibrate: error: {meas}: 12 rows, all the same currents ({COLUMNS} = "
+                   "0.5, -1.25, 2 A): one setting cannot tell the three coils apart; drive each "
+                   "coil on its own, at positive and negative currents")
