@@ -51,7 +51,8 @@ def test_generate_replaces_only_its_own_result_and_only_with_force(trained, tmp_
     assert msr(["generate", str(run), *QUICK, "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert "already holds a result of `msr generate` for case m1-4mT" in err and "--force" in err
-    assert msr(["baseline", "--case", "m1-4mT", *QUICK, "--out", str(out), "--force"]) == 2
+    assert msr(["baseline", "--case", "m1-4mT", "--periods", "0.05", *QUICK, "--out", str(out),
+                "--force"]) == 2
     assert "not of `msr baseline`" in capsys.readouterr().err
     assert snapshot(out) == before and not leftovers(out)
 
@@ -229,7 +230,9 @@ def test_ctrl_c_in_generate_leaves_the_earlier_result(refined, tmp_path, capsys)
                                    "--out", str(out), "--force"], out, tmp_path, 0.5)
     assert done.returncode == 130, done.stderr
     assert done.stderr.strip().splitlines() == [
-        f"msr generate: interrupted (SIGINT); {out} was left as it was (a result folder is "
+        # the folder named as the user sees it from where they stand (the process's cwd)
+        f"msr generate: interrupted (SIGINT); {out.relative_to(tmp_path)} was left as it was (a "
+        "result folder is "
         "replaced whole or not at all)"]
     assert time.perf_counter() - begin < 60
     assert snapshot(out) == before and not leftovers(out)
@@ -252,7 +255,8 @@ def test_ctrl_c_in_export_seeds_with_workers_leaves_the_earlier_result(trained, 
     assert done.returncode == 130, done.stderr
     lines = done.stderr.strip().splitlines()
     assert "Traceback" not in done.stderr, done.stderr
-    assert lines[0] == (f"msr export-seeds: interrupted (SIGINT); {dest} was left as it was (a "
+    assert lines[0] == (f"msr export-seeds: interrupted (SIGINT); {dest.relative_to(tmp_path)} "
+                        "was left as it was (a "
                         "result folder is replaced whole or not at all)"), done.stderr
     assert len(lines) == 1, done.stderr
     assert snapshot(dest) == before and not leftovers(dest)

@@ -81,7 +81,9 @@ def test_ray_sweep_writes_run_dirs_and_summary(sweeps):
         run = root / "ray" / "m1-4mT" / f"seed{seed}"
         assert {"checkpoint.pt", "episodes.csv", "run.json"} <= {p.name for p in run.iterdir()}
         assert list(run.glob("events.out.tfevents.*")), "no TensorBoard scalars"
-        assert summary["seeds"][seed]["run_dir"] == str(Path("ray") / "m1-4mT" / f"seed{seed}")
+        # --out is made absolute where it is parsed (the one path rule): the summary names it so
+        assert summary["seeds"][seed]["run_dir"] == str(root.resolve() / "ray" / "m1-4mT" /
+                                                        f"seed{seed}")
         assert summary["seeds"][seed]["global_step"] == STEPS
         meta = json.loads((run / "run.json").read_text())
         assert meta["seed"] == seed and meta["torch_threads"] == 1
