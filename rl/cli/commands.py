@@ -302,6 +302,10 @@ def baseline_command(args: argparse.Namespace) -> int:
         return _baseline_sweep(args)
     if args.periods is not None or args.set_yardstick is not None:
         raise CommandError("--periods and --set-yardstick belong to the sweep: leave out --period")
+    if args.period > args.duration:  # the field would not turn once: nothing to measure
+        raise CommandError(f"--period {args.period:g} s is longer than --duration {args.duration:g} "
+                           "s: the field would not turn once in the run; give a longer --duration "
+                           "or a shorter --period")
     try:
         policy = RotatingFieldPolicy(args.case, args.period, clockwise=not args.counterclockwise)
     except ValueError as exc:
@@ -318,7 +322,12 @@ def baseline_command(args: argparse.Namespace) -> int:
 
 def _baseline_sweep(args: argparse.Namespace) -> int:
     """``msr baseline`` without ``--period``: the sweep, its table and the best run."""
-    from ..shipping.baseline_sweep import DEFAULT_PERIODS, sweep_baseline, yardstick_spec
+    from ..shipping.baseline_sweep import (
+        DEFAULT_PERIODS,
+        periods_that_turn,
+        sweep_baseline,
+        yardstick_spec,
+    )
 
     periods = DEFAULT_PERIODS
     if args.periods is not None:
@@ -331,10 +340,18 @@ def _baseline_sweep(args: argparse.Namespace) -> int:
             raise CommandError(f"--periods must be positive finite times in s, got {args.periods!r}")
     if args.counterclockwise:
         raise CommandError("--counterclockwise needs --period (the sweep tries both directions)")
+    try:
+        dropped = periods_that_turn(periods, args.duration)[1]  # the sweep leaves them out
+    except ValueError as exc:
+        raise CommandError(f"--periods: {exc}") from None
     if args.set_yardstick is not None:  # checked before the sweep's minutes
         from elastica_magnetic.filesets import check_result_file
 
         check_result_file(args.set_yardstick, force=args.force, option="--set-yardstick")
+    if dropped:  # after every refusal: the warning is for a sweep that runs
+        print(f"msr baseline: warning: --periods {', '.join(f'{p:g}' for p in dropped)} s left out: "
+              f"longer than --duration {args.duration:g} s, the field would not turn once",
+              file=sys.stderr)
     try:
         result = sweep_baseline(args.case, periods, args.duration, args.physics, args.out,
                                 args.workers, not args.no_progress, not args.no_figures,

@@ -275,7 +275,7 @@ def _check_device(device: str) -> None:
         raise CommandError(f"--device {device}: {problem}; use --device cpu")
 
 
-def _interrupted(folders: list[Path]) -> int:
+def _interrupted(folders: list[Path], signal_number: int = 2) -> int:
     """The message of an interrupted training or refinement: where its checkpoints are, only
     those that exist (a run stopped before its first checkpoint has none to resume from)."""
     saved = [f for f in folders if RunDir(f).has_checkpoint()]
@@ -287,7 +287,7 @@ def _interrupted(folders: list[Path]) -> int:
         print("interrupted: training stopped before its first checkpoint, so there is nothing to "
               "resume; run the same command again (without --resume) to start over",
               file=sys.stderr)
-    return 130
+    return 128 + signal_number  # 130 after Ctrl-C, 143 after SIGTERM
 
 
 def train_command(args: argparse.Namespace) -> int:
@@ -308,10 +308,10 @@ def train_command(args: argparse.Namespace) -> int:
         )
     except (FileExistsError, FileNotFoundError, ValueError, ConnectionError) as exc:
         raise CommandError(str(exc)) from None  # ConnectionError: --address
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         return _interrupted(sorted(f for case in args.case
                                    for f in (args.out / case.name).glob(f"{CaseDir.SEED_PREFIX}*")
-                                   if f.is_dir()))
+                                   if f.is_dir()), getattr(exc, "signum", 2))
     failed = any(s["failed"] for s in summaries.values())
     if not args.json:
         summaries = {case: {k: v for k, v in summary.items() if k != "seeds"} | {
@@ -365,8 +365,8 @@ def refine_command(args: argparse.Namespace) -> int:
                         spec=args.spec, physics=args.physics, randomize=args.randomize)
     except (FileExistsError, FileNotFoundError, ValueError) as exc:
         raise CommandError(str(exc)) from None
-    except KeyboardInterrupt:
-        return _interrupted([args.out or default_refine_output(source)])
+    except KeyboardInterrupt as exc:
+        return _interrupted([args.out or default_refine_output(source)], getattr(exc, "signum", 2))
     if choice is not None and not args.resume:
         result = {**result, "actor_choice": {**choice.to_dict(), "summary": choice.describe()}}
     print_rollout_result(result, args.json)

@@ -60,7 +60,8 @@ class LoopSettings:
             steps=240, recipe="fast", stop_when="none", check_sag=False,
             train_overrides={"learning_starts": 60, "batch_size": 32, "hidden_sizes": (32, 32),
                              "checkpoint_every": 80, "eval_every": 120},
-            episode_duration=0.8, yardstick_periods=(1.0,), yardstick_duration=0.5,
+            # a period no longer than the sweep's runs: a run shorter than one never turns it
+            episode_duration=0.8, yardstick_periods=(0.5,), yardstick_duration=0.5,
             yardstick_physics="training", evaluation_duration=0.2, robustness_duration=0.2,
             robustness_corners=False, refine_steps=3, refine_episode_duration=0.02, gif=False,
             quick=True)

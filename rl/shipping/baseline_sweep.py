@@ -16,6 +16,7 @@ from typing import Any
 
 from elastica_magnetic.filesets import result_file
 from elastica_magnetic.io import atomic_write, atomic_write_json, atomic_write_text
+from elastica_magnetic.presets import ACTION_PERIOD
 from elastica_magnetic.results import check_result_folder, result_folder
 from elastica_magnetic.rotation import measure_rotation, min_rotation_period
 
@@ -23,8 +24,8 @@ from ..cases.case import EVAL_DURATION, Case, case_from_dict, load_case
 from .baselines import RotatingFieldPolicy
 from .generate import GENERATE_FILES, generate
 
-__all__ = ["DEFAULT_PERIODS", "PERIOD_TOLERANCE", "achieved_period", "sweep_baseline",
-           "yardstick_spec"]
+__all__ = ["DEFAULT_PERIODS", "PERIOD_TOLERANCE", "achieved_period", "periods_that_turn",
+           "sweep_baseline", "yardstick_spec"]
 
 #: What the sweep writes beside the best run's files (:data:`GENERATE_FILES`).
 SWEEP_FILES = ("sweep.csv", "sweep.png", "sweep.json", *GENERATE_FILES)
@@ -39,18 +40,40 @@ def achieved_period(fields_T: Any, asked_s: float, case: Case) -> dict[str, Any]
     """The period a played field ``(steps, 3)`` (T, 100 Hz) turned at, against the ``asked_s``
     one: ``period_asked_s``, ``period_achieved_s`` (``inf``: it did not turn a full step),
     ``min_period_s`` (the rate limit's shortest uniform turn at the case's field limit) and
-    ``warning`` (text, or ``None`` when they agree within :data:`PERIOD_TOLERANCE`)."""
+    ``warning`` (text, or ``None`` when they agree within :data:`PERIOD_TOLERANCE`); the rate
+    limit is blamed only when the asked period is shorter than its shortest turn."""
     fastest = min_rotation_period(case.field_limit, case.actuation.max_increment)
     achieved = math.inf
     if len(fields_T) >= 2:
         achieved = measure_rotation(fields_T).period_s
     warning = None
     if not (abs(achieved - asked_s) <= PERIOD_TOLERANCE * asked_s):
-        warning = (f"asked for a period of {asked_s:g} s, the field turned once per {achieved:.4g} s "
-                   f"(at most {1e3 * case.actuation.max_increment:g} mT per axis per 0.01 s: at "
-                   f"{1e3 * case.field_limit:g} mT the shortest uniform turn takes {fastest:.4g} s)")
+        warning = f"asked for a period of {asked_s:g} s, the field turned once per {achieved:.4g} s"
+        played_s = len(fields_T) * ACTION_PERIOD
+        if asked_s < fastest * (1.0 + PERIOD_TOLERANCE):  # the rate limit is the cause
+            warning += (f" (at most {1e3 * case.actuation.max_increment:g} mT per axis per "
+                        f"{ACTION_PERIOD:g} s: at {1e3 * case.field_limit:g} mT the shortest "
+                        f"uniform turn takes {fastest:.4g} s)")
+        elif asked_s > played_s:
+            warning += f" (the run, {played_s:g} s, is shorter than one period)"
+        else:  # e.g. the ramp from a zero field takes a large part of a short run
+            warning += f" (the rate limit allows it: its shortest uniform turn takes {fastest:.4g} s)"
     return {"period_asked_s": asked_s, "period_achieved_s": achieved, "min_period_s": fastest,
             "warning": warning}
+
+
+def periods_that_turn(periods: tuple[float, ...], duration: float,
+                      ) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """``periods`` (s) split into those a ``duration`` s run turns the field at least once in and
+    those longer than it (a run shorter than one period never turns the field once: its distance
+    and period mean nothing). Raises ``ValueError`` naming them when every period is longer."""
+    kept = tuple(p for p in periods if p <= duration)
+    dropped = tuple(p for p in periods if p > duration)
+    if not kept:
+        raise ValueError(f"every period asked ({', '.join(f'{p:g}' for p in dropped)} s) is longer "
+                         f"than --duration {duration:g} s: the field would not turn once in a run; "
+                         "give a longer --duration or shorter --periods")
+    return kept, dropped
 
 
 def _run_one(job: tuple[dict[str, Any], float, bool, float, str]) -> dict[str, Any]:
@@ -85,8 +108,12 @@ def sweep_baseline(
     folder written whole as the result of ``msr baseline`` for the case (an earlier one replaced
     only with ``force``; checked before the runs).
 
-    Returns ``{"case", "physics", "duration_s", "initial_field", "runs": [...], "best": {...},
-    "table_csv", "figure", "generate": <generate's result for the best>}``; each run has
+    Periods longer than ``duration`` are left out (:func:`periods_that_turn`; all of them:
+    ``ValueError``), listed in ``dropped_periods_s``.
+
+    Returns ``{"case", "physics", "duration_s", "initial_field", "dropped_periods_s", "runs":
+    [...], "best": {...}, "table_csv", "figure", "generate": <generate's result for the best>}``;
+    each run has
     ``period_s``, ``clockwise``, ``mid_dx_m`` (m), ``diverged``, ``period_achieved_s``,
     ``min_period_s`` and ``warning``."""
     import os
@@ -96,6 +123,7 @@ def sweep_baseline(
     case = load_case(case)
     if not periods or not all(math.isfinite(p) and p > 0 for p in periods):
         raise ValueError(f"periods must be positive times in s, got {periods}")
+    periods, dropped = periods_that_turn(tuple(periods), duration)
     subject = f"case {case.name}"
     check_result_folder(out, kind="baseline", subject=subject, force=force, known_files=SWEEP_FILES)
     spec = case.to_dict()
@@ -119,7 +147,8 @@ def sweep_baseline(
         figure = (_sweep_figure(folder.path / "sweep.png", runs, best, case, physics, duration)
                   if figures else None)
         result = {"case": case.name, "physics": physics, "duration_s": duration,
-                  "initial_field": "zero", "runs": runs, "best": best, "table_csv": str(table),
+                  "initial_field": "zero", "dropped_periods_s": list(dropped), "runs": runs,
+                  "best": best, "table_csv": str(table),
                   "figure": str(figure) if figure else None, "generate": generated}
         result = _final_paths(result, folder)
         atomic_write_json(folder.path / "sweep.json", result)

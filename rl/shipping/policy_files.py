@@ -34,6 +34,8 @@ __all__ = [
 #: Folder of the shipped policies (``rl/policies/<name>/``).
 POLICIES_DIR = Path(__file__).resolve().parents[1] / "policies"
 POLICY_JSON = "policy.json"
+#: The files of a shipped policy (``actor.pt`` and ``policy.json`` always, the others optional).
+SHIPPED_FILES = ("actor.pt", POLICY_JSON, "critic.pt", "fields.csv", "MODEL_CARD.md")
 POLICY_FORMAT = "msr-policy-v1"
 #: ``policy.json`` keys older files used -> today's (:func:`read_policy_json` maps them):
 #: the yardstick was named for the paper's robot, whichever case it was.
@@ -217,12 +219,28 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
                                         tuple(arch.get("critic_hidden_sizes") or hidden))
         return LoadedPolicy(actor, critic, case, path, "shipped", meta, arch["obs_dim"],
                             arch["act_dim"], hidden)
+    _check_policy_folder_whole(path)
     shipped = sorted(p.name for p in policies_dir.glob("*") if (p / POLICY_JSON).is_file()) \
         if policies_dir.is_dir() else []
     raise PolicyNotFoundError(
         f"{policy}: not a run directory, checkpoint, shipped-policy folder or shipped policy name "
         f"(shipped in {policies_dir}: {', '.join(shipped) or 'none'})"
     )
+
+
+def _check_policy_folder_whole(path: Path) -> None:
+    """A folder holding some of a shipped policy's files but not both it needs (``actor.pt``,
+    ``policy.json``): name the missing ones (deleted or not copied), not "not a policy"."""
+
+    if not path.is_dir():
+        return
+    present = [name for name in SHIPPED_FILES if (path / name).is_file()]
+    missing = [name for name in ("actor.pt", POLICY_JSON) if not (path / name).is_file()]
+    if present and missing:
+        raise PolicyNotFoundError(
+            f"{path}: a shipped-policy folder (it holds {', '.join(present)}) without "
+            f"{' and '.join(missing)}: a shipped policy needs actor.pt and {POLICY_JSON} "
+            "(deleted or not copied? ship it again with msr ship)")
 
 
 def finish_interrupted_ship(folder: Path) -> list[str]:

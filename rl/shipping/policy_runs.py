@@ -267,6 +267,22 @@ class ActorChoice:
                 f"{one('best.pt', self.best)}")
 
 
+def _why_no_best(run_files: RunDir) -> str:
+    """Why a run has no ``best.pt``, from its ``evaluations.csv`` (every evaluation writes one)."""
+    from ..runfiles.logs import read_log
+
+    if not run_files.evaluations_csv.is_file():
+        return "(the run made no evaluation during training)"
+    try:
+        evaluated = len(read_log(run_files.evaluations_csv, ("global_step",), whole_rows_only=True))
+    except ValueError as exc:  # a damaged log: say so rather than guess
+        return f"(and its evaluations cannot be counted: {exc})"
+    if not evaluated:
+        return "(the run made no evaluation during training)"
+    return (f"(best.pt is missing though the run evaluated {evaluated} times (deleted or moved?), "
+            f"see {run_files.evaluations_csv}; --checkpoint final takes the final actor)")
+
+
 def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10.0,
                  progress: bool = True) -> ActorChoice | None:
     """The actor of a run to use: ``run`` is a run folder or its ``checkpoint.pt``; ``checkpoint``
@@ -294,8 +310,8 @@ def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10
         return ActorChoice(run_files.checkpoint, "final", "asked")
     if checkpoint == "best":
         if not run_files.best.is_file():
-            raise FileNotFoundError(f"--checkpoint best: {run_files.best}: no such file (the run "
-                                    "made no evaluation during training)")
+            raise FileNotFoundError(f"--checkpoint best: {run_files.best}: no such file "
+                                    f"{_why_no_best(run_files)}")
         return ActorChoice(run_files.best, "best", "asked")
     if not run_files.best.is_file():
         return ActorChoice(run_files.checkpoint, "final", "only")

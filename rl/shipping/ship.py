@@ -34,6 +34,7 @@ from .policy_files import (
     POLICIES_DIR,
     POLICY_FORMAT,
     POLICY_JSON,
+    SHIPPED_FILES,
     LoadedPolicy,
     action_spec_of,
     observation_spec_of,
@@ -45,9 +46,6 @@ from .seed_report import CARD_SECTION as SEEDS_CARD_SECTION
 from .seed_report import case_seeds, seeds_markdown
 
 __all__ = ["SHIPPED_FILES", "check_policy_name", "check_ship_target", "set_notes", "ship"]
-
-#: The files of a shipped policy (``actor.pt`` and ``policy.json`` always, the others optional).
-SHIPPED_FILES = ("actor.pt", POLICY_JSON, "critic.pt", "fields.csv", "MODEL_CARD.md")
 
 
 def check_policy_name(name: str) -> str:

@@ -57,8 +57,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    f"absolute values abs:LOW:HIGH (SI; one key); repeatable. Default: {_DEFAULT_SET}")
     p.add_argument("--samples", type=number("", 0, 10_000, integer=True), default=0,
                    help="Latin-hypercube draws besides one-at-a-time and corners (default 0)")
-    p.add_argument("--seed", type=number("", 0, 2**32 - 1, integer=True), default=0,
-                   help="seed of the Latin-hypercube draws")
+    p.add_argument("--seed", type=number("", 0, 2**32 - 1, integer=True), default=None,
+                   help="seed of the Latin-hypercube draws of --samples (default 0)")
     p.add_argument("--no-corners", action="store_true",
                    help="leave out the corners (every combination of range ends)")
     p.add_argument("--open-loop-only", action="store_true", help="for a policy: skip the closed loop")
@@ -124,11 +124,14 @@ def robustness_command(args: argparse.Namespace) -> int:
     from .report import robustness_table
     from .robustness import plan_robustness, run_robustness, write_robustness
 
+    if args.seed is not None and not args.samples:  # it would be recorded but change nothing
+        raise CommandError(f"--seed {args.seed}: seeds the Latin-hypercube draws of --samples, and "
+                           "none are drawn (--samples 0); give --samples N, or leave --seed out")
     prepare_output_folder(args.out, args.force, kind="robustness")
     try:
         plan = plan_robustness(
             args.source, case=args.case, fields_csv=args.fields, variations=args.vary,
-            corners=not args.no_corners, samples=args.samples, seed=args.seed,
+            corners=not args.no_corners, samples=args.samples, seed=args.seed or 0,
             physics=args.physics, duration=args.duration, progress=not args.no_progress,
         )
     except PolicyNotFoundError as exc:
@@ -156,7 +159,7 @@ def identify_command(args: argparse.Namespace) -> int:
     from .tracking import check_against_robot, read_trajectory
 
     prepare_output_folder(args.out, args.force, kind="identify")
-    fields = read_field_csv(args.field_csv)
+    fields = read_field_csv(args.field_csv, plausible=True)  # a coil's field, as msr replay
     measured = read_trajectory(args.trajectory_csv)
     spec = load_spec(args.robot)
     try:

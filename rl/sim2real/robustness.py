@@ -114,7 +114,7 @@ def plan_robustness(
         if fields_csv is not None:
             raise ValueError("--fields is for a policy's waveform; the source is already a field CSV")
         the_case = load_case(case)
-        fields, waveform = read_field_csv(source), str(source)
+        fields, waveform = read_field_csv(source, plausible=True), str(source)  # as msr replay
     else:
         if case is not None:
             raise ValueError(f"{source}: a policy carries its case; --case is for a field CSV")
@@ -122,7 +122,7 @@ def plan_robustness(
         the_case = policy.case
         shipped_csv = Path(policy.source) / "fields.csv" if policy.kind == "shipped" else None
         if fields_csv is not None:
-            fields, waveform = read_field_csv(fields_csv), str(fields_csv)
+            fields, waveform = read_field_csv(fields_csv, plausible=True), str(fields_csv)
         elif shipped_csv is not None and shipped_csv.is_file():
             fields = read_field_csv(shipped_csv)
             waveform = f"fields.csv of the shipped-format policy {Path(policy.source).name}"

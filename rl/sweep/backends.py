@@ -42,6 +42,8 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, replace
 from typing import Any
 
+from elastica_magnetic.results import Interrupted
+
 from ..runfiles.rundir import CaseDir, RunDir
 from .jobs import GroupJob
 
@@ -227,10 +229,12 @@ def _init_worker(parent_pid: int, ignore_sigint: bool) -> None:
 
 @contextlib.contextmanager
 def _termination_as_interrupt():
-    """SIGTERM and SIGHUP in this process (main thread only) raise :class:`KeyboardInterrupt`
-    while the workers run, so ``kill PID`` or a closed terminal stops the workers as Ctrl-C does
-    (a shell's background job ignores SIGINT, which leaves SIGTERM as the way to stop it); the
-    previous handlers are restored after."""
+    """SIGTERM and SIGHUP in this process (main thread only) raise
+    :class:`~elastica_magnetic.results.Interrupted` (a :class:`KeyboardInterrupt` carrying the
+    signal, so ``msr`` reports it and exits 128 + its number) while the workers run, so
+    ``kill PID`` or a closed terminal stops the workers as Ctrl-C does (a shell's background job
+    ignores SIGINT, which leaves SIGTERM as the way to stop it); the previous handlers are
+    restored after."""
     import signal
     import threading
 
@@ -239,7 +243,7 @@ def _termination_as_interrupt():
         return
 
     def interrupt(signum, frame):
-        raise KeyboardInterrupt(f"signal {signal.Signals(signum).name}")
+        raise Interrupted(signum)  # not a bare KeyboardInterrupt: that would read as SIGINT
 
     names = [n for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n)]
     previous = {n: signal.signal(getattr(signal, n), interrupt) for n in names}

@@ -119,7 +119,7 @@ def _identify_inputs(lab: Path) -> list[str]:
 WRITERS = {
     "generate": lambda lab: ["generate", "m1-4mT", "--duration", "0.05", "--physics", "training",
                              "--no-gif", "--no-progress"],
-    "baseline": lambda lab: ["baseline", "--case", "m1-4mT", "--period", "1", "--duration", "0.05",
+    "baseline": lambda lab: ["baseline", "--case", "m1-4mT", "--period", "0.05", "--duration", "0.05",
                              "--physics", "training", "--no-figures", "--no-progress"],
     "demo": lambda lab: ["demo", "--duration", "0.05", "--no-progress"],
     "robustness": lambda lab: ["robustness", str(_rotating_field(lab / "w.csv")), "--case",

@@ -46,7 +46,7 @@ WRITERS: dict[str, tuple[list[str], str, str]] = {
     "validate": (["validate", "--quick", "--out", "{o}", "--force"], "folder", "--out"),
     "generate": (["generate", "m1-4mT", "--duration", "0.01", "--out", "{o}", "--force"], "folder",
                  "--out"),
-    "baseline": (["baseline", "--case", "m1-4mT", "--period", "1", "--duration", "0.01", "--out",
+    "baseline": (["baseline", "--case", "m1-4mT", "--period", "0.05", "--duration", "0.05", "--out",
                   "{o}", "--force"], "folder", "--out"),
     "baseline --set-yardstick": (["baseline", "--case", "m1-4mT", "--set-yardstick", "{f}"], "file",
                                  "--set-yardstick"),

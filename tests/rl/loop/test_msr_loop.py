@@ -223,3 +223,27 @@ def test_a_training_killed_before_its_record_is_resumed_not_restarted(interrupte
     assert state.summary("train")["resumed"] is True
     assert len(state.summary("train")["seeds"]) == 2
     assert checkpoint.read_bytes() == before
+
+
+def _terminated_while_workers_run(ctx):
+    """A step killed with SIGTERM while its worker processes run (as k4/k5: `kill -TERM` during
+    the training step), through the handler that stops the workers."""
+    import os
+    import signal
+    import time
+
+    from elastica_magnetic_rl.sweep.backends import _termination_as_interrupt
+
+    with _termination_as_interrupt():
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(5)  # the handler raises before this ends
+    raise AssertionError("SIGTERM did not interrupt the step")
+
+
+def test_a_loop_killed_with_sigterm_says_sigterm_and_exits_143(tmp_path, monkeypatch):
+    # issue 48 k4/k5: it said "interrupted (SIGINT)" and exited 130
+    spec = _write_spec(tmp_path / "seg4.toml")
+    monkeypatch.setitem(loop_steps.STEP_FUNCTIONS, "check", _terminated_while_workers_run)
+    status, _, err = _loop(str(spec), "--out", str(tmp_path / "out"))
+    assert status == 143, err
+    assert "msr loop: interrupted (SIGTERM)" in err and "SIGINT" not in err, err

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import json
 import math
 from pathlib import Path
 
@@ -20,13 +21,13 @@ QUICK = ["--physics", "training", "--duration", "0.5", "--no-figures", "--no-pro
 
 def test_the_sweep_picks_the_farthest_of_the_single_runs(tmp_path, capsys):
     single = {}
-    for period in ("1", "2"):
+    for period in ("0.25", "0.5"):  # no longer than the 0.5 s runs: the field turns
         for direction in ((), ("--counterclockwise",)):
             r = run_msr(capsys, "baseline", "--case", "m1-4mT", "--period", period, *direction,
                         "--out", str(tmp_path / f"p{period}{len(direction)}"), *QUICK)
             single[(float(period), not direction)] = r["mid_dx_m"]
     assert len(set(single.values())) == 4  # distinct: the answer is known
-    sweep = run_msr(capsys, "baseline", "--case", "m1-4mT", "--periods", "1,2", "--workers", "2",
+    sweep = run_msr(capsys, "baseline", "--case", "m1-4mT", "--periods", "0.25,0.5", "--workers", "2",
                     "--out", str(tmp_path / "sweep"), *QUICK)
     assert sweep["physics"] == "training" and sweep["duration_s"] == 0.5
     assert {(r["period_s"], r["clockwise"]): r["mid_dx_m"] for r in sweep["runs"]} == single
@@ -92,3 +93,34 @@ def test_a_yardstick_copy_says_what_it_was_measured_in(tmp_path):
     real = load_case(yardstick_spec(case, best, tmp_path / "real.toml"))
     assert "in 10 s, accurate physics" in real.yardstick.source
     assert "not a yardstick" not in real.yardstick.source
+
+
+def test_periods_longer_than_the_run_are_refused_or_left_out(tmp_path, capsys):
+    # issue 48 o15: --periods 1 --duration 0.02 ran, showed "turned s: inf", blamed the rate
+    # limit and picked a "best" among -0.00 mm
+    short = ["--physics", "training", "--duration", "0.3", "--no-figures", "--no-progress"]
+    for argv in (["--periods", "1,2"], ["--period", "1"]):
+        out = tmp_path / "refused"
+        assert msr(["baseline", "--case", "m1-4mT", *argv, "--out", str(out), *short]) == 2
+        err = capsys.readouterr().err
+        assert "longer than --duration 0.3 s" in err and "1" in err, err
+        assert not out.exists()
+    assert msr(["baseline", "--case", "m1-4mT", "--periods", "0.3,1", "--workers", "1", "--out",
+                str(tmp_path / "sweep"), *short, "--json"]) == 0
+    captured = capsys.readouterr()
+    assert "warning: --periods 1 s left out: longer than --duration 0.3 s" in captured.err
+    sweep = json.loads(captured.out)
+    assert {r["period_s"] for r in sweep["runs"]} == {0.3}
+    assert sweep["dropped_periods_s"] == [1.0]
+
+
+def test_the_rate_limit_is_blamed_only_when_it_is_the_cause():
+    case = load_case("m1-4mT")
+    fastest = min_rotation_period(case.field_limit, case.actuation.max_increment)
+    rate_limit = "per axis per 0.01 s"
+    t = np.arange(2) * 0.01  # a run shorter than the period: no turn
+    still = 4e-3 * np.stack([np.ones_like(t), 0 * t, 0 * t], axis=1)
+    warning = achieved_period(still, 1.0, case)["warning"]
+    assert warning and rate_limit not in warning and "shorter than one period" in warning
+    slow = achieved_period(still, 0.5 * fastest, case)["warning"]  # faster than the limit allows
+    assert slow and rate_limit in slow

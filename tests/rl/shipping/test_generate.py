@@ -66,14 +66,14 @@ def test_output_names_its_physics_and_claims_no_target_without_a_yardstick(tmp_p
     spec["yardstick"] = {"distance_10s": 0.0, "source": ""}
     del spec["name"]
     (tmp_path / "nostick.toml").write_text(dumps(spec))
-    result = run_msr(capsys, "baseline", "--case", str(tmp_path / "nostick.toml"), "--period", "2",
+    result = run_msr(capsys, "baseline", "--case", str(tmp_path / "nostick.toml"), "--period", "0.05",
                      "--duration", "0.05", "--physics", "training", "--out", str(tmp_path / "b"),
                      "--no-figures", "--no-progress")
     assert "meets_target" not in result and result["target"].startswith("none")
     assert "yardstick_10s_m" not in result and "authors_mid_dx_10s_m" not in result
     assert (result["physics"], result["initial_field"]) == ("training", "zero")
     assert "mid_node_dx_m" in result and "node32_dx_m" not in result
-    with_stick = run_msr(capsys, "baseline", "--case", "m1-4mT", "--period", "2", "--duration",
+    with_stick = run_msr(capsys, "baseline", "--case", "m1-4mT", "--period", "0.05", "--duration",
                          "0.05", "--out", str(tmp_path / "c"), "--no-figures", "--no-progress")
     assert with_stick["yardstick_10s_m"] == 0.0205
     assert "meets_target" not in with_stick  # 0.05 s is not the yardstick's 10 s

@@ -106,3 +106,27 @@ def test_older_policy_json_keys_are_read_by_todays_names(folder, old):
     assert "authors_mid_dx_10s_m" not in read
     assert read.get("yardstick_10s_m") == old
     assert resolve_policy(folder).case.name == "m1-4mT"
+
+
+@pytest.mark.parametrize("deleted, named", [
+    (["policy.json"], "without policy.json"),
+    (["actor.pt"], "without actor.pt"),
+    (["actor.pt", "policy.json"], "without actor.pt and policy.json"),
+])
+def test_a_policy_folder_missing_a_file_names_it(folder, deleted, named, capsys):
+    # issue 48 m8/m13: "not a run directory, checkpoint, shipped-policy folder or ..." before
+    for name in deleted:
+        (folder / name).unlink()
+    with pytest.raises(PolicyNotFoundError, match=named):
+        resolve_policy(folder)
+    assert main(["generate", str(folder), "--physics", "training", "--duration", "0.02",
+                 "--no-progress", "--out", str(folder.parent / "gen")]) == 2
+    err = capsys.readouterr().err
+    assert named in err and "critic.pt" in err and "not a run directory" not in err, err
+    assert not (folder.parent / "gen").exists()
+
+
+def test_an_empty_folder_is_still_not_a_policy(tmp_path):
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(PolicyNotFoundError, match="not a run directory"):
+        resolve_policy(tmp_path / "empty")

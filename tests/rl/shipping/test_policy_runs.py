@@ -154,3 +154,23 @@ def test_an_evaluation_of_a_case_without_a_yardstick_has_no_verdict(monkeypatch)
     # the farther actor, whatever the stored verdicts say
     assert prefer_best(nostick, _entry(0.01) | {"meets_target": True}, _entry(0.02))
     assert not prefer_best(load_case("m1-4mT"), _entry(0.03), _entry(0.02) | {"meets_target": True})
+
+
+@pytest.mark.parametrize("log, cause", [
+    (None, "the run made no evaluation during training"),
+    ("global_step,mean_return\n", "the run made no evaluation during training"),
+    ("global_step,mean_return\n200,1.5\n300,-0.2\n",
+     "best.pt is missing though the run evaluated 2 times (deleted or moved?)"),
+])
+def test_checkpoint_best_without_best_pt_says_the_true_cause(tmp_path, log, cause):
+    # issue 48 r2: "the run made no evaluation" though evaluations.csv listed evaluations
+    files = RunDir(tmp_path / "seed0")
+    files.path.mkdir()
+    files.checkpoint.write_bytes(b"")  # only its presence makes it a run here
+    if log is not None:
+        files.evaluations_csv.write_text(log)
+    with pytest.raises(FileNotFoundError, match=r"--checkpoint best: .*best\.pt: no such file") as exc:
+        choose_actor(files.path, "best", DURATION, False)
+    assert cause in str(exc.value)
+    if log and log.count("\n") > 1:
+        assert "made no evaluation" not in str(exc.value)

@@ -49,3 +49,11 @@ def test_an_interruption_names_only_checkpoints_that_exist(trained, tmp_path, ca
     assert _interrupted([seed0, fresh]) == 130
     err = capsys.readouterr().err
     assert "seed0" in err and "refined" not in err and "continue with the same command" in err
+
+
+def test_an_interruption_by_sigterm_exits_143(tmp_path, capsys):
+    """Every command exits 128 + the signal (docs/errors.md): training said 130 after SIGTERM."""
+    import signal
+
+    assert _interrupted([tmp_path], signal.SIGTERM) == 143
+    assert _interrupted([tmp_path]) == 130

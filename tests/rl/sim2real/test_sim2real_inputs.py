@@ -1,0 +1,59 @@
+"""msr robustness and msr identify refuse, before any work, what cannot be meant (issue 48):
+a field CSV no coil plays (uT written as mT: one 4000 mT row), as msr replay does; ``--seed``
+without ``--samples`` (it seeds draws that are not made)."""
+
+from __future__ import annotations
+
+import pytest
+from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR
+
+from elastica_magnetic.cli import main
+
+FIELDS = POLICIES_DIR / "m1-4mT" / "fields.csv"
+
+
+@pytest.fixture
+def huge_csv(tmp_path):
+    """The first 20 rows of a shipped waveform, one of them 4000 mT (uT written as mT)."""
+    lines = FIELDS.read_text().splitlines()[:21]
+    header, rows = lines[0], lines[1:]
+    cells = rows[5].split(",")
+    cells[-3:] = ["4000", "0", "0"]
+    rows[5] = ",".join(cells)
+    path = tmp_path / "huge.csv"
+    path.write_text("\n".join([header, *rows]) + "\n")
+    return path
+
+
+def _refused(capsys, argv, out) -> str:
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert not out.exists(), err
+    return err
+
+
+def test_robustness_refuses_a_field_csv_no_coil_plays(huge_csv, tmp_path, capsys):
+    # issue 48 fc_huge: it played the 4 T row, every variant "diverged", result written
+    out = tmp_path / "rb"
+    common = ["--physics", "training", "--duration", "0.05", "--workers", "1", "--no-corners",
+              "--no-progress", "--out", str(out)]
+    err = _refused(capsys, ["robustness", str(huge_csv), "--case", "m1-4mT", *common], out)
+    assert str(huge_csv) in err and "4000" in err and "T" in err, err
+    err = _refused(capsys, ["robustness", "m1-4mT", "--fields", str(huge_csv), *common], out)
+    assert str(huge_csv) in err and "4000" in err, err
+
+
+def test_identify_refuses_a_field_csv_no_coil_plays(huge_csv, tmp_path, capsys):
+    out = tmp_path / "id"
+    err = _refused(capsys, ["identify", str(huge_csv), str(tmp_path / "trajectory.csv"),
+                            "--robot", "m1-4mT", "--fit", "magnetization", "--no-progress",
+                            "--out", str(out)], out)
+    assert str(huge_csv) in err and "4000" in err, err
+
+
+def test_robustness_refuses_a_seed_without_samples(tmp_path, capsys):
+    # issue 48 o11: --seed 7 without --samples was silently ignored
+    out = tmp_path / "rb"
+    err = _refused(capsys, ["robustness", str(FIELDS), "--case", "m1-4mT", "--seed", "7",
+                            "--duration", "0.05", "--no-progress", "--out", str(out)], out)
+    assert "--seed 7" in err and "--samples" in err, err
