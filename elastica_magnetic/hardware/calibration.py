@@ -212,6 +212,16 @@ def _refuse_unknown_keys(data: dict[Any, Any], source: str) -> None:
                            f"{', '.join(CALIBRATION_KEYS)})")
 
 
+def _unique_keys(pairs: list[tuple[str, Any]], path: Path) -> dict[str, Any]:
+    """A JSON object's pairs as a dict, a key given twice refused (json keeps the last silently:
+    a limit written twice would be the second, unseen)."""
+    keys = [key for key, _ in pairs]
+    twice = sorted({key for key in keys if keys.count(key) > 1})
+    if twice:
+        raise CalibrationError(f"{path}: {', '.join(twice)}: given twice; give each key once")
+    return dict(pairs)
+
+
 def load_calibration(path: str | Path) -> Calibration:
     """Read and validate a calibration JSON file (see :func:`calibration_from_dict`)."""
     path = Path(path)
@@ -222,7 +232,7 @@ def load_calibration(path: str | Path) -> Calibration:
         problem = byte_order_mark_problem(path, text)
         if problem is not None:  # else json's "Unexpected UTF-8 BOM (decode using utf-8-sig)"
             raise CalibrationError(problem)
-        data = json.loads(text)
+        data = json.loads(text, object_pairs_hook=lambda pairs: _unique_keys(pairs, path))
     except UnicodeDecodeError as exc:
         raise CalibrationError(f"{path}: not UTF-8 text (byte {exc.start}): a calibration is a "
                                "JSON file written by 'msr calibrate'") from None

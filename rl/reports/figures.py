@@ -77,6 +77,16 @@ def ema(values: Sequence[float], alpha: float = 0.2) -> NDArray[np.float64]:
     return out
 
 
+def _read_evaluations(run_dir: Path) -> pd.DataFrame:
+    """A run's evaluations, every row checked (a damaged log is a ``ValueError`` naming the file,
+    row and column, not a ``KeyError`` or a ``TypeError`` in the plotting)."""
+    rows = read_log(RunDir(run_dir).evaluations_csv, ("global_step", "mean_return"))
+    return pd.DataFrame({
+        "global_step": [int(float(r["global_step"])) for r in rows],
+        "mean_return": [float(r["mean_return"]) for r in rows],
+    })
+
+
 def _read_episodes(run_dir: Path) -> pd.DataFrame:
     rows = read_log(RunDir(run_dir).episodes_csv, ("global_step", "return"))
     return pd.DataFrame({
@@ -133,7 +143,7 @@ def plot_learning_curves(
         ax.plot(steps, smooth, lw=0.8, alpha=0.5, label=run.name, color=f"C{k % 10}")
         curves.append((steps, smooth))
         if ax_eval is not None and run in evaluated:
-            ev = pd.read_csv(RunDir(run).evaluations_csv)
+            ev = _read_evaluations(run)
             # reward = 1e4 x displacement (m) = 10 x mm
             ax_eval.plot(ev["global_step"], ev["mean_return"] / 10.0, "o-", ms=3, lw=0.8,
                          color=f"C{k % 10}", label=run.name)

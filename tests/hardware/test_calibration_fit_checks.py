@@ -180,3 +180,23 @@ def test_identical_rows_are_said_to_be_identical(tmp_path: Path, capsys) -> None
     assert err == (f"msr calibrate: error: {meas}: 12 rows, all the same currents ({COLUMNS} = "
                    "0.5, -1.25, 2 A): one setting cannot tell the three coils apart; drive each "
                    "coil on its own, at positive and negative currents")
+
+
+def test_a_key_given_twice_is_refused(tmp_path):
+    """A third round of tries: current_limit_A twice, the second silently won."""
+    import json as _json
+
+    from elastica_magnetic.hardware.calibration import (
+        CalibrationError,
+        default_calibration_path,
+        load_calibration,
+    )
+
+    text = default_calibration_path().read_text()
+    data = _json.loads(text)
+    twice = text.rstrip().rstrip("}").rstrip() + ',\n  "current_limit_A": ' + \
+        _json.dumps(data["current_limit_A"]) + "\n}\n"
+    path = tmp_path / "twice.json"
+    path.write_text(twice)
+    with pytest.raises(CalibrationError, match="twice.json: current_limit_A: given twice"):
+        load_calibration(path)

@@ -190,6 +190,20 @@ def test_figures_name_a_damaged_log_and_replace_their_own_figures(trained, tmp_p
     err = capsys.readouterr().err
     assert f"{episodes}: damaged log: row 3, column 'return': 'abc'" in err
     assert not leftovers(runs)
+    # a damaged evaluations.csv (a third round of tries: KeyError / TypeError tracebacks)
+    episodes.write_text("\n".join(line for line in episodes.read_text().splitlines()
+                                  if "abc" not in line) + "\n")
+    evaluations = runs / "m1-4mT" / "seed0" / "evaluations.csv"
+    header, first, *rest = evaluations.read_text().splitlines()
+    fields = first.split(",")
+    fields[header.split(",").index("mean_return")] = "abc"
+    for damaged, named in (("step,mean_distance\n100,1.0\n", "the header lacks global_step"),
+                           ("\n".join([header, ",".join(fields), *rest]) + "\n",
+                            "row 2, column 'mean_return': 'abc'")):
+        evaluations.write_text(damaged)
+        assert msr(["figures", str(runs), "--force"]) == 2
+        err = capsys.readouterr().err
+        assert f"{evaluations}: damaged log" in err and named in err and "Traceback" not in err
 
 
 # -- Ctrl-C in a real process ----------------------------------------------------------------------
