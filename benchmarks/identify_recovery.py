@@ -1,8 +1,8 @@
-"""What ``msr identify`` recovers from synthetic trajectories (issue 49, "an honest msr identify"):
+"""What ``msr real identify`` recovers from synthetic trajectories (issue 49, "an honest msr real identify"):
 the m1-4mT robot with its magnetization and kinetic friction perturbed, three points along its body
 (s = 0, 0.5, 1) tracked at 30 frames/s with 0.05 mm of Gaussian noise, under two waveforms: the
 paper's published one (``elastica_magnetic/data/yao2023/magnetization1_4mT/magnetic_field.csv``,
-its first DURATION s) and a 10 mT field turning at 2 Hz. Each case is fitted as ``msr identify``
+its first DURATION s) and a 10 mT field turning at 2 Hz. Each case is fitted as ``msr real identify``
 does (training physics, the default starts, ``--noise-m 5e-5``); the table gives each value's
 error, whether its stated interval holds the truth, and whether it is called identifiable.
 Minutes per case: a benchmark, not a test.

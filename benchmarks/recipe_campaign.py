@@ -5,9 +5,9 @@ For every case and recipe, the seeds ``0 .. --seeds - 1`` that
 ``rl/policies/<case>/seeds/<recipe>/seeds.json`` does not hold yet are trained (the paper's 1e5
 steps, float32, the default layout) into ``--runs/<recipe>/<case>/seed<k>/``; a seed whose run
 already has a checkpoint resumes from it, a finished one is only exported. Each case and recipe is
-exported there as soon as its last seed is trained (``msr export-seeds``, which keeps the seeds
+exported there as soon as its last seed is trained (``msr policy export-seeds``, which keeps the seeds
 already in the folder), and the
-recipes table across the cases is printed (``msr seeds``). Interrupted (Ctrl-C, a session's end), it
+recipes table across the cases is printed (``msr policy seeds``). Interrupted (Ctrl-C, a session's end), it
 picks up where it stopped when run again with the same arguments.
 
     python benchmarks/recipe_campaign.py --dry-run                 # what is missing; nothing runs

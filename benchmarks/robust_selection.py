@@ -1,8 +1,8 @@
 """Which seed's waveform keeps its distance on the robot a lab actually built (issue: robust
 waveforms): every committed seed of a case and recipe (``rl/policies/<case>/seeds/<recipe>/``)
-has its waveform generated on the nominal robot (as ``msr generate``: accurate physics, field from
+has its waveform generated on the nominal robot (as ``msr policy generate``: accurate physics, field from
 zero, 10 s) and played open loop, as the coils play it, on the default variation set
-(``msr robustness``: magnetization +-15 %, moduli +-20 %, friction +-25 %, density +-10 %; one at a
+(``msr real robustness``: magnetization +-15 %, moduli +-20 %, friction +-25 %, density +-10 %; one at a
 time and all corners; training physics, 10 s). The seed to ship as ``<case>-robust`` is the one
 whose worst open-loop distance is largest among those that reach the yardstick on the nominal robot
 (``seeds.json``'s ``meets_target``). Minutes per seed: a benchmark, not a test.

@@ -12,7 +12,7 @@ seed's evaluation history: the seed would have stopped at the first evaluation s
 fires, else run its whole budget (``--steps``). Printed per case: the mean over the seeds of that
 step divided by the budget (the fraction of the compute the seeds would have run), the seeds that
 stopped, and each seed's stop step. A replay says nothing of whether the stopped actors are as good
-as the final ones (``msr export-seeds`` judges that, on the actor at the stop step).
+as the final ones (``msr policy export-seeds`` judges that, on the actor at the stop step).
 """
 
 from __future__ import annotations

@@ -41,7 +41,7 @@ def read_field_csv(path: str | Path, *, plausible: bool = False) -> NDArray[np.f
         column and a header line.
     plausible : bool
         Also judge the largest field as a coil field (what the doors that play a file do:
-        ``msr replay``, ``export-firmware``, ``stream``): refuse one below 0.05 mT or above 1 T
+        ``msr field replay``, ``export-firmware``, ``stream``): refuse one below 0.05 mT or above 1 T
         (tesla or gauss written as mT), warn about one below 0.5 mT or above 100 mT
         (:class:`~elastica_magnetic.plausibility.ImplausibleValueWarning`).
 
@@ -59,6 +59,10 @@ def read_field_csv(path: str | Path, *, plausible: bool = False) -> NDArray[np.f
         makes. The message names the file and the row (1-based line number in the file).
     """
     path = Path(path)
+    if path.is_dir():
+        inside = sorted(p.name for p in path.glob("*.csv"))
+        raise FieldCSVError(f"{path}: is a folder, not a field CSV file; give a CSV file"
+                            + (f" (this folder has: {', '.join(inside)})" if inside else ""))
     if not path.is_file():
         raise FieldCSVError(f"{path}: no such field CSV file")
     rows = _csv_rows(path, FieldCSVError)
@@ -90,6 +94,17 @@ def _check_plausible(path: Path, field: NDArray[np.float64], lines: list[int]) -
     warn_implausible(f"{text}; the file is played as written", stacklevel=4)
 
 
+def named_twice(names: list[str]) -> str:
+    """``"names mag_x twice (columns 2 and 5)"`` for the first column named more than once, or
+    ``""``: which of two columns is meant cannot be guessed (every CSV reader checks it)."""
+    for k, name in enumerate(names):
+        if name and name in names[k + 1:]:
+            where = [str(i + 1) for i, other in enumerate(names) if other == name]
+            return f"names {name} {len(where)} times (columns {' and '.join(where)})".replace(
+                "2 times", "twice")
+    return ""
+
+
 def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
                    ) -> tuple[list[int], int | None, int, list[tuple[int, list[str]]]]:
     """Where the field components are: their column indices, the index column (``None``: none),
@@ -106,6 +121,9 @@ def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
             "in mT) or 4 (index first)"
         )
     names = [c.strip() for c in first]
+    twice = named_twice(names)
+    if twice:
+        raise FieldCSVError(f"{path}: header on line {first_line} {twice}; give each column once")
     missing = [c for c in FIELD_COLUMNS if c not in names]
     if missing:
         raise FieldCSVError(

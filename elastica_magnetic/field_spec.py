@@ -1,5 +1,5 @@
 """The ``[field]`` and ``[boundary]`` tables of a spec file: a field source that varies in space
-and a clamp, for ``msr simulate`` and ``msr replay``::
+and a clamp, for ``msr field simulate`` and ``msr field replay``::
 
     [boundary]
     clamp = "first"            # clamp the first node and element (a catheter held at its base)

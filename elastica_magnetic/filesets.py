@@ -30,7 +30,7 @@ refused naming the first.
 Existing files among ``names`` are replaced only with ``force=True``; files of the folder not
 among them are never touched.
 
-**A single result file** (``msr calibrate --out cal.json``, ``msr stream --log``) goes through
+**A single result file** (``msr hw calibrate --out cal.json``, ``msr hw stream --log``) goes through
 :func:`result_file`: refused when it exists unless ``force``, written beside itself under a
 temporary name, flushed and renamed over it in one step, under a lock beside it
 (``.NAME.msr-lock``), so two processes never write it and an interruption leaves the old file.
@@ -41,7 +41,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -49,8 +49,8 @@ from .io import OutputPathError, display_path, normalized_path
 from .locks import FolderLock, host_name, lock_path, name_tag
 from .results import ResultExistsError, fsync_tree, remove_tree, signals_as_exceptions, signals_held
 
-__all__ = ["FileSet", "ResultFile", "check_files", "check_result_file", "interrupted_replacements",
-           "recover_files", "replace_files", "result_file"]
+__all__ = ["FileKind", "FileSet", "ResultFile", "check_files", "check_result_file",
+           "interrupted_replacements", "recover_files", "replace_files", "result_file"]
 
 _PREFIX = ".msr-files-"
 _COMMIT = ".msr-commit"
@@ -237,14 +237,25 @@ class ResultFile:
     notes: list[str] = field(default_factory=list)
 
 
+@dataclass(frozen=True)
+class FileKind:
+    """What a result file is, so that ``--force`` replaces only a file of that kind (an earlier
+    result), never a file of the user's that happens to have the name: ``description`` for the
+    message (``"a calibration JSON"``), ``recognizes(path)`` whether an existing file is one."""
+
+    description: str
+    recognizes: Callable[[Path], bool]
+
+
 def check_result_file(path: str | Path, *, force: bool = False, option: str = "--out",
-                      force_option: str = "--force") -> Path:
+                      force_option: str = "--force", kind: FileKind | None = None) -> Path:
     """Check, before any long work, that the file ``path`` may be written: not a folder, not under
-    a file, its folder writable, and absent unless ``force``. Returns the normalized path."""
+    a file, its folder writable, and absent unless ``force`` (and then, with ``kind``, a file of
+    that kind: a file of the user's is never replaced). Returns the normalized path."""
     final = normalized_path(path)
     notes = _recover_file(final, option)
     try:
-        _check_file(final, force, option, force_option)
+        _check_file(final, force, option, force_option, kind)
     except OutputPathError as exc:
         for note in notes:  # the command line prints them before the error
             exc.add_note(note)
@@ -272,7 +283,8 @@ def _new_files(final: Path) -> list[Path]:
     return sorted({*final.parent.glob(temporary), *final.parent.glob(f".{temporary}")})
 
 
-def _check_file(final: Path, force: bool, option: str, force_option: str) -> None:
+def _check_file(final: Path, force: bool, option: str, force_option: str,
+                kind: FileKind | None = None) -> None:
     where = f"{option} {display_path(final)}"
     if final.is_dir():
         raise OutputPathError(f"{where}: is a folder, expected a file name")
@@ -288,9 +300,20 @@ def _check_file(final: Path, force: bool, option: str, force_option: str) -> Non
     if final.exists() and not force:
         raise ResultExistsError(f"{where}: already exists; pass {force_option} to replace it, or "
                                 f"choose another {option}")
+    if final.is_file() and kind is not None and not _recognized(kind, final):
+        raise ResultExistsError(f"{where}: is not {kind.description} (a file msr did not write?); "
+                                f"{force_option} replaces only {kind.description}: move it away "
+                                f"or choose another {option}")
     if final.parent.exists() and not os.access(final.parent, os.W_OK | os.X_OK):
         raise OutputPathError(f"{where}: cannot write in {display_path(final.parent)}: "
                               "Permission denied")
+
+
+def _recognized(kind: FileKind, path: Path) -> bool:
+    try:
+        return bool(kind.recognizes(path))
+    except (OSError, ValueError, UnicodeDecodeError):
+        return False
 
 
 def _remove_new_files(final: Path) -> list[str]:
@@ -303,14 +326,14 @@ def _remove_new_files(final: Path) -> list[str]:
 
 @contextlib.contextmanager
 def result_file(path: str | Path, *, force: bool = False, option: str = "--out",
-                force_option: str = "--force") -> Iterator[ResultFile]:
+                force_option: str = "--force", kind: FileKind | None = None) -> Iterator[ResultFile]:
     """Write one result file whole or not at all: ``with result_file(out, force=...) as f:``
     write ``f.path``; on a normal exit it is flushed and renamed over ``out`` in one step. The
     checks of :func:`check_result_file` come first (an existing file without ``force`` is a
     :class:`~elastica_magnetic.results.ResultExistsError`), then the lock beside ``out``; an
     exception, Ctrl-C, SIGTERM or SIGHUP in the block removes the temporary file and leaves
     ``out`` as it was."""
-    final = check_result_file(path, force=force, option=option, force_option=force_option)
+    final = check_result_file(path, force=force, option=option, force_option=force_option, kind=kind)
     shown = display_path(final)
     try:
         final.parent.mkdir(parents=True, exist_ok=True)
@@ -320,7 +343,7 @@ def result_file(path: str | Path, *, force: bool = False, option: str = "--out",
     with signals_as_exceptions(), FolderLock(final, option=option) as lock:
         notes = (_recovered_file_notes.pop(str(final), []) + lock.notes
                  + _remove_new_files(final))
-        _check_file(final, force, option, force_option)
+        _check_file(final, force, option, force_option, kind)
         # same folder (the rename is atomic) and same suffix (writers such as savefig read it)
         temporary = final.parent / (f".{final.stem}{_NEW_FILE}{name_tag(host_name())}-"
                                     f"{os.getpid()}-{os.urandom(3).hex()}{final.suffix}")

@@ -11,6 +11,7 @@ saved with a byte-order mark.
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import tempfile
 from collections.abc import Callable, Iterator
@@ -18,6 +19,7 @@ from pathlib import Path
 from typing import IO, Any
 
 __all__ = [
+    "DamagedFileError",
     "OutputPathError",
     "UTF8_BOM",
     "atomic_save",
@@ -52,6 +54,24 @@ class OutputPathError(OSError):
 
     def __str__(self) -> str:  # OSError's own formatting adds "[Errno ...]" noise
         return str(self.args[0]) if self.args else ""
+
+
+class DamagedFileError(ValueError):
+    """A file the package wrote (or a user keeps) that cannot be read back: the message names it."""
+
+
+def read_json(path: str | os.PathLike[str], fix: str = "restore it (e.g. from a backup or git)") -> Any:
+    """The JSON document in ``path``; a file that is not JSON (cut short by a copy or a kill, edited
+    by hand, not UTF-8) is a :class:`DamagedFileError` naming the file, the place and ``fix``."""
+    path = Path(path)
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise DamagedFileError(f"{display_path(path)}: not readable as JSON (line {exc.lineno} column "
+                               f"{exc.colno}: {exc.msg}): damaged or cut short; {fix}") from None
+    except UnicodeDecodeError:
+        raise DamagedFileError(f"{display_path(path)}: not readable as JSON (not UTF-8 text): "
+                               f"damaged; {fix}") from None
 
 
 def normalized_path(path: str | os.PathLike[str]) -> Path:

@@ -1,4 +1,4 @@
-"""Open-loop runs: play a field on a robot and record its trajectory (what ``msr replay`` does)."""
+"""Open-loop runs: play a field on a robot and record its trajectory (what ``msr field replay`` does)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Result folders replaced whole or not at all, by one process at a time.
 
-A command that writes a folder of results (``msr simulate --out X``) never writes into ``X``
+A command that writes a folder of results (``msr field simulate --out X``) never writes into ``X``
 itself. It builds the new content in a temporary sibling ``.X.msr-new-HOST-PID-RANDOM`` (same
 parent, so the same filesystem and renames are atomic) and swaps it in only when everything was
 written::
@@ -84,6 +84,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .command_names import spelling
 from .io import OutputPathError, atomic_write_text, display_path, normalized_path
 from .locks import FolderLock, command_line, host_name, name_tag, utc_now
 
@@ -228,7 +229,7 @@ def _files(folder: Path) -> list[str] | None:
 def _what(marker: dict[str, Any]) -> str:
     subject = f" for {marker['subject']}" if marker.get("subject") else ""
     written = f", written {marker['written_utc']}" if marker.get("written_utc") else ""
-    return f"a result of `msr {marker['kind']}`{subject}{written}"
+    return f"a result of `msr {spelling(str(marker['kind']))}`{subject}{written}"
 
 
 def _list(names: list[str]) -> str:
@@ -293,7 +294,7 @@ def _check_result_folder(final: Path, kind: str, subject: str | None, force: boo
     listed = _files(final)
     if listed is None:
         raise ResultExistsError(f"{where}: holds more than {_MAX_LISTED} files, not a result of "
-                                f"`msr {kind}`; choose a new or empty folder")
+                                f"`msr {spelling(kind)}`; choose a new or empty folder")
     marker = read_marker(final)
     files = [f for f in listed if f != MARKER]
     known = set(known_files)
@@ -302,13 +303,13 @@ def _check_result_folder(final: Path, kind: str, subject: str | None, force: boo
             return None
         unknown = [f for f in files if f not in known]
         if unknown or not files:
-            raise ResultExistsError(f"{where}: holds files that `msr {kind}` does not write "
+            raise ResultExistsError(f"{where}: holds files that `msr {spelling(kind)}` does not write "
                                     f"({_list(unknown or [MARKER])}); choose a new or empty folder")
         marker = {"kind": kind, "subject": None, "legacy": True}
     else:
         if marker["kind"] != kind:
             raise ResultExistsError(
-                f"{where}: holds {_what(marker)}, not of `msr {kind}`; choose another {option} "
+                f"{where}: holds {_what(marker)}, not of `msr {spelling(kind)}`; choose another {option} "
                 f"({force_option} replaces only a result of the same command"
                 f"{' and subject' if subject else ''})")
         if subject is not None and marker.get("subject") not in (None, subject):

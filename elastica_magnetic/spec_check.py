@@ -227,14 +227,14 @@ def check_spec(spec: Mapping[str, Any], source: str = "<spec>", *, sag: bool = T
 
     Its ``[robot]`` and ``[physics]`` are checked as :func:`describe_robot` does (a bad key is a
     :class:`~elastica_magnetic.specfile.SpecError`), its ``[field]`` and ``[boundary]`` as
-    :func:`~elastica_magnetic.field_spec.describe_field` does for ``msr simulate`` (a unit mistake
+    :func:`~elastica_magnetic.field_spec.describe_field` does for ``msr field simulate`` (a unit mistake
     or a source on the rod is a ``SpecError``, an unusual value a warning); ``[actuation]
     field_limit`` (T), ``[task] kind`` and ``[yardstick] distance_10s`` (m) are read when present
     (the learning package checks the rest of those tables). ``sag=False`` skips the sag simulations (seconds;
     the first run in a process also compiles the kernels)."""
     description = describe_robot(spec, source)
     field_limit = spec_field_limit(spec, source)
-    # The [field] in space and [boundary], as msr simulate builds them (same errors and warnings,
+    # The [field] in space and [boundary], as msr field simulate builds them (same errors and warnings,
     # the source against the rod), before the sag simulations.
     describe_field(spec, source)
     task = spec.get("task")
@@ -370,7 +370,7 @@ def _validity_issues(robot: RobotSpec, field_limit: float | None,
         elif yardstick == 0.0:
             issues.append(Issue("warning", "[yardstick] distance_10s",
                                 "0 m: the case has no yardstick, so no policy of it is judged (no "
-                                "meets_target, no success count); search one with msr baseline "
+                                "meets_target, no success count); search one with msr field baseline "
                                 "--case and set it"))
     if field_limit is None and task_kind is not None:
         issues.append(Issue("warning", "[actuation] field_limit", "missing"))

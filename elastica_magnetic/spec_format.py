@@ -27,6 +27,16 @@ class SpecError(ValueError):
     """A spec that does not describe a valid case; the message names the file, table and key."""
 
 
+#: What a required table is for, named when it is missing.
+TABLE_PURPOSES: dict[str, str] = {
+    "robot": "the rod: length, section, material, magnetization",
+    "robot.magnetization": "its kind and that kind's keys (docs/specs.md)",
+    "actuation": "field_limit (T), the largest field the coils make; a case needs it to train or play",
+    "task": "what the robot learns, its kind and keys (msr case show m1-4mT --toml shows one); a case "
+            "needs it to train or play, a robot alone is simulated with msr field simulate --robot FILE",
+}
+
+
 class SpecTable:
     """Checked, typed access to one table of a spec; :meth:`finish` rejects keys never read.
 
@@ -156,8 +166,11 @@ class SpecTable:
 
     def table(self, key: str, required: bool = True) -> SpecTable | None:
         """A sub-table (``None`` if optional and absent)."""
-        value = self._get(key, REQUIRED if required else None)
         path = f"{self.path}.{key}" if self.path else key
+        if required and key not in self.data:
+            raise SpecError(f"{self.source}: [{path}] missing: a required table "
+                            f"({TABLE_PURPOSES.get(path, 'see docs/specs.md')})")
+        value = self._get(key, None)
         if value is None and key not in self.data:
             return None
         if not isinstance(value, Mapping):

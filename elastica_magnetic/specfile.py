@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .filesets import FileKind
 from .magnetization import (
     YAO2023_MAGNETIZATION,
     MagnetizationSegment,
@@ -47,6 +48,7 @@ from .robot_spec import (
     Physics,
     RobotSpec,
 )
+from .section import equivalent_radius
 
 # the file format's home is .spec_format; SpecError, SpecTable, read_spec, loads stay importable from here
 from .spec_format import (  # noqa: F401
@@ -263,6 +265,7 @@ def _robot_table(t: SpecTable) -> dict[str, Any]:
                                                      d.slip_velocity_tol, low=0.0, low_open=True),
         }
         _check_friction(ground, out["ground"])
+        _check_contact_tolerances(ground, out)
         ground.finish()
     damping = t.table("damping", required=False)
     if damping is not None:
@@ -452,6 +455,44 @@ def _check_friction(t: SpecTable, ground: Mapping[str, float]) -> None:
                                     "(a sliding element would hold harder than a sticking one)")
 
 
+#: Largest contact band, in radii of the rod: a band of a tenth of a radius already gives friction
+#: to an element lifted visibly off the floor; a whole radius, to an element clear of it.
+CONTACT_BAND_WARN_RADII, CONTACT_BAND_REFUSE_RADII = 0.1, 1.0
+#: Largest sticking speed, in body lengths per second: below it an element counts as sticking (static
+#: friction holds it), so a robot crawling slower than it would be held in place. Crawlers move a
+#: hundredth to a few body lengths per second.
+STICKING_SPEED_WARN, STICKING_SPEED_REFUSE = 1e-3, 1e-1
+
+
+def _check_contact_tolerances(t: SpecTable, robot: Mapping[str, Any]) -> None:
+    """Judge the contact band against the rod's radius and the sticking speed against its length:
+    both are numbers whose unit cannot be guessed, only whether they make the contact a different
+    model (friction on lifted elements, a crawling robot held as if stuck)."""
+    ground = robot["ground"]
+    radius = robot["radius"] if "radius" in robot else equivalent_radius(robot["thickness"])
+    band = ground["surface_tolerance"] / radius
+    what = (f"the contact band is {band:.3g} radii of the rod (r = {radius:.3g} m): an element "
+            f"{ground['surface_tolerance']:g} m above the floor counts as touching and feels friction")
+    if band >= CONTACT_BAND_REFUSE_RADII:
+        raise t.error("surface_tolerance", f"{ground['surface_tolerance']!r} m is not below the rod's "
+                      f"radius: {what}; give a band below {CONTACT_BAND_WARN_RADII:g} radii "
+                      "(default 1e-7 m), in m")
+    if band > CONTACT_BAND_WARN_RADII:
+        t.warn("surface_tolerance", f"{what} (above {CONTACT_BAND_WARN_RADII:g} radii; default 1e-7 m)")
+    length = robot["length"]
+    sticking = ground["slip_velocity_tolerance"] / length
+    what = (f"{ground['slip_velocity_tolerance']:g} m/s is {sticking:.3g} body lengths per second "
+            f"(L = {length:g} m): an element sliding slower counts as sticking, so a robot crawling "
+            "slower is held by static friction")
+    if sticking >= STICKING_SPEED_REFUSE:
+        raise t.error("slip_velocity_tolerance", f"{what}; crawlers move 0.01 to a few body lengths "
+                      f"per second: give a speed below {STICKING_SPEED_WARN:g} body lengths per second "
+                      "(default 1e-8 m/s), in m/s")
+    if sticking > STICKING_SPEED_WARN:
+        t.warn("slip_velocity_tolerance", f"{what} (above {STICKING_SPEED_WARN:g} body lengths per "
+               "second; default 1e-8 m/s)")
+
+
 def _check_time_steps(description: RobotDescription, spec: Mapping[str, Any], source: str) -> None:
     """Refuse a physics setting whose ``dt`` is above the robot's smallest bare stability limit
     (:func:`~elastica_magnetic.stability.time_step_limits`: every blow-up measured came below it),
@@ -471,6 +512,17 @@ def _check_time_steps(description: RobotDescription, spec: Mapping[str, Any], so
             f"at 0.72-0.89 of it, estimated stable step {stable:.2e} s); the simulation would blow "
             f"up or give a wrong result. Set dt = {suggested_time_step(stable):g} in "
             f"[physics.{setting}]")
+
+
+def _is_spec_file(path: Path) -> bool:
+    import tomllib
+
+    return isinstance(tomllib.loads(path.read_text(encoding="utf-8-sig")).get("robot"), dict)
+
+
+#: What a command that writes a spec file (``msr field baseline --set-yardstick FILE --force``)
+#: may replace: a spec.
+SPEC_FILE = FileKind("a spec file (TOML with a [robot] table)", _is_spec_file)
 
 
 def load_robot(robot: str | Path, physics: Physics = "accurate") -> RobotSpec:

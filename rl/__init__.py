@@ -18,7 +18,7 @@ docs/architecture.md):
 - ``envs``: the crawler as a Gymnasium environment, single and vector, and recorded rollouts;
 - ``runner``: the training loop of K seeds, each seed's bookkeeping, evaluation;
 - ``sweep``: ``msr train`` / ``msr refine``: seeds and cases over worker processes or Ray;
-- ``reports``: figures, the networks' health (``msr diagnose``), benchmarks (``msr bench``);
+- ``reports``: figures, the networks' health (``msr policy diagnose``), benchmarks (``msr bench``);
 - ``shipping``: policy files, generate, ship, export, every seed's report, shipped-policy checks;
 - ``cli``: the ``msr`` sub-commands (thin wrappers).
 

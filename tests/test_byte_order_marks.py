@@ -62,7 +62,7 @@ def test_the_command_line_names_it_before_simulating(tmp_path, capsys):
     path = tmp_path / "my.toml"
     path.write_bytes(BOM + ROBOT.encode())
     with pytest.raises(SystemExit) as info:
-        main(["simulate", "--robot", str(path), "--out", str(tmp_path / "out")])
+        main(["field", "simulate", "--robot", str(path), "--out", str(tmp_path / "out")])
     assert info.value.code == 2
-    assert f"msr simulate: error: argument --robot: {expected(path)}" in capsys.readouterr().err
+    assert f"msr field simulate: error: argument --robot: {expected(path)}" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()

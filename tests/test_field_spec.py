@@ -1,4 +1,4 @@
-"""The [field] and [boundary] tables of a spec, and msr simulate / replay with them."""
+"""The [field] and [boundary] tables of a spec, and msr field simulate / replay with them."""
 
 from __future__ import annotations
 
@@ -156,7 +156,8 @@ kind = "point-dipole"
 moment = [0.0, 0.5, 0.0]
 position = [0.05, 0.03, 0.0]
 """)
-    status = main(["simulate", "--robot", str(spec), "--duration", "0.05", "--out", str(tmp_path / "out"),
+    status = main(["field", "simulate", "--robot", str(spec), "--duration", "0.05", "--out",
+                   str(tmp_path / "out"),
                    "--json"])
     result = json.loads(capsys.readouterr().out)
     assert status == 0 and result["field"] == "point-dipole" and result["clamp"]
@@ -167,7 +168,7 @@ position = [0.05, 0.03, 0.0]
     assert trajectory["front_y_m"][-1] > 1e-4
     assert abs(trajectory["back_x_m"][-1] - trajectory["back_x_m"][0]) < 1e-5
     assert abs(trajectory["back_y_m"][-1]) < 0.05 * trajectory["front_y_m"][-1]
-    assert main(["simulate", "--robot", str(spec), "--amplitude", "0.004",
+    assert main(["field", "simulate", "--robot", str(spec), "--amplitude", "0.004",
                  "--out", str(tmp_path / "o2")]) == 2
     assert "--amplitude set the rotating field" in capsys.readouterr().err
 
@@ -184,7 +185,8 @@ position = [0.05, 0.03, 0.0]
 """)
     csv = tmp_path / "zero.csv"
     csv.write_text("mag_x,mag_y,mag_z\n" + "0,0,0\n" * 5)
-    status = main(["replay", str(csv), "--robot", str(spec), "--out", str(tmp_path / "out"), "--json"])
+    status = main(["field", "replay", str(csv), "--robot", str(spec), "--out", str(tmp_path / "out"),
+                   "--json"])
     assert status == 0, capsys.readouterr().err
     result = json.loads(capsys.readouterr().out)
     trajectory = np.genfromtxt(result["trajectory_csv"], delimiter=",", names=True)

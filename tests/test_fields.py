@@ -114,6 +114,12 @@ def test_field_csv_without_header_or_index(tmp_path):
     np.testing.assert_allclose(read_field_csv(path), [[1e-3, 2e-3, 3e-3], [4e-3, 5e-3, 6e-3]])
     with pytest.raises(FieldCSVError, match="no such field CSV"):
         read_field_csv(tmp_path / "missing.csv")
+    folder = tmp_path / "run.csv"  # a folder named like a CSV (a generate result)
+    folder.mkdir()
+    (folder / "fields.csv").write_text("1,2,3\n")
+    with pytest.raises(FieldCSVError, match=r"run\.csv: is a folder, not a field CSV file; give a CSV "
+                                            r"file \(this folder has: fields\.csv\)"):
+        read_field_csv(folder)
 
 
 def test_magnetization_patterns():

@@ -90,6 +90,12 @@ def test_every_quantity_has_a_unit_and_warn_inside_refuse():
      r"\[physics\.accurate\] dt = 8 s is above 0\.01 s.*looks like us written where s is expected"),
     ("magnitude = 1.0e5", "magnitude = 5.0e6",
      r"\[robot\.magnetization\] magnitude = 5e\+06 A/m is above 2e\+06 A/m, above the saturation"),
+    ("kinetic_mu = 0.6", "kinetic_mu = 0.6\nsurface_tolerance = 0.1",
+     r"\[robot\.ground\] surface_tolerance: 0\.1 m is not below the rod's radius: the contact band is "
+     r"200 radii of the rod \(r = 0\.0005 m\): an element 0\.1 m above the floor counts as touching"),
+    ("kinetic_mu = 0.6", "kinetic_mu = 0.6\nslip_velocity_tolerance = 1.0",
+     r"\[robot\.ground\] slip_velocity_tolerance: 1 m/s is 20 body lengths per second \(L = 0\.05 m\): "
+     r"an element sliding slower counts as sticking"),
 ])
 def test_a_unit_mistake_in_the_robot_is_refused(old, new, message):
     with pytest.raises(SpecError, match=message):
@@ -106,6 +112,10 @@ def test_a_unit_mistake_in_the_robot_is_refused(old, new, message):
     ("poisson_ratio = 0.45", "poisson_ratio = -0.2", "robot.poisson_ratio", r"auxetic"),
     ("[physics.accurate]\ndt = 1e-5", "[physics.accurate]\ndt = 2e-9", "physics.accurate.dt",
      r"dt = 2e-09 s is below 1e-08 s, finer than any soft robot needs"),
+    ("kinetic_mu = 0.6", "kinetic_mu = 0.6\nsurface_tolerance = 1e-4", "robot.ground.surface_tolerance",
+     r"the contact band is 0\.2 radii of the rod"),
+    ("kinetic_mu = 0.6", "kinetic_mu = 0.6\nslip_velocity_tolerance = 1e-3",
+     "robot.ground.slip_velocity_tolerance", r"0\.001 m/s is 0\.02 body lengths per second"),
 ])
 def test_an_unusual_robot_value_warns_naming_the_key_and_accept_silences_it(old, new, key, message):
     with pytest.warns(ImplausibleValueWarning, match=r"^my\.toml: .*" + message) as record:

@@ -68,7 +68,7 @@ def test_progress_bar_chooses_by_terminal_and_disable():
 
 
 def test_setting_n_and_refreshing_often_still_gives_sparse_lines():
-    """msr replay/simulate set ``n`` and refresh every 20 steps, as for a tqdm bar."""
+    """msr field replay/simulate set ``n`` and refresh every 20 steps, as for a tqdm bar."""
     out, clock = io.StringIO(), FakeClock()
     bar = PlainProgress(1000, "replay", "x10ms", stream=out, clock=clock)
     for done in range(1, 1001):

@@ -93,7 +93,7 @@ def test_a_new_result_and_its_marker(tmp_path):
 def test_an_existing_result_is_replaced_only_with_force(tmp_path):
     target = tmp_path / "res"
     old = write_old(target)
-    with pytest.raises(ResultExistsError, match=r"--out .*res: already holds a result of `msr demo` "
+    with pytest.raises(ResultExistsError, match=r"--out .*res: already holds a result of `msr policy demo` "
                        r"for robot a, written .*; pass --force to replace it, or choose another --out"):
         with result_folder(target, kind="demo", subject="robot a"):
             pytest.fail("the block must not run")
@@ -105,9 +105,9 @@ def test_an_existing_result_is_replaced_only_with_force(tmp_path):
 
 
 @pytest.mark.parametrize("kind, subject, extra, message", [
-    ("other", None, None, r"holds a result of `msr demo` for robot a, .*not of `msr other`; choose "
+    ("other", None, None, r"holds a result of `msr policy demo` for robot a, .*not of `msr other`; choose "
                           r"another --out \(--force replaces only a result of the same command\)"),
-    ("demo", "robot b", None, r"holds a result of `msr demo` for robot a, .*not for robot b"),
+    ("demo", "robot b", None, r"holds a result of `msr policy demo` for robot a, .*not for robot b"),
     ("demo", "robot a", "notes.txt", r"and files it did not write \(notes.txt\); move them away"),
 ])
 def test_another_kind_subject_or_foreign_files_are_refused_even_with_force(
@@ -130,10 +130,10 @@ def test_folders_without_a_marker(tmp_path):
     legacy = tmp_path / "legacy"
     legacy.mkdir()
     (legacy / "a.txt").write_text("written before markers")
-    with pytest.raises(ResultExistsError, match="already holds a result of `msr demo`; pass --force"):
+    with pytest.raises(ResultExistsError, match="already holds a result of `msr policy demo`; pass --force"):
         check_result_folder(legacy, kind="demo", known_files=("a.txt", "b.txt"))
     assert check_result_folder(legacy, kind="demo", known_files=("a.txt",), force=True)["legacy"]
-    with pytest.raises(ResultExistsError, match=r"holds files that `msr demo` does not write "
+    with pytest.raises(ResultExistsError, match=r"holds files that `msr policy demo` does not write "
                                                 r"\(a.txt\); choose a new or empty folder"):
         check_result_folder(legacy, kind="demo", force=True)
     afile = tmp_path / "afile"
@@ -250,7 +250,7 @@ def test_killed_between_the_renames_then_the_next_run_restores_and_refuses(tmp_p
     old = write_old(target)
     assert _run_child(target, signal.SIGKILL, "rename1") == -signal.SIGKILL
     assert not target.exists() and any(".res.msr-old-" in n for n in os.listdir(tmp_path))
-    with pytest.raises(ResultExistsError, match="already holds a result of `msr demo`"):
+    with pytest.raises(ResultExistsError, match="already holds a result of `msr policy demo`"):
         with result_folder(target, kind="demo", subject="robot a"):
             pytest.fail("the block must not run")
     assert snapshot(target) == old and sorted(os.listdir(tmp_path)) == ["res"]
@@ -342,7 +342,7 @@ def test_a_pre_check_after_a_kill_recovers_first_and_reports_it(tmp_path):
     old = write_old(target)
     assert _run_child(target, signal.SIGKILL, "rename1") == -signal.SIGKILL
     assert not target.exists() and results.interrupted(target)
-    with pytest.raises(ResultExistsError, match="already holds a result of `msr demo`") as caught:
+    with pytest.raises(ResultExistsError, match="already holds a result of `msr policy demo`") as caught:
         check_result_folder(target, kind="demo", subject="robot a")
     notes = caught.value.__notes__
     assert any("restored the previous result" in n for n in notes)

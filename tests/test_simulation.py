@@ -101,8 +101,7 @@ def test_replay_reproduces_published_start(reference_dir):
 
 
 def test_msr_replay_json(tmp_path, reference_dir, capsys):
-    status = main([
-        "replay", str(reference_dir / "magnetic_field.csv"), "--robot", "yao2023-m1",
+    status = main(["field", "replay", str(reference_dir / "magnetic_field.csv"), "--robot", "yao2023-m1",
         "--physics", "training", "--duration", "0.2", "--out", str(tmp_path), "--json",
         "--reference", str(reference_dir / "trajectory.csv"),
     ])
@@ -122,13 +121,13 @@ def test_msr_replay_json(tmp_path, reference_dir, capsys):
 def test_msr_replay_bad_csv_is_one_clear_line(tmp_path, capsys):
     bad = tmp_path / "field.csv"
     bad.write_text(",mag_x,mag_y,mag_z\n0,1,2,3\n1,1,x,3\n")
-    assert main(["replay", str(bad), "--out", str(tmp_path)]) == 2
+    assert main(["field", "replay", str(bad), "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "field.csv: line 3, column mag_y: 'x' is not a number" in err
 
 
 def test_msr_simulate_main_job(tmp_path, capsys):
-    status = main(["simulate", "--duration", "0.2", "--physics", "training", "--out", str(tmp_path),
+    status = main(["field", "simulate", "--duration", "0.2", "--physics", "training", "--out", str(tmp_path),
                    "--json"])
     assert status == 0
     result = json.loads(capsys.readouterr().out)

@@ -155,13 +155,13 @@ def test_simulate_takes_a_spec_file_and_refuses_a_bad_one(tmp_path, capsys):
     good = tmp_path / "my.toml"
     good.write_text(ROBOT.replace("[robot.ground]", "[robot.ground]\n[robot.damping]"))
     out = tmp_path / "sim"
-    assert main(["simulate", "--robot", str(good), "--duration", "0.05", "--physics", "training",
+    assert main(["field", "simulate", "--robot", str(good), "--duration", "0.05", "--physics", "training",
                  "--out", str(out), "--json"]) == 0
     assert (out / "trajectory.csv").is_file()
     bad = tmp_path / "bad.toml"
     bad.write_text(ROBOT.replace("length = 0.02", "length = 0.0"))
     with pytest.raises(SystemExit) as exit_:
-        main(["simulate", "--robot", str(bad), "--out", str(tmp_path / "never")])
+        main(["field", "simulate", "--robot", str(bad), "--out", str(tmp_path / "never")])
     assert exit_.value.code == 2
     err = capsys.readouterr().err
     assert "argument --robot: " in err and "bad.toml: [robot] length: must be > 0 (m)" in err

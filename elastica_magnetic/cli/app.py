@@ -1,7 +1,12 @@
 """The ``msr`` command line: parses, calls library functions, prints (JSON with ``--json``).
 
-Each area of the project registers its own sub-commands through a ``register(subparsers)``
-function, so this file stays a thin dispatcher:
+Commands are grouped by noun, as ``git`` and ``docker`` group theirs (:data:`GROUPS`): ``msr case``,
+``msr field`` (play fields on a robot), ``msr train`` and ``msr refine``, ``msr policy`` (what is
+done with a trained policy), ``msr real`` (toward the real robot), ``msr hw`` (the coils' board),
+``msr loop``, ``msr validate``, ``msr bench``. Each area of the project registers its own commands
+through a ``register(subparsers)`` function under their plain names; :data:`COMMAND_HOMES` puts each
+into its group, and its earlier top-level spelling (``msr policy generate``) keeps working, hidden from
+the help, with a one-line note naming the new one:
 
 - ``elastica_magnetic.cli.commands``: ``replay``, ``simulate``
 - ``elastica_magnetic_validation.cli``: ``validate``
@@ -27,6 +32,8 @@ from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
+from ..command_names import COMMAND_HOMES, spelling
+
 # Modules that provide ``register(subparsers)``; missing optional areas are skipped.
 COMMAND_MODULES = (
     "elastica_magnetic.cli.commands",
@@ -39,6 +46,17 @@ COMMAND_MODULES = (
     "elastica_magnetic_rl.loop.cli",
 )
 
+
+#: The groups of commands: name -> what the group is for (``msr --help``).
+GROUPS: dict[str, str] = {
+    "field": "play a field on a robot: a field CSV (replay), a rotating field (simulate), the "
+             "hand-designed yardstick (baseline)",
+    "policy": "use a trained policy: generate its waveform, ship, export, its seeds, figures, "
+              "diagnose, the demo",
+    "real": "toward the real robot: robustness to spec values, identify values from a measured "
+            "trajectory",
+    "hw": "the coils' board: stream a waveform, the firmware's tables, calibrate the coils",
+}
 
 class CommandError(Exception):
     """An error to report to the user as one clear line (exit status 2)."""
@@ -87,7 +105,7 @@ def number(
 
 
 def output_path(text: str) -> Path:
-    """The argparse ``type`` of every option naming where a command writes (``--out``, ``--dest``,
+    """The argparse ``type`` of every option naming where a command writes (``--out``,
     ``--figure``, ``--log``, ...): the one path rule. The path is made absolute and normalized once,
     here (``..``, ``.``, repeated and trailing separators, ``~`` and symbolic links resolved:
     :func:`elastica_magnetic.io.normalized_path`), so every later check and every write sees the
@@ -106,6 +124,21 @@ def output_path(text: str) -> Path:
 OUTPUT_TYPES = (output_path,)
 
 
+def add_old_option(parser: argparse.ArgumentParser, old: str, new: str, type: Any, dest: str) -> None:
+    """Keep the earlier spelling ``old`` of option ``new`` working, hidden from the help: it stores
+    into ``dest`` as ``new`` does and prints a one-line note naming ``new``."""
+
+    class OldSpelling(argparse.Action):
+        def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                     values: Any, option_string: str | None = None) -> None:
+            print(f"{parser.prog}: note: {old} is now {new} (the old spelling works in this release)",
+                  file=sys.stderr)
+            setattr(namespace, self.dest, values)
+
+    parser.add_argument(old, type=type, dest=dest, action=OldSpelling, help=argparse.SUPPRESS,
+                        default=argparse.SUPPRESS)
+
+
 def duration_option() -> Callable[[str], float]:
     """The argparse ``type`` of ``--duration`` (s) of the commands that simulate."""
     from ..openloop import MAX_DURATION_S
@@ -115,15 +148,89 @@ def duration_option() -> Callable[[str], float]:
 
 
 def print_result(result: dict[str, Any], as_json: bool) -> None:
-    """Print a command's result: JSON on one document with ``--json`` (paths absolute), else
-    ``key: value`` lines (paths relative to the current folder where they lie inside it)."""
+    """Print a command's result: JSON on one document with ``--json`` (paths absolute), else one
+    ``key: value`` line per entry for people (:func:`human_lines`: nested tables indented, lists
+    joined, numbers to 6 significant digits, paths relative to the current folder where they lie
+    inside it; never a Python repr)."""
     if as_json:
         print(json.dumps(result, indent=2, default=str))
     else:
-        from ..io import display_path
+        for line in human_lines(result):
+            print(line)
 
-        for key, value in result.items():
-            print(f"{key}: {display_path(value) if isinstance(value, Path) else value}")
+
+def human_lines(result: dict[str, Any], indent: str = "") -> list[str]:
+    """``result`` as lines for people: ``key: value``, a table's entries indented under its key,
+    a list of plain values joined by ``", "``, a list of tables as ``-`` items."""
+    lines = []
+    for key, value in result.items():
+        if isinstance(value, dict) and value:
+            lines.append(f"{indent}{key}:")
+            lines.extend(human_lines(value, indent + "  "))
+        elif isinstance(value, (list, tuple)) and any(isinstance(v, (dict, list, tuple)) for v in value):
+            lines.append(f"{indent}{key}:")
+            for item in value:
+                if isinstance(item, dict):
+                    item_lines = human_lines(item, indent + "    ")
+                    lines.append(f"{indent}  - {item_lines[0].lstrip()}" if item_lines else
+                                 f"{indent}  - (empty)")
+                    lines.extend(item_lines[1:])
+                else:
+                    lines.append(f"{indent}  - {_human_value(item)}")
+        else:
+            lines.append(f"{indent}{key}: {_human_value(value)}")
+    return lines
+
+
+def _human_value(value: Any) -> str:
+    """One value for people: a path relative where it can be, a number to 6 digits, ``none``."""
+    from ..io import display_path
+
+    if value is None:
+        return "none"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    if isinstance(value, Path) or (isinstance(value, str) and value.startswith("/")):
+        return display_path(value)
+    if isinstance(value, dict):  # empty
+        return "none"
+    if isinstance(value, (list, tuple)):
+        return ", ".join(_human_value(v) for v in value) if value else "none"
+    return str(value)
+
+
+class _Placement:
+    """What ``register(subparsers)`` functions get instead of the subparsers: each plain command
+    name goes to its group (:data:`COMMAND_HOMES`) or to the top level; with ``aliases`` only
+    the grouped commands are added, at the top level under their plain name, hidden (no help)."""
+
+    def __init__(self, top: Any, groups: dict[str, Any], aliases: bool = False) -> None:
+        self.top, self.groups, self.aliases = top, groups, aliases
+        self.alias_parsers: list[tuple[str, argparse.ArgumentParser]] = []
+
+    def add_parser(self, name: str, **kwargs: Any) -> argparse.ArgumentParser:
+        home = COMMAND_HOMES.get(name)
+        if self.aliases:
+            if home is None:  # registered the first time: a parser thrown away
+                return argparse.ArgumentParser(add_help=False)
+            kwargs.pop("help", None)  # a sub-parser without help is not listed
+            parser = self.top.add_parser(name, **kwargs)
+            self.alias_parsers.append((name, parser))
+            return parser
+        if home is None:
+            return self.top.add_parser(name, **kwargs)
+        return self.groups[home[0]].add_parser(home[1], **kwargs)
+
+
+def _noted(plain: str, func: Callable[[argparse.Namespace], Any]) -> Callable[[argparse.Namespace], Any]:
+    def run(args: argparse.Namespace) -> Any:
+        print(f"msr {plain}: note: this is now msr {spelling(plain)} (the old spelling works in "
+              "this release)", file=sys.stderr)
+        return func(args)
+
+    return run
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -133,15 +240,68 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
+    modules = []
     for name in COMMAND_MODULES:
         try:
-            module = importlib.import_module(name)
+            modules.append(importlib.import_module(name))
         except ModuleNotFoundError as exc:
             if exc.name is not None and name.startswith(exc.name):
                 continue  # that area is not part of this checkout
             raise
-        module.register(sub)
+    groups = {}
+    for group, what in GROUPS.items():
+        group_parser = sub.add_parser(group, help=what, description=what[0].upper() + what[1:] + ".")
+        groups[group] = group_parser.add_subparsers(dest="subcommand", metavar="COMMAND")
+        groups[group].required = True
+    for module in modules:
+        module.register(_Placement(sub, groups))
+    aliases = _Placement(sub, groups, aliases=True)
+    for module in modules:
+        module.register(aliases)
+    for plain, alias in aliases.alias_parsers:
+        alias.set_defaults(func=_noted(plain, alias.get_default("func")), plain_command=plain)
+    _sort_listing(sub)
     return parser
+
+
+def _sort_listing(sub: Any) -> None:
+    """List the top level as :data:`TOP_LEVEL_ORDER` (the order a newcomer meets them)."""
+    order = {name: k for k, name in enumerate(TOP_LEVEL_ORDER)}
+    sub._choices_actions.sort(key=lambda action: order.get(action.dest, len(order)))
+
+
+#: The order of ``msr --help``: the path of a new user, then the tools.
+TOP_LEVEL_ORDER = ("case", "field", "train", "refine", "policy", "real", "hw", "loop", "validate",
+                   "bench")
+
+
+def listed_commands(parser: argparse.ArgumentParser | None = None) -> dict[str, argparse.ArgumentParser]:
+    """Every command of ``msr`` as written today (``"policy generate"``, ``"case show"``, the groups
+    themselves), with its parser; the hidden old spellings left out. For tests that walk the
+    command line."""
+    found: dict[str, argparse.ArgumentParser] = {}
+
+    def walk(node: argparse.ArgumentParser, prefix: str) -> None:
+        for action in node._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for name, sub in action.choices.items():
+                    if not prefix and name in COMMAND_HOMES:
+                        continue  # an old spelling
+                    full = f"{prefix} {name}".strip()
+                    found[full] = sub
+                    walk(sub, full)
+
+    walk(parser if parser is not None else build_parser(), "")
+    return found
+
+
+def command_name(args: argparse.Namespace) -> str:
+    """The command as the user wrote it: ``"policy generate"``, ``"generate"`` (the old spelling),
+    ``"train"``; for messages (``msr policy generate: error: ...``)."""
+    if getattr(args, "plain_command", None):
+        return str(args.plain_command)
+    sub = getattr(args, "subcommand", None)
+    return f"{args.command} {sub}" if args.command in GROUPS and sub else str(args.command)
 
 
 @contextlib.contextmanager
@@ -180,7 +340,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         # parsing imports the command modules and loads --case specs: Ctrl-C may come there too
         with _interruptions_not_swallowed(swallowed), _plausibility_warnings(lambda: command):
             args = build_parser().parse_args(argv)
-            command = args.command
+            command = args.command_name = command_name(args)
             status = args.func(args)
     except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM/SIGHUP while a result was written
         return _interrupted(command, exc, aborted_results()[already_aborted:])

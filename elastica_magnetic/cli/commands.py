@@ -1,4 +1,4 @@
-"""``msr replay`` and ``msr simulate``: thin wrappers over the library."""
+"""``msr field replay`` and ``msr field simulate``: thin wrappers over the library."""
 
 from __future__ import annotations
 
@@ -20,11 +20,11 @@ from .app import CommandError, duration_option, number, output_path, print_notes
 
 ROBOT_HELP = (f"a preset ({', '.join(ROBOTS)}) or a spec file (.toml, e.g. from "
               "`msr case show m1-4mT --toml`); default yao2023-m1")
-#: Largest ``msr simulate --amplitude``, T (the paper's fields are 4 and 10 mT).
+#: Largest ``msr field simulate --amplitude``, T (the paper's fields are 4 and 10 mT).
 MAX_AMPLITUDE_T = 0.1
-#: ``msr simulate`` amplitude for a robot whose spec has no ``[actuation] field_limit`` (a preset), T.
+#: ``msr field simulate`` amplitude for a robot whose spec has no ``[actuation] field_limit`` (a preset), T.
 DEFAULT_AMPLITUDE_T = 4e-3
-#: What ``msr replay`` / ``msr simulate`` write into ``--out`` (results written before the
+#: What ``msr field replay`` / ``msr field simulate`` write into ``--out`` (results written before the
 #: result marker are recognised by these names).
 REPLAY_FILES = ("trajectory.csv", "replay.png")
 SIMULATE_FILES = ("trajectory.csv", "shapes.png", "tip_path.png")
@@ -61,6 +61,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="a trajectory.csv to compare with (drawn dashed; differences reported)")
     p.add_argument("--out", type=output_path, default="out/replay", help="output folder")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
+    p.add_argument("--no-progress", action="store_true", help="no progress bar or lines")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=replay_command)
 
@@ -87,13 +88,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=duration_option(), default=3.0, help="s")
     p.add_argument("--out", type=output_path, default="out/simulate", help="output folder")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
+    p.add_argument("--no-progress", action="store_true", help="no progress bar or lines")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=simulate_command)
 
 
-def _progress(total: int, description: str):
-    """``progress(done)`` for :func:`run_open_loop`: a bar on a terminal, sparse lines otherwise."""
-    bar = progress_bar(total, description, unit="x10ms", leave=False)
+def _progress(total: int, description: str, disable: bool = False):
+    """``progress(done)`` for :func:`run_open_loop`: a bar on a terminal, sparse lines otherwise
+    (nothing with ``disable``)."""
+    bar = progress_bar(total, description, unit="x10ms", leave=False, disable=disable)
 
     def update(done: int) -> None:
         bar.n = done
@@ -105,10 +108,24 @@ def _progress(total: int, description: str):
     return update
 
 
+def _judge_amplitude(amplitude: float) -> None:
+    """``--amplitude`` (T) against the coil fields of the plausibility table, as a field CSV is:
+    refused where no coil makes it, warned about where unusual, the unit mistake named."""
+    from ..plausibility import judge, warn_implausible
+
+    finding = judge("coil field", amplitude)
+    if finding is None:
+        return
+    if finding.refuse:
+        raise CommandError(f"--amplitude {finding.text}")
+    warn_implausible(f"--amplitude {finding.text}")
+
+
 def simulate_amplitude(args: argparse.Namespace) -> tuple[float, str]:
-    """The ``msr simulate`` field amplitude (T) and where it comes from: ``--amplitude``, else the
+    """The ``msr field simulate`` field amplitude (T) and where it comes from: ``--amplitude``, else the
     spec's ``[actuation] field_limit``, else :data:`DEFAULT_AMPLITUDE_T`."""
     if args.amplitude is not None:
+        _judge_amplitude(args.amplitude)
         return args.amplitude, "--amplitude"
     limit = field_limit_of(args.robot)
     if limit is None:
@@ -136,7 +153,8 @@ def replay_command(args: argparse.Namespace) -> int:
                        known_files=REPLAY_FILES) as out:
         print_notes(out.notes)
         result = run_open_loop(
-            spec, field, duration, progress=_progress(int(round(duration * 100)), "replay"),
+            spec, field, duration,
+            progress=_progress(int(round(duration * 100)), "replay", args.no_progress),
             clamp=setup is not None and setup.clamp,
         )
         trajectory_csv = write_trajectory_csv(result.trajectory, out.path / "trajectory.csv")
@@ -174,7 +192,7 @@ def simulate_command(args: argparse.Namespace) -> int:
         print_notes(out.notes)
         result = run_open_loop(
             spec, field, args.duration,
-            progress=_progress(int(round(args.duration * 100)), "simulate"),
+            progress=_progress(int(round(args.duration * 100)), "simulate", args.no_progress),
             clamp=setup is not None and setup.clamp,
         )
         trajectory_csv = write_trajectory_csv(result.trajectory, out.path / "trajectory.csv")
@@ -191,7 +209,7 @@ def simulate_command(args: argparse.Namespace) -> int:
 
 
 def _simulate_spatial(args: argparse.Namespace, setup) -> int:
-    """``msr simulate`` with a spec whose ``[field]`` names a source in space (no rotating field)."""
+    """``msr field simulate`` with a spec whose ``[field]`` names a source in space (no rotating field)."""
     given = [f"--{name}" for name in ("amplitude", "frequency", "ramp") if getattr(args, name) is not None]
     if given:
         raise CommandError(f"{' and '.join(given)} set the rotating field, but {args.robot} names its "
@@ -204,7 +222,8 @@ def _simulate_spatial(args: argparse.Namespace, setup) -> int:
         print_notes(out.notes)
         result = run_open_loop(
             spec, source, args.duration,
-            progress=_progress(int(round(args.duration * 100)), "simulate"), clamp=setup.clamp,
+            progress=_progress(int(round(args.duration * 100)), "simulate", args.no_progress),
+            clamp=setup.clamp,
         )
         trajectory_csv = write_trajectory_csv(result.trajectory, out.path / "trajectory.csv")
         from ..plotting import plot_open_loop, plot_tip_path
@@ -236,7 +255,7 @@ def _summary(args, result, trajectory_csv: Path, figure: Path) -> dict[str, obje
 
 
 def _read_reference(path: Path, duration: float) -> pd.DataFrame:
-    """The reference trajectory of ``msr replay --reference``, checked: the columns of
+    """The reference trajectory of ``msr field replay --reference``, checked: the columns of
     ``trajectory.csv``, numbers only, and at least two frames within ``[0, duration]`` s."""
     from ..simulation import TRAJECTORY_COLUMNS
 
@@ -265,6 +284,7 @@ def _read_reference(path: Path, duration: float) -> pd.DataFrame:
             f"{reference.iloc[row, col]!r} is not a finite number (SI units: s, m)"
         )
     reference = pd.DataFrame(values, columns=list(TRAJECTORY_COLUMNS))
+    _judge_reference_positions(path, reference)
     within = int(np.count_nonzero((reference.t_s >= -1e-9) & (reference.t_s <= duration + 1e-9)))
     if within < 2:
         raise CommandError(
@@ -272,6 +292,23 @@ def _read_reference(path: Path, duration: float) -> pd.DataFrame:
             f"(its t_s spans {reference.t_s.min():g} to {reference.t_s.max():g} s); need at least 2"
         )
     return reference
+
+
+def _judge_reference_positions(path: Path, reference: pd.DataFrame) -> None:
+    """Positions of a reference trajectory (m) against the plausibility table: a file in mm read as
+    m puts the robot metres away (it was compared as such, an error of 10 m reported as a result)."""
+    from ..plausibility import judge, warn_implausible
+
+    columns = [c for c in reference.columns if c.endswith("_m")]
+    magnitudes = reference[columns].abs().max()
+    column = str(magnitudes.idxmax())
+    finding = judge("position", float(magnitudes[column]))
+    if finding is None:
+        return
+    text = f"--reference {path}: the largest |{column}| = {finding.text}"
+    if finding.refuse:
+        raise CommandError(text)
+    warn_implausible(text)
 
 
 def compare_trajectories(trajectory: pd.DataFrame, reference: pd.DataFrame) -> dict[str, float]:

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from elastica_magnetic.filesets import FileKind
 from elastica_magnetic.hardware.plausibility import (
     CURRENT_COLUMNS,
     CURRENT_CONDITION_REFUSE,
@@ -36,8 +37,10 @@ from elastica_magnetic.hardware.plausibility import (
     check_matrix,
     current_condition,
     fit_warnings,
+    matrix_warnings,
 )
 from elastica_magnetic.io import atomic_write_text, byte_order_mark_problem
+from elastica_magnetic.plausibility import warn_implausible
 
 AXES = 3
 TESLA_PER_MILLITESLA = 1e-3
@@ -50,6 +53,23 @@ MIN_RELATIVE_DET = 1e-9
 #: From 2**52 on every double is an integer.
 EXACT_INTEGER_LIMIT = 4503599627370496.0
 _NAME_RE = re.compile(r"^[A-Za-z0-9_.-]{1,31}$")  # the board keeps 31 characters
+#: What a calibration's name may be, for messages.
+CALIBRATION_NAME_RULE = "must be 1-31 characters of letters, digits, '_', '.', '-'"
+
+
+def _is_calibration_json(path: Path) -> bool:
+    data = json.loads(path.read_text(encoding="utf-8-sig"))
+    return isinstance(data, dict) and "actuation_matrix_T_per_A" in data
+
+
+#: What ``msr hw calibrate --out FILE --force`` may replace: an earlier calibration.
+CALIBRATION_FILE = FileKind("a calibration JSON (with actuation_matrix_T_per_A)", _is_calibration_json)
+
+
+def is_calibration_name(name: object) -> bool:
+    """Whether ``name`` can be a calibration's name (compiled into the firmware, kept by the board:
+    see :data:`CALIBRATION_NAME_RULE`)."""
+    return isinstance(name, str) and bool(_NAME_RE.match(name))
 
 Matrix3 = list[list[float]]
 
@@ -159,9 +179,9 @@ def calibration_from_dict(data: dict[str, Any], source: str = "calibration") -> 
     if missing:
         raise CalibrationError(f"{source}: missing key(s) {', '.join(missing)}")
     name = data["name"]
-    if not isinstance(name, str) or not _NAME_RE.match(name):
+    if not is_calibration_name(name):
         raise CalibrationError(
-            f"{source}: name must be 1-31 characters of letters, digits, '_', '.', '-': {name!r}"
+            f"{source}: name {CALIBRATION_NAME_RULE}: {name!r}"
         )
     matrix_raw = data["actuation_matrix_T_per_A"]
     if not isinstance(matrix_raw, list) or len(matrix_raw) != AXES:
@@ -223,8 +243,13 @@ def _unique_keys(pairs: list[tuple[str, Any]], path: Path) -> dict[str, Any]:
 
 
 def load_calibration(path: str | Path) -> Calibration:
-    """Read and validate a calibration JSON file (see :func:`calibration_from_dict`)."""
+    """Read and validate a calibration JSON file (see :func:`calibration_from_dict`); what
+    :func:`~elastica_magnetic.hardware.plausibility.matrix_warnings` finds in its matrix is an
+    :class:`~elastica_magnetic.plausibility.ImplausibleValueWarning` (``msr`` prints it)."""
     path = Path(path)
+    if path.is_dir():
+        raise CalibrationError(f"{path}: is a folder, not a calibration file (a JSON file written by "
+                               "'msr hw calibrate')")
     if not path.is_file():
         raise CalibrationError(f"{path}: no such calibration file")
     try:
@@ -235,10 +260,13 @@ def load_calibration(path: str | Path) -> Calibration:
         data = json.loads(text, object_pairs_hook=lambda pairs: _unique_keys(pairs, path))
     except UnicodeDecodeError as exc:
         raise CalibrationError(f"{path}: not UTF-8 text (byte {exc.start}): a calibration is a "
-                               "JSON file written by 'msr calibrate'") from None
+                               "JSON file written by 'msr hw calibrate'") from None
     except json.JSONDecodeError as exc:
         raise CalibrationError(f"{path}: not valid JSON: {exc}") from None
-    return calibration_from_dict(data, str(path))
+    calibration = calibration_from_dict(data, str(path))
+    for warning in matrix_warnings(np.asarray(calibration.actuation_matrix_T_per_A), str(path)):
+        warn_implausible(warning)
+    return calibration
 
 
 def save_calibration(path: str | Path, calibration: Calibration) -> Path:

@@ -1,16 +1,18 @@
-"""``msr stream``, ``msr export-firmware`` and ``msr calibrate``."""
+"""``msr hw stream``, ``msr hw firmware`` and ``msr hw calibrate``."""
 
 from __future__ import annotations
 
 import argparse
+import csv
 import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from elastica_magnetic.cli.app import output_path
-from elastica_magnetic.field_csv import MILLITESLA, read_field_csv
+from elastica_magnetic.cli.app import command_name, output_path
+from elastica_magnetic.field_csv import MILLITESLA, named_twice, read_field_csv
+from elastica_magnetic.io import display_path
 
 
 def register(subparsers: Any) -> None:
@@ -67,12 +69,23 @@ def register(subparsers: Any) -> None:
     p.add_argument("--out", type=output_path, required=True, help="calibration JSON to write")
     p.add_argument("--base", help="calibration JSON providing the amplifier, DAC and limits "
                    "(default: stm32/calibration/default.json)")
-    p.add_argument("--name", default="measured", help="calibration name compiled into firmware")
+    p.add_argument("--name", default="measured", type=_calibration_name,
+                   help="calibration name compiled into firmware (1-31 letters, digits, '_', '.', '-')")
     p.add_argument("--upload", metavar="PORT",
                    help="also upload the fitted calibration to the board at this pyserial URL")
     p.add_argument("--force", action="store_true", help="replace an existing --out file")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_calibrate)
+
+
+def _calibration_name(text: str) -> str:
+    """argparse type of ``--name``: refused at parsing, before the fit, naming the option."""
+    from elastica_magnetic.hardware.calibration import CALIBRATION_NAME_RULE, is_calibration_name
+
+    if not is_calibration_name(text):
+        raise argparse.ArgumentTypeError(f"{text!r}: a calibration name {CALIBRATION_NAME_RULE} "
+                                         "(the board keeps it)")
+    return text
 
 
 def _number(*args: Any, **kwargs: Any) -> Any:
@@ -132,12 +145,16 @@ def _stream(args: argparse.Namespace) -> int:
                 "play it clipped; nothing was sent")
         warning = slew_warning(clipping, args.field_csv, cal.name)
         if warning:  # played (reached late, not clipped), but the user should know
-            print(f"msr stream: warning: {warning}", file=sys.stderr)
+            print(f"msr {command_name(args)}: warning: {warning}", file=sys.stderr)
     if args.log and args.codes_out and args.log == args.codes_out:
         raise _error(f"--log and --codes-out name the same file, {args.log}")
-    for option, path in (("--log", args.log), ("--codes-out", args.codes_out)):
+    from elastica_magnetic.hardware.export import EXPECTED_CODES_FILE
+    from elastica_magnetic.hardware.stream import BOARD_LOG_FILE
+
+    for option, path, kind in (("--log", args.log, BOARD_LOG_FILE),
+                               ("--codes-out", args.codes_out, EXPECTED_CODES_FILE)):
         if path:
-            check_result_file(path, force=args.force, option=option)
+            check_result_file(path, force=args.force, option=option, kind=kind)
     try:
         result = _stream_logged(args, field_T, cal)
     except StreamError as exc:
@@ -146,8 +163,10 @@ def _stream(args: argparse.Namespace) -> int:
     got = result.codes_array()
     if args.codes_out:
         from elastica_magnetic.filesets import result_file
+        from elastica_magnetic.hardware.export import EXPECTED_CODES_FILE
 
-        with result_file(args.codes_out, force=args.force, option="--codes-out") as codes:
+        with result_file(args.codes_out, force=args.force, option="--codes-out",
+                         kind=EXPECTED_CODES_FILE) as codes:
             write_expected_codes(codes.path, got)
     codes_ok = True
     if cal is not None:
@@ -166,7 +185,7 @@ def _stream(args: argparse.Namespace) -> int:
         raise _error(f"{args.port}: no SAFE report from the board within the time limit "
                      f"({result.rows_applied} of {result.rows_total} rows reported played); STOP sent")
     if not codes_ok:
-        print(f"msr stream: error: the board's DAC codes differ from the host's by "
+        print(f"msr {command_name(args)}: error: the board's DAC codes differ from the host's by "
               f"{summary['max_code_error_lsb']} LSB (tolerance {CODE_TOLERANCE_LSB}; -1: rows out "
               "of order or more rows than sent): the board plays with another calibration or "
               "firmware", file=sys.stderr)
@@ -181,7 +200,7 @@ def _stream_logged(args: argparse.Namespace, field_T: Any, cal: Any) -> Any:
     """Stream with ``--log`` written as one result file: the log of a stream that failed is kept
     too (it says what the board did), an interrupted one leaves the earlier log."""
     from elastica_magnetic.filesets import result_file
-    from elastica_magnetic.hardware.stream import StreamError, stream_field
+    from elastica_magnetic.hardware.stream import BOARD_LOG_FILE, StreamError, stream_field
 
     def run(log_path: Path | None) -> Any:
         return stream_field(args.port, field_T, baudrate=args.baud, corrupt_row=args.corrupt_row,
@@ -192,12 +211,18 @@ def _stream_logged(args: argparse.Namespace, field_T: Any, cal: Any) -> Any:
     if not args.log:
         return run(None)
     failure: StreamError | None = None
-    with result_file(args.log, force=args.force, option="--log") as log:
+    with result_file(args.log, force=args.force, option="--log", kind=BOARD_LOG_FILE) as log:
         try:
             result = run(log.path)
         except StreamError as exc:
+            if not log.path.exists() or log.path.stat().st_size == 0:
+                # nothing was logged (the port did not open, the board never answered): the
+                # earlier log is kept (raised inside the block, the empty new one is dropped)
+                kept = "is left as it was" if args.log.exists() else "was not written"
+                raise StreamError(f"{exc}; --log {display_path(args.log)} {kept} (nothing was "
+                                  "logged)") from None
             failure = exc
-        if not log.path.exists():  # nothing was sent: an empty log says so
+        if not log.path.exists():  # a stream that logged nothing (an empty waveform)
             log.path.write_text("")
     if failure is not None:
         raise failure
@@ -210,7 +235,7 @@ def _export(args: argparse.Namespace) -> int:
     summary = export_firmware(args.field_csv, args.calibration, args.out, args.allow_clipping,
                               force=args.force)
     for warning in summary["warnings"]:  # slew-limited rows: written, but the coils lag
-        print(f"msr export-firmware: warning: {warning}", file=sys.stderr)
+        print(f"msr {command_name(args)}: warning: {warning}", file=sys.stderr)
     _print(summary, args.json)
     return 0
 
@@ -220,6 +245,7 @@ def _calibrate(args: argparse.Namespace) -> int:
 
     from elastica_magnetic.filesets import check_result_file, result_file
     from elastica_magnetic.hardware.calibration import (
+        CALIBRATION_FILE,
         Calibration,
         calibration_from_dict,
         default_calibration_path,
@@ -238,7 +264,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     path = Path(args.measurements)
     if not path.is_file():
         raise _error(f"{path}: no such measurements file")
-    check_result_file(args.out, force=args.force)
+    check_result_file(args.out, force=args.force, kind=CALIBRATION_FILE)
     columns = [*CURRENT_COLUMNS, *FIELD_COLUMNS]
     try:
         table = pd.read_csv(path, skipinitialspace=True, encoding="utf-8-sig")
@@ -246,6 +272,11 @@ def _calibrate(args: argparse.Namespace) -> int:
         raise _error(f"{path}: empty file; expected columns {', '.join(columns)}") from None
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise _error(f"{path}: not a readable UTF-8 CSV: {exc}") from None
+    with open(path, encoding="utf-8-sig", newline="") as handle:
+        header = [c.strip() for c in next(csv.reader(handle), [])]
+    twice = named_twice(header)
+    if twice:
+        raise _error(f"{path}: header on line 1 {twice}; give each column once")
     missing = [c for c in columns if c not in table.columns]
     if missing:
         raise _error(f"{path}: missing column(s) {', '.join(missing)}; expected {', '.join(columns)}")
@@ -261,11 +292,11 @@ def _calibrate(args: argparse.Namespace) -> int:
     fitted: Calibration = calibration_from_dict(
         {**base.to_json_dict(), "name": args.name,
          "actuation_matrix_T_per_A": fit.matrix_T_per_A.tolist(),
-         "description": f"fitted by msr calibrate from {path.name} ({len(values)} measurements)"},
+         "description": f"fitted by msr hw calibrate from {path.name} ({len(values)} measurements)"},
         str(args.out))
-    with result_file(args.out, force=args.force) as written:
+    with result_file(args.out, force=args.force, kind=CALIBRATION_FILE) as written:
         save_calibration(written.path, fitted)
-    uploaded = _upload(args.upload, fitted) if args.upload else None
+    uploaded = _upload(args.upload, fitted, args.out) if args.upload else None
     _print({
         "measurements": len(values),
         "actuation_matrix_mT_per_A": np.round(fit.matrix_T_per_A / MILLITESLA, 6).tolist(),
@@ -278,14 +309,17 @@ def _calibrate(args: argparse.Namespace) -> int:
         "uploaded": uploaded,
     }, args.json)
     for warning in fit.warnings:
-        print(f"msr calibrate: warning: {warning}", file=sys.stderr)
+        print(f"msr {command_name(args)}: warning: {warning}", file=sys.stderr)
     return 0
 
 
-def _upload(port: str, calibration: Any) -> dict[str, str]:
+def _upload(port: str, calibration: Any, written: Path) -> dict[str, str]:
+    """Upload the calibration just ``written``; a failure says the file is kept and how to send it."""
     from elastica_magnetic.hardware.stream import StreamError, upload_calibration
 
     try:
         return upload_calibration(port, calibration)
     except StreamError as exc:
-        raise _error(f"--upload {exc}") from None
+        raise _error(f"--upload {exc}; the calibration was written to {display_path(written)} "
+                     f"(msr hw stream FIELD_CSV --port PORT --calibration {display_path(written)} uploads "
+                     "it before playing)") from None

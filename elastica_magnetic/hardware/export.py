@@ -1,12 +1,12 @@
 """Firmware build inputs from a field CSV and a calibration file.
 
 ``python -m elastica_magnetic.hardware.export FIELD_CSV --calibration FILE --out DIR`` (run by the
-firmware's CMake build, and by ``msr export-firmware``) writes into DIR:
+firmware's CMake build, and by ``msr hw firmware``) writes into DIR:
 
 - ``calibration_gen.h``: the calibration as C constants,
 - ``waveform_table.c``: the field rows (mT) as the flash table played by the ``PLAY`` command,
 - ``expected_dac_codes.csv``: ``row,code_x,code_y,code_z``, the codes the firmware writes for
-  each row, whether played from flash or streamed with ``msr stream``.
+  each row, whether played from flash or streamed with ``msr hw stream``.
 
 Only numpy and :mod:`elastica_magnetic.field_csv` are imported, so the build stays light.
 """
@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 
 from elastica_magnetic.cli.app import output_path
 from elastica_magnetic.field_csv import read_field_csv
+from elastica_magnetic.filesets import FileKind
 from elastica_magnetic.hardware.calibration import (
     Calibration,
     calibration_header,
@@ -54,10 +55,24 @@ def waveform_table_source(rows_mT: NDArray[np.float64], source: str) -> str:
     return "\n".join(lines)
 
 
+#: The header of an expected-DAC-codes CSV.
+EXPECTED_CODES_HEADER = "row,code_x,code_y,code_z"
+
+
+def _is_expected_codes(path: Path) -> bool:
+    with open(path, encoding="utf-8") as handle:
+        return handle.readline().strip() == EXPECTED_CODES_HEADER
+
+
+#: What ``msr hw stream --codes-out FILE --force`` may replace: an earlier codes CSV.
+EXPECTED_CODES_FILE = FileKind(f"an expected-DAC-codes CSV ({EXPECTED_CODES_HEADER})",
+                               _is_expected_codes)
+
+
 def write_expected_codes(path: Path, codes: NDArray[np.int64]) -> Path:
     """Write ``row,code_x,code_y,code_z`` (atomically)."""
     with atomic_write(path, "w") as handle:
-        handle.write("row,code_x,code_y,code_z\n")
+        handle.write(EXPECTED_CODES_HEADER + "\n")
         for i, (x, y, z) in enumerate(codes.tolist()):
             handle.write(f"{i},{x},{y},{z}\n")
     return path
@@ -101,7 +116,7 @@ def export_firmware(field_csv: str | Path, calibration: Calibration | str | Path
     if len(field_T) > MAX_TABLE_ROWS:
         raise ValueError(
             f"{field_csv}: {len(field_T)} rows exceed the flash table limit of {MAX_TABLE_ROWS} "
-            "(stream longer waveforms with 'msr stream')"
+            "(stream longer waveforms with 'msr hw stream')"
         )
     rows_mT = wire_values_mT(wire_rows_mT(field_T))
     clipping = clipping_report(cal, rows_mT)

@@ -53,7 +53,7 @@ MEASURED_CURRENT_RANGE_A = (1e-3, HW_MAX_CURRENT_A)
 #: REFUSE it is refused (coils driven together: drive each coil on its own).
 CURRENT_CONDITION_WARN = 10.0
 CURRENT_CONDITION_REFUSE = 100.0
-#: Columns of an ``msr calibrate`` measurements CSV: coil currents (A) and measured fields (mT);
+#: Columns of an ``msr hw calibrate`` measurements CSV: coil currents (A) and measured fields (mT);
 #: the CLI reads them, the fit's messages name them.
 CURRENT_COLUMNS = ("current_x_A", "current_y_A", "current_z_A")
 FIELD_COLUMNS = ("field_x_mT", "field_y_mT", "field_z_mT")
@@ -220,10 +220,11 @@ def check_fit_residuals(fields_T: NDArray[np.float64], residuals_T: NDArray[np.f
         "nothing was written")
 
 
-def fit_warnings(matrix_T_per_A: NDArray[np.float64], std_error_T_per_A: NDArray[np.float64],
-                 source: str) -> list[str]:
-    """Why a fitted actuation matrix (T/A; standard errors T/A, NaN without spare rows) may be wrong:
-    a negative diagonal entry, or entries poorly determined compared with their coil's constant."""
+def matrix_warnings(matrix_T_per_A: NDArray[np.float64], source: str) -> list[str]:
+    """Why an actuation matrix (T/A, fitted or read from a file) may be wrong: a negative diagonal
+    entry (a coil wired backwards, or a sign typo in a hand-edited file), or a coil that makes more
+    field across its axis than along it (probe columns swapped, or coils cabled to the wrong
+    amplifiers: a Helmholtz pair's field is along its axis)."""
     warnings = []
     diagonal = np.diag(matrix_T_per_A)
     for i in range(3):
@@ -233,6 +234,24 @@ def fit_warnings(matrix_T_per_A: NDArray[np.float64], std_error_T_per_A: NDArray
                 f"mT/A is negative: coil {'xyz'[i]} makes {FIELD_COLUMNS[i]} against "
                 f"{CURRENT_COLUMNS[i]}: a coil wired backwards, or a current or probe sign "
                 "convention opposite to the other axes; check the wiring if this is not meant")
+    for j in range(3):  # column j: coil j
+        i = int(np.argmax(np.abs(matrix_T_per_A[:, j])))
+        if i != j:
+            warnings.append(
+                f"{source}: coil {'xyz'[j]} makes more field along {'xyz'[i]} "
+                f"({matrix_T_per_A[i, j] / _MILLITESLA:.3g} mT/A, actuation_matrix_T_per_A[{i}][{j}]) "
+                f"than along its own axis ({diagonal[j] / _MILLITESLA:.3g} mT/A): field columns "
+                "swapped, or the coils cabled to the wrong amplifiers? A coil pair's field is along "
+                "its axis")
+    return warnings
+
+
+def fit_warnings(matrix_T_per_A: NDArray[np.float64], std_error_T_per_A: NDArray[np.float64],
+                 source: str) -> list[str]:
+    """Why a fitted actuation matrix (T/A; standard errors T/A, NaN without spare rows) may be wrong:
+    :func:`matrix_warnings`, or entries poorly determined compared with their coil's constant."""
+    warnings = matrix_warnings(matrix_T_per_A, source)
+    diagonal = np.diag(matrix_T_per_A)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.abs(std_error_T_per_A) / np.abs(diagonal)[None, :]  # column j: coil j
     ratio = np.where(np.isfinite(ratio), ratio, 0.0)

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from elastica_magnetic.filesets import FileKind
 from elastica_magnetic.hardware.calibration import DAC_MIDSCALE, Calibration
 from elastica_magnetic.hardware.protocol import (
     BoardStatus,
@@ -114,6 +115,15 @@ class StreamResult:
             "duration_s": round(self.duration_s, 3),
             "rows_per_s": round(rate, 1),
         }
+
+
+def _is_board_log(path: Path) -> bool:
+    with open(path, encoding="ascii") as handle:
+        return any(line.startswith(("MSR-FW", "PONG")) for line in handle)
+
+
+#: What ``msr hw stream --log FILE --force`` may replace: an earlier log of the board's lines.
+BOARD_LOG_FILE = FileKind("a board log (the firmware's lines: MSR-FW, PONG, ...)", _is_board_log)
 
 
 class _BoardLog:
@@ -396,10 +406,11 @@ class _Session:
         """Handshake, calibration, STREAM, the rows; STOP unless the board ended the stream with
         SAFE; the port is closed in every case."""
         import serial  # pyserial; imported here so the module loads without it
-        from tqdm import tqdm
+
+        from ..progress import progress_bar
 
         port, reader, port_url, result = self.port, self.reader, self.port_url, self.result
-        bar = tqdm(total=len(rows), unit="row", desc="stream", disable=not progress, leave=False)
+        bar = progress_bar(len(rows), "stream", "row", disable=not progress, leave=False)
         start = time.monotonic()
         finished = False
         try:
@@ -461,7 +472,7 @@ def _open(port_url: str, baudrate: int, open_port: Callable[..., Any] | None) ->
 
 def upload_calibration(port_url: str, calibration: Calibration, *, baudrate: int = DEFAULT_BAUD,
                        open_port: Callable[..., Any] | None = None) -> dict[str, str]:
-    """Upload ``calibration`` to the board at ``port_url`` (``msr calibrate --upload``); returns
+    """Upload ``calibration`` to the board at ``port_url`` (``msr hw calibrate --upload``); returns
     the board's status before and after.
 
     Raises

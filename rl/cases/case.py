@@ -18,7 +18,7 @@ Tables of a spec (SI units; the robot's tables are described in
 - ``[training]``: ``recipe`` (:data:`~elastica_magnetic_rl.cases.recipes.RECIPES`), ``steps`` per seed,
   ``[training.td3]``: :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` fields on top of the recipe,
   and ``[training.randomize]``: robot values drawn anew per training episode and crawler (domain
-  randomization; ``KEY = "LOW:HIGH"`` as ``msr robustness --vary``, or ``randomize = "default"``).
+  randomization; ``KEY = "LOW:HIGH"`` as ``msr real robustness --vary``, or ``randomize = "default"``).
 - ``[yardstick]``: ``distance_10s`` (m, crawl: the distance in 10 s of accurate physics from a
   zero field that counts as success; 0: the case has none, and no run of it is judged) and
   ``source`` (where it comes from).
@@ -77,7 +77,7 @@ CONTROL_RATE = 1.0 / ACTION_PERIOD
 #: deterministic actions, the yardstick's 10 s) in the physics the run trains in.
 EVAL_DURATION = 10.0
 #: :attr:`Case.target_label` of a case without a yardstick (crawl, ``distance_10s`` = 0).
-NO_TARGET = "none (the case has no yardstick: msr baseline --case measures one)"
+NO_TARGET = "none (the case has no yardstick: msr field baseline --case measures one)"
 #: Units of the case tables, written next to values by :meth:`Case.toml`.
 CASE_UNITS: dict[tuple[str, str], str] = {
     ("actuation", "field_limit"): "T", ("actuation", "max_increment"): "T per action",
@@ -261,9 +261,14 @@ def case_from_metadata(meta: Mapping[str, Any], source: str) -> Case:
     """The case of a run or policy file: its stored ``case_spec`` (complete, so the original spec
     file is not needed), else the shipped case named by ``case`` (files from before specs)."""
     spec = meta.get("case_spec")
-    if spec is not None:
-        return case_from_dict(spec, f"{source} (case_spec)")
     name = meta.get("case")
+    if spec is not None:
+        case = case_from_dict(spec, f"{source} (case_spec)")
+        if name is not None and name != case.name:
+            raise SpecError(f"{source}: case = {name!r} but its case_spec is of case {case.name!r}: "
+                            "the file contradicts itself (edited by hand?); restore it (e.g. from "
+                            "git), or make the two agree")
+        return case
     if isinstance(name, str) and name in case_names():
         return load_case(name)
     raise SpecError(f"{source}: case {name!r} is not a shipped case ({', '.join(case_names())}) "
@@ -279,7 +284,7 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
         raise top.error("name", "missing: set name = \"...\" (or load the spec from a file)")
     description = top.string("description", "")
     actuation = _actuation(top.table("actuation"))
-    task = _task(top.table("task"))
+    task = _task(top.table("task"), float(robot.tables["robot"]["length"]))
     training = _training(top.table("training", required=False), source, robot)
     yardstick = _yardstick(top.table("yardstick", required=False),
                            float(robot.tables["robot"]["length"]))
@@ -324,7 +329,14 @@ def _check_increment(t: SpecTable, increment: float, field_limit: float, papers:
     t.check_plausible("max_increment", increment, "field increment")
 
 
-def _task(t: SpecTable) -> Task:
+#: Usual reward for crawling one body length (``reward_scale`` per m times the length): the
+#: paper's is 1e4 per m x 20 mm = 200. Far below, every step's reward is lost in the critic's
+#: noise; far above, its values overflow the learning rates tuned for the paper's.
+REWARD_PER_LENGTH_RANGE = (1.0, 1e6)
+
+
+def _task(t: SpecTable, length: float) -> Task:
+    """The ``[task]`` table; ``length`` (m) judges the reward scale per body length."""
     kind = t.string("kind", choices=tuple(TASK_KINDS))
     cls = TASK_KINDS[kind]
     d = cls()
@@ -333,6 +345,8 @@ def _task(t: SpecTable) -> Task:
         "episode_duration": t.number("episode_duration", "s", d.episode_duration,
                                      low=ACTION_PERIOD, plausible="episode duration"),
     }
+    if t.has("reward_scale"):
+        _check_reward_scale(t, values["reward_scale"], length, d.reward_scale)
     if cls is ReachTask:
         values.update(
             target=t.number("target", "m ahead of the start", d.target),
@@ -347,6 +361,24 @@ def _task(t: SpecTable) -> Task:
                           "at the start counts as reaching the target")
     t.finish()
     return cls(**values)
+
+
+def _check_reward_scale(t: SpecTable, scale: float, length: float, papers: float) -> None:
+    """Warn about a reward scale (per m) whose reward for crawling one body length (``length``, m)
+    is outside :data:`REWARD_PER_LENGTH_RANGE`, naming the per-mm or per-cm mistake it looks like."""
+    per_length = scale * length
+    low, high = REWARD_PER_LENGTH_RANGE
+    if low <= per_length <= high:
+        return
+    mistakes = [(unit, size) for unit, size in (("mm", 1e3), ("cm", 1e2))
+                if per_length < low and low <= scale * size * length <= high]
+    hint = (f"; it looks like a reward per {' or per '.join(u for u, _ in mistakes)} written as per m ("
+            + "; ".join(f"{scale:g} per {u} is {scale * size:g} per m" for u, size in mistakes)
+            + ")") if mistakes else ""
+    t.warn("reward_scale", f"{scale:g} per m gives a reward of {per_length:.3g} for crawling one "
+           f"body length ({length:g} m), {'below' if per_length < low else 'above'} the usual "
+           f"{low:g} to {high:g} (the paper's: {papers:g} per m, 200 for its 20 mm robot): "
+           f"training learns from rewards this size poorly{hint}")
 
 
 def _training(t: SpecTable | None, source: str, robot: RobotDescription) -> Training:
@@ -393,7 +425,7 @@ def _training(t: SpecTable | None, source: str, robot: RobotDescription) -> Trai
 def _randomize(t: SpecTable, robot: RobotDescription) -> tuple[Variation, ...]:
     """``[training.randomize]``: ``KEY = "LOW:HIGH"`` (factors of the nominal value) or
     ``"abs:LOW:HIGH"`` (SI), KEY a dotted ``[robot]`` key, keys joined by ``+`` or a group name
-    (:data:`~elastica_magnetic_rl.cases.variations.GROUPS`), as ``msr robustness --vary``; or
+    (:data:`~elastica_magnetic_rl.cases.variations.GROUPS`), as ``msr real robustness --vary``; or
     ``randomize = "default"`` for the default set (magnetization +-15 %, modulus +-20 %, friction
     +-25 %, density +-10 %)."""
     if not t.has("randomize"):

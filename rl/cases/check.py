@@ -20,7 +20,7 @@ __all__ = ["RobotOnlySpec", "case_summary", "check_case", "check_robot_only", "c
 
 @dataclass(frozen=True)
 class RobotOnlySpec:
-    """A spec file without a ``[task]`` table: a robot that ``msr simulate --robot`` simulates,
+    """A spec file without a ``[task]`` table: a robot that ``msr field simulate --robot`` simulates,
     not a case that ``msr train`` trains (``data``: its parsed TOML)."""
 
     source: str
@@ -43,7 +43,7 @@ def robot_only_spec(value: str | Path) -> RobotOnlySpec | None:
 
 def check_robot_only(spec: RobotOnlySpec, sag: bool = True) -> SpecCheck:
     """:func:`~elastica_magnetic.spec_check.check_spec` of a spec without a task: its robot, time
-    steps, sag, its ``[field]`` in space and ``[boundary]`` (as ``msr simulate`` builds them) and,
+    steps, sag, its ``[field]`` in space and ``[boundary]`` (as ``msr field simulate`` builds them) and,
     with an ``[actuation]`` table, its field limit (T)."""
     return check_spec(spec.data, spec.source, sag=sag)
 
@@ -51,7 +51,7 @@ def check_robot_only(spec: RobotOnlySpec, sag: bool = True) -> SpecCheck:
 def coverage(spec: RobotOnlySpec, check: SpecCheck, sag: bool = True) -> dict[str, list[str]]:
     """What ``msr case check`` checked of a spec without a task, and what not, and why."""
     checked, not_checked = ["robot", "time steps"], []
-    # check_spec built these as msr simulate does (a mistake there is an error before the report)
+    # check_spec built these as msr field simulate does (a mistake there is an error before the report)
     checked += [table for table in ("field", "boundary") if table in spec.data]
     if check.field_limit_T is not None:
         checked.append("field limit")
@@ -65,7 +65,7 @@ def coverage(spec: RobotOnlySpec, check: SpecCheck, sag: bool = True) -> dict[st
         not_checked.append(f"sag ({why})")
     unread = ", so its [training] table is not read either" if "training" in spec.data else ""
     not_checked.append(f"training (the spec has no [task] table{unread}; it can be simulated "
-                       f"with msr simulate --robot {spec.source}, not trained)")
+                       f"with msr field simulate --robot {spec.source}, not trained)")
     return {"checked": checked, "not_checked": not_checked}
 
 

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from elastica_magnetic.cli import (
     CommandError,
+    command_name,
     duration_option,
     number,
     output_path,
@@ -68,7 +69,7 @@ def _add_case_command(sub: argparse._SubParsersAction) -> None:
         "derived quantities, time-step margins, sag and warnings; `msr case show NAME_OR_PATH "
         "--toml > my.toml`: the complete spec, every default written "
         "out, units in comments; edit it and use it anywhere a case is taken (msr train --case "
-        "my.toml, msr simulate --robot my.toml).",
+        "my.toml, msr field simulate --robot my.toml).",
     )
     case_sub = p.add_subparsers(dest="case_command", required=True, metavar="{list,show,check}")
     q = case_sub.add_parser("list", help="the shipped cases")
@@ -86,7 +87,7 @@ def _add_case_command(sub: argparse._SubParsersAction) -> None:
         "stable step, the static sag into the ground under the weight and at the field limit "
         "(simulated, a few seconds), and warnings; exits 1 when it finds an error.")
     q.add_argument("case", type=checked_spec_option,
-                   help=CASE_HELP + "; a spec without [task] (a robot for msr simulate --robot) "
+                   help=CASE_HELP + "; a spec without [task] (a robot for msr field simulate --robot) "
                    "has its robot checked")
     q.add_argument("--no-sag", action="store_true", help="skip the sag simulations")
     q.add_argument("--json", action="store_true")
@@ -127,7 +128,7 @@ def _add_bench_command(sub: argparse._SubParsersAction) -> None:
 
 
 def _add_generate_command(sub: argparse._SubParsersAction) -> None:
-    """``msr generate``."""
+    """``msr policy generate``."""
     p = sub.add_parser(
         "generate",
         help="generate a field waveform with a policy (accurate physics, field from zero)",
@@ -144,13 +145,13 @@ def _add_generate_command(sub: argparse._SubParsersAction) -> None:
 
 
 def _add_baseline_command(sub: argparse._SubParsersAction) -> None:
-    """``msr baseline``."""
+    """``msr field baseline``."""
     p = sub.add_parser(
         "baseline",
         help="generate with a hand-designed rotating field (the yardstick for learned policies)",
         description="Turn the field at the case's limit at a constant rate, through the agent's "
         "own action channel (0.3 mT per axis per 0.01 s, field from zero), and write the same "
-        "files as `msr generate`: a rotating field rolls the robot, the gait to beat. Without "
+        "files as `msr policy generate`: a rotating field rolls the robot, the gait to beat. Without "
         "--period, sweep the periods in both directions (worker processes; sweep.csv, sweep.png) "
         "and keep the farthest; the period the field really turned at under the rate limit is "
         "reported. Each 10 s run in the accurate physics takes about a minute; --physics training "
@@ -176,7 +177,7 @@ def _add_baseline_command(sub: argparse._SubParsersAction) -> None:
 
 
 def _add_figures_command(sub: argparse._SubParsersAction) -> None:
-    """``msr figures``."""
+    """``msr policy figures``."""
     p = sub.add_parser(
         "figures",
         help="regenerate figures of training runs or of a generate output",
@@ -193,7 +194,7 @@ def _add_figures_command(sub: argparse._SubParsersAction) -> None:
 
 
 def _add_demo_command(sub: argparse._SubParsersAction) -> None:
-    """``msr demo``."""
+    """``msr policy demo``."""
     p = sub.add_parser(
         "demo",
         help="generate with the shipped pattern-1 4 mT policy (fields, figures, animation)",
@@ -321,7 +322,7 @@ def baseline_command(args: argparse.Namespace) -> int:
 
 
 def _baseline_sweep(args: argparse.Namespace) -> int:
-    """``msr baseline`` without ``--period``: the sweep, its table and the best run."""
+    """``msr field baseline`` without ``--period``: the sweep, its table and the best run."""
     from ..shipping.baseline_sweep import (
         DEFAULT_PERIODS,
         periods_that_turn,
@@ -346,11 +347,14 @@ def _baseline_sweep(args: argparse.Namespace) -> int:
         raise CommandError(f"--periods: {exc}") from None
     if args.set_yardstick is not None:  # checked before the sweep's minutes
         from elastica_magnetic.filesets import check_result_file
+        from elastica_magnetic.specfile import SPEC_FILE
 
-        check_result_file(args.set_yardstick, force=args.force, option="--set-yardstick")
+        check_result_file(args.set_yardstick, force=args.force, option="--set-yardstick",
+                          kind=SPEC_FILE)
     if dropped:  # after every refusal: the warning is for a sweep that runs
-        print(f"msr baseline: warning: --periods {', '.join(f'{p:g}' for p in dropped)} s left out: "
-              f"longer than --duration {args.duration:g} s, the field would not turn once",
+        left_out = ", ".join(f"{p:g}" for p in dropped)
+        print(f"msr {command_name(args)}: warning: --periods {left_out} s left out: longer "
+              f"than --duration {args.duration:g} s, the field would not turn once",
               file=sys.stderr)
     try:
         result = sweep_baseline(args.case, periods, args.duration, args.physics, args.out,

@@ -1,9 +1,11 @@
-"""``msr export-seeds``, ``seeds``, ``ship``, ``notes``, ``export``, ``diagnose``: what a user does with
-trained policies (collect every seed, compare recipes, pack, annotate, export, diagnose). Thin wrappers over
-:mod:`elastica_magnetic_rl.shipping.seed_export`, :mod:`elastica_magnetic_rl.shipping.seed_report`,
-:mod:`elastica_magnetic_rl.shipping.ship`, :mod:`elastica_magnetic_rl.shipping.export` and
-:mod:`elastica_magnetic_rl.reports.diagnostics` (heavy imports happen inside the commands); training is in
-:mod:`elastica_magnetic_rl.cli.train_commands`, rollouts in :mod:`elastica_magnetic_rl.cli.commands`."""
+"""``msr policy export-seeds``, ``seeds``, ``ship``, ``notes``, ``export``, ``diagnose``: what a
+user does with trained policies (collect every seed, compare recipes, pack, annotate, export,
+diagnose). Thin wrappers over :mod:`elastica_magnetic_rl.shipping.seed_export`,
+:mod:`elastica_magnetic_rl.shipping.seed_report`, :mod:`elastica_magnetic_rl.shipping.ship`,
+:mod:`elastica_magnetic_rl.shipping.export` and :mod:`elastica_magnetic_rl.reports.diagnostics`
+(heavy imports happen inside the commands); training is in
+:mod:`elastica_magnetic_rl.cli.train_commands`, rollouts in
+:mod:`elastica_magnetic_rl.cli.commands`."""
 
 from __future__ import annotations
 
@@ -12,7 +14,15 @@ import math
 import sys
 from pathlib import Path
 
-from elastica_magnetic.cli import CommandError, duration_option, output_path, print_notes, print_result
+from elastica_magnetic.cli import (
+    CommandError,
+    duration_option,
+    number,
+    output_path,
+    print_notes,
+    print_result,
+)
+from elastica_magnetic.cli.app import add_old_option
 from elastica_magnetic.filesets import check_files, replace_files
 
 from .options import CASE_HELP, CHECKPOINT_HELP, FORCE_HELP, case_option, print_rollout_result
@@ -26,22 +36,24 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _add_export_seeds_command(sub: argparse._SubParsersAction) -> None:
-    """``msr export-seeds``."""
+    """``msr policy export-seeds``."""
     p = sub.add_parser(
         "export-seeds",
         help="every seed of a case as a policy folder, with seeds.json (10 s distances)",
         description="Evaluate every seed of a training case folder (OUT/<case>: its final "
         "checkpoint and best.pt, 10 s in the accurate physics from a zero field, cached per seed) "
         "and write, for each seed, the farther of the two actors as a policy folder "
-        "DEST/seed<k>/ (actor.pt, policy.json: msr generate accepts it) and DEST/seeds.json.",
+        "DIR/seed<k>/ (actor.pt, policy.json: msr policy generate accepts it) and DIR/seeds.json.",
     )
     p.add_argument("case_dir", type=Path, help="a case folder of msr train, e.g. runs/m1-4mT")
-    p.add_argument("--dest", type=output_path, required=True,
-                   help="e.g. rl/policies/m1-4mT/seeds/paper")
-    p.add_argument("--duration", type=float, default=10.0, help="evaluation length, s")
-    p.add_argument("--workers", type=int, default=1, help="seeds evaluated at a time (processes)")
+    p.add_argument("--out", type=output_path, default=None, dest="dest", metavar="DIR",
+                   help="required: where the seeds go, e.g. rl/policies/m1-4mT/seeds/paper")
+    add_old_option(p, "--dest", "--out", output_path, "dest")
+    p.add_argument("--duration", type=duration_option(), default=10.0, help="evaluation length, s")
+    p.add_argument("--workers", type=number("processes", 1, 1024, integer=True), default=1,
+                   help="seeds evaluated at a time (processes)")
     p.add_argument("--force", action="store_true",
-                   help="replace seeds of the same case already in --dest (seeds of another case, "
+                   help="replace seeds of the same case already in --out (seeds of another case, "
                         "or other files, are never replaced)")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true")
@@ -49,7 +61,7 @@ def _add_export_seeds_command(sub: argparse._SubParsersAction) -> None:
 
 
 def _add_seeds_command(sub: argparse._SubParsersAction) -> None:
-    """``msr seeds``."""
+    """``msr policy seeds``."""
     p = sub.add_parser(
         "seeds",
         help="every committed seed of a case, by recipe: successes and distances",
@@ -74,23 +86,26 @@ def _add_seeds_command(sub: argparse._SubParsersAction) -> None:
 
 
 def _add_ship_command(sub: argparse._SubParsersAction) -> None:
-    """``msr ship``."""
+    """``msr policy ship``."""
     p = sub.add_parser(
         "ship",
         help="pack a run into a shipped policy (rl/policies/<name>/) with a model card",
         description="Write actor.pt, critic.pt, policy.json and MODEL_CARD.md for a run's checkpoint "
-        "into DEST/<name> (default rl/policies/<name>); measures the 10 s distance in the accurate "
+        "into DIR/<name> (--out DIR; default rl/policies/<name>); measures the 10 s distance in the accurate "
         "physics unless --no-measure.",
     )
     p.add_argument("run", type=Path, help="run directory or checkpoint (e.g. runs/m1-4mT/seed3/refined)")
     p.add_argument("--name", required=True, help="policy name, e.g. m1-4mT")
     p.add_argument("--checkpoint", default="auto", metavar="auto|final|best|PATH",
                    help=CHECKPOINT_HELP + " (evaluated for --duration s)")
-    p.add_argument("--dest", type=output_path, default=None, help="default: the package's rl/policies")
+    p.add_argument("--out", type=output_path, default=None, dest="dest", metavar="DIR",
+                   help="the folder of policies the policy goes into, as DIR/<name> (default: the "
+                        "package's rl/policies)")
+    add_old_option(p, "--dest", "--out", output_path, "dest")
     p.add_argument("--no-measure", action="store_true", help="skip the evaluation run")
     p.add_argument("--duration", type=duration_option(), default=10.0, help="evaluation length, s")
     p.add_argument("--force", action="store_true",
-                   help="replace an existing policy's files in DEST/<name> (other files stay)")
+                   help="replace an existing policy's files in DIR/<name> (other files stay)")
     p.add_argument("--evaluate-seeds", action="store_true",
                    help="also run every seed of the case (final checkpoints) in the accurate physics "
                    "and list their distances in the model card (cached per seed)")
@@ -102,7 +117,7 @@ def _add_ship_command(sub: argparse._SubParsersAction) -> None:
 
 
 def _add_notes_command(sub: argparse._SubParsersAction) -> None:
-    """``msr notes``."""
+    """``msr policy notes``."""
     p = sub.add_parser(
         "notes",
         help="show or replace a shipped policy's notes (policy.json and its model card's Notes)",
@@ -111,12 +126,14 @@ def _add_notes_command(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("policy", help="shipped-policy name or folder, e.g. m2-4mT")
     p.add_argument("--file", type=Path, default=None, help="Markdown file with the new notes")
+    p.add_argument("--clear", action="store_true",
+                   help="remove the notes (an empty --file is refused: more often a mistake)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=notes_command)
 
 
 def _add_export_command(sub: argparse._SubParsersAction) -> None:
-    """``msr export``."""
+    """``msr policy export``."""
     p = sub.add_parser(
         "export",
         help="export a policy's actor as TorchScript plus its observation/action JSON",
@@ -132,7 +149,7 @@ def _add_export_command(sub: argparse._SubParsersAction) -> None:
 
 
 def _add_diagnose_command(sub: argparse._SubParsersAction) -> None:
-    """``msr diagnose``."""
+    """``msr policy diagnose``."""
     p = sub.add_parser(
         "diagnose",
         help="is a run's critic calibrated, is its actor saturated? (from its checkpoint)",
@@ -153,10 +170,10 @@ def _add_diagnose_command(sub: argparse._SubParsersAction) -> None:
 def export_seeds_command(args: argparse.Namespace) -> int:
     from ..shipping.seed_export import export_seeds
 
+    if args.dest is None:
+        raise CommandError("--out DIR is required: the folder the seeds are written to")
     if not (math.isfinite(args.duration) and 0 < args.duration <= 600):
         raise CommandError(f"--duration must be a finite time in (0, 600] s, got {args.duration}")
-    if args.workers < 1:
-        raise CommandError(f"--workers must be >= 1, got {args.workers}")
     try:
         result = export_seeds(args.case_dir, args.dest, args.duration,
                               progress=not args.no_progress, workers=args.workers, force=args.force)
@@ -287,19 +304,24 @@ def notes_command(args: argparse.Namespace) -> int:
     from ..shipping.policy_files import resolve_policy
     from ..shipping.ship import set_notes
 
-    if args.file is None:
+    if args.clear and args.file is not None:
+        raise CommandError("give either --file (new notes) or --clear (no notes), not both")
+    if args.file is None and not args.clear:
         policy = resolve_policy(args.policy)
         if policy.kind != "shipped":
             raise CommandError(f"{args.policy}: a {policy.kind}, not a shipped policy: notes belong "
                                "to a shipped policy (a folder with policy.json), and a run's cannot "
-                               "be written either; ship it first (msr ship)")
+                               "be written either; ship it first (msr policy ship)")
         notes = policy.meta.get("notes")
         if args.json:
             print_result({"policy": str(policy.source), "notes": notes}, True)
         else:
             print(notes or "(no notes)")
         return 0
-    text = _read_markdown(args.file, "--file")
+    text = "" if args.clear else _read_markdown(args.file, "--file")
+    if not args.clear and not text.strip():
+        raise CommandError(f"--file {args.file}: is empty; the notes were left as they are (to "
+                           "remove them, pass --clear)")
     try:
         result = set_notes(args.policy, text)
     except ValueError as exc:

@@ -169,7 +169,7 @@ def _add_refine_command(sub: argparse._SubParsersAction) -> None:
                         "contradict the record are refused")
     p.add_argument("--spec", type=Path, default=None,
                    help="train on this spec's robot: the run's robot with other physical values "
-                        "(e.g. msr identify's identified.toml), randomized by its "
+                        "(e.g. msr real identify's identified.toml), randomized by its "
                         "[training.randomize] if it has one; recorded in run.json")
     p.add_argument("--physics", choices=("accurate", "training"), default=None,
                    help="physics of the refinement's episodes (default accurate; training: the "
@@ -210,9 +210,12 @@ def _overrides(args: argparse.Namespace) -> dict:
             out[name] = _widths(f"--{option.replace('_', '-')}", getattr(args, option))
     ratio = getattr(args, "updates_per_step", None)
     if ratio is not None:
-        if not (math.isfinite(ratio) and ratio > 0):
-            raise CommandError(f"--updates-per-step must be a finite number > 0 (updates per "
-                               f"transition), got {ratio}")
+        from ..td3.algorithm import MAX_UPDATES_PER_STEP
+
+        if not (math.isfinite(ratio) and 0 < ratio <= MAX_UPDATES_PER_STEP):
+            raise CommandError(f"--updates-per-step must be a finite number in (0, "
+                               f"{MAX_UPDATES_PER_STEP}] (updates per transition; 20 is already a "
+                               f"high update-to-data ratio), got {ratio:g}")
         out["updates_per_step"] = ratio
     return out
 
@@ -336,7 +339,7 @@ def _seed_line(r: dict) -> str:
         state = f"stopped at step {r['stop_step']} ({r['stop_reason']})"
     return (f"{state + ': ' if state else ''}final mean training return "
             f"{r['final_mean_return']:.4g} ({r['episodes']} episodes from random initial fields; not "
-            "a distance: msr export-seeds measures each seed's)")
+            "a distance: msr policy export-seeds measures each seed's)")
 
 
 #: s of the accurate evaluations that choose the actor ``msr refine`` continues (the yardstick's).

@@ -1,4 +1,5 @@
-"""A recorded closed-loop run of a policy (what ``msr generate`` produces), saved as ``rollout.npz``."""
+"""A recorded closed-loop run of a policy (what ``msr policy generate`` produces), saved as
+``rollout.npz``."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from elastica_magnetic.io import atomic_save
+from elastica_magnetic.io import DamagedFileError, atomic_save, display_path
 from elastica_magnetic.simulation import TRAJECTORY_COLUMNS
 
 from .env import observation_layout
@@ -85,17 +86,68 @@ class Rollout:
 
     @classmethod
     def load(cls, directory_or_file: str | Path) -> Rollout:
+        """Read a ``rollout.npz`` (or the one in a folder); a damaged file (cut short, an array
+        missing, of the wrong shape or not finite) is a
+        :class:`~elastica_magnetic.io.DamagedFileError` naming it and what is wrong."""
+        import zipfile
+
         path = Path(directory_or_file)
         if path.is_dir():
             path = path / ROLLOUT_NPZ
-        with np.load(path, allow_pickle=False) as data:
-            return cls(
-                times=data["times"],
-                positions=data["positions"].astype(np.float64),
-                fields=data["fields"],
-                actions=data["actions"],
-                rewards=data["rewards"],
-                observations=data["observations"],
-                trajectory=pd.DataFrame(data["trajectory"], columns=list(TRAJECTORY_COLUMNS)),
-                meta=json.loads(str(data["meta"])),
-            )
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                missing = [k for k in _ROLLOUT_ARRAYS if k not in data.files]
+                if missing:
+                    raise _damaged(path, f"lacks {', '.join(missing)}")
+                arrays = {k: data[k] for k in _ROLLOUT_ARRAYS}
+        except (zipfile.BadZipFile, EOFError, ValueError, OSError) as exc:
+            if isinstance(exc, DamagedFileError) or isinstance(exc, FileNotFoundError):
+                raise
+            raise _damaged(path, f"not a readable .npz ({exc})") from None
+        _check_shapes(path, arrays)
+        try:
+            meta = json.loads(str(arrays["meta"]))
+        except ValueError as exc:
+            raise _damaged(path, f"its meta is not JSON ({exc})") from None
+        return cls(
+            times=arrays["times"],
+            positions=arrays["positions"].astype(np.float64),
+            fields=arrays["fields"],
+            actions=arrays["actions"],
+            rewards=arrays["rewards"],
+            observations=arrays["observations"],
+            trajectory=pd.DataFrame(arrays["trajectory"], columns=list(TRAJECTORY_COLUMNS)),
+            meta=meta,
+        )
+
+
+#: The arrays of a ``rollout.npz``.
+_ROLLOUT_ARRAYS = ("times", "positions", "fields", "actions", "rewards", "observations",
+                   "trajectory", "meta")
+
+
+def _damaged(path: Path, what: str) -> DamagedFileError:
+    return DamagedFileError(f"{display_path(path)}: damaged rollout ({what}); generate it again "
+                            "(msr policy generate POLICY --out FOLDER --force)")
+
+
+def _check_shapes(path: Path, a: dict[str, np.ndarray]) -> None:
+    """The arrays of one run of ``n`` steps agree (see :class:`Rollout`) and are finite."""
+    if a["times"].ndim != 1 or a["times"].shape[0] < 1:
+        raise _damaged(path, f"times has shape {a['times'].shape}, expected (n + 1,)")
+    n = a["times"].shape[0] - 1  # steps
+    expected = {"fields": (n, 3), "rewards": (n,)}
+    for key, shape in expected.items():
+        if a[key].shape != shape:
+            raise _damaged(path, f"{key} has shape {a[key].shape}, expected {shape} for the "
+                                 f"{n} steps of times")
+    for key, rows in (("positions", n + 1), ("actions", n), ("observations", n + 1),
+                      ("trajectory", n + 1)):
+        if a[key].ndim < 2 or a[key].shape[0] != rows:
+            raise _damaged(path, f"{key} has shape {a[key].shape}, expected {rows} rows")
+    if a["trajectory"].shape[1] != len(TRAJECTORY_COLUMNS):
+        raise _damaged(path, f"trajectory has {a['trajectory'].shape[1]} columns, expected "
+                             f"{len(TRAJECTORY_COLUMNS)}")
+    for key in ("times", "fields", "actions"):  # positions may end in a blow-up (diverged)
+        if not np.all(np.isfinite(a[key])):
+            raise _damaged(path, f"{key} holds NaN or infinite values")

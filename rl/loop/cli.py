@@ -26,9 +26,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Run, in order, what docs/own_robot.md and docs/sim_to_real.md walk by hand: "
         "msr case check; the rotating-field sweep in 10 s of the accurate physics, written into a "
         "spec copy as its yardstick; msr train --recipe fast on that copy; each seed's distance "
-        "and msr generate with the farthest seed's farther actor; msr robustness (the default "
+        "and msr policy generate with the farthest seed's farther actor; msr real robustness (the default "
         "variation set, open and closed loop); msr refine --physics training --randomize default; "
-        f"msr robustness of the refined policy; msr export-firmware. Steps: {_STEP_LIST}; each "
+        f"msr real robustness of the refined policy; msr hw firmware. Steps: {_STEP_LIST}; each "
         "writes DIR/<step>/. DIR/loop.json records each finished step: the same command again "
         "skips them and resumes an interrupted training. DIR/report.md and DIR/report.html (self-"
         "contained) are rewritten after every step.",
@@ -59,6 +59,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "durations in the training physics; its distances mean nothing)")
     p.add_argument("--force", action="store_true",
                    help="start over a loop in DIR whose spec or settings differ from these")
+    p.add_argument("--no-progress", action="store_true",
+                   help="no progress within the steps (the step lines are still printed); by "
+                        "default a bar on a terminal, a plain line now and then in a log file")
     p.add_argument("--json", action="store_true", help="print loop.json at the end")
     p.set_defaults(func=loop_command)
 
@@ -74,7 +77,7 @@ def _settings(args: argparse.Namespace):
     if args.calibration is not None:
         if not args.calibration.is_file():
             raise CommandError(f"--calibration {args.calibration}: no such file (a calibration "
-                               "JSON, e.g. stm32/calibration/default.json or msr calibrate's)")
+                               "JSON, e.g. stm32/calibration/default.json or msr hw calibrate's)")
         load_calibration(args.calibration)  # its named error now, not after the training
     base = LoopSettings.smoke() if args.quick else LoopSettings()
     changes = {"seeds": args.seeds, "workers": args.workers,
@@ -92,7 +95,7 @@ def loop_command(args: argparse.Namespace) -> int:
     try:
         skip, redo = parse_steps(args.skip, "--skip"), parse_steps(args.redo, "--redo")
         state = run_loop(args.spec, args.out, _settings(args), skip=skip, redo=redo,
-                         force=args.force)
+                         force=args.force, progress=not args.no_progress)
     except LoopError as exc:
         raise CommandError(str(exc)) from None
     except FileNotFoundError as exc:

@@ -80,11 +80,12 @@ def run_loop(case: Case, out: str | Path, settings: LoopSettings, *, skip: tuple
     """Run the loop for ``case`` in ``out`` (see :mod:`elastica_magnetic_rl.loop`): steps already
     done (``loop.json``) are skipped, ``redo`` ones (and those needing them) run again, ``skip``
     ones are recorded as skipped. Everything is checked before the first step; the folder is
-    locked while the loop runs. ``progress``: progress bars (default: when ``log`` is a terminal);
+    locked while the loop runs. ``progress``: each step's progress on stderr (default: yes; a bar
+    on a terminal, sparse plain lines in a log file, :func:`~elastica_magnetic.progress.progress_bar`);
     ``log``: where the step lines go (default stderr). Returns the final state."""
     log = log or sys.stderr
     if progress is None:
-        progress = log.isatty()
+        progress = True
     folder = normalized_path(out)
     check_loop_folder(folder)
     with FolderLock(folder, option="--out") as lock:

@@ -75,8 +75,12 @@ class LoopState:
             return None
         try:
             data = json.loads(path.read_text(encoding="utf-8"))
+            if data.get("format") != LOOP_FORMAT:
+                raise LoopError(f"{display_path(path)}: format {data.get('format')!r} is not one this "
+                                f"msr reads ({LOOP_FORMAT}): written by another version of msr? Run "
+                                "the loop with that version, or choose another --out")
             return cls(path, data["case"], data["spec"], data["settings"], dict(data["steps"]))
-        except (ValueError, KeyError, TypeError) as exc:
+        except (ValueError, KeyError, TypeError, AttributeError) as exc:
             raise LoopError(f"{display_path(path)}: not a loop state this msr can read ({exc}); "
                             "choose another --out") from None
 

@@ -1,8 +1,8 @@
 """The steps of ``msr loop``, one function each, as library calls of the commands a user runs by
-hand (``docs/own_robot.md``, ``docs/sim_to_real.md``): ``msr case check``, ``msr baseline
---set-yardstick``, ``msr train --recipe fast``, ``msr export-seeds``' evaluations, ``msr
-generate``, ``msr robustness``, ``msr refine --physics training --randomize default``, ``msr
-robustness`` again and ``msr export-firmware``.
+hand (``docs/own_robot.md``, ``docs/sim_to_real.md``): ``msr case check``, ``msr field baseline
+--set-yardstick``, ``msr train --recipe fast``, ``msr policy export-seeds``' evaluations, ``msr
+policy generate``, ``msr real robustness``, ``msr refine --physics training --randomize default``, ``msr
+real robustness`` again and ``msr hw firmware``.
 
 Each step writes its own subfolder of the loop's folder through the package's result mechanisms
 (a result folder replaced whole, or the run folders of train and refine) and returns a small
@@ -11,13 +11,12 @@ the loop's folder)."""
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from elastica_magnetic.io import atomic_write_json, atomic_write_text
+from elastica_magnetic.io import atomic_write_json, atomic_write_text, read_json
 from elastica_magnetic.results import remove_tree, result_folder
 
 from ..cases.case import Case, load_case
@@ -76,7 +75,7 @@ def check_step(ctx: LoopContext) -> dict[str, Any]:
 
 
 def yardstick_step(ctx: LoopContext) -> dict[str, Any]:
-    """``msr baseline --case SPEC --set-yardstick`` into ``yardstick/``: the rotating-field sweep
+    """``msr field baseline --case SPEC --set-yardstick`` into ``yardstick/``: the rotating-field sweep
     and the spec copy carrying the best distance as its yardstick (``<case>.toml`` in the loop's
     folder: named after the case, so the copy keeps its name), the spec the loop trains on."""
     from ..shipping.baseline_sweep import sweep_baseline, yardstick_spec
@@ -129,7 +128,7 @@ def _resumable(case_dir: Path, seeds: int) -> bool | None:
 def train_step(ctx: LoopContext) -> dict[str, Any]:
     """``msr train --case <yardstick spec> --recipe fast --seeds N`` into ``train/`` (resuming an
     interrupted training, as ``--resume`` does), then each seed's distance in the accurate physics
-    from a zero field (``msr export-seeds``' evaluation: the farther of its final actor and
+    from a zero field (``msr policy export-seeds``' evaluation: the farther of its final actor and
     ``best.pt``); the best seed is the farthest."""
     from ..sweep.training import train_cases
 
@@ -146,7 +145,7 @@ def train_step(ctx: LoopContext) -> dict[str, Any]:
     except ValueError as exc:  # killed after the training, before loop.json: nothing left to train
         if not (resume and str(exc).startswith("nothing to train")):
             raise
-        summary = json.loads((out / case.name / "summary.json").read_text())
+        summary = read_json(out / case.name / "summary.json")
     failed = [r for r in summary["seeds"] if r.get("error")]
     if failed:
         raise LoopError(f"training failed: {'; '.join(str(r['error']) for r in failed)}")
@@ -182,7 +181,7 @@ def _seed_distances(ctx: LoopContext, case_dir: Path) -> dict[str, Any]:
 
 
 def generate_step(ctx: LoopContext) -> dict[str, Any]:
-    """``msr generate <best seed> --checkpoint auto`` into ``generate/``: the farther actor's
+    """``msr policy generate <best seed> --checkpoint auto`` into ``generate/``: the farther actor's
     waveform (fields.csv, mT), the gait and field figures."""
     from ..shipping.generate import generate
 
@@ -215,7 +214,7 @@ def _figures(ctx: LoopContext, step: str, names: tuple[str, ...]) -> list[str]:
 
 
 def _robustness(ctx: LoopContext, step: str, source: Path, fields_csv: Path | None) -> dict[str, Any]:
-    """``msr robustness SOURCE [--fields CSV]`` into ``step/``: the default variation set, open
+    """``msr real robustness SOURCE [--fields CSV]`` into ``step/``: the default variation set, open
     and closed loop, in the settings' robustness physics."""
     from ..sim2real.robustness import plan_robustness, run_robustness, write_robustness
 
@@ -247,7 +246,7 @@ def robustness_step(ctx: LoopContext) -> dict[str, Any]:
 
 def refine_step(ctx: LoopContext) -> dict[str, Any]:
     """``msr refine <best seed> --physics training --randomize default`` into ``refine/`` (the
-    actor ``msr generate`` chose; an interrupted refinement is resumed)."""
+    actor ``msr policy generate`` chose; an interrupted refinement is resumed)."""
     from ..runfiles.rundir import RunDir
     from ..sweep.refine import refine
 
@@ -271,7 +270,7 @@ def refine_step(ctx: LoopContext) -> dict[str, Any]:
 
 def robustness_refined_step(ctx: LoopContext) -> dict[str, Any]:
     """The refined actor on varied robots (``robustness-refined/``), its waveform generated on
-    the nominal robot as ``msr generate`` does."""
+    the nominal robot as ``msr policy generate`` does."""
     return _robustness(ctx, "robustness-refined", step_folder(ctx, "refine"), None)
 
 
@@ -279,7 +278,7 @@ def robustness_refined_step(ctx: LoopContext) -> dict[str, Any]:
 
 
 def firmware_step(ctx: LoopContext) -> dict[str, Any]:
-    """``msr export-firmware`` into ``firmware/``: the refined policy's waveform when the refined
+    """``msr hw firmware`` into ``firmware/``: the refined policy's waveform when the refined
     robustness step ran (its ``fields.csv``), else the generated one, with ``--calibration``
     (default ``stm32/calibration/default.json``)."""
     from elastica_magnetic.hardware.calibration import default_calibration_path

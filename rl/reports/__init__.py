@@ -1,2 +1,2 @@
-"""Looking at runs: figures (``figures``), the networks' health (``diagnostics``, ``msr diagnose``) and
+"""Looking at runs: figures (``figures``), the networks' health (``diagnostics``, ``msr policy diagnose``) and
 the learning benchmarks (``bench``, ``msr bench``)."""

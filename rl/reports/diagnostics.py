@@ -1,4 +1,4 @@
-"""Health of a training run's networks, read from its checkpoint (``msr diagnose RUN``): is the
+"""Health of a training run's networks, read from its checkpoint (``msr policy diagnose RUN``): is the
 critic calibrated, is the actor saturated?
 
 Two ways a TD3 seed stops learning show here (docs/training.md, "Why seeds fail"):

@@ -1,6 +1,6 @@
 """Figures of training runs and generated gaits (matplotlib, PNG and GIF; no pyplot state).
 
-:func:`make_figures` regenerates everything from a folder (the ``msr figures`` command):
+:func:`make_figures` regenerates everything from a folder (the ``msr policy figures`` command):
 
 - a **training output** (``DIR``, ``DIR/<case>``, or one run ``DIR/<case>/seed<k>``, holding
   ``episodes.csv`` files): learning curves across seeds, EMA-smoothed, mean with the min-max spread
@@ -504,10 +504,12 @@ def make_figures(path: str | Path, out: str | Path | None = None, gif: bool = Tr
     path = Path(path)
     out = Path(out) if out is not None else path
     names = _figure_names(path)
+    # read (and checked) before the output folder is touched
+    rollout = Rollout.load(path) if (path / ROLLOUT_NPZ).is_file() else None
     # the figures go in together (the folder holds other things: a run's logs, a rollout):
     # an interruption leaves the earlier figures, never a mix
     with replace_files(out, names, force=force) as files:
-        result = _make_figures(path, files.path, gif, load_policy)
+        result = _make_figures(path, files.path, gif, load_policy, rollout)
     return {k: str(files.final_path(v)) for k, v in result.items()}
 
 
@@ -522,10 +524,9 @@ def _figure_names(path: Path) -> list[str]:
     return [f"learning_curves_{case}.png" for case in groups]
 
 
-def _make_figures(path: Path, out: Path, gif: bool,
-                  load_policy: Callable[[str], Any] | None) -> dict[str, str]:
-    if (path / ROLLOUT_NPZ).is_file():
-        rollout = Rollout.load(path)
+def _make_figures(path: Path, out: Path, gif: bool, load_policy: Callable[[str], Any] | None,
+                  rollout: Rollout | None) -> dict[str, str]:
+    if rollout is not None:
         critic = actor = None
         source = rollout.meta.get("policy_source")
         if source and load_policy is not None:

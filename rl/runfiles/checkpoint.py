@@ -25,13 +25,14 @@ format held them), so readers need not know about ``replay.bin``.
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch
+
+from elastica_magnetic.io import read_json
 
 from .rundir import RunDir
 
@@ -143,7 +144,7 @@ def checkpoint_metadata(ckpt: dict[str, Any], path: str | os.PathLike) -> dict[s
     meta = dict(ckpt.get("metadata") or {})
     run_json = RunDir.of_checkpoint(path).run_json
     if "case" not in meta and run_json.is_file():
-        meta = {**json.loads(run_json.read_text()), **meta}
+        meta = {**read_json(run_json), **meta}
     if "case" not in meta:
         raise ValueError(f"{path}: the checkpoint names no case (no metadata, no {RunDir.RUN_JSON})")
     return meta

@@ -42,14 +42,14 @@ def read_log(path: str | Path, numeric: Iterable[str], *,
             data = data[:data.rfind(b"\n") + 1]
             if not data:
                 return []  # no whole header line: nothing was logged before the kill
-        with io.StringIO(data.decode("utf-8"), newline="") as f:
+        with io.StringIO(data.decode("utf-8-sig"), newline="") as f:  # a spreadsheet's BOM too
             reader = csv.DictReader(f)
             fields = reader.fieldnames or []
             missing = [c for c in numeric if c not in fields]
             if missing:
                 raise ValueError(f"{path}: damaged log: the header lacks {', '.join(missing)} "
                                  f"(found {', '.join(fields) or 'no header'})")
-            rows = []
+            rows: list[dict[str, str]] = []
             for line, row in enumerate(reader, start=2):
                 for column in numeric:
                     value = row.get(column)
@@ -61,6 +61,12 @@ def read_log(path: str | Path, numeric: Iterable[str], *,
                         raise ValueError(f"{path}: damaged log: row {line}, column {column!r}: "
                                          f"{value!r} is not a number (move the file away, or "
                                          "cut the log back to its last good row)")
+                if "global_step" in numeric and rows and (
+                        float(row["global_step"]) < float(rows[-1]["global_step"])):
+                    raise ValueError(f"{path}: damaged log: row {line}: global_step "
+                                     f"{row['global_step']} is before the previous row's "
+                                     f"{rows[-1]['global_step']} (a log's steps never go back; "
+                                     "move the file away, or restore it)")
                 rows.append(row)
     except UnicodeDecodeError as exc:
         raise ValueError(f"{path}: damaged log: not UTF-8 text (byte {exc.start})") from None

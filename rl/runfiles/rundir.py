@@ -11,10 +11,10 @@ case, written by ``msr train``) and one run folder per seed, ``seed<k>/``. A **r
 - ``episodes.csv`` (one row per finished episode) and ``evaluations.csv`` (one row per
   evaluation), next to TensorBoard's event files;
 - ``run.json``: the run's case, settings, steps reached and versions;
-- ``evaluation.json``: the shipping criterion's cached evaluation of the seed (``msr export-seeds``);
+- ``evaluation.json``: the shipping criterion's cached evaluation of the seed (``msr policy export-seeds``);
 - ``refined/``: the run folder of its refinement (``msr refine``).
 
-An exported seed folder (``msr export-seeds``: ``<policies>/<case>/seeds/<recipe>/seed<k>/``) keeps
+An exported seed folder (``msr policy export-seeds``: ``<policies>/<case>/seeds/<recipe>/seed<k>/``) keeps
 the same names for the training logs it copies (:attr:`RunDir.TRAINING_LOGS`).
 """
 

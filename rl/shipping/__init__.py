@@ -1,9 +1,10 @@
 """From trained runs to shipped policies: policy files and how a policy argument is loaded
 (``policy_files``), rolling a policy out and judging a case's seeds (``policy_runs``), ``generate``
-(``msr generate``, ``baseline``, ``demo``), ``ship`` (``msr ship``, ``notes``), ``export`` (``msr
-export``), every seed as a policy folder (``seed_export``) and its report (``seed_report``), the
-model card, the checks of the shipped policies (``shipped``) and the hand-designed baseline
-(``baselines``). The shipped policies themselves are data in ``rl/policies/``.
+(``msr policy generate``, ``baseline``, ``demo``), ``ship`` (``msr policy ship``, ``notes``),
+``export`` (``msr policy export``), every seed as a policy folder (``seed_export``) and its report
+(``seed_report``), the model card, the checks of the shipped policies (``shipped``) and the
+hand-designed baseline (``baselines``). The shipped policies themselves are data in
+``rl/policies/``.
 
 The workflow of the paper's "Miscellaneous training tips": train a case's seeds
 (:func:`elastica_magnetic_rl.sweep.training.train_case`), refine the best in the accurate physics

@@ -1,9 +1,9 @@
-"""The yardstick that searches (``msr baseline --case C`` without ``--period``): the rotating-field
+"""The yardstick that searches (``msr field baseline --case C`` without ``--period``): the rotating-field
 baseline (:class:`~elastica_magnetic_rl.shipping.baselines.RotatingFieldPolicy`) over a grid of
 periods and both directions, each in a worker process; the distance of each, the period the field
 actually turned at under the rate limit (:func:`elastica_magnetic.rotation.measure_rotation` on
 the played field), a table, a figure of distance against period, and the farthest one's files as
-a single-period ``msr baseline`` writes them. :func:`yardstick_spec` writes a spec copy with the
+a single-period ``msr field baseline`` writes them. :func:`yardstick_spec` writes a spec copy with the
 best distance as the case's ``[yardstick] distance_10s``."""
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ from elastica_magnetic.io import atomic_write, atomic_write_json, atomic_write_t
 from elastica_magnetic.presets import ACTION_PERIOD
 from elastica_magnetic.results import check_result_folder, result_folder
 from elastica_magnetic.rotation import measure_rotation, min_rotation_period
+from elastica_magnetic.specfile import SPEC_FILE
 
 from ..cases.case import EVAL_DURATION, Case, case_from_dict, load_case
 from .baselines import RotatingFieldPolicy
@@ -105,7 +106,7 @@ def sweep_baseline(
     ``duration`` s in ``physics`` from a zero field, ``workers`` processes at a time (default: one
     per core); write ``out/sweep.csv`` (one row per run), ``out/sweep.png`` (distance against the
     asked period, per direction) and the farthest run's files (:func:`generate` into ``out``), the
-    folder written whole as the result of ``msr baseline`` for the case (an earlier one replaced
+    folder written whole as the result of ``msr field baseline`` for the case (an earlier one replaced
     only with ``force``; checked before the runs).
 
     Periods longer than ``duration`` are left out (:func:`periods_that_turn`; all of them:
@@ -218,7 +219,7 @@ def yardstick_spec(case: Case, best: dict[str, Any], path: str | Path, *,
     turn = "clockwise" if best["clockwise"] else "counter-clockwise"
     spec["yardstick"] = {
         "distance_10s": float(best["mid_dx_m"]),
-        "source": f"msr baseline sweep: rotating field {turn}, period {best['period_s']:g} s "
+        "source": f"msr field baseline sweep: rotating field {turn}, period {best['period_s']:g} s "
                   f"(turned once per {best['period_achieved_s']:.4g} s), "
                   f"{1e3 * best['mid_dx_m']:+.1f} mm in {duration:g} s, {physics} physics, field "
                   "from zero",
@@ -226,7 +227,7 @@ def yardstick_spec(case: Case, best: dict[str, Any], path: str | Path, *,
     if physics != "accurate" or abs(duration - EVAL_DURATION) > 1e-9:
         spec["yardstick"]["source"] += " (a smoke run's stand-in, not a yardstick)"
     copy = case_from_dict(spec, str(path), default_name=case.name)
-    with result_file(path, force=force, option="--set-yardstick") as written:
+    with result_file(path, force=force, option="--set-yardstick", kind=SPEC_FILE) as written:
         # a name the spec set itself (not its file's) is kept: the copy is the same case
         named = case.name != Path(case.source).stem
         atomic_write_text(written.path, copy.toml(with_name=named))

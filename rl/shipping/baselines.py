@@ -7,8 +7,8 @@ comparable with a learned policy's. A rotating field makes these robots roll (th
 10 mT); it is the obvious open-loop gait a learned policy should beat.
 
 The policy is a function of the observation alone (it reads the field back from the observation's
-amplitude and angle), so it runs wherever a learned actor runs: ``msr baseline`` writes the same
-files as ``msr generate``.
+amplitude and angle), so it runs wherever a learned actor runs: ``msr field baseline`` writes the same
+files as ``msr policy generate``.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Export a policy to run without this package (``msr export``): the actor as TorchScript and as a
+"""Export a policy to run without this package (``msr policy export``): the actor as TorchScript and as a
 ``torch.export`` program, and a ``policy.json`` of the observation layout and scaling and the action
 scaling.
 """
@@ -25,10 +25,10 @@ from .policy_files import (
 
 __all__ = ["EXPORT_FILES", "EXPORT_FORMAT", "export_policy"]
 
-#: The files ``msr export`` writes.
+#: The files ``msr policy export`` writes.
 EXPORT_FILES = ("policy.ts.pt", "policy.pt2", "policy.json")
 
-#: Format of ``msr export``'s ``policy.json``.
+#: Format of ``msr policy export``'s ``policy.json``.
 EXPORT_FORMAT = "msr-exported-policy-v1"
 
 

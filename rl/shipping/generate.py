@@ -1,7 +1,7 @@
-"""Generate a field waveform with a policy (``msr generate``, ``msr baseline``, ``msr demo``): run it
-deterministically in the accurate physics with the field starting at zero and write the field CSV
-(mT, 100 Hz), ``trajectory.csv``, ``rollout.npz``, ``generate.json``, the figures and a GIF.
-"""
+"""Generate a field waveform with a policy (``msr policy generate``, ``msr field baseline``, ``msr
+policy demo``): run it deterministically in the accurate physics with the field starting at zero and
+write the field CSV (mT, 100 Hz), ``trajectory.csv``, ``rollout.npz``, ``generate.json``, the
+figures and a GIF."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from elastica_magnetic.io import atomic_write, atomic_write_json
+from elastica_magnetic.io import atomic_write, atomic_write_json, read_json
 from elastica_magnetic.openloop import check_duration
 from elastica_magnetic.results import check_result_folder, result_folder
 
@@ -29,7 +29,7 @@ from .policy_runs import choose_actor, node_dx, run_policy
 
 __all__ = ["GENERATE_FILES", "MID_NODE_KEY", "demo", "generate", "reach_metrics", "read_generate_json"]
 
-#: The files ``msr generate`` (``baseline``, ``demo``) writes: recognises an output folder written
+#: The files ``msr policy generate`` (``baseline``, ``demo``) writes: recognises an output folder written
 #: before result folders carried a marker.
 GENERATE_FILES = ("fields.csv", "trajectory.csv", "gait.csv", "rollout.npz", "generate.json",
                   *ROLLOUT_FIGURES)
@@ -76,7 +76,7 @@ def generate(
 
     Writes into ``out``: ``fields.csv`` (paper format: index, mag_x, mag_y, mag_z in mT; row ``i``
     is the field held on ``[i/100, (i+1)/100)`` s), ``trajectory.csv`` (the columns of
-    ``msr replay``, 100 Hz, first row t = 0), ``gait.csv`` (height, span and the contact strength
+    ``msr field replay``, 100 Hz, first row t = 0), ``gait.csv`` (height, span and the contact strength
     of the back and front nodes, 100 Hz), ``rollout.npz`` (every node position, observation, action
     and field), ``generate.json`` (this result), the figures and ``gait.gif``.
 
@@ -196,9 +196,7 @@ def _verdict(case, rollout, physics: str) -> dict[str, Any]:
 def read_generate_json(path: str | Path) -> dict[str, Any]:
     """A ``generate.json`` (:func:`generate`'s result), older files' key names mapped to today's
     (:data:`OLD_KEYS`)."""
-    import json
-
-    data = json.loads(Path(path).read_text())
+    data = read_json(path)
     for old, new in OLD_KEYS.items():
         if old in data and new not in data:
             data[new] = data.pop(old)
@@ -207,7 +205,7 @@ def read_generate_json(path: str | Path) -> dict[str, Any]:
 
 def demo(out: str | Path = "out/demo", duration: float = 10.0, progress: bool = True,
          name: str = "m1-4mT") -> dict[str, Any]:
-    """``msr demo``: generate with the shipped pattern-1 4 mT policy ``m1-4mT``. The demo replaces
+    """``msr policy demo``: generate with the shipped pattern-1 4 mT policy ``m1-4mT``. The demo replaces
     its own earlier demo in ``out`` without being asked (the README's first command stays
     re-runnable); any other folder's content is refused as by :func:`generate`."""
     folder = POLICIES_DIR / name
@@ -216,7 +214,7 @@ def demo(out: str | Path = "out/demo", duration: float = 10.0, progress: bool = 
         raise PolicyNotFoundError(
             f"no shipped policy {name!r}: {folder} lacks {', '.join(missing)}. Train and ship it "
             f"first: `msr train --case {name} --seeds 8 --steps 100000 --out runs`, "
-            f"`msr refine runs/{name}/seed<best>`, `msr ship runs/{name}/seed<best>/refined "
+            f"`msr refine runs/{name}/seed<best>`, `msr policy ship runs/{name}/seed<best>/refined "
             f"--name {name}`"
         )
     return generate(name, duration=duration, out=out, progress=progress, force=True, kind="demo")

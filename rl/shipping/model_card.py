@@ -51,9 +51,9 @@ def _use_section(info: dict[str, Any], case: Case) -> list[str]:
         *( [case.description, ""] if case.description else [] ),
         "## Use",
         "",
-        f"- `msr generate {info['name']} --duration 10 --out DIR`: field CSV (mT, 100 Hz) from a "
+        f"- `msr policy generate {info['name']} --duration 10 --out DIR`: field CSV (mT, 100 Hz) from a "
         "zero field in the accurate physics, trajectory, figures, GIF.",
-        f"- `msr export {info['name']} --out DIR`: TorchScript + observation/action JSON.",
+        f"- `msr policy export {info['name']} --out DIR`: TorchScript + observation/action JSON.",
         f"- Input: {info['architecture']['obs_dim']} float32 observations (layout and scales in "
         f"`policy.json`); output: 2 actions in [-1, 1], x {increment:g} mT = field increment per "
         "0.01 s.",

@@ -9,6 +9,7 @@ architecture, observation and action layout, provenance, ``actor_sha256``).
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -37,6 +38,9 @@ POLICY_JSON = "policy.json"
 #: The files of a shipped policy (``actor.pt`` and ``policy.json`` always, the others optional).
 SHIPPED_FILES = ("actor.pt", POLICY_JSON, "critic.pt", "fields.csv", "MODEL_CARD.md")
 POLICY_FORMAT = "msr-policy-v1"
+#: The actor's hidden activation and output squashing (``td3.algorithm.Actor``), as policy.json
+#: records them.
+ACTOR_ACTIVATION, ACTOR_OUTPUT = "relu", "tanh"
 #: ``policy.json`` keys older files used -> today's (:func:`read_policy_json` maps them):
 #: the yardstick was named for the paper's robot, whichever case it was.
 OLD_POLICY_KEYS = {"authors_mid_dx_10s_m": "yardstick_10s_m"}
@@ -130,6 +134,11 @@ def read_policy_json(path: str | Path) -> dict[str, Any]:
             value = meta.pop(old, None)
             if value is not None and new not in meta:
                 meta[new] = value
+    fmt = meta.get("format") if isinstance(meta, dict) else None
+    if fmt is not None and fmt != POLICY_FORMAT:  # files from before the format key have none
+        raise PolicyFileError(f"{path}: format {fmt!r} is not one this msr reads ({POLICY_FORMAT}): "
+                              "written by another version of msr? Use that version, or ship the "
+                              "policy again with this one")
     arch = meta.get("architecture") if isinstance(meta, dict) else None
     if not isinstance(arch, dict) or not isinstance(meta.get("case"), str):
         raise PolicyFileError(f"{path}: lacks 'case' or 'architecture' (not a {POLICY_FORMAT} file)")
@@ -200,6 +209,7 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
         meta = read_policy_json(path / POLICY_JSON)
         case = _policy_case(meta, path / POLICY_JSON)
         _check_recorded_limits(case, meta, path / POLICY_JSON)
+        _check_recorded_case(case, meta, path / POLICY_JSON)
         arch = meta["architecture"]
         _check_obs_dim(case, arch["obs_dim"], path / POLICY_JSON)
         hidden = tuple(arch["hidden_sizes"])
@@ -240,11 +250,11 @@ def _check_policy_folder_whole(path: Path) -> None:
         raise PolicyNotFoundError(
             f"{path}: a shipped-policy folder (it holds {', '.join(present)}) without "
             f"{' and '.join(missing)}: a shipped policy needs actor.pt and {POLICY_JSON} "
-            "(deleted or not copied? ship it again with msr ship)")
+            "(deleted or not copied? ship it again with msr policy ship)")
 
 
 def finish_interrupted_ship(folder: Path) -> list[str]:
-    """Before a shipped-policy folder is read: when an ``msr ship --force`` (or ``msr notes
+    """Before a shipped-policy folder is read: when an ``msr policy ship --force`` (or ``msr policy notes
     --file``) was killed while it replaced the folder's files, finish that replacement (its new
     files were complete: roll forward) or drop the unfinished one, so the folder holds one whole
     policy, never the new ``actor.pt`` beside the old ``policy.json``
@@ -280,6 +290,37 @@ def _check_recorded_limits(case: Case, meta: dict[str, Any], path: Path) -> None
             raise PolicyFileError(f"{path}: {key} = {value!r} but its case_spec gives {spec[key]:g}: "
                                   "the file contradicts itself (edited by hand?); restore it (e.g. "
                                   "from git) or ship the policy again")
+
+
+def _check_recorded_case(case: Case, meta: dict[str, Any], path: Path) -> None:
+    """The other entries of a ``policy.json`` that repeat its ``case_spec`` (the robot, its
+    magnetization, the task, the observation's scales, the actor's activations) must agree with it:
+    the policy runs on the case_spec, so an edit of the copies would be ignored without a word."""
+    arch = meta.get("architecture") or {}
+    expected = observation_spec_of(case)["scales"]
+    scales = (meta.get("observation") or {}).get("scales")
+    checks = [
+        ("robot", meta.get("robot"), case.robot.name),
+        ("magnetization", meta.get("magnetization"),
+         case.robot.tables["robot"]["magnetization"]["kind"]),
+        ("task", meta.get("task"), case.task.kind),
+        ("architecture.activation", arch.get("activation"), ACTOR_ACTIVATION),
+        ("architecture.output", arch.get("output"), ACTOR_OUTPUT),
+    ]
+    for key, value, want in checks:
+        if value is not None and value != want:
+            raise PolicyFileError(f"{path}: {key} = {value!r} but its case_spec (or the actor this "
+                                  f"package runs) gives {want!r}: the file contradicts itself (edited "
+                                  "by hand?); restore it (e.g. from git) or ship the policy again")
+    if isinstance(scales, dict):
+        for key, value in scales.items():
+            want = expected.get(key)
+            same = (isinstance(value, int | float) and isinstance(want, int | float)
+                    and math.isfinite(value) and abs(value - want) <= 1e-9 * max(1.0, abs(want)))
+            if want is not None and not same and value != want:
+                raise PolicyFileError(f"{path}: observation.scales.{key} = {value!r} but its case_spec "
+                                      f"gives {want!r}: the file contradicts itself (edited by "
+                                      "hand?); restore it (e.g. from git) or ship the policy again")
 
 
 def _check_obs_dim(case: Case, obs_dim: int, path: Path) -> None:

@@ -187,7 +187,7 @@ def evaluate_run(run_dir: str | Path, duration: float = 10.0, progress: bool = T
     checkpoint's step and the duration are the same."""
     run = RunDir(run_dir)
     cache_path = run.evaluation_json
-    cache = json.loads(cache_path.read_text()) if cache_path.is_file() else {}
+    cache = _cached_evaluations(cache_path)
     final = evaluate_checkpoint(run.checkpoint, cache, duration, progress)
     best = None
     if run.best.is_file():
@@ -320,3 +320,13 @@ def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10
     if prefer_best(case, final, best):
         return ActorChoice(run_files.best, "best", "farther", final, best)
     return ActorChoice(run_files.checkpoint, "final", "farther", final, best)
+
+
+def _cached_evaluations(path: Path) -> dict[str, Any]:
+    """The evaluations cached in ``path`` (``evaluation.json``); a damaged cache (a kill while it
+    was written by an older version) is evaluated again, as if absent: it holds only results."""
+    try:
+        cache = json.loads(path.read_text(encoding="utf-8")) if path.is_file() else {}
+    except (ValueError, UnicodeDecodeError):
+        return {}
+    return cache if isinstance(cache, dict) else {}

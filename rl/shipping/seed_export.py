@@ -1,4 +1,4 @@
-"""Every seed of a case as a checkable policy folder (``msr export-seeds``): each seed's actor (the
+"""Every seed of a case as a checkable policy folder (``msr policy export-seeds``): each seed's actor (the
 farther of its final checkpoint and its ``best.pt`` in the shipping criterion's evaluation,
 :func:`~elastica_magnetic_rl.shipping.policy_runs.evaluate_seeds`) in the shipped-policy format, its training
 logs, and ``seeds.json``; seeds of several runs collect in one folder."""
@@ -42,7 +42,7 @@ def export_seeds(
     force: bool = False,
 ) -> dict[str, Any]:
     """Every seed of a case as a policy folder ``dest/seed<k>/`` (``actor.pt`` and
-    ``policy.json``: what ``msr generate`` reads; no critic, no buffer; and the run's training
+    ``policy.json``: what ``msr policy generate`` reads; no critic, no buffer; and the run's training
     logs, :data:`SEED_TRAINING_LOGS`) and ``dest/seeds.json``:
     one object per seed, ``{"seed", "steps", "distance_10s_m", "actor", "checkpoint",
     "meets_target"}``; ``meets_target`` is left out where there is no verdict (a case without a
@@ -63,7 +63,7 @@ def export_seeds(
     else) is refused even with it.
 
     ``dest`` is written whole or not at all (:func:`elastica_magnetic.results.result_folder`,
-    ``--dest``): an interruption or a failure leaves it as it was. Only ``duration`` = 10 s gives
+    ``--out``): an interruption or a failure leaves it as it was. Only ``duration`` = 10 s gives
     ``distance_10s_m``; another duration's distance is stored as ``distance_m`` with
     ``duration_s``.
     """
@@ -74,7 +74,7 @@ def export_seeds(
     subject = f"case {case.name}"
     # an export killed between its renames left the earlier seeds aside: put them back before
     # they are read (else they would be neither kept nor protected by --force)
-    recovered = recover(dest, option="--dest") if interrupted(dest) else []
+    recovered = recover(dest, option="--out") if interrupted(dest) else []
     new_seeds = {seed for seed, _ in seeds}
     try:  # checked before the long evaluations
         known, earlier = _check_dest(dest, subject, new_seeds, first.meta, force)
@@ -82,7 +82,7 @@ def export_seeds(
         for note in recovered:  # the command line prints them before the error
             exc.add_note(note)
         raise
-    with result_folder(dest, kind="export-seeds", subject=subject, force=True, option="--dest",
+    with result_folder(dest, kind="export-seeds", subject=subject, force=True, option="--out",
                        known_files=known) as folder:
         for entry in earlier:  # the seeds of earlier runs that stay
             shutil.copytree(dest / str(entry["actor"]), folder.path / str(entry["actor"]))
@@ -107,15 +107,15 @@ def _check_dest(dest: Path, subject: str, new_seeds: set[int], meta: dict[str, A
     known = _known_files(dest)
     try:
         check_result_folder(dest, kind="export-seeds", subject=subject, force=True,
-                            option="--dest", known_files=known)
+                            option="--out", known_files=known)
     except ResultExistsError as exc:
         raise ValueError(str(exc)) from None
     earlier = _earlier_exported_seeds(dest, new_seeds, meta)
     again = sorted(new_seeds & set(_exported_seed_numbers(dest)))
     if again and not force:
-        raise ValueError(f"--dest {dest}: already holds seeds {', '.join(map(str, again))} of case "
+        raise ValueError(f"--out {dest}: already holds seeds {', '.join(map(str, again))} of case "
                          f"{subject.removeprefix('case ')}; pass --force to replace them, or "
-                         "choose another --dest")
+                         "choose another --out")
     return known, earlier
 
 
@@ -181,6 +181,15 @@ def _earlier_exported_seeds(dest: Path, replaced: set[int], meta: dict[str, Any]
     if not isinstance(earlier, list) or not all(isinstance(e, dict) and "seed" in e and "actor" in e
                                                 for e in earlier):
         raise ValueError(f"{path}: expected a JSON list of objects with 'seed' and 'actor'")
+    for k, entry in enumerate(earlier):
+        seed, actor = entry["seed"], entry["actor"]
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            raise ValueError(f"{path}: entry {k}: seed = {seed!r}, expected a seed number (an "
+                             "integer >= 0); the file was edited by hand? restore it, or move it "
+                             "away to start a new seeds.json")
+        if not isinstance(actor, str) or not re.fullmatch(r"seed\d+", actor):
+            raise ValueError(f"{path}: entry {k}: actor = {actor!r}, expected the folder name "
+                             "seed<k>; restore the file, or move it away to start a new seeds.json")
     def as_json(x: Any) -> Any:  # checkpoints hold tuples where policy.json holds lists
         return json.loads(json.dumps(x, default=str))
 
@@ -204,7 +213,7 @@ def _earlier_exported_seeds(dest: Path, replaced: set[int], meta: dict[str, Any]
             raise ValueError(f"{path}: seed {entry['seed']}: its actor's {policy_json} is unreadable "
                              f"({exc})") from exc
         if physical(other.get("case_spec")) != physical(as_json(meta.get("case_spec"))):
-            raise ValueError(f"--dest {dest}: seed {entry['seed']} there was trained on another case "
+            raise ValueError(f"--out {dest}: seed {entry['seed']} there was trained on another case "
                              f"spec ({other.get('case')!r}) than {meta.get('case')!r}; export into "
                              "another folder (--force replaces only seeds of the same case)")
         if entry["seed"] in replaced:

@@ -1,13 +1,13 @@
 """Every seed of a case, by recipe: how many succeed, how far each goes.
 
 Reads the committed seed folders ``<policies>/<case>/seeds/<recipe>/seeds.json`` (written by ``msr
-export-seeds``; one object per seed with ``seed``, ``steps``, ``distance_10s_m``, ``actor``) and judges each
-seed by the case's own success test (:meth:`~elastica_magnetic_rl.cases.case.Case.meets_yardstick`: 10 s in
-the accurate physics from a zero field reach the yardstick). A case without a yardstick judges no seed:
-its successes are not applicable ("n/a"), whatever ``meets_target`` an older file stored. ``msr seeds``
-prints the table, draws the seeds' distances per recipe, and keeps the table in the shipped policy's
-model card.
-"""
+policy export-seeds``; one object per seed with ``seed``, ``steps``, ``distance_10s_m``, ``actor``)
+and judges each seed by the case's own success test
+(:meth:`~elastica_magnetic_rl.cases.case.Case.meets_yardstick`: 10 s in the accurate physics from a
+zero field reach the yardstick). A case without a yardstick judges no seed: its successes are not
+applicable ("n/a"), whatever ``meets_target`` an older file stored. ``msr policy seeds`` prints the
+table, draws the seeds' distances per recipe, and keeps the table in the shipped policy's model
+card."""
 
 from __future__ import annotations
 
@@ -88,7 +88,7 @@ def case_seeds(case: Case, policies_dir: str | Path | None = None) -> list[Recip
         else:  # a reach task judges the end node, which seeds.json does not hold: its verdict
             if not all(isinstance(e.get("meets_target"), bool) for e in entries):
                 raise ValueError(f"{path}: a {case.task.kind} task needs each seed's "
-                                 "'meets_target' (true/false), as msr export-seeds writes it")
+                                 "'meets_target' (true/false), as msr policy export-seeds writes it")
             succeeded = [e["meets_target"] for e in entries]
         groups.append(RecipeSeeds(path.parent.name, entries, succeeded, path.parent))
     groups.sort(key=lambda g: (g.folder != "paper", g.folder))
@@ -104,12 +104,12 @@ REPOSITORY_SEEDS = ("the seed campaigns of the shipped cases are in the elastica
 def no_seeds_message(case: Case, policies_dir: str | Path | None = None) -> str:
     """Why no seeds of ``case`` were found and where to get them: for a shipped case read from the
     installed package's policies, the repository (:data:`REPOSITORY_SEEDS`); otherwise the folder
-    looked in and how ``msr export-seeds`` fills it."""
+    looked in and how ``msr policy export-seeds`` fills it."""
     root = Path(policies_dir) if policies_dir is not None else POLICIES_DIR
     folder = root / case.name / "seeds"
     if root.resolve() == POLICIES_DIR.resolve() and case.builtin and not folder.is_dir():
         return f"No seeds of `{case.name}` here: {REPOSITORY_SEEDS}."
-    return (f"No seeds of `{case.name}` in {folder} (msr export-seeds RUNS/{case.name} --dest "
+    return (f"No seeds of `{case.name}` in {folder} (msr policy export-seeds RUNS/{case.name} --out "
             f"{folder}/<recipe> writes them).")
 
 

@@ -1,6 +1,6 @@
-"""Ship a trained run as a policy folder in the shipped format (``msr ship``): ``actor.pt``,
+"""Ship a trained run as a policy folder in the shipped format (``msr policy ship``): ``actor.pt``,
 ``critic.pt``, ``policy.json`` (:data:`~elastica_magnetic_rl.shipping.policy_files.POLICY_FORMAT`), the
-measured waveform ``fields.csv`` and ``MODEL_CARD.md``; and a shipped policy's notes (``msr notes``).
+measured waveform ``fields.csv`` and ``MODEL_CARD.md``; and a shipped policy's notes (``msr policy notes``).
 
 A *policy* argument is a run directory (holding ``checkpoint.pt``), a checkpoint file, a
 shipped-format directory (``actor.pt`` + ``policy.json``), or the name of a shipped policy in
@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import io
 import json
+import re
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +23,7 @@ from elastica_magnetic.io import (
     atomic_write_bytes,
     atomic_write_json,
     atomic_write_text,
+    read_json,
 )
 
 from ..cases.case import Case
@@ -31,6 +33,8 @@ from ..runfiles.rundir import CaseDir
 from .generate import reach_metrics
 from .model_card import NOTES_SECTION, model_card, replace_card_section, seed_meets_target
 from .policy_files import (
+    ACTOR_ACTIVATION,
+    ACTOR_OUTPUT,
     POLICIES_DIR,
     POLICY_FORMAT,
     POLICY_JSON,
@@ -50,22 +54,22 @@ __all__ = ["SHIPPED_FILES", "check_policy_name", "check_ship_target", "set_notes
 
 def check_policy_name(name: str) -> str:
     """A policy name is one folder name: no separator, not ``.``/``..``, not hidden, printable;
-    else a ``ValueError`` naming ``--name`` (a name must not write outside ``--dest``)."""
-    if (not name or name in (".", "..") or name.startswith(".") or "/" in name or "\\" in name
-            or not name.isprintable() or Path(name).name != name):
-        raise ValueError(f"--name {name!r}: a policy name is one folder name (letters, digits, "
-                         "'-', '_', no '/' and not starting with '.'), e.g. m1-4mT")
+    else a ``ValueError`` naming ``--name`` (a name must not write outside ``--out``)."""
+    if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}", name):
+        raise ValueError(f"--name {name!r}: a policy name is one folder name of letters, digits, "
+                         "'-', '_' and '.' (no space, no '/', not starting with '.' or '-', at most "
+                         "100 characters), e.g. m1-4mT")
     return name
 
 
 def check_ship_target(name: str, dest: str | Path | None) -> None:
-    """``--name`` a plain name and ``--dest`` a folder (or a path to one): checked before any
+    """``--name`` a plain name and ``--out`` a folder (or a path to one): checked before any
     measuring, else the named error."""
     check_policy_name(name)
     if dest is not None:
         for parent in (Path(dest), *Path(dest).parents):
             if parent.exists() and not parent.is_dir():
-                raise OutputPathError(f"--dest {dest}: {parent} is a file, not a folder")
+                raise OutputPathError(f"--out {dest}: {parent} is a file, not a folder")
 
 
 def ship(
@@ -129,7 +133,7 @@ def ship(
         written = _policy_files(policy, fields, card, with_critic)
         # the replaced policy's optional files this one lacks go in the same commit
         stale = [f for f in SHIPPED_FILES if f not in written]
-        with replace_files(target, written, force=overwrite, option="--dest",
+        with replace_files(target, written, force=overwrite, option="--out",
                            remove=stale) as files:
             _write_policy_folder(files.path, policy, info, fields, card, with_critic)
     else:
@@ -169,8 +173,8 @@ def _policy_info(policy: LoadedPolicy, name: str, summary: dict[str, Any] | None
         "task": case.task.kind,
         "actor_sha256": weights_sha256(policy.actor.state_dict()),
         "architecture": {"type": "mlp", "obs_dim": policy.obs_dim, "act_dim": policy.act_dim,
-                         "hidden_sizes": list(policy.hidden_sizes), "activation": "relu",
-                         "output": "tanh",
+                         "hidden_sizes": list(policy.hidden_sizes), "activation": ACTOR_ACTIVATION,
+                         "output": ACTOR_OUTPUT,
                          "module": "elastica_magnetic_rl.td3.algorithm.Actor "
                                    "(net = Sequential of Linear/ReLU)",
                          "critic_layer_norm": bool((meta.get("config") or {}).get(
@@ -222,7 +226,7 @@ def _yardstick_info(case: Case) -> dict[str, Any]:
 
 def _ship_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case,
                target: Path) -> str:
-    """The model card; the committed seeds' table (``msr seeds --card``) survives a re-ship."""
+    """The model card; the committed seeds' table (``msr policy seeds --card``) survives a re-ship."""
     card = model_card(info, summary, case)
     groups = case_seeds(case, target.parent)
     if groups:
@@ -308,13 +312,18 @@ def _portable_source(path: Path, case: str) -> str:
     return Path(path).name
 
 
+#: What to do about a damaged ``summary.json`` of a case folder.
+_SUMMARY_FIX = ("restore it (e.g. from a backup); it is the case's summary of msr train (the seeds' "
+                "own folders are not affected)")
+
+
 def _find_case_dir(source: Path, case: str) -> Path | None:
     """The case folder of a run (``<case>/seed<k>[/refined]/checkpoint.pt``): the nearest parent
     holding the ``summary.json`` of ``case``."""
     for parent in list(source.parents)[:4]:
         summary_json = CaseDir(parent).summary_json
         if summary_json.is_file():
-            summary = json.loads(summary_json.read_text())
+            summary = read_json(summary_json, _SUMMARY_FIX)
             if summary.get("case") == case:
                 return parent
     return None
@@ -323,7 +332,7 @@ def _find_case_dir(source: Path, case: str) -> Path | None:
 def _find_summary(source: Path, case: str) -> dict[str, Any] | None:
     """``summary.json`` of the case folder of a run, if there is one."""
     case_dir = _find_case_dir(source, case)
-    return json.loads(CaseDir(case_dir).summary_json.read_text()) if case_dir else None
+    return read_json(CaseDir(case_dir).summary_json, _SUMMARY_FIX) if case_dir else None
 
 
 

@@ -1,4 +1,4 @@
-"""``msr robustness`` and ``msr identify``: thin wrappers over
+"""``msr real robustness`` and ``msr real identify``: thin wrappers over
 :mod:`elastica_magnetic_rl.sim2real.robustness` and :mod:`elastica_magnetic_rl.sim2real.identify`
 (heavy imports happen inside the commands)."""
 
@@ -9,7 +9,7 @@ import json
 import os
 from pathlib import Path
 
-from elastica_magnetic.cli import CommandError, duration_option, number, output_path
+from elastica_magnetic.cli import CommandError, command_name, duration_option, number, output_path
 
 from ..cases.variations import DEFAULT_RANGES, GROUPS, VariationError, magnitude_of, parse_variation
 from .identify import MAX_EVALUATIONS, STARTS
@@ -49,7 +49,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="for a field CSV: the case it is played on (a shipped case or a spec file)")
     p.add_argument("--fields", type=Path, default=None,
                    help="for a policy: its waveform (default: the shipped fields.csv, else generated "
-                   "as msr generate does: accurate physics, field from zero, --duration s)")
+                   "as msr policy generate does: accurate physics, field from zero, --duration s)")
     p.add_argument("--vary", type=variation_option, action="append", default=None,
                    metavar="KEY=LOW:HIGH",
                    help="vary dotted spec keys (KEY or KEY+KEY or a group: "
@@ -159,7 +159,7 @@ def identify_command(args: argparse.Namespace) -> int:
     from .tracking import check_against_robot, read_trajectory
 
     prepare_output_folder(args.out, args.force, kind="identify")
-    fields = read_field_csv(args.field_csv, plausible=True)  # a coil's field, as msr replay
+    fields = read_field_csv(args.field_csv, plausible=True)  # a coil's field, as msr field replay
     measured = read_trajectory(args.trajectory_csv)
     spec = load_spec(args.robot)
     try:
@@ -180,9 +180,9 @@ def identify_command(args: argparse.Namespace) -> int:
     if not args.no_progress:
         print(file=sys.stderr)
     for warning in report["warnings"]:
-        print(f"msr identify: warning: {warning}", file=sys.stderr)
+        print(f"msr {command_name(args)}: warning: {warning}", file=sys.stderr)
     report = {"field_csv": str(args.field_csv), "robot": str(args.robot), "fit": args.fit, **report}
-    header = (f"Identified by msr identify from {args.field_csv} and {args.trajectory_csv} "
+    header = (f"Identified by msr real identify from {args.field_csv} and {args.trajectory_csv} "
               f"({args.physics} physics), nominal spec {args.robot}.")
     out = write_identified(report, spec, measured, args.out, args.force, header)
     public = {k: v for k, v in report.items() if k != "predicted"}
@@ -208,7 +208,7 @@ def _check_noise(noise_m: float | None, length: float) -> None:
 
 
 def print_identified(report: dict) -> None:
-    """The text report of ``msr identify``: each fitted value with its standard error, its
+    """The text report of ``msr real identify``: each fitted value with its standard error, its
     interval (and where it comes from) or why it is not identifiable, the residual and its ratio
     to the noise, and the starts."""
     for fit in report["fitted"].values():

@@ -1,4 +1,4 @@
-"""How far ``msr identify``'s fitted values can be trusted: the residual against the tracker's
+"""How far ``msr real identify``'s fitted values can be trusted: the residual against the tracker's
 noise, and per fitted value an interval and a verdict (identifiable or not, and why).
 
 Two sources of the interval, the larger one stated:

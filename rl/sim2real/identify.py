@@ -1,4 +1,4 @@
-"""Spec values from a measured trajectory (what ``msr identify`` runs).
+"""Spec values from a measured trajectory (what ``msr real identify`` runs).
 
 The robot of a spec is simulated under the waveform that was played, and chosen spec values
 (dotted keys, groups varied together by one factor: see :mod:`.variations`) are fitted so that the

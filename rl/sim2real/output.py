@@ -1,4 +1,4 @@
-"""The output folders of ``msr robustness`` and ``msr identify``, through the package's one
+"""The output folders of ``msr real robustness`` and ``msr real identify``, through the package's one
 mechanism for results (:mod:`elastica_magnetic.results`): built in a temporary sibling and swapped
 in whole; an existing result replaced only with ``--force``, another command's never."""
 

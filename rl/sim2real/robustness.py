@@ -1,5 +1,5 @@
 """How far a waveform (and its policy) carries robots whose spec values differ from the nominal one
-(what ``msr robustness`` runs).
+(what ``msr real robustness`` runs).
 
 *Open loop*: the waveform as the coils play it (a field CSV, or a policy's generated
 ``fields.csv``) replayed on each varied robot. *Closed loop* (a policy only): the policy acting on
@@ -97,7 +97,7 @@ def plan_robustness(
     ``source`` is a field CSV (mT, 100 Hz; then ``case``, a shipped name or a spec file, gives the
     robot and the yardstick) or a policy (a shipped name, a run folder, a checkpoint). A policy's
     waveform is ``fields_csv`` when given, else the ``fields.csv`` of a shipped policy, else it is
-    generated as ``msr generate`` does (the policy on the nominal robot, accurate physics, field
+    generated as ``msr policy generate`` does (the policy on the nominal robot, accurate physics, field
     from zero, ``duration`` s). ``variations`` default to :func:`default_variations`.
 
     Raises ValueError (SpecError, FieldCSVError, VariationError, PolicyFileError) or
@@ -114,7 +114,7 @@ def plan_robustness(
         if fields_csv is not None:
             raise ValueError("--fields is for a policy's waveform; the source is already a field CSV")
         the_case = load_case(case)
-        fields, waveform = read_field_csv(source, plausible=True), str(source)  # as msr replay
+        fields, waveform = read_field_csv(source, plausible=True), str(source)  # as msr field replay
     else:
         if case is not None:
             raise ValueError(f"{source}: a policy carries its case; --case is for a field CSV")
@@ -138,7 +138,7 @@ def plan_robustness(
         checked = case_from_dict(varied, f"variant {variant.label!r}", default_name=the_case.name)
         checked.robot_spec(physics)  # builds the robot: its own checks
         specs.append(varied)
-    if fields is None:  # a run or checkpoint without a waveform: generate it, as msr generate
+    if fields is None:  # a run or checkpoint without a waveform: generate it, as msr policy generate
         from ..shipping.policy_runs import run_policy
 
         rollout = run_policy(policy, duration, "accurate", "zero", progress)
@@ -221,10 +221,13 @@ def run_robustness(
     workers = max(1, min(int(workers or os.cpu_count() or 1), len(jobs)))
     start = time.perf_counter()
     if workers == 1:
-        from tqdm.auto import tqdm
+        from elastica_magnetic.progress import progress_bar
 
-        results = [run_variant(job) for job in tqdm(jobs, desc="robustness", unit="run",
-                                                    disable=not progress, leave=False)]
+        results = []
+        with progress_bar(len(jobs), "robustness", "run", disable=not progress, leave=False) as bar:
+            for job in jobs:
+                results.append(run_variant(job))
+                bar.update()
     else:
         from ..sweep.backends import run_in_processes
 

@@ -2,7 +2,7 @@
 
 Two formats are read (CSV, a header line, SI units):
 
-- the ``trajectory.csv`` that ``msr replay`` and ``msr generate`` write: ``t_s`` and the markers
+- the ``trajectory.csv`` that ``msr field replay`` and ``msr policy generate`` write: ``t_s`` and the markers
   ``back``, ``mid`` and ``front`` (``<name>_x_m``, ``<name>_y_m``; element centres: the first,
   the mean of the two central ones, the last);
 - a tracker's CSV: ``t_s`` (s, from the moment the waveform's first row starts) and, for each

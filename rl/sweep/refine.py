@@ -60,7 +60,7 @@ def refine(
     ``run``: a run folder or its ``checkpoint.pt``, whose final actor is refined, or its ``best.pt``
     (:func:`~elastica_magnetic_rl.sweep.refine_start.refine_source`: best.pt's networks, the rest of
     the run's training state; which actor to refine is the command line's choice, the rule of
-    ``msr generate``). The agent (networks, targets, optimisers), its replay buffer, RNG states and
+    ``msr policy generate``). The agent (networks, targets, optimisers), its replay buffer, RNG states and
     counters come from the run's checkpoint (``init_from``), so learning continues at once (the
     counters are past the warm-up) with the training-physics transitions still in the buffer,
     gradually displaced by accurate ones. Episodes keep the training setting (random initial
@@ -72,7 +72,7 @@ def refine(
     (:mod:`~elastica_magnetic_rl.sweep.refine_resume`).
 
     ``spec``: a spec file (or shipped case) of the same robot with other physical values (e.g.
-    the ``identified.toml`` of ``msr identify``): the refinement trains on that robot. Anything
+    the ``identified.toml`` of ``msr real identify``): the refinement trains on that robot. Anything
     else that differs (elements, magnetization pattern, task, actuation) is refused, naming the
     key; the changed values are recorded in ``run.json`` (``spec_from``, ``physical_changes``:
     key -> [run's value, new value], SI). The spec's ``[training.randomize]``, when it has one,
@@ -85,7 +85,7 @@ def refine(
     fine-tunes a policy learned on the nominal robot for the robots a lab may build), ``"none"``,
     the nominal robot, ``None``, the run's own setting. Recorded in ``run.json`` (the case's
     ``[training.randomize]`` and ``refine_randomize``). A refinement runs no evaluations: its
-    final actor is what ``msr generate`` and ``msr robustness`` play.
+    final actor is what ``msr policy generate`` and ``msr real robustness`` play.
 
     Cost: one accurate step is 1250 substeps (~0.1 s here), 12.5x a training step.
     """

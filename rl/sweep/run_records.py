@@ -5,11 +5,10 @@ that a resumed run keeps those settings (:func:`check_resume_settings`).
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
-from elastica_magnetic.io import atomic_write_json
+from elastica_magnetic.io import atomic_write_json, display_path, read_json
 
 from ..cases.case import Case
 from ..runfiles.provenance import versions
@@ -19,7 +18,7 @@ __all__ = ["check_resume_settings", "first_difference", "run_metadata", "write_r
 
 
 def run_metadata(case: Case, physics: str, duration: float, seed: int, **extra: Any) -> dict:
-    """A run's record: the case by name and complete (``case_spec``: what ``msr generate``,
+    """A run's record: the case by name and complete (``case_spec``: what ``msr policy generate``,
     ``refine``, ``ship`` and ``export`` rebuild it from, without the spec file), its settings."""
     return {"case": case.name, "field_limit_T": case.field_limit, "task": case.task.kind,
             "physics": physics, "episode_duration_s": duration, "seed": int(seed), **extra,
@@ -34,12 +33,12 @@ def check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
     """A resumed run keeps its case, physics and episode length: refuse other values, naming the
     option and the run's value."""
     run_json = RunDir(run_dir).run_json
-    if not run_json.is_file():
-        return
-    try:
-        record = json.loads(run_json.read_text())
-    except ValueError as err:
-        raise ValueError(f"{run_json}: not readable JSON ({err})") from None
+    if not run_json.is_file():  # without it the resume would take today's options for the run's
+        raise ValueError(f"cannot resume {display_path(run_dir)}: its {RunDir.RUN_JSON} (the record "
+                         "of the run's case, physics and episode length) is missing, so the resume "
+                         "cannot keep the run's settings; restore it (e.g. from a backup), or "
+                         "train the seed afresh without --resume")
+    record = read_json(run_json)
     options = {"case": "--case", "physics": "--physics", "episode_duration_s": "--episode-duration",
                "recipe": "--recipe", "stop_rule": "--stop-when"}
     for key in _RUN_SETTINGS:
@@ -82,7 +81,7 @@ def write_run_json(run_dir: Path, config, metadata: dict[str, Any], steps: int, 
     record = {}
     run_json = RunDir(run_dir).run_json
     if run_json.is_file():
-        record = json.loads(run_json.read_text())
+        record = read_json(run_json)
     atomic_write_json(run_json, {
         **record, **metadata, "steps": int(steps), "config": config.to_dict(),
         "torch_threads": int(threads), "versions": versions(),

@@ -1,8 +1,7 @@
 """The summaries of a sweep: one run's episodes and evaluations (:func:`summarize_run`), and each
-case's ``summary.json`` over every seed folder of the case (:func:`case_summary`), written by
-``msr train`` (:func:`elastica_magnetic_rl.sweep.training.train_cases`) and read by ``msr ship`` and the
-reports.
-"""
+case's ``summary.json`` over every seed folder of the case (:func:`case_summary`), written by ``msr
+train`` (:func:`elastica_magnetic_rl.sweep.training.train_cases`) and read by ``msr policy ship``
+and the reports."""
 
 from __future__ import annotations
 
@@ -122,7 +121,7 @@ def case_summary(case_dir: CaseDir, spec: Case, mine: list[dict[str, Any]], seed
     A seed counts as *succeeded* when its final mean episode return reaches ``success_fraction``
     of the yardstick's distance rate (its 10 s distance, scaled to the episode length, x the
     reward scale): a heuristic to count working seeds, reported with its threshold (crawling cases
-    with a yardstick distance only; the seeds' real test is ``msr export-seeds``)."""
+    with a yardstick distance only; the seeds' real test is ``msr policy export-seeds``)."""
     for r in mine:
         if "run_dir" in r:
             r["run_dir"] = str(case_dir.seed(r["seed"]).path)

@@ -93,6 +93,11 @@ SATURATION_PREACTIVATION = 3.0
 _Part = TypeVar("_Part")
 
 
+#: Most gradient updates per environment step: high update-to-data methods (REDQ, DroQ) use 20; far
+#: beyond, a run spends its time updating on the same few transitions (1e9 stalled a run forever).
+MAX_UPDATES_PER_STEP = 64
+
+
 @dataclass
 class Hyperparameters:
     """What TD3 learns with: networks, optimisation, replay, exploration and TD3's own settings
@@ -215,9 +220,10 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
         if self.eval_episodes < 1:
             raise ValueError(f"eval_episodes must be >= 1, got {self.eval_episodes}")
         ratio = self.updates_per_step
-        if not (isinstance(ratio, int | float) and math.isfinite(ratio) and ratio > 0):
-            raise ValueError(f"updates_per_step must be a finite number > 0 (updates per transition), "
-                             f"got {ratio}")
+        if not (isinstance(ratio, int | float) and math.isfinite(ratio)
+                and 0 < ratio <= MAX_UPDATES_PER_STEP):
+            raise ValueError(f"updates_per_step must be a finite number in (0, {MAX_UPDATES_PER_STEP}] "
+                             f"(updates per transition), got {ratio}")
         if float(ratio).is_integer():
             self.updates_per_step = int(ratio)
         for name in ("learning_starts", "eval_every"):

@@ -36,21 +36,27 @@ def _parse_error(argv, capsys) -> str:
 @pytest.mark.parametrize(
     "argv, message",
     [
-        (["replay", "F", "--duration", "inf"], "argument --duration: expected a finite number of s in "
+        (["field", "replay", "F", "--duration", "inf"],
+         "argument --duration: expected a finite number of s in "
          "[0.01, 3600], got 'inf'"),
-        (["replay", "F", "--duration", "1e12"], "argument --duration: expected a finite number of s"),
-        (["replay", "F", "--duration", "nan"], "got 'nan'"),
-        (["replay", "F", "--duration", "0"], "got '0'"),
-        (["simulate", "--ramp", "inf"], "argument --ramp: expected a finite number of s >= 0, got 'inf'"),
-        (["simulate", "--ramp", "nan"], "argument --ramp: expected a finite number of s >= 0, got 'nan'"),
-        (["simulate", "--frequency", "60"], "argument --frequency: expected a finite number of Hz in "
+        (["field", "replay", "F", "--duration", "1e12"],
+         "argument --duration: expected a finite number of s"),
+        (["field", "replay", "F", "--duration", "nan"], "got 'nan'"),
+        (["field", "replay", "F", "--duration", "0"], "got '0'"),
+        (["field", "simulate", "--ramp", "inf"],
+         "argument --ramp: expected a finite number of s >= 0, got 'inf'"),
+        (["field", "simulate", "--ramp", "nan"],
+         "argument --ramp: expected a finite number of s >= 0, got 'nan'"),
+        (["field", "simulate", "--frequency", "60"],
+         "argument --frequency: expected a finite number of Hz in "
          "(-50, 50), got '60'"),
-        (["simulate", "--amplitude", "0"], "argument --amplitude: expected a finite number of T in (0, 0.1]"),
-        (["simulate", "--amplitude", "abc"], "got 'abc'"),
-        (["generate", "m1-4mT", "--duration", "-1"], "argument --duration"),
-        (["baseline", "--case", "m1-4mT", "--period", "0"], "argument --period: expected a finite "
+        (["field", "simulate", "--amplitude", "0"],
+         "argument --amplitude: expected a finite number of T in (0, 0.1]"),
+        (["field", "simulate", "--amplitude", "abc"], "got 'abc'"),
+        (["policy", "generate", "m1-4mT", "--duration", "-1"], "argument --duration"),
+        (["field", "baseline", "--case", "m1-4mT", "--period", "0"], "argument --period: expected a finite "
          "number of s > 0"),
-        (["demo", "--duration", "inf"], "argument --duration"),
+        (["policy", "demo", "--duration", "inf"], "argument --duration"),
         (["bench", "--steps", "0"], "argument --steps: expected an integer >= 1, got '0'"),
         (["bench", "--memory-seeds", "-1"], "argument --memory-seeds: expected an integer >= 0"),
     ],
@@ -60,18 +66,18 @@ def test_numeric_options_are_checked_at_parse_time(argv, message, capsys):
 
 
 def test_ramp_longer_than_the_run(no_simulation, tmp_path, capsys):
-    assert main(["simulate", "--ramp", "5", "--duration", "1", "--out", str(tmp_path)]) == 2
+    assert main(["field", "simulate", "--ramp", "5", "--duration", "1", "--out", str(tmp_path)]) == 2
     assert "--ramp 5 s is longer than --duration 1 s" in capsys.readouterr().err
 
 
 def test_replay_past_the_end_of_the_file_is_refused(no_simulation, field_csv, tmp_path, capsys):
-    assert main(["replay", str(field_csv), "--duration", "0.6", "--out", str(tmp_path / "o")]) == 2
+    assert main(["field", "replay", str(field_csv), "--duration", "0.6", "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert "--duration 0.6 s is past the end of" in err and "(0.5 s: 50 rows at 100 Hz)" in err
     assert not (tmp_path / "o").exists()
 
 
-@pytest.mark.parametrize("command", [["simulate"], ["replay", "FIELD"]])
+@pytest.mark.parametrize("command", [["field", "simulate"], ["field", "replay", "FIELD"]])
 def test_out_that_is_a_file_or_under_a_file(no_simulation, field_csv, tmp_path, capsys, command):
     command = [str(field_csv) if c == "FIELD" else c for c in command]
     afile = tmp_path / "afile"
@@ -88,7 +94,7 @@ def test_out_read_only(no_simulation, tmp_path, capsys):
     folder.mkdir()
     folder.chmod(0o500)
     try:
-        assert main(["simulate", "--duration", "0.1", "--out", str(folder)]) == 2
+        assert main(["field", "simulate", "--duration", "0.1", "--out", str(folder)]) == 2
         assert "cannot write in" in capsys.readouterr().err
     finally:
         folder.chmod(0o700)
@@ -112,7 +118,7 @@ def test_replay_reference_checked_before_the_run(no_simulation, field_csv, tmp_p
     reference = tmp_path / "reference.csv"
     reference.write_text(text)
     out = tmp_path / "out"
-    assert main(["replay", str(field_csv), "--reference", str(reference), "--out", str(out)]) == 2
+    assert main(["field", "replay", str(field_csv), "--reference", str(reference), "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert f"--reference {reference}: " in err and message in err
     assert not (out / "trajectory.csv").exists()
@@ -129,11 +135,11 @@ def test_out_that_is_a_file_other_commands(field_csv, tmp_path, capsys, command)
     measurements.write_text("current_x_A,current_y_A,current_z_A,field_x_mT,field_y_mT,field_z_mT\n"
                             "1,0,0,1,0,0\n0,1,0,0,1,0\n0,0,1,0,0,1\n")
     argv = {
-        "generate": ["generate", "m1-4mT", "--duration", "0.01", "--no-progress"],
-        "export": ["export", "m1-4mT"],
-        "export-firmware": ["export-firmware", str(field_csv), "--calibration",
+        "generate": ["policy", "generate", "m1-4mT", "--duration", "0.01", "--no-progress"],
+        "export": ["policy", "export", "m1-4mT"],
+        "export-firmware": ["hw", "firmware", str(field_csv), "--calibration",
                             str(default_calibration_path())],
-        "calibrate": ["calibrate", str(measurements)],
+        "calibrate": ["hw", "calibrate", str(measurements)],
     }[command]
     assert main([*argv, "--out", str(out / "c.json" if command == "calibrate" else out)]) == 2
     assert f"{afile} is a file, not a folder" in capsys.readouterr().err
@@ -147,5 +153,37 @@ def test_out_that_is_a_file_other_commands(field_csv, tmp_path, capsys, command)
 def test_calibrate_measurements_unreadable(tmp_path, capsys, data, message):
     measurements = tmp_path / "m.csv"
     measurements.write_bytes(data)
-    assert main(["calibrate", str(measurements), "--out", str(tmp_path / "c.json")]) == 2
+    assert main(["hw", "calibrate", str(measurements), "--out", str(tmp_path / "c.json")]) == 2
     assert f"{measurements}: {message}" in capsys.readouterr().err
+
+
+def test_simulate_amplitude_is_judged_as_a_coil_field(tmp_path, capsys):
+    """``--amplitude`` went unjudged where a field CSV of the same strength is refused (round 4, S1)."""
+    out = tmp_path / "sim"
+    assert main(["field", "simulate", "--amplitude", "0.000004", "--duration", "0.02", "--out",
+                 str(out)]) == 2
+    assert "--amplitude 4e-06 T is below 5e-05 T, the Earth's field" in capsys.readouterr().err
+    assert not out.exists()
+    assert main(["field", "simulate", "--amplitude", "0.0004", "--duration", "0.02", "--physics",
+                 "training", "--no-progress", "--out", str(out)]) == 0
+    assert "warning: --amplitude 0.0004 T is below 0.0005 T, weak for moving a robot" in (
+        capsys.readouterr().err)
+
+
+def test_a_reference_in_millimetres_is_refused(tmp_path, capsys):
+    """``--reference`` positions in mm were compared as m: an error of 10 m reported as a result
+    (round 4, S9)."""
+    from elastica_magnetic.simulation import TRAJECTORY_COLUMNS
+
+    field = tmp_path / "f.csv"
+    field.write_text("mag_x,mag_y,mag_z\n" + "0,4,0\n" * 5)
+    reference = tmp_path / "ref.csv"
+    rows = [",".join(TRAJECTORY_COLUMNS)]
+    for k in range(3):  # the robot's 20 mm in mm
+        rows.append(",".join([f"{0.01 * k:g}", "10", "0.5", "0", "0.5", "20", "0.5", "1", "20"]))
+    reference.write_text("\n".join(rows) + "\n")
+    assert main(["field", "replay", str(field), "--reference", str(reference), "--out",
+                 str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err
+    assert "--reference" in err and "= 20 m is above 10 m" in err and "looks like mm" in err, err
+    assert not (tmp_path / "r").exists()

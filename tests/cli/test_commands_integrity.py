@@ -1,5 +1,5 @@
 """The writing commands outside the learning package against an existing result (issue 35):
-``msr simulate``, ``msr replay`` and ``msr validate`` are interrupted (SIGINT, SIGTERM, SIGKILL
+``msr field simulate``, ``msr field replay`` and ``msr validate`` are interrupted (SIGINT, SIGTERM, SIGKILL
 after N files opened for writing, or between the swap's renames) or fail (ENOSPC after N bytes)
 in a real process; the old result must survive byte for byte and nothing partial be left.
 
@@ -23,7 +23,7 @@ from elastica_magnetic.cli import main
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="signals are POSIX")
 
-SIMULATE = ["simulate", "--duration", "0.05", "--physics", "training", "--amplitude", "0.004"]
+SIMULATE = ["field", "simulate", "--duration", "0.05", "--physics", "training", "--amplitude", "0.004"]
 
 
 def snapshot(folder: Path) -> dict[str, bytes]:
@@ -46,7 +46,7 @@ def run_with_fault(server, fault: tuple[str, int, str], argv: list[str]):
 
 @pytest.fixture(scope="module")
 def old_simulation(tmp_path_factory) -> Path:
-    """A finished ``msr simulate`` result (written once, copied by each test)."""
+    """A finished ``msr field simulate`` result (written once, copied by each test)."""
     out = tmp_path_factory.mktemp("old") / "sim"
     assert main([*SIMULATE, "--frequency", "-2", "--out", str(out)]) == 0
     return out
@@ -96,13 +96,13 @@ def test_simulate_killed_then_the_next_run_recovers(fault_server, existing, caps
 def test_simulate_replaces_only_with_force_and_never_another_commands_result(existing, capsys):
     out, old = existing
     assert main([*SIMULATE, "--out", str(out)]) == 2
-    assert (f"--out {out}: already holds a result of `msr simulate` for robot yao2023-m1"
+    assert (f"--out {out}: already holds a result of `msr field simulate` for robot yao2023-m1"
             in capsys.readouterr().err)
     marker = json.loads((out / ".msr-result.json").read_text())
     (out / ".msr-result.json").write_text(json.dumps({**marker, "kind": "generate",
                                                       "subject": "case m1-4mT"}))
     assert main([*SIMULATE, "--out", str(out), "--force"]) == 2
-    assert "holds a result of `msr generate` for case m1-4mT" in capsys.readouterr().err
+    assert "holds a result of `msr policy generate` for case m1-4mT" in capsys.readouterr().err
     (out / ".msr-result.json").write_text(json.dumps(marker))
     assert main([*SIMULATE, "--out", str(out), "--force", "--json"]) == 0
     result = json.loads(capsys.readouterr().out)
@@ -114,9 +114,9 @@ def test_simulate_replaces_only_with_force_and_never_another_commands_result(exi
 def test_replay_over_another_robots_result_is_refused(fault_server, existing, reference_dir, capsys):
     out, old = existing
     field_csv = reference_dir / "magnetic_field.csv"
-    replay = ["replay", str(field_csv), "--duration", "0.05", "--physics", "training"]
+    replay = ["field", "replay", str(field_csv), "--duration", "0.05", "--physics", "training"]
     assert main([*replay, "--out", str(out), "--force"]) == 2
-    assert "holds a result of `msr simulate`" in capsys.readouterr().err
+    assert "holds a result of `msr field simulate`" in capsys.readouterr().err
     replay_out = out.parent / "replay"
     assert main([*replay, "--out", str(replay_out)]) == 0
     assert main([*replay, "--robot", "yao2023-m2", "--out", str(replay_out), "--force"]) == 2

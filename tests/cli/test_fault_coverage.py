@@ -8,7 +8,6 @@ byte for byte, nothing is left beside it, a file of the user's beside it is unto
 
 from __future__ import annotations
 
-import argparse
 import os
 import signal
 from pathlib import Path
@@ -17,41 +16,42 @@ import numpy as np
 import pytest
 from faults import Fault
 
-from elastica_magnetic.cli import OUTPUT_TYPES, build_parser, main
+from elastica_magnetic.cli import OUTPUT_TYPES, listed_commands, main
 from elastica_magnetic.field_csv import write_field_csv
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="fork and signals are POSIX")
 
 #: Writing command -> the fault-injection tests that cover it ("tests/PATH.py::FUNCTION").
 FAULT_TESTS: dict[str, tuple[str, ...]] = {
-    "replay": ("cli/test_commands_integrity.py::test_replay_over_another_robots_result_is_refused",),
-    "simulate": ("cli/test_commands_integrity.py::test_simulate_killed_then_the_next_run_recovers",
+    "field replay": ("cli/test_commands_integrity.py::test_replay_over_another_robots_result_is_refused",),
+    "field simulate": ("cli/test_commands_integrity.py::test_simulate_killed_then_the_next_run_recovers",
                  "cli/test_commands_integrity.py::test_a_full_filesystem_keeps_the_old_result"),
     "validate": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
-    "generate": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
-    "baseline": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
-    "demo": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
-    "robustness": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
-    "identify": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
-    "stream": ("cli/test_fault_coverage.py::test_stream_log_interrupted_keeps_the_old_log",),
-    "figures": ("cli/test_writer_faults.py::test_figures_interrupted_leave_the_earlier_figures",),
-    "seeds": ("cli/test_fault_coverage.py::test_seeds_figures_interrupted_leave_the_earlier_ones",),
-    "export-firmware": ("cli/test_writer_faults.py::test_killed_while_writing_then_the_next_run_cleans_up",
+    "policy generate": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
+    "field baseline": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
+    "policy demo": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
+    "real robustness": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
+    "real identify": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
+    "hw stream": ("cli/test_fault_coverage.py::test_stream_log_interrupted_keeps_the_old_log",),
+    "policy figures": ("cli/test_writer_faults.py::test_figures_interrupted_leave_the_earlier_figures",),
+    "policy seeds": ("cli/test_fault_coverage.py::test_seeds_figures_interrupted_leave_the_earlier_ones",),
+    "hw firmware": ("cli/test_writer_faults.py::test_killed_while_writing_then_the_next_run_cleans_up",
                         "cli/test_writer_faults.py::test_interrupted_or_full_disk_keeps_the_old_result_whole"),
-    "calibrate": ("cli/test_writer_faults.py::test_killed_while_writing_then_the_next_run_cleans_up",),
-    "export": ("rl/shipping/test_command_faults.py::"
+    "hw calibrate": ("cli/test_writer_faults.py::test_killed_while_writing_then_the_next_run_cleans_up",),
+    "policy export": ("rl/shipping/test_command_faults.py::"
                "test_export_killed_while_building_and_between_the_renames",
                "rl/shipping/test_export_full_disk.py::test_export_on_a_full_disk_is_a_named_error"),
-    "export-seeds": ("rl/shipping/test_command_faults.py::"
+    "policy export-seeds": ("rl/shipping/test_command_faults.py::"
                      "test_export_seeds_killed_while_building_and_between_the_renames",),
-    "ship": ("rl/shipping/test_command_faults.py::test_ship_killed_mid_swap_is_finished_by_the_next_reader",
-             "rl/shipping/test_export_full_disk.py::test_ship_on_a_full_disk_is_a_named_error"),
+    "policy ship": ("rl/shipping/test_command_faults.py::"
+                    "test_ship_killed_mid_swap_is_finished_by_the_next_reader",
+                    "rl/shipping/test_export_full_disk.py::test_ship_on_a_full_disk_is_a_named_error"),
     "train": ("rl/sweep/test_training_faults.py::"
               "test_a_full_disk_then_a_kill_mid_checkpoint_keep_the_last_good_one",),
     "refine": ("rl/cli/test_run_writer_faults.py::test_refine_killed_mid_checkpoint_resumes",),
-    "diagnose": ("rl/reports/test_diagnostics.py::"
+    "policy diagnose": ("rl/reports/test_diagnostics.py::"
                  "test_diagnose_figures_interrupted_leave_the_earlier_ones",),
-    "notes": ("rl/cli/test_run_writer_faults.py::test_notes_interrupted_leave_the_policy_whole",),
+    "policy notes": ("rl/cli/test_run_writer_faults.py::test_notes_interrupted_leave_the_policy_whole",),
     # interrupted in-process (Ctrl-C at a step; killed between a step and its record): each step
     # is one of the writers above, through the same mechanisms
     "loop": ("rl/loop/test_msr_loop.py::test_an_interrupted_loop_keeps_its_finished_steps",
@@ -65,18 +65,10 @@ PUBLISHED = ROOT / "elastica_magnetic" / "data" / "yao2023" / "magnetization1_4m
 
 def _writing_commands() -> set[str]:
     """Commands with an option parsed by the path rule, or that rewrite what they are given."""
-    found = {"notes"}  # writes into the policy folder it names (a positional argument)
-
-    def walk(parser: argparse.ArgumentParser, prefix: str) -> None:
-        for action in parser._actions:
-            if isinstance(action, argparse._SubParsersAction):
-                for name, sub in action.choices.items():
-                    full = f"{prefix} {name}".strip()
-                    if any(a.type in OUTPUT_TYPES for a in sub._actions):
-                        found.add(full)
-                    walk(sub, full)
-
-    walk(build_parser(), "")
+    found = {"policy notes"}  # writes into the policy folder it names (a positional argument)
+    for name, parser in listed_commands().items():
+        if any(a.type in OUTPUT_TYPES for a in parser._actions):
+            found.add(name)
     return found
 
 
@@ -111,18 +103,20 @@ def _identify_inputs(lab: Path) -> list[str]:
     run = run_open_loop(load_case("m1-4mT").robot_spec("training"),
                         TabulatedField.from_csv(fields), 0.3)
     write_trajectory_csv(run.trajectory, lab / "trajectory.csv")
-    return ["identify", str(fields), str(lab / "trajectory.csv"), "--robot", "m1-4mT", "--fit", "friction",
+    return ["real", "identify", str(fields), str(lab / "trajectory.csv"), "--robot", "m1-4mT", "--fit",
+            "friction",
             "--max-evaluations", "10", "--no-confirm", "--no-progress"]
 
 
 #: Cheap invocations of the result-folder writers (an earlier result is made with the same).
 WRITERS = {
-    "generate": lambda lab: ["generate", "m1-4mT", "--duration", "0.05", "--physics", "training",
+    "generate": lambda lab: ["policy", "generate", "m1-4mT", "--duration", "0.05", "--physics", "training",
                              "--no-gif", "--no-progress"],
-    "baseline": lambda lab: ["baseline", "--case", "m1-4mT", "--period", "0.05", "--duration", "0.05",
+    "baseline": lambda lab: ["field", "baseline", "--case", "m1-4mT", "--period", "0.05", "--duration",
+                             "0.05",
                              "--physics", "training", "--no-figures", "--no-progress"],
-    "demo": lambda lab: ["demo", "--duration", "0.05", "--no-progress"],
-    "robustness": lambda lab: ["robustness", str(_rotating_field(lab / "w.csv")), "--case",
+    "demo": lambda lab: ["policy", "demo", "--duration", "0.05", "--no-progress"],
+    "robustness": lambda lab: ["real", "robustness", str(_rotating_field(lab / "w.csv")), "--case",
                                "m1-4mT", "--duration", "0.05", "--vary", "density=0.9:1.1",
                                "--no-corners", "--workers", "1", "--no-progress"],
     "identify": _identify_inputs,
@@ -157,14 +151,26 @@ def test_a_writer_killed_interrupted_or_on_a_full_disk(fault_server, tmp_path, c
     assert snapshot(lab) == before
 
 
-def test_stream_log_interrupted_keeps_the_old_log(fault_server, tmp_path):
+def test_stream_log_interrupted_keeps_the_old_log(tmp_path, monkeypatch):
+    """Ctrl-C while the board's lines go into the new log (a board that answers: in-process, the
+    stream stands in for it; a port that does not open writes no log, tests/hardware/
+    test_stream.py): the earlier log stays byte for byte, no temporary is left."""
+    import elastica_magnetic.hardware.stream as stream
+
     log = tmp_path / "board.log"
-    log.write_text("the earlier stream's log\n")
-    argv = ["stream", str(PUBLISHED / "magnetic_field.csv"), "--port", "socket://127.0.0.1:9",
+    earlier = "MSR-FW 1.0 the earlier stream's log\nPONG\n"  # a board log: --force replaces it
+    log.write_text(earlier)
+
+    def answered_then_interrupted(port, field, *, log_path=None, **kwargs):
+        with open(log_path, "w") as handle:  # what the board said so far
+            handle.write("MSR-FW 1.0 a new stream\nPONG\n")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(stream, "stream_field", answered_then_interrupted)
+    argv = ["hw", "stream", str(PUBLISHED / "magnetic_field.csv"), "--port", "socket://127.0.0.1:9",
             "--timeout", "2", "--log", str(log), "--force", "--no-progress"]
-    done = fault_server.run(argv, Fault("open", r"\.board\.msr-new-", "SIGINT", nth=1))
-    assert done.returncode == 130, done.stderr
-    assert log.read_text() == "the earlier stream's log\n"
+    assert main(argv) == 130
+    assert log.read_text() == earlier
     assert sorted(p.name for p in tmp_path.iterdir()) == ["board.log"]
 
 
@@ -172,10 +178,10 @@ def test_seeds_figures_interrupted_leave_the_earlier_ones(fault_server, tmp_path
     figures = tmp_path / "figs"
     figures.mkdir()
     (figures / "notes.txt").write_text("the user's notes\n")
-    assert main(["seeds", "m1-4mT", "--figure", str(figures), "--json"]) == 0
+    assert main(["policy", "seeds", "m1-4mT", "--figure", str(figures), "--json"]) == 0
     capsys.readouterr()
     before = snapshot(figures)
-    done = fault_server.run(["seeds", "m1-4mT", "--figure", str(figures), "--force"],
+    done = fault_server.run(["policy", "seeds", "m1-4mT", "--figure", str(figures), "--force"],
                             Fault("open", r"\.msr-files-", "SIGINT", nth=1))
     assert done.returncode == 130, done.stderr
     assert snapshot(figures) == before

@@ -1,5 +1,5 @@
 """Fault injection for the writers brought under the result mechanisms by issue 48: ``msr
-export-firmware`` (a result folder), ``msr calibrate`` (one result file) and ``msr figures`` (a set
+export-firmware`` (a result folder), ``msr hw calibrate`` (one result file) and ``msr policy figures`` (a set
 of files in a folder holding other things). Each runs in a real process (``tests/faults.py``),
 killed or interrupted while writing, or on a full disk: the earlier result stays byte for byte
 ("old or new, whole"), a file of the user's beside it is never touched, and the next run cleans
@@ -37,9 +37,9 @@ def lab(tmp_path: Path) -> Path:
     """A folder with a user's file, measurements and an earlier export and calibration."""
     (tmp_path / "notes.txt").write_text("the user's notes\n")
     (tmp_path / "meas.csv").write_text(MEASUREMENTS)
-    assert main(["export-firmware", str(FIELD_CSV), "--calibration", str(CALIBRATION), "--out",
+    assert main(["hw", "firmware", str(FIELD_CSV), "--calibration", str(CALIBRATION), "--out",
                  str(tmp_path / "fw")]) == 0
-    assert main(["calibrate", str(tmp_path / "meas.csv"), "--out", str(tmp_path / "cal.json")]) == 0
+    assert main(["hw", "calibrate", str(tmp_path / "meas.csv"), "--out", str(tmp_path / "cal.json")]) == 0
     return tmp_path
 
 
@@ -48,12 +48,12 @@ def _export(lab: Path, *extra: str) -> list[str]:
     zeros = lab / "zeros.csv"
     if not zeros.exists():
         zeros.write_text("index,mag_x,mag_y,mag_z\n" + "".join(f"{i},0,0,0\n" for i in range(50)))
-    return ["export-firmware", str(zeros), "--calibration", str(CALIBRATION), "--out",
+    return ["hw", "firmware", str(zeros), "--calibration", str(CALIBRATION), "--out",
             str(lab / "fw"), *extra]
 
 
 def _calibrate(lab: Path, *extra: str) -> list[str]:
-    return ["calibrate", str(lab / "meas.csv"), "--name", "again", "--out", str(lab / "cal.json"),
+    return ["hw", "calibrate", str(lab / "meas.csv"), "--name", "again", "--out", str(lab / "cal.json"),
             *extra]
 
 
@@ -110,11 +110,11 @@ def test_figures_interrupted_leave_the_earlier_figures(fault_server, tmp_path, c
     out = tmp_path / "figs"
     out.mkdir()
     (out / "notes.txt").write_text("the user's notes\n")
-    assert main(["figures", str(seeds), "--out", str(out)]) == 0
+    assert main(["policy", "figures", str(seeds), "--out", str(out)]) == 0
     before = snapshot(out)
-    assert main(["figures", str(seeds), "--out", str(out)]) == 2
+    assert main(["policy", "figures", str(seeds), "--out", str(out)]) == 2
     assert "pass --force" in capsys.readouterr().err
-    done = fault_server.run(["figures", str(seeds), "--out", str(out), "--force"],
+    done = fault_server.run(["policy", "figures", str(seeds), "--out", str(out), "--force"],
                             Fault("open", r"\.msr-files-", "SIGINT", nth=1))
     assert done.returncode == 130, done.stderr
     assert snapshot(out) == before and sorted(os.listdir(tmp_path)) == ["figs"]
@@ -134,3 +134,23 @@ def test_a_read_only_folder_is_named_before_any_work(tmp_path, capsys, command):
         assert "Permission denied" in capsys.readouterr().err
     finally:
         locked.chmod(0o755)
+
+
+@pytest.mark.parametrize(("argv", "option", "kind"), [
+    (["hw", "calibrate", "{lab}/meas.csv", "--out", "{file}"], "--out", "a calibration JSON"),
+    (["hw", "stream", str(FIELD_CSV), "--port", "socket://127.0.0.1:1", "--log", "{file}"], "--log",
+     "a board log"),
+    (["hw", "stream", str(FIELD_CSV), "--port", "socket://127.0.0.1:1", "--codes-out", "{file}"],
+     "--codes-out", "an expected-DAC-codes CSV"),
+    (["field", "baseline", "--case", "m1-4mT", "--set-yardstick", "{file}"], "--set-yardstick",
+     "a spec file"),
+], ids=["calibrate", "stream --log", "stream --codes-out", "baseline --set-yardstick"])
+def test_force_never_replaces_a_file_of_the_users(argv, option, kind, lab, capsys):
+    """``--force`` replaces an earlier result, not whatever has the name (round 4, D2: ``msr
+    calibrate --out notes.txt --force`` turned the user's notes into a calibration)."""
+    before = snapshot(lab)
+    argv = [a.replace("{lab}", str(lab)).replace("{file}", str(lab / "notes.txt")) for a in argv]
+    assert main([*argv, "--force"]) == 2
+    err = capsys.readouterr().err
+    assert f"{option} " in err and f"notes.txt: is not {kind}" in err and "move it away" in err, err
+    assert snapshot(lab) == before

@@ -248,13 +248,13 @@ def test_stream_options_checked_at_parse_time(capsys, tmp_path: Path) -> None:
     for option, value in (("--timeout", "-1"), ("--timeout", "nan"), ("--baud", "0"),
                           ("--corrupt-row", "-2")):
         with pytest.raises(SystemExit):
-            main(["stream", "f.csv", "--port", "socket://127.0.0.1:1", option, value])
+            main(["hw", "stream", "f.csv", "--port", "socket://127.0.0.1:1", option, value])
         assert f"argument {option}: expected" in capsys.readouterr().err
     csv_path = tmp_path / "f.csv"
     csv_path.write_text("1,2,3\n")
-    assert main(["stream", str(csv_path), "--port", "socket://127.0.0.1:1", "--timeout", "1",
+    assert main(["hw", "stream", str(csv_path), "--port", "socket://127.0.0.1:1", "--timeout", "1",
                  "--no-progress"]) == 2
-    assert "msr stream: error: socket://127.0.0.1:1: cannot open the port" in capsys.readouterr().err
+    assert "msr hw stream: error: socket://127.0.0.1:1: cannot open the port" in capsys.readouterr().err
 
 
 # ----------------------------------------------------------------- calibration and stream checks
@@ -271,7 +271,7 @@ def test_stream_refuses_a_waveform_the_calibration_cannot_make(tmp_path: Path, c
     from elastica_magnetic.cli import main
 
     strong = csv_of(tmp_path / "strong.csv", np.tile([20.0, 0.0, 0.0], (50, 1)))
-    argv = ["stream", str(strong), "--port", "socket://127.0.0.1:1", "--no-progress",
+    argv = ["hw", "stream", str(strong), "--port", "socket://127.0.0.1:1", "--no-progress",
             "--calibration", str(default_calibration_path)]
     assert main(argv) == 2
     err = capsys.readouterr().err
@@ -290,7 +290,7 @@ def test_stream_uploads_a_differing_calibration(monkeypatch, tmp_path: Path, cap
     board = FakeBoard(default_calibration_path)
     monkeypatch.setattr(serial, "serial_for_url", lambda *a, **k: board)
     ten = csv_of(tmp_path / "ten.csv", np.tile([10.0, -9.0, 0.0], (150, 1)))
-    argv = ["stream", str(ten), "--port", "fake://", "--no-progress", "--json", "--calibration",
+    argv = ["hw", "stream", str(ten), "--port", "fake://", "--no-progress", "--json", "--calibration",
             str(YAO2023), "--timeout", "30"]
     assert main([*argv, "--no-upload"]) == 2
     assert "--no-upload" in capsys.readouterr().err and board.upload == b""
@@ -318,7 +318,7 @@ def test_stream_exits_nonzero_when_the_codes_differ(monkeypatch, tmp_path: Path,
     board.hash = calibration_hash(load_calibration(YAO2023))  # claims yao2023, plays default
     monkeypatch.setattr(serial, "serial_for_url", lambda *a, **k: board)
     weak = csv_of(tmp_path / "weak.csv", np.tile([3.0, 1.0, 0.0], (100, 1)))
-    assert main(["stream", str(weak), "--port", "fake://", "--no-progress", "--json",
+    assert main(["hw", "stream", str(weak), "--port", "fake://", "--no-progress", "--json",
                  "--calibration", str(YAO2023), "--timeout", "30"]) == 1
     captured = capsys.readouterr()
     assert json.loads(captured.out)["max_code_error_lsb"] > 1
@@ -362,7 +362,7 @@ def test_calibrate_upload_writes_and_uploads(monkeypatch, tmp_path: Path, capsys
     np.savetxt(meas, np.hstack([currents, fields_mT]), delimiter=",", comments="",
                header="current_x_A,current_y_A,current_z_A,field_x_mT,field_y_mT,field_z_mT")
     out = tmp_path / "bench1.json"
-    assert main(["calibrate", str(meas), "--out", str(out), "--name", "bench1", "--upload",
+    assert main(["hw", "calibrate", str(meas), "--out", str(out), "--name", "bench1", "--upload",
                  "fake://", "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["uploaded"]["after"].startswith("STATUS state=safe calibration=bench1 hash=")
@@ -401,3 +401,20 @@ def test_a_malformed_credit_line_is_named_and_the_board_stopped(default_calibrat
     assert board.received == QUEUE  # not a row beyond the last valid credit
     assert board.commands[-1] == "STOP"  # the fail-safe end: zero current
     assert "CREDIT abc" in log.read_text()  # the log keeps what the board said
+
+
+def test_msr_stream_to_a_port_that_does_not_open_keeps_the_previous_log(tmp_path: Path, capsys) -> None:
+    """Through the command (the log is a result file): ``--force`` replaces an earlier log only with
+    one that says something; a port that does not open left an empty file over it (round 4, D1)."""
+    from elastica_magnetic.cli import main
+
+    log = tmp_path / "board.log"
+    old = b"MSR-FW 1.0 previous stream\r\nSAFE end row=3 applied=3\n"
+    log.write_bytes(old)
+    assert main(["hw", "stream", str(csv_of(tmp_path / "f.csv", np.zeros((3, 3)))), "--port",
+                 "socket://127.0.0.1:1", "--log", str(log), "--force", "--timeout", "1",
+                 "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "cannot open the port" in err and "board.log is left as it was (nothing was logged)" in err
+    assert log.read_bytes() == old
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["board.log", "f.csv"]

@@ -1,6 +1,6 @@
 """Shared pieces of the learning package's tests.
 
-The helper modules beside this file (``benchmark_scripts``, ``smoke``, ``state_compare``,
+The helper modules beside this file (``benchmark_scripts``, ``smoke``, ``spec_matrix``, ``state_compare``,
 ``toy_data``, ``toy_env``) are imported by name from the test folders below it: pytest puts this
 folder on ``sys.path`` because it holds a ``conftest.py``.
 

@@ -1,6 +1,6 @@
 """benchmarks/robust_selection.py: which seed's waveform is shipped as ``<case>-robust``, and the
-study's loop over a case's committed seeds (each seed's scoring, msr robustness's library, is
-replaced by a stand-in here; msr robustness has its own tests), its choice in selection.json."""
+study's loop over a case's committed seeds (each seed's scoring, msr real robustness's library, is
+replaced by a stand-in here; msr real robustness has its own tests), its choice in selection.json."""
 
 from __future__ import annotations
 

@@ -108,19 +108,19 @@ def test_train_takes_a_spec_file_and_the_run_keeps_it(tmp_path, capsys):
                  "--resume"]) == 2
     assert "[actuation] field_limit" in capsys.readouterr().err
     mine.unlink()
-    assert main(["generate", str(run), "--duration", "0.03", "--out", str(tmp_path / "gen"),
+    assert main(["policy", "generate", str(run), "--duration", "0.03", "--out", str(tmp_path / "gen"),
                  "--no-figures", "--json", "--no-progress"]) == 0
     result = json.loads(capsys.readouterr().out)
     assert result["case"] == "soft" and result["duration_s"] == pytest.approx(0.03)
     assert main(["refine", str(run), "--steps", "2", "--episode-duration", "0.1", "--no-progress",
                  "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["case"] == "soft"
-    assert main(["ship", str(run / "refined"), "--name", "soft", "--dest", str(tmp_path / "ship"),
+    assert main(["policy", "ship", str(run / "refined"), "--name", "soft", "--out", str(tmp_path / "ship"),
                  "--no-measure", "--json"]) == 0
     capsys.readouterr()
     shipped = json.loads((tmp_path / "ship" / "soft" / "policy.json").read_text())
     assert shipped["case_spec"]["robot"]["magnetization"]["magnitude"] == 50000.0
-    assert main(["export", str(tmp_path / "ship" / "soft"), "--out", str(tmp_path / "exp"),
+    assert main(["policy", "export", str(tmp_path / "ship" / "soft"), "--out", str(tmp_path / "exp"),
                  "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["case"] == "soft"
 

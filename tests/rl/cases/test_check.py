@@ -42,7 +42,7 @@ def test_check_warns_on_a_zero_yardstick(tmp_path, capsys):
     spec = _spec_file(tmp_path, "nostick", {("yardstick", "distance_10s"): 0.0})
     assert msr(["case", "check", spec, "--no-sag"]) == 0
     out = capsys.readouterr().out
-    assert "warning: [yardstick] distance_10s" in out and "msr baseline" in out
+    assert "warning: [yardstick] distance_10s" in out and "msr field baseline" in out
 
 
 def test_check_exits_1_on_an_error(monkeypatch, capsys):

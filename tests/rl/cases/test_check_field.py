@@ -1,7 +1,7 @@
 """``msr case check`` on a spec with a ``[field]`` in space (issue 48, a held-out round of tries,
 sf_*): the check never built the field, so a magnet edge in mm, a polarization in mT, a gradient
 in mT/m or not symmetric, a magnet inside the rod or a coil's wire through it passed with exit
-status 0, while ``msr simulate --robot`` refused each. ``case check`` now builds and checks the
+status 0, while ``msr field simulate --robot`` refused each. ``case check`` now builds and checks the
 field exactly as ``simulate`` does (the same message, exit status 2; warnings as warnings) and
 lists ``field`` under "checked"."""
 
@@ -44,13 +44,13 @@ def catheter_with(tmp_path: Path, field: str) -> Path:
 @pytest.mark.parametrize("mistake", list(MISTAKES))
 def test_case_check_refuses_the_field_simulate_refuses(tmp_path, capsys, mistake):
     spec = catheter_with(tmp_path, MISTAKES[mistake])
-    assert msr(["simulate", "--robot", str(spec), "--physics", "training", "--duration", "0.02",
+    assert msr(["field", "simulate", "--robot", str(spec), "--physics", "training", "--duration", "0.02",
                 "--out", str(tmp_path / "sim")]) == 2
     refused = capsys.readouterr().err.strip()
-    assert refused.startswith(f"msr simulate: error: {spec}: [field]")
+    assert refused.startswith(f"msr field simulate: error: {spec}: [field]")
     assert msr(["case", "check", "--no-sag", str(spec)]) == 2
     captured = capsys.readouterr()
-    assert captured.err.strip() == refused.replace("msr simulate:", "msr case:", 1)
+    assert captured.err.strip() == refused.replace("msr field simulate:", "msr case:", 1)
     assert captured.out == ""  # refused before the report
 
 

@@ -1,5 +1,5 @@
 """``msr case check`` on a spec without a ``[task]`` table (issue 48, "Tracebacks and vague
-messages", item 5): such a spec describes a robot that ``msr simulate --robot`` simulates but
+messages", item 5): such a spec describes a robot that ``msr field simulate --robot`` simulates but
 ``msr train`` cannot train. ``msr case check`` refused it ("task: missing (required)"); it now
 checks the robot and says what it checked and what it could not, and why."""
 
@@ -47,7 +47,7 @@ def test_a_spec_without_task_or_training_is_checked_and_says_what_not(tmp_path, 
     assert "magnetic bending number M B L^2 A / EI = 21.8" in out and "dt training" in out
     assert out.rstrip().splitlines()[-1] == (
         "  checked: robot, time steps, field limit; not checked: sag (--no-sag); training (the "
-        f"spec has no [task] table; it can be simulated with msr simulate --robot {spec}, not "
+        f"spec has no [task] table; it can be simulated with msr field simulate --robot {spec}, not "
         "trained)")
 
 
@@ -84,4 +84,14 @@ def test_a_spec_with_a_task_is_still_checked_as_a_case(tmp_path, capsys):
     spec = without(tmp_path, "actuation")  # a case missing a required table stays an error
     with pytest.raises(SystemExit):
         msr(["case", "check", spec, "--no-sag"])
-    assert f"argument case: {spec}: actuation: missing (required)" in capsys.readouterr().err
+    assert f"argument case: {spec}: [actuation] missing: a required table (field_limit (T)" in (
+        capsys.readouterr().err)
+
+
+def test_show_of_a_spec_without_task_says_what_the_table_is_for(tmp_path, capsys):
+    spec = without(tmp_path, "task")
+    with pytest.raises(SystemExit):
+        msr(["case", "show", spec])
+    err = capsys.readouterr().err
+    assert f"argument case: {spec}: [task] missing: a required table (what the robot learns" in err, err
+    assert "msr field simulate --robot FILE" in err

@@ -80,3 +80,18 @@ def test_a_field_limit_below_the_earths_field_is_refused_in_a_case():
     with pytest.raises(SpecError, match=r"my\.toml: \[actuation\] field_limit = 4e-06 T is below "
                                         r"5e-05 T, the Earth's field"):
         case_from_dict(data, "my.toml")
+
+
+def test_a_reward_scale_per_mm_written_as_per_m_warns_and_accept_silences_it(tmp_path):
+    path = _toml(tmp_path, **{"reward_scale = 10000.0": "reward_scale = 10.0"})
+    with pytest.warns(ImplausibleValueWarning, match=r"my\.toml: \[task\] reward_scale: 10 per m gives "
+                      r"a reward of 0\.2 for crawling one body length \(0\.02 m\).*looks like a reward "
+                      r"per mm or per cm written as per m \(10 per mm is 10000 per m") as record:
+        case_from_dict(read_spec(path), str(path.name), default_name="my")
+    assert record[0].message.key == "task.reward_scale"
+    accepted = tmp_path / "accepted.toml"
+    accepted.write_text(path.read_text() + '\n[checks]\naccept = ["task.reward_scale"]\n')
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ImplausibleValueWarning)
+        case = case_from_dict(read_spec(accepted), "accepted.toml", default_name="my")
+    assert case.task.reward_scale == 10.0

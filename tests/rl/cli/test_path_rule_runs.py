@@ -34,10 +34,10 @@ def user_folder(tmp_path, monkeypatch) -> Path:
 def _commands(trained: Path, spelled: str) -> dict[str, list[str]]:
     seed0 = str(trained / "m1-4mT" / "seed0")
     return {
-        "export-seeds": ["export-seeds", str(trained / "m1-4mT"), "--dest", spelled, "--force"],
+        "export-seeds": ["policy", "export-seeds", str(trained / "m1-4mT"), "--out", spelled, "--force"],
         "refine": ["refine", seed0, "--checkpoint", "final", "--steps", "3", "--out", spelled],
-        "diagnose": ["diagnose", seed0, "--figure", spelled],
-        "ship": ["ship", seed0, "--name", "mine.txt", "--dest", spelled, "--no-measure",
+        "diagnose": ["policy", "diagnose", seed0, "--figure", spelled],
+        "ship": ["policy", "ship", seed0, "--name", "mine.txt", "--out", spelled, "--no-measure",
                  "--checkpoint", "final", "--force"],
     }
 

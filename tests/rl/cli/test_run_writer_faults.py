@@ -1,6 +1,6 @@
 """Fault injection for the writers that need a training run or a policy (issue 48; the registry
 of every writing command is ``tests/cli/test_fault_coverage.py``): ``msr refine`` killed while it
-writes its checkpoint, ``msr notes`` killed while it replaces a policy's notes (``msr diagnose
+writes its checkpoint, ``msr policy notes`` killed while it replaces a policy's notes (``msr policy diagnose
 --figure``: ``tests/rl/reports/test_diagnostics.py``). Each runs in a real process (``tests/faults.py``)."""
 
 from __future__ import annotations
@@ -46,11 +46,11 @@ def test_notes_interrupted_leave_the_policy_whole(fault_server, tmp_path, capsys
     before = snapshot(policy)
     notes = tmp_path / "new.md"
     notes.write_text("New notes of the lab.\n")
-    done = fault_server.run(["notes", str(policy), "--file", str(notes)],
+    done = fault_server.run(["policy", "notes", str(policy), "--file", str(notes)],
                             Fault("open", r"\.msr-files-", "SIGKILL", nth=1))
     assert done.returncode == -signal.SIGKILL
     resolve_policy(str(policy))  # a reader recovers the folder first: the policy loads whole
     after = snapshot(policy)
     assert {k: v for k, v in after.items() if not k.startswith(".")} == before
-    assert msr(["notes", str(policy), "--file", str(notes)]) == 0
+    assert msr(["policy", "notes", str(policy), "--file", str(notes)]) == 0
     assert "New notes of the lab." in (policy / "MODEL_CARD.md").read_text()

@@ -93,6 +93,8 @@ def test_the_same_command_skips_finished_steps_and_runs_the_rest(interrupted_the
         assert f"loop: [{number}/8] {step}: started" in err
         assert f"loop: [{number}/8] {step}: done in " in err
     assert "\r" not in err  # no progress bars: stderr is not a terminal
+    # but plain progress lines within the steps (a log of a run of hours shows where it is)
+    assert "robustness: 100% (18/18 run)" in err, err
     assert "8 of 8 steps done" in out
 
 

@@ -1,6 +1,6 @@
-"""Tests of the run diagnostics (rl/reports/diagnostics.py, ``msr diagnose``): discounted returns against
-hand computations, episode ends from the stored transitions, and the two verdicts on runs whose
-critic or actor were made to fail."""
+"""Tests of the run diagnostics (rl/reports/diagnostics.py, ``msr policy diagnose``): discounted
+returns against hand computations, episode ends from the stored transitions, and the two verdicts on
+runs whose critic or actor were made to fail."""
 
 from __future__ import annotations
 
@@ -100,14 +100,14 @@ def test_healthy_run_and_the_two_failures(small_run, tmp_path):
 
 
 def test_msr_diagnose(small_run, tmp_path, capsys):
-    assert msr(["diagnose", str(small_run), "--recent", "300", "--figure", str(tmp_path / "f"),
+    assert msr(["policy", "diagnose", str(small_run), "--recent", "300", "--figure", str(tmp_path / "f"),
                 "--json"]) == 0
     row = json.loads(capsys.readouterr().out)["runs"][0]
     assert row["global_step"] == 400 and "_samples" not in row
     assert (tmp_path / "f" / f"health_{small_run.parent.name}_run.png").is_file()
-    assert msr(["diagnose", str(tmp_path / "nothing")]) == 2
+    assert msr(["policy", "diagnose", str(tmp_path / "nothing")]) == 2
     assert "nothing: no such run directory" in capsys.readouterr().err
-    assert msr(["diagnose", str(small_run), "--recent", "1"]) == 2
+    assert msr(["policy", "diagnose", str(small_run), "--recent", "1"]) == 2
     assert "--recent must be >= 2" in capsys.readouterr().err
 
 
@@ -153,9 +153,9 @@ def test_no_complete_return_names_the_horizon_the_episodes_and_a_fix_that_acts(
     # gamma 0.999: 4603 steps, the 100-step episodes can never give a complete return
     short = _with_gamma(small_run, tmp_path, 0.999, 1.0)
     capsys.readouterr()
-    assert msr(["diagnose", str(short), "--recent", "1000000"]) == 2
+    assert msr(["policy", "diagnose", str(short), "--recent", "1000000"]) == 2
     err = capsys.readouterr().err
-    assert (f"msr diagnose: error: {short}: none of its 400 transitions has a complete discounted "
+    assert (f"msr policy diagnose: error: {short}: none of its 400 transitions has a complete discounted "
             "return: its episodes (longest stored: 100 steps, 1 s; the run's episode length 1 s) "
             "are shorter than the discount horizon of 4603 steps, 46.03 s (gamma 0.999: gamma^H "
             "< 0.01); a larger --recent cannot help: train with episodes of at least 4603 steps, "
@@ -173,7 +173,7 @@ def test_diagnose_figures_interrupted_leave_the_earlier_ones(fault_server, small
 
     figures = tmp_path / "health"
     figures.mkdir()
-    argv = ["diagnose", str(small_run), "--recent", "300", "--figure", str(figures)]
+    argv = ["policy", "diagnose", str(small_run), "--recent", "300", "--figure", str(figures)]
     assert msr(argv) == 0
     capsys.readouterr()
     before = {p.name: p.read_bytes() for p in figures.iterdir()}

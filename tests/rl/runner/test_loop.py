@@ -351,7 +351,7 @@ def test_a_fractional_update_ratio_makes_exactly_its_updates_and_resumes_exactly
     assert Fraction(load_checkpoint(tmp_path / "killed")["update_credit"]) == Fraction(1, 2)  # 29 x 0.5
     resumed = train_vector(three, cfg, 150, tmp_path / "killed", resume=True, progress=False)
     assert_state_equal(whole.state_dict(), resumed.state_dict())
-    with pytest.raises(ValueError, match="updates_per_step must be a finite number > 0"):
+    with pytest.raises(ValueError, match=r"updates_per_step must be a finite number in \(0, 64\]"):
         toy_config(updates_per_step=0)
     assert toy_config(updates_per_step=2.0).updates_per_step == 2  # an integer stays one
 

@@ -1,4 +1,4 @@
-"""``msr baseline`` without ``--period``: the sweep (rl/shipping/baseline_sweep.py)."""
+"""``msr field baseline`` without ``--period``: the sweep (rl/shipping/baseline_sweep.py)."""
 
 from __future__ import annotations
 
@@ -23,11 +23,12 @@ def test_the_sweep_picks_the_farthest_of_the_single_runs(tmp_path, capsys):
     single = {}
     for period in ("0.25", "0.5"):  # no longer than the 0.5 s runs: the field turns
         for direction in ((), ("--counterclockwise",)):
-            r = run_msr(capsys, "baseline", "--case", "m1-4mT", "--period", period, *direction,
+            r = run_msr(capsys, "field", "baseline", "--case", "m1-4mT", "--period", period, *direction,
                         "--out", str(tmp_path / f"p{period}{len(direction)}"), *QUICK)
             single[(float(period), not direction)] = r["mid_dx_m"]
     assert len(set(single.values())) == 4  # distinct: the answer is known
-    sweep = run_msr(capsys, "baseline", "--case", "m1-4mT", "--periods", "0.25,0.5", "--workers", "2",
+    sweep = run_msr(capsys, "field", "baseline", "--case", "m1-4mT", "--periods", "0.25,0.5", "--workers",
+                    "2",
                     "--out", str(tmp_path / "sweep"), *QUICK)
     assert sweep["physics"] == "training" and sweep["duration_s"] == 0.5
     assert {(r["period_s"], r["clockwise"]): r["mid_dx_m"] for r in sweep["runs"]} == single
@@ -46,7 +47,7 @@ def test_single_period_reports_the_period_achieved(tmp_path, capsys):
     case = load_case("m1-10mT")
     fastest = min_rotation_period(case.field_limit, case.actuation.max_increment)
     assert fastest > 1.0  # 10 mT at 0.3 mT per step cannot turn once a second
-    r = run_msr(capsys, "baseline", "--case", "m1-10mT", "--period", "1", "--out",
+    r = run_msr(capsys, "field", "baseline", "--case", "m1-10mT", "--period", "1", "--out",
                 str(tmp_path / "b"), "--physics", "training", "--duration", "3", "--no-figures",
                 "--no-progress")
     assert r["period_asked_s"] == 1.0 and r["period_achieved_s"] > 1.05
@@ -76,7 +77,7 @@ def test_set_yardstick_writes_a_spec_copy(tmp_path, capsys):
     named = yardstick_spec(load_case(own), best, tmp_path / "own-yardstick.toml")
     assert load_case(named).name == "crawler"
     # the yardstick is the accurate physics' 10 s: a quick sweep cannot set it
-    assert msr(["baseline", "--case", "m1-4mT", "--set-yardstick", str(tmp_path / "x.toml"),
+    assert msr(["field", "baseline", "--case", "m1-4mT", "--set-yardstick", str(tmp_path / "x.toml"),
                 *QUICK]) == 2
     assert "--set-yardstick" in capsys.readouterr().err and not (tmp_path / "x.toml").exists()
 
@@ -101,11 +102,11 @@ def test_periods_longer_than_the_run_are_refused_or_left_out(tmp_path, capsys):
     short = ["--physics", "training", "--duration", "0.3", "--no-figures", "--no-progress"]
     for argv in (["--periods", "1,2"], ["--period", "1"]):
         out = tmp_path / "refused"
-        assert msr(["baseline", "--case", "m1-4mT", *argv, "--out", str(out), *short]) == 2
+        assert msr(["field", "baseline", "--case", "m1-4mT", *argv, "--out", str(out), *short]) == 2
         err = capsys.readouterr().err
         assert "longer than --duration 0.3 s" in err and "1" in err, err
         assert not out.exists()
-    assert msr(["baseline", "--case", "m1-4mT", "--periods", "0.3,1", "--workers", "1", "--out",
+    assert msr(["field", "baseline", "--case", "m1-4mT", "--periods", "0.3,1", "--workers", "1", "--out",
                 str(tmp_path / "sweep"), *short, "--json"]) == 0
     captured = capsys.readouterr()
     assert "warning: --periods 1 s left out: longer than --duration 0.3 s" in captured.err

@@ -1,6 +1,6 @@
 """The rotating-field baseline: it turns the field as stated through the agent's action channel,
-rolls the robot (forward clockwise, backward counter-clockwise) and ``msr baseline`` writes what
-``msr generate`` writes."""
+rolls the robot (forward clockwise, backward counter-clockwise) and ``msr field baseline`` writes what
+``msr policy generate`` writes."""
 
 from __future__ import annotations
 
@@ -61,7 +61,7 @@ def test_bad_arguments_are_named():
 def test_msr_baseline_writes_the_generate_files(tmp_path, capsys):
     out = tmp_path / "baseline"
     capsys.readouterr()
-    status = msr(["baseline", "--case", "m2-4mT", "--period", "1.5", "--duration", "1.5",
+    status = msr(["field", "baseline", "--case", "m2-4mT", "--period", "1.5", "--duration", "1.5",
                   "--physics", "training", "--out", str(out), "--no-gif", "--no-progress",
                   "--json"])
     result = json.loads(capsys.readouterr().out)
@@ -79,6 +79,6 @@ def test_msr_baseline_writes_the_generate_files(tmp_path, capsys):
 def test_a_period_that_aliases_under_the_control_rate_is_refused(period, capsys):
     with pytest.raises(ValueError, match="Nyquist limit of the 100 Hz field updates"):
         RotatingFieldPolicy("m1-4mT", period=period)
-    assert msr(["baseline", "--case", "m1-4mT", "--period", str(period), "--no-progress"]) == 2
+    assert msr(["field", "baseline", "--case", "m1-4mT", "--period", str(period), "--no-progress"]) == 2
     assert "--period: period" in capsys.readouterr().err
     assert RotatingFieldPolicy("m1-4mT", period=0.05).period == 0.05

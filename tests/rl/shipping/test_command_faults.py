@@ -1,9 +1,9 @@
-"""``msr export``, ``msr export-seeds --dest`` and ``msr ship --force`` killed (SIGKILL) at several
-points over an existing result, each in a real process (issue 35; ``tests/faults.py``): the old
-content survives byte for byte and nothing partial is left once the next command recovered the
-folder. ``ship`` killed between the moves of its new files (the new ``actor.pt`` in place, the
-old ``policy.json`` still there) is recovered by the next command that reads the policy: it
-finishes the replacement, so the policy loads whole."""
+"""``msr policy export``, ``msr policy export-seeds --out`` and ``msr policy ship --force`` killed
+(SIGKILL) at several points over an existing result, each in a real process (issue 35;
+``tests/faults.py``): the old content survives byte for byte and nothing partial is left once the
+next command recovered the folder. ``ship`` killed between the moves of its new files (the new
+``actor.pt`` in place, the old ``policy.json`` still there) is recovered by the next command that
+reads the policy: it finishes the replacement, so the policy loads whole."""
 
 from __future__ import annotations
 
@@ -38,7 +38,7 @@ def atomic_temporary(folder_pattern: str, name: str) -> str:
 
 
 def earlier_export(out: Path) -> dict[str, bytes]:
-    """An earlier ``msr export`` result of case m1-4mT in ``out`` (written by the mechanism, with
+    """An earlier ``msr policy export`` result of case m1-4mT in ``out`` (written by the mechanism, with
     stand-in bytes: a real export costs seconds of torch.export, and only its bytes matter)."""
     from elastica_magnetic.results import result_folder
 
@@ -52,7 +52,7 @@ def test_export_killed_while_building_and_between_the_renames(fault_server, trai
     run = trained / "m1-4mT" / "seed0"
     out = tmp_path / "export"
     old = earlier_export(out)
-    export = ["export", run, "--out", out, "--checkpoint", "final"]
+    export = ["policy", "export", run, "--out", out, "--checkpoint", "final"]
 
     # killed once the TorchScript file is in the new folder (before torch.export)
     done = fault_server.run([*export, "--force"],
@@ -68,7 +68,7 @@ def test_export_killed_while_building_and_between_the_renames(fault_server, trai
     done = fault_server.run(export)  # the next export recovers, then refuses (no --force)
     assert done.returncode == 2
     assert "restored the previous result" in done.stderr and "stale lock" in done.stderr
-    assert "already holds a result of `msr export` for case m1-4mT" in done.stderr
+    assert "already holds a result of `msr policy export` for case m1-4mT" in done.stderr
     assert snapshot(out) == old and beside(out) == []
 
 
@@ -77,7 +77,7 @@ def test_export_seeds_killed_while_building_and_between_the_renames(fault_server
     runs = tmp_path / "runs"
     shutil.copytree(trained / "m1-4mT", runs / "m1-4mT")  # export-seeds caches evaluations there
     dest = tmp_path / "seeds"
-    export = ["export-seeds", runs / "m1-4mT", "--dest", dest, "--duration", "0.05",
+    export = ["policy", "export-seeds", runs / "m1-4mT", "--out", dest, "--duration", "0.05",
               "--no-progress", "--workers", "1"]
     assert fault_server.run(export).returncode == 0
     old = snapshot(dest)
@@ -103,30 +103,30 @@ def test_export_seeds_killed_while_building_and_between_the_renames(fault_server
 def test_ship_killed_mid_swap_is_finished_by_the_next_reader(fault_server, trained, tmp_path):
     dest = tmp_path / "policies"
     policy = dest / "p"
-    ship = ["ship", "--name", "p", "--dest", dest, "--no-measure"]
+    ship = ["policy", "ship", "--name", "p", "--out", dest, "--no-measure"]
     seed0, seed1 = (trained / "m1-4mT" / f"seed{k}" for k in (0, 1))
-    assert fault_server.run([*ship[:1], seed0, *ship[1:]]).returncode == 0
+    assert fault_server.run([*ship[:2], seed0, *ship[2:]]).returncode == 0
     old = snapshot(policy)
 
     # killed while writing the new files (in a temporary folder inside the policy's)
-    done = fault_server.run([*ship[:1], seed1, *ship[1:], "--force"],
+    done = fault_server.run([*ship[:2], seed1, *ship[2:], "--force"],
                             Fault("open", atomic_temporary(r"/p/\.msr-files-", "policy.json"),
                                   "SIGKILL"))
     assert done.returncode == -9
     assert {k: v for k, v in snapshot(policy).items() if ".msr-files-" not in k} == old
-    done = fault_server.run(["notes", policy])  # a reader: the unfinished files are dropped
+    done = fault_server.run(["policy", "notes", policy])  # a reader: the unfinished files are dropped
     assert done.returncode == 0, done.stderr
     assert "left by a run that was killed" in done.stderr and done.stdout == "(no notes)\n"
     assert snapshot(policy) == old and beside(policy) == []
 
     # killed between the moves: the new actor.pt is in, the old policy.json still there
-    done = fault_server.run([*ship[:1], seed1, *ship[1:], "--force"],
+    done = fault_server.run([*ship[:2], seed1, *ship[2:], "--force"],
                             Fault("rename", r"/p/actor\.pt$", "SIGKILL"))
     assert done.returncode == -9
     mixed = snapshot(policy)
     assert mixed["actor.pt"] != old["actor.pt"] and mixed["policy.json"] == old["policy.json"]
 
-    done = fault_server.run(["notes", policy, "--json"])  # the next reader finishes the swap
+    done = fault_server.run(["policy", "notes", policy, "--json"])  # the next reader finishes the swap
     assert done.returncode == 0, done.stderr
     assert "finished moving" in done.stderr and json.loads(done.stdout)["notes"] is None
     new = snapshot(policy)

@@ -1,4 +1,4 @@
-"""``msr export`` (rl/shipping/export.py): TorchScript and torch.export reloaded with plain torch."""
+"""``msr policy export`` (rl/shipping/export.py): TorchScript and torch.export reloaded with plain torch."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from smoke import run_msr
 
 def test_export_torchscript_matches_agent(trained, tmp_path, capsys):
     run = trained / "m1-4mT" / "seed1"
-    result = run_msr(capsys, "export", str(run), "--checkpoint", "final", "--out",
+    result = run_msr(capsys, "policy", "export", str(run), "--checkpoint", "final", "--out",
                      str(tmp_path / "export"))  # checkpoint.pt's actor, compared below
     assert result["actor_choice"]["actor"] == "final"
     assert result["max_abs_diff"] < 1e-6 and result["max_abs_diff_pt2"] < 1e-6

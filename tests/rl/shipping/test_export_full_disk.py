@@ -1,4 +1,4 @@
-"""``msr export`` on a full disk (issue 48, "Tracebacks and vague messages", item 2): torch's C++
+"""``msr policy export`` on a full disk (issue 48, "Tracebacks and vague messages", item 2): torch's C++
 writer, given a path, aborted the process (``terminate called after throwing an instance of
 'c10::Error'``, ``unexpected pos``); the actor is now saved to memory and written with Python's
 I/O, so the full disk is one named error and the earlier export stays byte for byte. The disk
@@ -33,11 +33,11 @@ def test_export_on_a_full_disk_is_a_named_error(fault_server, tmp_path, name, te
             (folder.path / file).write_bytes(f"earlier {file}\n".encode() * 100)
     earlier = snapshot(out)
 
-    done = fault_server.run(["export", POLICIES_DIR / "m1-4mT", "--out", out, "--force"],
+    done = fault_server.run(["policy", "export", POLICIES_DIR / "m1-4mT", "--out", out, "--force"],
                             Fault("enospc", r"/\.export\.msr-new-[^/]*/" + temporary, after=100))
     assert done.returncode == 2, done.stderr
     assert done.stderr.strip().splitlines()[-1] == (
-        f"msr export: error: {out / name}: cannot write: No space left on device; {out} is left as "
+        f"msr policy export: error: {out / name}: cannot write: No space left on device; {out} is left as "
         "it was")
     assert snapshot(out) == earlier
     assert sorted(p.name for p in out.parent.iterdir()) == ["export"]  # no temporary left beside
@@ -48,9 +48,9 @@ def test_the_files_written_from_memory_load_with_plain_torch(fault_server, tmp_p
     import torch
 
     out = tmp_path / "export"
-    done = fault_server.run(["export", POLICIES_DIR / "m1-4mT", "--out", out])
+    done = fault_server.run(["policy", "export", POLICIES_DIR / "m1-4mT", "--out", out])
     assert done.returncode == 0, done.stderr
-    assert "max_abs_diff: 0.0" in done.stdout  # the reloaded files act as the actor does
+    assert "max_abs_diff: 0" in done.stdout  # the reloaded files act as the actor does
     actions = torch.jit.load(str(out / "policy.ts.pt"))(torch.zeros(3, 260))
     assert actions.shape == (3, 2)
     assert torch.equal(torch.export.load(str(out / "policy.pt2")).module()(torch.zeros(3, 260)),
@@ -58,9 +58,9 @@ def test_the_files_written_from_memory_load_with_plain_torch(fault_server, tmp_p
 
 
 def test_ship_on_a_full_disk_is_a_named_error(fault_server, trained, tmp_path):
-    """``msr ship`` saved the weights with torch's own file writer too: the same abort."""
+    """``msr policy ship`` saved the weights with torch's own file writer too: the same abort."""
     dest = tmp_path / "policies"
-    done = fault_server.run(["ship", trained / "m1-4mT" / "seed0", "--name", "mine", "--dest", dest,
+    done = fault_server.run(["policy", "ship", trained / "m1-4mT" / "seed0", "--name", "mine", "--out", dest,
                              "--no-measure", "--checkpoint", "final"],
                             Fault("enospc", r"\.actor\.tmp\d+\.pt$", after=100))
     assert done.returncode == 2, done.stderr

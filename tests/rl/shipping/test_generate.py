@@ -1,4 +1,4 @@
-"""``msr generate`` and ``msr demo`` (rl/shipping/generate.py)."""
+"""``msr policy generate`` and ``msr policy demo`` (rl/shipping/generate.py)."""
 
 from __future__ import annotations
 
@@ -17,14 +17,14 @@ from elastica_magnetic.simulation import TRAJECTORY_COLUMNS
 
 def test_best_actor_generates(trained, tmp_path, capsys):
     best = trained / "m1-4mT" / "seed0" / "best.pt"
-    result = run_msr(capsys, "generate", str(best), "--duration", "0.05", "--physics", "training",
+    result = run_msr(capsys, "policy", "generate", str(best), "--duration", "0.05", "--physics", "training",
                      "--out", str(tmp_path / "gen"), "--no-figures", "--no-progress")
     assert result["case"] == "m1-4mT" and result["policy"] == str(best)
 
 
 def test_generate_json_and_files(refined, tmp_path, capsys):
     out = tmp_path / "gen"
-    result = run_msr(capsys, "generate", str(refined), "--duration", "0.2", "--out", str(out),
+    result = run_msr(capsys, "policy", "generate", str(refined), "--duration", "0.2", "--out", str(out),
                      "--no-progress")
     for key in ("mid_dx_m", "fields_csv", "trajectory_csv"):
         assert key in result
@@ -52,9 +52,9 @@ def test_generate_json_and_files(refined, tmp_path, capsys):
 
 def test_demo_names_the_missing_policy(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(generate, "POLICIES_DIR", tmp_path / "none")
-    assert msr(["demo", "--out", str(tmp_path / "demo"), "--no-progress"]) == 2
+    assert msr(["policy", "demo", "--out", str(tmp_path / "demo"), "--no-progress"]) == 2
     err = capsys.readouterr().err
-    assert "m1-4mT" in err and "actor.pt" in err and "msr ship" in err
+    assert "m1-4mT" in err and "actor.pt" in err and "msr policy ship" in err
 
 
 def test_output_names_its_physics_and_claims_no_target_without_a_yardstick(tmp_path, capsys):
@@ -66,14 +66,15 @@ def test_output_names_its_physics_and_claims_no_target_without_a_yardstick(tmp_p
     spec["yardstick"] = {"distance_10s": 0.0, "source": ""}
     del spec["name"]
     (tmp_path / "nostick.toml").write_text(dumps(spec))
-    result = run_msr(capsys, "baseline", "--case", str(tmp_path / "nostick.toml"), "--period", "0.05",
+    result = run_msr(capsys, "field", "baseline", "--case", str(tmp_path / "nostick.toml"), "--period",
+                     "0.05",
                      "--duration", "0.05", "--physics", "training", "--out", str(tmp_path / "b"),
                      "--no-figures", "--no-progress")
     assert "meets_target" not in result and result["target"].startswith("none")
     assert "yardstick_10s_m" not in result and "authors_mid_dx_10s_m" not in result
     assert (result["physics"], result["initial_field"]) == ("training", "zero")
     assert "mid_node_dx_m" in result and "node32_dx_m" not in result
-    with_stick = run_msr(capsys, "baseline", "--case", "m1-4mT", "--period", "0.05", "--duration",
+    with_stick = run_msr(capsys, "field", "baseline", "--case", "m1-4mT", "--period", "0.05", "--duration",
                          "0.05", "--out", str(tmp_path / "c"), "--no-figures", "--no-progress")
     assert with_stick["yardstick_10s_m"] == 0.0205
     assert "meets_target" not in with_stick  # 0.05 s is not the yardstick's 10 s

@@ -1,8 +1,8 @@
-"""The learning package's writing commands against an existing result (issue 35): ``msr
-generate``, ``baseline``, ``demo``, ``export``, ``export-seeds``, ``ship``, ``notes`` and
-``figures`` replace a result whole or not at all, only with ``--force``, never another command's
-or case's; Ctrl-C in a real ``msr generate`` / ``msr export-seeds --workers 2`` process prints one
-line and leaves the earlier result byte for byte."""
+"""The learning package's writing commands against an existing result (issue 35): ``msr policy generate``,
+``baseline``, ``demo``, ``export``, ``export-seeds``, ``ship``, ``notes`` and ``figures`` replace a
+result whole or not at all, only with ``--force``, never another command's or case's; Ctrl-C in a
+real ``msr policy generate`` / ``msr policy export-seeds --workers 2`` process prints one line and
+leaves the earlier result byte for byte."""
 
 from __future__ import annotations
 
@@ -41,22 +41,22 @@ def leftovers(folder: Path) -> list[str]:
 def test_generate_replaces_only_its_own_result_and_only_with_force(trained, tmp_path, capsys):
     run = trained / "m1-4mT" / "seed0"
     out = tmp_path / "gen"
-    first = run_msr(capsys, "generate", str(run), *QUICK, "--out", str(out))
+    first = run_msr(capsys, "policy", "generate", str(run), *QUICK, "--out", str(out))
     assert ".msr-new" not in json.dumps(first) and Path(first["fields_csv"]).parent == out
     stored = json.loads((out / "generate.json").read_text())
     assert stored["trajectory_csv"] == str(out / "trajectory.csv")  # where the file is now
     assert json.loads((out / MARKER).read_text())["subject"] == "case m1-4mT"
     before = snapshot(out)
 
-    assert msr(["generate", str(run), *QUICK, "--out", str(out)]) == 2
+    assert msr(["policy", "generate", str(run), *QUICK, "--out", str(out)]) == 2
     err = capsys.readouterr().err
-    assert "already holds a result of `msr generate` for case m1-4mT" in err and "--force" in err
-    assert msr(["baseline", "--case", "m1-4mT", "--periods", "0.05", *QUICK, "--out", str(out),
+    assert "already holds a result of `msr policy generate` for case m1-4mT" in err and "--force" in err
+    assert msr(["field", "baseline", "--case", "m1-4mT", "--periods", "0.05", *QUICK, "--out", str(out),
                 "--force"]) == 2
-    assert "not of `msr baseline`" in capsys.readouterr().err
+    assert "not of `msr field baseline`" in capsys.readouterr().err
     assert snapshot(out) == before and not leftovers(out)
 
-    run_msr(capsys, "generate", str(run), *QUICK, "--out", str(out), "--force")
+    run_msr(capsys, "policy", "generate", str(run), *QUICK, "--out", str(out), "--force")
     assert (out / "fields.csv").is_file() and not leftovers(out)
 
 
@@ -64,7 +64,7 @@ def test_generate_never_writes_into_a_training_run(trained, tmp_path, capsys):
     run = tmp_path / "seed1"
     shutil.copytree(trained / "m1-4mT" / "seed1", run)
     before = snapshot(run)
-    assert msr(["generate", str(trained / "m1-4mT" / "seed0"), *QUICK, "--out", str(run),
+    assert msr(["policy", "generate", str(trained / "m1-4mT" / "seed0"), *QUICK, "--out", str(run),
                 "--force"]) == 2
     assert "a result of `msr train` for case m1-4mT" in capsys.readouterr().err
     assert snapshot(run) == before
@@ -85,7 +85,7 @@ def test_demo_replaces_its_own_demo(monkeypatch, trained, tmp_path, capsys):
     monkeypatch.setattr(generate_module, "generate", short)
     out = tmp_path / "demo"
     for _ in range(2):  # the README's main command stays re-runnable
-        assert msr(["demo", "--out", str(out), "--no-progress", "--json"]) == 0
+        assert msr(["policy", "demo", "--out", str(out), "--no-progress", "--json"]) == 0
     assert calls[-1]["force"] is True and calls[-1]["kind"] == "demo"
     assert json.loads((out / MARKER).read_text())["kind"] == "demo"
 
@@ -93,14 +93,14 @@ def test_demo_replaces_its_own_demo(monkeypatch, trained, tmp_path, capsys):
 def test_export_needs_force_to_replace(trained, tmp_path, capsys):
     run = str(trained / "m1-4mT" / "seed0")
     out = tmp_path / "export"
-    run_msr(capsys, "export", run, "--out", str(out), "--checkpoint", "final")
+    run_msr(capsys, "policy", "export", run, "--out", str(out), "--checkpoint", "final")
     before = snapshot(out)
     begin = time.perf_counter()  # refused before the actors' 10 s evaluations (--checkpoint auto)
-    assert msr(["export", run, "--out", str(out)]) == 2
+    assert msr(["policy", "export", run, "--out", str(out)]) == 2
     assert time.perf_counter() - begin < 20
-    assert "already holds a result of `msr export`" in capsys.readouterr().err
+    assert "already holds a result of `msr policy export`" in capsys.readouterr().err
     assert snapshot(out) == before
-    result = run_msr(capsys, "export", run, "--out", str(out), "--force", "--checkpoint", "final")
+    result = run_msr(capsys, "policy", "export", run, "--out", str(out), "--force", "--checkpoint", "final")
     assert result["json"] == str(out / "policy.json") and not leftovers(out)
 
 
@@ -108,21 +108,21 @@ def test_ship_checks_name_and_dest_first_and_keeps_the_old_policy_on_a_full_disk
         trained, tmp_path, capsys, monkeypatch):
     run = str(trained / "m1-4mT" / "seed0")
     for bad in ("../x", ".hidden", "a/b"):
-        assert msr(["ship", run, "--name", bad, "--dest", str(tmp_path), "--no-progress"]) == 2
+        assert msr(["policy", "ship", run, "--name", bad, "--out", str(tmp_path), "--no-progress"]) == 2
         assert "--name" in capsys.readouterr().err
     assert not (tmp_path.parent / "x").exists()
     a_file = tmp_path / "file.txt"
     a_file.write_text("x")
     begin = time.perf_counter()
-    assert msr(["ship", run, "--name", "p", "--dest", str(a_file), "--no-progress"]) == 2
+    assert msr(["policy", "ship", run, "--name", "p", "--out", str(a_file), "--no-progress"]) == 2
     assert "is a file" in capsys.readouterr().err and time.perf_counter() - begin < 10
 
     dest = tmp_path / "policies"
-    run_msr(capsys, "ship", run, "--name", "p", "--dest", str(dest), "--no-measure")
+    run_msr(capsys, "policy", "ship", run, "--name", "p", "--out", str(dest), "--no-measure")
     (dest / "p" / "seeds").mkdir()  # export-seeds' folder inside a shipped policy stays
     (dest / "p" / "seeds" / "keep.txt").write_text("mine")
     before = snapshot(dest / "p")
-    assert msr(["ship", run, "--name", "p", "--dest", str(dest), "--no-measure"]) == 2
+    assert msr(["policy", "ship", run, "--name", "p", "--out", str(dest), "--no-measure"]) == 2
     assert "already holds a policy" in capsys.readouterr().err
 
     from elastica_magnetic_rl.shipping import ship as ship_module
@@ -131,21 +131,21 @@ def test_ship_checks_name_and_dest_first_and_keeps_the_old_policy_on_a_full_disk
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
     monkeypatch.setattr(ship_module, "atomic_write_json", full_disk)  # after actor.pt
-    assert msr(["ship", run, "--name", "p", "--dest", str(dest), "--no-measure", "--force"]) == 2
+    assert msr(["policy", "ship", run, "--name", "p", "--out", str(dest), "--no-measure", "--force"]) == 2
     assert "No space left on device" in capsys.readouterr().err
     assert snapshot(dest / "p") == before and not leftovers(dest / "p")
     monkeypatch.undo()
-    run_msr(capsys, "ship", run, "--name", "p", "--dest", str(dest), "--no-measure", "--force")
+    run_msr(capsys, "policy", "ship", run, "--name", "p", "--out", str(dest), "--no-measure", "--force")
     assert (dest / "p" / "seeds" / "keep.txt").read_text() == "mine"
 
 
 def test_notes_of_a_run_and_a_non_utf8_notes_file(trained, tmp_path, capsys):
     run = str(trained / "m1-4mT" / "seed0")
-    assert msr(["notes", run]) == 2
+    assert msr(["policy", "notes", run]) == 2
     assert "not a shipped policy" in capsys.readouterr().err
     latin = tmp_path / "notes.md"
     latin.write_bytes("Kalibrierung f\xfcr 4 mT".encode("latin-1"))
-    assert msr(["ship", run, "--name", "p", "--dest", str(tmp_path), "--no-measure",
+    assert msr(["policy", "ship", run, "--name", "p", "--out", str(tmp_path), "--no-measure",
                 "--notes", str(latin)]) == 2
     err = capsys.readouterr().err
     assert f"--notes {latin}: not UTF-8" in err and not (tmp_path / "p").exists()
@@ -154,7 +154,7 @@ def test_notes_of_a_run_and_a_non_utf8_notes_file(trained, tmp_path, capsys):
 def test_export_seeds_merges_refuses_another_case_and_labels_the_duration(trained, tmp_path, capsys):
     dest = tmp_path / "seeds"
     case_dir = str(trained / "m1-4mT")
-    args = ["export-seeds", case_dir, "--dest", str(dest), "--duration", "0.05", "--no-progress"]
+    args = ["policy", "export-seeds", case_dir, "--out", str(dest), "--duration", "0.05", "--no-progress"]
     result = run_msr(capsys, *args)
     entry = result["seeds"][0]
     assert "distance_10s_m" not in entry and entry["duration_s"] == 0.05  # not the 10 s distance
@@ -175,18 +175,18 @@ def test_export_seeds_merges_refuses_another_case_and_labels_the_duration(traine
 def test_figures_name_a_damaged_log_and_replace_their_own_figures(trained, tmp_path, capsys):
     runs = tmp_path / "runs"
     shutil.copytree(trained, runs)
-    first = run_msr(capsys, "figures", str(runs))
+    first = run_msr(capsys, "policy", "figures", str(runs))
     drawn = Path(first["learning_curves_m1-4mT"]).read_bytes()
-    assert msr(["figures", str(runs)]) == 2  # an existing figure is replaced only with --force
+    assert msr(["policy", "figures", str(runs)]) == 2  # an existing figure is replaced only with --force
     assert "already holds learning_curves_m1-4mT.png; pass --force" in capsys.readouterr().err
     assert Path(first["learning_curves_m1-4mT"]).read_bytes() == drawn
-    again = run_msr(capsys, "figures", str(runs), "--force")
+    again = run_msr(capsys, "policy", "figures", str(runs), "--force")
     assert first == again and Path(first["learning_curves_m1-4mT"]).is_file()
     episodes = runs / "m1-4mT" / "seed1" / "episodes.csv"
     lines = episodes.read_text().splitlines()
     lines[2] = lines[2].replace(lines[2].split(",")[2], "abc", 1)
     episodes.write_text("\n".join(lines) + "\n")
-    assert msr(["figures", str(runs), "--force"]) == 2
+    assert msr(["policy", "figures", str(runs), "--force"]) == 2
     err = capsys.readouterr().err
     assert f"{episodes}: damaged log: row 3, column 'return': 'abc'" in err
     assert not leftovers(runs)
@@ -201,7 +201,7 @@ def test_figures_name_a_damaged_log_and_replace_their_own_figures(trained, tmp_p
                            ("\n".join([header, ",".join(fields), *rest]) + "\n",
                             "row 2, column 'mean_return': 'abc'")):
         evaluations.write_text(damaged)
-        assert msr(["figures", str(runs), "--force"]) == 2
+        assert msr(["policy", "figures", str(runs), "--force"]) == 2
         err = capsys.readouterr().err
         assert f"{evaluations}: damaged log" in err and named in err and "Traceback" not in err
 
@@ -237,15 +237,15 @@ def interrupt_when_writing(args: list[str], out: Path, cwd: Path,
 @pytest.mark.skipif(os.name != "posix", reason="signals are POSIX")
 def test_ctrl_c_in_generate_leaves_the_earlier_result(refined, tmp_path, capsys):
     out = tmp_path / "gen"
-    run_msr(capsys, "generate", str(refined), *QUICK, "--out", str(out))
+    run_msr(capsys, "policy", "generate", str(refined), *QUICK, "--out", str(out))
     before = snapshot(out)
     begin = time.perf_counter()
-    done = interrupt_when_writing(["generate", str(refined), "--duration", "5", "--no-progress",
+    done = interrupt_when_writing(["policy", "generate", str(refined), "--duration", "5", "--no-progress",
                                    "--out", str(out), "--force"], out, tmp_path, 0.5)
     assert done.returncode == 130, done.stderr
     assert done.stderr.strip().splitlines() == [
         # the folder named as the user sees it from where they stand (the process's cwd)
-        f"msr generate: interrupted (SIGINT); {out.relative_to(tmp_path)} was left as it was (a "
+        f"msr policy generate: interrupted (SIGINT); {out.relative_to(tmp_path)} was left as it was (a "
         "result folder is "
         "replaced whole or not at all)"]
     assert time.perf_counter() - begin < 60
@@ -257,19 +257,19 @@ def test_ctrl_c_in_export_seeds_with_workers_leaves_the_earlier_result(trained, 
     dest = tmp_path / "seeds"
     runs = tmp_path / "runs"
     shutil.copytree(trained / "m1-4mT", runs / "m1-4mT")
-    args = ["export-seeds", str(runs / "m1-4mT"), "--dest", str(dest), "--duration", "0.05",
+    args = ["policy", "export-seeds", str(runs / "m1-4mT"), "--out", str(dest), "--duration", "0.05",
             "--no-progress"]
     run_msr(capsys, *args)
     before = snapshot(dest)
     for evaluation in (runs / "m1-4mT").glob("seed*/evaluation.json"):
         evaluation.unlink()  # no cached evaluation: the workers have minutes of work
-    done = interrupt_when_writing(["export-seeds", str(runs / "m1-4mT"), "--dest", str(dest),
+    done = interrupt_when_writing(["policy", "export-seeds", str(runs / "m1-4mT"), "--out", str(dest),
                                    "--duration", "20", "--workers", "2", "--no-progress",
                                    "--force"], dest, tmp_path, 3.0)
     assert done.returncode == 130, done.stderr
     lines = done.stderr.strip().splitlines()
     assert "Traceback" not in done.stderr, done.stderr
-    assert lines[0] == (f"msr export-seeds: interrupted (SIGINT); {dest.relative_to(tmp_path)} "
+    assert lines[0] == (f"msr policy export-seeds: interrupted (SIGINT); {dest.relative_to(tmp_path)} "
                         "was left as it was (a "
                         "result folder is replaced whole or not at all)"), done.stderr
     assert len(lines) == 1, done.stderr

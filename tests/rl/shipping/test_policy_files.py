@@ -62,7 +62,7 @@ def test_actor_of_another_policy_is_refused(folder, capsys):
     shutil.copy(POLICIES_DIR / "m2-4mT" / "actor.pt", folder / "actor.pt")
     with pytest.raises(PolicyFileError, match=r"actor\.pt: its weights do not match the actor_sha256"):
         resolve_policy(folder)
-    assert main(["export", str(folder), "--out", str(folder / "export")]) == 2
+    assert main(["policy", "export", str(folder), "--out", str(folder / "export")]) == 2
     assert "the files come from different policies" in capsys.readouterr().err
     assert not (folder / "export").exists()
 
@@ -71,7 +71,7 @@ def test_corrupted_checkpoint(tmp_path, capsys):
     (tmp_path / "checkpoint.pt").write_bytes(b"PK\x03\x04 not a checkpoint")
     with pytest.raises(PolicyFileError, match=r"checkpoint\.pt: cannot be read as a checkpoint"):
         resolve_policy(tmp_path)
-    assert main(["generate", str(tmp_path), "--out", str(tmp_path / "g"), "--no-progress"]) == 2
+    assert main(["policy", "generate", str(tmp_path), "--out", str(tmp_path / "g"), "--no-progress"]) == 2
     assert "checkpoint.pt: cannot be read as a checkpoint" in capsys.readouterr().err
 
 
@@ -87,8 +87,21 @@ def test_a_case_spec_that_contradicts_the_recorded_limits_is_refused(folder, cap
     with pytest.raises(PolicyFileError, match=r"policy\.json: field_limit_T = 0\.004 but its "
                        r"case_spec gives 0\.01: the file contradicts itself"):
         resolve_policy(folder)
-    assert main(["generate", str(folder), "--out", str(folder.parent / "gen"), "--no-progress"]) == 2
+    assert main(["policy", "generate", str(folder), "--out", str(folder.parent / "gen"),
+                 "--no-progress"]) == 2
     assert "contradicts itself" in capsys.readouterr().err
+    assert not (folder.parent / "gen").exists()
+
+
+def test_a_case_name_that_contradicts_the_case_spec_is_refused(folder, capsys):
+    meta = json.loads((folder / "policy.json").read_text())
+    meta["case"] = "m1-10mT"  # edited by hand: the case_spec (what the policy runs on) is m1-4mT's
+    (folder / "policy.json").write_text(json.dumps(meta))
+    assert main(["policy", "generate", str(folder), "--out", str(folder.parent / "gen"),
+                 "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "policy.json: case = 'm1-10mT' but its case_spec is of case 'm1-4mT': the file contradicts " \
+           "itself" in err, err
     assert not (folder.parent / "gen").exists()
 
 
@@ -119,7 +132,7 @@ def test_a_policy_folder_missing_a_file_names_it(folder, deleted, named, capsys)
         (folder / name).unlink()
     with pytest.raises(PolicyNotFoundError, match=named):
         resolve_policy(folder)
-    assert main(["generate", str(folder), "--physics", "training", "--duration", "0.02",
+    assert main(["policy", "generate", str(folder), "--physics", "training", "--duration", "0.02",
                  "--no-progress", "--out", str(folder.parent / "gen")]) == 2
     err = capsys.readouterr().err
     assert named in err and "critic.pt" in err and "not a run directory" not in err, err
@@ -130,3 +143,22 @@ def test_an_empty_folder_is_still_not_a_policy(tmp_path):
     (tmp_path / "empty").mkdir()
     with pytest.raises(PolicyNotFoundError, match="not a run directory"):
         resolve_policy(tmp_path / "empty")
+
+
+@pytest.mark.parametrize(("edit", "message"), [
+    (lambda m: m.update(robot="yao2023-m2"), r"robot = 'yao2023-m2' but its case_spec"),
+    (lambda m: m.update(task="reach"), r"task = 'reach' but its case_spec"),
+    (lambda m: m["architecture"].update(activation="tanh"), r"architecture\.activation = 'tanh'"),
+    (lambda m: m["observation"]["scales"].update(field_amplitude=0.2),
+     r"observation\.scales\.field_amplitude = 0\.2 but its case_spec"),
+    (lambda m: m.update(format="msr-policy-v9"), r"format 'msr-policy-v9' is not one this msr reads"),
+], ids=["robot", "task", "activation", "scale", "format"])
+def test_every_copy_of_the_case_spec_must_agree_with_it(edit, message, folder):
+    """Edits of policy.json's copies of its case_spec ran as the unedited policy, without a word
+    (round 4, S5), and an unknown format was read (S6)."""
+    meta = json.loads((folder / "policy.json").read_text())
+    assert "field_amplitude" in meta["observation"]["scales"]
+    edit(meta)
+    (folder / "policy.json").write_text(json.dumps(meta))
+    with pytest.raises(PolicyFileError, match=message):
+        resolve_policy(folder)

@@ -62,7 +62,7 @@ def best_is_farther(trained, tmp_path_factory) -> tuple[Path, float, float]:
 
 def test_generate_uses_the_farther_actor_and_says_so(best_is_farther, tmp_path, capsys):
     run, near, far = best_is_farther
-    result = run_msr(capsys, "generate", str(run), "--duration", str(DURATION), "--out",
+    result = run_msr(capsys, "policy", "generate", str(run), "--duration", str(DURATION), "--out",
                      str(tmp_path / "gen"), "--no-figures", "--no-progress")
     choice = result["actor_choice"]
     assert choice["actor"] == "best" and choice["rule"] == "farther"
@@ -71,7 +71,7 @@ def test_generate_uses_the_farther_actor_and_says_so(best_is_farther, tmp_path, 
     assert choice["final"]["mid_dx_m"] == pytest.approx(near, rel=1e-9, abs=1e-15)
     assert result["mid_dx_m"] == pytest.approx(far, rel=1e-9, abs=1e-15)  # the same rollout
     # the text output names the actor, both distances, the physics, duration and initial field
-    assert msr(["generate", str(run), "--duration", str(DURATION), "--out", str(tmp_path / "g2"),
+    assert msr(["policy", "generate", str(run), "--duration", str(DURATION), "--out", str(tmp_path / "g2"),
                 "--no-figures", "--no-progress"]) == 0
     line = capsys.readouterr().out.splitlines()[0]
     assert line.startswith("actor: best.pt") and "accurate physics" in line and "zero field" in line
@@ -81,14 +81,14 @@ def test_generate_uses_the_farther_actor_and_says_so(best_is_farther, tmp_path, 
 
 def test_checkpoint_option_chooses_explicitly(best_is_farther, tmp_path, capsys):
     run, _, _ = best_is_farther
-    result = run_msr(capsys, "generate", str(run), "--checkpoint", "final", "--duration", "0.05",
+    result = run_msr(capsys, "policy", "generate", str(run), "--checkpoint", "final", "--duration", "0.05",
                      "--physics", "training", "--out", str(tmp_path / "gen"), "--no-figures",
                      "--no-progress")
     assert result["policy"] == str(RunDir(run).checkpoint)
     assert result["actor_choice"]["actor"] == "final" and result["actor_choice"]["rule"] == "asked"
     assert choose_actor(run, "best").path == RunDir(run).best
     assert choose_actor(RunDir(run).best, "auto") is None  # a best.pt named directly: used as is
-    assert msr(["generate", str(run), "--checkpoint", str(tmp_path / "nope.pt"), "--out",
+    assert msr(["policy", "generate", str(run), "--checkpoint", str(tmp_path / "nope.pt"), "--out",
                 str(tmp_path / "g3"), "--no-progress"]) == 2
     assert "nope.pt" in capsys.readouterr().err
 
@@ -97,15 +97,15 @@ def test_ship_and_export_take_the_checkpoint_option(best_is_farther, tmp_path, c
     import json
 
     run, _, _ = best_is_farther
-    shipped = run_msr(capsys, "ship", str(run), "--name", "b", "--dest", str(tmp_path),
+    shipped = run_msr(capsys, "policy", "ship", str(run), "--name", "b", "--out", str(tmp_path),
                       "--checkpoint", "best", "--no-measure", "--no-progress")
     assert shipped["actor_choice"]["actor"] == "best"
     meta = json.loads((tmp_path / "b" / "policy.json").read_text())
     assert meta["training"]["best_evaluation"] is True
     # an existing policy is refused before the actors are evaluated
-    assert msr(["ship", str(run), "--name", "b", "--dest", str(tmp_path), "--no-progress"]) == 2
+    assert msr(["policy", "ship", str(run), "--name", "b", "--out", str(tmp_path), "--no-progress"]) == 2
     assert "already holds a policy" in capsys.readouterr().err
-    exported = run_msr(capsys, "export", str(run), "--checkpoint", "final", "--out",
+    exported = run_msr(capsys, "policy", "export", str(run), "--checkpoint", "final", "--out",
                        str(tmp_path / "exp"))
     assert exported["actor_choice"]["actor"] == "final"
 

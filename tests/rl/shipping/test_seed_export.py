@@ -1,4 +1,4 @@
-"""``msr export-seeds`` (rl/shipping/seed_export.py): every seed as a generate-ready folder with
+"""``msr policy export-seeds`` (rl/shipping/seed_export.py): every seed as a generate-ready folder with
 seeds.json, seeds of several runs collected, mixed ones refused."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from elastica_magnetic.cli import main as msr
 
 def test_export_seeds_writes_generate_ready_folders_and_seeds_json(trained, tmp_path, capsys):
     dest = tmp_path / "seeds" / "paper"
-    result = run_msr(capsys, "export-seeds", str(trained / "m1-4mT"), "--dest", str(dest),
+    result = run_msr(capsys, "policy", "export-seeds", str(trained / "m1-4mT"), "--out", str(dest),
                      "--duration", "0.05", "--no-progress", "--workers", "2")  # one process a seed
     entries = json.loads((dest / "seeds.json").read_text())
     assert [e["seed"] for e in entries] == [0, 1] and result["total"] == 2
@@ -30,7 +30,7 @@ def test_export_seeds_writes_generate_ready_folders_and_seeds_json(trained, tmp_
                                                             "evaluations.csv", "policy.json"]
         run_dir = trained / "m1-4mT" / f"seed{e['seed']}"
         assert (folder / "episodes.csv").read_text() == (run_dir / "episodes.csv").read_text()
-    out = run_msr(capsys, "generate", str(dest / "seed0"), "--duration", "0.05", "--out",
+    out = run_msr(capsys, "policy", "generate", str(dest / "seed0"), "--duration", "0.05", "--out",
                   str(tmp_path / "gen"), "--no-figures", "--no-progress")
     assert out["case"] == "m1-4mT"
 
@@ -45,9 +45,9 @@ def test_export_seeds_collects_seeds_of_several_runs_and_refuses_mixed_ones(trai
     only_seed0 = tmp_path / "first" / "m1-4mT"
     only_seed0.mkdir(parents=True)
     (only_seed0 / "seed0").symlink_to(trained / "m1-4mT" / "seed0", target_is_directory=True)
-    run_msr(capsys, "export-seeds", str(only_seed0), "--dest", str(dest), "--duration", "0.05",
+    run_msr(capsys, "policy", "export-seeds", str(only_seed0), "--out", str(dest), "--duration", "0.05",
             "--no-progress")
-    result = run_msr(capsys, "export-seeds", str(second_run), "--dest", str(dest), "--duration",
+    result = run_msr(capsys, "policy", "export-seeds", str(second_run), "--out", str(dest), "--duration",
                      "0.05", "--no-progress")
     entries = json.loads((dest / "seeds.json").read_text())
     assert [e["seed"] for e in entries] == [0, 1] and result["total"] == 2
@@ -59,7 +59,7 @@ def test_export_seeds_collects_seeds_of_several_runs_and_refuses_mixed_ones(trai
     policy_json.write_text(json.dumps(meta))
     before = (dest / "seeds.json").read_bytes()
     capsys.readouterr()
-    assert msr(["export-seeds", str(second_run), "--dest", str(dest), "--duration", "0.05",
+    assert msr(["policy", "export-seeds", str(second_run), "--out", str(dest), "--duration", "0.05",
                 "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert "seed 0" in err and "batch_size" in err and "another folder" in err
@@ -69,13 +69,13 @@ def test_export_seeds_collects_seeds_of_several_runs_and_refuses_mixed_ones(trai
         (dest / "seed1" / "policy.json").read_text())["training"]["config"]["batch_size"]
     meta["case_spec"]["training"]["recipe"] = "pink-ln"
     policy_json.write_text(json.dumps(meta))
-    run_msr(capsys, "export-seeds", str(second_run), "--dest", str(dest), "--duration", "0.05",
+    run_msr(capsys, "policy", "export-seeds", str(second_run), "--out", str(dest), "--duration", "0.05",
             "--no-progress", "--force")  # seed 1 is there already: replaced only when asked
     assert [e["seed"] for e in json.loads((dest / "seeds.json").read_text())] == [0, 1]
     meta["case_spec"]["robot"]["youngs_modulus"] *= 2
     policy_json.write_text(json.dumps(meta))
     before = (dest / "seeds.json").read_bytes()
-    assert msr(["export-seeds", str(second_run), "--dest", str(dest), "--duration", "0.05",
+    assert msr(["policy", "export-seeds", str(second_run), "--out", str(dest), "--duration", "0.05",
                 "--no-progress", "--force"]) == 2
     err = capsys.readouterr().err
     assert "seed 0" in err and "another case spec" in err and (dest / "seeds.json").read_bytes() == before
@@ -84,7 +84,7 @@ def test_export_seeds_collects_seeds_of_several_runs_and_refuses_mixed_ones(trai
 def test_export_seeds_of_a_case_without_a_yardstick_writes_no_verdict(tmp_path, monkeypatch):
     """Issue 34: seeds.json of a case without a yardstick holds no ``meets_target`` (an earlier
     export's ``true`` is dropped) and the result's ``meeting_target`` is None, not a count of the
-    seeds that moved; ``msr seeds`` then reports them as not applicable."""
+    seeds that moved; ``msr policy seeds`` then reports them as not applicable."""
     from pathlib import Path
     from types import SimpleNamespace
 
@@ -127,3 +127,30 @@ def test_export_seeds_of_a_case_without_a_yardstick_writes_no_verdict(tmp_path, 
     assert all("meets_target" not in e for e in entries) and result["meeting_target"] is None
     (group,) = case_seeds(case, tmp_path / "policies")
     assert group.count is None and group.summary == "n/a (3 seeds)"
+
+
+def test_a_damaged_summary_json_is_named_with_its_file(trained, tmp_path, capsys):
+    import shutil
+
+    case_dir = tmp_path / "m1-4mT"
+    shutil.copytree(trained / "m1-4mT", case_dir)
+    summary = case_dir / "summary.json"
+    summary.write_text(summary.read_text()[:40])  # a copy cut short
+    dest = tmp_path / "seeds"
+    assert msr(["policy", "export-seeds", str(case_dir), "--out", str(dest), "--duration", "0.05",
+                "--no-progress", "--workers", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "summary.json: not readable as JSON (line 3" in err and "restore it" in err, err
+    assert not dest.exists()
+
+
+def test_a_hand_edited_seed_number_is_named_before_any_evaluation(trained, tmp_path, capsys):
+    dest = tmp_path / "seeds"
+    dest.mkdir()
+    (dest / "seeds.json").write_text(json.dumps([{"seed": "zero", "actor": "seed0"}]))
+    before = (dest / "seeds.json").read_bytes()
+    assert msr(["policy", "export-seeds", str(trained / "m1-4mT"), "--out", str(dest), "--duration",
+                "0.05", "--no-progress", "--workers", "1", "--force"]) == 2
+    err = capsys.readouterr().err
+    assert "seeds.json: entry 0: seed = 'zero', expected a seed number" in err, err
+    assert (dest / "seeds.json").read_bytes() == before

@@ -1,4 +1,4 @@
-"""``msr seeds``: every committed seed of a case by recipe, judged by the case's own test."""
+"""``msr policy seeds``: every committed seed of a case by recipe, judged by the case's own test."""
 
 from __future__ import annotations
 
@@ -49,7 +49,7 @@ def test_msr_seeds_prints_draws_and_keeps_the_model_card_current(tmp_path, capsy
     card = tmp_path / "m1-4mT" / "MODEL_CARD.md"
     card.write_text("# Model card\n\n## Training\n\n- seed: 0\n\n## Evaluation (accurate)\n\n- +22.1 mm\n")
     capsys.readouterr()
-    assert msr(["seeds", "m1-4mT", "--policies", str(tmp_path), "--figure", str(tmp_path / "fig"),
+    assert msr(["policy", "seeds", "m1-4mT", "--policies", str(tmp_path), "--figure", str(tmp_path / "fig"),
                 "--card", "--json"]) == 0
     report = json.loads(capsys.readouterr().out)["cases"][0]
     assert report["recipes"][0]["succeeded"] == 1 and report["card_updated"] is True
@@ -71,7 +71,7 @@ def test_msr_seeds_prints_draws_and_keeps_the_model_card_current(tmp_path, capsy
             {"case": its_case, "architecture": {"obs_dim": 260, "act_dim": 2, "hidden_sizes": [8]}}))
         (tmp_path / name / "MODEL_CARD.md").write_text(f"# {name}\n\n## Evaluation (accurate)\n")
     capsys.readouterr()
-    assert msr(["seeds", "m1-4mT", "--policies", str(tmp_path), "--card", "--json"]) == 0
+    assert msr(["policy", "seeds", "m1-4mT", "--policies", str(tmp_path), "--card", "--json"]) == 0
     report = json.loads(capsys.readouterr().out)["cases"][0]
     assert report["cards"] == [str(card), str(tmp_path / "m1-4mT-robust" / "MODEL_CARD.md")]
     assert report["card_updated"] is True
@@ -83,7 +83,7 @@ def test_msr_seeds_names_a_broken_seeds_file(tmp_path, capsys):
     path = tmp_path / "m1-4mT" / "seeds" / "paper" / "seeds.json"
     path.parent.mkdir(parents=True)
     path.write_text('[{"seed": 0}]')
-    assert msr(["seeds", "m1-4mT", "--policies", str(tmp_path)]) == 2
+    assert msr(["policy", "seeds", "m1-4mT", "--policies", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert str(path) in err and "distance_10s_m" in err
 
@@ -119,7 +119,7 @@ def test_the_recipes_table_across_cases(tmp_path, capsys):
     _write_seeds(tmp_path, "m1-4mT", "pink-ln", {0: 0.0221})
     _write_seeds(tmp_path, "m1-10mT", "paper", {0: 0.170, 1: 0.019, 2: 0.150})
     capsys.readouterr()
-    assert msr(["seeds", "m1-4mT", "m1-10mT", "--policies", str(tmp_path)]) == 0
+    assert msr(["policy", "seeds", "m1-4mT", "m1-10mT", "--policies", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     table = out[out.index("## Recipes across the cases"):]
     assert "| recipe (folder) | change from the paper's | m1-4mT | m1-10mT |" in table
@@ -130,7 +130,7 @@ def test_the_recipes_table_across_cases(tmp_path, capsys):
 
 def test_every_shipped_card_is_current_with_its_policy_and_seeds(tmp_path):
     """A shipped card's Notes are its policy.json's notes, and its seeds table is the one the
-    committed seeds.json give (``msr seeds --card`` would not change it)."""
+    committed seeds.json give (``msr policy seeds --card`` would not change it)."""
     import shutil
 
     from elastica_magnetic_rl.shipping.model_card import NOTES_SECTION, card_section
@@ -147,7 +147,7 @@ def test_every_shipped_card_is_current_with_its_policy_and_seeds(tmp_path):
         if groups:
             copy = tmp_path / f"{folder.name}.md"
             shutil.copy(folder / "MODEL_CARD.md", copy)
-            assert update_model_card(copy, case, groups) is False, f"{folder}: run msr seeds --card"
+            assert update_model_card(copy, case, groups) is False, f"{folder}: run msr policy seeds --card"
 
 
 def test_absent_seeds_say_where_they_are_and_leave_the_card(tmp_path, monkeypatch, capsys):
@@ -163,11 +163,11 @@ def test_absent_seeds_say_where_they_are_and_leave_the_card(tmp_path, monkeypatc
     message = seed_report.no_seeds_message(case, installed)
     assert "repository" in message and "--policies <clone>/rl/policies" in message
     mine = tmp_path / "mine"
-    assert "msr export-seeds" in seed_report.no_seeds_message(case, mine)  # a folder of the user's
-    assert msr(["seeds", "m1-4mT", "--policies", str(installed)]) == 0
+    assert "msr policy export-seeds" in seed_report.no_seeds_message(case, mine)  # a folder of the user's
+    assert msr(["policy", "seeds", "m1-4mT", "--policies", str(installed)]) == 0
     assert "--policies <clone>/rl/policies" in capsys.readouterr().out
     before = card.read_text()
-    assert msr(["seeds", "m1-4mT", "--policies", str(installed), "--card"]) == 2
+    assert msr(["policy", "seeds", "m1-4mT", "--policies", str(installed), "--card"]) == 2
     assert "left as it is" in capsys.readouterr().err and card.read_text() == before
     with pytest.raises(ValueError, match="left as it is"):
         update_model_card(card, case, [])
@@ -202,7 +202,7 @@ def test_seeds_of_a_case_without_a_yardstick_are_not_judged(tmp_path):
 
 def test_hu2018_crawls_committed_seeds_meet_its_yardstick():
     """The committed hu2018-crawl material agrees with its spec's yardstick (+25.3 mm): both seeds
-    meet it in msr seeds, seeds.json and the shipped policy.json, whose case_spec is the spec's."""
+    meet it in msr policy seeds, seeds.json and the shipped policy.json, whose case_spec is the spec's."""
     from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR, read_policy_json, resolve_policy
 
     case = load_case("hu2018-crawl")

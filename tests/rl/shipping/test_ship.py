@@ -1,5 +1,5 @@
-"""``msr ship`` and ``msr notes`` (rl/shipping/ship.py), on the runs trained once for the learning
-package's tests (tests/rl/conftest.py: ``trained``, ``refined``)."""
+"""``msr policy ship`` and ``msr policy notes`` (rl/shipping/ship.py), on the runs trained once for the
+learning package's tests (tests/rl/conftest.py: ``trained``, ``refined``)."""
 
 from __future__ import annotations
 
@@ -123,7 +123,7 @@ def test_ship_then_generate_by_folder_and_name(refined, tmp_path, monkeypatch, c
     # by name, from the (patched) package folder of shipped policies
 
     monkeypatch.setattr(policy_files, "POLICIES_DIR", dest)
-    result = run_msr(capsys, "generate", "m1-4mT", "--duration", "0.03", "--out",
+    result = run_msr(capsys, "policy", "generate", "m1-4mT", "--duration", "0.03", "--out",
                      str(tmp_path / "gen"), "--no-progress", "--no-gif")
     assert result["policy"] == str(folder) and "q_values" in result["figures"]
     with pytest.raises(FileExistsError):
@@ -132,8 +132,8 @@ def test_ship_then_generate_by_folder_and_name(refined, tmp_path, monkeypatch, c
 
 def test_notes_have_one_home_and_a_re_ship_keeps_the_seeds_table(refined, tmp_path, capsys):
     """A policy's notes live in policy.json and the card's Notes section is rendered from them:
-    ``msr notes`` changes both together and nothing else; ``ship --force`` keeps the table of
-    the case's committed seeds (``msr seeds --card``) in the new card."""
+    ``msr policy notes`` changes both together and nothing else; ``ship --force`` keeps the table of
+    the case's committed seeds (``msr policy seeds --card``) in the new card."""
     from elastica_magnetic_rl.shipping.model_card import NOTES_SECTION, card_section
     from elastica_magnetic_rl.shipping.seed_report import CARD_SECTION
 
@@ -153,7 +153,7 @@ def test_notes_have_one_home_and_a_re_ship_keeps_the_seeds_table(refined, tmp_pa
     actor = (folder / "actor.pt").read_bytes()
     new_notes = tmp_path / "notes.md"
     new_notes.write_text("- Third, *edited*.\n\n")
-    assert msr(["notes", str(folder), "--file", str(new_notes)]) == 0
+    assert msr(["policy", "notes", str(folder), "--file", str(new_notes)]) == 0
     info = json.loads((folder / "policy.json").read_text())
     card = (folder / "MODEL_CARD.md").read_text()
     assert info["notes"] == card_section(card, NOTES_SECTION) == "- Third, *edited*."
@@ -161,16 +161,19 @@ def test_notes_have_one_home_and_a_re_ship_keeps_the_seeds_table(refined, tmp_pa
     assert "| `paper` | 1 of 2 |" in card and (folder / "actor.pt").read_bytes() == actor
     assert policy_files.resolve_policy(folder).kind == "shipped"
     capsys.readouterr()
-    assert msr(["notes", str(folder)]) == 0 and capsys.readouterr().out.strip() == "- Third, *edited*."
-    new_notes.write_text("\n")  # an empty file removes them, from both
-    assert msr(["notes", str(folder), "--file", str(new_notes)]) == 0
+    assert msr(["policy", "notes",
+                str(folder)]) == 0 and capsys.readouterr().out.strip() == "- Third, *edited*."
+    new_notes.write_text("\n")  # an empty file is refused (more often a mistake); --clear removes
+    assert msr(["policy", "notes", str(folder), "--file", str(new_notes)]) == 2
+    assert msr(["policy", "notes", str(folder), "--clear"]) == 0
     assert json.loads((folder / "policy.json").read_text())["notes"] is None
+    new_notes.write_text("- Fourth.\n")
     assert NOTES_SECTION not in (folder / "MODEL_CARD.md").read_text()
     capsys.readouterr()
     before = {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
-    assert msr(["notes", str(refined), "--file", str(new_notes)]) == 2  # a run has no notes
+    assert msr(["policy", "notes", str(refined), "--file", str(new_notes)]) == 2  # a run has no notes
     assert "shipped policy" in capsys.readouterr().err
-    assert msr(["notes", str(folder), "--file", str(tmp_path / "missing.md")]) == 2
+    assert msr(["policy", "notes", str(folder), "--file", str(tmp_path / "missing.md")]) == 2
     assert "missing.md: no such file" in capsys.readouterr().err
     assert {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()} == before
 
@@ -259,3 +262,13 @@ def test_a_best_pt_holding_the_final_actor_is_not_rolled_out_twice(trained, tmp_
     calls.clear()
     policy_runs.evaluate_run(run, duration=0.05, progress=False)
     assert len(calls) == 2
+
+
+@pytest.mark.parametrize("name", ["my pol", "../x", ".hidden", "-dash", "a/b", ""])
+def test_a_policy_name_must_be_one_plain_folder_name(name):
+    """A name with a space was accepted (round 4, S11) though the rule excludes it."""
+    from elastica_magnetic_rl.shipping.ship import check_policy_name
+
+    with pytest.raises(ValueError, match=r"--name .*: a policy name is one folder name of letters"):
+        check_policy_name(name)
+    assert check_policy_name("m1-4mT-robust_v2.1") == "m1-4mT-robust_v2.1"

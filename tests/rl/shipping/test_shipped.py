@@ -39,13 +39,13 @@ def test_shipped_policy_generates_and_exports(name, tmp_path, capsys):
     (as the README states for every shipped policy), or its target for cases beyond the paper."""
 
 
-    assert msr(["generate", name, "--duration", "0.05", "--out", str(tmp_path / "gen"),
+    assert msr(["policy", "generate", name, "--duration", "0.05", "--out", str(tmp_path / "gen"),
                 "--no-gif", "--no-figures", "--json"]) == 0
     result = json.loads(capsys.readouterr().out)
     fields = np.loadtxt(result["fields_csv"], delimiter=",", skiprows=1)
     assert fields.shape == (5, 4)
     assert np.all(np.abs(fields[:, 1:3]) <= 5 * 0.3 + 1e-9)  # mT: from zero, +-0.3 mT per step
-    assert msr(["export", name, "--out", str(tmp_path / "exp")]) == 0
+    assert msr(["policy", "export", name, "--out", str(tmp_path / "exp")]) == 0
     policy = policy_files.resolve_policy(name)
     assert policy.case.name == case_of(name)
     obs = np.zeros(policy.case.obs_dim, dtype=np.float32)

@@ -1,4 +1,4 @@
-"""msr identify: recovers the values of a perturbed robot from its synthetic trajectory, writes
+"""msr real identify: recovers the values of a perturbed robot from its synthetic trajectory, writes
 the identified spec, and refuses bad input before any fitting."""
 
 import json
@@ -41,7 +41,7 @@ def test_one_value_from_msr_trajectory_csv_through_the_command(tmp_path, spec, c
     run = run_open_loop(describe_robot(truth).robot("training"), TabulatedField(fields), 0.3)
     write_trajectory_csv(run.trajectory, tmp_path / "trajectory.csv")
     out = tmp_path / "id"
-    assert main(["identify", str(tmp_path / "fields.csv"), str(tmp_path / "trajectory.csv"),
+    assert main(["real", "identify", str(tmp_path / "fields.csv"), str(tmp_path / "trajectory.csv"),
                  "--robot", CASE, "--fit", "magnetization", "--out", str(out), "--no-progress",
                  "--starts", "1", "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
@@ -61,7 +61,7 @@ def test_bad_input_is_named_before_any_fitting(tmp_path, spec, capsys):
     track = tmp_path / "track.csv"
     rows = [f"{k / 30:.4f},{0.001 * k:.6f},0,{0.02 + 0.001 * k:.6f},0" for k in range(12)]
     track.write_text("t_s,x_0_m,y_0_m,x_1_m,y_1_m\n" + "\n".join(rows) + "\n")
-    base = ["identify", str(tmp_path / "fields.csv"), str(track), "--robot", CASE,
+    base = ["real", "identify", str(tmp_path / "fields.csv"), str(track), "--robot", CASE,
             "--out", str(tmp_path / "id")]
     assert main([*base, "--fit", "robot.magnetisation.magnitude"]) == 2
     assert "did you mean robot.magnetization.magnitude" in capsys.readouterr().err
@@ -70,14 +70,14 @@ def test_bad_input_is_named_before_any_fitting(tmp_path, spec, capsys):
     millimetres = tmp_path / "mm.csv"
     millimetres.write_text("t_s,x_0_m,y_0_m,x_1_m,y_1_m\n" + "\n".join(
         f"{k / 30:.4f},{k:.3f},0,{20 + k:.3f},0" for k in range(12)) + "\n")
-    assert main([*base[:2], str(millimetres), *base[3:], "--fit", "magnetization"]) == 2
+    assert main([*base[:3], str(millimetres), *base[4:], "--fit", "magnetization"]) == 2
     assert "look like millimetres" in capsys.readouterr().err
     long = tmp_path / "long.csv"
     long.write_text("t_s,x_0_m,y_0_m,x_1_m,y_1_m\n" + "\n".join(
         f"{k / 10:.4f},{0.001 * k:.6f},0,{0.02 + 0.001 * k:.6f},0" for k in range(12)) + "\n")
-    assert main([*base[:2], str(long), *base[3:], "--fit", "magnetization"]) == 2
+    assert main([*base[:3], str(long), *base[4:], "--fit", "magnetization"]) == 2
     assert "past the end of the waveform (0.5 s)" in capsys.readouterr().err
-    assert main([*base[:4], "nope.toml", *base[5:], "--fit", "magnetization"]) == 2
+    assert main([*base[:5], "nope.toml", *base[6:], "--fit", "magnetization"]) == 2
     assert "nope.toml: no such spec file" in capsys.readouterr().err
     assert not (tmp_path / "id").exists()
 

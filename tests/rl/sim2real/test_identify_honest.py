@@ -1,4 +1,4 @@
-"""msr identify, honestly (issue 49): several starts within one simulation budget, the residual
+"""msr real identify, honestly (issue 49): several starts within one simulation budget, the residual
 judged against the tracker's noise, and a value the trajectory does not determine reported as not
 identifiable instead of with a tight interval. The longer recovery runs (two waveforms, four
 robots) are in ``benchmarks/identify_recovery.py``; their numbers in docs/sim_to_real.md."""
@@ -138,7 +138,7 @@ def test_noise_given_in_millimetres_is_refused_before_any_fitting(tmp_path, caps
     track = tmp_path / "track.csv"
     rows = [f"{k / 30:.4f},{0.001 * k:.6f},0,{0.02 + 0.001 * k:.6f},0" for k in range(12)]
     track.write_text("t_s,x_0_m,y_0_m,x_1_m,y_1_m\n" + "\n".join(rows) + "\n")
-    base = ["identify", str(tmp_path / "fields.csv"), str(track), "--robot", CASE, "--fit",
+    base = ["real", "identify", str(tmp_path / "fields.csv"), str(track), "--robot", CASE, "--fit",
             "magnetization", "--out", str(tmp_path / "id")]
     assert main([*base, "--noise-m", "0.05"]) == 2
     err = capsys.readouterr().err
@@ -200,13 +200,13 @@ def test_the_residual_flag_fires_when_the_value_that_differs_is_not_fitted(tmp_p
              for t, p in zip(measured.times, measured.positions, strict=True)]
     (tmp_path / "track.csv").write_text(f"t_s,{columns}\n" + "\n".join(lines) + "\n")
     out = tmp_path / "id"
-    assert main(["identify", str(tmp_path / "fields.csv"), str(tmp_path / "track.csv"), "--robot",
+    assert main(["real", "identify", str(tmp_path / "fields.csv"), str(tmp_path / "track.csv"), "--robot",
                  CASE, "--fit", "friction", "--out", str(out), "--no-confirm", "--no-progress",
                  "--starts", "2", "--max-evaluations", "16", "--noise-m", "5e-5"]) == 0
     captured = capsys.readouterr()
     report = json.loads((out / "identify.json").read_text())
     assert report["residual_vs_noise"] > 2.0
-    assert "msr identify: warning: the residual RMS" in captured.err
+    assert "msr real identify: warning: the residual RMS" in captured.err
     assert "does not explain the data" in report["warnings"][0]
     assert f"({report['residual_vs_noise']:.2f} x the noise)" in captured.out
     assert "2 start(s), " in captured.out

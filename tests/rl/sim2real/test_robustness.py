@@ -1,4 +1,4 @@
-"""msr robustness: the nominal variant is a plain replay, a stronger magnetization goes farther,
+"""msr real robustness: the nominal variant is a plain replay, a stronger magnetization goes farther,
 the closed loop is the policy's rollout, the output folder is written whole, bad input is named."""
 
 import json
@@ -71,7 +71,7 @@ def test_worker_processes_give_the_same_distances():
 
 def test_command_writes_the_folder_whole_and_refuses_an_existing_one(tmp_path, capsys):
     out = tmp_path / "rb"
-    argv = ["robustness", str(FIELDS_10MT), "--case", "m1-10mT", "--duration", "0.1",
+    argv = ["real", "robustness", str(FIELDS_10MT), "--case", "m1-10mT", "--duration", "0.1",
             "--vary", "friction=0.75:1.25", "--samples", "2", "--out", str(out), "--json",
             "--no-progress", "--workers", "1"]
     assert main(argv) == 0
@@ -85,7 +85,7 @@ def test_command_writes_the_folder_whole_and_refuses_an_existing_one(tmp_path, c
     values = report["variants"][1]["values"]
     assert values == {"robot.ground.static_mu": 0.8 * 0.75, "robot.ground.kinetic_mu": 0.6 * 0.75}
     assert main(argv) == 2
-    assert "already holds a result of `msr robustness`" in capsys.readouterr().err
+    assert "already holds a result of `msr real robustness`" in capsys.readouterr().err
     (out / "stale.txt").write_text("old")  # a file msr did not write: never replaced, even with --force
     assert main([*argv, "--force", "--samples", "0"]) == 2
     assert "stale.txt" in capsys.readouterr().err and (out / "stale.txt").read_text() == "old"
@@ -103,19 +103,19 @@ def test_bad_input_is_named_before_any_simulation(tmp_path, capsys):
     with pytest.raises(SpecError, match=named):
         plan_robustness(FIELDS_10MT, case="m1-10mT",
                         variations=[parse_variation("robot.ground.kinetic_mu=abs:-0.1:0.5")])
-    assert main(["robustness", str(FIELDS_10MT), "--case", "m1-10mT", "--duration", "20",
+    assert main(["real", "robustness", str(FIELDS_10MT), "--case", "m1-10mT", "--duration", "20",
                  "--out", str(out)]) == 2
     assert "past the end of the waveform" in capsys.readouterr().err
-    assert main(["robustness", "m1-4mT", "--vary", "robot.magnetisation.magnitude=0.9:1.1",
+    assert main(["real", "robustness", "m1-4mT", "--vary", "robot.magnetisation.magnitude=0.9:1.1",
                  "--out", str(out)]) == 2
     assert "did you mean robot.magnetization.magnitude" in capsys.readouterr().err
-    assert main(["robustness", "no-such-policy", "--out", str(out)]) == 2
+    assert main(["real", "robustness", "no-such-policy", "--out", str(out)]) == 2
     assert "not a run directory" in capsys.readouterr().err
-    assert main(["robustness", "m1-4mT", "--case", "m1-4mT", "--out", str(out)]) == 2
+    assert main(["real", "robustness", "m1-4mT", "--case", "m1-4mT", "--out", str(out)]) == 2
     assert "--case is for a field CSV" in capsys.readouterr().err
     assert not out.exists()
     with pytest.raises(SystemExit):
-        main(["robustness", "m1-4mT", "--vary", "friction=0:1"])
+        main(["real", "robustness", "m1-4mT", "--vary", "friction=0:1"])
     assert "relative factors must be > 0" in capsys.readouterr().err
 
 

@@ -1,5 +1,5 @@
-"""msr robustness and msr identify refuse, before any work, what cannot be meant (issue 48):
-a field CSV no coil plays (uT written as mT: one 4000 mT row), as msr replay does; ``--seed``
+"""msr real robustness and msr real identify refuse, before any work, what cannot be meant (issue 48):
+a field CSV no coil plays (uT written as mT: one 4000 mT row), as msr field replay does; ``--seed``
 without ``--samples`` (it seeds draws that are not made)."""
 
 from __future__ import annotations
@@ -37,15 +37,15 @@ def test_robustness_refuses_a_field_csv_no_coil_plays(huge_csv, tmp_path, capsys
     out = tmp_path / "rb"
     common = ["--physics", "training", "--duration", "0.05", "--workers", "1", "--no-corners",
               "--no-progress", "--out", str(out)]
-    err = _refused(capsys, ["robustness", str(huge_csv), "--case", "m1-4mT", *common], out)
+    err = _refused(capsys, ["real", "robustness", str(huge_csv), "--case", "m1-4mT", *common], out)
     assert str(huge_csv) in err and "4000" in err and "T" in err, err
-    err = _refused(capsys, ["robustness", "m1-4mT", "--fields", str(huge_csv), *common], out)
+    err = _refused(capsys, ["real", "robustness", "m1-4mT", "--fields", str(huge_csv), *common], out)
     assert str(huge_csv) in err and "4000" in err, err
 
 
 def test_identify_refuses_a_field_csv_no_coil_plays(huge_csv, tmp_path, capsys):
     out = tmp_path / "id"
-    err = _refused(capsys, ["identify", str(huge_csv), str(tmp_path / "trajectory.csv"),
+    err = _refused(capsys, ["real", "identify", str(huge_csv), str(tmp_path / "trajectory.csv"),
                             "--robot", "m1-4mT", "--fit", "magnetization", "--no-progress",
                             "--out", str(out)], out)
     assert str(huge_csv) in err and "4000" in err, err
@@ -54,6 +54,6 @@ def test_identify_refuses_a_field_csv_no_coil_plays(huge_csv, tmp_path, capsys):
 def test_robustness_refuses_a_seed_without_samples(tmp_path, capsys):
     # issue 48 o11: --seed 7 without --samples was silently ignored
     out = tmp_path / "rb"
-    err = _refused(capsys, ["robustness", str(FIELDS), "--case", "m1-4mT", "--seed", "7",
+    err = _refused(capsys, ["real", "robustness", str(FIELDS), "--case", "m1-4mT", "--seed", "7",
                             "--duration", "0.05", "--no-progress", "--out", str(out)], out)
     assert "--seed 7" in err and "--samples" in err, err

@@ -52,7 +52,7 @@ def test_refine_reports_a_stale_lock_it_takes_over(trained, tmp_path, capsys):
 
 
 def test_refine_on_a_spec_with_other_physical_values_records_them(trained, tmp_path, capsys):
-    """--spec: the run's robot with other physical values (as msr identify writes it) is refined
+    """--spec: the run's robot with other physical values (as msr real identify writes it) is refined
     on that robot, the changes recorded; another robot (elements, task) is refused by name."""
     from elastica_magnetic_rl.cases.case import load_case
 

@@ -31,11 +31,15 @@ _DIRECTIONS = st.sampled_from([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0
 _MAGNITUDES = st.floats(20_000.0, 120_000.0)
 
 
+#: Every magnetization kind a spec may name.
+KINDS = ("yao2023-pattern1", "yao2023-pattern2", "uniform", "sinusoid", "two-segment", "segments",
+         "table")
+
+
 @st.composite
-def magnetizations(draw, n_elements: int) -> dict[str, Any]:
-    """A ``[robot.magnetization]`` table of any kind."""
-    kind = draw(st.sampled_from(["yao2023-pattern1", "yao2023-pattern2", "uniform", "sinusoid",
-                                 "two-segment", "segments", "table"]))
+def magnetizations(draw, n_elements: int, kinds: tuple[str, ...] = KINDS) -> dict[str, Any]:
+    """A ``[robot.magnetization]`` table of any of ``kinds``."""
+    kind = draw(st.sampled_from(kinds))
     table: dict[str, Any] = {"kind": kind}
     if kind == "table":
         values = draw(st.lists(st.lists(st.floats(-80_000.0, 80_000.0), min_size=n_elements,
@@ -72,20 +76,23 @@ def magnetizations(draw, n_elements: int) -> dict[str, Any]:
 
 
 @st.composite
-def user_specs(draw) -> dict[str, Any]:
+def user_specs(draw, kinds: tuple[str, ...] = KINDS, poisson: bool | None = None,
+               round_section: bool | None = None, task: str | None = None) -> dict[str, Any]:
     """A valid spec as a user writes it, in every form the format allows for the robot's
-    magnetization, its moduli, its section and its task."""
+    magnetization (of ``kinds``), its moduli (``poisson``: a Poisson ratio, else a shear modulus),
+    its section (``round_section``: a radius, else a band) and its task (``"crawl"`` or
+    ``"reach"``); ``None``: drawn."""
     spec = copy.deepcopy(BASE)
     robot = spec["robot"]
     robot["n_elements"] = draw(st.sampled_from([16, 24, 32]))
-    robot["magnetization"] = draw(magnetizations(robot["n_elements"]))
-    if draw(st.booleans()):
+    robot["magnetization"] = draw(magnetizations(robot["n_elements"], kinds))
+    if draw(st.booleans()) if poisson is None else poisson:
         robot["poisson_ratio"] = draw(st.floats(0.3, 0.499))
     else:
         robot["shear_modulus"] = robot["youngs_modulus"] / draw(st.floats(2.6, 3.0))
-    if draw(st.booleans()):
+    if draw(st.booleans()) if round_section is None else round_section:
         del robot["width"], robot["thickness"]
         robot["radius"] = 0.0005
-    if draw(st.booleans()):
+    if (draw(st.sampled_from(["crawl", "reach"])) if task is None else task) == "reach":
         spec["task"] = {"kind": "reach", "target": 0.01, "tolerance": 0.001}
     return spec

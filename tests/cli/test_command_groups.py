@@ -1,0 +1,100 @@
+"""The command line by noun (issue 50): at most 10 top-level entries, each grouped command under
+its group, and every earlier top-level spelling still running (hidden from the help) with a
+one-line note naming the new one."""
+
+from __future__ import annotations
+
+import pytest
+
+from elastica_magnetic.cli import COMMAND_HOMES, GROUPS, build_parser, listed_commands, main
+
+
+def _listed_top_level(capsys) -> list[str]:
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    text = capsys.readouterr().out
+    block = text.split("COMMAND\n", 1)[1].split("\noptions:", 1)[0]
+    return [line.split()[0] for line in block.splitlines() if line.startswith("    ") and
+            not line.startswith("     ")]
+
+
+def test_the_help_lists_at_most_ten_entries_and_no_old_spelling(capsys):
+    listed = _listed_top_level(capsys)
+    assert 0 < len(listed) <= 10, listed
+    assert set(GROUPS) <= set(listed)
+    assert not set(listed) & set(COMMAND_HOMES), "an old spelling is listed"
+
+
+def test_every_grouped_command_is_in_its_group():
+    commands = listed_commands()
+    for plain, (group, name) in COMMAND_HOMES.items():
+        assert f"{group} {name}" in commands, plain
+    top = {name for name in commands if " " not in name}
+    assert top == set(_top_level_names())
+
+
+def _top_level_names() -> list[str]:
+    parser = build_parser()
+    action = next(a for a in parser._actions if a.dest == "command")
+    return [a.dest for a in action._choices_actions]
+
+
+@pytest.mark.parametrize("plain", sorted(COMMAND_HOMES))
+def test_every_old_spelling_still_runs(plain, capsys):
+    with pytest.raises(SystemExit) as info:
+        main([plain, "--help"])
+    assert info.value.code == 0
+    assert capsys.readouterr().out.startswith(f"usage: msr {plain} ")
+
+
+def test_an_old_spelling_says_the_new_one_and_gives_the_same_result(tmp_path, capsys):
+    assert main(["case", "list"]) == 0  # a top-level command: no note
+    assert "note:" not in capsys.readouterr().err
+    args = ["m1-4mT", "--duration", "0.02", "--physics", "training", "--no-figures", "--no-gif",
+            "--no-progress"]
+    assert main(["generate", *args, "--out", str(tmp_path / "old")]) == 0
+    err = capsys.readouterr().err
+    assert "msr generate: note: this is now msr policy generate (the old spelling works in this " \
+           "release)" in err, err
+    assert main(["policy", "generate", *args, "--out", str(tmp_path / "new")]) == 0
+    assert "note:" not in capsys.readouterr().err
+    assert (tmp_path / "old" / "fields.csv").read_bytes() == (tmp_path / "new" / "fields.csv").read_bytes()
+
+
+def test_errors_name_the_command_as_written(tmp_path, capsys):
+    missing = str(tmp_path / "missing.csv")
+    assert main(["field", "replay", missing, "--out", str(tmp_path / "r")]) == 2
+    assert capsys.readouterr().err.startswith("msr field replay: error: ")
+    assert main(["replay", missing, "--out", str(tmp_path / "r")]) == 2
+    assert "msr replay: error: " in capsys.readouterr().err
+
+
+def _leaves() -> dict[str, set[str]]:
+    """Every command that runs (not a group), with its option strings."""
+    import argparse
+
+    return {name: {o for a in parser._actions for o in a.option_strings}
+            for name, parser in listed_commands().items()
+            if not any(isinstance(a, argparse._SubParsersAction) for a in parser._actions)}
+
+
+def test_one_option_vocabulary():
+    """Every command prints JSON with --json; every command that simulates for --duration takes
+    --no-progress; every writer names its output --out (the old --dest is a hidden alias); a
+    result that exists is replaced only with --force (train and refine resume instead, with
+    --resume; the demo replaces its own demo)."""
+    leaves = _leaves()
+    for name, options in leaves.items():
+        assert "--json" in options, name
+        if "--duration" in options:
+            assert "--no-progress" in options, name
+        assert "--dest" not in options or "--out" in options, name
+        if "--out" in options and name not in {"train", "refine", "policy demo"}:
+            assert "--force" in options, name
+
+
+def test_the_old_dest_option_still_works_with_a_note(tmp_path, capsys):
+    assert main(["policy", "export-seeds", str(tmp_path / "no-run"), "--dest", str(tmp_path / "s")]) == 2
+    err = capsys.readouterr().err
+    assert "msr policy export-seeds: note: --dest is now --out" in err
+    assert "no-run: no seed<k>/checkpoint.pt to evaluate" in err, err

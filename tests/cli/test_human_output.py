@@ -1,0 +1,56 @@
+"""Output for people (issue 50): without ``--json`` no command prints a Python repr (``{'...``,
+``[...]``, ``PosixPath(``, ``np.float64(``); nested results are indented, lists joined, numbers
+short, paths relative to where the user stands."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from elastica_magnetic.cli import main
+from elastica_magnetic.cli.app import human_lines
+
+REPO = Path(__file__).resolve().parents[2]
+FIELD_CSV = REPO / "elastica_magnetic" / "data" / "yao2023" / "magnetization1_4mT" / "magnetic_field.csv"
+CALIBRATION = REPO / "stm32" / "calibration" / "yao2023.json"
+REPR = re.compile(r"\{'|\['|\[\{|\(\{|PosixPath\(|np\.float|array\(|<\w+ object at")
+
+
+def test_nested_results_are_lines_not_reprs(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    result = {"case": "m1-4mT", "out": tmp_path / "gen", "fields": str(tmp_path / "gen" / "f.csv"),
+              "distance_m": 0.012345678901, "diverged": None, "ok": True, "periods_s": [0.5, 1.0],
+              "actor_choice": {"checkpoint": "final", "distances_m": {"final": 0.01, "best": None}},
+              "runs": [{"period_s": 0.5, "mid_dx_m": 0.002}, {"period_s": 1.0, "mid_dx_m": 0.003}],
+              "warnings": []}
+    lines = human_lines(result)
+    text = "\n".join(lines)
+    assert not REPR.search(text), text
+    assert lines[:7] == ["case: m1-4mT", "out: gen", "fields: gen/f.csv", "distance_m: 0.0123457",
+                         "diverged: none", "ok: yes", "periods_s: 0.5, 1"]
+    assert lines[7:12] == ["actor_choice:", "  checkpoint: final", "  distances_m:", "    final: 0.01",
+                           "    best: none"]
+    assert lines[12:] == ["runs:", "  - period_s: 0.5", "    mid_dx_m: 0.002", "  - period_s: 1",
+                          "    mid_dx_m: 0.003", "warnings: none"]
+
+
+@pytest.mark.parametrize("argv", [
+    ["case", "list"],
+    ["case", "show", "m1-4mT"],
+    ["field", "simulate", "--duration", "0.02", "--physics", "training", "--out", "{tmp}/sim"],
+    ["field", "replay", str(FIELD_CSV), "--duration", "0.02", "--physics", "training", "--out",
+     "{tmp}/replay"],
+    ["policy", "generate", "m1-4mT", "--duration", "0.02", "--out", "{tmp}/gen", "--no-progress"],
+    ["policy", "export", "m1-4mT", "--out", "{tmp}/export", "--no-progress"],
+    ["policy", "seeds", "m1-4mT"],
+    ["policy", "notes", "m1-4mT"],
+    ["hw", "firmware", str(FIELD_CSV), "--calibration", str(CALIBRATION), "--out", "{tmp}/fw"],
+    ["real", "robustness", "m1-4mT", "--duration", "0.02", "--no-corners", "--workers", "1", "--out",
+     "{tmp}/rob", "--no-progress"],
+], ids=lambda argv: " ".join(argv[:2]))
+def test_no_command_prints_a_repr(argv, tmp_path, capsys):
+    assert main([a.replace("{tmp}", str(tmp_path)) for a in argv]) == 0
+    out = capsys.readouterr().out
+    assert out.strip() and not REPR.search(out), out
