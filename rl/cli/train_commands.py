@@ -12,6 +12,7 @@ from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, output_path, print_result
 from elastica_magnetic.io import display_path
+from elastica_magnetic.results import signals_as_exceptions
 
 from ..cases.recipes import RECIPE_SUMMARIES, RECIPES
 from ..runfiles.rundir import CaseDir, RunDir
@@ -281,13 +282,16 @@ def _check_device(device: str) -> None:
 def _interrupted(folders: list[Path], signal_number: int = 2) -> int:
     """The message of an interrupted training or refinement: where its checkpoints are, only
     those that exist (a run stopped before its first checkpoint has none to resume from)."""
+    import signal
+
     saved = [f for f in folders if RunDir(f).has_checkpoint()]
+    name = signal.Signals(signal_number).name
     if saved:
-        print(f"interrupted: training stopped. The last checkpoints are in "
+        print(f"interrupted ({name}): training stopped. The last checkpoints are in "
               f"{', '.join(display_path(f) for f in saved)}; continue with the same command and "
               "--resume", file=sys.stderr)
     else:
-        print("interrupted: training stopped before its first checkpoint, so there is nothing to "
+        print(f"interrupted ({name}): training stopped before its first checkpoint, so there is nothing to "
               "resume; run the same command again (without --resume) to start over",
               file=sys.stderr)
     return 128 + signal_number  # 130 after Ctrl-C, 143 after SIGTERM
@@ -299,16 +303,18 @@ def train_command(args: argparse.Namespace) -> int:
     _check_run_options(args)
     overrides = _overrides(args)
     try:
-        summaries = train_cases(
-            args.case, seeds=args.seeds, steps=args.steps, workers=args.workers, out=args.out,
-            resume=args.resume, seed_offset=args.seed_offset, config_overrides=overrides,
-            physics=args.physics, episode_duration=args.episode_duration,
-            progress=not args.no_progress, threads=args.threads, envs=args.envs,
-            backend=args.backend, address=args.address,
-            seeds_per_simulator=args.seeds_per_simulator, recipe=args.recipe,
-            stop_when=args.stop_when, stop_options=_stop_options(args),
-            randomize=args.randomize, rebalance=args.rebalance,
-        )
+        # SIGTERM/SIGHUP stop it as Ctrl-C does (the checkpoints are named), not silently
+        with signals_as_exceptions():
+            summaries = train_cases(
+                args.case, seeds=args.seeds, steps=args.steps, workers=args.workers, out=args.out,
+                resume=args.resume, seed_offset=args.seed_offset, config_overrides=overrides,
+                physics=args.physics, episode_duration=args.episode_duration,
+                progress=not args.no_progress, threads=args.threads, envs=args.envs,
+                backend=args.backend, address=args.address,
+                seeds_per_simulator=args.seeds_per_simulator, recipe=args.recipe,
+                stop_when=args.stop_when, stop_options=_stop_options(args),
+                randomize=args.randomize, rebalance=args.rebalance,
+            )
     except (FileExistsError, FileNotFoundError, ValueError, ConnectionError) as exc:
         raise CommandError(str(exc)) from None  # ConnectionError: --address
     except KeyboardInterrupt as exc:
@@ -362,10 +368,11 @@ def refine_command(args: argparse.Namespace) -> int:
                                args.device)
             choice = choose_actor(args.run, args.checkpoint, REFINE_CHOICE_DURATION,
                                   not args.no_progress)
-        result = refine(choice.path if choice else args.run, steps=args.steps, out=args.out,
-                        resume=args.resume, progress=not args.no_progress,
-                        episode_duration=args.episode_duration, device=args.device,
-                        spec=args.spec, physics=args.physics, randomize=args.randomize)
+        with signals_as_exceptions():  # SIGTERM/SIGHUP: the checkpoints named, as after Ctrl-C
+            result = refine(choice.path if choice else args.run, steps=args.steps, out=args.out,
+                            resume=args.resume, progress=not args.no_progress,
+                            episode_duration=args.episode_duration, device=args.device,
+                            spec=args.spec, physics=args.physics, randomize=args.randomize)
     except (FileExistsError, FileNotFoundError, ValueError) as exc:
         raise CommandError(str(exc)) from None
     except KeyboardInterrupt as exc:

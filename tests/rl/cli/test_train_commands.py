@@ -84,3 +84,30 @@ def test_the_spec_key_of_the_episode_length_is_checked_alike(tmp_path, capsys):
     assert exit_info.value.code == 2
     assert "[task] episode_duration: must be >= 0.01 (s), got 0.001" in capsys.readouterr().err
     assert not (tmp_path / "runs").exists()
+
+
+def test_sigterm_stops_a_training_with_the_message_of_ctrl_c(tmp_path):
+    """SIGTERM ended ``msr train`` (one worker, in this process) with status 143 and no word
+    (round 4, V9): now it names the signal and the checkpoints to resume from."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "runs"
+    argv = [sys.executable, "-m", "elastica_magnetic.cli", "train", "--case", "m1-4mT", "--seeds", "1",
+            "--threads", "1", "--workers", "1", "--learning-starts", "60", "--batch-size", "32",
+            "--hidden", "32,32", "--episode-duration", "0.5", "--eval-every", "100000",
+            "--checkpoint-every", "60", "--steps", "100000", "--out", str(out), "--no-progress"]
+    proc = subprocess.Popen(argv, stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, "MPLBACKEND": "Agg"})
+    checkpoint = out / "m1-4mT" / "seed0" / "checkpoint.pt"
+    deadline = time.monotonic() + 120
+    while not checkpoint.exists() and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.2)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    assert "interrupted (SIGTERM): training stopped. The last checkpoints are in" in err, err
+    assert "--resume" in err
