@@ -105,6 +105,23 @@ def named_twice(names: list[str]) -> str:
     return ""
 
 
+#: Separators other than the comma that spreadsheets write (locales with a decimal comma use ';').
+_OTHER_SEPARATORS = {";": "semicolons", "\t": "tabs", "|": "vertical bars"}
+
+
+def separator_hint(names: list[str]) -> str:
+    """For a header read as comma-separated: ``"; its columns are separated by semicolons ..."``
+    where it came as one column holding another separator (a spreadsheet's export in a locale
+    with a decimal comma), else ``""``. Every CSV reader adds it to its missing-column message."""
+    if len(names) == 1:
+        for separator, name in _OTHER_SEPARATORS.items():
+            if separator in names[0]:
+                return (f"; its columns are separated by {name}, not commas (the first line "
+                        f"{names[0]!r} was read as one column): save the file as CSV with commas "
+                        "between columns and dots in numbers")
+    return ""
+
+
 def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
                    ) -> tuple[list[int], int | None, int, list[tuple[int, list[str]]]]:
     """Where the field components are: their column indices, the index column (``None``: none),
@@ -128,7 +145,7 @@ def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
     if missing:
         raise FieldCSVError(
             f"{path}: header on line {first_line} lacks column(s) {', '.join(missing)}; "
-            f"expected {', '.join(FIELD_COLUMNS)} in mT (found {names})"
+            f"expected {', '.join(FIELD_COLUMNS)} in mT (found {names}){separator_hint(names)}"
         )
     columns = [names.index(c) for c in FIELD_COLUMNS]
     index_column = 0 if len(names) == 4 and columns == [1, 2, 3] else None

@@ -45,7 +45,7 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .io import OutputPathError, display_path, normalized_path
+from .io import OutputPathError, display_path, normalized_path, unwritable_reason
 from .locks import FolderLock, host_name, lock_path, name_tag
 from .results import ResultExistsError, fsync_tree, remove_tree, signals_as_exceptions, signals_held
 
@@ -304,9 +304,8 @@ def _check_file(final: Path, force: bool, option: str, force_option: str,
         raise ResultExistsError(f"{where}: is not {kind.description} (a file msr did not write?); "
                                 f"{force_option} replaces only {kind.description}: move it away "
                                 f"or choose another {option}")
-    if final.parent.exists() and not os.access(final.parent, os.W_OK | os.X_OK):
-        raise OutputPathError(f"{where}: cannot write in {display_path(final.parent)}: "
-                              "Permission denied")
+    if final.parent.exists() and (reason := unwritable_reason(final.parent)) is not None:
+        raise OutputPathError(f"{where}: cannot write in {display_path(final.parent)}: {reason}")
 
 
 def _recognized(kind: FileKind, path: Path) -> bool:

@@ -99,6 +99,18 @@ def display_path(path: str | os.PathLike[str]) -> str:
     return str(absolute)
 
 
+def unwritable_reason(folder: str | os.PathLike[str]) -> str | None:
+    """Why no file can be made in the existing ``folder`` (a read-only file system, or the
+    folder's permissions), or None where one can. A read-only mount is named as such: to the
+    user "Permission denied" there suggests a chmod that cannot help."""
+    if os.access(folder, os.W_OK | os.X_OK):
+        return None
+    with contextlib.suppress(OSError):
+        if os.statvfs(folder).f_flag & os.ST_RDONLY:
+            return "the file system is mounted read-only"
+    return "Permission denied (the folder's permissions do not let you write in it)"
+
+
 def _temporary_name(path: Path) -> Path:
     # Same folder (os.replace stays atomic) and same suffix (savefig and np.savez use it).
     return path.with_name(f".{path.stem}.tmp{os.getpid()}{path.suffix}")

@@ -85,7 +85,13 @@ from pathlib import Path
 from typing import Any
 
 from .command_names import spelling
-from .io import OutputPathError, atomic_write_text, display_path, normalized_path
+from .io import (
+    OutputPathError,
+    atomic_write_text,
+    display_path,
+    normalized_path,
+    unwritable_reason,
+)
 from .locks import FolderLock, command_line, host_name, name_tag, utc_now
 
 __all__ = [
@@ -289,8 +295,8 @@ def _check_result_folder(final: Path, kind: str, subject: str | None, force: boo
     if os.path.ismount(final):
         raise OutputPathError(f"{where}: is a mount point; a result folder is replaced by renaming "
                               "it, so give a folder inside it")
-    if not os.access(final, os.W_OK | os.X_OK):
-        raise OutputPathError(f"{where}: cannot write in {display_path(final)}: Permission denied")
+    if (reason := unwritable_reason(final)) is not None:
+        raise OutputPathError(f"{where}: cannot write in {display_path(final)}: {reason}")
     listed = _files(final)
     if listed is None:
         raise ResultExistsError(f"{where}: holds more than {_MAX_LISTED} files, not a result of "
@@ -351,9 +357,9 @@ def _check_creatable(target: Path, option: str) -> None:
     existing folder above, where the parents will be made) must be writable: found before any
     work, not when the result is swapped in."""
     existing = next(p for p in target.parents if p.exists())
-    if not os.access(existing, os.W_OK | os.X_OK):
+    if (reason := unwritable_reason(existing)) is not None:
         raise OutputPathError(f"{option} {display_path(target)}: cannot write in "
-                              f"{display_path(existing)}: Permission denied")
+                              f"{display_path(existing)}: {reason}")
 
 
 def _target(final: Path, option: str) -> Path:

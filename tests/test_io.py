@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import errno
 import os
+import subprocess
 
 import numpy as np
 import pytest
@@ -16,7 +17,9 @@ from elastica_magnetic.io import (
     atomic_write_text,
     prepare_output_dir,
     prepare_output_file,
+    unwritable_reason,
 )
+from elastica_magnetic.results import result_folder
 
 
 def test_failed_write_keeps_the_old_file_and_leaves_no_temporary(tmp_path):
@@ -68,3 +71,36 @@ def test_read_only_folder_is_named(tmp_path):
             prepare_output_dir(folder)
     finally:
         folder.chmod(0o700)
+
+
+def test_a_read_only_file_system_is_named_as_such_not_as_permission_denied(tmp_path, monkeypatch):
+    """A read-only mount refuses writes to root as well; "Permission denied" there sent users to
+    chmod. The reason comes from the file system's flags."""
+    class Flags:
+        f_flag = os.ST_RDONLY
+
+    monkeypatch.setattr(os, "access", lambda *args, **kwargs: False)
+    monkeypatch.setattr(os, "statvfs", lambda path: Flags())
+    assert unwritable_reason(tmp_path) == "the file system is mounted read-only"
+    Flags.f_flag = 0
+    assert unwritable_reason(tmp_path).startswith("Permission denied")
+    monkeypatch.undo()
+    assert unwritable_reason(tmp_path) is None
+
+
+@pytest.mark.skipif(os.name != "posix" or os.geteuid() != 0, reason="mounting needs root")
+def test_a_read_only_mount_is_named_by_every_kind_of_writer(tmp_path):
+    mount = tmp_path / "ro"
+    mount.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k,ro", "tmpfs", str(mount)],
+                      capture_output=True).returncode != 0:
+        pytest.skip("this machine does not allow mounting a tmpfs")
+    try:
+        with pytest.raises(OutputPathError, match="(?i)read-only") as refused:
+            with result_folder(mount / "x", kind="export", force=False):
+                pass
+        assert "Permission denied" not in str(refused.value)
+        with pytest.raises(OutputPathError, match="y: cannot write in .*: Read-only file system"):
+            prepare_output_dir(mount / "y")
+    finally:
+        subprocess.run(["umount", str(mount)], check=True)

@@ -300,8 +300,9 @@ def command_name(args: argparse.Namespace) -> str:
     ``"train"``; for messages (``msr policy generate: error: ...``)."""
     if getattr(args, "plain_command", None):
         return str(args.plain_command)
-    sub = getattr(args, "subcommand", None)
-    return f"{args.command} {sub}" if args.command in GROUPS and sub else str(args.command)
+    sub = getattr(args, "subcommand", None) if args.command in GROUPS else None
+    sub = sub or getattr(args, "case_command", None)  # msr case list|show|check
+    return f"{args.command} {sub}" if sub else str(args.command)
 
 
 @contextlib.contextmanager
@@ -329,7 +330,66 @@ def _plausibility_warnings(command: Callable[[], str]) -> Iterator[None]:
         yield
 
 
+class StandardOutputError(OSError):
+    """Standard output cannot be written (a full disk it is redirected to, an I/O error)."""
+
+
+class _StandardOutputClosed(Exception):
+    """The reader of standard output went away (``msr ... | head``)."""
+
+
+class _CheckedStandardOutput:
+    """``sys.stdout`` whose write failures say they are standard output's: "[Errno 28] No space
+    left on device" alone reads as if a result could not be written."""
+
+    def __init__(self, stream: Any) -> None:
+        self._stream = stream
+
+    def _call(self, method: str, *args: Any) -> Any:
+        try:
+            return getattr(self._stream, method)(*args)
+        except BrokenPipeError:
+            raise _StandardOutputClosed from None
+        except OSError as exc:
+            raise StandardOutputError(f"cannot write to standard output: {exc.strerror or exc} "
+                                      "(where it is redirected to)") from None
+
+    def write(self, text: str) -> int:
+        return self._call("write", text)
+
+    def flush(self) -> None:
+        self._call("flush")
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
+def _stop_writing_standard_output() -> None:
+    """After the reader went away: later writes (Python's own flush at exit) go nowhere."""
+    import os
+
+    with contextlib.suppress(OSError, ValueError):
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.__stdout__.fileno())
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    stdout = sys.stdout
+    sys.stdout = _CheckedStandardOutput(stdout)
+    try:
+        status = _main(argv)
+        sys.stdout.flush()
+        return status
+    except _StandardOutputClosed:  # quietly, as a Unix tool killed by SIGPIPE
+        _stop_writing_standard_output()
+        return 128 + 13
+    except StandardOutputError as exc:
+        print(f"msr: error: {exc}", file=sys.stderr)
+        return 2
+    finally:
+        sys.stdout = stdout
+
+
+def _main(argv: Sequence[str] | None = None) -> int:
     from ..results import aborted_results
     from ..simulation import SimulationDiverged
 
@@ -344,6 +404,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             status = args.func(args)
     except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM/SIGHUP while a result was written
         return _interrupted(command, exc, aborted_results()[already_aborted:])
+    except _StandardOutputClosed:
+        raise
     except Exception as exc:
         if swallowed:  # the error is the interruption's consequence (numba's compiler cut short)
             return _interrupted(command, swallowed[0], aborted_results()[already_aborted:])
@@ -359,8 +421,12 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _command_word(argv: Sequence[str]) -> str:
-    """The sub-command named in ``argv`` (its first word not starting with ``-``), or ``""``."""
-    return next((str(a) for a in argv if not str(a).startswith("-")), "")
+    """The command named in ``argv`` before it is parsed: its first word not starting with
+    ``-``, and the second too for a group (``"policy generate"``, ``"case check"``), or ``""``."""
+    words = [str(a) for a in argv if not str(a).startswith("-")][:2]
+    if len(words) == 2 and (words[0] in GROUPS or words[0] == "case"):
+        return " ".join(words)
+    return words[0] if words else ""
 
 
 def _interrupted(command: str, exc: KeyboardInterrupt, kept: Sequence[object]) -> int:

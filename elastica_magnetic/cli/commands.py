@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..field_csv import separator_hint
 from ..field_spec import load_field
 from ..fields import RotatingField, TabulatedField
 from ..openloop import run_open_loop, write_trajectory_csv
@@ -271,7 +272,8 @@ def _read_reference(path: Path, duration: float) -> pd.DataFrame:
         raise CommandError(f"--reference {path}: not a readable UTF-8 CSV: {exc}") from None
     missing = [c for c in TRAJECTORY_COLUMNS if c not in reference.columns]
     if missing:
-        raise CommandError(f"--reference {path}: lacks column(s) {', '.join(missing)}")
+        raise CommandError(f"--reference {path}: lacks column(s) {', '.join(missing)}"
+                           f"{separator_hint([str(c) for c in reference.columns])}")
     if reference.empty:
         raise CommandError(f"--reference {path}: header but no data rows")
     reference = reference[list(TRAJECTORY_COLUMNS)]

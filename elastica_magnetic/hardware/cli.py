@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from elastica_magnetic.cli.app import command_name, output_path
-from elastica_magnetic.field_csv import MILLITESLA, named_twice, read_field_csv
+from elastica_magnetic.field_csv import MILLITESLA, named_twice, read_field_csv, separator_hint
 from elastica_magnetic.io import display_path
 
 
@@ -279,7 +279,8 @@ def _calibrate(args: argparse.Namespace) -> int:
         raise _error(f"{path}: header on line 1 {twice}; give each column once")
     missing = [c for c in columns if c not in table.columns]
     if missing:
-        raise _error(f"{path}: missing column(s) {', '.join(missing)}; expected {', '.join(columns)}")
+        raise _error(f"{path}: missing column(s) {', '.join(missing)}; expected {', '.join(columns)} "
+                     f"(found {', '.join(header) or 'no header'}){separator_hint(header)}")
     data = table[columns].apply(pd.to_numeric, errors="coerce")
     bad = data.isna().any(axis=1) | ~np.isfinite(data.to_numpy()).all(axis=1)
     if bad.any():

@@ -86,11 +86,18 @@ def yardstick_step(ctx: LoopContext) -> dict[str, Any]:
                             force=True)
     best = result["best"]
     if best["mid_dx_m"] <= 0.0:  # a yardstick must be a forward distance (the spec refuses others)
+        moved = (f"the best rotating field moved {ctx.case.name} {1e3 * best['mid_dx_m']:+.3g} mm "
+                 f"in {result['duration_s']:g} s of the {result['physics']} physics "
+                 "(yardstick/sweep.csv): no forward distance to make a yardstick of")
+        if not s.yardstick_is_the_definition():  # --quick or a shortened sweep: too short to judge
+            raise LoopError(
+                f"{moved}; this sweep ({len(s.yardstick_periods)} period(s), {s.yardstick_duration:g} s"
+                f", {s.yardstick_physics} physics{', --quick' if s.quick else ''}) is too short to "
+                "judge the robot: run the loop without --quick (the yardstick is swept over 10 s "
+                "of the accurate physics), or see the full sweep with msr field baseline --case")
         raise LoopError(
-            f"the best rotating field moved {ctx.case.name} {1e3 * best['mid_dx_m']:+.3g} mm in "
-            f"{result['duration_s']:g} s of the {result['physics']} physics (yardstick/sweep.csv): "
-            "no forward distance to make a yardstick of; check the magnetization and the field "
-            "limit (msr case check), or train without the loop's yardstick (msr train --case)")
+            f"{moved}; check the magnetization and the field limit (msr case check), or train "
+            "without the loop's yardstick (msr train --case)")
     spec_file = yardstick_spec(ctx.case, best, ctx.path(f"{ctx.case.name}.toml"), force=True,
                                physics=s.yardstick_physics, duration=s.yardstick_duration)
     return {"distance_m": best["mid_dx_m"], "period_s": best["period_s"],

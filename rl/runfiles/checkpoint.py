@@ -24,6 +24,7 @@ format held them), so readers need not know about ``replay.bin``.
 
 from __future__ import annotations
 
+import codecs
 import contextlib
 import os
 from pathlib import Path
@@ -34,12 +35,47 @@ import torch
 
 from elastica_magnetic.io import read_json
 
-from .rundir import RunDir
+from .rundir import RunDir, seed_runs_hint
 
 CHECKPOINT_FORMAT = "td3-checkpoint-v2"
 #: Earlier format: its networks can still be read (generate, export), not resumed or refined.
 LEGACY_FORMATS = ("td3-checkpoint-v1",)
 _BUFFER_KEYS = ("obs", "actions", "rewards", "next_obs", "terminated")
+
+
+_ZIP_MAGIC = b"PK\x03\x04"  # torch.save's format is a zip archive
+_PICKLE_PROTOCOL_OPCODE = 0x80
+
+
+def torch_file_problem(path: str | os.PathLike, error: BaseException) -> str:
+    """Why ``torch.load(path, weights_only=True)`` failed with ``error``, for people: what the
+    file is (empty, text such as a CSV or TOML, a bare pickle, a damaged archive, an archive
+    holding Python objects). Never advises ``weights_only=False``: that would run code from
+    the file."""
+    try:
+        with open(path, "rb") as handle:
+            head = handle.read(64)
+    except OSError as exc:
+        return f"cannot be read ({exc.strerror or exc})"
+    if not head:
+        return "is empty (0 bytes): a write that was cut short; restore it or use another file"
+    if head.startswith(_ZIP_MAGIC):
+        if "weights only" in str(error).lower():
+            return ("holds Python objects other than tensors, numbers and strings: msr loads "
+                    "torch files with weights_only=True and runs no code from them; it was not "
+                    "written by msr")
+        first = str(error).splitlines()[0].split(". ")[0][:160] if str(error) else "cut short"
+        return f"is a damaged or truncated torch file ({type(error).__name__}: {first})"
+    if head[0] == _PICKLE_PROTOCOL_OPCODE:
+        return "is a bare Python pickle, not a torch file written by msr (torch.save)"
+    try:
+        text = codecs.getincrementaldecoder("utf-8")().decode(head)  # a cut last character is fine
+    except UnicodeDecodeError:
+        text = "\x00"
+    if not text.strip() or not all(c.isprintable() or c in "\t\r\n" for c in text):
+        return "is not a torch file (it does not begin as torch.save's zip archive does)"
+    text = text.strip().splitlines()[0][:40]
+    return f"is a text file (it begins {text!r}), not a torch file: was another file given here?"
 
 
 def state_to_tensors(obj: Any) -> Any:
@@ -121,14 +157,17 @@ def load_checkpoint(path: str | os.PathLike, with_buffer: bool = True) -> dict[s
     ``ValueError`` naming the file when it is not a readable TD3 checkpoint."""
     path = Path(path)
     if path.is_dir():
+        if not RunDir(path).has_checkpoint():
+            hint = seed_runs_hint(path)
+            raise FileNotFoundError(f"{path}: no {RunDir.CHECKPOINT}: "
+                                    + (hint or "expected a run directory or a checkpoint"))
         path = RunDir(path).checkpoint
     try:
         ckpt = torch.load(path, map_location="cpu", weights_only=True)
     except FileNotFoundError:
         raise
     except Exception as err:  # truncated, empty or foreign files
-        first = str(err).splitlines()[0][:200] if str(err) else "empty or truncated"
-        raise ValueError(f"{path}: cannot be read as a checkpoint ({type(err).__name__}: {first})") \
+        raise ValueError(f"{path}: cannot be read as a checkpoint: {torch_file_problem(path, err)}") \
             from None
     if not isinstance(ckpt, dict) or ckpt.get("format") not in (CHECKPOINT_FORMAT, *LEGACY_FORMATS):
         raise ValueError(f"{path} is not a TD3 checkpoint ({CHECKPOINT_FORMAT})")

@@ -24,7 +24,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["CaseDir", "RunDir"]
+__all__ = ["CaseDir", "RunDir", "seed_runs_hint"]
 
 
 @dataclass(frozen=True)
@@ -165,3 +165,25 @@ class CaseDir:
         """``(seed, run folder)`` of every ``seed<k>/`` folder present, ordered by seed."""
         found = ((self.seed_of(p.name), p) for p in self.path.glob(f"{self.SEED_PREFIX}*"))
         return sorted((k, RunDir(p)) for k, p in found if k is not None and p.is_dir())
+
+
+def seed_runs_hint(path: str | os.PathLike) -> str:
+    """Where ``path`` is a folder of seed runs (a case folder ``OUT/<case>/``, an exported
+    ``seeds/<recipe>/``) or a training output holding case folders, a sentence saying so and
+    naming the run folder to give instead; otherwise ``""``. For messages of commands that take
+    one run."""
+    path = Path(path)
+    if not path.is_dir():
+        return ""
+    seeds = [run for _, run in CaseDir(path).seeds() if run.has_checkpoint() or run.run_json.is_file()]
+    if seeds:
+        names = ", ".join(run.path.name for run in seeds)
+        return (f"it is a folder of seed runs ({names}), not one run: give one of them, "
+                f"e.g. {seeds[0].path}")
+    cases = [child for child in sorted(path.iterdir()) if child.is_dir()
+             and any(run.has_checkpoint() for _, run in CaseDir(child).seeds())]
+    if cases:
+        first = next(run for _, run in CaseDir(cases[0]).seeds() if run.has_checkpoint())
+        return (f"it is a training output holding the case folders "
+                f"{', '.join(c.name for c in cases)}: give one seed's run, e.g. {first.path}")
+    return ""

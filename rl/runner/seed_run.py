@@ -83,10 +83,13 @@ def starting_point(
             if config is not None:
                 # run settings that change no weight may change on resume; the rest is the run's
                 passed = {k: getattr(config, k) for k in RESUMABLE_SETTINGS}
-                if dataclasses.replace(config, **{k: getattr(ckpt_cfg, k)
-                                                  for k in RESUMABLE_SETTINGS}) != ckpt_cfg:
+                differing = [f"{f.name} (the run's {getattr(ckpt_cfg, f.name)!r}, passed "
+                             f"{getattr(config, f.name)!r})" for f in dataclasses.fields(config)
+                             if f.name not in RESUMABLE_SETTINGS
+                             and getattr(config, f.name) != getattr(ckpt_cfg, f.name)]
+                if differing:
                     warnings.warn("resuming: using the checkpoint's hyperparameters, not the ones "
-                                  "passed", stacklevel=3)
+                                  f"passed: {'; '.join(differing)}", stacklevel=3)
                 ckpt_cfg = dataclasses.replace(ckpt_cfg, **passed)
             config = ckpt_cfg
     cfg = config if config is not None else TD3Config()

@@ -110,14 +110,14 @@ def _torch_load(path: Path) -> Any:
     """``torch.load`` of a policy file; a truncated or corrupted file is a PolicyFileError naming it."""
     import torch
 
+    from ..runfiles.checkpoint import torch_file_problem
+
     try:
         return torch.load(path, map_location="cpu", weights_only=True)
     except Exception as exc:  # torch raises EOFError, RuntimeError, UnpicklingError, ...
-        raise PolicyFileError(
-            f"{path}: cannot be read as a torch file ({type(exc).__name__}: "
-            f"{str(exc).splitlines()[0][:200] if str(exc) else 'empty or truncated'}); "
-            "restore it from the run or the repository"
-        ) from None
+        raise PolicyFileError(f"{path}: cannot be read as a torch file: "
+                              f"{torch_file_problem(path, exc)}; restore it from the run or the "
+                              "repository") from None
 
 
 def read_policy_json(path: str | Path) -> dict[str, Any]:
@@ -167,8 +167,8 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
     """Load a policy from a run directory, a checkpoint file, a shipped-format directory
     (``actor.pt`` + ``policy.json``), or a shipped name (``rl/policies/<name>``), in that order."""
 
-    from ..runfiles.checkpoint import checkpoint_metadata, load_checkpoint
-    from ..runfiles.rundir import RunDir
+    from ..runfiles.checkpoint import checkpoint_metadata, load_checkpoint, torch_file_problem
+    from ..runfiles.rundir import RunDir, seed_runs_hint
 
     policies_dir = Path(policies_dir) if policies_dir is not None else POLICIES_DIR
     path = Path(policy)
@@ -184,10 +184,8 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
         except ValueError as exc:  # unreadable, or not a checkpoint: named by load_checkpoint
             raise PolicyFileError(str(exc)) from None
         except Exception as exc:  # a truncated or corrupted file
-            raise PolicyFileError(
-                f"{path}: cannot be read as a checkpoint ({type(exc).__name__}: "
-                f"{str(exc).splitlines()[0][:200] if str(exc) else 'empty or truncated'})"
-            ) from None
+            raise PolicyFileError(f"{path}: cannot be read as a checkpoint: "
+                                  f"{torch_file_problem(path, exc)}") from None
         meta = checkpoint_metadata(ckpt, path)
         try:
             critic_hidden = tuple(ckpt["config"]["hidden_sizes"])
@@ -230,6 +228,8 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
         return LoadedPolicy(actor, critic, case, path, "shipped", meta, arch["obs_dim"],
                             arch["act_dim"], hidden)
     _check_policy_folder_whole(path)
+    if hint := seed_runs_hint(path):
+        raise PolicyNotFoundError(f"{policy}: not a run directory: {hint}")
     shipped = sorted(p.name for p in policies_dir.glob("*") if (p / POLICY_JSON).is_file()) \
         if policies_dir.is_dir() else []
     raise PolicyNotFoundError(

@@ -10,6 +10,7 @@ import os
 from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, command_name, duration_option, number, output_path
+from elastica_magnetic.progress import progress_bar
 
 from ..cases.variations import DEFAULT_RANGES, GROUPS, VariationError, magnitude_of, parse_variation
 from .identify import MAX_EVALUATIONS, STARTS
@@ -169,16 +170,18 @@ def identify_command(args: argparse.Namespace) -> int:
     check_against_robot(measured, float(spec["robot"]["length"]), fields.shape[0] * ACTION_PERIOD)
     _check_noise(args.noise_m, float(spec["robot"]["length"]))
 
-    def progress(evaluations: int, rms: float) -> None:
-        print(f"\rmsr identify: simulation {evaluations}, residual RMS {1e3 * rms:.4f} mm",
-              end="", file=sys.stderr, flush=True)
+    # a bar on a terminal, plain lines in a log (a "\r"-redrawn line fills a log file)
+    with progress_bar(args.max_evaluations, f"msr {command_name(args)}", "simulation",
+                      disable=args.no_progress) as bar:
 
-    report = identify(fields, measured, spec, fits, physics=args.physics,
-                      confirm=not args.no_confirm, max_evaluations=args.max_evaluations,
-                      starts=args.starts, seed=args.seed, noise_m=args.noise_m,
-                      progress=None if args.no_progress else progress)
-    if not args.no_progress:
-        print(file=sys.stderr)
+        def progress(evaluations: int, rms: float) -> None:
+            bar.update(evaluations - bar.n)
+            bar.set_postfix_str(f"residual RMS {1e3 * rms:.4f} mm")
+
+        report = identify(fields, measured, spec, fits, physics=args.physics,
+                          confirm=not args.no_confirm, max_evaluations=args.max_evaluations,
+                          starts=args.starts, seed=args.seed, noise_m=args.noise_m,
+                          progress=progress)
     for warning in report["warnings"]:
         print(f"msr {command_name(args)}: warning: {warning}", file=sys.stderr)
     report = {"field_csv": str(args.field_csv), "robot": str(args.robot), "fit": args.fit, **report}

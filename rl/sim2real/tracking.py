@@ -24,6 +24,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from elastica_magnetic.field_csv import separator_hint
+
 __all__ = [
     "MARKERS",
     "MAX_COORDINATE_M",
@@ -116,7 +118,7 @@ def _layout(path: Path, columns: list[str]) -> tuple[str, list[tuple[str, str, s
         raise TrajectoryError(
             f"{path}: no t_s column (found {', '.join(columns)}); expected msr's trajectory.csv or a "
             "tracker's CSV: t_s (s), then x_<s>_m, y_<s>_m (m) per tracked point, <s> its place "
-            "along the body from 0 (back end) to 1 (front end)")
+            f"along the body from 0 (back end) to 1 (front end){separator_hint(columns)}")
     markers = [(n, f"{n}_x_m", f"{n}_y_m") for n in MARKERS
                if f"{n}_x_m" in columns and f"{n}_y_m" in columns]
     if markers:
@@ -186,14 +188,46 @@ def read_trajectory(path: str | Path) -> MeasuredTrajectory:
                               fractions)
 
 
+#: A trajectory this many times longer than its waveform has its times in milliseconds.
+_MILLISECONDS_FROM = 100.0
+#: Points spread over this many body lengths (or more) are taken for centimetres, over
+#: :data:`_MILLIMETRES_FROM` for millimetres (tracked points on a body lie 0.25 to 1 length
+#: apart: x100 gives 25-100 lengths, x1000 250-1000).
+_CENTIMETRES_FROM = 10.0
+_MILLIMETRES_FROM = 160.0
+
+
+def _length_unit_guess(lengths: float) -> str:
+    """The unit mistake that makes a distance ``lengths`` body lengths (far too many)."""
+    if lengths >= _MILLIMETRES_FROM:
+        return "millimetres; give metres (divide by 1000)"
+    if lengths >= _CENTIMETRES_FROM:
+        return "centimetres; give metres (divide by 100)"
+    return "another unit than metres (or from another recording)"
+
+
 def check_against_robot(measured: MeasuredTrajectory, length: float, field_duration: float) -> None:
     """Checks that need the robot (``length``, m) and the waveform (``field_duration``, s): the
     frames lie within the waveform, the points move (at least :data:`MIN_MOTION` of the length)
-    and their motion and spacing fit the body (else the unit is wrong by 1000)."""
+    and their motion and spacing fit the body (else a unit is wrong: mm or cm for m, ms for s)."""
     where = measured.source
+    if measured.duration > _MILLISECONDS_FROM * field_duration:
+        raise TrajectoryError(f"{where}: its frames reach t_s = {measured.duration:g} s, "
+                              f"{measured.duration / field_duration:.0f} x the {field_duration:g} s "
+                              "waveform: the times look like milliseconds; give seconds (divide "
+                              "t_s by 1000)")
     if measured.duration > field_duration + 1e-9:
         raise TrajectoryError(f"{where}: its frames reach {measured.duration:g} s, past the end of the "
                               f"waveform ({field_duration:g} s); cut the trajectory to the waveform")
+    if measured.positions.shape[1] > 1:
+        spread = np.ptp(measured.positions, axis=1)  # (n, 2): extent of the points per frame
+        widest = float(np.hypot(spread[:, 0], spread[:, 1]).max())
+        if widest > MAX_SEPARATION * length:
+            guess = (f"the values look like {_length_unit_guess(widest / length)}"
+                     if widest > _CENTIMETRES_FROM * length
+                     else "are the points on the robot, and in metres?")
+            raise TrajectoryError(f"{where}: tracked points {widest:g} m apart on a {length:g} m body "
+                                  f"({widest / length:.3g} x its length): {guess}")
     moved = np.linalg.norm(measured.displacements(), axis=2).max()
     if moved < MIN_MOTION * length:
         raise TrajectoryError(f"{where}: no motion to fit: the points move at most {1e3 * moved:.3g} mm, "
@@ -201,14 +235,8 @@ def check_against_robot(measured: MeasuredTrajectory, length: float, field_durat
                               "values in m? is this the right recording?)")
     if moved > MAX_MOTION_LENGTHS * length:
         raise TrajectoryError(f"{where}: a point moves {moved:g} m, {moved / length:.0f} body lengths: "
-                              "the values look like millimetres; give metres (divide by 1000)")
-    if measured.positions.shape[1] > 1:
-        spread = np.ptp(measured.positions, axis=1)  # (n, 2): extent of the points per frame
-        widest = float(np.hypot(spread[:, 0], spread[:, 1]).max())
-        if widest > MAX_SEPARATION * length:
-            raise TrajectoryError(f"{where}: tracked points {widest:g} m apart on a {length:g} m body: the "
-                                  "values look like millimetres (give metres) or the points are "
-                                  "not on the robot")
+                              "the values look like millimetres or centimetres; give metres "
+                              "(divide by 1000 or 100)")
 
 
 def points_at_rows(measured: MeasuredTrajectory, trajectory: pd.DataFrame,

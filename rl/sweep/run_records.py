@@ -48,9 +48,29 @@ def check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
                 raise ValueError(f"the spec of case {metadata['case']!r} differs from the run's at "
                                  f"{first_difference(run_spec, spec)} ({run_json}): a resumed run "
                                  "keeps its case")
+        elif key in record and key in metadata and not _same_kind(record[key], metadata[key]):
+            raise ValueError(f"{run_json}: {key} is {record[key]!r} ({_kind(record[key])}), "
+                             f"expected {_kind(metadata[key])} such as {metadata[key]!r}: the "
+                             "record was edited or damaged; restore it (e.g. from a backup)")
         elif key in record and key in metadata and record[key] != metadata[key]:
             raise ValueError(f"{options[key]} {metadata[key]} differs from the run's {record[key]} "
                              f"({run_json}): a resumed run keeps its settings")
+
+
+def _kind(value: Any) -> str:
+    """The JSON kind of a record's value, in words."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true/false"
+    if isinstance(value, (int, float)):
+        return "a number"
+    return {str: "a string", dict: "a table", list: "a list"}.get(type(value), type(value).__name__)
+
+
+def _same_kind(a: Any, b: Any) -> bool:
+    """Two values a record and today's settings can compare (a string "20" is not 20.0)."""
+    return a is None or b is None or _kind(a) == _kind(b)
 
 
 def _without_default_recipe(spec: Any) -> Any:

@@ -5,6 +5,8 @@ short, paths relative to where the user stands."""
 from __future__ import annotations
 
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -54,3 +56,29 @@ def test_no_command_prints_a_repr(argv, tmp_path, capsys):
     assert main([a.replace("{tmp}", str(tmp_path)) for a in argv]) == 0
     out = capsys.readouterr().out
     assert out.strip() and not REPR.search(out), out
+
+
+def _msr_process(*argv: str, stdout) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "elastica_magnetic.cli", *argv], stdout=stdout,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def test_a_reader_that_goes_away_ends_the_command_quietly():
+    """Round 4, V11: `msr case list | head -1` printed "error: [Errno 32] Broken pipe"; a Unix
+    tool whose reader went away stops quietly (exit status 128 + SIGPIPE)."""
+    process = _msr_process("case", "list", stdout=subprocess.PIPE)
+    process.stdout.close()  # the reader leaves before the first line
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 141 and err == "", err
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full")
+def test_a_full_standard_output_is_named_as_standard_output():
+    """Round 4, V11: "[Errno 28] No space left on device" alone read as if a result could not be
+    written."""
+    with open("/dev/full", "w") as full:
+        process = _msr_process("case", "list", stdout=full)
+        _, err = process.communicate(timeout=120)
+    assert process.returncode == 2
+    assert err.strip() == ("msr case list: error: cannot write to standard output: No space left "
+                           "on device (where it is redirected to)"), err

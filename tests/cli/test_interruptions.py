@@ -45,7 +45,7 @@ def test_sigint_inside_a_c_callback_is_one_line():
     done = subprocess.run([sys.executable, "-c", CALLBACK_INTERRUPTED], capture_output=True, text=True,
                           timeout=60, env={**os.environ, "MPLBACKEND": "Agg"})
     assert done.returncode == 130, done.stderr
-    assert done.stderr.strip() == "msr case: interrupted (SIGINT)"
+    assert done.stderr.strip() == "msr case check: interrupted (SIGINT)"
 
 
 @ctypes.CFUNCTYPE(None)
@@ -65,7 +65,7 @@ def test_a_swallowed_ctrl_c_then_a_compilation_that_goes_on(monkeypatch, capsys)
     monkeypatch.setattr(check, "check_case", compile_kernels)
     assert main(["case", "check", "m1-4mT", "--no-sag"]) == 0
     err = capsys.readouterr().err
-    assert "msr case: note: a Ctrl-C came where it cannot stop the command (in a callback from C" in err
+    assert "msr case check: note: a Ctrl-C came where it cannot stop the command (in a callback from C" in err
     assert "Exception ignored" not in err
 
 
@@ -75,7 +75,7 @@ def test_ctrl_c_while_the_command_line_is_parsed(monkeypatch, capsys):
 
     monkeypatch.setattr(rl_case, "load_case", loading)
     assert main(["case", "check", "m1-4mT", "--no-sag"]) == 130
-    assert capsys.readouterr().err.strip() == "msr case: interrupted (SIGINT)"
+    assert capsys.readouterr().err.strip() == "msr case check: interrupted (SIGINT)"
 
 
 def test_an_unexpected_error_without_interruption_still_raises(monkeypatch):

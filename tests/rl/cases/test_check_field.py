@@ -50,7 +50,7 @@ def test_case_check_refuses_the_field_simulate_refuses(tmp_path, capsys, mistake
     assert refused.startswith(f"msr field simulate: error: {spec}: [field]")
     assert msr(["case", "check", "--no-sag", str(spec)]) == 2
     captured = capsys.readouterr()
-    assert captured.err.strip() == refused.replace("msr field simulate:", "msr case:", 1)
+    assert captured.err.strip() == refused.replace("msr field simulate:", "msr case check:", 1)
     assert captured.out == ""  # refused before the report
 
 
@@ -65,6 +65,6 @@ def test_case_check_warns_where_simulate_warns(tmp_path, capsys):
     spec = catheter_with(tmp_path, weak)
     assert msr(["case", "check", "--no-sag", str(spec)]) == 0
     captured = capsys.readouterr()
-    assert (f"msr case: warning: {spec}: [field] polarization: |polarization| = 0.05 T is below "
+    assert (f"msr case check: warning: {spec}: [field] polarization: |polarization| = 0.05 T is below "
             "0.1 T, weaker than bonded ferrite magnets") in captured.err
     assert "  checked: robot, time steps, field, boundary;" in captured.out

@@ -69,7 +69,7 @@ def test_msr_prints_an_unusual_value_once_as_a_warning_line(tmp_path, capsys):
     err = capsys.readouterr().err
     lines = [line for line in err.splitlines() if "warning:" in line]
     assert len(lines) == 1, err
-    assert lines[0].startswith(f"msr case: warning: {path}: [robot.magnetization] magnitude = 61.3 A/m "
+    assert lines[0].startswith(f"msr case show: warning: {path}: [robot.magnetization] magnitude = 61.3 A/m "
                                "is below 1000 A/m")
     assert "it looks like kA/m written where A/m is expected (61.3 kA/m is 61300 A/m)" in lines[0]
 

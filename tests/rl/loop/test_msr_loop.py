@@ -249,3 +249,21 @@ def test_a_loop_killed_with_sigterm_says_sigterm_and_exits_143(tmp_path, monkeyp
     status, _, err = _loop(str(spec), "--out", str(tmp_path / "out"))
     assert status == 143, err
     assert "msr loop: interrupted (SIGTERM)" in err and "SIGINT" not in err, err
+
+
+def test_a_quick_sweep_that_finds_no_forward_distance_blames_its_length(tmp_path, monkeypatch):
+    """Round 4, V10: a --quick loop (one 0.5 s sweep) whose robot went backwards was told to check
+    its magnetization; the message says the sweep is too short to judge and how to judge it."""
+    from elastica_magnetic_rl.shipping import baseline_sweep
+
+    def backwards(*args, **kwargs):
+        return {"best": {"mid_dx_m": -4e-4}, "duration_s": 0.5, "physics": "training"}
+
+    spec = _write_spec(tmp_path / "seg4.toml")
+    monkeypatch.setitem(loop_steps.STEP_FUNCTIONS, "check", lambda ctx: {"text": "", "warnings": []})
+    monkeypatch.setattr(baseline_sweep, "sweep_baseline", backwards)
+    status, _, err = _loop(str(spec), "--out", str(tmp_path / "out"))
+    assert status == 2, err
+    assert "moved seg4 -0.4 mm in 0.5 s of the training physics" in err, err
+    assert "(1 period(s), 0.5 s, training physics, --quick) is too short to judge the robot" in err
+    assert "check the magnetization" not in err

@@ -72,3 +72,29 @@ def test_a_damaged_log_is_named_with_its_row_and_column(tmp_path):
     log.write_text("episode,global_step,return\n0,10,1.5\n")
     assert read_log(log, ("global_step", "return")) == [
         {"episode": "0", "global_step": "10", "return": "1.5"}]
+
+
+@pytest.mark.parametrize(("content", "expected"), [
+    (b"", "is empty (0 bytes)"),
+    (b"t_s,mag_x,mag_y,mag_z\n0,1,0,0\n", "is a text file (it begins 't_s,mag_x,mag_y,mag_z')"),
+    (b"\x80\x04K\x01.", "is a bare Python pickle"),
+    (b"\x00\x01\x02binary", "is not a torch file"),
+    ("truncated", "is a damaged or truncated torch file (RuntimeError"),
+    ("objects", "holds Python objects other than tensors"),
+])
+def test_a_file_that_is_not_a_checkpoint_says_what_it_is(tmp_path, content, expected):
+    """torch's own message for these advises weights_only=False (running the file's code) or
+    is a KeyError of a byte; the reason says what the file is instead."""
+    path = tmp_path / "checkpoint.pt"
+    if content == "truncated":
+        torch.save({"w": torch.zeros(1000)}, path)
+        path.write_bytes(path.read_bytes()[:2000])
+    elif content == "objects":
+        torch.save({"where": tmp_path}, path)  # a PosixPath: not loadable with weights_only
+    else:
+        path.write_bytes(content)
+    with pytest.raises(ValueError) as refused:
+        load_checkpoint(path)
+    message = str(refused.value)
+    assert message.startswith(f"{path}: cannot be read as a checkpoint: {expected}"), message
+    assert "weights_only` set to `False" not in message

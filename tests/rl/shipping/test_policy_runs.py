@@ -174,3 +174,21 @@ def test_checkpoint_best_without_best_pt_says_the_true_cause(tmp_path, log, caus
     assert cause in str(exc.value)
     if log and log.count("\n") > 1:
         assert "made no evaluation" not in str(exc.value)
+
+
+@pytest.mark.parametrize("command", [["policy", "ship", "--name", "x", "--no-measure"],
+                                     ["policy", "diagnose"], ["policy", "generate"],
+                                     ["policy", "export"]])
+def test_a_folder_of_seed_runs_given_for_one_run_names_the_seed_to_give(trained, tmp_path, capsys,
+                                                                        command):
+    """A case folder (OUT/<case>) or a training output (OUT) where one run is expected: the
+    message says what the folder is and names a seed's run to give instead."""
+    for given, expected in ((trained / "m1-4mT", "it is a folder of seed runs (seed0, seed1)"),
+                            (trained, "it is a training output holding the case folders m1-4mT")):
+        argv = [*command, str(given)]
+        if command[1] != "diagnose":
+            argv += ["--out", str(tmp_path / "out")]
+        assert msr(argv) == 2
+        err = capsys.readouterr().err
+        assert expected in err and f"e.g. {trained / 'm1-4mT' / 'seed0'}" in err, err
+        assert not (tmp_path / "out").exists()

@@ -201,9 +201,11 @@ def test_the_residual_flag_fires_when_the_value_that_differs_is_not_fitted(tmp_p
     (tmp_path / "track.csv").write_text(f"t_s,{columns}\n" + "\n".join(lines) + "\n")
     out = tmp_path / "id"
     assert main(["real", "identify", str(tmp_path / "fields.csv"), str(tmp_path / "track.csv"), "--robot",
-                 CASE, "--fit", "friction", "--out", str(out), "--no-confirm", "--no-progress",
+                 CASE, "--fit", "friction", "--out", str(out), "--no-confirm",
                  "--starts", "2", "--max-evaluations", "16", "--noise-m", "5e-5"]) == 0
     captured = capsys.readouterr()
+    # round 4, V12: progress off a terminal is plain lines, not a "\r"-redrawn one
+    assert "\r" not in captured.err and "msr real identify: 100% (16/16 simulation)" in captured.err
     report = json.loads((out / "identify.json").read_text())
     assert report["residual_vs_noise"] > 2.0
     assert "msr real identify: warning: the residual RMS" in captured.err

@@ -110,5 +110,20 @@ def test_checks_against_the_robot_and_the_waveform(tmp_path):
     times = [r[0] for r in _moving()]
     pd.DataFrame({"t_s": times, "x_0.5_m": [8.0 * t / times[-1] for t in times],
                   "y_0.5_m": 0.0}).to_csv(path, index=False)
-    with pytest.raises(TrajectoryError, match="body lengths: the values look like millimetres"):
+    with pytest.raises(TrajectoryError, match="body lengths: the values look like millimetres or centimetres"):
         check_against_robot(read_trajectory(path), LENGTH, 1.0)
+
+
+def test_centimetres_and_milliseconds_are_named_as_such(tmp_path):
+    """Round 4, V7: positions in centimetres were called millimetres, a t_s column in
+    milliseconds was "past the end of the waveform"."""
+    cm = [[r[0], 100 * r[1], 0, 100 * r[3], 100 * r[4]] for r in _moving()]
+    with pytest.raises(TrajectoryError, match=r"\(100 x its length\): the values look like "
+                                              r"centimetres; give metres \(divide by 100\)"):
+        check_against_robot(read_trajectory(_tracker(tmp_path, cm, name="cm.csv")), LENGTH, 1.0)
+    ms = [[1000 * r[0], *r[1:]] for r in _moving()]
+    with pytest.raises(TrajectoryError, match=r"the times look like milliseconds; give seconds"):
+        check_against_robot(read_trajectory(_tracker(tmp_path, ms, name="ms.csv")), LENGTH, 1.0)
+    near = [[1.5 * r[0], *r[1:]] for r in _moving()]  # a little too long: cut, not a unit
+    with pytest.raises(TrajectoryError, match=r"past the end of the waveform \(0.3 s\)"):
+        check_against_robot(read_trajectory(_tracker(tmp_path, near, name="near.csv")), LENGTH, 0.3)

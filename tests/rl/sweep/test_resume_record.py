@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import json
 import shutil
 
 from smoke import SMOKE, TRAIN_STEPS
@@ -21,3 +22,21 @@ def test_a_resume_without_run_json_is_refused(trained, tmp_path, capsys):
     assert "seed0: its run.json" in err and "is missing, so the resume cannot keep the run's " \
                                             "settings" in err, err
     assert sorted(p.name for p in (out / "m1-4mT" / "seed0").iterdir()) == before
+
+
+def test_a_string_in_run_json_is_named_not_compared_as_a_different_setting(trained, tmp_path,
+                                                                           capsys):
+    """Round 4, V5: "--episode-duration 0.8 differs from the run's 0.8" for a record holding the
+    string "0.8": the record's kind is named, and nothing of the run is touched."""
+    out = tmp_path / "runs"
+    shutil.copytree(trained / "m1-4mT", out / "m1-4mT")
+    record = out / "m1-4mT" / "seed0" / "run.json"
+    data = json.loads(record.read_text())
+    data["episode_duration_s"] = str(data["episode_duration_s"])
+    record.write_text(json.dumps(data))
+    before = {p.name: p.read_bytes() for p in record.parent.iterdir() if p.is_file()}
+    assert msr(["train", "--case", "m1-4mT", "--seeds", "1", "--workers", "1", "--steps",
+                str(TRAIN_STEPS + 40), "--out", str(out), "--resume", *SMOKE]) == 2
+    err = capsys.readouterr().err
+    assert f"{record}: episode_duration_s is '0.8' (a string), expected a number such as 0.8" in err
+    assert {p.name: p.read_bytes() for p in record.parent.iterdir() if p.is_file()} == before

@@ -1,0 +1,37 @@
+"""A Ctrl-C while ``msr`` imports its packages (a second or more: PyElastica, numba, torch) ends
+the command with one line and status 130, not a traceback through the import machinery
+(round 4 of tries)."""
+
+from __future__ import annotations
+
+import builtins
+import signal
+import subprocess
+import sys
+import time
+
+import msr_entry
+
+
+def test_an_interruption_during_the_imports_is_one_line(monkeypatch, capsys):
+    real_import = builtins.__import__
+
+    def interrupted(name, *args, **kwargs):
+        if name == "elastica_magnetic.cli.app":
+            raise KeyboardInterrupt
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", interrupted)
+    assert msr_entry.main() == 130
+    assert capsys.readouterr().err == "msr: interrupted (SIGINT) while starting up: nothing was done\n"
+
+
+def test_a_sigint_soon_after_start_never_shows_a_traceback():
+    process = subprocess.Popen([sys.executable, "-c", "import sys, msr_entry; sys.exit(msr_entry.main())",
+                                "case", "list"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True)
+    time.sleep(0.3)  # inside the imports (about 1 s), or just after on a fast machine
+    process.send_signal(signal.SIGINT)
+    out, err = process.communicate(timeout=120)
+    assert process.returncode == 130, (out, err)
+    assert "Traceback" not in err and "interrupted (SIGINT)" in err, err
