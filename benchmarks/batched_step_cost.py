@@ -40,7 +40,7 @@ from elastica_magnetic import yao2023_robot
 from elastica_magnetic.batch import BatchedRobots
 from elastica_magnetic.bench import batched_fields as _fields
 from elastica_magnetic.bench import measure_batched, per_rod_simulator  # noqa: F401  (re-exported)
-from elastica_magnetic.presets import RobotSpec
+from elastica_magnetic.robot_spec import RobotSpec
 
 
 @njit(cache=True)

@@ -36,16 +36,8 @@ from .magnetization import (
     yao2023_magnetization,
 )
 from .openloop import OpenLoopResult, run_open_loop, write_trajectory_csv
-from .presets import (
-    YAO2023_MASS_SCALE,
-    DampingSpec,
-    GroundSpec,
-    InteractionSpec,
-    RobotSpec,
-    hu2018_robot,
-    robot_by_name,
-    yao2023_robot,
-)
+from .presets import YAO2023_MASS_SCALE, hu2018_robot, robot_by_name, yao2023_robot
+from .robot_spec import DampingSpec, GroundSpec, InteractionSpec, RobotSpec
 from .section import (
     equivalent_radius,
     rectangular_band_rod,

@@ -30,7 +30,8 @@ from . import simulation as simulation_module
 from .batch import BatchedRobots
 from .fields import ControlledField, RotatingField
 from .forcing import LegacyInternalDamping, MagneticTorques, RelativeVelocityDamping, evaluate_field
-from .presets import RobotSpec, yao2023_robot
+from .presets import yao2023_robot
+from .robot_spec import RobotSpec
 from .simulation import (
     MagneticRodSimulator,
     build_simulation,

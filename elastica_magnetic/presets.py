@@ -18,13 +18,11 @@ from __future__ import annotations
 
 from .magnetization import YAO2023_MAGNETIZATION, sinusoidal_magnetization, yao2023_magnetization
 
-# the spec's home is .robot_spec; its names stay importable from here
-from .robot_spec import (  # noqa: F401
-    ACTION_PERIOD,
+# the spec's home is .robot_spec
+from .robot_spec import (
     STANDARD_GRAVITY,
     DampingSpec,
     GroundSpec,
-    InteractionSpec,
     Physics,
     RobotSpec,
 )

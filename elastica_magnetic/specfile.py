@@ -50,13 +50,12 @@ from .robot_spec import (
 )
 from .section import equivalent_radius
 
-# the file format's home is .spec_format; SpecError, SpecTable, read_spec, loads stay importable from here
-from .spec_format import (  # noqa: F401
+# the file format's home is .spec_format
+from .spec_format import (
     REQUIRED,
     SpecError,
     SpecTable,
     accepted_keys,
-    loads,
     read_spec,
     toml_with_units,
 )

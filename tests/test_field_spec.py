@@ -13,7 +13,8 @@ import pytest
 from elastica_magnetic import ConstantGradientField, HelmholtzCoils, PointDipoleField, Waypoints
 from elastica_magnetic.cli import main
 from elastica_magnetic.field_spec import describe_field, load_field
-from elastica_magnetic.specfile import SpecError, loads
+from elastica_magnetic.spec_format import loads
+from elastica_magnetic.specfile import SpecError
 
 ROBOT = """
 [robot]

@@ -14,7 +14,8 @@ from elastica_magnetic import (
     yao2023_robot,
 )
 from elastica_magnetic.magnetization import segment_element_counts
-from elastica_magnetic.specfile import SpecError, describe_robot, dumps, loads, magnetization_array
+from elastica_magnetic.spec_format import loads
+from elastica_magnetic.specfile import SpecError, describe_robot, dumps, magnetization_array
 
 M = 61.3e3
 

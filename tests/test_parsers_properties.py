@@ -15,8 +15,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from elastica_magnetic.field_csv import FieldCSVError, read_field_csv
-from elastica_magnetic.presets import RobotSpec
-from elastica_magnetic.specfile import SpecError, describe_robot, loads
+from elastica_magnetic.robot_spec import RobotSpec
+from elastica_magnetic.spec_format import loads
+from elastica_magnetic.specfile import SpecError, describe_robot
 
 #: Examples per property; a longer soak outside the suite: MSR_HYPOTHESIS_EXAMPLES=5000.
 EXAMPLES = int(os.environ.get("MSR_HYPOTHESIS_EXAMPLES", "150"))

@@ -19,7 +19,8 @@ from elastica_magnetic.field_spec import describe_field
 from elastica_magnetic.fields import TabulatedField
 from elastica_magnetic.plausibility import QUANTITIES, ImplausibleValueWarning, judge
 from elastica_magnetic.spatial_fields import CurrentLoopField, FieldMap, SpatialFieldError
-from elastica_magnetic.specfile import SpecError, describe_robot, loads, spec_field_limit
+from elastica_magnetic.spec_format import loads
+from elastica_magnetic.specfile import SpecError, describe_robot, spec_field_limit
 
 ROBOT = """
 [robot]

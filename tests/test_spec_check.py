@@ -17,7 +17,8 @@ from elastica_magnetic.spec_check import (
     format_check,
     simulate_sag,
 )
-from elastica_magnetic.specfile import SpecError, loads
+from elastica_magnetic.spec_format import loads
+from elastica_magnetic.specfile import SpecError
 from elastica_magnetic.stability import CALIBRATION, suggested_time_step, time_step_limits
 
 PAPER = (Path(__file__).resolve().parents[1] / "rl" / "specs" / "m1-4mT.toml").read_text()

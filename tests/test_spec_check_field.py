@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 
 from elastica_magnetic.spec_check import check_spec
-from elastica_magnetic.specfile import SpecError, loads
+from elastica_magnetic.spec_format import loads
+from elastica_magnetic.specfile import SpecError
 
 CATHETER = Path(__file__).resolve().parents[1] / "elastica_magnetic" / "data" / "examples" / "catheter.toml"
 

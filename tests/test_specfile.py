@@ -11,12 +11,12 @@ import pytest
 
 from elastica_magnetic import hu2018_robot, yao2023_robot
 from elastica_magnetic.cli import main
+from elastica_magnetic.spec_format import loads
 from elastica_magnetic.specfile import (
     SpecError,
     describe_robot,
     dumps,
     load_robot,
-    loads,
     magnetization_array,
 )
 

@@ -14,7 +14,8 @@ import pytest
 from elastica_magnetic import RotatingField, run_open_loop
 from elastica_magnetic.presets import ROBOTS, robot_by_name
 from elastica_magnetic.section import equivalent_radius, rectangular_band_rod, rigidity_scale
-from elastica_magnetic.specfile import SpecError, describe_robot, load_robot, loads
+from elastica_magnetic.spec_format import loads
+from elastica_magnetic.specfile import SpecError, describe_robot, load_robot
 from elastica_magnetic.stability import estimated_stable_time_step
 
 BAND = """

@@ -37,7 +37,7 @@ from typing import Any
 
 from elastica_magnetic import RobotSpec
 from elastica_magnetic.plausibility import mistake_hint
-from elastica_magnetic.presets import ACTION_PERIOD, Physics
+from elastica_magnetic.robot_spec import ACTION_PERIOD, Physics
 from elastica_magnetic.specfile import (
     RobotDescription,
     SpecError,

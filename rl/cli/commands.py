@@ -22,8 +22,7 @@ from elastica_magnetic.cli import (
     print_result,
 )
 
-# importable from here as before (their home is .options)
-from .options import (  # noqa: F401
+from .options import (
     CASE_HELP,
     CHECKPOINT_HELP,
     FORCE_HELP,

@@ -93,30 +93,63 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=train_command)
 
 
+#: The earlier one-flag-per-setting spellings, hidden aliases of ``--set KEY=VALUE``.
+OLD_SETTING_FLAGS = {
+    "--learning-starts": "learning_starts", "--batch-size": "batch_size", "--hidden": "hidden_sizes",
+    "--actor-hidden": "actor_hidden_sizes", "--updates-per-step": "updates_per_step",
+    "--buffer-size": "buffer_size", "--target-noise-clip": "target_noise_clip",
+    "--checkpoint-every": "checkpoint_every", "--eval-every": "eval_every",
+}
+
+
+def td3_setting(text: str) -> tuple[str, object]:
+    """The argparse ``type`` of ``--set KEY=VALUE``: a TD3 setting checked against
+    :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` (as RL Zoo's ``--hyperparams``)."""
+    from ..td3.algorithm import TD3Config
+
+    key, equals, value = text.partition("=")
+    if not equals or not key.strip():
+        raise argparse.ArgumentTypeError(f"{text!r}: expected KEY=VALUE, e.g. batch_size=128")
+    try:
+        return key.strip(), TD3Config.parse_setting(key.strip(), value)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+class _OldSettingFlag(argparse.Action):
+    """``--batch-size 64`` of earlier releases: stored as ``--set batch_size=64`` with a note."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: object, option_string: str | None = None) -> None:
+        key = OLD_SETTING_FLAGS[option_string]
+        try:
+            setting = td3_setting(f"{key}={values}")
+        except argparse.ArgumentTypeError as exc:
+            raise argparse.ArgumentError(self, str(exc)) from None
+        print(f"{parser.prog}: note: {option_string} is now --set {key}=VALUE (the old spelling "
+              "works in this release)", file=sys.stderr)
+        namespace.settings = [*(namespace.settings or []), setting]
+
+
 def _add_td3_overrides(p: argparse.ArgumentParser) -> None:
     """``msr train``'s TD3 settings that override the recipe's (read by :func:`_overrides`)."""
-    g = p.add_argument_group("TD3 overrides (default: the paper's settings)")
-    g.add_argument("--learning-starts", type=int, default=None, help="warm-up steps (2500)")
-    g.add_argument("--batch-size", type=int, default=None, help="minibatch (256)")
-    g.add_argument("--hidden", type=str, default=None,
-                   help="hidden sizes of the critics, and of the actor unless --actor-hidden, e.g. 256,256")
-    g.add_argument("--actor-hidden", type=str, default=None,
-                   help="hidden sizes of the actor when they differ from the critics', e.g. 64,64")
-    g.add_argument("--updates-per-step", type=float, default=None,
-                   help="TD3 updates per environment transition after the warm-up (1; a fraction "
-                        "such as 0.5 makes one update every second transition)")
-    g.add_argument("--buffer-size", type=int, default=None, help="replay capacity (1e6)")
-    g.add_argument("--target-noise-clip", type=float, default=None, help="(0.8, the authors')")
-    g.add_argument("--checkpoint-every", type=int, default=None, help="steps (10000)")
+    from ..td3.algorithm import TD3Config
+
+    g = p.add_argument_group("TD3 settings (default: the recipe's, else the paper's)")
+    g.add_argument("--set", dest="settings", type=td3_setting, action="append", default=None,
+                   metavar="KEY=VALUE",
+                   help="a TD3 setting over the recipe's, repeatable: e.g. --set batch_size=128 "
+                        "--set hidden_sizes=64,64 (layer widths comma-separated). Keys: "
+                        + ", ".join(TD3Config.settable())
+                        + " (docs/training.md); a spec's [training.td3] takes the same keys")
+    for flag in OLD_SETTING_FLAGS:
+        g.add_argument(flag, action=_OldSettingFlag, help=argparse.SUPPRESS)
     g.add_argument("--precision", choices=("fp32", "bf16"), default=None,
                    help="arithmetic of the networks' matrix products in the updates: fp32 (the "
                         "paper's, default) or bf16 (bfloat16 products on float32 weights; falls "
                         "back to fp32 on a CPU without bfloat16 units)")
     g.add_argument("--device", choices=("cpu", "cuda"), default=None,
                    help="where the networks train (default cpu)")
-    g.add_argument("--eval-every", type=int, default=None,
-                   help="steps between evaluations of the deterministic policy from a zero field, "
-                        "10 s, best actor kept in best.pt (5000; 0: none)")
 
 
 def _add_stop_options(p: argparse.ArgumentParser) -> None:
@@ -191,45 +224,18 @@ def _add_refine_command(sub: argparse._SubParsersAction) -> None:
 
 
 def _overrides(args: argparse.Namespace) -> dict:
-    """TD3 settings given on the command line, checked before any work starts."""
-    out = {}
-    for name in ("learning_starts", "batch_size", "buffer_size", "target_noise_clip",
-                 "checkpoint_every", "eval_every", "precision", "device"):
-        value = getattr(args, name)
-        if value is not None:
-            out[name] = value
-    for name, least in (("learning_starts", 0), ("batch_size", 1), ("buffer_size", 1),
-                        ("checkpoint_every", 1), ("eval_every", 0)):
-        if out.get(name, least) < least:
-            raise CommandError(f"--{name.replace('_', '-')} must be >= {least}, got {out[name]}")
-    clip = out.get("target_noise_clip", 0.0)
-    if not (math.isfinite(clip) and clip >= 0):
-        raise CommandError(f"--target-noise-clip must be a finite number >= 0 (a fraction of the "
-                           f"action half-range), got {clip}")
-    for option, name in (("hidden", "hidden_sizes"), ("actor_hidden", "actor_hidden_sizes")):
-        if getattr(args, option, None):
-            out[name] = _widths(f"--{option.replace('_', '-')}", getattr(args, option))
-    ratio = getattr(args, "updates_per_step", None)
-    if ratio is not None:
-        from ..td3.algorithm import MAX_UPDATES_PER_STEP
-
-        if not (math.isfinite(ratio) and 0 < ratio <= MAX_UPDATES_PER_STEP):
-            raise CommandError(f"--updates-per-step must be a finite number in (0, "
-                               f"{MAX_UPDATES_PER_STEP}] (updates per transition; 20 is already a "
-                               f"high update-to-data ratio), got {ratio:g}")
-        out["updates_per_step"] = ratio
+    """TD3 settings given on the command line (``--set``, checked as they were parsed; a key
+    given twice is refused: which one was meant cannot be guessed), with ``--precision`` and
+    ``--device``."""
+    out: dict = {}
+    for key, value in getattr(args, "settings", None) or []:
+        if key in out and out[key] != value:
+            raise CommandError(f"--set {key} given twice ({out[key]} and {value}); give it once")
+        out[key] = value
+    for name in ("precision", "device"):
+        if getattr(args, name, None) is not None:
+            out[name] = getattr(args, name)
     return out
-
-
-def _widths(option: str, text: str) -> tuple[int, ...]:
-    """Hidden layer widths from ``"256,256"``."""
-    try:
-        widths = tuple(int(h) for h in text.split(","))
-    except ValueError:
-        raise CommandError(f"{option} must be comma-separated integers, got {text!r}") from None
-    if not widths or min(widths) < 1:
-        raise CommandError(f"{option}: every layer needs at least 1 unit, got {text!r}")
-    return widths
 
 
 def _check_run_options(args: argparse.Namespace) -> None:

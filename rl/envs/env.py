@@ -64,7 +64,7 @@ from elastica_magnetic import (
     build_simulation,
     yao2023_robot,
 )
-from elastica_magnetic.presets import ACTION_PERIOD
+from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..cases.case import Case, load_case
 from ..cases.tasks import CrawlTask, Task

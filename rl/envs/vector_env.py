@@ -65,7 +65,7 @@ from numpy.typing import NDArray
 
 from elastica_magnetic import ControlledField, RobotSpec
 from elastica_magnetic.batch import BatchedRobots, BatchedSimulationDiverged
-from elastica_magnetic.presets import ACTION_PERIOD
+from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..cases.case import Case
 from ..cases.tasks import Task

@@ -111,7 +111,7 @@ def evaluate_many(policies: Sequence[Any], vec_env_fn: Callable[[int], gym.vecto
 
 class ActorPolicy:
     """A deterministic policy from an actor's state dict (plain
-    :class:`~elastica_magnetic_rl.td3.algorithm.Actor`, float32): what evaluation runs, so a ``best.pt``
+    :class:`~elastica_magnetic_rl.td3.networks.Actor`, float32): what evaluation runs, so a ``best.pt``
     replays its recorded evaluation exactly."""
 
     def __init__(self, actor_state: dict[str, torch.Tensor], obs_dim: int, act_dim: int,

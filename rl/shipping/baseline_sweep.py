@@ -16,8 +16,8 @@ from typing import Any
 
 from elastica_magnetic.filesets import result_file
 from elastica_magnetic.io import atomic_write, atomic_write_json, atomic_write_text
-from elastica_magnetic.presets import ACTION_PERIOD
 from elastica_magnetic.results import check_result_folder, result_folder
+from elastica_magnetic.robot_spec import ACTION_PERIOD
 from elastica_magnetic.rotation import measure_rotation, min_rotation_period
 from elastica_magnetic.specfile import SPEC_FILE
 

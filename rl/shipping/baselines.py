@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from elastica_magnetic.presets import ACTION_PERIOD
+from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..cases.case import Case, load_case
 from ..envs.env import OBSERVATION_SCALES, observation_layout

@@ -175,7 +175,7 @@ def _policy_info(policy: LoadedPolicy, name: str, summary: dict[str, Any] | None
         "architecture": {"type": "mlp", "obs_dim": policy.obs_dim, "act_dim": policy.act_dim,
                          "hidden_sizes": list(policy.hidden_sizes), "activation": ACTOR_ACTIVATION,
                          "output": ACTOR_OUTPUT,
-                         "module": "elastica_magnetic_rl.td3.algorithm.Actor "
+                         "module": "elastica_magnetic_rl.td3.networks.Actor "
                                    "(net = Sequential of Linear/ReLU)",
                          "critic_layer_norm": bool((meta.get("config") or {}).get(
                              "critic_layer_norm", False)),

@@ -153,7 +153,7 @@ def identify_command(args: argparse.Namespace) -> int:
     import sys
 
     from elastica_magnetic.field_csv import read_field_csv
-    from elastica_magnetic.presets import ACTION_PERIOD
+    from elastica_magnetic.robot_spec import ACTION_PERIOD
 
     from .identify import identify, load_spec, parse_fit, write_identified
     from .output import prepare_output_folder

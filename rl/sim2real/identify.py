@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from elastica_magnetic.presets import ACTION_PERIOD
+from elastica_magnetic.robot_spec import ACTION_PERIOD
 from elastica_magnetic.specfile import SpecError, describe_robot, read_spec
 
 from ..cases.variations import (

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 from elastica_magnetic.field_csv import read_field_csv, write_field_csv
 from elastica_magnetic.io import atomic_write_json
 from elastica_magnetic.openloop import check_duration
-from elastica_magnetic.presets import ACTION_PERIOD
+from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..cases.case import Case, case_from_dict, load_case
 from ..cases.variations import (

@@ -3,7 +3,7 @@ options that cannot act"): a run whose weights would never be updated (its warm-
 its steps, a minibatch larger than the run, too few updates per transition to make one), a warm-up
 longer than the replay buffer keeps, and a stop rule asked for that cannot decide within the run.
 
-Each message names the setting as the user gave it (``--learning-starts 3000``, ``[training.td3]
+Each message names the setting as the user gave it (``--set learning_starts=3000``, ``[training.td3]
 learning_starts = 3000 (my.toml)``, or the default and where to change it), both numbers, and the
 change that makes it act. Settings that still act at the end of a run are not refused: an
 evaluation or checkpoint interval longer than the run leaves the final evaluation (``best.pt``)
@@ -40,16 +40,17 @@ class SettingSources:
     recipe: str = ""
 
     def setting(self, key: str, value: Any) -> str:
-        """``key = value`` as the user set it, e.g. ``--batch-size 64``."""
-        option = f"--{key.replace('_', '-')}"
+        """``key = value`` as the user set it, e.g. ``--set batch_size=64``."""
+        from ..td3.algorithm import setting_option
+
         if self.resumed:
             return f"the run's {key} {value} (a resumed run keeps it)"
         if key in self.given:
-            return f"{option} {value}"
+            return setting_option(key, value)
         if key in self.spec_td3:
             return f"[training.td3] {key} = {value} ({self.source})"
         whose = f"the {self.recipe} recipe's" if key in RECIPES.get(self.recipe, {}) else "the default"
-        return f"{key} {value} ({whose}; {option} or [training.td3] {key} sets it)"
+        return f"{key} {value} ({whose}; {setting_option(key)}=... or [training.td3] {key} sets it)"
 
     def steps(self, steps: int) -> str:
         """The run's steps as the user set them."""
@@ -69,12 +70,12 @@ def check_run_learns(config: TD3Config, steps: int, sources: SettingSources) -> 
             f"the warm-up is the whole run: {name('learning_starts', warm_up)} is at or beyond "
             f"{sources.steps(steps)}, so every action is random and no weight is ever updated (the "
             f"seeds would end untrained); give "
-            + ("" if resumed else f"--learning-starts below {steps} or ") + f"--steps above {warm_up}")
+            + ("" if resumed else f"--set learning_starts below {steps} or ") + f"--steps above {warm_up}")
     if batch > steps:
         raise ValueError(
             f"no minibatch in the whole run: {name('batch_size', batch)} is larger than "
             f"{sources.steps(steps)}: the replay buffer never holds a minibatch, so no weight is "
-            "ever updated; give " + ("" if resumed else f"--batch-size of at most {steps} or ")
+            "ever updated; give " + ("" if resumed else f"--set batch_size of at most {steps} or ")
             + f"--steps of at least {batch}")
     learning = steps - max(warm_up, batch - 1)  # transitions followed by updates
     made = learning * update_ratio(config.updates_per_step)
@@ -83,15 +84,15 @@ def check_run_learns(config: TD3Config, steps: int, sources: SettingSources) -> 
             f"not one update in the whole run: {name('updates_per_step', config.updates_per_step)}"
             f" over the {learning} transitions after the warm-up and the first minibatch makes "
             f"{float(made):.3g} updates; "
-            "give " + ("" if resumed else f"--updates-per-step of at least {1 / learning:.3g}, or ")
+            "give " + ("" if resumed else f"--set updates_per_step of at least {1 / learning:.3g}, or ")
             + "more --steps")
     if config.buffer_size < warm_up and not resumed:
         raise ValueError(
             f"the warm-up outgrows the replay buffer: {name('learning_starts', warm_up)} is above "
             f"{name('buffer_size', config.buffer_size)}: the buffer keeps only the last "
             f"{config.buffer_size} random transitions, so the first {warm_up - config.buffer_size} "
-            f"are overwritten before any update reads them; give --learning-starts of at most "
-            f"{config.buffer_size} or --buffer-size of at least {warm_up}")
+            f"are overwritten before any update reads them; give --set learning_starts of at most "
+            f"{config.buffer_size} or --set buffer_size of at least {warm_up}")
 
 
 def check_stop_rule_decides(rule: StopRule | None, config: TD3Config, steps: int, envs: int,
@@ -110,5 +111,5 @@ def check_stop_rule_decides(rule: StopRule | None, config: TD3Config, steps: int
     raise ValueError(
         f"--stop-when {rule.kind} cannot decide within the run: it needs {needed} evaluations, and "
         f"{sources.steps(steps)} with {sources.setting('eval_every', every)} makes at most {most}; "
-        f"give --eval-every of at most {(last - 1) // (needed - 1)} or --steps of at least "
+        f"give --set eval_every of at most {(last - 1) // (needed - 1)} or --steps of at least "
         f"{(needed - 1) * every + 1}, or --stop-when none")

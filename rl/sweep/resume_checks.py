@@ -12,16 +12,12 @@ from typing import Any
 
 from ..runfiles.checkpoint import load_checkpoint
 from ..runfiles.rundir import RunDir
-from ..td3.algorithm import Schedule
+from ..td3.algorithm import Schedule, setting_option
 
 __all__ = ["check_resumed_checkpoints", "check_steps_left"]
 
 #: Settings a resumed run may change (when to checkpoint, log and evaluate: no weight changes).
 _MAY_CHANGE = frozenset(f.name for f in dataclasses.fields(Schedule))
-
-
-def _option(key: str) -> str:
-    return "--hidden" if key == "hidden_sizes" else f"--{key.replace('_', '-')}"
 
 
 def _same(a: Any, b: Any) -> bool:
@@ -42,7 +38,7 @@ def check_resumed_checkpoints(runs: Iterable[tuple[str, RunDir]],
             raise ValueError(f"{run.checkpoint}: a checkpoint of case {meta['case']!r}, not of "
                              f"{case!r}: cannot resume it as {case} (was it copied here?)")
         config = ckpt.get("config") or {}
-        changed = [f"{_option(k)}: the run's {config[k]!r}, given {v!r}"
+        changed = [f"{setting_option(k)}: the run's {config[k]!r}, given {v!r}"
                    for k, v in (overrides or {}).items()
                    if k not in _MAY_CHANGE and k in config and not _same(config[k], v)]
         if changed:

@@ -68,7 +68,7 @@ def case_stop_rule(case: Case, kind: str | None, *, consecutive: int | None = No
         return None
     if eval_every is not None and eval_every <= 0:
         raise ValueError(f"--stop-when {kind} decides at the periodic evaluations: it needs "
-                         "--eval-every > 0 (got 0)")
+                         "--set eval_every > 0 (got 0)")
     options: dict[str, Any] = {}
     if kind == "target":
         threshold = target_return(case)

@@ -34,7 +34,6 @@ from .inert_settings import SettingSources, check_run_learns, check_stop_rule_de
 from .jobs import GroupJob
 from .randomize_settings import randomized_cases
 from .rebalance import GroupRebalancing
-from .refine import refine  # noqa: F401  (importable from here, as before)
 from .resume_checks import check_resumed_checkpoints, check_steps_left
 from .run_records import check_resume_settings, run_metadata, write_run_json
 from .stop_settings import (
@@ -367,7 +366,7 @@ def _check_resumed_runs(out: str | Path, loaded: dict[str, Case], seed_list: lis
         stop_rules = {case: resumed_stop_rule(dirs) for case, dirs in folders.items()}
         if any(stop_rules.values()) and eval_every <= 0:
             raise ValueError("the runs stop by a rule decided at their evaluations: resume them "
-                             "with --eval-every > 0")
+                             "with --set eval_every > 0")
     for case, dirs in folders.items():
         check_resumed_stop_rules(dirs, stop_rules[case])
     return stop_rules

@@ -75,8 +75,7 @@ from typing import Any, TypeVar
 import numpy as np
 import torch
 
-# the networks' home is .networks; importable from here as before
-from .networks import Actor, ScaledPolicy, TwinCritic, mlp, networks_from_state  # noqa: F401
+from .networks import Actor, ScaledPolicy, TwinCritic
 from .replay_buffer import Batch
 from .stacked import StackedMLP, load_member_adam_state, member_adam_state, prefixed, unprefixed
 
@@ -96,6 +95,30 @@ _Part = TypeVar("_Part")
 #: Most gradient updates per environment step: high update-to-data methods (REDQ, DroQ) use 20; far
 #: beyond, a run spends its time updating on the same few transitions (1e9 stalled a run forever).
 MAX_UPDATES_PER_STEP = 64
+
+
+def _is_integer_setting(key: str, default: Any) -> bool:
+    return isinstance(default, int) and not isinstance(default, bool) and key != "updates_per_step"
+
+
+def _setting_form(key: str, default: Any) -> str:
+    """What the text of setting ``key`` (default ``default``) must look like, for messages."""
+    if key.endswith("hidden_sizes"):
+        return "comma-separated layer widths, e.g. 256,256" + (", or none" if default is None else "")
+    if isinstance(default, bool):
+        return "true or false"
+    return "an integer" if _is_integer_setting(key, default) else "a number"
+
+
+def setting_option(key: str, value: Any = None) -> str:
+    """How the command line sets a run setting: ``--set batch_size=64``, or the setting's own
+    option (``--device cuda``, ``--precision bf16``); without ``value``, ``--set batch_size``."""
+    own = {"device": "--device", "precision": "--precision", "seed": "--seed-offset"}
+    if key in own:
+        return own[key] if value is None else f"{own[key]} {value}"
+    if isinstance(value, (tuple, list)):
+        value = ",".join(str(v) for v in value)
+    return f"--set {key}" if value is None else f"--set {key}={value}"
 
 
 @dataclass
@@ -252,6 +275,45 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
     def part(self, kind: type[_Part]) -> _Part:
         """Its :class:`Hyperparameters`, :class:`RunSettings` or :class:`Schedule`."""
         return kind(**{f.name: getattr(self, f.name) for f in dataclasses.fields(kind)})
+
+    @classmethod
+    def settable(cls) -> tuple[str, ...]:
+        """The settings ``msr train --set KEY=VALUE`` and a spec's ``[training.td3]`` take: the
+        :class:`Hyperparameters` and the :class:`Schedule` (a run's seed, device and precision
+        have options of their own)."""
+        return tuple(f.name for f in (*dataclasses.fields(Hyperparameters),
+                                      *dataclasses.fields(Schedule)))
+
+    @classmethod
+    def parse_setting(cls, key: str, text: str) -> Any:
+        """The value of setting ``key`` from its text (``"256,256"`` for layer widths, ``none``
+        for an unset ``actor_hidden_sizes``, ``true``/``false``, ``1e6`` for an integer),
+        checked as a config holding it would be. Raises ``ValueError`` naming the key, the
+        settable keys and the expected form."""
+        if key not in cls.settable():
+            raise ValueError(f"unknown setting {key!r}; settable: {', '.join(cls.settable())}")
+        default = getattr(cls(), key)
+        text = text.strip()
+        try:
+            if key.endswith("hidden_sizes"):
+                value: Any = None if (default is None and text.lower() == "none") else tuple(
+                    int(w) for w in text.split(","))
+            elif isinstance(default, bool):
+                value = {"true": True, "1": True, "false": False, "0": False}[text.lower()]
+            elif _is_integer_setting(key, default):
+                value = float(text)
+                if not value.is_integer():
+                    raise ValueError
+                value = int(value)
+            else:
+                value = float(text)
+        except (ValueError, KeyError):
+            raise ValueError(f"{key}={text}: expected {_setting_form(key, default)}") from None
+        try:
+            cls(**{key: value, **({"buffer_size": value} if key == "batch_size" else {})})
+        except ValueError as exc:
+            raise ValueError(f"{key}={text}: {exc}") from None
+        return value
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> TD3Config:

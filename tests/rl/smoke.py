@@ -9,8 +9,8 @@ from elastica_magnetic.cli import main as msr
 #: Steps per seed of the shared training run (tests/rl/conftest.py's ``trained``).
 TRAIN_STEPS = 240
 #: Tiny networks and short episodes: a training run of seconds.
-SMOKE = ["--learning-starts", "60", "--batch-size", "32", "--hidden", "32,32",
-         "--episode-duration", "0.8", "--checkpoint-every", "80", "--eval-every", "120",
+SMOKE = ["--set", "learning_starts=60", "--set", "batch_size=32", "--set", "hidden_sizes=32,32",
+         "--episode-duration", "0.8", "--set", "checkpoint_every=80", "--set", "eval_every=120",
          "--no-progress"]
 
 

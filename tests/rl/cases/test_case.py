@@ -17,8 +17,8 @@ from elastica_magnetic import yao2023_robot
 from elastica_magnetic.cli import main
 from elastica_magnetic.specfile import SpecError
 
-TINY = ["--seeds", "1", "--learning-starts", "10", "--batch-size", "8", "--hidden", "8",
-        "--episode-duration", "0.1", "--checkpoint-every", "10", "--eval-every", "0", "--no-progress",
+TINY = ["--seeds", "1", "--set", "learning_starts=10", "--set", "batch_size=8", "--set", "hidden_sizes=8",
+        "--episode-duration", "0.1", "--set", "checkpoint_every=10", "--set", "eval_every=0", "--no-progress",
         "--json"]
 
 

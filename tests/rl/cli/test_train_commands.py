@@ -4,6 +4,8 @@ issue 48): a --device this PyTorch lacks (try rf8: a traceback after run.json wa
 
 from __future__ import annotations
 
+import json
+
 import pytest
 import torch
 
@@ -11,7 +13,8 @@ from elastica_magnetic.cli import main as msr
 
 #: A run that would start (its warm-up and minibatch inside its 20 steps).
 _TINY_TRAIN = ["train", "--case", "m1-4mT", "--steps", "20", "--seeds", "1", "--workers", "1",
-               "--learning-starts", "5", "--batch-size", "4", "--hidden", "8,8", "--no-progress"]
+               "--set", "learning_starts=5", "--set", "batch_size=4", "--set", "hidden_sizes=8,8",
+               "--no-progress"]
 
 
 @pytest.fixture
@@ -97,9 +100,9 @@ def test_sigterm_stops_a_training_with_the_message_of_ctrl_c(tmp_path):
 
     out = tmp_path / "runs"
     argv = [sys.executable, "-m", "elastica_magnetic.cli", "train", "--case", "m1-4mT", "--seeds", "1",
-            "--threads", "1", "--workers", "1", "--learning-starts", "60", "--batch-size", "32",
-            "--hidden", "32,32", "--episode-duration", "0.5", "--eval-every", "100000",
-            "--checkpoint-every", "60", "--steps", "100000", "--out", str(out), "--no-progress"]
+            "--threads", "1", "--workers", "1", "--set", "learning_starts=60", "--set", "batch_size=32",
+            "--set", "hidden_sizes=32,32", "--episode-duration", "0.5", "--set", "eval_every=100000",
+            "--set", "checkpoint_every=60", "--steps", "100000", "--out", str(out), "--no-progress"]
     proc = subprocess.Popen(argv, stderr=subprocess.PIPE, text=True,
                             env={**os.environ, "MPLBACKEND": "Agg"})
     checkpoint = out / "m1-4mT" / "seed0" / "checkpoint.pt"
@@ -111,3 +114,33 @@ def test_sigterm_stops_a_training_with_the_message_of_ctrl_c(tmp_path):
     assert proc.returncode == 143, err
     assert "interrupted (SIGTERM): training stopped. The last checkpoints are in" in err, err
     assert "--resume" in err
+
+
+@pytest.mark.parametrize(("setting", "message"), [
+    ("batchsize=64", "unknown setting 'batchsize'; settable: hidden_sizes, actor_hidden_sizes"),
+    ("batch_size", "'batch_size': expected KEY=VALUE, e.g. batch_size=128"),
+    ("batch_size=6.5", "batch_size=6.5: expected an integer"),
+    ("hidden_sizes=64x64", "hidden_sizes=64x64: expected comma-separated layer widths"),
+    ("gamma=1.5", "gamma=1.5: gamma must be in [0, 1], got 1.5"),
+    ("critic_layer_norm=maybe", "critic_layer_norm=maybe: expected true or false"),
+])
+def test_set_checks_each_setting_against_the_td3_config(tmp_path, capsys, setting, message):
+    """`--set KEY=VALUE` (issue 50: one option for every TD3 setting, as RL Zoo's
+    --hyperparams): an unknown key, a malformed or out-of-range value named before any work."""
+    with pytest.raises(SystemExit) as refused:
+        msr([*_TINY_TRAIN, "--set", setting, "--out", str(tmp_path / "runs")])
+    assert refused.value.code == 2
+    assert f"msr train: error: argument --set: {message}" in capsys.readouterr().err
+    assert not (tmp_path / "runs").exists()
+
+
+def test_a_setting_given_twice_is_refused_and_an_old_flag_still_sets_it(tmp_path, capsys):
+    assert msr([*_TINY_TRAIN, "--set", "batch_size=8", "--out", str(tmp_path / "runs")]) == 2
+    assert "--set batch_size given twice (4 and 8); give it once" in capsys.readouterr().err
+    at = _TINY_TRAIN.index("batch_size=4")
+    args = [*_TINY_TRAIN[:at - 1], *_TINY_TRAIN[at + 1:]]  # without --set batch_size=4
+    assert msr([*args, "--batch-size", "4", "--out", str(tmp_path / "runs"), "--json"]) == 0
+    captured = capsys.readouterr()
+    assert "msr train: note: --batch-size is now --set batch_size=VALUE" in captured.err
+    run = json.loads((tmp_path / "runs" / "m1-4mT" / "seed0" / "run.json").read_text())
+    assert run["config"]["batch_size"] == 4 and run["config"]["hidden_sizes"] == [8, 8]

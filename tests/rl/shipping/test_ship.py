@@ -21,7 +21,8 @@ def test_layer_norm_recipe_trains_ships_and_loads_with_its_critic(tmp_path):
     from elastica_magnetic_rl.shipping.policy_files import resolve_policy
 
     assert msr(["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), "--steps", "20",
-                "--learning-starts", "10", "--batch-size", "8", "--hidden", "8", "--episode-duration",
+                "--set", "learning_starts=10", "--set", "batch_size=8", "--set", "hidden_sizes=8",
+                    "--episode-duration",
                 "0.1", "--no-progress", "--recipe", "pink-ln"]) == 0
     run = tmp_path / "m1-4mT" / "seed0"
     config = load_checkpoint(run)["config"]

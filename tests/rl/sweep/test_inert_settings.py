@@ -27,11 +27,12 @@ def test_a_default_warm_up_beyond_the_steps_is_refused_before_any_folder(tmp_pat
     assert msr(_train(tmp_path, "--steps", "1000")) == 2
     err = capsys.readouterr().err
     assert "msr train: error: the warm-up is the whole run: learning_starts 2500 (the default; " \
-           "--learning-starts or [training.td3] learning_starts sets it) is at or beyond --steps 1000" in err
-    assert "give --learning-starts below 1000 or --steps above 2500" in err
+           "--set learning_starts=... or [training.td3] learning_starts sets it) is at or beyond " \
+           "--steps 1000" in err
+    assert "give --set learning_starts below 1000 or --steps above 2500" in err
     assert "Traceback" not in err and not (tmp_path / "runs").exists()
-    assert msr(_train(tmp_path, "--steps", "60", "--learning-starts", "60")) == 2  # at: no update
-    assert "--learning-starts 60 is at or beyond --steps 60" in capsys.readouterr().err
+    assert msr(_train(tmp_path, "--steps", "60", "--set", "learning_starts=60")) == 2  # at: no update
+    assert "--set learning_starts=60 is at or beyond --steps 60" in capsys.readouterr().err
 
 
 def test_a_spec_warm_up_beyond_its_steps_is_refused_naming_the_spec_keys(tmp_path, capsys):
@@ -52,31 +53,31 @@ def test_a_spec_warm_up_beyond_its_steps_is_refused_naming_the_spec_keys(tmp_pat
 
 
 def test_options_that_can_never_update_a_weight_are_refused(tmp_path, capsys):
-    base = ("--steps", "1000", "--learning-starts", "10")
-    assert msr(_train(tmp_path, *base, "--batch-size", "2000", "--buffer-size", "4000")) == 2
-    assert "no minibatch in the whole run: --batch-size 2000 is larger than --steps 1000" in \
+    base = ("--steps", "1000", "--set", "learning_starts=10")
+    assert msr(_train(tmp_path, *base, "--set", "batch_size=2000", "--set", "buffer_size=4000")) == 2
+    assert "no minibatch in the whole run: --set batch_size=2000 is larger than --steps 1000" in \
         capsys.readouterr().err
-    assert msr(_train(tmp_path, *base, "--batch-size", "10", "--updates-per-step", "0.001")) == 2
+    assert msr(_train(tmp_path, *base, "--set", "batch_size=10", "--set", "updates_per_step=0.001")) == 2
     err = capsys.readouterr().err
-    assert "not one update in the whole run: --updates-per-step 0.001 over the 990 transitions" in err
-    assert "--updates-per-step of at least 0.00101" in err
-    assert msr(_train(tmp_path, "--steps", "5000", "--learning-starts", "3000", "--buffer-size",
-                      "1000", "--batch-size", "100")) == 2
+    assert "not one update in the whole run: --set updates_per_step=0.001 over the 990 transitions" in err
+    assert "--set updates_per_step of at least 0.00101" in err
+    assert msr(_train(tmp_path, "--steps", "5000", "--set", "learning_starts=3000", "--set",
+        "buffer_size=1000", "--set", "batch_size=100")) == 2
     err = capsys.readouterr().err
-    assert ("the warm-up outgrows the replay buffer: --learning-starts 3000 is above --buffer-size "
-            "1000") in err and "the first 2000 are overwritten" in err
+    assert ("the warm-up outgrows the replay buffer: --set learning_starts=3000 is above --set "
+            "buffer_size=1000") in err and "the first 2000 are overwritten" in err
     assert not (tmp_path / "runs").exists()
 
 
 def test_a_stop_rule_that_cannot_decide_within_the_run_is_refused(tmp_path, capsys):
-    base = ("--steps", "1000", "--learning-starts", "10", "--batch-size", "8")
-    assert msr(_train(tmp_path, *base, "--stop-when", "plateau", "--eval-every", "500")) == 2
+    base = ("--steps", "1000", "--set", "learning_starts=10", "--set", "batch_size=8")
+    assert msr(_train(tmp_path, *base, "--stop-when", "plateau", "--set", "eval_every=500")) == 2
     err = capsys.readouterr().err
     assert ("--stop-when plateau cannot decide within the run: it needs 7 evaluations, and --steps "
-            "1000 with --eval-every 500 makes at most 2") in err
-    assert "give --eval-every of at most 166 or --steps of at least 3001, or --stop-when none" in err
+            "1000 with --set eval_every=500 makes at most 2") in err
+    assert "give --set eval_every of at most 166 or --steps of at least 3001, or --stop-when none" in err
     assert msr(_train(tmp_path, *base, "--stop-when", "target")) == 2  # the default 5000 steps
-    assert "eval_every 5000 (the default; --eval-every or [training.td3] eval_every sets it) " \
+    assert "eval_every 5000 (the default; --set eval_every=... or [training.td3] eval_every sets it) " \
            "makes at most 1" in capsys.readouterr().err
     assert not (tmp_path / "runs").exists()
 

@@ -43,9 +43,9 @@ def test_which_robots_a_sweep_trains_on():
 
 
 def test_the_robust_recipe_records_its_ranges_in_the_run_and_a_resume_keeps_them(tmp_path, capsys):
-    args = ["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), "--learning-starts",
-            "10", "--batch-size", "8", "--hidden", "8", "--episode-duration", "0.05", "--eval-every",
-            "0", "--no-progress", "--recipe", "robust"]
+    args = ["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), "--set",
+        "learning_starts=10", "--set", "batch_size=8", "--set", "hidden_sizes=8",
+        "--episode-duration", "0.05", "--set", "eval_every=0", "--no-progress", "--recipe", "robust"]
     run_msr(capsys, *args, "--steps", "20")
     run = tmp_path / "m1-4mT" / "seed0"
     expected = {name: f"{low!r}:{high!r}" for name, (low, high) in DEFAULT_RANGES.items()}

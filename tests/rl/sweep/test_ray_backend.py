@@ -22,7 +22,7 @@ from elastica_magnetic.cli import main as msr
 
 STEPS = 200
 TINY = ["--case", "m1-4mT", "--seeds", "2", "--workers", "2", "--threads", "1",
-        "--learning-starts", "100", "--batch-size", "32", "--hidden", "32,32",
+        "--set", "learning_starts=100", "--set", "batch_size=32", "--set", "hidden_sizes=32,32",
         "--episode-duration", "0.5", "--no-progress", "--json"]
 #: summary.json entries that may differ between two runs of the same seeds
 RUN_SPECIFIC = {"wall_s", "backend", "summary_json"}
@@ -144,7 +144,8 @@ def test_ray_sweep_over_two_cases(tmp_path, capsys):
     argv = [a for a in TINY if a not in {"m1-4mT"}]
     argv[argv.index("--case") + 1:argv.index("--case") + 1] = ["m1-4mT", "m2-10mT"]
     argv[argv.index("--seeds") + 1] = "1"
-    argv[argv.index("--learning-starts") + 1] = "50"  # below --steps 100: a run of its warm-up is refused
+    # below --steps 100: a run of its warm-up is refused
+    argv[argv.index("learning_starts=100")] = "learning_starts=50"
     capsys.readouterr()
     status = msr(["train", *argv, "--steps", "100", "--out", str(tmp_path), "--backend", "ray"])
     captured = capsys.readouterr()

@@ -43,7 +43,7 @@ def test_the_target_is_the_yardstick_as_an_evaluation_return():
     # hu2018-crawl's yardstick: the rotating field's +25.3 mm (docs/training.md)
     assert case_stop_rule(load_case("hu2018-crawl"), "target", confirm="none").threshold == \
         pytest.approx(1e4 * 0.0253)
-    with pytest.raises(ValueError, match="needs --eval-every > 0"):
+    with pytest.raises(ValueError, match="needs --set eval_every > 0"):
         case_stop_rule(load_case("m1-4mT"), "plateau", eval_every=0)
     with pytest.raises(ValueError, match="--stop-consecutive is for --stop-when target"):
         case_stop_rule(load_case("m1-4mT"), "plateau", consecutive=2)
@@ -56,17 +56,17 @@ def test_stop_when_is_refused_before_any_run_folder_is_made(tmp_path, capsys):
     base = ["train", "--seeds", "1", "--steps", "20", "--out", str(tmp_path), "--no-progress"]
     assert msr([*base, "--case", "m1-4mT-reach", "--stop-when", "target"]) == 2
     assert "has no target return" in capsys.readouterr().err
-    assert msr([*base, "--case", "m1-4mT", "--stop-when", "target", "--eval-every", "0"]) == 2
-    assert "--eval-every > 0" in capsys.readouterr().err
+    assert msr([*base, "--case", "m1-4mT", "--stop-when", "target", "--set", "eval_every=0"]) == 2
+    assert "--set eval_every > 0" in capsys.readouterr().err
     assert msr([*base, "--case", "m1-4mT", "--stop-when", "plateau", "--stop-tolerance", "-1"]) == 2
     assert "--stop-tolerance must be a fraction >= 0" in capsys.readouterr().err
     assert not any(tmp_path.iterdir())
 
 
 def test_the_rule_is_recorded_and_a_resume_keeps_it(tmp_path, capsys):
-    args = ["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), "--learning-starts",
-            "10", "--batch-size", "8", "--hidden", "8", "--episode-duration", "0.1", "--eval-every",
-            "10", "--no-progress"]
+    args = ["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), "--set",
+        "learning_starts=10", "--set", "batch_size=8", "--set", "hidden_sizes=8",
+        "--episode-duration", "0.1", "--set", "eval_every=10", "--no-progress"]
     summary = run_msr(capsys, *args, "--steps", "20", "--stop-when", "target")
     run = tmp_path / "m1-4mT" / "seed0"
     rule = StopRule("target", threshold=205.0, confirm="accurate").to_dict()

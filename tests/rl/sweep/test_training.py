@@ -91,7 +91,8 @@ def test_train_refuses_to_overwrite(trained, capsys):
 def test_train_resume_extends_runs(tmp_path, capsys):
     """``--resume`` continues a finished run to a larger step count (one seed, in-process)."""
     args = ["train", "--case", "m2-4mT", "--seeds", "1", "--seed-offset", "3", "--out", str(tmp_path),
-            "--learning-starts", "10", "--batch-size", "8", "--hidden", "8", "--episode-duration",
+            "--set", "learning_starts=10", "--set", "batch_size=8", "--set", "hidden_sizes=8",
+                "--episode-duration",
             "0.2", "--no-progress"]  # a warm-up below --steps 20: a run of its warm-up is refused
     assert msr([*args, "--steps", "20"]) == 0
     summary = run_msr(capsys, *args, "--steps", "40", "--resume")
@@ -114,8 +115,9 @@ def test_train_resume_extends_runs(tmp_path, capsys):
 def test_recipe_is_recorded_and_a_resume_keeps_the_runs_settings(tmp_path, capsys):
     """``--recipe pink`` trains with pink exploration noise (run.json, the checkpoint's config);
     a resume that changes the recipe or the episode length is refused before anything is touched."""
-    args = ["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), "--learning-starts",
-            "10", "--batch-size", "8", "--hidden", "8", "--episode-duration", "0.1", "--no-progress"]
+    args = ["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), "--set",
+        "learning_starts=10", "--set", "batch_size=8", "--set", "hidden_sizes=8",
+        "--episode-duration", "0.1", "--no-progress"]
     assert msr([*args, "--steps", "20", "--recipe", "pink"]) == 0
     run = tmp_path / "m1-4mT" / "seed0"
     assert json.loads((run / "run.json").read_text())["recipe"] == "pink"
@@ -142,8 +144,9 @@ def test_recipe_is_recorded_and_a_resume_keeps_the_runs_settings(tmp_path, capsy
 
 
 def test_resume_from_a_corrupted_checkpoint_is_refused_and_keeps_the_results(tmp_path, capsys):
-    args = ["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), "--learning-starts",
-            "10", "--batch-size", "8", "--hidden", "8", "--episode-duration", "0.1", "--no-progress"]
+    args = ["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), "--set",
+        "learning_starts=10", "--set", "batch_size=8", "--set", "hidden_sizes=8",
+        "--episode-duration", "0.1", "--no-progress"]
     assert msr([*args, "--steps", "20"]) == 0
     run = tmp_path / "m1-4mT" / "seed0"
     ckpt = run / "checkpoint.pt"
@@ -167,8 +170,9 @@ def test_ctrl_c_stops_cleanly_and_the_run_resumes(tmp_path):
     import time
 
     args = [sys.executable, "-m", "elastica_magnetic.cli", "train", "--case", "m1-4mT", "--seeds", "2",
-            "--out", str(tmp_path), "--learning-starts", "10", "--batch-size", "8", "--hidden", "8",
-            "--episode-duration", "0.1", "--checkpoint-every", "10", "--no-progress"]
+            "--out", str(tmp_path), "--set", "learning_starts=10", "--set", "batch_size=8",
+                "--set", "hidden_sizes=8",
+            "--episode-duration", "0.1", "--set", "checkpoint_every=10", "--no-progress"]
     # as from a terminal: SIGINT delivered, also when the suite itself was started in the
     # background (a shell starts background jobs with SIGINT ignored, and children inherit that)
     proc = subprocess.Popen([*args, "--steps", "100000"], stderr=subprocess.PIPE, text=True,
@@ -211,7 +215,7 @@ def test_sigint_to_the_main_process_alone_ends_the_workers(tmp_path):
     from elastica_magnetic_rl.sweep.backends import STOP_GRACE_S
 
     args = [sys.executable, "-m", "elastica_magnetic.cli", *_tiny_train(tmp_path, "--seeds", "2",
-            "--checkpoint-every", "10")]
+            "--set", "checkpoint_every=10")]
     proc = subprocess.Popen([*args, "--steps", "100000"], stderr=subprocess.PIPE, text=True,
                             start_new_session=True,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
@@ -237,8 +241,9 @@ def test_sigint_to_the_main_process_alone_ends_the_workers(tmp_path):
 
 
 def _tiny_train(out, *extra):
-    return ["train", "--case", "m1-4mT", "--out", str(out), "--learning-starts", "10", "--batch-size",
-            "8", "--hidden", "8", "--episode-duration", "0.1", "--no-progress", *extra]
+    return ["train", "--case", "m1-4mT", "--out", str(out), "--set", "learning_starts=10",
+        "--set", "batch_size=8", "--set", "hidden_sizes=8", "--episode-duration", "0.1",
+        "--no-progress", *extra]
 
 
 def test_train_output_that_is_a_file_is_refused_before_any_work(tmp_path, capsys):
@@ -276,7 +281,7 @@ def test_sigkill_then_resume_equals_an_uninterrupted_run(tmp_path):
     import time
 
     base = [sys.executable, "-m", "elastica_magnetic.cli", *_tiny_train(tmp_path / "killed"),
-            "--seeds", "1", "--checkpoint-every", "10", "--threads", "1"]
+            "--seeds", "1", "--set", "checkpoint_every=10", "--threads", "1"]
     proc = subprocess.Popen([*base, "--steps", "100000"], start_new_session=True,
                             stderr=subprocess.DEVNULL)
     ckpt = tmp_path / "killed" / "m1-4mT" / "seed0" / "checkpoint.pt"
@@ -296,8 +301,8 @@ def test_sigkill_then_resume_equals_an_uninterrupted_run(tmp_path):
                           timeout=300)
     assert done.returncode == 0, done.stderr
     straight = subprocess.run([sys.executable, "-m", "elastica_magnetic.cli",
-                               *_tiny_train(tmp_path / "straight"), "--seeds", "1", "--checkpoint-every",
-                               "10", "--threads", "1", "--steps", str(target)],
+                               *_tiny_train(tmp_path / "straight"), "--seeds", "1", "--set",
+                               "checkpoint_every=10", "--threads", "1", "--steps", str(target)],
                               capture_output=True, text=True, timeout=300)
     assert straight.returncode == 0, straight.stderr
     a = load_checkpoint(ckpt)

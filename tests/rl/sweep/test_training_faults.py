@@ -15,9 +15,10 @@ from elastica_magnetic.locks import host_name, lock_path
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="fork and signals are POSIX")
 
-TINY = ["train", "--case", "m1-4mT", "--learning-starts", "10", "--batch-size", "8", "--hidden", "8",
+TINY = ["train", "--case", "m1-4mT", "--set", "learning_starts=10", "--set", "batch_size=8",
+    "--set", "hidden_sizes=8",
         "--episode-duration", "0.1", "--no-progress", "--seeds", "1", "--workers", "1",
-        "--threads", "1", "--checkpoint-every", "10", "--eval-every", "0"]
+        "--threads", "1", "--set", "checkpoint_every=10", "--set", "eval_every=0"]
 CHECKPOINT_TMP = r"checkpoint\.pt\.tmp$"
 
 

@@ -112,10 +112,12 @@ def test_resume_refuses_a_changed_hyperparameter_naming_both_values(trained, tmp
     base = ["train", "--case", "m1-4mT", "--seeds", "2", "--steps", "400", "--resume", "--out",
             str(runs)]
     smoke = [a for a in SMOKE]
-    for option, value, expected in (("--hidden", "64,64", "--hidden: the run's (32, 32), given (64, 64)"),
-                                    ("--batch-size", "64", "--batch-size: the run's 32, given 64")):
+    for old, value, expected in (("hidden_sizes=32,32", "hidden_sizes=64,64",
+                                  "--set hidden_sizes: the run's (32, 32), given (64, 64)"),
+                                 ("batch_size=32", "batch_size=64",
+                                  "--set batch_size: the run's 32, given 64")):
         args = list(smoke)
-        args[args.index(option) + 1] = value
+        args[args.index(old)] = value
         assert msr([*base, *args]) == 2
         err = capsys.readouterr().err
         assert "cannot resume" in err and expected in err, err

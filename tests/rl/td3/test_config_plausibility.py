@@ -19,7 +19,7 @@ def test_hidden_layers_need_units(hidden):
 
 
 def test_updates_per_step_has_an_upper_bound(capsys):
-    """``--updates-per-step 1e9`` was accepted and stalled a run forever (round 4, S8)."""
+    """``--set updates_per_step=1e9`` was accepted and stalled a run forever (round 4, S8)."""
     from elastica_magnetic_rl.td3.algorithm import MAX_UPDATES_PER_STEP, TD3Config
 
     from elastica_magnetic.cli import main
@@ -27,6 +27,9 @@ def test_updates_per_step_has_an_upper_bound(capsys):
     with pytest.raises(ValueError, match=r"updates_per_step must be a finite number in \(0, 64\]"):
         TD3Config(updates_per_step=1e9)
     assert TD3Config(updates_per_step=MAX_UPDATES_PER_STEP).updates_per_step == MAX_UPDATES_PER_STEP
-    assert main(["train", "--case", "m1-4mT", "--updates-per-step", "1e9", "--steps", "10",
-                 "--out", "/nonexistent-not-written"]) == 2
-    assert "--updates-per-step must be a finite number in (0, 64]" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as refused:  # argparse: the value of --set
+        main(["train", "--case", "m1-4mT", "--set", "updates_per_step=1e9", "--steps", "10",
+              "--out", "/nonexistent-not-written"])
+    assert refused.value.code == 2
+    assert ("argument --set: updates_per_step=1e9: updates_per_step must be a finite number in "
+            "(0, 64]") in capsys.readouterr().err
