@@ -37,7 +37,8 @@ P_SURFACE_TOL = 14
 P_SLIP_TOL = 15
 P_STATIC_MU = 16  # forward, backward, sideways
 P_KINETIC_MU = 19  # forward, backward, sideways
-N_PARAMS = 22
+P_SLIDING = 22  # 1: sideways Coulomb sliding (a flat band), 0: PyElastica's rolling (a round rod)
+N_PARAMS = 23
 
 # Layout of the integer option vector.
 O_DAMPING = 0
@@ -342,6 +343,7 @@ def ground_contact(
     kinetic_forward = params[P_KINETIC_MU]
     kinetic_backward = params[P_KINETIC_MU + 1]
     kinetic_sideways = params[P_KINETIC_MU + 2]
+    sliding = params[P_SLIDING] != 0.0
     last = n - 1
 
     # 1. Normal response (_calculate_contact_forces_rod_plane): computed for every element in
@@ -430,19 +432,21 @@ def ground_contact(
         v_rolling = 0.0 + v0 * ro0
         v_rolling += v1 * ro1
         v_rolling += v2 * ro2
-        # Q^T (omega x (Q arm))
-        q0, q1, q2 = _times(directors, e, arm0, arm1, arm2)
-        w0 = omegas[0, e]
-        w1 = omegas[1, e]
-        w2 = omegas[2, e]
-        c0 = w1 * q2 - w2 * q1
-        c1 = w2 * q0 - w0 * q2
-        c2 = w0 * q1 - w1 * q0
-        rv0, rv1, rv2 = _transpose_times(directors, e, c0, c1, c2)
-        rv_rolling = 0.0 + rv0 * ro0
-        rv_rolling += rv1 * ro1
-        rv_rolling += rv2 * ro2
-        slip_speed = v_rolling + rv_rolling
+        if sliding:  # a band slides sideways: its spin moves no contact point
+            slip_speed = v_rolling
+        else:  # a round rod's contact point moves with the spin: Q^T (omega x (Q arm))
+            q0, q1, q2 = _times(directors, e, arm0, arm1, arm2)
+            w0 = omegas[0, e]
+            w1 = omegas[1, e]
+            w2 = omegas[2, e]
+            c0 = w1 * q2 - w2 * q1
+            c1 = w2 * q0 - w0 * q2
+            c2 = w0 * q1 - w1 * q0
+            rv0, rv1, rv2 = _transpose_times(directors, e, c0, c1, c2)
+            rv_rolling = 0.0 + rv0 * ro0
+            rv_rolling += rv1 * ro1
+            rv_rolling += rv2 * ro2
+            slip_speed = v_rolling + rv_rolling
         sr0 = slip_speed * ro0
         sr1 = slip_speed * ro1
         sr2 = slip_speed * ro2
@@ -497,7 +501,7 @@ def ground_contact(
         s[S_FRICTION + 2, k] = fr2
     _spread_to_nodes(external_forces, s, S_FRICTION, ns, n)
     for k in range(n):
-        if s[S_NO_CONTACT, k] != 0.0:
+        if sliding or s[S_NO_CONTACT, k] != 0.0:  # a sliding band's friction turns nothing
             continue
         # external_torques += Q (arm x f_rolling)
         e = es + k
@@ -548,7 +552,10 @@ def ground_contact(
         f_rolling += s[S_ELEMENT_FORCE + 1, k] * ro1
         f_rolling += s[S_ELEMENT_FORCE + 2, k] * ro2
         r = radius[e]
-        noslip = -((r * f_rolling - 2.0 * tt_axial) / 3.0 / r)
+        if sliding:  # Coulomb: hold the whole sideways load, up to mu_s N
+            noslip = -f_rolling
+        else:  # the no-slip force of a solid cylinder rolling under the load and axial torque
+            noslip = -((r * f_rolling - 2.0 * tt_axial) / 3.0 / r)
         max_friction = s[S_SLIP_ROLLING, k] * static_sideways * s[S_RESPONSE_MAG, k]
         scale = _minimum(math.fabs(noslip), max_friction) * _sign(noslip)
         f0 = scale * ro0
@@ -566,7 +573,8 @@ def ground_contact(
         s[S_FRICTION, k] = f0
         s[S_FRICTION + 1, k] = f1
         s[S_FRICTION + 2, k] = f2
-        add_arm_torque(directors, external_torques, e, s, k, S_FRICTION)
+        if not sliding:
+            add_arm_torque(directors, external_torques, e, s, k, S_FRICTION)
 
 
 @njit(cache=True, error_model="numpy")

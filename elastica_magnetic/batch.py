@@ -61,6 +61,7 @@ from ._batch_kernels import (
     P_PLANE_NORMAL,
     P_PLANE_ORIGIN,
     P_RELATIVE_NU,
+    P_SLIDING,
     P_SLIP_TOL,
     P_STATIC_MU,
     P_SURFACE_TOL,
@@ -438,6 +439,7 @@ def _kernel_parameters(spec: RobotSpec) -> tuple[NDArray[np.float64], NDArray[np
         params[P_SLIP_TOL] = g.slip_velocity_tol
         params[P_STATIC_MU : P_STATIC_MU + 3] = _mu3(g.static_mu)
         params[P_KINETIC_MU : P_KINETIC_MU + 3] = _mu3(g.kinetic_mu)
+        params[P_SLIDING] = 1.0 if g.sideways == "sliding" else 0.0
     return params, options
 
 

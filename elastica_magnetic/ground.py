@@ -17,6 +17,11 @@ Use with the ``Contact`` mixin::
 
 Register it after every other forcing of the rod: the plane's normal response cancels the loads
 already accumulated on the rod when it runs.
+
+Across the rod, PyElastica's model is that of a round rod, which rolls; the robots here are flat
+bands, which cannot. ``sideways="sliding"`` gives a band's Coulomb friction across the rod (the
+block kernel of :class:`~elastica_magnetic.BatchedRobots` on this one rod); in the plane of a planar
+robot both models give the same motion to the last bit.
 """
 
 from __future__ import annotations
@@ -26,6 +31,22 @@ import math
 import numpy as np
 from elastica.contact_forces import RodPlaneContactWithAnisotropicFriction
 from numpy.typing import ArrayLike
+
+from ._batch_kernels import (
+    N_PARAMS,
+    N_SCRATCH,
+    P_K,
+    P_KINETIC_MU,
+    P_NU,
+    P_PLANE_NORMAL,
+    P_PLANE_ORIGIN,
+    P_SLIDING,
+    P_SLIP_TOL,
+    P_STATIC_MU,
+    P_SURFACE_TOL,
+    ground_contact,
+)
+from .robot_spec import SIDEWAYS_FRICTION
 
 __all__ = ["FrictionalGroundContact"]
 
@@ -46,6 +67,13 @@ class FrictionalGroundContact(RodPlaneContactWithAnisotropicFriction):
         Detection band, m: an element whose surface is closer than this to the plane is in contact.
     slip_velocity_tol : float
         Velocity (m/s) below which an element counts as sticking (static friction).
+    sideways : {"rolling", "sliding"}
+        Friction across the rod. ``"rolling"`` (default): PyElastica's model of a round rod,
+        which rolls sideways (its no-slip force is that of a solid cylinder, ``F/3`` for a free
+        element, and it spins the element about its axis). ``"sliding"``: a flat band, which
+        cannot roll: Coulomb friction sideways as along the rod (sticks while the sideways load
+        is below ``static_mu`` N, slides against ``kinetic_mu`` N) and no torque. Along the rod
+        and in the plane of the paper's robot both give the same loads.
     """
 
     def __init__(
@@ -56,7 +84,11 @@ class FrictionalGroundContact(RodPlaneContactWithAnisotropicFriction):
         kinetic_mu: float | ArrayLike,
         surface_tolerance: float = 1e-7,
         slip_velocity_tol: float = 1e-8,
+        sideways: str = "rolling",
     ) -> None:
+        if sideways not in SIDEWAYS_FRICTION:
+            raise ValueError(f"sideways must be one of {', '.join(SIDEWAYS_FRICTION)}, got "
+                             f"{sideways!r}")
         for name, value, unit in (
             ("k", k, "N/m"),
             ("nu", nu, "N s/m"),
@@ -73,6 +105,34 @@ class FrictionalGroundContact(RodPlaneContactWithAnisotropicFriction):
             kinetic_mu_array=_mu_array(kinetic_mu, "kinetic_mu"),
         )
         self.surface_tol = np.float64(surface_tolerance)
+        self.sideways = sideways
+        self._params = np.zeros(N_PARAMS)
+        self._params[P_K], self._params[P_NU] = self.k, self.nu
+        self._params[P_SURFACE_TOL] = self.surface_tol
+        self._params[P_SLIP_TOL] = slip_velocity_tol
+        self._params[P_STATIC_MU:P_STATIC_MU + 3] = _mu_array(static_mu, "static_mu")
+        self._params[P_KINETIC_MU:P_KINETIC_MU + 3] = _mu_array(kinetic_mu, "kinetic_mu")
+        self._params[P_SLIDING] = 1.0 if sideways == "sliding" else 0.0
+        self._scratch = np.zeros((N_SCRATCH, 0))
+
+    def apply_contact(self, system_one, system_two, time: np.float64 = np.float64(0.0)) -> None:
+        """PyElastica's kernel for ``"rolling"``; for ``"sliding"`` the block kernel of
+        :class:`~elastica_magnetic.BatchedRobots` on this one rod (the same loads along the rod,
+        Coulomb sliding across it)."""
+        if self.sideways == "rolling":
+            super().apply_contact(system_one, system_two, time)
+            return
+        n = system_one.n_elems
+        if self._scratch.shape[1] < n:
+            self._scratch = np.zeros((N_SCRATCH, n))
+        self._params[P_PLANE_ORIGIN:P_PLANE_ORIGIN + 3] = np.ravel(system_two.origin)
+        self._params[P_PLANE_NORMAL:P_PLANE_NORMAL + 3] = np.ravel(system_two.normal)
+        ground_contact(0, 0, n, self._params, system_one.mass, system_one.radius,
+                       system_one.tangents, system_one.position_collection,
+                       system_one.director_collection, system_one.velocity_collection,
+                       system_one.omega_collection, system_one.internal_forces,
+                       system_one.external_forces, system_one.internal_torques,
+                       system_one.external_torques, self._scratch)
 
 
 def _mu_array(mu: float | ArrayLike, name: str) -> np.ndarray:

@@ -51,6 +51,14 @@ class GroundSpec:
     kinetic_mu: float = 0.6
     surface_tolerance: float = 1e-7
     slip_velocity_tol: float = 1e-8
+    #: Friction across the rod: ``"rolling"`` (PyElastica's model of a round rod, which rolls
+    #: sideways: the paper's, default) or ``"sliding"`` (a flat band, which cannot roll: Coulomb
+    #: friction sideways, static up to ``static_mu`` N, kinetic ``kinetic_mu`` N, no torque).
+    sideways: str = "rolling"
+
+
+#: The choices of :attr:`GroundSpec.sideways`.
+SIDEWAYS_FRICTION = ("rolling", "sliding")
 
 
 @dataclass(frozen=True)

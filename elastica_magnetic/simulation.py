@@ -237,6 +237,7 @@ def register_robot_forcing(
             kinetic_mu=g.kinetic_mu,
             surface_tolerance=g.surface_tolerance,
             slip_velocity_tol=g.slip_velocity_tol,
+            sideways=g.sideways,
         )
 
 

@@ -41,6 +41,7 @@ from .magnetization import (
 from .presets import ROBOTS, YAO2023_MASS_SCALE, robot_by_name
 from .robot_spec import (
     ACTION_PERIOD,
+    SIDEWAYS_FRICTION,
     STANDARD_GRAVITY,
     DampingSpec,
     GroundSpec,
@@ -109,6 +110,7 @@ UNITS: dict[tuple[str, str], str] = {
     ("robot.ground", "surface_tolerance"): "m", ("robot.ground", "slip_velocity_tolerance"): "m/s",
     ("robot.ground", "static_mu"): "friction coefficient",
     ("robot.ground", "kinetic_mu"): "friction coefficient",
+    ("robot.ground", "sideways"): "rolling (a round rod) or sliding (a flat band)",
     ("robot.damping", "relative"): "N s/m^2", ("robot.damping", "node_offset"): "nodes",
     ("robot.damping", "legacy_force"): "N s/m^2", ("robot.damping", "legacy_torque"): "N s",
     ("robot.damping", "kelvin_voigt"): "Pa s",
@@ -182,7 +184,8 @@ class RobotDescription:
             ground=None if ground is None else GroundSpec(
                 k=ground["stiffness"], nu=ground["damping"], static_mu=ground["static_mu"],
                 kinetic_mu=ground["kinetic_mu"], surface_tolerance=ground["surface_tolerance"],
-                slip_velocity_tol=ground["slip_velocity_tolerance"]),
+                slip_velocity_tol=ground["slip_velocity_tolerance"],
+                sideways=ground.get("sideways", GroundSpec.sideways)),
             damping=None if damping is None else DampingSpec(
                 relative_nu=damping["relative"], node_offset=damping["node_offset"],
                 legacy_force=damping["legacy_force"], legacy_torque=damping["legacy_torque"],
@@ -263,6 +266,9 @@ def _robot_table(t: SpecTable) -> dict[str, Any]:
             "slip_velocity_tolerance": ground.number("slip_velocity_tolerance", "m/s",
                                                      d.slip_velocity_tol, low=0.0, low_open=True),
         }
+        sideways = ground.string("sideways", d.sideways, choices=SIDEWAYS_FRICTION)
+        if sideways != d.sideways:  # written only when chosen: earlier records stay the same
+            out["ground"]["sideways"] = sideways
         _check_friction(ground, out["ground"])
         _check_contact_tolerances(ground, out)
         ground.finish()

@@ -166,3 +166,18 @@ def test_simulate_takes_a_spec_file_and_refuses_a_bad_one(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "argument --robot: " in err and "bad.toml: [robot] length: must be > 0 (m)" in err
     assert not (tmp_path / "never").exists()
+
+
+def test_the_sideways_friction_of_the_ground_is_a_choice_kept_through_a_dump():
+    """``[robot.ground] sideways``: ``"rolling"`` (the default, left out of the complete tables so
+    that earlier run records read the same) or ``"sliding"`` (a band); anything else named."""
+    assert describe_robot(loads(ROBOT, "r.toml"), "r.toml").robot("training").ground.sideways == \
+        "rolling"
+    assert "sideways" not in describe_robot(loads(ROBOT, "r.toml"), "r.toml").tables["robot"]["ground"]
+    sliding = describe_robot(loads(ROBOT + 'sideways = "sliding"\n', "s.toml"), "s.toml")
+    assert sliding.robot("training").ground.sideways == "sliding"
+    again = describe_robot(loads(dumps(sliding.tables), "again.toml"), "again.toml")
+    assert again.robot("accurate").ground.sideways == "sliding"
+    with pytest.raises(SpecError, match=r"s\.toml: \[robot\.ground\] sideways: expected one of "
+                                        r"rolling, sliding; got 'slide'"):
+        describe_robot(loads(ROBOT + 'sideways = "slide"\n', "s.toml"), "s.toml")
