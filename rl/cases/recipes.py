@@ -3,6 +3,8 @@ so the command line can list them)."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 #: TD3 settings of the crawler that differ from :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config`'s
@@ -11,7 +13,7 @@ from typing import Any
 #: paper's setting.
 CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8, "eval_every": 5000}
 
-#: Training recipes: named changes of the TD3 configuration on top of
+#: Training recipes (:data:`RECIPE_LIST`): named changes of the TD3 configuration on top of
 #: :data:`CRAWLER_TD3_OVERRIDES`, each change an explicit
 #: :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` field. The task, reward, observation, action limits,
 #: physics, episode length and step budget are the same in every recipe. ``paper``: the authors' recipe.
@@ -26,7 +28,7 @@ CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8, "eval_every":
 #: ``fast``: the design loop measured in minutes: ``pink-ln`` (its 256-256 networks) with
 #: minibatches of 128 (half the paper's), bfloat16 networks in the updates (``fp32`` on a CPU
 #: without bfloat16 units) and the ``target`` stop rule, confirmed in the accurate physics, on by
-#: default (:data:`RECIPE_RUN_SETTINGS`; ``--stop-when none`` turns it off): a seed that has met
+#: default (its ``run`` settings; ``--stop-when none`` turns it off): a seed that has met
 #: the case's yardstick stops and frees its share of the worker. Measured with 8 seeds of each of
 #: the four paper cases on a 2-core AMD EPYC (Zen 5): 7, 6, 6 and 7 of 8 (m1-10mT, m2-10mT,
 #: m1-4mT, m2-4mT) in 21-27 min; on a 2-core Intel Xeon with AMX 7, 7, 5 and 6 of 8 in 42-51 min
@@ -37,42 +39,52 @@ CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8, "eval_every":
 #:
 #: ``robust``: ``pink-ln`` trained on robots drawn anew for every episode and crawler from the
 #: default variation set (domain randomization, Tobin et al. 2017; the run setting ``randomize``
-#: of :data:`RECIPE_RUN_SETTINGS`), so that one waveform works on the robot a lab actually built;
+#: of its ``run`` settings), so that one waveform works on the robot a lab actually built;
 #: the observation is unchanged and evaluations stay on the nominal robot.
-RECIPES: dict[str, dict[str, Any]] = {
-    "paper": {},
-    "pink": {"noise_color": 1.0, "noise_horizon": 2000},
-    "pink-ln": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True},
-    "pink-ln-unsat": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True,
-                      "actor_saturation_penalty": 1.0},
-    "fast": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True,
-             "batch_size": 128, "precision": "bf16"},
-    "robust": {"noise_color": 1.0, "noise_horizon": 2000, "critic_layer_norm": True},
-}
-#: Run settings a recipe carries besides its TD3 changes (not hyperparameters: they change when a
-#: seed stops, not what it learns), each overridable on the command line: ``stop_when``, the
-#: default of ``msr train --stop-when`` (``--stop-when none`` turns it off); ``randomize``, the
-#: default of ``msr train --randomize`` for a case whose spec has no ``[training.randomize]``
-#: (``"default"``: the default variation set; ``--randomize none`` turns it off).
-RECIPE_RUN_SETTINGS: dict[str, dict[str, Any]] = {"fast": {"stop_when": "target"},
-                                                  "robust": {"randomize": "default"}}
+@dataclass(frozen=True)
+class Recipe:
+    """One training recipe: its ``name``, a one-line ``summary`` (the command line's help), its
+    ``td3`` changes on :data:`CRAWLER_TD3_OVERRIDES` (explicit
+    :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` fields) and its ``run`` settings
+    (``stop_when``, the default of ``msr train --stop-when``; ``randomize``, the default of
+    ``--randomize`` for a case whose spec has no ``[training.randomize]``: not hyperparameters,
+    they change when a seed stops or which robots it trains on, each overridable)."""
+
+    name: str
+    summary: str
+    td3: Mapping[str, Any] = field(default_factory=dict)
+    run: Mapping[str, Any] = field(default_factory=dict)
+
+
+# the shared bases the recipes are composed from
+_PINK = {"noise_color": 1.0, "noise_horizon": 2000}  # a pink-noise sequence per 20 s episode
+_PINK_LN = {**_PINK, "critic_layer_norm": True}
+
+#: Every recipe, in the order the command line lists them: adding one is adding an entry here.
+RECIPE_LIST: tuple[Recipe, ...] = (
+    Recipe("paper", "the authors' TD3 settings"),
+    Recipe("pink", "the paper's with temporally correlated (pink) exploration noise", _PINK),
+    Recipe("pink-ln", "pink, and layer normalisation in the critics", _PINK_LN),
+    Recipe("pink-ln-unsat", "pink-ln, and a penalty that keeps the actor out of tanh's saturation",
+           {**_PINK_LN, "actor_saturation_penalty": 1.0}),
+    Recipe("fast", "pink-ln with minibatches of 128 and bfloat16 updates, whose seeds stop once they "
+           "meet the case's yardstick (--stop-when target by default): 8 seeds of a paper case "
+           "in 21-27 min on 2 cores (AMD Zen 5)",
+           {**_PINK_LN, "batch_size": 128, "precision": "bf16"}, {"stop_when": "target"}),
+    Recipe("robust", "pink-ln on robots randomized per episode (the default variation set: "
+           "magnetization +-15 %, modulus +-20 %, friction +-25 %, density +-10 %; --randomize)",
+           _PINK_LN, {"randomize": "default"}),
+)
+
+#: Views of :data:`RECIPE_LIST` by name: the TD3 changes, the run settings (recipes that have
+#: some) and the one-line summaries.
+RECIPES: dict[str, dict[str, Any]] = {r.name: dict(r.td3) for r in RECIPE_LIST}
+RECIPE_RUN_SETTINGS: dict[str, dict[str, Any]] = {r.name: dict(r.run) for r in RECIPE_LIST if r.run}
+RECIPE_SUMMARIES: dict[str, str] = {r.name: r.summary for r in RECIPE_LIST}
 
 #: The recipe of a spec file that names none, and of the paper's four cases: ``pink-ln`` made more
 #: seeds succeed than the paper's recipe in each of the four, 8 seeds against 8 (docs/training.md).
 DEFAULT_RECIPE = "pink-ln"
-
-#: One line per recipe, for the command line's help.
-RECIPE_SUMMARIES: dict[str, str] = {
-    "paper": "the authors' TD3 settings",
-    "pink": "the paper's with temporally correlated (pink) exploration noise",
-    "pink-ln": "pink, and layer normalisation in the critics",
-    "pink-ln-unsat": "pink-ln, and a penalty that keeps the actor out of tanh's saturation",
-    "fast": "pink-ln with minibatches of 128 and bfloat16 updates, whose seeds stop once they "
-            "meet the case's yardstick (--stop-when target by default): 8 seeds of a paper case "
-            "in 21-27 min on 2 cores (AMD Zen 5)",
-    "robust": "pink-ln on robots randomized per episode (the default variation set: magnetization "
-              "+-15 %, modulus +-20 %, friction +-25 %, density +-10 %; --randomize)",
-}
 
 
 def crawler_config(seed: int = 0, recipe: str = DEFAULT_RECIPE, **overrides: Any):
