@@ -37,6 +37,7 @@ it.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import os
 from collections.abc import Callable, Sequence
@@ -64,29 +65,40 @@ def _wrap(env_fn: Callable[[], gym.Env], n: int) -> gym.vector.VectorEnv:
     return SyncVectorEnv([env_fn] * n, autoreset_mode=AutoresetMode.SAME_STEP)
 
 
+@dataclasses.dataclass(frozen=True)
+class GroupOptions:
+    """The options of :func:`train_seeds` besides the environments' maker, the configs, the steps
+    and the run folders (its Args list each)."""
+
+    envs_per_seed: int = 1
+    resume: bool = False
+    progress: bool = True
+    log_fn: Callable[[dict[str, Any]], None] | None = None
+    init_from: Sequence[str | os.PathLike | None] | None = None
+    metadata: Sequence[dict[str, Any] | None] | None = None
+    eval_env_fn: Callable[[], gym.Env] | None = None
+    progress_position: int | None = None
+    progress_desc: str | None = None
+    eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None
+    stop_rules: Sequence[StopRule | None] | None = None
+    confirm_env_fn: Callable[[], gym.Env] | None = None
+    hand_back: Callable[[], bool] | None = None
+    confirm_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None
+
+
 def train_seeds(
     vec_env_fn: Callable[[int], gym.vector.VectorEnv],
     configs: Sequence[TD3Config | None],
     steps: int,
     run_dirs: Sequence[str | os.PathLike],
-    *,
-    envs_per_seed: int = 1,
-    resume: bool = False,
-    progress: bool = True,
-    log_fn: Callable[[dict[str, Any]], None] | None = None,
-    init_from: Sequence[str | os.PathLike | None] | None = None,
-    metadata: Sequence[dict[str, Any] | None] | None = None,
-    eval_env_fn: Callable[[], gym.Env] | None = None,
-    progress_position: int | None = None,
-    progress_desc: str | None = None,
-    eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None,
-    stop_rules: Sequence[StopRule | None] | None = None,
-    confirm_env_fn: Callable[[], gym.Env] | None = None,
-    hand_back: Callable[[], bool] | None = None,
-    confirm_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None,
+    options: GroupOptions | None = None,
+    /,
+    **changes: Any,
 ) -> TD3:
     """Train ``K = len(configs)`` seeds for ``steps`` environment transitions each and return the
     :class:`~elastica_magnetic_rl.td3.algorithm.TD3` holding them.
+
+    ``options`` (:class:`GroupOptions`) with ``changes`` (its fields by name) give the rest.
 
     Args:
         vec_env_fn: ``vec_env_fn(K * envs_per_seed)`` makes a vector environment with
@@ -139,7 +151,11 @@ def train_seeds(
     Returns the learner holding every seed in the order given, each at its end (a stopped seed
     at its stop; the update counter is then the last seed's; after a hand-back, where it was).
     """
-    k_seeds, n = len(configs), int(envs_per_seed)
+    o = dataclasses.replace(options or GroupOptions(), **changes)
+    resume, progress, log_fn, init_from, metadata = o.resume, o.progress, o.log_fn, o.init_from, o.metadata
+    eval_env_fn, eval_vec_env_fn, stop_rules = o.eval_env_fn, o.eval_vec_env_fn, o.stop_rules
+    confirm_env_fn, confirm_vec_env_fn, hand_back = o.confirm_env_fn, o.confirm_vec_env_fn, o.hand_back
+    k_seeds, n = len(configs), int(o.envs_per_seed)
     _check_group(run_dirs, k_seeds, n, stop_rules, confirm_env_fn or confirm_vec_env_fn)
     retain_freed_memory()  # the updates' temporaries reused, not page-faulted in (rl/runner/allocator.py)
     env = vec_env_fn(k_seeds * n)
@@ -152,8 +168,8 @@ def train_seeds(
             env.close()
             same_settings = functools.partial(
                 train_seeds, vec_env_fn, envs_per_seed=n, resume=resume, progress=progress,
-                log_fn=log_fn, eval_env_fn=eval_env_fn, progress_position=progress_position,
-                progress_desc=progress_desc, eval_vec_env_fn=eval_vec_env_fn,
+                log_fn=log_fn, eval_env_fn=eval_env_fn, progress_position=o.progress_position,
+                progress_desc=o.progress_desc, eval_vec_env_fn=eval_vec_env_fn,
                 confirm_env_fn=confirm_env_fn, hand_back=hand_back,
                 confirm_vec_env_fn=confirm_vec_env_fn)
             return _without_done(same_settings, runs, configs, run_dirs, metadata, steps,
@@ -161,7 +177,7 @@ def train_seeds(
         learner = _group_learner(runs, obs_dim, act_dim, act_space)
         loop = GroupLoop(env, runs, learner, n, log_fn, eval_vec_env_fn, vec_env_fn, confirm_env_fn,
                          hand_back, confirm_vec_env_fn)
-        learner = loop.train(progress, eval_env_fn, progress_position, progress_desc)
+        learner = loop.train(progress, eval_env_fn, o.progress_position, o.progress_desc)
         env = loop.env  # a smaller one once seeds have stopped
         if any(r.final_state is not None for r in runs):
             return _assemble(learner, runs, act_space)

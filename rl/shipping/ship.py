@@ -9,6 +9,7 @@ shipped-format directory (``actor.pt`` + ``policy.json``), or the name of a ship
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
 import re
@@ -72,24 +73,32 @@ def check_ship_target(name: str, dest: str | Path | None) -> None:
                 raise OutputPathError(f"--out {dest}: {parent} is a file, not a folder")
 
 
-def ship(
-    run: str | Path,
-    name: str,
-    dest: str | Path | None = None,
-    measure: bool = True,
-    duration: float = 10.0,
-    progress: bool = True,
-    overwrite: bool = False,
-    evaluate_all_seeds: bool = False,
-    notes: str | None = None,
-    with_critic: bool = True,
-    with_card: bool = True,
-    lock: bool = True,
-) -> dict[str, Any]:
+@dataclasses.dataclass(frozen=True)
+class ShipOptions:
+    """How :func:`ship` packs a policy: into ``dest/<name>/`` (``None``: ``rl/policies``),
+    measuring it for ``duration`` s (``measure``), and every seed of its case
+    (``evaluate_all_seeds``), with ``notes`` (Markdown) in its card, replacing a policy there
+    (``overwrite``), with ``critic.pt`` (``with_critic``) and ``MODEL_CARD.md`` (``with_card``),
+    under the folder's lock (``lock``), with ``progress`` bars."""
+
+    dest: str | Path | None = None
+    measure: bool = True
+    duration: float = 10.0
+    progress: bool = True
+    overwrite: bool = False
+    evaluate_all_seeds: bool = False
+    notes: str | None = None
+    with_critic: bool = True
+    with_card: bool = True
+    lock: bool = True
+
+
+def ship(run: str | Path, name: str, options: ShipOptions | None = None, /,
+         **changes: Any) -> dict[str, Any]:
     """Pack a run's checkpoint into the shipped-policy format ``dest/<name>/`` (default
     ``rl/policies/<name>/``): ``actor.pt`` and ``critic.pt`` (state dicts of
-    :class:`~elastica_magnetic_rl.td3.algorithm.Actor` /
-    :class:`~elastica_magnetic_rl.td3.algorithm.TwinCritic`), ``policy.json`` (case, observation layout and
+    :class:`~elastica_magnetic_rl.td3.networks.Actor` /
+    :class:`~elastica_magnetic_rl.td3.networks.TwinCritic`), ``policy.json`` (case, observation layout and
     scaling, action scaling, architecture, provenance) and ``MODEL_CARD.md``.
 
     With ``measure`` the policy is run for ``duration`` s in the accurate physics from a zero field
@@ -105,7 +114,11 @@ def ship(
     (:func:`elastica_magnetic.filesets.replace_files`: the folder may hold other things, such as
     ``seeds/``), under its lock; ``lock=False`` writes them directly (for a caller that writes a
     temporary result folder of its own). ``dest`` and ``name`` are checked before any measuring.
+    ``options`` (:class:`ShipOptions`) with ``changes`` (its fields by name) give these.
     """
+    o = dataclasses.replace(options or ShipOptions(), **changes)
+    dest, measure, duration, progress = o.dest, o.measure, o.duration, o.progress
+    overwrite, notes, with_critic = o.overwrite, o.notes, o.with_critic
     check_ship_target(name, dest)
     policy = resolve_policy(run)
     if policy.kind != "checkpoint":
@@ -121,15 +134,15 @@ def ship(
     summary = _find_summary(policy.source, case.name)
     measured, fields = _measure(policy, duration, progress) if measure else (None, None)
     seed_evaluations = None
-    if evaluate_all_seeds:
+    if o.evaluate_all_seeds:
         if summary is None:
             raise FileNotFoundError(f"{policy.source}: no summary.json of case {case.name} found "
                                     "above the run, so its seeds cannot be evaluated")
         seed_evaluations = evaluate_seeds(_find_case_dir(policy.source, case.name), duration,
                                           progress)
     info = _policy_info(policy, name, summary, seed_evaluations, measured, notes)
-    card = _ship_card(info, summary, case, target) if with_card else None
-    if lock:
+    card = _ship_card(info, summary, case, target) if o.with_card else None
+    if o.lock:
         written = _policy_files(policy, fields, card, with_critic)
         # the replaced policy's optional files this one lacks go in the same commit
         stale = [f for f in SHIPPED_FILES if f not in written]

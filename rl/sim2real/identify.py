@@ -22,6 +22,7 @@ lower bound.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -419,30 +420,41 @@ def _starts_report(records: Sequence[dict[str, Any]], near: Sequence[bool], best
     return out, agree
 
 
+@dataclasses.dataclass(frozen=True)
+class FitOptions:
+    """How :func:`identify` fits: in ``physics`` (``"training"`` or ``"accurate"``), from
+    ``starts`` starts (:func:`start_points`, ``seed``), at most ``max_evaluations`` simulations of
+    all starts together (Jacobian ones included), finite differences of ``diff_step`` (log
+    factor), ``stages_count`` stages of growing trajectory length, then confirmed in the accurate
+    physics (``confirm``); ``noise_m`` (m): the tracker's noise per coordinate, to judge the
+    residual by (``None``: not judged)."""
+
+    physics: str = "training"
+    confirm: bool = True
+    max_evaluations: int = MAX_EVALUATIONS
+    diff_step: float = DIFF_STEP
+    stages_count: int = STAGES
+    starts: int = STARTS
+    seed: int = 0
+    noise_m: float | None = None
+
+
 def identify(
     fields: NDArray[np.float64],
     measured: MeasuredTrajectory,
     spec: Mapping[str, Any],
     fits: Sequence[Variation],
-    *,
-    physics: str = "training",
-    confirm: bool = True,
-    max_evaluations: int = MAX_EVALUATIONS,
-    diff_step: float = DIFF_STEP,
-    stages_count: int = STAGES,
-    starts: int = STARTS,
-    seed: int = 0,
-    noise_m: float | None = None,
+    options: FitOptions | None = None,
+    /,
     progress: Callable[[int, float], None] | None = None,
+    **changes: Any,
 ) -> dict[str, Any]:
     """Fit the values of ``fits`` (one factor per fit, within :data:`FIT_BOUNDS`) so that the robot
     of ``spec`` (complete, see :func:`load_spec`) under ``fields`` (``(n, 3)`` T, 100 Hz) moves its
-    points as ``measured``; in ``physics`` (training), from ``starts`` starts (:func:`start_points`,
-    ``seed``), then confirmed in the accurate physics (``confirm``). ``max_evaluations`` bounds the
-    simulations of all starts together (Jacobian ones included; the uncertainty's Jacobian takes
-    two more per fitted value, the nominal robot's residual one). ``noise_m``: the tracker's noise
-    per coordinate (m), to judge the residual by. ``progress(evaluations, rms_m)`` is called after
-    each simulation of the fit.
+    points as ``measured``, as ``options`` (:class:`FitOptions`, with ``changes``: its fields by
+    name) say. The simulations' budget covers the fit; the uncertainty's Jacobian takes two more
+    per fitted value, the nominal robot's residual one. ``progress(evaluations, rms_m)`` is called
+    after each simulation of the fit.
 
     Returns the content of ``identify.json``: per fit its factor, values, standard errors,
     interval and identifiability, the residual RMS and largest absolute residual (m) of the
@@ -450,6 +462,30 @@ def identify(
     accurate-physics confirmation, the optimizer's report, and ``predicted`` (nominal and fitted
     displacements, for the figure; not written to JSON).
     """
+    o = dataclasses.replace(options or FitOptions(), **changes)
+    spec = dict(spec)
+    check_against_robot(measured, float(spec["robot"]["length"]), fields.shape[0] * ACTION_PERIOD)
+    fields = np.asarray(fields, dtype=np.float64)
+    began = time.perf_counter()
+    bounds = (np.log(FIT_BOUNDS[0]), np.log(FIT_BOUNDS[1]))
+    problem = _Problem(spec, list(fits), fields, measured, o.physics, bounds, o.diff_step,
+                       o.stages_count, progress)
+    records = _run_starts(problem, o.starts, o.seed, o.max_evaluations)
+    report = _fit_report(problem, records, o, began)
+    x, model = report.pop("_x"), problem.whole
+    predicted = {"nominal": model.displacements(np.ones(len(fits))),
+                 "fitted": model.displacements(np.exp(x))}
+    if o.confirm:
+        report["confirm"] = _confirmation(model, np.exp(x), o.physics)
+    report["predicted"] = predicted
+    return report
+
+
+def _fit_report(problem: _Problem, records: list[dict[str, Any]], o: FitOptions,
+                began: float) -> dict[str, Any]:
+    """The report of the best start of ``records``: the fitted values and their uncertainty, the
+    residuals, warnings, identifiability and the optimizer's record (``_x``: the best log factors,
+    for the caller)."""
     from .identifiability import (
         IDENTIFIABLE_WITHIN,
         INTERVAL_SIGMAS,
@@ -457,14 +493,7 @@ def identify(
         residual_against_noise,
     )
 
-    spec = dict(spec)
-    check_against_robot(measured, float(spec["robot"]["length"]), fields.shape[0] * ACTION_PERIOD)
-    fields = np.asarray(fields, dtype=np.float64)
-    began = time.perf_counter()
-    bounds = (np.log(FIT_BOUNDS[0]), np.log(FIT_BOUNDS[1]))
-    problem = _Problem(spec, list(fits), fields, measured, physics, bounds, diff_step, stages_count,
-                       progress)
-    records = _run_starts(problem, starts, seed, max_evaluations)
+    fits, spec, measured, bounds = problem.fits, problem.spec, problem.measured, problem.bounds
     finished = [i for i, r in enumerate(records) if r["x"] is not None]
     best = min(finished, key=lambda i: records[i]["cost"])
     x = records[best]["x"]
@@ -475,10 +504,11 @@ def identify(
     sigma, corr, judged, near, profile = _judge(model, x, residual, fits,
                                                 [records[i] for i in finished], bounds)
     starts_public, agree = _starts_report(records, near, best)
-    judged_residual, warnings = residual_against_noise(_rms(residual), noise_m)
+    judged_residual, warnings = residual_against_noise(_rms(residual), o.noise_m)
     warnings += _fit_warnings(records[best], judged, fits)
-    report: dict[str, Any] = {
-        "physics": physics,
+    return {
+        "_x": x,
+        "physics": o.physics,
         "fitted": _fitted(spec, fits, x, sigma, bounds, judged),
         "correlation": [[None if not np.isfinite(c) else round(float(c), 6) for c in row]
                         for row in corr],
@@ -490,17 +520,11 @@ def identify(
         "identifiability": {"near_best_chi2": NEAR_BEST_CHI2, "interval_sigmas": INTERVAL_SIGMAS,
                             "identifiable_within": IDENTIFIABLE_WITHIN, "profile": profile,
                             "simulations": model.evaluations - before},
-        "optimizer": _optimizer_report(records, best, agree, diff_step, time.perf_counter() - began,
-                                       starts_public),
+        "optimizer": _optimizer_report(records, best, agree, o.diff_step,
+                                       time.perf_counter() - began, starts_public),
         "measured": {"source": measured.source, "kind": measured.kind, "frames": int(measured.times.size),
                      "points": list(measured.points), "duration_s": measured.duration},
     }
-    predicted = {"nominal": model.displacements(np.ones(len(fits))),
-                 "fitted": model.displacements(np.exp(x))}
-    if confirm:
-        report["confirm"] = _confirmation(model, np.exp(x), physics)
-    report["predicted"] = predicted
-    return report
 
 
 def _judge(model: FitModel, x: NDArray[np.float64], residual: NDArray[np.float64],

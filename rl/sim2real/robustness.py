@@ -77,20 +77,28 @@ def _is_field_csv(source: str | Path) -> bool:
     return Path(source).suffix.lower() == ".csv"
 
 
-def plan_robustness(
-    source: str | Path,
-    *,
-    case: str | Path | Case | None = None,
-    fields_csv: str | Path | None = None,
-    variations: Sequence[Variation] | None = None,
-    one_at_a_time: bool = True,
-    corners: bool = True,
-    samples: int = 0,
-    seed: int = 0,
-    physics: str = "training",
-    duration: float = 10.0,
-    progress: bool = True,
-) -> RobustnessPlan:
+@dataclasses.dataclass(frozen=True)
+class StudySettings:
+    """What a robustness study plays and on which robots: ``case`` (a shipped name, a spec file
+    or a :class:`Case`: the robot of a field CSV source), ``fields_csv`` (a policy's waveform),
+    ``variations`` (default: :func:`default_variations`), the design (``one_at_a_time``,
+    ``corners``, ``samples`` drawn with ``seed``: :func:`design`), the ``physics`` and
+    ``duration`` (s) of each run, and ``progress`` bars."""
+
+    case: str | Path | Case | None = None
+    fields_csv: str | Path | None = None
+    variations: Sequence[Variation] | None = None
+    one_at_a_time: bool = True
+    corners: bool = True
+    samples: int = 0
+    seed: int = 0
+    physics: str = "training"
+    duration: float = 10.0
+    progress: bool = True
+
+
+def plan_robustness(source: str | Path, settings: StudySettings | None = None, /,
+                    **changes: Any) -> RobustnessPlan:
     """Check a robustness study and load what it needs (nothing is simulated, except a policy's
     waveform when it has none: see below).
 
@@ -101,11 +109,47 @@ def plan_robustness(
     from zero, ``duration`` s). ``variations`` default to :func:`default_variations`.
 
     Raises ValueError (SpecError, FieldCSVError, VariationError, PolicyFileError) or
-    FileNotFoundError naming the problem.
+    FileNotFoundError naming the problem. ``settings`` (:class:`StudySettings`) with ``changes``
+    (its fields by name) say the rest.
     """
-    if physics not in ("training", "accurate"):
-        raise ValueError(f"--physics must be 'training' or 'accurate', got {physics!r}")
-    duration = check_duration(duration)
+    o = dataclasses.replace(settings or StudySettings(), **changes)
+    if o.physics not in ("training", "accurate"):
+        raise ValueError(f"--physics must be 'training' or 'accurate', got {o.physics!r}")
+    duration = check_duration(o.duration)
+    the_case, policy, fields, waveform = _study_source(source, o.case, o.fields_csv)
+    spec = the_case.to_dict()
+    chosen = resolve_variations(list(o.variations) if o.variations else default_variations(spec),
+                                spec)
+    variants = design(chosen, spec, one_at_a_time=o.one_at_a_time, corners=o.corners,
+                      samples=o.samples, seed=o.seed)
+    specs = []
+    for variant in variants:
+        varied = apply_variant(spec, chosen, variant)
+        checked = case_from_dict(varied, f"variant {variant.label!r}", default_name=the_case.name)
+        checked.robot_spec(o.physics)  # builds the robot: its own checks
+        specs.append(varied)
+    if fields is None:  # a run or checkpoint without a waveform: generate it, as msr policy generate
+        from ..shipping.policy_runs import run_policy
+
+        rollout = run_policy(policy, duration, "accurate", "zero", o.progress)
+        if rollout.meta["diverged"]:
+            raise ValueError(f"{source}: generating the waveform diverged ({rollout.meta['diverged']})")
+        fields = rollout.fields
+        waveform = f"generated: {source} on the nominal robot, accurate physics, field from zero"
+    rows = int(round(duration / ACTION_PERIOD))
+    if rows > fields.shape[0]:
+        raise ValueError(f"--duration {duration:g} s is past the end of the waveform {waveform} "
+                         f"({fields.shape[0] * ACTION_PERIOD:g} s: {fields.shape[0]} rows at 100 Hz)")
+    info = {"one_at_a_time": o.one_at_a_time, "corners": o.corners, "samples": o.samples,
+            "seed": o.seed}
+    return RobustnessPlan(str(source), the_case, fields, waveform, policy, chosen, variants, specs,
+                          o.physics, duration, info)
+
+
+def _study_source(source: str | Path, case: str | Path | Case | None,
+                  fields_csv: str | Path | None) -> tuple[Case, Any, Any, str]:
+    """The case, the policy (``None`` for a field CSV), the waveform (``None``: to generate) and
+    its description, of a study's ``source``."""
     policy = None
     if _is_field_csv(source):
         if case is None:
@@ -128,31 +172,7 @@ def plan_robustness(
             waveform = f"fields.csv of the shipped-format policy {Path(policy.source).name}"
         else:
             fields, waveform = None, "generated"
-    spec = the_case.to_dict()
-    chosen = resolve_variations(list(variations) if variations else default_variations(spec), spec)
-    variants = design(chosen, spec, one_at_a_time=one_at_a_time, corners=corners, samples=samples,
-                      seed=seed)
-    specs = []
-    for variant in variants:
-        varied = apply_variant(spec, chosen, variant)
-        checked = case_from_dict(varied, f"variant {variant.label!r}", default_name=the_case.name)
-        checked.robot_spec(physics)  # builds the robot: its own checks
-        specs.append(varied)
-    if fields is None:  # a run or checkpoint without a waveform: generate it, as msr policy generate
-        from ..shipping.policy_runs import run_policy
-
-        rollout = run_policy(policy, duration, "accurate", "zero", progress)
-        if rollout.meta["diverged"]:
-            raise ValueError(f"{source}: generating the waveform diverged ({rollout.meta['diverged']})")
-        fields = rollout.fields
-        waveform = f"generated: {source} on the nominal robot, accurate physics, field from zero"
-    rows = int(round(duration / ACTION_PERIOD))
-    if rows > fields.shape[0]:
-        raise ValueError(f"--duration {duration:g} s is past the end of the waveform {waveform} "
-                         f"({fields.shape[0] * ACTION_PERIOD:g} s: {fields.shape[0]} rows at 100 Hz)")
-    info = {"one_at_a_time": one_at_a_time, "corners": corners, "samples": samples, "seed": seed}
-    return RobustnessPlan(str(source), the_case, fields, waveform, policy, chosen, variants, specs,
-                          physics, duration, info)
+    return the_case, policy, fields, waveform
 
 
 # -- running --------------------------------------------------------------------------------------

@@ -2,8 +2,7 @@
 (:func:`elastica_magnetic_rl.runner.loop.train_seeds`), groups in worker processes or Ray tasks
 (:mod:`elastica_magnetic_rl.sweep.backends`), one summary per case
 (:mod:`elastica_magnetic_rl.sweep.summaries`). Refinement (``msr refine``) is in
-:mod:`elastica_magnetic_rl.sweep.refine`; ``refine`` and ``summarize_run`` are importable from here
-too.
+:mod:`elastica_magnetic_rl.sweep.refine`.
 
 Each seed writes ``OUT/<case>/seed<k>/`` (``episodes.csv``, TensorBoard scalars, ``checkpoint.pt``
 and ``replay.bin``, ``evaluations.csv`` and ``best.pt``, ``run.json``:
@@ -46,8 +45,9 @@ from .stop_settings import (
     target_return,
 )
 from .summaries import case_summary, failed_group_results, summarize_run
+from .sweep_settings import SweepSettings
 
-__all__ = ["default_layout", "train_case", "train_cases"]
+__all__ = ["SweepSettings", "default_layout", "train_case", "train_cases"]
 
 
 def _train_group(job: GroupJob) -> dict[str, Any]:
@@ -144,35 +144,18 @@ def default_layout(seeds: int, cases: int = 1, cpus: int | None = None) -> dict[
             "threads": max(1, cpus // workers)}
 
 
-def train_case(case: str | Path | Case, seeds: int = 8, **kwargs: Any) -> dict[str, Any]:
-    """Train seeds of one case: :func:`train_cases` with ``[case]``; returns its summary."""
-    return train_cases([case], seeds, **kwargs)[load_case(case).name]
+def train_case(case: str | Path | Case, seeds: int = 8, **changes: Any) -> dict[str, Any]:
+    """Train seeds of one case: :func:`train_cases` with ``[case]`` and ``seeds`` and the other
+    :class:`~elastica_magnetic_rl.sweep.sweep_settings.SweepSettings` fields in ``changes``;
+    returns its summary."""
+    return train_cases([case], seeds=seeds, **changes)[load_case(case).name]
 
 
 def train_cases(
     cases: Sequence[str | Path | Case],
-    seeds: int = 8,
-    steps: int | None = None,
-    workers: int | None = None,
-    out: str | Path = "runs",
-    resume: bool = False,
-    seed_offset: int = 0,
-    config_overrides: dict[str, Any] | None = None,
-    physics: str = "training",
-    episode_duration: float | None = None,
-    progress: bool = True,
-    threads: int | None = None,
-    success_fraction: float = 0.5,
-    envs: int = 1,
-    backend: str = "process",
-    address: str | None = None,
-    seeds_per_simulator: int | None = None,
-    recipe: str | None = None,
-    stop_when: str | None = None,
-    stop_options: dict[str, Any] | None = None,
-    randomize: str | None = None,
-    rebalance: bool = True,
-    warm_up_only: bool = False,
+    settings: SweepSettings | None = None,
+    /,
+    **changes: Any,
 ) -> dict[str, dict[str, Any]]:
     """Train seeds ``seed_offset .. seed_offset + seeds - 1`` of every case in ``cases`` for ``steps``
     environment steps each, in groups of seeds of one case that train side by side in one worker
@@ -197,83 +180,68 @@ def train_cases(
     case's ``[training]`` / ``[task]`` values (so to one value when the cases agree), and
     ``config_overrides`` go on top of the case's ``[training.td3]``.
 
-    Args:
-        config_overrides: :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` fields on top of
-            :func:`crawler_config` (e.g. ``precision="bf16"``, ``device="cuda"``).
-        workers: groups trained at a time (processes or Ray tasks in flight).
-        threads: torch threads per worker. Exact resume needs the same thread count.
-        envs: crawlers per seed (``envs`` transitions and updates per vector step); resume with the same
-            value.
-        backend: ``"process"`` (default: worker processes on this machine) or ``"ray"`` (one Ray task per
-            group; see :mod:`elastica_magnetic_rl.sweep.backends`). Same run directories and summaries.
-        address: Ray cluster to run on (``backend="ray"`` only; default: a local Ray instance with
-            ``workers x threads`` CPUs, started and shut down here). The output folder must then be on a
-            filesystem every node sees at the same path.
-        seeds_per_simulator: seeds of a case per group (one batched simulator, one stacked update).
-        recipe: the training recipe (:data:`RECIPES`), recorded in ``run.json`` and the summary.
-        stop_when: stop a seed that has learned (``"target"``, ``"plateau"``; ``"none"``: off; default:
-            the recipe's run setting, else off): see :mod:`elastica_magnetic_rl.sweep.stop_settings`.
-            Recorded in each run; a resume keeps it.
-        stop_options: ``consecutive``, ``patience``, ``tolerance``, ``confirm`` of the rule.
-        randomize: ``"default"``, ``"none"`` or ``None`` (:func:`randomized_cases`).
-        rebalance: an idle worker takes over seeds of a busy one at the end
-            (:mod:`elastica_magnetic_rl.sweep.rebalance`; process backend, several workers, one
-            torch thread each). On by default: a moved seed ends bit-identical to one that stayed
-            (tested; confirmed on an 8-seed ``m1-10mT`` campaign, docs/training.md).
-        warm_up_only: allow runs that never leave the warm-up (``steps`` at or below
-            ``learning_starts``: they only fill their replay buffers, e.g. a benchmark's first
-            stage, resumed later); otherwise a run whose weights would never be updated is refused
-            before any work (:mod:`elastica_magnetic_rl.sweep.inert_settings`).
+    ``settings`` (:class:`~elastica_magnetic_rl.sweep.sweep_settings.SweepSettings`, default: its
+    defaults) with ``changes`` (its fields by name, e.g. ``seeds=2, out="runs"``). Notes on some:
+    ``threads``: exact resume needs the same thread count; ``envs``: resume with the same value;
+    ``backend="ray"``: one Ray task per group (:mod:`elastica_magnetic_rl.sweep.backends`; with
+    ``address`` the output folder must be on a filesystem every node sees at the same path);
+    ``stop_when``: recorded in each run, a resume keeps it
+    (:mod:`elastica_magnetic_rl.sweep.stop_settings`); ``rebalance``: a moved seed ends
+    bit-identical to one that stayed (:mod:`elastica_magnetic_rl.sweep.rebalance`);
+    ``warm_up_only``: otherwise a run whose weights would never be updated is refused before any
+    work (:mod:`elastica_magnetic_rl.sweep.inert_settings`).
     """
-    steps_given = steps is not None
+    s = dataclasses.replace(settings or SweepSettings(), **changes)
     loaded = _load_cases(cases)
-    steps, episode_duration, recipe = _case_defaults(loaded, steps, episode_duration, recipe)
-    loaded = randomized_cases(loaded, randomize, recipe)
-    seed_list, groups, workers, configs, sweep = _plan_sweep(
-        out, loaded, seeds=seeds, steps=steps, episode_duration=episode_duration, recipe=recipe,
-        workers=workers, threads=threads, seeds_per_simulator=seeds_per_simulator,
-        seed_offset=seed_offset, envs=envs, backend=backend, address=address, resume=resume,
-        physics=physics, stop_when=stop_when, stop_options=stop_options,
-        config_overrides=config_overrides, steps_given=steps_given, warm_up_only=warm_up_only)
+    steps, episode_duration, recipe = _case_defaults(loaded, s.steps, s.episode_duration, s.recipe)
+    loaded = randomized_cases(loaded, s.randomize, recipe)
+    resolved = _Resolved(steps, episode_duration, recipe, steps_given=s.steps is not None)
+    seed_list, groups, workers, configs, sweep = _plan_sweep(loaded, s, resolved)
     start = time.perf_counter()
-    results = _run_groups(_group_jobs(out, loaded, groups, configs, sweep, resume, progress),
-                          workers, backend, address, progress, rebalance)
+    results = _run_groups(_group_jobs(s.out, loaded, groups, configs, sweep, s.resume, s.progress),
+                          workers, s.backend, s.address, s.progress, s.rebalance)
     wall = time.perf_counter() - start
-    return {case: case_summary(CaseDir.of(out, case), loaded[case],
-                               [r for c, r in results if c == case], seed_list, success_fraction,
-                               sweep, wall)
+    return {case: case_summary(CaseDir.of(s.out, case), loaded[case],
+                               [r for c, r in results if c == case], seed_list,
+                               s.success_fraction, sweep, wall)
             for case in loaded}
 
 
-def _plan_sweep(out: str | Path, loaded: dict[str, Case], *, seeds: int, steps: int,
-                episode_duration: float, recipe: str, workers: int | None, threads: int | None,
-                seeds_per_simulator: int | None, seed_offset: int, envs: int, backend: str,
-                address: str | None, resume: bool, physics: str, stop_when: str | None,
-                stop_options: dict[str, Any] | None, config_overrides: dict[str, Any] | None,
-                steps_given: bool = True, warm_up_only: bool = False
+@dataclasses.dataclass(frozen=True)
+class _Resolved:
+    """A sweep's steps, episode length (s) and recipe: the settings', else the cases' own."""
+
+    steps: int
+    episode_duration: float
+    recipe: str
+    steps_given: bool
+
+
+def _plan_sweep(loaded: dict[str, Case], s: SweepSettings, r: _Resolved
                 ) -> tuple[list[int], list[list[int]], int, dict[int, Any], dict[str, Any]]:
     """Every check of a sweep before any work (options, run folders, resumed runs), then its
     plan: the seeds, their groups, the worker count, each seed's TD3 configuration and the
     settings ``summary.json`` records (:func:`_sweep_record`)."""
-    _check_sweep_options(seeds=seeds, steps=steps, envs=envs, workers=workers,
-                         seeds_per_simulator=seeds_per_simulator, threads=threads,
-                         seed_offset=seed_offset, backend=backend, address=address)
-    layout = _sweep_layout(seeds, len(loaded), workers, seeds_per_simulator, threads, address)
-    seed_list = [seed_offset + k for k in range(seeds)]
-    groups, workers, threads = _groups_and_workers(seed_list, layout, len(loaded), threads, address)
-    configs = _seed_configs(loaded, seed_list, recipe, config_overrides)
+    _check_sweep_options(seeds=s.seeds, steps=r.steps, envs=s.envs, workers=s.workers,
+                         seeds_per_simulator=s.seeds_per_simulator, threads=s.threads,
+                         seed_offset=s.seed_offset, backend=s.backend, address=s.address)
+    layout = _sweep_layout(s.seeds, len(loaded), s.workers, s.seeds_per_simulator, s.threads,
+                           s.address)
+    seed_list = [s.seed_offset + k for k in range(s.seeds)]
+    groups, workers, threads = _groups_and_workers(seed_list, layout, len(loaded), s.threads,
+                                                   s.address)
+    overrides = dict(s.config_overrides or {})
+    configs = _seed_configs(loaded, seed_list, r.recipe, overrides)
     first = next(iter(loaded.values()))
-    acting = _ActingChecks(configs[seed_list[0]], int(steps), int(envs), SettingSources(
-        config_overrides or {}, first.training.td3, first.source, steps_given, recipe=recipe),
-        stop_given=stop_when not in (None, "none") or bool(stop_options), warm_up_only=warm_up_only)
-    stop_rules = _check_before_work(out, loaded, seed_list, acting,
-                                    resume=resume, stop_when=stop_when, stop_options=stop_options,
-                                    recipe=recipe, physics=physics, episode_duration=episode_duration,
-                                    config_overrides=config_overrides)
-    sweep = _sweep_record(layout, configs[seed_list[0]], steps=int(steps), physics=physics,
-                          episode_duration_s=float(episode_duration), workers=workers,
-                          backend=backend, envs_per_seed=int(envs), torch_threads_per_worker=threads,
-                          recipe=recipe, stop_rules=stop_rules)
+    acting = _ActingChecks(configs[seed_list[0]], int(r.steps), int(s.envs), SettingSources(
+        overrides, first.training.td3, first.source, r.steps_given, recipe=r.recipe),
+        stop_given=s.stop_when not in (None, "none") or bool(s.stop_options),
+        warm_up_only=s.warm_up_only)
+    stop_rules = _check_before_work(loaded, seed_list, acting, s, r)
+    sweep = _sweep_record(layout, configs[seed_list[0]], steps=int(r.steps), physics=s.physics,
+                          episode_duration_s=float(r.episode_duration), workers=workers,
+                          backend=s.backend, envs_per_seed=int(s.envs), torch_threads_per_worker=threads,
+                          recipe=r.recipe, stop_rules=stop_rules)
     return seed_list, groups, workers, configs, sweep
 
 
@@ -318,25 +286,24 @@ class _ActingChecks:
             check_run_learns(TD3Config.from_dict(config), self.steps, sources)
 
 
-def _check_before_work(out: str | Path, loaded: dict[str, Case], seed_list: list[int],
-                       acting: _ActingChecks, *, resume: bool, stop_when: str | None,
-                       stop_options: dict[str, Any] | None, recipe: str, physics: str,
-                       episode_duration: float,
-                       config_overrides: dict[str, Any] | None) -> dict[str, Any]:
+def _check_before_work(loaded: dict[str, Case], seed_list: list[int], acting: _ActingChecks,
+                       s: SweepSettings, r: _Resolved) -> dict[str, Any]:
     """Every check of a sweep before any work: the stop rule given (or the recipe's), that the
     settings can act (``acting``), the run folders (:func:`_check_run_folders`) and, for a
     resume, the runs themselves (:func:`_check_resumed_runs`). Returns each case's stop rule
     (``None``: off)."""
     eval_every = acting.config.eval_every
-    keep_stop_rules = resume and stop_when is None and not stop_options
+    stop_options = dict(s.stop_options or {})
+    keep_stop_rules = s.resume and s.stop_when is None and not stop_options
     stop_rules = None if keep_stop_rules else _stop_rules(
-        loaded, recipe_stop_when(stop_when, recipe), stop_options, eval_every)
-    _check_run_folders(out, loaded, seed_list, resume, physics, episode_duration, recipe,
-                       before_making=None if resume else functools.partial(acting.new_runs, stop_rules))
-    if resume:
-        stop_rules = _check_resumed_runs(out, loaded, seed_list, config_overrides, stop_rules,
-                                         eval_every)
-        acting.resumed_runs([(c, CaseDir.of(out, c).seed(s)) for c in loaded for s in seed_list])
+        loaded, recipe_stop_when(s.stop_when, r.recipe), stop_options, eval_every)
+    _check_run_folders(s.out, loaded, seed_list, s.resume, s.physics, r.episode_duration, r.recipe,
+                       before_making=None if s.resume else functools.partial(acting.new_runs,
+                                                                             stop_rules))
+    if s.resume:
+        stop_rules = _check_resumed_runs(s.out, loaded, seed_list, dict(s.config_overrides or {}),
+                                         stop_rules, eval_every)
+        acting.resumed_runs([(c, CaseDir.of(s.out, c).seed(k)) for c in loaded for k in seed_list])
     return stop_rules
 
 
