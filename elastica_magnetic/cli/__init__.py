@@ -5,7 +5,6 @@ module uses) and ``commands`` (the physics package's own sub-commands, ``replay`
 """
 
 from .app import (
-    COMMAND_HOMES,
     COMMAND_MODULES,
     GROUPS,
     OUTPUT_TYPES,
@@ -20,9 +19,8 @@ from .app import (
     output_path,
     print_notes,
     print_result,
-    spelling,
 )
 
-__all__ = ["COMMAND_HOMES", "COMMAND_MODULES", "GROUPS", "OUTPUT_TYPES", "CommandError", "build_parser",
+__all__ = ["COMMAND_MODULES", "GROUPS", "OUTPUT_TYPES", "CommandError", "build_parser",
            "command_name", "duration_option", "interrupted_message", "listed_commands", "main", "number",
-           "output_path", "print_notes", "print_result", "spelling"]
+           "output_path", "print_notes", "print_result"]

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import pytest
 
-from elastica_magnetic.cli import COMMAND_HOMES, GROUPS, build_parser, listed_commands, main
+from elastica_magnetic.cli import GROUPS, build_parser, listed_commands, main
+from elastica_magnetic.command_names import COMMAND_HOMES
 
 
 def _listed_top_level(capsys) -> list[str]:

@@ -25,7 +25,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from elastica_magnetic.cli import OUTPUT_TYPES, listed_commands, main, spelling
+from elastica_magnetic.cli import OUTPUT_TYPES, listed_commands, main
+from elastica_magnetic.command_names import spelling
 from elastica_magnetic.io import display_path, normalized_path
 
 ROOT = Path(__file__).resolve().parents[2]
