@@ -5,7 +5,7 @@ field sources, magnetization patterns, the equivalent circular section of a band
 ground with an adjustable tolerance, robot presets and a simulation builder. SI units throughout.
 """
 
-from .batch import BatchedRobots, BatchedSimulationDiverged, SpatialFieldNotSupported
+from .batch import BatchedRobots, BatchedSimulationDivergedError, SpatialFieldNotSupportedError
 from .field_csv import FieldCSVError, read_field_csv, write_field_csv
 from .fields import (
     ConstantField,
@@ -24,6 +24,7 @@ from .forcing import (
 )
 from .ground import FrictionalGroundContact
 from .interaction import MagneticInteraction
+from .magnet_fields import CuboidMagnetField, CylinderMagnetField
 from .magnetization import (
     YAO2023_MAGNETIZATION,
     MagnetizationSegment,
@@ -47,7 +48,7 @@ from .section import (
 from .simulation import (
     MagneticRodSimulator,
     RobotSimulation,
-    SimulationDiverged,
+    SimulationDivergedError,
     build_simulation,
 )
 from .spatial_fields import (
@@ -63,72 +64,89 @@ from .spatial_fields import (
     SpatialFieldError,
     Waypoints,
 )
+from .spec_format import SpecError
+from .specfile import load_robot
 from .units import MM_MG_S, SI, UnitSystem
 from .viscoelastic import KelvinVoigtDamping
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "SpatialFieldNotSupported",
-    "UniformField",
-    "Waypoints",
-    "SpatialFieldError",
-    "PointDipoleField",
-    "ConstantGradientField",
-    "MaxwellCoils",
-    "HelmholtzCoils",
-    "FieldSum",
-    "FieldMapDomainError",
-    "FieldMap",
-    "CurrentLoopsField",
-    "CurrentLoopField",
-    "BatchedRobots",
-    "BatchedSimulationDiverged",
-    "ConstantField",
-    "ControlledField",
-    "DampingSpec",
-    "FieldCSVError",
-    "FieldValueError",
+    # forcing (add to your own PyElastica simulation)
+    "evaluate_field",
     "FrictionalGroundContact",
-    "GroundSpec",
-    "InteractionSpec",
     "KelvinVoigtDamping",
     "LegacyInternalDamping",
-    "MM_MG_S",
     "MagneticInteraction",
-    "MagneticRodSimulator",
     "MagneticTorques",
-    "MagnetizationSegment",
-    "OpenLoopResult",
-    "RampedField",
     "RelativeVelocityDamping",
-    "RobotSimulation",
-    "RobotSpec",
+    # fields: uniform in space (functions of time, T)
+    "ConstantField",
+    "ControlledField",
+    "RampedField",
+    "read_field_csv",
     "RotatingField",
-    "SI",
-    "SimulationDiverged",
     "TabulatedField",
-    "UnitSystem",
-    "YAO2023_MAGNETIZATION",
-    "YAO2023_MASS_SCALE",
-    "build_simulation",
+    "UniformField",
+    "write_field_csv",
+    # fields: varying in space (magnets, coils, maps)
+    "ConstantGradientField",
+    "CuboidMagnetField",
+    "CurrentLoopField",
+    "CurrentLoopsField",
+    "CylinderMagnetField",
+    "FieldMap",
+    "FieldSum",
+    "HelmholtzCoils",
+    "MaxwellCoils",
+    "PointDipoleField",
+    "Waypoints",
+    # robots and specs
+    "DampingSpec",
     "element_centres",
     "equivalent_radius",
-    "evaluate_field",
+    "GroundSpec",
     "hu2018_robot",
+    "InteractionSpec",
+    "load_robot",
     "magnetization_from_function",
-    "read_field_csv",
+    "MagnetizationSegment",
+    "MM_MG_S",
     "rectangular_band_rod",
     "robot_by_name",
-    "run_open_loop",
+    "RobotSpec",
     "segments_magnetization",
     "set_shear_coefficient",
     "shear_coefficient",
+    "SI",
     "sinusoidal_magnetization",
     "two_segment_magnetization",
     "uniform_magnetization",
-    "write_field_csv",
-    "write_trajectory_csv",
+    "UnitSystem",
+    "YAO2023_MAGNETIZATION",
     "yao2023_magnetization",
+    "YAO2023_MASS_SCALE",
     "yao2023_robot",
+    # simulation
+    "BatchedRobots",
+    "build_simulation",
+    "MagneticRodSimulator",
+    "OpenLoopResult",
+    "RobotSimulation",
+    "run_open_loop",
+    "write_trajectory_csv",
+    # errors
+    "BatchedSimulationDivergedError",
+    "FieldCSVError",
+    "FieldMapDomainError",
+    "FieldValueError",
+    "SimulationDivergedError",
+    "SpatialFieldError",
+    "SpatialFieldNotSupportedError",
+    "SpecError",
 ]
+
+#: Names of earlier releases, kept so that users' scripts run (not in ``__all__``; they will go).
+BatchedSimulationDiverged = BatchedSimulationDivergedError
+SimulationDiverged = SimulationDivergedError
+SpatialFieldNotSupported = SpatialFieldNotSupportedError

@@ -70,28 +70,37 @@ from ._batch_kernels import (
     first_unhealthy,
 )
 from .robot_spec import RobotSpec
-from .simulation import SimulationDiverged, robot_rod, trajectory_row
+from .simulation import SimulationDivergedError, robot_rod, trajectory_row
 from .spatial_fields import is_spatial
 
-__all__ = ["BatchedRobots", "BatchedRobotSimulator", "BatchedSimulationDiverged", "SpatialFieldNotSupported"]
+__all__ = ["BatchedRobots", "BatchedRobotSimulator", "BatchedSimulationDivergedError",
+           "SpatialFieldNotSupportedError"]
 
 
-class SpatialFieldNotSupported(TypeError):
+class SpatialFieldNotSupportedError(TypeError):
     """The batched simulator drives each robot with a uniform field (a row of ``fields``); a source
     that varies in space (``at``/``gradient``) needs :func:`~elastica_magnetic.build_simulation`
     or :class:`~elastica_magnetic.MagneticTorques` in a simulator of its own."""
+
+
+#: The name of earlier releases (kept so that users' scripts run; it will go).
+SpatialFieldNotSupported = SpatialFieldNotSupportedError
 
 
 class BatchedRobotSimulator(ea.BaseSystemCollection, ea.Constraints, ea.Forcing, ea.CallBacks):
     """The simulator :class:`BatchedRobots` builds (the ground is not a system: the kernel has it)."""
 
 
-class BatchedSimulationDiverged(SimulationDiverged):
+class BatchedSimulationDivergedError(SimulationDivergedError):
     """A batched robot produced NaN or a runaway velocity; ``robot`` is its index."""
 
     def __init__(self, message: str, time: float, element: int, robot: int) -> None:
         super().__init__(message, time=time, element=element)
         self.robot = robot
+
+
+#: The name of earlier releases (kept so that users' scripts run; it will go).
+BatchedSimulationDiverged = BatchedSimulationDivergedError
 
 
 class _BlockForcing(NoForces):
@@ -288,7 +297,7 @@ class BatchedRobots:
     @fields.setter
     def fields(self, value: ArrayLike) -> None:
         if is_spatial(value):
-            raise SpatialFieldNotSupported(
+            raise SpatialFieldNotSupportedError(
                 f"BatchedRobots takes uniform fields only ((N, 3) in tesla), got the spatial source "
                 f"{type(value).__name__}; simulate each robot with build_simulation (or "
                 "MagneticTorques) to feel a field that varies in space")
@@ -323,7 +332,7 @@ class BatchedRobots:
     def step(self, n_steps: int) -> None:
         """Take ``n_steps`` time steps with the current :attr:`fields`, then check every robot.
 
-        Raises :class:`BatchedSimulationDiverged` (a :class:`SimulationDiverged`) naming the robot,
+        Raises :class:`BatchedSimulationDivergedError` (a :class:`SimulationDivergedError`) naming the robot,
         its time and the element if a node of some robot is NaN or faster than :attr:`max_speed`.
         """
         simulator, step, dt = self.simulator, self.stepper.step, self.spec.dt
@@ -336,7 +345,7 @@ class BatchedRobots:
         self.check_health()
 
     def check_health(self) -> None:
-        """Raise :class:`BatchedSimulationDiverged` for the first robot with NaN or a runaway node."""
+        """Raise :class:`BatchedSimulationDivergedError` for the first robot with NaN or a runaway node."""
         block = self.block
         robot, node, is_nan, speed2, n_bad = first_unhealthy(
             block.position_collection,
@@ -351,7 +360,7 @@ class BatchedRobots:
         what = "NaN" if is_nan else f"runaway speed {math.sqrt(speed2):.3g} > {self.max_speed:.3g}"
         others = f" ({n_bad - 1} other robot(s) also diverged)" if n_bad > 1 else ""
         time = self.robot_time(robot)
-        raise BatchedSimulationDiverged(
+        raise BatchedSimulationDivergedError(
             f"robot {robot}: simulation diverged at t = {time:.6f} s: {what} at node {node} "
             f"(element {element}){others}; reduce dt (now {self.spec.dt:g}) or check the parameters",
             time=time,

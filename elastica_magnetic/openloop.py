@@ -106,7 +106,7 @@ def run_open_loop(
 
     Raises
     ------
-    SimulationDiverged
+    SimulationDivergedError
         On NaN or a runaway velocity, naming the time and element.
     """
     n_actions = int(round(check_duration(duration) / ACTION_PERIOD))

@@ -3,7 +3,7 @@
 :func:`build_simulation` registers, in this order (the order matters, see the design notes):
 magnetic torques, relative-velocity damping, legacy internal damping, gravity, then the ground
 contact, and finalizes the simulator. :class:`RobotSimulation` steps it with ``PositionVerlet`` and
-stops with :class:`SimulationDiverged` (naming the time and the element) on NaN or a runaway speed.
+stops with :class:`SimulationDivergedError` (naming the time and the element) on NaN or a runaway speed.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from .viscoelastic import KelvinVoigtDamping
 __all__ = [
     "MagneticRodSimulator",
     "RobotSimulation",
-    "SimulationDiverged",
+    "SimulationDivergedError",
     "build_simulation",
     "TRAJECTORY_COLUMNS",
     "trajectory_row",
@@ -56,13 +56,17 @@ class MagneticRodSimulator(
     """A PyElastica simulator with every mixin a magnetic robot needs."""
 
 
-class SimulationDiverged(RuntimeError):
+class SimulationDivergedError(RuntimeError):
     """The simulation produced NaN or a runaway velocity; the message names the time and element."""
 
     def __init__(self, message: str, time: float, element: int) -> None:
         super().__init__(message)
         self.time = time
         self.element = element
+
+
+#: The name of earlier releases (kept so that users' scripts run; it will go).
+SimulationDiverged = SimulationDivergedError
 
 
 @dataclass
@@ -116,7 +120,7 @@ class RobotSimulation:
             n_total -= n
 
     def check_health(self) -> None:
-        """Raise :class:`SimulationDiverged` if any node has NaN or moves faster than ``max_speed``."""
+        """Raise :class:`SimulationDivergedError` if any node has NaN or moves faster than ``max_speed``."""
         velocity = self.rod.velocity_collection
         position = self.rod.position_collection
         speed2 = np.einsum("ij,ij->j", velocity, velocity)
@@ -130,7 +134,7 @@ class RobotSimulation:
         what = "NaN" if not np.isfinite(speed2[node] + position[:, node].sum()) else (
             f"runaway speed {math.sqrt(speed2[node]):.3g} > {self.max_speed:.3g}"
         )
-        raise SimulationDiverged(
+        raise SimulationDivergedError(
             f"simulation diverged at t = {self.time:.6f} s: {what} at node {node} "
             f"(element {element}); reduce dt (now {self.spec.dt:g}) or check the parameters",
             time=self.time,

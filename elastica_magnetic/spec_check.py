@@ -189,7 +189,7 @@ def simulate_sag(robot: RobotSpec, field_limit: float | None,
     ramped to ``field_limit`` (T) in ``ramp`` s along each of ``directions`` (label -> unit
     vector) and held, for ``duration`` s each; the deepest element centre below its resting height
     (m). ``physics`` labels the result (default: from the robot's mass scale). Raises
-    :class:`~elastica_magnetic.SimulationDiverged` if a run blows up."""
+    :class:`~elastica_magnetic.SimulationDivergedError` if a run blows up."""
     from .fields import ConstantField, RampedField
     from .simulation import build_simulation
 
@@ -316,7 +316,7 @@ def _sag(description: RobotDescription, steps: list[TimeStepCheck], field_limit:
          radius: float) -> tuple[SagCheck | None, list[Issue]]:
     """The sag simulated in the training physics (the statics are the same in both; it is ~10x
     cheaper), or the accurate one if the training step is estimated unstable."""
-    from .simulation import SimulationDiverged
+    from .simulation import SimulationDivergedError
 
     usable = [s for s in steps if s.margin >= 1.0]
     if not usable:
@@ -330,7 +330,7 @@ def _sag(description: RobotDescription, steps: list[TimeStepCheck], field_limit:
                             f"{n_steps} time steps per run (at most {SAG_MAX_STEPS})")]
     try:
         check = simulate_sag(robot, field_limit, physics=chosen.physics)
-    except SimulationDiverged as exc:
+    except SimulationDivergedError as exc:
         return None, [Issue("error", f"[physics.{chosen.physics}] dt",
                             f"the robot resting on the ground under the field diverged: {exc}")]
     issues = []

@@ -34,4 +34,39 @@ if ENV_ID not in _registry:
     # The time limit is enforced (as a truncation) by the environment's own ``duration`` option.
     _register(id=ENV_ID, entry_point="elastica_magnetic_rl.envs.env:MagneticCrawlerEnv")
 
-__all__ = ["ENV_ID"]
+#: What a script needs, importable from the top (``from elastica_magnetic_rl import train_cases``),
+#: by concept; each is loaded from its module when first used, so that importing the package stays
+#: light (no torch, no physics).
+_EXPORTS: dict[str, str] = {
+    # environments
+    "MagneticCrawlerEnv": "envs.env", "make_env": "envs.env",
+    "MagneticCrawlerVectorEnv": "envs.vector_env", "make_vector_env": "envs.vector_env",
+    # cases and recipes
+    "Case": "cases.case", "load_case": "cases.case",
+    "Recipe": "cases.recipes", "RECIPE_LIST": "cases.recipes", "crawler_config": "cases.recipes",
+    # the algorithm
+    "TD3": "td3.algorithm", "TD3Config": "td3.algorithm",
+    # training and refining
+    "SweepSettings": "sweep.sweep_settings", "train_case": "sweep.training",
+    "train_cases": "sweep.training", "refine": "sweep.refine",
+    # policies
+    "generate": "shipping.generate", "resolve_policy": "shipping.policy_files",
+    "ship": "shipping.ship",
+}
+
+__all__ = ["ENV_ID", *_EXPORTS]
+
+
+def __getattr__(name: str):
+    """The names of :data:`_EXPORTS`, imported from their modules on first use (PEP 562)."""
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(f"{__name__}.{_EXPORTS[name]}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_EXPORTS})

@@ -14,12 +14,12 @@ from elastica_magnetic import (
     ConstantField,
     ControlledField,
     RotatingField,
-    SimulationDiverged,
+    SimulationDivergedError,
     build_simulation,
     hu2018_robot,
     yao2023_robot,
 )
-from elastica_magnetic.batch import BatchedRobots, BatchedSimulationDiverged
+from elastica_magnetic.batch import BatchedRobots, BatchedSimulationDivergedError
 
 STATE = ("position_collection", "velocity_collection", "director_collection", "omega_collection")
 
@@ -165,9 +165,9 @@ def test_nan_in_one_robot_is_reported_with_its_index():
     robots.step(20)
     robots.rod(2).position_collection[1, 40] = np.nan
     pattern = r"robot 2: .*at t = 0\.0021.* NaN at node \d+ \(element \d+\)"
-    with pytest.raises(SimulationDiverged, match=pattern) as info:
+    with pytest.raises(SimulationDivergedError, match=pattern) as info:
         robots.step(1)
-    assert isinstance(info.value, BatchedSimulationDiverged)
+    assert isinstance(info.value, BatchedSimulationDivergedError)
     assert info.value.robot == 2 and info.value.time == pytest.approx(21 * spec.dt)
     for i in (0, 1, 3):
         assert np.all(np.isfinite(robots.rod(i).position_collection))
@@ -177,7 +177,7 @@ def test_runaway_speed_is_reported():
     spec = yao2023_robot(1, "training")
     robots = BatchedRobots(spec, n_robots=2)
     robots.rod(1).velocity_collection[0, 10] = 50.0  # m/s, far above max_speed
-    with pytest.raises(BatchedSimulationDiverged, match=r"robot 1: .*runaway speed"):
+    with pytest.raises(BatchedSimulationDivergedError, match=r"robot 1: .*runaway speed"):
         robots.step(1)
 
 

@@ -38,7 +38,7 @@ import numpy as np
 import pytest
 from elastica.external_forces import NoForces
 
-from elastica_magnetic import ControlledField, SimulationDiverged, yao2023_robot
+from elastica_magnetic import ControlledField, SimulationDivergedError, yao2023_robot
 from elastica_magnetic.batch import BatchedRobots
 from elastica_magnetic.simulation import (
     MagneticRodSimulator,
@@ -407,7 +407,7 @@ def test_band_released_sideways_stops(path):
 
 @pytest.mark.xfail(
     strict=True,
-    raises=(AssertionError, SimulationDiverged),
+    raises=(AssertionError, SimulationDivergedError),
     reason="pushed sideways with F = 1.2 W for 0.1 s the undamped rod rolls at 161 rad/s (6x its "
     "first bending frequency, ~27 rad/s); after release its kinetic energy grows 14x and it "
     "diverges 0.31 s after the release (t = 0.41 s); a rod spun so fast without the ground "

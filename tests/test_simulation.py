@@ -10,7 +10,7 @@ import pytest
 from elastica_magnetic import (
     ConstantField,
     RobotSpec,
-    SimulationDiverged,
+    SimulationDivergedError,
     TabulatedField,
     build_simulation,
     hu2018_robot,
@@ -66,7 +66,7 @@ def _operators(simulator):
 def test_divergence_names_time_and_element():
     spec = replace(yao2023_robot(1, "accurate"), dt=2e-3)  # far beyond the stable step
     sim = build_simulation(spec, ConstantField([0, 4e-3, 0]))
-    with pytest.raises(SimulationDiverged, match=r"at t = [0-9.]+ s: .* at node \d+ \(element \d+\)"):
+    with pytest.raises(SimulationDivergedError, match=r"at t = [0-9.]+ s: .* at node \d+ \(element \d+\)"):
         sim.advance(2.0)
 
 

@@ -176,10 +176,10 @@ def test_a_bad_spatial_source_is_named():
 
 
 def test_batched_simulator_refuses_spatial_sources():
-    from elastica_magnetic import SpatialFieldNotSupported
+    from elastica_magnetic import SpatialFieldNotSupportedError
 
     robots = BatchedRobots(yao2023_robot(1, "training"), 2)
-    with pytest.raises(SpatialFieldNotSupported, match="uniform fields only"):
+    with pytest.raises(SpatialFieldNotSupportedError, match="uniform fields only"):
         robots.fields = PointDipoleField([0, 0, 1.0], [0, 0, 0.1])
 
 

@@ -391,7 +391,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _main(argv: Sequence[str] | None = None) -> int:
     from ..results import aborted_results
-    from ..simulation import SimulationDiverged
+    from ..simulation import SimulationDivergedError
 
     already_aborted = len(aborted_results())
     command = _command_word(sys.argv[1:] if argv is None else argv)  # until parsed
@@ -409,7 +409,7 @@ def _main(argv: Sequence[str] | None = None) -> int:
     except Exception as exc:
         if swallowed:  # the error is the interruption's consequence (numba's compiler cut short)
             return _interrupted(command, swallowed[0], aborted_results()[already_aborted:])
-        if not isinstance(exc, (CommandError, ValueError, OSError, SimulationDiverged)):
+        if not isinstance(exc, (CommandError, ValueError, OSError, SimulationDivergedError)):
             raise
         print_notes(getattr(exc, "__notes__", ()))  # e.g. a killed run's leftovers cleaned first
         print(f"msr {command}: error: {exc}", file=sys.stderr)

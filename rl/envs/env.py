@@ -60,7 +60,7 @@ from numpy.typing import NDArray
 from elastica_magnetic import (
     ControlledField,
     RobotSpec,
-    SimulationDiverged,
+    SimulationDivergedError,
     build_simulation,
     yao2023_robot,
 )
@@ -472,10 +472,10 @@ class MagneticCrawlerEnv(gym.Env):
             self.simulation.step(self.robot_spec.steps_per_action)
             obs = self.observation()
             if not np.all(np.isfinite(obs)):
-                raise SimulationDiverged("non-finite observation", self.simulation.time, -1)
+                raise SimulationDivergedError("non-finite observation", self.simulation.time, -1)
             reward = self.task.reward(x_before, float(position[0, self.middle_node]), self.task_state)
             self._last_obs = obs
-        except SimulationDiverged as exc:
+        except SimulationDivergedError as exc:
             terminated = True
             self._diverged = True
             obs = self._last_obs

@@ -64,7 +64,7 @@ from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
 from elastica_magnetic import ControlledField, RobotSpec
-from elastica_magnetic.batch import BatchedRobots, BatchedSimulationDiverged
+from elastica_magnetic.batch import BatchedRobots, BatchedSimulationDivergedError
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..cases.case import Case
@@ -275,7 +275,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         messages: dict[int, str] = {}
         try:
             robots.step(self.robot_spec.steps_per_action)
-        except BatchedSimulationDiverged as exc:
+        except BatchedSimulationDivergedError as exc:
             diverged = np.array([not self._healthy(i) for i in range(n)])
             messages[exc.robot] = str(exc)
         rewards = np.empty(n, dtype=np.float64)

@@ -167,12 +167,12 @@ class FitModel:
         """Simulated minus measured displacements at every frame, each point's x and y centred on
         its mean over the frames (the tracker's origin is free, and a centred residual does not
         carry the first frame's tracking error into every other frame), flattened (m)."""
-        from elastica_magnetic.simulation import SimulationDiverged
+        from elastica_magnetic.simulation import SimulationDivergedError
 
         measured = self.measured.displacements()
         try:
             simulated = self.displacements(factors, physics)
-        except SimulationDiverged:  # values far from the robot's: as bad as a residual can be
+        except SimulationDivergedError:  # values far from the robot's: as bad as a residual can be
             self.diverged += 1
             return np.full(measured.size, DIVERGED_RESIDUAL_M)
         except SpecError:  # values no robot has (kinetic friction above static): as bad

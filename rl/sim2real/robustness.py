@@ -184,7 +184,7 @@ def run_variant(job: dict[str, Any]) -> dict[str, Any]:
     ``fields`` (``(n, 3)`` T, open loop) or ``policy`` (its path, closed loop). Returns
     ``distance_m`` (m, ``None`` when the run diverged), ``diverged`` (the reason or ``None``) and
     ``wall_s``."""
-    from elastica_magnetic.simulation import SimulationDiverged
+    from elastica_magnetic.simulation import SimulationDivergedError
 
     start = time.perf_counter()
     case = case_from_dict(job["spec"], "variant", default_name=job.get("case_name"))
@@ -197,7 +197,7 @@ def run_variant(job: dict[str, Any]) -> dict[str, Any]:
             result = run_open_loop(case.robot_spec(job["physics"]), TabulatedField(job["fields"]),
                                    job["duration"])
             distance = result.mid_dx
-        except SimulationDiverged as exc:
+        except SimulationDivergedError as exc:
             diverged = str(exc)
     else:
         import torch
