@@ -65,7 +65,7 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--rebalance", action=argparse.BooleanOptionalAction, default=True,
                    help="when a worker is idle at the end, move seeds of a busy one onto it at "
                         "their next common episode end (default; each moved seed ends bit-identical "
-                        "to staying, tested and confirmed on an 8-seed campaign: docs/training.md); "
+                        "to staying, tested and confirmed on an 8-seed campaign: benchmarks/results/LOG.md); "
                         "--no-rebalance keeps every group on its worker")
     p.add_argument("--backend", choices=("process", "ray"), default="process",
                    help="where the seeds run: worker processes on this machine (default) or Ray tasks "
@@ -366,7 +366,7 @@ def refine_command(args: argparse.Namespace) -> int:
     _check_run_options(args)
     try:  # the output, --spec and --randomize are checked before the actors' 10 s evaluations
         source = args.run if args.checkpoint in CHECKPOINT_CHOICES else Path(args.checkpoint)
-        check_refine_output(args.out or default_refine_output(source), args.resume)
+        check_refine_output(args.out or default_refine_output(source), args.resume, source)
         if args.resume:  # continues its own checkpoint: no actor to choose (refine checks the record)
             choice = None if args.checkpoint == "auto" else choose_actor(args.run, args.checkpoint)
         else:

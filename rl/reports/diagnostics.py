@@ -1,7 +1,7 @@
 """Health of a training run's networks, read from its checkpoint (``msr policy diagnose RUN``): is the
 critic calibrated, is the actor saturated?
 
-Two ways a TD3 seed stops learning show here (docs/training.md, "Why seeds fail"):
+Two ways a TD3 seed stops learning show here (benchmarks/results/LOG.md, "Why seeds fail"):
 
 * **critic overestimation**: the critic's ``Q(s, a)`` on the run's recent transitions far above
   their discounted return, computed from the stored rewards (Monte-Carlo). The actor climbs the

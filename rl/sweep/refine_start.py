@@ -5,6 +5,7 @@ moments, RNG states, counters) with the networks of the actor it refines, the fi
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import tempfile
 from collections.abc import Iterator
@@ -28,18 +29,41 @@ def default_refine_output(source: str | os.PathLike) -> Path:
     return (RunDir(source) if source.is_dir() else RunDir.of_checkpoint(source)).refined.path
 
 
-def check_refine_output(out: str | os.PathLike, resume: bool) -> None:
+def check_refine_output(out: str | os.PathLike, resume: bool,
+                        source: str | os.PathLike | None = None) -> None:
     """Refuse ``out`` before anything runs: a folder of another command (a training run's),
     unless ``resume`` one already holding a refined checkpoint, and with ``resume`` one without
-    (nothing to continue). ``FileExistsError`` / ``FileNotFoundError`` / ``ValueError`` naming
-    it."""
+    (nothing to continue; where the ``source`` given is itself a refinement, the message gives
+    the command that continues it). ``FileExistsError`` / ``FileNotFoundError`` / ``ValueError``
+    naming it."""
     check_not_owned(out, "refine")  # never a training run's folder (its checkpoint, run.json)
     held = RunDir(out).checkpoint.exists()
     if held and not resume:
         raise FileExistsError(f"{out} already holds a refined checkpoint (use --resume or --out)")
     if resume and not held:
+        origin = _refined_from(source)
+        if origin is not None:
+            raise FileNotFoundError(
+                f"cannot resume: {source} is itself a refinement (of {origin}), and a refinement "
+                f"of it would go to {out}, which holds none; to continue {source}: msr refine "
+                f"{origin} --out {source} --resume")
         raise FileNotFoundError(f"cannot resume: {out} holds no refined {RunDir.CHECKPOINT} "
                                 "(drop --resume to start the refinement)")
+
+
+def _refined_from(source: str | os.PathLike | None) -> str | None:
+    """The run a refinement folder (or its checkpoint) ``source`` refined, from its ``run.json``;
+    ``None`` for anything else."""
+    if source is None:
+        return None
+    source = Path(source)
+    run = RunDir(source) if source.is_dir() else RunDir.of_checkpoint(source)
+    with contextlib.suppress(OSError, ValueError):
+        record = json.loads(run.run_json.read_text(encoding="utf-8"))
+        if isinstance(record, dict) and record.get("command") == "refine":
+            origin = record.get("refined_from")
+            return str(RunDir.of_checkpoint(origin).path) if origin else None
+    return None
 
 
 def refine_source(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, Any]]:

@@ -17,6 +17,7 @@ import functools
 import os
 import sys
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -73,9 +74,7 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
     (:mod:`elastica_magnetic_rl.sweep.rebalance`) and have no result here."""
     import torch
 
-    from ..envs.vector_env import make_vector_env
     from ..runfiles.checkpoint import load_checkpoint
-    from ..runner.loop import train_seeds
     from ..runner.stopping import StopRule
     from ..td3.algorithm import TD3Config, resolve_precision
 
@@ -95,21 +94,11 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
             write_run_json(run_dir, config, meta, 0, job.threads, resumed_now=False)
     rule = None if job.stop_rule is None else StopRule.from_dict(job.stop_rule)
     start = time.perf_counter()
-    train_seeds(functools.partial(make_vector_env, case, physics=job.physics,
-                                  initial_field="random", duration=job.duration,
-                                  randomize=case.training.randomize),
-                configs, job.steps, run_dirs, envs_per_seed=job.envs, resume=job.resume,
-                progress=job.progress, metadata=metadata,
-                eval_env_fn=functools.partial(make_env, case, job.physics, "zero", EVAL_DURATION),
-                eval_vec_env_fn=functools.partial(make_vector_env, case, physics=job.physics,
-                                                  initial_field="zero", duration=EVAL_DURATION),
-                progress_position=job.position, progress_desc=job.case,
-                stop_rules=[rule] * len(configs),
-                confirm_vec_env_fn=None if rule is None or rule.confirm is None else functools.partial(
-                    make_vector_env, case, physics=rule.confirm, initial_field="zero",
-                    duration=EVAL_DURATION),
-                hand_back=None if job.hand_back_file is None else functools.partial(
-                    os.path.exists, job.hand_back_file))
+    with warnings.catch_warnings():
+        # a resume keeps each run's hyperparameters: those given that differ were refused before
+        # any work (resume_checks), the others are the recipe's defaults, nothing to warn about
+        warnings.filterwarnings("ignore", message="resuming: using the checkpoint's hyperparameters")
+        _train_seeds_of(job, case, configs, run_dirs, metadata, rule)
     wall, peak = time.perf_counter() - start, peak_rss_bytes()
     results, handed_back = [], []
     for run_dir, meta in zip(run_dirs, metadata, strict=True):
@@ -128,6 +117,30 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
                         "group_seeds": [c.seed for c in configs],
                         "group_timing_s": ckpt.get("timing")})
     return {"group": results, **({"handed_back": handed_back} if handed_back else {})}
+
+
+def _train_seeds_of(job: GroupJob, case: Case, configs: list[Any], run_dirs: list[Path],
+                    metadata: list[dict[str, Any]], rule: Any) -> None:
+    """:func:`~elastica_magnetic_rl.runner.loop.train_seeds` of a group job's seeds, with the
+    case's environments (training, evaluation and the stop rule's confirmation)."""
+    from ..envs.vector_env import make_vector_env
+    from ..runner.loop import train_seeds
+
+    train_seeds(functools.partial(make_vector_env, case, physics=job.physics,
+                                  initial_field="random", duration=job.duration,
+                                  randomize=case.training.randomize),
+                configs, job.steps, run_dirs, envs_per_seed=job.envs, resume=job.resume,
+                progress=job.progress, metadata=metadata,
+                eval_env_fn=functools.partial(make_env, case, job.physics, "zero", EVAL_DURATION),
+                eval_vec_env_fn=functools.partial(make_vector_env, case, physics=job.physics,
+                                                  initial_field="zero", duration=EVAL_DURATION),
+                progress_position=job.position, progress_desc=job.case,
+                stop_rules=[rule] * len(configs),
+                confirm_vec_env_fn=None if rule is None or rule.confirm is None else functools.partial(
+                    make_vector_env, case, physics=rule.confirm, initial_field="zero",
+                    duration=EVAL_DURATION),
+                hand_back=None if job.hand_back_file is None else functools.partial(
+                    os.path.exists, job.hand_back_file))
 
 
 def default_layout(seeds: int, cases: int = 1, cpus: int | None = None) -> dict[str, int]:

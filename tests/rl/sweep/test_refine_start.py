@@ -63,3 +63,19 @@ def test_best_without_its_runs_checkpoint_is_named(run_with_other_best):
     RunDir(run).checkpoint.unlink()
     with pytest.raises(FileNotFoundError, match="training state of its run's checkpoint.pt"):
         refine_source(RunDir(run).best)
+
+
+def test_resuming_a_refinement_given_as_the_source_names_the_command_that_continues_it(
+        refined, capsys):
+    """Round 5, K09: `msr refine REFINED --resume` (the refinement's folder given as what to
+    refine) said "drop --resume to start the refinement", which starts a refinement of the
+    refinement; the message names the command that continues it."""
+    from elastica_magnetic.cli import main as msr
+
+    before = sorted(p.name for p in refined.iterdir())
+    assert msr(["refine", str(refined), "--resume", "--steps", "6", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    origin = refined.parent
+    assert f"cannot resume: {refined} is itself a refinement (of {origin})" in err, err
+    assert f"to continue {refined}: msr refine {origin} --out {refined} --resume" in err
+    assert sorted(p.name for p in refined.iterdir()) == before

@@ -40,3 +40,22 @@ def test_a_string_in_run_json_is_named_not_compared_as_a_different_setting(train
     err = capsys.readouterr().err
     assert f"{record}: episode_duration_s is '0.8' (a string), expected a number such as 0.8" in err
     assert {p.name: p.read_bytes() for p in record.parent.iterdir() if p.is_file()} == before
+
+
+def test_a_resume_without_the_td3_options_prints_no_python_warning(trained, tmp_path):
+    """Round 5, K07: every resume given fewer options than the run was trained with printed
+    `loop.py:229: UserWarning: resuming: using the checkpoint's hyperparameters ...` with a source
+    line, for values the user never gave (the recipe's defaults). The run keeps its own: no word."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "runs"
+    shutil.copytree(trained / "m1-4mT", out / "m1-4mT")
+    done = subprocess.run([sys.executable, "-m", "elastica_magnetic.cli", "train", "--case", "m1-4mT",
+                           "--seeds", "1", "--workers", "1", "--steps", str(TRAIN_STEPS + 40),
+                           "--out", str(out), "--resume", "--episode-duration", "0.8",
+                           "--no-progress"], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert "Warning" not in done.stderr and "resuming: using" not in done.stderr, done.stderr
+    assert json.loads((out / "m1-4mT" / "seed0" / "run.json").read_text())["config"][
+        "batch_size"] == 32  # the run's own, not the default 256
