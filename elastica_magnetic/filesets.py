@@ -216,11 +216,15 @@ def replace_files(
             committed = (staging / _COMMIT).exists()
             if not committed:
                 remove_tree(staging)
+            then = ("the next run on it finishes the replacement" if committed
+                    else "nothing in it changed")
             if isinstance(exc, OSError) and not isinstance(exc, OutputPathError):
-                then = ("the next run on it finishes the replacement" if committed
-                        else "nothing in it changed")
                 raise OutputPathError(f"{option} {display_path(folder)}: cannot write the files: "
                                       f"{exc.strerror or exc}; {then}") from exc
+            if isinstance(exc, OutputPathError) and str(staging) in str(exc):
+                # a writer named its temporary file: name the file the user will look for
+                message = str(exc).replace(str(staging), str(folder))
+                raise OutputPathError(f"{message}; {display_path(folder)}: {then}") from exc
             raise
 
 

@@ -197,3 +197,32 @@ def test_a_killed_writer_of_a_result_file_is_cleaned_up_by_the_next(tmp_path):
     with result_file(target, force=True) as written:
         written.path.write_text("new")
     assert target.read_text() == "new"
+
+
+def test_a_full_disk_while_writing_names_the_file_not_its_temporary(tmp_path):
+    """Round 5, D07: `msr policy figures` on a full disk said `.../.msr-files-vm-27526-1147f2/
+    field_polar.png: cannot write`; the message names the file the user looks for and says the
+    earlier files are left as they were."""
+    import errno
+
+    from elastica_magnetic.io import OutputPathError, atomic_write_text
+
+    folder = tmp_path / "figs"
+    folder.mkdir()
+    (folder / "a.png").write_text("old")
+    with pytest.raises(OutputPathError) as refused:
+        with replace_files(folder, ["a.png"], force=True, option="--out") as files:
+            def full(*args, **kwargs):
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+            target = files.path / "a.png"
+            original = os.replace
+            os.replace = full  # the rename of the atomic write fails as on a full disk
+            try:
+                atomic_write_text(target, "new")
+            finally:
+                os.replace = original
+    message = str(refused.value)
+    assert ".msr-files-" not in message and str(folder / "a.png") in message, message
+    assert message.endswith(f"{folder}: nothing in it changed"), message
+    assert (folder / "a.png").read_text() == "old" and os.listdir(folder) == ["a.png"]

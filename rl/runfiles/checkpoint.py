@@ -127,9 +127,11 @@ def save_checkpoint(path: str | os.PathLike, checkpoint: dict[str, Any]) -> None
     except BaseException as exc:
         tmp.unlink(missing_ok=True)
         if isinstance(exc, OSError) and not isinstance(exc, OutputPathError):
-            kept = "the previous checkpoint is kept" if path.exists() else "no checkpoint yet"
+            kept = ("the previous checkpoint is kept; --resume continues from it" if path.exists()
+                    else "no checkpoint was written yet, so there is nothing to resume: free space "
+                    "and run the same command again without --resume")
             raise OutputPathError(f"{path}: cannot write the checkpoint: {exc.strerror or exc} "
-                                  f"({kept}; --resume continues from it)") from exc
+                                  f"({kept})") from exc
         raise
 
 

@@ -33,6 +33,15 @@ def test_a_full_disk_keeps_the_previous_checkpoint(trained, tmp_path, monkeypatc
     monkeypatch.undo()
     assert path.read_bytes() == before and not (run / "checkpoint.pt.tmp").exists()
     assert load_checkpoint(run)["global_step"] == ckpt["global_step"]  # --resume can continue
+    # round 5, D08: the first checkpoint of a run fails: nothing to resume, and the message says so
+    monkeypatch.setattr(checkpoint_module.torch, "save", full_disk)
+    first = tmp_path / "new" / "checkpoint.pt"
+    first.parent.mkdir()
+    with pytest.raises(OutputPathError) as refused:
+        save_checkpoint(first, ckpt)
+    message = str(refused.value)
+    assert "no checkpoint was written yet, so there is nothing to resume" in message, message
+    assert "--resume continues" not in message and os.listdir(first.parent) == []
 
 
 def test_a_failed_replay_append_leaves_the_rows_the_checkpoint_needs(tmp_path, monkeypatch):
