@@ -329,7 +329,9 @@ def train_command(args: argparse.Namespace) -> int:
                                    if f.is_dir()), getattr(exc, "signum", 2))
     failed = any(s["failed"] for s in summaries.values())
     if not args.json:
-        summaries = {case: {k: v for k, v in summary.items() if k != "seeds"} | {
+        # "failed: 0" read as "none failed": for people, the failed seeds by their folder names
+        summaries = {case: {k: v for k, v in summary.items() if k not in ("seeds", "failed")} | {
+            "failed seeds": ", ".join(CaseDir.seed_name(k) for k in summary["failed"]) or "none"} | {
             CaseDir.seed_name(r["seed"]): r.get("error") or _seed_line(r)
             for r in summary["seeds"]} for case, summary in summaries.items()}
     # one case: its summary, as before; several: the summaries by case

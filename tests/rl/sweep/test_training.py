@@ -268,6 +268,9 @@ def test_a_failing_worker_is_reported_and_the_other_seeds_finish(tmp_path, capsy
     assert seed0["global_step"] == 40 and "error" not in seed0
     assert "replay.bin is missing" in seed1["error"] and seed1["global_step"] == 20
     assert load_checkpoint(tmp_path / "m1-4mT" / "seed0")["global_step"] == 40
+    # for people: the failed seeds by folder name (round 5: "failed: 0" read as "none failed")
+    assert msr(_tiny_train(tmp_path, "--seeds", "2", "--steps", "60", "--resume")) == 1
+    assert "failed seeds: seed1" in capsys.readouterr().out.splitlines()
 
 
 def test_sigkill_then_resume_equals_an_uninterrupted_run(tmp_path):
