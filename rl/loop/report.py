@@ -116,6 +116,8 @@ def _firmware(s: dict[str, Any]) -> list[str]:
              f"{s['calibration']} (`{s['calibration_file']}`), DAC codes {s['code_min']} to "
              f"{s['code_max']}, {s['rows_clipped']} rows clipped, {s['rows_slew_limited']} "
              "slew-limited.", ""]
+    if s.get("why"):
+        lines += [f"Why this waveform: {s['why']}.", ""]
     return lines + [f"- `{f}`" for f in s["files"]] + [f"- warning: {w}" for w in s["warnings"]] + [""]
 
 

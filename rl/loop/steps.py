@@ -285,24 +285,43 @@ def robustness_refined_step(ctx: LoopContext) -> dict[str, Any]:
 
 
 def firmware_step(ctx: LoopContext) -> dict[str, Any]:
-    """``msr hw firmware`` into ``firmware/``: the refined policy's waveform when the refined
-    robustness step ran (its ``fields.csv``), else the generated one, with ``--calibration``
-    (default ``stm32/calibration/default.json``)."""
+    """``msr hw firmware`` into ``firmware/``, with ``--calibration`` (default
+    ``stm32/calibration/default.json``): the waveform the coils will play open loop, so of the
+    learned and the refined policy's waveforms the one whose open-loop robustness is better
+    (:func:`_waveform_to_play`); the generated one when no robustness step ran."""
     from elastica_magnetic.hardware.calibration import default_calibration_path
     from elastica_magnetic.hardware.export import export_firmware
 
     calibration = ctx.settings.calibration or default_calibration_path()
-    refined = ctx.state.done("robustness-refined")
-    waveform = (ctx.state.summary("robustness-refined")["fields_csv"] if refined
-                else ctx.state.summary("generate")["fields_csv"])
+    which, waveform, why = _waveform_to_play(ctx)
     summary = export_firmware(ctx.path(waveform), calibration, step_folder(ctx, "firmware"),
                               force=True)
-    return {"waveform": waveform, "which": "refined" if refined else "generated",
+    return {"waveform": waveform, "which": which, "why": why,
             "calibration_file": str(calibration),
             **{k: summary[k] for k in ("rows", "calibration", "rows_clipped", "rows_slew_limited",
                                        "warnings", "code_min", "code_max")},
             "files": [ctx.relative(summary[k]) for k in ("calibration_header", "waveform_table",
                                                          "expected_dac_codes")]}
+
+
+def _waveform_to_play(ctx: LoopContext) -> tuple[str, str, str]:
+    """``(which, fields.csv relative to the loop's folder, why)``: of the learned (``robustness/``)
+    and refined (``robustness-refined/``) policies' waveforms, the one with the larger open-loop
+    10th-percentile distance over the varied robots, then the larger nominal one (a refinement
+    is not better by being later: a short one can lose the gait)."""
+    measured = [(name, ctx.state.summary(step)) for name, step in
+                (("learned", "robustness"), ("refined", "robustness-refined"))
+                if ctx.state.done(step)]
+    if not measured:
+        return "generated", ctx.state.summary("generate")["fields_csv"], "no robustness step ran"
+    def key(item: tuple[str, dict[str, Any]]) -> tuple[float, float]:
+        loop = item[1]["summary"]["open_loop"]
+        return loop["p10_m"], loop["nominal_m"]
+
+    name, best = max(measured, key=key)
+    why = "; ".join(f"{n}: open loop 10th percentile {1e3 * key((n, m))[0]:+.3g} mm, nominal "
+                    f"{1e3 * key((n, m))[1]:+.3g} mm" for n, m in measured)
+    return name, best["fields_csv"], f"the larger open-loop 10th percentile, then nominal ({why})"
 
 
 #: Each step's function, by name (:data:`~elastica_magnetic_rl.loop.state.STEPS`).
