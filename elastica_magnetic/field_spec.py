@@ -137,7 +137,7 @@ def describe_field(spec: Mapping[str, Any], source: str = "<spec>") -> FieldSetu
         _pose(t, out, "centre")
     out["ramp"] = t.number("ramp", "s", 0.0, low=0.0, plausible="field time")
     out["frequency"] = t.number("frequency", "Hz", 0.0)
-    out["phase"] = t.number("phase", "rad", 0.0)
+    out["phase"] = t.number("phase", "rad", 0.0, plausible="phase angle")
     t.finish()
     setup = FieldSetup(out, clamp, base, source)
     try:

@@ -209,6 +209,15 @@ QUANTITIES: dict[str, Quantity] = {q.name: q for q in (
        (None, (60.0, "a minute of simulated time (every shipped run is 10 s or less; a minute "
                      "of the accurate physics is an hour of computing)")),
        (("ms", 1e-3),)),
+    _q("phase angle", "rad",  # a magnetization's or a field's phase
+       (None, None),
+       (None, (2.0 * math.pi + 1e-9, "a full turn (2 pi rad)")),
+       (("deg", math.pi / 180.0),)),
+    _q("mass scale", "1",  # density x s, gravity / s: the paper's training physics is 10.5
+       (None, (1e4, "a robot 10,000 times heavier in inertia: its dynamics are no longer the "
+                    "robot's")),
+       ((0.01, "a robot 100 times lighter in inertia than it is"),
+        (100.0, "ten times the paper's 10.5 (1000/95): the gait of a heavier robot is learned"))),
     _q("time step", "s",
        ((1e-10, "1e8 steps per 0.01 s: a run that never ends"),
         (0.01, "the 0.01 s control period")),

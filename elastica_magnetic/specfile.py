@@ -332,7 +332,7 @@ def _magnetization_table(t: SpecTable, n_elements: int) -> dict[str, Any]:
             out["split"] = t.number("split", "elements", n_elements // 2, low=0, high=n_elements,
                                     integer=True)
         elif kind == "sinusoid":
-            out["phase"] = t.number("phase", "rad", 0.0)
+            out["phase"] = t.number("phase", "rad", 0.0, plausible="phase angle")
     t.finish()
     return out
 
@@ -416,7 +416,7 @@ def _physics_table(t: SpecTable | None, source: str, robot: Mapping[str, Any]) -
             raise sub.error("dt", f"must divide the {ACTION_PERIOD:g} s control period into whole "
                                   f"steps (e.g. 1e-4, 8e-6), got {dt!r}")
         out[setting] = {"mass_scale": sub.number("mass_scale", "1", defaults["mass_scale"], low=0.0,
-                                                 low_open=True),
+                                                 low_open=True, plausible="mass scale"),
                         "dt": dt}
         sub.finish()
     if t is not None:

@@ -49,7 +49,15 @@ from elastica_magnetic.specfile import (
 
 from .recipes import DEFAULT_RECIPE, RECIPES
 from .tasks import TASK_KINDS, ReachTask, Task
-from .variations import Variation, VariationError, default_variations, parse_variation, resolve_variations
+from .variations import (
+    Variation,
+    VariationError,
+    apply_variant,
+    default_variations,
+    design,
+    parse_variation,
+    resolve_variations,
+)
 
 __all__ = [
     "Actuation",
@@ -359,8 +367,23 @@ def _task(t: SpecTable, length: float) -> Task:
             raise t.error("tolerance", f"{values['tolerance']:g} m must be smaller than the "
                           f"target distance |target| = {abs(values['target']):g} m, or staying "
                           "at the start counts as reaching the target")
+        _check_target_reach(t, values["target"], length, values["episode_duration"])
     t.finish()
     return cls(**values)
+
+
+def _check_target_reach(t: SpecTable, target: float, length: float, duration: float) -> None:
+    """Refuse a reach target (m) no crawler covers in the episode (``duration`` s): more body
+    lengths (``length``, m) than :data:`MAX_YARDSTICK_BODY_LENGTHS` per 10 s, naming the mm
+    mistake it looks like."""
+    lengths, most = abs(target) / length, MAX_YARDSTICK_BODY_LENGTHS * duration / 10.0
+    if lengths <= most:
+        return
+    hint = (f"; it looks like mm written where m is expected ({target:g} mm is {1e-3 * target:g} m)"
+            if lengths / 1e3 <= most else "")
+    raise t.error("target", f"{target:g} m is {lengths:.0f} body lengths of this {length:g} m robot, "
+                            f"more than the {most:g} that any crawler covers in the "
+                            f"{duration:g} s episode{hint}")
 
 
 def _check_reward_scale(t: SpecTable, scale: float, length: float, papers: float) -> None:
@@ -449,7 +472,28 @@ def _randomize(t: SpecTable, robot: RobotDescription) -> tuple[Variation, ...]:
         variations = resolve_variations(variations, robot.tables, option=where)
     except VariationError as err:
         raise SpecError(str(err).replace("--vary ", f"{where}: ", 1)) from None
+    _check_randomize_ends(variations, robot, where)
     return tuple(variations)
+
+
+def _check_randomize_ends(variations: list[Variation], robot: RobotDescription, where: str) -> None:
+    """Each range's ends, one at a time, checked as a spec's own values are (units, physical
+    ranges): a range in kPa for Pa or percent for factors is refused here, naming the range,
+    not by the first training episode that draws a value from it."""
+    import warnings
+
+    from elastica_magnetic.plausibility import ImplausibleValueWarning
+
+    label = "<range end>"
+    for variant in design(variations, robot.tables, one_at_a_time=True, corners=False)[1:]:
+        try:
+            with warnings.catch_warnings():  # only refusals here; the nominal values warn once
+                warnings.simplefilter("ignore", ImplausibleValueWarning)
+                describe_robot(apply_variant(robot.tables, variations, variant), label)
+        except SpecError as err:
+            message = str(err).replace(f"{label}: ", "", 1)
+            raise SpecError(f"{where}: the range's end {variant.label} gives a robot the spec "
+                            f"refuses: {message}") from None
 
 
 def randomize_table(variations: tuple[Variation, ...]) -> dict[str, str]:

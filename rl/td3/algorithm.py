@@ -95,6 +95,8 @@ _Part = TypeVar("_Part")
 #: Most gradient updates per environment step: high update-to-data methods (REDQ, DroQ) use 20; far
 #: beyond, a run spends its time updating on the same few transitions (1e9 stalled a run forever).
 MAX_UPDATES_PER_STEP = 64
+#: The largest learning rate a config takes (TD3's is 3e-4; Adam's steps above this only diverge).
+MAX_LEARNING_RATE = 0.1
 
 
 def _is_integer_setting(key: str, default: Any) -> bool:
@@ -231,6 +233,11 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
             if widths is not None and (not widths or min(widths) < 1):
                 raise ValueError(f"{name} must be one or more layers of >= 1 unit, got "
                                  f"{list(widths)}")
+        for name in ("actor_lr", "critic_lr"):  # 0 changes no weight; Adam above 1 only diverges
+            value = getattr(self, name)
+            if not (math.isfinite(value) and 0.0 < value <= MAX_LEARNING_RATE):
+                raise ValueError(f"{name} must be a finite number in (0, {MAX_LEARNING_RATE:g}] (Adam's "
+                                 f"step size; TD3's is 3e-4), got {value}")
         if not 0.0 < self.tau <= 1.0:
             raise ValueError(f"tau must be in (0, 1], got {self.tau}")
         if not 0.0 <= self.gamma <= 1.0:

@@ -58,3 +58,51 @@ def test_a_yardstick_in_mm_is_refused_naming_the_mistake():
         case_from_dict(spec, "my.toml")
     spec["yardstick"]["distance_10s"] = 0.198  # the rolling gait's 10 body lengths: fine
     assert case_from_dict(spec, "my.toml").yardstick.distance_10s == 0.198
+
+
+# -- round 5 of tries: values a spec took without a word --------------------------------------------
+
+
+def test_a_reach_target_in_millimetres_is_refused_naming_the_mistake():
+    with pytest.raises(SpecError, match=r"\[task\] target: 10 m is 500 body lengths of this 0.02 m "
+                                        r"robot, more than the 200 .* \(10 mm is 0.01 m\)"):
+        case_from_dict(_reach(target=10.0, tolerance=1.0), "my.toml")
+    assert case_from_dict(_reach(target=0.03, tolerance=0.002), "my.toml").task.target == 0.03
+
+
+@pytest.mark.parametrize(("key", "text", "expected"), [
+    ("robot.youngs_modulus", "abs:70:100", "youngs_modulus = 70 Pa is below 100 Pa"),
+    ("robot.density", "abs:1.5:2.0", "density = 1.5 kg/m^3 is below 50 kg/m^3"),
+    ("robot.ground.kinetic_mu", "abs:40:70", "kinetic_mu = 40 is above 10"),
+    ("magnetization", "85:115", "magnitude = 5.2105e+06 A/m is above 2e+06 A/m"),
+])
+def test_randomized_ranges_are_checked_at_their_ends_when_the_spec_is_read(key, text, expected):
+    """A `[training.randomize]` range in another unit (kPa, g/cm^3, %, percent factors) passed
+    `msr case check` and failed in the first training episode that drew from it, without the file
+    or the range; its ends are now checked as the spec's own values are."""
+    data = load_case("m1-4mT").to_dict()
+    data["training"]["randomize"] = {key: text}
+    with pytest.raises(SpecError) as refused:
+        case_from_dict(data, "my.toml")
+    message = str(refused.value)
+    assert message.startswith("my.toml: [training] randomize: the range's end") and expected in message
+    data["training"]["randomize"] = {"magnetization": "0.85:1.15"}
+    assert case_from_dict(data, "my.toml").training.randomize
+
+
+def test_a_training_mass_scale_a_thousand_times_the_papers_is_refused():
+    data = load_case("m1-4mT").to_dict()
+    data["physics"]["training"]["mass_scale"] = 10526.3
+    with pytest.raises(SpecError, match=r"\[physics.training\] mass_scale = 10526.3 is above 10000"):
+        case_from_dict(data, "my.toml")
+    data["physics"]["training"]["mass_scale"] = 1052.6
+    with pytest.warns(UserWarning, match="mass_scale = 1052.6 is above 100"):
+        case_from_dict(data, "my.toml")
+
+
+def test_a_magnetization_phase_in_degrees_is_warned():
+    data = load_case("m1-4mT").to_dict()
+    data["robot"]["magnetization"] = {"kind": "sinusoid", "magnitude": 61300.0, "phase": 90.0}
+    with pytest.warns(UserWarning, match=r"phase = 90 rad is above 6.28319 rad, a full turn.*"
+                                         r"\(90 deg is 1.5708 rad\)"):
+        case_from_dict(data, "my.toml")

@@ -33,3 +33,14 @@ def test_updates_per_step_has_an_upper_bound(capsys):
     assert refused.value.code == 2
     assert ("argument --set: updates_per_step=1e9: updates_per_step must be a finite number in "
             "(0, 64]") in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("rate", [0.0, -1.0, 3.0, float("nan")])
+def test_a_learning_rate_that_cannot_learn_is_refused(rate):
+    """Round 5, U21/U22: `--set actor_lr=0` trained to the end without changing a weight and
+    reported "still improving"; -1 failed in the worker with torch's message."""
+    from elastica_magnetic_rl.td3.algorithm import TD3Config
+
+    for name in ("actor_lr", "critic_lr"):
+        with pytest.raises(ValueError, match=rf"{name} must be a finite number in \(0, 0.1\]"):
+            TD3Config(**{name: rate})
