@@ -5,6 +5,7 @@ that a resumed run keeps those settings (:func:`check_resume_settings`).
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +49,10 @@ def check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
                 raise ValueError(f"the spec of case {metadata['case']!r} differs from the run's at "
                                  f"{first_difference(run_spec, spec)} ({run_json}): a resumed run "
                                  "keeps its case")
+        elif (key in record and isinstance(record[key], float)
+              and not math.isfinite(record[key])):
+            raise ValueError(f"{run_json}: {key} is {record[key]!r}, not a finite number: the "
+                             "record was edited or damaged; restore it (e.g. from a backup)")
         elif key in record and key in metadata and not _same_kind(record[key], metadata[key]):
             raise ValueError(f"{run_json}: {key} is {record[key]!r} ({_kind(record[key])}), "
                              f"expected {_kind(metadata[key])} such as {metadata[key]!r}: the "

@@ -40,6 +40,11 @@ def test_a_string_in_run_json_is_named_not_compared_as_a_different_setting(train
     err = capsys.readouterr().err
     assert f"{record}: episode_duration_s is '0.8' (a string), expected a number such as 0.8" in err
     assert {p.name: p.read_bytes() for p in record.parent.iterdir() if p.is_file()} == before
+    data["episode_duration_s"] = float("nan")  # round 5, W02: "--episode-duration 0.8 differs from nan"
+    record.write_text(json.dumps(data))
+    assert msr(["train", "--case", "m1-4mT", "--seeds", "1", "--workers", "1", "--steps",
+                str(TRAIN_STEPS + 40), "--out", str(out), "--resume", *SMOKE]) == 2
+    assert f"{record}: episode_duration_s is nan, not a finite number" in capsys.readouterr().err
 
 
 def test_a_resume_without_the_td3_options_prints_no_python_warning(trained, tmp_path):
