@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from elastica_magnetic.io import atomic_write_json, display_path
+from elastica_magnetic.io import DamagedFileError, atomic_write_json, display_path, read_json
 from elastica_magnetic.locks import utc_now
 
 __all__ = ["LOOP_FORMAT", "LOOP_JSON", "NEEDS", "STEPS", "LoopError", "LoopPlan", "LoopState",
@@ -73,8 +73,13 @@ class LoopState:
         path = folder / LOOP_JSON
         if not path.is_file():
             return None
+        fix = ("restore it (e.g. from a backup): it records the finished steps, which a new "
+               "loop would run again (the training included); or choose another --out")
         try:
-            data = json.loads(path.read_text(encoding="utf-8"))
+            data = read_json(path, fix)
+        except DamagedFileError as exc:
+            raise LoopError(str(exc)) from None
+        try:
             if data.get("format") != LOOP_FORMAT:
                 raise LoopError(f"{display_path(path)}: format {data.get('format')!r} is not one this "
                                 f"msr reads ({LOOP_FORMAT}): written by another version of msr? Run "

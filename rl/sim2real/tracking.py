@@ -180,9 +180,11 @@ def read_trajectory(path: str | Path) -> MeasuredTrajectory:
     coordinates = values[:, 1:]
     if np.abs(coordinates).max() > MAX_COORDINATE_M:
         row, col = (int(i) for i in np.argwhere(np.abs(coordinates) > MAX_COORDINATE_M)[0])
+        unit = ("micrometres: give metres (divide by 1e6)" if np.abs(coordinates).max() > 1e4
+                else "millimetres: give metres (divide by 1000)")
         raise TrajectoryError(
             f"{path}: line {row + 2}, column {used[col + 1]}: {coordinates[row, col]:g} m; positions "
-            f"past {MAX_COORDINATE_M:g} m look like millimetres: give metres (divide by 1000)")
+            f"past {MAX_COORDINATE_M:g} m look like {unit}")
     positions = coordinates.reshape(times.shape[0], len(layout), 2)
     return MeasuredTrajectory(str(path), kind, times, positions, tuple(n for n, _, _ in layout),
                               fractions)
@@ -217,8 +219,12 @@ def check_against_robot(measured: MeasuredTrajectory, length: float, field_durat
                               "waveform: the times look like milliseconds; give seconds (divide "
                               "t_s by 1000)")
     if measured.duration > field_duration + 1e-9:
+        frames = bool(np.all(measured.times == np.round(measured.times)) and measured.times.size > 2)
+        hint = ("; t_s holds whole numbers 0, 1, 2...: frame numbers? give seconds (the frame "
+                "number divided by the frames per second)" if frames else "")
         raise TrajectoryError(f"{where}: its frames reach {measured.duration:g} s, past the end of the "
-                              f"waveform ({field_duration:g} s); cut the trajectory to the waveform")
+                              f"waveform ({field_duration:g} s); cut the trajectory to the waveform"
+                              f"{hint}")
     if measured.positions.shape[1] > 1:
         spread = np.ptp(measured.positions, axis=1)  # (n, 2): extent of the points per frame
         widest = float(np.hypot(spread[:, 0], spread[:, 1]).max())

@@ -127,3 +127,14 @@ def test_centimetres_and_milliseconds_are_named_as_such(tmp_path):
     near = [[1.5 * r[0], *r[1:]] for r in _moving()]  # a little too long: cut, not a unit
     with pytest.raises(TrajectoryError, match=r"past the end of the waveform \(0.3 s\)"):
         check_against_robot(read_trajectory(_tracker(tmp_path, near, name="near.csv")), LENGTH, 0.3)
+
+
+def test_micrometres_and_frame_numbers_are_named(tmp_path):
+    """Round 5, I07/I08: micrometres were called millimetres (dividing by 1000 was refused
+    again); frame numbers in t_s were only "past the end of the waveform"."""
+    um = [[r[0], 1e6 * r[1], 0, 1e6 * r[3], 1e6 * r[4]] for r in _moving()]
+    with pytest.raises(TrajectoryError, match="look like micrometres: give metres"):
+        read_trajectory(_tracker(tmp_path, um, name="um.csv"))
+    frames = [[float(k), *r[1:]] for k, r in enumerate(_moving())]
+    with pytest.raises(TrajectoryError, match="t_s holds whole numbers 0, 1, 2...: frame numbers"):
+        check_against_robot(read_trajectory(_tracker(tmp_path, frames, name="f.csv")), LENGTH, 1.0)
