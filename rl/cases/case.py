@@ -432,8 +432,14 @@ def _training(t: SpecTable | None, source: str, robot: RobotDescription) -> Trai
                 value = tuple(value)
             else:
                 ok = isinstance(value, type(default))
+            if not ok and isinstance(td3.raw(key), str) and key in TD3Config.settable():
+                try:  # the spelling of msr train --set: "256,256", "1e6", "true"
+                    value, ok = TD3Config.parse_setting(key, td3.raw(key)), True
+                except ValueError as exc:
+                    raise td3.error(key, str(exc)) from None
             if not ok:
-                raise td3.error(key, f"expected a value like {default!r}, got {value!r}")
+                shown = list(default) if isinstance(default, tuple) else default
+                raise td3.error(key, f"expected a value like {shown!r}, got {td3.raw(key)!r}")
             overrides[key] = value
         try:  # each value in range, checked now, naming the key
             TD3Config(**overrides)

@@ -109,6 +109,8 @@ def _setting_form(key: str, default: Any) -> str:
         return "comma-separated layer widths, e.g. 256,256" + (", or none" if default is None else "")
     if isinstance(default, bool):
         return "true or false"
+    if key == "noise_color":
+        return "a number: the exponent of the noise's spectrum 1/f^beta (0 white, 1 pink, 2 red)"
     return "an integer" if _is_integer_setting(key, default) else "a number"
 
 

@@ -106,3 +106,19 @@ def test_a_magnetization_phase_in_degrees_is_warned():
     with pytest.warns(UserWarning, match=r"phase = 90 rad is above 6.28319 rad, a full turn.*"
                                          r"\(90 deg is 1.5708 rad\)"):
         case_from_dict(data, "my.toml")
+
+
+def test_td3_settings_in_a_spec_take_the_set_spelling_and_name_the_expected_form():
+    """Round 5, U19/U20: `hidden_sizes = "256,256"` was shown split into characters, `noise_color
+    = "pink"` as "expected a value like 0.0"."""
+    data = load_case("m1-4mT").to_dict()
+    data["training"]["td3"] = {"hidden_sizes": "64,64", "buffer_size": "1e5"}
+    assert dict(case_from_dict(data, "my.toml").training.td3) == {"hidden_sizes": (64, 64),
+                                                                  "buffer_size": 100000}
+    data["training"]["td3"] = {"noise_color": "pink"}
+    with pytest.raises(SpecError, match=r"noise_color=pink: expected a number: the exponent of the "
+                                        r"noise's spectrum 1/f\^beta \(0 white, 1 pink, 2 red\)"):
+        case_from_dict(data, "my.toml")
+    data["training"]["td3"] = {"hidden_sizes": "64x64"}
+    with pytest.raises(SpecError, match="hidden_sizes=64x64: expected comma-separated layer widths"):
+        case_from_dict(data, "my.toml")
