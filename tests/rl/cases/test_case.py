@@ -80,7 +80,7 @@ def _spec(**changes):
     ("training.recipe", "fastest", "[training] recipe: expected one of paper, pink"),
     ("training.steps", 0, "[training] steps: must be >= 1"),
     ("training.td3", {"learning_rate": 1e-3}, "[training.td3] learning_rate: not a TD3 setting"),
-    ("training.td3", {"batch_size": "big"}, "[training.td3] batch_size: expected a value like 256"),
+    ("training.td3", {"batch_size": "big"}, "[training.td3] batch_size: batch_size=big: expected an integer"),
     ("yardstick.distance_10s", -1.0, "[yardstick] distance_10s: must be >= 0 (m)"),
     ("robot.ground", None, "[robot.ground] missing: the crawler tasks need a ground"),
 ])
