@@ -178,8 +178,12 @@ def _field_row(path: Path, line: int, row: list[str], k: int, columns: list[int]
     if index_column is not None:
         text = row[index_column].strip()
         if text and (not _is_number(text) or float(text) != k):
+            time_like = _is_number(text) and k > 0 and not float(text).is_integer()
+            hint = ("; the first of four columns is read as a row index 0, 1, 2..., not as a time "
+                    "(rows are 0.01 s apart by definition): drop that column or number the rows"
+                    if time_like else "")
             raise FieldCSVError(
-                f"{path}: line {line}: index {text!r} out of sequence, expected {k}"
+                f"{path}: line {line}: index {text!r} out of sequence, expected {k}{hint}"
             )
     return field
 

@@ -77,3 +77,13 @@ def test_fuzz_mutated_field_csv_parses_or_names_the_error(tmp_path):
         assert field.dtype == np.float64 and np.all(np.isfinite(field))
         outcomes["parsed"] += 1
     assert outcomes["parsed"] > 20 and outcomes["error"] > 20, outcomes
+
+
+def test_a_time_column_read_as_the_index_is_named(tmp_path):
+    """Round 5, F11: a first column of times in s (headed t_s) gave only "index '0.01' out of
+    sequence, expected 1"."""
+    path = tmp_path / "tcol.csv"
+    path.write_text("t_s,mag_x,mag_y,mag_z\n0,1,0,0\n0.01,1,0,0\n0.02,1,0,0\n")
+    with pytest.raises(FieldCSVError, match=r"line 3: index '0.01' out of sequence, expected 1; "
+                                            r"the first of four columns is read as a row index"):
+        read_field_csv(path)
