@@ -103,7 +103,8 @@ def _add_ship_command(sub: argparse._SubParsersAction) -> None:
                         "package's rl/policies)")
     add_old_option(p, "--dest", "--out", output_path, "dest")
     p.add_argument("--no-measure", action="store_true", help="skip the evaluation run")
-    p.add_argument("--duration", type=duration_option(), default=10.0, help="evaluation length, s")
+    p.add_argument("--duration", type=duration_option(), default=None,
+                   help="evaluation length, s (default 10; not with --no-measure)")
     p.add_argument("--force", action="store_true",
                    help="replace an existing policy's files in DIR/<name> (other files stay)")
     p.add_argument("--evaluate-seeds", action="store_true",
@@ -251,6 +252,11 @@ def _seed_figure_names(case) -> list[str]:
 
 def ship_command(args: argparse.Namespace) -> int:
     from ..shipping.ship import check_ship_target, ship
+
+    if args.no_measure and args.duration is not None:  # it would be ignored without a word
+        raise CommandError(f"--duration {args.duration:g}: the length of the evaluation run, and "
+                           "--no-measure skips it; leave one of them out")
+    args.duration = 10.0 if args.duration is None else args.duration
 
     check_ship_target(args.name, args.dest)  # before the actors' evaluations
 

@@ -152,6 +152,22 @@ def _add_td3_overrides(p: argparse.ArgumentParser) -> None:
                    help="where the networks train (default cpu)")
 
 
+def _stop_tolerance(text: str) -> float:
+    """``--stop-tolerance F``: a fraction of the best return in [0, 1); 1 or more reads as a
+    percentage (2 is 200 %: no improvement would ever count)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a fraction such as 0.02, got {text!r}") from None
+    if not (math.isfinite(value) and 0.0 <= value < 1.0):
+        hint = (f"; it looks like a percentage ({value:g} % is {value / 100:g})"
+                if 1.0 <= value <= 100.0 else "")
+        raise argparse.ArgumentTypeError(f"expected a fraction of the best return in [0, 1), got "
+                                         f"{value:g} ({100 * value:g} %: an improvement would "
+                                         f"never count){hint}")
+    return value
+
+
 def _add_stop_options(p: argparse.ArgumentParser) -> None:
     """``msr train --stop-when`` and its settings (rl/sweep/stop_settings.py)."""
     from ..sweep.stop_settings import STOP_CHOICES
@@ -167,8 +183,9 @@ def _add_stop_options(p: argparse.ArgumentParser) -> None:
                    help="target: evaluations in a row at the threshold (default 2)")
     g.add_argument("--stop-patience", type=int, default=None, metavar="N",
                    help="plateau: evaluations without improvement (default 6)")
-    g.add_argument("--stop-tolerance", type=float, default=None, metavar="F",
-                   help="plateau: an improvement counts above F x |best| (default 0.02)")
+    g.add_argument("--stop-tolerance", type=_stop_tolerance, default=None, metavar="F",
+                   help="plateau: an improvement counts above F x |best| (default 0.02; a "
+                        "fraction in [0, 1), not a percentage)")
     g.add_argument("--stop-confirm", choices=("accurate", "none"), default=None,
                    help="target: when the rule fires, the seed's actor runs 10 s from a zero field "
                         "in the accurate physics (about a minute) and the seed stops only if it "

@@ -107,8 +107,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--starts", type=number("", 1, 64, integer=True), default=STARTS,
                    help=f"fits from the nominal values and from perturbed ones (default {STARTS}); "
                    "the best is kept, their spread shows a value the trajectory does not fix")
-    p.add_argument("--seed", type=number("", 0, 2**32 - 1, integer=True), default=0,
-                   help="seed of the perturbed starts")
+    p.add_argument("--seed", type=number("", 0, 2**32 - 1, integer=True), default=None,
+                   help="seed of the perturbed starts (default 0; with --starts 2 or more)")
     p.add_argument("--noise-m", type=number("m", 0, MAX_NOISE_M, low_open=True), default=None,
                    metavar="M", help="the tracker's noise per coordinate (m; 0.05 mm is 5e-5), to "
                    "judge the residual by (default: none, the residual is not judged)")
@@ -137,6 +137,9 @@ def robustness_command(args: argparse.Namespace) -> int:
         )
     except PolicyNotFoundError as exc:
         raise CommandError(str(exc)) from None
+    if args.open_loop_only and plan.policy is None:
+        raise CommandError(f"--open-loop-only: {args.source} is a field CSV, played open loop only "
+                           "(no policy to close the loop with); leave the option out")
     report = run_robustness(plan, closed_loop=not args.open_loop_only, workers=args.workers,
                             progress=not args.no_progress)
     out = write_robustness(report, plan, args.out, force=args.force)
@@ -159,6 +162,10 @@ def identify_command(args: argparse.Namespace) -> int:
     from .output import prepare_output_folder
     from .tracking import check_against_robot, read_trajectory
 
+    if args.seed is not None and args.starts == 1:  # it would be recorded but change nothing
+        raise CommandError(f"--seed {args.seed}: seeds the perturbed starts, and --starts 1 fits "
+                           "from the nominal values only; give --starts 2 or more, or leave --seed "
+                           "out")
     prepare_output_folder(args.out, args.force, kind="identify")
     fields = read_field_csv(args.field_csv, plausible=True)  # a coil's field, as msr field replay
     measured = read_trajectory(args.trajectory_csv)
@@ -180,7 +187,7 @@ def identify_command(args: argparse.Namespace) -> int:
 
         report = identify(fields, measured, spec, fits, physics=args.physics,
                           confirm=not args.no_confirm, max_evaluations=args.max_evaluations,
-                          starts=args.starts, seed=args.seed, noise_m=args.noise_m,
+                          starts=args.starts, seed=args.seed or 0, noise_m=args.noise_m,
                           progress=progress)
     for warning in report["warnings"]:
         print(f"msr {command_name(args)}: warning: {warning}", file=sys.stderr)
