@@ -58,8 +58,11 @@ def test_stop_when_is_refused_before_any_run_folder_is_made(tmp_path, capsys):
     assert "has no target return" in capsys.readouterr().err
     assert msr([*base, "--case", "m1-4mT", "--stop-when", "target", "--set", "eval_every=0"]) == 2
     assert "--set eval_every > 0" in capsys.readouterr().err
-    assert msr([*base, "--case", "m1-4mT", "--stop-when", "plateau", "--stop-tolerance", "-1"]) == 2
-    assert "--stop-tolerance must be a fraction >= 0" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as refused:  # argparse: the option's range
+        msr([*base, "--case", "m1-4mT", "--stop-when", "plateau", "--stop-tolerance", "-1"])
+    assert refused.value.code == 2
+    assert "--stop-tolerance: expected a fraction of the best return in [0, 1), got -1" in (
+        capsys.readouterr().err)
     assert not any(tmp_path.iterdir())
 
 
