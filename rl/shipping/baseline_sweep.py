@@ -55,6 +55,10 @@ def achieved_period(fields_T: Any, asked_s: float, case: Case) -> dict[str, Any]
             warning += (f" (at most {1e3 * case.actuation.max_increment:g} mT per axis per "
                         f"{ACTION_PERIOD:g} s: at {1e3 * case.field_limit:g} mT the shortest "
                         f"uniform turn takes {fastest:.4g} s)")
+            if achieved < fastest:  # measured while the field was still growing from zero
+                warning += (f"; it measured faster than {fastest:.4g} s because the field was still "
+                            "growing from zero (a weaker field turns faster under the same limit): "
+                            "a longer run measures the settled period")
         elif asked_s > played_s:
             warning += f" (the run, {played_s:g} s, is shorter than one period)"
         else:  # e.g. the ramp from a zero field takes a large part of a short run

@@ -125,3 +125,19 @@ def test_the_rate_limit_is_blamed_only_when_it_is_the_cause():
     assert warning and rate_limit not in warning and "shorter than one period" in warning
     slow = achieved_period(still, 0.5 * fastest, case)["warning"]  # faster than the limit allows
     assert slow and rate_limit in slow
+
+
+def test_a_turn_measured_faster_than_the_limit_says_the_field_was_still_growing():
+    """Round 5, O20: "turned once per 0.7262 s (...: the shortest uniform turn takes 0.8376 s)"
+    read as a contradiction; a weaker field (one still growing from zero) turns faster under the
+    same per-axis limit, and the warning says so."""
+    case = load_case("m1-4mT")
+    fastest = min_rotation_period(case.field_limit, case.actuation.max_increment)
+    t = np.arange(300) * 0.01
+    weak = 1e-3 * np.stack([np.cos(-2 * np.pi * t / 0.6), np.sin(-2 * np.pi * t / 0.6), 0 * t],
+                           axis=1)  # 1 mT turning in 0.6 s: within 0.3 mT per axis per step
+    result = achieved_period(weak, 0.5, case)
+    assert result["period_achieved_s"] == pytest.approx(0.6, rel=1e-3) and 0.6 < fastest
+    assert f"it measured faster than {fastest:.4g} s because the field was still growing" in (
+        result["warning"])
+    assert "still growing" not in achieved_period(weak, 0.9, case)["warning"]  # not the limit's case
