@@ -38,7 +38,6 @@ it.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -152,32 +151,30 @@ def train_seeds(
     at its stop; the update counter is then the last seed's; after a hand-back, where it was).
     """
     o = dataclasses.replace(options or GroupOptions(), **changes)
-    resume, progress, log_fn, init_from, metadata = o.resume, o.progress, o.log_fn, o.init_from, o.metadata
-    eval_env_fn, eval_vec_env_fn, stop_rules = o.eval_env_fn, o.eval_vec_env_fn, o.stop_rules
-    confirm_env_fn, confirm_vec_env_fn, hand_back = o.confirm_env_fn, o.confirm_vec_env_fn, o.hand_back
     k_seeds, n = len(configs), int(o.envs_per_seed)
-    _check_group(run_dirs, k_seeds, n, stop_rules, confirm_env_fn or confirm_vec_env_fn)
+    _check_group(run_dirs, k_seeds, n, o.stop_rules, o.confirm_env_fn or o.confirm_vec_env_fn)
     retain_freed_memory()  # the updates' temporaries reused, not page-faulted in (rl/runner/allocator.py)
     env = vec_env_fn(k_seeds * n)
     try:
         obs_dim, act_dim, act_space = _flat_spaces(env, k_seeds * n)
-        runs = _seed_runs(configs, steps, run_dirs, resume, init_from, metadata, stop_rules,
-                          obs_dim, act_dim, n)
+        runs = _seed_runs(configs, steps, run_dirs, o.resume, o.init_from, o.metadata,
+                          o.stop_rules, obs_dim, act_dim, n)
         done = [_done(r, steps) for r in runs]
         if any(r.stopped for r in runs) or (any(done) and not all(done)):  # not trained further
             env.close()
-            same_settings = functools.partial(
-                train_seeds, vec_env_fn, envs_per_seed=n, resume=resume, progress=progress,
-                log_fn=log_fn, eval_env_fn=eval_env_fn, progress_position=o.progress_position,
-                progress_desc=o.progress_desc, eval_vec_env_fn=eval_vec_env_fn,
-                confirm_env_fn=confirm_env_fn, hand_back=hand_back,
-                confirm_vec_env_fn=confirm_vec_env_fn)
-            return _without_done(same_settings, runs, configs, run_dirs, metadata, steps,
+            # the same settings for the seeds left; their metadata and rules are passed per seed
+            rest = dataclasses.replace(o, envs_per_seed=n, init_from=None, metadata=None,
+                                       stop_rules=None)
+
+            def same_settings(configs_left, steps_left, dirs_left, **per_seed):
+                return train_seeds(vec_env_fn, configs_left, steps_left, dirs_left, rest, **per_seed)
+
+            return _without_done(same_settings, runs, configs, run_dirs, o.metadata, steps,
                                  (obs_dim, act_dim, act_space))
         learner = _group_learner(runs, obs_dim, act_dim, act_space)
-        loop = GroupLoop(env, runs, learner, n, log_fn, eval_vec_env_fn, vec_env_fn, confirm_env_fn,
-                         hand_back, confirm_vec_env_fn)
-        learner = loop.train(progress, eval_env_fn, o.progress_position, o.progress_desc)
+        loop = GroupLoop(env, runs, learner, n, o.log_fn, o.eval_vec_env_fn, vec_env_fn,
+                         o.confirm_env_fn, o.hand_back, o.confirm_vec_env_fn)
+        learner = loop.train(o.progress, o.eval_env_fn, o.progress_position, o.progress_desc)
         env = loop.env  # a smaller one once seeds have stopped
         if any(r.final_state is not None for r in runs):
             return _assemble(learner, runs, act_space)
