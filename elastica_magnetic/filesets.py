@@ -46,7 +46,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .io import OutputPathError, display_path, normalized_path, unwritable_reason
-from .locks import FolderLock, host_name, lock_path, name_tag
+from .locks import FolderLock, claim, host_name, lock_path, name_tag, release_claim
 from .results import ResultExistsError, fsync_tree, remove_tree, signals_as_exceptions, signals_held
 
 __all__ = ["FileKind", "FileSet", "ResultFile", "check_files", "check_result_file",
@@ -145,8 +145,10 @@ def check_files(folder: str | Path, names: Iterable[str], *, force: bool = False
         if parent.exists() and not parent.is_dir():
             raise OutputPathError(f"{option} {display_path(folder)}: {display_path(parent)} is a "
                                   "file, not a folder")
+    _claim(folder, option)
     existing = [n for n in names if (folder / n).exists()]
     if existing and not force:
+        release_claim(folder)
         raise ResultExistsError(f"{option} {display_path(folder)}: already holds "
                                 f"{', '.join(existing)}; pass {force_option} to replace, or "
                                 f"choose another {option}")
@@ -226,6 +228,8 @@ def replace_files(
                 message = str(exc).replace(str(staging), str(folder))
                 raise OutputPathError(f"{message}; {display_path(folder)}: {then}") from exc
             raise
+        finally:
+            release_claim(folder)  # the pre-check's hold (the lock itself goes with this block)
 
 
 _NEW_FILE = ".msr-new-"
@@ -257,10 +261,12 @@ def check_result_file(path: str | Path, *, force: bool = False, option: str = "-
     a file, its folder writable, and absent unless ``force`` (and then, with ``kind``, a file of
     that kind: a file of the user's is never replaced). Returns the normalized path."""
     final = normalized_path(path)
-    notes = _recover_file(final, option)
+    claimed = _claim(final, option)
+    notes = claimed + _recover_file(final, option)
     try:
         _check_file(final, force, option, force_option, kind)
     except OutputPathError as exc:
+        release_claim(final)
         for note in notes:  # the command line prints them before the error
             exc.add_note(note)
         raise
@@ -270,6 +276,17 @@ def check_result_file(path: str | Path, *, force: bool = False, option: str = "-
 
 #: Notes of recoveries done by :func:`check_result_file`, for the :func:`result_file` that follows.
 _recovered_file_notes: dict[str, list[str]] = {}
+
+
+def _claim(path: Path, option: str) -> list[str]:
+    """Take the lock of ``path`` at a pre-check, held until its write (see
+    :func:`~elastica_magnetic.locks.claim`); a folder still to be made is not claimed (no lock
+    file where nothing exists yet). Returns the notes of a stale lock taken over."""
+    if not path.parent.is_dir():
+        return []
+    lock = claim(path, option=option)
+    notes, lock.notes = lock.notes, []
+    return notes
 
 
 def _recover_file(final: Path, option: str) -> list[str]:
@@ -343,25 +360,28 @@ def result_file(path: str | Path, *, force: bool = False, option: str = "--out",
     except OSError as exc:
         raise OutputPathError(f"{option} {shown}: cannot create {display_path(final.parent)}: "
                               f"{exc.strerror or exc}") from None
-    with signals_as_exceptions(), FolderLock(final, option=option) as lock:
-        notes = (_recovered_file_notes.pop(str(final), []) + lock.notes
-                 + _remove_new_files(final))
-        _check_file(final, force, option, force_option, kind)
-        # same folder (the rename is atomic) and same suffix (writers such as savefig read it)
-        temporary = final.parent / (f".{final.stem}{_NEW_FILE}{name_tag(host_name())}-"
-                                    f"{os.getpid()}-{os.urandom(3).hex()}{final.suffix}")
-        try:
-            yield ResultFile(final, temporary, notes)
-            with open(temporary, "rb+") as handle:
-                os.fsync(handle.fileno())
-            with signals_held():
-                os.replace(temporary, final)
-        except BaseException as exc:
-            remove_tree(temporary)
-            if isinstance(exc, OSError) and not isinstance(exc, OutputPathError):
-                raise OutputPathError(f"{option} {shown}: cannot write it: {exc.strerror or exc}; "
-                                      f"{shown} is left as it was") from exc
-            if isinstance(exc, OutputPathError):
-                text = str(exc).replace(str(temporary), shown)
-                raise OutputPathError(f"{text}; {shown} is left as it was") from exc
-            raise
+    try:
+        with signals_as_exceptions(), FolderLock(final, option=option) as lock:
+            notes = (_recovered_file_notes.pop(str(final), []) + lock.notes
+                     + _remove_new_files(final))
+            _check_file(final, force, option, force_option, kind)
+            # same folder (the rename is atomic) and same suffix (writers such as savefig read it)
+            temporary = final.parent / (f".{final.stem}{_NEW_FILE}{name_tag(host_name())}-"
+                                        f"{os.getpid()}-{os.urandom(3).hex()}{final.suffix}")
+            try:
+                yield ResultFile(final, temporary, notes)
+                with open(temporary, "rb+") as handle:
+                    os.fsync(handle.fileno())
+                with signals_held():
+                    os.replace(temporary, final)
+            except BaseException as exc:
+                remove_tree(temporary)
+                if isinstance(exc, OSError) and not isinstance(exc, OutputPathError):
+                    raise OutputPathError(f"{option} {shown}: cannot write it: {exc.strerror or exc}; "
+                                          f"{shown} is left as it was") from exc
+                if isinstance(exc, OutputPathError):
+                    text = str(exc).replace(str(temporary), shown)
+                    raise OutputPathError(f"{text}; {shown} is left as it was") from exc
+                raise
+    finally:
+        release_claim(final)  # the pre-check's hold (the lock itself goes with this block)

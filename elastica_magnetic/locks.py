@@ -23,6 +23,7 @@ the whole run::
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import json
 import os
@@ -40,8 +41,8 @@ try:  # POSIX: the kernel releases the lock of a process that dies
 except ImportError:  # pragma: no cover - Windows: O_EXCL and a pid check instead
     fcntl = None  # type: ignore[assignment]
 
-__all__ = ["FolderLock", "FolderLockedError", "command_line", "host_name", "lock_path", "name_tag",
-           "read_lock", "utc_now"]
+__all__ = ["FolderLock", "FolderLockedError", "claim", "command_line", "host_name", "lock_path",
+           "name_tag", "read_lock", "release_claim", "release_claims", "utc_now"]
 
 _LOCK_SUFFIX = ".msr-lock"
 
@@ -114,6 +115,21 @@ def _describe_owner(owner: dict[str, Any] | None) -> str:
             f"(`{owner.get('command', '?')}`, since {owner.get('started_utc', '?')})")
 
 
+class _Held:
+    """A lock file this process holds: its descriptor and how many :class:`FolderLock` share it."""
+
+    def __init__(self, fd: int) -> None:
+        self.fd = fd
+        self.count = 1
+        self.pid = os.getpid()  # a forked child inherits the table, not the right to unlink
+
+
+#: The lock files this process holds, by path: a second :class:`FolderLock` on the same folder in
+#: the same process shares the first one's hold (re-entrant) instead of refusing itself, so a
+#: command can take the lock at its pre-check (:func:`claim`) and keep it through its write.
+_held: dict[str, _Held] = {}
+
+
 class FolderLock:
     """Exclusive right to write ``folder``, held by this process until :meth:`release`.
 
@@ -121,7 +137,9 @@ class FolderLock:
     ``folder`` (its parent is created) naming this process (pid, host, command, UTC start time).
     A second process is refused with :class:`FolderLockedError` naming the owner. A lock left by a
     process that died on this host is taken over and described in :attr:`notes`; one naming
-    another host is refused (remove the file when that process is known to be gone).
+    another host is refused (remove the file when that process is known to be gone). Within one
+    process the lock is re-entrant: a second ``FolderLock`` on a folder this process already
+    holds shares the hold, and the lock file goes when the last of them is released.
     """
 
     def __init__(self, folder: str | Path, *, option: str = "--out") -> None:
@@ -159,6 +177,15 @@ class FolderLock:
         """Take the lock or raise :class:`FolderLockedError`; returns ``self``."""
         if self._fd is not None:
             raise RuntimeError(f"{self.path}: already held by this FolderLock")
+        shared = _held.get(str(self.path))
+        if shared is not None and shared.pid != os.getpid():  # inherited by fork: not ours
+            _held.clear()
+            _claims.clear()
+            shared = None
+        if shared is not None:  # this process holds it already
+            shared.count += 1
+            self._fd = shared.fd
+            return self
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._fd = self._acquire_flock() if fcntl is not None else self._acquire_exclusive()
@@ -167,6 +194,7 @@ class FolderLock:
                 raise
             raise OutputPathError(f"{self.option} {display_path(self.folder)}: cannot create the lock file "
                                   f"{self.path}: {exc.strerror or exc}") from None
+        _held[str(self.path)] = _Held(self._fd)
         return self
 
     def _acquire_flock(self) -> int:
@@ -219,6 +247,13 @@ class FolderLock:
         if self._fd is None:
             return
         fd, self._fd = self._fd, None
+        shared = _held.get(str(self.path))
+        if shared is not None and shared.pid != os.getpid():  # inherited by fork: the parent's
+            return
+        if shared is not None and shared.count > 1:  # another FolderLock of this process holds on
+            shared.count -= 1
+            return
+        _held.pop(str(self.path), None)
         with contextlib.suppress(OSError):
             os.unlink(self.path)
         os.close(fd)
@@ -232,3 +267,36 @@ class FolderLock:
 
     def __exit__(self, *exc: object) -> None:
         self.release()
+
+
+#: Locks taken by :func:`claim` (a command's pre-check), by lock file, until the write is done.
+_claims: dict[str, FolderLock] = {}
+
+
+def claim(folder: str | Path, *, option: str = "--out") -> FolderLock:
+    """Take the lock of ``folder`` for the rest of this command: its pre-check calls this before
+    any long work, so a second process writing the same folder is refused at once (naming this
+    one) instead of after its own work. Held until :func:`release_claim` (the write is done) or
+    :func:`release_claims` (the command ends; also at interpreter exit). Claiming a folder this
+    process has claimed already is a no-op. Raises :class:`FolderLockedError`."""
+    lock = FolderLock(folder, option=option)
+    key = str(lock.path)
+    if key not in _claims:
+        _claims[key] = lock.acquire()
+    return _claims[key]
+
+
+def release_claim(folder: str | Path) -> None:
+    """Let go of the claim on ``folder`` (a no-op when there is none)."""
+    lock = _claims.pop(str(lock_path(folder)), None)
+    if lock is not None:
+        lock.release()
+
+
+def release_claims() -> None:
+    """Let go of every claim of this process (the command line calls this when a command ends)."""
+    while _claims:
+        _claims.popitem()[1].release()
+
+
+atexit.register(release_claims)

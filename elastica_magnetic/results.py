@@ -92,7 +92,7 @@ from .io import (
     normalized_path,
     unwritable_reason,
 )
-from .locks import FolderLock, command_line, host_name, name_tag, utc_now
+from .locks import FolderLock, claim, command_line, host_name, name_tag, release_claim, utc_now
 
 __all__ = [
     "MARKER",
@@ -270,13 +270,21 @@ def check_result_folder(
     """
     final = normalized_path(out)
     _check_path(final, option)
-    _check_creatable(_target(final, option), option)
-    notes = recover(final, option=option) if interrupted(final) else []
+    target = _target(final, option)
+    _check_creatable(target, option)
+    claimed = target.parent.is_dir()  # no lock file in a folder this check would have to create
+    notes: list[str] = []
+    if claimed:  # held until the write: a second writer of ``out`` is refused now, not after its work
+        lock = claim(target, option=option)
+        notes, lock.notes = lock.notes, []  # a stale lock taken over: said once
+    notes += recover(final, option=option) if interrupted(final) else []
     if notes:
         _recovered_notes.setdefault(os.path.realpath(final), []).extend(notes)
     try:
         return _check_result_folder(final, kind, subject, force, option, known_files, force_option)
     except OutputPathError as exc:
+        if claimed:
+            release_claim(target)
         for note in notes:  # the command line prints them before the error
             exc.add_note(note)
         raise
@@ -568,42 +576,45 @@ def result_folder(
     except OSError as exc:
         raise OutputPathError(f"{option} {shown}: cannot create {display_path(target.parent)}: "
                               f"{exc.strerror or exc}") from None
-    with signals_as_exceptions(), FolderLock(target, option=option) as lock:
-        notes = (_recovered_notes.pop(str(target), []) + lock.notes
-                 + _recover_locked(target, final))
-        try:
-            replaced = _check_result_folder(final, kind, subject, force, option, known,
-                                            force_option)
-        except OutputPathError as exc:
-            for note in notes:  # the command line prints them before the error
-                exc.add_note(note)
-            raise
-        staging = _sibling(target, "new")
-        try:
-            os.mkdir(staging)  # the umask's permissions, as a folder made by the user
-        except OSError as exc:
-            raise OutputPathError(f"{option} {shown}: cannot write in {display_path(target.parent)}: "
-                                  f"{exc.strerror or exc}") from None
-        result = ResultFolder(final, staging, kind, subject, replaced, notes, dict(info or {}))
-        swapped = False
-        try:
-            yield result
-            _write_marker(result)
-            fsync_tree(staging)
-            with signals_held():
-                _swap(staging, target)
-                swapped = True
-        except BaseException as exc:
-            remove_tree(staging)
-            if not swapped:
-                _aborted.append(Path(shown))
-            if isinstance(exc, OutputPathError):  # name the files where the user will look
-                text = str(exc).replace(str(staging), shown)
-                raise type(exc)(f"{text}; {shown} is left as it was") from exc
-            if isinstance(exc, OSError):
-                raise OutputPathError(f"{option} {shown}: cannot write the result: "
-                                      f"{exc.strerror or exc}; {shown} is left as it was") from exc
-            raise
+    try:
+        with signals_as_exceptions(), FolderLock(target, option=option) as lock:
+            notes = (_recovered_notes.pop(str(target), []) + lock.notes
+                     + _recover_locked(target, final))
+            try:
+                replaced = _check_result_folder(final, kind, subject, force, option, known,
+                                                force_option)
+            except OutputPathError as exc:
+                for note in notes:  # the command line prints them before the error
+                    exc.add_note(note)
+                raise
+            staging = _sibling(target, "new")
+            try:
+                os.mkdir(staging)  # the umask's permissions, as a folder made by the user
+            except OSError as exc:
+                raise OutputPathError(f"{option} {shown}: cannot write in {display_path(target.parent)}: "
+                                      f"{exc.strerror or exc}") from None
+            result = ResultFolder(final, staging, kind, subject, replaced, notes, dict(info or {}))
+            swapped = False
+            try:
+                yield result
+                _write_marker(result)
+                fsync_tree(staging)
+                with signals_held():
+                    _swap(staging, target)
+                    swapped = True
+            except BaseException as exc:
+                remove_tree(staging)
+                if not swapped:
+                    _aborted.append(Path(shown))
+                if isinstance(exc, OutputPathError):  # name the files where the user will look
+                    text = str(exc).replace(str(staging), shown)
+                    raise type(exc)(f"{text}; {shown} is left as it was") from exc
+                if isinstance(exc, OSError):
+                    raise OutputPathError(f"{option} {shown}: cannot write the result: "
+                                          f"{exc.strerror or exc}; {shown} is left as it was") from exc
+                raise
+    finally:
+        release_claim(target)  # the pre-check's hold (the lock itself goes with this block)
 
 
 def _write_marker(result: ResultFolder) -> None:

@@ -6,12 +6,9 @@ from __future__ import annotations
 
 import json
 import os
-import subprocess
-import sys
-import textwrap
-from pathlib import Path
 
 import pytest
+from lock_holder import start_holder
 
 from elastica_magnetic.locks import FolderLock, FolderLockedError, lock_path
 from elastica_magnetic.results import result_folder
@@ -19,26 +16,9 @@ from elastica_magnetic.results import result_folder
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="flock and signals are POSIX")
 
 
-HOLDER = textwrap.dedent("""
-    import sys
-    from elastica_magnetic.locks import FolderLock
-    lock = FolderLock(sys.argv[1]).acquire()
-    print("held", flush=True)
-    sys.stdin.readline()
-    lock.release()
-""")
-
-
-def _holder(folder: Path) -> subprocess.Popen:
-    process = subprocess.Popen([sys.executable, "-c", HOLDER, str(folder)], stdin=subprocess.PIPE,
-                               stdout=subprocess.PIPE, text=True)
-    assert process.stdout.readline().strip() == "held"
-    return process
-
-
 def test_a_second_process_is_refused_and_a_dead_ones_lock_taken_over(tmp_path):
     folder = tmp_path / "seed0"
-    holder = _holder(folder)
+    holder = start_holder(folder)
     try:
         owner = json.loads(lock_path(folder).read_text())
         assert owner["pid"] == holder.pid and owner["host"]
@@ -64,7 +44,7 @@ def test_a_second_process_is_refused_and_a_dead_ones_lock_taken_over(tmp_path):
 
 def test_a_released_lock_is_free_and_another_hosts_lock_is_not_taken(tmp_path):
     folder = tmp_path / "seed1"
-    holder = _holder(folder)
+    holder = start_holder(folder)
     holder.communicate("\n", timeout=30)  # released normally: no file left
     assert holder.returncode == 0 and not lock_path(folder).exists()
     FolderLock(folder).acquire().release()

@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from ..command_names import COMMAND_HOMES, spelling
+from ..locks import release_claims
 
 # Modules that provide ``register(subparsers)``; missing optional areas are skipped.
 COMMAND_MODULES = (
@@ -387,6 +388,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     finally:
         sys.stdout = stdout
+        release_claims()  # output folders its pre-checks locked (the writes release their own)
 
 
 def _main(argv: Sequence[str] | None = None) -> int:

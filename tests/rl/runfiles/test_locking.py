@@ -12,8 +12,9 @@ import sys
 import pytest
 from elastica_magnetic_rl.runfiles.locking import check_unlocked, held_run_folders
 from elastica_magnetic_rl.runfiles.rundir import RunDir
+from lock_holder import held_elsewhere
 
-from elastica_magnetic.locks import FolderLock, FolderLockedError, host_name, lock_path
+from elastica_magnetic.locks import FolderLockedError, host_name, lock_path
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="flock is POSIX")
 
@@ -40,9 +41,9 @@ def test_the_pre_check_reports_a_stale_lock_it_takes_over(tmp_path, capsys):
     assert not lock_path(seed).exists()  # taken over and released
     assert check_unlocked([seed]) == [] and capsys.readouterr().err == ""
 
-    with FolderLock(seed):  # a live owner is refused, named
+    with held_elsewhere(seed) as pid:  # a live owner is refused, named
         with pytest.raises(FolderLockedError, match=rf"--out {seed}: being written by pid "
-                                                    rf"{os.getpid()} on {host_name()}"):
+                                                    rf"{pid} on {host_name()}"):
             check_unlocked([seed])
 
 

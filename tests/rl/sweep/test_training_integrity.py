@@ -12,22 +12,22 @@ import subprocess
 import sys
 from pathlib import Path
 
+from lock_holder import held_elsewhere
 from smoke import SMOKE
 
 from elastica_magnetic.cli import main as msr
-from elastica_magnetic.locks import FolderLock
 from elastica_magnetic.results import read_marker
 
 
 def test_a_seed_being_trained_is_refused_naming_the_owner(tmp_path, capsys):
     seed = tmp_path / "runs" / "m1-4mT" / "seed0"
     seed.parent.mkdir(parents=True)
-    with FolderLock(seed):  # another process trains seed0 (this one holds its lock)
+    with held_elsewhere(seed) as pid:  # another process trains seed0
         status = msr(["train", "--case", "m1-4mT", "--seeds", "1", "--steps", "80", "--out",
                       str(tmp_path / "runs"), *SMOKE])
     assert status == 2
     err = capsys.readouterr().err
-    assert f"being written by pid {os.getpid()}" in err
+    assert f"being written by pid {pid}" in err
     assert not (seed / "checkpoint.pt").exists()
 
 
