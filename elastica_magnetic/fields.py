@@ -34,6 +34,20 @@ def _vector3(value: ArrayLike, name: str) -> NDArray[np.float64]:
     return array
 
 
+def _per_axis(value: float | ArrayLike, name: str) -> NDArray[np.float64]:
+    """``value`` (T) as one positive finite bound per axis ``(3,)``: a number for every axis, or
+    three."""
+    array = np.asarray(value, dtype=np.float64)
+    if array.ndim == 0:
+        array = np.full(3, float(array))
+    if array.shape != (3,):
+        raise ValueError(f"{name} must be a field in tesla or one per axis (3), got shape "
+                         f"{array.shape}")
+    if not (np.all(array > 0.0) and np.all(np.isfinite(array))):
+        raise ValueError(f"{name} must be a positive field in tesla, got {value}")
+    return array
+
+
 class UniformField:
     """Base of the uniform sources: ``field(time) -> (3,)`` (T), the same at every point.
 
@@ -207,34 +221,42 @@ class TabulatedField(UniformField):
 class ControlledField(UniformField):
     """A field changed by increments, as an agent does at 100 Hz (the paper's actuation rule).
 
-    Each :meth:`apply_increment` adds ``delta`` (each component clipped to
-    ``+-max_increment``), clips each component of the new field to ``+-limit``, then scales the
-    field down to amplitude ``limit`` if it is longer.
+    Each :meth:`apply_increment` adds ``delta`` (each component clipped to its axis's
+    ``+-max_increment``), clips each component of the new field to its axis's ``+-limit``, then
+    scales the field down to the largest axis limit (the amplitude limit) if it is longer.
 
     Parameters
     ----------
-    limit : float
-        Largest field component and amplitude, T (the paper: 4e-3 or 10e-3).
-    max_increment : float
-        Largest change of one component per increment, T (the paper: 0.3e-3).
+    limit : float or array_like (3,)
+        Largest field component, T: one for every axis (the paper: 4e-3 or 10e-3), or one per
+        axis ``(x, y, z)`` (coil pairs with different amplifiers). The amplitude limit is the
+        largest of them (:attr:`limit`).
+    max_increment : float or array_like (3,)
+        Largest change of one component per increment, T (the paper: 0.3e-3), or one per axis.
     initial : array_like
         Field at the start, T (clipped by the same rule).
     """
 
     def __init__(
-        self, limit: float, max_increment: float = 0.3e-3, initial: ArrayLike = (0.0, 0.0, 0.0)
+        self, limit: float | ArrayLike, max_increment: float | ArrayLike = 0.3e-3,
+        initial: ArrayLike = (0.0, 0.0, 0.0)
     ) -> None:
-        if not (limit > 0.0 and math.isfinite(limit)):
-            raise ValueError(f"limit must be a positive field in tesla, got {limit}")
-        if not (max_increment > 0.0 and math.isfinite(max_increment)):
-            raise ValueError(f"max_increment must be a positive field in tesla, got {max_increment}")
-        self.limit = float(limit)
-        self.max_increment = float(max_increment)
+        self.axis_limits = _per_axis(limit, "limit")
+        self.axis_increments = _per_axis(max_increment, "max_increment")
+        #: The amplitude limit, T: the largest axis limit.
+        self.limit = float(self.axis_limits.max())
+        #: The largest increment of any axis, T.
+        self.max_increment = float(self.axis_increments.max())
+        self._uniform = bool(np.all(self.axis_limits == self.limit)
+                             and np.all(self.axis_increments == self.max_increment))
         self.value = np.zeros(3)
         self.set(initial)
 
     def _clip(self) -> None:
-        np.clip(self.value, -self.limit, self.limit, out=self.value)
+        if self._uniform:  # one limit for every axis: scalar bounds, as the paper's rule
+            np.clip(self.value, -self.limit, self.limit, out=self.value)
+        else:
+            np.clip(self.value, -self.axis_limits, self.axis_limits, out=self.value)
         amplitude = math.sqrt(float(self.value @ self.value))
         if amplitude > self.limit:
             self.value *= self.limit / amplitude
@@ -252,7 +274,11 @@ class ControlledField(UniformField):
             raise ValueError(f"delta must have shape (2,) or (3,) in tesla, got {delta.shape}")
         if not np.all(np.isfinite(delta)):
             raise ValueError(f"delta contains NaN or infinite values: {delta}")
-        delta = np.clip(delta, -self.max_increment, self.max_increment)
+        if self._uniform:
+            delta = np.clip(delta, -self.max_increment, self.max_increment)
+        else:
+            bound = self.axis_increments[: delta.shape[0]]
+            delta = np.clip(delta, -bound, bound)
         self.value[: delta.shape[0]] += delta
         self._clip()
         return self.value

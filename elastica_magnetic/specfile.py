@@ -554,9 +554,20 @@ def field_limit_of(robot: str | Path) -> float | None:
 
 def spec_field_limit(spec: Mapping[str, Any], source: str = "<spec>") -> float | None:
     """The ``[actuation] field_limit`` (T) of a parsed spec, ``None`` without an ``[actuation]``
-    table; checked as the learning package checks it (a number in ``(0, 1]`` T)."""
+    table; checked as the learning package checks it (a number in ``(0, 1]`` T; a list of one per
+    controlled axis gives the largest, the amplitude limit)."""
     actuation = spec.get("actuation")
     if actuation is None:
         return None
-    table = SpecTable(actuation, source, "actuation", accepted_keys(spec, source))
-    return table.number("field_limit", "T", low=0.0, low_open=True, high=1.0, plausible="coil field")
+    accepted = accepted_keys(spec, source)
+    value = actuation.get("field_limit") if isinstance(actuation, Mapping) else None
+    items = value if isinstance(value, list) and value else [value]
+    limits = []
+    for item in items:
+        data = dict(actuation) if isinstance(actuation, Mapping) else actuation
+        if isinstance(value, list):
+            data["field_limit"] = item
+        table = SpecTable(data, source, "actuation", accepted)
+        limits.append(table.number("field_limit", "T", low=0.0, low_open=True, high=1.0,
+                                   plausible="coil field"))
+    return max(limits)

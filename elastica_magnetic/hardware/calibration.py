@@ -43,6 +43,8 @@ from elastica_magnetic.io import atomic_write_text, byte_order_mark_problem
 from elastica_magnetic.plausibility import warn_implausible
 
 AXES = 3
+#: The coil pairs in the order of a field row and of the DAC channels.
+AXIS_NAMES = ("x", "y", "z")
 TESLA_PER_MILLITESLA = 1e-3
 DAC_MIDSCALE = 32768
 DAC_HALF_RANGE = 32767.0
@@ -426,12 +428,15 @@ class ClippingReport:
     max_rate_A_per_s: float = 0.0
     slew_limit_A_per_s: float = 0.0
     max_lag_mT: float = 0.0
+    current_axis: str = ""
+    slew_axis: str = ""
 
     def describe(self) -> str:
         """One line: how many rows and by how much."""
         parts = []
         if self.current_rows:
-            parts.append(f"{self.current_rows} row(s) need more than the current limit (up to "
+            on = f" of the {self.current_axis} coils" if self.current_axis else ""
+            parts.append(f"{self.current_rows} row(s) need more than the current limit{on} (up to "
                          f"{self.max_current_A:.4g} A for a limit of {self.current_limit_A:.4g} A)")
         if self.dac_rows:
             parts.append(f"{self.dac_rows} row(s) exceed the DAC's output span")
@@ -443,7 +448,8 @@ class ClippingReport:
         if not self.slew_rows:
             return "no row slew-limited"
         return (f"{self.slew_rows} row(s) slew-limited, first at data row {self.first_slew_row}: "
-                f"the waveform changes a current at up to {self.max_rate_A_per_s:.4g} A/s for a slew "
+                f"the waveform changes a current{f' ({self.slew_axis} coils)' if self.slew_axis else ''} "
+                f"at up to {self.max_rate_A_per_s:.4g} A/s for a slew "
                 f"limit of {self.slew_limit_A_per_s:.4g} A/s, so the field lags it by up to "
                 f"{self.max_lag_mT:.3g} mT")
 
@@ -506,6 +512,8 @@ def clipping_report(calibration: Calibration, rows_mT: NDArray[np.float64]) -> C
         max_rate_A_per_s=float(rates[worst]) if rates.size else 0.0,
         slew_limit_A_per_s=float(cal.slew_limit_A_per_s[worst[1]]),
         max_lag_mT=max_lag_T / TESLA_PER_MILLITESLA,
+        current_axis=AXIS_NAMES[axis] if over.any() else "",
+        slew_axis=AXIS_NAMES[worst[1]] if slew_rows.any() else "",
     )
 
 

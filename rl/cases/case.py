@@ -60,6 +60,7 @@ from .variations import (
 )
 
 __all__ = [
+    "ACTUATION_AXES",
     "Actuation",
     "Case",
     "SPECS_DIR",
@@ -98,15 +99,63 @@ CASE_UNITS: dict[tuple[str, str], str] = {
 }
 
 
+#: The field components a policy controls: ``"xy"``, the paper's two coil pairs (the field in
+#: the robot's vertical plane), or ``"xyz"`` with the third pair (z: across the robot, in the
+#: floor plane).
+ACTUATION_AXES = ("xy", "xyz")
+#: Blocks the observation gains per actuation (name, size), after the paper's field blocks.
+ACTUATION_OBSERVATION: dict[str, tuple[tuple[str, int], ...]] = {"xy": (), "xyz": (("field_z", 1),)}
+
+
 @dataclass(frozen=True)
 class Actuation:
-    """The field the policy controls: limit (T), increment per action (T), rate (Hz), initial field
-    of training episodes."""
+    """The field the policy controls: limit (T: the amplitude limit, the largest axis limit),
+    increment per action (T: the largest axis increment), rate (Hz), initial field of training
+    episodes, the controlled ``axes`` (:data:`ACTUATION_AXES`) and, where the coil pairs differ,
+    one limit and one increment per controlled axis (``axis_limits``, ``axis_increments``, T;
+    empty: ``field_limit`` and ``max_increment`` on every axis)."""
 
     field_limit: float
     max_increment: float = 0.3e-3
     control_rate: float = CONTROL_RATE
     initial_field: str = "random"
+    axes: str = "xy"
+    axis_limits: tuple[float, ...] = ()
+    axis_increments: tuple[float, ...] = ()
+
+    @property
+    def n_axes(self) -> int:
+        """The action's size: one field increment per controlled axis."""
+        return len(self.axes)
+
+    @property
+    def limits(self) -> tuple[float, float, float]:
+        """The limit of each lab axis (x, y, z), T (as :class:`~elastica_magnetic.ControlledField`
+        takes it); an axis not controlled keeps the amplitude limit (its component stays 0)."""
+        given = self.axis_limits or (self.field_limit,) * self.n_axes
+        return (*given, *(self.field_limit,) * (3 - len(given)))  # type: ignore[return-value]
+
+    @property
+    def increments(self) -> tuple[float, float, float]:
+        """The largest increment of each lab axis (x, y, z) per unit action, T."""
+        given = self.axis_increments or (self.max_increment,) * self.n_axes
+        return (*given, *(self.max_increment,) * (3 - len(given)))  # type: ignore[return-value]
+
+    @property
+    def observation_blocks(self) -> tuple[tuple[str, int], ...]:
+        """The observation's blocks for this actuation beyond the paper's (``field_z`` for xyz)."""
+        return ACTUATION_OBSERVATION[self.axes]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``[actuation]`` table: per-axis values as lists, ``axes`` only when not the
+        paper's (so a planar case's table is as it always was)."""
+        out: dict[str, Any] = {
+            "field_limit": list(self.axis_limits) if self.axis_limits else self.field_limit,
+            "max_increment": list(self.axis_increments) if self.axis_increments else self.max_increment,
+            "control_rate": self.control_rate, "initial_field": self.initial_field}
+        if self.axes != "xy":
+            out["axes"] = self.axes
+        return out
 
 
 @dataclass(frozen=True)
@@ -159,8 +208,10 @@ class Case:
 
     @property
     def obs_dim(self) -> int:
-        """Observation size: the robot's ``4 n + 4`` plus the task's extra blocks."""
-        return 4 * self.n_elements + 4 + sum(size for _, size in self.task.extra_observation)
+        """Observation size: the robot's ``4 n + 4`` plus the actuation's and the task's extra
+        blocks."""
+        extra = (*self.actuation.observation_blocks, *self.task.extra_observation)
+        return 4 * self.n_elements + 4 + sum(size for _, size in extra)
 
     @property
     def builtin(self) -> bool:
@@ -213,7 +264,7 @@ class Case:
             "name": self.name,
             "description": self.description,
             **self.robot.tables,
-            "actuation": dataclasses.asdict(self.actuation),
+            "actuation": self.actuation.to_dict(),
             "task": self.task.to_dict(),
             "training": training,
             "yardstick": dataclasses.asdict(self.yardstick),
@@ -307,21 +358,47 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
 
 def _actuation(t: SpecTable) -> Actuation:
     d = Actuation(field_limit=0.0)
+    axes = t.string("axes", d.axes, choices=ACTUATION_AXES)
+    limits = _per_axis(t, "field_limit", "T", axes, None, high=1.0, plausible="coil field")
+    increments = _per_axis(t, "max_increment", "T per action", axes, d.max_increment)
     out = Actuation(
-        field_limit=t.number("field_limit", "T", low=0.0, low_open=True, high=1.0,
-                             plausible="coil field"),
-        max_increment=t.number("max_increment", "T per action", d.max_increment, low=0.0,
-                               low_open=True),
+        field_limit=max(limits),
+        max_increment=max(increments),
         control_rate=t.number("control_rate", "Hz", d.control_rate, low=0.0, low_open=True),
         initial_field=t.string("initial_field", d.initial_field, choices=("random", "zero")),
+        axes=axes,
+        axis_limits=tuple(limits) if len(set(limits)) > 1 else (),
+        axis_increments=tuple(increments) if len(set(increments)) > 1 else (),
     )
     if t.has("max_increment"):
-        _check_increment(t, out.max_increment, out.field_limit, d.max_increment)
+        for limit, increment in zip(out.limits, out.increments, strict=True):
+            _check_increment(t, increment, limit, d.max_increment)
     if not math.isclose(out.control_rate, CONTROL_RATE):
         raise t.error("control_rate", f"only {CONTROL_RATE:g} Hz is supported (the environments' "
                                       f"0.01 s step and the firmware's playback rate), got "
                                       f"{out.control_rate:g}")
     t.finish()
+    return out
+
+
+def _per_axis(t: SpecTable, key: str, unit: str, axes: str, default: float | None,
+              **checks: Any) -> list[float]:
+    """``key`` of ``[actuation]``: one number for every controlled axis, or a list of one per
+    axis (``axes``' order); each checked as :meth:`SpecTable.number` checks one (positive, below
+    ``high``, plausible)."""
+    value = t.raw(key, default) if default is not None or t.has(key) else t.number(key, unit)
+    if not isinstance(value, list):
+        return [t.number(key, unit, default, low=0.0, low_open=True, **checks)] * len(axes)
+    if len(value) != len(axes):
+        raise t.error(key, f"expected one number ({unit}) or a list of {len(axes)}, one per axis of "
+                           f"axes = {axes!r} ({', '.join(axes)}), got {value!r}")
+    out = []
+    for axis, item in zip(axes, value, strict=True):
+        item_table = SpecTable({key: item}, t.source, t.path, t.accept)
+        try:
+            out.append(item_table.number(key, unit, low=0.0, low_open=True, **checks))
+        except SpecError as exc:
+            raise t.error(key, f"{axis} axis: {str(exc).split(f'{key}: ', 1)[-1]}") from None
     return out
 
 

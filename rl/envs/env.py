@@ -37,6 +37,12 @@ Action: ``Box([-1, 1]^2)`` float32, mapped to a field increment ``(dB_x, dB_y) =
 new field is clipped per component and by amplitude to the field limit (4 or 10 mT) by
 :class:`~elastica_magnetic.ControlledField`, then held for the 0.01 s of the step.
 
+Three-axis actuation (a case with ``[actuation] axes = "xyz"``: the third coil pair, z across the
+robot in the floor plane): the action is ``Box([-1, 1]^3)``, ``(dB_x, dB_y, dB_z)`` with the
+case's increment and limit per axis, and the observation gains one block after ``field_angle``:
+``field_z`` = ``200 * B_z`` (T, signed; the amplitude and angle blocks keep describing the x-y
+part, so a planar policy's inputs mean the same). Planar cases are unchanged.
+
 Reward: ``1e4 * dx`` with ``dx`` (m) the x displacement of node 32 (the middle node, as the
 authors) during the step: the authors' ``10 x displacement in mm``.
 
@@ -66,7 +72,7 @@ from elastica_magnetic import (
 )
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
-from ..cases.case import Case, load_case
+from ..cases.case import ACTUATION_OBSERVATION, Case, load_case
 from ..cases.tasks import CrawlTask, Task
 
 __all__ = [
@@ -95,6 +101,7 @@ OBSERVATION_SCALES: dict[str, float] = {
     "contact_penetration": 1e4,  # per m of penetration
     "field_amplitude": 200.0,  # per T
     "field_angle": 1.0,  # per rad
+    "field_z": 200.0,  # per T (3-axis actuation only), as the amplitude
 }
 
 
@@ -118,18 +125,20 @@ OBSERVATION_LAYOUT: dict[str, slice] = observation_layout(64)
 
 
 def observation_spec(n_elements: int = 64, surface_tolerance: float = 1e-7,
-                     task: Task | None = None) -> dict[str, Any]:
-    """JSON-ready description of the observation (layout, scales, formulas), for exported policies."""
-    extra = () if task is None else task.extra_observation
+                     task: Task | None = None, axes: str = "xy") -> dict[str, Any]:
+    """JSON-ready description of the observation (layout, scales, formulas), for exported policies
+    (``axes``: the controlled field components, ``"xy"`` or ``"xyz"``)."""
+    extra = (*ACTUATION_OBSERVATION[axes], *(() if task is None else task.extra_observation))
     layout = observation_layout(n_elements, extra)
-    formulas = {"target_offset": "100 * (target_x - x_mid) [m]: the reach task's distance to go"}
+    formulas = {"target_offset": "100 * (target_x - x_mid) [m]: the reach task's distance to go",
+                "field_z": "200 * B_z [T] (3-axis actuation: the third coil pair's field)"}
     return {
         "size": next(reversed(layout.values())).stop,
         "dtype": "float32",
         "blocks": [
             {"name": name, "start": s.start, "stop": s.stop} for name, s in layout.items()
         ],
-        "scales": dict(OBSERVATION_SCALES),
+        "scales": {k: v for k, v in OBSERVATION_SCALES.items() if k != "field_z" or axes == "xyz"},
         "formulas": {
             "angular_velocity": "0.25 * omega_z [rad/s] per element (bending angular velocity about "
                                 "lab +z, counter-clockwise positive)",
@@ -147,11 +156,13 @@ def observation_spec(n_elements: int = 64, surface_tolerance: float = 1e-7,
 
 
 def crawler_observation_space(
-    n_elements: int, field_limit: float, extra: tuple[tuple[str, int], ...] = ()
+    n_elements: int, field_limit: float, extra: tuple[tuple[str, int], ...] = (),
+    z_limit: float | None = None,
 ) -> gym.spaces.Box:
     """The float32 ``Box`` of one observation, shape ``(4 n + 4 + extra,)`` (bounds per block:
     angles in ``[-pi, pi]``, heights, contacts and the amplitude non-negative, the amplitude at most
-    ``200 * field_limit`` (T) plus round-off; the task's extra blocks unbounded)."""
+    ``200 * field_limit`` (T) plus round-off, ``field_z`` within ``+-200 * z_limit`` (T; default
+    ``field_limit``); the task's extra blocks unbounded)."""
     n = int(n_elements)
     layout = observation_layout(n, extra)
     size = next(reversed(layout.values())).stop
@@ -164,6 +175,9 @@ def crawler_observation_space(
     high[layout["field_amplitude"]] = np.float32(
         OBSERVATION_SCALES["field_amplitude"] * float(field_limit) * (1.0 + 1e-5)
     )
+    if "field_z" in layout:  # the third coil pair's component, signed
+        bound = OBSERVATION_SCALES["field_z"] * float(z_limit or field_limit) * (1.0 + 1e-5)
+        low[layout["field_z"]], high[layout["field_z"]] = -bound, bound
     return gym.spaces.Box(low, high, dtype=np.float32)
 
 
@@ -181,7 +195,7 @@ def crawler_observation(
         extra: the task's extra observation values ``(k,)`` (see :mod:`elastica_magnetic_rl.cases.tasks`).
     """
     sc = OBSERVATION_SCALES
-    stop = layout["field_angle"].stop
+    stop = layout["field_z" if "field_z" in layout else "field_angle"].stop
     obs = np.empty(stop if extra is None else stop + len(extra), dtype=np.float64)
     if extra is not None:
         obs[stop:] = extra
@@ -200,22 +214,27 @@ def crawler_observation(
     )
     obs[layout["field_amplitude"]] = sc["field_amplitude"] * math.hypot(field[0], field[1])
     obs[layout["field_angle"]] = math.atan2(field[1], field[0])
+    if "field_z" in layout:
+        obs[layout["field_z"]] = sc["field_z"] * field[2]
     return obs.astype(np.float32)
 
 
 def initial_field_value(
-    initial: str | Any, field_limit: float, rng: np.random.Generator
+    initial: str | Any, field_limit: float | Any, rng: np.random.Generator, axes: str = "xy"
 ) -> Any:
     """Initial field of an episode, T: ``(3,)`` tuple or array (clipped later by the field rule).
 
-    ``"random"``: B_x, B_y uniform in ``+-0.7 * field_limit`` (two draws from ``rng``, in this
-    order), B_z = 0; ``"zero"``; or a 2- or 3-vector in T (a 2-vector gets B_z = 0).
+    ``"random"``: each controlled component (``axes``) uniform in ``+-0.7 *`` its limit
+    (``field_limit``: T, one for every axis or one per lab axis ``(3,)``; one draw of
+    ``len(axes)`` values from ``rng``), the others 0 (the paper's: B_x, B_y, then B_z = 0);
+    ``"zero"``; or a 2- or 3-vector in T (a 2-vector gets B_z = 0).
     """
     if isinstance(initial, str):
         if initial == "random":
-            bound = 0.7 * field_limit
-            bxy = rng.uniform(-bound, bound, size=2)
-            return (bxy[0], bxy[1], 0.0)
+            limits = np.broadcast_to(np.asarray(field_limit, dtype=np.float64), (3,))
+            bound = 0.7 * (limits[0] if np.all(limits == limits[0]) else limits[: len(axes)])
+            drawn = rng.uniform(-bound, bound, size=len(axes))
+            return (drawn[0], drawn[1], drawn[2] if len(axes) == 3 else 0.0)
         if initial == "zero":
             return (0.0, 0.0, 0.0)
         raise ValueError(f"initial_field must be 'random', 'zero' or a vector, got {initial!r}")
@@ -239,6 +258,20 @@ class CrawlerSetup:
     n_steps: int
     task: Task
     case: Case | None
+    axes: str = "xy"
+    limits: tuple[float, float, float] | None = None
+    increments: tuple[float, float, float] | None = None
+
+    @property
+    def field_limits(self) -> NDArray[np.float64]:
+        """The limit of each lab axis (x, y, z), T (the amplitude limit on each when not given)."""
+        return np.array(self.limits or (self.field_limit,) * 3, dtype=np.float64)
+
+    @property
+    def field_increments(self) -> NDArray[np.float64]:
+        """The largest increment of each controlled axis per unit action, ``(len(axes),)`` T."""
+        return np.array(self.increments or (self.max_increment,) * 3,
+                        dtype=np.float64)[: len(self.axes)]
 
 
 def crawler_setup(
@@ -297,8 +330,13 @@ def crawler_setup(
     n_steps = int(round(duration / ACTION_PERIOD))
     if n_steps < 1:
         raise ValueError(f"duration must be at least one 0.01 s step, got {duration} s")
+    if loaded is None:
+        return CrawlerSetup(spec, float(field_limit), float(max_increment), initial_field,
+                            float(duration), n_steps, task, loaded)
+    actuation = loaded.actuation
     return CrawlerSetup(spec, float(field_limit), float(max_increment), initial_field,
-                        float(duration), n_steps, task, loaded)
+                        float(duration), n_steps, task, loaded, actuation.axes, actuation.limits,
+                        actuation.increments)
 
 
 def adopt_setup(env: Any, setup: CrawlerSetup, physics: str,
@@ -316,14 +354,29 @@ def adopt_setup(env: Any, setup: CrawlerSetup, physics: str,
     env.duration = setup.duration
     env.max_episode_steps = setup.n_steps
     env.max_increment = setup.max_increment
+    env.axes = setup.axes
+    env.field_limits = setup.field_limits
+    env.field_increments = setup.field_increments
     env.divergence_penalty = float(divergence_penalty)
     n = spec.n_elements
     env.n_elements = n
     env.middle_node = n // 2
-    extra = env.task.extra_observation
+    extra = (*ACTUATION_OBSERVATION[setup.axes], *env.task.extra_observation)
     env.layout = observation_layout(n, extra)
     env.surface_tolerance = float(spec.ground.surface_tolerance)
-    return crawler_observation_space(n, env.field_limit, extra)
+    return crawler_observation_space(n, env.field_limit, extra, float(env.field_limits[2]))
+
+
+def new_field(env: Any, initial: Any) -> ControlledField:
+    """The field of a new episode of ``env`` (after :func:`adopt_setup`) starting at ``initial``
+    (T), with the case's limits and increments per axis."""
+    return ControlledField(env.field_limits, env.setup.increments or env.max_increment, initial)
+
+
+def action_space(setup: CrawlerSetup) -> gym.spaces.Box:
+    """The action of one robot: ``Box([-1, 1]^k)`` float32, one normalised field increment per
+    controlled axis (``k = 2``: dB_x, dB_y; ``3``: dB_x, dB_y, dB_z)."""
+    return gym.spaces.Box(-1.0, 1.0, shape=(len(setup.axes),), dtype=np.float32)
 
 
 class MagneticCrawlerEnv(gym.Env):
@@ -388,7 +441,7 @@ class MagneticCrawlerEnv(gym.Env):
         self.pattern = None if pattern is None and (case is not None or spec is not None) else (
             1 if pattern is None else int(pattern))
         self.render_mode = render_mode
-        self.action_space = gym.spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        self.action_space = action_space(setup)
 
         self.simulation = None
         self.field: ControlledField | None = None
@@ -441,8 +494,8 @@ class MagneticCrawlerEnv(gym.Env):
         """
         super().reset(seed=seed)
         initial = initial_field_value((options or {}).get("initial_field", self.initial_field),
-                                      self.field_limit, self.np_random)
-        self.field = ControlledField(self.field_limit, self.max_increment, initial)
+                                      self.field_limits, self.np_random, self.axes)
+        self.field = new_field(self, initial)
         self.simulation = build_simulation(self.robot_spec, self.field)
         self.steps = 0
         self._diverged = False
@@ -453,18 +506,21 @@ class MagneticCrawlerEnv(gym.Env):
     def step(
         self, action: NDArray[np.float32]
     ) -> tuple[NDArray[np.float32], float, bool, bool, dict[str, Any]]:
-        """Apply the field increment ``0.3 mT * action`` and simulate 0.01 s."""
+        """Apply the field increment ``0.3 mT * action`` (the case's increment per axis) and
+        simulate 0.01 s."""
         if self.simulation is None:
             raise RuntimeError("call reset() before step()")
         if self._diverged:
             raise RuntimeError("the simulation diverged (terminated=True): call reset()")
         a = np.asarray(action, dtype=np.float64)
-        if a.size != 2:
-            raise ValueError(f"action must have 2 components (normalised dB_x, dB_y), got shape {a.shape}")
-        a = np.clip(a.reshape(2), -1.0, 1.0)
+        k = len(self.axes)
+        if a.size != k:
+            raise ValueError(f"action must have {k} components (normalised "
+                             f"{', '.join('dB_' + axis for axis in self.axes)}), got shape {a.shape}")
+        a = np.clip(a.reshape(k), -1.0, 1.0)
         if not np.all(np.isfinite(a)):
             raise ValueError(f"action must be finite, got {action!r}")
-        self.field.apply_increment(a * self.max_increment)
+        self.field.apply_increment(a * self.field_increments)
         position = self.simulation.rod.position_collection
         x_before = float(position[0, self.middle_node])
         terminated = False

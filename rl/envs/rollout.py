@@ -34,8 +34,9 @@ class Rollout:
         x and y of every node, m.
     fields : ndarray (n, 3)
         Field held during step ``i`` (after that step's increment), T: row ``i`` of the field CSV.
-    actions : ndarray (n, 2)
-        Normalised actions in [-1, 1] (x 0.3 mT = field increment).
+    actions : ndarray (n, k)
+        Normalised actions in [-1, 1] (x 0.3 mT = field increment), one per controlled axis
+        (``k = 2``: x, y; ``3`` for a three-axis case).
     rewards : ndarray (n,)
     observations : ndarray (n+1, obs_dim), float32
         Observation before each step (and the final one).

@@ -56,7 +56,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any, Literal
 
-import gymnasium as gym
 import numpy as np
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
@@ -71,10 +70,12 @@ from ..cases.case import Case
 from ..cases.tasks import Task
 from ..cases.variations import Variation
 from .env import (
+    action_space,
     adopt_setup,
     crawler_observation,
     crawler_setup,
     initial_field_value,
+    new_field,
 )
 from .randomization import RobotRandomizer
 
@@ -132,7 +133,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         self.num_envs = int(num_envs)
         self.single_observation_space = adopt_setup(self, setup, physics, divergence_penalty)
         self.render_mode = None
-        self.single_action_space = gym.spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        self.single_action_space = action_space(setup)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
 
@@ -167,8 +168,8 @@ class MagneticCrawlerVectorEnv(VectorEnv):
 
     def _reset_one(self, i: int, initial: Any) -> None:
         """Put robot ``i`` back at rest, straight, with a new initial field; new episode."""
-        value = initial_field_value(initial, self.field_limit, self._rng(i))
-        self.fields[i] = ControlledField(self.field_limit, self.max_increment, value)
+        value = initial_field_value(initial, self.field_limits, self._rng(i), self.axes)
+        self.fields[i] = new_field(self, value)
         if self.randomizer is not None:
             self._set_robot(i, self.randomizer.draw(self._rng(i)))
         self.robots.reset_robot(i)
@@ -239,8 +240,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
             if not mask.all():
                 raise RuntimeError("the first reset must reset every sub-environment")
             self.robots = BatchedRobots(self.robot_spec, self.num_envs)
-            self.fields = [ControlledField(self.field_limit, self.max_increment)
-                           for _ in range(self.num_envs)]
+            self.fields = [new_field(self, (0.0, 0.0, 0.0)) for _ in range(self.num_envs)]
         initial = options.get("initial_field", self.initial_field)
         for i in np.flatnonzero(mask):
             self._reset_one(int(i), initial)
@@ -253,7 +253,8 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         """Apply the field increments ``0.3 mT * actions[i]`` and simulate 0.01 s for all robots.
 
         Args:
-            actions: ``(N, 2)`` in ``[-1, 1]`` (clipped), one row per sub-environment.
+            actions: ``(N, k)`` in ``[-1, 1]`` (clipped), one row per sub-environment (``k``:
+                the controlled axes, 2 or 3).
 
         Returns:
             ``obs`` float32 ``(N, 4 n + 4)`` (first observation of a new episode where one ended),
@@ -263,13 +264,13 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         if self.robots is None:
             raise RuntimeError("call reset() before step()")
         n = self.num_envs
-        a = np.clip(np.asarray(actions, dtype=np.float64).reshape(n, 2), -1.0, 1.0)
+        a = np.clip(np.asarray(actions, dtype=np.float64).reshape(n, len(self.axes)), -1.0, 1.0)
         if not np.all(np.isfinite(a)):
             raise ValueError(f"actions must be finite, got {actions!r}")
         robots = self.robots
         x_before = np.empty(n)
         for i in range(n):
-            robots.fields[i] = self.fields[i].apply_increment(a[i] * self.max_increment)
+            robots.fields[i] = self.fields[i].apply_increment(a[i] * self.field_increments)
             x_before[i] = self._mid_x(i)
         diverged = np.zeros(n, dtype=bool)
         messages: dict[int, str] = {}

@@ -314,7 +314,8 @@ def plot_q_heatmaps(
     max_increment: float = 0.3e-3, n_grid: int = 51, title: str = "",
 ) -> Path:
     """Heat maps of ``Q1(s, a)`` over the 2-D action grid at the given states (paper Fig. 5), axes
-    in mT of field increment; the actor's action is marked (x) and the grid maximum (+).
+    in mT of field increment; the actor's action is marked (x) and the grid maximum (+). A
+    three-axis actor's maps are the (dB_x, dB_y) slice at the dB_z it chose in that state.
 
     ``critic`` is a :class:`~elastica_magnetic_rl.td3.algorithm.TwinCritic`, ``actor`` an
     :class:`~elastica_magnetic_rl.td3.algorithm.Actor` (normalised
@@ -331,8 +332,12 @@ def plot_q_heatmaps(
     for ax, (label, obs) in zip(axes, states, strict=True):
         obs_t = torch.as_tensor(np.asarray(obs, dtype=np.float32).reshape(1, -1))
         with torch.no_grad():
-            q = critic.q1(obs_t.expand(actions.shape[0], -1), actions).numpy().reshape(n_grid, n_grid)
             chosen = actor(obs_t)[0].numpy()
+            grid = actions
+            if chosen.shape[0] > 2:  # the slice through the actor's own dB_z
+                held = np.broadcast_to(chosen[2:], (actions.shape[0], chosen.shape[0] - 2))
+                grid = torch.cat([actions, torch.from_numpy(held.copy())], dim=1)
+            q = critic.q1(obs_t.expand(actions.shape[0], -1), grid).numpy().reshape(n_grid, n_grid)
         image = ax.imshow(q, origin="lower", extent=extent, cmap="viridis", aspect="equal")
         fig.colorbar(image, ax=ax, shrink=0.8, label="Q1")
         iy, ix = np.unravel_index(int(np.argmax(q)), q.shape)
@@ -343,8 +348,9 @@ def plot_q_heatmaps(
                 label="action chosen", clip_on=False, zorder=6)
         ax.set_xlabel("dB_x (mT)")
         ax.set_ylabel("dB_y (mT)")
+        at_z = f", at dB_z {scale * chosen[2]:+.2f}" if chosen.shape[0] > 2 else ""
         ax.set_title(f"{label}\nchosen ({scale * chosen[0]:+.2f}, {scale * chosen[1]:+.2f}) mT, "
-                     f"max Q at ({scale * a[ix]:+.2f}, {scale * a[iy]:+.2f}) mT", fontsize=8)
+                     f"max Q at ({scale * a[ix]:+.2f}, {scale * a[iy]:+.2f}) mT{at_z}", fontsize=8)
     axes[0].legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.18), ncol=2)
     if title:
         fig.suptitle(title)

@@ -145,7 +145,8 @@ def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: st
         MID_NODE_KEY: node_dx(rollout),
         "return": float(np.sum(rollout.rewards)),
         "max_height_m": float(traj.height_max_m.max()),
-        "max_field_T": float(np.max(np.hypot(rollout.fields[:, 0], rollout.fields[:, 1])))
+        "max_field_T": float(np.max(np.hypot(np.hypot(rollout.fields[:, 0], rollout.fields[:, 1]),
+                                                 rollout.fields[:, 2])))
         if rollout.n_steps else 0.0,
         **_verdict(loaded.case, rollout, physics),
         "diverged": rollout.meta["diverged"],

@@ -335,18 +335,21 @@ def observation_spec_of(case: Case) -> dict[str, Any]:
     from ..envs.env import observation_spec
 
     ground = case.robot_spec("training").ground
-    return observation_spec(case.n_elements, ground.surface_tolerance, case.task)
+    return observation_spec(case.n_elements, ground.surface_tolerance, case.task,
+                            case.actuation.axes)
 
 
 def action_spec_of(case: Case) -> dict[str, Any]:
     """The ``action`` entry of a policy's ``policy.json``: the action's scaling to a field increment
     (T) and the field rule."""
-    increment = case.actuation.max_increment
-    return {
-        "shape": [2],
+    actuation = case.actuation
+    increment = actuation.max_increment
+    components = ", ".join(f"dB_{axis}" for axis in actuation.axes)
+    spec = {
+        "shape": [actuation.n_axes],
         "low": -1.0,
         "high": 1.0,
-        "meaning": "field increment (dB_x, dB_y) = field_increment_T_per_unit * action",
+        "meaning": f"field increment ({components}) = field_increment_T_per_unit * action",
         "field_increment_T_per_unit": increment,
         "field_increment_mT_per_unit": increment * 1e3,
         "field_limit_T": case.field_limit,
@@ -355,3 +358,12 @@ def action_spec_of(case: Case) -> dict[str, Any]:
                       "(100 Hz)",
         "control_period_s": 0.01,
     }
+    if actuation.axis_limits or actuation.axis_increments:  # coil pairs that differ
+        spec["field_increment_T_per_unit_per_axis"] = list(actuation.increments[:actuation.n_axes])
+        spec["field_limit_T_per_axis"] = list(actuation.limits[:actuation.n_axes])
+        spec["field_rule"] = ("B += clip(dB, -increment, +increment) per axis; clip each component "
+                              "to +-its axis limit; if |B| > field_limit_T (the largest axis limit) "
+                              "scale B to |B| = field_limit_T; hold for 0.01 s (100 Hz)")
+        spec["meaning"] = (f"field increment ({components}) = field_increment_T_per_unit_per_axis "
+                           "* action, per component")
+    return spec

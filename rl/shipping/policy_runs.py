@@ -92,7 +92,8 @@ def run_policy(
     }
     return Rollout(
         times=np.asarray(times), positions=np.asarray(positions),
-        fields=np.asarray(fields).reshape(-1, 3), actions=np.asarray(actions).reshape(-1, 2),
+        fields=np.asarray(fields).reshape(-1, 3),
+        actions=np.asarray(actions).reshape(-1, env.action_space.shape[0]),
         rewards=np.asarray(rewards), observations=np.asarray(observations, dtype=np.float32),
         trajectory=pd.DataFrame(rows, columns=list(TRAJECTORY_COLUMNS)), meta=meta,
     )

@@ -151,7 +151,8 @@ def test_export_refuses_a_clipped_waveform_unless_allowed(tmp_path, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert "strong.csv: the coils of calibration 'default' cannot follow this waveform" in err
-    assert "4 row(s) need more than the current limit (up to 50.03 A for a limit of 2.4 A)" in err
+    assert ("4 row(s) need more than the current limit of the x coils (up to 50.03 A for a limit "
+            "of 2.4 A)") in err
     assert "4 row(s) clipped, first at data row 3" in err and "--allow-clipping" in err
     assert not (tmp_path / "out").exists()
     assert main([*argv, "--allow-clipping"]) == 0

@@ -43,6 +43,7 @@ def test_the_report_says_how_many_rows_and_by_how_much(tmp_path):
     assert report.slew_limit_A_per_s == 0.1 and 14.9 < report.max_rate_A_per_s < 15.1
     assert 2.9 < report.max_lag_mT < 3.0  # the 3 mT ramp end, less 10 x 0.001 A x 2 mT/A
     assert re.fullmatch(r"10 row\(s\) slew-limited, first at data row 1: the waveform changes a current "
+                        r"\(x coils\) "
                         r"at up to 15\.\d+ A/s for a slew limit of 0\.1 A/s, so the field lags it by "
                         r"up to 2\.98 mT", report.describe_slew())
 

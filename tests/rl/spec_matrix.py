@@ -1,7 +1,8 @@
 """The spec matrix (issue 49): ``hypothesis`` strategies of valid spec files covering every form
 the format allows for what the features read (a named magnetization pattern, ``segments`` by
 elements or by fractions with and without their own magnitudes, a per-element ``table``; an
-explicit shear modulus or a Poisson ratio; a crawl or a reach task; a band or a round section),
+explicit shear modulus or a Poisson ratio; a crawl or a reach task; a band or a round section;
+the paper's two field axes or three, one limit or one per axis; a rolling or sliding ground),
 written as a user writes them (the shortest form: the parser completes them). Tests of any
 feature draw from :func:`user_specs` rather than trusting the shipped cases alone.
 """
@@ -77,11 +78,13 @@ def magnetizations(draw, n_elements: int, kinds: tuple[str, ...] = KINDS) -> dic
 
 @st.composite
 def user_specs(draw, kinds: tuple[str, ...] = KINDS, poisson: bool | None = None,
-               round_section: bool | None = None, task: str | None = None) -> dict[str, Any]:
+               round_section: bool | None = None, task: str | None = None,
+               actuation: dict[str, Any] | None = None) -> dict[str, Any]:
     """A valid spec as a user writes it, in every form the format allows for the robot's
     magnetization (of ``kinds``), its moduli (``poisson``: a Poisson ratio, else a shear modulus),
-    its section (``round_section``: a radius, else a band) and its task (``"crawl"`` or
-    ``"reach"``); ``None``: drawn."""
+    its section (``round_section``: a radius, else a band), its task (``"crawl"`` or
+    ``"reach"``), its actuation (one of :data:`ACTUATIONS`) and its ground's sideways model
+    (rolling, sliding or left out); ``None``: drawn."""
     spec = copy.deepcopy(BASE)
     robot = spec["robot"]
     robot["n_elements"] = draw(st.sampled_from([16, 24, 32]))
@@ -95,4 +98,18 @@ def user_specs(draw, kinds: tuple[str, ...] = KINDS, poisson: bool | None = None
         robot["radius"] = 0.0005
     if (draw(st.sampled_from(["crawl", "reach"])) if task is None else task) == "reach":
         spec["task"] = {"kind": "reach", "target": 0.01, "tolerance": 0.001}
-    return spec
+    spec["actuation"] = draw(st.sampled_from(ACTUATIONS)) if actuation is None else actuation
+    sideways = draw(st.sampled_from(["rolling", "sliding", None]))
+    if sideways is not None:
+        robot["ground"]["sideways"] = sideways
+    return copy.deepcopy(spec)
+
+
+#: Every form of ``[actuation]``: one limit (the paper's two axes), a limit per axis, the third
+#: coil pair with one limit, and with a weaker z pair and its own increment.
+ACTUATIONS: tuple[dict[str, Any], ...] = (
+    {"field_limit": 0.004},
+    {"field_limit": [0.004, 0.003]},
+    {"axes": "xyz", "field_limit": 0.004},
+    {"axes": "xyz", "field_limit": [0.004, 0.004, 0.002], "max_increment": [3e-4, 3e-4, 2e-4]},
+)

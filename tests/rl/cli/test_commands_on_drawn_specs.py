@@ -1,10 +1,11 @@
 """Every command on robots the tests do not contain (issue 49): specs drawn from the spec matrix
 (``tests/rl/spec_matrix.py``: segments, per-element tables, named patterns; Poisson ratio or
-shear modulus; band or round; crawl or reach) go through train -> refine (randomized by the
-default set) -> generate -> robustness of the refined run -> export, baseline and its yardstick
-copy, and identify with every default group, at tiny durations. Each step checks what could be
-false: every default group present and applied, the same robot in every command (robustness's
-nominal run is generate's run), the files a later step reads back through the parser."""
+shear modulus; band or round; crawl or reach; two field axes or three) go through train ->
+refine (randomized by the default set) -> generate -> robustness of the refined run -> export,
+baseline and its yardstick copy, and identify with every default group, at tiny durations. Each
+step checks what could be false: every default group present and applied, the same robot in
+every command (robustness's nominal run is generate's run), the files a later step reads back
+through the parser."""
 
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ from elastica_magnetic_rl.shipping.baseline_sweep import yardstick_spec
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 from smoke import SMOKE
-from spec_matrix import user_specs
+from spec_matrix import ACTUATIONS, user_specs
 
 from elastica_magnetic.cli import main as msr
 from elastica_magnetic.field_csv import write_field_csv
@@ -32,10 +33,12 @@ DRAWN = settings(max_examples=2, derandomize=True, database=None, deadline=None,
                  suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 #: One drawn spec per form (the rest of it drawn): the magnetizations a user's own robot most
 #: often has and the paper's cases lack, each with the other moduli, section and task.
-FORMS = [pytest.param(dict(kinds=("segments",), poisson=True, round_section=False, task="crawl"),
-                      id="segments-poisson-band-crawl"),
-         pytest.param(dict(kinds=("table",), poisson=False, round_section=True, task="reach"),
-                      id="table-shear-round-reach")]
+FORMS = [pytest.param(dict(kinds=("segments",), poisson=True, round_section=False, task="crawl",
+                           actuation=ACTUATIONS[3]),
+                      id="segments-poisson-band-crawl-xyz"),
+         pytest.param(dict(kinds=("table",), poisson=False, round_section=True, task="reach",
+                           actuation=ACTUATIONS[0]),
+                      id="table-shear-round-reach-xy")]
 
 
 def _json(capsys, *argv: str) -> dict:
