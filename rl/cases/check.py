@@ -12,7 +12,7 @@ from typing import Any
 from elastica_magnetic.spec_check import SpecCheck, check_robot, check_spec, format_check
 from elastica_magnetic.specfile import describe_robot, read_spec
 
-from .case import Case, case_names
+from .case import Actuation, Case, case_names
 
 __all__ = ["RobotOnlySpec", "case_summary", "check_case", "check_robot_only", "coverage",
            "robot_only_spec"]
@@ -87,8 +87,7 @@ def case_summary(case: Case, check: SpecCheck | None = None) -> str:
                      for k, v in t.to_dict().items() if k != "kind")
     lines = [
         f"{case.name}: {case.description}" if case.description else case.name,
-        f"  actuation    field limit {1e3 * a.field_limit:g} mT, at most {1e3 * a.max_increment:g} mT "
-        f"per axis per {1e3 / a.control_rate:g} ms, training episodes from a {a.initial_field} field",
+        f"  actuation    {_axes_text(a)}, training episodes from a {a.initial_field} field",
         f"  task         {t.kind} ({task})",
         f"  training     recipe {tr.recipe}, {tr.steps} steps per seed"
         + (f", TD3 settings {dict(tr.td3)}" if tr.td3 else ""),
@@ -97,3 +96,17 @@ def case_summary(case: Case, check: SpecCheck | None = None) -> str:
     ]
     check = check if check is not None else check_case(case, sag=False)
     return "\n".join(lines) + "\n" + format_check(check)
+
+
+def _axes_text(a: Actuation) -> str:
+    """The field the policy controls in words: its axes, limits and increments (mT)."""
+    pairs = "the third coil pair too" if a.n_axes == 3 else "the paper's two coil pairs"
+    axes = f"axes {a.axes} ({pairs})"
+    per = f"per {1e3 / a.control_rate:g} ms"
+    if not (a.axis_limits or a.axis_increments):
+        return (f"{axes}, field limit {1e3 * a.field_limit:g} mT, at most {1e3 * a.max_increment:g} "
+                f"mT per axis {per}")
+    limits = ", ".join(f"{axis} {1e3 * v:g}" for axis, v in zip(a.axes, a.limits, strict=False))
+    steps = ", ".join(f"{axis} {1e3 * v:g}" for axis, v in zip(a.axes, a.increments, strict=False))
+    return (f"{axes}, field limits {limits} mT (amplitude {1e3 * a.field_limit:g} mT), at most "
+            f"{steps} mT {per}")

@@ -155,3 +155,12 @@ def test_the_vector_environment_equals_the_single_one_in_three_axes():
         obs, *_ = vector.step(actions)
         one, *_ = single.step(actions[0])
         assert np.array_equal(obs[0], one)
+
+
+def test_the_case_summary_names_the_axes_and_per_axis_limits():
+    from elastica_magnetic_rl.cases.check import case_summary
+
+    text = case_summary(xyz_case(field_limit=[4e-3, 4e-3, 3e-3], max_increment=[3e-4, 3e-4, 2e-4]))
+    assert ("actuation    axes xyz (the third coil pair too), field limits x 4, y 4, z 3 mT "
+            "(amplitude 4 mT), at most x 0.3, y 0.3, z 0.2 mT per 10 ms") in text
+    assert "axes xy (the paper's two coil pairs), field limit 4 mT" in case_summary(load_case("m1-4mT"))
