@@ -115,10 +115,14 @@ class RampedField(UniformField):
 
 
 class RotatingField(UniformField):
-    """A field of constant amplitude rotating in the x-y plane.
+    """A field of constant amplitude rotating in a vertical plane: the x-y plane, or that plane
+    turned about the vertical (y) axis by ``heading``.
 
-    ``B(t) = amplitude * (cos(2 pi f t + phase), sin(2 pi f t + phase), 0)``; a positive frequency
-    rotates counter-clockwise seen from +z.
+    ``B(t) = amplitude * (cos(a) u + sin(a) e_y)`` with ``a = 2 pi f t + phase`` and the plane's
+    horizontal direction ``u = (cos h, 0, -sin h)`` (``h = heading``, counter-clockwise seen from
+    above, +y); ``heading = 0`` is the paper's x-y field ``(cos a, sin a, 0)``, where a positive
+    frequency rotates counter-clockwise seen from +z. A clockwise field (``f < 0``) rolls the
+    paper's robots along ``u``: ``heading = pi / 2`` rolls them sideways, toward -z.
 
     Parameters
     ----------
@@ -130,12 +134,16 @@ class RotatingField(UniformField):
         rad, angle of the field at ``t = 0``.
     ramp_time : float
         s; if positive, the amplitude grows linearly from zero over this time.
+    heading : float
+        rad, the rotation plane turned about +y (0: the x-y plane).
     """
 
     def __init__(
-        self, amplitude: float, frequency: float, phase: float = 0.0, ramp_time: float = 0.0
+        self, amplitude: float, frequency: float, phase: float = 0.0, ramp_time: float = 0.0,
+        heading: float = 0.0,
     ) -> None:
-        for name, value in (("amplitude (T)", amplitude), ("frequency (Hz)", frequency)):
+        for name, value in (("amplitude (T)", amplitude), ("frequency (Hz)", frequency),
+                            ("heading (rad)", heading)):
             if not math.isfinite(value):
                 raise ValueError(f"{name} must be finite, got {value}")
         if amplitude < 0.0:
@@ -146,6 +154,8 @@ class RotatingField(UniformField):
         self.frequency = float(frequency)
         self.phase = float(phase)
         self.ramp_time = float(ramp_time)
+        self.heading = float(heading)
+        self._horizontal = (math.cos(self.heading), -math.sin(self.heading))  # u_x, u_z
         self._value = np.zeros(3)
 
     def __call__(self, time: float) -> NDArray[np.float64]:
@@ -153,7 +163,12 @@ class RotatingField(UniformField):
         if self.ramp_time > 0.0 and time < self.ramp_time:
             amplitude *= max(time, 0.0) / self.ramp_time
         angle = 2.0 * math.pi * self.frequency * time + self.phase
-        self._value[0] = amplitude * math.cos(angle)
+        if self.heading == 0.0:  # the paper's plane, exactly
+            self._value[0] = amplitude * math.cos(angle)
+        else:
+            across = amplitude * math.cos(angle)
+            self._value[0] = across * self._horizontal[0]
+            self._value[2] = across * self._horizontal[1]
         self._value[1] = amplitude * math.sin(angle)
         return self._value
 

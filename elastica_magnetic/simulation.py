@@ -29,15 +29,16 @@ __all__ = [
     "RobotSimulation",
     "SimulationDivergedError",
     "build_simulation",
+    "PLANAR_TRAJECTORY_COLUMNS",
     "TRAJECTORY_COLUMNS",
     "trajectory_row",
 ]
 
 FieldFunction = Callable[[float], NDArray[np.float64]]
 
-#: Columns of ``trajectory.csv`` (as in the published reference): time, middle (mean of the two
+#: The columns of the published reference trajectory (planar): time, middle (mean of the two
 #: central elements), back (element 0), front (last element), largest element height, span.
-TRAJECTORY_COLUMNS = (
+PLANAR_TRAJECTORY_COLUMNS = (
     "t_s",
     "mid_x_m",
     "mid_y_m",
@@ -48,6 +49,9 @@ TRAJECTORY_COLUMNS = (
     "height_max_m",
     "span_m",
 )
+#: Columns of ``trajectory.csv``: the planar ones, then the same markers' sideways position z
+#: (across the robot's start, in the floor plane: 0 for planar motion).
+TRAJECTORY_COLUMNS = (*PLANAR_TRAJECTORY_COLUMNS, "mid_z_m", "back_z_m", "front_z_m")
 
 
 class MagneticRodSimulator(
@@ -147,10 +151,12 @@ class RobotSimulation:
 
 
 def trajectory_row(rod: ea.CosseratRod, time: float) -> dict[str, float]:
-    """Trajectory markers of a planar robot, from its element centres (y from the start height)."""
+    """Trajectory markers of a robot (:data:`TRAJECTORY_COLUMNS`), from its element centres (y from
+    the start height; the span along x)."""
     position = rod.position_collection
     centres_x = 0.5 * (position[0, :-1] + position[0, 1:])
     centres_y = 0.5 * (position[1, :-1] + position[1, 1:])
+    centres_z = 0.5 * (position[2, :-1] + position[2, 1:])
     n = centres_x.shape[0]
     mid = [n // 2 - 1, n // 2] if n % 2 == 0 else [n // 2]
     return {
@@ -163,6 +169,9 @@ def trajectory_row(rod: ea.CosseratRod, time: float) -> dict[str, float]:
         "front_y_m": float(centres_y[-1]),
         "height_max_m": float(centres_y.max()),
         "span_m": float(centres_x[-1] - centres_x[0]),
+        "mid_z_m": float(centres_z[mid].mean()),
+        "back_z_m": float(centres_z[0]),
+        "front_z_m": float(centres_z[-1]),
     }
 
 

@@ -112,7 +112,9 @@ def test_msr_replay_json(tmp_path, reference_dir, capsys):
     assert result["duration_s"] == pytest.approx(0.2)
     trajectory = pd.read_csv(result["trajectory_csv"])
     reference_columns = pd.read_csv(reference_dir / "trajectory.csv", nrows=1).columns
-    assert list(trajectory.columns) == list(reference_columns)
+    # the published reference's columns, in its order, then the sideways markers (planar: 0)
+    assert list(trajectory.columns) == [*reference_columns, "mid_z_m", "back_z_m", "front_z_m"]
+    assert (trajectory[["mid_z_m", "back_z_m", "front_z_m"]] == 0.0).all().all()
     assert len(trajectory) == 21 and trajectory.t_s.iloc[0] == 0.0
     assert np.allclose(np.diff(trajectory.t_s), 0.01)
     assert (tmp_path / "replay.png").stat().st_size > 10_000

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 import numpy as np
@@ -86,6 +87,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--ramp", type=number("s", 0.0), default=None,
                    help="amplitude ramp-up time, s (0: none; at most --duration; default 0.2 or "
                    "--duration if shorter)")
+    p.add_argument("--heading", type=_heading, default=None,
+                   help="turn the rotation plane about the vertical (y) axis, rad, counter-"
+                   "clockwise seen from above (default 0: the x-y plane; 1.5708, i.e. 90 degrees: "
+                   "the y-z plane, which rolls the robot sideways toward -z); needs the third "
+                   "coil pair")
     p.add_argument("--duration", type=duration_option(), default=3.0, help="s")
     p.add_argument("--out", type=output_path, default="out/simulate", help="output folder")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
@@ -187,7 +193,9 @@ def simulate_command(args: argparse.Namespace) -> int:
         )
     spec = load_robot(args.robot, args.physics)
     args.amplitude, amplitude_from = simulate_amplitude(args)
-    field = RotatingField(args.amplitude, args.frequency, phase=0.5 * np.pi, ramp_time=args.ramp)
+    heading = 0.0 if args.heading is None else args.heading
+    field = RotatingField(args.amplitude, args.frequency, phase=0.5 * np.pi, ramp_time=args.ramp,
+                          heading=heading)
     with result_folder(args.out, kind="simulate", subject=f"robot {spec.name}", force=args.force,
                        known_files=SIMULATE_FILES) as out:
         print_notes(out.notes)
@@ -202,16 +210,19 @@ def simulate_command(args: argparse.Namespace) -> int:
         figure = plot_open_loop(
             result, out.path / "shapes.png",
             title=f"{args.robot} under a {1e3 * args.amplitude:g} mT field rotating at "
-            f"{args.frequency:g} Hz ({args.physics} physics)",
+            f"{args.frequency:g} Hz{f', plane turned {heading:g} rad' if heading else ''} "
+            f"({args.physics} physics)",
         )
     print_result({**_summary(args, result, out.final_path(trajectory_csv), out.final_path(figure)),
-                  "amplitude_T": args.amplitude, "amplitude_from": amplitude_from}, args.json)
+                  "amplitude_T": args.amplitude, "amplitude_from": amplitude_from,
+                  "heading_rad": heading}, args.json)
     return 0
 
 
 def _simulate_spatial(args: argparse.Namespace, setup) -> int:
     """``msr field simulate`` with a spec whose ``[field]`` names a source in space (no rotating field)."""
-    given = [f"--{name}" for name in ("amplitude", "frequency", "ramp") if getattr(args, name) is not None]
+    given = [f"--{name}" for name in ("amplitude", "frequency", "ramp", "heading")
+             if getattr(args, name) is not None]
     if given:
         raise CommandError(f"{' and '.join(given)} set the rotating field, but {args.robot} names its "
                            f"own field ([field] kind = {setup.table['kind']!r}); drop them or the [field] "
@@ -241,11 +252,29 @@ def _simulate_spatial(args: argparse.Namespace, setup) -> int:
     return 0
 
 
+def _heading(text: str) -> float:
+    """``--heading``: an angle in rad within one turn; a value of degrees is named as such."""
+    value = number("rad", -2 * math.pi, 2 * math.pi)
+    try:
+        return value(text)
+    except argparse.ArgumentTypeError as exc:
+        try:
+            degrees = float(text)
+        except ValueError:
+            raise exc from None
+        if math.isfinite(degrees) and abs(degrees) <= 360.0:
+            raise argparse.ArgumentTypeError(
+                f"{exc}: degrees? give rad ({degrees:g} degrees = {math.radians(degrees):.6g} rad)"
+            ) from None
+        raise
+
+
 def _summary(args, result, trajectory_csv: Path, figure: Path) -> dict[str, object]:
     return {
         "robot": args.robot,
         "physics": args.physics,
         "mid_dx_m": result.mid_dx,
+        "mid_dz_m": float(result.trajectory.mid_z_m.iloc[-1] - result.trajectory.mid_z_m.iloc[0]),
         "max_height_m": result.max_height,
         "duration_s": float(result.trajectory.t_s.iloc[-1]),
         "trajectory_csv": str(trajectory_csv),
@@ -258,7 +287,7 @@ def _summary(args, result, trajectory_csv: Path, figure: Path) -> dict[str, obje
 def _read_reference(path: Path, duration: float) -> pd.DataFrame:
     """The reference trajectory of ``msr field replay --reference``, checked: the columns of
     ``trajectory.csv``, numbers only, and at least two frames within ``[0, duration]`` s."""
-    from ..simulation import TRAJECTORY_COLUMNS
+    from ..simulation import PLANAR_TRAJECTORY_COLUMNS, TRAJECTORY_COLUMNS
 
     if not path.is_file():
         raise CommandError(f"--reference {path}: no such reference trajectory")
@@ -270,22 +299,25 @@ def _read_reference(path: Path, duration: float) -> pd.DataFrame:
         ) from None
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise CommandError(f"--reference {path}: not a readable UTF-8 CSV: {exc}") from None
-    missing = [c for c in TRAJECTORY_COLUMNS if c not in reference.columns]
+    missing = [c for c in PLANAR_TRAJECTORY_COLUMNS if c not in reference.columns]
     if missing:
         raise CommandError(f"--reference {path}: lacks column(s) {', '.join(missing)}"
                            f"{separator_hint([str(c) for c in reference.columns])}")
     if reference.empty:
         raise CommandError(f"--reference {path}: header but no data rows")
-    reference = reference[list(TRAJECTORY_COLUMNS)]
+    # the sideways columns where the reference has them all (a planar reference lacks them)
+    columns = list(TRAJECTORY_COLUMNS if set(TRAJECTORY_COLUMNS) <= set(reference.columns)
+                   else PLANAR_TRAJECTORY_COLUMNS)
+    reference = reference[columns]
     values = reference.apply(pd.to_numeric, errors="coerce").to_numpy(dtype=np.float64)
     bad = ~np.isfinite(values)
     if bad.any():
         row, col = (int(i) for i in np.argwhere(bad)[0])
         raise CommandError(
-            f"--reference {path}: line {row + 2}, column {TRAJECTORY_COLUMNS[col]}: "
+            f"--reference {path}: line {row + 2}, column {columns[col]}: "
             f"{reference.iloc[row, col]!r} is not a finite number (SI units: s, m)"
         )
-    reference = pd.DataFrame(values, columns=list(TRAJECTORY_COLUMNS))
+    reference = pd.DataFrame(values, columns=columns)
     _judge_reference_positions(path, reference)
     within = int(np.count_nonzero((reference.t_s >= -1e-9) & (reference.t_s <= duration + 1e-9)))
     if within < 2:
@@ -321,6 +353,9 @@ def compare_trajectories(trajectory: pd.DataFrame, reference: pd.DataFrame) -> d
     for column in ("mid_x_m", "mid_y_m", "back_x_m", "front_x_m", "height_max_m", "span_m"):
         sim = np.interp(ref.t_s, trajectory.t_s, trajectory[column])
         out[f"max_abs_diff_{column}"] = float(np.max(np.abs(sim - ref[column])))
+    if "mid_z_m" in ref.columns:  # a reference with the sideways markers
+        sim = np.interp(ref.t_s, trajectory.t_s, trajectory["mid_z_m"])
+        out["max_abs_diff_mid_z_m"] = float(np.max(np.abs(sim - ref["mid_z_m"])))
     ref_dx = float(ref.mid_x_m.iloc[-1] - ref.mid_x_m.iloc[0])
     sim_dx = float(np.interp(ref.t_s.iloc[-1], trajectory.t_s, trajectory.mid_x_m)
                    - trajectory.mid_x_m.iloc[0])

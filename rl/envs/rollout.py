@@ -13,7 +13,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from elastica_magnetic.io import DamagedFileError, atomic_save, display_path
-from elastica_magnetic.simulation import TRAJECTORY_COLUMNS
+from elastica_magnetic.simulation import PLANAR_TRAJECTORY_COLUMNS, TRAJECTORY_COLUMNS
 
 from .env import observation_layout
 
@@ -30,8 +30,8 @@ class Rollout:
     ----------
     times : ndarray (n+1,)
         s; entry 0 is the initial state.
-    positions : ndarray (n+1, 2, n_nodes)
-        x and y of every node, m.
+    positions : ndarray (n+1, 3, n_nodes)
+        x, y and z of every node, m (files written before z: ``(n+1, 2, n_nodes)``).
     fields : ndarray (n, 3)
         Field held during step ``i`` (after that step's increment), T: row ``i`` of the field CSV.
     actions : ndarray (n, k)
@@ -117,9 +117,20 @@ class Rollout:
             actions=arrays["actions"],
             rewards=arrays["rewards"],
             observations=arrays["observations"],
-            trajectory=pd.DataFrame(arrays["trajectory"], columns=list(TRAJECTORY_COLUMNS)),
+            trajectory=_trajectory_frame(arrays["trajectory"]),
             meta=meta,
         )
+
+
+def _trajectory_frame(rows: NDArray[np.float64]) -> pd.DataFrame:
+    """The trajectory of a rollout file; one written before the sideways columns (a planar run:
+    its markers never left z = 0) gets them as zeros."""
+    if rows.shape[1] == len(TRAJECTORY_COLUMNS):
+        return pd.DataFrame(rows, columns=list(TRAJECTORY_COLUMNS))
+    frame = pd.DataFrame(rows, columns=list(PLANAR_TRAJECTORY_COLUMNS))
+    for column in TRAJECTORY_COLUMNS[len(PLANAR_TRAJECTORY_COLUMNS):]:
+        frame[column] = 0.0
+    return frame
 
 
 #: The arrays of a ``rollout.npz``.
@@ -146,7 +157,7 @@ def _check_shapes(path: Path, a: dict[str, np.ndarray]) -> None:
                       ("trajectory", n + 1)):
         if a[key].ndim < 2 or a[key].shape[0] != rows:
             raise _damaged(path, f"{key} has shape {a[key].shape}, expected {rows} rows")
-    if a["trajectory"].shape[1] != len(TRAJECTORY_COLUMNS):
+    if a["trajectory"].shape[1] not in (len(TRAJECTORY_COLUMNS), len(PLANAR_TRAJECTORY_COLUMNS)):
         raise _damaged(path, f"trajectory has {a['trajectory'].shape[1]} columns, expected "
                              f"{len(TRAJECTORY_COLUMNS)}")
     for key in ("times", "fields", "actions"):  # positions may end in a blow-up (diverged)

@@ -88,7 +88,8 @@ def generate(
 
     Returns a dict with at least ``physics``, ``duration_s`` and ``initial_field`` (what every
     distance in it was measured in), ``mid_dx_m`` (x displacement of the middle, mean of the two
-    central element centres as in ``trajectory.csv``, m), ``mid_node_dx_m`` (of the reward's middle
+    central element centres as in ``trajectory.csv``, m), ``mid_dz_m`` (its sideways
+    displacement, m: 0 for planar motion), ``mid_node_dx_m`` (of the reward's middle
     node, node ``n // 2``), ``target``, ``fields_csv`` and ``trajectory_csv``; ``yardstick_10s_m``
     when the case has one and ``meets_target`` only for a 10 s run in the accurate physics of a
     case with a target.
@@ -142,6 +143,7 @@ def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: st
         "duration_s": float(rollout.times[-1]),
         "initial_field": "zero",
         "mid_dx_m": rollout.mid_dx,
+        "mid_dz_m": float(traj.mid_z_m.iloc[-1] - traj.mid_z_m.iloc[0]),
         MID_NODE_KEY: node_dx(rollout),
         "return": float(np.sum(rollout.rewards)),
         "max_height_m": float(traj.height_max_m.max()),

@@ -56,7 +56,7 @@ def run_policy(
                          f"{obs.shape[0]}")
     sim = env.simulation
     n = env.max_episode_steps
-    times, positions, observations = [0.0], [sim.rod.position_collection[:2].copy()], [obs]
+    times, positions, observations = [0.0], [sim.rod.position_collection.copy()], [obs]
     rows = [sim.markers()]
     fields, actions, rewards = [], [], []
     diverged = None
@@ -73,7 +73,7 @@ def run_policy(
             actions.append(action)
             rewards.append(reward)
             times.append(sim.time)
-            positions.append(sim.rod.position_collection[:2].copy())
+            positions.append(sim.rod.position_collection.copy())
             observations.append(obs)
             rows.append(sim.markers())
             bar.update(1)

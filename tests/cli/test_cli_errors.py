@@ -173,12 +173,12 @@ def test_simulate_amplitude_is_judged_as_a_coil_field(tmp_path, capsys):
 def test_a_reference_in_millimetres_is_refused(tmp_path, capsys):
     """``--reference`` positions in mm were compared as m: an error of 10 m reported as a result
     (round 4, S9)."""
-    from elastica_magnetic.simulation import TRAJECTORY_COLUMNS
+    from elastica_magnetic.simulation import PLANAR_TRAJECTORY_COLUMNS
 
     field = tmp_path / "f.csv"
     field.write_text("mag_x,mag_y,mag_z\n" + "0,4,0\n" * 5)
     reference = tmp_path / "ref.csv"
-    rows = [",".join(TRAJECTORY_COLUMNS)]
+    rows = [",".join(PLANAR_TRAJECTORY_COLUMNS)]  # the published reference's columns
     for k in range(3):  # the robot's 20 mm in mm
         rows.append(",".join([f"{0.01 * k:g}", "10", "0.5", "0", "0.5", "20", "0.5", "1", "20"]))
     reference.write_text("\n".join(rows) + "\n")
