@@ -45,7 +45,7 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .io import OutputPathError, display_path, normalized_path, unwritable_reason
+from .io import OutputPathError, display_path, normalized_path, output_path_problem, unwritable_reason
 from .locks import FolderLock, claim, host_name, lock_path, name_tag, release_claim
 from .results import ResultExistsError, fsync_tree, remove_tree, signals_as_exceptions, signals_held
 
@@ -307,6 +307,8 @@ def _new_files(final: Path) -> list[Path]:
 def _check_file(final: Path, force: bool, option: str, force_option: str,
                 kind: FileKind | None = None) -> None:
     where = f"{option} {display_path(final)}"
+    if (problem := output_path_problem(final)) is not None:
+        raise OutputPathError(f"{where}: {problem}")
     if final.is_dir():
         raise OutputPathError(f"{where}: is a folder, expected a file name")
     if final.exists() and not final.is_file():  # a device, a pipe, a socket: never replaced

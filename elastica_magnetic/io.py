@@ -84,6 +84,26 @@ def normalized_path(path: str | os.PathLike[str]) -> Path:
     return Path(os.path.realpath(os.path.expanduser(os.fspath(path))))
 
 
+def output_path_problem(path: str | os.PathLike[str]) -> str | None:
+    """Why a normalized output ``path`` (:func:`normalized_path`) can never be written, or ``None``:
+    a symbolic link in a loop (still a link once resolved: writing would replace the link) or a
+    name longer than the file system allows."""
+    path = Path(path)
+    for part in (path, *path.parents):
+        if os.path.islink(part):
+            return (f"{part} is a symbolic link that leads back to itself (a loop); give a folder "
+                    "or a file name that is not such a link")
+    try:
+        longest = os.pathconf(next(p for p in path.parents if p.exists()), "PC_NAME_MAX")
+    except (OSError, ValueError, StopIteration):
+        longest = 255
+    long_names = [part for part in path.parts if len(os.fsencode(part)) > longest]
+    if long_names:
+        return (f"the name {long_names[0][:40]}... is {len(os.fsencode(long_names[0]))} bytes long; "
+                f"the file system allows at most {longest}")
+    return None
+
+
 def display_path(path: str | os.PathLike[str]) -> str:
     """``path`` as a person reads it: relative to the current folder when it lies inside it
     (``out/sim``), else absolute."""

@@ -204,6 +204,11 @@ QUANTITIES: dict[str, Quantity] = {q.name: q for q in (
        (None, (86400.0, "a day of simulated time per episode")),
        (None, (600.0, "10 minutes of simulated time per episode (the paper's: 20 s)")),
        (("ms", 1e-3),)),
+    _q("simulated time", "s",  # a run's --duration
+       (None, None),
+       (None, (600.0, "10 minutes of simulated time (the paper's runs: 10 to 20 s; a minute of "
+                      "the accurate physics is about an hour of computing)")),
+       (("ms", 1e-3),)),
     _q("field time", "s",  # a field's ramp, a magnet path's times
        (None, (86400.0, "a day")),
        (None, (60.0, "a minute of simulated time (every shipped run is 10 s or less; a minute "

@@ -90,6 +90,7 @@ from .io import (
     atomic_write_text,
     display_path,
     normalized_path,
+    output_path_problem,
     unwritable_reason,
 )
 from .locks import FolderLock, claim, command_line, host_name, name_tag, release_claim, utc_now
@@ -354,6 +355,8 @@ def _mtime(path: Path) -> float:
 
 
 def _check_path(final: Path, option: str) -> None:
+    if (problem := output_path_problem(final)) is not None:
+        raise OutputPathError(f"{option} {display_path(final)}: {problem}")
     for parent in (final, *final.parents):
         if parent.exists() and not parent.is_dir():
             raise OutputPathError(f"{option} {display_path(final)}: {display_path(parent)} is a "

@@ -236,7 +236,16 @@ def read_spec(path: str | Path) -> dict[str, Any]:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise SpecError(f"{path}: no such spec file") from None
-    except (OSError, UnicodeDecodeError) as exc:
+    except UnicodeDecodeError as exc:  # e.g. saved as Latin-1 or UTF-16 by an editor
+        raw = path.read_bytes()
+        line = raw[: exc.start].count(b"\n") + 1
+        encoding = ("UTF-16 (it starts with a UTF-16 byte order mark)"
+                    if raw[:2] in (b"\xff\xfe", b"\xfe\xff") else
+                    f"another encoding (byte 0x{raw[exc.start]:02x} on line {line} is not UTF-8, "
+                    "e.g. a Latin-1 character)")
+        raise SpecError(f"{path}: not UTF-8 text: saved in {encoding}; a spec file (TOML) is UTF-8: "
+                        "save it as UTF-8 in your editor") from None
+    except OSError as exc:
         raise SpecError(f"{path}: cannot be read as a spec file ({exc})") from None
     problem = byte_order_mark_problem(path, text)
     if problem is not None:  # else "not valid TOML: Invalid statement (at line 1, column 1)"

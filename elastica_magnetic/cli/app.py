@@ -112,13 +112,16 @@ def output_path(text: str) -> Path:
     :func:`elastica_magnetic.io.normalized_path`), so every later check and every write sees the
     same folder however it was spelled (``DIR``, ``./DIR/``, ``DIR/missing/..``, a link to
     ``DIR``)."""
-    from ..io import normalized_path
+    from ..io import normalized_path, output_path_problem
 
     if not text.strip():
         raise argparse.ArgumentTypeError("expected a path, got an empty string")
     if "\0" in text:
         raise argparse.ArgumentTypeError(f"expected a path, got {text!r} (it holds a NUL character)")
-    return normalized_path(text)
+    path = normalized_path(text)
+    if (problem := output_path_problem(path)) is not None:
+        raise argparse.ArgumentTypeError(f"{text}: {problem}")
+    return path
 
 
 #: The argparse types that mark an option as an output location (tests walk the parser for them).
@@ -143,9 +146,20 @@ def add_old_option(parser: argparse.ArgumentParser, old: str, new: str, type: An
 def duration_option() -> Callable[[str], float]:
     """The argparse ``type`` of ``--duration`` (s) of the commands that simulate."""
     from ..openloop import MAX_DURATION_S
+    from ..plausibility import judge, warn_implausible
     from ..robot_spec import ACTION_PERIOD
 
-    return number("s", ACTION_PERIOD, MAX_DURATION_S)
+    bounded = number("s", ACTION_PERIOD, MAX_DURATION_S)
+
+    def parse(text: str) -> float:
+        value = bounded(text)
+        finding = judge("simulated time", value)
+        if finding is not None:  # e.g. milliseconds written for seconds
+            warn_implausible(f"--duration = {finding.text}", "--duration")
+        return value
+
+    parse.__name__ = bounded.__name__
+    return parse
 
 
 def print_result(result: dict[str, Any], as_json: bool) -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -142,6 +143,7 @@ def simulate_amplitude(args: argparse.Namespace) -> tuple[float, str]:
 
 def replay_command(args: argparse.Namespace) -> int:
     field = TabulatedField.from_csv(args.field_csv)
+    waveform_z = np.asarray(field.samples)[:, 2]
     duration = field.duration if args.duration is None else args.duration
     if duration > field.duration + 1e-9:
         raise CommandError(
@@ -156,6 +158,7 @@ def replay_command(args: argparse.Namespace) -> int:
         field = FieldSum(field, source)
     # Every input and the output folder are checked before the simulation starts.
     reference = _read_reference(args.reference, duration) if args.reference is not None else None
+    _note_sideways_model(spec, bool(np.any(waveform_z != 0.0)))
     with result_folder(args.out, kind="replay", subject=f"robot {spec.name}", force=args.force,
                        known_files=REPLAY_FILES) as out:
         print_notes(out.notes)
@@ -194,6 +197,7 @@ def simulate_command(args: argparse.Namespace) -> int:
     spec = load_robot(args.robot, args.physics)
     args.amplitude, amplitude_from = simulate_amplitude(args)
     heading = 0.0 if args.heading is None else args.heading
+    _note_sideways_model(spec, heading % math.pi != 0.0)
     field = RotatingField(args.amplitude, args.frequency, phase=0.5 * np.pi, ramp_time=args.ramp,
                           heading=heading)
     with result_folder(args.out, kind="simulate", subject=f"robot {spec.name}", force=args.force,
@@ -250,6 +254,18 @@ def _simulate_spatial(args: argparse.Namespace, setup) -> int:
                                 float(result.trajectory.front_y_m.iloc[-1])])
     print_result(summary, args.json)
     return 0
+
+
+def _note_sideways_model(spec, field_leaves_plane: bool) -> None:
+    """A field out of the x-y plane on a band whose ground rolls it like a round rod (the default
+    model): say so, and which model a flat band has, before the run."""
+    ground = spec.ground
+    if (field_leaves_plane and ground is not None and ground.sideways == "rolling"
+            and spec.section == "band"):
+        print("msr: note: the field leaves the x-y plane and [robot.ground] sideways is "
+              "\"rolling\" (the default): the band rolls sideways like a round rod; set sideways = "
+              "\"sliding\" to model a flat band that cannot roll (see the spec format's "
+              "[robot.ground])", file=sys.stderr)
 
 
 def _heading(text: str) -> float:

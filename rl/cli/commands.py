@@ -76,8 +76,9 @@ def _add_case_command(sub: argparse._SubParsersAction) -> None:
     q.set_defaults(func=case_list_command)
     q = case_sub.add_parser("show", help="one case's complete spec")
     q.add_argument("case", type=case_option, help=CASE_HELP)
-    q.add_argument("--toml", action="store_true", help="print the spec as TOML (a file to edit)")
-    q.add_argument("--json", action="store_true", help="print the complete spec as JSON")
+    form = q.add_mutually_exclusive_group()  # one printed form: each option would ignore the other
+    form.add_argument("--toml", action="store_true", help="print the spec as TOML (a file to edit)")
+    form.add_argument("--json", action="store_true", help="print the complete spec as JSON")
     q.set_defaults(func=case_show_command)
     q = case_sub.add_parser(
         "check", help="what a spec's numbers amount to, and what in them is outside the model",

@@ -314,6 +314,8 @@ def _fit_one_start(problem: _Problem, x0: NDArray[np.float64], budget: _Budget) 
     polish = None
     if status is not None:
         x, polish = _polish(problem, x, budget)
+        if converged and not polish["converged"]:  # name the step that stopped short
+            message = f"the least-squares stages converged, the polish (Powell) did not: {polish['message']}"
         converged = converged and polish["converged"]
     r = problem.whole.residuals(np.exp(x))  # cached: the polish evaluated it
     return {"x": x, "cost": float(r @ r), "rms_m": _rms(r), "converged": converged,

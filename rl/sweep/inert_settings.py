@@ -1,7 +1,8 @@
 """Training settings that cannot act, refused before any work (``docs/errors.md``, "Training
 options that cannot act"): a run whose weights would never be updated (its warm-up at or beyond
 its steps, a minibatch larger than the run, too few updates per transition to make one), a warm-up
-longer than the replay buffer keeps, and a stop rule asked for that cannot decide within the run.
+longer than the replay buffer keeps, an episode longer than the run (no return is ever measured),
+and a stop rule asked for that cannot decide within the run.
 
 Each message names the setting as the user gave it (``--set learning_starts=3000``, ``[training.td3]
 learning_starts = 3000 (my.toml)``, or the default and where to change it), both numbers, and the
@@ -22,7 +23,7 @@ if TYPE_CHECKING:  # torch is imported only when a run is planned
     from ..runner.stopping import StopRule
     from ..td3.algorithm import TD3Config
 
-__all__ = ["SettingSources", "check_run_learns", "check_stop_rule_decides"]
+__all__ = ["SettingSources", "check_episodes_end", "check_run_learns", "check_stop_rule_decides"]
 
 
 @dataclass(frozen=True)
@@ -113,3 +114,25 @@ def check_stop_rule_decides(rule: StopRule | None, config: TD3Config, steps: int
         f"{sources.steps(steps)} with {sources.setting('eval_every', every)} makes at most {most}; "
         f"give --set eval_every of at most {(last - 1) // (needed - 1)} or --steps of at least "
         f"{(needed - 1) * every + 1}, or --stop-when none")
+
+
+def check_episodes_end(episode_duration: float, steps: int, envs: int, sources: SettingSources,
+                       duration_given: bool = True) -> None:
+    """Refuse (``ValueError``) a run of ``steps`` steps per seed (``envs`` crawlers each) in which
+    no training episode of ``episode_duration`` s ends: it would measure no return (its summary
+    says nothing of what it learned) and its evaluations would wait for the run's end."""
+    from elastica_magnetic.plausibility import mistake_hint
+    from elastica_magnetic.robot_spec import ACTION_PERIOD
+
+    episode_steps = int(round(episode_duration / ACTION_PERIOD))
+    per_crawler = -(-steps // max(1, envs))
+    if episode_steps <= per_crawler:
+        return
+    given = (f"--episode-duration {episode_duration:g} s" if duration_given
+             else f"[task] episode_duration = {episode_duration:g} s ({sources.source})")
+    raise ValueError(
+        f"no training episode ends within the run: {given} is {episode_steps} steps of "
+        f"{ACTION_PERIOD:g} s, and {sources.steps(steps)} over {envs} crawler(s) gives each "
+        f"{per_crawler}; the run would measure no return{mistake_hint('episode duration', episode_duration)}"
+        f"; give --episode-duration of at most {per_crawler * ACTION_PERIOD:g} s or --steps of at "
+        f"least {episode_steps * max(1, envs)}")

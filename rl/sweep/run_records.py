@@ -27,12 +27,14 @@ def run_metadata(case: Case, physics: str, duration: float, seed: int, **extra: 
 
 
 #: Settings of a run that a resume must not change (they are the run's, in ``run.json``).
-_RUN_SETTINGS = ("case", "case_spec", "physics", "episode_duration_s", "recipe", "stop_rule")
+_RUN_SETTINGS = ("case", "case_spec", "physics", "episode_duration_s", "recipe", "stop_rule", "envs")
+#: Values run.json repeats from elsewhere (what holds them), checked on resume.
+_RECORD_COPIES = {"seed": "folder (seed<k>)", "field_limit_T": "case_spec ([actuation] field_limit)"}
 
 
 def check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
-    """A resumed run keeps its case, physics and episode length: refuse other values, naming the
-    option and the run's value."""
+    """A resumed run keeps its case, physics, episode length and crawlers per seed (``envs``: its
+    checkpoint holds their state): refuse other values, naming the option and the run's value."""
     run_json = RunDir(run_dir).run_json
     if not run_json.is_file():  # without it the resume would take today's options for the run's
         raise ValueError(f"cannot resume {display_path(run_dir)}: its {RunDir.RUN_JSON} (the record "
@@ -41,7 +43,7 @@ def check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
                          "train the seed afresh without --resume")
     record = read_json(run_json)
     options = {"case": "--case", "physics": "--physics", "episode_duration_s": "--episode-duration",
-               "recipe": "--recipe", "stop_rule": "--stop-when"}
+               "recipe": "--recipe", "stop_rule": "--stop-when", "envs": "--envs"}
     for key in _RUN_SETTINGS:
         if key == "case_spec" and key in record:
             run_spec, spec = _without_default_recipe(record[key]), _without_default_recipe(metadata[key])
@@ -60,6 +62,11 @@ def check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
         elif key in record and key in metadata and record[key] != metadata[key]:
             raise ValueError(f"{options[key]} {metadata[key]} differs from the run's {record[key]} "
                              f"({run_json}): a resumed run keeps its settings")
+    for key, what in _RECORD_COPIES.items():  # values the record repeats: an edit would be lost
+        if key in record and key in metadata and record[key] != metadata[key]:
+            raise ValueError(f"{run_json}: {key} is {record[key]!r} but the run's {what} gives "
+                             f"{metadata[key]!r}: the record was edited (a resume would ignore the "
+                             "edit and write the run's value back); restore it (e.g. from a backup)")
 
 
 def _kind(value: Any) -> str:

@@ -12,7 +12,6 @@ refuse ``target``.
 from __future__ import annotations
 
 import csv
-import math
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
@@ -102,7 +101,11 @@ def check_resumed_stop_rules(run_dirs: Iterable[Path], rule: StopRule | None) ->
     from ..runfiles.checkpoint import load_checkpoint
 
     def name(r: Mapping[str, Any] | None) -> str:
-        return "none" if r is None else f"{r['kind']} {dict(r)}"
+        if r is None:
+            return "none"
+        settings = ", ".join(f"{k} {v:g}" if isinstance(v, float) else f"{k} {v}"
+                             for k, v in r.items() if k != "kind")
+        return f"{r['kind']} ({settings})" if settings else str(r["kind"])
 
     wanted = None if rule is None else rule.to_dict()
     for run_dir in run_dirs:
@@ -159,11 +162,13 @@ def seed_state(run_dir: str | Path, record: Mapping[str, Any], target: float | N
 
 def stop_summary(per_seed: list[Mapping[str, Any]], steps: int, rule: StopRule | None) -> dict[str, Any]:
     """The case's summary about stopping: the rule, the seeds stopped early, and the fraction of
-    the seeds' step budget they ran (``steps_run_fraction``, 1 without stops)."""
+    the seeds' step budget they ran (``steps_run_fraction``, 1 without stops; ``None`` when no
+    seed ran to its end)."""
     entries = [r for r in per_seed if "error" not in r]
     saved = sum(int(r.get("steps_saved") or 0) for r in entries)
     budget = int(steps) * len(entries)
     return {"stop_rule": None if rule is None else rule.to_dict(),
             "stopped_early": [r["seed"] for r in entries if r.get("stopped_early")],
-            "steps_run_fraction": (1.0 - saved / budget) if budget else math.nan,
+            # null (not NaN, which strict JSON readers refuse) when no seed ran: nothing to count
+            "steps_run_fraction": (1.0 - saved / budget) if budget else None,
             "evaluation_duration_s": EVAL_DURATION}

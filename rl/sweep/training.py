@@ -30,7 +30,12 @@ from ..runfiles.logs import read_log
 from ..runfiles.rundir import CaseDir, RunDir
 from ..runner.memory import peak_rss_bytes
 from .backends import BACKENDS, run_jobs
-from .inert_settings import SettingSources, check_run_learns, check_stop_rule_decides
+from .inert_settings import (
+    SettingSources,
+    check_episodes_end,
+    check_run_learns,
+    check_stop_rule_decides,
+)
 from .jobs import GroupJob
 from .randomize_settings import randomized_cases
 from .rebalance import GroupRebalancing
@@ -249,7 +254,8 @@ def _plan_sweep(loaded: dict[str, Case], s: SweepSettings, r: _Resolved
     acting = _ActingChecks(configs[seed_list[0]], int(r.steps), int(s.envs), SettingSources(
         overrides, first.training.td3, first.source, r.steps_given, recipe=r.recipe),
         stop_given=s.stop_when not in (None, "none") or bool(s.stop_options),
-        warm_up_only=s.warm_up_only)
+        warm_up_only=s.warm_up_only, episode_duration=float(r.episode_duration),
+        duration_given=s.episode_duration is not None)
     stop_rules = _check_before_work(loaded, seed_list, acting, s, r)
     sweep = _sweep_record(layout, configs[seed_list[0]], steps=int(r.steps), physics=s.physics,
                           episode_duration_s=float(r.episode_duration), workers=workers,
@@ -277,9 +283,14 @@ class _ActingChecks:
     sources: SettingSources
     stop_given: bool  # --stop-when (or a stop option) given, not just the recipe's rule
     warm_up_only: bool
+    episode_duration: float = 20.0  # s
+    duration_given: bool = True  # --episode-duration, else the spec's [task] episode_duration
 
     def new_runs(self, stop_rules: dict[str, Any] | None) -> None:
-        """New runs: their weights are updated, and a stop rule asked for can decide."""
+        """New runs: their weights are updated, an episode ends within them, and a stop rule
+        asked for can decide."""
+        check_episodes_end(self.episode_duration, self.steps, self.envs, self.sources,
+                           self.duration_given)
         if not self.warm_up_only:
             check_run_learns(self.config, self.steps, self.sources)
         for rule in (stop_rules or {}).values() if self.stop_given else ():
@@ -291,6 +302,8 @@ class _ActingChecks:
         from ..td3.algorithm import TD3Config
 
         check_steps_left(runs, self.steps)
+        check_episodes_end(self.episode_duration, self.steps, self.envs, self.sources,
+                           self.duration_given)
         if self.warm_up_only:
             return
         sources = dataclasses.replace(self.sources, resumed=True)
@@ -311,7 +324,7 @@ def _check_before_work(loaded: dict[str, Case], seed_list: list[int], acting: _A
     stop_rules = None if keep_stop_rules else _stop_rules(
         loaded, recipe_stop_when(s.stop_when, r.recipe), stop_options, eval_every)
     _check_run_folders(s.out, loaded, seed_list, s.resume, s.physics, r.episode_duration, r.recipe,
-                       before_making=None if s.resume else functools.partial(acting.new_runs,
+                       int(s.envs), before_making=None if s.resume else functools.partial(acting.new_runs,
                                                                              stop_rules))
     if s.resume:
         stop_rules = _check_resumed_runs(s.out, loaded, seed_list, dict(s.config_overrides or {}),
@@ -431,7 +444,7 @@ def _seed_configs(loaded: dict[str, Case], seed_list: list[int], recipe: str,
 
 
 def _check_run_folders(out: str | Path, loaded: dict[str, Case], seed_list: list[int], resume: bool,
-                       physics: str, episode_duration: float, recipe: str,
+                       physics: str, episode_duration: float, recipe: str, envs: int = 1,
                        before_making: Callable[[], None] | None = None) -> None:
     """Before any work: no run is overwritten; a resumed run exists, can continue and keeps its
     settings; ``before_making()`` (further checks, before a folder is made); every seed's folder
@@ -451,7 +464,7 @@ def _check_run_folders(out: str | Path, loaded: dict[str, Case], seed_list: list
         if missing:
             raise FileNotFoundError(f"cannot resume: no checkpoint {', '.join(missing)} (train those "
                                     "seeds without --resume, or choose --seeds/--seed-offset)")
-        for case, _, run in runs:  # a resumed run keeps its settings: checked before any work
+        for case, seed, run in runs:  # a resumed run keeps its settings: checked before any work
             # a damaged log is named before any work; a row a kill cut short is repaired
             # (cut off) when the seed resumes, so it blocks no seed
             for log, numeric in ((run.episodes_csv, ("global_step", "return")),
@@ -461,7 +474,8 @@ def _check_run_folders(out: str | Path, loaded: dict[str, Case], seed_list: list
             refuse_networks_only(load_checkpoint(run.checkpoint, with_buffer=False), run.checkpoint)
             check_resume_settings(run.path, {
                 "case": case, "case_spec": loaded[case].to_dict(), "physics": physics,
-                "episode_duration_s": float(episode_duration), "recipe": recipe})
+                "episode_duration_s": float(episode_duration), "recipe": recipe, "envs": envs,
+                "seed": seed, "field_limit_T": loaded[case].field_limit})
     if before_making is not None:
         before_making()
     for _, _, run in runs:  # every seed's folder can be written, before any work

@@ -173,3 +173,24 @@ def test_every_spelling_of_a_folder_is_that_folder(writer, data):
         assert f"{option} {shown}:" in err, err
         assert _tree(folder) == before
         assert sorted(p.name for p in root.iterdir()) == ["D", "L", "meas.csv"]
+
+
+def test_a_link_loop_or_an_over_long_name_is_refused_before_any_work(tmp_path, capsys):
+    """Round 6, P03a/P03b (a link loop as --out: replaced by a calibration file without --force,
+    or found only after the work) and P10 (a raw "File name too long")."""
+    (tmp_path / "loopA").symlink_to(tmp_path / "loopB")
+    (tmp_path / "loopB").symlink_to(tmp_path / "loopA")
+    for argv in (["field", "simulate", "--duration", "0.05", "--out"],
+                 ["hw", "calibrate", str(tmp_path / "m.csv"), "--out"]):
+        with pytest.raises(SystemExit):
+            main([*argv, str(tmp_path / "loopA")])
+        assert "is a symbolic link that leads back to itself (a loop)" in capsys.readouterr().err
+    assert (tmp_path / "loopA").is_symlink() and os.readlink(tmp_path / "loopA") == str(tmp_path / "loopB")
+    with pytest.raises(SystemExit):
+        main(["field", "simulate", "--duration", "0.05", "--out", str(tmp_path / ("a" * 300))])
+    assert "is 300 bytes long; the file system allows at most" in capsys.readouterr().err
+    from elastica_magnetic.io import OutputPathError
+    from elastica_magnetic.results import check_result_folder
+
+    with pytest.raises(OutputPathError, match="a loop"):  # the library applies the rule too
+        check_result_folder(tmp_path / "loopA", kind="demo")

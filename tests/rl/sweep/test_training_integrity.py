@@ -136,3 +136,36 @@ def test_resume_refuses_another_cases_checkpoint(trained, tmp_path, capsys):
                 "--out", str(runs), *SMOKE]) == 2
     err = capsys.readouterr().err
     assert f"{path}: a checkpoint of case 'm2-4mT', not of 'm1-4mT'" in err
+
+
+def test_a_run_no_episode_ends_in_is_refused_naming_milliseconds(tmp_path, capsys):
+    """Round 6, O15: ``--episode-duration 2000`` (ms meant) on a 300-step run trained, measured
+    no return and reported "still improving"."""
+    smoke = [a for a in SMOKE if a not in ("--episode-duration", "0.8")]
+    assert msr(["train", "--case", "m1-4mT", "--seeds", "1", "--steps", "300", "--episode-duration",
+                "2000", "--out", str(tmp_path / "runs"), *smoke]) == 2
+    err = capsys.readouterr().err
+    assert ("no training episode ends within the run: --episode-duration 2000 s is 200000 steps "
+            "of 0.01 s, and --steps 300 over 1 crawler(s) gives each 300") in err, err
+    assert "2000 ms is 2 s" in err and not (tmp_path / "runs").exists()
+
+
+def test_resume_keeps_the_runs_crawlers_and_refuses_an_edited_record(trained, tmp_path, capsys):
+    """Round 6, A12 (``--resume --envs 2`` on a one-crawler run went on, rewriting run.json) and
+    W04 (an edited seed or field limit in run.json was ignored and overwritten)."""
+    runs = _copy_runs(trained, tmp_path)
+    before = (runs / "m1-4mT" / "seed0" / "checkpoint.pt").read_bytes()
+    base = ["train", "--case", "m1-4mT", "--seeds", "1", "--steps", "400", "--resume", "--out",
+            str(runs), *SMOKE]
+    assert msr([*base, "--envs", "2"]) == 2
+    assert "--envs 2 differs from the run's 1" in capsys.readouterr().err
+    run_json = runs / "m1-4mT" / "seed0" / "run.json"
+    original = run_json.read_text()
+    for key, value in (("seed", 5), ("field_limit_T", 0.01)):
+        record = json.loads(original)
+        record[key] = value
+        run_json.write_text(json.dumps(record))
+        assert msr(base) == 2
+        err = capsys.readouterr().err
+        assert f"run.json: {key} is {value!r} but the run's" in err and "was edited" in err, err
+    assert (runs / "m1-4mT" / "seed0" / "checkpoint.pt").read_bytes() == before
