@@ -1,9 +1,10 @@
 """Tasks of the crawler environments: what the robot is rewarded for, and what success means.
 
-A task turns the x position of the robot's middle node (node ``n // 2``, m) into a reward per
-0.01 s step and, if it needs one, an extra observation block appended after the robot's blocks.
-Every method works elementwise on numpy arrays, one entry per robot, so the single and the vector
-environment share one implementation.
+A task reads what it needs of the rod (:meth:`position`: the x of the robot's middle node, node
+``n // 2``, m; for :class:`GotoTask` that node's place on the floor and the robot's heading) and
+turns it into a reward per 0.01 s step and, if it needs one, an extra observation block appended
+after the robot's blocks. Every method works elementwise on numpy arrays, one entry per robot, so
+the single and the vector environment share one implementation.
 
 - :class:`CrawlTask` (the paper's): reward ``reward_scale * dx``, ``dx`` the forward (+x)
   displacement of the middle node during the step (m); no extra observation.
@@ -13,20 +14,49 @@ environment share one implementation.
   end within ``slow_zone`` m of the target (moving there costs, so the policy learns to stop).
   Extra observation ``target_offset = 100 * (target_x - x_mid)`` per m (the height block's scale:
   10 mm reads 1.0). Success: ``|e| <= tolerance`` at the end of the evaluation.
+- :class:`GotoTask`: bring the middle node to a point on the floor (x, z) drawn per episode on a
+  ring of radius ``distance`` around the start, at a bearing in ``[angle_low, angle_high]`` from the
+  start heading (or given: ``reset(options={"target": (forward, left)})``, m in the robot's start
+  frame), and stay. Reward as the reach task's on the distance in the floor plane. Extra
+  observation ``heading`` ``(cos h, sin h)`` and ``target_offset`` ``100 *`` the offset to the
+  target in the robot's own frame (forward, left; per m): a policy steers by what is ahead and to
+  its side, the same for every direction it happens to face. Needs a robot that can turn: a
+  three-axis case (``[actuation] axes = "xyz"``).
+
+Floor-plane conventions: y is up; the heading ``h`` of the robot is the direction from its back
+node to its front node, ``(cos h, 0, -sin h)``, counter-clockwise seen from above (0: +x, the start);
+its left is ``(-sin h, 0, -cos h)`` (at the start: -z).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["CrawlTask", "ReachTask", "Task", "TASK_KINDS", "TARGET_OFFSET_SCALE"]
+__all__ = ["CrawlTask", "GotoTask", "ReachTask", "Task", "TASK_KINDS", "TARGET_OFFSET_SCALE",
+           "floor_pose", "middle_x"]
 
 #: Scale of the reach task's ``target_offset`` observation, per m.
 TARGET_OFFSET_SCALE = 100.0
+
+
+def middle_x(rod: Any, middle_node: int) -> float:
+    """The x of the middle node of ``rod`` (a :class:`elastica.CosseratRod` or a view), m."""
+    return float(rod.position_collection[0, middle_node])
+
+
+def floor_pose(rod: Any, middle_node: int) -> NDArray[np.float64]:
+    """``(x, z, h)``: the middle node's place on the floor (m) and the heading of the back-to-front
+    direction (rad, counter-clockwise seen from above; 0 along +x)."""
+    position = rod.position_collection
+    along_x = position[0, -1] - position[0, 0]
+    along_z = position[2, -1] - position[2, 0]
+    return np.array([position[0, middle_node], position[2, middle_node],
+                     math.atan2(-along_z, along_x)])
 
 
 @dataclass(frozen=True)
@@ -36,11 +66,21 @@ class CrawlTask:
     kind: ClassVar[str] = "crawl"
     #: Extra observation blocks (name, size) after the robot's blocks.
     extra_observation: ClassVar[tuple[tuple[str, int], ...]] = ()
+    #: Shape of one robot's task state (here the start x, m).
+    state_shape: ClassVar[tuple[int, ...]] = ()
     reward_scale: float = 1e4
     episode_duration: float = 20.0
 
-    def start(self, x_mid: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The task state of episodes starting with the middle node at ``x_mid`` (m): its start."""
+    @staticmethod
+    def position(rod: Any, middle_node: int) -> float:
+        """What the task reads of the rod: the middle node's x, m."""
+        return middle_x(rod, middle_node)
+
+    def start(self, x_mid: NDArray[np.float64], rng: Any = None, target: Any = None) -> NDArray[np.float64]:
+        """The task state of episodes starting with the middle node at ``x_mid`` (m): its start
+        (``rng`` and ``target`` are not used: a crawl has no target)."""
+        if target is not None:
+            raise ValueError("the crawl task has no target; a target option is for the goto task")
         return np.array(x_mid, dtype=np.float64, copy=True)
 
     def reward(self, x_before: Any, x_after: Any, start: Any) -> Any:
@@ -61,6 +101,7 @@ class ReachTask:
 
     kind: ClassVar[str] = "reach"
     extra_observation: ClassVar[tuple[tuple[str, int], ...]] = (("target_offset", 1),)
+    state_shape: ClassVar[tuple[int, ...]] = ()
     target: float = 10e-3
     tolerance: float = 1e-3
     slow_zone: float = 2e-3
@@ -68,8 +109,17 @@ class ReachTask:
     reward_scale: float = 1e4
     episode_duration: float = 20.0
 
-    def start(self, x_mid: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The task state: the target x of episodes starting with the middle node at ``x_mid``."""
+    @staticmethod
+    def position(rod: Any, middle_node: int) -> float:
+        """What the task reads of the rod: the middle node's x, m."""
+        return middle_x(rod, middle_node)
+
+    def start(self, x_mid: NDArray[np.float64], rng: Any = None, target: Any = None) -> NDArray[np.float64]:
+        """The task state: the target x of episodes starting with the middle node at ``x_mid``
+        (the spec's ``target`` ahead; ``rng`` is not used)."""
+        if target is not None:
+            raise ValueError("the reach task's target is its spec's [task] target; a target option "
+                             "is for the goto task")
         return np.asarray(x_mid, dtype=np.float64) + self.target
 
     def error(self, x_mid: Any, start: Any) -> Any:
@@ -94,7 +144,88 @@ class ReachTask:
         return {"kind": self.kind, **asdict(self)}
 
 
-Task = CrawlTask | ReachTask
+@dataclass(frozen=True)
+class GotoTask:
+    """Go to a point on the floor and stay there (see the module docstring). Lengths in m,
+    angles in rad."""
 
-#: Task classes by the ``kind`` of a spec's ``[task]`` table.
+    kind: ClassVar[str] = "goto"
+    extra_observation: ClassVar[tuple[tuple[str, int], ...]] = (("heading", 2), ("target_offset", 2))
+    #: One robot's state: its target (x, z), m.
+    state_shape: ClassVar[tuple[int, ...]] = (2,)
+    distance: float = 15e-3
+    angle_low: float = -math.pi
+    angle_high: float = math.pi
+    tolerance: float = 2e-3
+    slow_zone: float = 4e-3
+    speed_penalty: float = 0.5
+    reward_scale: float = 1e4
+    episode_duration: float = 30.0
+
+    def __post_init__(self) -> None:
+        for name in ("distance", "tolerance", "slow_zone", "reward_scale", "episode_duration"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ValueError(f"GotoTask {name} must be a positive finite number, got {value!r}")
+        if not (-2 * math.pi <= self.angle_low <= self.angle_high <= 2 * math.pi):
+            raise ValueError(f"GotoTask angles must satisfy -2 pi <= angle_low <= angle_high <= 2 pi "
+                             f"(rad), got {self.angle_low!r}, {self.angle_high!r}")
+
+    @staticmethod
+    def position(rod: Any, middle_node: int) -> NDArray[np.float64]:
+        """What the task reads of the rod: :func:`floor_pose` ``(x, z, h)``."""
+        return floor_pose(rod, middle_node)
+
+    def start(self, pose: Any, rng: np.random.Generator | None = None,
+              target: Any = None) -> NDArray[np.float64]:
+        """The target (x, z) of an episode starting at ``pose``: ``target`` (forward, left) in the
+        start frame (m) when given, else drawn from ``rng`` on the ring (one uniform draw)."""
+        x, z, heading = (float(v) for v in np.asarray(pose, dtype=np.float64))
+        if target is None:
+            if rng is None:
+                raise ValueError("the goto task draws its target: give rng (or target)")
+            bearing = float(rng.uniform(self.angle_low, self.angle_high))  # from ahead, to the left
+            forward, left = self.distance * math.cos(bearing), self.distance * math.sin(bearing)
+        else:
+            forward, left = (float(v) for v in np.asarray(target, dtype=np.float64).reshape(2))
+            if not (math.isfinite(forward) and math.isfinite(left)):
+                raise ValueError(f"target must be finite (forward, left) in m, got {target!r}")
+        c, s = math.cos(heading), math.sin(heading)
+        # forward (cos h, -sin h) and left (-sin h, -cos h) in (x, z)
+        return np.array([x + forward * c - left * s, z - forward * s - left * c])
+
+    def error(self, pose: Any, target: Any) -> Any:
+        """Distance of the middle node from the target in the floor plane, m."""
+        pose, target = np.asarray(pose), np.asarray(target)
+        return np.hypot(pose[..., 0] - target[..., 0], pose[..., 1] - target[..., 1])
+
+    def reward(self, pose_before: Any, pose_after: Any, target: Any) -> Any:
+        before, after = self.error(pose_before, target), self.error(pose_after, target)
+        a, b = np.asarray(pose_after), np.asarray(pose_before)
+        moved = np.hypot(a[..., 0] - b[..., 0], a[..., 1] - b[..., 1])
+        near = after <= self.slow_zone
+        return self.reward_scale * ((before - after) - self.speed_penalty * moved * near)
+
+    def within_tolerance(self, distance: Any) -> Any:
+        """The success test: a distance from the target (m) within ``tolerance``."""
+        return np.abs(distance) <= self.tolerance
+
+    def observe(self, pose: Any, target: Any) -> NDArray[np.float64]:
+        """``heading`` ``(cos h, sin h)`` then ``target_offset`` ``100 * (forward, left)`` per m,
+        shape ``(..., 4)``."""
+        pose, target = np.asarray(pose, dtype=np.float64), np.asarray(target, dtype=np.float64)
+        c, s = np.cos(pose[..., 2]), np.sin(pose[..., 2])
+        dx, dz = target[..., 0] - pose[..., 0], target[..., 1] - pose[..., 1]
+        forward, left = dx * c - dz * s, -dx * s - dz * c
+        return np.stack([c, s, TARGET_OFFSET_SCALE * forward, TARGET_OFFSET_SCALE * left], axis=-1)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind, **asdict(self)}
+
+
+Task = CrawlTask | ReachTask | GotoTask
+
+#: Task classes by the ``kind`` of a spec's ``[task]`` table (the goto task is not yet one: its
+#: evaluation, success count and shipping are still to come; use it through the environments'
+#: ``task`` argument).
 TASK_KINDS: dict[str, type] = {"crawl": CrawlTask, "reach": ReachTask}

@@ -457,9 +457,13 @@ class MagneticCrawlerEnv(gym.Env):
         ``(4n+4+k,)`` (``k`` the task's extra entries)."""
         extra = None
         if self.task.extra_observation:
-            extra = self.task.observe(self._mid_x(), self.task_state)
+            extra = self.task.observe(self._task_position(), self.task_state)
         return crawler_observation(self.simulation.rod, self.field.value, self.layout,
                                    self.surface_tolerance, extra)
+
+    def _task_position(self) -> Any:
+        """What the task reads of the rod (the middle's x; the floor pose for the goto task)."""
+        return self.task.position(self.simulation.rod, self.middle_node)
 
     def _mid_x(self) -> float:
         return float(self.simulation.rod.position_collection[0, self.middle_node])
@@ -490,7 +494,9 @@ class MagneticCrawlerEnv(gym.Env):
     ) -> tuple[NDArray[np.float32], dict[str, Any]]:
         """Rebuild the straight robot at rest and set the initial field (random or zero).
 
-        ``options``: ``{"initial_field": "random" | "zero" | (Bx, By[, Bz]) in T}``.
+        ``options``: ``{"initial_field": "random" | "zero" | (Bx, By[, Bz]) in T, "target":
+        (forward, left) in m}`` (``target``: the goto task's target in the start frame, instead of
+        a drawn one).
         """
         super().reset(seed=seed)
         initial = initial_field_value((options or {}).get("initial_field", self.initial_field),
@@ -499,7 +505,8 @@ class MagneticCrawlerEnv(gym.Env):
         self.simulation = build_simulation(self.robot_spec, self.field)
         self.steps = 0
         self._diverged = False
-        self.task_state = self.task.start(self._mid_x())
+        self.task_state = self.task.start(self._task_position(), self.np_random,
+                                          (options or {}).get("target"))
         self._last_obs = self.observation()
         return self._last_obs.copy(), self._info()
 
@@ -521,15 +528,14 @@ class MagneticCrawlerEnv(gym.Env):
         if not np.all(np.isfinite(a)):
             raise ValueError(f"action must be finite, got {action!r}")
         self.field.apply_increment(a * self.field_increments)
-        position = self.simulation.rod.position_collection
-        x_before = float(position[0, self.middle_node])
+        before = self._task_position()
         terminated = False
         try:
             self.simulation.step(self.robot_spec.steps_per_action)
             obs = self.observation()
             if not np.all(np.isfinite(obs)):
                 raise SimulationDivergedError("non-finite observation", self.simulation.time, -1)
-            reward = self.task.reward(x_before, float(position[0, self.middle_node]), self.task_state)
+            reward = float(self.task.reward(before, self._task_position(), self.task_state))
             self._last_obs = obs
         except SimulationDivergedError as exc:
             terminated = True

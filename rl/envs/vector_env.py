@@ -141,7 +141,8 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         self.fields: list[ControlledField] = []
         self.steps = np.zeros(self.num_envs, dtype=np.int64)  # steps of each current episode
         self._obs = np.zeros((self.num_envs,) + self.single_observation_space.shape, dtype=np.float32)
-        self._task_state = np.zeros(self.num_envs)  # the task's per-episode state (start or target)
+        # the task's per-episode state (start or target)
+        self._task_state = np.zeros((self.num_envs, *self.task.state_shape))
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
         self.randomizer: RobotRandomizer | None = None
         if randomize:
@@ -157,16 +158,20 @@ class MagneticCrawlerVectorEnv(VectorEnv):
     def _observe(self, i: int) -> NDArray[np.float32]:
         extra = None
         if self.task.extra_observation:
-            extra = self.task.observe(self._mid_x(i), self._task_state[i])
+            extra = self.task.observe(self._task_position(i), self._task_state[i])
         return crawler_observation(self.robots.rods[i], self.fields[i].value, self.layout,
                                    self.surface_tolerance, extra)
+
+    def _task_position(self, i: int) -> Any:
+        """What the task reads of robot ``i`` (the middle's x; the floor pose for goto)."""
+        return self.task.position(self.robots.rods[i], self.middle_node)
 
     def _rng(self, i: int) -> np.random.Generator:
         if self._rngs[i] is None:
             self._rngs[i], _ = seeding.np_random(None)
         return self._rngs[i]
 
-    def _reset_one(self, i: int, initial: Any) -> None:
+    def _reset_one(self, i: int, initial: Any, target: Any = None) -> None:
         """Put robot ``i`` back at rest, straight, with a new initial field; new episode."""
         value = initial_field_value(initial, self.field_limits, self._rng(i), self.axes)
         self.fields[i] = new_field(self, value)
@@ -175,7 +180,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         self.robots.reset_robot(i)
         self.robots.fields[i] = self.fields[i].value
         self.steps[i] = 0
-        self._task_state[i] = self.task.start(self._mid_x(i))
+        self._task_state[i] = self.task.start(self._task_position(i), self._rng(i), target)
         self._obs[i] = self._observe(i)
 
     def _set_robot(self, i: int, settings: dict[str, float]) -> None:
@@ -215,7 +220,8 @@ class MagneticCrawlerVectorEnv(VectorEnv):
             seed: ``int`` s: sub-environment ``i`` is seeded with ``s + i``; a list: one seed (or
                 ``None``) per sub-environment; ``None``: keep the generators.
             options: ``{"initial_field": "random" | "zero" | (Bx, By[, Bz]) in T,
-                "reset_mask": bool array (N,)}``.
+                "reset_mask": bool array (N,), "target": (forward, left) in m}`` (``target``: the
+                goto task's target in each reset robot's start frame, instead of a drawn one).
 
         Returns:
             ``obs`` float32 ``(N, 4 n + 4)`` and the info dict of arrays.
@@ -243,7 +249,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
             self.fields = [new_field(self, (0.0, 0.0, 0.0)) for _ in range(self.num_envs)]
         initial = options.get("initial_field", self.initial_field)
         for i in np.flatnonzero(mask):
-            self._reset_one(int(i), initial)
+            self._reset_one(int(i), initial, options.get("target"))
         return self._obs.copy(), self._info()
 
     def step(
@@ -268,10 +274,10 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         if not np.all(np.isfinite(a)):
             raise ValueError(f"actions must be finite, got {actions!r}")
         robots = self.robots
-        x_before = np.empty(n)
+        before = []
         for i in range(n):
             robots.fields[i] = self.fields[i].apply_increment(a[i] * self.field_increments)
-            x_before[i] = self._mid_x(i)
+            before.append(self._task_position(i))
         diverged = np.zeros(n, dtype=bool)
         messages: dict[int, str] = {}
         try:
@@ -285,7 +291,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
                 obs = self._observe(i)
                 if np.all(np.isfinite(obs)):
                     self._obs[i] = obs
-                    rewards[i] = self.task.reward(x_before[i], self._mid_x(i), self._task_state[i])
+                    rewards[i] = self.task.reward(before[i], self._task_position(i), self._task_state[i])
                     continue
                 diverged[i] = True
                 messages.setdefault(i, f"robot {i}: non-finite observation")
@@ -333,7 +339,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         Keys: ``block`` (the memory block's base arrays, float64: positions, directors, rates,
         loads and derived geometry of every robot), ``fields`` ``(N, 3)`` T, ``steps`` ``(N,)``,
         ``robot_step_count`` ``(N,)``, ``step_count``, ``obs`` float32 ``(N, 4 n + 4 + k)``,
-        ``task_state`` ``(N,)`` (the task's per-episode state, m), ``rngs``
+        ``task_state`` ``(N, *task.state_shape)`` (the task's per-episode state, m), ``rngs``
         (each generator's ``bit_generator.state``); with randomization, ``robot_settings``
         ``(N, k)`` (each robot's draw, in ``randomizer.names`` order).
         """

@@ -1,0 +1,96 @@
+"""The goto task (issue 51, first piece): a target on the floor drawn per episode on a ring (or
+given in the start frame), the reward for closing the distance, the heading and the target in the
+robot's own frame as observation; the single and the vector environment agree."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from elastica_magnetic_rl.cases.tasks import GotoTask, floor_pose
+from elastica_magnetic_rl.envs.env import MagneticCrawlerEnv
+from elastica_magnetic_rl.envs.vector_env import MagneticCrawlerVectorEnv
+from gymnasium.utils.env_checker import check_env
+
+from elastica_magnetic import yao2023_robot
+
+
+def _rod_along(heading: float, n_nodes: int = 9, length: float = 0.02, start=(0.0, 0.0)):
+    """A straight rod's node positions pointing along ``heading`` (rad, counter-clockwise seen
+    from above) from ``start`` (x, z)."""
+    s = np.linspace(0.0, length, n_nodes)
+    x = start[0] + s * math.cos(heading)
+    z = start[1] - s * math.sin(heading)
+    return SimpleNamespace(position_collection=np.stack([x, np.zeros_like(s), z]))
+
+
+@pytest.mark.parametrize("heading", [0.0, math.pi / 2, -2.0, 3.0])
+def test_the_floor_pose_reads_the_heading(heading):
+    pose = floor_pose(_rod_along(heading, start=(0.1, -0.2)), 4)
+    assert pose[2] == pytest.approx(heading)
+    assert pose[0] == pytest.approx(0.1 + 0.01 * math.cos(heading))
+    assert pose[1] == pytest.approx(-0.2 - 0.01 * math.sin(heading))
+
+
+@pytest.mark.parametrize("heading", [0.0, math.pi / 2, -2.0])
+def test_a_given_target_is_in_the_start_frame_and_observed_there(heading):
+    task = GotoTask()
+    pose = np.array([0.1, -0.2, heading])
+    target = task.start(pose, target=(0.012, 0.005))  # 12 mm ahead, 5 mm to the left
+    ahead = np.array([math.cos(heading), -math.sin(heading)])
+    left = np.array([-math.sin(heading), -math.cos(heading)])
+    assert target == pytest.approx(pose[:2] + 0.012 * ahead + 0.005 * left)
+    obs = task.observe(pose, target)
+    assert obs == pytest.approx([math.cos(heading), math.sin(heading), 1.2, 0.5])
+    assert task.error(pose, target) == pytest.approx(math.hypot(0.012, 0.005))
+
+
+def test_drawn_targets_lie_on_the_ring_within_the_bearings():
+    task = GotoTask(distance=0.015, angle_low=-0.5, angle_high=1.0)
+    rng = np.random.default_rng(3)
+    pose = np.array([0.0, 0.0, 0.7])
+    for _ in range(50):
+        target = task.start(pose, rng)
+        assert task.error(pose, target) == pytest.approx(0.015)
+        offset = task.observe(pose, target)[2:] / 100.0
+        assert -0.5 - 1e-12 <= math.atan2(offset[1], offset[0]) <= 1.0 + 1e-12
+
+
+def test_the_reward_pays_for_closing_the_distance_and_charges_moving_at_the_target():
+    task = GotoTask(distance=0.015, slow_zone=0.004, speed_penalty=0.5)
+    target = np.array([0.01, 0.0])
+    toward = task.reward(np.array([0.0, 0.0, 0.0]), np.array([0.001, 0.0, 0.0]), target)
+    away = task.reward(np.array([0.0, 0.0, 0.0]), np.array([-0.001, 0.0, 0.0]), target)
+    assert toward == pytest.approx(1e4 * 0.001) and away == pytest.approx(-1e4 * 0.001)
+    # sideways past the target (distance unchanged): the speed penalty near it
+    at = task.reward(np.array([0.01, 0.001, 0.0]), np.array([0.01, -0.001, 0.0]), target)
+    assert at == pytest.approx(-1e4 * 0.5 * 0.002)
+    with pytest.raises(ValueError, match="distance must be a positive finite number"):
+        GotoTask(distance=0.0)
+
+
+def test_the_environments_serve_the_goto_task_alike():
+    kwargs = dict(spec=yao2023_robot(1, "training"), task=GotoTask(), initial_field="random", duration=0.2)
+    single = MagneticCrawlerEnv(**kwargs)
+    assert single.observation_space.shape == (4 * 64 + 4 + 4,)
+    check_env(MagneticCrawlerEnv(**{**kwargs, "duration": 0.05}), skip_render_check=True)
+    vector = MagneticCrawlerVectorEnv(2, **kwargs)
+    obs, _ = vector.reset(seed=11)
+    one, _ = single.reset(seed=11)
+    assert np.array_equal(obs[0], one) and np.array_equal(vector._task_state[0], single.task_state)
+    rng = np.random.default_rng(0)
+    for _ in range(6):
+        actions = rng.uniform(-1, 1, size=(2, 2)).astype(np.float32)
+        obs, rewards, *_ = vector.step(actions)
+        one, reward, *_ = single.step(actions[0])
+        assert np.array_equal(obs[0], one) and rewards[0] == reward
+    obs, _ = vector.reset(options={"target": (0.0, 0.015)})  # 15 mm to the left of each
+    assert obs[:, single.layout["target_offset"]] == pytest.approx(np.array([[0.0, 1.5]] * 2), abs=1e-5)
+
+
+def test_the_paper_tasks_take_no_target_option():
+    env = MagneticCrawlerEnv(spec=yao2023_robot(1, "training"), duration=0.05)
+    with pytest.raises(ValueError, match="the crawl task has no target"):
+        env.reset(options={"target": (0.01, 0.0)})
