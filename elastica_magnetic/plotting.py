@@ -39,7 +39,12 @@ def plot_open_loop(
     path.parent.mkdir(parents=True, exist_ok=True)
     fig = plt.figure(figsize=(10, 8), constrained_layout=True)
     grid = fig.add_gridspec(3, 2)
-    ax_shape = fig.add_subplot(grid[0, :])
+    traj = result.trajectory
+    sideways = [c for c in ("mid_z_m", "back_z_m", "front_z_m") if c in traj.columns]
+    moved_sideways = bool(sideways) and float(np.abs(traj[sideways].to_numpy()).max()) > 1e-6
+    ax_shape = fig.add_subplot(grid[0, 0] if moved_sideways else grid[0, :])
+    if moved_sideways:  # a top view beside the side view: where the robot went on the floor
+        _top_view(fig.add_subplot(grid[0, 1]), result, plt)
     ax_x = fig.add_subplot(grid[1, 0])
     ax_h = fig.add_subplot(grid[1, 1])
     ax_b = fig.add_subplot(grid[2, :])
@@ -56,7 +61,6 @@ def plot_open_loop(
     ax_shape.set_title("shapes (side view), colour = time")
     ax_shape.legend(ncol=6, fontsize=7, loc="upper left")
 
-    traj = result.trajectory
     for name, colour in (("back", "C0"), ("mid", "C1"), ("front", "C2")):
         ax_x.plot(traj.t_s, 1e3 * traj[f"{name}_x_m"], color=colour, label=name)
         if reference is not None:
@@ -125,3 +129,18 @@ def plot_tip_path(result: OpenLoopResult, source, path: str | Path, title: str =
     atomic_save(path, lambda tmp: fig.savefig(tmp, dpi=110))
     plt.close(fig)
     return path
+
+
+def _top_view(ax, result: OpenLoopResult, plt) -> None:
+    """The shapes and the middle's path seen from above (+y): x to the right, the robot's start
+    left (-z) up, mm."""
+    colours = plt.cm.viridis(np.linspace(0.0, 1.0, len(result.shapes)))
+    for (_, pos), colour in zip(result.shapes, colours, strict=True):
+        ax.plot(1e3 * pos[0], -1e3 * pos[2], color=colour, lw=2)
+    traj = result.trajectory
+    ax.plot(1e3 * traj.mid_x_m, -1e3 * traj.mid_z_m, "k--", lw=1, label="middle's path")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("-z, the start's left (mm)")
+    ax.set_title("seen from above, colour = time")
+    ax.legend(fontsize=7, loc="best")
