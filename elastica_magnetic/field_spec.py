@@ -37,7 +37,8 @@ cannot resolve).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -54,19 +55,9 @@ from .spatial_fields import (
 )
 from .spec_format import SpecError, SpecTable, read_spec
 
-__all__ = ["FIELD_KINDS", "CLAMPS", "FieldSetup", "describe_field", "field_source", "load_field"]
+__all__ = ["FIELD_KINDS", "CLAMPS", "FieldKind", "FieldSetup", "describe_field", "field_source",
+           "load_field"]
 
-#: Field kinds and the keys each takes besides ``kind``, ``ramp``, ``frequency``, ``phase``.
-FIELD_KINDS: dict[str, tuple[str, ...]] = {
-    "point-dipole": ("moment", "position", "path"),
-    "current-loop": ("radius", "current", "turns", "axis", "centre", "path"),
-    "helmholtz": ("radius", "current", "turns", "axis", "centre", "path"),
-    "maxwell": ("radius", "current", "turns", "axis", "centre", "path"),
-    "field-map": ("file", "scale"),
-    "cuboid-magnet": ("dimension", "polarization", "axis", "position", "path"),
-    "cylinder-magnet": ("diameter", "height", "polarization", "axis", "position", "path"),
-    "constant-gradient": ("gradient", "origin", "path"),
-}
 #: Values of ``[boundary] clamp``.
 CLAMPS = ("none", "first")
 
@@ -96,45 +87,11 @@ def describe_field(spec: Mapping[str, Any], source: str = "<spec>") -> FieldSetu
     base = Path(source).parent if source != "<spec>" else Path(".")
     if t is None:
         return None if boundary is None else FieldSetup(None, clamp, base, source)
-    kind = t.string("kind", choices=tuple(FIELD_KINDS))
-    out: dict[str, Any] = {"kind": kind}
-    if kind == "point-dipole":
-        out["moment"] = t.vector("moment", "A m^2", 3)
-        t.check_plausible("moment", _norm(out["moment"]), "magnetic moment", "|moment|")
-        _pose(t, out, "position")
-    elif kind == "constant-gradient":
-        out["gradient"] = _matrix3(t, "gradient", "T/m")
-        t.check_plausible("gradient", max(abs(v) for row in out["gradient"] for v in row), "gradient",
-                          "its largest |dB_i/dx_j|")
-        _pose(t, out, "origin")
-    elif kind == "field-map":
-        out["file"] = t.string("file")
-        out["scale"] = t.number("scale", "1", 1.0)
-    elif kind in ("cuboid-magnet", "cylinder-magnet"):
-        if kind == "cuboid-magnet":
-            out["dimension"] = t.vector("dimension", "m", 3)
-            if min(out["dimension"]) <= 0.0:
-                raise t.error("dimension", f"must be positive lengths (m), got {out['dimension']!r}")
-            for edge in out["dimension"]:
-                t.check_plausible("dimension", edge, "magnet dimension", "an edge")
-        else:
-            out["diameter"] = t.number("diameter", "m", low=0.0, low_open=True,
-                                       plausible="magnet dimension")
-            out["height"] = t.number("height", "m", low=0.0, low_open=True, plausible="magnet dimension")
-        out["polarization"] = t.vector("polarization", "T, J = mu0 M in the magnet's own frame", 3)
-        t.check_plausible("polarization", _norm(out["polarization"]), "polarization", "|polarization|")
-        out["axis"] = t.vector("axis", "a direction [x, y, z]", 3, [0.0, 0.0, 1.0])
-        if not any(out["axis"]):
-            raise t.error("axis", "must be a non-zero direction [x, y, z]")
-        _pose(t, out, "position")
-    else:
-        out["radius"] = t.number("radius", "m", low=0.0, low_open=True, plausible="coil radius")
-        out["current"] = t.number("current", "A", plausible="coil current")
-        out["turns"] = t.number("turns", "turns", 1.0, low=0.0, low_open=True)
-        out["axis"] = t.vector("axis", "a direction [x, y, z]", 3, [0.0, 0.0, 1.0])
-        if not any(out["axis"]):
-            raise t.error("axis", "must be a non-zero direction [x, y, z]")
-        _pose(t, out, "centre")
+    kind = FIELD_KIND_TABLE[t.string("kind", choices=tuple(FIELD_KINDS))]
+    out: dict[str, Any] = {"kind": kind.name}
+    kind.read(t, out)
+    if kind.pose_key is not None:
+        _pose(t, out, kind.pose_key)
     out["ramp"] = t.number("ramp", "s", 0.0, low=0.0, plausible="field time")
     out["frequency"] = t.number("frequency", "Hz", 0.0)
     out["phase"] = t.number("phase", "rad", 0.0, plausible="phase angle")
@@ -224,49 +181,153 @@ def _waveform(table: Mapping[str, Any]):
 
 def field_source(table: Mapping[str, Any], base: Path = Path("."), source: str = "<spec>") -> SpatialField:
     """The spatial source of a checked ``[field]`` table (see :func:`describe_field`)."""
-    kind = table["kind"]
-    strength = _waveform(table)
-    pose_key = ("position" if kind in ("point-dipole", "cuboid-magnet", "cylinder-magnet") else
-                "origin" if kind == "constant-gradient" else "centre")
-    pose: Any = table.get(pose_key)
+    kind = FIELD_KIND_TABLE[table["kind"]]
+    pose: Any = table.get(kind.pose_key) if kind.pose_key is not None else None
     if "path" in table:
         pose = Waypoints(table["path"]["times"], table["path"]["points"])
-    if kind == "point-dipole":
-        moment = table["moment"]
-        if strength is not None:
-            import numpy as np
+    return kind.build(table, pose, _waveform(table), base)
 
-            vector = np.asarray(moment, dtype=float)
-            return PointDipoleField(lambda t: vector * strength(t), pose)
-        return PointDipoleField(moment, pose)
-    if kind in ("cuboid-magnet", "cylinder-magnet"):
-        from .magnet_fields import CuboidMagnetField, CylinderMagnetField
 
-        factor = 1.0 if strength is None else strength
-        if kind == "cuboid-magnet":
-            return CuboidMagnetField(table["dimension"], table["polarization"], pose, table["axis"],
-                                     scale=factor)
-        return CylinderMagnetField(table["diameter"], table["height"], table["polarization"], pose,
-                                   table["axis"], scale=factor)
-    if kind == "constant-gradient":
-        return ConstantGradientField(table["gradient"], 1.0 if strength is None else strength, pose)
-    if kind == "field-map":
-        path = Path(table["file"])
-        if not path.is_absolute():
-            path = base / path
-        scale = table["scale"]
-        factor = scale if strength is None else (lambda t: scale * strength(t))
-        if not path.is_file():
-            raise SpatialFieldError(f"file {path}: no such field map (.npz or .csv)")
-        if path.suffix == ".npz":
-            return FieldMap.from_npz(path, factor)
-        if path.suffix == ".csv":
-            return FieldMap.from_csv(path, factor)
-        raise SpatialFieldError(f"file {path}: expected an .npz or .csv field map")
-    cls = {"current-loop": CurrentLoopField, "helmholtz": HelmholtzCoils, "maxwell": MaxwellCoils}[kind]
-    current = table["current"]
-    waveform = current if strength is None else (lambda t: current * strength(t))
-    return cls(table["radius"], current=waveform, centre=pose, axis=table["axis"], turns=table["turns"])
+# -- the kinds: what each reads from its table and the source it builds --------------------------
+Strength = Callable[[float], float] | None
+
+
+def _read_dipole(t: SpecTable, out: dict[str, Any]) -> None:
+    out["moment"] = t.vector("moment", "A m^2", 3)
+    t.check_plausible("moment", _norm(out["moment"]), "magnetic moment", "|moment|")
+
+
+def _build_dipole(table: Mapping[str, Any], pose: Any, strength: Strength, base: Path) -> SpatialField:
+    moment = table["moment"]
+    if strength is not None:
+        import numpy as np
+
+        vector = np.asarray(moment, dtype=float)
+        return PointDipoleField(lambda t: vector * strength(t), pose)
+    return PointDipoleField(moment, pose)
+
+
+def _read_gradient(t: SpecTable, out: dict[str, Any]) -> None:
+    out["gradient"] = _matrix3(t, "gradient", "T/m")
+    t.check_plausible("gradient", max(abs(v) for row in out["gradient"] for v in row), "gradient",
+                      "its largest |dB_i/dx_j|")
+
+
+def _build_gradient(table: Mapping[str, Any], pose: Any, strength: Strength, base: Path) -> SpatialField:
+    return ConstantGradientField(table["gradient"], 1.0 if strength is None else strength, pose)
+
+
+def _read_map(t: SpecTable, out: dict[str, Any]) -> None:
+    out["file"] = t.string("file")
+    out["scale"] = t.number("scale", "1", 1.0)
+
+
+def _build_map(table: Mapping[str, Any], pose: Any, strength: Strength, base: Path) -> SpatialField:
+    path = Path(table["file"])
+    if not path.is_absolute():
+        path = base / path
+    scale = table["scale"]
+    factor = scale if strength is None else (lambda t: scale * strength(t))
+    if not path.is_file():
+        raise SpatialFieldError(f"file {path}: no such field map (.npz or .csv)")
+    if path.suffix == ".npz":
+        return FieldMap.from_npz(path, factor)
+    if path.suffix == ".csv":
+        return FieldMap.from_csv(path, factor)
+    raise SpatialFieldError(f"file {path}: expected an .npz or .csv field map")
+
+
+def _read_axis(t: SpecTable, out: dict[str, Any]) -> None:
+    out["axis"] = t.vector("axis", "a direction [x, y, z]", 3, [0.0, 0.0, 1.0])
+    if not any(out["axis"]):
+        raise t.error("axis", "must be a non-zero direction [x, y, z]")
+
+
+def _read_cuboid(t: SpecTable, out: dict[str, Any]) -> None:
+    out["dimension"] = t.vector("dimension", "m", 3)
+    if min(out["dimension"]) <= 0.0:
+        raise t.error("dimension", f"must be positive lengths (m), got {out['dimension']!r}")
+    for edge in out["dimension"]:
+        t.check_plausible("dimension", edge, "magnet dimension", "an edge")
+    _read_polarization(t, out)
+
+
+def _read_cylinder(t: SpecTable, out: dict[str, Any]) -> None:
+    out["diameter"] = t.number("diameter", "m", low=0.0, low_open=True, plausible="magnet dimension")
+    out["height"] = t.number("height", "m", low=0.0, low_open=True, plausible="magnet dimension")
+    _read_polarization(t, out)
+
+
+def _read_polarization(t: SpecTable, out: dict[str, Any]) -> None:
+    out["polarization"] = t.vector("polarization", "T, J = mu0 M in the magnet's own frame", 3)
+    t.check_plausible("polarization", _norm(out["polarization"]), "polarization", "|polarization|")
+    _read_axis(t, out)
+
+
+def _build_cuboid(table: Mapping[str, Any], pose: Any, strength: Strength, base: Path) -> SpatialField:
+    from .magnet_fields import CuboidMagnetField
+
+    return CuboidMagnetField(table["dimension"], table["polarization"], pose, table["axis"],
+                             scale=1.0 if strength is None else strength)
+
+
+def _build_cylinder(table: Mapping[str, Any], pose: Any, strength: Strength, base: Path) -> SpatialField:
+    from .magnet_fields import CylinderMagnetField
+
+    return CylinderMagnetField(table["diameter"], table["height"], table["polarization"], pose,
+                               table["axis"], scale=1.0 if strength is None else strength)
+
+
+def _read_coil(t: SpecTable, out: dict[str, Any]) -> None:
+    out["radius"] = t.number("radius", "m", low=0.0, low_open=True, plausible="coil radius")
+    out["current"] = t.number("current", "A", plausible="coil current")
+    out["turns"] = t.number("turns", "turns", 1.0, low=0.0, low_open=True)
+    _read_axis(t, out)
+
+
+def _coil_builder(cls: type) -> Callable[..., SpatialField]:
+    def build(table: Mapping[str, Any], pose: Any, strength: Strength, base: Path) -> SpatialField:
+        current = table["current"]
+        waveform = current if strength is None else (lambda t: current * strength(t))
+        return cls(table["radius"], current=waveform, centre=pose, axis=table["axis"],
+                   turns=table["turns"])
+
+    return build
+
+
+@dataclass(frozen=True)
+class FieldKind:
+    """One ``[field] kind``: its ``name``, the ``keys`` it takes besides ``kind``, ``ramp``,
+    ``frequency``, ``phase``, the key of its pose (``None``: none; else the pose may also be a
+    ``[field.path]``), ``read(table, out)`` (checks and copies its own keys) and
+    ``build(table, pose, strength, base)`` (its source; ``strength(t)`` the waveform or ``None``,
+    ``base`` the folder relative files are taken from). Adding a kind is one entry in
+    :data:`FIELD_KIND_TABLE`."""
+
+    name: str
+    keys: tuple[str, ...]
+    pose_key: str | None
+    read: Callable[[SpecTable, dict[str, Any]], None]
+    build: Callable[[Mapping[str, Any], Any, Strength, Path], SpatialField]
+
+
+_COIL_KEYS = ("radius", "current", "turns", "axis", "centre", "path")
+#: Every field kind, by name.
+FIELD_KIND_TABLE: dict[str, FieldKind] = {k.name: k for k in (
+    FieldKind("point-dipole", ("moment", "position", "path"), "position", _read_dipole, _build_dipole),
+    FieldKind("current-loop", _COIL_KEYS, "centre", _read_coil, _coil_builder(CurrentLoopField)),
+    FieldKind("helmholtz", _COIL_KEYS, "centre", _read_coil, _coil_builder(HelmholtzCoils)),
+    FieldKind("maxwell", _COIL_KEYS, "centre", _read_coil, _coil_builder(MaxwellCoils)),
+    FieldKind("field-map", ("file", "scale"), None, _read_map, _build_map),
+    FieldKind("cuboid-magnet", ("dimension", "polarization", "axis", "position", "path"), "position",
+              _read_cuboid, _build_cuboid),
+    FieldKind("cylinder-magnet", ("diameter", "height", "polarization", "axis", "position", "path"),
+              "position", _read_cylinder, _build_cylinder),
+    FieldKind("constant-gradient", ("gradient", "origin", "path"), "origin", _read_gradient,
+              _build_gradient),
+)}
+#: Field kinds and the keys each takes besides ``kind``, ``ramp``, ``frequency``, ``phase``.
+FIELD_KINDS: dict[str, tuple[str, ...]] = {name: kind.keys for name, kind in FIELD_KIND_TABLE.items()}
 
 
 def load_field(path: str | Path) -> FieldSetup | None:
