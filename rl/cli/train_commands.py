@@ -368,6 +368,10 @@ def _seed_line(r: dict) -> str:
     state = r.get("state", "")
     if r.get("stopped_early"):
         state = f"stopped at step {r['stop_step']} ({r['stop_reason']})"
+    if not r.get("episodes"):  # a return of no episode is no measurement
+        return (f"{state + ': ' if state else ''}no training episode ended (the run was shorter "
+                "than one episode), so no training return was measured; msr policy export-seeds "
+                "measures the seed's distance")
     return (f"{state + ': ' if state else ''}final mean training return "
             f"{r['final_mean_return']:.4g} ({r['episodes']} episodes from random initial fields; not "
             "a distance: msr policy export-seeds measures each seed's)")

@@ -118,10 +118,12 @@ def check_stop_rule_decides(rule: StopRule | None, config: TD3Config, steps: int
 
 def check_episodes_end(episode_duration: float, steps: int, envs: int, sources: SettingSources,
                        duration_given: bool = True) -> None:
-    """Refuse (``ValueError``) a run of ``steps`` steps per seed (``envs`` crawlers each) in which
-    no training episode of ``episode_duration`` s ends: it would measure no return (its summary
-    says nothing of what it learned) and its evaluations would wait for the run's end."""
-    from elastica_magnetic.plausibility import mistake_hint
+    """A run of ``steps`` steps per seed (``envs`` crawlers each) in which no training episode of
+    ``episode_duration`` s ends measures no return (its summary says nothing of what it learned)
+    and evaluates only at its end. Refused (``ValueError``) when ``--episode-duration`` was given
+    (a unit mistake, most likely); with the spec's own episode (a short trial run of a shipped
+    case) a warning says so."""
+    from elastica_magnetic.plausibility import judge, warn_implausible
     from elastica_magnetic.robot_spec import ACTION_PERIOD
 
     episode_steps = int(round(episode_duration / ACTION_PERIOD))
@@ -130,9 +132,12 @@ def check_episodes_end(episode_duration: float, steps: int, envs: int, sources: 
         return
     given = (f"--episode-duration {episode_duration:g} s" if duration_given
              else f"[task] episode_duration = {episode_duration:g} s ({sources.source})")
-    raise ValueError(
-        f"no training episode ends within the run: {given} is {episode_steps} steps of "
-        f"{ACTION_PERIOD:g} s, and {sources.steps(steps)} over {envs} crawler(s) gives each "
-        f"{per_crawler}; the run would measure no return{mistake_hint('episode duration', episode_duration)}"
-        f"; give --episode-duration of at most {per_crawler * ACTION_PERIOD:g} s or --steps of at "
-        f"least {episode_steps * max(1, envs)}")
+    finding = judge("episode duration", episode_duration)
+    hint = f" ({finding.text})" if finding is not None else ""
+    text = (f"no training episode ends within the run: {given}{hint} is {episode_steps} steps of "
+            f"{ACTION_PERIOD:g} s, and {sources.steps(steps)} over {envs} crawler(s) gives each "
+            f"{per_crawler}; the run measures no return; give --episode-duration of at most "
+            f"{per_crawler * ACTION_PERIOD:g} s or --steps of at least {episode_steps * max(1, envs)}")
+    if duration_given:
+        raise ValueError(text)
+    warn_implausible(text, "task.episode_duration")

@@ -289,12 +289,12 @@ class _ActingChecks:
     def new_runs(self, stop_rules: dict[str, Any] | None) -> None:
         """New runs: their weights are updated, an episode ends within them, and a stop rule
         asked for can decide."""
-        check_episodes_end(self.episode_duration, self.steps, self.envs, self.sources,
-                           self.duration_given)
         if not self.warm_up_only:
             check_run_learns(self.config, self.steps, self.sources)
         for rule in (stop_rules or {}).values() if self.stop_given else ():
             check_stop_rule_decides(rule, self.config, self.steps, self.envs, self.sources)
+        check_episodes_end(self.episode_duration, self.steps, self.envs, self.sources,
+                           self.duration_given)
 
     def resumed_runs(self, runs: list[tuple[str, RunDir]]) -> None:
         """Resumed runs: something is left to train, and their own settings update weights."""
@@ -302,14 +302,13 @@ class _ActingChecks:
         from ..td3.algorithm import TD3Config
 
         check_steps_left(runs, self.steps)
+        if not self.warm_up_only:
+            sources = dataclasses.replace(self.sources, resumed=True)
+            for _, run in runs:
+                config = load_checkpoint(run.checkpoint, with_buffer=False)["config"]
+                check_run_learns(TD3Config.from_dict(config), self.steps, sources)
         check_episodes_end(self.episode_duration, self.steps, self.envs, self.sources,
                            self.duration_given)
-        if self.warm_up_only:
-            return
-        sources = dataclasses.replace(self.sources, resumed=True)
-        for _, run in runs:
-            config = load_checkpoint(run.checkpoint, with_buffer=False)["config"]
-            check_run_learns(TD3Config.from_dict(config), self.steps, sources)
 
 
 def _check_before_work(loaded: dict[str, Case], seed_list: list[int], acting: _ActingChecks,

@@ -145,9 +145,22 @@ def test_a_run_no_episode_ends_in_is_refused_naming_milliseconds(tmp_path, capsy
     assert msr(["train", "--case", "m1-4mT", "--seeds", "1", "--steps", "300", "--episode-duration",
                 "2000", "--out", str(tmp_path / "runs"), *smoke]) == 2
     err = capsys.readouterr().err
-    assert ("no training episode ends within the run: --episode-duration 2000 s is 200000 steps "
-            "of 0.01 s, and --steps 300 over 1 crawler(s) gives each 300") in err, err
+    assert "no training episode ends within the run: --episode-duration 2000 s (" in err, err
+    assert ("is 200000 steps of 0.01 s, and --steps 300 over 1 crawler(s) gives each 300") in err
     assert "2000 ms is 2 s" in err and not (tmp_path / "runs").exists()
+
+
+def test_a_trial_run_shorter_than_the_specs_episode_says_so(tmp_path, capsys):
+    """The spec's own 20 s episodes in a 150-step trial run: not refused (a first look at a
+    shipped case), but warned, and the summary says no episode ended instead of a NaN return."""
+    smoke = [a for a in SMOKE if a not in ("--episode-duration", "0.8")]
+    assert msr(["train", "--case", "m1-4mT", "--seeds", "1", "--steps", "150", "--workers", "1",
+                "--out", str(tmp_path / "runs"), *smoke]) == 0
+    captured = capsys.readouterr()
+    assert "warning: no training episode ends within the run: [task] episode_duration = 20 s" in captured.err
+    assert "20 ms" not in captured.err  # 20 s episodes are the paper's: no unit mistake named
+    assert "no training episode ended (the run was shorter than one episode)" in captured.out
+    assert "nan" not in captured.out
 
 
 def test_resume_keeps_the_runs_crawlers_and_refuses_an_edited_record(trained, tmp_path, capsys):
