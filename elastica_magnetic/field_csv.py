@@ -83,6 +83,7 @@ def read_field_csv(path: str | Path, *, plausible: bool = False) -> NDArray[np.f
 def _check_plausible(path: Path, field: NDArray[np.float64], lines: list[int]) -> None:
     """Judge the largest |field| of the file as a coil field (:mod:`~elastica_magnetic.plausibility`):
     refuse one no coil makes around a robot (tesla or gauss written as mT), warn about an unusual one."""
+    _check_column_units(path, field)
     strength = np.linalg.norm(field, axis=1) / MILLITESLA
     k = int(np.argmax(strength))
     finding = judge("coil field", float(strength[k]), "mT", MILLITESLA)
@@ -92,6 +93,26 @@ def _check_plausible(path: Path, field: NDArray[np.float64], lines: list[int]) -
     if finding.refuse:
         raise FieldCSVError(text)
     warn_implausible(f"{text}; the file is played as written", stacklevel=4)
+
+
+#: A column whose largest |value| is below this fraction of another's is about 1000 times
+#: smaller: one column in T among columns in mT.
+_COLUMN_RATIO_TESLA = 3e-3
+
+
+def _check_column_units(path: Path, field: NDArray[np.float64]) -> None:
+    """Warn about a column about 1000 times weaker than another (tesla written in one column of
+    an mT file): no coil set makes one axis 1000 times weaker on purpose."""
+    largest = np.abs(field).max(axis=0) / MILLITESLA  # per column, mT
+    strongest = int(np.argmax(largest))
+    for k, value in enumerate(largest):
+        if 0.0 < value < _COLUMN_RATIO_TESLA * largest[strongest]:
+            name, other = FIELD_COLUMNS[k], FIELD_COLUMNS[strongest]
+            warn_implausible(
+                f"{path}: column {name} reaches only {value:.3g} mT while {other} reaches "
+                f"{largest[strongest]:.3g} mT, about 1000 times less: {name} in T where the file "
+                "is in mT? (every column of a field CSV is in mT); the file is played as written",
+                stacklevel=5)
 
 
 def named_twice(names: list[str]) -> str:

@@ -45,7 +45,14 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .io import OutputPathError, display_path, normalized_path, output_path_problem, unwritable_reason
+from .io import (
+    OutputPathError,
+    display_path,
+    normalized_path,
+    output_path_problem,
+    spelled_as_folder,
+    unwritable_reason,
+)
 from .locks import FolderLock, claim, host_name, lock_path, name_tag, release_claim
 from .results import ResultExistsError, fsync_tree, remove_tree, signals_as_exceptions, signals_held
 
@@ -261,6 +268,10 @@ def check_result_file(path: str | Path, *, force: bool = False, option: str = "-
     a file, its folder writable, and absent unless ``force`` (and then, with ``kind``, a file of
     that kind: a file of the user's is never replaced). Returns the normalized path."""
     final = normalized_path(path)
+    if spelled_as_folder(path):
+        raise OutputPathError(f"{option} {display_path(final)}/: ends with a separator, so it names "
+                              f"a folder; {option} here is one file: give its name (e.g. "
+                              f"{display_path(final)}/result{final.suffix or '.json'})")
     claimed = _claim(final, option)
     notes = claimed + _recover_file(final, option)
     try:

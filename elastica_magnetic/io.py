@@ -84,6 +84,24 @@ def normalized_path(path: str | os.PathLike[str]) -> Path:
     return Path(os.path.realpath(os.path.expanduser(os.fspath(path))))
 
 
+#: Output paths the command line was given with a trailing separator (``DIR/``: a folder meant),
+#: normalized; a writer of one file refuses them (:func:`spelled_as_folder`).
+_FOLDER_SPELLINGS: set[str] = set()
+
+
+def remember_folder_spelling(text: str, path: str | os.PathLike[str]) -> None:
+    """Note that ``path`` (normalized) was written as ``text``, ending with a separator or not."""
+    if text.rstrip().endswith(("/", os.sep)):
+        _FOLDER_SPELLINGS.add(os.fspath(path))
+
+
+def spelled_as_folder(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` was given ending with a separator (a folder meant): as a string here, or
+    on the command line (:func:`remember_folder_spelling`)."""
+    text = os.fspath(path)
+    return text.endswith(("/", os.sep)) or os.fspath(normalized_path(text)) in _FOLDER_SPELLINGS
+
+
 def output_path_problem(path: str | os.PathLike[str]) -> str | None:
     """Why a normalized output ``path`` (:func:`normalized_path`) can never be written, or ``None``:
     a symbolic link in a loop (still a link once resolved: writing would replace the link) or a

@@ -112,7 +112,7 @@ def output_path(text: str) -> Path:
     :func:`elastica_magnetic.io.normalized_path`), so every later check and every write sees the
     same folder however it was spelled (``DIR``, ``./DIR/``, ``DIR/missing/..``, a link to
     ``DIR``)."""
-    from ..io import normalized_path, output_path_problem
+    from ..io import normalized_path, output_path_problem, remember_folder_spelling
 
     if not text.strip():
         raise argparse.ArgumentTypeError("expected a path, got an empty string")
@@ -121,6 +121,7 @@ def output_path(text: str) -> Path:
     path = normalized_path(text)
     if (problem := output_path_problem(path)) is not None:
         raise argparse.ArgumentTypeError(f"{text}: {problem}")
+    remember_folder_spelling(text, path)  # ``DIR/``: a writer of one file refuses it
     return path
 
 

@@ -42,6 +42,7 @@ from elastica_magnetic.specfile import (
     RobotDescription,
     SpecError,
     SpecTable,
+    accepted_keys,
     describe_robot,
     dumps,
     read_spec,
@@ -343,6 +344,7 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
         raise top.error("name", "missing: set name = \"...\" (or load the spec from a file)")
     description = top.string("description", "")
     actuation = _actuation(top.table("actuation"))
+    _check_sideways_model(actuation, robot, spec, source)
     task = _task(top.table("task"), float(robot.tables["robot"]["length"]))
     training = _training(top.table("training", required=False), source, robot)
     yardstick = _yardstick(top.table("yardstick", required=False),
@@ -379,6 +381,21 @@ def _actuation(t: SpecTable) -> Actuation:
                                       f"{out.control_rate:g}")
     t.finish()
     return out
+
+
+def _check_sideways_model(actuation: Actuation, robot: RobotDescription, spec: Mapping[str, Any],
+                          source: str) -> None:
+    """A three-axis case on a band whose ground rolls it sideways like a round rod (the default
+    model): warned, naming the model of a flat band (``[checks] accept = ["actuation.axes"]``
+    keeps the rolling model on purpose)."""
+    if actuation.axes != "xyz":
+        return
+    rod = robot.robot("training")
+    if rod.section == "band" and rod.ground is not None and rod.ground.sideways == "rolling":
+        SpecTable(spec["actuation"], source, "actuation", accepted_keys(spec, source)).warn(
+            "axes", '"xyz" moves the robot out of the x-y plane, and [robot.ground] sideways is '
+            '"rolling" (the default): the band rolls sideways like a round rod; set sideways = '
+            '"sliding" to model a flat band that cannot roll')
 
 
 def _per_axis(t: SpecTable, key: str, unit: str, axes: str, default: float | None,

@@ -229,14 +229,16 @@ def plot_positions_velocities(trajectory: pd.DataFrame, path: str | Path, title:
 def plot_field_waveforms(
     fields: NDArray[np.float64], path: str | Path, limit: float | None = None, title: str = ""
 ) -> Path:
-    """B_x, B_y and the amplitude (mT) against time, zero-order hold at 100 Hz (Fig. S4E)."""
+    """B_x, B_y (and B_z where it is not zero: a three-axis waveform) and the amplitude (mT)
+    against time, zero-order hold at 100 Hz (Fig. S4E)."""
     fig = _figure((8, 3.5), constrained_layout=True)
     ax = fig.add_subplot()
     t = np.arange(fields.shape[0] + 1) * 0.01
-    for k, name in ((0, "B_x"), (1, "B_y")):
+    three_axis = bool(np.any(fields[:, 2] != 0.0))
+    for k, name in ((0, "B_x"), (1, "B_y"), (2, "B_z"))[: 3 if three_axis else 2]:
         ax.stairs(MT * fields[:, k], t, label=name, lw=1.2, baseline=None)
-    ax.stairs(MT * np.hypot(fields[:, 0], fields[:, 1]), t, label="|B|", color="0.4", lw=0.8, baseline=None,
-              ls="--")
+    amplitude = np.hypot(np.hypot(fields[:, 0], fields[:, 1]), fields[:, 2])
+    ax.stairs(MT * amplitude, t, label="|B|", color="0.4", lw=0.8, baseline=None, ls="--")
     if limit is not None:
         for s in (-1, 1):
             ax.axhline(s * MT * limit, color="0.6", lw=0.6, ls=":")
@@ -251,7 +253,8 @@ def plot_field_waveforms(
 def plot_field_polar(
     fields: NDArray[np.float64], path: str | Path, limit: float | None = None, title: str = ""
 ) -> Path:
-    """The field points (angle, amplitude in mT) in polar coordinates, coloured by time (Fig. 3D)."""
+    """The field points (angle, amplitude in mT) in polar coordinates, coloured by time (Fig. 3D):
+    the x-y part of the field (a three-axis waveform's B_z is in :func:`plot_field_waveforms`)."""
     fig = _figure((5, 5), constrained_layout=True)
     ax = fig.add_subplot(projection="polar")
     angle = np.arctan2(fields[:, 1], fields[:, 0])

@@ -155,6 +155,13 @@ def read_trajectory(path: str | Path) -> MeasuredTrajectory:
     path = Path(path)
     table = _read_csv(path)
     kind, layout, fractions = _layout(path, list(table.columns))
+    sideways = [c for c in table.columns if str(c).endswith("_z_m")]
+    if sideways:  # e.g. msr's own trajectory.csv: its z markers are not compared
+        from elastica_magnetic.plausibility import warn_implausible
+
+        warn_implausible(f"{path}: columns {', '.join(sideways)} are not used: the fit compares the "
+                         "side view (x and height y of each tracked point) only, so sideways motion "
+                         "neither helps nor hurts it", "")
     used = ["t_s"] + [c for _, x, y in layout for c in (x, y)]
     values = table[used].apply(pd.to_numeric, errors="coerce").to_numpy(dtype=np.float64)
     bad = ~np.isfinite(values)

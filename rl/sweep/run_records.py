@@ -5,6 +5,8 @@ that a resumed run keeps those settings (:func:`check_resume_settings`).
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 from pathlib import Path
 from typing import Any
@@ -67,6 +69,13 @@ def check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
             raise ValueError(f"{run_json}: {key} is {record[key]!r} but the run's {what} gives "
                              f"{metadata[key]!r}: the record was edited (a resume would ignore the "
                              "edit and write the run's value back); restore it (e.g. from a backup)")
+    written = record.get(RECORD_HASH_KEY) if isinstance(record, dict) else None
+    if written is not None and written != record_hash(record):
+        raise ValueError(f"{run_json}: edited since msr wrote it (its {RECORD_HASH_KEY} no longer "
+                         "matches): a resume takes the run's settings from its checkpoint and its "
+                         "case, and would overwrite the edits without a word; restore the file "
+                         "(e.g. from a backup), and change a setting with the command's option "
+                         "instead (a resumed run keeps its settings)")
 
 
 def _kind(value: Any) -> str:
@@ -114,7 +123,21 @@ def write_run_json(run_dir: Path, config, metadata: dict[str, Any], steps: int, 
     run_json = RunDir(run_dir).run_json
     if run_json.is_file():
         record = read_json(run_json)
-    atomic_write_json(run_json, {
+    record.pop(RECORD_HASH_KEY, None)
+    data = json.loads(json.dumps({
         **record, **metadata, "steps": int(steps), "config": config.to_dict(),
         "torch_threads": int(threads), "versions": versions(),
-        "resumed": int(record.get("resumed", 0)) + int(resumed_now)})
+        "resumed": int(record.get("resumed", 0)) + int(resumed_now)}, default=str))
+    atomic_write_json(run_json, {**data, RECORD_HASH_KEY: record_hash(data)})
+
+
+#: The key of ``run.json`` holding the hash of the rest of it as msr wrote it: a resume refuses a
+#: record edited by hand (its edits would be ignored and overwritten without a word).
+RECORD_HASH_KEY = "record_sha256"
+
+
+def record_hash(record: dict[str, Any]) -> str:
+    """The SHA-256 of ``record`` (without :data:`RECORD_HASH_KEY`) in a canonical JSON form."""
+    body = {k: v for k, v in record.items() if k != RECORD_HASH_KEY}
+    text = json.dumps(body, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()

@@ -181,4 +181,10 @@ def test_resume_keeps_the_runs_crawlers_and_refuses_an_edited_record(trained, tm
         assert msr(base) == 2
         err = capsys.readouterr().err
         assert f"run.json: {key} is {value!r} but the run's" in err and "was edited" in err, err
+    for key, value in (("precision", "fp64"), ("shared_simulator_seeds", 2)):  # round 7, O01
+        record = json.loads(original)
+        record[key] = value
+        run_json.write_text(json.dumps(record))
+        assert msr(base) == 2
+        assert "run.json: edited since msr wrote it" in capsys.readouterr().err
     assert (runs / "m1-4mT" / "seed0" / "checkpoint.pt").read_bytes() == before
