@@ -69,6 +69,7 @@ __all__ = [
     "dumps",
     "describe_robot",
     "load_robot",
+    "axis_limits_of",
     "field_limit_of",
     "spec_field_limit",
     "check_plain_name",
@@ -550,6 +551,23 @@ def field_limit_of(robot: str | Path) -> float | None:
     if str(robot) in ROBOTS:
         return None
     return spec_field_limit(read_spec(robot), str(robot))
+
+
+def axis_limits_of(robot: str | Path) -> dict[str, float]:
+    """The limit (T) of each axis a spec file's ``[actuation]`` controls, by axis name (``"x"``,
+    ``"y"``, and ``"z"`` for ``axes = "xyz"``); empty for a preset or a spec without the table.
+    Checked as :func:`field_limit_of` checks the largest."""
+    if str(robot) in ROBOTS:
+        return {}
+    spec = read_spec(robot)
+    largest = spec_field_limit(spec, str(robot))
+    actuation = spec.get("actuation")
+    if largest is None or not isinstance(actuation, Mapping):
+        return {}
+    axes = str(actuation.get("axes", "xy"))
+    value = actuation.get("field_limit")
+    limits = value if isinstance(value, list) and len(value) == len(axes) else [largest] * len(axes)
+    return {axis: float(limit) for axis, limit in zip(axes, limits, strict=True)}
 
 
 def spec_field_limit(spec: Mapping[str, Any], source: str = "<spec>") -> float | None:

@@ -18,7 +18,7 @@ from ..presets import ROBOTS
 from ..progress import progress_bar
 from ..results import result_folder
 from ..spatial_fields import FieldSum
-from ..specfile import SpecError, field_limit_of, load_robot
+from ..specfile import SpecError, axis_limits_of, field_limit_of, load_robot
 from .app import CommandError, duration_option, number, output_path, print_notes, print_result
 
 ROBOT_HELP = (f"a preset ({', '.join(ROBOTS)}) or a spec file (.toml, e.g. from "
@@ -197,6 +197,7 @@ def simulate_command(args: argparse.Namespace) -> int:
     spec = load_robot(args.robot, args.physics)
     args.amplitude, amplitude_from = simulate_amplitude(args)
     heading = 0.0 if args.heading is None else args.heading
+    _check_axis_limits(args.robot, args.amplitude, heading)
     _note_sideways_model(spec, heading % math.pi != 0.0)
     field = RotatingField(args.amplitude, args.frequency, phase=0.5 * np.pi, ramp_time=args.ramp,
                           heading=heading)
@@ -254,6 +255,21 @@ def _simulate_spatial(args: argparse.Namespace, setup) -> int:
                                 float(result.trajectory.front_y_m.iloc[-1])])
     print_result(summary, args.json)
     return 0
+
+
+def _check_axis_limits(robot: str, amplitude: float, heading: float) -> None:
+    """The rotating field's largest component on each axis (``amplitude`` T; x ``|cos h|``, y 1, z
+    ``|sin h|`` of it) within the spec's limit of that axis: a three-axis spec's weaker z pair is
+    not driven past its limit (a planar spec names no z limit: a what-if, not checked)."""
+    largest = {"x": amplitude * abs(math.cos(heading)), "y": amplitude,
+               "z": amplitude * abs(math.sin(heading))}
+    for axis, limit in axis_limits_of(robot).items():
+        if largest[axis] > limit * (1.0 + 1e-9):
+            raise CommandError(
+                f"the field rotating at {1e3 * amplitude:g} mT with --heading {heading:g} rad reaches "
+                f"{1e3 * largest[axis]:.4g} mT on {axis}, above {robot}'s [actuation] field_limit of "
+                f"{1e3 * limit:g} mT on {axis}; give --amplitude of at most "
+                f"{1e3 * amplitude * limit / largest[axis]:.4g} mT")
 
 
 def _note_sideways_model(spec, field_leaves_plane: bool) -> None:

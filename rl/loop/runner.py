@@ -108,12 +108,18 @@ def run_loop(case: Case, out: str | Path, settings: LoopSettings, *, skip: tuple
 
 
 def _forget(state: LoopState, plan: LoopPlan) -> None:
-    """Drop the records (and folders) of the steps run again: a redone step starts afresh."""
+    """Drop the records of the steps run again (loop.json no longer calls them done). Their
+    folders stay until each step's own turn (:func:`_start_afresh`): a loop interrupted before
+    a step's turn leaves that step's earlier result as it was."""
     for step in plan.redo:
         state.steps.pop(step, None)
-        folder = state.path.parent / step
-        if folder.exists():
-            remove_tree(folder)
+
+
+def _start_afresh(ctx: LoopContext, step: str, plan: LoopPlan) -> None:
+    """A redone step starts from an empty folder: its earlier result is removed at its turn."""
+    folder = ctx.folder / step
+    if step in plan.redo and folder.exists():
+        remove_tree(folder)
 
 
 def _run_steps(ctx: LoopContext, plan: LoopPlan, log: TextIO,
@@ -127,6 +133,7 @@ def _run_steps(ctx: LoopContext, plan: LoopPlan, log: TextIO,
             print(step_line(number, step, "skipped (--skip)"), file=log)
         else:
             print(step_line(number, step, "started"), file=log, flush=True)
+            _start_afresh(ctx, step, plan)
             begin = time.perf_counter()
             summary = functions[step](ctx)
             wall = time.perf_counter() - begin

@@ -66,11 +66,16 @@ class RotatingFieldPolicy:
                              "field at the limit only for much longer periods)")
         self.field_limit = self.case.field_limit
         self.max_increment = self.case.actuation.max_increment
-        layout = observation_layout(self.case.n_elements, self.case.task.extra_observation)
+        actuation = self.case.actuation
+        layout = observation_layout(self.case.n_elements,
+                                    (*actuation.observation_blocks, *self.case.task.extra_observation))
         self._amplitude = layout["field_amplitude"].start
         self._angle = layout["field_angle"].start
+        # a three-axis case: the z pair holds B_z at zero (the paper's field, in the x-y plane)
+        self._field_z = layout["field_z"].start if "field_z" in layout else None
+        self._increments = np.array(actuation.increments[: actuation.n_axes])
         self.obs_dim = self.case.obs_dim
-        self.act_dim = 2
+        self.act_dim = actuation.n_axes
         self.critic = None
         self.actor = None
         self.kind = "baseline"
@@ -79,11 +84,15 @@ class RotatingFieldPolicy:
         self.meta = {"period_s": self.period, "clockwise": self.clockwise}
 
     def act(self, obs: NDArray[np.float32]) -> NDArray[np.float32]:
-        """Normalised action in [-1, 1]^2 for one observation ``(obs_dim,)``."""
+        """Normalised action in [-1, 1]^k (k: the case's axes) for one observation ``(obs_dim,)``."""
         amplitude = float(obs[self._amplitude]) / OBSERVATION_SCALES["field_amplitude"]  # T
         angle = float(obs[self._angle]) / OBSERVATION_SCALES["field_angle"]  # rad
         field = amplitude * np.array([math.cos(angle), math.sin(angle)])
         step = 2.0 * math.pi * ACTION_PERIOD / self.period
         target_angle = angle - step if self.clockwise else angle + step
         target = self.field_limit * np.array([math.cos(target_angle), math.sin(target_angle)])
-        return np.clip((target - field) / self.max_increment, -1.0, 1.0).astype(np.float32)
+        if self._field_z is None:
+            return np.clip((target - field) / self.max_increment, -1.0, 1.0).astype(np.float32)
+        bz = float(obs[self._field_z]) / OBSERVATION_SCALES["field_z"]  # T
+        change = np.array([*(target - field), -bz]) / self._increments
+        return np.clip(change, -1.0, 1.0).astype(np.float32)

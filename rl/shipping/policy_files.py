@@ -8,8 +8,10 @@ architecture, observation and action layout, provenance, ``actor_sha256``).
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -28,6 +30,7 @@ __all__ = [
     "OLD_POLICY_KEYS",
     "finish_interrupted_ship",
     "read_policy_json",
+    "case_spec_sha256",
     "resolve_policy",
     "weights_sha256",
 ]
@@ -206,6 +209,7 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
     if path.is_dir() and (path / POLICY_JSON).is_file() and (path / "actor.pt").is_file():
         meta = read_policy_json(path / POLICY_JSON)
         case = _policy_case(meta, path / POLICY_JSON)
+        _check_case_spec_hash(meta, path / POLICY_JSON)
         _check_recorded_limits(case, meta, path / POLICY_JSON)
         _check_recorded_case(case, meta, path / POLICY_JSON)
         arch = meta["architecture"]
@@ -272,6 +276,26 @@ def finish_interrupted_ship(folder: Path) -> list[str]:
     for note in notes:
         print(f"note: {note}", file=sys.stderr)
     return notes
+
+
+def case_spec_sha256(spec: Mapping[str, Any]) -> str:
+    """The SHA-256 of a ``case_spec`` in a canonical JSON form: ``policy.json`` records it, so a
+    case_spec edited by hand (a longer robot, another field limit) is refused, not run."""
+    text = json.dumps(spec, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _check_case_spec_hash(meta: dict[str, Any], path: Path) -> None:
+    """A ``policy.json`` whose ``case_spec`` no longer matches its ``case_spec_sha256`` was edited:
+    the policy would run on a robot or in a setting it was not trained for."""
+    expected = meta.get("case_spec_sha256")
+    if expected is None or "case_spec" not in meta:  # shipped before the hash was recorded
+        return
+    if case_spec_sha256(meta["case_spec"]) != expected:
+        raise PolicyFileError(f"{path}: its case_spec was edited (it no longer matches "
+                              "case_spec_sha256): the policy would run on a robot or with limits it "
+                              "was not trained for; restore the file (e.g. from git), or train "
+                              "and ship a policy for the new case")
 
 
 def _check_recorded_limits(case: Case, meta: dict[str, Any], path: Path) -> None:

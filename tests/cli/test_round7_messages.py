@@ -86,3 +86,42 @@ def test_the_waveform_figure_draws_bz_of_a_three_axis_waveform(tmp_path):
         patch.setattr(figures, "_save", record)
         figures.plot_field_waveforms(fields, tmp_path / "w.png", 4e-3)
     assert "B_z" in seen and "|B|" in seen
+
+
+def test_a_policy_whose_case_spec_was_edited_is_refused(tmp_path, capsys):
+    """M07g: a shipped policy's case_spec edited (robot length 20 -> 30 mm) ran without a word,
+    the 20 mm actor on a 30 mm robot."""
+    import json
+    import shutil
+    from pathlib import Path
+
+    from elastica_magnetic_rl.shipping.policy_files import PolicyFileError, resolve_policy
+
+    shipped = Path(__file__).resolve().parents[2] / "rl" / "policies" / "m1-4mT"
+    policy = tmp_path / "m1"
+    shutil.copytree(shipped, policy)
+    resolve_policy(policy)  # as shipped: its case_spec matches its hash
+    meta = json.loads((policy / "policy.json").read_text())
+    meta["case_spec"]["robot"]["length"] = 0.03
+    (policy / "policy.json").write_text(json.dumps(meta, indent=2))
+    with pytest.raises(PolicyFileError, match="its case_spec was edited"):
+        resolve_policy(policy)
+
+
+def test_a_turned_rotating_field_stays_within_the_specs_z_limit(tmp_path, capsys):
+    """N24: ``--heading 1.5708`` on a case whose z pair is limited to 2 mT drove z at 4 mT."""
+    from elastica_magnetic_rl.cases.case import load_case
+
+    from elastica_magnetic.specfile import dumps
+
+    spec = load_case("m1-4mT").to_dict()
+    spec["actuation"].update({"axes": "xyz", "field_limit": [4e-3, 4e-3, 2e-3]})
+    spec["robot"]["ground"]["sideways"] = "sliding"
+    path = tmp_path / "z2.toml"
+    path.write_text(dumps(spec))
+    assert msr(["field", "simulate", "--robot", str(path), "--heading", "1.5708", "--duration",
+                "0.05", "--out", str(tmp_path / "s")]) == 2
+    assert ("reaches 4 mT on z, above z2.toml's [actuation] field_limit of 2 mT on z; give "
+            "--amplitude of at most 2 mT") in capsys.readouterr().err.replace(str(tmp_path) + "/", "")
+    assert msr(["field", "simulate", "--robot", str(path), "--heading", "1.5708", "--amplitude",
+                "0.002", "--duration", "0.05", "--out", str(tmp_path / "s"), "--no-progress"]) == 0

@@ -164,3 +164,18 @@ def test_the_case_summary_names_the_axes_and_per_axis_limits():
     assert ("actuation    axes xyz (the third coil pair too), field limits x 4, y 4, z 3 mT "
             "(amplitude 4 mT), at most x 0.3, y 0.3, z 0.2 mT per 10 ms") in text
     assert "axes xy (the paper's two coil pairs), field limit 4 mT" in case_summary(load_case("m1-4mT"))
+
+
+def test_the_rotating_field_yardstick_drives_a_three_axis_case():
+    """Round 7, N20/N21: msr field baseline (and msr loop's yardstick) on an xyz case stopped with
+    "action must have 3 components"; the yardstick now holds B_z at zero with the third pair."""
+    from elastica_magnetic_rl.shipping.baselines import RotatingFieldPolicy
+
+    case = xyz_case(field_limit=[4e-3, 4e-3, 3e-3])
+    policy = RotatingFieldPolicy(case, 1.0)
+    env = MagneticCrawlerEnv(case=case, initial_field="zero", duration=0.1)
+    obs, _ = env.reset(seed=0, options={"initial_field": (1e-3, 1e-3, 1e-3)})
+    assert policy.act_dim == 3
+    for _ in range(10):
+        obs, _, _, _, info = env.step(policy.act(obs))
+    assert abs(info["field_T"][2]) < 1e-12 and np.hypot(*info["field_T"][:2]) > 3e-3

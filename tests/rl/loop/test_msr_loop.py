@@ -275,3 +275,30 @@ def test_a_quick_sweep_that_finds_no_forward_distance_blames_its_length(tmp_path
     assert "moved seg4 -0.4 mm in 0.5 s of the training physics" in err, err
     assert "(1 period(s), 0.5 s, training physics, --quick) is too short to judge the robot" in err
     assert "check the magnetization" not in err
+
+
+def test_an_interrupted_redo_leaves_the_later_steps_results(interrupted_then_resumed, tmp_path,
+                                                            monkeypatch):
+    """Round 7, K09: Ctrl-C during ``--redo train`` removed generate's, robustness's, refine's and
+    firmware's results before their replacements existed. Now each redone step's folder goes at
+    its own turn: the steps after the interrupted one keep their results (loop.json no longer
+    calls them done, so the next run redoes them)."""
+    import hashlib
+    import shutil
+
+    folder = tmp_path / "out"
+    shutil.copytree(interrupted_then_resumed["folder"], folder)
+    later = [s for s in STEPS[3:] if (folder / s).is_dir()]
+    assert later, "the fixture ran the steps after train"
+
+    def digest(step: str) -> str:
+        files = sorted(p for p in (folder / step).rglob("*") if p.is_file())
+        return hashlib.sha256(b"".join(p.read_bytes() for p in files)).hexdigest()
+
+    before = {s: digest(s) for s in later}
+    monkeypatch.setitem(loop_steps.STEP_FUNCTIONS, "train", _interrupt)
+    status, _, err = _loop(str(interrupted_then_resumed["spec"]), "--out", str(folder), "--redo",
+                           "train")
+    assert status != 0, err
+    assert {s: digest(s) for s in later} == before
+    assert not any(LoopState.read(folder).done(s) for s in STEPS[2:])
