@@ -209,9 +209,9 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
     if path.is_dir() and (path / POLICY_JSON).is_file() and (path / "actor.pt").is_file():
         meta = read_policy_json(path / POLICY_JSON)
         case = _policy_case(meta, path / POLICY_JSON)
-        _check_case_spec_hash(meta, path / POLICY_JSON)
         _check_recorded_limits(case, meta, path / POLICY_JSON)
         _check_recorded_case(case, meta, path / POLICY_JSON)
+        _check_case_spec_hash(meta, path / POLICY_JSON)  # any other edit (the named ones first)
         arch = meta["architecture"]
         _check_obs_dim(case, arch["obs_dim"], path / POLICY_JSON)
         hidden = tuple(arch["hidden_sizes"])

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import torch
 from elastica_magnetic_rl.runfiles.checkpoint import load_checkpoint
+from elastica_magnetic_rl.sweep.run_records import record_hash
 from smoke import SMOKE, TRAIN_STEPS, run_msr
 
 from elastica_magnetic.cli import main as msr
@@ -137,6 +138,7 @@ def test_recipe_is_recorded_and_a_resume_keeps_the_runs_settings(tmp_path, capsy
     # a run started when the case's default recipe was another one resumes with its own recipe
     record = json.loads((run / "run.json").read_text())
     record["case_spec"]["training"]["recipe"] = "pink-ln-unsat"
+    record["record_sha256"] = record_hash(record)  # as msr wrote it for such a run
     (run / "run.json").write_text(json.dumps(record))
     args[args.index("--episode-duration") + 1] = "0.1"
     assert msr([*args, "--steps", "30", "--resume", "--recipe", "pink"]) == 0
