@@ -102,6 +102,15 @@ def spelled_as_folder(path: str | os.PathLike[str]) -> bool:
     return text.endswith(("/", os.sep)) or os.fspath(normalized_path(text)) in _FOLDER_SPELLINGS
 
 
+def canonical_sha256(data: Any) -> str:
+    """The SHA-256 of ``data`` as canonical JSON (keys sorted, no spaces, ``str`` for what JSON
+    lacks): the fingerprint a record carries of what msr wrote, to refuse hand edits."""
+    import hashlib
+
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
 def output_path_problem(path: str | os.PathLike[str]) -> str | None:
     """Why a normalized output ``path`` (:func:`normalized_path`) can never be written, or ``None``:
     a symbolic link in a loop (still a link once resolved: writing would replace the link) or a

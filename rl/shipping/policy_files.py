@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from elastica_magnetic.io import canonical_sha256
+
 from ..cases.case import Case, case_from_metadata
 
 __all__ = [
@@ -61,7 +63,6 @@ class PolicyFileError(ValueError):
 def weights_sha256(state_dict: dict[str, Any]) -> str:
     """SHA-256 of a network's weights (names, dtypes, shapes and values, in name order): stored in
     ``policy.json`` to check that ``actor.pt`` is the actor it describes."""
-    import hashlib
 
     digest = hashlib.sha256()
     for name in sorted(state_dict):
@@ -281,8 +282,7 @@ def finish_interrupted_ship(folder: Path) -> list[str]:
 def case_spec_sha256(spec: Mapping[str, Any]) -> str:
     """The SHA-256 of a ``case_spec`` in a canonical JSON form: ``policy.json`` records it, so a
     case_spec edited by hand (a longer robot, another field limit) is refused, not run."""
-    text = json.dumps(spec, sort_keys=True, separators=(",", ":"), default=str)
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+    return canonical_sha256(spec)
 
 
 def _check_case_spec_hash(meta: dict[str, Any], path: Path) -> None:

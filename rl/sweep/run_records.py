@@ -5,13 +5,12 @@ that a resumed run keeps those settings (:func:`check_resume_settings`).
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 from pathlib import Path
 from typing import Any
 
-from elastica_magnetic.io import atomic_write_json, display_path, read_json
+from elastica_magnetic.io import atomic_write_json, canonical_sha256, display_path, read_json
 
 from ..cases.case import Case
 from ..runfiles.provenance import versions
@@ -138,6 +137,4 @@ RECORD_HASH_KEY = "record_sha256"
 
 def record_hash(record: dict[str, Any]) -> str:
     """The SHA-256 of ``record`` (without :data:`RECORD_HASH_KEY`) in a canonical JSON form."""
-    body = {k: v for k, v in record.items() if k != RECORD_HASH_KEY}
-    text = json.dumps(body, sort_keys=True, separators=(",", ":"), default=str)
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+    return canonical_sha256({k: v for k, v in record.items() if k != RECORD_HASH_KEY})
