@@ -87,3 +87,18 @@ def test_steering_page_snippet_runs_and_its_numbers_hold():
                                "--out", f"{tmp}/side", "--no-progress", "--json"],
                               capture_output=True, text=True, check=True)
     assert round(1e3 * json.loads(done.stdout)["mid_dz_m"], 1) == -23.2
+
+
+def test_steering_page_yardstick_times_are_measured():
+    """docs/steering_3d.md quotes the steering yardstick's time to a target abeam and to one
+    straight ahead (training physics): both measured here."""
+    from elastica_magnetic_rl.shipping.baselines import SteeringFieldPolicy
+    from elastica_magnetic_rl.shipping.goto import evaluate_ring
+
+    text = (TUTORIAL.parent / "steering_3d.md").read_text()
+    policy = SteeringFieldPolicy("m1-4mT-goto")
+    (abeam,) = evaluate_ring(policy, 3.0, "training", targets=[(0.0, 0.015)])
+    (ahead,) = evaluate_ring(policy, 16.0, "training", targets=[(0.015, 0.0)])
+    assert abeam["success"] and ahead["success"]
+    assert f"{abeam['time_to_target_s']:.2f} s abeam, {ahead['time_to_target_s']:.1f} s straight ahead" \
+        in text

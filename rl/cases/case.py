@@ -13,8 +13,9 @@ Tables of a spec (SI units; the robot's tables are described in
 - ``[actuation]``: ``field_limit`` (T), ``max_increment`` (T per action), ``control_rate`` (Hz;
   100, the only rate the environments and the firmware play), ``initial_field`` (``"random"``
   or ``"zero"``: training episodes; generated fields always start from zero).
-- ``[task]``: ``kind`` (``"crawl"`` or ``"reach"``, see :mod:`elastica_magnetic_rl.cases.tasks`) and its
-  parameters, ``episode_duration`` (s, training episodes).
+- ``[task]``: ``kind`` (``"crawl"``, ``"reach"`` or ``"goto"``, see
+  :mod:`elastica_magnetic_rl.cases.tasks`) and its parameters, ``episode_duration`` (s, training
+  episodes); ``goto`` needs ``[actuation] axes = "xyz"``.
 - ``[training]``: ``recipe`` (:data:`~elastica_magnetic_rl.cases.recipes.RECIPES`), ``steps`` per seed,
   ``[training.td3]``: :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` fields on top of the recipe,
   and ``[training.randomize]``: robot values drawn anew per training episode and crawler (domain
@@ -49,7 +50,7 @@ from elastica_magnetic.specfile import (
 )
 
 from .recipes import DEFAULT_RECIPE, RECIPES
-from .tasks import TASK_KINDS, ReachTask, Task
+from .tasks import TASK_KINDS, GotoTask, ReachTask, Task
 from .variations import (
     Variation,
     VariationError,
@@ -95,6 +96,9 @@ CASE_UNITS: dict[tuple[str, str], str] = {
     ("task", "reward_scale"): "per m", ("task", "episode_duration"): "s, training episodes",
     ("task", "target"): "m ahead of the start", ("task", "tolerance"): "m",
     ("task", "slow_zone"): "m", ("task", "speed_penalty"): "x reward_scale per m moved near the target",
+    ("task", "distance"): "m from the start, the targets' ring",
+    ("task", "angle_low"): "rad, bearing from ahead, counter-clockwise seen from above",
+    ("task", "angle_high"): "rad, bearing from ahead, counter-clockwise seen from above",
     ("training", "steps"): "environment steps per seed",
     ("yardstick", "distance_10s"): "m in 10 s, accurate physics, field from zero",
 }
@@ -221,8 +225,10 @@ class Case:
 
     @property
     def has_yardstick(self) -> bool:
-        """Whether the case has a success test: a reach task (its tolerance) or a crawl task with a
-        ``[yardstick] distance_10s`` above 0."""
+        """Whether the case has a success test of one 10 s evaluation: a reach task (its
+        tolerance) or a crawl task with a ``[yardstick] distance_10s`` above 0. A goto task has
+        none of one run: it is judged on a ring of targets
+        (:func:`~elastica_magnetic_rl.shipping.goto.evaluate_ring`)."""
         return isinstance(self.task, ReachTask) or self.yardstick.distance_10s > 0.0
 
     @property
@@ -231,6 +237,9 @@ class Case:
         for a case without one, :data:`NO_TARGET`."""
         if isinstance(self.task, ReachTask):
             return f"within {1e3 * self.task.tolerance:.1f} mm of {1e3 * self.task.target:+.1f} mm"
+        if isinstance(self.task, GotoTask):
+            return (f"within {1e3 * self.task.tolerance:.1f} mm of a target "
+                    f"{1e3 * self.task.distance:.1f} mm away in {self.task.episode_duration:g} s")
         if self.yardstick.distance_10s > 0.0:
             return f"{1e3 * self.yardstick.distance_10s:+.1f} mm in 10 s"
         return NO_TARGET
@@ -346,6 +355,10 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     actuation = _actuation(top.table("actuation"))
     _check_sideways_model(actuation, robot, spec, source)
     task = _task(top.table("task"), float(robot.tables["robot"]["length"]))
+    if isinstance(task, GotoTask) and actuation.axes != "xyz":
+        raise SpecError(f"{source}: [task] kind = \"goto\" needs the third coil pair: a field "
+                        f"confined to the x-y plane (axes = {actuation.axes!r}) moves the robot "
+                        "only along its line; set [actuation] axes = \"xyz\"")
     training = _training(top.table("training", required=False), source, robot)
     yardstick = _yardstick(top.table("yardstick", required=False),
                            float(robot.tables["robot"]["length"]))
@@ -462,11 +475,39 @@ def _task(t: SpecTable, length: float) -> Task:
                           f"target distance |target| = {abs(values['target']):g} m, or staying "
                           "at the start counts as reaching the target")
         _check_target_reach(t, values["target"], length, values["episode_duration"])
+    if cls is GotoTask:
+        values.update(_goto_values(t, d, length, values["episode_duration"]))
     t.finish()
     return cls(**values)
 
 
-def _check_target_reach(t: SpecTable, target: float, length: float, duration: float) -> None:
+def _goto_values(t: SpecTable, d: GotoTask, length: float, duration: float) -> dict[str, float]:
+    """The goto task's keys: the targets' ring (``distance``, m; bearings ``angle_low`` ..
+    ``angle_high``, rad from ahead, counter-clockwise seen from above), ``tolerance`` (m) and the
+    reward's ``slow_zone`` (m) and ``speed_penalty``."""
+    values = {
+        "distance": t.number("distance", "m from the start", d.distance, low=0.0, low_open=True),
+        "angle_low": t.number("angle_low", "rad", d.angle_low, low=-2 * math.pi, high=2 * math.pi),
+        "angle_high": t.number("angle_high", "rad", d.angle_high, low=-2 * math.pi,
+                               high=2 * math.pi),
+        "tolerance": t.number("tolerance", "m", d.tolerance, low=0.0, low_open=True),
+        "slow_zone": t.number("slow_zone", "m", d.slow_zone, low=0.0),
+        "speed_penalty": t.number("speed_penalty", "1", d.speed_penalty, low=0.0),
+    }
+    if values["angle_low"] > values["angle_high"]:
+        raise t.error("angle_high", f"{values['angle_high']:g} rad is below angle_low = "
+                      f"{values['angle_low']:g} rad: the targets' bearings run from angle_low up to "
+                      "angle_high")
+    if values["tolerance"] >= values["distance"]:
+        raise t.error("tolerance", f"{values['tolerance']:g} m must be smaller than the target "
+                      f"distance {values['distance']:g} m, or staying at the start counts as "
+                      "reaching every target")
+    _check_target_reach(t, values["distance"], length, duration, key="distance")
+    return values
+
+
+def _check_target_reach(t: SpecTable, target: float, length: float, duration: float,
+                        key: str = "target") -> None:
     """Refuse a reach target (m) no crawler covers in the episode (``duration`` s): more body
     lengths (``length``, m) than :data:`MAX_YARDSTICK_BODY_LENGTHS` per 10 s, naming the mm
     mistake it looks like."""
@@ -475,7 +516,7 @@ def _check_target_reach(t: SpecTable, target: float, length: float, duration: fl
         return
     hint = (f"; it looks like mm written where m is expected ({target:g} mm is {1e-3 * target:g} m)"
             if lengths / 1e3 <= most else "")
-    raise t.error("target", f"{target:g} m is {lengths:.0f} body lengths of this {length:g} m robot, "
+    raise t.error(key, f"{target:g} m is {lengths:.0f} body lengths of this {length:g} m robot, "
                             f"more than the {most:g} that any crawler covers in the "
                             f"{duration:g} s episode{hint}")
 

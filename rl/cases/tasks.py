@@ -20,8 +20,10 @@ the single and the vector environment share one implementation.
   frame), and stay. Reward as the reach task's on the distance in the floor plane. Extra
   observation ``heading`` ``(cos h, sin h)`` and ``target_offset`` ``100 *`` the offset to the
   target in the robot's own frame (forward, left; per m): a policy steers by what is ahead and to
-  its side, the same for every direction it happens to face. Needs a robot that can turn: a
-  three-axis case (``[actuation] axes = "xyz"``).
+  its side, the same for every direction it happens to face. Needs a robot that can leave its
+  line: a three-axis case (``[actuation] axes = "xyz"``). Success: ending within ``tolerance`` of
+  the target; a policy is judged on a ring of :data:`RING_TARGETS` targets (:func:`ring_targets`,
+  :func:`goto_metrics`).
 
 Floor-plane conventions: y is up; the heading ``h`` of the robot is the direction from its back
 node to its front node, ``(cos h, 0, -sin h)``, counter-clockwise seen from above (0: +x, the start);
@@ -37,8 +39,8 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["CrawlTask", "GotoTask", "ReachTask", "Task", "TASK_KINDS", "TARGET_OFFSET_SCALE",
-           "floor_pose", "middle_x"]
+__all__ = ["CrawlTask", "GotoTask", "RING_TARGETS", "ReachTask", "Task", "TASK_KINDS",
+           "TARGET_OFFSET_SCALE", "floor_pose", "goto_metrics", "middle_x", "ring_targets"]
 
 #: Scale of the reach task's ``target_offset`` observation, per m.
 TARGET_OFFSET_SCALE = 100.0
@@ -225,7 +227,37 @@ class GotoTask:
 
 Task = CrawlTask | ReachTask | GotoTask
 
-#: Task classes by the ``kind`` of a spec's ``[task]`` table (the goto task is not yet one: its
-#: evaluation, success count and shipping are still to come; use it through the environments'
-#: ``task`` argument).
-TASK_KINDS: dict[str, type] = {"crawl": CrawlTask, "reach": ReachTask}
+#: Task classes by the ``kind`` of a spec's ``[task]`` table.
+TASK_KINDS: dict[str, type] = {"crawl": CrawlTask, "reach": ReachTask, "goto": GotoTask}
+
+#: Targets of a goto evaluation ring: evenly spaced bearings around the start.
+RING_TARGETS = 12
+
+
+def ring_targets(distance: float, n: int = RING_TARGETS) -> NDArray[np.float64]:
+    """``n`` targets evenly spaced on a ring of radius ``distance`` (m) around the start, the
+    first straight ahead, then counter-clockwise seen from above: ``(n, 2)`` (forward, left), m."""
+    if n < 1:
+        raise ValueError(f"a ring needs at least one target, got {n}")
+    bearing = 2.0 * np.pi * np.arange(n) / n
+    return distance * np.stack([np.cos(bearing), np.sin(bearing)], axis=1)
+
+
+def goto_metrics(times: Any, pose: Any, target: Any, tolerance: float) -> dict[str, Any]:
+    """A goto episode's result from the middle node's floor pose ``(T, 3)`` (x, z, heading; m, m,
+    rad) at ``times`` ``(T,)`` (s) and the target ``(2,)`` (x, z; m): ``final_distance_to_target_m``,
+    ``success`` (ending within ``tolerance``, m), ``time_to_target_s`` (the first time within the
+    tolerance; ``None`` if never) and ``settle_time_s`` (from when it stays within it to the end;
+    ``None`` if it does not end there)."""
+    times, pose = np.asarray(times, dtype=np.float64), np.asarray(pose, dtype=np.float64)
+    target = np.asarray(target, dtype=np.float64)
+    distance = np.hypot(pose[:, 0] - target[0], pose[:, 1] - target[1])
+    inside = distance <= tolerance
+    first = np.flatnonzero(inside)
+    settle = None
+    if inside[-1]:
+        outside = np.flatnonzero(~inside)
+        settle = float(times[outside[-1] + 1] if outside.size else times[0])
+    return {"final_distance_to_target_m": float(distance[-1]), "success": bool(inside[-1]),
+            "time_to_target_s": float(times[first[0]]) if first.size else None,
+            "settle_time_s": settle, "closest_distance_m": float(distance.min())}

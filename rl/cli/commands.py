@@ -22,19 +22,27 @@ from elastica_magnetic.cli import (
     print_result,
 )
 
+from ..cases.tasks import RING_TARGETS
 from .options import (
     CASE_HELP,
     CHECKPOINT_HELP,
     FORCE_HELP,
+    TARGET_HELP,
     case_option,
     checked_spec_option,
     print_rollout_result,
+    ring_option,
+    target_option,
 )
+
+#: ``--duration`` of a rollout when not given, s.
+DEFAULT_ROLLOUT_S = 10.0
 
 
 def _add_rollout_options(p: argparse.ArgumentParser, out: str) -> None:
     """The options of the commands that roll a policy out and write what ``generate`` writes."""
-    p.add_argument("--duration", type=duration_option(), default=10.0, help="s")
+    p.add_argument("--duration", type=duration_option(), default=None,
+                   help="s (default 10; with --ring, the goto task's episode)")
     p.add_argument("--out", type=output_path, default=out)
     p.add_argument("--physics", choices=("accurate", "training"), default="accurate")
     p.add_argument("--no-figures", action="store_true", help="skip the figures and the GIF")
@@ -140,8 +148,43 @@ def _add_generate_command(sub: argparse._SubParsersAction) -> None:
                                   "(e.g. m1-4mT)")
     p.add_argument("--checkpoint", default="auto", metavar="auto|final|best|PATH",
                    help=CHECKPOINT_HELP + " (evaluated for --duration s)")
+    _add_goto_options(p)
     _add_rollout_options(p, "out/generate")
     p.set_defaults(func=generate_command)
+
+
+def _add_goto_options(p: argparse.ArgumentParser) -> None:
+    """``--target`` and ``--ring``: where a goto case's robot is sent."""
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--target", type=target_option, default=None, metavar="FORWARD,LEFT",
+                       help=TARGET_HELP)
+    where.add_argument("--ring", type=ring_option, nargs="?", const=RING_TARGETS, default=None,
+                       metavar="N", help=f"a goto case: send the robot to N targets (default "
+                       f"{RING_TARGETS}) evenly spaced on the task's ring, each from the start, "
+                       "for --duration s (default the task's episode); write ring.csv, ring.json "
+                       "and ring.png (top view) instead of one rollout's files")
+
+
+def _goto_args(args: argparse.Namespace, case) -> None:
+    """Refuse ``--target``/``--ring`` for a case that is not goto, and ``--ring`` with options
+    it does not use; a goto ring's ``--duration`` defaults to the task's episode."""
+    from ..cases.tasks import GotoTask
+
+    given = "--target" if args.target is not None else "--ring" if args.ring is not None else None
+    if given and not isinstance(case.task, GotoTask):
+        raise CommandError(f"{given} is for a goto case; case {case.name!r} has the "
+                           f"{case.task.kind} task (it goes where its task says)")
+
+
+def _ring_result(policy, args: argparse.Namespace, kind: str) -> int:
+    """``--ring``: the ring written into ``--out``, printed."""
+    from ..shipping.goto import write_ring
+
+    result = write_ring(policy, args.out, args.duration, args.physics, args.ring, force=args.force,
+                        progress=not args.no_progress, kind=kind)
+    print_notes(result.pop("notes", ()))
+    print_result(result, args.json)
+    return 0
 
 
 def _add_baseline_command(sub: argparse._SubParsersAction) -> None:
@@ -160,7 +203,8 @@ def _add_baseline_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--case", type=case_option, required=True, help=CASE_HELP)
     p.add_argument("--period", type=number("s", 0.0, low_open=True), default=None,
                    help="s per turn of the field; without it, a sweep of --periods in both "
-                        "directions, the farthest one's files written")
+                        "directions, the farthest one's files written (a goto case: the steering "
+                        "yardstick's period, default 1 s)")
     p.add_argument("--counterclockwise", action="store_true",
                    help="turn the field counter-clockwise in the x-y plane, seen from +z (with "
                    "--period; default clockwise). Which way the robot then moves depends on its "
@@ -172,6 +216,7 @@ def _add_baseline_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--set-yardstick", type=output_path, default=None, metavar="OUT.toml",
                    help="write a copy of the case's spec with the sweep's best distance as "
                         "[yardstick] distance_10s (needs the accurate physics and 10 s)")
+    _add_goto_options(p)
     _add_rollout_options(p, "out/baseline")
     p.set_defaults(func=baseline_command)
 
@@ -200,7 +245,8 @@ def _add_demo_command(sub: argparse._SubParsersAction) -> None:
         help="generate with the shipped pattern-1 4 mT policy (fields, figures, animation)",
     )
     p.add_argument("--out", type=output_path, default="out/demo")
-    p.add_argument("--duration", type=duration_option(), default=10.0, help="s")
+    p.add_argument("--duration", type=duration_option(), default=None,
+                   help="s (default 10; with --ring, the goto task's episode)")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=demo_command)
@@ -280,10 +326,23 @@ def bench_command(args: argparse.Namespace) -> int:
 def generate_command(args: argparse.Namespace) -> int:
     from ..shipping.generate import generate
 
+    if args.ring is None and args.duration is None:
+        args.duration = DEFAULT_ROLLOUT_S
+    if args.target is not None or args.ring is not None:
+        from ..shipping.policy_files import resolve_policy
+
+        try:
+            loaded = resolve_policy(args.policy)
+        except FileNotFoundError as exc:
+            raise CommandError(str(exc)) from None
+        _goto_args(args, loaded.case)
+        if args.ring is not None:
+            return _ring_result(loaded, args, "generate")
     try:
         result = generate(args.policy, duration=args.duration, out=args.out, physics=args.physics,
                           progress=not args.no_progress, figures=not args.no_figures,
-                          gif=not args.no_gif, checkpoint=args.checkpoint, force=args.force)
+                          gif=not args.no_gif, checkpoint=args.checkpoint, force=args.force,
+                          target=args.target)
     except FileNotFoundError as exc:
         raise CommandError(str(exc)) from None
     return _print_rollout_result(result, args.json)
@@ -292,10 +351,16 @@ def generate_command(args: argparse.Namespace) -> int:
 def baseline_command(args: argparse.Namespace) -> int:
     from elastica_magnetic import read_field_csv
 
+    from ..cases.tasks import GotoTask
     from ..shipping.baseline_sweep import achieved_period
     from ..shipping.baselines import RotatingFieldPolicy
     from ..shipping.generate import generate
 
+    _goto_args(args, args.case)
+    if isinstance(args.case.task, GotoTask):
+        return _steering_baseline(args)
+    if args.duration is None:
+        args.duration = DEFAULT_ROLLOUT_S
     if args.set_yardstick is not None and (args.physics != "accurate" or args.duration != 10.0):
         raise CommandError("--set-yardstick: a yardstick is the distance in 10 s of the accurate "
                            f"physics; got --physics {args.physics} --duration {args.duration:g}")
@@ -318,6 +383,31 @@ def baseline_command(args: argparse.Namespace) -> int:
         result |= achieved_period(read_field_csv(result["fields_csv"]), args.period, args.case)
         if result["warning"]:
             print(f"warning: {result['warning']}", file=sys.stderr)
+    return _print_rollout_result(result, args.json)
+
+
+def _steering_baseline(args: argparse.Namespace) -> int:
+    """``msr field baseline`` of a goto case: the steering yardstick to one target or a ring."""
+    from ..shipping.baselines import SteeringFieldPolicy
+    from ..shipping.generate import generate
+
+    for option, value in (("--counterclockwise", args.counterclockwise), ("--periods", args.periods),
+                          ("--set-yardstick", args.set_yardstick)):
+        if value:
+            raise CommandError(f"{option} belongs to the rotating-field sweep of a crawl case; case "
+                               f"{args.case.name!r} is a goto case, whose yardstick steers a field "
+                               "turning clockwise (--period, default 1 s) toward the target")
+    try:
+        policy = SteeringFieldPolicy(args.case, args.period if args.period is not None else 1.0)
+    except ValueError as exc:
+        raise CommandError(f"--period: {exc}") from None
+    if args.ring is not None:
+        return _ring_result(policy, args, "baseline")
+    if args.duration is None:
+        args.duration = DEFAULT_ROLLOUT_S
+    result = generate(policy, duration=args.duration, out=args.out, physics=args.physics,
+                      progress=not args.no_progress, figures=not args.no_figures,
+                      gif=not args.no_gif, force=args.force, kind="baseline", target=args.target)
     return _print_rollout_result(result, args.json)
 
 

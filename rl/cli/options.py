@@ -7,8 +7,8 @@ import argparse
 
 from elastica_magnetic.cli import print_result
 
-__all__ = ["CASE_HELP", "CHECKPOINT_HELP", "FORCE_HELP", "case_option", "checked_spec_option",
-           "print_rollout_result"]
+__all__ = ["CASE_HELP", "CHECKPOINT_HELP", "FORCE_HELP", "TARGET_HELP", "case_option",
+           "checked_spec_option", "print_rollout_result", "ring_option", "target_option"]
 
 CHECKPOINT_HELP = ("which actor of a run: auto (default: the final actor and best.pt evaluated in "
                    "the accurate physics from a zero field, the farther used), final, best, or a "
@@ -18,6 +18,46 @@ CASE_HELP = "a shipped case (`msr case list`: m1-4mT, m2-4mT, m1-10mT, m2-10mT, 
 
 FORCE_HELP = ("replace an earlier result of this command for the same case in --out (without it "
               "an existing result is refused; another command's or case's result always is)")
+
+TARGET_HELP = ("a goto case's target: FORWARD,LEFT in m from the start, in the robot's start frame "
+               "(+x ahead; LEFT positive to its left, which is -z); default the task's distance "
+               "straight ahead")
+
+#: The largest target distance ``--target`` takes, m: beyond it, mm were written for m.
+MAX_TARGET_M = 10.0
+
+
+def target_option(value: str) -> tuple[float, float]:
+    """``--target FORWARD,LEFT`` (m): two finite numbers; a distance of metres is refused as mm
+    written for m."""
+    import math
+
+    parts = value.split(",")
+    try:
+        forward, left = (float(v) for v in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected FORWARD,LEFT in m (two numbers, e.g. 0.015,0), got {value!r}") from None
+    if not (math.isfinite(forward) and math.isfinite(left)):
+        raise argparse.ArgumentTypeError(f"the target must be finite numbers in m, got {value!r}")
+    if math.hypot(forward, left) > MAX_TARGET_M:
+        raise argparse.ArgumentTypeError(
+            f"{value} is {math.hypot(forward, left):g} m from the start: metres, not mm (15 mm is "
+            "0.015)")
+    return forward, left
+
+
+def ring_option(value: str) -> int:
+    """``--ring N``: the number of targets on the ring, 1 to 72."""
+    try:
+        n = int(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of targets (1 to 72), got {value!r}") \
+            from None
+    if not 1 <= n <= 72:
+        raise argparse.ArgumentTypeError(f"expected 1 to 72 targets, got {n}")
+    return n
+
 
 def case_option(value: str):
     """``--case NAME_OR_PATH``: the case, loaded and checked at parse time (a bad spec file is an

@@ -6,9 +6,13 @@ starting at zero), so its waveform is one the coils could play and its distance 
 comparable with a learned policy's. A rotating field makes these robots roll (the paper's gait 2 at
 10 mT); it is the obvious open-loop gait a learned policy should beat.
 
-The policy is a function of the observation alone (it reads the field back from the observation's
-amplitude and angle), so it runs wherever a learned actor runs: ``msr field baseline`` writes the same
-files as ``msr policy generate``.
+:class:`SteeringFieldPolicy` is the goto task's yardstick: the same rotating field, its rotation
+plane turned toward the target at every step from the tracked position (the feedback an
+experimentalist with a camera would close), and the field ramped to zero once the robot is there.
+
+Both are functions of the observation alone (they read the field back from the observation's
+amplitude, angle and ``field_z``, the target from the goto task's blocks), so they run wherever a
+learned actor runs: ``msr field baseline`` writes the same files as ``msr policy generate``.
 """
 
 from __future__ import annotations
@@ -22,13 +26,64 @@ from numpy.typing import NDArray
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..cases.case import Case, load_case
+from ..cases.tasks import TARGET_OFFSET_SCALE, GotoTask
 from ..envs.env import OBSERVATION_SCALES, observation_layout
 
-__all__ = ["RotatingFieldPolicy"]
+__all__ = ["RotatingFieldPolicy", "SteeringFieldPolicy"]
+
+
+def _check_period(period: float, case: Case) -> None:
+    """Refuse a rotation period (s) that is not a positive time above the Nyquist limit."""
+    if not (period > 0.0 and math.isfinite(period)):
+        raise ValueError(f"period must be a positive time in s, got {period}")
+    if period <= 2.0 * ACTION_PERIOD:
+        # half a turn or more per 0.01 s step: the sampled field does not turn this way (a
+        # period of 0.001 s asks for ten whole turns per step, a static field)
+        raise ValueError(f"period {period:g} s is at or under 2 x the {ACTION_PERIOD:g} s "
+                         f"control period (the Nyquist limit of the {1 / ACTION_PERIOD:g} Hz "
+                         f"field updates): the field would alias to a slower or static one; "
+                         f"give more than {2 * ACTION_PERIOD:g} s (the rate limit of "
+                         f"{1e3 * case.actuation.max_increment:g} mT per step keeps the "
+                         "field at the limit only for much longer periods)")
+
+
+class _FieldReader:
+    """What the hand-designed policies share: the case's limits and increments, the attributes
+    that let them stand in for a loaded policy, and the field read back from an observation."""
+
+    def _setup(self, case: str | Case) -> Case:
+        case = load_case(case)
+        actuation = case.actuation
+        self.field_limit = case.field_limit
+        self.max_increment = actuation.max_increment
+        self.layout = observation_layout(case.n_elements, (*actuation.observation_blocks,
+                                                           *case.task.extra_observation))
+        self._limits = np.array(actuation.limits[: actuation.n_axes])
+        self._increments = np.array(actuation.increments[: actuation.n_axes])
+        self.obs_dim = case.obs_dim
+        self.act_dim = actuation.n_axes
+        self.critic = None
+        self.actor = None
+        self.kind = "baseline"
+        return case
+
+    def _field(self, obs: NDArray[np.float32]) -> NDArray[np.float64]:
+        """The present field ``(B_x, B_y, B_z)``, T, from the observation (``B_z`` 0 on two axes)."""
+        amplitude = float(obs[self.layout["field_amplitude"].start]) / OBSERVATION_SCALES["field_amplitude"]
+        angle = float(obs[self.layout["field_angle"].start]) / OBSERVATION_SCALES["field_angle"]
+        bz = (float(obs[self.layout["field_z"].start]) / OBSERVATION_SCALES["field_z"]
+              if "field_z" in self.layout else 0.0)
+        return np.array([amplitude * math.cos(angle), amplitude * math.sin(angle), bz])
+
+    def _toward(self, field: NDArray[np.float64], wanted: NDArray[np.float64]) -> NDArray[np.float32]:
+        """The action that moves ``field`` toward ``wanted`` (both ``(3,)``, T) as far as one
+        step's increments allow, in units of each axis's increment, ``(k,)``."""
+        change = (wanted - field)[: self.act_dim] / self._increments
+        return np.clip(change, -1.0, 1.0).astype(np.float32)
 
 
 @dataclass
-class RotatingFieldPolicy:
+class RotatingFieldPolicy(_FieldReader):
     """Turn the field at the limit by ``2 pi / period`` rad/s, clockwise unless stated.
 
     Each step asks for the field at the limit amplitude, rotated from the present field's angle by
@@ -52,47 +107,137 @@ class RotatingFieldPolicy:
     clockwise: bool = True
 
     def __post_init__(self) -> None:
-        self.case = load_case(self.case)
-        if not (self.period > 0.0 and math.isfinite(self.period)):
-            raise ValueError(f"period must be a positive time in s, got {self.period}")
-        if self.period <= 2.0 * ACTION_PERIOD:
-            # half a turn or more per 0.01 s step: the sampled field does not turn this way (a
-            # period of 0.001 s asks for ten whole turns per step, a static field)
-            raise ValueError(f"period {self.period:g} s is at or under 2 x the {ACTION_PERIOD:g} s "
-                             f"control period (the Nyquist limit of the {1 / ACTION_PERIOD:g} Hz "
-                             "field updates): the field would alias to a slower or static one; "
-                             f"give more than {2 * ACTION_PERIOD:g} s (the rate limit of "
-                             f"{1e3 * self.case.actuation.max_increment:g} mT per step keeps the "
-                             "field at the limit only for much longer periods)")
-        self.field_limit = self.case.field_limit
-        self.max_increment = self.case.actuation.max_increment
-        actuation = self.case.actuation
-        layout = observation_layout(self.case.n_elements,
-                                    (*actuation.observation_blocks, *self.case.task.extra_observation))
-        self._amplitude = layout["field_amplitude"].start
-        self._angle = layout["field_angle"].start
-        # a three-axis case: the z pair holds B_z at zero (the paper's field, in the x-y plane)
-        self._field_z = layout["field_z"].start if "field_z" in layout else None
-        self._increments = np.array(actuation.increments[: actuation.n_axes])
-        self.obs_dim = self.case.obs_dim
-        self.act_dim = actuation.n_axes
-        self.critic = None
-        self.actor = None
-        self.kind = "baseline"
+        self.case = self._setup(self.case)
+        _check_period(self.period, self.case)
         turn = "clockwise" if self.clockwise else "counter-clockwise"
         self.source = f"rotating field, {turn}, period {self.period:g} s"
         self.meta = {"period_s": self.period, "clockwise": self.clockwise}
 
     def act(self, obs: NDArray[np.float32]) -> NDArray[np.float32]:
-        """Normalised action in [-1, 1]^k (k: the case's axes) for one observation ``(obs_dim,)``."""
-        amplitude = float(obs[self._amplitude]) / OBSERVATION_SCALES["field_amplitude"]  # T
-        angle = float(obs[self._angle]) / OBSERVATION_SCALES["field_angle"]  # rad
-        field = amplitude * np.array([math.cos(angle), math.sin(angle)])
+        """Normalised action in [-1, 1]^k (k: the case's axes) for one observation ``(obs_dim,)``;
+        on three axes the z pair holds B_z at zero (the paper's field, in the x-y plane)."""
+        field = self._field(obs)
+        angle = float(obs[self.layout["field_angle"].start]) / OBSERVATION_SCALES["field_angle"]
         step = 2.0 * math.pi * ACTION_PERIOD / self.period
         target_angle = angle - step if self.clockwise else angle + step
-        target = self.field_limit * np.array([math.cos(target_angle), math.sin(target_angle)])
-        if self._field_z is None:
-            return np.clip((target - field) / self.max_increment, -1.0, 1.0).astype(np.float32)
-        bz = float(obs[self._field_z]) / OBSERVATION_SCALES["field_z"]  # T
-        change = np.array([*(target - field), -bz]) / self._increments
-        return np.clip(change, -1.0, 1.0).astype(np.float32)
+        wanted = self.field_limit * np.array([math.cos(target_angle), math.sin(target_angle), 0.0])
+        return self._toward(field, wanted)
+
+
+@dataclass
+class SteeringFieldPolicy(_FieldReader):
+    """The goto task's yardstick: a field rotating clockwise (``period`` s per turn) in a vertical
+    plane chosen from the robot's tracked pose at every step, as an experimentalist with a camera
+    would steer it.
+
+    Measured on the paper's pattern-1 band at 4 mT (a flat band that slides sideways): a field
+    rotating in a vertical plane walks it along that plane, and it walks across its body (about
+    6 mm per turn of the field); a plane between ahead and across also yaws the body until the
+    plane is across it; a plane along the body barely moves it. So the yardstick has two
+    manoeuvres. **Walk**: the plane toward the target (the band walks there and turns to keep the
+    plane across it), once the target is within ``walk_band`` rad of abeam and until it is more
+    than ``turn_band`` rad from abeam. **Turn** otherwise: the plane ``turn_bearing`` rad from the
+    body's axis, its sense of rotation reversed after every turn of the field (both senses yaw the
+    body the same way and their steps cancel: about 8 degrees per second), toward bringing the
+    target abeam on the nearer side. The field's amplitude is the largest the per-axis limits
+    allow in the plane. Within ``stop_radius`` m of the target it ramps the field to zero (at the
+    increment limit) and waits.
+
+    Args:
+        case: a case with the goto task and three axes (name, spec file or
+            :class:`~elastica_magnetic_rl.cases.case.Case`).
+        period: time of one turn of the field, s.
+        walk_band, turn_band: rad from abeam where walking starts and where it stops.
+        turn_bearing: rad between the plane and the body's axis while turning.
+        stop_radius: m; default half the task's tolerance.
+
+    It remembers its manoeuvre: :func:`~elastica_magnetic_rl.shipping.policy_runs.run_policy`
+    calls :meth:`reset` at the start of each rollout.
+    """
+
+    case: str | Case
+    period: float = 1.0
+    walk_band: float = math.pi / 12
+    turn_band: float = math.pi / 3
+    turn_bearing: float = math.pi / 12
+    stop_radius: float | None = None
+
+    def __post_init__(self) -> None:
+        self.case = self._setup(self.case)
+        task = self.case.task
+        if not isinstance(task, GotoTask):
+            raise ValueError(f"the steering yardstick steers to a target: case {self.case.name!r} "
+                             f"has the {task.kind} task, not goto")
+        _check_period(self.period, self.case)
+        for name in ("walk_band", "turn_band", "turn_bearing"):
+            if not 0.0 < getattr(self, name) < math.pi / 2:
+                raise ValueError(f"{name} must be in (0, pi/2) rad, got {getattr(self, name)!r}")
+        self.stop_radius = 0.5 * task.tolerance if self.stop_radius is None else self.stop_radius
+        if not (math.isfinite(self.stop_radius) and 0.0 <= self.stop_radius <= task.tolerance):
+            raise ValueError(f"stop_radius must be within the task's tolerance "
+                             f"{task.tolerance:g} m, got {self.stop_radius!r}")
+        self.reset()
+        self.source = (f"steering rotating field, period {self.period:g} s, plane toward the "
+                       "target")
+        self.meta = {"period_s": self.period, "walk_band_rad": self.walk_band,
+                     "turn_band_rad": self.turn_band,
+                     "turn_bearing_rad": self.turn_bearing,
+                     "stop_radius_m": self.stop_radius}
+
+    def reset(self) -> None:
+        """A new episode: no manoeuvre under way."""
+        self._step = 0
+        self._walking: bool | None = None
+
+    def plane_bearing(self, forward: float, left: float) -> float:
+        """The rotation plane's bearing in the robot's frame (rad) for a target ``forward``,
+        ``left`` (m) of it. Walking (the plane toward the target: the band walks across its body
+        and turns to keep the plane across it) once the target is within ``walk_band`` rad of
+        abeam, until it is more than ``turn_band`` rad from abeam; turning in place otherwise,
+        toward bringing the target abeam on the nearer side (the plane at ``turn_bearing`` from the
+        axis, reversed after every turn of the field: both senses turn the body the same way, their
+        steps cancel)."""
+        bearing = math.atan2(left, forward)
+        off_abeam = abs(abs(bearing) - math.pi / 2)
+        if self._walking is None or self._walking != (off_abeam <= (
+                self.turn_band if self._walking else self.walk_band)):
+            self._walking = off_abeam <= (self.turn_band if self._walking else self.walk_band)
+            self._turn_started = self._step
+        if self._walking:
+            return bearing
+        # clockwise (right) when the target is ahead-left or behind-right: it then comes abeam
+        clockwise = (bearing > 0.0) == (abs(bearing) < math.pi / 2)
+        plane = self.turn_bearing if clockwise else -self.turn_bearing
+        turns = (self._step - self._turn_started) * ACTION_PERIOD / self.period
+        if turns % 2.0 >= 1.0:
+            plane -= math.copysign(math.pi, plane)
+        return plane
+
+    def plane_amplitude(self, heading: float) -> float:
+        """The largest amplitude (T) of a field rotating in the vertical plane of world heading
+        ``heading`` (rad) within every axis's limit."""
+        x_limit, y_limit, z_limit = self._limits
+        amplitude = min(self.field_limit, y_limit)
+        if abs(math.cos(heading)) > 1e-12:
+            amplitude = min(amplitude, x_limit / abs(math.cos(heading)))
+        if abs(math.sin(heading)) > 1e-12:
+            amplitude = min(amplitude, z_limit / abs(math.sin(heading)))
+        return amplitude
+
+    def act(self, obs: NDArray[np.float32]) -> NDArray[np.float32]:
+        """Normalised action in [-1, 1]^3 for one observation ``(obs_dim,)``."""
+        field = self._field(obs)
+        self._step += 1
+        cos_h, sin_h = obs[self.layout["heading"]]
+        forward, left = obs[self.layout["target_offset"]] / TARGET_OFFSET_SCALE
+        distance = math.hypot(forward, left)
+        if distance <= self.stop_radius:
+            return self._toward(field, np.zeros(3))
+        plane = math.atan2(float(sin_h), float(cos_h)) + self.plane_bearing(float(forward),
+                                                                             float(left))
+        along = np.array([math.cos(plane), 0.0, -math.sin(plane)])
+        # the field's phase in the plane, then one step further clockwise
+        phase = math.atan2(field[1], float(field @ along)) - 2.0 * math.pi * ACTION_PERIOD / self.period
+        up = np.array([0.0, 1.0, 0.0])
+        wanted = self.plane_amplitude(plane) * (math.cos(phase) * along + math.sin(phase) * up)
+        return self._toward(field, wanted)

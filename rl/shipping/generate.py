@@ -15,9 +15,10 @@ from elastica_magnetic.io import atomic_write, atomic_write_json, read_json
 from elastica_magnetic.openloop import check_duration
 from elastica_magnetic.results import check_result_folder, result_folder
 
-from ..cases.tasks import ReachTask
+from ..cases.tasks import GotoTask, ReachTask
 from ..reports.figures import ROLLOUT_FIGURES
 from .baselines import RotatingFieldPolicy
+from .goto import goto_result, goto_target
 from .policy_files import (
     POLICIES_DIR,
     POLICY_JSON,
@@ -63,6 +64,7 @@ def generate(
     checkpoint: str = "auto",
     force: bool = False,
     kind: str = "generate",
+    target: Any = None,
 ) -> dict[str, Any]:
     """Generate a field waveform with a policy: accurate physics, field from zero, deterministic.
 
@@ -92,13 +94,16 @@ def generate(
     displacement, m: 0 for planar motion), ``mid_node_dx_m`` (of the reward's middle
     node, node ``n // 2``), ``target``, ``fields_csv`` and ``trajectory_csv``; ``yardstick_10s_m``
     when the case has one and ``meets_target`` only for a 10 s run in the accurate physics of a
-    case with a target.
+    case with a target. For a goto case, ``target`` (forward, left; m from the start, in the
+    robot's start frame: +x ahead, left is -z) is where it is sent (default: the task's
+    ``distance`` straight ahead) and ``goto`` holds :func:`goto_result`.
     """
 
 
 
     check_duration(duration)
     loaded = resolve_policy(policy) if isinstance(policy, (str, Path)) else policy
+    target = goto_target(loaded.case, target)
     subject = f"case {loaded.case.name}"
     check_result_folder(out, kind=kind, subject=subject, force=force, known_files=GENERATE_FILES)
     choice = None
@@ -108,14 +113,15 @@ def generate(
             loaded = resolve_policy(choice.path)
     with result_folder(out, kind=kind, subject=subject, force=force,
                        known_files=GENERATE_FILES) as folder:
-        result = _write_rollout(loaded, folder.path, duration, physics, progress, figures, gif, choice)
+        result = _write_rollout(loaded, folder.path, duration, physics, progress, figures, gif, choice,
+                                target)
         result = _final_paths(result, folder)  # generate.json names where the files will be
         atomic_write_json(folder.path / "generate.json", result)
     return result | {"notes": folder.notes}
 
 
 def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: str, progress: bool,
-                   figures: bool, gif: bool, choice) -> dict[str, Any]:
+                   figures: bool, gif: bool, choice, target: Any = None) -> dict[str, Any]:
     """Run ``loaded`` and write the files of :func:`generate` into ``out``; its result."""
     import pandas as pd
 
@@ -123,7 +129,7 @@ def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: st
 
     from ..reports.figures import rollout_figures
 
-    rollout = run_policy(loaded, duration, physics, "zero", progress)
+    rollout = run_policy(loaded, duration, physics, "zero", progress, target=target)
     fields_csv = write_field_csv(out / "fields.csv", rollout.fields) if rollout.n_steps else None
     trajectory_csv = write_trajectory_csv(rollout.trajectory, out / "trajectory.csv")
     rollout_npz = rollout.save(out)
@@ -162,6 +168,10 @@ def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: st
         result["actor_choice"] = {**choice.to_dict(), "summary": choice.describe()}
     if isinstance(loaded.case.task, ReachTask):
         result["reach"] = reach_metrics(rollout, loaded.case.task)
+    if isinstance(loaded.case.task, GotoTask):
+        result["goto"] = goto_result(rollout, loaded.case.task, target)
+        result.update({k: result["goto"][k] for k in ("final_distance_to_target_m",
+                                                       "time_to_target_s")})
     if figures and rollout.n_steps:
         result["figures"] = rollout_figures(rollout, out, loaded.critic, loaded.actor, gif=gif)
     return result

@@ -17,7 +17,7 @@ import numpy as np
 from elastica_magnetic.io import atomic_write_json
 
 from ..cases.case import Case
-from ..cases.tasks import ReachTask
+from ..cases.tasks import GotoTask, ReachTask
 from ..envs.env import make_env
 from ..runfiles.rundir import CaseDir, RunDir
 from .baselines import RotatingFieldPolicy
@@ -38,10 +38,13 @@ def run_policy(
     physics: str = "accurate",
     initial_field: str = "zero",
     progress: bool = True,
+    target: Any = None,
 ):
     """Roll out ``policy`` deterministically for ``duration`` s; returns a
     :class:`~elastica_magnetic_rl.envs.rollout.Rollout`
-    (stops early, with ``meta["diverged"]``, if the simulation blows up)."""
+    (stops early, with ``meta["diverged"]``, if the simulation blows up). ``target``: a goto
+    case's target, (forward, left) in m from the start (default: drawn from the task's ring with
+    seed 0); ``meta["target_xz_m"]`` then holds it in the floor's (x, z)."""
     import pandas as pd
 
     from elastica_magnetic.progress import progress_bar
@@ -50,7 +53,12 @@ def run_policy(
     from ..envs.rollout import Rollout
 
     env = make_env(policy.case, physics, initial_field, duration)
-    obs, _ = env.reset(seed=0)
+    if target is not None and not isinstance(policy.case.task, GotoTask):
+        raise ValueError(f"a target is for a goto case; {policy.case.name!r} has the "
+                         f"{policy.case.task.kind} task")
+    obs, _ = env.reset(seed=0, options=None if target is None else {"target": target})
+    if hasattr(policy, "reset"):  # a hand-designed policy with a memory
+        policy.reset()
     if obs.shape[0] != policy.obs_dim:
         raise ValueError(f"policy expects {policy.obs_dim} observations, the environment gives "
                          f"{obs.shape[0]}")
@@ -90,6 +98,8 @@ def run_policy(
         "policy_kind": policy.kind, "diverged": diverged, "wall_s": wall,
         "step_ms": 1e3 * wall / max(len(actions), 1),
     }
+    if isinstance(policy.case.task, GotoTask):
+        meta["target_xz_m"] = [float(v) for v in env.task_state]
     return Rollout(
         times=np.asarray(times), positions=np.asarray(positions),
         fields=np.asarray(fields).reshape(-1, 3),

@@ -1,0 +1,43 @@
+"""The goto task's picture: a top view of the paths to a ring of targets."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .figures import MM, _figure, _save
+
+__all__ = ["plot_ring"]
+
+
+def plot_ring(rows: Sequence[dict[str, Any]], paths: Sequence[NDArray[np.float64]],
+              path: str | Path, title: str = "") -> Path:
+    """Top view (seen from above: +x to the right, the start's left, -z, up) of the middle node's
+    path to each target: ``rows`` of :func:`~elastica_magnetic_rl.shipping.goto.goto_result`,
+    ``paths`` one ``(T, 2)`` (x, z; m) per row. Targets reached are green, missed red; the circles
+    are the tolerance."""
+    from matplotlib.patches import Circle
+
+    fig = _figure((6.0, 6.0))
+    ax = fig.add_subplot(1, 1, 1)
+    for row, xz in zip(rows, paths, strict=True):
+        color = "tab:green" if row["success"] else "tab:red"
+        ax.plot(MM * xz[:, 0], -MM * xz[:, 1], color=color, lw=1.0, alpha=0.8)
+        ax.plot(MM * xz[-1, 0], -MM * xz[-1, 1], "o", color=color, ms=3)
+        centre = (MM * row["target_x_m"], -MM * row["target_z_m"])
+        ax.add_patch(Circle(centre, MM * row["tolerance_m"], fill=False, color=color, lw=1.0))
+        ax.plot(*centre, "+", color="black", ms=6)
+    if paths:
+        ax.plot(MM * paths[0][0, 0], -MM * paths[0][0, 1], "s", color="black", ms=5, label="start")
+    reached = sum(bool(r["success"]) for r in rows)
+    ax.set_title(title or f"{reached} of {len(rows)} targets reached")
+    ax.set_xlabel("x (mm, ahead of the start)")
+    ax.set_ylabel("-z (mm, the start's left)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper right", fontsize=8)
+    return _save(fig, path)

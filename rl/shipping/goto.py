@@ -1,0 +1,145 @@
+"""The goto task's results: one target (:func:`goto_result`, what ``msr policy generate --target``
+reports) and a ring of them (:func:`evaluate_ring`, how a goto policy or the steering yardstick is
+judged: :data:`~elastica_magnetic_rl.cases.tasks.RING_TARGETS` targets evenly spaced on the
+task's ring, each from the nominal start and a zero field, success when the middle node ends
+within the task's tolerance).
+
+Targets are given as (forward, left) in m from the start in the robot's start frame: +x ahead and
+its left, which is -z (y is up; see :mod:`elastica_magnetic_rl.cases.tasks`).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..cases.case import Case
+from ..cases.tasks import RING_TARGETS, GotoTask, goto_metrics, ring_targets
+from .policy_runs import run_policy
+
+__all__ = ["RING_FILES", "evaluate_ring", "goto_result", "goto_target", "ring_summary", "write_ring"]
+
+
+def goto_target(case: Case, target: Any) -> tuple[float, float] | None:
+    """The target of a rollout of ``case``: ``target`` (forward, left; m) checked, or for a goto
+    case without one the task's ``distance`` straight ahead; ``None`` for other tasks (a target
+    given to them is refused)."""
+    task = case.task
+    if not isinstance(task, GotoTask):
+        if target is not None:
+            raise ValueError(f"a target is for a goto case; case {case.name!r} has the {task.kind} "
+                             "task (it goes where its task says)")
+        return None
+    if target is None:
+        return (task.distance, 0.0)
+    forward, left = (float(v) for v in np.asarray(target, dtype=np.float64).reshape(2))
+    if not (math.isfinite(forward) and math.isfinite(left)):
+        raise ValueError(f"the target must be finite (forward, left) in m, got {target!r}")
+    return forward, left
+
+
+def _pose(rollout) -> np.ndarray:
+    """The middle node's floor position ``(T, 3)``: x, z (m) and a zero heading column (the
+    metrics read only the position)."""
+    mid = rollout.positions.shape[2] // 2
+    xz = rollout.positions[:, [0, 2], mid]
+    return np.column_stack([xz, np.zeros(len(xz))])
+
+
+def goto_result(rollout, task: GotoTask, target: tuple[float, float]) -> dict[str, Any]:
+    """One goto rollout's result: the target (forward, left in the start frame and x, z on the
+    floor; m), the task's tolerance (m) and :func:`~elastica_magnetic_rl.cases.tasks.goto_metrics`
+    (``final_distance_to_target_m``, ``success``, ``time_to_target_s``, ``settle_time_s``,
+    ``closest_distance_m``)."""
+    target_xz = rollout.meta["target_xz_m"]
+    return {"target_forward_m": float(target[0]), "target_left_m": float(target[1]),
+            "target_x_m": float(target_xz[0]), "target_z_m": float(target_xz[1]),
+            "tolerance_m": task.tolerance,
+            **goto_metrics(rollout.times, _pose(rollout), target_xz, task.tolerance)}
+
+
+def evaluate_ring(policy, duration: float | None = None, physics: str = "accurate",
+                  n_targets: int | None = None, targets: Any = None, progress: bool = False,
+                  paths: list | None = None) -> list[dict[str, Any]]:
+    """Roll ``policy`` (a loaded goto policy or
+    :class:`~elastica_magnetic_rl.shipping.baselines.SteeringFieldPolicy`) out to each target,
+    from the nominal start and a zero field, deterministically.
+
+    Args:
+        duration: s per target (default the task's ``episode_duration``).
+        physics: ``"accurate"`` (the judge) or ``"training"``.
+        n_targets: targets evenly spaced on the task's ring (default
+            :data:`~elastica_magnetic_rl.cases.tasks.RING_TARGETS`); or
+        targets: ``(k, 2)`` (forward, left) m, any points.
+
+        paths: a list that receives each rollout's middle-node path ``(T, 2)`` (x, z; m).
+
+    Returns:
+        one :func:`goto_result` per target, with ``diverged``; see :func:`ring_summary`.
+    """
+    task = policy.case.task
+    if not isinstance(task, GotoTask):
+        raise ValueError(f"a ring of targets is for a goto case; case {policy.case.name!r} has the "
+                         f"{task.kind} task")
+    duration = task.episode_duration if duration is None else float(duration)
+    if targets is None:
+        targets = ring_targets(task.distance, n_targets or RING_TARGETS)
+    rows = []
+    for target in np.asarray(targets, dtype=np.float64).reshape(-1, 2):
+        point = goto_target(policy.case, target)
+        rollout = run_policy(policy, duration, physics, "zero", progress, target=point)
+        rows.append({**goto_result(rollout, task, point), "diverged": rollout.meta["diverged"],
+                     "duration_s": float(rollout.times[-1]), "physics": physics})
+        if paths is not None:
+            paths.append(_pose(rollout)[:, :2])
+    return rows
+
+
+#: The files :func:`write_ring` writes.
+RING_FILES = ("ring.csv", "ring.json", "ring.png")
+
+
+def write_ring(policy, out: str | Path, duration: float | None = None, physics: str = "accurate",
+               n_targets: int | None = None, force: bool = False, progress: bool = True,
+               kind: str = "generate") -> dict[str, Any]:
+    """:func:`evaluate_ring` written whole into the result folder ``out`` (as ``msr <kind>``'s
+    result for the policy's case; replaced only with ``force``): ``ring.csv`` (one row per
+    target), ``ring.json`` (the summary and the rows) and ``ring.png`` (the top view). Returns the
+    summary with ``policy``, ``physics``, ``duration_s`` and the files."""
+    import pandas as pd
+
+    from elastica_magnetic.io import atomic_write, atomic_write_json
+    from elastica_magnetic.results import check_result_folder, result_folder
+
+    from ..reports.goto_figures import plot_ring
+
+    subject = f"case {policy.case.name}"
+    check_result_folder(out, kind=kind, subject=subject, force=force, known_files=RING_FILES)
+    paths: list = []
+    rows = evaluate_ring(policy, duration, physics, n_targets, progress=progress, paths=paths)
+    summary = {"policy": str(policy.source), "policy_kind": policy.kind, "case": policy.case.name,
+               "physics": physics, "duration_s": rows[0]["duration_s"] if rows else None,
+               "initial_field": "zero", **ring_summary(rows)}
+    with result_folder(out, kind=kind, subject=subject, force=force,
+                       known_files=RING_FILES) as folder:
+        with atomic_write(folder.path / "ring.csv", "w", newline="") as handle:
+            pd.DataFrame(rows).to_csv(handle, index=False, float_format="%.9g")
+        plot_ring(rows, paths, folder.path / "ring.png",
+                  title=f"{policy.case.name}: {summary['successes']} of {len(rows)} targets "
+                        f"({physics} physics, {summary['duration_s']:g} s)")
+        atomic_write_json(folder.path / "ring.json", {**summary, "targets_table": rows})
+    files = {name: str(folder.final / name) for name in RING_FILES}
+    return {**summary, "files": files, "notes": folder.notes}
+
+
+def ring_summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """Successes of a ring (``successes`` of ``targets``) and the mean ``time_to_target_s`` of
+    the successful targets (s; ``None`` without one)."""
+    reached = [r for r in rows if r["success"] and not r["diverged"]]
+    times = [r["time_to_target_s"] for r in reached]
+    return {"targets": len(rows), "successes": len(reached),
+            "mean_time_to_target_s": float(np.mean(times)) if times else None,
+            "mean_final_distance_m": float(np.mean([r["final_distance_to_target_m"] for r in rows]))}

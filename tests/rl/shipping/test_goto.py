@@ -1,0 +1,121 @@
+"""The goto task's yardstick and results (issue 51): the steering rotating field walks the paper's
+band to a target beside it, a ring of targets is written whole with its top view, and the options
+that send a robot somewhere are refused where they cannot act."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from elastica_magnetic_rl.cases.case import case_from_dict, load_case
+from elastica_magnetic_rl.shipping.baselines import SteeringFieldPolicy
+
+from elastica_magnetic.cli import main
+
+FAST = ["--physics", "training", "--no-progress", "--no-gif", "--json"]
+
+
+@pytest.mark.parametrize("left", [0.015, -0.015])
+def test_the_steering_yardstick_walks_the_band_to_a_target_beside_it(tmp_path, capsys, left):
+    out = tmp_path / "side"
+    assert main(["field", "baseline", "--case", "m1-4mT-goto", "--target", f"0,{left}",
+                 "--duration", "3", "--out", str(out), "--no-figures", *FAST]) == 0
+    result = json.loads(capsys.readouterr().out)
+    goto = result["goto"]
+    assert goto["target_left_m"] == left and goto["target_z_m"] == pytest.approx(-left)  # left: -z
+    assert goto["success"] and result["final_distance_to_target_m"] <= 0.002
+    assert 0.5 < result["time_to_target_s"] < 3.0
+    assert math.copysign(1.0, result["mid_dz_m"]) == -math.copysign(1.0, left)
+
+
+def _obs(policy, field=(0.0, 0.0, 0.0), heading=0.0, target=(0.01, 0.0)):
+    obs = np.zeros(policy.obs_dim, dtype=np.float32)
+    layout = policy.layout
+    obs[layout["field_amplitude"]] = 200.0 * math.hypot(field[0], field[1])
+    obs[layout["field_angle"]] = math.atan2(field[1], field[0])
+    obs[layout["field_z"]] = 200.0 * field[2]
+    obs[layout["heading"]] = (math.cos(heading), math.sin(heading))
+    obs[layout["target_offset"]] = 100.0 * np.asarray(target)
+    return obs
+
+
+def test_the_yardstick_walks_toward_a_target_abeam_and_turns_for_one_ahead():
+    policy = SteeringFieldPolicy("m1-4mT-goto", period=1.0)
+    assert policy.plane_bearing(0.0, 0.01) == pytest.approx(math.pi / 2)  # abeam: walk there
+    # walking goes on while the target stays within 60 degrees of abeam
+    assert policy.plane_bearing(0.01, 0.01) == pytest.approx(math.pi / 4)
+    policy.reset()
+    # 45 degrees ahead-left on a fresh start: turn clockwise in place, the plane 15 degrees from
+    # the axis, its rotation reversed (the plane flipped) after each turn of the field (100 steps)
+    first = policy.plane_bearing(0.01, 0.01)
+    assert first == pytest.approx(math.pi / 12)
+    policy._step = 100
+    assert policy.plane_bearing(0.01, 0.01) == pytest.approx(math.pi / 12 - math.pi)
+    policy.reset()
+    assert policy.plane_bearing(0.01, -0.01) == pytest.approx(-math.pi / 12)  # ahead-right
+    policy.reset()
+    assert policy.plane_bearing(-0.01, 0.01) == pytest.approx(-math.pi / 12)  # behind-left
+    # at the target it ramps the field down at the increment limit
+    action = policy.act(_obs(policy, field=(1e-3, -2e-3, 0.5e-3), target=(0.0005, 0.0)))
+    assert action == pytest.approx([-1.0, 1.0, -1.0])
+
+
+def test_the_yardstick_keeps_each_axis_within_its_limit():
+    data = load_case("m1-4mT-goto").to_dict()
+    data["actuation"]["field_limit"] = [0.004, 0.004, 0.002]  # a weaker z pair
+    policy = SteeringFieldPolicy(case_from_dict(data, "weak.toml", "weak"))
+    assert policy.plane_amplitude(0.0) == pytest.approx(0.004)
+    assert policy.plane_amplitude(math.pi / 2) == pytest.approx(0.002)
+    assert policy.plane_amplitude(math.pi / 4) == pytest.approx(0.002 * math.sqrt(2))
+
+
+def test_the_yardstick_refuses_a_case_without_a_target():
+    with pytest.raises(ValueError, match="case 'm1-4mT' has the crawl task, not goto"):
+        SteeringFieldPolicy("m1-4mT")
+
+
+def test_a_ring_is_written_whole_with_its_top_view(tmp_path, capsys):
+    out = tmp_path / "ring"
+    args = ["field", "baseline", "--case", "m1-4mT-goto", "--ring", "2", "--duration", "0.3",
+            "--out", str(out), *FAST]
+    assert main(args) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["targets"] == 2 and result["successes"] == 0  # 0.3 s is too short to get there
+    assert result["mean_time_to_target_s"] is None
+    rows = json.loads((out / "ring.json").read_text())["targets_table"]
+    assert [r["target_forward_m"] for r in rows] == pytest.approx([0.015, -0.015])
+    assert (out / "ring.png").stat().st_size > 0 and (out / "ring.csv").read_text().count("\n") == 3
+    before = (out / "ring.csv").read_bytes()
+    assert main(args) == 2  # an existing result needs --force
+    assert "--force" in capsys.readouterr().err and (out / "ring.csv").read_bytes() == before
+    assert main([*args, "--force"]) == 0
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["field", "baseline", "--case", "m1-4mT", "--target", "0,0.01"],
+     "--target is for a goto case; case 'm1-4mT' has the crawl task"),
+    (["field", "baseline", "--case", "m1-4mT", "--ring"],
+     "--ring is for a goto case; case 'm1-4mT' has the crawl task"),
+    (["field", "baseline", "--case", "m1-4mT-goto", "--target", "15,0"],
+     "15,0 is 15 m from the start: metres, not mm"),
+    (["field", "baseline", "--case", "m1-4mT-goto", "--target", "0.01"],
+     "expected FORWARD,LEFT in m"),
+    (["field", "baseline", "--case", "m1-4mT-goto", "--ring", "0"], "expected 1 to 72 targets"),
+    (["field", "baseline", "--case", "m1-4mT-goto", "--ring", "--target", "0,0.01"],
+     "not allowed with argument"),
+    (["field", "baseline", "--case", "m1-4mT-goto", "--counterclockwise"],
+     "--counterclockwise belongs to the rotating-field sweep of a crawl case"),
+    (["policy", "generate", "m1-4mT", "--target", "0,0.01"],
+     "--target is for a goto case; case 'm1-4mT' has the crawl task"),
+])
+def test_goto_options_that_cannot_act_are_refused(tmp_path, capsys, args, message):
+    out = tmp_path / "never"
+    try:
+        status = main([*args, "--out", str(out)])
+    except SystemExit as exc:  # refused while parsing
+        status = exc.code
+    assert status == 2
+    assert message in capsys.readouterr().err
+    assert not out.exists()
