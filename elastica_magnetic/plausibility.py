@@ -27,6 +27,7 @@ __all__ = [
     "Quantity",
     "QUANTITIES",
     "MIN_STEPS_PER_PERIOD",
+    "SettingNotAppliedWarning",
     "MAX_RELATIVE_CHANGE_PER_ELEMENT",
     "judge",
     "mistake_hint",
@@ -48,6 +49,11 @@ NAMED_CHECKS: dict[str, str] = {
     "field.resolution": "the field changes by more than half its strength over one element",
     "field.strength": "the largest field on the rod at t = 0 is unusually strong",
 }
+
+
+class SettingNotAppliedWarning(UserWarning):
+    """A default setting (a recipe's, a spec's) that cannot act on this input and is left off,
+    the run going on without it (a setting asked for by name is refused instead)."""
 
 
 class ImplausibleValueWarning(UserWarning):

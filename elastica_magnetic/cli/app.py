@@ -325,11 +325,12 @@ def command_name(args: argparse.Namespace) -> str:
 def _plausibility_warnings(command: Callable[[], str]) -> Iterator[None]:
     """Show each unusual value (:class:`~elastica_magnetic.plausibility.ImplausibleValueWarning`)
     once, and each leftover that could not be removed
-    (:class:`~elastica_magnetic.results.LeftoverWarning`), as one line ``msr CMD: warning: ...``
+    (:class:`~elastica_magnetic.results.LeftoverWarning`) and each default left off
+    (:class:`~elastica_magnetic.plausibility.SettingNotAppliedWarning`), as one line ``msr CMD: warning: ...``
     on stderr rather than Python's ``file:line`` form."""
     import warnings
 
-    from ..plausibility import ImplausibleValueWarning
+    from ..plausibility import ImplausibleValueWarning, SettingNotAppliedWarning
     from ..results import LeftoverWarning
 
     with warnings.catch_warnings():
@@ -337,7 +338,8 @@ def _plausibility_warnings(command: Callable[[], str]) -> Iterator[None]:
         original = warnings.showwarning
 
         def show(message, category, filename, lineno, file=None, line=None):
-            if issubclass(category, (ImplausibleValueWarning, LeftoverWarning)):
+            if issubclass(category, (ImplausibleValueWarning, LeftoverWarning,
+                                     SettingNotAppliedWarning)):
                 print(f"msr {command()}: warning: {message}", file=sys.stderr)
             else:
                 original(message, category, filename, lineno, file, line)

@@ -22,6 +22,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from elastica_magnetic.plausibility import SettingNotAppliedWarning
+
 from ..cases.case import EVAL_DURATION, Case, case_from_dict, load_case
 from ..cases.recipes import crawler_config
 from ..envs.env import make_env
@@ -321,7 +323,8 @@ def _check_before_work(loaded: dict[str, Case], seed_list: list[int], acting: _A
     stop_options = dict(s.stop_options or {})
     keep_stop_rules = s.resume and s.stop_when is None and not stop_options
     stop_rules = None if keep_stop_rules else _stop_rules(
-        loaded, recipe_stop_when(s.stop_when, r.recipe), stop_options, eval_every)
+        loaded, recipe_stop_when(s.stop_when, r.recipe), stop_options, eval_every,
+        from_recipe=s.stop_when is None)
     _check_run_folders(s.out, loaded, seed_list, s.resume, s.physics, r.episode_duration, r.recipe,
                        int(s.envs), before_making=None if s.resume else functools.partial(acting.new_runs,
                                                                              stop_rules))
@@ -365,10 +368,21 @@ def _check_resumed_runs(out: str | Path, loaded: dict[str, Case], seed_list: lis
 
 
 def _stop_rules(loaded: dict[str, Case], kind: str | None, options: dict[str, Any] | None,
-                eval_every: int) -> dict[str, Any]:
-    """Each case's stop rule (``None``: off), checked before any work."""
-    return {name: case_stop_rule(case, kind, eval_every=eval_every, **(options or {}))
-            for name, case in loaded.items()}
+                eval_every: int, from_recipe: bool = False) -> dict[str, Any]:
+    """Each case's stop rule (``None``: off), checked before any work. The recipe's ``target``
+    rule (not asked for by name) is off, with a warning, for a case that has no target return
+    (a goto case, a crawl case without a yardstick): its seeds train their full steps."""
+    rules = {}
+    for name, case in loaded.items():
+        if from_recipe and kind == "target" and not options and target_return(case) is None:
+            warnings.warn(f"case {name!r} has no target return (task {case.task.kind!r}, no "
+                          "[yardstick] distance_10s): the recipe's target stop rule is off for it, "
+                          "its seeds train their full steps (--stop-when plateau stops them at a "
+                          "plateau)", SettingNotAppliedWarning, stacklevel=2)
+            rules[name] = None
+            continue
+        rules[name] = case_stop_rule(case, kind, eval_every=eval_every, **(options or {}))
+    return rules
 
 
 def _load_cases(cases: Sequence[str | Path | Case]) -> dict[str, Case]:

@@ -128,3 +128,18 @@ def test_every_recipe_runs_the_cases_steps_unless_steps_are_given():
     assert _case_defaults(loaded, None, None, "fast")[0] == 100_000
     assert _case_defaults(loaded, 30_000, None, "fast")[0] == 30_000
     assert _case_defaults(loaded, None, None, None) == (100_000, case.task.episode_duration, "pink-ln")
+
+
+def test_the_fast_recipes_target_rule_is_off_with_a_warning_for_a_case_without_a_target(
+        tmp_path, capsys):
+    """``msr train --case m1-4mT-goto --recipe fast``: the recipe's default stop rule cannot act on
+    a goto case (no target return); the seeds train their full steps, and the run says so."""
+    args = ["train", "--case", "m1-4mT-goto", "--recipe", "fast", "--seeds", "1", "--steps", "20",
+            "--out", str(tmp_path), "--set", "learning_starts=10", "--set", "batch_size=8",
+            "--set", "hidden_sizes=8", "--episode-duration", "0.1", "--no-progress"]
+    assert msr(args) == 0
+    err = capsys.readouterr().err
+    assert ("warning: case 'm1-4mT-goto' has no target return (task 'goto', no [yardstick] "
+            "distance_10s): the recipe's target stop rule is off for it") in err
+    summary = json.loads((tmp_path / "m1-4mT-goto" / "summary.json").read_text())
+    assert summary["stop_rule"] is None and summary["steps_run_fraction"] == 1.0
