@@ -1,0 +1,116 @@
+"""A spec's ``[task]`` table: its kind (:data:`~elastica_magnetic_rl.cases.tasks.TASK_KINDS`), each
+kind's keys with their units, and the checks that name a key whose value cannot mean what it
+says (a reward scale per mm, a target or ring in mm written for m, a tolerance that makes staying
+put a success)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from elastica_magnetic.robot_spec import ACTION_PERIOD
+from elastica_magnetic.specfile import SpecTable
+
+from .tasks import TASK_KINDS, GotoTask, ReachTask, Task
+
+__all__ = ["MAX_YARDSTICK_BODY_LENGTHS", "REWARD_PER_LENGTH_RANGE", "task_from_table"]
+
+#: Most body lengths a yardstick may cover in its 10 s: the paper's fastest gait rolls about 10
+#: (198 mm for a 20 mm robot); 100 is no crawler's, and a distance in mm written as m gives 1000x.
+MAX_YARDSTICK_BODY_LENGTHS = 100.0
+
+
+#: Usual reward for crawling one body length (``reward_scale`` per m times the length): the
+#: paper's is 1e4 per m x 20 mm = 200. Far below, every step's reward is lost in the critic's
+#: noise; far above, its values overflow the learning rates tuned for the paper's.
+REWARD_PER_LENGTH_RANGE = (1.0, 1e6)
+
+
+def task_from_table(t: SpecTable, length: float) -> Task:
+    """The ``[task]`` table of a spec (``t``); ``length`` (m, the robot's) judges the reward scale
+    per body length and targets no crawler reaches."""
+    kind = t.string("kind", choices=tuple(TASK_KINDS))
+    cls = TASK_KINDS[kind]
+    d = cls()
+    values: dict[str, Any] = {
+        "reward_scale": t.number("reward_scale", "per m", d.reward_scale, low=0.0, low_open=True),
+        "episode_duration": t.number("episode_duration", "s", d.episode_duration,
+                                     low=ACTION_PERIOD, plausible="episode duration"),
+    }
+    if t.has("reward_scale"):
+        _check_reward_scale(t, values["reward_scale"], length, d.reward_scale)
+    if cls is ReachTask:
+        values.update(
+            target=t.number("target", "m ahead of the start", d.target),
+            tolerance=t.number("tolerance", "m", d.tolerance, low=0.0, low_open=True),
+            slow_zone=t.number("slow_zone", "m", d.slow_zone, low=0.0),
+            speed_penalty=t.number("speed_penalty", "1", d.speed_penalty, low=0.0),
+        )
+        if values["tolerance"] >= abs(values["target"]):
+            # a robot that stays put (or moves backwards) would end "within the tolerance"
+            raise t.error("tolerance", f"{values['tolerance']:g} m must be smaller than the "
+                          f"target distance |target| = {abs(values['target']):g} m, or staying "
+                          "at the start counts as reaching the target")
+        _check_target_reach(t, values["target"], length, values["episode_duration"])
+    if cls is GotoTask:
+        values.update(_goto_values(t, d, length, values["episode_duration"]))
+    t.finish()
+    return cls(**values)
+
+
+def _goto_values(t: SpecTable, d: GotoTask, length: float, duration: float) -> dict[str, float]:
+    """The goto task's keys: the targets' ring (``distance``, m; bearings ``angle_low`` ..
+    ``angle_high``, rad from ahead, counter-clockwise seen from above), ``tolerance`` (m) and the
+    reward's ``slow_zone`` (m) and ``speed_penalty``."""
+    values = {
+        "distance": t.number("distance", "m from the start", d.distance, low=0.0, low_open=True),
+        "angle_low": t.number("angle_low", "rad", d.angle_low, low=-2 * math.pi, high=2 * math.pi),
+        "angle_high": t.number("angle_high", "rad", d.angle_high, low=-2 * math.pi,
+                               high=2 * math.pi),
+        "tolerance": t.number("tolerance", "m", d.tolerance, low=0.0, low_open=True),
+        "slow_zone": t.number("slow_zone", "m", d.slow_zone, low=0.0),
+        "speed_penalty": t.number("speed_penalty", "1", d.speed_penalty, low=0.0),
+    }
+    if values["angle_low"] > values["angle_high"]:
+        raise t.error("angle_high", f"{values['angle_high']:g} rad is below angle_low = "
+                      f"{values['angle_low']:g} rad: the targets' bearings run from angle_low up to "
+                      "angle_high")
+    if values["tolerance"] >= values["distance"]:
+        raise t.error("tolerance", f"{values['tolerance']:g} m must be smaller than the target "
+                      f"distance {values['distance']:g} m, or staying at the start counts as "
+                      "reaching every target")
+    _check_target_reach(t, values["distance"], length, duration, key="distance")
+    return values
+
+
+def _check_target_reach(t: SpecTable, target: float, length: float, duration: float,
+                        key: str = "target") -> None:
+    """Refuse a reach target (m) no crawler covers in the episode (``duration`` s): more body
+    lengths (``length``, m) than :data:`MAX_YARDSTICK_BODY_LENGTHS` per 10 s, naming the mm
+    mistake it looks like."""
+    lengths, most = abs(target) / length, MAX_YARDSTICK_BODY_LENGTHS * duration / 10.0
+    if lengths <= most:
+        return
+    hint = (f"; it looks like mm written where m is expected ({target:g} mm is {1e-3 * target:g} m)"
+            if lengths / 1e3 <= most else "")
+    raise t.error(key, f"{target:g} m is {lengths:.0f} body lengths of this {length:g} m robot, "
+                            f"more than the {most:g} that any crawler covers in the "
+                            f"{duration:g} s episode{hint}")
+
+
+def _check_reward_scale(t: SpecTable, scale: float, length: float, papers: float) -> None:
+    """Warn about a reward scale (per m) whose reward for crawling one body length (``length``, m)
+    is outside :data:`REWARD_PER_LENGTH_RANGE`, naming the per-mm or per-cm mistake it looks like."""
+    per_length = scale * length
+    low, high = REWARD_PER_LENGTH_RANGE
+    if low <= per_length <= high:
+        return
+    mistakes = [(unit, size) for unit, size in (("mm", 1e3), ("cm", 1e2))
+                if per_length < low and low <= scale * size * length <= high]
+    hint = (f"; it looks like a reward per {' or per '.join(u for u, _ in mistakes)} written as per m ("
+            + "; ".join(f"{scale:g} per {u} is {scale * size:g} per m" for u, size in mistakes)
+            + ")") if mistakes else ""
+    t.warn("reward_scale", f"{scale:g} per m gives a reward of {per_length:.3g} for crawling one "
+           f"body length ({length:g} m), {'below' if per_length < low else 'above'} the usual "
+           f"{low:g} to {high:g} (the paper's: {papers:g} per m, 200 for its 20 mm robot): "
+           f"training learns from rewards this size poorly{hint}")
