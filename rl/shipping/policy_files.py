@@ -9,7 +9,6 @@ architecture, observation and action layout, provenance, ``actor_sha256``).
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -18,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from elastica_magnetic.io import canonical_sha256
+from elastica_magnetic.io import DamagedFileError, canonical_sha256, read_json
 
 from ..cases.case import Case, case_from_metadata
 
@@ -130,9 +129,9 @@ def read_policy_json(path: str | Path) -> dict[str, Any]:
     case without one, is dropped)."""
     path = Path(path)
     try:
-        meta = json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise PolicyFileError(f"{path}: not valid JSON ({exc})") from None
+        meta = read_json(path, fix="restore it (e.g. from git) or ship the policy again")
+    except DamagedFileError as exc:
+        raise PolicyFileError(str(exc)) from None
     if isinstance(meta, dict):
         for old, new in OLD_POLICY_KEYS.items():
             value = meta.pop(old, None)

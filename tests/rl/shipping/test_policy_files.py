@@ -43,7 +43,8 @@ def test_empty_or_truncated_actor(folder, size):
 def test_truncated_policy_json(folder):
     text = (folder / "policy.json").read_text()
     (folder / "policy.json").write_text(text[: len(text) // 2])
-    with pytest.raises(PolicyFileError, match=r"policy\.json: not valid JSON"):
+    with pytest.raises(PolicyFileError, match=r"policy\.json: not readable as JSON \(line \d+ "
+                                              r"column \d+.*ship the policy again"):
         resolve_policy(folder)
 
 
