@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -149,6 +150,8 @@ def _add_generate_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--checkpoint", default="auto", metavar="auto|final|best|PATH",
                    help=CHECKPOINT_HELP + " (evaluated for --duration s)")
     _add_goto_options(p)
+    p.add_argument("--workers", type=number("", 1, integer=True), default=None,
+                   help="--ring: targets run at a time (processes; default one per core)")
     _add_rollout_options(p, "out/generate")
     p.set_defaults(func=generate_command)
 
@@ -181,7 +184,8 @@ def _ring_result(policy, args: argparse.Namespace, kind: str) -> int:
     from ..shipping.goto import write_ring
 
     result = write_ring(policy, args.out, args.duration, args.physics, args.ring, force=args.force,
-                        progress=not args.no_progress, kind=kind)
+                        progress=not args.no_progress, kind=kind,
+                        workers=args.workers or os.cpu_count() or 1)
     print_notes(result.pop("notes", ()))
     print_result(result, args.json)
     return 0
@@ -212,7 +216,8 @@ def _add_baseline_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--periods", type=str, default=None, metavar="P1,P2,...",
                    help="the sweep's periods, s (default 0.5,0.75,1,1.5,2,2.5,3,4,5,6)")
     p.add_argument("--workers", type=number("", 1, integer=True), default=None,
-                   help="sweep runs at a time (processes; default one per core)")
+                   help="sweep runs (or --ring targets) at a time (processes; default one per "
+                        "core)")
     p.add_argument("--set-yardstick", type=output_path, default=None, metavar="OUT.toml",
                    help="write a copy of the case's spec with the sweep's best distance as "
                         "[yardstick] distance_10s (needs the accurate physics and 10 s)")

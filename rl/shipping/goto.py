@@ -61,9 +61,18 @@ def goto_result(rollout, task: GotoTask, target: tuple[float, float]) -> dict[st
             **goto_metrics(rollout.times, _pose(rollout), target_xz, task.tolerance)}
 
 
+def _ring_one(job: tuple[Any, tuple[float, float], float, str, bool]) -> tuple[dict[str, Any], Any]:
+    """One target of a ring (in a worker or here): its row and the middle's path ``(T, 2)``."""
+    policy, point, duration, physics, progress = job
+    rollout = run_policy(policy, duration, physics, "zero", progress, target=point)
+    row = {**goto_result(rollout, policy.case.task, point), "diverged": rollout.meta["diverged"],
+           "duration_s": float(rollout.times[-1]), "physics": physics}
+    return row, _pose(rollout)[:, :2]
+
+
 def evaluate_ring(policy, duration: float | None = None, physics: str = "accurate",
                   n_targets: int | None = None, targets: Any = None, progress: bool = False,
-                  paths: list | None = None) -> list[dict[str, Any]]:
+                  paths: list | None = None, workers: int = 1) -> list[dict[str, Any]]:
     """Roll ``policy`` (a loaded goto policy or
     :class:`~elastica_magnetic_rl.shipping.baselines.SteeringFieldPolicy`) out to each target,
     from the nominal start and a zero field, deterministically.
@@ -76,6 +85,7 @@ def evaluate_ring(policy, duration: float | None = None, physics: str = "accurat
         targets: ``(k, 2)`` (forward, left) m, any points.
 
         paths: a list that receives each rollout's middle-node path ``(T, 2)`` (x, z; m).
+        workers: processes running targets side by side (1: here, one after the other).
 
     Returns:
         one :func:`goto_result` per target, with ``diverged``; see :func:`ring_summary`.
@@ -87,15 +97,17 @@ def evaluate_ring(policy, duration: float | None = None, physics: str = "accurat
     duration = task.episode_duration if duration is None else float(duration)
     if targets is None:
         targets = ring_targets(task.distance, n_targets or RING_TARGETS)
-    rows = []
-    for target in np.asarray(targets, dtype=np.float64).reshape(-1, 2):
-        point = goto_target(policy.case, target)
-        rollout = run_policy(policy, duration, physics, "zero", progress, target=point)
-        rows.append({**goto_result(rollout, task, point), "diverged": rollout.meta["diverged"],
-                     "duration_s": float(rollout.times[-1]), "physics": physics})
-        if paths is not None:
-            paths.append(_pose(rollout)[:, :2])
-    return rows
+    jobs = [(policy, goto_target(policy.case, target), duration, physics, progress and workers == 1)
+            for target in np.asarray(targets, dtype=np.float64).reshape(-1, 2)]
+    if workers > 1 and len(jobs) > 1:
+        from ..sweep.backends import run_in_processes
+
+        done = run_in_processes(_ring_one, jobs, min(workers, len(jobs)), quiet_interrupt=True)
+    else:
+        done = [_ring_one(job) for job in jobs]
+    if paths is not None:
+        paths.extend(path for _, path in done)
+    return [row for row, _ in done]
 
 
 #: The files :func:`write_ring` writes.
@@ -104,11 +116,12 @@ RING_FILES = ("ring.csv", "ring.json", "ring.png")
 
 def write_ring(policy, out: str | Path, duration: float | None = None, physics: str = "accurate",
                n_targets: int | None = None, force: bool = False, progress: bool = True,
-               kind: str = "generate") -> dict[str, Any]:
+               kind: str = "generate", workers: int = 1) -> dict[str, Any]:
     """:func:`evaluate_ring` written whole into the result folder ``out`` (as ``msr <kind>``'s
     result for the policy's case; replaced only with ``force``): ``ring.csv`` (one row per
-    target), ``ring.json`` (the summary and the rows) and ``ring.png`` (the top view). Returns the
-    summary with ``policy``, ``physics``, ``duration_s`` and the files."""
+    target), ``ring.json`` (the summary and the rows) and ``ring.png`` (the top view), the targets
+    run in ``workers`` processes. Returns the summary with ``policy``, ``physics``, ``duration_s``
+    and the files."""
     import pandas as pd
 
     from elastica_magnetic.io import atomic_write, atomic_write_json
@@ -119,7 +132,8 @@ def write_ring(policy, out: str | Path, duration: float | None = None, physics: 
     subject = f"case {policy.case.name}"
     check_result_folder(out, kind=kind, subject=subject, force=force, known_files=RING_FILES)
     paths: list = []
-    rows = evaluate_ring(policy, duration, physics, n_targets, progress=progress, paths=paths)
+    rows = evaluate_ring(policy, duration, physics, n_targets, progress=progress, paths=paths,
+                         workers=workers)
     summary = {"policy": str(policy.source), "policy_kind": policy.kind, "case": policy.case.name,
                "physics": physics, "duration_s": rows[0]["duration_s"] if rows else None,
                "initial_field": "zero", **ring_summary(rows)}

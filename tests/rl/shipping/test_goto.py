@@ -119,3 +119,14 @@ def test_goto_options_that_cannot_act_are_refused(tmp_path, capsys, args, messag
     assert status == 2
     assert message in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_a_ring_run_in_worker_processes_is_the_same_ring():
+    from elastica_magnetic_rl.shipping.goto import evaluate_ring
+
+    policy = SteeringFieldPolicy("m1-4mT-goto")
+    here, there = [], []
+    alone = evaluate_ring(policy, 0.3, "training", n_targets=2, paths=here)
+    side_by_side = evaluate_ring(policy, 0.3, "training", n_targets=2, paths=there, workers=2)
+    assert side_by_side == alone
+    assert all(np.array_equal(a, b) for a, b in zip(here, there, strict=True))
