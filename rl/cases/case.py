@@ -225,6 +225,12 @@ class Case:
         return self.name in case_names() and load_case(self.name).to_dict() == self.to_dict()
 
     @property
+    def evaluation_duration(self) -> float:
+        """The periodic evaluation's episode during training, s: :data:`EVAL_DURATION` (the
+        yardstick's 10 s), or a goto task's whole episode (reaching a target takes longer)."""
+        return self.task.episode_duration if isinstance(self.task, GotoTask) else EVAL_DURATION
+
+    @property
     def has_yardstick(self) -> bool:
         """Whether the case has a success test of one 10 s evaluation: a reach task (its
         tolerance) or a crawl task with a ``[yardstick] distance_10s`` above 0. A goto task has

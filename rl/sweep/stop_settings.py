@@ -160,10 +160,11 @@ def seed_state(run_dir: str | Path, record: Mapping[str, Any], target: float | N
     return "plateaued" if StopRule("plateau").decide(returns) else "still improving"
 
 
-def stop_summary(per_seed: list[Mapping[str, Any]], steps: int, rule: StopRule | None) -> dict[str, Any]:
-    """The case's summary about stopping: the rule, the seeds stopped early, and the fraction of
+def stop_summary(per_seed: list[Mapping[str, Any]], steps: int, rule: StopRule | None,
+                 evaluation_duration: float = EVAL_DURATION) -> dict[str, Any]:
+    """The case's summary about stopping: the rule, the seeds stopped early, the fraction of
     the seeds' step budget they ran (``steps_run_fraction``, 1 without stops; ``None`` when no
-    seed ran to its end)."""
+    seed ran to its end) and the evaluations' episode (s, :attr:`Case.evaluation_duration`)."""
     entries = [r for r in per_seed if "error" not in r]
     saved = sum(int(r.get("steps_saved") or 0) for r in entries)
     budget = int(steps) * len(entries)
@@ -171,4 +172,4 @@ def stop_summary(per_seed: list[Mapping[str, Any]], steps: int, rule: StopRule |
             "stopped_early": [r["seed"] for r in entries if r.get("stopped_early")],
             # null (not NaN, which strict JSON readers refuse) when no seed ran: nothing to count
             "steps_run_fraction": (1.0 - saved / budget) if budget else None,
-            "evaluation_duration_s": EVAL_DURATION}
+            "evaluation_duration_s": evaluation_duration}

@@ -156,7 +156,8 @@ def _writecase_summary(case_dir: CaseDir, spec: Case, mine: list[dict[str, Any]]
         "wall_s": wall,
         "seeds": per_seed,
         "failed": [r["seed"] for r in per_seed if "error" in r],
-        **stop_summary(per_seed, sweep["steps"], sweep["stop_rules"].get(spec.name)),
+        **stop_summary(per_seed, sweep["steps"], sweep["stop_rules"].get(spec.name),
+                       spec.evaluation_duration),
     }
     case_dir.path.mkdir(parents=True, exist_ok=True)
     atomic_write_json(case_dir.summary_json, summary)

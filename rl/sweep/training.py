@@ -24,7 +24,7 @@ from typing import Any
 
 from elastica_magnetic.plausibility import SettingNotAppliedWarning
 
-from ..cases.case import EVAL_DURATION, Case, case_from_dict, load_case
+from ..cases.case import Case, case_from_dict, load_case
 from ..cases.recipes import crawler_config
 from ..envs.env import make_env
 from ..runfiles.locking import check_unlocked, held_run_folders, mark_run_folder
@@ -138,14 +138,16 @@ def _train_seeds_of(job: GroupJob, case: Case, configs: list[Any], run_dirs: lis
                                   randomize=case.training.randomize),
                 configs, job.steps, run_dirs, envs_per_seed=job.envs, resume=job.resume,
                 progress=job.progress, metadata=metadata,
-                eval_env_fn=functools.partial(make_env, case, job.physics, "zero", EVAL_DURATION),
+                eval_env_fn=functools.partial(make_env, case, job.physics, "zero",
+                                              case.evaluation_duration),
                 eval_vec_env_fn=functools.partial(make_vector_env, case, physics=job.physics,
-                                                  initial_field="zero", duration=EVAL_DURATION),
+                                                  initial_field="zero",
+                                                  duration=case.evaluation_duration),
                 progress_position=job.position, progress_desc=job.case,
                 stop_rules=[rule] * len(configs),
                 confirm_vec_env_fn=None if rule is None or rule.confirm is None else functools.partial(
                     make_vector_env, case, physics=rule.confirm, initial_field="zero",
-                    duration=EVAL_DURATION),
+                    duration=case.evaluation_duration),
                 hand_back=None if job.hand_back_file is None else functools.partial(
                     os.path.exists, job.hand_back_file))
 

@@ -143,3 +143,4 @@ def test_the_fast_recipes_target_rule_is_off_with_a_warning_for_a_case_without_a
             "distance_10s): the recipe's target stop rule is off for it") in err
     summary = json.loads((tmp_path / "m1-4mT-goto" / "summary.json").read_text())
     assert summary["stop_rule"] is None and summary["steps_run_fraction"] == 1.0
+    assert summary["evaluation_duration_s"] == 30.0  # a goto evaluation runs the whole episode
