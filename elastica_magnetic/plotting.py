@@ -49,18 +49,35 @@ def plot_open_loop(
     ax_h = fig.add_subplot(grid[1, 1])
     ax_b = fig.add_subplot(grid[2, :])
 
+    _side_view(ax_shape, result, plt)
+    _markers_and_gait(ax_x, ax_h, traj, reference)
+    _field_steps(ax_b, result.fields)
+    if title:
+        fig.suptitle(title)
+    try:
+        atomic_save(path, lambda tmp: fig.savefig(tmp, dpi=110))
+    finally:
+        plt.close(fig)
+    return path
+
+
+def _side_view(ax, result: OpenLoopResult, plt) -> None:
+    """The shapes over time seen from the side (x-y, mm), coloured by time, and the ground."""
     colours = plt.cm.viridis(np.linspace(0.0, 1.0, len(result.shapes)))
     for (t, pos), colour in zip(result.shapes, colours, strict=True):
-        ax_shape.plot(1e3 * pos[0], 1e3 * pos[1], color=colour, lw=2, label=f"{t:.2f} s")
+        ax.plot(1e3 * pos[0], 1e3 * pos[1], color=colour, lw=2, label=f"{t:.2f} s")
     ground = -result.spec.radius * 1e3 if result.spec.ground is not None else None
     if ground is not None:
-        ax_shape.axhline(ground, color="0.5", lw=1)
-    ax_shape.set_aspect("equal")
-    ax_shape.set_xlabel("x (mm)")
-    ax_shape.set_ylabel("y (mm)")
-    ax_shape.set_title("shapes (side view), colour = time")
-    ax_shape.legend(ncol=6, fontsize=7, loc="upper left")
+        ax.axhline(ground, color="0.5", lw=1)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.set_title("shapes (side view), colour = time")
+    ax.legend(ncol=6, fontsize=7, loc="upper left")
 
+
+def _markers_and_gait(ax_x, ax_h, traj: pd.DataFrame, reference: pd.DataFrame | None) -> None:
+    """The markers' x and the height and span over time (mm), a reference dashed beside them."""
     for name, colour in (("back", "C0"), ("mid", "C1"), ("front", "C2")):
         ax_x.plot(traj.t_s, 1e3 * traj[f"{name}_x_m"], color=colour, label=name)
         if reference is not None:
@@ -81,19 +98,15 @@ def plot_open_loop(
     ax_h.set_ylabel("mm")
     ax_h.legend(fontsize=7)
 
-    t_field = np.arange(result.fields.shape[0]) * 0.01
+
+def _field_steps(ax, fields: np.ndarray) -> None:
+    """The field ``(steps, 3)`` (T) held over each 0.01 s, in mT."""
+    t_field = np.arange(fields.shape[0]) * 0.01
     for k, name in enumerate("xyz"):
-        ax_b.step(t_field, 1e3 * result.fields[:, k], where="post", label=f"B{name}")
-    ax_b.set_xlabel("t (s)")
-    ax_b.set_ylabel("field (mT)")
-    ax_b.legend(fontsize=7)
-    if title:
-        fig.suptitle(title)
-    try:
-        atomic_save(path, lambda tmp: fig.savefig(tmp, dpi=110))
-    finally:
-        plt.close(fig)
-    return path
+        ax.step(t_field, 1e3 * fields[:, k], where="post", label=f"B{name}")
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("field (mT)")
+    ax.legend(fontsize=7)
 
 
 def plot_tip_path(result: OpenLoopResult, source, path: str | Path, title: str = "") -> Path:

@@ -219,24 +219,50 @@ def describe_robot(spec: Mapping[str, Any], source: str = "<spec>") -> RobotDesc
 
 
 def _robot_table(t: SpecTable) -> dict[str, Any]:
+    """The ``[robot]`` table and its sub-tables, every value checked, in the file's layout."""
     out: dict[str, Any] = {"name": t.string("name", "custom")}
     check_plain_name(t, "name", out["name"])
     out["length"] = t.number("length", "m", low=0.0, low_open=True, plausible="rod length")
     out["n_elements"] = t.number("n_elements", "elements", low=2, integer=True)
+    out.update(_section_values(t))
+    out.update(_material_values(t))
+    out["magnetization"] = _magnetization_table(t.table("magnetization"), out["n_elements"])
+    ground = t.table("ground", required=False)
+    if ground is not None:
+        out["ground"] = _ground_table(ground)
+        _check_contact_tolerances(ground, out)
+        ground.finish()
+    damping = t.table("damping", required=False)
+    if damping is not None:
+        out["damping"] = _damping_table(damping, out["n_elements"])
+    interaction = t.table("interaction", required=False)
+    if interaction is not None:
+        out["interaction"] = _interaction_table(interaction)
+    t.finish()
+    return out
+
+
+def _section_values(t: SpecTable) -> dict[str, float]:
+    """``radius`` (a round rod) or ``width`` and ``thickness`` (a band), m."""
     if t.has("radius"):
         for other in ("width", "thickness"):
             if t.has(other):
                 raise t.error(other, "give either radius (round rod) or width and thickness (band)")
-        out["radius"] = t.number("radius", "m", low=0.0, low_open=True, plausible="section")
-    else:
-        if not (t.has("width") or t.has("thickness")):
-            raise t.error("thickness", "missing: give width and thickness (m, a band) or radius (m)")
-        out["width"] = t.number("width", "m", low=0.0, low_open=True, plausible="section")
-        out["thickness"] = t.number("thickness", "m", low=0.0, low_open=True, plausible="section")
-        _check_thin_band(t, out["width"], out["thickness"])
-    out["density"] = t.number("density", "kg/m^3", low=0.0, low_open=True, plausible="density")
-    out["youngs_modulus"] = t.number("youngs_modulus", "Pa", low=0.0, low_open=True,
-                                     plausible="youngs modulus")
+        return {"radius": t.number("radius", "m", low=0.0, low_open=True, plausible="section")}
+    if not (t.has("width") or t.has("thickness")):
+        raise t.error("thickness", "missing: give width and thickness (m, a band) or radius (m)")
+    out = {"width": t.number("width", "m", low=0.0, low_open=True, plausible="section"),
+           "thickness": t.number("thickness", "m", low=0.0, low_open=True, plausible="section")}
+    _check_thin_band(t, out["width"], out["thickness"])
+    return out
+
+
+def _material_values(t: SpecTable) -> dict[str, float]:
+    """Density, Young's modulus, the shear modulus or Poisson ratio, the shear coefficient and
+    gravity (SI)."""
+    out = {"density": t.number("density", "kg/m^3", low=0.0, low_open=True, plausible="density"),
+           "youngs_modulus": t.number("youngs_modulus", "Pa", low=0.0, low_open=True,
+                                      plausible="youngs modulus")}
     if t.has("shear_modulus") and t.has("poisson_ratio"):
         raise t.error("poisson_ratio", "give either shear_modulus (Pa) or poisson_ratio, not both")
     if t.has("poisson_ratio"):
@@ -252,53 +278,58 @@ def _robot_table(t: SpecTable) -> dict[str, Any]:
     out["gravity"] = t.number("gravity", "m/s^2", STANDARD_GRAVITY, low=0.0)
     if out["gravity"] != 0.0:  # 0: no gravity, on purpose
         t.check_plausible("gravity", out["gravity"], "gravity")
-    out["magnetization"] = _magnetization_table(t.table("magnetization"), out["n_elements"])
-    ground = t.table("ground", required=False)
-    if ground is not None:
-        d = GroundSpec()
-        out["ground"] = {
-            "static_mu": ground.number("static_mu", "1", d.static_mu, low=0.0,
-                                       plausible="friction coefficient"),
-            "kinetic_mu": ground.number("kinetic_mu", "1", d.kinetic_mu, low=0.0,
-                                        plausible="friction coefficient"),
-            "stiffness": ground.number("stiffness", "N/m", d.k, low=0.0, low_open=True),
-            "damping": ground.number("damping", "N s/m", d.nu, low=0.0),
-            "surface_tolerance": ground.number("surface_tolerance", "m", d.surface_tolerance, low=0.0),
-            "slip_velocity_tolerance": ground.number("slip_velocity_tolerance", "m/s",
-                                                     d.slip_velocity_tol, low=0.0, low_open=True),
-        }
-        sideways = ground.string("sideways", d.sideways, choices=SIDEWAYS_FRICTION)
-        if sideways != d.sideways:  # written only when chosen: earlier records stay the same
-            out["ground"]["sideways"] = sideways
-        _check_friction(ground, out["ground"])
-        _check_contact_tolerances(ground, out)
-        ground.finish()
-    damping = t.table("damping", required=False)
-    if damping is not None:
-        d = DampingSpec()
-        out["damping"] = {
-            "relative": damping.number("relative", "N s/m^2", d.relative_nu, low=0.0),
-            "node_offset": damping.number("node_offset", "nodes", d.node_offset, low=1, integer=True),
-            "legacy_force": damping.number("legacy_force", "N s/m^2", d.legacy_force, low=0.0),
-            "legacy_torque": damping.number("legacy_torque", "N s", d.legacy_torque, low=0.0),
-            "kelvin_voigt": damping.number("kelvin_voigt", "Pa s", d.kelvin_voigt, low=0.0),
-        }
-        if out["damping"]["node_offset"] > out["n_elements"]:
-            raise damping.error("node_offset", f"must be at most n_elements = {out['n_elements']}, "
-                                f"got {out['damping']['node_offset']}")
-        damping.finish()
-    interaction = t.table("interaction", required=False)
-    if interaction is not None:
-        out["interaction"] = {}
-        if interaction.has("cutoff"):  # absent: four radii (see InteractionSpec)
-            out["interaction"]["cutoff"] = interaction.number("cutoff", "m", low=0.0)
-        out["interaction"].update(
-            band_source=interaction.boolean("band_source", True),
-            self_contact_stiffness=interaction.number("self_contact_stiffness", "N/m", 0.0, low=0.0),
-            self_contact_damping=interaction.number("self_contact_damping", "N s/m", 0.0, low=0.0),
-        )
-        interaction.finish()
-    t.finish()
+    return out
+
+
+def _ground_table(ground: SpecTable) -> dict[str, Any]:
+    """``[robot.ground]``: friction, contact spring and damper, tolerances, the sideways model."""
+    d = GroundSpec()
+    out = {
+        "static_mu": ground.number("static_mu", "1", d.static_mu, low=0.0,
+                                   plausible="friction coefficient"),
+        "kinetic_mu": ground.number("kinetic_mu", "1", d.kinetic_mu, low=0.0,
+                                    plausible="friction coefficient"),
+        "stiffness": ground.number("stiffness", "N/m", d.k, low=0.0, low_open=True),
+        "damping": ground.number("damping", "N s/m", d.nu, low=0.0),
+        "surface_tolerance": ground.number("surface_tolerance", "m", d.surface_tolerance, low=0.0),
+        "slip_velocity_tolerance": ground.number("slip_velocity_tolerance", "m/s",
+                                                 d.slip_velocity_tol, low=0.0, low_open=True),
+    }
+    sideways = ground.string("sideways", d.sideways, choices=SIDEWAYS_FRICTION)
+    if sideways != d.sideways:  # written only when chosen: earlier records stay the same
+        out["sideways"] = sideways
+    _check_friction(ground, out)
+    return out
+
+
+def _damping_table(damping: SpecTable, n_elements: int) -> dict[str, Any]:
+    """``[robot.damping]``: the relative, legacy and Kelvin-Voigt damping."""
+    d = DampingSpec()
+    out = {
+        "relative": damping.number("relative", "N s/m^2", d.relative_nu, low=0.0),
+        "node_offset": damping.number("node_offset", "nodes", d.node_offset, low=1, integer=True),
+        "legacy_force": damping.number("legacy_force", "N s/m^2", d.legacy_force, low=0.0),
+        "legacy_torque": damping.number("legacy_torque", "N s", d.legacy_torque, low=0.0),
+        "kelvin_voigt": damping.number("kelvin_voigt", "Pa s", d.kelvin_voigt, low=0.0),
+    }
+    if out["node_offset"] > n_elements:
+        raise damping.error("node_offset", f"must be at most n_elements = {n_elements}, "
+                            f"got {out['node_offset']}")
+    damping.finish()
+    return out
+
+
+def _interaction_table(interaction: SpecTable) -> dict[str, Any]:
+    """``[robot.interaction]``: the magnetic interaction's cutoff and source, self-contact."""
+    out: dict[str, Any] = {}
+    if interaction.has("cutoff"):  # absent: four radii (see InteractionSpec)
+        out["cutoff"] = interaction.number("cutoff", "m", low=0.0)
+    out.update(
+        band_source=interaction.boolean("band_source", True),
+        self_contact_stiffness=interaction.number("self_contact_stiffness", "N/m", 0.0, low=0.0),
+        self_contact_damping=interaction.number("self_contact_damping", "N s/m", 0.0, low=0.0),
+    )
+    interaction.finish()
     return out
 
 

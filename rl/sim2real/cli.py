@@ -34,6 +34,13 @@ def variation_option(text: str):
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add ``robustness`` and ``identify`` to ``msr``."""
+    _add_robustness_command(sub)
+    _add_identify_command(sub)
+
+
+def _add_robustness_command(sub: argparse._SubParsersAction) -> None:
+    """``msr real robustness``."""
     p = sub.add_parser(
         "robustness",
         help="how far a waveform (and its policy) carries robots whose spec values differ",
@@ -74,6 +81,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.set_defaults(func=robustness_command)
 
+
+def _add_identify_command(sub: argparse._SubParsersAction) -> None:
+    """``msr real identify``."""
     p = sub.add_parser(
         "identify",
         help="fit spec values so that the simulated robot moves as a measured trajectory",
