@@ -130,7 +130,12 @@ def observation_spec(n_elements: int = 64, surface_tolerance: float = 1e-7,
     (``axes``: the controlled field components, ``"xy"`` or ``"xyz"``)."""
     extra = (*ACTUATION_OBSERVATION[axes], *(() if task is None else task.extra_observation))
     layout = observation_layout(n_elements, extra)
-    formulas = {"target_offset": "100 * (target_x - x_mid) [m]: the reach task's distance to go",
+    goto = task is not None and task.kind == "goto"
+    formulas = {"target_offset": ("100 * (forward, left) [m]: the target in the robot's own frame "
+                                  "(ahead along its heading; left, -z at the start)") if goto else
+                "100 * (target_x - x_mid) [m]: the reach task's distance to go",
+                "heading": "(cos h, sin h): the back-to-front direction (cos h, 0, -sin h), h "
+                           "counter-clockwise seen from above, 0 along +x",
                 "field_z": "200 * B_z [T] (3-axis actuation: the third coil pair's field)"}
     return {
         "size": next(reversed(layout.values())).stop,

@@ -38,10 +38,30 @@ def model_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case)
     return "\n".join(lines)
 
 
+def _task_in_words(case: Case) -> str:
+    """What the policy makes the robot do, for the card's first line."""
+    task = case.task
+    if task.kind == "crawl":
+        return "crawl forward"
+    if task.kind == "goto":
+        return (f"go to a point on the floor {1e3 * task.distance:g} mm away in any direction and "
+                f"stay within {1e3 * task.tolerance:g} mm of it")
+    return f"reach {1e3 * task.target:+.1f} mm and stay there"
+
+
 def _use_section(info: dict[str, Any], case: Case) -> list[str]:
     increment = 1e3 * case.actuation.max_increment
-    what = "crawl forward" if case.task.kind == "crawl" else \
-        f"reach {1e3 * getattr(case.task, 'target', 0.0):+.1f} mm and stay there"
+    what = _task_in_words(case)
+    goto = case.task.kind == "goto"
+    generate = (f"- `msr policy generate {info['name']} --target FORWARD,LEFT --duration "
+                f"{case.task.episode_duration:g} --out DIR`: the field CSV (mT, 100 Hz) that sends "
+                "the robot to that point (m from the start, in its start frame: +x ahead, LEFT to "
+                "its left), from a zero field in the accurate physics, open loop; `--ring` runs a "
+                "ring of 12 targets. Closed around a tracker: `run_closed_loop` (docs: Steering "
+                "in 3D)."
+                if goto else
+                f"- `msr policy generate {info['name']} --duration 10 --out DIR`: field CSV (mT, "
+                "100 Hz) from a zero field in the accurate physics, trajectory, figures, GIF.")
     return [
         f"# Model card: `{info['name']}`",
         "",
@@ -51,11 +71,11 @@ def _use_section(info: dict[str, Any], case: Case) -> list[str]:
         *( [case.description, ""] if case.description else [] ),
         "## Use",
         "",
-        f"- `msr policy generate {info['name']} --duration 10 --out DIR`: field CSV (mT, 100 Hz) from a "
-        "zero field in the accurate physics, trajectory, figures, GIF.",
+        generate,
         f"- `msr policy export {info['name']} --out DIR`: TorchScript + observation/action JSON.",
         f"- Input: {info['architecture']['obs_dim']} float32 observations (layout and scales in "
-        f"`policy.json`); output: 2 actions in [-1, 1], x {increment:g} mT = field increment per "
+        f"`policy.json`); output: {info['architecture']['act_dim']} actions in [-1, 1] "
+        f"(dB_{', dB_'.join(case.actuation.axes)}), x {increment:g} mT = field increment per "
         "0.01 s.",
         "",
     ]
@@ -137,11 +157,39 @@ def _evaluation_section(info: dict[str, Any], case: Case) -> list[str]:
         + (f" ({case.yardstick.source})" if case.yardstick.source else "") + f": {verdict}"
         + (f"; DIVERGED: {ev['diverged']}" if ev["diverged"] else "")
     )
+    if ev.get("ring"):
+        lines += _ring_lines(ev["ring"], ev.get("yardstick_ring"))
     if ev.get("reach"):
         r = ev["reach"]
         settle = "never settles" if r["settle_time_s"] is None else \
             f"settles within the tolerance after {r['settle_time_s']:.2f} s"
         lines.append(f"- final position error {1e3 * r['final_error_m']:+.2f} mm; {settle}")
+    return lines
+
+
+def _ring_lines(ring: dict[str, Any], yardstick: dict[str, Any] | None) -> list[str]:
+    """The goto judge: the ring's success count and mean time to target, the steering yardstick's
+    beside it, and one row per target."""
+    def summary(r: dict[str, Any]) -> str:
+        mean = r["mean_time_to_target_s"]
+        return (f"{r['successes']} of {r['targets']} targets, mean time to target "
+                + ("n/a" if mean is None else f"{mean:.1f} s"))
+
+    lines = ["", f"Ring of {ring['targets']} targets ({ring['physics']} physics, "
+             f"{ring['duration_s']:g} s each from a zero field): **{summary(ring)}**"
+             + (f"; the steering yardstick: {summary(yardstick)}." if yardstick else "."), "",
+             "| target (forward, left; mm) | final distance (mm) | time to target (s) | yardstick: "
+             "final distance (mm), time (s) |", "|---|---|---|---|"]
+    theirs = (yardstick or {}).get("targets_table") or [None] * len(ring["targets_table"])
+    for row, other in zip(ring["targets_table"], theirs, strict=False):
+        def cells(r: dict[str, Any] | None) -> str:
+            if r is None:
+                return "-"
+            time = "never" if r["time_to_target_s"] is None else f"{r['time_to_target_s']:.2f}"
+            mark = "" if r["success"] else " (missed)"
+            return f"{1e3 * r['final_distance_to_target_m']:.2f}{mark} | {time}"
+        lines.append(f"| {1e3 * row['target_forward_m']:+.1f}, {1e3 * row['target_left_m']:+.1f} "
+                     f"| {cells(row)} | {cells(other).replace(' | ', ', ')} |")
     return lines
 
 

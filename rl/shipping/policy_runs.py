@@ -123,16 +123,23 @@ def evaluate_checkpoint(path: Path, cached: dict[str, Any], duration: float,
     file's ``meets_target`` of a case without a yardstick is dropped)."""
     policy = resolve_policy(path)
     step = policy.meta.get("global_step")
+    task = policy.case.task
     keys = ("global_step", "duration_s", "physics", "initial_field", "mid_dx_m", "node_dx_m",
-            "diverged")
+            "diverged", *(("final_distance_to_target_m",) if isinstance(task, GotoTask) else ()))
     if (cached.get("global_step") == step and cached.get("duration_s") == float(duration)
             and all(k in cached for k in keys)):
         entry = {k: cached[k] for k in keys}
     else:
-        rollout = run_policy(policy, duration, "accurate", "zero", progress)
+        # a goto policy goes to the task's distance straight ahead
+        target = (task.distance, 0.0) if isinstance(task, GotoTask) else None
+        rollout = run_policy(policy, duration, "accurate", "zero", progress, target=target)
         entry = {"global_step": step, "duration_s": float(duration), "physics": "accurate",
                  "initial_field": "zero", "mid_dx_m": rollout.mid_dx,
                  "node_dx_m": node_dx(rollout), "diverged": rollout.meta["diverged"]}
+        if target is not None:
+            mid = rollout.positions.shape[2] // 2
+            end = rollout.positions[-1, [0, 2], mid]
+            entry["final_distance_to_target_m"] = float(np.hypot(*(end - rollout.meta["target_xz_m"])))
     met = policy.case.meets_yardstick(entry["mid_dx_m"], entry["node_dx_m"], duration,
                                       entry["diverged"])
     if met is not None:
@@ -226,7 +233,8 @@ def _same_actor(a: Path, b: Path) -> bool:
 def prefer_best(case: Case, final: dict[str, Any], best: dict[str, Any] | None) -> bool:
     """The one rule for which of a run's two actors to use: ``best.pt`` when it did not diverge
     and either the final actor diverged or ``best.pt`` is better in the same evaluation (farther:
-    larger ``mid_dx_m``; for a reach task, ending closer to the target by ``node_dx_m``); never by
+    larger ``mid_dx_m``; for a reach task, ending closer to the target by ``node_dx_m``; for a goto
+    task, ending closer to the target straight ahead, ``final_distance_to_target_m``); never by
     ``meets_target``. ``final`` and ``best``: :func:`evaluate_checkpoint` entries (``best``
     ``None``: no ``best.pt``)."""
     if best is None or best["diverged"]:
@@ -235,6 +243,8 @@ def prefer_best(case: Case, final: dict[str, Any], best: dict[str, Any] | None) 
         return True
     if isinstance(case.task, ReachTask):
         return abs(best["node_dx_m"] - case.task.target) < abs(final["node_dx_m"] - case.task.target)
+    if isinstance(case.task, GotoTask):
+        return best["final_distance_to_target_m"] < final["final_distance_to_target_m"]
     return best["mid_dx_m"] > final["mid_dx_m"]
 
 

@@ -28,10 +28,12 @@ from elastica_magnetic.io import (
 )
 
 from ..cases.case import Case
-from ..cases.tasks import ReachTask
+from ..cases.tasks import GotoTask, ReachTask
 from ..runfiles.provenance import machine_fingerprint
 from ..runfiles.rundir import CaseDir
+from .baselines import SteeringFieldPolicy
 from .generate import reach_metrics
+from .goto import evaluate_ring, goto_result, goto_target, ring_summary
 from .model_card import NOTES_SECTION, model_card, replace_card_section, seed_meets_target
 from .policy_files import (
     ACTOR_ACTIVATION,
@@ -161,14 +163,31 @@ def _measure(policy: LoadedPolicy, duration: float,
     """The shipping criterion's run of a policy (``duration`` s, accurate physics, zero field):
     its ``evaluation`` entry of ``policy.json`` and its field waveform ``(steps, 3)`` (T; ``None``
     when it took no step)."""
-    rollout = run_policy(policy, duration, "accurate", "zero", progress)
+    goto = isinstance(policy.case.task, GotoTask)
+    target = goto_target(policy.case, None)
+    rollout = run_policy(policy, duration, "accurate", "zero", progress, target=target)
     measured = {"duration_s": float(rollout.times[-1]), "physics": "accurate",
                 "initial_field": "zero", "mid_dx_m": rollout.mid_dx,
                 "node_dx_m": node_dx(rollout), "diverged": rollout.meta["diverged"],
                 "machine": machine_fingerprint()}
     if isinstance(policy.case.task, ReachTask):
         measured["reach"] = reach_metrics(rollout, policy.case.task)
+    if goto:  # its waveform to the target ahead, and the judge: the ring, beside the yardstick's
+        measured["goto"] = goto_result(rollout, policy.case.task, target)
+        measured["ring"] = _ring_entry(policy, progress)
+        measured["yardstick_ring"] = _ring_entry(SteeringFieldPolicy(policy.case), progress)
     return measured, (rollout.fields if rollout.n_steps else None)
+
+
+def _ring_entry(policy, progress: bool) -> dict[str, Any]:
+    """A goto policy's ring of targets in the accurate physics, each for the task's episode from
+    a zero field, every core at work: the summary and the rows."""
+    import os
+
+    rows = evaluate_ring(policy, None, "accurate", progress=progress, workers=os.cpu_count() or 1)
+    return {"policy": str(policy.source), "physics": "accurate",
+            "duration_s": policy.case.task.episode_duration, **ring_summary(rows),
+            "targets_table": rows}
 
 
 def _policy_info(policy: LoadedPolicy, name: str, summary: dict[str, Any] | None,

@@ -130,3 +130,77 @@ def test_a_ring_run_in_worker_processes_is_the_same_ring():
     side_by_side = evaluate_ring(policy, 0.3, "training", n_targets=2, paths=there, workers=2)
     assert side_by_side == alone
     assert all(np.array_equal(a, b) for a, b in zip(here, there, strict=True))
+
+
+def test_a_goto_model_card_shows_the_ring_beside_the_yardstick():
+    from elastica_magnetic_rl.shipping.model_card import model_card
+    from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR
+
+    case = load_case("m1-4mT-goto")
+    info = json.loads((POLICIES_DIR / "m1-4mT" / "policy.json").read_text())
+    info.update(name="m1-4mT-goto", notes=None, seeds=None)
+    info["architecture"] = {**info["architecture"], "obs_dim": case.obs_dim, "act_dim": 3}
+
+    def row(forward, left, distance, time):
+        return {"target_forward_m": forward, "target_left_m": left, "success": distance <= 0.002,
+                "final_distance_to_target_m": distance, "time_to_target_s": time}
+
+    def ring(rows):
+        reached = [r for r in rows if r["success"]]
+        return {"physics": "accurate", "duration_s": 30.0, "targets": len(rows),
+                "successes": len(reached), "targets_table": rows,
+                "mean_time_to_target_s": (sum(r["time_to_target_s"] for r in reached) / len(reached)
+                                          if reached else None)}
+
+    info["evaluation"] = {"duration_s": 30.0, "mid_dx_m": 0.014, "node_dx_m": 0.014,
+                          "diverged": None,
+                          "ring": ring([row(0.015, 0.0, 0.0011, 4.5), row(-0.015, 0.0, 0.009, None)]),
+                          "yardstick_ring": ring([row(0.015, 0.0, 0.0009, 14.9),
+                                                  row(-0.015, 0.0, 0.0009, 9.1)])}
+    card = model_card(info, None, case)
+    assert "go to a point on the floor 15 mm away in any direction and stay within 2 mm" in card
+    assert "--target FORWARD,LEFT" in card and "3 actions in [-1, 1] (dB_x, dB_y, dB_z)" in card
+    assert ("Ring of 2 targets (accurate physics, 30 s each from a zero field): **1 of 2 targets, "
+            "mean time to target 4.5 s**; the steering yardstick: 2 of 2 targets, mean time to "
+            "target 12.0 s.") in card
+    assert "| +15.0, +0.0 | 1.10 | 4.50 | 0.90, 14.90 |" in card
+    assert "| -15.0, +0.0 | 9.00 (missed) | never | 0.90, 9.10 |" in card
+
+
+def test_a_goto_run_ships_with_its_ring_and_the_yardsticks(tmp_path, monkeypatch):
+    """`msr policy ship` of a goto run measures the ring (patched here to 0.2 s of the training
+    physics, the shipped judge being 30 s of the accurate one) for the policy and the steering
+    yardstick, and writes both into policy.json and the card."""
+    from elastica_magnetic_rl.shipping import ship as ship_module
+    from elastica_magnetic_rl.shipping.goto import evaluate_ring
+
+    runs = tmp_path / "runs"
+    assert main(["train", "--case", "m1-4mT-goto", "--seeds", "1", "--steps", "20", "--out",
+                 str(runs), "--set", "learning_starts=10", "--set", "batch_size=8", "--set",
+                 "hidden_sizes=8", "--episode-duration", "0.1", "--no-progress"]) == 0
+    asked = []
+
+    def quick_ring(policy, duration, physics, **kwargs):
+        asked.append((duration, physics))
+        return evaluate_ring(policy, 0.2, "training", n_targets=2)
+
+    monkeypatch.setattr(ship_module, "evaluate_ring", quick_ring)
+    result = ship_module.ship(runs / "m1-4mT-goto" / "seed0", "goto-test", dest=tmp_path / "shipped",
+                              duration=0.2, progress=False)
+    assert asked == [(None, "accurate"), (None, "accurate")]  # the task's episode, accurate physics
+    info = json.loads((tmp_path / "shipped" / "goto-test" / "policy.json").read_text())
+    ev = info["evaluation"]
+    assert ev["goto"]["target_forward_m"] == 0.015 and ev["ring"]["targets"] == 2
+    assert ev["yardstick_ring"]["policy"].startswith("steering rotating field")
+    card = (tmp_path / "shipped" / "goto-test" / "MODEL_CARD.md").read_text()
+    assert "Ring of 2 targets" in card and "the steering yardstick:" in card
+    assert result["name"] == "goto-test"
+
+
+def test_the_actor_choice_of_a_goto_run_prefers_the_one_ending_closer():
+    from elastica_magnetic_rl.shipping.policy_runs import prefer_best
+
+    case = load_case("m1-4mT-goto")
+    final = {"diverged": None, "mid_dx_m": 0.010, "final_distance_to_target_m": 0.006}
+    best = {"diverged": None, "mid_dx_m": 0.001, "final_distance_to_target_m": 0.001}
+    assert prefer_best(case, final, best) and not prefer_best(case, best, final)
