@@ -17,7 +17,7 @@ from elastica_magnetic.results import check_result_folder, mark_folder, read_mar
 from ..cases.case import Case
 from .report import write_report
 from .settings import LoopSettings
-from .state import STEPS, LoopPlan, LoopState, plan_loop
+from .state import STEPS, LoopError, LoopPlan, LoopState, plan_loop
 from .steps import STEP_FUNCTIONS, LoopContext
 
 __all__ = ["LOOP_KIND", "check_loop_folder", "headline", "run_loop", "step_line"]
@@ -86,6 +86,12 @@ def run_loop(case: Case, out: str | Path, settings: LoopSettings, *, skip: tuple
     log = log or sys.stderr
     if progress is None:
         progress = True
+    if case.task.kind == "goto":  # its steps judge a distance ahead; a goto case is judged on a ring
+        raise LoopError(f"case {case.name!r} has the goto task: the loop's steps (the rotating-field "
+                        "yardstick, the seeds' distances, robustness of a waveform) measure a "
+                        "distance ahead. Run its steps by hand: msr field baseline --case SPEC "
+                        "--ring, msr train --case SPEC --recipe fast, msr policy generate RUN --ring "
+                        "(docs: Steering in 3D)")
     folder = normalized_path(out)
     check_loop_folder(folder)
     with FolderLock(folder, option="--out") as lock:

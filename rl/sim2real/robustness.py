@@ -117,6 +117,11 @@ def plan_robustness(source: str | Path, settings: StudySettings | None = None, /
         raise ValueError(f"--physics must be 'training' or 'accurate', got {o.physics!r}")
     duration = check_duration(o.duration)
     the_case, policy, fields, waveform = _study_source(source, o.case, o.fields_csv)
+    if the_case.task.kind == "goto":  # the study's distances and yardstick are distances ahead
+        raise ValueError(f"case {the_case.name!r} has the goto task: a robustness study measures "
+                         "how far ahead a waveform carries varied robots, not whether they reach a "
+                         "target; not available for goto cases yet (the closed loop with a tracker, "
+                         "run_closed_loop, corrects what an open-loop waveform cannot)")
     spec = the_case.to_dict()
     chosen = resolve_variations(list(o.variations) if o.variations else default_variations(spec),
                                 spec)

@@ -204,3 +204,16 @@ def test_the_actor_choice_of_a_goto_run_prefers_the_one_ending_closer():
     final = {"diverged": None, "mid_dx_m": 0.010, "final_distance_to_target_m": 0.006}
     best = {"diverged": None, "mid_dx_m": 0.001, "final_distance_to_target_m": 0.001}
     assert prefer_best(case, final, best) and not prefer_best(case, best, final)
+
+
+def test_the_commands_that_judge_a_distance_ahead_refuse_a_goto_case(tmp_path, capsys):
+    """`msr loop` and `msr real robustness` measure how far ahead a robot goes: on a goto case
+    they would report that as if it meant something; both refuse it by name before any work."""
+    assert main(["loop", "m1-4mT-goto", "--out", str(tmp_path / "loop")]) == 2
+    assert "case 'm1-4mT-goto' has the goto task: the loop's steps" in capsys.readouterr().err
+    fields = tmp_path / "fields.csv"
+    fields.write_text("index,mag_x,mag_y,mag_z\n0,0,0,0\n1,0.3,0,0\n2,0.6,0,0\n")
+    assert main(["real", "robustness", str(fields), "--case", "m1-4mT-goto", "--out",
+                 str(tmp_path / "robust")]) == 2
+    assert "case 'm1-4mT-goto' has the goto task: a robustness study" in capsys.readouterr().err
+    assert not (tmp_path / "loop").exists() and not (tmp_path / "robust").exists()
