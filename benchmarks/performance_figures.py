@@ -49,7 +49,7 @@ def main() -> None:
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     names = ("performance.json", "perf_vs_robots.png", "perf_vs_elements.png")
-    with replace_files(args.out, names, force=True) as files:
+    with replace_files(args.out, names, force=True, adopt=True) as files:  # the repo's own figures
         result = write_figures(files.path)
     print(json.dumps(result, indent=2) if args.json else f"figures in {args.out}")
 

@@ -56,11 +56,68 @@ from .io import (
 from .locks import FolderLock, claim, host_name, lock_path, name_tag, release_claim
 from .results import ResultExistsError, fsync_tree, remove_tree, signals_as_exceptions, signals_held
 
-__all__ = ["FileKind", "FileSet", "ResultFile", "check_files", "check_result_file",
+__all__ = ["MANIFEST", "FileKind", "FileSet", "ResultFile", "check_files", "check_result_file",
            "interrupted_replacements", "recover_files", "replace_files", "result_file"]
 
 _PREFIX = ".msr-files-"
 _COMMIT = ".msr-commit"
+#: The record of the files msr put into a folder (``{"files": {name: sha256}}``): ``--force``
+#: replaces a file only when it is listed there unchanged, never a file of the user's that happens
+#: to have the name.
+MANIFEST = ".msr-files.json"
+
+
+def _sha256(path: Path) -> str:
+    import hashlib
+
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _manifest(folder: Path) -> dict[str, str]:
+    """The files msr recorded in ``folder`` (name -> sha256); empty without a readable record."""
+    try:
+        data = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    files = data.get("files") if isinstance(data, dict) else None
+    return {k: v for k, v in files.items() if isinstance(v, str)} if isinstance(files, dict) else {}
+
+
+def _record_files(folder: Path, written: Iterable[str], removed: Iterable[str] = ()) -> None:
+    """Add the files ``written`` (as they are now in ``folder``) to its record, drop ``removed``."""
+    files = _manifest(folder)
+    for name in written:
+        if (folder / name).is_file():
+            files[name] = _sha256(folder / name)
+    for name in removed:
+        files.pop(name, None)
+    temporary = folder / f"{MANIFEST}.tmp"
+    temporary.write_text(json.dumps({"files": dict(sorted(files.items()))}, indent=1),
+                         encoding="utf-8")
+    os.replace(temporary, folder / MANIFEST)
+
+
+def _not_recorded(folder: Path, existing: Iterable[str]) -> list[str]:
+    """Those of the ``existing`` files of ``folder`` that msr did not record, or that changed
+    since (a file of the user's under a name msr writes)."""
+    files = _manifest(folder)
+    return [n for n in existing if files.get(n) != _sha256(folder / n)]
+
+
+def _refuse_unrecorded(folder: Path, existing: list[str], adopt: bool, option: str,
+                       force_option: str) -> None:
+    """With ``force``: refuse replacing a file msr did not write (unless ``adopt``: a folder the
+    caller recognised as its own, e.g. a shipped policy written before records)."""
+    foreign = [] if adopt else _not_recorded(folder, existing)
+    if foreign:
+        raise ResultExistsError(
+            f"{option} {display_path(folder)}: {', '.join(foreign)}: not written by msr (no record "
+            f"in {MANIFEST}) or changed since; {force_option} replaces only files msr wrote: move "
+            f"them away, or choose another {option}")
 
 
 @dataclass
@@ -108,6 +165,7 @@ def _move_committed(staging: Path, folder: Path) -> int:
     for name in record.get("remove") or ():
         with contextlib.suppress(FileNotFoundError):
             os.unlink(folder / name)
+    _record_files(folder, record["files"], record.get("remove") or ())
     return moved
 
 
@@ -144,9 +202,10 @@ def recover_files(folder: str | Path, *, option: str = "--out") -> list[str]:
 
 
 def check_files(folder: str | Path, names: Iterable[str], *, force: bool = False,
-                option: str = "--out", force_option: str = "--force") -> Path:
+                option: str = "--out", force_option: str = "--force", adopt: bool = False) -> Path:
     """The check :func:`replace_files` makes, made before any long work: ``folder`` is not a
-    file (nor under one) and holds none of ``names`` unless ``force``. Returns it normalized."""
+    file (nor under one) and holds none of ``names`` unless ``force`` (and then only files msr
+    recorded, or any with ``adopt``). Returns it normalized."""
     folder = normalized_path(folder)
     for parent in (folder, *folder.parents):
         if parent.exists() and not parent.is_dir():
@@ -159,6 +218,11 @@ def check_files(folder: str | Path, names: Iterable[str], *, force: bool = False
         raise ResultExistsError(f"{option} {display_path(folder)}: already holds "
                                 f"{', '.join(existing)}; pass {force_option} to replace, or "
                                 f"choose another {option}")
+    try:
+        _refuse_unrecorded(folder, existing, adopt, option, force_option)
+    except ResultExistsError:
+        release_claim(folder)
+        raise
     return folder
 
 
@@ -171,13 +235,16 @@ def replace_files(
     option: str = "--out",
     force_option: str = "--force",
     remove: Iterable[str] = (),
+    adopt: bool = False,
 ) -> Iterator[FileSet]:
     """Put the files ``names`` (relative paths) into ``folder`` (created if absent) all together
     or not at all; write them under :attr:`FileSet.path` in the block. An existing one is
     replaced only with ``force`` (:class:`~elastica_magnetic.results.ResultExistsError` before
     the block otherwise); writing a file not in ``names`` is a :class:`ValueError` and nothing
     is moved. ``remove``: files of ``folder`` (not among ``names``) removed in the same commit,
-    after the new ones are in place (those of a replaced set that the new one lacks)."""
+    after the new ones are in place (those of a replaced set that the new one lacks). An
+    existing file is replaced only when msr recorded it (:data:`MANIFEST`) unchanged, or with
+    ``adopt`` (the caller recognised the folder as msr's own, written before records)."""
     folder = normalized_path(folder)
     names = tuple(names)
     remove = tuple(sorted(set(remove)))
@@ -199,6 +266,7 @@ def replace_files(
             raise ResultExistsError(f"{option} {display_path(folder)}: already holds "
                                     f"{', '.join(existing)}; pass "
                                     f"{force_option} to replace, or choose another {option}")
+        _refuse_unrecorded(folder, existing, adopt, option, force_option)
         staging = folder / f"{_PREFIX}{name_tag(host_name())}-{os.getpid()}-{os.urandom(3).hex()}"
         try:
             os.mkdir(staging)

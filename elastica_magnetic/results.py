@@ -79,7 +79,7 @@ import secrets
 import shutil
 import signal
 import threading
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -252,13 +252,16 @@ def check_result_folder(
     option: str = "--out",
     known_files: Iterable[str] = (),
     force_option: str = "--force",
+    recognizes: Callable[[Path], bool] | None = None,
 ) -> dict[str, Any] | None:
     """Check that ``out`` may receive a result of ``kind`` (the command's name, e.g.
     ``"simulate"``) for ``subject`` (e.g. ``"robot yao2023-m1"``; ``None``: any).
 
     Returns ``None`` when ``out`` is absent or an empty folder, else the marker of the result
-    that will be replaced (``{"kind": kind, "legacy": True}`` for a folder written before markers,
-    recognised by ``known_files``: relative paths the command writes). Raises
+    that will be replaced (``known_files``: relative paths the command writes; a folder holding
+    only such names but no marker is refused even with ``force``, nothing saying msr wrote them,
+    unless ``recognizes(out)`` (the command recognises its own result from before markers by its
+    content, e.g. a seeds.json that parses as one). Raises
     :class:`OutputPathError` (a file, under a file, a mount point, not writable) or
     :class:`ResultExistsError` (another kind or subject, files the command did not write, or
     the same result without ``force``), naming ``option`` and the folder.
@@ -282,7 +285,8 @@ def check_result_folder(
     if notes:
         _recovered_notes.setdefault(os.path.realpath(final), []).extend(notes)
     try:
-        return _check_result_folder(final, kind, subject, force, option, known_files, force_option)
+        return _check_result_folder(final, kind, subject, force, option, known_files, force_option,
+                                    recognizes)
     except OutputPathError as exc:
         if claimed:
             release_claim(target)
@@ -297,7 +301,8 @@ _recovered_notes: dict[str, list[str]] = {}
 
 
 def _check_result_folder(final: Path, kind: str, subject: str | None, force: bool, option: str,
-                         known_files: Iterable[str], force_option: str) -> dict[str, Any] | None:
+                         known_files: Iterable[str], force_option: str,
+                         recognizes: Callable[[Path], bool] | None = None) -> dict[str, Any] | None:
     where = f"{option} {display_path(final)}"
     if not final.exists():
         return None
@@ -320,7 +325,16 @@ def _check_result_folder(final: Path, kind: str, subject: str | None, force: boo
         if unknown or not files:
             raise ResultExistsError(f"{where}: holds files that `msr {spelling(kind)}` does not write "
                                     f"({_list(unknown or [MARKER])}); choose a new or empty folder")
-        marker = {"kind": kind, "subject": None, "legacy": True}
+        # named like this command's files, but nothing records that msr wrote them: a user's
+        # files under the same names (a hand-tuned header) are never replaced, not even by --force
+        if recognizes is not None and recognizes(final):
+            marker = {"kind": kind, "subject": None, "legacy": True}
+        else:
+            raise ResultExistsError(
+                f"{where}: holds files named like those `msr {spelling(kind)}` writes "
+                f"({_list(files)}) but no record that msr wrote them (no {MARKER}): they may be "
+                f"yours, and {force_option} replaces only a result msr recorded; move them away or "
+                "choose a new or empty folder")
     else:
         if marker["kind"] != kind:
             raise ResultExistsError(
@@ -557,6 +571,7 @@ def result_folder(
     known_files: Iterable[str] = (),
     info: dict[str, Any] | None = None,
     force_option: str = "--force",
+    recognizes: Callable[[Path], bool] | None = None,
 ) -> Iterator[ResultFolder]:
     """Write a result folder whole or not at all: ``with result_folder(out, kind=...) as r:``
     write into ``r.path``; on a normal exit the new folder replaces ``out`` (see the module
@@ -565,8 +580,9 @@ def result_folder(
     ``kind`` names the command (``"simulate"``), ``subject`` what the result is about
     (``"robot yao2023-m1"``, ``"case m1-4mT"``; ``None``: not checked), ``force`` allows replacing
     a result of the same kind and subject, ``option`` is the command-line option named in
-    messages, ``known_files`` the relative paths the command writes (recognises results written
-    before markers), ``info`` extra data for the marker. Raises :class:`OutputPathError`,
+    messages, ``known_files`` the relative paths the command writes, ``recognizes`` (as in
+    :func:`check_result_folder`) a result of the command from before markers, ``info`` extra data
+    for the marker. Raises :class:`OutputPathError`,
     :class:`ResultExistsError` or :class:`~elastica_magnetic.locks.FolderLockedError` before the block runs.
     """
     final = normalized_path(out)
@@ -585,7 +601,7 @@ def result_folder(
                      + _recover_locked(target, final))
             try:
                 replaced = _check_result_folder(final, kind, subject, force, option, known,
-                                                force_option)
+                                                force_option, recognizes)
             except OutputPathError as exc:
                 for note in notes:  # the command line prints them before the error
                     exc.add_note(note)

@@ -9,7 +9,7 @@ import time
 
 import pytest
 
-from elastica_magnetic.filesets import recover_files, replace_files
+from elastica_magnetic.filesets import MANIFEST, check_files, recover_files, replace_files
 from elastica_magnetic.results import ResultExistsError
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="signals and fork are POSIX")
@@ -17,17 +17,48 @@ NAMES = ("fig.png", "data/summary.json")
 
 
 def shared(tmp_path):
+    """A folder with someone else's figure beside an earlier set msr wrote (and recorded)."""
     folder = tmp_path / "figures"
-    (folder / "data").mkdir(parents=True)
+    folder.mkdir()
     (folder / "other.png").write_bytes(b"someone else's figure")
-    (folder / "fig.png").write_bytes(b"old figure")
-    (folder / "data" / "summary.json").write_text('{"old": true}')
+    with replace_files(folder, NAMES) as files:
+        (files.path / "fig.png").write_bytes(b"old figure")
+        (files.path / "data").mkdir()
+        (files.path / "data" / "summary.json").write_text('{"old": true}')
     return folder
 
 
 def contents(folder):
+    """The folder's files (msr's record of them left out)."""
     return {p.relative_to(folder).as_posix(): p.read_bytes()
-            for p in sorted(folder.rglob("*")) if p.is_file()}
+            for p in sorted(folder.rglob("*")) if p.is_file() and p.name != MANIFEST}
+
+
+def test_force_never_replaces_a_file_msr_did_not_write(tmp_path):
+    """A file of the user's under a name msr writes (a hand-made fig.png), or one msr wrote and
+    the user changed since, is refused even with force; a caller that recognised the folder as
+    its own (a shipped policy from before records) adopts its files."""
+    folder = tmp_path / "figs"
+    folder.mkdir()
+    (folder / "fig.png").write_bytes(b"my own drawing")
+    for force in (False, True):
+        with pytest.raises(ResultExistsError, match="fig.png" if force else "pass --force"):
+            with replace_files(folder, ("fig.png",), force=force):
+                pytest.fail("the block must not run")
+    with pytest.raises(ResultExistsError, match=r"fig.png: not written by msr \(no record in "
+                                                r"\.msr-files\.json\) or changed since; --force "
+                                                "replaces only files msr wrote"):
+        check_files(folder, ("fig.png",), force=True)
+    assert (folder / "fig.png").read_bytes() == b"my own drawing"
+    with replace_files(folder, ("fig.png",), force=True, adopt=True) as files:
+        (files.path / "fig.png").write_bytes(b"msr's figure")
+    with replace_files(folder, ("fig.png",), force=True) as files:  # recorded now: replaced
+        (files.path / "fig.png").write_bytes(b"msr's second figure")
+    (folder / "fig.png").write_bytes(b"touched up by hand")  # changed since msr wrote it
+    with pytest.raises(ResultExistsError, match="or changed since"):
+        with replace_files(folder, ("fig.png",), force=True):
+            pytest.fail("the block must not run")
+    assert (folder / "fig.png").read_bytes() == b"touched up by hand"
 
 
 def write(files, stop=None):
@@ -208,8 +239,8 @@ def test_a_full_disk_while_writing_names_the_file_not_its_temporary(tmp_path):
     from elastica_magnetic.io import OutputPathError, atomic_write_text
 
     folder = tmp_path / "figs"
-    folder.mkdir()
-    (folder / "a.png").write_text("old")
+    with replace_files(folder, ["a.png"]) as files:  # an earlier figure msr wrote
+        (files.path / "a.png").write_text("old")
     with pytest.raises(OutputPathError) as refused:
         with replace_files(folder, ["a.png"], force=True, option="--out") as files:
             def full(*args, **kwargs):
@@ -225,4 +256,4 @@ def test_a_full_disk_while_writing_names_the_file_not_its_temporary(tmp_path):
     message = str(refused.value)
     assert ".msr-files-" not in message and str(folder / "a.png") in message, message
     assert message.endswith(f"{folder}: nothing in it changed"), message
-    assert (folder / "a.png").read_text() == "old" and os.listdir(folder) == ["a.png"]
+    assert (folder / "a.png").read_text() == "old" and sorted(os.listdir(folder)) == [MANIFEST, "a.png"]

@@ -129,10 +129,15 @@ def test_folders_without_a_marker(tmp_path):
     assert check_result_folder(empty, kind="demo") is None  # an empty folder is free
     legacy = tmp_path / "legacy"
     legacy.mkdir()
-    (legacy / "a.txt").write_text("written before markers")
-    with pytest.raises(ResultExistsError, match="already holds a result of `msr policy demo`; pass --force"):
-        check_result_folder(legacy, kind="demo", known_files=("a.txt", "b.txt"))
-    assert check_result_folder(legacy, kind="demo", known_files=("a.txt",), force=True)["legacy"]
+    (legacy / "a.txt").write_text("a user's file, or one written before markers")
+    for force in (False, True):  # nothing records that msr wrote it: never replaced
+        with pytest.raises(ResultExistsError, match=r"holds files named like those `msr policy demo` "
+                                                    r"writes \(a.txt\) but no record that msr wrote "
+                                                    r"them \(no \.msr-result\.json\): they may be "
+                                                    "yours, and --force replaces only a result msr "
+                                                    "recorded"):
+            check_result_folder(legacy, kind="demo", known_files=("a.txt", "b.txt"), force=force)
+    assert (legacy / "a.txt").read_text().startswith("a user's file")
     with pytest.raises(ResultExistsError, match=r"holds files that `msr policy demo` does not write "
                                                 r"\(a.txt\); choose a new or empty folder"):
         check_result_folder(legacy, kind="demo", force=True)

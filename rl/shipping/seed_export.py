@@ -83,7 +83,7 @@ def export_seeds(
             exc.add_note(note)
         raise
     with result_folder(dest, kind="export-seeds", subject=subject, force=True, option="--out",
-                       known_files=known) as folder:
+                       known_files=known, recognizes=_is_seed_export) as folder:
         for entry in earlier:  # the seeds of earlier runs that stay
             shutil.copytree(dest / str(entry["actor"]), folder.path / str(entry["actor"]))
         entries = _export_evaluated(case_dir, folder.path, case, duration, progress, workers)
@@ -94,6 +94,17 @@ def export_seeds(
     verdicts = [e["meets_target"] for e in entries if isinstance(e.get("meets_target"), bool)]
     return {"seeds": entries, "total": len(entries), "notes": recovered + folder.notes,
             "meeting_target": sum(verdicts) if verdicts else None}
+
+
+def _is_seed_export(folder: Path) -> bool:
+    """Whether ``folder`` (without a marker: exported before markers, such as the committed
+    ``rl/policies/<case>/seeds/<recipe>/``) is an export: its ``seeds.json`` a list of seed
+    entries (each entry is checked later, naming a hand-edited one)."""
+    try:
+        entries = json.loads((folder / "seeds.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return isinstance(entries, list) and bool(entries) and all(isinstance(e, dict) for e in entries)
 
 
 _SEED_FILE = re.compile(r"seed\d+/(actor\.pt|policy\.json|" + "|".join(
@@ -107,7 +118,7 @@ def _check_dest(dest: Path, subject: str, new_seeds: set[int], meta: dict[str, A
     known = _known_files(dest)
     try:
         check_result_folder(dest, kind="export-seeds", subject=subject, force=True,
-                            option="--out", known_files=known)
+                            option="--out", known_files=known, recognizes=_is_seed_export)
     except ResultExistsError as exc:
         raise ValueError(str(exc)) from None
     earlier = _earlier_exported_seeds(dest, new_seeds, meta)

@@ -46,6 +46,7 @@ from .policy_files import (
     action_spec_of,
     case_spec_sha256,
     observation_spec_of,
+    read_policy_json,
     resolve_policy,
     weights_sha256,
 )
@@ -150,12 +151,23 @@ def ship(run: str | Path, name: str, options: ShipOptions | None = None, /,
         # the replaced policy's optional files this one lacks go in the same commit
         stale = [f for f in SHIPPED_FILES if f not in written]
         with replace_files(target, written, force=overwrite, option="--out",
-                           remove=stale) as files:
+                           remove=stale, adopt=_holds_a_policy(target)) as files:
             _write_policy_folder(files.path, policy, info, fields, card, with_critic)
     else:
         _write_policy_folder(target, policy, info, fields, card, with_critic)
     return {"name": name, "dir": str(target), "case": case.name,
-            "evaluation": measured, "files": sorted(p.name for p in target.iterdir())}
+            "evaluation": measured,
+            "files": sorted(p.name for p in target.iterdir() if not p.name.startswith("."))}
+
+
+def _holds_a_policy(folder: Path) -> bool:
+    """Whether ``folder`` holds a shipped policy (a readable ``policy.json``): its files are msr's
+    own, also when written before msr recorded the files it writes (``--force`` replaces them)."""
+    try:
+        read_policy_json(folder / POLICY_JSON)
+    except (OSError, ValueError):
+        return False
+    return True
 
 
 def _measure(policy: LoadedPolicy, duration: float,
@@ -329,7 +341,7 @@ def set_notes(policy: str | Path, notes: str | None,
         card = replace_card_section(card_path.read_text(), NOTES_SECTION, notes,
                                     before="## Limitations")
     names = [POLICY_JSON, *(["MODEL_CARD.md"] if card is not None else [])]
-    with replace_files(folder, names, force=True, option="policy") as files:
+    with replace_files(folder, names, force=True, option="policy", adopt=True) as files:
         atomic_write_json(files.path / POLICY_JSON, info)
         if card is not None:
             atomic_write_text(files.path / "MODEL_CARD.md", card)
