@@ -228,6 +228,30 @@ def _csv_rows(path: Path, error: type[Exception]) -> list[list[str]]:
         raise error(f"{path}: line {reader.line_num}: {exc}") from None
 
 
+def limit_problem(field: NDArray[np.float64], axis_limits: dict[str, float],
+                  where: str) -> str | None:
+    """Why a waveform ``(steps, 3)`` (T) exceeds a spec's ``[actuation]`` limits (``axis_limits``:
+    T by axis name, as :func:`~elastica_magnetic.specfile.axis_limits_of` gives them; the
+    amplitude's limit is the largest), naming the first row (0-based data row) and its value in
+    mT; ``None`` when within them. Rows at the limit pass (a tolerance of 1e-6 relative)."""
+    field = np.asarray(field, dtype=np.float64).reshape(-1, 3)
+    if not axis_limits or not field.size:
+        return None
+    checks = [(axis, np.abs(field[:, "xyz".index(axis)]), limit)
+              for axis, limit in axis_limits.items()]
+    checks.append(("amplitude", np.linalg.norm(field, axis=1), max(axis_limits.values())))
+    for what, values, limit in checks:
+        over = np.flatnonzero(values > limit * (1.0 + 1e-6))
+        if over.size:
+            row = int(over[0])
+            return (f"{where}: data row {row} asks {1e3 * values[row]:.4g} mT "
+                    f"({'|B|' if what == 'amplitude' else 'B_' + what}), above the spec's "
+                    f"[actuation] field_limit of {1e3 * limit:g} mT ({over.size} row(s) over it): "
+                    "the coils the spec describes cannot play it; lower the waveform, or raise the "
+                    "spec's field_limit if the coils can")
+    return None
+
+
 def write_field_csv(path: str | Path, field_tesla: NDArray[np.float64]) -> Path:
     """Write a field (``(n_rows, 3)`` in tesla) as a field CSV in the paper's format (mT).
 

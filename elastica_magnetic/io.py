@@ -20,6 +20,7 @@ from typing import IO, Any
 
 __all__ = [
     "DamagedFileError",
+    "UnverifiedFileWarning",
     "OutputPathError",
     "UTF8_BOM",
     "atomic_save",
@@ -54,6 +55,11 @@ class OutputPathError(OSError):
 
     def __str__(self) -> str:  # OSError's own formatting adds "[Errno ...]" noise
         return str(self.args[0]) if self.args else ""
+
+
+class UnverifiedFileWarning(UserWarning):
+    """A file msr reads whose record of itself (a hash of its settings) is missing, so a hand
+    edit of it cannot be told from the original: used, with this warning."""
 
 
 class DamagedFileError(ValueError):

@@ -330,6 +330,7 @@ def _plausibility_warnings(command: Callable[[], str]) -> Iterator[None]:
     on stderr rather than Python's ``file:line`` form."""
     import warnings
 
+    from ..io import UnverifiedFileWarning
     from ..plausibility import ImplausibleValueWarning, SettingNotAppliedWarning
     from ..results import LeftoverWarning
 
@@ -339,7 +340,7 @@ def _plausibility_warnings(command: Callable[[], str]) -> Iterator[None]:
 
         def show(message, category, filename, lineno, file=None, line=None):
             if issubclass(category, (ImplausibleValueWarning, LeftoverWarning,
-                                     SettingNotAppliedWarning)):
+                                     SettingNotAppliedWarning, UnverifiedFileWarning)):
                 print(f"msr {command()}: warning: {message}", file=sys.stderr)
             else:
                 original(message, category, filename, lineno, file, line)

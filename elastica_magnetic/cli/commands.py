@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..field_csv import separator_hint
+from ..field_csv import limit_problem, separator_hint
 from ..field_spec import load_field
 from ..fields import RotatingField, TabulatedField
 from ..openloop import run_open_loop, write_trajectory_csv
@@ -152,6 +152,9 @@ def replay_command(args: argparse.Namespace) -> int:
             "last row, so give at most the file's length"
         )
     spec = load_robot(args.robot, args.physics)
+    over = limit_problem(field.samples, axis_limits_of(args.robot), str(args.field_csv))
+    if over is not None:
+        raise CommandError(over)
     setup = load_field(args.robot)
     source = setup.source() if setup is not None else None
     if source is not None:  # the coils' uniform waveform plus the spec's field in space

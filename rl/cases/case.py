@@ -273,8 +273,9 @@ class Case:
         """Every table, every default written out, plain data (round-trips through TOML/JSON); a
         new copy each call (editing it changes no case)."""
         training = {"recipe": self.training.recipe, "steps": self.training.steps}
-        if self.training.td3:
-            training["td3"] = dict(self.training.td3)
+        if self.training.td3:  # layer sizes as lists: plain data, as TOML and JSON write them
+            training["td3"] = {k: list(v) if isinstance(v, tuple) else v
+                               for k, v in self.training.td3.items()}
         if self.training.randomize:
             training["randomize"] = randomize_table(self.training.randomize)
         return copy.deepcopy({
@@ -474,8 +475,11 @@ def _training(t: SpecTable | None, source: str, robot: RobotDescription) -> Trai
             elif isinstance(default, (int, float)):
                 ok = isinstance(value, (int, float)) and (isinstance(value, int) or
                                                           isinstance(default, float))
-            elif isinstance(default, tuple):
-                ok = isinstance(value, list) and all(isinstance(v, int) for v in value)
+            elif isinstance(default, tuple) or (default is None and isinstance(value, list | tuple)):
+                # a list of layer sizes (a TOML array; a tuple when the spec comes from a Case);
+                # None-defaulted sizes (actor_hidden_sizes: "as hidden_sizes") take one too
+                ok = isinstance(value, list | tuple) and all(
+                    isinstance(v, int) and not isinstance(v, bool) for v in value)
                 value = tuple(value)
             else:
                 ok = isinstance(value, type(default))
@@ -525,6 +529,10 @@ def _randomize(t: SpecTable, robot: RobotDescription) -> tuple[Variation, ...]:
         variations = resolve_variations(variations, robot.tables, option=where)
     except VariationError as err:
         raise SpecError(str(err).replace("--vary ", f"{where}: ", 1)) from None
+    for v in variations:
+        if v.low == v.high:  # a range of one value: nothing is randomized
+            raise SpecError(f"{where}: {v.name} = \"{randomize_table((v,))[v.name]}\" varies "
+                            "nothing (its ends are equal): give a range, or leave the key out")
     _check_randomize_ends(variations, robot, where)
     return tuple(variations)
 
@@ -538,15 +546,28 @@ def _check_randomize_ends(variations: list[Variation], robot: RobotDescription, 
     from elastica_magnetic.plausibility import ImplausibleValueWarning
 
     label = "<range end>"
+
+    def unusual(tables: Mapping[str, Any]) -> dict[str, str]:
+        """The plausibility warnings of a robot (by message without the label), not shown."""
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ImplausibleValueWarning)
+            describe_robot(tables, label)
+        return {str(w.message).replace(f"{label}: ", "", 1): getattr(w.message, "key", "")
+                for w in caught if issubclass(w.category, ImplausibleValueWarning)}
+
+    nominal = unusual(robot.tables)  # the spec's own unusual values warn once, elsewhere
     for variant in design(variations, robot.tables, one_at_a_time=True, corners=False)[1:]:
         try:
-            with warnings.catch_warnings():  # only refusals here; the nominal values warn once
-                warnings.simplefilter("ignore", ImplausibleValueWarning)
-                describe_robot(apply_variant(robot.tables, variations, variant), label)
+            found = unusual(apply_variant(robot.tables, variations, variant))
         except SpecError as err:
             message = str(err).replace(f"{label}: ", "", 1)
             raise SpecError(f"{where}: the range's end {variant.label} gives a robot the spec "
                             f"refuses: {message}") from None
+        for message, key in found.items():  # unusual only at this end: a unit mistake in the range?
+            if message not in nominal:
+                warnings.warn(ImplausibleValueWarning(
+                    f"{where}: the range's end {variant.label} gives an unusual robot: {message}",
+                    key), stacklevel=2)
 
 
 def randomize_table(variations: tuple[Variation, ...]) -> dict[str, str]:

@@ -99,7 +99,11 @@ def run_loop(case: Case, out: str | Path, settings: LoopSettings, *, skip: tuple
             print(f"note: {note}", file=log)
         state = check_loop_folder(folder)  # again, under the lock: no one else changed it since
         spec, recorded = case.to_dict(), settings.recorded()
-        plan = plan_loop(state, spec, recorded, skip, redo, force)
+        replaced = [] if state is None else [s for s in state.replaced_steps() if s not in skip]
+        for step in replaced:
+            print(f"note: {step}/ no longer holds the result this loop wrote (replaced or removed "
+                  f"by another command): step {step} and the steps that use it run again", file=log)
+        plan = plan_loop(state, spec, recorded, skip, tuple(dict.fromkeys((*redo, *replaced))), force)
         folder.mkdir(parents=True, exist_ok=True)
         if state is None or plan.redo == STEPS:
             state = LoopState(folder / "loop.json", case.name, spec, recorded)

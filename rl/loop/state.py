@@ -12,6 +12,7 @@ from typing import Any
 
 from elastica_magnetic.io import DamagedFileError, atomic_write_json, display_path, read_json
 from elastica_magnetic.locks import utc_now
+from elastica_magnetic.results import read_marker
 
 __all__ = ["LOOP_FORMAT", "LOOP_JSON", "NEEDS", "STEPS", "LoopError", "LoopPlan", "LoopState",
            "parse_steps", "plan_loop"]
@@ -104,10 +105,31 @@ class LoopState:
 
     def record(self, step: str, status: str, summary: dict[str, Any] | None = None,
                wall_s: float | None = None) -> None:
-        """Record a step as ``done`` (its summary, wall time) or ``skipped``; written at once."""
+        """Record a step as ``done`` (its summary, wall time, and its folder's marker: which
+        result it wrote) or ``skipped``; written at once."""
         self.steps[step] = {"status": status, "summary": summary or {}, "wall_s": wall_s,
                             "finished_utc": utc_now()}
+        marker = read_marker(self.path.parent / step) if status == "done" else None
+        if marker is not None:
+            self.steps[step]["result"] = _result_of(marker)
         self.write()
+
+    def replaced_steps(self) -> list[str]:
+        """Done steps whose folder no longer holds the result the loop recorded (replaced by
+        another command, e.g. ``msr policy generate --out LOOP/generate --force``, or removed)."""
+        replaced = []
+        for step in STEPS:
+            recorded = self.steps.get(step, {}).get("result")
+            if self.done(step) and recorded is not None:
+                marker = read_marker(self.path.parent / step)
+                if marker is None or _result_of(marker) != recorded:
+                    replaced.append(step)
+        return replaced
+
+
+def _result_of(marker: dict[str, Any]) -> dict[str, Any]:
+    """What identifies a step folder's result: the command, the subject and when it was written."""
+    return {k: marker.get(k) for k in ("kind", "subject", "written_utc")}
 
 
 @dataclass(frozen=True)

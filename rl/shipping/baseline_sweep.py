@@ -22,7 +22,7 @@ from elastica_magnetic.rotation import measure_rotation, min_rotation_period
 from elastica_magnetic.specfile import SPEC_FILE
 
 from ..cases.case import EVAL_DURATION, Case, case_from_dict, load_case
-from .baselines import RotatingFieldPolicy
+from .baselines import RotatingFieldPolicy, rotating_amplitude
 from .generate import GENERATE_FILES, generate
 
 __all__ = ["DEFAULT_PERIODS", "PERIOD_TOLERANCE", "achieved_period", "periods_that_turn",
@@ -43,7 +43,8 @@ def achieved_period(fields_T: Any, asked_s: float, case: Case) -> dict[str, Any]
     ``min_period_s`` (the rate limit's shortest uniform turn at the case's field limit) and
     ``warning`` (text, or ``None`` when they agree within :data:`PERIOD_TOLERANCE`); the rate
     limit is blamed only when the asked period is shorter than its shortest turn."""
-    fastest = min_rotation_period(case.field_limit, case.actuation.max_increment)
+    amplitude, increment = rotating_amplitude(case), min(case.actuation.increments[:2])
+    fastest = min_rotation_period(amplitude, increment)
     achieved = math.inf
     if len(fields_T) >= 2:
         achieved = measure_rotation(fields_T).period_s
@@ -52,8 +53,8 @@ def achieved_period(fields_T: Any, asked_s: float, case: Case) -> dict[str, Any]
         warning = f"asked for a period of {asked_s:g} s, the field turned once per {achieved:.4g} s"
         played_s = len(fields_T) * ACTION_PERIOD
         if asked_s < fastest * (1.0 + PERIOD_TOLERANCE):  # the rate limit is the cause
-            warning += (f" (at most {1e3 * case.actuation.max_increment:g} mT per axis per "
-                        f"{ACTION_PERIOD:g} s: at {1e3 * case.field_limit:g} mT the shortest "
+            warning += (f" (at most {1e3 * increment:g} mT per axis per "
+                        f"{ACTION_PERIOD:g} s: at {1e3 * amplitude:g} mT the shortest "
                         f"uniform turn takes {fastest:.4g} s)")
             if achieved < fastest:  # measured while the field was still growing from zero
                 warning += (f"; it measured faster than {fastest:.4g} s because the field was still "

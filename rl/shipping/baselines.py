@@ -29,7 +29,7 @@ from ..cases.case import Case, load_case
 from ..cases.tasks import TARGET_OFFSET_SCALE, GotoTask
 from ..envs.env import OBSERVATION_SCALES, observation_layout
 
-__all__ = ["RotatingFieldPolicy", "SteeringFieldPolicy"]
+__all__ = ["RotatingFieldPolicy", "SteeringFieldPolicy", "rotating_amplitude"]
 
 
 def _check_period(period: float, case: Case) -> None:
@@ -45,6 +45,13 @@ def _check_period(period: float, case: Case) -> None:
                          f"give more than {2 * ACTION_PERIOD:g} s (the rate limit of "
                          f"{1e3 * case.actuation.max_increment:g} mT per step keeps the "
                          "field at the limit only for much longer periods)")
+
+
+def rotating_amplitude(case: Case) -> float:
+    """The amplitude (T) of the rotating-field yardstick: the field limit, or the weaker of the
+    x and y limits where they differ (a field turning in the x-y plane at a larger amplitude
+    would be clipped on the weaker axis, no longer a uniform turn)."""
+    return min(case.actuation.limits[:2])
 
 
 class _FieldReader:
@@ -109,6 +116,7 @@ class RotatingFieldPolicy(_FieldReader):
     def __post_init__(self) -> None:
         self.case = self._setup(self.case)
         _check_period(self.period, self.case)
+        self._amplitude = rotating_amplitude(self.case)
         turn = "clockwise" if self.clockwise else "counter-clockwise"
         self.source = f"rotating field, {turn}, period {self.period:g} s"
         self.meta = {"period_s": self.period, "clockwise": self.clockwise}
@@ -120,7 +128,7 @@ class RotatingFieldPolicy(_FieldReader):
         angle = float(obs[self.layout["field_angle"].start]) / OBSERVATION_SCALES["field_angle"]
         step = 2.0 * math.pi * ACTION_PERIOD / self.period
         target_angle = angle - step if self.clockwise else angle + step
-        wanted = self.field_limit * np.array([math.cos(target_angle), math.sin(target_angle), 0.0])
+        wanted = self._amplitude * np.array([math.cos(target_angle), math.sin(target_angle), 0.0])
         return self._toward(field, wanted)
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from elastica_magnetic.io import DamagedFileError, canonical_sha256, read_json
+from elastica_magnetic.io import DamagedFileError, UnverifiedFileWarning, canonical_sha256, read_json
 
 from ..cases.case import Case, case_from_metadata
 
@@ -288,7 +289,13 @@ def _check_case_spec_hash(meta: dict[str, Any], path: Path) -> None:
     """A ``policy.json`` whose ``case_spec`` no longer matches its ``case_spec_sha256`` was edited:
     the policy would run on a robot or in a setting it was not trained for."""
     expected = meta.get("case_spec_sha256")
-    if expected is None or "case_spec" not in meta:  # shipped before the hash was recorded
+    if "case_spec" not in meta:
+        return
+    if expected is None:  # shipped before the hash was recorded, or the key was removed
+        warnings.warn(f"{path}: records no case_spec_sha256 (shipped before msr recorded it, or the "
+                      "key was removed): an edit of its case_spec (the robot, the field limit) "
+                      "cannot be told from the original; ship the policy again to record it",
+                      UnverifiedFileWarning, stacklevel=2)
         return
     if case_spec_sha256(meta["case_spec"]) != expected:
         raise PolicyFileError(f"{path}: its case_spec was edited (it no longer matches "

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from elastica_magnetic.field_csv import read_field_csv, write_field_csv
+from elastica_magnetic.field_csv import limit_problem, read_field_csv, write_field_csv
 from elastica_magnetic.io import atomic_write_json
 from elastica_magnetic.openloop import check_duration
 from elastica_magnetic.robot_spec import ACTION_PERIOD
@@ -117,6 +117,12 @@ def plan_robustness(source: str | Path, settings: StudySettings | None = None, /
         raise ValueError(f"--physics must be 'training' or 'accurate', got {o.physics!r}")
     duration = check_duration(o.duration)
     the_case, policy, fields, waveform = _study_source(source, o.case, o.fields_csv)
+    if fields is not None:  # a waveform the case's coils cannot play is no study of that robot
+        actuation = the_case.actuation
+        over = limit_problem(fields, dict(zip(actuation.axes, actuation.limits, strict=False)),
+                             waveform)
+        if over is not None:
+            raise ValueError(over)
     if the_case.task.kind == "goto":  # the study's distances and yardstick are distances ahead
         raise ValueError(f"case {the_case.name!r} has the goto task: a robustness study measures "
                          "how far ahead a waveform carries varied robots, not whether they reach a "

@@ -16,7 +16,8 @@ from ..cases.case import Case
 from ..runfiles.provenance import versions
 from ..runfiles.rundir import RunDir
 
-__all__ = ["check_resume_settings", "first_difference", "run_metadata", "write_run_json"]
+__all__ = ["check_resume_settings", "first_difference", "run_metadata", "without_default_recipe",
+           "write_run_json"]
 
 
 def run_metadata(case: Case, physics: str, duration: float, seed: int, **extra: Any) -> dict:
@@ -33,9 +34,12 @@ _RUN_SETTINGS = ("case", "case_spec", "physics", "episode_duration_s", "recipe",
 _RECORD_COPIES = {"seed": "folder (seed<k>)", "field_limit_T": "case_spec ([actuation] field_limit)"}
 
 
-def check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
+def check_resume_settings(run_dir: Path, metadata: dict[str, Any],
+                          checkpoint_metadata: dict[str, Any] | None = None) -> None:
     """A resumed run keeps its case, physics, episode length and crawlers per seed (``envs``: its
-    checkpoint holds their state): refuse other values, naming the option and the run's value."""
+    checkpoint holds their state): refuse other values, naming the option and the run's value.
+    ``checkpoint_metadata``: the settings the run's checkpoint holds; a ``run.json`` that
+    disagrees with them was edited (also one whose hash was removed with the edit)."""
     run_json = RunDir(run_dir).run_json
     if not run_json.is_file():  # without it the resume would take today's options for the run's
         raise ValueError(f"cannot resume {display_path(run_dir)}: its {RunDir.RUN_JSON} (the record "
@@ -43,11 +47,12 @@ def check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
                          "cannot keep the run's settings; restore it (e.g. from a backup), or "
                          "train the seed afresh without --resume")
     record = read_json(run_json)
+    _check_against_checkpoint(run_json, record, checkpoint_metadata)
     options = {"case": "--case", "physics": "--physics", "episode_duration_s": "--episode-duration",
                "recipe": "--recipe", "stop_rule": "--stop-when", "envs": "--envs"}
     for key in _RUN_SETTINGS:
         if key == "case_spec" and key in record:
-            run_spec, spec = _without_default_recipe(record[key]), _without_default_recipe(metadata[key])
+            run_spec, spec = without_default_recipe(record[key]), without_default_recipe(metadata[key])
             if run_spec != spec:
                 raise ValueError(f"the spec of case {metadata['case']!r} differs from the run's at "
                                  f"{first_difference(run_spec, spec)} ({run_json}): a resumed run "
@@ -77,6 +82,24 @@ def check_resume_settings(run_dir: Path, metadata: dict[str, Any]) -> None:
                          "instead (a resumed run keeps its settings)")
 
 
+def _check_against_checkpoint(run_json: Path, record: Any, saved: dict[str, Any] | None) -> None:
+    """``run.json``'s settings against the copy the checkpoint holds (written together by msr)."""
+    if not isinstance(record, dict) or not saved:
+        return
+    for key in (*_RUN_SETTINGS, *_RECORD_COPIES):
+        if key in record and key in saved and record[key] != saved[key]:
+            where = first_difference(record[key], saved[key]) if key == "case_spec" else key
+            raise ValueError(f"{run_json}: {where} differs from the run's checkpoint (run.json: "
+                             f"{_shown(record[key], key)}, checkpoint: {_shown(saved[key], key)}): "
+                             "the record was edited; a resume keeps the run's settings, so restore "
+                             "it (e.g. from a backup) and change a setting with the command's "
+                             "option instead")
+
+
+def _shown(value: Any, key: str) -> str:
+    return "its case spec" if key == "case_spec" else repr(value)
+
+
 def _kind(value: Any) -> str:
     """The JSON kind of a record's value, in words."""
     if value is None:
@@ -93,7 +116,7 @@ def _same_kind(a: Any, b: Any) -> bool:
     return a is None or b is None or _kind(a) == _kind(b)
 
 
-def _without_default_recipe(spec: Any) -> Any:
+def without_default_recipe(spec: Any) -> Any:
     """A case spec without its ``[training] recipe``: the recipe a run really used is its own
     setting (``recipe``, compared on its own), so a spec whose default recipe changed since the
     run started still resumes it."""

@@ -32,6 +32,7 @@ from ..runfiles.logs import read_log
 from ..runfiles.rundir import CaseDir, RunDir
 from ..runner.memory import peak_rss_bytes
 from .backends import BACKENDS, run_jobs
+from .case_folders import check_case_folders
 from .inert_settings import (
     SettingSources,
     check_episodes_end,
@@ -468,6 +469,7 @@ def _check_run_folders(out: str | Path, loaded: dict[str, Case], seed_list: list
 
     from ..runfiles.checkpoint import load_checkpoint, refuse_networks_only
 
+    check_case_folders(out, loaded, seed_list)
     runs = [(case, s, CaseDir.of(out, case).seed(s)) for case in loaded for s in seed_list]
     if not resume:
         existing = [str(run.path) for _, _, run in runs if run.checkpoint.exists()]
@@ -486,11 +488,12 @@ def _check_run_folders(out: str | Path, loaded: dict[str, Case], seed_list: list
                                  (run.evaluations_csv, ("global_step", "mean_return"))):
                 if log.is_file():
                     read_log(log, numeric, whole_rows_only=True)
-            refuse_networks_only(load_checkpoint(run.checkpoint, with_buffer=False), run.checkpoint)
+            saved = load_checkpoint(run.checkpoint, with_buffer=False)
+            refuse_networks_only(saved, run.checkpoint)
             check_resume_settings(run.path, {
                 "case": case, "case_spec": loaded[case].to_dict(), "physics": physics,
                 "episode_duration_s": float(episode_duration), "recipe": recipe, "envs": envs,
-                "seed": seed, "field_limit_T": loaded[case].field_limit})
+                "seed": seed, "field_limit_T": loaded[case].field_limit}, saved.get("metadata"))
     if before_making is not None:
         before_making()
     for _, _, run in runs:  # every seed's folder can be written, before any work

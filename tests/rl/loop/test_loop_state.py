@@ -28,3 +28,46 @@ def test_a_loop_json_cut_short_is_named_as_damaged_with_what_restoring_keeps(tmp
     message = str(refused.value)
     assert "not readable as JSON" in message and "damaged or cut short" in message
     assert "it records the finished steps" in message
+
+
+def test_a_step_result_replaced_by_another_command_runs_again(tmp_path, monkeypatch):
+    """Round 8, S7: `msr policy generate --out LOOP/generate --force` replaced the loop's generate
+    result; the loop then reported every step done over a result it did not write. A done step
+    whose folder no longer holds the recorded result runs again, with the steps that use it."""
+    import io
+
+    from elastica_magnetic_rl.cases.case import load_case
+    from elastica_magnetic_rl.loop.runner import run_loop
+    from elastica_magnetic_rl.loop.settings import LoopSettings
+    from elastica_magnetic_rl.loop.state import STEPS
+
+    from elastica_magnetic.results import MARKER, result_folder
+
+    calls: list[str] = []
+
+    def fake(step):
+        def run(ctx):
+            calls.append(step)
+            with result_folder(ctx.folder / step, kind=step, force=True) as folder:
+                (folder.path / "result.txt").write_text(step)
+            return {}
+        return run
+
+    from elastica_magnetic_rl.loop import runner
+
+    monkeypatch.setattr(runner, "write_report", lambda ctx: None)  # the fakes have no summaries
+    monkeypatch.setattr(runner, "headline", lambda step, summary: step)
+    functions = {step: fake(step) for step in STEPS}
+    out = tmp_path / "loop"
+    case, settings = load_case("m1-4mT"), LoopSettings()
+    run_loop(case, out, settings, progress=False, log=io.StringIO(), steps=functions)
+    assert calls == list(STEPS)
+    calls.clear()
+    run_loop(case, out, settings, progress=False, log=io.StringIO(), steps=functions)
+    assert calls == []  # nothing changed: nothing runs
+    marker = out / "generate" / MARKER
+    marker.write_text(marker.read_text().replace('"written_utc": "', '"written_utc": "1999'))
+    log = io.StringIO()
+    run_loop(case, out, settings, progress=False, log=log, steps=functions)
+    assert calls == ["generate", "robustness", "firmware"]
+    assert "generate/ no longer holds the result this loop wrote" in log.getvalue()
