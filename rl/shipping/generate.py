@@ -13,7 +13,7 @@ import numpy as np
 
 from elastica_magnetic.io import atomic_write, atomic_write_json, read_json
 from elastica_magnetic.openloop import check_duration
-from elastica_magnetic.results import check_result_folder, result_folder
+from elastica_magnetic.results import ResultExistsError, check_result_folder, result_folder
 
 from ..cases.tasks import GotoTask, ReachTask
 from ..reports.figures import ROLLOUT_FIGURES
@@ -230,4 +230,8 @@ def demo(out: str | Path = "out/demo", duration: float = 10.0, progress: bool = 
             f"`msr refine runs/{name}/seed<best>`, `msr policy ship runs/{name}/seed<best>/refined "
             f"--name {name}`"
         )
-    return generate(name, duration=duration, out=out, progress=progress, force=True, kind="demo")
+    try:
+        return generate(name, duration=duration, out=out, progress=progress, force=True, kind="demo")
+    except ResultExistsError as exc:  # the demo has no --force: say what it does replace
+        raise ResultExistsError(str(exc).replace("--force replaces only", "msr policy demo "
+                                                 "replaces only its own earlier demo and")) from None

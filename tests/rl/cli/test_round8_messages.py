@@ -184,3 +184,22 @@ def test_layer_sizes_in_a_spec_train(tmp_path, capsys):
     tiny = TINY[:at - 1] + TINY[at + 1:]  # the spec's sizes, not --set's
     assert msr(["train", "--case", str(spec), "--out", str(tmp_path / "r"), *tiny]) == 0
     assert "failed seeds: none" in capsys.readouterr().out
+
+
+def test_the_demos_refusal_does_not_name_an_option_it_lacks(tmp_path, monkeypatch):
+    """V5: `msr policy demo` refused a folder with a user's file saying "--force replaces only
+    what msr wrote"; the demo has no --force."""
+    from elastica_magnetic_rl.shipping import generate as module
+
+    from elastica_magnetic.results import ResultExistsError
+
+    def refused(*args, **kwargs):
+        raise ResultExistsError("--out d: holds a result of `msr policy demo` and files it did not "
+                                "write (notes.txt); move them away or choose another --out "
+                                "(--force replaces only what msr wrote)")
+
+    monkeypatch.setattr(module, "generate", refused)
+    with pytest.raises(ResultExistsError) as err:
+        module.demo(tmp_path / "d")
+    assert "--force" not in str(err.value)
+    assert "msr policy demo replaces only its own earlier demo and what msr wrote" in str(err.value)
