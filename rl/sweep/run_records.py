@@ -47,7 +47,6 @@ def check_resume_settings(run_dir: Path, metadata: dict[str, Any],
                          "cannot keep the run's settings; restore it (e.g. from a backup), or "
                          "train the seed afresh without --resume")
     record = read_json(run_json)
-    _check_against_checkpoint(run_json, record, checkpoint_metadata)
     options = {"case": "--case", "physics": "--physics", "episode_duration_s": "--episode-duration",
                "recipe": "--recipe", "stop_rule": "--stop-when", "envs": "--envs"}
     for key in _RUN_SETTINGS:
@@ -80,6 +79,9 @@ def check_resume_settings(run_dir: Path, metadata: dict[str, Any],
                          "case, and would overwrite the edits without a word; restore the file "
                          "(e.g. from a backup), and change a setting with the command's option "
                          "instead (a resumed run keeps its settings)")
+    if checkpoint_metadata and checkpoint_metadata.get("case") == metadata.get("case"):
+        # an edit the above missed (another case's checkpoint is named by the checkpoint's check)
+        _check_against_checkpoint(run_json, record, checkpoint_metadata)
 
 
 def _check_against_checkpoint(run_json: Path, record: Any, saved: dict[str, Any] | None) -> None:
@@ -87,8 +89,11 @@ def _check_against_checkpoint(run_json: Path, record: Any, saved: dict[str, Any]
     if not isinstance(record, dict) or not saved:
         return
     for key in (*_RUN_SETTINGS, *_RECORD_COPIES):
-        if key in record and key in saved and record[key] != saved[key]:
-            where = first_difference(record[key], saved[key]) if key == "case_spec" else key
+        mine, theirs = record.get(key), saved.get(key)
+        if key == "case_spec":  # the spec's default recipe is not the run's (see above)
+            mine, theirs = without_default_recipe(mine), without_default_recipe(theirs)
+        if key in record and key in saved and mine != theirs:
+            where = first_difference(mine, theirs) if key == "case_spec" else key
             raise ValueError(f"{run_json}: {where} differs from the run's checkpoint (run.json: "
                              f"{_shown(record[key], key)}, checkpoint: {_shown(saved[key], key)}): "
                              "the record was edited; a resume keeps the run's settings, so restore "
