@@ -75,10 +75,10 @@ __all__ = [
     "check_plain_name",
 ]
 
-#: Top-level keys of a spec file (the learning package reads ``actuation`` to ``yardstick``;
-#: :mod:`elastica_magnetic.field_spec` reads ``field`` and ``boundary``).
+#: Top-level keys of a spec file (the learning package reads ``actuation`` to ``yardstick`` and
+#: ``design``; :mod:`elastica_magnetic.field_spec` reads ``field`` and ``boundary``).
 SPEC_TABLES = ("name", "description", "robot", "physics", "actuation", "task", "training", "yardstick",
-               "field", "boundary", "checks")
+               "design", "field", "boundary", "checks")
 
 #: Named magnetization patterns and their parameters (besides ``kind``); ``table`` gives the
 #: per-element values directly.

@@ -66,7 +66,7 @@ def test_the_physics_package_imports_no_learning_or_validation():
 #: The learning package's subpackages, bottom layer first: each imports only itself and the layers
 #: before it (docs/architecture.md). Its top-level modules (``__init__``) import none of them.
 RL_LAYERS = ("runfiles", "td3", "cases", "envs", "runner", "sweep", "reports", "shipping", "sim2real",
-             "cli", "loop")
+             "cli", "loop", "design")
 
 
 def test_the_learning_subpackages_import_only_lower_layers():

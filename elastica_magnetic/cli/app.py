@@ -18,6 +18,7 @@ the help, with a one-line note naming the new one:
 - ``elastica_magnetic.hardware.cli``: ``stream``, ``export-firmware``, ``calibrate``
 - ``elastica_magnetic_rl.sim2real.cli``: ``robustness``, ``identify``
 - ``elastica_magnetic_rl.loop.cli``: ``loop``
+- ``elastica_magnetic_rl.design.cli``: ``design``
 """
 
 from __future__ import annotations
@@ -45,6 +46,7 @@ COMMAND_MODULES = (
     "elastica_magnetic.hardware.cli",
     "elastica_magnetic_rl.sim2real.cli",
     "elastica_magnetic_rl.loop.cli",
+    "elastica_magnetic_rl.design.cli",
 )
 
 
@@ -287,8 +289,8 @@ def _sort_listing(sub: Any) -> None:
 
 
 #: The order of ``msr --help``: the path of a new user, then the tools.
-TOP_LEVEL_ORDER = ("case", "field", "train", "refine", "policy", "real", "hw", "loop", "validate",
-                   "bench")
+TOP_LEVEL_ORDER = ("case", "field", "train", "refine", "policy", "real", "hw", "loop", "design",
+                   "validate", "bench")
 
 
 def listed_commands(parser: argparse.ArgumentParser | None = None) -> dict[str, argparse.ArgumentParser]:

@@ -20,6 +20,8 @@ Tables of a spec (SI units; the robot's tables are described in
   ``[training.td3]``: :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` fields on top of the recipe,
   and ``[training.randomize]``: robot values drawn anew per training episode and crawler (domain
   randomization; ``KEY = "LOW:HIGH"`` as ``msr real robustness --vary``, or ``randomize = "default"``).
+- ``[design]``: what ``msr design`` may change of the robot's magnetization
+  (:mod:`elastica_magnetic_rl.cases.design_space`); optional, read by no other command.
 - ``[yardstick]``: ``distance_10s`` (m, crawl: the distance in 10 s of accurate physics from a
   zero field that counts as success; 0: the case has none, and no run of it is judged) and
   ``source`` (where it comes from).
@@ -49,6 +51,7 @@ from elastica_magnetic.specfile import (
     read_spec,
 )
 
+from .design_space import DESIGN_TABLE, DesignSpace, design_space
 from .recipes import DEFAULT_RECIPE, RECIPES
 from .task_tables import MAX_YARDSTICK_BODY_LENGTHS, task_from_table
 from .tasks import GotoTask, ReachTask, Task
@@ -199,6 +202,8 @@ class Case:
     training: Training
     yardstick: Yardstick
     source: str = "<spec>"
+    #: The ``[design]`` table (what ``msr design`` may change), ``None`` when the spec has none.
+    design: DesignSpace | None = None
 
     def robot_spec(self, physics: Physics = "training") -> RobotSpec:
         """The robot in one physics setting."""
@@ -286,6 +291,7 @@ class Case:
             "task": self.task.to_dict(),
             "training": training,
             "yardstick": dataclasses.asdict(self.yardstick),
+            **({} if self.design is None else {DESIGN_TABLE: self.design.to_dict()}),
         })
 
     def toml(self, *, with_name: bool = False) -> str:
@@ -373,10 +379,19 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     if robot.robot("training").ground is None:
         raise SpecError(f"{source}: [robot.ground] missing: the crawler tasks need a ground (add the "
                         "table; every key in it has a default)")
+    design = _design(top.raw(DESIGN_TABLE, None), robot, actuation, source)
     for key in ("robot", "physics", "checks"):  # read by describe_robot
         top.raw(key, None)
     top.finish()
-    return Case(name, description, robot, actuation, task, training, yardstick, source)
+    return Case(name, description, robot, actuation, task, training, yardstick, source, design)
+
+
+def _design(table: Any, robot: RobotDescription, actuation: Actuation, source: str) -> DesignSpace | None:
+    """The checked ``[design]`` table (``None`` when absent)."""
+    if table is None:
+        return None
+    return design_space(table, robot.tables["robot"], actuation.axes, source,
+                        robot.robot("accurate").magnetization)
 
 
 def _actuation(t: SpecTable) -> Actuation:

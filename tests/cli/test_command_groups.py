@@ -1,4 +1,5 @@
-"""The command line by noun (issue 50): at most 10 top-level entries, each grouped command under
+"""The command line by noun (issue 50): at most 10 top-level entries (11 since ``msr design``,
+which issue 52 asks for at the top level: a script's interface), each grouped command under
 its group, and every earlier top-level spelling still running (hidden from the help) with a
 one-line note naming the new one."""
 
@@ -19,9 +20,13 @@ def _listed_top_level(capsys) -> list[str]:
             not line.startswith("     ")]
 
 
-def test_the_help_lists_at_most_ten_entries_and_no_old_spelling(capsys):
+#: The most top-level entries ``msr --help`` may list.
+MOST_TOP_LEVEL = 11
+
+
+def test_the_help_lists_at_most_eleven_entries_and_no_old_spelling(capsys):
     listed = _listed_top_level(capsys)
-    assert 0 < len(listed) <= 10, listed
+    assert 0 < len(listed) <= MOST_TOP_LEVEL, listed
     assert set(GROUPS) <= set(listed)
     assert not set(listed) & set(COMMAND_HOMES), "an old spelling is listed"
 

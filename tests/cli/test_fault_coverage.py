@@ -52,6 +52,8 @@ FAULT_TESTS: dict[str, tuple[str, ...]] = {
     "policy diagnose": ("rl/reports/test_diagnostics.py::"
                  "test_diagnose_figures_interrupted_leave_the_earlier_ones",),
     "policy notes": ("rl/cli/test_run_writer_faults.py::test_notes_interrupted_leave_the_policy_whole",),
+    "design": ("rl/design/test_design_run.py::"
+               "test_a_design_killed_mid_checkpoint_resumes_to_the_same_result",),
     # interrupted in-process (Ctrl-C at a step; killed between a step and its record): each step
     # is one of the writers above, through the same mechanisms
     "loop": ("rl/loop/test_msr_loop.py::test_an_interrupted_loop_keeps_its_finished_steps",

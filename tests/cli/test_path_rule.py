@@ -65,6 +65,7 @@ WRITERS: dict[str, tuple[list[str], str, str]] = {
     "identify": (["real", "identify", FIELD_CSV, str(PUBLISHED / "trajectory.csv"), "--robot", "m1-4mT",
                   "--fit", "friction", "--out", "{o}", "--force"], "folder", "--out"),
     "loop": (["loop", "m1-4mT", "--out", "{o}", "--force"], "folder", "--out"),
+    "design": (["design", "m1-4mT", "--out", "{o}", "--force", "--quick"], "folder", "--out"),
     "stream --log": (["hw", "stream", FIELD_CSV, "--port", "socket://127.0.0.1:9", "--log", "{f}"], "file",
                      "--log"),
     "stream --codes-out": (["hw", "stream", FIELD_CSV, "--port", "socket://127.0.0.1:9", "--codes-out",

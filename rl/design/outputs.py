@@ -1,0 +1,174 @@
+"""The end of ``msr design``: the starting and the best design judged by the same sweep of
+rotating fields, and the files of the design folder (see :mod:`elastica_magnetic_rl.design.run`)."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from elastica_magnetic.io import atomic_write, atomic_write_json, atomic_write_text
+
+from ..cases.case import EVAL_DURATION, case_from_dict
+from .evaluate import Trial, run_trials
+from .search import SearchState, _worst, variant_specs, variation_set
+
+__all__ = ["judge", "write_outputs"]
+
+
+def judge(design, settings, x: np.ndarray | None, periods: list[float]) -> dict[str, Any]:
+    """One design (the search vector ``x``; ``None``: the spec's own magnetization) under every
+    period (s) in both senses for ``settings.final_duration`` s of ``settings.final_physics``:
+    ``sweep`` (period, sense, distance in m), the best rotating field (``distance_m``,
+    ``period_s``, ``clockwise``), and for the robust objective ``robust_m`` (the worst over the
+    default variation set with its corners, under that best field) and ``variants``."""
+    spec = design.base if x is None else design.space.spec_of(design.base, x)
+    robot = variant_specs(design.case, spec, settings.final_physics, None)[0]
+    trials = [Trial(robot, p, cw) for p in periods for cw in (True, False)]
+    distances = run_trials(design.case, trials, settings.final_duration, settings.workers)
+    sweep = [{"period_s": t.period, "clockwise": t.clockwise,
+              "distance_m": None if math.isnan(d) else float(d)}
+             for t, d in zip(trials, distances, strict=True)]
+    finite = [s for s in sweep if s["distance_m"] is not None]
+    best = max(finite, key=lambda s: s["distance_m"]) if finite else {
+        "period_s": periods[0], "clockwise": True, "distance_m": None}
+    result = {"sweep": sweep, "distance_m": best["distance_m"], "period_s": best["period_s"],
+              "clockwise": best["clockwise"]}
+    variations = variation_set(design.start_spec(), settings.objective, corners=True)
+    if variations is not None:
+        robots = variant_specs(design.case, spec, settings.final_physics, variations)
+        varied = run_trials(design.case, [Trial(r, best["period_s"], best["clockwise"]) for r in robots],
+                            settings.final_duration, settings.workers)
+        result["robust_m"] = _worst(list(varied))
+        result["variants"] = [{"variant": v.label, "distance_m": None if math.isnan(d) else float(d)}
+                              for v, d in zip(variations[1], varied, strict=True)]
+    return result
+
+
+def _objective(result: dict[str, Any], objective: str) -> float | None:
+    return result.get("robust_m") if objective == "robust" else result["distance_m"]
+
+
+def write_outputs(folder: Path, design, settings, record: dict[str, Any], state: SearchState
+                  ) -> dict[str, Any]:
+    """Judge the starting and the best design, write the result files; the summary."""
+    from ..reports.design_figures import plot_convergence, plot_magnetization
+
+    best_x = np.asarray(state.best_x, dtype=float)
+    periods = sorted({*settings.final_periods, float(record["start"]["period_s"]),
+                      design.space.period(best_x)})
+    start = judge(design, settings, None, periods)
+    best = judge(design, settings, best_x, periods)
+    objective_start, objective_best = (_objective(start, settings.objective),
+                                       _objective(best, settings.objective))
+    improved = objective_best is not None and (objective_start is None or objective_best > objective_start)
+    name = f"{design.case.name}-designed"
+    best_case = _best_case(design, best_x, best, settings, name)
+    atomic_write_text(folder / "best.toml", _best_toml(best_case, design, settings, state))
+    _write_sweep(folder / "final_sweep.csv", start, best)
+    summary = {
+        "case": design.case.name, "designed_case": name, "objective": settings.objective,
+        "objective_start_m": objective_start, "objective_best_m": objective_best,
+        "ratio": (objective_best / objective_start if objective_start and objective_best is not None
+                  and objective_start > 0 else None),
+        "improved": bool(improved),
+        "judged_in": {"physics": settings.final_physics, "duration_s": settings.final_duration,
+                      "periods_s": periods, "senses": ["clockwise", "counter-clockwise"]},
+        "start": _without_sweep(start), "best": _without_sweep(best),
+        "best_segments": design.space.segment_list(best_x),
+        "search": {"generations": state.generation, "evaluations": len(state.history),
+                   "popsize": int(state.es.popsize), "wall_s": state.elapsed_s,
+                   "physics": settings.physics, "duration_s": settings.search_duration,
+                   "best_objective_search_m": state.best_objective,
+                   "start_objective_search_m": record["start"]["objective_search_m"],
+                   "seed": settings.seed},
+        "space": design.space.to_dict(),
+    }
+    atomic_write_json(folder / "summary.json", summary)
+    plot_convergence(state.history, record["start"]["objective_search_m"], folder / "convergence.png")
+    start_robot = design.case.robot_spec("accurate")
+    plot_magnetization(start_robot.magnetization, best_case.robot_spec("accurate").magnetization,
+                       start_robot.length, folder / "magnetization.png")
+    atomic_write_text(folder / "report.md", _report(summary))
+    _write_gait(folder / "gait", best_case, best, settings)
+    return summary
+
+
+def _without_sweep(result: dict[str, Any]) -> dict[str, Any]:
+    return {k: v for k, v in result.items() if k != "sweep"}
+
+
+def _best_case(design, x, best: dict[str, Any], settings, name: str):
+    """The best design's case, its yardstick the best rotating field's distance."""
+    spec = design.space.spec_of(design.base, x)
+    spec["name"] = name
+    turn = "clockwise" if best["clockwise"] else "counter-clockwise"
+    measured = settings.final_physics == "accurate" and abs(settings.final_duration - EVAL_DURATION) < 1e-9
+    if best["distance_m"] is not None and best["distance_m"] > 0:
+        spec["yardstick"] = {
+            "distance_10s": float(best["distance_m"]),
+            "source": (f"msr design: the best rotating field of the designed robot, {turn}, period "
+                       f"{best['period_s']:.4g} s, {1e3 * best['distance_m']:+.1f} mm in "
+                       f"{settings.final_duration:g} s, {settings.final_physics} physics, field from zero"
+                       + ("" if measured else " (a smoke run's stand-in, not a yardstick)"))}
+    return case_from_dict(spec, "best.toml", name)
+
+
+def _best_toml(case, design, settings, state: SearchState) -> str:
+    header = (f"# Designed by msr design from {design.case.source} (objective {settings.objective}, "
+              f"seed {settings.seed}, {state.generation} generations, {len(state.history)} candidates).\n")
+    return header + case.toml(with_name=True)
+
+
+def _write_sweep(path: Path, start: dict[str, Any], best: dict[str, Any]) -> None:
+    with atomic_write(path) as f:
+        writer = csv.writer(f)
+        writer.writerow(["design", "period_s", "clockwise", "distance_m"])
+        for label, result in (("start", start), ("best", best)):
+            for row in result["sweep"]:
+                d = row["distance_m"]
+                writer.writerow([label, f"{row['period_s']:.6g}", int(row["clockwise"]),
+                                 "nan" if d is None else f"{d:.9g}"])
+
+
+def _mm(value: float | None) -> str:
+    return "diverged" if value is None else f"{1e3 * value:+.1f} mm"
+
+
+def _report(summary: dict[str, Any]) -> str:
+    s, b, search = summary["start"], summary["best"], summary["search"]
+    judged = summary["judged_in"]
+    turn = {True: "clockwise", False: "counter-clockwise"}
+    lines = [f"# Design of {summary['case']} ({summary['objective']} objective)", "",
+             f"Judged by the same sweep of rotating fields ({len(judged['periods_s'])} periods, both "
+             f"senses, {judged['duration_s']:g} s of the {judged['physics']} physics, field from zero).",
+             "", "| design | objective | best rotating field | period | sense |", "|---|---|---|---|---|"]
+    for label, r, obj in (("start", s, summary["objective_start_m"]),
+                          ("best", b, summary["objective_best_m"])):
+        lines.append(f"| {label} | {_mm(obj)} | {_mm(r['distance_m'])} | {r['period_s']:.3g} s | "
+                     f"{turn[r['clockwise']]} |")
+    ratio = summary["ratio"]
+    lines += ["", f"Ratio best / start: {ratio:.2f}x." if ratio else "Ratio: undefined (the start "
+              "does not move ahead).",
+              "" if summary["improved"] else "The search did not beat the starting design.",
+              f"Search: {search['generations']} generations, {search['evaluations']} candidates, "
+              f"{search['wall_s'] / 60:.1f} min, {search['duration_s']:g} s runs of the "
+              f"{search['physics']} physics, seed {search['seed']}.", "",
+              "| segment | elements | direction (x, y, z) | magnitude (A/m) |", "|---|---|---|---|"]
+    for k, seg in enumerate(summary["best_segments"]):
+        d = ", ".join(f"{v:+.3f}" for v in seg["direction"])
+        lines.append(f"| {k} | {seg['elements']} | {d} | {seg['magnitude']:.4g} |")
+    return "\n".join(lines) + "\n"
+
+
+def _write_gait(out: Path, case, best: dict[str, Any], settings) -> None:
+    """The best design under its best rotating field, as ``msr field baseline`` writes it."""
+    from ..shipping.baselines import RotatingFieldPolicy
+    from ..shipping.generate import generate
+
+    policy = RotatingFieldPolicy(case, best["period_s"], best["clockwise"])
+    generate(policy, out=out, duration=settings.final_duration, physics=settings.final_physics,
+             progress=False, gif=settings.gif, force=True, kind="baseline")

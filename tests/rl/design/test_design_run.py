@@ -1,0 +1,160 @@
+"""``msr design`` end to end at smoke settings (issue 52): the batched evaluation is the
+yardstick's own rollout, a killed design resumes to the result of an uninterrupted one, the
+folder rules, and drawn robots of every form."""
+
+from __future__ import annotations
+
+import csv
+import json
+import signal
+from pathlib import Path
+
+import numpy as np
+import pytest
+from elastica_magnetic_rl.cases.case import case_from_dict, load_case
+from elastica_magnetic_rl.design.evaluate import Trial, run_trials
+from elastica_magnetic_rl.design.run import DesignError, DesignSettings, run_design
+from elastica_magnetic_rl.shipping.baselines import RotatingFieldPolicy
+from elastica_magnetic_rl.shipping.policy_runs import run_policy
+from faults import Fault
+from hypothesis import HealthCheck, Phase, given, settings
+from spec_matrix import user_specs
+
+from elastica_magnetic.cli import main as msr
+from elastica_magnetic.io import OutputPathError
+from elastica_magnetic.specfile import dumps, read_spec
+
+#: A design of seconds: 0.3 s runs of the training physics, two judged periods, one process.
+TINY = DesignSettings(physics="training", search_duration=0.3, final_physics="training",
+                      final_duration=0.3, final_periods=(0.5, 1.0), generations=2, minutes=None,
+                      popsize=3, workers=1, gif=False)
+QUICK = ["--quick", "--popsize", "3", "--workers", "1", "--no-progress"]
+
+
+@pytest.mark.parametrize("period, clockwise", [(1.0, True), (0.7, False)])
+def test_the_batched_trial_is_the_yardsticks_own_rollout(period, clockwise):
+    """The search's distance of a robot under a rotating field is the one ``msr field baseline``
+    measures with the environment, to the last bit (same field rows, same simulator)."""
+    case = load_case("m1-4mT")
+    batched = run_trials(case, [Trial(case.robot_spec("training"), period, clockwise)], 0.5)[0]
+    rollout = run_policy(RotatingFieldPolicy(case, period, clockwise), 0.5, "training", progress=False)
+    mid = rollout.trajectory["mid_x_m"]
+    assert batched == mid.iloc[-1] - mid.iloc[0]
+
+
+def test_robots_of_one_batch_do_not_see_each_other():
+    case = load_case("m1-4mT")
+    robot = case.robot_spec("training")
+    alone = run_trials(case, [Trial(robot, 1.0, True)], 0.3)
+    together = run_trials(case, [Trial(robot, 0.6, False), Trial(robot, 1.0, True)], 0.3)
+    assert together[1] == alone[0] and together[0] != alone[0]
+
+
+def _rows(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def test_the_design_folder_and_its_summary(tmp_path):
+    out = tmp_path / "design"
+    summary = run_design("m1-4mT", out, TINY)
+    assert {p.name for p in out.iterdir()} >= {"best.toml", "history.csv", "summary.json", "design.json",
+                                                "final_sweep.csv", "convergence.png", "magnetization.png",
+                                                "report.md", "gait"}
+    assert json.loads((out / "summary.json").read_text()) == json.loads(json.dumps(summary))
+    assert len(_rows(out / "history.csv")) == 2 * 3
+    best = case_from_dict(read_spec(out / "best.toml"), "best.toml")
+    assert best.name == "m1-4mT-designed"
+    # the start is the spec's own robot, judged by the same sweep as the best
+    sweep = _rows(out / "final_sweep.csv")
+    assert {r["design"] for r in sweep} == {"start", "best"}
+    start = max(float(r["distance_m"]) for r in sweep if r["design"] == "start")
+    assert summary["objective_start_m"] == pytest.approx(start)
+    segments = summary["best_segments"]
+    m = best.robot_spec("accurate").magnetization
+    assert np.allclose(m[:, 0], np.array(segments[0]["direction"]) * segments[0]["magnitude"])
+
+
+def test_a_resumed_design_equals_an_uninterrupted_one(tmp_path):
+    whole = run_design("m1-4mT", tmp_path / "whole", TINY)
+    first = run_design("m1-4mT", tmp_path / "parts", DesignSettings(**{**TINY.__dict__, "generations": 1}))
+    assert first["search"]["generations"] == 1
+    again = run_design("m1-4mT", tmp_path / "parts", TINY, resume=True)
+    assert _rows(tmp_path / "parts" / "history.csv") == _rows(tmp_path / "whole" / "history.csv")
+    assert again["objective_best_m"] == whole["objective_best_m"]
+    assert again["best_segments"] == whole["best_segments"]
+
+
+def test_a_design_killed_mid_checkpoint_resumes_to_the_same_result(fault_server, tmp_path, capsys):
+    argv = ["design", "m1-4mT", "--generations", "3", *QUICK]
+    assert msr([*argv, "--out", str(tmp_path / "whole"), "--json"]) == 0
+    whole = json.loads(capsys.readouterr().out)
+    out = tmp_path / "killed"
+    # the checkpoints: the start (1), after generation 1 (2), killed while writing generation 2's
+    done = fault_server.run([*argv, "--out", str(out)],
+                            Fault("open", r"/search/\.state\.tmp\d+\.pkl$", "SIGKILL", nth=3))
+    assert done.returncode == -signal.SIGKILL
+    assert len(_rows(out / "history.csv")) == 3  # generation 1 only: the second was not recorded
+    assert msr([*argv, "--out", str(out), "--resume", "--json"]) == 0
+    resumed = json.loads(capsys.readouterr().out)
+    assert _rows(out / "history.csv") == _rows(tmp_path / "whole" / "history.csv")
+    assert resumed["objective_best_m"] == whole["objective_best_m"]
+    assert (out / "best.toml").read_text() == (tmp_path / "whole" / "best.toml").read_text()
+
+
+def test_the_folder_rules(tmp_path, capsys):
+    out = tmp_path / "design"
+    run_design("m1-4mT", out, TINY)
+    with pytest.raises(OutputPathError, match="continue it with --resume, or replace it with --force"):
+        run_design("m1-4mT", out, TINY)
+    other = DesignSettings(**{**TINY.__dict__, "seed": 7})
+    with pytest.raises(DesignError, match=r"another settings \(seed\)"):
+        run_design("m1-4mT", out, other, resume=True)
+    (out / "mine.txt").write_text("a user's note")
+    with pytest.raises(OutputPathError, match="files msr did not write \\(mine.txt\\)"):
+        run_design("m1-4mT", out, other, force=True)
+    (out / "mine.txt").unlink()
+    replaced = run_design("m1-4mT", out, other, force=True)
+    assert replaced["search"]["seed"] == 7
+    with pytest.raises(DesignError, match="holds no design to continue"):
+        run_design("m1-4mT", tmp_path / "new", TINY, resume=True)
+    # a folder of another command is refused, untouched
+    assert msr(["field", "simulate", "--duration", "0.01", "--out", str(tmp_path / "sim")]) == 0
+    before = sorted(p.name for p in (tmp_path / "sim").iterdir())
+    assert msr(["design", "m1-4mT", "--out", str(tmp_path / "sim"), "--generations", "1", *QUICK]) == 2
+    assert "simulate" in capsys.readouterr().err
+    assert sorted(p.name for p in (tmp_path / "sim").iterdir()) == before
+
+
+def test_bad_options_are_refused_before_any_work(tmp_path, capsys):
+    spec = load_case("m1-4mT").to_dict()
+    spec["design"] = {"segments": 20}
+    path = tmp_path / "my.toml"
+    path.write_text(dumps(spec))
+    for argv, named in (([str(path)], "[design] segments: must be <= 12"),
+                        (["m1-4mT", "--popsize", "1"], "--popsize")):
+        with pytest.raises(SystemExit) as refused:  # as the options are parsed
+            msr(["design", *argv, "--out", str(tmp_path / "d")])
+        assert refused.value.code == 2 and named in capsys.readouterr().err
+    assert not (tmp_path / "d").exists()
+
+
+DRAWN = settings(max_examples=3, derandomize=True, database=None, deadline=None,
+                 phases=[Phase.generate],
+                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+
+
+@DRAWN
+@given(spec=user_specs(task="crawl"))
+def test_designs_of_drawn_robots(tmp_path_factory, spec):
+    """Robots of every form (segments, tables, named patterns; Poisson ratio or shear modulus;
+    band or round; two or three axes) design, and the best spec parses back."""
+    folder = tmp_path_factory.mktemp("drawn")
+    path = folder / "drawn.toml"
+    spec = {**spec, "design": {"segments": 3, "magnitude": "free"}}
+    path.write_text(dumps(spec))
+    summary = run_design(path, folder / "design", DesignSettings(**{**TINY.__dict__, "generations": 1}))
+    best = case_from_dict(read_spec(folder / "design" / "best.toml"), "best.toml")
+    assert len(summary["best_segments"]) == 3
+    assert best.robot.n_elements == spec["robot"]["n_elements"]
+    assert summary["objective_start_m"] is not None
