@@ -559,9 +559,38 @@ class _UniformCallable(SpatialField):
         b += _vector3(self.field(time), f"uniform field at t = {time:.6g} s", "T")[:, None]
 
 
+class _UserSource(SpatialField):
+    """A user's own spatial source, any object with ``at(points, time)`` -> ``(3, n)`` T and
+    ``gradient(points, time)`` -> ``(3, 3, n)`` T/m (what :class:`~elastica_magnetic.MagneticTorques`
+    takes), inside a :class:`FieldSum`; what it returns is checked (shape, finite)."""
+
+    def __init__(self, source: object, index: int) -> None:
+        self.source, self.index = source, index
+
+    def _add(self, points, time, b, g, with_gradient) -> None:
+        n = points.shape[1]
+        b += self._checked(self.source.at(points, time), (3, n), "at", "T")
+        if with_gradient:
+            g += self._checked(self.source.gradient(points, time), (3, 3, n), "gradient", "T/m")
+
+    def _checked(self, value: object, shape: tuple[int, ...], method: str, unit: str) -> NDArray[np.float64]:
+        name = f"source {self.index} of FieldSum ({type(self.source).__name__}).{method}"
+        try:
+            array = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise SpatialFieldError(f"{name} returned {value!r}, not numbers in {unit}") from None
+        if array.shape != shape:
+            raise SpatialFieldError(f"{name} returned shape {array.shape}, expected {shape} ({unit})")
+        if not np.all(np.isfinite(array)):
+            raise SpatialFieldError(f"{name} returned values that are not finite ({unit})")
+        return array
+
+
 class FieldSum(SpatialField):
-    """The sum of field sources: spatial ones, and uniform ones (any ``field(time) -> (3,)``,
-    e.g. :class:`~elastica_magnetic.ConstantField`) added everywhere with zero gradient."""
+    """The sum of field sources: spatial ones (this module's, or any object with ``at`` and
+    ``gradient`` as :class:`~elastica_magnetic.MagneticTorques` takes them) and uniform ones (any
+    ``field(time) -> (3,)``, e.g. :class:`~elastica_magnetic.ConstantField`) added everywhere with
+    zero gradient."""
 
     def __init__(self, *sources: object) -> None:
         if not sources:
@@ -572,6 +601,8 @@ class FieldSum(SpatialField):
                 parts.extend(source.sources)
             elif isinstance(source, SpatialField):
                 parts.append(source)
+            elif is_spatial(source):  # a user's own source (before callable: it may be both)
+                parts.append(_UserSource(source, i))
             elif callable(source):
                 parts.append(_UniformCallable(source))
             else:

@@ -240,3 +240,48 @@ def test_finite_magnets_match_dipole_far_away_and_their_gradient():
     np.testing.assert_allclose(g, fd_gradient(cuboid, near, 1e-4), rtol=0, atol=1e-6 * np.abs(g).max())
     np.testing.assert_allclose(np.trace(g), 0.0, atol=1e-6 * np.abs(g).max())
     assert not np.allclose(cuboid.at(near, 0.01), b)  # it moved
+
+
+class _GradientSource:
+    """A user's own source: a constant gradient dB_z/dx = 0.1 T/m on a 1 mT offset, and (as some
+    user classes are) also callable with a time."""
+
+    def at(self, points, time=0.0):
+        return np.array([[0.0], [0.0], [1e-3]]) + np.outer([0.0, 0.0, 0.1], points[0])
+
+    def gradient(self, points, time=0.0):
+        g = np.zeros((3, 3, points.shape[1]))
+        g[2, 0, :] = 0.1
+        return g
+
+    def __call__(self, time):
+        return np.zeros(3)
+
+
+def test_field_sum_takes_a_users_own_source_and_keeps_its_gradient():
+    """Issue 53: FieldSum refused an object with at/gradient that MagneticTorques accepts, and
+    took one that is also callable for a uniform field (force 0 instead of the gradient's)."""
+    from elastica_magnetic.spatial_fields import FieldSum, PointDipoleField
+
+    dipole = PointDipoleField((0.0, 0.05, 0.0), (0.0, 1.0, 0.0))
+    points = np.array([[0.01, 0.02], [0.0, 0.0], [0.0, 0.0]])
+    total = FieldSum(_GradientSource(), dipole)
+    b, g = total.evaluate(points)
+    np.testing.assert_allclose(g[2, 0], 0.1 + dipole.gradient(points)[2, 0])
+    np.testing.assert_allclose(b, _GradientSource().at(points) + dipole.at(points))
+
+    class NotCallable(_GradientSource):
+        __call__ = None
+
+    np.testing.assert_allclose(FieldSum(NotCallable()).gradient(points)[2, 0], [0.1, 0.1])
+
+
+def test_field_sum_names_a_users_source_that_returns_the_wrong_shape():
+    from elastica_magnetic.spatial_fields import FieldSum, SpatialFieldError
+
+    class Flat(_GradientSource):
+        def at(self, points, time=0.0):
+            return np.zeros(3)
+
+    with pytest.raises(SpatialFieldError, match=r"source 0 of FieldSum \(Flat\)\.at returned shape \(3,\)"):
+        FieldSum(Flat()).at(np.zeros((3, 2)))
