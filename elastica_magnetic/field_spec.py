@@ -19,8 +19,10 @@ and a clamp, for ``msr field simulate`` and ``msr field replay``::
 
 Coils (``current-loop``, ``helmholtz``, ``maxwell``) take ``radius`` (m), ``current`` (A),
 ``turns`` (default 1), ``axis`` (default ``[0, 0, 1]``) and ``centre`` (m) or ``[field.path]``;
-``field-map`` takes ``file`` (``.npz`` or ``.csv``, relative to the spec file; see
-:class:`~elastica_magnetic.FieldMap`) and ``scale`` (default 1). Finite magnets (Magpylib, see
+``field-map`` takes ``file`` (``.npz``, ``.csv``, or a grid export of a finite-element tool,
+COMSOL's spreadsheet ``.txt``, relative to the spec file; see :class:`~elastica_magnetic.FieldMap`
+and :meth:`~elastica_magnetic.FieldMap.from_export`), ``scale`` (default 1), and for a grid export
+``length_unit`` / ``field_unit`` where its header does not state them. Finite magnets (Magpylib, see
 :mod:`elastica_magnetic.magnet_fields`): ``cuboid-magnet`` takes ``dimension`` (m, 3 edges),
 ``cylinder-magnet`` ``diameter`` and ``height`` (m); both take ``polarization`` (T, ``mu0 M`` in
 the magnet's own frame), ``axis`` (lab direction of the magnet's own z) and ``position`` (m) or
@@ -220,6 +222,12 @@ def _build_gradient(table: Mapping[str, Any], pose: Any, strength: Strength, bas
 def _read_map(t: SpecTable, out: dict[str, Any]) -> None:
     out["file"] = t.string("file")
     out["scale"] = t.number("scale", "1", 1.0)
+    from .spatial_fields import EXPORT_FIELD_UNITS, EXPORT_LENGTH_UNITS
+
+    for key, known in (("length_unit", EXPORT_LENGTH_UNITS), ("field_unit", EXPORT_FIELD_UNITS)):
+        unit = t.string(key, None, choices=tuple(known))
+        if unit is not None:
+            out[key] = unit
 
 
 def _build_map(table: Mapping[str, Any], pose: Any, strength: Strength, base: Path) -> SpatialField:
@@ -229,12 +237,26 @@ def _build_map(table: Mapping[str, Any], pose: Any, strength: Strength, base: Pa
     scale = table["scale"]
     factor = scale if strength is None else (lambda t: scale * strength(t))
     if not path.is_file():
-        raise SpatialFieldError(f"file {path}: no such field map (.npz or .csv)")
-    if path.suffix == ".npz":
+        raise SpatialFieldError(f"file {path}: no such field map (.npz, .csv or a grid export .txt)")
+    units = {k: table[k] for k in ("length_unit", "field_unit") if k in table}
+    if path.suffix == ".npz" and not units:
         return FieldMap.from_npz(path, factor)
-    if path.suffix == ".csv":
+    if path.suffix == ".csv" and not units and not _is_export(path):
         return FieldMap.from_csv(path, factor)
-    raise SpatialFieldError(f"file {path}: expected an .npz or .csv field map")
+    if path.suffix in (".csv", ".txt"):
+        return FieldMap.from_export(path, factor, **units)
+    raise SpatialFieldError(f"file {path}: expected an .npz or .csv field map, or a grid export "
+                            "(.txt or .csv, COMSOL's spreadsheet format); length_unit and field_unit "
+                            "are for a grid export")
+
+
+def _is_export(path: Path) -> bool:
+    """Whether a ``.csv`` file starts like a grid export (a ``%`` or ``#`` comment line)."""
+    try:
+        with open(path, encoding="utf-8-sig") as handle:
+            return handle.readline().lstrip()[:1] in ("%", "#")
+    except (OSError, UnicodeDecodeError):
+        return False
 
 
 def _read_axis(t: SpecTable, out: dict[str, Any]) -> None:
@@ -318,7 +340,7 @@ FIELD_KIND_TABLE: dict[str, FieldKind] = {k.name: k for k in (
     FieldKind("current-loop", _COIL_KEYS, "centre", _read_coil, _coil_builder(CurrentLoopField)),
     FieldKind("helmholtz", _COIL_KEYS, "centre", _read_coil, _coil_builder(HelmholtzCoils)),
     FieldKind("maxwell", _COIL_KEYS, "centre", _read_coil, _coil_builder(MaxwellCoils)),
-    FieldKind("field-map", ("file", "scale"), None, _read_map, _build_map),
+    FieldKind("field-map", ("file", "scale", "length_unit", "field_unit"), None, _read_map, _build_map),
     FieldKind("cuboid-magnet", ("dimension", "polarization", "axis", "position", "path"), "position",
               _read_cuboid, _build_cuboid),
     FieldKind("cylinder-magnet", ("diameter", "height", "polarization", "axis", "position", "path"),

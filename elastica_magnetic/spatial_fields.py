@@ -504,6 +504,57 @@ class FieldMap(SpatialField):
             raise SpatialFieldError(f"{path}: a grid point appears twice and another is missing")
         return cls(*axes, samples, scale, source=str(path))
 
+    @classmethod
+    def from_export(cls, path: str | Path, scale: ScalarOrWaveform = 1.0, *,
+                    length_unit: str | None = None, field_unit: str | None = None) -> FieldMap:
+        """Load a finite-element tool's grid export (COMSOL's spreadsheet format and the like):
+        comment lines starting with ``%`` or ``#`` (COMSOL's header: ``% Length unit: mm``, and
+        the column names with their units, ``mf.Bx (T)``), then rows ``x y z Bx By Bz``
+        separated by spaces, tabs or commas, in any order.
+
+        Units come from the header or from ``length_unit`` (``"m"``, ``"cm"``, ``"mm"``, ``"um"``)
+        and ``field_unit`` (``"T"``, ``"mT"``, ``"G"``), which must agree with the header where
+        it states them; a file that states neither is refused (no unit is guessed). A rectilinear
+        grid whose spacing is not even (a mesh refined near a magnet) is resampled by trilinear
+        interpolation onto an even grid at its finest spacing along each axis
+        (:attr:`resampled` says so): exact at the original nodes that fall on the new grid, and
+        linear in between."""
+        path = Path(path)
+        header, table = _read_export(path)
+        length_factor = _export_unit(path, "length", _header_length_unit(header), length_unit,
+                                     EXPORT_LENGTH_UNITS)
+        field_factor = _export_unit(path, "field", _header_field_unit(header), field_unit,
+                                    EXPORT_FIELD_UNITS)
+        if table.shape[0] == 0 or table.shape[1] != 6:
+            raise SpatialFieldError(f"{path}: expected rows of 6 numbers (x y z Bx By Bz), got "
+                                    f"{table.shape[1] if table.size else 0} columns")
+        if not np.all(np.isfinite(table)):
+            row = int(np.argwhere(~np.isfinite(table))[0, 0])
+            raise SpatialFieldError(f"{path}: data row {row + 1}: a value is not finite (COMSOL "
+                                    "writes NaN outside the geometry: export a grid inside it)")
+        axes = [np.unique(table[:, d]) * length_factor for d in range(3)]
+        shape = tuple(a.shape[0] for a in axes)
+        if table.shape[0] != shape[0] * shape[1] * shape[2]:
+            raise SpatialFieldError(f"{path}: {table.shape[0]} rows do not fill a rectilinear "
+                                    f"{shape[0]} x {shape[1]} x {shape[2]} grid once (export a grid, "
+                                    "not the mesh nodes)")
+        index = tuple(np.searchsorted(axes[d], table[:, d] * length_factor) for d in range(3))
+        samples = np.full((*shape, 3), np.nan)
+        samples[index] = field_factor * table[:, 3:]
+        if np.isnan(samples).any():
+            raise SpatialFieldError(f"{path}: a grid point appears twice and another is missing")
+        even = [_even_axis(a) for a in axes]
+        resampled = any(e is not a for e, a in zip(even, axes, strict=True))
+        for d in range(3):  # trilinear on a rectilinear grid: linear along each axis in turn
+            if even[d] is not axes[d]:
+                samples = np.apply_along_axis(lambda v, d=d: np.interp(even[d], axes[d], v), d, samples)
+        field_map = cls(*even, samples, scale, source=str(path))
+        field_map.resampled = resampled
+        return field_map
+
+    #: Whether the map was resampled onto an even grid (:meth:`from_export`).
+    resampled = False
+
     def _add(self, points, time, b, g, with_gradient) -> None:
         outside = kernels.grid_field(self.origin, self.spacing, self.shape, self.samples, self.gradients,
                                      self.scale(time), points, b, g, with_gradient)
@@ -513,6 +564,81 @@ class FieldMap(SpatialField):
             raise FieldMapDomainError(
                 f"{self.source}: point {points[:, outside].tolist()} m (column {outside}) at "
                 f"t = {time:.6g} s is outside the map's grid [{lo.tolist()}, {hi.tolist()}] m")
+
+
+#: Length and field units a grid export may state, with their factor to m and to T.
+EXPORT_LENGTH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "µm": 1e-6}
+EXPORT_FIELD_UNITS = {"T": 1.0, "mT": 1e-3, "G": 1e-4, "gauss": 1e-4}
+
+
+def _read_export(path: Path) -> tuple[list[str], NDArray[np.float64]]:
+    """The comment lines (``%`` or ``#``, without the mark) and the numbers of a grid export."""
+    header, rows = [], []
+    try:
+        with open(path, encoding="utf-8-sig") as handle:
+            for number, line in enumerate(handle, 1):
+                text = line.strip()
+                if not text:
+                    continue
+                if text[0] in "%#":
+                    header.append(text[1:].strip())
+                    continue
+                try:
+                    rows.append([float(v) for v in text.replace(",", " ").split()])
+                except ValueError:
+                    raise SpatialFieldError(f"{path}: line {number}: expected numbers (x y z Bx By Bz), "
+                                            f"got {text[:60]!r}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SpatialFieldError(f"{path}: cannot be read ({exc})") from None
+    widths = {len(r) for r in rows}
+    if len(widths) > 1:
+        raise SpatialFieldError(f"{path}: rows of {sorted(widths)} numbers; every row must hold 6")
+    return header, np.array(rows, dtype=np.float64).reshape(len(rows), -1)
+
+
+def _header_length_unit(header: list[str]) -> str | None:
+    for line in header:
+        key, _, value = line.partition(":")
+        if key.strip().lower() == "length unit":
+            return value.strip()
+    return None
+
+
+def _header_field_unit(header: list[str]) -> str | None:
+    import re
+
+    for line in reversed(header):  # the column names come last
+        units = re.findall(r"\(([^)]+)\)", line)
+        if len(units) >= 3:
+            return units[-1].strip()
+    return None
+
+
+def _export_unit(path: Path, what: str, stated: str | None, given: str | None,
+                 known: dict[str, float]) -> float:
+    """The factor to SI of the ``what`` unit a file ``stated`` and/or the caller ``given``."""
+    for name, unit in (("the file's header", stated), (f"{what}_unit", given)):
+        if unit is not None and unit not in known:
+            raise SpatialFieldError(f"{path}: {name} names the {what} unit {unit!r}; known: "
+                                    f"{', '.join(known)}")
+    if stated is not None and given is not None and known[stated] != known[given]:
+        raise SpatialFieldError(f"{path}: the header says the {what} unit is {stated}, {what}_unit "
+                                f"says {given}: leave the option out or correct it")
+    unit = given if given is not None else stated
+    if unit is None:
+        raise SpatialFieldError(f"{path}: states no {what} unit (COMSOL: '% Length unit: mm' and "
+                                f"column names such as 'mf.Bx (T)'); give {what}_unit "
+                                f"({', '.join(known)})")
+    return known[unit]
+
+
+def _even_axis(values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``values`` when evenly spaced, else an even axis over the same span at its finest step."""
+    steps = np.diff(values)
+    if values.shape[0] < 2 or np.ptp(steps) <= 1e-6 * steps.mean():
+        return values
+    count = int(math.ceil((values[-1] - values[0]) / steps.min() - 1e-9)) + 1
+    return np.linspace(values[0], values[-1], count)
 
 
 def _npz_arrays(path: Path, names: tuple[str, ...]) -> dict[str, NDArray[np.float64]]:

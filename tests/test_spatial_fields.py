@@ -285,3 +285,73 @@ def test_field_sum_names_a_users_source_that_returns_the_wrong_shape():
 
     with pytest.raises(SpatialFieldError, match=r"source 0 of FieldSum \(Flat\)\.at returned shape \(3,\)"):
         FieldSum(Flat()).at(np.zeros((3, 2)))
+
+
+def _comsol_export(path, x_mm, y_mm, z_mm, field, *, header_units=True, separator="  "):
+    """A grid export as COMSOL writes it (spreadsheet format): % header, mm, T."""
+    lines = ["% Model:              magnet.mph", "% Version:            COMSOL 6.1",
+             "% Dimension:          3", f"% Nodes:              {len(x_mm) * len(y_mm) * len(z_mm)}"]
+    if header_units:
+        lines += ["% Length unit:        mm",
+                  "% x                       y                        z                        "
+                  "mf.Bx (T)                mf.By (T)                mf.Bz (T)"]
+    else:
+        lines += ["% x y z Bx By Bz"]
+    for z in z_mm:  # COMSOL lists x fastest
+        for y in y_mm:
+            for x in x_mm:
+                b = field(np.array([[x], [y], [z]]) * 1e-3)[:, 0]
+                lines.append(separator.join(f"{v:.12g}" for v in (x, y, z, *b)))
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_a_comsol_grid_export_loads_in_its_units_and_an_uneven_grid_is_resampled(tmp_path):
+    """Issue 53: COMSOL exports ('%' header, mm) were refused. Units from the header; an uneven
+    (refined) rectilinear grid resampled onto an even one, exact at the nodes it keeps."""
+    from elastica_magnetic import FieldMap, PointDipoleField
+
+    dipole = PointDipoleField((0.0, 0.0, -0.03), (0.0, 0.0, 1.0))
+    even = np.linspace(-4.0, 4.0, 5)
+    path = _comsol_export(tmp_path / "even.txt", even, even, even, dipole.at)
+    loaded = FieldMap.from_export(path)
+    assert not loaded.resampled
+    nodes = np.array([[0.002, -0.002], [0.0, 0.004], [-0.004, 0.002]])
+    np.testing.assert_allclose(loaded.at(nodes), dipole.at(nodes), rtol=1e-10)
+    # refined near the middle: uneven, resampled at 1 mm, the kept nodes exact
+    uneven = np.array([-4.0, -2.0, -1.0, 0.0, 1.0, 2.0, 4.0])
+    path = _comsol_export(tmp_path / "uneven.csv", uneven, even, even, dipole.at, separator=",")
+    resampled = FieldMap.from_export(path)
+    assert resampled.resampled and resampled.shape.tolist() == [9, 5, 5]
+    np.testing.assert_allclose(resampled.at(nodes), dipole.at(nodes), rtol=1e-10)
+
+
+def test_a_grid_export_without_units_or_with_contradicting_ones_is_refused(tmp_path):
+    from elastica_magnetic import FieldMap
+    from elastica_magnetic.spatial_fields import SpatialFieldError
+
+    axis = np.linspace(-1.0, 1.0, 3)
+    path = _comsol_export(tmp_path / "bare.txt", axis, axis, axis, lambda p: np.ones_like(p) * 1e-3,
+                          header_units=False)
+    with pytest.raises(SpatialFieldError, match="states no length unit.*give length_unit"):
+        FieldMap.from_export(path)
+    loaded = FieldMap.from_export(path, length_unit="mm", field_unit="T")
+    assert loaded.spacing.tolist() == pytest.approx([1e-3] * 3)
+    labelled = _comsol_export(tmp_path / "mm.txt", axis, axis, axis, lambda p: np.ones_like(p) * 1e-3)
+    with pytest.raises(SpatialFieldError, match="the header says the length unit is mm, length_unit says m"):
+        FieldMap.from_export(labelled, length_unit="m")
+
+
+def test_a_spec_takes_a_comsol_export_as_a_field_map(tmp_path):
+    from elastica_magnetic.field_spec import describe_field
+    from elastica_magnetic.specfile import SpecError
+
+    axis = np.linspace(-30.0, 30.0, 7)
+    _comsol_export(tmp_path / "map.txt", axis, axis, axis, lambda p: np.stack(
+        [0 * p[0], 0 * p[0] + 4e-3, 0 * p[0]]))
+    setup = describe_field({"field": {"kind": "field-map", "file": "map.txt"}}, str(tmp_path / "my.toml"))
+    np.testing.assert_allclose(setup.source().at(np.zeros((3, 1)))[:, 0], [0.0, 4e-3, 0.0])
+    with pytest.raises(SpecError, match=r"\[field\]: .*map.txt: the header says the field unit is T, "
+                                        "field_unit says mT"):
+        describe_field({"field": {"kind": "field-map", "file": "map.txt", "field_unit": "mT"}},
+                       str(tmp_path / "my.toml"))
