@@ -47,13 +47,17 @@ def _magpylib():
 
 
 class _MagpylibMagnet(SpatialField):
-    """A Magpylib magnet that moves along ``position(time)`` (m) with a fixed orientation, its
-    field times ``scale(time)``."""
+    """A Magpylib magnet that moves along ``position(time)`` (m) and turns with ``axis(time)``
+    (the lab direction of its own z; a constant: a fixed orientation), its field times
+    ``scale(time)``."""
 
-    def __init__(self, magnet, position: VectorOrPath, step: float, scale: ScalarOrWaveform = 1.0) -> None:
+    def __init__(self, magnet, position: VectorOrPath, step: float, scale: ScalarOrWaveform = 1.0,
+                 axis: VectorOrPath = (0.0, 0.0, 1.0)) -> None:
         if not (step > 0.0 and np.isfinite(step)):
             raise SpatialFieldError(f"step must be a positive length in m, got {step}")
         self.magnet = magnet
+        self.axis = _Vector(axis, "axis", "a direction")
+        self.magnet.orientation = _orientation(self.axis(0.0))
         self.position = _Vector(position, "position", "m")
         self.scale = _Scalar(scale, "scale", "1")
         self.step = float(step)
@@ -65,6 +69,8 @@ class _MagpylibMagnet(SpatialField):
 
     def _add(self, points, time, b, g, with_gradient) -> None:
         self.magnet.position = self.position(time)
+        if self.axis.constant is None:  # a turning magnet: its orientation at this time
+            self.magnet.orientation = _orientation(self.axis(time))
         scale = self.scale(time)
         n = points.shape[1]
         if not with_gradient:
@@ -79,7 +85,8 @@ class _MagpylibMagnet(SpatialField):
 
 
 def _orientation(axis: ArrayLike):
-    """The rotation taking +z to ``axis`` (scipy's Rotation, what Magpylib takes)."""
+    """The rotation taking +z to ``axis`` the shortest way (scipy's Rotation, what Magpylib
+    takes; a cylinder is symmetric about its axis, a cuboid's own x follows that shortest turn)."""
     from scipy.spatial.transform import Rotation
 
     axis = _vector3(axis, "axis", "a direction")
@@ -103,8 +110,9 @@ class CuboidMagnetField(_MagpylibMagnet):
         in the magnet's own frame.
     position : array_like (3,) or callable
         Centre, m, or ``position(time) -> (3,)``.
-    axis : array_like
-        Lab direction of the magnet's own z (default +z: own frame = lab frame).
+    axis : array_like (3,) or callable
+        Lab direction of the magnet's own z (default +z: own frame = lab frame), or
+        ``axis(time) -> (3,)``: a magnet that turns (e.g. on a motor or a robot arm's wrist).
     step : float
         Finite-difference step of the gradient, m.
     scale : float or callable
@@ -112,15 +120,14 @@ class CuboidMagnetField(_MagpylibMagnet):
     """
 
     def __init__(self, dimension: ArrayLike, polarization: ArrayLike,
-                 position: VectorOrPath = (0.0, 0.0, 0.0), axis: ArrayLike = (0.0, 0.0, 1.0),
+                 position: VectorOrPath = (0.0, 0.0, 0.0), axis: VectorOrPath = (0.0, 0.0, 1.0),
                  step: float = DEFAULT_STEP, scale: ScalarOrWaveform = 1.0) -> None:
         dimension = _vector3(dimension, "dimension", "m")
         if np.any(dimension <= 0.0):
             raise SpatialFieldError(f"dimension must be positive lengths in m, got {dimension.tolist()}")
         magnet = _magpylib().magnet.Cuboid(dimension=dimension,
-                                           polarization=_vector3(polarization, "polarization", "T"),
-                                           orientation=_orientation(axis))
-        super().__init__(magnet, position, step, scale)
+                                           polarization=_vector3(polarization, "polarization", "T"))
+        super().__init__(magnet, position, step, scale, axis)
 
 
 class CylinderMagnetField(_MagpylibMagnet):
@@ -138,15 +145,14 @@ class CylinderMagnetField(_MagpylibMagnet):
     """
 
     def __init__(self, diameter: float, height: float, polarization: ArrayLike,
-                 position: VectorOrPath | Callable = (0.0, 0.0, 0.0), axis: ArrayLike = (0.0, 0.0, 1.0),
+                 position: VectorOrPath | Callable = (0.0, 0.0, 0.0), axis: VectorOrPath = (0.0, 0.0, 1.0),
                  step: float = DEFAULT_STEP, scale: ScalarOrWaveform = 1.0) -> None:
         if not (diameter > 0.0 and height > 0.0 and np.isfinite(diameter) and np.isfinite(height)):
             raise SpatialFieldError(
                 f"diameter and height must be positive lengths in m, got {diameter}, {height}")
         magnet = _magpylib().magnet.Cylinder(dimension=(diameter, height),
-                                             polarization=_vector3(polarization, "polarization", "T"),
-                                             orientation=_orientation(axis))
-        super().__init__(magnet, position, step, scale)
+                                             polarization=_vector3(polarization, "polarization", "T"))
+        super().__init__(magnet, position, step, scale, axis)
 
     @property
     def moment(self) -> NDArray[np.float64]:

@@ -263,7 +263,7 @@ def test_field_sum_takes_a_users_own_source_and_keeps_its_gradient():
     took one that is also callable for a uniform field (force 0 instead of the gradient's)."""
     from elastica_magnetic.spatial_fields import FieldSum, PointDipoleField
 
-    dipole = PointDipoleField((0.0, 0.05, 0.0), (0.0, 1.0, 0.0))
+    dipole = PointDipoleField((0.0, 1.0, 0.0), (0.0, 0.05, 0.0))
     points = np.array([[0.01, 0.02], [0.0, 0.0], [0.0, 0.0]])
     total = FieldSum(_GradientSource(), dipole)
     b, g = total.evaluate(points)
@@ -311,7 +311,7 @@ def test_a_comsol_grid_export_loads_in_its_units_and_an_uneven_grid_is_resampled
     (refined) rectilinear grid resampled onto an even one, exact at the nodes it keeps."""
     from elastica_magnetic import FieldMap, PointDipoleField
 
-    dipole = PointDipoleField((0.0, 0.0, -0.03), (0.0, 0.0, 1.0))
+    dipole = PointDipoleField((0.0, 0.0, 1.0), (0.0, 0.0, -0.03))
     even = np.linspace(-4.0, 4.0, 5)
     path = _comsol_export(tmp_path / "even.txt", even, even, even, dipole.at)
     loaded = FieldMap.from_export(path)
@@ -355,3 +355,25 @@ def test_a_spec_takes_a_comsol_export_as_a_field_map(tmp_path):
                                         "field_unit says mT"):
         describe_field({"field": {"kind": "field-map", "file": "map.txt", "field_unit": "mT"}},
                        str(tmp_path / "my.toml"))
+
+
+def test_a_finite_magnet_turns_with_its_axis():
+    """Issue 53: a finite magnet could not rotate (only a point dipole could). With ``axis(t)``
+    it is, at every time, the magnet with that fixed axis; and from afar a turning dipole."""
+    pytest.importorskip("magpylib")
+    from elastica_magnetic import CuboidMagnetField, PointDipoleField
+
+    def axis(t):
+        return (math.sin(t), 0.0, math.cos(t))
+
+    turning = CuboidMagnetField((0.01, 0.01, 0.01), (0.0, 0.0, 1.3), position=(0.0, 0.0, 0.0), axis=axis)
+    points = np.array([[0.05, -0.02], [0.01, 0.03], [0.08, 0.06]])
+    moment = 1.3 * 1e-6 / (4e-7 * math.pi)  # J V / mu0, A m^2
+    for t in (0.0, 0.7, math.pi / 2, 2.5):
+        fixed = CuboidMagnetField((0.01, 0.01, 0.01), (0.0, 0.0, 1.3), axis=axis(t))
+        b, g = turning.evaluate(points, t)
+        fb, fg = fixed.evaluate(points, t)
+        np.testing.assert_allclose(b, fb, rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(g, fg, rtol=1e-12, atol=1e-12)
+        far = PointDipoleField(moment * np.array(axis(t))).at(points)
+        np.testing.assert_allclose(b, far, rtol=0.02, atol=1e-3 * np.abs(far).max())
