@@ -427,10 +427,18 @@ class FieldMap(SpatialField):
         ``(nx, ny, nz, 3)`` flux density, T.
     scale : float or callable
         Factor on the whole map (e.g. a coil current waveform), or ``scale(time) -> float``.
+    position : array_like (3,) or callable
+        Where the map's own origin is in the lab, m, or ``position(time)``: a map that moves
+        with its magnet or coil (default: the map's frame is the lab's).
+    axis : array_like (3,) or callable
+        The lab direction of the map's own z, or ``axis(time)`` (turned the shortest way from
+        +z; default +z). A point is looked up at ``R^T (x - position)``; the field is ``R B``
+        and the gradient ``R G R^T`` (``R`` the map's rotation).
     """
 
     def __init__(self, x: ArrayLike, y: ArrayLike, z: ArrayLike, samples: ArrayLike,
-                 scale: ScalarOrWaveform = 1.0, source: str = "field map") -> None:
+                 scale: ScalarOrWaveform = 1.0, source: str = "field map", *,
+                 position: VectorOrPath = (0.0, 0.0, 0.0), axis: VectorOrPath = (0.0, 0.0, 1.0)) -> None:
         axes = []
         for name, values in (("x", x), ("y", y), ("z", z)):
             values = np.asarray(values, dtype=np.float64)
@@ -460,6 +468,10 @@ class FieldMap(SpatialField):
                 gradients[i, j] = np.gradient(self.samples[i], self.spacing[j], axis=j, edge_order=2)
         self.gradients = np.ascontiguousarray(gradients)
         self.scale = _Scalar(scale, "scale", "1")
+        self.position = _Vector(position, "position", "m")
+        self.axis = _Vector(axis, "axis", "a direction")
+        self._posed = callable(position) or callable(axis) or bool(
+            np.any(self.position(0.0) != 0.0) or np.any(rotation_to(self.axis(0.0)) != np.eye(3)))
 
     @classmethod
     def from_npz(cls, path: str | Path, scale: ScalarOrWaveform = 1.0) -> FieldMap:
@@ -556,8 +568,20 @@ class FieldMap(SpatialField):
     resampled = False
 
     def _add(self, points, time, b, g, with_gradient) -> None:
+        if not self._posed:
+            self._lookup(points, points, time, b, g, with_gradient)
+            return
+        rotation = rotation_to(self.axis(time))
+        local = np.ascontiguousarray(rotation.T @ (points - self.position(time)[:, None]))
+        b_map, g_map = np.zeros(points.shape), np.zeros(g.shape)
+        self._lookup(local, points, time, b_map, g_map, with_gradient)
+        b += rotation @ b_map
+        if with_gradient:
+            g += np.einsum("ia,abk,jb->ijk", rotation, g_map, rotation)
+
+    def _lookup(self, local, points, time, b, g, with_gradient) -> None:
         outside = kernels.grid_field(self.origin, self.spacing, self.shape, self.samples, self.gradients,
-                                     self.scale(time), points, b, g, with_gradient)
+                                     self.scale(time), local, b, g, with_gradient)
         if outside >= 0:
             lo = self.origin
             hi = self.origin + self.spacing * (self.shape - 1)
@@ -639,6 +663,24 @@ def _even_axis(values: NDArray[np.float64]) -> NDArray[np.float64]:
         return values
     count = int(math.ceil((values[-1] - values[0]) / steps.min() - 1e-9)) + 1
     return np.linspace(values[0], values[-1], count)
+
+
+def rotation_to(axis: ArrayLike) -> NDArray[np.float64]:
+    """The rotation matrix ``(3, 3)`` turning +z onto the direction ``axis`` the shortest way
+    (about ``z x axis``; half a turn about x for ``-z``)."""
+    a = np.asarray(axis, dtype=np.float64)
+    norm = float(np.linalg.norm(a))
+    if not (norm > 0.0 and math.isfinite(norm)):
+        raise SpatialFieldError(f"axis must be a non-zero direction, got {a.tolist()}")
+    a = a / norm
+    c = float(a[2])  # cos of the angle from +z
+    if c > 1.0 - 1e-15:
+        return np.eye(3)
+    if c < -1.0 + 1e-15:
+        return np.diag([1.0, -1.0, -1.0])
+    v = np.array([-a[1], a[0], 0.0])  # z x a
+    k = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    return np.eye(3) + k + k @ k / (1.0 + c)
 
 
 def _npz_arrays(path: Path, names: tuple[str, ...]) -> dict[str, NDArray[np.float64]]:

@@ -377,3 +377,30 @@ def test_a_finite_magnet_turns_with_its_axis():
         np.testing.assert_allclose(g, fg, rtol=1e-12, atol=1e-12)
         far = PointDipoleField(moment * np.array(axis(t))).at(points)
         np.testing.assert_allclose(b, far, rtol=0.02, atol=1e-3 * np.abs(far).max())
+
+
+def test_a_field_map_with_a_pose_moves_and_turns_with_it():
+    """Issue 53: a field map could not move with its magnet. A linear field (which trilinear
+    interpolation reproduces exactly) tabulated in the map's frame, posed at ``position(t)``
+    with its z along ``axis(t)``: B = R (G R^T (x - c) + B0) and the gradient R G R^T."""
+    from elastica_magnetic import FieldMap
+    from elastica_magnetic.spatial_fields import rotation_to
+
+    gradient = np.array([[0.1, 0.02, 0.0], [0.02, -0.04, 0.03], [0.0, 0.03, -0.06]])  # T/m
+    offset = np.array([1e-3, -2e-3, 0.5e-3])  # T
+    axis = np.linspace(-0.05, 0.05, 6)
+    grid = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), axis=-1)  # (6, 6, 6, 3)
+    samples = grid @ gradient.T + offset
+    centre = lambda t: np.array([0.01 * t, 0.0, 0.02])  # noqa: E731
+    direction = lambda t: np.array([math.sin(t), 0.0, math.cos(t)])  # noqa: E731
+    posed = FieldMap(axis, axis, axis, samples, position=centre, axis=direction)
+    points = np.array([[0.012, -0.01, 0.03], [0.005, 0.02, -0.01], [0.03, 0.0, 0.025]])
+    for t in (0.0, 0.4, 1.3):
+        r = rotation_to(direction(t))
+        expected_b = r @ (gradient @ (r.T @ (points - centre(t)[:, None])) + offset[:, None])
+        b, g = posed.evaluate(points, t)
+        np.testing.assert_allclose(b, expected_b, rtol=1e-10, atol=1e-15)
+        np.testing.assert_allclose(g, np.repeat((r @ gradient @ r.T)[:, :, None], 3, axis=2),
+                                   rtol=1e-9, atol=1e-12)
+    unposed = FieldMap(axis, axis, axis, samples)
+    np.testing.assert_allclose(unposed.at(points), gradient @ points + offset[:, None], rtol=1e-10)
