@@ -19,6 +19,8 @@ coordinates           meaning
                       the plausible ~1 kA/m is made 0: an unmagnetized segment)
 ``segments`` (free)   each segment's length weight in [0.05, 1] (lengths: their shares above
                       ``min_length``)
+one per size          ``length``, ``width``, ``thickness`` (or ``radius``) in [0, 1] of its
+                      ``[low, high]`` range (m), when the table gives one
 1                     the rotating field's period, 0 .. 1 from ``period_low`` to ``period_high``
                       on a log scale (the search's own variable, not part of the design)
 ====================  ==========================================================================
@@ -71,6 +73,9 @@ class DesignSpace:
     period_range: tuple[float, float]
     n_elements: int
     length: float
+    #: Sizes the search may change: ``(key, low, high)`` of ``[robot]`` (m): ``length``,
+    #: ``width``, ``thickness`` (a band) or ``radius`` (a round section).
+    sizes: tuple[tuple[str, float, float], ...] = ()
 
     # -- the search vector ------------------------------------------------------------------------
     @property
@@ -78,7 +83,7 @@ class DesignSpace:
         """Length of the search vector (the design's coordinates and the period)."""
         per_segment = 1 + (self.directions == "3d") + (self.magnitude == "free") + (
             self.lengths == "free")
-        return self.segments * per_segment + 1
+        return self.segments * per_segment + len(self.sizes) + 1
 
     def _slices(self) -> dict[str, slice]:
         n, at, out = self.segments, 0, {}
@@ -88,6 +93,9 @@ class DesignSpace:
             if present:
                 out[name] = slice(at, at + n)
                 at += n
+        for key, _, _ in self.sizes:
+            out[f"size:{key}"] = slice(at, at + 1)
+            at += 1
         out["period"] = slice(at, at + 1)
         return out
 
@@ -95,7 +103,7 @@ class DesignSpace:
         """Lower and upper bound of each coordinate (``-inf``/``inf``: an angle, unbounded)."""
         low, high = [-math.inf] * self.dim, [math.inf] * self.dim
         for name, where in self._slices().items():
-            if name in ("magnitude", "period", "length"):
+            if name in ("magnitude", "period", "length") or name.startswith("size:"):
                 for k in range(where.start, where.stop):
                     low[k] = LENGTH_WEIGHT_LOW if name == "length" else 0.0
                     high[k] = 1.0
@@ -112,6 +120,12 @@ class DesignSpace:
         low, high = self.period_range
         return float(np.clip(math.log(period / low) / math.log(high / low), 0.0, 1.0))
 
+    def size_values(self, x: NDArray[np.float64]) -> dict[str, float]:
+        """The sizes (m) a vector asks for, by ``[robot]`` key (empty: the robot's own)."""
+        s = self._slices()
+        return {key: low + float(np.clip(x[s[f"size:{key}"]][0], 0.0, 1.0)) * (high - low)
+                for key, low, high in self.sizes}
+
     # -- vector <-> magnetization -----------------------------------------------------------------
     def element_counts(self, x: NDArray[np.float64]) -> list[int]:
         """Elements of each segment, back to front (sum ``n_elements``)."""
@@ -120,7 +134,7 @@ class DesignSpace:
             return segment_element_counts(self.n_elements, [
                 MagnetizationSegment((1.0, 0.0, 0.0), 0.0, fraction=1.0 / n) for _ in range(n)])
         weights = np.clip(np.asarray(x[self._slices()["length"]], dtype=float), LENGTH_WEIGHT_LOW, 1.0)
-        floor = self.min_length / self.length
+        floor = self.min_length / self.size_values(x).get("length", self.length)
         shares = floor + (1.0 - n * floor) * weights / weights.sum()
         least = max(1, math.ceil(floor * self.n_elements - 1e-9))
         edges = np.rint(np.cumsum(shares) * self.n_elements).astype(int)
@@ -151,14 +165,20 @@ class DesignSpace:
         spec = copy.deepcopy(dict(base))
         spec["robot"] = dict(spec["robot"])
         spec["robot"]["magnetization"] = {"kind": "segments", "segments": self.segment_list(x)}
+        spec["robot"].update(self.size_values(x))
         return spec
 
-    def start_vector(self, magnetization: NDArray[np.float64], period: float) -> NDArray[np.float64]:
+    def start_vector(self, magnetization: NDArray[np.float64], period: float,
+                     sizes: Mapping[str, float] | None = None) -> NDArray[np.float64]:
         """The vector closest to a robot's own magnetization ``(3, n_elements)`` (A/m): each
         segment of equal length along the mean direction of its elements, at their mean magnitude
-        (a fraction of the remanence, when magnitudes are free), and the period (s)."""
+        (a fraction of the remanence, when magnitudes are free), its own ``sizes`` (m, by
+        ``[robot]`` key; default the middle of each range) and the period (s)."""
         s = self._slices()
         x = np.zeros(self.dim)
+        for key, low, high in self.sizes:
+            own = (sizes or {}).get(key, 0.5 * (low + high))
+            x[s[f"size:{key}"]] = (own - low) / (high - low)
         x[s["period"]] = self.period_coordinate(period)
         if "length" in s:
             x[s["length"]] = 1.0
@@ -185,6 +205,7 @@ class DesignSpace:
                "period_high": self.period_range[1]}
         if self.lengths == "equal":
             del out["min_length"]  # equal segments have no minimum of their own
+        out.update({key: [low, high] for key, low, high in self.sizes})
         return out
 
 
@@ -248,6 +269,7 @@ def design_space(table: Mapping[str, Any] | None, robot: Mapping[str, Any], axes
     own_largest = float(np.linalg.norm(magnetization, axis=0).max())
     remanence = t.number("remanence", "A/m", own_largest, low=0.0, low_open=True,
                          plausible="magnetization")
+    sizes = _sizes(t, robot, segments, min_length if lengths == "free" else 0.0)
     period_low = t.number("period_low", "s", DEFAULT_PERIOD_RANGE[0], low=0.0, low_open=True)
     period_high = t.number("period_high", "s", DEFAULT_PERIOD_RANGE[1], low=0.0, low_open=True)
     if not period_low < period_high:
@@ -255,7 +277,38 @@ def design_space(table: Mapping[str, Any] | None, robot: Mapping[str, Any], axes
                       f"{period_high:g} s")
     t.finish()
     return DesignSpace(segments, lengths, min_length, directions, magnitude, remanence,
-                       (period_low, period_high), n_elements, length)
+                       (period_low, period_high), n_elements, length, sizes)
+
+
+#: The sizes a ``[design]`` table may vary, by the robot's section.
+SIZE_KEYS = {"band": ("length", "width", "thickness"), "round": ("length", "radius")}
+
+
+def _sizes(t: SpecTable, robot: Mapping[str, Any], segments: int, min_length: float
+           ) -> tuple[tuple[str, float, float], ...]:
+    """The ``[design]`` size ranges ``KEY = [low, high]`` (m), each holding the robot's own value
+    (the search starts from the robot as written)."""
+    section = "round" if "radius" in robot else "band"
+    out = []
+    for key in SIZE_KEYS["band"] + ("radius",):
+        if not t.has(key):
+            continue
+        if key not in SIZE_KEYS[section]:
+            raise t.error(key, f"the robot has a {section} section ({', '.join(SIZE_KEYS[section])} "
+                          "may vary)")
+        low, high = t.vector(key, "m, [low, high]", 2)
+        own = float(robot[key])
+        if not 0.0 < low < high:
+            raise t.error(key, f"expected [low, high] with 0 < low < high (m), got [{low:g}, {high:g}]")
+        t.check_plausible(key, high, "rod length" if key == "length" else "section", f"{key} high")
+        if not low <= own <= high:
+            raise t.error(key, f"[{low:g}, {high:g}] m does not hold the robot's own {key} = {own:g} m "
+                          "(the search starts from the robot as written; mm for m?)")
+        if key == "length" and min_length * segments > low * (1.0 + 1e-9):
+            raise t.error(key, f"{segments} segments of at least min_length = {min_length:g} m do not "
+                          f"fit in the shortest length, {low:g} m")
+        out.append((key, float(low), float(high)))
+    return tuple(out)
 
 
 def _check_min_length(t: SpecTable, min_length: float, segments: int, length: float,

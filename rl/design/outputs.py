@@ -79,6 +79,7 @@ def write_outputs(folder: Path, design, settings, record: dict[str, Any], state:
                       "periods_s": periods, "senses": ["clockwise", "counter-clockwise"]},
         "start": _without_sweep(start), "best": _without_sweep(best),
         "best_segments": design.space.segment_list(best_x),
+        "best_sizes_m": design.space.size_values(best_x),
         "search": {"generations": state.generation, "evaluations": len(state.history),
                    "popsize": int(state.es.popsize), "wall_s": state.elapsed_s,
                    "physics": settings.physics, "duration_s": settings.search_duration,
@@ -161,6 +162,9 @@ def _report(summary: dict[str, Any]) -> str:
     for k, seg in enumerate(summary["best_segments"]):
         d = ", ".join(f"{v:+.3f}" for v in seg["direction"])
         lines.append(f"| {k} | {seg['elements']} | {d} | {seg['magnitude']:.4g} |")
+    if summary["best_sizes_m"]:
+        lines += ["", "Sizes: " + ", ".join(f"{key} {1e3 * value:.3g} mm"
+                                            for key, value in summary["best_sizes_m"].items()) + "."]
     return "\n".join(lines) + "\n"
 
 

@@ -135,8 +135,14 @@ class Design:
 
     def start_spec(self) -> dict[str, Any]:
         """The spec of the starting design's search vector (its magnetization as segments)."""
-        magnetization = self.case.robot_spec("accurate").magnetization
-        return self.space.spec_of(self.base, self.space.start_vector(magnetization, 1.0))
+        return self.space.spec_of(self.base, self.start_vector(1.0))
+
+    def start_vector(self, period: float) -> NDArray[np.float64]:
+        """The search vector of the starting design (its magnetization as segments, its own
+        sizes) with a rotating field of ``period`` s."""
+        robot = self.base["robot"]
+        return self.space.start_vector(self.case.robot_spec("accurate").magnetization, period,
+                                       {key: float(robot[key]) for key, _, _ in self.space.sizes})
 
     def case_of(self, x: NDArray[np.float64], name: str | None = None) -> Case:
         """The case of a search vector (named ``name``, default the starting case's)."""
@@ -290,13 +296,11 @@ def _start(folder: Path, design: Design, settings: DesignSettings, record: dict[
     space = design.space
     low, high = space.period_range
     periods = [p for p in settings.final_periods if low <= p <= high] or [math.sqrt(low * high)]
-    magnetization = design.case.robot_spec("accurate").magnetization
-    x0 = space.start_vector(magnetization, periods[0])
     records = evaluate_candidates(design.case, [design.base] * len(periods), periods,
                                   settings.physics, settings.search_duration, settings.workers,
                                   _variation_set(design, settings))
     best = max(records, key=lambda r: r["objective_m"])
-    x0 = space.start_vector(magnetization, best["period_s"])
+    x0 = design.start_vector(best["period_s"])
     record["start"] = {"x0": [float(v) for v in x0], "objective_search_m": best["objective_m"],
                        "period_s": best["period_s"], "clockwise": best["clockwise"],
                        "sweep": records}
@@ -361,7 +365,7 @@ def _popsize(state: SearchState) -> int:
 def write_history(path: Path, space: DesignSpace, state: SearchState) -> None:
     """``history.csv``: one row per candidate: generation, candidate, objective (m), period (s),
     the better sense, both senses' distances (m), and the design (angles in degrees, magnitudes
-    in A/m, elements per segment)."""
+    in A/m, elements per segment, the sizes searched in m)."""
     n = space.segments
     columns = ["generation", "candidate", "objective_m", "period_s", "clockwise", "distance_cw_m",
                "distance_ccw_m"]
@@ -369,6 +373,7 @@ def write_history(path: Path, space: DesignSpace, state: SearchState) -> None:
     if space.directions == "3d":
         columns += [f"elevation_deg_{k}" for k in range(n)]
     columns += [f"magnitude_A_per_m_{k}" for k in range(n)] + [f"elements_{k}" for k in range(n)]
+    columns += [f"{key}_m" for key, _, _ in space.sizes]
     with atomic_write(path) as f:
         writer = csv.writer(f)
         writer.writerow(columns)
@@ -382,6 +387,7 @@ def write_history(path: Path, space: DesignSpace, state: SearchState) -> None:
             if space.directions == "3d":
                 values += [f"{math.degrees(math.asin(max(-1.0, min(1.0, v[2])))):.3f}" for v in d]
             values += [f"{s['magnitude']:.6g}" for s in segments] + [s["elements"] for s in segments]
+            values += [f"{v:.6g}" for v in space.size_values(np.array(row["vector"])).values()]
             writer.writerow(values)
 
 

@@ -4,6 +4,7 @@ robot and on robots of every form the spec format allows (the spec matrix)."""
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -158,3 +159,39 @@ def test_a_design_table_round_trips_through_the_spec_and_other_commands_read_it(
     again = case_from_dict(case.to_dict(), "again.toml")
     assert again.design == case.design and again.to_dict() == case.to_dict()
     assert "[design]" in case.toml()
+
+
+def test_sizes_in_a_design_table(tmp_path):
+    spec = load_case("m1-4mT").to_dict()
+    spec["design"] = {"segments": 4, "width": [0.006, 0.010], "length": [0.015, 0.025]}
+    path = tmp_path / "my.toml"
+    path.write_text(dumps(spec))
+    design = load_design(path)
+    space = design.space
+    assert space.dim == 4 + 2 + 1
+    x0 = design.start_vector(2.0)
+    assert space.size_values(x0) == pytest.approx({"width": 0.008, "length": 0.02})
+    x = x0.copy()
+    x[4:6] = [0.0, 1.0]  # in the order length, width, thickness: the shortest, the widest
+    designed = design.case_of(x).robot_spec("accurate")
+    assert designed.length == pytest.approx(0.015)
+    assert design.case_of(x).robot.tables["robot"]["width"] == pytest.approx(0.010)
+    assert designed.radius == pytest.approx(0.0008 / math.sqrt(3))  # the band's r = h / sqrt(3)
+    assert case_from_dict(design.case.to_dict(), "again.toml").design == space
+
+
+@pytest.mark.parametrize("table, message", [
+    ({"width": [0.01, 0.02]}, "does not hold the robot's own width = 0.008 m"),
+    ({"width": [6, 10]}, "width high"),
+    ({"radius": [0.0001, 0.001]}, "the robot has a band section"),
+    ({"length": [0.02, 0.01]}, "0 < low < high"),
+    ({"segments": 6, "lengths": "free", "min_length": 0.003, "length": [0.015, 0.025]},
+     "do not fit in the shortest length"),
+])
+def test_bad_size_ranges_are_refused_by_name(tmp_path, table, message):
+    spec = load_case("m1-4mT").to_dict()
+    spec["design"] = table
+    path = tmp_path / "my.toml"
+    path.write_text(dumps(spec))
+    with pytest.raises(SpecError, match=re.escape(message)):
+        load_design(path)

@@ -151,10 +151,13 @@ def test_designs_of_drawn_robots(tmp_path_factory, spec):
     band or round; two or three axes) design, and the best spec parses back."""
     folder = tmp_path_factory.mktemp("drawn")
     path = folder / "drawn.toml"
-    spec = {**spec, "design": {"segments": 3, "magnitude": "free"}}
+    length = spec["robot"]["length"]
+    spec = {**spec, "design": {"segments": 3, "magnitude": "free", "length": [0.9 * length, 1.1 * length]}}
     path.write_text(dumps(spec))
     summary = run_design(path, folder / "design", DesignSettings(**{**TINY.__dict__, "generations": 1}))
     best = case_from_dict(read_spec(folder / "design" / "best.toml"), "best.toml")
     assert len(summary["best_segments"]) == 3
     assert best.robot.n_elements == spec["robot"]["n_elements"]
+    assert 0.9 * length <= best.robot.tables["robot"]["length"] <= 1.1 * length
+    assert best.robot.tables["robot"]["length"] == pytest.approx(summary["best_sizes_m"]["length"])
     assert summary["objective_start_m"] is not None
