@@ -197,6 +197,20 @@ class DesignSpace:
                                                   / self.remanence)
         return x
 
+    def turning_vectors(self, x0: NDArray[np.float64]) -> list[NDArray[np.float64]]:
+        """``x0`` with the direction turning once along the body, in each sense (in the bending
+        plane, starting along +x): the family of the walking sheets of Hu et al. 2018, which the
+        search's first generation tries beside its random draws."""
+        azimuth = self._slices()["azimuth"]
+        out = []
+        for sense in (1.0, -1.0):
+            x = np.array(x0, dtype=float)
+            x[azimuth] = sense * 2.0 * np.arange(self.segments) / self.segments  # units of pi
+            if "elevation" in self._slices():
+                x[self._slices()["elevation"]] = 0.0
+            out.append(x)
+        return out
+
     def to_dict(self) -> dict[str, Any]:
         """The table as a spec writes it (every key that applies explicit)."""
         out = {"segments": self.segments, "lengths": self.lengths, "min_length": self.min_length,

@@ -83,7 +83,9 @@ class SearchState:
 
 def new_search(space: DesignSpace, x0: NDArray[np.float64], seed: int, popsize: int | None,
                sigma0: float) -> SearchState:
-    """A CMA-ES search from ``x0`` (step ``sigma0`` in the vector's units), seeded."""
+    """A CMA-ES search from ``x0`` (step ``sigma0`` in the vector's units), seeded; its first
+    generation holds, besides its draws, the two designs whose direction turns once along the
+    body (:meth:`~elastica_magnetic_rl.cases.design_space.DesignSpace.turning_vectors`)."""
     import cma
 
     low, high = space.bounds()
@@ -92,6 +94,9 @@ def new_search(space: DesignSpace, x0: NDArray[np.float64], seed: int, popsize: 
     if popsize is not None:
         options["popsize"] = int(popsize)
     es = cma.CMAEvolutionStrategy(np.asarray(x0, dtype=float), float(sigma0), options)
+    if es.popsize > 2:  # keep at least one draw of CMA-ES's own in the generation
+        for x in space.turning_vectors(x0)[: es.popsize - 1]:
+            es.inject([es.gp.geno(x, from_bounds=es.boundary_handler.inverse)], force=True)
     return SearchState(es=es, rng_state=np.random.get_state())
 
 

@@ -75,6 +75,16 @@ def test_the_design_folder_and_its_summary(tmp_path):
     assert np.allclose(m[:, 0], np.array(segments[0]["direction"]) * segments[0]["magnitude"])
 
 
+def test_the_first_generation_tries_the_turning_designs(tmp_path):
+    """Beside CMA-ES's draws, one full turn of the direction along the body in each sense."""
+    run_design("m1-4mT", tmp_path / "d", TINY)
+    first = [r for r in _rows(tmp_path / "d" / "history.csv") if r["generation"] == "1"]
+    angles = [[round(float(r[f"angle_deg_{k}"])) % 360 for k in range(6)] for r in first]
+    assert angles[0] == [0, 60, 120, 180, 240, 300]
+    assert angles[1] == [0, 300, 240, 180, 120, 60]
+    assert angles[2] not in angles[:2]
+
+
 def test_a_resumed_design_equals_an_uninterrupted_one(tmp_path):
     whole = run_design("m1-4mT", tmp_path / "whole", TINY)
     first = run_design("m1-4mT", tmp_path / "parts", DesignSettings(**{**TINY.__dict__, "generations": 1}))
