@@ -69,6 +69,7 @@ from ._batch_kernels import (
     block_forcing,
     first_unhealthy,
 )
+from .forcing import MagneticTorques
 from .robot_spec import RobotSpec
 from .simulation import SimulationDivergedError, robot_rod, trajectory_row
 from .spatial_fields import is_spatial
@@ -78,9 +79,9 @@ __all__ = ["BatchedRobots", "BatchedRobotSimulator", "BatchedSimulationDivergedE
 
 
 class SpatialFieldNotSupportedError(TypeError):
-    """The batched simulator drives each robot with a uniform field (a row of ``fields``); a source
-    that varies in space (``at``/``gradient``) needs :func:`~elastica_magnetic.build_simulation`
-    or :class:`~elastica_magnetic.MagneticTorques` in a simulator of its own."""
+    """A source that varies in space (``at``/``gradient``) given where a uniform field is
+    expected (a row of :attr:`BatchedRobots.fields`); give it to the robot with
+    :meth:`BatchedRobots.set_source` (or ``sources=``) instead."""
 
 
 #: The name of earlier releases (kept so that users' scripts run; it will go).
@@ -112,7 +113,7 @@ class _BlockForcing(NoForces):
 
     def apply_forces(self, system, time: np.float64 = np.float64(0.0)) -> None:
         # ``system`` is the first rod; the kernel works on the whole memory block instead.
-        self._owner.apply_forcing()
+        self._owner.apply_forcing(time)
 
     def apply_torques(self, system, time: np.float64 = np.float64(0.0)) -> None:
         pass  # torques are applied together with the forces, in the kernel
@@ -137,6 +138,14 @@ class BatchedRobots:
         ``(N, 3)`` initial fields in tesla (spec units), lab frame; default zero.
     max_speed : float, optional
         A node faster than this counts as a numerical blow-up; default 10 m/s (spec units).
+    sources : sequence, optional
+        ``N`` sources that vary in space (:mod:`~elastica_magnetic.spatial_fields`, or any
+        object with ``at``/``gradient``), or ``None`` for a robot driven by its uniform row
+        alone (:meth:`set_source`). A robot with a source feels its field and gradient at its own
+        element centres and its own time (the magnetic force and torque of
+        :class:`~elastica_magnetic.MagneticTorques`, applied first, as
+        :func:`~elastica_magnetic.build_simulation` registers it); its row of :attr:`fields`
+        adds a uniform field on top (keep it zero for the source alone). SI specs only.
 
     Attributes
     ----------
@@ -169,6 +178,7 @@ class BatchedRobots:
         fields: ArrayLike | None = None,
         *,
         max_speed: float | None = None,
+        sources: list[Any] | None = None,
     ) -> None:
         if int(n_robots) != n_robots or n_robots < 1:
             raise ValueError(f"n_robots must be a positive integer, got {n_robots!r}")
@@ -223,6 +233,14 @@ class BatchedRobots:
             {name: value.copy() for name, value in vars(rod).items() if isinstance(value, np.ndarray)}
             for rod in self.rods
         ]
+        self._spatial: dict[int, MagneticTorques] = {}  # robot -> the forcing of its source
+        if sources is not None:
+            if len(sources) != n_robots:
+                raise ValueError(f"sources: expected {n_robots} (one per robot, None for none), "
+                                 f"got {len(sources)}")
+            for i, source in enumerate(sources):
+                if source is not None:
+                    self.set_source(i, source)
 
     def _build_simulator(self) -> tuple[BatchedRobotSimulator, list[ea.CosseratRod]]:
         """The finalized simulator of ``n_robots`` rods of the spec, the block forcing registered
@@ -271,11 +289,55 @@ class BatchedRobots:
         moment = np.einsum("ijk,jk->ik", rod.director_collection, magnetization)
         return moment * rod.volume[None, :]
 
-    def apply_forcing(self) -> None:
-        """One call of the block kernel: every robot's magnetic torque, damping, gravity and ground
-        contact added to the block's external loads (N, N m), what each time step runs once
-        (public for benchmarks: step the simulator with :meth:`step`)."""
+    def apply_forcing(self, time: float = 0.0) -> None:
+        """Every robot's forcing added to the block's external loads (N, N m), what each time
+        step runs once (public for benchmarks: step the simulator with :meth:`step`): the
+        spatial sources' force and torque first (``time``: the simulator's, s), then one call of
+        the block kernel (uniform field torques, damping, gravity, ground contact)."""
+        if self._spatial:
+            self._apply_sources(float(time))
         block_forcing(*self._kernel_args)
+
+    def _apply_sources(self, time: float) -> None:
+        """Each source's force and torque on its robot at the robot's own time (a robot reset
+        since the block started runs on its own clock)."""
+        dt = self.spec.dt
+        for i, forcing in self._spatial.items():
+            behind = self.step_count - int(self.robot_step_count[i])
+            robot_time = time if behind == 0 else time - behind * dt
+            rod = self.rods[i]
+            forcing.apply_forces(rod, robot_time)
+            forcing.apply_torques(rod, robot_time)
+
+    def set_source(self, i: int, source: Any) -> None:
+        """Drive robot ``i`` by a source that varies in space (``None``: by its uniform row
+        alone). See ``sources`` in the class docstring."""
+        if not 0 <= i < self.n_robots:
+            raise IndexError(f"robot index {i} out of range for {self.n_robots} robots")
+        if source is None:
+            self._spatial.pop(i, None)
+            return
+        if not is_spatial(source):
+            raise TypeError(f"robot {i}: a source must vary in space (at(points, time), "
+                            f"gradient(points, time)); got {type(source).__name__} (a uniform "
+                            "field goes in the robot's row of fields)")
+        if self.spec.units.factor("length") != 1.0:
+            raise ValueError(f"a spatial field source works in SI (m, T); the spec is in "
+                             f"{self.spec.units.name}: build it in SI")
+        self._spatial[i] = self._source_forcing(i, source)
+
+    def _source_forcing(self, i: int, source: Any) -> MagneticTorques:
+        """The forcing of ``source`` on robot ``i``: its magnetization taken into the material
+        frame of the robot's initial configuration (as a fresh simulation's first call does,
+        wherever the robot is now)."""
+        initial = np.einsum("ijk,jk->ik", self._initial_state[i]["director_collection"],
+                            np.asarray(self.specs[i].magnetization, dtype=np.float64))
+        return MagneticTorques(source, initial, frame="material")
+
+    @property
+    def sources(self) -> list[Any]:
+        """Each robot's spatial source (``None``: its uniform row alone)."""
+        return [self._spatial[i].field if i in self._spatial else None for i in range(self.n_robots)]
 
     @property
     def kernel_arguments(self) -> tuple[Any, ...]:
@@ -298,9 +360,9 @@ class BatchedRobots:
     def fields(self, value: ArrayLike) -> None:
         if is_spatial(value):
             raise SpatialFieldNotSupportedError(
-                f"BatchedRobots takes uniform fields only ((N, 3) in tesla), got the spatial source "
-                f"{type(value).__name__}; simulate each robot with build_simulation (or "
-                "MagneticTorques) to feel a field that varies in space")
+                f"fields are uniform ((N, 3) in tesla), got the spatial source "
+                f"{type(value).__name__}; give it to a robot with set_source(i, source) (or "
+                "BatchedRobots(..., sources=[...]))")
         value = np.asarray(value, dtype=np.float64)
         if not np.all(np.isfinite(value)):
             raise ValueError(f"fields must be finite (tesla), got {value.tolist()}")
@@ -401,6 +463,8 @@ class BatchedRobots:
         self.reset_robot(i)
         self._moments[:, self._elem_start[i] : self._elem_end[i]] = self._robot_moments(i, spec)
         self._params[i] = params
+        if i in self._spatial:  # its source now acts on the new robot's magnetization
+            self._spatial[i] = self._source_forcing(i, self._spatial[i].field)
 
     def reset_robot(self, i: int) -> None:
         """Put robot ``i`` back in its initial state (the others are untouched).

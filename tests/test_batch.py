@@ -239,3 +239,67 @@ def test_set_robot_refuses_a_spec_that_cannot_share_the_block():
         robots.set_robot(1, replace(spec, damping=None))
     with pytest.raises(IndexError):
         robots.set_robot(2, spec)
+
+
+def _moving_dipole():
+    from elastica_magnetic import PointDipoleField, Waypoints
+
+    # ~4 mT at the robot, the magnet passing over it along x
+    return PointDipoleField((0.0, -2.5, 0.0), Waypoints([0.0, 0.4], [[-0.01, 0.05, 0.0], [0.03, 0.05, 0.0]]))
+
+
+def _spatial_sources():
+    from elastica_magnetic import ConstantGradientField, FieldMap, PointDipoleField
+    from elastica_magnetic.spatial_fields import HelmholtzCoils
+
+    axes = (np.linspace(-0.01, 0.035, 10), np.linspace(-0.01, 0.02, 7), np.linspace(-0.01, 0.01, 5))
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=0).reshape(3, -1)
+    above = PointDipoleField((0.0, -2.5, 0.0), (0.012, 0.05, 0.0)).at(grid)
+    field_map = FieldMap(*axes, np.moveaxis(above.reshape(3, 10, 7, 5), 0, -1))
+    return (_moving_dipole(),
+            HelmholtzCoils(0.1, current=300.0, axis=(0.0, 1.0, 0.0), centre=(0.01, 0.0, 0.0)),
+            field_map,
+            ConstantGradientField([[0.2, 0.0, 0.0], [0.0, -0.1, 0.0], [0.0, 0.0, -0.1]],
+                                  origin=(-0.03, 0.0, 0.0))
+            + PointDipoleField((0.0, 2.0, 0.0), (0.01, 0.04, 0.0)))
+
+
+def test_batched_robots_with_spatial_sources_match_per_rod_simulations_bit_for_bit():
+    """Issue 53: each robot evaluates its own source at its own elements and time (the force of
+    the gradient included): the per-rod simulation of each source, to the last bit; a robot
+    without a source beside them is untouched by theirs."""
+    spec = yao2023_robot(1, "training")
+    sources = _spatial_sources()
+    robots = BatchedRobots(spec, n_robots=5, sources=[*sources, None])
+    sims = [build_simulation(spec, source) for source in sources]
+    alone = build_simulation(spec, ControlledField(limit=1.0, max_increment=1.0))
+    robots.fields[4] = [0.0, 4e-3, 0.0]
+    alone.field.set([0.0, 4e-3, 0.0])
+    per_action = spec.steps_per_action
+    for _ in range(30):  # 0.3 s
+        robots.step(per_action)
+        for sim in (*sims, alone):
+            sim.step(per_action)
+    for i, sim in enumerate((*sims, alone)):
+        _assert_same_state(robots.rod(i), sim.rod, f"robot {i}")
+    ends = [robots.rod(i).position_collection for i in range(5)]
+    assert min(np.abs(ends[i] - ends[j]).max() for i in range(5) for j in range(i)) > 1e-7  # each its own way
+    assert robots.sources[:4] == list(sources) and robots.sources[4] is None
+
+
+def test_a_source_given_later_acts_on_the_magnetization_of_the_initial_configuration():
+    spec = yao2023_robot(1, "training")
+    robots = BatchedRobots(spec, n_robots=2, fields=[[0.0, 4e-3, 0.0], [0.0, 4e-3, 0.0]])
+    robots.step(spec.steps_per_action * 5)  # the robots move, then get a source
+    robots.set_source(0, _moving_dipole())
+    robots.fields[0] = 0.0
+    robots.reset_robot(0)
+    reference = BatchedRobots(spec, n_robots=1, sources=[_moving_dipole()])
+    for _ in range(10):
+        robots.step(spec.steps_per_action)
+        reference.step(spec.steps_per_action)
+    # robot 0 runs on its own clock since its reset: the same as a fresh robot with that source
+    np.testing.assert_allclose(robots.rod(0).position_collection, reference.rod(0).position_collection,
+                               rtol=0, atol=1e-12)
+    with pytest.raises(TypeError, match="a uniform field goes in the robot's row of fields"):
+        robots.set_source(1, ConstantField([0.0, 1e-3, 0.0]))

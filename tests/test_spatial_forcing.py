@@ -175,11 +175,11 @@ def test_a_bad_spatial_source_is_named():
         loads(on_dipole, flat)
 
 
-def test_batched_simulator_refuses_spatial_sources():
+def test_a_spatial_source_as_the_batched_fields_names_set_source():
     from elastica_magnetic import SpatialFieldNotSupportedError
 
     robots = BatchedRobots(yao2023_robot(1, "training"), 2)
-    with pytest.raises(SpatialFieldNotSupportedError, match="uniform fields only"):
+    with pytest.raises(SpatialFieldNotSupportedError, match=r"set_source\(i, source\)"):
         robots.fields = PointDipoleField([0, 0, 1.0], [0, 0, 0.1])
 
 
