@@ -1,0 +1,149 @@
+"""Numbers the README and the pages quote agree with their one source: a shipped policy's distance
+(and the reach policy's error and settling time) with its ``rl/policies/<name>/policy.json``,
+rounded as written; and no page quotes a test count (it goes stale with every test added)."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+POLICIES = ROOT / "rl" / "policies"
+NUMBER = r"([+-]?\d+(?:\.\d+)?)"
+PAGES = [ROOT / "README.md", POLICIES / "README.md", ROOT / "benchmarks" / "README.md",
+         *sorted((ROOT / "docs").glob("*.md"))]
+
+
+def shipped() -> dict[str, dict]:
+    """Every shipped policy's policy.json, by name."""
+    return {p.parent.name: json.loads(p.read_text()) for p in sorted(POLICIES.glob("*/policy.json"))}
+
+
+def mm(info: dict) -> float:
+    """The policy's measured distance: the middle of the robot in 10 s, accurate physics, mm."""
+    return info["evaluation"]["mid_dx_m"] * 1e3
+
+
+def reach_error_mm(info: dict) -> float:
+    return info["evaluation"]["reach"]["final_error_m"] * 1e3
+
+
+def settle_s(info: dict) -> float:
+    return info["evaluation"]["reach"]["settle_time_s"]
+
+
+def pattern(text: str) -> re.Pattern:
+    """``text`` as written on the page, each ``#`` a number; any run of spaces may be a line break."""
+    pieces = [re.escape(piece) for piece in text.split("#")]
+    return re.compile(NUMBER.join(pieces).replace(r"\ ", r"\s+"))
+
+
+def agrees(written: str, value: float) -> bool:
+    """``written`` is ``value`` rounded to the digits written (a sign written is checked too)."""
+    decimals = len(written.partition(".")[2])
+    if written[0] in "+-":
+        return f"{value:+.{decimals}f}" == written
+    return f"{value:.{decimals}f}" == written
+
+
+def four_mT(p):
+    return [mm(p["m1-4mT"]), mm(p["m2-4mT"])]
+
+
+def robust_10mT(p):
+    return [mm(p["m1-10mT-robust"]), mm(p["m2-10mT-robust"])]
+
+
+# (page, the words around the numbers, what each number is: a value, or values it stands for
+# together). Each phrase must be found once: a page reworded fails here, to be updated, rather
+# than leaving its numbers unchecked.
+QUOTES = [
+    ("README.md", "`m1-4mT` # mm and `m2-4mT` # mm (inchworm",
+     [lambda p: mm(p["m1-4mT"]), lambda p: mm(p["m2-4mT"])]),
+    ("README.md", "`m1-10mT` # mm and `m2-10mT` # mm (rolling",
+     [lambda p: mm(p["m1-10mT"]), lambda p: mm(p["m2-10mT"])]),
+    ("README.md", "learns to move # mm in 10 s (a rotating", [lambda p: mm(p["hu2018-crawl"])]),
+    ("README.md", "and stop (within # mm, settled after # s)",
+     [lambda p: abs(reach_error_mm(p["m1-4mT-reach"])), lambda p: settle_s(p["m1-4mT-reach"])]),
+    ("docs/training.md", "the learned policies go # to # mm and # mm",
+     [lambda p: min(four_mT(p)), lambda p: max(four_mT(p)),
+      lambda p: [mm(p["m1-10mT"]), mm(p["m2-10mT"])]]),
+    ("docs/training.md", "(`hu2018-crawl`, # mm in 10 s", [lambda p: mm(p["hu2018-crawl"])]),
+    ("docs/training.md", "(`m1-4mT-reach`, within # mm, settled after # s)",
+     [lambda p: abs(reach_error_mm(p["m1-4mT-reach"])), lambda p: settle_s(p["m1-4mT-reach"])]),
+    ("docs/extra_physics.md", "shipped on the evening of 2026-11-25 (# mm in 10 s",
+     [lambda p: mm(p["m2-10mT"])]),
+    ("docs/sim_to_real.md", "nominal distance: # to # mm against # mm for the shipped nominal",
+     [lambda p: min(robust_10mT(p)), lambda p: max(robust_10mT(p)),
+      lambda p: [mm(p["m1-10mT"]), mm(p["m2-10mT"])]]),
+    ("rl/policies/README.md", "the shipped `m2-10mT` is now a `pink-ln-unsat` seed (# mm)",
+     [lambda p: mm(p["m2-10mT"])]),
+    ("rl/policies/README.md", "(error # mm), settled after # s",
+     [lambda p: reach_error_mm(p["m1-4mT-reach"]), lambda p: settle_s(p["m1-4mT-reach"])]),
+    ("rl/policies/m1-4mT-reach/MODEL_CARD.md", "final position error # mm; settles within the "
+     "tolerance after # s",
+     [lambda p: reach_error_mm(p["m1-4mT-reach"]), lambda p: settle_s(p["m1-4mT-reach"])]),
+]
+
+
+@pytest.mark.parametrize("page, words, values", QUOTES, ids=[f"{q[0]}: {q[1][:30]}" for q in QUOTES])
+def test_a_quoted_number_is_its_policy_json(page, words, values):
+    found = pattern(words).findall((ROOT / page).read_text())
+    assert len(found) == 1, f"{page}: '{words}' found {len(found)} times (reworded? update QUOTES)"
+    written = found[0] if isinstance(found[0], tuple) else (found[0],)
+    policies = shipped()
+    for number, value in zip(written, values, strict=True):
+        expected = value(policies)
+        for one in expected if isinstance(expected, list) else [expected]:
+            assert agrees(number, one), f"{page}: '{words}': {number}, policy.json {one}"
+
+
+def test_the_shipped_policies_table_is_their_policy_json():
+    """rl/policies/README.md: one row per shipped policy; its seed and its 10 s distance."""
+    policies = shipped()
+    rows = {}
+    for line in (POLICIES / "README.md").read_text().splitlines():
+        cells = [cell.strip() for cell in line.strip("|").split("|")]
+        name = re.fullmatch(r"`(\S+)`", cells[0])
+        if name and name.group(1) in policies and len(cells) == 8:
+            rows[name.group(1)] = cells
+    assert sorted(rows) == sorted(policies)
+    for name, cells in rows.items():
+        seed, distance = re.match(r"\d+", cells[1]).group(), re.match(NUMBER + " mm", cells[4])
+        assert int(seed) == policies[name]["training"]["seed"], name
+        assert distance and agrees(distance.group(1), mm(policies[name])), (name, cells[4])
+
+
+def test_the_fine_tuned_seeds_shipped_are_the_robust_policies():
+    """docs/sim_to_real.md's fine-tuning table: a row marked ``(shipped)`` is ``<case>-robust``,
+    its seed and its fine-tuned distance (accurate) those of the policy."""
+    policies = shipped()
+    rows = re.findall(r"^\| `(\S+)` \| (\d+) \(shipped\) \| [^|]+ \| " + NUMBER + r" \|",
+                      (ROOT / "docs" / "sim_to_real.md").read_text(), flags=re.M)
+    assert sorted(f"{case}-robust" for case, _, _ in rows) == sorted(n for n in policies if "-robust" in n)
+    for case, seed, distance in rows:
+        info = policies[f"{case}-robust"]
+        assert int(seed) == info["training"]["seed"] and agrees(distance, mm(info)), (case, distance)
+
+
+def test_every_model_card_states_its_policy_json_distance():
+    for name, info in shipped().items():
+        card = (POLICIES / name / "MODEL_CARD.md").read_text()
+        (written,) = pattern("middle of the robot moved # mm in 10 s").findall(card)
+        assert agrees(written, mm(info)), (name, written)
+
+
+def test_agrees_reads_the_digits_as_written():
+    assert agrees("+22.8", 22.814) and agrees("22.81", 22.814) and agrees("23", 22.814)
+    assert not agrees("+22.9", 22.814) and not agrees("-22.8", 22.814) and not agrees("22.82", 22.814)
+
+
+def test_no_page_quotes_a_test_count():
+    """A count of tests (``759 passed``, ``758 tests``) is stale at the next test added; the pages
+    say how long the suite takes, not how many tests it has."""
+    counts = [f"{page.relative_to(ROOT)}: {m.group()}" for page in PAGES
+              for m in re.finditer(r"\b\d[\d,]* (tests|passed|skipped)\b", page.read_text())]
+    assert not counts, counts
