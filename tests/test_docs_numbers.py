@@ -1,6 +1,7 @@
 """Numbers the README and the pages quote agree with their one source: a shipped policy's distance
 (and the reach policy's error and settling time) with its ``rl/policies/<name>/policy.json``,
-rounded as written; and no page quotes a test count (it goes stale with every test added)."""
+rounded as written; the seeds of a recipe that meet a case's target with the committed seeds'
+``seeds.json``; and no page quotes a test count (it goes stale with every test added)."""
 
 from __future__ import annotations
 
@@ -139,6 +140,59 @@ def test_every_model_card_states_its_policy_json_distance():
 def test_agrees_reads_the_digits_as_written():
     assert agrees("+22.8", 22.814) and agrees("22.81", 22.814) and agrees("23", 22.814)
     assert not agrees("+22.9", 22.814) and not agrees("-22.8", 22.814) and not agrees("22.82", 22.814)
+
+
+def seeds_meeting(case: str, recipe: str) -> list[int]:
+    """[seeds meeting the case's target, seeds] of a recipe's committed seeds (their seeds.json)."""
+    seeds = json.loads((POLICIES / case / "seeds" / recipe / "seeds.json").read_text())
+    return [sum(bool(seed["meets_target"]) for seed in seeds), len(seeds)]
+
+
+def counts(recipe: str, cases: str) -> list[int]:
+    """Seeds meeting the target of each case of ``cases`` (space-separated), in that order."""
+    return [seeds_meeting(case, recipe)[0] for case in cases.split()]
+
+
+def of(recipe: str, cases: str) -> list[int]:
+    """``k of n`` of each case of ``cases``, in that order, flattened."""
+    return [n for case in cases.split() for n in seeds_meeting(case, recipe)]
+
+
+PAPER_ORDER = "m1-4mT m2-4mT m1-10mT m2-10mT"
+# (page, the words around the counts, the counts in the order written): seed counts whose source
+# is the committed seeds' seeds.json.
+SEED_COUNTS = [
+    ("README.md", "with the paper's recipe: # of # (# of # with `pink` or `pink-ln`), # of # (# of # "
+     "with `pink-ln`), # of # (# of # with `pink-ln`) and # of # (# of # with `pink-ln`)",
+     lambda: [*of("paper", "m1-4mT"), *of("pink-ln", "m1-4mT"), *of("paper", "m2-4mT"),
+              *of("pink-ln", "m2-4mT"), *of("paper", "m1-10mT"), *of("pink-ln", "m1-10mT"),
+              *of("paper", "m2-10mT"), *of("pink-ln", "m2-10mT")]),
+    ("rl/policies/README.md", "reaches the paper's 3 of 8 for `m1-4mT` (# of #), `m2-4mT` (# of #), "
+     "`m2-10mT` (# of #) and, just, `m1-10mT` (# of #;",
+     lambda: of("paper", "m1-4mT m2-4mT m2-10mT m1-10mT")),
+    ("rl/policies/README.md", "critics): `m1-4mT` # of #, `m1-10mT` # of #, `m2-4mT` # of #, "
+     "`m2-10mT` # of #.", lambda: of("pink-ln", "m1-4mT m1-10mT m2-4mT m2-10mT")),
+    ("docs/training.md", "| `paper` | none: the authors' settings | #, #, #, # |",
+     lambda: counts("paper", PAPER_ORDER)),
+    ("docs/training.md", "**The default** | **#, #, #, #** |", lambda: counts("pink-ln", PAPER_ORDER)),
+    ("docs/training.md", "(# of # seeds against # of #; `m1-10mT` # against #)",
+     lambda: [sum(counts("pink-ln", PAPER_ORDER)), sum(of("pink-ln", PAPER_ORDER)[1::2]),
+              sum(counts("paper", PAPER_ORDER)), sum(of("paper", PAPER_ORDER)[1::2]),
+              *counts("pink-ln", "m1-10mT"), *counts("paper", "m1-10mT")]),
+]
+
+
+@pytest.mark.parametrize("page, words, expected", SEED_COUNTS,
+                         ids=[f"{q[0]}: {q[1][:30]}" for q in SEED_COUNTS])
+def test_a_quoted_seed_count_is_the_committed_seeds(page, words, expected):
+    found = pattern(words).findall((ROOT / page).read_text())
+    assert len(found) == 1, f"{page}: '{words}' found {len(found)} times (reworded? update SEED_COUNTS)"
+    assert [int(n) for n in found[0]] == expected(), page
+
+
+def test_the_readmes_pink_or_pink_ln_count_holds_for_both():
+    """README.md: ``m1-4mT`` "(6 of 8 with `pink` or `pink-ln`)": one count for two recipes."""
+    assert of("pink", "m1-4mT") == of("pink-ln", "m1-4mT")
 
 
 def test_no_page_quotes_a_test_count():

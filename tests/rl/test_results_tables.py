@@ -4,6 +4,7 @@ are what the JSON records beside it give; an edited record or a hand edit of a t
 from __future__ import annotations
 
 import json
+import re
 import shutil
 
 import pytest
@@ -11,6 +12,7 @@ from benchmark_scripts import ROOT, load_benchmark
 
 RESULTS = ROOT / "benchmarks" / "results"
 KNOWN = "campaign_fast128_m1-10mT_zen5_2026-11-27.json"
+PAPER_ORDER = ("m1-4mT", "m2-4mT", "m1-10mT", "m2-10mT")
 
 
 @pytest.fixture(scope="module")
@@ -86,3 +88,36 @@ def test_a_record_lacking_a_value_is_left_out_with_the_reason(tables, copies):
         assert reason in skipped[name]
     assert skipped["td3_pendulum.json"] == "no `msr train` summary"
     assert "`campaign_fast128_nodate.json`" in tables.render(campaigns, skipped)
+
+
+def test_the_training_pages_fast_row_is_the_campaign_records(tables):
+    """docs/training.md's recipes table: `fast` (first version) on each machine, seeds that
+    succeed per paper case and the range of the campaigns' wall times, as the records give them."""
+    page = (ROOT / "docs" / "training.md").read_text()
+    number = r"(\d+(?:\.\d+)?)"
+    quoted = re.findall(rf"(\d), (\d), (\d), (\d) in {number}-{number} min on a 2-core ([^;|]+?) ?[;|]",
+                        page.split("| `fast` |")[1].split("\n")[0])
+    assert [machine for *_, machine in quoted] == ["AMD EPYC (Zen 5)", "Intel Xeon with AMX"]
+    campaigns, _ = tables.read_records(RESULTS)
+    for *successes, low, high, machine in quoted:
+        mine = {c.case: c for c in campaigns if c.machine == machine
+                and c.recipe == tables.RECIPE_VERSIONS["fast"]}
+        assert [int(n) for n in successes] == [mine[case].successes for case in PAPER_ORDER]
+        walls = [mine[case].wall_s / 60 for case in PAPER_ORDER]
+        unit = 10.0 ** -len(low.partition(".")[2])
+        assert abs(float(low) - min(walls)) < unit and abs(float(high) - max(walls)) < unit, walls
+
+
+def test_the_readmes_fast_wall_time_and_successes_are_the_zen5_records(tables):
+    """README.md's `msr train --recipe fast` row: the range of wall times and of seeds reaching the
+    authors' distance of the first version's four paper campaigns on the AMD EPYC (Zen 5)."""
+    (quoted,) = re.findall(r"in (\d+)-(\d+) min on 2 cores of an AMD EPYC Zen 5, (\d)-(\d) of 8",
+                           (ROOT / "README.md").read_text())
+    campaigns, _ = tables.read_records(RESULTS)
+    mine = [c for c in campaigns if c.machine == "AMD EPYC (Zen 5)" and c.case in PAPER_ORDER
+            and c.recipe == tables.RECIPE_VERSIONS["fast"]]
+    assert sorted(c.case for c in mine) == sorted(PAPER_ORDER)
+    walls = [c.wall_s / 60 for c in mine]
+    low, high, fewest, most = map(int, quoted)
+    assert abs(low - min(walls)) < 1 and abs(high - max(walls)) < 1, walls
+    assert (fewest, most) == (min(c.successes for c in mine), max(c.successes for c in mine))
