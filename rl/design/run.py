@@ -296,6 +296,7 @@ def _start(folder: Path, design: Design, settings: DesignSettings, record: dict[
     space = design.space
     low, high = space.period_range
     periods = [p for p in settings.final_periods if low <= p <= high] or [math.sqrt(low * high)]
+    began = time.perf_counter()
     records = evaluate_candidates(design.case, [design.base] * len(periods), periods,
                                   settings.physics, settings.search_duration, settings.workers,
                                   _variation_set(design, settings))
@@ -303,7 +304,7 @@ def _start(folder: Path, design: Design, settings: DesignSettings, record: dict[
     x0 = design.start_vector(best["period_s"])
     record["start"] = {"x0": [float(v) for v in x0], "objective_search_m": best["objective_m"],
                        "period_s": best["period_s"], "clockwise": best["clockwise"],
-                       "sweep": records}
+                       "sweep": records, "wall_s": time.perf_counter() - began}
     atomic_write_json(folder / DESIGN_JSON, record)
     return record["start"]
 
@@ -329,8 +330,9 @@ def _search(folder: Path, design: Design, settings: DesignSettings, record: dict
         return evaluate_candidates(design.case, specs, periods, settings.physics,
                                    settings.search_duration, settings.workers, variations)
 
+    trials = _popsize(state) * 2 * (1 if variations is None else len(variations[1]))
     last = 0.0
-    while not _spent(state, settings, last, design):
+    while not _spent(state, settings, last, trials, float(start.get("wall_s", 0.0))):
         began = time.perf_counter()
         run_generation(state, design.space, evaluate)
         last = time.perf_counter() - began
@@ -344,18 +346,29 @@ def _search(folder: Path, design: Design, settings: DesignSettings, record: dict
     return state
 
 
-def _spent(state: SearchState, settings: DesignSettings, last_s: float, design: Design) -> bool:
-    """Whether the budget leaves no room for another generation (and the final judgement)."""
+#: Wall time the figures, the report and the gait's GIF take beyond their simulations, s.
+OUTPUT_OVERHEAD_S = 60.0
+
+
+def _spent(state: SearchState, settings: DesignSettings, last_s: float, trials: int,
+           start_s: float) -> bool:
+    """Whether the budget (``--minutes``: the whole design, the starting sweep ``start_s`` and
+    the final judgement included) leaves no room for another generation (``last_s``, of
+    ``trials`` simulations) and the end."""
     if settings.generations is not None and state.generation >= settings.generations:
         return True
     if settings.minutes is None:
         return False
     if state.generation == 0:
         return False  # at least one generation
-    per_trial = last_s / max(1, 2 * _popsize(state))
-    final = 2 * 2 * (len(settings.final_periods) + 2) * per_trial * (
-        settings.final_duration / settings.search_duration) / settings.workers
-    return state.elapsed_s + last_s + final > 60.0 * settings.minutes
+    trial_s = last_s / max(1, trials)  # wall time of one search simulation, the workers busy
+    longer = settings.final_duration / settings.search_duration
+    judged = 2 * 2 * (len(settings.final_periods) + 2)  # two designs, both senses, the periods
+    if settings.objective == "robust":
+        judged += 2 * 25  # each design's worst case over the default set with its corners
+    gait = settings.workers * trial_s * longer  # one rollout, on one core
+    end = judged * trial_s * longer + gait + OUTPUT_OVERHEAD_S
+    return start_s + state.elapsed_s + last_s + end > 60.0 * settings.minutes
 
 
 def _popsize(state: SearchState) -> int:

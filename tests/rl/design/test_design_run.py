@@ -171,3 +171,20 @@ def test_designs_of_drawn_robots(tmp_path_factory, spec):
     assert 0.9 * length <= best.robot.tables["robot"]["length"] <= 1.1 * length
     assert best.robot.tables["robot"]["length"] == pytest.approx(summary["best_sizes_m"]["length"])
     assert summary["objective_start_m"] is not None
+
+
+def test_a_minutes_budget_counts_the_whole_design(tmp_path):
+    """--minutes covers the starting sweep, the search and the final judgement: a budget smaller
+    than one generation runs one (at least one), a larger one stops early enough for the end."""
+    from elastica_magnetic_rl.design.run import _spent
+    from elastica_magnetic_rl.design.search import SearchState
+
+    short = run_design("m1-4mT", tmp_path / "d", DesignSettings(**{**TINY.__dict__, "generations": None,
+                                                                  "minutes": 0.001}))
+    assert short["search"]["generations"] == 1
+    state = SearchState(es=type("ES", (), {"popsize": 9})(), rng_state=None, generation=3, elapsed_s=600.0)
+    settings = DesignSettings(minutes=30.0)  # 5 s runs judged by 10 s ones: each end trial costs 2
+    # 18 trials took 90 s: 5 s each; the end: 56 judged trials x 10 s + the gait 20 s + 60 s
+    assert _spent(state, settings, 90.0, 18, 120.0) == (120 + 600 + 90 + 560 + 20 + 60 > 1800)
+    assert not _spent(state, settings, 90.0, 18, 0.0)
+    assert _spent(state, DesignSettings(minutes=20.0), 90.0, 18, 120.0)
