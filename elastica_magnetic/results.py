@@ -233,6 +233,53 @@ def _files(folder: Path) -> list[str] | None:
     return sorted(found)
 
 
+def unrecorded_files(folder: str | Path) -> list[str]:
+    """The files under ``folder`` (relative POSIX paths) that no record says msr wrote: not
+    listed by the marker of the nearest folder above them that has one (within ``folder``), nor
+    by their folder's record of shared files (``.msr-files.json``), nor msr's own bookkeeping
+    (names starting ``.msr``, lock files). A command about to remove ``folder`` (to write it
+    anew) refuses when this is not empty: they are the user's."""
+    root = normalized_path(folder)
+    if not root.is_dir():
+        return []
+    listed = _files(root)
+    if listed is None:
+        return [f"more than {_MAX_LISTED} files"]
+    markers: dict[str, set[str] | None] = {}
+
+    def recorded_by_marker(path: str) -> bool:
+        parts = path.split("/")
+        for depth in range(len(parts) - 1, -1, -1):
+            base = "/".join(parts[:depth])
+            if base not in markers:
+                marker = read_marker(root / base) if (root / base / MARKER).is_file() else None
+                markers[base] = None if marker is None else set(marker.get("files") or ())
+            if markers[base] is not None:
+                return "/".join(parts[depth:]) in markers[base]
+        return False
+
+    out = []
+    for path in listed:
+        name = path.rsplit("/", 1)[-1]
+        if name.startswith((".msr", MARKER)) or name.endswith(".msr-lock"):
+            continue
+        parent = root / path.rsplit("/", 1)[0] if "/" in path else root
+        if recorded_by_marker(path) or _in_manifest(parent, name):
+            continue
+        out.append(path)
+    return out
+
+
+def _in_manifest(folder: Path, name: str) -> bool:
+    """Whether ``folder``'s record of shared files lists ``name`` (written by msr)."""
+    try:
+        data = json.loads((folder / ".msr-files.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    files = data.get("files") if isinstance(data, dict) else None
+    return isinstance(files, dict) and name in files
+
+
 def _what(marker: dict[str, Any]) -> str:
     subject = f" for {marker['subject']}" if marker.get("subject") else ""
     written = f", written {marker['written_utc']}" if marker.get("written_utc") else ""

@@ -10,9 +10,15 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TextIO
 
-from elastica_magnetic.io import normalized_path
+from elastica_magnetic.io import display_path, normalized_path
 from elastica_magnetic.locks import FolderLock
-from elastica_magnetic.results import check_result_folder, mark_folder, read_marker, remove_tree
+from elastica_magnetic.results import (
+    check_result_folder,
+    mark_folder,
+    read_marker,
+    remove_tree,
+    unrecorded_files,
+)
 
 from ..cases.case import Case
 from .report import write_report
@@ -104,6 +110,7 @@ def run_loop(case: Case, out: str | Path, settings: LoopSettings, *, skip: tuple
             print(f"note: {step}/ no longer holds the result this loop wrote (replaced or removed "
                   f"by another command): step {step} and the steps that use it run again", file=log)
         plan = plan_loop(state, spec, recorded, skip, tuple(dict.fromkeys((*redo, *replaced))), force)
+        _check_steps_to_redo(folder, plan)
         folder.mkdir(parents=True, exist_ok=True)
         if state is None or plan.redo == STEPS:
             state = LoopState(folder / "loop.json", case.name, spec, recorded)
@@ -123,6 +130,24 @@ def _forget(state: LoopState, plan: LoopPlan) -> None:
     a step's turn leaves that step's earlier result as it was."""
     for step in plan.redo:
         state.steps.pop(step, None)
+
+
+#: Files a step writes after its folders' records (the seeds' evaluation cache, the case's summary).
+STEP_FILES_UNRECORDED = {"train": ("summary.json", "evaluation.json")}
+
+
+def _check_steps_to_redo(folder: Path, plan: LoopPlan) -> None:
+    """Refuse, before any work, to run again a step whose folder holds files msr did not write:
+    the step's folder is removed at its turn, and they are the user's."""
+    for step in plan.redo:
+        own = STEP_FILES_UNRECORDED.get(step, ())
+        foreign = [f for f in unrecorded_files(folder / step) if f.rsplit("/", 1)[-1] not in own]
+        if foreign:
+            shown = ", ".join(f"{step}/{f}" for f in foreign[:5]) + (
+                f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
+            raise LoopError(f"--out {display_path(folder)}: step {step} runs again (its folder is "
+                            f"written anew) but {step}/ holds files msr did not write ({shown}); "
+                            "move them out of the loop's folder first")
 
 
 def _start_afresh(ctx: LoopContext, step: str, plan: LoopPlan) -> None:

@@ -302,3 +302,28 @@ def test_an_interrupted_redo_leaves_the_later_steps_results(interrupted_then_res
     assert status != 0, err
     assert {s: digest(s) for s in later} == before
     assert not any(LoopState.read(folder).done(s) for s in STEPS[2:])
+
+
+def test_a_users_file_in_a_step_folder_stops_a_redo_or_a_restart(interrupted_then_resumed, tmp_path):
+    """Round 9, D3: ``--redo STEP`` and ``--force`` (a changed spec) removed the user's files in
+    the step folders (train/, yardstick/, robustness/) with the step's earlier result. Now the
+    loop refuses before any work, naming them; without them it runs as before."""
+    import shutil
+
+    folder = tmp_path / "out"
+    shutil.copytree(interrupted_then_resumed["folder"], folder)
+    spec = interrupted_then_resumed["spec"]
+    (folder / "robustness" / "mine.txt").write_text("my notes\n")
+    before = (folder / "loop.json").read_bytes()
+    status, _, err = _loop(str(spec), "--out", str(folder), "--redo", "robustness")
+    assert status == 2 and "robustness/ holds files msr did not write (robustness/mine.txt)" in err
+    (folder / "train" / "notes.txt").write_text("my notes\n")
+    changed = _write_spec(tmp_path / "seg4.toml", field_limit=0.005)
+    status, _, err = _loop(str(changed), "--out", str(folder), "--force")
+    assert status == 2 and "train/notes.txt" in err
+    assert (folder / "loop.json").read_bytes() == before
+    assert (folder / "robustness" / "mine.txt").read_text() == "my notes\n"
+    (folder / "robustness" / "mine.txt").unlink()
+    (folder / "train" / "notes.txt").unlink()
+    status, _, err = _loop(str(spec), "--out", str(folder), "--redo", "robustness")
+    assert status == 0, err
