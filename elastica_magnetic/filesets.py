@@ -33,7 +33,9 @@ among them are never touched.
 **A single result file** (``msr hw calibrate --out cal.json``, ``msr hw stream --log``) goes through
 :func:`result_file`: refused when it exists unless ``force``, written beside itself under a
 temporary name, flushed and renamed over it in one step, under a lock beside it
-(``.NAME.msr-lock``), so two processes never write it and an interruption leaves the old file.
+(``.NAME.msr-lock``), so two processes never write it and an interruption leaves the old file. It
+is recorded in its folder's ``.msr-files.json``: ``force`` replaces only a file msr recorded
+writing there, unchanged since, never the user's own file of that name.
 """
 
 from __future__ import annotations
@@ -406,6 +408,11 @@ def _check_file(final: Path, force: bool, option: str, force_option: str,
         raise ResultExistsError(f"{where}: is not {kind.description} (a file msr did not write?); "
                                 f"{force_option} replaces only {kind.description}: move it away "
                                 f"or choose another {option}")
+    if final.is_file() and _not_recorded(final.parent, [final.name]):
+        raise ResultExistsError(f"{where}: was not written by msr (no record in "
+                                f"{display_path(final.parent / MANIFEST)}) or changed since: it may "
+                                f"be yours, and {force_option} replaces only a file msr wrote; move it "
+                                f"away or choose another {option}")
     if final.parent.exists() and (reason := unwritable_reason(final.parent)) is not None:
         raise OutputPathError(f"{where}: cannot write in {display_path(final.parent)}: {reason}")
 
@@ -455,6 +462,7 @@ def result_file(path: str | Path, *, force: bool = False, option: str = "--out",
                     os.fsync(handle.fileno())
                 with signals_held():
                     os.replace(temporary, final)
+                    _record_files(final.parent, [final.name])  # what --force may replace later
             except BaseException as exc:
                 remove_tree(temporary)
                 if isinstance(exc, OSError) and not isinstance(exc, OutputPathError):

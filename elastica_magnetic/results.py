@@ -79,6 +79,7 @@ import secrets
 import shutil
 import signal
 import threading
+import time
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -653,6 +654,7 @@ def result_folder(
                 for note in notes:  # the command line prints them before the error
                     exc.add_note(note)
                 raise
+            checked = _tree_state(target)  # what the swap may replace: nothing else
             staging = _sibling(target, "new")
             try:
                 os.mkdir(staging)  # the umask's permissions, as a folder made by the user
@@ -666,6 +668,7 @@ def result_folder(
                 _write_marker(result)
                 fsync_tree(staging)
                 with signals_held():
+                    _check_unchanged(target, checked, staging, option, shown)
                     _swap(staging, target)
                     swapped = True
             except BaseException as exc:
@@ -681,6 +684,40 @@ def result_folder(
                 raise
     finally:
         release_claim(target)  # the pre-check's hold (the lock itself goes with this block)
+
+
+def _tree_state(folder: Path) -> dict[str, tuple[int, int]] | None:
+    """What ``folder`` holds: every entry (relative path -> size and modification time in ns,
+    folders with size -1); ``None`` when it does not exist."""
+    if not os.path.lexists(folder):
+        return None
+    state: dict[str, tuple[int, int]] = {}
+    for root, dirs, names in os.walk(folder):
+        base = Path(root).relative_to(folder)
+        for name in [*dirs, *names]:
+            info = os.lstat(os.path.join(root, name))
+            state[(base / name).as_posix()] = (-1 if name in dirs else info.st_size, info.st_mtime_ns)
+    return state
+
+
+def _check_unchanged(target: Path, checked: dict[str, tuple[int, int]] | None, staging: Path,
+                     option: str, shown: str) -> None:
+    """Refuse the swap when ``target`` changed since it was checked (a file the user put there,
+    another command's result written inside it): nothing there is replaced, and the new result
+    is kept beside it, under a name of its own, named in the error."""
+    now = _tree_state(target)
+    if now == checked:
+        return
+    before, after = checked or {}, now or {}
+    changed = sorted(p for p in after if before.get(p) != after[p]) + sorted(
+        p for p in before if p not in after)
+    kept = target.with_name(f"{target.name}-new-{time.strftime('%Y%m%dT%H%M%S')}")
+    while os.path.lexists(kept):
+        kept = kept.with_name(kept.name + "-1")
+    os.rename(staging, kept)
+    what = f"new or changed: {_list(changed)}" if changed else "it appeared"
+    raise OutputPathError(f"{option} {shown}: changed while the command ran ({what}); it was not "
+                          f"replaced: the new result is in {display_path(kept)}")
 
 
 def _write_marker(result: ResultFolder) -> None:

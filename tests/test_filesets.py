@@ -185,18 +185,43 @@ def test_a_result_file_is_refused_without_force_and_replaced_whole_with_it(tmp_p
     from elastica_magnetic.results import ResultExistsError
 
     target = tmp_path / "cal.json"
-    target.write_text("old")
+    with result_file(target) as written:  # an earlier result
+        written.path.write_text("old")
     with pytest.raises(ResultExistsError, match="cal.json: already exists; pass --force"):
         with result_file(target):
             raise AssertionError("the block must not run")
     with pytest.raises(RuntimeError), result_file(target, force=True) as written:
         written.path.write_text("half")
         raise RuntimeError("a failure in the middle")
-    assert target.read_text() == "old" and sorted(os.listdir(tmp_path)) == ["cal.json"]
+    assert target.read_text() == "old" and sorted(os.listdir(tmp_path)) == [MANIFEST, "cal.json"]
     with result_file(tmp_path / "missing" / ".." / "cal.json", force=True) as written:
         assert written.path.parent == tmp_path and written.path.suffix == ".json"
         written.path.write_text("new")
-    assert target.read_text() == "new" and sorted(os.listdir(tmp_path)) == ["cal.json"]
+    assert target.read_text() == "new" and sorted(os.listdir(tmp_path)) == [MANIFEST, "cal.json"]
+
+
+def test_force_never_replaces_a_single_file_msr_did_not_write(tmp_path):
+    """Round 9, D2: --force on a single-file output (--set-yardstick, hw calibrate --out) replaced
+    the user's own file of that kind (another robot's spec, a hand-tuned calibration). A result
+    file is recorded in its folder's .msr-files.json; --force replaces only a recorded file,
+    unchanged since."""
+    from elastica_magnetic.filesets import result_file
+    from elastica_magnetic.results import ResultExistsError
+
+    mine = tmp_path / "labB_calibration.json"
+    mine.write_text('{"description": "HAND-TUNED, do not lose"}')
+    with pytest.raises(ResultExistsError, match="labB_calibration.json: was not written by msr"):
+        with result_file(mine, force=True):
+            raise AssertionError("the block must not run")
+    assert "HAND-TUNED" in mine.read_text()
+    ours = tmp_path / "cal.json"
+    with result_file(ours) as written:
+        written.path.write_text("msr's")
+    ours.write_text("edited by hand since")  # no longer what msr wrote
+    with pytest.raises(ResultExistsError, match="or changed since"):
+        with result_file(ours, force=True):
+            raise AssertionError("the block must not run")
+    assert ours.read_text() == "edited by hand since"
 
 
 @pytest.mark.parametrize("make, kind", [
@@ -219,12 +244,13 @@ def test_a_killed_writer_of_a_result_file_is_cleaned_up_by_the_next(tmp_path):
     from elastica_magnetic.results import ResultExistsError
 
     target = tmp_path / "log.txt"
-    target.write_text("old")
+    with result_file(target) as written:  # an earlier result
+        written.path.write_text("old")
     (tmp_path / ".log.msr-new-vm-1-abcdef.txt").write_text("half")  # a writer killed outright
     with pytest.raises(ResultExistsError) as refused:
         check_result_file(target)
     assert any("removed .log.msr-new-vm-1-abcdef.txt" in note for note in refused.value.__notes__)
-    assert sorted(os.listdir(tmp_path)) == ["log.txt"]
+    assert sorted(os.listdir(tmp_path)) == [MANIFEST, "log.txt"]
     with result_file(target, force=True) as written:
         written.path.write_text("new")
     assert target.read_text() == "new"

@@ -386,3 +386,37 @@ def test_an_earlier_result_that_cannot_be_deleted_is_named_not_called_a_killed_r
     assert any("an earlier result that an earlier run replaced but could not delete" in note
                for note in r.notes)
     assert not any("left by a run that was killed" in note for note in r.notes)
+
+
+@pytest.mark.parametrize("earlier", [False, True])
+def test_a_folder_that_changes_while_the_command_runs_is_not_replaced(tmp_path, earlier):
+    """Round 9, D1: the swap renamed away and deleted whatever appeared in --out during the run
+    (a file the user put there, another command's result written inside it). Now the swap
+    refuses when --out changed since its check, leaves it as it is, and keeps the new result
+    beside it under a name the error gives."""
+    out = tmp_path / "out"
+    if earlier:
+        with result_folder(out, kind="simulate") as r:
+            (r.path / "trajectory.csv").write_text("old\n")
+    with pytest.raises(OutputPathError, match=r"changed while the command ran \(new or changed: "
+                                              r"notes.txt\).*the new result is in .*out-new-"):
+        with result_folder(out, kind="simulate", force=earlier) as r:
+            (r.path / "trajectory.csv").write_text("new\n")
+            out.mkdir(exist_ok=True)
+            (out / "notes.txt").write_text("my lab notes\n")  # the user, meanwhile
+    assert (out / "notes.txt").read_text() == "my lab notes\n"
+    assert ((out / "trajectory.csv").read_text() == "old\n") if earlier else \
+        not (out / "trajectory.csv").exists()
+    kept = [p for p in tmp_path.iterdir() if p.name.startswith("out-new-")]
+    assert len(kept) == 1 and (kept[0] / "trajectory.csv").read_text() == "new\n"
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == []
+
+
+def test_another_result_written_inside_the_folder_meanwhile_is_kept(tmp_path):
+    out = tmp_path / "out"
+    with pytest.raises(OutputPathError, match="sub/"):
+        with result_folder(out, kind="simulate") as r:
+            (r.path / "trajectory.csv").write_text("new\n")
+            with result_folder(out / "sub", kind="simulate") as inner:
+                (inner.path / "trajectory.csv").write_text("inner\n")
+    assert (out / "sub" / "trajectory.csv").read_text() == "inner\n"

@@ -158,10 +158,12 @@ def test_stream_log_interrupted_keeps_the_old_log(tmp_path, monkeypatch):
     stream stands in for it; a port that does not open writes no log, tests/hardware/
     test_stream.py): the earlier log stays byte for byte, no temporary is left."""
     import elastica_magnetic.hardware.stream as stream
+    from elastica_magnetic.filesets import result_file
 
     log = tmp_path / "board.log"
     earlier = "MSR-FW 1.0 the earlier stream's log\nPONG\n"  # a board log: --force replaces it
-    log.write_text(earlier)
+    with result_file(log) as written:  # as msr wrote it
+        written.path.write_text(earlier)
 
     def answered_then_interrupted(port, field, *, log_path=None, **kwargs):
         with open(log_path, "w") as handle:  # what the board said so far
@@ -173,7 +175,7 @@ def test_stream_log_interrupted_keeps_the_old_log(tmp_path, monkeypatch):
             "--timeout", "2", "--log", str(log), "--force", "--no-progress"]
     assert main(argv) == 130
     assert log.read_text() == earlier
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["board.log"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".msr-files.json", "board.log"]
 
 
 def test_seeds_figures_interrupted_leave_the_earlier_ones(fault_server, tmp_path, capsys):

@@ -17,6 +17,7 @@ import pytest
 from faults import Fault
 
 from elastica_magnetic.cli import main
+from elastica_magnetic.filesets import MANIFEST
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="signals are POSIX")
 
@@ -97,12 +98,13 @@ def test_killed_while_writing_then_the_next_run_cleans_up(fault_server, lab, cap
     assert done.returncode == -signal.SIGKILL
     assert any(".msr-" in name for name in os.listdir(lab))  # what a kill leaves
     left = snapshot(lab)
-    assert {k: v for k, v in left.items() if not k.split("/")[0].startswith(".")} == before
+    assert {k: v for k, v in left.items()
+            if not k.split("/")[0].startswith(".") or k == MANIFEST} == before
     assert main(command(lab)) == 2  # without --force: cleans up, then refuses
     err = capsys.readouterr().err
     assert "note: " in err and "pass --force" in err
     assert snapshot(lab) == before
-    assert not any(name.startswith(".") for name in os.listdir(lab))
+    assert not any(name.startswith(".") and name != MANIFEST for name in os.listdir(lab))
 
 
 def test_figures_interrupted_leave_the_earlier_figures(fault_server, tmp_path, capsys):

@@ -407,14 +407,16 @@ def test_msr_stream_to_a_port_that_does_not_open_keeps_the_previous_log(tmp_path
     """Through the command (the log is a result file): ``--force`` replaces an earlier log only with
     one that says something; a port that does not open left an empty file over it (round 4, D1)."""
     from elastica_magnetic.cli import main
+    from elastica_magnetic.filesets import result_file
 
     log = tmp_path / "board.log"
     old = b"MSR-FW 1.0 previous stream\r\nSAFE end row=3 applied=3\n"
-    log.write_bytes(old)
+    with result_file(log) as written:  # an earlier stream's log, as msr writes it
+        written.path.write_bytes(old)
     assert main(["hw", "stream", str(csv_of(tmp_path / "f.csv", np.zeros((3, 3)))), "--port",
                  "socket://127.0.0.1:1", "--log", str(log), "--force", "--timeout", "1",
                  "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert "cannot open the port" in err and "board.log is left as it was (nothing was logged)" in err
     assert log.read_bytes() == old
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["board.log", "f.csv"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".msr-files.json", "board.log", "f.csv"]
