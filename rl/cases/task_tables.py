@@ -52,6 +52,7 @@ def task_from_table(t: SpecTable, length: float) -> Task:
                           f"target distance |target| = {abs(values['target']):g} m, or staying "
                           "at the start counts as reaching the target")
         _check_target_reach(t, values["target"], length, values["episode_duration"])
+        _check_slow_zone(t, values, abs(values["target"]))
     if cls is GotoTask:
         values.update(_goto_values(t, d, length, values["episode_duration"]))
     t.finish()
@@ -80,7 +81,27 @@ def _goto_values(t: SpecTable, d: GotoTask, length: float, duration: float) -> d
                       f"distance {values['distance']:g} m, or staying at the start counts as "
                       "reaching every target")
     _check_target_reach(t, values["distance"], length, duration, key="distance")
+    _check_slow_zone(t, values, values["distance"])
     return values
+
+
+def _check_slow_zone(t: SpecTable, values: dict[str, float], distance: float) -> None:
+    """Refuse a ``speed_penalty`` of 1 or more (a step toward the target inside the slow zone
+    then earns nothing: the task cannot be learned; percent written for a fraction named); warn
+    about a ``slow_zone`` (m) not smaller than the target's ``distance`` (m): the robot is near
+    the target from its first step (mm written for m named)."""
+    penalty, zone = values["speed_penalty"], values["slow_zone"]
+    if penalty >= 1.0:
+        hint = (f"; it looks like percent written for a fraction ({penalty:g} % is {penalty / 100:g})"
+                if 1.0 < penalty <= 100.0 else "")
+        raise t.error("speed_penalty", f"{penalty:g} >= 1: inside the slow zone a step toward the "
+                      "target then costs at least what it earns, so reaching the target cannot be "
+                      f"learned; give a fraction below 1 (default 0.5){hint}")
+    if zone >= distance:
+        hint = (f"; it looks like mm written where m is expected ({zone:g} mm is {1e-3 * zone:g} m)"
+                if 1e-3 * zone < distance else "")
+        t.warn("slow_zone", f"{zone:g} m is not smaller than the target's distance {distance:g} m: "
+               f"the robot is in the slow zone from its first step, and every move costs{hint}")
 
 
 def _check_target_reach(t: SpecTable, target: float, length: float, duration: float,

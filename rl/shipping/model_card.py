@@ -232,20 +232,39 @@ def _section_bounds(lines: list[str], heading: str) -> tuple[int, int] | None:
     return start, end
 
 
+#: Levels a heading inside a section's body is moved down, so that it never ends the section
+#: (a section ends at the next "## " heading): "## Bench" in a lab's notes is "#### Bench" there.
+SUB_HEADING_SHIFT = "##"
+
+
+def _demoted(body: str) -> str:
+    return "\n".join(SUB_HEADING_SHIFT + line if line.startswith("#") else line
+                     for line in body.split("\n"))
+
+
+def _restored(body: str) -> str:
+    shift = len(SUB_HEADING_SHIFT)
+    return "\n".join(line[shift:] if line.startswith("#" * (shift + 1)) else line
+                     for line in body.split("\n"))
+
+
 def card_section(text: str, heading: str) -> str | None:
-    """The body of a card's section ``heading`` (e.g. ``"## Notes"``), stripped; None without it."""
+    """The body of a card's section ``heading`` (e.g. ``"## Notes"``), stripped, its headings as
+    written (see :func:`replace_card_section`); None without it."""
     lines = text.split("\n")
     bounds = _section_bounds(lines, heading)
-    return None if bounds is None else "\n".join(lines[bounds[0] + 1:bounds[1]]).strip()
+    return None if bounds is None else _restored("\n".join(lines[bounds[0] + 1:bounds[1]]).strip())
 
 
 def replace_card_section(text: str, heading: str, body: str | None, before: str) -> str:
     """``text`` with its section ``heading`` holding ``body`` (Markdown): replaced where the card
     has the section, else inserted before the first heading starting with ``before`` (or at the
-    end); ``body`` None or blank removes the section."""
+    end); ``body`` None or blank removes the section. Headings inside ``body`` are moved two levels
+    down (``## Bench`` is ``#### Bench`` in the card), so none of them ends the section early: the
+    next replacement takes all of it (:func:`card_section` gives them back as written)."""
     lines = text.split("\n")
     bounds = _section_bounds(lines, heading)
-    section = [] if not (body and body.strip()) else [heading, "", body.strip(), ""]
+    section = [] if not (body and body.strip()) else [heading, "", _demoted(body.strip()), ""]
     if bounds is not None:
         lines = lines[:bounds[0]] + section + lines[bounds[1]:]
     elif section:

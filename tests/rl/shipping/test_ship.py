@@ -273,3 +273,21 @@ def test_a_policy_name_must_be_one_plain_folder_name(name):
     with pytest.raises(ValueError, match=r"--name .*: a policy name is one folder name of letters"):
         check_policy_name(name)
     assert check_policy_name("m1-4mT-robust_v2.1") == "m1-4mT-robust_v2.1"
+
+
+def test_notes_with_headings_are_replaced_and_cleared_whole():
+    """Round 9, S2: a "## " heading in the notes ended the card's Notes section early, so a later
+    notes --file or --clear left the old text in MODEL_CARD.md (the card and policy.json then
+    disagreed)."""
+    from elastica_magnetic_rl.shipping.model_card import card_section, replace_card_section
+
+    card = "# Card\n\n## Evaluation\n\nok\n\n## Limitations\n\nnone\n"
+    notes = "First.\n\n## Bench details\n\nRun with coil set B (OLD DETAIL).\n\n### Deeper\n\nx"
+    card = replace_card_section(card, "## Notes", notes, before="## Limitations")
+    assert card_section(card, "## Notes") == notes
+    assert "\n## Bench details" not in card and "#### Bench details" in card
+    card = replace_card_section(card, "## Notes", "Second.", before="## Limitations")
+    assert "OLD DETAIL" not in card and card_section(card, "## Notes") == "Second."
+    card = replace_card_section(card, "## Notes", notes, before="## Limitations")
+    card = replace_card_section(card, "## Notes", None, before="## Limitations")
+    assert "OLD DETAIL" not in card and "Deeper" not in card and "## Limitations\n\nnone" in card
