@@ -366,6 +366,9 @@ def _magnetization_table(t: SpecTable, n_elements: int) -> dict[str, Any]:
         elif kind == "sinusoid":
             out["phase"] = t.number("phase", "rad", 0.0, plausible="phase angle")
     t.finish()
+    if not np.any(magnetization_array(out, n_elements)):
+        key = {"table": "values", "segments": "segments"}.get(kind, "magnitude")
+        t.warn(key, "no magnetization: every element is at 0 A/m, so no field can move this robot")
     return out
 
 

@@ -131,6 +131,9 @@ def _stream(args: argparse.Namespace) -> int:
     from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
     from elastica_magnetic.hardware.stream import StreamError
 
+    if args.force and not (args.log or args.codes_out):
+        raise _error("--force replaces an existing --log or --codes-out file, and neither is "
+                     "given: leave it out, or name the file to replace")
     _check_port("--port", args.port)  # before the files are read, and not as pyserial words it
     field_T = read_field_csv(args.field_csv, plausible=True)
     cal = load_calibration(args.calibration) if args.calibration else None

@@ -376,6 +376,10 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     training = _training(top.table("training", required=False), source, robot)
     yardstick = _yardstick(top.table("yardstick", required=False),
                            float(robot.tables["robot"]["length"]))
+    if not robot.robot("training").magnetization.any():
+        raise SpecError(f"{source}: [robot.magnetization]: no magnetization: no field can move it "
+                        "(every element is at 0 A/m), so there is nothing to learn; give the robot "
+                        "its magnetization (docs/specs.md)")
     if robot.robot("training").ground is None:
         raise SpecError(f"{source}: [robot.ground] missing: the crawler tasks need a ground (add the "
                         "table; every key in it has a default)")

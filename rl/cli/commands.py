@@ -130,7 +130,7 @@ def _add_bench_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--memory-seeds", type=number("", 0, integer=True), default=0, metavar="N",
                    help="also measure the peak memory of a real N-seed training run in the default "
                    "layout (Linux; a few minutes for N = 8; default 0: skip)")
-    p.add_argument("--memory-steps", type=number("", 1, integer=True), default=3000,
+    p.add_argument("--memory-steps", type=number("", 1, integer=True), default=None,
                    help="environment steps per seed of that run (default 3000: past the warm-up)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=bench_command)
@@ -315,6 +315,11 @@ def bench_command(args: argparse.Namespace) -> int:
 
     if args.steps < 1 or args.repeats < 1 or args.vector_envs < 1:
         raise CommandError("--steps, --repeats and --vector-envs must be >= 1")
+    if args.memory_steps is not None and not args.memory_seeds:
+        raise CommandError("--memory-steps sets the steps of the --memory-seeds run, which is off: "
+                           "give --memory-seeds N too, or leave --memory-steps out")
+    if args.memory_steps is None:
+        args.memory_steps = 3000
     if args.memory_seeds < 0 or args.memory_steps < 1 or args.train_seeds < 0:
         raise CommandError("--memory-seeds and --train-seeds must be >= 0 and --memory-steps >= 1")
     result = benchmark(steps=args.steps, repeats=args.repeats, quick=args.quick,
@@ -331,6 +336,9 @@ def bench_command(args: argparse.Namespace) -> int:
 def generate_command(args: argparse.Namespace) -> int:
     from ..shipping.generate import generate
 
+    if args.workers is not None and args.ring is None:
+        raise CommandError("--workers is the number of --ring targets run at a time; a single "
+                           "rollout runs in one process: leave it out, or give --ring")
     if args.ring is None and args.duration is None:
         args.duration = DEFAULT_ROLLOUT_S
     if args.target is not None or args.ring is not None:

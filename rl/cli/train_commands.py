@@ -265,6 +265,10 @@ def _check_run_options(args: argparse.Namespace) -> None:
         value = getattr(args, name, None)
         if value is not None and value < 1:
             raise CommandError(f"--{name.replace('_', '-')} must be >= 1, got {value}")
+    per_simulator, seeds = getattr(args, "seeds_per_simulator", None), getattr(args, "seeds", None)
+    if per_simulator is not None and seeds is not None and per_simulator > seeds:
+        raise CommandError(f"--seeds-per-simulator {per_simulator} is more than --seeds {seeds}: a "
+                           f"simulator holds at most the {seeds} seed(s) trained; give at most {seeds}")
     if getattr(args, "seed_offset", 0) < 0:
         raise CommandError(f"--seed-offset must be >= 0, got {args.seed_offset}")
     if args.device is not None:

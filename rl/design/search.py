@@ -137,10 +137,17 @@ def evaluate_candidates(case: Case, specs: list[dict[str, Any]], periods: list[f
     both senses, every robot of the variation set (``None``: the nominal robot only), in one
     batched simulation; one record per candidate: ``objective_m`` (see the module docstring),
     ``distance_cw_m``/``distance_ccw_m`` (the nominal robot's, or the worst variant's),
-    ``clockwise`` (the better sense) and ``period_s``."""
+    ``clockwise`` (the better sense) and ``period_s``. A candidate the spec parser refuses (every
+    segment unmagnetized: no robot to move) scores :data:`DIVERGED_SCORE` in both senses."""
+    from elastica_magnetic.specfile import SpecError
+
     trials, owners = [], []
     for k, (spec, period) in enumerate(zip(specs, periods, strict=True)):
-        for robot in variant_specs(case, spec, physics, variations):
+        try:
+            robots = variant_specs(case, spec, physics, variations)
+        except SpecError:
+            robots = []
+        for robot in robots:
             for clockwise in (True, False):
                 trials.append(Trial(robot, period, clockwise))
                 owners.append((k, clockwise))
@@ -160,8 +167,8 @@ def evaluate_candidates(case: Case, specs: list[dict[str, Any]], periods: list[f
 
 
 def _worst(values: list[float]) -> float:
-    """The smallest distance (m); a diverged robot (nan) counts as :data:`DIVERGED_SCORE`."""
-    return min(DIVERGED_SCORE if math.isnan(v) else float(v) for v in values)
+    """The smallest distance (m); a diverged robot (nan), or none, counts as :data:`DIVERGED_SCORE`."""
+    return min((DIVERGED_SCORE if math.isnan(v) else float(v) for v in values), default=DIVERGED_SCORE)
 
 
 def run_generation(state: SearchState, space: DesignSpace,

@@ -188,3 +188,14 @@ def test_a_minutes_budget_counts_the_whole_design(tmp_path):
     assert _spent(state, settings, 90.0, 18, 120.0) == (120 + 600 + 90 + 560 + 20 + 60 > 1800)
     assert not _spent(state, settings, 90.0, 18, 0.0)
     assert _spent(state, DesignSettings(minutes=20.0), 90.0, 18, 120.0)
+
+
+def test_a_candidate_without_magnetization_scores_as_no_robot():
+    from elastica_magnetic_rl.design.run import load_design
+    from elastica_magnetic_rl.design.search import DIVERGED_SCORE, evaluate_candidates
+
+    design = load_design("m1-4mT")
+    spec = design.base | {"robot": {**design.base["robot"], "magnetization": {
+        "kind": "uniform", "magnitude": 0.0}}}
+    records = evaluate_candidates(design.case, [spec, design.base], [1.0, 1.0], "training", 0.05, 1)
+    assert records[0]["objective_m"] == DIVERGED_SCORE and records[1]["objective_m"] > DIVERGED_SCORE
