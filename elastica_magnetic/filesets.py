@@ -105,9 +105,14 @@ def _record_files(folder: Path, written: Iterable[str], removed: Iterable[str] =
 
 def _not_recorded(folder: Path, existing: Iterable[str]) -> list[str]:
     """Those of the ``existing`` files of ``folder`` that msr did not record, or that changed
-    since (a file of the user's under a name msr writes)."""
+    since (a file of the user's under a name msr writes). A file the folder's result marker lists
+    (``msr policy generate``'s figures in its result) is msr's."""
+    from .results import read_marker
+
     files = _manifest(folder)
-    return [n for n in existing if files.get(n) != _sha256(folder / n)]
+    marker = read_marker(folder) if (folder / ".msr-result.json").is_file() else None
+    listed = set(marker.get("files") or ()) if marker else set()
+    return [n for n in existing if n not in listed and files.get(n) != _sha256(folder / n)]
 
 
 def _refuse_unrecorded(folder: Path, existing: list[str], adopt: bool, option: str,

@@ -79,3 +79,14 @@ def test_a_robot_without_magnetization_is_named(tmp_path, magnetization):
     path.write_text(dumps(spec))
     with pytest.raises(SpecError, match="no magnetization: no field can move it"):
         load_case(path)
+
+
+def test_figures_of_a_generate_result_are_regenerated_with_force(tmp_path, capsys):
+    """V8: each refusal pointed to the other (--force, then "not written by msr"): the figures a
+    generate result lists in its marker are msr's."""
+    out = tmp_path / "gen"
+    assert msr(["policy", "generate", "m1-4mT", "--duration", "0.05", "--physics", "training",
+                "--no-gif", "--no-progress", "--out", str(out)]) == 0
+    assert msr(["policy", "figures", str(out), "--no-gif"]) == 2
+    assert "pass --force" in capsys.readouterr().err
+    assert msr(["policy", "figures", str(out), "--no-gif", "--force"]) == 0, capsys.readouterr().err
