@@ -328,7 +328,15 @@ def parse_variation(text: str) -> Variation:
     if not absolute and low <= 0.0:
         raise VariationError(f"{where}: relative factors must be > 0 (1 = the nominal value), got "
                              f"LOW {low:g}; for absolute values write abs:LOW:HIGH")
+    if not absolute and low >= PERCENT_LIKE_FACTOR:
+        raise VariationError(f"{where}: factors of the nominal value (1 = nominal) from x{low:g} to "
+                             f"x{high:g}; {spec_range.strip()} looks like percent: "
+                             f"{low / 100:g}:{high / 100:g} (for absolute values write abs:LOW:HIGH)")
     return Variation(name, keys, low, high, absolute)
+
+
+#: The smallest relative factor taken for a percentage (no fabrication error makes a value x10).
+PERCENT_LIKE_FACTOR = 10.0
 
 
 _MAGNETIZATION = "robot.magnetization"

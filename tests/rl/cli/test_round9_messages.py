@@ -90,3 +90,12 @@ def test_figures_of_a_generate_result_are_regenerated_with_force(tmp_path, capsy
     assert msr(["policy", "figures", str(out), "--no-gif"]) == 2
     assert "pass --force" in capsys.readouterr().err
     assert msr(["policy", "figures", str(out), "--no-gif", "--force"]) == 0, capsys.readouterr().err
+
+
+def test_vary_factors_written_as_percent_are_named():
+    """V2: --vary modulus=80:120 (percent meant) ended in advice to lower the spec's dt."""
+    from elastica_magnetic_rl.cases.variations import VariationError, parse_variation
+
+    with pytest.raises(VariationError, match="80:120 looks like percent: 0.8:1.2"):
+        parse_variation("modulus=80:120")
+    assert parse_variation("modulus=0.8:1.2").high == 1.2
