@@ -138,7 +138,8 @@ QUANTITIES: dict[str, Quantity] = {q.name: q for q in (
         (4e9, "a third of 10 GPa, stiffer than soft robot materials")),
        (("kPa", 1e3), ("MPa", 1e6))),
     _q("poisson ratio", "1", (None, None),
-       ((0.0, "a negative Poisson ratio is an auxetic material"), None), signed=True),
+       ((0.0, "a negative Poisson ratio is an auxetic material"), None),
+       (("percent", 1e-2),), signed=True),
     _q("magnetization", "A/m",
        # any weak magnetization is physical (merely useless): only the top is refused
        (None, (2e6, "above the saturation of any magnet material (NdFeB ~1.1e6 A/m)")),

@@ -266,7 +266,7 @@ def _material_values(t: SpecTable) -> dict[str, float]:
     if t.has("shear_modulus") and t.has("poisson_ratio"):
         raise t.error("poisson_ratio", "give either shear_modulus (Pa) or poisson_ratio, not both")
     if t.has("poisson_ratio"):
-        nu = t.number("poisson_ratio", "1", high=0.5)
+        nu = t.number("poisson_ratio", "1", high=0.5, plausible="poisson ratio")
         if nu <= -1.0:
             raise t.error("poisson_ratio", f"must be in (-1, 0.5], got {nu!r}")
         t.check_plausible("poisson_ratio", nu, "poisson ratio")

@@ -65,9 +65,8 @@ def _goto_values(t: SpecTable, d: GotoTask, length: float, duration: float) -> d
     reward's ``slow_zone`` (m) and ``speed_penalty``."""
     values = {
         "distance": t.number("distance", "m from the start", d.distance, low=0.0, low_open=True),
-        "angle_low": t.number("angle_low", "rad", d.angle_low, low=-2 * math.pi, high=2 * math.pi),
-        "angle_high": t.number("angle_high", "rad", d.angle_high, low=-2 * math.pi,
-                               high=2 * math.pi),
+        "angle_low": _bearing(t, "angle_low", d.angle_low),
+        "angle_high": _bearing(t, "angle_high", d.angle_high),
         "tolerance": t.number("tolerance", "m", d.tolerance, low=0.0, low_open=True),
         "slow_zone": t.number("slow_zone", "m", d.slow_zone, low=0.0),
         "speed_penalty": t.number("speed_penalty", "1", d.speed_penalty, low=0.0),
@@ -83,6 +82,15 @@ def _goto_values(t: SpecTable, d: GotoTask, length: float, duration: float) -> d
     _check_target_reach(t, values["distance"], length, duration, key="distance")
     _check_slow_zone(t, values, values["distance"])
     return values
+
+
+def _bearing(t: SpecTable, key: str, default: float) -> float:
+    """A target bearing (rad, within one turn either way), degrees named as the likely mistake."""
+    value = t.number(key, "rad", default)
+    if abs(value) > 2 * math.pi:
+        raise t.error(key, f"must be within [-6.28319, 6.28319] rad (one turn), got {value:g}: "
+                      f"degrees? give rad ({value:g} degrees = {math.radians(value):.6g} rad)")
+    return value
 
 
 def _check_slow_zone(t: SpecTable, values: dict[str, float], distance: float) -> None:

@@ -51,7 +51,7 @@ def test_a_goto_spec_takes_its_keys():
     ({"angle_low": 1.0, "angle_high": 0.5}, "[task] angle_high: 0.5 rad is below angle_low = 1 rad"),
     ({"distance": 15.0}, "it looks like mm written where m is expected"),
     ({"distance": -0.015}, "[task] distance: must be > 0 (m from the start)"),
-    ({"angle_high": 90.0}, "[task] angle_high: must be <= 6.28"),
+    ({"angle_high": 90.0}, "[task] angle_high: must be within [-6.28319, 6.28319] rad"),
     ({"target": 0.01}, "[task] target: unknown key"),
 ])
 def test_bad_goto_keys_are_refused_by_name(task, message):

@@ -99,3 +99,13 @@ def test_vary_factors_written_as_percent_are_named():
     with pytest.raises(VariationError, match="80:120 looks like percent: 0.8:1.2"):
         parse_variation("modulus=80:120")
     assert parse_variation("modulus=0.8:1.2").high == 1.2
+
+
+def test_a_poisson_ratio_in_percent_and_bearings_in_degrees_are_named():
+    """V1: only the bound was given (poisson_ratio = 48, angle_low = -180)."""
+    spec = load_case("m1-4mT").to_dict()
+    spec["robot"] = {k: v for k, v in spec["robot"].items() if k != "shear_modulus"} | {"poisson_ratio": 48.0}
+    with pytest.raises(SpecError, match=r"poisson_ratio: must be <= 0.5.*48 percent is 0.48"):
+        case_from_dict(spec, "nu.toml")
+    with pytest.raises(SpecError, match=r"angle_low: .*degrees\? give rad \(-180 degrees = -3.14159 rad\)"):
+        case_from_dict(_task("m1-4mT-goto", angle_low=-180.0), "g.toml")
