@@ -37,24 +37,31 @@ def plot_convergence(history: Sequence[dict[str, Any]], start_m: float, path: st
 def plot_magnetization(start: NDArray[np.float64], best: NDArray[np.float64], length: float,
                        path: str | Path) -> Path:
     """The magnetization ``(3, n_elements)`` (A/m) of the starting and the best design along the
-    body (``length`` m): an arrow per element in the x-y plane (the bending plane; z as colour),
-    the body drawn straight along +x."""
-    fig = _figure((6.4, 3.2))
+    body (``length`` m) drawn straight along +x: an arrow per stretch of elements in the x-y plane
+    (the bending plane; its length the magnitude, the strongest 0.3 body lengths), coloured by
+    its z component where the design has one."""
+    fig = _figure((6.4, 3.4))
     n = start.shape[1]
     s = (np.arange(n) + 0.5) * length / n * MM
     scale = max(float(np.linalg.norm(start, axis=0).max()), float(np.linalg.norm(best, axis=0).max()), 1e-30)
+    arrow = 0.08 * length * MM  # mm of arrow for the strongest magnetization
+    step = max(1, n // 24)
     for row, (label, m) in enumerate((("starting design", start), ("best design", best))):
         ax = fig.add_subplot(2, 1, row + 1)
-        step = max(1, n // 32)
-        ax.quiver(s[::step], np.zeros(len(s[::step])), m[0, ::step] / scale, m[1, ::step] / scale,
-                  m[2, ::step] / scale, cmap="coolwarm", clim=(-1, 1), angles="uv", pivot="middle",
-                  scale=40, width=0.004)
-        ax.plot([0, length * MM], [0, 0], color="0.8", linewidth=6, zorder=0)
+        ax.plot([0, length * MM], [0, 0], color="0.85", linewidth=8, zorder=0, solid_capstyle="butt")
+        u, v, w = (m[k, ::step] / scale * arrow for k in range(3))
+        kw = dict(angles="xy", scale_units="xy", scale=1.0, pivot="middle", width=0.006)
+        if np.any(m[2] != 0.0):
+            quiver = ax.quiver(s[::step], 0 * u, u, v, w / arrow, cmap="coolwarm", clim=(-1, 1), **kw)
+            fig.colorbar(quiver, ax=ax, label="z / |M|max", fraction=0.04)
+        else:
+            ax.quiver(s[::step], 0 * u, u, v, color="C0", **kw)
         ax.set_xlim(-0.05 * length * MM, 1.05 * length * MM)
-        ax.set_ylim(-1, 1)
+        ax.set_ylim(-0.8 * arrow, 0.8 * arrow)
+        ax.set_aspect("equal")
         ax.set_yticks([])
-        ax.set_ylabel(label, fontsize=8)
+        ax.set_title(label, fontsize=9, loc="left")
         if row == 1:
-            ax.set_xlabel("arc length from the back (mm); arrows: magnetization in x-y, colour: z")
+            ax.set_xlabel("arc length from the back (mm); arrows: the magnetization in the x-y plane")
     fig.tight_layout()
     return _save(fig, path)
