@@ -113,7 +113,7 @@ class _BlockForcing(NoForces):
 
     def apply_forces(self, system, time: np.float64 = np.float64(0.0)) -> None:
         # ``system`` is the first rod; the kernel works on the whole memory block instead.
-        self._owner.apply_forcing(time)
+        self._owner.force(time)
 
     def apply_torques(self, system, time: np.float64 = np.float64(0.0)) -> None:
         pass  # torques are applied together with the forces, in the kernel
@@ -289,13 +289,17 @@ class BatchedRobots:
         moment = np.einsum("ijk,jk->ik", rod.director_collection, magnetization)
         return moment * rod.volume[None, :]
 
-    def apply_forcing(self, time: float = 0.0) -> None:
-        """Every robot's forcing added to the block's external loads (N, N m), what each time
-        step runs once (public for benchmarks: step the simulator with :meth:`step`): the
-        spatial sources' force and torque first (``time``: the simulator's, s), then one call of
-        the block kernel (uniform field torques, damping, gravity, ground contact)."""
+    def force(self, time: float) -> None:
+        """What each time step adds to the block's external loads (N, N m) at the simulator's
+        ``time`` (s): the spatial sources' force and torque first, then :meth:`apply_forcing`."""
         if self._spatial:
             self._apply_sources(float(time))
+        self.apply_forcing()
+
+    def apply_forcing(self) -> None:
+        """One call of the block kernel: every robot's uniform-field magnetic torque, damping,
+        gravity and ground contact added to the block's external loads (N, N m) (public for
+        benchmarks: step the simulator with :meth:`step`)."""
         block_forcing(*self._kernel_args)
 
     def _apply_sources(self, time: float) -> None:
