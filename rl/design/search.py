@@ -103,7 +103,8 @@ def new_search(space: DesignSpace, x0: NDArray[np.float64], seed: int, popsize: 
 def variant_specs(case: Case, spec: dict[str, Any], physics: str,
                   variations: VariationSet | None) -> list[Any]:
     """The robots (RobotSpec in ``physics``) a candidate's ``spec`` is judged on: itself, or each
-    variant of ``variations`` (its variations and variants, applied to this spec)."""
+    variant of ``variations``, the set made anew on this spec (its keys are where this spec keeps
+    its values: a pattern's magnitude, each segment's), with or without corners as given."""
     import warnings
 
     from elastica_magnetic.plausibility import ImplausibleValueWarning
@@ -111,6 +112,9 @@ def variant_specs(case: Case, spec: dict[str, Any], physics: str,
     from ..cases.case import case_from_dict
     from ..cases.variations import apply_variant
 
+    if variations is not None:
+        corners = any(v.kind == "corner" for v in variations[1])
+        variations = variation_set(spec, "robust", corners)
     specs = [spec] if variations is None else [apply_variant(spec, variations[0], v)
                                                for v in variations[1]]
     with warnings.catch_warnings():  # a weak segment is a design, not a unit mistake

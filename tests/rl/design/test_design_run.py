@@ -199,3 +199,14 @@ def test_a_candidate_without_magnetization_scores_as_no_robot():
         "kind": "uniform", "magnitude": 0.0}}}
     records = evaluate_candidates(design.case, [spec, design.base], [1.0, 1.0], "training", 0.05, 1)
     assert records[0]["objective_m"] == DIVERGED_SCORE and records[1]["objective_m"] > DIVERGED_SCORE
+
+
+def test_the_robust_objective_runs_on_a_pattern_robot(tmp_path):
+    """Round 10, T2: --objective robust died with a KeyError (the variation set of the segments
+    form applied to the spec's own pattern form)."""
+    summary = run_design("m1-4mT", tmp_path / "robust",
+                         DesignSettings(**{**TINY.__dict__, "objective": "robust", "generations": 1}))
+    assert summary["objective"] == "robust" and summary["objective_start_m"] is not None
+    best = summary["best"]
+    assert len(best["variants"]) == 25 and best["robust_m"] == min(
+        v["distance_m"] for v in best["variants"])
