@@ -65,6 +65,8 @@ HISTORY_CSV = "history.csv"
 #: What the end of a design writes (:func:`~elastica_magnetic_rl.design.outputs.write_outputs`).
 OUTPUT_FILES = ("best.toml", "final_sweep.csv", "summary.json", "convergence.png",
                 "magnetization.png", "report.md", "gait")
+#: Every name a design folder holds: anything else there is the user's (refused, never removed).
+DESIGN_NAMES = frozenset((DESIGN_JSON, STATE_FILE.split("/")[0], HISTORY_CSV, *OUTPUT_FILES))
 
 
 class DesignError(ValueError):
@@ -213,8 +215,10 @@ def _check_folder(folder: Path, resume: bool, force: bool) -> None:
                               "to start one")
         check_result_folder(folder, kind=DESIGN_KIND, force=True, option="--out")  # raises unless empty
         return
-    ours = _top_level(set(marker.get("files") or [])) | _pending_outputs(folder)
-    foreign = [p.name for p in folder.iterdir() if p.name not in ours and not p.name.startswith(".msr")]
+    # the design's own names, not the marker's list (which lists what the folder held when it was
+    # written: a user's file saved there during a run would pass for the design's)
+    foreign = [p.name for p in folder.iterdir() if p.name not in DESIGN_NAMES
+               and not p.name.startswith(".msr")]
     if foreign:
         raise OutputPathError(f"--out {shown}: holds a design and files msr did not write "
                               f"({', '.join(sorted(foreign)[:5])}); move them away first")
@@ -224,21 +228,6 @@ def _check_folder(folder: Path, resume: bool, force: bool) -> None:
     if not resume and not force:
         raise OutputPathError(f"--out {shown} holds a design ({marker.get('subject')}): continue "
                               "it with --resume, or replace it with --force")
-
-
-def _top_level(files: set[str]) -> set[str]:
-    return {f.split("/")[0] for f in files}
-
-
-def _pending_outputs(folder: Path) -> set[str]:
-    """The result files ``design.json`` says are being written (a kill while they were written
-    leaves some the marker does not list yet)."""
-    try:
-        record = read_json(folder / DESIGN_JSON)
-    except (OSError, ValueError):
-        return set()
-    names = record.get("outputs") if isinstance(record, dict) else None
-    return {n for n in names if isinstance(n, str)} if isinstance(names, list) else set()
 
 
 def _prepare(folder: Path, design: Design, settings: DesignSettings, resume: bool,
@@ -251,8 +240,7 @@ def _prepare(folder: Path, design: Design, settings: DesignSettings, resume: boo
         _check_same(record, spec, settings, folder)
         return record
     if force:
-        marker = read_marker(folder) or {}
-        for name in sorted(_top_level(set(marker.get("files") or [])) | _pending_outputs(folder)):
+        for name in sorted(DESIGN_NAMES):
             path = folder / name
             remove_tree(path) if path.is_dir() else path.unlink(missing_ok=True)
     folder.mkdir(parents=True, exist_ok=True)

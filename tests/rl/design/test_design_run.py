@@ -210,3 +210,43 @@ def test_the_robust_objective_runs_on_a_pattern_robot(tmp_path):
     best = summary["best"]
     assert len(best["variants"]) == 25 and best["robust_m"] == min(
         v["distance_m"] for v in best["variants"])
+
+
+def test_a_design_interrupted_in_its_first_generation_resumes(tmp_path, monkeypatch):
+    """Round 10, D1: killed before its first checkpoint of a generation, --resume and --force
+    both refused the design's own search/ folder as "files msr did not write"."""
+    import elastica_magnetic_rl.design.run as design_run
+
+    calls = {"n": 0}
+    real = design_run.run_generation
+
+    def interrupted(*args, **kwargs):
+        calls["n"] += 1
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(design_run, "run_generation", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        run_design("m1-4mT", tmp_path / "d", TINY)
+    monkeypatch.setattr(design_run, "run_generation", real)
+    resumed = run_design("m1-4mT", tmp_path / "d", TINY, resume=True)
+    assert calls["n"] == 1 and resumed["search"]["generations"] == 2
+
+
+def test_a_users_file_saved_during_a_design_is_never_taken_for_the_designs(tmp_path, monkeypatch):
+    """Round 10, D4: a file the user saved into the folder while the design ran was listed in its
+    marker, and the next --force removed it."""
+    import elastica_magnetic_rl.design.run as design_run
+
+    out = tmp_path / "d"
+    real = design_run.run_generation
+
+    def with_a_note(*args, **kwargs):
+        (out / "user.txt").write_text("my lab notes\n")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(design_run, "run_generation", with_a_note)
+    run_design("m1-4mT", out, TINY)
+    monkeypatch.setattr(design_run, "run_generation", real)
+    with pytest.raises(OutputPathError, match=r"files msr did not write \(user.txt\)"):
+        run_design("m1-4mT", out, TINY, force=True)
+    assert (out / "user.txt").read_text() == "my lab notes\n"
