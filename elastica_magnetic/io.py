@@ -134,7 +134,18 @@ def output_path_problem(path: str | os.PathLike[str]) -> str | None:
     if long_names:
         return (f"the name {long_names[0][:40]}... is {len(os.fsencode(long_names[0]))} bytes long; "
                 f"the file system allows at most {longest}")
+    size = len(os.fsencode(path.name))
+    if size > longest - MSR_NAME_ROOM:
+        return (f"the name {path.name[:40]}... is {size} bytes long; msr writes beside it under "
+                f"longer names of its own (.NAME.msr-new-HOST-PID-..., .NAME.msr-lock), which the "
+                f"file system's {longest}-byte limit must hold: give a name of at most "
+                f"{longest - MSR_NAME_ROOM} bytes")
     return None
+
+
+#: Bytes an output's name must leave free under the file system's limit: the temporary, old and
+#: lock names msr gives its siblings (``.NAME.msr-trash-HOST-PID-RANDOM``, the host at most 40).
+MSR_NAME_ROOM = 70
 
 
 def display_path(path: str | os.PathLike[str]) -> str:

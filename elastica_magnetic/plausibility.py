@@ -221,6 +221,11 @@ QUANTITIES: dict[str, Quantity] = {q.name: q for q in (
        (None, (60.0, "a minute of simulated time (every shipped run is 10 s or less; a minute "
                      "of the accurate physics is an hour of computing)")),
        (("ms", 1e-3),)),
+    _q("rotation period", "s",  # one turn of a rotating field
+       (None, (86400.0, "a turn per day: a static field")),
+       (None, (60.0, "a turn per minute: over the 10 s that judge a gait, a nearly static field "
+                     "(the paper's robots walk at 1 to 3 s per turn)")),
+       (("ms", 1e-3),)),
     _q("phase angle", "rad",  # a magnetization's or a field's phase
        (None, None),
        (None, (2.0 * math.pi + 1e-9, "a full turn (2 pi rad)")),
@@ -294,7 +299,7 @@ def judge(name: str, value: float, unit: str | None = None, scale: float = 1.0, 
         if not refuse:
             text += ": unusual for a magnetic soft robot lab"
         if hint:
-            text += _mistakes(quantity, abs(value), unit, scale)
+            text += _mistakes(quantity, value if quantity.signed else abs(value), unit, scale)
         return Finding(refuse, text, above)
     return None
 

@@ -295,6 +295,13 @@ def check_robot(description: RobotDescription, *, field_limit: float | None = No
         issues=issues)
 
 
+def unstable_time_step(robot: RobotSpec, physics: str) -> str | None:
+    """What ``msr case check`` reports as an error about ``robot``'s time step in ``physics``
+    (a step above the calibrated stable estimate: likely to blow up), ``None`` when it holds."""
+    issues = [i for i in _time_step_issues([_time_step_check(robot, physics)]) if i.level == "error"]
+    return f"{issues[0].key}: {issues[0].message}" if issues else None
+
+
 def _time_step_issues(steps: list[TimeStepCheck]) -> list[Issue]:
     issues = []
     for s in steps:

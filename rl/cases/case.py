@@ -383,19 +383,20 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     if robot.robot("training").ground is None:
         raise SpecError(f"{source}: [robot.ground] missing: the crawler tasks need a ground (add the "
                         "table; every key in it has a default)")
-    design = _design(top.raw(DESIGN_TABLE, None), robot, actuation, source)
+    design = _design(top.raw(DESIGN_TABLE, None), robot, actuation, source, top.accept)
     for key in ("robot", "physics", "checks"):  # read by describe_robot
         top.raw(key, None)
     top.finish()
     return Case(name, description, robot, actuation, task, training, yardstick, source, design)
 
 
-def _design(table: Any, robot: RobotDescription, actuation: Actuation, source: str) -> DesignSpace | None:
+def _design(table: Any, robot: RobotDescription, actuation: Actuation, source: str,
+            accept: frozenset[str]) -> DesignSpace | None:
     """The checked ``[design]`` table (``None`` when absent)."""
     if table is None:
         return None
     return design_space(table, robot.tables["robot"], actuation.axes, source,
-                        robot.robot("accurate").magnetization)
+                        robot.robot("accurate").magnetization, accept)
 
 
 def _actuation(t: SpecTable) -> Actuation:

@@ -41,6 +41,7 @@ from numpy.typing import NDArray
 
 from elastica_magnetic.magnetization import MagnetizationSegment, segment_element_counts
 from elastica_magnetic.plausibility import QUANTITIES
+from elastica_magnetic.robot_spec import ACTION_PERIOD
 from elastica_magnetic.specfile import SpecTable
 
 __all__ = ["DESIGN_TABLE", "MAX_SEGMENTS", "MIN_SEGMENTS", "DesignSpace", "design_space"]
@@ -249,14 +250,15 @@ def _at_least(counts: NDArray[np.int64], least: int) -> list[int]:
 
 
 def design_space(table: Mapping[str, Any] | None, robot: Mapping[str, Any], axes: str,
-                 source: str, magnetization: NDArray[np.float64]) -> DesignSpace:
+                 source: str, magnetization: NDArray[np.float64],
+                 accept: frozenset[str] = frozenset()) -> DesignSpace:
     """The checked :class:`DesignSpace` of a ``[design]`` table (``None``: the defaults) for a
     robot (its checked ``[robot]`` table: ``length`` m, ``n_elements``), the case's actuation
     ``axes`` and the robot's own magnetization ``(3, n_elements)`` (A/m; the default remanence is
     its largest magnitude, the default segment count its own segments' or
-    :data:`DEFAULT_SEGMENTS`). Raises :class:`SpecError` naming the file, the key and the
-    problem."""
-    t = SpecTable({} if table is None else table, source, DESIGN_TABLE)
+    :data:`DEFAULT_SEGMENTS`; ``accept``: the spec's ``[checks] accept`` keys). Raises
+    :class:`SpecError` naming the file, the key and the problem."""
+    t = SpecTable({} if table is None else table, source, DESIGN_TABLE, accept)
     length, n_elements = float(robot["length"]), int(robot["n_elements"])
     own = robot["magnetization"].get("segments")
     default_n = len(own) if isinstance(own, list) and MIN_SEGMENTS <= len(own) <= MAX_SEGMENTS \
@@ -284,14 +286,27 @@ def design_space(table: Mapping[str, Any] | None, robot: Mapping[str, Any], axes
     remanence = t.number("remanence", "A/m", own_largest, low=0.0, low_open=True,
                          plausible="magnetization")
     sizes = _sizes(t, robot, segments, min_length if lengths == "free" else 0.0)
-    period_low = t.number("period_low", "s", DEFAULT_PERIOD_RANGE[0], low=0.0, low_open=True)
-    period_high = t.number("period_high", "s", DEFAULT_PERIOD_RANGE[1], low=0.0, low_open=True)
-    if not period_low < period_high:
-        raise t.error("period_high", f"must be larger than period_low ({period_low:g} s), got "
-                      f"{period_high:g} s")
+    period_low, period_high = _period_range(t)
     t.finish()
     return DesignSpace(segments, lengths, min_length, directions, magnitude, remanence,
                        (period_low, period_high), n_elements, length, sizes)
+
+
+def _period_range(t: SpecTable) -> tuple[float, float]:
+    """``period_low`` and ``period_high`` (s): above the Nyquist limit of the 0.01 s control (a
+    field turning in two control steps or less does not turn), judged as rotation periods (a
+    value in ms is warned)."""
+    out = []
+    for key, default in (("period_low", DEFAULT_PERIOD_RANGE[0]), ("period_high", DEFAULT_PERIOD_RANGE[1])):
+        value = t.number(key, "s", default, low=0.0, low_open=True, plausible="rotation period")
+        if value <= 2.0 * ACTION_PERIOD:
+            raise t.error(key, f"{value:g} s is at or under 2 x the {ACTION_PERIOD:g} s control "
+                          f"period (the Nyquist limit of the {1 / ACTION_PERIOD:g} Hz control: the "
+                          f"field cannot turn); give more than {2 * ACTION_PERIOD:g} s")
+        out.append(value)
+    if not out[0] < out[1]:
+        raise t.error("period_high", f"must be larger than period_low ({out[0]:g} s), got {out[1]:g} s")
+    return out[0], out[1]
 
 
 #: The sizes a ``[design]`` table may vary, by the robot's section.
@@ -305,6 +320,7 @@ def _sizes(t: SpecTable, robot: Mapping[str, Any], segments: int, min_length: fl
     section = "round" if "radius" in robot else "band"
     out = []
     for key in SIZE_KEYS["band"] + ("radius",):
+        t.raw(key, None)  # a key this table takes (named when another one is misspelt)
         if not t.has(key):
             continue
         if key not in SIZE_KEYS[section]:
@@ -322,7 +338,23 @@ def _sizes(t: SpecTable, robot: Mapping[str, Any], segments: int, min_length: fl
             raise t.error(key, f"{segments} segments of at least min_length = {min_length:g} m do not "
                           f"fit in the shortest length, {low:g} m")
         out.append((key, float(low), float(high)))
+    _check_band_sizes(t, robot, dict((key, (low, high)) for key, low, high in out))
     return tuple(out)
+
+
+def _check_band_sizes(t: SpecTable, robot: Mapping[str, Any], ranges: dict[str, tuple[float, float]]
+                      ) -> None:
+    """A band is at least as wide as it is thick (the spec's own rule): every thickness the search
+    may choose must fit under every width it may choose."""
+    if "thickness" not in ranges and "width" not in ranges:
+        return
+    thickest = ranges.get("thickness", (0.0, float(robot["thickness"])))[1]
+    narrowest = ranges.get("width", (float(robot["width"]), 0.0))[0]
+    if thickest > narrowest:
+        key = "thickness" if "thickness" in ranges else "width"
+        raise t.error(key, f"the thickest band searched ({thickest:g} m) is thicker than the narrowest "
+                      f"({narrowest:g} m wide); a band is at least as wide as it is thick: give a "
+                      "thickness range under the width (mm for m?)")
 
 
 def _check_min_length(t: SpecTable, min_length: float, segments: int, length: float,

@@ -275,6 +275,18 @@ def _check_run_options(args: argparse.Namespace) -> None:
         _check_device(args.device)
 
 
+def _warn_unstable_steps(cases: list, physics: str) -> None:
+    """Say, before the training, what ``msr case check`` calls an error: a time step above the
+    estimated stable one (a run may blow up, its seeds then fail)."""
+    from elastica_magnetic.spec_check import unstable_time_step
+
+    for case in cases:
+        problem = unstable_time_step(case.robot_spec(physics), physics)
+        if problem is not None:
+            print(f"warning: {case.source}: {problem} (msr case check {case.source} says why)",
+                  file=sys.stderr)
+
+
 #: The longest ``--episode-duration`` (s) train and refine take.
 MAX_EPISODE_DURATION_S = 3600.0
 
@@ -328,6 +340,7 @@ def train_command(args: argparse.Namespace) -> int:
     from ..sweep.training import train_cases
 
     _check_run_options(args)
+    _warn_unstable_steps(args.case, args.physics)
     overrides = _overrides(args)
     try:
         # SIGTERM/SIGHUP stop it as Ctrl-C does (the checkpoints are named), not silently

@@ -61,6 +61,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "default fabrication errors (about 9x the cost per candidate)")
     p.add_argument("--popsize", type=number("candidates", 2, 1000, integer=True), default=None,
                    help="candidates per generation (default CMA-ES's 4 + 3 ln(dimension))")
+    p.add_argument("--finalists", type=number("candidates", 1, 100, integer=True), default=6,
+                   help="the best distinct candidates of the search run again at the judged "
+                        "duration; the best of them is judged (default 6; 1: the search's best)")
     p.add_argument("--workers", type=number("processes", 1, 1024, integer=True), default=None,
                    help="processes sharing each generation's simulation (default: one per core)")
     p.add_argument("--resume", action="store_true", help="continue the design in DIR")
@@ -80,6 +83,7 @@ def _settings(args: argparse.Namespace):
     minutes = args.minutes if args.minutes is not None else (None if args.generations else 30.0)
     settings = DesignSettings(objective=args.objective, seed=args.seed, minutes=minutes,
                               generations=args.generations, popsize=args.popsize,
+                              finalists=args.finalists,
                               workers=args.workers or os.cpu_count() or 1, gif=not args.no_gif)
     if args.quick:
         from dataclasses import replace
@@ -91,7 +95,7 @@ def _settings(args: argparse.Namespace):
 
 
 def design_command(args: argparse.Namespace) -> int:
-    from .run import DesignError, run_design
+    from .run import DesignError, holds_design, run_design
 
     settings = _settings(args)
 
@@ -101,15 +105,25 @@ def design_command(args: argparse.Namespace) -> int:
                   f"best {1e3 * state['best_objective_m']:+.2f} mm, "
                   f"{state['elapsed_s'] / 60:.1f} min", file=sys.stderr, flush=True)
 
+    replacing = args.force and holds_design(args.out)
     try:
         summary = run_design(args.spec, args.out, settings,
                              resume=args.resume, force=args.force, progress=progress)
     except DesignError as exc:
         raise CommandError(str(exc)) from None
     except KeyboardInterrupt:
-        print(f"design: interrupted; the last whole generation is in {args.out}: continue with "
-              "the same command and --resume", file=sys.stderr)
+        if replacing:
+            print(f"design: interrupted; the earlier design in {args.out} is kept as it was (the "
+                  "replacement is dropped: start it again with --force)", file=sys.stderr)
+        else:
+            print(f"design: interrupted; the design's progress (its last whole generation, if any) "
+                  f"is in {args.out}: continue with the same command and --resume", file=sys.stderr)
         raise
+    if summary["search"].get("stopped"):
+        stopped = summary["search"]["stopped"]
+        print(f"design: stopped by --minutes {stopped['minutes']:g} after {stopped['generations']} of "
+              f"{stopped['generations_asked']} generations (continue with --resume and a larger "
+              "--minutes)", file=sys.stderr)
     if args.json:
         print(json.dumps(summary, indent=2, default=str))
     else:

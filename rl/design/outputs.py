@@ -57,7 +57,9 @@ def write_outputs(folder: Path, design, settings, record: dict[str, Any], state:
     """Judge the starting and the best design, write the result files; the summary."""
     from ..reports.design_figures import plot_convergence, plot_magnetization
 
-    best_x = np.asarray(state.best_x, dtype=float)
+    finalists = record.get("finalists") or [{"vector": list(state.best_x), "objective_m": 0.0}]
+    chosen = max(finalists, key=lambda r: r["objective_m"])  # the first of equals: the search's best
+    best_x = np.asarray(chosen["vector"], dtype=float)
     periods = sorted({*settings.final_periods, float(record["start"]["period_s"]),
                       design.space.period(best_x)})
     start = judge(design, settings, None, periods)
@@ -83,9 +85,13 @@ def write_outputs(folder: Path, design, settings, record: dict[str, Any], state:
         "search": {"generations": state.generation, "evaluations": len(state.history),
                    "popsize": int(state.es.popsize), "wall_s": state.elapsed_s,
                    "physics": settings.physics, "duration_s": settings.search_duration,
-                   "best_objective_search_m": state.best_objective,
+                   "best_objective_search_m": chosen.get("objective_search_m", state.best_objective),
                    "start_objective_search_m": record["start"]["objective_search_m"],
-                   "seed": settings.seed},
+                   "seed": settings.seed, "stopped": record.get("stopped"),
+                   "finalists": [{"objective_search_m": r.get("objective_search_m"),
+                                  "objective_m": r["objective_m"], "period_s": r.get("period_s")}
+                                 for r in record.get("finalists") or []],
+                   "chosen_finalist": (record.get("finalists") or [chosen]).index(chosen)},
         "space": design.space.to_dict(),
     }
     atomic_write_json(folder / "summary.json", summary)
@@ -106,6 +112,13 @@ def _best_case(design, x, best: dict[str, Any], settings, name: str):
     """The best design's case, its yardstick the best rotating field's distance."""
     spec = design.space.spec_of(design.base, x)
     spec["name"] = name
+    # the starting robot's words describe its own magnetization: the design says what it is
+    segments = design.space.segment_list(x)
+    origin = design.case.description or design.case.name
+    spec["description"] = (f"Designed by msr design from {design.case.name}: {len(segments)} segments "
+                           f"searched ({settings.objective} objective). Started from: {origin}")
+    if isinstance(spec["robot"].get("name"), str):
+        spec["robot"]["name"] = f"{spec['robot']['name']}-designed"
     turn = "clockwise" if best["clockwise"] else "counter-clockwise"
     measured = settings.final_physics == "accurate" and abs(settings.final_duration - EVAL_DURATION) < 1e-9
     if best["distance_m"] is not None and best["distance_m"] > 0:
@@ -157,7 +170,13 @@ def _report(summary: dict[str, Any]) -> str:
               "" if summary["improved"] else "The search did not beat the starting design.",
               f"Search: {search['generations']} generations, {search['evaluations']} candidates, "
               f"{search['wall_s'] / 60:.1f} min, {search['duration_s']:g} s runs of the "
-              f"{search['physics']} physics, seed {search['seed']}.", "",
+              f"{search['physics']} physics, seed {search['seed']}."
+              + (f" The {len(search['finalists'])} best distinct candidates were run again for "
+                 f"{judged['duration_s']:g} s; the best of them (number {search['chosen_finalist'] + 1} "
+                 "by the search's measure) is the design judged." if len(search["finalists"]) > 1 else "")
+              + (f" Stopped by --minutes after {search['stopped']['generations']} of the "
+                 f"{search['stopped']['generations_asked']} generations asked." if search.get("stopped")
+                 else ""), "",
               "| segment | elements | direction (x, y, z) | magnitude (A/m) |", "|---|---|---|---|"]
     for k, seg in enumerate(summary["best_segments"]):
         d = ", ".join(f"{v:+.3f}" for v in seg["direction"])

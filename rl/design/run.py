@@ -13,15 +13,19 @@ The folder (written in place under a lock, like a training run, its marker of ki
   ``report.md`` and ``gait/`` (the best design under its best rotating field, as
   ``msr field baseline`` writes it, with a GIF).
 
-A folder that holds a design is continued with ``resume`` and started afresh with ``force`` (its
-earlier design's files, those the marker lists, are removed first); anything else in it is
-refused before any work.
+A folder that holds a design is continued with ``resume`` and replaced with ``force``: the new
+design is then searched in a folder beside it and swapped in whole when it is finished (an
+interrupted replacement leaves the earlier design as it was; it cannot be resumed, a new
+``force`` starts it again); anything else in the folder is refused before any work. The end's
+files are written beside the search's and moved into place together, so a design that has a
+``summary.json`` is finished.
 """
 
 from __future__ import annotations
 
 import csv
 import math
+import os
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, replace
@@ -32,13 +36,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from elastica_magnetic.io import atomic_write, atomic_write_json, display_path, normalized_path, read_json
-from elastica_magnetic.locks import FolderLock
+from elastica_magnetic.locks import FolderLock, claim, release_claim
 from elastica_magnetic.results import (
     OutputPathError,
     check_result_folder,
     mark_folder,
     read_marker,
     remove_tree,
+    result_folder,
+    signals_held,
 )
 from elastica_magnetic.specfile import SpecError, read_spec
 
@@ -67,6 +73,13 @@ OUTPUT_FILES = ("best.toml", "final_sweep.csv", "summary.json", "convergence.png
                 "magnetization.png", "report.md", "gait")
 #: Every name a design folder holds: anything else there is the user's (refused, never removed).
 DESIGN_NAMES = frozenset((DESIGN_JSON, STATE_FILE.split("/")[0], HISTORY_CSV, *OUTPUT_FILES))
+#: Where the end's files are written before they are moved into the design folder together.
+END_STAGING = ".msr-end"
+#: The command-line option behind each recorded setting (named when a resume differs).
+SETTING_OPTIONS = {"objective": "--objective", "seed": "--seed", "popsize": "--popsize",
+                   "sigma0": "the search's step size (another msr version)",
+                   "search_duration": "--quick", "physics": "--quick", "final_duration": "--quick",
+                   "final_physics": "--quick", "final_periods": "--quick"}
 
 
 class DesignError(ValueError):
@@ -88,7 +101,13 @@ class DesignSettings:
     minutes: float | None = 30.0
     generations: int | None = None
     popsize: int | None = None  # None: CMA-ES's default, 4 + 3 ln(dimension)
-    sigma0: float = 0.25
+    #: CMA-ES's first step, in the vector's units (0.12: ~22 degrees of a segment's direction; a
+    #: 45-degree step breaks most gaits).
+    sigma0: float = 0.12
+    #: The best distinct candidates of the search run again at the judged duration and physics
+    #: before the final judgement, which takes the best of them (the search's shorter runs rank
+    #: designs differently from the judgement: a gait builds up over seconds).
+    finalists: int = 6
     search_duration: float = 5.0
     physics: str = "accurate"
     final_duration: float = EVAL_DURATION
@@ -118,6 +137,8 @@ class DesignSettings:
         if self.popsize is not None and self.popsize < 2:
             raise DesignError(f"--popsize must be >= 2 (CMA-ES needs two candidates to rank), "
                               f"got {self.popsize}")
+        if self.finalists < 1:
+            raise DesignError(f"--finalists must be >= 1, got {self.finalists}")
         if self.workers < 1:
             raise DesignError(f"--workers must be >= 1, got {self.workers}")
         for name, value in (("search duration", self.search_duration),
@@ -172,7 +193,48 @@ def load_design(spec: str | Path) -> Design:
                                         case.robot_spec("accurate").magnetization)
     base = case.to_dict()
     base.pop(DESIGN_TABLE, None)  # the designs are robots, not searches
-    return Design(case, base, space)
+    return Design(case, _stable_for_sizes(base, space, source), space)
+
+
+def _stable_for_sizes(base: dict[str, Any], space: DesignSpace, source: str) -> dict[str, Any]:
+    """``base`` whose time steps hold for every size the search may choose: with size ranges,
+    each physics' ``dt`` lowered (never raised) to the suggested step of the least stable corner
+    of the ranges, so every candidate runs, and the best design is written, with a step
+    ``msr case check`` calls stable. Units: m, s."""
+    import copy
+    import itertools
+    import warnings
+
+    from elastica_magnetic.specfile import PHYSICS_DEFAULTS, describe_robot
+    from elastica_magnetic.stability import estimated_stable_time_step, suggested_time_step
+
+    if not space.sizes:
+        return base
+    keys = [key for key, _, _ in space.sizes]
+    stable = dict.fromkeys(PHYSICS_DEFAULTS, math.inf)
+    for corner in itertools.product(*[(low, high) for _, low, high in space.sizes]):
+        probe = copy.deepcopy(base)
+        probe["robot"].update(zip(keys, corner, strict=True))
+        probe["physics"] = {setting: {**(base.get("physics") or {}).get(setting, {}), "dt": 1e-7}
+                            for setting in PHYSICS_DEFAULTS}
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # the corner's own oddities are the spec's
+                description = describe_robot(probe, source)
+        except SpecError as exc:
+            sizes = ", ".join(f"{key} = {value:g} m" for key, value in zip(keys, corner, strict=True))
+            raise DesignError(f"{source}: [design] the size ranges hold a robot that is not valid "
+                              f"({sizes}): {exc}") from None
+        for setting in PHYSICS_DEFAULTS:
+            stable[setting] = min(stable[setting], estimated_stable_time_step(description.robot(setting))[0])
+    out = copy.deepcopy(base)
+    physics = out.setdefault("physics", {})
+    for setting, defaults in PHYSICS_DEFAULTS.items():
+        table = physics.setdefault(setting, {})
+        if float(table.get("dt", defaults["dt"])) > stable[setting]:
+            table["dt"] = suggested_time_step(stable[setting])
+            table.setdefault("mass_scale", defaults["mass_scale"])
+    return out
 
 
 def run_design(spec: str | Path | Design, out: str | Path, settings: DesignSettings, *, resume: bool = False,
@@ -183,21 +245,121 @@ def run_design(spec: str | Path | Design, out: str | Path, settings: DesignSetti
     (``summary.json``: ``objective_start_m``, ``objective_best_m`` and the rest). ``progress``
     is called with each generation's state (generation, evaluations, best objective in m,
     elapsed s). Everything is checked before any simulation."""
-    from .outputs import write_outputs
-
     settings.check()
     design = spec if isinstance(spec, Design) else load_design(spec)
     folder = normalized_path(out)
+    if force and holds_design(folder):
+        _check_folder(folder, resume, force)
+        # built beside and swapped in whole: the earlier design stays until the new one is finished
+        with result_folder(folder, kind=DESIGN_KIND, force=True, option="--out",
+                           known_files=_design_files(folder)) as result:
+            summary = _design_into(result.path, design, settings, False, progress, replacing=True)
+            result.subject = f"case {design.case.name}"
+        return summary
     _check_folder(folder, resume, force)
-    with FolderLock(folder, option="--out"):
-        _check_folder(folder, resume, force)  # again, under the lock
-        record = _prepare(folder, design, settings, resume, force)
-        mark_folder(folder, kind=DESIGN_KIND, subject=f"case {design.case.name}")
-        state = _search(folder, design, settings, record, progress)
-        record["outputs"] = list(OUTPUT_FILES)
-        atomic_write_json(folder / DESIGN_JSON, record)
-        summary = write_outputs(folder, design, settings, record, state)
-        mark_folder(folder, kind=DESIGN_KIND, subject=f"case {design.case.name}")
+    try:
+        with FolderLock(folder, option="--out"):
+            _check_folder(folder, resume, force)  # again, under the lock
+            return _design_into(folder, design, settings, resume, progress)
+    finally:
+        release_claim(folder)
+
+
+def holds_design(folder: str | Path) -> bool:
+    """Whether ``folder`` holds a design (finished or not), by its marker."""
+    path = normalized_path(folder)
+    marker = read_marker(path) if path.is_dir() else None
+    return marker is not None and marker.get("kind") == DESIGN_KIND
+
+
+def _design_files(folder: Path) -> list[str]:
+    """The files of the design in ``folder`` (relative paths), as a replacement may remove them."""
+    return [p.relative_to(folder).as_posix() for p in folder.rglob("*")
+            if p.is_file() and (p.relative_to(folder).parts[0] in DESIGN_NAMES
+                                or p.relative_to(folder).parts[0].startswith(".msr"))]
+
+
+def _design_into(folder: Path, design: Design, settings: DesignSettings, resume: bool,
+                 progress: Callable[[dict[str, Any]], None] | None, *, replacing: bool = False
+                 ) -> dict[str, Any]:
+    """The search and the end, in ``folder`` (held by the caller; ``replacing``: a folder beside
+    the design it will replace)."""
+    subject = f"case {design.case.name}"
+    record = _prepare(folder, design, settings, resume)
+    mark_folder(folder, kind=DESIGN_KIND, subject=subject)
+    state = _search(folder, design, settings, record, progress)
+    record["outputs"] = list(OUTPUT_FILES)
+    record["stopped"] = _stopped(state, settings)
+    record["finalists"] = _finalists(design, settings, state, record.get("finalists"))
+    atomic_write_json(folder / DESIGN_JSON, record)
+    summary = _end(folder, design, settings, record, state, replacing)
+    mark_folder(folder, kind=DESIGN_KIND, subject=subject)
+    return summary
+
+
+def _finalists(design: Design, settings: DesignSettings, state: SearchState,
+               done: list[dict[str, Any]] | None) -> list[dict[str, Any]]:
+    """The best ``settings.finalists`` distinct candidates of the search (the best so far among
+    them), each run again under its own period, both senses, for ``final_duration`` s of
+    ``final_physics``: records with ``vector``, ``objective_search_m`` and ``objective_m`` (the
+    longer run's). ``done``: the records of an earlier end of the same search (reused)."""
+    ranked = sorted(state.history, key=lambda r: -r["objective_m"])
+    picked: list[NDArray[np.float64]] = [np.asarray(state.best_x, dtype=float)]
+    searched = [float(state.best_objective)]
+    for row in ranked:
+        if len(picked) >= settings.finalists:
+            break
+        x = np.asarray(row["vector"], dtype=float)
+        if not any(np.array_equal(x, y) for y in picked):
+            picked.append(x)
+            searched.append(float(row["objective_m"]))
+    vectors = [[float(v) for v in x] for x in picked]
+    if done and [r["vector"] for r in done] == vectors:
+        return done
+    records = evaluate_candidates(design.case, [design.space.spec_of(design.base, x) for x in picked],
+                                  [design.space.period(x) for x in picked], settings.final_physics,
+                                  settings.final_duration, settings.workers,
+                                  _variation_set(design, settings))
+    return [{**r, "vector": v, "objective_search_m": o}
+            for r, v, o in zip(records, vectors, searched, strict=True)]
+
+
+def _stopped(state: SearchState, settings: DesignSettings) -> dict[str, Any] | None:
+    """What cut the search short of ``--generations`` (``None``: nothing)."""
+    if settings.generations is None or state.generation >= settings.generations:
+        return None
+    return {"by": "--minutes", "minutes": settings.minutes, "generations": state.generation,
+            "generations_asked": settings.generations}
+
+
+def _end(folder: Path, design: Design, settings: DesignSettings, record: dict[str, Any],
+         state: SearchState, replacing: bool) -> dict[str, Any]:
+    """The end's files, written beside the search's and then moved into place together (a
+    failure, a full disk, leaves the search whole and no end that looks finished)."""
+    from .outputs import write_outputs
+
+    staging = folder / END_STAGING
+    remove_tree(staging)
+    try:
+        staging.mkdir()
+        summary = write_outputs(staging, design, settings, record, state)
+    except (OSError, OutputPathError) as exc:
+        remove_tree(staging)
+        text = str(exc).replace(str(staging), str(folder))
+        if replacing:  # the folder beside goes; the earlier design stays
+            raise OutputPathError(f"{text}; the replacement design was not finished") from exc
+        raise OutputPathError(f"{text}; the design in {display_path(folder)} is unfinished (its search "
+                              "is whole): free space or fix the cause and continue with --resume") from exc
+    except BaseException:
+        remove_tree(staging)
+        raise
+    with signals_held():
+        for name in OUTPUT_FILES:
+            if (staging / name).is_dir():
+                remove_tree(folder / name)
+            if os.path.lexists(staging / name):
+                os.replace(staging / name, folder / name)
+        remove_tree(staging)
     return summary
 
 
@@ -205,6 +367,8 @@ def run_design(spec: str | Path | Design, out: str | Path, settings: DesignSetti
 
 def _check_folder(folder: Path, resume: bool, force: bool) -> None:
     """Refuse, before any work, a folder that is not a design's (or not this request's)."""
+    if folder.parent.is_dir():  # a design being written is named first, before what it holds
+        claim(folder, option="--out")
     marker = read_marker(folder) if folder.is_dir() else None
     shown = display_path(folder)
     if marker is None or marker.get("kind") != DESIGN_KIND:
@@ -230,19 +394,14 @@ def _check_folder(folder: Path, resume: bool, force: bool) -> None:
                               "it with --resume, or replace it with --force")
 
 
-def _prepare(folder: Path, design: Design, settings: DesignSettings, resume: bool,
-             force: bool) -> dict[str, Any]:
+def _prepare(folder: Path, design: Design, settings: DesignSettings, resume: bool) -> dict[str, Any]:
     """The design's record (``design.json``): read back and checked on a resume, else written
-    anew (after the earlier design's files are removed, with ``force``)."""
+    anew (into a new or empty folder)."""
     spec = {**design.base, DESIGN_TABLE: design.space.to_dict()}
     if resume and (folder / DESIGN_JSON).exists():
         record = read_json(folder / DESIGN_JSON, fix="start the design afresh with --force")
         _check_same(record, spec, settings, folder)
         return record
-    if force:
-        for name in sorted(DESIGN_NAMES):
-            path = folder / name
-            remove_tree(path) if path.is_dir() else path.unlink(missing_ok=True)
     folder.mkdir(parents=True, exist_ok=True)
     record = {"format": "msr-design-v1", "case": design.case.name, "spec": spec,
               "settings": settings.recorded(), "start": None}
@@ -254,13 +413,20 @@ def _check_same(record: Mapping[str, Any], spec: dict[str, Any], settings: Desig
                 folder: Path) -> None:
     from ..sweep.run_records import first_difference
 
-    for what, old, new in (("spec", record.get("spec"), spec),
-                           ("settings", record.get("settings"), settings.recorded())):
-        if _plain(old) != _plain(new):
-            difference = first_difference(_plain(old), _plain(new))
-            raise DesignError(f"--resume: the design in {display_path(folder)} was started with "
-                              f"another {what} ({difference}); resume it with the same spec and "
-                              "options, or start afresh with --force")
+    shown = display_path(folder)
+    old, new = _plain(record.get("spec")), _plain(spec)
+    if old != new:
+        raise DesignError(f"--resume: the design in {shown} was started from another spec (case "
+                          f"{record.get('case')}; first difference: {first_difference(old, new)}); "
+                          "resume it with the same spec, or start afresh with --force")
+    old, new = _plain(record.get("settings")), _plain(settings.recorded())
+    if old != new:
+        key = next(k for k in sorted(set(old or {}) | set(new)) if (old or {}).get(k) != new.get(k))
+        option = SETTING_OPTIONS.get(key, key)
+        told = (f"{option}: given in one and not the other" if option == "--quick" else
+                f"{option}: {(old or {}).get(key)!r} then, {new.get(key)!r} now")
+        raise DesignError(f"--resume: the design in {shown} was started with other options ({told}); "
+                          "resume it with the same options, or start afresh with --force")
 
 
 def _plain(data: Any) -> Any:
@@ -352,6 +518,7 @@ def _spent(state: SearchState, settings: DesignSettings, last_s: float, trials: 
     trial_s = last_s / max(1, trials)  # wall time of one search simulation, the workers busy
     longer = settings.final_duration / settings.search_duration
     judged = 2 * 2 * (len(settings.final_periods) + 2)  # two designs, both senses, the periods
+    judged += settings.finalists * trials // max(1, _popsize(state))  # the finalists, run again
     if settings.objective == "robust":
         judged += 2 * 25  # each design's worst case over the default set with its corners
     gait = settings.workers * trial_s * longer  # one rollout, on one core

@@ -152,7 +152,8 @@ def plot_learning_curves(
         ax_eval.set_xlabel("environment steps")
         ax_eval.set_ylabel(f"evaluation: 10 s, {physics} physics,\nfrom zero field (mm)")
         ax_eval.grid(alpha=0.3)
-        ax_eval.legend(fontsize=7, ncol=2)
+        if ax_eval.get_legend_handles_labels()[0]:
+            ax_eval.legend(fontsize=7, ncol=2)
     if curves:
         grid = np.linspace(max(c[0][0] for c in curves), min(c[0][-1] for c in curves), n_grid)
         values = np.full((len(curves), n_grid), np.nan)
@@ -169,7 +170,11 @@ def plot_learning_curves(
     ax.set_ylabel(f"training episode return\n(EMA, alpha = {alpha:g}; {physics} physics)")
     ax.set_title(title or "learning curves")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=2)
+    if curves:
+        ax.legend(fontsize=7, ncol=2)
+    else:  # a run shorter than one episode: an empty curve, said on the figure
+        ax.text(0.5, 0.5, "no finished episode: the learning curve is empty", transform=ax.transAxes,
+                ha="center", va="center")
     return _save(fig, path)
 
 

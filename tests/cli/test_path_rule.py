@@ -190,6 +190,14 @@ def test_a_link_loop_or_an_over_long_name_is_refused_before_any_work(tmp_path, c
     with pytest.raises(SystemExit):
         main(["field", "simulate", "--duration", "0.05", "--out", str(tmp_path / ("a" * 300))])
     assert "is 300 bytes long; the file system allows at most" in capsys.readouterr().err
+    # round 10, V6: a 240-byte name fits, msr's own names beside it do not: said before any work
+    for argv in (["field", "simulate", "--duration", "0.05", "--out"],
+                 ["design", "m1-4mT", "--quick", "--generations", "1", "--out"],
+                 ["hw", "calibrate", str(tmp_path / "m.csv"), "--out"]):
+        with pytest.raises(SystemExit):
+            main([*argv, str(tmp_path / ("b" * 240))])
+        assert "is 240 bytes long; msr writes beside it under longer names" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["loopA", "loopB"]
     from elastica_magnetic.io import OutputPathError
     from elastica_magnetic.results import check_result_folder
 

@@ -87,6 +87,13 @@ def test_every_vector_is_a_robot_the_parser_accepts(spec, segments, data):
     ({"remanence": -61.3}, "must be > 0"),
     ({"segment": 6}, "unknown key"),
     ({"lengths": "random"}, "expected one of equal, free"),
+    # round 10, S2/V2: the key and the value written, at spec check, not at run time
+    ({"period_low": 0.001, "period_high": 0.002}, "period_low: 0.001 s is at or under 2 x the 0.01 s"),
+    ({"period_low": 0.02, "period_high": 2.0}, "period_low: 0.02 s is at or under"),
+    # round 10, S3: a band thicker than wide was simulated
+    ({"thickness": [0.0005, 0.02]}, "thickness: the thickest band searched (0.02 m) is thicker"),
+    ({"width": [0.0007, 0.012]}, "width: the thickest band searched (0.0008 m)"),
+    ({"width": [0.004, 0.012], "thickness": [0.0005, 0.005]}, "thicker than the narrowest (0.004 m"),
 ])
 def test_bad_design_tables_are_refused_by_name(tmp_path, table, message):
     spec = load_case("m1-4mT").to_dict()
@@ -106,6 +113,38 @@ def test_a_remanence_in_ka_per_m_is_named(tmp_path):
     path = tmp_path / "my.toml"
     path.write_text(dumps(spec))
     with pytest.warns(ImplausibleValueWarning, match=r"\[design\] remanence = 61.3 A/m.*kA/m"):
+        load_design(path)
+
+
+def test_periods_in_ms_are_named_and_accepted_keys_are_silent(tmp_path):
+    """Round 10, S2: periods of 500-6000 (ms written for s) passed without a word; S7: a
+    ``[checks] accept`` naming a [design] key, the fix the warning proposes, was ignored."""
+    import warnings
+
+    from elastica_magnetic.plausibility import ImplausibleValueWarning
+
+    spec = load_case("m1-4mT").to_dict()
+    spec["design"] = {"period_low": 500, "period_high": 6000}
+    path = tmp_path / "ms.toml"
+    path.write_text(dumps(spec))
+    with pytest.warns(ImplausibleValueWarning, match=r"period_low = 500 s .*500 ms is 0.5 s"):
+        load_design(path)
+    spec["design"] = {"remanence": 61.3}
+    spec["checks"] = {"accept": ["design.remanence"]}
+    path.write_text(dumps(spec))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ImplausibleValueWarning)
+        assert load_design(path).space.remanence == 61.3
+
+
+def test_an_unknown_key_lists_the_size_keys_too(tmp_path):
+    """Round 10, V1: the list of keys the table takes left out length, width, thickness, radius."""
+    spec = load_case("m1-4mT").to_dict()
+    spec["design"] = {"segmnts": 4}
+    path = tmp_path / "typo.toml"
+    path.write_text(dumps(spec))
+    with pytest.raises(SpecError, match=r"segmnts: unknown key \(this table takes: .*length, lengths.*"
+                                        r"radius, remanence, segments, thickness, width\)"):
         load_design(path)
 
 

@@ -65,6 +65,9 @@ def test_the_design_folder_and_its_summary(tmp_path):
     assert len(_rows(out / "history.csv")) == 2 * 3
     best = case_from_dict(read_spec(out / "best.toml"), "best.toml")
     assert best.name == "m1-4mT-designed"
+    # round 10, V5: the words of the starting robot described its own magnetization
+    assert best.description.startswith("Designed by msr design from m1-4mT")
+    assert best.robot.tables["robot"]["name"] == "yao2023-m1-designed"
     # the start is the spec's own robot, judged by the same sweep as the best
     sweep = _rows(out / "final_sweep.csv")
     assert {r["design"] for r in sweep} == {"start", "best"}
@@ -118,7 +121,7 @@ def test_the_folder_rules(tmp_path, capsys):
     with pytest.raises(OutputPathError, match="continue it with --resume, or replace it with --force"):
         run_design("m1-4mT", out, TINY)
     other = DesignSettings(**{**TINY.__dict__, "seed": 7})
-    with pytest.raises(DesignError, match=r"another settings \(seed\)"):
+    with pytest.raises(DesignError, match=r"other options \(--seed: 0 then, 7 now\)"):
         run_design("m1-4mT", out, other, resume=True)
     (out / "mine.txt").write_text("a user's note")
     with pytest.raises(OutputPathError, match="files msr did not write \\(mine.txt\\)"):
@@ -250,3 +253,132 @@ def test_a_users_file_saved_during_a_design_is_never_taken_for_the_designs(tmp_p
     with pytest.raises(OutputPathError, match=r"files msr did not write \(user.txt\)"):
         run_design("m1-4mT", out, TINY, force=True)
     assert (out / "user.txt").read_text() == "my lab notes\n"
+
+
+def _fingerprint(folder: Path) -> dict[str, bytes]:
+    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file()}
+
+
+def test_an_interrupted_force_keeps_the_earlier_design(tmp_path, monkeypatch):
+    """Round 10, D2: --force removed the earlier design at its start; a Ctrl-C then left neither."""
+    import elastica_magnetic_rl.design.run as design_run
+
+    out = tmp_path / "d"
+    run_design("m1-4mT", out, TINY)
+    before = _fingerprint(out)
+    real, calls = design_run.run_generation, {"n": 0}
+
+    def stopped_in_the_second(*args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    other = DesignSettings(**{**TINY.__dict__, "seed": 5})
+    monkeypatch.setattr(design_run, "run_generation", stopped_in_the_second)
+    with pytest.raises(KeyboardInterrupt):
+        run_design("m1-4mT", out, other, force=True)
+    assert calls["n"] == 2 and _fingerprint(out) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d"]  # nothing left beside it
+    monkeypatch.setattr(design_run, "run_generation", real)
+    replaced = run_design("m1-4mT", out, other, force=True)
+    assert replaced["search"]["seed"] == 5 and _fingerprint(out) != before
+    assert json.loads((out / "summary.json").read_text())["search"]["seed"] == 5
+
+
+def test_a_full_disk_at_the_end_leaves_an_unfinished_design_to_resume(tmp_path, monkeypatch):
+    """Round 10, D3: a disk filling during the end's writes left summary.json and best.toml (a
+    design that looked finished) without gait/, and the message did not say --resume."""
+    import errno
+
+    import elastica_magnetic_rl.design.outputs as outputs
+
+    real = outputs._write_gait
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    out = tmp_path / "d"
+    monkeypatch.setattr(outputs, "_write_gait", full)
+    with pytest.raises(OutputPathError, match="is unfinished .*continue with --resume"):
+        run_design("m1-4mT", out, TINY)
+    names = {p.name for p in out.iterdir()}
+    assert names.isdisjoint({"summary.json", "best.toml", "report.md", "gait"})
+    assert {"design.json", "history.csv", "search"} <= names
+    monkeypatch.setattr(outputs, "_write_gait", real)
+    summary = run_design("m1-4mT", out, TINY, resume=True)
+    assert summary["search"]["generations"] == 2 and (out / "gait").is_dir()
+    assert not (out / ".msr-end").exists()
+
+
+def test_a_design_being_written_is_named_before_the_folders_content(tmp_path):
+    """Round 10, V7: a second design on a folder another one was writing was told to --resume,
+    which then called the running design's checkpoint a user's file."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "d"
+    run_design("m1-4mT", out, TINY)
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import sys, time; from elastica_magnetic.locks import FolderLock\n"
+         "with FolderLock(sys.argv[1]):\n    print('held', flush=True); time.sleep(60)", str(out)],
+        stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        for flags in ({"resume": True}, {"force": True}, {}):
+            with pytest.raises(OutputPathError, match="being written by pid"):
+                run_design("m1-4mT", out, TINY, **flags)
+    finally:
+        holder.kill()
+        holder.wait()
+
+
+def test_a_minutes_budget_that_cuts_the_generations_says_so(tmp_path, capsys):
+    """Round 10, S4: --generations 3 --minutes 0.05 ran one generation without a word."""
+    out = tmp_path / "d"
+    assert msr(["design", "m1-4mT", "--out", str(out), "--generations", "3", "--minutes", "0.001",
+                *QUICK]) == 0
+    err = capsys.readouterr().err
+    assert "stopped by --minutes 0.001 after 1 of 3 generations" in err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["search"]["stopped"] == {"by": "--minutes", "minutes": 0.001, "generations": 1,
+                                            "generations_asked": 3}
+    assert "after 1 of the 3 generations asked" in (out / "report.md").read_text()
+
+
+def test_a_resume_with_other_options_names_the_option(tmp_path):
+    """Round 10, V3: the mismatch named an internal key (final_duration) for --quick."""
+    out = tmp_path / "d"
+    run_design("m1-4mT", out, TINY)
+    longer = DesignSettings(**{**TINY.__dict__, "final_duration": 10.0})
+    with pytest.raises(DesignError, match=r"--quick: given in one and not the other"):
+        run_design("m1-4mT", out, longer, resume=True)
+    with pytest.raises(DesignError, match=r"another spec \(case m2-4mT; first difference"):
+        run_design("m2-4mT", out, TINY, resume=True)
+
+
+def test_sizes_get_a_time_step_stable_at_every_corner(tmp_path):
+    """Round 10, S6: a design with size ranges wrote a best.toml whose training step msr case
+    check called likely unstable (a 15.7 mm robot at the 20 mm robot's dt)."""
+    from elastica_magnetic_rl.design.run import load_design
+
+    from elastica_magnetic.spec_check import unstable_time_step
+
+    spec = load_case("m1-4mT").to_dict()
+    spec["design"] = {"segments": 4, "lengths": "free", "width": [0.004, 0.012],
+                      "length": [0.015, 0.03]}
+    path = tmp_path / "width.toml"
+    path.write_text(dumps(spec))
+    design = load_design(path)
+    assert design.base["physics"]["training"]["dt"] < 1e-4  # the spec's own 1e-4 s is lowered
+    assert design.base["physics"]["accurate"]["dt"] == 8e-6  # stable already: kept
+    low = design.start_vector(1.0)
+    where = design.space._slices()
+    low[where["size:length"]] = low[where["size:width"]] = 0.0  # the shortest, narrowest corner
+    corner = design.case_of(low)
+    for physics in ("training", "accurate"):
+        assert unstable_time_step(corner.robot_spec(physics), physics) is None
+    run_design(design, tmp_path / "out", TINY)
+    best = load_case(tmp_path / "out" / "best.toml")
+    assert unstable_time_step(best.robot_spec("training"), "training") is None
