@@ -12,6 +12,7 @@ closed-form sources of :mod:`elastica_magnetic.spatial_fields`.
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +34,18 @@ __all__ = [
     "FieldMapDomainError",
     "EXPORT_LENGTH_UNITS",
     "EXPORT_FIELD_UNITS",
+    "MAX_RESAMPLED_NODES",
 ]
+
+#: Length and field units a grid export may state, with their factor to m and to T.
+EXPORT_LENGTH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "µm": 1e-6}
+EXPORT_FIELD_UNITS = {"T": 1.0, "mT": 1e-3, "uT": 1e-6, "µT": 1e-6, "G": 1e-4, "gauss": 1e-4}
+
+#: The most nodes (all axes together) an uneven grid export is resampled onto: 2 million nodes hold
+#: about 200 MB of samples and gradient tables. A mesh refined near one point would need far more
+#: at its finest spacing; such a file is refused, to be resampled onto an even grid where it was made.
+MAX_RESAMPLED_NODES = 2_000_000
+
 
 class FieldMapDomainError(SpatialFieldError):
     """A point outside the grid of a :class:`FieldMap`."""
@@ -148,48 +160,56 @@ class FieldMap(SpatialField):
     def from_export(cls, path: str | Path, scale: ScalarOrWaveform = 1.0, *,
                     length_unit: str | None = None, field_unit: str | None = None) -> FieldMap:
         """Load a finite-element tool's grid export (COMSOL's spreadsheet format and the like):
-        comment lines starting with ``%`` or ``#`` (COMSOL's header: ``% Length unit: mm``, and
-        the column names with their units, ``mf.Bx (T)``), then rows ``x y z Bx By Bz``
-        separated by spaces, tabs or commas, in any order.
+        comment lines starting with ``%`` or ``#``, then one row per grid point, in any order,
+        numbers separated by spaces, tabs or commas.
 
-        Units come from the header or from ``length_unit`` (``"m"``, ``"cm"``, ``"mm"``, ``"um"``)
-        and ``field_unit`` (``"T"``, ``"mT"``, ``"G"``), which must agree with the header where
-        it states them; a file that states neither is refused (no unit is guessed). A rectilinear
-        grid whose spacing is not even (a mesh refined near a magnet) is resampled by trilinear
-        interpolation onto an even grid at its finest spacing along each axis
-        (:attr:`resampled` says so): exact at the original nodes that fall on the new grid, and
-        linear in between."""
+        The header's column names say which column is what: ``x y z`` (optionally with a unit,
+        ``x (mm)``) and ``Bx By Bz`` (optionally with a prefix and a unit, ``mf.Bx (T)``), in any
+        order; each column is read in its own unit. A header without a column-name line is read
+        as ``x y z Bx By Bz``. A name line that does not name each of x, y, z, Bx, By, Bz exactly
+        once is refused, naming the column.
+
+        Units come from the header (``% Length unit: mm``, the units in the column names) or from
+        ``length_unit`` (``"m"``, ``"cm"``, ``"mm"``, ``"um"``) and ``field_unit`` (``"T"``,
+        ``"mT"``, ``"uT"``, ``"G"``), which must agree with the header where it states them; a
+        file that states neither is refused (no unit is guessed). A rectilinear grid whose spacing
+        is not even (a mesh refined near a magnet) is resampled by trilinear interpolation onto an
+        even grid at its finest spacing along each axis (:attr:`resampled` says so): exact at the
+        original nodes that fall on the new grid, and linear in between. A resampled grid of more
+        than :data:`MAX_RESAMPLED_NODES` nodes is refused before it is made.
+
+        The map's coordinates are in m and its samples in T, whatever the file's units."""
         path = Path(path)
         header, table = _read_export(path)
-        length_factor = _export_unit(path, "length", _header_length_unit(header), length_unit,
-                                     EXPORT_LENGTH_UNITS)
-        field_factor = _export_unit(path, "field", _header_field_unit(header), field_unit,
-                                    EXPORT_FIELD_UNITS)
         if table.shape[0] == 0 or table.shape[1] != 6:
             raise SpatialFieldError(f"{path}: expected rows of 6 numbers (x y z Bx By Bz), got "
                                     f"{table.shape[1] if table.size else 0} columns")
+        order, factors = _column_factors(path, header, length_unit, field_unit)
+        table = table[:, order] * np.array(factors)
         if not np.all(np.isfinite(table)):
             row = int(np.argwhere(~np.isfinite(table))[0, 0])
             raise SpatialFieldError(f"{path}: data row {row + 1}: a value is not finite (COMSOL "
                                     "writes NaN outside the geometry: export a grid inside it)")
-        axes = [np.unique(table[:, d]) * length_factor for d in range(3)]
+        axes = [np.unique(table[:, d]) for d in range(3)]
         shape = tuple(a.shape[0] for a in axes)
         if table.shape[0] != shape[0] * shape[1] * shape[2]:
             raise SpatialFieldError(f"{path}: {table.shape[0]} rows do not fill a rectilinear "
                                     f"{shape[0]} x {shape[1]} x {shape[2]} grid once (export a grid, "
                                     "not the mesh nodes)")
-        index = tuple(np.searchsorted(axes[d], table[:, d] * length_factor) for d in range(3))
+        counts = [_even_count(a) for a in axes]
+        _check_resampled_size(path, axes, counts)
+        index = tuple(np.searchsorted(axes[d], table[:, d]) for d in range(3))
         samples = np.full((*shape, 3), np.nan)
-        samples[index] = field_factor * table[:, 3:]
+        samples[index] = table[:, 3:]
         if np.isnan(samples).any():
             raise SpatialFieldError(f"{path}: a grid point appears twice and another is missing")
-        even = [_even_axis(a) for a in axes]
-        resampled = any(e is not a for e, a in zip(even, axes, strict=True))
+        even = [axes[d] if counts[d] is None else np.linspace(axes[d][0], axes[d][-1], counts[d])
+                for d in range(3)]
         for d in range(3):  # trilinear on a rectilinear grid: linear along each axis in turn
-            if even[d] is not axes[d]:
+            if counts[d] is not None:
                 samples = np.apply_along_axis(lambda v, d=d: np.interp(even[d], axes[d], v), d, samples)
         field_map = cls(*even, samples, scale, source=str(path))
-        field_map.resampled = resampled
+        field_map.resampled = any(c is not None for c in counts)
         return field_map
 
     #: Whether the map was resampled onto an even grid (:meth:`from_export`).
@@ -218,11 +238,6 @@ class FieldMap(SpatialField):
                 f"t = {time:.6g} s is outside the map's grid [{lo.tolist()}, {hi.tolist()}] m")
 
 
-#: Length and field units a grid export may state, with their factor to m and to T.
-EXPORT_LENGTH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "µm": 1e-6}
-EXPORT_FIELD_UNITS = {"T": 1.0, "mT": 1e-3, "G": 1e-4, "gauss": 1e-4}
-
-
 def _read_export(path: Path) -> tuple[list[str], NDArray[np.float64]]:
     """The comment lines (``%`` or ``#``, without the mark) and the numbers of a grid export."""
     header, rows = [], []
@@ -248,50 +263,161 @@ def _read_export(path: Path) -> tuple[list[str], NDArray[np.float64]]:
     return header, np.array(rows, dtype=np.float64).reshape(len(rows), -1)
 
 
+#: A header line ``Key: value`` (COMSOL's ``% Length unit: mm``, ``% Model: ...``), not column names.
+_METADATA = re.compile(r"^[A-Za-z][\w ]*:")
+#: A column name with an optional unit in parentheses or brackets: ``mf.Bx (T)``, ``x [mm]``, ``y``.
+_COLUMN = re.compile(r"([^\s,()\[\]]+)(?:\s*[(\[]\s*([^)\]]*?)\s*[)\]])?")
+#: The components a column may name (after its prefix, ``mf.``, and lower-cased).
+_COMPONENTS = {"x": 0, "y": 1, "z": 2, "bx": 3, "by": 4, "bz": 5}
+_NAMES = ("x", "y", "z", "Bx", "By", "Bz")
+
+#: Where a component's unit was stated: ``(what says it, the unit)``.
+Statement = tuple[str, str]
+
+
+def _component(name: str) -> int | None:
+    return _COMPONENTS.get(name.rsplit(".", 1)[-1].replace("_", "").lower())
+
+
+def _unit_name(unit: str | None) -> str | None:
+    return None if unit is None else unit.replace("\u03bc", "\u00b5")  # Greek mu as the micro sign
+
+
+def _export_columns(path: Path, header: list[str]) -> list[tuple[int, str, str | None]] | None:
+    """For x, y, z, Bx, By, Bz in turn: the file's column (0-based), its name as written and its
+    unit, read from the header's column-name line; ``None`` when the header has none (the
+    columns are then x y z Bx By Bz). A line naming at least three of the components is the
+    column-name line; one that does not name each exactly once is refused."""
+    for line in reversed(header):  # the column names come last
+        if _METADATA.match(line):
+            continue
+        tokens = _COLUMN.findall(line)
+        if sum(_component(name) is not None for name, _ in tokens) < 3:
+            continue  # a free-text comment
+        if len(tokens) != 6:
+            raise SpatialFieldError(
+                f"{path}: the header's column names {line!r} name {len(tokens)} columns, the rows hold 6 "
+                "(x y z Bx By Bz, e.g. '% x (mm)  y (mm)  z (mm)  mf.Bx (T)  mf.By (T)  mf.Bz (T)')")
+        found: dict[int, tuple[int, str, str | None]] = {}
+        for column, (name, unit) in enumerate(tokens):
+            component = _component(name)
+            written = f"{name} ({unit})" if unit else name
+            if component is None:
+                raise SpatialFieldError(
+                    f"{path}: column {column + 1} of the header, {written!r}, is none of x, y, z, Bx, "
+                    "By, Bz (a prefix such as 'mf.' and a unit in parentheses may be added: 'mf.Bx (T)')")
+            if component in found:
+                raise SpatialFieldError(
+                    f"{path}: columns {found[component][0] + 1} and {column + 1} of the header both name "
+                    f"{_NAMES[component]} ({found[component][1]!r} and {written!r})")
+            found[component] = (column, written, _unit_name(unit or None))
+        return [found[c] for c in range(6)]
+    return None
+
+
 def _header_length_unit(header: list[str]) -> str | None:
     for line in header:
         key, _, value = line.partition(":")
         if key.strip().lower() == "length unit":
-            return value.strip()
+            return _unit_name(value.strip())
     return None
 
 
-def _header_field_unit(header: list[str]) -> str | None:
-    import re
-
-    for line in reversed(header):  # the column names come last
-        units = re.findall(r"\(([^)]+)\)", line)
+def _header_field_unit(path: Path, header: list[str]) -> str | None:
+    """The field unit of a header without column names: the units of its last line that states
+    three or more, which must be one unit (the columns cannot be told apart)."""
+    for line in reversed(header):
+        units = [u.strip() for u in re.findall(r"\(([^)]+)\)", line)]
         if len(units) >= 3:
-            return units[-1].strip()
+            if len(set(units[-3:])) > 1:
+                raise SpatialFieldError(
+                    f"{path}: the header's units {', '.join(units[-3:])} differ, and it has no column "
+                    "names (x y z Bx By Bz) saying which column is in which; name the columns, "
+                    "e.g. '% x  y  z  mf.Bx (T)  mf.By (mT)  mf.Bz (mT)'")
+            return _unit_name(units[-1])
     return None
 
 
-def _export_unit(path: Path, what: str, stated: str | None, given: str | None,
-                 known: dict[str, float]) -> float:
-    """The factor to SI of the ``what`` unit a file ``stated`` and/or the caller ``given``."""
-    for name, unit in (("the file's header", stated), (f"{what}_unit", given)):
-        if unit is not None and unit not in known:
-            raise SpatialFieldError(f"{path}: {name} names the {what} unit {unit!r}; known: "
+def _export_unit(path: Path, what: str, stated: list[Statement], given: str | None,
+                 known: dict[str, float], unstated: str | None = None) -> float:
+    """The factor to SI of a column's ``what`` unit (``"length"`` or ``"field"``), from what the
+    file ``stated`` (each ``(where, unit)``) and what the caller ``given`` (``{what}_unit``);
+    ``unstated`` names the column when other columns state a unit and this one does not."""
+    claims = [*stated, *([(f"{what}_unit", given)] if given is not None else [])]
+    for where, unit in claims:
+        if unit not in known:
+            raise SpatialFieldError(f"{path}: {where} names the {what} unit {unit!r}; known: "
                                     f"{', '.join(known)}")
-    if stated is not None and given is not None and known[stated] != known[given]:
-        raise SpatialFieldError(f"{path}: the header says the {what} unit is {stated}, {what}_unit "
-                                f"says {given}: leave the option out or correct it")
-    unit = given if given is not None else stated
-    if unit is None:
-        raise SpatialFieldError(f"{path}: states no {what} unit (COMSOL: '% Length unit: mm' and "
-                                f"column names such as 'mf.Bx (T)'); give {what}_unit "
+    if not claims:
+        if unstated is not None:
+            raise SpatialFieldError(f"{path}: {unstated} states no {what} unit while other columns "
+                                    f"do; write it in the column name or give {what}_unit "
+                                    f"({', '.join(known)})")
+        raise SpatialFieldError(f"{path}: states no {what} unit (COMSOL: '% Length unit: mm', or units in "
+                                f"the column names such as 'x (mm)' and 'mf.Bx (T)'); give {what}_unit "
                                 f"({', '.join(known)})")
+    (first, unit), rest = claims[0], claims[1:]
+    for where, other in rest:
+        if known[other] != known[unit]:
+            fix = ("leave the option out or correct it" if where == f"{what}_unit" else
+                   "correct the file")
+            raise SpatialFieldError(f"{path}: {first} says the {what} unit is {unit}, {where} says "
+                                    f"{other}: {fix}")
     return known[unit]
 
 
-def _even_axis(values: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``values`` when evenly spaced, else an even axis over the same span at its finest step."""
+def _column_factors(path: Path, header: list[str], length_unit: str | None,
+                    field_unit: str | None) -> tuple[list[int], list[float]]:
+    """The file's column of x, y, z, Bx, By, Bz and each one's factor to m or T."""
+    columns = _export_columns(path, header)
+    length = _header_length_unit(header)
+    line: list[Statement] = [] if length is None else [("the header's 'Length unit' line", length)]
+    if columns is None:
+        field = _header_field_unit(path, header)
+        column_units: list[Statement] = [] if field is None else [("the header's column units", field)]
+        statements = [line] * 3 + [column_units] * 3
+        order, unstated = [0, 1, 2, 3, 4, 5], [None] * 6
+    else:
+        order = [column for column, _, _ in columns]
+        own = [[] if unit is None else [(f"column {column + 1} {written!r}", unit)]
+               for column, written, unit in columns]
+        statements = [*(o + line for o in own[:3]), *own[3:]]
+        named = [any(own[c] for c in kind) for kind in (range(3), range(3, 6))]
+        unstated = [f"column {columns[c][0] + 1} {columns[c][1]!r}" if named[c // 3] else None
+                    for c in range(6)]
+    factors = [_export_unit(path, "length" if c < 3 else "field", statements[c],
+                            length_unit if c < 3 else field_unit,
+                            EXPORT_LENGTH_UNITS if c < 3 else EXPORT_FIELD_UNITS, unstated[c])
+               for c in range(6)]
+    return order, factors
+
+
+def _even_count(values: NDArray[np.float64]) -> int | None:
+    """``None`` when ``values`` are evenly spaced, else the node count of an even axis over the
+    same span at their finest step."""
     steps = np.diff(values)
     if values.shape[0] < 2 or np.ptp(steps) <= 1e-6 * steps.mean():
-        return values
-    count = int(math.ceil((values[-1] - values[0]) / steps.min() - 1e-9)) + 1
-    return np.linspace(values[0], values[-1], count)
+        return None
+    return int(math.ceil((values[-1] - values[0]) / steps.min() * (1.0 - 1e-9))) + 1  # 1e-9: round-off
 
+
+def _check_resampled_size(path: Path, axes: list[NDArray[np.float64]], counts: list[int | None]) -> None:
+    """Refuse an uneven grid whose even resampling would exceed :data:`MAX_RESAMPLED_NODES`,
+    naming the axis, its finest spacing and the node count (before anything is allocated)."""
+    sizes = [a.shape[0] if c is None else c for a, c in zip(axes, counts, strict=True)]
+    total = math.prod(sizes)
+    if total <= MAX_RESAMPLED_NODES:
+        return
+    d = max((k for k in range(3) if counts[k] is not None), key=lambda k: sizes[k])
+    steps = np.diff(axes[d])
+    k = int(np.argmin(steps))
+    name = "xyz"[d]
+    raise SpatialFieldError(
+        f"{path}: the {name} axis is not evenly spaced, and its finest spacing, {steps[k]:.3g} m (between "
+        f"{axes[d][k]:.6g} and {axes[d][k + 1]:.6g} m), would need {sizes[d]:,} {name} nodes on an even "
+        f"grid, {sizes[0]:,} x {sizes[1]:,} x {sizes[2]:,} = {total:,} in all (at most "
+        f"{MAX_RESAMPLED_NODES:,}): resample onto an even grid in the exporting tool (COMSOL: a Grid 3D "
+        "dataset with evenly spaced x, y and z)")
 
 
 def _npz_arrays(path: Path, names: tuple[str, ...]) -> dict[str, NDArray[np.float64]]:
@@ -326,5 +452,3 @@ def _npz_arrays(path: Path, names: tuple[str, ...]) -> dict[str, NDArray[np.floa
             raise SpatialFieldError(f"{path}: array {name} holds {array.dtype} values, expected "
                                     f"numbers ({expected})")
     return {name: array.astype(np.float64) for name, array in arrays.items()}
-
-

@@ -11,6 +11,28 @@ import pytest
 from elastica_magnetic import FieldMap, FieldMapDomainError, PointDipoleField, SpatialFieldError
 
 RNG = np.random.default_rng(7)
+#: A small catheter (m, kg/m^3, Pa) for the CLI's field-map runs.
+ROBOT = """
+[robot]
+length = 0.05
+radius = 0.0005
+n_elements = 10
+density = 1100.0
+youngs_modulus = 3.0e6
+poisson_ratio = 0.45
+gravity = 0.0
+[robot.magnetization]
+kind = "uniform"
+magnitude = 1.0e5
+[robot.damping]
+relative = 0.0
+legacy_force = 0.03
+legacy_torque = 1e-9
+[physics.accurate]
+dt = 1e-5
+[physics.training]
+dt = 1e-5
+"""
 
 
 def _dipole_grid(n):
@@ -104,7 +126,8 @@ def test_a_grid_export_without_units_or_with_contradicting_ones_is_refused(tmp_p
     loaded = FieldMap.from_export(path, length_unit="mm", field_unit="T")
     assert loaded.spacing.tolist() == pytest.approx([1e-3] * 3)
     labelled = _comsol_export(tmp_path / "mm.txt", axis, axis, axis, lambda p: np.ones_like(p) * 1e-3)
-    with pytest.raises(SpatialFieldError, match="the header says the length unit is mm, length_unit says m"):
+    with pytest.raises(SpatialFieldError, match="the header's 'Length unit' line says the length unit is mm, "
+                       "length_unit says m: leave the option out"):
         FieldMap.from_export(labelled, length_unit="m")
 
 
@@ -117,8 +140,8 @@ def test_a_spec_takes_a_comsol_export_as_a_field_map(tmp_path):
         [0 * p[0], 0 * p[0] + 4e-3, 0 * p[0]]))
     setup = describe_field({"field": {"kind": "field-map", "file": "map.txt"}}, str(tmp_path / "my.toml"))
     np.testing.assert_allclose(setup.source().at(np.zeros((3, 1)))[:, 0], [0.0, 4e-3, 0.0])
-    with pytest.raises(SpecError, match=r"\[field\]: .*map.txt: the header says the field unit is T, "
-                                        "field_unit says mT"):
+    with pytest.raises(SpecError, match=r"\[field\]: .*map.txt: column 4 'mf.Bx \(T\)' says the field "
+                                        "unit is T, field_unit says mT"):
         describe_field({"field": {"kind": "field-map", "file": "map.txt", "field_unit": "mT"}},
                        str(tmp_path / "my.toml"))
 
@@ -152,3 +175,156 @@ def test_a_field_map_with_a_pose_moves_and_turns_with_it():
 def test_a_grid_of_too_few_coordinates_is_named():
     with pytest.raises(SpatialFieldError, match="x must list at least 3 grid"):
         FieldMap([0, 1], [0, 1, 2], [0, 1, 2], np.zeros((2, 3, 3, 3)))
+
+
+def _export(path, header, rows_of, xs=(-10.0, 0.0, 10.0), ys=(-5.0, 0.0, 5.0), zs=(-5.0, 0.0, 5.0)):
+    """A grid export of ``header`` lines (without '% ') and rows ``rows_of(x, y, z)`` (6 numbers)."""
+    lines = [f"% {line}" for line in header]
+    for z in zs:
+        for y in ys:
+            for x in xs:
+                lines.append("  ".join(f"{v:.12g}" for v in rows_of(x, y, z)))
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+ORIGIN = np.zeros((3, 1))
+
+
+def test_a_grid_exports_columns_are_read_by_their_names_in_any_order(tmp_path):
+    """Round 10 S1: the column names were ignored (a file saying 'By first' read as Bx first)."""
+    def rows(x, y, z):
+        return (x, y, z, 1.0, 2.0, 3.0)
+
+    plain = _export(tmp_path / "plain.txt",
+                    ["Length unit: mm", "x  y  z  mf.Bx (mT)  mf.By (mT)  mf.Bz (mT)"], rows)
+    np.testing.assert_allclose(FieldMap.from_export(plain).at(ORIGIN)[:, 0], [1e-3, 2e-3, 3e-3])
+    # the same numbers under names in another order: the file says Bz, By, Bx
+    swapped = _export(tmp_path / "swapped.txt",
+                      ["Length unit: mm", "x  y  z  mf.Bz (mT)  mf.By (mT)  mf.Bx (mT)"], rows)
+    np.testing.assert_allclose(FieldMap.from_export(swapped).at(ORIGIN)[:, 0], [3e-3, 2e-3, 1e-3])
+    # coordinates in another order too (z first), each read as the coordinate it names
+    def zyx(x, y, z):
+        return (z, 1.0, y, 2.0, x, 3.0)
+
+    mixed = _export(tmp_path / "mixed.txt",
+                    ["Length unit: mm", "z  mf.Bx (mT)  y  mf.By (mT)  x  mf.Bz (mT)"], zyx,
+                    xs=(-5.0, 0.0, 5.0), zs=(-10.0, 0.0, 10.0))
+    loaded = FieldMap.from_export(mixed)
+    np.testing.assert_allclose(loaded.origin, [-0.005, -0.005, -0.01])  # x spans 10 mm, z 20 mm
+    np.testing.assert_allclose(loaded.at(np.array([[0.004], [0.004], [-0.009]]))[:, 0], [1e-3, 2e-3, 3e-3])
+
+
+def test_each_field_column_is_read_in_its_own_unit(tmp_path):
+    """Round 10 S1: 'mf.Bx (T)  mf.By (mT)' took the 0.005 T column as 0.005 mT."""
+    path = _export(tmp_path / "units.txt",
+                   ["Length unit: mm", "x  y  z  mf.Bx (T)  mf.By (mT)  mf.Bz (µT)"],
+                   lambda x, y, z: (x, y, z, 0.005, 5.0, 5000.0))
+    np.testing.assert_allclose(FieldMap.from_export(path).at(ORIGIN)[:, 0], [5e-3] * 3)
+    with pytest.raises(SpatialFieldError, match=r"units.txt: column 4 'mf.Bx \(T\)' says the field unit is "
+                                                r"T, field_unit says mT: leave the option out"):
+        FieldMap.from_export(path, field_unit="mT")
+    half = _export(tmp_path / "half.txt", ["Length unit: mm", "x  y  z  mf.Bx (T)  mf.By  mf.Bz (T)"],
+                   lambda x, y, z: (x, y, z, 0.0, 0.0, 0.0))
+    with pytest.raises(SpatialFieldError, match=r"half.txt: column 5 'mf.By' states no field unit while "
+                                                "other columns do"):
+        FieldMap.from_export(half)
+    bad = _export(tmp_path / "bad.txt", ["Length unit: mm", "x  y  z  mf.Bx (T)  mf.By (A/m)  mf.Bz (T)"],
+                  lambda x, y, z: (x, y, z, 0.0, 0.0, 0.0))
+    with pytest.raises(SpatialFieldError, match=r"bad.txt: column 5 'mf.By \(A/m\)' names the field unit "
+                                                "'A/m'; known: T, mT"):
+        FieldMap.from_export(bad)
+
+
+@pytest.mark.parametrize("names, message", [
+    ("x  y  z  mf.Bx (T)  mf.Bx (T)  mf.Bz (T)",
+     r"columns 4 and 5 of the header both name Bx \('mf.Bx \(T\)' and 'mf.Bx \(T\)'\)"),
+    ("x  y  z  mf.Hx (T)  mf.By (T)  mf.Bz (T)",
+     r"column 4 of the header, 'mf.Hx \(T\)', is none of x, y, z"),
+    ("x  y  z  mf.Bx (T)  mf.By (T)", "name 5 columns, the rows hold 6"),
+    ("x  y  z  mf.Bx (T)  mf.By (T)  mf.Bz (T)  mf.normB (T)", "name 7 columns, the rows hold 6"),
+])
+def test_column_names_that_cannot_be_mapped_are_refused_naming_the_file_and_column(tmp_path, names, message):
+    path = _export(tmp_path / "named.txt", ["Length unit: mm", names], lambda x, y, z: (x, y, z, 0, 0, 0))
+    with pytest.raises(SpatialFieldError, match=f"named.txt: .*{message}"):
+        FieldMap.from_export(path)
+
+
+def test_a_header_without_column_names_keeps_x_y_z_bx_by_bz(tmp_path):
+    free_text = _export(tmp_path / "free.txt", ["Length unit: cm", "Model: a magnet, exported by hand"],
+                        lambda x, y, z: (x, y, z, 1.0, 2.0, 3.0))
+    loaded = FieldMap.from_export(free_text, field_unit="mT")
+    np.testing.assert_allclose(loaded.spacing, [0.1, 0.05, 0.05])
+    np.testing.assert_allclose(loaded.at(ORIGIN)[:, 0], [1e-3, 2e-3, 3e-3])
+    differing = _export(tmp_path / "differing.txt", ["Length unit: cm", "(T) (mT) (mT)"],
+                        lambda x, y, z: (x, y, z, 1.0, 2.0, 3.0))
+    with pytest.raises(SpatialFieldError, match="differing.txt: the header's units T, mT, mT differ, and it "
+                                                "has no column names"):
+        FieldMap.from_export(differing)
+
+
+def test_the_coordinates_units_are_read_from_their_column_names(tmp_path):
+    """Round 10 V10: '% x (mm)  y (mm)  z (mm)  mf.Bx (mT) ...' was refused as stating no length unit."""
+    def rows(x, y, z):
+        return (x, y, z, 1.0, 2.0, 3.0)
+
+    named = ["x (mm)  y (cm)  z (m)  mf.Bx (mT)  mf.By (mT)  mf.Bz (mT)"]
+    loaded = FieldMap.from_export(_export(tmp_path / "own.txt", named, rows))
+    np.testing.assert_allclose(loaded.spacing, [0.01, 0.05, 5.0])
+    agree = _export(tmp_path / "agree.txt", ["Length unit: mm", "x (mm)  y  z (mm)  Bx (T)  By (T)  Bz (T)"],
+                    rows)
+    np.testing.assert_allclose(FieldMap.from_export(agree).spacing, [0.01, 0.005, 0.005])
+    conflict = _export(tmp_path / "conflict.txt",
+                       ["Length unit: m", "x (mm)  y (mm)  z (mm)  Bx (T)  By (T)  Bz (T)"], rows)
+    with pytest.raises(SpatialFieldError, match=r"conflict.txt: column 1 'x \(mm\)' says the length unit "
+                                                r"is mm, the header's 'Length unit' line says m: correct "
+                                                "the file"):
+        FieldMap.from_export(conflict)
+    partial = _export(tmp_path / "partial.txt", ["x (mm)  y  z  Bx (T)  By (T)  Bz (T)"], rows)
+    with pytest.raises(SpatialFieldError, match=r"partial.txt: column 2 'y' states no length unit while"):
+        FieldMap.from_export(partial)
+    bare = _export(tmp_path / "bare.txt", ["x  y  z  Bx (T)  By (T)  Bz (T)"], rows)
+    with pytest.raises(SpatialFieldError, match=r"bare.txt: states no length unit \(COMSOL: '% Length unit: "
+                                                r"mm', or units in the column names such as 'x \(mm\)'"):
+        FieldMap.from_export(bare)
+
+
+def test_an_uneven_grid_too_fine_to_resample_is_refused_before_it_is_made(tmp_path, monkeypatch):
+    """Round 10 T1: one refined node made a 700 001-node axis (or a MemoryError traceback)."""
+    import elastica_magnetic.field_maps as field_maps
+
+    header = ["Length unit: mm", "x  y  z  Bx (T)  By (T)  Bz (T)"]
+    ys = (-10.0, -5.0, 0.0, 5.0, 10.0)
+    refined = _export(tmp_path / "refined.txt", header, lambda x, y, z: (x, y, z, 0.0, 0.0, 1.0),
+                      xs=(-10.0, 0.0, 10.0, 10.0001), ys=ys)
+    with pytest.raises(SpatialFieldError, match=r"refined.txt: the x axis is not evenly spaced, and its "
+                                                r"finest spacing, 1e-07 m \(between 0.01 and 0.0100001 m\), "
+                                                r"would need 200,002 x nodes on an even grid, "
+                                                r"200,002 x 5 x 3 = 3,000,030 in all \(at most 2,000,000\): "
+                                                "resample onto an even grid in the exporting tool"):
+        FieldMap.from_export(refined)
+    coarse = _export(tmp_path / "coarse.txt", header, lambda x, y, z: (x, y, z, 0.0, 0.0, 1.0),
+                     xs=(-10.0, 0.0, 10.0, 10.1), ys=ys)
+    loaded = FieldMap.from_export(coarse)  # 202 x 5 x 3 nodes: resampled
+    assert loaded.resampled and loaded.shape.tolist() == [202, 5, 3]
+    monkeypatch.setattr(field_maps, "MAX_RESAMPLED_NODES", 3000)
+    with pytest.raises(SpatialFieldError, match=r"coarse.txt: the x axis .* 202 x 5 x 3 = 3,030 in all "
+                                                r"\(at most 3,000\)"):
+        FieldMap.from_export(coarse)
+
+
+def test_msr_field_simulate_names_a_grid_too_fine_to_resample(tmp_path, capsys):
+    from elastica_magnetic.cli import main
+
+    _export(tmp_path / "refined.txt", ["Length unit: mm", "x  y  z  Bx (mT)  By (mT)  Bz (mT)"],
+            lambda x, y, z: (x, y, z, 0.0, 4.0, 0.0), xs=(-10.0, 0.0, 10.0, 60.0, 60.0001),
+            ys=(-10.0, 0.0, 10.0, 10.0001), zs=(-10.0, 0.0, 10.0))
+    spec = tmp_path / "spec.toml"
+    spec.write_text(ROBOT + '[boundary]\nclamp = "first"\n[field]\nkind = "field-map"\n'
+                    'file = "refined.txt"\n')
+    status = main(["field", "simulate", "--robot", str(spec), "--duration", "0.01",
+                   "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert status == 2 and "Traceback" not in err, err
+    assert "refined.txt: the x axis is not evenly spaced" in err and "nodes on an even grid" in err
+    assert not (tmp_path / "o").exists()
