@@ -7,6 +7,7 @@ ground with an adjustable tolerance, robot presets and a simulation builder. SI 
 
 from .batch import BatchedRobots, BatchedSimulationDivergedError, SpatialFieldNotSupportedError
 from .field_csv import FieldCSVError, read_field_csv, write_field_csv
+from .field_maps import FieldMap, FieldMapDomainError
 from .fields import (
     ConstantField,
     ControlledField,
@@ -55,8 +56,6 @@ from .spatial_fields import (
     ConstantGradientField,
     CurrentLoopField,
     CurrentLoopsField,
-    FieldMap,
-    FieldMapDomainError,
     FieldSum,
     HelmholtzCoils,
     MaxwellCoils,

@@ -25,9 +25,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .field_maps import FieldMap, FieldMapDomainError
 from .plausibility import MAX_RELATIVE_CHANGE_PER_ELEMENT, judge, too_few_steps
 from .robot_spec import RobotSpec
-from .spatial_fields import CurrentLoopsField, FieldMap, FieldMapDomainError, SpatialField
+from .spatial_fields import CurrentLoopsField, SpatialField
 from .spec_format import SpecError, SpecTable
 
 __all__ = ["check_field_on_rod", "rod_centreline"]

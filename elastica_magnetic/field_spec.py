@@ -44,10 +44,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from .field_maps import EXPORT_FIELD_UNITS, EXPORT_LENGTH_UNITS, FieldMap
 from .spatial_fields import (
     ConstantGradientField,
     CurrentLoopField,
-    FieldMap,
     HelmholtzCoils,
     MaxwellCoils,
     PointDipoleField,
@@ -222,8 +222,6 @@ def _build_gradient(table: Mapping[str, Any], pose: Any, strength: Strength, bas
 def _read_map(t: SpecTable, out: dict[str, Any]) -> None:
     out["file"] = t.string("file")
     out["scale"] = t.number("scale", "1", 1.0)
-    from .spatial_fields import EXPORT_FIELD_UNITS, EXPORT_LENGTH_UNITS
-
     for key, known in (("length_unit", EXPORT_LENGTH_UNITS), ("field_unit", EXPORT_FIELD_UNITS)):
         unit = t.string(key, None, choices=tuple(known))
         if unit is not None:

@@ -340,8 +340,9 @@ class FileKind:
 def check_result_file(path: str | Path, *, force: bool = False, option: str = "--out",
                       force_option: str = "--force", kind: FileKind | None = None) -> Path:
     """Check, before any long work, that the file ``path`` may be written: not a folder, not under
-    a file, its folder writable, and absent unless ``force`` (and then, with ``kind``, a file of
-    that kind: a file of the user's is never replaced). Returns the normalized path."""
+    a file, its folder writable, and absent unless ``force`` (and then a file msr recorded in
+    :data:`MANIFEST`, unchanged since: a file of the user's is never replaced; ``kind`` names what
+    an unrecorded file is not). Returns the normalized path."""
     final = normalized_path(path)
     if spelled_as_folder(path):
         raise OutputPathError(f"{option} {display_path(final)}/: ends with a separator, so it names "
@@ -409,7 +410,10 @@ def _check_file(final: Path, force: bool, option: str, force_option: str,
     if final.exists() and not force:
         raise ResultExistsError(f"{where}: already exists; pass {force_option} to replace it, or "
                                 f"choose another {option}")
-    if final.is_file() and kind is not None and not _recognized(kind, final):
+    # a file msr recorded, unchanged since, is its own whatever it holds (the log of a failed
+    # connection holds no firmware line); another must look like the kind it is replaced by
+    if (final.is_file() and kind is not None and _not_recorded(final.parent, [final.name])
+            and not _recognized(kind, final)):
         raise ResultExistsError(f"{where}: is not {kind.description} (a file msr did not write?); "
                                 f"{force_option} replaces only {kind.description}: move it away "
                                 f"or choose another {option}")

@@ -17,7 +17,8 @@ analytic gradient; circular current loops by complete elliptic integrals (arithm
 mean) with analytic gradients, and a series about the axis where the closed form cancels. They
 agree with Magpylib to round-off and cost a few hundred times less per call
 (:doc:`/spatial_fields`). Finite magnets (cuboid, cylinder) come from Magpylib, an optional
-dependency: :mod:`elastica_magnetic.magnet_fields`.
+dependency: :mod:`elastica_magnetic.magnet_fields`. A field tabulated on a grid (a finite-element
+tool's export): :mod:`elastica_magnetic.field_maps`.
 
 A pose may follow a trajectory in time: positions, moments and currents are either constants or
 callables of time (e.g. :class:`Waypoints`).
@@ -28,7 +29,6 @@ from __future__ import annotations
 import bisect
 import math
 from collections.abc import Callable
-from pathlib import Path
 from typing import Union
 
 import numpy as np
@@ -38,7 +38,6 @@ from . import _spatial_kernels as kernels
 
 __all__ = [
     "SpatialFieldError",
-    "FieldMapDomainError",
     "Waypoints",
     "SpatialField",
     "PointDipoleField",
@@ -47,9 +46,9 @@ __all__ = [
     "HelmholtzCoils",
     "MaxwellCoils",
     "ConstantGradientField",
-    "FieldMap",
     "FieldSum",
     "is_spatial",
+    "rotation_to",
 ]
 
 #: A vector (3,) that is constant or a callable of time (s).
@@ -60,10 +59,6 @@ ScalarOrWaveform = Union[float, Callable[[float], float]]  # noqa: UP007
 
 class SpatialFieldError(ValueError):
     """Bad input to a spatial field source (points, pose, waveform); the message names it."""
-
-
-class FieldMapDomainError(SpatialFieldError):
-    """A point outside the grid of a :class:`FieldMap`."""
 
 
 def is_spatial(field: object) -> bool:
@@ -411,260 +406,6 @@ class ConstantGradientField(SpatialField):
             g += scaled[:, :, None]
 
 
-class FieldMap(SpatialField):
-    """A field tabulated on a regular 3D grid (e.g. exported from a finite-element tool).
-
-    ``B`` and its gradient are interpolated trilinearly; the gradient table is computed once from
-    the samples by second-order central differences (one-sided at the faces). Both are continuous,
-    and the gradient is accurate to ``O(h^2)`` for a smooth field (``h`` the spacing). A point
-    outside the grid raises :class:`FieldMapDomainError`.
-
-    Parameters
-    ----------
-    x, y, z : array_like
-        Grid coordinates, m: evenly spaced, increasing, at least 3 each.
-    samples : array_like
-        ``(nx, ny, nz, 3)`` flux density, T.
-    scale : float or callable
-        Factor on the whole map (e.g. a coil current waveform), or ``scale(time) -> float``.
-    position : array_like (3,) or callable
-        Where the map's own origin is in the lab, m, or ``position(time)``: a map that moves
-        with its magnet or coil (default: the map's frame is the lab's).
-    axis : array_like (3,) or callable
-        The lab direction of the map's own z, or ``axis(time)`` (turned the shortest way from
-        +z; default +z). A point is looked up at ``R^T (x - position)``; the field is ``R B``
-        and the gradient ``R G R^T`` (``R`` the map's rotation).
-    """
-
-    def __init__(self, x: ArrayLike, y: ArrayLike, z: ArrayLike, samples: ArrayLike,
-                 scale: ScalarOrWaveform = 1.0, source: str = "field map", *,
-                 position: VectorOrPath = (0.0, 0.0, 0.0), axis: VectorOrPath = (0.0, 0.0, 1.0)) -> None:
-        axes = []
-        for name, values in (("x", x), ("y", y), ("z", z)):
-            values = np.asarray(values, dtype=np.float64)
-            if values.ndim != 1 or values.shape[0] < 3:
-                raise SpatialFieldError(f"{source}: {name} must list at least 3 grid coordinates (m), "
-                                        f"got shape {values.shape}")
-            steps = np.diff(values)
-            if not np.all(np.isfinite(values)) or np.any(steps <= 0.0) or np.ptp(steps) > 1e-6 * steps.mean():
-                raise SpatialFieldError(f"{source}: {name} must be evenly spaced and increasing (m)")
-            axes.append(values)
-        shape = tuple(a.shape[0] for a in axes)
-        samples = np.asarray(samples, dtype=np.float64)
-        if samples.shape != (*shape, 3):
-            raise SpatialFieldError(f"{source}: samples must have shape {(*shape, 3)} (nx, ny, nz, 3) "
-                                    f"in T, got {samples.shape}")
-        if not np.all(np.isfinite(samples)):
-            raise SpatialFieldError(f"{source}: samples contain NaN or infinite values")
-        self.source = source
-        self.axes = axes
-        self.origin = np.array([a[0] for a in axes])
-        self.spacing = np.array([(a[-1] - a[0]) / (a.shape[0] - 1) for a in axes])
-        self.shape = np.array(shape, dtype=np.int64)
-        self.samples = np.ascontiguousarray(np.moveaxis(samples, -1, 0))
-        gradients = np.empty((3, 3, *shape))
-        for i in range(3):
-            for j in range(3):
-                gradients[i, j] = np.gradient(self.samples[i], self.spacing[j], axis=j, edge_order=2)
-        self.gradients = np.ascontiguousarray(gradients)
-        self.scale = _Scalar(scale, "scale", "1")
-        self.position = _Vector(position, "position", "m")
-        self.axis = _Vector(axis, "axis", "a direction")
-        self._posed = callable(position) or callable(axis) or bool(
-            np.any(self.position(0.0) != 0.0) or np.any(rotation_to(self.axis(0.0)) != np.eye(3)))
-
-    @classmethod
-    def from_npz(cls, path: str | Path, scale: ScalarOrWaveform = 1.0) -> FieldMap:
-        """Load ``x``, ``y``, ``z`` (m) and ``B`` (``(nx, ny, nz, 3)``, T) from an ``.npz`` file.
-        A file that is not an ``.npz`` archive, a damaged (truncated) one, a missing array or one
-        that does not hold plain numbers is a :class:`SpatialFieldError` naming the file."""
-        path = Path(path)
-        arrays = _npz_arrays(path, ("x", "y", "z", "B"))
-        return cls(arrays["x"], arrays["y"], arrays["z"], arrays["B"], scale, source=str(path))
-
-    @classmethod
-    def from_csv(cls, path: str | Path, scale: ScalarOrWaveform = 1.0) -> FieldMap:
-        """Load a CSV with header ``x_m,y_m,z_m,Bx_mT,By_mT,Bz_mT``: one row per grid point, in any
-        order, every point of a regular grid present once (field in mT, as the field CSV files)."""
-        path = Path(path)
-        columns = ("x_m", "y_m", "z_m", "Bx_mT", "By_mT", "Bz_mT")
-        try:
-            with open(path, encoding="utf-8-sig") as handle:
-                header = [h.strip() for h in handle.readline().split(",")]
-                if tuple(header) != columns:
-                    raise SpatialFieldError(f"{path}: header must be {','.join(columns)}, got "
-                                            f"{','.join(header)}")
-                table = np.loadtxt(handle, delimiter=",", ndmin=2)
-        except (OSError, UnicodeDecodeError) as exc:
-            raise SpatialFieldError(f"{path}: cannot be read ({exc})") from None
-        except ValueError as exc:
-            raise SpatialFieldError(f"{path}: every row must hold 6 numbers ({exc})") from None
-        if table.shape[1] != 6:
-            raise SpatialFieldError(f"{path}: expected 6 columns, got {table.shape[1]}")
-        if not np.all(np.isfinite(table)):
-            row = int(np.argwhere(~np.isfinite(table))[0, 0])
-            raise SpatialFieldError(f"{path}: line {row + 2}: non-finite value")
-        axes = [np.unique(table[:, d]) for d in range(3)]
-        shape = tuple(a.shape[0] for a in axes)
-        if table.shape[0] != shape[0] * shape[1] * shape[2]:
-            raise SpatialFieldError(f"{path}: {table.shape[0]} rows do not fill a regular "
-                                    f"{shape[0]} x {shape[1]} x {shape[2]} grid once")
-        index = tuple(np.searchsorted(axes[d], table[:, d]) for d in range(3))
-        samples = np.full((*shape, 3), np.nan)
-        samples[index] = 1e-3 * table[:, 3:]
-        if np.isnan(samples).any():
-            raise SpatialFieldError(f"{path}: a grid point appears twice and another is missing")
-        return cls(*axes, samples, scale, source=str(path))
-
-    @classmethod
-    def from_export(cls, path: str | Path, scale: ScalarOrWaveform = 1.0, *,
-                    length_unit: str | None = None, field_unit: str | None = None) -> FieldMap:
-        """Load a finite-element tool's grid export (COMSOL's spreadsheet format and the like):
-        comment lines starting with ``%`` or ``#`` (COMSOL's header: ``% Length unit: mm``, and
-        the column names with their units, ``mf.Bx (T)``), then rows ``x y z Bx By Bz``
-        separated by spaces, tabs or commas, in any order.
-
-        Units come from the header or from ``length_unit`` (``"m"``, ``"cm"``, ``"mm"``, ``"um"``)
-        and ``field_unit`` (``"T"``, ``"mT"``, ``"G"``), which must agree with the header where
-        it states them; a file that states neither is refused (no unit is guessed). A rectilinear
-        grid whose spacing is not even (a mesh refined near a magnet) is resampled by trilinear
-        interpolation onto an even grid at its finest spacing along each axis
-        (:attr:`resampled` says so): exact at the original nodes that fall on the new grid, and
-        linear in between."""
-        path = Path(path)
-        header, table = _read_export(path)
-        length_factor = _export_unit(path, "length", _header_length_unit(header), length_unit,
-                                     EXPORT_LENGTH_UNITS)
-        field_factor = _export_unit(path, "field", _header_field_unit(header), field_unit,
-                                    EXPORT_FIELD_UNITS)
-        if table.shape[0] == 0 or table.shape[1] != 6:
-            raise SpatialFieldError(f"{path}: expected rows of 6 numbers (x y z Bx By Bz), got "
-                                    f"{table.shape[1] if table.size else 0} columns")
-        if not np.all(np.isfinite(table)):
-            row = int(np.argwhere(~np.isfinite(table))[0, 0])
-            raise SpatialFieldError(f"{path}: data row {row + 1}: a value is not finite (COMSOL "
-                                    "writes NaN outside the geometry: export a grid inside it)")
-        axes = [np.unique(table[:, d]) * length_factor for d in range(3)]
-        shape = tuple(a.shape[0] for a in axes)
-        if table.shape[0] != shape[0] * shape[1] * shape[2]:
-            raise SpatialFieldError(f"{path}: {table.shape[0]} rows do not fill a rectilinear "
-                                    f"{shape[0]} x {shape[1]} x {shape[2]} grid once (export a grid, "
-                                    "not the mesh nodes)")
-        index = tuple(np.searchsorted(axes[d], table[:, d] * length_factor) for d in range(3))
-        samples = np.full((*shape, 3), np.nan)
-        samples[index] = field_factor * table[:, 3:]
-        if np.isnan(samples).any():
-            raise SpatialFieldError(f"{path}: a grid point appears twice and another is missing")
-        even = [_even_axis(a) for a in axes]
-        resampled = any(e is not a for e, a in zip(even, axes, strict=True))
-        for d in range(3):  # trilinear on a rectilinear grid: linear along each axis in turn
-            if even[d] is not axes[d]:
-                samples = np.apply_along_axis(lambda v, d=d: np.interp(even[d], axes[d], v), d, samples)
-        field_map = cls(*even, samples, scale, source=str(path))
-        field_map.resampled = resampled
-        return field_map
-
-    #: Whether the map was resampled onto an even grid (:meth:`from_export`).
-    resampled = False
-
-    def _add(self, points, time, b, g, with_gradient) -> None:
-        if not self._posed:
-            self._lookup(points, points, time, b, g, with_gradient)
-            return
-        rotation = rotation_to(self.axis(time))
-        local = np.ascontiguousarray(rotation.T @ (points - self.position(time)[:, None]))
-        b_map, g_map = np.zeros(points.shape), np.zeros(g.shape)
-        self._lookup(local, points, time, b_map, g_map, with_gradient)
-        b += rotation @ b_map
-        if with_gradient:
-            g += np.einsum("ia,abk,jb->ijk", rotation, g_map, rotation)
-
-    def _lookup(self, local, points, time, b, g, with_gradient) -> None:
-        outside = kernels.grid_field(self.origin, self.spacing, self.shape, self.samples, self.gradients,
-                                     self.scale(time), local, b, g, with_gradient)
-        if outside >= 0:
-            lo = self.origin
-            hi = self.origin + self.spacing * (self.shape - 1)
-            raise FieldMapDomainError(
-                f"{self.source}: point {points[:, outside].tolist()} m (column {outside}) at "
-                f"t = {time:.6g} s is outside the map's grid [{lo.tolist()}, {hi.tolist()}] m")
-
-
-#: Length and field units a grid export may state, with their factor to m and to T.
-EXPORT_LENGTH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "µm": 1e-6}
-EXPORT_FIELD_UNITS = {"T": 1.0, "mT": 1e-3, "G": 1e-4, "gauss": 1e-4}
-
-
-def _read_export(path: Path) -> tuple[list[str], NDArray[np.float64]]:
-    """The comment lines (``%`` or ``#``, without the mark) and the numbers of a grid export."""
-    header, rows = [], []
-    try:
-        with open(path, encoding="utf-8-sig") as handle:
-            for number, line in enumerate(handle, 1):
-                text = line.strip()
-                if not text:
-                    continue
-                if text[0] in "%#":
-                    header.append(text[1:].strip())
-                    continue
-                try:
-                    rows.append([float(v) for v in text.replace(",", " ").split()])
-                except ValueError:
-                    raise SpatialFieldError(f"{path}: line {number}: expected numbers (x y z Bx By Bz), "
-                                            f"got {text[:60]!r}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpatialFieldError(f"{path}: cannot be read ({exc})") from None
-    widths = {len(r) for r in rows}
-    if len(widths) > 1:
-        raise SpatialFieldError(f"{path}: rows of {sorted(widths)} numbers; every row must hold 6")
-    return header, np.array(rows, dtype=np.float64).reshape(len(rows), -1)
-
-
-def _header_length_unit(header: list[str]) -> str | None:
-    for line in header:
-        key, _, value = line.partition(":")
-        if key.strip().lower() == "length unit":
-            return value.strip()
-    return None
-
-
-def _header_field_unit(header: list[str]) -> str | None:
-    import re
-
-    for line in reversed(header):  # the column names come last
-        units = re.findall(r"\(([^)]+)\)", line)
-        if len(units) >= 3:
-            return units[-1].strip()
-    return None
-
-
-def _export_unit(path: Path, what: str, stated: str | None, given: str | None,
-                 known: dict[str, float]) -> float:
-    """The factor to SI of the ``what`` unit a file ``stated`` and/or the caller ``given``."""
-    for name, unit in (("the file's header", stated), (f"{what}_unit", given)):
-        if unit is not None and unit not in known:
-            raise SpatialFieldError(f"{path}: {name} names the {what} unit {unit!r}; known: "
-                                    f"{', '.join(known)}")
-    if stated is not None and given is not None and known[stated] != known[given]:
-        raise SpatialFieldError(f"{path}: the header says the {what} unit is {stated}, {what}_unit "
-                                f"says {given}: leave the option out or correct it")
-    unit = given if given is not None else stated
-    if unit is None:
-        raise SpatialFieldError(f"{path}: states no {what} unit (COMSOL: '% Length unit: mm' and "
-                                f"column names such as 'mf.Bx (T)'); give {what}_unit "
-                                f"({', '.join(known)})")
-    return known[unit]
-
-
-def _even_axis(values: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``values`` when evenly spaced, else an even axis over the same span at its finest step."""
-    steps = np.diff(values)
-    if values.shape[0] < 2 or np.ptp(steps) <= 1e-6 * steps.mean():
-        return values
-    count = int(math.ceil((values[-1] - values[0]) / steps.min() - 1e-9)) + 1
-    return np.linspace(values[0], values[-1], count)
-
-
 def rotation_to(axis: ArrayLike) -> NDArray[np.float64]:
     """The rotation matrix ``(3, 3)`` turning +z onto the direction ``axis`` the shortest way
     (about ``z x axis``; half a turn about x for ``-z``)."""
@@ -681,40 +422,6 @@ def rotation_to(axis: ArrayLike) -> NDArray[np.float64]:
     v = np.array([-a[1], a[0], 0.0])  # z x a
     k = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
     return np.eye(3) + k + k @ k / (1.0 + c)
-
-
-def _npz_arrays(path: Path, names: tuple[str, ...]) -> dict[str, NDArray[np.float64]]:
-    """The named arrays of an ``.npz`` file as float64, every problem a :class:`SpatialFieldError`
-    naming the file and what is wrong (no traceback of numpy or zipfile)."""
-    import zipfile
-
-    expected = "x, y, z in m; B in T, shape (nx, ny, nz, 3)"
-    arrays = {}
-    try:
-        with open(path, "rb") as handle:
-            magic = handle.read(6)
-        if magic.startswith(b"\x93NUMPY"):
-            raise SpatialFieldError(f"{path}: is a single .npy array, not an .npz archive of arrays "
-                                    f"({expected}); save it with numpy.savez")
-        if not magic.startswith(b"PK"):
-            raise SpatialFieldError(f"{path}: is not an .npz archive (a zip file of .npy arrays: "
-                                    f"{expected}); save it with numpy.savez")
-        with np.load(path, allow_pickle=False) as data:
-            missing = [k for k in names if k not in data.files]
-            if missing:
-                raise SpatialFieldError(f"{path}: lacks array(s) {', '.join(missing)} ({expected})")
-            for name in names:
-                arrays[name] = data[name]  # read (and decompressed) here: a damaged member fails now
-    except SpatialFieldError:
-        raise
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-        raise SpatialFieldError(f"{path}: cannot be read as an .npz field map: the file is damaged "
-                                f"or not an .npz archive ({type(exc).__name__}: {exc})") from None
-    for name, array in arrays.items():
-        if array.dtype.kind not in "iuf":
-            raise SpatialFieldError(f"{path}: array {name} holds {array.dtype} values, expected "
-                                    f"numbers ({expected})")
-    return {name: array.astype(np.float64) for name, array in arrays.items()}
 
 
 class _UniformCallable(SpatialField):

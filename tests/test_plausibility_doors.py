@@ -15,10 +15,11 @@ import numpy as np
 import pytest
 
 from elastica_magnetic.field_csv import FieldCSVError, read_field_csv
+from elastica_magnetic.field_maps import FieldMap
 from elastica_magnetic.field_spec import describe_field
 from elastica_magnetic.fields import TabulatedField
 from elastica_magnetic.plausibility import QUANTITIES, ImplausibleValueWarning, judge
-from elastica_magnetic.spatial_fields import CurrentLoopField, FieldMap, SpatialFieldError
+from elastica_magnetic.spatial_fields import CurrentLoopField, SpatialFieldError
 from elastica_magnetic.spec_format import loads
 from elastica_magnetic.specfile import SpecError, describe_robot, spec_field_limit
 

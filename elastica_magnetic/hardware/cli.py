@@ -136,6 +136,11 @@ def _stream(args: argparse.Namespace) -> int:
                      "given: leave it out, or name the file to replace")
     _check_port("--port", args.port)  # before the files are read, and not as pyserial words it
     field_T = read_field_csv(args.field_csv, plausible=True)
+    rows = len(field_T)
+    if args.corrupt_row is not None and args.corrupt_row >= rows:  # before connecting
+        raise _error(f"--corrupt-row {args.corrupt_row}: the waveform has {rows} rows "
+                     f"({'0-' + str(rows - 1) if rows else 'none'}) in {display_path(args.field_csv)}; "
+                     "choose one of them")
     cal = load_calibration(args.calibration) if args.calibration else None
     if args.no_upload and cal is None:
         raise _error("--no-upload needs --calibration FILE")

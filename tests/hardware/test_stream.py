@@ -420,3 +420,59 @@ def test_msr_stream_to_a_port_that_does_not_open_keeps_the_previous_log(tmp_path
     assert "cannot open the port" in err and "board.log is left as it was (nothing was logged)" in err
     assert log.read_bytes() == old
     assert sorted(p.name for p in tmp_path.iterdir()) == [".msr-files.json", "board.log", "f.csv"]
+
+
+def test_msr_stream_refuses_a_corrupt_row_past_the_waveform_before_connecting(tmp_path: Path, capsys,
+                                                                               monkeypatch) -> None:
+    """Round 10 S5: ``--corrupt-row 500`` on a 100-row waveform went on to the handshake (no row
+    corrupted, and the stream of a good waveform then exited 1)."""
+    from elastica_magnetic.cli import main
+
+    waveform = csv_of(tmp_path / "f.csv", np.zeros((100, 3)))
+    opened = []
+
+    def no_port(*args, **kwargs):  # connecting at all is the failure
+        opened.append(args)
+        raise AssertionError("the port was opened")
+
+    import serial
+
+    with monkeypatch.context() as patched:
+        patched.setattr(serial, "serial_for_url", no_port)
+        status = main(["hw", "stream", str(waveform), "--port", "loop://", "--timeout", "1",
+                       "--corrupt-row", "500", "--no-progress"])
+    assert status == 2 and not opened
+    assert "--corrupt-row 500: the waveform has 100 rows (0-99) in " in capsys.readouterr().err
+    # the last row is accepted (goes on to the port: loop:// echoes, no PONG)
+    assert main(["hw", "stream", str(waveform), "--port", "loop://", "--timeout", "0.3",
+                 "--corrupt-row", "99", "--no-progress"]) == 2
+    assert "no PONG within 0.3 s" in capsys.readouterr().err
+
+
+def test_msr_stream_force_replaces_the_log_of_its_own_failed_stream(tmp_path: Path, capsys) -> None:
+    """Round 10 V4: the log a failed stream kept (no firmware line in it: loop:// echoes PING) was
+    refused by ``--force`` as 'not a board log (a file msr did not write?)'. A log msr recorded
+    unchanged is replaced; a user's file, or msr's log changed since, stays refused."""
+    from elastica_magnetic.cli import main
+
+    waveform = str(csv_of(tmp_path / "f.csv", np.zeros((3, 3))))
+    log = tmp_path / "new.log"
+    command = ["hw", "stream", waveform, "--port", "loop://", "--timeout", "0.3", "--no-progress",
+               "--log", str(log)]
+    assert main(command) == 2
+    assert "no PONG" in capsys.readouterr().err and "PING" in log.read_text()
+    manifest = json.loads((tmp_path / ".msr-files.json").read_text())["files"]
+    assert set(manifest) == {"new.log"}
+    assert main([*command, "--force"]) == 2
+    err = capsys.readouterr().err
+    assert "no PONG" in err and "not a board log" not in err, err
+    log.write_text("PING\nmy notes\n")  # changed since msr wrote it
+    assert main([*command, "--force"]) == 2
+    err = capsys.readouterr().err
+    assert "--log" in err and "new.log: is not a board log" in err and "no PONG" not in err, err
+    assert log.read_text() == "PING\nmy notes\n"
+    mine = tmp_path / "mine.log"
+    mine.write_text("a file of the user's\n")
+    assert main([*command[:-1], str(mine), "--force"]) == 2
+    assert "mine.log: is not a board log" in capsys.readouterr().err
+    assert mine.read_text() == "a file of the user's\n"
