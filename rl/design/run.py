@@ -400,7 +400,7 @@ def _prepare(folder: Path, design: Design, settings: DesignSettings, resume: boo
     spec = {**design.base, DESIGN_TABLE: design.space.to_dict()}
     if resume and (folder / DESIGN_JSON).exists():
         record = read_json(folder / DESIGN_JSON, fix="start the design afresh with --force")
-        _check_same(record, spec, settings, folder)
+        _check_same(record, spec, settings, folder, design.case.name)
         return record
     folder.mkdir(parents=True, exist_ok=True)
     record = {"format": "msr-design-v1", "case": design.case.name, "spec": spec,
@@ -410,14 +410,16 @@ def _prepare(folder: Path, design: Design, settings: DesignSettings, resume: boo
 
 
 def _check_same(record: Mapping[str, Any], spec: dict[str, Any], settings: DesignSettings,
-                folder: Path) -> None:
+                folder: Path, case: str) -> None:
     from ..sweep.run_records import first_difference
 
     shown = display_path(folder)
     old, new = _plain(record.get("spec")), _plain(spec)
     if old != new:
-        raise DesignError(f"--resume: the design in {shown} was started from another spec (case "
-                          f"{record.get('case')}; first difference: {first_difference(old, new)}); "
+        cases = (f"case {case}" if record.get("case") == case else
+                 f"case {record.get('case')} then, {case} now")
+        raise DesignError(f"--resume: the design in {shown} was started from another spec ({cases}; "
+                          f"first difference: {first_difference(old, new)}); "
                           "resume it with the same spec, or start afresh with --force")
     old, new = _plain(record.get("settings")), _plain(settings.recorded())
     if old != new:

@@ -354,7 +354,7 @@ def test_a_resume_with_other_options_names_the_option(tmp_path):
     longer = DesignSettings(**{**TINY.__dict__, "final_duration": 10.0})
     with pytest.raises(DesignError, match=r"--quick: given in one and not the other"):
         run_design("m1-4mT", out, longer, resume=True)
-    with pytest.raises(DesignError, match=r"another spec \(case m2-4mT; first difference"):
+    with pytest.raises(DesignError, match=r"another spec \(case m1-4mT then, m2-4mT now; first difference"):
         run_design("m2-4mT", out, TINY, resume=True)
 
 
