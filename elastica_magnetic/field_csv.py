@@ -64,6 +64,9 @@ def read_field_csv(path: str | Path, *, plausible: bool = False) -> NDArray[np.f
         raise FieldCSVError(f"{path}: is a folder, not a field CSV file; give a CSV file"
                             + (f" (this folder has: {', '.join(inside)})" if inside else ""))
     if not path.is_file():
+        if path.exists():  # a FIFO, a device such as /dev/null: read once, or never ends
+            raise FieldCSVError(f"{path}: is not a regular file (a pipe or a device); give a field "
+                                "CSV file")
         raise FieldCSVError(f"{path}: no such field CSV file")
     rows = _csv_rows(path, FieldCSVError)
     rows_with_lines = [(i + 1, r) for i, r in enumerate(rows) if any(c.strip() for c in r)]
@@ -148,6 +151,11 @@ def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
     """Where the field components are: their column indices, the index column (``None``: none),
     the number of columns every row must have, and the data rows (after a header, if any)."""
     first_line, first = rows_with_lines[0]
+    if len(first) > 1 and not first[-1].strip() and all(_is_number(c) for c in first[:-1]):
+        raise FieldCSVError(
+            f"{path}: line {first_line} has {len(first)} columns, the last one empty (a trailing "
+            f"comma?); expected 3 (mag_x, mag_y, mag_z in mT) or 4 (index first): remove the "
+            "comma at the end of each row")
     if _is_number(first[-1]):  # no header
         ncols = len(first)
         if ncols == 3:
@@ -199,7 +207,9 @@ def _field_row(path: Path, line: int, row: list[str], k: int, columns: list[int]
     if index_column is not None:
         text = row[index_column].strip()
         if text and (not _is_number(text) or float(text) != k):
-            time_like = _is_number(text) and k > 0 and not float(text).is_integer()
+            # a time in s (0.01, 0.02...) or in ms (10, 20... every 10: t_ms) read as an index
+            time_like = _is_number(text) and k > 0 and (
+                not float(text).is_integer() or math.isclose(float(text), 10.0 * k))
             hint = ("; the first of four columns is read as a row index 0, 1, 2..., not as a time "
                     "(rows are 0.01 s apart by definition): drop that column or number the rows"
                     if time_like else "")

@@ -3,6 +3,8 @@ file: every outcome is a correct parse or a FieldCSVError naming the file, never
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -87,3 +89,26 @@ def test_a_time_column_read_as_the_index_is_named(tmp_path):
     with pytest.raises(FieldCSVError, match=r"line 3: index '0.01' out of sequence, expected 1; "
                                             r"the first of four columns is read as a row index"):
         read_field_csv(path)
+
+
+def test_round9_v6_trailing_comma_ms_index_and_non_regular_files(tmp_path):
+    """Round 9, V6: a headerless file with a trailing comma was called a header lacking columns, a
+    t_ms column (0, 10, 20...) got no time hint, a FIFO or /dev/null was "no such file"."""
+    import os
+
+    trailing = tmp_path / "trailing.csv"
+    trailing.write_text("-0.29,-0.29,0.0,\n-0.28,-0.3,0.0,\n")
+    with pytest.raises(FieldCSVError, match=r"line 1 has 4 columns, the last one empty \(a trailing"):
+        read_field_csv(trailing)
+    t_ms = tmp_path / "t_ms.csv"
+    t_ms.write_text("t_ms,mag_x,mag_y,mag_z\n0,1,0,0\n10,1,0,0\n20,1,0,0\n")
+    with pytest.raises(FieldCSVError, match=r"index '10' out of sequence, expected 1; the first of "
+                                            r"four columns is read as a row index"):
+        read_field_csv(t_ms)
+    fifo = tmp_path / "fifo.csv"
+    os.mkfifo(fifo)
+    for path in (fifo, Path("/dev/null")):
+        with pytest.raises(FieldCSVError, match="is not a regular file"):
+            read_field_csv(path)
+    with pytest.raises(FieldCSVError, match="no such field CSV file"):
+        read_field_csv(tmp_path / "missing.csv")

@@ -105,10 +105,13 @@ def design_command(args: argparse.Namespace) -> int:
                   f"best {1e3 * state['best_objective_m']:+.2f} mm, "
                   f"{state['elapsed_s'] / 60:.1f} min", file=sys.stderr, flush=True)
 
+    from elastica_magnetic.results import signals_as_exceptions
+
     replacing = args.force and holds_design(args.out)
     try:
-        summary = run_design(args.spec, args.out, settings,
-                             resume=args.resume, force=args.force, progress=progress)
+        with signals_as_exceptions():  # SIGTERM/SIGHUP as Ctrl-C: the message below, not silence
+            summary = run_design(args.spec, args.out, settings,
+                                 resume=args.resume, force=args.force, progress=progress)
     except DesignError as exc:
         raise CommandError(str(exc)) from None
     except KeyboardInterrupt:

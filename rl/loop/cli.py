@@ -89,13 +89,18 @@ def _settings(args: argparse.Namespace):
 
 
 def loop_command(args: argparse.Namespace) -> int:
+    from elastica_magnetic.results import signals_as_exceptions
+
     from .runner import run_loop
     from .state import LoopError, parse_steps
 
     try:
         skip, redo = parse_steps(args.skip, "--skip"), parse_steps(args.redo, "--redo")
-        state = run_loop(args.spec, args.out, _settings(args), skip=skip, redo=redo,
-                         force=args.force, progress=not args.no_progress)
+        # SIGTERM/SIGHUP stop it as Ctrl-C does, in every step (the train step's too), with the
+        # message below, not silently
+        with signals_as_exceptions():
+            state = run_loop(args.spec, args.out, _settings(args), skip=skip, redo=redo,
+                             force=args.force, progress=not args.no_progress)
     except LoopError as exc:
         raise CommandError(str(exc)) from None
     except FileNotFoundError as exc:

@@ -50,3 +50,23 @@ def test_a_negative_poisson_ratio_is_not_explained_as_percent():
 
     finding = judge("poisson ratio", -0.9)
     assert finding is not None and "auxetic" in finding.text and "percent" not in finding.text
+
+
+def test_sigterm_during_a_loop_step_is_said_like_ctrl_c(tmp_path, monkeypatch, capsys):
+    """Round 9, V7: msr loop stopped by SIGTERM in its train step exited 143 without a word (the
+    train step ran without msr's signal handling)."""
+    import os
+    import signal
+
+    import elastica_magnetic_rl.loop.runner as runner
+
+    def terminated(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGTERM)
+        raise AssertionError("SIGTERM did not stop the step")
+
+    monkeypatch.setattr(runner, "run_loop", terminated)
+    code = msr(["loop", "m1-4mT", "--out", str(tmp_path / "lp"), "--quick", "--no-progress"])
+    assert code == 128 + signal.SIGTERM
+    err = capsys.readouterr().err
+    assert "loop: interrupted; the finished steps are recorded in" in err and "SIGTERM" in err
+    assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL  # the handler is put back
