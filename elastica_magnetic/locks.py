@@ -41,10 +41,12 @@ try:  # POSIX: the kernel releases the lock of a process that dies
 except ImportError:  # pragma: no cover - Windows: O_EXCL and a pid check instead
     fcntl = None  # type: ignore[assignment]
 
-__all__ = ["FolderLock", "FolderLockedError", "claim", "command_line", "host_name", "lock_path",
-           "name_tag", "read_lock", "release_claim", "release_claims", "utc_now"]
+__all__ = ["LOCK_SUFFIX", "FolderLock", "FolderLockedError", "claim", "command_line", "describe_owner",
+           "host_name", "live_owner", "lock_path", "name_tag", "read_lock", "release_claim",
+           "release_claims", "utc_now"]
 
-_LOCK_SUFFIX = ".msr-lock"
+#: The end of a lock file's name: ``.NAME.msr-lock`` beside the folder ``NAME`` it locks.
+LOCK_SUFFIX = ".msr-lock"
 
 
 class FolderLockedError(OutputPathError):
@@ -88,7 +90,7 @@ def _pid_alive(pid: int) -> bool:
 def lock_path(folder: str | Path) -> Path:
     """The lock file of ``folder``: ``.NAME.msr-lock`` beside it."""
     folder = normalized_path(folder)
-    return folder.parent / f".{folder.name}{_LOCK_SUFFIX}"
+    return folder.parent / f".{folder.name}{LOCK_SUFFIX}"
 
 
 def read_lock(folder: str | Path) -> dict[str, Any] | None:
@@ -106,6 +108,23 @@ def read_lock(folder: str | Path) -> dict[str, Any] | None:
     except ValueError:
         return {}
     return data if isinstance(data, dict) else {}
+
+
+def live_owner(folder: str | Path) -> dict[str, Any] | None:
+    """What the lock file of ``folder`` says when its process may still run (this host's live
+    pid, or another host's, which cannot be checked), else ``None`` (no lock, or a stale one)."""
+    owner = read_lock(folder)
+    if owner is None:
+        return None
+    pid = owner.get("pid")
+    if owner.get("host") == host_name() and isinstance(pid, int) and not _pid_alive(pid):
+        return None
+    return owner
+
+
+def describe_owner(owner: dict[str, Any] | None) -> str:
+    """``pid 123 on host (`msr ...`, since ...)``: a lock's owner, for messages."""
+    return _describe_owner(owner)
 
 
 def _describe_owner(owner: dict[str, Any] | None) -> str:

@@ -94,7 +94,18 @@ from .io import (
     output_path_problem,
     unwritable_reason,
 )
-from .locks import FolderLock, claim, command_line, host_name, name_tag, release_claim, utc_now
+from .locks import (
+    LOCK_SUFFIX,
+    FolderLock,
+    claim,
+    command_line,
+    describe_owner,
+    host_name,
+    live_owner,
+    name_tag,
+    release_claim,
+    utc_now,
+)
 
 __all__ = [
     "MARKER",
@@ -364,8 +375,14 @@ def _check_result_folder(final: Path, kind: str, subject: str | None, force: boo
         raise ResultExistsError(f"{where}: holds more than {_MAX_LISTED} files, not a result of "
                                 f"`msr {spelling(kind)}`; choose a new or empty folder")
     marker = read_marker(final)
-    files = [f for f in listed if f != MARKER]
+    files = _without_stale_locks(final, [f for f in listed if f != MARKER], where)
     known = set(known_files)
+    if marker is None and MARKER in listed:
+        raise ResultExistsError(
+            f"{where}: its {MARKER}, msr's record of the files it wrote there, is damaged (not "
+            "readable as that record), so msr cannot tell its files from yours and replaces "
+            "nothing, not even with --force; move the folder away or choose another "
+            f"{option}")
     if marker is None:
         if not files and MARKER not in listed:
             return None
@@ -404,6 +421,22 @@ def _check_result_folder(final: Path, kind: str, subject: str | None, force: boo
         raise ResultExistsError(f"{where}: already holds {_what(marker)}; pass {force_option} to "
                                 f"replace it, or choose another {option}")
     return marker
+
+
+def _without_stale_locks(final: Path, files: list[str], where: str) -> list[str]:
+    """``files`` without the lock files of folders inside ``final`` (``.sub.msr-lock``, msr's
+    own); one whose process still writes that folder is refused, naming it."""
+    out = []
+    for name in files:
+        if "/" in name or not (name.startswith(".") and name.endswith(LOCK_SUFFIX)):
+            out.append(name)
+            continue
+        inner = final / name[1:-len(LOCK_SUFFIX)]
+        owner = live_owner(inner)
+        if owner is not None:
+            raise OutputPathError(f"{where}: another msr command is writing {display_path(inner)} "
+                                  f"inside it: {describe_owner(owner)}; wait for it to finish")
+    return out
 
 
 def interrupted(out: str | Path) -> bool:

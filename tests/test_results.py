@@ -420,3 +420,33 @@ def test_another_result_written_inside_the_folder_meanwhile_is_kept(tmp_path):
             with result_folder(out / "sub", kind="simulate") as inner:
                 (inner.path / "trajectory.csv").write_text("inner\n")
     assert (out / "sub" / "trajectory.csv").read_text() == "inner\n"
+
+
+def test_round9_v4_a_damaged_marker_and_a_lock_inside_are_named(tmp_path):
+    """Round 9, V4: a damaged .msr-result.json was called missing ("no record that msr wrote
+    them"), and the lock of a folder another command writes inside --out was called a file the
+    command does not write."""
+    from lock_holder import held_elsewhere
+
+    from elastica_magnetic.locks import host_name
+
+    out = tmp_path / "sim"
+    with result_folder(out, kind="simulate") as r:
+        (r.path / "trajectory.csv").write_text("t\n0\n")
+    marker = out / ".msr-result.json"
+    marker.write_text(marker.read_text()[:50])
+    with pytest.raises(ResultExistsError, match=r"its \.msr-result\.json, msr's record of the files it "
+                                                r"wrote there, is damaged"):
+        check_result_folder(out, kind="simulate", force=True)
+    assert (out / "trajectory.csv").read_text() == "t\n0\n"
+
+    parent = tmp_path / "parent"
+    with result_folder(parent, kind="simulate") as r:
+        (r.path / "trajectory.csv").write_text("t\n0\n")
+    with held_elsewhere(parent / "sub") as pid:
+        with pytest.raises(OutputPathError, match=rf"another msr command is writing .*sub inside "
+                                                  rf"it: pid {pid}"):
+            check_result_folder(parent, kind="simulate", force=True)
+    # a lock left by a process that is gone is msr's own leftover, not the user's file
+    (parent / ".sub.msr-lock").write_text(json.dumps({"pid": 2**22 + 12345, "host": host_name()}))
+    assert check_result_folder(parent, kind="simulate", force=True)["kind"] == "simulate"

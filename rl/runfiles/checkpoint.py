@@ -212,12 +212,33 @@ def replay_row_width(obs_dim: int, act_dim: int) -> int:
     return 2 * obs_dim + act_dim + 2
 
 
+#: What to do about a replay file that does not hold what its checkpoint needs.
+_REPLAY_FIX = ("restore it (e.g. from a backup), or train the seed afresh without --resume (another "
+               "--out)")
+
+
+def replay_problem(path: Path, state: dict[str, Any]) -> str | None:
+    """Why the replay file ``path`` cannot give the ``state["rows"]`` transitions its checkpoint
+    needs (missing, or cut short: judged by its size, nothing read), with the fix; ``None``: it can."""
+    rows = int(state["rows"])
+    width = replay_row_width(int(state["obs_dim"]), int(state["act_dim"]))
+    if not rows:
+        return None
+    if not path.is_file():
+        return f"{path} is missing: the checkpoint needs its {rows} transitions; {_REPLAY_FIX}"
+    held = path.stat().st_size // (4 * width)
+    if held < rows:
+        return (f"{path}: holds {held} transitions, the checkpoint needs {rows} (the file was cut "
+                f"short: a partial copy, a full disk?); {_REPLAY_FIX}")
+    return None
+
+
 def read_replay_rows(path: Path, state: dict[str, Any]) -> dict[str, torch.Tensor]:
     """The first ``state["rows"]`` transitions of ``path`` as the tensors of a buffer state."""
     obs_dim, act_dim, rows = int(state["obs_dim"]), int(state["act_dim"]), int(state["rows"])
     width = replay_row_width(obs_dim, act_dim)
-    if rows and not path.is_file():
-        raise ValueError(f"{path} is missing: the checkpoint needs its {rows} transitions")
+    if (problem := replay_problem(path, state)) is not None:
+        raise ValueError(problem)
     data = np.fromfile(path, dtype=np.float32, count=rows * width) if rows else np.zeros(0, np.float32)
     if data.size != rows * width:
         raise ValueError(f"{path}: holds {data.size // width} transitions, the checkpoint needs {rows}")

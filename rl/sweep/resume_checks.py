@@ -10,7 +10,7 @@ import dataclasses
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-from ..runfiles.checkpoint import load_checkpoint
+from ..runfiles.checkpoint import load_checkpoint, replay_problem
 from ..runfiles.rundir import RunDir
 from ..td3.algorithm import Schedule, setting_option
 
@@ -33,6 +33,10 @@ def check_resumed_checkpoints(runs: Iterable[tuple[str, RunDir]],
     line) that differs from the checkpoint's, naming the option, the run's value and the new one."""
     for case, run in runs:
         ckpt = load_checkpoint(run.checkpoint, with_buffer=False)
+        buffer = ckpt.get("buffer")
+        if isinstance(buffer, dict) and "file" in buffer:  # found now, not after the others trained
+            if (problem := replay_problem(run.path / buffer["file"], buffer)) is not None:
+                raise ValueError(f"cannot resume {run.path}: {problem}")
         meta = ckpt.get("metadata") or {}
         if meta.get("case") not in (None, case):
             raise ValueError(f"{run.checkpoint}: a checkpoint of case {meta['case']!r}, not of "

@@ -67,6 +67,23 @@ def test_a_damaged_episode_log_is_named_before_resuming(trained, tmp_path, capsy
     assert (runs / "m1-4mT" / "seed0" / "checkpoint.pt").read_bytes() == before
 
 
+def test_a_replay_file_cut_short_is_named_before_resuming(trained, tmp_path, capsys):
+    """Round 9, V3: a replay.bin cut short was found after the other seed had trained, as
+    "seed0: ValueError: ... holds 0 transitions", without a fix."""
+    runs = tmp_path / "runs"
+    shutil.copytree(trained, runs)
+    replay = runs / "m1-4mT" / "seed0" / "replay.bin"
+    replay.write_bytes(replay.read_bytes()[:1000])
+    before = {p.name: p.read_bytes() for p in (runs / "m1-4mT" / "seed1").iterdir() if p.is_file()}
+    assert msr(["train", "--case", "m1-4mT", "--seeds", "2", "--steps", "400", "--resume",
+                "--out", str(runs), *SMOKE]) == 2
+    err = capsys.readouterr().err
+    assert f"cannot resume {replay.parent}: {replay}: holds" in err and "the file was cut short" in err
+    assert "restore it" in err and "ValueError" not in err
+    after = {p.name: p.read_bytes() for p in (runs / "m1-4mT" / "seed1").iterdir() if p.is_file()}
+    assert after == before  # the other seed did not train meanwhile
+
+
 MSR = "import sys; from elastica_magnetic.cli import main; sys.exit(main(sys.argv[1:]))"
 
 
