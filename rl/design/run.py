@@ -248,16 +248,15 @@ def run_design(spec: str | Path | Design, out: str | Path, settings: DesignSetti
     settings.check()
     design = spec if isinstance(spec, Design) else load_design(spec)
     folder = normalized_path(out)
-    if force and holds_design(folder):
-        _check_folder(folder, resume, force)
-        # built beside and swapped in whole: the earlier design stays until the new one is finished
-        with result_folder(folder, kind=DESIGN_KIND, force=True, option="--out",
-                           known_files=_design_files(folder)) as result:
-            summary = _design_into(result.path, design, settings, False, progress, replacing=True)
-            result.subject = f"case {design.case.name}"
-        return summary
-    _check_folder(folder, resume, force)
     try:
+        _check_folder(folder, resume, force)  # claims the folder first: a live writer is named
+        if force and holds_design(folder):
+            # built beside and swapped in whole: the earlier design stays until the new one is done
+            with result_folder(folder, kind=DESIGN_KIND, force=True, option="--out",
+                               known_files=_design_files(folder)) as result:
+                summary = _design_into(result.path, design, settings, False, progress, replacing=True)
+                result.subject = f"case {design.case.name}"
+            return summary
         with FolderLock(folder, option="--out"):
             _check_folder(folder, resume, force)  # again, under the lock
             return _design_into(folder, design, settings, resume, progress)
