@@ -301,31 +301,30 @@ def _single(learner: TD3, k: int = 0) -> TD3Agent:
     return agent
 
 
+def _one_seed(options: dict[str, Any]) -> dict[str, Any]:
+    """:class:`GroupOptions` fields of one seed: its ``init_from`` and ``metadata`` as lists."""
+    out = dict(options)
+    for key in ("init_from", "metadata"):
+        if out.get(key) is not None:
+            out[key] = [out[key]]
+    return out
+
+
 def train(
     env_fn: Callable[[], gym.Env],
     config: TD3Config | None = None,
     steps: int = 100_000,
     run_dir: str | os.PathLike = "runs/td3",
-    resume: bool = False,
-    progress: bool = True,
-    log_fn: Callable[[dict[str, Any]], None] | None = None,
-    *,
-    init_from: str | os.PathLike | None = None,
-    progress_position: int | None = None,
-    progress_desc: str | None = None,
-    metadata: dict[str, Any] | None = None,
-    eval_env_fn: Callable[[], gym.Env] | None = None,
+    **options: Any,
 ) -> TD3Agent:
     """One seed on one environment (:func:`train_seeds` with K = N = 1); returns its agent.
 
     ``env_fn`` makes a single Gymnasium environment (flat Box observations, bounded Box actions).
-    Other arguments as :func:`train_seeds` (one of each).
+    ``options``: the fields of :class:`GroupOptions` by name (``resume``, ``progress``,
+    ``log_fn``, ``eval_env_fn``, ``progress_desc``...), ``init_from`` and ``metadata`` given for
+    this one seed (a checkpoint path, a dict), as :func:`train_seeds` describes them.
     """
-    learner = train_seeds(lambda k: _wrap(env_fn, k), [config], steps, [run_dir], resume=resume,
-                          progress=progress, log_fn=log_fn,
-                          init_from=[init_from] if init_from is not None else None,
-                          metadata=[metadata], eval_env_fn=eval_env_fn,
-                          progress_position=progress_position, progress_desc=progress_desc)
+    learner = train_seeds(lambda k: _wrap(env_fn, k), [config], steps, [run_dir], **_one_seed(options))
     return _single(learner)
 
 
@@ -334,18 +333,10 @@ def train_vector(
     config: TD3Config | None = None,
     steps: int = 100_000,
     run_dir: str | os.PathLike = "runs/td3",
-    resume: bool = False,
-    progress: bool = True,
-    log_fn: Callable[[dict[str, Any]], None] | None = None,
-    *,
-    init_from: str | os.PathLike | None = None,
-    progress_position: int | None = None,
-    progress_desc: str | None = None,
-    metadata: dict[str, Any] | None = None,
-    eval_env_fn: Callable[[], gym.Env] | None = None,
+    **options: Any,
 ) -> TD3Agent:
     """One seed on the N sub-environments of ``vec_env_fn()`` (:func:`train_seeds` with K = 1):
-    N transitions and N updates per vector step."""
+    N transitions and N updates per vector step. ``options`` as :func:`train`."""
     probe: list[gym.vector.VectorEnv] = []
 
     def make(total: int) -> gym.vector.VectorEnv:
@@ -353,11 +344,7 @@ def train_vector(
 
     probe.append(vec_env_fn())
     n_envs = int(probe[0].num_envs)
-    learner = train_seeds(make, [config], steps, [run_dir], envs_per_seed=n_envs, resume=resume,
-                          progress=progress, log_fn=log_fn,
-                          init_from=[init_from] if init_from is not None else None,
-                          metadata=[metadata], eval_env_fn=eval_env_fn,
-                          progress_position=progress_position, progress_desc=progress_desc)
+    learner = train_seeds(make, [config], steps, [run_dir], envs_per_seed=n_envs, **_one_seed(options))
     return _single(learner)
 
 
