@@ -274,11 +274,25 @@ def _material_values(t: SpecTable) -> dict[str, float]:
     else:
         out["shear_modulus"] = t.number("shear_modulus", "Pa, or give poisson_ratio", low=0.0,
                                         low_open=True, plausible="shear modulus")
+        _check_moduli(t, out["youngs_modulus"], out["shear_modulus"])
     out["shear_coefficient"] = t.number("shear_coefficient", "alpha_c, 1", 1.0, low=0.0, low_open=True)
     out["gravity"] = t.number("gravity", "m/s^2", STANDARD_GRAVITY, low=0.0)
     if out["gravity"] != 0.0:  # 0: no gravity, on purpose
         t.check_plausible("gravity", out["gravity"], "gravity")
     return out
+
+
+def _check_moduli(t: SpecTable, youngs_modulus: float, shear_modulus: float) -> None:
+    """Warn about a shear modulus under a third of Young's: the Poisson ratio it implies is above
+    0.5, which no isotropic solid has (G = E / (2 (1 + nu)) >= E / 3 for nu <= 0.5; the authors'
+    effective E / (1 + nu) is larger still)."""
+    if shear_modulus * 3.0 >= youngs_modulus * (1.0 - 1e-9):
+        return
+    implied = youngs_modulus / (2.0 * shear_modulus) - 1.0
+    t.warn("shear_modulus", f"{shear_modulus:g} Pa is below a third of youngs_modulus "
+           f"({youngs_modulus:g} Pa): it implies a Poisson ratio E / (2 G) - 1 = {implied:.3g}, above "
+           "the 0.5 of an incompressible solid (expected G between about E / 3 and E: a unit "
+           "mistake or a typo? or give poisson_ratio instead)")
 
 
 def _ground_table(ground: SpecTable) -> dict[str, Any]:

@@ -181,3 +181,23 @@ def test_the_sideways_friction_of_the_ground_is_a_choice_kept_through_a_dump():
     with pytest.raises(SpecError, match=r"s\.toml: \[robot\.ground\] sideways: expected one of "
                                         r"rolling, sliding; got 'slide'"):
         describe_robot(loads(ROBOT + 'sideways = "slide"\n', "s.toml"), "s.toml")
+
+
+def test_a_shear_modulus_below_a_third_of_youngs_is_warned_about():
+    """Round 11, S1: shear_modulus = 1000 Pa beside E = 84.5 kPa (an implied Poisson ratio of 41)
+    passed in silence; written as poisson_ratio it is refused."""
+    import warnings
+
+    from elastica_magnetic.plausibility import ImplausibleValueWarning
+
+    spec = loads(ROBOT.replace("poisson_ratio = 0.48", "shear_modulus = 1000.0"))
+    with pytest.warns(ImplausibleValueWarning, match=r"\[robot\] shear_modulus: 1000 Pa is below a "
+                                                     r"third of youngs_modulus \(84500 Pa\).*41\.2"):
+        describe_robot(spec, "my.toml")
+    spec["robot"]["shear_modulus"] = 84500.0 / 3.0  # nu = 0.5 exactly: an incompressible solid
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ImplausibleValueWarning)
+        describe_robot(spec, "my.toml")
+        spec["robot"]["shear_modulus"] = 1000.0
+        spec["checks"] = {"accept": ["robot.shear_modulus"]}
+        describe_robot(spec, "my.toml")

@@ -26,6 +26,7 @@ from __future__ import annotations
 import csv
 import math
 import os
+import re
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, replace
@@ -45,6 +46,7 @@ from elastica_magnetic.results import (
     remove_tree,
     result_folder,
     signals_held,
+    unrecorded_files,
 )
 from elastica_magnetic.specfile import SpecError, read_spec
 
@@ -378,10 +380,7 @@ def _check_folder(folder: Path, resume: bool, force: bool) -> None:
                               "to start one")
         check_result_folder(folder, kind=DESIGN_KIND, force=True, option="--out")  # raises unless empty
         return
-    # the design's own names, not the marker's list (which lists what the folder held when it was
-    # written: a user's file saved there during a run would pass for the design's)
-    foreign = [p.name for p in folder.iterdir() if p.name not in DESIGN_NAMES
-               and not p.name.startswith(".msr")]
+    foreign = _foreign_files(folder)
     if foreign:
         raise OutputPathError(f"--out {shown}: holds a design and files msr did not write "
                               f"({', '.join(sorted(foreign)[:5])}); move them away first")
@@ -391,6 +390,27 @@ def _check_folder(folder: Path, resume: bool, force: bool) -> None:
     if not resume and not force:
         raise OutputPathError(f"--out {shown} holds a design ({marker.get('subject')}): continue "
                               "it with --resume, or replace it with --force")
+
+
+def _foreign_files(folder: Path) -> list[str]:
+    """What in a design folder is not the design's: by the design's own names, not the marker's
+    list (which lists what the folder held when it was marked: a user's file saved there during
+    a run would pass for the design's); in ``search/`` only the checkpoint (and its temporary
+    file), in ``gait/`` only what its own marker lists."""
+    foreign = [p.name for p in folder.iterdir() if p.name not in DESIGN_NAMES
+               and not p.name.startswith(".msr")]
+    search = folder / STATE_FILE.split("/")[0]
+    if search.is_dir():
+        state = Path(STATE_FILE).name
+        temporary = re.compile(rf"\.{re.escape(Path(STATE_FILE).stem)}\.tmp\d+\.pkl")
+        foreign += [f"{search.name}/{p.name}" for p in search.iterdir()
+                    if p.name != state and not temporary.fullmatch(p.name)]
+    elif search.exists():
+        foreign.append(search.name)
+    gait = folder / "gait"
+    if gait.is_dir():
+        foreign += [f"gait/{name}" for name in unrecorded_files(gait)]
+    return foreign
 
 
 def _prepare(folder: Path, design: Design, settings: DesignSettings, resume: bool) -> dict[str, Any]:

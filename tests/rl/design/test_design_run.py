@@ -382,3 +382,22 @@ def test_sizes_get_a_time_step_stable_at_every_corner(tmp_path):
     run_design(design, tmp_path / "out", TINY)
     best = load_case(tmp_path / "out" / "best.toml")
     assert unstable_time_step(best.robot_spec("training"), "training") is None
+
+
+def test_a_users_file_inside_the_designs_subfolders_is_refused_not_removed(tmp_path):
+    """Round 11, D1: the design's own names were checked at the top level only; --force deleted
+    a user's gait/notes.txt and search/mine.txt."""
+    out = tmp_path / "d"
+    run_design("m1-4mT", out, TINY)
+    (out / "gait" / "notes.txt").write_text("my measurements\n")
+    (out / "search" / "mine.txt").write_text("mine\n")
+    for flags in ({"force": True}, {"resume": True}):
+        with pytest.raises(OutputPathError, match=r"files msr did not write \(gait/notes.txt, "
+                                                  r"search/mine.txt\)"):
+            run_design("m1-4mT", out, TINY, **flags)
+    assert (out / "gait" / "notes.txt").read_text() == "my measurements\n"
+    assert (out / "search" / "mine.txt").read_text() == "mine\n"
+    (out / "search" / ".state.tmp4242.pkl").write_bytes(b"")  # msr's own, left by a kill
+    (out / "gait" / "notes.txt").unlink()
+    (out / "search" / "mine.txt").unlink()
+    assert run_design("m1-4mT", out, TINY, force=True)["search"]["generations"] == 2
