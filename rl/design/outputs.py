@@ -14,24 +14,31 @@ from elastica_magnetic.io import atomic_write, atomic_write_json, atomic_write_t
 
 from ..cases.case import EVAL_DURATION, case_from_dict
 from .evaluate import Trial, run_trials
-from .search import SearchState, _worst, variant_specs, variation_set
+from .search import DIVERGED_SCORE, SearchState, _worst, variant_specs, variation_set
 
 __all__ = ["judge", "write_outputs"]
 
 
-def judge(design, settings, x: np.ndarray | None, periods: list[float]) -> dict[str, Any]:
+def judge(design, settings, x: np.ndarray | None, periods: list[float],
+          known: dict[tuple[float, bool], float] | None = None) -> dict[str, Any]:
     """One design (the search vector ``x``; ``None``: the spec's own magnetization) under every
     period (s) in both senses for ``settings.final_duration`` s of ``settings.final_physics``:
     ``sweep`` (period, sense, distance in m), the best rotating field (``distance_m``,
     ``period_s``, ``clockwise``), and for the robust objective ``robust_m`` (the worst over the
-    default variation set with its corners, under that best field) and ``variants``."""
+    default variation set with its corners, under that best field) and ``variants``.
+    ``known``: distances (m, ``nan``: diverged) already measured by the same simulations, by
+    ``(period, clockwise)``: not run again."""
     spec = design.base if x is None else design.space.spec_of(design.base, x)
     robot = variant_specs(design.case, spec, settings.final_physics, None)[0]
-    trials = [Trial(robot, p, cw) for p in periods for cw in (True, False)]
-    distances = run_trials(design.case, trials, settings.final_duration, settings.workers)
-    sweep = [{"period_s": t.period, "clockwise": t.clockwise,
-              "distance_m": None if math.isnan(d) else float(d)}
-             for t, d in zip(trials, distances, strict=True)]
+    known = known or {}
+    trials = [Trial(robot, p, cw) for p in periods for cw in (True, False) if (p, cw) not in known]
+    measured = dict(zip([(t.period, t.clockwise) for t in trials],
+                        run_trials(design.case, trials, settings.final_duration, settings.workers),
+                        strict=True))
+    distances = [known.get((p, cw), measured.get((p, cw))) for p in periods for cw in (True, False)]
+    sweep = [{"period_s": p, "clockwise": cw, "distance_m": None if math.isnan(d) else float(d)}
+             for (p, cw), d in zip([(p, cw) for p in periods for cw in (True, False)], distances,
+                                   strict=True)]
     finite = [s for s in sweep if s["distance_m"] is not None]
     best = max(finite, key=lambda s: s["distance_m"]) if finite else {
         "period_s": periods[0], "clockwise": True, "distance_m": None}
@@ -48,6 +55,21 @@ def judge(design, settings, x: np.ndarray | None, periods: list[float]) -> dict[
     return result
 
 
+def _start_sweep(record: dict[str, Any], settings) -> dict[tuple[float, bool], float]:
+    """The starting design's distances (m) the search's own start sweep measured, when the
+    search runs the judgement's simulations (same physics and duration, the yardstick
+    objective): the judgement reuses them."""
+    if (settings.objective != "yardstick" or settings.physics != settings.final_physics
+            or settings.search_duration != settings.final_duration):
+        return {}
+    known = {}
+    for row in record["start"]["sweep"]:
+        for clockwise, key in ((True, "distance_cw_m"), (False, "distance_ccw_m")):
+            d = float(row[key])
+            known[(float(row["period_s"]), clockwise)] = math.nan if d == DIVERGED_SCORE else d
+    return known
+
+
 def _objective(result: dict[str, Any], objective: str) -> float | None:
     return result.get("robust_m") if objective == "robust" else result["distance_m"]
 
@@ -62,7 +84,7 @@ def write_outputs(folder: Path, design, settings, record: dict[str, Any], state:
     best_x = np.asarray(chosen["vector"], dtype=float)
     periods = sorted({*settings.final_periods, float(record["start"]["period_s"]),
                       design.space.period(best_x)})
-    start = judge(design, settings, None, periods)
+    start = judge(design, settings, None, periods, _start_sweep(record, settings))
     best = judge(design, settings, best_x, periods)
     objective_start, objective_best = (_objective(start, settings.objective),
                                        _objective(best, settings.objective))

@@ -92,9 +92,11 @@ class DesignError(ValueError):
 class DesignSettings:
     """How ``msr design`` searches and judges. Durations in s, budgets in minutes.
 
-    The search evaluates each candidate for ``search_duration`` s of ``physics`` (the accurate
-    physics by default: the training physics' heavier robot walks differently under slow
-    rotations); the starting and the best design are then judged by the same sweep of rotating
+    The search evaluates each candidate for ``search_duration`` s of ``physics`` (by default the
+    judgement's own 10 s of the accurate physics: shorter runs rank designs differently, and the
+    training physics' heavier robot walks differently under slow rotations; when the search
+    measures less, its ``finalists`` are run again as judged before the best is chosen); the
+    starting and the best design are then judged by the same sweep of rotating
     fields (``final_periods`` and the periods the search found, both senses) for
     ``final_duration`` s of ``final_physics``: the numbers the summary reports."""
 
@@ -110,7 +112,7 @@ class DesignSettings:
     #: before the final judgement, which takes the best of them (the search's shorter runs rank
     #: designs differently from the judgement: a gait builds up over seconds).
     finalists: int = 6
-    search_duration: float = 5.0
+    search_duration: float = EVAL_DURATION
     physics: str = "accurate"
     final_duration: float = EVAL_DURATION
     final_physics: str = "accurate"
@@ -304,6 +306,8 @@ def _finalists(design: Design, settings: DesignSettings, state: SearchState,
     them), each run again under its own period, both senses, for ``final_duration`` s of
     ``final_physics``: records with ``vector``, ``objective_search_m`` and ``objective_m`` (the
     longer run's). ``done``: the records of an earlier end of the same search (reused)."""
+    if settings.search_duration == settings.final_duration and settings.physics == settings.final_physics:
+        return []  # the search measured what the judgement measures: its best is the finalist
     ranked = sorted(state.history, key=lambda r: -r["objective_m"])
     picked: list[NDArray[np.float64]] = [np.asarray(state.best_x, dtype=float)]
     searched = [float(state.best_objective)]
@@ -538,8 +542,12 @@ def _spent(state: SearchState, settings: DesignSettings, last_s: float, trials: 
         return False  # at least one generation
     trial_s = last_s / max(1, trials)  # wall time of one search simulation, the workers busy
     longer = settings.final_duration / settings.search_duration
-    judged = 2 * 2 * (len(settings.final_periods) + 2)  # two designs, both senses, the periods
-    judged += settings.finalists * trials // max(1, _popsize(state))  # the finalists, run again
+    same = settings.search_duration == settings.final_duration and settings.physics == settings.final_physics
+    # both senses of the periods, for both designs (the start's reused from the search when it
+    # measured the same), and the finalists run again when the search measured less
+    judged = (1 if same and settings.objective == "yardstick" else 2) * 2 * (len(settings.final_periods) + 2)
+    if not same:
+        judged += settings.finalists * trials // max(1, _popsize(state))
     if settings.objective == "robust":
         judged += 2 * 25  # each design's worst case over the default set with its corners
     gait = settings.workers * trial_s * longer  # one rollout, on one core

@@ -401,3 +401,30 @@ def test_a_users_file_inside_the_designs_subfolders_is_refused_not_removed(tmp_p
     (out / "gait" / "notes.txt").unlink()
     (out / "search" / "mine.txt").unlink()
     assert run_design("m1-4mT", out, TINY, force=True)["search"]["generations"] == 2
+
+
+def test_finalists_are_run_again_when_the_search_measures_less(tmp_path):
+    """A search of shorter runs than the judgement's: its best distinct candidates are run again
+    for the judged duration and the best of those is judged (issue 52: 5 s ranked designs
+    differently from 10 s); a search that measures what the judgement does reuses the start's
+    sweep and has no finalists."""
+    shorter = DesignSettings(**{**TINY.__dict__, "search_duration": 0.2, "finalists": 3})
+    summary = run_design("m1-4mT", tmp_path / "d", shorter)
+    finalists = summary["search"]["finalists"]
+    assert len(finalists) == 3
+    chosen = finalists[summary["search"]["chosen_finalist"]]
+    assert chosen["objective_m"] == max(f["objective_m"] for f in finalists)
+    # the chosen finalist's 0.3 s run is the judged design's distance under its own period
+    best_sweep = [r for r in _rows(tmp_path / "d" / "final_sweep.csv") if r["design"] == "best"]
+    at_its_period = [float(r["distance_m"]) for r in best_sweep
+                     if abs(float(r["period_s"]) - chosen["period_s"]) < 1e-5]
+    assert chosen["objective_m"] == pytest.approx(max(at_its_period), abs=1e-12)
+    same = run_design("m1-4mT", tmp_path / "same", TINY)
+    assert same["search"]["finalists"] == []
+    start_sweep = [r for r in _rows(tmp_path / "same" / "final_sweep.csv") if r["design"] == "start"]
+    record = json.loads((tmp_path / "same" / "design.json").read_text())["start"]["sweep"]
+    for row in record:  # the judgement's start rows are the search's own start sweep
+        for clockwise, key in ((1, "distance_cw_m"), (0, "distance_ccw_m")):
+            judged = [float(r["distance_m"]) for r in start_sweep if int(r["clockwise"]) == clockwise
+                      and abs(float(r["period_s"]) - row["period_s"]) < 1e-9]
+            assert judged == [pytest.approx(row[key], rel=1e-8)]  # the CSV keeps 9 digits
