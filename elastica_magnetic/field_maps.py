@@ -181,9 +181,16 @@ class FieldMap(SpatialField):
         The map's coordinates are in m and its samples in T, whatever the file's units."""
         path = Path(path)
         header, table = _read_export(path)
-        if table.shape[0] == 0 or table.shape[1] != 6:
-            raise SpatialFieldError(f"{path}: expected rows of 6 numbers (x y z Bx By Bz), got "
-                                    f"{table.shape[1] if table.size else 0} columns")
+        width = _named_width(header)  # the columns the header names (6, or 7 with |B|)
+        held = table.shape[1] if table.size else 0
+        if width is not None and held != width:
+            raise SpatialFieldError(
+                f"{path}: the header's column names name {width} columns, the rows hold {held} (x y z "
+                "Bx By Bz, and |B| if exported: e.g. '% x (mm)  y (mm)  z (mm)  mf.Bx (T)  mf.By (T)  "
+                "mf.Bz (T)  mf.normB (T)')")
+        if width is None and held != 6:
+            raise SpatialFieldError(f"{path}: expected rows of 6 numbers (x y z Bx By Bz), got {held} "
+                                    "columns")
         order, factors = _column_factors(path, header, length_unit, field_unit)
         table = table[:, order] * np.array(factors)
         if not np.all(np.isfinite(table)):
@@ -279,8 +286,27 @@ def _component(name: str) -> int | None:
     return _COMPONENTS.get(name.rsplit(".", 1)[-1].replace("_", "").lower())
 
 
+def _named_width(header: list[str]) -> int | None:
+    """How many columns the header's column-name line names (``None``: no such line)."""
+    for line in reversed(header):
+        if _METADATA.match(line):
+            continue
+        tokens = _COLUMN.findall(line)
+        if sum(_component(name) is not None for name, _ in tokens) >= 3:
+            return len(tokens)
+    return None
+
+
 def _unit_name(unit: str | None) -> str | None:
     return None if unit is None else unit.replace("\u03bc", "\u00b5")  # Greek mu as the micro sign
+
+
+#: Names of a field-norm column (``mf.normB``), which a grid export may hold beside the components.
+_NORM_NAMES = frozenset({"normb", "bnorm", "norm", "absb", "|b|"})
+
+
+def _is_norm(name: str) -> bool:
+    return name.rsplit(".", 1)[-1].replace("_", "").lower() in _NORM_NAMES
 
 
 def _export_columns(path: Path, header: list[str]) -> list[tuple[int, str, str | None]] | None:
@@ -294,12 +320,10 @@ def _export_columns(path: Path, header: list[str]) -> list[tuple[int, str, str |
         tokens = _COLUMN.findall(line)
         if sum(_component(name) is not None for name, _ in tokens) < 3:
             continue  # a free-text comment
-        if len(tokens) != 6:
-            raise SpatialFieldError(
-                f"{path}: the header's column names {line!r} name {len(tokens)} columns, the rows hold 6 "
-                "(x y z Bx By Bz, e.g. '% x (mm)  y (mm)  z (mm)  mf.Bx (T)  mf.By (T)  mf.Bz (T)')")
         found: dict[int, tuple[int, str, str | None]] = {}
         for column, (name, unit) in enumerate(tokens):
+            if _is_norm(name):  # |B|, which COMSOL exports beside the components: not read
+                continue
             component = _component(name)
             written = f"{name} ({unit})" if unit else name
             if component is None:
@@ -311,6 +335,12 @@ def _export_columns(path: Path, header: list[str]) -> list[tuple[int, str, str |
                     f"{path}: columns {found[component][0] + 1} and {column + 1} of the header both name "
                     f"{_NAMES[component]} ({found[component][1]!r} and {written!r})")
             found[component] = (column, written, _unit_name(unit or None))
+        missing = [_NAMES[c] for c in range(6) if c not in found]
+        if missing:
+            raise SpatialFieldError(
+                f"{path}: the header's column names {line!r} name no {', '.join(missing)} column "
+                "(expected x y z Bx By Bz, e.g. '% x (mm)  y (mm)  z (mm)  mf.Bx (T)  mf.By (T)  "
+                "mf.Bz (T)')")
         return [found[c] for c in range(6)]
     return None
 

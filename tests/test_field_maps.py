@@ -328,3 +328,18 @@ def test_msr_field_simulate_names_a_grid_too_fine_to_resample(tmp_path, capsys):
     assert status == 2 and "Traceback" not in err, err
     assert "refined.txt: the x axis is not evenly spaced" in err and "nodes on an even grid" in err
     assert not (tmp_path / "o").exists()
+
+
+def test_a_norm_column_beside_the_components_is_left_out(tmp_path):
+    """Round 11, V2: COMSOL's common export with mf.normB after the components was refused as
+    "expected rows of 6 numbers, got 7 columns"."""
+    path = _export(tmp_path / "norm.txt", ["Length unit: mm",
+                                           "x  y  z  mf.Bx (mT)  mf.By (mT)  mf.Bz (mT)  mf.normB (mT)"],
+                   lambda x, y, z: (x, y, z, 3.0, 4.0, 0.0, 5.0))
+    field_map = FieldMap.from_export(path)
+    np.testing.assert_allclose(field_map.at(ORIGIN, 0.0).ravel(), [3e-3, 4e-3, 0.0])
+    short = _export(tmp_path / "short.txt",
+                    ["Length unit: mm", "x  y  z  mf.Bx (mT)  mf.By (mT)  mf.normB (mT)"],
+                    lambda x, y, z: (x, y, z, 3.0, 4.0, 5.0))
+    with pytest.raises(SpatialFieldError, match=r"short.txt: the header's column names .* name no Bz column"):
+        FieldMap.from_export(short)

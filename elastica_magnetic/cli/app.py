@@ -421,8 +421,11 @@ def _main(argv: Sequence[str] | None = None) -> int:
     try:
         # parsing imports the command modules and loads --case specs: Ctrl-C may come there too
         with _interruptions_not_swallowed(swallowed), _plausibility_warnings(lambda: command):
-            args = build_parser().parse_args(argv)
+            parser = build_parser()
+            args, extras = parser.parse_known_args(argv)
             command = args.command_name = command_name(args)
+            if extras:  # said by the command's own parser, with its usage, not the top level's
+                _unrecognized(parser, command, extras)
             status = args.func(args)
     except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM/SIGHUP while a result was written
         return _interrupted(command, exc, aborted_results()[already_aborted:])
@@ -440,6 +443,21 @@ def _main(argv: Sequence[str] | None = None) -> int:
         print(f"msr {command}: note: a Ctrl-C came where it cannot stop the command (in a callback "
               "from C, such as numba's compiler); it ran to its end", file=sys.stderr)
     return int(status or 0)
+
+
+def _unrecognized(parser: argparse.ArgumentParser, command: str, extras: list[str]) -> None:
+    """Exit with the command's own usage and error for arguments it does not take."""
+    for word in command.split():
+        actions = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+        if not actions or word not in actions[0].choices:
+            break
+        parser = actions[0].choices[word]
+    options = {o for a in parser._actions for o in a.option_strings}
+    hint = ""
+    if "--case" in extras and "--robot" in options:
+        hint = ("; this command takes the robot as --robot (a preset name, or a spec file: msr case "
+                "show CASE --toml > my.toml writes a case's)")
+    parser.error(f"unrecognized arguments: {' '.join(extras)}{hint}")
 
 
 def _command_word(argv: Sequence[str]) -> str:

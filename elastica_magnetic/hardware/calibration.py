@@ -32,6 +32,7 @@ from elastica_magnetic.hardware.plausibility import (
     CURRENT_COLUMNS,
     CURRENT_CONDITION_REFUSE,
     CURRENT_CONDITION_WARN,
+    check_coil_axes,
     check_drive,
     check_fit_residuals,
     check_matrix,
@@ -632,6 +633,7 @@ def fit_actuation_matrix(currents_A: NDArray[np.float64], fields_T: NDArray[np.f
     matrix = solution.T
     residuals = fields - currents @ solution
     check_fit_residuals(fields, residuals, source)
+    check_coil_axes(matrix, source)
     rms = np.sqrt(np.mean(residuals**2, axis=0))
     dof = currents.shape[0] - AXES
     if dof > 0:

@@ -87,6 +87,23 @@ def _matrix_entry_problem(value: float, where: str, diagonal: bool) -> str | Non
             f"Helmholtz-type coils: {hint}")
 
 
+def check_coil_axes(matrix: Sequence[Sequence[float]], source: str) -> None:
+    """Refuse a fitted matrix (T/A) where a coil makes almost no field along its own axis but a
+    coil's field along another: the coils' channels or the measurement columns are swapped (a
+    unit mistake would shrink or grow every entry alike)."""
+    low, high = COIL_CONSTANT_RANGE_T_PER_A
+    a = np.abs(np.asarray(matrix, dtype=np.float64))
+    names = "xyz"
+    for j in range(3):
+        i = int(np.argmax(a[:, j]))
+        if a[j, j] < low and i != j and low <= a[i, j] <= high:
+            raise PlausibilityError(
+                f"{source}: coil {names[j]} (current_{names[j]}_A) makes {1e3 * a[i, j]:.3g} mT/A "
+                f"along {names[i]} but {a[j, j]:.3g} T/A along {names[j]}, its own axis: the coils' "
+                "channels or the columns of the measurements are swapped; fix the wiring or the "
+                "column names and fit again")
+
+
 def matrix_condition(matrix: Sequence[Sequence[float]]) -> float:
     """1-norm condition number ``||A||_1 ||inv(A)||_1`` (as the firmware computes it)."""
     a = np.asarray(matrix, dtype=np.float64)

@@ -207,3 +207,18 @@ def test_the_coil_ranges_are_read_from_the_one_table_of_physical_ranges() -> Non
     assert plausibility._MATRIX_UNIT_MISTAKES is coil_constant.mistakes
     assert plausibility.MEASURED_FIELD_RANGE_MT == (0.05, 1000.0) == tuple(
         1e3 * b.value for b in coil_field.refuse)
+
+
+def test_coils_fitted_with_their_channels_swapped_are_named_as_swapped():
+    """Round 11, V1: coils measured with the x and y currents swapped (a permutation matrix) were
+    refused as a unit mistake ("check the unit: T/A is expected"), naming the output file."""
+    from elastica_magnetic.hardware.calibration import fit_actuation_matrix
+
+    matrix = np.array([[0.0, 2e-3, 0.0], [2e-3, 0.0, 0.0], [0.0, 0.0, 2e-3]])
+    currents = np.vstack([np.eye(3), -np.eye(3), 0.5 * np.eye(3)])
+    with pytest.raises(plausibility.PlausibilityError,
+                       match=r"m.csv: coil x \(current_x_A\) makes 2 mT/A along y but 0 T/A along x, "
+                             r"its own axis: the coils' channels or the columns .* are swapped"):
+        fit_actuation_matrix(currents, currents @ matrix.T, "m.csv")
+    fit = fit_actuation_matrix(currents, currents @ np.diag([2e-3, 2e-3, 2e-3]).T, "m.csv")
+    assert np.allclose(fit.matrix_T_per_A, np.diag([2e-3] * 3))

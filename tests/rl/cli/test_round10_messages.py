@@ -1,4 +1,4 @@
-"""Round 10 of held-out tries (issue 48), what the command line says (the design folder's rules
+"""Rounds 10 and 11 of held-out tries (issue 48), what the command line says (the design folder's rules
 are tested in tests/rl/design/test_design_run.py, the [design] table's checks in
 tests/rl/cases/test_design_space.py, the field maps' in tests/test_field_maps.py)."""
 
@@ -70,3 +70,17 @@ def test_sigterm_during_a_loop_step_is_said_like_ctrl_c(tmp_path, monkeypatch, c
     err = capsys.readouterr().err
     assert "loop: interrupted; the finished steps are recorded in" in err and "SIGTERM" in err
     assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL  # the handler is put back
+
+
+def test_an_option_a_command_does_not_take_is_named_by_that_command(capsys):
+    """Round 11, V3: msr field simulate --case m1-4mT was answered by the top-level parser
+    ("usage: msr [-h] COMMAND ..."), without a word on --robot."""
+    import pytest
+
+    with pytest.raises(SystemExit) as info:
+        msr(["field", "simulate", "--case", "m1-4mT", "--duration", "0.2"])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert "usage: msr field simulate" in err
+    assert ("msr field simulate: error: unrecognized arguments: --case m1-4mT; this command takes "
+            "the robot as --robot") in err
