@@ -61,9 +61,6 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "default fabrication errors (about 9x the cost per candidate)")
     p.add_argument("--popsize", type=number("candidates", 2, 1000, integer=True), default=None,
                    help="candidates per generation (default CMA-ES's 4 + 3 ln(dimension))")
-    p.add_argument("--finalists", type=number("candidates", 1, 100, integer=True), default=6,
-                   help="the best distinct candidates of the search run again at the judged "
-                        "duration; the best of them is judged (default 6; 1: the search's best)")
     p.add_argument("--workers", type=number("processes", 1, 1024, integer=True), default=None,
                    help="processes sharing each generation's simulation (default: one per core)")
     p.add_argument("--resume", action="store_true", help="continue the design in DIR")
@@ -83,7 +80,6 @@ def _settings(args: argparse.Namespace):
     minutes = args.minutes if args.minutes is not None else (None if args.generations else 30.0)
     settings = DesignSettings(objective=args.objective, seed=args.seed, minutes=minutes,
                               generations=args.generations, popsize=args.popsize,
-                              finalists=args.finalists,
                               workers=args.workers or os.cpu_count() or 1, gif=not args.no_gif)
     if args.quick:
         from dataclasses import replace
