@@ -502,12 +502,21 @@ def _fit_report(problem: _Problem, records: list[dict[str, Any]], o: FitOptions,
     model = problem.whole
     residual = model.residuals(np.exp(x))  # cached
     nominal = model.residuals(np.ones(len(fits)))
+    kept = _rms(residual) > _rms(nominal)
+    if kept:  # the search ended worse than it began (over the whole trajectory): never written
+        kept_note = (f"the fit did not improve on the spec: over the whole trajectory its best "
+                     f"values leave a residual RMS of {1e3 * _rms(residual):.4g} mm, the spec's own "
+                     f"{1e3 * _rms(nominal):.4g} mm; the spec's values are kept (more evaluations, "
+                     "more starts or a longer trajectory may find better)")
+        x, residual = np.zeros(len(fits)), nominal
     before = model.evaluations
     sigma, corr, judged, near, profile = _judge(model, x, residual, fits,
                                                 [records[i] for i in finished], bounds)
     starts_public, agree = _starts_report(records, near, best)
     judged_residual, warnings = residual_against_noise(_rms(residual), o.noise_m)
     warnings += _fit_warnings(records[best], judged, fits)
+    if kept:
+        warnings.insert(0, kept_note)
     return {
         "_x": x,
         "physics": o.physics,
@@ -519,6 +528,7 @@ def _fit_report(problem: _Problem, records: list[dict[str, Any]], o: FitOptions,
                        "count": int(residual.size)},
         **judged_residual,
         "warnings": warnings,
+        "kept_spec_values": kept,
         "identifiability": {"near_best_chi2": NEAR_BEST_CHI2, "interval_sigmas": INTERVAL_SIGMAS,
                             "identifiable_within": IDENTIFIABLE_WITHIN, "profile": profile,
                             "simulations": model.evaluations - before},

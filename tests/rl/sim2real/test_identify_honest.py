@@ -212,3 +212,29 @@ def test_the_residual_flag_fires_when_the_value_that_differs_is_not_fitted(tmp_p
     assert "does not explain the data" in report["warnings"][0]
     assert f"({report['residual_vs_noise']:.2f} x the noise)" in captured.out
     assert "2 start(s), " in captured.out
+
+
+def test_a_fit_that_ends_worse_than_the_spec_keeps_the_specs_values(spec, monkeypatch):
+    """Round 11, S3: a search cut short (its stages judged on a short horizon) wrote a
+    magnetization of 0.605 x nominal that fitted the whole trajectory worse than the nominal."""
+    import elastica_magnetic_rl.sim2real.identify as identify_module
+
+    fields = rotating(0.3)
+    keys = "robot.magnetization.magnitude"
+    measured = synthetic(spec, keys, np.array([1.0]), fields, 0.3)
+
+    def worse(problem, x0, budget):  # a start that stopped far from the truth
+        x = np.array([np.log(0.6)])
+        r = problem.whole.residuals(np.exp(x))
+        return {"x": x, "cost": float(r @ r), "rms_m": float(np.sqrt(np.mean(r**2))),
+                "converged": False, "status": None, "message": "stopped", "stages": [],
+                "polish": {"converged": False, "message": "", "simulations": 0}}
+
+    monkeypatch.setattr(identify_module, "_fit_one_start", worse)
+    report = identify(fields, measured, spec, parse_fit(keys, spec), starts=1, max_evaluations=10,
+                      noise_m=NOISE_M, confirm=False)
+    assert report["kept_spec_values"] is True
+    fitted = report["fitted"]["robot.magnetization.magnitude"]
+    assert fitted["factor"] == 1.0
+    assert report["residual_m"]["rms"] == report["residual_m"]["nominal_rms"]
+    assert report["warnings"][0].startswith("the fit did not improve on the spec")
