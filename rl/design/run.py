@@ -358,6 +358,13 @@ def _end(folder: Path, design: Design, settings: DesignSettings, record: dict[st
     except BaseException:
         remove_tree(staging)
         raise
+    foreign = [f"{name}/{f}" for name in OUTPUT_FILES if (folder / name).is_dir()
+               for f in unrecorded_files(folder / name)]
+    if foreign:  # saved there while the design ran: never removed
+        remove_tree(staging)
+        raise OutputPathError(f"--out {display_path(folder)}: files msr did not write appeared in the "
+                              f"design's folders while it ran ({', '.join(foreign[:5])}); the end was "
+                              "not put in place: move them away and continue with --resume")
     with signals_held():
         for name in OUTPUT_FILES:
             if (staging / name).is_dir():

@@ -428,3 +428,24 @@ def test_finalists_are_run_again_when_the_search_measures_less(tmp_path):
             judged = [float(r["distance_m"]) for r in start_sweep if int(r["clockwise"]) == clockwise
                       and abs(float(r["period_s"]) - row["period_s"]) < 1e-9]
             assert judged == [pytest.approx(row[key], rel=1e-8)]  # the CSV keeps 9 digits
+
+
+def test_a_users_file_saved_in_gait_during_the_end_is_kept(tmp_path, monkeypatch):
+    """The end replaces gait/ of a finished design that is resumed: a file the user saved there
+    while the end ran is never removed (the end is not put in place; --resume puts it later)."""
+    import elastica_magnetic_rl.design.outputs as outputs
+
+    out = tmp_path / "d"
+    run_design("m1-4mT", out, TINY)
+    real = outputs.write_outputs
+
+    def and_a_note(*args, **kwargs):
+        summary = real(*args, **kwargs)
+        (out / "gait" / "notes.txt").write_text("mine\n")
+        return summary
+
+    monkeypatch.setattr(outputs, "write_outputs", and_a_note)
+    with pytest.raises(OutputPathError, match=r"files msr did not write appeared .*\(gait/notes.txt\)"):
+        run_design("m1-4mT", out, TINY, resume=True)
+    assert (out / "gait" / "notes.txt").read_text() == "mine\n"
+    assert not (out / ".msr-end").exists()
