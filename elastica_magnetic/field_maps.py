@@ -444,7 +444,7 @@ def _check_resampled_size(path: Path, axes: list[NDArray[np.float64]], counts: l
     name = "xyz"[d]
     raise SpatialFieldError(
         f"{path}: the {name} axis is not evenly spaced, and its finest spacing, {steps[k]:.3g} m (between "
-        f"{axes[d][k]:.6g} and {axes[d][k + 1]:.6g} m), would need {sizes[d]:,} {name} nodes on an even "
+        f"{axes[d][k]:.12g} and {axes[d][k + 1]:.12g} m), would need {sizes[d]:,} {name} nodes on an even "
         f"grid, {sizes[0]:,} x {sizes[1]:,} x {sizes[2]:,} = {total:,} in all (at most "
         f"{MAX_RESAMPLED_NODES:,}): resample onto an even grid in the exporting tool (COMSOL: a Grid 3D "
         "dataset with evenly spaced x, y and z)")

@@ -406,6 +406,10 @@ def _segments(t: SpecTable, n_elements: int) -> list[dict[str, Any]]:
             segment["elements"] = sub.number("elements", "elements", low=1, high=n_elements,
                                              integer=True)
         else:
+            raw = sub.raw("fraction")
+            if isinstance(raw, (int, float)) and not isinstance(raw, bool) and 1.0 < raw <= 100.0:
+                raise sub.error("fraction", f"must be <= 1 (of the length), got {raw!r}; it looks like "
+                                f"percent written for a fraction ({raw:g} % is {raw / 100:g})")
             segment["fraction"] = sub.number("fraction", "of the length", low=0.0, low_open=True,
                                              high=1.0)
         segment["direction"] = _direction(sub, "direction")

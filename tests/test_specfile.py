@@ -201,3 +201,14 @@ def test_a_shear_modulus_below_a_third_of_youngs_is_warned_about():
         spec["robot"]["shear_modulus"] = 1000.0
         spec["checks"] = {"accept": ["robot.shear_modulus"]}
         describe_robot(spec, "my.toml")
+
+
+def test_a_segment_fraction_in_percent_is_named():
+    """Round 11, V5: fraction = 50 got "must be <= 1" without the percent hint the other fraction
+    keys give."""
+    text = ROBOT.replace('kind = "uniform"\nmagnitude = 1000.0\ndirection = [0.0, 2.0, 0.0]',
+                         'kind = "segments"\nsegments = [{fraction = 50, direction = [1.0, 0.0, 0.0]},'
+                         ' {fraction = 50, direction = [-1.0, 0.0, 0.0]}]\nmagnitude = 61300.0')
+    with pytest.raises(SpecError, match=r"segments\[0\]\] fraction: must be <= 1 \(of the length\), got "
+                                        r"50; it looks like percent written for a fraction \(50 % is 0.5\)"):
+        describe_robot(loads(text))

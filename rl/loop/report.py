@@ -48,6 +48,8 @@ def _check(s: dict[str, Any]) -> list[str]:
 
 def _yardstick(s: dict[str, Any]) -> list[str]:
     kind = "the yardstick" if s["is_the_yardstick"] else "a smoke run's stand-in, not a yardstick"
+    if s.get("stand_in"):  # the sweep moved nothing forward: the spec's own yardstick stood in
+        return [f"{s['stand_in']}; the loop trains on `{s['spec_file']}`, the spec carrying it.", ""]
     lines = [f"Best rotating field: **{_mm(s['distance_m'])}** in {s['duration_s']:g} s of the "
              f"{s['physics']} physics from a zero field, period {s['period_s']:g} s "
              f"{'clockwise' if s['clockwise'] else 'counter-clockwise'} ({kind}); the loop trains "

@@ -85,25 +85,34 @@ def yardstick_step(ctx: LoopContext) -> dict[str, Any]:
                             step_folder(ctx, "yardstick"), s.workers, ctx.progress, True, s.gif,
                             force=True)
     best = result["best"]
+    stand_in = None
     if best["mid_dx_m"] <= 0.0:  # a yardstick must be a forward distance (the spec refuses others)
         moved = (f"the best rotating field moved {ctx.case.name} {1e3 * best['mid_dx_m']:+.3g} mm "
                  f"in {result['duration_s']:g} s of the {result['physics']} physics "
                  "(yardstick/sweep.csv): no forward distance to make a yardstick of")
-        if not s.yardstick_is_the_definition():  # --quick or a shortened sweep: too short to judge
+        own = ctx.case.yardstick.distance_10s
+        if not s.yardstick_is_the_definition() and own > 0.0:  # a smoke run: the spec's own stands in
+            stand_in = (f"{moved}; the spec's own [yardstick] distance_10s ({1e3 * own:+.1f} mm) "
+                        "stands in for this smoke run's")
+            best = {**best, "mid_dx_m": own}
+        elif not s.yardstick_is_the_definition():  # --quick or a shortened sweep: too short to judge
             raise LoopError(
                 f"{moved}; this sweep ({len(s.yardstick_periods)} period(s), {s.yardstick_duration:g} s"
                 f", {s.yardstick_physics} physics{', --quick' if s.quick else ''}) is too short to "
                 "judge the robot: run the loop without --quick (the yardstick is swept over 10 s "
                 "of the accurate physics), or see the full sweep with msr field baseline --case")
-        raise LoopError(
-            f"{moved}; check the magnetization and the field limit (msr case check), or train "
-            "without the loop's yardstick (msr train --case)")
+        else:
+            raise LoopError(
+                f"{moved}; check the magnetization and the field limit (msr case check), or train "
+                "without the loop's yardstick (msr train --case)")
     spec_file = yardstick_spec(ctx.case, best, ctx.path(f"{ctx.case.name}.toml"), force=True,
-                               physics=s.yardstick_physics, duration=s.yardstick_duration)
+                               physics=s.yardstick_physics, duration=s.yardstick_duration,
+                               source=None if stand_in is None else
+                               f"{ctx.case.yardstick.source} (standing in for a smoke run)")
     return {"distance_m": best["mid_dx_m"], "period_s": best["period_s"],
             "clockwise": best["clockwise"], "period_achieved_s": best["period_achieved_s"],
             "physics": result["physics"], "duration_s": result["duration_s"],
-            "is_the_yardstick": s.yardstick_is_the_definition(),
+            "is_the_yardstick": s.yardstick_is_the_definition(), "stand_in": stand_in,
             "runs": [{k: r[k] for k in ("period_s", "clockwise", "mid_dx_m", "diverged")}
                      for r in result["runs"]],
             "spec_file": ctx.relative(spec_file), "figure": "yardstick/sweep.png"}

@@ -212,24 +212,25 @@ def _sweep_figure(path: Path, runs: list[dict[str, Any]], best: dict[str, Any], 
 
 def yardstick_spec(case: Case, best: dict[str, Any], path: str | Path, *,
                    force: bool = False, physics: str = "accurate",
-                   duration: float = EVAL_DURATION) -> Path:
+                   duration: float = EVAL_DURATION, source: str | None = None) -> Path:
     """Write a copy of ``case``'s spec to ``path`` (TOML, units in comments) with ``best``'s
     distance (m, from a 10 s accurate-physics run) as ``[yardstick] distance_10s`` and a
     ``source`` saying which baseline it is. An existing file is replaced only with ``force``
     (:func:`elastica_magnetic.filesets.result_file`). ``physics`` and ``duration`` (s) are what
     ``best`` was measured in: anything but 10 s of the accurate physics (a smoke run of ``msr
     loop --quick``) is written into the ``source`` as not a yardstick, so the file never claims
-    what was not measured."""
+    what was not measured. ``source``: the ``source`` written instead (a distance that is not
+    ``best``'s sweep, e.g. the spec's own standing in for a smoke run)."""
     spec = case.to_dict()
     turn = "clockwise" if best["clockwise"] else "counter-clockwise"
     spec["yardstick"] = {
         "distance_10s": float(best["mid_dx_m"]),
-        "source": f"msr field baseline sweep: rotating field {turn}, period {best['period_s']:g} s "
-                  f"(turned once per {best['period_achieved_s']:.4g} s), "
+        "source": source or f"msr field baseline sweep: rotating field {turn}, period "
+                  f"{best['period_s']:g} s (turned once per {best['period_achieved_s']:.4g} s), "
                   f"{1e3 * best['mid_dx_m']:+.1f} mm in {duration:g} s, {physics} physics, field "
                   "from zero",
     }
-    if physics != "accurate" or abs(duration - EVAL_DURATION) > 1e-9:
+    if source is None and (physics != "accurate" or abs(duration - EVAL_DURATION) > 1e-9):
         spec["yardstick"]["source"] += " (a smoke run's stand-in, not a yardstick)"
     copy = case_from_dict(spec, str(path), default_name=case.name)
     with result_file(path, force=force, option="--set-yardstick", kind=SPEC_FILE) as written:

@@ -327,3 +327,31 @@ def test_a_users_file_in_a_step_folder_stops_a_redo_or_a_restart(interrupted_the
     (folder / "train" / "notes.txt").unlink()
     status, _, err = _loop(str(spec), "--out", str(folder), "--redo", "robustness")
     assert status == 0, err
+
+
+def test_a_quick_sweep_with_no_forward_distance_uses_the_specs_own_yardstick(tmp_path, monkeypatch):
+    """Round 11, V4: msr loop m1-4mT --quick (the documented smoke run) stopped at its yardstick
+    step (0.5 s of the training physics moved the paper's robot nothing) and told the user to drop
+    --quick; a spec with its own [yardstick] now has it stand in, said so in the report."""
+    from elastica_magnetic_rl.cases.case import load_case
+    from elastica_magnetic_rl.shipping import baseline_sweep
+
+    def backwards(*args, **kwargs):
+        return {"best": {"mid_dx_m": -4e-4, "period_s": 0.5, "clockwise": True,
+                         "period_achieved_s": 0.5},
+                "duration_s": 0.5, "physics": "training", "runs": []}
+
+    monkeypatch.setitem(loop_steps.STEP_FUNCTIONS, "check", lambda ctx: {"text": "", "warnings": []})
+    monkeypatch.setattr(baseline_sweep, "sweep_baseline", backwards)
+    out = tmp_path / "out"
+    status, _, err = _loop("m1-4mT", "--out", str(out), "--skip",
+                           "train,generate,robustness,refine,robustness-refined,firmware")
+    assert status == 0, err
+    state = json.loads((out / "loop.json").read_text())
+    summary = state["steps"]["yardstick"]["summary"]
+    assert summary["distance_m"] == pytest.approx(0.0205)
+    assert "the spec's own [yardstick] distance_10s (+20.5 mm) stands in" in summary["stand_in"]
+    trained = load_case(out / "m1-4mT.toml")
+    assert trained.yardstick.distance_10s == pytest.approx(0.0205)
+    assert "standing in for a smoke run" in trained.yardstick.source
+    assert "stands in for this smoke run" in (out / "report.md").read_text()
