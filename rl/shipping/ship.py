@@ -157,7 +157,7 @@ def ship(run: str | Path, name: str, options: ShipOptions | None = None, /,
         _write_policy_folder(target, policy, info, fields, card, with_critic)
     return {"name": name, "dir": str(target), "case": case.name,
             "evaluation": measured,
-            "files": sorted(p.name for p in target.iterdir() if not p.name.startswith("."))}
+            "files": sorted(p.name for p in target.iterdir() if p.name in SHIPPED_FILES)}
 
 
 def _holds_a_policy(folder: Path) -> bool:
