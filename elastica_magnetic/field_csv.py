@@ -178,6 +178,10 @@ def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
         )
     columns = [names.index(c) for c in FIELD_COLUMNS]
     index_column = 0 if len(names) == 4 and columns == [1, 2, 3] else None
+    unread = [n for k, n in enumerate(names) if k not in columns and k != index_column]
+    if unread:  # a column a user may think is played (a current, a time)
+        warn_implausible(f"{path}: column(s) {', '.join(repr(n) for n in unread)} are not read: the field "
+                         f"is {', '.join(FIELD_COLUMNS)} (mT), one row per 0.01 s", stacklevel=4)
     return columns, index_column, len(names), rows_with_lines[1:]
 
 

@@ -112,3 +112,15 @@ def test_round9_v6_trailing_comma_ms_index_and_non_regular_files(tmp_path):
             read_field_csv(path)
     with pytest.raises(FieldCSVError, match="no such field CSV file"):
         read_field_csv(tmp_path / "missing.csv")
+
+
+def test_a_column_that_is_not_read_is_named(tmp_path):
+    """Round 11: a field CSV with an extra named column (current_A) was played without a word
+    that the column is not read."""
+    from elastica_magnetic.plausibility import ImplausibleValueWarning
+
+    path = tmp_path / "extra.csv"
+    path.write_text("mag_x,mag_y,mag_z,current_A\n1,0,0,2\n1,0,0,2\n")
+    with pytest.warns(ImplausibleValueWarning, match=r"column\(s\) 'current_A' are not read"):
+        field = read_field_csv(path)
+    np.testing.assert_allclose(field, [[1e-3, 0, 0], [1e-3, 0, 0]])
