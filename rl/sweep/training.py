@@ -118,13 +118,25 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
         if not record["stopped_early"] and int(ckpt["global_step"]) < job.steps:
             handed_back.append(str(run_dir))  # goes on in another job
             continue
-        results.append({"seed": int(ckpt["config"]["seed"]),
-                        **summarize_run(run_dir, reward_scale=case.task.reward_scale), **record,
+        summary = summarize_run(run_dir, reward_scale=case.task.reward_scale)
+        results.append({"seed": int(ckpt["config"]["seed"]), **summary, **record,
                         "state": seed_state(run_dir, record, target_return(case)),
                         "wall_s": wall, "peak_rss_bytes": peak,
                         "group_seeds": [c.seed for c in configs],
-                        "group_timing_s": ckpt.get("timing")})
+                        "group_timing_s": ckpt.get("timing"),
+                        **_diverged_throughout(summary, case)})
     return {"group": results, **({"handed_back": handed_back} if handed_back else {})}
+
+
+def _diverged_throughout(summary: dict[str, Any], case: Case) -> dict[str, Any]:
+    """A seed whose every training episode blew up (``terminated``: only a numerical blow-up ends
+    an episode early) learned nothing: an ``error`` naming why, so it counts as failed."""
+    episodes = summary["episodes"]
+    if not episodes or summary["terminated_episodes"] < episodes:
+        return {}
+    return {"error": f"every training episode diverged ({episodes} of {episodes}: the simulation "
+                     "blew up, nothing was learned); the time step is likely unstable: msr case check "
+                     f"on case {case.name}'s spec estimates a stable one"}
 
 
 def _train_seeds_of(job: GroupJob, case: Case, configs: list[Any], run_dirs: list[Path],

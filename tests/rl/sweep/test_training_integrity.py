@@ -205,3 +205,22 @@ def test_resume_keeps_the_runs_crawlers_and_refuses_an_edited_record(trained, tm
         assert msr(base) == 2
         assert "run.json: edited since msr wrote it" in capsys.readouterr().err
     assert (runs / "m1-4mT" / "seed0" / "checkpoint.pt").read_bytes() == before
+
+
+def test_a_seed_whose_every_episode_diverged_is_failed_not_improving(tmp_path, capsys):
+    """Round 11, S4: a spec whose time step blows the robot up trained 100 one-step episodes of
+    the divergence penalty and was reported "failed seeds: none ... still improving"."""
+    from elastica_magnetic_rl.cases.case import load_case
+    from elastica_magnetic.specfile import dumps
+
+    spec = load_case("m1-4mT").to_dict()
+    spec["physics"]["training"]["dt"] = 1.25e-4  # between the estimated stable step and the bare limit
+    path = tmp_path / "coarse.toml"
+    path.write_text(dumps(spec))
+    status = msr(["train", "--case", str(path), "--seeds", "1", "--steps", "100", "--out",
+                  str(tmp_path / "runs"), *SMOKE, "--json"])
+    out = capsys.readouterr()
+    assert "likely unstable" in out.err
+    summary = json.loads((tmp_path / "runs" / "m1-4mT" / "summary.json").read_text())
+    assert status == 1 and summary["failed"] == [0], out.out
+    assert "every training episode diverged (100 of 100" in summary["seeds"][0]["error"]
