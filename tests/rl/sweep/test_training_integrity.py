@@ -211,6 +211,7 @@ def test_a_seed_whose_every_episode_diverged_is_failed_not_improving(tmp_path, c
     """Round 11, S4: a spec whose time step blows the robot up trained 100 one-step episodes of
     the divergence penalty and was reported "failed seeds: none ... still improving"."""
     from elastica_magnetic_rl.cases.case import load_case
+
     from elastica_magnetic.specfile import dumps
 
     spec = load_case("m1-4mT").to_dict()
