@@ -254,6 +254,7 @@ def run_design(spec: str | Path | Design, out: str | Path, settings: DesignSetti
     folder = normalized_path(out)
     try:
         _check_folder(folder, resume, force)  # claims the folder first: a live writer is named
+        _recover_leftovers(folder)
         if force and holds_design(folder):
             # built beside and swapped in whole: the earlier design stays until the new one is done
             with result_folder(folder, kind=DESIGN_KIND, force=True, option="--out",
@@ -266,6 +267,18 @@ def run_design(spec: str | Path | Design, out: str | Path, settings: DesignSetti
             return _design_into(folder, design, settings, resume, progress)
     finally:
         release_claim(folder)
+
+
+def _recover_leftovers(folder: Path) -> None:
+    """Remove what a killed replacement (``--force``) left beside ``folder`` (its folder being
+    built), saying so: every command on ``folder`` does, a resume in place too."""
+    import warnings
+
+    from elastica_magnetic.results import LeftoverWarning, interrupted, recover
+
+    if interrupted(folder):
+        for note in recover(folder, option="--out"):
+            warnings.warn(note, LeftoverWarning, stacklevel=3)
 
 
 def holds_design(folder: str | Path) -> bool:

@@ -449,3 +449,18 @@ def test_a_users_file_saved_in_gait_during_the_end_is_kept(tmp_path, monkeypatch
         run_design("m1-4mT", out, TINY, resume=True)
     assert (out / "gait" / "notes.txt").read_text() == "mine\n"
     assert not (out / ".msr-end").exists()
+
+
+def test_a_resume_removes_what_a_killed_replacement_left_beside(tmp_path):
+    """Round 11: after a SIGKILLed --force, a --resume of the earlier design finished but left the
+    killed replacement's folder (several MB) beside it."""
+    from elastica_magnetic.results import LeftoverWarning
+
+    out = tmp_path / "d"
+    run_design("m1-4mT", out, TINY)
+    leftover = tmp_path / ".d.msr-new-vm-4242-abcdef"
+    leftover.mkdir()
+    (leftover / "design.json").write_text("{}")
+    with pytest.warns(LeftoverWarning, match="left by a run that was killed"):
+        run_design("m1-4mT", out, TINY, resume=True)
+    assert not leftover.exists()
