@@ -50,6 +50,9 @@ def summarize_run(run_dir: str | Path, last: int = 5, reward_scale: float = 1e4)
         "final_mean_distance_m": mean / reward_scale,
         "best_return": max(returns) if returns else float("nan"),
         "terminated_episodes": sum(int(r["terminated"]) for r in rows),
+        # blown up on the first step: a time step too coarse for the robot, not a learned failure
+        "diverged_at_first_step": sum(int(r["terminated"]) and int(float(r.get("length") or 0)) <= 1
+                                      for r in rows),
         "best_eval_step": int(best_eval["global_step"]) if best_eval else None,
         "best_eval_return": float(best_eval["mean_return"]) if best_eval else None,
     }

@@ -129,14 +129,15 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
 
 
 def _diverged_throughout(summary: dict[str, Any], case: Case) -> dict[str, Any]:
-    """A seed whose every training episode blew up (``terminated``: only a numerical blow-up ends
-    an episode early) learned nothing: an ``error`` naming why, so it counts as failed."""
+    """A seed whose every training episode blew up on its first step (``terminated``: only a
+    numerical blow-up ends an episode early) learned nothing: an ``error`` naming why, so it
+    counts as failed."""
     episodes = summary["episodes"]
-    if not episodes or summary["terminated_episodes"] < episodes:
+    if not episodes or summary.get("diverged_at_first_step", 0) < episodes:
         return {}
-    return {"error": f"every training episode diverged ({episodes} of {episodes}: the simulation "
-                     "blew up, nothing was learned); the time step is likely unstable: msr case check "
-                     f"on case {case.name}'s spec estimates a stable one"}
+    return {"error": f"every training episode diverged at its first step ({episodes} of {episodes}: "
+                     "the simulation blew up, nothing was learned); the time step is likely unstable: "
+                     f"msr case check on case {case.name}'s spec estimates a stable one"}
 
 
 def _train_seeds_of(job: GroupJob, case: Case, configs: list[Any], run_dirs: list[Path],

@@ -186,11 +186,17 @@ def test_a_minutes_budget_counts_the_whole_design(tmp_path):
                                                                   "minutes": 0.001}))
     assert short["search"]["generations"] == 1
     state = SearchState(es=type("ES", (), {"popsize": 9})(), rng_state=None, generation=3, elapsed_s=600.0)
-    settings = DesignSettings(minutes=30.0)  # 5 s runs judged by 10 s ones: each end trial costs 2
-    # 18 trials took 90 s: 5 s each; the end: 56 judged trials x 10 s + the gait 20 s + 60 s
-    assert _spent(state, settings, 90.0, 18, 120.0) == (120 + 600 + 90 + 560 + 20 + 60 > 1800)
-    assert not _spent(state, settings, 90.0, 18, 0.0)
-    assert _spent(state, DesignSettings(minutes=20.0), 90.0, 18, 120.0)
+    # the search runs the judged 10 s: 18 trials took 90 s, 5 s each; the end: the best design's
+    # 24 judged trials (the start's reused) x 5 s + the gait (2 workers x 5 s) + 60 s = 190 s
+    spent = 120 + 600 + 90 + 190
+    assert not _spent(state, DesignSettings(minutes=spent / 60 + 0.01), 90.0, 18, 120.0)
+    assert _spent(state, DesignSettings(minutes=spent / 60 - 0.01), 90.0, 18, 120.0)
+    # 5 s runs judged by 10 s ones: each end trial costs 2; both designs judged (48 trials) and
+    # the 6 finalists run again (12): 60 x 10 s + the gait 20 s + 60 s = 680 s
+    shorter = {"search_duration": 5.0}
+    spent = 120 + 600 + 90 + 680
+    assert not _spent(state, DesignSettings(minutes=spent / 60 + 0.01, **shorter), 90.0, 18, 120.0)
+    assert _spent(state, DesignSettings(minutes=spent / 60 - 0.01, **shorter), 90.0, 18, 120.0)
 
 
 def test_a_candidate_without_magnetization_scores_as_no_robot():

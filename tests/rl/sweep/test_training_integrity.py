@@ -224,4 +224,4 @@ def test_a_seed_whose_every_episode_diverged_is_failed_not_improving(tmp_path, c
     assert "likely unstable" in out.err
     summary = json.loads((tmp_path / "runs" / "m1-4mT" / "summary.json").read_text())
     assert status == 1 and summary["failed"] == [0], out.out
-    assert "every training episode diverged (100 of 100" in summary["seeds"][0]["error"]
+    assert "every training episode diverged at its first step (100 of 100" in summary["seeds"][0]["error"]
