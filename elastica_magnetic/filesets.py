@@ -47,6 +47,7 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from .interrupts import signals_as_exceptions, signals_held
 from .io import (
     OutputPathError,
     display_path,
@@ -56,7 +57,8 @@ from .io import (
     unwritable_reason,
 )
 from .locks import FolderLock, claim, host_name, lock_path, name_tag, release_claim
-from .results import ResultExistsError, fsync_tree, remove_tree, signals_as_exceptions, signals_held
+from .result_markers import MARKER, read_marker
+from .results import ResultExistsError, fsync_tree, remove_tree
 
 __all__ = ["MANIFEST", "FileKind", "FileSet", "ResultFile", "check_files", "check_result_file",
            "interrupted_replacements", "recover_files", "replace_files", "result_file"]
@@ -107,10 +109,8 @@ def _not_recorded(folder: Path, existing: Iterable[str]) -> list[str]:
     """Those of the ``existing`` files of ``folder`` that msr did not record, or that changed
     since (a file of the user's under a name msr writes). A file the folder's result marker lists
     (``msr policy generate``'s figures in its result) is msr's."""
-    from .results import read_marker
-
     files = _manifest(folder)
-    marker = read_marker(folder) if (folder / ".msr-result.json").is_file() else None
+    marker = read_marker(folder) if (folder / MARKER).is_file() else None
     listed = set(marker.get("files") or ()) if marker else set()
     return [n for n in existing if n not in listed and files.get(n) != _sha256(folder / n)]
 

@@ -49,7 +49,8 @@ This recovery runs at the start of the next :func:`result_folder`, :func:`check_
 (a command's pre-check) or :func:`recover` on the same ``X``, under its lock, so a leftover is
 never one another live process is still writing; what was done is in
 :attr:`ResultFolder.notes` (and returned by :func:`recover`). Files are flushed to disk
-(``fsync``) before the swap.
+(``fsync``) before the swap. The signal handling is :mod:`elastica_magnetic.interrupts`; the marker
+and the question "which files did msr write here" are :mod:`elastica_magnetic.result_markers`.
 
 **Folders written in place** (a training seed's folder, appended to for hours and resumed later)
 are not swapped but locked for the whole run: :class:`elastica_magnetic.locks.FolderLock`; their
@@ -73,12 +74,9 @@ are ended before the temporary folder is removed.
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 import secrets
 import shutil
-import signal
-import threading
 import time
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
@@ -86,9 +84,9 @@ from pathlib import Path
 from typing import Any
 
 from .command_names import spelling
+from .interrupts import Interrupted, signals_as_exceptions, signals_held
 from .io import (
     OutputPathError,
-    atomic_write_text,
     display_path,
     normalized_path,
     output_path_problem,
@@ -98,15 +96,26 @@ from .locks import (
     LOCK_SUFFIX,
     FolderLock,
     claim,
-    command_line,
     describe_owner,
     host_name,
     live_owner,
     name_tag,
     release_claim,
-    utc_now,
+)
+from .result_markers import (
+    MARKER,
+    MAX_LISTED,
+    describe_result,
+    list_files,
+    mark_folder,
+    read_marker,
+    short_list,
+    unrecorded_files,
+    write_marker,
 )
 
+# Interrupted, the signal helpers and the marker functions live in .interrupts and
+# .result_markers; they are named here too, where a result folder's user looks for them.
 __all__ = [
     "MARKER",
     "Interrupted",
@@ -123,14 +132,9 @@ __all__ = [
     "mark_folder",
     "read_marker",
     "recover",
+    "unrecorded_files",
     "result_folder",
 ]
-
-#: The marker file of a result folder (JSON: kind, subject, command, time, host, files).
-MARKER = ".msr-result.json"
-MARKER_FORMAT = 1
-#: Folders that hold more files than this are not listed in full (they are not a result).
-_MAX_LISTED = 10_000
 
 
 class ResultExistsError(OutputPathError):
@@ -144,72 +148,7 @@ class LeftoverWarning(UserWarning):
     leftover and why it stayed."""
 
 
-class Interrupted(KeyboardInterrupt):
-    """SIGTERM or SIGHUP received while a result folder was being written (``signum``)."""
-
-    def __init__(self, signum: int) -> None:
-        super().__init__(signal.Signals(signum).name)
-        self.signum = signum
-
-
-# -- signals ---------------------------------------------------------------------------------------
-
-_SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
-_signal_state: dict[str, Any] = {"depth": 0, "previous": {}, "deferring": 0, "pending": None}
 _aborted: list[Path] = []
-
-
-def _raise_for(signum: int) -> None:
-    if signum == signal.SIGINT:
-        raise KeyboardInterrupt
-    raise Interrupted(signum)
-
-
-def _handler(signum: int, frame: object) -> None:
-    if _signal_state["deferring"]:
-        _signal_state["pending"] = _signal_state["pending"] or signum
-        return
-    _raise_for(signum)
-
-
-@contextlib.contextmanager
-def signals_as_exceptions() -> Iterator[None]:
-    """SIGINT, SIGTERM and SIGHUP raise in the main thread while this is entered (where their
-    handler was Python's default: SIGINT :class:`KeyboardInterrupt`, the others
-    :class:`Interrupted`), so ``finally`` blocks run; nested uses share one installation."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    state = _signal_state
-    if state["depth"] == 0:
-        for signum in _SIGNALS:
-            current = signal.getsignal(signum)
-            if current in (signal.SIG_DFL, signal.default_int_handler):
-                state["previous"][signum] = current
-                signal.signal(signum, _handler)
-    state["depth"] += 1
-    try:
-        yield
-    finally:
-        state["depth"] -= 1
-        if state["depth"] == 0:
-            for signum, previous in state["previous"].items():
-                signal.signal(signum, previous)
-            state["previous"] = {}
-
-
-@contextlib.contextmanager
-def signals_held() -> Iterator[None]:
-    """Hold SIGINT/SIGTERM/SIGHUP back (when our handler is installed) until the block is over."""
-    _signal_state["deferring"] += 1
-    try:
-        yield
-    finally:
-        _signal_state["deferring"] -= 1
-        pending = _signal_state["pending"]
-        if not _signal_state["deferring"] and pending is not None:
-            _signal_state["pending"] = None
-            _raise_for(pending)
 
 
 def aborted_results() -> list[Path]:
@@ -219,87 +158,6 @@ def aborted_results() -> list[Path]:
 
 
 # -- result folders --------------------------------------------------------------------------------
-
-
-def read_marker(folder: str | Path) -> dict[str, Any] | None:
-    """The marker of a result folder (kind, subject, command, written_utc, host, files), or
-    ``None`` when ``folder`` has none (or it is unreadable)."""
-    try:
-        data = json.loads((normalized_path(folder) / MARKER).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    return data if isinstance(data, dict) and isinstance(data.get("kind"), str) else None
-
-
-def _files(folder: Path) -> list[str] | None:
-    """Every file (and link) under ``folder``, relative POSIX paths, sorted; ``None`` past
-    :data:`_MAX_LISTED`."""
-    found: list[str] = []
-    for root, dirs, names in os.walk(folder):
-        base = Path(root).relative_to(folder)
-        links = [d for d in dirs if os.path.islink(os.path.join(root, d))]
-        for name in [*names, *links]:
-            found.append((base / name).as_posix())
-            if len(found) > _MAX_LISTED:
-                return None
-    return sorted(found)
-
-
-def unrecorded_files(folder: str | Path) -> list[str]:
-    """The files under ``folder`` (relative POSIX paths) that no record says msr wrote: not
-    listed by the marker of the nearest folder above them that has one (within ``folder``), nor
-    by their folder's record of shared files (``.msr-files.json``), nor msr's own bookkeeping
-    (names starting ``.msr``, lock files). A command about to remove ``folder`` (to write it
-    anew) refuses when this is not empty: they are the user's."""
-    root = normalized_path(folder)
-    if not root.is_dir():
-        return []
-    listed = _files(root)
-    if listed is None:
-        return [f"more than {_MAX_LISTED} files"]
-    markers: dict[str, set[str] | None] = {}
-
-    def recorded_by_marker(path: str) -> bool:
-        parts = path.split("/")
-        for depth in range(len(parts) - 1, -1, -1):
-            base = "/".join(parts[:depth])
-            if base not in markers:
-                marker = read_marker(root / base) if (root / base / MARKER).is_file() else None
-                markers[base] = None if marker is None else set(marker.get("files") or ())
-            if markers[base] is not None:
-                return "/".join(parts[depth:]) in markers[base]
-        return False
-
-    out = []
-    for path in listed:
-        name = path.rsplit("/", 1)[-1]
-        if name.startswith((".msr", MARKER)) or name.endswith(".msr-lock"):
-            continue
-        parent = root / path.rsplit("/", 1)[0] if "/" in path else root
-        if recorded_by_marker(path) or _in_manifest(parent, name):
-            continue
-        out.append(path)
-    return out
-
-
-def _in_manifest(folder: Path, name: str) -> bool:
-    """Whether ``folder``'s record of shared files lists ``name`` (written by msr)."""
-    try:
-        data = json.loads((folder / ".msr-files.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return False
-    files = data.get("files") if isinstance(data, dict) else None
-    return isinstance(files, dict) and name in files
-
-
-def _what(marker: dict[str, Any]) -> str:
-    subject = f" for {marker['subject']}" if marker.get("subject") else ""
-    written = f", written {marker['written_utc']}" if marker.get("written_utc") else ""
-    return f"a result of `msr {spelling(str(marker['kind']))}`{subject}{written}"
-
-
-def _list(names: list[str]) -> str:
-    return ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
 
 
 def check_result_folder(
@@ -370,9 +228,9 @@ def _check_result_folder(final: Path, kind: str, subject: str | None, force: boo
                               "it, so give a folder inside it")
     if (reason := unwritable_reason(final)) is not None:
         raise OutputPathError(f"{where}: cannot write in {display_path(final)}: {reason}")
-    listed = _files(final)
+    listed = list_files(final)
     if listed is None:
-        raise ResultExistsError(f"{where}: holds more than {_MAX_LISTED} files, not a result of "
+        raise ResultExistsError(f"{where}: holds more than {MAX_LISTED} files, not a result of "
                                 f"`msr {spelling(kind)}`; choose a new or empty folder")
     marker = read_marker(final)
     files = _without_stale_locks(final, [f for f in listed if f != MARKER], where)
@@ -389,7 +247,7 @@ def _check_result_folder(final: Path, kind: str, subject: str | None, force: boo
         unknown = [f for f in files if f not in known]
         if unknown or not files:
             raise ResultExistsError(f"{where}: holds files that `msr {spelling(kind)}` does not write "
-                                    f"({_list(unknown or [MARKER])}); choose a new or empty folder")
+                                    f"({short_list(unknown or [MARKER])}); choose a new or empty folder")
         # named like this command's files, but nothing records that msr wrote them: a user's
         # files under the same names (a hand-tuned header) are never replaced, not even by --force
         if recognizes is not None and recognizes(final):
@@ -397,28 +255,30 @@ def _check_result_folder(final: Path, kind: str, subject: str | None, force: boo
         else:
             raise ResultExistsError(
                 f"{where}: holds files named like those `msr {spelling(kind)}` writes "
-                f"({_list(files)}) but no record that msr wrote them (no {MARKER}): they may be "
+                f"({short_list(files)}) but no record that msr wrote them (no {MARKER}): they may be "
                 f"yours, and {force_option} replaces only a result msr recorded; move them away or "
                 "choose a new or empty folder")
     else:
         if marker["kind"] != kind:
             raise ResultExistsError(
-                f"{where}: holds {_what(marker)}, not of `msr {spelling(kind)}`; choose another {option} "
+                f"{where}: holds {describe_result(marker)}, not of `msr {spelling(kind)}`; "
+                f"choose another {option} "
                 f"({force_option} replaces only a result of the same command"
                 f"{' and subject' if subject else ''})")
         if subject is not None and marker.get("subject") not in (None, subject):
             raise ResultExistsError(
-                f"{where}: holds {_what(marker)}, not for {subject}; choose another {option} "
+                f"{where}: holds {describe_result(marker)}, not for {subject}; choose another {option} "
                 f"({force_option} replaces only a result for the same subject)")
         written = set(marker.get("files") or ()) | known
         unknown = [f for f in files if f not in written]
         if unknown:
             raise ResultExistsError(
-                f"{where}: holds {_what(marker)} and files it did not write ({_list(unknown)}); "
+                f"{where}: holds {describe_result(marker)} and files it did not write "
+                f"({short_list(unknown)}); "
                 f"move them away or choose another {option} ({force_option} replaces only what "
                 "msr wrote)")
     if not force:
-        raise ResultExistsError(f"{where}: already holds {_what(marker)}; pass {force_option} to "
+        raise ResultExistsError(f"{where}: already holds {describe_result(marker)}; pass {force_option} to "
                                 f"replace it, or choose another {option}")
     return marker
 
@@ -748,28 +608,10 @@ def _check_unchanged(target: Path, checked: dict[str, tuple[int, int]] | None, s
     while os.path.lexists(kept):
         kept = kept.with_name(kept.name + "-1")
     os.rename(staging, kept)
-    what = f"new or changed: {_list(changed)}" if changed else "it appeared"
+    what = f"new or changed: {short_list(changed)}" if changed else "it appeared"
     raise OutputPathError(f"{option} {shown}: changed while the command ran ({what}); it was not "
                           f"replaced: the new result is in {display_path(kept)}")
 
 
 def _write_marker(result: ResultFolder) -> None:
-    _marker_into(result.path, result.kind, result.subject, result.info)
-
-
-def _marker_into(folder: Path, kind: str, subject: str | None, info: dict[str, Any]) -> Path:
-    files = _files(folder) or []
-    data = {"format": MARKER_FORMAT, "kind": kind, "subject": subject,
-            "command": command_line(), "written_utc": utc_now(), "host": host_name(),
-            "files": [f for f in files if f != MARKER], **info}
-    return atomic_write_text(folder / MARKER, json.dumps(data, indent=2, default=str) + "\n")
-
-
-def mark_folder(folder: str | Path, *, kind: str, subject: str | None = None,
-                info: dict[str, Any] | None = None) -> Path:
-    """Write (or rewrite) the marker of a folder written in place, such as a training seed's
-    folder held with :class:`~elastica_magnetic.locks.FolderLock`: ``kind`` and ``subject`` as
-    in :func:`result_folder`, the files it holds now. Another command's
-    :func:`check_result_folder` then refuses the folder naming it. Call it under the folder's
-    lock, after each set of files (a checkpoint and its logs) is written. Returns the marker."""
-    return _marker_into(normalized_path(folder), kind, subject, dict(info or {}))
+    write_marker(result.path, result.kind, result.subject, result.info)

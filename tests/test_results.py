@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from elastica_magnetic import results
+from elastica_magnetic import interrupts, results
 from elastica_magnetic.io import OutputPathError
 from elastica_magnetic.locks import FolderLockedError
 from elastica_magnetic.results import (
@@ -191,7 +191,7 @@ def _child(target: Path, signum: int, stop_at) -> None:
     def stop(point) -> None:
         if point == stop_at:
             os.kill(os.getpid(), signum)
-            if not results._signal_state["deferring"]:
+            if not interrupts._signal_state["deferring"]:
                 time.sleep(5)  # the signal ends the block: it must not come to the end of this
 
     real_rename, real_fsync = os.rename, results.fsync_tree

@@ -120,16 +120,47 @@ CODE_TOLERANCE_LSB = 1
 
 
 def _stream(args: argparse.Namespace) -> int:
-    from elastica_magnetic.filesets import check_result_file
-    from elastica_magnetic.hardware.calibration import (
-        clipping_report,
-        expected_dac_codes,
-        load_calibration,
-        slew_warning,
-    )
-    from elastica_magnetic.hardware.export import write_expected_codes
-    from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
     from elastica_magnetic.hardware.stream import StreamError
+
+    field_T, cal = _stream_inputs(args)
+    try:
+        result = _stream_logged(args, field_T, cal)
+    except StreamError as exc:
+        raise _error(str(exc)) from None
+    summary = result.summary()
+    got = result.codes_array()
+    if args.codes_out:
+        from elastica_magnetic.filesets import result_file
+        from elastica_magnetic.hardware.export import EXPECTED_CODES_FILE, write_expected_codes
+
+        with result_file(args.codes_out, force=args.force, option="--codes-out",
+                         kind=EXPECTED_CODES_FILE) as codes:
+            write_expected_codes(codes.path, got)
+    codes_ok = cal is None or _compare_codes(summary, result, got, field_T, cal)
+    _print(summary, args.json)
+    if result.safe is None:  # time-out: stream_field has sent STOP
+        raise _error(f"{args.port}: no SAFE report from the board within the time limit "
+                     f"({result.rows_applied} of {result.rows_total} rows reported played); STOP sent")
+    if not codes_ok:
+        print(f"msr {command_name(args)}: error: the board's DAC codes differ from the host's by "
+              f"{summary['max_code_error_lsb']} LSB (tolerance {CODE_TOLERANCE_LSB}; -1: rows out "
+              "of order or more rows than sent): the board plays with another calibration or "
+              "firmware", file=sys.stderr)
+        return 1
+    expected_end = "checksum" if args.corrupt_row is not None else "end"
+    ok = result.safe.reason == expected_end and result.ended_safe
+    return 0 if ok else 1
+
+
+def _stream_inputs(args: argparse.Namespace) -> tuple[Any, Any]:
+    """Everything ``msr hw stream`` checks before it connects: the options, the waveform (T, as
+    read from the mT CSV), the calibration (or ``None``) and what the coils can follow, the
+    output files. Returns the waveform and the calibration."""
+    from elastica_magnetic.filesets import check_result_file
+    from elastica_magnetic.hardware.calibration import clipping_report, load_calibration, slew_warning
+    from elastica_magnetic.hardware.export import EXPECTED_CODES_FILE
+    from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
+    from elastica_magnetic.hardware.stream import BOARD_LOG_FILE
 
     if args.force and not (args.log or args.codes_out):
         raise _error("--force replaces an existing --log or --codes-out file, and neither is "
@@ -156,52 +187,30 @@ def _stream(args: argparse.Namespace) -> int:
             print(f"msr {command_name(args)}: warning: {warning}", file=sys.stderr)
     if args.log and args.codes_out and args.log == args.codes_out:
         raise _error(f"--log and --codes-out name the same file, {args.log}")
-    from elastica_magnetic.hardware.export import EXPECTED_CODES_FILE
-    from elastica_magnetic.hardware.stream import BOARD_LOG_FILE
-
     for option, path, kind in (("--log", args.log, BOARD_LOG_FILE),
                                ("--codes-out", args.codes_out, EXPECTED_CODES_FILE)):
         if path:
             check_result_file(path, force=args.force, option=option, kind=kind)
-    try:
-        result = _stream_logged(args, field_T, cal)
-    except StreamError as exc:
-        raise _error(str(exc)) from None
-    summary = result.summary()
-    got = result.codes_array()
-    if args.codes_out:
-        from elastica_magnetic.filesets import result_file
-        from elastica_magnetic.hardware.export import EXPECTED_CODES_FILE
+    return field_T, cal
 
-        with result_file(args.codes_out, force=args.force, option="--codes-out",
-                         kind=EXPECTED_CODES_FILE) as codes:
-            write_expected_codes(codes.path, got)
-    codes_ok = True
-    if cal is not None:
-        expected = expected_dac_codes(cal, wire_values_mT(wire_rows_mT(field_T)))
-        rows = [d.row for d in result.row_codes]
-        in_order = rows == list(range(len(rows)))
-        summary["rows_in_order"] = in_order
-        if len(got) and in_order and len(got) <= len(expected):
-            summary["max_code_error_lsb"] = int(np.max(np.abs(got - expected[: len(got)])))
-        else:
-            summary["max_code_error_lsb"] = None if not len(got) else -1
-        error = summary["max_code_error_lsb"]
-        codes_ok = error is None or 0 <= error <= CODE_TOLERANCE_LSB
-    _print(summary, args.json)
-    if result.safe is None:  # time-out: stream_field has sent STOP
-        raise _error(f"{args.port}: no SAFE report from the board within the time limit "
-                     f"({result.rows_applied} of {result.rows_total} rows reported played); STOP sent")
-    if not codes_ok:
-        print(f"msr {command_name(args)}: error: the board's DAC codes differ from the host's by "
-              f"{summary['max_code_error_lsb']} LSB (tolerance {CODE_TOLERANCE_LSB}; -1: rows out "
-              "of order or more rows than sent): the board plays with another calibration or "
-              "firmware", file=sys.stderr)
-        return 1
-    ok = result.safe is not None and result.safe.reason == "end" and result.ended_safe
-    if args.corrupt_row is not None:
-        ok = result.safe is not None and result.safe.reason == "checksum" and result.ended_safe
-    return 0 if ok else 1
+
+def _compare_codes(summary: dict[str, Any], result: Any, got: Any, field_T: Any, cal: Any) -> bool:
+    """Compare the DAC codes the board reported (``got``, one row per played row) with the host's
+    for the calibration; adds ``rows_in_order`` and ``max_code_error_lsb`` (``None``: no codes,
+    -1: rows out of order or more than sent) to ``summary``. True when within tolerance."""
+    from elastica_magnetic.hardware.calibration import expected_dac_codes
+    from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
+
+    expected = expected_dac_codes(cal, wire_values_mT(wire_rows_mT(field_T)))
+    rows = [d.row for d in result.row_codes]
+    in_order = rows == list(range(len(rows)))
+    summary["rows_in_order"] = in_order
+    if len(got) and in_order and len(got) <= len(expected):
+        summary["max_code_error_lsb"] = int(np.max(np.abs(got - expected[: len(got)])))
+    else:
+        summary["max_code_error_lsb"] = None if not len(got) else -1
+    error = summary["max_code_error_lsb"]
+    return error is None or 0 <= error <= CODE_TOLERANCE_LSB
 
 
 def _stream_logged(args: argparse.Namespace, field_T: Any, cal: Any) -> Any:

@@ -11,8 +11,8 @@ import sys
 from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, output_path, print_result
+from elastica_magnetic.interrupts import signals_as_exceptions
 from elastica_magnetic.io import display_path
-from elastica_magnetic.results import signals_as_exceptions
 
 from ..cases.recipes import RECIPE_SUMMARIES, RECIPES
 from ..runfiles.rundir import CaseDir, RunDir

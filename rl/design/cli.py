@@ -101,7 +101,7 @@ def design_command(args: argparse.Namespace) -> int:
                   f"best {1e3 * state['best_objective_m']:+.2f} mm, "
                   f"{state['elapsed_s'] / 60:.1f} min", file=sys.stderr, flush=True)
 
-    from elastica_magnetic.results import signals_as_exceptions
+    from elastica_magnetic.interrupts import signals_as_exceptions
 
     replacing = args.force and holds_design(args.out)
     try:

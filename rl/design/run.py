@@ -36,18 +36,18 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from elastica_magnetic.io import atomic_write, atomic_write_json, display_path, normalized_path, read_json
-from elastica_magnetic.locks import FolderLock, claim, release_claim
-from elastica_magnetic.results import (
+from elastica_magnetic.interrupts import signals_held
+from elastica_magnetic.io import (
     OutputPathError,
-    check_result_folder,
-    mark_folder,
-    read_marker,
-    remove_tree,
-    result_folder,
-    signals_held,
-    unrecorded_files,
+    atomic_write,
+    atomic_write_json,
+    display_path,
+    normalized_path,
+    read_json,
 )
+from elastica_magnetic.locks import FolderLock, claim, release_claim
+from elastica_magnetic.result_markers import mark_folder, read_marker, unrecorded_files
+from elastica_magnetic.results import check_result_folder, remove_tree, result_folder
 from elastica_magnetic.specfile import SpecError, read_spec
 
 from ..cases.case import EVAL_DURATION, SPECS_DIR, Case, case_from_dict, case_names

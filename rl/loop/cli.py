@@ -89,7 +89,7 @@ def _settings(args: argparse.Namespace):
 
 
 def loop_command(args: argparse.Namespace) -> int:
-    from elastica_magnetic.results import signals_as_exceptions
+    from elastica_magnetic.interrupts import signals_as_exceptions
 
     from .runner import run_loop
     from .state import LoopError, parse_steps

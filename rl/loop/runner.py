@@ -12,13 +12,8 @@ from typing import Any, TextIO
 
 from elastica_magnetic.io import display_path, normalized_path
 from elastica_magnetic.locks import FolderLock
-from elastica_magnetic.results import (
-    check_result_folder,
-    mark_folder,
-    read_marker,
-    remove_tree,
-    unrecorded_files,
-)
+from elastica_magnetic.result_markers import mark_folder, read_marker, unrecorded_files
+from elastica_magnetic.results import check_result_folder, remove_tree
 
 from ..cases.case import Case
 from .report import write_report

@@ -12,7 +12,7 @@ from typing import Any
 
 from elastica_magnetic.io import DamagedFileError, atomic_write_json, display_path, read_json
 from elastica_magnetic.locks import utc_now
-from elastica_magnetic.results import read_marker
+from elastica_magnetic.result_markers import read_marker
 
 __all__ = ["LOOP_FORMAT", "LOOP_JSON", "NEEDS", "STEPS", "LoopError", "LoopPlan", "LoopState",
            "parse_steps", "plan_loop"]

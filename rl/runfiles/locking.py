@@ -16,7 +16,7 @@ from typing import Any
 
 from elastica_magnetic.io import display_path, normalized_path
 from elastica_magnetic.locks import FolderLock, FolderLockedError
-from elastica_magnetic.results import MARKER, mark_folder, read_marker
+from elastica_magnetic.result_markers import MARKER, mark_folder, read_marker
 
 from .rundir import RunDir
 

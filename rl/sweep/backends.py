@@ -42,7 +42,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, replace
 from typing import Any
 
-from elastica_magnetic.results import Interrupted
+from elastica_magnetic.interrupts import Interrupted
 
 from ..runfiles.rundir import CaseDir, RunDir
 from .jobs import GroupJob

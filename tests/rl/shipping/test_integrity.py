@@ -20,7 +20,7 @@ import pytest
 from smoke import run_msr
 
 from elastica_magnetic.cli import main as msr
-from elastica_magnetic.results import MARKER
+from elastica_magnetic.result_markers import MARKER
 
 QUICK = ["--duration", "0.05", "--physics", "training", "--no-figures", "--no-progress"]
 

@@ -16,7 +16,7 @@ from lock_holder import held_elsewhere
 from smoke import SMOKE
 
 from elastica_magnetic.cli import main as msr
-from elastica_magnetic.results import read_marker
+from elastica_magnetic.result_markers import read_marker
 
 
 def test_a_seed_being_trained_is_refused_naming_the_owner(tmp_path, capsys):

@@ -1,0 +1,127 @@
+"""What msr wrote: the marker of a result folder and the files no record says msr wrote.
+
+Every result folder carries a marker, :data:`MARKER` (``.msr-result.json``: the command's kind,
+its subject, the command line, time, host and the list of files written). A folder that holds
+other things gets its record of shared files (``.msr-files.json``,
+:mod:`elastica_magnetic.filesets`). A command that replaces or removes a folder asks
+:func:`unrecorded_files` first: what is left is the user's, and is never touched.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+from .command_names import spelling
+from .io import atomic_write_text, normalized_path
+from .locks import command_line, host_name, utc_now
+
+__all__ = ["MARKER", "MAX_LISTED", "describe_result", "list_files", "mark_folder", "read_marker",
+           "short_list", "unrecorded_files", "write_marker"]
+
+#: The marker file of a result folder (JSON: kind, subject, command, time, host, files).
+MARKER = ".msr-result.json"
+MARKER_FORMAT = 1
+#: Folders that hold more files than this are not listed in full (they are not a result).
+MAX_LISTED = 10_000
+
+
+def read_marker(folder: str | Path) -> dict[str, Any] | None:
+    """The marker of a result folder (kind, subject, command, written_utc, host, files), or
+    ``None`` when ``folder`` has none (or it is unreadable)."""
+    try:
+        data = json.loads((normalized_path(folder) / MARKER).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) and isinstance(data.get("kind"), str) else None
+
+
+def list_files(folder: Path) -> list[str] | None:
+    """Every file (and link) under ``folder``, relative POSIX paths, sorted; ``None`` past
+    :data:`MAX_LISTED`."""
+    found: list[str] = []
+    for root, dirs, names in os.walk(folder):
+        base = Path(root).relative_to(folder)
+        links = [d for d in dirs if os.path.islink(os.path.join(root, d))]
+        for name in [*names, *links]:
+            found.append((base / name).as_posix())
+            if len(found) > MAX_LISTED:
+                return None
+    return sorted(found)
+
+
+def unrecorded_files(folder: str | Path) -> list[str]:
+    """The files under ``folder`` (relative POSIX paths) that no record says msr wrote: not
+    listed by the marker of the nearest folder above them that has one (within ``folder``), nor
+    by their folder's record of shared files (``.msr-files.json``), nor msr's own bookkeeping
+    (names starting ``.msr``, lock files). A command about to remove ``folder`` (to write it
+    anew) refuses when this is not empty: they are the user's."""
+    root = normalized_path(folder)
+    if not root.is_dir():
+        return []
+    listed = list_files(root)
+    if listed is None:
+        return [f"more than {MAX_LISTED} files"]
+    markers: dict[str, set[str] | None] = {}
+
+    def recorded_by_marker(path: str) -> bool:
+        parts = path.split("/")
+        for depth in range(len(parts) - 1, -1, -1):
+            base = "/".join(parts[:depth])
+            if base not in markers:
+                marker = read_marker(root / base) if (root / base / MARKER).is_file() else None
+                markers[base] = None if marker is None else set(marker.get("files") or ())
+            if markers[base] is not None:
+                return "/".join(parts[depth:]) in markers[base]
+        return False
+
+    out = []
+    for path in listed:
+        name = path.rsplit("/", 1)[-1]
+        if name.startswith((".msr", MARKER)) or name.endswith(".msr-lock"):
+            continue
+        parent = root / path.rsplit("/", 1)[0] if "/" in path else root
+        if recorded_by_marker(path) or _in_manifest(parent, name):
+            continue
+        out.append(path)
+    return out
+
+
+def _in_manifest(folder: Path, name: str) -> bool:
+    """Whether ``folder``'s record of shared files lists ``name`` (written by msr)."""
+    try:
+        data = json.loads((folder / ".msr-files.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    files = data.get("files") if isinstance(data, dict) else None
+    return isinstance(files, dict) and name in files
+
+
+def describe_result(marker: dict[str, Any]) -> str:
+    subject = f" for {marker['subject']}" if marker.get("subject") else ""
+    written = f", written {marker['written_utc']}" if marker.get("written_utc") else ""
+    return f"a result of `msr {spelling(str(marker['kind']))}`{subject}{written}"
+
+
+def short_list(names: list[str]) -> str:
+    return ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
+
+
+def write_marker(folder: Path, kind: str, subject: str | None, info: dict[str, Any]) -> Path:
+    files = list_files(folder) or []
+    data = {"format": MARKER_FORMAT, "kind": kind, "subject": subject,
+            "command": command_line(), "written_utc": utc_now(), "host": host_name(),
+            "files": [f for f in files if f != MARKER], **info}
+    return atomic_write_text(folder / MARKER, json.dumps(data, indent=2, default=str) + "\n")
+
+
+def mark_folder(folder: str | Path, *, kind: str, subject: str | None = None,
+                info: dict[str, Any] | None = None) -> Path:
+    """Write (or rewrite) the marker of a folder written in place, such as a training seed's
+    folder held with :class:`~elastica_magnetic.locks.FolderLock`: ``kind`` and ``subject`` as
+    in :func:`result_folder`, the files it holds now. Another command's
+    :func:`check_result_folder` then refuses the folder naming it. Call it under the folder's
+    lock, after each set of files (a checkpoint and its logs) is written. Returns the marker."""
+    return write_marker(normalized_path(folder), kind, subject, dict(info or {}))
