@@ -7,7 +7,7 @@ markers, under its plain name (``generate``). This module imports nothing: every
 
 from __future__ import annotations
 
-__all__ = ["COMMAND_HOMES", "spelling"]
+__all__ = ["COMMAND_HOMES", "FORMER_GROUPS", "spelling"]
 
 #: Commands registered under a plain name that live in a group: plain name -> (group, name there).
 #: The plain name stays a hidden top-level alias (scripts written for earlier releases run).
@@ -18,10 +18,21 @@ COMMAND_HOMES: dict[str, tuple[str, str]] = {
     "ship": ("policy", "ship"), "notes": ("policy", "notes"), "export": ("policy", "export"),
     "diagnose": ("policy", "diagnose"),
     "robustness": ("real", "robustness"), "identify": ("real", "identify"),
-    "stream": ("hw", "stream"), "export-firmware": ("hw", "firmware"), "calibrate": ("hw", "calibrate"),
+    "stream": ("real", "stream"), "export-firmware": ("real", "firmware"),
+    "calibrate": ("real", "calibrate"),
+}
+
+#: Groups of earlier releases merged into another: old group -> (its group now, the commands it
+#: had, as spelled in both). ``msr real stream`` stays a hidden spelling of ``msr real stream``.
+FORMER_GROUPS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "hw": ("real", ("stream", "firmware", "calibrate")),
 }
 
 
 def spelling(plain: str) -> str:
-    """How a command is written today: ``"policy generate"`` for ``"generate"``."""
+    """How a command is written today: ``"policy generate"`` for ``"generate"``, ``"real stream"``
+    for ``"hw stream"``."""
+    group, _, name = plain.partition(" ")
+    if group in FORMER_GROUPS and name:
+        return f"{FORMER_GROUPS[group][0]} {name}"
     return " ".join(COMMAND_HOMES.get(plain, (plain,)))

@@ -30,7 +30,7 @@ refused naming the first.
 Existing files among ``names`` are replaced only with ``force=True``; files of the folder not
 among them are never touched.
 
-**A single result file** (``msr hw calibrate --out cal.json``, ``msr hw stream --log``) goes through
+**A single result file** (``msr real calibrate --out cal.json``, ``msr real stream --log``) goes through
 :func:`result_file`: refused when it exists unless ``force``, written beside itself under a
 temporary name, flushed and renamed over it in one step, under a lock beside it
 (``.NAME.msr-lock``), so two processes never write it and an interruption leaves the old file. It

@@ -2,11 +2,13 @@
 
 Commands are grouped by noun, as ``git`` and ``docker`` group theirs (:data:`GROUPS`): ``msr case``,
 ``msr field`` (play fields on a robot), ``msr train`` and ``msr refine``, ``msr policy`` (what is
-done with a trained policy), ``msr real`` (toward the real robot), ``msr hw`` (the coils' board),
-``msr loop``, ``msr validate``, ``msr bench``. Each area of the project registers its own commands
-through a ``register(subparsers)`` function under their plain names; :data:`COMMAND_HOMES` puts each
-into its group, and its earlier top-level spelling (``msr policy generate``) keeps working, hidden from
-the help, with a one-line note naming the new one:
+done with a trained policy), ``msr real`` (toward the real robot, the coils' board included),
+``msr loop``, ``msr design``, ``msr validate``, ``msr bench``. Each area of the project registers
+its own commands through a ``register(subparsers)`` function under their plain names;
+:data:`COMMAND_HOMES` puts each into its group. Its earlier top-level spelling (``msr generate``
+for ``msr policy generate``) keeps working, hidden from the help, with a one-line note naming the
+new one; so do the spellings of a group merged into another
+(:data:`~elastica_magnetic.command_names.FORMER_GROUPS`: ``msr real stream`` for ``msr real stream``):
 
 - ``elastica_magnetic.cli.commands``: ``replay``, ``simulate``
 - ``elastica_magnetic_validation.cli``: ``validate``
@@ -15,8 +17,8 @@ the help, with a one-line note naming the new one:
 - ``elastica_magnetic_rl.cli.train_commands``: ``train``, ``refine``
 - ``elastica_magnetic_rl.cli.policy_commands``: ``export-seeds``, ``seeds``, ``ship``, ``notes``, ``export``,
   ``diagnose``
-- ``elastica_magnetic.hardware.cli``: ``stream``, ``export-firmware``, ``calibrate``
 - ``elastica_magnetic_rl.sim2real.cli``: ``robustness``, ``identify``
+- ``elastica_magnetic.hardware.cli``: ``stream``, ``export-firmware``, ``calibrate``
 - ``elastica_magnetic_rl.loop.cli``: ``loop``
 - ``elastica_magnetic_rl.design.cli``: ``design``
 """
@@ -33,7 +35,7 @@ from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..command_names import COMMAND_HOMES, spelling
+from ..command_names import COMMAND_HOMES, FORMER_GROUPS, spelling
 from ..locks import release_claims
 
 # Modules that provide ``register(subparsers)``; missing optional areas are skipped.
@@ -43,8 +45,8 @@ COMMAND_MODULES = (
     "elastica_magnetic_rl.cli.commands",
     "elastica_magnetic_rl.cli.train_commands",
     "elastica_magnetic_rl.cli.policy_commands",
-    "elastica_magnetic.hardware.cli",
     "elastica_magnetic_rl.sim2real.cli",
+    "elastica_magnetic.hardware.cli",
     "elastica_magnetic_rl.loop.cli",
     "elastica_magnetic_rl.design.cli",
 )
@@ -57,8 +59,8 @@ GROUPS: dict[str, str] = {
     "policy": "use a trained policy: generate its waveform, ship, export, its seeds, figures, "
               "diagnose, the demo",
     "real": "toward the real robot: robustness to spec values, identify values from a measured "
-            "trajectory",
-    "hw": "the coils' board: stream a waveform, the firmware's tables, calibrate the coils",
+            "trajectory; the coils' board: stream a waveform, the firmware's tables, calibrate "
+            "the coils",
 }
 
 class CommandError(Exception):
@@ -221,21 +223,32 @@ def _human_value(value: Any) -> str:
 
 class _Placement:
     """What ``register(subparsers)`` functions get instead of the subparsers: each plain command
-    name goes to its group (:data:`COMMAND_HOMES`) or to the top level; with ``aliases`` only
-    the grouped commands are added, at the top level under their plain name, hidden (no help)."""
+    name goes to its group (:data:`COMMAND_HOMES`) or to the top level. With ``aliases`` only the
+    grouped commands are added, hidden (no help): at the top level under their plain name, or,
+    with ``former`` (an old group's name and its subparsers), those the old group had, under it."""
 
-    def __init__(self, top: Any, groups: dict[str, Any], aliases: bool = False) -> None:
-        self.top, self.groups, self.aliases = top, groups, aliases
+    def __init__(self, top: Any, groups: dict[str, Any], aliases: bool = False,
+                 former: tuple[str, Any] | None = None) -> None:
+        self.top, self.groups, self.aliases, self.former = top, groups, aliases, former
         self.alias_parsers: list[tuple[str, argparse.ArgumentParser]] = []
 
     def add_parser(self, name: str, **kwargs: Any) -> argparse.ArgumentParser:
         home = COMMAND_HOMES.get(name)
         if self.aliases:
-            if home is None:  # registered the first time: a parser thrown away
+            target, label = self.top, name
+            if self.former is not None and home is not None:
+                old_group, target = self.former
+                group_now, names = FORMER_GROUPS[old_group]
+                name = label = home[1]
+                if home[0] != group_now or name not in names:
+                    home = None
+                label = f"{old_group} {name}"
+            if home is None:  # registered elsewhere: a parser thrown away
                 return argparse.ArgumentParser(add_help=False)
             kwargs.pop("help", None)  # a sub-parser without help is not listed
-            parser = self.top.add_parser(name, **kwargs)
-            self.alias_parsers.append((name, parser))
+            kwargs.setdefault("prog", f"msr {label}")
+            parser = target.add_parser(name, **kwargs)
+            self.alias_parsers.append((label, parser))
             return parser
         if home is None:
             return self.top.add_parser(name, **kwargs)
@@ -273,11 +286,20 @@ def build_parser() -> argparse.ArgumentParser:
         groups[group].required = True
     for module in modules:
         module.register(_Placement(sub, groups))
-    aliases = _Placement(sub, groups, aliases=True)
-    for module in modules:
-        module.register(aliases)
-    for plain, alias in aliases.alias_parsers:
-        alias.set_defaults(func=_noted(plain, alias.get_default("func")), plain_command=plain)
+    placements = [_Placement(sub, groups, aliases=True)]
+    for old_group in FORMER_GROUPS:
+        group_now, names = FORMER_GROUPS[old_group]
+        old = sub.add_parser(old_group, description=(  # no help: not listed
+            f"The earlier spelling of msr {group_now} {', '.join(names)} (it works in this "
+            f"release): see msr {group_now} --help."))
+        old_commands = old.add_subparsers(dest="subcommand", metavar="COMMAND")
+        old_commands.required = True
+        placements.append(_Placement(sub, groups, aliases=True, former=(old_group, old_commands)))
+    for aliases in placements:
+        for module in modules:
+            module.register(aliases)
+        for plain, alias in aliases.alias_parsers:
+            alias.set_defaults(func=_noted(plain, alias.get_default("func")), plain_command=plain)
     _sort_listing(sub)
     return parser
 
@@ -289,7 +311,7 @@ def _sort_listing(sub: Any) -> None:
 
 
 #: The order of ``msr --help``: the path of a new user, then the tools.
-TOP_LEVEL_ORDER = ("case", "field", "train", "refine", "policy", "real", "hw", "loop", "design",
+TOP_LEVEL_ORDER = ("case", "field", "train", "refine", "policy", "real", "loop", "design",
                    "validate", "bench")
 
 
@@ -303,7 +325,7 @@ def listed_commands(parser: argparse.ArgumentParser | None = None) -> dict[str, 
         for action in node._actions:
             if isinstance(action, argparse._SubParsersAction):
                 for name, sub in action.choices.items():
-                    if not prefix and name in COMMAND_HOMES:
+                    if not prefix and (name in COMMAND_HOMES or name in FORMER_GROUPS):
                         continue  # an old spelling
                     full = f"{prefix} {name}".strip()
                     found[full] = sub

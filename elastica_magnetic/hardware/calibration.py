@@ -65,7 +65,7 @@ def _is_calibration_json(path: Path) -> bool:
     return isinstance(data, dict) and "actuation_matrix_T_per_A" in data
 
 
-#: What ``msr hw calibrate --out FILE --force`` may replace: an earlier calibration.
+#: What ``msr real calibrate --out FILE --force`` may replace: an earlier calibration.
 CALIBRATION_FILE = FileKind("a calibration JSON (with actuation_matrix_T_per_A)", _is_calibration_json)
 
 
@@ -252,7 +252,7 @@ def load_calibration(path: str | Path) -> Calibration:
     path = Path(path)
     if path.is_dir():
         raise CalibrationError(f"{path}: is a folder, not a calibration file (a JSON file written by "
-                               "'msr hw calibrate')")
+                               "'msr real calibrate')")
     if not path.is_file():
         raise CalibrationError(f"{path}: no such calibration file")
     try:
@@ -263,7 +263,7 @@ def load_calibration(path: str | Path) -> Calibration:
         data = json.loads(text, object_pairs_hook=lambda pairs: _unique_keys(pairs, path))
     except UnicodeDecodeError as exc:
         raise CalibrationError(f"{path}: not UTF-8 text (byte {exc.start}): a calibration is a "
-                               "JSON file written by 'msr hw calibrate'") from None
+                               "JSON file written by 'msr real calibrate'") from None
     except json.JSONDecodeError as exc:
         raise CalibrationError(f"{path}: not valid JSON: {exc}") from None
     calibration = calibration_from_dict(data, str(path))

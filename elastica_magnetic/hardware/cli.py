@@ -1,4 +1,4 @@
-"""``msr hw stream``, ``msr hw firmware`` and ``msr hw calibrate``."""
+"""``msr real stream``, ``msr real firmware`` and ``msr real calibrate``."""
 
 from __future__ import annotations
 
@@ -153,7 +153,7 @@ def _stream(args: argparse.Namespace) -> int:
 
 
 def _stream_inputs(args: argparse.Namespace) -> tuple[Any, Any]:
-    """Everything ``msr hw stream`` checks before it connects: the options, the waveform (T, as
+    """Everything ``msr real stream`` checks before it connects: the options, the waveform (T, as
     read from the mT CSV), the calibration (or ``None``) and what the coils can follow, the
     output files. Returns the waveform and the calibration."""
     from elastica_magnetic.filesets import check_result_file
@@ -310,7 +310,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     fitted: Calibration = calibration_from_dict(
         {**base.to_json_dict(), "name": args.name,
          "actuation_matrix_T_per_A": fit.matrix_T_per_A.tolist(),
-         "description": f"fitted by msr hw calibrate from {path.name} ({len(values)} measurements)"},
+         "description": f"fitted by msr real calibrate from {path.name} ({len(values)} measurements)"},
         str(args.out))
     with result_file(args.out, force=args.force, kind=CALIBRATION_FILE) as written:
         save_calibration(written.path, fitted)
@@ -339,5 +339,5 @@ def _upload(port: str, calibration: Any, written: Path) -> dict[str, str]:
         return upload_calibration(port, calibration)
     except StreamError as exc:
         raise _error(f"--upload {exc}; the calibration was written to {display_path(written)} "
-                     f"(msr hw stream FIELD_CSV --port PORT --calibration {display_path(written)} uploads "
+                     f"(msr real stream FIELD_CSV --port PORT --calibration {display_path(written)} uploads "
                      "it before playing)") from None

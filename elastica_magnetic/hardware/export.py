@@ -1,12 +1,12 @@
 """Firmware build inputs from a field CSV and a calibration file.
 
 ``python -m elastica_magnetic.hardware.export FIELD_CSV --calibration FILE --out DIR`` (run by the
-firmware's CMake build, and by ``msr hw firmware``) writes into DIR:
+firmware's CMake build, and by ``msr real firmware``) writes into DIR:
 
 - ``calibration_gen.h``: the calibration as C constants,
 - ``waveform_table.c``: the field rows (mT) as the flash table played by the ``PLAY`` command,
 - ``expected_dac_codes.csv``: ``row,code_x,code_y,code_z``, the codes the firmware writes for
-  each row, whether played from flash or streamed with ``msr hw stream``.
+  each row, whether played from flash or streamed with ``msr real stream``.
 
 Only numpy and :mod:`elastica_magnetic.field_csv` are imported, so the build stays light.
 """
@@ -64,7 +64,7 @@ def _is_expected_codes(path: Path) -> bool:
         return handle.readline().strip() == EXPECTED_CODES_HEADER
 
 
-#: What ``msr hw stream --codes-out FILE --force`` may replace: an earlier codes CSV.
+#: What ``msr real stream --codes-out FILE --force`` may replace: an earlier codes CSV.
 EXPECTED_CODES_FILE = FileKind(f"an expected-DAC-codes CSV ({EXPECTED_CODES_HEADER})",
                                _is_expected_codes)
 
@@ -116,7 +116,7 @@ def export_firmware(field_csv: str | Path, calibration: Calibration | str | Path
     if len(field_T) > MAX_TABLE_ROWS:
         raise ValueError(
             f"{field_csv}: {len(field_T)} rows exceed the flash table limit of {MAX_TABLE_ROWS} "
-            "(stream longer waveforms with 'msr hw stream')"
+            "(stream longer waveforms with 'msr real stream')"
         )
     rows_mT = wire_values_mT(wire_rows_mT(field_T))
     clipping = clipping_report(cal, rows_mT)

@@ -53,7 +53,7 @@ MEASURED_CURRENT_RANGE_A = (1e-3, HW_MAX_CURRENT_A)
 #: REFUSE it is refused (coils driven together: drive each coil on its own).
 CURRENT_CONDITION_WARN = 10.0
 CURRENT_CONDITION_REFUSE = 100.0
-#: Columns of an ``msr hw calibrate`` measurements CSV: coil currents (A) and measured fields (mT);
+#: Columns of an ``msr real calibrate`` measurements CSV: coil currents (A) and measured fields (mT);
 #: the CLI reads them, the fit's messages name them.
 CURRENT_COLUMNS = ("current_x_A", "current_y_A", "current_z_A")
 FIELD_COLUMNS = ("field_x_mT", "field_y_mT", "field_z_mT")

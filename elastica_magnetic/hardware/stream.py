@@ -122,7 +122,7 @@ def _is_board_log(path: Path) -> bool:
         return any(line.startswith(("MSR-FW", "PONG")) for line in handle)
 
 
-#: What ``msr hw stream --log FILE --force`` may replace: an earlier log of the board's lines.
+#: What ``msr real stream --log FILE --force`` may replace: an earlier log of the board's lines.
 BOARD_LOG_FILE = FileKind("a board log (the firmware's lines: MSR-FW, PONG, ...)", _is_board_log)
 
 
@@ -472,7 +472,7 @@ def _open(port_url: str, baudrate: int, open_port: Callable[..., Any] | None) ->
 
 def upload_calibration(port_url: str, calibration: Calibration, *, baudrate: int = DEFAULT_BAUD,
                        open_port: Callable[..., Any] | None = None) -> dict[str, str]:
-    """Upload ``calibration`` to the board at ``port_url`` (``msr hw calibrate --upload``); returns
+    """Upload ``calibration`` to the board at ``port_url`` (``msr real calibrate --upload``); returns
     the board's status before and after.
 
     Raises

@@ -28,7 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "spec copy as its yardstick; msr train --recipe fast on that copy; each seed's distance "
         "and msr policy generate with the farthest seed's farther actor; msr real robustness (the default "
         "variation set, open and closed loop); msr refine --physics training --randomize default; "
-        f"msr real robustness of the refined policy; msr hw firmware. Steps: {_STEP_LIST}; each "
+        f"msr real robustness of the refined policy; msr real firmware. Steps: {_STEP_LIST}; each "
         "writes DIR/<step>/. DIR/loop.json records each finished step: the same command again "
         "skips them and resumes an interrupted training. DIR/report.md and DIR/report.html (self-"
         "contained) are rewritten after every step.",
@@ -77,7 +77,7 @@ def _settings(args: argparse.Namespace):
     if args.calibration is not None:
         if not args.calibration.is_file():
             raise CommandError(f"--calibration {args.calibration}: no such file (a calibration "
-                               "JSON, e.g. stm32/calibration/default.json or msr hw calibrate's)")
+                               "JSON, e.g. stm32/calibration/default.json or msr real calibrate's)")
         load_calibration(args.calibration)  # its named error now, not after the training
     base = LoopSettings.smoke() if args.quick else LoopSettings()
     changes = {"seeds": args.seeds, "workers": args.workers,

@@ -2,7 +2,7 @@
 hand (``docs/own_robot.md``, ``docs/sim_to_real.md``): ``msr case check``, ``msr field baseline
 --set-yardstick``, ``msr train --recipe fast``, ``msr policy export-seeds``' evaluations, ``msr
 policy generate``, ``msr real robustness``, ``msr refine --physics training --randomize default``, ``msr
-real robustness`` again and ``msr hw firmware``.
+real robustness`` again and ``msr real firmware``.
 
 Each step writes its own subfolder of the loop's folder through the package's result mechanisms
 (a result folder replaced whole, or the run folders of train and refine) and returns a small
@@ -294,7 +294,7 @@ def robustness_refined_step(ctx: LoopContext) -> dict[str, Any]:
 
 
 def firmware_step(ctx: LoopContext) -> dict[str, Any]:
-    """``msr hw firmware`` into ``firmware/``, with ``--calibration`` (default
+    """``msr real firmware`` into ``firmware/``, with ``--calibration`` (default
     ``stm32/calibration/default.json``): the waveform the coils will play open loop, so of the
     learned and the refined policy's waveforms the one whose open-loop robustness is better
     (:func:`_waveform_to_play`); the generated one when no robustness step ran."""

@@ -2,7 +2,7 @@
 
 A goto policy needs to know where the robot is. In a lab a camera tracks markers on the robot
 (back, middle, front) and the loop at 100 Hz is: tracked markers -> observation -> policy ->
-field increment -> coils (``msr hw stream``). :func:`run_closed_loop` is that loop with a
+field increment -> coils (``msr real stream``). :func:`run_closed_loop` is that loop with a
 simulated tracker (:class:`SimulatedTracker`: Gaussian noise on every tracked coordinate and a
 latency of whole 0.01 s steps), so that it is tested before a coil is switched on.
 

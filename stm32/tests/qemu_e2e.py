@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""End-to-end run of the real firmware ELF in QEMU (netduinoplus2) with ``msr hw stream``.
+"""End-to-end run of the real firmware ELF in QEMU (netduinoplus2) with ``msr real stream``.
 
     python stm32/tests/qemu_e2e.py --csv FILE [--json] [--corrupt-row N]
 
@@ -7,13 +7,13 @@
    built with (``stm32/calibration/default.json`` unless ``--calibration``).
 2. QEMU boots the ELF with USART1 on a TCP socket (``server=on,wait=on,nodelay=on``) and
    ``-icount shift=auto`` (so TIM2 ticks at the right rate).
-3. ``msr hw stream FILE --port socket://...`` streams the whole waveform; every ``DAC`` line the
+3. ``msr real stream FILE --port socket://...`` streams the whole waveform; every ``DAC`` line the
    firmware reported is compared with the expected codes (within 1 LSB), and the outputs must end
    at mid-scale with reason ``end``.
 4. In the same boot, a second stream corrupts row N mid-stream: the firmware must stop there,
    go to mid-scale and report ``checksum``.
 
-``--calibration FILE`` plays with FILE: ``msr hw stream --calibration`` uploads it to the board when
+``--calibration FILE`` plays with FILE: ``msr real stream --calibration`` uploads it to the board when
 the board's active calibration (the compiled-in one after boot) differs. ``--upload-checks`` runs,
 in one QEMU session, the calibration life cycle instead: fallback to the compiled calibration, a
 bad upload refused with its reason, FILE uploaded and FILE's waveform played bit-exactly, another
@@ -107,11 +107,11 @@ def start_qemu(qemu: str, elf: Path, port: int) -> subprocess.Popen[bytes]:
 
 def run_stream(csv: Path, port: int, calibration: Path, workdir: Path, tag: str, rows: int,
                corrupt_row: int | None = None, extra: tuple[str, ...] = ()) -> dict[str, Any]:
-    """Run ``msr hw stream`` as a subprocess; returns its JSON summary plus the files it wrote."""
+    """Run ``msr real stream`` as a subprocess; returns its JSON summary plus the files it wrote."""
     log = workdir / f"{tag}.log"
     codes = workdir / f"{tag}_codes.csv"
     limit = rows / 100.0 * STREAM_SLOWDOWN + STREAM_MARGIN_S
-    cmd = [sys.executable, "-m", "elastica_magnetic.cli", "hw", "stream", str(csv),
+    cmd = [sys.executable, "-m", "elastica_magnetic.cli", "real", "stream", str(csv),
            "--port", f"socket://127.0.0.1:{port}", "--calibration", str(calibration),
            "--json", "--no-progress", "--log", str(log), "--codes-out", str(codes),
            "--timeout", str(limit)]
@@ -123,11 +123,11 @@ def run_stream(csv: Path, port: int, calibration: Path, workdir: Path, tag: str,
         done = subprocess.run(cmd, capture_output=True, text=True, timeout=limit + 15, env=env,
                               cwd=REPO)
     except subprocess.TimeoutExpired as exc:
-        raise E2EError(f"msr hw stream ({tag}) did not finish in {limit + 15:.0f} s") from exc
+        raise E2EError(f"msr real stream ({tag}) did not finish in {limit + 15:.0f} s") from exc
     try:
         summary = json.loads(done.stdout)
     except json.JSONDecodeError as exc:
-        raise E2EError(f"msr hw stream ({tag}) printed no JSON (status {done.returncode}):\n"
+        raise E2EError(f"msr real stream ({tag}) printed no JSON (status {done.returncode}):\n"
                        f"{done.stdout[-2000:]}\n{done.stderr[-2000:]}") from exc
     summary["exit_status"] = done.returncode
     summary["log"] = str(log)

@@ -137,9 +137,9 @@ def test_out_that_is_a_file_other_commands(field_csv, tmp_path, capsys, command)
     argv = {
         "generate": ["policy", "generate", "m1-4mT", "--duration", "0.01", "--no-progress"],
         "export": ["policy", "export", "m1-4mT"],
-        "export-firmware": ["hw", "firmware", str(field_csv), "--calibration",
+        "export-firmware": ["real", "firmware", str(field_csv), "--calibration",
                             str(default_calibration_path())],
-        "calibrate": ["hw", "calibrate", str(measurements)],
+        "calibrate": ["real", "calibrate", str(measurements)],
     }[command]
     assert main([*argv, "--out", str(out / "c.json" if command == "calibrate" else out)]) == 2
     assert f"{afile} is a file, not a folder" in capsys.readouterr().err
@@ -153,7 +153,7 @@ def test_out_that_is_a_file_other_commands(field_csv, tmp_path, capsys, command)
 def test_calibrate_measurements_unreadable(tmp_path, capsys, data, message):
     measurements = tmp_path / "m.csv"
     measurements.write_bytes(data)
-    assert main(["hw", "calibrate", str(measurements), "--out", str(tmp_path / "c.json")]) == 2
+    assert main(["real", "calibrate", str(measurements), "--out", str(tmp_path / "c.json")]) == 2
     assert f"{measurements}: {message}" in capsys.readouterr().err
 
 

@@ -1,6 +1,6 @@
-"""The command line by noun (issue 50): at most 10 top-level entries (11 since ``msr design``,
-which issue 52 asks for at the top level: a script's interface), each grouped command under
-its group, and every earlier top-level spelling still running (hidden from the help) with a
+"""The command line by noun (issue 50): at most 10 top-level entries (``msr hw`` merged into
+``msr real`` to make room for ``msr design``), each grouped command under its group, and every
+earlier spelling (top-level, or in a merged group) still running, hidden from the help, with a
 one-line note naming the new one."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 
 from elastica_magnetic.cli import GROUPS, build_parser, listed_commands, main
-from elastica_magnetic.command_names import COMMAND_HOMES
+from elastica_magnetic.command_names import COMMAND_HOMES, FORMER_GROUPS
 
 
 def _listed_top_level(capsys) -> list[str]:
@@ -21,14 +21,14 @@ def _listed_top_level(capsys) -> list[str]:
 
 
 #: The most top-level entries ``msr --help`` may list.
-MOST_TOP_LEVEL = 11
+MOST_TOP_LEVEL = 10
 
 
-def test_the_help_lists_at_most_eleven_entries_and_no_old_spelling(capsys):
+def test_the_help_lists_at_most_ten_entries_and_no_old_spelling(capsys):
     listed = _listed_top_level(capsys)
     assert 0 < len(listed) <= MOST_TOP_LEVEL, listed
     assert set(GROUPS) <= set(listed)
-    assert not set(listed) & set(COMMAND_HOMES), "an old spelling is listed"
+    assert not set(listed) & (set(COMMAND_HOMES) | set(FORMER_GROUPS)), "an old spelling is listed"
 
 
 def test_every_grouped_command_is_in_its_group():
@@ -51,6 +51,30 @@ def test_every_old_spelling_still_runs(plain, capsys):
         main([plain, "--help"])
     assert info.value.code == 0
     assert capsys.readouterr().out.startswith(f"usage: msr {plain} ")
+
+
+FORMER_SPELLINGS = [(old, name) for old, (_, names) in FORMER_GROUPS.items() for name in names]
+
+
+@pytest.mark.parametrize(("old_group", "name"), FORMER_SPELLINGS)
+def test_every_command_of_a_merged_group_still_runs(old_group, name, capsys):
+    group_now = FORMER_GROUPS[old_group][0]
+    assert f"{group_now} {name}" in listed_commands()
+    with pytest.raises(SystemExit) as info:
+        main([old_group, name, "--help"])
+    assert info.value.code == 0
+    assert capsys.readouterr().out.startswith(f"usage: msr {old_group} {name} ")
+
+
+def test_a_merged_group_names_the_new_one_in_its_note_and_errors(tmp_path, capsys):
+    missing = str(tmp_path / "missing.csv")
+    assert main(["hw", "calibrate", missing, "--out", str(tmp_path / "c.json")]) == 2
+    err = capsys.readouterr().err
+    assert "msr hw calibrate: note: this is now msr real calibrate (the old spelling works" in err, err
+    assert "msr hw calibrate: error: " in err and "no such measurements file" in err, err
+    assert main(["real", "calibrate", missing, "--out", str(tmp_path / "c.json")]) == 2
+    err = capsys.readouterr().err
+    assert "note:" not in err and err.startswith("msr real calibrate: error: "), err
 
 
 def test_an_old_spelling_says_the_new_one_and_gives_the_same_result(tmp_path, capsys):

@@ -21,7 +21,7 @@ def _commands(tmp_path):
                                 "--out", "{out}"], "t_s;x;y\n0;0;0\n", "semicolons"),
         "identify": (["real", "identify", str(good_field), "{bad}", "--robot", "m1-4mT", "--fit",
                       "magnetization", "--out", "{out}"], TRACK, "tabs"),
-        "calibrate": (["hw", "calibrate", "{bad}", "--out", "{out}.json"], MEASUREMENTS,
+        "calibrate": (["real", "calibrate", "{bad}", "--out", "{out}.json"], MEASUREMENTS,
                       "semicolons"),
     }
 

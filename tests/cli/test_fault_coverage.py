@@ -32,12 +32,12 @@ FAULT_TESTS: dict[str, tuple[str, ...]] = {
     "policy demo": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
     "real robustness": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
     "real identify": ("cli/test_fault_coverage.py::test_a_writer_killed_interrupted_or_on_a_full_disk",),
-    "hw stream": ("cli/test_fault_coverage.py::test_stream_log_interrupted_keeps_the_old_log",),
+    "real stream": ("cli/test_fault_coverage.py::test_stream_log_interrupted_keeps_the_old_log",),
     "policy figures": ("cli/test_writer_faults.py::test_figures_interrupted_leave_the_earlier_figures",),
     "policy seeds": ("cli/test_fault_coverage.py::test_seeds_figures_interrupted_leave_the_earlier_ones",),
-    "hw firmware": ("cli/test_writer_faults.py::test_killed_while_writing_then_the_next_run_cleans_up",
+    "real firmware": ("cli/test_writer_faults.py::test_killed_while_writing_then_the_next_run_cleans_up",
                         "cli/test_writer_faults.py::test_interrupted_or_full_disk_keeps_the_old_result_whole"),
-    "hw calibrate": ("cli/test_writer_faults.py::test_killed_while_writing_then_the_next_run_cleans_up",),
+    "real calibrate": ("cli/test_writer_faults.py::test_killed_while_writing_then_the_next_run_cleans_up",),
     "policy export": ("rl/shipping/test_command_faults.py::"
                "test_export_killed_while_building_and_between_the_renames",
                "rl/shipping/test_export_full_disk.py::test_export_on_a_full_disk_is_a_named_error"),
@@ -171,7 +171,7 @@ def test_stream_log_interrupted_keeps_the_old_log(tmp_path, monkeypatch):
         raise KeyboardInterrupt
 
     monkeypatch.setattr(stream, "stream_field", answered_then_interrupted)
-    argv = ["hw", "stream", str(PUBLISHED / "magnetic_field.csv"), "--port", "socket://127.0.0.1:9",
+    argv = ["real", "stream", str(PUBLISHED / "magnetic_field.csv"), "--port", "socket://127.0.0.1:9",
             "--timeout", "2", "--log", str(log), "--force", "--no-progress"]
     assert main(argv) == 130
     assert log.read_text() == earlier

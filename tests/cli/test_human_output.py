@@ -48,7 +48,7 @@ def test_nested_results_are_lines_not_reprs(tmp_path, monkeypatch):
     ["policy", "export", "m1-4mT", "--out", "{tmp}/export", "--no-progress"],
     ["policy", "seeds", "m1-4mT"],
     ["policy", "notes", "m1-4mT"],
-    ["hw", "firmware", str(FIELD_CSV), "--calibration", str(CALIBRATION), "--out", "{tmp}/fw"],
+    ["real", "firmware", str(FIELD_CSV), "--calibration", str(CALIBRATION), "--out", "{tmp}/fw"],
     ["real", "robustness", "m1-4mT", "--duration", "0.02", "--no-corners", "--workers", "1", "--out",
      "{tmp}/rob", "--no-progress"],
 ], ids=lambda argv: " ".join(argv[:2]))

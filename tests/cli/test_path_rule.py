@@ -56,9 +56,9 @@ WRITERS: dict[str, tuple[list[str], str, str]] = {
     "demo": (["policy", "demo", "--duration", "0.01", "--out", "{o}"], "folder", "--out"),
     "seeds": (["policy", "seeds", "m1-4mT", "--figure", "{o}"], "files", "--figure"),
     "export": (["policy", "export", "m1-4mT", "--out", "{o}", "--force"], "folder", "--out"),
-    "export-firmware": (["hw", "firmware", FIELD_CSV, "--calibration", CALIBRATION, "--out", "{o}",
+    "export-firmware": (["real", "firmware", FIELD_CSV, "--calibration", CALIBRATION, "--out", "{o}",
                          "--force"], "folder", "--out"),
-    "calibrate": (["hw", "calibrate", "{measurements}", "--out", "{f}"], "file", "--out"),
+    "calibrate": (["real", "calibrate", "{measurements}", "--out", "{f}"], "file", "--out"),
     "robustness": (["real", "robustness", "m1-4mT", "--duration", "0.01", "--out", "{o}", "--force"],
                    "folder",
                    "--out"),
@@ -66,9 +66,9 @@ WRITERS: dict[str, tuple[list[str], str, str]] = {
                   "--fit", "friction", "--out", "{o}", "--force"], "folder", "--out"),
     "loop": (["loop", "m1-4mT", "--out", "{o}", "--force"], "folder", "--out"),
     "design": (["design", "m1-4mT", "--out", "{o}", "--force", "--quick"], "folder", "--out"),
-    "stream --log": (["hw", "stream", FIELD_CSV, "--port", "socket://127.0.0.1:9", "--log", "{f}"], "file",
+    "stream --log": (["real", "stream", FIELD_CSV, "--port", "socket://127.0.0.1:9", "--log", "{f}"], "file",
                      "--log"),
-    "stream --codes-out": (["hw", "stream", FIELD_CSV, "--port", "socket://127.0.0.1:9", "--codes-out",
+    "stream --codes-out": (["real", "stream", FIELD_CSV, "--port", "socket://127.0.0.1:9", "--codes-out",
                             "{f}"], "file", "--codes-out"),
 }
 
@@ -182,7 +182,7 @@ def test_a_link_loop_or_an_over_long_name_is_refused_before_any_work(tmp_path, c
     (tmp_path / "loopA").symlink_to(tmp_path / "loopB")
     (tmp_path / "loopB").symlink_to(tmp_path / "loopA")
     for argv in (["field", "simulate", "--duration", "0.05", "--out"],
-                 ["hw", "calibrate", str(tmp_path / "m.csv"), "--out"]):
+                 ["real", "calibrate", str(tmp_path / "m.csv"), "--out"]):
         with pytest.raises(SystemExit):
             main([*argv, str(tmp_path / "loopA")])
         assert "is a symbolic link that leads back to itself (a loop)" in capsys.readouterr().err
@@ -193,7 +193,7 @@ def test_a_link_loop_or_an_over_long_name_is_refused_before_any_work(tmp_path, c
     # round 10, V6: a 240-byte name fits, msr's own names beside it do not: said before any work
     for argv in (["field", "simulate", "--duration", "0.05", "--out"],
                  ["design", "m1-4mT", "--quick", "--generations", "1", "--out"],
-                 ["hw", "calibrate", str(tmp_path / "m.csv"), "--out"]):
+                 ["real", "calibrate", str(tmp_path / "m.csv"), "--out"]):
         with pytest.raises(SystemExit):
             main([*argv, str(tmp_path / ("b" * 240))])
         assert "is 240 bytes long; msr writes beside it under longer names" in capsys.readouterr().err

@@ -14,10 +14,10 @@ from elastica_magnetic.plausibility import ImplausibleValueWarning
 
 
 def test_a_file_output_spelled_as_a_folder_is_refused(tmp_path, capsys):
-    """P10: ``msr hw calibrate --out newdir/`` wrote a file named ``newdir``."""
+    """P10: ``msr real calibrate --out newdir/`` wrote a file named ``newdir``."""
     measurements = tmp_path / "m.csv"
     measurements.write_text("current_x_A,current_y_A,current_z_A,field_x_mT,field_y_mT,field_z_mT\n")
-    assert msr(["hw", "calibrate", str(measurements), "--out", f"{tmp_path}/newdir/"]) == 2
+    assert msr(["real", "calibrate", str(measurements), "--out", f"{tmp_path}/newdir/"]) == 2
     assert "ends with a separator, so it names a folder" in capsys.readouterr().err
     assert not (tmp_path / "newdir").exists()
 

@@ -1,5 +1,5 @@
 """Fault injection for the writers brought under the result mechanisms by issue 48: ``msr
-export-firmware`` (a result folder), ``msr hw calibrate`` (one result file) and ``msr policy figures`` (a set
+export-firmware`` (a result folder), ``msr real calibrate`` (one result file) and ``msr policy figures`` (a set
 of files in a folder holding other things). Each runs in a real process (``tests/faults.py``),
 killed or interrupted while writing, or on a full disk: the earlier result stays byte for byte
 ("old or new, whole"), a file of the user's beside it is never touched, and the next run cleans
@@ -38,9 +38,9 @@ def lab(tmp_path: Path) -> Path:
     """A folder with a user's file, measurements and an earlier export and calibration."""
     (tmp_path / "notes.txt").write_text("the user's notes\n")
     (tmp_path / "meas.csv").write_text(MEASUREMENTS)
-    assert main(["hw", "firmware", str(FIELD_CSV), "--calibration", str(CALIBRATION), "--out",
+    assert main(["real", "firmware", str(FIELD_CSV), "--calibration", str(CALIBRATION), "--out",
                  str(tmp_path / "fw")]) == 0
-    assert main(["hw", "calibrate", str(tmp_path / "meas.csv"), "--out", str(tmp_path / "cal.json")]) == 0
+    assert main(["real", "calibrate", str(tmp_path / "meas.csv"), "--out", str(tmp_path / "cal.json")]) == 0
     return tmp_path
 
 
@@ -49,12 +49,12 @@ def _export(lab: Path, *extra: str) -> list[str]:
     zeros = lab / "zeros.csv"
     if not zeros.exists():
         zeros.write_text("index,mag_x,mag_y,mag_z\n" + "".join(f"{i},0,0,0\n" for i in range(50)))
-    return ["hw", "firmware", str(zeros), "--calibration", str(CALIBRATION), "--out",
+    return ["real", "firmware", str(zeros), "--calibration", str(CALIBRATION), "--out",
             str(lab / "fw"), *extra]
 
 
 def _calibrate(lab: Path, *extra: str) -> list[str]:
-    return ["hw", "calibrate", str(lab / "meas.csv"), "--name", "again", "--out", str(lab / "cal.json"),
+    return ["real", "calibrate", str(lab / "meas.csv"), "--name", "again", "--out", str(lab / "cal.json"),
             *extra]
 
 
@@ -139,10 +139,10 @@ def test_a_read_only_folder_is_named_before_any_work(tmp_path, capsys, command):
 
 
 @pytest.mark.parametrize(("argv", "option", "kind"), [
-    (["hw", "calibrate", "{lab}/meas.csv", "--out", "{file}"], "--out", "a calibration JSON"),
-    (["hw", "stream", str(FIELD_CSV), "--port", "socket://127.0.0.1:1", "--log", "{file}"], "--log",
+    (["real", "calibrate", "{lab}/meas.csv", "--out", "{file}"], "--out", "a calibration JSON"),
+    (["real", "stream", str(FIELD_CSV), "--port", "socket://127.0.0.1:1", "--log", "{file}"], "--log",
      "a board log"),
-    (["hw", "stream", str(FIELD_CSV), "--port", "socket://127.0.0.1:1", "--codes-out", "{file}"],
+    (["real", "stream", str(FIELD_CSV), "--port", "socket://127.0.0.1:1", "--codes-out", "{file}"],
      "--codes-out", "an expected-DAC-codes CSV"),
     (["field", "baseline", "--case", "m1-4mT", "--set-yardstick", "{file}"], "--set-yardstick",
      "a spec file"),

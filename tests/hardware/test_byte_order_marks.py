@@ -28,9 +28,9 @@ def test_a_calibration_with_a_byte_order_mark_is_named(tmp_path, capsys):
     with pytest.raises(CalibrationError) as info:
         load_calibration(path)
     assert str(info.value) == message
-    assert main(["hw", "firmware", str(PUBLISHED_CSV), "--calibration", str(path), "--out",
+    assert main(["real", "firmware", str(PUBLISHED_CSV), "--calibration", str(path), "--out",
                  str(tmp_path / "fw")]) == 2
-    assert capsys.readouterr().err.strip() == f"msr hw firmware: error: {message}"
+    assert capsys.readouterr().err.strip() == f"msr real firmware: error: {message}"
     assert not (tmp_path / "fw").exists()
 
 
@@ -40,6 +40,6 @@ def test_measurements_with_a_byte_order_mark_are_read_as_without(tmp_path):
     marked.write_bytes(BOM + MEASUREMENTS.encode())
     for measurements in (plain, marked):
         out = tmp_path / f"{measurements.stem}.json"
-        assert main(["hw", "calibrate", str(measurements), "--out", str(out), "--name", "bench"]) == 0
+        assert main(["real", "calibrate", str(measurements), "--out", str(out), "--name", "bench"]) == 0
     fitted = [json.loads((tmp_path / f"{n}.json").read_text()) for n in ("plain", "marked")]
     assert fitted[0]["actuation_matrix_T_per_A"] == fitted[1]["actuation_matrix_T_per_A"]

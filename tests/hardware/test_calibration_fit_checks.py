@@ -47,10 +47,10 @@ def test_export_firmware_refuses_a_misspelt_calibration_key(tmp_path: Path, caps
     calibration = tmp_path / "cal.json"
     calibration.write_text(json.dumps(data))
     out = tmp_path / "fw"
-    assert main(["hw", "firmware", str(PUBLISHED_CSV), "--calibration", str(calibration),
+    assert main(["real", "firmware", str(PUBLISHED_CSV), "--calibration", str(calibration),
                  "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith(f"msr hw firmware: error: {calibration}: transconductance_A_per_mV: "
+    assert err.startswith(f"msr real firmware: error: {calibration}: transconductance_A_per_mV: "
                           "unknown key; did you mean transconductance_A_per_V? (a calibration "
                           "takes: name, "), err
     assert "description" in err and "estimates" in err
@@ -86,7 +86,7 @@ def test_a_calibration_fitted_on_a_base_with_notes_loads(tmp_path: Path) -> None
     currents = np.vstack([np.eye(3) * a for a in (-2.0, -1.0, 1.0, 2.0)])
     meas = write_measurements(tmp_path / "m.csv", currents, currents @ TRUE.T * 1e3)
     out = tmp_path / "cal.json"
-    assert main(["hw", "calibrate", str(meas), "--base", str(YAO2023), "--out", str(out)]) == 0
+    assert main(["real", "calibrate", str(meas), "--base", str(YAO2023), "--out", str(out)]) == 0
     assert load_calibration(out).name == "measured"
 
 
@@ -99,9 +99,9 @@ def test_calibrate_refuses_fields_whose_signs_flip_every_other_row(tmp_path: Pat
     fields_mT[1::2] *= -1.0  # the tester's file: every other row's field signs flipped
     meas = write_measurements(tmp_path / "m.csv", currents, fields_mT)
     out = tmp_path / "cal.json"
-    assert main(["hw", "calibrate", str(meas), "--out", str(out)]) == 2
+    assert main(["real", "calibrate", str(meas), "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith(f"msr hw calibrate: error: {meas}: the fitted matrix explains nothing: the "
+    assert err.startswith(f"msr real calibrate: error: {meas}: the fitted matrix explains nothing: the "
                           "residuals are more than 50% of the measured fields (field_x_mT: "
                           "residual RMS "), err
     assert "signs flipped" in err and "columns swapped" in err and "different setups" in err
@@ -132,7 +132,7 @@ def test_standard_errors_large_against_a_coil_constant_are_warned_about(tmp_path
     noise_mT = np.random.default_rng(4).normal(0.0, 0.8, (12, 3))
     fields_mT = currents @ TRUE.T * 1e3 + noise_mT
     meas = write_measurements(tmp_path / "m.csv", currents, fields_mT)
-    assert main(["hw", "calibrate", str(meas), "--out", str(tmp_path / "cal.json"), "--json"]) == 0
+    assert main(["real", "calibrate", str(meas), "--out", str(tmp_path / "cal.json"), "--json"]) == 0
     captured = capsys.readouterr()
     summary = json.loads(captured.out)
     se = np.array(summary["std_error_mT_per_A"])
@@ -140,7 +140,7 @@ def test_standard_errors_large_against_a_coil_constant_are_warned_about(tmp_path
     assert len(summary["warnings"]) == 1
     assert summary["warnings"][0].startswith(f"{meas}: the standard error of actuation_matrix_T_per_A[")
     assert "the matrix is poorly determined" in summary["warnings"][0]
-    assert f"msr hw calibrate: warning: {meas}: the standard error" in captured.err
+    assert f"msr real calibrate: warning: {meas}: the standard error" in captured.err
 
 
 def test_a_good_fit_has_no_warning() -> None:
@@ -154,14 +154,14 @@ def test_a_good_fit_has_no_warning() -> None:
 
 def _refusal(tmp_path: Path, capsys, currents: np.ndarray) -> tuple[Path, str]:
     meas = write_measurements(tmp_path / "m.csv", currents, currents @ TRUE.T * 1e3)
-    assert main(["hw", "calibrate", str(meas), "--out", str(tmp_path / "cal.json")]) == 2
+    assert main(["real", "calibrate", str(meas), "--out", str(tmp_path / "cal.json")]) == 2
     assert not (tmp_path / "cal.json").exists()
     return meas, capsys.readouterr().err.strip()
 
 
 def test_two_measurements_name_the_file(tmp_path: Path, capsys) -> None:
     meas, err = _refusal(tmp_path, capsys, random_currents(rows=2))
-    assert err.startswith(f"msr hw calibrate: error: {meas}: need at least 3 measurements (rows of "
+    assert err.startswith(f"msr real calibrate: error: {meas}: need at least 3 measurements (rows of "
                           f"{COLUMNS} and the fields they made), got 2"), err
 
 
@@ -169,7 +169,7 @@ def test_currents_along_one_direction_name_the_file_and_columns(tmp_path: Path, 
     currents = np.zeros((12, 3))
     currents[:, 0] = random_currents()[:, 0]
     meas, err = _refusal(tmp_path, capsys, currents)
-    assert err.startswith(f"msr hw calibrate: error: {meas}: the currents ({COLUMNS}) of the 12 rows "
+    assert err.startswith(f"msr real calibrate: error: {meas}: the currents ({COLUMNS}) of the 12 rows "
                           "(12 different settings) excite only 1 independent direction(s); drive "
                           "each coil on its own"), err
 
@@ -177,7 +177,7 @@ def test_currents_along_one_direction_name_the_file_and_columns(tmp_path: Path, 
 def test_identical_rows_are_said_to_be_identical(tmp_path: Path, capsys) -> None:
     currents = np.tile([[0.5, -1.25, 2.0]], (12, 1))
     meas, err = _refusal(tmp_path, capsys, currents)
-    assert err == (f"msr hw calibrate: error: {meas}: 12 rows, all the same currents ({COLUMNS} = "
+    assert err == (f"msr real calibrate: error: {meas}: 12 rows, all the same currents ({COLUMNS} = "
                    "0.5, -1.25, 2 A): one setting cannot tell the three coils apart; drive each "
                    "coil on its own, at positive and negative currents")
 
@@ -205,7 +205,7 @@ def test_a_key_given_twice_is_refused(tmp_path):
 def test_a_bad_name_is_blamed_on_the_name_option_before_the_fit(tmp_path: Path, capsys) -> None:
     out = tmp_path / "cal.json"
     with pytest.raises(SystemExit) as info:  # an argparse refusal: before the measurements are read
-        main(["hw", "calibrate", str(tmp_path / "not-read.csv"), "--out", str(out), "--name", "my cal"])
+        main(["real", "calibrate", str(tmp_path / "not-read.csv"), "--out", str(out), "--name", "my cal"])
     assert info.value.code == 2
     err = capsys.readouterr().err
     assert "argument --name: 'my cal': a calibration name must be 1-31 characters" in err, err
@@ -221,7 +221,7 @@ def test_an_upload_to_a_closed_port_says_the_calibration_was_written(tmp_path: P
     currents = random_currents()
     meas = write_measurements(tmp_path / "m.csv", currents, currents @ TRUE.T / 1e-3)
     out = tmp_path / "cal.json"
-    assert main(["hw", "calibrate", str(meas), "--out", str(out), "--upload",
+    assert main(["real", "calibrate", str(meas), "--out", str(out), "--upload",
                  f"socket://127.0.0.1:{port}"]) == 2
     err = capsys.readouterr().err
     assert "nothing was sent; the calibration was written to" in err and str(out.name) in err, err
@@ -234,7 +234,7 @@ def test_swapped_field_columns_are_warned_about(tmp_path: Path, capsys) -> None:
     fields_mT = currents @ TRUE.T / 1e-3
     meas = tmp_path / "m.csv"
     write_measurements(meas, currents, fields_mT[:, [1, 0, 2]])  # field_x and field_y swapped
-    assert main(["hw", "calibrate", str(meas), "--out", str(tmp_path / "cal.json")]) == 0
+    assert main(["real", "calibrate", str(meas), "--out", str(tmp_path / "cal.json")]) == 0
     err = capsys.readouterr().err
     assert "coil x makes more field along y" in err and "field columns swapped" in err, err
 
@@ -244,17 +244,17 @@ def test_a_column_named_twice_is_refused(tmp_path: Path, capsys) -> None:
     meas = write_measurements(tmp_path / "m.csv", currents, currents @ TRUE.T / 1e-3)
     lines = meas.read_text().splitlines()
     meas.write_text("\n".join([lines[0] + ",field_x_mT"] + [line + ",0" for line in lines[1:]]) + "\n")
-    assert main(["hw", "calibrate", str(meas), "--out", str(tmp_path / "cal.json")]) == 2
+    assert main(["real", "calibrate", str(meas), "--out", str(tmp_path / "cal.json")]) == 2
     assert "header on line 1 names field_x_mT twice (columns 4 and 7)" in capsys.readouterr().err
     assert not (tmp_path / "cal.json").exists()
 
 
 def test_every_reader_of_a_calibration_warns_about_a_negative_diagonal(tmp_path: Path, capsys) -> None:
-    """Only ``msr hw calibrate`` warned; a hand-edited sign went through export-firmware (round 4, S4)."""
+    """Only ``msr real calibrate`` warned; a hand-edited sign went through export-firmware (round 4, S4)."""
     data = json.loads((REPO / "stm32" / "calibration" / "default.json").read_text())
     data["actuation_matrix_T_per_A"][0][0] *= -1
     cal = tmp_path / "cal.json"
     cal.write_text(json.dumps(data))
-    assert main(["hw", "firmware", str(PUBLISHED_CSV), "--calibration", str(cal), "--out",
+    assert main(["real", "firmware", str(PUBLISHED_CSV), "--calibration", str(cal), "--out",
                  str(tmp_path / "fw")]) == 0
     assert "warning: " in (err := capsys.readouterr().err) and "[0][0]" in err and "is negative" in err

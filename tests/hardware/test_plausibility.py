@@ -66,7 +66,7 @@ def test_export_refuses_implausible_calibration_before_writing(tmp_path: Path, c
     csv_path = tmp_path / "f.csv"
     csv_path.write_text("1,2,0\n")
     out = tmp_path / "out"
-    assert main(["hw", "firmware", str(csv_path), "--calibration", str(cal), "--out", str(out)]) == 2
+    assert main(["real", "firmware", str(csv_path), "--calibration", str(cal), "--out", str(out)]) == 2
     assert "fixed 100 Hz" in capsys.readouterr().err
     assert not out.exists()
 
@@ -103,7 +103,7 @@ def test_calibrate_names_unit_mistakes(tmp_path: Path, capsys, scale_current: fl
     table[:, 3:] *= scale_field
     meas = write_measurements(tmp_path / "m.csv", table)
     out = tmp_path / "c.json"
-    assert main(["hw", "calibrate", str(meas), "--out", str(out)]) == 2
+    assert main(["real", "calibrate", str(meas), "--out", str(out)]) == 2
     assert re.search(message, capsys.readouterr().err)
     assert not out.exists()
 
@@ -116,7 +116,7 @@ def test_calibrate_refuses_coils_driven_together(tmp_path: Path, capsys) -> None
     fields_mT = currents @ TRUE.T * 1e3
     currents = currents + rng.normal(0.0, 0.002, currents.shape)
     meas = write_measurements(tmp_path / "m.csv", np.hstack([currents, fields_mT]))
-    assert main(["hw", "calibrate", str(meas), "--out", str(tmp_path / "c.json")]) == 2
+    assert main(["real", "calibrate", str(meas), "--out", str(tmp_path / "c.json")]) == 2
     err = capsys.readouterr().err
     assert re.search(r"ill conditioned \(condition number \d{3,}", err), err
     assert not (tmp_path / "c.json").exists()
@@ -129,7 +129,7 @@ def test_calibrate_warns_and_reports_uncertainties(tmp_path: Path, capsys) -> No
     fit = fit_actuation_matrix(currents, (currents @ TRUE.T))
     assert plausibility.CURRENT_CONDITION_WARN < fit.current_condition < 100, fit.current_condition
     meas = write_measurements(tmp_path / "m.csv", measurements(currents, TRUE, noise_mT=0.01))
-    assert main(["hw", "calibrate", str(meas), "--out", str(tmp_path / "c.json"), "--json"]) == 0
+    assert main(["real", "calibrate", str(meas), "--out", str(tmp_path / "c.json"), "--json"]) == 0
     captured = capsys.readouterr()
     summary = json.loads(captured.out)
     assert summary["current_condition_number"] > 10 and summary["warnings"]

@@ -1,5 +1,5 @@
 """A network URL without a usable TCP port (issue 48, "Tracebacks and vague messages", item 4):
-``msr hw stream --port socket://127.0.0.1`` said "cannot open the port (Could not open port
+``msr real stream --port socket://127.0.0.1`` said "cannot open the port (Could not open port
 socket://127.0.0.1: '<=' not supported between instances of 'int' and 'NoneType')". It is now
 named, with an example, before any file is read or the port opened."""
 
@@ -35,17 +35,17 @@ def no_port_opened(monkeypatch):
 @pytest.mark.parametrize("port, message", BAD_PORTS)
 def test_stream_names_a_url_without_a_usable_port(port, message, tmp_path, capsys, no_port_opened):
     missing = tmp_path / "not-read.csv"  # checked before the field CSV is read
-    assert main(["hw", "stream", str(missing), "--port", port, "--no-progress"]) == 2
+    assert main(["real", "stream", str(missing), "--port", port, "--no-progress"]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith(f"msr hw stream: error: --port {message}"), err
+    assert err.startswith(f"msr real stream: error: --port {message}"), err
 
 
 def test_calibrate_names_the_upload_port_before_writing(tmp_path, capsys, no_port_opened):
     out = tmp_path / "cal.json"
-    assert main(["hw", "calibrate", str(tmp_path / "m.csv"), "--out", str(out), "--upload",
+    assert main(["real", "calibrate", str(tmp_path / "m.csv"), "--out", str(out), "--upload",
                  "socket://127.0.0.1"]) == 2
     assert capsys.readouterr().err.strip() == (
-        "msr hw calibrate: error: --upload socket://127.0.0.1: the URL has no port; e.g. "
+        "msr real calibrate: error: --upload socket://127.0.0.1: the URL has no port; e.g. "
         "socket://127.0.0.1:4321")
     assert not out.exists()
 

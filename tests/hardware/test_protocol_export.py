@@ -146,7 +146,7 @@ def test_export_refuses_a_clipped_waveform_unless_allowed(tmp_path, capsys):
 
     csv_path = tmp_path / "strong.csv"
     csv_path.write_text("mag_x,mag_y,mag_z\n" + "0,0,0\n" * 3 + "100,0,0\n" * 4 + "1,0,0\n" * 100)
-    argv = ["hw", "firmware", str(csv_path), "--calibration", str(default_calibration_path()),
+    argv = ["real", "firmware", str(csv_path), "--calibration", str(default_calibration_path()),
             "--out", str(tmp_path / "out"), "--json"]
     assert main(argv) == 2
     err = capsys.readouterr().err

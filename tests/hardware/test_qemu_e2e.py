@@ -1,4 +1,4 @@
-"""The real firmware ELF in QEMU, streaming the published waveform through ``msr hw stream``.
+"""The real firmware ELF in QEMU, streaming the published waveform through ``msr real stream``.
 
 Needs qemu-system-arm and stm32/build/arm/msr_firmware.elf, which ``bash stm32/ci.sh`` (run by
 scripts/test.sh before pytest) installs and builds; missing ones FAIL this test, never skip it.

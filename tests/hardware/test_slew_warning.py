@@ -1,5 +1,5 @@
 """A waveform the coils follow late (issue 48, a held-out round of tries, cal_slew): with a
-calibration whose slew limit makes every row slew-limited, ``msr hw firmware`` exited 0 with
+calibration whose slew limit makes every row slew-limited, ``msr real firmware`` exited 0 with
 "clipping: no row clipped" and ``rows_slew_limited: 11``, no word that the coils will not follow
 the waveform. Slew-limited rows stay accepted (the firmware reaches them late, not clipped; a
 step from 0 A is slew-limited by design and test_stream plays one with exit status 0), but
@@ -50,7 +50,7 @@ def test_the_report_says_how_many_rows_and_by_how_much(tmp_path):
 
 def test_export_firmware_warns_of_slew_limited_rows(tmp_path, capsys):
     csv_path = ramp_csv(tmp_path)
-    argv = ["hw", "firmware", str(csv_path), "--calibration", str(slow_calibration(tmp_path)),
+    argv = ["real", "firmware", str(csv_path), "--calibration", str(slow_calibration(tmp_path)),
             "--out", str(tmp_path / "out"), "--json"]
     assert main(argv) == 0  # written: reached late, not clipped
     captured = capsys.readouterr()
@@ -59,13 +59,13 @@ def test_export_firmware_warns_of_slew_limited_rows(tmp_path, capsys):
     warning = (f"{csv_path}: the coils of calibration 'yao2023' follow this waveform late: 10 row(s) "
                "slew-limited, first at data row 1:")
     assert summary["warnings"][0].startswith(warning)
-    assert captured.err.startswith(f"msr hw firmware: warning: {warning}")
+    assert captured.err.startswith(f"msr real firmware: warning: {warning}")
     assert "so the field lags it by up to 2.98 mT; check the calibration's slew_limit_A_per_s (A/s), " \
            "or slow the waveform" in captured.err
 
 
 def test_export_firmware_says_nothing_of_a_waveform_within_the_slew_limit(tmp_path, capsys):
-    argv = ["hw", "firmware", str(ramp_csv(tmp_path)), "--calibration", str(YAO2023),
+    argv = ["real", "firmware", str(ramp_csv(tmp_path)), "--calibration", str(YAO2023),
             "--out", str(tmp_path / "out"), "--json"]
     assert main(argv) == 0
     captured = capsys.readouterr()
@@ -74,9 +74,9 @@ def test_export_firmware_says_nothing_of_a_waveform_within_the_slew_limit(tmp_pa
 
 def test_stream_warns_of_slew_limited_rows_before_it_connects(tmp_path, capsys):
     csv_path = ramp_csv(tmp_path)
-    assert main(["hw", "stream", str(csv_path), "--port", "socket://127.0.0.1:1", "--timeout", "1",
+    assert main(["real", "stream", str(csv_path), "--port", "socket://127.0.0.1:1", "--timeout", "1",
                  "--no-progress", "--calibration", str(slow_calibration(tmp_path))]) == 2
     err = capsys.readouterr().err.splitlines()
-    assert err[0].startswith(f"msr hw stream: warning: {csv_path}: the coils of calibration 'yao2023' "
+    assert err[0].startswith(f"msr real stream: warning: {csv_path}: the coils of calibration 'yao2023' "
                              "follow this waveform late: 10 row(s) slew-limited")
-    assert err[-1].startswith("msr hw stream: error: socket://127.0.0.1:1: cannot open the port")
+    assert err[-1].startswith("msr real stream: error: socket://127.0.0.1:1: cannot open the port")

@@ -248,13 +248,13 @@ def test_stream_options_checked_at_parse_time(capsys, tmp_path: Path) -> None:
     for option, value in (("--timeout", "-1"), ("--timeout", "nan"), ("--baud", "0"),
                           ("--corrupt-row", "-2")):
         with pytest.raises(SystemExit):
-            main(["hw", "stream", "f.csv", "--port", "socket://127.0.0.1:1", option, value])
+            main(["real", "stream", "f.csv", "--port", "socket://127.0.0.1:1", option, value])
         assert f"argument {option}: expected" in capsys.readouterr().err
     csv_path = tmp_path / "f.csv"
     csv_path.write_text("1,2,3\n")
-    assert main(["hw", "stream", str(csv_path), "--port", "socket://127.0.0.1:1", "--timeout", "1",
+    assert main(["real", "stream", str(csv_path), "--port", "socket://127.0.0.1:1", "--timeout", "1",
                  "--no-progress"]) == 2
-    assert "msr hw stream: error: socket://127.0.0.1:1: cannot open the port" in capsys.readouterr().err
+    assert "msr real stream: error: socket://127.0.0.1:1: cannot open the port" in capsys.readouterr().err
 
 
 # ----------------------------------------------------------------- calibration and stream checks
@@ -271,7 +271,7 @@ def test_stream_refuses_a_waveform_the_calibration_cannot_make(tmp_path: Path, c
     from elastica_magnetic.cli import main
 
     strong = csv_of(tmp_path / "strong.csv", np.tile([20.0, 0.0, 0.0], (50, 1)))
-    argv = ["hw", "stream", str(strong), "--port", "socket://127.0.0.1:1", "--no-progress",
+    argv = ["real", "stream", str(strong), "--port", "socket://127.0.0.1:1", "--no-progress",
             "--calibration", str(default_calibration_path)]
     assert main(argv) == 2
     err = capsys.readouterr().err
@@ -290,7 +290,7 @@ def test_stream_uploads_a_differing_calibration(monkeypatch, tmp_path: Path, cap
     board = FakeBoard(default_calibration_path)
     monkeypatch.setattr(serial, "serial_for_url", lambda *a, **k: board)
     ten = csv_of(tmp_path / "ten.csv", np.tile([10.0, -9.0, 0.0], (150, 1)))
-    argv = ["hw", "stream", str(ten), "--port", "fake://", "--no-progress", "--json", "--calibration",
+    argv = ["real", "stream", str(ten), "--port", "fake://", "--no-progress", "--json", "--calibration",
             str(YAO2023), "--timeout", "30"]
     assert main([*argv, "--no-upload"]) == 2
     assert "--no-upload" in capsys.readouterr().err and board.upload == b""
@@ -318,7 +318,7 @@ def test_stream_exits_nonzero_when_the_codes_differ(monkeypatch, tmp_path: Path,
     board.hash = calibration_hash(load_calibration(YAO2023))  # claims yao2023, plays default
     monkeypatch.setattr(serial, "serial_for_url", lambda *a, **k: board)
     weak = csv_of(tmp_path / "weak.csv", np.tile([3.0, 1.0, 0.0], (100, 1)))
-    assert main(["hw", "stream", str(weak), "--port", "fake://", "--no-progress", "--json",
+    assert main(["real", "stream", str(weak), "--port", "fake://", "--no-progress", "--json",
                  "--calibration", str(YAO2023), "--timeout", "30"]) == 1
     captured = capsys.readouterr()
     assert json.loads(captured.out)["max_code_error_lsb"] > 1
@@ -362,7 +362,7 @@ def test_calibrate_upload_writes_and_uploads(monkeypatch, tmp_path: Path, capsys
     np.savetxt(meas, np.hstack([currents, fields_mT]), delimiter=",", comments="",
                header="current_x_A,current_y_A,current_z_A,field_x_mT,field_y_mT,field_z_mT")
     out = tmp_path / "bench1.json"
-    assert main(["hw", "calibrate", str(meas), "--out", str(out), "--name", "bench1", "--upload",
+    assert main(["real", "calibrate", str(meas), "--out", str(out), "--name", "bench1", "--upload",
                  "fake://", "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["uploaded"]["after"].startswith("STATUS state=safe calibration=bench1 hash=")
@@ -413,7 +413,7 @@ def test_msr_stream_to_a_port_that_does_not_open_keeps_the_previous_log(tmp_path
     old = b"MSR-FW 1.0 previous stream\r\nSAFE end row=3 applied=3\n"
     with result_file(log) as written:  # an earlier stream's log, as msr writes it
         written.path.write_bytes(old)
-    assert main(["hw", "stream", str(csv_of(tmp_path / "f.csv", np.zeros((3, 3)))), "--port",
+    assert main(["real", "stream", str(csv_of(tmp_path / "f.csv", np.zeros((3, 3)))), "--port",
                  "socket://127.0.0.1:1", "--log", str(log), "--force", "--timeout", "1",
                  "--no-progress"]) == 2
     err = capsys.readouterr().err
@@ -439,12 +439,12 @@ def test_msr_stream_refuses_a_corrupt_row_past_the_waveform_before_connecting(tm
 
     with monkeypatch.context() as patched:
         patched.setattr(serial, "serial_for_url", no_port)
-        status = main(["hw", "stream", str(waveform), "--port", "loop://", "--timeout", "1",
+        status = main(["real", "stream", str(waveform), "--port", "loop://", "--timeout", "1",
                        "--corrupt-row", "500", "--no-progress"])
     assert status == 2 and not opened
     assert "--corrupt-row 500: the waveform has 100 rows (0-99) in " in capsys.readouterr().err
     # the last row is accepted (goes on to the port: loop:// echoes, no PONG)
-    assert main(["hw", "stream", str(waveform), "--port", "loop://", "--timeout", "0.3",
+    assert main(["real", "stream", str(waveform), "--port", "loop://", "--timeout", "0.3",
                  "--corrupt-row", "99", "--no-progress"]) == 2
     assert "no PONG within 0.3 s" in capsys.readouterr().err
 
@@ -457,7 +457,7 @@ def test_msr_stream_force_replaces_the_log_of_its_own_failed_stream(tmp_path: Pa
 
     waveform = str(csv_of(tmp_path / "f.csv", np.zeros((3, 3))))
     log = tmp_path / "new.log"
-    command = ["hw", "stream", waveform, "--port", "loop://", "--timeout", "0.3", "--no-progress",
+    command = ["real", "stream", waveform, "--port", "loop://", "--timeout", "0.3", "--no-progress",
                "--log", str(log)]
     assert main(command) == 2
     assert "no PONG" in capsys.readouterr().err and "PING" in log.read_text()

@@ -1,4 +1,4 @@
-"""``msr hw stream`` against boards that misbehave: real ``msr`` processes, real TCP sockets on 127.0.0.1.
+"""``msr real stream`` against boards that misbehave: real ``msr`` processes, real TCP sockets on 127.0.0.1.
 
 Whatever the board does, the command must end with a non-zero status and a message naming the
 port, without a Python traceback, and must leave the coils at zero current: it never starts a
@@ -117,7 +117,7 @@ def field_csv(tmp_path: Path) -> Path:
 
 def run_stream(board: Board, field_csv: Path, *extra: str) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "PYTHONPATH": str(REPO)}
-    cmd = [sys.executable, "-m", "elastica_magnetic.cli", "hw", "stream", str(field_csv),
+    cmd = [sys.executable, "-m", "elastica_magnetic.cli", "real", "stream", str(field_csv),
            "--port", board.url, "--no-progress", *extra]
     try:
         return subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=120, cwd=REPO)

@@ -1,7 +1,7 @@
 /**
  * @file waveform_table.h
  * The PLAY waveform compiled into flash: field rows in mT, generated at build time by
- * `python -m elastica_magnetic.hardware.export` (also `msr hw firmware`) into waveform_table.c.
+ * `python -m elastica_magnetic.hardware.export` (also `msr real firmware`) into waveform_table.c.
  */
 #ifndef MSR_WAVEFORM_TABLE_H
 #define MSR_WAVEFORM_TABLE_H

@@ -70,7 +70,7 @@ def test_force_does_not_replace_a_hand_tuned_header_taken_for_a_result(tmp_path,
     (folder / "calibration_gen.h").write_text("/* hand-tuned */\n")
     calibration = Path(__file__).parents[3] / "stm32" / "calibration" / "default.json"
     for force in ([], ["--force"]):
-        assert msr(["hw", "firmware", str(fields), "--calibration", str(calibration), "--out",
+        assert msr(["real", "firmware", str(fields), "--calibration", str(calibration), "--out",
                     str(folder), *force]) == 2
         assert "but no record that msr wrote them" in capsys.readouterr().err
     assert (folder / "calibration_gen.h").read_text() == "/* hand-tuned */\n"

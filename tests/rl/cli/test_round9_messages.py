@@ -48,7 +48,7 @@ def test_a_slow_zone_in_mm_written_as_m_is_warned_about():
      "--workers is the number of --ring targets"),
     (["train", "--case", "m1-4mT", "--seeds", "1", "--seeds-per-simulator", "4", "--out", "OUT"],
      "--seeds-per-simulator 4 is more than --seeds 1"),
-    (["hw", "stream", "FIELD", "--port", "loop://", "--force"],
+    (["real", "stream", "FIELD", "--port", "loop://", "--force"],
      "--force replaces an existing --log or --codes-out file"),
     (["bench", "--quick", "--memory-steps", "10", "--train-seeds", "0"],
      "--memory-steps sets the steps of the --memory-seeds"),
