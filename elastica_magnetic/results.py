@@ -84,7 +84,7 @@ from pathlib import Path
 from typing import Any
 
 from .command_names import spelling
-from .interrupts import Interrupted, signals_as_exceptions, signals_held
+from .interrupts import signals_as_exceptions, signals_held
 from .io import (
     OutputPathError,
     display_path,
@@ -107,32 +107,21 @@ from .result_markers import (
     MAX_LISTED,
     describe_result,
     list_files,
-    mark_folder,
     read_marker,
     short_list,
-    unrecorded_files,
     write_marker,
 )
 
-# Interrupted, the signal helpers and the marker functions live in .interrupts and
-# .result_markers; they are named here too, where a result folder's user looks for them.
 __all__ = [
-    "MARKER",
-    "Interrupted",
     "LeftoverWarning",
     "ResultExistsError",
     "ResultFolder",
     "aborted_results",
     "remove_tree",
-    "signals_as_exceptions",
-    "signals_held",
     "fsync_tree",
     "check_result_folder",
     "interrupted",
-    "mark_folder",
-    "read_marker",
     "recover",
-    "unrecorded_files",
     "result_folder",
 ]
 

@@ -20,14 +20,13 @@ from pathlib import Path
 import pytest
 
 from elastica_magnetic import interrupts, results
+from elastica_magnetic.interrupts import Interrupted
 from elastica_magnetic.io import OutputPathError
 from elastica_magnetic.locks import FolderLockedError
+from elastica_magnetic.result_markers import MARKER, mark_folder, read_marker
 from elastica_magnetic.results import (
-    MARKER,
-    Interrupted,
     ResultExistsError,
     check_result_folder,
-    read_marker,
     recover,
     result_folder,
 )
@@ -330,7 +329,7 @@ def test_a_folder_written_in_place_is_marked_and_refused_to_other_commands(tmp_p
     seed = tmp_path / "seed0"
     seed.mkdir()
     (seed / "checkpoint.pt").write_bytes(b"weights")
-    results.mark_folder(seed, kind="train", subject="case m1-4mT", info={"seed": 0})
+    mark_folder(seed, kind="train", subject="case m1-4mT", info={"seed": 0})
     assert read_marker(seed)["files"] == ["checkpoint.pt"] and read_marker(seed)["seed"] == 0
     with pytest.raises(ResultExistsError, match=r"holds a result of `msr train` for case m1-4mT.*"
                                                 r"not of `msr refine`"):

@@ -23,7 +23,7 @@ from .steps import STEP_FUNCTIONS, LoopContext
 
 __all__ = ["LOOP_KIND", "check_loop_folder", "headline", "run_loop", "step_line"]
 
-#: The loop's folder's marker kind (:func:`elastica_magnetic.results.mark_folder`).
+#: The loop's folder's marker kind (:func:`elastica_magnetic.result_markers.mark_folder`).
 LOOP_KIND = "loop"
 
 

@@ -1,6 +1,6 @@
 """Who writes a run folder: a seed's folder is locked for as long as a process trains in it
 (:class:`elastica_magnetic.locks.FolderLock`, the lock file ``.seed<k>.msr-lock`` beside it) and
-carries a marker (:func:`elastica_magnetic.results.mark_folder`) naming the command that owns it,
+carries a marker (:func:`elastica_magnetic.result_markers.mark_folder`) naming the command that owns it,
 so that another command (``msr refine RUN --out RUN``, ``msr policy generate --out RUN``) is refused
 there; a case folder is locked only for the moment its ``summary.json`` is read and rewritten."""
 

@@ -230,7 +230,7 @@ def _init_worker(parent_pid: int, ignore_sigint: bool) -> None:
 @contextlib.contextmanager
 def _termination_as_interrupt():
     """SIGTERM and SIGHUP in this process (main thread only) raise
-    :class:`~elastica_magnetic.results.Interrupted` (a :class:`KeyboardInterrupt` carrying the
+    :class:`~elastica_magnetic.interrupts.Interrupted` (a :class:`KeyboardInterrupt` carrying the
     signal, so ``msr`` reports it and exits 128 + its number) while the workers run, so
     ``kill PID`` or a closed terminal stops the workers as Ctrl-C does (a shell's background job
     ignores SIGINT, which leaves SIGTERM as the way to stop it); the previous handlers are

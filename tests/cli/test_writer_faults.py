@@ -1,6 +1,6 @@
 """Fault injection for the writers brought under the result mechanisms by issue 48: ``msr
-export-firmware`` (a result folder), ``msr real calibrate`` (one result file) and ``msr policy figures`` (a set
-of files in a folder holding other things). Each runs in a real process (``tests/faults.py``),
+export-firmware`` (a result folder), ``msr real calibrate`` (one result file) and ``msr policy figures``
+(a set of files in a folder holding other things). Each runs in a real process (``tests/faults.py``),
 killed or interrupted while writing, or on a full disk: the earlier result stays byte for byte
 ("old or new, whole"), a file of the user's beside it is never touched, and the next run cleans
 up what a kill left. Without ``--force`` an earlier result is refused; a read-only folder is named

@@ -41,7 +41,8 @@ def test_a_step_result_replaced_by_another_command_runs_again(tmp_path, monkeypa
     from elastica_magnetic_rl.loop.settings import LoopSettings
     from elastica_magnetic_rl.loop.state import STEPS
 
-    from elastica_magnetic.results import MARKER, result_folder
+    from elastica_magnetic.result_markers import MARKER
+    from elastica_magnetic.results import result_folder
 
     calls: list[str] = []
 
