@@ -7,32 +7,12 @@ import math
 
 import numpy as np
 import pytest
+from catheter_spec import CATHETER
 
 from elastica_magnetic import FieldMap, FieldMapDomainError, PointDipoleField, SpatialFieldError
 
 RNG = np.random.default_rng(7)
-#: A small catheter (m, kg/m^3, Pa) for the CLI's field-map runs.
-ROBOT = """
-[robot]
-length = 0.05
-radius = 0.0005
-n_elements = 10
-density = 1100.0
-youngs_modulus = 3.0e6
-poisson_ratio = 0.45
-gravity = 0.0
-[robot.magnetization]
-kind = "uniform"
-magnitude = 1.0e5
-[robot.damping]
-relative = 0.0
-legacy_force = 0.03
-legacy_torque = 1e-9
-[physics.accurate]
-dt = 1e-5
-[physics.training]
-dt = 1e-5
-"""
+ROBOT = CATHETER
 
 
 def _dipole_grid(n):

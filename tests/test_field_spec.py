@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from catheter_spec import CATHETER
 
 from elastica_magnetic import ConstantGradientField, HelmholtzCoils, PointDipoleField, Waypoints
 from elastica_magnetic.cli import main
@@ -16,27 +17,7 @@ from elastica_magnetic.field_spec import describe_field, load_field
 from elastica_magnetic.spec_format import loads
 from elastica_magnetic.specfile import SpecError
 
-ROBOT = """
-[robot]
-length = 0.05
-radius = 0.0005
-n_elements = 10
-density = 1100.0
-youngs_modulus = 3.0e6
-poisson_ratio = 0.45
-gravity = 0.0
-[robot.magnetization]
-kind = "uniform"
-magnitude = 1.0e5
-[robot.damping]
-relative = 0.0
-legacy_force = 0.03
-legacy_torque = 1e-9
-[physics.accurate]
-dt = 1e-5
-[physics.training]
-dt = 1e-5
-"""
+ROBOT = CATHETER
 POINTS = np.array([[0.01, 0.02, 0.03], [0.0, -0.01, 0.02], [0.02, 0.0, -0.01]])
 
 

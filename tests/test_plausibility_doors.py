@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from catheter_spec import CATHETER_ON_GROUND
 
 from elastica_magnetic.field_csv import FieldCSVError, read_field_csv
 from elastica_magnetic.field_maps import FieldMap
@@ -23,30 +24,7 @@ from elastica_magnetic.spatial_fields import CurrentLoopField, SpatialFieldError
 from elastica_magnetic.spec_format import loads
 from elastica_magnetic.specfile import SpecError, describe_robot, spec_field_limit
 
-ROBOT = """
-[robot]
-length = 0.05
-radius = 0.0005
-n_elements = 10
-density = 1100.0
-youngs_modulus = 3.0e6
-poisson_ratio = 0.45
-gravity = 0.0
-[robot.magnetization]
-kind = "uniform"
-magnitude = 1.0e5
-[robot.ground]
-static_mu = 0.8
-kinetic_mu = 0.6
-[robot.damping]
-relative = 0.0
-legacy_force = 0.03
-legacy_torque = 1e-9
-[physics.accurate]
-dt = 1e-5
-[physics.training]
-dt = 1e-5
-"""
+ROBOT = CATHETER_ON_GROUND
 
 
 def _spec(old: str = "", new: str = "", extra: str = "") -> dict:
