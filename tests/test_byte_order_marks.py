@@ -7,6 +7,7 @@ with the message that says how to save it; CSV tables skip it (``tests/test_fiel
 from __future__ import annotations
 
 import pytest
+from spec_texts import SMALL_BAND
 
 from elastica_magnetic.cli import main
 from elastica_magnetic.field_spec import load_field
@@ -14,16 +15,7 @@ from elastica_magnetic.specfile import SpecError, load_robot
 
 BOM = b"\xef\xbb\xbf"
 
-ROBOT = """
-[robot]
-length = 0.02
-n_elements = 8
-width = 0.008
-thickness = 0.0008
-density = 1860.0
-youngs_modulus = 84500.0
-poisson_ratio = 0.48
-
+ROBOT = SMALL_BAND + """
 [robot.magnetization]
 kind = "uniform"
 magnitude = 1000.0

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from catheter_spec import CATHETER
+from spec_texts import CATHETER
 
 from elastica_magnetic import FieldMap, FieldMapDomainError, PointDipoleField, SpatialFieldError
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from catheter_spec import CATHETER
+from spec_texts import CATHETER
 
 from elastica_magnetic import ConstantGradientField, HelmholtzCoils, PointDipoleField, Waypoints
 from elastica_magnetic.cli import main

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from spec_texts import SMALL_BAND
 
 from elastica_magnetic import (
     MagnetizationSegment,
@@ -105,16 +106,7 @@ def test_bad_segment_lists_are_named_errors(segments, message):
     assert message in str(err.value), str(err.value)
 
 
-SPEC = """
-[robot]
-length = 0.02
-n_elements = 8
-width = 0.008
-thickness = 0.0008
-density = 1860.0
-youngs_modulus = 84500.0
-poisson_ratio = 0.48
-[robot.magnetization]
+SPEC = SMALL_BAND + """[robot.magnetization]
 kind = "segments"
 segments = [
     {elements = 4, direction = [0.0, 1.0, 0.0]},

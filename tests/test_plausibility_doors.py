@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from catheter_spec import CATHETER_ON_GROUND
+from spec_texts import CATHETER_ON_GROUND
 
 from elastica_magnetic.field_csv import FieldCSVError, read_field_csv
 from elastica_magnetic.field_maps import FieldMap

@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+from spec_texts import SMALL_BAND
 
 from elastica_magnetic import hu2018_robot, yao2023_robot
 from elastica_magnetic.cli import main
@@ -20,16 +21,7 @@ from elastica_magnetic.specfile import (
     magnetization_array,
 )
 
-ROBOT = """
-[robot]
-length = 0.02
-n_elements = 8
-width = 0.008
-thickness = 0.0008
-density = 1860.0
-youngs_modulus = 84500.0
-poisson_ratio = 0.48
-
+ROBOT = SMALL_BAND + """
 [robot.magnetization]
 kind = "uniform"
 magnitude = 1000.0

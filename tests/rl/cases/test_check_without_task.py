@@ -9,20 +9,12 @@ import json
 
 import pytest
 from elastica_magnetic_rl.cases.case import load_case
+from spec_texts import SMALL_BAND
 
 from elastica_magnetic.cli import main as msr
 from elastica_magnetic.specfile import dumps
 
-SMALL_ROBOT = """
-[robot]
-length = 0.02
-n_elements = 8
-width = 0.008
-thickness = 0.0008
-density = 1860.0
-youngs_modulus = 84500.0
-poisson_ratio = 0.48
-
+SMALL_ROBOT = SMALL_BAND + """
 [robot.magnetization]
 kind = "uniform"
 magnitude = 1000.0
