@@ -5,6 +5,7 @@ field sources, magnetization patterns, the equivalent circular section of a band
 ground with an adjustable tolerance, robot presets and a simulation builder. SI units throughout.
 """
 
+from .actuation import CoilCurrents, MagnetPose
 from .batch import BatchedRobots, BatchedSimulationDivergedError, SpatialFieldNotSupportedError
 from .field_csv import FieldCSVError, read_field_csv, write_field_csv
 from .field_maps import FieldMap, FieldMapDomainError
@@ -88,7 +89,8 @@ __all__ = [
     "TabulatedField",
     "UniformField",
     "write_field_csv",
-    # fields: varying in space (magnets, coils, maps)
+    # fields: varying in space (magnets, coils, maps) and their actuators
+    "CoilCurrents",
     "ConstantGradientField",
     "CuboidMagnetField",
     "CurrentLoopField",
@@ -97,6 +99,7 @@ __all__ = [
     "FieldMap",
     "FieldSum",
     "HelmholtzCoils",
+    "MagnetPose",
     "MaxwellCoils",
     "PointDipoleField",
     "Waypoints",

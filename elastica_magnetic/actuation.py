@@ -1,0 +1,237 @@
+"""Actuation by a source that moves or whose currents change: what a controller (a policy, a
+steering law) commands when the field is not uniform.
+
+Two actuators, each with a fixed-size action in ``[-1, 1]`` per component (what a policy outputs)
+applied at a control step, a field source that follows it (give :attr:`source` to
+:class:`~elastica_magnetic.MagneticTorques` as its ``field``), and the state a controller observes:
+
+- :class:`MagnetPose`: a permanent magnet (a point dipole) carried by a robot arm inside a
+  workspace box: the action is its linear velocity (3 components, up to ``max_speed`` m/s) and its
+  turn rate about the two directions across its moment (2 components, up to ``max_turn_rate``
+  rad/s). State: position (m) and moment direction.
+- :class:`CoilCurrents`: ``N`` fixed coils (any sources, each the field of its coil at 1 A), the
+  action the currents as fractions of ``current_limit`` (A), reached no faster than ``max_slew``
+  (A/s) when given. State: the currents (A). The field is the sum of each coil's at its current
+  (superposition: the coils carry no iron that saturates).
+
+A command made at time ``t0`` for a control step ``dt`` is followed continuously over
+``[t0, t0 + dt]`` (the arm moves at constant velocity and turns at a constant rate; the currents ramp
+linearly), so the rod's many time steps between control steps see a smooth motion, not a jump.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .spatial_fields import PointDipoleField, SpatialField, SpatialFieldError, _frame, _vector3
+
+__all__ = ["CoilCurrents", "MagnetPose"]
+
+
+def _action(action: ArrayLike, size: int, who: str) -> NDArray[np.float64]:
+    array = np.asarray(action, dtype=np.float64).reshape(-1)
+    if array.shape != (size,):
+        raise SpatialFieldError(f"{who}: expected an action of {size} components in [-1, 1], "
+                                f"got shape {np.shape(action)}")
+    if not np.all(np.isfinite(array)):
+        raise SpatialFieldError(f"{who}: the action must be finite, got {array.tolist()}")
+    return np.clip(array, -1.0, 1.0)
+
+
+def _positive(value: float, name: str, unit: str) -> float:
+    number = float(value)
+    if not (math.isfinite(number) and number > 0.0):
+        raise SpatialFieldError(f"{name} must be a positive number of {unit}, got {value!r}")
+    return number
+
+
+def _rotate(vector: NDArray[np.float64], axis: NDArray[np.float64], angle: float) -> NDArray[np.float64]:
+    """``vector`` turned by ``angle`` (rad) about the unit ``axis`` (Rodrigues' formula)."""
+    c, s = math.cos(angle), math.sin(angle)
+    return vector * c + np.cross(axis, vector) * s + axis * (axis @ vector) * (1.0 - c)
+
+
+class MagnetPose:
+    """A permanent magnet of moment ``moment`` (A m^2, its magnitude) moved by an arm.
+
+    Parameters
+    ----------
+    moment : float
+        A m^2, the magnet's dipole moment (a 1 A m^2 magnet is a ~10 mm NdFeB cube).
+    position : array_like (3,)
+        m, the start position, inside ``workspace``.
+    direction : array_like (3,)
+        The start direction of the moment (normalized here).
+    workspace : array_like (2, 3)
+        m, ``[[xmin, ymin, zmin], [xmax, ymax, zmax]]``: the box the magnet's centre stays in.
+    max_speed : float
+        m/s, the largest speed of the magnet's centre (an action of norm 1 or more).
+    max_turn_rate : float
+        rad/s, the largest rate at which the moment turns.
+    """
+
+    #: Components of the action: velocity along x, y, z, turn rate about the two directions
+    #: across the moment (the first two columns of its frame).
+    action_size = 5
+
+    def __init__(self, moment: float, position: ArrayLike, direction: ArrayLike, workspace: ArrayLike,
+                 max_speed: float, max_turn_rate: float) -> None:
+        self.moment = _positive(moment, "moment", "A m^2")
+        self.max_speed = _positive(max_speed, "max_speed", "m/s")
+        self.max_turn_rate = _positive(max_turn_rate, "max_turn_rate", "rad/s")
+        box = np.asarray(workspace, dtype=np.float64)
+        if box.shape != (2, 3) or not np.all(np.isfinite(box)) or np.any(box[1] <= box[0]):
+            raise SpatialFieldError(f"workspace must be [[xmin, ymin, zmin], [xmax, ymax, zmax]] (m) "
+                                    f"with each min below its max, got {np.asarray(workspace).tolist()}")
+        self.workspace = box
+        start = _vector3(position, "position", "m")
+        if np.any(start < box[0]) or np.any(start > box[1]):
+            raise SpatialFieldError(f"position {start.tolist()} m lies outside the workspace "
+                                    f"{box.tolist()} m")
+        axis = _vector3(direction, "direction", "a direction")
+        if not np.any(axis):
+            raise SpatialFieldError("direction must be a non-zero direction")
+        self._start = (start.copy(), axis / np.linalg.norm(axis))
+        self.reset()
+        self.source: SpatialField = PointDipoleField(self.moment_at, self.position_at)
+
+    def reset(self) -> None:
+        """Back to the start pose, at rest."""
+        self._p0, self._d0 = self._start[0].copy(), self._start[1].copy()
+        self._velocity = np.zeros(3)
+        self._turn_axis, self._turn_rate = np.array([0.0, 0.0, 1.0]), 0.0
+        self._t0, self._dt = 0.0, 0.0
+
+    def apply(self, action: ArrayLike, time: float, dt: float) -> None:
+        """Command the arm at ``time`` (s) for the control step ``dt`` (s): the pose moves from where
+        it is at ``time`` at the commanded velocity and turn rate, the centre stopping at the
+        workspace's walls."""
+        a = _action(action, self.action_size, "MagnetPose")
+        dt = _positive(dt, "dt", "s")
+        p, d = self.position_at(time), self.direction_at(time)
+        velocity = a[:3] * self.max_speed
+        speed = np.linalg.norm(velocity)
+        if speed > self.max_speed:
+            velocity *= self.max_speed / speed
+        target = np.clip(p + velocity * dt, self.workspace[0], self.workspace[1])
+        frame = _frame(d)
+        omega = self.max_turn_rate * (a[3] * frame[:, 0] + a[4] * frame[:, 1])
+        rate = float(np.linalg.norm(omega))
+        if rate > self.max_turn_rate:
+            omega *= self.max_turn_rate / rate
+            rate = self.max_turn_rate
+        self._p0, self._d0 = p, d
+        self._velocity = (target - p) / dt
+        self._turn_axis = omega / rate if rate > 0.0 else np.array([0.0, 0.0, 1.0])
+        self._turn_rate = rate
+        self._t0, self._dt = float(time), dt
+
+    def _elapsed(self, time: float) -> float:
+        return min(max(float(time) - self._t0, 0.0), self._dt)
+
+    def position_at(self, time: float) -> NDArray[np.float64]:
+        """m, (3,): the magnet's centre at ``time`` (s)."""
+        return self._p0 + self._velocity * self._elapsed(time)
+
+    def direction_at(self, time: float) -> NDArray[np.float64]:
+        """(3,), unit: the moment's direction at ``time`` (s)."""
+        return _rotate(self._d0, self._turn_axis, self._turn_rate * self._elapsed(time))
+
+    def moment_at(self, time: float) -> NDArray[np.float64]:
+        """A m^2, (3,): the moment vector at ``time`` (s)."""
+        return self.moment * self.direction_at(time)
+
+    def state(self, time: float) -> NDArray[np.float64]:
+        """(6,): position (m) and moment direction at ``time`` (s), what a controller observes."""
+        return np.concatenate([self.position_at(time), self.direction_at(time)])
+
+
+class CoilCurrents:
+    """``N`` fixed coils whose currents a controller sets.
+
+    Parameters
+    ----------
+    coils : sequence of spatial sources
+        Each the field of one coil carrying 1 A (T per A; e.g. a
+        :class:`~elastica_magnetic.CurrentLoopField` with ``current=1.0``, or a field map of the coil
+        at 1 A).
+    current_limit : float or array_like (N,)
+        A, the largest |current| of each coil (an action of +-1).
+    max_slew : float, optional
+        A/s, the fastest change of a current (the drivers' and the coils' inductance limit);
+        ``None``: a current reaches its command within the control step.
+    """
+
+    def __init__(self, coils: Sequence[SpatialField], current_limit: float | ArrayLike,
+                 max_slew: float | None = None) -> None:
+        coils = list(coils)
+        if not coils:
+            raise SpatialFieldError("CoilCurrents needs at least one coil")
+        for k, coil in enumerate(coils):
+            if not isinstance(coil, SpatialField):
+                raise SpatialFieldError(f"coil {k} is not a spatial field source: {coil!r}")
+        self.coils = coils
+        limits = np.broadcast_to(np.asarray(current_limit, dtype=np.float64), (len(coils),)).copy()
+        if not np.all(np.isfinite(limits)) or np.any(limits <= 0.0):
+            raise SpatialFieldError(f"current_limit must be positive (A), got {limits.tolist()}")
+        self.current_limit = limits
+        self.max_slew = None if max_slew is None else _positive(max_slew, "max_slew", "A/s")
+        self.action_size = len(coils)
+        self.reset()
+        self.source: SpatialField = _CoilSum(self)
+
+    def reset(self) -> None:
+        """All currents back to zero."""
+        self._i0 = np.zeros(self.action_size)
+        self._i1 = np.zeros(self.action_size)
+        self._t0, self._dt = 0.0, 0.0
+
+    def apply(self, action: ArrayLike, time: float, dt: float) -> None:
+        """Command the currents ``action * current_limit`` at ``time`` (s) for the control step
+        ``dt`` (s): each ramps from its value at ``time``, at most ``max_slew * dt`` away."""
+        a = _action(action, self.action_size, "CoilCurrents")
+        dt = _positive(dt, "dt", "s")
+        now = self.currents_at(time)
+        target = a * self.current_limit
+        if self.max_slew is not None:
+            step = self.max_slew * dt
+            target = np.clip(target, now - step, now + step)
+        self._i0, self._i1 = now, target
+        self._t0, self._dt = float(time), dt
+
+    def currents_at(self, time: float) -> NDArray[np.float64]:
+        """A, (N,): the coils' currents at ``time`` (s)."""
+        if self._dt == 0.0:
+            return self._i1.copy()
+        f = min(max((float(time) - self._t0) / self._dt, 0.0), 1.0)
+        return self._i0 + (self._i1 - self._i0) * f
+
+    def state(self, time: float) -> NDArray[np.float64]:
+        """(N,): the currents as fractions of their limits at ``time`` (s)."""
+        return self.currents_at(time) / self.current_limit
+
+
+class _CoilSum(SpatialField):
+    """The field of :class:`CoilCurrents`: each coil's unit field times its current."""
+
+    def __init__(self, coils: CoilCurrents) -> None:
+        self.owner = coils
+
+    def _add(self, points, time, b, g, with_gradient) -> None:
+        currents = self.owner.currents_at(time)
+        n = points.shape[1]
+        unit_b = np.empty((3, n))
+        unit_g = np.empty((3, 3, n))
+        for coil, current in zip(self.owner.coils, currents, strict=True):
+            if current == 0.0:
+                continue
+            unit_b.fill(0.0)
+            unit_g.fill(0.0)
+            coil._add(points, time, unit_b, unit_g, with_gradient)
+            b += current * unit_b
+            if with_gradient:
+                g += current * unit_g
