@@ -160,7 +160,7 @@ class CoilCurrents:
         :class:`~elastica_magnetic.CurrentLoopField` with ``current=1.0``, or a field map of the coil
         at 1 A).
     current_limit : float or array_like (N,)
-        A, the largest |current| of each coil (an action of +-1).
+        A, the largest absolute current of each coil (an action of +-1).
     max_slew : float, optional
         A/s, the fastest change of a current (the drivers' and the coils' inductance limit);
         ``None``: a current reaches its command within the control step.
