@@ -43,6 +43,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -56,7 +57,15 @@ from .io import (
     spelled_as_folder,
     unwritable_reason,
 )
-from .locks import FolderLock, claim, host_name, lock_path, name_tag, release_claim
+from .locks import (
+    FolderLock,
+    claim,
+    host_name,
+    killed_writers_temporary,
+    lock_path,
+    name_tag,
+    release_claim,
+)
 from .result_markers import MARKER, read_marker
 from .results import ResultExistsError, fsync_tree, remove_tree
 
@@ -385,10 +394,19 @@ def _recover_file(final: Path, option: str) -> list[str]:
 
 
 def _new_files(final: Path) -> list[Path]:
-    """The temporary files of writers of ``final``, and the temporaries of an atomic write
-    (:func:`elastica_magnetic.io.atomic_write`) into one of those."""
-    temporary = f".{final.stem}{_NEW_FILE}*"
-    return sorted({*final.parent.glob(temporary), *final.parent.glob(f".{temporary}")})
+    """The temporary files that killed writers of ``final`` left, and the temporaries of an atomic
+    write (:func:`elastica_magnetic.io.atomic_write`) into one of those: plain files named as msr
+    names them, of a process that is gone (a user's file or folder named like one is left alone)."""
+    prefix = f".{final.stem}{_NEW_FILE}"
+    found = []
+    for path in {*final.parent.glob(prefix + "*"), *final.parent.glob(f".{prefix}*")}:
+        inner = path.name.startswith("." + prefix)
+        tail = path.name[len(prefix) + inner:]
+        if inner:  # an atomic write's temporary of one: ...RANDOM.tmpPID{suffix}
+            tail = re.sub(r"\.tmp[0-9]+(?=" + re.escape(final.suffix) + "$)", "", tail)
+        if path.is_file() and not path.is_symlink() and killed_writers_temporary(tail, final.suffix):
+            found.append(path)
+    return sorted(found)
 
 
 def _check_file(final: Path, force: bool, option: str, force_option: str,

@@ -42,8 +42,8 @@ except ImportError:  # pragma: no cover - Windows: O_EXCL and a pid check instea
     fcntl = None  # type: ignore[assignment]
 
 __all__ = ["LOCK_SUFFIX", "FolderLock", "FolderLockedError", "claim", "command_line", "describe_owner",
-           "host_name", "live_owner", "lock_path", "name_tag", "read_lock", "release_claim",
-           "release_claims", "utc_now"]
+           "host_name", "killed_writers_temporary", "live_owner", "lock_path", "name_tag", "read_lock",
+           "release_claim", "release_claims", "utc_now"]
 
 #: The end of a lock file's name: ``.NAME.msr-lock`` beside the folder ``NAME`` it locks.
 LOCK_SUFFIX = ".msr-lock"
@@ -85,6 +85,25 @@ def _pid_alive(pid: int) -> bool:
     except (PermissionError, OSError):
         return True  # exists (another user's) or cannot tell: assume alive
     return True
+
+
+#: How the temporaries of a writer are named after their stage: ``HOST-PID-RANDOM`` (host tag as
+#: :func:`name_tag` makes it, pid, 6 hexadecimal digits), then an optional suffix.
+_TEMPORARY_TAIL = re.compile(r"(?P<host>[A-Za-z0-9_-]{1,40})-(?P<pid>[0-9]+)-[0-9a-f]{6}(?P<suffix>\.[^/]*)?")
+
+
+def killed_writers_temporary(name_tail: str, suffix: str = "") -> bool:
+    """Whether ``name_tail`` (a temporary's name after ``.msr-STAGE-``) is the ``HOST-PID-RANDOM``
+    tag a writer gives its temporaries (then ``suffix``), of a process that is no longer running:
+    one of this host whose pid is alive, or a name that only looks like one, is not a leftover to
+    remove (it may be the user's)."""
+    match = _TEMPORARY_TAIL.fullmatch(name_tail)
+    if match is None or (match.group("suffix") or "") != suffix:
+        return False
+    pid = int(match.group("pid"))
+    if match.group("host") == name_tag(host_name()):  # this process's own (held by its lock) or gone
+        return pid == os.getpid() or not _pid_alive(pid)
+    return True  # another host's: the lock, held while recovering, says no writer is there
 
 
 def lock_path(folder: str | Path) -> Path:

@@ -45,12 +45,15 @@ can leave, beside ``X``:
 - ``.X.msr-old-...`` with ``X`` present (killed after the new folder went in), or
   ``.X.msr-trash-...`` (killed while removing the old one): the leftover is removed.
 
-This recovery runs at the start of the next :func:`result_folder`, :func:`check_result_folder`
-(a command's pre-check) or :func:`recover` on the same ``X``, under its lock, so a leftover is
-never one another live process is still writing; what was done is in
-:attr:`ResultFolder.notes` (and returned by :func:`recover`). Files are flushed to disk
-(``fsync``) before the swap. The signal handling is :mod:`elastica_magnetic.interrupts`; the marker
-and the question "which files did msr write here" are :mod:`elastica_magnetic.result_markers`.
+A leftover is recognised by its name (``HOST-PID-RANDOM`` as msr writes it) and its process being
+gone; anything else beside ``X`` (a folder of the user's named ``.X.msr-new-backup``, a name
+carrying a live process's pid) is left alone. This recovery runs at the start of the next
+:func:`result_folder`, :func:`check_result_folder` (a command's pre-check) or :func:`recover` on
+the same ``X``, under its lock, so a leftover is never one another live process is still writing;
+what was done is in :attr:`ResultFolder.notes` (and returned by :func:`recover`). Files are
+flushed to disk (``fsync``) before the swap. The signal handling is
+:mod:`elastica_magnetic.interrupts`; the marker and the question "which files did msr write here"
+are :mod:`elastica_magnetic.result_markers`.
 
 **Folders written in place** (a training seed's folder, appended to for hours and resumed later)
 are not swapped but locked for the whole run: :class:`elastica_magnetic.locks.FolderLock`; their
@@ -98,6 +101,7 @@ from .locks import (
     claim,
     describe_owner,
     host_name,
+    killed_writers_temporary,
     live_owner,
     name_tag,
     release_claim,
@@ -338,8 +342,10 @@ def _leftovers(target: Path) -> dict[str, list[Path]]:
         return found
     for entry in entries:
         if entry.name.startswith(prefix):
-            stage = entry.name[len(prefix):].split("-", 1)[0]
-            if stage in found:
+            stage, _, tail = entry.name[len(prefix):].partition("-")
+            # only what a killed writer left: named exactly as msr names it, its process gone (a
+            # folder of the user's under a name like it is never touched)
+            if stage in found and killed_writers_temporary(tail) and not entry.is_symlink():
                 found[stage].append(entry)
     return found
 

@@ -246,10 +246,10 @@ def test_a_killed_writer_of_a_result_file_is_cleaned_up_by_the_next(tmp_path):
     target = tmp_path / "log.txt"
     with result_file(target) as written:  # an earlier result
         written.path.write_text("old")
-    (tmp_path / ".log.msr-new-vm-1-abcdef.txt").write_text("half")  # a writer killed outright
+    (tmp_path / ".log.msr-new-vm-99999999-abcdef.txt").write_text("half")  # a writer killed outright
     with pytest.raises(ResultExistsError) as refused:
         check_result_file(target)
-    assert any("removed .log.msr-new-vm-1-abcdef.txt" in note for note in refused.value.__notes__)
+    assert any("removed .log.msr-new-vm-99999999-abcdef.txt" in note for note in refused.value.__notes__)
     assert sorted(os.listdir(tmp_path)) == [MANIFEST, "log.txt"]
     with result_file(target, force=True) as written:
         written.path.write_text("new")
@@ -283,3 +283,26 @@ def test_a_full_disk_while_writing_names_the_file_not_its_temporary(tmp_path):
     assert ".msr-files-" not in message and str(folder / "a.png") in message, message
     assert message.endswith(f"{folder}: nothing in it changed"), message
     assert (folder / "a.png").read_text() == "old" and sorted(os.listdir(folder)) == [MANIFEST, "a.png"]
+
+
+def test_round12_d1_a_users_file_or_folder_named_like_a_temporary_file_is_kept(tmp_path):
+    """Round 12, D1: only a killed writer's temporary file (named HOST-PID-RANDOM, its process gone)
+    is removed beside a result file; a user's file or folder named like one stays."""
+    from elastica_magnetic.filesets import result_file
+    from elastica_magnetic.locks import host_name, name_tag
+
+    here = name_tag(host_name())
+    keep = [tmp_path / ".cal.msr-new-backup.json", tmp_path / f".cal.msr-new-{here}-1-abcdef.json"]
+    for path in keep:
+        path.write_text("mine")
+    folder = tmp_path / f".cal.msr-new-{here}-99999998-abcdef.json"
+    folder.mkdir()
+    killed = [tmp_path / f".cal.msr-new-{here}-99999999-abcdef.json",
+              tmp_path / f"..cal.msr-new-{here}-99999999-abcdef.tmp99999999.json"]
+    for path in killed:
+        path.write_text("half")
+    with result_file(tmp_path / "cal.json") as out:
+        out.path.write_text("{}")
+    assert all(path.read_text() == "mine" for path in keep) and folder.is_dir()
+    assert not any(path.exists() for path in killed)
+    assert sum("left by a run that was killed" in note for note in out.notes) == 2

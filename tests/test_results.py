@@ -449,3 +449,26 @@ def test_round9_v4_a_damaged_marker_and_a_lock_inside_are_named(tmp_path):
     # a lock left by a process that is gone is msr's own leftover, not the user's file
     (parent / ".sub.msr-lock").write_text(json.dumps({"pid": 2**22 + 12345, "host": host_name()}))
     assert check_result_folder(parent, kind="simulate", force=True)["kind"] == "simulate"
+
+
+def test_round12_d1_a_users_folder_named_like_a_temporary_is_never_removed(tmp_path):
+    """Round 12, D1: every folder beside --out whose name began like msr's temporaries was removed
+    (a user's ``.X.msr-new-backup``, one carrying a live pid): only a killed writer's are."""
+    from elastica_magnetic.locks import host_name, name_tag
+
+    target = tmp_path / "res"
+    write_old(target)
+    here = name_tag(host_name())
+    users = [tmp_path / ".res.msr-new-backup", tmp_path / f".res.msr-new-{here}-1-abcdef",
+             tmp_path / ".res.msr-old-mine"]
+    for folder in users:
+        folder.mkdir()
+        (folder / "notes.txt").write_text("precious")
+    killed = tmp_path / f".res.msr-new-{here}-99999999-abcdef"
+    killed.mkdir()
+    (killed / "half.csv").write_text("1,")
+    with result_folder(target, kind="demo", subject="robot a", force=True) as r:
+        write_new(r.path)
+    assert all((folder / "notes.txt").read_text() == "precious" for folder in users)
+    assert not killed.exists() and any(killed.name in note for note in r.notes)
+    assert as_new(target) == NEW

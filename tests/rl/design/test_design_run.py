@@ -464,7 +464,7 @@ def test_a_resume_removes_what_a_killed_replacement_left_beside(tmp_path):
 
     out = tmp_path / "d"
     run_design("m1-4mT", out, TINY)
-    leftover = tmp_path / ".d.msr-new-vm-4242-abcdef"
+    leftover = tmp_path / ".d.msr-new-vm-99999999-abcdef"
     leftover.mkdir()
     (leftover / "design.json").write_text("{}")
     with pytest.warns(LeftoverWarning, match="left by a run that was killed"):
