@@ -282,17 +282,38 @@ def _material_values(t: SpecTable) -> dict[str, float]:
     return out
 
 
+#: Beyond this ratio of the two moduli (either way) the shear modulus is a unit mistake, refused.
+MODULI_RATIO_LIMIT = 100.0
+
+
 def _check_moduli(t: SpecTable, youngs_modulus: float, shear_modulus: float) -> None:
-    """Warn about a shear modulus under a third of Young's: the Poisson ratio it implies is above
-    0.5, which no isotropic solid has (G = E / (2 (1 + nu)) >= E / 3 for nu <= 0.5; the authors'
-    effective E / (1 + nu) is larger still)."""
-    if shear_modulus * 3.0 >= youngs_modulus * (1.0 - 1e-9):
-        return
+    """Judge the shear modulus G against Young's E through the Poisson ratio E / (2 G) - 1 it
+    implies. Between E / 3 (0.5: incompressible) and E (-0.5; the authors' effective E / (1 + nu)
+    lies below) it is usual; outside, warned (no isotropic solid has nu above 0.5, and an auxetic
+    rubber below -0.5 is no soft robot's); a factor of :data:`MODULI_RATIO_LIMIT` or more away from
+    E, refused: a unit mistake."""
     implied = youngs_modulus / (2.0 * shear_modulus) - 1.0
-    t.warn("shear_modulus", f"{shear_modulus:g} Pa is below a third of youngs_modulus "
-           f"({youngs_modulus:g} Pa): it implies a Poisson ratio E / (2 G) - 1 = {implied:.3g}, above "
-           "the 0.5 of an incompressible solid (expected G between about E / 3 and E: a unit "
-           "mistake or a typo? or give poisson_ratio instead)")
+    stated = (f"{shear_modulus:g} Pa against youngs_modulus {youngs_modulus:g} Pa implies a Poisson "
+              f"ratio E / (2 G) - 1 = {implied:.4g}")
+    if shear_modulus * MODULI_RATIO_LIMIT <= youngs_modulus:
+        raise t.error("shear_modulus", f"{stated}, impossible for a solid: kPa written where Pa is "
+                      f"expected? ({shear_modulus:g} kPa is {shear_modulus * 1e3:g} Pa); or give "
+                      "poisson_ratio instead")
+    if shear_modulus >= youngs_modulus * MODULI_RATIO_LIMIT:
+        raise t.error("shear_modulus", f"{stated}: G {shear_modulus / youngs_modulus:.3g} times E "
+                      "is no solid's (G lies between about E / 3 and E / 2 for a rubber): a unit "
+                      "mistake (Pa where kPa was meant, or the other modulus)? or give "
+                      "poisson_ratio instead")
+    if shear_modulus * 3.0 < youngs_modulus * (1.0 - 1e-9):
+        t.warn("shear_modulus", f"{shear_modulus:g} Pa is below a third of youngs_modulus "
+               f"({youngs_modulus:g} Pa): it implies a Poisson ratio E / (2 G) - 1 = {implied:.3g}, above "
+               "the 0.5 of an incompressible solid (expected G between about E / 3 and E: a unit "
+               "mistake or a typo? or give poisson_ratio instead)")
+    elif shear_modulus > youngs_modulus * (1.0 + 1e-9):
+        t.warn("shear_modulus", f"{shear_modulus:g} Pa is above youngs_modulus ({youngs_modulus:g} "
+               f"Pa): it implies a Poisson ratio E / (2 G) - 1 = {implied:.3g}, below -0.5 (a "
+               "strongly auxetic material; rubbers are near 0.5, and the effective E / (1 + nu) is "
+               "below E): a typo, or the moduli swapped? or give poisson_ratio instead")
 
 
 def _ground_table(ground: SpecTable) -> dict[str, Any]:

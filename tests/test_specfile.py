@@ -195,6 +195,30 @@ def test_a_shear_modulus_below_a_third_of_youngs_is_warned_about():
         describe_robot(spec, "my.toml")
 
 
+def test_a_shear_modulus_above_youngs_is_warned_and_a_factor_of_100_away_refused():
+    """Round 12, S1: G > E (an implied Poisson ratio below -0.5, as poisson_ratio = -0.9 is warned)
+    passed in silence, and G written 1000x (kPa as Pa, either way) was only warned or not at all."""
+    import warnings
+
+    from elastica_magnetic.plausibility import ImplausibleValueWarning
+
+    spec = loads(ROBOT.replace("poisson_ratio = 0.48", "shear_modulus = 100000.0"))
+    with pytest.warns(ImplausibleValueWarning, match=r"shear_modulus: 100000 Pa is above "
+                                                     r"youngs_modulus \(84500 Pa\).*-0\.578"):
+        describe_robot(spec, "my.toml")
+    for shear, named in ((57094594.6, r"G 676 times E is no solid's.*unit mistake"),
+                         (57.09, r"impossible for a solid: kPa written where Pa is expected\? "
+                                 r"\(57\.09 kPa is 57090 Pa\)")):
+        spec["robot"]["shear_modulus"] = shear
+        with pytest.raises(SpecError, match=r"my\.toml: \[robot\] shear_modulus: .*" + named):
+            describe_robot(spec, "my.toml")
+    with warnings.catch_warnings():  # the authors' effective E / (1 + nu) and the isotropic range
+        warnings.simplefilter("error", ImplausibleValueWarning)
+        for shear in (84500.0 / 1.48, 84500.0 / 2.0, 84500.0):
+            spec["robot"]["shear_modulus"] = shear
+            describe_robot(spec, "my.toml")
+
+
 def test_a_segment_fraction_in_percent_is_named():
     """Round 11, V5: fraction = 50 got "must be <= 1" without the percent hint the other fraction
     keys give."""
