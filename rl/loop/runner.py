@@ -57,6 +57,9 @@ def headline(step: str, summary: dict[str, Any]) -> str:
     if step == "check":
         return f"{len(summary['warnings'])} warning(s)"
     if step == "yardstick":
+        if summary.get("stand_in"):  # a smoke run's sweep moved nothing forward
+            return (f"the sweep's best {_mm(summary.get('swept_m'))} in {summary['duration_s']:g} s "
+                    f"(a smoke run); the spec's own {_mm(summary['distance_m'])} in 10 s stands in")
         return f"rotating field {_mm(summary['distance_m'])} (period {summary['period_s']:g} s)"
     if step == "train":
         return f"best seed {summary['best_seed']} {_mm(summary['best_distance_m'])}"

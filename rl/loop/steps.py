@@ -109,7 +109,8 @@ def yardstick_step(ctx: LoopContext) -> dict[str, Any]:
                                physics=s.yardstick_physics, duration=s.yardstick_duration,
                                source=None if stand_in is None else
                                f"{ctx.case.yardstick.source} (standing in for a smoke run)")
-    return {"distance_m": best["mid_dx_m"], "period_s": best["period_s"],
+    return {"distance_m": best["mid_dx_m"], "swept_m": result["best"]["mid_dx_m"],
+            "period_s": best["period_s"],
             "clockwise": best["clockwise"], "period_achieved_s": best["period_achieved_s"],
             "physics": result["physics"], "duration_s": result["duration_s"],
             "is_the_yardstick": s.yardstick_is_the_definition(), "stand_in": stand_in,

@@ -355,3 +355,7 @@ def test_a_quick_sweep_with_no_forward_distance_uses_the_specs_own_yardstick(tmp
     assert trained.yardstick.distance_10s == pytest.approx(0.0205)
     assert "standing in for a smoke run" in trained.yardstick.source
     assert "stands in for this smoke run" in (out / "report.md").read_text()
+    # Round 12, S2: the progress line said "rotating field +20.5 mm (period 0.5 s)", as if measured
+    assert "the sweep's best -0.4 mm in 0.5 s (a smoke run); the spec's own +20.5 mm in 10 s stands " \
+           "in" in err, err
+    assert "rotating field +20.5 mm" not in err
