@@ -46,6 +46,7 @@ from elastica_magnetic.specfile import (
     SpecError,
     SpecTable,
     accepted_keys,
+    check_plain_name,
     describe_robot,
     dumps,
     read_spec,
@@ -365,6 +366,12 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     name = top.string("name", default_name)
     if not name:
         raise top.error("name", "missing: set name = \"...\" (or load the spec from a file)")
+    if not top.has("name") and default_name is not None:
+        try:  # named after its file: the file name must make a plain name (a folder of its own)
+            check_plain_name(top, "name", name)
+        except SpecError as exc:
+            raise SpecError(f"{source}: the case is named after the file, and {str(exc).split(': ', 2)[-1]}"
+                            "; set name = \"...\" in the spec or give the file a shorter name") from None
     description = top.string("description", "")
     actuation = _actuation(top.table("actuation"))
     _check_sideways_model(actuation, robot, spec, source)

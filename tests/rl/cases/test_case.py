@@ -255,3 +255,29 @@ def test_hu2018_crawl_has_the_rotating_fields_yardstick():
     assert "rotating field" in case.yardstick.source and "period 0.5 s" in case.yardstick.source
     assert case.meets_yardstick(0.0339, 0.0339, 10.0) is True
     assert case.meets_yardstick(0.0242, 0.0242, 10.0) is False  # the 2 s rotating field's +24.2 mm
+
+
+def test_round12_v1_a_file_name_too_long_for_a_case_name_is_refused_before_any_work(tmp_path):
+    """Round 12, V1: a spec named after its 200-character file passed `msr case check`; every
+    `msr train` seed then failed inside its worker."""
+    from elastica_magnetic_rl.cases.case import SPECS_DIR
+
+    from elastica_magnetic.cli import main
+    from elastica_magnetic.spec_format import SpecError
+
+    text = (SPECS_DIR / "m1-4mT.toml").read_text()
+    text = "\n".join(line for line in text.splitlines() if not line.startswith("name = "))
+    long = tmp_path / ("c" * 200 + ".toml")
+    long.write_text(text)
+    with pytest.raises(SpecError, match=r"the case is named after the file, and 'c+' is longer than "
+                                        r"100 characters.*set name = \"\.\.\.\" in the spec or give "
+                                        "the file a shorter name"):
+        load_case(long)
+    with pytest.raises(SystemExit) as refused:  # by the argument's parser
+        main(["train", "--case", str(long), "--seeds", "1", "--steps", "60", "--out",
+              str(tmp_path / "tr")])
+    assert refused.value.code == 2
+    assert not (tmp_path / "tr").exists()
+    named = tmp_path / ("d" * 200 + ".toml")
+    named.write_text('name = "short"\n' + text)
+    assert load_case(named).name == "short"
