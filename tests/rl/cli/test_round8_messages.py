@@ -114,7 +114,7 @@ def test_a_waveform_past_the_specs_field_limit_is_refused(tmp_path, capsys):
     spec = _spec(tmp_path, capsys=capsys)
     fields = tmp_path / "f40.csv"
     fields.write_text("index,mag_x,mag_y,mag_z\n" + "".join(f"{i},40,0,0\n" for i in range(5)))
-    message = "data row 0 asks 40 mT (B_x), above the spec's [actuation] field_limit of 4 mT"
+    message = "data row 0 asks 40 mT (B_x), 900 % above the spec's [actuation] field_limit of 4 mT"
     assert msr(["field", "replay", str(fields), "--robot", str(spec), "--physics", "training",
                 "--out", str(tmp_path / "rep")]) == 2
     assert message in capsys.readouterr().err
@@ -122,6 +122,20 @@ def test_a_waveform_past_the_specs_field_limit_is_refused(tmp_path, capsys):
                 str(tmp_path / "rob")]) == 2
     assert message in capsys.readouterr().err
     assert not (tmp_path / "rep").exists() and not (tmp_path / "rob").exists()
+    # Round 12, V2: a 4 mT rotation written to 3 decimals (|B| up to 4.00015 mT) is the file's
+    # rounding, played; 0.2 % over is refused with digits enough to see it
+    angles = [2 * 3.141592653589793 * k / 40 for k in range(40)]
+    import math
+
+    fields.write_text("index,mag_x,mag_y,mag_z\n" + "".join(
+        f"{i},{4 * math.cos(a):.3f},{4 * math.sin(a):.3f},0\n" for i, a in enumerate(angles)))
+    assert msr(["field", "replay", str(fields), "--robot", str(spec), "--physics", "training",
+                "--duration", "0.05", "--no-progress", "--out", str(tmp_path / "rep")]) == 0
+    fields.write_text("index,mag_x,mag_y,mag_z\n0,4.008,0,0\n")
+    assert msr(["field", "replay", str(fields), "--robot", str(spec), "--physics", "training",
+                "--out", str(tmp_path / "rep2")]) == 2
+    assert "data row 0 asks 4.008 mT (B_x), 0.2 % above the spec's [actuation] field_limit of 4 mT" \
+        in capsys.readouterr().err
 
 
 def test_the_yardsticks_period_uses_the_slower_axis(tmp_path, capsys):
