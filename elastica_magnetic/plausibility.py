@@ -145,7 +145,8 @@ QUANTITIES: dict[str, Quantity] = {q.name: q for q in (
        (None, (2e6, "above the saturation of any magnet material (NdFeB ~1.1e6 A/m)")),
        ((1e3, "weaker than magnetic soft robots (weakly loaded composites are a few kA/m)"),
         (1.2e6, "solid NdFeB")),
-       (("kA/m", 1e3),)),
+       # a remanence B_r written where M = B_r / mu0 is expected
+       (("kA/m", 1e3), ("T", 1.0 / (4e-7 * math.pi)))),
     _q("polarization", "T",  # a permanent magnet's J = mu0 M (remanence)
        (None, (2.0, "above the remanence of any permanent magnet (NdFeB ~1.45 T)")),
        ((0.1, "weaker than bonded ferrite magnets (~0.2 T)"),

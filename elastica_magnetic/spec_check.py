@@ -279,6 +279,13 @@ def check_robot(description: RobotDescription, *, field_limit: float | None = No
         sag_check, sag_issues = _sag(description, steps, field_limit, radius)
         issues += sag_issues
     issues += _validity_issues(accurate, field_limit, task_kind, yardstick_m, spring_sag)
+    if magnetic_number is not None and 0.0 < magnetic_number < WEAK_MAGNETIC_NUMBER:
+        issues.append(Issue(
+            "warning", "[robot.magnetization] magnitude",
+            f"the magnetic bending number M B L^2 A / EI at the field limit is {magnetic_number:.3g} "
+            "(the paper's robots at 4 mT: about 22): no field within the limit bends this robot "
+            "noticeably. A remanence B_r in T written where the magnetization M in A/m is expected "
+            "(M = B_r / mu0: 0.077 T is 61 kA/m)? or a field limit too small?"))
     return SpecCheck(
         name=name or description.name, source=source, section=accurate.section, n_elements=n,
         length_m=accurate.length, width_m=accurate.width, thickness_m=accurate.height,
@@ -352,6 +359,10 @@ def _sag(description: RobotDescription, steps: list[TimeStepCheck], field_limit:
                             "model no longer describes a robot on a surface; stiffen the ground "
                             "(stiffness, N/m) or check the field limit and magnetization"))
     return check, issues
+
+
+#: Below this magnetic bending number at the field limit no field bends the robot noticeably.
+WEAK_MAGNETIC_NUMBER = 1e-2
 
 
 def _validity_issues(robot: RobotSpec, field_limit: float | None,

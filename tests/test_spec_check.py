@@ -172,3 +172,22 @@ def test_the_tutorials_check_output_is_the_real_one():
     assert 'name = "band20"' in example
     spec = loads(example.replace('name = "band20"', 'name = "my"'), "my.toml")
     assert format_check(check_spec(spec, "my.toml")) == shown.split("\n", 1)[1].rstrip("\n")
+
+
+def test_round12_v3_a_remanence_in_tesla_for_the_magnetization_is_named(tmp_path, capsys):
+    """Round 12, V3: magnitude = 0.077 (a remanence B_r in T) got "check the unit"; the bending
+    number (3e-5: no field bends the robot) went unremarked."""
+    from elastica_magnetic.cli import main
+
+    text = (Path(__file__).resolve().parents[1] / "rl" / "specs" / "m1-4mT.toml").read_text()
+    assert "magnitude = 61300.0" in text
+    spec = tmp_path / "mine.toml"
+    spec.write_text(text.replace("magnitude = 61300.0", "magnitude = 0.077"))
+    assert main(["case", "check", "--no-sag", str(spec)]) == 0
+    err_out = capsys.readouterr()
+    both = err_out.err + err_out.out
+    assert "it looks like T written where A/m is expected (0.077 T is 61274.7 A/m)" in both, both
+    assert "magnetic bending number M B L^2 A / EI at the field limit is 2.73e-05" in both, both
+    spec.write_text(text)
+    assert main(["case", "check", "--no-sag", str(spec)]) == 0
+    assert "bending number M B L^2 A / EI at the field limit" not in capsys.readouterr().out
