@@ -35,7 +35,7 @@ import torch
 
 from elastica_magnetic.io import read_json
 
-from .rundir import RunDir, seed_runs_hint
+from .rundir import RunDir, being_written_hint, seed_runs_hint
 
 CHECKPOINT_FORMAT = "td3-checkpoint-v2"
 #: Earlier format: its networks can still be read (generate, export), not resumed or refined.
@@ -160,7 +160,7 @@ def load_checkpoint(path: str | os.PathLike, with_buffer: bool = True) -> dict[s
     path = Path(path)
     if path.is_dir():
         if not RunDir(path).has_checkpoint():
-            hint = seed_runs_hint(path)
+            hint = being_written_hint(path) or seed_runs_hint(path)
             raise FileNotFoundError(f"{path}: no {RunDir.CHECKPOINT}: "
                                     + (hint or "expected a run directory or a checkpoint"))
         path = RunDir(path).checkpoint

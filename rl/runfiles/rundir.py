@@ -111,6 +111,8 @@ class RunDir:
         run = Path(run)
         path = RunDir(run).checkpoint if run.is_dir() else run
         if not path.is_file():
+            if hint := being_written_hint(run):
+                raise FileNotFoundError(f"{run}: no {RunDir.CHECKPOINT} yet: {hint}")
             raise FileNotFoundError(f"{run}: no {RunDir.CHECKPOINT} (expected a run directory or a "
                                     "checkpoint)")
         return path
@@ -165,6 +167,20 @@ class CaseDir:
         """``(seed, run folder)`` of every ``seed<k>/`` folder present, ordered by seed."""
         found = ((self.seed_of(p.name), p) for p in self.path.glob(f"{self.SEED_PREFIX}*"))
         return sorted((k, RunDir(p)) for k, p in found if k is not None and p.is_dir())
+
+
+def being_written_hint(path: str | os.PathLike) -> str:
+    """Where another msr process holds ``path``'s lock (a seed being trained, before its first
+    checkpoint), a sentence naming it; otherwise ``""``. For messages of commands that read a run
+    and find no checkpoint."""
+    from elastica_magnetic.locks import describe_owner, host_name, live_owner
+
+    owner = live_owner(path) if Path(path).is_dir() else None
+    if owner is None or (owner.get("pid") == os.getpid() and owner.get("host") == host_name()):
+        return ""
+    return (f"it is being written by another msr command, {describe_owner(owner)}, which has not "
+            "written its first checkpoint yet: wait for it (the run's checkpoint comes every "
+            "checkpoint_every steps, and at its end)")
 
 
 def seed_runs_hint(path: str | os.PathLike) -> str:

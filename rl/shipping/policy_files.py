@@ -172,7 +172,7 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
     (``actor.pt`` + ``policy.json``), or a shipped name (``rl/policies/<name>``), in that order."""
 
     from ..runfiles.checkpoint import checkpoint_metadata, load_checkpoint, torch_file_problem
-    from ..runfiles.rundir import RunDir, seed_runs_hint
+    from ..runfiles.rundir import RunDir, being_written_hint, seed_runs_hint
 
     policies_dir = Path(policies_dir) if policies_dir is not None else POLICIES_DIR
     path = Path(policy)
@@ -233,6 +233,8 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
         return LoadedPolicy(actor, critic, case, path, "shipped", meta, arch["obs_dim"],
                             arch["act_dim"], hidden)
     _check_policy_folder_whole(path)
+    if hint := being_written_hint(path):
+        raise PolicyNotFoundError(f"{policy}: no checkpoint yet: {hint}")
     if hint := seed_runs_hint(path):
         raise PolicyNotFoundError(f"{policy}: not a run directory: {hint}")
     shipped = sorted(p.name for p in policies_dir.glob("*") if (p / POLICY_JSON).is_file()) \

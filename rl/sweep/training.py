@@ -29,7 +29,7 @@ from ..cases.recipes import crawler_config
 from ..envs.env import make_env
 from ..runfiles.locking import check_unlocked, held_run_folders, mark_run_folder
 from ..runfiles.logs import read_log
-from ..runfiles.rundir import CaseDir, RunDir
+from ..runfiles.rundir import CaseDir, RunDir, being_written_hint
 from ..runner.memory import peak_rss_bytes
 from .backends import BACKENDS, run_jobs
 from .case_folders import check_case_folders
@@ -491,6 +491,10 @@ def _check_run_folders(out: str | Path, loaded: dict[str, Case], seed_list: list
                                   "--out, or --seed-offset)")
     else:
         missing = [str(run.checkpoint) for _, _, run in runs if not run.checkpoint.exists()]
+        writing = [f"{run.path}: {hint}" for _, _, run in runs
+                   if not run.checkpoint.exists() and (hint := being_written_hint(run.path))]
+        if writing:
+            raise FileNotFoundError(f"cannot resume: {'; '.join(writing)}")
         if missing:
             raise FileNotFoundError(f"cannot resume: no checkpoint {', '.join(missing)} (train those "
                                     "seeds without --resume, or choose --seeds/--seed-offset)")

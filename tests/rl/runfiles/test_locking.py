@@ -64,3 +64,27 @@ def test_the_holder_removes_what_a_killed_writer_left_and_keeps_the_checkpoint(t
             "writing it (the previous complete file is kept)" for p in leftovers)
     assert not any(p.exists() for p in leftovers) and all(p.exists() for p in mine)
     assert run.checkpoint.read_bytes() == b"complete checkpoint"
+
+
+def test_round12_v4_a_seed_being_trained_is_named_by_its_readers(tmp_path, capsys):
+    """Round 12, V4: a seed folder being trained before its first checkpoint was "no checkpoint" to
+    --resume (whose advice, train without --resume, was then refused), refine and generate."""
+    from lock_holder import held_elsewhere
+
+    from elastica_magnetic.cli import main
+
+    seed = tmp_path / "trc" / "m1-4mT" / "seed0"
+    seed.mkdir(parents=True)
+    with held_elsewhere(seed) as pid:
+        commands = (
+            ["train", "--case", "m1-4mT", "--seeds", "1", "--steps", "60", "--out", str(tmp_path / "trc"),
+             "--resume", "--no-progress"],
+            ["refine", str(seed), "--steps", "5", "--out", str(tmp_path / "rf"), "--no-progress"],
+            ["policy", "generate", str(seed), "--no-figures", "--no-gif", "--duration", "0.1",
+             "--out", str(tmp_path / "g"), "--no-progress"],
+        )
+        for argv in commands:
+            assert main(argv) != 0, argv
+            err = capsys.readouterr().err
+            assert f"being written by another msr command, pid {pid} on" in err, (argv, err)
+    assert not (tmp_path / "rf").exists() and not (tmp_path / "g").exists()
