@@ -285,6 +285,11 @@ def design_space(table: Mapping[str, Any] | None, robot: Mapping[str, Any], axes
     own_largest = float(np.linalg.norm(magnetization, axis=0).max())
     remanence = t.number("remanence", "A/m", own_largest, low=0.0, low_open=True,
                          plausible="magnetization")
+    if remanence < own_largest * (1.0 - 1e-9):  # the search starts from the robot as written
+        raise t.error("remanence", f"{remanence:g} A/m is below the robot's own largest "
+                      f"magnetization, {own_largest:g} A/m: the search starts from the robot as "
+                      "written, which that material could not make; raise remanence to at least "
+                      f"{own_largest:g} A/m, or lower the robot's magnetization (kA/m for A/m?)")
     sizes = _sizes(t, robot, segments, min_length if lengths == "free" else 0.0)
     period_low, period_high = _period_range(t)
     t.finish()

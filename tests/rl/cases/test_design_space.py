@@ -85,6 +85,9 @@ def test_every_vector_is_a_robot_the_parser_accepts(spec, segments, data):
     ({"directions": "3d"}, "needs the third coil pair"),
     ({"period_low": 3.0, "period_high": 2.0}, "must be larger than period_low"),
     ({"remanence": -61.3}, "must be > 0"),
+    # round 12, S3: a remanence the robot as written exceeds (its start could not be made)
+    ({"remanence": 30000.0}, "remanence: 30000 A/m is below the robot's own largest magnetization, "
+                             "61300 A/m"),
     ({"segment": 6}, "unknown key"),
     ({"lengths": "random"}, "expected one of equal, free"),
     # round 10, S2/V2: the key and the value written, at spec check, not at run time
@@ -112,7 +115,9 @@ def test_a_remanence_in_ka_per_m_is_named(tmp_path):
     spec["design"] = {"remanence": 61.3}
     path = tmp_path / "my.toml"
     path.write_text(dumps(spec))
-    with pytest.warns(ImplausibleValueWarning, match=r"\[design\] remanence = 61.3 A/m.*kA/m"):
+    with pytest.warns(ImplausibleValueWarning, match=r"\[design\] remanence = 61.3 A/m.*kA/m"), \
+            pytest.raises(SpecError, match=r"below the robot's own largest magnetization, 61300 A/m"
+                                           r".*\(kA/m for A/m\?\)"):
         load_design(path)
 
 
@@ -129,12 +134,12 @@ def test_periods_in_ms_are_named_and_accepted_keys_are_silent(tmp_path):
     path.write_text(dumps(spec))
     with pytest.warns(ImplausibleValueWarning, match=r"period_low = 500 s .*500 ms is 0.5 s"):
         load_design(path)
-    spec["design"] = {"remanence": 61.3}
+    spec["design"] = {"remanence": 1.5e6}  # above solid NdFeB: warned, unless accepted
     spec["checks"] = {"accept": ["design.remanence"]}
     path.write_text(dumps(spec))
     with warnings.catch_warnings():
         warnings.simplefilter("error", ImplausibleValueWarning)
-        assert load_design(path).space.remanence == 61.3
+        assert load_design(path).space.remanence == 1.5e6
 
 
 def test_an_unknown_key_lists_the_size_keys_too(tmp_path):
