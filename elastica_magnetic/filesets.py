@@ -66,18 +66,14 @@ from .locks import (
     name_tag,
     release_claim,
 )
-from .result_markers import MARKER, read_marker
+from .result_markers import MANIFEST, MARKER, read_marker
 from .results import ResultExistsError, fsync_tree, remove_tree
 
-__all__ = ["MANIFEST", "FileKind", "FileSet", "ResultFile", "check_files", "check_result_file",
+__all__ = ["FileKind", "FileSet", "ResultFile", "check_files", "check_result_file",
            "interrupted_replacements", "recover_files", "replace_files", "result_file"]
 
 _PREFIX = ".msr-files-"
 _COMMIT = ".msr-commit"
-#: The record of the files msr put into a folder (``{"files": {name: sha256}}``): ``--force``
-#: replaces a file only when it is listed there unchanged, never a file of the user's that happens
-#: to have the name.
-MANIFEST = ".msr-files.json"
 
 
 def _sha256(path: Path) -> str:

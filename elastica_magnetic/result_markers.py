@@ -9,6 +9,7 @@ other things gets its record of shared files (``.msr-files.json``,
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from pathlib import Path
@@ -18,11 +19,14 @@ from .command_names import spelling
 from .io import atomic_write_text, normalized_path
 from .locks import command_line, host_name, utc_now
 
-__all__ = ["MARKER", "MAX_LISTED", "describe_result", "list_files", "mark_folder", "read_marker",
-           "short_list", "unrecorded_files", "write_marker"]
+__all__ = ["MANIFEST", "MARKER", "MAX_LISTED", "describe_result", "in_manifest", "list_files",
+           "mark_folder", "read_marker", "short_list", "unrecorded_files", "write_marker"]
 
 #: The marker file of a result folder (JSON: kind, subject, command, time, host, files).
 MARKER = ".msr-result.json"
+#: The record of the files msr put into a folder that holds other things (figures into
+#: ``docs/figures``): :mod:`elastica_magnetic.filesets` writes it; what it lists is msr's.
+MANIFEST = ".msr-files.json"
 MARKER_FORMAT = 1
 #: Folders that hold more files than this are not listed in full (they are not a result).
 MAX_LISTED = 10_000
@@ -83,20 +87,29 @@ def unrecorded_files(folder: str | Path) -> list[str]:
         if name.startswith((".msr", MARKER)) or name.endswith(".msr-lock"):
             continue
         parent = root / path.rsplit("/", 1)[0] if "/" in path else root
-        if recorded_by_marker(path) or _in_manifest(parent, name):
+        if recorded_by_marker(path) or in_manifest(parent, name):
             continue
         out.append(path)
     return out
 
 
-def _in_manifest(folder: Path, name: str) -> bool:
-    """Whether ``folder``'s record of shared files lists ``name`` (written by msr)."""
+def in_manifest(folder: Path, name: str) -> bool:
+    """Whether ``folder``'s record of shared files lists ``name`` (written by msr) with the
+    content it has now (a file the user changed since is the user's)."""
     try:
-        data = json.loads((folder / ".msr-files.json").read_text(encoding="utf-8"))
+        data = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return False
     files = data.get("files") if isinstance(data, dict) else None
-    return isinstance(files, dict) and name in files
+    if not isinstance(files, dict) or name not in files:
+        return False
+    recorded = files[name]
+    if not isinstance(recorded, str):
+        return True  # a record without a checksum: listed is all it says
+    try:
+        return hashlib.sha256((folder / name).read_bytes()).hexdigest() == recorded
+    except OSError:
+        return False
 
 
 def describe_result(marker: dict[str, Any]) -> str:

@@ -107,9 +107,11 @@ from .locks import (
     release_claim,
 )
 from .result_markers import (
+    MANIFEST,
     MARKER,
     MAX_LISTED,
     describe_result,
+    in_manifest,
     list_files,
     read_marker,
     short_list,
@@ -226,7 +228,10 @@ def _check_result_folder(final: Path, kind: str, subject: str | None, force: boo
         raise ResultExistsError(f"{where}: holds more than {MAX_LISTED} files, not a result of "
                                 f"`msr {spelling(kind)}`; choose a new or empty folder")
     marker = read_marker(final)
-    files = _without_stale_locks(final, [f for f in listed if f != MARKER], where)
+    # msr's record of files it put there (figures re-drawn into a result) and what it lists are msr's
+    files = [f for f in listed if f not in (MARKER, MANIFEST)
+             and not ("/" not in f and in_manifest(final, f))]
+    files = _without_stale_locks(final, files, where)
     known = set(known_files)
     if marker is None and MARKER in listed:
         raise ResultExistsError(

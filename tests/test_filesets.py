@@ -9,7 +9,8 @@ import time
 
 import pytest
 
-from elastica_magnetic.filesets import MANIFEST, check_files, recover_files, replace_files
+from elastica_magnetic.filesets import check_files, recover_files, replace_files
+from elastica_magnetic.result_markers import MANIFEST
 from elastica_magnetic.results import ResultExistsError
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="signals and fork are POSIX")

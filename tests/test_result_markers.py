@@ -48,3 +48,16 @@ def test_a_damaged_marker_is_no_record(tmp_path):
     assert read_marker(tmp_path) is None
     assert unrecorded_files(tmp_path) == ["a.csv"]
     assert unrecorded_files(tmp_path / "absent") == []
+
+
+def test_a_file_changed_since_msr_recorded_it_is_the_users(tmp_path):
+    import hashlib
+
+    from elastica_magnetic.result_markers import MANIFEST, in_manifest
+
+    (tmp_path / "f.png").write_bytes(b"drawn by msr")
+    digest = hashlib.sha256(b"drawn by msr").hexdigest()
+    (tmp_path / MANIFEST).write_text(json.dumps({"files": {"f.png": digest}}))
+    assert in_manifest(tmp_path, "f.png") and unrecorded_files(tmp_path) == []
+    (tmp_path / "f.png").write_bytes(b"edited by the user")
+    assert not in_manifest(tmp_path, "f.png") and unrecorded_files(tmp_path) == ["f.png"]

@@ -17,7 +17,7 @@ import pytest
 from faults import Fault
 
 from elastica_magnetic.cli import main
-from elastica_magnetic.filesets import MANIFEST
+from elastica_magnetic.result_markers import MANIFEST
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="signals are POSIX")
 

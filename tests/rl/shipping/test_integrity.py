@@ -20,7 +20,7 @@ import pytest
 from smoke import run_msr
 
 from elastica_magnetic.cli import main as msr
-from elastica_magnetic.result_markers import MARKER
+from elastica_magnetic.result_markers import MANIFEST, MARKER
 
 QUICK = ["--duration", "0.05", "--physics", "training", "--no-figures", "--no-progress"]
 
@@ -274,3 +274,18 @@ def test_ctrl_c_in_export_seeds_with_workers_leaves_the_earlier_result(trained, 
                         "result folder is replaced whole or not at all)"), done.stderr
     assert len(lines) == 1, done.stderr
     assert snapshot(dest) == before and not leftovers(dest)
+
+
+def test_round12_v5_figures_redrawn_into_a_result_are_replaced_with_it(tmp_path, capsys):
+    """Round 12, V5: after `msr policy figures OUT --force`, `msr policy generate --force --out OUT`
+    was refused for msr's own record of the figures (.msr-files.json)."""
+    from elastica_magnetic.cli import main
+
+    out = tmp_path / "g1"
+    args = ["policy", "generate", "m1-4mT", "--no-figures", "--no-gif", "--no-progress", "--physics",
+            "training", "--duration", "0.1", "--out", str(out)]
+    assert main(args) == 0
+    assert main(["policy", "figures", str(out), "--no-gif", "--force"]) == 0
+    assert (out / MANIFEST).is_file()
+    assert main([*args, "--force"]) == 0, capsys.readouterr().err
+    assert not (out / MANIFEST).exists()  # the result was replaced whole
