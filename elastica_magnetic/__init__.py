@@ -66,6 +66,7 @@ from .spatial_fields import (
 )
 from .spec_format import SpecError
 from .specfile import load_robot
+from .steering import MagnetBearingSteering
 from .units import MM_MG_S, SI, UnitSystem
 from .viscoelastic import KelvinVoigtDamping
 
@@ -99,6 +100,7 @@ __all__ = [
     "FieldMap",
     "FieldSum",
     "HelmholtzCoils",
+    "MagnetBearingSteering",
     "MagnetPose",
     "MaxwellCoils",
     "PointDipoleField",

@@ -243,7 +243,7 @@ def _csv_rows(path: Path, error: type[Exception]) -> list[list[str]]:
 
 
 #: How far (relative) a waveform's row may pass the spec's field limit: a CSV's rounding (3
-#: decimals of mT on a 1 mT field: 0.09 % on |B|), well within any coil calibration.
+#: decimals of mT on a 1 mT field: 0.09 % of the amplitude), well within any coil calibration.
 LIMIT_TOLERANCE = 1e-3
 
 
