@@ -381,6 +381,9 @@ def baseline_command(args: argparse.Namespace) -> int:
         return _baseline_sweep(args)
     if args.periods is not None or args.set_yardstick is not None:
         raise CommandError("--periods and --set-yardstick belong to the sweep: leave out --period")
+    if args.workers is not None:
+        raise CommandError("--workers is the number of sweep runs run at a time; --period runs one "
+                           "rollout, in one process: leave it out, or drop --period to sweep")
     if args.period > args.duration:  # the field would not turn once: nothing to measure
         raise CommandError(f"--period {args.period:g} s is longer than --duration {args.duration:g} "
                            "s: the field would not turn once in the run; give a longer --duration "
@@ -416,6 +419,9 @@ def _steering_baseline(args: argparse.Namespace) -> int:
         raise CommandError(f"--period: {exc}") from None
     if args.ring is not None:
         return _ring_result(policy, args, "baseline")
+    if args.workers is not None:
+        raise CommandError("--workers is the number of --ring targets run at a time; one target "
+                           "runs one rollout, in one process: leave it out, or give --ring")
     if args.duration is None:
         args.duration = DEFAULT_ROLLOUT_S
     result = generate(policy, duration=args.duration, out=args.out, physics=args.physics,

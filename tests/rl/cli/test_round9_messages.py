@@ -52,6 +52,11 @@ def test_a_slow_zone_in_mm_written_as_m_is_warned_about():
      "--force replaces an existing --log or --codes-out file"),
     (["bench", "--quick", "--memory-steps", "10", "--train-seeds", "0"],
      "--memory-steps sets the steps of the --memory-seeds"),
+    # round 12, S4: one rollout took --workers without a word
+    (["field", "baseline", "--case", "m1-4mT", "--period", "0.2", "--workers", "2", "--duration", "0.3",
+      "--out", "OUT"], "--period runs one rollout, in one process"),
+    (["field", "baseline", "--case", "m1-4mT-goto", "--workers", "2", "--duration", "0.3", "--out",
+      "OUT"], "one target runs one rollout, in one process"),
 ])
 def test_options_that_cannot_act_are_refused(tmp_path, capsys, argv, named):
     """S3: four options were accepted and did nothing."""
