@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from spec_texts import SMALL_BAND
 
 from elastica_magnetic.field_csv import FieldCSVError, read_field_csv
 from elastica_magnetic.robot_spec import RobotSpec
@@ -24,17 +25,7 @@ EXAMPLES = int(os.environ.get("MSR_HYPOTHESIS_EXAMPLES", "150"))
 SETTINGS = settings(max_examples=EXAMPLES, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 
-BASE = loads("""
-name = "c"
-[robot]
-name = "r"
-length = 0.02
-n_elements = 8
-width = 0.008
-thickness = 0.0008
-density = 1860.0
-youngs_modulus = 84500.0
-poisson_ratio = 0.48
+BASE = loads('name = "c"\n' + SMALL_BAND + """name = "r"
 [robot.magnetization]
 kind = "two-segment"
 magnitude = 1000.0
