@@ -87,16 +87,23 @@ def _matrix_entry_problem(value: float, where: str, diagonal: bool) -> str | Non
             f"Helmholtz-type coils: {hint}")
 
 
+#: A coil making this many times more field across its axis than along it has its channel swapped.
+SWAP_RATIO = 10.0
+
+
 def check_coil_axes(matrix: Sequence[Sequence[float]], source: str) -> None:
-    """Refuse a fitted matrix (T/A) where a coil makes almost no field along its own axis but a
-    coil's field along another: the coils' channels or the measurement columns are swapped (a
-    unit mistake would shrink or grow every entry alike)."""
+    """Refuse a fitted matrix (T/A) where a coil makes almost no field along its own axis (or
+    :data:`SWAP_RATIO` times less than across it) but a coil's field along another: the coils'
+    channels or the measurement columns are swapped (a unit mistake would shrink or grow every
+    entry alike)."""
     low, high = COIL_CONSTANT_RANGE_T_PER_A
     a = np.abs(np.asarray(matrix, dtype=np.float64))
     names = "xyz"
     for j in range(3):
         i = int(np.argmax(a[:, j]))
-        if a[j, j] < low and i != j and low <= a[i, j] <= high:
+        # the same mistake whichever pair: the coils' own cross-coupling (a few % of the axis's
+        # field) may leave the swapped diagonal near zero or at a few % of the coil constant
+        if i != j and low <= a[i, j] <= high and (a[j, j] < low or a[i, j] >= SWAP_RATIO * a[j, j]):
             raise PlausibilityError(
                 f"{source}: coil {names[j]} (current_{names[j]}_A) makes {1e3 * a[i, j]:.3g} mT/A "
                 f"along {names[i]} but {a[j, j]:.3g} T/A along {names[j]}, its own axis: the coils' "
