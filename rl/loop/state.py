@@ -172,6 +172,13 @@ def plan_loop(state: LoopState | None, spec: dict[str, Any], settings: dict[str,
         changed = _changed({"spec": state.spec, "settings": state.settings},
                            {"spec": spec, "settings": settings})
         if changed and not force:
+            was_quick, is_quick = state.settings.get("quick"), settings.get("quick")
+            if was_quick != is_quick and was_quick is not None:  # the one option behind most settings
+                raise LoopError(
+                    f"--out {display_path(state.path.parent)}: holds a loop made "
+                    f"{'with' if was_quick else 'without'} --quick: "
+                    f"{'add' if was_quick else 'leave out'} --quick to go on with it, or pass --force "
+                    f"to start it over {'without' if was_quick else 'with'} --quick")
             shown = ", ".join(changed[:6]) + (f" and {len(changed) - 6} more" if len(changed) > 6
                                                else "")
             raise LoopError(f"--out {display_path(state.path.parent)}: holds a loop of another spec "

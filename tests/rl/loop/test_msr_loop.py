@@ -210,6 +210,21 @@ def test_redo_plans_every_step_that_needs_the_redone_one(tmp_path):
         plan_loop(None, {}, {}, ("generate", "firmware"), (), False)
 
 
+def test_a_quick_loop_resumed_without_quick_says_so():
+    """Round 12: a loop made with --quick, re-run without it, was refused listing internal
+    setting names (settings.check_sag, ... and 13 more)."""
+    from elastica_magnetic_rl.loop.settings import LoopSettings
+
+    quick, full = LoopSettings.smoke().recorded(), LoopSettings().recorded()
+    state = LoopState(Path("out/loop.json"), "c", {}, quick, {s: {"status": "done"} for s in STEPS})
+    with pytest.raises(LoopError, match=r"holds a loop made with --quick: add --quick to go on "
+                                        r"with it, or pass --force to start it over without --quick"):
+        plan_loop(state, {}, full, (), (), False)
+    state = LoopState(Path("out/loop.json"), "c", {}, full, {})
+    with pytest.raises(LoopError, match=r"made without --quick: leave out --quick"):
+        plan_loop(state, {}, quick, (), (), False)
+
+
 def test_a_training_killed_before_its_record_is_resumed_not_restarted(interrupted_then_resumed,
                                                                       tmp_path):
     """Killed after the training ended but before ``loop.json`` recorded it: the train step
