@@ -613,7 +613,8 @@ def load_robot(robot: str | Path, physics: Physics = "accurate") -> RobotSpec:
     path = Path(robot)
     if path.suffix != ".toml" and not path.exists():
         raise SpecError(f"unknown robot {str(robot)!r}: not a preset ({', '.join(ROBOTS)}) and not a "
-                        "spec file (.toml)")
+                        "spec file (.toml); for a case's robot, write the case as a spec file (msr "
+                        "case show CASE --toml > my.toml) and give my.toml")
     return describe_robot(read_spec(path), str(path)).robot(physics)
 
 

@@ -467,6 +467,13 @@ def _main(argv: Sequence[str] | None = None) -> int:
     return int(status or 0)
 
 
+#: Options of earlier releases that were removed, by (command, option): why, for the error.
+REMOVED_OPTIONS: dict[tuple[str, str], str] = {
+    ("design", "--finalists"): "--finalists was removed: the search measures the judged 10 s "
+                               "itself, so no finalists are run again",
+}
+
+
 def _unrecognized(parser: argparse.ArgumentParser, command: str, extras: list[str]) -> None:
     """Exit with the command's own usage and error for arguments it does not take."""
     for word in command.split():
@@ -479,6 +486,10 @@ def _unrecognized(parser: argparse.ArgumentParser, command: str, extras: list[st
     if "--case" in extras and "--robot" in options:
         hint = ("; this command takes the robot as --robot (a preset name, or a spec file: msr case "
                 "show CASE --toml > my.toml writes a case's)")
+    removed = [REMOVED_OPTIONS[(command, x.split("=", 1)[0])] for x in extras
+               if (command, x.split("=", 1)[0]) in REMOVED_OPTIONS]
+    if removed:
+        hint += "; " + "; ".join(removed)
     parser.error(f"unrecognized arguments: {' '.join(extras)}{hint}")
 
 

@@ -128,3 +128,13 @@ def test_the_old_dest_option_still_works_with_a_note(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "msr policy export-seeds: note: --dest is now --out" in err
     assert "no-run: no seed<k>/checkpoint.pt to evaluate" in err, err
+
+
+def test_a_removed_option_says_why(capsys):
+    """Round 12 (an observation): `msr design --finalists 3` got argparse's bare "unrecognized
+    arguments" after the option was removed."""
+    with pytest.raises(SystemExit):
+        main(["design", "m1-4mT", "--out", "never", "--finalists", "3"])
+    err = capsys.readouterr().err
+    assert "unrecognized arguments: --finalists 3; --finalists was removed: the search measures " \
+           "the judged 10 s itself" in err, err
