@@ -257,6 +257,10 @@ class FolderLock:
                 previous = read_lock(self.folder)
                 # flock is held: whoever wrote ``previous`` on this host is gone.
                 self._stale(previous, alive_unknown=False)
+                if not previous and os.fstat(fd).st_size > 0:
+                    self.notes.append(f"{display_path(self.folder)}: took over the lock file "
+                                      f"{self.path.name}, whose content is not an msr lock's "
+                                      "(cut short by a crash, or written by something else)")
                 content = self._content()
                 os.ftruncate(fd, 0)
                 os.pwrite(fd, content, 0)

@@ -53,3 +53,16 @@ def test_a_released_lock_is_free_and_another_hosts_lock_is_not_taken(tmp_path):
     with pytest.raises(FolderLockedError, match=r"pid 1 on elsewhere \(`msr train`.*another host.*"
                                                 r"if it does not, remove .*\.seed1\.msr-lock"):
         FolderLock(folder).acquire()
+
+
+def test_an_unreadable_lock_file_is_taken_over_and_said(tmp_path):
+    """Round 12 (an observation): a lock file holding garbage was taken over in silence, unlike a
+    stale lock of a dead pid."""
+    from elastica_magnetic.locks import FolderLock, lock_path
+
+    folder = tmp_path / "fs1"
+    lock_path(folder).write_text("garbage")
+    with FolderLock(folder) as lock:
+        assert any("whose content is not an msr lock's" in note for note in lock.notes), lock.notes
+    with FolderLock(folder) as lock:
+        assert lock.notes == []
