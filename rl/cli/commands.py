@@ -424,6 +424,10 @@ def _steering_baseline(args: argparse.Namespace) -> int:
                            "runs one rollout, in one process: leave it out, or give --ring")
     if args.duration is None:
         args.duration = DEFAULT_ROLLOUT_S
+    if args.period is not None and args.period > args.duration:
+        raise CommandError(f"--period {args.period:g} s is longer than --duration {args.duration:g} "
+                           "s: the steering field would not turn once in the run; give a longer "
+                           "--duration or a shorter --period")
     result = generate(policy, duration=args.duration, out=args.out, physics=args.physics,
                       progress=not args.no_progress, figures=not args.no_figures,
                       gif=not args.no_gif, force=args.force, kind="baseline", target=args.target)

@@ -57,6 +57,8 @@ def test_a_slow_zone_in_mm_written_as_m_is_warned_about():
       "--out", "OUT"], "--period runs one rollout, in one process"),
     (["field", "baseline", "--case", "m1-4mT-goto", "--workers", "2", "--duration", "0.3", "--out",
       "OUT"], "one target runs one rollout, in one process"),
+    (["field", "baseline", "--case", "m1-4mT-goto", "--period", "1", "--duration", "0.3", "--out",
+      "OUT"], "--period 1 s is longer than --duration 0.3 s: the steering field would not turn"),
 ])
 def test_options_that_cannot_act_are_refused(tmp_path, capsys, argv, named):
     """S3: four options were accepted and did nothing."""
