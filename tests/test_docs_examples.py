@@ -32,7 +32,8 @@ def test_training_tutorial_environment_snippet():
 
 def test_spatial_fields_page_code_runs():
     page = TUTORIAL.parent / "spatial_fields.md"
-    (block,) = re.findall(r"```python\n(.*?)```", page.read_text(), flags=re.S)
+    # the first block (the second, the actuators', runs in tests/test_actuation.py)
+    block = re.findall(r"```python\n(.*?)```", page.read_text(), flags=re.S)[0]
     namespace: dict = {}
     exec(compile(block.replace("range(100_000)", "range(300)"), str(page), "exec"), namespace)
     assert namespace["B"].shape == (3, 1) and namespace["G"].shape == (3, 3, 1)
