@@ -228,15 +228,18 @@ def test_an_upload_to_a_closed_port_says_the_calibration_was_written(tmp_path: P
     assert load_calibration(out).name == "measured"
 
 
-def test_swapped_field_columns_are_warned_about(tmp_path: Path, capsys) -> None:
-    """Each coil "making" the other axis' field fits perfectly and passed without a word (round 4, S3)."""
+def test_swapped_field_columns_are_refused(tmp_path: Path, capsys) -> None:
+    """Each coil "making" the other axis' field fits perfectly and passed without a word (round 4,
+    S3); then it was warned where the coils' cross-coupling left a diagonal in range and refused
+    where it did not (round 12, V6): now refused whichever pair, nothing written."""
     currents = random_currents()
     fields_mT = currents @ TRUE.T / 1e-3
     meas = tmp_path / "m.csv"
     write_measurements(meas, currents, fields_mT[:, [1, 0, 2]])  # field_x and field_y swapped
-    assert main(["real", "calibrate", str(meas), "--out", str(tmp_path / "cal.json")]) == 0
+    assert main(["real", "calibrate", str(meas), "--out", str(tmp_path / "cal.json")]) == 2
     err = capsys.readouterr().err
-    assert "coil x makes more field along y" in err and "field columns swapped" in err, err
+    assert "coil x (current_x_A) makes" in err and "along y" in err and "swapped" in err, err
+    assert not (tmp_path / "cal.json").exists()
 
 
 def test_a_column_named_twice_is_refused(tmp_path: Path, capsys) -> None:
