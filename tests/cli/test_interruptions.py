@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import ctypes
 import os
+import signal
 import subprocess
 import sys
 import textwrap
@@ -43,7 +44,10 @@ CALLBACK_INTERRUPTED = textwrap.dedent("""
 @pytest.mark.skipif(os.name != "posix", reason="signals are POSIX")
 def test_sigint_inside_a_c_callback_is_one_line():
     done = subprocess.run([sys.executable, "-c", CALLBACK_INTERRUPTED], capture_output=True, text=True,
-                          timeout=60, env={**os.environ, "MPLBACKEND": "Agg"})
+                          timeout=60, env={**os.environ, "MPLBACKEND": "Agg"},
+                          # SIGINT at its default, as a shell starts a command: a child inherits an
+                          # ignored SIGINT (the test runner was seen so under load) and keeps it
+                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     assert done.returncode == 130, done.stderr
     assert done.stderr.strip() == "msr case check: interrupted (SIGINT)"
 
