@@ -184,6 +184,10 @@ def export_seeds_command(args: argparse.Namespace) -> int:
             error.add_note(note)
         raise error from None
     print_notes(result.pop("notes", ()))
+    if result.get("meeting_target") is None and not args.json:  # "none" would read as zero seeds
+        result["meeting_target"] = (
+            f"not judged: the yardstick is a distance in 10 s, these runs are {args.duration:g} s"
+            if args.duration != 10.0 else "not judged: the case has no yardstick")
     print_result(result, args.json)
     return 0
 

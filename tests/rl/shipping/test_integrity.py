@@ -158,6 +158,11 @@ def test_export_seeds_merges_refuses_another_case_and_labels_the_duration(traine
     result = run_msr(capsys, *args)
     entry = result["seeds"][0]
     assert "distance_10s_m" not in entry and entry["duration_s"] == 0.05  # not the 10 s distance
+    assert result["meeting_target"] is None  # JSON: no verdict
+    # round 12: the human output said "meeting_target: none", as if no seed had met the target
+    assert msr([*args[:4], str(tmp_path / "seeds2"), *args[5:]]) == 0
+    assert "meeting_target: not judged: the yardstick is a distance in 10 s, these runs are " \
+           "0.05 s" in capsys.readouterr().out
     before = snapshot(dest)
     assert msr(args) == 2
     assert "already holds seeds 0, 1 of case m1-4mT" in capsys.readouterr().err
