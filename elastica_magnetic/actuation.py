@@ -220,12 +220,14 @@ class _CoilSum(SpatialField):
 
     def __init__(self, coils: CoilCurrents) -> None:
         self.owner = coils
+        self._unit_b, self._unit_g = np.empty((3, 0)), np.empty((3, 3, 0))
 
     def _add(self, points, time, b, g, with_gradient) -> None:
         currents = self.owner.currents_at(time)
         n = points.shape[1]
-        unit_b = np.empty((3, n))
-        unit_g = np.empty((3, 3, n))
+        if self._unit_b.shape[1] != n:  # called every time step: buffers reused, not allocated
+            self._unit_b, self._unit_g = np.empty((3, n)), np.empty((3, 3, n))
+        unit_b, unit_g = self._unit_b, self._unit_g
         for coil, current in zip(self.owner.coils, currents, strict=True):
             if current == 0.0:
                 continue
