@@ -299,3 +299,71 @@ def first_nonfinite(b, g, with_gradient):
                     if not math.isfinite(g[i, j, k]):
                         return k
     return -1
+
+
+# A magnet moved by an arm (:class:`~elastica_magnetic.MagnetPose`) keeps its motion over one
+# control step in a row of MOTION_SIZE floats: from its pose at ``t0`` it moves at a constant
+# velocity and turns at a constant rate about a fixed axis for ``span`` s, then holds.
+M_POSITION = 0  # 3 entries: the centre at t0, m
+M_VELOCITY = 3  # 3 entries, m/s
+M_DIRECTION = 6  # 3 entries: the unit moment direction at t0
+M_TURN_AXIS = 9  # 3 entries, unit
+M_TURN_RATE = 12  # rad/s
+M_T0 = 13  # s
+M_SPAN = 14  # s
+M_MOMENT = 15  # A m^2, the moment's magnitude
+MOTION_SIZE = 16
+
+
+@njit(cache=True)
+def magnet_pose_at(motion, time, position_out, direction_out):
+    """The centre (m) and unit moment direction of the magnet whose motion row is ``motion``
+    (``(MOTION_SIZE,)``) at ``time`` (s), into ``position_out`` and ``direction_out`` ``(3,)``: the
+    direction turned by Rodrigues' formula ``v c + (a x v) s + a (a.v)(1 - c)``."""
+    elapsed = min(max(time - motion[M_T0], 0.0), motion[M_SPAN])
+    for i in range(3):
+        position_out[i] = motion[M_POSITION + i] + motion[M_VELOCITY + i] * elapsed
+    angle = motion[M_TURN_RATE] * elapsed
+    c, s = math.cos(angle), math.sin(angle)
+    a0, a1, a2 = motion[M_TURN_AXIS], motion[M_TURN_AXIS + 1], motion[M_TURN_AXIS + 2]
+    v0, v1, v2 = motion[M_DIRECTION], motion[M_DIRECTION + 1], motion[M_DIRECTION + 2]
+    dot = (a0 * v0 + a1 * v1 + a2 * v2) * (1.0 - c)
+    direction_out[0] = v0 * c + (a1 * v2 - a2 * v1) * s + a0 * dot
+    direction_out[1] = v1 * c + (a2 * v0 - a0 * v2) * s + a1 * dot
+    direction_out[2] = v2 * c + (a0 * v1 - a1 * v0) * s + a2 * dot
+
+
+@njit(cache=True)
+def moved_dipole_field(motion, time, points, b_out, g_out, with_gradient):
+    """:func:`dipole_field` of the magnet of ``motion`` at its pose at ``time`` (s)."""
+    position, moment = np.empty(3), np.empty(3)
+    magnet_pose_at(motion, time, position, moment)
+    for i in range(3):
+        moment[i] *= motion[M_MOMENT]
+    dipole_field(moment, position, points, b_out, g_out, with_gradient)
+
+
+@njit(cache=True)
+def moved_dipoles_forcing(motions, robots, times, moments, node_start, elem_start, elem_end,
+                          positions, directors, external_forces, external_torques, centres, b, g):
+    """The force and torque of each robot ``robots[k]``'s own moved magnet ``motions[k]`` on it, as
+    :class:`~elastica_magnetic.MagneticTorques` applies a spatial source (the same operations in the
+    same order), for robots of a memory block: element centres, ``B`` and ``grad B`` there at the
+    robot's own time ``times[k]`` (s), then the forces and the torques. ``moments``
+    ``(3, n_block_elements)`` A m^2 in the material frame; ``centres``, ``b``, ``g`` scratch of one robot's elements. Returns ``k * n + e``
+    of the first non-finite field (robot ``k``, element ``e``; a magnet on an element), else -1."""
+    n = centres.shape[1]
+    for k in range(robots.shape[0]):
+        i = robots[k]
+        n0, e0, e1 = node_start[i], elem_start[i], elem_end[i]
+        element_centres(positions[:, n0:n0 + n + 1], centres)
+        b[...] = 0.0
+        g[...] = 0.0
+        moved_dipole_field(motions[k], times[k], centres, b, g, True)
+        bad = first_nonfinite(b, g, True)
+        if bad >= 0:
+            return k * n + bad
+        moment, rotation = moments[:, e0:e1], directors[:, :, e0:e1]
+        magnetic_forces(moment, rotation, g, external_forces[:, n0:n0 + n + 1])
+        magnetic_torques_at_elements(moment, b, rotation, external_torques[:, e0:e1])
+    return -1

@@ -27,9 +27,20 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .spatial_fields import PointDipoleField, SpatialField, SpatialFieldError, _frame, _vector3
+from . import _spatial_kernels as kernels
+from ._spatial_kernels import (
+    M_DIRECTION,
+    M_MOMENT,
+    M_POSITION,
+    M_SPAN,
+    M_T0,
+    M_TURN_AXIS,
+    M_TURN_RATE,
+    M_VELOCITY,
+)
+from .spatial_fields import SpatialField, SpatialFieldError, _frame, _vector3
 
-__all__ = ["CoilCurrents", "MagnetPose"]
+__all__ = ["CoilCurrents", "MagnetPose", "MovedDipoleField"]
 
 
 def _action(action: ArrayLike, size: int, who: str) -> NDArray[np.float64]:
@@ -47,12 +58,6 @@ def _positive(value: float, name: str, unit: str) -> float:
     if not (math.isfinite(number) and number > 0.0):
         raise SpatialFieldError(f"{name} must be a positive number of {unit}, got {value!r}")
     return number
-
-
-def _rotate(vector: NDArray[np.float64], axis: NDArray[np.float64], angle: float) -> NDArray[np.float64]:
-    """``vector`` turned by ``angle`` (rad) about the unit ``axis`` (Rodrigues' formula)."""
-    c, s = math.cos(angle), math.sin(angle)
-    return vector * c + np.cross(axis, vector) * s + axis * (axis @ vector) * (1.0 - c)
 
 
 class MagnetPose:
@@ -96,15 +101,20 @@ class MagnetPose:
         if not np.any(axis):
             raise SpatialFieldError("direction must be a non-zero direction")
         self._start = (start.copy(), axis / np.linalg.norm(axis))
+        #: The motion over the current control step (layout: ``_spatial_kernels.M_*``); the batched
+        #: simulator's kernel reads it as this class does.
+        self.motion = np.zeros(kernels.MOTION_SIZE)
         self.reset()
-        self.source: SpatialField = PointDipoleField(self.moment_at, self.position_at)
+        self.source: SpatialField = MovedDipoleField(self)
 
     def reset(self) -> None:
         """Back to the start pose, at rest."""
-        self._p0, self._d0 = self._start[0].copy(), self._start[1].copy()
-        self._velocity = np.zeros(3)
-        self._turn_axis, self._turn_rate = np.array([0.0, 0.0, 1.0]), 0.0
-        self._t0, self._dt = 0.0, 0.0
+        motion = self.motion
+        motion[:] = 0.0
+        motion[M_POSITION:M_POSITION + 3] = self._start[0]
+        motion[M_DIRECTION:M_DIRECTION + 3] = self._start[1]
+        motion[M_TURN_AXIS + 2] = 1.0
+        motion[M_MOMENT] = self.moment
 
     def apply(self, action: ArrayLike, time: float, dt: float) -> None:
         """Command the arm at ``time`` (s) for the control step ``dt`` (s): the pose moves from where
@@ -124,22 +134,25 @@ class MagnetPose:
         if rate > self.max_turn_rate:
             omega *= self.max_turn_rate / rate
             rate = self.max_turn_rate
-        self._p0, self._d0 = p, d
-        self._velocity = (target - p) / dt
-        self._turn_axis = omega / rate if rate > 0.0 else np.array([0.0, 0.0, 1.0])
-        self._turn_rate = rate
-        self._t0, self._dt = float(time), dt
+        motion = self.motion
+        motion[M_POSITION:M_POSITION + 3] = p
+        motion[M_DIRECTION:M_DIRECTION + 3] = d
+        motion[M_VELOCITY:M_VELOCITY + 3] = (target - p) / dt
+        motion[M_TURN_AXIS:M_TURN_AXIS + 3] = omega / rate if rate > 0.0 else (0.0, 0.0, 1.0)
+        motion[M_TURN_RATE], motion[M_T0], motion[M_SPAN] = rate, float(time), dt
 
-    def _elapsed(self, time: float) -> float:
-        return min(max(float(time) - self._t0, 0.0), self._dt)
+    def _pose(self, time: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        position, direction = np.empty(3), np.empty(3)
+        kernels.magnet_pose_at(self.motion, float(time), position, direction)
+        return position, direction
 
     def position_at(self, time: float) -> NDArray[np.float64]:
         """m, (3,): the magnet's centre at ``time`` (s)."""
-        return self._p0 + self._velocity * self._elapsed(time)
+        return self._pose(time)[0]
 
     def direction_at(self, time: float) -> NDArray[np.float64]:
         """(3,), unit: the moment's direction at ``time`` (s)."""
-        return _rotate(self._d0, self._turn_axis, self._turn_rate * self._elapsed(time))
+        return self._pose(time)[1]
 
     def moment_at(self, time: float) -> NDArray[np.float64]:
         """A m^2, (3,): the moment vector at ``time`` (s)."""
@@ -147,7 +160,20 @@ class MagnetPose:
 
     def state(self, time: float) -> NDArray[np.float64]:
         """(6,): position (m) and moment direction at ``time`` (s), what a controller observes."""
-        return np.concatenate([self.position_at(time), self.direction_at(time)])
+        return np.concatenate(self._pose(time))
+
+
+class MovedDipoleField(SpatialField):
+    """The field of a :class:`MagnetPose`'s magnet, a point dipole at the arm's pose at each time
+    (:attr:`MagnetPose.source`). A robot of :class:`~elastica_magnetic.BatchedRobots` given one
+    is driven by a kernel that reads the arm's :attr:`MagnetPose.motion` (no Python call per time
+    step)."""
+
+    def __init__(self, magnet: MagnetPose) -> None:
+        self.magnet = magnet
+
+    def _add(self, points, time, b, g, with_gradient) -> None:
+        kernels.moved_dipole_field(self.magnet.motion, float(time), points, b, g, with_gradient)
 
 
 class CoilCurrents:

@@ -45,6 +45,7 @@ from elastica.external_forces import NoForces
 from elastica.memory_block.memory_block_rod import MemoryBlockCosseratRod
 from numpy.typing import ArrayLike, NDArray
 
+from . import _spatial_kernels as spatial_kernels
 from ._batch_kernels import (
     N_PARAMS,
     N_SCRATCH,
@@ -69,7 +70,9 @@ from ._batch_kernels import (
     block_forcing,
     first_unhealthy,
 )
-from .forcing import MagneticTorques
+from ._spatial_kernels import MOTION_SIZE
+from .actuation import MovedDipoleField
+from .forcing import FieldValueError, MagneticTorques
 from .robot_spec import RobotSpec
 from .simulation import SimulationDivergedError, robot_rod, trajectory_row
 from .spatial_fields import is_spatial
@@ -145,7 +148,14 @@ class BatchedRobots:
         element centres and its own time (the magnetic force and torque of
         :class:`~elastica_magnetic.MagneticTorques`, applied first, as
         :func:`~elastica_magnetic.build_simulation` registers it); its row of :attr:`fields`
-        adds a uniform field on top (keep it zero for the source alone). SI specs only.
+        adds a uniform field on top (keep it zero for the source alone). SI specs only. The
+        magnets of :class:`~elastica_magnetic.MagnetPose` arms (their ``source``) are applied
+        by one kernel for all robots, which reads each arm's motion as it was commanded before
+        :meth:`step` (command the arms between steps).
+    clamp : bool, optional
+        Clamp each robot's first node and element (position and directors), as
+        :func:`~elastica_magnetic.build_simulation` does with ``clamp=True``: a catheter held
+        at its base.
 
     Attributes
     ----------
@@ -179,6 +189,7 @@ class BatchedRobots:
         *,
         max_speed: float | None = None,
         sources: list[Any] | None = None,
+        clamp: bool = False,
     ) -> None:
         if int(n_robots) != n_robots or n_robots < 1:
             raise ValueError(f"n_robots must be a positive integer, got {n_robots!r}")
@@ -187,6 +198,7 @@ class BatchedRobots:
         self.n_robots = n_robots
         self.stepper = ea.PositionVerlet()
         self.step_count = 0
+        self._step_index = 0  # of the step being taken (the forcing's clock)
         self.robot_step_count = np.zeros(n_robots, dtype=np.int64)
         if max_speed is None:
             max_speed = 10.0 * spec.units.factor("velocity")
@@ -195,6 +207,7 @@ class BatchedRobots:
         if fields is not None:
             self.fields = fields  # type: ignore[assignment]
         self.specs = [spec] * n_robots
+        self.clamp = bool(clamp)
         self.simulator, self.rods = self._build_simulator()
         self.block = self._locate_robots()
         self._moments = np.zeros((3, self.block.n_elems))
@@ -234,6 +247,11 @@ class BatchedRobots:
             for rod in self.rods
         ]
         self._spatial: dict[int, MagneticTorques] = {}  # robot -> the forcing of its source
+        self._moved: dict[int, MovedDipoleField] = {}  # robot -> its arm's magnet (one kernel for all)
+        self._moved_rows = (np.zeros((0, MOTION_SIZE)), np.zeros(0, dtype=np.int64),
+                            np.zeros(0, dtype=np.int64))
+        self._moved_scratch = (np.empty((3, spec.n_elements)), np.empty((3, spec.n_elements)),
+                               np.empty((3, 3, spec.n_elements)))
         if sources is not None:
             if len(sources) != n_robots:
                 raise ValueError(f"sources: expected {n_robots} (one per robot, None for none), "
@@ -250,6 +268,9 @@ class BatchedRobots:
         for _ in range(self.n_robots):
             rod = robot_rod(self.spec)
             simulator.append(rod)
+            if self.clamp:  # as build_simulation(..., clamp=True) holds a catheter's base
+                simulator.constrain(rod).using(
+                    ea.OneEndFixedBC, constrained_position_idx=(0,), constrained_director_idx=(0,))
             rods.append(rod)
         simulator.add_forcing_to(rods[0]).using(_BlockForcing, owner=self)
         simulator.finalize()
@@ -292,6 +313,8 @@ class BatchedRobots:
     def force(self, time: float) -> None:
         """What each time step adds to the block's external loads (N, N m) at the simulator's
         ``time`` (s): the spatial sources' force and torque first, then :meth:`apply_forcing`."""
+        if self._moved:
+            self._apply_moved_magnets(float(time))
         if self._spatial:
             self._apply_sources(float(time))
         self.apply_forcing()
@@ -305,13 +328,44 @@ class BatchedRobots:
     def _apply_sources(self, time: float) -> None:
         """Each source's force and torque on its robot at the robot's own time (a robot reset
         since the block started runs on its own clock)."""
-        dt = self.spec.dt
         for i, forcing in self._spatial.items():
-            behind = self.step_count - int(self.robot_step_count[i])
-            robot_time = time if behind == 0 else time - behind * dt
+            robot_time = self._robot_time(time, self.step_count - int(self.robot_step_count[i]))
             rod = self.rods[i]
             forcing.apply_forces(rod, robot_time)
             forcing.apply_torques(rod, robot_time)
+
+    def _apply_moved_magnets(self, time: float) -> None:
+        """The force and torque of every robot's arm-moved magnet, in one kernel call."""
+        motions, robots, behind = self._moved_rows
+        block = self.block
+        times = self._robot_time(time, behind)
+        bad = spatial_kernels.moved_dipoles_forcing(
+            motions, robots, times, self._moments, self._node_start,
+            self._elem_start, self._elem_end, block.position_collection, block.director_collection,
+            block.external_forces, block.external_torques, *self._moved_scratch)
+        if bad >= 0:
+            k, element = divmod(bad, self.spec.n_elements)
+            raise FieldValueError(
+                f"robot {int(robots[k])}: its magnet (MagnetPose) gave a non-finite B (T) or gradient "
+                f"(T/m) at element {element} at t = {time:.6g} s (the magnet on the rod?)")
+
+    def _robot_time(self, time: float, behind: Any) -> Any:
+        """The time (s) a robot ``behind`` steps behind the block's clock (reset since it started)
+        is at when the block's forcing is at ``time``: at PositionVerlet's forcing time (after its
+        half kinematic step), as the per-rod simulation of that robot computes it (its own steps x
+        dt, plus dt / 2), so that both round alike."""
+        dt = self.spec.dt
+        index = self._step_index
+        if time == index * dt + 0.5 * dt:
+            return np.where(behind == 0, time, (index - behind) * dt + 0.5 * dt)[()]
+        return time - behind * dt
+
+    def _gather_moved_magnets(self) -> None:
+        """Each arm's motion over the coming steps (set by its ``apply`` between steps), and how many
+        steps each robot is behind the block's clock, for :meth:`_apply_moved_magnets`."""
+        robots = np.fromiter(self._moved, dtype=np.int64, count=len(self._moved))
+        motions = np.array([self._moved[int(i)].magnet.motion for i in robots]).reshape(-1, MOTION_SIZE)
+        self._moved_rows = (motions, robots, self.step_count - self.robot_step_count[robots])
 
     def set_source(self, i: int, source: Any) -> None:
         """Drive robot ``i`` by a source that varies in space (``None``: by its uniform row
@@ -320,6 +374,7 @@ class BatchedRobots:
             raise IndexError(f"robot index {i} out of range for {self.n_robots} robots")
         if source is None:
             self._spatial.pop(i, None)
+            self._moved.pop(i, None)
             return
         if not is_spatial(source):
             raise TypeError(f"robot {i}: a source must vary in space (at(points, time), "
@@ -328,7 +383,12 @@ class BatchedRobots:
         if self.spec.units.factor("length") != 1.0:
             raise ValueError(f"a spatial field source works in SI (m, T); the spec is in "
                              f"{self.spec.units.name}: build it in SI")
-        self._spatial[i] = self._source_forcing(i, source)
+        self._spatial.pop(i, None)
+        self._moved.pop(i, None)
+        if isinstance(source, MovedDipoleField):
+            self._moved[i] = source
+        else:
+            self._spatial[i] = self._source_forcing(i, source)
 
     def _source_forcing(self, i: int, source: Any) -> MagneticTorques:
         """The forcing of ``source`` on robot ``i``: its magnetization taken into the material
@@ -341,7 +401,8 @@ class BatchedRobots:
     @property
     def sources(self) -> list[Any]:
         """Each robot's spatial source (``None``: its uniform row alone)."""
-        return [self._spatial[i].field if i in self._spatial else None for i in range(self.n_robots)]
+        return [self._moved[i] if i in self._moved else
+                self._spatial[i].field if i in self._spatial else None for i in range(self.n_robots)]
 
     @property
     def kernel_arguments(self) -> tuple[Any, ...]:
@@ -403,8 +464,11 @@ class BatchedRobots:
         """
         simulator, step, dt = self.simulator, self.stepper.step, self.spec.dt
         start = self.step_count
+        if self._moved:
+            self._gather_moved_magnets()
         for k in range(n_steps):
             # Time from the step counter, as in RobotSimulation (the kernel itself ignores time).
+            self._step_index = start + k
             step(simulator, (start + k) * dt, dt)
         self.step_count = start + n_steps
         self.robot_step_count += n_steps

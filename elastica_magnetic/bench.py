@@ -27,6 +27,7 @@ import numpy as np
 from elastica.external_forces import NoForces
 
 from . import simulation as simulation_module
+from .actuation import MagnetPose
 from .batch import BatchedRobots
 from .fields import ControlledField, RotatingField
 from .forcing import LegacyInternalDamping, MagneticTorques, RelativeVelocityDamping, evaluate_field
@@ -46,6 +47,7 @@ __all__ = [
     "NaiveMagneticTorques",
     "NaiveRelativeVelocityDamping",
     "batched_fields",
+    "batched_spatial_step_cost",
     "benchmark_step_cost",
     "measure_batched",
     "per_robot_step_cost",
@@ -337,3 +339,50 @@ def spatial_step_cost(physics: str = "accurate", steps: int = 2000, repeats: int
         "physics": physics, "steps": steps, "repeats": repeats, "step_us": medians,
         "ratio_to_uniform": {name: medians[name] / medians["uniform"] for name in medians},
     }
+
+
+def _arm_above_the_robot() -> MagnetPose:
+    """An arm holding the point dipole of :func:`spatial_sources` 50 mm above the paper's robot,
+    moving along x at 20 mm/s and turning at 1 rad/s (commanded again every 0.01 s)."""
+    return MagnetPose(2.5, [0.01, 0.05, 0.0], [0.0, 1.0, 0.0], [[-0.1, 0.02, -0.1], [0.1, 0.1, 0.1]],
+                      max_speed=0.02, max_turn_rate=1.0)
+
+
+def batched_spatial_step_cost(n: int = 16, steps: int = 1000, repeats: int = 5,
+                              physics: str = "training") -> dict[str, Any]:
+    """Per-robot-step cost (us) of ``n`` paper robots in one :class:`~elastica_magnetic.BatchedRobots`,
+    each robot under its own source of :func:`spatial_sources` (a Python call per robot and time
+    step) or its own arm-moved magnet (:class:`~elastica_magnetic.MagnetPose`, one kernel for all
+    robots), next to the uniform field (each robot's row), and the ratios to it. ``steps`` per
+    repeat, in 0.01 s blocks as an environment steps (the arms commanded between blocks); the
+    variants interleaved within each repeat. Target (issue 53): at most 2x the uniform field."""
+    spec = yao2023_robot(1, physics)
+    per_action = spec.steps_per_action
+    arms = [_arm_above_the_robot() for _ in range(n)]
+    kinds: dict[str, BatchedRobots] = {"uniform": BatchedRobots(spec, n, fields=batched_fields(n))}
+    for name, source in spatial_sources().items():
+        if name != "uniform":
+            kinds[name] = BatchedRobots(spec, n, sources=[source] * n)
+    kinds["arm_magnet"] = BatchedRobots(spec, n, sources=[arm.source for arm in arms])
+    command = np.array([1.0, 0.0, 0.0, 1.0, 0.0])
+
+    def run(name: str, robots: BatchedRobots, n_steps: int) -> None:
+        for _ in range(max(1, n_steps // per_action)):
+            if name == "arm_magnet":
+                for i, arm in enumerate(arms):
+                    arm.apply(command, robots.robot_time(i), per_action * spec.dt)
+            robots.step(per_action)
+
+    for name, robots in kinds.items():
+        run(name, robots, per_action)  # JIT and caches warm
+    samples: dict[str, list[float]] = {name: [] for name in kinds}
+    for _ in range(repeats):
+        for name, robots in kinds.items():
+            start = time.perf_counter()
+            run(name, robots, steps)
+            taken = max(1, steps // per_action) * per_action
+            samples[name].append((time.perf_counter() - start) / (taken * n) * 1e6)
+    medians = {name: statistics.median(values) for name, values in samples.items()}
+    return {"physics": physics, "robots": n, "steps": steps, "repeats": repeats,
+            "per_robot_step_us": medians,
+            "ratio_to_uniform": {name: medians[name] / medians["uniform"] for name in medians}}

@@ -303,3 +303,63 @@ def test_a_source_given_later_acts_on_the_magnetization_of_the_initial_configura
                                rtol=0, atol=1e-12)
     with pytest.raises(TypeError, match="a uniform field goes in the robot's row of fields"):
         robots.set_source(1, ConstantField([0.0, 1e-3, 0.0]))
+
+
+def _catheter_in_training_physics():
+    from spec_texts import CATHETER
+
+    from elastica_magnetic.spec_format import loads
+    from elastica_magnetic.specfile import describe_robot
+
+    text = CATHETER.replace("[physics.training]\ndt = 1e-5", "[physics.training]\nmass_scale = 100.0\ndt = 5e-5")
+    return describe_robot(loads(text, "c.toml"), "c.toml").robot("training")
+
+
+def _arm(x):
+    from elastica_magnetic import MagnetPose
+
+    return MagnetPose(1.0, [x, 0.0, 0.0], [1.0, 0.0, 0.0], [[-0.1, -0.1, -0.1], [0.15, 0.1, 0.1]],
+                      max_speed=0.1, max_turn_rate=3.0)
+
+
+def test_batched_catheters_moved_by_magnet_arms_match_per_rod_simulations_bit_for_bit():
+    """Issue 53: robots of a batch, each clamped at its base and driven by its own arm-moved
+    magnet (one kernel for all), follow the per-rod simulations of the same commands to the last
+    bit, a robot reset mid-run (on its own clock) included; the clamped end stays put."""
+    spec = _catheter_in_training_physics()
+    starts = (0.09, 0.08, 0.1)
+    arms, twins = [_arm(x) for x in starts], [_arm(x) for x in starts]
+    robots = BatchedRobots(spec, n_robots=3, sources=[arm.source for arm in arms], clamp=True)
+    sims = [build_simulation(spec, twin.source, clamp=True) for twin in twins]
+    assert robots.sources == [arm.source for arm in arms]
+    base = robots.rod(0).position_collection[:, 0].copy()
+    rng = np.random.default_rng(3)
+    for step in range(40):  # 0.4 s of 0.01 s control steps
+        if step == 25:
+            robots.reset_robot(1)
+            arms[1].reset()
+            twins[1].reset()
+            sims[1] = build_simulation(spec, twins[1].source, clamp=True)
+        actions = rng.uniform(-1.0, 1.0, (3, 5))
+        actions[:, 3] = 1.0  # the moments keep turning: the catheters bend
+        for i, action in enumerate(actions):
+            arms[i].apply(action, robots.robot_time(i), 0.01)
+            twins[i].apply(action, sims[i].time, 0.01)
+        robots.step(spec.steps_per_action)
+        for sim in sims:
+            sim.step(spec.steps_per_action)
+    for i, sim in enumerate(sims):
+        _assert_same_state(robots.rod(i), sim.rod, f"robot {i}")
+    tips = [robots.rod(i).position_collection[:, -1] for i in range(3)]
+    assert all(np.linalg.norm(tip - [0.05, 0.0, 0.0]) > 5e-4 for tip in tips)  # the magnets bent them
+    np.testing.assert_array_equal(robots.rod(2).position_collection[:, 0], base)
+
+
+def test_a_magnet_on_a_batched_rod_is_named():
+    from elastica_magnetic import FieldValueError
+
+    spec = _catheter_in_training_physics()
+    arm = _arm(0.0275)  # on the centre of element 5
+    robots = BatchedRobots(spec, n_robots=2, sources=[None, arm.source], clamp=True)
+    with pytest.raises(FieldValueError, match=r"robot 1: its magnet \(MagnetPose\).*element 5"):
+        robots.step(1)

@@ -28,6 +28,12 @@ def test_bench_quick_json_keys(capsys):
         assert set(spatial) == set(ratio) == {"uniform", "point_dipole", "moving_dipole", "helmholtz_pair"}
         assert all(math.isfinite(v) and v > 0 for v in spatial.values())
         assert all(ratio[k] == spatial[k] / spatial["uniform"] for k in spatial)
+    batched = result["batched_spatial"]  # issue 53: each robot its own source, or its own arm's magnet
+    assert set(batched["per_robot_step_us"]) == {"uniform", "point_dipole", "moving_dipole",
+                                                 "helmholtz_pair", "arm_magnet"}
+    assert all(math.isfinite(v) and v > 0 for v in batched["per_robot_step_us"].values())
+    assert batched["ratio_to_uniform"]["arm_magnet"] == (batched["per_robot_step_us"]["arm_magnet"]
+                                                         / batched["per_robot_step_us"]["uniform"])
     assert result["recipe"] == "paper"  # the series of measurements is the paper recipe's
     roof = result["td3_roofline"]
     assert roof["achieved_gflops"] == roof["gflop_per_update"] * result["td3_updates_per_s"]

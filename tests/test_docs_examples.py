@@ -42,6 +42,22 @@ def test_spatial_fields_page_code_runs():
     assert abs(rod.position_collection[1, -1]) > 0  # the magnet did something
 
 
+def test_spatial_fields_page_batched_arms_run():
+    """The page's third block (many catheters, each with its arm), on the tests' catheter."""
+    from spec_texts import CATHETER
+
+    from elastica_magnetic.spec_format import loads
+    from elastica_magnetic.specfile import describe_robot
+
+    page = TUTORIAL.parent / "spatial_fields.md"
+    block = re.findall(r"```python\n(.*?)```", page.read_text(), flags=re.S)[2]
+    namespace: dict = {"catheter_spec": describe_robot(loads(CATHETER, "c.toml"), "c.toml").robot("training")}
+    exec(compile(block, str(page), "exec"), namespace)
+    robots = namespace["robots"]
+    assert robots.time == 0.01 and robots.clamp
+    assert np.all(np.isfinite(robots.rod(3).position_collection))
+
+
 def test_the_own_robot_example_spec_is_the_pages_robot():
     """docs/examples/band20.toml, the robot docs/own_robot.md was walked with, is the robot the
     page describes: its magnetization table is the page's ``segments`` example, and it gives the

@@ -9,14 +9,16 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 #: The most parameters a function (``self``/``cls`` not counted) may take.
-MOST = 11
+MOST = 10
 #: Longer signatures, by "file:function", and why.
 EXCEPTIONS = {
     # numba kernels: the block's arrays one by one, as numba compiles them (PyElastica's kernels too)
     "elastica_magnetic/_batch_kernels.py:block_forcing": "numba kernel",
     "elastica_magnetic/_batch_kernels.py:ground_contact": "numba kernel",
+    "elastica_magnetic/_spatial_kernels.py:moved_dipoles_forcing": "numba kernel",
     # a Gymnasium environment is made by gymnasium.make(id, **kwargs): its options are keywords
     "rl/envs/vector_env.py:__init__": "gymnasium.make keywords",
+    "rl/envs/env.py:__init__": "gymnasium.make keywords",
     # the physical values of a band, as PyElastica's CosseratRod.straight_rod takes them
     "elastica_magnetic/section.py:rectangular_band_rod": "mirrors CosseratRod.straight_rod",
 }

@@ -53,6 +53,13 @@ def _add_rollout_options(p: argparse.ArgumentParser, out: str) -> None:
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
 
 
+def _pictures(args: argparse.Namespace):
+    """The pictures ``--no-figures`` and ``--no-gif`` leave a rollout result."""
+    from ..shipping.generate import Pictures
+
+    return Pictures(figures=not args.no_figures, gif=not args.no_gif)
+
+
 def _print_rollout_result(result: dict, as_json: bool) -> int:
     """Print a generate-like result (its notes first, on stderr); 1 if the rollout diverged."""
     print_notes(result.pop("notes", ()))
@@ -353,9 +360,8 @@ def generate_command(args: argparse.Namespace) -> int:
             return _ring_result(loaded, args, "generate")
     try:
         result = generate(args.policy, duration=args.duration, out=args.out, physics=args.physics,
-                          progress=not args.no_progress, figures=not args.no_figures,
-                          gif=not args.no_gif, checkpoint=args.checkpoint, force=args.force,
-                          target=args.target)
+                          progress=not args.no_progress, pictures=_pictures(args),
+                          checkpoint=args.checkpoint, force=args.force, target=args.target)
     except FileNotFoundError as exc:
         raise CommandError(str(exc)) from None
     return _print_rollout_result(result, args.json)
@@ -393,8 +399,8 @@ def baseline_command(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise CommandError(f"--period: {exc}") from None
     result = generate(policy, duration=args.duration, out=args.out, physics=args.physics,
-                      progress=not args.no_progress, figures=not args.no_figures,
-                      gif=not args.no_gif, force=args.force, kind="baseline")
+                      progress=not args.no_progress, pictures=_pictures(args),
+                      force=args.force, kind="baseline")
     if result["fields_csv"]:
         result |= achieved_period(read_field_csv(result["fields_csv"]), args.period, args.case)
         if result["warning"]:
@@ -429,8 +435,8 @@ def _steering_baseline(args: argparse.Namespace) -> int:
                            "s: the steering field would not turn once in the run; give a longer "
                            "--duration or a shorter --period")
     result = generate(policy, duration=args.duration, out=args.out, physics=args.physics,
-                      progress=not args.no_progress, figures=not args.no_figures,
-                      gif=not args.no_gif, force=args.force, kind="baseline", target=args.target)
+                      progress=not args.no_progress, pictures=_pictures(args),
+                      force=args.force, kind="baseline", target=args.target)
     return _print_rollout_result(result, args.json)
 
 

@@ -212,8 +212,8 @@ def _report(summary: dict[str, Any]) -> str:
 def _write_gait(out: Path, case, best: dict[str, Any], settings) -> None:
     """The best design under its best rotating field, as ``msr field baseline`` writes it."""
     from ..shipping.baselines import RotatingFieldPolicy
-    from ..shipping.generate import generate
+    from ..shipping.generate import Pictures, generate
 
     policy = RotatingFieldPolicy(case, best["period_s"], best["clockwise"])
     generate(policy, out=out, duration=settings.final_duration, physics=settings.final_physics,
-             progress=False, gif=settings.gif, force=True, kind="baseline")
+             progress=False, pictures=Pictures(gif=settings.gif), force=True, kind="baseline")

@@ -200,13 +200,13 @@ def _seed_distances(ctx: LoopContext, case_dir: Path) -> dict[str, Any]:
 def generate_step(ctx: LoopContext) -> dict[str, Any]:
     """``msr policy generate <best seed> --checkpoint auto`` into ``generate/``: the farther actor's
     waveform (fields.csv, mT), the gait and field figures."""
-    from ..shipping.generate import generate
+    from ..shipping.generate import Pictures, generate
 
     s = ctx.settings
     run = ctx.path(ctx.state.summary("train")["best_run_dir"])
     result = generate(run, duration=s.evaluation_duration, out=step_folder(ctx, "generate"),
-                      physics="accurate", progress=ctx.progress, gif=s.gif, checkpoint="auto",
-                      force=True)
+                      physics="accurate", progress=ctx.progress, pictures=Pictures(gif=s.gif),
+                      checkpoint="auto", force=True)
     yardstick = trained_case(ctx).yardstick.distance_10s
     # a ratio only of like with like: both 10 s of the accurate physics from a zero field
     comparable = (s.yardstick_is_the_definition() and result["physics"] == "accurate"

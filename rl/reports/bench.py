@@ -19,7 +19,12 @@ from typing import Any
 
 import numpy as np
 
-from elastica_magnetic.bench import BATCH_SIZES, benchmark_step_cost, per_robot_step_cost
+from elastica_magnetic.bench import (
+    BATCH_SIZES,
+    batched_spatial_step_cost,
+    benchmark_step_cost,
+    per_robot_step_cost,
+)
 
 from ..runfiles.rundir import CaseDir
 from ..runner.memory import process_tree_rss
@@ -401,6 +406,7 @@ def _simulation_rates(sizes: dict[str, int], vector_envs: int) -> dict[str, Any]
         "naive_step_us": training["naive_step_us"],
         "speedup": training["speedup_vs_naive"],
         "per_robot_step_us": per_robot_step_cost(BATCH_SIZES, sizes["robot_steps"], repeats)["batched"],
+        "batched_spatial": batched_spatial_step_cost(16, max(100, sizes["robot_steps"] // 16), repeats),
         "env_steps_per_s": env_steps_per_s(sizes["env_steps"], repeats),
         "vector_envs": vector_envs,
         "vector_env_steps_per_s": vector_env_steps_per_s(vector_envs, sizes["vector_steps"], repeats),
@@ -516,6 +522,15 @@ def spatial_cost_lines(result: dict[str, Any]) -> list[str]:
                 continue
             verdict = "ok" if ratio[name] <= SPATIAL_TARGET_RATIO else "ABOVE TARGET"
             lines.append(f"  {name:16s} {value:9.2f} us  {ratio[name]:5.2f}x  {verdict}")
+    batched = result.get("batched_spatial")
+    if isinstance(batched, dict):
+        step_us, ratio = batched["per_robot_step_us"], batched["ratio_to_uniform"]
+        lines.append(f"fields in space, batched ({batched['robots']} robots, {batched['physics']} physics; "
+                     f"us per robot-step, ratio to the uniform field, target <= {SPATIAL_TARGET_RATIO:g}x):")
+        for name, value in step_us.items():
+            verdict = "" if name == "uniform" else (
+                "  ok" if ratio[name] <= SPATIAL_TARGET_RATIO else "  ABOVE TARGET")
+            lines.append(f"  {name:16s} {value:9.2f} us  {ratio[name]:5.2f}x{verdict}")
     return lines
 
 
@@ -536,6 +551,6 @@ def step_cost_lines(result: dict[str, Any]) -> list[str]:
 def benchmark_text(result: dict[str, Any]) -> str:
     """:func:`benchmark`'s result as plain text: ``key: value`` lines for the scalar figures, then
     the step cost of both physics settings and the fields-in-space table (:func:`spatial_cost_lines`)."""
-    nested = ("training", "accurate")
+    nested = ("training", "accurate", "batched_spatial")
     lines = [f"{key}: {value}" for key, value in result.items() if key not in nested]
     return "\n".join(lines + step_cost_lines(result) + spatial_cost_lines(result))

@@ -225,7 +225,7 @@ def _seed_runs(configs: Sequence[TD3Config | None], steps: int, run_dirs: Sequen
     without ``stop_rules`` each seed keeps its checkpoint's rule."""
     return [SeedRun(k, configs[k], steps, run_dirs[k], resume,
                     init_from[k] if init_from is not None else None,
-                    metadata[k] if metadata is not None else None, obs_dim, act_dim, n,
+                    metadata[k] if metadata is not None else None, (obs_dim, act_dim), n,
                     "checkpoint" if stop_rules is None else stop_rules[k])
             for k in range(len(configs))]
 

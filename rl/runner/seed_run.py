@@ -105,9 +105,10 @@ class SeedRun:
 
     def __init__(self, k: int, config: TD3Config | None, steps: int, run_dir: str | os.PathLike,
                  resume: bool, init_from: str | os.PathLike | None, metadata: dict[str, Any] | None,
-                 obs_dim: int, act_dim: int, n_envs: int,
+                 dims: tuple[int, int], n_envs: int,
                  stop_rule: StopRule | None | str = "checkpoint") -> None:
         self.k, self.steps, self.n_envs = k, int(steps), n_envs
+        obs_dim, act_dim = dims
         self.run_dir = Path(run_dir)
         self.ckpt_path = RunDir(self.run_dir).checkpoint
         self.ckpt, self.resumed_here, self.cfg, self.metadata = starting_point(

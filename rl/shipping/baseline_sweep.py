@@ -23,7 +23,7 @@ from elastica_magnetic.specfile import SPEC_FILE
 
 from ..cases.case import EVAL_DURATION, Case, case_from_dict, load_case
 from .baselines import RotatingFieldPolicy, rotating_amplitude
-from .generate import GENERATE_FILES, generate
+from .generate import GENERATE_FILES, Pictures, generate
 
 __all__ = ["DEFAULT_PERIODS", "PERIOD_TOLERANCE", "achieved_period", "periods_that_turn",
            "sweep_baseline", "yardstick_spec"]
@@ -147,7 +147,7 @@ def sweep_baseline(
     with result_folder(out, kind="baseline", subject=subject, force=force,
                        known_files=SWEEP_FILES) as folder:
         generated = generate(policy, duration=duration, out=folder.path, physics=physics,
-                             progress=progress, figures=figures, gif=gif, kind="baseline")
+                             progress=progress, pictures=Pictures(figures, gif), kind="baseline")
         generated.pop("notes", None)
         table = _write_table(folder.path / "sweep.csv", runs)
         figure = (_sweep_figure(folder.path / "sweep.png", runs, best, case, physics, duration)

@@ -6,6 +6,7 @@ figures and a GIF."""
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -28,12 +29,22 @@ from .policy_files import (
 )
 from .policy_runs import choose_actor, node_dx, run_policy
 
-__all__ = ["GENERATE_FILES", "MID_NODE_KEY", "demo", "generate", "reach_metrics", "read_generate_json"]
+__all__ = ["GENERATE_FILES", "MID_NODE_KEY", "Pictures", "demo", "generate", "reach_metrics",
+           "read_generate_json"]
 
 #: The files ``msr policy generate`` (``baseline``, ``demo``) writes: recognises an output folder written
 #: before result folders carried a marker.
 GENERATE_FILES = ("fields.csv", "trajectory.csv", "gait.csv", "rollout.npz", "generate.json",
                   *ROLLOUT_FIGURES)
+
+
+@dataclass(frozen=True)
+class Pictures:
+    """The pictures a rollout result gets: its figures (PNG) and, with them, the gait's GIF
+    (``gif`` has no effect without ``figures``)."""
+
+    figures: bool = True
+    gif: bool = True
 
 
 def reach_metrics(rollout, task: ReachTask) -> dict[str, Any]:
@@ -59,8 +70,7 @@ def generate(
     out: str | Path = "out/generate",
     physics: str = "accurate",
     progress: bool = True,
-    figures: bool = True,
-    gif: bool = True,
+    pictures: Pictures = Pictures(),
     checkpoint: str = "auto",
     force: bool = False,
     kind: str = "generate",
@@ -113,7 +123,7 @@ def generate(
             loaded = resolve_policy(choice.path)
     with result_folder(out, kind=kind, subject=subject, force=force,
                        known_files=GENERATE_FILES) as folder:
-        result = _write_rollout(loaded, folder.path, duration, physics, progress, figures, gif, choice,
+        result = _write_rollout(loaded, folder.path, duration, physics, progress, pictures, choice,
                                 target)
         result = _final_paths(result, folder)  # generate.json names where the files will be
         atomic_write_json(folder.path / "generate.json", result)
@@ -121,7 +131,7 @@ def generate(
 
 
 def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: str, progress: bool,
-                   figures: bool, gif: bool, choice, target: Any = None) -> dict[str, Any]:
+                   pictures: Pictures, choice, target: Any = None) -> dict[str, Any]:
     """Run ``loaded`` and write the files of :func:`generate` into ``out``; its result."""
     import pandas as pd
 
@@ -172,8 +182,8 @@ def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: st
         result["goto"] = goto_result(rollout, loaded.case.task, target)
         result.update({k: result["goto"][k] for k in ("final_distance_to_target_m",
                                                        "time_to_target_s")})
-    if figures and rollout.n_steps:
-        result["figures"] = rollout_figures(rollout, out, loaded.critic, loaded.actor, gif=gif)
+    if pictures.figures and rollout.n_steps:
+        result["figures"] = rollout_figures(rollout, out, loaded.critic, loaded.actor, gif=pictures.gif)
     return result
 
 

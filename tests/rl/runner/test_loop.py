@@ -173,7 +173,7 @@ def test_pink_exploration_is_correlated_in_time_and_trains_reproducibly(tmp_path
     from elastica_magnetic_rl.runner.seed_run import SeedRun
 
     def lag1(cfg):
-        run = SeedRun(0, cfg, 100, tmp_path / f"probe{cfg.noise_color}", False, None, None, 3, 2, 1)
+        run = SeedRun(0, cfg, 100, tmp_path / f"probe{cfg.noise_color}", False, None, None, (3, 2), 1)
         rng = np.random.default_rng(0)
         run.draw_noise(0, rng)
         x = np.stack([run.exploration(0, rng)[0] for _ in range(3000)])  # crosses used-up sequences

@@ -79,7 +79,7 @@ def test_demo_replaces_its_own_demo(monkeypatch, trained, tmp_path, capsys):
     def short(policy, **kwargs):
         calls.append(kwargs)
         return real(run_policy_source, **{**kwargs, "duration": 0.05, "physics": "training",
-                                          "figures": False})
+                                          "pictures": generate_module.Pictures(figures=False)})
 
     run_policy_source = str(trained / "m1-4mT" / "seed0")
     monkeypatch.setattr(generate_module, "generate", short)
