@@ -39,7 +39,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["CrawlTask", "GotoTask", "RING_TARGETS", "ReachTask", "Task", "TASK_KINDS",
+__all__ = ["CrawlTask", "GotoTask", "RING_TARGETS", "ReachTask", "Task", "TASK_KINDS", "TipReachTask",
            "TARGET_OFFSET_SCALE", "floor_pose", "goto_metrics", "middle_x", "ring_targets"]
 
 #: Scale of the reach task's ``target_offset`` observation, per m.
@@ -223,6 +223,95 @@ class GotoTask:
 
     def to_dict(self) -> dict[str, Any]:
         return {"kind": self.kind, **asdict(self)}
+
+
+def tip_position(rod: Any, node: int = -1) -> NDArray[np.float64]:
+    """The position of node ``node`` of ``rod`` (default its last: a catheter's tip), m, ``(3,)``."""
+    return np.array(rod.position_collection[:, node], dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class TipReachTask:
+    """Bring a clamped rod's tip (its last node) to a target point in space and hold it there.
+
+    The target is drawn per episode uniformly in ``target_box`` ``[[xmin, ymin, zmin], [xmax, ymax,
+    zmax]]`` (m, the spec's frame), or given (``reset(options={"target": (x, y, z)})``, m). Reward
+    ``reward_scale * (d_before - d_after)`` for closing the distance ``d`` (m) from the tip to the
+    target, minus ``speed_penalty * reward_scale`` times the tip's displacement on steps that end
+    within ``slow_zone`` m of the target (so the policy learns to hold). Extra observation
+    ``target_offset`` ``100 * (target - tip)`` per m (10 mm reads 1.0). Success: ending within
+    ``tolerance`` m of the target.
+    """
+
+    kind: ClassVar[str] = "tip-reach"
+    extra_observation: ClassVar[tuple[tuple[str, int], ...]] = (("target_offset", 3),)
+    #: One robot's state: its target (x, y, z), m.
+    state_shape: ClassVar[tuple[int, ...]] = (3,)
+    target_box: tuple[tuple[float, float, float], tuple[float, float, float]] = (
+        (0.035, -0.02, -0.02), (0.05, 0.02, 0.02))
+    tolerance: float = 1e-3
+    slow_zone: float = 3e-3
+    speed_penalty: float = 0.5
+    reward_scale: float = 1e4
+    episode_duration: float = 5.0
+
+    def __post_init__(self) -> None:
+        box = np.asarray(self.target_box, dtype=np.float64)
+        if box.shape != (2, 3) or not np.all(np.isfinite(box)) or np.any(box[1] < box[0]):
+            raise ValueError("TipReachTask target_box must be [[xmin, ymin, zmin], [xmax, ymax, zmax]] "
+                             f"(m) with each min at most its max, got {self.target_box!r}")
+        object.__setattr__(self, "target_box", tuple(tuple(float(v) for v in row) for row in box))
+        for name in ("tolerance", "slow_zone", "reward_scale", "episode_duration"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ValueError(f"TipReachTask {name} must be a positive finite number, got {value!r}")
+        if not (math.isfinite(self.speed_penalty) and self.speed_penalty >= 0.0):
+            raise ValueError("TipReachTask speed_penalty must be finite and >= 0, got "
+                             f"{self.speed_penalty!r}")
+
+    @staticmethod
+    def position(rod: Any, middle_node: int = -1) -> NDArray[np.float64]:
+        """What the task reads of the rod: its tip (last node), m, ``(3,)`` (``middle_node`` is not
+        used: the tip is what is steered)."""
+        return tip_position(rod)
+
+    def start(self, tip: Any, rng: np.random.Generator | None = None,
+              target: Any = None) -> NDArray[np.float64]:
+        """The target of an episode (m, ``(3,)``): ``target`` when given, else one uniform draw
+        (three numbers) from ``rng`` in :attr:`target_box`."""
+        if target is None:
+            if rng is None:
+                raise ValueError("the tip-reach task draws its target: give rng (or target)")
+            low, high = np.asarray(self.target_box)
+            return rng.uniform(low, high)
+        point = np.asarray(target, dtype=np.float64).reshape(-1)
+        if point.shape != (3,) or not np.all(np.isfinite(point)):
+            raise ValueError(f"target must be a finite point (x, y, z) in m, got {target!r}")
+        return point
+
+    def error(self, tip: Any, target: Any) -> Any:
+        """Distance from the tip to the target, m."""
+        return np.linalg.norm(np.asarray(tip) - np.asarray(target), axis=-1)
+
+    def reward(self, tip_before: Any, tip_after: Any, target: Any) -> Any:
+        before, after = self.error(tip_before, target), self.error(tip_after, target)
+        moved = np.linalg.norm(np.asarray(tip_after) - np.asarray(tip_before), axis=-1)
+        near = after <= self.slow_zone
+        return self.reward_scale * ((before - after) - self.speed_penalty * moved * near)
+
+    def within_tolerance(self, distance: Any) -> Any:
+        """The success test: a distance from the target (m) within ``tolerance``."""
+        return np.abs(distance) <= self.tolerance
+
+    def observe(self, tip: Any, target: Any) -> NDArray[np.float64]:
+        """``target_offset``: ``100 * (target - tip)`` per m, shape ``(..., 3)``."""
+        offset = np.asarray(target, dtype=np.float64) - np.asarray(tip, dtype=np.float64)
+        return TARGET_OFFSET_SCALE * offset
+
+    def to_dict(self) -> dict[str, Any]:
+        out = {"kind": self.kind, **asdict(self)}
+        out["target_box"] = [list(row) for row in self.target_box]
+        return out
 
 
 Task = CrawlTask | ReachTask | GotoTask

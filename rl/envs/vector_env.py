@@ -79,7 +79,7 @@ from .env import (
 )
 from .randomization import RobotRandomizer
 
-__all__ = ["MagneticCrawlerVectorEnv", "make_vector_env"]
+__all__ = ["MagneticCrawlerVectorEnv", "block_base_arrays", "make_vector_env"]
 
 STATE_FORMAT = "msr-crawler-vector-state-v1"
 
@@ -350,7 +350,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         state = {
             "format": STATE_FORMAT,
             "num_envs": self.num_envs,
-            "block": {name: value.copy() for name, value in _block_base_arrays(self.robots).items()},
+            "block": {name: value.copy() for name, value in block_base_arrays(self.robots).items()},
             "fields": np.stack([f.value.copy() for f in self.fields]),
             "steps": self.steps.copy(),
             "robot_step_count": self.robots.robot_step_count.copy(),
@@ -377,7 +377,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
                 self._set_robot(i, self.randomizer.from_array(row))
         elif "robot_settings" in state:
             raise ValueError("the saved state comes from a randomized environment, this one is not")
-        arrays = _block_base_arrays(self.robots)
+        arrays = block_base_arrays(self.robots)
         if set(arrays) != set(state["block"]):
             raise ValueError("the saved simulator block does not match this environment")
         for name, value in arrays.items():
@@ -403,7 +403,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         self.robots = None
 
 
-def _block_base_arrays(robots: BatchedRobots) -> dict[str, NDArray[np.float64]]:
+def block_base_arrays(robots: BatchedRobots) -> dict[str, NDArray[np.float64]]:
     """The float arrays of the memory block that own their memory (every rod array is a view of
     one of them), by attribute name."""
     return {name: value for name, value in vars(robots.block).items()
