@@ -350,8 +350,9 @@ def moved_dipoles_forcing(motions, robots, times, moments, node_start, elem_star
     :class:`~elastica_magnetic.MagneticTorques` applies a spatial source (the same operations in the
     same order), for robots of a memory block: element centres, ``B`` and ``grad B`` there at the
     robot's own time ``times[k]`` (s), then the forces and the torques. ``moments``
-    ``(3, n_block_elements)`` A m^2 in the material frame; ``centres``, ``b``, ``g`` scratch of one robot's elements. Returns ``k * n + e``
-    of the first non-finite field (robot ``k``, element ``e``; a magnet on an element), else -1."""
+    ``(3, n_block_elements)`` A m^2 in the material frame; ``centres``, ``b``, ``g`` scratch of one
+    robot's elements. Returns ``k * n + e`` of the first non-finite field (robot ``k``, element
+    ``e``; a magnet on an element), else -1."""
     n = centres.shape[1]
     for k in range(robots.shape[0]):
         i = robots[k]

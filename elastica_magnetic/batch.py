@@ -410,6 +410,13 @@ class BatchedRobots:
         the call overhead)."""
         return self._kernel_args
 
+    def base_arrays(self) -> dict[str, NDArray[np.float64]]:
+        """The float arrays of the memory block that own their memory, by attribute name: every
+        rod array is a view of one of them, so together they are the simulator's whole state (for
+        saving and restoring it)."""
+        return {name: value for name, value in vars(self.block).items()
+                if isinstance(value, np.ndarray) and value.dtype.kind == "f" and value.base is None}
+
     def contact_fraction(self) -> float:
         """Share of the elements of the last robot the kernel handled that touched the ground at
         its last call (0 to 1)."""

@@ -7,6 +7,7 @@ problem a :class:`SpecError` naming the file, the table and the key. What the ta
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
@@ -267,7 +268,7 @@ def toml_with_units(data: Mapping[str, Any], units: Mapping[tuple[str, str], str
     import tomli_w
 
     lines, table = [], ""
-    for line in tomli_w.dumps(_plain(data), multiline_strings=False).splitlines():
+    for line in _inline_number_arrays(tomli_w.dumps(_plain(data), multiline_strings=False).splitlines()):
         stripped = line.strip()
         if stripped.startswith("[") and not stripped.startswith("[["):
             table = stripped.strip("[]")
@@ -277,6 +278,39 @@ def toml_with_units(data: Mapping[str, Any], units: Mapping[tuple[str, str], str
                 line = f"{line}  # {unit}"
         lines.append(line)
     return "\n".join(lines) + "\n"
+
+
+#: A line of a multi-line array of numbers as ``tomli_w`` writes it (``    1.0,``, ``    [``, ``],``).
+_NUMBER_ARRAY_LINE = re.compile(r"^\s*(\[|\]|[-+0-9.eEinfa]+),?\s*$")
+#: Longest ``key = [...]`` line made of a multi-line array of numbers.
+_INLINE_WIDTH = 100
+
+
+def _inline_number_arrays(lines: list[str]) -> list[str]:
+    """``tomli_w``'s multi-line arrays of numbers (``key = [`` ... ``]``) on one line when they fit
+    in :data:`_INLINE_WIDTH` characters: ``direction = [1.0, 0.0, 0.0]``, ``box = [[0.0, 0.0], [1.0,
+    1.0]]`` (a vector reads as one value, and a unit comment can follow it)."""
+    out, k = [], 0
+    while k < len(lines):
+        line = lines[k]
+        end = k + 1
+        if line.endswith(" = [") and not line.startswith(" "):
+            depth = 1
+            while end < len(lines) and depth and _NUMBER_ARRAY_LINE.match(lines[end]):
+                depth += lines[end].count("[") - lines[end].count("]")
+                end += 1
+            if depth == 0:
+                items = " ".join(part.strip() for part in lines[k + 1:end])
+                text = line[:-1] + "[" + items.rstrip(",")
+                text = re.sub(r",\s*\]", "]", text).replace("[ ", "[")
+                if len(text) <= _INLINE_WIDTH:
+                    out.append(text)
+                    k = end
+                    continue
+            end = k + 1
+        out.append(line)
+        k = end
+    return out
 
 
 def _plain(value: Any) -> Any:

@@ -2,7 +2,8 @@
 ``conftest.py``). SI units (m, kg/m^3, Pa, A/m, s).
 
 - :data:`CATHETER`: a small magnetic catheter, 50 mm long, 0.5 mm radius, 10 elements, no gravity,
-  magnetized uniformly (100 kA/m), with its time steps; :data:`CATHETER_ON_GROUND` on a ground.
+  magnetized uniformly (100 kA/m), with its time steps; :data:`CATHETER_ON_GROUND` on a ground;
+  :data:`CATHETER_MAGNET_REACH` a tip-reach case of it steered by a magnet on an arm.
 - :data:`SMALL_BAND`: the ``[robot]`` table of the paper's 20 x 8 x 0.8 mm band with 8 elements,
   its moduli given by a Poisson ratio; a test adds its own ``[robot.magnetization]``.
 """
@@ -48,4 +49,24 @@ thickness = 0.0008
 density = 1860.0
 youngs_modulus = 84500.0
 poisson_ratio = 0.48
+"""
+
+#: The catheter steered by a magnet on an arm to targets in front of its tip: a tip-reach case
+#: (the training physics scales the mass by 100 for a 5x longer time step).
+CATHETER_MAGNET_REACH = _ROBOT + _REST.replace(
+    "[physics.training]\ndt = 1e-5", "[physics.training]\nmass_scale = 100.0\ndt = 5e-5") + """
+[actuation]
+kind = "magnet-pose"
+moment = 1.0
+position = [0.09, 0.0, 0.0]
+direction = [1.0, 0.0, 0.0]
+workspace = [[-0.1, -0.1, -0.1], [0.15, 0.1, 0.1]]
+max_speed = 0.1
+max_turn_rate = 3.0
+min_clearance = 0.01
+[task]
+kind = "tip-reach"
+target_box = [[0.04, 0.0, -0.01], [0.048, 0.02, 0.01]]
+tolerance = 0.001
+episode_duration = 2.0
 """

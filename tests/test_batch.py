@@ -306,13 +306,12 @@ def test_a_source_given_later_acts_on_the_magnetization_of_the_initial_configura
 
 
 def _catheter_in_training_physics():
-    from spec_texts import CATHETER
+    from spec_texts import CATHETER_MAGNET_REACH  # its training physics: mass x 100, dt 5e-5 s
 
     from elastica_magnetic.spec_format import loads
     from elastica_magnetic.specfile import describe_robot
 
-    text = CATHETER.replace("[physics.training]\ndt = 1e-5", "[physics.training]\nmass_scale = 100.0\ndt = 5e-5")
-    return describe_robot(loads(text, "c.toml"), "c.toml").robot("training")
+    return describe_robot(loads(CATHETER_MAGNET_REACH, "c.toml"), "c.toml").robot("training")
 
 
 def _arm(x):

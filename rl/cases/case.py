@@ -12,10 +12,15 @@ Tables of a spec (SI units; the robot's tables are described in
 
 - ``[actuation]``: ``field_limit`` (T), ``max_increment`` (T per action), ``control_rate`` (Hz;
   100, the only rate the environments and the firmware play), ``initial_field`` (``"random"``
-  or ``"zero"``: training episodes; generated fields always start from zero).
-- ``[task]``: ``kind`` (``"crawl"``, ``"reach"`` or ``"goto"``, see
+  or ``"zero"``: training episodes; generated fields always start from zero). Or, with ``kind =
+  "magnet-pose"``, a permanent magnet on a robot arm (:class:`MagnetArm`): ``moment`` (A m^2),
+  ``position`` (m) and ``direction`` at the start of each episode, ``workspace`` (m, the box its
+  centre stays in), ``max_speed`` (m/s), ``max_turn_rate`` (rad/s) and ``min_clearance`` (m, the
+  nearest it may come to the rod); the rod is clamped at its base (a catheter).
+- ``[task]``: ``kind`` (``"crawl"``, ``"reach"``, ``"goto"`` or ``"tip-reach"``, see
   :mod:`elastica_magnetic_rl.cases.tasks`) and its parameters, ``episode_duration`` (s, training
-  episodes); ``goto`` needs ``[actuation] axes = "xyz"``.
+  episodes); ``goto`` needs ``[actuation] axes = "xyz"``; ``tip-reach`` (the tip of a clamped rod
+  to a target in ``target_box``) goes with a magnet-pose actuation, the crawler tasks with a field.
 - ``[training]``: ``recipe`` (:data:`~elastica_magnetic_rl.cases.recipes.RECIPES`), ``steps`` per seed,
   ``[training.td3]``: :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` fields on top of the recipe,
   and ``[training.randomize]``: robot values drawn anew per training episode and crawler (domain
@@ -52,10 +57,16 @@ from elastica_magnetic.specfile import (
     read_spec,
 )
 
+from .arm_actuation import (
+    ACTUATION_KINDS,
+    MAGNET_ARM_OBSERVATION,
+    MagnetArm,
+    magnet_arm_from_table,
+)
 from .design_space import DESIGN_TABLE, DesignSpace, design_space
 from .recipes import DEFAULT_RECIPE, RECIPES
 from .task_tables import MAX_YARDSTICK_BODY_LENGTHS, task_from_table
-from .tasks import GotoTask, ReachTask, Task
+from .tasks import GotoTask, ReachTask, Task, TipReachTask
 from .variations import (
     Variation,
     VariationError,
@@ -104,6 +115,11 @@ CASE_UNITS: dict[tuple[str, str], str] = {
     ("task", "distance"): "m from the start, the targets' ring",
     ("task", "angle_low"): "rad, bearing from ahead, counter-clockwise seen from above",
     ("task", "angle_high"): "rad, bearing from ahead, counter-clockwise seen from above",
+    ("actuation", "moment"): "A m^2", ("actuation", "position"): "m, the magnet's centre at the start",
+    ("actuation", "direction"): "the moment's direction at the start",
+    ("actuation", "workspace"): "m, the box the magnet's centre stays in", ("actuation", "max_speed"): "m/s",
+    ("actuation", "max_turn_rate"): "rad/s", ("actuation", "min_clearance"): "m, nearest the magnet comes",
+    ("task", "target_box"): "m, [[xmin, ymin, zmin], [xmax, ymax, zmax]]",
     ("training", "steps"): "environment steps per seed",
     ("yardstick", "distance_10s"): "m in 10 s, accurate physics, field from zero",
 }
@@ -198,7 +214,7 @@ class Case:
     name: str
     description: str
     robot: RobotDescription
-    actuation: Actuation
+    actuation: Actuation | MagnetArm
     task: Task
     training: Training
     yardstick: Yardstick
@@ -215,6 +231,11 @@ class Case:
         return self.actuation.field_limit
 
     @property
+    def field_actuated(self) -> bool:
+        """Whether a uniform field (coils) actuates the robot; ``False`` for a magnet on an arm."""
+        return not isinstance(self.actuation, MagnetArm)
+
+    @property
     def n_elements(self) -> int:
         return self.robot.n_elements
 
@@ -222,6 +243,9 @@ class Case:
     def obs_dim(self) -> int:
         """Observation size: the robot's ``4 n + 4`` plus the actuation's and the task's extra
         blocks."""
+        if isinstance(self.actuation, MagnetArm):  # the rod's node positions, then its blocks
+            extra = (*MAGNET_ARM_OBSERVATION, *self.task.extra_observation)
+            return 3 * (self.n_elements + 1) + sum(size for _, size in extra)
         extra = (*self.actuation.observation_blocks, *self.task.extra_observation)
         return 4 * self.n_elements + 4 + sum(size for _, size in extra)
 
@@ -234,7 +258,8 @@ class Case:
     def evaluation_duration(self) -> float:
         """The periodic evaluation's episode during training, s: :data:`EVAL_DURATION` (the
         yardstick's 10 s), or a goto task's whole episode (reaching a target takes longer)."""
-        return self.task.episode_duration if isinstance(self.task, GotoTask) else EVAL_DURATION
+        whole = isinstance(self.task, GotoTask | TipReachTask)
+        return self.task.episode_duration if whole else EVAL_DURATION
 
     @property
     def has_yardstick(self) -> bool:
@@ -253,6 +278,9 @@ class Case:
         if isinstance(self.task, GotoTask):
             return (f"within {1e3 * self.task.tolerance:.1f} mm of a target "
                     f"{1e3 * self.task.distance:.1f} mm away in {self.task.episode_duration:g} s")
+        if isinstance(self.task, TipReachTask):
+            return (f"the tip within {1e3 * self.task.tolerance:.1f} mm of a target in its box in "
+                    f"{self.task.episode_duration:g} s")
         if self.yardstick.distance_10s > 0.0:
             return f"{1e3 * self.yardstick.distance_10s:+.1f} mm in 10 s"
         return NO_TARGET
@@ -373,13 +401,10 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
             raise SpecError(f"{source}: the case is named after the file, and {str(exc).split(': ', 2)[-1]}"
                             "; set name = \"...\" in the spec or give the file a shorter name") from None
     description = top.string("description", "")
-    actuation = _actuation(top.table("actuation"))
+    actuation = _actuation(top.table("actuation"), float(robot.tables["robot"]["length"]))
     _check_sideways_model(actuation, robot, spec, source)
     task = task_from_table(top.table("task"), float(robot.tables["robot"]["length"]))
-    if isinstance(task, GotoTask) and actuation.axes != "xyz":
-        raise SpecError(f"{source}: [task] kind = \"goto\" needs the third coil pair: a field "
-                        f"confined to the x-y plane (axes = {actuation.axes!r}) moves the robot "
-                        "only along its line; set [actuation] axes = \"xyz\"")
+    _check_task_and_actuation(task, actuation, source)
     training = _training(top.table("training", required=False), source, robot)
     yardstick = _yardstick(top.table("yardstick", required=False),
                            float(robot.tables["robot"]["length"]))
@@ -387,7 +412,7 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
         raise SpecError(f"{source}: [robot.magnetization]: no magnetization: no field can move it "
                         "(every element is at 0 A/m), so there is nothing to learn; give the robot "
                         "its magnetization (docs/specs.md)")
-    if robot.robot("training").ground is None:
+    if robot.robot("training").ground is None and not isinstance(actuation, MagnetArm):
         raise SpecError(f"{source}: [robot.ground] missing: the crawler tasks need a ground (add the "
                         "table; every key in it has a default)")
     design = _design(top.raw(DESIGN_TABLE, None), robot, actuation, source, top.accept)
@@ -397,16 +422,39 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     return Case(name, description, robot, actuation, task, training, yardstick, source, design)
 
 
-def _design(table: Any, robot: RobotDescription, actuation: Actuation, source: str,
+def _check_task_and_actuation(task: Task, actuation: Actuation | MagnetArm, source: str) -> None:
+    """A tip-reach task goes with a magnet arm, the crawler tasks with a field: the other pairs
+    are refused, naming both."""
+    arm, tip = isinstance(actuation, MagnetArm), isinstance(task, TipReachTask)
+    if arm and not tip:
+        raise SpecError(f"{source}: [task] kind = {task.kind!r} is a crawler's task (a uniform field "
+                        "moves the robot on its ground); a magnet on an arm ([actuation] kind = "
+                        "\"magnet-pose\") steers a clamped rod's tip: set [task] kind = \"tip-reach\"")
+    if tip and not arm:
+        raise SpecError(f"{source}: [task] kind = \"tip-reach\" steers a clamped rod's tip with a "
+                        "magnet on an arm: set [actuation] kind = \"magnet-pose\" (and its moment, "
+                        "position, direction, workspace)")
+    if isinstance(task, GotoTask) and actuation.axes != "xyz":
+        raise SpecError(f"{source}: [task] kind = \"goto\" needs the third coil pair: a field "
+                        f"confined to the x-y plane (axes = {actuation.axes!r}) moves the robot "
+                        "only along its line; set [actuation] axes = \"xyz\"")
+
+
+def _design(table: Any, robot: RobotDescription, actuation: Actuation | MagnetArm, source: str,
             accept: frozenset[str]) -> DesignSpace | None:
     """The checked ``[design]`` table (``None`` when absent)."""
     if table is None:
         return None
+    if isinstance(actuation, MagnetArm):
+        raise SpecError(f"{source}: [{DESIGN_TABLE}]: msr design searches magnetizations under a "
+                        "rotating uniform field; a magnet-pose case has none (remove the table)")
     return design_space(table, robot.tables["robot"], actuation.axes, source,
                         robot.robot("accurate").magnetization, accept)
 
 
-def _actuation(t: SpecTable) -> Actuation:
+def _actuation(t: SpecTable, rod_length: float) -> Actuation | MagnetArm:
+    if t.string("kind", "field", choices=ACTUATION_KINDS) == "magnet-pose":
+        return magnet_arm_from_table(t, rod_length)
     d = Actuation(field_limit=0.0)
     axes = t.string("axes", d.axes, choices=ACTUATION_AXES)
     limits = _per_axis(t, "field_limit", "T", axes, None, high=1.0, plausible="coil field")
@@ -431,12 +479,12 @@ def _actuation(t: SpecTable) -> Actuation:
     return out
 
 
-def _check_sideways_model(actuation: Actuation, robot: RobotDescription, spec: Mapping[str, Any],
+def _check_sideways_model(actuation: Actuation | MagnetArm, robot: RobotDescription, spec: Mapping[str, Any],
                           source: str) -> None:
     """A three-axis case on a band whose ground rolls it sideways like a round rod (the default
     model): warned, naming the model of a flat band (``[checks] accept = ["actuation.axes"]``
     keeps the rolling model on purpose)."""
-    if actuation.axes != "xyz":
+    if isinstance(actuation, MagnetArm) or actuation.axes != "xyz":
         return
     rod = robot.robot("training")
     if rod.section == "band" and rod.ground is not None and rod.ground.sideways == "rolling":

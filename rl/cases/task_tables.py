@@ -11,7 +11,7 @@ from typing import Any
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 from elastica_magnetic.specfile import SpecTable
 
-from .tasks import TASK_KINDS, GotoTask, ReachTask, Task
+from .tasks import TASK_KINDS, GotoTask, ReachTask, Task, TipReachTask
 
 __all__ = ["MAX_YARDSTICK_BODY_LENGTHS", "REWARD_PER_LENGTH_RANGE", "task_from_table"]
 
@@ -55,6 +55,8 @@ def task_from_table(t: SpecTable, length: float) -> Task:
         _check_slow_zone(t, values, abs(values["target"]))
     if cls is GotoTask:
         values.update(_goto_values(t, d, length, values["episode_duration"]))
+    if cls is TipReachTask:
+        values.update(_tip_reach_values(t, d, length))
     t.finish()
     return cls(**values)
 
@@ -143,3 +145,37 @@ def _check_reward_scale(t: SpecTable, scale: float, length: float, papers: float
            f"body length ({length:g} m), {'below' if per_length < low else 'above'} the usual "
            f"{low:g} to {high:g} (the paper's: {papers:g} per m, 200 for its 20 mm robot): "
            f"training learns from rewards this size poorly{hint}")
+
+
+def _tip_reach_values(t: SpecTable, d: TipReachTask, length: float) -> dict[str, Any]:
+    """The tip-reach task's keys: ``target_box`` (m; the rod is clamped at the origin along +x, so
+    no target beyond its ``length`` from the base can be reached: a box wholly beyond is refused, one
+    partly beyond warned), ``tolerance`` (m), the reward's ``slow_zone`` (m) and ``speed_penalty``."""
+    box = t.raw("target_box", [list(row) for row in d.target_box])
+    if (not isinstance(box, list) or len(box) != 2 or any(
+            not isinstance(row, list) or len(row) != 3 or any(
+                isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) for v in row)
+            for row in box)):
+        raise t.error("target_box", f"expected [[xmin, ymin, zmin], [xmax, ymax, zmax]] in m, got {box!r}")
+    low, high = ([float(v) for v in row] for row in box)
+    if any(a > b for a, b in zip(low, high, strict=True)):
+        raise t.error("target_box", f"each min must be at most its max (m), got {box!r}")
+    nearest = math.dist((0.0, 0.0, 0.0), [min(max(0.0, a), b) for a, b in zip(low, high, strict=True)])
+    farthest = max(math.dist((0.0, 0.0, 0.0), (x, y, z)) for x in (low[0], high[0])
+                   for y in (low[1], high[1]) for z in (low[2], high[2]))
+    if nearest > length:
+        raise t.error("target_box", f"{box!r} m lies wholly beyond the rod's reach ({length:g} m from "
+                      "its clamped base at the origin): no target in it can be reached (mm written as m?)")
+    if farthest > length:
+        t.warn("target_box", f"part of {box!r} m lies beyond the rod's reach ({length:g} m from its "
+               "clamped base): targets drawn there cannot be reached")
+    values = {
+        "target_box": (tuple(low), tuple(high)),
+        "tolerance": t.number("tolerance", "m", d.tolerance, low=0.0, low_open=True),
+        "slow_zone": t.number("slow_zone", "m", d.slow_zone, low=0.0),
+        "speed_penalty": t.number("speed_penalty", "1", d.speed_penalty, low=0.0),
+    }
+    if values["tolerance"] >= length:
+        raise t.error("tolerance", f"{values['tolerance']:g} m is the rod's length ({length:g} m) or more: "
+                      "every tip would count as on target (mm written as m?)")
+    return values

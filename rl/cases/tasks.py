@@ -314,10 +314,11 @@ class TipReachTask:
         return out
 
 
-Task = CrawlTask | ReachTask | GotoTask
+Task = CrawlTask | ReachTask | GotoTask | TipReachTask
 
 #: Task classes by the ``kind`` of a spec's ``[task]`` table.
-TASK_KINDS: dict[str, type] = {"crawl": CrawlTask, "reach": ReachTask, "goto": GotoTask}
+TASK_KINDS: dict[str, type] = {"crawl": CrawlTask, "reach": ReachTask, "goto": GotoTask,
+                               "tip-reach": TipReachTask}
 
 #: Targets of a goto evaluation ring: evenly spaced bearings around the start.
 RING_TARGETS = 12

@@ -41,7 +41,8 @@ Units: SI (m, s, T, A m^2).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import dataclasses
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -55,10 +56,12 @@ from elastica_magnetic import MagnetPose, RobotSpec
 from elastica_magnetic.batch import BatchedRobots, BatchedSimulationDivergedError
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
+from ..cases.arm_actuation import MagnetArm
+from ..cases.case import Case
 from ..cases.tasks import TipReachTask
-from .vector_env import block_base_arrays
 
-__all__ = ["CATHETER_OBSERVATION_SCALES", "CatheterReachVectorEnv", "catheter_observation_layout"]
+__all__ = ["CATHETER_OBSERVATION_SCALES", "CatheterReachVectorEnv", "catheter_observation_layout",
+           "make_catheter_env"]
 
 STATE_FORMAT = "msr-catheter-vector-state-v1"
 
@@ -293,7 +296,7 @@ class CatheterReachVectorEnv(VectorEnv):
         if any(r is None for r in self._rngs):
             raise RuntimeError("every sub-environment needs a generator (reset with a seed)")
         return {"format": STATE_FORMAT, "num_envs": self.num_envs,
-                "block": {name: value.copy() for name, value in block_base_arrays(self.robots).items()},
+                "block": {name: value.copy() for name, value in self.robots.base_arrays().items()},
                 "motions": np.stack([arm.motion.copy() for arm in self.arms]),
                 "steps": self.steps.copy(), "robot_step_count": self.robots.robot_step_count.copy(),
                 "step_count": int(self.robots.step_count), "obs": self._obs.copy(),
@@ -305,7 +308,7 @@ class CatheterReachVectorEnv(VectorEnv):
             raise ValueError("not a state of this vector environment (format or num_envs differ)")
         if self.robots is None:
             self.reset(seed=0)
-        arrays = block_base_arrays(self.robots)
+        arrays = self.robots.base_arrays()
         if set(arrays) != set(state["block"]):
             raise ValueError("the saved simulator block does not match this environment")
         for name, value in arrays.items():
@@ -325,3 +328,16 @@ class CatheterReachVectorEnv(VectorEnv):
     def close_extras(self, **kwargs: Any) -> None:
         self.robots = None
 
+
+def make_catheter_env(case: Case, num_envs: int, physics: str = "training", duration: float | None = None,
+                      randomize: Sequence[Any] | None = None) -> CatheterReachVectorEnv:
+    """The vector environment of a magnet-arm case (``duration``, s: the episodes', default the
+    task's); its robots and arms are the case's, in ``physics``."""
+    if not isinstance(case.actuation, MagnetArm):
+        raise ValueError(f"case {case.name!r} is not steered by a magnet on an arm")
+    if randomize:
+        raise ValueError(f"case {case.name!r}: domain randomization ([training.randomize], --randomize) "
+                         "varies a crawler's robot; the catheter cases train on their nominal robot")
+    task = case.task if duration is None else dataclasses.replace(case.task, episode_duration=float(duration))
+    return CatheterReachVectorEnv(num_envs, case.robot_spec(physics), case.actuation.arm_settings(), task,
+                                  min_clearance=case.actuation.min_clearance)

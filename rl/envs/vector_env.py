@@ -54,6 +54,7 @@ Units: SI (m, s, T) as the single environment.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
@@ -66,7 +67,8 @@ from elastica_magnetic import ControlledField, RobotSpec
 from elastica_magnetic.batch import BatchedRobots, BatchedSimulationDivergedError
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
-from ..cases.case import Case
+from ..cases.arm_actuation import MagnetArm
+from ..cases.case import Case, load_case
 from ..cases.tasks import Task
 from ..cases.variations import Variation
 from .env import (
@@ -79,7 +81,7 @@ from .env import (
 )
 from .randomization import RobotRandomizer
 
-__all__ = ["MagneticCrawlerVectorEnv", "block_base_arrays", "make_vector_env"]
+__all__ = ["MagneticCrawlerVectorEnv", "make_vector_env"]
 
 STATE_FORMAT = "msr-crawler-vector-state-v1"
 
@@ -350,7 +352,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         state = {
             "format": STATE_FORMAT,
             "num_envs": self.num_envs,
-            "block": {name: value.copy() for name, value in block_base_arrays(self.robots).items()},
+            "block": {name: value.copy() for name, value in self.robots.base_arrays().items()},
             "fields": np.stack([f.value.copy() for f in self.fields]),
             "steps": self.steps.copy(),
             "robot_step_count": self.robots.robot_step_count.copy(),
@@ -377,7 +379,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
                 self._set_robot(i, self.randomizer.from_array(row))
         elif "robot_settings" in state:
             raise ValueError("the saved state comes from a randomized environment, this one is not")
-        arrays = block_base_arrays(self.robots)
+        arrays = self.robots.base_arrays()
         if set(arrays) != set(state["block"]):
             raise ValueError("the saved simulator block does not match this environment")
         for name, value in arrays.items():
@@ -403,24 +405,24 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         self.robots = None
 
 
-def block_base_arrays(robots: BatchedRobots) -> dict[str, NDArray[np.float64]]:
-    """The float arrays of the memory block that own their memory (every rod array is a view of
-    one of them), by attribute name."""
-    return {name: value for name, value in vars(robots.block).items()
-            if isinstance(value, np.ndarray) and value.dtype.kind == "f" and value.base is None}
-
 
 def make_vector_env(
-    case: str | Case,
+    case: str | Path | Case,
     num_envs: int,
     physics: str = "training",
     initial_field: str | None = None,
     duration: float | None = None,
     randomize: Sequence[Variation] | None = None,
-) -> MagneticCrawlerVectorEnv:
+) -> VectorEnv:
     """The vector environment of a case (a name, a spec file or a
     :class:`~elastica_magnetic_rl.cases.case.Case`; module level so that ``functools.partial`` of it
-    pickles)."""
-    return MagneticCrawlerVectorEnv(num_envs, case=case, physics=physics,
+    pickles): the crawlers', or for a magnet-arm case (``[actuation] kind = "magnet-pose"``) the
+    catheters' (:func:`~elastica_magnetic_rl.envs.catheter_env.make_catheter_env`)."""
+    loaded = load_case(case)
+    if isinstance(loaded.actuation, MagnetArm):
+        from .catheter_env import make_catheter_env
+
+        return make_catheter_env(loaded, num_envs, physics, duration, randomize)
+    return MagneticCrawlerVectorEnv(num_envs, case=loaded, physics=physics,
                                     initial_field=initial_field, duration=duration,
                                     randomize=randomize)

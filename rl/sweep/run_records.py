@@ -23,7 +23,8 @@ __all__ = ["check_resume_settings", "first_difference", "run_metadata", "without
 def run_metadata(case: Case, physics: str, duration: float, seed: int, **extra: Any) -> dict:
     """A run's record: the case by name and complete (``case_spec``: what ``msr policy generate``,
     ``refine``, ``ship`` and ``export`` rebuild it from, without the spec file), its settings."""
-    return {"case": case.name, "field_limit_T": case.field_limit, "task": case.task.kind,
+    limit = {"field_limit_T": case.field_limit} if case.field_actuated else {}
+    return {"case": case.name, **limit, "task": case.task.kind,
             "physics": physics, "episode_duration_s": duration, "seed": int(seed), **extra,
             "case_spec": case.to_dict()}
 

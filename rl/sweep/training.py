@@ -510,7 +510,8 @@ def _check_run_folders(out: str | Path, loaded: dict[str, Case], seed_list: list
             check_resume_settings(run.path, {
                 "case": case, "case_spec": loaded[case].to_dict(), "physics": physics,
                 "episode_duration_s": float(episode_duration), "recipe": recipe, "envs": envs,
-                "seed": seed, "field_limit_T": loaded[case].field_limit}, saved.get("metadata"))
+                "seed": seed, **({"field_limit_T": loaded[case].field_limit}
+                                 if loaded[case].field_actuated else {})}, saved.get("metadata"))
     if before_making is not None:
         before_making()
     for _, _, run in runs:  # every seed's folder can be written, before any work

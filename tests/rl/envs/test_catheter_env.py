@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from elastica_magnetic_rl.cases.tasks import TipReachTask
 from elastica_magnetic_rl.envs.catheter_env import CatheterReachVectorEnv, catheter_observation_layout
-from spec_texts import CATHETER
+from spec_texts import CATHETER_MAGNET_REACH
 
 from elastica_magnetic.spec_format import loads
 from elastica_magnetic.specfile import describe_robot
@@ -20,9 +20,7 @@ ARM = {"moment": 1.0, "position": [0.09, 0.0, 0.0], "direction": [1.0, 0.0, 0.0]
 
 @pytest.fixture(scope="module")
 def spec():
-    text = CATHETER.replace("[physics.training]\ndt = 1e-5",
-                            "[physics.training]\nmass_scale = 100.0\ndt = 5e-5")
-    return describe_robot(loads(text, "c.toml"), "c.toml").robot("training")
+    return describe_robot(loads(CATHETER_MAGNET_REACH, "c.toml"), "c.toml").robot("training")
 
 
 def make(spec, n=2, **task):

@@ -1,0 +1,136 @@
+"""The actuation of a case steered by a permanent magnet on a robot arm (``[actuation] kind =
+"magnet-pose"``): its settings (:class:`MagnetArm`) and the checks of its table (SI: m, A m^2, m/s,
+rad/s). The rod of such a case is clamped at its base (a catheter): the arm's magnet bends it.
+
+Each key's value is refused where it cannot be meant: a position or box far beyond any arm's reach
+(mm written as m), a speed beyond any arm's (mm/s written as m/s), a turn rate in degrees, a start
+outside the workspace or within ``min_clearance`` of the straight rod.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from elastica_magnetic import MagnetPose
+from elastica_magnetic.robot_spec import ACTION_PERIOD
+from elastica_magnetic.spatial_fields import SpatialFieldError
+from elastica_magnetic.specfile import SpecTable
+
+__all__ = ["ACTUATION_KINDS", "MAGNET_ARM_OBSERVATION", "MagnetArm", "NotFieldActuatedError",
+           "magnet_arm_from_table"]
+
+#: ``[actuation] kind``: a uniform field from coils (the paper's, the default) or a magnet on an arm.
+ACTUATION_KINDS = ("field", "magnet-pose")
+#: What a field actuation has and a magnet arm has not (asked of a magnet arm, they name the mismatch).
+_FIELD_ACTUATION_NAMES = frozenset({"field_limit", "max_increment", "initial_field", "axes", "axis_limits",
+                                    "axis_increments", "n_axes", "limits", "increments",
+                                    "observation_blocks"})
+#: The observation of a magnet-arm case beyond the rod's node positions (3 per node): the tip's
+#: velocity, the magnet's position and direction (3 each; ``rl/envs/catheter_env.py``).
+MAGNET_ARM_OBSERVATION = (("tip_velocity", 3), ("magnet_position", 3), ("magnet_direction", 3))
+
+
+class NotFieldActuatedError(ValueError):
+    """A command or value that needs a field-actuated case was given a magnet-arm case."""
+
+
+@dataclass(frozen=True)
+class MagnetArm:
+    """A permanent magnet on a robot arm steers the rod (``[actuation] kind = "magnet-pose"``):
+    the keywords of :class:`~elastica_magnetic.MagnetPose` (``moment`` A m^2; ``position`` m and
+    ``direction`` at the start of each episode; ``workspace`` m; ``max_speed`` m/s;
+    ``max_turn_rate`` rad/s), the nearest the magnet may come to the rod (``min_clearance``, m: an
+    episode ends there) and the control rate (Hz)."""
+
+    kind: ClassVar[str] = "magnet-pose"
+    moment: float
+    position: tuple[float, float, float]
+    direction: tuple[float, float, float]
+    workspace: tuple[tuple[float, float, float], tuple[float, float, float]]
+    max_speed: float = 0.05
+    max_turn_rate: float = 1.0
+    min_clearance: float = 0.01
+    control_rate: float = 1.0 / ACTION_PERIOD
+
+    def __getattr__(self, name: str) -> Any:
+        if name in _FIELD_ACTUATION_NAMES:
+            raise NotFieldActuatedError(
+                f"the case is actuated by a magnet on an arm ([actuation] kind = \"magnet-pose\"), which "
+                f"has no {name}: this works on cases actuated by a uniform field (coils)")
+        raise AttributeError(name)
+
+    def arm_settings(self) -> dict[str, Any]:
+        """The keywords of :class:`~elastica_magnetic.MagnetPose` (SI)."""
+        return {"moment": self.moment, "position": list(self.position), "direction": list(self.direction),
+                "workspace": [list(row) for row in self.workspace], "max_speed": self.max_speed,
+                "max_turn_rate": self.max_turn_rate}
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``[actuation]`` table."""
+        return {"kind": self.kind, **self.arm_settings(), "min_clearance": self.min_clearance,
+                "control_rate": self.control_rate}
+
+
+
+#: Largest distance (m) of a magnet or workspace corner from the rod's base: a robot arm's reach
+#: is about 1 m; a value in mm written as m is 1000x.
+MAX_ARM_REACH = 2.0
+#: Fastest magnet (m/s) and turn (rad/s) an arm commands: ~1 m/s and a few turns per second; mm/s
+#: written as m/s or degrees as rad is far beyond.
+MAX_ARM_SPEED = 5.0
+MAX_TURN_RATE = 20.0
+
+
+def magnet_arm_from_table(t: SpecTable, rod_length: float) -> MagnetArm:
+    """The ``[actuation]`` table of ``kind = "magnet-pose"`` (``rod_length``, m: the straight rod
+    along +x from the origin, which the start must clear)."""
+    moment = t.number("moment", "A m^2", low=0.0, low_open=True, high=1e4)
+    position = t.vector("position", "m", 3)
+    direction = t.vector("direction", "a direction", 3)
+    box = t.raw("workspace")
+    if (not isinstance(box, list) or len(box) != 2 or any(
+            not isinstance(row, list) or len(row) != 3 or any(
+                isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) for v in row)
+            for row in box)):
+        raise t.error("workspace", f"expected [[xmin, ymin, zmin], [xmax, ymax, zmax]] in m, got {box!r}")
+    workspace = np.asarray(box, dtype=np.float64)
+    if np.any(workspace[1] <= workspace[0]):
+        raise t.error("workspace", f"each min must be below its max (m), got {box!r}")
+    for key, value in (("position", np.asarray(position)), ("workspace", workspace)):
+        if np.abs(value).max() > MAX_ARM_REACH:
+            raise t.error(key, f"{value.tolist()} m reaches {np.abs(value).max():g} m from the base, "
+                               f"beyond any arm ({MAX_ARM_REACH:g} m): lengths in mm written as m?")
+    d = MagnetArm(moment=0.0, position=(0.0, 0.0, 0.0), direction=(1.0, 0.0, 0.0),
+                  workspace=((0.0, 0.0, 0.0), (1.0, 1.0, 1.0)))
+    arm = MagnetArm(
+        moment=moment, position=tuple(position), direction=tuple(direction),
+        workspace=(tuple(workspace[0].tolist()), tuple(workspace[1].tolist())),
+        max_speed=t.number("max_speed", "m/s", d.max_speed, low=0.0, low_open=True, high=MAX_ARM_SPEED),
+        max_turn_rate=t.number("max_turn_rate", "rad/s", d.max_turn_rate, low=0.0, low_open=True,
+                               high=MAX_TURN_RATE),
+        min_clearance=t.number("min_clearance", "m", d.min_clearance, low=0.0, low_open=True),
+        control_rate=t.number("control_rate", "Hz", d.control_rate, low=0.0, low_open=True))
+    if not math.isclose(arm.control_rate, 1.0 / ACTION_PERIOD):
+        raise t.error("control_rate", f"only {1.0 / ACTION_PERIOD:g} Hz is supported (the environments' "
+                                      f"0.01 s step), got {arm.control_rate:g}")
+    try:
+        MagnetPose(**arm.arm_settings())
+    except SpatialFieldError as exc:
+        raise t.error("position" if "position" in str(exc) else "direction", str(exc)) from None
+    clearance = _clearance_of_straight_rod(np.asarray(position), rod_length)
+    if clearance < arm.min_clearance:
+        raise t.error("position", f"{list(position)} m is {1e3 * clearance:.3g} mm from the straight rod "
+                                  f"(along +x from the origin, {rod_length:g} m), nearer than min_clearance "
+                                  f"= {1e3 * arm.min_clearance:g} mm: every episode would end at its start")
+    t.finish()
+    return arm
+
+
+def _clearance_of_straight_rod(point: np.ndarray, length: float) -> float:
+    """Distance (m) from ``point`` to the segment from the origin to ``(length, 0, 0)``."""
+    x = min(max(float(point[0]), 0.0), length)
+    return float(np.linalg.norm(point - np.array([x, 0.0, 0.0])))
