@@ -66,7 +66,7 @@ max_turn_rate = 3.0
 min_clearance = 0.01
 [task]
 kind = "tip-reach"
-target_box = [[0.04, 0.0, -0.01], [0.048, 0.02, 0.01]]
+target_box = [[0.04, 0.0, -0.01], [0.045, 0.015, 0.01]]
 tolerance = 0.001
 episode_duration = 2.0
 """
