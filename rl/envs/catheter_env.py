@@ -140,6 +140,11 @@ class CatheterReachVectorEnv(VectorEnv):
         """The tip (last node) of robot ``i``, m, ``(3,)``."""
         return self.task.position(self.robots.rods[i])
 
+    @property
+    def targets(self) -> NDArray[np.float64]:
+        """``(N, 3)``: each sub-environment's target, m."""
+        return self._targets
+
     def _base(self, i: int) -> NDArray[np.float64]:
         return self.robots.rods[i].position_collection[:, 0]
 
@@ -196,7 +201,8 @@ class CatheterReachVectorEnv(VectorEnv):
               options: dict[str, Any] | None = None) -> tuple[NDArray[np.float32], dict[str, Any]]:
         """Reset all sub-environments (or those of ``options["reset_mask"]``, a bool ``(N,)``).
         ``seed``: ``s`` seeds sub-environment ``i`` with ``s + i``; a list, one each.
-        ``options["target"]``: ``(x, y, z)`` m, the target of every reset episode (else drawn)."""
+        ``options["target"]``: ``(x, y, z)`` m, the target of every reset episode, or ``(N, 3)``
+        one per sub-environment (else drawn)."""
         options = dict(options or {})
         mask = np.asarray(options.pop("reset_mask", np.ones(self.num_envs, dtype=bool)), dtype=bool)
         if mask.shape != (self.num_envs,):
@@ -218,8 +224,13 @@ class CatheterReachVectorEnv(VectorEnv):
                 raise RuntimeError("the first reset must reset every sub-environment")
             self.robots = BatchedRobots(self.spec, self.num_envs, sources=[a.source for a in self.arms],
                                         clamp=True)
+        targets = options.get("target")
+        if targets is not None and np.ndim(targets) == 2:  # one target per sub-environment
+            if np.shape(targets) != (self.num_envs, 3):
+                raise ValueError(f"target: one (x, y, z) in m, or one per sub-environment "
+                                 f"({self.num_envs}, 3); got shape {np.shape(targets)}")
         for i in np.flatnonzero(mask):
-            self._reset_one(int(i), options.get("target"))
+            self._reset_one(int(i), targets[i] if targets is not None and np.ndim(targets) == 2 else targets)
         return self._obs.copy(), self._info()
 
     def step(self, actions: NDArray[np.float32]) -> tuple[
