@@ -69,6 +69,24 @@ class MagnetArm:
                 "workspace": [list(row) for row in self.workspace], "max_speed": self.max_speed,
                 "max_turn_rate": self.max_turn_rate}
 
+    def field_at_tip(self, rod_length: float) -> float:
+        """|B| (T) the magnet makes at its start pose at the tip of the straight rod (along +x
+        from the origin, ``rod_length`` m): the field scale of the case's start."""
+        from elastica_magnetic import PointDipoleField
+
+        source = PointDipoleField(self.moment * np.asarray(self.direction) / np.linalg.norm(self.direction),
+                                  self.position)
+        return float(np.linalg.norm(source.at(np.array([[rod_length], [0.0], [0.0]]))))
+
+    def describe(self, rod_length: float) -> str:
+        """The arm in words (mm, mm/s, mT)."""
+        mm = ", ".join(f"{1e3 * v:g}" for v in self.position)
+        box = " .. ".join("(" + ", ".join(f"{1e3 * v:g}" for v in row) + ")" for row in self.workspace)
+        return (f"a {self.moment:g} A m^2 magnet on an arm, starting at ({mm}) mm pointing "
+                f"{list(self.direction)}, its centre in {box} mm, at most {1e3 * self.max_speed:g} mm/s and "
+                f"{self.max_turn_rate:g} rad/s, kept {1e3 * self.min_clearance:g} mm from the rod; "
+                f"{1e3 * self.field_at_tip(rod_length):.3g} mT at the straight tip at the start")
+
     def to_dict(self) -> dict[str, Any]:
         """The ``[actuation]`` table."""
         return {"kind": self.kind, **self.arm_settings(), "min_clearance": self.min_clearance,

@@ -73,8 +73,12 @@ def check_case(case: Case, sag: bool = True) -> SpecCheck:
     """:func:`~elastica_magnetic.spec_check.check_robot` of a case's robot with its field limit
     (T), task kind and yardstick (m in 10 s; 0 is checked as none: no run of the case would be
     judged). ``sag``: simulate the sag into the ground (a few seconds)."""
-    return check_robot(case.robot, field_limit=case.field_limit, task_kind=case.task.kind,
-                       yardstick_m=case.yardstick.distance_10s, name=case.name,
+    # a magnet on an arm: the field its start pose makes at the straight tip sets the scale
+    field = (case.field_limit if case.field_actuated else
+             case.actuation.field_at_tip(float(case.robot.tables["robot"]["length"])))
+    return check_robot(case.robot, field_limit=field, task_kind=case.task.kind,
+                       yardstick_m=case.yardstick.distance_10s if case.field_actuated else None,
+                       name=case.name,
                        source=str(case.source), sag=sag)
 
 
@@ -82,12 +86,12 @@ def case_summary(case: Case, check: SpecCheck | None = None) -> str:
     """A compact, readable summary of a case: what it is, its actuation, task, training and
     yardstick, then the robot's check (``check``, default :func:`check_case` without the sag
     simulations). Per-element tables are summarized, not listed."""
-    a, t, tr = case.actuation, case.task, case.training
+    t, tr = case.task, case.training
     task = ", ".join(f"{k} {v:g}" if isinstance(v, float) else f"{k} {v}"
                      for k, v in t.to_dict().items() if k != "kind")
     lines = [
         f"{case.name}: {case.description}" if case.description else case.name,
-        f"  actuation    {_axes_text(a)}, training episodes from a {a.initial_field} field",
+        f"  actuation    {_actuation_text(case)}",
         f"  task         {t.kind} ({task})",
         f"  training     recipe {tr.recipe}, {tr.steps} steps per seed"
         + (f", TD3 settings {dict(tr.td3)}" if tr.td3 else ""),
@@ -96,6 +100,14 @@ def case_summary(case: Case, check: SpecCheck | None = None) -> str:
     ]
     check = check if check is not None else check_case(case, sag=False)
     return "\n".join(lines) + "\n" + format_check(check)
+
+
+def _actuation_text(case: Case) -> str:
+    """The actuation in words: the field's axes, limits and increments, or the magnet's arm."""
+    a = case.actuation
+    if not case.field_actuated:
+        return a.describe(float(case.robot.tables["robot"]["length"]))
+    return f"{_axes_text(a)}, training episodes from a {a.initial_field} field"
 
 
 def _axes_text(a: Actuation) -> str:

@@ -111,3 +111,20 @@ def test_msr_train_runs_a_catheter_case(tmp_path, capsys):
     assert code == 0
     run = tmp_path / "runs" / "catheter" / "seed0"
     assert (run / "checkpoint.pt").is_file() and (run / "episodes.csv").is_file()
+
+
+def test_case_show_and_check_describe_the_arm(tmp_path, capsys):
+    from elastica_magnetic.cli import main as msr
+
+    path = tmp_path / "catheter.toml"
+    path.write_text(CATHETER_MAGNET_REACH)
+    capsys.readouterr()
+    assert msr(["case", "show", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "a 1 A m^2 magnet on an arm, starting at (90, 0, 0) mm" in out
+    assert "3.13 mT at the straight tip at the start" in out  # 2 x 1e-7 x 1 A m^2 / (40 mm)^3
+    assert "the tip within 1.0 mm of a target in its box in 2 s" in out and "yardstick" not in out
+    assert msr(["case", "show", str(path), "--toml"]) == 0
+    assert "target_box = [[0.04, 0.0, -0.01], [0.045, 0.015, 0.01]]" in capsys.readouterr().out
+    assert msr(["case", "check", str(path)]) == 0
+    assert "magnetic bending number" in capsys.readouterr().out
