@@ -646,8 +646,9 @@ def axis_limits_of(robot: str | Path) -> dict[str, float]:
 
 def spec_field_limit(spec: Mapping[str, Any], source: str = "<spec>") -> float | None:
     """The ``[actuation] field_limit`` (T) of a parsed spec, ``None`` without an ``[actuation]``
-    table or with a magnet on an arm (``kind = "magnet-pose"``); checked as the learning package checks it (a number in ``(0, 1]`` T; a list of one per
-    controlled axis gives the largest, the amplitude limit)."""
+    table or with a magnet on an arm (``kind = "magnet-pose"``); checked as the learning package
+    checks it (a number in ``(0, 1]`` T; a list of one per controlled axis gives the largest, the
+    amplitude limit)."""
     actuation = spec.get("actuation")
     if actuation is None or (isinstance(actuation, Mapping) and actuation.get("kind") == "magnet-pose"):
         return None  # a magnet on an arm: no coils, no field limit
