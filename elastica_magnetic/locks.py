@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import errno
 import json
 import os
 import re
@@ -47,6 +48,10 @@ __all__ = ["LOCK_SUFFIX", "FolderLock", "FolderLockedError", "claim", "command_l
 
 #: The end of a lock file's name: ``.NAME.msr-lock`` beside the folder ``NAME`` it locks.
 LOCK_SUFFIX = ".msr-lock"
+
+#: Open flag that refuses a symbolic link at the lock file's name (a link planted or left there
+#: would make msr overwrite the file it points to); 0 where the system has none.
+_NO_FOLLOW = getattr(os, "O_NOFOLLOW", 0)
 
 
 class FolderLockedError(OutputPathError):
@@ -230,6 +235,11 @@ class FolderLock:
         except OSError as exc:
             if isinstance(exc, OutputPathError):
                 raise
+            if exc.errno == errno.ELOOP or self.path.is_symlink():
+                raise OutputPathError(
+                    f"{self.option} {display_path(self.folder)}: the lock file's name {self.path} is a "
+                    f"symbolic link (to {os.readlink(self.path)}), not msr's lock file: msr does not "
+                    "follow it (the file it points to is left as it is); remove the link") from None
             raise OutputPathError(f"{self.option} {display_path(self.folder)}: cannot create the lock file "
                                   f"{self.path}: {exc.strerror or exc}") from None
         _held[str(self.path)] = _Held(self._fd)
@@ -237,7 +247,7 @@ class FolderLock:
 
     def _acquire_flock(self) -> int:
         for _ in range(100):
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT | _NO_FOLLOW, 0o644)
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
@@ -273,7 +283,7 @@ class FolderLock:
     def _acquire_exclusive(self) -> int:  # pragma: no cover - exercised on systems without fcntl
         for _ in range(100):
             try:
-                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL | _NO_FOLLOW, 0o644)
             except FileExistsError:
                 previous = read_lock(self.folder)
                 self._stale(previous, alive_unknown=True)

@@ -66,3 +66,18 @@ def test_an_unreadable_lock_file_is_taken_over_and_said(tmp_path):
         assert any("whose content is not an msr lock's" in note for note in lock.notes), lock.notes
     with FolderLock(folder) as lock:
         assert lock.notes == []
+
+
+def test_a_symbolic_link_at_the_lock_files_name_is_refused_and_its_target_left_alone(tmp_path):
+    """Round 13 D1: the lock file was opened through a link planted at its name, and the file the
+    link points to overwritten with the lock's JSON."""
+    from elastica_magnetic.io import OutputPathError
+
+    precious = tmp_path / "precious.txt"
+    precious.write_text("precious data")
+    folder = tmp_path / "out"
+    lock_path(folder).symlink_to(precious.name)
+    with pytest.raises(OutputPathError, match=r"is a symbolic link \(to precious.txt\), not msr's lock file"):
+        FolderLock(folder).acquire()
+    assert precious.read_text() == "precious data" and lock_path(folder).is_symlink()
+    assert not folder.exists()
