@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -16,8 +17,8 @@ from ..cases.case import Case
 from ..runfiles.provenance import versions
 from ..runfiles.rundir import RunDir
 
-__all__ = ["check_resume_settings", "first_difference", "run_metadata", "without_default_recipe",
-           "write_run_json"]
+__all__ = ["check_resume_settings", "first_difference", "recorded_run_settings", "run_metadata",
+           "without_default_recipe", "write_run_json"]
 
 
 def run_metadata(case: Case, physics: str, duration: float, seed: int, **extra: Any) -> dict:
@@ -33,6 +34,30 @@ def run_metadata(case: Case, physics: str, duration: float, seed: int, **extra: 
 _RUN_SETTINGS = ("case", "case_spec", "physics", "episode_duration_s", "recipe", "stop_rule", "envs")
 #: Values run.json repeats from elsewhere (what holds them), checked on resume.
 _RECORD_COPIES = {"seed": "folder (seed<k>)", "field_limit_T": "case_spec ([actuation] field_limit)"}
+
+
+#: Settings a resume takes from the runs' records when their options are left out (recorded key
+#: -> the sweep setting).
+RECORDED_WHEN_LEFT_OUT = {"recipe": "recipe", "episode_duration_s": "episode_duration"}
+
+
+def recorded_run_settings(run_dirs: Iterable[Path]) -> dict[str, Any]:
+    """The sweep settings (:data:`RECORDED_WHEN_LEFT_OUT`: recipe, episode length in s) the existing
+    runs of ``run_dirs`` were trained with, each where every record that has it agrees: a resume
+    that leaves the option out keeps the runs' value. Unreadable records are skipped (the resume's
+    checks name them)."""
+    found: dict[str, set[str]] = {key: set() for key in RECORDED_WHEN_LEFT_OUT}
+    for run_dir in run_dirs:
+        path = RunDir(run_dir).run_json
+        try:
+            record = read_json(path) if path.is_file() else {}
+        except (OSError, ValueError):
+            continue
+        for key in found:
+            if isinstance(record, dict) and key in record:
+                found[key].add(json.dumps(record[key]))
+    return {RECORDED_WHEN_LEFT_OUT[key]: json.loads(next(iter(values)))
+            for key, values in found.items() if len(values) == 1}
 
 
 def check_resume_settings(run_dir: Path, metadata: dict[str, Any],
@@ -67,7 +92,8 @@ def check_resume_settings(run_dir: Path, metadata: dict[str, Any],
                              "record was edited or damaged; restore it (e.g. from a backup)")
         elif key in record and key in metadata and record[key] != metadata[key]:
             raise ValueError(f"{options[key]} {metadata[key]} differs from the run's {record[key]} "
-                             f"({run_json}): a resumed run keeps its settings")
+                             f"({run_json}): a resumed run keeps its settings (give {options[key]} "
+                             f"{record[key]}, or leave the option out)")
     for key, what in _RECORD_COPIES.items():  # values the record repeats: an edit would be lost
         if key in record and key in metadata and record[key] != metadata[key]:
             raise ValueError(f"{run_json}: {key} is {record[key]!r} but the run's {what} gives "

@@ -43,7 +43,7 @@ from .jobs import GroupJob
 from .randomize_settings import randomized_cases
 from .rebalance import GroupRebalancing
 from .resume_checks import check_resumed_checkpoints, check_steps_left
-from .run_records import check_resume_settings, run_metadata, write_run_json
+from .run_records import check_resume_settings, recorded_run_settings, run_metadata, write_run_json
 from .stop_settings import (
     case_stop_rule,
     check_resumed_stop_rules,
@@ -229,6 +229,12 @@ def train_cases(
     """
     s = dataclasses.replace(settings or SweepSettings(), **changes)
     loaded = _load_cases(cases)
+    if s.resume:  # options left out keep the runs' recorded values
+        seeds = range(s.seed_offset, s.seed_offset + s.seeds)
+        recorded = recorded_run_settings(CaseDir.of(s.out, case).seed(k).path
+                                         for case in loaded for k in seeds)
+        s = dataclasses.replace(s, **{key: value for key, value in recorded.items()
+                                      if getattr(s, key) is None})
     steps, episode_duration, recipe = _case_defaults(loaded, s.steps, s.episode_duration, s.recipe)
     loaded = randomized_cases(loaded, s.randomize, recipe)
     resolved = _Resolved(steps, episode_duration, recipe, steps_given=s.steps is not None)

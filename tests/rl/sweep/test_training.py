@@ -125,8 +125,9 @@ def test_recipe_is_recorded_and_a_resume_keeps_the_runs_settings(tmp_path, capsy
     assert load_checkpoint(run)["config"]["noise_color"] == 1.0
     before = (run / "episodes.csv").read_text()
     capsys.readouterr()
-    assert msr([*args, "--steps", "30", "--resume"]) == 2  # the case's recipe: pink-ln
-    assert "--recipe pink-ln differs from the run's pink" in capsys.readouterr().err
+    assert msr([*args, "--steps", "30", "--resume", "--recipe", "pink-ln"]) == 2
+    assert ("--recipe pink-ln differs from the run's pink (" in (err := capsys.readouterr().err)
+            and "(give --recipe pink, or leave the option out)" in err)
     args[args.index("--episode-duration") + 1] = "0.2"
     assert msr([*args, "--steps", "30", "--resume", "--recipe", "pink"]) == 2
     assert "--episode-duration 0.2 differs from the run's 0.1" in capsys.readouterr().err
@@ -339,3 +340,15 @@ def test_train_help_describes_every_recipe(capsys, monkeypatch):
     text = " ".join(capsys.readouterr().out.split())
     for name, line in RECIPE_SUMMARIES.items():
         assert f"{name}: {line}" in text
+
+
+def test_a_resume_that_leaves_options_out_keeps_the_runs_recipe_and_episode_length(tmp_path, capsys):
+    """Round 13 V1: ``--resume`` without ``--recipe`` and ``--episode-duration`` was refused as if
+    the defaults had been given; it now keeps the run's recorded values."""
+    args = ["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), "--set",
+            "learning_starts=10", "--set", "batch_size=8", "--set", "hidden_sizes=8", "--no-progress"]
+    assert msr([*args, "--steps", "20", "--recipe", "pink", "--episode-duration", "0.1"]) == 0
+    capsys.readouterr()
+    assert msr([*args, "--steps", "30", "--resume"]) == 0
+    record = json.loads((tmp_path / "m1-4mT" / "seed0" / "run.json").read_text())
+    assert record["recipe"] == "pink" and record["episode_duration_s"] == 0.1 and record["steps"] == 30
