@@ -28,6 +28,10 @@ HW_MAX_DAC_HALF_SPAN_V = 2.5
 HW_MAX_ABS_OFFSET_V = 0.5
 HW_MIN_TRANSCONDUCTANCE_A_PER_V = 0.01
 HW_MAX_TRANSCONDUCTANCE_A_PER_V = 100.0
+#: Slowest current slew (A/s) a coil driver plausibly has (host check only, not a hardware rating): a
+#: coil of 100 mH on 24 V slews 240 A/s; below 1 A/s the field would take seconds to follow a
+#: waveform of 100 rows per second (A/ms written where A/s is expected: 0.05 A/ms is 50 A/s).
+MIN_PLAUSIBLE_SLEW_A_PER_S = 1.0
 #: Largest 1-norm condition number of the actuation matrix (firmware and host alike).
 MAX_MATRIX_CONDITION = 100.0
 
@@ -175,6 +179,12 @@ def check_drive(tick_hz: float, dac_half_span_V: float, transconductance_A_per_V
             raise PlausibilityError(
                 f"{source}: current_limit_A[{i}] = {limit:g} A exceeds the hardware rating of "
                 f"{HW_MAX_CURRENT_A:g} A{hint}")
+        if slew < MIN_PLAUSIBLE_SLEW_A_PER_S:
+            raise PlausibilityError(
+                f"{source}: slew_limit_A_per_s[{i}] = {slew:g} A/s is below "
+                f"{MIN_PLAUSIBLE_SLEW_A_PER_S:g} A/s: the coil would need {limit / slew:.3g} s to reach "
+                f"its {limit:g} A limit, and no waveform of 100 rows per second would be played (A/ms "
+                f"written where A/s is expected? {slew:g} A/ms is {1e3 * slew:g} A/s)")
         if not slew <= HW_MAX_SLEW_A_PER_S:
             raise PlausibilityError(
                 f"{source}: slew_limit_A_per_s[{i}] = {slew:g} A/s exceeds the hardware rating of "

@@ -50,6 +50,10 @@ def write_calibration(tmp_path: Path, **changes: object) -> Path:
         ({"current_limit_A": [2400.0, 2.4, 2.4]},
          r"current_limit_A\[0\] = 2400 A exceeds the hardware rating of 20 A \(mA written"),
         ({"slew_limit_A_per_s": [50.0, 50000.0, 50.0]}, r"slew_limit_A_per_s\[1\] = 50000 A/s"),
+        # round 13 S1: A/ms written for A/s, a coil that would take 48 s to reach its limit
+        ({"slew_limit_A_per_s": [0.05, 50.0, 50.0]},
+         r"slew_limit_A_per_s\[0\] = 0.05 A/s is below 1 A/s: the coil would need 48 s "
+         r".* 0.05 A/ms is 50 A/s"),
         ({"input_offset_V": [0.0, 0.0, 12.0]}, r"input_offset_V\[2\] = 12 V exceeds \+-0.5 V"),
         ({"transconductance_A_per_V": [1000.0, 1.0, 1.0]}, r"transconductance_A_per_V\[0\] = 1000"),
         ({"dac_half_span_V": 5.0}, r"dac_half_span_V = 5 V exceeds the DAC8563's 2.5 V"),

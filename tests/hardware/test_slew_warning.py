@@ -23,9 +23,10 @@ RAMP_mT = np.array([[0.3 * k, 0.0, 0.0] for k in range(11)])
 
 
 def slow_calibration(tmp_path: Path) -> Path:
-    """yao2023 with a slew limit of 0.1 A/s on x and y (A/ms meant?), 0.05 A/s on z."""
+    """yao2023 with a slew limit of 5 A/s on x and y, 2 A/s on z: slow coils (a slew limit below
+    1 A/s is refused as a unit mistake: test_plausibility)."""
     data = json.loads(YAO2023.read_text())
-    data["slew_limit_A_per_s"] = [0.1, 0.1, 0.05]
+    data["slew_limit_A_per_s"] = [5.0, 5.0, 2.0]
     path = tmp_path / "slow.json"
     path.write_text(json.dumps(data))
     return path
@@ -40,12 +41,12 @@ def ramp_csv(tmp_path: Path) -> Path:
 def test_the_report_says_how_many_rows_and_by_how_much(tmp_path):
     report = clipping_report(load_calibration(slow_calibration(tmp_path)), RAMP_mT)
     assert report.rows == 0 and report.slew_rows == 10 and report.first_slew_row == 1
-    assert report.slew_limit_A_per_s == 0.1 and 14.9 < report.max_rate_A_per_s < 15.1
-    assert 2.9 < report.max_lag_mT < 3.0  # the 3 mT ramp end, less 10 x 0.001 A x 2 mT/A
+    assert report.slew_limit_A_per_s == 5.0 and 14.9 < report.max_rate_A_per_s < 15.1
+    assert 1.99 < report.max_lag_mT < 2.01  # the 3 mT ramp end, less 10 x 0.05 A x 2 mT/A
     assert re.fullmatch(r"10 row\(s\) slew-limited, first at data row 1: the waveform changes a current "
                         r"\(x coils\) "
-                        r"at up to 15\.\d+ A/s for a slew limit of 0\.1 A/s, so the field lags it by "
-                        r"up to 2\.98 mT", report.describe_slew())
+                        r"at up to 15\.\d+ A/s for a slew limit of 5 A/s, so the field lags it by "
+                        r"up to 2 mT", report.describe_slew())
 
 
 def test_export_firmware_warns_of_slew_limited_rows(tmp_path, capsys):
@@ -60,7 +61,7 @@ def test_export_firmware_warns_of_slew_limited_rows(tmp_path, capsys):
                "slew-limited, first at data row 1:")
     assert summary["warnings"][0].startswith(warning)
     assert captured.err.startswith(f"msr real firmware: warning: {warning}")
-    assert "so the field lags it by up to 2.98 mT; check the calibration's slew_limit_A_per_s (A/s), " \
+    assert "so the field lags it by up to 2 mT; check the calibration's slew_limit_A_per_s (A/s), " \
            "or slow the waveform" in captured.err
 
 
