@@ -194,8 +194,17 @@ def field_source(table: Mapping[str, Any], base: Path = Path("."), source: str =
 Strength = Callable[[float], float] | None
 
 
+def _refuse_no_field(t: SpecTable, key: str, value: str) -> None:
+    """A source that makes no field anywhere: the rod would feel nothing, and the run would report
+    the unloaded rod as if it were the source's result."""
+    raise t.error(key, f"{value}: this source makes no field anywhere, so the rod would feel nothing; "
+                       f"give its {key} (docs/spatial_fields.md)")
+
+
 def _read_dipole(t: SpecTable, out: dict[str, Any]) -> None:
     out["moment"] = t.vector("moment", "A m^2", 3)
+    if not any(out["moment"]):
+        _refuse_no_field(t, "moment", "[0, 0, 0] A m^2")
     t.check_plausible("moment", _norm(out["moment"]), "magnetic moment", "|moment|")
 
 
@@ -211,6 +220,8 @@ def _build_dipole(table: Mapping[str, Any], pose: Any, strength: Strength, base:
 
 def _read_gradient(t: SpecTable, out: dict[str, Any]) -> None:
     out["gradient"] = _matrix3(t, "gradient", "T/m")
+    if not any(v for row in out["gradient"] for v in row):
+        _refuse_no_field(t, "gradient", "every entry 0 T/m")
     t.check_plausible("gradient", max(abs(v) for row in out["gradient"] for v in row), "gradient",
                       "its largest |dB_i/dx_j|")
 
@@ -222,6 +233,8 @@ def _build_gradient(table: Mapping[str, Any], pose: Any, strength: Strength, bas
 def _read_map(t: SpecTable, out: dict[str, Any]) -> None:
     out["file"] = t.string("file")
     out["scale"] = t.number("scale", "1", 1.0)
+    if out["scale"] == 0.0:
+        _refuse_no_field(t, "scale", "0 (every sample of the map times 0)")
     for key, known in (("length_unit", EXPORT_LENGTH_UNITS), ("field_unit", EXPORT_FIELD_UNITS)):
         unit = t.string(key, None, choices=tuple(known))
         if unit is not None:
@@ -301,6 +314,8 @@ def _build_cylinder(table: Mapping[str, Any], pose: Any, strength: Strength, bas
 def _read_coil(t: SpecTable, out: dict[str, Any]) -> None:
     out["radius"] = t.number("radius", "m", low=0.0, low_open=True, plausible="coil radius")
     out["current"] = t.number("current", "A", plausible="coil current")
+    if out["current"] == 0.0:
+        _refuse_no_field(t, "current", "0 A")
     out["turns"] = t.number("turns", "turns", 1.0, low=0.0, low_open=True)
     _read_axis(t, out)
 

@@ -122,6 +122,15 @@ def test_a_field_map_file_is_found_next_to_the_spec(tmp_path):
      r"\[field\] gradient: expected 3 rows of 3 finite numbers \(T/m\)"),
     ('[field]\nkind = "constant-gradient"\ngradient = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]\n',
      r"spec.toml: \[field\]: gradient must be traceless"),
+    # round 13 S2: sources that make no field anywhere (the unloaded rod reported as their result)
+    ('[field]\nkind = "point-dipole"\nmoment = [0, 0, 0]\n',
+     r"\[field\] moment: \[0, 0, 0\] A m\^2: this source makes no field anywhere"),
+    ('[field]\nkind = "current-loop"\nradius = 0.05\ncurrent = 0.0\n',
+     r"\[field\] current: 0 A: this source"),
+    ('[field]\nkind = "constant-gradient"\ngradient = [[0, 0, 0], [0, 0, 0], [0, 0, 0]]\n',
+     r"\[field\] gradient: every entry 0 T/m: this source makes no field"),
+    ('[field]\nkind = "field-map"\nfile = "nowhere.npz"\nscale = 0.0\n',
+     r"\[field\] scale: 0 \(every sample"),
 ])
 def test_bad_field_tables_name_the_key(table, message):
     with pytest.raises(SpecError, match=message):
