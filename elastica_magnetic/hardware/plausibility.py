@@ -133,8 +133,10 @@ def check_matrix(matrix: Sequence[Sequence[float]], source: str) -> None:
     PlausibilityError
         A diagonal entry outside :data:`COIL_CONSTANT_RANGE_T_PER_A` or an off-diagonal one above
         it (the likely unit mistake named), or a condition number above
-        :data:`MAX_MATRIX_CONDITION`.
+        :data:`MAX_MATRIX_CONDITION`; swapped channels first (:func:`check_coil_axes`: a swap
+        leaves a diagonal entry near 0, which is no unit mistake).
     """
+    check_coil_axes(matrix, source)
     for i, row in enumerate(matrix):
         for j, value in enumerate(row):
             problem = _matrix_entry_problem(float(value), f"actuation_matrix_T_per_A[{i}][{j}]",

@@ -46,6 +46,9 @@ def write_calibration(tmp_path: Path, **changes: object) -> Path:
          r"\[0\]\[0\] = 2e-06 T/A is outside .*T/A is expected"),
         ({"actuation_matrix_T_per_A": [[2e-3, 1.98e-3, 0], [1.98e-3, 2e-3, 0], [0, 0, 2e-3]]},
          r"ill conditioned \(condition number 199 > 100\)"),
+        # round 13 V2: rows y and z exchanged by hand, no cross-coupling: named as a swap, not units
+        ({"actuation_matrix_T_per_A": [[2e-3, 0, 0], [0, 0, 1.8e-3], [0, 2e-3, 0]]},
+         r"coil y \(current_y_A\) makes 2 mT/A along z but 0 T/A along y, its own axis: .* swapped"),
         ({"tick_hz": 1000.0}, r"tick_hz = 1000, but the firmware ticks at a fixed 100 Hz"),
         ({"current_limit_A": [2400.0, 2.4, 2.4]},
          r"current_limit_A\[0\] = 2400 A exceeds the hardware rating of 20 A \(mA written"),
