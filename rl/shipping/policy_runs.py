@@ -19,7 +19,7 @@ from elastica_magnetic.io import atomic_write_json
 from ..cases.case import Case
 from ..cases.tasks import GotoTask, ReachTask
 from ..envs.env import make_env
-from ..runfiles.rundir import CaseDir, RunDir
+from ..runfiles.rundir import CaseDir, RunDir, being_written_hint
 from .baselines import RotatingFieldPolicy
 from .policy_files import LoadedPolicy, resolve_policy
 
@@ -149,8 +149,12 @@ def evaluate_checkpoint(path: Path, cached: dict[str, Any], duration: float,
 
 def seed_run_dirs(case_dir: Path) -> list[tuple[int, Path]]:
     """``(seed, run_dir)`` of every ``case_dir/seed<k>/`` holding a checkpoint, ordered by seed."""
-    seeds = [(seed, run.path) for seed, run in CaseDir(case_dir).seeds() if run.has_checkpoint()]
+    present = CaseDir(case_dir).seeds()
+    seeds = [(seed, run.path) for seed, run in present if run.has_checkpoint()]
     if not seeds:
+        writing = [f"{run.path}: {hint}" for _, run in present if (hint := being_written_hint(run.path))]
+        if writing:  # a seed another command trains, before its first checkpoint
+            raise FileNotFoundError(f"{case_dir}: no {RunDir.CHECKPOINT} yet: {'; '.join(writing)}")
         raise FileNotFoundError(f"{case_dir}: no {CaseDir.SEED_PREFIX}<k>/{RunDir.CHECKPOINT} to "
                                 "evaluate")
     return seeds

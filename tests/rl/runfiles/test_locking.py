@@ -82,9 +82,11 @@ def test_round12_v4_a_seed_being_trained_is_named_by_its_readers(tmp_path, capsy
             ["refine", str(seed), "--steps", "5", "--out", str(tmp_path / "rf"), "--no-progress"],
             ["policy", "generate", str(seed), "--no-figures", "--no-gif", "--duration", "0.1",
              "--out", str(tmp_path / "g"), "--no-progress"],
+            # round 13 V3: export-seeds said only "no seed<k>/checkpoint.pt to evaluate"
+            ["policy", "export-seeds", str(seed.parent), "--out", str(tmp_path / "es"), "--no-progress"],
         )
         for argv in commands:
             assert main(argv) != 0, argv
             err = capsys.readouterr().err
             assert f"being written by another msr command, pid {pid} on" in err, (argv, err)
-    assert not (tmp_path / "rf").exists() and not (tmp_path / "g").exists()
+    assert not any((tmp_path / name).exists() for name in ("rf", "g", "es"))
