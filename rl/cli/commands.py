@@ -458,6 +458,10 @@ def _baseline_sweep(args: argparse.Namespace) -> int:
                 from None
         if not all(math.isfinite(p) and p > 0 for p in periods):
             raise CommandError(f"--periods must be positive finite times in s, got {args.periods!r}")
+        twice = sorted({p for p in periods if periods.count(p) > 1})
+        if twice:  # each would be simulated again (minutes each in the accurate physics)
+            raise CommandError(f"--periods: {', '.join(f'{p:g}' for p in twice)} s given twice; give each "
+                               "period once")
     if args.counterclockwise:
         raise CommandError("--counterclockwise needs --period (the sweep tries both directions)")
     try:

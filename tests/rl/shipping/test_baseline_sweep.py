@@ -113,6 +113,11 @@ def test_periods_longer_than_the_run_are_refused_or_left_out(tmp_path, capsys):
     sweep = json.loads(captured.out)
     assert {r["period_s"] for r in sweep["runs"]} == {0.3}
     assert sweep["dropped_periods_s"] == [1.0]
+    # round 13 S3: a period given twice was simulated twice (duplicate rows, twice the cost)
+    assert msr(["field", "baseline", "--case", "m1-4mT", "--periods", "0.3,0.5,0.3", "--out",
+                str(tmp_path / "twice"), *short]) == 2
+    assert "--periods: 0.3 s given twice; give each period once" in capsys.readouterr().err
+    assert not (tmp_path / "twice").exists()
 
 
 def test_the_rate_limit_is_blamed_only_when_it_is_the_cause():
