@@ -67,6 +67,11 @@ class CommandError(Exception):
     """An error to report to the user as one clear line (exit status 2)."""
 
 
+#: SI units whose thousandth a value is often written in by mistake (mT for T, mm for m, ms for s,
+#: mA for A): an option given 1000x its range is refused naming the slip.
+_MILLI_SLIPS = ("T", "m", "s", "A")
+
+
 def number(
     unit: str,
     low: float | None = None,
@@ -102,8 +107,19 @@ def number(
         if ok and high is not None:
             ok = value < high if high_open else value <= high
         if not ok:
-            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}")
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}{milli_hint(value)}")
         return value
+
+    def milli_hint(value: float) -> str:
+        """Where a value 1000x too large fits the range as a thousandth (mT for T, mm for m):
+        the likely slip, named."""
+        if unit not in _MILLI_SLIPS or high is None or not (math.isfinite(value) and value > high):
+            return ""
+        small = value * 1e-3
+        if (low is not None and not (small > low if low_open else small >= low)) or not (
+                small < high if high_open else small <= high):
+            return ""
+        return f" (m{unit} written where {unit} is expected? {value:g} m{unit} is {small:g} {unit})"
 
     parse.__name__ = f"number ({unit})" if unit else "number"
     return parse

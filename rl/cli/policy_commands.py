@@ -347,6 +347,9 @@ def _read_markdown(path: Path, option: str) -> str:
 
     if path.is_dir():
         raise CommandError(f"{option} {path}: is a folder, expected a Markdown file")
+    if path.exists() and not path.is_file():  # /dev/null, a pipe: not a file to keep notes from
+        raise CommandError(f"{option} {path}: not a regular file, expected a Markdown file (to remove "
+                           "the notes, give --clear)")
     if not path.is_file():
         raise CommandError(f"{option} {path}: no such file")
     try:
