@@ -25,6 +25,7 @@ from .forcing import (
     evaluate_field,
 )
 from .ground import FrictionalGroundContact
+from .insertion import Advancer, InsertionClamp
 from .interaction import MagneticInteraction
 from .magnet_fields import CuboidMagnetField, CylinderMagnetField
 from .magnetization import (
@@ -91,6 +92,7 @@ __all__ = [
     "UniformField",
     "write_field_csv",
     # fields: varying in space (magnets, coils, maps) and their actuators
+    "Advancer",
     "CoilCurrents",
     "ConstantGradientField",
     "CuboidMagnetField",
@@ -101,6 +103,7 @@ __all__ = [
     "FieldSum",
     "HelmholtzCoils",
     "MagnetBearingSteering",
+    "InsertionClamp",
     "MagnetPose",
     "MaxwellCoils",
     "PointDipoleField",

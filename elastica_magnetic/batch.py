@@ -36,6 +36,7 @@ Units: those of the spec (SI for the presets): m, kg, s, N, T.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -73,8 +74,9 @@ from ._batch_kernels import (
 from ._spatial_kernels import MOTION_SIZE
 from .actuation import MovedDipoleField
 from .forcing import FieldValueError, MagneticTorques
+from .insertion import Advancer
 from .robot_spec import RobotSpec
-from .simulation import SimulationDivergedError, robot_rod, trajectory_row
+from .simulation import SimulationDivergedError, constrain_base, robot_rod, trajectory_row
 from .spatial_fields import is_spatial
 
 __all__ = ["BatchedRobots", "BatchedRobotSimulator", "BatchedSimulationDivergedError",
@@ -156,6 +158,9 @@ class BatchedRobots:
         Clamp each robot's first node and element (position and directors), as
         :func:`~elastica_magnetic.build_simulation` does with ``clamp=True``: a catheter held
         at its base.
+    advancers : list, optional
+        With ``clamp``: each robot's insertion stage (:class:`~elastica_magnetic.insertion.Advancer`,
+        or ``None``), pushing its clamped base along its axis on the robot's own clock.
 
     Attributes
     ----------
@@ -190,6 +195,7 @@ class BatchedRobots:
         max_speed: float | None = None,
         sources: list[Any] | None = None,
         clamp: bool = False,
+        advancers: list[Advancer | None] | None = None,
     ) -> None:
         if int(n_robots) != n_robots or n_robots < 1:
             raise ValueError(f"n_robots must be a positive integer, got {n_robots!r}")
@@ -208,6 +214,10 @@ class BatchedRobots:
             self.fields = fields  # type: ignore[assignment]
         self.specs = [spec] * n_robots
         self.clamp = bool(clamp)
+        if advancers is not None and (not self.clamp or len(advancers) != n_robots):
+            raise ValueError(f"advancers push clamped bases: give clamp=True and one per robot ({n_robots}, "
+                             "None for a robot without one)")
+        self.advancers = list(advancers) if advancers is not None else [None] * n_robots
         self.simulator, self.rods = self._build_simulator()
         self.block = self._locate_robots()
         self._moments = np.zeros((3, self.block.n_elems))
@@ -269,8 +279,8 @@ class BatchedRobots:
             rod = robot_rod(self.spec)
             simulator.append(rod)
             if self.clamp:  # as build_simulation(..., clamp=True) holds a catheter's base
-                simulator.constrain(rod).using(
-                    ea.OneEndFixedBC, constrained_position_idx=(0,), constrained_director_idx=(0,))
+                i = len(rods)
+                constrain_base(simulator, rod, self.advancers[i], clock=functools.partial(self._own_time, i))
             rods.append(rod)
         simulator.add_forcing_to(rods[0]).using(_BlockForcing, owner=self)
         simulator.finalize()
@@ -356,9 +366,16 @@ class BatchedRobots:
         dt, plus dt / 2), so that both round alike."""
         dt = self.spec.dt
         index = self._step_index
-        if time == index * dt + 0.5 * dt:
+        half = index * dt + 0.5 * dt
+        if time == half:  # the forcing, and the constraints after the first half step
             return np.where(behind == 0, time, (index - behind) * dt + 0.5 * dt)[()]
+        if time == half + 0.5 * dt:  # the constraints after the second half step
+            return np.where(behind == 0, time, (index - behind) * dt + 0.5 * dt + 0.5 * dt)[()]
         return time - behind * dt
+
+    def _own_time(self, i: int, time: float) -> float:
+        """Robot ``i``'s time (s) when the block's stepper is at ``time`` (its constraints' clock)."""
+        return self._robot_time(time, self.step_count - int(self.robot_step_count[i]))
 
     def _gather_moved_magnets(self) -> None:
         """Each arm's motion over the coming steps (set by its ``apply`` between steps), and how many

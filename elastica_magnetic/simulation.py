@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import elastica as ea
 import numpy as np
@@ -18,6 +19,7 @@ from numpy.typing import NDArray
 
 from .forcing import LegacyInternalDamping, MagneticTorques, RelativeVelocityDamping
 from .ground import FrictionalGroundContact
+from .insertion import Advancer, InsertionClamp
 from .interaction import MagneticInteraction
 from .robot_spec import RobotSpec
 from .section import rectangular_band_rod
@@ -254,9 +256,22 @@ def register_robot_forcing(
         )
 
 
+def constrain_base(simulator: Any, rod: Any, advancer: Advancer | None = None,
+                   clock: Any = None) -> None:
+    """Clamp ``rod``'s first node and element in ``simulator`` (before it is finalized): held where
+    they are built, or, with an ``advancer``, moved along its axis by its insertion (``clock``: the
+    advancer's time from the simulator's)."""
+    if advancer is None:
+        simulator.constrain(rod).using(
+            ea.OneEndFixedBC, constrained_position_idx=(0,), constrained_director_idx=(0,))
+        return
+    simulator.constrain(rod).using(InsertionClamp, constrained_position_idx=(0,),
+                                   constrained_director_idx=(0,), advancer=advancer, clock=clock)
+
+
 def build_simulation(
     spec: RobotSpec, field_source: FieldFunction, *, max_speed: float | None = None,
-    clamp: bool = False,
+    clamp: bool = False, advancer: Advancer | None = None,
 ) -> RobotSimulation:
     """Build and finalize the simulator of ``spec`` driven by ``field_source``.
 
@@ -273,6 +288,9 @@ def build_simulation(
     clamp : bool
         Clamp the rod's first node and element (position and directors), e.g. a catheter held at
         its base.
+    advancer : Advancer, optional
+        With ``clamp``: an insertion stage (:class:`~elastica_magnetic.insertion.Advancer`) that
+        pushes the clamped base along its axis (:class:`~elastica_magnetic.insertion.InsertionClamp`).
     """
     spatial = is_spatial(field_source)
     if not (callable(field_source) or spatial):
@@ -284,10 +302,10 @@ def build_simulation(
     simulator = MagneticRodSimulator()
     rod = robot_rod(spec)
     simulator.append(rod)
+    if advancer is not None and not clamp:
+        raise ValueError("an advancer pushes a clamped base: give clamp=True with it")
     if clamp:
-        simulator.constrain(rod).using(
-            ea.OneEndFixedBC, constrained_position_idx=(0,), constrained_director_idx=(0,)
-        )
+        constrain_base(simulator, rod, advancer)
     plane = ground_plane(spec)
     if plane is not None:
         simulator.append(plane)

@@ -362,3 +362,56 @@ def test_a_magnet_on_a_batched_rod_is_named():
     robots = BatchedRobots(spec, n_robots=2, sources=[None, arm.source], clamp=True)
     with pytest.raises(FieldValueError, match=r"robot 1: its magnet \(MagnetPose\).*element 5"):
         robots.step(1)
+
+
+def test_batched_catheters_on_insertion_stages_match_per_rod_simulations_bit_for_bit():
+    """Issue 53: each robot's clamped base pushed along its axis by its own advancer (and bent by
+    its arm's magnet) follows the per-rod simulation of the same commands to the last bit, a robot
+    reset mid-run included; the base sits where the stage's insertion puts it, within its travel."""
+    from elastica_magnetic import Advancer
+
+    spec = _catheter_in_training_physics()
+    arms, twins = [_arm(0.09), _arm(0.1)], [_arm(0.09), _arm(0.1)]
+    stages = [Advancer((-0.005, 0.02), max_speed=0.02) for _ in range(2)]
+    twin_stages = [Advancer((-0.005, 0.02), max_speed=0.02) for _ in range(2)]
+    robots = BatchedRobots(spec, n_robots=2, sources=[a.source for a in arms], clamp=True, advancers=stages)
+    sims = [build_simulation(spec, t.source, clamp=True, advancer=s)
+            for t, s in zip(twins, twin_stages, strict=True)]
+    rng = np.random.default_rng(5)
+    for step in range(40):
+        if step == 25:
+            robots.reset_robot(1)
+            for thing in (arms[1], twins[1], stages[1], twin_stages[1]):
+                thing.reset()
+            sims[1] = build_simulation(spec, twins[1].source, clamp=True, advancer=twin_stages[1])
+        actions = rng.uniform(-1.0, 1.0, (2, 6))
+        actions[:, 5] = 1.0  # push in
+        for i in range(2):
+            arms[i].apply(actions[i, :5], robots.robot_time(i), 0.01)
+            stages[i].apply(actions[i, 5:], robots.robot_time(i), 0.01)
+            twins[i].apply(actions[i, :5], sims[i].time, 0.01)
+            twin_stages[i].apply(actions[i, 5:], sims[i].time, 0.01)
+        robots.step(spec.steps_per_action)
+        for sim in sims:
+            sim.step(spec.steps_per_action)
+    for i, sim in enumerate(sims):
+        _assert_same_state(robots.rod(i), sim.rod, f"robot {i}")
+    assert stages[0].insertion_at(robots.robot_time(0)) == pytest.approx(0.008)  # 40 x 0.2 mm
+    assert robots.rod(0).position_collection[0, 0] == pytest.approx(0.008, abs=1e-12)
+    assert robots.rod(1).position_collection[0, 0] == pytest.approx(0.003, abs=1e-12)  # 15 steps since reset
+
+
+def test_an_advancer_stops_at_the_ends_of_its_travel_and_checks_its_values():
+    from elastica_magnetic import Advancer
+
+    stage = Advancer((-0.002, 0.003), max_speed=0.1)
+    stage.apply([1.0], 0.0, 0.01)  # 1 mm asked, 1 mm left... then the end
+    stage.apply([1.0], 0.01, 0.01)
+    stage.apply([1.0], 0.02, 0.01)
+    assert stage.insertion_at(0.03) == pytest.approx(0.003) and stage.speed_at(0.025) == pytest.approx(0.1)
+    stage.apply([-1.0], 0.03, 0.1)
+    assert stage.insertion_at(1.0) == pytest.approx(-0.002)
+    with pytest.raises(ValueError, match="low <= 0 <= high"):
+        Advancer((0.01, 0.02), max_speed=0.1)
+    with pytest.raises(ValueError, match="clamp=True"):
+        build_simulation(_catheter_in_training_physics(), lambda t: np.zeros(3), advancer=stage)
