@@ -78,6 +78,14 @@ class Advancer:
                      self.travel[1])
         self._s0, self._velocity, self._t0, self._span = s, (target - s) / dt, float(time), float(dt)
 
+    def motion(self) -> list[float]:
+        """The command being followed: ``[s0 (m), velocity (m/s), t0 (s), span (s)]`` (to save it)."""
+        return [self._s0, self._velocity, self._t0, self._span]
+
+    def set_motion(self, values: ArrayLike) -> None:
+        """Restore a :meth:`motion`."""
+        self._s0, self._velocity, self._t0, self._span = (float(v) for v in np.asarray(values).reshape(4))
+
     def _elapsed(self, time: float) -> float:
         return min(max(float(time) - self._t0, 0.0), self._span)
 

@@ -263,6 +263,12 @@ class FolderLock:
             if not same:  # the owner released (unlinked) it between our open and flock: retry
                 os.close(fd)
                 continue
+            if os.fstat(fd).st_nlink > 1:  # a hard link to someone's file: writing would change it
+                os.close(fd)
+                raise OutputPathError(
+                    f"{self.option} {display_path(self.folder)}: the lock file {self.path} has other "
+                    "names (hard links): it is another file's, not msr's lock file; msr leaves it as it "
+                    "is; remove that name")
             try:
                 previous = read_lock(self.folder)
                 # flock is held: whoever wrote ``previous`` on this host is gone.

@@ -81,3 +81,16 @@ def test_a_symbolic_link_at_the_lock_files_name_is_refused_and_its_target_left_a
         FolderLock(folder).acquire()
     assert precious.read_text() == "precious data" and lock_path(folder).is_symlink()
     assert not folder.exists()
+
+
+def test_a_hard_link_at_the_lock_files_name_is_refused_and_its_file_left_alone(tmp_path):
+    """Round 13 D1 (its other half): a hard link at the lock's name shares the user's file."""
+    from elastica_magnetic.io import OutputPathError
+
+    precious = tmp_path / "precious.txt"
+    precious.write_text("precious data")
+    folder = tmp_path / "out"
+    os.link(precious, lock_path(folder))
+    with pytest.raises(OutputPathError, match=r"has other names \(hard links\)"):
+        FolderLock(folder).acquire()
+    assert precious.read_text() == "precious data" and lock_path(folder).exists()

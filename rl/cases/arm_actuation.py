@@ -15,7 +15,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from elastica_magnetic import MagnetPose
+from elastica_magnetic import Advancer, MagnetPose
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 from elastica_magnetic.spatial_fields import SpatialFieldError
 from elastica_magnetic.specfile import SpecTable
@@ -27,8 +27,7 @@ __all__ = ["ACTUATION_KINDS", "MAGNET_ARM_OBSERVATION", "MagnetArm", "NotFieldAc
 ACTUATION_KINDS = ("field", "magnet-pose")
 #: What a field actuation has and a magnet arm has not (asked of a magnet arm, they name the mismatch).
 _FIELD_ACTUATION_NAMES = frozenset({"field_limit", "max_increment", "initial_field", "axes", "axis_limits",
-                                    "axis_increments", "n_axes", "limits", "increments",
-                                    "observation_blocks"})
+                                    "axis_increments", "n_axes", "limits", "increments"})
 #: The observation of a magnet-arm case beyond the rod's node positions (3 per node): the tip's
 #: velocity, the magnet's position and direction (3 each; ``rl/envs/catheter_env.py``).
 MAGNET_ARM_OBSERVATION = (("tip_velocity", 3), ("magnet_position", 3), ("magnet_direction", 3))
@@ -44,7 +43,9 @@ class MagnetArm:
     the keywords of :class:`~elastica_magnetic.MagnetPose` (``moment`` A m^2; ``position`` m and
     ``direction`` at the start of each episode; ``workspace`` m; ``max_speed`` m/s;
     ``max_turn_rate`` rad/s), the nearest the magnet may come to the rod (``min_clearance``, m: an
-    episode ends there) and the control rate (Hz)."""
+    episode ends there), the control rate (Hz), and optionally an insertion stage that pushes the
+    rod's clamped base along +x (``insertion``: its travel ``(low, high)``, m, ``low <= 0 <=
+    high``; ``insertion_speed``, m/s): a sixth action component."""
 
     kind: ClassVar[str] = "magnet-pose"
     moment: float
@@ -55,6 +56,23 @@ class MagnetArm:
     max_turn_rate: float = 1.0
     min_clearance: float = 0.01
     control_rate: float = 1.0 / ACTION_PERIOD
+    insertion: tuple[float, float] | None = None
+    insertion_speed: float = 0.01
+
+    @property
+    def action_size(self) -> int:
+        """The policy's action: the arm's 5 commands, and the insertion stage's velocity."""
+        return MagnetPose.action_size + (self.insertion is not None)
+
+    @property
+    def observation_blocks(self) -> tuple[tuple[str, int], ...]:
+        """The observation's blocks after the rod's node positions (name, size):
+        :data:`MAGNET_ARM_OBSERVATION`, and the insertion (1) with a stage."""
+        return (*MAGNET_ARM_OBSERVATION, *((("insertion", 1),) if self.insertion is not None else ()))
+
+    def advancer(self) -> Advancer | None:
+        """A new insertion stage of this actuation (``None`` without one)."""
+        return None if self.insertion is None else Advancer(self.insertion, self.insertion_speed)
 
     def __getattr__(self, name: str) -> Any:
         if name in _FIELD_ACTUATION_NAMES:
@@ -89,8 +107,11 @@ class MagnetArm:
 
     def to_dict(self) -> dict[str, Any]:
         """The ``[actuation]`` table."""
-        return {"kind": self.kind, **self.arm_settings(), "min_clearance": self.min_clearance,
-                "control_rate": self.control_rate}
+        out = {"kind": self.kind, **self.arm_settings(), "min_clearance": self.min_clearance,
+               "control_rate": self.control_rate}
+        if self.insertion is not None:
+            out.update(insertion=list(self.insertion), insertion_speed=self.insertion_speed)
+        return out
 
 
 
@@ -131,7 +152,13 @@ def magnet_arm_from_table(t: SpecTable, rod_length: float) -> MagnetArm:
         max_turn_rate=t.number("max_turn_rate", "rad/s", d.max_turn_rate, low=0.0, low_open=True,
                                high=MAX_TURN_RATE),
         min_clearance=t.number("min_clearance", "m", d.min_clearance, low=0.0, low_open=True),
-        control_rate=t.number("control_rate", "Hz", d.control_rate, low=0.0, low_open=True))
+        control_rate=t.number("control_rate", "Hz", d.control_rate, low=0.0, low_open=True),
+        insertion=_insertion(t, rod_length),
+        insertion_speed=t.number("insertion_speed", "m/s", d.insertion_speed, low=0.0, low_open=True,
+                                 high=MAX_ARM_SPEED))
+    if t.has("insertion_speed") and arm.insertion is None:
+        raise t.error("insertion_speed", "is for an insertion stage: give its travel, insertion = "
+                                         "[low, high] (m)")
     if not math.isclose(arm.control_rate, 1.0 / ACTION_PERIOD):
         raise t.error("control_rate", f"only {1.0 / ACTION_PERIOD:g} Hz is supported (the environments' "
                                       f"0.01 s step), got {arm.control_rate:g}")
@@ -146,6 +173,23 @@ def magnet_arm_from_table(t: SpecTable, rod_length: float) -> MagnetArm:
                                   f"= {1e3 * arm.min_clearance:g} mm: every episode would end at its start")
     t.finish()
     return arm
+
+
+def _insertion(t: SpecTable, rod_length: float) -> tuple[float, float] | None:
+    """``insertion = [low, high]`` (m): the stage's travel along +x from the base's start."""
+    if not t.has("insertion"):
+        return None
+    low, high = t.vector("insertion", "m", 2)
+    if not (low <= 0.0 <= high and low < high):
+        raise t.error("insertion", f"[{low:g}, {high:g}] m must hold 0 (the rod starts where it is built) "
+                                   "with low < high")
+    if max(-low, high) > MAX_ARM_REACH:
+        raise t.error("insertion", f"[{low:g}, {high:g}] m: a travel beyond {MAX_ARM_REACH:g} m (mm written "
+                                   "as m?)")
+    if -low > rod_length:
+        raise t.error("insertion", f"{low:g} m pulls the base back more than the rod's length "
+                                   f"({rod_length:g} m)")
+    return (low, high)
 
 
 def _clearance_of_straight_rod(point: np.ndarray, length: float) -> float:

@@ -59,7 +59,6 @@ from elastica_magnetic.specfile import (
 
 from .arm_actuation import (
     ACTUATION_KINDS,
-    MAGNET_ARM_OBSERVATION,
     MagnetArm,
     magnet_arm_from_table,
 )
@@ -244,7 +243,7 @@ class Case:
         """Observation size: the robot's ``4 n + 4`` plus the actuation's and the task's extra
         blocks."""
         if isinstance(self.actuation, MagnetArm):  # the rod's node positions, then its blocks
-            extra = (*MAGNET_ARM_OBSERVATION, *self.task.extra_observation)
+            extra = (*self.actuation.observation_blocks, *self.task.extra_observation)
             return 3 * (self.n_elements + 1) + sum(size for _, size in extra)
         extra = (*self.actuation.observation_blocks, *self.task.extra_observation)
         return 4 * self.n_elements + 4 + sum(size for _, size in extra)

@@ -52,7 +52,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
-from elastica_magnetic import MagnetPose, RobotSpec
+from elastica_magnetic import Advancer, MagnetPose, RobotSpec
 from elastica_magnetic.batch import BatchedRobots, BatchedSimulationDivergedError
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
@@ -71,14 +71,16 @@ CATHETER_OBSERVATION_SCALES: dict[str, float] = {
     "tip_velocity": 10.0,  # per m/s
     "magnet_position": 100.0,  # per m
     "magnet_direction": 1.0,
+    "insertion": 100.0,  # per m
     "target_offset": 100.0,  # per m (the task's)
 }
 
 
-def catheter_observation_layout(n_elements: int) -> dict[str, slice]:
-    """Index slices of each observation block for a rod of ``n_elements`` elements."""
+def catheter_observation_layout(n_elements: int, insertion: bool = False) -> dict[str, slice]:
+    """Index slices of each observation block for a rod of ``n_elements`` elements (``insertion``:
+    with an insertion stage's block before the target's)."""
     sizes = (("node_positions", 3 * (int(n_elements) + 1)), ("tip_velocity", 3), ("magnet_position", 3),
-             ("magnet_direction", 3), ("target_offset", 3))
+             ("magnet_direction", 3), *((("insertion", 1),) if insertion else ()), ("target_offset", 3))
     out, start = {}, 0
     for name, size in sizes:
         out[name] = slice(start, start + size)
@@ -105,13 +107,18 @@ class CatheterReachVectorEnv(VectorEnv):
         m: a magnet nearer than this to a node of the rod ends the episode (terminated).
     divergence_penalty : float
         Reward of a step that ends an episode by a blow-up or a collision.
+    insertion : (float, float), optional
+        m: the travel of an insertion stage (:class:`~elastica_magnetic.Advancer`) that pushes each
+        rod's base along +x: the action gains a sixth component (its velocity, up to
+        ``insertion_speed`` m/s), the observation an ``insertion`` block (``100 * s``, m).
     """
 
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
 
     def __init__(self, num_envs: int, spec: RobotSpec, arm: Mapping[str, Any],
                  task: TipReachTask | None = None, min_clearance: float = 0.01,
-                 divergence_penalty: float = -10.0) -> None:
+                 divergence_penalty: float = -10.0, insertion: tuple[float, float] | None = None,
+                 insertion_speed: float = 0.01) -> None:
         if int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         if not (np.isfinite(min_clearance) and min_clearance > 0.0):
@@ -120,13 +127,16 @@ class CatheterReachVectorEnv(VectorEnv):
         self.spec, self.task = spec, task if task is not None else TipReachTask()
         self.arm_settings = dict(arm)
         self.arms = [MagnetPose(**self.arm_settings) for _ in range(self.num_envs)]
+        self.advancers = ([Advancer(insertion, insertion_speed) for _ in range(self.num_envs)]
+                          if insertion is not None else [])
+        self.action_size = MagnetPose.action_size + (1 if self.advancers else 0)
         self.min_clearance, self.divergence_penalty = float(min_clearance), float(divergence_penalty)
         self.max_episode_steps = max(1, round(self.task.episode_duration / ACTION_PERIOD))
-        self.layout = catheter_observation_layout(spec.n_elements)
+        self.layout = catheter_observation_layout(spec.n_elements, insertion=bool(self.advancers))
         size = self.layout["target_offset"].stop
         self.render_mode = None
         self.single_observation_space = spaces.Box(-np.inf, np.inf, (size,), np.float32)
-        self.single_action_space = spaces.Box(-1.0, 1.0, (MagnetPose.action_size,), np.float32)
+        self.single_action_space = spaces.Box(-1.0, 1.0, (self.action_size,), np.float32)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.robots: BatchedRobots | None = None
@@ -148,6 +158,10 @@ class CatheterReachVectorEnv(VectorEnv):
     def _base(self, i: int) -> NDArray[np.float64]:
         return self.robots.rods[i].position_collection[:, 0]
 
+    def insertion(self, i: int) -> float:
+        """m: how far robot ``i``'s base has been pushed (0 without an insertion stage)."""
+        return self.advancers[i].insertion_at(self.robots.robot_time(i)) if self.advancers else 0.0
+
     def _observe(self, i: int) -> NDArray[np.float32]:
         rod, arm, time = self.robots.rods[i], self.arms[i], self.robots.robot_time(i)
         base, tip = self._base(i), self.tip(i)
@@ -159,6 +173,8 @@ class CatheterReachVectorEnv(VectorEnv):
         position, direction = np.split(arm.state(time), 2)
         obs[layout["magnet_position"]] = scales["magnet_position"] * (position - base)
         obs[layout["magnet_direction"]] = direction
+        if self.advancers:
+            obs[layout["insertion"]] = scales["insertion"] * self.insertion(i)
         obs[layout["target_offset"]] = self.task.observe(tip, self._targets[i])
         return obs.astype(np.float32)
 
@@ -177,6 +193,8 @@ class CatheterReachVectorEnv(VectorEnv):
         """Robot ``i`` back straight at rest, its arm at the start pose, a new target."""
         self.robots.reset_robot(i)
         self.arms[i].reset()
+        if self.advancers:
+            self.advancers[i].reset()
         self.steps[i] = 0
         self._targets[i] = self.task.start(self.tip(i), self._rng(i), target)
         self._obs[i] = self._observe(i)
@@ -223,7 +241,7 @@ class CatheterReachVectorEnv(VectorEnv):
             if not mask.all():
                 raise RuntimeError("the first reset must reset every sub-environment")
             self.robots = BatchedRobots(self.spec, self.num_envs, sources=[a.source for a in self.arms],
-                                        clamp=True)
+                                        clamp=True, advancers=self.advancers or None)
         targets = options.get("target")
         if targets is not None and np.ndim(targets) == 2:  # one target per sub-environment
             if np.shape(targets) != (self.num_envs, 3):
@@ -242,12 +260,15 @@ class CatheterReachVectorEnv(VectorEnv):
         if self.robots is None:
             raise RuntimeError("call reset() before step()")
         n, robots = self.num_envs, self.robots
-        a = np.asarray(actions, dtype=np.float64).reshape(n, MagnetPose.action_size)
+        a = np.asarray(actions, dtype=np.float64).reshape(n, self.action_size)
         if not np.all(np.isfinite(a)):
             raise ValueError(f"actions must be finite, got {actions!r}")
         before = [self.tip(i) for i in range(n)]
         for i, arm in enumerate(self.arms):
-            arm.apply(a[i], robots.robot_time(i), ACTION_PERIOD)
+            arm.apply(a[i, :MagnetPose.action_size], robots.robot_time(i), ACTION_PERIOD)
+            if self.advancers:
+                self.advancers[i].apply(np.clip(a[i, MagnetPose.action_size:], -1.0, 1.0),
+                                        robots.robot_time(i), ACTION_PERIOD)
         diverged = np.zeros(n, dtype=bool)
         try:
             robots.step(self.spec.steps_per_action)
@@ -309,6 +330,7 @@ class CatheterReachVectorEnv(VectorEnv):
         return {"format": STATE_FORMAT, "num_envs": self.num_envs,
                 "block": {name: value.copy() for name, value in self.robots.base_arrays().items()},
                 "motions": np.stack([arm.motion.copy() for arm in self.arms]),
+                "stages": np.array([stage.motion() for stage in self.advancers]).reshape(-1, 4),
                 "steps": self.steps.copy(), "robot_step_count": self.robots.robot_step_count.copy(),
                 "step_count": int(self.robots.step_count), "obs": self._obs.copy(),
                 "targets": self._targets.copy(), "rngs": [r.bit_generator.state for r in self._rngs]}
@@ -326,6 +348,9 @@ class CatheterReachVectorEnv(VectorEnv):
             value[...] = np.asarray(state["block"][name])
         for arm, motion in zip(self.arms, np.asarray(state["motions"], dtype=np.float64), strict=True):
             arm.motion[:] = motion
+        for stage, saved in zip(self.advancers, np.asarray(state.get("stages", np.zeros((0, 4)))),
+                                strict=True):
+            stage.set_motion(saved)
         self.steps[:] = np.asarray(state["steps"])
         self.robots.robot_step_count[:] = np.asarray(state["robot_step_count"])
         self.robots.step_count = int(state["step_count"])
@@ -350,5 +375,7 @@ def make_catheter_env(case: Case, num_envs: int, physics: str = "training", dura
         raise ValueError(f"case {case.name!r}: domain randomization ([training.randomize], --randomize) "
                          "varies a crawler's robot; the catheter cases train on their nominal robot")
     task = case.task if duration is None else dataclasses.replace(case.task, episode_duration=float(duration))
-    return CatheterReachVectorEnv(num_envs, case.robot_spec(physics), case.actuation.arm_settings(), task,
-                                  min_clearance=case.actuation.min_clearance)
+    arm = case.actuation
+    return CatheterReachVectorEnv(num_envs, case.robot_spec(physics), arm.arm_settings(), task,
+                                  min_clearance=arm.min_clearance, insertion=arm.insertion,
+                                  insertion_speed=arm.insertion_speed)

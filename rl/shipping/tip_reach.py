@@ -37,9 +37,16 @@ def held_out_targets(case: Case, n: int = HELD_OUT_TARGETS, seed: int = HELD_OUT
     return np.random.default_rng(seed).uniform(low, high, size=(int(n), 3))
 
 
+#: 1/s: with an insertion stage, the yardstick commands its velocity as this gain times the gap
+#: between the target's and the tip's distance from the base's start (m), over the stage's top speed.
+INSERTION_GAIN = 5.0
+
+
 def steering_controller(env: CatheterReachVectorEnv) -> Controller:
     """The yardstick of a tip-reach case: the bearing steering law for each sub-environment's arm,
-    the magnet kept at its start distance from the straight tip."""
+    the magnet kept at its start distance from the straight tip; with an insertion stage, the
+    stage pushed or pulled until the tip is as far from the base's start as the target
+    (:data:`INSERTION_GAIN`)."""
     if not env.arms:
         raise ValueError("the environment has no arms")
     start = np.asarray(env.arm_settings["position"], dtype=np.float64)
@@ -48,8 +55,14 @@ def steering_controller(env: CatheterReachVectorEnv) -> Controller:
     laws = [MagnetBearingSteering(arm, base=[0.0, 0.0, 0.0], distance=distance) for arm in env.arms]
 
     def act(env: CatheterReachVectorEnv, obs: NDArray[np.float32]) -> NDArray[np.float64]:
-        return np.stack([law.action(env.tip(i), env.targets[i], env.robots.robot_time(i), 0.01)
-                         for i, law in enumerate(laws)])
+        steer = np.stack([law.action(env.tip(i), env.targets[i], env.robots.robot_time(i), 0.01)
+                          for i, law in enumerate(laws)])
+        if not env.advancers:
+            return steer
+        gap = np.linalg.norm(env.targets, axis=1) - np.array([np.linalg.norm(env.tip(i))
+                                                             for i in range(env.num_envs)])
+        push = np.clip(INSERTION_GAIN * gap / env.advancers[0].max_speed, -1.0, 1.0)
+        return np.concatenate([steer, push[:, None]], axis=1)
 
     return act
 
