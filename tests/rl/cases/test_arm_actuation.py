@@ -128,3 +128,40 @@ def test_case_show_and_check_describe_the_arm(tmp_path, capsys):
     assert "target_box = [[0.04, 0.0, -0.01], [0.045, 0.015, 0.01]]" in capsys.readouterr().out
     assert msr(["case", "check", str(path)]) == 0
     assert "magnetic bending number" in capsys.readouterr().out
+
+
+def test_an_insertion_stage_adds_an_action_and_an_observation():
+    case = quiet_load(spec(**{"actuation.insertion": [-0.01, 0.01], "actuation.insertion_speed": 0.02}))
+    arm = case.actuation
+    assert arm.insertion == (-0.01, 0.01) and arm.action_size == 6
+    assert case.obs_dim == 3 * 11 + 12 + 1
+    assert quiet_load(case.to_dict()).to_dict() == case.to_dict()
+    with pytest.raises(SpecError, match=r"insertion: \[0.01, 0.02\] m must hold 0"):
+        quiet_load(spec(**{"actuation.insertion": [0.01, 0.02]}))
+    with pytest.raises(SpecError, match=r"insertion_speed: is for an insertion stage"):
+        quiet_load(spec(**{"actuation.insertion_speed": 0.02}))
+    with pytest.raises(SpecError, match=r"insertion: .*mm written as m"):
+        quiet_load(spec(**{"actuation.insertion": [-10.0, 20.0]}))
+
+
+def test_the_insertion_stage_pushes_the_base_in_the_environment():
+    from elastica_magnetic_rl.envs.vector_env import make_vector_env
+
+    case = quiet_load(spec(**{"actuation.insertion": [-0.01, 0.01], "actuation.insertion_speed": 0.02}))
+    env = make_vector_env(case, 2, duration=1.0)
+    obs, _ = env.reset(seed=0)
+    assert env.action_space.shape == (2, 6) and obs.shape == (2, case.obs_dim)
+    push = np.zeros((2, 6))
+    push[:, 5] = [1.0, -1.0]
+    for _ in range(10):
+        obs, *_ = env.step(push)
+    assert env.insertion(0) == pytest.approx(0.002) and env.insertion(1) == pytest.approx(-0.002)
+    assert env.robots.rod(0).position_collection[0, 0] == pytest.approx(0.002, abs=1e-12)
+    layout = env.layout
+    assert obs[0, layout["insertion"]][0] == pytest.approx(0.2)  # 100 per m
+    state = env.get_state()
+    actions = np.random.default_rng(1).uniform(-1, 1, (3, 2, 6))
+    first = [env.step(a)[0] for a in actions]
+    other = make_vector_env(case, 2, duration=1.0)
+    other.set_state(state)
+    assert all(np.array_equal(a, other.step(b)[0]) for a, b in zip(first, actions, strict=True))

@@ -50,3 +50,17 @@ def test_the_steering_yardstick_closes_the_distance():
     straight = np.linalg.norm(targets - [0.05, 0.0, 0.0], axis=1)
     assert np.all(np.asarray(result["closest_distance_m"]) < 0.75 * straight)
     assert result["duration_s"] == 1.0 and len(result["success"]) == 2
+
+
+def test_with_an_insertion_stage_the_yardstick_reaches_targets_inside_the_sheet():
+    """The bearing law plus the stage pushed until the tip is as far from the base's start as the
+    target: targets inside the sheet a fixed-length catheter bends over come within 1 mm."""
+    data = tomllib.loads(CATHETER_MAGNET_REACH)
+    data["name"] = "catheter"
+    data["actuation"].update(insertion=[-0.01, 0.01], insertion_speed=0.01)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        c = load_case(data)
+    targets = np.array([[0.041, 0.011, 0.0086], [0.0444, 0.0017, -0.0032]])  # 6 and 5.4 mm inside
+    result = run_targets(c, targets, steering_controller, physics="training", duration=2.0)
+    assert max(result["closest_distance_m"]) < 1e-3
