@@ -402,7 +402,9 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     description = top.string("description", "")
     actuation = _actuation(top.table("actuation"), float(robot.tables["robot"]["length"]))
     _check_sideways_model(actuation, robot, spec, source)
-    task = task_from_table(top.table("task"), float(robot.tables["robot"]["length"]))
+    length = float(robot.tables["robot"]["length"])
+    stage = getattr(actuation, "insertion", None) if isinstance(actuation, MagnetArm) else None
+    task = task_from_table(top.table("task"), length, length + (stage[1] if stage else 0.0))
     _check_task_and_actuation(task, actuation, source)
     training = _training(top.table("training", required=False), source, robot)
     yardstick = _yardstick(top.table("yardstick", required=False),

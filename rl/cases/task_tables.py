@@ -26,9 +26,10 @@ MAX_YARDSTICK_BODY_LENGTHS = 100.0
 REWARD_PER_LENGTH_RANGE = (1.0, 1e6)
 
 
-def task_from_table(t: SpecTable, length: float) -> Task:
+def task_from_table(t: SpecTable, length: float, reach: float | None = None) -> Task:
     """The ``[task]`` table of a spec (``t``); ``length`` (m, the robot's) judges the reward scale
-    per body length and targets no crawler reaches."""
+    per body length and targets no crawler reaches; ``reach`` (m, default ``length``): how far from
+    the base's start a clamped rod's tip can get (its length plus an insertion stage's travel)."""
     kind = t.string("kind", choices=tuple(TASK_KINDS))
     cls = TASK_KINDS[kind]
     d = cls()
@@ -56,7 +57,7 @@ def task_from_table(t: SpecTable, length: float) -> Task:
     if cls is GotoTask:
         values.update(_goto_values(t, d, length, values["episode_duration"]))
     if cls is TipReachTask:
-        values.update(_tip_reach_values(t, d, length))
+        values.update(_tip_reach_values(t, d, length if reach is None else reach))
     t.finish()
     return cls(**values)
 
@@ -149,7 +150,7 @@ def _check_reward_scale(t: SpecTable, scale: float, length: float, papers: float
 
 def _tip_reach_values(t: SpecTable, d: TipReachTask, length: float) -> dict[str, Any]:
     """The tip-reach task's keys: ``target_box`` (m; the rod is clamped at the origin along +x, so
-    no target beyond its ``length`` from the base can be reached: a box wholly beyond is refused, one
+    no target beyond ``length`` (its reach) from the base can be reached: a box wholly beyond is refused, one
     partly beyond warned), ``tolerance`` (m), the reward's ``slow_zone`` (m) and ``speed_penalty``."""
     box = t.raw("target_box", [list(row) for row in d.target_box])
     if (not isinstance(box, list) or len(box) != 2 or any(
@@ -165,10 +166,11 @@ def _tip_reach_values(t: SpecTable, d: TipReachTask, length: float) -> dict[str,
                    for y in (low[1], high[1]) for z in (low[2], high[2]))
     if nearest > length:
         raise t.error("target_box", f"{box!r} m lies wholly beyond the rod's reach ({length:g} m from "
-                      "its clamped base at the origin): no target in it can be reached (mm written as m?)")
+                      "its clamped base's start at the origin): no target in it can be reached (mm written "
+                      "as m?)")
     if farthest > length:
         t.warn("target_box", f"part of {box!r} m lies beyond the rod's reach ({length:g} m from its "
-               "clamped base): targets drawn there cannot be reached")
+               "clamped base's start): targets drawn there cannot be reached")
     values = {
         "target_box": (tuple(low), tuple(high)),
         "tolerance": t.number("tolerance", "m", d.tolerance, low=0.0, low_open=True),

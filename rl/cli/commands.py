@@ -272,14 +272,17 @@ def case_list_command(args: argparse.Namespace) -> int:
         case = load_case(name)
         rows.append({"name": name, "robot": case.robot.name,
                      "magnetization": case.robot.tables["robot"]["magnetization"]["kind"],
-                     "field_limit_mT": 1e3 * case.field_limit, "task": case.task.kind,
-                     "target": case.target_label, "description": case.description})
+                     "actuation": "field" if case.field_actuated else case.actuation.kind,
+                     "field_limit_mT": 1e3 * case.field_limit if case.field_actuated else None,
+                     "task": case.task.kind, "target": case.target_label,
+                     "description": case.description})
     if args.json:
         print_result({"cases": rows}, True)
     else:
         for r in rows:
+            actuation = "magnet" if r["field_limit_mT"] is None else f"{r['field_limit_mT']:g} mT"
             print(f"{r['name']:<14} {r['robot']:<12} {r['magnetization']:<18} "
-                  f"{r['field_limit_mT']:>5g} mT  {r['task']:<6} target {r['target']}")
+                  f"{actuation:>8}  {r['task']:<6} target {r['target']}")
     return 0
 
 
