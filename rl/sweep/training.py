@@ -229,13 +229,14 @@ def train_cases(
     """
     s = dataclasses.replace(settings or SweepSettings(), **changes)
     loaded = _load_cases(cases)
-    if s.resume:  # options left out keep the runs' recorded values
+    recorded: dict[str, Any] = {}
+    if s.resume:  # options left out keep the runs' recorded values (as the runs' own defaults)
         seeds = range(s.seed_offset, s.seed_offset + s.seeds)
         recorded = recorded_run_settings(CaseDir.of(s.out, case).seed(k).path
                                          for case in loaded for k in seeds)
-        s = dataclasses.replace(s, **{key: value for key, value in recorded.items()
-                                      if getattr(s, key) is None})
-    steps, episode_duration, recipe = _case_defaults(loaded, s.steps, s.episode_duration, s.recipe)
+    duration = s.episode_duration if s.episode_duration is not None else recorded.get("episode_duration")
+    steps, episode_duration, recipe = _case_defaults(
+        loaded, s.steps, duration, s.recipe if s.recipe is not None else recorded.get("recipe"))
     loaded = randomized_cases(loaded, s.randomize, recipe)
     resolved = _Resolved(steps, episode_duration, recipe, steps_given=s.steps is not None)
     seed_list, groups, workers, configs, sweep = _plan_sweep(loaded, s, resolved)
