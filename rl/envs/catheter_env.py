@@ -59,6 +59,7 @@ from elastica_magnetic.robot_spec import ACTION_PERIOD
 from ..cases.arm_actuation import MagnetArm
 from ..cases.case import Case
 from ..cases.tasks import TipReachTask
+from .vector_reset import reseed
 
 __all__ = ["CATHETER_OBSERVATION_SCALES", "CatheterReachVectorEnv", "catheter_observation_layout",
            "make_catheter_env"]
@@ -222,21 +223,9 @@ class CatheterReachVectorEnv(VectorEnv):
         ``options["target"]``: ``(x, y, z)`` m, the target of every reset episode, or ``(N, 3)``
         one per sub-environment (else drawn)."""
         options = dict(options or {})
-        mask = np.asarray(options.pop("reset_mask", np.ones(self.num_envs, dtype=bool)), dtype=bool)
-        if mask.shape != (self.num_envs,):
-            raise ValueError(f"reset_mask must have shape ({self.num_envs},), got {mask.shape}")
-        if seed is None:
-            seeds: list[int | None] = [None] * self.num_envs
-        elif isinstance(seed, (int, np.integer)):
+        if isinstance(seed, (int, np.integer)):
             super().reset(seed=int(seed))
-            seeds = [int(seed) + i for i in range(self.num_envs)]
-        else:
-            seeds = list(seed)
-            if len(seeds) != self.num_envs:
-                raise ValueError(f"seed list must have {self.num_envs} entries, got {len(seeds)}")
-        for i in np.flatnonzero(mask):
-            if seeds[i] is not None:
-                self._rngs[i], _ = seeding.np_random(int(seeds[i]))
+        mask = reseed(self._rngs, seed, options)
         if self.robots is None:
             if not mask.all():
                 raise RuntimeError("the first reset must reset every sub-environment")

@@ -80,6 +80,7 @@ from .env import (
     new_field,
 )
 from .randomization import RobotRandomizer
+from .vector_reset import reseed
 
 __all__ = ["MagneticCrawlerVectorEnv", "make_vector_env"]
 
@@ -229,21 +230,9 @@ class MagneticCrawlerVectorEnv(VectorEnv):
             ``obs`` float32 ``(N, 4 n + 4)`` and the info dict of arrays.
         """
         options = dict(options or {})
-        mask = np.asarray(options.pop("reset_mask", np.ones(self.num_envs, dtype=bool)), dtype=bool)
-        if mask.shape != (self.num_envs,):
-            raise ValueError(f"reset_mask must have shape ({self.num_envs},), got {mask.shape}")
-        if seed is None:
-            seeds: list[int | None] = [None] * self.num_envs
-        elif isinstance(seed, (int, np.integer)):
+        if isinstance(seed, (int, np.integer)):
             super().reset(seed=int(seed))
-            seeds = [int(seed) + i for i in range(self.num_envs)]
-        else:
-            seeds = list(seed)
-            if len(seeds) != self.num_envs:
-                raise ValueError(f"seed list must have {self.num_envs} entries, got {len(seeds)}")
-        for i in np.flatnonzero(mask):
-            if seeds[i] is not None:
-                self._rngs[i], _ = seeding.np_random(int(seeds[i]))
+        mask = reseed(self._rngs, seed, options)
         if self.robots is None:
             if not mask.all():
                 raise RuntimeError("the first reset must reset every sub-environment")
