@@ -88,8 +88,8 @@ class MagnetArm:
                 "max_turn_rate": self.max_turn_rate}
 
     def field_at_tip(self, rod_length: float) -> float:
-        """|B| (T) the magnet makes at its start pose at the tip of the straight rod (along +x
-        from the origin, ``rod_length`` m): the field scale of the case's start."""
+        """The field magnitude (T) the magnet makes at its start pose at the tip of the straight rod
+        (along +x from the origin, ``rod_length`` m): the field scale of the case's start."""
         from elastica_magnetic import PointDipoleField
 
         source = PointDipoleField(self.moment * np.asarray(self.direction) / np.linalg.norm(self.direction),
