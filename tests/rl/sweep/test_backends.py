@@ -70,11 +70,13 @@ def _start_sweep(tmp_path: Path) -> tuple[subprocess.Popen, list[int]]:
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
     deadline = time.monotonic() + 120
-    while len(list(pids.iterdir())) < 2:
+    # each worker creates its file, then writes its pid: wait for both pids, not the files alone
+    while len(written := [p.read_text() for p in pids.iterdir()]) < 2 or not all(
+            text.strip().isdigit() for text in written):
         assert proc.poll() is None, proc.stdout.read()
         assert time.monotonic() < deadline, "the workers did not start"
         time.sleep(0.2)
-    return proc, [int(p.read_text()) for p in pids.iterdir()]
+    return proc, [int(text) for text in written]
 
 
 def _wait_gone(pids: list[int], timeout: float) -> list[int]:
