@@ -220,6 +220,19 @@ class BatchedRobots:
         self.advancers = list(advancers) if advancers is not None else [None] * n_robots
         self.simulator, self.rods = self._build_simulator()
         self.block = self._locate_robots()
+        self._kernel_args = self._block_kernel_arguments(spec)
+        # Every array of every rod at the start, to reset a robot (state, rates, accelerations,
+        # loads and the derived geometry: a reset robot is indistinguishable from a fresh one).
+        self._initial_state = [
+            {name: value.copy() for name, value in vars(rod).items() if isinstance(value, np.ndarray)}
+            for rod in self.rods
+        ]
+        self._attach_sources(sources)
+
+    def _block_kernel_arguments(self, spec: RobotSpec) -> tuple:
+        """The block kernel's arguments: every robot's moments and parameters (the spec's), a
+        scratch buffer and the memory block's arrays (views, so the kernel writes the rods)."""
+        n_robots = self.n_robots
         self._moments = np.zeros((3, self.block.n_elems))
         for i in range(n_robots):
             self._moments[:, self._elem_start[i] : self._elem_end[i]] = self._robot_moments(i, spec)
@@ -227,7 +240,7 @@ class BatchedRobots:
         self._params = np.tile(params, (n_robots, 1))
         self._scratch = np.zeros((N_SCRATCH, spec.n_elements))
         block = self.block
-        self._kernel_args = (
+        return (
             self._fields,
             self._moments,
             self._node_start,
@@ -250,25 +263,25 @@ class BatchedRobots:
             block.external_torques,
             self._scratch,
         )
-        # Every array of every rod at the start, to reset a robot (state, rates, accelerations,
-        # loads and the derived geometry: a reset robot is indistinguishable from a fresh one).
-        self._initial_state = [
-            {name: value.copy() for name, value in vars(rod).items() if isinstance(value, np.ndarray)}
-            for rod in self.rods
-        ]
+
+    def _attach_sources(self, sources: list[Any] | None) -> None:
+        """Each robot's source in space (``None`` for none): an arm's magnet joins the one kernel
+        of all arms, any other source gets its own forcing (:meth:`set_source`)."""
+        n_elements = self.spec.n_elements
         self._spatial: dict[int, MagneticTorques] = {}  # robot -> the forcing of its source
         self._moved: dict[int, MovedDipoleField] = {}  # robot -> its arm's magnet (one kernel for all)
         self._moved_rows = (np.zeros((0, MOTION_SIZE)), np.zeros(0, dtype=np.int64),
                             np.zeros(0, dtype=np.int64))
-        self._moved_scratch = (np.empty((3, spec.n_elements)), np.empty((3, spec.n_elements)),
-                               np.empty((3, 3, spec.n_elements)))
-        if sources is not None:
-            if len(sources) != n_robots:
-                raise ValueError(f"sources: expected {n_robots} (one per robot, None for none), "
-                                 f"got {len(sources)}")
-            for i, source in enumerate(sources):
-                if source is not None:
-                    self.set_source(i, source)
+        self._moved_scratch = (np.empty((3, n_elements)), np.empty((3, n_elements)),
+                               np.empty((3, 3, n_elements)))
+        if sources is None:
+            return
+        if len(sources) != self.n_robots:
+            raise ValueError(f"sources: expected {self.n_robots} (one per robot, None for none), "
+                             f"got {len(sources)}")
+        for i, source in enumerate(sources):
+            if source is not None:
+                self.set_source(i, source)
 
     def _build_simulator(self) -> tuple[BatchedRobotSimulator, list[ea.CosseratRod]]:
         """The finalized simulator of ``n_robots`` rods of the spec, the block forcing registered
