@@ -225,10 +225,8 @@ class CatheterReachVectorEnv(VectorEnv):
         options = dict(options or {})
         if isinstance(seed, (int, np.integer)):
             super().reset(seed=int(seed))
-        mask = reseed(self._rngs, seed, options)
+        mask = reseed(self._rngs, seed, options, first=self.robots is None)
         if self.robots is None:
-            if not mask.all():
-                raise RuntimeError("the first reset must reset every sub-environment")
             self.robots = BatchedRobots(self.spec, self.num_envs, sources=[a.source for a in self.arms],
                                         clamp=True, advancers=self.advancers or None)
         targets = options.get("target")

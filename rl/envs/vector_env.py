@@ -232,10 +232,8 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         options = dict(options or {})
         if isinstance(seed, (int, np.integer)):
             super().reset(seed=int(seed))
-        mask = reseed(self._rngs, seed, options)
+        mask = reseed(self._rngs, seed, options, first=self.robots is None)
         if self.robots is None:
-            if not mask.all():
-                raise RuntimeError("the first reset must reset every sub-environment")
             self.robots = BatchedRobots(self.robot_spec, self.num_envs)
             self.fields = [new_field(self, (0.0, 0.0, 0.0)) for _ in range(self.num_envs)]
         initial = options.get("initial_field", self.initial_field)

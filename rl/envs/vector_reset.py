@@ -13,15 +13,18 @@ __all__ = ["reseed"]
 
 
 def reseed(rngs: list[np.random.Generator | None], seed: int | list[int | None] | None,
-           options: dict[str, Any]) -> NDArray[np.bool_]:
+           options: dict[str, Any], *, first: bool = False) -> NDArray[np.bool_]:
     """Pop ``options["reset_mask"]`` (bool ``(N,)``, default all) and reseed the generators
     ``rngs`` of the sub-environments it selects: ``seed`` ``s`` seeds sub-environment ``i`` with
     ``s + i`` (the Gymnasium convention, as ``SyncVectorEnv``), a list one each (``None``: keep),
-    ``None`` none. Returns the mask."""
+    ``None`` none. ``first``: the environment's first reset, which builds its simulator and so
+    must reset every sub-environment. Returns the mask."""
     n = len(rngs)
     mask = np.asarray(options.pop("reset_mask", np.ones(n, dtype=bool)), dtype=bool)
     if mask.shape != (n,):
         raise ValueError(f"reset_mask must have shape ({n},), got {mask.shape}")
+    if first and not mask.all():
+        raise RuntimeError("the first reset must reset every sub-environment")
     if seed is None:
         seeds: list[int | None] = [None] * n
     elif isinstance(seed, (int, np.integer)):
