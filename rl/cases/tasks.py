@@ -40,7 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = ["CrawlTask", "GotoTask", "RING_TARGETS", "ReachTask", "Task", "TASK_KINDS", "TipReachTask",
-           "TARGET_OFFSET_SCALE", "floor_pose", "goto_metrics", "middle_x", "ring_targets"]
+           "approach_reward", "TARGET_OFFSET_SCALE", "floor_pose", "goto_metrics", "middle_x", "ring_targets"]
 
 #: Scale of the reach task's ``target_offset`` observation, per m.
 TARGET_OFFSET_SCALE = 100.0
@@ -59,6 +59,14 @@ def floor_pose(rod: Any, middle_node: int) -> NDArray[np.float64]:
     along_z = position[2, -1] - position[2, 0]
     return np.array([position[0, middle_node], position[2, middle_node],
                      math.atan2(-along_z, along_x)])
+
+
+def approach_reward(task: Any, before: Any, after: Any, moved: Any) -> Any:
+    """The reward of the tasks with a target: ``reward_scale`` times the distance closed
+    (``before - after``, m), minus ``speed_penalty`` times the distance ``moved`` (m) on a step
+    that ends within ``slow_zone`` m of the target (so a policy learns to stop there)."""
+    before, after, moved = np.asarray(before), np.asarray(after), np.asarray(moved)
+    return task.reward_scale * ((before - after) - task.speed_penalty * moved * (after <= task.slow_zone))
 
 
 @dataclass(frozen=True)
@@ -129,10 +137,9 @@ class ReachTask:
         return np.asarray(x_mid) - np.asarray(start)
 
     def reward(self, x_before: Any, x_after: Any, start: Any) -> Any:
-        e_before, e_after = np.abs(self.error(x_before, start)), np.abs(self.error(x_after, start))
-        near = e_after <= self.slow_zone
         moved = np.abs(np.asarray(x_after) - np.asarray(x_before))
-        return self.reward_scale * ((e_before - e_after) - self.speed_penalty * moved * near)
+        return approach_reward(self, np.abs(self.error(x_before, start)), np.abs(self.error(x_after, start)),
+                               moved)
 
     def within_tolerance(self, error: Any) -> Any:
         """The success test: a signed error (m, as :meth:`error`) within ``tolerance`` of zero."""
@@ -202,11 +209,9 @@ class GotoTask:
         return np.hypot(pose[..., 0] - target[..., 0], pose[..., 1] - target[..., 1])
 
     def reward(self, pose_before: Any, pose_after: Any, target: Any) -> Any:
-        before, after = self.error(pose_before, target), self.error(pose_after, target)
         a, b = np.asarray(pose_after), np.asarray(pose_before)
         moved = np.hypot(a[..., 0] - b[..., 0], a[..., 1] - b[..., 1])
-        near = after <= self.slow_zone
-        return self.reward_scale * ((before - after) - self.speed_penalty * moved * near)
+        return approach_reward(self, self.error(pose_before, target), self.error(pose_after, target), moved)
 
     def within_tolerance(self, distance: Any) -> Any:
         """The success test: a distance from the target (m) within ``tolerance``."""
@@ -294,10 +299,8 @@ class TipReachTask:
         return np.linalg.norm(np.asarray(tip) - np.asarray(target), axis=-1)
 
     def reward(self, tip_before: Any, tip_after: Any, target: Any) -> Any:
-        before, after = self.error(tip_before, target), self.error(tip_after, target)
         moved = np.linalg.norm(np.asarray(tip_after) - np.asarray(tip_before), axis=-1)
-        near = after <= self.slow_zone
-        return self.reward_scale * ((before - after) - self.speed_penalty * moved * near)
+        return approach_reward(self, self.error(tip_before, target), self.error(tip_after, target), moved)
 
     def within_tolerance(self, distance: Any) -> Any:
         """The success test: a distance from the target (m) within ``tolerance``."""
