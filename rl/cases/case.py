@@ -235,6 +235,13 @@ class Case:
         return not isinstance(self.actuation, MagnetArm)
 
     @property
+    def training_episodes(self) -> str:
+        """How the case's training episodes start, in words (for summaries of training returns)."""
+        if not self.field_actuated:
+            return "from the magnet's start pose, to targets drawn in the task's target_box"
+        return "from random initial fields" if self.actuation.initial_field == "random" else "from zero field"
+
+    @property
     def n_elements(self) -> int:
         return self.robot.n_elements
 

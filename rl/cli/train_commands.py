@@ -9,6 +9,7 @@ import argparse
 import math
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from elastica_magnetic.cli import CommandError, output_path, print_result
 from elastica_magnetic.interrupts import signals_as_exceptions
@@ -17,6 +18,9 @@ from elastica_magnetic.io import display_path
 from ..cases.recipes import RECIPE_SUMMARIES, RECIPES
 from ..runfiles.rundir import CaseDir, RunDir
 from .options import CASE_HELP, CHECKPOINT_HELP, case_option, print_rollout_result
+
+if TYPE_CHECKING:
+    from ..cases.case import Case
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -363,10 +367,11 @@ def train_command(args: argparse.Namespace) -> int:
                                    if f.is_dir()), getattr(exc, "signum", 2))
     failed = any(s["failed"] for s in summaries.values())
     if not args.json:
+        cases = {case.name: case for case in args.case}
         # "failed: 0" read as "none failed": for people, the failed seeds by their folder names
         summaries = {case: {k: v for k, v in summary.items() if k not in ("seeds", "failed")} | {
             "failed seeds": ", ".join(CaseDir.seed_name(k) for k in summary["failed"]) or "none"} | {
-            CaseDir.seed_name(r["seed"]): r.get("error") or _seed_line(r)
+            CaseDir.seed_name(r["seed"]): r.get("error") or _seed_line(r, cases[case])
             for r in summary["seeds"]} for case, summary in summaries.items()}
     # one case: its summary, as before; several: the summaries by case
     print_result(next(iter(summaries.values())) if len(summaries) == 1 else summaries, args.json)
@@ -380,18 +385,19 @@ def _stop_options(args: argparse.Namespace) -> dict:
             if v is not None}
 
 
-def _seed_line(r: dict) -> str:
+def _seed_line(r: dict, case: Case) -> str:
     """One seed of the final summary: its state (learned / stopped / still improving), return."""
+    measure = ("msr policy export-seeds measures each seed's distance" if case.field_actuated
+               else "the held-out targets of docs/steering_catheter.md measure a catheter policy")
     state = r.get("state", "")
     if r.get("stopped_early"):
         state = f"stopped at step {r['stop_step']} ({r['stop_reason']})"
     if not r.get("episodes"):  # a return of no episode is no measurement
         return (f"{state + ': ' if state else ''}no training episode ended (the run was shorter "
-                "than one episode), so no training return was measured; msr policy export-seeds "
-                "measures the seed's distance")
+                f"than one episode), so no training return was measured; {measure}")
     return (f"{state + ': ' if state else ''}final mean training return "
-            f"{r['final_mean_return']:.4g} ({r['episodes']} episodes from random initial fields; not "
-            "a distance: msr policy export-seeds measures each seed's)")
+            f"{r['final_mean_return']:.4g} ({r['episodes']} episodes {case.training_episodes}; not "
+            f"a distance: {measure})")
 
 
 #: s of the accurate evaluations that choose the actor ``msr refine`` continues (the yardstick's).

@@ -22,7 +22,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from elastica_magnetic.plausibility import SettingNotAppliedWarning
+from elastica_magnetic.plausibility import ImplausibleValueWarning, SettingNotAppliedWarning
 
 from ..cases.case import Case, case_from_dict, load_case
 from ..cases.recipes import crawler_config
@@ -89,7 +89,9 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
     torch.set_num_threads(int(job.threads))
     configs = [TD3Config.from_dict(c) for c in job.configs]
     run_dirs = [Path(d) for d in job.run_dirs]
-    case = case_from_dict(job.case_spec, job.case)
+    with warnings.catch_warnings():  # the command warned of the spec's values before the jobs began
+        warnings.simplefilter("ignore", ImplausibleValueWarning)
+        case = case_from_dict(job.case_spec, job.case)
     metadata = [run_metadata(case, job.physics, job.duration, c.seed, command="train",
                               envs=job.envs, shared_simulator_seeds=len(configs),
                               precision=resolve_precision(c.precision, c.device), recipe=job.recipe,

@@ -98,19 +98,24 @@ def test_the_case_makes_the_catheter_environment():
         make_vector_env(case, 2, randomize=["dummy"])
 
 
-def test_msr_train_runs_a_catheter_case(tmp_path, capsys):
+def test_msr_train_runs_a_catheter_case(tmp_path, capfd):
     from elastica_magnetic.cli import main as msr
 
     path = tmp_path / "catheter.toml"
+    # a box whose far corner (49, 15, 10) mm is 52 mm from the base: beyond the 50 mm reach
     path.write_text(CATHETER_MAGNET_REACH.replace("kind = \"tip-reach\"", "kind = \"tip-reach\"\n"
                                                   "episode_duration = 0.2").replace(
-        "episode_duration = 2.0\n", ""))
+        "episode_duration = 2.0\n", "").replace("[0.045, 0.015, 0.01]]", "[0.049, 0.015, 0.01]]"))
     code = msr(["train", "--case", str(path), "--steps", "40", "--seeds", "1",
                 "--set", "learning_starts=20", "--set", "batch_size=16", "--set", "eval_every=0",
-                "--stop-when", "none", "--out", str(tmp_path / "runs"), "--no-progress", "--json"])
+                "--stop-when", "none", "--out", str(tmp_path / "runs"), "--no-progress"])
     assert code == 0
     run = tmp_path / "runs" / "catheter" / "seed0"
     assert (run / "checkpoint.pt").is_file() and (run / "episodes.csv").is_file()
+    out, err = capfd.readouterr()
+    assert err.count("lies beyond the rod's reach") == 1  # the command's, not again by its worker
+    assert "to targets drawn in the task's target_box" in out and "initial fields" not in out
+    assert "held-out targets" in out and "export-seeds" not in out
 
 
 def test_case_show_and_check_describe_the_arm(tmp_path, capsys):
@@ -127,7 +132,9 @@ def test_case_show_and_check_describe_the_arm(tmp_path, capsys):
     assert msr(["case", "show", str(path), "--toml"]) == 0
     assert "target_box = [[0.04, 0.0, -0.01], [0.045, 0.015, 0.01]]" in capsys.readouterr().out
     assert msr(["case", "check", str(path)]) == 0
-    assert "magnetic bending number" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "field        3.13 mT (the magnet's at the straight tip at its start pose): magnetic" in out
+    assert "field limit" not in out  # a magnet on an arm has no coils' limit
 
 
 def test_an_insertion_stage_adds_an_action_and_an_observation():
