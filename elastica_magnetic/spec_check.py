@@ -142,6 +142,8 @@ class SpecCheck:
     sag: SagCheck | None
     yardstick_m: float | None
     issues: list[Issue]
+    #: what ``field_limit_T`` is: the coils' limit, or e.g. a magnet's field at the tip
+    field_name: str = "field limit"
 
     @property
     def has_errors(self) -> bool:
@@ -250,10 +252,12 @@ def check_spec(spec: Mapping[str, Any], source: str = "<spec>", *, sag: bool = T
 
 def check_robot(description: RobotDescription, *, field_limit: float | None = None,
                 task_kind: str | None = None, yardstick_m: float | None = None,
-                name: str | None = None, source: str = "<spec>", sag: bool = True) -> SpecCheck:
+                name: str | None = None, source: str = "<spec>", sag: bool = True,
+                field_name: str = "field limit") -> SpecCheck:
     """Check a robot (checked ``[robot]``/``[physics]`` tables) with, optionally, its field limit
-    (T), its task's kind (``"crawl"``/``"reach"``; ``None``: not a case) and its yardstick (m in
-    10 s; ``None``: none). See :func:`check_spec`."""
+    (T; ``field_name`` says what the field is where it is not the coils' limit), its task's kind
+    (``"crawl"``/``"reach"``; ``None``: not a case) and its yardstick (m in 10 s; ``None``: none).
+    See :func:`check_spec`."""
     r = description.tables["robot"]
     accurate = description.robot("accurate")
     radius, n = accurate.radius, accurate.n_elements
@@ -282,7 +286,7 @@ def check_robot(description: RobotDescription, *, field_limit: float | None = No
     if magnetic_number is not None and 0.0 < magnetic_number < WEAK_MAGNETIC_NUMBER:
         issues.append(Issue(
             "warning", "[robot.magnetization] magnitude",
-            f"the magnetic bending number M B L^2 A / EI at the field limit is {magnetic_number:.3g} "
+            f"the magnetic bending number M B L^2 A / EI at the {field_name} is {magnetic_number:.3g} "
             "(the paper's robots at 4 mT: about 22): no field within the limit bends this robot "
             "noticeably. A remanence B_r in T written where the magnetization M in A/m is expected "
             "(M = B_r / mu0: 0.077 T is 61 kA/m)? or a field limit too small?"))
@@ -297,7 +301,7 @@ def check_robot(description: RobotDescription, *, field_limit: float | None = No
         bending_stiffness_Nm2=accurate.youngs_modulus * inertia,
         band_bending_stiffness_Nm2=accurate.youngs_modulus * band_inertia,
         magnetization=_runs(accurate.magnetization), max_magnetization_A_m=float(m_norm.max()),
-        field_limit_T=field_limit, magnetic_bending_number=magnetic_number,
+        field_limit_T=field_limit, magnetic_bending_number=magnetic_number, field_name=field_name,
         spring_only_sag_m=spring_sag, time_steps=steps, sag=sag_check, yardstick_m=yardstick_m,
         issues=issues)
 
@@ -436,7 +440,9 @@ def format_check(check: SpecCheck) -> str:
     lines.append(f"  magnetized   {c.magnetization[0]}")
     lines += [f"               {run}" for run in c.magnetization[1:]]
     if c.field_limit_T is not None:
-        lines.append(f"  field limit  {1e3 * c.field_limit_T:g} mT: magnetic bending number M B L^2 A"
+        coils = c.field_name == "field limit"
+        label, what = ("field limit", "") if coils else ("field", f" ({c.field_name})")
+        lines.append(f"  {label:<12} {1e3 * c.field_limit_T:.3g} mT{what}: magnetic bending number M B L^2 A"
                      f" / EI = {c.magnetic_bending_number:.3g}")
     for s in c.time_steps:
         lines.append(f"  dt {s.physics:<9} {s.dt_s:.3g} s, stable ~{s.stable_dt_s:.3g} s "

@@ -78,8 +78,9 @@ def check_case(case: Case, sag: bool = True) -> SpecCheck:
              case.actuation.field_at_tip(float(case.robot.tables["robot"]["length"])))
     return check_robot(case.robot, field_limit=field, task_kind=case.task.kind,
                        yardstick_m=case.yardstick.distance_10s if case.field_actuated else None,
-                       name=case.name,
-                       source=str(case.source), sag=sag)
+                       name=case.name, source=str(case.source), sag=sag,
+                       field_name="field limit" if case.field_actuated
+                       else "the magnet's at the straight tip at its start pose")
 
 
 def case_summary(case: Case, check: SpecCheck | None = None) -> str:
