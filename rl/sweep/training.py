@@ -84,19 +84,20 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
 
     from ..runfiles.checkpoint import load_checkpoint
     from ..runner.stopping import StopRule
-    from ..td3.algorithm import TD3Config, resolve_precision
+    from ..td3.algorithm import PrecisionFallbackWarning, TD3Config, resolve_precision
 
     torch.set_num_threads(int(job.threads))
     configs = [TD3Config.from_dict(c) for c in job.configs]
     run_dirs = [Path(d) for d in job.run_dirs]
-    with warnings.catch_warnings():  # the command warned of the spec's values before the jobs began
+    with warnings.catch_warnings():  # the command warned of these before the jobs began
         warnings.simplefilter("ignore", ImplausibleValueWarning)
+        warnings.simplefilter("ignore", PrecisionFallbackWarning)
         case = case_from_dict(job.case_spec, job.case)
-    metadata = [run_metadata(case, job.physics, job.duration, c.seed, command="train",
-                              envs=job.envs, shared_simulator_seeds=len(configs),
-                              precision=resolve_precision(c.precision, c.device), recipe=job.recipe,
-                              stop_rule=job.stop_rule)
-                for c in configs]
+        metadata = [run_metadata(case, job.physics, job.duration, c.seed, command="train",
+                                 envs=job.envs, shared_simulator_seeds=len(configs),
+                                 precision=resolve_precision(c.precision, c.device), recipe=job.recipe,
+                                 stop_rule=job.stop_rule)
+                    for c in configs]
     for config, run_dir, meta in zip(configs, run_dirs, metadata, strict=True):
         if not job.resume:
             run_dir.mkdir(parents=True, exist_ok=True)
@@ -108,6 +109,7 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
         # a resume keeps each run's hyperparameters: those given that differ were refused before
         # any work (resume_checks), the others are the recipe's defaults, nothing to warn about
         warnings.filterwarnings("ignore", message="resuming: using the checkpoint's hyperparameters")
+        warnings.simplefilter("ignore", PrecisionFallbackWarning)
         _train_seeds_of(job, case, configs, run_dirs, metadata, rule)
     wall, peak = time.perf_counter() - start, peak_rss_bytes()
     results, handed_back = [], []
@@ -277,6 +279,7 @@ def _plan_sweep(loaded: dict[str, Case], s: SweepSettings, r: _Resolved
                                                    s.address)
     overrides = dict(s.config_overrides or {})
     configs = _seed_configs(loaded, seed_list, r.recipe, overrides)
+    _warn_precision(configs[seed_list[0]])
     first = next(iter(loaded.values()))
     acting = _ActingChecks(configs[seed_list[0]], int(r.steps), int(s.envs), SettingSources(
         overrides, first.training.td3, first.source, r.steps_given, recipe=r.recipe),
@@ -289,6 +292,13 @@ def _plan_sweep(loaded: dict[str, Case], s: SweepSettings, r: _Resolved
                           backend=s.backend, envs_per_seed=int(s.envs), torch_threads_per_worker=threads,
                           recipe=r.recipe, stop_rules=stop_rules)
     return seed_list, groups, workers, configs, sweep
+
+
+def _warn_precision(config: Any) -> None:
+    """Warn once, here, where the seeds' precision falls back (their workers do not repeat it)."""
+    from ..td3.algorithm import resolve_precision
+
+    resolve_precision(config.precision, config.device)
 
 
 def _sweep_record(layout: dict[str, Any], config: Any, **settings: Any) -> dict[str, Any]:

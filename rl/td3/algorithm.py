@@ -75,6 +75,8 @@ from typing import Any, TypeVar
 import numpy as np
 import torch
 
+from elastica_magnetic.plausibility import SettingNotAppliedWarning
+
 from .networks import Actor, ScaledPolicy, TwinCritic
 from .replay_buffer import Batch
 from .stacked import StackedMLP, load_member_adam_state, member_adam_state, prefixed, unprefixed
@@ -366,12 +368,17 @@ def cpu_supports_bf16() -> bool:
         return False
 
 
+class PrecisionFallbackWarning(SettingNotAppliedWarning):
+    """``bf16`` asked on a CPU without bfloat16 units: the run trains in ``fp32``."""
+
+
 def resolve_precision(precision: str, device: str) -> str:
-    """The precision a run will use: ``bf16`` falls back to ``fp32`` (with a warning) on a CPU
-    without bfloat16 units."""
+    """The precision a run will use: ``bf16`` falls back to ``fp32`` (with a
+    :class:`PrecisionFallbackWarning`) on a CPU without bfloat16 units."""
     if precision == "bf16" and torch.device(device).type == "cpu" and not cpu_supports_bf16():
-        warnings.warn("precision bf16: this CPU has no bfloat16 matrix units (AVX512-BF16/AMX); "
-                      "training in fp32", stacklevel=2)
+        warnings.warn(PrecisionFallbackWarning(
+            "precision bf16: this CPU has no bfloat16 matrix units (AVX512-BF16/AMX); training in fp32 "
+            "(as its run.json records)"), stacklevel=2)
         return "fp32"
     return precision
 

@@ -144,3 +144,17 @@ def test_a_setting_given_twice_is_refused_and_an_old_flag_still_sets_it(tmp_path
     assert "msr train: note: --batch-size is now --set batch_size=VALUE" in captured.err
     run = json.loads((tmp_path / "runs" / "m1-4mT" / "seed0" / "run.json").read_text())
     assert run["config"]["batch_size"] == 4 and run["config"]["hidden_sizes"] == [8, 8]
+
+
+def test_a_bf16_fallback_is_warned_once_by_the_command(tmp_path, capfd, monkeypatch):
+    """On a CPU without bfloat16 units the command says so once, as msr's warning line (its
+    workers printed Python's form of it, one per worker and place)."""
+    from elastica_magnetic_rl.td3 import algorithm
+
+    monkeypatch.setattr(algorithm, "cpu_supports_bf16", lambda: False)
+    assert msr([*_TINY_TRAIN, "--precision", "bf16", "--out", str(tmp_path / "runs")]) == 0
+    err = capfd.readouterr().err
+    assert err.count("msr train: warning: precision bf16: this CPU has no bfloat16 matrix units") == 1, err
+    assert "UserWarning" not in err
+    run = json.loads((tmp_path / "runs" / "m1-4mT" / "seed0" / "run.json").read_text())
+    assert run["precision"] == "fp32"
