@@ -59,26 +59,50 @@ def dipole_field(moment, position, points, b_out, g_out, with_gradient):
                     g_out[i, j, k] += cg * value
 
 
+#: Cody's polynomial approximations of the complete elliptic integrals in ``m1 = 1 - m`` (as in
+#: Cephes' ``ellpk`` and ``ellpe``, which SciPy's ``ellipk``/``ellipe`` use): ``K = P_K(m1) - ln(m1)
+#: Q_K(m1)``, ``E = P_E(m1) - ln(m1) m1 Q_E(m1)``, relative error ~1e-16 over [0, 1). Highest power
+#: first (Horner).
+ELLIPTIC_PK = np.array([
+    1.37982864606273237150e-4, 2.28025724005875567385e-3, 7.97404013220415179367e-3,
+    9.85821379021226008714e-3, 6.87489687449949877925e-3, 6.18901033637687613229e-3,
+    8.79078273952743772254e-3, 1.49380448916805252718e-2, 3.08851465246711995998e-2,
+    9.65735902811690126535e-2, 1.38629436111989062502e0])
+ELLIPTIC_QK = np.array([
+    2.94078955048598507511e-5, 9.14184723865917226571e-4, 5.94058303753167793257e-3,
+    1.54850516649762399335e-2, 2.39089602715924892727e-2, 3.01204715227604046988e-2,
+    3.73774314173823228969e-2, 4.88280347570998239232e-2, 7.03124996963957469739e-2,
+    1.24999999999870820058e-1, 4.99999999999999999821e-1])
+ELLIPTIC_PE = np.array([
+    1.53552577301013293365e-4, 2.50888492163602060990e-3, 8.68786816565889628429e-3,
+    1.07350949056076193403e-2, 7.77395492516787092951e-3, 7.58395289413514708519e-3,
+    1.15688436810574127319e-2, 2.18317996015557253103e-2, 5.68051945617860553470e-2,
+    4.43147180560990850618e-1, 1.00000000000000000299e0])
+ELLIPTIC_QE = np.array([
+    3.27954898576485872656e-5, 1.00962792679356715133e-3, 6.50609489976927491433e-3,
+    1.68862163993311317300e-2, 2.61769742454493659583e-2, 3.34833904888224918614e-2,
+    4.27180926518931511717e-2, 5.85936634471101055642e-2, 9.37499997197644278445e-2,
+    2.49999999999888314361e-1])
+
+
 @njit(cache=True)
 def elliptic_ke(m):
-    """Complete elliptic integrals ``K(m)``, ``E(m)`` (parameter ``m = k^2`` in [0, 1)) by the
-    arithmetic-geometric mean, to round-off."""
-    a = 1.0
-    b = math.sqrt(1.0 - m)
-    c_sq = m
-    total = 0.5 * c_sq
-    power = 0.5
-    for _ in range(40):
-        a_next = 0.5 * (a + b)
-        c = 0.5 * (a - b)
-        b = math.sqrt(a * b)
-        a = a_next
-        power *= 2.0
-        total += power * c * c
-        if abs(c) <= 1e-15 * a:  # the next terms are below 1e-30: converged (and no ulp cycling)
-            break
-    k = 0.5 * math.pi / a
-    return k, k * (1.0 - total)
+    """Complete elliptic integrals ``K(m)``, ``E(m)`` (parameter ``m = k^2`` in [0, 1)) to
+    round-off, by Cody's approximations (:data:`ELLIPTIC_PK` ...): some 40 multiplications and one
+    logarithm, a third of the time of the arithmetic-geometric mean's square roots."""
+    m1 = 1.0 - m
+    log_m1 = math.log(m1)
+    pk = ELLIPTIC_PK[0]
+    qk = ELLIPTIC_QK[0]
+    pe = ELLIPTIC_PE[0]
+    qe = ELLIPTIC_QE[0]
+    for i in range(1, 11):
+        pk = pk * m1 + ELLIPTIC_PK[i]
+        qk = qk * m1 + ELLIPTIC_QK[i]
+        pe = pe * m1 + ELLIPTIC_PE[i]
+    for i in range(1, 10):
+        qe = qe * m1 + ELLIPTIC_QE[i]
+    return pk - log_m1 * qk, pe - log_m1 * m1 * qe
 
 
 @njit(cache=True)
@@ -110,25 +134,33 @@ def loop_local(radius, rho, z):
         db_z_dz = f1 - 0.25 * rho_sq * f3
         return b_rho, b_z, db_rho, b_rho_over_rho, db_z_drho, db_z_dz
     k, e = elliptic_ke(m)
-    sqrt_alpha = math.sqrt(alpha)
+    # Reciprocals once (a division costs several multiplications).
+    inv_alpha = 1.0 / alpha
+    inv_beta = 1.0 / beta
+    inv_sqrt_alpha = 1.0 / math.sqrt(alpha)
+    inv_rho = 1.0 / rho
+    inv_m = 1.0 / m
     gamma = a * a - rho * rho - z * z
-    b_z = (k + gamma / beta * e) / sqrt_alpha
-    b_rho_over_rho = z / (rho * sqrt_alpha) * (-k + (a * a + rho * rho + z * z) / beta * e) / rho
+    gamma_over_beta = gamma * inv_beta
+    bracket = k + gamma_over_beta * e
+    b_z = bracket * inv_sqrt_alpha
+    b_rho_over_rho = (z * inv_rho * inv_rho * inv_sqrt_alpha
+                      * (-k + (a * a + rho * rho + z * z) * inv_beta * e))
     b_rho = b_rho_over_rho * rho
     # d/dm of K and E.
-    dk = (e - (1.0 - m) * k) / (2.0 * m * (1.0 - m))
-    de = (e - k) / (2.0 * m)
-    bracket = k + gamma / beta * e
+    dk = (e - (1.0 - m) * k) * 0.5 * inv_m / (1.0 - m)
+    de = (e - k) * 0.5 * inv_m
     # d/dz: alpha_z = beta_z = 2 z, gamma_z = -2 z, m_z = -2 z m / alpha.
-    m_z = -2.0 * z * m / alpha
-    d_bracket_z = dk * m_z + (-2.0 * z / beta - gamma * 2.0 * z / (beta * beta)) * e + gamma / beta * de * m_z
-    db_z_dz = -z / (alpha * sqrt_alpha) * bracket + d_bracket_z / sqrt_alpha
+    m_z = -2.0 * z * m * inv_alpha
+    d_bracket_z = dk * m_z - 2.0 * z * inv_beta * (1.0 + gamma_over_beta) * e + gamma_over_beta * de * m_z
+    inv_alpha_sqrt = inv_alpha * inv_sqrt_alpha
+    db_z_dz = -z * inv_alpha_sqrt * bracket + d_bracket_z * inv_sqrt_alpha
     # d/drho: alpha_r = 2 (a + rho), beta_r = -2 (a - rho), gamma_r = -2 rho,
     # m_r = 4 a / alpha - 2 m (a + rho) / alpha.
-    m_r = (4.0 * a - 2.0 * m * (a + rho)) / alpha
-    d_bracket_r = (dk * m_r + (-2.0 * rho / beta + gamma * 2.0 * (a - rho) / (beta * beta)) * e
-                   + gamma / beta * de * m_r)
-    db_z_drho = -(a + rho) / (alpha * sqrt_alpha) * bracket + d_bracket_r / sqrt_alpha
+    m_r = (4.0 * a - 2.0 * m * (a + rho)) * inv_alpha
+    d_bracket_r = (dk * m_r + 2.0 * inv_beta * (-rho + gamma_over_beta * (a - rho)) * e
+                   + gamma_over_beta * de * m_r)
+    db_z_drho = -(a + rho) * inv_alpha_sqrt * bracket + d_bracket_r * inv_sqrt_alpha
     # div B = 0: d b_rho / d rho = -b_rho / rho - d b_z / d z.
     db_rho = -b_rho_over_rho - db_z_dz
     return b_rho, b_z, db_rho, b_rho_over_rho, db_z_drho, db_z_dz
@@ -361,6 +393,75 @@ def moved_dipoles_forcing(motions, robots, times, moments, node_start, elem_star
         b[...] = 0.0
         g[...] = 0.0
         moved_dipole_field(motions[k], times[k], centres, b, g, True)
+        bad = first_nonfinite(b, g, True)
+        if bad >= 0:
+            return k * n + bad
+        moment, rotation = moments[:, e0:e1], directors[:, :, e0:e1]
+        magnetic_forces(moment, rotation, g, external_forces[:, n0:n0 + n + 1])
+        magnetic_torques_at_elements(moment, b, rotation, external_torques[:, e0:e1])
+    return -1
+
+
+# The currents of coils commanded by :class:`~elastica_magnetic.CoilCurrents` over one control step
+# in a row: from ``i0`` (A, one per coil) at ``t0`` they ramp linearly to ``i1`` over ``span`` s,
+# then hold (``span`` 0: ``i1`` at once). Row: ``[t0, span, i0..., i1...]``.
+R_T0 = 0
+R_SPAN = 1
+R_CURRENTS = 2
+
+
+@njit(cache=True)
+def coil_currents_at(ramp, time, out):
+    """The currents (A) of the ramp row ``ramp`` (``(2 + 2 C,)``) at ``time`` (s), into ``out``
+    ``(C,)``: the same operations as :meth:`~elastica_magnetic.CoilCurrents.currents_at`."""
+    n_coils = out.shape[0]
+    span = ramp[R_SPAN]
+    if span == 0.0:
+        for c in range(n_coils):
+            out[c] = ramp[R_CURRENTS + n_coils + c]
+        return
+    f = min(max((time - ramp[R_T0]) / span, 0.0), 1.0)
+    for c in range(n_coils):
+        i0 = ramp[R_CURRENTS + c]
+        out[c] = i0 + (ramp[R_CURRENTS + n_coils + c] - i0) * f
+
+
+@njit(cache=True)
+def coil_loops_forcing(ramps, robots, times, loop_start, centres, frames, radii, unit_currents, moments,
+                       node_start, elem_start, elem_end, positions, directors, external_forces,
+                       external_torques, points, b, g, unit_b, unit_g, currents):
+    """The force and torque of coils of circular loops on robots ``robots[k]`` of a memory block,
+    each robot with its own currents (ramp row ``ramps[k]``, at the robot's own time ``times[k]``,
+    s), as :class:`~elastica_magnetic.MagneticTorques` applies the coils' summed field (coil ``c``'s
+    field at 1 A times its current, coil after coil; the same operations in the same order). Coil
+    ``c`` is the loops ``loop_start[c]:loop_start[c + 1]`` (``centres`` (3, L) m, ``frames``
+    (3, 3, L), ``radii`` (L,) m, ``unit_currents`` (L,) A turns at 1 A). ``points``, ``b``, ``g``,
+    ``unit_b``, ``unit_g``: scratch of one robot's elements; ``currents`` (C,). Returns ``k * n + e``
+    of the first non-finite field (robot ``k``, element ``e``), else -1; a point on a wire raises
+    ZeroDivisionError."""
+    n = points.shape[1]
+    n_coils = currents.shape[0]
+    for k in range(robots.shape[0]):
+        i = robots[k]
+        n0, e0, e1 = node_start[i], elem_start[i], elem_end[i]
+        element_centres(positions[:, n0:n0 + n + 1], points)
+        b[...] = 0.0
+        g[...] = 0.0
+        coil_currents_at(ramps[k], times[k], currents)
+        for c in range(n_coils):
+            current = currents[c]
+            if current == 0.0:
+                continue
+            unit_b[...] = 0.0
+            unit_g[...] = 0.0
+            l0, l1 = loop_start[c], loop_start[c + 1]
+            loops_field(centres[:, l0:l1], frames[:, :, l0:l1], radii[l0:l1], unit_currents[l0:l1], points,
+                        unit_b, unit_g, True)
+            for e in range(n):
+                for d in range(3):
+                    b[d, e] += current * unit_b[d, e]
+                    for j in range(3):
+                        g[d, j, e] += current * unit_g[d, j, e]
         bad = first_nonfinite(b, g, True)
         if bad >= 0:
             return k * n + bad

@@ -47,6 +47,7 @@ from elastica.memory_block.memory_block_rod import MemoryBlockCosseratRod
 from numpy.typing import ArrayLike, NDArray
 
 from . import _spatial_kernels as spatial_kernels
+from ._batch_coils import BatchedCoils, loop_geometry
 from ._batch_kernels import (
     N_PARAMS,
     N_SCRATCH,
@@ -270,6 +271,7 @@ class BatchedRobots:
         n_elements = self.spec.n_elements
         self._spatial: dict[int, MagneticTorques] = {}  # robot -> the forcing of its source
         self._moved: dict[int, MovedDipoleField] = {}  # robot -> its arm's magnet (one kernel for all)
+        self._coils = BatchedCoils(n_elements)  # robots under fixed coils (one kernel per coil set)
         self._moved_rows = (np.zeros((0, MOTION_SIZE)), np.zeros(0, dtype=np.int64),
                             np.zeros(0, dtype=np.int64))
         self._moved_scratch = (np.empty((3, n_elements)), np.empty((3, n_elements)),
@@ -338,6 +340,9 @@ class BatchedRobots:
         ``time`` (s): the spatial sources' force and torque first, then :meth:`apply_forcing`."""
         if self._moved:
             self._apply_moved_magnets(float(time))
+        if self._coils.sources:
+            self._coils.apply(functools.partial(self._robot_time, float(time)), self._moments,
+                              self._node_start, self._elem_start, self._elem_end, self.block)
         if self._spatial:
             self._apply_sources(float(time))
         self.apply_forcing()
@@ -405,6 +410,7 @@ class BatchedRobots:
         if source is None:
             self._spatial.pop(i, None)
             self._moved.pop(i, None)
+            self._coils.remove(i)
             return
         if not is_spatial(source):
             raise TypeError(f"robot {i}: a source must vary in space (at(points, time), "
@@ -415,8 +421,12 @@ class BatchedRobots:
                              f"{self.spec.units.name}: build it in SI")
         self._spatial.pop(i, None)
         self._moved.pop(i, None)
+        self._coils.remove(i)
+        geometry = loop_geometry(source)
         if isinstance(source, MovedDipoleField):
             self._moved[i] = source
+        elif geometry is not None:
+            self._coils.add(i, source, geometry)
         else:
             self._spatial[i] = self._source_forcing(i, source)
 
@@ -431,7 +441,8 @@ class BatchedRobots:
     @property
     def sources(self) -> list[Any]:
         """Each robot's spatial source (``None``: its uniform row alone)."""
-        return [self._moved[i] if i in self._moved else
+        coils = self._coils.sources
+        return [self._moved[i] if i in self._moved else coils[i] if i in coils else
                 self._spatial[i].field if i in self._spatial else None for i in range(self.n_robots)]
 
     @property
@@ -503,6 +514,8 @@ class BatchedRobots:
         start = self.step_count
         if self._moved:
             self._gather_moved_magnets()
+        if self._coils.sources:
+            self._coils.gather(self.step_count - self.robot_step_count)
         for k in range(n_steps):
             # Time from the step counter, as in RobotSimulation (the kernel itself ignores time).
             self._step_index = start + k

@@ -16,6 +16,7 @@ Medians over repeated measurements; machines here are noisy, so compare ratios w
 
 from __future__ import annotations
 
+import math
 import statistics
 import time
 from collections.abc import Callable, Sequence
@@ -27,7 +28,7 @@ import numpy as np
 from elastica.external_forces import NoForces
 
 from . import simulation as simulation_module
-from .actuation import MagnetPose
+from .actuation import CoilCurrents, MagnetPose
 from .batch import BatchedRobots
 from .fields import ControlledField, RotatingField
 from .forcing import LegacyInternalDamping, MagneticTorques, RelativeVelocityDamping, evaluate_field
@@ -348,12 +349,22 @@ def _arm_above_the_robot() -> MagnetPose:
                       max_speed=0.02, max_turn_rate=1.0)
 
 
+def _three_axis_helmholtz() -> list[HelmholtzCoils]:
+    """Three Helmholtz pairs of radius 100 mm on x, y and z around the paper's robot, each 4 mT at
+    1 A (the turns folded into the current): the paper's coil system as fixed coils."""
+    turns = 4e-3 * 0.1 / (0.8**1.5 * 4e-7 * np.pi)
+    return [HelmholtzCoils(0.1, centre=[0.01, 0.0, 0.0], axis=axis, turns=turns)
+            for axis in ([1, 0, 0], [0, 1, 0], [0, 0, 1])]
+
+
 def batched_spatial_step_cost(n: int = 16, steps: int = 1000, repeats: int = 5,
                               physics: str = "training") -> dict[str, Any]:
     """Per-robot-step cost (us) of ``n`` paper robots in one :class:`~elastica_magnetic.BatchedRobots`,
     each robot under its own source of :func:`spatial_sources` (a Python call per robot and time
-    step) or its own arm-moved magnet (:class:`~elastica_magnetic.MagnetPose`, one kernel for all
-    robots), next to the uniform field (each robot's row), and the ratios to it. ``steps`` per
+    step; fixed coils such as the Helmholtz pair by one kernel per coil set), its own arm-moved
+    magnet (:class:`~elastica_magnetic.MagnetPose`, one kernel for all robots) or its own currents in
+    three Helmholtz pairs (:class:`~elastica_magnetic.CoilCurrents`, a field turning in the y-z plane),
+    next to the uniform field (each robot's row), and the ratios to it. ``steps`` per
     repeat, in 0.01 s blocks as an environment steps (the arms commanded between blocks); the
     variants interleaved within each repeat. Target (issue 53): at most 2x the uniform field."""
     spec = yao2023_robot(1, physics)
@@ -364,6 +375,9 @@ def batched_spatial_step_cost(n: int = 16, steps: int = 1000, repeats: int = 5,
         if name != "uniform":
             kinds[name] = BatchedRobots(spec, n, sources=[source] * n)
     kinds["arm_magnet"] = BatchedRobots(spec, n, sources=[arm.source for arm in arms])
+    coils = _three_axis_helmholtz()
+    drives = [CoilCurrents(coils, current_limit=1.0) for _ in range(n)]
+    kinds["coil_currents"] = BatchedRobots(spec, n, sources=[drive.source for drive in drives])
     command = np.array([1.0, 0.0, 0.0, 1.0, 0.0])
 
     def run(name: str, robots: BatchedRobots, n_steps: int) -> None:
@@ -371,6 +385,11 @@ def batched_spatial_step_cost(n: int = 16, steps: int = 1000, repeats: int = 5,
             if name == "arm_magnet":
                 for i, arm in enumerate(arms):
                     arm.apply(command, robots.robot_time(i), per_action * spec.dt)
+            if name == "coil_currents":  # a field turning at 1 turn/s, currents ramped per 0.01 s
+                for i, drive in enumerate(drives):
+                    t = robots.robot_time(i)
+                    drive.apply([0.0, math.cos(2 * math.pi * t), -math.sin(2 * math.pi * t)], t,
+                                per_action * spec.dt)
             robots.step(per_action)
 
     for name, robots in kinds.items():

@@ -13,9 +13,9 @@ sources of :mod:`elastica_magnetic.fields` offer ``at`` and ``gradient`` too (ze
 keep their own, unchanged path through the forcing.
 
 Closed forms, in numba (:mod:`elastica_magnetic._spatial_kernels`): the point dipole and its
-analytic gradient; circular current loops by complete elliptic integrals (arithmetic-geometric
-mean) with analytic gradients, and a series about the axis where the closed form cancels. They
-agree with Magpylib to round-off and cost a few hundred times less per call
+analytic gradient; circular current loops by complete elliptic integrals (Cody's polynomial
+approximations, as SciPy's) with analytic gradients, and a series about the axis where the
+closed form cancels. They agree with Magpylib to round-off and cost a few hundred times less per call
 (:doc:`/spatial_fields`). Finite magnets (cuboid, cylinder) come from Magpylib, an optional
 dependency: :mod:`elastica_magnetic.magnet_fields`. A field tabulated on a grid (a finite-element
 tool's export): :mod:`elastica_magnetic.field_maps`.

@@ -415,3 +415,67 @@ def test_an_advancer_stops_at_the_ends_of_its_travel_and_checks_its_values():
         Advancer((0.01, 0.02), max_speed=0.1)
     with pytest.raises(ValueError, match="clamp=True"):
         build_simulation(_catheter_in_training_physics(), lambda t: np.zeros(3), advancer=stage)
+
+
+def _coils():
+    """Three coils around the catheter's tip region (a loop, a Helmholtz pair, a Maxwell pair)
+    on three axes, each the field of 1 A."""
+    from elastica_magnetic import CurrentLoopField, HelmholtzCoils, MaxwellCoils
+
+    return [CurrentLoopField(0.03, centre=(0.05, 0.0, -0.04), axis=(0.0, 0.0, 1.0), turns=200.0),
+            HelmholtzCoils(0.08, centre=(0.04, 0.0, 0.0), axis=(0.0, 1.0, 0.0), turns=100.0),
+            MaxwellCoils(0.06, centre=(0.03, 0.0, 0.0), axis=(1.0, 0.0, 0.0), turns=100.0)]
+
+
+def test_batched_catheters_under_coil_currents_match_per_rod_simulations_bit_for_bit():
+    """Issue 53: robots of a batch, each under its own currents in one set of fixed coils (one
+    kernel for the coil set), follow the per-rod simulations of the same commands to the last
+    bit, a robot reset mid-run (on its own clock) included."""
+    from elastica_magnetic import CoilCurrents
+    from elastica_magnetic._batch_coils import loop_geometry
+
+    spec = _catheter_in_training_physics()
+    coils = _coils()
+    actuators = [CoilCurrents(coils, current_limit=2.0, max_slew=100.0) for _ in range(3)]
+    twins = [CoilCurrents(_coils(), current_limit=2.0, max_slew=100.0) for _ in range(3)]
+    robots = BatchedRobots(spec, n_robots=3, sources=[a.source for a in actuators], clamp=True)
+    assert loop_geometry(actuators[0].source) is not None  # the kernel's path, not a call per robot
+    assert not robots._spatial and robots.sources == [a.source for a in actuators]
+    sims = [build_simulation(spec, twin.source, clamp=True) for twin in twins]
+    rng = np.random.default_rng(5)
+    for step in range(40):  # 0.4 s of 0.01 s control steps
+        if step == 25:
+            robots.reset_robot(1)
+            actuators[1].reset()
+            twins[1].reset()
+            sims[1] = build_simulation(spec, twins[1].source, clamp=True)
+        actions = rng.uniform(-1.0, 1.0, (3, 3))
+        actions[2, 1] = 0.0  # a coil without current is skipped alike
+        for i, action in enumerate(actions):
+            actuators[i].apply(action, robots.robot_time(i), 0.01)
+            twins[i].apply(action, sims[i].time, 0.01)
+        robots.step(spec.steps_per_action)
+        for sim in sims:
+            sim.step(spec.steps_per_action)
+    for i, sim in enumerate(sims):
+        _assert_same_state(robots.rod(i), sim.rod, f"robot {i}")
+    tips = [robots.rod(i).position_collection[:, -1] for i in range(3)]
+    assert all(np.linalg.norm(tip - [0.05, 0.0, 0.0]) > 1e-4 for tip in tips)  # the coils bent them
+
+
+def test_coils_that_move_or_play_a_waveform_take_the_general_path_and_a_wire_is_named():
+    from elastica_magnetic import CoilCurrents, CurrentLoopField, SpatialFieldError, Waypoints
+    from elastica_magnetic._batch_coils import loop_geometry
+
+    moving = CurrentLoopField(0.03, centre=Waypoints([0.0, 1.0], [[0.05, 0, -0.04], [0.05, 0, -0.03]]))
+    playing = CurrentLoopField(0.03, current=lambda t: 1.0 + t, centre=(0.05, 0.0, -0.04))
+    assert loop_geometry(moving) is None and loop_geometry(playing) is None
+    assert loop_geometry(CoilCurrents([_coils()[0], moving], 1.0).source) is None
+    spec = _catheter_in_training_physics()
+    # a loop of radius 5 mm about the x axis through x = 27.5 mm: its wire through element 5's centre
+    wire = CoilCurrents([CurrentLoopField(0.005, centre=(0.0275, 0.0, -0.005), axis=(0.0, 1.0, 0.0))], 1.0)
+    wire.apply([1.0], 0.0, 0.01)
+    robots = BatchedRobots(spec, n_robots=2, sources=[None, wire.source], clamp=True)
+    assert not robots._spatial
+    with pytest.raises(SpatialFieldError, match=r"robot 1: .*lies on the wire of current loop 0"):
+        robots.step(1)

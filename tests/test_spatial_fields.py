@@ -259,3 +259,16 @@ def test_a_finite_magnet_turns_with_its_axis():
         np.testing.assert_allclose(g, fg, rtol=1e-12, atol=1e-12)
         far = PointDipoleField(moment * np.array(axis(t))).at(points)
         np.testing.assert_allclose(b, far, rtol=0.02, atol=1e-3 * np.abs(far).max())
+
+
+def test_the_elliptic_integrals_agree_with_scipy_to_round_off():
+    """The loops' K(m) and E(m) (Cody's approximations) against SciPy's over [0, 1), the
+    approach to the wire (m -> 1, K's logarithm) included."""
+    special = pytest.importorskip("scipy.special")
+    from elastica_magnetic._spatial_kernels import elliptic_ke
+
+    ms = np.concatenate([np.linspace(0.0, 0.999, 1001), 1.0 - np.logspace(-15, -3, 100)])
+    values = np.array([elliptic_ke(m) for m in ms])
+    np.testing.assert_allclose(values[:, 0], special.ellipk(ms), rtol=4.5e-16, atol=0)
+    np.testing.assert_allclose(values[:, 1], special.ellipe(ms), rtol=4.5e-16, atol=0)
+    assert elliptic_ke(0.0) == pytest.approx((np.pi / 2, np.pi / 2), rel=2.3e-16)
