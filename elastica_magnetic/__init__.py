@@ -67,7 +67,7 @@ from .spatial_fields import (
 )
 from .spec_format import SpecError
 from .specfile import load_robot
-from .steering import MagnetBearingSteering
+from .steering import CoilFieldSteering, MagnetBearingSteering
 from .units import MM_MG_S, SI, UnitSystem
 from .viscoelastic import KelvinVoigtDamping
 
@@ -94,6 +94,7 @@ __all__ = [
     # fields: varying in space (magnets, coils, maps) and their actuators
     "Advancer",
     "CoilCurrents",
+    "CoilFieldSteering",
     "ConstantGradientField",
     "CuboidMagnetField",
     "CurrentLoopField",

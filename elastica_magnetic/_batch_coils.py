@@ -80,7 +80,7 @@ def ramp_row(source: Any) -> NDArray[np.float64]:
     a coil set's commanded ramp, or a loop group's constant 1 (its current is in its loops)."""
     if isinstance(source, _CoilSum):
         owner: CoilCurrents = source.owner
-        return np.concatenate([[owner._t0, owner._dt], owner._i0, owner._i1])
+        return owner.motion()
     return np.array([0.0, 0.0, 1.0, 1.0])
 
 

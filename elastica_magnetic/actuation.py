@@ -240,6 +240,26 @@ class CoilCurrents:
         """(N,): the currents as fractions of their limits at ``time`` (s)."""
         return self.currents_at(time) / self.current_limit
 
+    def motion(self) -> NDArray[np.float64]:
+        """The commanded ramp ``[t0, dt, i0..., i1...]`` (s, s, A, A): everything that decides the
+        currents from now on (:meth:`set_motion` restores it)."""
+        return np.concatenate([[self._t0, self._dt], self._i0, self._i1])
+
+    def set_motion(self, motion: ArrayLike) -> None:
+        """Restore a :meth:`motion` row."""
+        row = np.asarray(motion, dtype=np.float64).reshape(-1)
+        if row.shape != (2 + 2 * self.action_size,):
+            raise SpatialFieldError(f"CoilCurrents: a motion row of {2 + 2 * self.action_size} numbers "
+                                    f"expected, got shape {row.shape}")
+        self._t0, self._dt = float(row[0]), float(row[1])
+        self._i0, self._i1 = row[2:2 + self.action_size].copy(), row[2 + self.action_size:].copy()
+
+    def field_matrix(self, point: ArrayLike, time: float = 0.0) -> NDArray[np.float64]:
+        """``(3, N)`` T/A: the field each coil makes at ``point`` ``(3,)`` (m) per ampere, so that
+        the field there is ``field_matrix(point) @ currents`` (superposition)."""
+        column = np.asarray(point, dtype=np.float64).reshape(3, 1)
+        return np.column_stack([coil.at(column, time)[:, 0] for coil in self.coils])
+
 
 class _CoilSum(SpatialField):
     """The field of :class:`CoilCurrents`: each coil's unit field times its current."""

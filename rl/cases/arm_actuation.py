@@ -15,30 +15,22 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from elastica_magnetic import Advancer, MagnetPose
+from elastica_magnetic import MagnetPose
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 from elastica_magnetic.spatial_fields import SpatialFieldError
 from elastica_magnetic.specfile import SpecTable
 
-__all__ = ["ACTUATION_KINDS", "MAGNET_ARM_OBSERVATION", "MagnetArm", "NotFieldActuatedError",
-           "magnet_arm_from_table"]
+from .steered import MAX_REACH, MAX_SPEED, SteeringActuation, insertion_from_table
 
-#: ``[actuation] kind``: a uniform field from coils (the paper's, the default) or a magnet on an arm.
-ACTUATION_KINDS = ("field", "magnet-pose")
-#: What a field actuation has and a magnet arm has not (asked of a magnet arm, they name the mismatch).
-_FIELD_ACTUATION_NAMES = frozenset({"field_limit", "max_increment", "initial_field", "axes", "axis_limits",
-                                    "axis_increments", "n_axes", "limits", "increments"})
+__all__ = ["MAGNET_ARM_OBSERVATION", "MagnetArm", "magnet_arm_from_table"]
+
 #: The observation of a magnet-arm case beyond the rod's node positions (3 per node): the tip's
 #: velocity, the magnet's position and direction (3 each; ``rl/envs/catheter_env.py``).
 MAGNET_ARM_OBSERVATION = (("tip_velocity", 3), ("magnet_position", 3), ("magnet_direction", 3))
 
 
-class NotFieldActuatedError(ValueError):
-    """A command or value that needs a field-actuated case was given a magnet-arm case."""
-
-
 @dataclass(frozen=True)
-class MagnetArm:
+class MagnetArm(SteeringActuation):
     """A permanent magnet on a robot arm steers the rod (``[actuation] kind = "magnet-pose"``):
     the keywords of :class:`~elastica_magnetic.MagnetPose` (``moment`` A m^2; ``position`` m and
     ``direction`` at the start of each episode; ``workspace`` m; ``max_speed`` m/s;
@@ -59,27 +51,24 @@ class MagnetArm:
     insertion: tuple[float, float] | None = None
     insertion_speed: float = 0.01
 
-    @property
-    def action_size(self) -> int:
-        """The policy's action: the arm's 5 commands, and the insertion stage's velocity."""
-        return MagnetPose.action_size + (self.insertion is not None)
+    #: The arm's commands: velocity (3) and turn rate (2).
+    actuator_size: ClassVar[int] = MagnetPose.action_size
+    #: What :meth:`field_at_tip` is, in words.
+    tip_field_words: ClassVar[str] = "the magnet's at the straight tip at its start pose"
 
     @property
     def observation_blocks(self) -> tuple[tuple[str, int], ...]:
         """The observation's blocks after the rod's node positions (name, size):
         :data:`MAGNET_ARM_OBSERVATION`, and the insertion (1) with a stage."""
-        return (*MAGNET_ARM_OBSERVATION, *((("insertion", 1),) if self.insertion is not None else ()))
+        return (*MAGNET_ARM_OBSERVATION, *self.stage_blocks())
 
-    def advancer(self) -> Advancer | None:
-        """A new insertion stage of this actuation (``None`` without one)."""
-        return None if self.insertion is None else Advancer(self.insertion, self.insertion_speed)
+    def actuator(self) -> MagnetPose:
+        """A new arm of this actuation, at its start pose."""
+        return MagnetPose(**self.arm_settings())
 
-    def __getattr__(self, name: str) -> Any:
-        if name in _FIELD_ACTUATION_NAMES:
-            raise NotFieldActuatedError(
-                f"the case is actuated by a magnet on an arm ([actuation] kind = \"magnet-pose\"), which "
-                f"has no {name}: this works on cases actuated by a uniform field (coils)")
-        raise AttributeError(name)
+    def start_words(self) -> str:
+        """How an episode starts, in words."""
+        return "from the magnet's start pose"
 
     def arm_settings(self) -> dict[str, Any]:
         """The keywords of :class:`~elastica_magnetic.MagnetPose` (SI)."""
@@ -107,20 +96,11 @@ class MagnetArm:
 
     def to_dict(self) -> dict[str, Any]:
         """The ``[actuation]`` table."""
-        out = {"kind": self.kind, **self.arm_settings(), "min_clearance": self.min_clearance,
-               "control_rate": self.control_rate}
-        if self.insertion is not None:
-            out.update(insertion=list(self.insertion), insertion_speed=self.insertion_speed)
-        return out
+        return {"kind": self.kind, **self.arm_settings(), "min_clearance": self.min_clearance,
+                "control_rate": self.control_rate, **self.stage_dict()}
 
 
-
-#: Largest distance (m) of a magnet or workspace corner from the rod's base: a robot arm's reach
-#: is about 1 m; a value in mm written as m is 1000x.
-MAX_ARM_REACH = 2.0
-#: Fastest magnet (m/s) and turn (rad/s) an arm commands: ~1 m/s and a few turns per second; mm/s
-#: written as m/s or degrees as rad is far beyond.
-MAX_ARM_SPEED = 5.0
+#: Fastest turn (rad/s) an arm commands: a few turns per second; degrees written as rad is far beyond.
 MAX_TURN_RATE = 20.0
 
 
@@ -140,22 +120,22 @@ def magnet_arm_from_table(t: SpecTable, rod_length: float) -> MagnetArm:
     if np.any(workspace[1] <= workspace[0]):
         raise t.error("workspace", f"each min must be below its max (m), got {box!r}")
     for key, value in (("position", np.asarray(position)), ("workspace", workspace)):
-        if np.abs(value).max() > MAX_ARM_REACH:
+        if np.abs(value).max() > MAX_REACH:
             raise t.error(key, f"{value.tolist()} m reaches {np.abs(value).max():g} m from the base, "
-                               f"beyond any arm ({MAX_ARM_REACH:g} m): lengths in mm written as m?")
+                               f"beyond any arm ({MAX_REACH:g} m): lengths in mm written as m?")
     d = MagnetArm(moment=0.0, position=(0.0, 0.0, 0.0), direction=(1.0, 0.0, 0.0),
                   workspace=((0.0, 0.0, 0.0), (1.0, 1.0, 1.0)))
     arm = MagnetArm(
         moment=moment, position=tuple(position), direction=tuple(direction),
         workspace=(tuple(workspace[0].tolist()), tuple(workspace[1].tolist())),
-        max_speed=t.number("max_speed", "m/s", d.max_speed, low=0.0, low_open=True, high=MAX_ARM_SPEED),
+        max_speed=t.number("max_speed", "m/s", d.max_speed, low=0.0, low_open=True, high=MAX_SPEED),
         max_turn_rate=t.number("max_turn_rate", "rad/s", d.max_turn_rate, low=0.0, low_open=True,
                                high=MAX_TURN_RATE),
         min_clearance=t.number("min_clearance", "m", d.min_clearance, low=0.0, low_open=True),
         control_rate=t.number("control_rate", "Hz", d.control_rate, low=0.0, low_open=True),
-        insertion=_insertion(t, rod_length),
+        insertion=insertion_from_table(t, rod_length),
         insertion_speed=t.number("insertion_speed", "m/s", d.insertion_speed, low=0.0, low_open=True,
-                                 high=MAX_ARM_SPEED))
+                                 high=MAX_SPEED))
     if t.has("insertion_speed") and arm.insertion is None:
         raise t.error("insertion_speed", "is for an insertion stage: give its travel, insertion = "
                                          "[low, high] (m)")
@@ -173,23 +153,6 @@ def magnet_arm_from_table(t: SpecTable, rod_length: float) -> MagnetArm:
                                   f"= {1e3 * arm.min_clearance:g} mm: every episode would end at its start")
     t.finish()
     return arm
-
-
-def _insertion(t: SpecTable, rod_length: float) -> tuple[float, float] | None:
-    """``insertion = [low, high]`` (m): the stage's travel along +x from the base's start."""
-    if not t.has("insertion"):
-        return None
-    low, high = t.vector("insertion", "m", 2)
-    if not (low <= 0.0 <= high and low < high):
-        raise t.error("insertion", f"[{low:g}, {high:g}] m must hold 0 (the rod starts where it is built) "
-                                   "with low < high")
-    if max(-low, high) > MAX_ARM_REACH:
-        raise t.error("insertion", f"[{low:g}, {high:g}] m: a travel beyond {MAX_ARM_REACH:g} m (mm written "
-                                   "as m?)")
-    if -low > rod_length:
-        raise t.error("insertion", f"{low:g} m pulls the base back more than the rod's length "
-                                   f"({rod_length:g} m)")
-    return (low, high)
 
 
 def _clearance_of_straight_rod(point: np.ndarray, length: float) -> float:

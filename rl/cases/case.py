@@ -13,14 +13,20 @@ Tables of a spec (SI units; the robot's tables are described in
 - ``[actuation]``: ``field_limit`` (T), ``max_increment`` (T per action), ``control_rate`` (Hz;
   100, the only rate the environments and the firmware play), ``initial_field`` (``"random"``
   or ``"zero"``: training episodes; generated fields always start from zero). Or, with ``kind =
-  "magnet-pose"``, a permanent magnet on a robot arm (:class:`MagnetArm`): ``moment`` (A m^2),
+  "magnet-pose"``, a permanent magnet on a robot arm
+  (:class:`~elastica_magnetic_rl.cases.arm_actuation.MagnetArm`): ``moment`` (A m^2),
   ``position`` (m) and ``direction`` at the start of each episode, ``workspace`` (m, the box its
   centre stays in), ``max_speed`` (m/s), ``max_turn_rate`` (rad/s) and ``min_clearance`` (m, the
-  nearest it may come to the rod); the rod is clamped at its base (a catheter).
+  nearest it may come to the rod); the rod is clamped at its base (a catheter). Or, with ``kind =
+  "coil-currents"``, fixed coils whose currents steer the clamped rod
+  (:class:`~elastica_magnetic_rl.cases.coil_actuation.CoilArray`): ``current_limit`` (A),
+  ``max_slew`` (A/s), ``[[actuation.coils]]`` (``radius`` m, ``centre`` m, ``axis``, ``turns``).
+  Both may have an insertion stage (``insertion``, m, ``insertion_speed``, m/s).
 - ``[task]``: ``kind`` (``"crawl"``, ``"reach"``, ``"goto"`` or ``"tip-reach"``, see
   :mod:`elastica_magnetic_rl.cases.tasks`) and its parameters, ``episode_duration`` (s, training
   episodes); ``goto`` needs ``[actuation] axes = "xyz"``; ``tip-reach`` (the tip of a clamped rod
-  to a target in ``target_box``) goes with a magnet-pose actuation, the crawler tasks with a field.
+  to a target in ``target_box``) goes with a magnet-pose or coil-currents actuation, the crawler
+  tasks with a field.
 - ``[training]``: ``recipe`` (:data:`~elastica_magnetic_rl.cases.recipes.RECIPES`), ``steps`` per seed,
   ``[training.td3]``: :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` fields on top of the recipe,
   and ``[training.randomize]``: robot values drawn anew per training episode and crawler (domain
@@ -57,13 +63,11 @@ from elastica_magnetic.specfile import (
     read_spec,
 )
 
-from .arm_actuation import (
-    ACTUATION_KINDS,
-    MagnetArm,
-    magnet_arm_from_table,
-)
+from .arm_actuation import magnet_arm_from_table
+from .coil_actuation import coil_array_from_table
 from .design_space import DESIGN_TABLE, DesignSpace, design_space
 from .recipes import DEFAULT_RECIPE, RECIPES
+from .steered import ACTUATION_KINDS, SteeringActuation
 from .task_tables import MAX_YARDSTICK_BODY_LENGTHS, task_from_table
 from .tasks import GotoTask, ReachTask, Task, TipReachTask
 from .variations import (
@@ -213,7 +217,7 @@ class Case:
     name: str
     description: str
     robot: RobotDescription
-    actuation: Actuation | MagnetArm
+    actuation: Actuation | SteeringActuation
     task: Task
     training: Training
     yardstick: Yardstick
@@ -231,14 +235,15 @@ class Case:
 
     @property
     def field_actuated(self) -> bool:
-        """Whether a uniform field (coils) actuates the robot; ``False`` for a magnet on an arm."""
-        return not isinstance(self.actuation, MagnetArm)
+        """Whether a uniform field (the paper's coils) actuates the robot; ``False`` for a case
+        steered by a source (a magnet on an arm, fixed coils' currents)."""
+        return not isinstance(self.actuation, SteeringActuation)
 
     @property
     def training_episodes(self) -> str:
         """How the case's training episodes start, in words (for summaries of training returns)."""
         if not self.field_actuated:
-            return "from the magnet's start pose, to targets drawn in the task's target_box"
+            return f"{self.actuation.start_words()}, to targets drawn in the task's target_box"
         return "from random initial fields" if self.actuation.initial_field == "random" else "from zero field"
 
     @property
@@ -249,7 +254,7 @@ class Case:
     def obs_dim(self) -> int:
         """Observation size: the robot's ``4 n + 4`` plus the actuation's and the task's extra
         blocks."""
-        if isinstance(self.actuation, MagnetArm):  # the rod's node positions, then its blocks
+        if not self.field_actuated:  # the rod's node positions, then its blocks
             extra = (*self.actuation.observation_blocks, *self.task.extra_observation)
             return 3 * (self.n_elements + 1) + sum(size for _, size in extra)
         extra = (*self.actuation.observation_blocks, *self.task.extra_observation)
@@ -410,7 +415,7 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     actuation = _actuation(top.table("actuation"), float(robot.tables["robot"]["length"]))
     _check_sideways_model(actuation, robot, spec, source)
     length = float(robot.tables["robot"]["length"])
-    stage = getattr(actuation, "insertion", None) if isinstance(actuation, MagnetArm) else None
+    stage = actuation.insertion if isinstance(actuation, SteeringActuation) else None
     task = task_from_table(top.table("task"), length, length + (stage[1] if stage else 0.0))
     _check_task_and_actuation(task, actuation, source)
     training = _training(top.table("training", required=False), source, robot)
@@ -420,7 +425,7 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
         raise SpecError(f"{source}: [robot.magnetization]: no magnetization: no field can move it "
                         "(every element is at 0 A/m), so there is nothing to learn; give the robot "
                         "its magnetization (docs/specs.md)")
-    if robot.robot("training").ground is None and not isinstance(actuation, MagnetArm):
+    if robot.robot("training").ground is None and not isinstance(actuation, SteeringActuation):
         raise SpecError(f"{source}: [robot.ground] missing: the crawler tasks need a ground (add the "
                         "table; every key in it has a default)")
     design = _design(top.raw(DESIGN_TABLE, None), robot, actuation, source, top.accept)
@@ -430,39 +435,42 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     return Case(name, description, robot, actuation, task, training, yardstick, source, design)
 
 
-def _check_task_and_actuation(task: Task, actuation: Actuation | MagnetArm, source: str) -> None:
-    """A tip-reach task goes with a magnet arm, the crawler tasks with a field: the other pairs
-    are refused, naming both."""
-    arm, tip = isinstance(actuation, MagnetArm), isinstance(task, TipReachTask)
-    if arm and not tip:
+def _check_task_and_actuation(task: Task, actuation: Actuation | SteeringActuation, source: str) -> None:
+    """A tip-reach task goes with a steering actuation (a magnet arm, coil currents), the crawler
+    tasks with a field: the other pairs are refused, naming both."""
+    steered, tip = isinstance(actuation, SteeringActuation), isinstance(task, TipReachTask)
+    if steered and not tip:
         raise SpecError(f"{source}: [task] kind = {task.kind!r} is a crawler's task (a uniform field "
-                        "moves the robot on its ground); a magnet on an arm ([actuation] kind = "
-                        "\"magnet-pose\") steers a clamped rod's tip: set [task] kind = \"tip-reach\"")
-    if tip and not arm:
+                        f"moves the robot on its ground); [actuation] kind = \"{actuation.kind}\" "
+                        "steers a clamped rod's tip: set [task] kind = \"tip-reach\"")
+    if tip and not steered:
         raise SpecError(f"{source}: [task] kind = \"tip-reach\" steers a clamped rod's tip with a "
-                        "magnet on an arm: set [actuation] kind = \"magnet-pose\" (and its moment, "
-                        "position, direction, workspace)")
+                        "source: set [actuation] kind = \"magnet-pose\" (a magnet on an arm: its moment, "
+                        "position, direction, workspace) or \"coil-currents\" (fixed coils)")
     if isinstance(task, GotoTask) and actuation.axes != "xyz":
         raise SpecError(f"{source}: [task] kind = \"goto\" needs the third coil pair: a field "
                         f"confined to the x-y plane (axes = {actuation.axes!r}) moves the robot "
                         "only along its line; set [actuation] axes = \"xyz\"")
 
 
-def _design(table: Any, robot: RobotDescription, actuation: Actuation | MagnetArm, source: str,
+def _design(table: Any, robot: RobotDescription, actuation: Actuation | SteeringActuation, source: str,
             accept: frozenset[str]) -> DesignSpace | None:
     """The checked ``[design]`` table (``None`` when absent)."""
     if table is None:
         return None
-    if isinstance(actuation, MagnetArm):
+    if isinstance(actuation, SteeringActuation):
         raise SpecError(f"{source}: [{DESIGN_TABLE}]: msr design searches magnetizations under a "
-                        "rotating uniform field; a magnet-pose case has none (remove the table)")
+                        f"rotating uniform field; a {actuation.kind} case has none (remove the table)")
     return design_space(table, robot.tables["robot"], actuation.axes, source,
                         robot.robot("accurate").magnetization, accept)
 
 
-def _actuation(t: SpecTable, rod_length: float) -> Actuation | MagnetArm:
-    if t.string("kind", "field", choices=ACTUATION_KINDS) == "magnet-pose":
+def _actuation(t: SpecTable, rod_length: float) -> Actuation | SteeringActuation:
+    kind = t.string("kind", "field", choices=ACTUATION_KINDS)
+    if kind == "magnet-pose":
         return magnet_arm_from_table(t, rod_length)
+    if kind == "coil-currents":
+        return coil_array_from_table(t, rod_length)
     d = Actuation(field_limit=0.0)
     axes = t.string("axes", d.axes, choices=ACTUATION_AXES)
     limits = _per_axis(t, "field_limit", "T", axes, None, high=1.0, plausible="coil field")
@@ -487,12 +495,12 @@ def _actuation(t: SpecTable, rod_length: float) -> Actuation | MagnetArm:
     return out
 
 
-def _check_sideways_model(actuation: Actuation | MagnetArm, robot: RobotDescription, spec: Mapping[str, Any],
-                          source: str) -> None:
+def _check_sideways_model(actuation: Actuation | SteeringActuation, robot: RobotDescription,
+                          spec: Mapping[str, Any], source: str) -> None:
     """A three-axis case on a band whose ground rolls it sideways like a round rod (the default
     model): warned, naming the model of a flat band (``[checks] accept = ["actuation.axes"]``
     keeps the rolling model on purpose)."""
-    if isinstance(actuation, MagnetArm) or actuation.axes != "xyz":
+    if isinstance(actuation, SteeringActuation) or actuation.axes != "xyz":
         return
     rod = robot.robot("training")
     if rod.section == "band" and rod.ground is not None and rod.ground.sideways == "rolling":

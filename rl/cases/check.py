@@ -79,8 +79,7 @@ def check_case(case: Case, sag: bool = True) -> SpecCheck:
     return check_robot(case.robot, field_limit=field, task_kind=case.task.kind,
                        yardstick_m=case.yardstick.distance_10s if case.field_actuated else None,
                        name=case.name, source=str(case.source), sag=sag,
-                       field_name="field limit" if case.field_actuated
-                       else "the magnet's at the straight tip at its start pose")
+                       field_name="field limit" if case.field_actuated else case.actuation.tip_field_words)
 
 
 def case_summary(case: Case, check: SpecCheck | None = None) -> str:
@@ -104,7 +103,7 @@ def case_summary(case: Case, check: SpecCheck | None = None) -> str:
 
 
 def _actuation_text(case: Case) -> str:
-    """The actuation in words: the field's axes, limits and increments, or the magnet's arm."""
+    """The actuation in words: the field's axes, limits and increments, or the steering source."""
     a = case.actuation
     if not case.field_actuated:
         return a.describe(float(case.robot.tables["robot"]["length"]))

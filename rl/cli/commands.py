@@ -280,7 +280,8 @@ def case_list_command(args: argparse.Namespace) -> int:
         print_result({"cases": rows}, True)
     else:
         for r in rows:
-            actuation = "magnet" if r["field_limit_mT"] is None else f"{r['field_limit_mT']:g} mT"
+            actuation = ({"magnet-pose": "magnet", "coil-currents": "coils"}[r["actuation"]]
+                         if r["field_limit_mT"] is None else f"{r['field_limit_mT']:g} mT")
             print(f"{r['name']:<14} {r['robot']:<12} {r['magnetization']:<18} "
                   f"{actuation:>8}  {r['task']:<6} target {r['target']}")
     return 0

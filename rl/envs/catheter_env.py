@@ -1,17 +1,20 @@
-"""N clamped catheters, each steered by a magnet on its own arm: a Gymnasium 1.x vector environment
-(``CatheterReachVectorEnv``) of the tip-reach task.
+"""N clamped catheters, each steered by its own magnet on an arm or its own currents in fixed coils:
+a Gymnasium 1.x vector environment (``CatheterReachVectorEnv``) of the tip-reach task.
 
 Each sub-environment ``i`` is a rod clamped at its first node and element (a catheter held at its
 base, straight along +x from the origin at the start) in the field of a permanent magnet that a
-robot arm carries (:class:`~elastica_magnetic.MagnetPose`): the policy's action moves and turns the
-magnet, the task (:class:`~elastica_magnetic_rl.cases.tasks.TipReachTask`) rewards bringing the tip
-to a target drawn per episode. All N rods live in one
-:class:`~elastica_magnetic.batch.BatchedRobots` (``clamp=True``), every arm's magnet applied by one
-kernel, bit for bit the per-rod simulation of the same commands.
+robot arm carries (:class:`~elastica_magnetic.MagnetPose`) or of fixed coils
+(:class:`~elastica_magnetic.CoilCurrents`): the policy's action moves and turns the magnet, or
+sets the currents; the task (:class:`~elastica_magnetic_rl.cases.tasks.TipReachTask`) rewards
+bringing the tip to a target drawn per episode. All N rods live in one
+:class:`~elastica_magnetic.batch.BatchedRobots` (``clamp=True``), every arm's magnet (or coil set)
+applied by one kernel, bit for bit the per-rod simulation of the same commands.
 
-Spaces (float32): action ``Box([-1, 1])`` of shape ``(N, 5)``: the magnet's velocity (3, up to the
-arm's ``max_speed`` m/s as a vector) and its moment's turn rate about the two directions across it
-(2, up to ``max_turn_rate`` rad/s), followed continuously over the 0.01 s control step. Observation
+Spaces (float32), for a magnet arm: action ``Box([-1, 1])`` of shape ``(N, 5)``: the magnet's
+velocity (3, up to the arm's ``max_speed`` m/s as a vector) and its moment's turn rate about the
+two directions across it (2, up to ``max_turn_rate`` rad/s), followed continuously over the 0.01 s
+control step; for ``C`` coils, ``(N, C)``: each current over its limit, ramped at most at
+``max_slew``. With an insertion stage, one more component (its velocity). Observation
 ``(N, 3 (n + 1) + 12)`` for a rod of ``n`` elements (see :func:`catheter_observation_layout`), every
 length relative to the clamped base and scaled by 100 per m (10 mm reads 1.0):
 
@@ -25,12 +28,13 @@ block                    size       value
 ``target_offset``        3          ``100 * (target - tip)``, m: the task's
 =======================  =========  ==========================================================
 
-The shape and the magnet's pose are what decide the next field at every element; the tip's velocity
-carries the rod's momentum (the dynamics of a scaled mass); the offset says where to go in the
-frame a policy steers in (the spec's, since the base does not move).
+For coils, a ``coil_currents`` block (C: the currents over their limit) stands where the magnet's
+two are. The shape and the magnet's pose (or the currents) are what decide the next field at
+every element; the tip's velocity carries the rod's momentum (the dynamics of a scaled mass); the
+offset says where to go in the frame a policy steers in (the spec's: the base moves only along x).
 
 Episode end: the time limit (``task.episode_duration``) truncates. An episode terminates, with
-reward ``divergence_penalty``, when the simulation blows up or the magnet comes within
+reward ``divergence_penalty``, when the simulation blows up or a magnet comes within
 ``min_clearance`` m of a node of the rod (an arm must not touch the catheter; near the magnet the
 gradient force grows as ``1 / r^4``). Autoreset ``SAME_STEP`` with ``final_obs`` / ``final_info``,
 seeding ``s + i`` and :meth:`get_state` / :meth:`set_state` follow
@@ -42,7 +46,8 @@ Units: SI (m, s, T, A m^2).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping, Sequence
+import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -52,19 +57,20 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
-from elastica_magnetic import Advancer, MagnetPose, RobotSpec
+from elastica_magnetic import CoilCurrents, MagnetPose, RobotSpec
 from elastica_magnetic.batch import BatchedRobots, BatchedSimulationDivergedError
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
-from ..cases.arm_actuation import MagnetArm
+from ..cases.arm_actuation import MAGNET_ARM_OBSERVATION
 from ..cases.case import Case
+from ..cases.steered import SteeringActuation
 from ..cases.tasks import TipReachTask
 from .vector_reset import reseed
 
 __all__ = ["CATHETER_OBSERVATION_SCALES", "CatheterReachVectorEnv", "catheter_observation_layout",
            "make_catheter_env"]
 
-STATE_FORMAT = "msr-catheter-vector-state-v1"
+STATE_FORMAT = "msr-catheter-vector-state-v2"
 
 #: Scale factors of the observation, SI input units (see the module docstring).
 CATHETER_OBSERVATION_SCALES: dict[str, float] = {
@@ -72,16 +78,18 @@ CATHETER_OBSERVATION_SCALES: dict[str, float] = {
     "tip_velocity": 10.0,  # per m/s
     "magnet_position": 100.0,  # per m
     "magnet_direction": 1.0,
+    "coil_currents": 1.0,  # over the current limit
     "insertion": 100.0,  # per m
     "target_offset": 100.0,  # per m (the task's)
 }
 
 
-def catheter_observation_layout(n_elements: int, insertion: bool = False) -> dict[str, slice]:
-    """Index slices of each observation block for a rod of ``n_elements`` elements (``insertion``:
-    with an insertion stage's block before the target's)."""
-    sizes = (("node_positions", 3 * (int(n_elements) + 1)), ("tip_velocity", 3), ("magnet_position", 3),
-             ("magnet_direction", 3), *((("insertion", 1),) if insertion else ()), ("target_offset", 3))
+def catheter_observation_layout(n_elements: int, blocks: Sequence[tuple[str, int]] = MAGNET_ARM_OBSERVATION
+                                ) -> dict[str, slice]:
+    """Index slices of each observation block for a rod of ``n_elements`` elements: its node
+    positions, the actuation's ``blocks`` (name, size; its ``observation_blocks``, default a magnet
+    arm's without a stage), then the target's offset."""
+    sizes = (("node_positions", 3 * (int(n_elements) + 1)), *blocks, ("target_offset", 3))
     out, start = {}, 0
     for name, size in sizes:
         out[name] = slice(start, start + size)
@@ -90,7 +98,7 @@ def catheter_observation_layout(n_elements: int, insertion: bool = False) -> dic
 
 
 class CatheterReachVectorEnv(VectorEnv):
-    """``num_envs`` catheters with their arms, stepped together (see the module docstring).
+    """``num_envs`` catheters with their actuators, stepped together (see the module docstring).
 
     Parameters
     ----------
@@ -98,42 +106,38 @@ class CatheterReachVectorEnv(VectorEnv):
         Number of sub-environments ``N`` >= 1.
     spec : RobotSpec
         The rod, in SI, in the physics it trains in (its first node and element are clamped).
-    arm : mapping
-        The keywords of :class:`~elastica_magnetic.MagnetPose` (``moment`` A m^2, ``position`` m,
-        ``direction``, ``workspace`` m, ``max_speed`` m/s, ``max_turn_rate`` rad/s): every episode
-        starts with the magnet there.
+    actuation : MagnetArm or CoilArray
+        What steers each rod (:class:`~elastica_magnetic_rl.cases.arm_actuation.MagnetArm`: a magnet
+        on an arm, which every episode starts at its start pose and which ends an episode when it
+        comes within its ``min_clearance`` m of a node; or
+        :class:`~elastica_magnetic_rl.cases.coil_actuation.CoilArray`: fixed coils, every episode
+        starting from zero currents), with its insertion stage if it has one (the action's last
+        component, the observation's ``insertion`` block, ``100 * s``, m).
     task : TipReachTask
         Targets, tolerance, reward and episode duration.
-    min_clearance : float
-        m: a magnet nearer than this to a node of the rod ends the episode (terminated).
     divergence_penalty : float
         Reward of a step that ends an episode by a blow-up or a collision.
-    insertion : (float, float), optional
-        m: the travel of an insertion stage (:class:`~elastica_magnetic.Advancer`) that pushes each
-        rod's base along +x: the action gains a sixth component (its velocity, up to
-        ``insertion_speed`` m/s), the observation an ``insertion`` block (``100 * s``, m).
     """
 
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
 
-    def __init__(self, num_envs: int, spec: RobotSpec, arm: Mapping[str, Any],
-                 task: TipReachTask | None = None, min_clearance: float = 0.01,
-                 divergence_penalty: float = -10.0, insertion: tuple[float, float] | None = None,
-                 insertion_speed: float = 0.01) -> None:
+    def __init__(self, num_envs: int, spec: RobotSpec, actuation: SteeringActuation,
+                 task: TipReachTask | None = None, divergence_penalty: float = -10.0) -> None:
         if int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
-        if not (np.isfinite(min_clearance) and min_clearance > 0.0):
-            raise ValueError(f"min_clearance must be a positive length in m, got {min_clearance!r}")
+        if not isinstance(actuation, SteeringActuation):
+            raise TypeError(f"actuation: a MagnetArm or a CoilArray (a case's actuation), got "
+                            f"{type(actuation).__name__}")
         self.num_envs = int(num_envs)
         self.spec, self.task = spec, task if task is not None else TipReachTask()
-        self.arm_settings = dict(arm)
-        self.arms = [MagnetPose(**self.arm_settings) for _ in range(self.num_envs)]
-        self.advancers = ([Advancer(insertion, insertion_speed) for _ in range(self.num_envs)]
-                          if insertion is not None else [])
-        self.action_size = MagnetPose.action_size + (1 if self.advancers else 0)
-        self.min_clearance, self.divergence_penalty = float(min_clearance), float(divergence_penalty)
+        self.actuation = actuation
+        self.actuators: list[MagnetPose | CoilCurrents] = [actuation.actuator() for _ in range(self.num_envs)]
+        self.advancers = [actuation.advancer() for _ in range(self.num_envs)] if actuation.insertion else []
+        self.action_size, self.command_size = actuation.action_size, actuation.actuator_size
+        self.min_clearance = getattr(actuation, "min_clearance", None)  # a magnet's; coils have none
+        self.divergence_penalty = float(divergence_penalty)
         self.max_episode_steps = max(1, round(self.task.episode_duration / ACTION_PERIOD))
-        self.layout = catheter_observation_layout(spec.n_elements, insertion=bool(self.advancers))
+        self.layout = catheter_observation_layout(spec.n_elements, actuation.observation_blocks)
         size = self.layout["target_offset"].stop
         self.render_mode = None
         self.single_observation_space = spaces.Box(-np.inf, np.inf, (size,), np.float32)
@@ -164,24 +168,30 @@ class CatheterReachVectorEnv(VectorEnv):
         return self.advancers[i].insertion_at(self.robots.robot_time(i)) if self.advancers else 0.0
 
     def _observe(self, i: int) -> NDArray[np.float32]:
-        rod, arm, time = self.robots.rods[i], self.arms[i], self.robots.robot_time(i)
+        rod, actuator, time = self.robots.rods[i], self.actuators[i], self.robots.robot_time(i)
         base, tip = self._base(i), self.tip(i)
         scales, layout = CATHETER_OBSERVATION_SCALES, self.layout
         obs = np.empty(layout["target_offset"].stop)
         obs[layout["node_positions"]] = (scales["node_positions"]
                                          * (rod.position_collection - base[:, None])).T.reshape(-1)
         obs[layout["tip_velocity"]] = scales["tip_velocity"] * rod.velocity_collection[:, -1]
-        position, direction = np.split(arm.state(time), 2)
-        obs[layout["magnet_position"]] = scales["magnet_position"] * (position - base)
-        obs[layout["magnet_direction"]] = direction
+        if isinstance(actuator, MagnetPose):
+            position, direction = np.split(actuator.state(time), 2)
+            obs[layout["magnet_position"]] = scales["magnet_position"] * (position - base)
+            obs[layout["magnet_direction"]] = direction
+        else:
+            obs[layout["coil_currents"]] = scales["coil_currents"] * actuator.state(time)
         if self.advancers:
             obs[layout["insertion"]] = scales["insertion"] * self.insertion(i)
         obs[layout["target_offset"]] = self.task.observe(tip, self._targets[i])
         return obs.astype(np.float32)
 
     def clearance(self, i: int) -> float:
-        """Distance from robot ``i``'s magnet to the nearest node of its rod, m."""
-        magnet = self.arms[i].position_at(self.robots.robot_time(i))
+        """Distance from robot ``i``'s magnet to the nearest node of its rod, m (infinite for coils)."""
+        actuator = self.actuators[i]
+        if not isinstance(actuator, MagnetPose):
+            return math.inf
+        magnet = actuator.position_at(self.robots.robot_time(i))
         nodes = self.robots.rods[i].position_collection
         return float(np.sqrt(((nodes - magnet[:, None]) ** 2).sum(axis=0)).min())
 
@@ -191,9 +201,9 @@ class CatheterReachVectorEnv(VectorEnv):
         return self._rngs[i]
 
     def _reset_one(self, i: int, target: Any = None) -> None:
-        """Robot ``i`` back straight at rest, its arm at the start pose, a new target."""
+        """Robot ``i`` back straight at rest, its actuator at its start, a new target."""
         self.robots.reset_robot(i)
-        self.arms[i].reset()
+        self.actuators[i].reset()
         if self.advancers:
             self.advancers[i].reset()
         self.steps[i] = 0
@@ -227,7 +237,7 @@ class CatheterReachVectorEnv(VectorEnv):
             super().reset(seed=int(seed))
         mask = reseed(self._rngs, seed, options, first=self.robots is None)
         if self.robots is None:
-            self.robots = BatchedRobots(self.spec, self.num_envs, sources=[a.source for a in self.arms],
+            self.robots = BatchedRobots(self.spec, self.num_envs, sources=[a.source for a in self.actuators],
                                         clamp=True, advancers=self.advancers or None)
         targets = options.get("target")
         if targets is not None and np.ndim(targets) == 2:  # one target per sub-environment
@@ -240,7 +250,7 @@ class CatheterReachVectorEnv(VectorEnv):
 
     def step(self, actions: NDArray[np.float32]) -> tuple[
             NDArray[np.float32], NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_], dict[str, Any]]:
-        """Command every arm for 0.01 s and simulate it. Returns ``obs`` ``(N, size)`` float32 (the
+        """Command every actuator for 0.01 s and simulate it. Returns ``obs`` ``(N, size)`` float32 (the
         first of a new episode where one ended), ``rewards`` ``(N,)``, ``terminated``,
         ``truncated`` ``(N,)`` bool and the info dict (``final_obs`` / ``final_info`` where an
         episode ended, ``ended_by`` there: ``"time"``, ``"collision"`` or ``"divergence"``)."""
@@ -251,17 +261,18 @@ class CatheterReachVectorEnv(VectorEnv):
         if not np.all(np.isfinite(a)):
             raise ValueError(f"actions must be finite, got {actions!r}")
         before = [self.tip(i) for i in range(n)]
-        for i, arm in enumerate(self.arms):
-            arm.apply(a[i, :MagnetPose.action_size], robots.robot_time(i), ACTION_PERIOD)
+        for i, actuator in enumerate(self.actuators):
+            actuator.apply(a[i, :self.command_size], robots.robot_time(i), ACTION_PERIOD)
             if self.advancers:
-                self.advancers[i].apply(np.clip(a[i, MagnetPose.action_size:], -1.0, 1.0),
+                self.advancers[i].apply(np.clip(a[i, self.command_size:], -1.0, 1.0),
                                         robots.robot_time(i), ACTION_PERIOD)
         diverged = np.zeros(n, dtype=bool)
         try:
             robots.step(self.spec.steps_per_action)
         except BatchedSimulationDivergedError:
             diverged = np.array([not self._healthy(i) for i in range(n)])
-        collided = np.array([not diverged[i] and self.clearance(i) < self.min_clearance for i in range(n)])
+        collided = np.array([not diverged[i] and self.min_clearance is not None
+                             and self.clearance(i) < self.min_clearance for i in range(n)])
         rewards = np.full(n, self.divergence_penalty)
         for i in np.flatnonzero(~diverged):
             obs = self._observe(i)
@@ -308,15 +319,16 @@ class CatheterReachVectorEnv(VectorEnv):
     # -- state -------------------------------------------------------------------------------------
     def get_state(self) -> dict[str, Any]:
         """Everything that determines the future of all sub-environments: the memory block's base
-        arrays, each arm's motion ``(N, 16)``, the step counters, observations, targets ``(N, 3)``
-        m and the generators' states (restore with :meth:`set_state`)."""
+        arrays, each actuator's motion (an arm's ``(16,)``, coils' ramp), the step counters,
+        observations, targets ``(N, 3)`` m and the generators' states (restore with
+        :meth:`set_state`)."""
         if self.robots is None:
             raise RuntimeError("call reset() before get_state()")
         if any(r is None for r in self._rngs):
             raise RuntimeError("every sub-environment needs a generator (reset with a seed)")
         return {"format": STATE_FORMAT, "num_envs": self.num_envs,
                 "block": {name: value.copy() for name, value in self.robots.base_arrays().items()},
-                "motions": np.stack([arm.motion.copy() for arm in self.arms]),
+                "motions": np.stack([_motion(actuator) for actuator in self.actuators]),
                 "stages": np.array([stage.motion() for stage in self.advancers]).reshape(-1, 4),
                 "steps": self.steps.copy(), "robot_step_count": self.robots.robot_step_count.copy(),
                 "step_count": int(self.robots.step_count), "obs": self._obs.copy(),
@@ -333,8 +345,9 @@ class CatheterReachVectorEnv(VectorEnv):
             raise ValueError("the saved simulator block does not match this environment")
         for name, value in arrays.items():
             value[...] = np.asarray(state["block"][name])
-        for arm, motion in zip(self.arms, np.asarray(state["motions"], dtype=np.float64), strict=True):
-            arm.motion[:] = motion
+        motions = np.asarray(state["motions"], dtype=np.float64)
+        for actuator, motion in zip(self.actuators, motions, strict=True):
+            _set_motion(actuator, motion)
         for stage, saved in zip(self.advancers, np.asarray(state.get("stages", np.zeros((0, 4)))),
                                 strict=True):
             stage.set_motion(saved)
@@ -352,17 +365,27 @@ class CatheterReachVectorEnv(VectorEnv):
         self.robots = None
 
 
+def _motion(actuator: MagnetPose | CoilCurrents) -> NDArray[np.float64]:
+    """What decides an actuator's future: an arm's motion row, coils' current ramp."""
+    return actuator.motion.copy() if isinstance(actuator, MagnetPose) else actuator.motion()
+
+
+def _set_motion(actuator: MagnetPose | CoilCurrents, motion: NDArray[np.float64]) -> None:
+    if isinstance(actuator, MagnetPose):
+        actuator.motion[:] = motion
+    else:
+        actuator.set_motion(motion)
+
+
 def make_catheter_env(case: Case, num_envs: int, physics: str = "training", duration: float | None = None,
                       randomize: Sequence[Any] | None = None) -> CatheterReachVectorEnv:
-    """The vector environment of a magnet-arm case (``duration``, s: the episodes', default the
-    task's); its robots and arms are the case's, in ``physics``."""
-    if not isinstance(case.actuation, MagnetArm):
-        raise ValueError(f"case {case.name!r} is not steered by a magnet on an arm")
+    """The vector environment of a case steered by a source (a magnet arm, coil currents;
+    ``duration``, s: the episodes', default the task's); its robots and actuators are the case's,
+    in ``physics``."""
+    if case.field_actuated:
+        raise ValueError(f"case {case.name!r} is actuated by a uniform field, not steered by a source")
     if randomize:
         raise ValueError(f"case {case.name!r}: domain randomization ([training.randomize], --randomize) "
                          "varies a crawler's robot; the catheter cases train on their nominal robot")
     task = case.task if duration is None else dataclasses.replace(case.task, episode_duration=float(duration))
-    arm = case.actuation
-    return CatheterReachVectorEnv(num_envs, case.robot_spec(physics), arm.arm_settings(), task,
-                                  min_clearance=arm.min_clearance, insertion=arm.insertion,
-                                  insertion_speed=arm.insertion_speed)
+    return CatheterReachVectorEnv(num_envs, case.robot_spec(physics), case.actuation, task)

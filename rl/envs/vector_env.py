@@ -67,7 +67,6 @@ from elastica_magnetic import ControlledField, RobotSpec
 from elastica_magnetic.batch import BatchedRobots, BatchedSimulationDivergedError
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
-from ..cases.arm_actuation import MagnetArm
 from ..cases.case import Case, load_case
 from ..cases.tasks import Task
 from ..cases.variations import Variation
@@ -403,10 +402,11 @@ def make_vector_env(
 ) -> VectorEnv:
     """The vector environment of a case (a name, a spec file or a
     :class:`~elastica_magnetic_rl.cases.case.Case`; module level so that ``functools.partial`` of it
-    pickles): the crawlers', or for a magnet-arm case (``[actuation] kind = "magnet-pose"``) the
-    catheters' (:func:`~elastica_magnetic_rl.envs.catheter_env.make_catheter_env`)."""
+    pickles): the crawlers', or for a case steered by a source (``[actuation] kind =
+    "magnet-pose"`` or ``"coil-currents"``) the catheters'
+    (:func:`~elastica_magnetic_rl.envs.catheter_env.make_catheter_env`)."""
     loaded = load_case(case)
-    if isinstance(loaded.actuation, MagnetArm):
+    if not loaded.field_actuated:
         from .catheter_env import make_catheter_env
 
         return make_catheter_env(loaded, num_envs, physics, duration, randomize)

@@ -1,8 +1,9 @@
-"""Judging a tip-reach case (a clamped rod steered by a magnet on an arm): held-out targets drawn
-from the case's ``target_box`` with a seed no training uses, and the result of a controller on them
-(a trained actor, or the yardstick: the bearing steering law of
-:class:`~elastica_magnetic.steering.MagnetBearingSteering`), all targets at once in one batched
-environment. Lengths in m, times in s.
+"""Judging a tip-reach case (a clamped rod steered by a magnet on an arm or by fixed coils):
+held-out targets drawn from the case's ``target_box`` with a seed no training uses, and the result
+of a controller on them (a trained actor, or the yardstick: the bearing steering law of
+:class:`~elastica_magnetic.steering.MagnetBearingSteering` for a magnet,
+:class:`~elastica_magnetic.steering.CoilFieldSteering` for coils), all targets at once in one
+batched environment. Lengths in m, times in s.
 """
 
 from __future__ import annotations
@@ -13,9 +14,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from elastica_magnetic.steering import MagnetBearingSteering
+from elastica_magnetic import MagnetPose
+from elastica_magnetic.steering import CoilFieldSteering, MagnetBearingSteering
 
-from ..cases.arm_actuation import MagnetArm
 from ..cases.case import Case
 from ..envs.catheter_env import CatheterReachVectorEnv, make_catheter_env
 
@@ -27,7 +28,7 @@ HELD_OUT_SEED = 53_000_053
 #: How many held-out targets a tip-reach policy is judged on.
 HELD_OUT_TARGETS = 20
 
-#: A controller: given the environment and its observation ``(N, size)``, the actions ``(N, 5)``.
+#: A controller: given the environment and its observation ``(N, size)``, the actions ``(N, A)``.
 Controller = Callable[[CatheterReachVectorEnv, NDArray[np.float32]], NDArray[np.float64]]
 
 
@@ -42,17 +43,25 @@ def held_out_targets(case: Case, n: int = HELD_OUT_TARGETS, seed: int = HELD_OUT
 INSERTION_GAIN = 5.0
 
 
+#: The fraction of the coils' strongest field at the straight tip that the coils' yardstick asks
+#: (headroom: a tip away from the start, where the coils give less, still gets the field asked).
+COIL_FIELD_FRACTION = 0.5
+
+
 def steering_controller(env: CatheterReachVectorEnv) -> Controller:
-    """The yardstick of a tip-reach case: the bearing steering law for each sub-environment's arm,
-    the magnet kept at its start distance from the straight tip; with an insertion stage, the
-    stage pushed or pulled until the tip is as far from the base's start as the target
-    (:data:`INSERTION_GAIN`)."""
-    if not env.arms:
-        raise ValueError("the environment has no arms")
-    start = np.asarray(env.arm_settings["position"], dtype=np.float64)
+    """The yardstick of a tip-reach case: for a magnet arm, the bearing steering law, the magnet
+    kept at its start distance from the straight tip; for coils, the same law choosing the field's
+    direction at the tip and the least-norm currents making it (:data:`COIL_FIELD_FRACTION` of the
+    strongest field at the straight tip); with an insertion stage, the stage pushed or pulled until
+    the tip is as far from the base's start as the target (:data:`INSERTION_GAIN`)."""
     length = float(env.spec.length)
-    distance = float(np.linalg.norm(start - np.array([length, 0.0, 0.0])))
-    laws = [MagnetBearingSteering(arm, base=[0.0, 0.0, 0.0], distance=distance) for arm in env.arms]
+    if isinstance(env.actuators[0], MagnetPose):
+        start = np.asarray(env.actuation.position, dtype=np.float64)
+        distance = float(np.linalg.norm(start - np.array([length, 0.0, 0.0])))
+        laws = [MagnetBearingSteering(arm, base=[0.0, 0.0, 0.0], distance=distance) for arm in env.actuators]
+    else:
+        field = COIL_FIELD_FRACTION * env.actuation.field_at_tip(length)
+        laws = [CoilFieldSteering(coils, base=[0.0, 0.0, 0.0], field=field) for coils in env.actuators]
 
     def act(env: CatheterReachVectorEnv, obs: NDArray[np.float32]) -> NDArray[np.float64]:
         steer = np.stack([law.action(env.tip(i), env.targets[i], env.robots.robot_time(i), 0.01)
@@ -76,7 +85,7 @@ def run_targets(case: Case, targets: Any,
     ``targets_m``, per target ``final_distance_m``, ``closest_distance_m``, ``ended_by``
     (``"time"``, ``"collision"`` or ``"divergence"``) and ``success`` (ending within the
     tolerance, by time), and ``successes`` (their count)."""
-    if not isinstance(case.actuation, MagnetArm):
+    if case.field_actuated:
         raise ValueError(f"case {case.name!r} is not a tip-reach case (its actuation is a field)")
     targets = np.asarray(targets, dtype=np.float64).reshape(-1, 3)
     env = make_catheter_env(case, len(targets), physics, duration)

@@ -9,8 +9,9 @@ import warnings
 
 import numpy as np
 import pytest
-from elastica_magnetic_rl.cases.arm_actuation import MagnetArm, NotFieldActuatedError
+from elastica_magnetic_rl.cases.arm_actuation import MagnetArm
 from elastica_magnetic_rl.cases.case import load_case
+from elastica_magnetic_rl.cases.steered import NotFieldActuatedError
 from elastica_magnetic_rl.cases.tasks import TipReachTask
 from spec_texts import CATHETER_MAGNET_REACH
 

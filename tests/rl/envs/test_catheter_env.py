@@ -3,10 +3,12 @@ state save and restore, and a steering law driving it."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
+from elastica_magnetic_rl.cases.arm_actuation import MagnetArm
 from elastica_magnetic_rl.cases.tasks import TipReachTask
 from elastica_magnetic_rl.envs.catheter_env import CatheterReachVectorEnv, catheter_observation_layout
 from spec_texts import CATHETER_MAGNET_REACH
@@ -14,8 +16,8 @@ from spec_texts import CATHETER_MAGNET_REACH
 from elastica_magnetic.spec_format import loads
 from elastica_magnetic.specfile import describe_robot
 
-ARM = {"moment": 1.0, "position": [0.09, 0.0, 0.0], "direction": [1.0, 0.0, 0.0],
-       "workspace": [[-0.1, -0.1, -0.1], [0.15, 0.1, 0.1]], "max_speed": 0.1, "max_turn_rate": 3.0}
+ARM = MagnetArm(moment=1.0, position=(0.09, 0.0, 0.0), direction=(1.0, 0.0, 0.0),
+                workspace=((-0.1, -0.1, -0.1), (0.15, 0.1, 0.1)), max_speed=0.1, max_turn_rate=3.0)
 
 
 @pytest.fixture(scope="module")
@@ -70,8 +72,8 @@ def test_reward_is_the_distance_closed_and_episodes_truncate_with_autoreset(spec
 
 
 def test_a_magnet_that_comes_near_the_rod_ends_the_episode(spec):
-    env = CatheterReachVectorEnv(1, spec, {**ARM, "position": [0.065, 0.0, 0.0]},
-                                 TipReachTask(episode_duration=1.0), min_clearance=0.012)
+    near = dataclasses.replace(ARM, position=(0.065, 0.0, 0.0), min_clearance=0.012)
+    env = CatheterReachVectorEnv(1, spec, near, TipReachTask(episode_duration=1.0))
     env.reset(seed=0)
     for _ in range(100):
         _, reward, terminated, truncated, info = env.step(np.array([[-1.0, 0.0, 0.0, 0.0, 0.0]]))
@@ -107,7 +109,7 @@ def test_the_bearing_steering_law_closes_the_distance(spec):
     env = make(spec, 1, episode_duration=2.0)
     target = np.array([0.04, 0.02, 0.0])
     _, info = env.reset(seed=0, options={"target": target})
-    law = MagnetBearingSteering(env.arms[0], base=[0.0, 0.0, 0.0], distance=0.04)
+    law = MagnetBearingSteering(env.actuators[0], base=[0.0, 0.0, 0.0], distance=0.04)
     start = info["distance_m"][0]
     for _ in range(100):
         action = law.action(env.tip(0), target, env.robots.robot_time(0), 0.01)

@@ -64,3 +64,13 @@ def test_with_an_insertion_stage_the_yardstick_reaches_targets_inside_the_sheet(
     targets = np.array([[0.041, 0.011, 0.0086], [0.0444, 0.0017, -0.0032]])  # 6 and 5.4 mm inside
     result = run_targets(c, targets, steering_controller, physics="training", duration=2.0)
     assert max(result["closest_distance_m"]) < 1e-3
+
+
+def test_the_coils_yardstick_closes_the_distance():
+    """Fixed coils (the shipped coil case): the bearing law picks the field's direction at the tip
+    and the least-norm currents make it; the stage brings the tip to the target's distance."""
+    c = load_case("catheter-coils-reach")
+    target = held_out_targets(c)[:1]
+    straight = float(np.linalg.norm(target - [0.05, 0.0, 0.0]))
+    result = run_targets(c, target, steering_controller, physics="training", duration=1.0)
+    assert result["closest_distance_m"][0] < 0.5 * straight and result["ended_by"] == ["time"]

@@ -1,0 +1,197 @@
+"""The actuation of a case steered by the currents of fixed coils (``[actuation] kind =
+"coil-currents"``), as in open electromagnetic navigation systems: its settings
+(:class:`CoilArray`) and the checks of its table (SI: m, A, A/s). The rod is clamped at its base
+(a catheter); the policy sets each coil's current (an action of +-1 is +-``current_limit``),
+reached no faster than ``max_slew``.
+
+Each coil is one circular winding: ``[[actuation.coils]]`` tables with ``radius`` (m), ``centre``
+(m), ``axis`` (a direction, the current counter-clockwise about it) and ``turns``. The field is the
+sum of the coils' (superposition: no iron). Values refused where they cannot be meant: a radius or
+centre in mm written as m, a coil whose winding the rod can reach (the field is infinite on a
+wire), currents or slew rates beyond any driver.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from elastica_magnetic import CoilCurrents, CurrentLoopField
+from elastica_magnetic.hardware.plausibility import MIN_PLAUSIBLE_SLEW_A_PER_S
+from elastica_magnetic.robot_spec import ACTION_PERIOD
+from elastica_magnetic.specfile import SpecTable
+
+from .steered import MAX_REACH, MAX_SPEED, SteeringActuation, insertion_from_table
+
+__all__ = ["CoilArray", "CoilWinding", "coil_array_from_table"]
+
+#: Largest current (A) of a coil driver in a lab; mA written as A is 1000x.
+MAX_CURRENT = 1000.0
+#: Most turns of one coil.
+MAX_TURNS = 1e5
+#: Most coils of a case (the action's size): the open systems have 3 to 8.
+MAX_COILS = 16
+
+
+@dataclass(frozen=True)
+class CoilWinding:
+    """One coil: a circular winding of ``turns`` turns, ``radius`` m, centred at ``centre`` m, the
+    current counter-clockwise about ``axis``."""
+
+    radius: float
+    centre: tuple[float, float, float]
+    axis: tuple[float, float, float]
+    turns: float
+
+    def source(self) -> CurrentLoopField:
+        """The coil's field at 1 A."""
+        return CurrentLoopField(self.radius, current=1.0, centre=self.centre, axis=self.axis,
+                                turns=self.turns)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"radius": self.radius, "centre": list(self.centre), "axis": list(self.axis),
+                "turns": self.turns}
+
+
+@dataclass(frozen=True)
+class CoilArray(SteeringActuation):
+    """Fixed coils whose currents steer the rod (``[actuation] kind = "coil-currents"``):
+    ``coils`` (:class:`CoilWinding`), ``current_limit`` (A, each coil's largest absolute current),
+    ``max_slew`` (A/s, the fastest change of a current; ``None``: within a control step), the
+    control rate (Hz), and optionally an insertion stage (``insertion``, ``insertion_speed``: as
+    :class:`~elastica_magnetic_rl.cases.arm_actuation.MagnetArm`'s)."""
+
+    kind: ClassVar[str] = "coil-currents"
+    #: What :meth:`field_at_tip` is, in words.
+    tip_field_words: ClassVar[str] = "the coils' strongest at the straight tip"
+    coils: tuple[CoilWinding, ...]
+    current_limit: float
+    max_slew: float | None = None
+    control_rate: float = 1.0 / ACTION_PERIOD
+    insertion: tuple[float, float] | None = None
+    insertion_speed: float = 0.01
+
+    @property
+    def actuator_size(self) -> int:
+        """One current per coil."""
+        return len(self.coils)
+
+    @property
+    def observation_blocks(self) -> tuple[tuple[str, int], ...]:
+        """The observation's blocks after the rod's node positions (name, size): the tip's velocity
+        (3), the coils' currents over their limit (one per coil), and the insertion (1) with a stage."""
+        return (("tip_velocity", 3), ("coil_currents", len(self.coils)), *self.stage_blocks())
+
+    def actuator(self) -> CoilCurrents:
+        """New coils of this actuation, every current zero."""
+        return CoilCurrents([coil.source() for coil in self.coils], self.current_limit, self.max_slew)
+
+    def start_words(self) -> str:
+        """How an episode starts, in words."""
+        return "from zero currents"
+
+    def field_at_tip(self, rod_length: float) -> float:
+        """The strongest field (T) the coils can make at the tip of the straight rod (along +x from
+        the origin, ``rod_length`` m), every current within its limit: the field scale of the case
+        (the largest of a convex function over the box of currents is at a corner)."""
+        matrix = self.actuator().field_matrix([rod_length, 0.0, 0.0]) * self.current_limit
+        if len(self.coils) > 12:  # 2^N corners grow fast: the sum of the columns' norms bounds it
+            return float(np.linalg.norm(matrix, axis=0).sum())
+        return max(float(np.linalg.norm(matrix @ np.array(signs)))
+                   for signs in itertools.product((-1.0, 1.0), repeat=len(self.coils)))
+
+    def describe(self, rod_length: float) -> str:
+        """The coils in words (mm, A, mT)."""
+        slew = "" if self.max_slew is None else f", at most {self.max_slew:g} A/s"
+        return (f"{len(self.coils)} fixed coils, each at most {self.current_limit:g} A{slew}; up to "
+                f"{1e3 * self.field_at_tip(rod_length):.3g} mT at the straight tip")
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``[actuation]`` table."""
+        out: dict[str, Any] = {"kind": self.kind, "current_limit": self.current_limit}
+        if self.max_slew is not None:
+            out["max_slew"] = self.max_slew
+        return {**out, "control_rate": self.control_rate, **self.stage_dict(),
+                "coils": [coil.to_dict() for coil in self.coils]}
+
+
+def coil_array_from_table(t: SpecTable, rod_length: float) -> CoilArray:
+    """The ``[actuation]`` table of ``kind = "coil-currents"`` (``rod_length``, m: the rod clamped
+    at the origin along +x, whose reach the coils' windings must clear)."""
+    insertion = insertion_from_table(t, rod_length)
+    coils = _coils(t)
+    d = CoilArray(coils=(), current_limit=1.0)
+    array = CoilArray(
+        coils=coils,
+        current_limit=t.number("current_limit", "A", low=0.0, low_open=True, high=MAX_CURRENT),
+        max_slew=t.number("max_slew", "A/s", None, low=0.0, low_open=True),
+        control_rate=t.number("control_rate", "Hz", d.control_rate, low=0.0, low_open=True),
+        insertion=insertion,
+        insertion_speed=t.number("insertion_speed", "m/s", d.insertion_speed, low=0.0, low_open=True,
+                                 high=MAX_SPEED))
+    if t.has("insertion_speed") and insertion is None:
+        raise t.error("insertion_speed", "is for an insertion stage: give its travel, insertion = "
+                                         "[low, high] (m)")
+    if not math.isclose(array.control_rate, 1.0 / ACTION_PERIOD):
+        raise t.error("control_rate", f"only {1.0 / ACTION_PERIOD:g} Hz is supported (the environments' "
+                                      f"0.01 s step), got {array.control_rate:g}")
+    if array.max_slew is not None and array.max_slew < MIN_PLAUSIBLE_SLEW_A_PER_S:
+        seconds = array.current_limit / array.max_slew
+        raise t.error("max_slew", f"{array.max_slew:g} A/s is below {MIN_PLAUSIBLE_SLEW_A_PER_S:g} A/s: it "
+                                  f"would take {seconds:.4g} s to reach the current limit "
+                                  f"({array.current_limit:g} A); A/ms written as A/s?")
+    reach = rod_length + (insertion[1] if insertion else 0.0)
+    low = insertion[0] if insertion else 0.0
+    for k, coil in enumerate(coils):
+        gap = _wire_clearance(coil, low, reach - rod_length, rod_length)
+        if gap <= 0.0:
+            where = f"radius {coil.radius:g} m at {list(coil.centre)} m"
+            raise t.error(f"coils[{k}]", f"its winding ({where}) is within the rod's reach ({rod_length:g} "
+                                         "m from its base, which the stage moves along x): an element on "
+                                         "the wire would feel an infinite field; move the coil out (mm "
+                                         "written as m?)")
+    t.finish()
+    return array
+
+
+def _coils(t: SpecTable) -> tuple[CoilWinding, ...]:
+    """``coils = [{radius, centre, axis, turns}, ...]``, checked."""
+    raw = t.raw("coils")
+    if not isinstance(raw, list) or not raw or not all(isinstance(item, dict) for item in raw):
+        raise t.error("coils", "expected a non-empty list of tables [[actuation.coils]] with radius (m), "
+                               "centre (m), axis and turns")
+    if len(raw) > MAX_COILS:
+        raise t.error("coils", f"{len(raw)} coils: at most {MAX_COILS} (one action component each)")
+    out = []
+    for k, item in enumerate(raw):
+        sub = SpecTable(item, t.source, f"{t.path}.coils[{k}]", t.accept)
+        radius = sub.number("radius", "m", low=0.0, low_open=True, high=MAX_REACH)
+        centre = sub.vector("centre", "m", 3)
+        if max(abs(v) for v in centre) > MAX_REACH:
+            raise sub.error("centre", f"{centre} m is beyond any coil system ({MAX_REACH:g} m from the "
+                                      "base): mm written as m?")
+        axis = sub.vector("axis", "a direction", 3)
+        if not any(axis):
+            raise sub.error("axis", "must be a non-zero direction")
+        turns = sub.number("turns", "turns", low=0.0, low_open=True, high=MAX_TURNS)
+        sub.finish()
+        out.append(CoilWinding(radius, tuple(centre), tuple(axis), turns))
+    return tuple(out)
+
+
+def _wire_clearance(coil: CoilWinding, low: float, high: float, length: float) -> float:
+    """m: the distance from the coil's winding to the nearest point the rod can reach (within
+    ``length`` of its base, the base anywhere on the x axis from ``low`` to ``high``), negative
+    where the winding is within reach."""
+    source = coil.source()
+    frame = source.frame
+    angles = np.linspace(0.0, 2.0 * math.pi, 721)
+    ring = (np.asarray(coil.centre)[:, None] + coil.radius * (np.outer(frame[:, 0], np.cos(angles))
+                                                             + np.outer(frame[:, 1], np.sin(angles))))
+    along = np.clip(ring[0], low, high)
+    distance = np.sqrt((ring[0] - along) ** 2 + ring[1] ** 2 + ring[2] ** 2)
+    return float(distance.min() - length)

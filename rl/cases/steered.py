@@ -1,0 +1,86 @@
+"""What the actuations that steer a clamped rod by a source share (``[actuation] kind =
+"magnet-pose"``, :class:`~elastica_magnetic_rl.cases.arm_actuation.MagnetArm`, and ``kind =
+"coil-currents"``, :class:`~elastica_magnetic_rl.cases.coil_actuation.CoilArray`): the rod is
+clamped at its base (a catheter), an optional insertion stage pushes the base along +x (a last
+action component), and a field-actuation value asked of them names the mismatch. SI units.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from elastica_magnetic import Advancer
+from elastica_magnetic.specfile import SpecTable
+
+__all__ = ["ACTUATION_KINDS", "MAX_REACH", "MAX_SPEED", "NotFieldActuatedError", "SteeringActuation",
+           "insertion_from_table"]
+
+#: ``[actuation] kind``: a uniform field from coils (the paper's, the default), a magnet on an arm,
+#: or the currents of fixed coils.
+ACTUATION_KINDS = ("field", "magnet-pose", "coil-currents")
+#: Largest distance (m) of a magnet, coil or workspace corner from the rod's base: a robot arm's
+#: reach or a coil system's size is about 1 m; a value in mm written as m is 1000x.
+MAX_REACH = 2.0
+#: Fastest motion (m/s) an arm or stage commands: ~1 m/s; mm/s written as m/s is far beyond.
+MAX_SPEED = 5.0
+#: What a field actuation has and a steering one has not (asked of the latter, they name the mismatch).
+_FIELD_ACTUATION_NAMES = frozenset({"field_limit", "max_increment", "initial_field", "axes", "axis_limits",
+                                    "axis_increments", "n_axes", "limits", "increments"})
+
+
+class NotFieldActuatedError(ValueError):
+    """A command or value that needs a field-actuated case was given a case steered by a source."""
+
+
+class SteeringActuation:
+    """The shared behaviour of the steering actuations; a subclass (a frozen dataclass) has the
+    fields ``insertion`` (``(low, high)`` m or ``None``), ``insertion_speed`` (m/s) and ``kind``,
+    and the property ``actuator_size`` (its own action components)."""
+
+    kind: str
+    insertion: tuple[float, float] | None
+    insertion_speed: float
+    actuator_size: int
+
+    @property
+    def action_size(self) -> int:
+        """The policy's action: the actuator's components, and the insertion stage's velocity."""
+        return self.actuator_size + (self.insertion is not None)
+
+    def advancer(self) -> Advancer | None:
+        """A new insertion stage of this actuation (``None`` without one)."""
+        return None if self.insertion is None else Advancer(self.insertion, self.insertion_speed)
+
+    def stage_blocks(self) -> tuple[tuple[str, int], ...]:
+        """The insertion's observation block (1) with a stage, else none."""
+        return (("insertion", 1),) if self.insertion is not None else ()
+
+    def stage_dict(self) -> dict[str, Any]:
+        """The stage's keys of the ``[actuation]`` table (none without one)."""
+        if self.insertion is None:
+            return {}
+        return {"insertion": list(self.insertion), "insertion_speed": self.insertion_speed}
+
+    def __getattr__(self, name: str) -> Any:
+        if name in _FIELD_ACTUATION_NAMES:
+            raise NotFieldActuatedError(
+                f"the case is steered by a source ([actuation] kind = \"{self.kind}\"), which has no "
+                f"{name}: this works on cases actuated by a uniform field (the paper's coils)")
+        raise AttributeError(name)
+
+
+def insertion_from_table(t: SpecTable, rod_length: float) -> tuple[float, float] | None:
+    """``insertion = [low, high]`` (m): the stage's travel along +x from the base's start."""
+    if not t.has("insertion"):
+        return None
+    low, high = t.vector("insertion", "m", 2)
+    if not (low <= 0.0 <= high and low < high):
+        raise t.error("insertion", f"[{low:g}, {high:g}] m must hold 0 (the rod starts where it is built) "
+                                   "with low < high")
+    if max(-low, high) > MAX_REACH:
+        raise t.error("insertion", f"[{low:g}, {high:g}] m: a travel beyond {MAX_REACH:g} m (mm written "
+                                   "as m?)")
+    if -low > rod_length:
+        raise t.error("insertion", f"{low:g} m pulls the base back more than the rod's length "
+                                   f"({rod_length:g} m)")
+    return (low, high)
