@@ -114,6 +114,11 @@ def _wire_through_rod(t: SpecTable, source: CurrentLoopsField, robot: RobotSpec)
                           "the field is infinite on the wire; move the coil off the rod")
 
 
+#: T: a source whose field on the rod at t = 0 is below this is warned about (a moving one may
+#: come closer later, so it is not refused).
+NEGLIGIBLE_FIELD = 1e-9
+
+
 def _field_on_rod(t: SpecTable, kind: str, source: SpatialField, robot: RobotSpec) -> None:
     """The field at the element centres at t = 0: inside a map's grid, not too strong, resolved."""
     dl = robot.length / robot.n_elements
@@ -135,6 +140,10 @@ def _field_on_rod(t: SpecTable, kind: str, source: SpatialField, robot: RobotSpe
         if finding.refuse:
             raise SpecError(f"{t.where('kind')}: {shown} = {finding.text}")
         t.warn("strength", f"{shown} = {finding.text}")
+    if strongest < NEGLIGIBLE_FIELD:
+        t.warn("strength", f"the largest |B| on the rod at t = 0 ({kind}) is {strongest:.3g} T, below "
+                           f"{NEGLIGIBLE_FIELD:g} T (the Earth's field is 5e-5 T): the rod feels next to "
+                           "nothing; a moment, current or scale in the wrong unit?")
     if strongest == 0.0:
         return
     change = float(np.linalg.norm(g[:, 0, :], axis=0).max()) * dl / strongest

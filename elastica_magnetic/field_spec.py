@@ -97,6 +97,10 @@ def describe_field(spec: Mapping[str, Any], source: str = "<spec>") -> FieldSetu
     out["ramp"] = t.number("ramp", "s", 0.0, low=0.0, plausible="field time")
     out["frequency"] = t.number("frequency", "Hz", 0.0)
     out["phase"] = t.number("phase", "rad", 0.0, plausible="phase angle")
+    if out["frequency"] == 0.0 and abs(math.cos(out["phase"])) < 1e-9:
+        # a constant strength cos(phase) of zero: the source's shape times 0 at every time
+        _refuse_no_field(t, "phase", f"{out['phase']:g} rad with frequency 0 (a constant strength "
+                                     f"cos(phase) = {math.cos(out['phase']):.2g})")
     t.finish()
     setup = FieldSetup(out, clamp, base, source)
     try:
@@ -197,8 +201,9 @@ Strength = Callable[[float], float] | None
 def _refuse_no_field(t: SpecTable, key: str, value: str) -> None:
     """A source that makes no field anywhere: the rod would feel nothing, and the run would report
     the unloaded rod as if it were the source's result."""
+    what = "strength (a phase whose cosine is not 0, or a frequency)" if key == "phase" else key
     raise t.error(key, f"{value}: this source makes no field anywhere, so the rod would feel nothing; "
-                       f"give its {key} (docs/spatial_fields.md)")
+                       f"give its {what} (docs/spatial_fields.md)")
 
 
 def _read_dipole(t: SpecTable, out: dict[str, Any]) -> None:

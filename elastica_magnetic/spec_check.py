@@ -284,12 +284,16 @@ def check_robot(description: RobotDescription, *, field_limit: float | None = No
         issues += sag_issues
     issues += _validity_issues(accurate, field_limit, task_kind, yardstick_m, spring_sag)
     if magnetic_number is not None and 0.0 < magnetic_number < WEAK_MAGNETIC_NUMBER:
+        coils = field_name == "field limit"
         issues.append(Issue(
-            "warning", "[robot.magnetization] magnitude",
+            "warning", "[robot.magnetization] magnitude" if coils else "[actuation]",
             f"the magnetic bending number M B L^2 A / EI at the {field_name} is {magnetic_number:.3g} "
             "(the paper's robots at 4 mT: about 22): no field within the limit bends this robot "
             "noticeably. A remanence B_r in T written where the magnetization M in A/m is expected "
-            "(M = B_r / mu0: 0.077 T is 61 kA/m)? or a field limit too small?"))
+            "(M = B_r / mu0: 0.077 T is 61 kA/m)? or " + (
+                "a field limit too small?" if coils else
+                f"a source too weak ({1e3 * field_limit:.3g} mT: a magnet's moment in mA m^2 written "
+                "as A m^2, a current in mA written as A?)")))
     return SpecCheck(
         name=name or description.name, source=source, section=accurate.section, n_elements=n,
         length_m=accurate.length, width_m=accurate.width, thickness_m=accurate.height,

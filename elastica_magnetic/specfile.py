@@ -618,6 +618,17 @@ def load_robot(robot: str | Path, physics: Physics = "accurate") -> RobotSpec:
     return describe_robot(read_spec(path), str(path)).robot(physics)
 
 
+def actuation_kind_of(robot: str | Path) -> str | None:
+    """The ``[actuation] kind`` of a spec file (``"field"`` when the table has no kind), or ``None``
+    for a preset name or a spec without the table."""
+    if str(robot) in ROBOTS:
+        return None
+    actuation = read_spec(robot).get("actuation")
+    if not isinstance(actuation, Mapping):
+        return None
+    return str(actuation.get("kind", "field"))
+
+
 def field_limit_of(robot: str | Path) -> float | None:
     """The ``[actuation] field_limit`` (T) of a spec file, or ``None`` for a preset name or a spec
     without an ``[actuation]`` table. The value is checked as the learning package checks it (a

@@ -20,7 +20,13 @@ from elastica_magnetic.robot_spec import ACTION_PERIOD
 from elastica_magnetic.spatial_fields import SpatialFieldError
 from elastica_magnetic.specfile import SpecTable
 
-from .steered import MAX_REACH, MAX_SPEED, SteeringActuation, insertion_from_table
+from .steered import (
+    MAX_REACH,
+    SteeringActuation,
+    insertion_from_table,
+    insertion_speed_from_table,
+    speed_from_table,
+)
 
 __all__ = ["MAGNET_ARM_OBSERVATION", "MagnetArm", "magnet_arm_from_table"]
 
@@ -102,6 +108,45 @@ class MagnetArm(SteeringActuation):
 
 #: Fastest turn (rad/s) an arm commands: a few turns per second; degrees written as rad is far beyond.
 MAX_TURN_RATE = 20.0
+#: Above this turn rate (rad/s, a turn per second) a value is warned about (degrees per second?).
+WARN_TURN_RATE = 2.0 * math.pi
+#: A/m: the magnetization of a sintered NdFeB magnet (remanence ~1.3 T): a magnet of moment ``m``
+#: is at least a cube of ``(m / M)^(1/3)`` on a side.
+NDFEB_MAGNETIZATION = 1.0e6
+#: T: a magnet whose field at the straight tip is above this is warned about (catheters are
+#: steered by some mT; a uniform field_limit above 1 T is refused).
+MAX_TIP_FIELD = 1.0
+#: m: a min_clearance above this is no catheter's magnet distance (mm written as m).
+MAX_CLEARANCE = 1.0
+
+
+def _turn_rate(t: SpecTable, default: float) -> float:
+    """``max_turn_rate`` (rad/s): above :data:`MAX_TURN_RATE` refused, above a turn per second
+    warned, both naming degrees."""
+    value = t.number("max_turn_rate", "rad/s", default, low=0.0, low_open=True)
+    slip = f"degrees written as radians? ({value:g} deg/s is {math.radians(value):.3g} rad/s)"
+    if value > MAX_TURN_RATE:
+        raise t.error("max_turn_rate", f"{value:g} rad/s is beyond any arm ({MAX_TURN_RATE:g} rad/s): {slip}")
+    if value > WARN_TURN_RATE:
+        t.warn("max_turn_rate", f"{value:g} rad/s is more than a turn per second: {slip}")
+    return value
+
+
+def _min_clearance(t: SpecTable, default: float, moment: float) -> float:
+    """``min_clearance`` (m): a length in mm written as m refused; one that lets the magnet's centre
+    come nearer than half the side of the smallest magnet of its moment (an NdFeB cube) refused:
+    the rod would be inside the magnet."""
+    value = t.number("min_clearance", "m", default, low=0.0, low_open=True)
+    if value > MAX_CLEARANCE:
+        raise t.error("min_clearance", f"{value:g} m is no magnet's distance from a catheter: mm written as "
+                                       f"m? ({value:g} mm is {value / 1e3:g} m)")
+    side = (moment / NDFEB_MAGNETIZATION) ** (1.0 / 3.0)
+    if value < 0.5 * side:
+        raise t.error("min_clearance", f"{1e3 * value:g} mm is less than half the side of a {moment:g} A m^2 "
+                                       f"magnet (an NdFeB cube of {1e3 * side:.3g} mm at ~1e6 A/m): the rod "
+                                       "would pass inside the magnet; a smaller moment (mA m^2?) or a larger "
+                                       "min_clearance")
+    return value
 
 
 def magnet_arm_from_table(t: SpecTable, rod_length: float) -> MagnetArm:
@@ -125,20 +170,16 @@ def magnet_arm_from_table(t: SpecTable, rod_length: float) -> MagnetArm:
                                f"beyond any arm ({MAX_REACH:g} m): lengths in mm written as m?")
     d = MagnetArm(moment=0.0, position=(0.0, 0.0, 0.0), direction=(1.0, 0.0, 0.0),
                   workspace=((0.0, 0.0, 0.0), (1.0, 1.0, 1.0)))
+    insertion = insertion_from_table(t, rod_length)
     arm = MagnetArm(
         moment=moment, position=tuple(position), direction=tuple(direction),
         workspace=(tuple(workspace[0].tolist()), tuple(workspace[1].tolist())),
-        max_speed=t.number("max_speed", "m/s", d.max_speed, low=0.0, low_open=True, high=MAX_SPEED),
-        max_turn_rate=t.number("max_turn_rate", "rad/s", d.max_turn_rate, low=0.0, low_open=True,
-                               high=MAX_TURN_RATE),
-        min_clearance=t.number("min_clearance", "m", d.min_clearance, low=0.0, low_open=True),
+        max_speed=speed_from_table(t, "max_speed", d.max_speed),
+        max_turn_rate=_turn_rate(t, d.max_turn_rate),
+        min_clearance=_min_clearance(t, d.min_clearance, moment),
         control_rate=t.number("control_rate", "Hz", d.control_rate, low=0.0, low_open=True),
-        insertion=insertion_from_table(t, rod_length),
-        insertion_speed=t.number("insertion_speed", "m/s", d.insertion_speed, low=0.0, low_open=True,
-                                 high=MAX_SPEED))
-    if t.has("insertion_speed") and arm.insertion is None:
-        raise t.error("insertion_speed", "is for an insertion stage: give its travel, insertion = "
-                                         "[low, high] (m)")
+        insertion=insertion,
+        insertion_speed=insertion_speed_from_table(t, insertion, d.insertion_speed))
     if not math.isclose(arm.control_rate, 1.0 / ACTION_PERIOD):
         raise t.error("control_rate", f"only {1.0 / ACTION_PERIOD:g} Hz is supported (the environments' "
                                       f"0.01 s step), got {arm.control_rate:g}")
@@ -151,6 +192,11 @@ def magnet_arm_from_table(t: SpecTable, rod_length: float) -> MagnetArm:
         raise t.error("position", f"{list(position)} m is {1e3 * clearance:.3g} mm from the straight rod "
                                   f"(along +x from the origin, {rod_length:g} m), nearer than min_clearance "
                                   f"= {1e3 * arm.min_clearance:g} mm: every episode would end at its start")
+    tip_field = arm.field_at_tip(rod_length)
+    if tip_field > MAX_TIP_FIELD:
+        t.warn("moment", f"{moment:g} A m^2 makes {tip_field:.3g} T at the straight tip at the start, more "
+                         f"than {MAX_TIP_FIELD:g} T (a catheter is steered by some mT): mA m^2 written as "
+                         "A m^2?")
     t.finish()
     return arm
 

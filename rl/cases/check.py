@@ -4,18 +4,21 @@ derived quantities, time steps, sag and validity warnings
 
 from __future__ import annotations
 
+import dataclasses
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from elastica_magnetic.spec_check import SpecCheck, check_robot, check_spec, format_check
+from elastica_magnetic.plausibility import ImplausibleValueWarning
+from elastica_magnetic.spec_check import Issue, SpecCheck, check_robot, check_spec, format_check
 from elastica_magnetic.specfile import describe_robot, read_spec
 
-from .case import Actuation, Case, case_names
+from .case import Actuation, Case, case_names, load_case
 
-__all__ = ["RobotOnlySpec", "case_summary", "check_case", "check_robot_only", "coverage",
-           "robot_only_spec"]
+__all__ = ["RobotOnlySpec", "case_summary", "check_case", "check_robot_only", "check_with_warnings",
+           "coverage", "robot_only_spec"]
 
 
 @dataclass(frozen=True)
@@ -46,6 +49,38 @@ def check_robot_only(spec: RobotOnlySpec, sag: bool = True) -> SpecCheck:
     steps, sag, its ``[field]`` in space and ``[boundary]`` (as ``msr field simulate`` builds them) and,
     with an ``[actuation]`` table, its field limit (T)."""
     return check_spec(spec.data, spec.source, sag=sag)
+
+
+def check_with_warnings(spec: Case | RobotOnlySpec, sag: bool = True) -> SpecCheck:
+    """The check of a case (:func:`check_case`) or a spec without a task
+    (:func:`check_robot_only`), with the warnings reading the spec gives (unusual values, shown on
+    stderr as it is read) among its issues: the summary counts them and ``--json`` lists them."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ImplausibleValueWarning)
+        if isinstance(spec, RobotOnlySpec):
+            robot_only_spec(spec.source)
+            check = check_robot_only(spec, sag=sag)
+        else:
+            load_case(spec.source if Path(spec.source).is_file() else spec.name)
+            check = check_case(spec, sag=sag)
+    found: list[Issue] = []
+    for warning in caught:
+        # shown as before (msr shows each once: those of the parse are not repeated)
+        warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
+        if issubclass(warning.category, ImplausibleValueWarning):
+            issue = _issue_of(warning.message, str(spec.source))
+            if issue not in found:
+                found.append(issue)
+    return dataclasses.replace(check, issues=[*found, *check.issues])
+
+
+def _issue_of(warning: Any, source: str) -> Issue:
+    """A spec's warning (``FILE: [table] key...``, its dotted ``key``) as an issue whose key is
+    ``[table] key`` and whose message is the rest."""
+    text = str(warning).removeprefix(f"{source}: ")
+    table, _, name = str(getattr(warning, "key", "")).rpartition(".")
+    key = f"[{table}] {name}" if table else name or "spec"
+    return Issue("warning", key, text.removeprefix(key).lstrip(":= "))
 
 
 def coverage(spec: RobotOnlySpec, check: SpecCheck, sag: bool = True) -> dict[str, list[str]]:

@@ -25,7 +25,7 @@ from elastica_magnetic.hardware.plausibility import MIN_PLAUSIBLE_SLEW_A_PER_S
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 from elastica_magnetic.specfile import SpecTable
 
-from .steered import MAX_REACH, MAX_SPEED, SteeringActuation, insertion_from_table
+from .steered import MAX_REACH, SteeringActuation, insertion_from_table, insertion_speed_from_table
 
 __all__ = ["CoilArray", "CoilWinding", "coil_array_from_table"]
 
@@ -131,11 +131,7 @@ def coil_array_from_table(t: SpecTable, rod_length: float) -> CoilArray:
         max_slew=t.number("max_slew", "A/s", None, low=0.0, low_open=True),
         control_rate=t.number("control_rate", "Hz", d.control_rate, low=0.0, low_open=True),
         insertion=insertion,
-        insertion_speed=t.number("insertion_speed", "m/s", d.insertion_speed, low=0.0, low_open=True,
-                                 high=MAX_SPEED))
-    if t.has("insertion_speed") and insertion is None:
-        raise t.error("insertion_speed", "is for an insertion stage: give its travel, insertion = "
-                                         "[low, high] (m)")
+        insertion_speed=insertion_speed_from_table(t, insertion, d.insertion_speed))
     if not math.isclose(array.control_rate, 1.0 / ACTION_PERIOD):
         raise t.error("control_rate", f"only {1.0 / ACTION_PERIOD:g} Hz is supported (the environments' "
                                       f"0.01 s step), got {array.control_rate:g}")

@@ -13,7 +13,8 @@ from elastica_magnetic import Advancer
 from elastica_magnetic.specfile import SpecTable
 
 __all__ = ["ACTUATION_KINDS", "MAX_REACH", "MAX_SPEED", "NotFieldActuatedError", "SteeringActuation",
-           "insertion_from_table"]
+           "field_only_refusal",
+           "insertion_from_table", "insertion_speed_from_table", "speed_from_table"]
 
 #: ``[actuation] kind``: a uniform field from coils (the paper's, the default), a magnet on an arm,
 #: or the currents of fixed coils.
@@ -23,6 +24,10 @@ ACTUATION_KINDS = ("field", "magnet-pose", "coil-currents")
 MAX_REACH = 2.0
 #: Fastest motion (m/s) an arm or stage commands: ~1 m/s; mm/s written as m/s is far beyond.
 MAX_SPEED = 5.0
+#: Above this speed (m/s) a value is warned about: faster than a lab arm's tool or a catheter stage.
+WARN_SPEED = 1.0
+#: A stage that crosses its whole travel in less than this (s, ten control steps) is warned about.
+MIN_STAGE_CROSSING = 0.1
 #: What a field actuation has and a steering one has not (asked of the latter, they name the mismatch).
 _FIELD_ACTUATION_NAMES = frozenset({"field_limit", "max_increment", "initial_field", "axes", "axis_limits",
                                     "axis_increments", "n_axes", "limits", "increments"})
@@ -30,6 +35,15 @@ _FIELD_ACTUATION_NAMES = frozenset({"field_limit", "max_increment", "initial_fie
 
 class NotFieldActuatedError(ValueError):
     """A command or value that needs a field-actuated case was given a case steered by a source."""
+
+
+def field_only_refusal(case: str, kind: str, needs: str = "") -> str:
+    """The message of a command that plays a uniform field given ``case``, steered by a source of
+    ``kind`` (``needs``: what it asked of the case, e.g. ``"a field_limit"``)."""
+    asked = f" (it asks the case for {needs})" if needs else ""
+    return (f"{case}: [actuation] kind = \"{kind}\" steers a rod clamped at its base by a source; this "
+            f"command plays a uniform field (the paper's coils), so it does not apply{asked}: such a case "
+            "trains with msr train --case and is judged on held-out targets (docs/steering_catheter.md)")
 
 
 class SteeringActuation:
@@ -63,10 +77,38 @@ class SteeringActuation:
 
     def __getattr__(self, name: str) -> Any:
         if name in _FIELD_ACTUATION_NAMES:
-            raise NotFieldActuatedError(
-                f"the case is steered by a source ([actuation] kind = \"{self.kind}\"), which has no "
-                f"{name}: this works on cases actuated by a uniform field (the paper's coils)")
+            raise NotFieldActuatedError(field_only_refusal("the case", self.kind, f"its {name}"))
         raise AttributeError(name)
+
+
+def speed_from_table(t: SpecTable, key: str, default: float) -> float:
+    """A speed (m/s) of an arm or a stage: above :data:`MAX_SPEED` refused, above
+    :data:`WARN_SPEED` warned, both naming the mm/s slip."""
+    value = t.number(key, "m/s", default, low=0.0, low_open=True)
+    slip = f"mm/s written as m/s? ({value:g} mm/s is {value / 1e3:g} m/s)"
+    if value > MAX_SPEED:
+        raise t.error(key, f"{value:g} m/s is beyond any arm or stage ({MAX_SPEED:g} m/s): {slip}")
+    if value > WARN_SPEED:
+        t.warn(key, f"{value:g} m/s is faster than a lab arm or a catheter stage moves "
+                    f"(~{WARN_SPEED:g} m/s): {slip}")
+    return value
+
+
+def insertion_speed_from_table(t: SpecTable, insertion: tuple[float, float] | None, default: float) -> float:
+    """``insertion_speed`` (m/s): only with a stage; one that crosses the stage's travel within
+    :data:`MIN_STAGE_CROSSING` is warned about (a stage that jumps, not one a policy steers)."""
+    speed = speed_from_table(t, "insertion_speed", default)
+    if t.has("insertion_speed") and insertion is None:
+        raise t.error("insertion_speed", "is for an insertion stage: give its travel, insertion = "
+                                         "[low, high] (m)")
+    if insertion is not None:
+        travel = insertion[1] - insertion[0]
+        if travel / speed < MIN_STAGE_CROSSING and speed <= WARN_SPEED:
+            t.warn("insertion_speed", f"{speed:g} m/s crosses the stage's {1e3 * travel:g} mm travel in "
+                                      f"{1e3 * travel / speed:.3g} ms, within {MIN_STAGE_CROSSING:g} s (ten "
+                                      f"control steps): mm/s written as m/s? ({speed:g} mm/s is "
+                                      f"{speed / 1e3:g} m/s)")
+    return speed
 
 
 def insertion_from_table(t: SpecTable, rod_length: float) -> tuple[float, float] | None:

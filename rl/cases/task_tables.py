@@ -57,7 +57,7 @@ def task_from_table(t: SpecTable, length: float, reach: float | None = None) -> 
     if cls is GotoTask:
         values.update(_goto_values(t, d, length, values["episode_duration"]))
     if cls is TipReachTask:
-        values.update(_tip_reach_values(t, d, length if reach is None else reach))
+        values.update(_tip_reach_values(t, d, length, length if reach is None else reach))
     t.finish()
     return cls(**values)
 
@@ -148,10 +148,12 @@ def _check_reward_scale(t: SpecTable, scale: float, length: float, papers: float
            f"training learns from rewards this size poorly{hint}")
 
 
-def _tip_reach_values(t: SpecTable, d: TipReachTask, length: float) -> dict[str, Any]:
-    """The tip-reach task's keys: ``target_box`` (m; the rod is clamped at the origin along +x, so
-    no target beyond ``length`` (its reach) from the base can be reached: a box wholly beyond is refused, one
-    partly beyond warned), ``tolerance`` (m), the reward's ``slow_zone`` (m) and ``speed_penalty``."""
+def _tip_reach_values(t: SpecTable, d: TipReachTask, rod_length: float, length: float) -> dict[str, Any]:
+    """The tip-reach task's keys: ``target_box`` (m; the rod, ``rod_length`` m, is clamped at the
+    origin along +x, so no target beyond ``length`` (its reach, a stage's travel included) from the
+    base can be reached: a box wholly beyond is refused, one partly beyond warned, one behind the
+    base warned), ``tolerance`` (m; one the straight tip already meets for every target refused),
+    the reward's ``slow_zone`` (m) and ``speed_penalty``."""
     box = t.raw("target_box", [list(row) for row in d.target_box])
     if (not isinstance(box, list) or len(box) != 2 or any(
             not isinstance(row, list) or len(row) != 3 or any(
@@ -171,6 +173,9 @@ def _tip_reach_values(t: SpecTable, d: TipReachTask, length: float) -> dict[str,
     if farthest > length:
         t.warn("target_box", f"part of {box!r} m lies beyond the rod's reach ({length:g} m from its "
                "clamped base's start): targets drawn there cannot be reached")
+    if high[0] < 0.0:
+        t.warn("target_box", f"{box!r} m lies behind the clamped base (x < 0): only a tip turned back "
+               "on the rod reaches it")
     values = {
         "target_box": (tuple(low), tuple(high)),
         "tolerance": t.number("tolerance", "m", d.tolerance, low=0.0, low_open=True),
@@ -180,4 +185,12 @@ def _tip_reach_values(t: SpecTable, d: TipReachTask, length: float) -> dict[str,
     if values["tolerance"] >= length:
         raise t.error("tolerance", f"{values['tolerance']:g} m is the rod's length ({length:g} m) or more: "
                       "every tip would count as on target (mm written as m?)")
+    # the farthest a target can be from the straight tip at the start, (rod_length, 0, 0)
+    idle = max(math.dist((rod_length, 0.0, 0.0), (x, y, z)) for x in (low[0], high[0])
+               for y in (low[1], high[1]) for z in (low[2], high[2]))
+    if values["tolerance"] >= idle:
+        raise t.error("tolerance", f"{values['tolerance']:g} m: the straight tip at the start is within "
+                      f"{idle:g} m of every target in the box, so staying put would succeed (mm written "
+                      "as m?)")
+    _check_slow_zone(t, values, idle)
     return values

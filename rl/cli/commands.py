@@ -31,6 +31,7 @@ from .options import (
     TARGET_HELP,
     case_option,
     checked_spec_option,
+    field_case_option,
     print_rollout_result,
     ring_option,
     target_option,
@@ -211,7 +212,7 @@ def _add_baseline_command(sub: argparse._SubParsersAction) -> None:
         "reported. Each 10 s run in the accurate physics takes about a minute; --physics training "
         "--duration 2 gives a quick look.",
     )
-    p.add_argument("--case", type=case_option, required=True, help=CASE_HELP)
+    p.add_argument("--case", type=field_case_option, required=True, help=CASE_HELP)
     p.add_argument("--period", type=number("s", 0.0, low_open=True), default=None,
                    help="s per turn of the field; without it, a sweep of --periods in both "
                         "directions, the farthest one's files written (a goto case: the steering "
@@ -303,14 +304,12 @@ def case_show_command(args: argparse.Namespace) -> int:
 def case_check_command(args: argparse.Namespace) -> int:
     from elastica_magnetic.spec_check import format_check
 
-    from ..cases.check import RobotOnlySpec, check_case, check_robot_only, coverage
+    from ..cases.check import RobotOnlySpec, check_with_warnings, coverage
 
     sag = not args.no_sag
-    if isinstance(args.case, RobotOnlySpec):  # what is checked, and what cannot be, is said
-        check = check_robot_only(args.case, sag=sag)
-        covered = coverage(args.case, check, sag=sag)
-    else:
-        check, covered = check_case(args.case, sag=sag), {}
+    check = check_with_warnings(args.case, sag=sag)
+    # a spec without a task: what is checked, and what cannot be, is said
+    covered = coverage(args.case, check, sag=sag) if isinstance(args.case, RobotOnlySpec) else {}
     if args.json:
         print_result({**check.to_dict(), **covered}, True)
     else:

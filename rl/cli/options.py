@@ -7,8 +7,8 @@ import argparse
 
 from elastica_magnetic.cli import print_result
 
-__all__ = ["CASE_HELP", "CHECKPOINT_HELP", "FORCE_HELP", "TARGET_HELP", "case_option",
-           "checked_spec_option", "print_rollout_result", "ring_option", "target_option"]
+__all__ = ["CASE_HELP", "CHECKPOINT_HELP", "FORCE_HELP", "TARGET_HELP", "case_option", "checked_spec_option",
+           "field_case_option", "print_rollout_result", "ring_option", "target_option"]
 
 CHECKPOINT_HELP = ("which actor of a run: auto (default: the final actor and best.pt evaluated in "
                    "the accurate physics from a zero field, the farther used), final, best, or a "
@@ -70,6 +70,17 @@ def case_option(value: str):
         return load_case(value)
     except SpecError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def field_case_option(value: str):
+    """``--case`` of a command that plays a uniform field: :func:`case_option`, a case steered by a
+    source (a magnet arm, coil currents) refused by name at parse time."""
+    from ..cases.steered import field_only_refusal
+
+    case = case_option(value)
+    if not case.field_actuated:
+        raise argparse.ArgumentTypeError(field_only_refusal(case.name, case.actuation.kind))
+    return case
 
 
 def checked_spec_option(value: str):

@@ -25,7 +25,7 @@ from elastica_magnetic.cli import (
 from elastica_magnetic.cli.app import add_old_option
 from elastica_magnetic.filesets import check_files, replace_files
 
-from .options import CASE_HELP, CHECKPOINT_HELP, FORCE_HELP, case_option, print_rollout_result
+from .options import CASE_HELP, CHECKPOINT_HELP, FORCE_HELP, field_case_option, print_rollout_result
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -70,7 +70,7 @@ def _add_seeds_command(sub: argparse._SubParsersAction) -> None:
         "and each seed's 10 s distance; optionally draw them and keep the table in the case's "
         "shipped model card.",
     )
-    p.add_argument("case", nargs="+", type=case_option, help=CASE_HELP)
+    p.add_argument("case", nargs="+", type=field_case_option, help=CASE_HELP)
     p.add_argument("--policies", type=Path, default=None,
                    help="folder of policy folders (default: the shipped policies, rl/policies)")
     p.add_argument("--figure", type=output_path, default=None, metavar="DIR",

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, number, output_path
 
-from ..cli.options import CASE_HELP, case_option
+from ..cli.options import CASE_HELP, field_case_option
 from .settings import ROBUSTNESS_PHYSICS
 from .state import STEPS
 
@@ -33,7 +33,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "skips them and resumes an interrupted training. DIR/report.md and DIR/report.html (self-"
         "contained) are rewritten after every step.",
     )
-    p.add_argument("spec", type=case_option, metavar="SPEC", help=CASE_HELP)
+    p.add_argument("spec", type=field_case_option, metavar="SPEC", help=CASE_HELP)
     p.add_argument("--out", type=output_path, required=True, metavar="DIR",
                    help="the loop's folder: new, empty, or a loop of the same SPEC to resume")
     p.add_argument("--seeds", type=number("seeds", 1, 1024, integer=True), default=2,

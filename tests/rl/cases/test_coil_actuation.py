@@ -56,7 +56,7 @@ def test_the_shipped_case_reads_round_trips_and_names_what_it_lacks(shipped):
     assert 8e-3 < a.field_at_tip(0.05) < 10e-3
     text = shipped.toml()
     assert "[[actuation.coils]]" in text and "kind = \"coil-currents\"" in text
-    with pytest.raises(NotFieldActuatedError, match=r"coil-currents.*no field_limit"):
+    with pytest.raises(NotFieldActuatedError, match=r"coil-currents.*asks the case for its field_limit"):
         _ = shipped.field_limit
 
 
