@@ -443,8 +443,8 @@ def test_batched_catheters_under_coil_currents_match_per_rod_simulations_bit_for
     assert not robots._spatial and robots.sources == [a.source for a in actuators]
     sims = [build_simulation(spec, twin.source, clamp=True) for twin in twins]
     rng = np.random.default_rng(5)
-    for step in range(40):  # 0.4 s of 0.01 s control steps
-        if step == 25:
+    for step in range(24):  # 0.24 s of 0.01 s control steps
+        if step == 14:
             robots.reset_robot(1)
             actuators[1].reset()
             twins[1].reset()

@@ -190,7 +190,7 @@ def _tip_reach_values(t: SpecTable, d: TipReachTask, rod_length: float, length: 
                for y in (low[1], high[1]) for z in (low[2], high[2]))
     if values["tolerance"] >= idle:
         raise t.error("tolerance", f"{values['tolerance']:g} m: the straight tip at the start is within "
-                      f"{idle:g} m of every target in the box, so staying put would succeed (mm written "
+                      f"{idle:.3g} m of every target in the box, so staying put would succeed (mm written "
                       "as m?)")
     _check_slow_zone(t, values, idle)
     return values
