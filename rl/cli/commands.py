@@ -31,7 +31,6 @@ from .options import (
     TARGET_HELP,
     case_option,
     checked_spec_option,
-    field_case_option,
     print_rollout_result,
     ring_option,
     target_option,
@@ -210,9 +209,11 @@ def _add_baseline_command(sub: argparse._SubParsersAction) -> None:
         "--period, sweep the periods in both directions (worker processes; sweep.csv, sweep.png) "
         "and keep the farthest; the period the field really turned at under the rate limit is "
         "reported. Each 10 s run in the accurate physics takes about a minute; --physics training "
-        "--duration 2 gives a quick look.",
+        "--duration 2 gives a quick look. A tip-reach case (a catheter steered by a magnet arm or "
+        "coils): the steering yardstick on its 20 held-out targets (targets.csv, targets.json, "
+        "targets.png), --duration the task's episode by default.",
     )
-    p.add_argument("--case", type=field_case_option, required=True, help=CASE_HELP)
+    p.add_argument("--case", type=case_option, required=True, help=CASE_HELP)
     p.add_argument("--period", type=number("s", 0.0, low_open=True), default=None,
                    help="s per turn of the field; without it, a sweep of --periods in both "
                         "directions, the farthest one's files written (a goto case: the steering "
@@ -378,6 +379,8 @@ def baseline_command(args: argparse.Namespace) -> int:
     from ..shipping.baselines import RotatingFieldPolicy
     from ..shipping.generate import generate
 
+    if not args.case.field_actuated:
+        return _tip_reach_baseline(args)
     _goto_args(args, args.case)
     if isinstance(args.case.task, GotoTask):
         return _steering_baseline(args)
@@ -409,6 +412,27 @@ def baseline_command(args: argparse.Namespace) -> int:
         if result["warning"]:
             print(f"warning: {result['warning']}", file=sys.stderr)
     return _print_rollout_result(result, args.json)
+
+
+def _tip_reach_baseline(args: argparse.Namespace) -> int:
+    """``msr field baseline`` of a case steered by a source: the steering yardstick on the
+    case's held-out targets, written into ``--out``."""
+    from ..shipping.tip_reach import steering_controller, write_targets
+
+    for option, value in (("--period", args.period), ("--counterclockwise", args.counterclockwise),
+                          ("--periods", args.periods), ("--set-yardstick", args.set_yardstick),
+                          ("--workers", args.workers), ("--target", args.target), ("--ring", args.ring),
+                          ("--no-gif", args.no_gif)):
+        if value:
+            raise CommandError(f"{option} does not apply to case {args.case.name!r}, steered by a "
+                               f"source ([actuation] kind = \"{args.case.actuation.kind}\"): its yardstick "
+                               "steers the tip to each of the case's 20 held-out targets at once (one "
+                               "process)")
+    result = write_targets(args.case, args.out, steering_controller, physics=args.physics,
+                           duration=args.duration, force=args.force, figures=not args.no_figures)
+    print_notes(result.pop("notes", ()))
+    print_result(result, args.json)
+    return 0
 
 
 def _steering_baseline(args: argparse.Namespace) -> int:

@@ -1,4 +1,5 @@
-"""The goto task's picture: a top view of the paths to a ring of targets."""
+"""The pictures of the tasks with targets: a top view of the paths to a goto ring of targets, and
+the tip's paths to a tip-reach case's held-out targets."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from numpy.typing import NDArray
 
 from .figures import MM, _figure, _save
 
-__all__ = ["plot_ring"]
+__all__ = ["plot_ring", "plot_tip_paths"]
 
 
 def plot_ring(rows: Sequence[dict[str, Any]], paths: Sequence[NDArray[np.float64]],
@@ -40,4 +41,29 @@ def plot_ring(rows: Sequence[dict[str, Any]], paths: Sequence[NDArray[np.float64
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(alpha=0.3)
     ax.legend(loc="upper right", fontsize=8)
+    return _save(fig, path)
+
+
+def plot_tip_paths(rows: Sequence[dict[str, Any]], paths: NDArray[np.float64], path: str | Path,
+                   title: str = "") -> Path:
+    """The tip's path to each held-out target of a tip-reach run, seen from above (x, y) and from
+    the side (x, z): ``rows`` of :func:`~elastica_magnetic_rl.shipping.tip_reach.write_targets`,
+    ``paths`` ``(T, N, 3)`` m. Targets reached are green, missed red (a cross each); the square is
+    the straight tip at the start."""
+    fig = _figure((11.0, 5.0))
+    for k, (a, b, label) in enumerate(((0, 1, "y"), (0, 2, "z"))):
+        ax = fig.add_subplot(1, 2, k + 1)
+        for i, row in enumerate(rows):
+            color = "tab:green" if row["success"] else "tab:red"
+            ax.plot(MM * paths[:, i, a], MM * paths[:, i, b], color=color, lw=1.0, alpha=0.8)
+            ax.plot(MM * row[f"target_{'xyz'[a]}_m"], MM * row[f"target_{'xyz'[b]}_m"], "x", color=color,
+                    ms=6)
+        ax.plot(MM * paths[0, 0, a], MM * paths[0, 0, b], "s", color="black", ms=5, label="tip at the start")
+        ax.set_xlabel("x (mm, along the clamped catheter)")
+        ax.set_ylabel(f"{label} (mm)")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper left", fontsize=8)
+    reached = sum(bool(r["success"]) for r in rows)
+    fig.suptitle(title or f"{reached} of {len(rows)} targets reached")
     return _save(fig, path)

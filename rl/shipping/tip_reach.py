@@ -15,12 +15,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from elastica_magnetic import MagnetPose
+from elastica_magnetic.robot_spec import ACTION_PERIOD
 from elastica_magnetic.steering import CoilFieldSteering, MagnetBearingSteering
 
 from ..cases.case import Case
 from ..envs.catheter_env import CatheterReachVectorEnv, make_catheter_env
 
-__all__ = ["HELD_OUT_SEED", "HELD_OUT_TARGETS", "held_out_targets", "run_targets", "steering_controller"]
+__all__ = ["HELD_OUT_SEED", "HELD_OUT_TARGETS", "TARGET_FILES", "held_out_targets", "run_targets",
+           "steering_controller", "write_targets"]
 
 #: Seed of the held-out targets: training draws its targets with the run's seed plus small offsets
 #: (episode numbers), never this one.
@@ -78,13 +80,16 @@ def steering_controller(env: CatheterReachVectorEnv) -> Controller:
 
 def run_targets(case: Case, targets: Any,
                 make_controller: Callable[[CatheterReachVectorEnv], Controller],
-                physics: str = "accurate", duration: float | None = None) -> dict[str, Any]:
+                physics: str = "accurate", duration: float | None = None,
+                paths: list[NDArray[np.float64]] | None = None) -> dict[str, Any]:
     """Steer to every target at once (one episode each, ``duration`` s, default the task's), in
     ``physics``. ``make_controller``: makes the :data:`Controller` from the environment (as
     :func:`steering_controller`; an actor: ``lambda env: lambda env, obs: actor(obs)``). Returns
     ``targets_m``, per target ``final_distance_m``, ``closest_distance_m``, ``ended_by``
-    (``"time"``, ``"collision"`` or ``"divergence"``) and ``success`` (ending within the
-    tolerance, by time), and ``successes`` (their count)."""
+    (``"time"``, ``"collision"`` or ``"divergence"``), ``success`` (ending within the
+    tolerance, by time) and ``time_to_target_s`` (when the tip first came within the tolerance, s;
+    ``None`` if never), and ``successes`` (their count). ``paths``: given a list, the tips at every
+    control step are appended to it, ``(T, N, 3)`` m."""
     if case.field_actuated:
         raise ValueError(f"case {case.name!r} is not a tip-reach case (its actuation is a field)")
     targets = np.asarray(targets, dtype=np.float64).reshape(-1, 3)
@@ -94,7 +99,9 @@ def run_targets(case: Case, targets: Any,
     n = len(targets)
     final, ended_by = np.full(n, np.nan), np.full(n, None, dtype=object)
     closest = info["distance_m"].copy()
+    reached = np.full(n, np.nan)
     done = np.zeros(n, dtype=bool)
+    tips = [info["tip_m"].copy()]
     while not done.all():
         obs, _, terminated, truncated, info = env.step(act(env, obs))
         ended = (terminated | truncated) & ~done
@@ -104,9 +111,63 @@ def run_targets(case: Case, targets: Any,
             ended_by[ended] = last["ended_by"][ended]
             closest[ended] = np.minimum(closest[ended], last["distance_m"][ended])
         closest[~done & ~ended] = np.minimum(closest[~done & ~ended], info["distance_m"][~done & ~ended])
+        step_tips = np.where(ended[:, None], info["final_info"]["tip_m"] if ended.any() else info["tip_m"],
+                             info["tip_m"])
+        distance = np.linalg.norm(step_tips - targets, axis=1)
+        first = ~done & np.isnan(reached) & case.task.within_tolerance(distance)
+        reached[first] = len(tips) * ACTION_PERIOD
+        tips.append(np.where(done[:, None], tips[-1], step_tips))
         done |= ended
     success = (ended_by == "time") & case.task.within_tolerance(final)
+    if paths is not None:
+        paths.append(np.stack(tips))
     return {"targets_m": targets.tolist(), "final_distance_m": final.tolist(),
             "closest_distance_m": closest.tolist(), "ended_by": ended_by.tolist(),
             "success": success.tolist(), "successes": int(success.sum()), "physics": physics,
+            "time_to_target_s": [None if np.isnan(t) else float(t) for t in reached],
             "duration_s": env.task.episode_duration}
+
+
+#: The files of a tip-reach result folder (``msr field baseline`` of a steered case).
+TARGET_FILES = ("targets.csv", "targets.json", "targets.png")
+
+
+def write_targets(case: Case, out: Any, make_controller: Callable[[CatheterReachVectorEnv], Controller],
+                  physics: str = "accurate", duration: float | None = None, force: bool = False,
+                  kind: str = "baseline", figures: bool = True) -> dict[str, Any]:
+    """:func:`run_targets` on the case's held-out targets, written whole into the result folder
+    ``out`` (as ``msr <kind>``'s result for the case; replaced only with ``force``):
+    ``targets.csv`` (one row per target), ``targets.json`` (the summary and the rows) and, with
+    ``figures``, ``targets.png`` (the tip's paths). Returns the summary and the files."""
+    import pandas as pd
+
+    from elastica_magnetic.io import atomic_write, atomic_write_json
+    from elastica_magnetic.results import check_result_folder, result_folder
+
+    from ..reports.goto_figures import plot_tip_paths
+
+    subject = f"case {case.name}"
+    check_result_folder(out, kind=kind, subject=subject, force=force, known_files=TARGET_FILES)
+    paths: list[NDArray[np.float64]] = []
+    result = run_targets(case, held_out_targets(case), make_controller, physics, duration, paths=paths)
+    rows = [{"target_x_m": t[0], "target_y_m": t[1], "target_z_m": t[2], "final_distance_m": final,
+             "closest_distance_m": closest, "time_to_target_s": reached, "ended_by": ended, "success": ok}
+            for t, final, closest, reached, ended, ok in zip(
+                result["targets_m"], result["final_distance_m"], result["closest_distance_m"],
+                result["time_to_target_s"], result["ended_by"], result["success"], strict=True)]
+    times = [r["time_to_target_s"] for r in rows if r["success"] and r["time_to_target_s"] is not None]
+    summary = {"case": case.name, "controller": "yardstick", "physics": physics,
+               "duration_s": result["duration_s"], "targets": len(rows), "successes": result["successes"],
+               "tolerance_m": case.task.tolerance,
+               "mean_time_to_target_s": float(np.mean(times)) if times else None,
+               "largest_final_distance_m": float(max(result["final_distance_m"]))}
+    with result_folder(out, kind=kind, subject=subject, force=force, known_files=TARGET_FILES) as folder:
+        with atomic_write(folder.path / "targets.csv", "w", newline="") as handle:
+            pd.DataFrame(rows).to_csv(handle, index=False, float_format="%.9g")
+        if figures:
+            plot_tip_paths(rows, paths[0], folder.path / "targets.png",
+                           title=f"{case.name}: {summary['successes']} of {len(rows)} held-out targets "
+                                 f"({physics} physics, {summary['duration_s']:g} s)")
+        atomic_write_json(folder.path / "targets.json", {**summary, "targets_table": rows})
+    files = {name: str(folder.final / name) for name in TARGET_FILES if figures or name != "targets.png"}
+    return {**summary, "files": files, "notes": folder.notes}
