@@ -259,8 +259,8 @@ def _add_demo_command(sub: argparse._SubParsersAction) -> None:
         help="generate with the shipped pattern-1 4 mT policy (fields, figures, animation)",
     )
     p.add_argument("--out", type=output_path, default="out/demo")
-    p.add_argument("--duration", type=duration_option(), default=None,
-                   help="s (default 10; with --ring, the goto task's episode)")
+    p.add_argument("--duration", type=duration_option(), default=DEFAULT_ROLLOUT_S,
+                   help=f"s (default {DEFAULT_ROLLOUT_S:g})")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=demo_command)
