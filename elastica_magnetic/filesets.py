@@ -122,9 +122,14 @@ def _not_recorded(folder: Path, existing: Iterable[str]) -> list[str]:
 
 def _refuse_unrecorded(folder: Path, existing: list[str], adopt: bool, option: str,
                        force_option: str) -> None:
-    """With ``force``: refuse replacing a file msr did not write (unless ``adopt``: a folder the
-    caller recognised as its own, e.g. a shipped policy written before records)."""
-    foreign = [] if adopt else _not_recorded(folder, existing)
+    """With ``force``: refuse replacing a file msr did not write or that changed since (with
+    ``adopt``, a folder the caller recognised as its own, e.g. a shipped policy written before
+    records: only a recorded file changed since)."""
+    if adopt:  # files without a record are adopted; a recorded one changed since is the user's
+        files = _manifest(folder)
+        foreign = [n for n in existing if n in files and files[n] != _sha256(folder / n)]
+    else:
+        foreign = _not_recorded(folder, existing)
     if foreign:
         raise ResultExistsError(
             f"{option} {display_path(folder)}: {', '.join(foreign)}: not written by msr (no record "

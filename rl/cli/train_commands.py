@@ -341,9 +341,14 @@ def _interrupted(folders: list[Path], signal_number: int = 2) -> int:
 
 
 def train_command(args: argparse.Namespace) -> int:
+    from ..sweep.case_folders import check_not_in_a_result
     from ..sweep.training import train_cases
 
     _check_run_options(args)
+    try:
+        check_not_in_a_result(args.out)
+    except ValueError as exc:
+        raise CommandError(str(exc)) from None
     _warn_unstable_steps(args.case, args.physics)
     overrides = _overrides(args)
     try:

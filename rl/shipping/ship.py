@@ -13,19 +13,22 @@ import dataclasses
 import io
 import json
 import re
+import warnings
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from elastica_magnetic.filesets import replace_files
+from elastica_magnetic.filesets import check_files, replace_files
 from elastica_magnetic.io import (
     OutputPathError,
     atomic_write_bytes,
     atomic_write_json,
     atomic_write_text,
+    display_path,
     read_json,
 )
+from elastica_magnetic.plausibility import SettingNotAppliedWarning
 
 from ..cases.case import Case
 from ..cases.tasks import GotoTask, ReachTask
@@ -132,6 +135,9 @@ def ship(run: str | Path, name: str, options: ShipOptions | None = None, /,
     if present and not overwrite:
         raise FileExistsError(f"{target} already holds a policy ({', '.join(present)}); pass "
                               "--force to replace it")
+    if present and o.lock:  # a file edited since msr wrote it is refused now, before measuring
+        check_files(target, present, force=True, option="--out", adopt=_holds_a_policy(target))
+        _warn_of_dropped_notes(target, notes)
     # Everything is computed before the folder is touched: a failed or interrupted measurement
     # leaves a policy being replaced (--force) as it was.
     case = policy.case
@@ -268,6 +274,20 @@ def _yardstick_info(case: Case) -> dict[str, Any]:
         return {}
     return {"yardstick_10s_m": case.yardstick.distance_10s,
             "yardstick_source": case.yardstick.source}
+
+
+def _warn_of_dropped_notes(target: Path, notes: str | None) -> None:
+    """A replaced policy's notes are not carried over to the new one: said, not done silently."""
+    try:
+        old = json.loads((target / POLICY_JSON).read_text(encoding="utf-8")).get("notes")
+    except (OSError, ValueError, AttributeError):
+        return
+    if old and notes is None:
+        warnings.warn(SettingNotAppliedWarning(
+            f"{display_path(target)}: the replaced policy's notes (policy.json) are not carried over "
+            f"to the new one: give them with --notes, or afterwards with msr policy notes "
+            f"{target.name} --file F"),
+            stacklevel=3)
 
 
 def _ship_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case,

@@ -11,13 +11,14 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
-from elastica_magnetic.io import DamagedFileError, display_path, read_json
+from elastica_magnetic.io import DamagedFileError, display_path, normalized_path, read_json
+from elastica_magnetic.result_markers import MARKER, describe_result, read_marker
 
 from ..cases.case import Case
 from ..runfiles.rundir import CaseDir
 from .run_records import first_difference, without_default_recipe
 
-__all__ = ["check_case_folders"]
+__all__ = ["check_case_folders", "check_not_in_a_result"]
 
 #: Files msr writes into a case folder besides ``summary.json`` and the seed folders: the figures
 #: of ``msr policy figures`` and ``msr policy seeds``.
@@ -41,6 +42,19 @@ def check_case_folders(out: str | Path, cases: Mapping[str, Case], seeds: Iterab
                              "training output; choose another --out")
         _check_summary(folder, name)
         _check_same_spec(folder, case, seeds)
+
+
+def check_not_in_a_result(out: str | Path) -> None:
+    """Refuse an ``out`` that is, or lies in, another command's result folder (its marker names
+    the command): the runs would change that result, which then could not be replaced whole
+    (``msr train``'s check; ``msr loop`` trains inside its own folder on purpose)."""
+    out = normalized_path(out)
+    for folder in (out, *out.parents):
+        marker = read_marker(folder) if (folder / MARKER).is_file() else None
+        if marker is not None:
+            where = "is" if folder == out else f"lies in {display_path(folder)}, which holds"
+            raise ValueError(f"--out {display_path(out)} {where} {describe_result(marker)}: msr train "
+                             "writes its runs in a folder of their own; choose another --out")
 
 
 def _written_by_train(path: Path) -> bool:

@@ -294,3 +294,24 @@ def test_round12_v5_figures_redrawn_into_a_result_are_replaced_with_it(tmp_path,
     assert (out / MANIFEST).is_file()
     assert main([*args, "--force"]) == 0, capsys.readouterr().err
     assert not (out / MANIFEST).exists()  # the result was replaced whole
+
+
+def test_ship_force_keeps_a_model_card_edited_since_and_says_the_notes_are_not_carried_over(
+        trained, tmp_path, capsys):
+    """Round 14 D1: `ship --force` replaced a hand-edited MODEL_CARD.md (msr records what it wrote,
+    so it can tell), and dropped the replaced policy's notes without a word."""
+    run = str(trained / "m1-4mT" / "seed0")
+    dest = tmp_path / "policies"
+    notes = tmp_path / "notes.md"
+    notes.write_text("Calibrated on coil set B.")
+    run_msr(capsys, "policy", "ship", run, "--name", "p", "--out", str(dest), "--no-measure", "--notes",
+            str(notes))
+    card = dest / "p" / "MODEL_CARD.md"
+    card.write_text(card.read_text() + "\n## My hand-written analysis\n")
+    before = snapshot(dest / "p")
+    assert msr(["policy", "ship", run, "--name", "p", "--out", str(dest), "--no-measure", "--force"]) == 2
+    assert "MODEL_CARD.md: not written by msr" in capsys.readouterr().err
+    assert snapshot(dest / "p") == before and not leftovers(dest / "p")
+    card.unlink()  # moved away: the re-ship goes on, and says the notes are not carried over
+    assert msr(["policy", "ship", run, "--name", "p", "--out", str(dest), "--no-measure", "--force"]) == 0
+    assert "the replaced policy's notes (policy.json) are not carried over" in capsys.readouterr().err
