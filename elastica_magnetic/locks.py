@@ -30,6 +30,7 @@ import json
 import os
 import re
 import socket
+import stat
 import sys
 import time
 from pathlib import Path
@@ -52,6 +53,27 @@ LOCK_SUFFIX = ".msr-lock"
 #: Open flag that refuses a symbolic link at the lock file's name (a link planted or left there
 #: would make msr overwrite the file it points to); 0 where the system has none.
 _NO_FOLLOW = getattr(os, "O_NOFOLLOW", 0)
+
+#: Open flag that keeps opening a FIFO (named pipe) found at the lock file's name from waiting
+#: for a writer forever; 0 where the system has none.
+_NO_BLOCK = getattr(os, "O_NONBLOCK", 0)
+
+
+def _kind_of(mode: int) -> str | None:
+    """What a file of ``mode`` is when it is not a regular file (for messages), else ``None``."""
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISFIFO(mode):
+        return "a FIFO (named pipe)"
+    if stat.S_ISDIR(mode):
+        return "a folder"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    if stat.S_ISLNK(mode):
+        return "a symbolic link"
+    return "not a regular file"
 
 
 class FolderLockedError(OutputPathError):
@@ -121,12 +143,22 @@ def read_lock(folder: str | Path) -> dict[str, Any] | None:
     """What the lock file of ``folder`` says (pid, host, command, started_utc), or ``None`` when
     there is none. A lock file present does not mean its process still runs (see
     :class:`FolderLock`)."""
+    path = lock_path(folder)
     try:
-        text = lock_path(folder).read_text(encoding="utf-8")
+        fd = os.open(path, os.O_RDONLY | _NO_FOLLOW | _NO_BLOCK)
     except (FileNotFoundError, NotADirectoryError):
         return None
     except OSError:
         return {}
+    try:  # a FIFO or device at the name is not read (it could wait forever)
+        if _kind_of(os.fstat(fd).st_mode) is not None:
+            return {}
+        with os.fdopen(fd, "rb", closefd=False) as handle:
+            text = handle.read().decode("utf-8")
+    except (OSError, UnicodeDecodeError):
+        return {}
+    finally:
+        os.close(fd)
     try:
         data = json.loads(text)
     except ValueError:
@@ -231,6 +263,7 @@ class FolderLock:
             return self
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._refuse_odd_file()
             self._fd = self._acquire_flock() if fcntl is not None else self._acquire_exclusive()
         except OSError as exc:
             if isinstance(exc, OutputPathError):
@@ -245,9 +278,31 @@ class FolderLock:
         _held[str(self.path)] = _Held(self._fd)
         return self
 
+    def _refuse_odd_file(self, mode: int | None = None) -> None:
+        """Refuse what is at the lock file's name when it is neither absent nor a regular file
+        (a FIFO would make opening or reading it wait forever; a device would be written to);
+        ``mode`` is that of a file already opened, else the name is looked at (not followed)."""
+        if mode is None:
+            try:
+                mode = os.lstat(self.path).st_mode
+            except (FileNotFoundError, NotADirectoryError):
+                return
+            if stat.S_ISLNK(mode):  # refused by the open (O_NOFOLLOW), naming where it points
+                return
+        kind = _kind_of(mode)
+        if kind is not None:
+            raise OutputPathError(
+                f"{self.option} {display_path(self.folder)}: the lock file's name {self.path} is "
+                f"{kind}, not msr's lock file: msr does not open it; remove it")
+
     def _acquire_flock(self) -> int:
         for _ in range(100):
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT | _NO_FOLLOW, 0o644)
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT | _NO_FOLLOW | _NO_BLOCK, 0o644)
+            try:
+                self._refuse_odd_file(os.fstat(fd).st_mode)
+            except BaseException:
+                os.close(fd)
+                raise
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:

@@ -144,11 +144,16 @@ class LeftoverWarning(UserWarning):
 
 
 _aborted: list[Path] = []
+#: The temporary folders (``.X.msr-new-...``) this process is building a result in: a result
+#: folder written inside one (a command writing another's result into its own, as the baseline
+#: sweep does) is msr's, not the user's, and is not listed by :func:`aborted_results`.
+_building: set[str] = set()
 
 
 def aborted_results() -> list[Path]:
     """The result folders (as the caller named them) whose writing an exception or a signal
-    stopped in this process, each left as it was; oldest first."""
+    stopped in this process, each left as it was; oldest first. msr's own temporary folders (a
+    result written inside another's while it is built) are not among them."""
     return list(_aborted)
 
 
@@ -556,6 +561,8 @@ def result_folder(
                                       f"{exc.strerror or exc}") from None
             result = ResultFolder(final, staging, kind, subject, replaced, notes, dict(info or {}))
             swapped = False
+            building = os.path.realpath(staging)
+            _building.add(building)
             try:
                 yield result
                 _write_marker(result)
@@ -566,7 +573,7 @@ def result_folder(
                     swapped = True
             except BaseException as exc:
                 remove_tree(staging)
-                if not swapped:
+                if not swapped and not _inside_building(target):
                     _aborted.append(Path(shown))
                 if isinstance(exc, OutputPathError):  # name the files where the user will look
                     text = str(exc).replace(str(staging), shown)
@@ -575,8 +582,17 @@ def result_folder(
                     raise OutputPathError(f"{option} {shown}: cannot write the result: "
                                           f"{exc.strerror or exc}; {shown} is left as it was") from exc
                 raise
+            finally:
+                _building.discard(building)
     finally:
         release_claim(target)  # the pre-check's hold (the lock itself goes with this block)
+
+
+def _inside_building(target: Path) -> bool:
+    """Whether ``target`` is, or is inside, a temporary folder this process is building a result
+    in (then its writing stopped is not the user's folder left as it was)."""
+    real = Path(os.path.realpath(target))
+    return any(str(folder) in _building for folder in (real, *real.parents))
 
 
 def _tree_state(folder: Path) -> dict[str, tuple[int, int]] | None:

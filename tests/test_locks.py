@@ -94,3 +94,30 @@ def test_a_hard_link_at_the_lock_files_name_is_refused_and_its_file_left_alone(t
     with pytest.raises(OutputPathError, match=r"has other names \(hard links\)"):
         FolderLock(folder).acquire()
     assert precious.read_text() == "precious data" and lock_path(folder).exists()
+
+
+def test_a_fifo_at_the_lock_files_name_is_refused_at_once(tmp_path):
+    """Round 14 V6: a FIFO (named pipe) at the lock file's name made a writing command wait
+    forever in open(); it is refused by name like a symbolic link, and left as it is."""
+    import signal
+    import stat
+
+    from elastica_magnetic.io import OutputPathError
+    from elastica_magnetic.locks import read_lock
+
+    def waited(signum, frame):
+        raise TimeoutError("waited on the FIFO at the lock file's name")
+
+    folder = tmp_path / "l3"
+    os.mkfifo(lock_path(folder))
+    previous = signal.signal(signal.SIGALRM, waited)
+    signal.alarm(20)  # without the fix open() or read() waits forever: fail instead
+    try:
+        with pytest.raises(OutputPathError, match=r"\.l3\.msr-lock is a FIFO \(named pipe\), not msr's "
+                                                  r"lock file: msr does not open it; remove it"):
+            FolderLock(folder).acquire()
+        assert read_lock(folder) == {}  # read without waiting for a writer
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+    assert stat.S_ISFIFO(os.lstat(lock_path(folder)).st_mode) and not folder.exists()

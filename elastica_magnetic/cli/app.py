@@ -30,6 +30,7 @@ import contextlib
 import importlib
 import json
 import math
+import re
 import sys
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -548,12 +549,24 @@ def _interruptions_not_swallowed(swallowed: list[KeyboardInterrupt]) -> Iterator
         sys.unraisablehook = previous
 
 
+#: The name msr gives its own temporary folders beside a result ``X`` (``.X.msr-new-HOST-PID-RANDOM``,
+#: ``-old-``, ``-trash-``): never the user's output, so never named as one left as it was.
+_MSR_TEMPORARY = re.compile(r"\..+\.msr-(?:new|old|trash)-[A-Za-z0-9_-]{1,40}-[0-9]+-[0-9a-f]{6}")
+
+
+def _users_folder(folder: object) -> bool:
+    """Whether ``folder`` (as a message shows it) is not one of msr's temporaries or inside one."""
+    return not any(_MSR_TEMPORARY.fullmatch(part) for part in Path(str(folder)).parts)
+
+
 def interrupted_message(command: str, exc: BaseException, kept: Sequence[object] = ()) -> str:
     """The one line printed when ``msr COMMAND`` is interrupted: the signal and, for every result
-    folder in ``kept`` (those the interruption stopped), that it was left as it was."""
+    folder in ``kept`` (those the interruption stopped), that it was left as it was; msr's own
+    temporary folders (``.X.msr-new-...``, removed by then) are not named, and each folder once."""
     name = "SIGINT" if isinstance(exc, KeyboardInterrupt) and not hasattr(exc, "signum") else str(exc)
+    shown = dict.fromkeys(str(folder) for folder in kept if _users_folder(folder))
     left = "".join(f"; {folder} was left as it was (a result folder is replaced whole or not at "
-                   "all)" for folder in kept)
+                   "all)" for folder in shown)
     return f"{f'msr {command}' if command else 'msr'}: interrupted ({name}){left}"
 
 

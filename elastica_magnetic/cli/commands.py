@@ -18,7 +18,7 @@ from ..presets import ROBOTS
 from ..progress import progress_bar
 from ..results import result_folder
 from ..spatial_fields import FieldSum
-from ..specfile import SpecError, axis_limits_of, field_limit_of, load_robot
+from ..specfile import SpecError, actuation_kind_of, axis_limits_of, field_limit_of, load_robot
 from .app import CommandError, duration_option, number, output_path, print_notes, print_result
 
 ROBOT_HELP = (f"a preset ({', '.join(ROBOTS)}) or a spec file (.toml, e.g. from "
@@ -42,8 +42,15 @@ def robot_option(value: str) -> str:
     """``--robot NAME_OR_PATH``, checked at parse time (a bad spec file names the file and key)."""
     try:
         load_robot(value)
+        kind = actuation_kind_of(value)
     except SpecError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+    if kind not in (None, "field"):
+        raise argparse.ArgumentTypeError(
+            f"{value}: [actuation] kind = \"{kind}\": a rod clamped at its base and steered by a source "
+            "(docs/steering_catheter.md), which these commands do not model: they play a uniform field on a "
+            "free robot; train the case with msr train --case, or give a source in space as a [field] table "
+            "(docs/spatial_fields.md)")
     return value
 
 
@@ -193,9 +200,13 @@ def simulate_command(args: argparse.Namespace) -> int:
     if args.ramp is None:
         args.ramp = min(0.2, args.duration)
     if args.ramp > args.duration:
+        fix = f"give a --ramp of at most {args.duration:g} s, or a longer --duration"
+        if 10.0 * args.duration <= args.ramp and 1e-3 * args.ramp <= args.duration:  # --ramp 200 for 0.2 s
+            fix = (f"ms written where s is expected? {args.ramp:g} ms is {1e-3 * args.ramp:g} s: "
+                   f"give --ramp {1e-3 * args.ramp:g}")
         raise CommandError(
             f"--ramp {args.ramp:g} s is longer than --duration {args.duration:g} s: the field would "
-            "never reach its amplitude"
+            f"never reach its amplitude ({fix})"
         )
     spec = load_robot(args.robot, args.physics)
     args.amplitude, amplitude_from = simulate_amplitude(args)

@@ -14,6 +14,11 @@ from elastica_magnetic.cli.app import command_name, output_path
 from elastica_magnetic.field_csv import MILLITESLA, named_twice, read_field_csv, separator_hint
 from elastica_magnetic.io import display_path
 
+#: The longest ``--timeout`` of ``msr real stream``, s: an hour. A larger value is most likely
+#: milliseconds written for seconds (refused, naming the slip); a waveform longer than that is
+#: streamed with the default limit (its playback time + 30 s).
+MAX_TIMEOUT_S = 3600.0
+
 
 def register(subparsers: Any) -> None:
     """Add the hardware sub-commands to the ``msr`` parser."""
@@ -33,8 +38,9 @@ def register(subparsers: Any) -> None:
                    help="stream a waveform beyond the calibration's current limit or DAC span "
                    "(the firmware clamps it); by default such a waveform is refused")
     p.add_argument("--baud", type=_number("baud", 1, integer=True), default=115200)
-    p.add_argument("--timeout", type=_number("s", 0.0, low_open=True), default=None,
-                   help="overall limit in seconds, handshake included")
+    p.add_argument("--timeout", type=_number("s", 0.0, MAX_TIMEOUT_S, low_open=True), default=None,
+                   help="overall limit in seconds, handshake included, at most 3600 (default: the "
+                   "waveform's playback time + 30 s, however long)")
     p.add_argument("--log", type=output_path, help="write every line the board sent to this file")
     p.add_argument("--codes-out", type=output_path,
                    help="write the reported DAC codes as row,code_x,code_y,code_z")

@@ -110,7 +110,7 @@ def check_coil_axes(matrix: Sequence[Sequence[float]], source: str) -> None:
         if i != j and low <= a[i, j] <= high and (a[j, j] < low or a[i, j] >= SWAP_RATIO * a[j, j]):
             raise PlausibilityError(
                 f"{source}: coil {names[j]} (current_{names[j]}_A) makes {1e3 * a[i, j]:.3g} mT/A "
-                f"along {names[i]} but {a[j, j]:.3g} T/A along {names[j]}, its own axis: the coils' "
+                f"along {names[i]} but {1e3 * a[j, j]:.3g} mT/A along {names[j]}, its own axis: the coils' "
                 "channels or the columns of the measurements are swapped; fix the wiring or the "
                 "column names and fit again")
 

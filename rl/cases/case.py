@@ -419,6 +419,10 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     task = task_from_table(top.table("task"), length, length + (stage[1] if stage else 0.0))
     _check_task_and_actuation(task, actuation, source)
     training = _training(top.table("training", required=False), source, robot)
+    if training.randomize and isinstance(actuation, SteeringActuation):
+        raise SpecError(f"{source}: [training.randomize]: domain randomization varies a crawler's robot; "
+                        f"a case steered by a source ([actuation] kind = \"{actuation.kind}\") trains on "
+                        "its nominal robot: remove the table")
     yardstick = _yardstick(top.table("yardstick", required=False),
                            float(robot.tables["robot"]["length"]))
     if not robot.robot("training").magnetization.any():

@@ -123,9 +123,14 @@ def _check_target_reach(t: SpecTable, target: float, length: float, duration: fl
     lengths, most = abs(target) / length, MAX_YARDSTICK_BODY_LENGTHS * duration / 10.0
     if lengths <= most:
         return
+    needed = 10.0 * lengths / MAX_YARDSTICK_BODY_LENGTHS  # s: the shortest episode that could
+    if needed <= 10.0:  # the target is within a 10 s walk: the episode is what is short
+        raise t.error("episode_duration", f"{duration:g} s is too short for the {key} {target:g} m "
+                      f"({lengths:.2g} body lengths of this {length:g} m robot): no crawler covers it in "
+                      f"less than {needed:.2g} s; give a longer episode (s)")
     hint = (f"; it looks like mm written where m is expected ({target:g} mm is {1e-3 * target:g} m)"
             if lengths / 1e3 <= most else "")
-    raise t.error(key, f"{target:g} m is {lengths:.0f} body lengths of this {length:g} m robot, "
+    raise t.error(key, f"{target:g} m is {lengths:.3g} body lengths of this {length:g} m robot, "
                             f"more than the {most:g} that any crawler covers in the "
                             f"{duration:g} s episode{hint}")
 

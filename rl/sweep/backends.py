@@ -263,21 +263,32 @@ def _stop_workers(pool: ProcessPoolExecutor, futures, grace: float = STOP_GRACE_
     training, every worker is ended (SIGTERM; the multiprocessing resource tracker may then warn
     of the workers' semaphores, which it releases). Ending a worker loses at most the steps
     since its last checkpoint, which is written atomically, so ``--resume`` continues from it.
+
+    The jobs not started yet are cancelled by the pool's own management thread (``shutdown``
+    with ``cancel_futures``), not here: one cancelled here but still on its list of pending jobs
+    made that thread fail (``InvalidStateError: CANCELLED``, printed as a traceback, its queues'
+    semaphores left to the resource tracker's "leaked" warning) when it found a worker ended and
+    marked every pending job failed (Python before 3.12). The thread takes the shutdown before
+    it looks at the ended workers, so by then only started jobs are on that list.
     """
-    for future in futures:
-        future.cancel()  # the jobs not started yet
+    # no public handle on the processes or the thread before Python 3.14 (terminate_workers);
+    # shutdown(wait=False) lets go of them, so they are taken first
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    manager = getattr(pool, "_executor_manager_thread", None)
+    pool.shutdown(wait=False, cancel_futures=True)  # the jobs not started yet: cancelled
     try:
         running = wait(futures, timeout=grace).not_done if grace > 0 else {
             future for future in futures if not future.done()}
     except KeyboardInterrupt:  # a second Ctrl-C: end them now
         running = {future for future in futures if not future.done()}
     if running:
-        # no public handle on the processes before Python 3.14 (terminate_workers)
-        for process in list((getattr(pool, "_processes", None) or {}).values()):
+        for process in processes:
             if process.is_alive():
                 process.terminate()
             process.join()
-    pool.shutdown(wait=True, cancel_futures=True)  # no job left running: this returns
+    if manager is not None:  # it ends once no job runs (each one done or failed by the ending)
+        manager.join()
+    pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _run_ray(fn, jobs, workers, address, progress) -> list[dict[str, Any]]:

@@ -25,6 +25,12 @@ def randomized_cases(loaded: dict[str, Case], randomize: str | None, recipe: str
     setting = randomize or RECIPE_RUN_SETTINGS.get(recipe, {}).get("randomize")
     out = {}
     for name, case in loaded.items():
+        if not case.field_actuated and (randomize == "default" or setting == "default"):
+            given = "--randomize default" if randomize == "default" else f"--recipe {recipe}"
+            raise ValueError(f"{given}: case {name!r} is steered by a source ([actuation] kind = "
+                             f"\"{case.actuation.kind}\"); domain randomization varies a crawler's robot, "
+                             "and the catheter cases train on their nominal robot: leave it out (or "
+                             "choose the fast or pink-ln recipe)")
         if randomize == "none":
             case = with_randomize(case, ())
         elif setting == "default" and (randomize == "default" or not case.training.randomize):

@@ -48,7 +48,7 @@ def write_calibration(tmp_path: Path, **changes: object) -> Path:
          r"ill conditioned \(condition number 199 > 100\)"),
         # round 13 V2: rows y and z exchanged by hand, no cross-coupling: named as a swap, not units
         ({"actuation_matrix_T_per_A": [[2e-3, 0, 0], [0, 0, 1.8e-3], [0, 2e-3, 0]]},
-         r"coil y \(current_y_A\) makes 2 mT/A along z but 0 T/A along y, its own axis: .* swapped"),
+         r"coil y \(current_y_A\) makes 2 mT/A along z but 0 mT/A along y, its own axis: .* swapped"),
         ({"tick_hz": 1000.0}, r"tick_hz = 1000, but the firmware ticks at a fixed 100 Hz"),
         ({"current_limit_A": [2400.0, 2.4, 2.4]},
          r"current_limit_A\[0\] = 2400 A exceeds the hardware rating of 20 A \(mA written"),
@@ -224,7 +224,7 @@ def test_coils_fitted_with_their_channels_swapped_are_named_as_swapped():
     matrix = np.array([[0.0, 2e-3, 0.0], [2e-3, 0.0, 0.0], [0.0, 0.0, 2e-3]])
     currents = np.vstack([np.eye(3), -np.eye(3), 0.5 * np.eye(3)])
     with pytest.raises(plausibility.PlausibilityError,
-                       match=r"m.csv: coil x \(current_x_A\) makes 2 mT/A along y but 0 T/A along x, "
+                       match=r"m.csv: coil x \(current_x_A\) makes 2 mT/A along y but 0 mT/A along x, "
                              r"its own axis: the coils' channels or the columns .* are swapped"):
         fit_actuation_matrix(currents, currents @ matrix.T, "m.csv")
     fit = fit_actuation_matrix(currents, currents @ np.diag([2e-3, 2e-3, 2e-3]).T, "m.csv")
@@ -241,7 +241,7 @@ def test_a_swap_is_named_whichever_pair_and_whatever_the_coils_cross_coupling():
     swap_xy = coupled[:, [1, 0, 2]]
     currents = np.vstack([np.eye(3), -np.eye(3), 0.5 * np.eye(3)])
     with pytest.raises(plausibility.PlausibilityError,
-                       match=r"coil x \(current_x_A\) makes 2 mT/A along y but 5e-05 T/A along x"):
+                       match=r"coil x \(current_x_A\) makes 2 mT/A along y but 0.05 mT/A along x"):
         fit_actuation_matrix(currents, currents @ swap_xy.T, "m.csv")
     fit = fit_actuation_matrix(currents, currents @ coupled.T, "m.csv")
     assert np.allclose(fit.matrix_T_per_A, coupled)

@@ -43,7 +43,7 @@ from sleeper import sleep_and_record
 from elastica_magnetic_rl.sweep.backends import run_in_processes
 if __name__ == "__main__":
     try:
-        run_in_processes(sleep_and_record, [0, 1], 2, stop_grace_s=1.0)
+        run_in_processes(sleep_and_record, list(range({jobs})), 2, stop_grace_s=1.0)
     except KeyboardInterrupt as exc:
         print("stopped:", type(exc).__name__, exc, getattr(exc, "signum", None), flush=True)
         sys.exit(130)
@@ -58,11 +58,12 @@ def _alive(pid: int) -> bool:
     return state not in ("Z", "X")
 
 
-def _start_sweep(tmp_path: Path) -> tuple[subprocess.Popen, list[int]]:
-    """A driver process running two sleeping workers, started as a shell's background job
-    (SIGINT ignored); returns it and its workers' pids once both jobs run."""
+def _start_sweep(tmp_path: Path, jobs: int = 2) -> tuple[subprocess.Popen, list[int]]:
+    """A driver process running two sleeping workers (``jobs`` jobs: those beyond two wait),
+    started as a shell's background job (SIGINT ignored); returns it and its workers' pids once
+    two jobs run."""
     (tmp_path / "sleeper.py").write_text(SLEEPER)
-    (tmp_path / "driver.py").write_text(DRIVER.format(folder=str(tmp_path)))
+    (tmp_path / "driver.py").write_text(DRIVER.format(folder=str(tmp_path), jobs=jobs))
     pids = tmp_path / "pids"
     pids.mkdir()
     env = {**os.environ, "MSR_TEST_PIDS": str(pids)}
@@ -102,3 +103,18 @@ def test_workers_end_themselves_when_the_sweep_is_killed(tmp_path):
     proc.kill()
     proc.wait(timeout=30)
     assert _wait_gone(workers, 15) == []  # they poll their parent every second
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_sigterm_with_jobs_still_queued_prints_no_traceback(tmp_path):
+    """Round 14 T1: SIGTERM to ``msr field baseline``'s sweep (more jobs than workers) printed a
+    traceback of the pool's management thread (``InvalidStateError: CANCELLED`` in
+    ``terminate_broken``: a job not started, cancelled, then failed when the workers were ended)
+    and at times the resource tracker's "leaked semaphore objects"."""
+    proc, workers = _start_sweep(tmp_path, jobs=6)
+    proc.send_signal(signal.SIGTERM)
+    out, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 130, out
+    assert "stopped: Interrupted SIGTERM 15" in out
+    assert "Traceback" not in out and "InvalidStateError" not in out and "leaked" not in out, out
+    assert _wait_gone(workers, 10) == []
