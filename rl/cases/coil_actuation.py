@@ -82,8 +82,10 @@ class CoilArray(SteeringActuation):
 
     @property
     def observation_blocks(self) -> tuple[tuple[str, int], ...]:
-        """The observation's blocks after the rod's node positions (name, size): the tip's velocity
-        (3), the coils' currents over their limit (one per coil), and the insertion (1) with a stage."""
+        """The observation's blocks after the rod's node positions, as name and size pairs.
+
+        The tip's velocity (3), the coils' currents over their limit (one per coil), and the
+        insertion (1) with a stage."""
         return (("tip_velocity", 3), ("coil_currents", len(self.coils)), *self.stage_blocks())
 
     def actuator(self) -> CoilCurrents:
