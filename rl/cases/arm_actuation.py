@@ -23,6 +23,7 @@ from elastica_magnetic.specfile import SpecTable
 from .steered import (
     MAX_REACH,
     SteeringActuation,
+    control_rate_from_table,
     insertion_from_table,
     insertion_speed_from_table,
     speed_from_table,
@@ -177,12 +178,9 @@ def magnet_arm_from_table(t: SpecTable, rod_length: float) -> MagnetArm:
         max_speed=speed_from_table(t, "max_speed", d.max_speed),
         max_turn_rate=_turn_rate(t, d.max_turn_rate),
         min_clearance=_min_clearance(t, d.min_clearance, moment),
-        control_rate=t.number("control_rate", "Hz", d.control_rate, low=0.0, low_open=True),
+        control_rate=control_rate_from_table(t, d.control_rate),
         insertion=insertion,
         insertion_speed=insertion_speed_from_table(t, insertion, d.insertion_speed))
-    if not math.isclose(arm.control_rate, 1.0 / ACTION_PERIOD):
-        raise t.error("control_rate", f"only {1.0 / ACTION_PERIOD:g} Hz is supported (the environments' "
-                                      f"0.01 s step), got {arm.control_rate:g}")
     try:
         MagnetPose(**arm.arm_settings())
     except SpatialFieldError as exc:

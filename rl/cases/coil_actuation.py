@@ -25,7 +25,13 @@ from elastica_magnetic.hardware.plausibility import MIN_PLAUSIBLE_SLEW_A_PER_S
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 from elastica_magnetic.specfile import SpecTable
 
-from .steered import MAX_REACH, SteeringActuation, insertion_from_table, insertion_speed_from_table
+from .steered import (
+    MAX_REACH,
+    SteeringActuation,
+    control_rate_from_table,
+    insertion_from_table,
+    insertion_speed_from_table,
+)
 
 __all__ = ["CoilArray", "CoilWinding", "coil_array_from_table"]
 
@@ -131,12 +137,9 @@ def coil_array_from_table(t: SpecTable, rod_length: float) -> CoilArray:
         coils=coils,
         current_limit=t.number("current_limit", "A", low=0.0, low_open=True, high=MAX_CURRENT),
         max_slew=t.number("max_slew", "A/s", None, low=0.0, low_open=True),
-        control_rate=t.number("control_rate", "Hz", d.control_rate, low=0.0, low_open=True),
+        control_rate=control_rate_from_table(t, d.control_rate),
         insertion=insertion,
         insertion_speed=insertion_speed_from_table(t, insertion, d.insertion_speed))
-    if not math.isclose(array.control_rate, 1.0 / ACTION_PERIOD):
-        raise t.error("control_rate", f"only {1.0 / ACTION_PERIOD:g} Hz is supported (the environments' "
-                                      f"0.01 s step), got {array.control_rate:g}")
     if array.max_slew is not None and array.max_slew < MIN_PLAUSIBLE_SLEW_A_PER_S:
         seconds = array.current_limit / array.max_slew
         raise t.error("max_slew", f"{array.max_slew:g} A/s is below {MIN_PLAUSIBLE_SLEW_A_PER_S:g} A/s: it "

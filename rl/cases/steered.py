@@ -7,14 +7,16 @@ action component), and a field-actuation value asked of them names the mismatch.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from elastica_magnetic import Advancer
+from elastica_magnetic.robot_spec import ACTION_PERIOD
 from elastica_magnetic.specfile import SpecTable
 
 __all__ = ["ACTUATION_KINDS", "MAX_REACH", "MAX_SPEED", "NotFieldActuatedError", "SteeringActuation",
-           "field_only_refusal",
-           "insertion_from_table", "insertion_speed_from_table", "speed_from_table"]
+           "control_rate_from_table", "field_only_refusal", "insertion_from_table",
+           "insertion_speed_from_table", "speed_from_table"]
 
 #: ``[actuation] kind``: a uniform field from coils (the paper's, the default), a magnet on an arm,
 #: or the currents of fixed coils.
@@ -109,6 +111,15 @@ def insertion_speed_from_table(t: SpecTable, insertion: tuple[float, float] | No
                                       f"control steps): mm/s written as m/s? ({speed:g} mm/s is "
                                       f"{speed / 1e3:g} m/s)")
     return speed
+
+
+def control_rate_from_table(t: SpecTable, default: float) -> float:
+    """``control_rate`` (Hz): only the environments' 0.01 s step is supported."""
+    rate = t.number("control_rate", "Hz", default, low=0.0, low_open=True)
+    if not math.isclose(rate, 1.0 / ACTION_PERIOD):
+        raise t.error("control_rate", f"only {1.0 / ACTION_PERIOD:g} Hz is supported (the environments' "
+                                      f"0.01 s step), got {rate:g}")
+    return rate
 
 
 def insertion_from_table(t: SpecTable, rod_length: float) -> tuple[float, float] | None:
