@@ -641,3 +641,23 @@ def first_unhealthy(
                 n_bad += 1
                 break
     return first_robot, first_node, first_nan, first_speed2, n_bad
+
+
+@njit(cache=True)
+def robot_times(time: float, index: int, dt: float, behind: NDArray[np.int64],
+                out: NDArray[np.float64]) -> None:
+    """``out[i]``: the time (s) of a robot ``behind[i]`` steps behind the block's clock when the
+    block's stepper, taking step ``index`` of ``dt`` s, is at ``time``: PositionVerlet's forcing
+    time (its own steps x dt, plus dt / 2) or the constraints' time after the second half step
+    (plus dt / 2 again), computed as a per-rod simulation of that robot computes it, so that both
+    round alike; any other ``time`` is shifted by ``behind[i] * dt``."""
+    half = index * dt + 0.5 * dt
+    for i in range(behind.shape[0]):
+        if behind[i] == 0:
+            out[i] = time
+        elif time == half:
+            out[i] = (index - behind[i]) * dt + 0.5 * dt
+        elif time == half + 0.5 * dt:
+            out[i] = (index - behind[i]) * dt + 0.5 * dt + 0.5 * dt
+        else:
+            out[i] = time - behind[i] * dt

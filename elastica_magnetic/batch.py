@@ -42,11 +42,13 @@ from typing import Any
 
 import elastica as ea
 import numpy as np
+from elastica.boundary_conditions import ConstraintBase
 from elastica.external_forces import NoForces
 from elastica.memory_block.memory_block_rod import MemoryBlockCosseratRod
 from numpy.typing import ArrayLike, NDArray
 
 from . import _spatial_kernels as spatial_kernels
+from ._batch_clamp import BatchedClamp
 from ._batch_coils import BatchedCoils, loop_geometry
 from ._batch_kernels import (
     N_PARAMS,
@@ -71,13 +73,14 @@ from ._batch_kernels import (
     S_NO_CONTACT,
     block_forcing,
     first_unhealthy,
+    robot_times,
 )
 from ._spatial_kernels import MOTION_SIZE
 from .actuation import MovedDipoleField
 from .forcing import FieldValueError, MagneticTorques
 from .insertion import Advancer
 from .robot_spec import RobotSpec
-from .simulation import SimulationDivergedError, constrain_base, robot_rod, trajectory_row
+from .simulation import SimulationDivergedError, robot_rod, trajectory_row
 from .spatial_fields import is_spatial
 
 __all__ = ["BatchedRobots", "BatchedRobotSimulator", "BatchedSimulationDivergedError",
@@ -123,6 +126,21 @@ class _BlockForcing(NoForces):
 
     def apply_torques(self, system, time: np.float64 = np.float64(0.0)) -> None:
         pass  # torques are applied together with the forces, in the kernel
+
+
+class _BlockClamp(ConstraintBase):
+    """Registered once, on the first rod: holds every robot's clamped base (its
+    :class:`BatchedRobots`' :class:`~elastica_magnetic._batch_clamp.BatchedClamp`) in one kernel call."""
+
+    def __init__(self, *, owner: BatchedRobots, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self._owner = owner
+
+    def constrain_values(self, system, time: np.float64) -> None:
+        self._owner.hold_bases(time, rates=False)
+
+    def constrain_rates(self, system, time: np.float64) -> None:
+        self._owner.hold_bases(time, rates=True)
 
 
 class BatchedRobots:
@@ -219,8 +237,12 @@ class BatchedRobots:
             raise ValueError(f"advancers push clamped bases: give clamp=True and one per robot ({n_robots}, "
                              "None for a robot without one)")
         self.advancers = list(advancers) if advancers is not None else [None] * n_robots
+        self._clamp = BatchedClamp(self.advancers) if self.clamp else None
+        self._times = np.zeros(n_robots)  # each robot's own time (s), the clamp's scratch
         self.simulator, self.rods = self._build_simulator()
         self.block = self._locate_robots()
+        if self._clamp is not None:
+            self._clamp.locate(self.block, self._node_start, self._elem_start)
         self._kernel_args = self._block_kernel_arguments(spec)
         # Every array of every rod at the start, to reset a robot (state, rates, accelerations,
         # loads and the derived geometry: a reset robot is indistinguishable from a fresh one).
@@ -293,11 +315,10 @@ class BatchedRobots:
         for _ in range(self.n_robots):
             rod = robot_rod(self.spec)
             simulator.append(rod)
-            if self.clamp:  # as build_simulation(..., clamp=True) holds a catheter's base
-                i = len(rods)
-                constrain_base(simulator, rod, self.advancers[i], clock=functools.partial(self._own_time, i))
             rods.append(rod)
         simulator.add_forcing_to(rods[0]).using(_BlockForcing, owner=self)
+        if self.clamp:  # as build_simulation(..., clamp=True) holds a catheter's base, all in one call
+            simulator.constrain(rods[0]).using(_BlockClamp, owner=self)
         simulator.finalize()
         return simulator, rods
 
@@ -381,19 +402,37 @@ class BatchedRobots:
         """The time (s) a robot ``behind`` steps behind the block's clock (reset since it started)
         is at when the block's forcing is at ``time``: at PositionVerlet's forcing time (after its
         half kinematic step), as the per-rod simulation of that robot computes it (its own steps x
-        dt, plus dt / 2), so that both round alike."""
-        dt = self.spec.dt
-        index = self._step_index
+        dt, plus dt / 2), so that both round alike (``behind`` an int, or an int array ``(M,)``:
+        the times ``(M,)``, :func:`robot_times`)."""
+        if np.ndim(behind):
+            out = np.empty(len(behind))
+            robot_times(float(time), self._step_index, self.spec.dt, np.asarray(behind, dtype=np.int64), out)
+            return out
+        dt, index, behind = self.spec.dt, self._step_index, int(behind)
         half = index * dt + 0.5 * dt
+        if behind == 0:
+            return time
         if time == half:  # the forcing, and the constraints after the first half step
-            return np.where(behind == 0, time, (index - behind) * dt + 0.5 * dt)[()]
+            return (index - behind) * dt + 0.5 * dt
         if time == half + 0.5 * dt:  # the constraints after the second half step
-            return np.where(behind == 0, time, (index - behind) * dt + 0.5 * dt + 0.5 * dt)[()]
+            return (index - behind) * dt + 0.5 * dt + 0.5 * dt
         return time - behind * dt
 
-    def _own_time(self, i: int, time: float) -> float:
-        """Robot ``i``'s time (s) when the block's stepper is at ``time`` (its constraints' clock)."""
-        return self._robot_time(time, self.step_count - int(self.robot_step_count[i]))
+    def hold_bases(self, time: float, rates: bool) -> None:
+        """Hold every clamped robot's base (its first node and element, moved by its stage) at
+        the stepper's ``time`` (s), each robot on its own clock: positions and directors, or
+        with ``rates`` velocities and angular velocities (before the block is located, when
+        PyElastica applies the constraints at finalization, the bases are where they are built:
+        nothing to do)."""
+        clamp = self._clamp
+        if clamp is None or not clamp.located:
+            return
+        robot_times(float(time), self._step_index, self.spec.dt, self.step_count - self.robot_step_count,
+                    self._times)
+        if rates:
+            clamp.constrain_rates(self.block, self._times)
+        else:
+            clamp.constrain_values(self.block, self._times)
 
     def _gather_moved_magnets(self) -> None:
         """Each arm's motion over the coming steps (set by its ``apply`` between steps), and how many
@@ -516,6 +555,8 @@ class BatchedRobots:
             self._gather_moved_magnets()
         if self._coils.sources:
             self._coils.gather(self.step_count - self.robot_step_count)
+        if self._clamp is not None:
+            self._clamp.gather()
         for k in range(n_steps):
             # Time from the step counter, as in RobotSimulation (the kernel itself ignores time).
             self._step_index = start + k

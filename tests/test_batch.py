@@ -401,6 +401,47 @@ def test_batched_catheters_on_insertion_stages_match_per_rod_simulations_bit_for
     assert robots.rod(1).position_collection[0, 0] == pytest.approx(0.003, abs=1e-12)  # 15 steps since reset
 
 
+def test_a_batch_mixing_stages_and_plain_clamps_holds_each_base_as_its_per_rod_simulation():
+    """The clamps of a batch are one kernel call: a robot with a stage on a slanted axis, one
+    with a plain clamp and one reset mid-run (on its own clock) each follow their per-rod
+    simulation (a ``OneEndFixedBC``, an ``InsertionClamp``) to the last bit."""
+    from elastica_magnetic import Advancer
+
+    spec = _catheter_in_training_physics()
+    axis = (1.0, 0.3, -0.2)
+    arms, twins = [_arm(x) for x in (0.09, 0.1, 0.08)], [_arm(x) for x in (0.09, 0.1, 0.08)]
+    stages = [Advancer((-0.004, 0.01), 0.02, axis), None, Advancer((-0.004, 0.01), 0.02)]
+    twin_stages = [Advancer((-0.004, 0.01), 0.02, axis), None, Advancer((-0.004, 0.01), 0.02)]
+    robots = BatchedRobots(spec, n_robots=3, sources=[a.source for a in arms], clamp=True, advancers=stages)
+    sims = [build_simulation(spec, t.source, clamp=True, advancer=s)
+            for t, s in zip(twins, twin_stages, strict=True)]
+    base = robots.rod(1).position_collection[:, 0].copy()
+    rng = np.random.default_rng(11)
+    for step in range(30):
+        if step == 17:
+            robots.reset_robot(2)
+            for thing in (arms[2], twins[2], stages[2], twin_stages[2]):
+                thing.reset()
+            sims[2] = build_simulation(spec, twins[2].source, clamp=True, advancer=twin_stages[2])
+        actions = rng.uniform(-1.0, 1.0, (3, 6))
+        actions[:, 5] = 0.8  # push in
+        for i in range(3):
+            arms[i].apply(actions[i, :5], robots.robot_time(i), 0.01)
+            twins[i].apply(actions[i, :5], sims[i].time, 0.01)
+            if stages[i] is not None:
+                stages[i].apply(actions[i, 5:], robots.robot_time(i), 0.01)
+                twin_stages[i].apply(actions[i, 5:], sims[i].time, 0.01)
+        robots.step(spec.steps_per_action)
+        for sim in sims:
+            sim.step(spec.steps_per_action)
+    for i, sim in enumerate(sims):
+        _assert_same_state(robots.rod(i), sim.rod, f"robot {i}")
+    np.testing.assert_array_equal(robots.rod(1).position_collection[:, 0], base)
+    moved = robots.rod(0).position_collection[:, 0] - robots.rod(1).position_collection[:, 0]
+    assert np.linalg.norm(moved) > 1e-4  # the slanted stage moved its base
+    np.testing.assert_allclose(np.cross(moved, np.array(axis)), 0.0, atol=1e-15)
+
+
 def test_an_advancer_stops_at_the_ends_of_its_travel_and_checks_its_values():
     from elastica_magnetic import Advancer
 
