@@ -166,7 +166,7 @@ def _add_generate_command(sub: argparse._SubParsersAction) -> None:
 def _add_goto_options(p: argparse.ArgumentParser) -> None:
     """``--target`` and ``--ring``: where a goto case's robot is sent."""
     where = p.add_mutually_exclusive_group()
-    where.add_argument("--target", type=target_option, default=None, metavar="FORWARD,LEFT",
+    where.add_argument("--target", type=target_option, default=None, metavar="FORWARD,LEFT|X,Y,Z",
                        help=TARGET_HELP)
     where.add_argument("--ring", type=ring_option, nargs="?", const=RING_TARGETS, default=None,
                        metavar="N", help=f"a goto case: send the robot to N targets (default "
@@ -176,14 +176,32 @@ def _add_goto_options(p: argparse.ArgumentParser) -> None:
 
 
 def _goto_args(args: argparse.Namespace, case) -> None:
-    """Refuse ``--target``/``--ring`` for a case that is not goto, and ``--ring`` with options
-    it does not use; a goto ring's ``--duration`` defaults to the task's episode."""
+    """Refuse ``--target``/``--ring`` for a case that is not goto (a tip-reach case's own
+    checks: :func:`_tip_reach_args`), and a ``--target`` of three numbers (X,Y,Z, a tip-reach
+    case's)."""
     from ..cases.tasks import GotoTask
 
     given = "--target" if args.target is not None else "--ring" if args.ring is not None else None
     if given and not isinstance(case.task, GotoTask):
         raise CommandError(f"{given} is for a goto case; case {case.name!r} has the "
                            f"{case.task.kind} task (it goes where its task says)")
+    if args.target is not None and len(args.target) != 2:
+        raise CommandError(f"--target of a goto case is FORWARD,LEFT in m from the start (two numbers); "
+                           f"got {len(args.target)} (X,Y,Z is a tip-reach case's)")
+
+
+def _tip_reach_args(args: argparse.Namespace, case, command: str, refused: dict) -> None:
+    """The options of ``command`` on a tip-reach case (a catheter steered by a source): those in
+    ``refused`` (option: value) that cannot act are refused by name; ``--target`` is X,Y,Z; the
+    duration defaults to the task's episode."""
+    for option, value in refused.items():
+        if value:
+            raise CommandError(f"{option} does not apply to case {case.name!r}, steered by a source "
+                               f"([actuation] kind = \"{case.actuation.kind}\"): {command} steers the tip to "
+                               "each of the case's 20 held-out targets at once, or to --target X,Y,Z (m)")
+    if args.target is not None and len(args.target) != 3:
+        raise CommandError(f"--target of a tip-reach case is X,Y,Z in m, in the spec's frame (three "
+                           f"numbers); got {len(args.target)} (FORWARD,LEFT is a goto case's)")
 
 
 def _ring_result(policy, args: argparse.Namespace, kind: str) -> int:
@@ -346,19 +364,20 @@ def bench_command(args: argparse.Namespace) -> int:
 
 def generate_command(args: argparse.Namespace) -> int:
     from ..shipping.generate import generate
+    from ..shipping.policy_files import resolve_policy
 
+    try:
+        loaded = resolve_policy(args.policy)
+    except FileNotFoundError as exc:
+        raise CommandError(str(exc)) from None
+    if not loaded.case.field_actuated:
+        return _tip_reach_generate(args, loaded)
     if args.workers is not None and args.ring is None:
         raise CommandError("--workers is the number of --ring targets run at a time; a single "
                            "rollout runs in one process: leave it out, or give --ring")
     if args.ring is None and args.duration is None:
         args.duration = DEFAULT_ROLLOUT_S
     if args.target is not None or args.ring is not None:
-        from ..shipping.policy_files import resolve_policy
-
-        try:
-            loaded = resolve_policy(args.policy)
-        except FileNotFoundError as exc:
-            raise CommandError(str(exc)) from None
         _goto_args(args, loaded.case)
         if args.ring is not None:
             return _ring_result(loaded, args, "generate")
@@ -369,6 +388,33 @@ def generate_command(args: argparse.Namespace) -> int:
     except FileNotFoundError as exc:
         raise CommandError(str(exc)) from None
     return _print_rollout_result(result, args.json)
+
+
+def _tip_reach_generate(args: argparse.Namespace, loaded) -> int:
+    """``msr policy generate`` of a tip-reach policy: its actor steering the tip to the case's
+    held-out targets, or to ``--target X,Y,Z``, written as the yardstick's are (targets.csv/json/png)."""
+    from ..shipping.policy_files import resolve_policy
+    from ..shipping.policy_runs import choose_tip_reach_actor
+    from ..shipping.tip_reach import actor_controller, target_notes, write_targets
+
+    _tip_reach_args(args, loaded.case, "msr policy generate",
+                    {"--ring": args.ring is not None, "--workers": args.workers, "--no-gif": args.no_gif})
+    try:
+        choice = choose_tip_reach_actor(args.policy, args.checkpoint)
+    except FileNotFoundError as exc:
+        raise CommandError(str(exc)) from None
+    if choice is not None:
+        loaded = resolve_policy(choice.path)
+    print_notes(target_notes(loaded.case, args.target) if args.target is not None else ())
+    result = write_targets(loaded.case, args.out, actor_controller(loaded.actor), physics=args.physics,
+                           duration=args.duration, force=args.force, kind="generate",
+                           figures=not args.no_figures, targets=args.target,
+                           controller=f"policy {loaded.source}")
+    if choice is not None:
+        result["actor_choice"] = {**choice.to_dict(), "summary": choice.describe()}
+    print_notes(result.pop("notes", ()))
+    print_result(result, args.json)
+    return 0
 
 
 def baseline_command(args: argparse.Namespace) -> int:
@@ -416,20 +462,17 @@ def baseline_command(args: argparse.Namespace) -> int:
 
 def _tip_reach_baseline(args: argparse.Namespace) -> int:
     """``msr field baseline`` of a case steered by a source: the steering yardstick on the
-    case's held-out targets, written into ``--out``."""
-    from ..shipping.tip_reach import steering_controller, write_targets
+    case's held-out targets (or ``--target X,Y,Z``), written into ``--out``."""
+    from ..shipping.tip_reach import steering_controller, target_notes, write_targets
 
-    for option, value in (("--period", args.period), ("--counterclockwise", args.counterclockwise),
-                          ("--periods", args.periods), ("--set-yardstick", args.set_yardstick),
-                          ("--workers", args.workers), ("--target", args.target), ("--ring", args.ring),
-                          ("--no-gif", args.no_gif)):
-        if value:
-            raise CommandError(f"{option} does not apply to case {args.case.name!r}, steered by a "
-                               f"source ([actuation] kind = \"{args.case.actuation.kind}\"): its yardstick "
-                               "steers the tip to each of the case's 20 held-out targets at once (one "
-                               "process)")
+    _tip_reach_args(args, args.case, "its yardstick", {
+        "--period": args.period, "--counterclockwise": args.counterclockwise, "--periods": args.periods,
+        "--set-yardstick": args.set_yardstick, "--workers": args.workers, "--ring": args.ring is not None,
+        "--no-gif": args.no_gif})
+    print_notes(target_notes(args.case, args.target) if args.target is not None else ())
     result = write_targets(args.case, args.out, steering_controller, physics=args.physics,
-                           duration=args.duration, force=args.force, figures=not args.no_figures)
+                           duration=args.duration, force=args.force, figures=not args.no_figures,
+                           targets=args.target)
     print_notes(result.pop("notes", ()))
     print_result(result, args.json)
     return 0

@@ -20,31 +20,35 @@ FORCE_HELP = ("replace an earlier result of this command for the same case in --
               "an existing result is refused; another command's or case's result always is)")
 
 TARGET_HELP = ("a goto case's target: FORWARD,LEFT in m from the start, in the robot's start frame "
-               "(+x ahead; LEFT positive to its left, which is -z); default the task's distance "
-               "straight ahead")
+               "(+x ahead; LEFT positive to its left, which is -z; default the task's distance "
+               "straight ahead); a tip-reach case's: X,Y,Z in m in the spec's frame (default: the "
+               "case's 20 held-out targets)")
 
 #: The largest target distance ``--target`` takes, m: beyond it, mm were written for m.
 MAX_TARGET_M = 10.0
 
 
-def target_option(value: str) -> tuple[float, float]:
-    """``--target FORWARD,LEFT`` (m): two finite numbers; a distance of metres is refused as mm
-    written for m."""
+def target_option(value: str) -> tuple[float, ...]:
+    """``--target FORWARD,LEFT`` (a goto case) or ``X,Y,Z`` (a tip-reach case), m: two or three
+    finite numbers; a distance of metres is refused as mm written for m. Which of the two the
+    case takes is checked once the case is known."""
     import math
 
-    parts = value.split(",")
     try:
-        forward, left = (float(v) for v in parts)
+        numbers = tuple(float(v) for v in value.split(","))
     except ValueError:
+        numbers = ()
+    if len(numbers) not in (2, 3):
         raise argparse.ArgumentTypeError(
-            f"expected FORWARD,LEFT in m (two numbers, e.g. 0.015,0), got {value!r}") from None
-    if not (math.isfinite(forward) and math.isfinite(left)):
+            f"expected FORWARD,LEFT (a goto case) or X,Y,Z (a tip-reach case) in m, e.g. 0.015,0 or "
+            f"0.05,0.01,0; got {value!r}")
+    if not all(math.isfinite(v) for v in numbers):
         raise argparse.ArgumentTypeError(f"the target must be finite numbers in m, got {value!r}")
-    if math.hypot(forward, left) > MAX_TARGET_M:
+    distance = math.sqrt(sum(v * v for v in numbers))
+    if distance > MAX_TARGET_M:
         raise argparse.ArgumentTypeError(
-            f"{value} is {math.hypot(forward, left):g} m from the start: metres, not mm (15 mm is "
-            "0.015)")
-    return forward, left
+            f"{value} is {distance:g} m from the start: metres, not mm (15 mm is 0.015)")
+    return numbers
 
 
 def ring_option(value: str) -> int:

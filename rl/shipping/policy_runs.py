@@ -23,8 +23,8 @@ from ..runfiles.rundir import CaseDir, RunDir, being_written_hint
 from .baselines import RotatingFieldPolicy
 from .policy_files import LoadedPolicy, resolve_policy
 
-__all__ = ["ActorChoice", "CHECKPOINT_CHOICES", "choose_actor", "evaluate_checkpoint",
-           "evaluate_run", "evaluate_seeds", "node_dx", "prefer_best", "run_policy",
+__all__ = ["ActorChoice", "CHECKPOINT_CHOICES", "choose_actor", "choose_tip_reach_actor",
+           "evaluate_checkpoint", "evaluate_run", "evaluate_seeds", "node_dx", "prefer_best", "run_policy",
            "seed_run_dirs"]
 
 #: ``--checkpoint`` values besides a path: ``auto`` (the farther of the two, :func:`prefer_best`),
@@ -258,8 +258,9 @@ class ActorChoice:
 
     ``path``: the checkpoint file used; ``which``: ``"final"`` (``checkpoint.pt``), ``"best"``
     (``best.pt``) or ``"given"`` (a file named with ``--checkpoint PATH``); ``rule``: ``"farther"``
-    (:func:`prefer_best` on both evaluations), ``"asked"`` or ``"only"`` (the run has no
-    ``best.pt``); ``final`` / ``best``: their
+    (:func:`prefer_best` on both evaluations), ``"asked"``, ``"only"`` (the run has no
+    ``best.pt``) or ``"training"`` (a tip-reach run's ``best.pt``, the training's best evaluation,
+    not evaluated again: :func:`choose_tip_reach_actor`); ``final`` / ``best``: their
     :func:`evaluate_run` entries when both were evaluated (else ``None``)."""
 
     path: Path
@@ -279,6 +280,8 @@ class ActorChoice:
                 "given": str(self.path)}[self.which]
         if self.rule == "only":
             return f"{name} (the run has no {RunDir.BEST})"
+        if self.rule == "training":
+            return f"{name} (the training's best evaluation; --checkpoint final for the final actor)"
         if self.rule == "asked" or self.final is None:
             return f"{name} (as asked)"
         def one(label: str, e: dict[str, Any] | None) -> str:
@@ -345,6 +348,23 @@ def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10
     if prefer_best(case, final, best):
         return ActorChoice(run_files.best, "best", "farther", final, best)
     return ActorChoice(run_files.checkpoint, "final", "farther", final, best)
+
+
+def choose_tip_reach_actor(run: str | Path, checkpoint: str = "auto") -> ActorChoice | None:
+    """The actor of a tip-reach run (a catheter steered by a source): as :func:`choose_actor`,
+    except that ``"auto"`` takes ``best.pt`` (the training's best evaluation) when the run has one,
+    without evaluating the two again: a tip-reach policy is judged on the case's held-out targets,
+    which must not choose it."""
+    path = Path(run)
+    run_dir = path if path.is_dir() else path.parent
+    is_run = (path.is_dir() and RunDir(path).has_checkpoint()) or (
+        path.is_file() and path.name == RunDir.CHECKPOINT)
+    if checkpoint != "auto" or not is_run:
+        return choose_actor(run, checkpoint, progress=False)
+    run_files = RunDir(run_dir)
+    if run_files.best.is_file():
+        return ActorChoice(run_files.best, "best", "training")
+    return ActorChoice(run_files.checkpoint, "final", "only")
 
 
 def _cached_evaluations(path: Path) -> dict[str, Any]:

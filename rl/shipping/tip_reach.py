@@ -21,8 +21,8 @@ from elastica_magnetic.steering import CoilFieldSteering, MagnetBearingSteering
 from ..cases.case import Case
 from ..envs.catheter_env import CatheterReachVectorEnv, make_catheter_env
 
-__all__ = ["HELD_OUT_SEED", "HELD_OUT_TARGETS", "TARGET_FILES", "held_out_targets", "run_targets",
-           "steering_controller", "write_targets"]
+__all__ = ["HELD_OUT_SEED", "HELD_OUT_TARGETS", "TARGET_FILES", "actor_controller", "held_out_targets",
+           "run_targets", "steering_controller", "target_notes", "write_targets"]
 
 #: Seed of the held-out targets: training draws its targets with the run's seed plus small offsets
 #: (episode numbers), never this one.
@@ -76,6 +76,32 @@ def steering_controller(env: CatheterReachVectorEnv) -> Controller:
         return np.concatenate([steer, push[:, None]], axis=1)
 
     return act
+
+
+def actor_controller(actor: Any) -> Callable[[CatheterReachVectorEnv], Controller]:
+    """A trained actor (a ``torch.nn.Module`` mapping observations ``(N, size)`` float32 to
+    normalised actions ``(N, A)``, as a loaded policy's ``actor``) as a controller maker for
+    :func:`run_targets` and :func:`write_targets`: deterministic, no exploration noise."""
+    import torch
+
+    def act(env: CatheterReachVectorEnv, obs: NDArray[np.float32]) -> NDArray[np.float64]:
+        with torch.no_grad():
+            return actor(torch.as_tensor(np.asarray(obs, dtype=np.float32))).numpy().astype(np.float64)
+
+    return lambda env: act
+
+
+def target_notes(case: Case, targets: Any) -> list[str]:
+    """What to know about targets given by hand (m, ``(n, 3)``): those outside the case's
+    ``target_box``, where its policies were not trained (they may still reach them, or not)."""
+    low, high = np.asarray(case.task.target_box, dtype=np.float64)
+    notes = []
+    for target in np.asarray(targets, dtype=np.float64).reshape(-1, 3):
+        if np.any(target < low) or np.any(target > high):
+            notes.append(f"the target ({', '.join(f'{v:g}' for v in target)}) m lies outside case "
+                         f"{case.name!r}'s target_box {np.stack([low, high]).tolist()} m: its policies "
+                         "trained on targets inside it")
+    return notes
 
 
 def run_targets(case: Case, targets: Any,
@@ -134,11 +160,15 @@ TARGET_FILES = ("targets.csv", "targets.json", "targets.png")
 
 def write_targets(case: Case, out: Any, make_controller: Callable[[CatheterReachVectorEnv], Controller],
                   physics: str = "accurate", duration: float | None = None, force: bool = False,
-                  kind: str = "baseline", figures: bool = True) -> dict[str, Any]:
-    """:func:`run_targets` on the case's held-out targets, written whole into the result folder
-    ``out`` (as ``msr <kind>``'s result for the case; replaced only with ``force``):
-    ``targets.csv`` (one row per target), ``targets.json`` (the summary and the rows) and, with
-    ``figures``, ``targets.png`` (the tip's paths). Returns the summary and the files."""
+                  kind: str = "baseline", figures: bool = True, targets: Any = None,
+                  controller: str = "yardstick") -> dict[str, Any]:
+    """:func:`run_targets` on ``targets`` (m, ``(n, 3)``; default the case's held-out targets),
+    written whole into the result folder ``out`` (as ``msr <kind>``'s result for the case;
+    replaced only with ``force``): ``targets.csv`` (one row per target), ``targets.json`` (the
+    summary and the rows) and, with ``figures``, ``targets.png`` (the tip's paths). Returns the
+    summary (``controller`` names what steered: ``"yardstick"`` or the policy) and the files;
+    for a single target given, also ``target_m`` and ``tip_error_m`` (the tip's distance from it
+    at the end, m)."""
     import pandas as pd
 
     from elastica_magnetic.io import atomic_write, atomic_write_json
@@ -148,26 +178,31 @@ def write_targets(case: Case, out: Any, make_controller: Callable[[CatheterReach
 
     subject = f"case {case.name}"
     check_result_folder(out, kind=kind, subject=subject, force=force, known_files=TARGET_FILES)
+    given = targets is not None
+    targets = np.asarray(targets, dtype=np.float64).reshape(-1, 3) if given else held_out_targets(case)
     paths: list[NDArray[np.float64]] = []
-    result = run_targets(case, held_out_targets(case), make_controller, physics, duration, paths=paths)
+    result = run_targets(case, targets, make_controller, physics, duration, paths=paths)
     rows = [{"target_x_m": t[0], "target_y_m": t[1], "target_z_m": t[2], "final_distance_m": final,
              "closest_distance_m": closest, "time_to_target_s": reached, "ended_by": ended, "success": ok}
             for t, final, closest, reached, ended, ok in zip(
                 result["targets_m"], result["final_distance_m"], result["closest_distance_m"],
                 result["time_to_target_s"], result["ended_by"], result["success"], strict=True)]
     times = [r["time_to_target_s"] for r in rows if r["success"] and r["time_to_target_s"] is not None]
-    summary = {"case": case.name, "controller": "yardstick", "physics": physics,
-               "duration_s": result["duration_s"], "targets": len(rows), "successes": result["successes"],
-               "tolerance_m": case.task.tolerance,
+    summary = {"case": case.name, "controller": controller, "physics": physics,
+               "duration_s": result["duration_s"],
+               "target_source": "given" if given else f"held out (seed {HELD_OUT_SEED})",
+               "targets": len(rows), "successes": result["successes"], "tolerance_m": case.task.tolerance,
                "mean_time_to_target_s": float(np.mean(times)) if times else None,
                "largest_final_distance_m": float(max(result["final_distance_m"]))}
+    if given and len(rows) == 1:
+        summary |= {"target_m": result["targets_m"][0], "tip_error_m": float(result["final_distance_m"][0])}
     with result_folder(out, kind=kind, subject=subject, force=force, known_files=TARGET_FILES) as folder:
         with atomic_write(folder.path / "targets.csv", "w", newline="") as handle:
             pd.DataFrame(rows).to_csv(handle, index=False, float_format="%.9g")
         if figures:
             plot_tip_paths(rows, paths[0], folder.path / "targets.png",
-                           title=f"{case.name}: {summary['successes']} of {len(rows)} held-out targets "
-                                 f"({physics} physics, {summary['duration_s']:g} s)")
+                           title=f"{case.name}, {controller}: {summary['successes']} of {len(rows)} "
+                                 f"targets ({physics} physics, {summary['duration_s']:g} s)")
         atomic_write_json(folder.path / "targets.json", {**summary, "targets_table": rows})
     files = {name: str(folder.final / name) for name in TARGET_FILES if figures or name != "targets.png"}
     return {**summary, "files": files, "notes": folder.notes}

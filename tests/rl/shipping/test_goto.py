@@ -101,7 +101,7 @@ def test_a_ring_is_written_whole_with_its_top_view(tmp_path, capsys):
     (["field", "baseline", "--case", "m1-4mT-goto", "--target", "15,0"],
      "15,0 is 15 m from the start: metres, not mm"),
     (["field", "baseline", "--case", "m1-4mT-goto", "--target", "0.01"],
-     "expected FORWARD,LEFT in m"),
+     "expected FORWARD,LEFT (a goto case) or X,Y,Z (a tip-reach case) in m"),
     (["field", "baseline", "--case", "m1-4mT-goto", "--ring", "0"], "expected 1 to 72 targets"),
     (["field", "baseline", "--case", "m1-4mT-goto", "--ring", "--target", "0,0.01"],
      "not allowed with argument"),

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import json
 import tomllib
 import warnings
 
 import numpy as np
+import pytest
 from elastica_magnetic_rl.cases.case import load_case
 from elastica_magnetic_rl.shipping.tip_reach import (
     HELD_OUT_SEED,
@@ -13,7 +15,10 @@ from elastica_magnetic_rl.shipping.tip_reach import (
     run_targets,
     steering_controller,
 )
+from smoke import SMOKE, run_msr
 from spec_texts import CATHETER_MAGNET_REACH
+
+from elastica_magnetic.cli import main as msr
 
 
 def case():
@@ -74,3 +79,70 @@ def test_the_coils_yardstick_closes_the_distance():
     straight = float(np.linalg.norm(target - [0.05, 0.0, 0.0]))
     result = run_targets(c, target, steering_controller, physics="training", duration=0.6)
     assert result["closest_distance_m"][0] < 0.75 * straight and result["ended_by"] == ["time"]
+
+
+@pytest.fixture(scope="module")
+def catheter_run(tmp_path_factory):
+    """A smoke training of the shipped magnet-arm catheter case (seconds; an untrained actor)."""
+    out = tmp_path_factory.mktemp("catheter_runs")
+    assert msr(["train", "--case", "catheter-magnet-reach", "--seeds", "1", "--workers", "1", "--steps",
+                "160", "--out", str(out), *SMOKE]) == 0
+    return out / "catheter-magnet-reach" / "seed0"
+
+
+def test_generate_steers_a_tip_reach_policy_to_a_target_and_reports_the_tip_error(catheter_run, tmp_path,
+                                                                                 capsys):
+    """``msr policy generate RUN --target X,Y,Z`` plays the actor for that target and reports
+    ``tip_error_m``: the distance of the tip from the target at the end, as an independent
+    rollout of the same actor in the same physics measures it."""
+    from elastica_magnetic_rl.envs.vector_env import make_vector_env
+    from elastica_magnetic_rl.shipping.policy_files import resolve_policy
+
+    target = (0.045, 0.004, -0.003)
+    result = run_msr(capsys, "policy", "generate", str(catheter_run), "--target", ",".join(map(str, target)),
+                     "--physics", "training", "--duration", "0.2", "--out", str(tmp_path / "one"),
+                     "--no-progress")
+    assert result["target_m"] == list(target) and result["targets"] == 1
+    assert result["actor_choice"]["actor"] in ("best", "final")
+    loaded = resolve_policy(result["actor_choice"]["checkpoint"])
+    env = make_vector_env(loaded.case, 1, "training", duration=0.2)
+    obs, _ = env.reset(seed=0, options={"target": target})
+    for _ in range(19):
+        obs, *_ = env.step(np.stack([loaded.act(obs[0])]))
+    tip = env.tip(0)
+    obs, _, _, truncated, info = env.step(np.stack([loaded.act(obs[0])]))
+    assert truncated[0]
+    tip = info["final_info"]["tip_m"][0]
+    assert result["tip_error_m"] == pytest.approx(float(np.linalg.norm(tip - target)), rel=1e-12)
+    assert (tmp_path / "one" / "targets.png").is_file()
+
+
+@pytest.mark.parametrize(("extra", "message"), [
+    (["--target", "0.045,0.004"], "--target of a tip-reach case is X,Y,Z in m"),
+    (["--ring"], "--ring does not apply to case 'catheter-magnet-reach', steered by a source"),
+    (["--no-gif"], "--no-gif does not apply to case 'catheter-magnet-reach'"),
+])
+def test_generate_refuses_options_a_tip_reach_policy_cannot_use(catheter_run, tmp_path, capsys, extra,
+                                                                message):
+    status = msr(["policy", "generate", str(catheter_run), *extra, "--out", str(tmp_path / "never")])
+    assert status == 2 and message in capsys.readouterr().err
+    assert not (tmp_path / "never").exists()
+
+
+def test_generate_without_a_target_judges_the_held_out_targets_and_notes_targets_outside_the_box(
+        catheter_run, tmp_path, capsys):
+    result = run_msr(capsys, "policy", "generate", str(catheter_run), "--physics", "training", "--duration",
+                     "0.05", "--no-figures", "--out", str(tmp_path / "all"), "--no-progress")
+    c = load_case("catheter-magnet-reach")
+    assert result["targets"] == 20 and result["target_source"].startswith("held out")
+    assert "tip_error_m" not in result and result["controller"].startswith("policy ")
+    table = (tmp_path / "all" / "targets.csv").read_text().splitlines()
+    assert len(table) == 21 and table[1].startswith(f"{held_out_targets(c)[0, 0]:.9g}")
+    capsys.readouterr()
+    assert msr(["field", "baseline", "--case", "catheter-magnet-reach", "--target", "0.03,0,0", "--physics",
+                "training", "--duration", "0.05", "--no-figures", "--out", str(tmp_path / "yard"),
+                "--json"]) == 0
+    captured = capsys.readouterr()
+    assert "lies outside case 'catheter-magnet-reach''s target_box" in captured.err
+    # the straight tip is 20 mm beyond the target; in 0.05 s the stage pulls it back by at most 0.5 mm
+    assert 0.0195 - 1e-5 <= json.loads(captured.out)["tip_error_m"] < 0.02
