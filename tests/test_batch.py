@@ -520,3 +520,35 @@ def test_coils_that_move_or_play_a_waveform_take_the_general_path_and_a_wire_is_
     assert not robots._spatial
     with pytest.raises(SpatialFieldError, match=r"robot 1: .*lies on the wire of current loop 0"):
         robots.step(1)
+
+
+@pytest.mark.parametrize("clamped", [False, True])
+def test_the_direct_step_is_pyelastica_s_step_to_the_last_bit(clamped):
+    """A batch whose simulator holds only its own operators takes PositionVerlet's step directly
+    (not through the collection's operator groups); both ways give the same state, bit for bit:
+    crawlers on the ground in turning fields, or clamped catheters on stages under magnets."""
+    from elastica_magnetic import Advancer
+
+    def batch():
+        if not clamped:
+            return BatchedRobots(yao2023_robot(1, "training"), n_robots=2), [], None
+        arms, stage = [_arm(0.09), _arm(0.1)], Advancer((-0.005, 0.01), 0.02)
+        return BatchedRobots(_catheter_in_training_physics(), n_robots=2, sources=[a.source for a in arms],
+                             clamp=True, advancers=[stage, None]), arms, stage
+
+    (direct, *drive_direct), (grouped, *drive_grouped) = batch(), batch()
+    assert direct._direct and grouped._direct
+    grouped._direct = False
+    rng = np.random.default_rng(2)
+    for _ in range(12):
+        fields = rng.uniform(-4e-3, 4e-3, (2, 3)) * [1, 1, 0]
+        for robots, (arms, stage) in ((direct, drive_direct), (grouped, drive_grouped)):
+            robots.fields = fields
+            for i, arm in enumerate(arms):
+                arm.apply(np.array([0.3, -0.2, 0.1, 1.0, 0.5]), robots.robot_time(i), 0.01)
+            if stage is not None:
+                stage.apply([0.7], robots.robot_time(0), 0.01)
+            robots.step(robots.spec.steps_per_action)
+    for i in range(2):
+        _assert_same_state(direct.rod(i), grouped.rod(i), f"robot {i}")
+    assert not np.array_equal(direct.rod(0).position_collection, batch()[0].rod(0).position_collection)
