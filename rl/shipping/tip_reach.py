@@ -180,6 +180,24 @@ def write_targets(case: Case, out: Any, make_controller: Callable[[CatheterReach
     check_result_folder(out, kind=kind, subject=subject, force=force, known_files=TARGET_FILES)
     given = targets is not None
     targets = np.asarray(targets, dtype=np.float64).reshape(-1, 3) if given else held_out_targets(case)
+    with result_folder(out, kind=kind, subject=subject, force=force, known_files=TARGET_FILES) as folder:
+        # inside the result folder: an interruption while steering says so, leaves no lock
+        summary, rows, paths = _steer_to(case, targets, given, make_controller, physics, duration, controller)
+        with atomic_write(folder.path / "targets.csv", "w", newline="") as handle:
+            pd.DataFrame(rows).to_csv(handle, index=False, float_format="%.9g")
+        if figures:
+            plot_tip_paths(rows, paths[0], folder.path / "targets.png",
+                           title=f"{case.name}, {controller}: {summary['successes']} of {len(rows)} "
+                                 f"targets ({physics} physics, {summary['duration_s']:g} s)")
+        atomic_write_json(folder.path / "targets.json", {**summary, "targets_table": rows})
+    files = {name: str(folder.final / name) for name in TARGET_FILES if figures or name != "targets.png"}
+    return {**summary, "files": files, "notes": folder.notes}
+
+
+def _steer_to(case: Case, targets: NDArray[np.float64], given: bool,
+              make_controller: Callable[[CatheterReachVectorEnv], Controller], physics: str,
+              duration: float | None, controller: str) -> tuple[dict[str, Any], list[dict[str, Any]], list]:
+    """:func:`run_targets` for :func:`write_targets`: its summary, one row per target and the tip's paths."""
     paths: list[NDArray[np.float64]] = []
     result = run_targets(case, targets, make_controller, physics, duration, paths=paths)
     rows = [{"target_x_m": t[0], "target_y_m": t[1], "target_z_m": t[2], "final_distance_m": final,
@@ -196,13 +214,4 @@ def write_targets(case: Case, out: Any, make_controller: Callable[[CatheterReach
                "largest_final_distance_m": float(max(result["final_distance_m"]))}
     if given and len(rows) == 1:
         summary |= {"target_m": result["targets_m"][0], "tip_error_m": float(result["final_distance_m"][0])}
-    with result_folder(out, kind=kind, subject=subject, force=force, known_files=TARGET_FILES) as folder:
-        with atomic_write(folder.path / "targets.csv", "w", newline="") as handle:
-            pd.DataFrame(rows).to_csv(handle, index=False, float_format="%.9g")
-        if figures:
-            plot_tip_paths(rows, paths[0], folder.path / "targets.png",
-                           title=f"{case.name}, {controller}: {summary['successes']} of {len(rows)} "
-                                 f"targets ({physics} physics, {summary['duration_s']:g} s)")
-        atomic_write_json(folder.path / "targets.json", {**summary, "targets_table": rows})
-    files = {name: str(folder.final / name) for name in TARGET_FILES if figures or name != "targets.png"}
-    return {**summary, "files": files, "notes": folder.notes}
+    return summary, rows, paths

@@ -146,3 +146,33 @@ def test_generate_without_a_target_judges_the_held_out_targets_and_notes_targets
     assert "lies outside case 'catheter-magnet-reach''s target_box" in captured.err
     # the straight tip is 20 mm beyond the target; in 0.05 s the stage pulls it back by at most 0.5 mm
     assert 0.0195 - 1e-5 <= json.loads(captured.out)["tip_error_m"] < 0.02
+
+
+def test_sigterm_while_the_yardstick_steers_says_so_and_leaves_no_lock(tmp_path):
+    """Round 15 V1: ``msr field baseline`` of a tip-reach case steered its targets before its result
+    folder's signal handling began: SIGTERM killed it silently (rc -15) and left its lock. Now the
+    steering runs inside: one line, exit status 143, nothing left."""
+    import subprocess
+    import sys
+
+    script = """
+import os, signal, sys
+import numpy as np
+import elastica_magnetic_rl.shipping.tip_reach as tip_reach
+from elastica_magnetic.cli import main
+
+def stopped(env):
+    def act(env, obs):
+        os.kill(os.getpid(), signal.SIGTERM)  # as a user's kill while the tip is steered
+        return np.zeros((env.num_envs, env.action_size))
+    return act
+
+tip_reach.steering_controller = stopped
+sys.exit(main(["field", "baseline", "--case", "catheter-magnet-reach", "--physics", "training",
+               "--duration", "0.05", "--target", "0.045,0,0", "--no-figures", "--out", sys.argv[1]]))
+"""
+    done = subprocess.run([sys.executable, "-c", script, str(tmp_path / "b")], capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 143, (done.returncode, done.stderr)
+    assert "interrupted (SIGTERM)" in done.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
