@@ -48,6 +48,7 @@ __all__ = [
     "SpecCheck",
     "simulate_sag",
     "check_robot",
+    "magnetic_bending_number",
     "check_spec",
     "format_check",
     "SAG_DIRECTIONS",
@@ -250,6 +251,17 @@ def check_spec(spec: Mapping[str, Any], source: str = "<spec>", *, sag: bool = T
                        yardstick_m=yardstick, name=name, source=source, sag=sag)
 
 
+def magnetic_bending_number(robot: RobotSpec, field: float) -> float:
+    """The magnetic bending number ``M B L^2 A / (E I)`` of ``robot`` (its strongest
+    magnetization M, A/m; length L, m; the equivalent round section's area A and second moment I;
+    modulus E, Pa) in a field of ``field`` T: the magnetic couple over the bending stiffness. A
+    cantilever under a uniform couple bends its tip by about ``number / 3`` of its length while
+    that is small (``q L^3 / 3 E I`` with ``q = M A B`` per length)."""
+    area, inertia = math.pi * robot.radius**2, math.pi * robot.radius**4 / 4.0
+    strongest = float(np.linalg.norm(robot.magnetization, axis=0).max())
+    return strongest * field * robot.length**2 * area / (robot.youngs_modulus * inertia)
+
+
 def check_robot(description: RobotDescription, *, field_limit: float | None = None,
                 task_kind: str | None = None, yardstick_m: float | None = None,
                 name: str | None = None, source: str = "<spec>", sag: bool = True,
@@ -269,10 +281,7 @@ def check_robot(description: RobotDescription, *, field_limit: float | None = No
     mass = accurate.density * area * accurate.length
     weight = mass * accurate.gravity
     m_norm = np.linalg.norm(accurate.magnetization, axis=0)
-    magnetic_number = None
-    if field_limit is not None:
-        magnetic_number = (float(m_norm.max()) * field_limit * accurate.length**2 * area
-                           / (accurate.youngs_modulus * inertia))
+    magnetic_number = None if field_limit is None else magnetic_bending_number(accurate, field_limit)
     spring_sag = None
     if accurate.ground is not None:
         spring_sag = weight / n / accurate.ground.k

@@ -378,10 +378,14 @@ def _plausibility_warnings(command: Callable[[], str]) -> Iterator[None]:
     with warnings.catch_warnings():
         warnings.simplefilter("once", ImplausibleValueWarning)
         original = warnings.showwarning
+        shown: set[str] = set()  # a spec read twice (parsed, then checked) warns once
 
         def show(message, category, filename, lineno, file=None, line=None):
             if issubclass(category, (ImplausibleValueWarning, LeftoverWarning,
                                      SettingNotAppliedWarning, UnverifiedFileWarning)):
+                if issubclass(category, ImplausibleValueWarning) and str(message) in shown:
+                    return
+                shown.add(str(message))
                 print(f"msr {command()}: warning: {message}", file=sys.stderr)
             else:
                 original(message, category, filename, lineno, file, line)

@@ -47,6 +47,10 @@ class MagnetArm(SteeringActuation):
     high``; ``insertion_speed``, m/s): a sixth action component."""
 
     kind: ClassVar[str] = "magnet-pose"
+    #: What :meth:`reach_field` is, in words, and the key and slips of a magnet too weak to bend the rod.
+    reach_field_words: ClassVar[str] = "the magnet's on its axis at min_clearance"
+    weak_source_hint: ClassVar[tuple[str, str]] = (
+        "moment", "a moment in mA m^2 written as A m^2, or min_clearance too large?")
     moment: float
     position: tuple[float, float, float]
     direction: tuple[float, float, float]
@@ -91,6 +95,11 @@ class MagnetArm(SteeringActuation):
         source = PointDipoleField(self.moment * np.asarray(self.direction) / np.linalg.norm(self.direction),
                                   self.position)
         return float(np.linalg.norm(source.at(np.array([[rod_length], [0.0], [0.0]]))))
+
+    def reach_field(self, rod_length: float) -> float:
+        """T: the strongest field the magnet can make at the tip: on its axis, as near as
+        ``min_clearance`` (``mu0 / 4 pi x 2 m / d^3``; an upper bound, whatever the rod's shape)."""
+        return 1e-7 * 2.0 * self.moment / self.min_clearance**3
 
     def describe(self, rod_length: float) -> str:
         """The arm in words (mm, mm/s, mT)."""

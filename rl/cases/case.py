@@ -67,7 +67,7 @@ from .arm_actuation import magnet_arm_from_table
 from .coil_actuation import coil_array_from_table
 from .design_space import DESIGN_TABLE, DesignSpace, design_space
 from .recipes import DEFAULT_RECIPE, RECIPES
-from .steered import ACTUATION_KINDS, SteeringActuation
+from .steered import ACTUATION_KINDS, SteeringActuation, check_steered_reach
 from .task_tables import MAX_YARDSTICK_BODY_LENGTHS, task_from_table
 from .tasks import GotoTask, ReachTask, Task, TipReachTask
 from .variations import (
@@ -418,6 +418,9 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     stage = actuation.insertion if isinstance(actuation, SteeringActuation) else None
     task = task_from_table(top.table("task"), length, length + (stage[1] if stage else 0.0))
     _check_task_and_actuation(task, actuation, source)
+    if isinstance(actuation, SteeringActuation):
+        check_steered_reach(SpecTable(spec["actuation"], source, "actuation", accepted_keys(spec, source)),
+                            actuation, robot.robot("accurate"), task.target_box, task.episode_duration)
     training = _training(top.table("training", required=False), source, robot)
     if training.randomize and isinstance(actuation, SteeringActuation):
         raise SpecError(f"{source}: [training.randomize]: domain randomization varies a crawler's robot; "

@@ -22,6 +22,7 @@ import numpy as np
 
 from elastica_magnetic import CoilCurrents, CurrentLoopField
 from elastica_magnetic.hardware.plausibility import MIN_PLAUSIBLE_SLEW_A_PER_S
+from elastica_magnetic.plausibility import judge
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 from elastica_magnetic.specfile import SpecTable
 
@@ -74,6 +75,10 @@ class CoilArray(SteeringActuation):
     kind: ClassVar[str] = "coil-currents"
     #: What :meth:`field_at_tip` is, in words.
     tip_field_words: ClassVar[str] = "the coils' strongest at the straight tip"
+    #: What :meth:`reach_field` is, in words, and the key and slips of coils too weak to bend the rod.
+    reach_field_words: ClassVar[str] = "the coils' strongest at the straight tip"
+    weak_source_hint: ClassVar[tuple[str, str]] = (
+        "current_limit", "a current in mA written as A, too few turns, or coils too far from the tip?")
     coils: tuple[CoilWinding, ...]
     current_limit: float
     max_slew: float | None = None
@@ -112,6 +117,10 @@ class CoilArray(SteeringActuation):
         return max(float(np.linalg.norm(matrix @ np.array(signs)))
                    for signs in itertools.product((-1.0, 1.0), repeat=len(self.coils)))
 
+    def reach_field(self, rod_length: float) -> float:
+        """T: the strongest field the coils make at the straight tip (:meth:`field_at_tip`)."""
+        return self.field_at_tip(rod_length)
+
     def describe(self, rod_length: float) -> str:
         """The coils in words (mm, A, mT)."""
         slew = "" if self.max_slew is None else f", at most {self.max_slew:g} A/s"
@@ -135,7 +144,8 @@ def coil_array_from_table(t: SpecTable, rod_length: float) -> CoilArray:
     d = CoilArray(coils=(), current_limit=1.0)
     array = CoilArray(
         coils=coils,
-        current_limit=t.number("current_limit", "A", low=0.0, low_open=True, high=MAX_CURRENT),
+        current_limit=t.number("current_limit", "A", low=0.0, low_open=True, high=MAX_CURRENT,
+                               plausible="coil current"),
         max_slew=t.number("max_slew", "A/s", None, low=0.0, low_open=True),
         control_rate=control_rate_from_table(t, d.control_rate),
         insertion=insertion,
@@ -155,8 +165,51 @@ def coil_array_from_table(t: SpecTable, rod_length: float) -> CoilArray:
                                          "m from its base, which the stage moves along x): an element on "
                                          "the wire would feel an infinite field; move the coil out (mm "
                                          "written as m?)")
+    _check_coincident(t, coils)
+    _check_tip_field(t, array, rod_length)
     t.finish()
     return array
+
+
+#: Below this ratio of the smallest to the largest singular value of the coils' field matrix at the
+#: straight tip, the coils cannot point the field there in every direction (a rank-deficient array:
+#: one coil, coils on one axis).
+MIN_FIELD_CONDITION = 1e-3
+
+
+def _check_coincident(t: SpecTable, coils: tuple[CoilWinding, ...]) -> None:
+    """Two windings in one place (the same centre, radius and axis line, within 1 % of the
+    radius) cannot both be built: refused, naming both."""
+    for (i, a), (j, b) in itertools.combinations(enumerate(coils), 2):
+        scale = 0.01 * min(a.radius, b.radius)
+        axis_a, axis_b = (np.asarray(c.axis, dtype=np.float64) / np.linalg.norm(c.axis) for c in (a, b))
+        if (math.dist(a.centre, b.centre) <= scale and abs(a.radius - b.radius) <= scale
+                and np.linalg.norm(np.cross(axis_a, axis_b)) <= 0.01):
+            raise t.error(f"coils[{j}]", f"its winding is coils[{i}]'s (the same centre {list(b.centre)} m, "
+                                         f"radius {b.radius:g} m and axis): two windings cannot occupy one "
+                                         "place; give it its own position, or add the turns to one coil")
+
+
+def _check_tip_field(t: SpecTable, array: CoilArray, rod_length: float) -> None:
+    """The coils' strongest field at the straight tip judged as a coil field (refused beyond any
+    coil system, warned when unusually strong; a weak one is the case's reach check's), and the
+    directions they can make it in: coils that make it along fewer than three independent
+    directions (one coil, coils on one axis) steer the tip in a line or a plane only (warned)."""
+    finding = judge("coil field", array.field_at_tip(rod_length), hint=False)
+    if finding is not None and finding.high:  # too weak a field: the reach check of the case says so
+        turns = sorted({f"{coil.turns:g}" for coil in array.coils})
+        text = (f"the coils' strongest field at the straight tip: {finding.text} (current_limit "
+                f"{array.current_limit:g} A, turns {', '.join(turns)}: a current in mA written as A, or too "
+                "many turns?)")
+        if finding.refuse:
+            raise t.error("current_limit", text)
+        t.warn("current_limit", text)
+    singular = np.linalg.svd(array.actuator().field_matrix([rod_length, 0.0, 0.0]), compute_uv=False)
+    if singular.size < 3 or singular[-1] < MIN_FIELD_CONDITION * singular[0]:
+        rank = int(np.sum(singular >= MIN_FIELD_CONDITION * singular[0]))
+        t.warn("coils", f"the {len(array.coils)} coil(s) make the field at the straight tip along only "
+                        f"{rank} independent direction(s) (a field steering a tip in 3D needs 3): the tip "
+                        "bends toward a line or a plane of targets only; add coils off the others' axes")
 
 
 def _coils(t: SpecTable) -> tuple[CoilWinding, ...]:
@@ -170,7 +223,7 @@ def _coils(t: SpecTable) -> tuple[CoilWinding, ...]:
     out = []
     for k, item in enumerate(raw):
         sub = SpecTable(item, t.source, f"{t.path}.coils[{k}]", t.accept)
-        radius = sub.number("radius", "m", low=0.0, low_open=True, high=MAX_REACH)
+        radius = sub.number("radius", "m", low=0.0, low_open=True, high=MAX_REACH, plausible="coil radius")
         centre = sub.vector("centre", "m", 3)
         if max(abs(v) for v in centre) > MAX_REACH:
             raise sub.error("centre", f"{centre} m is beyond any coil system ({MAX_REACH:g} m from the "

@@ -10,12 +10,14 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
+
 from elastica_magnetic import Advancer
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 from elastica_magnetic.specfile import SpecTable
 
 __all__ = ["ACTUATION_KINDS", "MAX_REACH", "MAX_SPEED", "NotFieldActuatedError", "SteeringActuation",
-           "control_rate_from_table", "field_only_refusal", "insertion_from_table",
+           "check_steered_reach", "control_rate_from_table", "field_only_refusal", "insertion_from_table",
            "insertion_speed_from_table", "speed_from_table"]
 
 #: ``[actuation] kind``: a uniform field from coils (the paper's, the default), a magnet on an arm,
@@ -51,12 +53,17 @@ def field_only_refusal(case: str, kind: str, needs: str = "") -> str:
 class SteeringActuation:
     """The shared behaviour of the steering actuations; a subclass (a frozen dataclass) has the
     fields ``insertion`` (``(low, high)`` m or ``None``), ``insertion_speed`` (m/s) and ``kind``,
-    and the property ``actuator_size`` (its own action components)."""
+    the property ``actuator_size`` (its own action components), ``reach_field(rod_length)`` (T:
+    the strongest field it can make at the tip of the straight rod), ``reach_field_words`` (what
+    that is, in words) and ``weak_source_hint`` (the key and the likely slips of a source too weak
+    to bend the rod: :func:`check_steered_reach`)."""
 
     kind: str
     insertion: tuple[float, float] | None
     insertion_speed: float
     actuator_size: int
+    reach_field_words: str
+    weak_source_hint: tuple[str, str]
 
     @property
     def action_size(self) -> int:
@@ -137,3 +144,41 @@ def insertion_from_table(t: SpecTable, rod_length: float) -> tuple[float, float]
         raise t.error("insertion", f"{low:g} m pulls the base back more than the rod's length "
                                    f"({rod_length:g} m)")
     return (low, high)
+
+
+#: A current that takes longer than this fraction of an episode to go from zero to its limit is
+#: warned about: the coils make only part of their field within an episode.
+SLOW_SLEW_FRACTION = 0.5
+
+
+def check_steered_reach(t: SpecTable, actuation: SteeringActuation, robot: Any, box: Any,
+                        episode: float) -> None:
+    """What a steering actuation (``t``: its ``[actuation]`` table) can do for a tip-reach task
+    whose targets lie in ``box`` (m, ``[[xmin, ymin, zmin], [xmax, ymax, zmax]]``) within ``episode``
+    s, for ``robot`` (:class:`~elastica_magnetic.robot_spec.RobotSpec`, the rod clamped at the origin
+    along +x), warned when it cannot: the strongest field the source can make at the tip
+    (``reach_field``) bending the tip by less (linear estimate, magnetic bending number / 3 of the
+    length) than the box lies aside of the rod's axis; or a coil current that takes more than
+    :data:`SLOW_SLEW_FRACTION` of the episode to reach its limit."""
+    from elastica_magnetic.spec_check import magnetic_bending_number
+
+    low, high = (np.asarray(row, dtype=np.float64) for row in box)
+    aside = math.hypot(max(abs(low[1]), abs(high[1])), max(abs(low[2]), abs(high[2])))
+    field = actuation.reach_field(robot.length)
+    number = magnetic_bending_number(robot, field)
+    bend = number * robot.length / 3.0
+    if bend < aside:
+        key, hint = actuation.weak_source_hint
+        t.warn(key, f"the strongest field the source makes at the tip ({1e3 * field:.3g} mT, "
+                    f"{actuation.reach_field_words}) bends it about {1e3 * bend:.3g} mm (magnetic bending "
+                    f"number {number:.3g}; the linear estimate number x length / 3), less than the "
+                    f"{1e3 * aside:.3g} mm the target box reaches aside of the rod's axis: targets out there "
+                    f"cannot be reached; {hint}")
+    slew = getattr(actuation, "max_slew", None)
+    if slew is not None and actuation.current_limit / slew > SLOW_SLEW_FRACTION * episode:
+        seconds = actuation.current_limit / slew
+        part = "longer than" if seconds > episode else "more than half of"
+        t.warn("max_slew", f"{slew:g} A/s takes {seconds:.3g} s to bring a current from zero to its limit "
+                           f"({actuation.current_limit:g} A), {part} "
+                           f"the {episode:g} s episode: the coils make only part of their field in an "
+                           "episode (kA/s written as A/s?)")
