@@ -150,27 +150,28 @@ def test_noise_given_in_millimetres_is_refused_before_any_fitting(tmp_path, caps
     assert not (tmp_path / "id").exists()
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "measured 2026-12-02 on a fresh install and a slower CPU: the code that passed on the earlier "
-    "machine (3f75955) ends its 3 starts at magnetization x1.106 and kinetic friction x0.780 (true "
-    "x1.1, x0.85): 8 % off, not 3 %; the same with scipy 1.16.3/1.17.1, numpy 2.3.5/2.4.6, numba "
-    "0.62.1/0.68.1, so machine-dependent rounding sends the multi-start into another local minimum "
-    "(issue 49: make the fit robust)"))
-def test_recovers_magnetization_and_kinetic_friction_within_3_percent_with_intervals_holding_them(
-        spec):
+def test_recovers_magnetization_and_kinetic_friction_within_3_percent_or_says_it_cannot(spec):
     """A robot the fit was not developed on (magnetization x1.1, kinetic friction x0.85) under a
-    turning field: the nominal start alone ends in a local minimum (friction ~x1.1); the best of
-    the starts is within 3 %, the stated intervals hold the truth, the budget is kept."""
+    turning field: the nominal start alone ends in a local minimum (friction ~x1.1). Each value is
+    either recovered within 3 % with a stated interval holding the truth, or declared not
+    identifiable, without an interval (issue 49's "or declares the parameter unidentifiable"). The
+    magnetization, which sets the motion, must be recovered; the friction, whose 0.5 s of motion
+    leaves a valley of costs within the noise, is recovered on some machines (x0.85: measured before
+    2026-12-02) and on others ends elsewhere in that valley (x0.780 on the 2026-12-02 machine and
+    install), where it must be declared not identifiable rather than stated with a tight interval."""
     truth = np.array([1.1, 0.85])
     fields = rotating(0.5)
     measured = synthetic(spec, "magnetization,robot.ground.kinetic_mu", truth, fields, 0.5)
     fits = parse_fit("magnetization,robot.ground.kinetic_mu", spec)
     report = identify(fields, measured, spec, fits, confirm=False, max_evaluations=150,
                       stages_count=2, noise_m=NOISE_M)
-    factors = np.array([f["factor"] for f in report["fitted"].values()])
-    assert np.all(np.abs(factors / truth - 1) < 0.03), factors
-    for fit, true in zip(report["fitted"].values(), truth, strict=True):
-        assert fit["interval"] is None or fit["interval"][0] <= true <= fit["interval"][1], fit
+    fitted = list(report["fitted"].values())
+    assert fitted[0]["identifiable"] and abs(fitted[0]["factor"] / truth[0] - 1) < 0.03, fitted[0]
+    for fit, true in zip(fitted, truth, strict=True):
+        if abs(fit["factor"] / true - 1) >= 0.03:  # missed: it must say it cannot tell
+            assert not fit["identifiable"] and fit["interval"] is None, fit
+        elif fit["interval"] is not None:
+            assert fit["interval"][0] <= true <= fit["interval"][1], fit
     assert report["residual_vs_noise"] < 2.0
     assert report["optimizer"]["simulations"] <= 150
     assert len(report["optimizer"]["starts"]) == 3
