@@ -152,6 +152,7 @@ def _writecase_summary(case_dir: CaseDir, spec: Case, mine: list[dict[str, Any]]
         **{k: sweep[k] for k in ("steps", "physics", "episode_duration_s", "workers", "backend",
                                  "envs_per_seed", "seeds_per_simulator", "torch_threads_per_worker",
                                  "layout", "recipe", "precision", "device")},
+        **({"precision_asked": sweep["precision_asked"]} if "precision_asked" in sweep else {}),
         "success_threshold_return": threshold,
         "succeeded": None if threshold is None else sum(bool(r.get("succeeded")) for r in per_seed),
         "best_seed": best["seed"] if best else None,

@@ -304,9 +304,14 @@ def _warn_precision(config: Any) -> None:
 def _sweep_record(layout: dict[str, Any], config: Any, **settings: Any) -> dict[str, Any]:
     """The sweep's settings as each case's ``summary.json`` records them: ``settings`` (steps,
     physics, episode length, workers, backend, crawlers per seed, threads, recipe, stop rules),
-    the layout and the seeds' precision and device."""
+    the layout and the seeds' precision (the one they train in: ``fp32`` where a CPU has no
+    bfloat16 units, with ``precision_asked``) and device."""
+    from ..td3.algorithm import precision_used
+
+    used = precision_used(config.precision, config.device)
+    asked = {} if used == config.precision else {"precision_asked": config.precision}
     return {**settings, "seeds_per_simulator": int(layout["seeds_per_simulator"]),
-            "layout": layout["layout"], "precision": config.precision, "device": config.device}
+            "layout": layout["layout"], "precision": used, **asked, "device": config.device}
 
 
 @dataclasses.dataclass(frozen=True)

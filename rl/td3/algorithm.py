@@ -372,10 +372,18 @@ class PrecisionFallbackWarning(SettingNotAppliedWarning):
     """``bf16`` asked on a CPU without bfloat16 units: the run trains in ``fp32``."""
 
 
+def precision_used(precision: str, device: str) -> str:
+    """The precision a run asking ``precision`` on ``device`` trains in: ``bf16`` is ``fp32`` on a
+    CPU without bfloat16 units (:func:`resolve_precision` warns about it)."""
+    if precision == "bf16" and torch.device(device).type == "cpu" and not cpu_supports_bf16():
+        return "fp32"
+    return precision
+
+
 def resolve_precision(precision: str, device: str) -> str:
     """The precision a run will use: ``bf16`` falls back to ``fp32`` (with a
     :class:`PrecisionFallbackWarning`) on a CPU without bfloat16 units."""
-    if precision == "bf16" and torch.device(device).type == "cpu" and not cpu_supports_bf16():
+    if precision_used(precision, device) != precision:
         warnings.warn(PrecisionFallbackWarning(
             "precision bf16: this CPU has no bfloat16 matrix units (AVX512-BF16/AMX); training in fp32 "
             "(as its run.json records)"), stacklevel=2)

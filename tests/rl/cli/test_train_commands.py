@@ -153,8 +153,13 @@ def test_a_bf16_fallback_is_warned_once_by_the_command(tmp_path, capfd, monkeypa
 
     monkeypatch.setattr(algorithm, "cpu_supports_bf16", lambda: False)
     assert msr([*_TINY_TRAIN, "--precision", "bf16", "--out", str(tmp_path / "runs")]) == 0
-    err = capfd.readouterr().err
+    captured = capfd.readouterr()
+    err = captured.err
     assert err.count("msr train: warning: precision bf16: this CPU has no bfloat16 matrix units") == 1, err
     assert "UserWarning" not in err
     run = json.loads((tmp_path / "runs" / "m1-4mT" / "seed0" / "run.json").read_text())
     assert run["precision"] == "fp32"
+    # round 15 V2: the summary said bf16 for a run that trained in fp32
+    summary = json.loads((tmp_path / "runs" / "m1-4mT" / "summary.json").read_text())
+    assert summary["precision"] == "fp32" and summary["precision_asked"] == "bf16"
+    assert "precision: bf16" not in captured.out and "precision: fp32" in captured.out, captured.out
