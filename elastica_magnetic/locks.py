@@ -43,7 +43,8 @@ try:  # POSIX: the kernel releases the lock of a process that dies
 except ImportError:  # pragma: no cover - Windows: O_EXCL and a pid check instead
     fcntl = None  # type: ignore[assignment]
 
-__all__ = ["LOCK_SUFFIX", "FolderLock", "FolderLockedError", "claim", "command_line", "describe_owner",
+__all__ = ["LOCK_SUFFIX", "FolderLock", "FolderLockedError", "check_lock_name", "claim", "command_line",
+           "describe_owner",
            "host_name", "killed_writers_temporary", "live_owner", "lock_path", "name_tag", "read_lock",
            "release_claim", "release_claims", "utc_now"]
 
@@ -203,6 +204,13 @@ class _Held:
 #: the same process shares the first one's hold (re-entrant) instead of refusing itself, so a
 #: command can take the lock at its pre-check (:func:`claim`) and keep it through its write.
 _held: dict[str, _Held] = {}
+
+
+def check_lock_name(folder: str | Path, option: str = "--out") -> None:
+    """Refuse now what sits at ``folder``'s lock file's name when it is not a lock file (a FIFO, a
+    folder, a device), as taking the lock later would: for a folder a command locks only at its
+    end (a training's case folder, for its summary), so that the refusal comes before the work."""
+    FolderLock(folder, option=option)._refuse_odd_file()
 
 
 class FolderLock:

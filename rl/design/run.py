@@ -191,8 +191,9 @@ def load_design(spec: str | Path) -> Design:
     if case.task.kind != "crawl":
         raise DesignError(f"{source}: [task] kind = {case.task.kind!r}: msr design judges a design "
                           "by the distance a rotating field moves it ahead in 10 s (a crawl task); "
-                          "design the robot of a crawl case (the same [robot] with [task] kind = "
-                          "\"crawl\") and use the design for the other task")
+                          "design the robot of a crawl case (the same [robot] with a uniform field's "
+                          "[actuation], kind = \"field\", and [task] kind = \"crawl\") and use the "
+                          "design for the other task")
     space = case.design or design_space(None, case.robot.tables["robot"], case.actuation.axes, source,
                                         case.robot_spec("accurate").magnetization)
     base = case.to_dict()

@@ -24,6 +24,15 @@ _DEFAULT_SET = ", ".join(f"{name} ({'+'.join(GROUPS[name])}) x{low:g}:{high:g}"
                          for name, (low, high) in DEFAULT_RANGES.items())
 
 
+def _field_case_name(value: str) -> str:
+    """``--case`` of ``msr real robustness``: checked at parse time (a case steered by a source
+    refused by name: the robustness of a field waveform), passed on as given."""
+    from ..cli.options import field_case_option
+
+    field_case_option(value)
+    return value
+
+
 def variation_option(text: str):
     """``--vary KEY[+KEY...]=LOW:HIGH``, parsed at parse time (keys are checked against the spec
     once it is loaded)."""
@@ -53,7 +62,7 @@ def _add_robustness_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("source", metavar="POLICY_OR_FIELD_CSV",
                    help="a shipped policy name (m1-10mT, ...), a run folder, a checkpoint, or a "
                    "field CSV (mT, 100 Hz; give --case)")
-    p.add_argument("--case", default=None,
+    p.add_argument("--case", default=None, type=_field_case_name,
                    help="for a field CSV: the case it is played on (a shipped case or a spec file)")
     p.add_argument("--fields", type=Path, default=None,
                    help="for a policy: its waveform (default: the shipped fields.csv, else generated "

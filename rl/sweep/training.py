@@ -22,6 +22,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from elastica_magnetic.locks import check_lock_name
 from elastica_magnetic.plausibility import ImplausibleValueWarning, SettingNotAppliedWarning
 
 from ..cases.case import Case, case_from_dict, load_case
@@ -538,6 +539,8 @@ def _check_run_folders(out: str | Path, loaded: dict[str, Case], seed_list: list
                                  if loaded[case].field_actuated else {})}, saved.get("metadata"))
     if before_making is not None:
         before_making()
+    for case_dir in {run.path.parent for _, _, run in runs}:  # locked for the summary, at the end
+        check_lock_name(case_dir)
     for _, _, run in runs:  # every seed's folder can be written, before any work
         prepare_output_dir(run.path, "--out")
     check_unlocked(run.path for _, _, run in runs)  # no other process trains one of them now

@@ -107,3 +107,19 @@ def test_case_check_shows_each_warning_of_the_spec_once(tmp_path, capsys):
     assert msr(["case", "check", str(path)]) == 0
     err = capsys.readouterr().err
     assert err.count("warning: ") == 1 and "max_slew: 1 A/s takes 8 s" in err
+
+
+def test_commands_playing_a_field_name_the_steered_case_they_refuse(tmp_path, capsys):
+    """Round 15 V3: ``msr real robustness --case`` of a steered case said "the case: ...", and msr
+    design advised the same robot with a crawl task, which a coil-currents [actuation] refuses."""
+    fields = Path(__file__).parents[3] / "rl" / "policies" / "m1-4mT" / "fields.csv"
+    with pytest.raises(SystemExit):
+        msr(["real", "robustness", str(fields), "--case", "catheter-coils-reach", "--out",
+             str(tmp_path / "r")])
+    err = capsys.readouterr().err
+    assert 'argument --case: catheter-coils-reach: [actuation] kind = "coil-currents"' in err
+    with pytest.raises(SystemExit):  # refused while its SPEC is parsed
+        msr(["design", "catheter-coils-reach", "--out", str(tmp_path / "d"), "--minutes", "0.1"])
+    err = capsys.readouterr().err
+    assert 'a uniform field\'s [actuation], kind = "field", and [task] kind = "crawl"' in err
+    assert not (tmp_path / "r").exists() and not (tmp_path / "d").exists()

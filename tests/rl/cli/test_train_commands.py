@@ -163,3 +163,16 @@ def test_a_bf16_fallback_is_warned_once_by_the_command(tmp_path, capfd, monkeypa
     summary = json.loads((tmp_path / "runs" / "m1-4mT" / "summary.json").read_text())
     assert summary["precision"] == "fp32" and summary["precision_asked"] == "bf16"
     assert "precision: bf16" not in captured.out and "precision: fp32" in captured.out, captured.out
+
+
+def test_a_fifo_at_the_case_folders_lock_name_is_refused_before_any_training(tmp_path, capsys):
+    """Round 15 V4: the case folder is locked only for the summary, at the end: a FIFO at its lock
+    name was refused after the whole training. Now before any seed folder is made."""
+    import os
+
+    out = tmp_path / "runs"
+    out.mkdir()
+    os.mkfifo(out / ".m1-4mT.msr-lock")
+    assert msr([*_TINY_TRAIN, "--out", str(out)]) == 2
+    assert "the lock file's name" in capsys.readouterr().err
+    assert sorted(p.name for p in out.iterdir()) == [".m1-4mT.msr-lock"]
