@@ -469,3 +469,54 @@ def coil_loops_forcing(ramps, robots, times, loop_start, centres, frames, radii,
         magnetic_forces(moment, rotation, g, external_forces[:, n0:n0 + n + 1])
         magnetic_torques_at_elements(moment, b, rotation, external_torques[:, e0:e1])
     return -1
+
+
+@njit(cache=True)
+def path_value(times, values, start, end, time, out):
+    """The value ``out`` (3,) at ``time`` (s) of the path ``times[start:end]``, ``values[start:end]``
+    (``(P,)`` s, ``(P, 3)``): held before its first time and after its last, linear between, as
+    :class:`~elastica_magnetic.Waypoints` computes it (a path of one point is a constant)."""
+    if time <= times[start]:
+        for d in range(3):
+            out[d] = values[start, d]
+        return
+    if time >= times[end - 1]:
+        for d in range(3):
+            out[d] = values[end - 1, d]
+        return
+    i = start
+    while times[i + 1] <= time:  # the last time at or before ``time`` (bisect_right - 1)
+        i += 1
+    w = (time - times[i]) / (times[i + 1] - times[i])
+    for d in range(3):
+        out[d] = values[i, d] + w * (values[i + 1, d] - values[i, d])
+
+
+@njit(cache=True)
+def dipole_paths_forcing(robots, times, path_start, path_times, path_values, moments, node_start,
+                         elem_start, elem_end, positions, directors, external_forces, external_torques,
+                         centres, b, g, moment, position):
+    """The force and torque of each robot ``robots[k]``'s own point dipole, its moment (A m^2) and
+    position (m) each a path (:func:`path_value`: paths ``2 k`` and ``2 k + 1`` of ``path_start``),
+    as :class:`~elastica_magnetic.MagneticTorques` applies a
+    :class:`~elastica_magnetic.PointDipoleField` (the same operations in the same order), at the
+    robot's own time ``times[k]`` (s). ``moments`` ``(3, n_block_elements)`` A m^2 in the material
+    frame; ``centres``, ``b``, ``g`` scratch of one robot's elements, ``moment``, ``position`` (3,).
+    Returns ``k * n + e`` of the first non-finite field (robot ``k``, element ``e``), else -1."""
+    n = centres.shape[1]
+    for k in range(robots.shape[0]):
+        i = robots[k]
+        n0, e0, e1 = node_start[i], elem_start[i], elem_end[i]
+        element_centres(positions[:, n0:n0 + n + 1], centres)
+        b[...] = 0.0
+        g[...] = 0.0
+        path_value(path_times, path_values, path_start[2 * k], path_start[2 * k + 1], times[k], moment)
+        path_value(path_times, path_values, path_start[2 * k + 1], path_start[2 * k + 2], times[k], position)
+        dipole_field(moment, position, centres, b, g, True)
+        bad = first_nonfinite(b, g, True)
+        if bad >= 0:
+            return k * n + bad
+        material, rotation = moments[:, e0:e1], directors[:, :, e0:e1]
+        magnetic_forces(material, rotation, g, external_forces[:, n0:n0 + n + 1])
+        magnetic_torques_at_elements(material, b, rotation, external_torques[:, e0:e1])
+    return -1

@@ -50,6 +50,7 @@ from numpy.typing import ArrayLike, NDArray
 from . import _spatial_kernels as spatial_kernels
 from ._batch_clamp import BatchedClamp
 from ._batch_coils import BatchedCoils, loop_geometry
+from ._batch_dipoles import BatchedDipoles, dipole_paths
 from ._batch_kernels import (
     N_PARAMS,
     N_SCRATCH,
@@ -295,6 +296,7 @@ class BatchedRobots:
         self._spatial: dict[int, MagneticTorques] = {}  # robot -> the forcing of its source
         self._moved: dict[int, MovedDipoleField] = {}  # robot -> its arm's magnet (one kernel for all)
         self._coils = BatchedCoils(n_elements)  # robots under fixed coils (one kernel per coil set)
+        self._dipoles = BatchedDipoles(n_elements)  # robots under their own point dipole (one kernel)
         self._moved_rows = (np.zeros((0, MOTION_SIZE)), np.zeros(0, dtype=np.int64),
                             np.zeros(0, dtype=np.int64))
         self._moved_scratch = (np.empty((3, n_elements)), np.empty((3, n_elements)),
@@ -397,6 +399,11 @@ class BatchedRobots:
         ``time`` (s): the spatial sources' force and torque first, then :meth:`apply_forcing`."""
         if self._moved:
             self._apply_moved_magnets(float(time))
+        if self._dipoles.sources:
+            robot_times(float(time), self._step_index, self.spec.dt, self.step_count - self.robot_step_count,
+                        self._times)
+            self._dipoles.apply(self._times, self._moments, self._node_start, self._elem_start,
+                                self._elem_end, self.block)
         if self._coils.sources:
             self._coils.apply(functools.partial(self._robot_time, float(time)), self._moments,
                               self._node_start, self._elem_start, self._elem_end, self.block)
@@ -486,6 +493,7 @@ class BatchedRobots:
             self._spatial.pop(i, None)
             self._moved.pop(i, None)
             self._coils.remove(i)
+            self._dipoles.remove(i)
             return
         if not is_spatial(source):
             raise TypeError(f"robot {i}: a source must vary in space (at(points, time), "
@@ -497,11 +505,14 @@ class BatchedRobots:
         self._spatial.pop(i, None)
         self._moved.pop(i, None)
         self._coils.remove(i)
-        geometry = loop_geometry(source)
+        self._dipoles.remove(i)
+        geometry, paths = loop_geometry(source), dipole_paths(source)
         if isinstance(source, MovedDipoleField):
             self._moved[i] = source
         elif geometry is not None:
             self._coils.add(i, source, geometry)
+        elif paths is not None:
+            self._dipoles.add(i, source, paths)
         else:
             self._spatial[i] = self._source_forcing(i, source)
 
@@ -516,9 +527,10 @@ class BatchedRobots:
     @property
     def sources(self) -> list[Any]:
         """Each robot's spatial source (``None``: its uniform row alone)."""
-        coils = self._coils.sources
+        coils, dipoles = self._coils.sources, self._dipoles.sources
         return [self._moved[i] if i in self._moved else coils[i] if i in coils else
-                self._spatial[i].field if i in self._spatial else None for i in range(self.n_robots)]
+                dipoles[i] if i in dipoles else self._spatial[i].field if i in self._spatial else None
+                for i in range(self.n_robots)]
 
     @property
     def kernel_arguments(self) -> tuple[Any, ...]:

@@ -360,8 +360,9 @@ def _three_axis_helmholtz() -> list[HelmholtzCoils]:
 def batched_spatial_step_cost(n: int = 16, steps: int = 1000, repeats: int = 5,
                               physics: str = "training") -> dict[str, Any]:
     """Per-robot-step cost (us) of ``n`` paper robots in one :class:`~elastica_magnetic.BatchedRobots`,
-    each robot under its own source of :func:`spatial_sources` (a Python call per robot and time
-    step; fixed coils such as the Helmholtz pair by one kernel per coil set), its own arm-moved
+    each robot under its own source of :func:`spatial_sources` (point dipoles, fixed or moving
+    along waypoints, by one kernel for all robots; fixed coils such as the Helmholtz pair by one
+    kernel per coil set; other sources a Python call per robot and time step), its own arm-moved
     magnet (:class:`~elastica_magnetic.MagnetPose`, one kernel for all robots) or its own currents in
     three Helmholtz pairs (:class:`~elastica_magnetic.CoilCurrents`, a field turning in the y-z plane),
     next to the uniform field (each robot's row), and the ratios to it. ``steps`` per

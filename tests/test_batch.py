@@ -552,3 +552,48 @@ def test_the_direct_step_is_pyelastica_s_step_to_the_last_bit(clamped):
     for i in range(2):
         _assert_same_state(direct.rod(i), grouped.rod(i), f"robot {i}")
     assert not np.array_equal(direct.rod(0).position_collection, batch()[0].rod(0).position_collection)
+
+
+def test_point_dipoles_are_one_kernel_call_and_follow_the_per_rod_simulations_bit_for_bit():
+    """A static dipole, one whose moment turns along waypoints, one moving (its position along
+    waypoints) and reset mid-run on its own clock: one kernel call for all, each the per-rod
+    simulation of its source to the last bit; a dipole given by another callable keeps the
+    general path, as exact."""
+    from elastica_magnetic import PointDipoleField, Waypoints
+
+    spec = yao2023_robot(1, "training")
+
+    def sources():
+        turning = Waypoints([0.0, 0.1, 0.25], [[0.0, -2.5, 0.0], [1.5, -2.0, 0.0], [2.5, 0.0, 0.5]])
+        return [PointDipoleField((0.0, -2.5, 0.0), (0.012, 0.05, 0.0)),
+                PointDipoleField(turning, (0.01, 0.05, 0.0)),
+                _moving_dipole(),
+                PointDipoleField(lambda t: (0.0, -2.5 + t, 0.0), (0.01, 0.05, 0.0))]
+
+    batch_sources, twins = sources(), sources()
+    robots = BatchedRobots(spec, n_robots=4, sources=batch_sources)
+    assert sorted(robots._dipoles.sources) == [0, 1, 2] and list(robots._spatial) == [3]
+    sims = [build_simulation(spec, source) for source in twins]
+    for step in range(30):
+        if step == 12:
+            robots.reset_robot(2)
+            sims[2] = build_simulation(spec, twins[2])
+        robots.step(spec.steps_per_action)
+        for sim in sims:
+            sim.step(spec.steps_per_action)
+    for i, sim in enumerate(sims):
+        _assert_same_state(robots.rod(i), sim.rod, f"robot {i}")
+    assert robots.sources == batch_sources
+    robots.set_source(0, None)
+    assert sorted(robots._dipoles.sources) == [1, 2] and robots.sources[0] is None
+
+
+def test_a_dipole_on_a_batched_rod_is_named():
+    from elastica_magnetic import FieldValueError, PointDipoleField
+
+    spec = yao2023_robot(1, "training")
+    robots = BatchedRobots(spec, n_robots=2)
+    nodes = robots.rod(1).position_collection
+    robots.set_source(1, PointDipoleField((0.0, 1.0, 0.0), 0.5 * (nodes[:, 5] + nodes[:, 6])))
+    with pytest.raises(FieldValueError, match=r"robot 1: its source \(PointDipoleField\).*element 5"):
+        robots.step(1)
