@@ -51,6 +51,7 @@ from pathlib import Path
 from .interrupts import signals_as_exceptions, signals_held
 from .io import (
     OutputPathError,
+    atomic_write_text,
     display_path,
     normalized_path,
     output_path_problem,
@@ -70,7 +71,8 @@ from .result_markers import MANIFEST, MARKER, read_marker
 from .results import ResultExistsError, fsync_tree, remove_tree
 
 __all__ = ["FileKind", "FileSet", "ResultFile", "check_files", "check_result_file",
-           "interrupted_replacements", "recover_files", "replace_files", "result_file"]
+           "interrupted_replacements", "recorded_files", "recover_files", "replace_files", "result_file",
+           "update_recorded_text"]
 
 _PREFIX = ".msr-files-"
 _COMMIT = ".msr-commit"
@@ -94,6 +96,23 @@ def _manifest(folder: Path) -> dict[str, str]:
         return {}
     files = data.get("files") if isinstance(data, dict) else None
     return {k: v for k, v in files.items() if isinstance(v, str)} if isinstance(files, dict) else {}
+
+
+def recorded_files(folder: str | Path) -> dict[str, str]:
+    """The files msr recorded writing in ``folder`` (name -> sha256 as written); empty without a
+    record (a folder written before msr kept records, or whose record was removed)."""
+    return _manifest(Path(folder))
+
+
+def update_recorded_text(path: str | Path, text: str) -> None:
+    """Write ``text`` into the file ``path`` atomically (an edit of a file in place, such as a
+    section of a model card) and, if msr had recorded the file as it was, record it as it is now
+    (a file someone changed since msr wrote it stays unrecorded: theirs)."""
+    path = Path(path)
+    was_msrs = path.is_file() and _manifest(path.parent).get(path.name) == _sha256(path)
+    atomic_write_text(path, text)
+    if was_msrs:
+        _record_files(path.parent, [path.name])
 
 
 def _record_files(folder: Path, written: Iterable[str], removed: Iterable[str] = ()) -> None:

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from elastica_magnetic.io import atomic_write_text
+from elastica_magnetic.filesets import update_recorded_text
 
 from ..cases.case import Case
 from ..runfiles.rundir import RunDir
@@ -179,7 +179,7 @@ def update_model_card(card: Path, case: Case, groups: list[RecipeSeeds]) -> bool
     new = replace_card_section(text, CARD_SECTION, seeds_markdown(case, groups), before="## Evaluation")
     if new == text:
         return False
-    atomic_write_text(card, new)
+    update_recorded_text(card, new)  # msr's record of the card follows its own edit
     return True
 
 

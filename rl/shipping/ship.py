@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from elastica_magnetic.filesets import check_files, replace_files
+from elastica_magnetic.filesets import check_files, recorded_files, replace_files
 from elastica_magnetic.io import (
     OutputPathError,
     atomic_write_bytes,
@@ -29,6 +29,7 @@ from elastica_magnetic.io import (
     read_json,
 )
 from elastica_magnetic.plausibility import SettingNotAppliedWarning
+from elastica_magnetic.results import ResultExistsError
 
 from ..cases.case import Case
 from ..cases.tasks import GotoTask, ReachTask
@@ -137,6 +138,7 @@ def ship(run: str | Path, name: str, options: ShipOptions | None = None, /,
                               "--force to replace it")
     if present and o.lock:  # a file edited since msr wrote it is refused now, before measuring
         check_files(target, present, force=True, option="--out", adopt=_holds_a_policy(target))
+        _check_card_recorded(target)
         _warn_of_dropped_notes(target, notes)
     # Everything is computed before the folder is touched: a failed or interrupted measurement
     # leaves a policy being replaced (--force) as it was.
@@ -164,6 +166,19 @@ def ship(run: str | Path, name: str, options: ShipOptions | None = None, /,
     return {"name": name, "dir": str(target), "case": case.name,
             "evaluation": measured,
             "files": sorted(p.name for p in target.iterdir() if p.name in SHIPPED_FILES)}
+
+
+def _check_card_recorded(target: Path) -> None:
+    """Refuse to replace a ``MODEL_CARD.md`` msr has no record of writing (a policy shipped before
+    msr kept records, or whose ``.msr-files.json`` was removed): the card is the file people edit,
+    and without the record msr cannot tell an edited one from its own. The other files of such a
+    policy are adopted as msr's (nobody edits weights or ``policy.json`` by hand)."""
+    card = target / "MODEL_CARD.md"
+    if card.is_file() and "MODEL_CARD.md" not in recorded_files(target):
+        raise ResultExistsError(
+            f"--out {display_path(target)}: MODEL_CARD.md has no record of being written by msr "
+            "(.msr-files.json lacks it), so it may hold your edits: --force does not replace it; move "
+            "it away (or delete it) and ship again")
 
 
 def _holds_a_policy(folder: Path) -> bool:

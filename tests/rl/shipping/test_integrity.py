@@ -315,3 +315,35 @@ def test_ship_force_keeps_a_model_card_edited_since_and_says_the_notes_are_not_c
     card.unlink()  # moved away: the re-ship goes on, and says the notes are not carried over
     assert msr(["policy", "ship", run, "--name", "p", "--out", str(dest), "--no-measure", "--force"]) == 0
     assert "the replaced policy's notes (policy.json) are not carried over" in capsys.readouterr().err
+
+
+def test_ship_force_keeps_a_model_card_msr_has_no_record_of(trained, tmp_path, capsys):
+    """Round 15 D1: a policy as committed had no .msr-files.json, so `ship --force` adopted its
+    hand-edited MODEL_CARD.md as msr's and replaced it. The shipped policies now carry their
+    records (an edited card is refused as changed since), and a card without a record (its record
+    removed) is refused too; the weights and policy.json of such a policy are still adopted."""
+    import shutil
+
+    from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR, SHIPPED_FILES
+
+    for shipped in sorted(POLICIES_DIR.iterdir()):  # every committed policy has its record
+        if (shipped / "policy.json").is_file():
+            recorded = json.loads((shipped / MANIFEST).read_text())["files"]
+            assert sorted(recorded) == sorted(n for n in SHIPPED_FILES if (shipped / n).is_file()), shipped
+    run = str(trained / "m1-4mT" / "seed0")
+    dest = tmp_path / "pol"
+    shutil.copytree(POLICIES_DIR / "m1-4mT", dest / "m1-4mT")
+    card = dest / "m1-4mT" / "MODEL_CARD.md"
+    card.write_text(card.read_text() + "\n## Maintainer's hand-written analysis\n")
+    args = ["policy", "ship", run, "--name", "m1-4mT", "--out", str(dest), "--no-measure", "--force"]
+    before = snapshot(dest / "m1-4mT")
+    assert msr(args) == 2
+    assert "MODEL_CARD.md: not written by msr" in capsys.readouterr().err
+    (dest / "m1-4mT" / MANIFEST).unlink()  # no record at all: the card may still be someone's
+    before = snapshot(dest / "m1-4mT")
+    assert msr(args) == 2
+    assert "MODEL_CARD.md has no record of being written by msr" in capsys.readouterr().err
+    assert snapshot(dest / "m1-4mT") == before and "hand-written" in card.read_text()
+    card.unlink()
+    assert msr(args) == 0  # the rest adopted and replaced
+    assert "hand-written" not in card.read_text()
