@@ -58,6 +58,7 @@ def task_from_table(t: SpecTable, length: float, reach: float | None = None) -> 
         values.update(_goto_values(t, d, length, values["episode_duration"]))
     if cls is TipReachTask:
         values.update(_tip_reach_values(t, d, length, length if reach is None else reach))
+        _check_tip_speed(t, values, length)
     t.finish()
     return cls(**values)
 
@@ -113,6 +114,40 @@ def _check_slow_zone(t: SpecTable, values: dict[str, float], distance: float) ->
                 if 1e-3 * zone < distance else "")
         t.warn("slow_zone", f"{zone:g} m is not smaller than the target's distance {distance:g} m: "
                f"the robot is in the slow zone from its first step, and every move costs{hint}")
+
+
+#: m/s: the mean tip speed a tip-reach episode may ask (the farthest target from the straight tip
+#: over the episode) before it is warned about (magnetic catheters are steered at some mm/s to a few
+#: cm/s), and beyond which it is refused (no tip bent by a field crosses its box that fast).
+WARN_TIP_SPEED, MAX_TIP_SPEED = 0.05, 0.5
+
+
+def tip_speed_problem(box: Any, rod_length: float, duration: float) -> tuple[bool, str] | None:
+    """What is wrong with a tip-reach episode of ``duration`` s for a rod of ``rod_length`` m
+    (clamped at the origin along +x) and targets in ``box`` (m): the mean speed it asks of the
+    straight tip to its farthest target above :data:`WARN_TIP_SPEED` (``(False, text)``: warn) or
+    :data:`MAX_TIP_SPEED` (``(True, text)``: refuse); ``None`` when it is plausible."""
+    low, high = box
+    farthest = max(math.dist((rod_length, 0.0, 0.0), (x, y, z)) for x in (low[0], high[0])
+                   for y in (low[1], high[1]) for z in (low[2], high[2]))
+    speed = farthest / duration
+    if speed <= WARN_TIP_SPEED:
+        return None
+    return speed > MAX_TIP_SPEED, (
+        f"{duration:g} s asks the tip to cross up to {1e3 * farthest:.3g} mm to its farthest target at "
+        f"{1e3 * speed:.3g} mm/s on average, faster than a catheter steered by a field moves (some mm/s "
+        f"to {1e3 * WARN_TIP_SPEED:g} mm/s); ms written as s? give a longer episode (s)")
+
+
+def _check_tip_speed(t: SpecTable, values: dict[str, Any], rod_length: float) -> None:
+    """:func:`tip_speed_problem` of the spec's ``episode_duration``: refused or warned, naming it."""
+    problem = tip_speed_problem(values["target_box"], rod_length, values["episode_duration"])
+    if problem is None:
+        return
+    refuse, text = problem
+    if refuse:
+        raise t.error("episode_duration", text)
+    t.warn("episode_duration", text)
 
 
 def _check_target_reach(t: SpecTable, target: float, length: float, duration: float,

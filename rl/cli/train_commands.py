@@ -236,7 +236,8 @@ def _add_refine_command(sub: argparse._SubParsersAction) -> None:
                         "--spec's [training.randomize], else the run's setting; one that "
                         "disagrees with the spec's table is refused); recorded in run.json")
     p.add_argument("--episode-duration", type=float, default=None,
-                   help="s (truncation; default 20, at least one 0.01 s control step)")
+                   help="s (truncation; default the case's [task] episode_duration, as msr train's: "
+                   "20 s for the paper's crawlers; at least one 0.01 s control step)")
     p.add_argument("--device", choices=("cpu", "cuda"), default=None,
                    help="where the networks train (default: the run's)")
     p.add_argument("--no-progress", action="store_true")
@@ -410,7 +411,9 @@ REFINE_CHOICE_DURATION = 10.0
 
 
 def refine_command(args: argparse.Namespace) -> int:
-    from ..shipping.policy_runs import CHECKPOINT_CHOICES, choose_actor
+    from ..runfiles.rundir import RunDir
+    from ..shipping.policy_files import resolve_policy
+    from ..shipping.policy_runs import CHECKPOINT_CHOICES, choose_actor, choose_tip_reach_actor
     from ..sweep.refine import DEFAULT_STEPS, check_refined_case, refine
     from ..sweep.refine_start import check_refine_output, default_refine_output
 
@@ -423,8 +426,11 @@ def refine_command(args: argparse.Namespace) -> int:
         else:
             check_refined_case(source, args.steps or DEFAULT_STEPS, args.spec, args.randomize,
                                args.device)
-            choice = choose_actor(args.run, args.checkpoint, REFINE_CHOICE_DURATION,
-                                  not args.no_progress)
+            if resolve_policy(RunDir.checkpoint_of(args.run)).case.field_actuated:
+                choice = choose_actor(args.run, args.checkpoint, REFINE_CHOICE_DURATION,
+                                      not args.no_progress)
+            else:  # a tip-reach run: judged on held-out targets, which must not choose its actor
+                choice = choose_tip_reach_actor(args.run, args.checkpoint)
         with signals_as_exceptions():  # SIGTERM/SIGHUP: the checkpoints named, as after Ctrl-C
             result = refine(choice.path if choice else args.run, steps=args.steps, out=args.out,
                             resume=args.resume, progress=not args.no_progress,

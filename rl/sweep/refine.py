@@ -30,15 +30,14 @@ from .summaries import summarize_run
 if TYPE_CHECKING:  # torch is imported only when a refinement runs
     from ..td3.algorithm import TD3Config
 
-__all__ = ["DEFAULT_EPISODE_DURATION", "DEFAULT_PHYSICS", "DEFAULT_STEPS", "check_refined_case",
+__all__ = ["DEFAULT_PHYSICS", "DEFAULT_STEPS", "check_refined_case",
            "refine"]
 
 
-#: A new refinement's environment steps, physics and episode length (s) when not given (a resume
+#: A new refinement's environment steps and physics when not given (its episode: the case's; a resume
 #: takes its own record's).
 DEFAULT_STEPS = 1000
 DEFAULT_PHYSICS = "accurate"
-DEFAULT_EPISODE_DURATION = 20.0
 
 
 def refine(
@@ -55,7 +54,8 @@ def refine(
 ) -> dict[str, Any]:
     """Continue training a run for ``steps`` more environment steps (default
     :data:`DEFAULT_STEPS`) in ``physics`` (``"accurate"``, default, or ``"training"``) on
-    ``device`` (default the run's), episodes of ``episode_duration`` s (default 20).
+    ``device`` (default the run's), episodes of ``episode_duration`` s (default the case's
+    ``[task] episode_duration``, as ``msr train``'s: 20 s for the paper's crawlers).
 
     ``run``: a run folder or its ``checkpoint.pt``, whose final actor is refined, or its ``best.pt``
     (:func:`~elastica_magnetic_rl.sweep.refine_start.refine_source`: best.pt's networks, the rest of
@@ -101,7 +101,8 @@ def refine(
     meta = checkpoint_metadata(ckpt, start["state_from"])
     case, changes = _refined_case(case_from_metadata(meta, str(source)), spec, randomize)
     physics = physics or DEFAULT_PHYSICS
-    duration = DEFAULT_EPISODE_DURATION if episode_duration is None else episode_duration
+    # the case's episode, as msr train's default (20 s for the paper's crawlers; a catheter's 3 s)
+    duration = case.task.episode_duration if episode_duration is None else episode_duration
     steps = DEFAULT_STEPS if steps is None else int(steps)
     start_step = int(ckpt["global_step"])
     config = _refinement_config(ckpt, device, source, physics)

@@ -449,11 +449,31 @@ def _case_defaults(loaded: dict[str, Case], steps: int | None, episode_duration:
                              "recipe": c.training.recipe}[key] for c in loaded.values()}
         if value is None and len(set(defaults.values())) > 1:
             raise ValueError(f"the cases' specs give different {key} ({defaults}): set it")
+    if episode_duration is not None:
+        for case in loaded.values():
+            _check_tip_reach_duration(case, episode_duration)
     first = next(iter(loaded.values()))
     recipe = first.training.recipe if recipe is None else recipe
     return (first.training.steps if steps is None else steps,
             first.task.episode_duration if episode_duration is None else episode_duration,
             recipe)
+
+
+def _check_tip_reach_duration(case: Case, duration: float) -> None:
+    """An episode length given for a tip-reach case (``--episode-duration``, s), judged as the
+    spec's own is (:func:`~elastica_magnetic_rl.cases.task_tables.tip_speed_problem`)."""
+    from ..cases.task_tables import tip_speed_problem
+    from ..cases.tasks import TipReachTask
+
+    if not isinstance(case.task, TipReachTask):
+        return
+    problem = tip_speed_problem(case.task.target_box, float(case.robot.tables["robot"]["length"]), duration)
+    if problem is None:
+        return
+    refuse, text = problem
+    if refuse:
+        raise ValueError(f"--episode-duration {text} (case {case.name!r})")
+    warnings.warn(ImplausibleValueWarning(f"--episode-duration {text} (case {case.name!r})"), stacklevel=3)
 
 
 def _check_sweep_options(*, seeds: int, steps: int, envs: int, workers: int | None,

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import tomllib
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,6 +20,7 @@ from smoke import SMOKE, run_msr
 from spec_texts import CATHETER_MAGNET_REACH
 
 from elastica_magnetic.cli import main as msr
+from elastica_magnetic.specfile import SpecError
 
 
 def case():
@@ -176,3 +178,35 @@ sys.exit(main(["field", "baseline", "--case", "catheter-magnet-reach", "--physic
     assert done.returncode == 143, (done.returncode, done.stderr)
     assert "interrupted (SIGTERM)" in done.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_a_refinement_of_a_tip_reach_run_trains_on_the_case_s_episodes(catheter_run, tmp_path, capsys):
+    """Round 15 S6: msr refine's episodes were 20 s (the paper crawler's) for every case: a catheter
+    refined on 20 s episodes for a 3 s task, without a word. Its default is now the case's, as
+    msr train's."""
+    assert msr(["refine", str(catheter_run), "--steps", "3", "--physics", "training", "--out",
+                str(tmp_path / "rf"), "--no-progress"]) == 0
+    assert json.loads((tmp_path / "rf" / "run.json").read_text())["episode_duration_s"] == 3.0
+
+
+@pytest.mark.parametrize(("duration", "refused"), [(0.01, True), (0.2, False)])
+def test_a_tip_reach_episode_too_short_to_cross_the_box_is_named(duration, refused, tmp_path, capsys):
+    """Round 15 S5: a 10 ms tip-reach episode was accepted (the reach task's check did not reach
+    it): the tip would have to cross up to 19.7 mm at 2 m/s; 0.2 s (98.5 mm/s) is warned."""
+    shipped = Path(__file__).parents[3] / "rl" / "specs" / "catheter-coils-reach.toml"
+    data = tomllib.loads(shipped.read_text())
+    data["task"]["episode_duration"] = duration
+    data["name"] = "short"
+    if refused:
+        with pytest.raises(SpecError, match=r"episode_duration: 0.01 s asks the tip to cross up to 19.7 mm"):
+            load_case(data)
+        assert msr(["train", "--case", "catheter-coils-reach", "--episode-duration", "0.01", "--out",
+                    str(tmp_path / "t")]) == 2
+        assert "--episode-duration 0.01 s asks the tip" in capsys.readouterr().err
+        assert not (tmp_path / "t").exists()
+    else:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            load_case(data)
+        assert any("0.2 s asks the tip to cross up to 19.7 mm to its farthest target at 98.5 mm/s"
+                   in str(w.message) for w in caught)
