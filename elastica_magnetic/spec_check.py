@@ -294,9 +294,10 @@ def check_robot(description: RobotDescription, *, field_limit: float | None = No
     issues += _validity_issues(accurate, field_limit, task_kind, yardstick_m, spring_sag)
     if magnetic_number is not None and 0.0 < magnetic_number < WEAK_MAGNETIC_NUMBER:
         coils = field_name == "field limit"
+        where = field_name if field_name.startswith("the ") else f"the {field_name}"
         issues.append(Issue(
             "warning", "[robot.magnetization] magnitude" if coils else "[actuation]",
-            f"the magnetic bending number M B L^2 A / EI at the {field_name} is {magnetic_number:.3g} "
+            f"the magnetic bending number M B L^2 A / EI at {where} is {magnetic_number:.3g} "
             "(the paper's robots at 4 mT: about 22): no field within the limit bends this robot "
             "noticeably. A remanence B_r in T written where the magnetization M in A/m is expected "
             "(M = B_r / mu0: 0.077 T is 61 kA/m)? or " + (

@@ -270,7 +270,7 @@ def toml_with_units(data: Mapping[str, Any], units: Mapping[tuple[str, str], str
     lines, table = [], ""
     for line in _inline_number_arrays(tomli_w.dumps(_plain(data), multiline_strings=False).splitlines()):
         stripped = line.strip()
-        if stripped.startswith("[") and not stripped.startswith("[["):
+        if stripped.startswith("["):  # a table, or an array of tables ([[actuation.coils]])
             table = stripped.strip("[]")
         elif " = " in line and not line.startswith(" "):
             unit = units.get((table, line.split(" = ", 1)[0]))

@@ -122,6 +122,12 @@ CASE_UNITS: dict[tuple[str, str], str] = {
     ("actuation", "direction"): "the moment's direction at the start",
     ("actuation", "workspace"): "m, the box the magnet's centre stays in", ("actuation", "max_speed"): "m/s",
     ("actuation", "max_turn_rate"): "rad/s", ("actuation", "min_clearance"): "m, nearest the magnet comes",
+    ("actuation", "insertion"): "m, the stage's travel [low, high] along +x",
+    ("actuation", "insertion_speed"): "m/s, the stage's fastest",
+    ("actuation", "current_limit"): "A, each coil's largest current", ("actuation", "max_slew"): "A/s",
+    ("actuation.coils", "radius"): "m", ("actuation.coils", "centre"): "m",
+    ("actuation.coils", "axis"): "the current turns counter-clockwise about it",
+    ("actuation.coils", "turns"): "turns",
     ("task", "target_box"): "m, [[xmin, ymin, zmin], [xmax, ymax, zmax]]",
     ("training", "steps"): "environment steps per seed",
     ("yardstick", "distance_10s"): "m in 10 s, accurate physics, field from zero",
@@ -423,9 +429,11 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
                             actuation, robot.robot("accurate"), task.target_box, task.episode_duration)
     training = _training(top.table("training", required=False), source, robot)
     if training.randomize and isinstance(actuation, SteeringActuation):
-        raise SpecError(f"{source}: [training.randomize]: domain randomization varies a crawler's robot; "
-                        f"a case steered by a source ([actuation] kind = \"{actuation.kind}\") trains on "
-                        "its nominal robot: remove the table")
+        given = ("[training] randomize" if isinstance((spec.get("training") or {}).get("randomize"), str)
+                 else "[training.randomize]")
+        raise SpecError(f"{source}: {given}: domain randomization varies a crawler's robot; a case "
+                        f"steered by a source ([actuation] kind = \"{actuation.kind}\") trains on its "
+                        f"nominal robot: remove {given}")
     yardstick = _yardstick(top.table("yardstick", required=False),
                            float(robot.tables["robot"]["length"]))
     if not robot.robot("training").magnetization.any():

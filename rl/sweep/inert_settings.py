@@ -135,7 +135,7 @@ def check_episodes_end(episode_duration: float, steps: int, envs: int, sources: 
     finding = judge("episode duration", episode_duration)
     hint = f" ({finding.text})" if finding is not None else ""
     text = (f"no training episode ends within the run: {given}{hint} is {episode_steps} steps of "
-            f"{ACTION_PERIOD:g} s, and {sources.steps(steps)} over {envs} crawler(s) gives each "
+            f"{ACTION_PERIOD:g} s, and {sources.steps(steps)} over {envs} robot(s) gives each "
             f"{per_crawler}; the run measures no return; give --episode-duration of at most "
             f"{per_crawler * ACTION_PERIOD:g} s or --steps of at least {episode_steps * max(1, envs)}")
     if duration_given:

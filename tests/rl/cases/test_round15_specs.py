@@ -123,3 +123,21 @@ def test_commands_playing_a_field_name_the_steered_case_they_refuse(tmp_path, ca
     err = capsys.readouterr().err
     assert 'a uniform field\'s [actuation], kind = "field", and [task] kind = "crawl"' in err
     assert not (tmp_path / "r").exists() and not (tmp_path / "d").exists()
+
+
+def test_case_show_toml_gives_every_steering_key_its_unit_and_messages_read_once(tmp_path, capsys):
+    """Round 15 V6, V7: the coil keys (and the stage's) lacked their unit comments in the file to
+    copy and edit; a weak magnet's message said "at the the magnet's ...". """
+    assert msr(["case", "show", "catheter-coils-reach", "--toml"]) == 0
+    text = capsys.readouterr().out
+    for line in ("current_limit = 8.0  # A", "max_slew = 1000.0  # A/s", "insertion = [-0.01, 0.01]  # m",
+                 "insertion_speed = 0.01  # m/s", "radius = 0.04  # m", "turns = 500.0  # turns"):
+        assert line in text, line
+    assert load_case({**tomllib.loads(text), "name": "again"}).to_dict()["actuation"] == \
+        load_case("catheter-coils-reach").to_dict()["actuation"]
+    weak = tmp_path / "weak.toml"
+    weak.write_text(CATHETER_MAGNET_REACH.replace("moment = 1.0", "moment = 0.001"))
+    msr(["case", "check", str(weak), "--no-sag"])
+    out = capsys.readouterr()
+    assert "bending number M B L^2 A / EI at the magnet's" in out.out + out.err
+    assert "at the the" not in out.out + out.err

@@ -163,7 +163,7 @@ def test_a_run_no_episode_ends_in_is_refused_naming_milliseconds(tmp_path, capsy
                 "2000", "--out", str(tmp_path / "runs"), *smoke]) == 2
     err = capsys.readouterr().err
     assert "no training episode ends within the run: --episode-duration 2000 s (" in err, err
-    assert ("is 200000 steps of 0.01 s, and --steps 300 over 1 crawler(s) gives each 300") in err
+    assert ("is 200000 steps of 0.01 s, and --steps 300 over 1 robot(s) gives each 300") in err
     assert "2000 ms is 2 s" in err and not (tmp_path / "runs").exists()
 
 
