@@ -376,6 +376,29 @@ def moved_dipole_field(motion, time, points, b_out, g_out, with_gradient):
 
 
 @njit(cache=True)
+def start_robot_field(positions, n0, centres, b, g):
+    """The element centres ``centres`` ``(3, n)`` (m) of the robot whose nodes start at block node
+    ``n0``, and its ``B`` ``(3, n)`` and ``grad B`` ``(3, 3, n)`` zeroed, for a source to add into."""
+    element_centres(positions[:, n0:n0 + centres.shape[1] + 1], centres)
+    b[...] = 0.0
+    g[...] = 0.0
+
+
+@njit(cache=True)
+def robot_field_forcing(moments, directors, n0, e0, e1, b, g, external_forces, external_torques):
+    """The force and torque of the field ``b``, ``g`` on the robot of block nodes ``n0 ..`` and
+    elements ``e0:e1``, as :class:`~elastica_magnetic.MagneticTorques` adds them (forces, then
+    torques); returns the first element whose field is not finite (nothing added), else -1."""
+    bad = first_nonfinite(b, g, True)
+    if bad >= 0:
+        return bad
+    moment, rotation = moments[:, e0:e1], directors[:, :, e0:e1]
+    magnetic_forces(moment, rotation, g, external_forces[:, n0:n0 + (e1 - e0) + 1])
+    magnetic_torques_at_elements(moment, b, rotation, external_torques[:, e0:e1])
+    return -1
+
+
+@njit(cache=True)
 def moved_dipoles_forcing(motions, robots, times, moments, node_start, elem_start, elem_end,
                           positions, directors, external_forces, external_torques, centres, b, g):
     """The force and torque of each robot ``robots[k]``'s own moved magnet ``motions[k]`` on it, as
@@ -389,16 +412,11 @@ def moved_dipoles_forcing(motions, robots, times, moments, node_start, elem_star
     for k in range(robots.shape[0]):
         i = robots[k]
         n0, e0, e1 = node_start[i], elem_start[i], elem_end[i]
-        element_centres(positions[:, n0:n0 + n + 1], centres)
-        b[...] = 0.0
-        g[...] = 0.0
+        start_robot_field(positions, n0, centres, b, g)
         moved_dipole_field(motions[k], times[k], centres, b, g, True)
-        bad = first_nonfinite(b, g, True)
+        bad = robot_field_forcing(moments, directors, n0, e0, e1, b, g, external_forces, external_torques)
         if bad >= 0:
             return k * n + bad
-        moment, rotation = moments[:, e0:e1], directors[:, :, e0:e1]
-        magnetic_forces(moment, rotation, g, external_forces[:, n0:n0 + n + 1])
-        magnetic_torques_at_elements(moment, b, rotation, external_torques[:, e0:e1])
     return -1
 
 
@@ -444,9 +462,7 @@ def coil_loops_forcing(ramps, robots, times, loop_start, centres, frames, radii,
     for k in range(robots.shape[0]):
         i = robots[k]
         n0, e0, e1 = node_start[i], elem_start[i], elem_end[i]
-        element_centres(positions[:, n0:n0 + n + 1], points)
-        b[...] = 0.0
-        g[...] = 0.0
+        start_robot_field(positions, n0, points, b, g)
         coil_currents_at(ramps[k], times[k], currents)
         for c in range(n_coils):
             current = currents[c]
@@ -462,12 +478,9 @@ def coil_loops_forcing(ramps, robots, times, loop_start, centres, frames, radii,
                     b[d, e] += current * unit_b[d, e]
                     for j in range(3):
                         g[d, j, e] += current * unit_g[d, j, e]
-        bad = first_nonfinite(b, g, True)
+        bad = robot_field_forcing(moments, directors, n0, e0, e1, b, g, external_forces, external_torques)
         if bad >= 0:
             return k * n + bad
-        moment, rotation = moments[:, e0:e1], directors[:, :, e0:e1]
-        magnetic_forces(moment, rotation, g, external_forces[:, n0:n0 + n + 1])
-        magnetic_torques_at_elements(moment, b, rotation, external_torques[:, e0:e1])
     return -1
 
 
@@ -507,16 +520,11 @@ def dipole_paths_forcing(robots, times, path_start, path_times, path_values, mom
     for k in range(robots.shape[0]):
         i = robots[k]
         n0, e0, e1 = node_start[i], elem_start[i], elem_end[i]
-        element_centres(positions[:, n0:n0 + n + 1], centres)
-        b[...] = 0.0
-        g[...] = 0.0
+        start_robot_field(positions, n0, centres, b, g)
         path_value(path_times, path_values, path_start[2 * k], path_start[2 * k + 1], times[k], moment)
         path_value(path_times, path_values, path_start[2 * k + 1], path_start[2 * k + 2], times[k], position)
         dipole_field(moment, position, centres, b, g, True)
-        bad = first_nonfinite(b, g, True)
+        bad = robot_field_forcing(moments, directors, n0, e0, e1, b, g, external_forces, external_torques)
         if bad >= 0:
             return k * n + bad
-        material, rotation = moments[:, e0:e1], directors[:, :, e0:e1]
-        magnetic_forces(material, rotation, g, external_forces[:, n0:n0 + n + 1])
-        magnetic_torques_at_elements(material, b, rotation, external_torques[:, e0:e1])
     return -1
