@@ -175,6 +175,8 @@ def export_seeds_command(args: argparse.Namespace) -> int:
         raise CommandError("--out DIR is required: the folder the seeds are written to")
     if not (math.isfinite(args.duration) and 0 < args.duration <= 600):
         raise CommandError(f"--duration must be a finite time in (0, 600] s, got {args.duration}")
+    for checkpoint in sorted(Path(args.case_dir).glob("seed*/checkpoint.pt"))[:1]:  # the case's seeds
+        _refuse_tip_reach(checkpoint.parent, "export-seeds")
     try:
         result = export_seeds(args.case_dir, args.dest, args.duration,
                               progress=not args.no_progress, workers=args.workers, force=args.force)
@@ -281,6 +283,7 @@ def ship_command(args: argparse.Namespace) -> int:
         checkpoint = "final"
         print("--no-measure: the final actor is shipped without comparing it with best.pt "
               "(--checkpoint best ships best.pt)", file=sys.stderr)
+    _refuse_tip_reach(args.run, "ship")
     choice = _actor_choice(args.run, checkpoint, args.duration, not args.no_progress)
     try:
         result = ship(choice.path if choice else args.run, args.name, dest=args.dest,
@@ -291,6 +294,23 @@ def ship_command(args: argparse.Namespace) -> int:
         raise CommandError(str(exc)) from None
     _print_with_choice(result, choice, args.json)
     return 0
+
+
+def _refuse_tip_reach(policy: object, command: str) -> None:
+    """Refuse, naming the case, a policy of a tip-reach case (a catheter steered by a source) in a
+    command that plays or measures a field waveform (export, export-seeds, ship)."""
+    from ..shipping.policy_files import resolve_policy
+
+    try:
+        case = resolve_policy(policy).case
+    except (FileNotFoundError, ValueError):
+        return  # the command names what is wrong with the file itself
+    if not case.field_actuated:
+        raise CommandError(
+            f"{policy}: case {case.name!r} steers a clamped catheter by a source ([actuation] kind = "
+            f"\"{case.actuation.kind}\"), and msr policy {command} handles policies of a field waveform; a "
+            "tip-reach policy is judged with msr policy generate (the case's held-out targets, or "
+            "--target X,Y,Z)")
 
 
 def _actor_choice(run, checkpoint: str, duration: float, progress: bool):
@@ -369,6 +389,7 @@ def export_command(args: argparse.Namespace) -> int:
     from ..shipping.export import EXPORT_FILES, export_policy
     from ..shipping.policy_files import resolve_policy
 
+    _refuse_tip_reach(args.policy, "export")
     # the output folder before the actors' evaluations (minutes in the accurate physics)
     check_result_folder(args.out, kind="export", subject=f"case {resolve_policy(args.policy).case.name}",
                         force=args.force, known_files=EXPORT_FILES)

@@ -210,3 +210,17 @@ def test_a_tip_reach_episode_too_short_to_cross_the_box_is_named(duration, refus
             load_case(data)
         assert any("0.2 s asks the tip to cross up to 19.7 mm to its farthest target at 98.5 mm/s"
                    in str(w.message) for w in caught)
+
+
+@pytest.mark.parametrize("command", [["policy", "ship", "{run}", "--name", "cat", "--out", "{tmp}/s"],
+                                     ["policy", "export", "{run}", "--out", "{tmp}/e"],
+                                     ["policy", "export-seeds", "{case}", "--out", "{tmp}/x"]])
+def test_field_waveform_commands_refuse_a_tip_reach_policy_naming_its_case(catheter_run, tmp_path, capsys,
+                                                                           command):
+    """Round 15 V3: they said "the case: ... (it asks the case for its field_limit)" after
+    starting; now the case and where a tip-reach policy is judged, before any work."""
+    argv = [a.format(run=catheter_run, case=catheter_run.parent, tmp=tmp_path) for a in command]
+    assert msr(argv) == 2
+    err = capsys.readouterr().err
+    assert "case 'catheter-magnet-reach' steers a clamped catheter by a source" in err, err
+    assert "msr policy generate" in err and sorted(p.name for p in tmp_path.iterdir()) == []
