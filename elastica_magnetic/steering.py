@@ -44,7 +44,33 @@ def _turned_toward(f: NDArray[np.float64], base: NDArray[np.float64], tip_bearin
     return _unit(f + step * error)
 
 
-class MagnetBearingSteering:
+class _BearingLaw:
+    """The bearing law both steering laws share: the field direction at the tip, starting along
+    the catheter each episode and turned toward the target's bearing from ``base`` (m) at
+    ``gain`` (1/s) per unit of bearing error."""
+
+    base: NDArray[np.float64]
+    gain: float
+    field_direction: NDArray[np.float64] | None
+
+    def reset(self) -> None:
+        """Forget the field direction (a new episode: it starts again along the catheter)."""
+        self.field_direction = None
+
+    def _next_direction(self, tip: ArrayLike, target: ArrayLike,
+                        dt: float) -> tuple[NDArray[np.float64], ...]:
+        """The tip and target (m, (3,) arrays) and the field direction after a control step of
+        ``dt`` s (kept as :attr:`field_direction`)."""
+        tip, target = np.asarray(tip, dtype=np.float64), np.asarray(target, dtype=np.float64)
+        tip_bearing = _unit(tip - self.base)
+        if self.field_direction is None:
+            self.field_direction = tip_bearing.copy()
+        self.field_direction = _turned_toward(self.field_direction, self.base, tip_bearing, target,
+                                              self.gain * dt)
+        return tip, target, self.field_direction
+
+
+class MagnetBearingSteering(_BearingLaw):
     """Steer a clamped catheter's tip toward a target with a
     :class:`~elastica_magnetic.actuation.MagnetPose`.
 
@@ -78,19 +104,10 @@ class MagnetBearingSteering:
         self.position_gain, self.turn_gain = float(position_gain), float(turn_gain)
         self.field_direction: NDArray[np.float64] | None = None
 
-    def reset(self) -> None:
-        """Forget the field direction (a new episode: it starts again along the catheter)."""
-        self.field_direction = None
-
     def action(self, tip: ArrayLike, target: ArrayLike, time: float, dt: float) -> NDArray[np.float64]:
         """The command (5,) in [-1, 1] at ``time`` (s) for the control step ``dt`` (s), the tip at
         ``tip`` and the target at ``target`` (m, (3,) each)."""
-        tip, target = np.asarray(tip, dtype=np.float64), np.asarray(target, dtype=np.float64)
-        tip_bearing = _unit(tip - self.base)
-        if self.field_direction is None:
-            self.field_direction = tip_bearing.copy()
-        f = self.field_direction = _turned_toward(self.field_direction, self.base, tip_bearing, target,
-                                                  self.gain * dt)
+        tip, target, f = self._next_direction(tip, target, dt)
         goal = tip + self.distance * f
         action = np.zeros(5)
         velocity = self.position_gain * (goal - self.magnet.position_at(time)) / self.magnet.max_speed
@@ -109,7 +126,7 @@ class MagnetBearingSteering:
         return action
 
 
-class CoilFieldSteering:
+class CoilFieldSteering(_BearingLaw):
     """Steer a clamped catheter's tip toward a target with fixed coils
     (:class:`~elastica_magnetic.actuation.CoilCurrents`): the bearing law of
     :class:`MagnetBearingSteering` chooses the field direction ``f`` at the tip, and the currents
@@ -141,19 +158,10 @@ class CoilFieldSteering:
         self.field, self.gain = float(field), float(gain)
         self.field_direction: NDArray[np.float64] | None = None
 
-    def reset(self) -> None:
-        """Forget the field direction (a new episode: it starts again along the catheter)."""
-        self.field_direction = None
-
     def action(self, tip: ArrayLike, target: ArrayLike, time: float, dt: float) -> NDArray[np.float64]:
         """The command (N,) in [-1, 1] (currents over their limits) at ``time`` (s) for the
         control step ``dt`` (s), the tip at ``tip`` and the target at ``target`` (m, (3,) each)."""
-        tip, target = np.asarray(tip, dtype=np.float64), np.asarray(target, dtype=np.float64)
-        tip_bearing = _unit(tip - self.base)
-        if self.field_direction is None:
-            self.field_direction = tip_bearing.copy()
-        f = self.field_direction = _turned_toward(self.field_direction, self.base, tip_bearing, target,
-                                                  self.gain * dt)
+        tip, target, f = self._next_direction(tip, target, dt)
         currents = np.linalg.lstsq(self.coils.field_matrix(tip, time), self.field * f, rcond=None)[0]
         fraction = currents / self.coils.current_limit
         largest = float(np.abs(fraction).max())
