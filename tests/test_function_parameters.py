@@ -17,6 +17,7 @@ EXCEPTIONS = {
     "elastica_magnetic/_batch_kernels.py:ground_contact": "numba kernel",
     "elastica_magnetic/_spatial_kernels.py:moved_dipoles_forcing": "numba kernel",
     "elastica_magnetic/_spatial_kernels.py:coil_loops_forcing": "numba kernel",
+    "elastica_magnetic/_spatial_kernels.py:dipole_paths_forcing": "numba kernel",
     # a Gymnasium environment is made by gymnasium.make(id, **kwargs): its options are keywords
     "rl/envs/vector_env.py:__init__": "gymnasium.make keywords",
     "rl/envs/env.py:__init__": "gymnasium.make keywords",

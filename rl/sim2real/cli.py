@@ -27,9 +27,17 @@ _DEFAULT_SET = ", ".join(f"{name} ({'+'.join(GROUPS[name])}) x{low:g}:{high:g}"
 def _field_case_name(value: str) -> str:
     """``--case`` of ``msr real robustness``: checked at parse time (a case steered by a source
     refused by name: the robustness of a field waveform), passed on as given."""
-    from ..cli.options import field_case_option
+    from elastica_magnetic.specfile import SpecError
 
-    field_case_option(value)
+    from ..cases.case import load_case
+    from ..cases.steered import field_only_refusal
+
+    try:
+        case = load_case(value)
+    except SpecError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    if not case.field_actuated:
+        raise argparse.ArgumentTypeError(field_only_refusal(case.name, case.actuation.kind))
     return value
 
 
