@@ -225,6 +225,7 @@ class BatchedRobots:
         self.stepper = ea.PositionVerlet()
         self.step_count = 0
         self._step_index = 0  # of the step being taken (the forcing's clock)
+        self._behind = np.zeros(n_robots, dtype=np.int64)  # steps each robot is behind (set by step)
         self.robot_step_count = np.zeros(n_robots, dtype=np.int64)
         if max_speed is None:
             max_speed = 10.0 * spec.units.factor("velocity")
@@ -400,8 +401,7 @@ class BatchedRobots:
         if self._moved:
             self._apply_moved_magnets(float(time))
         if self._dipoles.sources:
-            robot_times(float(time), self._step_index, self.spec.dt, self.step_count - self.robot_step_count,
-                        self._times)
+            robot_times(float(time), self._step_index, self.spec.dt, self._behind, self._times)
             self._dipoles.apply(self._times, self._moments, self._node_start, self._elem_start,
                                 self._elem_end, self.block)
         if self._coils.sources:
@@ -470,8 +470,7 @@ class BatchedRobots:
         clamp = self._clamp
         if clamp is None or not clamp.located:
             return
-        robot_times(float(time), self._step_index, self.spec.dt, self.step_count - self.robot_step_count,
-                    self._times)
+        robot_times(float(time), self._step_index, self.spec.dt, self._behind, self._times)
         if rates:
             clamp.constrain_rates(self.block, self._times)
         else:
@@ -601,8 +600,10 @@ class BatchedRobots:
         start = self.step_count
         if self._moved:
             self._gather_moved_magnets()
+        # how many steps each robot is behind the block's clock: fixed while these steps run
+        self._behind = self.step_count - self.robot_step_count
         if self._coils.sources:
-            self._coils.gather(self.step_count - self.robot_step_count)
+            self._coils.gather(self._behind)
         if self._clamp is not None:
             self._clamp.gather()
         for k in range(n_steps):
