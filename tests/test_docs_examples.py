@@ -109,7 +109,7 @@ def test_steering_page_snippet_runs_and_its_numbers_hold():
 def test_steering_page_yardstick_times_are_measured():
     """docs/steering_3d.md quotes the steering yardstick's time to a target abeam and to one
     straight ahead (training physics): both measured here."""
-    from elastica_magnetic_rl.shipping.baselines import SteeringFieldPolicy
+    from elastica_magnetic_rl.envs.yardsticks import SteeringFieldPolicy
     from elastica_magnetic_rl.shipping.goto import evaluate_ring
 
     text = (TUTORIAL.parent / "steering_3d.md").read_text()

@@ -2,7 +2,7 @@
 :mod:`elastica_magnetic_rl.cli.train_commands`, the policy commands
 :mod:`elastica_magnetic_rl.cli.policy_commands`): thin wrappers over
 :mod:`elastica_magnetic_rl.cases.case`, :mod:`elastica_magnetic_rl.reports.bench`,
-:mod:`elastica_magnetic_rl.shipping.generate`, :mod:`elastica_magnetic_rl.shipping.baselines` and
+:mod:`elastica_magnetic_rl.shipping.generate`, :mod:`elastica_magnetic_rl.envs.yardsticks` and
 :mod:`elastica_magnetic_rl.reports.figures` (heavy imports happen inside the commands)."""
 
 from __future__ import annotations
@@ -421,8 +421,8 @@ def baseline_command(args: argparse.Namespace) -> int:
     from elastica_magnetic import read_field_csv
 
     from ..cases.tasks import GotoTask
+    from ..envs.yardsticks import RotatingFieldPolicy
     from ..shipping.baseline_sweep import achieved_period
-    from ..shipping.baselines import RotatingFieldPolicy
     from ..shipping.generate import generate
 
     if not args.case.field_actuated:
@@ -480,7 +480,7 @@ def _tip_reach_baseline(args: argparse.Namespace) -> int:
 
 def _steering_baseline(args: argparse.Namespace) -> int:
     """``msr field baseline`` of a goto case: the steering yardstick to one target or a ring."""
-    from ..shipping.baselines import SteeringFieldPolicy
+    from ..envs.yardsticks import SteeringFieldPolicy
     from ..shipping.generate import generate
 
     for option, value in (("--counterclockwise", args.counterclockwise), ("--periods", args.periods),

@@ -3,7 +3,7 @@
 Every candidate of a design generation is a robot of its own in one
 :class:`~elastica_magnetic.batch.BatchedRobots` block (its own magnetization through
 :meth:`~elastica_magnetic.batch.BatchedRobots.set_robot`), driven by the field the rotating-field
-yardstick (:class:`~elastica_magnetic_rl.shipping.baselines.RotatingFieldPolicy`) plays: that field
+yardstick (:class:`~elastica_magnetic_rl.envs.yardsticks.RotatingFieldPolicy`) plays: that field
 depends only on the field before it (the policy reads the field back, not the robot), so it is
 computed once per period and direction (:func:`rotating_waveform`) and the same rows drive every
 robot. The batch is split over worker processes.
@@ -29,7 +29,7 @@ from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..cases.case import Case
 from ..envs.env import OBSERVATION_SCALES
-from ..shipping.baselines import RotatingFieldPolicy
+from ..envs.yardsticks import RotatingFieldPolicy
 
 __all__ = ["Trial", "rotating_waveform", "run_trials"]
 

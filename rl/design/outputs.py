@@ -211,7 +211,7 @@ def _report(summary: dict[str, Any]) -> str:
 
 def _write_gait(out: Path, case, best: dict[str, Any], settings) -> None:
     """The best design under its best rotating field, as ``msr field baseline`` writes it."""
-    from ..shipping.baselines import RotatingFieldPolicy
+    from ..envs.yardsticks import RotatingFieldPolicy
     from ..shipping.generate import Pictures, generate
 
     policy = RotatingFieldPolicy(case, best["period_s"], best["clockwise"])

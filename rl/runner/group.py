@@ -38,19 +38,19 @@ class GroupLoop:
     inside episodes with the environments' state). The order of these steps, and of the RNG draws
     in them, is what makes a seed bit-identical alone and in a group, and after a resume."""
 
-    def __init__(self, env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, n: int,
-                 log_fn: Callable[[dict[str, Any]], None] | None,
-                 eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None,
-                 vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None,
-                 confirm_env_fn: Callable[[], gym.Env] | None = None,
-                 hand_back: Callable[[], bool] | None = None,
-                 confirm_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None) -> None:
+    def __init__(self, env: gym.vector.VectorEnv, runs: list[SeedRun], learner: TD3, options: Any,
+                 vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None) -> None:
+        """``options``: the :class:`~elastica_magnetic_rl.runner.loop.GroupOptions` of the call
+        (its sub-environments per seed, logs, evaluation, confirmation, hand-back and yardstick
+        makers); ``vec_env_fn`` makes a smaller vector environment once seeds stop."""
+        n = int(options.envs_per_seed)
         self.env, self.runs, self.learner, self.n = env, runs, learner, n
         # asked at each step where every episode has just ended: hand the seeds back (see
         # :meth:`hands_back`); ``handed_back`` once done
-        self.hand_back, self.handed_back = hand_back, False
-        self.log_fn, self.eval_vec_env_fn, self.vec_env_fn = log_fn, eval_vec_env_fn, vec_env_fn
-        self.confirm_env_fn, self.confirm_vec_env_fn = confirm_env_fn, confirm_vec_env_fn
+        self.hand_back, self.handed_back = options.hand_back, False
+        self.log_fn, self.eval_vec_env_fn = options.log_fn, options.eval_vec_env_fn
+        self.vec_env_fn = vec_env_fn
+        self.confirm_env_fn, self.confirm_vec_env_fn = options.confirm_env_fn, options.confirm_vec_env_fn
         self.cfg, self.k_seeds = learner.config, len(runs)
         self.obs_dim, self.act_dim = learner.obs_dim, learner.act_dim
         # a Gymnasium vector environment that can save its state allows checkpoints inside episodes
@@ -61,6 +61,18 @@ class GroupLoop:
         # the unspent fraction of an update of a fractional updates_per_step (the group's seeds
         # are in lockstep: one value, kept in every seed's checkpoint)
         self.update_credit = self.lead.update_credit
+        # a warm-up played by the case's yardstick (``yardstick_warmup``): one controller per
+        # sub-environment while the warm-up lasts, else None
+        self.yardstick_fn = options.yardstick_fn
+        self.yardsticks: list[Any] | None = None
+        if self.cfg.yardstick_warmup and self.lead.global_step < self.cfg.learning_starts:
+            self.yardsticks = self._new_yardsticks()
+
+    def _new_yardsticks(self) -> list[Any]:
+        if self.yardstick_fn is None:
+            raise ValueError("yardstick_warmup needs the case's yardstick: train_seeds(..., "
+                             "yardstick_fn=) makes one controller per sub-environment")
+        return [self.yardstick_fn() for _ in range(self.k_seeds * self.n)]
 
     @property
     def lead(self) -> SeedRun:
@@ -110,7 +122,12 @@ class GroupLoop:
                                    ("ep_id", run.ep_id), ("noise", run.noise),
                                    ("noise_pos", run.noise_pos)):
                     field[:] = state_to_numpy(vector_state[key])[self.sub(k)]
+            for controller, state in zip(self.yardsticks or (), vector_state.get("yardsticks") or (),
+                                         strict=False):
+                controller.set_state(state)
             return state_to_numpy(vector_state["obs"]).reshape(total, self.obs_dim)
+        for controller in self.yardsticks or ():
+            controller.reset()
         seeds = []
         for run in runs:
             run.ep_id[:] = np.arange(run.episode, run.episode + n)
@@ -131,13 +148,22 @@ class GroupLoop:
     # -- one vector step -----------------------------------------------------------------------
     def act(self, obs: np.ndarray) -> np.ndarray:
         """Actions ``(K n, act_dim)`` in [-1, 1]: transition ``global_step + i`` of a seed is
-        random during the warm-up, then ``mu + noise``."""
+        random during the warm-up (the yardstick's action plus noise with ``yardstick_warmup``),
+        then ``mu + noise``."""
         learner, cfg, n = self.learner, self.cfg, self.n
         n_random = int(np.clip(cfg.learning_starts - self.lead.global_step, 0, n))
         if n_random < n:
             mu = learner.select_actions(obs.reshape(self.k_seeds, n, self.obs_dim)[:, n_random:],
                                         explore=False).astype(np.float64)
         for k, run in enumerate(self.runs):
+            if n_random and self.yardsticks is not None:  # one noise draw for every sub-env
+                noise = run.exploration(0, learner.rngs[k])
+                shown = [self.yardsticks[k * n + j].act(obs[k * n + j]) for j in range(n_random)]
+                self.actions[k, :n_random] = np.clip(np.asarray(shown, dtype=np.float64)
+                                                     + noise[:n_random], -1.0, 1.0)
+                if n_random < n:
+                    self.actions[k, n_random:] = np.clip(mu[k] + noise[n_random:], -1.0, 1.0)
+                continue
             if n_random:
                 self.actions[k, :n_random] = learner.random_actions(k, n_random)
             if n_random < n:
@@ -175,6 +201,8 @@ class GroupLoop:
         n_learn = max(0, self.lead.global_step - max(before, cfg.learning_starts))
         if not n_learn or len(self.lead.buffer) < cfg.batch_size:
             return
+        if cfg.yardstick_warmup and before <= cfg.learning_starts:  # the first updates
+            self.start_from_yardstick()
         owed = self.update_credit + n_learn * update_ratio(cfg.updates_per_step)
         n_updates = int(owed)  # floor: owed >= 0
         self.update_credit = owed - n_updates
@@ -187,6 +215,27 @@ class GroupLoop:
                 for name, values in info.items():
                     for k, run in enumerate(runs):
                         run.writer.add_scalar(f"losses/{name}", float(values[k]), run.global_step)
+
+    def start_from_yardstick(self) -> None:
+        """The end of a warm-up the yardstick played (``yardstick_warmup`` U): every seed's actor
+        clones the warm-up's actions (U steps), its target actor is set to the clone, and the
+        critics learn the clone's value (U updates, the actor held); each seed then evaluates at
+        its next episode boundary, so ``best.pt`` starts from the clone."""
+        cfg, learner, runs = self.cfg, self.learner, self.runs
+
+        def batches() -> list[Any]:
+            return [r.buffer.sample(cfg.batch_size, learner.rngs[k]) for k, r in enumerate(runs)]
+
+        for _ in range(cfg.yardstick_warmup):
+            clone_loss = learner.clone_step(batches())
+        learner.hold_actor_targets()
+        for _ in range(cfg.yardstick_warmup):
+            info = learner.update(batches(), train_actor=False)
+        self.yardsticks = None
+        for k, run in enumerate(runs):
+            run.writer.add_scalar("pretrain/clone_loss", float(clone_loss[k]), run.global_step)
+            run.writer.add_scalar("pretrain/critic_loss", float(info["critic_loss"][k]), run.global_step)
+            run.evaluation.next_step = min(run.evaluation.next_step, run.global_step)
 
     def log_episode_ends(self, ended: np.ndarray, terminated: np.ndarray,
                          truncated: np.ndarray) -> None:
@@ -241,6 +290,8 @@ class GroupLoop:
         for k, run in enumerate(self.runs):
             for j in np.flatnonzero(ended[self.sub(k)]):
                 run.draw_noise(int(j), self.learner.rngs[k])
+        for i in np.flatnonzero(ended) if self.yardsticks is not None else ():
+            self.yardsticks[i].reset()
 
     # -- checkpoints ---------------------------------------------------------------------------
     def vector_state(self, obs: np.ndarray) -> dict[str, Any] | None:
@@ -252,6 +303,7 @@ class GroupLoop:
         return {"num_envs": self.k_seeds * self.n, "seeds": [r.cfg.seed for r in runs],
                 "env_state": state_to_tensors(self.env.get_state()),
                 "obs": torch.from_numpy(obs.copy()),
+                "yardsticks": None if self.yardsticks is None else [c.state() for c in self.yardsticks],
                 **{key: torch.from_numpy(np.concatenate([getattr(r, key) for r in runs]))
                    for key in ("ep_return", "ep_len", "ep_id", "noise", "noise_pos")}}
 
@@ -420,6 +472,8 @@ class GroupLoop:
         self.env = self.vec_env_fn(self.k_seeds * self.n)
         self.fresh_env = True
         self.actions = np.zeros((self.k_seeds, self.n, self.act_dim), dtype=np.float32)
+        if self.yardsticks is not None:  # every episode restarts: fresh controllers
+            self.yardsticks = self._new_yardsticks()
         return np.zeros((self.k_seeds * self.n, self.obs_dim), dtype=np.float32)
 
     def finish(self, obs: np.ndarray, ended: np.ndarray | None, start_step: int) -> None:

@@ -11,7 +11,8 @@ of the previous API are special cases: :func:`train` (one seed, one environment)
 :func:`train_vector` (one seed, N environments) and :func:`train_shared` (K seeds, one
 environment each).
 
-Per vector step, for every seed: act (uniform random actions during the warm-up, then
+Per vector step, for every seed: act (uniform random actions during the warm-up, or the case's
+yardstick plus noise with ``yardstick_warmup``, cloned by the actor at the warm-up's end, then
 ``mu(s) + N(0, sigma^2)``), step, store each transition (the real final observation of an ended
 episode, ``terminated`` not ``done``), then one update per new transition past the warm-up; ended
 episodes are logged and their sub-environments reset with the seed's episode seeds
@@ -83,6 +84,7 @@ class GroupOptions:
     confirm_env_fn: Callable[[], gym.Env] | None = None
     hand_back: Callable[[], bool] | None = None
     confirm_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None
+    yardstick_fn: Callable[[], Any] | None = None
 
 
 def train_seeds(
@@ -146,6 +148,11 @@ def train_seeds(
             seeds go on from their folders with ``resume``, in any grouping, bit-identical to an
             uninterrupted run (see the equivalences above). How a sweep keeps an idle core busy
             (:mod:`elastica_magnetic_rl.sweep.rebalance`).
+        yardstick_fn: makes one hand-designed controller of the case (``act(obs)`` -> an action in
+            ``[-1, 1]^act_dim``, ``reset()`` at each episode start, ``state()``/``set_state()`` for
+            checkpoints inside episodes; e.g.
+            :class:`~elastica_magnetic_rl.envs.yardsticks.SteeringFieldPolicy`); needed by
+            configs with ``yardstick_warmup``, whose warm-up it plays (one per sub-environment).
 
     Returns the learner holding every seed in the order given, each at its end (a stopped seed
     at its stop; the update counter is then the last seed's; after a hand-back, where it was).
@@ -171,9 +178,9 @@ def train_seeds(
 
             return _without_done(same_settings, runs, configs, run_dirs, o.metadata, steps,
                                  (obs_dim, act_dim, act_space))
+        _check_yardstick(runs, o.yardstick_fn, obs_dim, act_dim)
         learner = _group_learner(runs, obs_dim, act_dim, act_space)
-        loop = GroupLoop(env, runs, learner, n, o.log_fn, o.eval_vec_env_fn, vec_env_fn,
-                         o.confirm_env_fn, o.hand_back, o.confirm_vec_env_fn)
+        loop = GroupLoop(env, runs, learner, dataclasses.replace(o, envs_per_seed=n), vec_env_fn)
         learner = loop.train(o.progress, o.eval_env_fn, o.progress_position, o.progress_desc)
         env = loop.env  # a smaller one once seeds have stopped
         if any(r.final_state is not None for r in runs):
@@ -200,6 +207,23 @@ def _check_group(run_dirs: Sequence[str | os.PathLike], k_seeds: int, n: int,
     if confirm_env_fn is None and any(r is not None and r.confirm for r in stop_rules or ()):
         raise ValueError("a stop rule with a confirmation (StopRule.confirm) needs confirm_env_fn "
                          "or confirm_vec_env_fn")
+
+
+def _check_yardstick(runs: list[SeedRun], yardstick_fn: Callable[[], Any] | None, obs_dim: int,
+                     act_dim: int) -> None:
+    """A warm-up the yardstick plays needs one whose observation and action are the
+    environment's (``ValueError`` naming what is missing, before any step)."""
+    cfg = runs[0].cfg
+    if not cfg.yardstick_warmup or runs[0].global_step >= cfg.learning_starts:
+        return
+    if yardstick_fn is None:
+        raise ValueError(f"yardstick_warmup {cfg.yardstick_warmup}: the warm-up is played by the "
+                         "case's yardstick, and none was given (yardstick_fn)")
+    probe = yardstick_fn()
+    if (probe.obs_dim, probe.act_dim) != (obs_dim, act_dim):
+        raise ValueError(f"the yardstick reads {probe.obs_dim} observation entries and writes "
+                         f"{probe.act_dim} action components; the environment has {obs_dim} and "
+                         f"{act_dim}")
 
 
 def _flat_spaces(env: gym.vector.VectorEnv, total: int) -> tuple[int, int, gym.spaces.Box]:

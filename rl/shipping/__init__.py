@@ -3,7 +3,8 @@
 (``msr policy generate``, ``baseline``, ``demo``), ``ship`` (``msr policy ship``, ``notes``),
 ``export`` (``msr policy export``), every seed as a policy folder (``seed_export``) and its report
 (``seed_report``), the model card, the checks of the shipped policies (``shipped``) and the
-hand-designed baseline (``baselines``). The shipped policies themselves are data in
+search of the hand-designed yardstick's best field (``baseline_sweep``; the yardsticks themselves are
+:mod:`elastica_magnetic_rl.envs.yardsticks`). The shipped policies themselves are data in
 ``rl/policies/``.
 
 The workflow of the paper's "Miscellaneous training tips": train a case's seeds

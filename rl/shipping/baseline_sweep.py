@@ -1,5 +1,5 @@
 """The yardstick that searches (``msr field baseline --case C`` without ``--period``): the rotating-field
-baseline (:class:`~elastica_magnetic_rl.shipping.baselines.RotatingFieldPolicy`) over a grid of
+baseline (:class:`~elastica_magnetic_rl.envs.yardsticks.RotatingFieldPolicy`) over a grid of
 periods and both directions, each in a worker process; the distance of each, the period the field
 actually turned at under the rate limit (:func:`elastica_magnetic.rotation.measure_rotation` on
 the played field), a table, a figure of distance against period, and the farthest one's files as
@@ -22,7 +22,7 @@ from elastica_magnetic.rotation import measure_rotation, min_rotation_period
 from elastica_magnetic.specfile import SPEC_FILE
 
 from ..cases.case import EVAL_DURATION, Case, case_from_dict, load_case
-from .baselines import RotatingFieldPolicy, rotating_amplitude
+from ..envs.yardsticks import RotatingFieldPolicy, rotating_amplitude
 from .generate import GENERATE_FILES, Pictures, generate
 
 __all__ = ["DEFAULT_PERIODS", "PERIOD_TOLERANCE", "achieved_period", "periods_that_turn",

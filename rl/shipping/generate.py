@@ -17,8 +17,8 @@ from elastica_magnetic.openloop import check_duration
 from elastica_magnetic.results import ResultExistsError, check_result_folder, result_folder
 
 from ..cases.tasks import GotoTask, ReachTask
+from ..envs.yardsticks import RotatingFieldPolicy
 from ..reports.figures import ROLLOUT_FIGURES
-from .baselines import RotatingFieldPolicy
 from .goto import goto_result, goto_target
 from .policy_files import (
     POLICIES_DIR,
@@ -79,7 +79,7 @@ def generate(
     """Generate a field waveform with a policy: accurate physics, field from zero, deterministic.
 
     ``policy`` is anything :func:`resolve_policy` accepts, a loaded policy, or a hand-designed
-    baseline such as :class:`~elastica_magnetic_rl.shipping.baselines.RotatingFieldPolicy`.
+    baseline such as :class:`~elastica_magnetic_rl.envs.yardsticks.RotatingFieldPolicy`.
     For a run folder (or its ``checkpoint.pt``), ``checkpoint`` picks the actor
     (:func:`~elastica_magnetic_rl.shipping.policy_runs.choose_actor`): ``"auto"`` evaluates the final
     actor and ``best.pt`` for ``duration`` s in the accurate physics from a zero field and uses the

@@ -74,7 +74,7 @@ def evaluate_ring(policy, duration: float | None = None, physics: str = "accurat
                   n_targets: int | None = None, targets: Any = None, progress: bool = False,
                   paths: list | None = None, workers: int = 1) -> list[dict[str, Any]]:
     """Roll ``policy`` (a loaded goto policy or
-    :class:`~elastica_magnetic_rl.shipping.baselines.SteeringFieldPolicy`) out to each target,
+    :class:`~elastica_magnetic_rl.envs.yardsticks.SteeringFieldPolicy`) out to each target,
     from the nominal start and a zero field, deterministically.
 
     Args:

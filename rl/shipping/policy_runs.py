@@ -19,8 +19,8 @@ from elastica_magnetic.io import atomic_write_json
 from ..cases.case import Case
 from ..cases.tasks import GotoTask, ReachTask
 from ..envs.env import make_env
+from ..envs.yardsticks import RotatingFieldPolicy
 from ..runfiles.rundir import CaseDir, RunDir, being_written_hint
-from .baselines import RotatingFieldPolicy
 from .policy_files import LoadedPolicy, resolve_policy
 
 __all__ = ["ActorChoice", "CHECKPOINT_CHOICES", "choose_actor", "choose_tip_reach_actor",

@@ -33,9 +33,9 @@ from elastica_magnetic.results import ResultExistsError
 
 from ..cases.case import Case
 from ..cases.tasks import GotoTask, ReachTask
+from ..envs.yardsticks import SteeringFieldPolicy
 from ..runfiles.provenance import machine_fingerprint
 from ..runfiles.rundir import CaseDir
-from .baselines import SteeringFieldPolicy
 from .generate import reach_metrics
 from .goto import evaluate_ring, goto_result, goto_target, ring_summary
 from .model_card import NOTES_SECTION, model_card, replace_card_section, seed_meets_target

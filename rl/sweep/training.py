@@ -150,6 +150,7 @@ def _train_seeds_of(job: GroupJob, case: Case, configs: list[Any], run_dirs: lis
     """:func:`~elastica_magnetic_rl.runner.loop.train_seeds` of a group job's seeds, with the
     case's environments (training, evaluation and the stop rule's confirmation)."""
     from ..envs.vector_env import make_vector_env
+    from ..envs.yardsticks import yardstick_controller
     from ..runner.loop import train_seeds
 
     train_seeds(functools.partial(make_vector_env, case, physics=job.physics,
@@ -168,7 +169,8 @@ def _train_seeds_of(job: GroupJob, case: Case, configs: list[Any], run_dirs: lis
                     make_vector_env, case, physics=rule.confirm, initial_field="zero",
                     duration=case.evaluation_duration),
                 hand_back=None if job.hand_back_file is None else functools.partial(
-                    os.path.exists, job.hand_back_file))
+                    os.path.exists, job.hand_back_file),
+                yardstick_fn=yardstick_controller(case))
 
 
 def default_layout(seeds: int, cases: int = 1, cpus: int | None = None) -> dict[str, int]:
@@ -281,6 +283,7 @@ def _plan_sweep(loaded: dict[str, Case], s: SweepSettings, r: _Resolved
     overrides = dict(s.config_overrides or {})
     configs = _seed_configs(loaded, seed_list, r.recipe, overrides)
     _warn_precision(configs[seed_list[0]])
+    _check_yardstick_warmup(loaded, configs[seed_list[0]])
     first = next(iter(loaded.values()))
     acting = _ActingChecks(configs[seed_list[0]], int(r.steps), int(s.envs), SettingSources(
         overrides, first.training.td3, first.source, r.steps_given, recipe=r.recipe),
@@ -293,6 +296,22 @@ def _plan_sweep(loaded: dict[str, Case], s: SweepSettings, r: _Resolved
                           backend=s.backend, envs_per_seed=int(s.envs), torch_threads_per_worker=threads,
                           recipe=r.recipe, stop_rules=stop_rules)
     return seed_list, groups, workers, configs, sweep
+
+
+def _check_yardstick_warmup(loaded: dict[str, Case], config: Any) -> None:
+    """A warm-up played by the yardstick (``yardstick_warmup``) needs a case whose yardstick is a
+    controller (``ValueError`` naming the cases without one, before any work)."""
+    from ..envs.yardsticks import yardstick_controller
+
+    if not config.yardstick_warmup:
+        return
+    without = [name for name, case in loaded.items() if yardstick_controller(case) is None]
+    if without:
+        raise ValueError(f"--set yardstick_warmup={config.yardstick_warmup}: the warm-up is played by "
+                         f"the case's hand-designed controller, and case(s) {', '.join(without)} have "
+                         "none (a goto case's steering field is one; a crawl's rotating field needs "
+                         "the period msr field baseline chooses, a catheter's steering law acts on "
+                         "its own environment): train without it")
 
 
 def _warn_precision(config: Any) -> None:

@@ -25,6 +25,15 @@ The three ingredients of TD3, all in :meth:`TD3.update`:
 
        L_actor = -mean Q1(s, tanh(u)) + lambda * mean(relu(|u| - 3)^2)
 
+Optionally (:attr:`TD3Config.yardstick_warmup` ``U > 0``) a run starts from demonstrations: the
+warm-up's transitions come from a hand-designed controller, and before the first TD3 update the
+actor clones them (``U`` steps of :meth:`TD3.clone_step`)::
+
+       L_clone = mean || tanh(MLP(s)) - a ||^2
+
+then the critics learn the clone's value (``U`` calls of :meth:`TD3.update` with the actor held,
+its targets set to the clone by :meth:`TD3.hold_actor_targets`).
+
 K seeds as one computation
 --------------------------
 :class:`TD3` holds the networks of ``K`` independent seeds *stacked*: every layer is a batch of K
@@ -185,6 +194,14 @@ class Hyperparameters:
     0.5: one update every second transition), the updates then due at the end of each vector step
     counted exactly (an accumulator of the unspent fraction, kept in the checkpoints); see
     :func:`update_ratio`."""
+    yardstick_warmup: int = 0
+    """Start from the case's yardstick (0, the paper's: a warm-up of uniform random actions). With
+    ``U > 0`` the warm-up's ``learning_starts`` transitions are played by the case's hand-designed
+    controller (its action plus the exploration noise), then, before TD3's first update, the actor
+    learns to copy the warm-up's actions (``U`` behaviour-cloning steps, :meth:`TD3.clone_step`) and
+    the critics learn that actor's value (``U`` critic updates with the actor held): TD3 then
+    improves a policy that already does what the yardstick does, instead of one from scratch (as
+    Hester et al. 2018 and Nair et al. 2018 start from demonstrations)."""
 
 
 @dataclass
@@ -260,7 +277,7 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
                              f"(updates per transition), got {ratio}")
         if float(ratio).is_integer():
             self.updates_per_step = int(ratio)
-        for name in ("learning_starts", "eval_every"):
+        for name in ("learning_starts", "eval_every", "yardstick_warmup"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         for name in ("exploration_noise", "policy_noise", "target_noise_clip", "noise_color",
@@ -270,6 +287,10 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value}")
         if self.noise_horizon < 2:
             raise ValueError(f"noise_horizon must be >= 2 steps, got {self.noise_horizon}")
+        if self.yardstick_warmup and self.learning_starts < self.batch_size:
+            raise ValueError(f"yardstick_warmup {self.yardstick_warmup} clones the warm-up's "
+                             f"transitions: learning_starts ({self.learning_starts}) must be at least "
+                             f"batch_size ({self.batch_size}) for a minibatch of them")
         if self.buffer_size < self.batch_size:
             raise ValueError(f"buffer_size ({self.buffer_size}) must be >= batch_size "
                              f"({self.batch_size}): a minibatch is drawn from the replay buffer, so "
@@ -520,9 +541,10 @@ class TD3:
         q1_next, q2_next = self._q(self.critic_target_net, next_obs, next_action, self.compute_dtype)
         return rewards + cfg.gamma * (1.0 - terminated) * torch.min(q1_next, q2_next)
 
-    def update(self, batches: list[Batch]) -> dict[str, torch.Tensor]:
+    def update(self, batches: list[Batch], train_actor: bool = True) -> dict[str, torch.Tensor]:
         """One TD3 gradient step of every seed, seed ``k`` on ``batches[k]``: the critics always;
-        every ``policy_delay``-th call also the actors and a Polyak update of all targets. Returns
+        every ``policy_delay``-th call also the actors (unless ``train_actor`` is false: the critics
+        then learn the value of the actors as they are) and a Polyak update of all targets. Returns
         each seed's losses as ``(K,)`` tensors (``critic_loss``, ``q1``, ``q2``, ``target_q`` and,
         on actor steps, ``actor_loss``)."""
         cfg, dtype = self.config, self.compute_dtype
@@ -540,7 +562,9 @@ class TD3:
 
         # delayed actor and target updates: the actor ascends Q1(s, mu(s)), the critic held fixed
         # (only the actors' gradients are asked for, so none is computed for the critics' weights)
-        if self.num_updates % cfg.policy_delay == 0:
+        if self.num_updates % cfg.policy_delay == 0 and not train_actor:
+            self._polyak(actors=False)
+        elif self.num_updates % cfg.policy_delay == 0:
             pre = self.actor_net(obs, dtype)
             mu = torch.tanh(pre)
             q1_mu = self.critic_net(torch.cat([obs, mu], dim=-1), dtype, members=slice(0, self.n_seeds))
@@ -553,14 +577,36 @@ class TD3:
             info["actor_loss"] = actor_loss.detach()
         return info
 
+    def clone_step(self, batches: list[Batch]) -> torch.Tensor:
+        """One behaviour-cloning step of every seed's actor, seed ``k`` on ``batches[k]``: the
+        actor's Adam descends the mean squared distance of its action to the action taken::
+
+            L_clone = mean || tanh(MLP(s)) - a ||^2
+
+        Returns each seed's loss, ``(K,)``. The critics and the targets are not touched
+        (:meth:`hold_actor_targets` sets the target actors to the clones)."""
+        obs, actions, _, _, _ = self._stack(batches)
+        mu = torch.tanh(self.actor_net(obs, self.compute_dtype))
+        loss = ((mu - actions) ** 2).mean(dim=(1, 2))
+        _step(self.actor_optimizer, torch.autograd.grad(loss.sum(), self.actor_params))
+        return loss.detach()
+
     @torch.no_grad()
-    def _polyak(self) -> None:
-        """theta' <- tau * theta + (1 - tau) * theta' for every target parameter, as three
-        multi-tensor operations (each product rounded, then the sum: the same floats as the
-        per-parameter expression, in a tenth of the calls)."""
+    def hold_actor_targets(self) -> None:
+        """The target actors set to the actors (after cloning: the critics then learn the clones'
+        value, not that of the initial networks)."""
+        self.actor_target_net.load_state_dict(self.actor_net.state_dict())
+
+    @torch.no_grad()
+    def _polyak(self, actors: bool = True) -> None:
+        """theta' <- tau * theta + (1 - tau) * theta' for every target parameter (the critics'
+        only when not ``actors``: a held actor's target stays its copy), as three multi-tensor
+        operations (each product rounded, then the sum: the same floats as the per-parameter
+        expression, in a tenth of the calls)."""
         tau = self.config.tau
-        params = self.actor_params + self.critic_params
-        targets = [*self.actor_target_net.parameters(), *self.critic_target_net.parameters()]
+        params = (self.actor_params if actors else []) + self.critic_params
+        targets = [*(self.actor_target_net.parameters() if actors else ()),
+                   *self.critic_target_net.parameters()]
         pulled = torch._foreach_mul(params, tau)
         torch._foreach_mul_(targets, 1.0 - tau)
         torch._foreach_add_(targets, pulled)

@@ -142,8 +142,8 @@ def test_the_yardsticks_period_uses_the_slower_axis(tmp_path, capsys):
     """S3: a planar spec with max_increment = [0.3, 0.1] mT: the field turned once per 3.75 s for
     a 2 s period while msr said the rate limit allowed 0.84 s."""
     from elastica_magnetic_rl.cases.case import load_case
+    from elastica_magnetic_rl.envs.yardsticks import RotatingFieldPolicy
     from elastica_magnetic_rl.shipping.baseline_sweep import achieved_period
-    from elastica_magnetic_rl.shipping.baselines import RotatingFieldPolicy
     from elastica_magnetic_rl.shipping.policy_runs import run_policy
 
     spec = _spec(tmp_path, capsys=capsys)

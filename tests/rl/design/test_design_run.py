@@ -14,7 +14,7 @@ import pytest
 from elastica_magnetic_rl.cases.case import case_from_dict, load_case
 from elastica_magnetic_rl.design.evaluate import Trial, run_trials
 from elastica_magnetic_rl.design.run import DesignError, DesignSettings, run_design
-from elastica_magnetic_rl.shipping.baselines import RotatingFieldPolicy
+from elastica_magnetic_rl.envs.yardsticks import RotatingFieldPolicy
 from elastica_magnetic_rl.shipping.policy_runs import run_policy
 from faults import Fault
 from hypothesis import HealthCheck, Phase, given, settings

@@ -169,7 +169,7 @@ def test_the_case_summary_names_the_axes_and_per_axis_limits():
 def test_the_rotating_field_yardstick_drives_a_three_axis_case():
     """Round 7, N20/N21: msr field baseline (and msr loop's yardstick) on an xyz case stopped with
     "action must have 3 components"; the yardstick now holds B_z at zero with the third pair."""
-    from elastica_magnetic_rl.shipping.baselines import RotatingFieldPolicy
+    from elastica_magnetic_rl.envs.yardsticks import RotatingFieldPolicy
 
     case = xyz_case(field_limit=[4e-3, 4e-3, 3e-3])
     policy = RotatingFieldPolicy(case, 1.0)

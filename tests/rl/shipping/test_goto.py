@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 from elastica_magnetic_rl.cases.case import case_from_dict, load_case
-from elastica_magnetic_rl.shipping.baselines import SteeringFieldPolicy
+from elastica_magnetic_rl.envs.yardsticks import SteeringFieldPolicy
 
 from elastica_magnetic.cli import main
 

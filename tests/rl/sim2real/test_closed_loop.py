@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from elastica_magnetic_rl.shipping.baselines import SteeringFieldPolicy
+from elastica_magnetic_rl.envs.yardsticks import SteeringFieldPolicy
 from elastica_magnetic_rl.shipping.goto import evaluate_ring
 from elastica_magnetic_rl.sim2real.closed_loop import SimulatedTracker, run_closed_loop
 
@@ -44,7 +44,7 @@ def test_impossible_trackers_are_refused_with_their_unit(kwargs, message):
 
 
 def test_the_closed_loop_is_for_a_goto_case():
-    from elastica_magnetic_rl.shipping.baselines import RotatingFieldPolicy
+    from elastica_magnetic_rl.envs.yardsticks import RotatingFieldPolicy
 
     with pytest.raises(ValueError, match="case 'm1-4mT' has the crawl task"):
         run_closed_loop(RotatingFieldPolicy("m1-4mT"), (0.01, 0.0), 0.1, "training")

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 from elastica_magnetic_rl.envs.env import MagneticCrawlerEnv
-from elastica_magnetic_rl.shipping.baselines import RotatingFieldPolicy
+from elastica_magnetic_rl.envs.yardsticks import RotatingFieldPolicy
 
 from elastica_magnetic import read_field_csv
 from elastica_magnetic.cli import main as msr
@@ -82,3 +82,44 @@ def test_a_period_that_aliases_under_the_control_rate_is_refused(period, capsys)
     assert msr(["field", "baseline", "--case", "m1-4mT", "--period", str(period), "--no-progress"]) == 2
     assert "--period: period" in capsys.readouterr().err
     assert RotatingFieldPolicy("m1-4mT", period=0.05).period == 0.05
+
+
+def test_the_steering_yardstick_resumes_from_its_state_as_if_never_stopped():
+    """A warm-up it plays may be checkpointed inside an episode (``yardstick_warmup``): from its
+    :meth:`state` a new controller acts as the first goes on, manoeuvre and turn phase included."""
+    from elastica_magnetic_rl.cases.case import load_case
+    from elastica_magnetic_rl.envs.yardsticks import SteeringFieldPolicy, yardstick_controller
+
+    case = load_case("m1-4mT-goto")
+    make = yardstick_controller(case)
+    first = make()
+    assert isinstance(first, SteeringFieldPolicy) and (first.obs_dim, first.act_dim) == (case.obs_dim, 3)
+    rng = np.random.default_rng(0)
+    layout = first.layout
+    observations = []
+    for k in range(300):  # the target ahead (a turn in place) then abeam (a walk), the field turning
+        obs = np.zeros(case.obs_dim, dtype=np.float32)
+        obs[layout["heading"]] = (1.0, 0.0)
+        obs[layout["target_offset"]] = (1.2, 0.1) if k < 150 else (0.1, 1.2)
+        obs[layout["field_amplitude"]] = 200 * 4e-3 * rng.uniform(0.5, 1.0)
+        obs[layout["field_angle"]] = rng.uniform(-math.pi, math.pi)
+        observations.append(obs)
+    actions = [first.act(o) for o in observations[:170]]
+    state = first.state()
+    json.dumps(state)  # plain numbers (a checkpoint loads with weights_only)
+    second = make()
+    second.set_state(state)
+    for obs in observations[170:]:
+        np.testing.assert_array_equal(first.act(obs), second.act(obs))
+    third = make()  # without the state: another manoeuvre's phase
+    assert any(not np.array_equal(first_action, third.act(obs))
+               for first_action, obs in zip(actions[100:], observations[100:170], strict=True))
+    assert yardstick_controller(load_case("m1-4mT")) is None
+
+
+def test_a_warm_up_from_a_case_without_a_controller_is_refused_before_any_work(tmp_path, capsys):
+    assert msr(["train", "--case", "m1-4mT", "--steps", "300", "--set", "yardstick_warmup=100",
+                "--out", str(tmp_path / "runs")]) == 2
+    err = capsys.readouterr().err
+    assert "--set yardstick_warmup=100" in err and "case(s) m1-4mT have none" in err
+    assert not (tmp_path / "runs").exists()

@@ -10,15 +10,20 @@ comparable with a learned policy's. A rotating field makes these robots roll (th
 plane turned toward the target at every step from the tracked position (the feedback an
 experimentalist with a camera would close), and the field ramped to zero once the robot is there.
 
-Both are functions of the observation alone (they read the field back from the observation's
-amplitude, angle and ``field_z``, the target from the goto task's blocks), so they run wherever a
-learned actor runs: ``msr field baseline`` writes the same files as ``msr policy generate``.
+Both act on the observation alone (the steering field also on the manoeuvre it is in): they read
+the field back from the observation's amplitude, angle and ``field_z``, the target from the goto
+task's blocks, so they run wherever a learned actor runs: ``msr field baseline`` writes the same
+files as ``msr policy generate``. A training may start from one (``yardstick_warmup``:
+:func:`yardstick_controller`).
 """
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,9 +32,9 @@ from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..cases.case import Case, load_case
 from ..cases.tasks import TARGET_OFFSET_SCALE, GotoTask
-from ..envs.env import OBSERVATION_SCALES, observation_layout
+from .env import OBSERVATION_SCALES, observation_layout
 
-__all__ = ["RotatingFieldPolicy", "SteeringFieldPolicy", "rotating_amplitude"]
+__all__ = ["RotatingFieldPolicy", "SteeringFieldPolicy", "rotating_amplitude", "yardstick_controller"]
 
 
 def _check_period(period: float, case: Case) -> None:
@@ -121,6 +126,16 @@ class RotatingFieldPolicy(_FieldReader):
         self.source = f"rotating field, {turn}, period {self.period:g} s"
         self.meta = {"period_s": self.period, "clockwise": self.clockwise}
 
+    def reset(self) -> None:
+        """A new episode (nothing to forget: the action is a function of the observation)."""
+
+    def state(self) -> dict[str, Any]:
+        """What it remembers between steps (nothing)."""
+        return {}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Restore a :meth:`state`."""
+
     def act(self, obs: NDArray[np.float32]) -> NDArray[np.float32]:
         """Normalised action in [-1, 1]^k (k: the case's axes) for one observation ``(obs_dim,)``;
         on three axes the z pair holds B_z at zero (the paper's field, in the x-y plane)."""
@@ -196,6 +211,18 @@ class SteeringFieldPolicy(_FieldReader):
         """A new episode: no manoeuvre under way."""
         self._step = 0
         self._walking: bool | None = None
+        self._turn_started = 0
+
+    def state(self) -> dict[str, Any]:
+        """What it remembers between steps: its step count, its manoeuvre (walking, turning or
+        none yet) and the step its turn started at."""
+        return {"step": int(self._step), "walking": None if self._walking is None else bool(self._walking),
+                "turn_started": int(self._turn_started)}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Restore a :meth:`state`."""
+        self._step, self._walking = int(state["step"]), state["walking"]
+        self._turn_started = int(state["turn_started"])
 
     def plane_bearing(self, forward: float, left: float) -> float:
         """The rotation plane's bearing in the robot's frame (rad) for a target ``forward``,
@@ -249,3 +276,13 @@ class SteeringFieldPolicy(_FieldReader):
         up = np.array([0.0, 1.0, 0.0])
         wanted = self.plane_amplitude(plane) * (math.cos(phase) * along + math.sin(phase) * up)
         return self._toward(field, wanted)
+
+
+def yardstick_controller(case: Case) -> Callable[[], Any] | None:
+    """What makes the case's hand-designed controller for a warm-up it plays
+    (:attr:`~elastica_magnetic_rl.td3.algorithm.TD3Config.yardstick_warmup`): a goto case's
+    :class:`SteeringFieldPolicy` with its defaults; ``None`` for a case without one (a crawl's
+    rotating field needs a period a sweep chooses: ``msr field baseline``)."""
+    if isinstance(case.task, GotoTask):
+        return functools.partial(SteeringFieldPolicy, case)
+    return None
