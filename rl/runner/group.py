@@ -219,8 +219,9 @@ class GroupLoop:
     def start_from_yardstick(self) -> None:
         """The end of a warm-up the yardstick played (``yardstick_warmup`` U): every seed's actor
         clones the warm-up's actions (U steps), its target actor is set to the clone, and the
-        critics learn the clone's value (U updates, the actor held); each seed then evaluates at
-        its next episode boundary, so ``best.pt`` starts from the clone."""
+        critics learn the clone's value (U updates, the actor held); each seed is then evaluated
+        (its own environment: the training's episodes go on), so ``best.pt`` starts from the
+        clone."""
         cfg, learner, runs = self.cfg, self.learner, self.runs
 
         def batches() -> list[Any]:
@@ -235,7 +236,7 @@ class GroupLoop:
         for k, run in enumerate(runs):
             run.writer.add_scalar("pretrain/clone_loss", float(clone_loss[k]), run.global_step)
             run.writer.add_scalar("pretrain/critic_loss", float(info["critic_loss"][k]), run.global_step)
-            run.evaluation.next_step = min(run.evaluation.next_step, run.global_step)
+        self.evaluate([k for k, run in enumerate(runs) if not run.stopped and run.evaluation.enabled])
 
     def log_episode_ends(self, ended: np.ndarray, terminated: np.ndarray,
                          truncated: np.ndarray) -> None:

@@ -88,9 +88,9 @@ def test_the_warm_up_is_the_yardstick_plus_noise_and_the_actor_starts_as_its_clo
         acted = torch.tanh(agent.actor.net(torch.as_tensor(obs))).numpy()
     assert float(np.abs(acted - shown).mean()) < 0.1  # the clone, 20 TD3 updates later
 
-    # the seed was evaluated at its first episode boundary after the cloning (not at 1000 steps)
+    # the seed was evaluated at once after the cloning (not at 1000 steps), and at the end
     evaluations = (tmp_path / "warm" / "evaluations.csv").read_text().splitlines()
-    assert evaluations[1].split(",")[0] == str(WARM_UP + 20)  # the boundary after step 121
+    assert [row.split(",")[0] for row in evaluations[1:]] == [str(WARM_UP + 1), str(WARM_UP + 20)]
     assert (tmp_path / "warm" / "best.pt").exists()
 
     # without the setting: uniform random actions, and an actor far from the controller
