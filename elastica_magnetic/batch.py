@@ -36,7 +36,6 @@ Units: those of the spec (SI for the presets): m, kg, s, N, T.
 
 from __future__ import annotations
 
-import functools
 import math
 from typing import Any
 
@@ -47,10 +46,7 @@ from elastica.external_forces import NoForces
 from elastica.memory_block.memory_block_rod import MemoryBlockCosseratRod
 from numpy.typing import ArrayLike, NDArray
 
-from . import _spatial_kernels as spatial_kernels
 from ._batch_clamp import BatchedClamp
-from ._batch_coils import BatchedCoils, loop_geometry
-from ._batch_dipoles import BatchedDipoles, dipole_paths
 from ._batch_kernels import (
     N_PARAMS,
     N_SCRATCH,
@@ -76,9 +72,7 @@ from ._batch_kernels import (
     first_unhealthy,
     robot_times,
 )
-from ._spatial_kernels import MOTION_SIZE
-from .actuation import MovedDipoleField
-from .forcing import FieldValueError, MagneticTorques
+from ._batch_sources import BatchedSources
 from .insertion import Advancer
 from .robot_spec import RobotSpec
 from .simulation import SimulationDivergedError, robot_rod, trajectory_row
@@ -291,17 +285,9 @@ class BatchedRobots:
         )
 
     def _attach_sources(self, sources: list[Any] | None) -> None:
-        """Each robot's source in space (``None`` for none): an arm's magnet joins the one kernel
-        of all arms, any other source gets its own forcing (:meth:`set_source`)."""
-        n_elements = self.spec.n_elements
-        self._spatial: dict[int, MagneticTorques] = {}  # robot -> the forcing of its source
-        self._moved: dict[int, MovedDipoleField] = {}  # robot -> its arm's magnet (one kernel for all)
-        self._coils = BatchedCoils(n_elements)  # robots under fixed coils (one kernel per coil set)
-        self._dipoles = BatchedDipoles(n_elements)  # robots under their own point dipole (one kernel)
-        self._moved_rows = (np.zeros((0, MOTION_SIZE)), np.zeros(0, dtype=np.int64),
-                            np.zeros(0, dtype=np.int64))
-        self._moved_scratch = (np.empty((3, n_elements)), np.empty((3, n_elements)),
-                               np.empty((3, 3, n_elements)))
+        """Each robot's source in space (``None`` for none), driven by kind
+        (:class:`~elastica_magnetic._batch_sources.BatchedSources`)."""
+        self._sources = BatchedSources(self)
         if sources is None:
             return
         if len(sources) != self.n_robots:
@@ -398,17 +384,8 @@ class BatchedRobots:
     def force(self, time: float) -> None:
         """What each time step adds to the block's external loads (N, N m) at the simulator's
         ``time`` (s): the spatial sources' force and torque first, then :meth:`apply_forcing`."""
-        if self._moved:
-            self._apply_moved_magnets(float(time))
-        if self._dipoles.sources:
-            robot_times(float(time), self._step_index, self.spec.dt, self._behind, self._times)
-            self._dipoles.apply(self._times, self._moments, self._node_start, self._elem_start,
-                                self._elem_end, self.block)
-        if self._coils.sources:
-            self._coils.apply(functools.partial(self._robot_time, float(time)), self._moments,
-                              self._node_start, self._elem_start, self._elem_end, self.block)
-        if self._spatial:
-            self._apply_sources(float(time))
+        if self._sources:
+            self._sources.apply(float(time))
         self.apply_forcing()
 
     def apply_forcing(self) -> None:
@@ -416,30 +393,6 @@ class BatchedRobots:
         gravity and ground contact added to the block's external loads (N, N m) (public for
         benchmarks: step the simulator with :meth:`step`)."""
         block_forcing(*self._kernel_args)
-
-    def _apply_sources(self, time: float) -> None:
-        """Each source's force and torque on its robot at the robot's own time (a robot reset
-        since the block started runs on its own clock)."""
-        for i, forcing in self._spatial.items():
-            robot_time = self._robot_time(time, self.step_count - int(self.robot_step_count[i]))
-            rod = self.rods[i]
-            forcing.apply_forces(rod, robot_time)
-            forcing.apply_torques(rod, robot_time)
-
-    def _apply_moved_magnets(self, time: float) -> None:
-        """The force and torque of every robot's arm-moved magnet, in one kernel call."""
-        motions, robots, behind = self._moved_rows
-        block = self.block
-        times = self._robot_time(time, behind)
-        bad = spatial_kernels.moved_dipoles_forcing(
-            motions, robots, times, self._moments, self._node_start,
-            self._elem_start, self._elem_end, block.position_collection, block.director_collection,
-            block.external_forces, block.external_torques, *self._moved_scratch)
-        if bad >= 0:
-            k, element = divmod(bad, self.spec.n_elements)
-            raise FieldValueError(
-                f"robot {int(robots[k])}: its magnet (MagnetPose) gave a non-finite B (T) or gradient "
-                f"(T/m) at element {element} at t = {time:.6g} s (the magnet on the rod?)")
 
     def _robot_time(self, time: float, behind: Any) -> Any:
         """The time (s) a robot ``behind`` steps behind the block's clock (reset since it started)
@@ -476,60 +429,15 @@ class BatchedRobots:
         else:
             clamp.constrain_values(self.block, self._times)
 
-    def _gather_moved_magnets(self) -> None:
-        """Each arm's motion over the coming steps (set by its ``apply`` between steps), and how many
-        steps each robot is behind the block's clock, for :meth:`_apply_moved_magnets`."""
-        robots = np.fromiter(self._moved, dtype=np.int64, count=len(self._moved))
-        motions = np.array([self._moved[int(i)].magnet.motion for i in robots]).reshape(-1, MOTION_SIZE)
-        self._moved_rows = (motions, robots, self.step_count - self.robot_step_count[robots])
-
     def set_source(self, i: int, source: Any) -> None:
         """Drive robot ``i`` by a source that varies in space (``None``: by its uniform row
         alone). See ``sources`` in the class docstring."""
-        if not 0 <= i < self.n_robots:
-            raise IndexError(f"robot index {i} out of range for {self.n_robots} robots")
-        if source is None:
-            self._spatial.pop(i, None)
-            self._moved.pop(i, None)
-            self._coils.remove(i)
-            self._dipoles.remove(i)
-            return
-        if not is_spatial(source):
-            raise TypeError(f"robot {i}: a source must vary in space (at(points, time), "
-                            f"gradient(points, time)); got {type(source).__name__} (a uniform "
-                            "field goes in the robot's row of fields)")
-        if self.spec.units.factor("length") != 1.0:
-            raise ValueError(f"a spatial field source works in SI (m, T); the spec is in "
-                             f"{self.spec.units.name}: build it in SI")
-        self._spatial.pop(i, None)
-        self._moved.pop(i, None)
-        self._coils.remove(i)
-        self._dipoles.remove(i)
-        geometry, paths = loop_geometry(source), dipole_paths(source)
-        if isinstance(source, MovedDipoleField):
-            self._moved[i] = source
-        elif geometry is not None:
-            self._coils.add(i, source, geometry)
-        elif paths is not None:
-            self._dipoles.add(i, source, paths)
-        else:
-            self._spatial[i] = self._source_forcing(i, source)
-
-    def _source_forcing(self, i: int, source: Any) -> MagneticTorques:
-        """The forcing of ``source`` on robot ``i``: its magnetization taken into the material
-        frame of the robot's initial configuration (as a fresh simulation's first call does,
-        wherever the robot is now)."""
-        initial = np.einsum("ijk,jk->ik", self._initial_state[i]["director_collection"],
-                            np.asarray(self.specs[i].magnetization, dtype=np.float64))
-        return MagneticTorques(source, initial, frame="material")
+        self._sources.set(i, source)
 
     @property
     def sources(self) -> list[Any]:
         """Each robot's spatial source (``None``: its uniform row alone)."""
-        coils, dipoles = self._coils.sources, self._dipoles.sources
-        return [self._moved[i] if i in self._moved else coils[i] if i in coils else
-                dipoles[i] if i in dipoles else self._spatial[i].field if i in self._spatial else None
-                for i in range(self.n_robots)]
+        return self._sources.sources
 
     @property
     def kernel_arguments(self) -> tuple[Any, ...]:
@@ -598,12 +506,9 @@ class BatchedRobots:
         """
         simulator, step, dt = self.simulator, self.stepper.step, self.spec.dt
         start = self.step_count
-        if self._moved:
-            self._gather_moved_magnets()
         # how many steps each robot is behind the block's clock: fixed while these steps run
         self._behind = self.step_count - self.robot_step_count
-        if self._coils.sources:
-            self._coils.gather(self._behind)
+        self._sources.gather(self._behind)
         if self._clamp is not None:
             self._clamp.gather()
         for k in range(n_steps):
@@ -674,8 +579,7 @@ class BatchedRobots:
         self.reset_robot(i)
         self._moments[:, self._elem_start[i] : self._elem_end[i]] = self._robot_moments(i, spec)
         self._params[i] = params
-        if i in self._spatial:  # its source now acts on the new robot's magnetization
-            self._spatial[i] = self._source_forcing(i, self._spatial[i].field)
+        self._sources.respecified(i)
 
     def reset_robot(self, i: int) -> None:
         """Put robot ``i`` back in its initial state (the others are untouched).

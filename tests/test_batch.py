@@ -481,7 +481,7 @@ def test_batched_catheters_under_coil_currents_match_per_rod_simulations_bit_for
     twins = [CoilCurrents(_coils(), current_limit=2.0, max_slew=100.0) for _ in range(3)]
     robots = BatchedRobots(spec, n_robots=3, sources=[a.source for a in actuators], clamp=True)
     assert loop_geometry(actuators[0].source) is not None  # the kernel's path, not a call per robot
-    assert not robots._spatial and robots.sources == [a.source for a in actuators]
+    assert not robots._sources.general and robots.sources == [a.source for a in actuators]
     sims = [build_simulation(spec, twin.source, clamp=True) for twin in twins]
     rng = np.random.default_rng(5)
     for step in range(24):  # 0.24 s of 0.01 s control steps
@@ -517,7 +517,7 @@ def test_coils_that_move_or_play_a_waveform_take_the_general_path_and_a_wire_is_
     wire = CoilCurrents([CurrentLoopField(0.005, centre=(0.0275, 0.0, -0.005), axis=(0.0, 1.0, 0.0))], 1.0)
     wire.apply([1.0], 0.0, 0.01)
     robots = BatchedRobots(spec, n_robots=2, sources=[None, wire.source], clamp=True)
-    assert not robots._spatial
+    assert not robots._sources.general
     with pytest.raises(SpatialFieldError, match=r"robot 1: .*lies on the wire of current loop 0"):
         robots.step(1)
 
@@ -572,7 +572,7 @@ def test_point_dipoles_are_one_kernel_call_and_follow_the_per_rod_simulations_bi
 
     batch_sources, twins = sources(), sources()
     robots = BatchedRobots(spec, n_robots=4, sources=batch_sources)
-    assert sorted(robots._dipoles.sources) == [0, 1, 2] and list(robots._spatial) == [3]
+    assert sorted(robots._sources.dipoles.sources) == [0, 1, 2] and list(robots._sources.general) == [3]
     sims = [build_simulation(spec, source) for source in twins]
     for step in range(30):
         if step == 12:
@@ -585,7 +585,7 @@ def test_point_dipoles_are_one_kernel_call_and_follow_the_per_rod_simulations_bi
         _assert_same_state(robots.rod(i), sim.rod, f"robot {i}")
     assert robots.sources == batch_sources
     robots.set_source(0, None)
-    assert sorted(robots._dipoles.sources) == [1, 2] and robots.sources[0] is None
+    assert sorted(robots._sources.dipoles.sources) == [1, 2] and robots.sources[0] is None
 
 
 def test_a_dipole_on_a_batched_rod_is_named():
