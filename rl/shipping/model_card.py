@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..cases.case import Case, randomize_table
+from ..cases.case import Case
+from ..cases.training_tables import randomize_table
 
 __all__ = ["model_card", "seed_meets_target", "card_section", "replace_card_section", "NOTES_SECTION"]
 

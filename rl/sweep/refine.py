@@ -15,7 +15,8 @@ from typing import TYPE_CHECKING, Any
 from elastica_magnetic.io import atomic_write_json
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
-from ..cases.case import Case, case_from_metadata, load_case, randomize_table
+from ..cases.case import Case, case_from_metadata, load_case
+from ..cases.training_tables import randomize_table
 from ..cases.variations import VariationError, default_variations, physical_differences
 from ..runfiles.checkpoint import checkpoint_metadata
 from ..runfiles.locking import held_run_folders, mark_run_folder
