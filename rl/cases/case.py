@@ -124,6 +124,7 @@ CASE_UNITS: dict[tuple[str, str], str] = {
     ("task", "target_box"): "m, [[xmin, ymin, zmin], [xmax, ymax, zmax]]",
     ("training", "steps"): "environment steps per seed",
     ("yardstick", "distance_10s"): "m in 10 s, accurate physics, field from zero",
+    ("yardstick", "period"): "s, one turn of the rotating field that made distance_10s",
 }
 
 
@@ -195,6 +196,18 @@ class Yardstick:
 
     distance_10s: float = 0.0
     source: str = ""
+    #: The rotating field that made ``distance_10s``: its period (s; ``None``: not recorded) and
+    #: sense (clockwise seen from +z rolls the robot toward +x). A training may start from it
+    #: (``yardstick_warmup``).
+    period: float | None = None
+    clockwise: bool = True
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data; the field's keys only where its period is recorded."""
+        out: dict[str, Any] = {"distance_10s": self.distance_10s, "source": self.source}
+        if self.period is not None:
+            out.update(period=self.period, clockwise=self.clockwise)
+        return out
 
 
 @dataclass(frozen=True)
@@ -317,7 +330,7 @@ class Case:
             "actuation": self.actuation.to_dict(),
             "task": self.task.to_dict(),
             "training": training,
-            "yardstick": dataclasses.asdict(self.yardstick),
+            "yardstick": self.yardstick.to_dict(),
             **({} if self.design is None else {DESIGN_TABLE: self.design.to_dict()}),
         })
 
@@ -550,7 +563,16 @@ def _yardstick(t: SpecTable | None, robot_length: float) -> Yardstick:
     if t is None:
         return Yardstick()
     out = Yardstick(distance_10s=t.number("distance_10s", "m", 0.0, low=0.0),
-                    source=t.string("source", ""))
+                    source=t.string("source", ""),
+                    period=t.number("period", "s", None, low=0.0, low_open=True),
+                    clockwise=t.boolean("clockwise", True))
+    if out.period is not None and out.period <= 2 * ACTION_PERIOD:
+        raise t.error("period", f"{out.period:g} s is at or under 2 x the {ACTION_PERIOD:g} s control "
+                                f"period: no field the coils play turns that fast ({1e3 * out.period:g} "
+                                "ms written as s?)")
+    if t.has("clockwise") and out.period is None:
+        raise t.error("clockwise", "the sense of a rotating field without its period: give period "
+                                   "(s) too, or leave clockwise out")
     lengths = out.distance_10s / robot_length
     if lengths > MAX_YARDSTICK_BODY_LENGTHS:
         hint = (f"; it looks like mm written where m is expected ({out.distance_10s:g} mm is "

@@ -149,7 +149,8 @@ def _best_case(design, x, best: dict[str, Any], settings, name: str):
             "source": (f"msr design: the best rotating field of the designed robot, {turn}, period "
                        f"{best['period_s']:.4g} s, {1e3 * best['distance_m']:+.1f} mm in "
                        f"{settings.final_duration:g} s, {settings.final_physics} physics, field from zero"
-                       + ("" if measured else " (a smoke run's stand-in, not a yardstick)"))}
+                       + ("" if measured else " (a smoke run's stand-in, not a yardstick)")),
+            "period": float(best["period_s"]), "clockwise": bool(best["clockwise"])}
     return case_from_dict(spec, "best.toml", name)
 
 

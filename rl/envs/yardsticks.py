@@ -281,8 +281,11 @@ class SteeringFieldPolicy(_FieldReader):
 def yardstick_controller(case: Case) -> Callable[[], Any] | None:
     """What makes the case's hand-designed controller for a warm-up it plays
     (:attr:`~elastica_magnetic_rl.td3.algorithm.TD3Config.yardstick_warmup`): a goto case's
-    :class:`SteeringFieldPolicy` with its defaults; ``None`` for a case without one (a crawl's
-    rotating field needs a period a sweep chooses: ``msr field baseline``)."""
+    :class:`SteeringFieldPolicy` with its defaults; a crawl or reach case's
+    :class:`RotatingFieldPolicy` at its ``[yardstick]`` ``period`` and sense (what ``msr field
+    baseline --set-yardstick`` and ``msr loop`` record); ``None`` for a case without one."""
     if isinstance(case.task, GotoTask):
         return functools.partial(SteeringFieldPolicy, case)
+    if case.yardstick.period is not None and case.field_actuated:
+        return functools.partial(RotatingFieldPolicy, case, case.yardstick.period, case.yardstick.clockwise)
     return None

@@ -214,8 +214,8 @@ def yardstick_spec(case: Case, best: dict[str, Any], path: str | Path, *,
                    force: bool = False, physics: str = "accurate",
                    duration: float = EVAL_DURATION, source: str | None = None) -> Path:
     """Write a copy of ``case``'s spec to ``path`` (TOML, units in comments) with ``best``'s
-    distance (m, from a 10 s accurate-physics run) as ``[yardstick] distance_10s`` and a
-    ``source`` saying which baseline it is. An existing file is replaced only with ``force``
+    distance (m, from a 10 s accurate-physics run) as ``[yardstick] distance_10s``, its field
+    (``period``, s, and ``clockwise``) and a ``source`` saying which baseline it is. An existing file is replaced only with ``force``
     (:func:`elastica_magnetic.filesets.result_file`). ``physics`` and ``duration`` (s) are what
     ``best`` was measured in: anything but 10 s of the accurate physics (a smoke run of ``msr
     loop --quick``) is written into the ``source`` as not a yardstick, so the file never claims
@@ -229,6 +229,7 @@ def yardstick_spec(case: Case, best: dict[str, Any], path: str | Path, *,
                   f"{best['period_s']:g} s (turned once per {best['period_achieved_s']:.4g} s), "
                   f"{1e3 * best['mid_dx_m']:+.1f} mm in {duration:g} s, {physics} physics, field "
                   "from zero",
+        "period": float(best["period_s"]), "clockwise": bool(best["clockwise"]),
     }
     if source is None and (physics != "accurate" or abs(duration - EVAL_DURATION) > 1e-9):
         spec["yardstick"]["source"] += " (a smoke run's stand-in, not a yardstick)"

@@ -309,9 +309,10 @@ def _check_yardstick_warmup(loaded: dict[str, Case], config: Any) -> None:
     if without:
         raise ValueError(f"--set yardstick_warmup={config.yardstick_warmup}: the warm-up is played by "
                          f"the case's hand-designed controller, and case(s) {', '.join(without)} have "
-                         "none (a goto case's steering field is one; a crawl's rotating field needs "
-                         "the period msr field baseline chooses, a catheter's steering law acts on "
-                         "its own environment): train without it")
+                         "none (a goto case's steering field is one; a crawl's rotating field is one "
+                         "once its [yardstick] period is recorded: msr field baseline --case CASE "
+                         "--set-yardstick FILE writes it; a catheter's steering law acts on its own "
+                         "environment): train without it")
 
 
 def _warn_precision(config: Any) -> None:

@@ -70,6 +70,7 @@ def test_set_yardstick_writes_a_spec_copy(tmp_path, capsys):
     path = yardstick_spec(case, best, tmp_path / "mine.toml")
     copy = load_case(path)
     assert copy.yardstick.distance_10s == 0.0421 and "period 3 s" in copy.yardstick.source
+    assert (copy.yardstick.period, copy.yardstick.clockwise) == (3.0, True)  # the field, to start from
     assert copy.robot.tables == case.robot.tables and copy.name == "mine"
     # a spec that names itself keeps its name in the copy (it was dropped)
     own = tmp_path / "own.toml"
