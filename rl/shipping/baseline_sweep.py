@@ -215,8 +215,8 @@ def yardstick_spec(case: Case, best: dict[str, Any], path: str | Path, *,
                    duration: float = EVAL_DURATION, source: str | None = None) -> Path:
     """Write a copy of ``case``'s spec to ``path`` (TOML, units in comments) with ``best``'s
     distance (m, from a 10 s accurate-physics run) as ``[yardstick] distance_10s``, its field
-    (``period``, s, and ``clockwise``) and a ``source`` saying which baseline it is. An existing file is replaced only with ``force``
-    (:func:`elastica_magnetic.filesets.result_file`). ``physics`` and ``duration`` (s) are what
+    (``period``, s, and ``clockwise``) and a ``source`` saying which baseline it is. An existing
+    file is replaced only with ``force`` (:func:`elastica_magnetic.filesets.result_file`). ``physics`` and ``duration`` (s) are what
     ``best`` was measured in: anything but 10 s of the accurate physics (a smoke run of ``msr
     loop --quick``) is written into the ``source`` as not a yardstick, so the file never claims
     what was not measured. ``source``: the ``source`` written instead (a distance that is not
