@@ -213,14 +213,14 @@ def _sweep_figure(path: Path, runs: list[dict[str, Any]], best: dict[str, Any], 
 def yardstick_spec(case: Case, best: dict[str, Any], path: str | Path, *,
                    force: bool = False, physics: str = "accurate",
                    duration: float = EVAL_DURATION, source: str | None = None) -> Path:
-    """Write a copy of ``case``'s spec to ``path`` (TOML, units in comments) with ``best``'s
-    distance (m, from a 10 s accurate-physics run) as ``[yardstick] distance_10s``, its field
-    (``period``, s, and ``clockwise``) and a ``source`` saying which baseline it is. An existing
-    file is replaced only with ``force`` (:func:`elastica_magnetic.filesets.result_file`). ``physics`` and ``duration`` (s) are what
-    ``best`` was measured in: anything but 10 s of the accurate physics (a smoke run of ``msr
-    loop --quick``) is written into the ``source`` as not a yardstick, so the file never claims
-    what was not measured. ``source``: the ``source`` written instead (a distance that is not
-    ``best``'s sweep, e.g. the spec's own standing in for a smoke run)."""
+    """Write a copy of ``case``'s spec to ``path`` (TOML, units in comments) with ``best``'s distance
+    (m, from a 10 s accurate-physics run) as ``[yardstick] distance_10s``, its field (``period``, s, and
+    ``clockwise``) and a ``source`` saying which baseline it is. An existing file is replaced only with
+    ``force`` (:func:`elastica_magnetic.filesets.result_file`). ``physics`` and ``duration`` (s) are
+    what ``best`` was measured in: anything but 10 s of the accurate physics (a smoke run of ``msr loop
+    --quick``) is written into the ``source`` as not a yardstick, so the file never claims what was not
+    measured. ``source``: the ``source`` written instead (a distance that is not ``best``'s sweep, e.g.
+    the spec's own standing in for a smoke run)."""
     spec = case.to_dict()
     turn = "clockwise" if best["clockwise"] else "counter-clockwise"
     spec["yardstick"] = {
