@@ -302,7 +302,9 @@ def replace_files(
             raise ResultExistsError(f"{option} {display_path(folder)}: already holds "
                                     f"{', '.join(existing)}; pass "
                                     f"{force_option} to replace, or choose another {option}")
-        _refuse_unrecorded(folder, existing, adopt, option, force_option)
+        # the files it removes are replaced too: a file of the user's among them is refused alike
+        removing = [n for n in remove if (folder / n).exists()]
+        _refuse_unrecorded(folder, existing + removing, adopt, option, force_option)
         staging = folder / f"{_PREFIX}{name_tag(host_name())}-{os.getpid()}-{os.urandom(3).hex()}"
         try:
             os.mkdir(staging)

@@ -152,7 +152,14 @@ def test_killed_at_any_point_the_set_is_old_or_new_after_recovery(tmp_path, sign
 
 def test_files_the_new_set_lacks_are_removed_in_the_same_commit(tmp_path, monkeypatch):
     folder = shared(tmp_path)
-    (folder / "critic.pt").write_bytes(b"the old set's optional file")
+    (folder / "critic.pt").write_bytes(b"a file of the user's under a name of the set")
+    before = contents(folder)
+    with pytest.raises(ResultExistsError, match="critic.pt: not written by msr"):  # round 16 D1
+        with replace_files(folder, NAMES, force=True, remove=["critic.pt"]):
+            pytest.fail("the block must not run")
+    assert contents(folder) == before
+    with replace_files(folder, ["critic.pt"], force=True, adopt=True) as files:  # the old set's, recorded
+        (files.path / "critic.pt").write_bytes(b"the old set's optional file")
     with pytest.raises(ValueError, match="fig.png both written and removed"):
         with replace_files(folder, NAMES, force=True, remove=["fig.png"]):
             pytest.fail("the block must not run")

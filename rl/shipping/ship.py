@@ -182,8 +182,11 @@ def _check_card_recorded(target: Path) -> None:
 
 
 def _holds_a_policy(folder: Path) -> bool:
-    """Whether ``folder`` holds a shipped policy (a readable ``policy.json``): its files are msr's
-    own, also when written before msr recorded the files it writes (``--force`` replaces them)."""
+    """Whether ``folder`` holds a shipped policy written before msr recorded the files it writes (a
+    readable ``policy.json`` and no record): its files are then adopted as msr's own (``--force``
+    replaces them). A folder with a record is judged by it: a file it does not list is the user's."""
+    if recorded_files(folder):
+        return False
     try:
         read_policy_json(folder / POLICY_JSON)
     except (OSError, ValueError):

@@ -347,3 +347,20 @@ def test_ship_force_keeps_a_model_card_msr_has_no_record_of(trained, tmp_path, c
     card.unlink()
     assert msr(args) == 0  # the rest adopted and replaced
     assert "hand-written" not in card.read_text()
+
+
+def test_round16_d1_ship_force_keeps_a_file_of_the_users_in_the_policy_folder(trained, tmp_path, capsys):
+    """Round 16 D1: `ship --force` into a policy folder with msr's record removed a fields.csv the
+    user had put there (the new policy, not measured, has none: msr removes the replaced policy's
+    files the new one lacks, and took every file of a policy's names as its own)."""
+    run = str(trained / "m1-4mT" / "seed0")
+    dest = tmp_path / "shipD"
+    args = ["policy", "ship", run, "--name", "p", "--out", str(dest), "--no-measure"]
+    run_msr(capsys, *args)
+    (dest / "p" / "fields.csv").write_text("t,my,own,waveform\n")
+    before = snapshot(dest / "p")
+    assert msr([*args, "--force"]) == 2
+    assert "fields.csv: not written by msr" in capsys.readouterr().err
+    assert snapshot(dest / "p") == before and not leftovers(dest / "p")
+    (dest / "p" / "fields.csv").unlink()  # moved away: the re-ship goes on
+    assert msr([*args, "--force"]) == 0
