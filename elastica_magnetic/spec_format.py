@@ -246,6 +246,9 @@ def read_spec(path: str | Path) -> dict[str, Any]:
                     "e.g. a Latin-1 character)")
         raise SpecError(f"{path}: not UTF-8 text: saved in {encoding}; a spec file (TOML) is UTF-8: "
                         "save it as UTF-8 in your editor") from None
+    except IsADirectoryError:
+        raise SpecError(f"{path}: a folder, not a spec file: give a shipped case's name or a spec "
+                        "file (.toml)") from None
     except OSError as exc:
         raise SpecError(f"{path}: cannot be read as a spec file ({exc})") from None
     problem = byte_order_mark_problem(path, text)

@@ -68,7 +68,7 @@ from .coil_actuation import coil_array_from_table
 from .design_space import DESIGN_TABLE, DesignSpace, design_space
 from .steered import ACTUATION_KINDS, SteeringActuation, check_steered_reach
 from .task_tables import MAX_YARDSTICK_BODY_LENGTHS, task_from_table
-from .tasks import GotoTask, ReachTask, Task, TipReachTask
+from .tasks import TASK_KINDS, GotoTask, ReachTask, Task, TipReachTask
 from .training_tables import Training, randomize_table, training_from_table
 from .variations import (
     Variation,
@@ -416,8 +416,11 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     _check_sideways_model(actuation, robot, spec, source)
     length = float(robot.tables["robot"]["length"])
     stage = actuation.insertion if isinstance(actuation, SteeringActuation) else None
+    task_table = spec.get("task")
+    kind = task_table.get("kind") if isinstance(task_table, Mapping) else None
+    if isinstance(kind, str) and kind in TASK_KINDS:  # the pairing first: the keys suit the actuation
+        _check_task_and_actuation(kind, actuation, source)
     task = task_from_table(top.table("task"), length, length + (stage[1] if stage else 0.0))
-    _check_task_and_actuation(task, actuation, source)
     if isinstance(actuation, SteeringActuation):
         check_steered_reach(SpecTable(spec["actuation"], source, "actuation", accepted_keys(spec, source)),
                             actuation, robot.robot("accurate"), task.target_box, task.episode_duration)
@@ -444,19 +447,19 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     return Case(name, description, robot, actuation, task, training, yardstick, source, design)
 
 
-def _check_task_and_actuation(task: Task, actuation: Actuation | SteeringActuation, source: str) -> None:
-    """A tip-reach task goes with a steering actuation (a magnet arm, coil currents), the crawler
-    tasks with a field: the other pairs are refused, naming both."""
-    steered, tip = isinstance(actuation, SteeringActuation), isinstance(task, TipReachTask)
+def _check_task_and_actuation(kind: str, actuation: Actuation | SteeringActuation, source: str) -> None:
+    """A tip-reach task (``[task] kind``) goes with a steering actuation (a magnet arm, coil
+    currents), the crawler tasks with a field: the other pairs are refused, naming both."""
+    steered, tip = isinstance(actuation, SteeringActuation), kind == TipReachTask.kind
     if steered and not tip:
-        raise SpecError(f"{source}: [task] kind = {task.kind!r} is a crawler's task (a uniform field "
+        raise SpecError(f"{source}: [task] kind = {kind!r} is a crawler's task (a uniform field "
                         f"moves the robot on its ground); [actuation] kind = \"{actuation.kind}\" "
                         "steers a clamped rod's tip: set [task] kind = \"tip-reach\"")
     if tip and not steered:
         raise SpecError(f"{source}: [task] kind = \"tip-reach\" steers a clamped rod's tip with a "
                         "source: set [actuation] kind = \"magnet-pose\" (a magnet on an arm: its moment, "
                         "position, direction, workspace) or \"coil-currents\" (fixed coils)")
-    if isinstance(task, GotoTask) and actuation.axes != "xyz":
+    if kind == GotoTask.kind and actuation.axes != "xyz":
         raise SpecError(f"{source}: [task] kind = \"goto\" needs the third coil pair: a field "
                         f"confined to the x-y plane (axes = {actuation.axes!r}) moves the robot "
                         "only along its line; set [actuation] axes = \"xyz\"")

@@ -43,9 +43,11 @@ class NotFieldActuatedError(ValueError):
 
 def field_only_refusal(case: str, kind: str, needs: str = "") -> str:
     """The message of a command that plays a uniform field given ``case``, steered by a source of
-    ``kind`` (``needs``: what it asked of the case, e.g. ``"a field_limit"``)."""
+    ``kind`` (``needs``: what it asked of the case, e.g. ``"a field_limit"``; ``case`` empty where
+    the caller does not know the case's name)."""
     asked = f" (it asks the case for {needs})" if needs else ""
-    return (f"{case}: [actuation] kind = \"{kind}\" steers a rod clamped at its base by a source; this "
+    where = f"{case}: " if case else "a case whose "
+    return (f"{where}[actuation] kind = \"{kind}\" steers a rod clamped at its base by a source; this "
             f"command plays a uniform field (the paper's coils), so it does not apply{asked}: such a case "
             "trains with msr train --case and is judged on held-out targets (docs/steering_catheter.md)")
 
@@ -86,7 +88,7 @@ class SteeringActuation:
 
     def __getattr__(self, name: str) -> Any:
         if name in _FIELD_ACTUATION_NAMES:
-            raise NotFieldActuatedError(field_only_refusal("the case", self.kind, f"its {name}"))
+            raise NotFieldActuatedError(field_only_refusal("", self.kind, f"its {name}"))
         raise AttributeError(name)
 
 

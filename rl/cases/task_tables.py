@@ -223,8 +223,9 @@ def _tip_reach_values(t: SpecTable, d: TipReachTask, rod_length: float, length: 
         "speed_penalty": t.number("speed_penalty", "1", d.speed_penalty, low=0.0),
     }
     if values["tolerance"] >= length:
-        raise t.error("tolerance", f"{values['tolerance']:g} m is the rod's length ({length:g} m) or more: "
-                      "every tip would count as on target (mm written as m?)")
+        raise t.error("tolerance", f"{values['tolerance']:g} m is the rod's reach ({length:g} m from its "
+                      "base, a stage's travel included) or more: every tip would count as on target "
+                      "(mm written as m?)")
     # the farthest a target can be from the straight tip at the start, (rod_length, 0, 0)
     idle = max(math.dist((rod_length, 0.0, 0.0), (x, y, z)) for x in (low[0], high[0])
                for y in (low[1], high[1]) for z in (low[2], high[2]))

@@ -327,6 +327,11 @@ def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10
         if not given.is_file():
             raise FileNotFoundError(f"--checkpoint {checkpoint}: no such checkpoint file (or auto, "
                                     "final, best)")
+        own, other = resolve_policy(run).case.name, resolve_policy(given).case.name
+        if own != other:  # another case's actor would be played on this run's robot
+            raise ValueError(f"--checkpoint {checkpoint}: a checkpoint of case {other!r}, not of "
+                             f"{run}'s case {own!r}: give one of this run's checkpoints (or auto, "
+                             "final, best), or play that checkpoint itself")
         return ActorChoice(given, "given", "asked")
     if not is_run:
         if checkpoint == "auto":

@@ -379,7 +379,8 @@ def set_notes(policy: str | Path, notes: str | None,
         card = replace_card_section(card_path.read_text(), NOTES_SECTION, notes,
                                     before="## Limitations")
     names = [POLICY_JSON, *(["MODEL_CARD.md"] if card is not None else [])]
-    with replace_files(folder, names, force=True, option="policy", adopt=True) as files:
+    with replace_files(folder, names, force=True, option="policy", adopt=True,
+                       force_option="msr policy notes") as files:
         atomic_write_json(files.path / POLICY_JSON, info)
         if card is not None:
             atomic_write_text(files.path / "MODEL_CARD.md", card)

@@ -92,13 +92,22 @@ def actor_controller(actor: Any) -> Callable[[CatheterReachVectorEnv], Controlle
 
 
 def target_notes(case: Case, targets: Any) -> list[str]:
-    """What to know about targets given by hand (m, ``(n, 3)``): those outside the case's
-    ``target_box``, where its policies were not trained (they may still reach them, or not)."""
+    """What to know about targets given by hand (m, ``(n, 3)``): those beyond the tip's reach
+    (farther from the base's start than the rod's length and its stage's travel: no steering gets
+    there), and those outside the case's ``target_box``, where its policies were not trained (they
+    may still reach them, or not)."""
     low, high = np.asarray(case.task.target_box, dtype=np.float64)
+    stage = case.actuation.insertion
+    reach = case.robot_spec("accurate").length + (stage[1] if stage else 0.0)
     notes = []
     for target in np.asarray(targets, dtype=np.float64).reshape(-1, 3):
-        if np.any(target < low) or np.any(target > high):
-            notes.append(f"the target ({', '.join(f'{v:g}' for v in target)}) m lies outside case "
+        shown = ", ".join(f"{v:g}" for v in target)
+        if float(np.linalg.norm(target)) > reach:
+            notes.append(f"the target ({shown}) m is {float(np.linalg.norm(target)):g} m from the clamped "
+                         f"base's start, beyond any tip's reach ({reach:g} m: the rod's length"
+                         f"{' and its stage' if stage else ''}): no steering gets there (mm written as m?)")
+        elif np.any(target < low) or np.any(target > high):
+            notes.append(f"the target ({shown}) m lies outside case "
                          f"{case.name!r}'s target_box {np.stack([low, high]).tolist()} m: its policies "
                          "trained on targets inside it")
     return notes

@@ -87,10 +87,17 @@ def load_spec(robot: str | Path) -> dict[str, Any]:
     spec as ``Case.to_dict()`` without its name, a robot-only spec with its ``[robot]`` and
     ``[physics]`` tables completed. SpecError names a bad file and key."""
     from ..cases.case import case_names, load_case
+    from ..cases.steered import field_only_refusal
+
+    def field_actuated(case: Any) -> Any:
+        """The fit plays the waveform as a uniform field: a case steered by a source is refused."""
+        if not case.field_actuated:
+            raise SpecError("--robot " + field_only_refusal(text, case.actuation.kind))
+        return case
 
     text = str(robot)
     if text in case_names():
-        data = load_case(text).to_dict()
+        data = field_actuated(load_case(text)).to_dict()
         del data["name"]
         return data
     path = Path(robot)
@@ -99,7 +106,7 @@ def load_spec(robot: str | Path) -> dict[str, Any]:
                         "spec file (.toml)")
     raw = read_spec(path)
     if "actuation" in raw:
-        data = load_case(path).to_dict()
+        data = field_actuated(load_case(path)).to_dict()
         if "name" not in raw:
             del data["name"]
         return data

@@ -32,6 +32,7 @@ from elastica_magnetic.openloop import check_duration
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..cases.case import Case, case_from_dict, load_case
+from ..cases.steered import field_only_refusal
 from ..cases.variations import (
     Variant,
     Variation,
@@ -175,6 +176,8 @@ def _study_source(source: str | Path, case: str | Path | Case | None,
             raise ValueError(f"{source}: a policy carries its case; --case is for a field CSV")
         policy = resolve_policy(source)
         the_case = policy.case
+        if not the_case.field_actuated:
+            raise ValueError(field_only_refusal(f"{source}: case {the_case.name!r}", the_case.actuation.kind))
         shipped_csv = Path(policy.source) / "fields.csv" if policy.kind == "shipped" else None
         if fields_csv is not None:
             fields, waveform = read_field_csv(fields_csv, plausible=True), str(fields_csv)

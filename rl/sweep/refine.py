@@ -196,7 +196,7 @@ def _refinement_config(ckpt: dict[str, Any], device: str | None, source: str | P
 def _refinement_result(case: Case, out: RunDir, metadata: dict[str, Any],
                        begin: float) -> dict[str, Any]:
     """What :func:`refine` returns: the refinement's provenance and its episodes' summary."""
-    summary = summarize_run(out.path, reward_scale=case.task.reward_scale)
+    summary = summarize_run(out.path, reward_scale=case.task.reward_scale, travels=case.field_actuated)
     result = {"case": case.name, "source": metadata["refined_from"], "run_dir": str(out.path),
               "checkpoint": str(out.checkpoint), "start_step": metadata["refine_start_step"],
               "steps": metadata["refine_steps"], "actor": metadata["refined_actor"],

@@ -23,14 +23,16 @@ from .stop_settings import stop_summary
 __all__ = ["case_summary", "failed_group_results", "summarize_run"]
 
 
-def summarize_run(run_dir: str | Path, last: int = 5, reward_scale: float = 1e4) -> dict[str, Any]:
-    """Episodes, steps and the mean return of the last ``last`` episodes of a run (``nan`` if it has
-    no finished episode). ``final_mean_distance_m`` is that return / ``reward_scale`` (the task's,
-    per m; for crawling: m per episode). With evaluations during training: ``best_eval_step`` and
-    ``best_eval_return`` (the evaluation that ``best.pt`` holds; for crawling its return /
-    ``reward_scale`` is the 10 s distance from a zero field, m), else ``None``. A log's row cut
-    short by a kill is left out (its whole rows are read; a resume repairs the file); other damage
-    raises ``ValueError`` naming the file and row."""
+def summarize_run(run_dir: str | Path, last: int = 5, reward_scale: float = 1e4,
+                  travels: bool = True) -> dict[str, Any]:
+    """Episodes, steps and the mean return of the last ``last`` episodes of a run (``nan`` if it has no
+    finished episode). ``final_mean_distance_m`` is that return / ``reward_scale`` (the task's, per m;
+    for crawling: m per episode); ``None`` for a robot that does not travel (``travels`` false: a
+    catheter clamped at its base, whose return sums its tip's approaches and penalties). With
+    evaluations during training: ``best_eval_step`` and ``best_eval_return`` (the evaluation that
+    ``best.pt`` holds; for crawling its return / ``reward_scale`` is the 10 s distance from a zero
+    field, m), else ``None``. A log's row cut short by a kill is left out (its whole rows are read; a
+    resume repairs the file); other damage raises ``ValueError`` naming the file and row."""
 
     run = RunDir(run_dir)
     rows, evals = [], []
@@ -47,7 +49,7 @@ def summarize_run(run_dir: str | Path, last: int = 5, reward_scale: float = 1e4)
         "episodes": len(rows),
         "global_step": _checkpoint_step(run, rows),
         "final_mean_return": mean,
-        "final_mean_distance_m": mean / reward_scale,
+        "final_mean_distance_m": mean / reward_scale if travels else None,
         "best_return": max(returns) if returns else float("nan"),
         "terminated_episodes": sum(int(r["terminated"]) for r in rows),
         # blown up on the first step: a time step too coarse for the robot, not a learned failure
@@ -94,7 +96,8 @@ def _checkpoint_step(run: RunDir, rows: list[dict[str, str]]) -> int:
     return int(float(rows[-1]["global_step"])) if rows else 0
 
 
-def _earlier_seeds(case_dir: Path, exclude: list[int], reward_scale: float) -> list[dict[str, Any]]:
+def _earlier_seeds(case_dir: Path, exclude: list[int], reward_scale: float,
+                   travels: bool = True) -> list[dict[str, Any]]:
     """Seeds of ``case_dir`` trained by earlier ``msr train`` calls (``--seed-offset``), so that
     ``summary.json`` covers every seed of the case. Their entries from the previous summary are
     kept (wall time, memory) and their episode statistics re-read from ``episodes.csv``."""
@@ -111,7 +114,8 @@ def _earlier_seeds(case_dir: Path, exclude: list[int], reward_scale: float) -> l
         if seed in exclude or not run.has_episodes():
             continue
         entry = {k: v for k, v in previous.get(seed, {}).items() if k != "succeeded"}
-        found.append({**entry, "seed": seed, **_readable_summary(run.path, reward_scale=reward_scale),
+        found.append({**entry, "seed": seed, **_readable_summary(run.path, reward_scale=reward_scale,
+                                                                      travels=travels),
                       "run_dir": str(run.path)})
     return found
 
@@ -139,8 +143,8 @@ def case_summary(case_dir: CaseDir, spec: Case, mine: list[dict[str, Any]], seed
 def _writecase_summary(case_dir: CaseDir, spec: Case, mine: list[dict[str, Any]],
                         seed_list: list[int], threshold: float | None, sweep: dict[str, Any],
                         wall: float) -> dict[str, Any]:
-    per_seed = sorted(mine + _earlier_seeds(case_dir.path, seed_list, spec.task.reward_scale),
-                      key=lambda r: r["seed"])
+    earlier = _earlier_seeds(case_dir.path, seed_list, spec.task.reward_scale, spec.field_actuated)
+    per_seed = sorted(mine + earlier, key=lambda r: r["seed"])
     for r in per_seed:
         if "error" not in r and threshold is not None:
             r["succeeded"] = bool(r["final_mean_return"] >= threshold)

@@ -123,7 +123,7 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
         if not record["stopped_early"] and int(ckpt["global_step"]) < job.steps:
             handed_back.append(str(run_dir))  # goes on in another job
             continue
-        summary = summarize_run(run_dir, reward_scale=case.task.reward_scale)
+        summary = summarize_run(run_dir, reward_scale=case.task.reward_scale, travels=case.field_actuated)
         results.append({"seed": int(ckpt["config"]["seed"]), **summary, **record,
                         "state": seed_state(run_dir, record, target_return(case)),
                         "wall_s": wall, "peak_rss_bytes": peak,
@@ -468,7 +468,9 @@ def _case_defaults(loaded: dict[str, Case], steps: int | None, episode_duration:
         defaults = {c.name: {"steps": c.training.steps, "episode_duration": c.task.episode_duration,
                              "recipe": c.training.recipe}[key] for c in loaded.values()}
         if value is None and len(set(defaults.values())) > 1:
-            raise ValueError(f"the cases' specs give different {key} ({defaults}): set it")
+            option = {"steps": "--steps", "episode_duration": "--episode-duration", "recipe": "--recipe"}[key]
+            raise ValueError(f"the cases' specs give different {key} ({defaults}): give {option} (one "
+                             "value for every case), or train the cases apart")
     if episode_duration is not None:
         for case in loaded.values():
             _check_tip_reach_duration(case, episode_duration)

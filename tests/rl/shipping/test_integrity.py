@@ -364,3 +364,24 @@ def test_round16_d1_ship_force_keeps_a_file_of_the_users_in_the_policy_folder(tr
     assert snapshot(dest / "p") == before and not leftovers(dest / "p")
     (dest / "p" / "fields.csv").unlink()  # moved away: the re-ship goes on
     assert msr([*args, "--force"]) == 0
+
+
+def test_round16_s07_generate_with_another_cases_checkpoint_names_both_cases(trained, tmp_path, capsys):
+    """Round 16 S07 (V): it said "the case: ... plays a uniform field" (a catheter's checkpoint)."""
+    import shutil
+
+    import torch
+    from elastica_magnetic_rl.cases.case import load_case
+
+    run = trained / "m1-4mT" / "seed0"
+    shutil.copytree(run, tmp_path / "other")
+    other = tmp_path / "other" / "checkpoint.pt"
+    ckpt = torch.load(other, map_location="cpu", weights_only=True)
+    ckpt["metadata"]["case"] = "m2-4mT"  # as if another case's checkpoint (of the same shapes)
+    ckpt["metadata"]["case_spec"] = load_case("m2-4mT").to_dict()
+    torch.save(ckpt, other)
+    assert msr(["policy", "generate", str(run), "--checkpoint", str(other), "--duration", "0.1",
+                "--out", str(tmp_path / "g")]) == 2
+    err = capsys.readouterr().err
+    assert f"--checkpoint {other}: a checkpoint of case 'm2-4mT', not of {run}'s case 'm1-4mT'" in err
+    assert not (tmp_path / "g").exists()

@@ -57,3 +57,23 @@ def test_robustness_refuses_a_seed_without_samples(tmp_path, capsys):
     err = _refused(capsys, ["real", "robustness", str(FIELDS), "--case", "m1-4mT", "--seed", "7",
                             "--duration", "0.05", "--no-progress", "--out", str(out)], out)
     assert "--seed 7" in err and "--samples" in err, err
+
+
+@pytest.mark.parametrize("robot", ["catheter-coils-reach", "spec"])
+def test_round16_s1_identify_refuses_a_catheter_steered_by_a_source(robot, tmp_path, capsys):
+    """Round 16 S1: `msr real identify --robot` took a catheter case (a magnet arm, coils) and
+    fitted its magnetization to a waveform played as a uniform field, writing an identified spec."""
+    from elastica_magnetic_rl.cases.case import load_case
+
+    if robot == "spec":
+        robot = str(tmp_path / "cm.toml")
+        (tmp_path / "cm.toml").write_text(load_case("catheter-magnet-reach").toml())
+    trajectory = tmp_path / "traj.csv"
+    trajectory.write_text("t_s,x_0_m,y_0_m,x_1_m,y_1_m\n" + "".join(
+        f"{k * 0.01},{k * 1e-4},0,{0.02 + k * 1e-4},0\n" for k in range(21)))
+    out = tmp_path / "id"
+    assert main(["real", "identify", str(POLICIES_DIR / "m1-4mT" / "fields.csv"), str(trajectory),
+                 "--robot", robot, "--fit", "magnetization", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"--robot {robot}: [actuation] kind = " in err and "so it does not apply" in err
+    assert not out.exists()
