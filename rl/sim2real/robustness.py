@@ -214,13 +214,12 @@ def run_variant(job: dict[str, Any]) -> dict[str, Any]:
         except SimulationDivergedError as exc:
             diverged = str(exc)
     else:
-        import torch
-
         from ..shipping.policy_runs import run_policy
+        from ..td3.devices import torch_threads
 
-        torch.set_num_threads(1)
         policy = dataclasses.replace(resolve_policy(job["policy"]), case=case)
-        rollout = run_policy(policy, job["duration"], job["physics"], "zero", progress=False)
+        with torch_threads(1):
+            rollout = run_policy(policy, job["duration"], job["physics"], "zero", progress=False)
         diverged = rollout.meta["diverged"]
         distance = None if diverged else rollout.mid_dx
     return {"distance_m": distance, "diverged": diverged, "wall_s": time.perf_counter() - start}

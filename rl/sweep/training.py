@@ -32,6 +32,7 @@ from ..runfiles.locking import check_unlocked, held_run_folders, mark_run_folder
 from ..runfiles.logs import read_log
 from ..runfiles.rundir import CaseDir, RunDir, being_written_hint
 from ..runner.memory import peak_rss_bytes
+from ..td3.devices import torch_threads
 from .backends import BACKENDS, run_jobs
 from .case_folders import check_case_folders
 from .inert_settings import (
@@ -68,7 +69,8 @@ def _train_group(job: GroupJob) -> dict[str, Any]:
             print(f"note: {note}", file=sys.stderr)
         for run_dir in job.run_dirs:
             mark_run_folder(run_dir, "train", job.case)
-        result = _train_group_unlocked(job)
+        with torch_threads(job.threads):  # restored: one worker trains in the caller's process
+            result = _train_group_unlocked(job)
         for run_dir in job.run_dirs:
             mark_run_folder(run_dir, "train", job.case)
     return result
@@ -81,13 +83,10 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
     seed]}``, and ``"handed_back": [run folders]`` when the group was asked to hand back its
     seeds (``job.hand_back_file``) and did: those seeds go on in other jobs
     (:mod:`elastica_magnetic_rl.sweep.rebalance`) and have no result here."""
-    import torch
-
     from ..runfiles.checkpoint import load_checkpoint
     from ..runner.stopping import StopRule
     from ..td3.algorithm import PrecisionFallbackWarning, TD3Config, resolve_precision
 
-    torch.set_num_threads(int(job.threads))
     configs = [TD3Config.from_dict(c) for c in job.configs]
     run_dirs = [Path(d) for d in job.run_dirs]
     with warnings.catch_warnings():  # the command warned of these before the jobs began

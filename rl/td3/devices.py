@@ -1,10 +1,30 @@
-"""Whether this PyTorch can put the networks on a device (``RunSettings.device``): asked before
-any work, so that ``--device cuda`` on a CPU build of PyTorch is refused by name instead of
-failing deep inside the first ``.to(device)`` after a run folder was written (issue 48)."""
+"""Where the networks compute: whether this PyTorch can put them on a device
+(``RunSettings.device``), asked before any work, so that ``--device cuda`` on a CPU build of
+PyTorch is refused by name instead of failing deep inside the first ``.to(device)`` after a run
+folder was written (issue 48); and the CPU threads a computation takes (:func:`torch_threads`)."""
 
 from __future__ import annotations
 
-__all__ = ["device_problem"]
+import contextlib
+from collections.abc import Iterator
+
+__all__ = ["device_problem", "torch_threads"]
+
+
+@contextlib.contextmanager
+def torch_threads(n: int) -> Iterator[None]:
+    """PyTorch's intra-op threads set to ``n`` inside the block and restored after it: a worker's
+    setting run in the caller's own process (one worker) must not stay there (measured: the TD3
+    update of small networks at 2 threads beside another busy process on 2 cores, 50x slower than
+    at 1: the threads wait on each other)."""
+    import torch
+
+    previous = torch.get_num_threads()
+    torch.set_num_threads(int(n))
+    try:
+        yield
+    finally:
+        torch.set_num_threads(previous)
 
 
 def device_problem(device: str) -> str | None:

@@ -50,12 +50,19 @@ def test_a_yardstick_field_that_cannot_turn_is_refused(change, message):
 
 
 def test_a_crawl_trained_from_its_rotating_field_plays_it_in_the_warm_up(tmp_path):
+    """Also: a training in this process (one worker) leaves its torch threads as they were (2 left
+    behind made the next test's small TD3 updates 50x slower beside a busy core)."""
+    import torch
+
     spec = tmp_path / "rolling.toml"
     spec.write_text(case_from_dict(_with_field(period=1.0, clockwise=True), str(spec)).toml())
-    assert msr(["train", "--case", str(spec), "--seeds", "1", "--workers", "1", "--steps", "150",
-                "--episode-duration", "0.5", "--set", "learning_starts=120", "--set", "batch_size=32",
-                "--set", "hidden_sizes=32,32", "--set", "yardstick_warmup=50", "--set", "eval_every=0",
-                "--set", "exploration_noise=0", "--out", str(tmp_path / "runs"), "--no-progress"]) == 0
+    torch.set_num_threads(1)
+    assert msr(["train", "--case", str(spec), "--seeds", "1", "--workers", "1", "--threads", "2",
+                "--steps", "150", "--episode-duration", "0.5", "--set", "learning_starts=120",
+                "--set", "batch_size=32", "--set", "hidden_sizes=32,32", "--set", "yardstick_warmup=50",
+                "--set", "eval_every=0", "--set", "exploration_noise=0", "--out", str(tmp_path / "runs"),
+                "--no-progress"]) == 0
+    assert torch.get_num_threads() == 1
     buffer = load_checkpoint(tmp_path / "runs" / "rolling" / "seed0")["buffer"]
     obs, actions = np.asarray(buffer["obs"])[:120], np.asarray(buffer["actions"])[:120]
     played = RotatingFieldPolicy(load_case(spec), 1.0, clockwise=True)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import torch
 from elastica_magnetic_rl.td3.devices import device_problem
 
@@ -23,3 +24,13 @@ def test_cuda_build_without_a_device_and_a_missing_index_are_named(monkeypatch):
     assert device_problem("cuda:0") is None
     assert device_problem("cuda:3") == "this machine has 1 CUDA device(s), numbered from 0"
     assert device_problem("tpu").startswith("not a device PyTorch knows")
+
+
+def test_torch_threads_are_restored_after_the_block_even_when_it_fails():
+    from elastica_magnetic_rl.td3.devices import torch_threads
+
+    before = torch.get_num_threads()
+    with pytest.raises(RuntimeError), torch_threads(before + 1):
+        assert torch.get_num_threads() == before + 1
+        raise RuntimeError("a failed training")
+    assert torch.get_num_threads() == before
