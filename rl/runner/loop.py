@@ -68,53 +68,9 @@ def _wrap(env_fn: Callable[[], gym.Env], n: int) -> gym.vector.VectorEnv:
 @dataclasses.dataclass(frozen=True)
 class GroupOptions:
     """The options of :func:`train_seeds` besides the environments' maker, the configs, the steps
-    and the run folders (its Args list each)."""
+    and the run folders.
 
-    envs_per_seed: int = 1
-    resume: bool = False
-    progress: bool = True
-    log_fn: Callable[[dict[str, Any]], None] | None = None
-    init_from: Sequence[str | os.PathLike | None] | None = None
-    metadata: Sequence[dict[str, Any] | None] | None = None
-    eval_env_fn: Callable[[], gym.Env] | None = None
-    progress_position: int | None = None
-    progress_desc: str | None = None
-    eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None
-    stop_rules: Sequence[StopRule | None] | None = None
-    confirm_env_fn: Callable[[], gym.Env] | None = None
-    hand_back: Callable[[], bool] | None = None
-    confirm_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None
-    yardstick_fn: Callable[[], Any] | None = None
-
-
-def train_seeds(
-    vec_env_fn: Callable[[int], gym.vector.VectorEnv],
-    configs: Sequence[TD3Config | None],
-    steps: int,
-    run_dirs: Sequence[str | os.PathLike],
-    options: GroupOptions | None = None,
-    /,
-    **changes: Any,
-) -> TD3:
-    """Train ``K = len(configs)`` seeds for ``steps`` environment transitions each and return the
-    :class:`~elastica_magnetic_rl.td3.algorithm.TD3` holding them.
-
-    ``options`` (:class:`GroupOptions`) with ``changes`` (its fields by name) give the rest.
-
-    Args:
-        vec_env_fn: ``vec_env_fn(K * envs_per_seed)`` makes a vector environment with
-            ``SAME_STEP`` autoreset and flat Box spaces; its sub-environments reset with a list of
-            seeds and ``options={"reset_mask": mask}`` (Gymnasium's ``SyncVectorEnv`` and
-            :class:`~elastica_magnetic_rl.envs.vector_env.MagneticCrawlerVectorEnv` do).
-        configs: one :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` per seed (``None``: the
-            checkpoint's or the defaults); they must agree on everything but ``seed`` and on
-            ``torch_deterministic``.
-        steps: total transitions of each seed, counted from step 0 (steps done before a resume or
-            inherited through ``init_from`` included); a seed stops at the first vector step
-            reaching it.
-        run_dirs: one output folder per seed (``episodes.csv``, TensorBoard scalars,
-            ``checkpoint.pt``, ``replay.bin``, ``evaluations.csv``, ``best.pt``). A folder that
-            holds a checkpoint is refused unless ``resume``; ``resume`` needs one in every folder.
+    Attributes:
         envs_per_seed: sub-environments (and so transitions and updates per vector step) of each
             seed.
         init_from: per seed, another run's checkpoint to start from (networks, optimisers,
@@ -146,13 +102,61 @@ def train_seeds(
             when it returns true while at least two seeds still train, every seed's checkpoint is
             written there and the call returns before the budget (no final evaluation): the
             seeds go on from their folders with ``resume``, in any grouping, bit-identical to an
-            uninterrupted run (see the equivalences above). How a sweep keeps an idle core busy
-            (:mod:`elastica_magnetic_rl.sweep.rebalance`).
+            uninterrupted run (the equivalences of this module's docstring). How a sweep keeps an
+            idle core busy (:mod:`elastica_magnetic_rl.sweep.rebalance`).
         yardstick_fn: makes one hand-designed controller of the case (``act(obs)`` -> an action in
             ``[-1, 1]^act_dim``, ``reset()`` at each episode start, ``state()``/``set_state()`` for
             checkpoints inside episodes; e.g.
             :class:`~elastica_magnetic_rl.envs.yardsticks.SteeringFieldPolicy`); needed by
             configs with ``yardstick_warmup``, whose warm-up it plays (one per sub-environment).
+    """
+
+    envs_per_seed: int = 1
+    resume: bool = False
+    progress: bool = True
+    log_fn: Callable[[dict[str, Any]], None] | None = None
+    init_from: Sequence[str | os.PathLike | None] | None = None
+    metadata: Sequence[dict[str, Any] | None] | None = None
+    eval_env_fn: Callable[[], gym.Env] | None = None
+    progress_position: int | None = None
+    progress_desc: str | None = None
+    eval_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None
+    stop_rules: Sequence[StopRule | None] | None = None
+    confirm_env_fn: Callable[[], gym.Env] | None = None
+    hand_back: Callable[[], bool] | None = None
+    confirm_vec_env_fn: Callable[[int], gym.vector.VectorEnv] | None = None
+    yardstick_fn: Callable[[], Any] | None = None
+
+
+def train_seeds(
+    vec_env_fn: Callable[[int], gym.vector.VectorEnv],
+    configs: Sequence[TD3Config | None],
+    steps: int,
+    run_dirs: Sequence[str | os.PathLike],
+    options: GroupOptions | None = None,
+    /,
+    **changes: Any,
+) -> TD3:
+    """Train ``K = len(configs)`` seeds for ``steps`` environment transitions each and return the
+    :class:`~elastica_magnetic_rl.td3.algorithm.TD3` holding them.
+
+    ``options`` (:class:`GroupOptions`, each field described there) with ``changes`` (its fields
+    by name) give the rest.
+
+    Args:
+        vec_env_fn: ``vec_env_fn(K * envs_per_seed)`` makes a vector environment with
+            ``SAME_STEP`` autoreset and flat Box spaces; its sub-environments reset with a list of
+            seeds and ``options={"reset_mask": mask}`` (Gymnasium's ``SyncVectorEnv`` and
+            :class:`~elastica_magnetic_rl.envs.vector_env.MagneticCrawlerVectorEnv` do).
+        configs: one :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` per seed (``None``: the
+            checkpoint's or the defaults); they must agree on everything but ``seed`` and on
+            ``torch_deterministic``.
+        steps: total transitions of each seed, counted from step 0 (steps done before a resume or
+            inherited through ``init_from`` included); a seed stops at the first vector step
+            reaching it.
+        run_dirs: one output folder per seed (``episodes.csv``, TensorBoard scalars,
+            ``checkpoint.pt``, ``replay.bin``, ``evaluations.csv``, ``best.pt``). A folder that
+            holds a checkpoint is refused unless ``resume``; ``resume`` needs one in every folder.
 
     Returns the learner holding every seed in the order given, each at its end (a stopped seed
     at its stop; the update counter is then the last seed's; after a hand-back, where it was).
