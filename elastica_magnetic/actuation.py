@@ -141,6 +141,29 @@ class MagnetPose:
         motion[M_TURN_AXIS:M_TURN_AXIS + 3] = omega / rate if rate > 0.0 else (0.0, 0.0, 1.0)
         motion[M_TURN_RATE], motion[M_T0], motion[M_SPAN] = rate, float(time), dt
 
+    def follow(self, position: ArrayLike, direction: ArrayLike, time: float, dt: float) -> None:
+        """Move from the pose at ``time`` (s) to ``position`` (m, ``(3,)``) and ``direction``
+        (``(3,)``, normalized here) over ``dt`` (s), as :meth:`apply` moves (constant velocity, a
+        constant turn rate about one axis), with neither the speed limits nor the workspace
+        applied: a pose the arm reported is replayed as it happened (``msr real identify``)."""
+        dt = _positive(dt, "dt", "s")
+        end = _vector3(position, "position", "m")
+        axis = _vector3(direction, "direction", "a direction")
+        norm = float(np.linalg.norm(axis))
+        if not norm > 0.0:
+            raise SpatialFieldError("direction must be a non-zero direction")
+        axis = axis / norm
+        p, d = self.position_at(time), self.direction_at(time)
+        across = np.cross(d, axis)
+        angle = math.atan2(float(np.linalg.norm(across)), float(d @ axis))
+        motion = self.motion
+        motion[M_POSITION:M_POSITION + 3] = p
+        motion[M_DIRECTION:M_DIRECTION + 3] = d
+        motion[M_VELOCITY:M_VELOCITY + 3] = (end - p) / dt
+        turn_axis = across / np.linalg.norm(across) if angle > 0.0 else (0.0, 0.0, 1.0)
+        motion[M_TURN_AXIS:M_TURN_AXIS + 3] = turn_axis
+        motion[M_TURN_RATE], motion[M_T0], motion[M_SPAN] = angle / dt, float(time), dt
+
     def _pose(self, time: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         position, direction = np.empty(3), np.empty(3)
         kernels.magnet_pose_at(self.motion, float(time), position, direction)

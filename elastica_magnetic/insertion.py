@@ -78,6 +78,17 @@ class Advancer:
                      self.travel[1])
         self._s0, self._velocity, self._t0, self._span = s, (target - s) / dt, float(time), float(dt)
 
+    def follow(self, insertion: float, time: float, dt: float) -> None:
+        """Move from the insertion at ``time`` (s) to ``insertion`` (m) over ``dt`` (s) at constant
+        speed, with neither the speed limit nor the travel applied: a stage's reported position
+        replayed as it happened (``msr real identify``)."""
+        end = float(insertion)
+        if not (math.isfinite(end) and math.isfinite(dt) and dt > 0.0):
+            raise ValueError(f"insertion (m) and dt (s) must be finite, dt positive; got {insertion!r}, "
+                             f"{dt!r}")
+        s = self.insertion_at(time)
+        self._s0, self._velocity, self._t0, self._span = s, (end - s) / dt, float(time), float(dt)
+
     def motion(self) -> list[float]:
         """The command being followed: ``[s0 (m), velocity (m/s), t0 (s), span (s)]`` (to save it)."""
         return [self._s0, self._velocity, self._t0, self._span]

@@ -69,6 +69,7 @@ GROUPS: dict[str, tuple[str, ...]] = {
     "modulus": ("robot.youngs_modulus", "robot.shear_modulus"),
     "friction": ("robot.ground.static_mu", "robot.ground.kinetic_mu"),
     "density": ("robot.density",),
+    "magnet": ("actuation.moment",),
 }
 #: The default variation set: group -> (low, high) factors of the nominal values.
 DEFAULT_RANGES: dict[str, tuple[float, float]] = {
@@ -143,7 +144,8 @@ def variable_keys(spec: Mapping[str, Any]) -> list[str]:
     """The dotted keys that can be varied in ``spec`` (a complete spec, every default written out,
     e.g. ``Case.to_dict()``): every real-valued (float) value under ``robot``, the items of its
     lists of tables by index (``robot.magnetization.segments.0.magnitude``) and its tables of
-    numbers as a whole (``robot.magnetization.values``), sorted."""
+    numbers as a whole (``robot.magnetization.values``), and a magnet arm's ``actuation.moment``,
+    sorted."""
     found: list[str] = []
 
     def walk(table: Any, path: str) -> None:
@@ -160,6 +162,9 @@ def variable_keys(spec: Mapping[str, Any]) -> list[str]:
             found.append(path)
 
     walk(spec.get("robot", {}), "robot")
+    actuation = spec.get("actuation", {})
+    if isinstance(actuation, Mapping) and isinstance(actuation.get("moment"), float):
+        found.append("actuation.moment")  # a magnet arm's magnet: its strength
     return sorted(found)
 
 

@@ -105,7 +105,9 @@ def _add_identify_command(sub: argparse._SubParsersAction) -> None:
         "identify",
         help="fit spec values so that the simulated robot moves as a measured trajectory",
         description="Fit spec values (dotted keys) so that the robot of a spec, under the waveform "
-        "that was played, moves its tracked points as measured: least squares in the training "
+        "that was played (or, for a catheter steered by a magnet on an arm, along the arm's recorded "
+        "path: fit its magnet's moment, actuation.moment or the group magnet, from the tip's path), "
+        "moves its tracked points as measured: least squares in the training "
         "physics from several starts, confirmed in the accurate physics; each value gets an "
         "interval or is reported not identifiable, and the residual is judged against --noise-m. "
         "Writes DIR/identified.toml (the whole spec with the fitted values), DIR/identify.json "
@@ -113,11 +115,14 @@ def _add_identify_command(sub: argparse._SubParsersAction) -> None:
         "DIR/identify.png (measured against fitted motion).",
     )
     p.add_argument("field_csv", type=Path, metavar="FIELD_CSV",
-                   help="the waveform played (mT, 100 rows/s; row 0 starts at t = 0)")
+                   help="the waveform played (mT, 100 rows/s; row 0 starts at t = 0); for a case steered "
+                   "by a magnet on an arm, the arm's recorded path: t_s, magnet_x_m, magnet_y_m, "
+                   "magnet_z_m, direction_x, direction_y, direction_z[, insertion_m], 100 rows/s")
     p.add_argument("trajectory_csv", type=Path, metavar="TRAJECTORY_CSV",
                    help="the measured motion: msr's trajectory.csv, or a tracker's CSV: t_s (s), then "
                    "x_<s>_m, y_<s>_m (m) per tracked point, <s> its place along the body from 0 "
-                   "(back end) to 1 (front end); any frame rate")
+                   "(back end) to 1 (front end); for a catheter its tip path: t_s, tip_x_m, tip_y_m, "
+                   "tip_z_m (m); any frame rate")
     p.add_argument("--robot", required=True, metavar="SPEC",
                    help="the nominal robot: a spec file (.toml) or a shipped case name")
     p.add_argument("--fit", required=True, metavar="KEY[,KEY...]",
@@ -182,26 +187,24 @@ def robustness_command(args: argparse.Namespace) -> int:
 def identify_command(args: argparse.Namespace) -> int:
     import sys
 
-    from elastica_magnetic.field_csv import read_field_csv
-    from elastica_magnetic.robot_spec import ACTION_PERIOD
-
     from .identify import identify, load_spec, parse_fit, write_identified
+    from .magnet_path import MagnetDrive
     from .output import prepare_output_folder
-    from .tracking import check_against_robot, read_trajectory
+    from .tracking import check_against_robot
 
     if args.seed is not None and args.starts == 1:  # it would be recorded but change nothing
         raise CommandError(f"--seed {args.seed}: seeds the perturbed starts, and --starts 1 fits "
                            "from the nominal values only; give --starts 2 or more, or leave --seed "
                            "out")
     prepare_output_folder(args.out, args.force, kind="identify")
-    fields = read_field_csv(args.field_csv, plausible=True)  # a coil's field, as msr field replay
-    measured = read_trajectory(args.trajectory_csv)
-    spec = load_spec(args.robot)
+    drive, measured = _drive_and_measured(args.field_csv, args.trajectory_csv, args.robot)
+    spec = load_spec(args.robot, magnet_path=isinstance(drive, MagnetDrive))
     try:
         fits = parse_fit(args.fit, spec)
     except VariationError as exc:
         raise CommandError(str(exc)) from None
-    check_against_robot(measured, float(spec["robot"]["length"]), fields.shape[0] * ACTION_PERIOD)
+    drive.check_spec(spec)
+    check_against_robot(measured, float(spec["robot"]["length"]), drive.duration)
     _check_noise(args.noise_m, float(spec["robot"]["length"]))
 
     # a bar on a terminal, plain lines in a log (a "\r"-redrawn line fills a log file)
@@ -212,13 +215,14 @@ def identify_command(args: argparse.Namespace) -> int:
             bar.update(evaluations - bar.n)
             bar.set_postfix_str(f"residual RMS {1e3 * rms:.4f} mm")
 
-        report = identify(fields, measured, spec, fits, physics=args.physics,
+        report = identify(drive, measured, spec, fits, physics=args.physics,
                           confirm=not args.no_confirm, max_evaluations=args.max_evaluations,
                           starts=args.starts, seed=args.seed or 0, noise_m=args.noise_m,
                           progress=progress)
     for warning in report["warnings"]:
         print(f"msr {command_name(args)}: warning: {warning}", file=sys.stderr)
-    report = {"field_csv": str(args.field_csv), "robot": str(args.robot), "fit": args.fit, **report}
+    played = "magnet_path" if isinstance(drive, MagnetDrive) else "field_csv"
+    report = {played: str(args.field_csv), "robot": str(args.robot), "fit": args.fit, **report}
     header = (f"Identified by msr real identify from {args.field_csv} and {args.trajectory_csv} "
               f"({args.physics} physics), nominal spec {args.robot}.")
     out = write_identified(report, spec, measured, args.out, args.force, header)
@@ -233,6 +237,32 @@ def identify_command(args: argparse.Namespace) -> int:
               f"largest {1e3 * c['max_abs_m']:.4f} mm")
     print(f"written: {out / 'identified.toml'}, {out / 'identify.json'}, {out / 'identify.png'}")
     return 0
+
+
+def _drive_and_measured(drive_csv: Path, trajectory_csv: Path, robot: str):
+    """What played the motion (a waveform, with the ``robot`` spec file's field in space and clamp;
+    or a magnet arm's path: told by the file's header) and the measured motion, read and checked;
+    a tip path goes with a magnet path only."""
+    from elastica_magnetic.field_csv import read_field_csv
+    from elastica_magnetic.field_spec import load_field
+
+    from .identify import FieldDrive
+    from .magnet_path import MagnetDrive, is_magnet_path, read_magnet_path
+    from .tracking import read_trajectory
+
+    magnet = is_magnet_path(drive_csv)
+    # a coil's field, as msr field replay
+    drive = (MagnetDrive(read_magnet_path(drive_csv)) if magnet
+             else FieldDrive(read_field_csv(drive_csv, plausible=True),
+                             load_field(robot) if Path(robot).suffix == ".toml" else None))
+    measured = read_trajectory(trajectory_csv)
+    if magnet and measured.kind != "tip path":
+        raise CommandError(f"{trajectory_csv}: {drive_csv} is a magnet arm's path, which steers a catheter: "
+                           "give the tip's path (t_s, tip_x_m, tip_y_m, tip_z_m), not a crawler's points")
+    if not magnet and measured.kind == "tip path":
+        raise CommandError(f"{trajectory_csv}: a catheter's tip path goes with the magnet arm's recorded "
+                           f"path (t_s, magnet_x_m, ...); {drive_csv} is a field waveform")
+    return drive, measured
 
 
 def _check_noise(noise_m: float | None, length: float) -> None:

@@ -46,8 +46,9 @@ from ..cases.variations import (
 )
 from .tracking import MIN_DURATION_S, MeasuredTrajectory, check_against_robot, points_at_rows
 
-__all__ = ["DIFF_STEP", "FIT_BOUNDS", "MAX_EVALUATIONS", "STARTS", "FitBudgetExceeded", "FitModel",
-           "fit_horizons", "identify", "load_spec", "parse_fit", "start_points", "write_identified"]
+__all__ = ["DIFF_STEP", "FIT_BOUNDS", "MAX_EVALUATIONS", "STARTS", "FieldDrive", "FitBudgetExceeded",
+           "FitModel", "fit_horizons", "identify", "load_spec", "parse_fit", "start_points",
+           "write_identified"]
 
 #: Bounds of a fitted factor (x the nominal value).
 FIT_BOUNDS = (0.2, 5.0)
@@ -82,17 +83,26 @@ UNCERTAINTY_STEP = 0.05
 AGREE_WITHIN = 0.01
 
 
-def load_spec(robot: str | Path) -> dict[str, Any]:
+def load_spec(robot: str | Path, magnet_path: bool = False) -> dict[str, Any]:
     """The complete spec (every default written out) of a spec file or a shipped case name: a case
     spec as ``Case.to_dict()`` without its name, a robot-only spec with its ``[robot]`` and
-    ``[physics]`` tables completed. SpecError names a bad file and key."""
+    ``[physics]`` tables completed. SpecError names a bad file and key. A waveform is played as a
+    uniform field, so a case steered by a source is refused; with ``magnet_path`` (the drive is a
+    magnet arm's recorded path) only a case steered by a magnet on an arm is taken."""
     from ..cases.case import case_names, load_case
     from ..cases.steered import field_only_refusal
 
     def field_actuated(case: Any) -> Any:
-        """The fit plays the waveform as a uniform field: a case steered by a source is refused."""
-        if not case.field_actuated:
-            raise SpecError("--robot " + field_only_refusal(text, case.actuation.kind))
+        """The case the drive can play: a field for a waveform, a magnet arm for its path."""
+        kind = getattr(case.actuation, "kind", "field")
+        if magnet_path and kind != "magnet-pose":
+            raise SpecError(f"--robot {text}: a magnet path drives a case steered by a magnet on an arm "
+                            f"([actuation] kind = \"magnet-pose\"); {text}'s actuation is "
+                            f"{'a uniform field' if case.field_actuated else repr(kind)}")
+        if not magnet_path and not case.field_actuated:
+            raise SpecError("--robot " + field_only_refusal(text, case.actuation.kind)
+                            + ("; a magnet arm's recorded path (magnet_x_m, ...) is fitted in its place"
+                               if kind == "magnet-pose" else ""))
         return case
 
     text = str(robot)
@@ -105,6 +115,9 @@ def load_spec(robot: str | Path) -> dict[str, Any]:
         raise SpecError(f"--robot {text}: not a shipped case ({', '.join(case_names())}) and not a "
                         "spec file (.toml)")
     raw = read_spec(path)
+    if magnet_path and "actuation" not in raw:
+        raise SpecError(f"--robot {text}: a magnet path drives a case steered by a magnet on an arm; "
+                        f"{text} describes a robot without an [actuation] table")
     if "actuation" in raw:
         data = field_actuated(load_case(path)).to_dict()
         if "name" not in raw:
@@ -128,12 +141,60 @@ def parse_fit(text: str, spec: Mapping[str, Any]) -> list[Variation]:
 
 
 @dataclass
+class FieldDrive:
+    """What played a robot's motion: a uniform field waveform, ``fields`` ``(n, 3)`` T at 100 Hz,
+    played open loop on the robot of a spec (the drive of :func:`identify` for a crawler), as
+    ``msr field replay`` plays it: with a spec's ``[field]`` in space added to it and its
+    ``[boundary]`` clamp (``setup``: :func:`elastica_magnetic.field_spec.load_field` of the spec
+    file; those tables are not fitted)."""
+
+    fields: NDArray[np.float64]
+    setup: Any = None  # elastica_magnetic.field_spec.FieldSetup
+
+    @property
+    def duration(self) -> float:
+        """s, how long the waveform lasts."""
+        return self.fields.shape[0] * ACTION_PERIOD
+
+    def describe(self) -> str:
+        return "the waveform"
+
+    def check_spec(self, spec: Mapping[str, Any]) -> None:
+        """A spec with a ``[field]`` or ``[boundary]`` table needs its ``setup`` (else the robot
+        would be fitted free, under the waveform alone: a wrong fit; :func:`load_spec` refuses a
+        case steered by a source)."""
+        tables = [name for name in ("field", "boundary") if name in spec]
+        if tables and self.setup is None:
+            raise ValueError(f"the spec has {' and '.join(f'[{t}]' for t in tables)}: give the drive its "
+                             "setup (FieldDrive(fields, load_field(SPEC_FILE))) so that the fit plays "
+                             "them as msr field replay does")
+
+    def rows(self, spec: Mapping[str, Any], physics: str,
+             measured: MeasuredTrajectory) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The measured points of the robot of ``spec`` in ``physics`` at every 0.01 s row of the
+        waveform, ``(n_rows, k, 2)`` m, with the rows' times ``(n_rows,)`` s."""
+        from elastica_magnetic.fields import TabulatedField
+        from elastica_magnetic.openloop import run_open_loop
+        from elastica_magnetic.spatial_fields import FieldSum
+
+        robot = describe_robot(spec, "fitted spec").robot(physics)
+        rows = max(int(np.ceil(measured.duration / ACTION_PERIOD - 1e-9)), 1)
+        field = TabulatedField(self.fields)
+        source = self.setup.source() if self.setup is not None else None
+        if source is not None:  # the coils' uniform waveform plus the spec's field in space
+            field = FieldSum(field, source)
+        result = run_open_loop(robot, field, rows * ACTION_PERIOD, n_shapes=rows + 1,
+                               clamp=self.setup is not None and self.setup.clamp)
+        return result.trajectory.t_s.to_numpy(), points_at_rows(measured, result.trajectory, result.shapes)
+
+
+@dataclass
 class FitModel:
     """The simulated motion of the measured points for given factors of the fitted values."""
 
     spec: dict[str, Any]
     fits: list[Variation]
-    fields: NDArray[np.float64]  # (n, 3) T, the waveform played
+    drive: Any  # FieldDrive (or its waveform, (n, 3) T), or a magnet arm's path (.magnet_path.MagnetDrive)
     measured: MeasuredTrajectory
     physics: str = "training"
     evaluations: int = 0
@@ -141,37 +202,33 @@ class FitModel:
     refused: int = 0  # factors whose spec the parser refused
     _cache: dict = field(default_factory=dict, repr=False)
 
+    def __post_init__(self) -> None:
+        if isinstance(self.drive, np.ndarray):  # a waveform, (n, 3) T at 100 Hz
+            self.drive = FieldDrive(np.asarray(self.drive, dtype=np.float64))
+
     def values(self, factors: Sequence[float]) -> dict[str, Any]:
         """Dotted key -> value for one factor per fit (a table key's value: the scaled table)."""
         return {key: scaled(get_value(self.spec, key), float(f))
                 for fit, f in zip(self.fits, factors, strict=True) for key in fit.keys}
 
     def displacements(self, factors: Sequence[float], physics: str | None = None) -> NDArray[np.float64]:
-        """``(n_frames, k, 2)`` simulated displacements (m) of the points from the first measured
+        """``(n_frames, k, d)`` simulated displacements (m) of the points from the first measured
         frame, at the measured frames' times (cached per factors and physics)."""
-        from elastica_magnetic.fields import TabulatedField
-        from elastica_magnetic.openloop import run_open_loop
-
         key = (tuple(float(f) for f in factors), physics or self.physics)
         if key in self._cache:
             return self._cache[key]
         self.evaluations += 1
         spec = apply_values(self.spec, self.values(factors))
-        robot = describe_robot(spec, "fitted spec").robot(physics or self.physics)
-        rows = max(int(np.ceil(self.measured.duration / ACTION_PERIOD - 1e-9)), 1)
-        result = run_open_loop(robot, TabulatedField(self.fields), rows * ACTION_PERIOD,
-                               n_shapes=rows + 1)
-        at_rows = points_at_rows(self.measured, result.trajectory, result.shapes)
-        t_rows = result.trajectory.t_s.to_numpy()
-        sampled = np.empty((self.measured.times.shape[0], at_rows.shape[1], 2))
+        t_rows, at_rows = self.drive.rows(spec, physics or self.physics, self.measured)
+        sampled = np.empty((self.measured.times.shape[0], *at_rows.shape[1:]))
         for j in range(at_rows.shape[1]):
-            for c in range(2):
+            for c in range(at_rows.shape[2]):
                 sampled[:, j, c] = np.interp(self.measured.times, t_rows, at_rows[:, j, c])
         self._cache[key] = sampled - sampled[:1]
         return self._cache[key]
 
     def residuals(self, factors: Sequence[float], physics: str | None = None) -> NDArray[np.float64]:
-        """Simulated minus measured displacements at every frame, each point's x and y centred on
+        """Simulated minus measured displacements at every frame, each point's coordinates centred on
         its mean over the frames (the tracker's origin is free, and a centred residual does not
         carry the first frame's tracking error into every other frame), flattened (m)."""
         from elastica_magnetic.simulation import SimulationDivergedError
@@ -207,13 +264,14 @@ class FitBudgetExceeded(ValueError):
 
 @dataclass
 class _Problem:
-    """What every start of a fit shares: the spec, the fitted values, the waveform, the
+    """What every start of a fit shares: the spec, the fitted values, the drive (a waveform, a
+    magnet's path), the
     measurement, the physics, the bounds of the log factors, the Jacobian step, the number of
     horizons, the progress callback, and the model of the whole trajectory (its cache shared)."""
 
     spec: dict[str, Any]
     fits: list[Variation]
-    fields: NDArray[np.float64]
+    drive: Any
     measured: MeasuredTrajectory
     physics: str
     bounds: tuple[float, float]
@@ -223,12 +281,12 @@ class _Problem:
     whole: FitModel = field(init=False)
 
     def __post_init__(self) -> None:
-        self.whole = FitModel(self.spec, self.fits, self.fields, self.measured, self.physics)
+        self.whole = FitModel(self.spec, self.fits, self.drive, self.measured, self.physics)
 
     def model(self, horizon: float) -> FitModel:
         if horizon >= self.measured.duration:
             return self.whole
-        return FitModel(self.spec, self.fits, self.fields, self.measured.until(horizon), self.physics)
+        return FitModel(self.spec, self.fits, self.drive, self.measured.until(horizon), self.physics)
 
 
 class _Budget:
@@ -449,7 +507,7 @@ class FitOptions:
 
 
 def identify(
-    fields: NDArray[np.float64],
+    drive: NDArray[np.float64] | Any,
     measured: MeasuredTrajectory,
     spec: Mapping[str, Any],
     fits: Sequence[Variation],
@@ -459,8 +517,11 @@ def identify(
     **changes: Any,
 ) -> dict[str, Any]:
     """Fit the values of ``fits`` (one factor per fit, within :data:`FIT_BOUNDS`) so that the robot
-    of ``spec`` (complete, see :func:`load_spec`) under ``fields`` (``(n, 3)`` T, 100 Hz) moves its
-    points as ``measured``, as ``options`` (:class:`FitOptions`, with ``changes``: its fields by
+    of ``spec`` (complete, see :func:`load_spec`) under ``drive`` moves its points as ``measured``:
+    ``drive`` a uniform field waveform (``(n, 3)`` T, 100 Hz, or a :class:`FieldDrive`) or, for a
+    case steered by a magnet on an arm, its recorded path
+    (:class:`~elastica_magnetic_rl.sim2real.magnet_path.MagnetDrive`, ``measured`` the tip's path
+    in 3D); as ``options`` (:class:`FitOptions`, with ``changes``: its fields by
     name) say. The simulations' budget covers the fit; the uncertainty's Jacobian takes two more
     per fitted value, the nominal robot's residual one. ``progress(evaluations, rms_m)`` is called
     after each simulation of the fit.
@@ -473,11 +534,13 @@ def identify(
     """
     o = dataclasses.replace(options or FitOptions(), **changes)
     spec = dict(spec)
-    check_against_robot(measured, float(spec["robot"]["length"]), fields.shape[0] * ACTION_PERIOD)
-    fields = np.asarray(fields, dtype=np.float64)
+    if isinstance(drive, np.ndarray):
+        drive = FieldDrive(np.asarray(drive, dtype=np.float64))
+    drive.check_spec(spec)
+    check_against_robot(measured, float(spec["robot"]["length"]), drive.duration)
     began = time.perf_counter()
     bounds = (np.log(FIT_BOUNDS[0]), np.log(FIT_BOUNDS[1]))
-    problem = _Problem(spec, list(fits), fields, measured, o.physics, bounds, o.diff_step,
+    problem = _Problem(spec, list(fits), drive, measured, o.physics, bounds, o.diff_step,
                        o.stages_count, progress)
     records = _run_starts(problem, o.starts, o.seed, o.max_evaluations)
     report = _fit_report(problem, records, o, began)

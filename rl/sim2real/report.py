@@ -121,17 +121,19 @@ def plot_robustness(report: dict[str, Any], path: str | Path) -> Path:
 
 
 def plot_identify(report: dict[str, Any], measured: Any, path: str | Path) -> Path:
-    """Measured against simulated motion of each tracked point: x and y displacement from the
-    first frame (mm) over time; measured as dots, the fitted robot as lines, the nominal robot
-    dashed. ``report`` is :func:`~elastica_magnetic_rl.sim2real.identify.identify`'s result (with
-    ``predicted``), ``measured`` the :class:`~elastica_magnetic_rl.sim2real.tracking.MeasuredTrajectory`."""
+    """Measured against simulated motion of each tracked point: x and y (and z, a catheter's tip)
+    displacement from the first frame (mm) over time; measured as dots, the fitted robot as lines,
+    the nominal robot dashed. ``report`` is
+    :func:`~elastica_magnetic_rl.sim2real.identify.identify`'s result (with ``predicted``),
+    ``measured`` the :class:`~elastica_magnetic_rl.sim2real.tracking.MeasuredTrajectory`."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(11, 6.5), constrained_layout=True)
-    FigureCanvasAgg(fig)
-    axes = fig.subplots(2, 1, sharex=True)
     shown = measured.displacements()
+    dims = shown.shape[2]  # x and y (a crawler's side view), or x, y and z (a catheter's tip)
+    fig = Figure(figsize=(11, 3.25 * dims), constrained_layout=True)
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(dims, 1, sharex=True)
     for j, point in enumerate(measured.points):
         colour = f"C{j % 10}"
         for c, ax in enumerate(axes):
@@ -141,9 +143,9 @@ def plot_identify(report: dict[str, Any], measured: Any, path: str | Path) -> Pa
                     color=colour, label=f"{point} fitted" if c == 0 else None)
             ax.plot(measured.times, 1e3 * report["predicted"]["nominal"][:, j, c], "--", lw=0.9,
                     color=colour, alpha=0.6)
-    axes[0].set_ylabel("x displacement (mm)")
-    axes[1].set_ylabel("y displacement (mm)")
-    axes[1].set_xlabel("time (s)")
+    for ax, axis in zip(axes, "xyz", strict=False):
+        ax.set_ylabel(f"{axis} displacement (mm)")
+    axes[-1].set_xlabel("time (s)")
     for ax in axes:
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7, ncol=min(len(measured.points), 6), loc="best")

@@ -10,7 +10,10 @@ Two formats are read (CSV, a header line, SI units):
   as a fraction of its length, from the back end (0, the end at smaller x when the robot lies
   straight) to the front end (1): e.g. ``t_s,x_0_m,y_0_m,x_0.5_m,y_0.5_m,x_1_m,y_1_m``. Any frame
   rate; x along the ground in the direction of the robot's front, y up; the origin is free (only
-  displacements from the first frame are compared).
+  displacements from the first frame are compared);
+- a catheter's tip path: ``t_s`` and ``tip_x_m``, ``tip_y_m``, ``tip_z_m`` (m, the spec's frame: the
+  clamped base at the origin, the rod along +x at the start), any frame rate, compared in 3D with the
+  tip simulated along the magnet's recorded path (:mod:`.magnet_path`).
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ from elastica_magnetic.field_csv import separator_hint
 
 __all__ = [
     "MARKERS",
+    "TIP_COLUMNS",
     "MAX_COORDINATE_M",
     "MIN_DURATION_S",
     "MIN_FRAMES",
@@ -40,6 +44,8 @@ __all__ = [
 
 #: The markers of ``trajectory.csv`` used as tracked points.
 MARKERS = ("back", "mid", "front")
+#: The columns of a catheter's tip path (m, the spec's frame).
+TIP_COLUMNS = ("tip_x_m", "tip_y_m", "tip_z_m")
 #: Fewest frames and shortest time span of a trajectory to fit.
 MIN_FRAMES = 5
 MIN_DURATION_S = 0.1
@@ -51,6 +57,9 @@ MIN_MOTION = 0.01
 #: values are taken for another unit.
 MAX_MOTION_LENGTHS = 100.0
 MAX_SEPARATION = 1.5
+#: Least distance of the outermost tracked points at the first frame, as a fraction of their
+#: distance along the straight body (a robot at rest before the waveform acts lies nearly straight).
+MIN_SPAN = 0.5
 
 _TRACKER_COLUMN = re.compile(r"^([xy])_([0-9]*\.?[0-9]+)_m$")
 
@@ -68,8 +77,8 @@ class MeasuredTrajectory:
     ----------
     times : ndarray (n,)
         s, strictly increasing, from the start of the waveform.
-    positions : ndarray (n, k, 2)
-        x and y of the ``k`` points, m.
+    positions : ndarray (n, k, d)
+        x and y (and z, ``d = 3``, for a tip path) of the ``k`` points, m.
     points : tuple of str
         Their names (``"back"``, ``"mid"``, ``"front"``, or ``"s=0.5"``).
     fractions : tuple
@@ -95,7 +104,7 @@ class MeasuredTrajectory:
                                   self.points, self.fractions)
 
     def displacements(self) -> NDArray[np.float64]:
-        """``(n, k, 2)`` positions minus the first frame's, m."""
+        """``(n, k, d)`` positions minus the first frame's, m."""
         return self.positions - self.positions[:1]
 
 
@@ -112,13 +121,19 @@ def _read_csv(path: Path) -> pd.DataFrame:
     return table
 
 
-def _layout(path: Path, columns: list[str]) -> tuple[str, list[tuple[str, str, str]], tuple | None]:
-    """The kind of file and its points: ``(name, x column, y column)``."""
+def _layout(path: Path, columns: list[str]) -> tuple[str, list[tuple[str, ...]], tuple | None]:
+    """The kind of file and its points: ``(name, x column, y column[, z column])``."""
     if "t_s" not in columns:
         raise TrajectoryError(
             f"{path}: no t_s column (found {', '.join(columns)}); expected msr's trajectory.csv or a "
             "tracker's CSV: t_s (s), then x_<s>_m, y_<s>_m (m) per tracked point, <s> its place "
             f"along the body from 0 (back end) to 1 (front end){separator_hint(columns)}")
+    if TIP_COLUMNS[0] in columns:  # a catheter's tip, in 3D
+        missing = [c for c in TIP_COLUMNS if c not in columns]
+        if missing:
+            raise TrajectoryError(f"{path}: a tip path needs {', '.join(TIP_COLUMNS)} (m); no "
+                                  f"{', '.join(missing)}")
+        return "tip path", [("tip", *TIP_COLUMNS)], (1.0,)
     markers = [(n, f"{n}_x_m", f"{n}_y_m") for n in MARKERS
                if f"{n}_x_m" in columns and f"{n}_y_m" in columns]
     if markers:
@@ -155,14 +170,14 @@ def read_trajectory(path: str | Path) -> MeasuredTrajectory:
     path = Path(path)
     table = _read_csv(path)
     kind, layout, fractions = _layout(path, list(table.columns))
-    sideways = [c for c in table.columns if str(c).endswith("_z_m")]
+    sideways = [c for c in table.columns if str(c).endswith("_z_m") and kind != "tip path"]
     if sideways:  # e.g. msr's own trajectory.csv: its z markers are not compared
         from elastica_magnetic.plausibility import warn_implausible
 
         warn_implausible(f"{path}: columns {', '.join(sideways)} are not used: the fit compares the "
                          "side view (x and height y of each tracked point) only, so sideways motion "
                          "neither helps nor hurts it", "")
-    used = ["t_s"] + [c for _, x, y in layout for c in (x, y)]
+    used = ["t_s"] + [c for _, *xyz in layout for c in xyz]
     values = table[used].apply(pd.to_numeric, errors="coerce").to_numpy(dtype=np.float64)
     bad = ~np.isfinite(values)
     if bad.any():
@@ -192,8 +207,8 @@ def read_trajectory(path: str | Path) -> MeasuredTrajectory:
         raise TrajectoryError(
             f"{path}: line {row + 2}, column {used[col + 1]}: {coordinates[row, col]:g} m; positions "
             f"past {MAX_COORDINATE_M:g} m look like {unit}")
-    positions = coordinates.reshape(times.shape[0], len(layout), 2)
-    return MeasuredTrajectory(str(path), kind, times, positions, tuple(n for n, _, _ in layout),
+    positions = coordinates.reshape(times.shape[0], len(layout), len(layout[0]) - 1)
+    return MeasuredTrajectory(str(path), kind, times, positions, tuple(n for n, *_ in layout),
                               fractions)
 
 
@@ -241,6 +256,7 @@ def check_against_robot(measured: MeasuredTrajectory, length: float, field_durat
                      else "are the points on the robot, and in metres?")
             raise TrajectoryError(f"{where}: tracked points {widest:g} m apart on a {length:g} m body "
                                   f"({widest / length:.3g} x its length): {guess}")
+        _check_first_frame_span(measured, length)
     moved = np.linalg.norm(measured.displacements(), axis=2).max()
     if moved < MIN_MOTION * length:
         raise TrajectoryError(f"{where}: no motion to fit: the points move at most {1e3 * moved:.3g} mm, "
@@ -250,6 +266,22 @@ def check_against_robot(measured: MeasuredTrajectory, length: float, field_durat
         raise TrajectoryError(f"{where}: a point moves {moved:g} m, {moved / length:.0f} body lengths: "
                               "the values look like millimetres or centimetres; give metres "
                               "(divide by 1000 or 100)")
+
+
+def _check_first_frame_span(measured: MeasuredTrajectory, length: float) -> None:
+    """The outermost points at the first frame (the robot at rest, straight, before the waveform
+    acts) lie at least :data:`MIN_SPAN` of their distance along a straight body apart: points
+    closer than that are on a shorter robot or in another unit."""
+    fractions = measured.fractions if measured.fractions is not None else (0.0, 1.0)  # back, front
+    along = (max(fractions) - min(fractions)) * length
+    first = measured.positions[0]
+    span = float(np.ptp(first, axis=0) @ np.ptp(first, axis=0)) ** 0.5
+    if along > 0.0 and span < MIN_SPAN * along:
+        raise TrajectoryError(
+            f"{measured.source}: at the first frame its outermost tracked points are {1e3 * span:.3g} mm "
+            f"apart, and on the {1e3 * length:g} mm robot of the spec they lie {1e3 * along:.3g} mm apart "
+            f"along the body (under {MIN_SPAN:g} x that even bent): is this the robot the spec "
+            "describes, and are the values in metres?")
 
 
 def points_at_rows(measured: MeasuredTrajectory, trajectory: pd.DataFrame,

@@ -4,6 +4,8 @@ without ``--samples`` (it seeds draws that are not made)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR
 
@@ -77,3 +79,57 @@ def test_round16_s1_identify_refuses_a_catheter_steered_by_a_source(robot, tmp_p
     err = capsys.readouterr().err
     assert f"--robot {robot}: [actuation] kind = " in err and "so it does not apply" in err
     assert not out.exists()
+
+
+def test_round17_identify_plays_a_specs_field_in_space_and_clamp(tmp_path, capsys):
+    """Round 17 S: identify fitted a spec with a [field] in space and a [boundary] clamp as a free
+    robot under the CSV alone (the nominal robot missed msr field replay's own trajectory by 6.7
+    mm). It plays them as replay does now: the nominal robot reproduces replay's motion."""
+    from importlib import resources
+
+    import numpy as np
+    from elastica_magnetic_rl.sim2real.identify import FieldDrive, FitModel, load_spec, parse_fit
+    from elastica_magnetic_rl.sim2real.tracking import read_trajectory
+
+    from elastica_magnetic.field_csv import read_field_csv, write_field_csv
+    from elastica_magnetic.field_spec import load_field
+
+    spec_file = Path(str(resources.files("elastica_magnetic") / "data" / "examples" / "catheter.toml"))
+    fields_csv = write_field_csv(tmp_path / "f.csv", np.tile([0.0, 1e-3, 0.0], (16, 1)))
+    assert main(["field", "replay", str(fields_csv), "--robot", str(spec_file), "--physics", "training",
+                 "--out", str(tmp_path / "rp"), "--no-progress"]) == 0
+    capsys.readouterr()
+    measured = read_trajectory(tmp_path / "rp" / "trajectory.csv")
+    spec = load_spec(spec_file)
+    fits = parse_fit("magnetization", spec)
+    fields = read_field_csv(fields_csv)
+    with pytest.raises(ValueError, match=r"the spec has \[field\] and \[boundary\]"):
+        FieldDrive(fields).check_spec(spec)
+    model = FitModel(spec, fits, FieldDrive(fields, load_field(spec_file)), measured, "training")
+    assert np.abs(model.residuals([1.0])).max() < 1e-9
+    assert np.abs(measured.displacements()).max() > 1e-4  # the magnet moved it
+
+
+def test_round17_identify_refuses_tracked_points_closer_than_the_body(tmp_path):
+    """Round 17 S: a 20 mm robot's trajectory was fitted on a 50 mm robot's spec without a word
+    (points too far apart were refused, too close never)."""
+    import numpy as np
+    from elastica_magnetic_rl.sim2real.tracking import TrajectoryError, check_against_robot, read_trajectory
+
+    t = np.arange(30) * 0.01
+    rows = [f"{ti:.2f},{0.001 * ti},0,{0.0197 + 0.001 * ti},0" for ti in t]
+    path = tmp_path / "tracked.csv"
+    path.write_text("t_s,x_0_m,y_0_m,x_1_m,y_1_m\n" + "\n".join(rows) + "\n")
+    measured = read_trajectory(path)
+    check_against_robot(measured, 0.02, 0.3)  # its own robot
+    with pytest.raises(TrajectoryError, match=r"19.7 mm apart, and on the 50 mm robot of the spec they lie"):
+        check_against_robot(measured, 0.05, 0.3)
+
+
+def test_round17_robustness_refuses_a_reach_case(tmp_path, capsys):
+    """Round 17 S: the robustness of the reach policy m1-4mT-reach (within 1 mm of +10 mm) ranked a
+    variant 3.8 mm past its target above the nominal robot: a study of distances ahead."""
+    out = tmp_path / "rb"
+    err = _refused(capsys, ["real", "robustness", "m1-4mT-reach", "--open-loop-only", "--no-corners",
+                            "--workers", "1", "--duration", "0.05", "--no-progress", "--out", str(out)], out)
+    assert "case 'm1-4mT-reach' has the reach task: a robustness study measures how far ahead" in err

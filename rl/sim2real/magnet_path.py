@@ -1,0 +1,281 @@
+"""A magnet arm's recorded path, and the catheter it steered simulated along it (what ``msr real
+identify`` fits a magnet-arm case with: the magnet's moment, the rod's values).
+
+A lab that steers a catheter with a magnet on a robot arm records what the arm did (its pose at
+every control step, as the arm's controller reports it) and where the catheter's tip went (a
+tracker). The first is the *magnet path* CSV (a header line, SI units, one row per 0.01 s control
+step from ``t_s = 0``):
+
+``t_s, magnet_x_m, magnet_y_m, magnet_z_m, direction_x, direction_y, direction_z[, insertion_m]``
+
+the magnet's centre (m) and its moment's direction (normalized when read) in the spec's frame (the
+catheter's clamped base at the origin, the rod straight along +x at the start), and, for a case
+with an insertion stage, how far the stage has pushed the base (m). The second is a tip path (see
+:mod:`.tracking`: ``t_s, tip_x_m, tip_y_m, tip_z_m``, any frame rate).
+
+:class:`MagnetDrive` replays a path exactly as it happened (between rows the magnet moves at
+constant velocity and turns at a constant rate, as the arm's commands move it; the stage likewise)
+on one clamped rod of the batched simulator, so a fitted moment is judged in the same physics the
+catheter cases train in. :func:`record_steering` makes a path and its tip path in simulation (a
+synthetic measurement, and what a lab's arm would be sent).
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from elastica_magnetic.robot_spec import ACTION_PERIOD
+
+from .tracking import MAX_COORDINATE_M, MeasuredTrajectory, TrajectoryError
+
+__all__ = ["MAGNET_PATH_COLUMNS", "MagnetDrive", "MagnetPath", "is_magnet_path", "read_magnet_path",
+           "record_steering", "simulate_tips", "write_magnet_path"]
+
+#: The magnet path's columns (``insertion_m`` only with a stage).
+MAGNET_PATH_COLUMNS = ("t_s", "magnet_x_m", "magnet_y_m", "magnet_z_m", "direction_x", "direction_y",
+                       "direction_z")
+INSERTION_COLUMN = "insertion_m"
+#: Rows must lie on the 0.01 s control grid within this (s).
+GRID_TOLERANCE_S = 1e-6
+
+
+@dataclass(frozen=True)
+class MagnetPath:
+    """The magnet's pose at every control step.
+
+    Attributes
+    ----------
+    times : ndarray (n,)
+        s, ``0, 0.01, 0.02, ...``.
+    positions : ndarray (n, 3)
+        m, the magnet's centre.
+    directions : ndarray (n, 3)
+        The moment's unit direction.
+    insertion : ndarray (n,) or None
+        m, the stage's insertion (``None`` without a stage).
+    """
+
+    source: str
+    times: NDArray[np.float64]
+    positions: NDArray[np.float64]
+    directions: NDArray[np.float64]
+    insertion: NDArray[np.float64] | None = None
+
+    @property
+    def duration(self) -> float:
+        """s, the last row's time."""
+        return float(self.times[-1])
+
+
+def is_magnet_path(path: str | Path) -> bool:
+    """Whether the CSV at ``path`` has a magnet path's header (its first line names magnet_x_m)."""
+    try:
+        with open(path, encoding="utf-8-sig") as handle:
+            header = handle.readline()
+    except (OSError, UnicodeDecodeError):
+        return False
+    return "magnet_x_m" in [c.strip() for c in header.split(",")]
+
+
+def read_magnet_path(path: str | Path) -> MagnetPath:
+    """Read and check a magnet path CSV (see the module docstring). Raises
+    :class:`~.tracking.TrajectoryError` naming the file, line and column: a missing column, a value
+    that is not a finite number, rows off the 0.01 s grid, a zero direction, a position past
+    :data:`~.tracking.MAX_COORDINATE_M` (millimetres for metres)."""
+    path = Path(path)
+    try:
+        table = pd.read_csv(path, encoding="utf-8-sig", dtype=str, keep_default_na=False)
+    except FileNotFoundError:
+        raise TrajectoryError(f"{path}: no such magnet path file") from None
+    except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError, IsADirectoryError) as exc:
+        raise TrajectoryError(f"{path}: not a readable magnet path CSV ({exc})") from None
+    table.columns = [str(c).strip() for c in table.columns]
+    missing = [c for c in MAGNET_PATH_COLUMNS if c not in table.columns]
+    if missing:
+        raise TrajectoryError(f"{path}: no column {', '.join(missing)}; a magnet path has "
+                              f"{', '.join(MAGNET_PATH_COLUMNS)} (m; a unit direction) and, with an "
+                              f"insertion stage, {INSERTION_COLUMN} (m), one row per 0.01 s from t_s = 0")
+    used = list(MAGNET_PATH_COLUMNS) + ([INSERTION_COLUMN] if INSERTION_COLUMN in table.columns else [])
+    values = table[used].apply(pd.to_numeric, errors="coerce").to_numpy(dtype=np.float64)
+    bad = ~np.isfinite(values)
+    if bad.any():
+        row, col = (int(i) for i in np.argwhere(bad)[0])
+        raise TrajectoryError(f"{path}: line {row + 2}, column {used[col]}: {table[used[col]].iloc[row]!r} "
+                              "is not a finite number (SI units: s, m)")
+    if values.shape[0] < 2:
+        raise TrajectoryError(f"{path}: {values.shape[0]} row(s); a path needs two or more (0.01 s apart)")
+    times = values[:, 0]
+    grid = np.arange(times.shape[0]) * ACTION_PERIOD
+    off = np.abs(times - grid) > GRID_TOLERANCE_S
+    if off.any():
+        k = int(np.flatnonzero(off)[0])
+        raise TrajectoryError(f"{path}: line {k + 2}: t_s {times[k]:g} s, expected {grid[k]:g} s: a magnet "
+                              f"path has one row per {ACTION_PERIOD:g} s control step from 0 (resample the "
+                              "arm's log to the control rate)")
+    positions, directions = values[:, 1:4], values[:, 4:7]
+    far = np.abs(positions) > MAX_COORDINATE_M
+    if far.any():
+        row, col = (int(i) for i in np.argwhere(far)[0])
+        raise TrajectoryError(f"{path}: line {row + 2}, column {used[col + 1]}: {positions[row, col]:g} m; "
+                              f"positions past {MAX_COORDINATE_M:g} m look like millimetres: give metres "
+                              "(divide by 1000)")
+    norms = np.linalg.norm(directions, axis=1)
+    if (norms <= 0.0).any():
+        row = int(np.flatnonzero(norms <= 0.0)[0])
+        raise TrajectoryError(f"{path}: line {row + 2}: direction (0, 0, 0); the moment's direction must "
+                              "be a non-zero vector")
+    insertion = values[:, 7] if len(used) > 7 else None
+    return MagnetPath(str(path), grid, positions.copy(), directions / norms[:, None], insertion)
+
+
+def write_magnet_path(path: str | Path, magnet: MagnetPath) -> Path:
+    """Write ``magnet`` as a magnet path CSV at ``path`` (atomically). Returns the path."""
+    from elastica_magnetic.io import atomic_write
+
+    columns = {"t_s": magnet.times}
+    for k, axis in enumerate("xyz"):
+        columns[f"magnet_{axis}_m"] = magnet.positions[:, k]
+    for k, axis in enumerate("xyz"):
+        columns[f"direction_{axis}"] = magnet.directions[:, k]
+    if magnet.insertion is not None:
+        columns[INSERTION_COLUMN] = magnet.insertion
+    path = Path(path)
+    with atomic_write(path, "w", newline="") as handle:
+        pd.DataFrame(columns).to_csv(handle, index=False, float_format="%.9g")
+    return path
+
+
+@dataclass
+class MagnetDrive:
+    """What played a catheter's motion: a magnet arm's :class:`MagnetPath`, replayed on the
+    robot of a magnet-arm case's spec (the drive of :func:`~.identify.identify` for such a case)."""
+
+    path: MagnetPath
+
+    @property
+    def duration(self) -> float:
+        """s, how long the path lasts."""
+        return self.path.duration
+
+    def describe(self) -> str:
+        return f"the magnet path {self.path.source}"
+
+    def check_spec(self, spec: Mapping[str, Any]) -> None:
+        """Refuse a spec this path cannot drive: not a magnet arm; insertion given without a stage
+        or missing with one, or beyond the stage's travel."""
+        from ..cases.case import case_from_dict
+
+        with warnings.catch_warnings():  # the spec's warnings were given when it was loaded
+            warnings.simplefilter("ignore")
+            case = case_from_dict(spec, "the spec", default_name="identified")
+        kind = getattr(case.actuation, "kind", "field")
+        if kind != "magnet-pose":
+            raise TrajectoryError(f"{self.path.source}: a magnet path drives a case steered by a magnet on "
+                                  f"an arm ([actuation] kind = \"magnet-pose\"); this spec's actuation is "
+                                  f"{kind!r}")
+        stage = case.actuation.insertion
+        if stage is None and self.path.insertion is not None:
+            raise TrajectoryError(f"{self.path.source}: has an {INSERTION_COLUMN} column, and the case has "
+                                  "no insertion stage ([actuation] insertion); drop the column or give the "
+                                  "stage")
+        if stage is not None and self.path.insertion is None:
+            raise TrajectoryError(f"{self.path.source}: no {INSERTION_COLUMN} column, and the case's "
+                                  f"insertion stage travels {list(stage)} m: give the stage's position "
+                                  "at every row (0 where it did not move)")
+        if stage is not None:
+            if abs(float(self.path.insertion[0])) > 1e-9:
+                raise TrajectoryError(f"{self.path.source}: line 2: {INSERTION_COLUMN} "
+                                      f"{self.path.insertion[0]:g} m at t_s 0; the rod starts where it is "
+                                      "built (insertion 0): give the stage's motion from there")
+            low, high = stage
+            beyond = (self.path.insertion < low - 1e-9) | (self.path.insertion > high + 1e-9)
+            if beyond.any():
+                row = int(np.flatnonzero(beyond)[0])
+                raise TrajectoryError(f"{self.path.source}: line {row + 2}: {INSERTION_COLUMN} "
+                                      f"{self.path.insertion[row]:g} m is beyond the stage's travel "
+                                      f"[{low:g}, {high:g}] m (millimetres for metres?)")
+
+    def rows(self, spec: Mapping[str, Any], physics: str,
+             measured: MeasuredTrajectory) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The tip (m) at every row of the path, ``(n, 1, 3)``, with the rows' times ``(n,)`` (s),
+        for the robot and magnet of ``spec`` in ``physics``. Raises SimulationDivergedError."""
+        tips = simulate_tips(spec, physics, self.path)
+        return self.path.times, tips[:, None, :]
+
+
+def simulate_tips(spec: Mapping[str, Any], physics: str, path: MagnetPath) -> NDArray[np.float64]:
+    """The tip (m) at every row of ``path``, ``(n, 3)``, of the rod of a magnet-arm case's ``spec``
+    (a case dict) in ``physics``, its magnet (the spec's moment) and stage following ``path``."""
+    from elastica_magnetic import Advancer, MagnetPose
+    from elastica_magnetic.batch import BatchedRobots
+
+    from ..cases.case import case_from_dict
+
+    with warnings.catch_warnings():  # the spec's warnings were given when it was loaded
+        warnings.simplefilter("ignore")
+        case = case_from_dict(spec, "the fitted spec", default_name="fitted")
+    robot = case.robot_spec(physics)
+    arm = case.actuation
+    box = np.stack([path.positions.min(axis=0) - 1.0, path.positions.max(axis=0) + 1.0])
+    magnet = MagnetPose(arm.moment, path.positions[0], path.directions[0], box, max_speed=1.0,
+                        max_turn_rate=1.0)
+    advancer = None
+    if path.insertion is not None:
+        advancer = Advancer(arm.insertion, arm.insertion_speed)
+    robots = BatchedRobots(robot, 1, sources=[magnet.source], clamp=True,
+                           advancers=None if advancer is None else [advancer])
+    rod = robots.rods[0]
+    tips = np.empty((path.times.shape[0], 3))
+    tips[0] = rod.position_collection[:, -1]
+    for k in range(1, path.times.shape[0]):
+        now = robots.robot_time(0)
+        magnet.follow(path.positions[k], path.directions[k], now, ACTION_PERIOD)
+        if advancer is not None:
+            advancer.follow(float(path.insertion[k]), now, ACTION_PERIOD)
+        robots.step(robot.steps_per_action)
+        tips[k] = rod.position_collection[:, -1]
+    return tips
+
+
+def record_steering(case: Any, target: Any, make_controller: Callable[[Any], Any] | None = None,
+                    physics: str = "accurate", duration: float | None = None
+                    ) -> tuple[MagnetPath, NDArray[np.float64]]:
+    """Steer the tip of a magnet-arm ``case`` (a :class:`~elastica_magnetic_rl.cases.case.Case`) to
+    ``target`` (m, ``(3,)``) in ``physics`` with a controller (default the case's steering
+    yardstick), recording the arm's pose and the stage at every control step, for ``duration`` s
+    (default the task's episode) less the last step (which would end, and reset, the episode).
+    Returns the :class:`MagnetPath` and the tip at every row, ``(n, 3)`` m. Raises RuntimeError if
+    the episode ends early (a collision, a blow-up)."""
+    from ..envs.catheter_env import make_catheter_env
+    from ..shipping.tip_reach import steering_controller
+
+    env = make_catheter_env(case, 1, physics, duration)
+    obs, info = env.reset(seed=0, options={"target": np.asarray(target, dtype=np.float64)})
+    act = (make_controller or steering_controller)(env)
+    magnet = env.actuators[0]
+
+    def pose() -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+        t = env.robots.robot_time(0)
+        return magnet.position_at(t), magnet.direction_at(t), env.insertion(0)
+
+    rows, tips = [pose()], [info["tip_m"][0].copy()]
+    for _ in range(env.max_episode_steps - 1):  # the last step would end (and reset) the episode
+        obs, _, terminated, truncated, info = env.step(act(env, obs))
+        if terminated[0]:
+            raise RuntimeError(f"the steering ended by {info['final_info']['ended_by'][0]} after "
+                               f"{len(rows)} steps: no path to record")
+        rows.append(pose())
+        tips.append(info["tip_m"][0].copy())
+    times = np.arange(len(rows)) * ACTION_PERIOD
+    positions = np.stack([r[0] for r in rows])
+    directions = np.stack([r[1] for r in rows])
+    insertion = np.array([r[2] for r in rows]) if env.advancers else None
+    return MagnetPath("recorded", times, positions, directions, insertion), np.stack(tips)
