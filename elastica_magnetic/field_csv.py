@@ -247,6 +247,10 @@ def _csv_rows(path: Path, error: type[Exception]) -> list[list[str]]:
 LIMIT_TOLERANCE = 1e-3
 
 
+#: Largest field (T) taken for zero on an axis the spec's coils do not drive (a file's rounding).
+UNDRIVEN_AXIS_T = 1e-9
+
+
 def limit_problem(field: NDArray[np.float64], axis_limits: dict[str, float],
                   where: str) -> str | None:
     """Why a waveform ``(steps, 3)`` (T) exceeds a spec's ``[actuation]`` limits (``axis_limits``:
@@ -257,6 +261,13 @@ def limit_problem(field: NDArray[np.float64], axis_limits: dict[str, float],
     field = np.asarray(field, dtype=np.float64).reshape(-1, 3)
     if not axis_limits or not field.size:
         return None
+    for k, axis in enumerate("xyz"):  # an axis the spec's coils do not drive must stay at zero
+        if axis not in axis_limits and np.any(np.abs(field[:, k]) > UNDRIVEN_AXIS_T):
+            row = int(np.flatnonzero(np.abs(field[:, k]) > UNDRIVEN_AXIS_T)[0])
+            return (f"{where}: data row {row} asks B_{axis} = {1e3 * field[row, k]:.6g} mT, and the spec's "
+                    f"[actuation] drives the axes {''.join(axis_limits)} only (axes = "
+                    f"\"{''.join(axis_limits)}\": no coil pair along {axis}): the coils the spec describes "
+                    f"cannot play it; zero that column, or give the spec axes = \"xyz\" with its limit")
     checks = [(axis, np.abs(field[:, "xyz".index(axis)]), limit)
               for axis, limit in axis_limits.items()]
     checks.append(("amplitude", np.linalg.norm(field, axis=1), max(axis_limits.values())))

@@ -367,6 +367,14 @@ class FileKind:
     description: str
     recognizes: Callable[[Path], bool]
 
+    def __post_init__(self) -> None:
+        _FILE_KINDS.append(self)
+
+
+#: Every :class:`FileKind` made: a file one of them recognizes is that command's result, which
+#: ``--force`` of another kind's command never replaces (a calibration JSON is no board log).
+_FILE_KINDS: list[FileKind] = []
+
 
 def check_result_file(path: str | Path, *, force: bool = False, option: str = "--out",
                       force_option: str = "--force", kind: FileKind | None = None) -> Path:
@@ -450,6 +458,12 @@ def _check_file(final: Path, force: bool, option: str, force_option: str,
     if final.exists() and not force:
         raise ResultExistsError(f"{where}: already exists; pass {force_option} to replace it, or "
                                 f"choose another {option}")
+    if final.is_file() and kind is not None and not _recognized(kind, final):
+        other = next((k for k in _FILE_KINDS if k is not kind and _recognized(k, final)), None)
+        if other is not None:  # msr's own, recorded or not: another command's result
+            raise ResultExistsError(f"{where}: is {other.description}, another command's result; "
+                                    f"{force_option} replaces only {kind.description}: move it away or "
+                                    f"choose another {option}")
     # a file msr recorded, unchanged since, is its own whatever it holds (the log of a failed
     # connection holds no firmware line); another must look like the kind it is replaced by
     if (final.is_file() and kind is not None and _not_recorded(final.parent, [final.name])

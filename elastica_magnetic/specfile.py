@@ -420,8 +420,12 @@ def _segments(t: SpecTable, n_elements: int) -> list[dict[str, Any]]:
     for k, item in enumerate(raw):
         sub = SpecTable(item, t.source, f"{t.path}.segments[{k}]", t.accept)
         if sub.has("elements") == sub.has("fraction"):
+            others = sorted(k for k in item if k not in ("elements", "fraction", "direction", "magnitude")) \
+                if isinstance(item, dict) else []
+            unknown = (f" ({', '.join(others)}: not a key of a segment, whose keys are elements or "
+                       "fraction, direction and magnitude)" if others else "")
             raise sub.error("elements", "give either elements (a number of elements) or fraction "
-                                        "(of the length), not both or neither")
+                                        f"(of the length), not both or neither{unknown}")
         segment: dict[str, Any] = {}
         if sub.has("elements"):
             segment["elements"] = sub.number("elements", "elements", low=1, high=n_elements,

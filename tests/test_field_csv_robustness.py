@@ -124,3 +124,20 @@ def test_a_column_that_is_not_read_is_named(tmp_path):
     with pytest.warns(ImplausibleValueWarning, match=r"column\(s\) 'current_A' are not read"):
         field = read_field_csv(path)
     np.testing.assert_allclose(field, [[1e-3, 0, 0], [1e-3, 0, 0]])
+
+
+def test_round17_a_column_of_an_axis_the_spec_does_not_drive_is_refused():
+    """Round 17 S: msr field replay played a 2 mT mag_z on a spec with axes = "xy" (no third coil
+    pair) without a word, where x and y rows above their limit are refused."""
+    import numpy as np
+
+    from elastica_magnetic.field_csv import limit_problem
+
+    field = np.zeros((5, 3))
+    field[:, 0] = 1e-3
+    assert limit_problem(field, {"x": 4e-3, "y": 4e-3}, "f.csv") is None
+    field[3, 2] = 2e-3
+    problem = limit_problem(field, {"x": 4e-3, "y": 4e-3}, "f.csv")
+    assert problem.startswith("f.csv: data row 3 asks B_z = 2 mT, and the spec's [actuation] drives the "
+                              "axes xy only"), problem
+    assert limit_problem(field, {"x": 4e-3, "y": 4e-3, "z": 4e-3}, "f.csv") is None

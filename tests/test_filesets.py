@@ -314,3 +314,32 @@ def test_round12_d1_a_users_file_or_folder_named_like_a_temporary_file_is_kept(t
     assert all(path.read_text() == "mine" for path in keep) and folder.is_dir()
     assert not any(path.exists() for path in killed)
     assert sum("left by a run that was killed" in note for note in out.notes) == 2
+
+
+def test_round17_force_never_replaces_another_commands_result_file(tmp_path):
+    """Round 17 D: `msr real stream --log cal.json --force` replaced the calibration JSON `msr real
+    calibrate` wrote (a file msr recorded was its own whatever it held), and `calibrate --out
+    b.log --force` the board log `stream` wrote."""
+    from elastica_magnetic.filesets import result_file
+    from elastica_magnetic.hardware.calibration import CALIBRATION_FILE
+    from elastica_magnetic.hardware.stream import BOARD_LOG_FILE
+    from elastica_magnetic.results import ResultExistsError
+
+    calibration, log = tmp_path / "cal.json", tmp_path / "b.log"
+    with result_file(calibration, kind=CALIBRATION_FILE) as f:
+        f.path.write_text('{"actuation_matrix_T_per_A": [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}')
+    with result_file(log, kind=BOARD_LOG_FILE) as f:
+        f.path.write_text("MSR-FW 1.0\nPONG\n")
+    before = {p.name: p.read_bytes() for p in (calibration, log)}
+    with pytest.raises(ResultExistsError, match=r"cal.json: is a calibration JSON .*another command's "
+                                                 r"result; --force replaces only a board log"):
+        with result_file(calibration, force=True, option="--log", kind=BOARD_LOG_FILE):
+            pass
+    with pytest.raises(ResultExistsError, match=r"b.log: is a board log .*--force replaces only a "
+                                                 r"calibration JSON"):
+        with result_file(log, force=True, kind=CALIBRATION_FILE):
+            pass
+    assert {p.name: p.read_bytes() for p in (calibration, log)} == before
+    with result_file(log, force=True, option="--log", kind=BOARD_LOG_FILE) as f:  # its own kind
+        f.path.write_text("MSR-FW 1.1\n")
+    assert log.read_text() == "MSR-FW 1.1\n"

@@ -167,7 +167,8 @@ def replay_command(args: argparse.Namespace) -> int:
     if source is not None:  # the coils' uniform waveform plus the spec's field in space
         field = FieldSum(field, source)
     # Every input and the output folder are checked before the simulation starts.
-    reference = _read_reference(args.reference, duration) if args.reference is not None else None
+    reference = (_read_reference(args.reference, duration, spec.length) if args.reference is not None
+                 else None)
     _note_sideways_model(spec, bool(np.any(waveform_z != 0.0)))
     with result_folder(args.out, kind="replay", subject=f"robot {spec.name}", force=args.force,
                        known_files=REPLAY_FILES) as out:
@@ -330,9 +331,15 @@ def _summary(args, result, trajectory_csv: Path, figure: Path) -> dict[str, obje
     }
 
 
-def _read_reference(path: Path, duration: float) -> pd.DataFrame:
+#: Most a reference's first-frame span may exceed the robot's length (a lying robot spans about
+#: its length; more is another unit or another robot).
+REFERENCE_SPAN_LENGTHS = 1.5
+
+
+def _read_reference(path: Path, duration: float, length: float | None = None) -> pd.DataFrame:
     """The reference trajectory of ``msr field replay --reference``, checked: the columns of
-    ``trajectory.csv``, numbers only, and at least two frames within ``[0, duration]`` s."""
+    ``trajectory.csv``, numbers only, a first frame's span that fits the robot's ``length`` (m),
+    and at least two frames within ``[0, duration]`` s."""
     from ..simulation import PLANAR_TRAJECTORY_COLUMNS, TRAJECTORY_COLUMNS
 
     if not path.is_file():
@@ -365,11 +372,20 @@ def _read_reference(path: Path, duration: float) -> pd.DataFrame:
         )
     reference = pd.DataFrame(values, columns=columns)
     _judge_reference_positions(path, reference)
+    span = float(reference.span_m.iloc[0])
+    if length is not None and span > REFERENCE_SPAN_LENGTHS * length:  # the robot's extent along x
+        unit = ("millimetres (divide by 1000)" if span > 160 * length else "centimetres (divide by 100)"
+                if span > 10 * length else "another unit, or another robot's recording")
+        raise CommandError(f"--reference {path}: its first frame's span_m is {span:g} m, {span / length:.3g} "
+                           f"x the {1e3 * length:g} mm robot being replayed: the lengths look like {unit}; "
+                           "give metres")
     within = int(np.count_nonzero((reference.t_s >= -1e-9) & (reference.t_s <= duration + 1e-9)))
     if within < 2:
+        ms = ("; the times look like milliseconds: give seconds (divide t_s by 1000)"
+              if reference.t_s.max() > 100.0 * duration else "")
         raise CommandError(
             f"--reference {path}: {within} frame(s) within the replayed 0 to {duration:g} s "
-            f"(its t_s spans {reference.t_s.min():g} to {reference.t_s.max():g} s); need at least 2"
+            f"(its t_s spans {reference.t_s.min():g} to {reference.t_s.max():g} s); need at least 2{ms}"
         )
     return reference
 

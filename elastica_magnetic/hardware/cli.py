@@ -281,7 +281,9 @@ def _calibrate(args: argparse.Namespace) -> int:
         FIELD_COLUMNS,
         check_measurements,
     )
+    from elastica_magnetic.hardware.stream import BOARD_LOG_FILE
 
+    assert BOARD_LOG_FILE  # known, so that --force never replaces a board log with a calibration
     if args.upload:
         _check_port("--upload", args.upload)
     path = Path(args.measurements)

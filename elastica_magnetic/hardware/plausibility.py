@@ -157,9 +157,9 @@ def check_drive(tick_hz: float, dac_half_span_V: float, transconductance_A_per_V
     A, A/s; three-element sequences per axis x, y, z)."""
     if tick_hz != FIRMWARE_TICK_HZ:
         raise PlausibilityError(
-            f"{source}: tick_hz = {tick_hz:g}, but the firmware ticks at a fixed "
-            f"{FIRMWARE_TICK_HZ:g} Hz (its slew limit would be applied {tick_hz / FIRMWARE_TICK_HZ:g}x "
-            "off); set tick_hz to 100")
+            f"{source}: tick_hz = {tick_hz:.12g}, but the firmware ticks at a fixed "
+            f"{FIRMWARE_TICK_HZ:g} Hz (its slew limit would be applied {tick_hz / FIRMWARE_TICK_HZ:.12g}x "
+            f"off); set tick_hz to {FIRMWARE_TICK_HZ:g} exactly")
     if not dac_half_span_V <= HW_MAX_DAC_HALF_SPAN_V:
         raise PlausibilityError(
             f"{source}: dac_half_span_V = {dac_half_span_V:g} V exceeds the DAC8563's "

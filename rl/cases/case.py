@@ -240,6 +240,14 @@ class Case:
         return not isinstance(self.actuation, SteeringActuation)
 
     @property
+    def has_yardstick_controller(self) -> bool:
+        """Whether a hand-designed controller can play the case's warm-up (``yardstick_warmup``):
+        a goto task's steering field, or a field-actuated crawl or reach whose ``[yardstick]``
+        records its rotating field's ``period``
+        (:func:`~elastica_magnetic_rl.envs.yardsticks.yardstick_controller` makes it)."""
+        return isinstance(self.task, GotoTask) or (self.yardstick.period is not None and self.field_actuated)
+
+    @property
     def training_episodes(self) -> str:
         """How the case's training episodes start, in words (for summaries of training returns)."""
         if not self.field_actuated:
@@ -444,7 +452,15 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     for key in ("robot", "physics", "checks"):  # read by describe_robot
         top.raw(key, None)
     top.finish()
-    return Case(name, description, robot, actuation, task, training, yardstick, source, design)
+    case = Case(name, description, robot, actuation, task, training, yardstick, source, design)
+    warmup = training.td3.get("yardstick_warmup")
+    if warmup and not case.has_yardstick_controller:  # msr train would refuse it: case check too
+        raise SpecError(f"{source}: [training.td3] yardstick_warmup = {warmup}: the warm-up is played by the "
+                        "case's hand-designed controller, and this case has none (a goto task's steering "
+                        "field is one; a crawl's rotating field once [yardstick] period is recorded: msr "
+                        "field baseline --case CASE --set-yardstick FILE writes it; a catheter's steering "
+                        "law acts on its own environment): give [yardstick] period or remove the setting")
+    return case
 
 
 def _check_task_and_actuation(kind: str, actuation: Actuation | SteeringActuation, source: str) -> None:
@@ -567,12 +583,12 @@ def _yardstick(t: SpecTable | None, robot_length: float) -> Yardstick:
         return Yardstick()
     out = Yardstick(distance_10s=t.number("distance_10s", "m", 0.0, low=0.0),
                     source=t.string("source", ""),
-                    period=t.number("period", "s", None, low=0.0, low_open=True),
+                    period=t.number("period", "s", None, low=0.0, low_open=True, plausible="rotation period"),
                     clockwise=t.boolean("clockwise", True))
     if out.period is not None and out.period <= 2 * ACTION_PERIOD:
         raise t.error("period", f"{out.period:g} s is at or under 2 x the {ACTION_PERIOD:g} s control "
-                                f"period: no field the coils play turns that fast ({1e3 * out.period:g} "
-                                "ms written as s?)")
+                                "period: no field the coils play turns that fast (a rotating field "
+                                "of the baseline sweep turns once in 0.5 to 6 s)")
     if t.has("clockwise") and out.period is None:
         raise t.error("clockwise", "the sense of a rotating field without its period: give period "
                                    "(s) too, or leave clockwise out")

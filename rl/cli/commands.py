@@ -124,10 +124,10 @@ def _add_bench_command(sub: argparse._SubParsersAction) -> None:
         "dipole, a Helmholtz pair) with its ratio to the uniform field's (target at most 2x). A few "
         "minutes; --quick --train-seeds 0 for a rough look in under a minute.",
     )
-    p.add_argument("--steps", type=number("", 1, integer=True), default=1000,
-                   help="time steps per step-cost measurement")
-    p.add_argument("--repeats", type=number("", 1, integer=True), default=3,
-                   help="measurements per configuration")
+    p.add_argument("--steps", type=number("", 1, integer=True), default=None,
+                   help="time steps per step-cost measurement (default 1000; --quick: 200)")
+    p.add_argument("--repeats", type=number("", 1, integer=True), default=None,
+                   help="measurements per configuration (default 3; --quick: 1)")
     p.add_argument("--vector-envs", type=number("", 1, integer=True), default=16,
                    help="crawlers in the vector environment measured (default 16)")
     p.add_argument("--train-seeds", type=number("", 0, integer=True), default=8, metavar="N",
@@ -342,6 +342,13 @@ def case_check_command(args: argparse.Namespace) -> int:
 def bench_command(args: argparse.Namespace) -> int:
     from ..reports.bench import benchmark, benchmark_text, training_peak_memory
 
+    if args.quick:  # its sizes are fixed small: a larger ask would be ignored
+        for option, value, most in (("--steps", args.steps, 200), ("--repeats", args.repeats, 1)):
+            if value is not None and value > most:
+                raise CommandError(f"{option} {value}: --quick measures at most {most} (its tiny sizes "
+                                   f"are fixed); leave --quick out to measure with {option} {value}")
+    args.steps = 1000 if args.steps is None else args.steps
+    args.repeats = 3 if args.repeats is None else args.repeats
     if args.steps < 1 or args.repeats < 1 or args.vector_envs < 1:
         raise CommandError("--steps, --repeats and --vector-envs must be >= 1")
     if args.memory_steps is not None and not args.memory_seeds:

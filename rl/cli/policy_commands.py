@@ -177,6 +177,7 @@ def export_seeds_command(args: argparse.Namespace) -> int:
         raise CommandError(f"--duration must be a finite time in (0, 600] s, got {args.duration}")
     for checkpoint in sorted(Path(args.case_dir).glob("seed*/checkpoint.pt"))[:1]:  # the case's seeds
         _refuse_tip_reach(checkpoint.parent, "export-seeds")
+        _refuse_goto(checkpoint.parent)
     try:
         result = export_seeds(args.case_dir, args.dest, args.duration,
                               progress=not args.no_progress, workers=args.workers, force=args.force)
@@ -311,6 +312,23 @@ def _refuse_tip_reach(policy: object, command: str) -> None:
             f"\"{case.actuation.kind}\"), and msr policy {command} handles policies of a field waveform; a "
             "tip-reach policy is judged with msr policy generate (the case's held-out targets, or "
             "--target X,Y,Z)")
+
+
+def _refuse_goto(run: Path) -> None:
+    """Refuse the seeds of a goto case in ``msr policy export-seeds``, which scores each seed by
+    the distance it goes ahead (a goto policy goes to a point in any direction: its seeds are
+    judged on a ring of targets)."""
+    from ..shipping.policy_files import resolve_policy
+
+    try:
+        case = resolve_policy(run).case
+    except (FileNotFoundError, ValueError):
+        return  # the command names what is wrong with the file itself
+    if case.task.kind == "goto":
+        raise CommandError(
+            f"{run}: case {case.name!r} has the goto task, and msr policy export-seeds scores each seed "
+            "by the distance it goes ahead; a goto policy is judged on a ring of targets: msr policy "
+            "generate SEED_RUN --ring (or msr policy ship, which measures the ring)")
 
 
 def _actor_choice(run, checkpoint: str, duration: float, progress: bool):

@@ -131,7 +131,8 @@ def _without_sweep(result: dict[str, Any]) -> dict[str, Any]:
 
 
 def _best_case(design, x, best: dict[str, Any], settings, name: str):
-    """The best design's case, its yardstick the best rotating field's distance."""
+    """The best design's case, its yardstick the best rotating field's distance (none when the
+    judgement was not 10 s of the accurate physics: a smoke run)."""
     spec = design.space.spec_of(design.base, x)
     spec["name"] = name
     # the starting robot's words describe its own magnetization: the design says what it is
@@ -143,13 +144,15 @@ def _best_case(design, x, best: dict[str, Any], settings, name: str):
         spec["robot"]["name"] = f"{spec['robot']['name']}-designed"
     turn = "clockwise" if best["clockwise"] else "counter-clockwise"
     measured = settings.final_physics == "accurate" and abs(settings.final_duration - EVAL_DURATION) < 1e-9
-    if best["distance_m"] is not None and best["distance_m"] > 0:
+    # a yardstick is 10 s of the accurate physics: a smoke run's (--quick) distance would be taken
+    # by msr train and case check as the robot's 10 s target; the best.toml then has none
+    spec.pop("yardstick", None)  # the starting robot's yardstick is of another magnetization
+    if measured and best["distance_m"] is not None and best["distance_m"] > 0:
         spec["yardstick"] = {
             "distance_10s": float(best["distance_m"]),
             "source": (f"msr design: the best rotating field of the designed robot, {turn}, period "
                        f"{best['period_s']:.4g} s, {1e3 * best['distance_m']:+.1f} mm in "
-                       f"{settings.final_duration:g} s, {settings.final_physics} physics, field from zero"
-                       + ("" if measured else " (a smoke run's stand-in, not a yardstick)")),
+                       f"{settings.final_duration:g} s, {settings.final_physics} physics, field from zero"),
             "period": float(best["period_s"]), "clockwise": bool(best["clockwise"])}
     return case_from_dict(spec, "best.toml", name)
 

@@ -284,8 +284,8 @@ def yardstick_controller(case: Case) -> Callable[[], Any] | None:
     :class:`SteeringFieldPolicy` with its defaults; a crawl or reach case's
     :class:`RotatingFieldPolicy` at its ``[yardstick]`` ``period`` and sense (what ``msr field
     baseline --set-yardstick`` and ``msr loop`` record); ``None`` for a case without one."""
+    if not case.has_yardstick_controller:
+        return None
     if isinstance(case.task, GotoTask):
         return functools.partial(SteeringFieldPolicy, case)
-    if case.yardstick.period is not None and case.field_actuated:
-        return functools.partial(RotatingFieldPolicy, case, case.yardstick.period, case.yardstick.clockwise)
-    return None
+    return functools.partial(RotatingFieldPolicy, case, case.yardstick.period, case.yardstick.clockwise)

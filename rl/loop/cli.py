@@ -85,6 +85,10 @@ def _settings(args: argparse.Namespace):
                "calibration": args.calibration.resolve() if args.calibration else None}
     if args.steps is not None:
         changes["steps"] = args.steps
+        if args.quick and args.steps > base.steps:  # said: the smoke run is a minute's no longer
+            print(f"note: --steps {args.steps} replaces --quick's {base.steps} training steps per seed: "
+                  "the training is no smoke run of a minute (the other steps stay --quick's)",
+                  file=sys.stderr)
     return dataclasses.replace(base, **changes)
 
 

@@ -186,8 +186,11 @@ class SeedRun:
             truncate_csv(csv_path, EPISODE_FIELDS,
                           lambda row: int(row["global_step"]) <= self.global_step)
             self.replay.truncate(self.buffer.obs_dim, self.buffer.act_dim)
-        else:
-            csv_path.unlink(missing_ok=True)  # stale log of a run without checkpoint
+        else:  # the stale logs of a start stopped before its first checkpoint: TensorBoard would
+            # plot its curves with this run's as one seed
+            csv_path.unlink(missing_ok=True)
+            for stale in self.run_dir.glob("events.out.tfevents.*"):
+                stale.unlink()
         self.writer = SummaryWriter(str(self.run_dir),
                                     purge_step=self.global_step if self.resumed_here else None)
         if not self.resumed_here:

@@ -218,9 +218,10 @@ def yardstick_spec(case: Case, best: dict[str, Any], path: str | Path, *,
     ``clockwise``) and a ``source`` saying which baseline it is. An existing file is replaced only with
     ``force`` (:func:`elastica_magnetic.filesets.result_file`). ``physics`` and ``duration`` (s) are
     what ``best`` was measured in: anything but 10 s of the accurate physics (a smoke run of ``msr loop
-    --quick``) is written into the ``source`` as not a yardstick, so the file never claims what was not
+    --quick``) is written into the ``source`` as not a yardstick, and its field not written (the
+    spec's own ``period`` and ``clockwise`` kept, if any), so the file never claims what was not
     measured. ``source``: the ``source`` written instead (a distance that is not ``best``'s sweep, e.g.
-    the spec's own standing in for a smoke run)."""
+    the spec's own standing in for a smoke run; the field is then not written either)."""
     spec = case.to_dict()
     turn = "clockwise" if best["clockwise"] else "counter-clockwise"
     spec["yardstick"] = {
@@ -231,8 +232,17 @@ def yardstick_spec(case: Case, best: dict[str, Any], path: str | Path, *,
                   "from zero",
         "period": float(best["period_s"]), "clockwise": bool(best["clockwise"]),
     }
-    if source is None and (physics != "accurate" or abs(duration - EVAL_DURATION) > 1e-9):
+    smoke = physics != "accurate" or abs(duration - EVAL_DURATION) > 1e-9
+    if source is None and smoke:
         spec["yardstick"]["source"] += " (a smoke run's stand-in, not a yardstick)"
+    if source is not None or smoke:
+        # the field of a smoke run (or of a sweep whose distance is not the one written) did not
+        # make distance_10s: the period and sense stay the spec's own, or absent (a training from
+        # the yardstick must not clone a field that moved the robot backwards)
+        own = case.yardstick
+        del spec["yardstick"]["period"], spec["yardstick"]["clockwise"]
+        if own.period is not None:
+            spec["yardstick"].update(period=float(own.period), clockwise=bool(own.clockwise))
     copy = case_from_dict(spec, str(path), default_name=case.name)
     with result_file(path, force=force, option="--set-yardstick", kind=SPEC_FILE) as written:
         # a name the spec set itself (not its file's) is kept: the copy is the same case

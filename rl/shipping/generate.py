@@ -114,11 +114,18 @@ def generate(
     check_duration(duration)
     loaded = resolve_policy(policy) if isinstance(policy, (str, Path)) else policy
     target = goto_target(loaded.case, target)
+    task = loaded.case.task
+    if target is not None and float(np.hypot(*target)) <= task.tolerance:
+        from elastica_magnetic.plausibility import warn_implausible
+
+        warn_implausible(f"--target {1e3 * target[0]:g},{1e3 * target[1]:g} mm lies within the "
+                         f"{1e3 * task.tolerance:g} mm tolerance of the start: a robot that stays put "
+                         "succeeds there (mm written as m?)", "target")
     subject = f"case {loaded.case.name}"
     check_result_folder(out, kind=kind, subject=subject, force=force, known_files=GENERATE_FILES)
     choice = None
     if isinstance(policy, (str, Path)):
-        choice = choose_actor(policy, checkpoint, duration, progress)
+        choice = choose_actor(policy, checkpoint, duration, progress, target)
         if choice is not None:
             loaded = resolve_policy(choice.path)
     with result_folder(out, kind=kind, subject=subject, force=force,
@@ -179,7 +186,12 @@ def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: st
     if isinstance(loaded.case.task, ReachTask):
         result["reach"] = reach_metrics(rollout, loaded.case.task)
     if isinstance(loaded.case.task, GotoTask):
-        result["goto"] = goto_result(rollout, loaded.case.task, target)
+        task = loaded.case.task
+        result["goto"] = goto_result(rollout, task, target)
+        # the target and the time played, not the task's default (15 mm ahead in 30 s)
+        result["target"] = (f"within {1e3 * task.tolerance:.1f} mm of the target "
+                            f"({1e3 * target[0]:+.1f}, {1e3 * target[1]:+.1f}) mm (ahead, left) "
+                            f"in {result['duration_s']:g} s")
         result.update({k: result["goto"][k] for k in ("final_distance_to_target_m",
                                                        "time_to_target_s")})
     if pictures.figures and rollout.n_steps:

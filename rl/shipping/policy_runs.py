@@ -116,11 +116,12 @@ def node_dx(rollout) -> float:
 
 
 def evaluate_checkpoint(path: Path, cached: dict[str, Any], duration: float,
-                     progress: bool) -> dict[str, Any]:
+                     progress: bool, target: tuple[float, float] | None = None) -> dict[str, Any]:
     """The accurate evaluation of one checkpoint file with its ``meets_target`` verdict (left out
     where there is none: a case without a yardstick, a crawl run not 10 s long), reusing ``cached``
     when it is of the same global step and duration (its stored verdict is not reused: an older
-    file's ``meets_target`` of a case without a yardstick is dropped)."""
+    file's ``meets_target`` of a case without a yardstick is dropped). A goto policy goes to
+    ``target`` (forward, left; m), default the task's distance straight ahead."""
     policy = resolve_policy(path)
     step = policy.meta.get("global_step")
     task = policy.case.task
@@ -130,8 +131,9 @@ def evaluate_checkpoint(path: Path, cached: dict[str, Any], duration: float,
             and all(k in cached for k in keys)):
         entry = {k: cached[k] for k in keys}
     else:
-        # a goto policy goes to the task's distance straight ahead
-        target = (task.distance, 0.0) if isinstance(task, GotoTask) else None
+        if isinstance(task, GotoTask) and target is None:  # the task's distance straight ahead
+            target = (task.distance, 0.0)
+        target = target if isinstance(task, GotoTask) else None
         rollout = run_policy(policy, duration, "accurate", "zero", progress, target=target)
         entry = {"global_step": step, "duration_s": float(duration), "physics": "accurate",
                  "initial_field": "zero", "mid_dx_m": rollout.mid_dx,
@@ -140,6 +142,7 @@ def evaluate_checkpoint(path: Path, cached: dict[str, Any], duration: float,
             mid = rollout.positions.shape[2] // 2
             end = rollout.positions[-1, [0, 2], mid]
             entry["final_distance_to_target_m"] = float(np.hypot(*(end - rollout.meta["target_xz_m"])))
+            entry["target_m"] = [float(v) for v in target]
     met = policy.case.meets_yardstick(entry["mid_dx_m"], entry["node_dx_m"], duration,
                                       entry["diverged"])
     if met is not None:
@@ -200,23 +203,28 @@ def _evaluate_seed(job: tuple[int, Path, float, bool]) -> dict[str, Any]:
 
 
 def evaluate_run(run_dir: str | Path, duration: float = 10.0, progress: bool = True,
-                 seed: int | None = None) -> tuple[dict[str, Any], dict[str, Any] | None]:
+                 seed: int | None = None, target: tuple[float, float] | None = None
+                 ) -> tuple[dict[str, Any], dict[str, Any] | None]:
     """The shipping criterion's evaluations (``duration`` s, accurate physics, field from zero) of a
     run folder's final checkpoint and of its ``best.pt`` (``None`` without one): each a dict of
     ``global_step``, ``duration_s``, ``physics``, ``initial_field``, ``mid_dx_m``, ``node_dx_m``
     (m), ``diverged`` and ``meets_target`` (absent without a verdict,
     :func:`evaluate_checkpoint`). Cached in the folder's ``evaluation.json`` and reused while the
-    checkpoint's step and the duration are the same."""
+    checkpoint's step and the duration are the same. A goto run's actors go to ``target``
+    (forward, left; m) when given: evaluated afresh and not cached (the cache holds the task's
+    own target's)."""
     run = RunDir(run_dir)
     cache_path = run.evaluation_json
-    cache = _cached_evaluations(cache_path)
-    final = evaluate_checkpoint(run.checkpoint, cache, duration, progress)
+    cache = _cached_evaluations(cache_path) if target is None else {}
+    final = evaluate_checkpoint(run.checkpoint, cache, duration, progress, target)
     best = None
     if run.best.is_file():
         # a best.pt holding the final actor (a seed stopped by its rule right after that
         # evaluation, or the last evaluation the best) has the final actor's evaluation
         prior = final if _same_actor(run.checkpoint, run.best) else cache.get("best") or {}
-        best = evaluate_checkpoint(run.best, prior, duration, progress)
+        best = evaluate_checkpoint(run.best, prior, duration, progress, target)
+    if target is not None:
+        return final, best
     if seed is None:
         seed = cache.get("seed")
     atomic_write_json(cache_path, {"seed": seed, **final, "best": best})
@@ -284,13 +292,24 @@ class ActorChoice:
             return f"{name} (the training's best evaluation; --checkpoint final for the final actor)"
         if self.rule == "asked" or self.final is None:
             return f"{name} (as asked)"
+        goto = "final_distance_to_target_m" in self.final
+
         def one(label: str, e: dict[str, Any] | None) -> str:
             if e is None:
                 return f"{label}: none"
-            moved = "diverged" if e["diverged"] else f"{1e3 * e['mid_dx_m']:+.3g} mm"
+            moved = ("diverged" if e["diverged"]
+                     else f"{1e3 * e['final_distance_to_target_m']:.3g} mm from it" if goto
+                     else f"{1e3 * e['mid_dx_m']:+.3g} mm")
             return f"{label} (step {e['global_step']}) {moved}"
         e = self.final
-        return (f"{name}, the farther of the two in {e['duration_s']:g} s of {e['physics']} physics "
+        rule = "the farther of the two"
+        if goto and "target_m" in e:
+            forward, left = (1e3 * v for v in e["target_m"])
+            rule = (f"the nearer of the two to the target ({forward:+.3g}, {left:+.3g}) mm (ahead, left) "
+                    "at the end")
+        elif goto:  # an evaluation cached before targets were recorded: the task's own
+            rule = "the nearer of the two to the task's target straight ahead at the end"
+        return (f"{name}, {rule} in {e['duration_s']:g} s of {e['physics']} physics "
                 f"from a {e['initial_field']} field: {one('final', self.final)}, "
                 f"{one('best.pt', self.best)}")
 
@@ -312,10 +331,11 @@ def _why_no_best(run_files: RunDir) -> str:
 
 
 def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10.0,
-                 progress: bool = True) -> ActorChoice | None:
+                 progress: bool = True, target: tuple[float, float] | None = None) -> ActorChoice | None:
     """The actor of a run to use: ``run`` is a run folder or its ``checkpoint.pt``; ``checkpoint``
-    is ``"auto"`` (both actors evaluated, :func:`evaluate_run`, and the better by
-    :func:`prefer_best`), ``"final"``, ``"best"`` or a checkpoint file's path. Returns ``None``
+    is ``"auto"`` (both actors evaluated, :func:`evaluate_run`, toward ``target`` for a goto run,
+    and the better by :func:`prefer_best`), ``"final"``, ``"best"`` or a checkpoint file's path.
+    Returns ``None``
     when ``run`` is not a run (a shipped policy, a ``best.pt`` named directly) and ``checkpoint``
     is ``"auto"``. Raises ``FileNotFoundError`` naming what is missing."""
     path = Path(run)
@@ -327,6 +347,10 @@ def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10
         if not given.is_file():
             raise FileNotFoundError(f"--checkpoint {checkpoint}: no such checkpoint file (or auto, "
                                     "final, best)")
+        if not is_run:  # a shipped policy has one actor: the checkpoint would be played in its place
+            raise ValueError(f"--checkpoint {checkpoint}: {run} is not a run folder (a shipped policy or an "
+                             "actor file): it has no checkpoints to choose among; play that checkpoint "
+                             f"itself (msr policy generate {checkpoint}), or leave --checkpoint out")
         own, other = resolve_policy(run).case.name, resolve_policy(given).case.name
         if own != other:  # another case's actor would be played on this run's robot
             raise ValueError(f"--checkpoint {checkpoint}: a checkpoint of case {other!r}, not of "
@@ -348,7 +372,7 @@ def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10
         return ActorChoice(run_files.best, "best", "asked")
     if not run_files.best.is_file():
         return ActorChoice(run_files.checkpoint, "final", "only")
-    final, best = evaluate_run(run_dir, duration, progress)
+    final, best = evaluate_run(run_dir, duration, progress, target=target)
     case = resolve_policy(run_files.checkpoint).case
     if prefer_best(case, final, best):
         return ActorChoice(run_files.best, "best", "farther", final, best)

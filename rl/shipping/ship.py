@@ -136,6 +136,8 @@ def ship(run: str | Path, name: str, options: ShipOptions | None = None, /,
     if present and not overwrite:
         raise FileExistsError(f"{target} already holds a policy ({', '.join(present)}); pass "
                               "--force to replace it")
+    if present:
+        _check_same_case(target, policy.case.name)
     if present and o.lock:  # a file edited since msr wrote it is refused now, before measuring
         check_files(target, present, force=True, option="--out", adopt=_holds_a_policy(target))
         _check_card_recorded(target)
@@ -166,6 +168,21 @@ def ship(run: str | Path, name: str, options: ShipOptions | None = None, /,
     return {"name": name, "dir": str(target), "case": case.name,
             "evaluation": measured,
             "files": sorted(p.name for p in target.iterdir() if p.name in SHIPPED_FILES)}
+
+
+def _check_same_case(target: Path, case: str) -> None:
+    """Refuse to replace a shipped policy of another case (``--force`` replaces only a result for the
+    same subject, as ``msr policy export`` and ``generate``): a name reused by mistake must not
+    remove another robot's policy."""
+    try:
+        shipped = read_policy_json(target / POLICY_JSON).get("case")
+    except (OSError, ValueError):  # no readable policy.json: the file checks judge the folder
+        return
+    if shipped != case:
+        raise ResultExistsError(
+            f"--out {display_path(target)}: holds the shipped policy of case {shipped!r}, and this run is "
+            f"of case {case!r}; choose another --name or --out (--force replaces only a policy of the "
+            "same case)")
 
 
 def _check_card_recorded(target: Path) -> None:

@@ -124,11 +124,13 @@ def plan_robustness(source: str | Path, settings: StudySettings | None = None, /
                              waveform)
         if over is not None:
             raise ValueError(over)
-    if the_case.task.kind == "goto":  # the study's distances and yardstick are distances ahead
-        raise ValueError(f"case {the_case.name!r} has the goto task: a robustness study measures "
-                         "how far ahead a waveform carries varied robots, not whether they reach a "
-                         "target; not available for goto cases yet (the closed loop with a tracker, "
-                         "run_closed_loop, corrects what an open-loop waveform cannot)")
+    if the_case.task.kind in ("goto", "reach"):  # the study's distances are distances ahead
+        # (a reach variant 3.8 mm past its target would rank above one on it)
+        raise ValueError(f"case {the_case.name!r} has the {the_case.task.kind} task: a robustness study "
+                         "measures how far ahead a waveform carries varied robots, not whether they "
+                         f"reach a target; not available for {the_case.task.kind} cases yet (the closed "
+                         "loop with a tracker, run_closed_loop, corrects what an open-loop waveform "
+                         "cannot)")
     spec = the_case.to_dict()
     chosen = resolve_variations(list(o.variations) if o.variations else default_variations(spec),
                                 spec)

@@ -187,3 +187,29 @@ def test_a_reference_in_millimetres_is_refused(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--reference" in err and "= 20 m is above 10 m" in err and "looks like mm" in err, err
     assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("scale, t_scale, message", [
+    (100.0, 1.0, "its first frame's span_m is 2 m, 100 x the 20 mm robot being replayed: the lengths "
+                 "look like centimetres (divide by 100)"),
+    (1.0, 1000.0, "the times look like milliseconds: give seconds (divide t_s by 1000)"),
+])
+def test_round17_a_reference_in_centimetres_or_milliseconds_is_named(tmp_path, capsys, scale, t_scale,
+                                                                     message):
+    """Round 17 S and V: a reference in cm (a 2 m span for a 20 mm robot) was compared and its
+    99 % error reported as a result; one in ms was refused without a word of the unit."""
+    from elastica_magnetic.simulation import PLANAR_TRAJECTORY_COLUMNS
+
+    field = tmp_path / "f.csv"
+    field.write_text("mag_x,mag_y,mag_z\n" + "0,4,0\n" * 5)
+    reference = tmp_path / "ref.csv"
+    rows = [",".join(PLANAR_TRAJECTORY_COLUMNS)]
+    for k in range(3):  # the 20 mm robot lying from 0 to 20 mm
+        values = [0.01, 0.0005, 0.0, 0.0005, 0.02, 0.0005, 0.001, 0.02]
+        rows.append(",".join([f"{0.01 * k * t_scale:g}", *(f"{scale * v:g}" for v in values)]))
+    reference.write_text("\n".join(rows) + "\n")
+    assert main(["field", "replay", str(field), "--robot", "yao2023-m1", "--reference", str(reference),
+                 "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err
+    assert message in err, err
+    assert not (tmp_path / "r").exists()

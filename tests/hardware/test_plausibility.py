@@ -50,6 +50,8 @@ def write_calibration(tmp_path: Path, **changes: object) -> Path:
         ({"actuation_matrix_T_per_A": [[2e-3, 0, 0], [0, 0, 1.8e-3], [0, 2e-3, 0]]},
          r"coil y \(current_y_A\) makes 2 mT/A along z but 0 mT/A along y, its own axis: .* swapped"),
         ({"tick_hz": 1000.0}, r"tick_hz = 1000, but the firmware ticks at a fixed 100 Hz"),
+        # round 17 V: 100.0000001 was printed "tick_hz = 100" and refused (self-contradictory)
+        ({"tick_hz": 100.0000001}, r"tick_hz = 100.0000001, but .* applied 1.000000001x off"),
         ({"current_limit_A": [2400.0, 2.4, 2.4]},
          r"current_limit_A\[0\] = 2400 A exceeds the hardware rating of 20 A \(mA written"),
         ({"slew_limit_A_per_s": [50.0, 50000.0, 50.0]}, r"slew_limit_A_per_s\[1\] = 50000 A/s"),

@@ -68,6 +68,9 @@ def test_the_design_folder_and_its_summary(tmp_path):
     # round 10, V5: the words of the starting robot described its own magnetization
     assert best.description.startswith("Designed by msr design from m1-4mT")
     assert best.robot.tables["robot"]["name"] == "yao2023-m1-designed"
+    # round 17 S: a smoke run's distance (of the training physics) was written as
+    # the 10 s accurate-physics yardstick, which msr train then took as the target (TINY: 0.3 s)
+    assert best.yardstick.distance_10s == 0.0 and best.yardstick.period is None
     # the start is the spec's own robot, judged by the same sweep as the best
     sweep = _rows(out / "final_sweep.csv")
     assert {r["design"] for r in sweep} == {"start", "best"}

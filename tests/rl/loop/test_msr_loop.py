@@ -369,8 +369,26 @@ def test_a_quick_sweep_with_no_forward_distance_uses_the_specs_own_yardstick(tmp
     trained = load_case(out / "m1-4mT.toml")
     assert trained.yardstick.distance_10s == pytest.approx(0.0205)
     assert "standing in for a smoke run" in trained.yardstick.source
+    # Round 17 S: the copy carried the smoke field (period 0.5 s, counter-clockwise: -0.0019 mm) as
+    # "the rotating field that made distance_10s", which a training from the yardstick clones
+    assert trained.yardstick.period is None
     assert "stands in for this smoke run" in (out / "report.md").read_text()
     # Round 12, S2: the progress line said "rotating field +20.5 mm (period 0.5 s)", as if measured
     assert "the sweep's best -0.4 mm in 0.5 s (a smoke run); the spec's own +20.5 mm in 10 s stands " \
            "in" in err, err
     assert "rotating field +20.5 mm" not in err
+
+
+def test_round17_quick_with_more_steps_says_it_is_no_smoke_run(capsys):
+    """Round 17 S: `msr loop --quick --steps 100000` trained 100000 steps per seed in "a smoke run
+    of about a minute" without a word."""
+    import argparse
+
+    from elastica_magnetic_rl.loop.cli import _settings
+
+    args = argparse.Namespace(calibration=None, quick=True, steps=100_000, seeds=1, workers=1,
+                              physics_robustness="training")
+    assert _settings(args).steps == 100_000
+    assert "--steps 100000 replaces --quick's 240 training steps per seed" in capsys.readouterr().err
+    args.steps = 100
+    assert _settings(args).steps == 100 and "replaces" not in capsys.readouterr().err

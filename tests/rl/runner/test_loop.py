@@ -73,6 +73,25 @@ def test_killed_and_resumed_run_is_bit_identical(tmp_path):
     assert not torch.equal(other.actor.net[0].weight, full.actor.net[0].weight)
 
 
+def test_a_start_over_removes_the_discarded_start_s_tensorboard_log(tmp_path):
+    """Round 17, D: a run stopped before its first checkpoint, then started over (the same command,
+    no --resume), left the discarded start's TensorBoard events beside the new run's, so
+    TensorBoard plotted two runs as one seed."""
+    from elastica_magnetic_rl.runfiles.rundir import RunDir
+
+    def kill_at_once(row):
+        raise Killed
+
+    with pytest.raises(Killed):
+        train(ToyEnv, toy_config(seed=3), 200, tmp_path, progress=False, log_fn=kill_at_once)
+    assert not RunDir(tmp_path).has_checkpoint()
+    discarded = set(tmp_path.glob("events.out.tfevents.*"))
+    assert len(discarded) == 1
+    train(ToyEnv, toy_config(seed=3), 200, tmp_path, progress=False)
+    kept = set(tmp_path.glob("events.out.tfevents.*"))
+    assert len(kept) == 1 and not kept & discarded
+
+
 # ----------------------------------------------------------------------------------------------
 # (5) smoke training on Pendulum-v1
 # ----------------------------------------------------------------------------------------------

@@ -102,7 +102,8 @@ def test_the_warm_up_is_the_yardstick_plus_noise_and_the_actor_starts_as_its_clo
     assert float(np.abs(acted - shown).mean()) > 0.2
 
 
-@pytest.mark.parametrize("kill_at", [60, WARM_UP + 40])  # inside the warm-up, after the cloning
+@pytest.mark.parametrize("kill_at", [60, WARM_UP + 10, WARM_UP + 40])  # inside the warm-up, its
+# checkpoint at its end (round 17: the clone made twice), after the cloning
 def test_a_run_killed_and_resumed_ends_as_one_uninterrupted(tmp_path, kill_at):
     steps, config = WARM_UP + 80, _config(yardstick_warmup=200)  # a rough clone is enough here
     full = train(_fixed, config, steps, tmp_path / "full", progress=False, yardstick_fn=Toward)

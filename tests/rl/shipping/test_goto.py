@@ -217,3 +217,40 @@ def test_the_commands_that_judge_a_distance_ahead_refuse_a_goto_case(tmp_path, c
                  str(tmp_path / "robust")]) == 2
     assert "case 'm1-4mT-goto' has the goto task: a robustness study" in capsys.readouterr().err
     assert not (tmp_path / "loop").exists() and not (tmp_path / "robust").exists()
+
+
+def test_round17_generate_states_and_chooses_for_the_target_asked(tmp_path, capsys):
+    """Round 17 S: with --target, generate's `target` line stated the task's default target and
+    episode (15 mm ahead, 30 s), `--checkpoint auto` chose the actor by its distance to that
+    default target (and quoted distances ahead), and a target inside the tolerance of the start
+    ("success" by staying put) passed without a word."""
+    runs, spec = tmp_path / "runs", tmp_path / "goto-quick.toml"
+    text = load_case("m1-4mT-goto").toml()
+    assert "episode_duration = 30.0" in text
+    spec.write_text(text.replace("episode_duration = 30.0", "episode_duration = 0.1"))  # evaluations too
+    assert main(["train", "--case", str(spec), "--seeds", "1", "--steps", "40", "--out", str(runs),
+                 "--set", "learning_starts=10", "--set", "batch_size=8", "--set", "hidden_sizes=8",
+                 "--set", "eval_every=20", "--no-progress"]) == 0
+    run = runs / "goto-quick" / "seed0"
+    assert (run / "best.pt").is_file()
+    capsys.readouterr()
+    assert main(["policy", "generate", str(run), "--target", "0,0.004", "--duration", "0.03",
+                 "--physics", "training", "--no-figures", "--no-progress", "--json",
+                 "--out", str(tmp_path / "g")]) == 0
+    out = capsys.readouterr().out
+    result = json.loads(out[out.index("{"):])
+    assert result["target"] == "within 2.0 mm of the target (+0.0, +4.0) mm (ahead, left) in 0.03 s"
+    summary = result["actor_choice"]["summary"]
+    assert "the nearer of the two to the target (+0, +4) mm (ahead, left) at the end" in summary
+    assert "mm from it" in summary
+    evaluated = result["actor_choice"]["final"]
+    assert evaluated["target_m"] == [0.0, 0.004]
+    assert main(["policy", "generate", str(run), "--target", "0.001,0", "--duration", "0.03",
+                 "--checkpoint", "final", "--physics", "training", "--no-figures", "--no-progress",
+                 "--out", str(tmp_path / "h")]) == 0
+    assert "lies within the 2 mm tolerance of the start" in capsys.readouterr().err
+    # round 17 S: export-seeds scored a goto run's seeds by the distance ahead
+    assert main(["policy", "export-seeds", str(runs / "goto-quick"), "--out", str(tmp_path / "seeds"),
+                 "--no-progress"]) == 2
+    assert "has the goto task, and msr policy export-seeds scores each seed" in capsys.readouterr().err
+    assert not (tmp_path / "seeds").exists()

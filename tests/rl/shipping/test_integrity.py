@@ -385,3 +385,38 @@ def test_round16_s07_generate_with_another_cases_checkpoint_names_both_cases(tra
     err = capsys.readouterr().err
     assert f"--checkpoint {other}: a checkpoint of case 'm2-4mT', not of {run}'s case 'm1-4mT'" in err
     assert not (tmp_path / "g").exists()
+
+
+def test_round17_ship_force_never_replaces_another_cases_policy(trained, tmp_path, capsys):
+    """Round 17 D: `ship --force` put a policy of case m1-4mT where a policy of another case was
+    shipped under the same name, without a word (export and generate refuse another case)."""
+    import shutil
+
+    import torch
+    from elastica_magnetic_rl.cases.case import load_case
+
+    other = tmp_path / "other"
+    shutil.copytree(trained / "m1-4mT" / "seed0", other)
+    ckpt = torch.load(other / "checkpoint.pt", map_location="cpu", weights_only=True)
+    ckpt["metadata"]["case"] = "m2-4mT"  # another case's run (of the same shapes)
+    ckpt["metadata"]["case_spec"] = load_case("m2-4mT").to_dict()
+    torch.save(ckpt, other / "checkpoint.pt")
+    dest = tmp_path / "ship"
+    run_msr(capsys, "policy", "ship", str(other), "--name", "p", "--out", str(dest), "--no-measure")
+    before = snapshot(dest / "p")
+    assert msr(["policy", "ship", str(trained / "m1-4mT" / "seed0"), "--name", "p", "--out", str(dest),
+                "--no-measure", "--force"]) == 2
+    err = capsys.readouterr().err
+    assert "holds the shipped policy of case 'm2-4mT', and this run is of case 'm1-4mT'" in err
+    assert snapshot(dest / "p") == before and not leftovers(dest / "p")
+
+
+def test_round17_generate_of_a_shipped_policy_refuses_a_checkpoint_file(trained, tmp_path, capsys):
+    """Round 17 S: `generate SHIPPED --checkpoint FILE` played the file and dropped the shipped
+    policy named as POLICY without a note."""
+    checkpoint = trained / "m1-4mT" / "seed0" / "checkpoint.pt"
+    assert msr(["policy", "generate", "m1-4mT", "--checkpoint", str(checkpoint), "--duration", "0.1",
+                "--out", str(tmp_path / "g")]) == 2
+    err = capsys.readouterr().err
+    assert "m1-4mT is not a run folder (a shipped policy or an actor file)" in err
+    assert f"msr policy generate {checkpoint}" in err and not (tmp_path / "g").exists()
