@@ -167,6 +167,15 @@ def test_a_goto_model_card_shows_the_ring_beside_the_yardstick():
     assert "| -15.0, +0.0 | 9.00 (missed) | never | 0.90, 9.10 |" in card
 
 
+def _quick_goto_spec(folder):
+    """m1-4mT-goto with 0.1 s episodes, its evaluations' too (``--episode-duration`` shortens the
+    training episodes only: a goto evaluation is the task's whole 30 s episode)."""
+    spec, text = folder / "goto-quick.toml", load_case("m1-4mT-goto").toml()
+    assert "episode_duration = 30.0" in text
+    spec.write_text(text.replace("episode_duration = 30.0", "episode_duration = 0.1"))
+    return spec
+
+
 def test_a_goto_run_ships_with_its_ring_and_the_yardsticks(tmp_path, monkeypatch):
     """`msr policy ship` of a goto run measures the ring (patched here to 0.2 s of the training
     physics, the shipped judge being 30 s of the accurate one) for the policy and the steering
@@ -175,9 +184,9 @@ def test_a_goto_run_ships_with_its_ring_and_the_yardsticks(tmp_path, monkeypatch
     from elastica_magnetic_rl.shipping.goto import evaluate_ring
 
     runs = tmp_path / "runs"
-    assert main(["train", "--case", "m1-4mT-goto", "--seeds", "1", "--steps", "20", "--out",
-                 str(runs), "--set", "learning_starts=10", "--set", "batch_size=8", "--set",
-                 "hidden_sizes=8", "--episode-duration", "0.1", "--no-progress"]) == 0
+    assert main(["train", "--case", str(_quick_goto_spec(tmp_path)), "--seeds", "1", "--steps", "20",
+                 "--out", str(runs), "--set", "learning_starts=10", "--set", "batch_size=8", "--set",
+                 "hidden_sizes=8", "--no-progress"]) == 0
     asked = []
 
     def quick_ring(policy, duration, physics, **kwargs):
@@ -185,7 +194,7 @@ def test_a_goto_run_ships_with_its_ring_and_the_yardsticks(tmp_path, monkeypatch
         return evaluate_ring(policy, 0.2, "training", n_targets=2)
 
     monkeypatch.setattr(ship_module, "evaluate_ring", quick_ring)
-    result = ship_module.ship(runs / "m1-4mT-goto" / "seed0", "goto-test", dest=tmp_path / "shipped",
+    result = ship_module.ship(runs / "goto-quick" / "seed0", "goto-test", dest=tmp_path / "shipped",
                               duration=0.2, progress=False)
     assert asked == [(None, "accurate"), (None, "accurate")]  # the task's episode, accurate physics
     info = json.loads((tmp_path / "shipped" / "goto-test" / "policy.json").read_text())
@@ -224,13 +233,10 @@ def test_round17_generate_states_and_chooses_for_the_target_asked(tmp_path, caps
     episode (15 mm ahead, 30 s), `--checkpoint auto` chose the actor by its distance to that
     default target (and quoted distances ahead), and a target inside the tolerance of the start
     ("success" by staying put) passed without a word."""
-    runs, spec = tmp_path / "runs", tmp_path / "goto-quick.toml"
-    text = load_case("m1-4mT-goto").toml()
-    assert "episode_duration = 30.0" in text
-    spec.write_text(text.replace("episode_duration = 30.0", "episode_duration = 0.1"))  # evaluations too
-    assert main(["train", "--case", str(spec), "--seeds", "1", "--steps", "40", "--out", str(runs),
-                 "--set", "learning_starts=10", "--set", "batch_size=8", "--set", "hidden_sizes=8",
-                 "--set", "eval_every=20", "--no-progress"]) == 0
+    runs = tmp_path / "runs"
+    assert main(["train", "--case", str(_quick_goto_spec(tmp_path)), "--seeds", "1", "--steps", "40",
+                 "--out", str(runs), "--set", "learning_starts=10", "--set", "batch_size=8", "--set",
+                 "hidden_sizes=8", "--set", "eval_every=20", "--no-progress"]) == 0
     run = runs / "goto-quick" / "seed0"
     assert (run / "best.pt").is_file()
     capsys.readouterr()
