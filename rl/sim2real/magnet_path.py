@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
-from .tracking import MAX_COORDINATE_M, MeasuredTrajectory, TrajectoryError
+from .tracking import MAX_COORDINATE_M, MeasuredTrajectory, TrajectoryError, numeric_columns
 
 __all__ = ["MAGNET_PATH_COLUMNS", "MagnetDrive", "MagnetPath", "is_magnet_path", "read_magnet_path",
            "record_steering", "simulate_tips", "write_magnet_path"]
@@ -104,12 +104,7 @@ def read_magnet_path(path: str | Path) -> MagnetPath:
                               f"{', '.join(MAGNET_PATH_COLUMNS)} (m; a unit direction) and, with an "
                               f"insertion stage, {INSERTION_COLUMN} (m), one row per 0.01 s from t_s = 0")
     used = list(MAGNET_PATH_COLUMNS) + ([INSERTION_COLUMN] if INSERTION_COLUMN in table.columns else [])
-    values = table[used].apply(pd.to_numeric, errors="coerce").to_numpy(dtype=np.float64)
-    bad = ~np.isfinite(values)
-    if bad.any():
-        row, col = (int(i) for i in np.argwhere(bad)[0])
-        raise TrajectoryError(f"{path}: line {row + 2}, column {used[col]}: {table[used[col]].iloc[row]!r} "
-                              "is not a finite number (SI units: s, m)")
+    values = numeric_columns(path, table, used)
     if values.shape[0] < 2:
         raise TrajectoryError(f"{path}: {values.shape[0]} row(s); a path needs two or more (0.01 s apart)")
     times = values[:, 0]

@@ -38,6 +38,7 @@ __all__ = [
     "MeasuredTrajectory",
     "TrajectoryError",
     "check_against_robot",
+    "numeric_columns",
     "points_at_rows",
     "read_trajectory",
 ]
@@ -160,6 +161,19 @@ def _layout(path: Path, columns: list[str]) -> tuple[str, list[tuple[str, ...]],
     return "tracker", [(f"s={s:g}", found[s]["x"], found[s]["y"]) for s in fractions], fractions
 
 
+def numeric_columns(path: Path, table: pd.DataFrame, used: list[str]) -> NDArray[np.float64]:
+    """The columns ``used`` of a CSV ``table`` read from ``path`` as numbers, ``(rows, len(used))``;
+    :class:`TrajectoryError` names the line and column of the first value that is not a finite
+    number."""
+    values = table[used].apply(pd.to_numeric, errors="coerce").to_numpy(dtype=np.float64)
+    bad = ~np.isfinite(values)
+    if bad.any():
+        row, col = (int(i) for i in np.argwhere(bad)[0])
+        raise TrajectoryError(f"{path}: line {row + 2}, column {used[col]}: {table[used[col]].iloc[row]!r} "
+                              "is not a finite number (SI units: s, m)")
+    return values
+
+
 def read_trajectory(path: str | Path) -> MeasuredTrajectory:
     """Read and check a measured trajectory (see the module docstring for the formats).
 
@@ -178,12 +192,7 @@ def read_trajectory(path: str | Path) -> MeasuredTrajectory:
                          "side view (x and height y of each tracked point) only, so sideways motion "
                          "neither helps nor hurts it", "")
     used = ["t_s"] + [c for _, *xyz in layout for c in xyz]
-    values = table[used].apply(pd.to_numeric, errors="coerce").to_numpy(dtype=np.float64)
-    bad = ~np.isfinite(values)
-    if bad.any():
-        row, col = (int(i) for i in np.argwhere(bad)[0])
-        raise TrajectoryError(f"{path}: line {row + 2}, column {used[col]}: {table[used[col]].iloc[row]!r} "
-                              "is not a finite number (SI units: s, m)")
+    values = numeric_columns(path, table, used)
     times = values[:, 0]
     if times.shape[0] < MIN_FRAMES:
         raise TrajectoryError(f"{path}: {times.shape[0]} frame(s); too short to fit, need at least "
