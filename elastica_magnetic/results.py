@@ -234,10 +234,16 @@ def _check_result_folder(final: Path, kind: str, subject: str | None, force: boo
                                 f"`msr {spelling(kind)}`; choose a new or empty folder")
     marker = read_marker(final)
     # msr's record of files it put there (figures re-drawn into a result) and what it lists are msr's
-    files = [f for f in listed if f not in (MARKER, MANIFEST)
-             and not ("/" not in f and in_manifest(final, f))]
+    recorded = [f for f in listed if f not in (MARKER, MANIFEST) and "/" not in f and in_manifest(final, f)]
+    files = [f for f in listed if f not in (MARKER, MANIFEST) and f not in recorded]
     files = _without_stale_locks(final, files, where)
     known = set(known_files)
+    others = [f for f in recorded if f not in known]
+    if marker is None and others:  # a shipped policy, a calibration JSON: another command's files
+        raise ResultExistsError(
+            f"{where}: holds files another msr command wrote there ({short_list(others)}), not a result "
+            f"of `msr {spelling(kind)}`; choose a new or empty folder ({force_option} replaces only a "
+            "result of the same command)")
     if marker is None and MARKER in listed:
         raise ResultExistsError(
             f"{where}: its {MARKER}, msr's record of the files it wrote there, is damaged (not "

@@ -472,3 +472,19 @@ def test_round12_d1_a_users_folder_named_like_a_temporary_is_never_removed(tmp_p
     assert all((folder / "notes.txt").read_text() == "precious" for folder in users)
     assert not killed.exists() and any(killed.name in note for note in r.notes)
     assert as_new(target) == NEW
+
+
+def test_round17_a_folder_holding_another_commands_recorded_file_is_no_empty_folder(tmp_path):
+    """Round 17 D: a folder whose only files msr had recorded writing (a calibration JSON, a
+    shipped policy) passed for an empty one and was replaced, even without --force."""
+    from elastica_magnetic.filesets import result_file
+    from elastica_magnetic.results import ResultExistsError, check_result_folder
+
+    out = tmp_path / "out"
+    with result_file(out / "cal.json") as f:
+        f.path.write_text('{"actuation_matrix_T_per_A": []}')
+    for force in (False, True):
+        with pytest.raises(ResultExistsError,
+                           match=r"holds files another msr command wrote there \(cal.json\)"):
+            check_result_folder(out, kind="simulate", force=force)
+    assert (out / "cal.json").read_text() == '{"actuation_matrix_T_per_A": []}'

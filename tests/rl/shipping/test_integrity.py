@@ -420,3 +420,18 @@ def test_round17_generate_of_a_shipped_policy_refuses_a_checkpoint_file(trained,
     err = capsys.readouterr().err
     assert "m1-4mT is not a run folder (a shipped policy or an actor file)" in err
     assert f"msr policy generate {checkpoint}" in err and not (tmp_path / "g").exists()
+
+
+def test_round17_export_seeds_never_replaces_a_shipped_policy_folder(trained, tmp_path, capsys):
+    """Round 17 D: `export-seeds --out` a shipped policy's folder (no --force) deleted its actor,
+    critic, policy.json and card: the files msr had recorded there counted as nothing to keep."""
+    run = str(trained / "m1-4mT" / "seed0")
+    dest = tmp_path / "ship"
+    run_msr(capsys, "policy", "ship", run, "--name", "p", "--out", str(dest), "--no-measure")
+    before = snapshot(dest / "p")
+    for force in ([], ["--force"]):
+        assert msr(["policy", "export-seeds", str(trained / "m1-4mT"), "--out", str(dest / "p"),
+                    "--duration", "0.05", "--no-progress", *force]) == 2
+        err = capsys.readouterr().err
+        assert "holds files another msr command wrote there (" in err and "actor.pt" in err, err
+        assert snapshot(dest / "p") == before and not leftovers(dest / "p")
