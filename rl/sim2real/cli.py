@@ -96,7 +96,7 @@ def _add_robustness_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--force", action="store_true", help="replace an existing output folder")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
-    p.set_defaults(func=robustness_command)
+    p.set_defaults(func=_on_signals(robustness_command))
 
 
 def _add_identify_command(sub: argparse._SubParsersAction) -> None:
@@ -147,7 +147,22 @@ def _add_identify_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--force", action="store_true", help="replace an existing output folder")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true", help="print identify.json")
-    p.set_defaults(func=identify_command)
+    p.set_defaults(func=_on_signals(identify_command))
+
+
+def _on_signals(command):
+    """``command`` with SIGTERM and SIGHUP stopping it as Ctrl-C does (its message, its output folder's
+    claim released), not by the default death that leaves a lock beside the folder."""
+    import functools
+
+    from elastica_magnetic.interrupts import signals_as_exceptions
+
+    @functools.wraps(command)
+    def run(args: argparse.Namespace) -> int:
+        with signals_as_exceptions():
+            return command(args)
+
+    return run
 
 
 def robustness_command(args: argparse.Namespace) -> int:

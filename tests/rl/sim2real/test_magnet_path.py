@@ -178,3 +178,26 @@ def test_a_path_of_its_own_form(tmp_path):
     tips = simulate_tips(spec, "training", path)
     # the field on the dipole's axis behind it, (2 cos a, -sin a, 0): the tip bends toward -y
     assert tips[-1, 1] < tips[0, 1] - 1e-4 and abs(tips[-1, 2]) < 1e-9
+
+
+def test_sigterm_stops_identify_as_ctrl_c_does(tmp_path, steered, quick_spec):
+    """Round 17 V: `msr real identify` killed by SIGTERM died by the default action: no line, and
+    its output folder's lock left beside it."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    magnet, tip, spec_file = _measured_files(tmp_path, steered, quick_spec)
+    out = tmp_path / "id"
+    proc = subprocess.Popen([sys.executable, "-m", "elastica_magnetic.cli", "real", "identify", str(magnet),
+                             str(tip), "--robot", str(spec_file), "--fit", "magnet", "--out", str(out),
+                             "--no-progress"], stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, "MPLBACKEND": "Agg"})
+    time.sleep(8.0)  # into the fit (a simulation takes about a second)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 143, err
+    assert "interrupted (SIGTERM)" in err, err
+    assert not out.exists() and not list(tmp_path.glob(".id.msr-*")), list(tmp_path.iterdir())
