@@ -69,8 +69,16 @@ def _train_group(job: GroupJob) -> dict[str, Any]:
             print(f"note: {note}", file=sys.stderr)
         for run_dir in job.run_dirs:
             mark_run_folder(run_dir, "train", job.case)
-        with torch_threads(job.threads):  # restored: one worker trains in the caller's process
-            result = _train_group_unlocked(job)
+        try:
+            with torch_threads(job.threads):  # restored: one worker trains in the caller's process
+                result = _train_group_unlocked(job)
+        except OSError as exc:  # a write that names no file (a log, replay.bin): say whose
+            if exc.filename is not None or exc.errno is None:
+                raise
+            folders = ", ".join(str(d) for d in job.run_dirs)
+            raise OSError(exc.errno, f"{exc.strerror or exc} while writing the run in {folders} (its "
+                                     "last checkpoint stays: make room, then the same command with "
+                                     "--resume)") from exc
         for run_dir in job.run_dirs:
             mark_run_folder(run_dir, "train", job.case)
     return result

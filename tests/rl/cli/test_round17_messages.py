@@ -16,3 +16,23 @@ def test_bench_quick_refuses_sizes_it_would_ignore(capsys, option, value, messag
     a word."""
     assert msr(["bench", "--quick", "--train-seeds", "0", option, value]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_a_full_disk_during_training_names_the_run_folder(tmp_path, capsys, monkeypatch):
+    """Round 17 V: `msr train --out` on a full disk said 'seed0: OSError: [Errno 28] No space left
+    on device', naming no file or folder."""
+    import errno
+
+    from elastica_magnetic_rl.sweep import training
+
+    def full_disk(job):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(training, "_train_group_unlocked", full_disk)
+    msr(["train", "--case", "m1-4mT", "--seeds", "1", "--workers", "1", "--steps", "100", "--set",
+         "learning_starts=50", "--set", "batch_size=8", "--episode-duration", "0.1", "--no-progress",
+         "--out", str(tmp_path / "runs")])
+    captured = capsys.readouterr()
+    text = captured.out + captured.err
+    assert "No space left on device while writing the run in " in text, text
+    assert str(tmp_path / "runs" / "m1-4mT" / "seed0") in text and "--resume" in text
