@@ -36,3 +36,25 @@ def test_a_full_disk_during_training_names_the_run_folder(tmp_path, capsys, monk
     text = captured.out + captured.err
     assert "No space left on device while writing the run in " in text, text
     assert str(tmp_path / "runs" / "m1-4mT" / "seed0") in text and "--resume" in text
+
+
+@pytest.mark.parametrize("argv", [
+    ["field", "simulate", "--duration", "0.05"],
+    ["policy", "generate", "m1-4mT", "--duration", "0.05", "--no-figures"],
+    ["policy", "export", "m1-4mT"],
+    ["validate", "spatial-fields", "--quick"],
+])
+def test_whole_folder_writers_never_replace_a_shipped_policy(tmp_path, capsys, argv):
+    """Round 17 D: simulate, generate, export, export-seeds and validate with --out a policy
+    folder msr shipped (every file in its record) replaced it whole, without --force."""
+    import shutil
+
+    from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR
+
+    folder = tmp_path / "p"
+    shutil.copytree(POLICIES_DIR / "m1-4mT-robust", folder)
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    for force in ([], ["--force"]):
+        assert msr([*argv, "--out", str(folder), *force]) == 2
+        assert "holds files another msr command wrote there (" in capsys.readouterr().err
+        assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
