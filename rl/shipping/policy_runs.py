@@ -344,6 +344,9 @@ def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10
         path.is_file() and path.name == RunDir.CHECKPOINT)
     if checkpoint not in CHECKPOINT_CHOICES:
         given = Path(checkpoint)
+        if given.is_dir():
+            raise FileNotFoundError(f"--checkpoint {checkpoint}: a folder; give one of the run's checkpoint "
+                                    f"files ({RunDir.CHECKPOINT}, {RunDir.BEST}) or auto, final, best")
         if not given.is_file():
             raise FileNotFoundError(f"--checkpoint {checkpoint}: no such checkpoint file (or auto, "
                                     "final, best)")
@@ -356,6 +359,11 @@ def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10
             raise ValueError(f"--checkpoint {checkpoint}: a checkpoint of case {other!r}, not of "
                              f"{run}'s case {own!r}: give one of this run's checkpoints (or auto, "
                              "final, best), or play that checkpoint itself")
+        if given.resolve().parent != run_dir.resolve():  # another run's: this run would not be played
+            raise ValueError(f"--checkpoint {checkpoint}: not one of {run}'s checkpoints (another run's "
+                             f"actor would be played in its place): give one of this run's checkpoints "
+                             f"(or auto, final, best), or play that checkpoint itself (msr policy "
+                             f"generate {checkpoint})")
         return ActorChoice(given, "given", "asked")
     if not is_run:
         if checkpoint == "auto":

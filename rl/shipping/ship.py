@@ -321,7 +321,8 @@ def _warn_of_dropped_notes(target: Path, notes: str | None) -> None:
         warnings.warn(SettingNotAppliedWarning(
             f"{display_path(target)}: the replaced policy's notes (policy.json) are not carried over "
             f"to the new one: give them with --notes, or afterwards with msr policy notes "
-            f"{target.name} --file F"),
+            f"{target.name if target.parent.resolve() == POLICIES_DIR.resolve() else display_path(target)} "
+            "--file F"),
             stacklevel=3)
 
 

@@ -314,7 +314,11 @@ def test_ship_force_keeps_a_model_card_edited_since_and_says_the_notes_are_not_c
     assert snapshot(dest / "p") == before and not leftovers(dest / "p")
     card.unlink()  # moved away: the re-ship goes on, and says the notes are not carried over
     assert msr(["policy", "ship", run, "--name", "p", "--out", str(dest), "--no-measure", "--force"]) == 0
-    assert "the replaced policy's notes (policy.json) are not carried over" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "the replaced policy's notes (policy.json) are not carried over" in err
+    # round 17 V: the command it named, `msr policy notes p`, looked for a shipped policy p in
+    # rl/policies: the folder is named where it is not one of the package's
+    assert f"msr policy notes {dest / 'p'} --file F" in err, err
 
 
 def test_ship_force_keeps_a_model_card_msr_has_no_record_of(trained, tmp_path, capsys):
@@ -435,3 +439,17 @@ def test_round17_export_seeds_never_replaces_a_shipped_policy_folder(trained, tm
         err = capsys.readouterr().err
         assert "holds files another msr command wrote there (" in err and "actor.pt" in err, err
         assert snapshot(dest / "p") == before and not leftovers(dest / "p")
+
+
+def test_round17_generate_refuses_another_runs_checkpoint_and_names_a_folder(trained, tmp_path, capsys):
+    """Round 17 S and V: `generate RUN_A --checkpoint RUN_B/best.pt` of the same case played RUN_B's
+    actor with RUN_A dropped; a folder given to --checkpoint was "no such checkpoint file"."""
+    run, other = trained / "m1-4mT" / "seed0", trained / "m1-4mT" / "seed1" / "checkpoint.pt"
+    assert msr(["policy", "generate", str(run), "--checkpoint", str(other), "--duration", "0.05",
+                "--out", str(tmp_path / "g")]) == 2
+    assert f"--checkpoint {other}: not one of {run}'s checkpoints" in capsys.readouterr().err
+    assert msr(["policy", "generate", str(run), "--checkpoint", str(trained), "--duration", "0.05",
+                "--out", str(tmp_path / "g")]) == 2
+    err = capsys.readouterr().err
+    assert f"--checkpoint {trained}: a folder; give one of the run's checkpoint files" in err
+    assert not (tmp_path / "g").exists()

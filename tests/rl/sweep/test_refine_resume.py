@@ -104,8 +104,6 @@ def test_a_resume_whose_options_contradict_the_record_is_refused_naming_them(
                                       f"refinement's: --spec {rnd}, randomize spec)"),
         (["--randomize", "none"], "--randomize none: the refinement's [training.randomize] is "
                                   "{friction = '0.5:1.5'}"),
-        (["--checkpoint", str(trained / "m1-4mT" / "seed1" / "checkpoint.pt")],
-         f"the refinement continued {run / 'checkpoint.pt'}"),
     ]
     for extra, expected in cases:
         assert msr([*base, "--resume", "--steps", "4", *extra]) == 2
@@ -113,6 +111,11 @@ def test_a_resume_whose_options_contradict_the_record_is_refused_naming_them(
         assert f"msr refine: error: cannot resume the refinement in {out} with other settings" \
             in err and expected in err, err
         assert _hashes(out) == before
+    # another run's checkpoint is no checkpoint of this run's (round 17: it was played in its place)
+    other_checkpoint = trained / "m1-4mT" / "seed1" / "checkpoint.pt"
+    assert msr([*base, "--resume", "--steps", "4", "--checkpoint", str(other_checkpoint)]) == 2
+    assert f"--checkpoint {other_checkpoint}: not one of {run}'s checkpoints" in capsys.readouterr().err
+    assert _hashes(out) == before
     from elastica_magnetic_rl.sweep.refine import refine
 
     # the runner resumes a checkpoint on its own device: another one is refused, not ignored
