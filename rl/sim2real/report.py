@@ -49,6 +49,14 @@ def robustness_table(report: dict[str, Any]) -> str:
         if not comparable:  # fractions of the nominal robot in the same physics
             worst, p10 = s.get("worst_of_nominal"), s.get("p10_of_nominal")
         of = "" if comparable else " of nominal"
+        if "target_m" in s:  # a reach case: how far from the target each robot ends
+            nominal = ("" if s["nominal_error_m"] is None
+                       else f" ({1e3 * s['nominal_error_m']:.2f} mm from it)")
+            lines.append(f"{_MODE_NAMES[m]}: target {1e3 * s['target_m']:+.1f} mm; nominal "
+                         f"{_mm(s['nominal_m'])}{nominal}, worst {_mm(s['worst_m'])} ({s['worst_variant']}, "
+                         f"{1e3 * s['worst_error_m']:.2f} mm from it)"
+                         + (f", {len(s['diverged'])} diverged" if s["diverged"] else ""))
+            continue
         lines.append(f"{_MODE_NAMES[m]}: nominal {_mm(s['nominal_m'], s['nominal_fraction'])}, worst "
                      f"{_mm(s['worst_m'], worst)}{of if worst is not None else ''} "
                      f"({s['worst_variant']}), 10th percentile {_mm(s['p10_m'], p10)}"

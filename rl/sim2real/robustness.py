@@ -124,13 +124,11 @@ def plan_robustness(source: str | Path, settings: StudySettings | None = None, /
                              waveform)
         if over is not None:
             raise ValueError(over)
-    if the_case.task.kind in ("goto", "reach"):  # the study's distances are distances ahead
-        # (a reach variant 3.8 mm past its target would rank above one on it)
-        raise ValueError(f"case {the_case.name!r} has the {the_case.task.kind} task: a robustness study "
-                         "measures how far ahead a waveform carries varied robots, not whether they "
-                         f"reach a target; not available for {the_case.task.kind} cases yet (the closed "
-                         "loop with a tracker, run_closed_loop, corrects what an open-loop waveform "
-                         "cannot)")
+    if the_case.task.kind == "goto":  # the study's distances are distances ahead
+        raise ValueError(f"case {the_case.name!r} has the goto task: a robustness study measures "
+                         "how far ahead a waveform carries varied robots, not whether they reach a "
+                         "target; not available for goto cases yet (the closed loop with a tracker, "
+                         "run_closed_loop, corrects what an open-loop waveform cannot)")
     spec = the_case.to_dict()
     chosen = resolve_variations(list(o.variations) if o.variations else default_variations(spec),
                                 spec)
@@ -283,6 +281,18 @@ def yardstick_comparable(physics: str, duration: float) -> bool:
     return physics == "accurate" and abs(duration - 10.0) < 1e-9
 
 
+def _reach_summary(case: Any, nominal: float | None, done: list[tuple[str, float]]) -> dict[str, Any] | None:
+    """For a reach case (go ``target`` m ahead and stop there), each robot judged by how far it ends
+    from the target: the target, the nominal robot's error and the largest error with its
+    variant, m (``None`` for any other task: there the shortest distance is the worst)."""
+    if case.task.kind != "reach" or not done:
+        return None
+    target = float(case.task.target)
+    label, error = max(((label, abs(d - target)) for label, d in done), key=lambda item: item[1])
+    return {"target_m": target, "nominal_error_m": None if nominal is None else abs(nominal - target),
+            "worst_error_m": error, "worst_error_variant": label}
+
+
 def summarize(plan: RobustnessPlan, jobs: list[dict[str, Any]], results: list[dict[str, Any]],
               wall_s: float, workers: int) -> dict[str, Any]:
     """The report: each variant's settings, spec values and per-mode result (distance in m, its
@@ -290,7 +300,8 @@ def summarize(plan: RobustnessPlan, jobs: list[dict[str, Any]], results: list[di
     distance (over the variants that did not diverge) with their fractions: of the yardstick
     (``*_fraction``) only where the run is comparable with it (:func:`yardstick_comparable`: 10 s
     of the accurate physics; ``None`` otherwise), and of the nominal robot in the same physics
-    (``*_of_nominal``) always."""
+    (``*_of_nominal``) always. For a reach case the worst robot is the one that ends farthest from
+    the target, over or short (``worst_error_m``, ``target_m``; no fraction of the nominal)."""
     spec = plan.case.to_dict()
     comparable = yardstick_comparable(plan.physics, plan.duration)
     yardstick = float(plan.case.yardstick.distance_10s) if comparable else 0.0
@@ -311,6 +322,10 @@ def summarize(plan: RobustnessPlan, jobs: list[dict[str, Any]], results: list[di
         p10 = float(np.percentile(distances, PERCENTILE)) if done else None
         nominal = runs[0][1]["distance_m"]
         reference = nominal if nominal is not None and nominal > 0.0 else 0.0
+        reach = _reach_summary(plan.case, runs[0][1]["distance_m"], done)
+        if reach is not None:  # the worst robot misses its target most, over or short
+            worst = (reach["worst_error_variant"], dict(done)[reach["worst_error_variant"]])
+            reference = 0.0  # a fraction of the nominal distance means nothing here
         summary[mode] = {
             "nominal_m": nominal, "worst_m": worst[1], "worst_variant": worst[0],
             "p10_m": p10, "best_m": float(distances.max()) if done else None,
@@ -320,6 +335,7 @@ def summarize(plan: RobustnessPlan, jobs: list[dict[str, Any]], results: list[di
             "worst_of_nominal": _fraction(worst[1], reference),
             "p10_of_nominal": _fraction(p10, reference),
             "runs": len(runs), "diverged": [label for label, r in runs if r["distance_m"] is None],
+            **(reach or {}),
         }
     return {
         "format": REPORT_FORMAT,
