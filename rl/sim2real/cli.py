@@ -261,7 +261,7 @@ def _drive_and_measured(drive_csv: Path, trajectory_csv: Path, robot: str):
     from elastica_magnetic.field_csv import read_field_csv
     from elastica_magnetic.field_spec import load_field
 
-    from .identify import FieldDrive
+    from .fit_model import FieldDrive
     from .magnet_path import MagnetDrive, is_magnet_path, read_magnet_path
     from .tracking import read_trajectory
 

@@ -7,6 +7,7 @@ import json
 
 import numpy as np
 import pytest
+from elastica_magnetic_rl.sim2real.fit_model import FitModel
 from elastica_magnetic_rl.sim2real.identifiability import (
     first_halfwidths,
     judge_values,
@@ -16,7 +17,6 @@ from elastica_magnetic_rl.sim2real.identifiability import (
 )
 from elastica_magnetic_rl.sim2real.identify import (
     START_SPREAD,
-    FitModel,
     identify,
     load_spec,
     parse_fit,

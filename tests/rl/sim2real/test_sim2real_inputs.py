@@ -88,7 +88,8 @@ def test_round17_identify_plays_a_specs_field_in_space_and_clamp(tmp_path, capsy
     from importlib import resources
 
     import numpy as np
-    from elastica_magnetic_rl.sim2real.identify import FieldDrive, FitModel, load_spec, parse_fit
+    from elastica_magnetic_rl.sim2real.fit_model import FieldDrive, FitModel
+    from elastica_magnetic_rl.sim2real.identify import load_spec, parse_fit
     from elastica_magnetic_rl.sim2real.tracking import read_trajectory
 
     from elastica_magnetic.field_csv import read_field_csv, write_field_csv
