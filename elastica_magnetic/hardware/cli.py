@@ -14,6 +14,11 @@ from elastica_magnetic.cli.app import command_name, output_path
 from elastica_magnetic.field_csv import MILLITESLA, named_twice, read_field_csv, separator_hint
 from elastica_magnetic.io import display_path
 
+# the result files the hardware commands write, each known to the others' --force (a calibration
+# JSON is never replaced by a board log, nor the other way): importing them registers their kinds
+from .calibration import CALIBRATION_FILE
+from .stream import BOARD_LOG_FILE
+
 #: The longest ``--timeout`` of ``msr real stream``, s: an hour. A larger value is most likely
 #: milliseconds written for seconds (refused, naming the slip); a waveform longer than that is
 #: streamed with the default limit (its playback time + 30 s).
@@ -166,7 +171,6 @@ def _stream_inputs(args: argparse.Namespace) -> tuple[Any, Any]:
     from elastica_magnetic.hardware.calibration import clipping_report, load_calibration, slew_warning
     from elastica_magnetic.hardware.export import EXPECTED_CODES_FILE
     from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
-    from elastica_magnetic.hardware.stream import BOARD_LOG_FILE
 
     if args.force and not (args.log or args.codes_out):
         raise _error("--force replaces an existing --log or --codes-out file, and neither is "
@@ -223,7 +227,7 @@ def _stream_logged(args: argparse.Namespace, field_T: Any, cal: Any) -> Any:
     """Stream with ``--log`` written as one result file: the log of a stream that failed is kept
     too (it says what the board did), an interrupted one leaves the earlier log."""
     from elastica_magnetic.filesets import result_file
-    from elastica_magnetic.hardware.stream import BOARD_LOG_FILE, StreamError, stream_field
+    from elastica_magnetic.hardware.stream import StreamError, stream_field
 
     def run(log_path: Path | None) -> Any:
         return stream_field(args.port, field_T, baudrate=args.baud, corrupt_row=args.corrupt_row,
@@ -268,7 +272,6 @@ def _calibrate(args: argparse.Namespace) -> int:
 
     from elastica_magnetic.filesets import check_result_file, result_file
     from elastica_magnetic.hardware.calibration import (
-        CALIBRATION_FILE,
         Calibration,
         calibration_from_dict,
         default_calibration_path,
@@ -281,9 +284,6 @@ def _calibrate(args: argparse.Namespace) -> int:
         FIELD_COLUMNS,
         check_measurements,
     )
-    from elastica_magnetic.hardware.stream import BOARD_LOG_FILE
-
-    assert BOARD_LOG_FILE  # known, so that --force never replaces a board log with a calibration
     if args.upload:
         _check_port("--upload", args.upload)
     path = Path(args.measurements)

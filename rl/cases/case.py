@@ -87,6 +87,7 @@ __all__ = [
     "case_names",
     "load_case",
     "PAPER_CASES",
+    "YARDSTICK_CONTROLLERS",
     "with_randomize",
 ]
 
@@ -356,6 +357,13 @@ class Case:
         return header + dumps(data, CASE_UNITS)
 
 
+#: Which cases have a hand-designed controller to play a warm-up (:attr:`Case.has_yardstick_controller`),
+#: in words, for the messages that refuse ``yardstick_warmup``.
+YARDSTICK_CONTROLLERS = ("a goto task's steering field is one; a crawl's rotating field once [yardstick] "
+                         "period is recorded: msr field baseline --case CASE --set-yardstick FILE writes it; "
+                         "a catheter's steering law acts on its own environment")
+
+
 def case_names() -> tuple[str, ...]:
     """Names of the shipped cases: the paper's four first, then the others alphabetically."""
     found = sorted(p.stem for p in SPECS_DIR.glob("*.toml"))
@@ -456,10 +464,8 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     warmup = training.td3.get("yardstick_warmup")
     if warmup and not case.has_yardstick_controller:  # msr train would refuse it: case check too
         raise SpecError(f"{source}: [training.td3] yardstick_warmup = {warmup}: the warm-up is played by the "
-                        "case's hand-designed controller, and this case has none (a goto task's steering "
-                        "field is one; a crawl's rotating field once [yardstick] period is recorded: msr "
-                        "field baseline --case CASE --set-yardstick FILE writes it; a catheter's steering "
-                        "law acts on its own environment): give [yardstick] period or remove the setting")
+                        f"case's hand-designed controller, and this case has none ({YARDSTICK_CONTROLLERS}): "
+                        "give [yardstick] period or remove the setting")
     return case
 
 

@@ -340,10 +340,11 @@ def case_check_command(args: argparse.Namespace) -> int:
 
 
 def bench_command(args: argparse.Namespace) -> int:
-    from ..reports.bench import benchmark, benchmark_text, training_peak_memory
+    from ..reports.bench import QUICK_REPEATS, QUICK_STEPS, benchmark, benchmark_text, training_peak_memory
 
     if args.quick:  # its sizes are fixed small: a larger ask would be ignored
-        for option, value, most in (("--steps", args.steps, 200), ("--repeats", args.repeats, 1)):
+        for option, value, most in (("--steps", args.steps, QUICK_STEPS),
+                                    ("--repeats", args.repeats, QUICK_REPEATS)):
             if value is not None and value > most:
                 raise CommandError(f"{option} {value}: --quick measures at most {most} (its tiny sizes "
                                    f"are fixed); leave --quick out to measure with {option} {value}")

@@ -386,11 +386,15 @@ def training_time(
     }
 
 
+#: The most steps per step-cost measurement and repeats of ``--quick`` (its tiny sizes).
+QUICK_STEPS, QUICK_REPEATS = 200, 1
+
+
 def _sizes(steps: int, repeats: int, quick: bool) -> dict[str, int]:
     """How much each measurement of :func:`benchmark` runs (``quick``: tiny, for tests)."""
     if quick:
-        return {"steps": min(steps, 200), "repeats": 1, "robot_steps": 100, "env_steps": 10,
-                "vector_steps": 3, "updates": 10}
+        return {"steps": min(steps, QUICK_STEPS), "repeats": QUICK_REPEATS, "robot_steps": 100,
+                "env_steps": 10, "vector_steps": 3, "updates": 10}
     return {"steps": steps, "repeats": repeats, "robot_steps": 6400, "env_steps": 200,
             "vector_steps": 20, "updates": 200}
 

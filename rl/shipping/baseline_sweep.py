@@ -224,25 +224,20 @@ def yardstick_spec(case: Case, best: dict[str, Any], path: str | Path, *,
     the spec's own standing in for a smoke run; the field is then not written either)."""
     spec = case.to_dict()
     turn = "clockwise" if best["clockwise"] else "counter-clockwise"
+    smoke = physics != "accurate" or abs(duration - EVAL_DURATION) > 1e-9
+    # the field that made distance_10s: the sweep's best, measured as the yardstick is; else (a
+    # smoke run, a distance standing in) the spec's own, if any (a training from the yardstick
+    # must not clone a smoke field, which may have moved the robot backwards)
+    field = (best["period_s"], best["clockwise"]) if source is None and not smoke else (
+        case.yardstick.period, case.yardstick.clockwise)
     spec["yardstick"] = {
         "distance_10s": float(best["mid_dx_m"]),
         "source": source or f"msr field baseline sweep: rotating field {turn}, period "
                   f"{best['period_s']:g} s (turned once per {best['period_achieved_s']:.4g} s), "
                   f"{1e3 * best['mid_dx_m']:+.1f} mm in {duration:g} s, {physics} physics, field "
-                  "from zero",
-        "period": float(best["period_s"]), "clockwise": bool(best["clockwise"]),
+                  "from zero" + (" (a smoke run's stand-in, not a yardstick)" if smoke else ""),
+        **({"period": float(field[0]), "clockwise": bool(field[1])} if field[0] is not None else {}),
     }
-    smoke = physics != "accurate" or abs(duration - EVAL_DURATION) > 1e-9
-    if source is None and smoke:
-        spec["yardstick"]["source"] += " (a smoke run's stand-in, not a yardstick)"
-    if source is not None or smoke:
-        # the field of a smoke run (or of a sweep whose distance is not the one written) did not
-        # make distance_10s: the period and sense stay the spec's own, or absent (a training from
-        # the yardstick must not clone a field that moved the robot backwards)
-        own = case.yardstick
-        del spec["yardstick"]["period"], spec["yardstick"]["clockwise"]
-        if own.period is not None:
-            spec["yardstick"].update(period=float(own.period), clockwise=bool(own.clockwise))
     copy = case_from_dict(spec, str(path), default_name=case.name)
     with result_file(path, force=force, option="--set-yardstick", kind=SPEC_FILE) as written:
         # a name the spec set itself (not its file's) is kept: the copy is the same case

@@ -131,9 +131,8 @@ def evaluate_checkpoint(path: Path, cached: dict[str, Any], duration: float,
             and all(k in cached for k in keys)):
         entry = {k: cached[k] for k in keys}
     else:
-        if isinstance(task, GotoTask) and target is None:  # the task's distance straight ahead
-            target = (task.distance, 0.0)
-        target = target if isinstance(task, GotoTask) else None
+        # a goto policy goes to the target asked, else the task's distance straight ahead
+        target = (target or (task.distance, 0.0)) if isinstance(task, GotoTask) else None
         rollout = run_policy(policy, duration, "accurate", "zero", progress, target=target)
         entry = {"global_step": step, "duration_s": float(duration), "physics": "accurate",
                  "initial_field": "zero", "mid_dx_m": rollout.mid_dx,
@@ -335,9 +334,8 @@ def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10
     """The actor of a run to use: ``run`` is a run folder or its ``checkpoint.pt``; ``checkpoint``
     is ``"auto"`` (both actors evaluated, :func:`evaluate_run`, toward ``target`` for a goto run,
     and the better by :func:`prefer_best`), ``"final"``, ``"best"`` or a checkpoint file's path.
-    Returns ``None``
-    when ``run`` is not a run (a shipped policy, a ``best.pt`` named directly) and ``checkpoint``
-    is ``"auto"``. Raises ``FileNotFoundError`` naming what is missing."""
+    Returns ``None`` when ``run`` is not a run (a shipped policy, a ``best.pt`` named directly)
+    and ``checkpoint`` is ``"auto"``. Raises ``FileNotFoundError`` naming what is missing."""
     path = Path(run)
     run_dir = path if path.is_dir() else path.parent
     is_run = (path.is_dir() and RunDir(path).has_checkpoint()) or (

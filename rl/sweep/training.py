@@ -308,18 +308,15 @@ def _plan_sweep(loaded: dict[str, Case], s: SweepSettings, r: _Resolved
 def _check_yardstick_warmup(loaded: dict[str, Case], config: Any) -> None:
     """A warm-up played by the yardstick (``yardstick_warmup``) needs a case whose yardstick is a
     controller (``ValueError`` naming the cases without one, before any work)."""
-    from ..envs.yardsticks import yardstick_controller
+    from ..cases.case import YARDSTICK_CONTROLLERS
 
     if not config.yardstick_warmup:
         return
-    without = [name for name, case in loaded.items() if yardstick_controller(case) is None]
+    without = [name for name, case in loaded.items() if not case.has_yardstick_controller]
     if without:
         raise ValueError(f"--set yardstick_warmup={config.yardstick_warmup}: the warm-up is played by "
                          f"the case's hand-designed controller, and case(s) {', '.join(without)} have "
-                         "none (a goto case's steering field is one; a crawl's rotating field is one "
-                         "once its [yardstick] period is recorded: msr field baseline --case CASE "
-                         "--set-yardstick FILE writes it; a catheter's steering law acts on its own "
-                         "environment): train without it")
+                         f"none ({YARDSTICK_CONTROLLERS}): train without it")
 
 
 def _warn_precision(config: Any) -> None:
