@@ -36,7 +36,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from elastica_magnetic_rl.cases.recipes import RECIPES  # noqa: E402
 from elastica_magnetic_rl.runner.evaluation import ActorPolicy, evaluate  # noqa: E402
 from elastica_magnetic_rl.runner.loop import train_seeds  # noqa: E402
-from elastica_magnetic_rl.td3.algorithm import TD3Config  # noqa: E402
+from elastica_magnetic_rl.td3.config import TD3Config  # noqa: E402
 
 ENV_ID = "Pendulum-v1"
 TARGET = -200.0

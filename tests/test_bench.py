@@ -58,7 +58,7 @@ def test_td3_update_flop_count_matches_torch_flop_counter():
     import numpy as np
     from elastica_magnetic_rl.reports.bench import td3_update_flops
     from elastica_magnetic_rl.td3.agent import TD3Agent
-    from elastica_magnetic_rl.td3.algorithm import TD3Config
+    from elastica_magnetic_rl.td3.config import TD3Config
     from elastica_magnetic_rl.td3.replay_buffer import Batch
     from torch.utils.flop_counter import FlopCounterMode
 

@@ -28,7 +28,7 @@ Tables of a spec (SI units; the robot's tables are described in
   to a target in ``target_box``) goes with a magnet-pose or coil-currents actuation, the crawler
   tasks with a field.
 - ``[training]``: ``recipe`` (:data:`~elastica_magnetic_rl.cases.recipes.RECIPES`), ``steps`` per seed,
-  ``[training.td3]``: :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` fields on top of the recipe,
+  ``[training.td3]``: :class:`~elastica_magnetic_rl.td3.config.TD3Config` fields on top of the recipe,
   and ``[training.randomize]``: robot values drawn anew per training episode and crawler (domain
   randomization; ``KEY = "LOW:HIGH"`` as ``msr real robustness --vary``, or ``randomize = "default"``).
 - ``[design]``: what ``msr design`` may change of the robot's magnetization

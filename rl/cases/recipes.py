@@ -7,7 +7,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-#: TD3 settings of the crawler that differ from :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config`'s
+#: TD3 settings of the crawler that differ from :class:`~elastica_magnetic_rl.td3.config.TD3Config`'s
 #: defaults: the authors' target-noise clip 0.8 (Fujimoto's is 0.5); and an evaluation every 5000 steps (not
 #: in the paper; it changes no weight) that keeps the best actor in ``best.pt``. Everything else is the
 #: paper's setting.
@@ -15,7 +15,7 @@ CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8, "eval_every":
 
 #: Training recipes (:data:`RECIPE_LIST`): named changes of the TD3 configuration on top of
 #: :data:`CRAWLER_TD3_OVERRIDES`, each change an explicit
-#: :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` field. The task, reward, observation, action limits,
+#: :class:`~elastica_magnetic_rl.td3.config.TD3Config` field. The task, reward, observation, action limits,
 #: physics, episode length and step budget are the same in every recipe. ``paper``: the authors' recipe.
 #: ``pink``: the paper's with temporally correlated (pink, ``1/f``) exploration noise instead of independent
 #: Gaussian steps (Eberhard et al., ICLR 2023), a sequence per 20 s episode, same standard deviation.
@@ -45,7 +45,7 @@ CRAWLER_TD3_OVERRIDES: dict[str, Any] = {"target_noise_clip": 0.8, "eval_every":
 class Recipe:
     """One training recipe: its ``name``, a one-line ``summary`` (the command line's help), its
     ``td3`` changes on :data:`CRAWLER_TD3_OVERRIDES` (explicit
-    :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` fields) and its ``run`` settings
+    :class:`~elastica_magnetic_rl.td3.config.TD3Config` fields) and its ``run`` settings
     (``stop_when``, the default of ``msr train --stop-when``; ``randomize``, the default of
     ``--randomize`` for a case whose spec has no ``[training.randomize]``: not hyperparameters,
     they change when a seed stops or which robots it trains on, each overridable)."""
@@ -89,9 +89,9 @@ DEFAULT_RECIPE = "pink-ln"
 
 def crawler_config(seed: int = 0, recipe: str = DEFAULT_RECIPE, **overrides: Any):
     """The crawler's TD3 configuration: the paper's settings (:data:`CRAWLER_TD3_OVERRIDES` on
-    :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config`), then the ``recipe``'s changes (:data:`RECIPES`),
+    :class:`~elastica_magnetic_rl.td3.config.TD3Config`), then the ``recipe``'s changes (:data:`RECIPES`),
     then ``overrides`` (e.g. ``learning_starts`` for smoke runs)."""
-    from ..td3.algorithm import TD3Config
+    from ..td3.config import TD3Config
 
     if recipe not in RECIPES:
         raise ValueError(f"unknown recipe {recipe!r}; choose one of {', '.join(RECIPES)}")

@@ -51,7 +51,7 @@ def training_from_table(t: SpecTable | None, source: str, robot: RobotDescriptio
     td3 = t.table("td3", required=False)
     overrides: dict[str, Any] = {}
     if td3 is not None:
-        from ..td3.algorithm import TD3Config
+        from ..td3.config import TD3Config
 
         fields = {f.name: f for f in dataclasses.fields(TD3Config)}
         for key in td3.data:

@@ -108,8 +108,8 @@ OLD_SETTING_FLAGS = {
 
 def td3_setting(text: str) -> tuple[str, object]:
     """The argparse ``type`` of ``--set KEY=VALUE``: a TD3 setting checked against
-    :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` (as RL Zoo's ``--hyperparams``)."""
-    from ..td3.algorithm import TD3Config
+    :class:`~elastica_magnetic_rl.td3.config.TD3Config` (as RL Zoo's ``--hyperparams``)."""
+    from ..td3.config import TD3Config
 
     key, equals, value = text.partition("=")
     if not equals or not key.strip():
@@ -137,7 +137,7 @@ class _OldSettingFlag(argparse.Action):
 
 def _add_td3_overrides(p: argparse.ArgumentParser) -> None:
     """``msr train``'s TD3 settings that override the recipe's (read by :func:`_overrides`)."""
-    from ..td3.algorithm import TD3Config
+    from ..td3.config import TD3Config
 
     g = p.add_argument_group("TD3 settings (default: the recipe's, else the paper's)")
     g.add_argument("--set", dest="settings", type=td3_setting, action="append", default=None,

@@ -280,7 +280,7 @@ class SteeringFieldPolicy(_FieldReader):
 
 def yardstick_controller(case: Case) -> Callable[[], Any] | None:
     """What makes the case's hand-designed controller for a warm-up it plays
-    (:attr:`~elastica_magnetic_rl.td3.algorithm.TD3Config.yardstick_warmup`): a goto case's
+    (:attr:`~elastica_magnetic_rl.td3.config.TD3Config.yardstick_warmup`): a goto case's
     :class:`SteeringFieldPolicy` with its defaults; a crawl or reach case's
     :class:`RotatingFieldPolicy` at its ``[yardstick]`` ``period`` and sense (what ``msr field
     baseline --set-yardstick`` and ``msr loop`` record); ``None`` for a case without one."""

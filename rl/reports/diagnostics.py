@@ -30,7 +30,7 @@ from elastica_magnetic.io import atomic_save
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..runfiles.checkpoint import load_checkpoint, refuse_networks_only
-from ..td3.algorithm import SATURATION_PREACTIVATION
+from ..td3.config import SATURATION_PREACTIVATION
 from ..td3.networks import networks_from_state
 
 #: Fraction of recent states with a saturated output (any action dimension) that flags the actor.

@@ -20,7 +20,8 @@ import torch
 from ..runfiles.checkpoint import save_checkpoint
 from ..runfiles.logs import read_log, unfinished_line
 from ..runfiles.rundir import RunDir
-from ..td3.algorithm import TD3, TD3Config
+from ..td3.algorithm import TD3
+from ..td3.config import TD3Config
 from ..td3.networks import Actor
 
 __all__ = ["ActorPolicy", "EvalResult", "PeriodicEvaluation", "evaluate", "evaluate_many"]

@@ -48,7 +48,8 @@ import gymnasium as gym
 import numpy as np
 
 from ..td3.agent import TD3Agent
-from ..td3.algorithm import TD3, TD3Config
+from ..td3.algorithm import TD3
+from ..td3.config import TD3Config
 from .allocator import retain_freed_memory
 from .group import GroupLoop
 from .seed_run import SeedRun
@@ -148,7 +149,7 @@ def train_seeds(
             ``SAME_STEP`` autoreset and flat Box spaces; its sub-environments reset with a list of
             seeds and ``options={"reset_mask": mask}`` (Gymnasium's ``SyncVectorEnv`` and
             :class:`~elastica_magnetic_rl.envs.vector_env.MagneticCrawlerVectorEnv` do).
-        configs: one :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` per seed (``None``: the
+        configs: one :class:`~elastica_magnetic_rl.td3.config.TD3Config` per seed (``None``: the
             checkpoint's or the defaults); they must agree on everything but ``seed`` and on
             ``torch_deterministic``.
         steps: total transitions of each seed, counted from step 0 (steps done before a resume or

@@ -30,7 +30,8 @@ from ..runfiles.checkpoint import (
     save_checkpoint,
 )
 from ..runfiles.rundir import RunDir
-from ..td3.algorithm import TD3, Schedule, TD3Config, episode_seed
+from ..td3.algorithm import TD3, episode_seed
+from ..td3.config import Schedule, TD3Config
 from ..td3.exploration import colored_noise
 from ..td3.replay_buffer import ReplayBuffer
 from .evaluation import PeriodicEvaluation, truncate_csv
@@ -40,8 +41,8 @@ __all__ = ["EPISODE_FIELDS", "RESUMABLE_SETTINGS", "SeedRun", "starting_point"]
 
 EPISODE_FIELDS = ("episode", "global_step", "return", "length", "terminated", "truncated",
                   "wall_time_s")
-#: Fields of :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` that a resumed run takes from the config
-#: passed: its :class:`~elastica_magnetic_rl.td3.algorithm.Schedule` (they change no weight: when to
+#: Fields of :class:`~elastica_magnetic_rl.td3.config.TD3Config` that a resumed run takes from the config
+#: passed: its :class:`~elastica_magnetic_rl.td3.config.Schedule` (they change no weight: when to
 #: checkpoint, log and evaluate); every other field comes from the checkpoint.
 RESUMABLE_SETTINGS = tuple(f.name for f in dataclasses.fields(Schedule))
 

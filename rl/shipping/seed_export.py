@@ -180,7 +180,7 @@ def _earlier_exported_seeds(dest: Path, replaced: set[int], meta: dict[str, Any]
     """The entries of ``dest/seeds.json`` to keep beside a new export (seeds not in ``replaced``),
     after checking that their actors were trained on the same case spec with the same
     hyperparameters as the checkpoint whose metadata is ``meta``."""
-    from ..td3.algorithm import TD3Config
+    from ..td3.config import TD3Config
 
     path = dest / "seeds.json"
     if not path.is_file():

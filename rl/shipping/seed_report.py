@@ -138,7 +138,7 @@ def seeds_markdown(case: Case, groups: list[RecipeSeeds],
 
 def recipe_change(folder: str) -> str:
     """What a recipe folder's recipe changes from the paper's, as ``field = value`` settings of
-    :class:`~elastica_magnetic_rl.td3.algorithm.TD3Config` (from
+    :class:`~elastica_magnetic_rl.td3.config.TD3Config` (from
     :data:`~elastica_magnetic_rl.cases.recipes.RECIPES`); a folder that names no recipe (e.g. ``paper-bf16``)
     says so."""
     from ..cases.recipes import RECIPES

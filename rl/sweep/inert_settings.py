@@ -21,7 +21,7 @@ from ..cases.recipes import RECIPES
 
 if TYPE_CHECKING:  # torch is imported only when a run is planned
     from ..runner.stopping import StopRule
-    from ..td3.algorithm import TD3Config
+    from ..td3.config import TD3Config
 
 __all__ = ["SettingSources", "check_episodes_end", "check_run_learns", "check_stop_rule_decides"]
 
@@ -42,7 +42,7 @@ class SettingSources:
 
     def setting(self, key: str, value: Any) -> str:
         """``key = value`` as the user set it, e.g. ``--set batch_size=64``."""
-        from ..td3.algorithm import setting_option
+        from ..td3.config import setting_option
 
         if self.resumed:
             return f"the run's {key} {value} (a resumed run keeps it)"

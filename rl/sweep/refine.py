@@ -29,7 +29,7 @@ from .run_records import run_metadata
 from .summaries import summarize_run
 
 if TYPE_CHECKING:  # torch is imported only when a refinement runs
-    from ..td3.algorithm import TD3Config
+    from ..td3.config import TD3Config
 
 __all__ = ["DEFAULT_PHYSICS", "DEFAULT_STEPS", "check_refined_case",
            "refine"]
@@ -155,7 +155,7 @@ def _resumed_config(out: RunDir, device: str | None) -> TD3Config:
     runner keeps it): a ``device`` given that differs, or one this PyTorch lacks, is refused
     (``ValueError``) before any work."""
     from ..runfiles.checkpoint import load_checkpoint
-    from ..td3.algorithm import TD3Config
+    from ..td3.config import TD3Config
     from ..td3.devices import device_problem
 
     config = TD3Config.from_dict(load_checkpoint(out.checkpoint, with_buffer=False)["config"])
@@ -178,7 +178,7 @@ def _refinement_config(ckpt: dict[str, Any], device: str | None, source: str | P
     on a GPU, refined on a machine without one); checkpoints at least every
     :data:`REFINE_CHECKPOINT_STEPS` of ``physics`` (the run's own interval, 10000 steps, is
     minutes to hours of refinement: an interrupted refinement resumes instead of starting over)."""
-    from ..td3.algorithm import TD3Config
+    from ..td3.config import TD3Config
     from ..td3.devices import device_problem
 
     config = TD3Config.from_dict(ckpt["config"])

@@ -12,7 +12,7 @@ from typing import Any
 
 from ..runfiles.checkpoint import load_checkpoint, replay_problem
 from ..runfiles.rundir import RunDir
-from ..td3.algorithm import Schedule, setting_option
+from ..td3.config import Schedule, setting_option
 
 __all__ = ["check_resumed_checkpoints", "check_steps_left"]
 

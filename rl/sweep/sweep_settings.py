@@ -20,7 +20,7 @@ class SweepSettings:
     ``seeds_per_simulator``: :func:`~elastica_magnetic_rl.sweep.training.default_layout`).
 
     What the seeds learn: ``seeds`` seeds from ``seed_offset``, ``steps`` environment steps each,
-    the ``recipe`` with ``config_overrides`` (:class:`~elastica_magnetic_rl.td3.algorithm.TD3Config`
+    the ``recipe`` with ``config_overrides`` (:class:`~elastica_magnetic_rl.td3.config.TD3Config`
     fields, e.g. ``precision="bf16"``) on top of the case's ``[training.td3]``, in the ``physics``
     (``"training"`` or ``"accurate"``) with episodes of ``episode_duration`` s, robots randomized
     per ``randomize`` (``"default"``, ``"none"``), a stop rule ``stop_when`` (``"target"``,

@@ -93,7 +93,8 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
     (:mod:`elastica_magnetic_rl.sweep.rebalance`) and have no result here."""
     from ..runfiles.checkpoint import load_checkpoint
     from ..runner.stopping import StopRule
-    from ..td3.algorithm import PrecisionFallbackWarning, TD3Config, resolve_precision
+    from ..td3.algorithm import PrecisionFallbackWarning, resolve_precision
+    from ..td3.config import TD3Config
 
     configs = [TD3Config.from_dict(c) for c in job.configs]
     run_dirs = [Path(d) for d in job.run_dirs]
@@ -366,7 +367,7 @@ class _ActingChecks:
     def resumed_runs(self, runs: list[tuple[str, RunDir]]) -> None:
         """Resumed runs: something is left to train, and their own settings update weights."""
         from ..runfiles.checkpoint import load_checkpoint
-        from ..td3.algorithm import TD3Config
+        from ..td3.config import TD3Config
 
         check_steps_left(runs, self.steps)
         if not self.warm_up_only:

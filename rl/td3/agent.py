@@ -16,7 +16,8 @@ import numpy as np
 import torch
 
 from ..runfiles.checkpoint import load_checkpoint, refuse_networks_only
-from .algorithm import TD3, TD3Config
+from .algorithm import TD3
+from .config import TD3Config
 from .networks import Actor, ScaledPolicy, TwinCritic
 from .replay_buffer import Batch
 from .stacked import StackedMLP

@@ -9,7 +9,7 @@ Exploration in Deep Reinforcement Learning", ICLR 2023) sits between white and r
 
 :func:`colored_noise` draws whole sequences (one per episode and action dimension) with the
 method of Timmer & Koenig (1995): Gaussian Fourier amplitudes scaled by ``f^(-beta/2)``, an inverse FFT,
-normalised to unit variance. The exploration of :class:`elastica_magnetic_rl.td3.algorithm.TD3Config` with
+normalised to unit variance. The exploration of :class:`elastica_magnetic_rl.td3.config.TD3Config` with
 ``noise_color = beta > 0`` adds ``sigma x`` such a sequence, step by step.
 """
 

@@ -44,7 +44,7 @@ class Actor(nn.Module):
 
 class TwinCritic(nn.Module):
     """Two independent Q networks ``Q_i(s, a) = MLP_i([s, a])`` (one seed's, as plain modules;
-    ``layer_norm``: :attr:`~elastica_magnetic_rl.td3.algorithm.TD3Config.critic_layer_norm`)."""
+    ``layer_norm``: :attr:`~elastica_magnetic_rl.td3.config.TD3Config.critic_layer_norm`)."""
 
     def __init__(self, obs_dim: int, act_dim: int, hidden_sizes: tuple[int, ...],
                  layer_norm: bool = False) -> None:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import gymnasium as gym
 import numpy as np
-from elastica_magnetic_rl.td3.algorithm import TD3Config
+from elastica_magnetic_rl.td3.config import TD3Config
 
 
 class ToyEnv(gym.Env):

@@ -15,7 +15,7 @@ from elastica_magnetic_rl.cases.recipes import (
     RECIPES,
     crawler_config,
 )
-from elastica_magnetic_rl.td3.algorithm import TD3Config
+from elastica_magnetic_rl.td3.config import TD3Config
 
 
 def test_every_view_is_read_from_the_one_table():

@@ -47,7 +47,7 @@ def test_train_on_cuda_with_a_cpu_build_is_refused_writing_nothing(tmp_path, cap
 
 def test_refining_a_run_trained_on_cuda_on_a_cpu_build_is_refused_naming_it(cpu_only_torch):
     from elastica_magnetic_rl.sweep.refine import _refinement_config
-    from elastica_magnetic_rl.td3.algorithm import TD3Config
+    from elastica_magnetic_rl.td3.config import TD3Config
 
     ckpt = {"config": TD3Config(device="cuda").to_dict()}
     with pytest.raises(ValueError, match=r"^run/checkpoint.pt trained on device 'cuda': this "

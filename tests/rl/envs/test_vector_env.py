@@ -19,7 +19,7 @@ from elastica_magnetic_rl.envs.env import OBSERVATION_LAYOUT, MagneticCrawlerEnv
 from elastica_magnetic_rl.envs.vector_env import MagneticCrawlerVectorEnv
 from elastica_magnetic_rl.runfiles.checkpoint import load_checkpoint
 from elastica_magnetic_rl.runner.loop import train_vector
-from elastica_magnetic_rl.td3.algorithm import TD3Config
+from elastica_magnetic_rl.td3.config import TD3Config
 from gymnasium.vector import AutoresetMode, VectorEnv
 
 from elastica_magnetic.cli import main as msr

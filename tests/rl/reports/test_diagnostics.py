@@ -18,7 +18,7 @@ from elastica_magnetic_rl.reports.diagnostics import (
 )
 from elastica_magnetic_rl.runfiles.checkpoint import save_checkpoint
 from elastica_magnetic_rl.runner.loop import train
-from elastica_magnetic_rl.td3.algorithm import TD3Config
+from elastica_magnetic_rl.td3.config import TD3Config
 
 from elastica_magnetic.cli import main as msr
 

@@ -16,7 +16,8 @@ import resource, sys
 import numpy as np, torch
 from elastica_magnetic_rl.runner.allocator import retain_freed_memory
 from elastica_magnetic_rl.td3.replay_buffer import ReplayBuffer
-from elastica_magnetic_rl.td3.algorithm import TD3, TD3Config
+from elastica_magnetic_rl.td3.algorithm import TD3
+from elastica_magnetic_rl.td3.config import TD3Config
 torch.set_num_threads(1)
 retained = retain_freed_memory()
 configs = [TD3Config(seed=s, batch_size=256, hidden_sizes=(256, 256)) for s in range(2)]

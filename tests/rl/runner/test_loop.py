@@ -14,7 +14,7 @@ from elastica_magnetic_rl.runfiles.checkpoint import load_checkpoint
 from elastica_magnetic_rl.runner.evaluation import evaluate
 from elastica_magnetic_rl.runner.loop import train
 from elastica_magnetic_rl.td3.agent import TD3Agent
-from elastica_magnetic_rl.td3.algorithm import TD3Config
+from elastica_magnetic_rl.td3.config import TD3Config
 from state_compare import assert_state_equal
 from toy_env import Killed, ToyEnv, sync_vector_env, toy_config
 

@@ -11,7 +11,7 @@ import pytest
 import torch
 from elastica_magnetic_rl.runfiles.checkpoint import load_checkpoint
 from elastica_magnetic_rl.runner.loop import train
-from elastica_magnetic_rl.td3.algorithm import TD3Config
+from elastica_magnetic_rl.td3.config import TD3Config
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from state_compare import assert_state_equal
 from toy_env import Killed, ToyEnv, toy_config

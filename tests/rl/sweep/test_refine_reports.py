@@ -29,7 +29,7 @@ def test_a_short_randomized_refinement_says_what_it_did(trained, tmp_path, capsy
 
 def test_a_refinement_checkpoints_from_its_first_minute_on():
     from elastica_magnetic_rl.sweep.refine import _refinement_config
-    from elastica_magnetic_rl.td3.algorithm import TD3Config
+    from elastica_magnetic_rl.td3.config import TD3Config
 
     run = {"config": TD3Config().to_dict()}  # the run's own interval: 10000 steps
     for physics in ("accurate", "training"):

@@ -8,7 +8,8 @@ import dataclasses
 
 import numpy as np
 import torch
-from elastica_magnetic_rl.td3.algorithm import SATURATION_PREACTIVATION, TD3, TD3Config
+from elastica_magnetic_rl.td3.algorithm import TD3
+from elastica_magnetic_rl.td3.config import SATURATION_PREACTIVATION, TD3Config
 from elastica_magnetic_rl.td3.replay_buffer import ReplayBuffer
 from state_compare import assert_state_equal
 from toy_data import random_replay_buffer

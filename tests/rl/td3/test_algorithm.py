@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import torch
 from elastica_magnetic_rl.td3.agent import TD3Agent
-from elastica_magnetic_rl.td3.algorithm import TD3Config
+from elastica_magnetic_rl.td3.config import TD3Config
 from elastica_magnetic_rl.td3.replay_buffer import Batch
 from toy_env import ToyEnv
 

@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
-from elastica_magnetic_rl.td3.algorithm import TD3, TD3Config
+from elastica_magnetic_rl.td3.algorithm import TD3
+from elastica_magnetic_rl.td3.config import TD3Config
 from elastica_magnetic_rl.td3.replay_buffer import Batch
 
 torch.set_num_threads(1)

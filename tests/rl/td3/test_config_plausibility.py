@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from elastica_magnetic_rl.td3.algorithm import TD3Config
+from elastica_magnetic_rl.td3.config import TD3Config
 
 
 def test_a_replay_buffer_smaller_than_the_batch_is_refused():
@@ -20,7 +20,7 @@ def test_hidden_layers_need_units(hidden):
 
 def test_updates_per_step_has_an_upper_bound(capsys):
     """``--set updates_per_step=1e9`` was accepted and stalled a run forever (round 4, S8)."""
-    from elastica_magnetic_rl.td3.algorithm import MAX_UPDATES_PER_STEP, TD3Config
+    from elastica_magnetic_rl.td3.config import MAX_UPDATES_PER_STEP, TD3Config
 
     from elastica_magnetic.cli import main
 
@@ -39,7 +39,7 @@ def test_updates_per_step_has_an_upper_bound(capsys):
 def test_a_learning_rate_that_cannot_learn_is_refused(rate):
     """Round 5, U21/U22: `--set actor_lr=0` trained to the end without changing a weight and
     reported "still improving"; -1 failed in the worker with torch's message."""
-    from elastica_magnetic_rl.td3.algorithm import TD3Config
+    from elastica_magnetic_rl.td3.config import TD3Config
 
     for name in ("actor_lr", "critic_lr"):
         with pytest.raises(ValueError, match=rf"{name} must be a finite number in \(0, 0.1\]"):

@@ -9,7 +9,8 @@ import dataclasses
 import numpy as np
 import pytest
 import torch
-from elastica_magnetic_rl.td3.algorithm import TD3, TD3Config, cpu_supports_bf16
+from elastica_magnetic_rl.td3.algorithm import TD3, cpu_supports_bf16
+from elastica_magnetic_rl.td3.config import TD3Config
 from state_compare import assert_state_equal
 from toy_data import random_replay_buffer
 

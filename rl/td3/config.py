@@ -1,0 +1,273 @@
+"""TD3's settings: the hyperparameters of the algorithm (:class:`Hyperparameters`), how a run
+executes them (:class:`RunSettings`) and when it does what (:class:`Schedule`), together
+:class:`TD3Config`, each checked where it is made. Free of PyTorch, so that the command line can
+list and check the settings without importing it; the algorithm is :mod:`.algorithm`."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, TypeVar
+
+#: Arithmetic choices of :attr:`TD3Config.precision`.
+PRECISIONS = ("fp32", "bf16")
+#: ``|pre-tanh output|`` of the actor above which it counts as saturated (``tanh(3) = 0.995``):
+#: there its gradient is below 1 % of the unsaturated one.
+SATURATION_PREACTIVATION = 3.0
+
+
+# ----------------------------------------------------------------------------------------------
+# Hyperparameters
+# ----------------------------------------------------------------------------------------------
+_Part = TypeVar("_Part")
+
+
+#: Most gradient updates per environment step: high update-to-data methods (REDQ, DroQ) use 20; far
+#: beyond, a run spends its time updating on the same few transitions (1e9 stalled a run forever).
+MAX_UPDATES_PER_STEP = 64
+#: The largest learning rate a config takes (TD3's is 3e-4; Adam's steps above this only diverge).
+MAX_LEARNING_RATE = 0.1
+
+
+def _is_integer_setting(key: str, default: Any) -> bool:
+    return isinstance(default, int) and not isinstance(default, bool) and key != "updates_per_step"
+
+
+def _setting_form(key: str, default: Any) -> str:
+    """What the text of setting ``key`` (default ``default``) must look like, for messages."""
+    if key.endswith("hidden_sizes"):
+        return "comma-separated layer widths, e.g. 256,256" + (", or none" if default is None else "")
+    if isinstance(default, bool):
+        return "true or false"
+    if key == "noise_color":
+        return "a number: the exponent of the noise's spectrum 1/f^beta (0 white, 1 pink, 2 red)"
+    return "an integer" if _is_integer_setting(key, default) else "a number"
+
+
+def setting_option(key: str, value: Any = None) -> str:
+    """How the command line sets a run setting: ``--set batch_size=64``, or the setting's own
+    option (``--device cuda``, ``--precision bf16``); without ``value``, ``--set batch_size``."""
+    own = {"device": "--device", "precision": "--precision", "seed": "--seed-offset"}
+    if key in own:
+        return own[key] if value is None else f"{own[key]} {value}"
+    if isinstance(value, (tuple, list)):
+        value = ",".join(str(v) for v in value)
+    return f"--set {key}" if value is None else f"--set {key}={value}"
+
+
+@dataclass
+class Hyperparameters:
+    """What TD3 learns with: networks, optimisation, replay, exploration and TD3's own settings
+    (defaults: the paper's / Fujimoto's values). Noise scales are in normalised action units
+    (fractions of the action half-range)."""
+
+    # networks and optimisation
+    hidden_sizes: tuple[int, ...] = (256, 256)
+    """Hidden layer widths (ReLU) of each critic, and of the actor unless
+    :attr:`actor_hidden_sizes` says otherwise."""
+    actor_hidden_sizes: tuple[int, ...] | None = None
+    """Hidden layer widths of the actor when they differ from the critics' (e.g. a narrower
+    actor); ``None`` (and a checkpoint without the key): the same as :attr:`hidden_sizes`."""
+    critic_layer_norm: bool = False
+    """Layer normalisation (PyTorch's ``LayerNorm``, learned gain and bias) after every hidden
+    linear layer of both critics, before the ReLU (Ball et al. 2023): bounds how far a critic
+    extrapolates beyond the replay data. Off in the paper's recipe; the actor never has it."""
+    actor_saturation_penalty: float = 0.0
+    """Weight ``lambda`` of a penalty on the actor's pre-``tanh`` outputs ``u`` beyond
+    :data:`SATURATION_PREACTIVATION`, added to its loss: ``lambda * mean(relu(|u| - 3)^2)``
+    (per action dimension and state). It keeps the outputs where ``tanh`` still passes the
+    critic's gradient, so a saturated actor can still learn; it leaves the reachable actions as
+    they are (``tanh(3) = 0.995``) and the reward untouched. 0 (the paper's recipe): off."""
+    actor_lr: float = 3e-4
+    critic_lr: float = 3e-4
+    gamma: float = 0.99
+    tau: float = 0.005
+    """Polyak coefficient of the target networks."""
+    batch_size: int = 256
+    # replay and exploration
+    buffer_size: int = 1_000_000
+    """Upper bound on the replay capacity; the buffer actually allocated holds
+    ``min(buffer_size, total steps of the run)`` transitions."""
+    learning_starts: int = 2500
+    """Warm-up: steps of uniform random actions before the policy acts and learning begins."""
+    exploration_noise: float = 0.2
+    """Std of the Gaussian exploration noise, per action dimension."""
+    noise_color: float = 0.0
+    """Exponent ``beta`` of the exploration noise's power spectrum ``1 / f^beta``: 0 is white noise, drawn
+    independently at every step (the paper's); 1 pink (Eberhard et al. 2023), 2 red. Colored noise is drawn as
+    whole sequences (:func:`elastica_magnetic_rl.td3.exploration.colored_noise`), one per episode and
+    sub-environment."""
+    noise_horizon: int = 2000
+    """Length of a colored-noise sequence, steps (a new one at every episode start, and when one
+    runs out); the crawler's 20 s episode is 2000 steps."""
+    # TD3 specifics
+    policy_noise: float = 0.2
+    """Std of the target policy smoothing noise."""
+    target_noise_clip: float = 0.5
+    """Clip of the target policy noise: 0.5 as Fujimoto et al.; the crawler paper's authors
+    used 0.8."""
+    policy_delay: int = 2
+    """Actor and target networks are updated once every ``policy_delay`` critic updates."""
+    updates_per_step: float = 1
+    """Gradient steps per environment transition (after warm-up): an integer, or a fraction (e.g.
+    0.5: one update every second transition), the updates then due at the end of each vector step
+    counted exactly (an accumulator of the unspent fraction, kept in the checkpoints); see
+    :func:`update_ratio`."""
+    yardstick_warmup: int = 0
+    """Start from the case's yardstick (0, the paper's: a warm-up of uniform random actions). With
+    ``U > 0`` the warm-up's ``learning_starts`` transitions are played by the case's hand-designed
+    controller (its action plus the exploration noise), then, before TD3's first update, the actor
+    learns to copy the warm-up's actions (``U`` behaviour-cloning steps, :meth:`TD3.clone_step`) and
+    the critics learn that actor's value (``U`` critic updates with the actor held): TD3 then
+    improves a policy that already does what the yardstick does, instead of one from scratch (as
+    Hester et al. 2018 and Nair et al. 2018 start from demonstrations)."""
+
+
+@dataclass
+class RunSettings:
+    """How a seed's run computes, not what it learns from: its seed, where and in which precision
+    its networks compute, and determinism."""
+
+    seed: int = 0
+    device: str = "cpu"
+    """``"cpu"`` or ``"cuda"`` (any ``torch.device`` string)."""
+    precision: str = "fp32"
+    """Arithmetic of the networks' matrix products in the updates: ``"fp32"`` (the paper's) or
+    ``"bf16"`` (bfloat16 products on float32 master weights; see
+    :class:`~elastica_magnetic_rl.td3.stacked.StackedMLP`). Acting always runs in float32."""
+    torch_deterministic: bool = True
+    """Switch on ``torch.use_deterministic_algorithms`` while training (restored afterwards)."""
+
+
+@dataclass
+class Schedule:
+    """When a run checkpoints, logs and evaluates (what Stable-Baselines3 leaves to ``learn()``'s
+    callbacks): these change no weight, so a resumed run may change them."""
+
+    checkpoint_every: int = 10_000
+    """A checkpoint is written at the first episode boundary after every multiple of this many
+    steps, and at the end of the run."""
+    log_every: int = 100
+    """TensorBoard loss scalars every this many gradient updates."""
+    eval_every: int = 0
+    """Evaluate the deterministic policy at the first episode boundary after every multiple of
+    this many steps (and at the end of the run) in the evaluation environment given to the
+    training function, keeping the best actor in ``best.pt`` (Stable-Baselines3's
+    ``EvalCallback``); 0: never."""
+    eval_episodes: int = 1
+    """Episodes per evaluation (episode ``i`` reset with seed ``EVAL_SEED + i``)."""
+
+
+@dataclass
+class TD3Config(Schedule, RunSettings, Hyperparameters):
+    """A seed's settings in one flat record, the ``config`` of its checkpoints and ``run.json``:
+    its :class:`Hyperparameters`, :class:`RunSettings` and :class:`Schedule` (fields in that
+    order), checked together."""
+
+    def __post_init__(self) -> None:
+        self.hidden_sizes = tuple(int(h) for h in self.hidden_sizes)
+        if self.actor_hidden_sizes is not None:
+            self.actor_hidden_sizes = tuple(int(h) for h in self.actor_hidden_sizes)
+        for name in ("hidden_sizes", "actor_hidden_sizes"):
+            widths = getattr(self, name)
+            if widths is not None and (not widths or min(widths) < 1):
+                raise ValueError(f"{name} must be one or more layers of >= 1 unit, got "
+                                 f"{list(widths)}")
+        for name in ("actor_lr", "critic_lr"):  # 0 changes no weight; Adam above 1 only diverges
+            value = getattr(self, name)
+            if not (math.isfinite(value) and 0.0 < value <= MAX_LEARNING_RATE):
+                raise ValueError(f"{name} must be a finite number in (0, {MAX_LEARNING_RATE:g}] (Adam's "
+                                 f"step size; TD3's is 3e-4), got {value}")
+        if not 0.0 < self.tau <= 1.0:
+            raise ValueError(f"tau must be in (0, 1], got {self.tau}")
+        if not 0.0 <= self.gamma <= 1.0:
+            raise ValueError(f"gamma must be in [0, 1], got {self.gamma}")
+        for name in ("batch_size", "buffer_size", "policy_delay", "checkpoint_every", "log_every"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if self.precision not in PRECISIONS:
+            raise ValueError(f"precision must be one of {', '.join(PRECISIONS)}, got {self.precision!r}")
+        if self.eval_episodes < 1:
+            raise ValueError(f"eval_episodes must be >= 1, got {self.eval_episodes}")
+        ratio = self.updates_per_step
+        if not (isinstance(ratio, int | float) and math.isfinite(ratio)
+                and 0 < ratio <= MAX_UPDATES_PER_STEP):
+            raise ValueError(f"updates_per_step must be a finite number in (0, {MAX_UPDATES_PER_STEP}] "
+                             f"(updates per transition), got {ratio}")
+        if float(ratio).is_integer():
+            self.updates_per_step = int(ratio)
+        for name in ("learning_starts", "eval_every", "yardstick_warmup"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        for name in ("exploration_noise", "policy_noise", "target_noise_clip", "noise_color",
+                     "actor_saturation_penalty"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+        if self.noise_horizon < 2:
+            raise ValueError(f"noise_horizon must be >= 2 steps, got {self.noise_horizon}")
+        if self.yardstick_warmup and self.learning_starts < self.batch_size:
+            raise ValueError(f"yardstick_warmup {self.yardstick_warmup} clones the warm-up's "
+                             f"transitions: learning_starts ({self.learning_starts}) must be at least "
+                             f"batch_size ({self.batch_size}) for a minibatch of them")
+        if self.buffer_size < self.batch_size:
+            raise ValueError(f"buffer_size ({self.buffer_size}) must be >= batch_size "
+                             f"({self.batch_size}): a minibatch is drawn from the replay buffer, so "
+                             "a smaller buffer never gives one and no weight is ever updated")
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    @property
+    def actor_widths(self) -> tuple[int, ...]:
+        """The actor's hidden layer widths (:attr:`actor_hidden_sizes`, else :attr:`hidden_sizes`)."""
+        return self.actor_hidden_sizes if self.actor_hidden_sizes is not None else self.hidden_sizes
+
+    def part(self, kind: type[_Part]) -> _Part:
+        """Its :class:`Hyperparameters`, :class:`RunSettings` or :class:`Schedule`."""
+        return kind(**{f.name: getattr(self, f.name) for f in dataclasses.fields(kind)})
+
+    @classmethod
+    def settable(cls) -> tuple[str, ...]:
+        """The settings ``msr train --set KEY=VALUE`` and a spec's ``[training.td3]`` take: the
+        :class:`Hyperparameters` and the :class:`Schedule` (a run's seed, device and precision
+        have options of their own)."""
+        return tuple(f.name for f in (*dataclasses.fields(Hyperparameters),
+                                      *dataclasses.fields(Schedule)))
+
+    @classmethod
+    def parse_setting(cls, key: str, text: str) -> Any:
+        """The value of setting ``key`` from its text (``"256,256"`` for layer widths, ``none``
+        for an unset ``actor_hidden_sizes``, ``true``/``false``, ``1e6`` for an integer),
+        checked as a config holding it would be. Raises ``ValueError`` naming the key, the
+        settable keys and the expected form."""
+        if key not in cls.settable():
+            raise ValueError(f"unknown setting {key!r}; settable: {', '.join(cls.settable())}")
+        default = getattr(cls(), key)
+        text = text.strip()
+        try:
+            if key.endswith("hidden_sizes"):
+                value: Any = None if (default is None and text.lower() == "none") else tuple(
+                    int(w) for w in text.split(","))
+            elif isinstance(default, bool):
+                value = {"true": True, "1": True, "false": False, "0": False}[text.lower()]
+            elif _is_integer_setting(key, default):
+                value = float(text)
+                if not value.is_integer():
+                    raise ValueError
+                value = int(value)
+            else:
+                value = float(text)
+        except (ValueError, KeyError):
+            raise ValueError(f"{key}={text}: expected {_setting_form(key, default)}") from None
+        try:
+            cls(**{key: value, **({"buffer_size": value} if key == "batch_size" else {})})
+        except ValueError as exc:
+            raise ValueError(f"{key}={text}: {exc}") from None
+        return value
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> TD3Config:
+        names = {f.name for f in dataclasses.fields(cls)}
+        return cls(**{k: v for k, v in d.items() if k in names})
