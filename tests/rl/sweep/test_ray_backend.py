@@ -3,13 +3,16 @@ checked against the process-pool backend (same run directories and summary, same
 same final weights: the work is deterministic on CPU with one torch thread per seed), then resumed.
 
 Ray is kept local and quiet: a private instance (``address="local"``), no dashboard, no usage
-statistics (nothing leaves the machine). About a minute in all, most of it Ray's start and the
+statistics (nothing leaves the machine). The first sweep starts and ends its own instance; the
+later ones run on one instance the module holds (a sweep that finds Ray running uses it and leaves
+it running), so Ray starts twice, not once per sweep: most of the time is Ray's start and the
 workers importing torch."""
 
 from __future__ import annotations
 
 import csv
 import json
+import logging
 import os
 from pathlib import Path
 
@@ -17,6 +20,7 @@ import pytest
 import torch
 from elastica_magnetic_rl.runfiles.checkpoint import load_checkpoint
 from elastica_magnetic_rl.sweep import training
+from elastica_magnetic_rl.sweep.backends import LOCAL_OBJECT_STORE_BYTES
 
 from elastica_magnetic.cli import main as msr
 
@@ -72,6 +76,17 @@ def sweeps(tmp_path_factory):
     return root, results
 
 
+@pytest.fixture(scope="module")
+def held_ray(sweeps):
+    """One local Ray instance for the sweeps after the first (which ended its own)."""
+    import ray
+
+    ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False,
+             logging_level=logging.ERROR, object_store_memory=LOCAL_OBJECT_STORE_BYTES)
+    yield ray
+    ray.shutdown()
+
+
 def test_ray_sweep_writes_run_dirs_and_summary(sweeps):
     root, results = sweeps
     summary = results["ray"]
@@ -118,10 +133,12 @@ def test_ray_and_process_backends_agree(sweeps):
     assert not torch.equal(w0, w1)
 
 
-def test_ray_resume_extends_runs(sweeps, capsys):
-    """``--resume`` through Ray: the same per-seed code continues the runs from their checkpoints."""
+def test_ray_resume_extends_runs(sweeps, held_ray, capsys):
+    """``--resume`` through Ray: the same per-seed code continues the runs from their checkpoints
+    (on the Ray instance it found running, which it leaves running)."""
     root, _ = sweeps
     summary = _train(capsys, root / "ray", "--steps", str(STEPS + 50), "--backend", "ray", "--resume")
+    assert held_ray.is_initialized(), "the sweep ended a Ray instance it did not start"
     assert [s["global_step"] for s in summary["seeds"]] == [STEPS + 50] * 2 and not summary["failed"]
     for seed in (0, 1):
         run = root / "ray" / "m1-4mT" / f"seed{seed}"
@@ -138,7 +155,7 @@ def test_address_needs_the_ray_backend(tmp_path, capsys):
         training.train_case("m1-4mT", seeds=1, steps=1, out=tmp_path, backend="dask")
 
 
-def test_ray_sweep_over_two_cases(tmp_path, capsys):
+def test_ray_sweep_over_two_cases(held_ray, tmp_path, capsys):
     """Cases and seeds in one sweep: ``--case m1-4mT m2-10mT`` makes 2 x 1 Ray tasks; each case gets
     its own folder and summary, and the pattern and field limit of each run are its case's."""
     argv = [a for a in TINY if a not in {"m1-4mT"}]
