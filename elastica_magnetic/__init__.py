@@ -27,7 +27,7 @@ from .forcing import (
 from .ground import FrictionalGroundContact
 from .insertion import Advancer, InsertionClamp
 from .interaction import MagneticInteraction
-from .magnet_fields import CuboidMagnetField, CylinderMagnetField
+from .magnet_fields import CuboidMagnetField, CylinderMagnetField, MagnetMap, magnet_map
 from .magnetization import (
     YAO2023_MAGNETIZATION,
     MagnetizationSegment,
@@ -104,7 +104,9 @@ __all__ = [
     "FieldSum",
     "HelmholtzCoils",
     "InsertionClamp",
+    "magnet_map",
     "MagnetBearingSteering",
+    "MagnetMap",
     "MagnetPose",
     "MaxwellCoils",
     "PointDipoleField",

@@ -1,5 +1,6 @@
 """The sources in space of :class:`~elastica_magnetic.batch.BatchedRobots`, one per robot at most,
-each driven the cheapest way its kind allows: arm-moved magnets all in one kernel call, fixed coil
+each driven the cheapest way its kind allows: arm-moved magnets all in one kernel call (point
+dipoles), or one per magnet map (finite magnets, :class:`~elastica_magnetic.MagnetMap`), fixed coil
 sets one kernel call per coil geometry (:mod:`~elastica_magnetic._batch_coils`), point dipoles on
 their paths one kernel call (:mod:`~elastica_magnetic._batch_dipoles`), any other source its own
 :class:`~elastica_magnetic.MagneticTorques` called per robot and time step. Every kind adds the
@@ -18,7 +19,8 @@ from ._batch_coils import BatchedCoils, loop_geometry
 from ._batch_dipoles import BatchedDipoles, dipole_paths
 from ._batch_kernels import robot_times
 from ._spatial_kernels import MOTION_SIZE
-from .actuation import MovedDipoleField
+from .actuation import MovedDipoleField, MovedMapField
+from .field_maps import FieldMapDomainError
 from .forcing import FieldValueError, MagneticTorques
 from .spatial_fields import is_spatial
 
@@ -34,21 +36,26 @@ class BatchedSources:
         n_elements = owner.spec.n_elements
         self.general: dict[int, MagneticTorques] = {}  # robot -> the forcing of its source
         self.moved: dict[int, MovedDipoleField] = {}  # robot -> its arm's magnet (one kernel for all)
+        self.mapped: dict[int, MovedMapField] = {}  # robot -> its arm's finite magnet (a kernel per map)
         self.coils = BatchedCoils(n_elements)  # robots under fixed coils (one kernel per coil set)
         self.dipoles = BatchedDipoles(n_elements)  # robots under their own point dipole (one kernel)
         self._moved_rows = (np.zeros((0, MOTION_SIZE)), np.zeros(0, dtype=np.int64),
                             np.zeros(0, dtype=np.int64))
         self._moved_scratch = (np.empty((3, n_elements)), np.empty((3, n_elements)),
                                np.empty((3, 3, n_elements)))
+        self._map_scratch = (np.empty((3, 3)), np.empty((3, n_elements)), np.empty((3, n_elements)),
+                             np.empty((3, 3, n_elements)))
+        self._mapped_rows: list[tuple[MovedMapField, Any, Any, Any]] = []
 
     def __bool__(self) -> bool:
-        return bool(self.general or self.moved or self.coils.sources or self.dipoles.sources)
+        return bool(self.general or self.moved or self.mapped or self.coils.sources or self.dipoles.sources)
 
     @property
     def sources(self) -> list[Any]:
         """Each robot's spatial source (``None``: its uniform row alone)."""
         coils, dipoles = self.coils.sources, self.dipoles.sources
-        return [self.moved[i] if i in self.moved else coils[i] if i in coils else
+        return [self.moved[i] if i in self.moved else self.mapped[i] if i in self.mapped else
+                coils[i] if i in coils else
                 dipoles[i] if i in dipoles else self.general[i].field if i in self.general else None
                 for i in range(self.owner.n_robots)]
 
@@ -56,6 +63,7 @@ class BatchedSources:
         """Robot ``i`` by its uniform row alone."""
         self.general.pop(i, None)
         self.moved.pop(i, None)
+        self.mapped.pop(i, None)
         self.coils.remove(i)
         self.dipoles.remove(i)
 
@@ -79,6 +87,8 @@ class BatchedSources:
         geometry, paths = loop_geometry(source), dipole_paths(source)
         if isinstance(source, MovedDipoleField):
             self.moved[i] = source
+        elif type(source) is MovedMapField:
+            self.mapped[i] = source
         elif geometry is not None:
             self.coils.add(i, source, geometry)
         elif paths is not None:
@@ -108,6 +118,15 @@ class BatchedSources:
             robots = np.fromiter(self.moved, dtype=np.int64, count=len(self.moved))
             motions = np.array([self.moved[int(i)].magnet.motion for i in robots]).reshape(-1, MOTION_SIZE)
             self._moved_rows = (motions, robots, behind[robots])
+        if self.mapped:
+            groups: dict[int, list[int]] = {}  # one kernel call per map (robots may share one)
+            for i, source in self.mapped.items():
+                groups.setdefault(id(source.map), []).append(i)
+            self._mapped_rows = []
+            for members in groups.values():
+                robots = np.array(members, dtype=np.int64)
+                motions = np.array([self.mapped[i].magnet.motion for i in members]).reshape(-1, MOTION_SIZE)
+                self._mapped_rows.append((self.mapped[members[0]], motions, robots, behind[robots]))
         if self.coils.sources:
             self.coils.gather(behind)
 
@@ -117,6 +136,8 @@ class BatchedSources:
         owner = self.owner
         if self.moved:
             self._apply_moved_magnets(time)
+        if self.mapped:
+            self._apply_mapped_magnets(time)
         if self.dipoles.sources:
             robot_times(time, owner._step_index, owner.spec.dt, owner._behind, owner._times)
             self.dipoles.apply(owner._times, owner._moments, owner._node_start, owner._elem_start,
@@ -145,3 +166,24 @@ class BatchedSources:
             raise FieldValueError(
                 f"robot {int(robots[k])}: its magnet (MagnetPose) gave a non-finite B (T) or gradient "
                 f"(T/m) at element {element} at t = {time:.6g} s (the magnet on the rod?)")
+
+    def _apply_mapped_magnets(self, time: float) -> None:
+        """The force and torque of every robot's arm-moved finite magnet, one kernel call per map."""
+        owner = self.owner
+        block = owner.block
+        for source, motions, robots, behind in self._mapped_rows:
+            grid = source.map.field_map
+            times = owner._robot_time(time, behind)
+            bad = spatial_kernels.moved_maps_forcing(
+                motions, robots, times, grid.origin, grid.spacing, grid.shape, grid.samples, grid.gradients,
+                source.map.moment, owner._moments, owner._node_start, owner._elem_start, owner._elem_end,
+                block.position_collection, block.director_collection, block.external_forces,
+                block.external_torques, *self._moved_scratch, *self._map_scratch)
+            if bad >= 0:
+                k, element = divmod(bad, owner.spec.n_elements)
+                robot = int(robots[k])
+                raise FieldMapDomainError(
+                    f"robot {robot}: element {element} at t = {time:.6g} s is outside its magnet's map "
+                    f"({grid.source}; the magnet at {source.magnet.position_at(float(times[k])).tolist()} m) "
+                    "or its field there is not finite")
+

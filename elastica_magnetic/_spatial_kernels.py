@@ -376,6 +376,89 @@ def moved_dipole_field(motion, time, points, b_out, g_out, with_gradient):
 
 
 @njit(cache=True)
+def shortest_rotation(direction, out):
+    """The rotation ``out`` (3, 3) turning +z onto ``direction`` (3,) (normalized here) the
+    shortest way, as :func:`~elastica_magnetic.spatial_fields.rotation_to`: ``I + K + K^2 / (1 + c)``
+    with ``K`` the cross-product matrix of ``z x a`` and ``c = a_z``; half a turn about x for -z."""
+    norm = math.sqrt(direction[0] ** 2 + direction[1] ** 2 + direction[2] ** 2)
+    a0, a1, c = direction[0] / norm, direction[1] / norm, direction[2] / norm
+    out[...] = 0.0
+    if c > 1.0 - 1e-15:
+        for i in range(3):
+            out[i, i] = 1.0
+        return
+    if c < -1.0 + 1e-15:
+        out[0, 0], out[1, 1], out[2, 2] = 1.0, -1.0, -1.0
+        return
+    f = 1.0 / (1.0 + c)
+    # v = z x a = (-a1, a0, 0); K v-cross; K^2 = v v^T - |v|^2 I.
+    v0, v1 = -a1, a0
+    vv = v0 * v0 + v1 * v1
+    out[0, 0] = 1.0 + (v0 * v0 - vv) * f
+    out[0, 1] = v0 * v1 * f
+    out[0, 2] = v1
+    out[1, 0] = v0 * v1 * f
+    out[1, 1] = 1.0 + (v1 * v1 - vv) * f
+    out[1, 2] = -v0
+    out[2, 0] = -v1
+    out[2, 1] = v0
+    out[2, 2] = 1.0 - vv * f
+
+
+@njit(cache=True)
+def moved_map_field_into(motion, time, origin, spacing, shape, samples, gradients, reference_moment, points,
+                         b_out, g_out, with_gradient, rotation, local, b_local, g_local):
+    """A magnet's field map in its own frame (its moment along the map's +z; ``samples``,
+    ``gradients`` as :func:`grid_field`, tabulated for a magnet of moment ``reference_moment``
+    A m^2) at the pose of ``motion`` at ``time`` (s), times the motion's moment over the
+    reference: each point looked up at ``R^T (x - c)``, the field ``R b`` and the gradient
+    ``R G R^T`` (``R`` the shortest turn of +z onto the moment, :func:`shortest_rotation`) added to
+    ``b_out`` (3, n) T and ``g_out`` (3, 3, n) T/m. ``rotation`` (3, 3), ``local`` (3, n),
+    ``b_local`` (3, n), ``g_local`` (3, 3, n): scratch. Returns the first point outside the map,
+    else -1 (nothing added then)."""
+    position, direction = np.empty(3), np.empty(3)
+    magnet_pose_at(motion, time, position, direction)
+    shortest_rotation(direction, rotation)
+    n = points.shape[1]
+    for k in range(n):
+        d0 = points[0, k] - position[0]
+        d1 = points[1, k] - position[1]
+        d2 = points[2, k] - position[2]
+        for i in range(3):
+            local[i, k] = rotation[0, i] * d0 + rotation[1, i] * d1 + rotation[2, i] * d2
+    b_local[...] = 0.0
+    g_local[...] = 0.0
+    outside = grid_field(origin, spacing, shape, samples, gradients, motion[M_MOMENT] / reference_moment,
+                         local, b_local, g_local, with_gradient)
+    if outside >= 0:
+        return outside
+    for k in range(n):
+        for i in range(3):
+            b_out[i, k] += (rotation[i, 0] * b_local[0, k] + rotation[i, 1] * b_local[1, k]
+                            + rotation[i, 2] * b_local[2, k])
+        if with_gradient:
+            for i in range(3):
+                for j in range(3):
+                    total = 0.0
+                    for a in range(3):
+                        row = (g_local[a, 0, k] * rotation[j, 0] + g_local[a, 1, k] * rotation[j, 1]
+                               + g_local[a, 2, k] * rotation[j, 2])
+                        total += rotation[i, a] * row
+                    g_out[i, j, k] += total
+    return -1
+
+
+@njit(cache=True)
+def moved_map_field(motion, time, origin, spacing, shape, samples, gradients, reference_moment, points,
+                    b_out, g_out, with_gradient):
+    """:func:`moved_map_field_into` with its own scratch (one robot's call)."""
+    n = points.shape[1]
+    return moved_map_field_into(motion, time, origin, spacing, shape, samples, gradients, reference_moment,
+                                points, b_out, g_out, with_gradient, np.empty((3, 3)), np.empty((3, n)),
+                                np.empty((3, n)), np.empty((3, 3, n)))
+
+
+@njit(cache=True)
 def start_robot_field(positions, n0, centres, b, g):
     """The element centres ``centres`` ``(3, n)`` (m) of the robot whose nodes start at block node
     ``n0``, and its ``B`` ``(3, n)`` and ``grad B`` ``(3, 3, n)`` zeroed, for a source to add into."""
@@ -414,6 +497,29 @@ def moved_dipoles_forcing(motions, robots, times, moments, node_start, elem_star
         n0, e0, e1 = node_start[i], elem_start[i], elem_end[i]
         start_robot_field(positions, n0, centres, b, g)
         moved_dipole_field(motions[k], times[k], centres, b, g, True)
+        bad = robot_field_forcing(moments, directors, n0, e0, e1, b, g, external_forces, external_torques)
+        if bad >= 0:
+            return k * n + bad
+    return -1
+
+
+@njit(cache=True)
+def moved_maps_forcing(motions, robots, times, origin, spacing, shape, samples, gradients, reference_moment,
+                       moments, node_start, elem_start, elem_end, positions, directors, external_forces,
+                       external_torques, centres, b, g, rotation, local, b_local, g_local):
+    """As :func:`moved_dipoles_forcing`, each robot under its arm's magnet given by one field map in
+    the magnet's frame (:func:`moved_map_field_into`). Returns ``k * n + e`` of the first element
+    outside the map or whose field is not finite (robot ``k``, element ``e``), else -1."""
+    n = centres.shape[1]
+    for k in range(robots.shape[0]):
+        i = robots[k]
+        n0, e0, e1 = node_start[i], elem_start[i], elem_end[i]
+        start_robot_field(positions, n0, centres, b, g)
+        outside = moved_map_field_into(motions[k], times[k], origin, spacing, shape, samples, gradients,
+                                       reference_moment, centres, b, g, True, rotation, local, b_local,
+                                       g_local)
+        if outside >= 0:
+            return k * n + outside
         bad = robot_field_forcing(moments, directors, n0, e0, e1, b, g, external_forces, external_torques)
         if bad >= 0:
             return k * n + bad

@@ -38,9 +38,11 @@ from ._spatial_kernels import (
     M_TURN_RATE,
     M_VELOCITY,
 )
+from .field_maps import FieldMapDomainError
+from .magnet_fields import MagnetMap
 from .spatial_fields import SpatialField, SpatialFieldError, _frame, _vector3
 
-__all__ = ["CoilCurrents", "MagnetPose", "MovedDipoleField"]
+__all__ = ["CoilCurrents", "MagnetPose", "MovedDipoleField", "MovedMapField"]
 
 
 def _action(action: ArrayLike, size: int, who: str) -> NDArray[np.float64]:
@@ -77,6 +79,12 @@ class MagnetPose:
         m/s, the largest speed of the magnet's centre (an action of norm 1 or more).
     max_turn_rate : float
         rad/s, the largest rate at which the moment turns.
+    field_map : MagnetMap, optional
+        The field of a finite magnet in its own frame (:func:`~elastica_magnetic.magnet_map`),
+        moved and turned with the arm and scaled by ``moment`` over the map's own moment; default
+        ``None``: a point dipole of ``moment``. The map's roll about the moment follows the
+        shortest turn of +z onto it (exact for a magnet symmetric about its moment, as an axially
+        magnetized cylinder).
     """
 
     #: Components of the action: velocity along x, y, z, turn rate about the two directions
@@ -84,7 +92,7 @@ class MagnetPose:
     action_size = 5
 
     def __init__(self, moment: float, position: ArrayLike, direction: ArrayLike, workspace: ArrayLike,
-                 max_speed: float, max_turn_rate: float) -> None:
+                 max_speed: float, max_turn_rate: float, field_map: MagnetMap | None = None) -> None:
         self.moment = _positive(moment, "moment", "A m^2")
         self.max_speed = _positive(max_speed, "max_speed", "m/s")
         self.max_turn_rate = _positive(max_turn_rate, "max_turn_rate", "rad/s")
@@ -105,7 +113,9 @@ class MagnetPose:
         #: simulator's kernel reads it as this class does.
         self.motion = np.zeros(kernels.MOTION_SIZE)
         self.reset()
-        self.source: SpatialField = MovedDipoleField(self)
+        self.field_map = field_map
+        self.source: SpatialField = (MovedDipoleField(self) if field_map is None
+                                     else MovedMapField(self, field_map))
 
     def reset(self) -> None:
         """Back to the start pose, at rest."""
@@ -197,6 +207,28 @@ class MovedDipoleField(SpatialField):
 
     def _add(self, points, time, b, g, with_gradient) -> None:
         kernels.moved_dipole_field(self.magnet.motion, float(time), points, b, g, with_gradient)
+
+
+class MovedMapField(SpatialField):
+    """The field of a :class:`MagnetPose`'s finite magnet, its map in the magnet's frame
+    (:class:`~elastica_magnetic.MagnetMap`) at the arm's pose at each time. A robot of
+    :class:`~elastica_magnetic.BatchedRobots` given one is driven by a kernel that reads the arm's
+    :attr:`MagnetPose.motion` (no Python call per time step)."""
+
+    def __init__(self, magnet: MagnetPose, field_map: MagnetMap) -> None:
+        self.magnet = magnet
+        self.map = field_map
+
+    def _add(self, points, time, b, g, with_gradient) -> None:
+        grid = self.map.field_map
+        outside = kernels.moved_map_field(self.magnet.motion, float(time), grid.origin, grid.spacing,
+                                          grid.shape, grid.samples, grid.gradients, self.map.moment, points,
+                                          b, g, with_gradient)
+        if outside >= 0:
+            raise FieldMapDomainError(
+                f"{grid.source}: point {points[:, outside].tolist()} m (column {outside}) at "
+                f"t = {time:.6g} s is outside the magnet's map (the magnet at "
+                f"{self.magnet.position_at(time).tolist()} m)")
 
 
 class CoilCurrents:

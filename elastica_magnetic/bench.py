@@ -32,6 +32,7 @@ from .actuation import CoilCurrents, MagnetPose
 from .batch import BatchedRobots
 from .fields import ControlledField, RotatingField
 from .forcing import LegacyInternalDamping, MagneticTorques, RelativeVelocityDamping, evaluate_field
+from .magnet_fields import CuboidMagnetField, magnet_map
 from .presets import yao2023_robot
 from .robot_spec import RobotSpec
 from .simulation import (
@@ -41,7 +42,7 @@ from .simulation import (
     register_robot_forcing,
     robot_rod,
 )
-from .spatial_fields import HelmholtzCoils, PointDipoleField, Waypoints
+from .spatial_fields import HelmholtzCoils, PointDipoleField, SpatialFieldError, Waypoints
 
 __all__ = [
     "BATCH_SIZES",
@@ -349,6 +350,19 @@ def _arm_above_the_robot() -> MagnetPose:
                       max_speed=0.02, max_turn_rate=1.0)
 
 
+def _finite_magnet_arms(n: int) -> list[MagnetPose]:
+    """``n`` arms as :func:`_arm_above_the_robot`, each holding a finite magnet: a 10 mm cube's
+    field map in its own frame (:func:`~elastica_magnetic.magnet_map`, +-160 mm at 4 mm) scaled to
+    the arm's 2.5 A m^2, one map shared by all. None without Magpylib."""
+    try:
+        field_map = magnet_map(CuboidMagnetField([0.01] * 3, [0.0, 0.0, 1.3]), half_width=0.16, spacing=0.004)
+    except SpatialFieldError:  # Magpylib not installed: no finite magnet to measure
+        return []
+    arm = _arm_above_the_robot()
+    return [MagnetPose(arm.moment, arm.position_at(0.0), arm.direction_at(0.0), arm.workspace,
+                       arm.max_speed, arm.max_turn_rate, field_map=field_map) for _ in range(n)]
+
+
 def _three_axis_helmholtz() -> list[HelmholtzCoils]:
     """Three Helmholtz pairs of radius 100 mm on x, y and z around the paper's robot, each 4 mT at
     1 A (the turns folded into the current): the paper's coil system as fixed coils."""
@@ -363,7 +377,8 @@ def batched_spatial_step_cost(n: int = 16, steps: int = 1000, repeats: int = 5,
     each robot under its own source of :func:`spatial_sources` (point dipoles, fixed or moving
     along waypoints, by one kernel for all robots; fixed coils such as the Helmholtz pair by one
     kernel per coil set; other sources a Python call per robot and time step), its own arm-moved
-    magnet (:class:`~elastica_magnetic.MagnetPose`, one kernel for all robots) or its own currents in
+    magnet (:class:`~elastica_magnetic.MagnetPose`, one kernel for all robots: a point dipole, or a
+    finite magnet through its field map, ``arm_finite_magnet``) or its own currents in
     three Helmholtz pairs (:class:`~elastica_magnetic.CoilCurrents`, a field turning in the y-z plane),
     next to the uniform field (each robot's row), and the ratios to it. ``steps`` per
     repeat, in 0.01 s blocks as an environment steps (the arms commanded between blocks); the
@@ -376,6 +391,9 @@ def batched_spatial_step_cost(n: int = 16, steps: int = 1000, repeats: int = 5,
         if name != "uniform":
             kinds[name] = BatchedRobots(spec, n, sources=[source] * n)
     kinds["arm_magnet"] = BatchedRobots(spec, n, sources=[arm.source for arm in arms])
+    mapped_arms = _finite_magnet_arms(n)
+    if mapped_arms:
+        kinds["arm_finite_magnet"] = BatchedRobots(spec, n, sources=[arm.source for arm in mapped_arms])
     coils = _three_axis_helmholtz()
     drives = [CoilCurrents(coils, current_limit=1.0) for _ in range(n)]
     kinds["coil_currents"] = BatchedRobots(spec, n, sources=[drive.source for drive in drives])
@@ -383,8 +401,8 @@ def batched_spatial_step_cost(n: int = 16, steps: int = 1000, repeats: int = 5,
 
     def run(name: str, robots: BatchedRobots, n_steps: int) -> None:
         for _ in range(max(1, n_steps // per_action)):
-            if name == "arm_magnet":
-                for i, arm in enumerate(arms):
+            if name in ("arm_magnet", "arm_finite_magnet"):
+                for i, arm in enumerate(arms if name == "arm_magnet" else mapped_arms):
                     arm.apply(command, robots.robot_time(i), per_action * spec.dt)
             if name == "coil_currents":  # a field turning at 1 turn/s, currents ramped per 0.01 s
                 for i, drive in enumerate(drives):

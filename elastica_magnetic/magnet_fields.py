@@ -17,10 +17,12 @@ against Richardson-extrapolated differences (step 1e-4 m) for 10 mm cubes and cy
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .field_maps import MAX_RESAMPLED_NODES, FieldMap
 from .spatial_fields import (
     ScalarOrWaveform,
     SpatialField,
@@ -31,7 +33,7 @@ from .spatial_fields import (
     _vector3,
 )
 
-__all__ = ["CuboidMagnetField", "CylinderMagnetField", "DEFAULT_STEP"]
+__all__ = ["CuboidMagnetField", "CylinderMagnetField", "DEFAULT_STEP", "MagnetMap", "magnet_map"]
 
 #: Finite-difference step of the gradient, m.
 DEFAULT_STEP = 1e-6
@@ -129,6 +131,11 @@ class CuboidMagnetField(_MagpylibMagnet):
                                            polarization=_vector3(polarization, "polarization", "T"))
         super().__init__(magnet, position, step, scale, axis)
 
+    @property
+    def moment(self) -> NDArray[np.float64]:
+        """Magnetic moment ``J V / mu0`` (A m^2) in the magnet's own frame."""
+        return np.asarray(self.magnet.polarization) * float(np.prod(self.magnet.dimension)) / (4e-7 * np.pi)
+
 
 class CylinderMagnetField(_MagpylibMagnet):
     """A homogeneously magnetized cylinder (Magpylib ``Cylinder``), its axis along ``axis``.
@@ -159,3 +166,49 @@ class CylinderMagnetField(_MagpylibMagnet):
         """Magnetic moment ``J V / mu0`` (A m^2) in the magnet's own frame."""
         d, h = self.magnet.dimension
         return np.asarray(self.magnet.polarization) * (np.pi * d * d / 4.0 * h) / (4e-7 * np.pi)
+
+
+@dataclass(frozen=True)
+class MagnetMap:
+    """A finite magnet's field tabulated once in its own frame, for a magnet an arm moves
+    (:class:`~elastica_magnetic.MagnetPose` ``(..., field_map=)``): the magnet's centre at the map's
+    origin, its moment along the map's +z. ``moment`` (A m^2) is the magnitude the map was made
+    for: an arm of another moment scales the map by the ratio (a weaker or stronger magnet of the
+    same shape)."""
+
+    field_map: FieldMap
+    moment: float
+
+
+def magnet_map(magnet: CuboidMagnetField | CylinderMagnetField, half_width: float,
+               spacing: float) -> MagnetMap:
+    """The field of ``magnet`` (its polarization along its own z) sampled by Magpylib once on the
+    cube ``[-half_width, half_width]^3`` (m, about its centre) at ``spacing`` (m), in its own frame:
+    the map an arm moves and turns with the magnet, trilinear between nodes (so a step costs a
+    lookup instead of Magpylib's per-call overhead). The gradient is the map's (second-order
+    differences of the samples); the map's error against Magpylib falls with ``spacing^2`` and is
+    largest near the magnet (:doc:`/spatial_fields` states it for a 10 mm cube). The robot must
+    stay inside the cube: a point outside is a :class:`~elastica_magnetic.FieldMapDomainError`."""
+    polarization = np.asarray(magnet.magnet.polarization, dtype=np.float64)
+    strength = float(np.linalg.norm(polarization))
+    if not strength > 0.0 or np.linalg.norm(polarization[:2]) > 1e-12 * strength:
+        raise SpatialFieldError(f"magnet_map: the magnet's polarization {polarization.tolist()} T must lie "
+                                "along its own z (the moment an arm turns)")
+    if not (np.isfinite(half_width) and np.isfinite(spacing) and 0.0 < spacing < half_width):
+        raise SpatialFieldError(f"magnet_map: need 0 < spacing < half_width (m), got spacing {spacing}, "
+                                f"half_width {half_width}")
+    count = int(round(2.0 * half_width / spacing)) + 1
+    if count**3 > MAX_RESAMPLED_NODES:
+        raise SpatialFieldError(f"magnet_map: {count}^3 nodes (half_width {half_width} m at spacing "
+                                f"{spacing} m) exceed {MAX_RESAMPLED_NODES}: a coarser spacing or a "
+                                "smaller cube")
+    axis = np.linspace(-half_width, half_width, count)
+    grid = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), axis=-1)
+    at_origin = magnet.magnet.copy(position=(0.0, 0.0, 0.0), orientation=None)
+    samples = np.asarray(at_origin.getB(grid.reshape(-1, 3)), dtype=np.float64)
+    samples = samples.reshape(count, count, count, 3)
+    moment = float(np.linalg.norm(magnet.moment))
+    field_map = FieldMap(axis, axis, axis, samples, source=f"map of a {type(magnet).__name__} "
+                         f"({moment:.4g} A m^2, +-{half_width:g} m at {spacing:g} m)")
+    return MagnetMap(field_map, moment)
+

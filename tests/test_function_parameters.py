@@ -18,6 +18,9 @@ EXCEPTIONS = {
     "elastica_magnetic/_spatial_kernels.py:moved_dipoles_forcing": "numba kernel",
     "elastica_magnetic/_spatial_kernels.py:coil_loops_forcing": "numba kernel",
     "elastica_magnetic/_spatial_kernels.py:dipole_paths_forcing": "numba kernel",
+    "elastica_magnetic/_spatial_kernels.py:moved_map_field_into": "numba kernel",
+    "elastica_magnetic/_spatial_kernels.py:moved_map_field": "numba kernel",
+    "elastica_magnetic/_spatial_kernels.py:moved_maps_forcing": "numba kernel",
     # a Gymnasium environment is made by gymnasium.make(id, **kwargs): its options are keywords
     "rl/envs/vector_env.py:__init__": "gymnasium.make keywords",
     "rl/envs/env.py:__init__": "gymnasium.make keywords",

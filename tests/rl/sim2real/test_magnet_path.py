@@ -195,7 +195,10 @@ def test_sigterm_stops_identify_as_ctrl_c_does(tmp_path, steered, quick_spec):
                              str(tip), "--robot", str(spec_file), "--fit", "magnet", "--out", str(out),
                              "--no-progress"], stderr=subprocess.PIPE, text=True,
                             env={**os.environ, "MPLBACKEND": "Agg"})
-    time.sleep(8.0)  # into the fit (a simulation takes about a second)
+    deadline = time.time() + 300  # into the fit: its output's lock is taken (slow on a loaded machine)
+    while not list(tmp_path.glob(".id.msr-*")) and proc.poll() is None and time.time() < deadline:
+        time.sleep(0.1)
+    time.sleep(1.0)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 143, err
