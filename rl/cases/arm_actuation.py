@@ -4,18 +4,22 @@ rad/s). The rod of such a case is clamped at its base (a catheter): the arm's ma
 
 Each key's value is refused where it cannot be meant: a position or box far beyond any arm's reach
 (mm written as m), a speed beyond any arm's (mm/s written as m/s), a turn rate in degrees, a start
-outside the workspace or within ``min_clearance`` of the straight rod.
+outside the workspace or within ``min_clearance`` of the straight rod. An optional
+``[actuation.magnet]`` gives the magnet a body (:class:`FiniteMagnet`): its field then comes from a
+map of that body in its own frame instead of a point dipole.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
 
-from elastica_magnetic import MagnetPose
+from elastica_magnetic import CuboidMagnetField, CylinderMagnetField, MagnetMap, MagnetPose, magnet_map
+from elastica_magnetic.field_maps import MAX_RESAMPLED_NODES
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 from elastica_magnetic.spatial_fields import SpatialFieldError
 from elastica_magnetic.specfile import SpecTable
@@ -29,11 +33,85 @@ from .steered import (
     speed_from_table,
 )
 
-__all__ = ["MAGNET_ARM_OBSERVATION", "MagnetArm", "magnet_arm_from_table"]
+__all__ = ["MAGNET_ARM_OBSERVATION", "FiniteMagnet", "MagnetArm", "magnet_arm_from_table"]
 
 #: The observation of a magnet-arm case beyond the rod's node positions (3 per node): the tip's
 #: velocity, the magnet's position and direction (3 each; ``rl/envs/catheter_env.py``).
 MAGNET_ARM_OBSERVATION = (("tip_velocity", 3), ("magnet_position", 3), ("magnet_direction", 3))
+
+
+#: T: the polarization ``J = mu0 M`` at which a magnet's map is made (any moment scales it).
+MAP_POLARIZATION = 1.0
+#: T: the strongest polarization of a permanent magnet (NdFeB's remanence is 1.2-1.45 T); a body
+#: whose moment asks more is refused, one asking more than :data:`WARN_POLARIZATION` warned about.
+MAX_POLARIZATION = 2.0
+WARN_POLARIZATION = 1.5
+#: T: a body whose moment asks less than this is warned about (a body far too large: mm written as m?).
+MIN_POLARIZATION = 0.05
+#: m: the largest edge of a magnet an arm carries (mm written as m beyond it).
+MAX_MAGNET_SIZE = 0.2
+MU0 = 4e-7 * math.pi
+#: m: a magnet map's default spacing, coarser where the map would hold more than
+#: :data:`MAP_NODES_PER_AXIS` nodes a side (about 100 MB with its gradient table).
+MAP_SPACING = 0.004
+MAP_NODES_PER_AXIS = 101
+
+
+@dataclass(frozen=True)
+class FiniteMagnet:
+    """The body of the arm's magnet (``[actuation.magnet]``): ``shape`` ``"cuboid"`` (``dimension``
+    its three edges, m, its own z along the moment) or ``"cylinder"`` (``dimension`` ``[diameter,
+    height]``, m, its axis along the moment), magnetized uniformly along its moment. Its field is a
+    map in its own frame (:func:`~elastica_magnetic.magnet_map`) of ``map_half_width`` (m, enough
+    to hold the rod wherever the arm takes the magnet) at ``map_spacing`` (m); the arm's ``moment``
+    sets its strength (its polarization ``J = mu0 moment / volume``)."""
+
+    shape: str
+    dimension: tuple[float, ...]
+    map_half_width: float
+    map_spacing: float = MAP_SPACING
+
+    @property
+    def volume(self) -> float:
+        """m^3."""
+        if self.shape == "cuboid":
+            return float(np.prod(self.dimension))
+        diameter, height = self.dimension
+        return math.pi * diameter**2 / 4.0 * height
+
+    @property
+    def circumradius(self) -> float:
+        """m: half the body's diagonal (nothing nearer its centre than this is surely outside it)."""
+        if self.shape == "cuboid":
+            return 0.5 * float(np.linalg.norm(self.dimension))
+        return 0.5 * math.hypot(*self.dimension)
+
+    def polarization(self, moment: float) -> float:
+        """T: ``J = mu0 moment / volume`` for a moment of ``moment`` A m^2."""
+        return MU0 * moment / self.volume
+
+    def field_map(self) -> MagnetMap:
+        """The body's map at :data:`MAP_POLARIZATION` (made once per process and body)."""
+        return _body_map(self)
+
+    def describe(self) -> str:
+        """The body in words (mm)."""
+        size = " x ".join(f"{1e3 * v:g}" for v in self.dimension)
+        return (f"{self.shape} {size} mm, its field mapped +-{1e3 * self.map_half_width:.4g} mm at "
+                f"{1e3 * self.map_spacing:g} mm")
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``[actuation.magnet]`` table."""
+        return {"shape": self.shape, "dimension": list(self.dimension), "map_half_width": self.map_half_width,
+                "map_spacing": self.map_spacing}
+
+
+@functools.lru_cache(maxsize=4)
+def _body_map(body: FiniteMagnet) -> MagnetMap:
+    polarization = [0.0, 0.0, MAP_POLARIZATION]
+    magnet = (CuboidMagnetField(list(body.dimension), polarization) if body.shape == "cuboid" else
+              CylinderMagnetField(body.dimension[0], body.dimension[1], polarization))
+    return magnet_map(magnet, body.map_half_width, body.map_spacing)
 
 
 @dataclass(frozen=True)
@@ -44,7 +122,8 @@ class MagnetArm(SteeringActuation):
     ``max_turn_rate`` rad/s), the nearest the magnet may come to the rod (``min_clearance``, m: an
     episode ends there), the control rate (Hz), and optionally an insertion stage that pushes the
     rod's clamped base along +x (``insertion``: its travel ``(low, high)``, m, ``low <= 0 <=
-    high``; ``insertion_speed``, m/s): a sixth action component."""
+    high``; ``insertion_speed``, m/s): a sixth action component. ``magnet``: the magnet's body
+    (:class:`FiniteMagnet`), default ``None``: a point dipole."""
 
     kind: ClassVar[str] = "magnet-pose"
     #: What :meth:`reach_field` is, in words, and the key and slips of a magnet too weak to bend the rod.
@@ -61,6 +140,7 @@ class MagnetArm(SteeringActuation):
     control_rate: float = 1.0 / ACTION_PERIOD
     insertion: tuple[float, float] | None = None
     insertion_speed: float = 0.01
+    magnet: FiniteMagnet | None = None
 
     #: The arm's commands: velocity (3) and turn rate (2).
     actuator_size: ClassVar[int] = MagnetPose.action_size
@@ -74,8 +154,10 @@ class MagnetArm(SteeringActuation):
         return (*MAGNET_ARM_OBSERVATION, *self.stage_blocks())
 
     def actuator(self) -> MagnetPose:
-        """A new arm of this actuation, at its start pose."""
-        return MagnetPose(**self.arm_settings())
+        """A new arm of this actuation, at its start pose (its magnet's map shared by all arms of a
+        process)."""
+        return MagnetPose(**self.arm_settings(),
+                          field_map=None if self.magnet is None else self.magnet.field_map())
 
     def start_words(self) -> str:
         """How an episode starts, in words."""
@@ -105,7 +187,9 @@ class MagnetArm(SteeringActuation):
         """The arm in words (mm, mm/s, mT)."""
         mm = ", ".join(f"{1e3 * v:g}" for v in self.position)
         box = " .. ".join("(" + ", ".join(f"{1e3 * v:g}" for v in row) + ")" for row in self.workspace)
-        return (f"a {self.moment:g} A m^2 magnet on an arm, starting at ({mm}) mm pointing "
+        body = "" if self.magnet is None else (f" ({self.magnet.describe()}, "
+                                               f"J {self.magnet.polarization(self.moment):.3g} T)")
+        return (f"a {self.moment:g} A m^2 magnet{body} on an arm, starting at ({mm}) mm pointing "
                 f"{list(self.direction)}, its centre in {box} mm, at most {1e3 * self.max_speed:g} mm/s and "
                 f"{self.max_turn_rate:g} rad/s, kept {1e3 * self.min_clearance:g} mm from the rod; "
                 f"{1e3 * self.field_at_tip(rod_length):.3g} mT at the straight tip at the start")
@@ -113,7 +197,8 @@ class MagnetArm(SteeringActuation):
     def to_dict(self) -> dict[str, Any]:
         """The ``[actuation]`` table."""
         return {"kind": self.kind, **self.arm_settings(), "min_clearance": self.min_clearance,
-                "control_rate": self.control_rate, **self.stage_dict()}
+                "control_rate": self.control_rate, **self.stage_dict(),
+                **({} if self.magnet is None else {"magnet": self.magnet.to_dict()})}
 
 
 #: Fastest turn (rad/s) an arm commands: a few turns per second; degrees written as rad is far beyond.
@@ -142,14 +227,16 @@ def _turn_rate(t: SpecTable, default: float) -> float:
     return value
 
 
-def _min_clearance(t: SpecTable, default: float, moment: float) -> float:
+def _min_clearance(t: SpecTable, default: float, moment: float, bodied: bool) -> float:
     """``min_clearance`` (m): a length in mm written as m refused; one that lets the magnet's centre
     come nearer than half the side of the smallest magnet of its moment (an NdFeB cube) refused:
-    the rod would be inside the magnet."""
+    the rod would be inside the magnet (a magnet with a body is checked against its own size)."""
     value = t.number("min_clearance", "m", default, low=0.0, low_open=True)
     if value > MAX_CLEARANCE:
         raise t.error("min_clearance", f"{value:g} m is no magnet's distance from a catheter: mm written as "
                                        f"m? ({value:g} mm is {value / 1e3:g} m)")
+    if bodied:
+        return value
     side = (moment / NDFEB_MAGNETIZATION) ** (1.0 / 3.0)
     if value < 0.5 * side:
         raise t.error("min_clearance", f"{1e3 * value:g} mm is less than half the side of a {moment:g} A m^2 "
@@ -186,10 +273,11 @@ def magnet_arm_from_table(t: SpecTable, rod_length: float) -> MagnetArm:
         workspace=(tuple(workspace[0].tolist()), tuple(workspace[1].tolist())),
         max_speed=speed_from_table(t, "max_speed", d.max_speed),
         max_turn_rate=_turn_rate(t, d.max_turn_rate),
-        min_clearance=_min_clearance(t, d.min_clearance, moment),
+        min_clearance=_min_clearance(t, d.min_clearance, moment, t.has("magnet")),
         control_rate=control_rate_from_table(t, d.control_rate),
         insertion=insertion,
-        insertion_speed=insertion_speed_from_table(t, insertion, d.insertion_speed))
+        insertion_speed=insertion_speed_from_table(t, insertion, d.insertion_speed),
+        magnet=_finite_magnet(t, moment, workspace, rod_length, insertion))
     try:
         MagnetPose(**arm.arm_settings())
     except SpatialFieldError as exc:
@@ -206,6 +294,58 @@ def magnet_arm_from_table(t: SpecTable, rod_length: float) -> MagnetArm:
                          "A m^2?")
     t.finish()
     return arm
+
+
+def _finite_magnet(t: SpecTable, moment: float, workspace: np.ndarray, rod_length: float,
+                   insertion: tuple[float, float] | None) -> FiniteMagnet | None:
+    """``[actuation.magnet]`` (optional): the magnet's body, checked against its moment (a
+    polarization no permanent magnet has, or far below any), against ``min_clearance`` (the rod
+    inside the body) and its map against where the rod can be (the rod's reach from its base over
+    the stage's travel, from anywhere in ``workspace``)."""
+    m = t.table("magnet", required=False)
+    if m is None:
+        return None
+    shape = m.string("shape", choices=("cuboid", "cylinder"))
+    size = 3 if shape == "cuboid" else 2
+    dimension = m.vector("dimension", "m: " + ("three edges" if size == 3 else "[diameter, height]"), size)
+    if min(dimension) <= 0.0:
+        raise m.error("dimension", f"{dimension} m: each must be a positive length")
+    if max(dimension) > MAX_MAGNET_SIZE:
+        raise m.error("dimension", f"{dimension} m: an edge beyond {MAX_MAGNET_SIZE:g} m is no arm's magnet "
+                                   "(mm written as m?)")
+    base = [np.array([x, 0.0, 0.0]) for x in (insertion or (0.0, 0.0))]
+    corners = np.array([[workspace[i][0], workspace[j][1], workspace[k][2]]
+                        for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+    needed = max(float(np.linalg.norm(c - b)) for c in corners for b in base) + rod_length
+    half_width = m.number("map_half_width", "m", needed, low=0.0, low_open=True)
+    spacing = m.number("map_spacing", "m", max(MAP_SPACING, 2.0 * half_width / (MAP_NODES_PER_AXIS - 1)),
+                       low=0.0, low_open=True)
+    if half_width < needed * (1.0 - 1e-12):
+        raise m.error("map_half_width", f"{half_width:g} m does not hold the rod wherever the arm takes the "
+                                        f"magnet: {needed:.4g} m at least (the farthest corner of the "
+                                        "workspace from the base, plus the rod's length)")
+    nodes = (int(round(2.0 * half_width / spacing)) + 1) ** 3
+    if nodes > MAX_RESAMPLED_NODES:
+        coarsest = 2.0 * half_width / (MAX_RESAMPLED_NODES ** (1.0 / 3.0) - 1.0)
+        raise m.error("map_spacing", f"{spacing:g} m over +-{half_width:.4g} m is {nodes} nodes, more than "
+                                     f"{MAX_RESAMPLED_NODES}: {coarsest:.3g} m or coarser (or a smaller "
+                                     "workspace)")
+    body = FiniteMagnet(shape, tuple(dimension), half_width, spacing)
+    polarization = body.polarization(moment)
+    words = f"{moment:g} A m^2 in this body asks a polarization J = mu0 m / V = {polarization:.3g} T"
+    if polarization > MAX_POLARIZATION:
+        raise t.error("moment", f"{words}, beyond any permanent magnet (NdFeB 1.2-1.45 T): a larger body or "
+                                "a smaller moment")
+    if polarization > WARN_POLARIZATION:
+        t.warn("moment", f"{words}, more than NdFeB's 1.45 T")
+    if polarization < MIN_POLARIZATION:
+        m.warn("dimension", f"{words}: a body far larger than its moment (mm written as m?)")
+    clearance = t.number("min_clearance", "m", 0.01)
+    if clearance < body.circumradius:
+        raise t.error("min_clearance", f"{1e3 * clearance:g} mm is less than half the magnet's diagonal "
+                                       f"({1e3 * body.circumradius:.3g} mm): the rod could pass inside it")
+    m.finish()
+    return body
 
 
 def _clearance_of_straight_rod(point: np.ndarray, length: float) -> float:
