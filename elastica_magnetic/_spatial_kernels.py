@@ -85,7 +85,7 @@ ELLIPTIC_QE = np.array([
     2.49999999999888314361e-1])
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath={"contract"})
 def elliptic_ke(m):
     """Complete elliptic integrals ``K(m)``, ``E(m)`` (parameter ``m = k^2`` in [0, 1)) to
     round-off, by Cody's approximations (:data:`ELLIPTIC_PK` ...): some 40 multiplications and one
@@ -105,7 +105,7 @@ def elliptic_ke(m):
     return pk - log_m1 * qk, pe - log_m1 * m1 * qe
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath={"contract"})
 def loop_local(radius, rho, z):
     """Field and gradient of a unit-current loop (radius m, in the plane z = 0, axis +z, current
     counter-clockwise seen from +z), in cylindrical components at ``(rho, z)``, divided by
@@ -167,28 +167,51 @@ def loop_local(radius, rho, z):
 
 
 @njit(cache=True)
+def coaxial_end(centres, frames, start):
+    """The end of the run of loops from ``start`` that share its frame and lie on its axis (a
+    coil's windings, a Helmholtz or Maxwell pair): their fields add in the shared frame and turn to
+    the lab once."""
+    end = start + 1
+    a0, a1, a2 = frames[0, 2, start], frames[1, 2, start], frames[2, 2, start]
+    while end < centres.shape[1]:
+        for i in range(3):
+            for j in range(3):
+                if frames[i, j, end] != frames[i, j, start]:
+                    return end
+        d0 = centres[0, end] - centres[0, start]
+        d1 = centres[1, end] - centres[1, start]
+        d2 = centres[2, end] - centres[2, start]
+        across = math.sqrt((a1 * d2 - a2 * d1) ** 2 + (a2 * d0 - a0 * d2) ** 2 + (a0 * d1 - a1 * d0) ** 2)
+        if across > 1e-12 * math.sqrt(d0 * d0 + d1 * d1 + d2 * d2):  # beyond round-off: another axis
+            return end
+        end += 1
+    return end
+
+
+@njit(cache=True, fastmath={"contract"})
 def loops_field(centres, frames, radii, currents, points, b_out, g_out, with_gradient):
     """Circular current loops: ``centres`` (3, L) m, ``frames`` (3, 3, L) with columns
     ``(e1, e2, axis)`` of each loop, ``radii`` (L,) m, ``currents`` (L,) A (counter-clockwise about
-    ``axis``; turns included). Adds B and its gradient at ``points`` (3, n)."""
+    ``axis``; turns included). Adds B and its gradient at ``points`` (3, n). Coaxial loops (the same
+    frame, centres along its axis: :func:`coaxial_end`) are summed in their frame and turned to the
+    lab once; multiplications and additions may fuse (FMA)."""
     n_points = points.shape[1]
-    for ell in range(radii.shape[0]):
-        scale = MU0_OVER_2PI * currents[ell]
-        if scale == 0.0:
-            continue
+    n_loops = radii.shape[0]
+    start = 0
+    while start < n_loops:
+        end = coaxial_end(centres, frames, start)
         # Frame columns e1 = (r00, r10, r20), e2 = (r01, r11, r21), axis = (r02, r12, r22).
-        r00, r01, r02 = frames[0, 0, ell], frames[0, 1, ell], frames[0, 2, ell]
-        r10, r11, r12 = frames[1, 0, ell], frames[1, 1, ell], frames[1, 2, ell]
-        r20, r21, r22 = frames[2, 0, ell], frames[2, 1, ell], frames[2, 2, ell]
-        cx, cy, cz = centres[0, ell], centres[1, ell], centres[2, ell]
-        radius = radii[ell]
+        r00, r01, r02 = frames[0, 0, start], frames[0, 1, start], frames[0, 2, start]
+        r10, r11, r12 = frames[1, 0, start], frames[1, 1, start], frames[1, 2, start]
+        r20, r21, r22 = frames[2, 0, start], frames[2, 1, start], frames[2, 2, start]
+        cx, cy, cz = centres[0, start], centres[1, start], centres[2, start]
         for k in range(n_points):
             d0 = points[0, k] - cx
             d1 = points[1, k] - cy
             d2 = points[2, k] - cz
             x = r00 * d0 + r10 * d1 + r20 * d2
             y = r01 * d0 + r11 * d1 + r21 * d2
-            z = r02 * d0 + r12 * d1 + r22 * d2
+            z0 = r02 * d0 + r12 * d1 + r22 * d2
             rho = math.sqrt(x * x + y * y)
             if rho > 0.0:
                 c = x / rho
@@ -196,13 +219,26 @@ def loops_field(centres, frames, radii, currents, points, b_out, g_out, with_gra
             else:
                 c = 1.0
                 s = 0.0
-            b_rho, b_z, db_rho, brr, dbzr, dbzz = loop_local(radius, rho, z)
+            b_rho = b_z = db_rho = brr = dbzr = dbzz = 0.0
+            for ell in range(start, end):
+                scale = MU0_OVER_2PI * currents[ell]
+                if scale == 0.0:
+                    continue
+                offset = (r02 * (centres[0, ell] - cx) + r12 * (centres[1, ell] - cy)
+                          + r22 * (centres[2, ell] - cz))
+                lb_rho, lb_z, ldb_rho, lbrr, ldbzr, ldbzz = loop_local(radii[ell], rho, z0 - offset)
+                b_rho += scale * lb_rho
+                b_z += scale * lb_z
+                db_rho += scale * ldb_rho
+                brr += scale * lbrr
+                dbzr += scale * ldbzr
+                dbzz += scale * ldbzz
             # Local field (b_rho c, b_rho s, b_z), to the lab frame: B = R b.
             bx = b_rho * c
             by = b_rho * s
-            b_out[0, k] += scale * (r00 * bx + r01 * by + r02 * b_z)
-            b_out[1, k] += scale * (r10 * bx + r11 * by + r12 * b_z)
-            b_out[2, k] += scale * (r20 * bx + r21 * by + r22 * b_z)
+            b_out[0, k] += r00 * bx + r01 * by + r02 * b_z
+            b_out[1, k] += r10 * bx + r11 * by + r12 * b_z
+            b_out[2, k] += r20 * bx + r21 * by + r22 * b_z
             if not with_gradient:
                 continue
             # Local gradient (symmetric: curl-free), d b_rho/dz = d b_z/d rho.
@@ -228,15 +264,16 @@ def loops_field(centres, frames, radii, currents, points, b_out, g_out, with_gra
             g11 = t10 * r10 + t11 * r11 + t12 * r12
             g12 = t10 * r20 + t11 * r21 + t12 * r22
             g22 = t20 * r20 + t21 * r21 + t22 * r22
-            g_out[0, 0, k] += scale * g00
-            g_out[0, 1, k] += scale * g01
-            g_out[0, 2, k] += scale * g02
-            g_out[1, 0, k] += scale * g01
-            g_out[1, 1, k] += scale * g11
-            g_out[1, 2, k] += scale * g12
-            g_out[2, 0, k] += scale * g02
-            g_out[2, 1, k] += scale * g12
-            g_out[2, 2, k] += scale * g22
+            g_out[0, 0, k] += g00
+            g_out[0, 1, k] += g01
+            g_out[0, 2, k] += g02
+            g_out[1, 0, k] += g01
+            g_out[1, 1, k] += g11
+            g_out[1, 2, k] += g12
+            g_out[2, 0, k] += g02
+            g_out[2, 1, k] += g12
+            g_out[2, 2, k] += g22
+        start = end
 
 
 @njit(cache=True)
