@@ -1,6 +1,7 @@
 """The sources in space of :class:`~elastica_magnetic.batch.BatchedRobots`, one per robot at most,
 each driven the cheapest way its kind allows: arm-moved magnets all in one kernel call (point
-dipoles), or one per magnet map (finite magnets, :class:`~elastica_magnetic.MagnetMap`), fixed coil
+dipoles), or one per magnet map (finite magnets, :class:`~elastica_magnetic.MagnetMap`), field maps
+fixed in the lab one kernel call per map, fixed coil
 sets one kernel call per coil geometry (:mod:`~elastica_magnetic._batch_coils`), point dipoles on
 their paths one kernel call (:mod:`~elastica_magnetic._batch_dipoles`), any other source its own
 :class:`~elastica_magnetic.MagneticTorques` called per robot and time step. Every kind adds the
@@ -20,9 +21,9 @@ from ._batch_dipoles import BatchedDipoles, dipole_paths
 from ._batch_kernels import robot_times
 from ._spatial_kernels import MOTION_SIZE
 from .actuation import MovedDipoleField, MovedMapField
-from .field_maps import FieldMapDomainError
+from .field_maps import FieldMap, FieldMapDomainError
 from .forcing import FieldValueError, MagneticTorques
-from .spatial_fields import is_spatial
+from .spatial_fields import is_spatial, rotation_to
 
 __all__ = ["BatchedSources"]
 
@@ -37,6 +38,7 @@ class BatchedSources:
         self.general: dict[int, MagneticTorques] = {}  # robot -> the forcing of its source
         self.moved: dict[int, MovedDipoleField] = {}  # robot -> its arm's magnet (one kernel for all)
         self.mapped: dict[int, MovedMapField] = {}  # robot -> its arm's finite magnet (a kernel per map)
+        self.maps: dict[int, FieldMap] = {}  # robot -> its field map fixed in the lab (a kernel per map)
         self.coils = BatchedCoils(n_elements)  # robots under fixed coils (one kernel per coil set)
         self.dipoles = BatchedDipoles(n_elements)  # robots under their own point dipole (one kernel)
         self._moved_rows = (np.zeros((0, MOTION_SIZE)), np.zeros(0, dtype=np.int64),
@@ -48,14 +50,15 @@ class BatchedSources:
         self._mapped_rows: list[tuple[MovedMapField, Any, Any, Any]] = []
 
     def __bool__(self) -> bool:
-        return bool(self.general or self.moved or self.mapped or self.coils.sources or self.dipoles.sources)
+        return bool(self.general or self.moved or self.mapped or self.maps or self.coils.sources
+                    or self.dipoles.sources)
 
     @property
     def sources(self) -> list[Any]:
         """Each robot's spatial source (``None``: its uniform row alone)."""
         coils, dipoles = self.coils.sources, self.dipoles.sources
         return [self.moved[i] if i in self.moved else self.mapped[i] if i in self.mapped else
-                coils[i] if i in coils else
+                self.maps[i] if i in self.maps else coils[i] if i in coils else
                 dipoles[i] if i in dipoles else self.general[i].field if i in self.general else None
                 for i in range(self.owner.n_robots)]
 
@@ -64,6 +67,7 @@ class BatchedSources:
         self.general.pop(i, None)
         self.moved.pop(i, None)
         self.mapped.pop(i, None)
+        self.maps.pop(i, None)
         self.coils.remove(i)
         self.dipoles.remove(i)
 
@@ -89,6 +93,8 @@ class BatchedSources:
             self.moved[i] = source
         elif type(source) is MovedMapField:
             self.mapped[i] = source
+        elif type(source) is FieldMap and source.fixed:  # a subclass may compute its field otherwise
+            self.maps[i] = source
         elif geometry is not None:
             self.coils.add(i, source, geometry)
         elif paths is not None:
@@ -138,6 +144,8 @@ class BatchedSources:
             self._apply_moved_magnets(time)
         if self.mapped:
             self._apply_mapped_magnets(time)
+        if self.maps:
+            self._apply_fixed_maps(time)
         if self.dipoles.sources:
             robot_times(time, owner._step_index, owner.spec.dt, owner._behind, owner._times)
             self.dipoles.apply(owner._times, owner._moments, owner._node_start, owner._elem_start,
@@ -186,4 +194,27 @@ class BatchedSources:
                     f"robot {robot}: element {element} at t = {time:.6g} s is outside its magnet's map "
                     f"({grid.source}; the magnet at {source.magnet.position_at(float(times[k])).tolist()} m) "
                     "or its field there is not finite")
+
+    def _apply_fixed_maps(self, time: float) -> None:
+        """The force and torque of every robot's field map fixed in the lab, one kernel call per map
+        (its pose, rotation and scale as :class:`~elastica_magnetic.FieldMap` computes them)."""
+        owner = self.owner
+        block = owner.block
+        groups: dict[int, list[int]] = {}
+        for i, field_map in self.maps.items():
+            groups.setdefault(id(field_map), []).append(i)
+        for members in groups.values():
+            grid = self.maps[members[0]]
+            robots = np.array(members, dtype=np.int64)
+            bad = spatial_kernels.fixed_maps_forcing(
+                robots, grid.posed, grid.position(0.0), rotation_to(grid.axis(0.0)), grid.scale(0.0),
+                grid.origin, grid.spacing, grid.shape, grid.samples, grid.gradients, owner._moments,
+                owner._node_start, owner._elem_start, owner._elem_end, block.position_collection,
+                block.director_collection, block.external_forces, block.external_torques,
+                *self._moved_scratch[:3], *self._map_scratch[1:])
+            if bad >= 0:
+                k, element = divmod(bad, owner.spec.n_elements)
+                raise FieldMapDomainError(
+                    f"robot {int(robots[k])}: element {element} at t = {time:.6g} s is outside its field map "
+                    f"({grid.source}) or its field there is not finite")
 

@@ -443,19 +443,13 @@ def shortest_rotation(direction, out):
 
 
 @njit(cache=True)
-def moved_map_field_into(motion, time, origin, spacing, shape, samples, gradients, reference_moment, points,
-                         b_out, g_out, with_gradient, rotation, local, b_local, g_local):
-    """A magnet's field map in its own frame (its moment along the map's +z; ``samples``,
-    ``gradients`` as :func:`grid_field`, tabulated for a magnet of moment ``reference_moment``
-    A m^2) at the pose of ``motion`` at ``time`` (s), times the motion's moment over the
-    reference: each point looked up at ``R^T (x - c)``, the field ``R b`` and the gradient
-    ``R G R^T`` (``R`` the shortest turn of +z onto the moment, :func:`shortest_rotation`) added to
-    ``b_out`` (3, n) T and ``g_out`` (3, 3, n) T/m. ``rotation`` (3, 3), ``local`` (3, n),
-    ``b_local`` (3, n), ``g_local`` (3, 3, n): scratch. Returns the first point outside the map,
-    else -1 (nothing added then)."""
-    position, direction = np.empty(3), np.empty(3)
-    magnet_pose_at(motion, time, position, direction)
-    shortest_rotation(direction, rotation)
+def posed_grid_field(position, rotation, scale, origin, spacing, shape, samples, gradients, points, b_out,
+                     g_out, with_gradient, local, b_local, g_local):
+    """:func:`grid_field` of a map posed in the lab: its origin's frame at ``position`` (3,) m,
+    turned by ``rotation`` (3, 3) (its columns the map's axes in the lab). Each point is looked up
+    at ``R^T (x - position)``; the field ``R b`` and the gradient ``R G R^T`` are added to ``b_out``
+    (3, n) T and ``g_out`` (3, 3, n) T/m. ``local`` (3, n), ``b_local`` (3, n), ``g_local``
+    (3, 3, n): scratch. Returns the first point outside the map, else -1 (nothing added then)."""
     n = points.shape[1]
     for k in range(n):
         d0 = points[0, k] - position[0]
@@ -465,8 +459,8 @@ def moved_map_field_into(motion, time, origin, spacing, shape, samples, gradient
             local[i, k] = rotation[0, i] * d0 + rotation[1, i] * d1 + rotation[2, i] * d2
     b_local[...] = 0.0
     g_local[...] = 0.0
-    outside = grid_field(origin, spacing, shape, samples, gradients, motion[M_MOMENT] / reference_moment,
-                         local, b_local, g_local, with_gradient)
+    outside = grid_field(origin, spacing, shape, samples, gradients, scale, local, b_local, g_local,
+                         with_gradient)
     if outside >= 0:
         return outside
     for k in range(n):
@@ -483,6 +477,22 @@ def moved_map_field_into(motion, time, origin, spacing, shape, samples, gradient
                         total += rotation[i, a] * row
                     g_out[i, j, k] += total
     return -1
+
+
+@njit(cache=True)
+def moved_map_field_into(motion, time, origin, spacing, shape, samples, gradients, reference_moment, points,
+                         b_out, g_out, with_gradient, rotation, local, b_local, g_local):
+    """A magnet's field map in its own frame (its moment along the map's +z; ``samples``,
+    ``gradients`` as :func:`grid_field`, tabulated for a magnet of moment ``reference_moment``
+    A m^2) at the pose of ``motion`` at ``time`` (s), times the motion's moment over the
+    reference: :func:`posed_grid_field` with ``R`` the shortest turn of +z onto the moment
+    (:func:`shortest_rotation`). ``rotation`` (3, 3) and the rest: scratch. Returns the first
+    point outside the map, else -1 (nothing added then)."""
+    position, direction = np.empty(3), np.empty(3)
+    magnet_pose_at(motion, time, position, direction)
+    shortest_rotation(direction, rotation)
+    return posed_grid_field(position, rotation, motion[M_MOMENT] / reference_moment, origin, spacing, shape,
+                            samples, gradients, points, b_out, g_out, with_gradient, local, b_local, g_local)
 
 
 @njit(cache=True)
@@ -555,6 +565,34 @@ def moved_maps_forcing(motions, robots, times, origin, spacing, shape, samples, 
         outside = moved_map_field_into(motions[k], times[k], origin, spacing, shape, samples, gradients,
                                        reference_moment, centres, b, g, True, rotation, local, b_local,
                                        g_local)
+        if outside >= 0:
+            return k * n + outside
+        bad = robot_field_forcing(moments, directors, n0, e0, e1, b, g, external_forces, external_torques)
+        if bad >= 0:
+            return k * n + bad
+    return -1
+
+
+@njit(cache=True)
+def fixed_maps_forcing(robots, posed, position, rotation, scale, origin, spacing, shape, samples,
+                       gradients, moments, node_start, elem_start, elem_end, positions, directors,
+                       external_forces, external_torques, centres, b, g, local, b_local, g_local):
+    """As :func:`moved_dipoles_forcing`, robots ``robots`` under one field map fixed in the lab
+    (``posed``: at ``position`` turned by ``rotation``, :func:`posed_grid_field`; else in the lab's
+    frame, :func:`grid_field`), times ``scale``, the same operations as
+    :class:`~elastica_magnetic.FieldMap` per robot (the map does not change: no robot's clock
+    needed). Returns ``k * n + e`` of the first element
+    outside the map or whose field is not finite (robot ``k``, element ``e``), else -1."""
+    n = centres.shape[1]
+    for k in range(robots.shape[0]):
+        i = robots[k]
+        n0, e0, e1 = node_start[i], elem_start[i], elem_end[i]
+        start_robot_field(positions, n0, centres, b, g)
+        if posed:
+            outside = posed_grid_field(position, rotation, scale, origin, spacing, shape, samples, gradients,
+                                       centres, b, g, True, local, b_local, g_local)
+        else:
+            outside = grid_field(origin, spacing, shape, samples, gradients, scale, centres, b, g, True)
         if outside >= 0:
             return k * n + outside
         bad = robot_field_forcing(moments, directors, n0, e0, e1, b, g, external_forces, external_torques)

@@ -30,6 +30,7 @@ from elastica.external_forces import NoForces
 from . import simulation as simulation_module
 from .actuation import CoilCurrents, MagnetPose
 from .batch import BatchedRobots
+from .field_maps import FieldMap
 from .fields import ControlledField, RotatingField
 from .forcing import LegacyInternalDamping, MagneticTorques, RelativeVelocityDamping, evaluate_field
 from .magnet_fields import CuboidMagnetField, magnet_map
@@ -363,6 +364,16 @@ def _finite_magnet_arms(n: int) -> list[MagnetPose]:
                        arm.max_speed, arm.max_turn_rate, field_map=field_map) for _ in range(n)]
 
 
+def _helmholtz_map() -> FieldMap:
+    """The Helmholtz pair of :func:`spatial_sources` tabulated at 2 mm on a box around the paper's
+    robot (x -20..40 mm, y and z +-20 mm): a field map fixed in the lab."""
+    pair = spatial_sources()["helmholtz_pair"]
+    x, yz = np.linspace(-0.02, 0.04, 31), np.linspace(-0.02, 0.02, 21)
+    grid = np.stack(np.meshgrid(x, yz, yz, indexing="ij"), axis=0).reshape(3, -1)
+    samples = pair.at(grid, 0.0).reshape(3, x.size, yz.size, yz.size)
+    return FieldMap(x, yz, yz, np.moveaxis(samples, 0, -1), source="Helmholtz pair's map")
+
+
 def _three_axis_helmholtz() -> list[HelmholtzCoils]:
     """Three Helmholtz pairs of radius 100 mm on x, y and z around the paper's robot, each 4 mT at
     1 A (the turns folded into the current): the paper's coil system as fixed coils."""
@@ -376,7 +387,8 @@ def batched_spatial_step_cost(n: int = 16, steps: int = 1000, repeats: int = 5,
     """Per-robot-step cost (us) of ``n`` paper robots in one :class:`~elastica_magnetic.BatchedRobots`,
     each robot under its own source of :func:`spatial_sources` (point dipoles, fixed or moving
     along waypoints, by one kernel for all robots; fixed coils such as the Helmholtz pair by one
-    kernel per coil set; other sources a Python call per robot and time step), its own arm-moved
+    kernel per coil set; the pair's field map fixed in the lab, ``field_map``, by one kernel per
+    map; other sources a Python call per robot and time step), its own arm-moved
     magnet (:class:`~elastica_magnetic.MagnetPose`, one kernel for all robots: a point dipole, or a
     finite magnet through its field map, ``arm_finite_magnet``) or its own currents in
     three Helmholtz pairs (:class:`~elastica_magnetic.CoilCurrents`, a field turning in the y-z plane),
@@ -390,6 +402,7 @@ def batched_spatial_step_cost(n: int = 16, steps: int = 1000, repeats: int = 5,
     for name, source in spatial_sources().items():
         if name != "uniform":
             kinds[name] = BatchedRobots(spec, n, sources=[source] * n)
+    kinds["field_map"] = BatchedRobots(spec, n, sources=[_helmholtz_map()] * n)
     kinds["arm_magnet"] = BatchedRobots(spec, n, sources=[arm.source for arm in arms])
     mapped_arms = _finite_magnet_arms(n)
     if mapped_arms:

@@ -226,23 +226,38 @@ class FieldMap(SpatialField):
         if not self._posed:
             self._lookup(points, points, time, b, g, with_gradient)
             return
-        rotation = rotation_to(self.axis(time))
-        local = np.ascontiguousarray(rotation.T @ (points - self.position(time)[:, None]))
-        b_map, g_map = np.zeros(points.shape), np.zeros(g.shape)
-        self._lookup(local, points, time, b_map, g_map, with_gradient)
-        b += rotation @ b_map
-        if with_gradient:
-            g += np.einsum("ia,abk,jb->ijk", rotation, g_map, rotation)
+        n = points.shape[1]
+        outside = kernels.posed_grid_field(
+            self.position(time), rotation_to(self.axis(time)), self.scale(time), self.origin, self.spacing,
+            self.shape, self.samples, self.gradients, points, b, g, with_gradient, np.empty((3, n)),
+            np.empty((3, n)), np.empty((3, 3, n)))
+        if outside >= 0:
+            self._outside(points, outside, time)
 
     def _lookup(self, local, points, time, b, g, with_gradient) -> None:
         outside = kernels.grid_field(self.origin, self.spacing, self.shape, self.samples, self.gradients,
                                      self.scale(time), local, b, g, with_gradient)
         if outside >= 0:
-            lo = self.origin
-            hi = self.origin + self.spacing * (self.shape - 1)
-            raise FieldMapDomainError(
-                f"{self.source}: point {points[:, outside].tolist()} m (column {outside}) at "
-                f"t = {time:.6g} s is outside the map's grid [{lo.tolist()}, {hi.tolist()}] m")
+            self._outside(points, outside, time)
+
+    def _outside(self, points, column, time) -> None:
+        lo = self.origin
+        hi = self.origin + self.spacing * (self.shape - 1)
+        raise FieldMapDomainError(
+            f"{self.source}: point {points[:, column].tolist()} m (column {column}) at "
+            f"t = {time:.6g} s is outside the map's grid [{lo.tolist()}, {hi.tolist()}] m")
+
+    @property
+    def fixed(self) -> bool:
+        """Whether nothing of the map changes with time (its scale and pose constants): the batched
+        simulator then drives its robots by one kernel call."""
+        return (self.scale.constant is not None and self.position.constant is not None
+                and self.axis.constant is not None)
+
+    @property
+    def posed(self) -> bool:
+        """Whether the map's frame differs from the lab's (a position or an axis given)."""
+        return self._posed
 
 
 def _read_export(path: Path) -> tuple[list[str], NDArray[np.float64]]:

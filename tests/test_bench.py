@@ -30,8 +30,8 @@ def test_bench_quick_json_keys(capsys):
         assert all(ratio[k] == spatial[k] / spatial["uniform"] for k in spatial)
     batched = result["batched_spatial"]  # issue 53: each robot its own source, or its own arm's magnet
     assert set(batched["per_robot_step_us"]) == {"uniform", "point_dipole", "moving_dipole",
-                                                 "helmholtz_pair", "arm_magnet", "arm_finite_magnet",
-                                                 "coil_currents"}
+                                                 "helmholtz_pair", "field_map", "arm_magnet",
+                                                 "arm_finite_magnet", "coil_currents"}
     assert all(math.isfinite(v) and v > 0 for v in batched["per_robot_step_us"].values())
     assert batched["ratio_to_uniform"]["arm_magnet"] == (batched["per_robot_step_us"]["arm_magnet"]
                                                          / batched["per_robot_step_us"]["uniform"])

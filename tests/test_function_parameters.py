@@ -21,6 +21,8 @@ EXCEPTIONS = {
     "elastica_magnetic/_spatial_kernels.py:moved_map_field_into": "numba kernel",
     "elastica_magnetic/_spatial_kernels.py:moved_map_field": "numba kernel",
     "elastica_magnetic/_spatial_kernels.py:moved_maps_forcing": "numba kernel",
+    "elastica_magnetic/_spatial_kernels.py:posed_grid_field": "numba kernel",
+    "elastica_magnetic/_spatial_kernels.py:fixed_maps_forcing": "numba kernel",
     # a Gymnasium environment is made by gymnasium.make(id, **kwargs): its options are keywords
     "rl/envs/vector_env.py:__init__": "gymnasium.make keywords",
     "rl/envs/env.py:__init__": "gymnasium.make keywords",

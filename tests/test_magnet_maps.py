@@ -140,3 +140,61 @@ def test_a_catheter_outside_its_magnets_map_is_named():
     sim = build_simulation(spec, _arm(0.09, small).source, clamp=True)
     with pytest.raises(FieldMapDomainError, match="outside the magnet's map"):
         sim.step(1)
+
+
+def _dipole_map(posed: bool):
+    """A dipole's field tabulated around the paper's robot; ``posed``: the same field in a map whose
+    frame is turned (its z along the lab's y) and moved, so that it lands where the unposed one is."""
+    from elastica_magnetic import FieldMap, PointDipoleField
+
+    axes = (np.linspace(-0.01, 0.035, 10), np.linspace(-0.01, 0.02, 7), np.linspace(-0.01, 0.01, 5))
+    if not posed:
+        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=0).reshape(3, -1)
+        above = PointDipoleField((0.0, -2.5, 0.0), (0.012, 0.05, 0.0)).at(grid)
+        return FieldMap(*axes, np.moveaxis(above.reshape(3, 10, 7, 5), 0, -1))
+    rotation = rotation_to([0.0, 1.0, 0.0])
+    local_axes = (np.linspace(-0.03, 0.03, 13), np.linspace(-0.03, 0.03, 13), np.linspace(-0.03, 0.03, 13))
+    grid = np.stack(np.meshgrid(*local_axes, indexing="ij"), axis=0).reshape(3, -1)
+    centre = np.array([0.01, 0.0, 0.0])
+    lab = rotation @ grid + centre[:, None]
+    above = rotation.T @ PointDipoleField((0.0, -2.5, 0.0), (0.012, 0.05, 0.0)).at(lab)
+    return FieldMap(*local_axes, np.moveaxis(above.reshape(3, 13, 13, 13), 0, -1), position=centre,
+                    axis=[0.0, 1.0, 0.0], scale=0.9)
+
+
+def test_batched_robots_under_fixed_field_maps_match_per_rod_simulations_bit_for_bit():
+    """Field maps fixed in the lab, one in the lab's frame (shared by two robots) and one posed
+    (turned, moved, scaled), drive their robots by one kernel call per map, to the last bit of the
+    per-rod simulations; a map whose scale plays a waveform stays on the general path."""
+    from elastica_magnetic import ControlledField, FieldMap, yao2023_robot
+
+    spec = yao2023_robot(1, "training")
+    lab, posed = _dipole_map(False), _dipole_map(True)
+    waveform = FieldMap(lab.axes[0], lab.axes[1], lab.axes[2], np.moveaxis(lab.samples, 0, -1),
+                        scale=lambda t: 1.0 + t)
+    sources = [lab, lab, posed, waveform]
+    robots = BatchedRobots(spec, n_robots=4, sources=sources)
+    assert sorted(robots._sources.maps) == [0, 1, 2] and list(robots._sources.general) == [3]
+    sims = [build_simulation(spec, source) for source in sources]
+    sims[1] = build_simulation(spec, ControlledField(limit=1.0, max_increment=1.0))
+    robots.set_source(1, None)
+    robots.fields[1] = [0.0, 4e-3, 0.0]
+    sims[1].field.set([0.0, 4e-3, 0.0])
+    assert sorted(robots._sources.maps) == [0, 2]
+    for _ in range(20):
+        robots.step(spec.steps_per_action)
+        for sim in sims:
+            sim.step(spec.steps_per_action)
+    for i, sim in enumerate(sims):
+        _assert_same_state(robots.rod(i), sim.rod, f"robot {i}")
+    uniform = sims[1].rod.position_collection
+    assert min(np.abs(robots.rod(i).position_collection - uniform).max() for i in (0, 2)) > 1e-6
+
+
+def test_a_robot_outside_its_fixed_map_is_named():
+    from elastica_magnetic import FieldMap, yao2023_robot
+
+    small = FieldMap(*(np.linspace(-0.005, 0.005, 3),) * 3, np.zeros((3, 3, 3, 3)))
+    robots = BatchedRobots(yao2023_robot(1, "training"), n_robots=2, sources=[None, small])
+    with pytest.raises(FieldMapDomainError, match=r"robot 1: element \d+ .*outside its field map"):
+        robots.step(1)
