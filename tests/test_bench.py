@@ -13,7 +13,10 @@ from elastica_magnetic.cli import main as msr
 def test_bench_quick_json_keys(capsys):
     capsys.readouterr()
     assert msr(["bench", "--quick", "--json", "--vector-envs", "4", "--train-seeds", "2"]) == 0
-    result = json.loads(capsys.readouterr().out)
+    captured = capsys.readouterr()
+    result = json.loads(captured.out)
+    # round 18 V50: the timing run's own few steps are no training to advise on
+    assert "no training episode ends" not in captured.err
     scalars = ("step_us", "naive_step_us", "speedup", "env_steps_per_s", "vector_env_steps_per_s",
                "td3_updates_per_s", "train_1e5_steps_s", "train_1e5_steps_vector_s")
     for key in scalars:
@@ -46,6 +49,8 @@ def test_bench_quick_json_keys(capsys):
     # default layout, each reporting where its time went
     timing = result["training_time"]
     assert result["train_8_seeds_1e5_s"] == timing["projected_s"] > 0
+    # round 18 V51: how many seeds the figure is of, and the quick run's settings over the recipe
+    assert result["train_seeds"] == 2 and timing["settings_over_recipe"]["hidden_sizes"] == [32, 32]
     assert len(timing["groups"]) * timing["seeds_per_simulator"] >= timing["seeds"] == 2
     assert all(g["update_per_step_s"] > 0 and g["env_per_step_s"] > 0 for g in timing["groups"])
     assert result["floor_8_seeds_1e5_s"] == pytest.approx(

@@ -447,8 +447,8 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
         raise SpecError(f"{source}: {given}: domain randomization varies a crawler's robot; a case "
                         f"steered by a source ([actuation] kind = \"{actuation.kind}\") trains on its "
                         f"nominal robot: remove {given}")
-    yardstick = _yardstick(top.table("yardstick", required=False),
-                           float(robot.tables["robot"]["length"]))
+    yardstick = _yardstick(top.table("yardstick", required=False), length,
+                           _rotating_yardstick_refusal(actuation, task))
     if not robot.robot("training").magnetization.any():
         raise SpecError(f"{source}: [robot.magnetization]: no magnetization: no field can move it "
                         "(every element is at 0 A/m), so there is nothing to learn; give the robot "
@@ -463,9 +463,11 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     case = Case(name, description, robot, actuation, task, training, yardstick, source, design)
     warmup = training.td3.get("yardstick_warmup")
     if warmup and not case.has_yardstick_controller:  # msr train would refuse it: case check too
+        fix = ("give [yardstick] period or remove the setting" if case.field_actuated
+               else f"a case steered by [actuation] kind = \"{actuation.kind}\" has none: remove the setting")
         raise SpecError(f"{source}: [training.td3] yardstick_warmup = {warmup}: the warm-up is played by the "
                         f"case's hand-designed controller, and this case has none ({YARDSTICK_CONTROLLERS}): "
-                        "give [yardstick] period or remove the setting")
+                        f"{fix}")
     return case
 
 
@@ -584,9 +586,26 @@ def with_randomize(case: Case, variations: tuple[Variation, ...]) -> Case:
                                                                   randomize=variations))
 
 
-def _yardstick(t: SpecTable | None, robot_length: float) -> Yardstick:
+def _rotating_yardstick_refusal(actuation: Actuation | SteeringActuation, task: Task) -> str | None:
+    """Why ``[yardstick] period``/``clockwise`` (a crawl's rotating field) cannot act on a case of
+    ``actuation`` and ``task``, or ``None`` where they can."""
+    if isinstance(actuation, SteeringActuation):
+        return (f"a case steered by [actuation] kind = \"{actuation.kind}\" has no rotating-field yardstick "
+                "(nothing would play it)")
+    if isinstance(task, GotoTask):
+        return ("a goto case's yardstick is its steering field toward the target (msr field baseline "
+                "steers), not a rotating field: nothing would play it")
+    return None
+
+
+def _yardstick(t: SpecTable | None, robot_length: float, rotating_refusal: str | None = None) -> Yardstick:
+    """``[yardstick]``; ``rotating_refusal``: why this case cannot take a rotating field's
+    ``period``/``clockwise`` (refused by name), ``None`` where it can."""
     if t is None:
         return Yardstick()
+    for key in ("period", "clockwise"):
+        if rotating_refusal is not None and t.has(key):
+            raise t.error(key, f"{rotating_refusal}: remove period and clockwise")
     out = Yardstick(distance_10s=t.number("distance_10s", "m", 0.0, low=0.0),
                     source=t.string("source", ""),
                     period=t.number("period", "s", None, low=0.0, low_open=True, plausible="rotation period"),

@@ -403,8 +403,10 @@ def resolve_variations(variations: Sequence[Variation], spec: Mapping[str, Any],
                 raise VariationError(f"{where}: {key} is a table; it is varied by a factor "
                                      "(LOW:HIGH), not set to an absolute value")
             if not variation.absolute and not np.any(np.asarray(value, dtype=np.float64)):
-                raise VariationError(f"{where}: {key} is 0 in this spec, so a factor leaves it 0; "
-                                     "give an absolute range (abs:LOW:HIGH)")
+                fix = ("a fit scales the spec's value by a factor: give the key a non-zero value "
+                       "in the spec to fit it" if option == "--fit"
+                       else "give an absolute range (abs:LOW:HIGH)")
+                raise VariationError(f"{where}: {key} is 0 in this spec, so a factor leaves it 0; {fix}")
         resolved.append(Variation(variation.name, keys, variation.low, variation.high,
                                   variation.absolute))
     return resolved

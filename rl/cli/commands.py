@@ -131,8 +131,9 @@ def _add_bench_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--vector-envs", type=number("", 1, integer=True), default=16,
                    help="crawlers in the vector environment measured (default 16)")
     p.add_argument("--train-seeds", type=number("", 0, integer=True), default=8, metavar="N",
-                   help="seeds of the real training run behind train_8_seeds_1e5_s (default 8; "
-                        "0: skip it)")
+                   help="seeds of the real training run behind train_8_seeds_1e5_s (default 8; the key "
+                        "keeps its name for N seeds, train_seeds says N; the run's settings over the "
+                        "recipe in training_time.settings_over_recipe; 0: skip it)")
     p.add_argument("--quick", action="store_true", help="tiny measurements (smoke test; rough numbers)")
     p.add_argument("--memory-seeds", type=number("", 0, integer=True), default=0, metavar="N",
                    help="also measure the peak memory of a real N-seed training run in the default "

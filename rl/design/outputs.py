@@ -82,8 +82,8 @@ def write_outputs(folder: Path, design, settings, record: dict[str, Any], state:
     finalists = record.get("finalists") or [{"vector": list(state.best_x), "objective_m": 0.0}]
     chosen = max(finalists, key=lambda r: r["objective_m"])  # the first of equals: the search's best
     best_x = np.asarray(chosen["vector"], dtype=float)
-    periods = sorted({*settings.final_periods, float(record["start"]["period_s"]),
-                      design.space.period(best_x)})
+    periods = judged_periods(*settings.final_periods, float(record["start"]["period_s"]),
+                             design.space.period(best_x))
     start = judge(design, settings, None, periods, _start_sweep(record, settings))
     best = judge(design, settings, best_x, periods)
     objective_start, objective_best = (_objective(start, settings.objective),
@@ -221,3 +221,10 @@ def _write_gait(out: Path, case, best: dict[str, Any], settings) -> None:
     policy = RotatingFieldPolicy(case, best["period_s"], best["clockwise"])
     generate(policy, out=out, duration=settings.final_duration, physics=settings.final_physics,
              progress=False, pictures=Pictures(gif=settings.gif), force=True, kind="baseline")
+
+
+def judged_periods(*periods: float) -> list[float]:
+    """The rotation periods (s) the final sweep judges, each once: to 12 digits, so that a period the
+    search computes (the exponential of its logarithm, 0.9999999999999999) is the sweep's own."""
+    return sorted({float(f"{p:.12g}") for p in periods})
+

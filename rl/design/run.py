@@ -253,18 +253,19 @@ def run_design(spec: str | Path | Design, out: str | Path, settings: DesignSetti
     settings.check()
     design = spec if isinstance(spec, Design) else load_design(spec)
     folder = normalized_path(out)
+    subject = f"case {design.case.name}"
     try:
-        _check_folder(folder, resume, force)  # claims the folder first: a live writer is named
+        _check_folder(folder, resume, force, subject)  # claims the folder first: a live writer is named
         _recover_leftovers(folder)
         if force and holds_design(folder):
             # built beside and swapped in whole: the earlier design stays until the new one is done
             with result_folder(folder, kind=DESIGN_KIND, force=True, option="--out",
                                known_files=_design_files(folder)) as result:
                 summary = _design_into(result.path, design, settings, False, progress, replacing=True)
-                result.subject = f"case {design.case.name}"
+                result.subject = subject
             return summary
         with FolderLock(folder, option="--out"):
-            _check_folder(folder, resume, force)  # again, under the lock
+            _check_folder(folder, resume, force, subject)  # again, under the lock
             return _design_into(folder, design, settings, resume, progress)
     finally:
         release_claim(folder)
@@ -391,8 +392,9 @@ def _end(folder: Path, design: Design, settings: DesignSettings, record: dict[st
 
 # -- the folder -------------------------------------------------------------------------------------
 
-def _check_folder(folder: Path, resume: bool, force: bool) -> None:
-    """Refuse, before any work, a folder that is not a design's (or not this request's)."""
+def _check_folder(folder: Path, resume: bool, force: bool, subject: str) -> None:
+    """Refuse, before any work, a folder that is not a design's (or not this request's: a design
+    of another case is replaced by no ``--force``)."""
     if folder.parent.is_dir():  # a design being written is named first, before what it holds
         claim(folder, option="--out")
     marker = read_marker(folder) if folder.is_dir() else None
@@ -412,6 +414,9 @@ def _check_folder(folder: Path, resume: bool, force: bool) -> None:
     if resume and force:
         raise DesignError("--resume and --force: choose one (continue the design in "
                           f"{shown}, or replace it)")
+    if force and marker.get("subject") not in (None, subject):
+        raise OutputPathError(f"--out {shown} holds the design of {marker.get('subject')}, not of {subject}: "
+                              "--force replaces only a design of the same case; choose another --out")
     if not resume and not force:
         raise OutputPathError(f"--out {shown} holds a design ({marker.get('subject')}): continue "
                               "it with --resume, or replace it with --force")

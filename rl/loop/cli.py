@@ -78,7 +78,8 @@ def _settings(args: argparse.Namespace):
         if not args.calibration.is_file():
             raise CommandError(f"--calibration {args.calibration}: no such file (a calibration "
                                "JSON, e.g. stm32/calibration/default.json or msr real calibrate's)")
-        load_calibration(args.calibration)  # its named error now, not after the training
+        calibration = load_calibration(args.calibration)  # its named error now, not after the training
+        _check_calibration_drives(calibration, args.calibration, args.spec)
     base = LoopSettings.smoke() if args.quick else LoopSettings()
     changes = {"seeds": args.seeds, "workers": args.workers,
                "robustness_physics": args.physics_robustness,
@@ -90,6 +91,30 @@ def _settings(args: argparse.Namespace):
                   "the training is no smoke run of a minute (the other steps stay --quick's)",
                   file=sys.stderr)
     return dataclasses.replace(base, **changes)
+
+
+def _check_calibration_drives(calibration, path, case) -> None:
+    """A calibration whose coils cannot make the case's field limit along one of its axes alone
+    (the least any waveform of that amplitude needs) would fail the firmware step after the
+    training: refused now, naming the axis and the currents."""
+    import numpy as np
+
+    from elastica_magnetic.hardware.calibration import clipping_report
+
+    limits = getattr(case.actuation, "limits", None)
+    if limits is None:  # a steered case: msr loop refuses it by name elsewhere
+        return
+    for axis, name in enumerate("xyz"):
+        if name not in case.actuation.axes:
+            continue
+        row = np.zeros(3)
+        row[axis] = 1e3 * limits[axis]  # mT
+        report = clipping_report(calibration, row[None, :])
+        if report.rows:
+            raise CommandError(f"--calibration {path}: its coils cannot make the case's field limit "
+                               f"{1e3 * limits[axis]:g} mT along {name} alone ({report.describe()}): the "
+                               "firmware step would refuse the learned waveform after the training; give "
+                               "a calibration whose current limits drive it")
 
 
 def loop_command(args: argparse.Namespace) -> int:

@@ -22,6 +22,9 @@ LOOP_FORMAT = "msr-loop-v1"
 #: The steps, in order; each writes the subfolder of the loop's folder of its name.
 STEPS = ("check", "yardstick", "train", "generate", "robustness", "refine", "robustness-refined",
          "firmware")
+#: Settings that act on one step only (dotted as the recorded settings): changed, that step runs
+#: again (``--redo``) and the rest of the loop is kept.
+STEP_SETTINGS = {"settings.calibration": "firmware"}
 #: The steps each step needs (their results are its input).
 NEEDS: dict[str, tuple[str, ...]] = {
     "check": (), "yardstick": (), "train": ("yardstick",), "generate": ("train",),
@@ -171,6 +174,15 @@ def plan_loop(state: LoopState | None, spec: dict[str, Any], settings: dict[str,
     if state is not None:
         changed = _changed({"spec": state.spec, "settings": state.settings},
                            {"spec": spec, "settings": settings})
+        own_steps = {STEP_SETTINGS[key] for key in changed if key in STEP_SETTINGS}
+        if changed and not force and all(key in STEP_SETTINGS for key in changed):
+            missing = sorted(step for step in own_steps - set(redo) if state.done(step))
+            if missing:  # a setting of one step: that step again, not the whole loop
+                raise LoopError(
+                    f"--out {display_path(state.path.parent)}: changed: {', '.join(changed)}, which only "
+                    f"step {', '.join(missing)} uses: pass --redo {' '.join(missing)} to run it again "
+                    "with it (the other steps kept), or --force to start the loop over")
+            changed = []
         if changed and not force:
             was_quick, is_quick = state.settings.get("quick"), settings.get("quick")
             if was_quick != is_quick and was_quick is not None:  # the one option behind most settings

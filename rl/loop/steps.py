@@ -304,8 +304,16 @@ def firmware_step(ctx: LoopContext) -> dict[str, Any]:
 
     calibration = ctx.settings.calibration or default_calibration_path()
     which, waveform, why = _waveform_to_play(ctx)
-    summary = export_firmware(ctx.path(waveform), calibration, step_folder(ctx, "firmware"),
-                              force=True)
+    try:
+        summary = export_firmware(ctx.path(waveform), calibration, step_folder(ctx, "firmware"),
+                                  force=True)
+    except ValueError as exc:
+        if "--allow-clipping" not in str(exc):
+            raise
+        # msr loop plays no clipped waveform: a calibration that drives it, then this step again
+        raise ValueError(str(exc).split(". Lower the field")[0] + ": give --calibration a calibration "
+                         "whose current limits drive it and pass --redo firmware (the other steps are "
+                         "kept)") from None
     return {"waveform": waveform, "which": which, "why": why,
             "calibration_file": str(calibration),
             **{k: summary[k] for k in ("rows", "calibration", "rows_clipped", "rows_slew_limited",

@@ -183,8 +183,8 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
     if path.is_dir():
         finish_interrupted_ship(path)
     if path.is_file():
-        try:
-            ckpt = load_checkpoint(path)
+        try:  # the networks only: a checkpoint copied away from its replay file still plays
+            ckpt = load_checkpoint(path, with_buffer=False)
         except ValueError as exc:  # unreadable, or not a checkpoint: named by load_checkpoint
             raise PolicyFileError(str(exc)) from None
         except Exception as exc:  # a truncated or corrupted file

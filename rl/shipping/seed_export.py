@@ -21,6 +21,7 @@ from elastica_magnetic.results import (
 )
 
 from ..runfiles.rundir import CaseDir, RunDir
+from ..sweep.run_records import first_difference
 from .policy_files import resolve_policy
 from .policy_runs import evaluate_seeds, prefer_best, seed_run_dirs
 from .ship import ship
@@ -224,9 +225,11 @@ def _earlier_exported_seeds(dest: Path, replaced: set[int], meta: dict[str, Any]
             raise ValueError(f"{path}: seed {entry['seed']}: its actor's {policy_json} is unreadable "
                              f"({exc})") from exc
         if physical(other.get("case_spec")) != physical(as_json(meta.get("case_spec"))):
-            raise ValueError(f"--out {dest}: seed {entry['seed']} there was trained on another case "
-                             f"spec ({other.get('case')!r}) than {meta.get('case')!r}; export into "
-                             "another folder (--force replaces only seeds of the same case)")
+            theirs, mine = physical(other.get("case_spec")), physical(as_json(meta.get("case_spec")))
+            raise ValueError(f"--out {dest}: seed {entry['seed']} there was trained on another spec of case "
+                             f"{other.get('case')!r} than this run's {meta.get('case')!r} (they differ at "
+                             f"{first_difference(theirs, mine)}); export into another folder (--force "
+                             "replaces only seeds of the same case)")
         if entry["seed"] in replaced:
             continue
         other_config = settings((other.get("training") or {}).get("config") or {})

@@ -36,6 +36,7 @@ from ..cases.tasks import GotoTask, ReachTask
 from ..envs.yardsticks import SteeringFieldPolicy
 from ..runfiles.provenance import machine_fingerprint
 from ..runfiles.rundir import CaseDir
+from ..sweep.run_records import first_difference
 from .generate import reach_metrics
 from .goto import evaluate_ring, goto_result, goto_target, ring_summary
 from .model_card import NOTES_SECTION, model_card, replace_card_section, seed_meets_target
@@ -137,7 +138,7 @@ def ship(run: str | Path, name: str, options: ShipOptions | None = None, /,
         raise FileExistsError(f"{target} already holds a policy ({', '.join(present)}); pass "
                               "--force to replace it")
     if present:
-        _check_same_case(target, policy.case.name)
+        _check_same_case(target, policy.case.name, policy.case.to_dict())
     if present and o.lock:  # a file edited since msr wrote it is refused now, before measuring
         check_files(target, present, force=True, option="--out", adopt=_holds_a_policy(target))
         _check_card_recorded(target)
@@ -170,19 +171,35 @@ def ship(run: str | Path, name: str, options: ShipOptions | None = None, /,
             "files": sorted(p.name for p in target.iterdir() if p.name in SHIPPED_FILES)}
 
 
-def _check_same_case(target: Path, case: str) -> None:
+#: The tables of a case spec that make it the same case (the robot, its physics, what moves it and
+#: its task); a training recipe or a yardstick measured since may differ between runs of one case.
+SAME_CASE_TABLES = ("robot", "physics", "actuation", "task")
+
+
+def _check_same_case(target: Path, case: str, spec: dict[str, Any]) -> None:
     """Refuse to replace a shipped policy of another case (``--force`` replaces only a result for the
     same subject, as ``msr policy export`` and ``generate``): a name reused by mistake must not
-    remove another robot's policy."""
+    remove another robot's policy. The same name with another spec (a user's file named as a
+    shipped case) is another case: its differing keys are named."""
     try:
-        shipped = read_policy_json(target / POLICY_JSON).get("case")
+        meta = read_policy_json(target / POLICY_JSON)
     except (OSError, ValueError):  # no readable policy.json: the file checks judge the folder
         return
+    shipped = meta.get("case")
     if shipped != case:
         raise ResultExistsError(
             f"--out {display_path(target)}: holds the shipped policy of case {shipped!r}, and this run is "
             f"of case {case!r}; choose another --name or --out (--force replaces only a policy of the "
             "same case)")
+    recorded = meta.get("case_spec")
+    if not isinstance(recorded, dict):
+        return
+    mine, theirs = ({table: part.get(table) for table in SAME_CASE_TABLES} for part in (spec, recorded))
+    if mine != theirs:
+        raise ResultExistsError(
+            f"--out {display_path(target)}: holds the shipped policy of case {case!r} with another spec "
+            f"(they differ at {first_difference(theirs, mine)}): a case of the same name, not the same "
+            "case; choose another --name or --out (--force replaces only a policy of the same case)")
 
 
 def _check_card_recorded(target: Path) -> None:

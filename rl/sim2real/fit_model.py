@@ -53,6 +53,9 @@ class FieldDrive:
                              "setup (FieldDrive(fields, load_field(SPEC_FILE))) so that the fit plays "
                              "them as msr field replay does")
 
+    def check_measured(self, measured: MeasuredTrajectory, spec: Mapping[str, Any]) -> None:
+        """Nothing beyond :func:`~.tracking.check_against_robot` (the crawler's points)."""
+
     def rows(self, spec: Mapping[str, Any], physics: str,
              measured: MeasuredTrajectory) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The measured points of the robot of ``spec`` in ``physics`` at every 0.01 s row of the

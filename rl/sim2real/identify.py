@@ -429,6 +429,7 @@ def identify(
     if isinstance(drive, np.ndarray):
         drive = FieldDrive(np.asarray(drive, dtype=np.float64))
     drive.check_spec(spec)
+    drive.check_measured(measured, spec)
     check_against_robot(measured, float(spec["robot"]["length"]), drive.duration)
     began = time.perf_counter()
     bounds = (np.log(FIT_BOUNDS[0]), np.log(FIT_BOUNDS[1]))

@@ -45,6 +45,11 @@ MAGNET_PATH_COLUMNS = ("t_s", "magnet_x_m", "magnet_y_m", "magnet_z_m", "directi
 INSERTION_COLUMN = "insertion_m"
 #: Rows must lie on the 0.01 s control grid within this (s).
 GRID_TOLERANCE_S = 1e-6
+#: The tracked tip at t_s 0 must lie within this fraction of the rod's length of the straight rod's
+#: tip (the spec's frame: the base at the origin, the rod along +x); anywhere along the path within
+#: :data:`TIP_REACH_FACTOR` x the rod's reach (its length plus the stage's travel) of the base.
+TIP_START_FRACTION = 0.25
+TIP_REACH_FACTOR = 1.5
 
 
 @dataclass(frozen=True)
@@ -164,9 +169,11 @@ class MagnetDrive:
         return f"the magnet path {self.path.source}"
 
     def check_spec(self, spec: Mapping[str, Any]) -> None:
-        """Refuse a spec this path cannot drive: not a magnet arm; insertion given without a stage
-        or missing with one, or beyond the stage's travel."""
+        """Refuse a spec this path cannot drive: not a magnet arm; a magnet beyond any arm's reach
+        (cm or mm written as m) or starting within the arm's ``min_clearance`` of the straight rod;
+        insertion given without a stage or missing with one, or beyond the stage's travel."""
         from ..cases.case import case_from_dict
+        from ..cases.steered import MAX_REACH
 
         with warnings.catch_warnings():  # the spec's warnings were given when it was loaded
             warnings.simplefilter("ignore")
@@ -176,6 +183,22 @@ class MagnetDrive:
             raise TrajectoryError(f"{self.path.source}: a magnet path drives a case steered by a magnet on "
                                   f"an arm ([actuation] kind = \"magnet-pose\"); this spec's actuation is "
                                   f"{kind!r}")
+        reach = np.linalg.norm(self.path.positions, axis=1)
+        if (reach > MAX_REACH).any():
+            row = int(np.flatnonzero(reach > MAX_REACH)[0])
+            raise TrajectoryError(f"{self.path.source}: line {row + 2}: the magnet is {reach[row]:g} m "
+                                  f"from the rod's base, beyond any arm ({MAX_REACH:g} m): centimetres or "
+                                  "millimetres written as metres?")
+        length = float(spec["robot"]["length"])
+        start = self.path.positions[0]
+        along = min(max(float(start[0]), 0.0), length)
+        clearance = float(np.linalg.norm(start - np.array([along, 0.0, 0.0])))
+        if clearance < case.actuation.min_clearance:
+            raise TrajectoryError(f"{self.path.source}: line 2: the magnet starts {1e3 * clearance:.3g} mm "
+                                  f"from the straight rod, nearer than the arm's min_clearance "
+                                  f"({1e3 * case.actuation.min_clearance:g} mm): a path through the "
+                                  "catheter? (positions in the spec's frame: the base at the origin, the rod "
+                                  "along +x)")
         stage = case.actuation.insertion
         if stage is None and self.path.insertion is not None:
             raise TrajectoryError(f"{self.path.source}: has an {INSERTION_COLUMN} column, and the case has "
@@ -198,6 +221,28 @@ class MagnetDrive:
                                       f"{self.path.insertion[row]:g} m is beyond the stage's travel "
                                       f"[{low:g}, {high:g}] m (millimetres for metres?)")
 
+    def check_measured(self, measured: MeasuredTrajectory, spec: Mapping[str, Any]) -> None:
+        """Refuse a tracked tip that is not this spec's catheter's in the spec's frame: at t_s 0
+        farther than :data:`TIP_START_FRACTION` of the rod's length from the straight rod's tip, or
+        anywhere beyond :data:`TIP_REACH_FACTOR` x its reach from the base (cm or mm for m, another
+        frame's origin)."""
+        length = float(spec["robot"]["length"])
+        stage = (spec.get("actuation") or {}).get("insertion") or (0.0, 0.0)
+        tips = measured.positions[:, 0, :]
+        start = float(np.linalg.norm(tips[0] - np.array([length, 0.0, 0.0])))
+        frame = "(positions in the spec's frame: the base at the origin, the rod along +x; in metres)"
+        if start > TIP_START_FRACTION * length:
+            raise TrajectoryError(f"{measured.source}: line 2: the tip starts at {tips[0].tolist()} m, "
+                                  f"{1e3 * start:.4g} mm from the straight {1e3 * length:g} mm catheter's "
+                                  f"tip ({length:g}, 0, 0) m: another robot, unit or frame? {frame}")
+        reach = TIP_REACH_FACTOR * (length + max(float(stage[1]), 0.0))
+        distance = np.linalg.norm(tips, axis=1)
+        if (distance > reach).any():
+            row = int(np.flatnonzero(distance > reach)[0])
+            raise TrajectoryError(f"{measured.source}: line {row + 2}: the tip is {distance[row]:g} m from "
+                                  f"the base of a {length:g} m catheter (beyond {reach:g} m): centimetres "
+                                  f"or millimetres written as metres? {frame}")
+
     def rows(self, spec: Mapping[str, Any], physics: str,
              measured: MeasuredTrajectory) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The tip (m) at every row of the path, ``(n, 1, 3)``, with the rows' times ``(n,)`` (s),
@@ -209,7 +254,7 @@ class MagnetDrive:
 def simulate_tips(spec: Mapping[str, Any], physics: str, path: MagnetPath) -> NDArray[np.float64]:
     """The tip (m) at every row of ``path``, ``(n, 3)``, of the rod of a magnet-arm case's ``spec``
     (a case dict) in ``physics``, its magnet (the spec's moment) and stage following ``path``."""
-    from elastica_magnetic import Advancer, MagnetPose
+    from elastica_magnetic import Advancer, FieldMapDomainError, FieldValueError, MagnetPose
     from elastica_magnetic.batch import BatchedRobots
 
     from ..cases.case import case_from_dict
@@ -221,7 +266,7 @@ def simulate_tips(spec: Mapping[str, Any], physics: str, path: MagnetPath) -> ND
     arm = case.actuation
     box = np.stack([path.positions.min(axis=0) - 1.0, path.positions.max(axis=0) + 1.0])
     magnet = MagnetPose(arm.moment, path.positions[0], path.directions[0], box, max_speed=1.0,
-                        max_turn_rate=1.0)
+                        max_turn_rate=1.0, field_map=None if arm.magnet is None else arm.magnet.field_map())
     advancer = None
     if path.insertion is not None:
         advancer = Advancer(arm.insertion, arm.insertion_speed)
@@ -231,11 +276,25 @@ def simulate_tips(spec: Mapping[str, Any], physics: str, path: MagnetPath) -> ND
     tips = np.empty((path.times.shape[0], 3))
     tips[0] = rod.position_collection[:, -1]
     for k in range(1, path.times.shape[0]):
+        # where the arm takes the magnet in this step, against the rod as it is: the environment ends
+        # an episode within min_clearance, so no replay goes on beyond it
+        nearest = float(np.linalg.norm(rod.position_collection - path.positions[k][:, None], axis=0).min())
+        if nearest < arm.min_clearance:
+            raise TrajectoryError(f"{path.source}: line {k + 2} (t_s {path.times[k]:g} s): the magnet is "
+                                  f"{1e3 * nearest:.3g} mm from the rod, nearer than the arm's "
+                                  f"min_clearance ({1e3 * arm.min_clearance:g} mm): a path through the "
+                                  "catheter, or another frame or unit?")
         now = robots.robot_time(0)
         magnet.follow(path.positions[k], path.directions[k], now, ACTION_PERIOD)
         if advancer is not None:
             advancer.follow(float(path.insertion[k]), now, ACTION_PERIOD)
-        robots.step(robot.steps_per_action)
+        try:
+            robots.step(robot.steps_per_action)
+        except (FieldValueError, FieldMapDomainError) as exc:
+            cause = str(exc).split(": ", 1)[-1]
+            raise TrajectoryError(f"{path.source}: line {k + 2} (t_s {path.times[k]:g} s): the magnet's "
+                                  f"field cannot act on the rod there ({cause}): a path through the "
+                                  "catheter, or the magnet beyond its map?") from None
         tips[k] = rod.position_collection[:, -1]
     return tips
 

@@ -26,6 +26,9 @@ _Part = TypeVar("_Part")
 #: Most gradient updates per environment step: high update-to-data methods (REDQ, DroQ) use 20; far
 #: beyond, a run spends its time updating on the same few transitions (1e9 stalled a run forever).
 MAX_UPDATES_PER_STEP = 64
+#: Most cloning steps of a warm-up from the yardstick (each followed by a critic update): a clone
+#: and its critics settle within thousands; a million is hours of updates before the run trains.
+MAX_YARDSTICK_WARMUP = 1_000_000
 #: The largest learning rate a config takes (TD3's is 3e-4; Adam's steps above this only diverge).
 MAX_LEARNING_RATE = 0.1
 
@@ -207,6 +210,11 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value}")
         if self.noise_horizon < 2:
             raise ValueError(f"noise_horizon must be >= 2 steps, got {self.noise_horizon}")
+        if self.yardstick_warmup > MAX_YARDSTICK_WARMUP:
+            raise ValueError(f"yardstick_warmup must be at most {MAX_YARDSTICK_WARMUP} cloning steps (and "
+                             f"as many critic updates), got {self.yardstick_warmup}: hours of updates before "
+                             "the run trains (a clone settles within thousands; a run's step count written "
+                             "here?)")
         if self.yardstick_warmup and self.learning_starts < self.batch_size:
             raise ValueError(f"yardstick_warmup {self.yardstick_warmup} clones the warm-up's "
                              f"transitions: learning_starts ({self.learning_starts}) must be at least "

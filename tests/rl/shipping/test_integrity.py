@@ -173,7 +173,15 @@ def test_export_seeds_merges_refuses_another_case_and_labels_the_duration(traine
     policy_json.write_text(json.dumps(info))
     before = snapshot(dest)
     assert msr([*args, "--force"]) == 2
-    assert "trained on another case spec ('m2-4mT')" in capsys.readouterr().err
+    assert "trained on another spec of case 'm2-4mT' than this run's 'm1-4mT'" in capsys.readouterr().err
+    assert snapshot(dest) == before and not leftovers(dest)
+    # round 18 V104: a spec of the same name that differs in its robot names the key, not the case twice
+    info["case"], info["case_spec"]["name"] = "m1-4mT", "m1-4mT"
+    info["case_spec"]["robot"]["magnetization"]["magnitude"] = 90e3
+    policy_json.write_text(json.dumps(info))
+    before = snapshot(dest)
+    assert msr([*args, "--force"]) == 2
+    assert "(they differ at [robot.magnetization] magnitude)" in capsys.readouterr().err
     assert snapshot(dest) == before and not leftovers(dest)
 
 

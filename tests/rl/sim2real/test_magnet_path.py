@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import json
+import re
 
 import numpy as np
 import pytest
@@ -204,3 +205,52 @@ def test_sigterm_stops_identify_as_ctrl_c_does(tmp_path, steered, quick_spec):
     assert proc.returncode == 143, err
     assert "interrupted (SIGTERM)" in err, err
     assert not out.exists() and not list(tmp_path.glob(".id.msr-*")), list(tmp_path.iterdir())
+
+
+def _scaled_copy(src, dst, columns, factor):
+    """``src`` CSV with ``columns`` multiplied by ``factor`` (a unit mistake), written to ``dst``."""
+    import pandas as pd
+
+    table = pd.read_csv(src)
+    for column in columns:
+        table[column] *= factor
+    table.to_csv(dst, index=False)
+    return dst
+
+
+@pytest.mark.parametrize(("which", "match"), [
+    ("tip", r"tip_cm.csv: line 2: the tip starts at .* from the straight 50 mm catheter's tip"),
+    ("magnet", r"magnet.csv: line 2: the magnet is 9 m from the rod's base, beyond any arm"),
+    ("through", r"magnet.csv: line 2: the magnet starts 0 mm from the straight rod, nearer than the arm's "
+                r"min_clearance"),
+])
+def test_paths_in_another_unit_or_through_the_rod_are_refused_before_the_fit(
+        tmp_path, steered, quick_spec, capsys, which, match):
+    """Round 18 S18, S20, V21: a tip path in cm (the tip 5 m from the base), a magnet path in cm
+    (the magnet 9 m away: a field of nothing) were fitted and written as identified; a magnet path
+    through the catheter failed in the simulation with a message naming neither file nor line."""
+    magnet, tip, spec_file = _measured_files(tmp_path, steered, quick_spec)
+    if which == "tip":
+        tip = _scaled_copy(tip, tmp_path / "tip_cm.csv", ["tip_x_m", "tip_y_m", "tip_z_m"], 100.0)
+    elif which == "magnet":
+        _scaled_copy(magnet, magnet, ["magnet_x_m", "magnet_y_m", "magnet_z_m"], 100.0)
+    else:
+        _scaled_copy(magnet, magnet, ["magnet_x_m", "magnet_y_m", "magnet_z_m"], 0.0)  # at the base
+    capsys.readouterr()
+    assert main(["real", "identify", str(magnet), str(tip), "--robot", str(spec_file), "--fit", "magnet",
+                 "--out", str(tmp_path / "id"), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert re.search(match, err), err
+    assert not (tmp_path / "id").exists()
+
+
+def test_a_magnet_path_that_runs_into_the_rod_names_its_line(quick_spec):
+    """Round 18 V21: the magnet reaching the rod mid-path named neither the file nor the line."""
+    from elastica_magnetic_rl.sim2real.magnet_path import MagnetPath
+
+    times = np.arange(4) * 0.01
+    positions = np.array([[0.09, 0.0, 0.0], [0.07, 0.0, 0.0], [0.04, 0.0, 0.0], [1.0 / 3 * 0.05, 0.0, 0.0]])
+    path = MagnetPath("arm.csv", times, positions, np.tile([1.0, 0.0, 0.0], (4, 1)), None)
+    with pytest.raises(TrajectoryError, match=r"arm.csv: line 4 \(t_s 0.02 s\): the magnet is [\d.]+ mm from "
+                                              r"the rod, nearer than the arm's min_clearance \(10 mm\)"):
+        simulate_tips(quick_spec, "training", path)

@@ -1,0 +1,77 @@
+"""Round 18 of held-out tries (issue 48), the findings read where a spec or a setting is read: each
+test fails without its fix (docs/errors.md, "An eighteenth round of tries")."""
+
+from __future__ import annotations
+
+import tomllib
+import warnings
+
+import pytest
+from elastica_magnetic_rl.cases.case import SPECS_DIR, load_case
+from elastica_magnetic_rl.cases.variations import VariationError
+from elastica_magnetic_rl.td3.config import MAX_YARDSTICK_WARMUP, TD3Config
+from spec_texts import CATHETER_MAGNET_REACH
+
+from elastica_magnetic.specfile import SpecError
+
+
+def _quiet(data):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return load_case(data)
+
+
+def _goto() -> dict:
+    data = tomllib.loads((SPECS_DIR / "m1-4mT-goto.toml").read_text())
+    data["name"] = "goto"
+    return data
+
+
+def _catheter() -> dict:
+    data = tomllib.loads(CATHETER_MAGNET_REACH)
+    data["name"] = "catheter"
+    return data
+
+
+@pytest.mark.parametrize(("make", "why"), [
+    (_goto, "a goto case's yardstick is its steering field"),
+    (_catheter, 'a case steered by \\[actuation\\] kind = "magnet-pose" has no rotating-field yardstick'),
+])
+@pytest.mark.parametrize("key", ["period", "clockwise"])
+def test_a_rotating_fields_keys_on_a_case_that_cannot_play_one_are_refused(make, why, key):
+    """S6, S7: ``[yardstick] period``/``clockwise`` on a goto or a steered case were accepted and
+    recorded as if used (a goto's warm-up plays its steering field; a catheter has no controller)."""
+    data = make()
+    data.setdefault("yardstick", {}).update({"period": 1.0} if key == "period" else
+                                            {"period": 1.0, "clockwise": True})
+    with pytest.raises(SpecError, match=rf"\[yardstick\] period: {why}.*remove period and clockwise"):
+        _quiet(data)
+
+
+def test_a_warm_up_on_a_steered_case_says_to_remove_it_not_to_give_a_period():
+    """V8: the refusal told a catheter's spec to give ``[yardstick] period``."""
+    data = _catheter()
+    data["training"] = {**data.get("training", {}), "td3": {"yardstick_warmup": 100}}
+    with pytest.raises(SpecError, match="yardstick_warmup = 100") as info:
+        _quiet(data)
+    assert 'kind = "magnet-pose" has none: remove the setting' in str(info.value)
+    assert "give [yardstick] period" not in str(info.value)
+
+
+def test_a_warm_up_of_a_run_s_length_is_refused():
+    """S57: ``yardstick_warmup = 1e8`` (cloning steps) was accepted: days of updates."""
+    TD3Config(yardstick_warmup=MAX_YARDSTICK_WARMUP, learning_starts=256)
+    with pytest.raises(ValueError, match="yardstick_warmup must be at most 1000000 cloning steps"):
+        TD3Config(yardstick_warmup=100_000_000, learning_starts=256)
+
+
+def test_a_fit_of_a_key_at_0_does_not_offer_an_absolute_range():
+    """V28: ``--fit robot.gravity`` (0 in the spec) was told to give ``abs:LOW:HIGH``, which
+    ``--fit`` does not take."""
+    from elastica_magnetic_rl.sim2real.identify import load_spec, parse_fit
+
+    spec = load_spec("m1-4mT")
+    spec["robot"]["gravity"] = 0.0
+    with pytest.raises(VariationError, match="0 in this spec") as info:
+        parse_fit("robot.gravity", spec)
+    assert "abs:" not in str(info.value) and "give the key a non-zero value" in str(info.value)
