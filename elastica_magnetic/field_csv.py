@@ -129,6 +129,20 @@ def named_twice(names: list[str]) -> str:
     return ""
 
 
+def header_named_twice(path: str | Path) -> str:
+    """:func:`named_twice` of the header line of the CSV file ``path`` (a reader that renames a
+    repeated column, as pandas does, would drop one copy in silence); ``""`` when the file cannot
+    be read here (its reader names that)."""
+    import csv
+
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as handle:
+            names = next(csv.reader(handle), [])
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return ""
+    return named_twice([name.strip() for name in names])
+
+
 #: Separators other than the comma that spreadsheets write (locales with a decimal comma use ';').
 _OTHER_SEPARATORS = {";": "semicolons", "\t": "tabs", "|": "vertical bars"}
 

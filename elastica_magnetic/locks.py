@@ -44,7 +44,7 @@ except ImportError:  # pragma: no cover - Windows: O_EXCL and a pid check instea
     fcntl = None  # type: ignore[assignment]
 
 __all__ = ["LOCK_SUFFIX", "FolderLock", "FolderLockedError", "check_lock_name", "claim", "command_line",
-           "describe_owner",
+           "describe_owner", "held_here",
            "host_name", "killed_writers_temporary", "live_owner", "lock_path", "name_tag", "read_lock",
            "release_claim", "release_claims", "utc_now"]
 
@@ -204,6 +204,12 @@ class _Held:
 #: the same process shares the first one's hold (re-entrant) instead of refusing itself, so a
 #: command can take the lock at its pre-check (:func:`claim`) and keep it through its write.
 _held: dict[str, _Held] = {}
+
+
+def held_here(folder: str | Path) -> bool:
+    """Whether this process holds ``folder``'s lock (a command writing into a folder of its own,
+    as ``msr loop`` writes its steps' results into its folder)."""
+    return str(lock_path(folder)) in _held
 
 
 def check_lock_name(folder: str | Path, option: str = "--out") -> None:

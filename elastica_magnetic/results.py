@@ -98,8 +98,10 @@ from .io import (
 from .locks import (
     LOCK_SUFFIX,
     FolderLock,
+    FolderLockedError,
     claim,
     describe_owner,
+    held_here,
     host_name,
     killed_writers_temporary,
     live_owner,
@@ -325,6 +327,25 @@ def _check_path(final: Path, option: str) -> None:
         if parent.exists() and not parent.is_dir():
             raise OutputPathError(f"{option} {display_path(final)}: {display_path(parent)} is a "
                                   "file, not a folder")
+    _check_enclosing(final, option)
+
+
+def _check_enclosing(final: Path, option: str) -> None:
+    """Refuse a folder inside another command's result (replaced whole, it would take this one
+    with it, or be left mixed) or inside a folder another process is writing: a result of its own
+    goes beside them. A folder this process writes (``msr loop``'s steps, a result it builds) may
+    hold results."""
+    for parent in final.parents:
+        if held_here(parent) or _inside_building(parent):
+            return
+        if (owner := live_owner(parent)) is not None:
+            raise FolderLockedError(f"{option} {display_path(final)}: lies in {display_path(parent)}, which "
+                                    f"{describe_owner(owner)} is writing: a result goes in a folder of "
+                                    f"its own; choose another {option}")
+        if (parent / MARKER).is_file() and (marker := read_marker(parent)) is not None:
+            raise OutputPathError(f"{option} {display_path(final)}: lies in {display_path(parent)}, which "
+                                  f"holds {describe_result(marker)}: a result is replaced whole, so "
+                                  f"nothing goes inside another; choose another {option}")
 
 
 def _check_creatable(target: Path, option: str) -> None:

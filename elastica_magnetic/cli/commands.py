@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..field_csv import limit_problem, separator_hint
+from ..field_csv import header_named_twice, limit_problem, separator_hint
 from ..field_spec import load_field
 from ..fields import RotatingField, TabulatedField
 from ..openloop import run_open_loop, write_trajectory_csv
@@ -352,6 +352,9 @@ def _read_reference(path: Path, duration: float, length: float | None = None) ->
         ) from None
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise CommandError(f"--reference {path}: not a readable UTF-8 CSV: {exc}") from None
+    if twice := header_named_twice(path):
+        raise CommandError(f"--reference {path}: its header {twice}; give each column once (which copy "
+                           "is meant cannot be guessed)")
     missing = [c for c in PLANAR_TRAJECTORY_COLUMNS if c not in reference.columns]
     if missing:
         raise CommandError(f"--reference {path}: lacks column(s) {', '.join(missing)}"

@@ -52,6 +52,7 @@ from typing import Any
 from elastica_magnetic import RobotSpec
 from elastica_magnetic.plausibility import mistake_hint
 from elastica_magnetic.robot_spec import ACTION_PERIOD, Physics
+from elastica_magnetic.rotation import min_rotation_period
 from elastica_magnetic.specfile import (
     RobotDescription,
     SpecError,
@@ -447,8 +448,10 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
         raise SpecError(f"{source}: {given}: domain randomization varies a crawler's robot; a case "
                         f"steered by a source ([actuation] kind = \"{actuation.kind}\") trains on its "
                         f"nominal robot: remove {given}")
+    fastest = (None if isinstance(actuation, SteeringActuation) else
+               min_rotation_period(min(actuation.limits[:2]), min(actuation.increments[:2])))
     yardstick = _yardstick(top.table("yardstick", required=False), length,
-                           _rotating_yardstick_refusal(actuation, task))
+                           _rotating_yardstick_refusal(actuation, task), fastest)
     if not robot.robot("training").magnetization.any():
         raise SpecError(f"{source}: [robot.magnetization]: no magnetization: no field can move it "
                         "(every element is at 0 A/m), so there is nothing to learn; give the robot "
@@ -598,9 +601,12 @@ def _rotating_yardstick_refusal(actuation: Actuation | SteeringActuation, task: 
     return None
 
 
-def _yardstick(t: SpecTable | None, robot_length: float, rotating_refusal: str | None = None) -> Yardstick:
+def _yardstick(t: SpecTable | None, robot_length: float, rotating_refusal: str | None = None,
+               fastest: float | None = None) -> Yardstick:
     """``[yardstick]``; ``rotating_refusal``: why this case cannot take a rotating field's
-    ``period``/``clockwise`` (refused by name), ``None`` where it can."""
+    ``period``/``clockwise`` (refused by name), ``None`` where it can; ``fastest``: the shortest
+    uniform turn (s) the case's rate limit allows at its amplitude (a shorter period is warned
+    about: the field would turn slower than it says)."""
     if t is None:
         return Yardstick()
     for key in ("period", "clockwise"):
@@ -614,6 +620,10 @@ def _yardstick(t: SpecTable | None, robot_length: float, rotating_refusal: str |
         raise t.error("period", f"{out.period:g} s is at or under 2 x the {ACTION_PERIOD:g} s control "
                                 "period: no field the coils play turns that fast (a rotating field "
                                 "of the baseline sweep turns once in 0.5 to 6 s)")
+    if out.period is not None and fastest is not None and out.period < fastest * (1.0 - 1e-9):
+        t.warn("period", f"{out.period:g} s is shorter than the case's rate limit allows: at most "
+                         "max_increment per axis per step at the field limit, its shortest uniform turn "
+                         f"takes {fastest:.4g} s (the field would turn slower than the period says)")
     if t.has("clockwise") and out.period is None:
         raise t.error("clockwise", "the sense of a rotating field without its period: give period "
                                    "(s) too, or leave clockwise out")

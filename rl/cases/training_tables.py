@@ -79,7 +79,12 @@ def training_from_table(t: SpecTable | None, source: str, robot: RobotDescriptio
                     raise td3.error(key, str(exc)) from None
             if not ok:
                 shown = list(default) if isinstance(default, tuple) else default
-                raise td3.error(key, f"expected a value like {shown!r}, got {td3.raw(key)!r}")
+                raw = td3.raw(key)
+                integer = isinstance(default, int) and not isinstance(default, bool)
+                hint = (f": an integer; TOML reads {raw!r} as a decimal number, write {int(raw)} (no "
+                        "exponent, no decimal point)" if integer and isinstance(raw, float)
+                        and raw.is_integer() else "")
+                raise td3.error(key, f"expected a value like {shown!r}, got {raw!r}{hint}")
             overrides[key] = value
         try:  # each value in range, checked now, naming the key
             TD3Config(**overrides)

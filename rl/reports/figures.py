@@ -518,6 +518,7 @@ def make_figures(path: str | Path, out: str | Path | None = None, gif: bool = Tr
     path = Path(path)
     out = Path(out) if out is not None else path
     names = _figure_names(path)
+    _check_not_another_result(path, out)
     # read (and checked) before the output folder is touched
     rollout = Rollout.load(path) if (path / ROLLOUT_NPZ).is_file() else None
     # the figures go in together (the folder holds other things: a run's logs, a rollout):
@@ -525,6 +526,24 @@ def make_figures(path: str | Path, out: str | Path | None = None, gif: bool = Tr
     with replace_files(out, names, force=force) as files:
         result = _make_figures(path, files.path, gif, load_policy, rollout)
     return {k: str(files.final_path(v)) for k, v in result.items()}
+
+
+def _check_not_another_result(path: Path, out: Path) -> None:
+    """Figures go beside what they show (``out`` = ``path``, their own result's folder) or into a
+    folder of no command's: into another command's result they would be files it does not know,
+    removed or refused when that result is replaced."""
+    from elastica_magnetic.io import normalized_path
+    from elastica_magnetic.result_markers import MARKER, describe_result, read_marker
+    from elastica_magnetic.results import ResultExistsError
+
+    final = normalized_path(out)
+    if final == normalized_path(path) or not (final / MARKER).is_file():
+        return
+    marker = read_marker(final)
+    if marker is not None:
+        raise ResultExistsError(f"--out {out}: holds {describe_result(marker)}: figures of {path} are "
+                                "no part of it (replacing that result would remove them); choose another "
+                                "--out")
 
 
 def _figure_names(path: Path) -> list[str]:

@@ -32,6 +32,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from elastica_magnetic.field_csv import header_named_twice
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from .tracking import MAX_COORDINATE_M, MeasuredTrajectory, TrajectoryError, numeric_columns
@@ -102,6 +103,9 @@ def read_magnet_path(path: str | Path) -> MagnetPath:
         raise TrajectoryError(f"{path}: no such magnet path file") from None
     except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError, IsADirectoryError) as exc:
         raise TrajectoryError(f"{path}: not a readable magnet path CSV ({exc})") from None
+    if twice := header_named_twice(path):
+        raise TrajectoryError(f"{path}: its header {twice}; give each column once (which copy is meant "
+                              "cannot be guessed)")
     table.columns = [str(c).strip() for c in table.columns]
     missing = [c for c in MAGNET_PATH_COLUMNS if c not in table.columns]
     if missing:

@@ -26,6 +26,9 @@ _Part = TypeVar("_Part")
 #: Most gradient updates per environment step: high update-to-data methods (REDQ, DroQ) use 20; far
 #: beyond, a run spends its time updating on the same few transitions (1e9 stalled a run forever).
 MAX_UPDATES_PER_STEP = 64
+#: The largest exploration or target-policy noise (standard deviation, a fraction of the action's
+#: half-range): beyond it nearly every noisy action is clipped at a limit (TD3's noise is 0.1-0.2).
+MAX_NOISE = 1.0
 #: Most cloning steps of a warm-up from the yardstick (each followed by a critic update): a clone
 #: and its critics settle within thousands; a million is hours of updates before the run trains.
 MAX_YARDSTICK_WARMUP = 1_000_000
@@ -208,6 +211,13 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+        for name in ("exploration_noise", "policy_noise"):
+            value = getattr(self, name)
+            if value > MAX_NOISE:
+                percent = f" (a percent? {value:g} % is {value / 100:g})" if value <= 100 else ""
+                raise ValueError(f"{name} must be at most {MAX_NOISE:g} (a fraction of the action's "
+                                 f"half-range; TD3's is 0.2), got {value:g}: every noisy action would sit "
+                                 f"at a limit{percent}")
         if self.noise_horizon < 2:
             raise ValueError(f"noise_horizon must be >= 2 steps, got {self.noise_horizon}")
         if self.yardstick_warmup > MAX_YARDSTICK_WARMUP:

@@ -112,6 +112,9 @@ def test_out_read_only(no_simulation, tmp_path, capsys):
          "line 3, column mid_y_m: 'abc' is not a finite number"),
         ("t_s,mid_x_m,mid_y_m,back_x_m,back_y_m,front_x_m,front_y_m,height_max_m,span_m\n"
          "5,0,0,0,0,0,0,0,0\n6,0,0,0,0,0,0,0,0\n", "0 frame(s) within the replayed 0 to 0.5 s"),
+        # round 18 S152: one copy of a repeated column was dropped in silence
+        ("t_s,mid_x_m,mid_y_m,back_x_m,back_y_m,front_x_m,front_y_m,height_max_m,span_m,front_x_m\n"
+         "0,0,0,0,0,0,0,0,0,5\n0.1,0,0,0,0,0,0,0,0,5\n", "names front_x_m twice (columns 6 and 10)"),
     ],
 )
 def test_replay_reference_checked_before_the_run(no_simulation, field_csv, tmp_path, capsys, text, message):

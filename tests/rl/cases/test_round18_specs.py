@@ -75,3 +75,36 @@ def test_a_fit_of_a_key_at_0_does_not_offer_an_absolute_range():
     with pytest.raises(VariationError, match="0 in this spec") as info:
         parse_fit("robot.gravity", spec)
     assert "abs:" not in str(info.value) and "give the key a non-zero value" in str(info.value)
+
+
+def test_noise_beyond_the_action_range_is_refused_naming_a_percent():
+    """S111: ``[training.td3] exploration_noise = 10`` was accepted: every noisy action clipped."""
+    data = tomllib.loads((SPECS_DIR / "m1-4mT.toml").read_text())
+    data["name"] = "noisy"
+    data["training"] = {**data.get("training", {}), "td3": {"exploration_noise": 10.0}}
+    with pytest.raises(SpecError, match=r"exploration_noise must be at most 1 .*a percent\? 10 % is 0.1"):
+        _quiet(data)
+
+
+def test_an_integer_setting_written_with_an_exponent_says_how_to_write_it():
+    """V113: ``learning_starts = 5e3`` was 'expected a value like 2500, got 5000.0'."""
+    data = tomllib.loads((SPECS_DIR / "m1-4mT.toml").read_text())
+    data["name"] = "exp"
+    data["training"] = {**data.get("training", {}), "td3": {"learning_starts": 5e3}}
+    with pytest.raises(SpecError, match=r"an integer; TOML reads 5000.0 as a decimal number, write 5000"):
+        _quiet(data)
+
+
+def test_a_period_faster_than_the_rate_limit_turns_is_warned():
+    """S5: ``[yardstick] period = 0.05`` passed, though 0.3 mT per step at 4 mT turns once per
+    0.84 s at the fastest (``msr field baseline`` warns about the same period)."""
+    data = tomllib.loads((SPECS_DIR / "m1-4mT.toml").read_text())
+    data["name"] = "fast-turn"
+    data["yardstick"] = {**data.get("yardstick", {}), "period": 0.05}
+    with pytest.warns(UserWarning, match=r"\[yardstick\] period: 0.05 s is shorter than the case's rate "
+                                         r"limit allows.*takes 0.8\d+ s"):
+        load_case(data)
+    data["yardstick"]["period"] = 1.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        load_case(data)

@@ -104,3 +104,38 @@ def test_a_period_the_search_computes_is_judged_once():
     """S74: the final sweep judged 1.0 s twice (as 0.9999999999999999 s and 1.0 s)."""
     assert judged_periods(0.5, 1.0, 0.9999999999999999, 1.0) == [0.5, 1.0]
     assert judged_periods(0.5, 1.0, 1.0001) == [0.5, 1.0, 1.0001]
+
+
+def test_no_result_goes_inside_another_result_or_a_folder_being_written(tmp_path, capsys):
+    """D116, D117: ``msr field simulate --out s0/inner`` wrote into a finished simulate result
+    (then ``--out s0 --force`` refused the mixed folder), and ``--out s5/inner`` while another
+    process wrote s5 made that command fail; ``msr design --out ds2/sub`` nested a design likewise."""
+    from lock_holder import held_elsewhere
+
+    finished, running = tmp_path / "s0", tmp_path / "s5"
+    args = ["field", "simulate", "--duration", "0.02", "--no-progress"]
+    assert msr([*args, "--out", str(finished)]) == 0
+    before = sorted(p.name for p in finished.iterdir())
+    capsys.readouterr()
+    assert msr([*args, "--out", str(finished / "inner")]) == 2
+    assert "lies in" in capsys.readouterr().err and sorted(p.name for p in finished.iterdir()) == before
+    running.mkdir()
+    with held_elsewhere(running) as pid:
+        assert msr([*args, "--out", str(running / "inner")]) == 2
+        assert f"which pid {pid}" in capsys.readouterr().err
+        assert msr(["design", "m1-4mT", "--quick", "--out", str(running / "sub"), "--no-progress"]) == 2
+        assert f"which pid {pid}" in capsys.readouterr().err
+    assert list(running.iterdir()) == []
+    assert msr([*args, "--out", str(finished), "--force"]) == 0  # still the command's own, whole
+
+
+def test_figures_go_into_no_other_commands_result(trained, tmp_path, capsys):
+    """D126: ``msr policy figures RUNS --out EXPORT`` put a learning curve into an export's result,
+    which ``export --force`` then removed without a word."""
+    export = tmp_path / "export"
+    run = str(trained / "m1-4mT" / "seed0")
+    assert msr(["policy", "export", run, "--out", str(export)]) == 0
+    before = sorted(p.name for p in export.iterdir())
+    capsys.readouterr()
+    assert msr(["policy", "figures", str(trained), "--out", str(export), "--no-gif"]) == 2
+    assert "figures of" in capsys.readouterr().err and sorted(p.name for p in export.iterdir()) == before

@@ -254,3 +254,17 @@ def test_a_magnet_path_that_runs_into_the_rod_names_its_line(quick_spec):
     with pytest.raises(TrajectoryError, match=r"arm.csv: line 4 \(t_s 0.02 s\): the magnet is [\d.]+ mm from "
                                               r"the rod, nearer than the arm's min_clearance \(10 mm\)"):
         simulate_tips(quick_spec, "training", path)
+
+
+@pytest.mark.parametrize("which", ["magnet", "tip"])
+def test_a_path_with_a_column_twice_is_refused(tmp_path, steered, quick_spec, capsys, which):
+    """Round 18 S148, S149: a magnet or tip path naming a column twice was fitted with one copy
+    dropped in silence."""
+    magnet, tip, spec_file = _measured_files(tmp_path, steered, quick_spec)
+    path, column = (magnet, "magnet_x_m") if which == "magnet" else (tip, "tip_x_m")
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join([lines[0] + f",{column}"] + [line + ",0.5" for line in lines[1:]]) + "\n")
+    capsys.readouterr()
+    assert main(["real", "identify", str(magnet), str(tip), "--robot", str(spec_file), "--fit", "magnet",
+                 "--out", str(tmp_path / "id"), "--no-progress"]) == 2
+    assert f"names {column} twice" in capsys.readouterr().err

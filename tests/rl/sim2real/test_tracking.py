@@ -138,3 +138,11 @@ def test_micrometres_and_frame_numbers_are_named(tmp_path):
     frames = [[float(k), *r[1:]] for k, r in enumerate(_moving())]
     with pytest.raises(TrajectoryError, match="t_s holds whole numbers 0, 1, 2...: frame numbers"):
         check_against_robot(read_trajectory(_tracker(tmp_path, frames, name="f.csv")), LENGTH, 1.0)
+
+
+def test_a_trajectory_naming_a_column_twice_is_refused(tmp_path):
+    """Round 18 S151: a crawler trajectory with ``front_x_m`` twice was fitted, one copy dropped."""
+    rows = [[0.0, 0.0, 0.0, 5.0], [0.1, 0.001, 0.0, 5.0], [0.2, 0.002, 0.0, 5.0]]
+    path = _tracker(tmp_path, rows, header="t_s,front_x_m,front_y_m,front_x_m")
+    with pytest.raises(TrajectoryError, match=r"its header names front_x_m twice \(columns 2 and 4\)"):
+        read_trajectory(path)
