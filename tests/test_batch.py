@@ -329,18 +329,27 @@ def test_batched_catheters_moved_by_magnet_arms_match_per_rod_simulations_bit_fo
     starts = (0.09, 0.08, 0.1)
     arms, twins = [_arm(x) for x in starts], [_arm(x) for x in starts]
     robots = BatchedRobots(spec, n_robots=3, sources=[arm.source for arm in arms], clamp=True)
-    sims = [build_simulation(spec, twin.source, clamp=True) for twin in twins]
     assert robots.sources == [arm.source for arm in arms]
     base = robots.rod(0).position_collection[:, 0].copy()
+    drive_arms_against_their_twins(spec, robots, arms, twins, steps=40, reset_at=25)
+    np.testing.assert_array_equal(robots.rod(2).position_collection[:, 0], base)
+
+
+def drive_arms_against_their_twins(spec, robots, arms, twins, steps, reset_at):
+    """Command each robot's arm and its per-rod twin alike for ``steps`` 0.01 s control steps
+    (random commands, the moments kept turning so that the catheters bend), robot 1 reset at
+    step ``reset_at`` (on its own clock); then each robot equals its per-rod simulation to the
+    last bit, and every tip has moved."""
+    sims = [build_simulation(spec, twin.source, clamp=True) for twin in twins]
     rng = np.random.default_rng(3)
-    for step in range(40):  # 0.4 s of 0.01 s control steps
-        if step == 25:
+    for step in range(steps):
+        if step == reset_at:
             robots.reset_robot(1)
             arms[1].reset()
             twins[1].reset()
             sims[1] = build_simulation(spec, twins[1].source, clamp=True)
-        actions = rng.uniform(-1.0, 1.0, (3, 5))
-        actions[:, 3] = 1.0  # the moments keep turning: the catheters bend
+        actions = rng.uniform(-1.0, 1.0, (len(arms), 5))
+        actions[:, 3] = 1.0
         for i, action in enumerate(actions):
             arms[i].apply(action, robots.robot_time(i), 0.01)
             twins[i].apply(action, sims[i].time, 0.01)
@@ -349,9 +358,8 @@ def test_batched_catheters_moved_by_magnet_arms_match_per_rod_simulations_bit_fo
             sim.step(spec.steps_per_action)
     for i, sim in enumerate(sims):
         _assert_same_state(robots.rod(i), sim.rod, f"robot {i}")
-    tips = [robots.rod(i).position_collection[:, -1] for i in range(3)]
-    assert all(np.linalg.norm(tip - [0.05, 0.0, 0.0]) > 5e-4 for tip in tips)  # the magnets bent them
-    np.testing.assert_array_equal(robots.rod(2).position_collection[:, 0], base)
+    tips = [robots.rod(i).position_collection[:, -1] for i in range(len(arms))]
+    assert all(np.linalg.norm(tip - [0.05, 0.0, 0.0]) > 5e-4 for tip in tips), tips  # the magnets bent them
 
 
 def test_a_magnet_on_a_batched_rod_is_named():

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_batch import _assert_same_state, _catheter_in_training_physics
+from test_batch import _assert_same_state, _catheter_in_training_physics, drive_arms_against_their_twins
 
 from elastica_magnetic import (
     CuboidMagnetField,
@@ -108,27 +108,8 @@ def test_batched_catheters_under_mapped_magnets_match_per_rod_simulations_bit_fo
     arms = [_arm(x, m) for x, m in zip(starts, maps, strict=True)]
     twins = [_arm(x, m) for x, m in zip(starts, maps, strict=True)]
     robots = BatchedRobots(spec, n_robots=3, sources=[arm.source for arm in arms], clamp=True)
-    sims = [build_simulation(spec, twin.source, clamp=True) for twin in twins]
     assert not robots._sources.general and sorted(robots._sources.mapped) == [0, 1, 2]  # the kernel's
-    rng = np.random.default_rng(3)
-    for step in range(30):
-        if step == 12:
-            robots.reset_robot(1)
-            arms[1].reset()
-            twins[1].reset()
-            sims[1] = build_simulation(spec, twins[1].source, clamp=True)
-        actions = rng.uniform(-1.0, 1.0, (3, 5))
-        actions[:, 3] = 1.0
-        for i, action in enumerate(actions):
-            arms[i].apply(action, robots.robot_time(i), 0.01)
-            twins[i].apply(action, sims[i].time, 0.01)
-        robots.step(spec.steps_per_action)
-        for sim in sims:
-            sim.step(spec.steps_per_action)
-    for i, sim in enumerate(sims):
-        _assert_same_state(robots.rod(i), sim.rod, f"robot {i}")
-    tips = [robots.rod(i).position_collection[:, -1] for i in range(3)]
-    assert all(np.linalg.norm(tip - [0.05, 0.0, 0.0]) > 5e-4 for tip in tips), tips
+    drive_arms_against_their_twins(spec, robots, arms, twins, steps=30, reset_at=12)
 
 
 def test_a_catheter_outside_its_magnets_map_is_named():
