@@ -134,7 +134,7 @@ def test_figures_go_into_no_other_commands_result(trained, tmp_path, capsys):
     which ``export --force`` then removed without a word."""
     export = tmp_path / "export"
     run = str(trained / "m1-4mT" / "seed0")
-    assert msr(["policy", "export", run, "--out", str(export)]) == 0
+    assert msr(["policy", "export", run, "--out", str(export), "--checkpoint", "final", "--no-progress"]) == 0
     before = sorted(p.name for p in export.iterdir())
     capsys.readouterr()
     assert msr(["policy", "figures", str(trained), "--out", str(export), "--no-gif"]) == 2

@@ -78,7 +78,8 @@ def test_export_seeds_collects_seeds_of_several_runs_and_refuses_mixed_ones(trai
     assert msr(["policy", "export-seeds", str(second_run), "--out", str(dest), "--duration", "0.05",
                 "--no-progress", "--force"]) == 2
     err = capsys.readouterr().err
-    assert "seed 0" in err and "another case spec" in err and (dest / "seeds.json").read_bytes() == before
+    assert "seed 0" in err and "another spec of case" in err and (dest / "seeds.json").read_bytes() == before
+    assert "(they differ at [robot] youngs_modulus)" in err
 
 
 def test_export_seeds_of_a_case_without_a_yardstick_writes_no_verdict(tmp_path, monkeypatch):
