@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from ..command_names import COMMAND_HOMES, FORMER_GROUPS, spelling
+from ..interrupts import signals_as_exceptions
 from ..locks import release_claims
 
 # Modules that provide ``register(subparsers)``; missing optional areas are skipped.
@@ -463,7 +464,9 @@ def _main(argv: Sequence[str] | None = None) -> int:
     swallowed: list[KeyboardInterrupt] = []
     try:
         # parsing imports the command modules and loads --case specs: Ctrl-C may come there too
-        with _interruptions_not_swallowed(swallowed), _plausibility_warnings(lambda: command):
+        # SIGTERM/SIGHUP as Ctrl-C in every command: its clean-up runs (locks, temporaries)
+        with signals_as_exceptions(), _interruptions_not_swallowed(swallowed), \
+                _plausibility_warnings(lambda: command):
             parser = build_parser()
             args, extras = parser.parse_known_args(argv)
             command = args.command_name = command_name(args)
@@ -537,12 +540,20 @@ def _interruptions_not_swallowed(swallowed: list[KeyboardInterrupt]) -> Iterator
     "Exception ignored on calling ctypes callback function", and the compilation then fails with
     an unrelated ``RuntimeError`` ("no compiled object yet", the cached kernels' object was lost).
     While this is entered, such a :class:`KeyboardInterrupt` is appended to ``swallowed`` instead
-    of printed; :func:`main` reports the error that follows as the interruption."""
+    of printed, and the signal is sent again (:func:`_redeliver`) until one lands outside such a
+    callback and stops the command; :func:`main` reports the error that follows as the
+    interruption, or, where none came, says why the command ran to its end."""
+    import threading
+
     previous = sys.unraisablehook
+    ended = threading.Event()
 
     def hook(unraisable: Any) -> None:
         if isinstance(unraisable.exc_value, KeyboardInterrupt):
             swallowed.append(unraisable.exc_value)
+            if len(swallowed) == 1:
+                threading.Thread(target=_redeliver, args=(swallowed, ended), daemon=True,
+                                 name="msr-redeliver-interrupt").start()
         else:
             previous(unraisable)
 
@@ -550,7 +561,28 @@ def _interruptions_not_swallowed(swallowed: list[KeyboardInterrupt]) -> Iterator
     try:
         yield
     finally:
+        ended.set()
         sys.unraisablehook = previous
+
+
+#: Seconds between the signals :func:`_redeliver` sends; one not swallowed within it has landed.
+REDELIVERY_S = 1.0
+
+
+def _redeliver(swallowed: list[KeyboardInterrupt], ended: Any) -> None:
+    """Send the swallowed interruption's signal to this process again, once a callback from C has
+    returned, until one is not swallowed (it then stops the command as any Ctrl-C does) or the
+    command has ended."""
+    import os
+    import signal
+
+    number = getattr(swallowed[0], "signum", signal.SIGINT)
+    seen = len(swallowed)
+    while not ended.wait(REDELIVERY_S / 10):
+        os.kill(os.getpid(), number)
+        if ended.wait(REDELIVERY_S) or len(swallowed) == seen:
+            return
+        seen = len(swallowed)
 
 
 #: The name msr gives its own temporary folders beside a result ``X`` (``.X.msr-new-HOST-PID-RANDOM``,
