@@ -1,7 +1,7 @@
 """Coils of circular current loops in :class:`~elastica_magnetic.BatchedRobots` (private): the
 robots whose source is a fixed coil set (:class:`~elastica_magnetic.CurrentLoopsField` and its
 subclasses, or :class:`~elastica_magnetic.CoilCurrents` of such coils) are driven by one numba
-kernel per coil geometry (:func:`~elastica_magnetic._spatial_kernels.coil_loops_forcing`), not by a
+kernel per coil geometry (:func:`~elastica_magnetic._robot_forcing_kernels.coil_loops_forcing`), not by a
 Python call per robot and time step: the same operations in the same order as
 :class:`~elastica_magnetic.MagneticTorques`, so bit for bit the per-rod simulation.
 
@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from . import _spatial_kernels as kernels
+from . import _robot_forcing_kernels as kernels
 from ._spatial_kernels import R_CURRENTS
 from .actuation import CoilCurrents, _CoilSum
 from .spatial_fields import CurrentLoopsField, SpatialFieldError

@@ -1,7 +1,7 @@
 """Point dipoles in :class:`~elastica_magnetic.BatchedRobots` (private): the robots whose source is a
 :class:`~elastica_magnetic.PointDipoleField` with a constant moment and position, or paths of
 :class:`~elastica_magnetic.Waypoints`, are driven by one numba kernel
-(:func:`~elastica_magnetic._spatial_kernels.dipole_paths_forcing`), not by a Python call per robot
+(:func:`~elastica_magnetic._robot_forcing_kernels.dipole_paths_forcing`), not by a Python call per robot
 and time step: the same operations in the same order as :class:`~elastica_magnetic.MagneticTorques`,
 so bit for bit the per-rod simulation. A dipole whose moment or position is another callable goes
 through the general path.
@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from . import _spatial_kernels as kernels
+from . import _robot_forcing_kernels as kernels
 from .forcing import FieldValueError
 from .spatial_fields import PointDipoleField, Waypoints
 

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _spatial_kernels as spatial_kernels
+from . import _robot_forcing_kernels as forcing_kernels
 from ._batch_coils import BatchedCoils, loop_geometry
 from ._batch_dipoles import BatchedDipoles, dipole_paths
 from ._batch_kernels import robot_times
@@ -165,7 +165,7 @@ class BatchedSources:
         motions, robots, behind = self._moved_rows
         block = owner.block
         times = owner._robot_time(time, behind)
-        bad = spatial_kernels.moved_dipoles_forcing(
+        bad = forcing_kernels.moved_dipoles_forcing(
             motions, robots, times, owner._moments, owner._node_start,
             owner._elem_start, owner._elem_end, block.position_collection, block.director_collection,
             block.external_forces, block.external_torques, *self._moved_scratch)
@@ -182,7 +182,7 @@ class BatchedSources:
         for source, motions, robots, behind in self._mapped_rows:
             grid = source.map.field_map
             times = owner._robot_time(time, behind)
-            bad = spatial_kernels.moved_maps_forcing(
+            bad = forcing_kernels.moved_maps_forcing(
                 motions, robots, times, grid.origin, grid.spacing, grid.shape, grid.samples, grid.gradients,
                 source.map.moment, owner._moments, owner._node_start, owner._elem_start, owner._elem_end,
                 block.position_collection, block.director_collection, block.external_forces,
@@ -206,7 +206,7 @@ class BatchedSources:
         for members in groups.values():
             grid = self.maps[members[0]]
             robots = np.array(members, dtype=np.int64)
-            bad = spatial_kernels.fixed_maps_forcing(
+            bad = forcing_kernels.fixed_maps_forcing(
                 robots, grid.posed, grid.position(0.0), rotation_to(grid.axis(0.0)), grid.scale(0.0),
                 grid.origin, grid.spacing, grid.shape, grid.samples, grid.gradients, owner._moments,
                 owner._node_start, owner._elem_start, owner._elem_end, block.position_collection,

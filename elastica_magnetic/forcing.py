@@ -19,6 +19,7 @@ from elastica.external_forces import NoForces
 from numba import njit
 from numpy.typing import NDArray
 
+from . import _robot_forcing_kernels as forcing_kernels
 from . import _spatial_kernels as spatial_kernels
 from .spatial_fields import SpatialField, is_spatial
 
@@ -174,7 +175,7 @@ class MagneticTorques(NoForces):
         """``(3, n_elements)`` midpoints of the rod's nodes, m (a buffer reused every call)."""
         if self._centres is None:
             self._centres = np.empty((3, system.n_elems))
-        spatial_kernels.element_centres(system.position_collection, self._centres)
+        forcing_kernels.element_centres(system.position_collection, self._centres)
         return self._centres
 
     def field_at_elements(self, system, time: float, gradient: bool = False):
@@ -215,7 +216,7 @@ class MagneticTorques(NoForces):
         if not self.spatial:
             return
         b, g = self.field_at_elements(system, time, gradient=True)
-        spatial_kernels.magnetic_forces(
+        forcing_kernels.magnetic_forces(
             self.moment_in_material_frame(system), system.director_collection, g, system.external_forces
         )
         # PyElastica calls apply_torques right after, on the same state: it reuses this B once.
@@ -227,7 +228,7 @@ class MagneticTorques(NoForces):
             if b is None or self._fresh_time != float(time):
                 b = self.field_at_elements(system, time)
             self._fresh_field = None
-            spatial_kernels.magnetic_torques_at_elements(
+            forcing_kernels.magnetic_torques_at_elements(
                 self.moment_in_material_frame(system), b, system.director_collection,
                 system.external_torques,
             )

@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cache
@@ -50,7 +49,6 @@ from pathlib import Path
 from typing import Any
 
 from elastica_magnetic import RobotSpec
-from elastica_magnetic.plausibility import mistake_hint
 from elastica_magnetic.robot_spec import ACTION_PERIOD, Physics
 from elastica_magnetic.rotation import min_rotation_period
 from elastica_magnetic.specfile import (
@@ -67,6 +65,7 @@ from elastica_magnetic.specfile import (
 from .arm_actuation import magnet_arm_from_table
 from .coil_actuation import coil_array_from_table
 from .design_space import DESIGN_TABLE, DesignSpace, design_space
+from .field_actuation import ACTUATION_AXES, Actuation, field_actuation_from_table
 from .steered import ACTUATION_KINDS, SteeringActuation, check_steered_reach
 from .task_tables import MAX_YARDSTICK_BODY_LENGTHS, task_from_table
 from .tasks import TASK_KINDS, GotoTask, ReachTask, Task, TipReachTask
@@ -96,8 +95,6 @@ __all__ = [
 SPECS_DIR = Path(__file__).resolve().parents[1] / "specs"
 #: The paper's four cases (the first shipped specs).
 PAPER_CASES = ("m1-4mT", "m2-4mT", "m1-10mT", "m2-10mT")
-#: Control rates the environments play, Hz.
-CONTROL_RATE = 1.0 / ACTION_PERIOD
 #: The evaluation during training, s: the shipping criterion's episode (field from zero,
 #: deterministic actions, the yardstick's 10 s) in the physics the run trains in.
 EVAL_DURATION = 10.0
@@ -128,65 +125,6 @@ CASE_UNITS: dict[tuple[str, str], str] = {
     ("yardstick", "distance_10s"): "m in 10 s, accurate physics, field from zero",
     ("yardstick", "period"): "s, one turn of the rotating field that made distance_10s",
 }
-
-
-#: The field components a policy controls: ``"xy"``, the paper's two coil pairs (the field in
-#: the robot's vertical plane), or ``"xyz"`` with the third pair (z: across the robot, in the
-#: floor plane).
-ACTUATION_AXES = ("xy", "xyz")
-#: Blocks the observation gains per actuation (name, size), after the paper's field blocks.
-ACTUATION_OBSERVATION: dict[str, tuple[tuple[str, int], ...]] = {"xy": (), "xyz": (("field_z", 1),)}
-
-
-@dataclass(frozen=True)
-class Actuation:
-    """The field the policy controls: limit (T: the amplitude limit, the largest axis limit),
-    increment per action (T: the largest axis increment), rate (Hz), initial field of training
-    episodes, the controlled ``axes`` (:data:`ACTUATION_AXES`) and, where the coil pairs differ,
-    one limit and one increment per controlled axis (``axis_limits``, ``axis_increments``, T;
-    empty: ``field_limit`` and ``max_increment`` on every axis)."""
-
-    field_limit: float
-    max_increment: float = 0.3e-3
-    control_rate: float = CONTROL_RATE
-    initial_field: str = "random"
-    axes: str = "xy"
-    axis_limits: tuple[float, ...] = ()
-    axis_increments: tuple[float, ...] = ()
-
-    @property
-    def n_axes(self) -> int:
-        """The action's size: one field increment per controlled axis."""
-        return len(self.axes)
-
-    @property
-    def limits(self) -> tuple[float, float, float]:
-        """The limit of each lab axis (x, y, z), T (as :class:`~elastica_magnetic.ControlledField`
-        takes it); an axis not controlled keeps the amplitude limit (its component stays 0)."""
-        given = self.axis_limits or (self.field_limit,) * self.n_axes
-        return (*given, *(self.field_limit,) * (3 - len(given)))  # type: ignore[return-value]
-
-    @property
-    def increments(self) -> tuple[float, float, float]:
-        """The largest increment of each lab axis (x, y, z) per unit action, T."""
-        given = self.axis_increments or (self.max_increment,) * self.n_axes
-        return (*given, *(self.max_increment,) * (3 - len(given)))  # type: ignore[return-value]
-
-    @property
-    def observation_blocks(self) -> tuple[tuple[str, int], ...]:
-        """The observation's blocks for this actuation beyond the paper's (``field_z`` for xyz)."""
-        return ACTUATION_OBSERVATION[self.axes]
-
-    def to_dict(self) -> dict[str, Any]:
-        """The ``[actuation]`` table: per-axis values as lists, ``axes`` only when not the
-        paper's (so a planar case's table is as it always was)."""
-        out: dict[str, Any] = {
-            "field_limit": list(self.axis_limits) if self.axis_limits else self.field_limit,
-            "max_increment": list(self.axis_increments) if self.axis_increments else self.max_increment,
-            "control_rate": self.control_rate, "initial_field": self.initial_field}
-        if self.axes != "xy":
-            out["axes"] = self.axes
-        return out
 
 
 @dataclass(frozen=True)
@@ -510,28 +448,7 @@ def _actuation(t: SpecTable, rod_length: float) -> Actuation | SteeringActuation
         return magnet_arm_from_table(t, rod_length)
     if kind == "coil-currents":
         return coil_array_from_table(t, rod_length)
-    d = Actuation(field_limit=0.0)
-    axes = t.string("axes", d.axes, choices=ACTUATION_AXES)
-    limits = _per_axis(t, "field_limit", "T", axes, None, high=1.0, plausible="coil field")
-    increments = _per_axis(t, "max_increment", "T per action", axes, d.max_increment)
-    out = Actuation(
-        field_limit=max(limits),
-        max_increment=max(increments),
-        control_rate=t.number("control_rate", "Hz", d.control_rate, low=0.0, low_open=True),
-        initial_field=t.string("initial_field", d.initial_field, choices=("random", "zero")),
-        axes=axes,
-        axis_limits=tuple(limits) if len(set(limits)) > 1 else (),
-        axis_increments=tuple(increments) if len(set(increments)) > 1 else (),
-    )
-    if t.has("max_increment"):
-        for limit, increment in zip(out.limits, out.increments, strict=True):
-            _check_increment(t, increment, limit, d.max_increment)
-    if not math.isclose(out.control_rate, CONTROL_RATE):
-        raise t.error("control_rate", f"only {CONTROL_RATE:g} Hz is supported (the environments' "
-                                      f"0.01 s step and the firmware's playback rate), got "
-                                      f"{out.control_rate:g}")
-    t.finish()
-    return out
+    return field_actuation_from_table(t)
 
 
 def _check_sideways_model(actuation: Actuation | SteeringActuation, robot: RobotDescription,
@@ -547,39 +464,6 @@ def _check_sideways_model(actuation: Actuation | SteeringActuation, robot: Robot
             "axes", '"xyz" moves the robot out of the x-y plane, and [robot.ground] sideways is '
             '"rolling" (the default): the band rolls sideways like a round rod; set sideways = '
             '"sliding" to model a flat band that cannot roll')
-
-
-def _per_axis(t: SpecTable, key: str, unit: str, axes: str, default: float | None,
-              **checks: Any) -> list[float]:
-    """``key`` of ``[actuation]``: one number for every controlled axis, or a list of one per
-    axis (``axes``' order); each checked as :meth:`SpecTable.number` checks one (positive, below
-    ``high``, plausible)."""
-    value = t.raw(key, default) if default is not None or t.has(key) else t.number(key, unit)
-    if not isinstance(value, list):
-        return [t.number(key, unit, default, low=0.0, low_open=True, **checks)] * len(axes)
-    if len(value) != len(axes):
-        raise t.error(key, f"expected one number ({unit}) or a list of {len(axes)}, one per axis of "
-                           f"axes = {axes!r} ({', '.join(axes)}), got {value!r}")
-    out = []
-    for axis, item in zip(axes, value, strict=True):
-        item_table = SpecTable({key: item}, t.source, t.path, t.accept)
-        try:
-            out.append(item_table.number(key, unit, low=0.0, low_open=True, **checks))
-        except SpecError as exc:
-            raise t.error(key, f"{axis} axis: {str(exc).split(f'{key}: ', 1)[-1]}") from None
-    return out
-
-
-def _check_increment(t: SpecTable, increment: float, field_limit: float, papers: float) -> None:
-    """Refuse an increment (T per action) above the field limit (T): one action could then jump
-    the field from zero past the limit, so it limits no rate (mT written for T, most likely);
-    judge it against the plausible increments otherwise (a warning where unusual)."""
-    if increment > field_limit:
-        raise t.error("max_increment", f"{increment:g} T per action is larger than the field limit "
-                      f"{field_limit:g} T: it cannot act as a limit (one action may jump the field "
-                      f"from zero past the limit){mistake_hint('field increment', increment)}; the "
-                      f"paper's is {papers:g} T")
-    t.check_plausible("max_increment", increment, "field increment")
 
 
 def with_randomize(case: Case, variations: tuple[Variation, ...]) -> Case:

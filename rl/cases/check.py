@@ -15,7 +15,8 @@ from elastica_magnetic.plausibility import ImplausibleValueWarning
 from elastica_magnetic.spec_check import Issue, SpecCheck, check_robot, check_spec, format_check
 from elastica_magnetic.specfile import describe_robot, read_spec
 
-from .case import Actuation, Case, case_names, load_case
+from .case import Case, case_names, load_case
+from .field_actuation import Actuation
 
 __all__ = ["RobotOnlySpec", "case_summary", "check_case", "check_robot_only", "check_with_warnings",
            "coverage", "robot_only_spec"]

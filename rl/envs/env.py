@@ -72,7 +72,8 @@ from elastica_magnetic import (
 )
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
-from ..cases.case import ACTUATION_OBSERVATION, Case, load_case
+from ..cases.case import Case, load_case
+from ..cases.field_actuation import ACTUATION_OBSERVATION
 from ..cases.tasks import CrawlTask, Task
 
 __all__ = [
