@@ -68,7 +68,7 @@ from .locks import (
     release_claim,
 )
 from .result_markers import MANIFEST, MARKER, read_marker
-from .results import ResultExistsError, fsync_tree, remove_tree
+from .results import ResultExistsError, check_enclosing, fsync_tree, remove_tree
 
 __all__ = ["FileKind", "FileSet", "ResultFile", "check_files", "check_result_file",
            "interrupted_replacements", "recorded_files", "recover_files", "replace_files", "result_file",
@@ -455,6 +455,7 @@ def _check_file(final: Path, force: bool, option: str, force_option: str,
     for parent in final.parents:
         if parent.exists() and not parent.is_dir():
             raise OutputPathError(f"{where}: {display_path(parent)} is a file, not a folder")
+    check_enclosing(final, option)
     if final.exists() and not force:
         raise ResultExistsError(f"{where}: already exists; pass {force_option} to replace it, or "
                                 f"choose another {option}")

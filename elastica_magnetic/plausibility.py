@@ -137,6 +137,12 @@ QUANTITIES: dict[str, Quantity] = {q.name: q for q in (
        ((300.0, "a third of 1 kPa, the softest soft robots' E"),
         (4e9, "a third of 10 GPa, stiffer than soft robot materials")),
        (("kPa", 1e3), ("MPa", 1e6))),
+    _q("shear coefficient", "1",  # alpha_c, the shear stiffness's factor (PyElastica's 4/3, the paper's 1)
+       ((0.1, "a tenth of any cross-section's (Timoshenko's 5/6 to PyElastica's 4/3)"),
+        (10.0, "ten times any cross-section's (Timoshenko's 5/6 to PyElastica's 4/3)")),
+       ((0.5, "below any cross-section's (5/6 for a rectangle)"),
+        (2.0, "above any cross-section's (4/3, PyElastica's default)")),
+       (("percent", 1e-2),)),
     _q("poisson ratio", "1", (None, None),
        ((0.0, "a negative Poisson ratio is an auxetic material"), None),
        (("percent", 1e-2),), signed=True),

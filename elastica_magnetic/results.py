@@ -127,8 +127,11 @@ __all__ = [
     "aborted_results",
     "remove_tree",
     "fsync_tree",
+    "check_enclosing",
+    "check_not_another_result",
     "check_result_folder",
     "interrupted",
+    "training_run_in",
     "recover",
     "result_folder",
 ]
@@ -327,11 +330,11 @@ def _check_path(final: Path, option: str) -> None:
         if parent.exists() and not parent.is_dir():
             raise OutputPathError(f"{option} {display_path(final)}: {display_path(parent)} is a "
                                   "file, not a folder")
-    _check_enclosing(final, option)
+    check_enclosing(final, option)
 
 
-def _check_enclosing(final: Path, option: str) -> None:
-    """Refuse a folder inside another command's result (replaced whole, it would take this one
+def check_enclosing(final: Path, option: str) -> None:
+    """Refuse a folder or file inside another command's result (replaced whole, it would take this one
     with it, or be left mixed) or inside a folder another process is writing: a result of its own
     goes beside them. A folder this process writes (``msr loop``'s steps, a result it builds) may
     hold results."""
@@ -346,6 +349,41 @@ def _check_enclosing(final: Path, option: str) -> None:
             raise OutputPathError(f"{option} {display_path(final)}: lies in {display_path(parent)}, which "
                                   f"holds {describe_result(marker)}: a result is replaced whole, so "
                                   f"nothing goes inside another; choose another {option}")
+        if (run := training_run_in(parent, final)) is not None:
+            raise OutputPathError(f"{option} {display_path(final)}: lies in {display_path(parent)}, which "
+                                  f"holds the runs of a training ({run.name}, `msr train`): that folder "
+                                  "holds its runs alone (msr train --resume refuses anything else "
+                                  f"there); choose another {option}")
+
+
+#: How the run folders of a training are named in its case folder (``seed0``, ``seed1``...).
+TRAINING_RUNS = "seed*"
+
+
+def training_run_in(folder: Path, within: Path | None = None) -> Path | None:
+    """A run of ``msr train`` in ``folder`` (a training's case folder has no marker of its own:
+    its runs each have one), or ``None``; a run that is ``within`` or holds it is not counted (the
+    path being judged: a run itself is judged by its own marker)."""
+    for found in sorted(folder.glob(f"{TRAINING_RUNS}/{MARKER}")):
+        run = found.parent
+        if within is not None and (run == within or run in within.parents):
+            continue
+        marker = read_marker(run)
+        if marker is not None and marker.get("kind") == "train":
+            return run
+    return None
+
+
+def check_not_another_result(folder: str | Path, option: str) -> None:
+    """A folder files are put into (figures, a set of files: not a result of their own) is not
+    another command's result and does not lie in one: there they would be files that result does
+    not know, removed or refused when it is replaced."""
+    final = normalized_path(folder)
+    if (final / MARKER).is_file() and (marker := read_marker(final)) is not None:
+        raise ResultExistsError(f"{option} {display_path(final)}: holds {describe_result(marker)}: files put "
+                                "there are no part of it (replacing that result would remove them); choose "
+                                f"another {option}")
+    check_enclosing(final, option)
 
 
 def _check_creatable(target: Path, option: str) -> None:

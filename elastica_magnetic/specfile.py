@@ -275,7 +275,8 @@ def _material_values(t: SpecTable) -> dict[str, float]:
         out["shear_modulus"] = t.number("shear_modulus", "Pa, or give poisson_ratio", low=0.0,
                                         low_open=True, plausible="shear modulus")
         _check_moduli(t, out["youngs_modulus"], out["shear_modulus"])
-    out["shear_coefficient"] = t.number("shear_coefficient", "alpha_c, 1", 1.0, low=0.0, low_open=True)
+    out["shear_coefficient"] = t.number("shear_coefficient", "alpha_c, 1", 1.0, low=0.0, low_open=True,
+                                        plausible="shear coefficient")
     out["gravity"] = t.number("gravity", "m/s^2", STANDARD_GRAVITY, low=0.0)
     if out["gravity"] != 0.0:  # 0: no gravity, on purpose
         t.check_plausible("gravity", out["gravity"], "gravity")
@@ -576,6 +577,20 @@ def _check_contact_tolerances(t: SpecTable, robot: Mapping[str, Any]) -> None:
                "second; default 1e-8 m/s)")
 
 
+#: s: a stable step below this (1e8 steps per 0.01 s action) is a value in the wrong unit.
+MIN_TIME_STEP = 1e-10
+#: The spec keys that set each mechanism's stability limit
+#: (:func:`~elastica_magnetic.stability.time_step_limits`).
+MECHANISM_KEYS = {
+    "axial and bending waves": "[robot] youngs_modulus, density and the elements' length",
+    "shear and rotation": "[robot] shear_coefficient and shear modulus (or poisson_ratio)",
+    "relative damping": "[robot.damping] relative", "legacy force damping": "[robot.damping] legacy_force",
+    "legacy torque damping": "[robot.damping] legacy_torque",
+    "Kelvin-Voigt viscosity": "[robot.damping] kelvin_voigt",
+    "ground stiffness": "[robot.ground] stiffness", "ground damping": "[robot.ground] damping",
+}
+
+
 def _check_time_steps(description: RobotDescription, spec: Mapping[str, Any], source: str) -> None:
     """Refuse a physics setting whose ``dt`` is above the robot's smallest bare stability limit
     (:func:`~elastica_magnetic.stability.time_step_limits`: every blow-up measured came below it),
@@ -589,6 +604,13 @@ def _check_time_steps(description: RobotDescription, spec: Mapping[str, Any], so
             continue
         table = physics.get(setting) if isinstance(physics, Mapping) else None
         value = "given" if isinstance(table, Mapping) and "dt" in table else "the default"
+        suggested = suggested_time_step(stable)
+        if suggested < MIN_TIME_STEP:  # no step can run it: the value is off
+            raise SpecError(
+                f"{source}: {MECHANISM_KEYS[limiting]}: this robot's {limiting} alone needs a time step "
+                f"below {limits[limiting]:.2e} s, {ACTION_PERIOD / suggested:.2g} steps per 0.01 s "
+                "action: a run that never ends, so no robot has such a value; is it in other units "
+                "(msr case show m1-4mT --toml: the paper's robot)?")
         raise SpecError(
             f"{source}: [physics.{setting}] dt: {robot.dt:g} s ({value}) is above this robot's "
             f"stability limit {limits[limiting]:.2e} s (the {limiting} limit; robots measured blew up "

@@ -17,11 +17,19 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from elastica_magnetic import CuboidMagnetField, CylinderMagnetField, MagnetMap, MagnetPose, magnet_map
+from elastica_magnetic import (
+    CuboidMagnetField,
+    CylinderMagnetField,
+    MagnetMap,
+    MagnetPose,
+    PointDipoleField,
+    magnet_map,
+)
 from elastica_magnetic.field_maps import MAX_RESAMPLED_NODES
 from elastica_magnetic.robot_spec import ACTION_PERIOD
-from elastica_magnetic.spatial_fields import SpatialFieldError
+from elastica_magnetic.spatial_fields import SpatialField, SpatialFieldError
 from elastica_magnetic.specfile import SpecTable
 
 from .steered import (
@@ -55,6 +63,11 @@ MU0 = 4e-7 * math.pi
 #: :data:`MAP_NODES_PER_AXIS` nodes a side (about 100 MB with its gradient table).
 MAP_SPACING = 0.004
 MAP_NODES_PER_AXIS = 101
+#: A map's spacing beyond this fraction of ``min_clearance`` is warned about (the map's error near
+#: the magnet then tens of percent), at or beyond ``min_clearance`` refused.
+MAP_SPACING_WARN = 0.5
+#: A map wider than this many times what the rod can reach is refused (mm written as m?).
+MAP_WIDTH_SLACK = 10.0
 
 
 @dataclass(frozen=True)
@@ -94,6 +107,17 @@ class FiniteMagnet:
         """The body's map at :data:`MAP_POLARIZATION` (made once per process and body)."""
         return _body_map(self)
 
+    def field(self, moment: float, position: ArrayLike, direction: ArrayLike) -> SpatialField:
+        """The body's exact field (Magpylib) for a moment of ``moment`` A m^2, its centre at
+        ``position`` (m), its own z (the moment) turned onto ``direction``."""
+        return self._field_at(self.polarization(moment), position, direction)
+
+    def _field_at(self, polarization: float, position: ArrayLike, direction: ArrayLike) -> SpatialField:
+        j = [0.0, 0.0, polarization]
+        if self.shape == "cuboid":
+            return CuboidMagnetField(list(self.dimension), j, position, direction)
+        return CylinderMagnetField(self.dimension[0], self.dimension[1], j, position, direction)
+
     def describe(self) -> str:
         """The body in words (mm)."""
         size = " x ".join(f"{1e3 * v:g}" for v in self.dimension)
@@ -108,9 +132,7 @@ class FiniteMagnet:
 
 @functools.lru_cache(maxsize=4)
 def _body_map(body: FiniteMagnet) -> MagnetMap:
-    polarization = [0.0, 0.0, MAP_POLARIZATION]
-    magnet = (CuboidMagnetField(list(body.dimension), polarization) if body.shape == "cuboid" else
-              CylinderMagnetField(body.dimension[0], body.dimension[1], polarization))
+    magnet = body._field_at(MAP_POLARIZATION, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0))
     return magnet_map(magnet, body.map_half_width, body.map_spacing)
 
 
@@ -169,19 +191,28 @@ class MagnetArm(SteeringActuation):
                 "workspace": [list(row) for row in self.workspace], "max_speed": self.max_speed,
                 "max_turn_rate": self.max_turn_rate}
 
+    def source(self, position: ArrayLike, direction: ArrayLike) -> SpatialField:
+        """The magnet's field at a pose (centre ``position``, m; moment along ``direction``): its
+        body's (:meth:`FiniteMagnet.field`), or a point dipole's without one."""
+        if self.magnet is not None:
+            return self.magnet.field(self.moment, position, direction)
+        unit = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
+        return PointDipoleField(self.moment * unit, position)
+
     def field_at_tip(self, rod_length: float) -> float:
         """The field magnitude (T) the magnet makes at its start pose at the tip of the straight rod
         (along +x from the origin, ``rod_length`` m): the field scale of the case's start."""
-        from elastica_magnetic import PointDipoleField
-
-        source = PointDipoleField(self.moment * np.asarray(self.direction) / np.linalg.norm(self.direction),
-                                  self.position)
+        source = self.source(self.position, self.direction)
         return float(np.linalg.norm(source.at(np.array([[rod_length], [0.0], [0.0]]))))
 
     def reach_field(self, rod_length: float) -> float:
         """T: the strongest field the magnet can make at the tip: on its axis, as near as
-        ``min_clearance`` (``mu0 / 4 pi x 2 m / d^3``; an upper bound, whatever the rod's shape)."""
-        return 1e-7 * 2.0 * self.moment / self.min_clearance**3
+        ``min_clearance`` (a point dipole's ``mu0 / 4 pi x 2 m / d^3``; a body's own field there;
+        an upper bound, whatever the rod's shape)."""
+        if self.magnet is None:
+            return 1e-7 * 2.0 * self.moment / self.min_clearance**3
+        source = self.source((0.0, 0.0, 0.0), (0.0, 0.0, 1.0))
+        return float(np.linalg.norm(source.at(np.array([[0.0], [0.0], [self.min_clearance]]))))
 
     def describe(self, rod_length: float) -> str:
         """The arm in words (mm, mm/s, mT)."""
@@ -318,12 +349,18 @@ def _finite_magnet(t: SpecTable, moment: float, workspace: np.ndarray, rod_lengt
                         for i in (0, 1) for j in (0, 1) for k in (0, 1)])
     needed = max(float(np.linalg.norm(c - b)) for c in corners for b in base) + rod_length
     half_width = m.number("map_half_width", "m", needed, low=0.0, low_open=True)
-    spacing = m.number("map_spacing", "m", max(MAP_SPACING, 2.0 * half_width / (MAP_NODES_PER_AXIS - 1)),
-                       low=0.0, low_open=True)
     if half_width < needed * (1.0 - 1e-12):
         raise m.error("map_half_width", f"{half_width:g} m does not hold the rod wherever the arm takes the "
                                         f"magnet: {needed:.4g} m at least (the farthest corner of the "
                                         "workspace from the base, plus the rod's length)")
+    if half_width > MAP_WIDTH_SLACK * needed:
+        raise m.error("map_half_width", f"{half_width:g} m is more than {MAP_WIDTH_SLACK:g} times the "
+                                        f"{needed:.4g} m the rod can reach (the farthest corner of the "
+                                        "workspace from the base, plus the rod's length): mm written as m? "
+                                        "Leave it out for that reach")
+    clearance = t.number("min_clearance", "m", 0.01)
+    spacing = m.number("map_spacing", "m", _default_spacing(half_width, clearance), low=0.0, low_open=True)
+    _check_map_spacing(m, spacing, half_width, clearance)
     nodes = (int(round(2.0 * half_width / spacing)) + 1) ** 3
     if nodes > MAX_RESAMPLED_NODES:
         coarsest = 2.0 * half_width / (MAX_RESAMPLED_NODES ** (1.0 / 3.0) - 1.0)
@@ -340,12 +377,37 @@ def _finite_magnet(t: SpecTable, moment: float, workspace: np.ndarray, rod_lengt
         t.warn("moment", f"{words}, more than NdFeB's 1.45 T")
     if polarization < MIN_POLARIZATION:
         m.warn("dimension", f"{words}: a body far larger than its moment (mm written as m?)")
-    clearance = t.number("min_clearance", "m", 0.01)
     if clearance < body.circumradius:
         raise t.error("min_clearance", f"{1e3 * clearance:g} mm is less than half the magnet's diagonal "
                                        f"({1e3 * body.circumradius:.3g} mm): the rod could pass inside it")
     m.finish()
     return body
+
+
+def _default_spacing(half_width: float, clearance: float) -> float:
+    """m: :data:`MAP_SPACING`, coarser where the map would exceed :data:`MAP_NODES_PER_AXIS` nodes a
+    side, finer down to :data:`MAP_SPACING_WARN` x ``clearance`` (the map's error near the magnet)
+    as long as it holds at most ``MAX_RESAMPLED_NODES`` nodes."""
+    finest = 2.0 * half_width / (MAX_RESAMPLED_NODES ** (1.0 / 3.0) - 2.0)
+    usual = max(MAP_SPACING, 2.0 * half_width / (MAP_NODES_PER_AXIS - 1))
+    return max(min(usual, MAP_SPACING_WARN * clearance), finest)
+
+
+def _check_map_spacing(m: SpecTable, spacing: float, half_width: float, clearance: float) -> None:
+    """The map's spacing (m) against the nearest the rod comes to the magnet (``clearance``, m):
+    the field changes over distances of that order, and the map's error grows as ``(spacing /
+    distance)^2`` (a few percent at a fifth: docs/spatial_fields.md). Refused at or beyond the
+    clearance (the map would not resolve the field where it is strongest; mm written as m?),
+    warned beyond :data:`MAP_SPACING_WARN` of it."""
+    words = (f"{1e3 * spacing:g} mm against the {1e3 * clearance:g} mm (min_clearance) the rod may come "
+             "to the magnet's centre")
+    if spacing >= min(clearance, half_width):
+        raise m.error("map_spacing", f"{words}: the map cannot resolve the field where it is strongest "
+                                     f"(its error grows as the spacing squared); at most "
+                                     f"{1e3 * MAP_SPACING_WARN * clearance:.3g} mm (mm written as m?)")
+    if spacing > MAP_SPACING_WARN * clearance:
+        m.warn("map_spacing", f"{words}: the map's error near the magnet is tens of percent (it grows as "
+                              f"the spacing squared); {1e3 * MAP_SPACING_WARN * clearance:.3g} mm or finer")
 
 
 def _clearance_of_straight_rod(point: np.ndarray, length: float) -> float:

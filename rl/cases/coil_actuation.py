@@ -231,7 +231,10 @@ def _coils(t: SpecTable) -> tuple[CoilWinding, ...]:
         axis = sub.vector("axis", "a direction", 3)
         if not any(axis):
             raise sub.error("axis", "must be a non-zero direction")
-        turns = sub.number("turns", "turns", low=0.0, low_open=True, high=MAX_TURNS)
+        turns = sub.number("turns", "turns", low=1.0, high=MAX_TURNS)
+        if not float(turns).is_integer():
+            sub.warn("turns", f"{turns:g}: a winding has a whole number of turns (its field is current x "
+                              "turns)")
         sub.finish()
         out.append(CoilWinding(radius, tuple(centre), tuple(axis), turns))
     return tuple(out)

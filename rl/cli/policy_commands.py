@@ -211,6 +211,9 @@ def seeds_command(args: argparse.Namespace) -> int:
     if not policies.is_dir():
         raise CommandError(f"--policies {policies}: no such folder")
     if args.figure is not None:  # before any figure is drawn
+        from elastica_magnetic.results import check_not_another_result
+
+        check_not_another_result(args.figure, "--figure")
         check_files(args.figure, [name for case in args.case for name in _seed_figure_names(case)],
                     force=args.force, option="--figure")
     reports, by_case = [], {}
@@ -366,6 +369,8 @@ def notes_command(args: argparse.Namespace) -> int:
         else:
             print(notes or "(no notes)")
         return 0
+    if args.file is not None:
+        _check_not_the_policys_own(args.file, args.policy)
     text = "" if args.clear else _read_markdown(args.file, "--file")
     if not args.clear and not text.strip():
         raise CommandError(f"--file {args.file}: is empty; the notes were left as they are (to "
@@ -376,6 +381,21 @@ def notes_command(args: argparse.Namespace) -> int:
         raise CommandError(str(exc)) from None
     print_result(result, args.json)
     return 0
+
+
+def _check_not_the_policys_own(path: Path, policy_name: str) -> None:
+    """``--file``: not a file of the shipped policy itself (its card, its policy.json: the notes
+    would then hold the card or the JSON), refused naming it."""
+    from ..shipping.policy_files import resolve_policy
+
+    try:
+        policy = resolve_policy(policy_name)
+    except (FileNotFoundError, ValueError):
+        return  # set_notes names the policy that cannot be read
+    if policy.kind == "shipped" and path.resolve().is_relative_to(Path(policy.source).resolve()):
+        raise CommandError(f"--file {path}: is the policy's own {path.name} (msr policy ship wrote it; the "
+                           "notes are a part of it); give a Markdown file of notes kept outside the policy's "
+                           "folder")
 
 
 def _read_markdown(path: Path, option: str) -> str:

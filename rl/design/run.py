@@ -474,8 +474,11 @@ def _check_same(record: Mapping[str, Any], spec: dict[str, Any], settings: Desig
     if old != new:
         key = next(k for k in sorted(set(old or {}) | set(new)) if (old or {}).get(k) != new.get(k))
         option = SETTING_OPTIONS.get(key, key)
+        def shown_value(value: Any) -> str:  # an option left out: its default (CMA-ES's for --popsize)
+            return "the default" if value is None else repr(value)
+
         told = (f"{option}: given in one and not the other" if option == "--quick" else
-                f"{option}: {(old or {}).get(key)!r} then, {new.get(key)!r} now")
+                f"{option}: {shown_value((old or {}).get(key))} then, {shown_value(new.get(key))} now")
         raise DesignError(f"--resume: the design in {shown} was started with other options ({told}); "
                           "resume it with the same options, or start afresh with --force")
 

@@ -66,14 +66,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=loop_command)
 
 
-def _settings(args: argparse.Namespace):
-    """The steps' settings from the options, every file checked before any work."""
+def _settings(args: argparse.Namespace, skip: tuple[str, ...] = ()):
+    """The steps' settings from the options, every file checked before any work; ``skip``: the
+    steps skipped (an option only a skipped step reads cannot act: refused)."""
     import dataclasses
 
     from elastica_magnetic.hardware.calibration import load_calibration
 
     from .settings import LoopSettings
 
+    if args.calibration is not None and "firmware" in skip:
+        raise CommandError(f"--calibration {args.calibration}: only the firmware step reads it, and "
+                           "--skip firmware skips that step: drop one of them")
     if args.calibration is not None:
         if not args.calibration.is_file():
             raise CommandError(f"--calibration {args.calibration}: no such file (a calibration "
@@ -128,7 +132,7 @@ def loop_command(args: argparse.Namespace) -> int:
         # SIGTERM/SIGHUP stop it as Ctrl-C does, in every step (the train step's too), with the
         # message below, not silently
         with signals_as_exceptions():
-            state = run_loop(args.spec, args.out, _settings(args), skip=skip, redo=redo,
+            state = run_loop(args.spec, args.out, _settings(args, skip), skip=skip, redo=redo,
                              force=args.force, progress=not args.no_progress)
     except LoopError as exc:
         raise CommandError(str(exc)) from None

@@ -533,17 +533,10 @@ def _check_not_another_result(path: Path, out: Path) -> None:
     folder of no command's: into another command's result they would be files it does not know,
     removed or refused when that result is replaced."""
     from elastica_magnetic.io import normalized_path
-    from elastica_magnetic.result_markers import MARKER, describe_result, read_marker
-    from elastica_magnetic.results import ResultExistsError
+    from elastica_magnetic.results import check_not_another_result
 
-    final = normalized_path(out)
-    if final == normalized_path(path) or not (final / MARKER).is_file():
-        return
-    marker = read_marker(final)
-    if marker is not None:
-        raise ResultExistsError(f"--out {out}: holds {describe_result(marker)}: figures of {path} are "
-                                "no part of it (replacing that result would remove them); choose another "
-                                "--out")
+    if normalized_path(out) != normalized_path(path):
+        check_not_another_result(out, "--out")
 
 
 def _figure_names(path: Path) -> list[str]:

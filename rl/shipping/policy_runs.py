@@ -369,6 +369,7 @@ def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10
         raise FileNotFoundError(f"--checkpoint {checkpoint}: {run} is not a run folder (or its "
                                 f"{RunDir.CHECKPOINT})")
     run_files = RunDir(run_dir)
+    _check_not_training(run_dir)
     if checkpoint == "final":
         return ActorChoice(run_files.checkpoint, "final", "asked")
     if checkpoint == "best":
@@ -385,6 +386,17 @@ def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10
     return ActorChoice(run_files.checkpoint, "final", "farther", final, best)
 
 
+def _check_not_training(run_dir: Path) -> None:
+    """Refuse a run another live process is still training (its folder's lock): its checkpoints
+    are a step of the training, not its final or best actor yet."""
+    from elastica_magnetic.locks import describe_owner, held_here, live_owner
+
+    if not held_here(run_dir) and (owner := live_owner(run_dir)) is not None:
+        raise ValueError(f"{run_dir}: is being trained by {describe_owner(owner)}: its checkpoints are a "
+                         "step of that training, not its final or best actor yet; wait until it ends "
+                         "(or stop it: Ctrl-C keeps its checkpoints), then choose")
+
+
 def choose_tip_reach_actor(run: str | Path, checkpoint: str = "auto") -> ActorChoice | None:
     """The actor of a tip-reach run (a catheter steered by a source): as :func:`choose_actor`,
     except that ``"auto"`` takes ``best.pt`` (the training's best evaluation) when the run has one,
@@ -397,6 +409,7 @@ def choose_tip_reach_actor(run: str | Path, checkpoint: str = "auto") -> ActorCh
     if checkpoint != "auto" or not is_run:
         return choose_actor(run, checkpoint, progress=False)
     run_files = RunDir(run_dir)
+    _check_not_training(run_dir)
     if run_files.best.is_file():
         return ActorChoice(run_files.best, "best", "training")
     return ActorChoice(run_files.checkpoint, "final", "only")

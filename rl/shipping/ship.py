@@ -26,10 +26,11 @@ from elastica_magnetic.io import (
     atomic_write_json,
     atomic_write_text,
     display_path,
+    normalized_path,
     read_json,
 )
 from elastica_magnetic.plausibility import SettingNotAppliedWarning
-from elastica_magnetic.results import ResultExistsError
+from elastica_magnetic.results import ResultExistsError, check_enclosing
 
 from ..cases.case import Case
 from ..cases.tasks import GotoTask, ReachTask
@@ -80,6 +81,11 @@ def check_ship_target(name: str, dest: str | Path | None) -> None:
         for parent in (Path(dest), *Path(dest).parents):
             if parent.exists() and not parent.is_dir():
                 raise OutputPathError(f"--out {dest}: {parent} is a file, not a folder")
+            if (parent / POLICY_JSON).is_file():
+                raise OutputPathError(f"--out {dest}: {parent} is a shipped policy: a policy goes beside "
+                                      "another, not inside it; choose another --out")
+        # nothing goes inside another command's result (a training's seed folder, a simulation)
+        check_enclosing(normalized_path(Path(dest) / name), "--out")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -446,6 +446,11 @@ def identify(
     return report
 
 
+#: A fit whose residual RMS is not at least this fraction below the spec's own keeps the spec's
+#: values: a flat cost moves the values anywhere without telling anything about them.
+MIN_IMPROVEMENT = 1e-3
+
+
 def _fit_report(problem: _Problem, records: list[dict[str, Any]], o: FitOptions,
                 began: float) -> dict[str, Any]:
     """The report of the best start of ``records``: the fitted values and their uncertainty, the
@@ -465,12 +470,13 @@ def _fit_report(problem: _Problem, records: list[dict[str, Any]], o: FitOptions,
     model = problem.whole
     residual = model.residuals(np.exp(x))  # cached
     nominal = model.residuals(np.ones(len(fits)))
-    kept = _rms(residual) > _rms(nominal)
-    if kept:  # the search ended worse than it began (over the whole trajectory): never written
+    kept = _rms(residual) > _rms(nominal) * (1.0 - MIN_IMPROVEMENT)
+    if kept:  # the search ended no better than it began (over the whole trajectory): never written
         kept_note = (f"the fit did not improve on the spec: over the whole trajectory its best "
                      f"values leave a residual RMS of {1e3 * _rms(residual):.4g} mm, the spec's own "
-                     f"{1e3 * _rms(nominal):.4g} mm; the spec's values are kept (more evaluations, "
-                     "more starts or a longer trajectory may find better)")
+                     f"{1e3 * _rms(nominal):.4g} mm (less than {100 * MIN_IMPROVEMENT:g} % better); the "
+                     "spec's values are kept (more evaluations, more starts or a longer trajectory "
+                     "may find better)")
         x, residual = np.zeros(len(fits)), nominal
     before = model.evaluations
     sigma, corr, judged, near, profile = _judge(model, x, residual, fits,

@@ -50,6 +50,11 @@ GRID_TOLERANCE_S = 1e-6
 #: tip (the spec's frame: the base at the origin, the rod along +x); anywhere along the path within
 #: :data:`TIP_REACH_FACTOR` x the rod's reach (its length plus the stage's travel) of the base.
 TIP_START_FRACTION = 0.25
+#: A magnet path faster than the arm's ``max_speed`` by more than this fraction is warned about
+#: (an arm's log rounds, its controller overshoots a little).
+ARM_SPEED_SLACK = 0.1
+#: m: a magnet path beyond the arm's workspace by more than this is warned about (a tracker's noise).
+WORKSPACE_SLACK_M = 1e-3
 TIP_REACH_FACTOR = 1.5
 
 
@@ -193,6 +198,7 @@ class MagnetDrive:
             raise TrajectoryError(f"{self.path.source}: line {row + 2}: the magnet is {reach[row]:g} m "
                                   f"from the rod's base, beyond any arm ({MAX_REACH:g} m): centimetres or "
                                   "millimetres written as metres?")
+        self._check_arm_motion(case.actuation)
         length = float(spec["robot"]["length"])
         start = self.path.positions[0]
         along = min(max(float(start[0]), 0.0), length)
@@ -224,6 +230,41 @@ class MagnetDrive:
                 raise TrajectoryError(f"{self.path.source}: line {row + 2}: {INSERTION_COLUMN} "
                                       f"{self.path.insertion[row]:g} m is beyond the stage's travel "
                                       f"[{low:g}, {high:g}] m (millimetres for metres?)")
+
+    def _check_arm_motion(self, arm: Any) -> None:
+        """The magnet's motion against the arm of the spec (``arm``: its
+        :class:`~elastica_magnetic_rl.cases.arm_actuation.MagnetArm`): a step faster than any arm
+        (:data:`~elastica_magnetic_rl.cases.steered.MAX_SPEED`: a glitch in the log, or mm for m)
+        refused by line; faster than the spec's ``max_speed``, or outside its ``workspace`` (the
+        box the arm keeps the magnet in: another frame?), warned by line."""
+        from elastica_magnetic.plausibility import warn_implausible
+
+        from ..cases.steered import MAX_SPEED
+
+        path, positions = self.path.source, self.path.positions
+        speeds = np.linalg.norm(np.diff(positions, axis=0), axis=1) / np.diff(self.path.times)
+        if len(speeds) and speeds.max() > MAX_SPEED:
+            row = int(np.flatnonzero(speeds > MAX_SPEED)[0]) + 1
+            step = float(np.linalg.norm(positions[row] - positions[row - 1]))
+            took = float(self.path.times[row] - self.path.times[row - 1])
+            raise TrajectoryError(f"{path}: line {row + 2}: the magnet moves {1e3 * step:.4g} mm in "
+                                  f"{1e3 * took:.3g} ms ({speeds[row - 1]:.3g} m/s), faster than any arm "
+                                  f"({MAX_SPEED:g} m/s): a glitch in the arm's log, or millimetres written "
+                                  "as metres?")
+        fast = speeds > arm.max_speed * (1.0 + ARM_SPEED_SLACK)
+        if fast.any():
+            row = int(np.flatnonzero(fast)[0]) + 1
+            warn_implausible(f"{path}: line {row + 2}: the magnet moves at {speeds[row - 1]:.3g} m/s, faster "
+                             f"than the arm's max_speed ({arm.max_speed:g} m/s) that the case's policies "
+                             "command: another arm, or a glitch in its log?", "actuation.max_speed")
+        low, high = np.asarray(arm.workspace, dtype=float)
+        outside = ((positions < low - WORKSPACE_SLACK_M) | (positions > high + WORKSPACE_SLACK_M)).any(axis=1)
+        if outside.any():
+            row = int(np.flatnonzero(outside)[0])
+            warn_implausible(f"{path}: line {row + 2}: the magnet at {positions[row].tolist()} m is outside "
+                             f"the arm's workspace {[list(b) for b in arm.workspace]} m, the box the case "
+                             "keeps it in: another frame (the base at the origin, the rod along +x)?",
+                             "actuation.workspace")
 
     def check_measured(self, measured: MeasuredTrajectory, spec: Mapping[str, Any]) -> None:
         """Refuse a tracked tip that is not this spec's catheter's in the spec's frame: at t_s 0

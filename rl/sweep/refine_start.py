@@ -37,6 +37,7 @@ def check_refine_output(out: str | os.PathLike, resume: bool,
     the command that continues it). ``FileExistsError`` / ``FileNotFoundError`` / ``ValueError``
     naming it."""
     check_not_owned(out, "refine")  # never a training run's folder (its checkpoint, run.json)
+    _check_refine_place(out)
     held = RunDir(out).checkpoint.exists()
     if held and not resume:
         raise FileExistsError(f"{out} already holds a refined checkpoint (use --resume or --out)")
@@ -49,6 +50,34 @@ def check_refine_output(out: str | os.PathLike, resume: bool,
                 f"{origin} --out {source} --resume")
         raise FileNotFoundError(f"cannot resume: {out} holds no refined {RunDir.CHECKPOINT} "
                                 "(drop --resume to start the refinement)")
+
+
+def _check_refine_place(out: str | os.PathLike) -> None:
+    """A refinement lives in the run it refines (``RUN/refined``, a run's or a refinement's folder)
+    or in a folder of no command's: not inside another command's result (an export, a simulation)
+    nor in a training's case folder beside its seed folders (msr train --resume would refuse that
+    folder). ``ValueError`` naming the folder."""
+    from elastica_magnetic.io import display_path, normalized_path
+    from elastica_magnetic.locks import held_here
+    from elastica_magnetic.result_markers import MARKER, describe_result, read_marker
+    from elastica_magnetic.results import training_run_in
+
+    final = normalized_path(out)
+    for parent in final.parents:
+        if held_here(parent):  # a folder this process writes (msr loop's) holds its steps' runs
+            return
+        marker = read_marker(parent) if (parent / MARKER).is_file() else None
+        if marker is not None and marker.get("kind") in ("train", "refine"):
+            return
+        if marker is not None:
+            raise ValueError(f"--out {display_path(final)}: lies in {display_path(parent)}, which holds "
+                             f"{describe_result(marker)}: a result is replaced whole, so nothing goes inside "
+                             "another; choose another --out (default: RUN/refined)")
+        if (run := training_run_in(parent, final)) is not None:
+            raise ValueError(f"--out {display_path(final)}: lies in {display_path(parent)}, which holds the "
+                             f"runs of a training ({run.name}): that folder holds its runs alone (msr train "
+                             "--resume refuses anything else there); choose another --out (default: "
+                             "RUN/refined)")
 
 
 def _refined_from(source: str | os.PathLike | None) -> str | None:

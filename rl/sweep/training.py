@@ -210,8 +210,8 @@ def train_cases(
 ) -> dict[str, dict[str, Any]]:
     """Train seeds ``seed_offset .. seed_offset + seeds - 1`` of every case in ``cases`` for ``steps``
     environment steps each, in groups of seeds of one case that train side by side in one worker
-    (:func:`_train_group`), ``workers`` groups at a time in separate processes (``spawn``, one progress
-    bar per seed) or Ray tasks.
+    (:func:`_train_group`), ``workers`` groups at a time in separate processes (forked from a fork server, one
+    progress bar per seed) or Ray tasks.
 
     The layout (``workers``, ``seeds_per_simulator``, ``threads``) defaults to :func:`default_layout`, the
     fastest one known for this machine; with one torch thread per worker (the default) the results
@@ -290,6 +290,7 @@ def _plan_sweep(loaded: dict[str, Case], s: SweepSettings, r: _Resolved
                                                    s.address)
     overrides = dict(s.config_overrides or {})
     configs = _seed_configs(loaded, seed_list, r.recipe, overrides)
+    _check_devices(loaded, overrides)
     _warn_precision(configs[seed_list[0]])
     _check_yardstick_warmup(loaded, configs[seed_list[0]])
     first = next(iter(loaded.values()))
@@ -318,6 +319,19 @@ def _check_yardstick_warmup(loaded: dict[str, Case], config: Any) -> None:
         raise ValueError(f"--set yardstick_warmup={config.yardstick_warmup}: the warm-up is played by "
                          f"the case's hand-designed controller, and case(s) {', '.join(without)} have "
                          f"none ({YARDSTICK_CONTROLLERS}): train without it")
+
+
+def _check_devices(loaded: dict[str, Case], overrides: dict[str, Any]) -> None:
+    """The networks' device, ``--device`` or a spec's ``[training.td3] device``, is one this
+    PyTorch has (``ValueError`` naming where it was given, before any run folder is made)."""
+    from ..td3.devices import device_problem
+
+    for case in loaded.values():
+        device = overrides.get("device", case.training.td3.get("device"))
+        problem = None if device is None else device_problem(str(device))
+        if problem is not None:
+            where = "--device" if "device" in overrides else f"{case.source}: [training.td3] device ="
+            raise ValueError(f"{where} {device}: {problem}; use the device \"cpu\"")
 
 
 def _warn_precision(config: Any) -> None:

@@ -29,6 +29,12 @@ MAX_UPDATES_PER_STEP = 64
 #: The largest exploration or target-policy noise (standard deviation, a fraction of the action's
 #: half-range): beyond it nearly every noisy action is clipped at a limit (TD3's noise is 0.1-0.2).
 MAX_NOISE = 1.0
+#: The widest clip of the target policy's noise: the action's full range (2 half-ranges), beyond which
+#: the clip never acts (the noisy target action is clipped to the action's limits anyway).
+MAX_NOISE_CLIP = 2.0
+#: The reddest exploration noise, the exponent beta of its spectrum 1/f^beta: 0 white, 1 pink, 2 red
+#: (a random walk); steeper is a drift over the whole horizon, no exploration step to step.
+MAX_NOISE_COLOR = 2.0
 #: Most cloning steps of a warm-up from the yardstick (each followed by a critic update): a clone
 #: and its critics settle within thousands; a million is hours of updates before the run trains.
 MAX_YARDSTICK_WARMUP = 1_000_000
@@ -218,6 +224,13 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
                 raise ValueError(f"{name} must be at most {MAX_NOISE:g} (a fraction of the action's "
                                  f"half-range; TD3's is 0.2), got {value:g}: every noisy action would sit "
                                  f"at a limit{percent}")
+        if self.target_noise_clip > MAX_NOISE_CLIP:
+            raise ValueError(f"target_noise_clip must be at most {MAX_NOISE_CLIP:g} (the action's full "
+                             f"range, in half-ranges; TD3's is 0.5), got {self.target_noise_clip:g}: a wider "
+                             "clip never acts")
+        if self.noise_color > MAX_NOISE_COLOR:
+            raise ValueError(f"noise_color must be at most {MAX_NOISE_COLOR:g} (the exponent beta of the "
+                             f"noise's spectrum 1/f^beta: 0 white, 1 pink, 2 red), got {self.noise_color:g}")
         if self.noise_horizon < 2:
             raise ValueError(f"noise_horizon must be >= 2 steps, got {self.noise_horizon}")
         if self.yardstick_warmup > MAX_YARDSTICK_WARMUP:

@@ -196,7 +196,8 @@ def test_a_magnet_with_a_body_steers_through_its_map(form):
     """``[actuation.magnet]``: the arm's magnet is a body, its field a map in its own frame scaled
     to the arm's moment (J = mu0 m / V: 1.26 T for 1 A m^2 in 1 cm^3); by default the map holds the
     rod wherever the arm goes (the farthest workspace corner from the base over the stage's travel,
-    plus the rod), its spacing coarsened to 101 nodes a side; the case round-trips and its
+    plus the rod), its spacing coarsened to 101 nodes a side but at most half min_clearance; the case
+    round-trips and its
     environment steps. At the start pose the field at the straight tip, 40 mm from the magnet, is
     the body's (Magpylib's, within the map's error at its spacing)."""
     from elastica_magnetic_rl.envs.vector_env import make_vector_env
@@ -212,7 +213,8 @@ def test_a_magnet_with_a_body_steers_through_its_map(form):
     needed = np.linalg.norm([0.15 + base, 0.1, 0.1]) + 0.05
     if "map_half_width" not in magnet:
         assert body.map_half_width == pytest.approx(needed, rel=1e-12)
-        assert body.map_spacing == pytest.approx(2 * body.map_half_width / 100, rel=1e-12)
+        # 101 nodes a side, finer down to half min_clearance (10 mm)
+        assert body.map_spacing == pytest.approx(min(2 * body.map_half_width / 100, 0.005), rel=1e-12)
     assert body.polarization(1.0) == pytest.approx(4e-7 * np.pi / body.volume, rel=1e-12)
     assert words in case.actuation.describe(0.05)
     assert quiet_load({**case.to_dict(), "name": "catheter"}).to_dict() == case.to_dict()

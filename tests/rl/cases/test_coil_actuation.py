@@ -65,7 +65,7 @@ def test_the_shipped_case_reads_round_trips_and_names_what_it_lacks(shipped):
     ({"coil0.centre": [-24.3, -69.3, -69.3]}, r"coils\[0\]\] centre.*mm written as m"),
     ({"coil0.centre": [0.02, 0.0, 0.03], "coil0.radius": 0.03}, r"coils\[0\].*winding.*within the rod's"),
     ({"coil0.axis": [0.0, 0.0, 0.0]}, r"axis: must be a non-zero direction"),
-    ({"coil0.turns": 0}, r"turns: must be > 0"),
+    ({"coil0.turns": 0}, r"turns: must be >= 1"),
     ({"coil0.windings": 3}, r"coils\[0\]\] windings: unknown key"),
     ({"actuation.current_limit": 8000.0}, r"current_limit: must be <= 1000 \(A\)"),
     ({"actuation.max_slew": 0.001}, r"max_slew.*8000 s to reach the current limit.*A/ms written as A/s"),

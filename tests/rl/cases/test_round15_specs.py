@@ -44,10 +44,10 @@ def test_the_shipped_coil_and_magnet_cases_load_without_a_warning():
 
 
 @pytest.mark.parametrize(("changes", "expected"), [
-    # S1: coils too weak to bend the tip to the box (8 A written in kA; half a turn each)
+    # S1: coils too weak to bend the tip to the box (8 A written in kA; a turn each)
     ({"actuation.current_limit": 0.008}, r"current_limit: the strongest field the source makes at the tip "
                                          r"\(0.0092 mT.*bends it about 0.204 mm.*17 mm the target box"),
-    ({"coil.turns": 0.5}, r"bends it about 0.204 mm.*mA written as A, too few turns"),
+    ({"coil.turns": 1}, r"bends it about 0.409 mm.*mA written as A, too few turns"),
     ({"actuation.current_limit": 0.1}, r"bends it about 2.56 mm"),
     # S3: a current that cannot reach its limit within the episode (kA/s written as A/s)
     ({"actuation.max_slew": 1.0}, r"max_slew: 1 A/s takes 8 s to bring a current from zero to its limit "

@@ -138,4 +138,4 @@ def test_figures_go_into_no_other_commands_result(trained, tmp_path, capsys):
     before = sorted(p.name for p in export.iterdir())
     capsys.readouterr()
     assert msr(["policy", "figures", str(trained), "--out", str(export), "--no-gif"]) == 2
-    assert "figures of" in capsys.readouterr().err and sorted(p.name for p in export.iterdir()) == before
+    assert "no part of it" in capsys.readouterr().err and sorted(p.name for p in export.iterdir()) == before

@@ -126,6 +126,9 @@ def test_the_folder_rules(tmp_path, capsys):
     other = DesignSettings(**{**TINY.__dict__, "seed": 7})
     with pytest.raises(DesignError, match=r"other options \(--seed: 0 then, 7 now\)"):
         run_design("m1-4mT", out, other, resume=True)
+    # round 19 V: an option left out read "None then"
+    with pytest.raises(DesignError, match=r"other options \(--popsize: 3 then, the default now\)"):
+        run_design("m1-4mT", out, DesignSettings(**{**TINY.__dict__, "popsize": None}), resume=True)
     (out / "mine.txt").write_text("a user's note")
     with pytest.raises(OutputPathError, match="files msr did not write \\(mine.txt\\)"):
         run_design("m1-4mT", out, other, force=True)

@@ -268,3 +268,24 @@ def test_a_path_with_a_column_twice_is_refused(tmp_path, steered, quick_spec, ca
     assert main(["real", "identify", str(magnet), str(tip), "--robot", str(spec_file), "--fit", "magnet",
                  "--out", str(tmp_path / "id"), "--no-progress"]) == 2
     assert f"names {column} twice" in capsys.readouterr().err
+
+
+def test_a_magnet_path_the_arm_cannot_have_followed_is_named(tmp_path, quick_spec):
+    """Round 19 S11: a path jumping 60 mm in one 0.01 s row (6 m/s), one faster than the arm's
+    max_speed (0.1 m/s) and one leaving its workspace were fitted without a word."""
+    def drive(name, positions):
+        rows = [(0.01 * k, *p, 1, 0, 0, 0.0) for k, p in enumerate(positions)]
+        return MagnetDrive(read_magnet_path(_write(tmp_path / name, HEADER + ",insertion_m", rows)))
+
+    jump = drive("jump.csv", [(0.09, 0, 0)] * 3 + [(0.15, 0, 0)] * 2)
+    with pytest.raises(TrajectoryError, match=r"jump.csv: line 5: the magnet moves 60 mm in 10 ms \(6 m/s\), "
+                                              r"faster than any arm \(5 m/s\)"):
+        jump.check_spec(quick_spec)
+    fast = drive("fast.csv", [(0.09 + 0.002 * k, 0, 0) for k in range(5)])  # 0.2 m/s
+    with pytest.warns(UserWarning, match=r"fast.csv: line 3: the magnet moves at 0.2 m/s, faster than the "
+                                         r"arm's max_speed \(0.1 m/s\)"):
+        fast.check_spec(quick_spec)
+    away = drive("away.csv", [(0.09, 0.099 + 0.0008 * k, 0) for k in range(5)])  # y past 0.1 m + 1 mm
+    with pytest.warns(UserWarning, match=r"away.csv: line 5: the magnet at .* is outside the arm's "
+                                         r"workspace"):
+        away.check_spec(quick_spec)
