@@ -11,9 +11,25 @@ _INTERRUPTED_STATUS = 130
 
 
 def main() -> int:
+    # a Ctrl-C that lands in a callback of the import machinery (a module lock's weakref callback)
+    # cannot be raised there: Python prints it as "ignored" and goes on; it is kept and obeyed here
+    swallowed: list[BaseException] = []
+    previous = sys.unraisablehook
+
+    def hook(unraisable) -> None:
+        if isinstance(unraisable.exc_value, KeyboardInterrupt):
+            swallowed.append(unraisable.exc_value)
+        else:
+            previous(unraisable)
+
+    sys.unraisablehook = hook
     try:
         from elastica_magnetic.cli.app import main as run
     except KeyboardInterrupt:
+        swallowed.append(KeyboardInterrupt())
+    finally:
+        sys.unraisablehook = previous
+    if swallowed:
         print("msr: interrupted (SIGINT) while starting up: nothing was done", file=sys.stderr)
         return _INTERRUPTED_STATUS
     return run()

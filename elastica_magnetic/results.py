@@ -356,14 +356,19 @@ def check_enclosing(final: Path, option: str) -> None:
                                   f"there); choose another {option}")
 
 
-#: How the run folders of a training are named in its case folder (``seed0``, ``seed1``...).
+#: How the run folders of a training are named in its case folder (``seed0``, ``seed1``...), and
+#: the summary ``msr train`` writes beside them.
 TRAINING_RUNS = "seed*"
+TRAINING_SUMMARY = "summary.json"
 
 
 def training_run_in(folder: Path, within: Path | None = None) -> Path | None:
-    """A run of ``msr train`` in ``folder`` (a training's case folder has no marker of its own:
-    its runs each have one), or ``None``; a run that is ``within`` or holds it is not counted (the
-    path being judged: a run itself is judged by its own marker)."""
+    """A run of ``msr train`` in ``folder`` when it is a training's case folder (its summary and its
+    runs: it has no marker of its own, its runs each have one), or ``None``; a run that is
+    ``within`` or holds it is not counted (the path being judged: a run itself is judged by its own
+    marker). A run copied alone into a folder does not make that folder a training's."""
+    if not (folder / TRAINING_SUMMARY).is_file():
+        return None
     for found in sorted(folder.glob(f"{TRAINING_RUNS}/{MARKER}")):
         run = found.parent
         if within is not None and (run == within or run in within.parents):

@@ -41,3 +41,30 @@ def test_a_sigint_soon_after_start_never_shows_a_traceback():
     out, err = process.communicate(timeout=120)
     assert process.returncode == 130, (out, err)
     assert "Traceback" not in err and "interrupted (SIGINT)" in err, err
+
+
+def test_an_interruption_swallowed_by_the_import_machinery_still_ends_the_command(monkeypatch, capsys):
+    """A SIGINT that lands in a callback of the import machinery (a module lock's weakref callback)
+    is printed by Python as ignored and the import goes on: msr ran the whole command (seen in CI).
+    It is kept and obeyed: one line, status 130."""
+    import weakref
+
+    real_import = builtins.__import__
+
+    class Lock:
+        pass
+
+    def interrupt(_):
+        raise KeyboardInterrupt
+
+    def interrupted(name, *args, **kwargs):
+        if name == "elastica_magnetic.cli.app":
+            lock = Lock()
+            ref = weakref.ref(lock, interrupt)
+            del lock  # the callback raises where nothing can catch it
+            assert ref() is None
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", interrupted)
+    assert msr_entry.main() == 130
+    assert capsys.readouterr().err == "msr: interrupted (SIGINT) while starting up: nothing was done\n"
