@@ -88,6 +88,7 @@ __all__ = [
     "load_case",
     "PAPER_CASES",
     "YARDSTICK_CONTROLLERS",
+    "warmup_refusal",
     "with_randomize",
 ]
 
@@ -299,8 +300,7 @@ class Case:
 #: Which cases have a hand-designed controller to play a warm-up (:attr:`Case.has_yardstick_controller`),
 #: in words, for the messages that refuse ``yardstick_warmup``.
 YARDSTICK_CONTROLLERS = ("a goto task's steering field is one; a crawl's rotating field once [yardstick] "
-                         "period is recorded: msr field baseline --case CASE --set-yardstick FILE writes it; "
-                         "a catheter's steering law acts on its own environment")
+                         "period is recorded; a catheter's steering law acts on its own environment")
 
 
 def case_names() -> tuple[str, ...]:
@@ -402,14 +402,26 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
         top.raw(key, None)
     top.finish()
     case = Case(name, description, robot, actuation, task, training, yardstick, source, design)
-    warmup = training.td3.get("yardstick_warmup")
-    if warmup and not case.has_yardstick_controller:  # msr train would refuse it: case check too
-        fix = ("give [yardstick] period or remove the setting" if case.field_actuated
-               else f"a case steered by [actuation] kind = \"{actuation.kind}\" has none: remove the setting")
-        raise SpecError(f"{source}: [training.td3] yardstick_warmup = {warmup}: the warm-up is played by the "
-                        f"case's hand-designed controller, and this case has none ({YARDSTICK_CONTROLLERS}): "
-                        f"{fix}")
+    if not case.field_actuated and training.td3.get("yardstick_warmup"):  # no command could play it
+        raise SpecError(warmup_refusal(case))
     return case
+
+
+def warmup_refusal(case: Case) -> str | None:
+    """Why ``msr train`` cannot train ``case`` (``None`` when it can): its ``[training.td3]
+    yardstick_warmup`` needs the case's hand-designed controller, which a steered case never has
+    and a field-driven crawl has once ``[yardstick] period`` is recorded. Such a crawl's spec is
+    valid until then (a sweep, ``msr field baseline --set-yardstick`` or ``msr loop``, records it):
+    only the training refuses it, and ``msr case check`` warns."""
+    warmup = case.training.td3.get("yardstick_warmup")
+    if not warmup or case.has_yardstick_controller:
+        return None
+    fix = ("give [yardstick] period (msr field baseline --case SPEC --set-yardstick FILE writes it; msr "
+           "loop finds it itself) or remove the setting" if case.field_actuated
+           else f"a case steered by [actuation] kind = \"{case.actuation.kind}\" has none: remove the "
+           "setting")
+    return (f"{case.source}: [training.td3] yardstick_warmup = {warmup}: the warm-up is played by the "
+            f"case's hand-designed controller, and this case has none ({YARDSTICK_CONTROLLERS}): {fix}")
 
 
 def _check_task_and_actuation(kind: str, actuation: Actuation | SteeringActuation, source: str) -> None:

@@ -15,7 +15,7 @@ from elastica_magnetic.plausibility import ImplausibleValueWarning
 from elastica_magnetic.spec_check import Issue, SpecCheck, check_robot, check_spec, format_check
 from elastica_magnetic.specfile import describe_robot, read_spec
 
-from .case import Case, case_names, load_case
+from .case import Case, case_names, load_case, warmup_refusal
 from .field_actuation import Actuation
 
 __all__ = ["RobotOnlySpec", "case_summary", "check_case", "check_robot_only", "check_with_warnings",
@@ -112,10 +112,17 @@ def check_case(case: Case, sag: bool = True) -> SpecCheck:
     # a magnet on an arm: the field its start pose makes at the straight tip sets the scale
     field = (case.field_limit if case.field_actuated else
              case.actuation.field_at_tip(float(case.robot.tables["robot"]["length"])))
-    return check_robot(case.robot, field_limit=field, task_kind=case.task.kind,
-                       yardstick_m=case.yardstick.distance_10s if case.field_actuated else None,
-                       name=case.name, source=str(case.source), sag=sag,
-                       field_name="field limit" if case.field_actuated else case.actuation.tip_field_words)
+    check = check_robot(case.robot, field_limit=field, task_kind=case.task.kind,
+                        yardstick_m=case.yardstick.distance_10s if case.field_actuated else None,
+                        name=case.name, source=str(case.source), sag=sag,
+                        field_name="field limit" if case.field_actuated else case.actuation.tip_field_words)
+    refusal = warmup_refusal(case)
+    if refusal is None:
+        return check
+    # valid for a sweep or msr loop, which record the period; msr train refuses it until then
+    issue = Issue("warning", "[training.td3] yardstick_warmup",
+                  f"msr train refuses it: {refusal.removeprefix(f'{case.source}: ')}")
+    return dataclasses.replace(check, issues=[*check.issues, issue])
 
 
 def case_summary(case: Case, check: SpecCheck | None = None) -> str:

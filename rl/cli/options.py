@@ -8,7 +8,8 @@ import argparse
 from elastica_magnetic.cli import print_result
 
 __all__ = ["CASE_HELP", "CHECKPOINT_HELP", "FORCE_HELP", "TARGET_HELP", "case_option", "checked_spec_option",
-           "field_case_option", "print_rollout_result", "ring_option", "target_option"]
+           "field_case_option", "print_rollout_result", "ring_option", "target_option",
+           "trainable_case_option"]
 
 CHECKPOINT_HELP = ("which actor of a run: auto (default: the final actor and best.pt evaluated in "
                    "the accurate physics from a zero field, the farther used), final, best, or a "
@@ -74,6 +75,18 @@ def case_option(value: str):
         return load_case(value)
     except SpecError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def trainable_case_option(value: str):
+    """``msr train --case``: :func:`case_option`, and a case whose ``yardstick_warmup`` has no
+    controller to play it refused (:func:`~elastica_magnetic_rl.cases.case.warmup_refusal`)."""
+    from ..cases.case import warmup_refusal
+
+    case = case_option(value)
+    refusal = warmup_refusal(case)
+    if refusal:
+        raise argparse.ArgumentTypeError(refusal)
+    return case
 
 
 def field_case_option(value: str):

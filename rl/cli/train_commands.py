@@ -17,7 +17,7 @@ from elastica_magnetic.io import display_path
 
 from ..cases.recipes import RECIPE_SUMMARIES, RECIPES
 from ..runfiles.rundir import CaseDir, RunDir
-from .options import CASE_HELP, CHECKPOINT_HELP, case_option, print_rollout_result
+from .options import CASE_HELP, CHECKPOINT_HELP, print_rollout_result, trainable_case_option
 
 if TYPE_CHECKING:
     from ..cases.case import Case
@@ -42,7 +42,7 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
         "store the complete case spec); OUT/<case>/summary.json collects the final mean episode "
         "returns of every seed of the case.",
     )
-    p.add_argument("--case", type=case_option, required=True, nargs="+", action="extend",
+    p.add_argument("--case", type=trainable_case_option, required=True, nargs="+", action="extend",
                    help=CASE_HELP + "; several make one sweep (cases x seeds jobs)")
     p.add_argument("--seeds", type=int, default=8, help="number of seeds (default 8)")
     p.add_argument("--seed-offset", type=int, default=0, help="first seed (default 0)")

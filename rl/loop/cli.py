@@ -73,6 +73,7 @@ def _settings(args: argparse.Namespace, skip: tuple[str, ...] = ()):
 
     from elastica_magnetic.hardware.calibration import load_calibration
 
+    from ..cases.case import warmup_refusal
     from .settings import LoopSettings
 
     if args.calibration is not None and "firmware" in skip:
@@ -84,6 +85,11 @@ def _settings(args: argparse.Namespace, skip: tuple[str, ...] = ()):
                                "JSON, e.g. stm32/calibration/default.json or msr real calibrate's)")
         calibration = load_calibration(args.calibration)  # its named error now, not after the training
         _check_calibration_drives(calibration, args.calibration, args.spec)
+    if args.quick and "train" not in skip and warmup_refusal(args.spec):
+        raise CommandError(f"--quick: {args.spec.source}: [training.td3] yardstick_warmup needs [yardstick] "
+                           "period, and a smoke run's sweep does not record its field (too short to be a "
+                           "yardstick a training may clone): give [yardstick] period in the spec, or run the "
+                           "loop without --quick (its sweep records the field)")
     base = LoopSettings.smoke() if args.quick else LoopSettings()
     changes = {"seeds": args.seeds, "workers": args.workers,
                "robustness_physics": args.physics_robustness,

@@ -24,8 +24,9 @@ from typing import Any
 
 from elastica_magnetic.locks import check_lock_name
 from elastica_magnetic.plausibility import ImplausibleValueWarning, SettingNotAppliedWarning
+from elastica_magnetic.specfile import SpecError
 
-from ..cases.case import Case, case_from_dict, load_case
+from ..cases.case import Case, case_from_dict, load_case, warmup_refusal
 from ..cases.recipes import crawler_config
 from ..envs.env import make_env
 from ..runfiles.locking import check_unlocked, held_run_folders, mark_run_folder
@@ -318,7 +319,8 @@ def _check_yardstick_warmup(loaded: dict[str, Case], config: Any) -> None:
     if without:
         raise ValueError(f"--set yardstick_warmup={config.yardstick_warmup}: the warm-up is played by "
                          f"the case's hand-designed controller, and case(s) {', '.join(without)} have "
-                         f"none ({YARDSTICK_CONTROLLERS}): train without it")
+                         f"none ({YARDSTICK_CONTROLLERS}): train without it, or a crawl on the spec "
+                         "msr field baseline --case CASE --set-yardstick FILE writes (it records the period)")
 
 
 def _check_devices(loaded: dict[str, Case], overrides: dict[str, Any]) -> None:
@@ -471,6 +473,9 @@ def _load_cases(cases: Sequence[str | Path | Case]) -> dict[str, Case]:
     loaded: dict[str, Case] = {}
     for case in cases:
         c = load_case(case)
+        refusal = warmup_refusal(c)
+        if refusal:
+            raise SpecError(refusal)
         loaded.setdefault(c.name, c)
         if loaded[c.name].to_dict() != c.to_dict():
             raise ValueError(f"two different cases are named {c.name!r}: rename one spec file")
