@@ -68,7 +68,8 @@ from .locks import (
     release_claim,
 )
 from .result_markers import MANIFEST, MARKER, read_marker
-from .results import ResultExistsError, check_enclosing, fsync_tree, remove_tree
+from .result_places import ResultExistsError, check_enclosing
+from .results import fsync_tree, remove_tree
 
 __all__ = ["FileKind", "FileSet", "ResultFile", "check_files", "check_result_file",
            "interrupted_replacements", "recorded_files", "recover_files", "replace_files", "result_file",

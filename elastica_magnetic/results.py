@@ -92,16 +92,13 @@ from .io import (
     OutputPathError,
     display_path,
     normalized_path,
-    output_path_problem,
     unwritable_reason,
 )
 from .locks import (
     LOCK_SUFFIX,
     FolderLock,
-    FolderLockedError,
     claim,
     describe_owner,
-    held_here,
     host_name,
     killed_writers_temporary,
     live_owner,
@@ -119,6 +116,14 @@ from .result_markers import (
     short_list,
     write_marker,
 )
+from .result_places import (
+    ResultExistsError,
+    building,
+    check_creatable,
+    check_output_path,
+    inside_building,
+    swap_target,
+)
 
 __all__ = [
     "LeftoverWarning",
@@ -127,19 +132,11 @@ __all__ = [
     "aborted_results",
     "remove_tree",
     "fsync_tree",
-    "check_enclosing",
-    "check_not_another_result",
     "check_result_folder",
     "interrupted",
-    "training_run_in",
     "recover",
     "result_folder",
 ]
-
-
-class ResultExistsError(OutputPathError):
-    """An output folder that holds something the command will not replace (another command's or
-    another robot's result, files it did not write, or its own result without ``force``)."""
 
 
 class LeftoverWarning(UserWarning):
@@ -149,12 +146,6 @@ class LeftoverWarning(UserWarning):
 
 
 _aborted: list[Path] = []
-#: The temporary folders (``.X.msr-new-...``) this process is building a result in: a result
-#: folder written inside one (a command writing another's result into its own, as the baseline
-#: sweep does) is msr's, not the user's, and is not listed by :func:`aborted_results`.
-_building: set[str] = set()
-
-
 def aborted_results() -> list[Path]:
     """The result folders (as the caller named them) whose writing an exception or a signal
     stopped in this process, each left as it was; oldest first. msr's own temporary folders (a
@@ -195,9 +186,9 @@ def check_result_folder(
     error raised here, or of the next :func:`result_folder` on ``out`` in this process.
     """
     final = normalized_path(out)
-    _check_path(final, option)
-    target = _target(final, option)
-    _check_creatable(target, option)
+    check_output_path(final, option)
+    target = swap_target(final, option)
+    check_creatable(target, option)
     claimed = target.parent.is_dir()  # no lock file in a folder this check would have to create
     notes: list[str] = []
     if claimed:  # held until the write: a second writer of ``out`` is refused now, not after its work
@@ -323,96 +314,6 @@ def _mtime(path: Path) -> float:
     return path.stat().st_mtime if path.exists() else 0.0
 
 
-def _check_path(final: Path, option: str) -> None:
-    if (problem := output_path_problem(final)) is not None:
-        raise OutputPathError(f"{option} {display_path(final)}: {problem}")
-    for parent in (final, *final.parents):
-        if parent.exists() and not parent.is_dir():
-            raise OutputPathError(f"{option} {display_path(final)}: {display_path(parent)} is a "
-                                  "file, not a folder")
-    check_enclosing(final, option)
-
-
-def check_enclosing(final: Path, option: str) -> None:
-    """Refuse a folder or file inside another command's result (replaced whole, it would take this one
-    with it, or be left mixed) or inside a folder another process is writing: a result of its own
-    goes beside them. A folder this process writes (``msr loop``'s steps, a result it builds) may
-    hold results."""
-    for parent in final.parents:
-        if held_here(parent) or _inside_building(parent):
-            return
-        if (owner := live_owner(parent)) is not None:
-            raise FolderLockedError(f"{option} {display_path(final)}: lies in {display_path(parent)}, which "
-                                    f"{describe_owner(owner)} is writing: a result goes in a folder of "
-                                    f"its own; choose another {option}")
-        if (parent / MARKER).is_file() and (marker := read_marker(parent)) is not None:
-            raise OutputPathError(f"{option} {display_path(final)}: lies in {display_path(parent)}, which "
-                                  f"holds {describe_result(marker)}: a result is replaced whole, so "
-                                  f"nothing goes inside another; choose another {option}")
-        if (run := training_run_in(parent, final)) is not None:
-            raise OutputPathError(f"{option} {display_path(final)}: lies in {display_path(parent)}, which "
-                                  f"holds the runs of a training ({run.name}, `msr train`): that folder "
-                                  "holds its runs alone (msr train --resume refuses anything else "
-                                  f"there); choose another {option}")
-
-
-#: How the run folders of a training are named in its case folder (``seed0``, ``seed1``...), and
-#: the summary ``msr train`` writes beside them.
-TRAINING_RUNS = "seed*"
-TRAINING_SUMMARY = "summary.json"
-
-
-def training_run_in(folder: Path, within: Path | None = None) -> Path | None:
-    """A run of ``msr train`` in ``folder`` when it is a training's case folder (its summary and its
-    runs: it has no marker of its own, its runs each have one), or ``None``; a run that is
-    ``within`` or holds it is not counted (the path being judged: a run itself is judged by its own
-    marker). A run copied alone into a folder does not make that folder a training's."""
-    if not (folder / TRAINING_SUMMARY).is_file():
-        return None
-    for found in sorted(folder.glob(f"{TRAINING_RUNS}/{MARKER}")):
-        run = found.parent
-        if within is not None and (run == within or run in within.parents):
-            continue
-        marker = read_marker(run)
-        if marker is not None and marker.get("kind") == "train":
-            return run
-    return None
-
-
-def check_not_another_result(folder: str | Path, option: str) -> None:
-    """A folder files are put into (figures, a set of files: not a result of their own) is not
-    another command's result and does not lie in one: there they would be files that result does
-    not know, removed or refused when it is replaced."""
-    final = normalized_path(folder)
-    if (final / MARKER).is_file() and (marker := read_marker(final)) is not None:
-        raise ResultExistsError(f"{option} {display_path(final)}: holds {describe_result(marker)}: files put "
-                                "there are no part of it (replacing that result would remove them); choose "
-                                f"another {option}")
-    check_enclosing(final, option)
-
-
-def _check_creatable(target: Path, option: str) -> None:
-    """The folder that will receive ``target``'s temporary sibling (its parent, or the nearest
-    existing folder above, where the parents will be made) must be writable: found before any
-    work, not when the result is swapped in."""
-    existing = next(p for p in target.parents if p.exists())
-    if (reason := unwritable_reason(existing)) is not None:
-        raise OutputPathError(f"{option} {display_path(target)}: cannot write in "
-                              f"{display_path(existing)}: {reason}")
-
-
-def _target(final: Path, option: str) -> Path:
-    """The real folder that will be swapped (links resolved), refused when it cannot be renamed:
-    the file system's root, or the current folder or one above it (a shell would be left in a
-    deleted folder)."""
-    target = normalized_path(final)
-    cwd = Path(os.path.realpath(os.getcwd()))
-    if target == target.parent or target == cwd or target in cwd.parents:
-        raise OutputPathError(f"{option} {display_path(final)}: is the current folder or one above "
-                              "it; a result folder is replaced by renaming it, so give a folder inside it")
-    return target
-
-
 def _leftovers(target: Path) -> dict[str, list[Path]]:
     prefix = f".{target.name}.msr-"
     found: dict[str, list[Path]] = {"new": [], "old": [], "trash": []}
@@ -470,7 +371,7 @@ def recover(out: str | Path, *, option: str = "--out") -> list[str]:
     lock; returns what was done (empty: nothing to do). Raises
     :class:`~elastica_magnetic.locks.FolderLockedError` when a live process is writing ``out``."""
     final = normalized_path(out)
-    target = _target(final, option)
+    target = swap_target(final, option)
     with FolderLock(target, option=option) as lock:
         return lock.notes + _recover_locked(target, final)
 
@@ -604,8 +505,8 @@ def result_folder(
     final = normalized_path(out)
     shown = display_path(final)
     known = tuple(known_files)
-    _check_path(final, option)
-    target = _target(final, option)
+    check_output_path(final, option)
+    target = swap_target(final, option)
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -631,38 +532,28 @@ def result_folder(
                                       f"{exc.strerror or exc}") from None
             result = ResultFolder(final, staging, kind, subject, replaced, notes, dict(info or {}))
             swapped = False
-            building = os.path.realpath(staging)
-            _building.add(building)
-            try:
-                yield result
-                _write_marker(result)
-                fsync_tree(staging)
-                with signals_held():
-                    _check_unchanged(target, checked, staging, option, shown)
-                    _swap(staging, target)
-                    swapped = True
-            except BaseException as exc:
-                remove_tree(staging)
-                if not swapped and not _inside_building(target):
-                    _aborted.append(Path(shown))
-                if isinstance(exc, OutputPathError):  # name the files where the user will look
-                    text = str(exc).replace(str(staging), shown)
-                    raise type(exc)(f"{text}; {shown} is left as it was") from exc
-                if isinstance(exc, OSError):
-                    raise OutputPathError(f"{option} {shown}: cannot write the result: "
-                                          f"{exc.strerror or exc}; {shown} is left as it was") from exc
-                raise
-            finally:
-                _building.discard(building)
+            with building(staging):
+                try:
+                    yield result
+                    _write_marker(result)
+                    fsync_tree(staging)
+                    with signals_held():
+                        _check_unchanged(target, checked, staging, option, shown)
+                        _swap(staging, target)
+                        swapped = True
+                except BaseException as exc:
+                    remove_tree(staging)
+                    if not swapped and not inside_building(target):
+                        _aborted.append(Path(shown))
+                    if isinstance(exc, OutputPathError):  # name the files where the user will look
+                        text = str(exc).replace(str(staging), shown)
+                        raise type(exc)(f"{text}; {shown} is left as it was") from exc
+                    if isinstance(exc, OSError):
+                        raise OutputPathError(f"{option} {shown}: cannot write the result: "
+                                              f"{exc.strerror or exc}; {shown} is left as it was") from exc
+                    raise
     finally:
         release_claim(target)  # the pre-check's hold (the lock itself goes with this block)
-
-
-def _inside_building(target: Path) -> bool:
-    """Whether ``target`` is, or is inside, a temporary folder this process is building a result
-    in (then its writing stopped is not the user's folder left as it was)."""
-    real = Path(os.path.realpath(target))
-    return any(str(folder) in _building for folder in (real, *real.parents))
 
 
 def _tree_state(folder: Path) -> dict[str, tuple[int, int]] | None:

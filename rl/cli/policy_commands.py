@@ -211,7 +211,7 @@ def seeds_command(args: argparse.Namespace) -> int:
     if not policies.is_dir():
         raise CommandError(f"--policies {policies}: no such folder")
     if args.figure is not None:  # before any figure is drawn
-        from elastica_magnetic.results import check_not_another_result
+        from elastica_magnetic.result_places import check_not_another_result
 
         check_not_another_result(args.figure, "--figure")
         check_files(args.figure, [name for case in args.case for name in _seed_figure_names(case)],

@@ -533,7 +533,7 @@ def _check_not_another_result(path: Path, out: Path) -> None:
     folder of no command's: into another command's result they would be files it does not know,
     removed or refused when that result is replaced."""
     from elastica_magnetic.io import normalized_path
-    from elastica_magnetic.results import check_not_another_result
+    from elastica_magnetic.result_places import check_not_another_result
 
     if normalized_path(out) != normalized_path(path):
         check_not_another_result(out, "--out")

@@ -30,7 +30,7 @@ from elastica_magnetic.io import (
     read_json,
 )
 from elastica_magnetic.plausibility import SettingNotAppliedWarning
-from elastica_magnetic.results import ResultExistsError, check_enclosing
+from elastica_magnetic.result_places import ResultExistsError, check_enclosing
 
 from ..cases.case import Case
 from ..cases.tasks import GotoTask, ReachTask

@@ -60,7 +60,7 @@ def _check_refine_place(out: str | os.PathLike) -> None:
     from elastica_magnetic.io import display_path, normalized_path
     from elastica_magnetic.locks import held_here
     from elastica_magnetic.result_markers import MARKER, describe_result, read_marker
-    from elastica_magnetic.results import training_run_in
+    from elastica_magnetic.result_places import training_run_in
 
     final = normalized_path(out)
     for parent in final.parents:
