@@ -20,7 +20,8 @@ A *variation* is a group of spec keys varied together over a range, written
 
 The default set (:data:`DEFAULT_RANGES`, what a silicone-NdFeB robot on a lab surface varies by):
 magnetization magnitude +-15 %, Young's and shear modulus +-20 % together, static and kinetic
-friction +-25 % together, density +-10 %.
+friction +-25 % together, density +-10 %; and for a catheter steered by a magnet on an arm, the
+magnet's moment +-10 % (:data:`SOURCE_RANGES`).
 
 A *variant* sets every variation to one value (a factor, or an absolute value); :func:`design`
 lists the nominal robot, the one-at-a-time variants (each variation at its low and high end, the
@@ -43,6 +44,7 @@ import numpy as np
 
 __all__ = [
     "DEFAULT_RANGES",
+    "SOURCE_RANGES",
     "GROUPS",
     "Variant",
     "Variation",
@@ -77,6 +79,11 @@ DEFAULT_RANGES: dict[str, tuple[float, float]] = {
     "modulus": (0.8, 1.2),
     "friction": (0.75, 1.25),
     "density": (0.9, 1.1),
+}
+#: The default set's variations of a steering source, for the cases that have one: a magnet arm's
+#: moment +-10 % (an NdFeB grade's remanence spread and the magnet's size tolerance).
+SOURCE_RANGES: dict[str, tuple[float, float]] = {
+    "magnet": (0.9, 1.1),
 }
 #: Most variations whose corners are listed (2 ** 8 = 256 variants).
 MAX_CORNER_VARIATIONS = 8
@@ -413,10 +420,11 @@ def resolve_variations(variations: Sequence[Variation], spec: Mapping[str, Any],
 
 
 def default_variations(spec: Mapping[str, Any]) -> list[Variation]:
-    """The default set (:data:`DEFAULT_RANGES`) for ``spec``, each group with its keys in this
-    spec (:func:`group_keys`); a group without keys is dropped."""
+    """The default set (:data:`DEFAULT_RANGES`, and :data:`SOURCE_RANGES` for a case steered by a
+    source) for ``spec``, each group with its keys in this spec (:func:`group_keys`); a group
+    without keys is dropped."""
     out = []
-    for name, (low, high) in DEFAULT_RANGES.items():
+    for name, (low, high) in {**DEFAULT_RANGES, **SOURCE_RANGES}.items():
         keys = group_keys(name, spec)
         if keys:
             out.append(Variation(name, keys, low, high))

@@ -12,7 +12,14 @@ from pathlib import Path
 from elastica_magnetic.cli import CommandError, command_name, duration_option, number, output_path
 from elastica_magnetic.progress import progress_bar
 
-from ..cases.variations import DEFAULT_RANGES, GROUPS, VariationError, magnitude_of, parse_variation
+from ..cases.variations import (
+    DEFAULT_RANGES,
+    GROUPS,
+    SOURCE_RANGES,
+    VariationError,
+    magnitude_of,
+    parse_variation,
+)
 from .identify import MAX_EVALUATIONS, STARTS
 
 #: Largest ``--noise-m`` (m) anywhere, and the largest as a fraction of the body length: a noise
@@ -21,7 +28,8 @@ MAX_NOISE_M = 0.1
 MAX_NOISE_LENGTHS = 0.1
 
 _DEFAULT_SET = ", ".join(f"{name} ({'+'.join(GROUPS[name])}) x{low:g}:{high:g}"
-                         for name, (low, high) in DEFAULT_RANGES.items())
+                         for name, (low, high) in DEFAULT_RANGES.items()) + "; a magnet arm's " + ", ".join(
+    f"{name} ({'+'.join(GROUPS[name])}) x{low:g}:{high:g}" for name, (low, high) in SOURCE_RANGES.items())
 
 
 def _field_case_name(value: str) -> str:
@@ -65,7 +73,10 @@ def _add_robustness_command(sub: argparse._SubParsersAction) -> None:
         "run the policy closed loop, on robots whose spec values are varied; report each "
         "variant's distance, the nominal, worst and 10th-percentile distance and their fraction "
         "of the case's yardstick; write OUT/robustness.json, OUT/robustness.png and "
-        "OUT/fields.csv (the waveform played).",
+        "OUT/fields.csv (the waveform played). A tip-reach policy (a catheter steered by a magnet "
+        "on an arm or by coils): the policy and the case's steering yardstick each steer every "
+        "varied catheter to the case's 20 held-out targets; report the targets each reaches "
+        "(OUT/targets.csv in place of the waveform).",
     )
     p.add_argument("source", metavar="POLICY_OR_FIELD_CSV",
                    help="a shipped policy name (m1-10mT, ...), a run folder, a checkpoint, or a "
@@ -88,7 +99,8 @@ def _add_robustness_command(sub: argparse._SubParsersAction) -> None:
                    help="leave out the corners (every combination of range ends)")
     p.add_argument("--open-loop-only", action="store_true", help="for a policy: skip the closed loop")
     p.add_argument("--physics", choices=("training", "accurate"), default="training")
-    p.add_argument("--duration", type=duration_option(), default=10.0, help="s (default 10)")
+    p.add_argument("--duration", type=duration_option(), default=None,
+                   help="s (default 10; a tip-reach policy: its task's episode)")
     p.add_argument("--workers", type=number("processes", 1, 1024, integer=True), default=None,
                    help=f"worker processes (default: every core, {os.cpu_count()} here)")
     p.add_argument("--out", type=output_path, default="out/robustness",
@@ -171,6 +183,7 @@ def robustness_command(args: argparse.Namespace) -> int:
     from .output import prepare_output_folder
     from .report import robustness_table
     from .robustness import plan_robustness, run_robustness, write_robustness
+    from .tip_robustness import TipRobustnessPlan
 
     if args.seed is not None and not args.samples:  # it would be recorded but change nothing
         raise CommandError(f"--seed {args.seed}: seeds the Latin-hypercube draws of --samples, and "
@@ -187,6 +200,11 @@ def robustness_command(args: argparse.Namespace) -> int:
     if args.open_loop_only and plan.policy is None:
         raise CommandError(f"--open-loop-only: {args.source} is a field CSV, played open loop only "
                            "(no policy to close the loop with); leave the option out")
+    tip = isinstance(plan, TipRobustnessPlan)
+    if args.open_loop_only and tip:
+        raise CommandError(f"--open-loop-only: {args.source} is a policy of the tip-reach case "
+                           f"{plan.case.name!r}, which steers from the tip it sees: its study is closed "
+                           "loop only (the policy and the yardstick); leave the option out")
     report = run_robustness(plan, closed_loop=not args.open_loop_only, workers=args.workers,
                             progress=not args.no_progress)
     out = write_robustness(report, plan, args.out, force=args.force)
@@ -194,7 +212,8 @@ def robustness_command(args: argparse.Namespace) -> int:
         print(json.dumps({**report, "out": str(out)}, indent=2, default=str))
     else:
         print(robustness_table(report))
-        print(f"\nwritten: {out / 'robustness.json'}, {out / 'robustness.png'}, {out / 'fields.csv'}")
+        played = out / ("targets.csv" if tip else "fields.csv")
+        print(f"\nwritten: {out / 'robustness.json'}, {out / 'robustness.png'}, {played}")
     return 0
 
 

@@ -10,9 +10,11 @@ import numpy as np
 
 from elastica_magnetic.io import atomic_save
 
-__all__ = ["plot_identify", "plot_robustness", "robustness_table"]
+__all__ = ["plot_identify", "plot_robustness", "plot_tip_robustness", "robustness_table"]
 
 _MODE_NAMES = {"open_loop": "open loop", "closed_loop": "closed loop"}
+#: A tip-reach study's two controllers (:data:`~elastica_magnetic_rl.sim2real.tip_robustness.TIP_MODES`).
+_TIP_MODE_NAMES = {"policy": "policy", "yardstick": "yardstick"}
 
 
 def _mm(distance: float | None, fraction: float | None = None) -> str:
@@ -26,7 +28,10 @@ def robustness_table(report: dict[str, Any]) -> str:
     """The report as text: one line per variant (distance in mm and, in brackets, the fraction of
     the yardstick where the run is comparable with it, 10 s of the accurate physics), then per
     mode the nominal, worst and 10th-percentile distance (and, in another physics or duration,
-    the worst and 10th percentile as fractions of the nominal robot in the same physics)."""
+    the worst and 10th percentile as fractions of the nominal robot in the same physics). A tip-reach
+    study's: :func:`tip_robustness_table`."""
+    if "targets_m" in report:
+        return tip_robustness_table(report)
     modes = [m for m in _MODE_NAMES if m in report["summary"]]
     width = max(len(v["label"]) for v in report["variants"])
     yard = report["yardstick_m"]
@@ -123,6 +128,94 @@ def plot_robustness(report: dict[str, Any], path: str | Path) -> Path:
     fig.suptitle(f"{report['case']}, {report['physics']} physics, {report['duration_s']:g} s: "
                  f"{worst}\nlines: one parameter at a time; points: all corners and samples",
                  fontsize=10)
+    path = Path(path)
+    atomic_save(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
+    return path
+
+
+def _reached(run: dict[str, Any], targets: int) -> str:
+    if run.get("successes") is None:
+        return "failed"
+    return f"{run['successes']}/{targets} ({1e3 * run['median_m']:.2f} mm)"
+
+
+def tip_robustness_table(report: dict[str, Any]) -> str:
+    """A tip-reach study as text: per variant, the targets the policy and the yardstick reached and
+    the median final distance (mm), then per controller the nominal, worst and mean successes, and on
+    how many variants the policy reached at least as many targets as the yardstick."""
+    n = len(report["targets_m"])
+    width = max(len(v["label"]) for v in report["variants"])
+    lines = [f"{report['case']}: {n} held-out targets, tolerance {1e3 * report['tolerance_m']:g} mm, "
+             f"{report['physics']} physics, {report['duration_s']:g} s each; reached (median final "
+             "distance)", "",
+             f"{'variant':<{width}}  " + "  ".join(f"{name:>20}" for name in _TIP_MODE_NAMES.values())]
+    for v in report["variants"]:
+        cells = [f"{_reached(v[m], n):>20}" for m in _TIP_MODE_NAMES]
+        lines.append(f"{v['label']:<{width}}  " + "  ".join(cells))
+    lines.append("")
+    for mode, name in _TIP_MODE_NAMES.items():
+        s = report["summary"][mode]
+        if s["worst_successes"] is None:
+            lines.append(f"{name}: every run failed")
+            continue
+        lines.append(f"{name}: nominal {s['nominal_successes']}/{n}, worst {s['worst_successes']}/{n} "
+                     f"({s['worst_variant']}), mean {s['mean_successes']:.1f}/{n}"
+                     + (f", {len(s['failed'])} failed" if s["failed"] else ""))
+    lines.append(f"the policy reached at least as many targets as the yardstick on "
+                 f"{report['policy_at_least_yardstick']} of {report['variants_compared']} variants")
+    return "\n".join(lines)
+
+
+def plot_tip_robustness(report: dict[str, Any], path: str | Path) -> Path:
+    """One panel per variation: the median final distance from the held-out targets (mm) of the
+    policy (orange triangles) and the yardstick (grey squares) on every variant against that
+    variation's setting, the task's tolerance as a line; the one-at-a-time variants and the nominal
+    catheter joined by a line, the others (corners, samples) as small points. The title gives each
+    controller's fewest targets reached."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    variations, variants = report["variations"], report["variants"]
+    n = max(len(variations), 1)
+    cols = min(n, 4)
+    rows = math.ceil(n / cols)
+    fig = Figure(figsize=(3.6 * cols + 0.6, 3.2 * rows + 0.9), constrained_layout=True)
+    FigureCanvasAgg(fig)
+    axes = np.atleast_1d(fig.subplots(rows, cols, sharey=True, squeeze=False)).ravel()
+    styles = {"policy": ("C1", "^"), "yardstick": ("0.4", "s")}
+    nominal = variants[0]["settings"]
+    for ax, variation in zip(axes, variations, strict=False):
+        name = variation["name"]
+        others = [w["name"] for w in variations if w["name"] != name]
+        for mode, (colour, marker) in styles.items():
+            points = [(v["settings"][name], 1e3 * v[mode]["median_m"]) for v in variants
+                      if v[mode].get("successes") is not None]
+            if points:
+                xs, ys = zip(*points, strict=True)
+                ax.scatter(xs, ys, s=12, color=colour, marker=marker, alpha=0.35, linewidths=0)
+            line = sorted((v["settings"][name], 1e3 * v[mode]["median_m"]) for v in variants
+                          if v[mode].get("successes") is not None
+                          and v["kind"] in ("nominal", "one-at-a-time")
+                          and all(v["settings"][o] == nominal[o] for o in others))
+            if line:
+                xs, ys = zip(*line, strict=True)
+                ax.plot(xs, ys, color=colour, marker=marker, ms=6, lw=1.8, label=_TIP_MODE_NAMES[mode])
+        ax.axhline(1e3 * report["tolerance_m"], color="0.3", ls="--", lw=1, label="tolerance")
+        ax.axvline(nominal[name], color="0.8", lw=0.8, zorder=0)
+        ax.set_ylim(bottom=0.0)
+        unit = "value" if variation["absolute"] else "x nominal"
+        ax.set_xlabel(f"{name} ({unit})", fontsize=8 if len(name) > 30 else 10)
+        ax.grid(alpha=0.3)
+    for ax in axes[len(variations):]:
+        ax.set_visible(False)
+    for ax in axes[::cols]:
+        ax.set_ylabel(f"median final distance, {len(report['targets_m'])} targets (mm)")
+    axes[0].legend(fontsize=7, loc="best")
+    n = len(report["targets_m"])
+    worst = ", ".join(f"{_TIP_MODE_NAMES[m]} reached at worst {s['worst_successes']}/{n}"
+                      for m, s in report["summary"].items())
+    fig.suptitle(f"{report['case']}, {report['physics']} physics, {report['duration_s']:g} s per target: "
+                 f"{worst}\nlines: one parameter at a time; points: all corners and samples", fontsize=10)
     path = Path(path)
     atomic_save(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
     return path

@@ -32,7 +32,6 @@ from elastica_magnetic.openloop import check_duration
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..cases.case import Case, case_from_dict, load_case
-from ..cases.steered import field_only_refusal
 from ..cases.variations import (
     Variant,
     Variation,
@@ -44,6 +43,7 @@ from ..cases.variations import (
 )
 from ..shipping.policy_files import LoadedPolicy, resolve_policy
 from .output import write_folder_whole
+from .tip_robustness import TipRobustnessPlan, plan_tip_robustness, run_tip_robustness
 
 __all__ = ["MODES", "REPORT_FORMAT", "RobustnessPlan", "plan_robustness", "run_robustness",
            "run_variant", "summarize", "write_robustness"]
@@ -53,6 +53,8 @@ REPORT_FORMAT = "msr-robustness-v1"
 MODES = ("open_loop", "closed_loop")
 #: Percentile reported besides the worst case.
 PERCENTILE = 10.0
+#: s: how long a field study's runs last by default (the yardstick's 10 s).
+FIELD_STUDY_DURATION = 10.0
 
 
 @dataclass
@@ -84,7 +86,8 @@ class StudySettings:
     or a :class:`Case`: the robot of a field CSV source), ``fields_csv`` (a policy's waveform),
     ``variations`` (default: :func:`default_variations`), the design (``one_at_a_time``,
     ``corners``, ``samples`` drawn with ``seed``: :func:`design`), the ``physics`` and
-    ``duration`` (s) of each run, and ``progress`` bars."""
+    ``duration`` (s) of each run (default :data:`FIELD_STUDY_DURATION`; a tip-reach policy's: its
+    task's episode), and ``progress`` bars."""
 
     case: str | Path | Case | None = None
     fields_csv: str | Path | None = None
@@ -94,12 +97,12 @@ class StudySettings:
     samples: int = 0
     seed: int = 0
     physics: str = "training"
-    duration: float = 10.0
+    duration: float | None = None
     progress: bool = True
 
 
 def plan_robustness(source: str | Path, settings: StudySettings | None = None, /,
-                    **changes: Any) -> RobustnessPlan:
+                    **changes: Any) -> RobustnessPlan | TipRobustnessPlan:
     """Check a robustness study and load what it needs (nothing is simulated, except a policy's
     waveform when it has none: see below).
 
@@ -116,7 +119,12 @@ def plan_robustness(source: str | Path, settings: StudySettings | None = None, /
     o = dataclasses.replace(settings or StudySettings(), **changes)
     if o.physics not in ("training", "accurate"):
         raise ValueError(f"--physics must be 'training' or 'accurate', got {o.physics!r}")
-    duration = check_duration(o.duration)
+    steered = _tip_reach_policy(source, o)
+    if steered is not None:
+        return plan_tip_robustness(str(source), steered, o.variations, one_at_a_time=o.one_at_a_time,
+                                   corners=o.corners, samples=o.samples, seed=o.seed, physics=o.physics,
+                                   duration=None if o.duration is None else check_duration(o.duration))
+    duration = check_duration(FIELD_STUDY_DURATION if o.duration is None else o.duration)
     the_case, policy, fields, waveform = _study_source(source, o.case, o.fields_csv)
     if fields is not None:  # a waveform the case's coils cannot play is no study of that robot
         actuation = the_case.actuation
@@ -158,6 +166,21 @@ def plan_robustness(source: str | Path, settings: StudySettings | None = None, /
                           o.physics, duration, info)
 
 
+def _tip_reach_policy(source: str | Path, o: StudySettings) -> LoadedPolicy | None:
+    """The policy of ``source`` when it steers a catheter (a tip-reach case, studied by
+    :mod:`~elastica_magnetic_rl.sim2real.tip_robustness`), else ``None``; ``--fields``, which such a
+    study cannot use, refused by name."""
+    if _is_field_csv(source) or o.case is not None:  # a field CSV; or a policy with --case: refused later
+        return None
+    policy = resolve_policy(source)
+    if policy.case.field_actuated:
+        return None
+    if o.fields_csv is not None:
+        raise ValueError(f"--fields: {source} is a policy of the tip-reach case {policy.case.name!r}: it "
+                         "plays no waveform (it steers the source from the tip it sees); leave --fields out")
+    return policy
+
+
 def _study_source(source: str | Path, case: str | Path | Case | None,
                   fields_csv: str | Path | None) -> tuple[Case, Any, Any, str]:
     """The case, the policy (``None`` for a field CSV), the waveform (``None``: to generate) and
@@ -176,8 +199,6 @@ def _study_source(source: str | Path, case: str | Path | Case | None,
             raise ValueError(f"{source}: a policy carries its case; --case is for a field CSV")
         policy = resolve_policy(source)
         the_case = policy.case
-        if not the_case.field_actuated:
-            raise ValueError(field_only_refusal(f"{source}: case {the_case.name!r}", the_case.actuation.kind))
         shipped_csv = Path(policy.source) / "fields.csv" if policy.kind == "shipped" else None
         if fields_csv is not None:
             fields, waveform = read_field_csv(fields_csv, plausible=True), str(fields_csv)
@@ -241,7 +262,7 @@ def _jobs(plan: RobustnessPlan, closed_loop: bool) -> list[dict[str, Any]]:
 
 
 def run_robustness(
-    plan: RobustnessPlan,
+    plan: RobustnessPlan | TipRobustnessPlan,
     *,
     closed_loop: bool = True,
     workers: int | None = None,
@@ -249,7 +270,11 @@ def run_robustness(
 ) -> dict[str, Any]:
     """Run every variant of ``plan`` open loop and (a policy, ``closed_loop``) closed loop, in
     ``workers`` processes (default: every core; 1: in this process). Returns the report written
-    to ``robustness.json`` (see :func:`summarize`)."""
+    to ``robustness.json`` (see :func:`summarize`). A tip-reach study (:class:`TipRobustnessPlan`)
+    is the closed loop of the policy and of the yardstick on every variant
+    (:func:`~elastica_magnetic_rl.sim2real.tip_robustness.run_tip_robustness`)."""
+    if isinstance(plan, TipRobustnessPlan):
+        return run_tip_robustness(plan, workers=workers, progress=progress)
     jobs = _jobs(plan, closed_loop)
     workers = max(1, min(int(workers or os.cpu_count() or 1), len(jobs)))
     start = time.perf_counter()
@@ -360,18 +385,25 @@ def summarize(plan: RobustnessPlan, jobs: list[dict[str, Any]], results: list[di
 # -- output ---------------------------------------------------------------------------------------
 
 
-def write_robustness(report: dict[str, Any], plan: RobustnessPlan, out: str | Path,
+def write_robustness(report: dict[str, Any], plan: RobustnessPlan | TipRobustnessPlan, out: str | Path,
                      force: bool = False, figure: bool = True) -> Path:
     """Write ``out/robustness.json``, ``out/robustness.png`` (see
     :func:`~elastica_magnetic_rl.sim2real.report.plot_robustness`) and ``out/fields.csv`` (the
-    waveform played, mT) as one folder (see :func:`write_folder_whole`). Returns ``out``."""
+    waveform played, mT) as one folder (see :func:`write_folder_whole`); for a tip-reach study
+    ``out/targets.csv`` (the held-out targets, m) in place of the waveform and
+    :func:`~elastica_magnetic_rl.sim2real.report.plot_tip_robustness`'s figure. Returns ``out``."""
+    tip = isinstance(plan, TipRobustnessPlan)
 
     def fill(folder: Path) -> None:
-        write_field_csv(folder / "fields.csv", plan.fields[: int(round(plan.duration / ACTION_PERIOD))])
+        if tip:
+            np.savetxt(folder / "targets.csv", plan.targets, delimiter=",", header="x_m,y_m,z_m",
+                       comments="", fmt="%.9g")
+        else:
+            write_field_csv(folder / "fields.csv", plan.fields[: int(round(plan.duration / ACTION_PERIOD))])
         if figure:
-            from .report import plot_robustness
+            from .report import plot_robustness, plot_tip_robustness
 
-            plot_robustness(report, folder / "robustness.png")
+            (plot_tip_robustness if tip else plot_robustness)(report, folder / "robustness.png")
         atomic_write_json(folder / "robustness.json", report)
 
     write_folder_whole(out, fill, force, kind="robustness")

@@ -75,11 +75,11 @@ def test_l04_a_target_beyond_any_tips_reach_is_named():
     assert "is 0.2 m from the clamped base's start, beyond any tip's reach (0.06 m" in notes[0]
 
 
-def test_o05_robustness_of_a_catheter_policy_is_refused_naming_it(monkeypatch):
+def test_o05_robustness_of_a_catheter_policy_is_its_tip_reach_study(monkeypatch):
+    """Round 16 O05 refused it by name; now a tip-reach policy has its own study
+    (tests/rl/sim2real/test_tip_robustness.py): the policy goes there, not to the field study."""
     import elastica_magnetic_rl.sim2real.robustness as robustness
 
     catheter = SimpleNamespace(case=load_case("catheter-magnet-reach"), kind="checkpoint", source="r")
     monkeypatch.setattr(robustness, "resolve_policy", lambda source: catheter)
-    with pytest.raises(ValueError, match="runs/c/seed0: case 'catheter-magnet-reach': \\[actuation\\] kind = "
-                                         "\"magnet-pose\" steers"):
-        robustness._study_source("runs/c/seed0", None, None)
+    assert robustness._tip_reach_policy("runs/c/seed0", robustness.StudySettings()) is catheter
