@@ -67,7 +67,7 @@ from .locks import (
     name_tag,
     release_claim,
 )
-from .result_markers import MANIFEST, MARKER, read_marker
+from .result_markers import MANIFEST, MARKER, manifest_holder, manifest_writer, read_marker
 from .result_places import ResultExistsError, check_enclosing
 from .results import fsync_tree, remove_tree
 
@@ -116,17 +116,39 @@ def update_recorded_text(path: str | Path, text: str) -> None:
         _record_files(path.parent, [path.name])
 
 
-def _record_files(folder: Path, written: Iterable[str], removed: Iterable[str] = ()) -> None:
-    """Add the files ``written`` (as they are now in ``folder``) to its record, drop ``removed``."""
+#: The writer recorded for the files of a set put into a shared folder (:func:`replace_files`
+#: without a holder): no one-file result replaces them.
+FILESET_WRITER = "a file msr put into this folder with others (a figure, a report)"
+
+
+def _record_files(folder: Path, written: Iterable[str], removed: Iterable[str] = (),
+                  writer: str | None = None, holder: str | None = None) -> None:
+    """Add the files ``written`` (as they are now in ``folder``) to its record, with their
+    ``writer`` (the kind of result, for :func:`check_result_file`), drop ``removed``; ``holder``:
+    what holds the folder whole from now on (a shipped policy: :func:`replace_files`), kept when
+    not given."""
     files = _manifest(folder)
+    try:
+        data = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        data = {}
+    writers = data.get("writers") if isinstance(data, dict) and isinstance(data.get("writers"), dict) else {}
+    holder = holder or manifest_holder(folder)
     for name in written:
         if (folder / name).is_file():
             files[name] = _sha256(folder / name)
+            if writer is not None:  # else (a file edited in place) the writer recorded stays
+                writers[name] = writer
     for name in removed:
         files.pop(name, None)
+        writers.pop(name, None)
+    record: dict[str, object] = {"files": dict(sorted(files.items()))}
+    if writers:
+        record["writers"] = dict(sorted((k, v) for k, v in writers.items() if k in files))
+    if holder:
+        record["holder"] = holder
     temporary = folder / f"{MANIFEST}.tmp"
-    temporary.write_text(json.dumps({"files": dict(sorted(files.items()))}, indent=1),
-                         encoding="utf-8")
+    temporary.write_text(json.dumps(record, indent=1), encoding="utf-8")
     os.replace(temporary, folder / MANIFEST)
 
 
@@ -202,7 +224,8 @@ def _move_committed(staging: Path, folder: Path) -> int:
     for name in record.get("remove") or ():
         with contextlib.suppress(FileNotFoundError):
             os.unlink(folder / name)
-    _record_files(folder, record["files"], record.get("remove") or ())
+    _record_files(folder, record["files"], record.get("remove") or (),
+                  writer=record.get("holder") or FILESET_WRITER, holder=record.get("holder"))
     return moved
 
 
@@ -273,6 +296,7 @@ def replace_files(
     force_option: str = "--force",
     remove: Iterable[str] = (),
     adopt: bool = False,
+    holder: str | None = None,
 ) -> Iterator[FileSet]:
     """Put the files ``names`` (relative paths) into ``folder`` (created if absent) all together
     or not at all; write them under :attr:`FileSet.path` in the block. An existing one is
@@ -281,7 +305,10 @@ def replace_files(
     is moved. ``remove``: files of ``folder`` (not among ``names``) removed in the same commit,
     after the new ones are in place (those of a replaced set that the new one lacks). An
     existing file is replaced only when msr recorded it (:data:`MANIFEST`) unchanged, or with
-    ``adopt`` (the caller recognised the folder as msr's own, written before records)."""
+    ``adopt`` (the caller recognised the folder as msr's own, written before records).
+    ``holder``: the set is a result that holds ``folder`` whole (``"the shipped policy of case
+    'm1-4mT' (msr policy ship)"``): recorded, and from then on no other writer puts a file there (a
+    folder another holder holds is refused, naming it)."""
     folder = normalized_path(folder)
     names = tuple(names)
     remove = tuple(sorted(set(remove)))
@@ -298,6 +325,10 @@ def replace_files(
                               f"{exc.strerror or exc}") from None
     with signals_as_exceptions(), FolderLock(folder, option=option) as lock:
         notes = lock.notes + _recover_locked(folder)
+        held = manifest_holder(folder)
+        if held is not None and held != holder:
+            raise ResultExistsError(f"{option} {display_path(folder)}: holds {held}, whose files are its "
+                                    f"own: nothing else goes in that folder; choose another {option}")
         existing = [n for n in names if (folder / n).exists()]
         if existing and not force:
             raise ResultExistsError(f"{option} {display_path(folder)}: already holds "
@@ -323,7 +354,7 @@ def replace_files(
             fsync_tree(staging)
             with signals_held():
                 record = staging / f"{_COMMIT}.tmp"
-                record.write_text(json.dumps({"files": written, "remove": list(remove)}),
+                record.write_text(json.dumps({"files": written, "remove": list(remove), "holder": holder}),
                                   encoding="utf-8")
                 os.replace(record, staging / _COMMIT)  # from here on, the next run rolls forward
                 _move_committed(staging, folder)
@@ -457,9 +488,18 @@ def _check_file(final: Path, force: bool, option: str, force_option: str,
         if parent.exists() and not parent.is_dir():
             raise OutputPathError(f"{where}: {display_path(parent)} is a file, not a folder")
     check_enclosing(final, option)
+    if (held := manifest_holder(final.parent)) is not None:
+        raise ResultExistsError(f"{where}: lies in {display_path(final.parent)}, which holds {held}, "
+                                "whose files are its own: nothing else goes in that folder; choose "
+                                f"another {option}")
     if final.exists() and not force:
         raise ResultExistsError(f"{where}: already exists; pass {force_option} to replace it, or "
                                 f"choose another {option}")
+    recorded_by = manifest_writer(final.parent, final.name) if final.is_file() else None
+    if kind is not None and recorded_by is not None and recorded_by != kind.description:
+        raise ResultExistsError(f"{where}: is {recorded_by} (msr recorded writing it there), another "
+                                f"command's result; {force_option} replaces only {kind.description}: move "
+                                f"it away or choose another {option}")
     if final.is_file() and kind is not None and not _recognized(kind, final):
         other = next((k for k in _FILE_KINDS if k is not kind and _recognized(k, final)), None)
         if other is not None:  # msr's own, recorded or not: another command's result
@@ -527,7 +567,9 @@ def result_file(path: str | Path, *, force: bool = False, option: str = "--out",
                     os.fsync(handle.fileno())
                 with signals_held():
                     os.replace(temporary, final)
-                    _record_files(final.parent, [final.name])  # what --force may replace later
+                    # what --force may replace later, and by which kind of result
+                    _record_files(final.parent, [final.name],
+                                  writer=kind.description if kind is not None else None)
             except BaseException as exc:
                 remove_tree(temporary)
                 if isinstance(exc, OSError) and not isinstance(exc, OutputPathError):

@@ -20,7 +20,8 @@ from .io import atomic_write_text, normalized_path
 from .locks import command_line, host_name, utc_now
 
 __all__ = ["MANIFEST", "MARKER", "MAX_LISTED", "describe_result", "in_manifest", "list_files",
-           "mark_folder", "read_marker", "short_list", "unrecorded_files", "write_marker"]
+           "manifest_holder", "manifest_writer", "mark_folder", "read_marker", "short_list",
+           "unrecorded_files", "write_marker"]
 
 #: The marker file of a result folder (JSON: kind, subject, command, time, host, files).
 MARKER = ".msr-result.json"
@@ -110,6 +111,31 @@ def in_manifest(folder: Path, name: str) -> bool:
         return hashlib.sha256((folder / name).read_bytes()).hexdigest() == recorded
     except OSError:
         return False
+
+
+def manifest_holder(folder: str | Path) -> str | None:
+    """What holds ``folder`` whole, as its record of files says (``"holder"`` of :data:`MANIFEST`,
+    e.g. a shipped policy: its files are its own, and no other command puts a file there), or
+    ``None``: a folder of shared files (figures of several commands) or none recorded."""
+    try:
+        data = json.loads((Path(folder) / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    holder = data.get("holder") if isinstance(data, dict) else None
+    return holder if isinstance(holder, str) and holder else None
+
+
+def manifest_writer(folder: str | Path, name: str) -> str | None:
+    """Which kind of writer recorded ``name`` in ``folder`` (``"writers"`` of :data:`MANIFEST`: a
+    result file's kind, a holder), or ``None`` when the record does not say (written before msr
+    recorded writers)."""
+    try:
+        data = json.loads((Path(folder) / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    writers = data.get("writers") if isinstance(data, dict) else None
+    writer = writers.get(name) if isinstance(writers, dict) else None
+    return writer if isinstance(writer, str) else None
 
 
 def describe_result(marker: dict[str, Any]) -> str:

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from .io import OutputPathError, display_path, normalized_path, output_path_problem, unwritable_reason
 from .locks import FolderLockedError, describe_owner, held_here, live_owner
-from .result_markers import MARKER, describe_result, read_marker
+from .result_markers import MARKER, describe_result, manifest_holder, read_marker
 
 __all__ = [
     "TRAINING_RUNS",
@@ -129,13 +129,21 @@ def training_run_in(folder: Path, within: Path | None = None) -> Path | None:
 
 def check_not_another_result(folder: str | Path, option: str) -> None:
     """A folder files are put into (figures, a set of files: not a result of their own) is not
-    another command's result and does not lie in one: there they would be files that result does
-    not know, removed or refused when it is replaced."""
+    another command's result, a folder a result holds whole (a shipped policy) or a training's
+    case folder, and does not lie in a result: there they would be files that result does not
+    know, removed or refused when it is replaced."""
     final = normalized_path(folder)
     if (final / MARKER).is_file() and (marker := read_marker(final)) is not None:
         raise ResultExistsError(f"{option} {display_path(final)}: holds {describe_result(marker)}: files put "
                                 "there are no part of it (replacing that result would remove them); choose "
                                 f"another {option}")
+    if (held := manifest_holder(final)) is not None:
+        raise ResultExistsError(f"{option} {display_path(final)}: holds {held}, whose files are its own: "
+                                f"nothing else goes in that folder; choose another {option}")
+    if (run := training_run_in(final)) is not None:
+        raise ResultExistsError(f"{option} {display_path(final)}: holds the runs of a training ({run.name}, "
+                                "`msr train`): that folder holds its runs alone (msr train --resume refuses "
+                                f"anything else there); choose another {option}")
     check_enclosing(final, option)
 
 

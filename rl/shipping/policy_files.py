@@ -29,6 +29,7 @@ __all__ = [
     "POLICY_JSON",
     "PolicyFileError",
     "PolicyNotFoundError",
+    "policy_holder",
     "OLD_POLICY_KEYS",
     "finish_interrupted_ship",
     "read_policy_json",
@@ -43,6 +44,13 @@ POLICY_JSON = "policy.json"
 #: The files of a shipped policy (``actor.pt`` and ``policy.json`` always, the others optional).
 SHIPPED_FILES = ("actor.pt", POLICY_JSON, "critic.pt", "fields.csv", "MODEL_CARD.md")
 POLICY_FORMAT = "msr-policy-v1"
+
+
+def policy_holder(case: str) -> str:
+    """What holds a shipped policy's folder whole, as its record of files
+    (:data:`elastica_magnetic.result_markers.MANIFEST`) says: no other command puts a file there."""
+    return f"a shipped policy of case {case!r} (msr policy ship)"
+
 #: The actor's hidden activation and output squashing (``td3.algorithm.Actor``), as policy.json
 #: records them.
 ACTOR_ACTIVATION, ACTOR_OUTPUT = "relu", "tanh"

@@ -1,0 +1,93 @@
+"""Round 20 of held-out tries (issue 48), the findings of the commands: each test fails without its
+fix (docs/errors.md, "A twentieth round of tries")."""
+
+from __future__ import annotations
+
+import json
+
+from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR, policy_holder
+
+from elastica_magnetic.cli import main as msr
+from elastica_magnetic.result_markers import MANIFEST, manifest_holder
+
+MEASUREMENTS = ("current_x_A,current_y_A,current_z_A,field_x_mT,field_y_mT,field_z_mT\n"
+                "1,0,0,2,0,0\n0,1,0,0,2,0\n0,0,1,0,0,2\n1,1,0,2,2,0\n")
+
+
+def _snapshot(folder):
+    return {p.relative_to(folder).as_posix(): p.read_bytes()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def _ship(trained, tmp_path):
+    run = trained / "m1-4mT" / "seed0"
+    assert msr(["policy", "ship", str(run), "--no-measure", "--checkpoint", "final", "--name", "p1", "--out",
+                str(tmp_path / "ship")]) == 0
+    return run, tmp_path / "ship" / "p1"
+
+
+def test_a_shipped_policy_s_folder_holds_its_files_alone(trained, tmp_path, capsys):
+    """D1, S2, S4: ``msr real calibrate --out POLICY/policy.json --force`` replaced the policy's own
+    file with a calibration (and recorded it as msr's); ``--out POLICY/cal.json`` and ``policy seeds
+    --figure POLICY`` put their files among the policy's, recorded as its own."""
+    run, policy = _ship(trained, tmp_path)
+    assert manifest_holder(policy) == policy_holder("m1-4mT")
+    before = _snapshot(policy)
+    (tmp_path / "meas.csv").write_text(MEASUREMENTS)
+    capsys.readouterr()
+    for name, extra in (("policy.json", ["--force"]), ("MODEL_CARD.md", ["--force"]), ("cal.json", [])):
+        calibrate = ["real", "calibrate", str(tmp_path / "meas.csv"), "--out", str(policy / name)]
+        assert msr([*calibrate, *extra]) == 2
+        err = capsys.readouterr().err
+        assert f"lies in {policy}, which holds a shipped policy of case 'm1-4mT'" in err, err
+    assert msr(["field", "baseline", "--case", "m1-4mT", "--periods", "1", "--duration", "10", "--out",
+                str(tmp_path / "b"), "--set-yardstick", str(policy / "MODEL_CARD.md"), "--force",
+                "--no-progress"]) == 2
+    assert "which holds a shipped policy" in capsys.readouterr().err and not (tmp_path / "b").exists()
+    assert msr(["policy", "seeds", "m1-4mT", "--figure", str(policy)]) == 2
+    assert "holds a shipped policy of case 'm1-4mT' (msr policy ship), whose files are its own" in (
+        capsys.readouterr().err)
+    assert _snapshot(policy) == before
+    # its own writers still work: notes, and a ship --force of the same case
+    (tmp_path / "notes.md").write_text("made on the test bench\n")
+    assert msr(["policy", "notes", str(policy), "--file", str(tmp_path / "notes.md")]) == 0
+    assert msr(["policy", "ship", str(run), "--no-measure", "--checkpoint", "final", "--name", "p1", "--out",
+                str(tmp_path / "ship"), "--force"]) == 0
+    assert manifest_holder(policy) == policy_holder("m1-4mT")
+
+
+def test_a_figure_msr_recorded_is_not_replaced_by_a_calibration(trained, tmp_path, capsys):
+    """The same round: ``msr real calibrate --out figs/learning_curves_m1-4mT.png --force`` replaced
+    a figure ``msr policy figures`` wrote (recorded, unchanged) with a calibration JSON."""
+    figures = tmp_path / "figs"
+    assert msr(["policy", "figures", str(trained / "m1-4mT" / "seed0"), "--out", str(figures)]) == 0
+    png = next(figures.glob("*.png"))
+    before = png.read_bytes()
+    (tmp_path / "meas.csv").write_text(MEASUREMENTS)
+    capsys.readouterr()
+    assert msr(["real", "calibrate", str(tmp_path / "meas.csv"), "--out", str(png), "--force"]) == 2
+    assert "another command's result; --force replaces only a calibration JSON" in capsys.readouterr().err
+    assert png.read_bytes() == before
+    # a calibration replaces a calibration
+    cal = tmp_path / "cal.json"
+    assert msr(["real", "calibrate", str(tmp_path / "meas.csv"), "--out", str(cal)]) == 0
+    assert msr(["real", "calibrate", str(tmp_path / "meas.csv"), "--out", str(cal), "--force"]) == 0
+
+
+def test_seed_figures_go_into_no_training_s_case_folder(trained, tmp_path, capsys):
+    """S4: ``msr policy seeds CASE --figure RUNS/<case>`` put figures into a training's case folder,
+    which holds its runs alone."""
+    case_folder = trained / "m1-4mT"
+    before = sorted(p.name for p in case_folder.iterdir())
+    assert msr(["policy", "seeds", "m1-4mT", "--figure", str(case_folder)]) == 2
+    assert "holds the runs of a training" in capsys.readouterr().err
+    assert sorted(p.name for p in case_folder.iterdir()) == before
+
+
+def test_the_repository_s_shipped_policies_record_their_holder():
+    """Every shipped policy's record names it as its folder's holder, so that the rule above holds
+    for them too (they were shipped before msr recorded holders)."""
+    for folder in sorted(p for p in POLICIES_DIR.iterdir() if (p / "policy.json").is_file()):
+        case = json.loads((folder / "policy.json").read_text())["case"]
+        assert manifest_holder(folder) == policy_holder(case), folder
+        assert (folder / MANIFEST).is_file()
