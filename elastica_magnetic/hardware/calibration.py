@@ -229,6 +229,12 @@ def _refuse_unknown_keys(data: dict[Any, Any], source: str) -> None:
     unknown = [str(k) for k in data if k not in CALIBRATION_KEYS]
     if not unknown:
         return
+    fmt = data.get("format")
+    if isinstance(fmt, str) and "actuation_matrix_T_per_A" not in data:  # another msr file: say that
+        raise CalibrationError(f"{source}: not a calibration JSON: its format is {fmt!r}, another file msr "
+                               "writes (a shipped policy's policy.json is 'msr-policy-v1'), without an "
+                               "actuation_matrix_T_per_A; give the file msr real calibrate writes (e.g. "
+                               "stm32/calibration/default.json)")
     close = difflib.get_close_matches(unknown[0], CALIBRATION_KEYS, n=2, cutoff=0.8)
     hint = f"; did you mean {' or '.join(close)}?" if close else ""
     raise CalibrationError(f"{source}: {unknown[0]}: unknown key{hint} (a calibration takes: "

@@ -62,10 +62,12 @@ def robustness_table(report: dict[str, Any]) -> str:
                          f"{1e3 * s['worst_error_m']:.2f} mm from it)"
                          + (f", {len(s['diverged'])} diverged" if s["diverged"] else ""))
             continue
+        still = (" (the nominal robot does not move: no percentage of it)"
+                 if s.get("nominal_still") and not comparable else "")
         lines.append(f"{_MODE_NAMES[m]}: nominal {_mm(s['nominal_m'], s['nominal_fraction'])}, worst "
                      f"{_mm(s['worst_m'], worst)}{of if worst is not None else ''} "
                      f"({s['worst_variant']}), 10th percentile {_mm(s['p10_m'], p10)}"
-                     f"{of if p10 is not None else ''}"
+                     f"{of if p10 is not None else ''}{still}"
                      + (f", {len(s['diverged'])} diverged" if s["diverged"] else ""))
     return "\n".join(lines)
 

@@ -53,6 +53,9 @@ REPORT_FORMAT = "msr-robustness-v1"
 MODES = ("open_loop", "closed_loop")
 #: Percentile reported besides the worst case.
 PERCENTILE = 10.0
+#: m: a nominal robot moving less than this (the table's 0.1 mm resolution) does not move: no
+#: variant is given as a fraction of it.
+STILL_M = 5e-5
 #: s: how long a field study's runs last by default (the yardstick's 10 s).
 FIELD_STUDY_DURATION = 10.0
 
@@ -346,7 +349,9 @@ def summarize(plan: RobustnessPlan, jobs: list[dict[str, Any]], results: list[di
         worst = min(done, key=lambda item: item[1]) if done else (None, None)
         p10 = float(np.percentile(distances, PERCENTILE)) if done else None
         nominal = runs[0][1]["distance_m"]
-        reference = nominal if nominal is not None and nominal > 0.0 else 0.0
+        # a nominal robot that does not move is no reference: ratios of round-off are no percentages
+        still = nominal is not None and abs(nominal) < STILL_M
+        reference = nominal if nominal is not None and nominal > 0.0 and not still else 0.0
         reach = _reach_summary(plan.case, runs[0][1]["distance_m"], done)
         if reach is not None:  # the worst robot misses its target most, over or short
             worst = (reach["worst_error_variant"], dict(done)[reach["worst_error_variant"]])
@@ -360,6 +365,7 @@ def summarize(plan: RobustnessPlan, jobs: list[dict[str, Any]], results: list[di
             "worst_of_nominal": _fraction(worst[1], reference),
             "p10_of_nominal": _fraction(p10, reference),
             "runs": len(runs), "diverged": [label for label, r in runs if r["distance_m"] is None],
+            "nominal_still": still,
             **(reach or {}),
         }
     return {

@@ -91,3 +91,31 @@ def test_the_repository_s_shipped_policies_record_their_holder():
         case = json.loads((folder / "policy.json").read_text())["case"]
         assert manifest_holder(folder) == policy_holder(case), folder
         assert (folder / MANIFEST).is_file()
+
+
+def test_a_calibration_that_is_another_msr_file_is_named_so(tmp_path, capsys):
+    """V: ``msr real firmware --calibration POLICY/policy.json`` said "format: unknown key", not
+    that the file is no calibration."""
+    assert msr(["real", "firmware", str(POLICIES_DIR / "m1-4mT" / "fields.csv"), "--calibration",
+                str(POLICIES_DIR / "m1-4mT" / "policy.json"), "--out", str(tmp_path / "fw")]) == 2
+    err = capsys.readouterr().err
+    assert "policy.json: not a calibration JSON: its format is 'msr-policy-v1'" in err, err
+    assert not (tmp_path / "fw").exists()
+
+
+def test_robustness_gives_no_percentages_of_a_nominal_robot_that_does_not_move(tmp_path, capsys):
+    """V: a waveform that leaves the nominal robot still was reported as "worst -0.0 mm (-260 %) of
+    nominal, 10th percentile +0.0 mm (134 %)": ratios of round-off."""
+    import math
+
+    rows = "".join(f"{3 * math.cos(i / 10):.4f},{3 * math.sin(i / 10):.4f},0\n" for i in range(50))
+    (tmp_path / "f.csv").write_text("mag_x,mag_y,mag_z\n" + rows)
+    out = tmp_path / "rb"
+    assert msr(["real", "robustness", str(tmp_path / "f.csv"), "--case", "m1-4mT", "--duration", "0.3",
+                "--no-corners", "--workers", "1", "--no-progress", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "the nominal robot does not move: no percentage of it" in text
+    assert "%" not in text.split("open loop:")[-1]
+    summary = json.loads((out / "robustness.json").read_text())["summary"]["open_loop"]
+    assert summary["nominal_still"] and summary["worst_of_nominal"] is None
+    assert summary["p10_of_nominal"] is None
