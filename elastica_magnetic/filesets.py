@@ -67,7 +67,14 @@ from .locks import (
     name_tag,
     release_claim,
 )
-from .result_markers import MANIFEST, MARKER, manifest_holder, manifest_writer, read_marker
+from .result_markers import (
+    MANIFEST,
+    MARKER,
+    manifest_holder,
+    manifest_results_in,
+    manifest_writer,
+    read_marker,
+)
 from .result_places import ResultExistsError, check_enclosing
 from .results import fsync_tree, remove_tree
 
@@ -122,11 +129,12 @@ FILESET_WRITER = "a file msr put into this folder with others (a figure, a repor
 
 
 def _record_files(folder: Path, written: Iterable[str], removed: Iterable[str] = (),
-                  writer: str | None = None, holder: str | None = None) -> None:
+                  writer: str | None = None, holder: str | None = None,
+                  results_in: Iterable[str] | None = None) -> None:
     """Add the files ``written`` (as they are now in ``folder``) to its record, with their
     ``writer`` (the kind of result, for :func:`check_result_file`), drop ``removed``; ``holder``:
-    what holds the folder whole from now on (a shipped policy: :func:`replace_files`), kept when
-    not given."""
+    what holds the folder whole from now on (a shipped policy: :func:`replace_files`), and
+    ``results_in``, its subfolders where other results may go; both kept when not given."""
     files = _manifest(folder)
     try:
         data = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
@@ -134,6 +142,7 @@ def _record_files(folder: Path, written: Iterable[str], removed: Iterable[str] =
         data = {}
     writers = data.get("writers") if isinstance(data, dict) and isinstance(data.get("writers"), dict) else {}
     holder = holder or manifest_holder(folder)
+    places = list(results_in) if results_in is not None else list(manifest_results_in(folder))
     for name in written:
         if (folder / name).is_file():
             files[name] = _sha256(folder / name)
@@ -147,6 +156,8 @@ def _record_files(folder: Path, written: Iterable[str], removed: Iterable[str] =
         record["writers"] = dict(sorted((k, v) for k, v in writers.items() if k in files))
     if holder:
         record["holder"] = holder
+        if places:
+            record["results_in"] = sorted(set(places))
     temporary = folder / f"{MANIFEST}.tmp"
     temporary.write_text(json.dumps(record, indent=1), encoding="utf-8")
     os.replace(temporary, folder / MANIFEST)
@@ -225,7 +236,8 @@ def _move_committed(staging: Path, folder: Path) -> int:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(folder / name)
     _record_files(folder, record["files"], record.get("remove") or (),
-                  writer=record.get("holder") or FILESET_WRITER, holder=record.get("holder"))
+                  writer=record.get("holder") or FILESET_WRITER, holder=record.get("holder"),
+                  results_in=record.get("results_in"))
     return moved
 
 
@@ -297,6 +309,7 @@ def replace_files(
     remove: Iterable[str] = (),
     adopt: bool = False,
     holder: str | None = None,
+    results_in: Iterable[str] = (),
 ) -> Iterator[FileSet]:
     """Put the files ``names`` (relative paths) into ``folder`` (created if absent) all together
     or not at all; write them under :attr:`FileSet.path` in the block. An existing one is
@@ -308,10 +321,12 @@ def replace_files(
     ``adopt`` (the caller recognised the folder as msr's own, written before records).
     ``holder``: the set is a result that holds ``folder`` whole (``"the shipped policy of case
     'm1-4mT' (msr policy ship)"``): recorded, and from then on no other writer puts a file there (a
-    folder another holder holds is refused, naming it)."""
+    folder another holder holds is refused, naming it); other results go only into its subfolders
+    ``results_in`` (a policy's ``seeds``)."""
     folder = normalized_path(folder)
     names = tuple(names)
     remove = tuple(sorted(set(remove)))
+    results_in = tuple(results_in)
     if set(remove) & set(names):
         raise ValueError(f"replace_files({folder}): {', '.join(sorted(set(remove) & set(names)))} "
                          "both written and removed")
@@ -354,8 +369,8 @@ def replace_files(
             fsync_tree(staging)
             with signals_held():
                 record = staging / f"{_COMMIT}.tmp"
-                record.write_text(json.dumps({"files": written, "remove": list(remove), "holder": holder}),
-                                  encoding="utf-8")
+                record.write_text(json.dumps({"files": written, "remove": list(remove), "holder": holder,
+                                              "results_in": list(results_in)}), encoding="utf-8")
                 os.replace(record, staging / _COMMIT)  # from here on, the next run rolls forward
                 _move_committed(staging, folder)
                 remove_tree(staging)

@@ -20,8 +20,8 @@ from .io import atomic_write_text, normalized_path
 from .locks import command_line, host_name, utc_now
 
 __all__ = ["MANIFEST", "MARKER", "MAX_LISTED", "describe_result", "in_manifest", "list_files",
-           "manifest_holder", "manifest_writer", "mark_folder", "read_marker", "short_list",
-           "unrecorded_files", "write_marker"]
+           "manifest_holder", "manifest_results_in", "manifest_writer", "mark_folder", "read_marker",
+           "short_list", "unrecorded_files", "write_marker"]
 
 #: The marker file of a result folder (JSON: kind, subject, command, time, host, files).
 MARKER = ".msr-result.json"
@@ -123,6 +123,17 @@ def manifest_holder(folder: str | Path) -> str | None:
         return None
     holder = data.get("holder") if isinstance(data, dict) else None
     return holder if isinstance(holder, str) and holder else None
+
+
+def manifest_results_in(folder: str | Path) -> tuple[str, ...]:
+    """The subfolders of a held folder (:func:`manifest_holder`) where other results may go
+    (``"results_in"`` of :data:`MANIFEST`: a shipped policy's ``seeds``); empty when none."""
+    try:
+        data = json.loads((Path(folder) / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return ()
+    places = data.get("results_in") if isinstance(data, dict) else None
+    return tuple(p for p in places if isinstance(p, str)) if isinstance(places, list) else ()
 
 
 def manifest_writer(folder: str | Path, name: str) -> str | None:

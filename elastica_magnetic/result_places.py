@@ -20,7 +20,7 @@ from pathlib import Path
 
 from .io import OutputPathError, display_path, normalized_path, output_path_problem, unwritable_reason
 from .locks import FolderLockedError, describe_owner, held_here, live_owner
-from .result_markers import MARKER, describe_result, manifest_holder, read_marker
+from .result_markers import MARKER, describe_result, manifest_holder, manifest_results_in, read_marker
 
 __all__ = [
     "TRAINING_RUNS",
@@ -31,6 +31,7 @@ __all__ = [
     "check_enclosing",
     "check_not_another_result",
     "check_output_path",
+    "held_refusal",
     "inside_building",
     "swap_target",
     "training_run_in",
@@ -97,11 +98,26 @@ def check_enclosing(final: Path, option: str) -> None:
             raise OutputPathError(f"{option} {display_path(final)}: lies in {display_path(parent)}, which "
                                   f"holds {describe_result(marker)}: a result is replaced whole, so "
                                   f"nothing goes inside another; choose another {option}")
+        if (refusal := held_refusal(parent, final, option)) is not None:
+            raise OutputPathError(refusal)
         if (run := training_run_in(parent, final)) is not None:
             raise OutputPathError(f"{option} {display_path(final)}: lies in {display_path(parent)}, which "
                                   f"holds the runs of a training ({run.name}, `msr train`): that folder "
                                   "holds its runs alone (msr train --resume refuses anything else "
                                   f"there); choose another {option}")
+
+
+def held_refusal(parent: Path, final: Path, option: str) -> str | None:
+    """Why ``final`` may not lie in ``parent`` when a result holds ``parent`` whole (a shipped
+    policy: :func:`~elastica_magnetic.result_markers.manifest_holder`), outside the subfolders
+    it keeps for other results (its ``seeds/``); ``None`` when it may."""
+    held = manifest_holder(parent)
+    if held is None or final.relative_to(parent).parts[0] in manifest_results_in(parent):
+        return None
+    places = " or ".join(f"{display_path(parent / p)}/" for p in manifest_results_in(parent))
+    return (f"{option} {display_path(final)}: lies in {display_path(parent)}, which holds {held}, whose "
+            f"folder holds its files alone: a result goes beside it{f' (or in {places})' if places else ''}; "
+            f"choose another {option}")
 
 
 #: How the run folders of a training are named in its case folder (``seed0``, ``seed1``...), and

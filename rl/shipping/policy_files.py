@@ -29,6 +29,7 @@ __all__ = [
     "POLICY_JSON",
     "PolicyFileError",
     "PolicyNotFoundError",
+    "SEEDS_FOLDER",
     "policy_holder",
     "OLD_POLICY_KEYS",
     "finish_interrupted_ship",
@@ -44,6 +45,11 @@ POLICY_JSON = "policy.json"
 #: The files of a shipped policy (``actor.pt`` and ``policy.json`` always, the others optional).
 SHIPPED_FILES = ("actor.pt", POLICY_JSON, "critic.pt", "fields.csv", "MODEL_CARD.md")
 POLICY_FORMAT = "msr-policy-v1"
+
+
+#: The subfolder of a shipped policy where the seed campaigns of its case go (``msr policy
+#: export-seeds --out POLICY/seeds/<recipe>``): the one place in a policy's folder for other results.
+SEEDS_FOLDER = "seeds"
 
 
 def policy_holder(case: str) -> str:

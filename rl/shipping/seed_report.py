@@ -23,7 +23,7 @@ from elastica_magnetic.filesets import update_recorded_text
 from ..cases.case import Case
 from ..runfiles.rundir import RunDir
 from .model_card import replace_card_section
-from .policy_files import POLICIES_DIR, POLICY_JSON, read_policy_json
+from .policy_files import POLICIES_DIR, POLICY_JSON, SEEDS_FOLDER, read_policy_json
 
 __all__ = ["REPOSITORY_SEEDS", "RecipeSeeds", "case_seeds", "no_seeds_message", "seeds_markdown",
            "recipes_markdown", "update_model_card", "case_cards", "seeds_figure",
@@ -69,7 +69,7 @@ def case_seeds(case: Case, policies_dir: str | Path | None = None) -> list[Recip
     objects is a ``ValueError`` naming the file."""
     root = Path(policies_dir) if policies_dir is not None else POLICIES_DIR
     groups = []
-    for path in sorted((root / case.name / "seeds").glob("*/seeds.json")):
+    for path in sorted((root / case.name / SEEDS_FOLDER).glob("*/seeds.json")):
         try:
             entries = json.loads(path.read_text())
         except (OSError, json.JSONDecodeError) as exc:
@@ -106,7 +106,7 @@ def no_seeds_message(case: Case, policies_dir: str | Path | None = None) -> str:
     installed package's policies, the repository (:data:`REPOSITORY_SEEDS`); otherwise the folder
     looked in and how ``msr policy export-seeds`` fills it."""
     root = Path(policies_dir) if policies_dir is not None else POLICIES_DIR
-    folder = root / case.name / "seeds"
+    folder = root / case.name / SEEDS_FOLDER
     if root.resolve() == POLICIES_DIR.resolve() and case.builtin and not folder.is_dir():
         return f"No seeds of `{case.name}` here: {REPOSITORY_SEEDS}."
     return (f"No seeds of `{case.name}` in {folder} (msr policy export-seeds RUNS/{case.name} --out "

@@ -47,6 +47,7 @@ from .policy_files import (
     POLICIES_DIR,
     POLICY_FORMAT,
     POLICY_JSON,
+    SEEDS_FOLDER,
     SHIPPED_FILES,
     LoadedPolicy,
     action_spec_of,
@@ -169,7 +170,8 @@ def ship(run: str | Path, name: str, options: ShipOptions | None = None, /,
         # the replaced policy's optional files this one lacks go in the same commit
         stale = [f for f in SHIPPED_FILES if f not in written]
         with replace_files(target, written, force=overwrite, option="--out", remove=stale,
-                           adopt=_holds_a_policy(target), holder=policy_holder(case.name)) as files:
+                           adopt=_holds_a_policy(target), holder=policy_holder(case.name),
+                           results_in=(SEEDS_FOLDER,)) as files:
             _write_policy_folder(files.path, policy, info, fields, card, with_critic)
     else:
         _write_policy_folder(target, policy, info, fields, card, with_critic)
@@ -422,7 +424,8 @@ def set_notes(policy: str | Path, notes: str | None,
                                     before="## Limitations")
     names = [POLICY_JSON, *(["MODEL_CARD.md"] if card is not None else [])]
     with replace_files(folder, names, force=True, option="policy", adopt=True,
-                       force_option="msr policy notes", holder=policy_holder(resolved.case.name)) as files:
+                       force_option="msr policy notes", holder=policy_holder(resolved.case.name),
+                       results_in=(SEEDS_FOLDER,)) as files:
         atomic_write_json(files.path / POLICY_JSON, info)
         if card is not None:
             atomic_write_text(files.path / "MODEL_CARD.md", card)

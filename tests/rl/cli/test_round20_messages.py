@@ -119,3 +119,22 @@ def test_robustness_gives_no_percentages_of_a_nominal_robot_that_does_not_move(t
     summary = json.loads((out / "robustness.json").read_text())["summary"]["open_loop"]
     assert summary["nominal_still"] and summary["worst_of_nominal"] is None
     assert summary["p10_of_nominal"] is None
+
+
+def test_results_go_into_a_shipped_policy_only_in_its_seeds_folder(trained, tmp_path, capsys):
+    """S3, S103, S130: ``policy export``, ``real firmware`` and ``refine`` with ``--out POLICY/x`` put
+    their results among a shipped policy's files; its ``seeds/`` folder, where ``export-seeds``
+    writes its case's seed campaigns, stays open to results."""
+    run, policy = _ship(trained, tmp_path)
+    before = _snapshot(policy)
+    capsys.readouterr()
+    for argv in (["policy", "export", str(run), "--out", str(policy / "exp")],
+                 ["real", "firmware", str(POLICIES_DIR / "m1-4mT" / "fields.csv"), "--calibration",
+                  "stm32/calibration/default.json", "--out", str(policy / "fw")],
+                 ["refine", str(run), "--steps", "10", "--out", str(policy / "rf"), "--no-progress"]):
+        assert msr(argv) != 0, argv
+        err = capsys.readouterr().err
+        assert f"lies in {policy}, which holds a shipped policy of case 'm1-4mT'" in err, (argv, err)
+        assert f"(or in {policy}/seeds/)" in err, err
+    assert _snapshot(policy) == before
+    assert msr(["policy", "export", str(run), "--out", str(policy / "seeds" / "exp")]) == 0
