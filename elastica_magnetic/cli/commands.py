@@ -275,10 +275,18 @@ def _simulate_spatial(args: argparse.Namespace, setup) -> int:
 def _check_axis_limits(robot: str, amplitude: float, heading: float) -> None:
     """The rotating field's largest component on each axis (``amplitude`` T; x ``|cos h|``, y 1, z
     ``|sin h|`` of it) within the spec's limit of that axis: a three-axis spec's weaker z pair is
-    not driven past its limit (a planar spec names no z limit: a what-if, not checked)."""
+    not driven past its limit, and a spec whose coils are in x-y only plays no z field (a preset
+    names no coils: a what-if, not checked)."""
     largest = {"x": amplitude * abs(math.cos(heading)), "y": amplitude,
                "z": amplitude * abs(math.sin(heading))}
-    for axis, limit in axis_limits_of(robot).items():
+    limits = axis_limits_of(robot)
+    if limits and "z" not in limits and largest["z"] > 1e-9 * amplitude:  # a spec with coils in x-y only
+        raise CommandError(
+            f"--heading {heading:g} rad turns the field out of the x-y plane ({1e3 * largest['z']:.4g} mT "
+            f"on z), and {robot}'s [actuation] drives the axes {''.join(limits)} only (no coil pair along "
+            "z): the coils the spec describes cannot play it; give the spec axes = \"xyz\" with its limit "
+            "(or simulate a preset robot, which names no coils, as a what-if)")
+    for axis, limit in limits.items():
         if largest[axis] > limit * (1.0 + 1e-9):
             raise CommandError(
                 f"the field rotating at {1e3 * amplitude:g} mT with --heading {heading:g} rad reaches "

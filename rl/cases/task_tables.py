@@ -18,6 +18,9 @@ __all__ = ["MAX_YARDSTICK_BODY_LENGTHS", "REWARD_PER_LENGTH_RANGE", "task_from_t
 #: Most body lengths a yardstick may cover in its 10 s: the paper's fastest gait rolls about 10
 #: (198 mm for a 20 mm robot); 100 is no crawler's, and a distance in mm written as m gives 1000x.
 MAX_YARDSTICK_BODY_LENGTHS = 100.0
+#: Body lengths the paper's fastest gait covers in 10 s (its 10 mT rolling, about 198 mm for a 20 mm
+#: robot): a task that needs more per episode is warned about.
+FASTEST_GAIT_BODY_LENGTHS = 10.0
 
 
 #: Usual reward for crawling one body length (``reward_scale`` per m times the length): the
@@ -157,6 +160,11 @@ def _check_target_reach(t: SpecTable, target: float, length: float, duration: fl
     mistake it looks like."""
     lengths, most = abs(target) / length, MAX_YARDSTICK_BODY_LENGTHS * duration / 10.0
     if lengths <= most:
+        if lengths > FASTEST_GAIT_BODY_LENGTHS * duration / 10.0:  # possible, but faster than any gait
+            t.warn("episode_duration", f"{duration:g} s for the {key} {target:g} m ({lengths:.2g} body "
+                   f"lengths of this {length:g} m robot) asks {lengths / duration:.2g} body lengths per "
+                   f"second, faster than the paper's fastest gait (about {FASTEST_GAIT_BODY_LENGTHS:g} in "
+                   "10 s): few or no episodes can end at the target (ms written as s?)")
         return
     needed = 10.0 * lengths / MAX_YARDSTICK_BODY_LENGTHS  # s: the shortest episode that could
     if needed <= 10.0:  # the target is within a 10 s walk: the episode is what is short

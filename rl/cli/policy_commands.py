@@ -261,6 +261,8 @@ def _seed_figure_names(case) -> list[str]:
 
 
 def ship_command(args: argparse.Namespace) -> int:
+    from elastica_magnetic.locks import claim
+
     from ..shipping.ship import check_ship_target, ship
 
     if args.no_measure and args.duration is not None:  # it would be ignored without a word
@@ -278,6 +280,8 @@ def ship_command(args: argparse.Namespace) -> int:
     target = (args.dest if args.dest is not None else POLICIES_DIR) / args.name
     if (target / POLICY_JSON).exists() and not args.force:  # before the actors' evaluations
         raise CommandError(f"{target} already holds a policy (pass --force to replace it)")
+    if target.is_dir():  # held from now on: no other command writes the policy while it is measured
+        claim(target, option="--out")
     checkpoint = args.checkpoint
     from ..runfiles.rundir import RunDir
 

@@ -225,6 +225,12 @@ def _no_complete_return(run: str | os.PathLike, complete: np.ndarray, start: int
                 f"{gamma:g}: gamma^H < 0.01); give --recent {needed} or more")
     where = f"the discount horizon of {_steps(horizon)} (gamma {gamma:g}: gamma^H < 0.01)"
     duration = meta.get("episode_duration_s")
+    if isinstance(duration, (int, float)) and duration / ACTION_PERIOD >= horizon:
+        # the run's episodes are long enough: it is the run that is young
+        return (f"{run}: none of its {total} transitions has a complete discounted return: the run has "
+                f"only {total} steps, fewer than {where} (its episodes last {duration:g} s, "
+                f"{int(round(duration / ACTION_PERIOD))} steps); train it longer (msr train --resume with "
+                "more --steps, or wait for a training still running) to compare the critic with returns")
     length = f"longest stored: {_steps(longest)}" + (
         f"; the run's episode length {duration:g} s" if isinstance(duration, (int, float)) else "")
     return (f"{run}: none of its {total} transitions has a complete discounted return: its "

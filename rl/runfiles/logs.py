@@ -12,7 +12,12 @@ import math
 from collections.abc import Iterable
 from pathlib import Path
 
-__all__ = ["read_log", "unfinished_line"]
+__all__ = ["EmptyLogError", "read_log", "unfinished_line"]
+
+
+class EmptyLogError(ValueError):
+    """A log with nothing in it, not even its header (a run whose first episode has not ended):
+    no damage, just nothing to read yet."""
 
 
 def unfinished_line(path: str | Path) -> str:
@@ -42,6 +47,9 @@ def read_log(path: str | Path, numeric: Iterable[str], *,
             data = data[:data.rfind(b"\n") + 1]
             if not data:
                 return []  # no whole header line: nothing was logged before the kill
+        if not data.strip():  # written empty when the run started: no episode has ended yet
+            raise EmptyLogError(f"{path}: empty: nothing was logged yet (no training episode of this run "
+                                "has ended: a run just started, or killed before its first episode ended)")
         with io.StringIO(data.decode("utf-8-sig"), newline="") as f:  # a spreadsheet's BOM too
             reader = csv.DictReader(f)
             fields = reader.fieldnames or []

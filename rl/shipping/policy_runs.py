@@ -369,7 +369,7 @@ def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10
         raise FileNotFoundError(f"--checkpoint {checkpoint}: {run} is not a run folder (or its "
                                 f"{RunDir.CHECKPOINT})")
     run_files = RunDir(run_dir)
-    _check_not_training(run_dir)
+    check_not_training(run_dir)
     if checkpoint == "final":
         return ActorChoice(run_files.checkpoint, "final", "asked")
     if checkpoint == "best":
@@ -386,7 +386,7 @@ def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10
     return ActorChoice(run_files.checkpoint, "final", "farther", final, best)
 
 
-def _check_not_training(run_dir: Path) -> None:
+def check_not_training(run_dir: Path) -> None:
     """Refuse a run another live process is still training (its folder's lock): its checkpoints
     are a step of the training, not its final or best actor yet."""
     from elastica_magnetic.locks import describe_owner, held_here, live_owner
@@ -409,7 +409,7 @@ def choose_tip_reach_actor(run: str | Path, checkpoint: str = "auto") -> ActorCh
     if checkpoint != "auto" or not is_run:
         return choose_actor(run, checkpoint, progress=False)
     run_files = RunDir(run_dir)
-    _check_not_training(run_dir)
+    check_not_training(run_dir)
     if run_files.best.is_file():
         return ActorChoice(run_files.best, "best", "training")
     return ActorChoice(run_files.checkpoint, "final", "only")

@@ -23,7 +23,7 @@ from elastica_magnetic.results import (
 from ..runfiles.rundir import CaseDir, RunDir
 from ..sweep.run_records import first_difference
 from .policy_files import resolve_policy
-from .policy_runs import evaluate_seeds, prefer_best, seed_run_dirs
+from .policy_runs import check_not_training, evaluate_seeds, prefer_best, seed_run_dirs
 from .ship import ship
 
 __all__ = ["SEED_TRAINING_LOGS", "export_seeds"]
@@ -70,6 +70,8 @@ def export_seeds(
     """
     case_dir, dest = Path(case_dir), Path(dest)
     seeds = seed_run_dirs(case_dir)
+    for _, run in seeds:  # a seed still being trained has no final actor yet: refused, named
+        check_not_training(Path(run))
     first = resolve_policy(RunDir(seeds[0][1]).checkpoint)
     case = first.case
     subject = f"case {case.name}"

@@ -169,13 +169,24 @@ def plan_robustness(source: str | Path, settings: StudySettings | None = None, /
                           o.physics, duration, info)
 
 
+def _resolved(source: str | Path) -> LoadedPolicy:
+    """The policy of ``source``; a run another live process still trains refused, naming it (its
+    checkpoints are a step of the training)."""
+    from ..shipping.policy_runs import check_not_training
+
+    policy = resolve_policy(source)
+    if policy.kind == "checkpoint":
+        check_not_training(policy.source if policy.source.is_dir() else policy.source.parent)
+    return policy
+
+
 def _tip_reach_policy(source: str | Path, o: StudySettings) -> LoadedPolicy | None:
     """The policy of ``source`` when it steers a catheter (a tip-reach case, studied by
     :mod:`~elastica_magnetic_rl.sim2real.tip_robustness`), else ``None``; ``--fields``, which such a
     study cannot use, refused by name."""
     if _is_field_csv(source) or o.case is not None:  # a field CSV; or a policy with --case: refused later
         return None
-    policy = resolve_policy(source)
+    policy = _resolved(source)
     if policy.case.field_actuated:
         return None
     if o.fields_csv is not None:
@@ -200,7 +211,7 @@ def _study_source(source: str | Path, case: str | Path | Case | None,
     else:
         if case is not None:
             raise ValueError(f"{source}: a policy carries its case; --case is for a field CSV")
-        policy = resolve_policy(source)
+        policy = _resolved(source)
         the_case = policy.case
         shipped_csv = Path(policy.source) / "fields.csv" if policy.kind == "shipped" else None
         if fields_csv is not None:

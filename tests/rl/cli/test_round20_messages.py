@@ -138,3 +138,94 @@ def test_results_go_into_a_shipped_policy_only_in_its_seeds_folder(trained, tmp_
         assert f"(or in {policy}/seeds/)" in err, err
     assert _snapshot(policy) == before
     assert msr(["policy", "export", str(run), "--out", str(policy / "seeds" / "exp")]) == 0
+
+
+def test_a_run_still_being_trained_is_neither_studied_nor_exported(trained, tmp_path, capsys):
+    """S7: ``msr real robustness RUN`` and ``msr policy export-seeds RUNS/<case>`` of a run a live
+    ``msr train`` writes played a checkpoint that is a step of the training."""
+    import shutil
+
+    from lock_holder import held_elsewhere
+
+    case_folder = tmp_path / "runs" / "m1-4mT"
+    shutil.copytree(trained / "m1-4mT", case_folder)
+    run = case_folder / "seed0"
+    with held_elsewhere(run) as pid:
+        for argv in (["real", "robustness", str(run), "--duration", "0.05", "--open-loop-only",
+                      "--no-corners", "--workers", "1", "--no-progress", "--out", str(tmp_path / "rb")],
+                     ["policy", "export-seeds", str(case_folder), "--out", str(tmp_path / "es"),
+                      "--no-progress"]):
+            capsys.readouterr()
+            assert msr(argv) != 0, argv
+            assert f"is being trained by pid {pid}" in capsys.readouterr().err, argv
+    assert not (tmp_path / "rb").exists() and not (tmp_path / "es").exists()
+
+
+def test_ship_holds_the_policy_s_folder_while_it_measures(trained, tmp_path, monkeypatch):
+    """D12: ``msr policy ship --force`` took no lock while it evaluated the actors: a ``policy
+    notes`` made meanwhile was accepted, then dropped by the ship's swap without a word."""
+    import elastica_magnetic_rl.cli.policy_commands as commands
+
+    from elastica_magnetic.locks import held_here
+
+    run, policy = _ship(trained, tmp_path)
+    seen = []
+    real_choice = commands._actor_choice
+
+    def choice(*args, **kwargs):
+        seen.append(held_here(policy))  # while the actors are evaluated
+        return real_choice(*args, **kwargs)
+
+    monkeypatch.setattr(commands, "_actor_choice", choice)
+    assert msr(["policy", "ship", str(run), "--checkpoint", "final", "--duration", "0.05", "--name", "p1",
+                "--out", str(tmp_path / "ship"), "--force", "--no-progress"]) == 0
+    assert seen == [True]
+
+
+def test_figures_of_a_run_with_no_finished_episode_say_so(trained, tmp_path, capsys):
+    """V9: an empty episodes.csv (a run whose first episode has not ended) was a "damaged log"."""
+    import shutil
+
+    run = tmp_path / "run"
+    shutil.copytree(trained / "m1-4mT" / "seed0", run)
+    (run / "episodes.csv").write_text("")
+    assert msr(["policy", "figures", str(run), "--out", str(tmp_path / "figs")]) != 0
+    err = capsys.readouterr().err
+    assert "episodes.csv: empty: nothing was logged yet (no training episode of this run has ended" in err
+    assert "damaged" not in err
+
+
+def test_a_goto_episode_too_short_for_any_gait_is_warned_about(tmp_path):
+    """S10: targets 15 mm away in 0.5 s episodes (1.5 body lengths per second) passed without a word."""
+    import copy
+    import warnings
+
+    from elastica_magnetic_rl.cases.case import load_case
+
+    data = copy.deepcopy(load_case("m1-4mT-goto").to_dict())
+    data["name"] = "g"
+    data["task"]["episode_duration"] = 0.5
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        load_case(data)
+    assert any("[task] episode_duration: 0.5 s for the distance 0.015 m" in str(w.message)
+               and "faster than the paper's fastest gait" in str(w.message) for w in caught)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        load_case("m1-4mT-goto")
+    assert not any("fastest gait" in str(w.message) for w in caught)
+
+
+def test_simulate_plays_no_z_field_on_a_spec_whose_coils_are_in_x_y(tmp_path, capsys):
+    """S11: ``msr field simulate --robot SPEC --heading 1.5708`` played a field along z on a spec whose
+    [actuation] drives x and y only (``msr field replay`` refuses the same)."""
+    spec = tmp_path / "m1.toml"
+    assert msr(["case", "show", "m1-4mT", "--toml"]) == 0
+    spec.write_text(capsys.readouterr().out)
+    assert msr(["field", "simulate", "--robot", str(spec), "--heading", "1.5708", "--duration", "0.02",
+                "--out", str(tmp_path / "sim")]) == 2
+    assert "drives the axes xy only (no coil pair along z)" in capsys.readouterr().err
+    assert not (tmp_path / "sim").exists()
+    # the plane turned half a turn stays in x-y
+    assert msr(["field", "simulate", "--robot", str(spec), "--heading", "3.14159265358979", "--duration",
+                "0.02", "--no-progress", "--out", str(tmp_path / "flat")]) == 0

@@ -182,3 +182,15 @@ def test_diagnose_figures_interrupted_leave_the_earlier_ones(fault_server, small
     assert done.returncode == 130, done.stderr
     assert {p.name: p.read_bytes() for p in figures.iterdir()} == before
     assert sorted(os.listdir(tmp_path)) == ["health"]
+
+
+def test_a_run_younger_than_the_horizon_is_told_to_train_longer_not_to_lengthen_episodes(small_run, tmp_path):
+    """Round 20 S: a run 200 steps into 20 s episodes was told its episodes are shorter than the
+    459-step horizon and to train with longer ones: it was the run that was young."""
+    young = _with_gamma(small_run, tmp_path, 0.999, 60.0)  # 6000-step episodes, 4603-step horizon
+    with pytest.raises(ValueError) as info:
+        run_health(young, recent=1000000)
+    text = str(info.value)
+    assert "the run has only 400 steps, fewer than the discount horizon of 4603 steps" in text, text
+    assert "its episodes last 60 s, 6000 steps); train it longer" in text
+    assert "train with episodes of at least" not in text
