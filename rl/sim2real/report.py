@@ -72,22 +72,46 @@ def robustness_table(report: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def _variation_panels(count: int) -> tuple[Any, Any, int]:
+    """A figure of one panel per variation (at most 4 a row, a shared y axis): the figure, its
+    axes (flat) and the number of columns."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    n = max(count, 1)
+    cols = min(n, 4)
+    rows = math.ceil(n / cols)
+    fig = Figure(figsize=(3.6 * cols + 0.6, 3.2 * rows + 0.9), constrained_layout=True)
+    FigureCanvasAgg(fig)
+    return fig, np.atleast_1d(fig.subplots(rows, cols, sharey=True, squeeze=False)).ravel(), cols
+
+
+def _label_panel(ax: Any, variation: dict[str, Any], nominal: float) -> None:
+    """A variation's panel: the nominal setting as a vertical line, the setting's name and unit."""
+    ax.axvline(nominal, color="0.8", lw=0.8, zorder=0)
+    name = variation["name"]
+    unit = "value" if variation["absolute"] else "x nominal"
+    ax.set_xlabel(f"{name} ({unit})", fontsize=8 if len(name) > 30 else 10)
+    ax.grid(alpha=0.3)
+
+
+def _finish_panels(axes: Any, used: int, cols: int, ylabel: str) -> None:
+    """The panels past ``used`` hidden, the y label on each row's first, the legend on the first."""
+    for ax in axes[used:]:
+        ax.set_visible(False)
+    for ax in axes[::cols]:
+        ax.set_ylabel(ylabel)
+    axes[0].legend(fontsize=7, loc="best")
+
+
 def plot_robustness(report: dict[str, Any], path: str | Path) -> Path:
     """One panel per variation: the distance (mm) of every variant against that variation's
     setting (factor or value), open loop (blue circles) and closed loop (orange triangles); the
     one-at-a-time variants and the nominal robot joined by a line, the others (corners, samples)
     as small points; the yardstick and 80 % of it as horizontal lines (for a 10 s run: the
     yardstick is the distance in 10 s)."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
     variations = report["variations"]
-    n = max(len(variations), 1)
-    cols = min(n, 4)
-    rows = math.ceil(n / cols)
-    fig = Figure(figsize=(3.6 * cols + 0.6, 3.2 * rows + 0.9), constrained_layout=True)
-    FigureCanvasAgg(fig)
-    axes = np.atleast_1d(fig.subplots(rows, cols, sharey=True, squeeze=False)).ravel()
+    fig, axes, cols = _variation_panels(len(variations))
     styles = {"open_loop": ("C0", "o"), "closed_loop": ("C1", "^")}
     yard = report["yardstick_m"]
     variants = report["variants"]
@@ -115,15 +139,8 @@ def plot_robustness(report: dict[str, Any], path: str | Path) -> Path:
         if yard and report.get("yardstick_comparable", abs(report["duration_s"] - 10.0) < 1e-9):
             ax.axhline(1e3 * yard, color="0.3", ls="--", lw=1, label=f"yardstick {1e3 * yard:.1f} mm")
             ax.axhline(0.8 * 1e3 * yard, color="0.5", ls=":", lw=1, label="80 % of it")
-        ax.axvline(nominal[name], color="0.8", lw=0.8, zorder=0)
-        unit = "value" if variation["absolute"] else "x nominal"
-        ax.set_xlabel(f"{name} ({unit})", fontsize=8 if len(name) > 30 else 10)
-        ax.grid(alpha=0.3)
-    for ax in axes[len(variations):]:
-        ax.set_visible(False)
-    for ax in axes[::cols]:
-        ax.set_ylabel(f"distance in {report['duration_s']:g} s (mm)")
-    axes[0].legend(fontsize=7, loc="best")
+        _label_panel(ax, variation, nominal[name])
+    _finish_panels(axes, len(variations), cols, f"distance in {report['duration_s']:g} s (mm)")
     summary = report["summary"]
     worst = ", ".join(f"{_MODE_NAMES[m]} worst {_mm(s['worst_m'], s['worst_fraction'])}"
                       for m, s in summary.items())
@@ -174,16 +191,8 @@ def plot_tip_robustness(report: dict[str, Any], path: str | Path) -> Path:
     variation's setting, the task's tolerance as a line; the one-at-a-time variants and the nominal
     catheter joined by a line, the others (corners, samples) as small points. The title gives each
     controller's fewest targets reached."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
     variations, variants = report["variations"], report["variants"]
-    n = max(len(variations), 1)
-    cols = min(n, 4)
-    rows = math.ceil(n / cols)
-    fig = Figure(figsize=(3.6 * cols + 0.6, 3.2 * rows + 0.9), constrained_layout=True)
-    FigureCanvasAgg(fig)
-    axes = np.atleast_1d(fig.subplots(rows, cols, sharey=True, squeeze=False)).ravel()
+    fig, axes, cols = _variation_panels(len(variations))
     styles = {"policy": ("C1", "^"), "yardstick": ("0.4", "s")}
     nominal = variants[0]["settings"]
     for ax, variation in zip(axes, variations, strict=False):
@@ -203,16 +212,10 @@ def plot_tip_robustness(report: dict[str, Any], path: str | Path) -> Path:
                 xs, ys = zip(*line, strict=True)
                 ax.plot(xs, ys, color=colour, marker=marker, ms=6, lw=1.8, label=_TIP_MODE_NAMES[mode])
         ax.axhline(1e3 * report["tolerance_m"], color="0.3", ls="--", lw=1, label="tolerance")
-        ax.axvline(nominal[name], color="0.8", lw=0.8, zorder=0)
         ax.set_ylim(bottom=0.0)
-        unit = "value" if variation["absolute"] else "x nominal"
-        ax.set_xlabel(f"{name} ({unit})", fontsize=8 if len(name) > 30 else 10)
-        ax.grid(alpha=0.3)
-    for ax in axes[len(variations):]:
-        ax.set_visible(False)
-    for ax in axes[::cols]:
-        ax.set_ylabel(f"median final distance, {len(report['targets_m'])} targets (mm)")
-    axes[0].legend(fontsize=7, loc="best")
+        _label_panel(ax, variation, nominal[name])
+    _finish_panels(axes, len(variations), cols,
+                   f"median final distance, {len(report['targets_m'])} targets (mm)")
     n = len(report["targets_m"])
     worst = ", ".join(f"{_TIP_MODE_NAMES[m]} reached at worst {s['worst_successes']}/{n}"
                       for m, s in report["summary"].items())

@@ -289,22 +289,14 @@ def run_robustness(
     (:func:`~elastica_magnetic_rl.sim2real.tip_robustness.run_tip_robustness`)."""
     if isinstance(plan, TipRobustnessPlan):
         return run_tip_robustness(plan, workers=workers, progress=progress)
+    from ..sweep.backends import run_each
+
     jobs = _jobs(plan, closed_loop)
     workers = max(1, min(int(workers or os.cpu_count() or 1), len(jobs)))
     start = time.perf_counter()
-    if workers == 1:
-        from elastica_magnetic.progress import progress_bar
-
-        results = []
-        with progress_bar(len(jobs), "robustness", "run", disable=not progress, leave=False) as bar:
-            for job in jobs:
-                results.append(run_variant(job))
-                bar.update()
-    else:
-        from ..sweep.backends import run_in_processes
-
-        results = run_in_processes(run_variant, jobs, workers, on_error=lambda k, exc: {
-            "distance_m": None, "diverged": f"{type(exc).__name__}: {exc}", "wall_s": None})
+    results = run_each(run_variant, jobs, workers, progress=progress, label="robustness",
+                       on_error=lambda k, exc: {"distance_m": None, "wall_s": None,
+                                                "diverged": f"{type(exc).__name__}: {exc}"})
     wall = time.perf_counter() - start
     return summarize(plan, jobs, results, wall, workers)
 

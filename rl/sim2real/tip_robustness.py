@@ -131,22 +131,14 @@ def run_tip_robustness(plan: TipRobustnessPlan, *, workers: int | None = None,
                        progress: bool = True) -> dict[str, Any]:
     """Run every variant of ``plan`` by the policy and by the yardstick, in ``workers`` processes
     (default: every core; 1: in this process). Returns the report (:func:`summarize_tip`)."""
+    from ..sweep.backends import run_each
+
     jobs = _jobs(plan)
     workers = max(1, min(int(workers or os.cpu_count() or 1), len(jobs)))
     start = time.perf_counter()
-    if workers == 1:
-        from elastica_magnetic.progress import progress_bar
-
-        results = []
-        with progress_bar(len(jobs), "robustness", "run", disable=not progress, leave=False) as bar:
-            for job in jobs:
-                results.append(run_tip_variant(job))
-                bar.update()
-    else:
-        from ..sweep.backends import run_in_processes
-
-        results = run_in_processes(run_tip_variant, jobs, workers, on_error=lambda k, exc: {
-            "successes": None, "error": f"{type(exc).__name__}: {exc}", "wall_s": None})
+    results = run_each(run_tip_variant, jobs, workers, progress=progress, label="robustness",
+                       on_error=lambda k, exc: {"successes": None, "wall_s": None,
+                                                "error": f"{type(exc).__name__}: {exc}"})
     return summarize_tip(plan, jobs, results, time.perf_counter() - start, workers)
 
 

@@ -189,6 +189,23 @@ def run_in_processes(
 WORKER_PRELOAD = ("torch", "torch._dynamo", "elastica", "elastica_magnetic_rl.sweep.training")
 
 
+def run_each(fn: Callable[[Any], Any], jobs: list[Any], workers: int, *, progress: bool = True,
+             label: str = "run", on_error: Callable[[int, Exception], Any] | None = None) -> list[Any]:
+    """``fn(job)`` for every job, the results in the order of ``jobs``: with ``workers`` 1 in this
+    process, one after the other under a progress bar (``label``; a job that raises raises here),
+    else :func:`run_in_processes` (``on_error`` as there)."""
+    if workers > 1:
+        return run_in_processes(fn, jobs, workers, on_error=on_error)
+    from elastica_magnetic.progress import progress_bar
+
+    results = []
+    with progress_bar(len(jobs), label, "run", disable=not progress, leave=False) as bar:
+        for job in jobs:
+            results.append(fn(job))
+            bar.update()
+    return results
+
+
 def worker_context() -> multiprocessing.context.BaseContext:
     """The start method of the worker processes: ``forkserver`` with :data:`WORKER_PRELOAD`
     imported in the server, started (once per process) with SIGINT ignored, so a Ctrl-C while it
