@@ -319,7 +319,7 @@ def replace_files(
     after the new ones are in place (those of a replaced set that the new one lacks). An
     existing file is replaced only when msr recorded it (:data:`MANIFEST`) unchanged, or with
     ``adopt`` (the caller recognised the folder as msr's own, written before records).
-    ``holder``: the set is a result that holds ``folder`` whole (``"the shipped policy of case
+    ``holder``: the set is a result that holds ``folder`` whole (``"a shipped policy of case
     'm1-4mT' (msr policy ship)"``): recorded, and from then on no other writer puts a file there (a
     folder another holder holds is refused, naming it); other results go only into its subfolders
     ``results_in`` (a policy's ``seeds``)."""
