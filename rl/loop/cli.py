@@ -85,8 +85,9 @@ def _settings(args: argparse.Namespace, skip: tuple[str, ...] = ()):
                                "JSON, e.g. stm32/calibration/default.json or msr real calibrate's)")
         calibration = load_calibration(args.calibration)  # its named error now, not after the training
         _check_calibration_drives(calibration, args.calibration, args.spec)
-    if args.quick and "train" not in skip and warmup_refusal(args.spec):
-        raise CommandError(f"--quick: {args.spec.source}: [training.td3] yardstick_warmup needs [yardstick] "
+    spec = getattr(args, "spec", None)  # the case (parsed); absent where only the settings are asked
+    if args.quick and "train" not in skip and spec is not None and warmup_refusal(spec):
+        raise CommandError(f"--quick: {spec.source}: [training.td3] yardstick_warmup needs [yardstick] "
                            "period, and a smoke run's sweep does not record its field (too short to be a "
                            "yardstick a training may clone): give [yardstick] period in the spec, or run the "
                            "loop without --quick (its sweep records the field)")

@@ -176,7 +176,8 @@ def _resolved(source: str | Path) -> LoadedPolicy:
 
     policy = resolve_policy(source)
     if policy.kind == "checkpoint":
-        check_not_training(policy.source if policy.source.is_dir() else policy.source.parent)
+        path = Path(policy.source)
+        check_not_training(path if path.is_dir() else path.parent)
     return policy
 
 
