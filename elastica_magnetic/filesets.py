@@ -47,6 +47,7 @@ import re
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NoReturn
 
 from .interrupts import signals_as_exceptions, signals_held
 from .io import (
@@ -330,6 +331,24 @@ def replace_files(
     if set(remove) & set(names):
         raise ValueError(f"replace_files({folder}): {', '.join(sorted(set(remove) & set(names)))} "
                          "both written and removed")
+    _make_folder(folder, option)
+    with signals_as_exceptions(), FolderLock(folder, option=option) as lock:
+        notes = lock.notes + _recover_locked(folder)
+        _check_replaceable(folder, names, remove, force=force, option=option, force_option=force_option,
+                           adopt=adopt, holder=holder)
+        staging = _make_staging(folder, option)
+        files = FileSet(folder, staging, names, notes)
+        try:
+            yield files
+            _commit(staging, folder, names, remove, holder, results_in)
+        except BaseException as exc:
+            _raise_failed_write(exc, staging, folder, option)
+        finally:
+            release_claim(folder)  # the pre-check's hold (the lock itself goes with this block)
+
+
+def _make_folder(folder: Path, option: str) -> None:
+    """Create ``folder`` and its parents, refusing a path through a file."""
     for parent in (folder, *folder.parents):
         if parent.exists() and not parent.is_dir():
             raise OutputPathError(f"{option} {display_path(folder)}: {parent} is a file, not a folder")
@@ -338,58 +357,72 @@ def replace_files(
     except OSError as exc:
         raise OutputPathError(f"{option} {display_path(folder)}: cannot create it: "
                               f"{exc.strerror or exc}") from None
-    with signals_as_exceptions(), FolderLock(folder, option=option) as lock:
-        notes = lock.notes + _recover_locked(folder)
-        held = manifest_holder(folder)
-        if held is not None and held != holder:
-            raise ResultExistsError(f"{option} {display_path(folder)}: holds {held}, whose files are its "
-                                    f"own: nothing else goes in that folder; choose another {option}")
-        existing = [n for n in names if (folder / n).exists()]
-        if existing and not force:
-            raise ResultExistsError(f"{option} {display_path(folder)}: already holds "
-                                    f"{', '.join(existing)}; pass "
-                                    f"{force_option} to replace, or choose another {option}")
-        # the files it removes are replaced too: a file of the user's among them is refused alike
-        removing = [n for n in remove if (folder / n).exists()]
-        _refuse_unrecorded(folder, existing + removing, adopt, option, force_option)
-        staging = folder / f"{_PREFIX}{name_tag(host_name())}-{os.getpid()}-{os.urandom(3).hex()}"
-        try:
-            os.mkdir(staging)
-        except OSError as exc:
-            raise OutputPathError(f"{option} {display_path(folder)}: cannot write in it: "
-                                  f"{exc.strerror or exc}") from None
-        files = FileSet(folder, staging, names, notes)
-        try:
-            yield files
-            written = _written(staging)
-            unexpected = sorted(set(written) - set(names))
-            if unexpected:
-                raise ValueError(f"replace_files({folder}): wrote {', '.join(unexpected)}, not "
-                                 f"among the declared names {', '.join(names)}")
-            fsync_tree(staging)
-            with signals_held():
-                record = staging / f"{_COMMIT}.tmp"
-                record.write_text(json.dumps({"files": written, "remove": list(remove), "holder": holder,
-                                              "results_in": list(results_in)}), encoding="utf-8")
-                os.replace(record, staging / _COMMIT)  # from here on, the next run rolls forward
-                _move_committed(staging, folder)
-                remove_tree(staging)
-        except BaseException as exc:
-            committed = (staging / _COMMIT).exists()
-            if not committed:
-                remove_tree(staging)
-            then = ("the next run on it finishes the replacement" if committed
-                    else "nothing in it changed")
-            if isinstance(exc, OSError) and not isinstance(exc, OutputPathError):
-                raise OutputPathError(f"{option} {display_path(folder)}: cannot write the files: "
-                                      f"{exc.strerror or exc}; {then}") from exc
-            if isinstance(exc, OutputPathError) and str(staging) in str(exc):
-                # a writer named its temporary file: name the file the user will look for
-                message = str(exc).replace(str(staging), str(folder))
-                raise OutputPathError(f"{message}; {display_path(folder)}: {then}") from exc
-            raise
-        finally:
-            release_claim(folder)  # the pre-check's hold (the lock itself goes with this block)
+
+
+def _check_replaceable(folder: Path, names: tuple[str, ...], remove: tuple[str, ...], *, force: bool,
+                       option: str, force_option: str, adopt: bool, holder: str | None) -> None:
+    """Refuse (under the folder's lock) a folder another result holds, existing files without
+    ``force``, and files msr did not record (see :func:`replace_files`)."""
+    held = manifest_holder(folder)
+    if held is not None and held != holder:
+        raise ResultExistsError(f"{option} {display_path(folder)}: holds {held}, whose files are its "
+                                f"own: nothing else goes in that folder; choose another {option}")
+    existing = [n for n in names if (folder / n).exists()]
+    if existing and not force:
+        raise ResultExistsError(f"{option} {display_path(folder)}: already holds "
+                                f"{', '.join(existing)}; pass "
+                                f"{force_option} to replace, or choose another {option}")
+    # the files it removes are replaced too: a file of the user's among them is refused alike
+    removing = [n for n in remove if (folder / n).exists()]
+    _refuse_unrecorded(folder, existing + removing, adopt, option, force_option)
+
+
+def _make_staging(folder: Path, option: str) -> Path:
+    """A new staging folder inside ``folder``, named after this host and process."""
+    staging = folder / f"{_PREFIX}{name_tag(host_name())}-{os.getpid()}-{os.urandom(3).hex()}"
+    try:
+        os.mkdir(staging)
+    except OSError as exc:
+        raise OutputPathError(f"{option} {display_path(folder)}: cannot write in it: "
+                              f"{exc.strerror or exc}") from None
+    return staging
+
+
+def _commit(staging: Path, folder: Path, names: tuple[str, ...], remove: tuple[str, ...],
+            holder: str | None, results_in: tuple[str, ...]) -> None:
+    """Check what was written, then record the commit and move the files in: once the record is
+    in place, an interrupted move is finished by the next run on the folder."""
+    written = _written(staging)
+    unexpected = sorted(set(written) - set(names))
+    if unexpected:
+        raise ValueError(f"replace_files({folder}): wrote {', '.join(unexpected)}, not "
+                         f"among the declared names {', '.join(names)}")
+    fsync_tree(staging)
+    with signals_held():
+        record = staging / f"{_COMMIT}.tmp"
+        record.write_text(json.dumps({"files": written, "remove": list(remove), "holder": holder,
+                                      "results_in": list(results_in)}), encoding="utf-8")
+        os.replace(record, staging / _COMMIT)  # from here on, the next run rolls forward
+        _move_committed(staging, folder)
+        remove_tree(staging)
+
+
+def _raise_failed_write(exc: BaseException, staging: Path, folder: Path, option: str) -> NoReturn:
+    """After a failed write: drop an uncommitted staging folder and raise ``exc`` again, an
+    ``OSError`` as an :class:`OutputPathError` saying what the folder holds now."""
+    committed = (staging / _COMMIT).exists()
+    if not committed:
+        remove_tree(staging)
+    then = ("the next run on it finishes the replacement" if committed
+            else "nothing in it changed")
+    if isinstance(exc, OSError) and not isinstance(exc, OutputPathError):
+        raise OutputPathError(f"{option} {display_path(folder)}: cannot write the files: "
+                              f"{exc.strerror or exc}; {then}") from exc
+    if isinstance(exc, OutputPathError) and str(staging) in str(exc):
+        # a writer named its temporary file: name the file the user will look for
+        message = str(exc).replace(str(staging), str(folder))
+        raise OutputPathError(f"{message}; {display_path(folder)}: {then}") from exc
+    raise exc
 
 
 _NEW_FILE = ".msr-new-"

@@ -5,7 +5,8 @@ The helper modules beside this file (``benchmark_scripts``, ``smoke``, ``spec_ma
 folder on ``sys.path`` because it holds a ``conftest.py``.
 
 The training runs that many tests read are made here, once per test session (``trained``: ``msr
-train`` of 2 seeds; ``refined``: ``msr refine`` of its seed 0), whichever test modules use them.
+train`` of 2 seeds; ``refined``: ``msr refine`` of its seed 0; ``catheter_run``: a smoke training of a
+catheter case), whichever test modules use them.
 """
 
 from __future__ import annotations
@@ -35,3 +36,13 @@ def refined(trained) -> Path:
     assert msr(["refine", str(run), "--checkpoint", "final", "--steps", "3",
                 "--episode-duration", "0.02", "--no-progress"]) == 0
     return run / "refined"
+
+
+@pytest.fixture(scope="session")
+def catheter_run(tmp_path_factory) -> Path:
+    """A smoke training of the shipped magnet-arm catheter case (seconds; an untrained actor):
+    its seed 0's run folder."""
+    out = tmp_path_factory.mktemp("catheter_runs")
+    assert msr(["train", "--case", "catheter-magnet-reach", "--seeds", "1", "--workers", "1", "--steps",
+                "160", "--out", str(out), *SMOKE]) == 0
+    return out / "catheter-magnet-reach" / "seed0"

@@ -16,7 +16,7 @@ from elastica_magnetic_rl.shipping.tip_reach import (
     run_targets,
     steering_controller,
 )
-from smoke import SMOKE, run_msr
+from smoke import run_msr
 from spec_texts import CATHETER_MAGNET_REACH
 
 from elastica_magnetic.cli import main as msr
@@ -81,15 +81,6 @@ def test_the_coils_yardstick_closes_the_distance():
     straight = float(np.linalg.norm(target - [0.05, 0.0, 0.0]))
     result = run_targets(c, target, steering_controller, physics="training", duration=0.6)
     assert result["closest_distance_m"][0] < 0.75 * straight and result["ended_by"] == ["time"]
-
-
-@pytest.fixture(scope="module")
-def catheter_run(tmp_path_factory):
-    """A smoke training of the shipped magnet-arm catheter case (seconds; an untrained actor)."""
-    out = tmp_path_factory.mktemp("catheter_runs")
-    assert msr(["train", "--case", "catheter-magnet-reach", "--seeds", "1", "--workers", "1", "--steps",
-                "160", "--out", str(out), *SMOKE]) == 0
-    return out / "catheter-magnet-reach" / "seed0"
 
 
 def test_generate_steers_a_tip_reach_policy_to_a_target_and_reports_the_tip_error(catheter_run, tmp_path,

@@ -18,20 +18,10 @@ from elastica_magnetic_rl.shipping.tip_reach import (
     run_targets,
     steering_controller,
 )
-from smoke import SMOKE
 
 from elastica_magnetic.cli import main as msr
 
 DURATION = 0.1  # s: a few control steps of each target's run
-
-
-@pytest.fixture(scope="module")
-def catheter_run(tmp_path_factory):
-    """A smoke training of the shipped magnet-arm catheter case (an untrained actor)."""
-    out = tmp_path_factory.mktemp("catheter_runs")
-    assert msr(["train", "--case", "catheter-magnet-reach", "--seeds", "1", "--workers", "1", "--steps",
-                "100", "--out", str(out), *SMOKE]) == 0
-    return out / "catheter-magnet-reach" / "seed0"
 
 
 @pytest.fixture(scope="module")
