@@ -208,13 +208,21 @@ class GroupLoop:
         self.update_credit = owed - n_updates
         for run in self.runs:
             run.update_credit = self.update_credit
+        held = self.warmup_batches if cfg.yardstick_regularization else None
         for _ in range(n_updates):
             info = learner.update([r.buffer.sample(cfg.batch_size, learner.rngs[k])
-                                   for k, r in enumerate(runs)])
+                                   for k, r in enumerate(runs)], warmup_batches=held)
             if learner.num_updates % cfg.log_every == 0:
                 for name, values in info.items():
                     for k, run in enumerate(runs):
                         run.writer.add_scalar(f"losses/{name}", float(values[k]), run.global_step)
+
+    def warmup_batches(self) -> list[Any]:
+        """Each seed's minibatch of its warm-up's transitions (the first ``learning_starts`` of its
+        buffer, the yardstick's), for ``yardstick_regularization``."""
+        cfg, learner = self.cfg, self.learner
+        return [r.buffer.sample_first(cfg.learning_starts, cfg.batch_size, learner.rngs[k])
+                for k, r in enumerate(self.runs)]
 
     def start_from_yardstick(self) -> None:
         """The end of a warm-up the yardstick played (``yardstick_warmup`` U): every seed's actor

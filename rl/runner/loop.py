@@ -219,6 +219,11 @@ def _check_yardstick(runs: list[SeedRun], yardstick_fn: Callable[[], Any] | None
     """A warm-up the yardstick plays needs one whose observation and action are the
     environment's (``ValueError`` naming what is missing, before any step)."""
     cfg = runs[0].cfg
+    short = [r for r in runs if r.buffer.capacity < r.steps]
+    if cfg.yardstick_regularization and short:
+        raise ValueError(f"yardstick_regularization {cfg.yardstick_regularization:g} holds the actor near "
+                         f"the warm-up's transitions for the whole run: buffer_size ({cfg.buffer_size}) must "
+                         f"hold the run's {short[0].steps} steps, or the ring overwrites them")
     if not cfg.yardstick_warmup or runs[0].global_step >= cfg.learning_starts:
         return
     if yardstick_fn is None:

@@ -177,12 +177,15 @@ def _refinement_config(ckpt: dict[str, Any], device: str | None, source: str | P
     refused (``ValueError``) before any work when this PyTorch has no such device (a run trained
     on a GPU, refined on a machine without one); checkpoints at least every
     :data:`REFINE_CHECKPOINT_STEPS` of ``physics`` (the run's own interval, 10000 steps, is
-    minutes to hours of refinement: an interrupted refinement resumes instead of starting over)."""
+    minutes to hours of refinement: an interrupted refinement resumes instead of starting over);
+    without ``yardstick_regularization`` (a refinement plays no warm-up to hold its actor to)."""
     from ..td3.config import TD3Config
     from ..td3.devices import device_problem
 
     config = TD3Config.from_dict(ckpt["config"])
     config.checkpoint_every = min(config.checkpoint_every, REFINE_CHECKPOINT_STEPS[physics])
+    # a refinement has no warm-up of its own (its buffer starts empty): nothing to hold the actor to
+    config.yardstick_regularization = 0.0
     if device is not None:
         config.device = device
     problem = device_problem(config.device)

@@ -32,7 +32,14 @@ actor clones them (``U`` steps of :meth:`TD3.clone_step`)::
        L_clone = mean || tanh(MLP(s)) - a ||^2
 
 then the critics learn the clone's value (``U`` calls of :meth:`TD3.update` with the actor held,
-its targets set to the clone by :meth:`TD3.hold_actor_targets`).
+its targets set to the clone by :meth:`TD3.hold_actor_targets`). With
+:attr:`TD3Config.yardstick_regularization` ``beta > 0`` the actor stays held near the warm-up for
+the whole run, as in TD3+BC (Fujimoto & Gu, "A Minimalist Approach to Offline Reinforcement
+Learning", NeurIPS 2021), on a minibatch ``(s_w, a_w)`` of the warm-up's transitions::
+
+       L_actor = -mean Q1(s, mu(s)) / mean|Q1(s, mu(s))| + beta * mean || tanh(MLP(s_w)) - a_w ||^2
+
+(the normaliser held constant in the gradient, as TD3+BC's ``lambda``).
 
 K seeds as one computation
 --------------------------
@@ -76,6 +83,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import warnings
+from collections.abc import Callable
 from fractions import Fraction
 from typing import Any
 
@@ -84,7 +92,7 @@ import torch
 
 from elastica_magnetic.plausibility import SettingNotAppliedWarning
 
-from .config import SATURATION_PREACTIVATION, TD3Config
+from .config import Q_SCALE_FLOOR, SATURATION_PREACTIVATION, TD3Config
 from .networks import Actor, ScaledPolicy, TwinCritic
 from .replay_buffer import Batch
 from .stacked import StackedMLP, load_member_adam_state, member_adam_state, prefixed, unprefixed
@@ -278,12 +286,16 @@ class TD3:
         q1_next, q2_next = self._q(self.critic_target_net, next_obs, next_action, self.compute_dtype)
         return rewards + cfg.gamma * (1.0 - terminated) * torch.min(q1_next, q2_next)
 
-    def update(self, batches: list[Batch], train_actor: bool = True) -> dict[str, torch.Tensor]:
+    def update(self, batches: list[Batch], train_actor: bool = True,
+               warmup_batches: Callable[[], list[Batch]] | None = None) -> dict[str, torch.Tensor]:
         """One TD3 gradient step of every seed, seed ``k`` on ``batches[k]``: the critics always;
         every ``policy_delay``-th call also the actors (unless ``train_actor`` is false: the critics
-        then learn the value of the actors as they are) and a Polyak update of all targets. Returns
-        each seed's losses as ``(K,)`` tensors (``critic_loss``, ``q1``, ``q2``, ``target_q`` and,
-        on actor steps, ``actor_loss``)."""
+        then learn the value of the actors as they are) and a Polyak update of all targets. With
+        :attr:`TD3Config.yardstick_regularization` the actors' step also needs ``warmup_batches``
+        (called on actor steps only: seed ``k``'s minibatch of its yardstick warm-up's transitions,
+        for each seed). Returns each seed's losses
+        as ``(K,)`` tensors (``critic_loss``, ``q1``, ``q2``, ``target_q`` and, on actor steps,
+        ``actor_loss``, with the regularization also ``warmup_distance``)."""
         cfg, dtype = self.config, self.compute_dtype
         obs, actions, rewards, next_obs, terminated = self._stack(batches)
 
@@ -306,6 +318,11 @@ class TD3:
             mu = torch.tanh(pre)
             q1_mu = self.critic_net(torch.cat([obs, mu], dim=-1), dtype, members=slice(0, self.n_seeds))
             actor_loss = -q1_mu.mean(dim=(1, 2))
+            if cfg.yardstick_regularization:  # TD3+BC: -Q / mean|Q| + beta * mean ||mu(s_w) - a_w||^2
+                distance = self._warmup_distance(warmup_batches)
+                actor_loss = (actor_loss / q1_mu.detach().abs().mean(dim=(1, 2)).clamp_min(Q_SCALE_FLOOR)
+                              + cfg.yardstick_regularization * distance)
+                info["warmup_distance"] = distance.detach()
             if cfg.actor_saturation_penalty:  # lambda * mean(relu(|u| - 3)^2), each seed its own
                 excess = torch.relu(pre.abs() - SATURATION_PREACTIVATION)
                 actor_loss = actor_loss + cfg.actor_saturation_penalty * (excess ** 2).mean(dim=(1, 2))
@@ -313,6 +330,15 @@ class TD3:
             self._polyak()
             info["actor_loss"] = actor_loss.detach()
         return info
+
+    def _warmup_distance(self, warmup_batches: Callable[[], list[Batch]] | None) -> torch.Tensor:
+        """Each seed's ``mean || tanh(MLP(s_w)) - a_w ||^2`` over its warm-up minibatch, ``(K,)``."""
+        if warmup_batches is None:
+            raise ValueError("yardstick_regularization: update() needs warmup_batches, a minibatch of "
+                             "each seed's warm-up transitions")
+        obs, actions, _, _, _ = self._stack(warmup_batches())
+        mu = torch.tanh(self.actor_net(obs, self.compute_dtype))
+        return ((mu - actions) ** 2).mean(dim=(1, 2))
 
     def clone_step(self, batches: list[Batch]) -> torch.Tensor:
         """One behaviour-cloning step of every seed's actor, seed ``k`` on ``batches[k]``: the

@@ -15,6 +15,9 @@ PRECISIONS = ("fp32", "bf16")
 #: ``|pre-tanh output|`` of the actor above which it counts as saturated (``tanh(3) = 0.995``):
 #: there its gradient is below 1 % of the unsaturated one.
 SATURATION_PREACTIVATION = 3.0
+#: The smallest ``mean|Q1|`` the yardstick regularization divides by (a critic near zero at the
+#: start would otherwise scale the Q term without bound).
+Q_SCALE_FLOOR = 1e-6
 
 
 # ----------------------------------------------------------------------------------------------
@@ -38,6 +41,9 @@ MAX_NOISE_COLOR = 2.0
 #: Most cloning steps of a warm-up from the yardstick (each followed by a critic update): a clone
 #: and its critics settle within thousands; a million is hours of updates before the run trains.
 MAX_YARDSTICK_WARMUP = 1_000_000
+#: The strongest hold on the yardstick's warm-up (``yardstick_regularization``), 25x TD3+BC's 0.4:
+#: beyond it the actor's distance to the warm-up's actions outweighs any Q gradient.
+MAX_YARDSTICK_REGULARIZATION = 10.0
 #: The largest learning rate a config takes (TD3's is 3e-4; Adam's steps above this only diverge).
 MAX_LEARNING_RATE = 0.1
 
@@ -134,6 +140,18 @@ class Hyperparameters:
     the critics learn that actor's value (``U`` critic updates with the actor held): TD3 then
     improves a policy that already does what the yardstick does, instead of one from scratch (as
     Hester et al. 2018 and Nair et al. 2018 start from demonstrations)."""
+    yardstick_regularization: float = 0.0
+    """Hold the actor near the yardstick's warm-up for the whole run (0: plain TD3 after the
+    clone). With ``beta > 0`` (needs :attr:`yardstick_warmup`) every actor update also descends
+    the distance of its actions to the warm-up's on a minibatch of the warm-up's transitions, the
+    critic's term normalised as in TD3+BC (Fujimoto & Gu 2021)::
+
+        L_actor = -mean Q1(s, mu(s)) / mean|Q1(s, mu(s))| + beta * mean || mu(s_w) - a_w ||^2
+
+    ``beta = 0.4`` is TD3+BC's ``alpha = 2.5``. Why: a critic that has only seen the yardstick's
+    actions (plus noise) gives gradients off them that are extrapolation, and plain TD3 then walks
+    the clone off the gait within a few thousand updates; the term keeps it where the critic's
+    data is, and TD3 improves it from there."""
 
 
 @dataclass
@@ -213,7 +231,7 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         for name in ("exploration_noise", "policy_noise", "target_noise_clip", "noise_color",
-                     "actor_saturation_penalty"):
+                     "actor_saturation_penalty", "yardstick_regularization"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value}")
@@ -238,6 +256,14 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
                              f"as many critic updates), got {self.yardstick_warmup}: hours of updates before "
                              "the run trains (a clone settles within thousands; a run's step count written "
                              "here?)")
+        if self.yardstick_regularization and not self.yardstick_warmup:
+            raise ValueError(f"yardstick_regularization {self.yardstick_regularization:g} holds the actor "
+                             "near the yardstick's warm-up: set yardstick_warmup too (e.g. 4000), or leave "
+                             "it 0")
+        if self.yardstick_regularization > MAX_YARDSTICK_REGULARIZATION:
+            raise ValueError(f"yardstick_regularization must be at most {MAX_YARDSTICK_REGULARIZATION:g} "
+                             f"(TD3+BC's alpha = 2.5 is 0.4), got {self.yardstick_regularization:g}: the "
+                             "critic's term would no longer move the actor off the clone")
         if self.yardstick_warmup and self.learning_starts < self.batch_size:
             raise ValueError(f"yardstick_warmup {self.yardstick_warmup} clones the warm-up's "
                              f"transitions: learning_starts ({self.learning_starts}) must be at least "

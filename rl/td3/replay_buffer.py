@@ -75,6 +75,18 @@ class ReplayBuffer:
             self.terminated[idx],
         )
 
+    def sample_first(self, n: int, batch_size: int, rng: np.random.Generator) -> Batch:
+        """Uniformly sample ``batch_size`` of the first ``n`` transitions ever added (a warm-up's),
+        with replacement; ``ValueError`` once the ring has overwritten them."""
+        if self.total_added > self.capacity:
+            raise ValueError(f"the first {n} transitions were overwritten: the buffer holds "
+                             f"{self.capacity} and {self.total_added} were added")
+        idx = rng.integers(0, min(n, self.size), size=batch_size)
+        return Batch(
+            self.obs[idx], self.actions[idx], self.rewards[idx], self.next_obs[idx],
+            self.terminated[idx],
+        )
+
     def _chronological(self) -> dict[str, np.ndarray]:
         """Valid contents, oldest first."""
         start = self.ptr if self.size == self.capacity else 0

@@ -172,3 +172,35 @@ def test_a_warm_up_without_a_yardstick_or_with_another_shape_is_refused(tmp_path
     with pytest.raises(ValueError, match="reads 5 observation entries .* the environment has 3"):
         train(_fixed, _config(), WARM_UP + 20, tmp_path / "wide", progress=False, yardstick_fn=Wide)
     assert not (tmp_path / "none").exists() and not (tmp_path / "wide").exists()
+
+
+def _distance_to_controller(agent, run_dir) -> float:
+    """Mean |actor - controller| of the first action over the warm-up's states."""
+    obs, _ = _warm_up_rows(run_dir)
+    toward, shown = Toward(), []
+    for o in obs:
+        if o[2] == 0.0:  # an episode's first observation
+            toward.reset()
+        shown.append(toward.act(o))
+    with torch.no_grad():
+        acted = torch.tanh(agent.actor.net(torch.as_tensor(obs))).numpy()
+    return float(np.abs(acted - np.array(shown))[:, 0].mean())
+
+
+def test_a_run_held_near_its_warm_up_trains_and_keeps_the_clone(tmp_path):
+    """``yardstick_regularization``: the run samples its warm-up rows at every actor step and stays
+    nearer the controller than the same run without it; a buffer that would overwrite those rows
+    is refused before any step."""
+    steps = WARM_UP + 200
+    distances = {}
+    for beta in (0.0, 4.0):
+        run_dir = tmp_path / f"beta{beta:g}"
+        agent = train(_fixed, _config(yardstick_regularization=beta), steps, run_dir, progress=False,
+                      yardstick_fn=Toward, eval_env_fn=_fixed)
+        assert load_checkpoint(run_dir)["config"]["yardstick_regularization"] == beta
+        distances[beta] = _distance_to_controller(agent, run_dir)
+    assert distances[4.0] < 0.5 * distances[0.0], distances  # measured: 0.18 against 0.78
+    with pytest.raises(ValueError, match=r"buffer_size \(200\) must hold the run's 320 steps"):
+        train(_fixed, _config(yardstick_regularization=0.4, buffer_size=200), steps, tmp_path / "ring",
+              progress=False, yardstick_fn=Toward)
+    assert not (tmp_path / "ring").exists()
