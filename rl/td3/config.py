@@ -318,8 +318,12 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
                 value = float(text)
         except (ValueError, KeyError):
             raise ValueError(f"{key}={text}: expected {_setting_form(key, default)}") from None
+        # a setting whose rule involves another is checked beside a partner that satisfies it (the
+        # rule itself is checked where the whole config is built)
+        partner = {"batch_size": {"buffer_size": value},
+                   "yardstick_regularization": {"yardstick_warmup": 1}}.get(key, {})
         try:
-            cls(**{key: value, **({"buffer_size": value} if key == "batch_size" else {})})
+            cls(**{key: value, **partner})
         except ValueError as exc:
             raise ValueError(f"{key}={text}: {exc}") from None
         return value

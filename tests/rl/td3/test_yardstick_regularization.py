@@ -114,3 +114,11 @@ def test_the_warm_up_rows_are_sampled_only_while_the_ring_keeps_them():
         buffer.add(np.array([i]), np.array([0.0]), 0.0, np.array([i]), False)
     with pytest.raises(ValueError, match="the first 3 transitions were overwritten"):
         buffer.sample_first(3, 1, rng)
+
+
+def test_a_setting_alone_is_checked_beside_the_warm_up_it_needs():
+    """``--set yardstick_regularization=0.4`` is read on its own (the spec may give the warm-up);
+    the whole config without a warm-up is refused."""
+    assert TD3Config.parse_setting("yardstick_regularization", "0.4") == 0.4
+    with pytest.raises(ValueError, match="regularization=20: yardstick_regularization must be at most"):
+        TD3Config.parse_setting("yardstick_regularization", "20")
