@@ -22,9 +22,11 @@ LOOP_FORMAT = "msr-loop-v1"
 #: The steps, in order; each writes the subfolder of the loop's folder of its name.
 STEPS = ("check", "yardstick", "train", "generate", "robustness", "refine", "robustness-refined",
          "firmware")
-#: Settings that act on one step only (dotted as the recorded settings): changed, that step runs
-#: again (``--redo``) and the rest of the loop is kept.
-STEP_SETTINGS = {"settings.calibration": "firmware"}
+#: Settings and spec tables that act on some steps only (dotted as recorded; a table stands for
+#: every key under it): changed, those steps run again (``--redo``) and the rest of the loop is
+#: kept. The spec's ``[training]`` is read by the check (its warnings) and the training alone: the
+#: yardstick sweep plays fields, it trains nothing.
+STEP_SETTINGS = {"settings.calibration": ("firmware",), "spec.training": ("check", "train")}
 #: The steps each step needs (their results are its input).
 NEEDS: dict[str, tuple[str, ...]] = {
     "check": (), "yardstick": (), "train": ("yardstick",), "generate": ("train",),
@@ -146,6 +148,14 @@ class LoopPlan:
     redo: tuple[str, ...]
 
 
+def _own_steps(key: str) -> tuple[str, ...]:
+    """The steps that alone read the changed ``key`` (:data:`STEP_SETTINGS`); () when others do."""
+    for setting, steps in STEP_SETTINGS.items():
+        if key == setting or key.startswith(setting + "."):
+            return steps
+    return ()
+
+
 def _changed(old: dict[str, Any], new: dict[str, Any], prefix: str = "") -> list[str]:
     """The dotted keys whose values differ between two JSON-like dicts."""
     keys = []
@@ -174,14 +184,16 @@ def plan_loop(state: LoopState | None, spec: dict[str, Any], settings: dict[str,
     if state is not None:
         changed = _changed({"spec": state.spec, "settings": state.settings},
                            {"spec": spec, "settings": settings})
-        own_steps = {STEP_SETTINGS[key] for key in changed if key in STEP_SETTINGS}
-        if changed and not force and all(key in STEP_SETTINGS for key in changed):
-            missing = sorted(step for step in own_steps - set(redo) if state.done(step))
-            if missing:  # a setting of one step: that step again, not the whole loop
+        own = [_own_steps(key) for key in changed]
+        if changed and not force and all(own):
+            missing = [step for step in STEPS if any(step in steps for steps in own)
+                       and step not in redo and state.done(step)]
+            if missing:  # a setting of some steps: those again, not the whole loop
+                uses = f"step {missing[0]} uses" if len(missing) == 1 else f"steps {', '.join(missing)} use"
                 raise LoopError(
                     f"--out {display_path(state.path.parent)}: changed: {', '.join(changed)}, which only "
-                    f"step {', '.join(missing)} uses: pass --redo {' '.join(missing)} to run it again "
-                    "with it (the other steps kept), or --force to start the loop over")
+                    f"{uses}: pass --redo {','.join(missing)} to run {'it' if len(missing) == 1 else 'them'} "
+                    "again with it (the other steps kept), or --force to start the loop over")
             changed = []
         if changed and not force:
             was_quick, is_quick = state.settings.get("quick"), settings.get("quick")

@@ -11,6 +11,7 @@ the loop's folder)."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -120,8 +121,10 @@ def yardstick_step(ctx: LoopContext) -> dict[str, Any]:
 
 
 def trained_case(ctx: LoopContext) -> Case:
-    """The case the loop trains: the yardstick step's spec copy."""
-    return load_case(ctx.path(ctx.state.summary("yardstick")["spec_file"]))
+    """The case the loop trains: the yardstick step's spec copy, with the spec's ``[training]`` as
+    it is now (a loop whose training settings changed trains again on the sweep it has)."""
+    copy = load_case(ctx.path(ctx.state.summary("yardstick")["spec_file"]))
+    return dataclasses.replace(copy, training=ctx.case.training)
 
 
 # -- train ----------------------------------------------------------------------------------------

@@ -319,6 +319,33 @@ def test_an_interrupted_redo_leaves_the_later_steps_results(interrupted_then_res
     assert not any(LoopState.read(folder).done(s) for s in STEPS[2:])
 
 
+def test_changed_training_settings_train_again_on_the_sweep_the_loop_has(interrupted_then_resumed, tmp_path):
+    """A spec's ``[training]`` changed (a loop's training to try again with other settings) was
+    refused as another spec: only --force, the yardstick's sweep again. The check and the training
+    read it alone: ``--redo check,train`` trains on the sweep's spec copy with the new table."""
+    import shutil
+
+    from elastica_magnetic_rl.runfiles.checkpoint import load_checkpoint
+
+    folder = tmp_path / "out"
+    shutil.copytree(interrupted_then_resumed["folder"], folder)
+    before = LoopState.read(folder)
+    spec = json.loads(json.dumps(SPEC))
+    spec["training"] = {"td3": {"exploration_noise": 0.15}}
+    changed = tmp_path / "seg4.toml"
+    changed.write_bytes(tomli_w.dumps(spec).encode())
+    status, _, err = _loop(str(changed), "--out", str(folder))
+    assert status == 2
+    assert "changed: spec.training.td3, which only steps check, train use: pass --redo check,train" in err
+    status, _, err = _loop(str(changed), "--out", str(folder), "--redo", "check,train")
+    assert status == 0, err
+    after = LoopState.read(folder)
+    assert after.steps["yardstick"] == before.steps["yardstick"]
+    assert after.steps["train"]["finished_utc"] > before.steps["train"]["finished_utc"]
+    config = load_checkpoint(folder / "train" / "seg4" / "seed0")["config"]
+    assert config["exploration_noise"] == 0.15
+
+
 def test_a_users_file_in_a_step_folder_stops_a_redo_or_a_restart(interrupted_then_resumed, tmp_path):
     """Round 9, D3: ``--redo STEP`` and ``--force`` (a changed spec) removed the user's files in
     the step folders (train/, yardstick/, robustness/) with the step's earlier result. Now the
