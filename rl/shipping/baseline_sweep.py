@@ -238,6 +238,13 @@ def yardstick_spec(case: Case, best: dict[str, Any], path: str | Path, *,
                   "from zero" + (" (a smoke run's stand-in, not a yardstick)" if smoke else ""),
         **({"period": float(field[0]), "clockwise": bool(field[1])} if field[0] is not None else {}),
     }
+    if "period" in spec["yardstick"] and field[0] == best["period_s"] and \
+            best["period_achieved_s"] > best["period_s"] * (1.0 + 1e-9):
+        # the rate limit turned the field slower than asked: measured so, and the source says it, so
+        # the copy's own check does not warn about it again (every command reading the copy would)
+        accepted = spec.setdefault("checks", {}).setdefault("accept", [])
+        if "yardstick.period" not in accepted:
+            accepted.append("yardstick.period")
     copy = case_from_dict(spec, str(path), default_name=case.name)
     with result_file(path, force=force, option="--set-yardstick", kind=SPEC_FILE) as written:
         # a name the spec set itself (not its file's) is kept: the copy is the same case

@@ -16,6 +16,8 @@ from smoke import run_msr
 from elastica_magnetic.cli import main as msr
 from elastica_magnetic.rotation import min_rotation_period
 
+DOCS_EXAMPLES = Path(__file__).resolve().parents[3] / "docs" / "examples"
+
 QUICK = ["--physics", "training", "--duration", "0.5", "--no-figures", "--no-progress"]
 
 
@@ -81,6 +83,28 @@ def test_set_yardstick_writes_a_spec_copy(tmp_path, capsys):
     assert msr(["field", "baseline", "--case", "m1-4mT", "--set-yardstick", str(tmp_path / "x.toml"),
                 *QUICK]) == 2
     assert "--set-yardstick" in capsys.readouterr().err and not (tmp_path / "x.toml").exists()
+
+
+def test_a_copy_of_a_rate_limited_turn_does_not_warn_about_its_own_period(tmp_path):
+    """The loop's own copy of a sweep whose best field asked for a faster turn than the rate limit
+    gives (0.5 s, turned once per 0.726 s) warned at every command that read it, about a value the
+    sweep measured and its source states; a period the limit allows is not marked."""
+    import warnings
+
+    case = load_case(str(DOCS_EXAMPLES / "mybot_loop.toml"))  # its fastest uniform turn: 0.84 s
+    fast = {"period_s": 0.5, "clockwise": True, "period_achieved_s": 0.726, "mid_dx_m": 0.02}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        copy = load_case(yardstick_spec(case, fast, tmp_path / "fast.toml"))
+    assert copy.yardstick.period == 0.5 and "turned once per 0.726 s" in copy.yardstick.source
+    assert "yardstick.period" in copy.to_dict()["checks"]["accept"]
+    slow = {"period_s": 3.0, "clockwise": True, "period_achieved_s": 3.0, "mid_dx_m": 0.02}
+    assert "yardstick.period" not in load_case(yardstick_spec(case, slow, tmp_path / "slow.toml")
+                                              ).to_dict().get("checks", {}).get("accept", [])
+    edited = (tmp_path / "fast.toml").read_text().replace('    "yardstick.period",\n', "")
+    (tmp_path / "edited.toml").write_text(edited)
+    with pytest.warns(UserWarning, match="shorter than the case's rate limit"):
+        load_case(tmp_path / "edited.toml")
 
 
 def test_a_yardstick_copy_says_what_it_was_measured_in(tmp_path):
