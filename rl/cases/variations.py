@@ -72,6 +72,7 @@ GROUPS: dict[str, tuple[str, ...]] = {
     "friction": ("robot.ground.static_mu", "robot.ground.kinetic_mu"),
     "density": ("robot.density",),
     "magnet": ("actuation.moment",),
+    "coils": ("actuation.coils.K.turns",),  # every coil's, K = 0, 1, ... (group_keys)
 }
 #: The default variation set: group -> (low, high) factors of the nominal values.
 DEFAULT_RANGES: dict[str, tuple[float, float]] = {
@@ -81,9 +82,12 @@ DEFAULT_RANGES: dict[str, tuple[float, float]] = {
     "density": (0.9, 1.1),
 }
 #: The default set's variations of a steering source, for the cases that have one: a magnet arm's
-#: moment +-10 % (an NdFeB grade's remanence spread and the magnet's size tolerance).
+#: moment +-10 % (an NdFeB grade's remanence spread and the magnet's size tolerance); fixed coils'
+#: gains (field per ampere: their ``turns``) +-5 % together (a winding's count and a current
+#: sensor's scale).
 SOURCE_RANGES: dict[str, tuple[float, float]] = {
     "magnet": (0.9, 1.1),
+    "coils": (0.95, 1.05),
 }
 #: Most variations whose corners are listed (2 ** 8 = 256 variants).
 MAX_CORNER_VARIATIONS = 8
@@ -151,8 +155,8 @@ def variable_keys(spec: Mapping[str, Any]) -> list[str]:
     """The dotted keys that can be varied in ``spec`` (a complete spec, every default written out,
     e.g. ``Case.to_dict()``): every real-valued (float) value under ``robot``, the items of its
     lists of tables by index (``robot.magnetization.segments.0.magnitude``) and its tables of
-    numbers as a whole (``robot.magnetization.values``), and a magnet arm's ``actuation.moment``,
-    sorted."""
+    numbers as a whole (``robot.magnetization.values``), a magnet arm's ``actuation.moment`` and
+    fixed coils' ``actuation.coils.K.turns`` (each coil's gain), sorted."""
     found: list[str] = []
 
     def walk(table: Any, path: str) -> None:
@@ -172,6 +176,9 @@ def variable_keys(spec: Mapping[str, Any]) -> list[str]:
     actuation = spec.get("actuation", {})
     if isinstance(actuation, Mapping) and isinstance(actuation.get("moment"), float):
         found.append("actuation.moment")  # a magnet arm's magnet: its strength
+    if isinstance(actuation, Mapping) and actuation.get("kind") == "coil-currents":
+        found += [f"actuation.coils.{k}.turns" for k, coil in enumerate(actuation.get("coils", ()))
+                  if isinstance(coil, Mapping) and isinstance(coil.get("turns"), int | float)]  # gains
     return sorted(found)
 
 
@@ -364,6 +371,9 @@ def group_keys(name: str, spec: Mapping[str, Any]) -> tuple[str, ...]:
     if name == "magnetization":
         return tuple(k for k in valid if k.startswith(f"{_MAGNETIZATION}.")
                      and (k.endswith(".magnitude") or k == f"{_MAGNETIZATION}.values"))
+    if name == "coils":  # in the coils' order
+        return tuple(sorted((k for k in valid if k.startswith("actuation.coils.")),
+                            key=lambda k: int(k.split(".")[2])))
     return tuple(k for k in GROUPS[name] if k in valid)
 
 

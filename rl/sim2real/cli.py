@@ -222,7 +222,6 @@ def identify_command(args: argparse.Namespace) -> int:
     import sys
 
     from .identify import identify, load_spec, parse_fit, write_identified
-    from .magnet_path import MagnetDrive
     from .output import prepare_output_folder
     from .tracking import check_against_robot
 
@@ -231,8 +230,8 @@ def identify_command(args: argparse.Namespace) -> int:
                            "from the nominal values only; give --starts 2 or more, or leave --seed "
                            "out")
     prepare_output_folder(args.out, args.force, kind="identify")
-    drive, measured = _drive_and_measured(args.field_csv, args.trajectory_csv, args.robot)
-    spec = load_spec(args.robot, magnet_path=isinstance(drive, MagnetDrive))
+    drive, measured, steered_by = _drive_and_measured(args.field_csv, args.trajectory_csv, args.robot)
+    spec = load_spec(args.robot, steered_by=steered_by)
     try:
         fits = parse_fit(args.fit, spec)
     except VariationError as exc:
@@ -255,7 +254,7 @@ def identify_command(args: argparse.Namespace) -> int:
                           progress=progress)
     for warning in report["warnings"]:
         print(f"msr {command_name(args)}: warning: {warning}", file=sys.stderr)
-    played = "magnet_path" if isinstance(drive, MagnetDrive) else "field_csv"
+    played = {"magnet-pose": "magnet_path", "coil-currents": "coil_path"}.get(steered_by, "field_csv")
     report = {played: str(args.field_csv), "robot": str(args.robot), "fit": args.fit, **report}
     header = (f"Identified by msr real identify from {args.field_csv} and {args.trajectory_csv} "
               f"({args.physics} physics), nominal spec {args.robot}.")
@@ -275,28 +274,36 @@ def identify_command(args: argparse.Namespace) -> int:
 
 def _drive_and_measured(drive_csv: Path, trajectory_csv: Path, robot: str):
     """What played the motion (a waveform, with the ``robot`` spec file's field in space and clamp;
-    or a magnet arm's path: told by the file's header) and the measured motion, read and checked;
-    a tip path goes with a magnet path only."""
+    a magnet arm's path; or the coils' currents: told by the file's header), the measured motion,
+    read and checked, and the actuation kind a recorded path drives (``None`` for a waveform); a tip
+    path goes with a recorded path only."""
     from elastica_magnetic.field_csv import read_field_csv
     from elastica_magnetic.field_spec import load_field
 
+    from .coil_path import CoilDrive, is_coil_path, read_coil_path
     from .fit_model import FieldDrive
+    from .identify import STEERED_BY
     from .magnet_path import MagnetDrive, is_magnet_path, read_magnet_path
     from .tracking import read_trajectory
 
-    magnet = is_magnet_path(drive_csv)
-    # a coil's field, as msr field replay
-    drive = (MagnetDrive(read_magnet_path(drive_csv)) if magnet
-             else FieldDrive(read_field_csv(drive_csv, plausible=True),
-                             load_field(robot) if Path(robot).suffix == ".toml" else None))
+    if is_magnet_path(drive_csv):
+        drive, steered_by = MagnetDrive(read_magnet_path(drive_csv)), "magnet-pose"
+    elif is_coil_path(drive_csv):
+        drive, steered_by = CoilDrive(read_coil_path(drive_csv)), "coil-currents"
+    else:  # a coil's field, as msr field replay
+        drive = FieldDrive(read_field_csv(drive_csv, plausible=True),
+                           load_field(robot) if Path(robot).suffix == ".toml" else None)
+        steered_by = None
     measured = read_trajectory(trajectory_csv)
-    if magnet and measured.kind != "tip path":
-        raise CommandError(f"{trajectory_csv}: {drive_csv} is a magnet arm's path, which steers a catheter: "
-                           "give the tip's path (t_s, tip_x_m, tip_y_m, tip_z_m), not a crawler's points")
-    if not magnet and measured.kind == "tip path":
+    if steered_by is not None and measured.kind != "tip path":
+        raise CommandError(f"{trajectory_csv}: {drive_csv} is {STEERED_BY[steered_by][2].split(' (')[0]}, "
+                           "which steers a catheter: give the tip's path (t_s, tip_x_m, tip_y_m, tip_z_m), "
+                           "not a crawler's points")
+    if steered_by is None and measured.kind == "tip path":
         raise CommandError(f"{trajectory_csv}: a catheter's tip path goes with the magnet arm's recorded "
-                           f"path (t_s, magnet_x_m, ...); {drive_csv} is a field waveform")
-    return drive, measured
+                           f"path (t_s, magnet_x_m, ...) or the coils' recorded currents (t_s, current_0_A, "
+                           f"...); {drive_csv} is a field waveform")
+    return drive, measured, steered_by
 
 
 def _check_noise(noise_m: float | None, length: float) -> None:

@@ -80,26 +80,34 @@ UNCERTAINTY_STEP = 0.05
 AGREE_WITHIN = 0.01
 
 
-def load_spec(robot: str | Path, magnet_path: bool = False) -> dict[str, Any]:
+#: What each recorded drive steers, in words, by the actuation kind it drives.
+STEERED_BY = {
+    "magnet-pose": ("a magnet path", "a magnet on an arm", "a magnet arm's recorded path (magnet_x_m, ...)"),
+    "coil-currents": ("a coil path", "coil currents", "the coils' recorded currents (current_0_A, ...)"),
+}
+
+
+def load_spec(robot: str | Path, steered_by: str | None = None) -> dict[str, Any]:
     """The complete spec (every default written out) of a spec file or a shipped case name: a case
     spec as ``Case.to_dict()`` without its name, a robot-only spec with its ``[robot]`` and
     ``[physics]`` tables completed. SpecError names a bad file and key. A waveform is played as a
-    uniform field, so a case steered by a source is refused; with ``magnet_path`` (the drive is a
-    magnet arm's recorded path) only a case steered by a magnet on an arm is taken."""
+    uniform field, so a case steered by a source is refused; with ``steered_by`` (the drive is a
+    recorded path of an actuation kind of :data:`STEERED_BY`: ``"magnet-pose"``, ``"coil-currents"``)
+    only a case of that kind is taken."""
     from ..cases.case import case_names, load_case
     from ..cases.steered import field_only_refusal
 
     def field_actuated(case: Any) -> Any:
-        """The case the drive can play: a field for a waveform, a magnet arm for its path."""
+        """The case the drive can play: a field for a waveform, its kind for a recorded path."""
         kind = getattr(case.actuation, "kind", "field")
-        if magnet_path and kind != "magnet-pose":
-            raise SpecError(f"--robot {text}: a magnet path drives a case steered by a magnet on an arm "
-                            f"([actuation] kind = \"magnet-pose\"); {text}'s actuation is "
+        if steered_by is not None and kind != steered_by:
+            path_words, source_words, _ = STEERED_BY[steered_by]
+            raise SpecError(f"--robot {text}: {path_words} drives a case steered by {source_words} "
+                            f"([actuation] kind = \"{steered_by}\"); {text}'s actuation is "
                             f"{'a uniform field' if case.field_actuated else repr(kind)}")
-        if not magnet_path and not case.field_actuated:
-            raise SpecError("--robot " + field_only_refusal(text, case.actuation.kind)
-                            + ("; a magnet arm's recorded path (magnet_x_m, ...) is fitted in its place"
-                               if kind == "magnet-pose" else ""))
+        if steered_by is None and not case.field_actuated:
+            instead = f"; {STEERED_BY[kind][2]} is fitted in its place" if kind in STEERED_BY else ""
+            raise SpecError("--robot " + field_only_refusal(text, case.actuation.kind) + instead)
         return case
 
     text = str(robot)
@@ -112,8 +120,9 @@ def load_spec(robot: str | Path, magnet_path: bool = False) -> dict[str, Any]:
         raise SpecError(f"--robot {text}: not a shipped case ({', '.join(case_names())}) and not a "
                         "spec file (.toml)")
     raw = read_spec(path)
-    if magnet_path and "actuation" not in raw:
-        raise SpecError(f"--robot {text}: a magnet path drives a case steered by a magnet on an arm; "
+    if steered_by is not None and "actuation" not in raw:
+        path_words, source_words, _ = STEERED_BY[steered_by]
+        raise SpecError(f"--robot {text}: {path_words} drives a case steered by {source_words}; "
                         f"{text} describes a robot without an [actuation] table")
     if "actuation" in raw:
         data = field_actuated(load_case(path)).to_dict()

@@ -37,8 +37,9 @@ from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from .tracking import MAX_COORDINATE_M, MeasuredTrajectory, TrajectoryError, numeric_columns
 
-__all__ = ["MAGNET_PATH_COLUMNS", "MagnetDrive", "MagnetPath", "is_magnet_path", "read_magnet_path",
-           "record_steering", "simulate_tips", "write_magnet_path"]
+__all__ = ["MAGNET_PATH_COLUMNS", "MagnetDrive", "MagnetPath", "check_insertion", "check_tip_path",
+           "is_magnet_path", "read_magnet_path", "record_steering", "simulate_tips", "steer_and_record",
+           "write_magnet_path"]
 
 #: The magnet path's columns (``insertion_m`` only with a stage).
 MAGNET_PATH_COLUMNS = ("t_s", "magnet_x_m", "magnet_y_m", "magnet_z_m", "direction_x", "direction_y",
@@ -209,27 +210,7 @@ class MagnetDrive:
                                   f"({1e3 * case.actuation.min_clearance:g} mm): a path through the "
                                   "catheter? (positions in the spec's frame: the base at the origin, the rod "
                                   "along +x)")
-        stage = case.actuation.insertion
-        if stage is None and self.path.insertion is not None:
-            raise TrajectoryError(f"{self.path.source}: has an {INSERTION_COLUMN} column, and the case has "
-                                  "no insertion stage ([actuation] insertion); drop the column or give the "
-                                  "stage")
-        if stage is not None and self.path.insertion is None:
-            raise TrajectoryError(f"{self.path.source}: no {INSERTION_COLUMN} column, and the case's "
-                                  f"insertion stage travels {list(stage)} m: give the stage's position "
-                                  "at every row (0 where it did not move)")
-        if stage is not None:
-            if abs(float(self.path.insertion[0])) > 1e-9:
-                raise TrajectoryError(f"{self.path.source}: line 2: {INSERTION_COLUMN} "
-                                      f"{self.path.insertion[0]:g} m at t_s 0; the rod starts where it is "
-                                      "built (insertion 0): give the stage's motion from there")
-            low, high = stage
-            beyond = (self.path.insertion < low - 1e-9) | (self.path.insertion > high + 1e-9)
-            if beyond.any():
-                row = int(np.flatnonzero(beyond)[0])
-                raise TrajectoryError(f"{self.path.source}: line {row + 2}: {INSERTION_COLUMN} "
-                                      f"{self.path.insertion[row]:g} m is beyond the stage's travel "
-                                      f"[{low:g}, {high:g}] m (millimetres for metres?)")
+        check_insertion(self.path.source, self.path.insertion, case.actuation.insertion)
 
     def _check_arm_motion(self, arm: Any) -> None:
         """The magnet's motion against the arm of the spec (``arm``: its
@@ -267,26 +248,9 @@ class MagnetDrive:
                              "actuation.workspace")
 
     def check_measured(self, measured: MeasuredTrajectory, spec: Mapping[str, Any]) -> None:
-        """Refuse a tracked tip that is not this spec's catheter's in the spec's frame: at t_s 0
-        farther than :data:`TIP_START_FRACTION` of the rod's length from the straight rod's tip, or
-        anywhere beyond :data:`TIP_REACH_FACTOR` x its reach from the base (cm or mm for m, another
-        frame's origin)."""
-        length = float(spec["robot"]["length"])
-        stage = (spec.get("actuation") or {}).get("insertion") or (0.0, 0.0)
-        tips = measured.positions[:, 0, :]
-        start = float(np.linalg.norm(tips[0] - np.array([length, 0.0, 0.0])))
-        frame = "(positions in the spec's frame: the base at the origin, the rod along +x; in metres)"
-        if start > TIP_START_FRACTION * length:
-            raise TrajectoryError(f"{measured.source}: line 2: the tip starts at {tips[0].tolist()} m, "
-                                  f"{1e3 * start:.4g} mm from the straight {1e3 * length:g} mm catheter's "
-                                  f"tip ({length:g}, 0, 0) m: another robot, unit or frame? {frame}")
-        reach = TIP_REACH_FACTOR * (length + max(float(stage[1]), 0.0))
-        distance = np.linalg.norm(tips, axis=1)
-        if (distance > reach).any():
-            row = int(np.flatnonzero(distance > reach)[0])
-            raise TrajectoryError(f"{measured.source}: line {row + 2}: the tip is {distance[row]:g} m from "
-                                  f"the base of a {length:g} m catheter (beyond {reach:g} m): centimetres "
-                                  f"or millimetres written as metres? {frame}")
+        """Refuse a tracked tip that is not this spec's catheter's in the spec's frame
+        (:func:`check_tip_path`)."""
+        check_tip_path(measured, spec)
 
     def rows(self, spec: Mapping[str, Any], physics: str,
              measured: MeasuredTrajectory) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -294,6 +258,57 @@ class MagnetDrive:
         for the robot and magnet of ``spec`` in ``physics``. Raises SimulationDivergedError."""
         tips = simulate_tips(spec, physics, self.path)
         return self.path.times, tips[:, None, :]
+
+
+def check_insertion(source: str, insertion: NDArray[np.float64] | None,
+                    stage: tuple[float, float] | None) -> None:
+    """A recorded path's ``insertion`` column (m per row, or ``None``) against the case's stage
+    (its travel, m, or ``None``): given without a stage or missing with one, not 0 at t_s 0, or
+    beyond the travel is refused (:class:`~.tracking.TrajectoryError` naming ``source``'s line)."""
+    if stage is None and insertion is not None:
+        raise TrajectoryError(f"{source}: has an {INSERTION_COLUMN} column, and the case has "
+                              "no insertion stage ([actuation] insertion); drop the column or give the "
+                              "stage")
+    if stage is not None and insertion is None:
+        raise TrajectoryError(f"{source}: no {INSERTION_COLUMN} column, and the case's "
+                              f"insertion stage travels {list(stage)} m: give the stage's position "
+                              "at every row (0 where it did not move)")
+    if stage is None:
+        return
+    if abs(float(insertion[0])) > 1e-9:
+        raise TrajectoryError(f"{source}: line 2: {INSERTION_COLUMN} "
+                              f"{insertion[0]:g} m at t_s 0; the rod starts where it is "
+                              "built (insertion 0): give the stage's motion from there")
+    low, high = stage
+    beyond = (insertion < low - 1e-9) | (insertion > high + 1e-9)
+    if beyond.any():
+        row = int(np.flatnonzero(beyond)[0])
+        raise TrajectoryError(f"{source}: line {row + 2}: {INSERTION_COLUMN} "
+                              f"{insertion[row]:g} m is beyond the stage's travel "
+                              f"[{low:g}, {high:g}] m (millimetres for metres?)")
+
+
+def check_tip_path(measured: MeasuredTrajectory, spec: Mapping[str, Any]) -> None:
+    """Refuse a tracked tip that is not the catheter of ``spec`` in the spec's frame: at t_s 0
+    farther than :data:`TIP_START_FRACTION` of the rod's length from the straight rod's tip, or
+    anywhere beyond :data:`TIP_REACH_FACTOR` x its reach from the base (cm or mm for m, another
+    frame's origin)."""
+    length = float(spec["robot"]["length"])
+    stage = (spec.get("actuation") or {}).get("insertion") or (0.0, 0.0)
+    tips = measured.positions[:, 0, :]
+    start = float(np.linalg.norm(tips[0] - np.array([length, 0.0, 0.0])))
+    frame = "(positions in the spec's frame: the base at the origin, the rod along +x; in metres)"
+    if start > TIP_START_FRACTION * length:
+        raise TrajectoryError(f"{measured.source}: line 2: the tip starts at {tips[0].tolist()} m, "
+                              f"{1e3 * start:.4g} mm from the straight {1e3 * length:g} mm catheter's "
+                              f"tip ({length:g}, 0, 0) m: another robot, unit or frame? {frame}")
+    reach = TIP_REACH_FACTOR * (length + max(float(stage[1]), 0.0))
+    distance = np.linalg.norm(tips, axis=1)
+    if (distance > reach).any():
+        row = int(np.flatnonzero(distance > reach)[0])
+        raise TrajectoryError(f"{measured.source}: line {row + 2}: the tip is {distance[row]:g} m from "
+                              f"the base of a {length:g} m catheter (beyond {reach:g} m): centimetres "
+                              f"or millimetres written as metres? {frame}")
 
 
 def simulate_tips(spec: Mapping[str, Any], physics: str, path: MagnetPath) -> NDArray[np.float64]:
@@ -344,6 +359,32 @@ def simulate_tips(spec: Mapping[str, Any], physics: str, path: MagnetPath) -> ND
     return tips
 
 
+def steer_and_record(case: Any, target: Any, row: Callable[[Any], Any],
+                     make_controller: Callable[[Any], Any] | None = None, physics: str = "accurate",
+                     duration: float | None = None) -> tuple[list[Any], NDArray[np.float64], bool]:
+    """Steer the tip of a catheter ``case`` to ``target`` (m, ``(3,)``) in ``physics`` with a
+    controller (default the case's steering yardstick) for ``duration`` s (default the task's
+    episode) less the last step (which would end, and reset, the episode), recording ``row(env)``
+    (the actuator's state) at every control step. Returns the rows, the tip at every row ``(n, 3)``
+    m, and whether the case has an insertion stage. Raises RuntimeError if the episode ends early
+    (a collision, a blow-up)."""
+    from ..envs.catheter_env import make_catheter_env
+    from ..shipping.tip_reach import steering_controller
+
+    env = make_catheter_env(case, 1, physics, duration)
+    obs, info = env.reset(seed=0, options={"target": np.asarray(target, dtype=np.float64)})
+    act = (make_controller or steering_controller)(env)
+    rows, tips = [row(env)], [info["tip_m"][0].copy()]
+    for _ in range(env.max_episode_steps - 1):  # the last step would end (and reset) the episode
+        obs, _, terminated, truncated, info = env.step(act(env, obs))
+        if terminated[0]:
+            raise RuntimeError(f"the steering ended by {info['final_info']['ended_by'][0]} after "
+                               f"{len(rows)} steps: no path to record")
+        rows.append(row(env))
+        tips.append(info["tip_m"][0].copy())
+    return rows, np.stack(tips), bool(env.advancers)
+
+
 def record_steering(case: Any, target: Any, make_controller: Callable[[Any], Any] | None = None,
                     physics: str = "accurate", duration: float | None = None
                     ) -> tuple[MagnetPath, NDArray[np.float64]]:
@@ -353,28 +394,14 @@ def record_steering(case: Any, target: Any, make_controller: Callable[[Any], Any
     (default the task's episode) less the last step (which would end, and reset, the episode).
     Returns the :class:`MagnetPath` and the tip at every row, ``(n, 3)`` m. Raises RuntimeError if
     the episode ends early (a collision, a blow-up)."""
-    from ..envs.catheter_env import make_catheter_env
-    from ..shipping.tip_reach import steering_controller
 
-    env = make_catheter_env(case, 1, physics, duration)
-    obs, info = env.reset(seed=0, options={"target": np.asarray(target, dtype=np.float64)})
-    act = (make_controller or steering_controller)(env)
-    magnet = env.actuators[0]
-
-    def pose() -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-        t = env.robots.robot_time(0)
+    def pose(env: Any) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+        magnet, t = env.actuators[0], env.robots.robot_time(0)
         return magnet.position_at(t), magnet.direction_at(t), env.insertion(0)
 
-    rows, tips = [pose()], [info["tip_m"][0].copy()]
-    for _ in range(env.max_episode_steps - 1):  # the last step would end (and reset) the episode
-        obs, _, terminated, truncated, info = env.step(act(env, obs))
-        if terminated[0]:
-            raise RuntimeError(f"the steering ended by {info['final_info']['ended_by'][0]} after "
-                               f"{len(rows)} steps: no path to record")
-        rows.append(pose())
-        tips.append(info["tip_m"][0].copy())
+    rows, tips, staged = steer_and_record(case, target, pose, make_controller, physics, duration)
     times = np.arange(len(rows)) * ACTION_PERIOD
     positions = np.stack([r[0] for r in rows])
     directions = np.stack([r[1] for r in rows])
-    insertion = np.array([r[2] for r in rows]) if env.advancers else None
-    return MagnetPath("recorded", times, positions, directions, insertion), np.stack(tips)
+    insertion = np.array([r[2] for r in rows]) if staged else None
+    return MagnetPath("recorded", times, positions, directions, insertion), tips

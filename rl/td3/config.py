@@ -151,7 +151,8 @@ class Hyperparameters:
     ``beta = 0.4`` is TD3+BC's ``alpha = 2.5``. Why: a critic that has only seen the yardstick's
     actions (plus noise) gives gradients off them that are extrapolation, and plain TD3 then walks
     the clone off the gait within a few thousand updates; the term keeps it where the critic's
-    data is, and TD3 improves it from there."""
+    data is. It holds the actions, not the return: a gait that needs them finer than a clone makes
+    them still fails (docs/training.md, "Starting from the yardstick")."""
 
 
 @dataclass

@@ -108,7 +108,7 @@ def test_a_path_that_does_not_fit_the_case_is_named(tmp_path, quick_spec):
     with pytest.raises(TrajectoryError, match="the case has no insertion stage"):
         beyond.check_spec(without)
     with pytest.raises(SpecError, match="a magnet path drives a case steered by a magnet on an arm"):
-        load_spec("m1-4mT", magnet_path=True)
+        load_spec("m1-4mT", steered_by="magnet-pose")
     with pytest.raises(SpecError, match="a magnet arm's recorded path"):
         load_spec("catheter-magnet-reach")
 

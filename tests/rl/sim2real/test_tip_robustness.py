@@ -32,13 +32,13 @@ def study(catheter_run, tmp_path_factory):
     return out, json.loads((out / "robustness.json").read_text())
 
 
-def test_the_default_set_varies_a_magnet_arm_s_moment_only_where_there_is_one():
+def test_the_default_set_varies_a_steering_source_only_where_there_is_one():
     def names(case):
         return [v.name for v in default_variations(load_case(case).to_dict())]
 
     assert names("catheter-magnet-reach") == ["magnetization", "modulus", "density", "magnet"]
-    assert "magnet" not in names("catheter-coils-reach") and "friction" not in names("catheter-coils-reach")
-    assert names("m1-4mT") == list(DEFAULT_RANGES) and set(SOURCE_RANGES) == {"magnet"}
+    assert names("catheter-coils-reach") == ["magnetization", "modulus", "density", "coils"]
+    assert names("m1-4mT") == list(DEFAULT_RANGES) and set(SOURCE_RANGES) == {"magnet", "coils"}
 
 
 def test_each_variant_is_what_the_policy_and_the_yardstick_do_on_that_catheter(catheter_run, study):
