@@ -118,7 +118,9 @@ def _add_identify_command(sub: argparse._SubParsersAction) -> None:
         help="fit spec values so that the simulated robot moves as a measured trajectory",
         description="Fit spec values (dotted keys) so that the robot of a spec, under the waveform "
         "that was played (or, for a catheter steered by a magnet on an arm, along the arm's recorded "
-        "path: fit its magnet's moment, actuation.moment or the group magnet, from the tip's path), "
+        "path: fit its magnet's moment, actuation.moment or the group magnet, from the tip's path; "
+        "for one steered by fixed coils, along their recorded currents: fit their gains, the group "
+        "coils or actuation.coils.K.turns), "
         "moves its tracked points as measured: least squares in the training "
         "physics from several starts, confirmed in the accurate physics; each value gets an "
         "interval or is reported not identifiable, and the residual is judged against --noise-m. "
@@ -129,7 +131,9 @@ def _add_identify_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("field_csv", type=Path, metavar="FIELD_CSV",
                    help="the waveform played (mT, 100 rows/s; row 0 starts at t = 0); for a case steered "
                    "by a magnet on an arm, the arm's recorded path: t_s, magnet_x_m, magnet_y_m, "
-                   "magnet_z_m, direction_x, direction_y, direction_z[, insertion_m], 100 rows/s")
+                   "magnet_z_m, direction_x, direction_y, direction_z[, insertion_m], 100 rows/s; for "
+                   "one steered by fixed coils, their recorded currents: t_s, current_0_A, ..., "
+                   "current_{N-1}_A[, insertion_m] (A, one per coil in the spec's order), 100 rows/s")
     p.add_argument("trajectory_csv", type=Path, metavar="TRAJECTORY_CSV",
                    help="the measured motion: msr's trajectory.csv, or a tracker's CSV: t_s (s), then "
                    "x_<s>_m, y_<s>_m (m) per tracked point, <s> its place along the body from 0 "
