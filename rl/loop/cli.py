@@ -39,7 +39,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seeds", type=number("seeds", 1, 1024, integer=True), default=2,
                    help="seeds trained (default 2)")
     p.add_argument("--steps", type=number("environment steps", 1, integer=True), default=None,
-                   help="environment steps per seed (default: the case's step budget)")
+                   help="environment steps per seed (default: the case's step budget); more than a "
+                        "loop in DIR trained resumes its seeds to this budget and runs the steps "
+                        "after the training again")
     p.add_argument("--workers", type=number("processes", 1, 1024, integer=True), default=None,
                    help="worker processes of the sweep, the training and the robustness runs "
                         "(default: one per core)")

@@ -149,9 +149,10 @@ def _check_steps_to_redo(folder: Path, plan: LoopPlan) -> None:
 
 
 def _start_afresh(ctx: LoopContext, step: str, plan: LoopPlan) -> None:
-    """A redone step starts from an empty folder: its earlier result is removed at its turn."""
+    """A redone step starts from an empty folder: its earlier result is removed at its turn (a
+    step run on its earlier result, ``plan.extend``, keeps it)."""
     folder = ctx.folder / step
-    if step in plan.redo and folder.exists():
+    if step in plan.redo and step not in plan.extend and folder.exists():
         remove_tree(folder)
 
 

@@ -146,6 +146,9 @@ class LoopPlan:
     done: tuple[str, ...]
     skip: tuple[str, ...]
     redo: tuple[str, ...]
+    #: Steps run again on their earlier result instead of afresh (a training given more steps
+    #: resumes its seeds; its folder is kept).
+    extend: tuple[str, ...] = ()
 
 
 def _own_steps(key: str) -> tuple[str, ...]:
@@ -181,9 +184,14 @@ def plan_loop(state: LoopState | None, spec: dict[str, Any], settings: dict[str,
     if both:
         raise LoopError(f"--skip and --redo both name {', '.join(both)}")
     redone: set[str] = set()
+    extend: tuple[str, ...] = ()
     if state is not None:
         changed = _changed({"spec": state.spec, "settings": state.settings},
                            {"spec": spec, "settings": settings})
+        others = [key for key in changed if key != "settings.steps"]
+        if "settings.steps" in changed and not force and all(_own_steps(key) for key in others):
+            extend = _longer_training(state, settings.get("steps"))  # more steps: training goes on
+            changed, redo = others, (*redo, *extend)
         own = [_own_steps(key) for key in changed]
         if changed and not force and all(own):
             missing = [step for step in STEPS if any(step in steps for steps in own)
@@ -222,4 +230,23 @@ def plan_loop(state: LoopState | None, spec: dict[str, Any], settings: dict[str,
         raise LoopError(f"step {first} needs step {need}, which is skipped (--skip {need}, or "
                         f"skipped by an earlier run and not done): skip {', '.join(also)} too, "
                         f"or run {need}")
-    return LoopPlan(run, done, skipped, tuple(s for s in STEPS if s in redone and s not in skip))
+    redone_steps = tuple(s for s in STEPS if s in redone and s not in skip)
+    return LoopPlan(run, done, skipped, redone_steps, tuple(s for s in extend if s in redone_steps))
+
+
+def _longer_training(state: LoopState, steps: int | None) -> tuple[str, ...]:
+    """``("train",)`` when ``--steps`` asks more steps per seed than the loop's training has made
+    (its seeds resume to the new budget, and the steps after it run again); a budget at or below
+    it, or the case's default again, is a :class:`LoopError` (a training is not shortened)."""
+    trained = state.settings.get("steps")
+    if state.done("train"):
+        trained = state.steps["train"].get("summary", {}).get("steps", trained)
+    folder = display_path(state.path.parent)
+    if steps is None or trained is None or steps <= trained:
+        had = "the case's step budget" if trained is None else f"{trained} steps per seed"
+        asked = "the case's step budget" if steps is None else f"--steps {steps}"
+        raise LoopError(f"--out {folder}: its training has {had}, and {asked} would not train it "
+                        "further (a loop's training is lengthened, never shortened): give --steps "
+                        f"above {trained if trained is not None else 'the budget'}, or --force to start "
+                        "the loop over")
+    return ("train",)

@@ -65,7 +65,7 @@ def test_a_new_calibration_redoes_the_firmware_step_alone(tmp_path):
     plan = plan_loop(state, {"robot": {}}, settings, (), ("firmware",), False)
     assert plan.run == ("firmware",) and "train" in plan.done
     with pytest.raises(LoopError, match="pass --force to start it over"):  # another setting as well
-        plan_loop(state, {"robot": {}}, {**settings, "steps": 20}, (), ("firmware",), False)
+        plan_loop(state, {"robot": {}}, {**settings, "seeds": 3}, (), ("firmware",), False)
 
 
 def test_a_calibration_that_cannot_make_the_field_limit_is_refused_before_the_loop(tmp_path, capsys):

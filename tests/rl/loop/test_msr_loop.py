@@ -346,6 +346,35 @@ def test_changed_training_settings_train_again_on_the_sweep_the_loop_has(interru
     assert config["exploration_noise"] == 0.15
 
 
+def test_more_steps_train_the_loop_s_seeds_further(interrupted_then_resumed, tmp_path):
+    """A loop whose learned waveform fell short of its yardstick is trained further with a larger
+    ``--steps``: the seeds resume from their checkpoints to the new budget (not afresh), the sweep
+    is kept, and the steps after the training run again; fewer steps are refused."""
+    import shutil
+
+    from elastica_magnetic_rl.runfiles.checkpoint import load_checkpoint
+
+    folder = tmp_path / "out"
+    shutil.copytree(interrupted_then_resumed["folder"], folder)
+    spec = str(interrupted_then_resumed["spec"])
+    before = LoopState.read(folder)
+    trained = before.steps["train"]["summary"]["steps"]
+    episodes = (folder / "train" / "seg4" / "seed0" / "episodes.csv").read_text().splitlines()
+    status, _, err = _loop(spec, "--out", str(folder), "--steps", str(trained - 40))
+    assert status == 2 and f"its training has {trained} steps per seed" in err and "never shortened" in err
+    status, _, err = _loop(spec, "--out", str(folder), "--steps", str(trained + 120))
+    assert status == 0, err
+    after = LoopState.read(folder)
+    assert after.steps["yardstick"] == before.steps["yardstick"]
+    train = after.steps["train"]["summary"]
+    assert train["resumed"] and train["steps"] == trained + 120
+    assert after.steps["generate"]["finished_utc"] > before.steps["generate"]["finished_utc"]
+    assert load_checkpoint(folder / "train" / "seg4" / "seed0")["global_step"] == trained + 120
+    # the seed went on: its first episodes are the same lines, more came after them
+    longer = (folder / "train" / "seg4" / "seed0" / "episodes.csv").read_text().splitlines()
+    assert longer[:len(episodes)] == episodes and len(longer) > len(episodes)
+
+
 def test_a_users_file_in_a_step_folder_stops_a_redo_or_a_restart(interrupted_then_resumed, tmp_path):
     """Round 9, D3: ``--redo STEP`` and ``--force`` (a changed spec) removed the user's files in
     the step folders (train/, yardstick/, robustness/) with the step's earlier result. Now the
