@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -19,9 +20,9 @@ from .command_names import spelling
 from .io import atomic_write_text, normalized_path
 from .locks import command_line, host_name, utc_now
 
-__all__ = ["MANIFEST", "MARKER", "MAX_LISTED", "describe_result", "in_manifest", "list_files",
-           "manifest_holder", "manifest_results_in", "manifest_writer", "mark_folder", "read_marker",
-           "short_list", "unrecorded_files", "write_marker"]
+__all__ = ["HELD_RECOGNIZERS", "MANIFEST", "MARKER", "MAX_LISTED", "describe_result", "in_manifest",
+           "list_files", "manifest_holder", "manifest_results_in", "manifest_writer", "mark_folder",
+           "read_marker", "register_held_recognizer", "short_list", "unrecorded_files", "write_marker"]
 
 #: The marker file of a result folder (JSON: kind, subject, command, time, host, files).
 MARKER = ".msr-result.json"
@@ -113,27 +114,60 @@ def in_manifest(folder: Path, name: str) -> bool:
         return False
 
 
-def manifest_holder(folder: str | Path) -> str | None:
-    """What holds ``folder`` whole, as its record of files says (``"holder"`` of :data:`MANIFEST`,
-    e.g. a shipped policy: its files are its own, and no other command puts a file there), or
-    ``None``: a folder of shared files (figures of several commands) or none recorded."""
+#: Recognizers of folders held whole whose record does not say so (written before records named
+#: a holder, or lost, or copied without it): each takes a folder and returns its holder and the
+#: subfolders open to other results, or ``None``. The package whose results hold folders registers
+#: one (:func:`register_held_recognizer`; a shipped policy: ``elastica_magnetic_rl``).
+HELD_RECOGNIZERS: list[Callable[[Path], tuple[str, tuple[str, ...]] | None]] = []
+
+
+def register_held_recognizer(recognizer: Callable[[Path], tuple[str, tuple[str, ...]] | None]) -> None:
+    """Add a recognizer to :data:`HELD_RECOGNIZERS` (once)."""
+    if recognizer not in HELD_RECOGNIZERS:
+        HELD_RECOGNIZERS.append(recognizer)
+
+
+def _record(folder: str | Path) -> dict[str, Any]:
     try:
         data = json.loads((Path(folder) / MANIFEST).read_text(encoding="utf-8"))
     except (OSError, ValueError):
-        return None
-    holder = data.get("holder") if isinstance(data, dict) else None
-    return holder if isinstance(holder, str) and holder else None
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def _recognized(folder: str | Path) -> tuple[str, tuple[str, ...]] | None:
+    for recognizer in HELD_RECOGNIZERS:
+        found = recognizer(Path(folder))
+        if found is not None:
+            return found
+    return None
+
+
+def manifest_holder(folder: str | Path) -> str | None:
+    """What holds ``folder`` whole, as its record of files says (``"holder"`` of :data:`MANIFEST`,
+    e.g. a shipped policy: its files are its own, and no other command puts a file there), or as
+    a registered recognizer tells from its files (:data:`HELD_RECOGNIZERS`: a policy whose record
+    predates holders, or that has none), or ``None``: a folder of shared files (figures of several
+    commands) or of none recorded."""
+    holder = _record(folder).get("holder")
+    if isinstance(holder, str) and holder:
+        return holder
+    found = _recognized(folder)
+    return None if found is None else found[0]
 
 
 def manifest_results_in(folder: str | Path) -> tuple[str, ...]:
     """The subfolders of a held folder (:func:`manifest_holder`) where other results may go
-    (``"results_in"`` of :data:`MANIFEST`: a shipped policy's ``seeds``); empty when none."""
-    try:
-        data = json.loads((Path(folder) / MANIFEST).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    (``"results_in"`` of :data:`MANIFEST`: a shipped policy's ``seeds``; for a folder whose record
+    names no holder, its recognizer's); empty when none."""
+    data = _record(folder)
+    places = data.get("results_in")
+    if isinstance(places, list):
+        return tuple(p for p in places if isinstance(p, str))
+    if isinstance(data.get("holder"), str) and data.get("holder"):
         return ()
-    places = data.get("results_in") if isinstance(data, dict) else None
-    return tuple(p for p in places if isinstance(p, str)) if isinstance(places, list) else ()
+    found = _recognized(folder)
+    return () if found is None else found[1]
 
 
 def manifest_writer(folder: str | Path, name: str) -> str | None:

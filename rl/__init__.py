@@ -34,6 +34,23 @@ if ENV_ID not in _registry:
     # The time limit is enforced (as a truncation) by the environment's own ``duration`` option.
     _register(id=ENV_ID, entry_point="elastica_magnetic_rl.envs.env:MagneticCrawlerEnv")
 
+
+def _held_by_a_shipped_policy(folder):
+    """A shipped policy holds its folder whole even where its record does not say so (the path
+    rule's recognizer; the policy's format is read where it lives, when a folder is judged)."""
+    from .shipping.policy_files import shipped_policy_holding
+
+    return shipped_policy_holding(folder)
+
+
+def _register_held_recognizer() -> None:
+    from elastica_magnetic.result_markers import register_held_recognizer
+
+    register_held_recognizer(_held_by_a_shipped_policy)
+
+
+_register_held_recognizer()
+
 #: What a script needs, importable from the top (``from elastica_magnetic_rl import train_cases``),
 #: by concept; each is loaded from its module when first used, so that importing the package stays
 #: light (no torch, no physics).

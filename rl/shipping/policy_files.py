@@ -9,6 +9,7 @@ architecture, observation and action layout, provenance, ``actor_sha256``).
 from __future__ import annotations
 
 import hashlib
+import json
 import math
 import warnings
 from collections.abc import Mapping
@@ -31,6 +32,7 @@ __all__ = [
     "PolicyNotFoundError",
     "SEEDS_FOLDER",
     "policy_holder",
+    "shipped_policy_holding",
     "OLD_POLICY_KEYS",
     "finish_interrupted_ship",
     "read_policy_json",
@@ -56,6 +58,19 @@ def policy_holder(case: str) -> str:
     """What holds a shipped policy's folder whole, as its record of files
     (:data:`elastica_magnetic.result_markers.MANIFEST`) says: no other command puts a file there."""
     return f"a shipped policy of case {case!r} (msr policy ship)"
+
+
+def shipped_policy_holding(folder: Path) -> tuple[str, tuple[str, ...]] | None:
+    """The holder and open subfolders of ``folder`` when it holds a shipped policy (its
+    ``policy.json`` of :data:`POLICY_FORMAT`), whatever its record says (one written before records
+    named a holder, or none: a policy copied file by file); else ``None``."""
+    try:
+        data = json.loads((folder / POLICY_JSON).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(data, dict) or data.get("format") != POLICY_FORMAT:
+        return None
+    return policy_holder(str(data.get("case", "?"))), (SEEDS_FOLDER,)
 
 #: The actor's hidden activation and output squashing (``td3.algorithm.Actor``), as policy.json
 #: records them.

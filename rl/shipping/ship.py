@@ -30,6 +30,7 @@ from elastica_magnetic.io import (
     read_json,
 )
 from elastica_magnetic.plausibility import SettingNotAppliedWarning
+from elastica_magnetic.result_markers import manifest_results_in
 from elastica_magnetic.result_places import ResultExistsError, check_enclosing
 
 from ..cases.case import Case
@@ -83,9 +84,12 @@ def check_ship_target(name: str, dest: str | Path | None) -> None:
         for parent in (Path(dest), *Path(dest).parents):
             if parent.exists() and not parent.is_dir():
                 raise OutputPathError(f"--out {dest}: {parent} is a file, not a folder")
-            if (parent / POLICY_JSON).is_file():
+            inside = Path(dest).relative_to(parent).parts if parent != Path(dest) else ()
+            open_to = manifest_results_in(parent)
+            if (parent / POLICY_JSON).is_file() and not (inside and inside[0] in open_to):
+                seeds = f" (its {open_to[0]}/ holds its case's seed campaigns)" if open_to else ""
                 raise OutputPathError(f"--out {dest}: {parent} is a shipped policy: a policy goes beside "
-                                      "another, not inside it; choose another --out")
+                                      f"another, not inside it{seeds}; choose another --out")
         # nothing goes inside another command's result (a training's seed folder, a simulation)
         check_enclosing(normalized_path(Path(dest) / name), "--out")
 

@@ -34,10 +34,17 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from elastica_magnetic.field_csv import header_named_twice
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
-from .magnet_path import GRID_TOLERANCE_S, INSERTION_COLUMN, check_insertion, check_tip_path, steer_and_record
+from .recorded_paths import (
+    INSERTION_COLUMN,
+    check_insertion,
+    check_tip_path,
+    control_grid,
+    header_names,
+    read_path_table,
+    steer_and_record,
+)
 from .tracking import MeasuredTrajectory, TrajectoryError, numeric_columns
 
 __all__ = ["CoilDrive", "CoilPath", "is_coil_path", "read_coil_path", "record_coil_steering",
@@ -79,12 +86,7 @@ class CoilPath:
 
 def is_coil_path(path: str | Path) -> bool:
     """Whether the CSV at ``path`` has a coil path's header (its first line names current_0_A)."""
-    try:
-        with open(path, encoding="utf-8-sig") as handle:
-            header = handle.readline()
-    except (OSError, UnicodeDecodeError):
-        return False
-    return "current_0_A" in [c.strip() for c in header.split(",")]
+    return "current_0_A" in header_names(path)
 
 
 def read_coil_path(path: str | Path) -> CoilPath:
@@ -93,16 +95,7 @@ def read_coil_path(path: str | Path) -> CoilPath:
     numbered 0, 1, ... in order, a value that is not a finite number, rows off the 0.01 s grid, a
     current past :data:`MAX_PATH_CURRENT` (mA for A)."""
     path = Path(path)
-    try:
-        table = pd.read_csv(path, encoding="utf-8-sig", dtype=str, keep_default_na=False)
-    except FileNotFoundError:
-        raise TrajectoryError(f"{path}: no such coil path file") from None
-    except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError, IsADirectoryError) as exc:
-        raise TrajectoryError(f"{path}: not a readable coil path CSV ({exc})") from None
-    if twice := header_named_twice(path):
-        raise TrajectoryError(f"{path}: its header {twice}; give each column once (which copy is meant "
-                              "cannot be guessed)")
-    table.columns = [str(c).strip() for c in table.columns]
+    table = read_path_table(path, "coil path")
     form = (f"a coil path has t_s, current_0_A, current_1_A, ... (A, one per coil of the spec, in its "
             f"order) and, with an insertion stage, {INSERTION_COLUMN} (m), one row per 0.01 s from t_s = 0")
     currents = [c for c in table.columns if CURRENT_COLUMN.match(c)]
@@ -114,16 +107,7 @@ def read_coil_path(path: str | Path) -> CoilPath:
         raise TrajectoryError(f"{path}: current columns {', '.join(currents)}; {form}")
     used = ["t_s", *currents] + ([INSERTION_COLUMN] if INSERTION_COLUMN in table.columns else [])
     values = numeric_columns(path, table, used)
-    if values.shape[0] < 2:
-        raise TrajectoryError(f"{path}: {values.shape[0]} row(s); a path needs two or more (0.01 s apart)")
-    times = values[:, 0]
-    grid = np.arange(times.shape[0]) * ACTION_PERIOD
-    off = np.abs(times - grid) > GRID_TOLERANCE_S
-    if off.any():
-        k = int(np.flatnonzero(off)[0])
-        raise TrajectoryError(f"{path}: line {k + 2}: t_s {times[k]:g} s, expected {grid[k]:g} s: a coil "
-                              f"path has one row per {ACTION_PERIOD:g} s control step from 0 (resample the "
-                              "drivers' log to the control rate)")
+    grid = control_grid(path, values[:, 0], "coil path", "the drivers' log")
     amps = values[:, 1:1 + len(currents)]
     high = np.abs(amps) > MAX_PATH_CURRENT
     if high.any():
@@ -202,7 +186,7 @@ class CoilDrive:
 
     def check_measured(self, measured: MeasuredTrajectory, spec: Mapping[str, Any]) -> None:
         """Refuse a tracked tip that is not this spec's catheter's in the spec's frame
-        (:func:`~.magnet_path.check_tip_path`)."""
+        (:func:`~.recorded_paths.check_tip_path`)."""
         check_tip_path(measured, spec)
 
     def rows(self, spec: Mapping[str, Any], physics: str,

@@ -32,31 +32,30 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from elastica_magnetic.field_csv import header_named_twice
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
+from .recorded_paths import (
+    INSERTION_COLUMN,
+    check_insertion,
+    check_tip_path,
+    control_grid,
+    header_names,
+    read_path_table,
+    steer_and_record,
+)
 from .tracking import MAX_COORDINATE_M, MeasuredTrajectory, TrajectoryError, numeric_columns
 
-__all__ = ["MAGNET_PATH_COLUMNS", "MagnetDrive", "MagnetPath", "check_insertion", "check_tip_path",
-           "is_magnet_path", "read_magnet_path", "record_steering", "simulate_tips", "steer_and_record",
-           "write_magnet_path"]
+__all__ = ["MAGNET_PATH_COLUMNS", "MagnetDrive", "MagnetPath", "is_magnet_path", "read_magnet_path",
+           "record_steering", "simulate_tips", "write_magnet_path"]
 
 #: The magnet path's columns (``insertion_m`` only with a stage).
 MAGNET_PATH_COLUMNS = ("t_s", "magnet_x_m", "magnet_y_m", "magnet_z_m", "direction_x", "direction_y",
                        "direction_z")
-INSERTION_COLUMN = "insertion_m"
-#: Rows must lie on the 0.01 s control grid within this (s).
-GRID_TOLERANCE_S = 1e-6
-#: The tracked tip at t_s 0 must lie within this fraction of the rod's length of the straight rod's
-#: tip (the spec's frame: the base at the origin, the rod along +x); anywhere along the path within
-#: :data:`TIP_REACH_FACTOR` x the rod's reach (its length plus the stage's travel) of the base.
-TIP_START_FRACTION = 0.25
 #: A magnet path faster than the arm's ``max_speed`` by more than this fraction is warned about
 #: (an arm's log rounds, its controller overshoots a little).
 ARM_SPEED_SLACK = 0.1
 #: m: a magnet path beyond the arm's workspace by more than this is warned about (a tracker's noise).
 WORKSPACE_SLACK_M = 1e-3
-TIP_REACH_FACTOR = 1.5
 
 
 @dataclass(frozen=True)
@@ -89,12 +88,7 @@ class MagnetPath:
 
 def is_magnet_path(path: str | Path) -> bool:
     """Whether the CSV at ``path`` has a magnet path's header (its first line names magnet_x_m)."""
-    try:
-        with open(path, encoding="utf-8-sig") as handle:
-            header = handle.readline()
-    except (OSError, UnicodeDecodeError):
-        return False
-    return "magnet_x_m" in [c.strip() for c in header.split(",")]
+    return "magnet_x_m" in header_names(path)
 
 
 def read_magnet_path(path: str | Path) -> MagnetPath:
@@ -103,16 +97,7 @@ def read_magnet_path(path: str | Path) -> MagnetPath:
     that is not a finite number, rows off the 0.01 s grid, a zero direction, a position past
     :data:`~.tracking.MAX_COORDINATE_M` (millimetres for metres)."""
     path = Path(path)
-    try:
-        table = pd.read_csv(path, encoding="utf-8-sig", dtype=str, keep_default_na=False)
-    except FileNotFoundError:
-        raise TrajectoryError(f"{path}: no such magnet path file") from None
-    except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError, IsADirectoryError) as exc:
-        raise TrajectoryError(f"{path}: not a readable magnet path CSV ({exc})") from None
-    if twice := header_named_twice(path):
-        raise TrajectoryError(f"{path}: its header {twice}; give each column once (which copy is meant "
-                              "cannot be guessed)")
-    table.columns = [str(c).strip() for c in table.columns]
+    table = read_path_table(path, "magnet path")
     missing = [c for c in MAGNET_PATH_COLUMNS if c not in table.columns]
     if missing:
         raise TrajectoryError(f"{path}: no column {', '.join(missing)}; a magnet path has "
@@ -120,16 +105,7 @@ def read_magnet_path(path: str | Path) -> MagnetPath:
                               f"insertion stage, {INSERTION_COLUMN} (m), one row per 0.01 s from t_s = 0")
     used = list(MAGNET_PATH_COLUMNS) + ([INSERTION_COLUMN] if INSERTION_COLUMN in table.columns else [])
     values = numeric_columns(path, table, used)
-    if values.shape[0] < 2:
-        raise TrajectoryError(f"{path}: {values.shape[0]} row(s); a path needs two or more (0.01 s apart)")
-    times = values[:, 0]
-    grid = np.arange(times.shape[0]) * ACTION_PERIOD
-    off = np.abs(times - grid) > GRID_TOLERANCE_S
-    if off.any():
-        k = int(np.flatnonzero(off)[0])
-        raise TrajectoryError(f"{path}: line {k + 2}: t_s {times[k]:g} s, expected {grid[k]:g} s: a magnet "
-                              f"path has one row per {ACTION_PERIOD:g} s control step from 0 (resample the "
-                              "arm's log to the control rate)")
+    grid = control_grid(path, values[:, 0], "magnet path", "the arm's log")
     positions, directions = values[:, 1:4], values[:, 4:7]
     far = np.abs(positions) > MAX_COORDINATE_M
     if far.any():
@@ -249,7 +225,7 @@ class MagnetDrive:
 
     def check_measured(self, measured: MeasuredTrajectory, spec: Mapping[str, Any]) -> None:
         """Refuse a tracked tip that is not this spec's catheter's in the spec's frame
-        (:func:`check_tip_path`)."""
+        (:func:`~.recorded_paths.check_tip_path`)."""
         check_tip_path(measured, spec)
 
     def rows(self, spec: Mapping[str, Any], physics: str,
@@ -258,57 +234,6 @@ class MagnetDrive:
         for the robot and magnet of ``spec`` in ``physics``. Raises SimulationDivergedError."""
         tips = simulate_tips(spec, physics, self.path)
         return self.path.times, tips[:, None, :]
-
-
-def check_insertion(source: str, insertion: NDArray[np.float64] | None,
-                    stage: tuple[float, float] | None) -> None:
-    """A recorded path's ``insertion`` column (m per row, or ``None``) against the case's stage
-    (its travel, m, or ``None``): given without a stage or missing with one, not 0 at t_s 0, or
-    beyond the travel is refused (:class:`~.tracking.TrajectoryError` naming ``source``'s line)."""
-    if stage is None and insertion is not None:
-        raise TrajectoryError(f"{source}: has an {INSERTION_COLUMN} column, and the case has "
-                              "no insertion stage ([actuation] insertion); drop the column or give the "
-                              "stage")
-    if stage is not None and insertion is None:
-        raise TrajectoryError(f"{source}: no {INSERTION_COLUMN} column, and the case's "
-                              f"insertion stage travels {list(stage)} m: give the stage's position "
-                              "at every row (0 where it did not move)")
-    if stage is None:
-        return
-    if abs(float(insertion[0])) > 1e-9:
-        raise TrajectoryError(f"{source}: line 2: {INSERTION_COLUMN} "
-                              f"{insertion[0]:g} m at t_s 0; the rod starts where it is "
-                              "built (insertion 0): give the stage's motion from there")
-    low, high = stage
-    beyond = (insertion < low - 1e-9) | (insertion > high + 1e-9)
-    if beyond.any():
-        row = int(np.flatnonzero(beyond)[0])
-        raise TrajectoryError(f"{source}: line {row + 2}: {INSERTION_COLUMN} "
-                              f"{insertion[row]:g} m is beyond the stage's travel "
-                              f"[{low:g}, {high:g}] m (millimetres for metres?)")
-
-
-def check_tip_path(measured: MeasuredTrajectory, spec: Mapping[str, Any]) -> None:
-    """Refuse a tracked tip that is not the catheter of ``spec`` in the spec's frame: at t_s 0
-    farther than :data:`TIP_START_FRACTION` of the rod's length from the straight rod's tip, or
-    anywhere beyond :data:`TIP_REACH_FACTOR` x its reach from the base (cm or mm for m, another
-    frame's origin)."""
-    length = float(spec["robot"]["length"])
-    stage = (spec.get("actuation") or {}).get("insertion") or (0.0, 0.0)
-    tips = measured.positions[:, 0, :]
-    start = float(np.linalg.norm(tips[0] - np.array([length, 0.0, 0.0])))
-    frame = "(positions in the spec's frame: the base at the origin, the rod along +x; in metres)"
-    if start > TIP_START_FRACTION * length:
-        raise TrajectoryError(f"{measured.source}: line 2: the tip starts at {tips[0].tolist()} m, "
-                              f"{1e3 * start:.4g} mm from the straight {1e3 * length:g} mm catheter's "
-                              f"tip ({length:g}, 0, 0) m: another robot, unit or frame? {frame}")
-    reach = TIP_REACH_FACTOR * (length + max(float(stage[1]), 0.0))
-    distance = np.linalg.norm(tips, axis=1)
-    if (distance > reach).any():
-        row = int(np.flatnonzero(distance > reach)[0])
-        raise TrajectoryError(f"{measured.source}: line {row + 2}: the tip is {distance[row]:g} m from "
-                              f"the base of a {length:g} m catheter (beyond {reach:g} m): centimetres "
-                              f"or millimetres written as metres? {frame}")
 
 
 def simulate_tips(spec: Mapping[str, Any], physics: str, path: MagnetPath) -> NDArray[np.float64]:
@@ -357,32 +282,6 @@ def simulate_tips(spec: Mapping[str, Any], physics: str, path: MagnetPath) -> ND
                                   "catheter, or the magnet beyond its map?") from None
         tips[k] = rod.position_collection[:, -1]
     return tips
-
-
-def steer_and_record(case: Any, target: Any, row: Callable[[Any], Any],
-                     make_controller: Callable[[Any], Any] | None = None, physics: str = "accurate",
-                     duration: float | None = None) -> tuple[list[Any], NDArray[np.float64], bool]:
-    """Steer the tip of a catheter ``case`` to ``target`` (m, ``(3,)``) in ``physics`` with a
-    controller (default the case's steering yardstick) for ``duration`` s (default the task's
-    episode) less the last step (which would end, and reset, the episode), recording ``row(env)``
-    (the actuator's state) at every control step. Returns the rows, the tip at every row ``(n, 3)``
-    m, and whether the case has an insertion stage. Raises RuntimeError if the episode ends early
-    (a collision, a blow-up)."""
-    from ..envs.catheter_env import make_catheter_env
-    from ..shipping.tip_reach import steering_controller
-
-    env = make_catheter_env(case, 1, physics, duration)
-    obs, info = env.reset(seed=0, options={"target": np.asarray(target, dtype=np.float64)})
-    act = (make_controller or steering_controller)(env)
-    rows, tips = [row(env)], [info["tip_m"][0].copy()]
-    for _ in range(env.max_episode_steps - 1):  # the last step would end (and reset) the episode
-        obs, _, terminated, truncated, info = env.step(act(env, obs))
-        if terminated[0]:
-            raise RuntimeError(f"the steering ended by {info['final_info']['ended_by'][0]} after "
-                               f"{len(rows)} steps: no path to record")
-        rows.append(row(env))
-        tips.append(info["tip_m"][0].copy())
-    return rows, np.stack(tips), bool(env.advancers)
 
 
 def record_steering(case: Any, target: Any, make_controller: Callable[[Any], Any] | None = None,

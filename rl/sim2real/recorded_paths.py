@@ -1,0 +1,152 @@
+"""What the recorded paths of a steered catheter share (a magnet arm's, :mod:`.magnet_path`; fixed
+coils' currents, :mod:`.coil_path`): the CSV's table and its 0.01 s control grid, the insertion
+stage's column, the tracked tip checked against the catheter, and a steering recorded in
+simulation."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from elastica_magnetic.field_csv import header_named_twice
+from elastica_magnetic.robot_spec import ACTION_PERIOD
+
+from .tracking import MeasuredTrajectory, TrajectoryError
+
+__all__ = ["GRID_TOLERANCE_S", "INSERTION_COLUMN", "check_insertion", "check_tip_path", "control_grid",
+           "header_names", "read_path_table", "steer_and_record"]
+
+#: The insertion stage's column of a recorded path (m; only with a stage).
+INSERTION_COLUMN = "insertion_m"
+#: Rows must lie on the 0.01 s control grid within this (s).
+GRID_TOLERANCE_S = 1e-6
+#: The tracked tip at t_s 0 must lie within this fraction of the rod's length of the straight rod's
+#: tip (the spec's frame: the base at the origin, the rod along +x); anywhere along the path within
+#: :data:`TIP_REACH_FACTOR` x the rod's reach (its length plus the stage's travel) of the base.
+TIP_START_FRACTION = 0.25
+TIP_REACH_FACTOR = 1.5
+
+
+def header_names(path: str | Path) -> list[str]:
+    """The column names on the first line of the CSV at ``path`` ([] when it cannot be read)."""
+    try:
+        with open(path, encoding="utf-8-sig") as handle:
+            header = handle.readline()
+    except (OSError, UnicodeDecodeError):
+        return []
+    return [c.strip() for c in header.split(",")]
+
+
+def read_path_table(path: Path, what: str) -> pd.DataFrame:
+    """The CSV at ``path`` as text columns with stripped names; :class:`~.tracking.TrajectoryError`
+    naming ``path`` and ``what`` it should be (``"magnet path"``) when it is absent, unreadable or
+    names a column twice."""
+    try:
+        table = pd.read_csv(path, encoding="utf-8-sig", dtype=str, keep_default_na=False)
+    except FileNotFoundError:
+        raise TrajectoryError(f"{path}: no such {what} file") from None
+    except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError, IsADirectoryError) as exc:
+        raise TrajectoryError(f"{path}: not a readable {what} CSV ({exc})") from None
+    if twice := header_named_twice(path):
+        raise TrajectoryError(f"{path}: its header {twice}; give each column once (which copy is meant "
+                              "cannot be guessed)")
+    table.columns = [str(c).strip() for c in table.columns]
+    return table
+
+
+def control_grid(path: Path, times: NDArray[np.float64], what: str, log: str) -> NDArray[np.float64]:
+    """The rows' times on the 0.01 s control grid from 0, ``(n,)`` s: two rows or more, each within
+    :data:`GRID_TOLERANCE_S` of its grid time, else a :class:`~.tracking.TrajectoryError` naming the
+    line (``what``: the path's name, ``log``: what to resample, "the arm's log")."""
+    if times.shape[0] < 2:
+        raise TrajectoryError(f"{path}: {times.shape[0]} row(s); a path needs two or more (0.01 s apart)")
+    grid = np.arange(times.shape[0]) * ACTION_PERIOD
+    off = np.abs(times - grid) > GRID_TOLERANCE_S
+    if off.any():
+        k = int(np.flatnonzero(off)[0])
+        raise TrajectoryError(f"{path}: line {k + 2}: t_s {times[k]:g} s, expected {grid[k]:g} s: a {what} "
+                              f"has one row per {ACTION_PERIOD:g} s control step from 0 (resample {log} "
+                              "to the control rate)")
+    return grid
+
+
+def check_insertion(source: str, insertion: NDArray[np.float64] | None,
+                    stage: tuple[float, float] | None) -> None:
+    """A recorded path's ``insertion`` column (m per row, or ``None``) against the case's stage
+    (its travel, m, or ``None``): given without a stage or missing with one, not 0 at t_s 0, or
+    beyond the travel is refused (:class:`~.tracking.TrajectoryError` naming ``source``'s line)."""
+    if stage is None and insertion is not None:
+        raise TrajectoryError(f"{source}: has an {INSERTION_COLUMN} column, and the case has "
+                              "no insertion stage ([actuation] insertion); drop the column or give the "
+                              "stage")
+    if stage is not None and insertion is None:
+        raise TrajectoryError(f"{source}: no {INSERTION_COLUMN} column, and the case's "
+                              f"insertion stage travels {list(stage)} m: give the stage's position "
+                              "at every row (0 where it did not move)")
+    if stage is None:
+        return
+    if abs(float(insertion[0])) > 1e-9:
+        raise TrajectoryError(f"{source}: line 2: {INSERTION_COLUMN} "
+                              f"{insertion[0]:g} m at t_s 0; the rod starts where it is "
+                              "built (insertion 0): give the stage's motion from there")
+    low, high = stage
+    beyond = (insertion < low - 1e-9) | (insertion > high + 1e-9)
+    if beyond.any():
+        row = int(np.flatnonzero(beyond)[0])
+        raise TrajectoryError(f"{source}: line {row + 2}: {INSERTION_COLUMN} "
+                              f"{insertion[row]:g} m is beyond the stage's travel "
+                              f"[{low:g}, {high:g}] m (millimetres for metres?)")
+
+
+def check_tip_path(measured: MeasuredTrajectory, spec: Mapping[str, Any]) -> None:
+    """Refuse a tracked tip that is not the catheter of ``spec`` in the spec's frame: at t_s 0
+    farther than :data:`TIP_START_FRACTION` of the rod's length from the straight rod's tip, or
+    anywhere beyond :data:`TIP_REACH_FACTOR` x its reach from the base (cm or mm for m, another
+    frame's origin)."""
+    length = float(spec["robot"]["length"])
+    stage = (spec.get("actuation") or {}).get("insertion") or (0.0, 0.0)
+    tips = measured.positions[:, 0, :]
+    start = float(np.linalg.norm(tips[0] - np.array([length, 0.0, 0.0])))
+    frame = "(positions in the spec's frame: the base at the origin, the rod along +x; in metres)"
+    if start > TIP_START_FRACTION * length:
+        raise TrajectoryError(f"{measured.source}: line 2: the tip starts at {tips[0].tolist()} m, "
+                              f"{1e3 * start:.4g} mm from the straight {1e3 * length:g} mm catheter's "
+                              f"tip ({length:g}, 0, 0) m: another robot, unit or frame? {frame}")
+    reach = TIP_REACH_FACTOR * (length + max(float(stage[1]), 0.0))
+    distance = np.linalg.norm(tips, axis=1)
+    if (distance > reach).any():
+        row = int(np.flatnonzero(distance > reach)[0])
+        raise TrajectoryError(f"{measured.source}: line {row + 2}: the tip is {distance[row]:g} m from "
+                              f"the base of a {length:g} m catheter (beyond {reach:g} m): centimetres "
+                              f"or millimetres written as metres? {frame}")
+
+
+def steer_and_record(case: Any, target: Any, row: Callable[[Any], Any],
+                     make_controller: Callable[[Any], Any] | None = None, physics: str = "accurate",
+                     duration: float | None = None) -> tuple[list[Any], NDArray[np.float64], bool]:
+    """Steer the tip of a catheter ``case`` to ``target`` (m, ``(3,)``) in ``physics`` with a
+    controller (default the case's steering yardstick) for ``duration`` s (default the task's
+    episode) less the last step (which would end, and reset, the episode), recording ``row(env)``
+    (the actuator's state) at every control step. Returns the rows, the tip at every row ``(n, 3)``
+    m, and whether the case has an insertion stage. Raises RuntimeError if the episode ends early
+    (a collision, a blow-up)."""
+    from ..envs.catheter_env import make_catheter_env
+    from ..shipping.tip_reach import steering_controller
+
+    env = make_catheter_env(case, 1, physics, duration)
+    obs, info = env.reset(seed=0, options={"target": np.asarray(target, dtype=np.float64)})
+    act = (make_controller or steering_controller)(env)
+    rows, tips = [row(env)], [info["tip_m"][0].copy()]
+    for _ in range(env.max_episode_steps - 1):  # the last step would end (and reset) the episode
+        obs, _, terminated, truncated, info = env.step(act(env, obs))
+        if terminated[0]:
+            raise RuntimeError(f"the steering ended by {info['final_info']['ended_by'][0]} after "
+                               f"{len(rows)} steps: no path to record")
+        rows.append(row(env))
+        tips.append(info["tip_m"][0].copy())
+    return rows, np.stack(tips), bool(env.advancers)
