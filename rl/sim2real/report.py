@@ -180,8 +180,11 @@ def tip_robustness_table(report: dict[str, Any]) -> str:
         lines.append(f"{name}: nominal {s['nominal_successes']}/{n}, worst {s['worst_successes']}/{n} "
                      f"({s['worst_variant']}), mean {s['mean_successes']:.1f}/{n}"
                      + (f", {len(s['failed'])} failed" if s["failed"] else ""))
-    lines.append(f"the policy reached at least as many targets as the yardstick on "
-                 f"{report['policy_at_least_yardstick']} of {report['variants_compared']} variants")
+    lines.append(f"the policy did at least as well as the yardstick (more targets reached, or as many "
+                 f"and a median final distance no larger) on {report['policy_at_least_yardstick']} of "
+                 f"{report['variants_compared']} variants"
+                 + ("" if report.get("any_reached", True) else
+                    f"; neither reached any of the {n} targets on any variant"))
     return "\n".join(lines)
 
 

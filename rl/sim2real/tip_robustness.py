@@ -142,6 +142,15 @@ def run_tip_robustness(plan: TipRobustnessPlan, *, workers: int | None = None,
     return summarize_tip(plan, jobs, results, time.perf_counter() - start, workers)
 
 
+def _at_least(policy: dict[str, Any], yardstick: dict[str, Any]) -> bool:
+    """The policy did at least as well as the yardstick on a variant: more targets reached, or as
+    many and a median final distance no larger (a tie at no target reached is judged by the
+    distances, not called a draw)."""
+    if policy["successes"] != yardstick["successes"]:
+        return policy["successes"] > yardstick["successes"]
+    return policy["median_m"] <= yardstick["median_m"]
+
+
 def summarize_tip(plan: TipRobustnessPlan, jobs: list[dict[str, Any]], results: list[dict[str, Any]],
                   wall_s: float, workers: int) -> dict[str, Any]:
     """The report: each variant's settings, spec values and, per mode, its successes of the
@@ -180,9 +189,9 @@ def summarize_tip(plan: TipRobustnessPlan, jobs: list[dict[str, Any]], results: 
         "variations": [v.to_dict() for v in plan.variations],
         "design": plan.design,
         "summary": summary,
-        "policy_at_least_yardstick": sum(1 for v in both
-                                         if v["policy"]["successes"] >= v["yardstick"]["successes"]),
+        "policy_at_least_yardstick": sum(1 for v in both if _at_least(v["policy"], v["yardstick"])),
         "variants_compared": len(both),
+        "any_reached": any(v[m]["successes"] for v in both for m in TIP_MODES),
         "variants": variants,
         "workers": workers,
         "wall_s": wall_s,
