@@ -116,8 +116,10 @@ def check_contact_tolerances(t: SpecTable, robot: Mapping[str, Any]) -> None:
                "second; default 1e-8 m/s)")
 
 
-#: s: a stable step below this (1e8 steps per 0.01 s action) is a value in the wrong unit.
-MIN_TIME_STEP = 1e-10
+#: s: a robot whose stable step is below this (1e6 steps per 0.01 s action; the time step's own
+#: plausibility warns there: finer than any soft robot needs) has a value in the wrong unit: the
+#: key that sets the limit is named, not a time step to run it with.
+MIN_TIME_STEP = 1e-8
 #: The spec keys that set each mechanism's stability limit
 #: (:func:`~elastica_magnetic.stability.time_step_limits`).
 MECHANISM_KEYS = {
@@ -148,8 +150,8 @@ def check_time_steps(robots: Mapping[str, RobotSpec], spec: Mapping[str, Any], s
             raise SpecError(
                 f"{source}: {MECHANISM_KEYS[limiting]}: this robot's {limiting} alone needs a time step "
                 f"below {limits[limiting]:.2e} s, {ACTION_PERIOD / suggested:.2g} steps per 0.01 s "
-                "action: a run that never ends, so no robot has such a value; is it in other units "
-                "(msr case show m1-4mT --toml: the paper's robot)?")
+                "action: finer than any soft robot needs (runs of days), so no robot has such a value; "
+                "is it in other units (msr case show m1-4mT --toml: the paper's robot)?")
         raise SpecError(
             f"{source}: [physics.{setting}] dt: {robot.dt:g} s ({value}) is above this robot's "
             f"stability limit {limits[limiting]:.2e} s (the {limiting} limit; robots measured blew up "

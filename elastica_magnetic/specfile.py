@@ -243,7 +243,7 @@ def _robot_table(t: SpecTable) -> dict[str, Any]:
         out["damping"] = _damping_table(damping, out["n_elements"])
     interaction = t.table("interaction", required=False)
     if interaction is not None:
-        out["interaction"] = _interaction_table(interaction)
+        out["interaction"] = _interaction_table(interaction, out["length"])
     t.finish()
     return out
 
@@ -327,11 +327,20 @@ def _damping_table(damping: SpecTable, n_elements: int) -> dict[str, Any]:
     return out
 
 
-def _interaction_table(interaction: SpecTable) -> dict[str, Any]:
-    """``[robot.interaction]``: the magnetic interaction's cutoff and source, self-contact."""
+def _interaction_table(interaction: SpecTable, length: float) -> dict[str, Any]:
+    """``[robot.interaction]``: the magnetic interaction's cutoff and source, self-contact
+    (``length``: the rod's, m; a cutoff at or beyond it leaves no pair to interact)."""
     out: dict[str, Any] = {}
     if interaction.has("cutoff"):  # absent: four radii (see InteractionSpec)
         out["cutoff"] = interaction.number("cutoff", "m", low=0.0)
+        if out["cutoff"] >= length:
+            mm = (f"; {out['cutoff']:g} mm is {1e-3 * out['cutoff']:g} m"
+                  if 1e-3 * out["cutoff"] < length else "")
+            raise interaction.error("cutoff", f"{out['cutoff']:g} m is at or beyond the rod's length "
+                                    f"({length:g} m): pairs closer than the cutoff along the rod do not "
+                                    "interact, so no pair would and the interaction the table asks for "
+                                    f"would be off (millimetres written as metres?{mm}); leave cutoff out "
+                                    "for four radii")
     out.update(
         band_source=interaction.boolean("band_source", True),
         self_contact_stiffness=interaction.number("self_contact_stiffness", "N/m", 0.0, low=0.0),

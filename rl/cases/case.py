@@ -390,6 +390,11 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
                min_rotation_period(min(actuation.limits[:2]), min(actuation.increments[:2])))
     yardstick = _yardstick(top.table("yardstick", required=False), length,
                            _rotating_yardstick_refusal(actuation, task), fastest)
+    if yardstick.distance_10s > 0.0 and task.kind != "crawl":  # nothing would judge it
+        judged = _JUDGED_ON.get(task.kind, "its task")
+        raise SpecError(f"{source}: [yardstick] distance_10s: {yardstick.distance_10s:g} m is a crawl's "
+                        f"distance in 10 s, and a {task.kind} case is judged on {judged}, not on it: "
+                        "remove distance_10s (or set it to 0)")
     if not robot.robot("training").magnetization.any():
         raise SpecError(f"{source}: [robot.magnetization]: no magnetization: no field can move it "
                         "(every element is at 0 A/m), so there is nothing to learn; give the robot "
@@ -483,6 +488,12 @@ def with_randomize(case: Case, variations: tuple[Variation, ...]) -> Case:
     variations = tuple(resolve_variations(list(variations), case.robot.tables, option="randomize"))
     return dataclasses.replace(case, training=dataclasses.replace(case.training,
                                                                   randomize=variations))
+
+
+#: What each task other than a crawl is judged on, in words (a distance in 10 s is a crawl's).
+_JUDGED_ON = {"reach": "its target and tolerance ([task] target, tolerance)",
+              "goto": "a ring of targets (msr policy generate --ring)",
+              "tip-reach": "its held-out targets, beside its steering yardstick"}
 
 
 def _rotating_yardstick_refusal(actuation: Actuation | SteeringActuation, task: Task) -> str | None:

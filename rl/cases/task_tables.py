@@ -153,29 +153,58 @@ def _check_tip_speed(t: SpecTable, values: dict[str, Any], rod_length: float) ->
     t.warn("episode_duration", text)
 
 
-def _check_target_reach(t: SpecTable, target: float, length: float, duration: float,
-                        key: str = "target") -> None:
-    """Refuse a reach target (m) no crawler covers in the episode (``duration`` s): more body
-    lengths (``length``, m) than :data:`MAX_YARDSTICK_BODY_LENGTHS` per 10 s, naming the mm
-    mistake it looks like."""
+def target_reach_problem(target: float, length: float, duration: float,
+                         key: str = "target") -> tuple[str, str] | None:
+    """What is wrong with a reach or goto episode of ``duration`` s whose ``key`` (the target, m)
+    is that far for a robot ``length`` m long: more body lengths than
+    :data:`MAX_YARDSTICK_BODY_LENGTHS` per 10 s (``("refuse", text)``, naming the key at fault:
+    ``"episode_duration"`` or ``key``, as the returned pair's text says), or faster than the paper's
+    fastest gait (``("warn", text)``); ``None`` when it is plausible."""
     lengths, most = abs(target) / length, MAX_YARDSTICK_BODY_LENGTHS * duration / 10.0
     if lengths <= most:
         if lengths > FASTEST_GAIT_BODY_LENGTHS * duration / 10.0:  # possible, but faster than any gait
-            t.warn("episode_duration", f"{duration:g} s for the {key} {target:g} m ({lengths:.2g} body "
-                   f"lengths of this {length:g} m robot) asks {lengths / duration:.2g} body lengths per "
-                   f"second, faster than the paper's fastest gait (about {FASTEST_GAIT_BODY_LENGTHS:g} in "
-                   "10 s): few or no episodes can end at the target (ms written as s?)")
-        return
+            return "warn", (f"{duration:g} s for the {key} {target:g} m ({lengths:.2g} body lengths of this "
+                            f"{length:g} m robot) asks {lengths / duration:.2g} body lengths per second, "
+                            f"faster than the paper's fastest gait (about {FASTEST_GAIT_BODY_LENGTHS:g} "
+                            "in 10 s): few or no episodes can end at the target (ms written as s?)")
+        return None
     needed = 10.0 * lengths / MAX_YARDSTICK_BODY_LENGTHS  # s: the shortest episode that could
     if needed <= 10.0:  # the target is within a 10 s walk: the episode is what is short
-        raise t.error("episode_duration", f"{duration:g} s is too short for the {key} {target:g} m "
-                      f"({lengths:.2g} body lengths of this {length:g} m robot): no crawler covers it in "
-                      f"less than {needed:.2g} s; give a longer episode (s)")
+        return "episode_duration", (f"{duration:g} s is too short for the {key} {target:g} m "
+                                    f"({lengths:.2g} body lengths of this {length:g} m robot): no crawler "
+                                    f"covers it in less than {needed:.2g} s; give a longer episode (s)")
     hint = (f"; it looks like mm written where m is expected ({target:g} mm is {1e-3 * target:g} m)"
             if lengths / 1e3 <= most else "")
-    raise t.error(key, f"{target:g} m is {lengths:.3g} body lengths of this {length:g} m robot, "
-                            f"more than the {most:g} that any crawler covers in the "
-                            f"{duration:g} s episode{hint}")
+    return key, (f"{target:g} m is {lengths:.3g} body lengths of this {length:g} m robot, more than the "
+                 f"{most:g} that any crawler covers in the {duration:g} s episode{hint}")
+
+
+def _check_target_reach(t: SpecTable, target: float, length: float, duration: float,
+                        key: str = "target") -> None:
+    """:func:`target_reach_problem` of the spec's values: refused or warned, naming the key."""
+    problem = target_reach_problem(target, length, duration, key)
+    if problem is None:
+        return
+    at, text = problem
+    if at == "warn":
+        t.warn("episode_duration", text)
+        return
+    raise t.error(at, text)
+
+
+def episode_problem(case: Any, duration: float) -> tuple[bool, str] | None:
+    """What is wrong with running ``case``'s task (a :class:`~elastica_magnetic_rl.cases.case.Case`)
+    in episodes of ``duration`` s instead of its own (``msr train --episode-duration``), as its spec's
+    ``episode_duration`` would be judged: ``(True, text)`` to refuse, ``(False, text)`` to warn, or
+    ``None``. A crawl's episode has no target to judge it by."""
+    task, length = case.task, float(case.robot.tables["robot"]["length"])
+    if isinstance(task, TipReachTask):
+        return tip_speed_problem(task.target_box, length, duration)
+    if isinstance(task, GotoTask | ReachTask):
+        target, key = (task.distance, "distance") if isinstance(task, GotoTask) else (task.target, "target")
+        problem = target_reach_problem(target, length, duration, key)
+        return None if problem is None else (problem[0] != "warn", problem[1])
+    return None
 
 
 def _check_reward_scale(t: SpecTable, scale: float, length: float, papers: float) -> None:

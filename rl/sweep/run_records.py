@@ -60,6 +60,13 @@ def recorded_run_settings(run_dirs: Iterable[Path]) -> dict[str, Any]:
             for key, values in found.items() if len(values) == 1}
 
 
+def _randomized(randomize: Any) -> str:
+    """A case's ``[training] randomize`` in words."""
+    if not randomize:
+        return "its nominal robot (no randomization)"
+    return f"robots randomized per episode ({json.dumps(randomize)[:120]})"
+
+
 def check_resume_settings(run_dir: Path, metadata: dict[str, Any],
                           checkpoint_metadata: dict[str, Any] | None = None) -> None:
     """A resumed run keeps its case, physics, episode length and crawlers per seed (``envs``: its
@@ -79,9 +86,17 @@ def check_resume_settings(run_dir: Path, metadata: dict[str, Any],
         if key == "case_spec" and key in record:
             run_spec, spec = without_default_recipe(record[key]), without_default_recipe(metadata[key])
             if run_spec != spec:
+                where = first_difference(run_spec, spec)
+                if "randomize" in where:  # --randomize (or the recipe's) sets it, not only the spec
+                    given = (spec.get("training") or {}).get("randomize")
+                    had = (run_spec.get("training") or {}).get("randomize")
+                    raise ValueError(f"--randomize (or the spec's [training] randomize) gives case "
+                                     f"{metadata['case']!r} {_randomized(given)}, and the run trained on "
+                                     f"{_randomized(had)} ({run_json}): a resumed run keeps the robots it "
+                                     "trains on; leave --randomize out (or give the run's), or train a "
+                                     "new run (another --out)")
                 raise ValueError(f"the spec of case {metadata['case']!r} differs from the run's at "
-                                 f"{first_difference(run_spec, spec)} ({run_json}): a resumed run "
-                                 "keeps its case")
+                                 f"{where} ({run_json}): a resumed run keeps its case")
         elif (key in record and isinstance(record[key], float)
               and not math.isfinite(record[key])):
             raise ValueError(f"{run_json}: {key} is {record[key]!r}, not a finite number: the "

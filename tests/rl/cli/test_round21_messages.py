@@ -73,3 +73,62 @@ def test_export_seeds_writes_a_campaign_under_a_policy_s_seeds_folder(trained, t
     entries = json.loads((policy / "seeds" / "smoke" / "seeds.json").read_text())
     assert [e["seed"] for e in entries] == [0, 1]
     assert (policy / "seeds" / "smoke" / "seed0" / "actor.pt").is_file()
+
+
+def _spec(tmp_path, case: str, name: str, edit) -> str:
+    from elastica_magnetic_rl.cases.case import load_case
+
+    text = edit(load_case(case).toml())
+    (tmp_path / name).write_text(text)
+    return str(tmp_path / name)
+
+
+def test_values_in_the_wrong_unit_are_named_by_their_key(tmp_path):
+    """S F1: an interaction cutoff in mm written as m (2.0 for a 0.02 m robot) switched the
+    interaction off without a word. V F2: a relative damping a million times too large was refused
+    as a dt, with the advice dt = 1e-10 s. S F3: a catheter's [yardstick] distance_10s was taken,
+    ignored, and the training said the spec had none."""
+    from elastica_magnetic_rl.cases.case import load_case
+
+    from elastica_magnetic.specfile import SpecError
+
+    cutoff = _spec(tmp_path, "m1-4mT", "cut.toml", lambda t: t + "\n[robot.interaction]\ncutoff = 2.0\n")
+    try:
+        load_case(cutoff)
+        raise AssertionError("a 2 m cutoff on a 0.02 m robot was accepted")
+    except SpecError as exc:
+        assert "cutoff: 2 m is at or beyond the rod's length (0.02 m)" in str(exc)
+        assert "2 mm is 0.002 m" in str(exc)
+    damped = _spec(tmp_path, "m1-4mT", "rel.toml", lambda t: t.replace("relative = 20.0", "relative = 2e7"))
+    try:
+        load_case(damped)
+        raise AssertionError("a relative damping of 2e7 was accepted")
+    except SpecError as exc:
+        assert "[robot.damping] relative: this robot's relative damping alone needs a time step" in str(exc)
+        assert "Set dt" not in str(exc)
+    catheter = _spec(tmp_path, "catheter-magnet-reach", "cy.toml",
+                     lambda t: t.replace("distance_10s = 0.0 ", "distance_10s = 0.02 "))
+    try:
+        load_case(catheter)
+        raise AssertionError("a catheter's distance_10s was accepted")
+    except SpecError as exc:
+        assert "[yardstick] distance_10s: 0.02 m is a crawl's distance in 10 s, and a tip-reach" in str(exc)
+
+
+def test_options_are_judged_as_the_spec_keys_they_replace(trained, tmp_path, capsys):
+    """S F6: ``msr train --episode-duration 0.3`` on a goto case trained without the warning its spec's
+    ``episode_duration = 0.3`` gets. V F8: ``--resume --randomize default`` named the spec's key."""
+    import shutil
+
+    assert msr(["train", "--case", "m1-4mT-goto", "--episode-duration", "0.3", "--steps", "30", "--set",
+                "learning_starts=10", "--seeds", "1", "--out", str(tmp_path / "g")]) != 0  # its minibatch
+    err = capsys.readouterr().err
+    assert "warning: --episode-duration 0.3 for case 'm1-4mT-goto': 0.3 s for the distance 0.015 m" in err
+    assert "faster than the paper's fastest gait" in err
+    runs = tmp_path / "runs"
+    shutil.copytree(trained, runs)
+    assert msr(["train", "--case", "m1-4mT", "--resume", "--seeds", "2", "--out", str(runs), "--randomize",
+                "default", "--steps", "10000"]) != 0
+    err = capsys.readouterr().err
+    assert "--randomize (or the spec's [training] randomize) gives case 'm1-4mT' robots" in err, err
+    assert "the run trained on its nominal robot (no randomization)" in err and "leave --randomize out" in err
