@@ -390,8 +390,8 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
                min_rotation_period(min(actuation.limits[:2]), min(actuation.increments[:2])))
     yardstick = _yardstick(top.table("yardstick", required=False), length,
                            _rotating_yardstick_refusal(actuation, task), fastest)
-    if yardstick.distance_10s > 0.0 and task.kind != "crawl":  # nothing would judge it
-        judged = _JUDGED_ON.get(task.kind, "its task")
+    if yardstick.distance_10s > 0.0 and task.kind in _JUDGED_ON:  # nothing would judge it
+        judged = _JUDGED_ON[task.kind]
         raise SpecError(f"{source}: [yardstick] distance_10s: {yardstick.distance_10s:g} m is a crawl's "
                         f"distance in 10 s, and a {task.kind} case is judged on {judged}, not on it: "
                         "remove distance_10s (or set it to 0)")
@@ -490,9 +490,9 @@ def with_randomize(case: Case, variations: tuple[Variation, ...]) -> Case:
                                                                   randomize=variations))
 
 
-#: What each task other than a crawl is judged on, in words (a distance in 10 s is a crawl's).
-_JUDGED_ON = {"reach": "its target and tolerance ([task] target, tolerance)",
-              "goto": "a ring of targets (msr policy generate --ring)",
+#: What the tasks that take no crawl's distance in 10 s as their yardstick are judged on, in words
+#: (a reach case's sweep of rotating fields does record one: ``msr field baseline --set-yardstick``).
+_JUDGED_ON = {"goto": "a ring of targets (msr policy generate --ring)",
               "tip-reach": "its held-out targets, beside its steering yardstick"}
 
 

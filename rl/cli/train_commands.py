@@ -292,24 +292,6 @@ def _warn_unstable_steps(cases: list, physics: str) -> None:
                   file=sys.stderr)
 
 
-def _judge_episode_duration(cases: list, duration: float | None) -> None:
-    """``--episode-duration`` judged as each case's ``[task] episode_duration`` is (a target no
-    crawler reaches in it refused, one faster than any gait warned), naming the option."""
-    from ..cases.task_tables import episode_problem
-
-    if duration is None:
-        return
-    for case in cases:
-        problem = episode_problem(case, duration)
-        if problem is None:
-            continue
-        refuse, text = problem
-        line = f"--episode-duration {duration:g} for case {case.name!r}: {text}"
-        if refuse:
-            raise CommandError(line)
-        print(f"msr train: warning: {line}", file=sys.stderr)
-
-
 #: The longest ``--episode-duration`` (s) train and refine take.
 MAX_EPISODE_DURATION_S = 3600.0
 
@@ -369,7 +351,6 @@ def train_command(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise CommandError(str(exc)) from None
     _warn_unstable_steps(args.case, args.physics)
-    _judge_episode_duration(args.case, args.episode_duration)
     overrides = _overrides(args)
     try:
         # SIGTERM/SIGHUP stop it as Ctrl-C does (the checkpoints are named), not silently

@@ -26,7 +26,8 @@ STEPS = ("check", "yardstick", "train", "generate", "robustness", "refine", "rob
 #: every key under it): changed, those steps run again (``--redo``) and the rest of the loop is
 #: kept. The spec's ``[training]`` is read by the check (its warnings) and the training alone: the
 #: yardstick sweep plays fields, it trains nothing.
-STEP_SETTINGS = {"settings.calibration": ("firmware",), "spec.training": ("check", "train")}
+STEP_SETTINGS = {"settings.calibration": ("firmware",), "spec.training": ("check", "train"),
+                 "settings.steps": ("train",)}
 #: The steps each step needs (their results are its input).
 NEEDS: dict[str, tuple[str, ...]] = {
     "check": (), "yardstick": (), "train": ("yardstick",), "generate": ("train",),
@@ -189,8 +190,10 @@ def plan_loop(state: LoopState | None, spec: dict[str, Any], settings: dict[str,
         changed = _changed({"spec": state.spec, "settings": state.settings},
                            {"spec": spec, "settings": settings})
         others = [key for key in changed if key != "settings.steps"]
-        if "settings.steps" in changed and not force and all(_own_steps(key) for key in others):
-            extend = _longer_training(state, settings.get("steps"))  # more steps: training goes on
+        if ("settings.steps" in changed and not force and all(_own_steps(key) for key in others)
+                and not any("train" in _own_steps(key) for key in others)):
+            # more steps alone: the training goes on (with other training settings it starts over)
+            extend = _longer_training(state, settings.get("steps"))
             changed, redo = others, (*redo, *extend)
         own = [_own_steps(key) for key in changed]
         if changed and not force and all(own):

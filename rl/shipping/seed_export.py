@@ -24,7 +24,7 @@ from ..runfiles.rundir import CaseDir, RunDir
 from ..sweep.run_records import first_difference
 from .policy_files import resolve_policy
 from .policy_runs import check_not_training, evaluate_seeds, prefer_best, seed_run_dirs
-from .ship import check_ship_target, ship
+from .ship import check_not_in_a_policy, ship
 
 __all__ = ["SEED_TRAINING_LOGS", "export_seeds"]
 
@@ -80,7 +80,7 @@ def export_seeds(
     recovered = recover(dest, option="--out") if interrupted(dest) else []
     new_seeds = {seed for seed, _ in seeds}
     try:  # checked before the long evaluations
-        check_ship_target(CaseDir.seed_name(min(new_seeds)), dest)  # where each seed is shipped
+        check_not_in_a_policy(dest, tuple(dest.parents))  # each seed is shipped there: a policy's seeds/
         known, earlier = _check_dest(dest, subject, new_seeds, first.meta, force)
     except (ValueError, OSError) as exc:
         for note in recovered:  # the command line prints them before the error

@@ -14,6 +14,7 @@ import io
 import json
 import re
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -63,7 +64,8 @@ from .policy_runs import evaluate_seeds, node_dx, run_policy
 from .seed_report import CARD_SECTION as SEEDS_CARD_SECTION
 from .seed_report import case_seeds, seeds_markdown
 
-__all__ = ["SHIPPED_FILES", "check_policy_name", "check_ship_target", "set_notes", "ship"]
+__all__ = ["SHIPPED_FILES", "check_not_in_a_policy", "check_policy_name", "check_ship_target", "set_notes",
+           "ship"]
 
 
 def check_policy_name(name: str) -> str:
@@ -81,17 +83,24 @@ def check_ship_target(name: str, dest: str | Path | None) -> None:
     measuring, else the named error."""
     check_policy_name(name)
     if dest is not None:
-        for parent in (Path(dest), *Path(dest).parents):
-            if parent.exists() and not parent.is_dir():
-                raise OutputPathError(f"--out {dest}: {parent} is a file, not a folder")
-            inside = Path(dest).relative_to(parent).parts if parent != Path(dest) else ()
-            open_to = manifest_results_in(parent)
-            if (parent / POLICY_JSON).is_file() and not (inside and inside[0] in open_to):
-                seeds = f" (its {open_to[0]}/ holds its case's seed campaigns)" if open_to else ""
-                raise OutputPathError(f"--out {dest}: {parent} is a shipped policy: a policy goes beside "
-                                      f"another, not inside it{seeds}; choose another --out")
+        check_not_in_a_policy(dest, (Path(dest), *Path(dest).parents))
         # nothing goes inside another command's result (a training's seed folder, a simulation)
         check_enclosing(normalized_path(Path(dest) / name), "--out")
+
+
+def check_not_in_a_policy(dest: str | Path, folders: Sequence[Path]) -> None:
+    """Refuse (:class:`OutputPathError`) ``--out dest`` where one of ``folders`` (``dest`` and its
+    parents, or only its parents) is a file, or a shipped policy that ``dest`` lies in outside the
+    subfolders it keeps open to other results (its ``seeds/``, where seed campaigns go)."""
+    for parent in folders:
+        if parent.exists() and not parent.is_dir():
+            raise OutputPathError(f"--out {dest}: {parent} is a file, not a folder")
+        inside = Path(dest).relative_to(parent).parts if parent != Path(dest) else ()
+        open_to = manifest_results_in(parent)
+        if (parent / POLICY_JSON).is_file() and not (inside and inside[0] in open_to):
+            seeds = f" (its {open_to[0]}/ holds its case's seed campaigns)" if open_to else ""
+            raise OutputPathError(f"--out {dest}: {parent} is a shipped policy: a policy goes beside "
+                                  f"another, not inside it{seeds}; choose another --out")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -457,8 +457,10 @@ def _stop_rules(loaded: dict[str, Case], kind: str | None, options: dict[str, An
     rules = {}
     for name, case in loaded.items():
         if from_recipe and kind == "target" and not options and target_return(case) is None:
-            warnings.warn(f"case {name!r} has no target return (task {case.task.kind!r}, no "
-                          "[yardstick] distance_10s): the recipe's target stop rule is off for it, "
+            why = ("no [yardstick] distance_10s" if case.task.kind == "crawl" else
+                   "judged on its targets, not on one evaluation's return")
+            warnings.warn(f"case {name!r} has no target return (task {case.task.kind!r}, {why}): "
+                          "the recipe's target stop rule is off for it, "
                           "its seeds train their full steps (--stop-when plateau stops them at a "
                           "plateau)", SettingNotAppliedWarning, stacklevel=2)
             rules[name] = None
@@ -497,7 +499,7 @@ def _case_defaults(loaded: dict[str, Case], steps: int | None, episode_duration:
                              "value for every case), or train the cases apart")
     if episode_duration is not None:
         for case in loaded.values():
-            _check_tip_reach_duration(case, episode_duration)
+            _check_episode_duration_for(case, episode_duration)
     first = next(iter(loaded.values()))
     recipe = first.training.recipe if recipe is None else recipe
     return (first.training.steps if steps is None else steps,
@@ -505,15 +507,13 @@ def _case_defaults(loaded: dict[str, Case], steps: int | None, episode_duration:
             recipe)
 
 
-def _check_tip_reach_duration(case: Case, duration: float) -> None:
-    """An episode length given for a tip-reach case (``--episode-duration``, s), judged as the
-    spec's own is (:func:`~elastica_magnetic_rl.cases.task_tables.tip_speed_problem`)."""
-    from ..cases.task_tables import tip_speed_problem
-    from ..cases.tasks import TipReachTask
+def _check_episode_duration_for(case: Case, duration: float) -> None:
+    """An episode length given for a case (``--episode-duration``, s), judged as the spec's own
+    ``episode_duration`` is (:func:`~elastica_magnetic_rl.cases.task_tables.episode_problem`: a
+    catheter's tip speed, a goto or reach target faster than any gait or out of reach)."""
+    from ..cases.task_tables import episode_problem
 
-    if not isinstance(case.task, TipReachTask):
-        return
-    problem = tip_speed_problem(case.task.target_box, float(case.robot.tables["robot"]["length"]), duration)
+    problem = episode_problem(case, duration)
     if problem is None:
         return
     refuse, text = problem

@@ -123,7 +123,7 @@ def test_options_are_judged_as_the_spec_keys_they_replace(trained, tmp_path, cap
     assert msr(["train", "--case", "m1-4mT-goto", "--episode-duration", "0.3", "--steps", "30", "--set",
                 "learning_starts=10", "--seeds", "1", "--out", str(tmp_path / "g")]) != 0  # its minibatch
     err = capsys.readouterr().err
-    assert "warning: --episode-duration 0.3 for case 'm1-4mT-goto': 0.3 s for the distance 0.015 m" in err
+    assert "warning: --episode-duration 0.3 s for the distance 0.015 m" in err and "'m1-4mT-goto'" in err
     assert "faster than the paper's fastest gait" in err
     runs = tmp_path / "runs"
     shutil.copytree(trained, runs)

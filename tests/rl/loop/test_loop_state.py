@@ -72,3 +72,23 @@ def test_a_step_result_replaced_by_another_command_runs_again(tmp_path, monkeypa
     run_loop(case, out, settings, progress=False, log=log, steps=functions)
     assert calls == ["generate", "robustness", "firmware"]
     assert "generate/ no longer holds the result this loop wrote" in log.getvalue()
+
+
+def test_more_steps_alone_extend_the_training_and_with_new_training_settings_start_it_over():
+    """A larger ``--steps`` alone resumes the training (its folder kept); with a changed
+    ``[training]`` as well, the check and the training run again afresh (--redo check,train)."""
+    from pathlib import Path
+
+    import pytest
+    from elastica_magnetic_rl.loop.state import STEPS, LoopError, LoopState, plan_loop
+
+    done = {s: {"status": "done", "summary": {"steps": 100} if s == "train" else {}} for s in STEPS}
+    state = LoopState(Path("out/loop.json"), "c", {"training": {"a": 1}}, {"steps": 100}, done)
+    plan = plan_loop(state, {"training": {"a": 1}}, {"steps": 200}, (), (), False)
+    assert plan.extend == ("train",) and plan.run[0] == "train" and "yardstick" in plan.done
+    with pytest.raises(LoopError, match="never shortened"):
+        plan_loop(state, {"training": {"a": 1}}, {"steps": 50}, (), (), False)
+    with pytest.raises(LoopError, match="which only steps check, train use: pass --redo check,train"):
+        plan_loop(state, {"training": {"a": 2}}, {"steps": 200}, (), (), False)
+    plan = plan_loop(state, {"training": {"a": 2}}, {"steps": 200}, (), ("check", "train"), False)
+    assert plan.extend == () and plan.run[:2] == ("check", "train")

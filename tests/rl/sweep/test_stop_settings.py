@@ -139,8 +139,8 @@ def test_the_fast_recipes_target_rule_is_off_with_a_warning_for_a_case_without_a
             "--set", "hidden_sizes=8", "--episode-duration", "0.1", "--no-progress"]
     assert msr(args) == 0
     err = capsys.readouterr().err
-    assert ("warning: case 'm1-4mT-goto' has no target return (task 'goto', no [yardstick] "
-            "distance_10s): the recipe's target stop rule is off for it") in err
+    assert ("warning: case 'm1-4mT-goto' has no target return (task 'goto', judged on its targets, "
+            "not on one evaluation's return): the recipe's target stop rule is off for it") in err
     summary = json.loads((tmp_path / "m1-4mT-goto" / "summary.json").read_text())
     assert summary["stop_rule"] is None and summary["steps_run_fraction"] == 1.0
     assert summary["evaluation_duration_s"] == 30.0  # a goto evaluation runs the whole episode
