@@ -183,10 +183,12 @@ class Case:
     @property
     def has_yardstick_controller(self) -> bool:
         """Whether a hand-designed controller can play the case's warm-up (``yardstick_warmup``):
-        a goto task's steering field, or a field-actuated crawl or reach whose ``[yardstick]``
-        records its rotating field's ``period``
+        a goto task's steering field, a field-actuated crawl or reach whose ``[yardstick]``
+        records its rotating field's ``period``, or the steering law of a case steered by a source
         (:func:`~elastica_magnetic_rl.envs.yardsticks.yardstick_controller` makes it)."""
-        return isinstance(self.task, GotoTask) or (self.yardstick.period is not None and self.field_actuated)
+        if not self.field_actuated:
+            return True
+        return isinstance(self.task, GotoTask) or self.yardstick.period is not None
 
     @property
     def training_episodes(self) -> str:
@@ -300,7 +302,7 @@ class Case:
 #: Which cases have a hand-designed controller to play a warm-up (:attr:`Case.has_yardstick_controller`),
 #: in words, for the messages that refuse ``yardstick_warmup``.
 YARDSTICK_CONTROLLERS = ("a goto task's steering field is one; a crawl's rotating field once [yardstick] "
-                         "period is recorded; a catheter's steering law acts on its own environment")
+                         "period is recorded; a catheter's steering law is one")
 
 
 def case_names() -> tuple[str, ...]:
@@ -406,25 +408,21 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     for key in ("robot", "physics", "checks"):  # read by describe_robot
         top.raw(key, None)
     top.finish()
-    case = Case(name, description, robot, actuation, task, training, yardstick, source, design)
-    if not case.field_actuated and training.td3.get("yardstick_warmup"):  # no command could play it
-        raise SpecError(warmup_refusal(case))
-    return case
+    return Case(name, description, robot, actuation, task, training, yardstick, source, design)
 
 
 def warmup_refusal(case: Case) -> str | None:
     """Why ``msr train`` cannot train ``case`` (``None`` when it can): its ``[training.td3]
-    yardstick_warmup`` needs the case's hand-designed controller, which a steered case never has
-    and a field-driven crawl has once ``[yardstick] period`` is recorded. Such a crawl's spec is
-    valid until then (a sweep, ``msr field baseline --set-yardstick`` or ``msr loop``, records it):
-    only the training refuses it, and ``msr case check`` warns."""
+    yardstick_warmup`` needs the case's hand-designed controller, which a field-driven crawl has
+    once ``[yardstick] period`` is recorded (a goto case and a case steered by a source always
+    have one). Such a crawl's spec is valid until then (a sweep, ``msr field baseline
+    --set-yardstick`` or ``msr loop``, records it): only the training refuses it, and ``msr case
+    check`` warns."""
     warmup = case.training.td3.get("yardstick_warmup")
     if not warmup or case.has_yardstick_controller:
         return None
     fix = ("give [yardstick] period (msr field baseline --case SPEC --set-yardstick FILE writes it; msr "
-           "loop finds it itself) or remove the setting" if case.field_actuated
-           else f"a case steered by [actuation] kind = \"{case.actuation.kind}\" has none: remove the "
-           "setting")
+           "loop finds it itself) or remove the setting")
     return (f"{case.source}: [training.td3] yardstick_warmup = {warmup}: the warm-up is played by the "
             f"case's hand-designed controller, and this case has none ({YARDSTICK_CONTROLLERS}): {fix}")
 

@@ -33,6 +33,7 @@ from elastica_magnetic.robot_spec import ACTION_PERIOD
 from ..cases.case import Case, load_case
 from ..cases.tasks import TARGET_OFFSET_SCALE, GotoTask
 from .env import OBSERVATION_SCALES, observation_layout
+from .steering_yardstick import SteeringYardstick
 
 __all__ = ["RotatingFieldPolicy", "SteeringFieldPolicy", "rotating_amplitude", "yardstick_controller"]
 
@@ -283,9 +284,13 @@ def yardstick_controller(case: Case) -> Callable[[], Any] | None:
     (:attr:`~elastica_magnetic_rl.td3.config.TD3Config.yardstick_warmup`): a goto case's
     :class:`SteeringFieldPolicy` with its defaults; a crawl or reach case's
     :class:`RotatingFieldPolicy` at its ``[yardstick]`` ``period`` and sense (what ``msr field
-    baseline --set-yardstick`` and ``msr loop`` record); ``None`` for a case without one."""
+    baseline --set-yardstick`` and ``msr loop`` record); a case steered by a source (a magnet
+    arm, coil currents), its steering law reading the observation (:class:`SteeringYardstick`);
+    ``None`` for a case without one."""
     if not case.has_yardstick_controller:
         return None
+    if not case.field_actuated:
+        return functools.partial(SteeringYardstick, case)
     if isinstance(case.task, GotoTask):
         return functools.partial(SteeringFieldPolicy, case)
     return functools.partial(RotatingFieldPolicy, case, case.yardstick.period, case.yardstick.clockwise)

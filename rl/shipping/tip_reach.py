@@ -14,12 +14,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from elastica_magnetic import MagnetPose
 from elastica_magnetic.robot_spec import ACTION_PERIOD
-from elastica_magnetic.steering import CoilFieldSteering, MagnetBearingSteering
 
 from ..cases.case import Case
 from ..envs.catheter_env import CatheterReachVectorEnv, make_catheter_env
+from ..envs.steering_yardstick import insertion_command, steering_law
 
 __all__ = ["HELD_OUT_SEED", "HELD_OUT_TARGETS", "TARGET_FILES", "actor_controller", "held_out_targets",
            "run_targets", "steering_controller", "target_notes", "write_targets"]
@@ -40,39 +39,23 @@ def held_out_targets(case: Case, n: int = HELD_OUT_TARGETS, seed: int = HELD_OUT
     return np.random.default_rng(seed).uniform(low, high, size=(int(n), 3))
 
 
-#: 1/s: with an insertion stage, the yardstick commands its velocity as this gain times the gap
-#: between the target's and the tip's distance from the base's start (m), over the stage's top speed.
-INSERTION_GAIN = 5.0
-
-
-#: The fraction of the coils' strongest field at the straight tip that the coils' yardstick asks
-#: (headroom: a tip away from the start, where the coils give less, still gets the field asked).
-COIL_FIELD_FRACTION = 0.5
-
-
 def steering_controller(env: CatheterReachVectorEnv) -> Controller:
-    """The yardstick of a tip-reach case: for a magnet arm, the bearing steering law, the magnet
-    kept at its start distance from the straight tip; for coils, the same law choosing the field's
-    direction at the tip and the least-norm currents making it (:data:`COIL_FIELD_FRACTION` of the
-    strongest field at the straight tip); with an insertion stage, the stage pushed or pulled until
-    the tip is as far from the base's start as the target (:data:`INSERTION_GAIN`)."""
+    """The yardstick of a tip-reach case on the environment's own state: for a magnet arm, the
+    bearing steering law, the magnet kept at its start distance from the straight tip; for coils,
+    the same law choosing the field's direction at the tip and the least-norm currents making it;
+    with an insertion stage, the stage pushed or pulled until the tip is as far from the base's
+    start as the target (:func:`~elastica_magnetic_rl.envs.steering_yardstick.steering_law`,
+    :func:`~elastica_magnetic_rl.envs.steering_yardstick.insertion_command`)."""
     length = float(env.spec.length)
-    if isinstance(env.actuators[0], MagnetPose):
-        start = np.asarray(env.actuation.position, dtype=np.float64)
-        distance = float(np.linalg.norm(start - np.array([length, 0.0, 0.0])))
-        laws = [MagnetBearingSteering(arm, base=[0.0, 0.0, 0.0], distance=distance) for arm in env.actuators]
-    else:
-        field = COIL_FIELD_FRACTION * env.actuation.field_at_tip(length)
-        laws = [CoilFieldSteering(coils, base=[0.0, 0.0, 0.0], field=field) for coils in env.actuators]
+    laws = [steering_law(env.actuation, length, actuator) for actuator in env.actuators]
 
     def act(env: CatheterReachVectorEnv, obs: NDArray[np.float32]) -> NDArray[np.float64]:
-        steer = np.stack([law.action(env.tip(i), env.targets[i], env.robots.robot_time(i), 0.01)
+        steer = np.stack([law.action(env.tip(i), env.targets[i], env.robots.robot_time(i), ACTION_PERIOD)
                           for i, law in enumerate(laws)])
         if not env.advancers:
             return steer
-        gap = np.linalg.norm(env.targets, axis=1) - np.array([np.linalg.norm(env.tip(i))
-                                                             for i in range(env.num_envs)])
-        push = np.clip(INSERTION_GAIN * gap / env.advancers[0].max_speed, -1.0, 1.0)
+        tips = np.stack([env.tip(i) for i in range(env.num_envs)])
+        push = insertion_command(env.targets, tips, env.advancers[0].max_speed)
         return np.concatenate([steer, push[:, None]], axis=1)
 
     return act

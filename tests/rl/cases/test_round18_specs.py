@@ -48,14 +48,18 @@ def test_a_rotating_fields_keys_on_a_case_that_cannot_play_one_are_refused(make,
         _quiet(data)
 
 
-def test_a_warm_up_on_a_steered_case_says_to_remove_it_not_to_give_a_period():
-    """V8: the refusal told a catheter's spec to give ``[yardstick] period``."""
+def test_a_warm_up_on_a_steered_case_is_played_by_its_steering_law():
+    """V8 then: the refusal told a catheter's spec to give ``[yardstick] period``; now a steered
+    case has a warm-up controller (its steering law reading the observation), so the setting is
+    accepted and the controller it needs exists."""
+    from elastica_magnetic_rl.envs.steering_yardstick import SteeringYardstick
+    from elastica_magnetic_rl.envs.yardsticks import yardstick_controller
+
     data = _catheter()
     data["training"] = {**data.get("training", {}), "td3": {"yardstick_warmup": 100}}
-    with pytest.raises(SpecError, match="yardstick_warmup = 100") as info:
-        _quiet(data)
-    assert 'kind = "magnet-pose" has none: remove the setting' in str(info.value)
-    assert "give [yardstick] period" not in str(info.value)
+    case = _quiet(data)
+    assert case.training.td3["yardstick_warmup"] == 100
+    assert isinstance(yardstick_controller(case)(), SteeringYardstick)
 
 
 def test_a_warm_up_of_a_run_s_length_is_refused():
