@@ -24,28 +24,28 @@ same for any error that scales its field (a winding count, a driver's current se
 from __future__ import annotations
 
 import re
-import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
 from numpy.typing import NDArray
 
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from .recorded_paths import (
     INSERTION_COLUMN,
+    RecordedDrive,
     check_insertion,
-    check_tip_path,
     control_grid,
     header_names,
+    quiet_case,
     read_path_table,
     steer_and_record,
+    write_path_csv,
 )
-from .tracking import MeasuredTrajectory, TrajectoryError, numeric_columns
+from .tracking import TrajectoryError, numeric_columns
 
 __all__ = ["CoilDrive", "CoilPath", "is_coil_path", "read_coil_path", "record_coil_steering",
            "simulate_coil_tips", "write_coil_path"]
@@ -121,41 +121,17 @@ def read_coil_path(path: str | Path) -> CoilPath:
 
 def write_coil_path(path: str | Path, coils: CoilPath) -> Path:
     """Write ``coils`` as a coil path CSV at ``path`` (atomically). Returns the path."""
-    from elastica_magnetic.io import atomic_write
-
     columns = {"t_s": coils.times}
-    for k in range(coils.currents.shape[1]):
-        columns[f"current_{k}_A"] = coils.currents[:, k]
-    if coils.insertion is not None:
-        columns[INSERTION_COLUMN] = coils.insertion
-    path = Path(path)
-    with atomic_write(path, "w", newline="") as handle:
-        pd.DataFrame(columns).to_csv(handle, index=False, float_format="%.9g")
-    return path
+    columns.update({f"current_{k}_A": coils.currents[:, k] for k in range(coils.currents.shape[1])})
+    return write_path_csv(path, columns, coils.insertion)
 
 
-def _coil_case(spec: Mapping[str, Any], what: str) -> Any:
-    from ..cases.case import case_from_dict
-
-    with warnings.catch_warnings():  # the spec's warnings were given when it was loaded
-        warnings.simplefilter("ignore")
-        return case_from_dict(spec, what, default_name="identified")
-
-
-@dataclass
-class CoilDrive:
+class CoilDrive(RecordedDrive):
     """What played a catheter's motion: the coils' :class:`CoilPath`, replayed on the robot of a
     coil-currents case's spec (the drive of :func:`~.identify.identify` for such a case)."""
 
+    what = "coil path"
     path: CoilPath
-
-    @property
-    def duration(self) -> float:
-        """s, how long the path lasts."""
-        return self.path.duration
-
-    def describe(self) -> str:
-        return f"the coil path {self.path.source}"
 
     def check_spec(self, spec: Mapping[str, Any]) -> None:
         """Refuse a spec this path cannot drive: not a coil-currents case, another number of coils,
@@ -163,7 +139,7 @@ class CoilDrive:
         beyond the case's ``current_limit`` (another system's log, or its sensors' scale?)."""
         from elastica_magnetic.plausibility import warn_implausible
 
-        case = _coil_case(spec, "the spec")
+        case = quiet_case(spec, "the spec", "identified")
         kind = getattr(case.actuation, "kind", "field")
         if kind != "coil-currents":
             raise TrajectoryError(f"{self.path.source}: a coil path drives a case steered by coil "
@@ -184,17 +160,8 @@ class CoilDrive:
                              "sensors' scale?", "actuation.current_limit")
         check_insertion(self.path.source, self.path.insertion, case.actuation.insertion)
 
-    def check_measured(self, measured: MeasuredTrajectory, spec: Mapping[str, Any]) -> None:
-        """Refuse a tracked tip that is not this spec's catheter's in the spec's frame
-        (:func:`~.recorded_paths.check_tip_path`)."""
-        check_tip_path(measured, spec)
-
-    def rows(self, spec: Mapping[str, Any], physics: str,
-             measured: MeasuredTrajectory) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """The tip (m) at every row of the path, ``(n, 1, 3)``, with the rows' times ``(n,)`` (s),
-        for the robot and coils of ``spec`` in ``physics``. Raises SimulationDivergedError."""
-        tips = simulate_coil_tips(spec, physics, self.path)
-        return self.path.times, tips[:, None, :]
+    def simulate(self, spec: Mapping[str, Any], physics: str) -> NDArray[np.float64]:
+        return simulate_coil_tips(spec, physics, self.path)
 
 
 def simulate_coil_tips(spec: Mapping[str, Any], physics: str, path: CoilPath) -> NDArray[np.float64]:
@@ -204,7 +171,7 @@ def simulate_coil_tips(spec: Mapping[str, Any], physics: str, path: CoilPath) ->
     from elastica_magnetic import Advancer
     from elastica_magnetic.batch import BatchedRobots
 
-    case = _coil_case(spec, "the fitted spec")
+    case = quiet_case(spec, "the fitted spec", "fitted")
     robot = case.robot_spec(physics)
     actuation = case.actuation
     coils = actuation.actuator()

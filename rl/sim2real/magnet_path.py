@@ -22,28 +22,28 @@ synthetic measurement, and what a lab's arm would be sent).
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
 from numpy.typing import NDArray
 
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from .recorded_paths import (
     INSERTION_COLUMN,
+    RecordedDrive,
     check_insertion,
-    check_tip_path,
     control_grid,
     header_names,
+    quiet_case,
     read_path_table,
     steer_and_record,
+    write_path_csv,
 )
-from .tracking import MAX_COORDINATE_M, MeasuredTrajectory, TrajectoryError, numeric_columns
+from .tracking import MAX_COORDINATE_M, TrajectoryError, numeric_columns
 
 __all__ = ["MAGNET_PATH_COLUMNS", "MagnetDrive", "MagnetPath", "is_magnet_path", "read_magnet_path",
            "record_steering", "simulate_tips", "write_magnet_path"]
@@ -124,46 +124,25 @@ def read_magnet_path(path: str | Path) -> MagnetPath:
 
 def write_magnet_path(path: str | Path, magnet: MagnetPath) -> Path:
     """Write ``magnet`` as a magnet path CSV at ``path`` (atomically). Returns the path."""
-    from elastica_magnetic.io import atomic_write
-
-    columns = {"t_s": magnet.times}
-    for k, axis in enumerate("xyz"):
-        columns[f"magnet_{axis}_m"] = magnet.positions[:, k]
-    for k, axis in enumerate("xyz"):
-        columns[f"direction_{axis}"] = magnet.directions[:, k]
-    if magnet.insertion is not None:
-        columns[INSERTION_COLUMN] = magnet.insertion
-    path = Path(path)
-    with atomic_write(path, "w", newline="") as handle:
-        pd.DataFrame(columns).to_csv(handle, index=False, float_format="%.9g")
-    return path
+    columns = dict(zip(MAGNET_PATH_COLUMNS, [magnet.times, *magnet.positions.T, *magnet.directions.T],
+                       strict=True))
+    return write_path_csv(path, columns, magnet.insertion)
 
 
-@dataclass
-class MagnetDrive:
+class MagnetDrive(RecordedDrive):
     """What played a catheter's motion: a magnet arm's :class:`MagnetPath`, replayed on the
     robot of a magnet-arm case's spec (the drive of :func:`~.identify.identify` for such a case)."""
 
+    what = "magnet path"
     path: MagnetPath
-
-    @property
-    def duration(self) -> float:
-        """s, how long the path lasts."""
-        return self.path.duration
-
-    def describe(self) -> str:
-        return f"the magnet path {self.path.source}"
 
     def check_spec(self, spec: Mapping[str, Any]) -> None:
         """Refuse a spec this path cannot drive: not a magnet arm; a magnet beyond any arm's reach
         (cm or mm written as m) or starting within the arm's ``min_clearance`` of the straight rod;
         insertion given without a stage or missing with one, or beyond the stage's travel."""
-        from ..cases.case import case_from_dict
         from ..cases.steered import MAX_REACH
 
-        with warnings.catch_warnings():  # the spec's warnings were given when it was loaded
-            warnings.simplefilter("ignore")
-            case = case_from_dict(spec, "the spec", default_name="identified")
+        case = quiet_case(spec, "the spec", "identified")
         kind = getattr(case.actuation, "kind", "field")
         if kind != "magnet-pose":
             raise TrajectoryError(f"{self.path.source}: a magnet path drives a case steered by a magnet on "
@@ -223,17 +202,8 @@ class MagnetDrive:
                              "keeps it in: another frame (the base at the origin, the rod along +x)?",
                              "actuation.workspace")
 
-    def check_measured(self, measured: MeasuredTrajectory, spec: Mapping[str, Any]) -> None:
-        """Refuse a tracked tip that is not this spec's catheter's in the spec's frame
-        (:func:`~.recorded_paths.check_tip_path`)."""
-        check_tip_path(measured, spec)
-
-    def rows(self, spec: Mapping[str, Any], physics: str,
-             measured: MeasuredTrajectory) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """The tip (m) at every row of the path, ``(n, 1, 3)``, with the rows' times ``(n,)`` (s),
-        for the robot and magnet of ``spec`` in ``physics``. Raises SimulationDivergedError."""
-        tips = simulate_tips(spec, physics, self.path)
-        return self.path.times, tips[:, None, :]
+    def simulate(self, spec: Mapping[str, Any], physics: str) -> NDArray[np.float64]:
+        return simulate_tips(spec, physics, self.path)
 
 
 def simulate_tips(spec: Mapping[str, Any], physics: str, path: MagnetPath) -> NDArray[np.float64]:
@@ -242,11 +212,7 @@ def simulate_tips(spec: Mapping[str, Any], physics: str, path: MagnetPath) -> ND
     from elastica_magnetic import Advancer, FieldMapDomainError, FieldValueError, MagnetPose
     from elastica_magnetic.batch import BatchedRobots
 
-    from ..cases.case import case_from_dict
-
-    with warnings.catch_warnings():  # the spec's warnings were given when it was loaded
-        warnings.simplefilter("ignore")
-        case = case_from_dict(spec, "the fitted spec", default_name="fitted")
+    case = quiet_case(spec, "the fitted spec", "fitted")
     robot = case.robot_spec(physics)
     arm = case.actuation
     box = np.stack([path.positions.min(axis=0) - 1.0, path.positions.max(axis=0) + 1.0])

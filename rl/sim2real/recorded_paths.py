@@ -5,9 +5,10 @@ simulation."""
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 import pandas as pd
@@ -18,8 +19,9 @@ from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from .tracking import MeasuredTrajectory, TrajectoryError
 
-__all__ = ["GRID_TOLERANCE_S", "INSERTION_COLUMN", "check_insertion", "check_tip_path", "control_grid",
-           "header_names", "read_path_table", "steer_and_record"]
+__all__ = ["GRID_TOLERANCE_S", "INSERTION_COLUMN", "RecordedDrive", "check_insertion", "check_tip_path",
+           "control_grid", "header_names", "quiet_case", "read_path_table", "steer_and_record",
+           "write_path_csv"]
 
 #: The insertion stage's column of a recorded path (m; only with a stage).
 INSERTION_COLUMN = "insertion_m"
@@ -150,3 +152,64 @@ def steer_and_record(case: Any, target: Any, row: Callable[[Any], Any],
         rows.append(row(env))
         tips.append(info["tip_m"][0].copy())
     return rows, np.stack(tips), bool(env.advancers)
+
+
+def quiet_case(spec: Mapping[str, Any], what: str, default_name: str) -> Any:
+    """The :class:`~elastica_magnetic_rl.cases.case.Case` of a spec dict, its plausibility warnings
+    silenced (they were given when the spec was loaded); ``what`` names it in errors."""
+    from ..cases.case import case_from_dict
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return case_from_dict(spec, what, default_name=default_name)
+
+
+def write_path_csv(path: str | Path, columns: dict[str, NDArray[np.float64]],
+                   insertion: NDArray[np.float64] | None) -> Path:
+    """Write a recorded path's ``columns`` (name -> ``(n,)``, ``t_s`` first) and, with a stage, its
+    ``insertion`` (m) as a CSV at ``path`` (atomically). Returns the path."""
+    from elastica_magnetic.io import atomic_write
+
+    if insertion is not None:
+        columns = {**columns, INSERTION_COLUMN: insertion}
+    path = Path(path)
+    with atomic_write(path, "w", newline="") as handle:
+        pd.DataFrame(columns).to_csv(handle, index=False, float_format="%.9g")
+    return path
+
+
+class RecordedDrive:
+    """What played a catheter's motion: a recorded path (its ``times`` s and ``source``) replayed on
+    the robot of a steered case's spec (the drive of :func:`~.identify.identify` for such a case).
+    A kind of path names itself (:attr:`what`), checks a spec it can drive (``check_spec``) and
+    replays itself (``simulate(spec, physics)`` -> the tip at every row, ``(n, 3)`` m)."""
+
+    what: ClassVar[str] = "recorded path"
+
+    def __init__(self, path: Any) -> None:
+        self.path = path
+
+    @property
+    def duration(self) -> float:
+        """s, how long the path lasts."""
+        return self.path.duration
+
+    def describe(self) -> str:
+        return f"the {self.what} {self.path.source}"
+
+    def check_spec(self, spec: Mapping[str, Any]) -> None:
+        raise NotImplementedError
+
+    def simulate(self, spec: Mapping[str, Any], physics: str) -> NDArray[np.float64]:
+        raise NotImplementedError
+
+    def check_measured(self, measured: MeasuredTrajectory, spec: Mapping[str, Any]) -> None:
+        """Refuse a tracked tip that is not this spec's catheter's in the spec's frame
+        (:func:`check_tip_path`)."""
+        check_tip_path(measured, spec)
+
+    def rows(self, spec: Mapping[str, Any], physics: str,
+             measured: MeasuredTrajectory) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The tip (m) at every row of the path, ``(n, 1, 3)``, with the rows' times ``(n,)`` (s),
+        for the robot and its source of ``spec`` in ``physics``. Raises SimulationDivergedError."""
+        return self.path.times, self.simulate(spec, physics)[:, None, :]
