@@ -4,6 +4,7 @@
 - :data:`CATHETER`: a small magnetic catheter, 50 mm long, 0.5 mm radius, 10 elements, no gravity,
   magnetized uniformly (100 kA/m), with its time steps; :data:`CATHETER_ON_GROUND` on a ground;
   :data:`CATHETER_MAGNET_REACH` a tip-reach case of it steered by a magnet on an arm.
+- :func:`quick_catheter`: a shipped catheter case made quicker to simulate, as a case dict.
 - :data:`SMALL_BAND`: the ``[robot]`` table of the paper's 20 x 8 x 0.8 mm band with 8 elements,
   its moduli given by a Poisson ratio; a test adds its own ``[robot.magnetization]``.
 """
@@ -70,3 +71,18 @@ target_box = [[0.04, 0.0, -0.01], [0.045, 0.015, 0.01]]
 tolerance = 0.001
 episode_duration = 2.0
 """
+
+
+def quick_catheter(case_name: str, name: str) -> dict:
+    """The shipped catheter case ``case_name`` with 6 elements and a 4e-5 s training step (a fit
+    runs ~40 simulations: ~3x faster than the shipped 10 elements at 2e-5 s), named ``name``, as
+    a complete case dict."""
+    import copy
+
+    from elastica_magnetic_rl.cases.case import load_case
+
+    spec = copy.deepcopy(load_case(case_name).to_dict())
+    spec["name"] = name
+    spec["robot"]["n_elements"] = 6
+    spec["physics"]["training"]["dt"] = 4e-5
+    return spec

@@ -20,6 +20,7 @@ from elastica_magnetic_rl.sim2real.coil_path import (
 )
 from elastica_magnetic_rl.sim2real.identify import load_spec
 from elastica_magnetic_rl.sim2real.tracking import TrajectoryError
+from spec_texts import quick_catheter
 
 from elastica_magnetic.cli import main
 from elastica_magnetic.specfile import SpecError
@@ -31,13 +32,7 @@ NOISE_M = 5e-5  # the tracker's noise per coordinate: 0.05 mm
 
 @pytest.fixture(scope="module")
 def quick_spec() -> dict:
-    """The shipped coil-currents catheter with 6 elements and a 4e-5 s training step, as a complete
-    case dict."""
-    spec = copy.deepcopy(load_case("catheter-coils-reach").to_dict())
-    spec["name"] = "coils-quick"
-    spec["robot"]["n_elements"] = 6
-    spec["physics"]["training"]["dt"] = 4e-5
-    return spec
+    return quick_catheter("catheter-coils-reach", "coils-quick")
 
 
 @pytest.fixture(scope="module")

@@ -20,6 +20,7 @@ from elastica_magnetic_rl.sim2real.magnet_path import (
     write_magnet_path,
 )
 from elastica_magnetic_rl.sim2real.tracking import TrajectoryError, read_trajectory
+from spec_texts import quick_catheter
 
 from elastica_magnetic.cli import main
 from elastica_magnetic.field_csv import write_field_csv
@@ -32,13 +33,7 @@ NOISE_M = 5e-5  # the tracker's noise per coordinate: 0.05 mm
 
 @pytest.fixture(scope="module")
 def quick_spec() -> dict:
-    """The shipped magnet-arm catheter with 6 elements and a 4e-5 s training step (a fit runs ~40
-    simulations: ~3x faster than the shipped 10 elements at 2e-5 s), as a complete case dict."""
-    spec = copy.deepcopy(load_case("catheter-magnet-reach").to_dict())
-    spec["name"] = "catheter-quick"
-    spec["robot"]["n_elements"] = 6
-    spec["physics"]["training"]["dt"] = 4e-5
-    return spec
+    return quick_catheter("catheter-magnet-reach", "catheter-quick")
 
 
 @pytest.fixture(scope="module")
