@@ -275,10 +275,10 @@ def _calibrate(args: argparse.Namespace) -> int:
         Calibration,
         calibration_from_dict,
         default_calibration_path,
-        fit_actuation_matrix,
         load_calibration,
         save_calibration,
     )
+    from elastica_magnetic.hardware.calibration_fit import fit_actuation_matrix
     from elastica_magnetic.hardware.plausibility import (
         CURRENT_COLUMNS,
         FIELD_COLUMNS,

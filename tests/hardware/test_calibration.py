@@ -18,13 +18,13 @@ from elastica_magnetic.hardware.calibration import (
     calibration_from_dict,
     calibration_header,
     expected_dac_codes,
-    fit_actuation_matrix,
     invert3,
     load_calibration,
     round_half_away,
     save_calibration,
     volts_to_code,
 )
+from elastica_magnetic.hardware.calibration_fit import fit_actuation_matrix
 
 from .conftest import REPO
 

@@ -14,10 +14,10 @@ from elastica_magnetic.cli import main
 from elastica_magnetic.hardware.calibration import (
     CalibrationError,
     calibration_from_dict,
-    fit_actuation_matrix,
     load_calibration,
     save_calibration,
 )
+from elastica_magnetic.hardware.calibration_fit import fit_actuation_matrix
 
 from .conftest import PUBLISHED_CSV, REPO
 

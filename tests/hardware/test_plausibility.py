@@ -15,9 +15,9 @@ from elastica_magnetic.cli import main
 from elastica_magnetic.hardware import plausibility
 from elastica_magnetic.hardware.calibration import (
     CalibrationError,
-    fit_actuation_matrix,
     load_calibration,
 )
+from elastica_magnetic.hardware.calibration_fit import fit_actuation_matrix
 from elastica_magnetic.hardware.export import export_firmware
 from elastica_magnetic.hardware.plausibility import PlausibilityError
 
@@ -221,7 +221,7 @@ def test_the_coil_ranges_are_read_from_the_one_table_of_physical_ranges() -> Non
 def test_coils_fitted_with_their_channels_swapped_are_named_as_swapped():
     """Round 11, V1: coils measured with the x and y currents swapped (a permutation matrix) were
     refused as a unit mistake ("check the unit: T/A is expected"), naming the output file."""
-    from elastica_magnetic.hardware.calibration import fit_actuation_matrix
+    from elastica_magnetic.hardware.calibration_fit import fit_actuation_matrix
 
     matrix = np.array([[0.0, 2e-3, 0.0], [2e-3, 0.0, 0.0], [0.0, 0.0, 2e-3]])
     currents = np.vstack([np.eye(3), -np.eye(3), 0.5 * np.eye(3)])
@@ -237,7 +237,7 @@ def test_a_swap_is_named_whichever_pair_and_whatever_the_coils_cross_coupling():
     """Round 12, V6: with the coils' own 2.5 % cross-coupling between x and y, swapped x and y
     currents left a diagonal of 0.05 mT/A: only warned, and the calibration written (x and z,
     whose coupling is ~0, were refused). A coupling of a few % with the channels right passes."""
-    from elastica_magnetic.hardware.calibration import fit_actuation_matrix
+    from elastica_magnetic.hardware.calibration_fit import fit_actuation_matrix
 
     coupled = np.array([[2e-3, 5e-5, 0.0], [5e-5, 2e-3, 0.0], [0.0, 0.0, 2e-3]])
     swap_xy = coupled[:, [1, 0, 2]]
