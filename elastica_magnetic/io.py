@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 import tempfile
 from collections.abc import Callable, Iterator
@@ -236,14 +237,30 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     return Path(path)
 
 
+def strict_json(data: Any) -> Any:
+    """``data`` with every float that JSON lacks (NaN, +-inf, numpy's included) made ``None``
+    (``null``), through dicts, lists and tuples: a value that was not measured, in a file that
+    strict readers (JavaScript's ``JSON.parse``, Go's ``encoding/json``) accept."""
+    if isinstance(data, dict):
+        return {key: strict_json(value) for key, value in data.items()}
+    if isinstance(data, (list, tuple)):
+        return [strict_json(value) for value in data]
+    scalar_float = isinstance(data, float) or (getattr(data, "ndim", None) == 0 and data.dtype.kind == "f")
+    if scalar_float and not math.isfinite(float(data)):
+        return None
+    return data
+
+
 def atomic_write_json(path: str | Path, data: Any) -> Path:
-    """Write ``data`` as indented JSON (``str`` for what JSON lacks) to ``path`` atomically,
-    creating its folder; returns ``path``."""
+    """Write ``data`` as indented strict JSON (:func:`strict_json`: ``null`` for NaN and
+    infinities; ``str`` for what JSON lacks) to ``path`` atomically, creating its folder;
+    returns ``path``."""
     import json
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    return atomic_write_text(path, json.dumps(data, indent=2, default=str) + "\n")
+    text = json.dumps(strict_json(data), indent=2, default=str, allow_nan=False)
+    return atomic_write_text(path, text + "\n")
 
 
 def prepare_output_dir(path: str | Path, option: str = "--out") -> Path:

@@ -6,6 +6,7 @@ problem a :class:`SpecError` naming the file, the table and the key. What the ta
 
 from __future__ import annotations
 
+import difflib
 import math
 import re
 import tomllib
@@ -52,6 +53,7 @@ class SpecTable:
                             f"got {type(data).__name__}")
         self.data, self.source, self.path = data, source, path
         self._read: set[str] = set()
+        self._takes: set[str] = set()
         #: Dotted keys whose plausibility warnings the spec accepts (``[checks] accept``).
         self.accept = accepted_keys(data, source) if accept is None and not path else (
             accept or frozenset())
@@ -70,6 +72,11 @@ class SpecTable:
 
     def has(self, key: str) -> bool:
         return key in self.data
+
+    def takes(self, *keys: str) -> None:
+        """Name ``keys`` among those the table takes although this spec may leave them out (an
+        optional key read only when given), for :meth:`finish`'s message about a misspelt one."""
+        self._takes.update(keys)
 
     def _get(self, key: str, default: Any) -> Any:
         self._read.add(key)
@@ -186,8 +193,11 @@ class SpecTable:
         """Raise on keys that were never read (typos, keys of another kind)."""
         unknown = sorted(set(self.data) - self._read)
         if unknown:
-            known = ", ".join(sorted(self._read)) or "none"
-            raise SpecError(f"{self.where(unknown[0])}: unknown key (this table takes: {known})")
+            taken = sorted(self._read | self._takes)
+            close = difflib.get_close_matches(unknown[0], taken, n=1, cutoff=0.6)
+            hint = f"; did you mean {close[0]}?" if close else ""
+            raise SpecError(f"{self.where(unknown[0])}: unknown key{hint} (this table takes: "
+                            f"{', '.join(taken) or 'none'})")
 
 
 def accepted_keys(spec: Mapping[str, Any], source: str = "<spec>") -> frozenset[str]:

@@ -250,6 +250,7 @@ def _robot_table(t: SpecTable) -> dict[str, Any]:
 
 def _section_values(t: SpecTable) -> dict[str, float]:
     """``radius`` (a round rod) or ``width`` and ``thickness`` (a band), m."""
+    t.takes("radius", "width", "thickness")
     if t.has("radius"):
         for other in ("width", "thickness"):
             if t.has(other):
@@ -269,6 +270,7 @@ def _material_values(t: SpecTable) -> dict[str, float]:
     out = {"density": t.number("density", "kg/m^3", low=0.0, low_open=True, plausible="density"),
            "youngs_modulus": t.number("youngs_modulus", "Pa", low=0.0, low_open=True,
                                       plausible="youngs modulus")}
+    t.takes("shear_modulus", "poisson_ratio")
     if t.has("shear_modulus") and t.has("poisson_ratio"):
         raise t.error("poisson_ratio", "give either shear_modulus (Pa) or poisson_ratio, not both")
     if t.has("poisson_ratio"):
@@ -331,6 +333,7 @@ def _interaction_table(interaction: SpecTable, length: float) -> dict[str, Any]:
     """``[robot.interaction]``: the magnetic interaction's cutoff and source, self-contact
     (``length``: the rod's, m; a cutoff at or beyond it leaves no pair to interact)."""
     out: dict[str, Any] = {}
+    interaction.takes("cutoff")
     if interaction.has("cutoff"):  # absent: four radii (see InteractionSpec)
         out["cutoff"] = interaction.number("cutoff", "m", low=0.0)
         if out["cutoff"] >= length:

@@ -133,6 +133,7 @@ def control_rate_from_table(t: SpecTable, default: float) -> float:
 
 def insertion_from_table(t: SpecTable, rod_length: float) -> tuple[float, float] | None:
     """``insertion = [low, high]`` (m): the stage's travel along +x from the base's start."""
+    t.takes("insertion")
     if not t.has("insertion"):
         return None
     low, high = t.vector("insertion", "m", 2)

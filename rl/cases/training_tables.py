@@ -87,10 +87,16 @@ def training_from_table(t: SpecTable | None, source: str, robot: RobotDescriptio
                 raise td3.error(key, f"expected a value like {shown!r}, got {raw!r}{hint}")
             overrides[key] = value
         try:  # each value in range, checked now, naming the key
-            TD3Config(**overrides)
+            config = TD3Config(**overrides)
         except ValueError as exc:
             named = [k for k in overrides if str(exc).startswith(k)] or list(overrides)
             raise td3.error(named[0], str(exc)) from None
+        if config.yardstick_regularization and config.buffer_size < steps:
+            key = "buffer_size" if "buffer_size" in overrides else "yardstick_regularization"
+            raise td3.error(key, f"yardstick_regularization {config.yardstick_regularization:g} holds the "
+                            "actor near the warm-up's transitions for the whole run, and buffer_size "
+                            f"{config.buffer_size} holds fewer than the [training] steps = {steps}: the ring "
+                            f"would overwrite them; give buffer_size of at least {steps}")
         td3.finish()
     t.finish()
     return Training(recipe, steps, overrides, randomize)
@@ -102,6 +108,7 @@ def _randomize(t: SpecTable, robot: RobotDescription) -> tuple[Variation, ...]:
     (:data:`~elastica_magnetic_rl.cases.variations.GROUPS`), as ``msr real robustness --vary``; or
     ``randomize = "default"`` for the default set (magnetization +-15 %, modulus +-20 %, friction
     +-25 %, density +-10 %)."""
+    t.takes("randomize")
     if not t.has("randomize"):
         return ()
     value = t.raw("randomize")

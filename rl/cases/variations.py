@@ -424,9 +424,28 @@ def resolve_variations(variations: Sequence[Variation], spec: Mapping[str, Any],
                        "in the spec to fit it" if option == "--fit"
                        else "give an absolute range (abs:LOW:HIGH)")
                 raise VariationError(f"{where}: {key} is 0 in this spec, so a factor leaves it 0; {fix}")
+        if option in ("--vary", "--fit"):  # a spec's randomize refuses any equal ends itself
+            _check_varies(variation, keys, spec, where, option)
         resolved.append(Variation(variation.name, keys, variation.low, variation.high,
                                   variation.absolute))
     return resolved
+
+
+def _check_varies(variation: Variation, keys: Sequence[str], spec: Mapping[str, Any], where: str,
+                  option: str) -> None:
+    """Refuse a range that leaves every key at its nominal value: factors 1:1, or an absolute
+    range whose two ends are the spec's value (a study of the nominal robot alone, or a fit with
+    nothing to fit, said as if something varied)."""
+    if variation.low != variation.high:
+        return
+    nominal = (variation.low == 1.0 if not variation.absolute
+               else all(np.allclose(np.asarray(get_value(spec, key), dtype=np.float64), variation.low,
+                                    rtol=0.0, atol=0.0) for key in keys))
+    if nominal:
+        shown = f"{'abs:' if variation.absolute else ''}{variation.low:g}:{variation.high:g}"
+        what = "fits nothing" if option == "--fit" else "varies nothing"
+        raise VariationError(f"{where}={shown} {what} (both ends are the nominal value): give a range "
+                             "around it, e.g. 0.9:1.1")
 
 
 def default_variations(spec: Mapping[str, Any]) -> list[Variation]:

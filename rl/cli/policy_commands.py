@@ -218,13 +218,16 @@ def seeds_command(args: argparse.Namespace) -> int:
                     force=args.force, option="--figure")
     reports, by_case = [], {}
     for case in args.case:
+        left_out: list[str] = []
         try:
-            groups = case_seeds(case, policies)
+            groups = case_seeds(case, policies, left_out)
         except ValueError as exc:
             raise CommandError(str(exc)) from None
+        for note in left_out:
+            print(f"note: {note}", file=sys.stderr)
         by_case[case.name] = groups
         report = {"case": case.name, "recipes": [g.to_dict() for g in groups],
-                  "table": seeds_markdown(case, groups, policies)}
+                  "table": seeds_markdown(case, groups, policies), "left_out": left_out}
         if args.figure is not None and groups:
             names = _seed_figure_names(case)
             with replace_files(args.figure, names, force=args.force, option="--figure") as files:

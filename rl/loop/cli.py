@@ -97,13 +97,37 @@ def _settings(args: argparse.Namespace, skip: tuple[str, ...] = ()):
     changes = {"seeds": args.seeds, "workers": args.workers,
                "robustness_physics": args.physics_robustness,
                "calibration": args.calibration.resolve() if args.calibration else None}
-    if args.steps is not None:
+    if args.steps is None and not getattr(args, "force", False):
+        kept = _recorded_steps(getattr(args, "out", None), base, bool(args.quick))
+        if kept is not None:
+            changes["steps"] = kept
+    else:
         changes["steps"] = args.steps
         if args.quick and args.steps > base.steps:  # said: the smoke run is a minute's no longer
             print(f"note: --steps {args.steps} replaces --quick's {base.steps} training steps per seed: "
                   "the training is no smoke run of a minute (the other steps stay --quick's)",
                   file=sys.stderr)
     return dataclasses.replace(base, **changes)
+
+
+def _recorded_steps(out, base, quick: bool) -> int | None:
+    """Without ``--steps``, the training steps of the loop already in ``out`` when they are not the
+    default's (a loop given ``--steps`` once, or lengthened by it, goes on with its own: the same
+    command again never asks a shorter training), said in a note; else ``None``."""
+    from .state import LoopError, LoopState
+
+    try:
+        state = LoopState.read(out) if out is not None and out.is_dir() else None
+    except (LoopError, OSError):
+        return None  # the loop's own checks name a damaged state under its lock
+    if state is None or bool(state.settings.get("quick")) != quick:
+        return None
+    steps = state.settings.get("steps")
+    if not isinstance(steps, int) or steps == base.steps:
+        return None
+    print(f"note: --out {out}: its loop trains {steps} steps per seed (--steps {steps} given before); "
+          "without --steps it keeps them", file=sys.stderr)
+    return steps
 
 
 def _check_calibration_drives(calibration, path, case) -> None:

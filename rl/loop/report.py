@@ -14,7 +14,7 @@ from typing import Any
 
 from elastica_magnetic.io import atomic_write_text
 
-from .state import STEPS
+from .state import AFRESH, STEPS
 
 __all__ = ["report_markdown", "write_report"]
 
@@ -108,9 +108,11 @@ def _robustness(s: dict[str, Any]) -> list[str]:
 
 
 def _refine(s: dict[str, Any]) -> list[str]:
+    final = s.get("final_mean_return")
+    measured = (f"final mean training return {final:.4g} (not a distance)"
+                if final is not None and math.isfinite(final) else "no training episode ended")
     return [f"{s['steps']} steps in the {s['physics']} physics on robots randomized "
-            f"({s['randomize']}) from `{s['source']}`; final mean training return "
-            f"{s['final_mean_return']:.4g} (not a distance).", ""]
+            f"({s['randomize']}) from `{s['source']}`; {measured}.", ""]
 
 
 def _firmware(s: dict[str, Any]) -> list[str]:
@@ -142,6 +144,8 @@ def report_markdown(state: Any, quick: bool = False) -> str:
         lines.append("")
         if record is None:
             lines += ["Not run yet.", ""]
+        elif record["status"] == AFRESH:
+            lines += ["Not run yet (to run again from the start: a step it uses changed).", ""]
         elif record["status"] == "skipped":
             lines += ["Skipped (`--skip`).", ""]
         else:

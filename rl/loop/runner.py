@@ -18,7 +18,7 @@ from elastica_magnetic.results import check_result_folder, remove_tree
 from ..cases.case import Case
 from .report import write_report
 from .settings import LoopSettings
-from .state import STEPS, LoopError, LoopPlan, LoopState, plan_loop
+from .state import AFRESH, STEPS, LoopError, LoopPlan, LoopState, plan_loop
 from .steps import STEP_FUNCTIONS, LoopContext
 
 __all__ = ["LOOP_KIND", "check_loop_folder", "headline", "run_loop", "step_line"]
@@ -123,11 +123,16 @@ def run_loop(case: Case, out: str | Path, settings: LoopSettings, *, skip: tuple
 
 
 def _forget(state: LoopState, plan: LoopPlan) -> None:
-    """Drop the records of the steps run again (loop.json no longer calls them done). Their
-    folders stay until each step's own turn (:func:`_start_afresh`): a loop interrupted before
-    a step's turn leaves that step's earlier result as it was."""
+    """Drop the records of the steps run again (loop.json no longer calls them done); one that
+    starts afresh is recorded as such (:data:`~.state.AFRESH`), so that a loop interrupted before
+    its turn still starts it afresh when run again (not on an earlier result, e.g. a refinement
+    of the actor a lengthened training replaced). Their folders stay until each step's own turn
+    (:func:`_start_afresh`): an interrupted loop leaves the earlier results as they were."""
     for step in plan.redo:
-        state.steps.pop(step, None)
+        if step in plan.extend:
+            state.steps.pop(step, None)
+        else:
+            state.steps[step] = {"status": AFRESH}
 
 
 #: Files a step writes after its folders' records (the seeds' evaluation cache, the case's summary).
@@ -154,6 +159,9 @@ def _start_afresh(ctx: LoopContext, step: str, plan: LoopPlan) -> None:
     folder = ctx.folder / step
     if step in plan.redo and step not in plan.extend and folder.exists():
         remove_tree(folder)
+    if ctx.state.steps.get(step, {}).get("status") == AFRESH:  # started: a kill now leaves it to resume
+        ctx.state.steps.pop(step)
+        ctx.state.write()
 
 
 def _run_steps(ctx: LoopContext, plan: LoopPlan, log: TextIO,

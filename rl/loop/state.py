@@ -19,6 +19,8 @@ __all__ = ["LOOP_FORMAT", "LOOP_JSON", "NEEDS", "STEPS", "LoopError", "LoopPlan"
 
 LOOP_JSON = "loop.json"
 LOOP_FORMAT = "msr-loop-v1"
+#: The status of a step that a run planned to start afresh and that has not started yet.
+AFRESH = "to start afresh"
 #: The steps, in order; each writes the subfolder of the loop's folder of its name.
 STEPS = ("check", "yardstick", "train", "generate", "robustness", "refine", "robustness-refined",
          "firmware")
@@ -184,6 +186,9 @@ def plan_loop(state: LoopState | None, spec: dict[str, Any], settings: dict[str,
     both = sorted(set(skip) & set(redo))
     if both:
         raise LoopError(f"--skip and --redo both name {', '.join(both)}")
+    if state is not None:  # steps an interrupted run was to start afresh still are
+        pending = [s for s in STEPS if state.steps.get(s, {}).get("status") == AFRESH and s not in redo]
+        redo = (*redo, *pending)
     redone: set[str] = set()
     extend: tuple[str, ...] = ()
     if state is not None:

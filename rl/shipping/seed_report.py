@@ -63,10 +63,13 @@ class RecipeSeeds:
                              for e, ok in zip(self.entries, self.succeeded, strict=True)]}
 
 
-def case_seeds(case: Case, policies_dir: str | Path | None = None) -> list[RecipeSeeds]:
+def case_seeds(case: Case, policies_dir: str | Path | None = None,
+               left_out: list[str] | None = None) -> list[RecipeSeeds]:
     """The seed folders of ``case`` under ``policies_dir/<case>/seeds/`` (default: the shipped
-    policies), the paper's recipe first, then by name. A ``seeds.json`` that is not a list of seed
-    objects is a ``ValueError`` naming the file."""
+    policies), the paper's recipe first, then by name. A campaign measured over another duration
+    than 10 s (``msr policy export-seeds --duration``) is left out, why appended to ``left_out``
+    (given a list). A ``seeds.json`` that is not a list of seed objects is a ``ValueError`` naming
+    the file."""
     root = Path(policies_dir) if policies_dir is not None else POLICIES_DIR
     groups = []
     for path in sorted((root / case.name / SEEDS_FOLDER).glob("*/seeds.json")):
@@ -74,6 +77,15 @@ def case_seeds(case: Case, policies_dir: str | Path | None = None) -> list[Recip
             entries = json.loads(path.read_text())
         except (OSError, json.JSONDecodeError) as exc:
             raise ValueError(f"{path}: unreadable ({exc})") from None
+        durations = sorted({e.get("duration_s") for e in entries if isinstance(e, dict)
+                            and "distance_10s_m" not in e and isinstance(e.get("distance_m"), int | float)
+                            and isinstance(e.get("duration_s"), int | float)})
+        if isinstance(entries, list) and entries and durations:
+            if left_out is not None:
+                shown = ", ".join(f"{d:g} s" for d in durations)
+                left_out.append(f"{path.parent}: measured over {shown}, not the 10 s this table "
+                                "compares: left out (export it again without --duration)")
+            continue
         if not isinstance(entries, list) or not all(
                 isinstance(e, dict) and isinstance(e.get("seed"), int)
                 and isinstance(e.get("distance_10s_m"), int | float) for e in entries):

@@ -85,8 +85,10 @@ class CoilPath:
 
 
 def is_coil_path(path: str | Path) -> bool:
-    """Whether the CSV at ``path`` has a coil path's header (its first line names current_0_A)."""
-    return "current_0_A" in header_names(path)
+    """Whether the CSV at ``path`` has a coil path's header (its first line names a current
+    column, ``current_<K>_A``, however numbered: :func:`read_coil_path` then names a numbering
+    that does not start at 0)."""
+    return any(CURRENT_COLUMN.match(name) for name in header_names(path))
 
 
 def read_coil_path(path: str | Path) -> CoilPath:
@@ -104,7 +106,8 @@ def read_coil_path(path: str | Path) -> CoilPath:
         missing = "t_s" if "t_s" not in table.columns else "current_0_A"
         raise TrajectoryError(f"{path}: no column {missing}; {form}")
     if numbers != list(range(len(numbers))):
-        raise TrajectoryError(f"{path}: current columns {', '.join(currents)}; {form}")
+        raise TrajectoryError(f"{path}: current columns {', '.join(currents)}: a coil path numbers its "
+                              f"coils from 0, in order (current_0_A for the spec's first coil); {form}")
     used = ["t_s", *currents] + ([INSERTION_COLUMN] if INSERTION_COLUMN in table.columns else [])
     values = numeric_columns(path, table, used)
     grid = control_grid(path, values[:, 0], "coil path", "the drivers' log")
@@ -134,9 +137,10 @@ class CoilDrive(RecordedDrive):
     path: CoilPath
 
     def check_spec(self, spec: Mapping[str, Any]) -> None:
-        """Refuse a spec this path cannot drive: not a coil-currents case, another number of coils,
-        insertion given without a stage or missing with one, or beyond its travel; warn of a current
-        beyond the case's ``current_limit`` (another system's log, or its sensors' scale?)."""
+        """Refuse a spec this path cannot drive (not a coil-currents case, another number of coils,
+        insertion given without a stage or missing with one, or beyond its travel) and a path of
+        zero currents (nothing moved: nothing to fit); warn of a current beyond the case's
+        ``current_limit`` (another system's log, or its sensors' scale?)."""
         from elastica_magnetic.plausibility import warn_implausible
 
         case = quiet_case(spec, "the spec", "identified")
@@ -145,6 +149,10 @@ class CoilDrive(RecordedDrive):
             raise TrajectoryError(f"{self.path.source}: a coil path drives a case steered by coil "
                                   "currents ([actuation] kind = \"coil-currents\"); this spec's actuation "
                                   f"is {kind!r}")
+        if not np.any(self.path.currents):
+            raise TrajectoryError(f"{self.path.source}: every current is 0 A: the coils never made a "
+                                  "field, so nothing moved the catheter and no gain or value can be "
+                                  "fitted from it; give the currents the drivers made during a steering")
         n_coils, n_columns = len(case.actuation.coils), self.path.currents.shape[1]
         if n_columns != n_coils:
             raise TrajectoryError(f"{self.path.source}: {n_columns} current column(s), and the spec has "

@@ -60,8 +60,9 @@ class SettingSources:
 
 def check_run_learns(config: TD3Config, steps: int, sources: SettingSources) -> None:
     """Refuse (``ValueError``) a run of ``config`` trained to ``steps`` per seed whose weights
-    would never be updated, or (a new run) whose warm-up outgrows its replay buffer. A resumed
-    run (``sources.resumed``) keeps its hyperparameters: only more ``--steps`` is suggested."""
+    would never be updated, whose buffer cannot hold the warm-up its ``yardstick_regularization``
+    holds to, or (a new run) whose warm-up outgrows its replay buffer. A resumed run
+    (``sources.resumed``) keeps its hyperparameters: only other ``--steps`` is suggested."""
     from ..td3.algorithm import update_ratio
 
     warm_up, batch = config.learning_starts, config.batch_size
@@ -87,6 +88,15 @@ def check_run_learns(config: TD3Config, steps: int, sources: SettingSources) -> 
             f"{float(made):.3g} updates; "
             "give " + ("" if resumed else f"--set updates_per_step of at least {1 / learning:.3g}, or ")
             + "more --steps")
+    if config.yardstick_regularization and config.buffer_size < steps:
+        raise ValueError(
+            f"{name('yardstick_regularization', f'{config.yardstick_regularization:g}')} holds the actor "
+            "near the warm-up's transitions for the whole run, and "
+            f"{name('buffer_size', config.buffer_size)} holds fewer than {sources.steps(steps)}: the "
+            "ring would overwrite them; give "
+            + (f"--steps of at most {config.buffer_size}, or train a new run (another --out) with "
+               f"--set buffer_size of at least {steps}" if resumed
+               else f"--set buffer_size of at least {steps}, or --steps of at most {config.buffer_size}"))
     if config.buffer_size < warm_up and not resumed:
         raise ValueError(
             f"the warm-up outgrows the replay buffer: {name('learning_starts', warm_up)} is above "

@@ -148,8 +148,9 @@ def test_an_unknown_key_lists_the_size_keys_too(tmp_path):
     spec["design"] = {"segmnts": 4}
     path = tmp_path / "typo.toml"
     path.write_text(dumps(spec))
-    with pytest.raises(SpecError, match=r"segmnts: unknown key \(this table takes: .*length, lengths.*"
-                                        r"radius, remanence, segments, thickness, width\)"):
+    with pytest.raises(SpecError, match=r"segmnts: unknown key; did you mean segments\? \(this table "
+                                        r"takes: .*length, lengths.*radius, remanence, segments, thickness, "
+                                        r"width\)"):
         load_design(path)
 
 

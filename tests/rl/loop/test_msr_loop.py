@@ -375,6 +375,38 @@ def test_more_steps_train_the_loop_s_seeds_further(interrupted_then_resumed, tmp
     assert longer[:len(episodes)] == episodes and len(longer) > len(episodes)
 
 
+def test_a_lengthened_loop_interrupted_starts_its_later_steps_afresh_and_keeps_its_steps(
+        interrupted_then_resumed, tmp_path, monkeypatch):
+    """Round 22, D2: a loop given more ``--steps`` and interrupted after its training (the steps
+    after it not yet run again) failed on every later run at the refinement, which resumed the
+    one made from the earlier actor ("nothing to refine"). Now the steps a run was to start afresh
+    are recorded so, and the next run starts them afresh. V2: the plain command (no ``--steps``)
+    then keeps the loop's lengthened training instead of refusing "--steps 240"."""
+    import shutil
+
+    folder = tmp_path / "out"
+    shutil.copytree(interrupted_then_resumed["folder"], folder)
+    spec = str(interrupted_then_resumed["spec"])
+    trained = LoopState.read(folder).steps["train"]["summary"]["steps"]
+    refined_before = (folder / "refine" / "run.json").read_text()
+    longer = str(trained + 60)
+    with monkeypatch.context() as patch:
+        patch.setitem(loop_steps.STEP_FUNCTIONS, "generate", _interrupt)
+        status, _, err = _loop(spec, "--out", str(folder), "--steps", longer)
+    assert status != 0, err
+    pending = LoopState.read(folder).steps
+    assert pending["refine"]["status"] == "to start afresh", pending["refine"]
+    status, _, err = _loop(spec, "--out", str(folder), "--steps", longer)
+    assert status == 0, err
+    after = LoopState.read(folder)
+    assert all(after.done(step) for step in STEPS), after.steps
+    assert (folder / "refine" / "run.json").read_text() != refined_before  # a new refinement
+    status, _, err = _loop(spec, "--out", str(folder))
+    assert status == 0, err
+    assert f"its loop trains {longer} steps per seed" in err
+    assert LoopState.read(folder).steps == after.steps  # nothing ran again
+
+
 def test_a_users_file_in_a_step_folder_stops_a_redo_or_a_restart(interrupted_then_resumed, tmp_path):
     """Round 9, D3: ``--redo STEP`` and ``--force`` (a changed spec) removed the user's files in
     the step folders (train/, yardstick/, robustness/) with the step's earlier result. Now the
