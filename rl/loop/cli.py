@@ -97,8 +97,9 @@ def _settings(args: argparse.Namespace, skip: tuple[str, ...] = ()):
     changes = {"seeds": args.seeds, "workers": args.workers,
                "robustness_physics": args.physics_robustness,
                "calibration": args.calibration.resolve() if args.calibration else None}
-    if args.steps is None and not getattr(args, "force", False):
-        kept = _recorded_steps(getattr(args, "out", None), base, bool(args.quick))
+    if args.steps is None:
+        kept = None if getattr(args, "force", False) else _recorded_steps(getattr(args, "out", None),
+                                                                          base, bool(args.quick))
         if kept is not None:
             changes["steps"] = kept
     else:
