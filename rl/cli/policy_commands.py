@@ -294,7 +294,6 @@ def ship_command(args: argparse.Namespace) -> int:
         checkpoint = "final"
         print("--no-measure: the final actor is shipped without comparing it with best.pt "
               "(--checkpoint best ships best.pt)", file=sys.stderr)
-    _refuse_tip_reach(args.run, "ship")
     choice = _actor_choice(args.run, checkpoint, args.duration, not args.no_progress)
     try:
         result = ship(choice.path if choice else args.run, args.name, dest=args.dest,

@@ -30,7 +30,12 @@ def seed_meets_target(evaluation: dict[str, Any], case: Case) -> bool | None:
 def model_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case) -> str:
     """The card (Markdown) of the policy described by ``info`` (its ``policy.json``), with the
     case's training ``summary`` (``summary.json``; ``None`` when not found): what it does and how
-    to use it, its training, every seed of its case, its evaluation, notes and limitations."""
+    to use it, its training, every seed of its case, its evaluation, notes and limitations. A
+    tip-reach policy's card: :func:`~.tip_reach_card.tip_reach_card`."""
+    if not case.field_actuated:
+        from .tip_reach_card import tip_reach_card
+
+        return tip_reach_card(info, case, NOTES_SECTION)
     lines = [*_use_section(info, case), *_training_section(info, summary, case),
              *_seeds_section(info, case), *_evaluation_section(info, case)]
     if info.get("notes"):

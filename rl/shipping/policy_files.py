@@ -339,6 +339,8 @@ def _check_recorded_limits(case: Case, meta: dict[str, Any], path: Path) -> None
     """A policy.json whose ``case_spec`` disagrees with the limits it records (``field_limit_T``,
     the action's scaling) was edited by hand: the policy would run with limits it was not trained
     for. Refused naming the value."""
+    if not case.field_actuated:  # its limits are the source's, read from the case_spec alone
+        return
     action = meta.get("action") if isinstance(meta.get("action"), dict) else {}
     recorded = {"field_limit_T": meta.get("field_limit_T", action.get("field_limit_T")),
                 "action.field_limit_T": action.get("field_limit_T"),
@@ -392,17 +394,51 @@ def _check_obs_dim(case: Case, obs_dim: int, path: Path) -> None:
 
 def observation_spec_of(case: Case) -> dict[str, Any]:
     """The ``observation`` entry of a policy's ``policy.json``: the case's observation layout and
-    scaling (:func:`~elastica_magnetic_rl.envs.env.observation_spec`)."""
+    scaling (:func:`~elastica_magnetic_rl.envs.env.observation_spec`; a case steered by a source:
+    the catheter's, :func:`_steered_observation_spec`)."""
     from ..envs.env import observation_spec
 
+    if not case.field_actuated:
+        return _steered_observation_spec(case)
     ground = case.robot_spec("training").ground
     return observation_spec(case.n_elements, ground.surface_tolerance, case.task,
                             case.actuation.axes)
 
 
+def _steered_observation_spec(case: Case) -> dict[str, Any]:
+    """The observation of a case steered by a source (a magnet arm, coil currents): the blocks of
+    :func:`~elastica_magnetic_rl.envs.catheter_env.catheter_observation_layout` and their scales
+    (per m, per m/s, over the current limit; lengths relative to the clamped base)."""
+    from ..envs.catheter_env import CATHETER_OBSERVATION_SCALES, catheter_observation_layout
+
+    layout = catheter_observation_layout(case.n_elements, case.actuation.observation_blocks)
+    return {"size": layout["target_offset"].stop, "dtype": "float32",
+            "blocks": [{"name": name, "start": s.start, "stop": s.stop} for name, s in layout.items()],
+            "scales": {name: CATHETER_OBSERVATION_SCALES[name] for name in layout},
+            "frame": "the spec's: the clamped base at the origin at the start, the rod along +x; "
+                     "lengths relative to the base"}
+
+
+def _steered_action_spec(case: Case) -> dict[str, Any]:
+    """The action of a case steered by a source: its components in [-1, 1] and what they command."""
+    actuation = case.actuation
+    if actuation.kind == "magnet-pose":
+        meaning = (f"the magnet's velocity (3, x {actuation.max_speed:g} m/s as a vector) and its moment's "
+                   f"turn rate about the two directions across it (2, x {actuation.max_turn_rate:g} rad/s)")
+    else:
+        meaning = (f"each of the {len(actuation.coils)} coils' current over its limit "
+                   f"({actuation.current_limit:g} A)")
+    if actuation.insertion:
+        meaning += f"; then the insertion stage's velocity (x {actuation.insertion_speed:g} m/s)"
+    return {"shape": [actuation.action_size], "low": -1.0, "high": 1.0, "meaning": meaning,
+            "control_period_s": 0.01}
+
+
 def action_spec_of(case: Case) -> dict[str, Any]:
     """The ``action`` entry of a policy's ``policy.json``: the action's scaling to a field increment
-    (T) and the field rule."""
+    (T) and the field rule (a case steered by a source: :func:`_steered_action_spec`)."""
+    if not case.field_actuated:
+        return _steered_action_spec(case)
     actuation = case.actuation
     increment = actuation.max_increment
     components = ", ".join(f"dB_{axis}" for axis in actuation.axes)

@@ -254,7 +254,9 @@ def _measure(policy: LoadedPolicy, duration: float,
              progress: bool) -> tuple[dict[str, Any], np.ndarray | None]:
     """The shipping criterion's run of a policy (``duration`` s, accurate physics, zero field):
     its ``evaluation`` entry of ``policy.json`` and its field waveform ``(steps, 3)`` (T; ``None``
-    when it took no step)."""
+    when it took no step). A tip-reach policy: :func:`_measure_tip_reach`, no waveform."""
+    if not policy.case.field_actuated:
+        return _measure_tip_reach(policy, duration), None
     goto = isinstance(policy.case.task, GotoTask)
     target = goto_target(policy.case, None)
     rollout = run_policy(policy, duration, "accurate", "zero", progress, target=target)
@@ -269,6 +271,21 @@ def _measure(policy: LoadedPolicy, duration: float,
         measured["ring"] = _ring_entry(policy, progress)
         measured["yardstick_ring"] = _ring_entry(SteeringFieldPolicy(policy.case), progress)
     return measured, (rollout.fields if rollout.n_steps else None)
+
+
+def _measure_tip_reach(policy: LoadedPolicy, duration: float) -> dict[str, Any]:
+    """A tip-reach policy judged as the case is: its case's held-out targets in the accurate
+    physics, each for the task's episode (``duration`` s at most), beside the case's yardstick
+    on the same targets (:func:`~.tip_reach.run_targets`)."""
+    from .tip_reach import actor_controller, held_out_targets, run_targets, steering_controller
+
+    case = policy.case
+    seconds = min(float(duration), case.task.episode_duration)
+    targets = held_out_targets(case)
+    mine = run_targets(case, targets, actor_controller(policy.actor), "accurate", seconds)
+    theirs = run_targets(case, targets, steering_controller, "accurate", seconds)
+    return {"duration_s": seconds, "physics": "accurate", "machine": machine_fingerprint(),
+            "tip_reach": {"policy": mine, "yardstick": theirs}}
 
 
 def _ring_entry(policy, progress: bool) -> dict[str, Any]:
@@ -294,7 +311,7 @@ def _policy_info(policy: LoadedPolicy, name: str, summary: dict[str, Any] | None
         "case": case.name,
         "robot": case.robot.name,
         "magnetization": case.robot.tables["robot"]["magnetization"]["kind"],
-        "field_limit_T": case.field_limit,
+        "field_limit_T": case.field_limit if case.field_actuated else None,
         "task": case.task.kind,
         "actor_sha256": weights_sha256(policy.actor.state_dict()),
         "case_spec_sha256": case_spec_sha256(case.to_dict()),

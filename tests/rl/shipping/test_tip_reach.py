@@ -203,8 +203,7 @@ def test_a_tip_reach_episode_too_short_to_cross_the_box_is_named(duration, refus
                    in str(w.message) for w in caught)
 
 
-@pytest.mark.parametrize("command", [["policy", "ship", "{run}", "--name", "cat", "--out", "{tmp}/s"],
-                                     ["policy", "export", "{run}", "--out", "{tmp}/e"],
+@pytest.mark.parametrize("command", [["policy", "export", "{run}", "--out", "{tmp}/e"],
                                      ["policy", "export-seeds", "{case}", "--out", "{tmp}/x"]])
 def test_field_waveform_commands_refuse_a_tip_reach_policy_naming_its_case(catheter_run, tmp_path, capsys,
                                                                            command):
@@ -215,3 +214,37 @@ def test_field_waveform_commands_refuse_a_tip_reach_policy_naming_its_case(cathe
     err = capsys.readouterr().err
     assert "case 'catheter-magnet-reach' steers a clamped catheter by a source" in err, err
     assert "msr policy generate" in err and sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_a_tip_reach_policy_ships_judged_on_the_held_out_targets_beside_its_yardstick(catheter_run, tmp_path,
+                                                                                   capsys):
+    """A tip-reach policy was refused by ``msr policy ship``: now shipped with its observation and
+    action as a catheter's (blocks, scales, what each component commands), measured on the case's
+    held-out targets beside the yardstick (the task's episode at most), a card that says both, and
+    played again from its folder by ``msr policy generate --target``."""
+    import json
+
+    from elastica_magnetic_rl.shipping.policy_files import resolve_policy
+
+    assert msr(["policy", "ship", str(catheter_run), "--name", "cat", "--checkpoint", "final", "--duration",
+                "0.03", "--out", str(tmp_path / "s"), "--no-progress"]) == 0, capsys.readouterr().err
+    folder = tmp_path / "s" / "cat"
+    assert sorted(p.name for p in folder.iterdir() if not p.name.startswith(".")) == [
+        "MODEL_CARD.md", "actor.pt", "critic.pt", "policy.json"]
+    info = json.loads((folder / "policy.json").read_text())
+    assert info["field_limit_T"] is None and info["task"] == "tip-reach"
+    blocks = [b["name"] for b in info["observation"]["blocks"]]
+    assert blocks == ["node_positions", "tip_velocity", "magnet_position", "magnet_direction", "insertion",
+                      "target_offset"]
+    assert info["action"]["shape"] == [6] and "insertion stage" in info["action"]["meaning"]
+    evaluation = info["evaluation"]
+    assert evaluation["duration_s"] == 0.03 and evaluation["physics"] == "accurate"
+    for who in ("policy", "yardstick"):
+        assert len(evaluation["tip_reach"][who]["targets_m"]) == 20
+    card = (folder / "MODEL_CARD.md").read_text()
+    assert "| this policy | 0 of 20 |" in card and "| the steering yardstick | 0 of 20 |" in card
+    assert resolve_policy(folder).case.name == "catheter-magnet-reach"
+    capsys.readouterr()
+    assert msr(["policy", "generate", str(folder), "--target", "0.045,0.0,0.0", "--duration", "0.03",
+                "--physics", "training", "--out", str(tmp_path / "g"), "--json", "--no-figures"]) == 0
+    assert "tip_error_m" in json.loads(capsys.readouterr().out)
