@@ -103,16 +103,30 @@ def test_a_quoted_number_is_its_policy_json(page, words, values):
             assert agrees(number, one), f"{page}: '{words}': {number}, policy.json {one}"
 
 
+def _tip_reach(info: dict) -> bool:
+    return "tip_reach" in (info.get("evaluation") or {})
+
+
 def test_the_shipped_policies_table_is_their_policy_json():
-    """rl/policies/README.md: one row per shipped policy; its seed and its 10 s distance."""
+    """rl/policies/README.md: one row per shipped policy; its seed and its 10 s distance (a
+    tip-reach policy: its row in the catheters' table, its seed and its held-out targets reached,
+    beside the yardstick's)."""
     policies = shipped()
-    rows = {}
+    rows, reach_rows = {}, {}
     for line in (POLICIES / "README.md").read_text().splitlines():
         cells = [cell.strip() for cell in line.strip("|").split("|")]
         name = re.fullmatch(r"`(\S+)`", cells[0])
         if name and name.group(1) in policies and len(cells) == 8:
             rows[name.group(1)] = cells
-    assert sorted(rows) == sorted(policies)
+        elif name and name.group(1) in policies and len(cells) == 6:
+            reach_rows[name.group(1)] = cells
+    assert sorted(rows) == sorted(n for n, info in policies.items() if not _tip_reach(info))
+    assert sorted(reach_rows) == sorted(n for n, info in policies.items() if _tip_reach(info))
+    for name, cells in reach_rows.items():
+        judged = policies[name]["evaluation"]["tip_reach"]
+        assert int(re.match(r"\d+", cells[1]).group()) == policies[name]["training"]["seed"], name
+        assert cells[3].startswith(f"{judged['policy']['successes']} of 20"), (name, cells[3])
+        assert cells[4].startswith(f"{judged['yardstick']['successes']} of 20"), (name, cells[4])
     for name, cells in rows.items():
         seed, distance = re.match(r"\d+", cells[1]).group(), re.match(NUMBER + " mm", cells[4])
         assert int(seed) == policies[name]["training"]["seed"], name
@@ -134,6 +148,11 @@ def test_the_fine_tuned_seeds_shipped_are_the_robust_policies():
 def test_every_model_card_states_its_policy_json_distance():
     for name, info in shipped().items():
         card = (POLICIES / name / "MODEL_CARD.md").read_text()
+        if _tip_reach(info):  # its card's table: the held-out targets reached, its and the yardstick's
+            judged = info["evaluation"]["tip_reach"]
+            assert f"| this policy | {judged['policy']['successes']} of 20 |" in card, name
+            assert f"| the steering yardstick | {judged['yardstick']['successes']} of 20 |" in card, name
+            continue
         (written,) = pattern("middle of the robot moved # mm in 10 s").findall(card)
         assert agrees(written, mm(info)), (name, written)
 
