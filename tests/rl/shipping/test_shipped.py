@@ -19,6 +19,9 @@ PAPER_CASES = ("m1-10mT", "m1-4mT", "m2-10mT", "m2-4mT")
 #: case, fine-tuned on randomized robots; docs/sim_to_real.md).
 ROBUST = tuple(f"{case}-robust" for case in PAPER_CASES)
 SHIPPED = tuple(sorted(("hu2018-crawl", "m1-4mT-reach", *PAPER_CASES, *ROBUST)))
+#: The shipped tip-reach policies (catheters steered by a source: no waveform, judged on their
+#: case's held-out targets).
+TIP_REACH_SHIPPED = ("catheter-magnet-reach",)
 
 
 def case_of(name: str) -> str:
@@ -29,7 +32,25 @@ def case_of(name: str) -> str:
 def test_every_shipped_policy_is_tested():
     from elastica_magnetic_rl.shipping.shipped import shipped_names
 
-    assert shipped_names() == list(SHIPPED)
+    assert shipped_names() == sorted(SHIPPED + TIP_REACH_SHIPPED)
+
+
+@pytest.mark.parametrize("name", TIP_REACH_SHIPPED)
+def test_a_shipped_tip_reach_policy_plays_by_name_and_holds_its_claim(name, tmp_path, capsys):
+    """A shipped catheter policy steers by name to a target (``--target X,Y,Z``), its policy.json
+    records at least 18 of the 20 held-out targets within the tolerance (the 90 % its README row
+    and card state) beside its yardstick's count, and a short re-run verifies."""
+    from elastica_magnetic_rl.shipping.shipped import verify_shipped
+
+    info = json.loads((policy_files.POLICIES_DIR / name / "policy.json").read_text())
+    judged = info["evaluation"]["tip_reach"]
+    assert judged["policy"]["successes"] >= 18 and len(judged["policy"]["targets_m"]) == 20
+    assert judged["yardstick"]["targets_m"] == judged["policy"]["targets_m"]
+    assert msr(["policy", "generate", name, "--target", "0.045,0.004,-0.003", "--duration", "0.05",
+                "--physics", "training", "--out", str(tmp_path / "g"), "--json", "--no-figures"]) == 0
+    assert "tip_error_m" in json.loads(capsys.readouterr().out)
+    result = verify_shipped(name, duration=0.05)
+    assert result["passed"] and result["duration_s"] == 0.05 and "recorded_successes" not in result
 
 
 @pytest.mark.parametrize("name", SHIPPED)
