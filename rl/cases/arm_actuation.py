@@ -185,6 +185,11 @@ class MagnetArm(SteeringActuation):
         """How an episode starts, in words."""
         return "from the magnet's start pose"
 
+    def actuator_action_words(self) -> str:
+        """What the arm's five action components command, in words."""
+        return (f"the magnet's velocity (3, x {self.max_speed:g} m/s as a vector) and its moment's turn "
+                f"rate about the two directions across it (2, x {self.max_turn_rate:g} rad/s)")
+
     def arm_settings(self) -> dict[str, Any]:
         """The keywords of :class:`~elastica_magnetic.MagnetPose` (SI)."""
         return {"moment": self.moment, "position": list(self.position), "direction": list(self.direction),

@@ -107,6 +107,10 @@ class CoilArray(SteeringActuation):
         """How an episode starts, in words."""
         return "from zero currents"
 
+    def actuator_action_words(self) -> str:
+        """What the coils' action components (one per coil) command, in words."""
+        return f"each of the {len(self.coils)} coils' current over its limit ({self.current_limit:g} A)"
+
     def field_at_tip(self, rod_length: float) -> float:
         """The strongest field (T) the coils can make at the tip of the straight rod (along +x from
         the origin, ``rod_length`` m), every current within its limit: the field scale of the case

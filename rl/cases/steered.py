@@ -72,6 +72,18 @@ class SteeringActuation:
         """The policy's action: the actuator's components, and the insertion stage's velocity."""
         return self.actuator_size + (self.insertion is not None)
 
+    def action_words(self) -> str:
+        """What each of the policy's action components (in [-1, 1]) commands, in words: the
+        actuator's (:meth:`actuator_action_words`), then the insertion stage's velocity."""
+        words = self.actuator_action_words()
+        if self.insertion is not None:
+            words += f"; then the insertion stage's velocity (x {self.insertion_speed:g} m/s)"
+        return words
+
+    def actuator_action_words(self) -> str:
+        """What the actuator's own action components command, in words (a subclass's)."""
+        raise NotImplementedError
+
     def advancer(self) -> Advancer | None:
         """A new insertion stage of this actuation (``None`` without one)."""
         return None if self.insertion is None else Advancer(self.insertion, self.insertion_speed)

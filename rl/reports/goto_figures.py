@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 from .figures import MM, _figure, _save
 
-__all__ = ["plot_ring", "plot_tip_paths"]
+__all__ = ["plot_ring", "plot_tip_paths", "plot_tip_paths_beside"]
 
 
 def plot_ring(rows: Sequence[dict[str, Any]], paths: Sequence[NDArray[np.float64]],
@@ -51,19 +51,45 @@ def plot_tip_paths(rows: Sequence[dict[str, Any]], paths: NDArray[np.float64], p
     ``paths`` ``(T, N, 3)`` m. Targets reached are green, missed red (a cross each); the square is
     the straight tip at the start."""
     fig = _figure((11.0, 5.0))
+    targets = [[row[f"target_{axis}_m"] for axis in "xyz"] for row in rows]
+    _draw_tip_paths(fig, 0, 1, targets, [bool(r["success"]) for r in rows], paths)
+    reached = sum(bool(r["success"]) for r in rows)
+    fig.suptitle(title or f"{reached} of {len(rows)} targets reached")
+    return _save(fig, path)
+
+
+def plot_tip_paths_beside(runs: dict[str, dict[str, Any]], paths: dict[str, NDArray[np.float64]],
+                          path: str | Path, title: str = "") -> Path:
+    """The tip's paths of several controllers on the same targets, one row of views (from above:
+    x, y; from the side: x, z) per controller: ``runs`` maps a label to a result of
+    :func:`~elastica_magnetic_rl.shipping.tip_reach.run_targets` (``targets_m``, ``success``,
+    ``successes``), ``paths`` the label to its tips ``(T, N, 3)`` m. Colours as
+    :func:`plot_tip_paths`."""
+    fig = _figure((11.0, 4.6 * len(runs)))
+    for k, (label, run) in enumerate(runs.items()):
+        heading = f"{label}: {run['successes']} of {len(run['targets_m'])} within the tolerance at the end"
+        _draw_tip_paths(fig, k, len(runs), run["targets_m"], [bool(s) for s in run["success"]], paths[label],
+                        heading)
+    if title:
+        fig.suptitle(title)
+    return _save(fig, path)
+
+
+def _draw_tip_paths(fig: Any, row: int, n_rows: int, targets: Sequence[Sequence[float]],
+                    success: Sequence[bool], paths: NDArray[np.float64], heading: str = "") -> None:
+    """One row of :func:`plot_tip_paths`' two views into ``fig`` (row ``row`` of ``n_rows``):
+    targets (m, one ``(x, y, z)`` each), whether each was reached, the tips ``(T, N, 3)`` m."""
     for k, (a, b, label) in enumerate(((0, 1, "y"), (0, 2, "z"))):
-        ax = fig.add_subplot(1, 2, k + 1)
-        for i, row in enumerate(rows):
-            color = "tab:green" if row["success"] else "tab:red"
+        ax = fig.add_subplot(n_rows, 2, 2 * row + k + 1)
+        for i, (target, ok) in enumerate(zip(targets, success, strict=True)):
+            color = "tab:green" if ok else "tab:red"
             ax.plot(MM * paths[:, i, a], MM * paths[:, i, b], color=color, lw=1.0, alpha=0.8)
-            ax.plot(MM * row[f"target_{'xyz'[a]}_m"], MM * row[f"target_{'xyz'[b]}_m"], "x", color=color,
-                    ms=6)
+            ax.plot(MM * target[a], MM * target[b], "x", color=color, ms=6)
         ax.plot(MM * paths[0, 0, a], MM * paths[0, 0, b], "s", color="black", ms=5, label="tip at the start")
         ax.set_xlabel("x (mm, along the clamped catheter)")
         ax.set_ylabel(f"{label} (mm)")
         ax.set_aspect("equal", adjustable="datalim")
         ax.grid(alpha=0.3)
         ax.legend(loc="upper left", fontsize=8)
-    reached = sum(bool(r["success"]) for r in rows)
-    fig.suptitle(title or f"{reached} of {len(rows)} targets reached")
-    return _save(fig, path)
+        if heading and k == 0:
+            ax.set_title(heading, loc="left", fontsize=10)

@@ -31,6 +31,8 @@ __all__ = [
     "PolicyFileError",
     "PolicyNotFoundError",
     "SEEDS_FOLDER",
+    "SHIPPED_FILES",
+    "TIP_PATHS_PNG",
     "policy_holder",
     "shipped_policy_holding",
     "OLD_POLICY_KEYS",
@@ -44,8 +46,10 @@ __all__ = [
 #: Folder of the shipped policies (``rl/policies/<name>/``).
 POLICIES_DIR = Path(__file__).resolve().parents[1] / "policies"
 POLICY_JSON = "policy.json"
+#: The tip's paths to a tip-reach policy's held-out targets, its own and its yardstick's (the card shows it).
+TIP_PATHS_PNG = "tip_paths.png"
 #: The files of a shipped policy (``actor.pt`` and ``policy.json`` always, the others optional).
-SHIPPED_FILES = ("actor.pt", POLICY_JSON, "critic.pt", "fields.csv", "MODEL_CARD.md")
+SHIPPED_FILES = ("actor.pt", POLICY_JSON, "critic.pt", "fields.csv", TIP_PATHS_PNG, "MODEL_CARD.md")
 POLICY_FORMAT = "msr-policy-v1"
 
 
@@ -422,15 +426,7 @@ def _steered_observation_spec(case: Case) -> dict[str, Any]:
 def _steered_action_spec(case: Case) -> dict[str, Any]:
     """The action of a case steered by a source: its components in [-1, 1] and what they command."""
     actuation = case.actuation
-    if actuation.kind == "magnet-pose":
-        meaning = (f"the magnet's velocity (3, x {actuation.max_speed:g} m/s as a vector) and its moment's "
-                   f"turn rate about the two directions across it (2, x {actuation.max_turn_rate:g} rad/s)")
-    else:
-        meaning = (f"each of the {len(actuation.coils)} coils' current over its limit "
-                   f"({actuation.current_limit:g} A)")
-    if actuation.insertion:
-        meaning += f"; then the insertion stage's velocity (x {actuation.insertion_speed:g} m/s)"
-    return {"shape": [actuation.action_size], "low": -1.0, "high": 1.0, "meaning": meaning,
+    return {"shape": [actuation.action_size], "low": -1.0, "high": 1.0, "meaning": actuation.action_words(),
             "control_period_s": 0.01}
 
 

@@ -51,6 +51,7 @@ from .policy_files import (
     POLICY_JSON,
     SEEDS_FOLDER,
     SHIPPED_FILES,
+    TIP_PATHS_PNG,
     LoadedPolicy,
     action_spec_of,
     case_spec_sha256,
@@ -168,7 +169,7 @@ def ship(run: str | Path, name: str, options: ShipOptions | None = None, /,
     # leaves a policy being replaced (--force) as it was.
     case = policy.case
     summary = _find_summary(policy.source, case.name)
-    measured, fields = _measure(policy, duration, progress) if measure else (None, None)
+    measured = _measure(policy, duration, progress) if measure else Measured()
     seed_evaluations = None
     if o.evaluate_all_seeds:
         if summary is None:
@@ -176,20 +177,20 @@ def ship(run: str | Path, name: str, options: ShipOptions | None = None, /,
                                     "above the run, so its seeds cannot be evaluated")
         seed_evaluations = evaluate_seeds(_find_case_dir(policy.source, case.name), duration,
                                           progress)
-    info = _policy_info(policy, name, summary, seed_evaluations, measured, notes)
+    info = _policy_info(policy, name, summary, seed_evaluations, measured.evaluation, notes)
     card = _ship_card(info, summary, case, target) if o.with_card else None
     if o.lock:
-        written = _policy_files(policy, fields, card, with_critic)
+        written = _policy_files(policy, measured, card, with_critic)
         # the replaced policy's optional files this one lacks go in the same commit
         stale = [f for f in SHIPPED_FILES if f not in written]
         with replace_files(target, written, force=overwrite, option="--out", remove=stale,
                            adopt=_holds_a_policy(target), holder=policy_holder(case.name),
                            results_in=(SEEDS_FOLDER,)) as files:
-            _write_policy_folder(files.path, policy, info, fields, card, with_critic)
+            _write_policy_folder(files.path, policy, info, measured, card, with_critic)
     else:
-        _write_policy_folder(target, policy, info, fields, card, with_critic)
+        _write_policy_folder(target, policy, info, measured, card, with_critic)
     return {"name": name, "dir": str(target), "case": case.name,
-            "evaluation": measured,
+            "evaluation": measured.evaluation,
             "files": sorted(p.name for p in target.iterdir() if p.name in SHIPPED_FILES)}
 
 
@@ -250,13 +251,12 @@ def _holds_a_policy(folder: Path) -> bool:
     return True
 
 
-def _measure(policy: LoadedPolicy, duration: float,
-             progress: bool) -> tuple[dict[str, Any], np.ndarray | None]:
+def _measure(policy: LoadedPolicy, duration: float, progress: bool) -> Measured:
     """The shipping criterion's run of a policy (``duration`` s, accurate physics, zero field):
     its ``evaluation`` entry of ``policy.json`` and its field waveform ``(steps, 3)`` (T; ``None``
     when it took no step). A tip-reach policy: :func:`_measure_tip_reach`, no waveform."""
     if not policy.case.field_actuated:
-        return _measure_tip_reach(policy, duration), None
+        return _measure_tip_reach(policy, duration)
     goto = isinstance(policy.case.task, GotoTask)
     target = goto_target(policy.case, None)
     rollout = run_policy(policy, duration, "accurate", "zero", progress, target=target)
@@ -270,22 +270,41 @@ def _measure(policy: LoadedPolicy, duration: float,
         measured["goto"] = goto_result(rollout, policy.case.task, target)
         measured["ring"] = _ring_entry(policy, progress)
         measured["yardstick_ring"] = _ring_entry(SteeringFieldPolicy(policy.case), progress)
-    return measured, (rollout.fields if rollout.n_steps else None)
+    return Measured(measured, rollout.fields if rollout.n_steps else None)
 
 
-def _measure_tip_reach(policy: LoadedPolicy, duration: float) -> dict[str, Any]:
-    """A tip-reach policy judged as the case is: its case's held-out targets in the accurate
-    physics, each for the task's episode (``duration`` s at most), beside the case's yardstick
-    on the same targets (:func:`~.tip_reach.run_targets`)."""
-    from .tip_reach import actor_controller, held_out_targets, run_targets, steering_controller
+def _measure_tip_reach(policy: LoadedPolicy, duration: float) -> Measured:
+    """A tip-reach policy judged as the case is (:func:`~.tip_reach.judge_held_out`): its case's
+    held-out targets in the accurate physics, each for the task's episode (``duration`` s at
+    most), beside the case's yardstick on the same targets; the tip's paths of both drawn."""
+    import tempfile
 
-    case = policy.case
-    seconds = min(float(duration), case.task.episode_duration)
-    targets = held_out_targets(case)
-    mine = run_targets(case, targets, actor_controller(policy.actor), "accurate", seconds)
-    theirs = run_targets(case, targets, steering_controller, "accurate", seconds)
-    return {"duration_s": seconds, "physics": "accurate", "machine": machine_fingerprint(),
-            "tip_reach": {"policy": mine, "yardstick": theirs}}
+    from ..reports.goto_figures import plot_tip_paths_beside
+    from .tip_reach import judge_held_out
+
+    paths: dict[str, np.ndarray] = {}
+    judged = judge_held_out(policy.case, policy.actor, duration, with_yardstick=True, paths=paths)
+    seconds = judged.pop("duration_s")
+    with tempfile.TemporaryDirectory() as scratch:  # drawn before the policy's folder is touched
+        figure = plot_tip_paths_beside(
+            {"this policy": judged["policy"], "the steering yardstick": judged["yardstick"]},
+            {"this policy": paths["policy"], "the steering yardstick": paths["yardstick"]},
+            Path(scratch) / TIP_PATHS_PNG,
+            title=f"{policy.case.name}: the tip's paths to the 20 held-out targets ({seconds:g} s, "
+                  "accurate physics)").read_bytes()
+    return Measured({"duration_s": seconds, "physics": "accurate", "machine": machine_fingerprint(),
+                     "tip_reach": judged}, figure=figure)
+
+
+@dataclasses.dataclass(frozen=True)
+class Measured:
+    """What :func:`_measure` gives a policy's files: the ``evaluation`` entry of ``policy.json``,
+    the field waveform ``(steps, 3)`` T for ``fields.csv`` (``None``: none, a tip-reach policy or no
+    step taken), and a tip-reach policy's :data:`TIP_PATHS_PNG` (PNG bytes; ``None`` otherwise)."""
+
+    evaluation: dict[str, Any] | None = None
+    fields: np.ndarray | None = None
+    figure: bytes | None = None
 
 
 def _ring_entry(policy, progress: bool) -> dict[str, Any]:
@@ -393,16 +412,17 @@ def _ship_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case,
     return card
 
 
-def _policy_files(policy: LoadedPolicy, fields: np.ndarray | None, card: str | None,
+def _policy_files(policy: LoadedPolicy, measured: Measured, card: str | None,
                   with_critic: bool) -> list[str]:
     """The files :func:`_write_policy_folder` writes."""
     return ["actor.pt", POLICY_JSON, *(["critic.pt"] if policy.critic is not None and with_critic
                                       else []),
-            *(["fields.csv"] if fields is not None else []), *(["MODEL_CARD.md"] if card else [])]
+            *(["fields.csv"] if measured.fields is not None else []),
+            *([TIP_PATHS_PNG] if measured.figure is not None else []), *(["MODEL_CARD.md"] if card else [])]
 
 
 def _write_policy_folder(target: Path, policy: LoadedPolicy, info: dict[str, Any],
-                         fields: np.ndarray | None, card: str | None, with_critic: bool) -> None:
+                         measured: Measured, card: str | None, with_critic: bool) -> None:
     """Each file atomically; ``policy.json``, which names the actor's checksum, after the weights;
     the optional files a replaced policy had and this one has not are removed."""
     import torch
@@ -422,14 +442,17 @@ def _write_policy_folder(target: Path, policy: LoadedPolicy, info: dict[str, Any
     if policy.critic is not None and with_critic:
         save_weights("critic.pt", policy.critic)
         written.add("critic.pt")
-    if fields is not None:
-        write_field_csv(target / "fields.csv", fields)
+    if measured.fields is not None:
+        write_field_csv(target / "fields.csv", measured.fields)
         written.add("fields.csv")
+    if measured.figure is not None:
+        atomic_write_bytes(target / TIP_PATHS_PNG, measured.figure)
+        written.add(TIP_PATHS_PNG)
     atomic_write_json(target / POLICY_JSON, info)
     if card is not None:
         atomic_write_text(target / "MODEL_CARD.md", card)
         written.add("MODEL_CARD.md")
-    for stale in {"critic.pt", "fields.csv", "MODEL_CARD.md"} - written:
+    for stale in {"critic.pt", "fields.csv", TIP_PATHS_PNG, "MODEL_CARD.md"} - written:
         (target / stale).unlink(missing_ok=True)  # the replaced policy's, not this one's
 
 

@@ -98,11 +98,10 @@ def _verify_tip_reach(name: str, policy: Any, info: dict[str, Any], duration: fl
     """:func:`verify_shipped` of a tip-reach policy: its case's held-out targets again (accurate
     physics, ``duration`` s at most the task's episode); run as long as recorded, the same targets
     reached and every final distance within :data:`TIP_DISTANCE_ATOL_M` of the recorded one."""
-    from .tip_reach import actor_controller, held_out_targets, run_targets
+    from .tip_reach import judge_held_out
 
-    case = policy.case
-    seconds = min(float(duration), case.task.episode_duration)
-    run = run_targets(case, held_out_targets(case), actor_controller(policy.actor), "accurate", seconds)
+    judged = judge_held_out(policy.case, policy.actor, duration)
+    seconds, run = judged["duration_s"], judged["policy"]
     diverged = "divergence" in run["ended_by"]
     result: dict[str, Any] = {"name": name, "case": info["case"], "duration_s": seconds,
                               "successes": run["successes"], "diverged": diverged}

@@ -21,7 +21,7 @@ from ..envs.catheter_env import CatheterReachVectorEnv, make_catheter_env
 from ..envs.steering_yardstick import insertion_command, steering_law
 
 __all__ = ["HELD_OUT_SEED", "HELD_OUT_TARGETS", "TARGET_FILES", "actor_controller", "held_out_targets",
-           "run_targets", "steering_controller", "target_notes", "write_targets"]
+           "judge_held_out", "run_targets", "steering_controller", "target_notes", "write_targets"]
 
 #: Seed of the held-out targets: training draws its targets with the run's seed plus small offsets
 #: (episode numbers), never this one.
@@ -144,6 +144,28 @@ def run_targets(case: Case, targets: Any,
             "success": success.tolist(), "successes": int(success.sum()), "physics": physics,
             "time_to_target_s": [None if np.isnan(t) else float(t) for t in reached],
             "duration_s": env.task.episode_duration}
+
+
+def judge_held_out(case: Case, actor: Any, duration: float, with_yardstick: bool = False,
+                   paths: dict[str, NDArray[np.float64]] | None = None) -> dict[str, Any]:
+    """How a tip-reach policy is judged (``msr policy ship``, ``msr validate shipped``): ``actor``
+    (as :func:`actor_controller`'s) on the case's held-out targets in the accurate physics, each for
+    ``duration`` s at most the task's episode, and with ``with_yardstick`` the case's yardstick on
+    the same targets. Returns ``duration_s`` (s, as run), ``policy`` (:func:`run_targets`' result)
+    and ``yardstick`` (the same, when run); ``paths``: given a dict, the tips ``(T, N, 3)`` m of each
+    go in under the same labels."""
+    seconds = min(float(duration), case.task.episode_duration)
+    targets = held_out_targets(case)
+    controllers = {"policy": actor_controller(actor)}
+    if with_yardstick:
+        controllers["yardstick"] = steering_controller
+    judged: dict[str, Any] = {"duration_s": seconds}
+    for label, make_controller in controllers.items():
+        tips: list[NDArray[np.float64]] | None = [] if paths is not None else None
+        judged[label] = run_targets(case, targets, make_controller, "accurate", seconds, paths=tips)
+        if paths is not None and tips:
+            paths[label] = tips[0]
+    return judged
 
 
 #: The files of a tip-reach result folder (``msr field baseline`` of a steered case).

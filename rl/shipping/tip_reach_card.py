@@ -7,6 +7,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..cases.case import Case
+from .policy_files import TIP_PATHS_PNG
 
 __all__ = ["tip_reach_card"]
 
@@ -70,7 +71,10 @@ def tip_reach_card(info: dict[str, Any], case: Case, notes_section: str) -> str:
                   "distance (mm) |",
                   "|---|---|---|---|",
                   _summary_row("this policy", evaluation["policy"]),
-                  _summary_row("the steering yardstick", evaluation["yardstick"])]
+                  _summary_row("the steering yardstick", evaluation["yardstick"]),
+                  "",
+                  f"![The tip's paths to the held-out targets, this policy's and the yardstick's: green "
+                  f"reached, red missed]({TIP_PATHS_PNG})"]
     if info.get("notes"):
         lines += ["", notes_section, "", info["notes"].strip()]
     lines += ["", "## Limitations", "",

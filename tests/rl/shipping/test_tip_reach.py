@@ -230,7 +230,7 @@ def test_a_tip_reach_policy_ships_judged_on_the_held_out_targets_beside_its_yard
                 "0.03", "--out", str(tmp_path / "s"), "--no-progress"]) == 0, capsys.readouterr().err
     folder = tmp_path / "s" / "cat"
     assert sorted(p.name for p in folder.iterdir() if not p.name.startswith(".")) == [
-        "MODEL_CARD.md", "actor.pt", "critic.pt", "policy.json"]
+        "MODEL_CARD.md", "actor.pt", "critic.pt", "policy.json", "tip_paths.png"]
     info = json.loads((folder / "policy.json").read_text())
     assert info["field_limit_T"] is None and info["task"] == "tip-reach"
     blocks = [b["name"] for b in info["observation"]["blocks"]]
@@ -243,6 +243,11 @@ def test_a_tip_reach_policy_ships_judged_on_the_held_out_targets_beside_its_yard
         assert len(evaluation["tip_reach"][who]["targets_m"]) == 20
     card = (folder / "MODEL_CARD.md").read_text()
     assert "| this policy | 0 of 20 |" in card and "| the steering yardstick | 0 of 20 |" in card
+    assert "](tip_paths.png)" in card  # the tip's paths of both, drawn with the measurement
+    from PIL import Image
+
+    with Image.open(folder / "tip_paths.png") as figure:
+        assert figure.size[1] > figure.size[0] / 2  # two rows of views: the policy's, the yardstick's
     assert resolve_policy(folder).case.name == "catheter-magnet-reach"
     capsys.readouterr()
     assert msr(["policy", "generate", str(folder), "--target", "0.045,0.0,0.0", "--duration", "0.03",
