@@ -95,9 +95,10 @@ class CoilArray(SteeringActuation):
     def observation_blocks(self) -> tuple[tuple[str, int], ...]:
         """The observation's blocks after the rod's node positions, as name and size pairs.
 
-        The tip's velocity (3), the coils' currents over their limit (one per coil), and the
-        insertion (1) with a stage."""
-        return (("tip_velocity", 3), ("coil_currents", len(self.coils)), *self.stage_blocks())
+        The tip's velocity (3), the coils' currents over their limit (one per coil), the field
+        they make at the tip (3), and the insertion (1) with a stage."""
+        return (("tip_velocity", 3), ("coil_currents", len(self.coils)), ("tip_field", 3),
+                *self.stage_blocks())
 
     def actuator(self) -> CoilCurrents:
         """New coils of this actuation, every current zero."""

@@ -28,8 +28,12 @@ block                    size       value
 ``target_offset``        3          ``100 * (target - tip)``, m: the task's
 =======================  =========  ==========================================================
 
-For coils, a ``coil_currents`` block (C: the currents over their limit) stands where the magnet's
-two are. The shape and the magnet's pose (or the currents) are what decide the next field at
+For coils, a ``coil_currents`` block (C: the currents over their limit) and a ``tip_field`` block
+(3: ``100 * B_tip``, T, the coils' field at the tip from those currents, 10 mT reads 1.0) stand
+where the magnet's two are. The field at the tip is the coils' counterpart of the magnet's
+direction: what a steering law turns, here read directly instead of computed from the currents
+through the coils' field map (a lab computes it the same way, from its coil model and the tracked
+tip). The shape and the magnet's pose (or the currents) are what decide the next field at
 every element; the tip's velocity carries the rod's momentum (the dynamics of a scaled mass); the
 offset says where to go in the frame a policy steers in (the spec's: the base moves only along x).
 
@@ -79,6 +83,7 @@ CATHETER_OBSERVATION_SCALES: dict[str, float] = {
     "magnet_position": 100.0,  # per m
     "magnet_direction": 1.0,
     "coil_currents": 1.0,  # over the current limit
+    "tip_field": 100.0,  # per T (the coils' field at the tip: 10 mT reads 1.0)
     "insertion": 100.0,  # per m
     "target_offset": 100.0,  # per m (the task's)
 }
@@ -181,6 +186,8 @@ class CatheterReachVectorEnv(VectorEnv):
             obs[layout["magnet_direction"]] = direction
         else:
             obs[layout["coil_currents"]] = scales["coil_currents"] * actuator.state(time)
+            obs[layout["tip_field"]] = scales["tip_field"] * (actuator.field_matrix(tip, time)
+                                                              @ actuator.currents_at(time))
         if self.advancers:
             obs[layout["insertion"]] = scales["insertion"] * self.insertion(i)
         obs[layout["target_offset"]] = self.task.observe(tip, self._targets[i])

@@ -48,7 +48,8 @@ def test_the_shipped_case_reads_round_trips_and_names_what_it_lacks(shipped):
     a = shipped.actuation
     assert isinstance(a, CoilArray) and len(a.coils) == 8 and a.current_limit == 8.0
     assert a.action_size == 9 and not shipped.field_actuated  # 8 currents and the stage
-    assert shipped.obs_dim == 3 * 11 + 3 + 8 + 1 + 3
+    # node positions, tip velocity, currents, tip field, stage, target
+    assert shipped.obs_dim == 3 * 11 + 3 + 8 + 3 + 1 + 3
     renamed = {**shipped.to_dict(), "name": "coils"}
     assert quiet_load(renamed).to_dict() == renamed
     # 2 mT per coil at the workspace's centre at 8 A (mu0 N I a^2 / (2 (a^2 + d^2)^1.5)): the eight
@@ -79,7 +80,7 @@ def test_bad_coil_values_are_refused_by_name(shipped, changes, message):
 
 def test_the_coil_environment_steps_and_restores_its_state(shipped):
     env = make_vector_env(shipped, 2)
-    assert env.single_action_space.shape == (9,) and env.single_observation_space.shape == (48,)
+    assert env.single_action_space.shape == (9,) and env.single_observation_space.shape == (51,)
     assert isinstance(env.actuators[0], CoilCurrents) and env.min_clearance is None
     obs, info = env.reset(seed=3)
     currents = env.layout["coil_currents"]
@@ -89,6 +90,12 @@ def test_the_coil_environment_steps_and_restores_its_state(shipped):
     obs, *_ = env.step(actions)
     # 1000 A/s for 0.01 s: 10 A asked, the limit 8 A reached within the step; observed over the limit
     np.testing.assert_allclose(obs[:, currents][:, 0], 1.0)
+    # the field at the tip: the one the rod's tip feels from the coils (their summed source), 100 per T
+    for i in range(2):
+        tip = env.tip(i)
+        felt = env.actuators[i].source.at(tip.reshape(3, 1), env.robots.robot_time(i))[:, 0]
+        assert np.linalg.norm(felt) > 1e-4  # 8 A in coil 0: a field of ~mT at the tip
+        np.testing.assert_allclose(obs[i, env.layout["tip_field"]], 100.0 * felt, rtol=1e-6, atol=1e-9)
     state = env.get_state()
     rng = np.random.default_rng(0)
     plan = rng.uniform(-1, 1, (5, 2, 9)).astype(np.float32)
