@@ -28,7 +28,7 @@ from elastica_magnetic.fields import ControlledField
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..cases.case import Case
-from ..envs.env import OBSERVATION_SCALES
+from ..envs.crawler_observation import OBSERVATION_SCALES
 from ..envs.yardsticks import RotatingFieldPolicy
 
 __all__ = ["Trial", "rotating_waveform", "run_trials"]

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 from elastica_magnetic.io import DamagedFileError, atomic_save, display_path
 from elastica_magnetic.simulation import PLANAR_TRAJECTORY_COLUMNS, TRAJECTORY_COLUMNS
 
-from .env import observation_layout
+from .crawler_observation import observation_layout
 
 __all__ = ["Rollout", "ROLLOUT_NPZ"]
 

@@ -70,10 +70,10 @@ from elastica_magnetic.robot_spec import ACTION_PERIOD
 from ..cases.case import Case, load_case
 from ..cases.tasks import Task
 from ..cases.variations import Variation
+from .crawler_observation import crawler_observation
 from .env import (
     action_space,
     adopt_setup,
-    crawler_observation,
     crawler_setup,
     initial_field_value,
     new_field,

@@ -32,7 +32,7 @@ from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..cases.case import Case, load_case
 from ..cases.tasks import TARGET_OFFSET_SCALE, GotoTask
-from .env import OBSERVATION_SCALES, observation_layout
+from .crawler_observation import OBSERVATION_SCALES, observation_layout
 from .steering_yardstick import SteeringYardstick
 
 __all__ = ["RotatingFieldPolicy", "SteeringFieldPolicy", "rotating_amplitude", "yardstick_controller"]

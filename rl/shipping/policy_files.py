@@ -398,9 +398,9 @@ def _check_obs_dim(case: Case, obs_dim: int, path: Path) -> None:
 
 def observation_spec_of(case: Case) -> dict[str, Any]:
     """The ``observation`` entry of a policy's ``policy.json``: the case's observation layout and
-    scaling (:func:`~elastica_magnetic_rl.envs.env.observation_spec`; a case steered by a source:
-    the catheter's, :func:`_steered_observation_spec`)."""
-    from ..envs.env import observation_spec
+    scaling (:func:`~elastica_magnetic_rl.envs.crawler_observation.observation_spec`; a case
+    steered by a source: the catheter's, :func:`_steered_observation_spec`)."""
+    from ..envs.crawler_observation import observation_spec
 
     if not case.field_actuated:
         return _steered_observation_spec(case)
