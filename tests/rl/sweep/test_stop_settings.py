@@ -120,7 +120,7 @@ def test_every_recipe_runs_the_cases_steps_unless_steps_are_given():
     """A run takes the case's steps per seed (a ``fast`` seed may stop before them); given
     steps win."""
     from elastica_magnetic_rl.cases.case import load_case
-    from elastica_magnetic_rl.sweep.training import _case_defaults
+    from elastica_magnetic_rl.sweep.sweep_plan import case_defaults as _case_defaults
 
     case = load_case("m1-4mT")
     assert case.training.steps == 100_000
