@@ -27,7 +27,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .filesets import FileKind
 from .magnetization import (
     YAO2023_MAGNETIZATION,
     MagnetizationSegment,
@@ -39,6 +38,7 @@ from .magnetization import (
     yao2023_magnetization,
 )
 from .presets import ROBOTS, YAO2023_MASS_SCALE, robot_by_name
+from .result_file import FileKind
 from .robot_plausibility import (
     check_contact_tolerances,
     check_friction,

@@ -189,7 +189,7 @@ def test_files_the_new_set_lacks_are_removed_in_the_same_commit(tmp_path, monkey
 # -- one result file (issue 48) --------------------------------------------------------------------
 
 def test_a_result_file_is_refused_without_force_and_replaced_whole_with_it(tmp_path):
-    from elastica_magnetic.filesets import result_file
+    from elastica_magnetic.result_file import result_file
     from elastica_magnetic.results import ResultExistsError
 
     target = tmp_path / "cal.json"
@@ -213,7 +213,7 @@ def test_force_never_replaces_a_single_file_msr_did_not_write(tmp_path):
     the user's own file of that kind (another robot's spec, a hand-tuned calibration). A result
     file is recorded in its folder's .msr-files.json; --force replaces only a recorded file,
     unchanged since."""
-    from elastica_magnetic.filesets import result_file
+    from elastica_magnetic.result_file import result_file
     from elastica_magnetic.results import ResultExistsError
 
     mine = tmp_path / "labB_calibration.json"
@@ -237,8 +237,8 @@ def test_force_never_replaces_a_single_file_msr_did_not_write(tmp_path):
     (lambda p: p.mkdir(), "a folder"),
 ])
 def test_a_result_file_never_replaces_what_is_not_a_regular_file(tmp_path, make, kind):
-    from elastica_magnetic.filesets import check_result_file
     from elastica_magnetic.io import OutputPathError
+    from elastica_magnetic.result_file import check_result_file
 
     target = tmp_path / "out.json"
     make(target)
@@ -248,7 +248,7 @@ def test_a_result_file_never_replaces_what_is_not_a_regular_file(tmp_path, make,
 
 
 def test_a_killed_writer_of_a_result_file_is_cleaned_up_by_the_next(tmp_path):
-    from elastica_magnetic.filesets import check_result_file, result_file
+    from elastica_magnetic.result_file import check_result_file, result_file
     from elastica_magnetic.results import ResultExistsError
 
     target = tmp_path / "log.txt"
@@ -296,8 +296,8 @@ def test_a_full_disk_while_writing_names_the_file_not_its_temporary(tmp_path):
 def test_round12_d1_a_users_file_or_folder_named_like_a_temporary_file_is_kept(tmp_path):
     """Round 12, D1: only a killed writer's temporary file (named HOST-PID-RANDOM, its process gone)
     is removed beside a result file; a user's file or folder named like one stays."""
-    from elastica_magnetic.filesets import result_file
     from elastica_magnetic.locks import host_name, name_tag
+    from elastica_magnetic.result_file import result_file
 
     here = name_tag(host_name())
     keep = [tmp_path / ".cal.msr-new-backup.json", tmp_path / f".cal.msr-new-{here}-1-abcdef.json"]
@@ -320,9 +320,9 @@ def test_round17_force_never_replaces_another_commands_result_file(tmp_path):
     """Round 17 D: `msr real stream --log cal.json --force` replaced the calibration JSON `msr real
     calibrate` wrote (a file msr recorded was its own whatever it held), and `calibrate --out
     b.log --force` the board log `stream` wrote."""
-    from elastica_magnetic.filesets import result_file
     from elastica_magnetic.hardware.calibration import CALIBRATION_FILE
     from elastica_magnetic.hardware.stream import BOARD_LOG_FILE
+    from elastica_magnetic.result_file import result_file
     from elastica_magnetic.results import ResultExistsError
 
     calibration, log = tmp_path / "cal.json", tmp_path / "b.log"

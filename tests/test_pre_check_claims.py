@@ -13,8 +13,9 @@ import sys
 import pytest
 from lock_holder import held_elsewhere
 
-from elastica_magnetic.filesets import check_files, check_result_file, replace_files, result_file
+from elastica_magnetic.filesets import check_files, replace_files
 from elastica_magnetic.locks import FolderLockedError, lock_path, release_claims
+from elastica_magnetic.result_file import check_result_file, result_file
 from elastica_magnetic.results import check_result_folder, result_folder
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="flock is POSIX")

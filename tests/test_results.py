@@ -477,7 +477,7 @@ def test_round12_d1_a_users_folder_named_like_a_temporary_is_never_removed(tmp_p
 def test_round17_a_folder_holding_another_commands_recorded_file_is_no_empty_folder(tmp_path):
     """Round 17 D: a folder whose only files msr had recorded writing (a calibration JSON, a
     shipped policy) passed for an empty one and was replaced, even without --force."""
-    from elastica_magnetic.filesets import result_file
+    from elastica_magnetic.result_file import result_file
     from elastica_magnetic.results import ResultExistsError, check_result_folder
 
     out = tmp_path / "out"

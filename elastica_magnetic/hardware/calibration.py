@@ -27,7 +27,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from elastica_magnetic.filesets import FileKind
 from elastica_magnetic.hardware.plausibility import (
     check_drive,
     check_matrix,
@@ -35,6 +34,7 @@ from elastica_magnetic.hardware.plausibility import (
 )
 from elastica_magnetic.io import atomic_write_text, byte_order_mark_problem
 from elastica_magnetic.plausibility import warn_implausible
+from elastica_magnetic.result_file import FileKind
 
 AXES = 3
 #: The coil pairs in the order of a field row and of the DAC channels.

@@ -141,8 +141,8 @@ def _stream(args: argparse.Namespace) -> int:
     summary = result.summary()
     got = result.codes_array()
     if args.codes_out:
-        from elastica_magnetic.filesets import result_file
         from elastica_magnetic.hardware.export import EXPECTED_CODES_FILE, write_expected_codes
+        from elastica_magnetic.result_file import result_file
 
         with result_file(args.codes_out, force=args.force, option="--codes-out",
                          kind=EXPECTED_CODES_FILE) as codes:
@@ -167,10 +167,10 @@ def _stream_inputs(args: argparse.Namespace) -> tuple[Any, Any]:
     """Everything ``msr real stream`` checks before it connects: the options, the waveform (T, as
     read from the mT CSV), the calibration (or ``None``) and what the coils can follow, the
     output files. Returns the waveform and the calibration."""
-    from elastica_magnetic.filesets import check_result_file
     from elastica_magnetic.hardware.calibration import clipping_report, load_calibration, slew_warning
     from elastica_magnetic.hardware.export import EXPECTED_CODES_FILE
     from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
+    from elastica_magnetic.result_file import check_result_file
 
     if args.force and not (args.log or args.codes_out):
         raise _error("--force replaces an existing --log or --codes-out file, and neither is "
@@ -226,8 +226,8 @@ def _compare_codes(summary: dict[str, Any], result: Any, got: Any, field_T: Any,
 def _stream_logged(args: argparse.Namespace, field_T: Any, cal: Any) -> Any:
     """Stream with ``--log`` written as one result file: the log of a stream that failed is kept
     too (it says what the board did), an interrupted one leaves the earlier log."""
-    from elastica_magnetic.filesets import result_file
     from elastica_magnetic.hardware.stream import StreamError, stream_field
+    from elastica_magnetic.result_file import result_file
 
     def run(log_path: Path | None) -> Any:
         return stream_field(args.port, field_T, baudrate=args.baud, corrupt_row=args.corrupt_row,
@@ -270,7 +270,6 @@ def _export(args: argparse.Namespace) -> int:
 def _calibrate(args: argparse.Namespace) -> int:
     import pandas as pd
 
-    from elastica_magnetic.filesets import check_result_file, result_file
     from elastica_magnetic.hardware.calibration import (
         Calibration,
         calibration_from_dict,
@@ -284,6 +283,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         FIELD_COLUMNS,
         check_measurements,
     )
+    from elastica_magnetic.result_file import check_result_file, result_file
     if args.upload:
         _check_port("--upload", args.upload)
     path = Path(args.measurements)

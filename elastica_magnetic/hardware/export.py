@@ -24,7 +24,6 @@ from numpy.typing import NDArray
 
 from elastica_magnetic.cli.app import output_path
 from elastica_magnetic.field_csv import read_field_csv
-from elastica_magnetic.filesets import FileKind
 from elastica_magnetic.hardware.calibration import (
     Calibration,
     calibration_header,
@@ -35,6 +34,7 @@ from elastica_magnetic.hardware.calibration import (
 )
 from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
 from elastica_magnetic.io import atomic_write, atomic_write_text
+from elastica_magnetic.result_file import FileKind
 from elastica_magnetic.results import check_result_folder, result_folder
 
 #: Flash left for the table after code (1 MB part): 3 doubles = 24 bytes per row.

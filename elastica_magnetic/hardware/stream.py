@@ -20,7 +20,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from elastica_magnetic.filesets import FileKind
 from elastica_magnetic.hardware.calibration import DAC_MIDSCALE, Calibration
 from elastica_magnetic.hardware.protocol import (
     BoardStatus,
@@ -35,6 +34,7 @@ from elastica_magnetic.hardware.protocol import (
     parse_status,
     wire_rows_mT,
 )
+from elastica_magnetic.result_file import FileKind
 
 DEFAULT_BAUD = 115200
 #: Rows per second of the firmware's playback (100 Hz tick).

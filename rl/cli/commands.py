@@ -548,7 +548,7 @@ def _baseline_sweep(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise CommandError(f"--periods: {exc}") from None
     if args.set_yardstick is not None:  # checked before the sweep's minutes
-        from elastica_magnetic.filesets import check_result_file
+        from elastica_magnetic.result_file import check_result_file
         from elastica_magnetic.specfile import SPEC_FILE
 
         check_result_file(args.set_yardstick, force=args.force, option="--set-yardstick",

@@ -14,8 +14,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-from elastica_magnetic.filesets import result_file
 from elastica_magnetic.io import atomic_write, atomic_write_json, atomic_write_text
+from elastica_magnetic.result_file import result_file
 from elastica_magnetic.results import check_result_folder, result_folder
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 from elastica_magnetic.rotation import measure_rotation, min_rotation_period
@@ -216,7 +216,7 @@ def yardstick_spec(case: Case, best: dict[str, Any], path: str | Path, *,
     """Write a copy of ``case``'s spec to ``path`` (TOML, units in comments) with ``best``'s distance
     (m, from a 10 s accurate-physics run) as ``[yardstick] distance_10s``, its field (``period``, s, and
     ``clockwise``) and a ``source`` saying which baseline it is. An existing file is replaced only with
-    ``force`` (:func:`elastica_magnetic.filesets.result_file`). ``physics`` and ``duration`` (s) are
+    ``force`` (:func:`elastica_magnetic.result_file.result_file`). ``physics`` and ``duration`` (s) are
     what ``best`` was measured in: anything but 10 s of the accurate physics (a smoke run of ``msr loop
     --quick``) is written into the ``source`` as not a yardstick, and its field not written (the
     spec's own ``period`` and ``clockwise`` kept, if any), so the file never claims what was not

@@ -158,7 +158,7 @@ def test_stream_log_interrupted_keeps_the_old_log(tmp_path, monkeypatch):
     stream stands in for it; a port that does not open writes no log, tests/hardware/
     test_stream.py): the earlier log stays byte for byte, no temporary is left."""
     import elastica_magnetic.hardware.stream as stream
-    from elastica_magnetic.filesets import result_file
+    from elastica_magnetic.result_file import result_file
 
     log = tmp_path / "board.log"
     earlier = "MSR-FW 1.0 the earlier stream's log\nPONG\n"  # a board log: --force replaces it

@@ -407,7 +407,7 @@ def test_msr_stream_to_a_port_that_does_not_open_keeps_the_previous_log(tmp_path
     """Through the command (the log is a result file): ``--force`` replaces an earlier log only with
     one that says something; a port that does not open left an empty file over it (round 4, D1)."""
     from elastica_magnetic.cli import main
-    from elastica_magnetic.filesets import result_file
+    from elastica_magnetic.result_file import result_file
 
     log = tmp_path / "board.log"
     old = b"MSR-FW 1.0 previous stream\r\nSAFE end row=3 applied=3\n"
