@@ -78,8 +78,9 @@ from .robot_spec import RobotSpec
 from .simulation import SimulationDivergedError, robot_rod, trajectory_row
 from .spatial_fields import is_spatial
 
-__all__ = ["BatchedRobots", "BatchedRobotSimulator", "BatchedSimulationDivergedError",
-           "SpatialFieldNotSupportedError"]
+__all__ = ["BatchedPhysicsNotSupportedError", "BatchedRobots", "BatchedRobotSimulator",
+           "BatchedSimulationDivergedError", "SpatialFieldNotSupportedError", "batched_refusal",
+           "batched_unsupported"]
 
 
 class SpatialFieldNotSupportedError(TypeError):
@@ -90,6 +91,37 @@ class SpatialFieldNotSupportedError(TypeError):
 
 #: The name of earlier releases (kept so that users' scripts run; it will go).
 SpatialFieldNotSupported = SpatialFieldNotSupportedError
+
+
+class BatchedPhysicsNotSupportedError(ValueError):
+    """A robot whose spec asks for physics the batched simulator does not model (its magnetic
+    self-interaction and self-contact, a Kelvin-Voigt viscosity): refused by name, never dropped
+    without a word. :func:`batched_unsupported` lists them for a check before any work."""
+
+
+def batched_unsupported(spec: RobotSpec) -> list[str]:
+    """What of ``spec`` the batched simulator does not model, each as the spec's key and what it
+    is (empty: all of it is modelled). The single-robot simulator
+    (:func:`~elastica_magnetic.build_simulation`) models them all."""
+    missing = []
+    if spec.interaction is not None:
+        missing.append("[robot.interaction] (the magnetic interaction between the robot's own elements "
+                       "and its contact with itself)")
+    if spec.damping.kelvin_voigt > 0.0:
+        missing.append(f"[robot.damping] kelvin_voigt = {spec.damping.kelvin_voigt:g} Pa s (the "
+                       "Kelvin-Voigt internal viscosity)")
+    return missing
+
+
+def batched_refusal(spec: RobotSpec, who: str = "the batched simulator") -> str | None:
+    """The message refusing ``spec`` in ``who`` (a command that runs the batched simulator), or
+    ``None`` when it models all of the spec."""
+    missing = batched_unsupported(spec)
+    if not missing:
+        return None
+    return (f"{who} runs many robots in one batched simulator, which does not model {' and '.join(missing)}: "
+            "a result there would silently leave it out. Leave it out of the spec for this command, or "
+            "simulate the robot with it alone (msr field simulate, build_simulation)")
 
 
 class BatchedRobotSimulator(ea.BaseSystemCollection, ea.Constraints, ea.Forcing, ea.CallBacks):
@@ -214,6 +246,9 @@ class BatchedRobots:
         if int(n_robots) != n_robots or n_robots < 1:
             raise ValueError(f"n_robots must be a positive integer, got {n_robots!r}")
         n_robots = int(n_robots)
+        refusal = batched_refusal(spec)
+        if refusal:
+            raise BatchedPhysicsNotSupportedError(refusal)
         self.spec = spec
         self.n_robots = n_robots
         self.stepper = ea.PositionVerlet()
@@ -558,6 +593,9 @@ class BatchedRobots:
         """
         if not 0 <= i < self.n_robots:
             raise IndexError(f"robot index {i} out of range for {self.n_robots} robots")
+        refusal = batched_refusal(spec)
+        if refusal:
+            raise BatchedPhysicsNotSupportedError(f"robot {i}: {refusal}")
         nominal = self.spec
         for name in ("n_elements", "dt"):
             if getattr(spec, name) != getattr(nominal, name):

@@ -72,6 +72,10 @@ def run_cases(names: list[str], out: Path, quick: bool) -> list[CaseResult]:
     return results
 
 
+#: The report folder of ``msr validate`` without ``--out``.
+DEFAULT_OUT = "out/validation"
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "validate",
@@ -83,7 +87,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    f"{', '.join(CASES)}); '{SHIPPED}': re-run every shipped policy for 10 s and "
                    "check its recorded distance and waveform (a few minutes each)")
     p.add_argument("--quick", action="store_true", help="reduced grid (for the test suite)")
-    p.add_argument("--out", type=output_path, default="out/validation", help="report folder")
+    p.add_argument("--out", type=output_path, default=None,
+                   help=f"report folder (default {DEFAULT_OUT}; '{SHIPPED}' alone writes no report)")
     p.add_argument("--force", action="store_true",
                    help="replace the report of an earlier `msr validate` in --out (another "
                    "command's result or files msr did not write are never replaced)")
@@ -97,6 +102,18 @@ def validate_command(args: argparse.Namespace) -> int:
 
     available = available_cases()
     names = [n for n in args.cases if n != SHIPPED] if args.cases else available
+    if SHIPPED in args.cases and not names and (args.out is not None or args.force):
+        given = "--out" if args.out is not None else "--force"
+        raise CommandError(f"{given}: msr validate {SHIPPED} alone writes no report (it re-runs the shipped "
+                           "policies against their files and prints the verdicts; --json prints them as "
+                           f"JSON): drop {given}, or name validation cases beside {SHIPPED}")
+    unknown = [n for n in names if n not in CASES]
+    if unknown:
+        raise CommandError(f"unknown case(s) {', '.join(unknown)}; choose from {', '.join(CASES)}")
+    missing = [n for n in names if n not in available]
+    if missing:
+        raise CommandError(f"case(s) {', '.join(missing)} not implemented in this checkout")
+    out_dir = args.out if args.out is not None else Path(DEFAULT_OUT)
     shipped = verify_all_shipped(args.quick) if SHIPPED in args.cases else None
     if shipped is not None and not names:
         passed = all(r["passed"] for r in shipped)
@@ -115,17 +132,11 @@ def validate_command(args: argparse.Namespace) -> int:
                       f"{r['max_field_diff_mT']:.1e} mT over {r['rows_compared']} rows "
                       f"({r['waveform_check']}){extra}")
         return 0 if passed else 1
-    unknown = [n for n in names if n not in CASES]
-    if unknown:
-        raise CommandError(f"unknown case(s) {', '.join(unknown)}; choose from {', '.join(CASES)}")
-    missing = [n for n in names if n not in available]
-    if missing:
-        raise CommandError(f"case(s) {', '.join(missing)} not implemented in this checkout")
     command = "msr validate " + " ".join(
-        [*args.cases, *(["--quick"] if args.quick else []), "--out", str(args.out)]
+        [*args.cases, *(["--quick"] if args.quick else []), "--out", str(out_dir)]
     )
     # The report folder is replaced whole, or left as it was on a failure or an interruption.
-    with result_folder(args.out, kind="validate", force=args.force,
+    with result_folder(out_dir, kind="validate", force=args.force,
                        known_files=REPORT_FILES) as out:
         print_notes(out.notes)
         results = run_cases(names, out.path, args.quick)

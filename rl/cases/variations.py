@@ -74,6 +74,8 @@ GROUPS: dict[str, tuple[str, ...]] = {
     "magnet": ("actuation.moment",),
     "coils": ("actuation.coils.K.turns",),  # every coil's, K = 0, 1, ... (group_keys)
 }
+#: The name of a unit vector in a spec (a magnetization's, a clamp's): never varied, a factor leaves it.
+DIRECTION_KEY = "direction"
 #: The default variation set: group -> (low, high) factors of the nominal values.
 DEFAULT_RANGES: dict[str, tuple[float, float]] = {
     "magnetization": (0.85, 1.15),
@@ -162,7 +164,8 @@ def variable_keys(spec: Mapping[str, Any]) -> list[str]:
     def walk(table: Any, path: str) -> None:
         if isinstance(table, Mapping):
             for key, value in table.items():
-                walk(value, f"{path}.{key}")
+                if key != DIRECTION_KEY:  # a unit vector: normalized when read, a factor leaves it
+                    walk(value, f"{path}.{key}")
         elif _is_array(table):
             found.append(path)
         elif isinstance(table, list):
@@ -383,6 +386,10 @@ def _expand_key(key: str, spec: Mapping[str, Any], valid: Sequence[str], where: 
     computes (the shear modulus of a spec with a Poisson ratio) is named as such."""
     if key in valid:
         return (key,)
+    if key.rsplit(".", 1)[-1] == DIRECTION_KEY and _has_key(spec, key):
+        raise VariationError(f"{where}: {key} is a direction, made a unit vector when the spec is read, "
+                             "so scaling it leaves every variant the nominal robot; a direction is not "
+                             "varied (a magnetization's strength is its magnitude: vary that)")
     robot = spec.get("robot", {})
     if key == f"{_MAGNETIZATION}.magnitude" and robot.get("magnetization", {}).get("kind") == "segments":
         return group_keys("magnetization", spec)
@@ -391,6 +398,15 @@ def _expand_key(key: str, spec: Mapping[str, Any], valid: Sequence[str], where: 
                              "E / (2 (1 + poisson_ratio)) and follows robot.youngs_modulus; vary "
                              "robot.youngs_modulus (or the group modulus), or robot.poisson_ratio")
     raise _unknown_key(key, valid, where)
+
+
+def _has_key(spec: Mapping[str, Any], key: str) -> bool:
+    """Whether the dotted ``key`` names a value of ``spec``."""
+    try:
+        get_value(spec, key)
+    except (KeyError, IndexError, TypeError, ValueError, VariationError):
+        return False
+    return True
 
 
 def resolve_variations(variations: Sequence[Variation], spec: Mapping[str, Any],

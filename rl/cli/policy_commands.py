@@ -342,10 +342,19 @@ def _refuse_goto(run: Path) -> None:
 
 def _actor_choice(run, checkpoint: str, duration: float, progress: bool):
     """The actor of a run a command uses (``--checkpoint``): see
-    :func:`~elastica_magnetic_rl.shipping.policy_runs.choose_actor`."""
-    from ..shipping.policy_runs import choose_actor
+    :func:`~elastica_magnetic_rl.shipping.policy_runs.choose_actor`; for a tip-reach run
+    (a catheter steered by a source), ``auto`` is its ``best.pt``, not evaluated again
+    (:func:`~elastica_magnetic_rl.shipping.policy_runs.choose_tip_reach_actor`)."""
+    from ..shipping.policy_files import resolve_policy
+    from ..shipping.policy_runs import choose_actor, choose_tip_reach_actor
 
     try:
+        steered = not resolve_policy(run).case.field_actuated
+    except (FileNotFoundError, ValueError):
+        steered = False  # choose_actor names what is wrong with the file itself
+    try:
+        if steered:
+            return choose_tip_reach_actor(run, checkpoint)
         return choose_actor(run, checkpoint, duration, progress)
     except FileNotFoundError as exc:
         raise CommandError(str(exc)) from None
@@ -431,12 +440,14 @@ def export_command(args: argparse.Namespace) -> int:
     from elastica_magnetic.results import check_result_folder
 
     from ..shipping.export import EXPORT_FILES, export_policy
-    from ..shipping.policy_files import resolve_policy
+    from ..shipping.policy_files import check_policy_case, resolve_policy
 
     _refuse_tip_reach(args.policy, "export")
     # the output folder before the actors' evaluations (minutes in the accurate physics)
-    check_result_folder(args.out, kind="export", subject=f"case {resolve_policy(args.policy).case.name}",
-                        force=args.force, known_files=EXPORT_FILES)
+    case = resolve_policy(args.policy).case.name
+    check_policy_case(args.out, case)
+    check_result_folder(args.out, kind="export", subject=f"case {case}", force=args.force,
+                        known_files=EXPORT_FILES)
     choice = _actor_choice(args.policy, args.checkpoint, 10.0, not args.no_progress)
     result = export_policy(choice.path if choice else args.policy, args.out, force=args.force)
     print_notes(result.pop("notes", ()))

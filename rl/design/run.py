@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from elastica_magnetic.batch import batched_refusal
 from elastica_magnetic.interrupts import signals_held
 from elastica_magnetic.io import (
     OutputPathError,
@@ -196,6 +197,9 @@ def load_design(spec: str | Path) -> Design:
                           "design for the other task")
     space = case.design or design_space(None, case.robot.tables["robot"], case.actuation.axes, source,
                                         case.robot_spec("accurate").magnetization)
+    refusal = batched_refusal(case.robot_spec("accurate"), "msr design")
+    if refusal:
+        raise DesignError(f"{source}: {refusal}")
     base = case.to_dict()
     base.pop(DESIGN_TABLE, None)  # the designs are robots, not searches
     return Design(case, _stable_for_sizes(base, space, source), space)

@@ -73,6 +73,7 @@ def _settings(args: argparse.Namespace, skip: tuple[str, ...] = ()):
     steps skipped (an option only a skipped step reads cannot act: refused)."""
     import dataclasses
 
+    from elastica_magnetic.batch import batched_refusal
     from elastica_magnetic.hardware.calibration import load_calibration
 
     from ..cases.case import warmup_refusal
@@ -88,6 +89,9 @@ def _settings(args: argparse.Namespace, skip: tuple[str, ...] = ()):
         calibration = load_calibration(args.calibration)  # its named error now, not after the training
         _check_calibration_drives(calibration, args.calibration, args.spec)
     spec = getattr(args, "spec", None)  # the case (parsed); absent where only the settings are asked
+    refusal = None if spec is None else batched_refusal(spec.robot_spec("training"), "msr loop")
+    if refusal:  # its sweep, training and robustness run the batched simulator
+        raise CommandError(f"{spec.source}: {refusal}")
     if args.quick and "train" not in skip and spec is not None and warmup_refusal(spec):
         raise CommandError(f"--quick: {spec.source}: [training.td3] yardstick_warmup needs [yardstick] "
                            "period, and a smoke run's sweep does not record its field (too short to be a "

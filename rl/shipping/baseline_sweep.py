@@ -24,6 +24,7 @@ from elastica_magnetic.specfile import SPEC_FILE
 from ..cases.case import EVAL_DURATION, Case, case_from_dict, load_case
 from ..envs.yardsticks import RotatingFieldPolicy, rotating_amplitude
 from .generate import GENERATE_FILES, Pictures, generate
+from .policy_files import check_policy_case
 
 __all__ = ["DEFAULT_PERIODS", "PERIOD_TOLERANCE", "achieved_period", "periods_that_turn",
            "sweep_baseline", "yardstick_spec"]
@@ -131,6 +132,7 @@ def sweep_baseline(
         raise ValueError(f"periods must be positive times in s, got {periods}")
     periods, dropped = periods_that_turn(tuple(periods), duration)
     subject = f"case {case.name}"
+    check_policy_case(out, case.name)
     check_result_folder(out, kind="baseline", subject=subject, force=force, known_files=SWEEP_FILES)
     spec = case.to_dict()
     jobs = [(spec, float(p), cw, duration, physics) for p in periods for cw in (True, False)]

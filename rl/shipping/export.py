@@ -19,6 +19,7 @@ from elastica_magnetic.results import result_folder
 from ..envs.env import make_env
 from .policy_files import (
     action_spec_of,
+    check_policy_case,
     observation_spec_of,
     resolve_policy,
 )
@@ -51,6 +52,7 @@ def export_policy(policy: str | Path, out: str | Path = "out/export",
     from ..td3.networks import ScaledPolicy
 
     loaded = resolve_policy(policy)
+    check_policy_case(out, loaded.case.name)
     with result_folder(out, kind="export", subject=f"case {loaded.case.name}", force=force,
                        known_files=EXPORT_FILES) as folder:
         out = folder.path

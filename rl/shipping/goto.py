@@ -18,6 +18,7 @@ import numpy as np
 
 from ..cases.case import Case
 from ..cases.tasks import RING_TARGETS, GotoTask, goto_metrics, ring_targets
+from .policy_files import check_policy_case
 from .policy_runs import run_policy
 
 __all__ = ["RING_FILES", "evaluate_ring", "goto_result", "goto_target", "ring_summary", "write_ring"]
@@ -130,6 +131,7 @@ def write_ring(policy, out: str | Path, duration: float | None = None, physics: 
     from ..reports.goto_figures import plot_ring
 
     subject = f"case {policy.case.name}"
+    check_policy_case(out, policy.case.name)
     check_result_folder(out, kind=kind, subject=subject, force=force, known_files=RING_FILES)
     paths: list = []
     rows = evaluate_ring(policy, duration, physics, n_targets, progress=progress, paths=paths,

@@ -32,6 +32,7 @@ __all__ = [
     "PolicyNotFoundError",
     "SEEDS_FOLDER",
     "SHIPPED_FILES",
+    "check_policy_case",
     "TIP_PATHS_PNG",
     "policy_holder",
     "shipped_policy_holding",
@@ -394,6 +395,29 @@ def _check_obs_dim(case: Case, obs_dim: int, path: Path) -> None:
     if int(obs_dim) != case.obs_dim:
         raise PolicyFileError(f"{path}: the policy takes {obs_dim} observations, its case "
                               f"{case.name!r} gives {case.obs_dim}")
+
+
+def check_policy_case(dest: str | Path, case: str) -> None:
+    """A result of case ``case`` written into a shipped policy's folder (its ``seeds/``, the one
+    place there open to other results) must be of that policy's case: another case's is refused
+    (:class:`~elastica_magnetic.io.OutputPathError`), or the policy's folder would hold, and ``msr
+    policy seeds`` count, a result that is not its own."""
+    from elastica_magnetic.io import OutputPathError, display_path, normalized_path
+
+    dest = normalized_path(dest)
+    for parent in dest.parents:
+        if not (parent / POLICY_JSON).is_file():
+            continue
+        try:
+            theirs = json.loads((parent / POLICY_JSON).read_text(encoding="utf-8")).get("case")
+        except (OSError, ValueError, AttributeError):
+            theirs = None
+        if theirs is not None and theirs != case:
+            raise OutputPathError(f"--out {display_path(dest)}: lies in the shipped policy "
+                                  f"{display_path(parent)} of case {theirs!r}, and this result is of case "
+                                  f"{case!r}: a policy's seeds/ holds its own case's results; choose another "
+                                  "--out")
+        return
 
 
 def observation_spec_of(case: Case) -> dict[str, Any]:

@@ -11,7 +11,7 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-from elastica_magnetic.io import OutputPathError, atomic_write_json, atomic_write_text
+from elastica_magnetic.io import atomic_write_json, atomic_write_text
 from elastica_magnetic.results import (
     ResultExistsError,
     check_result_folder,
@@ -22,7 +22,7 @@ from elastica_magnetic.results import (
 
 from ..runfiles.rundir import CaseDir, RunDir
 from ..sweep.run_records import first_difference
-from .policy_files import POLICY_JSON, resolve_policy
+from .policy_files import check_policy_case, resolve_policy
 from .policy_runs import check_not_training, evaluate_seeds, prefer_best, seed_run_dirs
 from .ship import check_not_in_a_policy, ship
 
@@ -32,25 +32,6 @@ __all__ = ["SEED_TRAINING_LOGS", "export_seeds"]
 #: The training logs :func:`export_seeds` keeps beside each seed's actor (small CSVs: one row per
 #: episode and per evaluation), so learning curves can be drawn from the committed seeds.
 SEED_TRAINING_LOGS = RunDir.TRAINING_LOGS
-
-
-def _check_policy_case(dest: Path, case: str) -> None:
-    """Seeds exported into a shipped policy (its ``seeds/``) are that policy's case's: those of
-    another case are refused (:class:`~elastica_magnetic.io.OutputPathError`), or ``msr policy
-    seeds`` would count them as its own and judge them against its target."""
-    for parent in dest.parents:
-        record = parent / POLICY_JSON
-        if not record.is_file():
-            continue
-        try:
-            theirs = json.loads(record.read_text(encoding="utf-8")).get("case")
-        except (OSError, ValueError, AttributeError):
-            theirs = None
-        if theirs is not None and theirs != case:
-            raise OutputPathError(f"--out {dest}: lies in the shipped policy {parent} of case {theirs!r}, "
-                                  f"and these seeds are of case {case!r}: a policy's seeds/ holds its own "
-                                  "case's seed campaigns; choose another --out")
-        return
 
 
 def export_seeds(
@@ -100,7 +81,7 @@ def export_seeds(
     new_seeds = {seed for seed, _ in seeds}
     try:  # checked before the long evaluations
         check_not_in_a_policy(dest, tuple(dest.parents))  # each seed is shipped there: a policy's seeds/
-        _check_policy_case(dest, case.name)
+        check_policy_case(dest, case.name)
         known, earlier = _check_dest(dest, subject, new_seeds, first.meta, force)
     except (ValueError, OSError) as exc:
         for note in recovered:  # the command line prints them before the error

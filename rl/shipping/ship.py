@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from elastica_magnetic.filesets import check_files, recorded_files, replace_files
+from elastica_magnetic.filesets import check_files, record_files, recorded_files, replace_files
 from elastica_magnetic.io import (
     OutputPathError,
     atomic_write_bytes,
@@ -30,6 +30,7 @@ from elastica_magnetic.io import (
     normalized_path,
     read_json,
 )
+from elastica_magnetic.locks import FolderLock
 from elastica_magnetic.plausibility import SettingNotAppliedWarning
 from elastica_magnetic.result_markers import manifest_results_in
 from elastica_magnetic.result_places import ResultExistsError, check_enclosing
@@ -225,17 +226,18 @@ def _check_same_case(target: Path, case: str, spec: dict[str, Any]) -> None:
             "case; choose another --name or --out (--force replaces only a policy of the same case)")
 
 
-def _check_card_recorded(target: Path) -> None:
+def _check_card_recorded(target: Path, option: str = "--out", again: str = "ship again") -> None:
     """Refuse to replace a ``MODEL_CARD.md`` msr has no record of writing (a policy shipped before
     msr kept records, or whose ``.msr-files.json`` was removed): the card is the file people edit,
     and without the record msr cannot tell an edited one from its own. The other files of such a
-    policy are adopted as msr's (nobody edits weights or ``policy.json`` by hand)."""
+    policy are adopted as msr's (nobody edits weights or ``policy.json`` by hand). ``option`` names
+    the folder's argument, ``again`` what to do once the card is moved away."""
     card = target / "MODEL_CARD.md"
     if card.is_file() and "MODEL_CARD.md" not in recorded_files(target):
         raise ResultExistsError(
-            f"--out {display_path(target)}: MODEL_CARD.md has no record of being written by msr "
-            "(.msr-files.json lacks it), so it may hold your edits: --force does not replace it; move "
-            "it away (or delete it) and ship again")
+            f"{option} {display_path(target)}: MODEL_CARD.md has no record of being written by msr "
+            "(.msr-files.json lacks it), so it may hold your edits: msr does not replace it; move "
+            f"it away (or delete it) and {again}")
 
 
 def _holds_a_policy(folder: Path) -> bool:
@@ -468,6 +470,9 @@ def set_notes(policy: str | Path, notes: str | None,
         raise ValueError(f"{policy}: notes belong to a shipped policy (a folder with policy.json), "
                          "not to a run or checkpoint")
     folder = resolved.source
+    _check_card_recorded(folder, option="policy", again="set the notes again (they go into policy.json, "
+                                                        "from which msr policy ship writes a new card)")
+    unrecorded = not recorded_files(folder)  # a policy copied without its record: its files adopted
     notes = notes.strip() if notes and notes.strip() else None
     info = json.loads((folder / POLICY_JSON).read_text()) | {"notes": notes}
     card_path = folder / "MODEL_CARD.md"
@@ -482,6 +487,9 @@ def set_notes(policy: str | Path, notes: str | None,
         atomic_write_json(files.path / POLICY_JSON, info)
         if card is not None:
             atomic_write_text(files.path / "MODEL_CARD.md", card)
+    if unrecorded:  # the record now names the policy's other files too, as ship's would
+        with FolderLock(folder, option="policy"):
+            record_files(folder, [f for f in SHIPPED_FILES if f not in names and (folder / f).is_file()])
     return {"name": info.get("name", folder.name), "dir": str(folder), "notes": notes,
             "card_updated": card is not None}
 

@@ -19,6 +19,7 @@ from elastica_magnetic.robot_spec import ACTION_PERIOD
 from ..cases.case import Case
 from ..envs.catheter_env import CatheterReachVectorEnv, make_catheter_env
 from ..envs.steering_yardstick import insertion_command, steering_law
+from .policy_files import check_policy_case
 
 __all__ = ["HELD_OUT_SEED", "HELD_OUT_TARGETS", "TARGET_FILES", "actor_controller", "held_out_targets",
            "judge_held_out", "run_targets", "steering_controller", "target_notes", "write_targets"]
@@ -75,17 +76,24 @@ def actor_controller(actor: Any) -> Callable[[CatheterReachVectorEnv], Controlle
 
 
 def target_notes(case: Case, targets: Any) -> list[str]:
-    """What to know about targets given by hand (m, ``(n, 3)``): those beyond the tip's reach
+    """What to know about targets given by hand (m, ``(n, 3)``): those within the tolerance of the
+    straight tip at the start (a catheter left alone succeeds there), those beyond the tip's reach
     (farther from the base's start than the rod's length and its stage's travel: no steering gets
     there), and those outside the case's ``target_box``, where its policies were not trained (they
     may still reach them, or not)."""
     low, high = np.asarray(case.task.target_box, dtype=np.float64)
     stage = case.actuation.insertion
-    reach = case.robot_spec("accurate").length + (stage[1] if stage else 0.0)
+    length = case.robot_spec("accurate").length
+    reach = length + (stage[1] if stage else 0.0)
+    start_tip = np.array([length, 0.0, 0.0])  # the straight rod from the base at the origin, along +x
     notes = []
     for target in np.asarray(targets, dtype=np.float64).reshape(-1, 3):
         shown = ", ".join(f"{v:g}" for v in target)
-        if float(np.linalg.norm(target)) > reach:
+        if case.task.within_tolerance(float(np.linalg.norm(target - start_tip))):
+            notes.append(f"the target ({shown}) m lies within the {1e3 * case.task.tolerance:g} mm tolerance "
+                         f"of the straight tip at the start ({length:g}, 0, 0) m: a catheter left alone "
+                         "succeeds there, so its success says nothing of the steering (mm written as m?)")
+        elif float(np.linalg.norm(target)) > reach:
             notes.append(f"the target ({shown}) m is {float(np.linalg.norm(target)):g} m from the clamped "
                          f"base's start, beyond any tip's reach ({reach:g} m: the rod's length"
                          f"{' and its stage' if stage else ''}): no steering gets there (mm written as m?)")
@@ -191,6 +199,7 @@ def write_targets(case: Case, out: Any, make_controller: Callable[[CatheterReach
     from ..reports.goto_figures import plot_tip_paths
 
     subject = f"case {case.name}"
+    check_policy_case(out, case.name)
     check_result_folder(out, kind=kind, subject=subject, force=force, known_files=TARGET_FILES)
     given = targets is not None
     targets = np.asarray(targets, dtype=np.float64).reshape(-1, 3) if given else held_out_targets(case)

@@ -15,6 +15,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from elastica_magnetic.batch import batched_refusal
 from elastica_magnetic.locks import check_lock_name
 from elastica_magnetic.plausibility import ImplausibleValueWarning, SettingNotAppliedWarning
 from elastica_magnetic.specfile import SpecError
@@ -269,9 +270,9 @@ def load_cases(cases: Sequence[str | Path | Case]) -> dict[str, Case]:
     loaded: dict[str, Case] = {}
     for case in cases:
         c = load_case(case)
-        refusal = warmup_refusal(c)
+        refusal = warmup_refusal(c) or batched_refusal(c.robot_spec("training"), "msr train")
         if refusal:
-            raise SpecError(refusal)
+            raise SpecError(refusal if refusal.startswith(str(c.source)) else f"{c.source}: {refusal}")
         loaded.setdefault(c.name, c)
         if loaded[c.name].to_dict() != c.to_dict():
             raise ValueError(f"two different cases are named {c.name!r}: rename one spec file")

@@ -321,8 +321,10 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
             raise ValueError(f"{key}={text}: expected {_setting_form(key, default)}") from None
         # a setting whose rule involves another is checked beside a partner that satisfies it (the
         # rule itself is checked where the whole config is built)
-        partner = {"batch_size": {"buffer_size": value},
-                   "yardstick_regularization": {"yardstick_warmup": 1}}.get(key, {})
+        partner: dict[str, Any] = {"batch_size": {"buffer_size": value},
+                                   "yardstick_regularization": {"yardstick_warmup": 1}}.get(key, {})
+        if key == "buffer_size":  # the run's minibatch (recipe, spec or --set) is judged with it later
+            partner = {"batch_size": max(1, min(value, cls().batch_size))}
         try:
             cls(**{key: value, **partner})
         except ValueError as exc:

@@ -105,7 +105,7 @@ def test_seeds_of_another_case_are_refused_in_a_policy_s_seeds_folder(trained, t
     assert msr(["policy", "export-seeds", str(case_dir), "--out", str(policy / "seeds" / "ten"),
                 "--duration", "0.05", "--workers", "1", "--no-progress"]) != 0
     err = capsys.readouterr().err
-    assert "of case 'm2-4mT', and these seeds are of case 'm1-4mT'" in err, err
+    assert "of case 'm2-4mT', and this result is of case 'm1-4mT'" in err, err
     assert "accurate physics" not in err  # refused before any evaluation
     assert not (policy / "seeds").exists()
 
