@@ -33,11 +33,10 @@ def test_ship_notes_that_is_a_folder_is_named_as_one(tmp_path, capsys):
 
 @pytest.fixture
 def policy(tmp_path) -> Path:
-    """A copy of the shipped m1-4mT policy (its files, not its per-seed folder)."""
+    """A copy of the shipped m1-4mT policy (its files and msr's record of them, not its per-seed
+    folder: notes refuse a card msr has no record of writing)."""
     folder = tmp_path / "m1-4mT"
-    folder.mkdir()
-    for name in ("policy.json", "MODEL_CARD.md", "actor.pt", "critic.pt"):
-        shutil.copy2(SHIPPED / name, folder / name)
+    shutil.copytree(SHIPPED, folder, ignore=shutil.ignore_patterns("seeds"))
     return folder
 
 
