@@ -107,7 +107,7 @@ def batched_unsupported(spec: RobotSpec) -> list[str]:
     if spec.interaction is not None:
         missing.append("[robot.interaction] (the magnetic interaction between the robot's own elements "
                        "and its contact with itself)")
-    if spec.damping.kelvin_voigt > 0.0:
+    if spec.damping is not None and spec.damping.kelvin_voigt > 0.0:  # None: no damping at all
         missing.append(f"[robot.damping] kelvin_voigt = {spec.damping.kelvin_voigt:g} Pa s (the "
                        "Kelvin-Voigt internal viscosity)")
     return missing
