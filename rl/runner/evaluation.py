@@ -172,7 +172,10 @@ class PeriodicEvaluation:
 
     def _next(self, global_step: int) -> int:
         every = max(self.cfg.eval_every, 1)
-        return (global_step // every + 1) * every
+        # a warm-up the yardstick plays leaves the actor untrained until its clone, evaluated at the
+        # warm-up's end: no periodic evaluation falls in it (an untrained actor must not be best.pt)
+        start = self.cfg.learning_starts if self.cfg.yardstick_warmup else 0
+        return (max(global_step, start) // every + 1) * every
 
     def due(self, global_step: int) -> bool:
         return self.enabled and global_step >= self.next_step

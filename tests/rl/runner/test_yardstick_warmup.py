@@ -204,3 +204,18 @@ def test_a_run_held_near_its_warm_up_trains_and_keeps_the_clone(tmp_path):
         train(_fixed, _config(yardstick_regularization=0.4, buffer_size=200), steps, tmp_path / "ring",
               progress=False, yardstick_fn=Toward)
     assert not (tmp_path / "ring").exists()
+
+
+def test_no_periodic_evaluation_falls_in_the_warm_up(tmp_path):
+    """An evaluation inside a warm-up the yardstick plays judged the untrained actor, which could
+    then stay best.pt over its clone (measured: a coil catheter's seed whose best.pt was the
+    untrained actor, 0 of 20 held-out targets, its clone 30.9 against 34.8 on the one evaluation
+    target). The first periodic evaluation now comes after the clone's."""
+    steps = WARM_UP + 120
+    train(_fixed, _config(eval_every=100, yardstick_warmup=200), steps, tmp_path / "warm", progress=False,
+          yardstick_fn=Toward, eval_env_fn=_fixed)
+    rows = (tmp_path / "warm" / "evaluations.csv").read_text().splitlines()[1:]
+    evaluated = [int(row.split(",")[0]) for row in rows]
+    assert evaluated[0] == WARM_UP + 1 and all(step > WARM_UP for step in evaluated), evaluated
+    assert len(evaluated) >= 2  # the clone's, then the periodic ones after the warm-up
+    assert load_checkpoint(tmp_path / "warm" / "best.pt")["global_step"] > WARM_UP
