@@ -292,8 +292,8 @@ def _measure_tip_reach(policy: LoadedPolicy, duration: float) -> Measured:
             {"this policy": judged["policy"], "the steering yardstick": judged["yardstick"]},
             {"this policy": paths["policy"], "the steering yardstick": paths["yardstick"]},
             Path(scratch) / TIP_PATHS_PNG,
-            title=f"{policy.case.name}: the tip's paths to the 20 held-out targets ({seconds:g} s, "
-                  "accurate physics)").read_bytes()
+            title=f"{policy.case.name}: the tip's paths to the {len(judged['policy']['targets_m'])} held-out "
+                  f"targets ({seconds:g} s, accurate physics)").read_bytes()
     return Measured({"duration_s": seconds, "physics": "accurate", "machine": machine_fingerprint(),
                      "tip_reach": judged}, figure=figure)
 
