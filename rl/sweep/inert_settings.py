@@ -70,8 +70,10 @@ def check_run_learns(config: TD3Config, steps: int, sources: SettingSources) -> 
     if warm_up >= steps:
         raise ValueError(
             f"the warm-up is the whole run: {name('learning_starts', warm_up)} is at or beyond "
-            f"{sources.steps(steps)}, so every action is random and no weight is ever updated (the "
-            f"seeds would end untrained); give "
+            f"{sources.steps(steps)}, so every action is "
+            + ("the yardstick's plus noise" if config.yardstick_warmup else "random")
+            + " and no weight is ever updated (the "
+            "seeds would end untrained); give "
             + ("" if resumed else f"--set learning_starts below {steps} or ") + f"--steps above {warm_up}")
     if batch > steps:
         raise ValueError(
