@@ -70,7 +70,7 @@ def test_b01_a_catheter_runs_summary_gives_no_distance(tmp_path):
 
 
 def test_l04_a_target_beyond_any_tips_reach_is_named():
-    notes = target_notes(load_case("catheter-coils-reach"), [[0.2, 0.0, 0.0], [0.05, 0.0, 0.0]])
+    notes = target_notes(load_case("catheter-coils-reach"), [[0.2, 0.0, 0.0], [0.045, 0.005, 0.0]])
     assert len(notes) == 1
     assert "is 0.2 m from the clamped base's start, beyond any tip's reach (0.06 m" in notes[0]
 
