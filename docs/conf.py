@@ -12,7 +12,8 @@ extensions = [
 ]
 source_suffix = {".md": "markdown", ".rst": "restructuredtext"}
 exclude_patterns = ["_build", "validation/*.md",  # included by validation.md
-                    "examples/*/report.md"]  # a loop's report, kept as it was written
+                    "examples/*/report.md",  # a loop's report, kept as it was written
+                    "examples/**/MODEL_CARD.md"]  # a policy's card beside an example, read as a file
 myst_enable_extensions = ["dollarmath", "colon_fence"]
 myst_heading_anchors = 3
 autodoc_member_order = "bysource"
