@@ -113,7 +113,7 @@ def test_a_direction_is_not_varied(capsys):
     assert not [key for key in variable_keys(spec) if key.endswith(".direction")]
     with pytest.raises(VariationError, match=r"robot.magnetization.direction is a direction.*varies|nominal"):
         resolve_variations([parse_variation("robot.magnetization.direction=0.5:1.5")], spec)
-    designed = load_case("docs/examples/design/run4_best.toml").to_dict()  # segments with directions
+    designed = load_case("rl/policies/m1-4mT-designed/design/best.toml").to_dict()  # segments with directions
     assert not [key for key in variable_keys(designed) if key.endswith(".direction")]
     assert "robot.magnetization.segments.0.magnitude" in variable_keys(designed)
 
