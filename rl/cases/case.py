@@ -89,6 +89,7 @@ __all__ = [
     "PAPER_CASES",
     "YARDSTICK_CONTROLLERS",
     "warmup_refusal",
+    "DAGGER_REFUSAL",
     "with_randomize",
 ]
 
@@ -411,6 +412,12 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     return Case(name, description, robot, actuation, task, training, yardstick, source, design)
 
 
+#: Why only a tip-reach case learns by DAgger (``yardstick_dagger``).
+DAGGER_REFUSAL = ("DAgger's labels come from a yardstick that reads an observation alone (a tip-reach "
+                  "case's steering law); a crawl's rotating field keeps its own clock, so it has no command "
+                  "for a state another controller led the robot into")
+
+
 def warmup_refusal(case: Case) -> str | None:
     """Why ``msr train`` cannot train ``case`` (``None`` when it can): its ``[training.td3]
     yardstick_warmup`` needs the case's hand-designed controller, which a field-driven crawl has
@@ -418,6 +425,10 @@ def warmup_refusal(case: Case) -> str | None:
     have one). Such a crawl's spec is valid until then (a sweep, ``msr field baseline
     --set-yardstick`` or ``msr loop``, records it): only the training refuses it, and ``msr case
     check`` warns."""
+    dagger = case.training.td3.get("yardstick_dagger")
+    if dagger and case.field_actuated:
+        return (f"{case.source}: [training.td3] yardstick_dagger = {dagger}: {DAGGER_REFUSAL}: remove "
+                "the setting")
     warmup = case.training.td3.get("yardstick_warmup")
     if not warmup or case.has_yardstick_controller:
         return None

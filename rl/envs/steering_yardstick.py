@@ -87,7 +87,8 @@ class SteeringYardstick:
     own state (to the observation's float32 rounding, about 1e-9 m).
 
     ``act(obs)`` -> ``(act_dim,)`` in [-1, 1]; ``reset()`` at each episode's start;
-    ``state()``/``set_state()`` for checkpoints inside episodes (the law's field direction)."""
+    ``state()``/``set_state()`` for checkpoints inside episodes (the law's field direction);
+    ``label(obs)``: the law's command where another controller drives (DAgger's teacher)."""
 
     def __init__(self, case: Case) -> None:
         actuation, spec = case.actuation, case.robot_spec("training")
@@ -113,6 +114,19 @@ class SteeringYardstick:
 
     def set_state(self, state: list[float] | None) -> None:
         self.law.field_direction = None if state is None else np.asarray(state, dtype=np.float64)
+
+    def label(self, obs: NDArray[np.float32]) -> NDArray[np.float64]:
+        """The law's command at ``obs`` ``(obs_dim,)`` while another controller drives (a
+        learner's, for :attr:`~elastica_magnetic_rl.td3.config.TD3Config.yardstick_dagger`): where the
+        observation shows the field at the tip (``tip_field``), the law turns that field's
+        direction, not its own remembered one, so the label is a function of the observation alone
+        (the one a policy reading it can learn); elsewhere the law's own direction, which has
+        followed the tip since the episode's start."""
+        if "tip_field" in self.layout:
+            field = np.asarray(obs[self.layout["tip_field"]], dtype=np.float64)
+            norm = float(np.linalg.norm(field))
+            self.law.field_direction = field / norm if norm > 0.0 else None
+        return self.act(obs)
 
     def act(self, obs: NDArray[np.float32]) -> NDArray[np.float64]:
         """The law's command for the observation ``obs`` ``(obs_dim,)``."""

@@ -3,7 +3,8 @@ replay buffer's append-only file.
 
 A run directory (:class:`~elastica_magnetic_rl.runfiles.rundir.RunDir`) holds ``checkpoint.pt`` (a
 ``torch.save`` dict, written atomically), and, next to it, ``replay.bin``: the replay buffer's transitions as
-float32 rows appended at each checkpoint (``obs``, ``action``, ``reward``, ``next_obs``, ``terminated``), so a
+float32 rows appended at each checkpoint (``obs``, ``action``, ``reward``, ``next_obs``, ``terminated``, and a
+DAgger run's ``label``), so a
 checkpoint writes only the transitions collected since the previous one instead of the whole buffer. The
 checkpoint records how many rows are valid; rows beyond that (written by a run killed between the append and
 the checkpoint's rename) are ignored and cut off when the run resumes. A buffer that has wrapped around (a run
@@ -206,10 +207,16 @@ def refuse_networks_only(ckpt: dict[str, Any], path: str | os.PathLike) -> None:
 # ----------------------------------------------------------------------------------------------
 # The replay buffer's append-only file
 # ----------------------------------------------------------------------------------------------
-def replay_row_width(obs_dim: int, act_dim: int) -> int:
+def replay_row_width(obs_dim: int, act_dim: int, labelled: bool = False) -> int:
     """float32 values per transition (a row of ``replay.bin``, and of a replay buffer in memory):
-    ``obs``, ``action``, ``reward``, ``next_obs``, ``terminated``."""
-    return 2 * obs_dim + act_dim + 2
+    ``obs``, ``action``, ``reward``, ``next_obs``, ``terminated`` (and a ``labelled`` buffer's
+    ``label``, ``act_dim`` more)."""
+    return 2 * obs_dim + act_dim + 2 + (act_dim if labelled else 0)
+
+
+def _row_width(state: dict[str, Any]) -> int:
+    """The row width of the replay file a buffer's checkpoint entry ``state`` refers to."""
+    return replay_row_width(int(state["obs_dim"]), int(state["act_dim"]), bool(state.get("labelled")))
 
 
 #: What to do about a replay file that does not hold what its checkpoint needs.
@@ -221,7 +228,7 @@ def replay_problem(path: Path, state: dict[str, Any]) -> str | None:
     """Why the replay file ``path`` cannot give the ``state["rows"]`` transitions its checkpoint
     needs (missing, or cut short: judged by its size, nothing read), with the fix; ``None``: it can."""
     rows = int(state["rows"])
-    width = replay_row_width(int(state["obs_dim"]), int(state["act_dim"]))
+    width = _row_width(state)
     if not rows:
         return None
     if not path.is_file():
@@ -236,17 +243,19 @@ def replay_problem(path: Path, state: dict[str, Any]) -> str | None:
 def read_replay_rows(path: Path, state: dict[str, Any]) -> dict[str, torch.Tensor]:
     """The first ``state["rows"]`` transitions of ``path`` as the tensors of a buffer state."""
     obs_dim, act_dim, rows = int(state["obs_dim"]), int(state["act_dim"]), int(state["rows"])
-    width = replay_row_width(obs_dim, act_dim)
+    width = _row_width(state)
     if (problem := replay_problem(path, state)) is not None:
         raise ValueError(problem)
     data = np.fromfile(path, dtype=np.float32, count=rows * width) if rows else np.zeros(0, np.float32)
     if data.size != rows * width:
         raise ValueError(f"{path}: holds {data.size // width} transitions, the checkpoint needs {rows}")
     data = data.reshape(rows, width)
-    cuts = np.cumsum([obs_dim, act_dim, 1, obs_dim])
-    obs, actions, rewards, next_obs, terminated = np.split(data, cuts, axis=1)
-    return {k: torch.from_numpy(np.ascontiguousarray(v)) for k, v in zip(
-        _BUFFER_KEYS, (obs, actions, rewards[:, 0], next_obs, terminated[:, 0]), strict=True)}
+    cuts = np.cumsum([obs_dim, act_dim, 1, obs_dim, 1])
+    obs, actions, rewards, next_obs, terminated, labels = np.split(data, cuts, axis=1)
+    columns = dict(zip(_BUFFER_KEYS, (obs, actions, rewards[:, 0], next_obs, terminated[:, 0]), strict=True))
+    if state.get("labelled"):
+        columns["labels"] = labels
+    return {k: torch.from_numpy(np.ascontiguousarray(v)) for k, v in columns.items()}
 
 
 class ReplayFile:
@@ -261,10 +270,10 @@ class ReplayFile:
         self.path = RunDir(run_dir).replay
         self.rows = int(rows)
 
-    def truncate(self, obs_dim: int, act_dim: int) -> None:
+    def truncate(self, obs_dim: int, act_dim: int, labelled: bool = False) -> None:
         """Cut the file to the checkpoint's rows (of a buffer of ``obs_dim`` observations and
-        ``act_dim`` actions)."""
-        width = replay_row_width(obs_dim, act_dim)
+        ``act_dim`` actions, ``labelled`` or not)."""
+        width = replay_row_width(obs_dim, act_dim, labelled)
         if self.path.exists():
             os.truncate(self.path, self.rows * width * 4)
         elif self.rows:
@@ -274,15 +283,19 @@ class ReplayFile:
         """Append the transitions added since the last call; returns the buffer's checkpoint entry
         (the whole buffer inline if it has wrapped around)."""
         meta = {k: getattr(buffer, k) for k in ("capacity", "obs_dim", "act_dim", "ptr", "size")}
+        labelled = buffer.labels is not None
+        if labelled:
+            meta["labelled"] = True
         if buffer.total_added != buffer.size:  # wrapped: rows were overwritten, store it whole
             return buffer.state_dict()
-        width = replay_row_width(buffer.obs_dim, buffer.act_dim)
+        width = replay_row_width(buffer.obs_dim, buffer.act_dim, labelled)
         if self.rows == 0:
             self.path.unlink(missing_ok=True)
         if buffer.size > self.rows:
             new = slice(self.rows, buffer.size)
-            rows = np.concatenate([buffer.obs[new], buffer.actions[new], buffer.rewards[new, None],
-                                   buffer.next_obs[new], buffer.terminated[new, None]], axis=1)
+            columns = [buffer.obs[new], buffer.actions[new], buffer.rewards[new, None],
+                       buffer.next_obs[new], buffer.terminated[new, None]]
+            rows = np.concatenate(columns + ([buffer.labels[new]] if labelled else []), axis=1)
             assert rows.shape[1] == width
             try:
                 with open(self.path, "ab") as f:

@@ -62,11 +62,13 @@ class GroupLoop:
         # are in lockstep: one value, kept in every seed's checkpoint)
         self.update_credit = self.lead.update_credit
         # a warm-up played by the case's yardstick (``yardstick_warmup``): one controller per
-        # sub-environment while the warm-up lasts, else None
+        # sub-environment while the warm-up and DAgger after it (``yardstick_dagger``) last, else None
         self.yardstick_fn = options.yardstick_fn
         self.yardsticks: list[Any] | None = None
-        if self.cfg.yardstick_warmup and self.lead.global_step < self.cfg.learning_starts:
+        if self.cfg.yardstick_warmup and self.lead.global_step < self.cfg.dagger_end:
             self.yardsticks = self._new_yardsticks()
+        # each transition's label for DAgger: the yardstick's command at its observation
+        self.labels = np.zeros_like(self.actions) if self.cfg.yardstick_dagger else None
 
     def _new_yardsticks(self) -> list[Any]:
         if self.yardstick_fn is None:
@@ -149,9 +151,11 @@ class GroupLoop:
     def act(self, obs: np.ndarray) -> np.ndarray:
         """Actions ``(K n, act_dim)`` in [-1, 1]: transition ``global_step + i`` of a seed is
         random during the warm-up (the yardstick's action plus noise with ``yardstick_warmup``),
-        then ``mu + noise``."""
+        then ``mu + noise``; with ``yardstick_dagger`` each one's label too (:meth:`label`)."""
         learner, cfg, n = self.learner, self.cfg, self.n
         n_random = int(np.clip(cfg.learning_starts - self.lead.global_step, 0, n))
+        if self.labels is not None:
+            self.label(obs, n_random)
         if n_random < n:
             mu = learner.select_actions(obs.reshape(self.k_seeds, n, self.obs_dim)[:, n_random:],
                                         explore=False).astype(np.float64)
@@ -159,6 +163,8 @@ class GroupLoop:
             if n_random and self.yardsticks is not None:  # one noise draw for every sub-env
                 noise = run.exploration(0, learner.rngs[k])
                 shown = [self.yardsticks[k * n + j].act(obs[k * n + j]) for j in range(n_random)]
+                if self.labels is not None:  # the warm-up's label: the yardstick's own command
+                    self.labels[k, :n_random] = shown
                 self.actions[k, :n_random] = np.clip(np.asarray(shown, dtype=np.float64)
                                                      + noise[:n_random], -1.0, 1.0)
                 if n_random < n:
@@ -173,6 +179,23 @@ class GroupLoop:
                 run.exploration(n, learner.rngs[k])
         return self.actions.reshape(self.k_seeds * n, self.act_dim)
 
+    def label(self, obs: np.ndarray, n_random: int) -> None:
+        """DAgger's labels of this vector step's transitions past the warm-up (``yardstick_dagger``):
+        the yardstick's command at each observation the actor meets
+        (:meth:`~elastica_magnetic_rl.envs.steering_yardstick.SteeringYardstick.label`) while DAgger
+        lasts, zeros after it (never drawn: the labels are read only during DAgger); the
+        yardsticks are let go once it ends."""
+        self.labels[:, n_random:] = 0.0
+        if self.yardsticks is None or n_random == self.n:
+            return
+        if self.lead.global_step >= self.cfg.dagger_end:
+            self.yardsticks = None
+            return
+        for k in range(self.k_seeds):
+            for j in range(n_random, self.n):
+                i = k * self.n + j
+                self.labels[k, j] = self.yardsticks[i].label(obs[i])
+
     def store(self, obs: np.ndarray, actions: np.ndarray, rewards: np.ndarray, next_obs: np.ndarray,
               terminated: np.ndarray, ended: np.ndarray, infos: dict[str, Any]) -> None:
         """Each seed's transitions into its buffer (the real s' of an ended episode is
@@ -186,7 +209,9 @@ class GroupLoop:
                 continue
             for j in range(n):
                 i = k * n + j
-                run.buffer.add(obs[i], actions[i], float(rewards[i]), real_next[i], bool(terminated[i]))
+                label = None if self.labels is None else self.labels[k, j]
+                run.buffer.add(obs[i], actions[i], float(rewards[i]), real_next[i], bool(terminated[i]),
+                               label)
             run.ep_return += rewards[self.sub(k)]
             run.ep_len += 1
             run.global_step += n
@@ -209,13 +234,34 @@ class GroupLoop:
         for run in self.runs:
             run.update_credit = self.update_credit
         held = self.warmup_batches if cfg.yardstick_regularization else None
+        dagger = cfg.yardstick_dagger > 0 and before < cfg.dagger_end  # this step's updates are DAgger's
         for _ in range(n_updates):
+            if dagger:
+                info = self.dagger_update()
+                continue
             info = learner.update([r.buffer.sample(cfg.batch_size, learner.rngs[k])
                                    for k, r in enumerate(runs)], warmup_batches=held)
             if learner.num_updates % cfg.log_every == 0:
                 for name, values in info.items():
                     for k, run in enumerate(runs):
                         run.writer.add_scalar(f"losses/{name}", float(values[k]), run.global_step)
+
+    def dagger_update(self) -> dict[str, Any]:
+        """One update of DAgger (``yardstick_dagger``), every seed at once: the critics learn the
+        actor's value (a TD3 update with the actor held), then the actor takes a clone step on a
+        minibatch of the whole buffer's labels (the yardstick's commands at the states met),
+        and the target actor is set to it. Returns the losses (``clone_loss`` besides the critics')."""
+        cfg, learner, runs = self.cfg, self.learner, self.runs
+        info = learner.update([r.buffer.sample(cfg.batch_size, learner.rngs[k]) for k, r in enumerate(runs)],
+                              train_actor=False)
+        info["clone_loss"] = learner.clone_step([r.buffer.sample_labels(cfg.batch_size, learner.rngs[k])
+                                                 for k, r in enumerate(runs)])
+        learner.hold_actor_targets()
+        if learner.num_updates % cfg.log_every == 0:
+            for name, values in info.items():
+                for k, run in enumerate(runs):
+                    run.writer.add_scalar(f"losses/{name}", float(values[k]), run.global_step)
+        return info
 
     def warmup_batches(self) -> list[Any]:
         """Each seed's minibatch of its warm-up's transitions (the first ``learning_starts`` of its
@@ -240,7 +286,8 @@ class GroupLoop:
         learner.hold_actor_targets()
         for _ in range(cfg.yardstick_warmup):
             info = learner.update(batches(), train_actor=False)
-        self.yardsticks = None
+        if not cfg.yardstick_dagger:  # DAgger's teacher stays
+            self.yardsticks = None
         for k, run in enumerate(runs):
             run.writer.add_scalar("pretrain/clone_loss", float(clone_loss[k]), run.global_step)
             run.writer.add_scalar("pretrain/critic_loss", float(info["critic_loss"][k]), run.global_step)

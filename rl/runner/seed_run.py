@@ -117,7 +117,8 @@ class SeedRun:
         ckpt = self.ckpt
         # the buffer holds every transition of the run (rounded up to whole vector steps)
         total = -(-self.steps // n_envs) * n_envs
-        self.buffer = ReplayBuffer(min(self.cfg.buffer_size, total), obs_dim, act_dim)
+        self.buffer = ReplayBuffer(min(self.cfg.buffer_size, total), obs_dim, act_dim,
+                                   labelled=self.cfg.yardstick_dagger > 0)
         self.global_step, self.episode, self.elapsed_before = 0, 0, 0.0
         self.replay = ReplayFile(self.run_dir)
         if ckpt is not None:
@@ -186,7 +187,7 @@ class SeedRun:
         if self.resumed_here:
             truncate_csv(csv_path, EPISODE_FIELDS,
                           lambda row: int(row["global_step"]) <= self.global_step)
-            self.replay.truncate(self.buffer.obs_dim, self.buffer.act_dim)
+            self.replay.truncate(self.buffer.obs_dim, self.buffer.act_dim, self.buffer.labels is not None)
         else:  # the stale logs of a start stopped before its first checkpoint: TensorBoard would
             # plot its curves with this run's as one seed
             csv_path.unlink(missing_ok=True)

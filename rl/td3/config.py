@@ -140,6 +140,17 @@ class Hyperparameters:
     the critics learn that actor's value (``U`` critic updates with the actor held): TD3 then
     improves a policy that already does what the yardstick does, instead of one from scratch (as
     Hester et al. 2018 and Nair et al. 2018 start from demonstrations)."""
+    yardstick_dagger: int = 0
+    """Environment steps of DAgger after the clone (0: none; needs :attr:`yardstick_warmup` and a
+    yardstick that labels an observation by itself, a tip-reach case's steering law). For these
+    steps the actor, plus the exploration noise, drives; the yardstick labels every observation
+    the actor meets with the command it would give there; and each actor update is a clone step
+    on labelled transitions of the whole buffer (the warm-up's labelled with the yardstick's
+    command before its noise), the critics learning as in TD3 meanwhile. Why: a clone trained on
+    the yardstick's states alone drifts where its own small errors take it, states the yardstick
+    never showed it (compounding errors); labels on the clone's own states teach it the way back
+    (DAgger: Ross, Gordon & Bagnell, AISTATS 2011). TD3 (with :attr:`yardstick_regularization`
+    if set) follows for the run's remaining steps."""
     yardstick_regularization: float = 0.0
     """Hold the actor near the yardstick's warm-up for the whole run (0: plain TD3 after the
     clone). With ``beta > 0`` (needs :attr:`yardstick_warmup`) every actor update also descends
@@ -228,7 +239,7 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
                              f"(updates per transition), got {ratio}")
         if float(ratio).is_integer():
             self.updates_per_step = int(ratio)
-        for name in ("learning_starts", "eval_every", "yardstick_warmup"):
+        for name in ("learning_starts", "eval_every", "yardstick_warmup", "yardstick_dagger"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         for name in ("exploration_noise", "policy_noise", "target_noise_clip", "noise_color",
@@ -261,6 +272,10 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
             raise ValueError(f"yardstick_regularization {self.yardstick_regularization:g} holds the actor "
                              "near the yardstick's warm-up: set yardstick_warmup too (e.g. 4000), or leave "
                              "it 0")
+        if self.yardstick_dagger and not self.yardstick_warmup:
+            raise ValueError(f"yardstick_dagger {self.yardstick_dagger} continues a clone of the yardstick's "
+                             "warm-up on the clone's own states: set yardstick_warmup too (e.g. 4000), or "
+                             "leave it 0")
         if self.yardstick_regularization > MAX_YARDSTICK_REGULARIZATION:
             raise ValueError(f"yardstick_regularization must be at most {MAX_YARDSTICK_REGULARIZATION:g} "
                              f"(TD3+BC's alpha = 2.5 is 0.4), got {self.yardstick_regularization:g}: the "
@@ -322,7 +337,8 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
         # a setting whose rule involves another is checked beside a partner that satisfies it (the
         # rule itself is checked where the whole config is built)
         partner: dict[str, Any] = {"batch_size": {"buffer_size": value},
-                                   "yardstick_regularization": {"yardstick_warmup": 1}}.get(key, {})
+                                   "yardstick_regularization": {"yardstick_warmup": 1},
+                                   "yardstick_dagger": {"yardstick_warmup": 1}}.get(key, {})
         if key == "buffer_size":  # the run's minibatch (recipe, spec or --set) is judged with it later
             partner = {"batch_size": max(1, min(value, cls().batch_size))}
         try:
@@ -330,6 +346,12 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
         except ValueError as exc:
             raise ValueError(f"{key}={text}: {exc}") from None
         return value
+
+    @property
+    def dagger_end(self) -> int:
+        """The environment step at which :attr:`yardstick_dagger` ends (``learning_starts``
+        without it): before it, past the warm-up, the actor learns by DAgger."""
+        return self.learning_starts + self.yardstick_dagger
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> TD3Config:

@@ -26,9 +26,13 @@ class ReplayBuffer:
 
     It stores ``terminated`` (a true terminal state) rather than ``done``: transitions cut by a time
     limit are stored with ``terminated=0`` and so bootstrap from ``next_obs``.
+
+    A ``labelled`` buffer also stores, per transition, a teacher's action at ``obs`` (``labels``,
+    normalised as the actions): what :meth:`sample_labels` draws for DAgger
+    (:attr:`~elastica_magnetic_rl.td3.config.TD3Config.yardstick_dagger`).
     """
 
-    def __init__(self, capacity: int, obs_dim: int, act_dim: int) -> None:
+    def __init__(self, capacity: int, obs_dim: int, act_dim: int, labelled: bool = False) -> None:
         if capacity < 1:
             raise ValueError(f"capacity must be >= 1, got {capacity}")
         self.capacity = int(capacity)
@@ -39,6 +43,7 @@ class ReplayBuffer:
         self.actions = np.zeros((self.capacity, self.act_dim), dtype=np.float32)
         self.rewards = np.zeros(self.capacity, dtype=np.float32)
         self.terminated = np.zeros(self.capacity, dtype=np.float32)
+        self.labels = np.zeros((self.capacity, self.act_dim), dtype=np.float32) if labelled else None
         self.ptr = 0  # next slot to write
         self.size = 0  # number of valid transitions
         self.total_added = 0  # transitions ever added (> size once the ring has wrapped)
@@ -53,9 +58,15 @@ class ReplayBuffer:
         reward: float,
         next_obs: np.ndarray,
         terminated: bool,
+        label: np.ndarray | None = None,
     ) -> None:
-        """Store one transition, overwriting the oldest when full."""
+        """Store one transition, overwriting the oldest when full (a labelled buffer needs its
+        ``label``, ``(act_dim,)``)."""
         i = self.ptr
+        if self.labels is not None:
+            if label is None:
+                raise ValueError("a labelled replay buffer needs each transition's label")
+            self.labels[i] = label
         self.obs[i] = obs
         self.actions[i] = action
         self.rewards[i] = reward
@@ -87,16 +98,31 @@ class ReplayBuffer:
             self.terminated[idx],
         )
 
+    def sample_labels(self, batch_size: int, rng: np.random.Generator) -> Batch:
+        """Uniformly sample ``batch_size`` transitions (with replacement) of a labelled buffer as a
+        :class:`Batch` whose ``actions`` are the labels (the teacher's, for a clone step)."""
+        if self.labels is None:
+            raise ValueError("the replay buffer holds no labels (labelled=False)")
+        if self.size == 0:
+            raise ValueError("cannot sample from an empty replay buffer")
+        idx = rng.integers(0, self.size, size=batch_size)
+        return Batch(self.obs[idx], self.labels[idx], self.rewards[idx], self.next_obs[idx],
+                     self.terminated[idx])
+
+    def _keys(self) -> tuple[str, ...]:
+        """The arrays a checkpoint holds."""
+        keys = ("obs", "actions", "rewards", "next_obs", "terminated")
+        return keys if self.labels is None else (*keys, "labels")
+
     def _chronological(self) -> dict[str, np.ndarray]:
         """Valid contents, oldest first."""
         start = self.ptr if self.size == self.capacity else 0
         order = (start + np.arange(self.size)) % self.capacity
-        return {k: getattr(self, k)[order] for k in ("obs", "actions", "rewards", "next_obs",
-                                                     "terminated")}
+        return {k: getattr(self, k)[order] for k in self._keys()}
 
     def state_dict(self) -> dict[str, Any]:
         """Contents as torch tensors (only the ``size`` valid rows) plus pointer and size."""
-        keys = ("obs", "actions", "rewards", "next_obs", "terminated")
+        keys = self._keys()
         return {
             "capacity": self.capacity,
             "obs_dim": self.obs_dim,
@@ -113,7 +139,10 @@ class ReplayBuffer:
         """
         if state["obs_dim"] != self.obs_dim or state["act_dim"] != self.act_dim:
             raise ValueError("replay buffer dimensions do not match the checkpoint")
-        keys = ("obs", "actions", "rewards", "next_obs", "terminated")
+        if self.labels is not None and "labels" not in state:
+            raise ValueError("the checkpoint's replay buffer holds no labels: it was not written by a "
+                             "run with yardstick_dagger")
+        keys = self._keys()
         data = {k: state[k].numpy() for k in keys}
         size = int(state["size"])
         if state["capacity"] == self.capacity:

@@ -66,3 +66,26 @@ def test_its_state_round_trips_inside_an_episode():
     assert np.array_equal(first.act(obs[0]), second.act(obs[0]))
     first.reset()
     assert first.state() is None
+
+
+@pytest.mark.parametrize("name", ["catheter-magnet-reach", "catheter-coils-reach"])
+def test_its_label_reads_the_observed_field_where_the_case_observes_one(name):
+    """DAgger's teacher (``label``): where the observation shows the field at the tip (the coils'
+    ``tip_field``) the label is a function of the observation alone, whatever the controller met
+    before; elsewhere (the magnet arm) it is the law's own command, which remembers its direction."""
+    case = load_case(name)
+    env = make_catheter_env(case, 2, "training")
+    obs, _ = env.reset(seed=0, options={"target": held_out_targets(case, 2)})
+    act = steering_controller(env)
+    for _ in range(15):  # the catheters under way: a field at the tip
+        obs, *_ = env.step(act(env, obs))
+    fresh, travelled = SteeringYardstick(case), SteeringYardstick(case)
+    for o in (obs[1], obs[1], obs[0]):  # another history: the other catheter's observation
+        travelled.act(o)
+    first, second = fresh.label(obs[0]), travelled.label(obs[0])
+    if "tip_field" in fresh.layout:
+        np.testing.assert_array_equal(first, second)
+        field = obs[0][fresh.layout["tip_field"]].astype(np.float64)
+        assert fresh.law.field_direction @ (field / np.linalg.norm(field)) > 0.99  # turned from it
+    else:
+        assert float(np.abs(first - second).max()) > 1e-3  # each its own remembered direction
