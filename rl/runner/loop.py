@@ -224,11 +224,12 @@ def _check_yardstick(runs: list[SeedRun], yardstick_fn: Callable[[], Any] | None
         raise ValueError(f"yardstick_regularization {cfg.yardstick_regularization:g} holds the actor near "
                          f"the warm-up's transitions for the whole run: buffer_size ({cfg.buffer_size}) must "
                          f"hold the run's {short[0].steps} steps, or the ring overwrites them")
-    if not cfg.yardstick_warmup or runs[0].global_step >= cfg.learning_starts:
+    if not cfg.yardstick_warmup or runs[0].global_step >= cfg.dagger_end:
         return
     if yardstick_fn is None:
         raise ValueError(f"yardstick_warmup {cfg.yardstick_warmup}: the warm-up is played by the "
-                         "case's yardstick, and none was given (yardstick_fn)")
+                         "case's yardstick, and none was given (yardstick_fn)"
+                         + (" (DAgger's labels too)" if cfg.yardstick_dagger else ""))
     probe = yardstick_fn()
     if (probe.obs_dim, probe.act_dim) != (obs_dim, act_dim):
         raise ValueError(f"the yardstick reads {probe.obs_dim} observation entries and writes "

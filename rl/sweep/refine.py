@@ -178,7 +178,8 @@ def _refinement_config(ckpt: dict[str, Any], device: str | None, source: str | P
     on a GPU, refined on a machine without one); checkpoints at least every
     :data:`REFINE_CHECKPOINT_STEPS` of ``physics`` (the run's own interval, 10000 steps, is
     minutes to hours of refinement: an interrupted refinement resumes instead of starting over);
-    without ``yardstick_regularization`` (a refinement plays no warm-up to hold its actor to)."""
+    without ``yardstick_regularization`` (a refinement plays no warm-up to hold its actor to) and
+    without ``yardstick_dagger`` (nor a yardstick to label its states)."""
     from ..td3.config import TD3Config
     from ..td3.devices import device_problem
 
@@ -186,6 +187,7 @@ def _refinement_config(ckpt: dict[str, Any], device: str | None, source: str | P
     config.checkpoint_every = min(config.checkpoint_every, REFINE_CHECKPOINT_STEPS[physics])
     # a refinement has no warm-up of its own (its buffer starts empty): nothing to hold the actor to
     config.yardstick_regularization = 0.0
+    config.yardstick_dagger = 0
     if device is not None:
         config.device = device
     problem = device_problem(config.device)
