@@ -80,6 +80,7 @@ from .spatial_fields import is_spatial
 
 __all__ = ["BatchedPhysicsNotSupportedError", "BatchedRobots", "BatchedRobotSimulator",
            "BatchedSimulationDivergedError", "SpatialFieldNotSupportedError", "batched_refusal",
+           "BATCHED_UNMODELLED_KEYS",
            "batched_unsupported"]
 
 
@@ -99,27 +100,37 @@ class BatchedPhysicsNotSupportedError(ValueError):
     without a word. :func:`batched_unsupported` lists them for a check before any work."""
 
 
+#: The spec keys (dotted, and the keys under them) whose physics the batched simulator does not
+#: model (:func:`batched_unsupported` says which a spec sets), with what each is.
+BATCHED_UNMODELLED_KEYS = {
+    "robot.interaction": "the magnetic interaction between the robot's own elements and its contact "
+                         "with itself",
+    "robot.damping.kelvin_voigt": "the Kelvin-Voigt internal viscosity",
+}
+
+
 def batched_unsupported(spec: RobotSpec) -> list[str]:
     """What of ``spec`` the batched simulator does not model, each as the spec's key and what it
     is (empty: all of it is modelled). The single-robot simulator
     (:func:`~elastica_magnetic.build_simulation`) models them all."""
     missing = []
     if spec.interaction is not None:
-        missing.append("[robot.interaction] (the magnetic interaction between the robot's own elements "
-                       "and its contact with itself)")
+        missing.append(f"[robot.interaction] ({BATCHED_UNMODELLED_KEYS['robot.interaction']})")
     if spec.damping is not None and spec.damping.kelvin_voigt > 0.0:  # None: no damping at all
-        missing.append(f"[robot.damping] kelvin_voigt = {spec.damping.kelvin_voigt:g} Pa s (the "
-                       "Kelvin-Voigt internal viscosity)")
+        missing.append(f"[robot.damping] kelvin_voigt = {spec.damping.kelvin_voigt:g} Pa s "
+                       f"({BATCHED_UNMODELLED_KEYS['robot.damping.kelvin_voigt']})")
     return missing
 
 
-def batched_refusal(spec: RobotSpec, who: str = "the batched simulator") -> str | None:
-    """The message refusing ``spec`` in ``who`` (a command that runs the batched simulator), or
-    ``None`` when it models all of the spec."""
+def batched_refusal(spec: RobotSpec, who: str | None = None) -> str | None:
+    """The message refusing ``spec`` in ``who`` (a command that runs the batched simulator; the
+    simulator itself when ``None``), or ``None`` when it models all of the spec."""
     missing = batched_unsupported(spec)
     if not missing:
         return None
-    return (f"{who} runs many robots in one batched simulator, which does not model {' and '.join(missing)}: "
+    subject = (f"{who} runs many robots in one batched simulator, which" if who
+               else "the batched simulator (many robots in one simulation)")
+    return (f"{subject} does not model {' and '.join(missing)}: "
             "a result there would silently leave it out. Leave it out of the spec for this command, or "
             "simulate the robot with it alone (msr field simulate, build_simulation)")
 

@@ -29,6 +29,11 @@ __all__ = ["MagneticInteraction", "MU0"]
 MU0 = 4e-7 * np.pi
 
 
+#: The default cutoff of the interaction, in the rod's radii: pairs nearer than this along the rod
+#: are left to the material's measured elasticity (nearer, point dipoles are a poor model and stiff).
+DEFAULT_CUTOFF_RADII = 4.0
+
+
 class MagneticInteraction(NoForces):
     """Forces and torques that the magnetized elements of a rod exert on each other.
 
@@ -121,7 +126,8 @@ class MagneticInteraction(NoForces):
         n_elements = system.n_elems
         magnetization = material_magnetization(self.magnetization, self.frame, system)
         rest_lengths = np.asarray(system.rest_lengths, dtype=np.float64)
-        cutoff = 4.0 * float(np.max(system.radius)) if self.cutoff is None else float(self.cutoff)
+        cutoff = (DEFAULT_CUTOFF_RADII * float(np.max(system.radius)) if self.cutoff is None
+                  else float(self.cutoff))
         # Rest arclength of the element centres; partner j of i interacts when s_j - s_i >= cutoff.
         centres = np.cumsum(rest_lengths) - 0.5 * rest_lengths
         first = np.searchsorted(centres, centres + cutoff * (1.0 - 1e-12), side="left")

@@ -311,6 +311,7 @@ class FolderLock:
 
     def _acquire_flock(self) -> int:
         for _ in range(100):
+            created = not os.path.lexists(self.path)  # a lock file made here goes again on a failure
             fd = os.open(self.path, os.O_RDWR | os.O_CREAT | _NO_FOLLOW | _NO_BLOCK, 0o644)
             try:
                 self._refuse_odd_file(os.fstat(fd).st_mode)
@@ -350,6 +351,9 @@ class FolderLock:
                 os.ftruncate(fd, 0)
                 os.pwrite(fd, content, 0)
             except BaseException:
+                if created:  # e.g. a full disk: no empty lock file is left beside the user's files
+                    with contextlib.suppress(OSError):
+                        os.unlink(self.path)
                 os.close(fd)
                 raise
             return fd

@@ -69,24 +69,29 @@ def inside_building(target: Path) -> bool:
     return any(str(folder) in _building for folder in (real, *real.parents))
 
 
-def check_output_path(final: Path, option: str) -> None:
+#: ``subject`` of :func:`check_output_path` when the writer does not say what its result is about.
+UNSAID = "<unsaid>"
+
+
+def check_output_path(final: Path, option: str, subject: str | None = UNSAID) -> None:
     """Refuse (:class:`~elastica_magnetic.io.OutputPathError`, naming ``option``) a path that is no
     place for a result: an odd spelling (:func:`~elastica_magnetic.io.output_path_problem`), a path
-    through a file, or a place inside another result (:func:`check_enclosing`)."""
+    through a file, or a place inside another result (:func:`check_enclosing`; ``subject``, what
+    the result is about, e.g. ``"case m1-4mT"``, ``None`` for nothing said)."""
     if (problem := output_path_problem(final)) is not None:
         raise OutputPathError(f"{option} {display_path(final)}: {problem}")
     for parent in (final, *final.parents):
         if parent.exists() and not parent.is_dir():
             raise OutputPathError(f"{option} {display_path(final)}: {display_path(parent)} is a "
                                   "file, not a folder")
-    check_enclosing(final, option)
+    check_enclosing(final, option, subject)
 
 
-def check_enclosing(final: Path, option: str) -> None:
+def check_enclosing(final: Path, option: str, subject: str | None = UNSAID) -> None:
     """Refuse a folder or file inside another command's result (replaced whole, it would take this one
     with it, or be left mixed) or inside a folder another process is writing: a result of its own
     goes beside them. A folder this process writes (``msr loop``'s steps, a result it builds) may
-    hold results."""
+    hold results. ``subject``: what the result is about (:func:`held_refusal`)."""
     for parent in final.parents:
         if held_here(parent) or inside_building(parent):
             return
@@ -98,7 +103,7 @@ def check_enclosing(final: Path, option: str) -> None:
             raise OutputPathError(f"{option} {display_path(final)}: lies in {display_path(parent)}, which "
                                   f"holds {describe_result(marker)}: a result is replaced whole, so "
                                   f"nothing goes inside another; choose another {option}")
-        if (refusal := held_refusal(parent, final, option)) is not None:
+        if (refusal := held_refusal(parent, final, option, subject)) is not None:
             raise OutputPathError(refusal)
         if (run := training_run_in(parent, final)) is not None:
             raise OutputPathError(f"{option} {display_path(final)}: lies in {display_path(parent)}, which "
@@ -107,13 +112,23 @@ def check_enclosing(final: Path, option: str) -> None:
                                   f"there); choose another {option}")
 
 
-def held_refusal(parent: Path, final: Path, option: str) -> str | None:
+def held_refusal(parent: Path, final: Path, option: str, subject: str | None = UNSAID) -> str | None:
     """Why ``final`` may not lie in ``parent`` when a result holds ``parent`` whole (a shipped
     policy: :func:`~elastica_magnetic.result_markers.manifest_holder`), outside the subfolders
-    it keeps for other results (its ``seeds/``); ``None`` when it may."""
+    it keeps for other results (its ``seeds/``), or inside them as a result of no case (a
+    ``subject`` said, not ``"case ..."``: a robot's simulation, a validation report, a firmware
+    export, which are no results of the policy's case); ``None`` when it may."""
     held = manifest_holder(parent)
-    if held is None or final.relative_to(parent).parts[0] in manifest_results_in(parent):
+    if held is None:
         return None
+    if final.relative_to(parent).parts[0] in manifest_results_in(parent):
+        if subject == UNSAID or (subject is not None and subject.startswith("case ")):
+            return None  # a case's result: the writer checks that it is the policy's case
+        about = f"of {subject}" if subject else "of no case"
+        return (f"{option} {display_path(final)}: lies in {display_path(parent)}, which holds {held}, "
+                f"whose {final.relative_to(parent).parts[0]}/ holds its own case's results (seed "
+                f"campaigns, runs of its case), and this result is {about}: it goes beside the policy; "
+                f"choose another {option}")
     places = " or ".join(f"{display_path(parent / p)}/" for p in manifest_results_in(parent))
     return (f"{option} {display_path(final)}: lies in {display_path(parent)}, which holds {held}, whose "
             f"folder holds its files alone: a result goes beside it{f' (or in {places})' if places else ''}; "

@@ -186,7 +186,7 @@ def check_result_folder(
     error raised here, or of the next :func:`result_folder` on ``out`` in this process.
     """
     final = normalized_path(out)
-    check_output_path(final, option)
+    check_output_path(final, option, subject)
     target = swap_target(final, option)
     check_creatable(target, option)
     claimed = target.parent.is_dir()  # no lock file in a folder this check would have to create
@@ -505,7 +505,7 @@ def result_folder(
     final = normalized_path(out)
     shown = display_path(final)
     known = tuple(known_files)
-    check_output_path(final, option)
+    check_output_path(final, option, subject)
     target = swap_target(final, option)
     try:
         target.parent.mkdir(parents=True, exist_ok=True)

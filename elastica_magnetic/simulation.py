@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from .forcing import LegacyInternalDamping, MagneticTorques, RelativeVelocityDamping
 from .ground import FrictionalGroundContact
 from .insertion import Advancer, InsertionClamp
-from .interaction import MagneticInteraction
+from .interaction import DEFAULT_CUTOFF_RADII, MagneticInteraction
 from .robot_spec import RobotSpec
 from .section import rectangular_band_rod
 from .spatial_fields import is_spatial
@@ -142,7 +142,8 @@ class RobotSimulation:
         )
         raise SimulationDivergedError(
             f"simulation diverged at t = {self.time:.6f} s: {what} at node {node} "
-            f"(element {element}); reduce dt (now {self.spec.dt:g}) or check the parameters",
+            f"(element {element}){_cutoff_hint(self.spec)}; reduce dt (now {self.spec.dt:g}) or check "
+            "the parameters",
             time=self.time,
             element=element,
         )
@@ -150,6 +151,18 @@ class RobotSimulation:
     def markers(self) -> dict[str, float]:
         """One trajectory row (see :data:`TRAJECTORY_COLUMNS`) of the current state."""
         return trajectory_row(self.rod, self.time)
+
+
+def _cutoff_hint(spec: RobotSpec) -> str:
+    """What a divergence may owe to the spec's interaction: a cutoff below the default (four
+    radii) lets near pairs interact as point dipoles, far stiffer than the rod ("" otherwise)."""
+    cutoff = None if spec.interaction is None else spec.interaction.cutoff
+    default = DEFAULT_CUTOFF_RADII * spec.radius
+    if cutoff is None or cutoff >= default:
+        return ""
+    return (f"; the spec's [robot.interaction] cutoff, {cutoff:g} m, is below the default four radii "
+            f"({default:.3g} m): pairs that near interact as point dipoles, stiffer than the rod itself: "
+            "raise it or leave it out")
 
 
 def trajectory_row(rod: ea.CosseratRod, time: float) -> dict[str, float]:

@@ -243,7 +243,7 @@ def _robot_table(t: SpecTable) -> dict[str, Any]:
         out["damping"] = _damping_table(damping, out["n_elements"])
     interaction = t.table("interaction", required=False)
     if interaction is not None:
-        out["interaction"] = _interaction_table(interaction, out["length"])
+        out["interaction"] = _interaction_table(interaction, out["length"], out["n_elements"])
     t.finish()
     return out
 
@@ -329,9 +329,10 @@ def _damping_table(damping: SpecTable, n_elements: int) -> dict[str, Any]:
     return out
 
 
-def _interaction_table(interaction: SpecTable, length: float) -> dict[str, Any]:
+def _interaction_table(interaction: SpecTable, length: float, n_elements: int) -> dict[str, Any]:
     """``[robot.interaction]``: the magnetic interaction's cutoff and source, self-contact
-    (``length``: the rod's, m; a cutoff at or beyond it leaves no pair to interact)."""
+    (``length``: the rod's, m; a cutoff at or beyond it leaves no pair to interact, one at or below
+    an element's length lets neighbours interact as point dipoles)."""
     out: dict[str, Any] = {}
     interaction.takes("cutoff")
     if interaction.has("cutoff"):  # absent: four radii (see InteractionSpec)
@@ -344,6 +345,13 @@ def _interaction_table(interaction: SpecTable, length: float) -> dict[str, Any]:
                                     "interact, so no pair would and the interaction the table asks for "
                                     f"would be off (millimetres written as metres?{mm}); leave cutoff out "
                                     "for four radii")
+        element = length / n_elements
+        if out["cutoff"] <= element * (1.0 + 1e-9):
+            raise interaction.error("cutoff", f"{out['cutoff']:g} m is at or below one element's length "
+                                    f"({element:g} m): neighbouring elements would interact as point "
+                                    "dipoles one element apart, which the continuum is not (the sum grows "
+                                    "without bound as the rod is refined) and which no time step follows "
+                                    "(the run turns to NaN at once); leave cutoff out for four radii")
     out.update(
         band_source=interaction.boolean("band_source", True),
         self_contact_stiffness=interaction.number("self_contact_stiffness", "N/m", 0.0, low=0.0),

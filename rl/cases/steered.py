@@ -14,7 +14,7 @@ import numpy as np
 
 from elastica_magnetic import Advancer
 from elastica_magnetic.robot_spec import ACTION_PERIOD
-from elastica_magnetic.specfile import SpecTable
+from elastica_magnetic.specfile import SpecError, SpecTable
 
 __all__ = ["ACTUATION_KINDS", "MAX_REACH", "MAX_SPEED", "NotFieldActuatedError", "SteeringActuation",
            "check_steered_reach", "control_rate_from_table", "field_only_refusal", "insertion_from_table",
@@ -177,6 +177,12 @@ def check_steered_reach(t: SpecTable, actuation: SteeringActuation, robot: Any, 
     :data:`SLOW_SLEW_FRACTION` of the episode to reach its limit."""
     from elastica_magnetic.spec_check import magnetic_bending_number
 
+    clearance = getattr(actuation, "min_clearance", None)
+    if clearance is not None and clearance <= robot.radius:  # a magnet arm's magnet inside the rod
+        raise SpecError(f"{t.source}: [robot] radius: the rod's radius, {1e3 * robot.radius:.3g} mm, reaches "
+                        f"the [actuation] min_clearance of {1e3 * clearance:g} mm from its axis: the magnet "
+                        "would come inside the rod; a catheter is a millimetre or two thick (mm or cm "
+                        "written as m?), or give a larger min_clearance")
     low, high = (np.asarray(row, dtype=np.float64) for row in box)
     aside = math.hypot(max(abs(low[1]), abs(high[1])), max(abs(low[2]), abs(high[2])))
     field = actuation.reach_field(robot.length)

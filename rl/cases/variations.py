@@ -410,12 +410,21 @@ def _has_key(spec: Mapping[str, Any], key: str) -> bool:
 
 
 def resolve_variations(variations: Sequence[Variation], spec: Mapping[str, Any],
-                       option: str = "--vary") -> list[Variation]:
+                       option: str = "--vary",
+                       unmodelled: Mapping[str, str] | None = None) -> list[Variation]:
     """Check ``variations`` against a complete spec and return them with the keys they stand
     for in it: a group's keys in this spec (:func:`group_keys`), a key the user's spec writes
     in the keys of its complete form; every key variable, no key varied twice, a relative
-    variation's nominal value not 0, a table varied only by a factor. Errors name ``option``."""
-    valid = variable_keys(spec)
+    variation's nominal value not 0, a table varied only by a factor. ``unmodelled``: keys (and
+    the keys under them) the study's simulator leaves out -> why, neither offered nor accepted.
+    Errors name ``option``."""
+    unmodelled = dict(unmodelled or {})
+
+    def left_out(key: str) -> str | None:
+        return next((why for prefix, why in unmodelled.items()
+                     if key == prefix or key.startswith(f"{prefix}.")), None)
+
+    valid = [key for key in variable_keys(spec) if left_out(key) is None]
     seen: dict[str, str] = {}
     resolved = []
     for variation in variations:
@@ -426,6 +435,9 @@ def resolve_variations(variations: Sequence[Variation], spec: Mapping[str, Any],
                 raise VariationError(f"{where}: this spec has none of the group's keys "
                                      f"({', '.join(GROUPS[variation.name])})")
         else:
+            for key in variation.keys:
+                if (why := left_out(key)) is not None:
+                    raise VariationError(f"{where}: {key}: {why}; leave it out of {option}")
             keys = tuple(k for key in variation.keys for k in _expand_key(key, spec, valid, where))
         for key in keys:
             if key in seen:

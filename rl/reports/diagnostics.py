@@ -225,6 +225,13 @@ def _no_complete_return(run: str | os.PathLike, complete: np.ndarray, start: int
                 f"{gamma:g}: gamma^H < 0.01); give --recent {needed} or more")
     where = f"the discount horizon of {_steps(horizon)} (gamma {gamma:g}: gamma^H < 0.01)"
     duration = meta.get("episode_duration_s")
+    if isinstance(duration, (int, float)) and duration / ACTION_PERIOD >= horizon and total >= horizon:
+        # steps enough, in pieces: a run resumed after it ended starts new episodes there
+        return (f"{run}: none of its {total} transitions has a complete discounted return: its longest "
+                f"stretch of one episode is {_steps(longest)}, shorter than {where} (its episodes last "
+                f"up to {duration:g} s, but those stored were cut short: ended early, or cut where the run "
+                "was resumed after it had ended, which starts new episodes); train it on (msr train "
+                f"--resume with at least {int(horizon)} more --steps) to compare the critic with returns")
     if isinstance(duration, (int, float)) and duration / ACTION_PERIOD >= horizon:
         # the run's episodes are long enough: it is the run that is young
         return (f"{run}: none of its {total} transitions has a complete discounted return: the run has "

@@ -102,15 +102,26 @@ def _training_section(info: dict[str, Any], summary: dict[str, Any] | None, case
         + ("; the best of the evaluations during training" if tr.get("best_evaluation") else "")
         + ")",
     ]
-    if summary and summary.get("success_threshold_return") is not None:
-        lines.append(
-            f"- seeds that succeeded: {summary.get('succeeded')} of {len(summary.get('seeds', []))} "
-            f"(final mean episode return >= {summary['success_threshold_return']:.0f}, "
-            "half the yardstick's distance rate)"
-        )
-    elif not summary:
+    counted = _seed_count(summary, info)
+    if counted is None:
         lines.append("- seeds that succeeded: unknown (no summary.json found next to the run)")
+    elif counted[2] is not None:
+        lines.append(f"- seeds that succeeded: {counted[0]} of {counted[1]} (final mean episode return >= "
+                     f"{counted[2]:.0f}, half the yardstick's distance rate)")
     return lines
+
+
+def _seed_count(summary: dict[str, Any] | None, info: dict[str, Any]) -> tuple[Any, int, Any] | None:
+    """``(succeeded, total, threshold return)`` of the run's seeds: from the case's ``summary``,
+    else as ``policy.json`` recorded them when the policy was shipped (a card written again from
+    it); ``None`` when neither says."""
+    if summary:
+        return (summary.get("succeeded"), len(summary.get("seeds", [])),
+                summary.get("success_threshold_return"))
+    seeds = info.get("seeds") or {}
+    if seeds.get("total"):
+        return seeds.get("succeeded"), int(seeds["total"]), seeds.get("success_threshold_return")
+    return None
 
 
 def _seeds_section(info: dict[str, Any], case: Case) -> list[str]:

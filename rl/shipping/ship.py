@@ -470,28 +470,29 @@ def set_notes(policy: str | Path, notes: str | None,
         raise ValueError(f"{policy}: notes belong to a shipped policy (a folder with policy.json), "
                          "not to a run or checkpoint")
     folder = resolved.source
-    _check_card_recorded(folder, option="policy", again="set the notes again (they go into policy.json, "
-                                                        "from which msr policy ship writes a new card)")
+    _check_card_recorded(folder, option="policy", again="set the notes again: they go into policy.json, "
+                                                        "from which msr policy notes then writes a new card")
     unrecorded = not recorded_files(folder)  # a policy copied without its record: its files adopted
     notes = notes.strip() if notes and notes.strip() else None
     info = json.loads((folder / POLICY_JSON).read_text()) | {"notes": notes}
     card_path = folder / "MODEL_CARD.md"
-    card = None
-    if card_path.is_file():
+    anew = not card_path.is_file()
+    if not anew:
         card = replace_card_section(card_path.read_text(), NOTES_SECTION, notes,
                                     before="## Limitations")
-    names = [POLICY_JSON, *(["MODEL_CARD.md"] if card is not None else [])]
+    else:  # moved away or lost: a new one from policy.json, as ship writes it
+        card = _ship_card(info, None, resolved.case, folder)
+    names = [POLICY_JSON, "MODEL_CARD.md"]
     with replace_files(folder, names, force=True, option="policy", adopt=True,
                        force_option="msr policy notes", holder=policy_holder(resolved.case.name),
                        results_in=(SEEDS_FOLDER,)) as files:
         atomic_write_json(files.path / POLICY_JSON, info)
-        if card is not None:
-            atomic_write_text(files.path / "MODEL_CARD.md", card)
+        atomic_write_text(files.path / "MODEL_CARD.md", card)
     if unrecorded:  # the record now names the policy's other files too, as ship's would
         with FolderLock(folder, option="policy"):
             record_files(folder, [f for f in SHIPPED_FILES if f not in names and (folder / f).is_file()])
     return {"name": info.get("name", folder.name), "dir": str(folder), "notes": notes,
-            "card_updated": card is not None}
+            "card_updated": True, "card_written_anew": anew}
 
 
 def _portable_source(path: Path, case: str) -> str:

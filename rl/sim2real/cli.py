@@ -276,6 +276,29 @@ def identify_command(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_files_in_order(drive_csv: Path, trajectory_csv: Path) -> None:
+    """A catheter's two files given the wrong way round (the tip path first, or the recorded drive
+    second) refused by name (:class:`CommandError`), before the tip path is read as a field CSV."""
+    from .coil_path import is_coil_path
+    from .identify import STEERED_BY
+    from .magnet_path import is_magnet_path
+    from .recorded_paths import header_names
+    from .tracking import TIP_COLUMNS
+
+    drive = ("coil-currents" if is_coil_path(trajectory_csv) else
+             "magnet-pose" if is_magnet_path(trajectory_csv) else None)
+    tip_first = TIP_COLUMNS[0] in header_names(drive_csv)
+    if drive is None and not tip_first:
+        return
+    drives = (f"{STEERED_BY['magnet-pose'][2]} or {STEERED_BY['coil-currents'][2]}" if drive is None
+              else STEERED_BY[drive][2])
+    raise CommandError(f"{drive_csv}, {trajectory_csv}: the two files are the wrong way round"
+                       + (f" ({drive_csv} is a catheter's tip path, {', '.join(TIP_COLUMNS)}, the motion "
+                          "measured)" if tip_first else "")
+                       + f": first what played the motion, {drives}, then the tip path "
+                       f"(t_s, {', '.join(TIP_COLUMNS)}); swap them")
+
+
 def _drive_and_measured(drive_csv: Path, trajectory_csv: Path, robot: str):
     """What played the motion (a waveform, with the ``robot`` spec file's field in space and clamp;
     a magnet arm's path; or the coils' currents: told by the file's header), the measured motion,
@@ -295,6 +318,7 @@ def _drive_and_measured(drive_csv: Path, trajectory_csv: Path, robot: str):
     elif is_coil_path(drive_csv):
         drive, steered_by = CoilDrive(read_coil_path(drive_csv)), "coil-currents"
     else:  # a coil's field, as msr field replay
+        _check_files_in_order(drive_csv, trajectory_csv)
         drive = FieldDrive(read_field_csv(drive_csv, plausible=True),
                            load_field(robot) if Path(robot).suffix == ".toml" else None)
         steered_by = None

@@ -25,6 +25,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from elastica_magnetic.batch import BATCHED_UNMODELLED_KEYS
+
 from ..cases.case import Case, case_from_dict
 from ..cases.variations import (
     Variant,
@@ -82,7 +84,11 @@ def plan_tip_robustness(source: str, policy: LoadedPolicy, variations: Sequence[
                          f"({episode:g} s), which ends every run; give at most {episode:g} s, or leave "
                          "--duration out (the episode)")
     spec = the_case.to_dict()
-    chosen = resolve_variations(list(variations) if variations else default_variations(spec), spec)
+    # every target's catheter in one batched simulator: what it leaves out cannot be studied
+    unmodelled = {key: f"a catheter's study steers every target in one batched simulator, which does "
+                       f"not model it ({what})" for key, what in BATCHED_UNMODELLED_KEYS.items()}
+    chosen = resolve_variations(list(variations) if variations else default_variations(spec), spec,
+                                unmodelled=unmodelled)
     variants = design(chosen, spec, one_at_a_time=one_at_a_time, corners=corners, samples=samples,
                       seed=seed)
     specs = []

@@ -13,6 +13,7 @@ and the final checkpoint, which every run makes.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -109,10 +110,13 @@ def check_run_learns(config: TD3Config, steps: int, sources: SettingSources) -> 
 
 
 def check_stop_rule_decides(rule: StopRule | None, config: TD3Config, steps: int, envs: int,
-                            sources: SettingSources) -> None:
+                            sources: SettingSources, episode_duration: float | None = None) -> None:
     """Refuse (``ValueError``) a stop rule that a new run of ``steps`` steps per seed (``envs``
     crawlers each) cannot fire: its evaluations (at the first episode end after each multiple of
-    ``eval_every`` steps, and at the end of the run) are fewer than the rule needs to decide."""
+    ``eval_every`` steps, and at the end of the run) are fewer than the rule needs to decide. With
+    episodes of ``episode_duration`` s longer than ``eval_every`` steps, the evaluations are fewer
+    (one per episode end at most): warned (:class:`SettingNotAppliedWarning`) when those of
+    full-length episodes are too few (episodes that end early could still give enough)."""
     if rule is None or config.eval_every <= 0:
         return
     every = config.eval_every
@@ -120,12 +124,46 @@ def check_stop_rule_decides(rule: StopRule | None, config: TD3Config, steps: int
     most = -(-last // every)  # one per interval begun, the last one at the end of the run
     needed = rule.evaluations_needed
     if most >= needed:
+        if episode_duration is not None:
+            _warn_if_episodes_thin_out(rule, config, last, envs, episode_duration, sources)
         return
     raise ValueError(
         f"--stop-when {rule.kind} cannot decide within the run: it needs {needed} evaluations, and "
         f"{sources.steps(steps)} with {sources.setting('eval_every', every)} makes at most {most}; "
         f"give --set eval_every of at most {(last - 1) // (needed - 1)} or --steps of at least "
         f"{(needed - 1) * every + 1}, or --stop-when none")
+
+
+def evaluations_with_episodes(last: int, every: int, episode: int) -> int:
+    """The evaluations of a run of ``last`` steps whose episodes all last ``episode`` steps (all
+    sub-environments together): one at the first episode end at or past each due step (multiples of
+    ``every``; the next one due after the step evaluated), and one at the end of the run."""
+    count, due, end = 0, every, episode
+    while end < last:
+        if end >= due:
+            count += 1
+            due = (end // every + 1) * every
+        end += episode
+    return count + 1
+
+
+def _warn_if_episodes_thin_out(rule: StopRule, config: TD3Config, last: int, envs: int,
+                               episode_duration: float, sources: SettingSources) -> None:
+    """Warn when full-length episodes give the stop rule fewer evaluations than it needs."""
+    from elastica_magnetic.plausibility import SettingNotAppliedWarning
+    from elastica_magnetic.robot_spec import ACTION_PERIOD
+
+    episode = int(round(episode_duration / ACTION_PERIOD)) * max(1, envs)
+    made = evaluations_with_episodes(last, config.eval_every, episode)
+    if episode <= config.eval_every or made >= rule.evaluations_needed:
+        return
+    warnings.warn(SettingNotAppliedWarning(
+        f"--stop-when {rule.kind} may not decide within the run: evaluations come at episode ends (the "
+        f"first after each {sources.setting('eval_every', config.eval_every)} steps), and episodes of "
+        f"{episode_duration:g} s ({episode} steps) end {made - 1} time(s) in {sources.steps(last)}: with "
+        f"the evaluation at the end, {made} of the {rule.evaluations_needed} the rule needs (more only if "
+        f"episodes end early); give --steps of at least {rule.evaluations_needed * episode}, or --stop-when "
+        "none"), stacklevel=2)
 
 
 def check_episodes_end(episode_duration: float, steps: int, envs: int, sources: SettingSources,

@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from elastica_magnetic.batch import batched_refusal
 from elastica_magnetic.io import atomic_write_json
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
@@ -270,6 +271,9 @@ def _refined_case(case: Case, spec: str | Path | None, randomize: str | None
     if randomize is not None:
         case = randomized_cases({case.name: case}, randomize, case.training.recipe)[case.name]
         changes["refine_randomize"] = randomize
+    refusal = batched_refusal(case.robot_spec("training"), "msr refine")  # before any folder is made
+    if refusal:
+        raise ValueError(f"--spec {spec}: {refusal}" if spec is not None else refusal)
     return case, changes
 
 

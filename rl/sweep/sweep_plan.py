@@ -175,7 +175,8 @@ class _ActingChecks:
         if not self.warm_up_only:
             check_run_learns(self.config, self.steps, self.sources)
         for rule in (stop_rules or {}).values() if self.stop_given else ():
-            check_stop_rule_decides(rule, self.config, self.steps, self.envs, self.sources)
+            check_stop_rule_decides(rule, self.config, self.steps, self.envs, self.sources,
+                                    self.episode_duration)
         check_episodes_end(self.episode_duration, self.steps, self.envs, self.sources,
                            self.duration_given)
 

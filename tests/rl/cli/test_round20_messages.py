@@ -137,10 +137,13 @@ def test_results_go_into_a_shipped_policy_only_in_its_seeds_folder(trained, tmp_
         assert f"lies in {policy}, which holds a shipped policy of case 'm1-4mT'" in err, (argv, err)
         assert f"(or in {policy}/seeds/)" in err, err
     assert _snapshot(policy) == before
-    # the same rule lets a result into the policy's seeds/ (a firmware export: no simulation)
+    # the same rule lets a result of the policy's case into its seeds/ (an export of a run of it); a
+    # result of no case (a firmware export) goes beside the policy (round 24, S2)
+    assert msr(["policy", "export", str(run), "--out", str(policy / "seeds" / "exp")]) == 0
+    assert (policy / "seeds" / "exp").is_dir()
     assert msr(["real", "firmware", str(POLICIES_DIR / "m1-4mT" / "fields.csv"), "--calibration",
-                "stm32/calibration/default.json", "--out", str(policy / "seeds" / "fw")]) == 0
-    assert (policy / "seeds" / "fw").is_dir()
+                "stm32/calibration/default.json", "--out", str(policy / "seeds" / "fw")]) == 2
+    assert not (policy / "seeds" / "fw").exists()
 
 
 def test_a_run_still_being_trained_is_neither_studied_nor_exported(trained, tmp_path, capsys):
