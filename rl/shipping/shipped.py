@@ -6,10 +6,15 @@ move in 10 s in the accurate physics from a zero field, and ships that run's wav
 tolerance, the distance against the target, and the waveform row by row.
 
 The waveform is reproduced bit for bit on the kind of machine that recorded it (the same CPU model
-and numerical libraries: ``evaluation.machine`` in ``policy.json``). On another CPU the round-off
-differs at the last bit, and the closed loop amplifies it through contact switches (a node that
-touches the ground or not changes the observation by 1): the waveforms part after a few rows
-while the distance agrees to ~1e-4. There the waveform difference is reported, not required.
+and numerical libraries: ``evaluation.machine`` in ``policy.json``); there the closed-loop distance
+must equal the recorded one. On another CPU the round-off differs at the last bit, and the closed
+loop amplifies it through contact switches (a node that touches the ground or not changes the
+observation by 1): the waveforms part after a few rows and the policy's distance moves by up to
+~1 % (measured: 1.2e-2 for ``m1-4mT-robust``, 2.1e-3 for ``hu2018-crawl``, 1.4e-5 for ``m1-10mT``
+on an AMD EPYC against the Intel Xeon that recorded them). There the closed-loop distance is
+reported and must still meet the target, and what is machine-independent is checked instead: the
+shipped waveform, played open loop as the coils play it, moves the robot the recorded distance
+(measured: 2e-4 across those machines).
 """
 
 from __future__ import annotations
@@ -23,8 +28,9 @@ from ..runfiles.provenance import machine_fingerprint
 from .policy_files import POLICIES_DIR, POLICY_JSON, read_policy_json, resolve_policy
 from .policy_runs import node_dx, run_policy
 
-#: A re-run must reproduce the recorded distance to this relative difference (the accurate
-#: physics is deterministic on one machine; this leaves room for other CPUs' round-off).
+#: A re-run on the recording machine, or the shipped waveform played open loop on any machine, must
+#: reproduce the recorded distance to this relative difference (the closed loop is deterministic on
+#: one machine; the open-loop replay differs from it by the hold's sample boundaries, ~1e-4).
 DISTANCE_RTOL = 1e-3
 #: ... and the shipped waveform to this, mT (the CSV holds full double precision).
 FIELD_ATOL_MT = 1e-6
@@ -84,9 +90,30 @@ def verify_shipped(name: str, duration: float = 10.0, progress: bool = False,
             result["yardstick_10s_m"] = policy.case.yardstick.distance_10s
         if met is not None:  # None: the case has no yardstick, nothing to meet
             result["meets_target"] = met
-        passed = passed and relative <= DISTANCE_RTOL and met is not False
+        if waveform_check == "exact":
+            result["distance_check"] = "closed loop"
+            distance_ok = relative <= DISTANCE_RTOL
+        else:  # another machine: the closed loop's distance is reported, the waveform's checked
+            replay = _replayed_distance(policy, shipped, duration)
+            replay_relative = abs(replay - recorded) / abs(recorded)
+            result.update(distance_check="the shipped waveform, open loop", replay_mid_dx_m=replay,
+                          replay_relative_diff=replay_relative)
+            distance_ok = replay_relative <= DISTANCE_RTOL
+        passed = passed and distance_ok and met is not False
     result["passed"] = bool(passed)
     return result
+
+
+def _replayed_distance(policy: Any, fields: np.ndarray, duration: float) -> float:
+    """The middle's distance (m, NaN if the simulation diverges) when ``fields`` (T, shape
+    ``(rows, 3)``, 100 rows/s) is played open loop for ``duration`` s on the policy's robot in the
+    accurate physics: what the coils do with the shipped waveform."""
+    from elastica_magnetic import SimulationDivergedError, TabulatedField, run_open_loop
+
+    try:
+        return run_open_loop(policy.case.robot_spec("accurate"), TabulatedField(fields), duration).mid_dx
+    except SimulationDivergedError:
+        return float("nan")
 
 
 #: m: a tip-reach policy re-run on its held-out targets must end each within this of the recorded
