@@ -129,9 +129,9 @@ def validate_command(args: argparse.Namespace) -> int:
                          f"{r['relative_diff']:.1e}, target {r['target']})"
                          if "recorded_mid_dx_m" in r else "")
                 if "replay_mid_dx_m" in r:  # another machine: the waveform's distance is the check
-                    extra += (f"; the shipped waveform open loop {r['replay_mid_dx_m'] * 1e3:+.2f} mm "
-                              f"(relative difference {r['replay_relative_diff']:.1e}, at most "
-                              f"{r['distance_rtol']:.0e})")
+                    extra += (f"; the shipped waveform open loop {r['replay_mid_dx_m'] * 1e3:+.4f} mm "
+                              f"(recorded {r['recorded_mid_dx_m'] * 1e3:+.4f}, at most "
+                              f"{r['replay_allowed_diff_m'] * 1e6:.0f} um apart)")
                 print(f"shipped {r['name']}: {'pass' if r['passed'] else 'FAIL'}: waveform within "
                       f"{r['max_field_diff_mT']:.1e} mT over {r['rows_compared']} rows "
                       f"({r['waveform_check']}){extra}")

@@ -13,8 +13,11 @@ observation by 1): the waveforms part after a few rows and the policy's distance
 ~1 % (measured: 1.2e-2 for ``m1-4mT-robust``, 2.1e-3 for ``hu2018-crawl``, 1.4e-5 for ``m1-10mT``
 on an AMD EPYC against the Intel Xeon that recorded them). There the closed-loop distance is
 reported and must still meet the target, and what is machine-independent is checked instead: the
-shipped waveform, played open loop as the coils play it, moves the robot the recorded distance
-(measured: 2e-4 across those machines).
+shipped waveform, played open loop as the coils play it, moves the robot the recorded distance to
+1e-3 or :data:`REPLAY_DISTANCE_ATOL_M`, whichever is larger (on the recording machine the replay of
+the rollout's own field is the closed loop bit for bit; the CSV's mT round trip and another CPU
+change the field in its last bit, which moves the 4 mT gaits by tens of micrometres: measured
+3e-6 to 1.4e-3, 0.1 to 15 um, over the ten shipped crawlers across those machines).
 """
 
 from __future__ import annotations
@@ -32,6 +35,12 @@ from .policy_runs import node_dx, run_policy
 #: reproduce the recorded distance to this relative difference (the closed loop is deterministic on
 #: one machine; the open-loop replay differs from it by the hold's sample boundaries, ~1e-4).
 DISTANCE_RTOL = 1e-3
+#: m: ... or, for the open-loop replay on another machine, to this, whichever is larger: a change of
+#: the field in its last bit (as the CSV's mT round trip or another CPU makes) moves the 4 mT gaits,
+#: whose feet stick and slip, by up to 16 um (measured: m1-4mT-reach, 3 draws of +-1 ulp on every
+#: row, 9.437 mm -> 9.421 to 9.435 mm), 1.7e-3 of its distance; this is 3x that, 1/400 of the
+#: robot's 20 mm: a waveform that is not the policy's moves the robot millimetres.
+REPLAY_DISTANCE_ATOL_M = 50e-6
 #: ... and the shipped waveform to this, mT (the CSV holds full double precision).
 FIELD_ATOL_MT = 1e-6
 
@@ -95,10 +104,11 @@ def verify_shipped(name: str, duration: float = 10.0, progress: bool = False,
             distance_ok = relative <= DISTANCE_RTOL
         else:  # another machine: the closed loop's distance is reported, the waveform's checked
             replay = _replayed_distance(policy, shipped, duration)
-            replay_relative = abs(replay - recorded) / abs(recorded)
+            allowed = max(DISTANCE_RTOL * abs(recorded), REPLAY_DISTANCE_ATOL_M)
             result.update(distance_check="the shipped waveform, open loop", replay_mid_dx_m=replay,
-                          replay_relative_diff=replay_relative)
-            distance_ok = replay_relative <= DISTANCE_RTOL
+                          replay_relative_diff=abs(replay - recorded) / abs(recorded),
+                          replay_allowed_diff_m=allowed)
+            distance_ok = abs(replay - recorded) <= allowed
         passed = passed and distance_ok and met is not False
     result["passed"] = bool(passed)
     return result

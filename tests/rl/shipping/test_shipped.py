@@ -102,8 +102,11 @@ def test_one_shipped_distance_is_re_run_in_full():
     result = verify_shipped(name)
     assert result["rows_compared"] == 1000
     # the closed loop on the recording machine, else the shipped waveform open loop (module docstring)
-    checked = "relative_diff" if result["distance_check"] == "closed loop" else "replay_relative_diff"
-    assert result[checked] <= result["distance_rtol"] == 1e-3, result
+    if result["distance_check"] == "closed loop":
+        assert result["relative_diff"] <= result["distance_rtol"] == 1e-3, result
+    else:
+        recorded = result["recorded_mid_dx_m"]
+        assert abs(result["replay_mid_dx_m"] - recorded) <= max(1e-3 * abs(recorded), 50e-6), result
     assert result["meets_target"] and result["passed"], result
     if result["waveform_check"] == "exact":
         assert result["max_field_diff_mT"] <= 1e-6
@@ -170,6 +173,8 @@ def _stand_in_rollout(name: str, mid_dx: float):
 
 @pytest.mark.parametrize("closed_loop, replayed, passed", [
     (1.012, 1.0002, True),  # m1-4mT-robust on an AMD EPYC: the closed loop 1.2 % away, the waveform 2e-4
+    (1.0, 1.0019, True),  # 40 um: within a last bit's reach of a 4 mT gait (50 um), though 1.9e-3
+    (1.0, 1.003, False),  # 63 um
     (1.0, 1.01, False),  # the shipped waveform no longer moves the robot its recorded distance
     (1.0, float("nan"), False),  # ... or diverges
     (0.9, 1.0, False),  # the closed loop falls short of the target (+20.5 mm; recorded +21.0)
