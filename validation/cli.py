@@ -10,7 +10,7 @@ from pathlib import Path
 
 from elastica_magnetic.cli import output_path
 
-from .report import CaseResult, write_report
+from .report import CaseResult, shipped_verdict, write_report
 
 #: Case name -> module with ``run(out: Path, quick: bool) -> CaseResult``.
 CASES = {
@@ -121,20 +121,7 @@ def validate_command(args: argparse.Namespace) -> int:
             print(json.dumps({"passed": passed, "shipped": shipped}, indent=2, default=str))
         else:
             for r in shipped:
-                if "summary" in r:  # a tip-reach policy: its held-out targets again
-                    print(f"shipped {r['name']}: {'pass' if r['passed'] else 'FAIL'}: {r['summary']}")
-                    continue
-                extra = (f", distance {r['mid_dx_m'] * 1e3:+.2f} mm (recorded "
-                         f"{r['recorded_mid_dx_m'] * 1e3:+.2f}, relative difference "
-                         f"{r['relative_diff']:.1e}, target {r['target']})"
-                         if "recorded_mid_dx_m" in r else "")
-                if "replay_mid_dx_m" in r:  # another machine: the waveform's distance is the check
-                    extra += (f"; the shipped waveform open loop {r['replay_mid_dx_m'] * 1e3:+.4f} mm "
-                              f"(recorded {r['recorded_mid_dx_m'] * 1e3:+.4f}, at most "
-                              f"{r['replay_allowed_diff_m'] * 1e6:.0f} um apart)")
-                print(f"shipped {r['name']}: {'pass' if r['passed'] else 'FAIL'}: waveform within "
-                      f"{r['max_field_diff_mT']:.1e} mT over {r['rows_compared']} rows "
-                      f"({r['waveform_check']}){extra}")
+                print(shipped_verdict(r))
         return 0 if passed else 1
     command = "msr validate " + " ".join(
         [*args.cases, *(["--quick"] if args.quick else []), "--out", str(out_dir)]
@@ -146,7 +133,7 @@ def validate_command(args: argparse.Namespace) -> int:
         results = run_cases(names, out.path, args.quick)
         for r in results:
             r.figures = [out.final_path(f) for f in r.figures]
-        report = out.final_path(write_report(results, out.path, command, final=out.final))
+        report = out.final_path(write_report(results, out.path, command, final=out.final, shipped=shipped))
     passed = all(r.passed for r in results) and all(r["passed"] for r in shipped or [])
     if args.json:
         print(json.dumps(
@@ -159,5 +146,7 @@ def validate_command(args: argparse.Namespace) -> int:
             failed = [c.quantity for c in r.comparisons if not c.passed]
             print(f"{r.name}: {'pass' if r.passed else 'FAIL'}"
                   + (f" ({'; '.join(failed)})" if failed else ""))
+        for r in shipped or []:
+            print(shipped_verdict(r))
         print(f"report: {report}")
     return 0 if passed else 1

@@ -6,10 +6,11 @@ import json
 import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any
 
 from elastica_magnetic.io import atomic_write_text
 
-__all__ = ["MARGIN", "Gate", "Comparison", "CaseResult", "write_report"]
+__all__ = ["MARGIN", "Gate", "Comparison", "CaseResult", "shipped_verdict", "write_report"]
 
 #: Every tolerance set from a measured error is this many times the worst error achieved, so a
 #: regression of this factor on the worst point fails the check.
@@ -140,11 +141,42 @@ def _headroom(tolerance: float, worst: float) -> str:
     return f"{tolerance / worst:.3g}"
 
 
+def shipped_verdict(r: dict[str, Any]) -> str:
+    """One shipped policy's verdict in words (``r``: a result of
+    :func:`~elastica_magnetic_rl.shipping.shipped.verify_shipped`): what was compared, and where a
+    check fails, by how much against what and from which row."""
+    head = f"shipped {r['name']}: {'pass' if r['passed'] else 'FAIL'}: "
+    if "summary" in r:  # a tip-reach policy: its held-out targets again
+        return head + r["summary"]
+    exact = r["waveform_check"] == "exact"
+    if exact and r["first_row_apart"] is not None:
+        text = (f"the waveform differs from fields.csv by {r['max_field_diff_mT']:.2g} mT (at most "
+                f"{r['field_atol_mT']:.0e} mT on the machine that recorded it) from row "
+                f"{r['first_row_apart']} of {r['rows_compared']}")
+    else:
+        text = (f"waveform within {r['max_field_diff_mT']:.1e} mT of fields.csv over "
+                f"{r['rows_compared']} rows ({r['waveform_check']})")
+    if r.get("diverged"):
+        text += f"; the simulation diverged ({r['diverged']})"
+    if "recorded_mid_dx_m" in r:
+        text += (f", distance {r['mid_dx_m'] * 1e3:+.2f} mm (recorded {r['recorded_mid_dx_m'] * 1e3:+.2f}, "
+                 f"relative difference {r['relative_diff']:.1e}"
+                 + (f", at most {r['distance_rtol']:.0e}" if r.get("distance_check") == "closed loop" else "")
+                 + f"; target {r['target']}"
+                 + ("" if r.get("meets_target") is not False else ", NOT met") + ")")
+    if "replay_mid_dx_m" in r:  # another machine: the waveform's distance is the check
+        text += (f"; the shipped waveform open loop {r['replay_mid_dx_m'] * 1e3:+.4f} mm (recorded "
+                 f"{r['recorded_mid_dx_m'] * 1e3:+.4f}, at most "
+                 f"{r['replay_allowed_diff_m'] * 1e6:.0f} um apart)")
+    return head + text
+
+
 def write_report(results: list[CaseResult], out: Path, command: str,
-                 final: Path | None = None) -> Path:
+                 final: Path | None = None, shipped: list[dict[str, Any]] | None = None) -> Path:
     """Write ``report.md`` (tables and figures) and ``results.json`` into ``out``; ``final``: the
     folder the report will end up in when ``out`` is a temporary one (the figures' paths are
-    under it), else ``out``."""
+    under it), else ``out``; ``shipped``: the verdicts of the shipped policies when they were
+    re-run too (a section of their own)."""
     out.mkdir(parents=True, exist_ok=True)
     base = out if final is None else final
     lines = [
@@ -202,7 +234,13 @@ def write_report(results: list[CaseResult], out: Path, command: str,
             )
         for figure in r.figures:
             lines += ["", f"![{r.name}: {figure.stem}]({figure.relative_to(base).as_posix()})"]
+    if shipped is not None:
+        lines += ["", "## The shipped policies", "",
+                  "Each shipped policy re-run against its files (`msr validate shipped`):", ""]
+        lines += [f"- {shipped_verdict(r)}" for r in shipped]
     report = atomic_write_text(out / "report.md", "\n".join(lines) + "\n")
-    atomic_write_text(out / "results.json",
-                      json.dumps({"cases": [r.as_dict() for r in results]}, indent=2, default=str))
+    record: dict[str, Any] = {"cases": [r.as_dict() for r in results]}
+    if shipped is not None:
+        record["shipped"] = shipped
+    atomic_write_text(out / "results.json", json.dumps(record, indent=2, default=str))
     return report

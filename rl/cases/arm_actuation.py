@@ -99,6 +99,11 @@ class FiniteMagnet:
             return 0.5 * float(np.linalg.norm(self.dimension))
         return 0.5 * math.hypot(*self.dimension)
 
+    @property
+    def half_thickness(self) -> float:
+        """m: half the body's smallest extent (a face turned to the rod comes this near its centre)."""
+        return 0.5 * float(min(self.dimension))
+
     def polarization(self, moment: float) -> float:
         """T: ``J = mu0 moment / volume`` for a moment of ``moment`` A m^2."""
         return MU0 * moment / self.volume
@@ -180,6 +185,15 @@ class MagnetArm(SteeringActuation):
         process)."""
         return MagnetPose(**self.arm_settings(),
                           field_map=None if self.magnet is None else self.magnet.field_map())
+
+    @property
+    def magnet_half_thickness(self) -> float:
+        """m: half the magnet's smallest extent: its body's, or for a point dipole half the side of
+        the smallest NdFeB cube of its moment (:data:`NDFEB_MAGNETIZATION`). The arm may turn a face
+        to the rod, so at ``min_clearance`` that face is this much nearer the rod's axis."""
+        if self.magnet is not None:
+            return self.magnet.half_thickness
+        return 0.5 * (self.moment / NDFEB_MAGNETIZATION) ** (1.0 / 3.0)
 
     def start_words(self) -> str:
         """How an episode starts, in words."""

@@ -89,6 +89,7 @@ __all__ = [
     "PAPER_CASES",
     "YARDSTICK_CONTROLLERS",
     "warmup_refusal",
+    "dagger_refusal",
     "DAGGER_REFUSAL",
     "with_randomize",
 ]
@@ -418,6 +419,16 @@ DAGGER_REFUSAL = ("DAgger's labels come from a yardstick that reads an observati
                   "for a state another controller led the robot into")
 
 
+def dagger_refusal(case: Case) -> str | None:
+    """Why ``msr train`` refuses ``case``'s ``[training.td3] yardstick_dagger`` (``None``: it does
+    not): a crawl driven by a field has no yardstick that labels an observation alone."""
+    dagger = case.training.td3.get("yardstick_dagger")
+    if dagger and case.field_actuated:
+        return (f"{case.source}: [training.td3] yardstick_dagger = {dagger}: {DAGGER_REFUSAL}: remove "
+                "the setting")
+    return None
+
+
 def warmup_refusal(case: Case) -> str | None:
     """Why ``msr train`` cannot train ``case`` (``None`` when it can): its ``[training.td3]
     yardstick_warmup`` needs the case's hand-designed controller, which a field-driven crawl has
@@ -425,10 +436,9 @@ def warmup_refusal(case: Case) -> str | None:
     have one). Such a crawl's spec is valid until then (a sweep, ``msr field baseline
     --set-yardstick`` or ``msr loop``, records it): only the training refuses it, and ``msr case
     check`` warns."""
-    dagger = case.training.td3.get("yardstick_dagger")
-    if dagger and case.field_actuated:
-        return (f"{case.source}: [training.td3] yardstick_dagger = {dagger}: {DAGGER_REFUSAL}: remove "
-                "the setting")
+    dagger = dagger_refusal(case)
+    if dagger is not None:
+        return dagger
     warmup = case.training.td3.get("yardstick_warmup")
     if not warmup or case.has_yardstick_controller:
         return None

@@ -444,8 +444,9 @@ def export_command(args: argparse.Namespace) -> int:
 
     _refuse_tip_reach(args.policy, "export")
     # the output folder before the actors' evaluations (minutes in the accurate physics)
-    case = resolve_policy(args.policy).case.name
-    check_policy_case(args.out, case)
+    loaded_case = resolve_policy(args.policy).case
+    case = loaded_case.name
+    check_policy_case(args.out, loaded_case)
     check_result_folder(args.out, kind="export", subject=f"case {case}", force=args.force,
                         known_files=EXPORT_FILES)
     choice = _actor_choice(args.policy, args.checkpoint, 10.0, not args.no_progress)

@@ -132,7 +132,7 @@ def sweep_baseline(
         raise ValueError(f"periods must be positive times in s, got {periods}")
     periods, dropped = periods_that_turn(tuple(periods), duration)
     subject = f"case {case.name}"
-    check_policy_case(out, case.name)
+    check_policy_case(out, case)
     check_result_folder(out, kind="baseline", subject=subject, force=force, known_files=SWEEP_FILES)
     spec = case.to_dict()
     jobs = [(spec, float(p), cw, duration, physics) for p in periods for cw in (True, False)]

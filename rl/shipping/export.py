@@ -52,7 +52,7 @@ def export_policy(policy: str | Path, out: str | Path = "out/export",
     from ..td3.networks import ScaledPolicy
 
     loaded = resolve_policy(policy)
-    check_policy_case(out, loaded.case.name)
+    check_policy_case(out, loaded.case)
     with result_folder(out, kind="export", subject=f"case {loaded.case.name}", force=force,
                        known_files=EXPORT_FILES) as folder:
         out = folder.path

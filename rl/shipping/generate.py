@@ -123,7 +123,7 @@ def generate(
                          f"{1e3 * task.tolerance:g} mm tolerance of the start: a robot that stays put "
                          "succeeds there (mm written as m?)", "target")
     subject = f"case {loaded.case.name}"
-    check_policy_case(out, loaded.case.name)
+    check_policy_case(out, loaded.case)
     check_result_folder(out, kind=kind, subject=subject, force=force, known_files=GENERATE_FILES)
     choice = None
     if isinstance(policy, (str, Path)):

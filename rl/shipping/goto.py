@@ -131,7 +131,7 @@ def write_ring(policy, out: str | Path, duration: float | None = None, physics: 
     from ..reports.goto_figures import plot_ring
 
     subject = f"case {policy.case.name}"
-    check_policy_case(out, policy.case.name)
+    check_policy_case(out, policy.case)
     check_result_folder(out, kind=kind, subject=subject, force=force, known_files=RING_FILES)
     paths: list = []
     rows = evaluate_ring(policy, duration, physics, n_targets, progress=progress, paths=paths,

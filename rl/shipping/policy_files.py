@@ -397,26 +397,53 @@ def _check_obs_dim(case: Case, obs_dim: int, path: Path) -> None:
                               f"{case.name!r} gives {case.obs_dim}")
 
 
-def check_policy_case(dest: str | Path, case: str) -> None:
-    """A result of case ``case`` written into a shipped policy's folder (its ``seeds/``, the one
-    place there open to other results) must be of that policy's case: another case's is refused
-    (:class:`~elastica_magnetic.io.OutputPathError`), or the policy's folder would hold, and ``msr
-    policy seeds`` count, a result that is not its own."""
+#: The tables of a case spec that make it the same case (the robot, its physics, what moves it and
+#: its task); a training recipe or a yardstick measured since may differ between runs of one case.
+SAME_CASE_TABLES = ("robot", "physics", "actuation", "task")
+
+
+def case_spec_difference(recorded: Any, spec: Mapping[str, Any]) -> str | None:
+    """Where ``spec`` (a case's :meth:`~elastica_magnetic_rl.cases.case.Case.to_dict`) differs from
+    a policy's ``recorded`` ``case_spec`` in :data:`SAME_CASE_TABLES` (``"[table] key"``), or
+    ``None``: the same case (or nothing recorded to compare)."""
+    from ..sweep.run_records import first_difference
+
+    if not isinstance(recorded, dict):
+        return None
+    mine, theirs = ({table: part.get(table) for table in SAME_CASE_TABLES} for part in (spec, recorded))
+    return None if mine == theirs else first_difference(theirs, mine)
+
+
+def check_policy_case(dest: str | Path, case: Case | str) -> None:
+    """A result of ``case`` (a case, or only its name) written into a shipped policy's folder (its
+    ``seeds/``, the one place there open to other results) must be of that policy's case: another
+    case's, or one of the same name with another spec (a user's file named as the shipped case),
+    is refused (:class:`~elastica_magnetic.io.OutputPathError`), or the policy's folder would hold,
+    and ``msr policy seeds`` count, a result that is not its own."""
     from elastica_magnetic.io import OutputPathError, display_path, normalized_path
 
+    name = case if isinstance(case, str) else case.name
     dest = normalized_path(dest)
     for parent in dest.parents:
         if not (parent / POLICY_JSON).is_file():
             continue
         try:
-            theirs = json.loads((parent / POLICY_JSON).read_text(encoding="utf-8")).get("case")
+            meta = json.loads((parent / POLICY_JSON).read_text(encoding="utf-8"))
+            theirs = meta.get("case")
         except (OSError, ValueError, AttributeError):
-            theirs = None
-        if theirs is not None and theirs != case:
+            meta, theirs = {}, None
+        if theirs is not None and theirs != name:
             raise OutputPathError(f"--out {display_path(dest)}: lies in the shipped policy "
                                   f"{display_path(parent)} of case {theirs!r}, and this result is of case "
-                                  f"{case!r}: a policy's seeds/ holds its own case's results; choose another "
+                                  f"{name!r}: a policy's seeds/ holds its own case's results; choose another "
                                   "--out")
+        recorded = meta.get("case_spec")
+        differ = None if isinstance(case, str) else case_spec_difference(recorded, case.to_dict())
+        if theirs is not None and differ is not None:
+            raise OutputPathError(f"--out {display_path(dest)}: lies in the shipped policy "
+                                  f"{display_path(parent)} of case {theirs!r}, and this result is of a case "
+                                  f"of the same name with another spec (they differ at {differ}): a "
+                                  "policy's seeds/ holds its own case's results; choose another --out")
         return
 
 

@@ -81,7 +81,7 @@ def export_seeds(
     new_seeds = {seed for seed, _ in seeds}
     try:  # checked before the long evaluations
         check_not_in_a_policy(dest, tuple(dest.parents))  # each seed is shipped there: a policy's seeds/
-        check_policy_case(dest, case.name)
+        check_policy_case(dest, case)
         known, earlier = _check_dest(dest, subject, new_seeds, first.meta, force)
     except (ValueError, OSError) as exc:
         for note in recovered:  # the command line prints them before the error

@@ -40,7 +40,6 @@ from ..cases.tasks import GotoTask, ReachTask
 from ..envs.yardsticks import SteeringFieldPolicy
 from ..runfiles.provenance import machine_fingerprint
 from ..runfiles.rundir import CaseDir
-from ..sweep.run_records import first_difference
 from .generate import reach_metrics
 from .goto import evaluate_ring, goto_result, goto_target, ring_summary
 from .model_card import NOTES_SECTION, model_card, replace_card_section, seed_meets_target
@@ -55,6 +54,7 @@ from .policy_files import (
     TIP_PATHS_PNG,
     LoadedPolicy,
     action_spec_of,
+    case_spec_difference,
     case_spec_sha256,
     observation_spec_of,
     policy_holder,
@@ -195,11 +195,6 @@ def ship(run: str | Path, name: str, options: ShipOptions | None = None, /,
             "files": sorted(p.name for p in target.iterdir() if p.name in SHIPPED_FILES)}
 
 
-#: The tables of a case spec that make it the same case (the robot, its physics, what moves it and
-#: its task); a training recipe or a yardstick measured since may differ between runs of one case.
-SAME_CASE_TABLES = ("robot", "physics", "actuation", "task")
-
-
 def _check_same_case(target: Path, case: str, spec: dict[str, Any]) -> None:
     """Refuse to replace a shipped policy of another case (``--force`` replaces only a result for the
     same subject, as ``msr policy export`` and ``generate``): a name reused by mistake must not
@@ -215,14 +210,11 @@ def _check_same_case(target: Path, case: str, spec: dict[str, Any]) -> None:
             f"--out {display_path(target)}: holds the shipped policy of case {shipped!r}, and this run is "
             f"of case {case!r}; choose another --name or --out (--force replaces only a policy of the "
             "same case)")
-    recorded = meta.get("case_spec")
-    if not isinstance(recorded, dict):
-        return
-    mine, theirs = ({table: part.get(table) for table in SAME_CASE_TABLES} for part in (spec, recorded))
-    if mine != theirs:
+    differ = case_spec_difference(meta.get("case_spec"), spec)
+    if differ is not None:
         raise ResultExistsError(
             f"--out {display_path(target)}: holds the shipped policy of case {case!r} with another spec "
-            f"(they differ at {first_difference(theirs, mine)}): a case of the same name, not the same "
+            f"(they differ at {differ}): a case of the same name, not the same "
             "case; choose another --name or --out (--force replaces only a policy of the same case)")
 
 

@@ -199,7 +199,7 @@ def write_targets(case: Case, out: Any, make_controller: Callable[[CatheterReach
     from ..reports.goto_figures import plot_tip_paths
 
     subject = f"case {case.name}"
-    check_policy_case(out, case.name)
+    check_policy_case(out, case)
     check_result_folder(out, kind=kind, subject=subject, force=force, known_files=TARGET_FILES)
     given = targets is not None
     targets = np.asarray(targets, dtype=np.float64).reshape(-1, 3) if given else held_out_targets(case)

@@ -277,17 +277,26 @@ def identify_command(args: argparse.Namespace) -> int:
 
 
 def _check_files_in_order(drive_csv: Path, trajectory_csv: Path) -> None:
-    """A catheter's two files given the wrong way round (the tip path first, or the recorded drive
-    second) refused by name (:class:`CommandError`), before the tip path is read as a field CSV."""
+    """The two files given the wrong way round refused by name (:class:`CommandError`), before the
+    first is read as a field CSV: a field CSV second (a crawler's), or a catheter's tip path first or
+    its recorded drive second."""
+    from elastica_magnetic.field_csv import FIELD_COLUMNS
+
     from .coil_path import is_coil_path
     from .identify import STEERED_BY
     from .magnet_path import is_magnet_path
     from .recorded_paths import header_names
     from .tracking import TIP_COLUMNS
 
+    first = header_names(drive_csv)
+    if set(FIELD_COLUMNS) <= set(header_names(trajectory_csv)) and not set(FIELD_COLUMNS) <= set(first):
+        raise CommandError(f"{drive_csv}, {trajectory_csv}: the two files are the wrong way round "
+                           f"({trajectory_csv} is a field CSV, {', '.join(FIELD_COLUMNS)} in mT, what played "
+                           f"the motion; {drive_csv} has {', '.join(first[:3])}...): first the field CSV, "
+                           "then the measured trajectory; swap them")
     drive = ("coil-currents" if is_coil_path(trajectory_csv) else
              "magnet-pose" if is_magnet_path(trajectory_csv) else None)
-    tip_first = TIP_COLUMNS[0] in header_names(drive_csv)
+    tip_first = TIP_COLUMNS[0] in first
     if drive is None and not tip_first:
         return
     drives = (f"{STEERED_BY['magnet-pose'][2]} or {STEERED_BY['coil-currents'][2]}" if drive is None

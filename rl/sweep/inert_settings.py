@@ -100,6 +100,18 @@ def check_run_learns(config: TD3Config, steps: int, sources: SettingSources) -> 
             + (f"--steps of at most {config.buffer_size}, or train a new run (another --out) with "
                f"--set buffer_size of at least {steps}" if resumed
                else f"--set buffer_size of at least {steps}, or --steps of at most {config.buffer_size}"))
+    if config.yardstick_dagger and config.dagger_end >= steps:
+        from elastica_magnetic.plausibility import SettingNotAppliedWarning
+
+        inside = "inside" if config.dagger_end > steps else "at the end of"
+        warnings.warn(SettingNotAppliedWarning(
+            f"{name('yardstick_dagger', config.yardstick_dagger)} after "
+            f"{name('learning_starts', warm_up)} ends at step {config.dagger_end}, and "
+            f"{sources.steps(steps)} ends the run {inside} DAgger: no TD3 step follows it (the seeds end "
+            f"as the clone DAgger made); give --steps above {config.dagger_end} for TD3 after DAgger"
+            + ("" if resumed or config.dagger_end == steps else
+               f", or --set yardstick_dagger of at most {steps - warm_up} to end DAgger within the run")),
+            stacklevel=2)
     if config.buffer_size < warm_up and not resumed:
         raise ValueError(
             f"the warm-up outgrows the replay buffer: {name('learning_starts', warm_up)} is above "
@@ -127,11 +139,24 @@ def check_stop_rule_decides(rule: StopRule | None, config: TD3Config, steps: int
         if episode_duration is not None:
             _warn_if_episodes_thin_out(rule, config, last, envs, episode_duration, sources)
         return
+    head = (f"--stop-when {rule.kind} cannot decide within the run: it needs {needed} evaluations, and "
+            f"{sources.steps(steps)} with {sources.setting('eval_every', every)} makes at most {most}")
+    episode = (0 if episode_duration is None
+               else int(round(episode_duration / _action_period())) * max(1, envs))
+    if episode > (last - 1) // (needed - 1):  # a shorter eval_every cannot help: one per episode end
+        raise ValueError(
+            f"{head}; evaluations come at episode ends, at most one per episode of {episode_duration:g} s "
+            f"({episode} steps), so a shorter eval_every cannot add enough: give --steps of at least "
+            f"{needed * episode}, or --stop-when none")
     raise ValueError(
-        f"--stop-when {rule.kind} cannot decide within the run: it needs {needed} evaluations, and "
-        f"{sources.steps(steps)} with {sources.setting('eval_every', every)} makes at most {most}; "
-        f"give --set eval_every of at most {(last - 1) // (needed - 1)} or --steps of at least "
-        f"{(needed - 1) * every + 1}, or --stop-when none")
+        f"{head}; give --set eval_every of at most {(last - 1) // (needed - 1)} or --steps of at least "
+        f"{max((needed - 1) * every + 1, needed * episode)}, or --stop-when none")
+
+
+def _action_period() -> float:
+    from elastica_magnetic.robot_spec import ACTION_PERIOD
+
+    return ACTION_PERIOD
 
 
 def evaluations_with_episodes(last: int, every: int, episode: int) -> int:

@@ -75,7 +75,10 @@ def test_a_stop_rule_that_cannot_decide_within_the_run_is_refused(tmp_path, caps
     err = capsys.readouterr().err
     assert ("--stop-when plateau cannot decide within the run: it needs 7 evaluations, and --steps "
             "1000 with --set eval_every=500 makes at most 2") in err
-    assert "give --set eval_every of at most 166 or --steps of at least 3001, or --stop-when none" in err
+    # m1-4mT's 20 s episodes: one evaluation per episode end at most (round 25, V1: the advice had
+    # been eval_every of at most 166 or --steps of at least 3001, neither of which decides)
+    assert ("evaluations come at episode ends, at most one per episode of 20 s (2000 steps), so a shorter "
+            "eval_every cannot add enough: give --steps of at least 14000, or --stop-when none") in err
     assert msr(_train(tmp_path, *base, "--stop-when", "target")) == 2  # the default 5000 steps
     assert "eval_every 5000 (the default; --set eval_every=... or [training.td3] eval_every sets it) " \
            "makes at most 1" in capsys.readouterr().err
