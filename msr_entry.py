@@ -27,12 +27,31 @@ def main() -> int:
         from elastica_magnetic.cli.app import main as run
     except KeyboardInterrupt:
         swallowed.append(KeyboardInterrupt())
+    except ImportError as error:  # a Ctrl-C inside a module that turns what it meets into an ImportError
+        if not _caused_by_interrupt(error):  # (numba's import of its C extensions does)
+            raise
+        swallowed.append(KeyboardInterrupt())
     finally:
         sys.unraisablehook = previous
     if swallowed:
         print("msr: interrupted (SIGINT) while starting up: nothing was done", file=sys.stderr)
         return _INTERRUPTED_STATUS
     return run()
+
+
+def _caused_by_interrupt(error: BaseException) -> bool:
+    """Whether a KeyboardInterrupt is among ``error``'s causes or the exceptions it was raised in."""
+    seen: set[int] = set()
+    todo: list[BaseException | None] = [error]
+    while todo:
+        current = todo.pop()
+        if current is None or id(current) in seen:
+            continue
+        if isinstance(current, KeyboardInterrupt):
+            return True
+        seen.add(id(current))
+        todo += [current.__cause__, current.__context__]
+    return False
 
 
 if __name__ == "__main__":

@@ -159,7 +159,11 @@ def manifest_holder(folder: str | Path) -> str | None:
 def manifest_results_in(folder: str | Path) -> tuple[str, ...]:
     """The subfolders of a held folder (:func:`manifest_holder`) where other results may go
     (``"results_in"`` of :data:`MANIFEST`: a shipped policy's ``seeds``; for a folder whose record
-    names no holder, its recognizer's); empty when none."""
+    names no holder, its recognizer's); empty when none, and for a held folder that itself lies in
+    such a subfolder of another (a seed of a campaign in a policy's ``seeds/``: a result inside it
+    would be inside that campaign, which is replaced whole)."""
+    if _in_results_of_a_holder(Path(folder)):
+        return ()
     data = _record(folder)
     places = data.get("results_in")
     if isinstance(places, list):
@@ -168,6 +172,15 @@ def manifest_results_in(folder: str | Path) -> tuple[str, ...]:
         return ()
     found = _recognized(folder)
     return () if found is None else found[1]
+
+
+def _in_results_of_a_holder(folder: Path) -> bool:
+    """Whether ``folder`` lies in a subfolder for other results of the nearest held folder above it."""
+    folder = Path(os.path.abspath(folder))
+    for above in folder.parents:
+        if manifest_holder(above) is not None:
+            return folder.relative_to(above).parts[0] in manifest_results_in(above)
+    return False
 
 
 def manifest_writer(folder: str | Path, name: str) -> str | None:

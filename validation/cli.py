@@ -98,7 +98,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def validate_command(args: argparse.Namespace) -> int:
     from elastica_magnetic.cli import CommandError, print_notes
-    from elastica_magnetic.results import result_folder
+    from elastica_magnetic.results import check_result_folder, result_folder
 
     available = available_cases()
     names = [n for n in args.cases if n != SHIPPED] if args.cases else available
@@ -114,6 +114,8 @@ def validate_command(args: argparse.Namespace) -> int:
     if missing:
         raise CommandError(f"case(s) {', '.join(missing)} not implemented in this checkout")
     out_dir = args.out if args.out is not None else Path(DEFAULT_OUT)
+    if SHIPPED in args.cases and names:  # the report's folder before the policies' re-runs (minutes)
+        check_result_folder(out_dir, kind="validate", force=args.force, known_files=REPORT_FILES)
     shipped = verify_all_shipped(args.quick) if SHIPPED in args.cases else None
     if shipped is not None and not names:
         passed = all(r["passed"] for r in shipped)

@@ -99,11 +99,6 @@ class FiniteMagnet:
             return 0.5 * float(np.linalg.norm(self.dimension))
         return 0.5 * math.hypot(*self.dimension)
 
-    @property
-    def half_thickness(self) -> float:
-        """m: half the body's smallest extent (a face turned to the rod comes this near its centre)."""
-        return 0.5 * float(min(self.dimension))
-
     def polarization(self, moment: float) -> float:
         """T: ``J = mu0 moment / volume`` for a moment of ``moment`` A m^2."""
         return MU0 * moment / self.volume
@@ -187,12 +182,14 @@ class MagnetArm(SteeringActuation):
                           field_map=None if self.magnet is None else self.magnet.field_map())
 
     @property
-    def magnet_half_thickness(self) -> float:
-        """m: half the magnet's smallest extent: its body's, or for a point dipole half the side of
-        the smallest NdFeB cube of its moment (:data:`NDFEB_MAGNETIZATION`). The arm may turn a face
-        to the rod, so at ``min_clearance`` that face is this much nearer the rod's axis."""
+    def magnet_reach(self) -> float:
+        """m: how far the magnet's surface may reach from its centre toward the rod as the arm turns
+        it: its body's circumradius (a rim, an edge or a corner turned to the rod), or for a point
+        dipole half the side of the smallest NdFeB cube of its moment (:data:`NDFEB_MAGNETIZATION`;
+        its body is not given, so the least it can be). At ``min_clearance`` the magnet's surface is
+        this much nearer the rod's axis."""
         if self.magnet is not None:
-            return self.magnet.half_thickness
+            return self.magnet.circumradius
         return 0.5 * (self.moment / NDFEB_MAGNETIZATION) ** (1.0 / 3.0)
 
     def start_words(self) -> str:

@@ -183,16 +183,17 @@ def check_steered_reach(t: SpecTable, actuation: SteeringActuation, robot: Any, 
                         f"the [actuation] min_clearance of {1e3 * clearance:g} mm from its axis: the magnet "
                         "would come inside the rod; a catheter is a millimetre or two thick (mm or cm "
                         "written as m?), or give a larger min_clearance")
-    if clearance is not None and clearance - actuation.magnet_half_thickness <= robot.radius:
-        half = actuation.magnet_half_thickness
-        body = ("its body's" if actuation.magnet is not None
-                else f"that of the smallest NdFeB cube of {actuation.moment:g} A m^2")
+    if clearance is not None and clearance - actuation.magnet_reach <= robot.radius:
+        reach = actuation.magnet_reach
+        body = ("half its body's diagonal: a rim, edge or corner turned to the rod"
+                if actuation.magnet is not None else
+                f"half the side of the smallest NdFeB cube of {actuation.moment:g} A m^2, turned face-on")
         raise SpecError(f"{t.source}: [robot] radius: the rod's radius, {1e3 * robot.radius:.3g} mm, reaches "
-                        f"the magnet's face: at the [actuation] min_clearance of {1e3 * clearance:g} mm from "
-                        f"the rod's axis, a magnet of half thickness {1e3 * half:.3g} mm ({body}) turned "
-                        f"face-on comes within {1e3 * (clearance - half):.3g} mm of the axis, "
-                        "inside the rod; a catheter is a millimetre or two thick (mm or cm written as m?), "
-                        "or give a min_clearance beyond the radius plus the half thickness")
+                        f"the magnet: at the [actuation] min_clearance of {1e3 * clearance:g} mm from the "
+                        f"rod's axis, the magnet's surface reaches {1e3 * reach:.3g} mm from its centre "
+                        f"({body}) and comes within {1e3 * (clearance - reach):.3g} mm of the axis, inside "
+                        "the rod; a catheter is a millimetre or two thick (mm or cm written as m?), or give "
+                        "a min_clearance beyond the radius plus that reach")
     low, high = (np.asarray(row, dtype=np.float64) for row in box)
     aside = math.hypot(max(abs(low[1]), abs(high[1])), max(abs(low[2]), abs(high[2])))
     field = actuation.reach_field(robot.length)

@@ -88,9 +88,17 @@ def verify_shipped(name: str, duration: float = 10.0, progress: bool = False,
         "mid_dx_m": rollout.mid_dx, "diverged": bool(rollout.meta["diverged"]),
     }
     passed = not result["diverged"] and (waveform_check != "exact" or field_diff_mt <= FIELD_ATOL_MT)
-    if abs(duration - float(info["evaluation"]["duration_s"])) < 1e-9:
-        recorded = float(info["evaluation"]["mid_dx_m"])
-        relative = abs(rollout.mid_dx - recorded) / abs(recorded)
+    evaluation = info.get("evaluation")
+    if not isinstance(evaluation, dict) or not all(
+            isinstance(evaluation.get(k), int | float) and not isinstance(evaluation.get(k), bool)
+            for k in ("duration_s", "mid_dx_m")):
+        result.update(problem=f"{folder / POLICY_JSON}: no evaluation with duration_s and mid_dx_m (s, m): "
+                              "the distance this policy claims is not recorded, so nothing is compared",
+                      passed=False)
+        return result
+    if abs(duration - float(evaluation["duration_s"])) < 1e-9:
+        recorded = float(evaluation["mid_dx_m"])
+        relative = _relative(rollout.mid_dx, recorded)
         met = policy.case.meets_yardstick(rollout.mid_dx, node_dx(rollout), duration,
                                           rollout.meta["diverged"])
         result.update(recorded_mid_dx_m=recorded, relative_diff=relative,
@@ -106,12 +114,19 @@ def verify_shipped(name: str, duration: float = 10.0, progress: bool = False,
             replay = _replayed_distance(policy, shipped, duration)
             allowed = max(DISTANCE_RTOL * abs(recorded), REPLAY_DISTANCE_ATOL_M)
             result.update(distance_check="the shipped waveform, open loop", replay_mid_dx_m=replay,
-                          replay_relative_diff=abs(replay - recorded) / abs(recorded),
+                          replay_relative_diff=_relative(replay, recorded),
                           replay_allowed_diff_m=allowed)
             distance_ok = abs(replay - recorded) <= allowed
         passed = passed and distance_ok and met is not False
     result["passed"] = bool(passed)
     return result
+
+
+def _relative(measured: float, recorded: float) -> float:
+    """``|measured - recorded| / |recorded|``; for a recorded 0, 0 when equal, else infinity."""
+    if recorded == 0.0:
+        return 0.0 if measured == 0.0 else float("inf")
+    return abs(measured - recorded) / abs(recorded)
 
 
 def _replayed_distance(policy: Any, fields: np.ndarray, duration: float) -> float:

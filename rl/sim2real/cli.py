@@ -322,6 +322,10 @@ def _drive_and_measured(drive_csv: Path, trajectory_csv: Path, robot: str):
     from .magnet_path import MagnetDrive, is_magnet_path, read_magnet_path
     from .tracking import read_trajectory
 
+    if drive_csv.resolve() == trajectory_csv.resolve():
+        raise CommandError(f"{drive_csv}, {trajectory_csv}: the same file twice: give first what played the "
+                           "motion (a field CSV, a magnet path or the coils' currents), then the measured "
+                           "motion (a trajectory or a tip path)")
     if is_magnet_path(drive_csv):
         drive, steered_by = MagnetDrive(read_magnet_path(drive_csv)), "magnet-pose"
     elif is_coil_path(drive_csv):

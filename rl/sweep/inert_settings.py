@@ -109,8 +109,8 @@ def check_run_learns(config: TD3Config, steps: int, sources: SettingSources) -> 
             f"{name('learning_starts', warm_up)} ends at step {config.dagger_end}, and "
             f"{sources.steps(steps)} ends the run {inside} DAgger: no TD3 step follows it (the seeds end "
             f"as the clone DAgger made); give --steps above {config.dagger_end} for TD3 after DAgger"
-            + ("" if resumed or config.dagger_end == steps else
-               f", or --set yardstick_dagger of at most {steps - warm_up} to end DAgger within the run")),
+            + ("" if resumed or steps - warm_up - 1 < 1 else
+               f", or --set yardstick_dagger of at most {steps - warm_up - 1} to end DAgger within the run")),
             stacklevel=2)
     if config.buffer_size < warm_up and not resumed:
         raise ValueError(

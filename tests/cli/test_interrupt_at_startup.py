@@ -10,6 +10,8 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 import msr_entry
 
 
@@ -24,6 +26,34 @@ def test_an_interruption_during_the_imports_is_one_line(monkeypatch, capsys):
     monkeypatch.setattr(builtins, "__import__", interrupted)
     assert msr_entry.main() == 130
     assert capsys.readouterr().err == "msr: interrupted (SIGINT) while starting up: nothing was done\n"
+
+
+def test_an_interruption_a_module_turns_into_an_import_error_is_one_line(monkeypatch, capsys):
+    """A Ctrl-C inside numba's import of its C extensions reaches msr as "ImportError:
+    numba._devicearray failed to import", raised while handling the KeyboardInterrupt (seen in CI
+    under load): still one line and 130; an ImportError of its own is not hidden."""
+    real_import = builtins.__import__
+
+    def interrupted(name, *args, **kwargs):
+        if name == "elastica_magnetic.cli.app":
+            try:
+                raise KeyboardInterrupt
+            except KeyboardInterrupt:
+                raise ImportError("numba._devicearray failed to import") from None
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", interrupted)
+    assert msr_entry.main() == 130
+    assert capsys.readouterr().err == "msr: interrupted (SIGINT) while starting up: nothing was done\n"
+
+    def broken(name, *args, **kwargs):
+        if name == "elastica_magnetic.cli.app":
+            raise ImportError("no module named numba")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", broken)
+    with pytest.raises(ImportError, match="no module named numba"):
+        msr_entry.main()
 
 
 def test_a_sigint_soon_after_start_never_shows_a_traceback():
