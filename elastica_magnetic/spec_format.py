@@ -83,8 +83,15 @@ class SpecTable:
         if key in self.data:
             return self.data[key]
         if default is REQUIRED:
-            raise self.error(key, "missing (required)")
+            raise self.error(key, "missing (required)" + self._misspelt(key))
         return default
+
+    def _misspelt(self, key: str) -> str:
+        """``"; found X: a misspelling of KEY?"`` when a key of the table not read so far is close to
+        ``key`` (``widht`` for ``width``), else ``""``."""
+        others = sorted(set(self.data) - self._read - self._takes - {key})
+        close = difflib.get_close_matches(key, others, n=1, cutoff=0.8)
+        return f"; found {close[0]}: a misspelling of {key}?" if close else ""
 
     def number(self, key: str, unit: str, default: Any = REQUIRED, *, low: float | None = None,
                low_open: bool = False, high: float | None = None, integer: bool = False,

@@ -107,3 +107,18 @@ def test_validate_shipped_with_cases_checks_its_report_folder_before_the_re_runs
     assert msr(["validate", "shipped", "cantilever", "--quick", "--out", str(mine)]) == 2
     assert "notes.txt" in capsys.readouterr().err
     assert (mine / "notes.txt").read_text() == "mine\n"
+
+
+@pytest.mark.parametrize("old, new, found", [
+    ("width = ", "widht = ", "found widht: a misspelling of width?"),
+    ("length = ", "lenght = ", "found lenght: a misspelling of length?"),
+])
+def test_a_misspelt_required_key_is_named(tmp_path, old, new, found):
+    """V6: a misspelt required key (``widht``) was answered "[robot] width: missing (required)"
+    without naming it, where a misspelt optional key gets "did you mean"."""
+    text = load_case("m1-4mT").toml()
+    assert f"\n{old}" in text
+    spec = tmp_path / "typo.toml"
+    spec.write_text(text.replace(f"\n{old}", f"\n{new}", 1))
+    with pytest.raises(ValueError, match=rf"\[robot\] {old.split()[0]}: missing \(required\); {found}"):
+        load_case(spec)
