@@ -308,6 +308,30 @@ def _check_files_in_order(drive_csv: Path, trajectory_csv: Path) -> None:
                        f"(t_s, {', '.join(TIP_COLUMNS)}); swap them")
 
 
+def _check_tip_path_given(drive_csv: Path, trajectory_csv: Path, steered_by: str) -> None:
+    """With a catheter's recorded drive first, the second file must be its tip path: a magnet path,
+    the coils' currents or a field CSV there is named as such (:class:`CommandError`)."""
+    from elastica_magnetic.field_csv import FIELD_COLUMNS
+
+    from .coil_path import is_coil_path
+    from .identify import STEERED_BY
+    from .magnet_path import is_magnet_path
+    from .recorded_paths import header_names
+    from .tracking import TIP_COLUMNS
+
+    columns = header_names(trajectory_csv)
+    if TIP_COLUMNS[0] in columns:
+        return
+    what = ("a magnet arm's path" if is_magnet_path(trajectory_csv) else
+            "the coils' recorded currents" if is_coil_path(trajectory_csv) else
+            f"a field CSV ({', '.join(FIELD_COLUMNS)} in mT)" if set(FIELD_COLUMNS) <= set(columns) else None)
+    if what is None:
+        return  # the reader names what it lacks
+    raise CommandError(f"{trajectory_csv}: is {what}, not a motion measured: {drive_csv} is "
+                       f"{STEERED_BY[steered_by][2].split(' (')[0]}, which steers a catheter, so the second "
+                       f"file is the tip's path (t_s, {', '.join(TIP_COLUMNS)})")
+
+
 def _drive_and_measured(drive_csv: Path, trajectory_csv: Path, robot: str):
     """What played the motion (a waveform, with the ``robot`` spec file's field in space and clamp;
     a magnet arm's path; or the coils' currents: told by the file's header), the measured motion,
@@ -335,6 +359,8 @@ def _drive_and_measured(drive_csv: Path, trajectory_csv: Path, robot: str):
         drive = FieldDrive(read_field_csv(drive_csv, plausible=True),
                            load_field(robot) if Path(robot).suffix == ".toml" else None)
         steered_by = None
+    if steered_by is not None:  # a catheter's motion is its tip path: another file named before it is read
+        _check_tip_path_given(drive_csv, trajectory_csv, steered_by)
     measured = read_trajectory(trajectory_csv)
     if steered_by is not None and measured.kind != "tip path":
         raise CommandError(f"{trajectory_csv}: {drive_csv} is {STEERED_BY[steered_by][2].split(' (')[0]}, "

@@ -122,3 +122,22 @@ def test_a_misspelt_required_key_is_named(tmp_path, old, new, found):
     spec.write_text(text.replace(f"\n{old}", f"\n{new}", 1))
     with pytest.raises(ValueError, match=rf"\[robot\] {old.split()[0]}: missing \(required\); {found}"):
         load_case(spec)
+
+
+def test_a_catheter_s_drive_with_a_field_csv_as_its_motion_asks_for_the_tip_path(tmp_path, capsys):
+    """V3: with the coils' currents first and a field CSV second, identify asked for a crawler's
+    ``t_s`` column and tracked points; a catheter's motion is its tip path, and the file is named."""
+    import math
+
+    coils = tmp_path / "coils.csv"
+    rows = [f"{0.01 * i:.2f}," + ",".join(f"{math.sin(0.1 * i * (k + 1)):.6f}" for k in range(8)) + ",0"
+            for i in range(31)]
+    coils.write_text("t_s," + ",".join(f"current_{k}_A" for k in range(8)) + ",insertion_m\n"
+                     + "\n".join(rows) + "\n")
+    field = tmp_path / "field.csv"
+    field.write_text(",mag_x,mag_y,mag_z\n" + "".join(f"{i},1.0,0.0,0.0\n" for i in range(30)))
+    assert msr(["real", "identify", str(coils), str(field), "--robot", "catheter-coils-reach", "--fit",
+                "coils", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "field.csv: is a field CSV (mag_x, mag_y, mag_z in mT), not a motion measured" in err, err
+    assert "the tip's path (t_s, tip_x_m, tip_y_m, tip_z_m)" in err and "tracked points" not in err, err
