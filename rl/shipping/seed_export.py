@@ -11,7 +11,7 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-from elastica_magnetic.io import atomic_write_json, atomic_write_text
+from elastica_magnetic.io import atomic_write_json, atomic_write_text, display_path
 from elastica_magnetic.results import (
     ResultExistsError,
     check_result_folder,
@@ -129,7 +129,8 @@ def _check_dest(dest: Path, subject: str, new_seeds: set[int], meta: dict[str, A
     earlier = _earlier_exported_seeds(dest, new_seeds, meta)
     again = sorted(new_seeds & set(_exported_seed_numbers(dest)))
     if again and not force:
-        raise ValueError(f"--out {dest}: already holds seeds {', '.join(map(str, again))} of case "
+        raise ValueError(f"--out {display_path(dest)}: already holds seeds {', '.join(map(str, again))} "
+                         "of case "
                          f"{subject.removeprefix('case ')}; pass --force to replace them, or "
                          "choose another --out")
     return known, earlier
@@ -230,7 +231,8 @@ def _earlier_exported_seeds(dest: Path, replaced: set[int], meta: dict[str, Any]
                              f"({exc})") from exc
         if physical(other.get("case_spec")) != physical(as_json(meta.get("case_spec"))):
             theirs, mine = physical(other.get("case_spec")), physical(as_json(meta.get("case_spec")))
-            raise ValueError(f"--out {dest}: seed {entry['seed']} there was trained on another spec of case "
+            raise ValueError(f"--out {display_path(dest)}: seed {entry['seed']} there was trained on another "
+                             "spec of case "
                              f"{other.get('case')!r} than this run's {meta.get('case')!r} (they differ at "
                              f"{first_difference(theirs, mine)}); export into another folder (--force "
                              "replaces only seeds of the same case)")
@@ -240,7 +242,8 @@ def _earlier_exported_seeds(dest: Path, replaced: set[int], meta: dict[str, Any]
         if other_config != config:
             differing = sorted(k for k in set(config) | set(other_config)
                                if config.get(k) != other_config.get(k))
-            raise ValueError(f"{dest}: seed {entry['seed']} was trained with other hyperparameters "
+            raise ValueError(f"{display_path(dest)}: seed {entry['seed']} was trained with other "
+                             "hyperparameters "
                              f"({', '.join(differing)} differ): export into another folder")
         kept.append(entry)
     return kept

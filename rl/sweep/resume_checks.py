@@ -10,6 +10,8 @@ import dataclasses
 from collections.abc import Iterable, Mapping
 from typing import Any
 
+from elastica_magnetic.io import display_path
+
 from ..runfiles.checkpoint import load_checkpoint, replay_problem
 from ..runfiles.rundir import RunDir
 from ..td3.config import Schedule, setting_option
@@ -36,17 +38,17 @@ def check_resumed_checkpoints(runs: Iterable[tuple[str, RunDir]],
         buffer = ckpt.get("buffer")
         if isinstance(buffer, dict) and "file" in buffer:  # found now, not after the others trained
             if (problem := replay_problem(run.path / buffer["file"], buffer)) is not None:
-                raise ValueError(f"cannot resume {run.path}: {problem}")
+                raise ValueError(f"cannot resume {display_path(run.path)}: {problem}")
         meta = ckpt.get("metadata") or {}
         if meta.get("case") not in (None, case):
-            raise ValueError(f"{run.checkpoint}: a checkpoint of case {meta['case']!r}, not of "
+            raise ValueError(f"{display_path(run.checkpoint)}: a checkpoint of case {meta['case']!r}, not of "
                              f"{case!r}: cannot resume it as {case} (was it copied here?)")
         config = ckpt.get("config") or {}
         changed = [f"{setting_option(k)}: the run's {config[k]!r}, given {v!r}"
                    for k, v in (overrides or {}).items()
                    if k not in _MAY_CHANGE and k in config and not _same(config[k], v)]
         if changed:
-            raise ValueError(f"cannot resume {run.path} with other hyperparameters ("
+            raise ValueError(f"cannot resume {display_path(run.path)} with other hyperparameters ("
                              + "; ".join(changed) + "): a resumed run keeps the ones it was "
                              "trained with; drop these options, or train a new run (another "
                              "--out or --seed-offset)")
@@ -64,10 +66,10 @@ def check_steps_left(runs: Iterable[tuple[str, RunDir]], steps: int) -> None:
         ckpt = load_checkpoint(run.checkpoint, with_buffer=False)
         step, stopped = int(ckpt["global_step"]), ckpt.get("stopped")
         if stopped:
-            done.setdefault(case, []).append(f"{run.path} was stopped by its rule at step "
+            done.setdefault(case, []).append(f"{display_path(run.path)} was stopped by its rule at step "
                                              f"{stopped['step']} (never trained further)")
         elif step >= steps:
-            done.setdefault(case, []).append(f"{run.path} is already at {step} steps")
+            done.setdefault(case, []).append(f"{display_path(run.path)} is already at {step} steps")
             reached[case] = max(reached.get(case, 0), step)
         else:
             to_train.add(case)

@@ -369,20 +369,20 @@ def _check_run_folders(out: str | Path, loaded: dict[str, Case], seed_list: list
     """Before any work: no run is overwritten; a resumed run exists, can continue and keeps its
     settings; ``before_making()`` (further checks, before a folder is made); every seed's folder
     can be written."""
-    from elastica_magnetic.io import prepare_output_dir
+    from elastica_magnetic.io import display_path, prepare_output_dir
 
     from ..runfiles.checkpoint import load_checkpoint, refuse_networks_only
 
     check_case_folders(out, loaded, seed_list)
     runs = [(case, s, CaseDir.of(out, case).seed(s)) for case in loaded for s in seed_list]
     if not resume:
-        existing = [str(run.path) for _, _, run in runs if run.checkpoint.exists()]
+        existing = [display_path(run.path) for _, _, run in runs if run.checkpoint.exists()]
         if existing:
             raise FileExistsError(f"runs already exist: {', '.join(existing)} (use --resume, another "
                                   "--out, or --seed-offset)")
     else:
-        missing = [str(run.checkpoint) for _, _, run in runs if not run.checkpoint.exists()]
-        writing = [f"{run.path}: {hint}" for _, _, run in runs
+        missing = [display_path(run.checkpoint) for _, _, run in runs if not run.checkpoint.exists()]
+        writing = [f"{display_path(run.path)}: {hint}" for _, _, run in runs
                    if not run.checkpoint.exists() and (hint := being_written_hint(run.path))]
         if writing:
             raise FileNotFoundError(f"cannot resume: {'; '.join(writing)}")

@@ -141,3 +141,25 @@ def test_a_catheter_s_drive_with_a_field_csv_as_its_motion_asks_for_the_tip_path
     err = capsys.readouterr().err
     assert "field.csv: is a field CSV (mag_x, mag_y, mag_z in mT), not a motion measured" in err, err
     assert "the tip's path (t_s, tip_x_m, tip_y_m, tip_z_m)" in err and "tracked points" not in err, err
+
+
+def test_refusals_of_export_seeds_and_train_name_out_as_given(tmp_path, monkeypatch, capsys):
+    """V5: ``msr policy export-seeds`` and ``msr train`` named a relative ``--out`` absolutely in their
+    refusals, where every other command names it relative to the current folder."""
+    from pathlib import Path
+
+    from elastica_magnetic_rl.shipping.seed_export import _check_dest
+
+    monkeypatch.chdir(tmp_path)
+    shutil.copytree(POLICIES_DIR / "m1-4mT" / "seeds" / "fast-v1", tmp_path / "es")
+    earlier = json.loads((tmp_path / "es" / "seed0" / "policy.json").read_text())
+    meta = {"case": "m1-4mT", "case_spec": earlier["case_spec"], "config": earlier["training"].get("config")}
+    with pytest.raises(ValueError, match=r"^--out es: already holds seeds 0 of case m1-4mT; pass --force"):
+        _check_dest(Path("es"), "case m1-4mT", {0}, meta, force=False)
+    seed = tmp_path / "runs" / "m1-4mT" / "seed0"
+    seed.mkdir(parents=True)
+    (seed / "checkpoint.pt").write_bytes(b"")
+    assert msr(["train", "--case", "m1-4mT", "--seeds", "1", "--steps", "60", "--out", "runs",
+                "--no-progress", "--workers", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "runs already exist: runs/m1-4mT/seed0 (use --resume" in err and str(tmp_path) not in err, err
