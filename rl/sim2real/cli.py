@@ -282,28 +282,24 @@ def _check_files_in_order(drive_csv: Path, trajectory_csv: Path) -> None:
     its recorded drive second."""
     from elastica_magnetic.field_csv import FIELD_COLUMNS
 
-    from .coil_path import is_coil_path
     from .identify import STEERED_BY
-    from .magnet_path import is_magnet_path
-    from .recorded_paths import header_names
+    from .recorded_paths import file_kind, header_names
     from .tracking import TIP_COLUMNS
 
-    first = header_names(drive_csv)
-    if set(FIELD_COLUMNS) <= set(header_names(trajectory_csv)) and not set(FIELD_COLUMNS) <= set(first):
+    first, second = file_kind(drive_csv), file_kind(trajectory_csv)
+    if second == "field" and first != "field":
         raise CommandError(f"{drive_csv}, {trajectory_csv}: the two files are the wrong way round "
                            f"({trajectory_csv} is a field CSV, {', '.join(FIELD_COLUMNS)} in mT, what played "
-                           f"the motion; {drive_csv} has {', '.join(first[:3])}...): first the field CSV, "
-                           "then the measured trajectory; swap them")
-    drive = ("coil-currents" if is_coil_path(trajectory_csv) else
-             "magnet-pose" if is_magnet_path(trajectory_csv) else None)
-    tip_first = TIP_COLUMNS[0] in first
-    if drive is None and not tip_first:
+                           f"the motion; {drive_csv} has {', '.join(header_names(drive_csv)[:3])}...): first "
+                           "the field CSV, then the measured trajectory; swap them")
+    drive = second if second in STEERED_BY else None
+    if drive is None and first != "tip":
         return
     drives = (f"{STEERED_BY['magnet-pose'][2]} or {STEERED_BY['coil-currents'][2]}" if drive is None
               else STEERED_BY[drive][2])
     raise CommandError(f"{drive_csv}, {trajectory_csv}: the two files are the wrong way round"
                        + (f" ({drive_csv} is a catheter's tip path, {', '.join(TIP_COLUMNS)}, the motion "
-                          "measured)" if tip_first else "")
+                          "measured)" if first == "tip" else "")
                        + f": first what played the motion, {drives}, then the tip path "
                        f"(t_s, {', '.join(TIP_COLUMNS)}); swap them")
 
@@ -311,23 +307,14 @@ def _check_files_in_order(drive_csv: Path, trajectory_csv: Path) -> None:
 def _check_tip_path_given(drive_csv: Path, trajectory_csv: Path, steered_by: str) -> None:
     """With a catheter's recorded drive first, the second file must be its tip path: a magnet path,
     the coils' currents or a field CSV there is named as such (:class:`CommandError`)."""
-    from elastica_magnetic.field_csv import FIELD_COLUMNS
-
-    from .coil_path import is_coil_path
     from .identify import STEERED_BY
-    from .magnet_path import is_magnet_path
-    from .recorded_paths import header_names
+    from .recorded_paths import FILE_KINDS, file_kind
     from .tracking import TIP_COLUMNS
 
-    columns = header_names(trajectory_csv)
-    if TIP_COLUMNS[0] in columns:
-        return
-    what = ("a magnet arm's path" if is_magnet_path(trajectory_csv) else
-            "the coils' recorded currents" if is_coil_path(trajectory_csv) else
-            f"a field CSV ({', '.join(FIELD_COLUMNS)} in mT)" if set(FIELD_COLUMNS) <= set(columns) else None)
-    if what is None:
-        return  # the reader names what it lacks
-    raise CommandError(f"{trajectory_csv}: is {what}, not a motion measured: {drive_csv} is "
+    kind = file_kind(trajectory_csv)
+    if kind in (None, "tip"):
+        return  # a tip path, or a file whose reader names what it lacks
+    raise CommandError(f"{trajectory_csv}: is {FILE_KINDS[kind]}, not a motion measured: {drive_csv} is "
                        f"{STEERED_BY[steered_by][2].split(' (')[0]}, which steers a catheter, so the second "
                        f"file is the tip's path (t_s, {', '.join(TIP_COLUMNS)})")
 

@@ -23,7 +23,6 @@ same for any error that scales its field (a winding count, a driver's current se
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,6 +34,7 @@ from numpy.typing import NDArray
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from .recorded_paths import (
+    CURRENT_COLUMN,
     INSERTION_COLUMN,
     RecordedDrive,
     check_insertion,
@@ -50,8 +50,6 @@ from .tracking import TrajectoryError, numeric_columns
 __all__ = ["CoilDrive", "CoilPath", "is_coil_path", "read_coil_path", "record_coil_steering",
            "simulate_coil_tips", "write_coil_path"]
 
-#: A coil's current column: ``current_<K>_A``, K its index among the spec's coils (from 0).
-CURRENT_COLUMN = re.compile(r"^current_(\d+)_A$")
 #: A current above this (A) is a value in mA written as A (no navigation system drives more).
 MAX_PATH_CURRENT = 1000.0
 #: A current beyond the case's ``current_limit`` by more than this fraction is warned about (a

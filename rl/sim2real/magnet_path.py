@@ -34,6 +34,7 @@ from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from .recorded_paths import (
     INSERTION_COLUMN,
+    MAGNET_COLUMN,
     RecordedDrive,
     check_insertion,
     control_grid,
@@ -88,7 +89,7 @@ class MagnetPath:
 
 def is_magnet_path(path: str | Path) -> bool:
     """Whether the CSV at ``path`` has a magnet path's header (its first line names magnet_x_m)."""
-    return "magnet_x_m" in header_names(path)
+    return MAGNET_COLUMN in header_names(path)
 
 
 def read_magnet_path(path: str | Path) -> MagnetPath:

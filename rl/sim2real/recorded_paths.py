@@ -5,6 +5,7 @@ simulation."""
 
 from __future__ import annotations
 
+import re
 import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -14,17 +15,25 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from elastica_magnetic.field_csv import header_named_twice
+from elastica_magnetic.field_csv import FIELD_COLUMNS, header_named_twice
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
-from .tracking import MeasuredTrajectory, TrajectoryError
+from .tracking import TIP_COLUMNS, MeasuredTrajectory, TrajectoryError
 
-__all__ = ["GRID_TOLERANCE_S", "INSERTION_COLUMN", "RecordedDrive", "check_insertion", "check_tip_path",
-           "control_grid", "header_names", "quiet_case", "read_path_table", "steer_and_record",
-           "write_path_csv"]
+__all__ = ["CURRENT_COLUMN", "FILE_KINDS", "GRID_TOLERANCE_S", "INSERTION_COLUMN", "MAGNET_COLUMN",
+           "RecordedDrive", "check_insertion", "check_tip_path", "control_grid", "file_kind", "header_names",
+           "quiet_case", "read_path_table", "steer_and_record", "write_path_csv"]
 
 #: The insertion stage's column of a recorded path (m; only with a stage).
 INSERTION_COLUMN = "insertion_m"
+#: A coil's current column: ``current_<K>_A``, K its index among the spec's coils (from 0).
+CURRENT_COLUMN = re.compile(r"^current_(\d+)_A$")
+#: The column that marks a magnet arm's path (its first position column, m).
+MAGNET_COLUMN = "magnet_x_m"
+#: The files ``msr real identify`` tells apart by their first line (:func:`file_kind`), as named to a user.
+FILE_KINDS = {"tip": "a catheter's tip path", "magnet-pose": "a magnet arm's path",
+              "coil-currents": "the coils' recorded currents",
+              "field": f"a field CSV ({', '.join(FIELD_COLUMNS)} in mT)"}
 #: Rows must lie on the 0.01 s control grid within this (s).
 GRID_TOLERANCE_S = 1e-6
 #: The tracked tip at t_s 0 must lie within this fraction of the rod's length of the straight rod's
@@ -42,6 +51,22 @@ def header_names(path: str | Path) -> list[str]:
     except (OSError, UnicodeDecodeError):
         return []
     return [c.strip() for c in header.split(",")]
+
+
+def file_kind(path: str | Path) -> str | None:
+    """What the CSV at ``path`` is, told by its first line: a key of :data:`FILE_KINDS` (a tip path,
+    a magnet path, the coils' currents, a field CSV), or None (a crawler's trajectory, or a file
+    whose reader names what it lacks)."""
+    columns = header_names(path)
+    if TIP_COLUMNS[0] in columns:
+        return "tip"
+    if MAGNET_COLUMN in columns:
+        return "magnet-pose"
+    if any(CURRENT_COLUMN.match(name) for name in columns):
+        return "coil-currents"
+    if set(FIELD_COLUMNS) <= set(columns):
+        return "field"
+    return None
 
 
 def read_path_table(path: Path, what: str) -> pd.DataFrame:

@@ -129,6 +129,8 @@ def check_stop_rule_decides(rule: StopRule | None, config: TD3Config, steps: int
     episodes of ``episode_duration`` s longer than ``eval_every`` steps, the evaluations are fewer
     (one per episode end at most): warned (:class:`SettingNotAppliedWarning`) when those of
     full-length episodes are too few (episodes that end early could still give enough)."""
+    from elastica_magnetic.robot_spec import ACTION_PERIOD
+
     if rule is None or config.eval_every <= 0:
         return
     every = config.eval_every
@@ -142,7 +144,7 @@ def check_stop_rule_decides(rule: StopRule | None, config: TD3Config, steps: int
     head = (f"--stop-when {rule.kind} cannot decide within the run: it needs {needed} evaluations, and "
             f"{sources.steps(steps)} with {sources.setting('eval_every', every)} makes at most {most}")
     episode = (0 if episode_duration is None
-               else int(round(episode_duration / _action_period())) * max(1, envs))
+               else int(round(episode_duration / ACTION_PERIOD)) * max(1, envs))
     if episode > (last - 1) // (needed - 1):  # a shorter eval_every cannot help: one per episode end
         raise ValueError(
             f"{head}; evaluations come at episode ends, at most one per episode of {episode_duration:g} s "
@@ -151,12 +153,6 @@ def check_stop_rule_decides(rule: StopRule | None, config: TD3Config, steps: int
     raise ValueError(
         f"{head}; give --set eval_every of at most {(last - 1) // (needed - 1)} or --steps of at least "
         f"{max((needed - 1) * every + 1, needed * episode)}, or --stop-when none")
-
-
-def _action_period() -> float:
-    from elastica_magnetic.robot_spec import ACTION_PERIOD
-
-    return ACTION_PERIOD
 
 
 def evaluations_with_episodes(last: int, every: int, episode: int) -> int:

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import errno
 import hashlib
-import math
 import os
 import shutil
 import warnings
@@ -22,6 +21,7 @@ from elastica_magnetic_rl.sweep.inert_settings import (
     evaluations_with_episodes,
 )
 from elastica_magnetic_rl.td3.config import TD3Config
+from recorded_files import write_coil_currents
 
 from elastica_magnetic.cli import main as msr
 from elastica_magnetic.locks import FolderLock
@@ -173,11 +173,7 @@ def test_a_catheter_study_refuses_a_variation_its_simulator_leaves_out_before_an
 def test_identify_names_a_tip_path_and_a_drive_given_the_wrong_way_round(tmp_path, capsys):
     """V3: with the tip path first and the coil path second, identify read the tip path as a field
     CSV and asked for mag_x, mag_y, mag_z in mT. Now it says the files are the wrong way round."""
-    coils = tmp_path / "coils.csv"
-    rows = [f"{0.01 * i:.2f}," + ",".join(f"{math.sin(0.1 * i * (k + 1)):.6f}" for k in range(8)) + ",0"
-            for i in range(31)]
-    coils.write_text("t_s," + ",".join(f"current_{k}_A" for k in range(8)) + ",insertion_m\n"
-                     + "\n".join(rows) + "\n")
+    coils = write_coil_currents(tmp_path / "coils.csv")
     tip = tmp_path / "tip.csv"
     tip.write_text("t_s,tip_x_m,tip_y_m,tip_z_m\n" + "".join(f"{0.02 * i:.2f},0.05,0,0\n" for i in range(16)))
     assert msr(["real", "identify", str(tip), str(coils), "--robot", "catheter-coils-reach", "--fit", "coils",

@@ -9,6 +9,7 @@ import shutil
 import pytest
 from elastica_magnetic_rl.cases.case import load_case
 from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR
+from recorded_files import write_coil_currents
 
 from elastica_magnetic.cli import main as msr
 from elastica_magnetic.io import OutputPathError
@@ -127,13 +128,7 @@ def test_a_misspelt_required_key_is_named(tmp_path, old, new, found):
 def test_a_catheter_s_drive_with_a_field_csv_as_its_motion_asks_for_the_tip_path(tmp_path, capsys):
     """V3: with the coils' currents first and a field CSV second, identify asked for a crawler's
     ``t_s`` column and tracked points; a catheter's motion is its tip path, and the file is named."""
-    import math
-
-    coils = tmp_path / "coils.csv"
-    rows = [f"{0.01 * i:.2f}," + ",".join(f"{math.sin(0.1 * i * (k + 1)):.6f}" for k in range(8)) + ",0"
-            for i in range(31)]
-    coils.write_text("t_s," + ",".join(f"current_{k}_A" for k in range(8)) + ",insertion_m\n"
-                     + "\n".join(rows) + "\n")
+    coils = write_coil_currents(tmp_path / "coils.csv")
     field = tmp_path / "field.csv"
     field.write_text(",mag_x,mag_y,mag_z\n" + "".join(f"{i},1.0,0.0,0.0\n" for i in range(30)))
     assert msr(["real", "identify", str(coils), str(field), "--robot", "catheter-coils-reach", "--fit",

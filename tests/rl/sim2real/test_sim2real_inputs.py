@@ -159,3 +159,19 @@ def test_round17_robustness_of_a_reach_case_judges_the_miss_of_the_target():
     assert s["nominal_error_m"] == pytest.approx(0.0007) and s["worst_of_nominal"] is None
     assert "target +10.0 mm; nominal +9.3 mm (0.70 mm from it), worst +4.8 mm (magnetization x0.85, " \
            "5.20 mm from it)" in robustness_table(report)
+
+
+def test_file_kind_tells_every_recorded_file_by_its_first_line(tmp_path):
+    """identify's order checks read one classification: a tip path, a magnet path, the coils'
+    currents, a field CSV, or nothing it knows (a crawler's trajectory, an unreadable file)."""
+    from elastica_magnetic_rl.sim2real.recorded_paths import FILE_KINDS, file_kind
+    from recorded_files import write_coil_currents
+
+    files = {"tip": "t_s,tip_x_m,tip_y_m,tip_z_m", "magnet-pose": "t_s,magnet_x_m,magnet_y_m,magnet_z_m",
+             "field": ",mag_x,mag_y,mag_z", None: "t_s,p0_x_m,p0_y_m"}
+    for kind, header in files.items():
+        (tmp_path / f"{kind}.csv").write_text(header + "\n0,0,0,0\n")
+        assert file_kind(tmp_path / f"{kind}.csv") == kind
+    assert file_kind(write_coil_currents(tmp_path / "coils.csv", n_coils=3)) == "coil-currents"
+    assert file_kind(tmp_path / "absent.csv") is None
+    assert set(FILE_KINDS) == {"tip", "magnet-pose", "coil-currents", "field"}
