@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from .drive_columns import drive_described
 from .io import atomic_write
 from .plausibility import judge, warn_implausible
 
@@ -185,6 +186,13 @@ def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
     if twice:
         raise FieldCSVError(f"{path}: header on line {first_line} {twice}; give each column once")
     missing = [c for c in FIELD_COLUMNS if c not in names]
+    drive = drive_described(names) if missing else None
+    if drive:  # a drive is played by its own hardware, not as a uniform field
+        raise FieldCSVError(
+            f"{path}: holds {drive}, not a field ({', '.join(FIELD_COLUMNS)} in mT): a field CSV is "
+            "a uniform field, what msr field replay simulates and the coil board plays through its three "
+            "field axes; a catheter's drive is replayed by msr real identify and played by the coils' "
+            "own drivers or the arm's controller")
     if missing:
         raise FieldCSVError(
             f"{path}: header on line {first_line} lacks column(s) {', '.join(missing)}; "

@@ -141,3 +141,18 @@ def test_round17_a_column_of_an_axis_the_spec_does_not_drive_is_refused():
     assert problem.startswith("f.csv: data row 3 asks B_z = 2 mT, and the spec's [actuation] drives the "
                               "axes xy only"), problem
     assert limit_problem(field, {"x": 4e-3, "y": 4e-3, "z": 4e-3}, "f.csv") is None
+
+
+def test_a_catheter_s_drive_given_as_a_field_csv_is_named(tmp_path):
+    """The coils' currents or a magnet arm's path (``msr policy generate --target``'s drive) given where a
+    field CSV goes (``msr real stream``, ``msr field replay``) are named for what they are, not as a
+    field CSV that lacks mag_x, mag_y, mag_z."""
+    coils = tmp_path / "coil_currents.csv"
+    coils.write_text("t_s," + ",".join(f"current_{k}_A" for k in range(8)) + "\n0" + ",0.5" * 8 + "\n")
+    with pytest.raises(FieldCSVError, match=r"coil_currents.csv: holds the currents of 8 coils "
+                                            r"\(current_0_A, \.\.\., A\), a catheter.s drive"):
+        read_field_csv(coils)
+    arm = tmp_path / "magnet_path.csv"
+    arm.write_text("t_s,magnet_x_m,magnet_y_m,magnet_z_m,direction_x,direction_y,direction_z\n0,0.09,0,0,1,0,0\n")
+    with pytest.raises(FieldCSVError, match=r"holds a magnet arm's path \(magnet_x_m, \.\.\., m\)"):
+        read_field_csv(arm)

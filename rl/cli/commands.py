@@ -399,6 +399,14 @@ def generate_command(args: argparse.Namespace) -> int:
     return _print_rollout_result(result, args.json)
 
 
+def _drive_of(case, target) -> object | None:
+    """The recorder of the drive a single ``--target``'s steering writes (its magnet path or coil
+    currents, and the tip's path: what ``msr real identify`` reads); None for the held-out targets."""
+    from ..sim2real.identify import drive_recorder
+
+    return drive_recorder(case) if target is not None else None
+
+
 def _tip_reach_generate(args: argparse.Namespace, loaded) -> int:
     """``msr policy generate`` of a tip-reach policy: its actor steering the tip to the case's
     held-out targets, or to ``--target X,Y,Z``, written as the yardstick's are (targets.csv/json/png)."""
@@ -418,7 +426,7 @@ def _tip_reach_generate(args: argparse.Namespace, loaded) -> int:
     result = write_targets(loaded.case, args.out, actor_controller(loaded.actor), physics=args.physics,
                            duration=args.duration, force=args.force, kind="generate",
                            figures=not args.no_figures, targets=args.target,
-                           controller=f"policy {loaded.source}")
+                           controller=f"policy {loaded.source}", drive=_drive_of(loaded.case, args.target))
     if choice is not None:
         result["actor_choice"] = {**choice.to_dict(), "summary": choice.describe()}
     print_notes(result.pop("notes", ()))
@@ -481,7 +489,7 @@ def _tip_reach_baseline(args: argparse.Namespace) -> int:
     print_notes(target_notes(args.case, args.target) if args.target is not None else ())
     result = write_targets(args.case, args.out, steering_controller, physics=args.physics,
                            duration=args.duration, force=args.force, figures=not args.no_figures,
-                           targets=args.target)
+                           targets=args.target, drive=_drive_of(args.case, args.target))
     print_notes(result.pop("notes", ()))
     print_result(result, args.json)
     return 0

@@ -107,7 +107,9 @@ def target_notes(case: Case, targets: Any) -> list[str]:
 def run_targets(case: Case, targets: Any,
                 make_controller: Callable[[CatheterReachVectorEnv], Controller],
                 physics: str = "accurate", duration: float | None = None,
-                paths: list[NDArray[np.float64]] | None = None) -> dict[str, Any]:
+                paths: list[NDArray[np.float64]] | None = None,
+                record: Callable[[CatheterReachVectorEnv, int], Any] | None = None,
+                drives: list[list[Any]] | None = None) -> dict[str, Any]:
     """Steer to every target at once (one episode each, ``duration`` s, default the task's), in
     ``physics``. ``make_controller``: makes the :data:`Controller` from the environment (as
     :func:`steering_controller`; an actor: ``lambda env: lambda env, obs: actor(obs)``). Returns
@@ -115,7 +117,10 @@ def run_targets(case: Case, targets: Any,
     (``"time"``, ``"collision"`` or ``"divergence"``), ``success`` (ending within the
     tolerance, by time) and ``time_to_target_s`` (when the tip first came within the tolerance, s;
     ``None`` if never), and ``successes`` (their count). ``paths``: given a list, the tips at every
-    control step are appended to it, ``(T, N, 3)`` m."""
+    control step are appended to it, ``(T, N, 3)`` m. ``record`` and ``drives``: given both, each
+    target's ``record(env, i)`` (its actuator's state) after the reset and after every step before
+    its episode's last (whose end resets the actuator) is appended to ``drives``, a list per target
+    (row k at k x 0.01 s, as the tips)."""
     if case.field_actuated:
         raise ValueError(f"case {case.name!r} is not a tip-reach case (its actuation is a field)")
     targets = np.asarray(targets, dtype=np.float64).reshape(-1, 3)
@@ -128,9 +133,12 @@ def run_targets(case: Case, targets: Any,
     reached = np.full(n, np.nan)
     done = np.zeros(n, dtype=bool)
     tips = [info["tip_m"].copy()]
+    recorded = [[record(env, i)] for i in range(n)] if record is not None else None
     while not done.all():
         obs, _, terminated, truncated, info = env.step(act(env, obs))
         ended = (terminated | truncated) & ~done
+        for i in np.flatnonzero(~done & ~ended) if recorded is not None else ():
+            recorded[i].append(record(env, i))
         if ended.any():
             last = info["final_info"]
             final[ended] = last["distance_m"][ended]
@@ -147,6 +155,8 @@ def run_targets(case: Case, targets: Any,
     success = (ended_by == "time") & case.task.within_tolerance(final)
     if paths is not None:
         paths.append(np.stack(tips))
+    if recorded is not None and drives is not None:
+        drives.extend(recorded)
     return {"targets_m": targets.tolist(), "final_distance_m": final.tolist(),
             "closest_distance_m": closest.tolist(), "ended_by": ended_by.tolist(),
             "success": success.tolist(), "successes": int(success.sum()), "physics": physics,
@@ -183,14 +193,16 @@ TARGET_FILES = ("targets.csv", "targets.json", "targets.png")
 def write_targets(case: Case, out: Any, make_controller: Callable[[CatheterReachVectorEnv], Controller],
                   physics: str = "accurate", duration: float | None = None, force: bool = False,
                   kind: str = "baseline", figures: bool = True, targets: Any = None,
-                  controller: str = "yardstick") -> dict[str, Any]:
+                  controller: str = "yardstick", drive: Any = None) -> dict[str, Any]:
     """:func:`run_targets` on ``targets`` (m, ``(n, 3)``; default the case's held-out targets),
     written whole into the result folder ``out`` (as ``msr <kind>``'s result for the case;
     replaced only with ``force``): ``targets.csv`` (one row per target), ``targets.json`` (the
     summary and the rows) and, with ``figures``, ``targets.png`` (the tip's paths). Returns the
     summary (``controller`` names what steered: ``"yardstick"`` or the policy) and the files;
     for a single target given, also ``target_m`` and ``tip_error_m`` (the tip's distance from it
-    at the end, m)."""
+    at the end, m). ``drive`` (a :class:`~elastica_magnetic_rl.sim2real.recorded_paths.DriveRecorder`,
+    with a single target): the drive as played and the tip's path are written too (the files
+    ``msr real identify`` reads: play the drive on the hardware, track the tip, identify)."""
     import pandas as pd
 
     from elastica_magnetic.io import atomic_write, atomic_write_json
@@ -200,12 +212,17 @@ def write_targets(case: Case, out: Any, make_controller: Callable[[CatheterReach
 
     subject = f"case {case.name}"
     check_policy_case(out, case)
-    check_result_folder(out, kind=kind, subject=subject, force=force, known_files=TARGET_FILES)
     given = targets is not None
     targets = np.asarray(targets, dtype=np.float64).reshape(-1, 3) if given else held_out_targets(case)
-    with result_folder(out, kind=kind, subject=subject, force=force, known_files=TARGET_FILES) as folder:
+    if drive is not None and len(targets) != 1:
+        raise ValueError(f"a drive is recorded for one target; got {len(targets)}")
+    known = TARGET_FILES + (drive.file_names if drive is not None else ())
+    check_result_folder(out, kind=kind, subject=subject, force=force, known_files=known)
+    with result_folder(out, kind=kind, subject=subject, force=force, known_files=known) as folder:
         # inside the result folder: an interruption while steering says so, leaves no lock
-        summary, rows, paths = _steer_to(case, targets, given, make_controller, physics, duration, controller)
+        drives: list[list[Any]] = []
+        summary, rows, paths = _steer_to(case, targets, given, make_controller, physics, duration, controller,
+                                         drive.row if drive is not None else None, drives)
         with atomic_write(folder.path / "targets.csv", "w", newline="") as handle:
             pd.DataFrame(rows).to_csv(handle, index=False, float_format="%.9g")
         if figures:
@@ -213,16 +230,21 @@ def write_targets(case: Case, out: Any, make_controller: Callable[[CatheterReach
                            title=f"{case.name}, {controller}: {summary['successes']} of {len(rows)} "
                                  f"targets ({physics} physics, {summary['duration_s']:g} s)")
         atomic_write_json(folder.path / "targets.json", {**summary, "targets_table": rows})
+        written = drive.write(folder.path, drives[0], paths[0][:, 0]) if drive is not None else {}
     files = {name: str(folder.final / name) for name in TARGET_FILES if figures or name != "targets.png"}
+    files |= {name: str(folder.final / name) for name in written}
     return {**summary, "files": files, "notes": folder.notes}
 
 
 def _steer_to(case: Case, targets: NDArray[np.float64], given: bool,
               make_controller: Callable[[CatheterReachVectorEnv], Controller], physics: str,
-              duration: float | None, controller: str) -> tuple[dict[str, Any], list[dict[str, Any]], list]:
-    """:func:`run_targets` for :func:`write_targets`: its summary, one row per target and the tip's paths."""
+              duration: float | None, controller: str, record: Any = None, drives: list | None = None
+              ) -> tuple[dict[str, Any], list[dict[str, Any]], list]:
+    """:func:`run_targets` for :func:`write_targets`: its summary, one row per target and the tip's
+    paths (``record`` and ``drives`` as :func:`run_targets`')."""
     paths: list[NDArray[np.float64]] = []
-    result = run_targets(case, targets, make_controller, physics, duration, paths=paths)
+    result = run_targets(case, targets, make_controller, physics, duration, paths=paths, record=record,
+                         drives=drives)
     rows = [{"target_x_m": t[0], "target_y_m": t[1], "target_z_m": t[2], "final_distance_m": final,
              "closest_distance_m": closest, "time_to_target_s": reached, "ended_by": ended, "success": ok}
             for t, final, closest, reached, ended, ok in zip(

@@ -36,6 +36,7 @@ from elastica_magnetic.robot_spec import ACTION_PERIOD
 from .recorded_paths import (
     CURRENT_COLUMN,
     INSERTION_COLUMN,
+    DriveRecorder,
     RecordedDrive,
     check_insertion,
     control_grid,
@@ -47,7 +48,7 @@ from .recorded_paths import (
 )
 from .tracking import TrajectoryError, numeric_columns
 
-__all__ = ["CoilDrive", "CoilPath", "is_coil_path", "read_coil_path", "record_coil_steering",
+__all__ = ["COIL_RECORDER", "CoilDrive", "CoilPath", "is_coil_path", "read_coil_path", "record_coil_steering",
            "simulate_coil_tips", "write_coil_path"]
 
 #: A current above this (A) is a value in mA written as A (no navigation system drives more).
@@ -207,10 +208,23 @@ def record_coil_steering(case: Any, target: Any, make_controller: Callable[[Any]
     Returns the :class:`CoilPath` and the tip at every row, ``(n, 3)`` m. Raises RuntimeError if the
     episode ends early."""
 
-    def row(env: Any) -> tuple[NDArray[np.float64], float]:
-        return env.actuators[0].currents_at(env.robots.robot_time(0)), env.insertion(0)
+    rows, tips = steer_and_record(case, target, COIL_RECORDER.row, make_controller, physics, duration)
+    return _coil_path_of(rows), tips
 
-    rows, tips, staged = steer_and_record(case, target, row, make_controller, physics, duration)
+
+def _currents_row(env: Any, i: int) -> tuple[NDArray[np.float64], float | None]:
+    """Sub-environment ``i``'s coil currents at its robot's time (A, ``(N,)``) and the insertion (m,
+    None without a stage)."""
+    return (env.actuators[i].currents_at(env.robots.robot_time(i)),
+            env.insertion(i) if env.advancers else None)
+
+
+def _coil_path_of(rows: list[Any]) -> CoilPath:
     times = np.arange(len(rows)) * ACTION_PERIOD
-    insertion = np.array([r[1] for r in rows]) if staged else None
-    return CoilPath("recorded", times, np.stack([r[0] for r in rows]), insertion), tips
+    insertion = None if rows[0][1] is None else np.array([r[1] for r in rows])
+    return CoilPath("recorded", times, np.stack([r[0] for r in rows]), insertion)
+
+
+#: The coils' drive recorded while they steer (``msr policy generate --target``): coil_currents.csv.
+COIL_RECORDER = DriveRecorder("coil_currents.csv", _currents_row,
+                              lambda path, rows: write_coil_path(path, _coil_path_of(rows)))

@@ -46,8 +46,8 @@ from ..cases.variations import (
 from .fit_model import FieldDrive, FitModel
 from .tracking import MIN_DURATION_S, MeasuredTrajectory, check_against_robot
 
-__all__ = ["DIFF_STEP", "FIT_BOUNDS", "MAX_EVALUATIONS", "STARTS", "FitBudgetExceeded", "fit_horizons",
-           "identify", "load_spec", "parse_fit", "start_points", "write_identified"]
+__all__ = ["DIFF_STEP", "FIT_BOUNDS", "MAX_EVALUATIONS", "STARTS", "FitBudgetExceeded", "drive_recorder",
+           "fit_horizons", "identify", "load_spec", "parse_fit", "start_points", "write_identified"]
 
 #: Bounds of a fitted factor (x the nominal value).
 FIT_BOUNDS = (0.2, 5.0)
@@ -85,6 +85,19 @@ STEERED_BY = {
     "magnet-pose": ("a magnet path", "a magnet on an arm", "a magnet arm's recorded path (magnet_x_m, ...)"),
     "coil-currents": ("a coil path", "coil currents", "the coils' recorded currents (current_0_A, ...)"),
 }
+
+
+def drive_recorder(case: Any) -> Any:
+    """The :class:`~.recorded_paths.DriveRecorder` of a steered ``case``'s actuation kind (a magnet
+    arm's path, the coils' currents); ValueError for a case driven by a uniform field."""
+    from .coil_path import COIL_RECORDER
+    from .magnet_path import MAGNET_RECORDER
+
+    recorders = {"magnet-pose": MAGNET_RECORDER, "coil-currents": COIL_RECORDER}
+    kind = getattr(case.actuation, "kind", "field")
+    if kind not in recorders:
+        raise ValueError(f"case {case.name!r} is driven by a uniform field: no drive to record")
+    return recorders[kind]
 
 
 def load_spec(robot: str | Path, steered_by: str | None = None) -> dict[str, Any]:

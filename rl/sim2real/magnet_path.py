@@ -35,6 +35,7 @@ from elastica_magnetic.robot_spec import ACTION_PERIOD
 from .recorded_paths import (
     INSERTION_COLUMN,
     MAGNET_COLUMN,
+    DriveRecorder,
     RecordedDrive,
     check_insertion,
     control_grid,
@@ -46,8 +47,8 @@ from .recorded_paths import (
 )
 from .tracking import MAX_COORDINATE_M, TrajectoryError, numeric_columns
 
-__all__ = ["MAGNET_PATH_COLUMNS", "MagnetDrive", "MagnetPath", "is_magnet_path", "read_magnet_path",
-           "record_steering", "simulate_tips", "write_magnet_path"]
+__all__ = ["MAGNET_PATH_COLUMNS", "MAGNET_RECORDER", "MagnetDrive", "MagnetPath", "is_magnet_path",
+           "read_magnet_path", "record_steering", "simulate_tips", "write_magnet_path"]
 
 #: The magnet path's columns (``insertion_m`` only with a stage).
 MAGNET_PATH_COLUMNS = ("t_s", "magnet_x_m", "magnet_y_m", "magnet_z_m", "direction_x", "direction_y",
@@ -261,13 +262,24 @@ def record_steering(case: Any, target: Any, make_controller: Callable[[Any], Any
     Returns the :class:`MagnetPath` and the tip at every row, ``(n, 3)`` m. Raises RuntimeError if
     the episode ends early (a collision, a blow-up)."""
 
-    def pose(env: Any) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-        magnet, t = env.actuators[0], env.robots.robot_time(0)
-        return magnet.position_at(t), magnet.direction_at(t), env.insertion(0)
+    rows, tips = steer_and_record(case, target, MAGNET_RECORDER.row, make_controller, physics, duration)
+    return _magnet_path_of(rows), tips
 
-    rows, tips, staged = steer_and_record(case, target, pose, make_controller, physics, duration)
+
+def _pose_row(env: Any, i: int) -> tuple[NDArray[np.float64], NDArray[np.float64], float | None]:
+    """Sub-environment ``i``'s magnet at its robot's time: centre (m), direction, the insertion (m,
+    None without a stage)."""
+    magnet, t = env.actuators[i], env.robots.robot_time(i)
+    return magnet.position_at(t), magnet.direction_at(t), env.insertion(i) if env.advancers else None
+
+
+def _magnet_path_of(rows: list[Any]) -> MagnetPath:
     times = np.arange(len(rows)) * ACTION_PERIOD
-    positions = np.stack([r[0] for r in rows])
-    directions = np.stack([r[1] for r in rows])
-    insertion = np.array([r[2] for r in rows]) if staged else None
-    return MagnetPath("recorded", times, positions, directions, insertion), tips
+    insertion = None if rows[0][2] is None else np.array([r[2] for r in rows])
+    return MagnetPath("recorded", times, np.stack([r[0] for r in rows]), np.stack([r[1] for r in rows]),
+                      insertion)
+
+
+#: A magnet arm's drive recorded while it steers (``msr policy generate --target``): magnet_path.csv.
+MAGNET_RECORDER = DriveRecorder("magnet_path.csv", _pose_row,
+                                lambda path, rows: write_magnet_path(path, _magnet_path_of(rows)))

@@ -5,9 +5,9 @@ simulation."""
 
 from __future__ import annotations
 
-import re
 import warnings
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -15,25 +15,25 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from elastica_magnetic.drive_columns import CURRENT_COLUMN, MAGNET_COLUMN
 from elastica_magnetic.field_csv import FIELD_COLUMNS, header_named_twice
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from .tracking import TIP_COLUMNS, MeasuredTrajectory, TrajectoryError
 
 __all__ = ["CURRENT_COLUMN", "FILE_KINDS", "GRID_TOLERANCE_S", "INSERTION_COLUMN", "MAGNET_COLUMN",
-           "RecordedDrive", "check_insertion", "check_tip_path", "control_grid", "file_kind", "header_names",
-           "quiet_case", "read_path_table", "steer_and_record", "write_path_csv"]
+           "TIP_PATH_FILE", "DriveRecorder", "RecordedDrive", "check_insertion", "check_tip_path",
+           "control_grid", "file_kind", "header_names", "quiet_case", "read_path_table", "steer_and_record",
+           "write_path_csv", "write_tip_path"]
 
 #: The insertion stage's column of a recorded path (m; only with a stage).
 INSERTION_COLUMN = "insertion_m"
-#: A coil's current column: ``current_<K>_A``, K its index among the spec's coils (from 0).
-CURRENT_COLUMN = re.compile(r"^current_(\d+)_A$")
-#: The column that marks a magnet arm's path (its first position column, m).
-MAGNET_COLUMN = "magnet_x_m"
 #: The files ``msr real identify`` tells apart by their first line (:func:`file_kind`), as named to a user.
 FILE_KINDS = {"tip": "a catheter's tip path", "magnet-pose": "a magnet arm's path",
               "coil-currents": "the coils' recorded currents",
               "field": f"a field CSV ({', '.join(FIELD_COLUMNS)} in mT)"}
+#: The tip path a recorded steering writes beside its drive (:meth:`DriveRecorder.write`).
+TIP_PATH_FILE = "tip_path.csv"
 #: Rows must lie on the 0.01 s control grid within this (s).
 GRID_TOLERANCE_S = 1e-6
 #: The tracked tip at t_s 0 must lie within this fraction of the rod's length of the straight rod's
@@ -153,30 +153,30 @@ def check_tip_path(measured: MeasuredTrajectory, spec: Mapping[str, Any]) -> Non
                               f"or millimetres written as metres? {frame}")
 
 
-def steer_and_record(case: Any, target: Any, row: Callable[[Any], Any],
+def steer_and_record(case: Any, target: Any, row: Callable[[Any, int], Any],
                      make_controller: Callable[[Any], Any] | None = None, physics: str = "accurate",
-                     duration: float | None = None) -> tuple[list[Any], NDArray[np.float64], bool]:
+                     duration: float | None = None) -> tuple[list[Any], NDArray[np.float64]]:
     """Steer the tip of a catheter ``case`` to ``target`` (m, ``(3,)``) in ``physics`` with a
     controller (default the case's steering yardstick) for ``duration`` s (default the task's
-    episode) less the last step (which would end, and reset, the episode), recording ``row(env)``
-    (the actuator's state) at every control step. Returns the rows, the tip at every row ``(n, 3)``
-    m, and whether the case has an insertion stage. Raises RuntimeError if the episode ends early
-    (a collision, a blow-up)."""
+    episode) less the last step (which would end, and reset, the episode), recording ``row(env,
+    0)`` (the actuator's state, as :attr:`DriveRecorder.row`) at every control step. Returns the
+    rows and the tip at every row ``(n, 3)`` m. Raises RuntimeError if the episode ends early (a
+    collision, a blow-up)."""
     from ..envs.catheter_env import make_catheter_env
     from ..shipping.tip_reach import steering_controller
 
     env = make_catheter_env(case, 1, physics, duration)
     obs, info = env.reset(seed=0, options={"target": np.asarray(target, dtype=np.float64)})
     act = (make_controller or steering_controller)(env)
-    rows, tips = [row(env)], [info["tip_m"][0].copy()]
+    rows, tips = [row(env, 0)], [info["tip_m"][0].copy()]
     for _ in range(env.max_episode_steps - 1):  # the last step would end (and reset) the episode
         obs, _, terminated, truncated, info = env.step(act(env, obs))
         if terminated[0]:
             raise RuntimeError(f"the steering ended by {info['final_info']['ended_by'][0]} after "
                                f"{len(rows)} steps: no path to record")
-        rows.append(row(env))
+        rows.append(row(env, 0))
         tips.append(info["tip_m"][0].copy())
-    return rows, np.stack(tips), bool(env.advancers)
+    return rows, np.stack(tips)
 
 
 def quiet_case(spec: Mapping[str, Any], what: str, default_name: str) -> Any:
@@ -201,6 +201,41 @@ def write_path_csv(path: str | Path, columns: dict[str, NDArray[np.float64]],
     with atomic_write(path, "w", newline="") as handle:
         pd.DataFrame(columns).to_csv(handle, index=False, float_format="%.9g")
     return path
+
+
+def write_tip_path(path: str | Path, tips: NDArray[np.float64]) -> Path:
+    """Write a catheter's tip at every control step, ``tips`` ``(n, 3)`` m (row k at k x 0.01 s), as
+    a tip path CSV (``t_s``, ``tip_x_m``, ``tip_y_m``, ``tip_z_m``) at ``path`` (atomically)."""
+    tips = np.asarray(tips, dtype=np.float64).reshape(-1, 3)
+    columns = {"t_s": np.arange(len(tips)) * ACTION_PERIOD}
+    columns.update(zip(TIP_COLUMNS, tips.T, strict=True))
+    return write_path_csv(path, columns, None)
+
+
+@dataclass(frozen=True)
+class DriveRecorder:
+    """How a steered catheter's drive is recorded at every control step and written as the file
+    ``msr real identify`` reads (a magnet arm's path, the coils' currents).
+
+    ``row(env, i)``: sub-environment ``i``'s actuator state at its robot's time (and the stage's
+    insertion, m, or None without a stage); ``write_rows(path, rows)``: the rows written as the
+    drive's CSV at ``path``; ``file_name``: the drive file's name in a result folder."""
+
+    file_name: str
+    row: Callable[[Any, int], Any]
+    write_rows: Callable[[Path, list[Any]], Path]
+
+    @property
+    def file_names(self) -> tuple[str, str]:
+        """The files :meth:`write` writes: the drive and the tip path."""
+        return self.file_name, TIP_PATH_FILE
+
+    def write(self, folder: Path, rows: list[Any], tips: NDArray[np.float64]) -> dict[str, str]:
+        """The drive (``rows``, one per control step) and its tips (``(len(rows), 3)`` m) written
+        into ``folder`` as :attr:`file_name` and :data:`TIP_PATH_FILE`; returns name -> path."""
+        drive = self.write_rows(folder / self.file_name, rows)
+        tip = write_tip_path(folder / TIP_PATH_FILE, np.asarray(tips)[:len(rows)])
+        return {self.file_name: str(drive), TIP_PATH_FILE: str(tip)}
 
 
 class RecordedDrive:
