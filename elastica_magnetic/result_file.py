@@ -40,7 +40,7 @@ from .result_markers import (
     manifest_holder,
     manifest_writer,
 )
-from .result_places import ResultExistsError, check_enclosing
+from .result_places import UNSAID, ResultExistsError, check_enclosing
 from .results import remove_tree
 
 __all__ = ["FileKind", "ResultFile", "check_result_file", "result_file"]
@@ -62,10 +62,13 @@ class ResultFile:
 class FileKind:
     """What a result file is, so that ``--force`` replaces only a file of that kind (an earlier
     result), never a file of the user's that happens to have the name: ``description`` for the
-    message (``"a calibration JSON"``), ``recognizes(path)`` whether an existing file is one."""
+    message (``"a calibration JSON"``), ``recognizes(path)`` whether an existing file is one;
+    ``of_no_case``: a result about no case (a calibration, a board log), which has no place where a
+    shipped policy keeps its own case's results (its ``seeds/``)."""
 
     description: str
     recognizes: Callable[[Path], bool]
+    of_no_case: bool = False
 
     def __post_init__(self) -> None:
         _FILE_KINDS.append(self)
@@ -144,7 +147,7 @@ def _check_file(final: Path, force: bool, option: str, force_option: str,
     for parent in final.parents:
         if parent.exists() and not parent.is_dir():
             raise OutputPathError(f"{where}: {display_path(parent)} is a file, not a folder")
-    check_enclosing(final, option)
+    check_enclosing(final, option, None if kind is not None and kind.of_no_case else UNSAID)
     if (held := manifest_holder(final.parent)) is not None:
         raise ResultExistsError(f"{where}: lies in {display_path(final.parent)}, which holds {held}, "
                                 "whose files are its own: nothing else goes in that folder; choose "

@@ -20,9 +20,10 @@ from .command_names import spelling
 from .io import atomic_write_text, normalized_path
 from .locks import command_line, host_name, utc_now
 
-__all__ = ["HELD_RECOGNIZERS", "MANIFEST", "MARKER", "MAX_LISTED", "describe_result", "in_manifest",
-           "list_files", "manifest_holder", "manifest_results_in", "manifest_writer", "mark_folder",
-           "read_marker", "register_held_recognizer", "short_list", "unrecorded_files", "write_marker"]
+__all__ = ["HELD_RECOGNIZERS", "MANIFEST", "MARKER", "MAX_LISTED", "RESULT_RECOGNIZERS", "describe_result",
+           "in_manifest", "list_files", "manifest_holder", "manifest_results_in", "manifest_writer",
+           "mark_folder", "read_marker", "recognized_marker", "register_held_recognizer",
+           "register_result_recognizer", "short_list", "unrecorded_files", "write_marker"]
 
 #: The marker file of a result folder (JSON: kind, subject, command, time, host, files).
 MARKER = ".msr-result.json"
@@ -42,6 +43,32 @@ def read_marker(folder: str | Path) -> dict[str, Any] | None:
     except (OSError, ValueError):
         return None
     return data if isinstance(data, dict) and isinstance(data.get("kind"), str) else None
+
+
+#: Recognizers of results written before result folders carried a marker (the seed campaigns
+#: committed with the shipped policies): each takes a folder and returns the marker it stands for
+#: (``kind``, ``subject``) or ``None``. The package that writes such results registers one
+#: (:func:`register_result_recognizer`; a seed export: ``elastica_magnetic_rl``).
+RESULT_RECOGNIZERS: list[Callable[[Path], dict[str, Any] | None]] = []
+
+
+def register_result_recognizer(recognizer: Callable[[Path], dict[str, Any] | None]) -> None:
+    """Add a recognizer to :data:`RESULT_RECOGNIZERS` (once)."""
+    if recognizer not in RESULT_RECOGNIZERS:
+        RESULT_RECOGNIZERS.append(recognizer)
+
+
+def recognized_marker(folder: str | Path) -> dict[str, Any] | None:
+    """The marker of the result ``folder`` holds: its own (:func:`read_marker`), or for a result
+    written before markers, what a registered recognizer tells from its files; ``None`` for a
+    folder that holds no result."""
+    folder = normalized_path(folder)
+    if (folder / MARKER).is_file():
+        return read_marker(folder)
+    for recognizer in RESULT_RECOGNIZERS:
+        if (found := recognizer(folder)) is not None:
+            return found
+    return None
 
 
 def list_files(folder: Path) -> list[str] | None:

@@ -20,7 +20,14 @@ from pathlib import Path
 
 from .io import OutputPathError, display_path, normalized_path, output_path_problem, unwritable_reason
 from .locks import FolderLockedError, describe_owner, held_here, live_owner
-from .result_markers import MARKER, describe_result, manifest_holder, manifest_results_in, read_marker
+from .result_markers import (
+    MARKER,
+    describe_result,
+    manifest_holder,
+    manifest_results_in,
+    read_marker,
+    recognized_marker,
+)
 
 __all__ = [
     "TRAINING_RUNS",
@@ -99,7 +106,7 @@ def check_enclosing(final: Path, option: str, subject: str | None = UNSAID) -> N
             raise FolderLockedError(f"{option} {display_path(final)}: lies in {display_path(parent)}, which "
                                     f"{describe_owner(owner)} is writing: a result goes in a folder of "
                                     f"its own; choose another {option}")
-        if (parent / MARKER).is_file() and (marker := read_marker(parent)) is not None:
+        if (marker := recognized_marker(parent)) is not None:
             raise OutputPathError(f"{option} {display_path(final)}: lies in {display_path(parent)}, which "
                                   f"holds {describe_result(marker)}: a result is replaced whole, so "
                                   f"nothing goes inside another; choose another {option}")
@@ -164,7 +171,7 @@ def check_not_another_result(folder: str | Path, option: str) -> None:
     case folder, and does not lie in a result: there they would be files that result does not
     know, removed or refused when it is replaced."""
     final = normalized_path(folder)
-    if (final / MARKER).is_file() and (marker := read_marker(final)) is not None:
+    if (marker := recognized_marker(final)) is not None:
         raise ResultExistsError(f"{option} {display_path(final)}: holds {describe_result(marker)}: files put "
                                 "there are no part of it (replacing that result would remove them); choose "
                                 f"another {option}")

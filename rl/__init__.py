@@ -43,13 +43,24 @@ def _held_by_a_shipped_policy(folder):
     return shipped_policy_holding(folder)
 
 
-def _register_held_recognizer() -> None:
-    from elastica_magnetic.result_markers import register_held_recognizer
+def _a_seed_export(folder):
+    """A seed campaign written before markers is a result of ``msr policy export-seeds`` (the path
+    rule's recognizer: nothing goes inside it)."""
+    if not (folder / "seeds.json").is_file():  # most folders: judged without loading the policy code
+        return None
+    from .shipping.seed_export import recognized_seed_export
+
+    return recognized_seed_export(folder)
+
+
+def _register_recognizers() -> None:
+    from elastica_magnetic.result_markers import register_held_recognizer, register_result_recognizer
 
     register_held_recognizer(_held_by_a_shipped_policy)
+    register_result_recognizer(_a_seed_export)
 
 
-_register_held_recognizer()
+_register_recognizers()
 
 #: What a script needs, importable from the top (``from elastica_magnetic_rl import train_cases``),
 #: by concept; each is loaded from its module when first used, so that importing the package stays

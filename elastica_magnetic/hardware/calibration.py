@@ -59,7 +59,8 @@ def _is_calibration_json(path: Path) -> bool:
 
 
 #: What ``msr real calibrate --out FILE --force`` may replace: an earlier calibration.
-CALIBRATION_FILE = FileKind("a calibration JSON (with actuation_matrix_T_per_A)", _is_calibration_json)
+CALIBRATION_FILE = FileKind("a calibration JSON (with actuation_matrix_T_per_A)", _is_calibration_json,
+                            of_no_case=True)
 
 
 def is_calibration_name(name: object) -> bool:

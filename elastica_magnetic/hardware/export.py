@@ -66,7 +66,7 @@ def _is_expected_codes(path: Path) -> bool:
 
 #: What ``msr real stream --codes-out FILE --force`` may replace: an earlier codes CSV.
 EXPECTED_CODES_FILE = FileKind(f"an expected-DAC-codes CSV ({EXPECTED_CODES_HEADER})",
-                               _is_expected_codes)
+                               _is_expected_codes, of_no_case=True)
 
 
 def write_expected_codes(path: Path, codes: NDArray[np.int64]) -> Path:

@@ -123,7 +123,8 @@ def _is_board_log(path: Path) -> bool:
 
 
 #: What ``msr real stream --log FILE --force`` may replace: an earlier log of the board's lines.
-BOARD_LOG_FILE = FileKind("a board log (the firmware's lines: MSR-FW, PONG, ...)", _is_board_log)
+BOARD_LOG_FILE = FileKind("a board log (the firmware's lines: MSR-FW, PONG, ...)", _is_board_log,
+                          of_no_case=True)
 
 
 class _BoardLog:

@@ -112,6 +112,20 @@ def _is_seed_export(folder: Path) -> bool:
     return isinstance(entries, list) and bool(entries) and all(isinstance(e, dict) for e in entries)
 
 
+def recognized_seed_export(folder: Path) -> dict[str, Any] | None:
+    """A seed campaign written before result folders carried a marker (the committed
+    ``rl/policies/<case>/seeds/<recipe>/``), as the marker it stands for (kind ``export-seeds``,
+    subject its seeds' case), so that nothing is put inside it; ``None`` for another folder."""
+    if not (folder / "seeds.json").is_file() or not _is_seed_export(folder):
+        return None
+    entries = json.loads((folder / "seeds.json").read_text(encoding="utf-8"))
+    try:
+        case = json.loads((folder / str(entries[0].get("actor")) / "policy.json").read_text())["case"]
+    except (OSError, ValueError, KeyError, TypeError):
+        case = None
+    return {"kind": "export-seeds", "subject": f"case {case}" if isinstance(case, str) else None}
+
+
 _SEED_FILE = re.compile(r"seed\d+/(actor\.pt|policy\.json|" + "|".join(
     re.escape(log) for log in SEED_TRAINING_LOGS) + ")")
 

@@ -51,21 +51,23 @@ def shipped_names(policies_dir: Path = POLICIES_DIR) -> list[str]:
 
 
 def verify_shipped(name: str, duration: float = 10.0, progress: bool = False,
-                   policies_dir: Path = POLICIES_DIR) -> dict[str, Any]:
+                   policies_dir: Path = POLICIES_DIR, quick: bool = False) -> dict[str, Any]:
     """Roll the shipped policy ``name`` out for ``duration`` s (accurate physics, zero field) and
     compare with its files. Returns the measured and recorded distances (m), their relative
     difference, the largest field difference from ``fields.csv`` over the rows run (mT), the first
     row that differs by more than the tolerance, whether the waveform must match (``waveform_check``:
     ``"exact"`` on the recording machine, else why not), whether the target is reached
     (``meets_target``: only for a run as long as the recorded one, of a case with a yardstick) and
-    ``passed``."""
+    ``passed``. A policy.json whose evaluation lasts another time than ``duration`` fails (its
+    distance cannot be compared), unless the run is ``quick`` (a shorter look: ``distance_check``
+    says nothing was compared)."""
     from elastica_magnetic import read_field_csv
 
     folder = Path(policies_dir) / name
     policy = resolve_policy(folder)  # first: it finishes a replacement a killed ship left
     info = read_policy_json(folder / POLICY_JSON)
     if not policy.case.field_actuated:
-        return _verify_tip_reach(name, policy, info, duration)
+        return _verify_tip_reach(name, folder, policy, info, duration, quick)
     rollout = run_policy(policy, duration, "accurate", "zero", progress)
     shipped = read_field_csv(folder / "fields.csv")
     rows = min(len(rollout.fields), len(shipped))
@@ -96,6 +98,8 @@ def verify_shipped(name: str, duration: float = 10.0, progress: bool = False,
                               "the distance this policy claims is not recorded, so nothing is compared",
                       passed=False)
         return result
+    if _other_duration(result, folder, float(evaluation["duration_s"]), duration, quick):
+        return result
     if abs(duration - float(evaluation["duration_s"])) < 1e-9:
         recorded = float(evaluation["mid_dx_m"])
         relative = _relative(rollout.mid_dx, recorded)
@@ -122,6 +126,24 @@ def verify_shipped(name: str, duration: float = 10.0, progress: bool = False,
     return result
 
 
+def _other_duration(result: dict[str, Any], folder: Path, recorded_s: float, run_s: float,
+                    quick: bool) -> bool:
+    """Whether the evaluation policy.json records (``recorded_s`` s) is not comparable with this
+    re-run of ``run_s`` s: a ``quick`` run says so in ``distance_check``; a full one fails
+    (``problem``): a distance claimed over another time than the one shipped policies are judged
+    on is not checked (``result`` is updated)."""
+    if abs(run_s - recorded_s) < 1e-9:
+        return False
+    if quick:
+        result["distance_check"] = (f"not compared: a {run_s:g} s quick run ({POLICY_JSON} records "
+                                    f"{recorded_s:g} s)")
+        return False
+    result.update(problem=f"{folder / POLICY_JSON}: evaluation.duration_s is {recorded_s:g} s, not the "
+                          f"{run_s:g} s this re-run lasts (a shipped policy is judged on {run_s:g} s): "
+                          "the distance it claims cannot be compared", passed=False)
+    return True
+
+
 def _relative(measured: float, recorded: float) -> float:
     """``|measured - recorded| / |recorded|``; for a recorded 0, 0 when equal, else infinity."""
     if recorded == 0.0:
@@ -146,7 +168,8 @@ def _replayed_distance(policy: Any, fields: np.ndarray, duration: float) -> floa
 TIP_DISTANCE_ATOL_M = 1e-5
 
 
-def _verify_tip_reach(name: str, policy: Any, info: dict[str, Any], duration: float) -> dict[str, Any]:
+def _verify_tip_reach(name: str, folder: Path, policy: Any, info: dict[str, Any], duration: float,
+                      quick: bool = False) -> dict[str, Any]:
     """:func:`verify_shipped` of a tip-reach policy: its case's held-out targets again (accurate
     physics, ``duration`` s at most the task's episode); run as long as recorded, the same targets
     reached and every final distance within :data:`TIP_DISTANCE_ATOL_M` of the recorded one."""
@@ -160,6 +183,9 @@ def _verify_tip_reach(name: str, policy: Any, info: dict[str, Any], duration: fl
     passed = not diverged
     recorded = info["evaluation"]
     summary = f"{run['successes']} of {len(run['targets_m'])} held-out targets in {seconds:g} s"
+    if _other_duration(result, folder, float(recorded["duration_s"]), seconds, quick):
+        result["summary"] = summary + f"; {result['problem']}"
+        return result
     if abs(seconds - float(recorded["duration_s"])) < 1e-9:
         mine = recorded["tip_reach"]["policy"]
         difference = float(np.max(np.abs(np.asarray(run["final_distance_m"])

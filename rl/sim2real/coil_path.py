@@ -139,7 +139,8 @@ class CoilDrive(RecordedDrive):
         """Refuse a spec this path cannot drive (not a coil-currents case, another number of coils,
         insertion given without a stage or missing with one, or beyond its travel) and a path of
         zero currents (nothing moved: nothing to fit); warn of a current beyond the case's
-        ``current_limit`` (another system's log, or its sensors' scale?)."""
+        ``current_limit`` or changing faster than its ``max_slew`` (another system's log, or its
+        sensors' scale?)."""
         from elastica_magnetic.plausibility import warn_implausible
 
         case = quiet_case(spec, "the spec", "identified")
@@ -165,7 +166,24 @@ class CoilDrive(RecordedDrive):
                              f"{self.path.currents[row, col]:g} A is beyond the case's current_limit "
                              f"({limit:g} A) that its policies command: another system's log, or its "
                              "sensors' scale?", "actuation.current_limit")
+        self._warn_slew(case.actuation.max_slew)
         check_insertion(self.path.source, self.path.insertion, case.actuation.insertion)
+
+    def _warn_slew(self, max_slew: float | None) -> None:
+        """Warn of a current changing faster than the case's ``max_slew`` (A/s; None: no limit) from
+        one row to the next, as an arm faster than its ``max_speed`` is."""
+        from elastica_magnetic.plausibility import warn_implausible
+
+        if max_slew is None or len(self.path.times) < 2:
+            return
+        rates = np.abs(np.diff(self.path.currents, axis=0)) / np.diff(self.path.times)[:, None]
+        fast = rates > max_slew * (1.0 + CURRENT_SLACK)
+        if fast.any():
+            row, col = (int(i) for i in np.argwhere(fast)[0])
+            warn_implausible(f"{self.path.source}: line {row + 3}: current_{col}_A changes at "
+                             f"{rates[row, col]:.4g} A/s, faster than the case's max_slew ({max_slew:g} "
+                             "A/s) that its policies command: another system's drivers, or a glitch in "
+                             "its log?", "actuation.max_slew")
 
     def simulate(self, spec: Mapping[str, Any], physics: str) -> NDArray[np.float64]:
         return simulate_coil_tips(spec, physics, self.path)

@@ -125,6 +125,12 @@ def test_a_coil_path_that_cannot_be_the_spec_s_is_refused_by_line(tmp_path, quic
     with pytest.warns(UserWarning, match="beyond the case's current_limit"):
         hot = _write(tmp_path / "hot.csv", header, [rows[0], (0.01, 9.5, *[0.5] * 7, 0.0)])
         CoilDrive(read_coil_path(hot)).check_spec(quick_spec)
+    # round 27 S3: a current changing faster than max_slew (1000 A/s) was accepted without a word
+    with pytest.warns(UserWarning, match=r"fast.csv: line 3: current_0_A changes at 1500 A/s, faster than "
+                                         r"the case's max_slew \(1000 A/s\)"):
+        swing = [(0.0, -7.5, *[0.5] * 7, 0.0), (0.01, 7.5, *[0.5] * 7, 0.0)]
+        fast = _write(tmp_path / "fast.csv", header, swing)
+        CoilDrive(read_coil_path(fast)).check_spec(quick_spec)
     with pytest.raises(SpecError, match="a coil path drives a case steered by coil currents"):
         load_spec("catheter-magnet-reach", steered_by="coil-currents")
     with pytest.raises(SpecError, match="the coils' recorded currents"):
