@@ -4,10 +4,12 @@ not a traceback through the import machinery."""
 
 from __future__ import annotations
 
+import signal
 import sys
 
-#: The exit status of a command ended by SIGINT (128 + 2), as the command line's own.
-_INTERRUPTED_STATUS = 130
+#: SIGTERM and SIGHUP end msr's start-up as Ctrl-C does (the command line takes them as Ctrl-C once
+#: it runs); their default action would end the process without a word.
+_STARTUP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name))
 
 
 def main() -> int:
@@ -22,6 +24,14 @@ def main() -> int:
         else:
             previous(unraisable)
 
+    received: list[int] = []
+
+    def on_signal(signum: int, frame: object) -> None:
+        received.append(signum)
+        raise KeyboardInterrupt
+
+    defaults = {s: signal.signal(s, on_signal) for s in _STARTUP_SIGNALS
+                if signal.getsignal(s) == signal.SIG_DFL}
     sys.unraisablehook = hook
     try:
         from elastica_magnetic.cli.app import main as run
@@ -33,9 +43,13 @@ def main() -> int:
         swallowed.append(KeyboardInterrupt())
     finally:
         sys.unraisablehook = previous
-    if swallowed:
-        print("msr: interrupted (SIGINT) while starting up: nothing was done", file=sys.stderr)
-        return _INTERRUPTED_STATUS
+        for signum, default in defaults.items():  # the command line installs its own
+            signal.signal(signum, default)
+    if swallowed or received:
+        signum = received[-1] if received else signal.SIGINT
+        print(f"msr: interrupted ({signal.Signals(signum).name}) while starting up: nothing was done",
+              file=sys.stderr)
+        return 128 + signum  # as the command line's own (130 for Ctrl-C)
     return run()
 
 

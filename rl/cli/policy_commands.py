@@ -24,6 +24,7 @@ from elastica_magnetic.cli import (
 )
 from elastica_magnetic.cli.app import add_old_option
 from elastica_magnetic.filesets import check_files, replace_files
+from elastica_magnetic.io import display_path
 
 from .options import CASE_HELP, CHECKPOINT_HELP, FORCE_HELP, field_case_option, print_rollout_result
 
@@ -282,7 +283,9 @@ def ship_command(args: argparse.Namespace) -> int:
 
     target = (args.dest if args.dest is not None else POLICIES_DIR) / args.name
     if (target / POLICY_JSON).exists() and not args.force:  # before the actors' evaluations
-        raise CommandError(f"{target} already holds a policy (pass --force to replace it)")
+        given = f"--out {display_path(args.dest)}, " if args.dest is not None else ""
+        where = f"{display_path(target)} ({given}--name {args.name})"
+        raise CommandError(f"{where}: already holds a policy (pass --force to replace it)")
     if target.is_dir():  # held from now on: no other command writes the policy while it is measured
         claim(target, option="--out")
     checkpoint = args.checkpoint

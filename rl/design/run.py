@@ -278,13 +278,20 @@ def run_design(spec: str | Path | Design, out: str | Path, settings: DesignSetti
 def _recover_leftovers(folder: Path) -> None:
     """Remove what a killed replacement (``--force``) left beside ``folder`` (its folder being
     built), saying so: every command on ``folder`` does, a resume in place too."""
-    import warnings
-
-    from elastica_magnetic.results import LeftoverWarning, interrupted, recover
+    from elastica_magnetic.results import interrupted, recover
 
     if interrupted(folder):
-        for note in recover(folder, option="--out"):
-            warnings.warn(note, LeftoverWarning, stacklevel=3)
+        _say_leftovers(recover(folder, option="--out"))
+
+
+def _say_leftovers(notes: list[str]) -> None:
+    """Say what was cleaned up before the work (a killed run's leftovers, a stale lock taken over)."""
+    import warnings
+
+    from elastica_magnetic.results import LeftoverWarning
+
+    for note in notes:
+        warnings.warn(note, LeftoverWarning, stacklevel=4)
 
 
 def holds_design(folder: str | Path) -> bool:
@@ -400,7 +407,9 @@ def _check_folder(folder: Path, resume: bool, force: bool, subject: str) -> None
     """Refuse, before any work, a folder that is not a design's (or not this request's: a design
     of another case is replaced by no ``--force``)."""
     if folder.parent.is_dir():  # a design being written is named first, before what it holds
-        claim(folder, option="--out")
+        lock = claim(folder, option="--out")
+        _say_leftovers(lock.notes)  # a killed design's stale lock taken over: said, as every command does
+        lock.notes = []
     marker = read_marker(folder) if folder.is_dir() else None
     shown = display_path(folder)
     if marker is None or marker.get("kind") != DESIGN_KIND:

@@ -27,14 +27,17 @@ __all__ = ["LOOP_KIND", "check_loop_folder", "headline", "run_loop", "step_line"
 LOOP_KIND = "loop"
 
 
-def check_loop_folder(out: str | Path) -> LoopState | None:
+def check_loop_folder(out: str | Path, case_name: str | None = None) -> LoopState | None:
     """Refuse, before any work, an ``out`` that is not a loop's folder: one holding other files,
     or another command's result (``ResultExistsError`` / ``OutputPathError`` naming ``--out``).
-    Returns the loop's recorded state (``None``: a new or empty folder)."""
+    Returns the loop's recorded state (``None``: a new or empty folder). ``case_name``: the loop's
+    case, for the messages (a loop holds results of no case too: no policy's ``seeds/`` takes it)."""
     folder = normalized_path(out)
     marker = read_marker(folder) if folder.is_dir() else None
     if marker is None or marker.get("kind") != LOOP_KIND:
-        check_result_folder(folder, kind=LOOP_KIND, force=True, option="--out")  # raises unless empty
+        subject = (f"a loop of case {case_name}, whose firmware step is a result of no case" if case_name
+                   else None)
+        check_result_folder(folder, kind=LOOP_KIND, subject=subject, force=True, option="--out")
         return None
     return LoopState.read(folder)
 
@@ -97,11 +100,11 @@ def run_loop(case: Case, out: str | Path, settings: LoopSettings, *, skip: tuple
                         "--ring, msr train --case SPEC --recipe fast, msr policy generate RUN --ring "
                         "(docs: Steering in 3D)")
     folder = normalized_path(out)
-    check_loop_folder(folder)
+    check_loop_folder(folder, case.name)
     with FolderLock(folder, option="--out") as lock:
         for note in lock.notes:
             print(f"note: {note}", file=log)
-        state = check_loop_folder(folder)  # again, under the lock: no one else changed it since
+        state = check_loop_folder(folder, case.name)  # again, under the lock: no one else changed it since
         spec, recorded = case.to_dict(), settings.recorded()
         replaced = [] if state is None else [s for s in state.replaced_steps() if s not in skip]
         for step in replaced:

@@ -158,8 +158,10 @@ def ship(run: str | Path, name: str, options: ShipOptions | None = None, /,
     target = (Path(dest) if dest is not None else POLICIES_DIR) / name
     present = [f for f in SHIPPED_FILES if (target / f).exists()]
     if present and not overwrite:
-        raise FileExistsError(f"{target} already holds a policy ({', '.join(present)}); pass "
-                              "--force to replace it")
+        given = f"--out {display_path(dest)}, " if dest is not None else ""
+        where = f"{display_path(target)} ({given}--name {name})"
+        raise FileExistsError(f"{where}: already holds a policy ({', '.join(present)}); pass --force to "
+                              "replace it")
     if present:
         _check_same_case(target, policy.case.name, policy.case.to_dict())
     if present and o.lock:  # a file edited since msr wrote it is refused now, before measuring

@@ -313,8 +313,10 @@ def _other_robot(case: Case, spec: str | Path, randomize: str | None
     """The case of ``spec`` and what the refined run records of it, after checking that it is the
     run's robot with other physical values only (its name, yardstick and training settings stay
     the run's, but for the spec's ``[training.randomize]``, applied when it has one)."""
+    other = load_case(spec)
+    if (refusal := batched_refusal(other.robot_spec("training"), "msr refine")) is not None:
+        raise ValueError(f"--spec {spec}: {refusal}")  # before comparing: the table is the reason
     try:
-        other = load_case(spec)
         changes = physical_differences(case.to_dict(), other.to_dict())
     except VariationError as err:
         raise ValueError(f"--spec {spec}: not the run's robot with other physical values: {err}") from None

@@ -56,7 +56,27 @@ def test_an_interruption_a_module_turns_into_an_import_error_is_one_line(monkeyp
         msr_entry.main()
 
 
-def test_a_sigint_soon_after_start_never_shows_a_traceback():
+def test_a_sigterm_during_the_imports_is_one_line_and_its_own_status(monkeypatch, capsys):
+    """Round 27 V3: SIGTERM (or SIGHUP) in msr's first second ended it by the signal's default
+    action, without a word (SIGINT got its line); now it is the same line, naming it, status 143."""
+    import os
+
+    real_import = builtins.__import__
+
+    def terminated(name, *args, **kwargs):
+        if name == "elastica_magnetic.cli.app":
+            os.kill(os.getpid(), signal.SIGTERM)
+        return real_import(name, *args, **kwargs)
+
+    assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL
+    monkeypatch.setattr(builtins, "__import__", terminated)
+    assert msr_entry.main() == 143
+    assert capsys.readouterr().err == "msr: interrupted (SIGTERM) while starting up: nothing was done\n"
+    assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL  # the command line installs its own
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_soon_after_start_never_shows_a_traceback(signum):
     # the child says when msr's code starts: a SIGINT before that (in Python's own start-up, which
     # a loaded machine stretches past 0.3 s) is the interpreter's to report, not msr's
     child = "import sys, msr_entry; print('started', file=sys.stderr, flush=True); sys.exit(msr_entry.main())"
@@ -67,10 +87,10 @@ def test_a_sigint_soon_after_start_never_shows_a_traceback():
                                text=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     assert process.stderr.readline() == "started\n"
     time.sleep(0.3)  # inside the imports (about 1 s), or just after on a fast machine
-    process.send_signal(signal.SIGINT)
+    process.send_signal(signum)
     out, err = process.communicate(timeout=120)
-    assert process.returncode == 130, (out, err)
-    assert "Traceback" not in err and "interrupted (SIGINT)" in err, err
+    assert process.returncode == 128 + signum, (out, err)
+    assert "Traceback" not in err and f"interrupted ({signal.Signals(signum).name})" in err, err
 
 
 def test_an_interruption_swallowed_by_the_import_machinery_still_ends_the_command(monkeypatch, capsys):
