@@ -464,6 +464,8 @@ def identify(
                  "fitted": model.displacements(np.exp(x))}
     if o.confirm:
         report["confirm"] = _confirmation(model, np.exp(x), o.physics)
+        if (warning := _physics_warning(report["residual_m"]["rms"], report["confirm"], o.physics)):
+            report["warnings"].append(warning)
     report["predicted"] = predicted
     return report
 
@@ -586,6 +588,28 @@ def _optimizer_report(records: Sequence[dict[str, Any]], best: int, agree: bool,
             "simulations": used, "diverged_simulations": sum(r["diverged"] for r in records),
             "wall_s": wall_s, "starts": starts_public,
             "stages": records[best]["stages"], "polish": records[best]["polish"]}
+
+
+#: A confirmation residual this many times the fit's (or this many times smaller) says the two
+#: physics tell the motion apart: values fitted in the training physics are then biased.
+CONFIRM_RATIO = 2.0
+
+
+def _physics_warning(fit_rms: float, confirm: dict[str, Any], physics: str) -> str | None:
+    """The warning of a fit in the training physics whose accurate-physics confirmation leaves a
+    residual :data:`CONFIRM_RATIO` times larger (the training physics' mass scaling matters for the
+    motion) or smaller (the motion is the accurate physics', which the training physics cannot
+    match); ``None`` otherwise, and for a fit in the accurate physics."""
+    if physics != "training" or fit_rms <= 0.0:
+        return None
+    ratio = confirm["rms_m"] / fit_rms
+    if 1.0 / CONFIRM_RATIO <= ratio <= CONFIRM_RATIO:
+        return None
+    how = ("fits the motion better" if ratio < 1.0 else "fits the motion worse")
+    return (f"the fitted values leave {1e3 * confirm['rms_m']:.4f} mm RMS in the accurate physics and "
+            f"{1e3 * fit_rms:.4f} mm in the training physics the fit ran in: the accurate physics {how}, "
+            "so the two tell this motion apart and values fitted in the training physics are biased "
+            "(their interval does not hold the model's error); fit again with --physics accurate")
 
 
 def _confirmation(model: FitModel, factors: NDArray[np.float64], physics: str) -> dict[str, Any]:

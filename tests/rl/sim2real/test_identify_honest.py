@@ -275,3 +275,19 @@ def test_a_fit_that_barely_improves_on_the_spec_keeps_the_specs_values(spec, mon
     assert report["kept_spec_values"] is True
     assert report["fitted"][keys]["factor"] == 1.0
     assert "less than 0.1 % better" in report["warnings"][0]
+
+
+def test_a_fit_whose_confirmation_tells_the_physics_apart_is_warned_about():
+    """A tip path made in the accurate physics (msr policy generate --target writes one), fitted in
+    the training physics, came out at x0.947 +- 0.010 of the true moment, its interval missing the
+    truth, with no warning: the fit left 0.073 mm RMS, the accurate confirmation 0.011 mm. A
+    confirmation 2x apart from the fit, either way, now warns that the values are biased."""
+    from elastica_magnetic_rl.sim2real.identify import _physics_warning
+
+    better = _physics_warning(7.29e-5, {"rms_m": 1.11e-5}, "training")
+    assert better is not None and "accurate physics fits the motion better" in better
+    assert "--physics accurate" in better
+    worse = _physics_warning(4.9e-5, {"rms_m": 4.1e-4}, "training")  # docs: a fast rolling robot
+    assert worse is not None and "fits the motion worse" in worse
+    assert _physics_warning(5e-5, {"rms_m": 6e-5}, "training") is None  # the physics agree
+    assert _physics_warning(7.29e-5, {"rms_m": 1.11e-5}, "accurate") is None  # fitted where it belongs
