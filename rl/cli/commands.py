@@ -412,7 +412,7 @@ def _tip_reach_generate(args: argparse.Namespace, loaded) -> int:
     held-out targets, or to ``--target X,Y,Z``, written as the yardstick's are (targets.csv/json/png)."""
     from ..shipping.policy_files import resolve_policy
     from ..shipping.policy_runs import choose_tip_reach_actor
-    from ..shipping.tip_reach import actor_controller, target_notes, write_targets
+    from ..shipping.tip_reach import Steering, actor_controller, target_notes, write_targets
 
     _tip_reach_args(args, loaded.case, "msr policy generate",
                     {"--ring": args.ring is not None, "--workers": args.workers, "--no-gif": args.no_gif})
@@ -423,10 +423,10 @@ def _tip_reach_generate(args: argparse.Namespace, loaded) -> int:
     if choice is not None:
         loaded = resolve_policy(choice.path)
     print_notes(target_notes(loaded.case, args.target) if args.target is not None else ())
-    result = write_targets(loaded.case, args.out, actor_controller(loaded.actor), physics=args.physics,
-                           duration=args.duration, force=args.force, kind="generate",
-                           figures=not args.no_figures, targets=args.target,
-                           controller=f"policy {loaded.source}", drive=_drive_of(loaded.case, args.target))
+    steering = Steering(actor_controller(loaded.actor), f"policy {loaded.source}")
+    result = write_targets(loaded.case, args.out, steering, physics=args.physics, duration=args.duration,
+                           force=args.force, kind="generate", figures=not args.no_figures,
+                           targets=args.target, drive=_drive_of(loaded.case, args.target))
     if choice is not None:
         result["actor_choice"] = {**choice.to_dict(), "summary": choice.describe()}
     print_notes(result.pop("notes", ()))
@@ -480,14 +480,14 @@ def baseline_command(args: argparse.Namespace) -> int:
 def _tip_reach_baseline(args: argparse.Namespace) -> int:
     """``msr field baseline`` of a case steered by a source: the steering yardstick on the
     case's held-out targets (or ``--target X,Y,Z``), written into ``--out``."""
-    from ..shipping.tip_reach import steering_controller, target_notes, write_targets
+    from ..shipping.tip_reach import Steering, steering_controller, target_notes, write_targets
 
     _tip_reach_args(args, args.case, "its yardstick", {
         "--period": args.period, "--counterclockwise": args.counterclockwise, "--periods": args.periods,
         "--set-yardstick": args.set_yardstick, "--workers": args.workers, "--ring": args.ring is not None,
         "--no-gif": args.no_gif})
     print_notes(target_notes(args.case, args.target) if args.target is not None else ())
-    result = write_targets(args.case, args.out, steering_controller, physics=args.physics,
+    result = write_targets(args.case, args.out, Steering(steering_controller), physics=args.physics,
                            duration=args.duration, force=args.force, figures=not args.no_figures,
                            targets=args.target, drive=_drive_of(args.case, args.target))
     print_notes(result.pop("notes", ()))

@@ -9,6 +9,7 @@ batched environment. Lengths in m, times in s.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -22,7 +23,8 @@ from ..envs.steering_yardstick import insertion_command, steering_law
 from .policy_files import check_policy_case
 
 __all__ = ["HELD_OUT_SEED", "HELD_OUT_TARGETS", "TARGET_FILES", "actor_controller", "held_out_targets",
-           "judge_held_out", "run_targets", "steering_controller", "target_notes", "write_targets"]
+           "judge_held_out", "run_targets", "Steering", "steering_controller", "target_notes",
+           "write_targets"]
 
 #: Seed of the held-out targets: training draws its targets with the run's seed plus small offsets
 #: (episode numbers), never this one.
@@ -190,15 +192,24 @@ def judge_held_out(case: Case, actor: Any, duration: float, with_yardstick: bool
 TARGET_FILES = ("targets.csv", "targets.json", "targets.png")
 
 
-def write_targets(case: Case, out: Any, make_controller: Callable[[CatheterReachVectorEnv], Controller],
-                  physics: str = "accurate", duration: float | None = None, force: bool = False,
-                  kind: str = "baseline", figures: bool = True, targets: Any = None,
-                  controller: str = "yardstick", drive: Any = None) -> dict[str, Any]:
+@dataclass(frozen=True)
+class Steering:
+    """What steers the tip in :func:`write_targets`: ``make`` makes the :data:`Controller` from the
+    environment (:func:`steering_controller`, :func:`actor_controller`'s), ``label`` names it in the
+    results (``"yardstick"``, ``"policy <source>"``)."""
+
+    make: Callable[[CatheterReachVectorEnv], Controller]
+    label: str = "yardstick"
+
+
+def write_targets(case: Case, out: Any, steering: Steering, physics: str = "accurate",
+                  duration: float | None = None, force: bool = False, kind: str = "baseline",
+                  figures: bool = True, targets: Any = None, drive: Any = None) -> dict[str, Any]:
     """:func:`run_targets` on ``targets`` (m, ``(n, 3)``; default the case's held-out targets),
     written whole into the result folder ``out`` (as ``msr <kind>``'s result for the case;
     replaced only with ``force``): ``targets.csv`` (one row per target), ``targets.json`` (the
-    summary and the rows) and, with ``figures``, ``targets.png`` (the tip's paths). Returns the
-    summary (``controller`` names what steered: ``"yardstick"`` or the policy) and the files;
+    summary and the rows) and, with ``figures``, ``targets.png`` (the tip's paths), ``steering``
+    steering. Returns the summary (``controller``: its label) and the files;
     for a single target given, also ``target_m`` and ``tip_error_m`` (the tip's distance from it
     at the end, m). ``drive`` (a :class:`~elastica_magnetic_rl.sim2real.recorded_paths.DriveRecorder`,
     with a single target): the drive as played and the tip's path are written too (the files
@@ -221,13 +232,13 @@ def write_targets(case: Case, out: Any, make_controller: Callable[[CatheterReach
     with result_folder(out, kind=kind, subject=subject, force=force, known_files=known) as folder:
         # inside the result folder: an interruption while steering says so, leaves no lock
         drives: list[list[Any]] = []
-        summary, rows, paths = _steer_to(case, targets, given, make_controller, physics, duration, controller,
-                                         drive.row if drive is not None else None, drives)
+        summary, rows, paths = _steer_to(case, targets, given, steering.make, physics, duration,
+                                         steering.label, drive.row if drive is not None else None, drives)
         with atomic_write(folder.path / "targets.csv", "w", newline="") as handle:
             pd.DataFrame(rows).to_csv(handle, index=False, float_format="%.9g")
         if figures:
             plot_tip_paths(rows, paths[0], folder.path / "targets.png",
-                           title=f"{case.name}, {controller}: {summary['successes']} of {len(rows)} "
+                           title=f"{case.name}, {steering.label}: {summary['successes']} of {len(rows)} "
                                  f"targets ({physics} physics, {summary['duration_s']:g} s)")
         atomic_write_json(folder.path / "targets.json", {**summary, "targets_table": rows})
         written = drive.write(folder.path, drives[0], paths[0][:, 0]) if drive is not None else {}

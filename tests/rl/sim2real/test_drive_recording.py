@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from elastica_magnetic_rl.cases.case import case_from_dict
-from elastica_magnetic_rl.shipping.tip_reach import steering_controller, write_targets
+from elastica_magnetic_rl.shipping.tip_reach import Steering, steering_controller, write_targets
 from elastica_magnetic_rl.sim2real.coil_path import read_coil_path, simulate_coil_tips
 from elastica_magnetic_rl.sim2real.identify import drive_recorder
 from elastica_magnetic_rl.sim2real.magnet_path import read_magnet_path, simulate_tips
@@ -27,7 +27,7 @@ def test_the_written_drive_replays_to_the_written_tip_path(tmp_path, case_name):
     spec = quick_catheter(case_name, "catheter-quick")
     case = case_from_dict(spec)
     out = tmp_path / "out"
-    result = write_targets(case, out, steering_controller, physics="training", duration=DURATION_S,
+    result = write_targets(case, out, Steering(steering_controller), physics="training", duration=DURATION_S,
                            targets=[TARGET], figures=False, drive=drive_recorder(case))
     assert set(result["files"]) == {"targets.csv", "targets.json", name, "tip_path.csv"}
     assert file_kind(out / name) == kind and file_kind(out / "tip_path.csv") == "tip"
@@ -46,8 +46,8 @@ def test_a_drive_is_recorded_for_one_target_only(tmp_path):
     spec = quick_catheter("catheter-magnet-reach", "catheter-quick")
     case = case_from_dict(spec)
     with pytest.raises(ValueError, match="a drive is recorded for one target; got 2"):
-        write_targets(case, tmp_path / "out", steering_controller, physics="training", duration=0.05,
-                      targets=[TARGET, TARGET], figures=False, drive=drive_recorder(case))
+        write_targets(case, tmp_path / "out", Steering(steering_controller), physics="training",
+                      duration=0.05, targets=[TARGET, TARGET], figures=False, drive=drive_recorder(case))
     assert not (tmp_path / "out").exists()
 
 
