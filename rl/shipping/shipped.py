@@ -181,7 +181,17 @@ def _verify_tip_reach(name: str, folder: Path, policy: Any, info: dict[str, Any]
     result: dict[str, Any] = {"name": name, "case": info["case"], "duration_s": seconds,
                               "successes": run["successes"], "diverged": diverged}
     passed = not diverged
-    recorded = info["evaluation"]
+    recorded = info.get("evaluation")
+    mine = (recorded.get("tip_reach") or {}).get("policy") if isinstance(recorded, dict) else None
+    if not (isinstance(recorded, dict) and isinstance(recorded.get("duration_s"), int | float)
+            and isinstance(mine, dict) and isinstance(mine.get("successes"), int)
+            and isinstance(mine.get("final_distance_m"), list)):
+        problem = (f"{folder / POLICY_JSON}: no evaluation with duration_s and tip_reach.policy "
+                   "(successes, final_distance_m): the targets this policy claims are not recorded, so "
+                   "nothing is compared")
+        reached = f"{run['successes']} of {len(run['targets_m'])} held-out targets in {seconds:g} s"
+        result.update(problem=problem, passed=False, summary=f"{reached}; {problem}")
+        return result
     summary = f"{run['successes']} of {len(run['targets_m'])} held-out targets in {seconds:g} s"
     if _other_duration(result, folder, float(recorded["duration_s"]), seconds, quick):
         result["summary"] = summary + f"; {result['problem']}"

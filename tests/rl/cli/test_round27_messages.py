@@ -143,3 +143,4 @@ def test_a_loop_in_a_policy_s_seeds_is_refused_for_its_true_reason(tmp_path):
     with pytest.raises(OutputPathError, match=r"this result is of a loop of case m1-4mT, whose firmware step "
                                               r"is a result of no case: it goes beside the policy"):
         check_loop_folder(policy / "seeds" / "loop", "m1-4mT")
+
