@@ -559,8 +559,12 @@ def _baseline_sweep(args: argparse.Namespace) -> int:
         from elastica_magnetic.result_file import check_result_file
         from elastica_magnetic.specfile import SPEC_FILE
 
+        from ..shipping.policy_files import check_policy_case
+
         check_result_file(args.set_yardstick, force=args.force, option="--set-yardstick",
                           kind=SPEC_FILE)
+        check_policy_case(args.set_yardstick, args.case, option="--set-yardstick",
+                          what="this spec is")
     if dropped:  # after every refusal: the warning is for a sweep that runs
         left_out = ", ".join(f"{p:g}" for p in dropped)
         print(f"msr {command_name(args)}: warning: --periods {left_out} s left out: longer "
@@ -598,8 +602,11 @@ def _baseline_sweep(args: argparse.Namespace) -> int:
 
 def figures_command(args: argparse.Namespace) -> int:
     from ..reports.figures import make_figures
-    from ..shipping.policy_files import resolve_policy
+    from ..shipping.policy_files import check_policy_case, figure_cases, resolve_policy
 
+    out = args.out if args.out is not None else args.path
+    for case in figure_cases(args.path):  # a shipped policy's seeds/ takes its own case's figures only
+        check_policy_case(out, case, option="--out", what="these figures are")
     print_result(make_figures(args.path, args.out, gif=not args.no_gif, load_policy=resolve_policy,
                               force=args.force), args.json)
     return 0

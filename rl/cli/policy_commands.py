@@ -214,7 +214,11 @@ def seeds_command(args: argparse.Namespace) -> int:
     if args.figure is not None:  # before any figure is drawn
         from elastica_magnetic.result_places import check_not_another_result
 
+        from ..shipping.policy_files import check_policy_case
+
         check_not_another_result(args.figure, "--figure")
+        for case in args.case:  # a shipped policy's seeds/ takes its own case's figures only
+            check_policy_case(args.figure, case, option="--figure", what="these figures are")
         check_files(args.figure, [name for case in args.case for name in _seed_figure_names(case)],
                     force=args.force, option="--figure")
     reports, by_case = [], {}
@@ -402,18 +406,28 @@ def notes_command(args: argparse.Namespace) -> int:
 
 
 def _check_not_the_policys_own(path: Path, policy_name: str) -> None:
-    """``--file``: not a file of the shipped policy itself (its card, its policy.json: the notes
-    would then hold the card or the JSON), refused naming it."""
-    from ..shipping.policy_files import resolve_policy
+    """``--file``: not a file in the shipped policy's folder, refused saying what it is: one ship
+    wrote (its card, its policy.json: the notes would then hold the card or the JSON), or another
+    file there (a seed campaign's, one put there by hand): the notes are kept outside the policy.
+    A missing file is left to :func:`_read_markdown` ("no such file")."""
+    from ..shipping.policy_files import SHIPPED_FILES, resolve_policy
 
+    if not path.exists():
+        return
     try:
         policy = resolve_policy(policy_name)
     except (FileNotFoundError, ValueError):
         return  # set_notes names the policy that cannot be read
-    if policy.kind == "shipped" and path.resolve().is_relative_to(Path(policy.source).resolve()):
+    folder = Path(policy.source).resolve()
+    if policy.kind != "shipped" or not path.resolve().is_relative_to(folder):
+        return
+    if path.resolve().parent == folder and path.name in SHIPPED_FILES:
         raise CommandError(f"--file {path}: is the policy's own {path.name} (msr policy ship wrote it; the "
                            "notes are a part of it); give a Markdown file of notes kept outside the policy's "
                            "folder")
+    raise CommandError(f"--file {path}: lies in the shipped policy {display_path(folder)}'s folder, which "
+                       "holds the policy and its seed campaigns (the notes go into its policy.json and "
+                       "card); give a Markdown file of notes kept outside the policy's folder")
 
 
 def _read_markdown(path: Path, option: str) -> str:
@@ -476,6 +490,11 @@ def diagnose_command(args: argparse.Namespace) -> int:
     if args.figure is not None:
         if len(set(names)) < len(names):
             raise CommandError(f"--figure: two runs would draw the same figure ({', '.join(names)})")
+        from ..shipping.policy_files import check_policy_case, figure_cases
+
+        for run in args.run:  # a shipped policy's seeds/ takes its own case's figures only
+            for case in figure_cases(run if run.is_dir() else run.parent):
+                check_policy_case(args.figure, case, option="--figure", what="these figures are")
         check_files(args.figure, names, force=args.force, option="--figure")
     healths = []
     for run in args.run:

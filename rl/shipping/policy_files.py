@@ -33,6 +33,7 @@ __all__ = [
     "SEEDS_FOLDER",
     "SHIPPED_FILES",
     "check_policy_case",
+    "figure_cases",
     "TIP_PATHS_PNG",
     "policy_holder",
     "shipped_policy_holding",
@@ -414,12 +415,14 @@ def case_spec_difference(recorded: Any, spec: Mapping[str, Any]) -> str | None:
     return None if mine == theirs else first_difference(theirs, mine)
 
 
-def check_policy_case(dest: str | Path, case: Case | str) -> None:
+def check_policy_case(dest: str | Path, case: Case | str, *, option: str = "--out",
+                      what: str = "this result is") -> None:
     """A result of ``case`` (a case, or only its name) written into a shipped policy's folder (its
     ``seeds/``, the one place there open to other results) must be of that policy's case: another
     case's, or one of the same name with another spec (a user's file named as the shipped case),
     is refused (:class:`~elastica_magnetic.io.OutputPathError`), or the policy's folder would hold,
-    and ``msr policy seeds`` count, a result that is not its own."""
+    and ``msr policy seeds`` count, a result that is not its own. ``option`` names the path given
+    (``--out``, ``--figure``...), ``what`` the thing written, with its verb (``"these figures are"``)."""
     from elastica_magnetic.io import OutputPathError, display_path, normalized_path
 
     name = case if isinstance(case, str) else case.name
@@ -433,18 +436,45 @@ def check_policy_case(dest: str | Path, case: Case | str) -> None:
         except (OSError, ValueError, AttributeError):
             meta, theirs = {}, None
         if theirs is not None and theirs != name:
-            raise OutputPathError(f"--out {display_path(dest)}: lies in the shipped policy "
-                                  f"{display_path(parent)} of case {theirs!r}, and this result is of case "
+            raise OutputPathError(f"{option} {display_path(dest)}: lies in the shipped policy "
+                                  f"{display_path(parent)} of case {theirs!r}, and {what} of case "
                                   f"{name!r}: a policy's seeds/ holds its own case's results; choose another "
-                                  "--out")
+                                  f"{option}")
         recorded = meta.get("case_spec")
         differ = None if isinstance(case, str) else case_spec_difference(recorded, case.to_dict())
         if theirs is not None and differ is not None:
-            raise OutputPathError(f"--out {display_path(dest)}: lies in the shipped policy "
-                                  f"{display_path(parent)} of case {theirs!r}, and this result is of a case "
+            raise OutputPathError(f"{option} {display_path(dest)}: lies in the shipped policy "
+                                  f"{display_path(parent)} of case {theirs!r}, and {what} of a case "
                                   f"of the same name with another spec (they differ at {differ}): a "
-                                  "policy's seeds/ holds its own case's results; choose another --out")
+                                  f"policy's seeds/ holds its own case's results; choose another {option}")
         return
+
+
+def figure_cases(path: str | Path) -> list[str]:
+    """The names of the cases whose figures ``msr policy figures`` draws for ``path``: a generate
+    output's case, or the case of every training run found there (its ``run.json``; an exported
+    seed's ``policy.json``). What records no case is left out (``make_figures`` names a fault)."""
+    from ..envs.rollout import ROLLOUT_NPZ, Rollout
+    from ..reports.figures import find_runs
+    from ..runfiles.rundir import RunDir
+
+    path = Path(path)
+    if (path / ROLLOUT_NPZ).is_file():
+        try:
+            records = [Rollout.load(path).meta]
+        except (OSError, ValueError, KeyError):
+            return []
+    else:
+        records = []
+        for run in (run for runs in find_runs(path).values() for run in runs):
+            for record in (RunDir(run).run_json, Path(run) / POLICY_JSON):
+                try:
+                    records.append(json.loads(record.read_text(encoding="utf-8")))
+                    break
+                except (OSError, ValueError):
+                    continue
+    cases = (r.get("case") for r in records if isinstance(r, dict))
+    return sorted({case for case in cases if isinstance(case, str)})
 
 
 def observation_spec_of(case: Case) -> dict[str, Any]:

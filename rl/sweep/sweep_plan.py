@@ -106,12 +106,13 @@ def plan_sweep(loaded: dict[str, Case], s: SweepSettings, r: Resolved
 def _check_yardstick_warmup(loaded: dict[str, Case], config: Any) -> None:
     """A warm-up played by the yardstick (``yardstick_warmup``) needs a case whose yardstick is a
     controller (``ValueError`` naming the cases without one, before any work)."""
-    from ..cases.case import DAGGER_REFUSAL, YARDSTICK_CONTROLLERS
+    from ..cases.case import DAGGER_REFUSAL, YARDSTICK_CONTROLLERS, dagger_reason
 
-    crawls = [name for name, case in loaded.items() if case.field_actuated]
-    if config.yardstick_dagger and crawls:
-        raise ValueError(f"--set yardstick_dagger={config.yardstick_dagger}: {DAGGER_REFUSAL}, and "
-                         f"case(s) {', '.join(crawls)} are crawls: train them without it")
+    reasons = [reason for case in loaded.values() if (reason := dagger_reason(case)) is not None]
+    if config.yardstick_dagger and reasons:
+        raise ValueError(f"--set yardstick_dagger={config.yardstick_dagger}: {DAGGER_REFUSAL}; "
+                         f"{'; '.join(reasons)}: no command for a state another controller led the robot "
+                         "into; train without it")
     if not config.yardstick_warmup:
         return
     without = [name for name, case in loaded.items() if not case.has_yardstick_controller]

@@ -128,7 +128,7 @@ def test_dagger_without_a_warm_up_or_on_a_crawl_is_refused():
 
     crawl = load_case("m1-4mT-designed")
     with pytest.raises(ValueError, match="yardstick_dagger=500: DAgger's labels come from a yardstick that "
-                                         "reads an observation alone .* m1-4mT-designed are crawls"):
+                                         "reads an observation alone .* m1-4mT-designed is a crawl task"):
         _check_yardstick_warmup({crawl.name: crawl}, TD3Config(yardstick_dagger=500, yardstick_warmup=10,
                                                                learning_starts=256))
     data = crawl.to_dict()
