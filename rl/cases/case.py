@@ -414,29 +414,27 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     return Case(name, description, robot, actuation, task, training, yardstick, source, design)
 
 
-#: Why only a tip-reach case learns by DAgger (``yardstick_dagger``); :func:`dagger_reason` adds
-#: why a field-driven case's yardstick cannot label.
-DAGGER_REFUSAL = ("DAgger's labels come from a yardstick that reads an observation alone (a tip-reach "
-                  "case's steering law)")
+#: Which yardsticks give DAgger's labels (``yardstick_dagger``); :func:`dagger_reason` says why a
+#: goto case's cannot.
+DAGGER_REFUSAL = ("DAgger's labels come from a yardstick whose command is a function of the observation "
+                  "alone (a tip-reach case's steering law, a crawl's or reach's rotating field)")
 
 
 def dagger_reason(case: Case) -> str | None:
-    """Why ``case``'s yardstick cannot give DAgger's labels, naming its task (``None``: a case
-    steered by a source, whose steering law reads the observation alone). A goto case's steering
-    field remembers its manoeuvre; a crawl's or reach's rotating field keeps its own clock: neither
-    has a command for a state another controller led the robot into."""
-    if not case.field_actuated:
-        return None
+    """Why ``case``'s yardstick cannot give DAgger's labels, naming its task (``None``: it can, or
+    it has no yardstick controller, which :func:`warmup_refusal` names). A goto case's steering
+    field remembers its manoeuvre, which the observation lacks, so it has no command for a state
+    another controller led the robot into; a rotating field turns the field the observation shows
+    and a steering law reads the observation, so both label any state."""
     if isinstance(case.task, GotoTask):
         return (f"case {case.name} is a goto task, whose steering field remembers its manoeuvre (walking "
                 "or turning, and since which step), which the observation lacks")
-    return (f"case {case.name} is a {case.task.kind} task, whose rotating field keeps its own clock, which "
-            "the observation lacks")
+    return None
 
 
 def dagger_refusal(case: Case) -> str | None:
     """Why ``msr train`` refuses ``case``'s ``[training.td3] yardstick_dagger`` (``None``: it does
-    not): a case driven by a field has no yardstick that labels an observation alone."""
+    not): a goto case's yardstick labels no observation alone (:func:`dagger_reason`)."""
     dagger = case.training.td3.get("yardstick_dagger")
     reason = dagger_reason(case)
     if dagger and reason is not None:

@@ -137,6 +137,12 @@ class RotatingFieldPolicy(_FieldReader):
     def set_state(self, state: dict[str, Any]) -> None:
         """Restore a :meth:`state`."""
 
+    def label(self, obs: NDArray[np.float32]) -> NDArray[np.float32]:
+        """Its command at ``obs`` while another controller drives (DAgger's label,
+        :attr:`~elastica_magnetic_rl.td3.config.TD3Config.yardstick_dagger`): :meth:`act`, as the
+        field it turns is the one the observation shows."""
+        return self.act(obs)
+
     def act(self, obs: NDArray[np.float32]) -> NDArray[np.float32]:
         """Normalised action in [-1, 1]^k (k: the case's axes) for one observation ``(obs_dim,)``;
         on three axes the z pair holds B_z at zero (the paper's field, in the x-y plane)."""

@@ -157,22 +157,20 @@ def test_a_stop_rule_refusal_with_long_episodes_gives_advice_that_works():
         check_stop_rule_decides(rule, config, 2100, 1, sources, episode_duration=3.0)
 
 
-def test_a_crawl_spec_with_dagger_is_refused_by_the_loop_and_filed_under_its_key(tmp_path, capsys):
-    """V2, V3: ``msr loop --quick`` refused a crawl spec with yardstick_dagger for a missing
-    [yardstick] period (it had one), and without --quick started its sweep; ``msr case check`` filed
-    the refusal under yardstick_warmup. Now the loop refuses it with msr train's message before any
-    step, and the check names yardstick_dagger."""
-    spec = _spec(tmp_path, "m1-4mT", "dg.toml", "[yardstick]\n", "[yardstick]\nperiod = 2.5\n",
+def test_a_goto_spec_with_dagger_is_filed_under_its_key_and_a_crawl_s_is_accepted(tmp_path, capsys):
+    """V2, V3: ``msr case check`` filed a DAgger refusal under yardstick_warmup; it names
+    yardstick_dagger. (Round 25 refused a crawl spec with yardstick_dagger; since round 28 a crawl's
+    rotating field gives DAgger's labels, and a goto case's steering field is the one refused.)"""
+    goto = _spec(tmp_path, "m1-4mT-goto", "gd.toml", "[task]\n", "[task]\n",
                  "\n[training.td3]\nyardstick_warmup = 10\nyardstick_dagger = 10\n")
-    for quick in (["--quick"], []):
-        out = tmp_path / f"loop{len(quick)}"
-        assert msr(["loop", str(spec), "--out", str(out), *quick]) == 2
-        err = capsys.readouterr().err
-        assert "[training.td3] yardstick_dagger = 10: DAgger's labels come from a yardstick" in err, err
-        assert "needs [yardstick] period" not in err and not out.exists()
-    assert msr(["case", "check", "--no-sag", str(spec)]) == 0
+    assert msr(["case", "check", "--no-sag", str(goto)]) == 0
     text = capsys.readouterr().out
     assert "[training.td3] yardstick_dagger: msr train refuses it" in text, text
+    assert "goto task, whose steering field remembers its manoeuvre" in text, text
+    crawl = _spec(tmp_path, "m1-4mT", "dg.toml", "[yardstick]\n", "[yardstick]\nperiod = 2.5\n",
+                  "\n[training.td3]\nyardstick_warmup = 10\nyardstick_dagger = 10\n")
+    assert msr(["case", "check", "--no-sag", str(crawl)]) == 0
+    assert "msr train refuses it" not in capsys.readouterr().out
 
 
 def test_identify_names_a_crawler_s_field_csv_and_trajectory_given_the_wrong_way_round(tmp_path, capsys):

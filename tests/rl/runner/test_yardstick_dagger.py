@@ -117,7 +117,7 @@ def test_a_labelled_buffer_needs_labels_and_keeps_them_through_its_state():
         again.load_state_dict(ReplayBuffer(8, 3, 2).state_dict())
 
 
-def test_dagger_without_a_warm_up_or_on_a_crawl_is_refused():
+def test_dagger_without_a_warm_up_or_on_a_goto_case_is_refused():
     with pytest.raises(ValueError, match="yardstick_dagger 100 continues a clone .* set yardstick_warmup"):
         TD3Config(yardstick_dagger=100)
     with pytest.raises(ValueError, match="yardstick_dagger must be >= 0"):
@@ -126,15 +126,20 @@ def test_dagger_without_a_warm_up_or_on_a_crawl_is_refused():
     from elastica_magnetic_rl.cases.case import case_from_dict, load_case, warmup_refusal
     from elastica_magnetic_rl.sweep.sweep_plan import _check_yardstick_warmup
 
-    crawl = load_case("m1-4mT-designed")
-    with pytest.raises(ValueError, match="yardstick_dagger=500: DAgger's labels come from a yardstick that "
-                                         "reads an observation alone .* m1-4mT-designed is a crawl task"):
-        _check_yardstick_warmup({crawl.name: crawl}, TD3Config(yardstick_dagger=500, yardstick_warmup=10,
-                                                               learning_starts=256))
+    dagger = TD3Config(yardstick_dagger=500, yardstick_warmup=10, learning_starts=256)
+    goto = load_case("m1-4mT-goto")
+    with pytest.raises(ValueError, match="yardstick_dagger=500: DAgger's labels come from a yardstick whose "
+                                         "command .* m1-4mT-goto is a goto task"):
+        _check_yardstick_warmup({goto.name: goto}, dagger)
+    data = goto.to_dict()
+    data.setdefault("training", {}).setdefault("td3", {}).update(yardstick_dagger=500, yardstick_warmup=10)
+    refusal = warmup_refusal(case_from_dict(data, "goto-dagger"))
+    assert refusal is not None and "yardstick_dagger = 500: DAgger's labels" in refusal
+    crawl = load_case("m1-4mT-designed")  # its [yardstick] records its rotating field: it labels
+    _check_yardstick_warmup({crawl.name: crawl}, dagger)
     data = crawl.to_dict()
     data.setdefault("training", {}).setdefault("td3", {}).update(yardstick_dagger=500, yardstick_warmup=10)
-    refusal = warmup_refusal(case_from_dict(data, "crawl-dagger"))
-    assert refusal is not None and "yardstick_dagger = 500: DAgger's labels" in refusal
+    assert warmup_refusal(case_from_dict(data, "crawl-dagger")) is None
     coils = load_case("catheter-coils-reach")
     _check_yardstick_warmup({coils.name: coils}, TD3Config(yardstick_dagger=500, yardstick_warmup=10,
                                                            learning_starts=256))

@@ -67,3 +67,26 @@ def test_a_crawl_trained_from_its_rotating_field_plays_it_in_the_warm_up(tmp_pat
     obs, actions = np.asarray(buffer["obs"])[:120], np.asarray(buffer["actions"])[:120]
     played = RotatingFieldPolicy(load_case(spec), 1.0, clockwise=True)
     np.testing.assert_allclose(actions, [played.act(o) for o in obs], atol=1e-6)
+
+
+def test_dagger_on_a_crawl_labels_the_actor_s_states_with_the_rotating_field(tmp_path):
+    """``yardstick_dagger`` on a crawl whose ``[yardstick]`` records its rotating field: the actor
+    drives after the warm-up, and each of its observations is labelled with the field's command
+    there (the field the observation shows, turned): labels of the observation alone."""
+    import torch
+
+    spec = tmp_path / "rolling.toml"
+    spec.write_text(case_from_dict(_with_field(period=1.0, clockwise=True), str(spec)).toml())
+    torch.set_num_threads(1)
+    assert msr(["train", "--case", str(spec), "--seeds", "1", "--workers", "1", "--steps", "170",
+                "--episode-duration", "0.5", "--set", "learning_starts=120", "--set", "batch_size=32",
+                "--set", "hidden_sizes=32,32", "--set", "yardstick_warmup=50", "--set", "yardstick_dagger=40",
+                "--set", "eval_every=0", "--set", "exploration_noise=0", "--out", str(tmp_path / "runs"),
+                "--no-progress"]) == 0
+    buffer = load_checkpoint(tmp_path / "runs" / "rolling" / "seed0")["buffer"]
+    obs, actions, labels = (np.asarray(buffer[key])[:160] for key in ("obs", "actions", "labels"))
+    played = RotatingFieldPolicy(load_case(spec), 1.0, clockwise=True)
+    commanded = np.array([played.act(o) for o in obs])
+    np.testing.assert_allclose(labels, commanded, atol=1e-6)
+    np.testing.assert_allclose(actions[:120], commanded[:120], atol=1e-6)  # the warm-up: the field itself
+    assert np.abs(actions[120:] - commanded[120:]).max() > 1e-3  # after it the actor drives
