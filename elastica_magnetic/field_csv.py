@@ -188,8 +188,8 @@ def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
     missing = [c for c in FIELD_COLUMNS if c not in names]
     drive = drive_described(names) if missing else None
     if drive:  # a drive is played by its own hardware, not as a uniform field
-        player = ("the currents of up to 3 coils by 'msr real stream FILE' (one board output each), "
-                  "more by the coils' own drivers" if MAGNET_COLUMN not in names else "the arm's controller")
+        player = ("'msr real stream FILE' (up to 3 coils, one board output each; more coils by their own "
+                  "drivers)" if MAGNET_COLUMN not in names else "the arm's controller")
         raise FieldCSVError(
             f"{path}: holds {drive}, not a field ({', '.join(FIELD_COLUMNS)} in mT): a field CSV is "
             "a uniform field, what msr field replay simulates and the coil board plays through its three "
