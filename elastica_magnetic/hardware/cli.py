@@ -201,8 +201,9 @@ def _stream_inputs(args: argparse.Namespace) -> tuple[_Drive, Any]:
     """Everything ``msr real stream`` checks before it connects: the options, the file (a field
     CSV, as T, or a coil-current file, as A), the calibration (or ``None``) and what the coils can
     follow, the output files. Returns what to play and the calibration."""
+    from elastica_magnetic.drive_columns import is_coil_currents
     from elastica_magnetic.hardware.calibration import load_calibration
-    from elastica_magnetic.hardware.coil_currents import is_coil_currents, read_coil_currents
+    from elastica_magnetic.hardware.coil_currents import read_coil_currents
     from elastica_magnetic.hardware.export import EXPECTED_CODES_FILE
     from elastica_magnetic.result_file import check_result_file
 
@@ -239,8 +240,7 @@ def _stream_inputs(args: argparse.Namespace) -> tuple[_Drive, Any]:
 def _refuse_magnet_path(path: str) -> None:
     """A magnet arm's path is no drive of the coil board: say so (the field reader would name it
     as no field)."""
-    from elastica_magnetic.drive_columns import MAGNET_COLUMN
-    from elastica_magnetic.hardware.coil_currents import is_magnet_path
+    from elastica_magnetic.drive_columns import MAGNET_COLUMN, is_magnet_path
 
     if is_magnet_path(path):
         raise _error(f"{path}: holds a magnet arm's path ({MAGNET_COLUMN}, ..., m), a catheter's drive by a "

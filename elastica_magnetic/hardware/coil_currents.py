@@ -25,19 +25,21 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from elastica_magnetic.drive_columns import CURRENT_COLUMN, MAGNET_COLUMN
+from elastica_magnetic.drive_columns import (
+    CURRENT_COLUMN,
+    GRID_TOLERANCE_S,
+    INSERTION_COLUMN,
+)
+from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from .calibration import Calibration
 
 #: The board's outputs in the order of a row, one coil each (docs/firmware.md, "Wiring").
 BOARD_OUTPUTS = ("DAC8563 #1 A", "DAC8563 #1 B", "DAC8563 #2 A")
-#: Rows per second the board plays: one row per 0.01 s control step.
-ROW_PERIOD_S = 0.01
-#: A row's ``t_s`` must lie within this of its place on the 0.01 s grid (s).
-GRID_TOLERANCE_S = 1e-6
-#: The time column and the insertion stage's column of a coil-current file.
+#: The time between the rows the board plays (s): one row per control step.
+ROW_PERIOD_S = ACTION_PERIOD
+#: The time column of a coil-current file.
 TIME_COLUMN = "t_s"
-INSERTION_COLUMN = "insertion_m"
 #: A current above this (A) is milliamperes written as amperes (no coil driver makes more).
 UNIT_MISTAKE_A = 1000.0
 #: What a coil-current file holds, for messages.
@@ -75,27 +77,6 @@ class CoilCurrents:
         rows = np.zeros((self.currents_A.shape[0], len(BOARD_OUTPUTS)))
         rows[:, :self.currents_A.shape[1]] = self.currents_A
         return rows
-
-
-def header_names(path: str | Path) -> list[str]:
-    """The column names on the first line of the CSV file ``path`` ([] when it cannot be read:
-    its reader then names why)."""
-    try:
-        with open(path, encoding="utf-8-sig", newline="") as handle:
-            return [name.strip() for name in next(csv.reader(handle), [])]
-    except (OSError, UnicodeDecodeError, csv.Error):
-        return []
-
-
-def is_coil_currents(path: str | Path) -> bool:
-    """Whether the CSV file at ``path`` is a coil-current drive: its header names a
-    ``current_<K>_A`` column (:data:`~elastica_magnetic.drive_columns.CURRENT_COLUMN`)."""
-    return any(CURRENT_COLUMN.match(name) for name in header_names(path))
-
-
-def is_magnet_path(path: str | Path) -> bool:
-    """Whether the CSV file at ``path`` is a magnet arm's path (its header names ``magnet_x_m``)."""
-    return MAGNET_COLUMN in header_names(path)
 
 
 def read_coil_currents(path: str | Path) -> CoilCurrents:

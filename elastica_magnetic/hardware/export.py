@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from elastica_magnetic.cli.app import output_path
+from elastica_magnetic.drive_columns import is_coil_currents
 from elastica_magnetic.field_csv import FIELD_COLUMNS, read_field_csv
 from elastica_magnetic.hardware.calibration import (
     Calibration,
@@ -32,7 +33,6 @@ from elastica_magnetic.hardware.calibration import (
     load_calibration,
     slew_warning,
 )
-from elastica_magnetic.hardware.coil_currents import is_coil_currents
 from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
 from elastica_magnetic.io import atomic_write, atomic_write_text
 from elastica_magnetic.result_file import FileKind
