@@ -1,16 +1,34 @@
 """The columns that mark the recorded drives of a steered catheter, so that a reader of another
 format names such a file for what it is: the coils' currents (``current_<K>_A``, A) and a magnet
-arm's path (``magnet_x_m``, ... m). Their readers are in ``elastica_magnetic_rl.sim2real``."""
+arm's path (``magnet_x_m``, ... m); what every drive file shares (its header line, the insertion
+stage's column, the 0.01 s grid's tolerance). Their readers are in ``elastica_magnetic_rl.sim2real``
+(for identification) and :mod:`elastica_magnetic.hardware.coil_currents` (for the board)."""
 
 from __future__ import annotations
 
+import csv
 import re
 from collections.abc import Sequence
+from pathlib import Path
 
 #: A coil's current column: ``current_<K>_A``, K its index among the spec's coils (from 0), A.
 CURRENT_COLUMN = re.compile(r"^current_(\d+)_A$")
 #: The column that marks a magnet arm's path (its first position column, m).
 MAGNET_COLUMN = "magnet_x_m"
+#: The insertion stage's column of a recorded drive (m; only with a stage).
+INSERTION_COLUMN = "insertion_m"
+#: A drive's rows must lie on the 0.01 s control grid within this (s).
+GRID_TOLERANCE_S = 1e-6
+
+
+def header_names(path: str | Path) -> list[str]:
+    """The column names on the first line of the CSV file ``path`` (a byte-order mark dropped,
+    names stripped; [] when it cannot be read: its reader then names why)."""
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as handle:
+            return [name.strip() for name in next(csv.reader(handle), [])]
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return []
 
 
 def drive_described(names: Sequence[str]) -> str | None:
@@ -23,3 +41,16 @@ def drive_described(names: Sequence[str]) -> str | None:
     if MAGNET_COLUMN in names:
         return f"a magnet arm's path ({MAGNET_COLUMN}, ..., m), a catheter's drive by a magnet"
     return None
+
+
+def is_coil_currents(path: str | Path) -> bool:
+    """Whether the CSV file at ``path`` is a coil-current drive: its header names a
+    ``current_<K>_A`` column (:data:`CURRENT_COLUMN`), however numbered (its reader names a
+    numbering that does not start at 0)."""
+    return any(CURRENT_COLUMN.match(name) for name in header_names(path))
+
+
+def is_magnet_path(path: str | Path) -> bool:
+    """Whether the CSV file at ``path`` is a magnet arm's path (its header names
+    :data:`MAGNET_COLUMN`)."""
+    return MAGNET_COLUMN in header_names(path)

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from .drive_columns import drive_described
+from .drive_columns import MAGNET_COLUMN, drive_described
 from .io import atomic_write
 from .plausibility import judge, warn_implausible
 
@@ -188,11 +188,12 @@ def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
     missing = [c for c in FIELD_COLUMNS if c not in names]
     drive = drive_described(names) if missing else None
     if drive:  # a drive is played by its own hardware, not as a uniform field
+        player = ("'msr real stream FILE' (up to 3 coils, one board output each; more coils by their own "
+                  "drivers)" if MAGNET_COLUMN not in names else "the arm's controller")
         raise FieldCSVError(
             f"{path}: holds {drive}, not a field ({', '.join(FIELD_COLUMNS)} in mT): a field CSV is "
             "a uniform field, what msr field replay simulates and the coil board plays through its three "
-            "field axes; a catheter's drive is replayed by msr real identify and played by the coils' "
-            "own drivers or the arm's controller")
+            f"field axes; a catheter's drive is replayed by msr real identify and played by {player}")
     if missing:
         raise FieldCSVError(
             f"{path}: header on line {first_line} lacks column(s) {', '.join(missing)}; "

@@ -10,6 +10,9 @@ The chain from field to DAC code (identical, operation for operation, to
 4. ``V = I / transconductance_A_per_V + input_offset_V`` (V, relative to the 2.5 V mid-scale)
 5. ``code = clamp(32768 + round_half_away(V / dac_half_span_V * 32767), 0, 65535)``
 
+A coil-current row (``STREAM CURRENTS``, :meth:`DacCodeModel.currents_to_codes`) gives ``I`` in A
+for the three outputs and starts at step 3.
+
 Mid-scale (32768, 0 A) is the safe state.
 """
 
@@ -352,15 +355,33 @@ class DacCodeModel:
         self.last_current_A = [0.0, 0.0, 0.0]
 
     def codes(self, mag_mT: Sequence[float]) -> tuple[int, int, int]:
-        """DAC codes (x, y, z) for one row of field in **mT** (the firmware's input unit)."""
-        cal = self.calibration
+        """DAC codes (x, y, z) for one row of field in **mT** (the firmware's input unit):
+        ``calib_field_to_codes``."""
         b = [float(v) * TESLA_PER_MILLITESLA for v in mag_mT]
         if not all(math.isfinite(v) for v in b):
             return (DAC_MIDSCALE, DAC_MIDSCALE, DAC_MIDSCALE)
-        out = []
+        currents = []
         for i in range(AXES):
             row = self.inverse_A_per_T[i]
-            current = row[0] * b[0] + row[1] * b[1] + row[2] * b[2]
+            currents.append(row[0] * b[0] + row[1] * b[1] + row[2] * b[2])
+        return self._limited_codes(currents)
+
+    def currents_to_codes(self, current_A: Sequence[float]) -> tuple[int, int, int]:
+        """DAC codes of outputs 0, 1, 2 for one row of coil currents in **A** (a ``STREAM
+        CURRENTS`` row): ``calib_currents_to_codes``, the field path without the matrix. A
+        non-finite current gives mid-scale on every output, the slew history unchanged."""
+        currents = [float(v) for v in current_A]
+        if not all(math.isfinite(v) for v in currents):
+            return (DAC_MIDSCALE, DAC_MIDSCALE, DAC_MIDSCALE)
+        return self._limited_codes(currents)
+
+    def _limited_codes(self, currents: Sequence[float]) -> tuple[int, int, int]:
+        """The tail both paths share (``currents_to_codes`` in C): current limit, slew limit,
+        ``V = I / g + offset``, code; updates the slew history."""
+        cal = self.calibration
+        out = []
+        for i in range(AXES):
+            current = currents[i]
             limit = cal.current_limit_A[i]
             if current > limit:
                 current = limit
@@ -386,6 +407,15 @@ def expected_dac_codes(calibration: Calibration, rows_mT: NDArray[np.float64]) -
     model = DacCodeModel(calibration)
     rows_mT = np.asarray(rows_mT, dtype=np.float64)
     return np.array([model.codes(r) for r in rows_mT.tolist()], dtype=np.int64).reshape(-1, AXES)
+
+
+def expected_current_codes(calibration: Calibration, rows_A: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Codes the firmware writes for consecutive coil-current rows (A of outputs 0, 1, 2, a
+    ``STREAM CURRENTS`` session), from a reset state. Returns an ``(n_rows, 3)`` integer array."""
+    model = DacCodeModel(calibration)
+    rows_A = np.asarray(rows_A, dtype=np.float64)
+    return np.array([model.currents_to_codes(r) for r in rows_A.tolist()],
+                    dtype=np.int64).reshape(-1, AXES)
 
 
 @dataclass

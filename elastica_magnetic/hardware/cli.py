@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import csv
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -28,9 +29,13 @@ MAX_TIMEOUT_S = 3600.0
 def register(subparsers: Any) -> None:
     """Add the hardware sub-commands to the ``msr`` parser."""
     p = subparsers.add_parser(
-        "stream", help="stream a field CSV (mT) to the STM32 firmware over a serial URL",
-        description="Stream a field CSV to the board; prints what the board reported.")
-    p.add_argument("field_csv", help="field CSV, mag_x,mag_y,mag_z in mT, 100 rows/s")
+        "stream", help="stream a field CSV (mT) or up to 3 coil currents (A) to the STM32 firmware",
+        description="Stream a field CSV, or a coil-current file of up to 3 coils, to the board; prints "
+        "what the board reported.")
+    p.add_argument("field_csv", metavar="FILE",
+                   help="field CSV, mag_x,mag_y,mag_z in mT, 100 rows/s; or a coil-current file, "
+                   "t_s,current_0_A[,current_1_A[,current_2_A]] in s and A, one row per 0.01 s, "
+                   "played on the board's outputs 0-2 (coil_currents.csv of msr field baseline)")
     p.add_argument("--port", required=True,
                    help="pyserial URL or device: socket://127.0.0.1:4321 (QEMU), /dev/ttyACM0")
     p.add_argument("--calibration",
@@ -40,8 +45,8 @@ def register(subparsers: Any) -> None:
                    help="with --calibration: refuse (exit 2) instead of uploading when the board's "
                    "active calibration differs")
     p.add_argument("--allow-clipping", action="store_true",
-                   help="stream a waveform beyond the calibration's current limit or DAC span "
-                   "(the firmware clamps it); by default such a waveform is refused")
+                   help="stream a waveform (or currents) beyond the calibration's current limit or DAC "
+                   "span (the firmware clamps it); by default such a file is refused")
     p.add_argument("--baud", type=_number("baud", 1, integer=True), default=115200)
     p.add_argument("--timeout", type=_number("s", 0.0, MAX_TIMEOUT_S, low_open=True), default=None,
                    help="overall limit in seconds, handshake included, at most 3600 (default: the "
@@ -133,9 +138,9 @@ CODE_TOLERANCE_LSB = 1
 def _stream(args: argparse.Namespace) -> int:
     from elastica_magnetic.hardware.stream import StreamError
 
-    field_T, cal = _stream_inputs(args)
+    drive, cal = _stream_inputs(args)
     try:
-        result = _stream_logged(args, field_T, cal)
+        result = _stream_logged(args, drive, cal)
     except StreamError as exc:
         raise _error(str(exc)) from None
     summary = result.summary()
@@ -147,7 +152,7 @@ def _stream(args: argparse.Namespace) -> int:
         with result_file(args.codes_out, force=args.force, option="--codes-out",
                          kind=EXPECTED_CODES_FILE) as codes:
             write_expected_codes(codes.path, got)
-    codes_ok = cal is None or _compare_codes(summary, result, got, field_T, cal)
+    codes_ok = cal is None or _compare_codes(summary, result, got, drive, cal)
     _print(summary, args.json)
     if result.safe is None:  # time-out: stream_field has sent STOP
         raise _error(f"{args.port}: no SAFE report from the board within the time limit "
@@ -163,21 +168,55 @@ def _stream(args: argparse.Namespace) -> int:
     return 0 if ok else 1
 
 
-def _stream_inputs(args: argparse.Namespace) -> tuple[Any, Any]:
-    """Everything ``msr real stream`` checks before it connects: the options, the waveform (T, as
-    read from the mT CSV), the calibration (or ``None``) and what the coils can follow, the
-    output files. Returns the waveform and the calibration."""
-    from elastica_magnetic.hardware.calibration import clipping_report, load_calibration, slew_warning
+@dataclass(frozen=True)
+class _Drive:
+    """What ``msr real stream`` plays: a field (``mode`` "field", ``values`` in T, ``(n, 3)``) or the
+    board's outputs' coil currents (``mode`` "currents", ``values`` in A, ``(n, 3)``)."""
+
+    mode: str
+    values: Any
+
+    def board_values(self) -> Any:
+        """The doubles the board parses from the rows sent (mT or A)."""
+        from elastica_magnetic.hardware.protocol import wire_rows, wire_rows_mT, wire_values
+
+        text = wire_rows_mT(self.values) if self.mode == "field" else wire_rows(self.values)
+        return wire_values(text)
+
+    def expected_codes(self, cal: Any) -> Any:
+        """The codes the board writes for every row with ``cal`` (the host's bit-exact twin)."""
+        from elastica_magnetic.hardware.calibration import expected_current_codes, expected_dac_codes
+
+        codes_of = expected_dac_codes if self.mode == "field" else expected_current_codes
+        return codes_of(cal, self.board_values())
+
+    def streamer(self) -> Any:
+        """:func:`~elastica_magnetic.hardware.stream.stream_field` or ``stream_currents``."""
+        from elastica_magnetic.hardware.stream import stream_currents, stream_field
+
+        return stream_field if self.mode == "field" else stream_currents
+
+
+def _stream_inputs(args: argparse.Namespace) -> tuple[_Drive, Any]:
+    """Everything ``msr real stream`` checks before it connects: the options, the file (a field
+    CSV, as T, or a coil-current file, as A), the calibration (or ``None``) and what the coils can
+    follow, the output files. Returns what to play and the calibration."""
+    from elastica_magnetic.drive_columns import is_coil_currents
+    from elastica_magnetic.hardware.calibration import load_calibration
+    from elastica_magnetic.hardware.coil_currents import read_coil_currents
     from elastica_magnetic.hardware.export import EXPECTED_CODES_FILE
-    from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
     from elastica_magnetic.result_file import check_result_file
 
     if args.force and not (args.log or args.codes_out):
         raise _error("--force replaces an existing --log or --codes-out file, and neither is "
                      "given: leave it out, or name the file to replace")
     _check_port("--port", args.port)  # before the files are read, and not as pyserial words it
-    field_T = read_field_csv(args.field_csv, plausible=True)
-    rows = len(field_T)
+    currents = read_coil_currents(args.field_csv) if is_coil_currents(args.field_csv) else None
+    if currents is None:
+        _refuse_magnet_path(args.field_csv)
+    drive = (_Drive("field", read_field_csv(args.field_csv, plausible=True)) if currents is None
+             else _Drive("currents", currents.board_rows()))
+    rows = len(drive.values)
     if args.corrupt_row is not None and args.corrupt_row >= rows:  # before connecting
         raise _error(f"--corrupt-row {args.corrupt_row}: the waveform has {rows} rows "
                      f"({'0-' + str(rows - 1) if rows else 'none'}) in {display_path(args.field_csv)}; "
@@ -185,33 +224,67 @@ def _stream_inputs(args: argparse.Namespace) -> tuple[Any, Any]:
     cal = load_calibration(args.calibration) if args.calibration else None
     if args.no_upload and cal is None:
         raise _error("--no-upload needs --calibration FILE")
-    if cal is not None:
-        clipping = clipping_report(cal, wire_values_mT(wire_rows_mT(field_T)))
-        if clipping.rows and not args.allow_clipping:
-            raise _error(
-                f"{args.field_csv}: the coils of calibration {cal.name!r} cannot follow this "
-                f"waveform: {clipping.describe()}. Lower the field, or pass --allow-clipping to "
-                "play it clipped; nothing was sent")
-        warning = slew_warning(clipping, args.field_csv, cal.name)
-        if warning:  # played (reached late, not clipped), but the user should know
-            print(f"msr {command_name(args)}: warning: {warning}", file=sys.stderr)
+    if cal is not None and currents is None:
+        _check_field_limits(args, drive, cal)
+    elif cal is not None:
+        _check_current_limits(args, currents, cal)
     if args.log and args.codes_out and args.log == args.codes_out:
         raise _error(f"--log and --codes-out name the same file, {args.log}")
     for option, path, kind in (("--log", args.log, BOARD_LOG_FILE),
                                ("--codes-out", args.codes_out, EXPECTED_CODES_FILE)):
         if path:
             check_result_file(path, force=args.force, option=option, kind=kind)
-    return field_T, cal
+    return drive, cal
 
 
-def _compare_codes(summary: dict[str, Any], result: Any, got: Any, field_T: Any, cal: Any) -> bool:
+def _refuse_magnet_path(path: str) -> None:
+    """A magnet arm's path is no drive of the coil board: say so (the field reader would name it
+    as no field)."""
+    from elastica_magnetic.drive_columns import MAGNET_COLUMN, is_magnet_path
+
+    if is_magnet_path(path):
+        raise _error(f"{path}: holds a magnet arm's path ({MAGNET_COLUMN}, ..., m), a catheter's drive by a "
+                     "moving magnet: the coil board cannot play it (it plays a field CSV, mag_x, mag_y, "
+                     "mag_z in mT, or coil currents, t_s, current_0_A, ... in A); play the path on the "
+                     "arm's controller")
+
+
+def _check_field_limits(args: argparse.Namespace, drive: _Drive, cal: Any) -> None:
+    """A field the coils of ``cal`` cannot make is refused (unless --allow-clipping), one they
+    follow late warned about."""
+    from elastica_magnetic.hardware.calibration import clipping_report, slew_warning
+
+    clipping = clipping_report(cal, drive.board_values())
+    if clipping.rows and not args.allow_clipping:
+        raise _error(
+            f"{args.field_csv}: the coils of calibration {cal.name!r} cannot follow this "
+            f"waveform: {clipping.describe()}. Lower the field, or pass --allow-clipping to "
+            "play it clipped; nothing was sent")
+    warning = slew_warning(clipping, args.field_csv, cal.name)
+    if warning:  # played (reached late, not clipped), but the user should know
+        print(f"msr {command_name(args)}: warning: {warning}", file=sys.stderr)
+
+
+def _check_current_limits(args: argparse.Namespace, currents: Any, cal: Any) -> None:
+    """Currents beyond the current limit or the DAC span of ``cal`` are refused (unless
+    --allow-clipping), currents faster than its slew limit warned about: as for a field."""
+    from elastica_magnetic.hardware.coil_currents import clipping_problem, slew_problem
+
+    problem = clipping_problem(cal, currents)
+    if problem and not args.allow_clipping:
+        raise _error(f"{problem}: the board would clamp it. Lower the currents, or pass --allow-clipping "
+                     "to play them clamped; nothing was sent")
+    slow = slew_problem(cal, currents)
+    if slow:
+        print(f"msr {command_name(args)}: warning: {slow}; check the calibration's slew_limit_A_per_s "
+              "(A/s), or slow the currents", file=sys.stderr)
+
+
+def _compare_codes(summary: dict[str, Any], result: Any, got: Any, drive: _Drive, cal: Any) -> bool:
     """Compare the DAC codes the board reported (``got``, one row per played row) with the host's
     for the calibration; adds ``rows_in_order`` and ``max_code_error_lsb`` (``None``: no codes,
     -1: rows out of order or more than sent) to ``summary``. True when within tolerance."""
-    from elastica_magnetic.hardware.calibration import expected_dac_codes
-    from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
-
-    expected = expected_dac_codes(cal, wire_values_mT(wire_rows_mT(field_T)))
+    expected = drive.expected_codes(cal)
     rows = [d.row for d in result.row_codes]
     in_order = rows == list(range(len(rows)))
     summary["rows_in_order"] = in_order
@@ -223,17 +296,17 @@ def _compare_codes(summary: dict[str, Any], result: Any, got: Any, field_T: Any,
     return error is None or 0 <= error <= CODE_TOLERANCE_LSB
 
 
-def _stream_logged(args: argparse.Namespace, field_T: Any, cal: Any) -> Any:
+def _stream_logged(args: argparse.Namespace, drive: _Drive, cal: Any) -> Any:
     """Stream with ``--log`` written as one result file: the log of a stream that failed is kept
     too (it says what the board did), an interrupted one leaves the earlier log."""
-    from elastica_magnetic.hardware.stream import StreamError, stream_field
+    from elastica_magnetic.hardware.stream import StreamError
     from elastica_magnetic.result_file import result_file
 
     def run(log_path: Path | None) -> Any:
-        return stream_field(args.port, field_T, baudrate=args.baud, corrupt_row=args.corrupt_row,
-                            timeout_s=args.timeout, log_path=log_path,
-                            progress=not args.no_progress, calibration=cal,
-                            upload=not args.no_upload)
+        return drive.streamer()(args.port, drive.values, baudrate=args.baud, corrupt_row=args.corrupt_row,
+                                timeout_s=args.timeout, log_path=log_path,
+                                progress=not args.no_progress, calibration=cal,
+                                upload=not args.no_upload)
 
     if not args.log:
         return run(None)

@@ -23,7 +23,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from elastica_magnetic.cli.app import output_path
-from elastica_magnetic.field_csv import read_field_csv
+from elastica_magnetic.drive_columns import is_coil_currents
+from elastica_magnetic.field_csv import FIELD_COLUMNS, read_field_csv
 from elastica_magnetic.hardware.calibration import (
     Calibration,
     calibration_header,
@@ -112,6 +113,11 @@ def export_firmware(field_csv: str | Path, calibration: Calibration | str | Path
     check_result_folder(out_dir, kind="export-firmware", force=force,
                         known_files=EXPORT_FIRMWARE_FILES)
     cal = calibration if isinstance(calibration, Calibration) else load_calibration(calibration)
+    if is_coil_currents(field_csv):  # before the field reader names it a drive of no field
+        raise ValueError(
+            f"{field_csv}: holds coil currents (current_0_A, ..., A), and the flash table (PLAY) is a "
+            f"field waveform ({', '.join(FIELD_COLUMNS)} in mT): compile a field CSV, or stream the "
+            "currents with 'msr real stream FILE --port PORT --calibration CAL' (up to 3 coils)")
     field_T = read_field_csv(field_csv, plausible=True)
     if len(field_T) > MAX_TABLE_ROWS:
         raise ValueError(

@@ -1,8 +1,9 @@
 """The UART line protocol of the firmware (see ``stm32/src/app/link.h``).
 
-Rows go out as ``<seq>,<mx>,<my>,<mz>*<CRC>`` with the field in mT written with 15 significant
-digits (so the firmware's decimal parser reproduces exactly the double the host models) and a
-CRC-16/CCITT-FALSE in 4 hex digits over everything before ``*``.
+Rows go out as ``<seq>,<mx>,<my>,<mz>*<CRC>`` with the field in mT (or, in a ``STREAM CURRENTS``
+session, the three outputs' coil currents in A) written with 15 significant digits (so the
+firmware's decimal parser reproduces exactly the double the host models) and a CRC-16/CCITT-FALSE
+in 4 hex digits over everything before ``*``.
 """
 
 from __future__ import annotations
@@ -45,15 +46,26 @@ def wire_text(value_mT: float) -> str:
     return format(float(value_mT), f".{WIRE_DIGITS}g")
 
 
+def wire_rows(values: NDArray[np.float64]) -> list[tuple[str, str, str]]:
+    """Text of every row of ``values`` ``(n, 3)``, already in the unit the board reads (mT for a
+    field stream, A for a ``STREAM CURRENTS`` one)."""
+    rows = np.asarray(values, dtype=np.float64).reshape(-1, 3)
+    return [(wire_text(x), wire_text(y), wire_text(z)) for x, y, z in rows.tolist()]
+
+
 def wire_rows_mT(field_T: NDArray[np.float64]) -> list[tuple[str, str, str]]:
     """Text of every row (mT) for a field in tesla, ``(n, 3)``."""
-    field_mT = np.asarray(field_T, dtype=np.float64) / MILLITESLA
-    return [(wire_text(x), wire_text(y), wire_text(z)) for x, y, z in field_mT.tolist()]
+    return wire_rows(np.asarray(field_T, dtype=np.float64) / MILLITESLA)
+
+
+def wire_values(rows: list[tuple[str, str, str]]) -> NDArray[np.float64]:
+    """The doubles the firmware parses from the wire text (``(n, 3)``, in the rows' unit)."""
+    return np.array([[float(v) for v in r] for r in rows], dtype=np.float64).reshape(-1, 3)
 
 
 def wire_values_mT(rows: list[tuple[str, str, str]]) -> NDArray[np.float64]:
-    """The doubles the firmware parses from the wire text (``(n, 3)``, mT)."""
-    return np.array([[float(v) for v in r] for r in rows], dtype=np.float64).reshape(-1, 3)
+    """The doubles the firmware parses from the wire text of a field (``(n, 3)``, mT)."""
+    return wire_values(rows)
 
 
 def format_row(seq: int, row: tuple[str, str, str], corrupt: bool = False) -> bytes:

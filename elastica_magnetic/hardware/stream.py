@@ -1,8 +1,13 @@
-"""Streaming a field waveform to the firmware over any pyserial URL.
+"""Streaming a field waveform, or the coil currents of up to three coils, to the firmware over any
+pyserial URL.
 
 ``socket://127.0.0.1:PORT`` reaches the QEMU emulator, ``/dev/ttyACM0`` a real board. Flow control
 is by credit: the board announces ``CREDIT n`` (rows with ``seq < n`` may be sent) and the host
 never exceeds it, so a waveform longer than the board's memory plays without gaps.
+
+:func:`stream_field` sends ``STREAM`` and rows of field (mT); :func:`stream_currents` sends ``STREAM
+CURRENTS`` and rows of the three outputs' currents (A). Both share one session (handshake,
+calibration, credit, the fail-safe ``STOP``).
 """
 
 from __future__ import annotations
@@ -32,6 +37,7 @@ from elastica_magnetic.hardware.protocol import (
     parse_dac,
     parse_safe,
     parse_status,
+    wire_rows,
     wire_rows_mT,
 )
 from elastica_magnetic.result_file import FileKind
@@ -45,6 +51,10 @@ PING_INTERVAL_S = 0.5
 READ_TIMEOUT_S = 0.02
 #: Seconds to wait for the answer to one command (STATUS, a CAL line: the flash write included).
 COMMAND_TIMEOUT_S = 10.0
+#: The command that starts a session of each mode: field rows (mT) or coil-current rows (A).
+STREAM_COMMANDS = {"field": "STREAM", "currents": "STREAM CURRENTS"}
+#: The board's outputs (DAC8563 #1 A, #1 B, #2 A): the most coil currents one row holds.
+BOARD_OUTPUTS = 3
 
 
 #: The pyserial URL schemes that reach a board over the network, ``SCHEME://HOST:PORT``.
@@ -78,6 +88,7 @@ class StreamResult:
     duration_s: float = 0.0
     calibration_before: str = ""
     uploaded: str = ""
+    mode: str = "field"
 
     @property
     def row_codes(self) -> list[DacReport]:
@@ -101,6 +112,7 @@ class StreamResult:
     def summary(self) -> dict[str, Any]:
         rate = self.rows_sent / self.duration_s if self.duration_s > 0 else 0.0
         return {
+            "mode": self.mode,
             "rows_total": self.rows_total,
             "rows_sent": self.rows_sent,
             "rows_applied": self.rows_applied,
@@ -265,24 +277,45 @@ def _ensure_calibration(port: Any, reader: _LineReader, port_url: str, calibrati
                           f"expected hash {wanted}")
 
 
+#: The board's answers to a ``STREAM`` it does not know (a firmware older than ``STREAM CURRENTS``).
+_UNKNOWN_STREAM = ("ERR unknown-command", "ERR unknown-stream-mode")
+
+
 def _start_stream(port: Any, reader: _LineReader, port_url: str, result: StreamResult,
                   deadline: float) -> int:
-    """``STREAM``; returns the first credit."""
-    port.write(b"STREAM\n")
+    """``STREAM`` (or ``STREAM CURRENTS`` for ``result.mode`` "currents"); returns the first credit."""
+    command = STREAM_COMMANDS[result.mode]
+    port.write(f"{command}\n".encode("ascii"))
     credit = 0
     started = False
     while not started:
         if time.monotonic() > deadline:
-            raise StreamError(f"{port_url}: no answer to STREAM in time")
+            raise StreamError(f"{port_url}: no answer to {command} in time")
         for line in reader.poll():
             if line.startswith("OK STREAM"):
+                _check_stream_mode(line, port_url, result.mode)
                 started = True
+            elif result.mode != "field" and line.startswith(_UNKNOWN_STREAM):
+                raise StreamError(f"{port_url}: the board does not know {command} ({line}): its firmware "
+                                  "plays field rows only; nothing was played: flash a firmware with "
+                                  "coil-current streaming (docs/firmware.md, \"Coil currents\")")
             elif line.startswith("CREDIT"):
                 credit = _credit(line, port_url, result)
             elif line.startswith("SAFE "):
                 result.safe = parse_safe(line)
                 raise StreamError(f"{port_url}: STREAM refused: {line}")
     return credit
+
+
+def _check_stream_mode(line: str, port_url: str, mode: str) -> None:
+    """A currents session must be answered ``... mode=currents``: a board that answered otherwise
+    would play the currents (A) as a field (mT). A field session's answer has no ``mode=`` (or
+    ``mode=field``)."""
+    answered = dict(kv.split("=", 1) for kv in line.split()[2:] if "=" in kv).get("mode", "field")
+    if answered != mode:
+        raise StreamError(f"{port_url}: the board answered {STREAM_COMMANDS[mode]} with {line!r}, a "
+                          f"{answered} session, not {mode}; nothing was played and STOP was sent: check "
+                          "the firmware version")
 
 
 def _credit(line: str, port_url: str, result: StreamResult) -> int:
@@ -377,16 +410,78 @@ def stream_field(
     CalibrationRefused
         The board refused the uploaded calibration (its reason in the message).
     """
+    options = StreamOptions(baudrate, corrupt_row, timeout_s, log_path, progress, open_port, calibration,
+                            upload)
+    return _stream_rows(port_url, wire_rows_mT(field_T), "field", options)
+
+
+def stream_currents(
+    port_url: str,
+    currents_A: NDArray[np.float64],
+    *,
+    baudrate: int = DEFAULT_BAUD,
+    corrupt_row: int | None = None,
+    timeout_s: float | None = None,
+    log_path: str | Path | None = None,
+    progress: bool = True,
+    open_port: Callable[..., Any] | None = None,
+    calibration: Calibration | None = None,
+    upload: bool = True,
+) -> StreamResult:
+    """Stream coil currents ``currents_A`` (``(n, k)`` A, ``k`` at most :data:`BOARD_OUTPUTS`, one row
+    per 10 ms; column K on output K, the outputs beyond ``k`` at 0 A) to the board at ``port_url``
+    in a ``STREAM CURRENTS`` session: the board converts each current with the calibration's
+    current limit, slew limit, transconductance and offset, without the actuation matrix
+    (:meth:`~elastica_magnetic.hardware.calibration.DacCodeModel.currents_to_codes`).
+
+    The options, the result and the errors are those of :func:`stream_field`; in addition a board
+    whose firmware does not know ``STREAM CURRENTS`` (an older one) or that does not answer it
+    with ``mode=currents`` is a :class:`StreamError` (``STOP`` sent, nothing played).
+
+    Raises
+    ------
+    ValueError
+        ``currents_A`` has more columns than the board has outputs.
+    """
+    currents = np.asarray(currents_A, dtype=np.float64)
+    if currents.ndim != 2 or currents.shape[1] > BOARD_OUTPUTS:
+        raise ValueError(f"currents_A must have shape (n, k) with k <= {BOARD_OUTPUTS} (the board's "
+                         f"outputs), got {currents.shape}")
+    rows = np.zeros((currents.shape[0], BOARD_OUTPUTS))
+    rows[:, :currents.shape[1]] = currents
+    options = StreamOptions(baudrate, corrupt_row, timeout_s, log_path, progress, open_port, calibration,
+                            upload)
+    return _stream_rows(port_url, wire_rows(rows), "currents", options)
+
+
+@dataclass(frozen=True)
+class StreamOptions:
+    """The keyword options of :func:`stream_field` and :func:`stream_currents`, as they pass them on."""
+
+    baudrate: int = DEFAULT_BAUD
+    corrupt_row: int | None = None
+    timeout_s: float | None = None
+    log_path: str | Path | None = None
+    progress: bool = True
+    open_port: Callable[..., Any] | None = None
+    calibration: Calibration | None = None
+    upload: bool = True
+
+
+def _stream_rows(port_url: str, rows: list[tuple[str, str, str]], mode: str,
+                 options: StreamOptions) -> StreamResult:
+    """One session of ``mode`` (a key of :data:`STREAM_COMMANDS`) sending the wire text ``rows``."""
+    timeout_s = options.timeout_s
     if timeout_s is not None and not (math.isfinite(timeout_s) and timeout_s > 0):
         raise ValueError(f"timeout_s must be a positive time in s, got {timeout_s}")
-    rows = wire_rows_mT(field_T)
     deadline_s = timeout_s if timeout_s is not None else len(rows) / PLAYBACK_HZ + 30.0
-    result = StreamResult(rows_total=len(rows))
-    log = _BoardLog(log_path)
-    port = _open(port_url, baudrate, open_port)
+    result = StreamResult(rows_total=len(rows), mode=mode)
+    log = _BoardLog(options.log_path)
+    port = _open(port_url, options.baudrate, options.open_port)
     session = _Session(port, _LineReader(port, log), port_url, result)
     try:
-        session.run(rows, deadline_s, calibration, upload, corrupt_row, progress)
+        session.run(rows, deadline_s, options.calibration, options.upload, options.corrupt_row,
+                    options.progress)
     finally:
         log.close()
     return result

@@ -324,13 +324,14 @@ def _drive_and_measured(drive_csv: Path, trajectory_csv: Path, robot: str):
     a magnet arm's path; or the coils' currents: told by the file's header), the measured motion,
     read and checked, and the actuation kind a recorded path drives (``None`` for a waveform); a tip
     path goes with a recorded path only."""
+    from elastica_magnetic.drive_columns import is_coil_currents, is_magnet_path
     from elastica_magnetic.field_csv import read_field_csv
     from elastica_magnetic.field_spec import load_field
 
-    from .coil_path import CoilDrive, is_coil_path, read_coil_path
+    from .coil_path import CoilDrive, read_coil_path
     from .fit_model import FieldDrive
     from .identify import STEERED_BY
-    from .magnet_path import MagnetDrive, is_magnet_path, read_magnet_path
+    from .magnet_path import MagnetDrive, read_magnet_path
     from .tracking import read_trajectory
 
     if drive_csv.resolve() == trajectory_csv.resolve():
@@ -339,7 +340,7 @@ def _drive_and_measured(drive_csv: Path, trajectory_csv: Path, robot: str):
                            "motion (a trajectory or a tip path)")
     if is_magnet_path(drive_csv):
         drive, steered_by = MagnetDrive(read_magnet_path(drive_csv)), "magnet-pose"
-    elif is_coil_path(drive_csv):
+    elif is_coil_currents(drive_csv):
         drive, steered_by = CoilDrive(read_coil_path(drive_csv)), "coil-currents"
     else:  # a coil's field, as msr field replay
         _check_files_in_order(drive_csv, trajectory_csv)

@@ -40,7 +40,6 @@ from .recorded_paths import (
     RecordedDrive,
     check_insertion,
     control_grid,
-    header_names,
     quiet_case,
     read_path_table,
     steer_and_record,
@@ -48,7 +47,7 @@ from .recorded_paths import (
 )
 from .tracking import TrajectoryError, numeric_columns
 
-__all__ = ["COIL_RECORDER", "CoilDrive", "CoilPath", "is_coil_path", "read_coil_path", "record_coil_steering",
+__all__ = ["COIL_RECORDER", "CoilDrive", "CoilPath", "read_coil_path", "record_coil_steering",
            "simulate_coil_tips", "write_coil_path"]
 
 #: A current above this (A) is a value in mA written as A (no navigation system drives more).
@@ -81,13 +80,6 @@ class CoilPath:
     def duration(self) -> float:
         """s, the last row's time."""
         return float(self.times[-1])
-
-
-def is_coil_path(path: str | Path) -> bool:
-    """Whether the CSV at ``path`` has a coil path's header (its first line names a current
-    column, ``current_<K>_A``, however numbered: :func:`read_coil_path` then names a numbering
-    that does not start at 0)."""
-    return any(CURRENT_COLUMN.match(name) for name in header_names(path))
 
 
 def read_coil_path(path: str | Path) -> CoilPath:

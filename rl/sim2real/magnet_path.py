@@ -34,12 +34,10 @@ from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from .recorded_paths import (
     INSERTION_COLUMN,
-    MAGNET_COLUMN,
     DriveRecorder,
     RecordedDrive,
     check_insertion,
     control_grid,
-    header_names,
     quiet_case,
     read_path_table,
     steer_and_record,
@@ -47,8 +45,8 @@ from .recorded_paths import (
 )
 from .tracking import MAX_COORDINATE_M, TrajectoryError, numeric_columns
 
-__all__ = ["MAGNET_PATH_COLUMNS", "MAGNET_RECORDER", "MagnetDrive", "MagnetPath", "is_magnet_path",
-           "read_magnet_path", "record_steering", "simulate_tips", "write_magnet_path"]
+__all__ = ["MAGNET_PATH_COLUMNS", "MAGNET_RECORDER", "MagnetDrive", "MagnetPath", "read_magnet_path",
+           "record_steering", "simulate_tips", "write_magnet_path"]
 
 #: The magnet path's columns (``insertion_m`` only with a stage).
 MAGNET_PATH_COLUMNS = ("t_s", "magnet_x_m", "magnet_y_m", "magnet_z_m", "direction_x", "direction_y",
@@ -86,11 +84,6 @@ class MagnetPath:
     def duration(self) -> float:
         """s, the last row's time."""
         return float(self.times[-1])
-
-
-def is_magnet_path(path: str | Path) -> bool:
-    """Whether the CSV at ``path`` has a magnet path's header (its first line names magnet_x_m)."""
-    return MAGNET_COLUMN in header_names(path)
 
 
 def read_magnet_path(path: str | Path) -> MagnetPath:

@@ -15,7 +15,13 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from elastica_magnetic.drive_columns import CURRENT_COLUMN, MAGNET_COLUMN
+from elastica_magnetic.drive_columns import (
+    CURRENT_COLUMN,
+    GRID_TOLERANCE_S,
+    INSERTION_COLUMN,
+    MAGNET_COLUMN,
+    header_names,
+)
 from elastica_magnetic.field_csv import FIELD_COLUMNS, header_named_twice
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
@@ -26,31 +32,17 @@ __all__ = ["CURRENT_COLUMN", "FILE_KINDS", "GRID_TOLERANCE_S", "INSERTION_COLUMN
            "control_grid", "file_kind", "header_names", "quiet_case", "read_path_table", "steer_and_record",
            "write_path_csv", "write_tip_path"]
 
-#: The insertion stage's column of a recorded path (m; only with a stage).
-INSERTION_COLUMN = "insertion_m"
 #: The files ``msr real identify`` tells apart by their first line (:func:`file_kind`), as named to a user.
 FILE_KINDS = {"tip": "a catheter's tip path", "magnet-pose": "a magnet arm's path",
               "coil-currents": "the coils' recorded currents",
               "field": f"a field CSV ({', '.join(FIELD_COLUMNS)} in mT)"}
 #: The tip path a recorded steering writes beside its drive (:meth:`DriveRecorder.write`).
 TIP_PATH_FILE = "tip_path.csv"
-#: Rows must lie on the 0.01 s control grid within this (s).
-GRID_TOLERANCE_S = 1e-6
 #: The tracked tip at t_s 0 must lie within this fraction of the rod's length of the straight rod's
 #: tip (the spec's frame: the base at the origin, the rod along +x); anywhere along the path within
 #: :data:`TIP_REACH_FACTOR` x the rod's reach (its length plus the stage's travel) of the base.
 TIP_START_FRACTION = 0.25
 TIP_REACH_FACTOR = 1.5
-
-
-def header_names(path: str | Path) -> list[str]:
-    """The column names on the first line of the CSV at ``path`` ([] when it cannot be read)."""
-    try:
-        with open(path, encoding="utf-8-sig") as handle:
-            header = handle.readline()
-    except (OSError, UnicodeDecodeError):
-        return []
-    return [c.strip() for c in header.split(",")]
 
 
 def file_kind(path: str | Path) -> str | None:

@@ -21,6 +21,11 @@ bad upload refused with FILE kept, then ``RESET`` (a real system reset: QEMU's n
 not model the flash controller, so under emulation the firmware keeps its two calibration slots in
 SRAM that a system reset leaves alone) and FILE active again, played with ``--no-upload``.
 
+``--currents`` streams FILE as a coil-current file (``t_s, current_0_A, ...`` in A, up to three
+coils: ``STREAM CURRENTS``) and checks every DAC code against the host's
+``expected_current_codes``; in the same boot a short field waveform then plays with plain ``STREAM``
+(the board is back to field rows).
+
 The JSON result holds at least rows_sent, rows_applied, max_code_error_lsb and ended_safe. Every
 step has a hard time-out and QEMU is killed in a ``finally``.
 """
@@ -309,6 +314,67 @@ def run_calibration_checks(csv: Path, calibration: Path, elf: Path = DEFAULT_ELF
     return result
 
 
+def _codes_error(got_csv: str, expected: Any) -> int | None:
+    """The largest difference (LSB) between the codes ``msr real stream --codes-out`` wrote and
+    ``expected``; None without codes, -1 when the counts differ."""
+    import numpy as np
+
+    from elastica_magnetic.hardware.export import read_expected_codes
+
+    got = read_expected_codes(Path(got_csv))
+    if not len(got):
+        return None
+    if len(got) != len(expected):
+        return -1
+    return int(np.max(np.abs(got - expected)))
+
+
+def run_currents(csv: Path, elf: Path = DEFAULT_ELF, calibration: Path = DEFAULT_CALIBRATION,
+                 workdir: Path | None = None) -> dict[str, Any]:
+    """Stream the coil-current file ``csv`` (``STREAM CURRENTS``) and then, in the same boot, a
+    300-row field waveform (plain ``STREAM``); every code of both against the host's model."""
+    import numpy as np
+
+    from elastica_magnetic.field_csv import write_field_csv
+    from elastica_magnetic.hardware.calibration import (
+        expected_current_codes,
+        expected_dac_codes,
+        load_calibration,
+    )
+    from elastica_magnetic.hardware.coil_currents import read_coil_currents
+    from elastica_magnetic.hardware.protocol import wire_rows, wire_rows_mT, wire_values
+
+    qemu = check_prerequisites(elf)
+    work = Path(workdir) if workdir else Path(tempfile.mkdtemp(prefix="msr_currents_e2e_"))
+    cal = load_calibration(calibration)
+    expected = expected_current_codes(cal, wire_values(wire_rows(read_coil_currents(csv).board_rows())))
+    t = np.arange(300) / 100.0
+    field_T = 1e-3 * np.stack([np.sin(2 * np.pi * t), np.minimum(t, 1.0), np.zeros_like(t)], axis=1)
+    field_csv = write_field_csv(work / "field_after.csv", field_T)
+    field_expected = expected_dac_codes(cal, wire_values(wire_rows_mT(field_T)))
+    port = free_port()
+    proc = start_qemu(qemu, elf, port)
+    try:
+        currents = run_stream(csv, port, calibration, work, "currents", len(expected))
+        field = run_stream(field_csv, port, calibration, work, "field_after", len(field_expected))
+    finally:
+        proc.kill()
+        try:
+            proc.communicate(timeout=10)
+        except subprocess.TimeoutExpired:
+            pass
+    result: dict[str, Any] = {"csv": str(csv), "rows_total": len(expected)}
+    for tag, summary, codes in (("", currents, expected), ("field_", field, field_expected)):
+        result.update({f"{tag}{k}": summary.get(k) for k in (
+            "mode", "rows_sent", "rows_applied", "ended_safe", "safe_reason", "exit_status", "log")})
+        result[f"{tag}max_code_error_lsb"] = _codes_error(summary["codes"], codes)
+    result["passed"] = bool(all(
+        result[f"{tag}max_code_error_lsb"] == 0 and result[f"{tag}ended_safe"]
+        and result[f"{tag}safe_reason"] == "end" and result[f"{tag}exit_status"] == 0
+        for tag in ("", "field_")) and result["mode"] == "currents" and result["field_mode"] == "field")
+    return result
+
+
 def run_table_playback(elf: Path = DEFAULT_ELF, expected_csv: Path | None = None,
                        timeout_s: float = 60.0) -> dict[str, Any]:
     """Boot the ELF, send ``PLAY`` and compare the flash table's DAC codes with the build's
@@ -389,11 +455,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-corrupt", action="store_true", help="skip the corrupted stream")
     parser.add_argument("--play", action="store_true",
                         help="instead: play the flash table compiled into the ELF and check it")
+    parser.add_argument("--currents", action="store_true",
+                        help="instead: --csv is a coil-current file (A, up to 3 coils): stream it with "
+                        "STREAM CURRENTS, then a field waveform, each checked bit-exactly")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args(argv)
     try:
         if args.upload_checks:
             result = run_calibration_checks(args.csv, args.calibration, args.elf)
+        elif args.currents:
+            result = run_currents(args.csv, args.elf, args.calibration)
         elif args.play:
             result = run_table_playback(args.elf)
             result["passed"] = bool(

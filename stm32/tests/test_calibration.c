@@ -211,6 +211,132 @@ static void test_non_finite_field_is_midscale(void **state)
     assert_int_equal(codes[1], CALIB_DAC_MIDSCALE);
 }
 
+/* ---- coil-current rows: the tail of the field path without the matrix ---- */
+
+static void currents_for(calib_t *c, double x, double y, double z, uint16_t out[3],
+                         calib_flags_t *f)
+{
+    const double amps[3] = {x, y, z};
+    calib_currents_to_codes(c, amps, out, f);
+}
+
+static void test_current_row_hand_values(void **state)
+{
+    (void)state;
+    calib_params_t p = base_params();
+    p.input_offset_V[0] = 0.01;          /* 0.5 A / 1 A/V + 0.01 V = 0.51 V -> 6684.468 -> 6684 */
+    p.transconductance_A_per_V[1] = 2.0; /* -0.5 A / 2 A/V = -0.25 V -> -3276.7 -> -3277 */
+    calib_t c;
+    assert_int_equal(calib_init(&c, &p), CALIB_OK);
+    uint16_t codes[3];
+    calib_flags_t f;
+    currents_for(&c, 0.5, -0.5, 0.2, codes, &f); /* 0.2 V -> 2621.36 -> 2621 */
+    assert_int_equal(codes[0], 32768 + 6684);
+    assert_int_equal(codes[1], 32768 - 3277);
+    assert_int_equal(codes[2], 32768 + 2621);
+    assert_int_equal(f.current_limited | f.slew_limited | f.code_clamped, 0);
+    currents_for(&c, 0, 0, 0, codes, NULL); /* 0 A: the offset's code, not mid-scale */
+    assert_int_equal(codes[0], 32768 + 131);  /* 0.01 V -> 131.068 */
+    assert_int_equal(codes[1], 32768);
+}
+
+static void test_current_row_ignores_the_matrix(void **state)
+{
+    (void)state;
+    calib_params_t p = base_params();
+    p.actuation_T_per_A[0][1] = 1e-3; /* a coupled matrix changes field rows, not current rows */
+    p.actuation_T_per_A[2][0] = -5e-4;
+    calib_t c;
+    assert_int_equal(calib_init(&c, &p), CALIB_OK);
+    uint16_t codes[3];
+    currents_for(&c, 0.5, 0, 0, codes, NULL);
+    assert_int_equal(codes[0], 32768 + 6553);
+    assert_int_equal(codes[1], 32768);
+    assert_int_equal(codes[2], 32768);
+}
+
+static void test_current_row_clamps_at_the_current_limit(void **state)
+{
+    (void)state;
+    calib_params_t p = base_params();
+    p.current_limit_A[0] = 1.0;
+    calib_t c;
+    assert_int_equal(calib_init(&c, &p), CALIB_OK);
+    uint16_t codes[3];
+    calib_flags_t f;
+    currents_for(&c, 5.0, 1.0, 0, codes, &f); /* x: 1 A = 1 V -> 13106.8 -> 13107; y at its limit */
+    assert_int_equal(codes[0], 32768 + 13107);
+    assert_int_equal(codes[1], 32768 + 13107);
+    assert_int_equal(f.current_limited, 0x1);
+    currents_for(&c, -5.0, 0, 0, codes, &f); /* slew 10 A/tick allows the full swing */
+    assert_int_equal(codes[0], 32768 - 13107);
+    assert_int_equal(f.current_limited, 0x1);
+}
+
+static void test_current_row_slews_at_the_slew_limit(void **state)
+{
+    (void)state;
+    calib_params_t p = base_params();
+    p.slew_limit_A_per_s[2] = 10.0; /* 0.1 A per 10 ms tick */
+    calib_t c;
+    assert_int_equal(calib_init(&c, &p), CALIB_OK);
+    uint16_t codes[3];
+    calib_flags_t f;
+    /* 0.5 A asked on z: 0.1, 0.2, 0.3, 0.4, 0.5 A -> k * 1310.68 rounded */
+    const uint16_t expected[5] = {32768 + 1311, 32768 + 2621, 32768 + 3932, 32768 + 5243,
+                                  32768 + 6553};
+    for (int k = 0; k < 5; ++k) {
+        currents_for(&c, 0, 0, 0.5, codes, &f);
+        assert_int_equal(codes[2], expected[k]);
+        assert_int_equal(f.slew_limited, k < 4 ? 0x4 : 0x0);
+    }
+    currents_for(&c, 0, 0, -0.5, codes, &f); /* down again, 0.1 A per tick */
+    assert_int_equal(codes[2], 32768 + 5243);
+    assert_int_equal(f.slew_limited, 0x4);
+}
+
+static void test_current_row_code_clamp(void **state)
+{
+    (void)state;
+    calib_params_t p = base_params();
+    p.dac_half_span_V = 0.5; /* 2 A = 2 V is far beyond full scale */
+    calib_t c;
+    assert_int_equal(calib_init(&c, &p), CALIB_OK);
+    uint16_t codes[3];
+    calib_flags_t f;
+    currents_for(&c, 2.0, -2.0, 0.0, codes, &f);
+    assert_int_equal(codes[0], CALIB_DAC_CODE_MAX);
+    assert_int_equal(codes[1], CALIB_DAC_CODE_MIN);
+    assert_int_equal(f.code_clamped, 0x3);
+}
+
+static void test_non_finite_current_is_midscale(void **state)
+{
+    (void)state;
+    calib_params_t p = base_params();
+    p.slew_limit_A_per_s[0] = 10.0;
+    calib_t c;
+    assert_int_equal(calib_init(&c, &p), CALIB_OK);
+    uint16_t codes[3];
+    calib_flags_t f = {7, 7, 7};
+    currents_for(&c, 0.5, 0, 0, codes, NULL); /* 0.1 A after one tick */
+    const double bad[3] = {NAN, INFINITY, -INFINITY};
+    for (int k = 0; k < 3; ++k) {
+        double amps[3] = {0.1, 0.1, 0.1};
+        amps[k] = bad[k];
+        calib_currents_to_codes(&c, amps, codes, &f);
+        for (int i = 0; i < 3; ++i) {
+            assert_int_equal(codes[i], CALIB_DAC_MIDSCALE);
+        }
+        assert_int_equal(f.current_limited | f.slew_limited | f.code_clamped, 0);
+    }
+    currents_for(&c, 0.5, 0, 0, codes, NULL); /* the slew history is left as it was: 0.2 A */
+    assert_int_equal(codes[0], 32768 + 2621);
+    c.valid = false; /* an invalid calibration: mid-scale whatever the current */
+    currents_for(&c, 0.5, 0.5, 0.5, codes, NULL);
+    assert_int_equal(codes[0], CALIB_DAC_MIDSCALE);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -225,6 +351,12 @@ int main(void)
         cmocka_unit_test(test_round_half_away),
         cmocka_unit_test(test_invalid_calibrations),
         cmocka_unit_test(test_non_finite_field_is_midscale),
+        cmocka_unit_test(test_current_row_hand_values),
+        cmocka_unit_test(test_current_row_ignores_the_matrix),
+        cmocka_unit_test(test_current_row_clamps_at_the_current_limit),
+        cmocka_unit_test(test_current_row_slews_at_the_slew_limit),
+        cmocka_unit_test(test_current_row_code_clamp),
+        cmocka_unit_test(test_non_finite_current_is_midscale),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -179,6 +179,34 @@ static void test_idle_commands(void **state)
     assert_int_equal(n_applied, 1);
 }
 
+static void test_stream_currents_answer_and_rows(void **state)
+{
+    (void)state;
+    feed("STREAM CURRENTS\n");
+    assert_non_null(strstr(out, "OK STREAM queue=256 prefill=64 mode=currents\n"));
+    assert_non_null(strstr(out, "CREDIT 256\n"));
+    assert_int_equal(player.rows, PLAYER_ROWS_CURRENT_A);
+    feed_row(0, "0.5");
+    feed("END 1\n");
+    assert_non_null(strstr(out, "OK END rows=1\n"));
+    player_tick(&player);
+    assert_int_equal(n_applied, 1);
+    feed("STREAM\n"); /* a plain STREAM: field rows, the answer older hosts know */
+    assert_non_null(strstr(out, "OK STREAM queue=256 prefill=64\nCREDIT 256\n"));
+    assert_int_equal(player.rows, PLAYER_ROWS_FIELD_MT);
+}
+
+static void test_stream_unknown_mode_refused(void **state)
+{
+    (void)state;
+    feed("STREAM AMPS\n");
+    assert_non_null(strstr(out, "ERR unknown-stream-mode line=1\n"));
+    assert_null(strstr(out, "OK STREAM"));
+    assert_int_equal(player.state, PLAYER_SAFE);
+    feed("STREAMCURRENTS\n");
+    assert_non_null(strstr(out, "ERR unknown-command line=2\n"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -189,6 +217,8 @@ int main(void)
         cmocka_unit_test_setup(test_long_line_while_streaming, setup),
         cmocka_unit_test_setup(test_out_of_order, setup),
         cmocka_unit_test_setup(test_idle_commands, setup),
+        cmocka_unit_test_setup(test_stream_currents_answer_and_rows, setup),
+        cmocka_unit_test_setup(test_stream_unknown_mode_refused, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -73,7 +73,7 @@ static void test_boot_is_safe_and_ticks_do_nothing(void **state)
 static void test_stream_prefill_play_end(void **state)
 {
     (void)state;
-    player_start_stream(&player);
+    player_start_stream(&player, PLAYER_ROWS_FIELD_MT);
     for (uint32_t i = 0; i < PLAYER_PREFILL_ROWS - 1; ++i) {
         push(i, 1.0);
     }
@@ -100,7 +100,7 @@ static void test_stream_prefill_play_end(void **state)
 static void test_short_stream_plays_on_end(void **state)
 {
     (void)state;
-    player_start_stream(&player);
+    player_start_stream(&player, PLAYER_ROWS_FIELD_MT);
     push(0, 1.0);
     push(1, 2.0);
     player_end(&player, 2);
@@ -114,7 +114,7 @@ static void test_short_stream_plays_on_end(void **state)
 static void test_underrun(void **state)
 {
     (void)state;
-    player_start_stream(&player);
+    player_start_stream(&player, PLAYER_ROWS_FIELD_MT);
     for (uint32_t i = 0; i < PLAYER_PREFILL_ROWS; ++i) {
         push(i, 0.5);
     }
@@ -129,7 +129,7 @@ static void test_underrun(void **state)
 static void test_out_of_order_and_rows_after_fault(void **state)
 {
     (void)state;
-    player_start_stream(&player);
+    player_start_stream(&player, PLAYER_ROWS_FIELD_MT);
     push(0, 1.0);
     push(2, 1.0);
     assert_int_equal(rec.n_safe, 1);
@@ -144,7 +144,7 @@ static void test_out_of_order_and_rows_after_fault(void **state)
 static void test_overflow_when_credit_ignored(void **state)
 {
     (void)state;
-    player_start_stream(&player);
+    player_start_stream(&player, PLAYER_ROWS_FIELD_MT);
     for (uint32_t i = 0; i < PLAYER_QUEUE_ROWS; ++i) {
         push(i, 0.1);
     }
@@ -156,7 +156,7 @@ static void test_overflow_when_credit_ignored(void **state)
 static void test_end_count_mismatch(void **state)
 {
     (void)state;
-    player_start_stream(&player);
+    player_start_stream(&player, PLAYER_ROWS_FIELD_MT);
     push(0, 1.0);
     player_end(&player, 5);
     assert_int_equal(rec.reason, SAFE_REASON_SEQUENCE);
@@ -190,7 +190,7 @@ static void test_invalid_calibration_refuses(void **state)
 {
     (void)state;
     calib.valid = false;
-    player_start_stream(&player);
+    player_start_stream(&player, PLAYER_ROWS_FIELD_MT);
     assert_int_equal(player.state, PLAYER_SAFE);
     assert_int_equal(rec.reason, SAFE_REASON_CALIBRATION);
 }
@@ -204,6 +204,33 @@ static void test_reason_names(void **state)
     for (int r = 0; r < SAFE_REASON_COUNT; ++r) {
         assert_non_null(safe_reason_name((safe_reason_t)r));
     }
+}
+
+static void test_current_stream_plays_amperes(void **state)
+{
+    (void)state;
+    player_start_stream(&player, PLAYER_ROWS_CURRENT_A);
+    push(0, 0.5); /* 0.5 A = 0.5 V -> 6553 (as a field, 0.5 mT would be 0.25 A -> 3277) */
+    player_end(&player, 1);
+    player_tick(&player);
+    assert_int_equal(rec.n, 1);
+    assert_int_equal(rec.codes[0][0], 32768 + 6553);
+    player_start_stream(&player, PLAYER_ROWS_FIELD_MT); /* the next plain stream is a field again */
+    push(0, 0.5);
+    player_end(&player, 1);
+    player_tick(&player);
+    assert_int_equal(rec.codes[1][0], 32768 + 3277);
+}
+
+static void test_table_after_current_stream_is_a_field(void **state)
+{
+    (void)state;
+    static const double table[1][3] = {{1, 0, 0}};
+    player_start_stream(&player, PLAYER_ROWS_CURRENT_A);
+    player_fault(&player, SAFE_REASON_HOST_STOP, 0, "");
+    player_start_table(&player, table, 1);
+    player_tick(&player);
+    assert_int_equal(rec.codes[0][0], 32768 + 6553); /* 1 mT = 0.5 A, not 1 A */
 }
 
 int main(void)
@@ -220,6 +247,8 @@ int main(void)
         cmocka_unit_test_setup(test_dac_fault, setup),
         cmocka_unit_test_setup(test_invalid_calibration_refuses, setup),
         cmocka_unit_test_setup(test_reason_names, setup),
+        cmocka_unit_test_setup(test_current_stream_plays_amperes, setup),
+        cmocka_unit_test_setup(test_table_after_current_stream_is_a_field, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

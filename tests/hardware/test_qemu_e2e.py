@@ -133,3 +133,34 @@ def test_a_three_axis_waveform_through_qemu(tmp_path: Path) -> None:
     assert result["ended_safe"] and result["end_reason"] == "end", summary
     codes = read_expected_codes(tmp_path / "export" / "expected_dac_codes.csv")
     assert codes[:, 2].max() - codes[:, 2].min() > 1000, "the z channel must be driven"
+
+
+@pytest.mark.slow
+def test_coil_currents_through_qemu(tmp_path: Path) -> None:
+    """Issue 53: a 3-coil current file (the format of ``msr field baseline``'s coil_currents.csv, in
+    A) streamed with ``STREAM CURRENTS`` to the firmware with the compiled calibration: every row's
+    three DAC codes exactly as the host model computes them (0 LSB); then, in the same boot, a field
+    waveform with plain ``STREAM`` as before (0 LSB)."""
+    import numpy as np
+
+    e2e = _load_e2e()
+    t = np.arange(250) / 100.0
+    ramp = np.minimum(t / 0.5, 1.0)  # from 0 A within the 50 A/s slew limit
+    currents = np.stack([1.5 * ramp * np.sin(2 * np.pi * t), -0.8 * ramp,
+                         2.0 * ramp * np.cos(np.pi * t)], axis=1)
+    csv = tmp_path / "coil_currents.csv"
+    csv.write_text("t_s,current_0_A,current_1_A,current_2_A,insertion_m\n" + "".join(
+        f"{k / 100:.2f},{a!r},{b!r},{c!r},0\n" for k, (a, b, c) in enumerate(currents.tolist())))
+    try:
+        result = e2e.run_currents(csv, workdir=tmp_path)
+    except e2e.E2EError as exc:
+        pytest.fail(f"QEMU coil-current test could not run: {exc}")
+    summary = {k: v for k, v in result.items() if not k.endswith("log")}
+    assert result["mode"] == "currents" and result["rows_total"] == 250, summary
+    assert result["rows_sent"] == result["rows_applied"] == 250, summary
+    assert result["max_code_error_lsb"] == 0, summary
+    assert result["ended_safe"] and result["safe_reason"] == "end", summary
+    assert "OK STREAM queue=256 prefill=64 mode=currents" in Path(result["log"]).read_text()
+    assert result["field_mode"] == "field" and result["field_rows_applied"] == 300, summary
+    assert result["field_max_code_error_lsb"] == 0 and result["field_safe_reason"] == "end", summary
+    assert result["passed"], summary

@@ -129,10 +129,77 @@ void calib_reset(calib_t *calib)
     }
 }
 
+/** Every output at mid-scale (the safe codes) and no limit flag: an invalid calibration or input. */
+static void safe_codes(uint16_t codes[CALIB_AXES], calib_flags_t *flags)
+{
+    const calib_flags_t none = {0, 0, 0};
+    for (unsigned i = 0; i < CALIB_AXES; ++i) {
+        codes[i] = (uint16_t)CALIB_DAC_MIDSCALE;
+    }
+    if (flags != 0) {
+        *flags = none;
+    }
+}
+
+/** @p current clamped to +-@p limit; sets @p bit in @p flag when it was. */
+static double clamp_current(double current, double limit, uint8_t bit, uint8_t *flag)
+{
+    if (current > limit) {
+        *flag |= bit;
+        return limit;
+    }
+    if (current < -limit) {
+        *flag |= bit;
+        return -limit;
+    }
+    return current;
+}
+
+/** @p current moved at most @p step from @p last; sets @p bit in @p flag when it was limited. */
+static double slew_current(double current, double last, double step, uint8_t bit, uint8_t *flag)
+{
+    if (current - last > step) {
+        *flag |= bit;
+        return last + step;
+    }
+    if (current - last < -step) {
+        *flag |= bit;
+        return last - step;
+    }
+    return current;
+}
+
+/**
+ * The common tail of both paths: requested currents (A) -> current limit -> slew limit ->
+ * V = I / g + offset -> code, per axis, in exactly this order (the host's twin repeats it).
+ * Updates the slew history. @p current_A must be finite and @p calib valid.
+ */
+static void currents_to_codes(calib_t *calib, const double current_A[CALIB_AXES],
+                              uint16_t codes[CALIB_AXES], calib_flags_t *flags)
+{
+    calib_flags_t f = {0, 0, 0};
+    const calib_params_t *p = &calib->params;
+    for (unsigned i = 0; i < CALIB_AXES; ++i) {
+        uint8_t bit = (uint8_t)(1u << i);
+        double current = clamp_current(current_A[i], p->current_limit_A[i], bit, &f.current_limited);
+        current = slew_current(current, calib->last_current_A[i], calib->max_step_A[i], bit,
+                               &f.slew_limited);
+        calib->last_current_A[i] = current;
+        double volts = current / p->transconductance_A_per_V[i] + p->input_offset_V[i];
+        double scaled = volts / p->dac_half_span_V * CALIB_DAC_HALF_RANGE;
+        if (!(scaled < CALIB_DAC_HALF_RANGE + 0.5) || !(scaled > -(CALIB_DAC_HALF_RANGE + 1.5))) {
+            f.code_clamped |= bit;
+        }
+        codes[i] = calib_volts_to_code(volts, p->dac_half_span_V);
+    }
+    if (flags != 0) {
+        *flags = f;
+    }
+}
+
 void calib_field_to_codes(calib_t *calib, const double mag_mT[CALIB_AXES],
                           uint16_t codes[CALIB_AXES], calib_flags_t *flags)
 {
-    calib_flags_t f = {0, 0, 0};
     double b[CALIB_AXES];
     bool finite = true;
     for (unsigned j = 0; j < CALIB_AXES; ++j) {
@@ -140,44 +207,27 @@ void calib_field_to_codes(calib_t *calib, const double mag_mT[CALIB_AXES],
         finite = finite && is_finite(b[j]);
     }
     if (!calib->valid || !finite) {
-        for (unsigned i = 0; i < CALIB_AXES; ++i) {
-            codes[i] = (uint16_t)CALIB_DAC_MIDSCALE;
-        }
-        if (flags != 0) {
-            *flags = f;
-        }
+        safe_codes(codes, flags);
         return;
     }
-    const calib_params_t *p = &calib->params;
+    double current[CALIB_AXES];
     for (unsigned i = 0; i < CALIB_AXES; ++i) {
         const double *row = calib->inverse_A_per_T[i];
-        double current = row[0] * b[0] + row[1] * b[1] + row[2] * b[2];
-        double limit = p->current_limit_A[i];
-        if (current > limit) {
-            current = limit;
-            f.current_limited |= (uint8_t)(1u << i);
-        } else if (current < -limit) {
-            current = -limit;
-            f.current_limited |= (uint8_t)(1u << i);
-        }
-        double last = calib->last_current_A[i];
-        double step = calib->max_step_A[i];
-        if (current - last > step) {
-            current = last + step;
-            f.slew_limited |= (uint8_t)(1u << i);
-        } else if (current - last < -step) {
-            current = last - step;
-            f.slew_limited |= (uint8_t)(1u << i);
-        }
-        calib->last_current_A[i] = current;
-        double volts = current / p->transconductance_A_per_V[i] + p->input_offset_V[i];
-        double scaled = volts / p->dac_half_span_V * CALIB_DAC_HALF_RANGE;
-        if (!(scaled < CALIB_DAC_HALF_RANGE + 0.5) || !(scaled > -(CALIB_DAC_HALF_RANGE + 1.5))) {
-            f.code_clamped |= (uint8_t)(1u << i);
-        }
-        codes[i] = calib_volts_to_code(volts, p->dac_half_span_V);
+        current[i] = row[0] * b[0] + row[1] * b[1] + row[2] * b[2];
     }
-    if (flags != 0) {
-        *flags = f;
+    currents_to_codes(calib, current, codes, flags);
+}
+
+void calib_currents_to_codes(calib_t *calib, const double current_A[CALIB_AXES],
+                             uint16_t codes[CALIB_AXES], calib_flags_t *flags)
+{
+    bool finite = true;
+    for (unsigned i = 0; i < CALIB_AXES; ++i) {
+        finite = finite && is_finite(current_A[i]);
     }
+    if (!calib->valid || !finite) {
+        safe_codes(codes, flags);
+        return;
+    }
+    currents_to_codes(calib, current_A, codes, flags);
 }

@@ -12,6 +12,9 @@
  *   V_i    = I_i / transconductance_A_per_V_i + input_offset_V_i             [V from 2.5 V]
  *   code_i = clamp(CALIB_DAC_MIDSCALE + round_half_away(V_i / dac_half_span_V * 32767), 0, 65535)
  *
+ * A coil-current row (calib_currents_to_codes) gives I_i directly, in A, and starts at the
+ * current limit: the same operations from there on.
+ *
  * A is the measured actuation matrix (tesla per ampere, field = A @ current). Its inverse is
  * computed once from the adjugate. Mid-scale (0 V from the 2.5 V reference, 0 A) is the safe state.
  */
@@ -75,9 +78,20 @@ const char *calib_status_name(calib_status_t status);
 /** Forget the slew history: the next row slews from 0 A (after mid-scale). */
 void calib_reset(calib_t *calib);
 
-/** One tick: field in mT -> three DAC codes (mid-scale for an invalid calibration). */
+/** One tick: field in mT -> three DAC codes (mid-scale for an invalid calibration or a
+ *  non-finite field, the slew history then unchanged). */
 void calib_field_to_codes(calib_t *calib, const double mag_mT[CALIB_AXES],
                           uint16_t codes[CALIB_AXES], calib_flags_t *flags);
+
+/**
+ * One tick of a coil-current row: the currents (A) of the three outputs -> three DAC codes,
+ * through the same tail as calib_field_to_codes without the matrix (output i: current limit,
+ * slew limit, V = I / transconductance + offset, code). The actuation matrix is not used: output
+ * i drives whatever coil is wired to it. Mid-scale for an invalid calibration or a non-finite
+ * current (the slew history then unchanged), as for a field.
+ */
+void calib_currents_to_codes(calib_t *calib, const double current_A[CALIB_AXES],
+                             uint16_t codes[CALIB_AXES], calib_flags_t *flags);
 
 /** Amplifier input voltage (relative to mid-scale) -> DAC code, rounded and clamped. */
 uint16_t calib_volts_to_code(double volts, double half_span_V);

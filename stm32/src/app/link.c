@@ -142,6 +142,35 @@ static void handle_row(link_t *link, const char *text, size_t len, uint32_t line
     link_update_credit(link);
 }
 
+/** STREAM [CURRENTS]: start a session of field rows (no argument) or of coil-current rows; any
+ *  other argument is refused (ERR unknown-stream-mode). The answer of a field stream is the one
+ *  older hosts know; a currents stream's adds mode=currents, which such a host never asks for. */
+static void handle_stream(link_t *link, const char *arg, size_t arg_len, uint32_t line_no)
+{
+    player_rows_t rows;
+    if (arg_len == 0u) {
+        rows = PLAYER_ROWS_FIELD_MT;
+    } else if (text_is(arg, arg_len, LINK_STREAM_CURRENTS)) {
+        rows = PLAYER_ROWS_CURRENT_A;
+    } else {
+        reject(link, line_no, "unknown-stream-mode");
+        return;
+    }
+    player_start_stream(link->player, rows);
+    if (!player_streaming(link->player)) {
+        return; /* refused: the player reported SAFE */
+    }
+    msg_t msg;
+    msg_begin(&msg, "OK " LINK_STREAM_COMMAND);
+    msg_kv_u32(&msg, "queue", PLAYER_QUEUE_ROWS);
+    msg_kv_u32(&msg, "prefill", PLAYER_PREFILL_ROWS);
+    if (rows == PLAYER_ROWS_CURRENT_A) {
+        msg_kv_str(&msg, "mode", LINK_MODE_CURRENTS);
+    }
+    send_msg(link, &msg);
+    send_credit(link, player_free_rows(link->player));
+}
+
 static void handle_command(link_t *link, const char *text, size_t len, uint32_t line_no)
 {
     size_t word = 0;
@@ -151,15 +180,8 @@ static void handle_command(link_t *link, const char *text, size_t len, uint32_t 
     const char *arg = word < len ? text + word + 1 : text + len;
     size_t arg_len = word < len ? len - word - 1 : 0;
     msg_t msg;
-    if (text_is(text, len, "STREAM")) {
-        player_start_stream(link->player);
-        if (player_streaming(link->player)) {
-            msg_begin(&msg, "OK STREAM");
-            msg_kv_u32(&msg, "queue", PLAYER_QUEUE_ROWS);
-            msg_kv_u32(&msg, "prefill", PLAYER_PREFILL_ROWS);
-            send_msg(link, &msg);
-            send_credit(link, player_free_rows(link->player));
-        }
+    if (text_is(text, word, LINK_STREAM_COMMAND)) {
+        handle_stream(link, arg, arg_len, line_no);
     } else if (text_is(text, word, "END")) {
         uint32_t rows;
         if (!parse_u32(arg, arg_len, &rows)) {

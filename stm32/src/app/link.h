@@ -3,9 +3,14 @@
  * The host link protocol on USART1 (text lines, LF-terminated; CRLF accepted).
  *
  * Host -> board:
- *   STREAM                       start a streaming session (rows numbered from 0)
- *   <seq>,<mx>,<my>,<mz>*<CRC>   one row: field in mT; CRC = 4 hex digits, CRC-16/CCITT-FALSE of
- *                                every byte before '*'
+ *   STREAM                       start a streaming session of field rows (numbered from 0),
+ *                                answered OK STREAM queue=<n> prefill=<n>
+ *   STREAM CURRENTS              start a streaming session of coil-current rows, answered
+ *                                OK STREAM queue=<n> prefill=<n> mode=currents (another word
+ *                                after STREAM: ERR unknown-stream-mode)
+ *   <seq>,<mx>,<my>,<mz>*<CRC>   one row: field in mT (or, in a STREAM CURRENTS session, the
+ *                                currents of outputs 0, 1, 2 in A); CRC = 4 hex digits,
+ *                                CRC-16/CCITT-FALSE of every byte before '*'
  *   END <rows>                   all rows sent: play the rest, then mid-scale (reason "end")
  *   PLAY                         play the table compiled into flash
  *   STOP                         mid-scale now (reason "host-stop")
@@ -37,6 +42,11 @@
 #define LINK_CREDIT_BATCH 16u
 #define LINK_CHECKSUM_SEPARATOR '*'
 #define LINK_CHECKSUM_HEX_DIGITS 4u
+/** The command that starts a session, and its argument for coil-current rows. */
+#define LINK_STREAM_COMMAND "STREAM"
+#define LINK_STREAM_CURRENTS "CURRENTS"
+/** The mode=... value of a coil-current session's OK STREAM answer. */
+#define LINK_MODE_CURRENTS "currents"
 
 typedef void (*link_send_fn)(void *ctx, const char *text, size_t len);
 

@@ -30,6 +30,7 @@ void player_init(player_t *player, calib_t *calib, const player_io_t *io)
     player->calib = calib;
     player->io = *io;
     player->from_table = false;
+    player->rows = PLAYER_ROWS_FIELD_MT;
     player->table = 0;
     player->table_rows = 0;
     player->queue_head = 0;
@@ -49,10 +50,11 @@ static void begin(player_t *player)
     calib_reset(player->calib);
 }
 
-void player_start_stream(player_t *player)
+void player_start_stream(player_t *player, player_rows_t rows)
 {
     begin(player);
     player->from_table = false;
+    player->rows = rows;
     if (!player->calib->valid) {
         player_fault(player, SAFE_REASON_CALIBRATION, 0, "invalid");
         return;
@@ -64,6 +66,7 @@ void player_start_table(player_t *player, const double (*table)[CALIB_AXES], uin
 {
     begin(player);
     player->from_table = true;
+    player->rows = PLAYER_ROWS_FIELD_MT;
     player->table = table;
     player->table_rows = rows;
     if (!player->calib->valid) {
@@ -92,7 +95,7 @@ void player_fault(player_t *player, safe_reason_t reason, uint32_t row, const ch
     player->io.safe(player->io.ctx, reason, row, player->applied, detail);
 }
 
-void player_push(player_t *player, uint32_t seq, const double mag_mT[CALIB_AXES])
+void player_push(player_t *player, uint32_t seq, const double values[CALIB_AXES])
 {
     if (!player_streaming(player)) {
         return; /* rows still in flight after a fault are dropped */
@@ -111,7 +114,7 @@ void player_push(player_t *player, uint32_t seq, const double mag_mT[CALIB_AXES]
     }
     uint32_t slot = (player->queue_head + player->queue_count) % PLAYER_QUEUE_ROWS;
     for (unsigned axis = 0; axis < CALIB_AXES; ++axis) {
-        player->queue[slot][axis] = mag_mT[axis];
+        player->queue[slot][axis] = values[axis];
     }
     player->queue_count++;
     player->received++;
@@ -131,6 +134,16 @@ void player_end(player_t *player, uint32_t total_rows)
     }
     player->end_received = true;
     player->state = PLAYER_PLAYING;
+}
+
+/** The codes of one row, in the unit of the rows being played. */
+static void row_codes(player_t *player, const double row[CALIB_AXES], uint16_t codes[CALIB_AXES])
+{
+    if (player->rows == PLAYER_ROWS_CURRENT_A) {
+        calib_currents_to_codes(player->calib, row, codes, 0);
+    } else {
+        calib_field_to_codes(player->calib, row, codes, 0);
+    }
 }
 
 void player_tick(player_t *player)
@@ -157,7 +170,7 @@ void player_tick(player_t *player)
         return;
     }
     uint16_t codes[CALIB_AXES];
-    calib_field_to_codes(player->calib, row, codes, 0);
+    row_codes(player, row, codes);
     if (!player->io.apply(player->io.ctx, player->applied, codes)) {
         player_fault(player, SAFE_REASON_DAC_FAULT, player->applied, "spi-timeout");
         return;

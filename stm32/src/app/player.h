@@ -5,6 +5,10 @@
  * a reason that is reported to the host.
  *
  * States: SAFE (outputs at mid-scale) -> PREFILL (stream: collecting rows) -> PLAYING -> SAFE.
+ *
+ * A stream's rows are either a field (mT, through the calibration's inverse matrix) or the three
+ * outputs' coil currents (A, straight to the current and slew limits), chosen when the stream
+ * starts; the flash table is always a field.
  */
 #ifndef MSR_PLAYER_H
 #define MSR_PLAYER_H
@@ -14,10 +18,16 @@
 
 #include "calibration.h"
 
-/** Rows buffered in RAM for streaming (x, y, z doubles: 24 bytes each). */
+/** Rows buffered in RAM for streaming (three doubles: 24 bytes each). */
 #define PLAYER_QUEUE_ROWS 256u
 /** Rows collected before playback starts (0.64 s of margin against host jitter). */
 #define PLAYER_PREFILL_ROWS 64u
+
+/** What the three values of a row are. */
+typedef enum {
+    PLAYER_ROWS_FIELD_MT = 0,   /**< field x, y, z in mT (calib_field_to_codes) */
+    PLAYER_ROWS_CURRENT_A,      /**< coil current of outputs 0, 1, 2 in A (calib_currents_to_codes) */
+} player_rows_t;
 
 typedef enum {
     PLAYER_SAFE = 0,
@@ -60,6 +70,7 @@ typedef struct {
     calib_t *calib;
     player_io_t io;
     bool from_table;
+    player_rows_t rows;     /**< unit of the rows being played */
     const double (*table)[CALIB_AXES];
     uint32_t table_rows;
     double queue[PLAYER_QUEUE_ROWS][CALIB_AXES];
@@ -71,12 +82,12 @@ typedef struct {
 } player_t;
 
 void player_init(player_t *player, calib_t *calib, const player_io_t *io);
-/** Start a streaming session (sequence numbers from 0). */
-void player_start_stream(player_t *player);
-/** Play @p rows rows of a table in flash. */
+/** Start a streaming session (sequence numbers from 0) whose rows are @p rows. */
+void player_start_stream(player_t *player, player_rows_t rows);
+/** Play @p rows rows of a table in flash (a field in mT). */
 void player_start_table(player_t *player, const double (*table)[CALIB_AXES], uint32_t rows);
-/** Queue a streamed row; a wrong @p seq or a full queue ends in the safe state. */
-void player_push(player_t *player, uint32_t seq, const double mag_mT[CALIB_AXES]);
+/** Queue a streamed row (in the stream's unit); a wrong @p seq or a full queue ends in the safe state. */
+void player_push(player_t *player, uint32_t seq, const double values[CALIB_AXES]);
 /** The host has sent all @p total_rows rows: play what is queued, then END. */
 void player_end(player_t *player, uint32_t total_rows);
 /** Go to the safe state now. */

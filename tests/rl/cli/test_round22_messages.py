@@ -150,12 +150,14 @@ def _coil_csv(path, names, rows):
 def test_coil_paths_numbered_from_one_or_never_driven_are_named(tmp_path):
     """V4: a coil path numbered from 1 was read as a field CSV (asked for mag_x, mag_y, mag_z).
     V5: a coil path of zero currents went through a fit whose warnings advised more evaluations."""
-    from elastica_magnetic_rl.sim2real.coil_path import CoilDrive, is_coil_path, read_coil_path
+    from elastica_magnetic_rl.sim2real.coil_path import CoilDrive, read_coil_path
     from elastica_magnetic_rl.sim2real.tracking import TrajectoryError
+
+    from elastica_magnetic.drive_columns import is_coil_currents
 
     shifted = _coil_csv(tmp_path / "one.csv", [f"current_{k + 1}_A" for k in range(8)],
                         [[f"{math.sin(0.3 * i * (k + 1)):.4f}" for k in range(8)] for i in range(5)])
-    assert is_coil_path(shifted)
+    assert is_coil_currents(shifted)
     with pytest.raises(TrajectoryError, match="a coil path numbers its coils from 0"):
         read_coil_path(shifted)
     spec = load_case("catheter-coils-reach").to_dict()
