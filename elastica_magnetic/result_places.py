@@ -122,21 +122,26 @@ def check_enclosing(final: Path, option: str, subject: str | None = UNSAID) -> N
 def held_refusal(parent: Path, final: Path, option: str, subject: str | None = UNSAID) -> str | None:
     """Why ``final`` may not lie in ``parent`` when a result holds ``parent`` whole (a shipped
     policy: :func:`~elastica_magnetic.result_markers.manifest_holder`), outside the subfolders
-    it keeps for other results (its ``seeds/``), or inside them as a result of no case (a
-    ``subject`` said, not ``"case ..."``: a robot's simulation, a validation report, a firmware
-    export, which are no results of the policy's case); ``None`` when it may."""
+    it keeps for other results (its ``seeds/``, named as a place only to a case's result), or inside
+    them as a result of no case (a ``subject`` said, not ``"case ..."``: a robot's simulation, a
+    validation report, a firmware export; or none: a robustness study, a design, a calibration,
+    which are no seed campaign or run of the policy's case); ``None`` when it may."""
     held = manifest_holder(parent)
     if held is None:
         return None
+    of_a_case = subject == UNSAID or (subject is not None and subject.startswith("case "))
     if final.relative_to(parent).parts[0] in manifest_results_in(parent):
-        if subject == UNSAID or (subject is not None and subject.startswith("case ")):
+        if of_a_case:
             return None  # a case's result: the writer checks that it is the policy's case
-        about = f"of {subject}" if subject else "of no case"
+        about = (f"is of {subject}" if subject else
+                 "is none of them (a study, a design, a calibration or a hardware file)")
         return (f"{option} {display_path(final)}: lies in {display_path(parent)}, which holds {held}, "
                 f"whose {final.relative_to(parent).parts[0]}/ holds its own case's results (seed "
-                f"campaigns, runs of its case), and this result is {about}: it goes beside the policy; "
+                f"campaigns, runs of its case), and this result {about}: it goes beside the policy; "
                 f"choose another {option}")
-    places = " or ".join(f"{display_path(parent / p)}/" for p in manifest_results_in(parent))
+    # only a case's result may go in the folders the policy keeps for them
+    kept = manifest_results_in(parent) if of_a_case else ()
+    places = " or ".join(f"{display_path(parent / p)}/" for p in kept)
     return (f"{option} {display_path(final)}: lies in {display_path(parent)}, which holds {held}, whose "
             f"folder holds its files alone: a result goes beside it{f' (or in {places})' if places else ''}; "
             f"choose another {option}")

@@ -90,7 +90,6 @@ __all__ = [
     "YARDSTICK_CONTROLLERS",
     "warmup_refusal",
     "dagger_reason",
-    "dagger_refusal",
     "DAGGER_REFUSAL",
     "with_randomize",
 ]
@@ -384,7 +383,9 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     if isinstance(actuation, SteeringActuation):
         check_steered_reach(SpecTable(spec["actuation"], source, "actuation", accepted_keys(spec, source)),
                             actuation, robot.robot("accurate"), task.target_box, task.episode_duration)
-    training = training_from_table(top.table("training", required=False), source, robot)
+    dagger = _task_dagger_reason(task, name)
+    training = training_from_table(top.table("training", required=False), source, robot,
+                                   None if dagger is None else f"{DAGGER_REFUSAL}; {dagger}")
     if training.randomize and isinstance(actuation, SteeringActuation):
         given = ("[training] randomize" if isinstance((spec.get("training") or {}).get("randomize"), str)
                  else "[training.randomize]")
@@ -420,27 +421,22 @@ DAGGER_REFUSAL = ("DAgger's labels come from a yardstick whose command is a func
                   "alone (a tip-reach case's steering law, a crawl's or reach's rotating field)")
 
 
+def _task_dagger_reason(task: Task, name: str) -> str | None:
+    """Why a case of ``task`` (named ``name``) cannot learn by DAgger, or ``None``."""
+    if isinstance(task, GotoTask):
+        return (f"case {name} is a goto task, whose steering field remembers its manoeuvre (walking or "
+                "turning, and since which step), which the observation lacks, so it has no command for a "
+                "state another controller led the robot into")
+    return None
+
+
 def dagger_reason(case: Case) -> str | None:
     """Why ``case``'s yardstick cannot give DAgger's labels, naming its task (``None``: it can, or
     it has no yardstick controller, which :func:`warmup_refusal` names). A goto case's steering
-    field remembers its manoeuvre, which the observation lacks, so it has no command for a state
-    another controller led the robot into; a rotating field turns the field the observation shows
-    and a steering law reads the observation, so both label any state."""
-    if isinstance(case.task, GotoTask):
-        return (f"case {case.name} is a goto task, whose steering field remembers its manoeuvre (walking "
-                "or turning, and since which step), which the observation lacks")
-    return None
-
-
-def dagger_refusal(case: Case) -> str | None:
-    """Why ``msr train`` refuses ``case``'s ``[training.td3] yardstick_dagger`` (``None``: it does
-    not): a goto case's yardstick labels no observation alone (:func:`dagger_reason`)."""
-    dagger = case.training.td3.get("yardstick_dagger")
-    reason = dagger_reason(case)
-    if dagger and reason is not None:
-        return (f"{case.source}: [training.td3] yardstick_dagger = {dagger}: {DAGGER_REFUSAL}; {reason}, so "
-                "it has no command for a state another controller led the robot into: remove the setting")
-    return None
+    field remembers its manoeuvre, which the observation lacks; a rotating field turns the field
+    the observation shows and a steering law reads the observation, so both label any state. A
+    spec of a goto case that sets ``yardstick_dagger`` is refused when it is read."""
+    return _task_dagger_reason(case.task, case.name)
 
 
 def warmup_refusal(case: Case) -> str | None:
@@ -450,9 +446,6 @@ def warmup_refusal(case: Case) -> str | None:
     have one). Such a crawl's spec is valid until then (a sweep, ``msr field baseline
     --set-yardstick`` or ``msr loop``, records it): only the training refuses it, and ``msr case
     check`` warns."""
-    dagger = dagger_refusal(case)
-    if dagger is not None:
-        return dagger
     warmup = case.training.td3.get("yardstick_warmup")
     if not warmup or case.has_yardstick_controller:
         return None

@@ -15,7 +15,7 @@ from elastica_magnetic.plausibility import ImplausibleValueWarning
 from elastica_magnetic.spec_check import Issue, SpecCheck, check_robot, check_spec, format_check
 from elastica_magnetic.specfile import describe_robot, read_spec
 
-from .case import Case, case_names, dagger_refusal, load_case, warmup_refusal
+from .case import Case, case_names, load_case, warmup_refusal
 from .field_actuation import Actuation
 
 __all__ = ["RobotOnlySpec", "case_summary", "check_case", "check_robot_only", "check_with_warnings",
@@ -120,8 +120,7 @@ def check_case(case: Case, sag: bool = True) -> SpecCheck:
     if refusal is None:
         return check
     # valid for a sweep or msr loop, which record the period; msr train refuses it until then
-    key = "yardstick_dagger" if dagger_refusal(case) is not None else "yardstick_warmup"
-    issue = Issue("warning", f"[training.td3] {key}",
+    issue = Issue("warning", "[training.td3] yardstick_warmup",
                   f"msr train refuses it: {refusal.removeprefix(f'{case.source}: ')}")
     return dataclasses.replace(check, issues=[*check.issues, issue])
 

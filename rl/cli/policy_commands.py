@@ -279,6 +279,7 @@ def ship_command(args: argparse.Namespace) -> int:
     args.duration = 10.0 if args.duration is None else args.duration
 
     check_ship_target(args.name, args.dest)  # before the actors' evaluations
+    _check_ship_case(args)
 
     notes = None
     if args.notes is not None:
@@ -311,6 +312,20 @@ def ship_command(args: argparse.Namespace) -> int:
         raise CommandError(str(exc)) from None
     _print_with_choice(result, choice, args.json)
     return 0
+
+
+def _check_ship_case(args: argparse.Namespace) -> None:
+    """A policy shipped into a shipped policy's ``seeds/`` (``--out POLICY/seeds``) is of that
+    policy's case, with its spec (refused naming both, before the actors' evaluations)."""
+    from ..shipping.policy_files import check_policy_case, resolve_policy
+
+    if args.dest is None:
+        return
+    try:
+        case = resolve_policy(args.run).case
+    except (FileNotFoundError, ValueError):
+        return  # ship names what is wrong with the run itself
+    check_policy_case(args.dest / args.name, case, option="--out", what="this policy is")
 
 
 def _refuse_tip_reach(policy: object, command: str) -> None:

@@ -410,6 +410,18 @@ def _seed_line(r: dict, case: Case) -> str:
 REFINE_CHOICE_DURATION = 10.0
 
 
+def _check_refined_policy_case(args: argparse.Namespace, source: Path) -> None:
+    """A refinement written into a shipped policy's ``seeds/`` is of that policy's case: the run's
+    case, or the ``--spec`` robot's it refines for (refused naming both, before any evaluation)."""
+    from ..cases.case import load_case
+    from ..runfiles.rundir import RunDir
+    from ..shipping.policy_files import check_policy_case, resolve_policy
+    from ..sweep.refine_start import default_refine_output
+
+    case = load_case(args.spec) if args.spec else resolve_policy(RunDir.checkpoint_of(args.run)).case
+    check_policy_case(args.out or default_refine_output(source), case, option="--out")
+
+
 def refine_command(args: argparse.Namespace) -> int:
     from ..runfiles.rundir import RunDir
     from ..shipping.policy_files import resolve_policy
@@ -426,6 +438,7 @@ def refine_command(args: argparse.Namespace) -> int:
         else:
             check_refined_case(source, args.steps or DEFAULT_STEPS, args.spec, args.randomize,
                                args.device)
+            _check_refined_policy_case(args, source)
             if resolve_policy(RunDir.checkpoint_of(args.run)).case.field_actuated:
                 choice = choose_actor(args.run, args.checkpoint, REFINE_CHOICE_DURATION,
                                       not args.no_progress)

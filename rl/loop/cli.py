@@ -76,7 +76,7 @@ def _settings(args: argparse.Namespace, skip: tuple[str, ...] = ()):
     from elastica_magnetic.batch import batched_refusal
     from elastica_magnetic.hardware.calibration import load_calibration
 
-    from ..cases.case import dagger_refusal, warmup_refusal
+    from ..cases.case import warmup_refusal
     from .settings import LoopSettings
 
     if args.calibration is not None and "firmware" in skip:
@@ -92,9 +92,6 @@ def _settings(args: argparse.Namespace, skip: tuple[str, ...] = ()):
     refusal = None if spec is None else batched_refusal(spec.robot_spec("training"), "msr loop")
     if refusal:  # its sweep, training and robustness run the batched simulator
         raise CommandError(f"{spec.source}: {refusal}")
-    dagger = None if spec is None or "train" in skip else dagger_refusal(spec)
-    if dagger:  # msr train's refusal, before the check and the sweep (minutes) run
-        raise CommandError(dagger)
     if args.quick and "train" not in skip and spec is not None and warmup_refusal(spec):
         raise CommandError(f"--quick: {spec.source}: [training.td3] yardstick_warmup needs [yardstick] "
                            "period, and a smoke run's sweep does not record its field (too short to be a "

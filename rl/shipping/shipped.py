@@ -22,6 +22,7 @@ change the field in its last bit, which moves the 4 mT gaits by tens of micromet
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -168,6 +169,34 @@ def _replayed_distance(policy: Any, fields: np.ndarray, duration: float) -> floa
 TIP_DISTANCE_ATOL_M = 1e-5
 
 
+def _tip_reach_record_problem(recorded: Any, n_targets: int, path: Path) -> str | None:
+    """What keeps a tip-reach policy's recorded evaluation (``policy.json``'s ``evaluation``) from
+    being compared with a re-run over ``n_targets`` held-out targets, or ``None``: ``duration_s``
+    (s), ``tip_reach.policy.successes`` (a count) and ``final_distance_m`` (one finite distance,
+    m, per target)."""
+    mine = (recorded.get("tip_reach") or {}).get("policy") if isinstance(recorded, dict) else None
+    if not (isinstance(recorded, dict) and _is_number(recorded.get("duration_s"))
+            and isinstance(mine, dict) and isinstance(mine.get("successes"), int)
+            and not isinstance(mine.get("successes"), bool) and "final_distance_m" in mine):
+        return (f"{path}: no evaluation with duration_s and tip_reach.policy (successes, final_distance_m): "
+                "the targets this policy claims are not recorded, so nothing is compared")
+    distances = mine["final_distance_m"]
+    if not (isinstance(distances, list) and len(distances) == n_targets
+            and all(_is_number(d) and math.isfinite(d) and d >= 0.0 for d in distances)):
+        given = (f"holds {len(distances)} entries" if isinstance(distances, list) else
+                 f"is {type(distances).__name__}")
+        shown = ", ".join(repr(d) for d in distances[:3]) if isinstance(distances, list) else ""
+        shown = f" ({shown}, ...)" if shown else ""
+        return (f"{path}: evaluation.tip_reach.policy.final_distance_m {given}{shown}: expected {n_targets} "
+                "distances (m, numbers >= 0), one per held-out target, so nothing is compared; restore it "
+                "(e.g. from git) or ship the policy again")
+    return None
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
 def _verify_tip_reach(name: str, folder: Path, policy: Any, info: dict[str, Any], duration: float,
                       quick: bool = False) -> dict[str, Any]:
     """:func:`verify_shipped` of a tip-reach policy: its case's held-out targets again (accurate
@@ -182,17 +211,11 @@ def _verify_tip_reach(name: str, folder: Path, policy: Any, info: dict[str, Any]
                               "successes": run["successes"], "diverged": diverged}
     passed = not diverged
     recorded = info.get("evaluation")
-    mine = (recorded.get("tip_reach") or {}).get("policy") if isinstance(recorded, dict) else None
-    if not (isinstance(recorded, dict) and isinstance(recorded.get("duration_s"), int | float)
-            and isinstance(mine, dict) and isinstance(mine.get("successes"), int)
-            and isinstance(mine.get("final_distance_m"), list)):
-        problem = (f"{folder / POLICY_JSON}: no evaluation with duration_s and tip_reach.policy "
-                   "(successes, final_distance_m): the targets this policy claims are not recorded, so "
-                   "nothing is compared")
-        reached = f"{run['successes']} of {len(run['targets_m'])} held-out targets in {seconds:g} s"
-        result.update(problem=problem, passed=False, summary=f"{reached}; {problem}")
-        return result
     summary = f"{run['successes']} of {len(run['targets_m'])} held-out targets in {seconds:g} s"
+    problem = _tip_reach_record_problem(recorded, len(run["targets_m"]), folder / POLICY_JSON)
+    if problem is not None:
+        result.update(problem=problem, passed=False, summary=f"{summary}; {problem}")
+        return result
     if _other_duration(result, folder, float(recorded["duration_s"]), seconds, quick):
         result["summary"] = summary + f"; {result['problem']}"
         return result

@@ -5,8 +5,11 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
+import warnings
+from collections.abc import Iterator
 from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, command_name, duration_option, number, output_path
@@ -222,6 +225,28 @@ def robustness_command(args: argparse.Namespace) -> int:
 
 
 
+@contextlib.contextmanager
+def _kept_warnings() -> Iterator[list[str]]:
+    """The implausible-value warnings of the block's inputs (a path beyond the case's limits, ...),
+    in the list it yields; each is shown as it would have been, when the block ends (also on a
+    refusal), so a result can record what was printed."""
+    from elastica_magnetic.plausibility import ImplausibleValueWarning
+
+    kept: list[str] = []
+    shown: list[warnings.WarningMessage] = []
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            try:
+                yield kept
+            finally:
+                shown = list(caught)
+    finally:
+        for w in shown:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+            if issubclass(w.category, ImplausibleValueWarning):
+                kept.append(str(w.message))
+
+
 def identify_command(args: argparse.Namespace) -> int:
     import sys
 
@@ -234,15 +259,16 @@ def identify_command(args: argparse.Namespace) -> int:
                            "from the nominal values only; give --starts 2 or more, or leave --seed "
                            "out")
     prepare_output_folder(args.out, args.force, kind="identify")
-    drive, measured, steered_by = _drive_and_measured(args.field_csv, args.trajectory_csv, args.robot)
-    spec = load_spec(args.robot, steered_by=steered_by)
-    try:
-        fits = parse_fit(args.fit, spec)
-    except VariationError as exc:
-        raise CommandError(str(exc)) from None
-    drive.check_spec(spec)
-    check_against_robot(measured, float(spec["robot"]["length"]), drive.duration)
-    _check_noise(args.noise_m, float(spec["robot"]["length"]))
+    with _kept_warnings() as input_warnings:  # printed now, and recorded in identify.json
+        drive, measured, steered_by = _drive_and_measured(args.field_csv, args.trajectory_csv, args.robot)
+        spec = load_spec(args.robot, steered_by=steered_by)
+        try:
+            fits = parse_fit(args.fit, spec)
+        except VariationError as exc:
+            raise CommandError(str(exc)) from None
+        drive.check_spec(spec)
+        check_against_robot(measured, float(spec["robot"]["length"]), drive.duration)
+        _check_noise(args.noise_m, float(spec["robot"]["length"]))
 
     # a bar on a terminal, plain lines in a log (a "\r"-redrawn line fills a log file)
     with progress_bar(args.max_evaluations, f"msr {command_name(args)}", "simulation",
@@ -258,6 +284,7 @@ def identify_command(args: argparse.Namespace) -> int:
                           progress=progress)
     for warning in report["warnings"]:
         print(f"msr {command_name(args)}: warning: {warning}", file=sys.stderr)
+    report["warnings"] = [*input_warnings, *report["warnings"]]  # what the result folder keeps
     played = {"magnet-pose": "magnet_path", "coil-currents": "coil_path"}.get(steered_by, "field_csv")
     report = {played: str(args.field_csv), "robot": str(args.robot), "fit": args.fit, **report}
     header = (f"Identified by msr real identify from {args.field_csv} and {args.trajectory_csv} "
@@ -395,5 +422,6 @@ def print_identified(report: dict) -> None:
           f"(nominal robot: {1e3 * r['nominal_rms']:.4f} mm)")
     o = report["optimizer"]
     print(f"{len(o['starts'])} start(s), {o['simulations']} simulations: best start {o['best_start']} "
-          f"{'converged' if o['converged'] else 'did NOT converge'}; the starts "
-          f"{'agree' if o['starts_agree'] else 'do NOT agree'}")
+          f"{'converged' if o['converged'] else 'did NOT converge'}; "
+          + {True: "the starts agree", False: "the starts do NOT agree",
+             None: "one start: their agreement not tested (--starts 2 or more)"}[o["starts_agree"]])

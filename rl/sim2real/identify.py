@@ -383,9 +383,10 @@ def _fitted(spec: Mapping[str, Any], fits: Sequence[Variation], x, sigma, bounds
 
 
 def _starts_report(records: Sequence[dict[str, Any]], near: Sequence[bool], best: int
-                   ) -> tuple[list[dict[str, Any]], bool]:
+                   ) -> tuple[list[dict[str, Any]], bool | None]:
     """Each start's public record (factors, RMS, converged, near the best cost) and whether the
-    starts agree (each ended near the best cost, its factors within AGREE_WITHIN of the best)."""
+    starts agree (each ended near the best cost, its factors within AGREE_WITHIN of the best;
+    ``None`` with fewer than two finished starts: nothing was compared)."""
     out, agree, x_best = [], True, records[best]["x"]
     finished = iter(near)
     for i, r in enumerate(records):
@@ -398,6 +399,8 @@ def _starts_report(records: Sequence[dict[str, Any]], near: Sequence[bool], best
             entry.update(factors=np.exp(r["x"]).tolist(), rms_m=r["rms_m"], near_best=close)
             agree = agree and close and same
         out.append(entry)
+    if sum(r["x"] is not None for r in records) < 2:
+        return out, None
     return out, agree
 
 
@@ -573,7 +576,7 @@ def _fit_warnings(best: Mapping[str, Any], judged: Sequence[Mapping[str, Any]],
     return out
 
 
-def _optimizer_report(records: Sequence[dict[str, Any]], best: int, agree: bool, diff_step: float,
+def _optimizer_report(records: Sequence[dict[str, Any]], best: int, agree: bool | None, diff_step: float,
                       wall_s: float, starts_public: list[dict[str, Any]]) -> dict[str, Any]:
     """The optimizer's part of ``identify.json``: the method, the best start's status, whether
     it converged and the starts agree, the simulations of the fit (every start) and of the

@@ -85,6 +85,7 @@ def plan_sweep(loaded: dict[str, Case], s: SweepSettings, r: Resolved
     groups, workers, threads = _groups_and_workers(seed_list, layout, len(loaded), s.threads,
                                                    s.address)
     overrides = dict(s.config_overrides or {})
+    _check_dagger_cases(loaded, overrides)  # before the configurations' own checks advise a warm-up
     configs = _seed_configs(loaded, seed_list, r.recipe, overrides)
     _check_devices(loaded, overrides)
     _warn_precision(configs[seed_list[0]])
@@ -103,16 +104,24 @@ def plan_sweep(loaded: dict[str, Case], s: SweepSettings, r: Resolved
     return seed_list, groups, workers, configs, sweep
 
 
+def _check_dagger_cases(loaded: dict[str, Case], overrides: dict[str, Any]) -> None:
+    """``--set yardstick_dagger`` on a case whose yardstick labels no observation alone (a goto
+    case's) is refused naming the case and why (``ValueError``), before any other check of the
+    setting (which would advise a warm-up that cannot help)."""
+    from ..cases.case import DAGGER_REFUSAL, dagger_reason
+
+    dagger = overrides.get("yardstick_dagger")
+    reasons = [reason for case in loaded.values() if (reason := dagger_reason(case)) is not None]
+    if dagger and reasons:
+        raise ValueError(f"--set yardstick_dagger={dagger}: {DAGGER_REFUSAL}; {'; '.join(reasons)}: train "
+                         "without it")
+
+
 def _check_yardstick_warmup(loaded: dict[str, Case], config: Any) -> None:
     """A warm-up played by the yardstick (``yardstick_warmup``) needs a case whose yardstick is a
     controller (``ValueError`` naming the cases without one, before any work)."""
-    from ..cases.case import DAGGER_REFUSAL, YARDSTICK_CONTROLLERS, dagger_reason
+    from ..cases.case import YARDSTICK_CONTROLLERS
 
-    reasons = [reason for case in loaded.values() if (reason := dagger_reason(case)) is not None]
-    if config.yardstick_dagger and reasons:
-        raise ValueError(f"--set yardstick_dagger={config.yardstick_dagger}: {DAGGER_REFUSAL}; "
-                         f"{'; '.join(reasons)}: no command for a state another controller led the robot "
-                         "into; train without it")
     if not config.yardstick_warmup:
         return
     without = [name for name, case in loaded.items() if not case.has_yardstick_controller]
@@ -208,6 +217,10 @@ def _check_before_work(loaded: dict[str, Case], seed_list: list[int], acting: _A
     stop_rules = None if keep_stop_rules else _stop_rules(
         loaded, recipe_stop_when(s.stop_when, r.recipe), stop_options, eval_every,
         from_recipe=s.stop_when is None)
+    from ..shipping.policy_files import check_policy_case
+
+    for case in loaded.values():  # a shipped policy's seeds/ takes runs of its own case only
+        check_policy_case(CaseDir.of(s.out, case.name).path, case, option="--out")
     _check_run_folders(s.out, loaded, seed_list, s.resume, s.physics, r.episode_duration, r.recipe,
                        int(s.envs), before_making=None if s.resume else functools.partial(acting.new_runs,
                                                                              stop_rules))

@@ -72,7 +72,7 @@ def test_a_calibration_is_no_result_of_the_policy_s_case(tmp_path):
     (policy / "seeds").mkdir()
     for kind in (CALIBRATION_FILE, EXPECTED_CODES_FILE, BOARD_LOG_FILE):
         with pytest.raises(OutputPathError, match=r"whose seeds/ holds its own case's results .* and this "
-                                                  r"result is of no case: it goes beside the policy"):
+                                                  r"result is none of them .*: it goes beside the policy"):
             check_result_file(policy / "seeds" / "cal.json", kind=kind)
     check_result_file(tmp_path / "cal.json", kind=CALIBRATION_FILE)  # beside the policy: fine
 

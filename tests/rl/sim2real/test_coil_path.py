@@ -98,6 +98,25 @@ def test_identify_recovers_the_coils_gain(tmp_path, quick_spec):
     assert fitted["identifiable"] and fitted["interval"][0] <= TRUE_GAIN <= fitted["interval"][1]
     assert report["coil_path"] == str(coils)
     assert "turns = 5" in (tmp_path / "id" / "identified.toml").read_text()
+    assert report["optimizer"]["starts_agree"] is None  # one start: nothing compared (round 29 S1)
+
+
+def test_identify_records_the_path_s_warnings_in_its_result(tmp_path, quick_spec, capsys):
+    """Round 29 S2: the warnings on the coil path (faster than the case's max_slew) were printed but
+    left out of identify.json's warnings, the record a user keeps of the fit; and with one start it
+    said "the starts agree" (S1)."""
+    slow = copy.deepcopy(quick_spec)
+    slow["actuation"]["max_slew"] = 10.0  # A/s: the excitation's sines change faster
+    coils, tip, spec_file = _measured_files(tmp_path, slow)
+    assert main(["real", "identify", str(coils), str(tip), "--robot", str(spec_file), "--fit", "coils",
+                 "--out", str(tmp_path / "id"), "--starts", "1", "--max-evaluations", "10",
+                 "--no-confirm", "--no-progress"]) == 0
+    out, err = capsys.readouterr()
+    said = [line for line in err.splitlines() if "faster than the case's max_slew" in line]
+    assert len(said) == 1, err
+    kept = json.loads((tmp_path / "id" / "identify.json").read_text())["warnings"]
+    assert any("faster than the case's max_slew (10 A/s)" in w for w in kept), kept
+    assert "one start: their agreement not tested" in out and "the starts agree" not in out, out
 
 
 def _write(path, header, rows):
