@@ -75,6 +75,7 @@ __all__ = [
     "RobotDescription",
     "dumps",
     "describe_robot",
+    "robot_tables_spec",
     "load_robot",
     "axis_limits_of",
     "field_limit_of",
@@ -203,6 +204,24 @@ class RobotDescription:
                 self_contact_k=interaction["self_contact_stiffness"],
                 self_contact_nu=interaction["self_contact_damping"]),
         )
+
+
+def robot_tables_spec(tables: Mapping[str, Any]) -> dict[str, Any]:
+    """The tables of a :class:`RobotDescription` (``[robot]``, ``[physics]``, ``[checks]``) as a spec
+    that :func:`describe_robot` reads again (a varied robot's): its ``[checks] accept`` keeps the
+    keys of those tables and the named checks, and drops the keys of the case's other tables (a
+    crawl's ``yardstick.period``), which were checked where the case was read and name nothing here."""
+    from .plausibility import NAMED_CHECKS
+
+    out = dict(tables)
+    accept = (tables.get("checks") or {}).get("accept")
+    if isinstance(accept, list):
+        kept = [k for k in accept if k in NAMED_CHECKS or k.split(".", 1)[0].split("[", 1)[0] in tables]
+        if kept:
+            out["checks"] = {**tables["checks"], "accept": kept}
+        else:
+            out.pop("checks", None)
+    return out
 
 
 def describe_robot(spec: Mapping[str, Any], source: str = "<spec>") -> RobotDescription:

@@ -9,7 +9,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from elastica_magnetic.specfile import RobotDescription, SpecError, SpecTable, describe_robot
+from elastica_magnetic.specfile import (
+    RobotDescription,
+    SpecError,
+    SpecTable,
+    describe_robot,
+    robot_tables_spec,
+)
 
 from .recipes import DEFAULT_RECIPE, RECIPES
 from .variations import (
@@ -157,7 +163,7 @@ def _check_randomize_ends(variations: list[Variation], robot: RobotDescription, 
         """The plausibility warnings of a robot (by message without the label), not shown."""
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", ImplausibleValueWarning)
-            describe_robot(tables, label)
+            describe_robot(robot_tables_spec(tables), label)
         return {str(w.message).replace(f"{label}: ", "", 1): getattr(w.message, "key", "")
                 for w in caught if issubclass(w.category, ImplausibleValueWarning)}
 

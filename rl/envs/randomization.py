@@ -19,7 +19,7 @@ import numpy as np
 
 from elastica_magnetic import RobotSpec
 from elastica_magnetic.plausibility import ImplausibleValueWarning
-from elastica_magnetic.specfile import describe_robot
+from elastica_magnetic.specfile import describe_robot, robot_tables_spec
 
 from ..cases.variations import Variant, Variation, apply_variant
 
@@ -62,7 +62,7 @@ class RobotRandomizer:
     def robot(self, settings: Mapping[str, float]) -> RobotSpec:
         """The robot of ``settings`` in the randomizer's physics (the spec parser checks it)."""
         variant = Variant("randomized", "sample", dict(settings))
-        spec = apply_variant(self.tables, self.variations, variant)
+        spec = robot_tables_spec(apply_variant(self.tables, self.variations, variant))
         with warnings.catch_warnings():  # the nominal robot's unusual values were reported once
             warnings.simplefilter("ignore", ImplausibleValueWarning)
             return describe_robot(spec, "[training.randomize]").robot(self.physics)

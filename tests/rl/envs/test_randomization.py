@@ -115,3 +115,20 @@ def test_randomizer_refuses_what_it_cannot_do():
     randomizer = RobotRandomizer(tables, [parse_variation("robot.density=0.5:0.6")], "training")
     with pytest.raises(ValueError, match="expected 1 settings"):
         randomizer.from_array([1.0, 2.0])
+
+
+def test_a_spec_accepting_a_key_of_another_table_randomizes_its_robot():
+    """A crawl whose ``[checks] accept`` names a key outside the robot (``yardstick.period``: msr loop
+    accepts a sweep's period faster than the rate limit turns) with ``[training] randomize``: the
+    ranges' ends and every drawn robot were read again with the robot's tables alone, where that
+    key names nothing, and the training failed ("'yardstick.period' names no key of this spec")."""
+    from elastica_magnetic_rl.cases.case import case_from_dict
+
+    data = load_case("m1-4mT").to_dict()
+    data["yardstick"].update(period=0.05, clockwise=True)
+    data["checks"] = {"accept": ["yardstick.period"]}
+    data["training"]["randomize"] = "default"
+    case = case_from_dict(case_from_dict(data, "fast-turn.toml").to_dict(), "copy.toml")  # ranges written out
+    randomizer = RobotRandomizer(case.robot.tables, case.training.randomize, "training")
+    robot = randomizer.robot(randomizer.draw(np.random.default_rng(0)))
+    assert robot.n_elements == case.robot_spec("training").n_elements
