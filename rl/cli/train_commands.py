@@ -342,6 +342,7 @@ def _interrupted(folders: list[Path], signal_number: int = 2) -> int:
 
 
 def train_command(args: argparse.Namespace) -> int:
+    from ..shipping.policy_files import check_policy_case
     from ..sweep.case_folders import check_not_in_a_result
     from ..sweep.training import train_cases
 
@@ -350,6 +351,8 @@ def train_command(args: argparse.Namespace) -> int:
         check_not_in_a_result(args.out)
     except ValueError as exc:
         raise CommandError(str(exc)) from None
+    for case in args.case:  # a shipped policy's seeds/ takes runs of its own case only
+        check_policy_case(args.out / case.name, case, option="--out")
     _warn_unstable_steps(args.case, args.physics)
     overrides = _overrides(args)
     try:

@@ -217,10 +217,6 @@ def _check_before_work(loaded: dict[str, Case], seed_list: list[int], acting: _A
     stop_rules = None if keep_stop_rules else _stop_rules(
         loaded, recipe_stop_when(s.stop_when, r.recipe), stop_options, eval_every,
         from_recipe=s.stop_when is None)
-    from ..shipping.policy_files import check_policy_case
-
-    for case in loaded.values():  # a shipped policy's seeds/ takes runs of its own case only
-        check_policy_case(CaseDir.of(s.out, case.name).path, case, option="--out")
     _check_run_folders(s.out, loaded, seed_list, s.resume, s.physics, r.episode_duration, r.recipe,
                        int(s.envs), before_making=None if s.resume else functools.partial(acting.new_runs,
                                                                              stop_rules))
