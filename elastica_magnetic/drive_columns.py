@@ -13,6 +13,11 @@ from pathlib import Path
 
 #: A coil's current column: ``current_<K>_A``, K its index among the spec's coils (from 0), A.
 CURRENT_COLUMN = re.compile(r"^current_(\d+)_A$")
+#: A coil's current column in any unit (``current_0_mA``): a current column in another unit than A
+#: is named for what it is (:func:`current_unit_problem`), never read as another format.
+CURRENT_ANY_UNIT = re.compile(r"^current_(\d+)_([A-Za-z]+)$")
+#: What turns a current in these units into A.
+_TO_AMPERES = {"mA": "divide by 1000", "uA": "divide by 1e6", "kA": "multiply by 1000"}
 #: The column that marks a magnet arm's path (its first position column, m).
 MAGNET_COLUMN = "magnet_x_m"
 #: The insertion stage's column of a recorded drive (m; only with a stage).
@@ -34,7 +39,7 @@ def header_names(path: str | Path) -> list[str]:
 def drive_described(names: Sequence[str]) -> str | None:
     """What a CSV whose header holds ``names`` is, when it is a catheter's recorded drive (as a
     person reads it: ``"the currents of 8 coils (current_0_A, ..., A)"``), else None."""
-    currents = [n for n in names if CURRENT_COLUMN.match(n)]
+    currents = [n for n in names if CURRENT_ANY_UNIT.match(n)]
     if currents:
         return (f"the currents of {len(currents)} coil{'s' if len(currents) != 1 else ''} "
                 f"({currents[0]}, ..., A), a catheter's drive by coil currents")
@@ -46,8 +51,21 @@ def drive_described(names: Sequence[str]) -> str | None:
 def is_coil_currents(path: str | Path) -> bool:
     """Whether the CSV file at ``path`` is a coil-current drive: its header names a
     ``current_<K>_A`` column (:data:`CURRENT_COLUMN`), however numbered (its reader names a
-    numbering that does not start at 0)."""
-    return any(CURRENT_COLUMN.match(name) for name in header_names(path))
+    numbering that does not start at 0), or one in another unit (:data:`CURRENT_ANY_UNIT`: its
+    reader names the unit, :func:`current_unit_problem`)."""
+    return any(CURRENT_ANY_UNIT.match(name) for name in header_names(path))
+
+
+def current_unit_problem(names: Sequence[str]) -> str | None:
+    """What is wrong with current columns in another unit than A among ``names``
+    (``current_0_mA``), as a person reads it, or ``None``."""
+    wrong = [n for n in names if (m := CURRENT_ANY_UNIT.match(n)) and m.group(2) != "A"]
+    if not wrong:
+        return None
+    unit = CURRENT_ANY_UNIT.match(wrong[0]).group(2)  # type: ignore[union-attr]
+    convert = _TO_AMPERES.get(unit, f"convert {unit} to A")
+    return (f"column(s) {', '.join(wrong)}: a coil's current is in A, its column current_<K>_A; the "
+            f"currents in {unit}? {convert} and name the columns current_0_A, current_1_A, ...")
 
 
 def is_magnet_path(path: str | Path) -> bool:

@@ -270,8 +270,9 @@ def mistake_hint(name: str, value: float, unit: str | None = None, scale: float 
 def _mistakes(quantity: Quantity, value: float, unit: str, scale: float) -> str:
     """``"; it looks like kPa written where Pa is expected (84.5 kPa is 84500 Pa)"`` for the
     mistakes that bring ``value`` (in ``unit``, ``scale`` SI per unit) into the warn range."""
+    # a fraction written in percent is a number of at least 1 (0.55 is no 0.55 %)
     found = [(name, size) for name, size in quantity.mistakes
-             if name != unit and _in(value * size, quantity.warn)]
+             if name != unit and _in(value * size, quantity.warn) and not (name == "percent" and value < 1.0)]
     if not found:
         return "" if unit == "1" else f"; check the unit: {unit} is expected"
     names = " or ".join(name for name, _ in found)

@@ -107,16 +107,35 @@ def check_enclosing(final: Path, option: str, subject: str | None = UNSAID) -> N
                                     f"{describe_owner(owner)} is writing: a result goes in a folder of "
                                     f"its own; choose another {option}")
         if (marker := recognized_marker(parent)) is not None:
-            raise OutputPathError(f"{option} {display_path(final)}: lies in {display_path(parent)}, which "
-                                  f"holds {describe_result(marker)}: a result is replaced whole, so "
-                                  f"nothing goes inside another; choose another {option}")
+            raise OutputPathError(_inside_result(final, parent, marker, option))
         if (refusal := held_refusal(parent, final, option, subject)) is not None:
+            # a seed's policy inside a seed campaign: the campaign is the result to name ("beside
+            # the seed" is inside the campaign, refused too)
+            if (outer := _result_above(parent)) is not None:
+                raise OutputPathError(_inside_result(final, *outer, option))
             raise OutputPathError(refusal)
         if (run := training_run_in(parent, final)) is not None:
             raise OutputPathError(f"{option} {display_path(final)}: lies in {display_path(parent)}, which "
                                   f"holds the runs of a training ({run.name}, `msr train`): that folder "
                                   "holds its runs alone (msr train --resume refuses anything else "
                                   f"there); choose another {option}")
+
+
+def _inside_result(final: Path, parent: Path, marker: dict, option: str) -> str:
+    return (f"{option} {display_path(final)}: lies in {display_path(parent)}, which holds "
+            f"{describe_result(marker)}: a result is replaced whole, so nothing goes inside another; "
+            f"choose another {option}")
+
+
+def _result_above(folder: Path) -> tuple[Path, dict] | None:
+    """The nearest folder above ``folder`` that holds another command's result, and its marker
+    (``None`` where none does, or a folder this process writes comes first)."""
+    for parent in folder.parents:
+        if held_here(parent) or inside_building(parent):
+            return None
+        if (marker := recognized_marker(parent)) is not None:
+            return parent, marker
+    return None
 
 
 def held_refusal(parent: Path, final: Path, option: str, subject: str | None = UNSAID) -> str | None:

@@ -351,6 +351,14 @@ def _damping_table(damping: SpecTable, n_elements: int) -> dict[str, Any]:
     return out
 
 
+#: The cutoff advised where four radii is no longer than an element (in elements): measured on the
+#: paper's robot, cutoffs of 2 and 3 elements turned to NaN within 0.01 s and 3.2 ran.
+SAFE_CUTOFF_ELEMENTS = 4.0
+_NEIGHBOURS_AS_DIPOLES = ("neighbouring elements would interact as point dipoles one element apart, which "
+                          "the continuum is not (the sum grows without bound as the rod is refined) and "
+                          "which no time step follows (the run turns to NaN at once)")
+
+
 def _interaction_table(interaction: SpecTable, length: float, n_elements: int,
                        radius: float) -> dict[str, Any]:
     """``[robot.interaction]``: the magnetic interaction's cutoff and source, self-contact
@@ -360,6 +368,12 @@ def _interaction_table(interaction: SpecTable, length: float, n_elements: int,
     is warned about: near pairs as point dipoles are stiffer than the rod)."""
     out: dict[str, Any] = {}
     interaction.takes("cutoff")
+    element = length / n_elements
+    default = DEFAULT_CUTOFF_RADII * radius
+    # where four radii is no longer than an element, that default would let neighbours interact too
+    advice = ("leave cutoff out for four radii" if default > element * (1.0 + 1e-9) else
+              f"give cutoff = {SAFE_CUTOFF_ELEMENTS * element:g} ({SAFE_CUTOFF_ELEMENTS:g} elements; the "
+              f"default four radii, {default:g} m, is no longer than one element of this rod)")
     if interaction.has("cutoff"):  # absent: four radii (see InteractionSpec)
         out["cutoff"] = interaction.number("cutoff", "m", low=0.0)
         if out["cutoff"] >= length:
@@ -368,24 +382,21 @@ def _interaction_table(interaction: SpecTable, length: float, n_elements: int,
             raise interaction.error("cutoff", f"{out['cutoff']:g} m is at or beyond the rod's length "
                                     f"({length:g} m): pairs closer than the cutoff along the rod do not "
                                     "interact, so no pair would and the interaction the table asks for "
-                                    f"would be off (millimetres written as metres?{mm}); leave cutoff out "
-                                    "for four radii")
-        element = length / n_elements
+                                    f"would be off (millimetres written as metres?{mm}); {advice}")
         if out["cutoff"] <= element * (1.0 + 1e-9):
             raise interaction.error("cutoff", f"{out['cutoff']:g} m is at or below one element's length "
-                                    f"({element:g} m): neighbouring elements would interact as point "
-                                    "dipoles one element apart, which the continuum is not (the sum grows "
-                                    "without bound as the rod is refined) and which no time step follows "
-                                    "(the run turns to NaN at once); leave cutoff out for four radii")
-        default = DEFAULT_CUTOFF_RADII * radius
+                                    f"({element:g} m): {_NEIGHBOURS_AS_DIPOLES}; {advice}")
         if out["cutoff"] < default:
             elements = out["cutoff"] / element
             interaction.warn("cutoff", f"{out['cutoff']:g} m ({elements:.3g} elements) is below the "
                              f"default of {DEFAULT_CUTOFF_RADII:g} radii ({default:g} m): pairs that near "
                              "interact as point dipoles, stiffer than the rod they are part of, and a "
                              "cutoff of a few elements diverges at once (measured on the paper's robot: 2 "
-                             "and 3 elements turn to NaN within 0.01 s, 3.2 run); leave cutoff out for "
-                             "four radii")
+                             f"and 3 elements turn to NaN within 0.01 s, 3.2 run); {advice}")
+    elif default <= element * (1.0 + 1e-9):
+        raise interaction.error("cutoff", f"absent: the default of {DEFAULT_CUTOFF_RADII:g} radii "
+                                f"({default:g} m) is at or below one element's length ({element:g} m): "
+                                f"{_NEIGHBOURS_AS_DIPOLES}; {advice}")
     out.update(
         band_source=interaction.boolean("band_source", True),
         self_contact_stiffness=interaction.number("self_contact_stiffness", "N/m", 0.0, low=0.0),

@@ -360,3 +360,14 @@ def test_judge_names_every_mistake_that_fits():
     assert finding.refuse and not finding.high
     assert finding.text.startswith("84.5 Pa is below 100 Pa, the softest hydrogels")
     assert judge("youngs modulus", 84500.0) is None and judge("magnetization", 0.0) is None
+
+
+@pytest.mark.parametrize("nu", ["0.55", "0.6"])
+def test_a_poisson_ratio_just_above_one_half_is_not_taken_for_percent(nu):
+    """Round 30, V4: poisson_ratio 0.55 or 0.6 was refused with "it looks like percent written where a
+    plain number is expected (0.55 percent is 0.0055)": a fraction written in percent is at least 1."""
+    with pytest.raises(SpecError, match=r"poisson_ratio") as refused:
+        describe_robot(_spec("poisson_ratio = 0.45", f"poisson_ratio = {nu}"), "my.toml")
+    assert "percent" not in str(refused.value), refused.value
+    with pytest.raises(SpecError, match=r"looks like percent"):
+        describe_robot(_spec("poisson_ratio = 0.45", "poisson_ratio = 45"), "my.toml")

@@ -29,6 +29,7 @@ from elastica_magnetic.drive_columns import (
     CURRENT_COLUMN,
     GRID_TOLERANCE_S,
     INSERTION_COLUMN,
+    current_unit_problem,
 )
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
@@ -137,6 +138,8 @@ def _table(path: Path) -> tuple[list[str], list[tuple[int, list[str]]]]:
 def _current_columns(path: Path, names: list[str]) -> list[str]:
     """The current columns, checked: at most one per board output, numbered from 0 in order, and
     a ``t_s`` column."""
+    if (problem := current_unit_problem(names)) is not None:
+        raise CoilCurrentsError(f"{path}: {problem}; nothing was sent")
     columns = [n for n in names if CURRENT_COLUMN.match(n)]
     outputs = len(BOARD_OUTPUTS)
     if len(columns) > outputs:

@@ -173,23 +173,39 @@ def _tip_reach_record_problem(recorded: Any, n_targets: int, path: Path) -> str 
     """What keeps a tip-reach policy's recorded evaluation (``policy.json``'s ``evaluation``) from
     being compared with a re-run over ``n_targets`` held-out targets, or ``None``: ``duration_s``
     (s), ``tip_reach.policy.successes`` (a count) and ``final_distance_m`` (one finite distance,
-    m, per target)."""
+    m, per target). The message names the key, what it holds and what was expected."""
+    fix = "so nothing is compared; restore it (e.g. from git) or ship the policy again"
     mine = (recorded.get("tip_reach") or {}).get("policy") if isinstance(recorded, dict) else None
-    if not (isinstance(recorded, dict) and _is_number(recorded.get("duration_s"))
-            and isinstance(mine, dict) and isinstance(mine.get("successes"), int)
-            and not isinstance(mine.get("successes"), bool) and "final_distance_m" in mine):
+    if not (isinstance(recorded, dict) and isinstance(mine, dict)):
         return (f"{path}: no evaluation with duration_s and tip_reach.policy (successes, final_distance_m): "
                 "the targets this policy claims are not recorded, so nothing is compared")
+    entries = (("evaluation.duration_s", recorded, "duration_s", "a duration (s, a number > 0)"),
+               ("evaluation.tip_reach.policy.successes", mine, "successes",
+                f"a count (an integer from 0 to {n_targets})"))
+    for key, table, name, expected in entries:
+        if name not in table:
+            return f"{path}: {key} is not recorded: expected {expected}, {fix}"
+        value = table[name]
+        fine = (_is_number(value) and math.isfinite(value) and value > 0 if name == "duration_s" else
+                isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= n_targets)
+        if not fine:
+            return f"{path}: {key} is {value!r} ({type(value).__name__}): expected {expected}, {fix}"
+    if "final_distance_m" not in mine:
+        return (f"{path}: evaluation.tip_reach.policy.final_distance_m is not recorded: expected {n_targets} "
+                f"distances (m, numbers >= 0), {fix}")
     distances = mine["final_distance_m"]
-    if not (isinstance(distances, list) and len(distances) == n_targets
-            and all(_is_number(d) and math.isfinite(d) and d >= 0.0 for d in distances)):
+    key = "evaluation.tip_reach.policy.final_distance_m"
+    if not isinstance(distances, list) or len(distances) != n_targets:
         given = (f"holds {len(distances)} entries" if isinstance(distances, list) else
                  f"is {type(distances).__name__}")
         shown = ", ".join(repr(d) for d in distances[:3]) if isinstance(distances, list) else ""
         shown = f" ({shown}, ...)" if shown else ""
-        return (f"{path}: evaluation.tip_reach.policy.final_distance_m {given}{shown}: expected {n_targets} "
-                "distances (m, numbers >= 0), one per held-out target, so nothing is compared; restore it "
-                "(e.g. from git) or ship the policy again")
+        return (f"{path}: {key} {given}{shown}: expected {n_targets} distances (m, numbers >= 0), one per "
+                f"held-out target, {fix}")
+    for i, d in enumerate(distances):
+        if not (_is_number(d) and math.isfinite(d) and d >= 0.0):
+            return (f"{path}: {key}[{i}] is {d!r} ({type(d).__name__}): expected a distance (m, a finite "
+                    f"number >= 0), one per held-out target, {fix}")
     return None
 
 

@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from elastica_magnetic.drive_columns import current_unit_problem
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from .recorded_paths import (
@@ -91,6 +92,8 @@ def read_coil_path(path: str | Path) -> CoilPath:
     table = read_path_table(path, "coil path")
     form = (f"a coil path has t_s, current_0_A, current_1_A, ... (A, one per coil of the spec, in its "
             f"order) and, with an insertion stage, {INSERTION_COLUMN} (m), one row per 0.01 s from t_s = 0")
+    if (problem := current_unit_problem(list(table.columns))) is not None:
+        raise TrajectoryError(f"{path}: {problem}")
     currents = [c for c in table.columns if CURRENT_COLUMN.match(c)]
     numbers = [int(CURRENT_COLUMN.match(c).group(1)) for c in currents]
     if "t_s" not in table.columns or not currents:

@@ -143,7 +143,8 @@ def first_halfwidths(sigma: NDArray[np.float64], x_best: NDArray[np.float64],
                      start_x: Sequence[NDArray[np.float64]], near: Sequence[bool]
                      ) -> tuple[NDArray[np.float64], list[str]]:
     """Per fitted value, the half-width of its interval (log factor) before the profile: the
-    larger of ``INTERVAL_SIGMAS`` standard errors and the farthest start as good as the best, and
+    larger of ``INTERVAL_SIGMAS`` standard errors and the farthest start as good as the best
+    (``near``: the caller counts only starts that converged), and
     which one it is (``"jacobian"``, ``"starts"``)."""
     close = np.array([x for x, ok in zip(start_x, near, strict=True) if ok])
     halves, sources = [], []

@@ -555,7 +555,10 @@ def _judge(model: FitModel, x: NDArray[np.float64], residual: NDArray[np.float64
     sigma, corr = uncertainty(residual, jac)
     s2 = float(residual @ residual) / max(residual.size - len(fits), 1)
     near = near_best([r["cost"] for r in finished], s2)
-    halves, sources = first_halfwidths(sigma, x, [r["x"] for r in finished], near)
+    # only a start that converged tells where the cost is flat: one the budget stopped ended
+    # anywhere on its way (one such start made "factor unbounded (from the starts)")
+    settled = [ok and bool(r["converged"]) for ok, r in zip(near, finished, strict=True)]
+    halves, sources = first_halfwidths(sigma, x, [r["x"] for r in finished], settled)
     profiled, profile = profile_halfwidths(lambda y: model.residuals(np.exp(y)), x, s2, halves,
                                            corr, sigma, bounds)
     widened = (profiled > halves) & (halves <= np.log1p(IDENTIFIABLE_WITHIN))  # by the profile

@@ -92,14 +92,17 @@ def check_run_learns(config: TD3Config, steps: int, sources: SettingSources) -> 
             "give " + ("" if resumed else f"--set updates_per_step of at least {1 / learning:.3g}, or ")
             + "more --steps")
     if config.yardstick_regularization and config.buffer_size < steps:
+        # fewer --steps is advice only where such a run still learns (past the warm-up and a minibatch)
+        fewer = config.buffer_size > warm_up and config.buffer_size >= batch
         raise ValueError(
             f"{name('yardstick_regularization', f'{config.yardstick_regularization:g}')} holds the actor "
             "near the warm-up's transitions for the whole run, and "
             f"{name('buffer_size', config.buffer_size)} holds fewer than {sources.steps(steps)}: the "
             "ring would overwrite them; give "
-            + (f"--steps of at most {config.buffer_size}, or train a new run (another --out) with "
-               f"--set buffer_size of at least {steps}" if resumed
-               else f"--set buffer_size of at least {steps}, or --steps of at most {config.buffer_size}"))
+            + ((f"--steps of at most {config.buffer_size}, or " if fewer else "")
+               + f"train a new run (another --out) with --set buffer_size of at least {steps}" if resumed
+               else f"--set buffer_size of at least {steps}"
+               + (f", or --steps of at most {config.buffer_size}" if fewer else "")))
     if config.yardstick_dagger and config.dagger_end >= steps:
         from elastica_magnetic.plausibility import SettingNotAppliedWarning
 

@@ -59,14 +59,16 @@ def _check_refine_place(out: str | os.PathLike) -> None:
     folder). ``ValueError`` naming the folder."""
     from elastica_magnetic.io import display_path, normalized_path
     from elastica_magnetic.locks import held_here
-    from elastica_magnetic.result_markers import MARKER, describe_result, read_marker
+    from elastica_magnetic.result_markers import describe_result, recognized_marker
     from elastica_magnetic.result_places import held_refusal, training_run_in
 
     final = normalized_path(out)
     for parent in final.parents:
         if held_here(parent):  # a folder this process writes (msr loop's) holds its steps' runs
             return
-        marker = read_marker(parent) if (parent / MARKER).is_file() else None
+        # recognized, not only marked: a committed seed campaign or a result written before markers
+        # carries no marker file and is still another command's result
+        marker = recognized_marker(parent)
         if marker is not None and marker.get("kind") in ("train", "refine"):
             return
         if marker is not None:

@@ -128,8 +128,9 @@ def _check_yardstick_warmup(loaded: dict[str, Case], config: Any) -> None:
     if without:
         raise ValueError(f"--set yardstick_warmup={config.yardstick_warmup}: the warm-up is played by "
                          f"the case's hand-designed controller, and case(s) {', '.join(without)} have "
-                         f"none ({YARDSTICK_CONTROLLERS}): train without it, or a crawl on the spec "
-                         "msr field baseline --case CASE --set-yardstick FILE writes (it records the period)")
+                         f"none ({YARDSTICK_CONTROLLERS}): train without it, or train {', '.join(without)} "
+                         "on the spec msr field baseline --case CASE --set-yardstick FILE writes (it records "
+                         "the rotating field's period; a crawl's or a reach's alike)")
 
 
 def _check_devices(loaded: dict[str, Case], overrides: dict[str, Any]) -> None:

@@ -345,3 +345,17 @@ def test_silent_board_in_currents_mode_is_stopped() -> None:
         stream_currents("fake", np.zeros((3, 3)), progress=False, timeout_s=0.2,
                         open_port=lambda *a, **k: port)
     assert port.written.endswith(b"\nSTOP\n") and port.closed
+
+
+def test_current_columns_in_milliamperes_are_named_for_their_unit(tmp_path):
+    """Round 30, V7: a coil-current file with ``current_0_mA`` columns was read as a field CSV ("lacks
+    column(s) mag_x ..."); now each reader names the columns and the unit A, with the conversion."""
+    from elastica_magnetic.field_csv import FieldCSVError, read_field_csv
+
+    path = tmp_path / "ma.csv"
+    path.write_text("t_s,current_0_mA,current_1_mA\n0,0,0\n0.01,100,50\n")
+    with pytest.raises(CoilCurrentsError, match=r"current_0_mA, current_1_mA: a coil's current is in A.*"
+                                                r"the currents in mA\? divide by 1000"):
+        read_coil_currents(path)
+    with pytest.raises(FieldCSVError, match=r"holds the currents of 2 coils \(current_0_mA"):
+        read_field_csv(path)
