@@ -53,8 +53,9 @@ class CoilCurrentsError(ValueError):
 
 
 @dataclass(frozen=True)
-class CoilCurrents:
-    """The currents of one coil-current file.
+class BoardCurrents:
+    """The currents of one coil-current file, as the coil board plays them (not
+    :class:`elastica_magnetic.CoilCurrents`, which simulates coils driven by currents).
 
     Attributes
     ----------
@@ -80,7 +81,7 @@ class CoilCurrents:
         return rows
 
 
-def read_coil_currents(path: str | Path) -> CoilCurrents:
+def read_coil_currents(path: str | Path) -> BoardCurrents:
     """Read a coil-current file for the board (see the module docstring).
 
     Raises
@@ -104,7 +105,7 @@ def read_coil_currents(path: str | Path) -> CoilCurrents:
     _check_unit(path, currents, columns, lines)
     if insertion is not None:
         _check_insertion(path, [_number(path, line, row, insertion, names) for line, row in body], lines)
-    return CoilCurrents(str(path), tuple(columns), currents, lines)
+    return BoardCurrents(str(path), tuple(columns), currents, lines)
 
 
 def _table(path: Path) -> tuple[list[str], list[tuple[int, list[str]]]]:
@@ -228,7 +229,7 @@ def _first_over(values: NDArray[np.float64], limits: NDArray[np.float64],
                         float(limits[col]))
 
 
-def clipping_problem(calibration: Calibration, drive: CoilCurrents) -> str | None:
+def clipping_problem(calibration: Calibration, drive: BoardCurrents) -> str | None:
     """What the board would clamp in ``drive`` with ``calibration``: currents beyond
     ``current_limit_A`` or an amplifier input beyond the DAC's span (``dac_half_span_V``), naming
     the first line and column; ``None`` when nothing is clamped."""
@@ -254,7 +255,7 @@ def clipping_problem(calibration: Calibration, drive: CoilCurrents) -> str | Non
     return None
 
 
-def slew_problem(calibration: Calibration, drive: CoilCurrents) -> str | None:
+def slew_problem(calibration: Calibration, drive: BoardCurrents) -> str | None:
     """Where ``drive``'s currents change faster than the calibration's ``slew_limit_A_per_s``
     (from 0 A before the first row, as the board starts): the board reaches them late, so this is
     a warning, not a refusal. ``None`` when no row is slew-limited."""
