@@ -41,9 +41,9 @@ from ..cases.variations import (
     magnitude_of,
     parse_group,
     resolve_variations,
-    scaled,
 )
 from .fit_model import FieldDrive, FitModel
+from .fit_report import fit_warnings, fitted_values, physics_warning, starts_report
 from .tracking import MIN_DURATION_S, MeasuredTrajectory, check_against_robot
 
 __all__ = ["DIFF_STEP", "FIT_BOUNDS", "MAX_EVALUATIONS", "STARTS", "FitBudgetExceeded", "drive_recorder",
@@ -76,8 +76,6 @@ START_SPREAD = 0.3
 #: Step (log factor) of the central-difference Jacobian of the uncertainty: wider than
 #: DIFF_STEP so that the roughness of a motion with contacts does not pass for a slope.
 UNCERTAINTY_STEP = 0.05
-#: Two starts agree when their factors differ by less than this fraction.
-AGREE_WITHIN = 0.01
 
 
 #: What each recorded drive steers, in words, by the actuation kind it drives.
@@ -359,51 +357,6 @@ def _central_jacobian(model: FitModel, x, step: float) -> NDArray[np.float64]:
     return np.stack(columns, axis=1)
 
 
-def _fitted(spec: Mapping[str, Any], fits: Sequence[Variation], x, sigma, bounds,
-            judged: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
-    """Per fit: its keys, factor and its standard error, fitted and nominal values (SI) and their
-    standard errors, whether the factor ended on a bound of the fit, its interval (factors) and
-    whether it is identifiable (:func:`~.identifiability.judge_values`)."""
-    out = {}
-    for k, fit in enumerate(fits):
-        factor = float(np.exp(x[k]))
-        sigma_k = float(sigma[k]) if np.isfinite(sigma[k]) else None
-        out[fit.name] = {
-            "keys": list(fit.keys),
-            "factor": factor,
-            "factor_sigma": None if sigma_k is None else factor * sigma_k,
-            "values": {key: scaled(get_value(spec, key), factor) for key in fit.keys},
-            "nominal_values": {key: get_value(spec, key) for key in fit.keys},
-            "sigma": {key: None if sigma_k is None else scaled(get_value(spec, key), factor * sigma_k)
-                      for key in fit.keys},
-            "at_bound": bool(np.isclose(x[k], bounds[0]) or np.isclose(x[k], bounds[1])),
-            **judged[k],
-        }
-    return out
-
-
-def _starts_report(records: Sequence[dict[str, Any]], near: Sequence[bool], best: int
-                   ) -> tuple[list[dict[str, Any]], bool | None]:
-    """Each start's public record (factors, RMS, converged, near the best cost) and whether the
-    starts agree (each ended near the best cost, its factors within AGREE_WITHIN of the best;
-    ``None`` with fewer than two finished starts: nothing was compared)."""
-    out, agree, x_best = [], True, records[best]["x"]
-    finished = iter(near)
-    for i, r in enumerate(records):
-        entry = {"start_factors": r["start_factors"], "simulations": r["simulations"],
-                 "converged": r["converged"], "message": r["message"], "stages": r["stages"],
-                 "polish": r.get("polish"), "best": i == best}
-        if r["x"] is not None:
-            close = next(finished)
-            same = bool(np.all(np.abs(np.exp(r["x"] - x_best) - 1) <= AGREE_WITHIN))
-            entry.update(factors=np.exp(r["x"]).tolist(), rms_m=r["rms_m"], near_best=close)
-            agree = agree and close and same
-        out.append(entry)
-    if sum(r["x"] is not None for r in records) < 2:
-        return out, None
-    return out, agree
-
-
 @dataclasses.dataclass(frozen=True)
 class FitOptions:
     """How :func:`identify` fits: in ``physics`` (``"training"`` or ``"accurate"``), from
@@ -467,7 +420,7 @@ def identify(
                  "fitted": model.displacements(np.exp(x))}
     if o.confirm:
         report["confirm"] = _confirmation(model, np.exp(x), o.physics)
-        if (warning := _physics_warning(report["residual_m"]["rms"], report["confirm"], o.physics)):
+        if (warning := physics_warning(report["residual_m"]["rms"], report["confirm"], o.physics)):
             report["warnings"].append(warning)
     report["predicted"] = predicted
     return report
@@ -508,15 +461,15 @@ def _fit_report(problem: _Problem, records: list[dict[str, Any]], o: FitOptions,
     before = model.evaluations
     sigma, corr, judged, near, profile = _judge(model, x, residual, fits,
                                                 [records[i] for i in finished], bounds)
-    starts_public, agree = _starts_report(records, near, best)
+    starts_public, agree = starts_report(records, near, best)
     judged_residual, warnings = residual_against_noise(_rms(residual), o.noise_m)
-    warnings += _fit_warnings(records[best], judged, fits)
+    warnings += fit_warnings(records[best], judged, fits)
     if kept:
         warnings.insert(0, kept_note)
     return {
         "_x": x,
         "physics": o.physics,
-        "fitted": _fitted(spec, fits, x, sigma, bounds, judged),
+        "fitted": fitted_values(spec, fits, x, sigma, bounds, judged),
         "correlation": [[None if not np.isfinite(c) else round(float(c), 6) for c in row]
                         for row in corr],
         "residual_m": {"rms": _rms(residual), "max_abs": float(np.abs(residual).max()),
@@ -567,18 +520,6 @@ def _judge(model: FitModel, x: NDArray[np.float64], residual: NDArray[np.float64
     return sigma, corr, judged, near, profile
 
 
-def _fit_warnings(best: Mapping[str, Any], judged: Sequence[Mapping[str, Any]],
-                  fits: Sequence[Variation]) -> list[str]:
-    """Warnings on the best start (stopped by the budget) and on values not identifiable."""
-    out = []
-    if not best["converged"]:
-        out.append(f"the best start did not converge ({best['message']}); raise --max-evaluations")
-    for fit, entry in zip(fits, judged, strict=True):
-        if not entry["identifiable"]:
-            out.append(f"{fit.name} is not identifiable from this trajectory: {entry['reason']}")
-    return out
-
-
 def _optimizer_report(records: Sequence[dict[str, Any]], best: int, agree: bool | None, diff_step: float,
                       wall_s: float, starts_public: list[dict[str, Any]]) -> dict[str, Any]:
     """The optimizer's part of ``identify.json``: the method, the best start's status, whether
@@ -594,28 +535,6 @@ def _optimizer_report(records: Sequence[dict[str, Any]], best: int, agree: bool 
             "simulations": used, "diverged_simulations": sum(r["diverged"] for r in records),
             "wall_s": wall_s, "starts": starts_public,
             "stages": records[best]["stages"], "polish": records[best]["polish"]}
-
-
-#: A confirmation residual this many times the fit's (or this many times smaller) says the two
-#: physics tell the motion apart: values fitted in the training physics are then biased.
-CONFIRM_RATIO = 2.0
-
-
-def _physics_warning(fit_rms: float, confirm: dict[str, Any], physics: str) -> str | None:
-    """The warning of a fit in the training physics whose accurate-physics confirmation leaves a
-    residual :data:`CONFIRM_RATIO` times larger (the training physics' mass scaling matters for the
-    motion) or smaller (the motion is the accurate physics', which the training physics cannot
-    match); ``None`` otherwise, and for a fit in the accurate physics."""
-    if physics != "training" or fit_rms <= 0.0:
-        return None
-    ratio = confirm["rms_m"] / fit_rms
-    if 1.0 / CONFIRM_RATIO <= ratio <= CONFIRM_RATIO:
-        return None
-    how = ("fits the motion better" if ratio < 1.0 else "fits the motion worse")
-    return (f"the fitted values leave {1e3 * confirm['rms_m']:.4f} mm RMS in the accurate physics and "
-            f"{1e3 * fit_rms:.4f} mm in the training physics the fit ran in: the accurate physics {how}, "
-            "so the two tell this motion apart and values fitted in the training physics are biased "
-            "(their interval does not hold the model's error); fit again with --physics accurate")
 
 
 def _confirmation(model: FitModel, factors: NDArray[np.float64], physics: str) -> dict[str, Any]:

@@ -308,7 +308,7 @@ def test_a_fit_whose_confirmation_tells_the_physics_apart_is_warned_about():
     the training physics, came out at x0.947 +- 0.010 of the true moment, its interval missing the
     truth, with no warning: the fit left 0.073 mm RMS, the accurate confirmation 0.011 mm. A
     confirmation 2x apart from the fit, either way, now warns that the values are biased."""
-    from elastica_magnetic_rl.sim2real.identify import _physics_warning
+    from elastica_magnetic_rl.sim2real.fit_report import physics_warning as _physics_warning
 
     better = _physics_warning(7.29e-5, {"rms_m": 1.11e-5}, "training")
     assert better is not None and "accurate physics fits the motion better" in better

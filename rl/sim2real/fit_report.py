@@ -1,0 +1,98 @@
+"""The report of a fit of :mod:`.identify`: each fitted value with its standard error, interval and
+verdict (:mod:`.identifiability`), each start's record and whether the starts agree, and the
+warnings on the best start, the values not identifiable and a fit whose confirmation in the other
+physics tells the two apart."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from ..cases.variations import Variation, get_value, scaled
+
+__all__ = ["AGREE_WITHIN", "CONFIRM_RATIO", "fit_warnings", "fitted_values", "physics_warning",
+           "starts_report"]
+
+#: Two starts agree when their factors differ by less than this fraction.
+AGREE_WITHIN = 0.01
+
+
+def fitted_values(spec: Mapping[str, Any], fits: Sequence[Variation], x, sigma, bounds,
+                  judged: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """Per fit: its keys, factor and its standard error, fitted and nominal values (SI) and their
+    standard errors, whether the factor ended on a bound of the fit, its interval (factors) and
+    whether it is identifiable (:func:`~.identifiability.judge_values`)."""
+    out = {}
+    for k, fit in enumerate(fits):
+        factor = float(np.exp(x[k]))
+        sigma_k = float(sigma[k]) if np.isfinite(sigma[k]) else None
+        out[fit.name] = {
+            "keys": list(fit.keys),
+            "factor": factor,
+            "factor_sigma": None if sigma_k is None else factor * sigma_k,
+            "values": {key: scaled(get_value(spec, key), factor) for key in fit.keys},
+            "nominal_values": {key: get_value(spec, key) for key in fit.keys},
+            "sigma": {key: None if sigma_k is None else scaled(get_value(spec, key), factor * sigma_k)
+                      for key in fit.keys},
+            "at_bound": bool(np.isclose(x[k], bounds[0]) or np.isclose(x[k], bounds[1])),
+            **judged[k],
+        }
+    return out
+
+
+def starts_report(records: Sequence[dict[str, Any]], near: Sequence[bool], best: int
+                  ) -> tuple[list[dict[str, Any]], bool | None]:
+    """Each start's public record (factors, RMS, converged, near the best cost) and whether the
+    starts agree (each ended near the best cost, its factors within AGREE_WITHIN of the best;
+    ``None`` with fewer than two finished starts: nothing was compared)."""
+    out, agree, x_best = [], True, records[best]["x"]
+    finished = iter(near)
+    for i, r in enumerate(records):
+        entry = {"start_factors": r["start_factors"], "simulations": r["simulations"],
+                 "converged": r["converged"], "message": r["message"], "stages": r["stages"],
+                 "polish": r.get("polish"), "best": i == best}
+        if r["x"] is not None:
+            close = next(finished)
+            same = bool(np.all(np.abs(np.exp(r["x"] - x_best) - 1) <= AGREE_WITHIN))
+            entry.update(factors=np.exp(r["x"]).tolist(), rms_m=r["rms_m"], near_best=close)
+            agree = agree and close and same
+        out.append(entry)
+    if sum(r["x"] is not None for r in records) < 2:
+        return out, None
+    return out, agree
+
+
+def fit_warnings(best: Mapping[str, Any], judged: Sequence[Mapping[str, Any]],
+                 fits: Sequence[Variation]) -> list[str]:
+    """Warnings on the best start (stopped by the budget) and on values not identifiable."""
+    out = []
+    if not best["converged"]:
+        out.append(f"the best start did not converge ({best['message']}); raise --max-evaluations")
+    for fit, entry in zip(fits, judged, strict=True):
+        if not entry["identifiable"]:
+            out.append(f"{fit.name} is not identifiable from this trajectory: {entry['reason']}")
+    return out
+
+
+#: A confirmation residual this many times the fit's (or this many times smaller) says the two
+#: physics tell the motion apart: values fitted in the training physics are then biased.
+CONFIRM_RATIO = 2.0
+
+
+def physics_warning(fit_rms: float, confirm: dict[str, Any], physics: str) -> str | None:
+    """The warning of a fit in the training physics whose accurate-physics confirmation leaves a
+    residual :data:`CONFIRM_RATIO` times larger (the training physics' mass scaling matters for the
+    motion) or smaller (the motion is the accurate physics', which the training physics cannot
+    match); ``None`` otherwise, and for a fit in the accurate physics."""
+    if physics != "training" or fit_rms <= 0.0:
+        return None
+    ratio = confirm["rms_m"] / fit_rms
+    if 1.0 / CONFIRM_RATIO <= ratio <= CONFIRM_RATIO:
+        return None
+    how = ("fits the motion better" if ratio < 1.0 else "fits the motion worse")
+    return (f"the fitted values leave {1e3 * confirm['rms_m']:.4f} mm RMS in the accurate physics and "
+            f"{1e3 * fit_rms:.4f} mm in the training physics the fit ran in: the accurate physics {how}, "
+            "so the two tell this motion apart and values fitted in the training physics are biased "
+            "(their interval does not hold the model's error); fit again with --physics accurate")
