@@ -35,6 +35,7 @@ second = [0.0, 1.0, 0.0]
 static_mu = 0.8
 [robot.damping]
 [robot.interaction]
+cutoff = 0.01  # four elements: four radii is shorter than one of these
 [physics.training]
 dt = 1e-4
 [physics.accurate]
