@@ -15,7 +15,9 @@ from pathlib import Path
 CURRENT_COLUMN = re.compile(r"^current_(\d+)_A$")
 #: A coil's current column in any unit (``current_0_mA``): a current column in another unit than A
 #: is named for what it is (:func:`current_unit_problem`), never read as another format.
-CURRENT_ANY_UNIT = re.compile(r"^current_(\d+)_([A-Za-z]+)$")
+CURRENT_ANY_UNIT = re.compile(r"^current_(\d+)_([A-Za-z]+)$", re.IGNORECASE)
+#: Spellings of the ampere (lower case): such a column needs its name mended, not its values.
+_AMPERE = ("a", "amp", "amps", "ampere", "amperes")
 #: What turns a current in these units into A.
 _TO_AMPERES = {"mA": "divide by 1000", "uA": "divide by 1e6", "kA": "multiply by 1000"}
 #: The column that marks a magnet arm's path (its first position column, m).
@@ -24,6 +26,19 @@ MAGNET_COLUMN = "magnet_x_m"
 INSERTION_COLUMN = "insertion_m"
 #: A drive's rows must lie on the 0.01 s control grid within this (s).
 GRID_TOLERANCE_S = 1e-6
+
+
+def grid_remedy(times: Sequence[float], period: float, resample: str) -> str:
+    """What mends rows off the control grid (one row per ``period`` s from t_s = 0): a file whose
+    rows are ``period`` apart but start later (a logger stamping each period's end) is shifted;
+    anything else is resampled (``resample``: the advice, e.g. "resample the currents to 100 rows
+    per second")."""
+    t = [float(x) for x in times]
+    shifted = all(abs(t[k] - t[0] - k * period) <= GRID_TOLERANCE_S for k in range(len(t)))
+    if t and shifted and abs(t[0]) > GRID_TOLERANCE_S:
+        return (f"the rows are {period:g} s apart but start at t_s = {t[0]:g} s: shift t_s by {-t[0]:g} s "
+                "so that the first row is at 0")
+    return resample
 
 
 def header_names(path: str | Path) -> list[str]:
@@ -59,13 +74,19 @@ def is_coil_currents(path: str | Path) -> bool:
 def current_unit_problem(names: Sequence[str]) -> str | None:
     """What is wrong with current columns in another unit than A among ``names``
     (``current_0_mA``), as a person reads it, or ``None``."""
-    wrong = [n for n in names if (m := CURRENT_ANY_UNIT.match(n)) and m.group(2) != "A"]
+    wrong = [n for n in names if CURRENT_ANY_UNIT.match(n) and not CURRENT_COLUMN.match(n)]
     if not wrong:
         return None
-    unit = CURRENT_ANY_UNIT.match(wrong[0]).group(2)  # type: ignore[union-attr]
+    shown = ", ".join(wrong) if len(wrong) <= 3 else f"{wrong[0]}, ..., {wrong[-1]}"
+    units = {CURRENT_ANY_UNIT.match(n).group(2) for n in wrong}  # type: ignore[union-attr]
+    if all(unit.lower() in _AMPERE for unit in units):  # amperes already: only the names differ
+        return (f"column(s) {shown}: a coil's current column is named current_<K>_A exactly (lower-case "
+                "current, capital A); the values are amperes already: rename the columns current_0_A, "
+                "current_1_A, ...")
+    unit = next(u for u in sorted(units) if u.lower() not in _AMPERE)
     convert = _TO_AMPERES.get(unit, f"convert {unit} to A")
-    return (f"column(s) {', '.join(wrong)}: a coil's current is in A, its column current_<K>_A; the "
-            f"currents in {unit}? {convert} and name the columns current_0_A, current_1_A, ...")
+    return (f"column(s) {shown}: a coil's current is in A, its column current_<K>_A; the currents in "
+            f"{unit}? {convert} and name the columns current_0_A, current_1_A, ...")
 
 
 def is_magnet_path(path: str | Path) -> bool:

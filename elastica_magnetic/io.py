@@ -263,12 +263,13 @@ def atomic_write_json(path: str | Path, data: Any) -> Path:
     return atomic_write_text(path, text + "\n")
 
 
-def prepare_output_dir(path: str | Path, option: str = "--out") -> Path:
+def prepare_output_dir(path: str | Path, option: str = "--out", given: str | Path | None = None) -> Path:
     """Create the output folder ``path`` (and its parents) and check that files can be created in
-    it. Raises :class:`OutputPathError` naming ``option`` when it is a file, lies under a file, or
-    cannot be created or written."""
+    it. Raises :class:`OutputPathError` naming ``option`` (with ``given``, the path the user gave,
+    where ``path`` is a folder made inside it) when it is a file, lies under a file, or cannot be
+    created or written."""
     path = Path(path)
-    _writable_folder(path, f"{option} {path}")
+    _writable_folder(path, f"{option} {display_path(given if given is not None else path)}")
     return path
 
 
@@ -277,18 +278,22 @@ def prepare_output_file(path: str | Path, option: str = "--out") -> Path:
     replaced only when the write succeeds (see :func:`atomic_write`)."""
     path = Path(path)
     if path.is_dir():
-        raise OutputPathError(f"{option} {path}: is a folder, expected a file name")
-    _writable_folder(path.parent, f"{option} {path}")
+        raise OutputPathError(f"{option} {display_path(path)}: is a folder, expected a file name")
+    _writable_folder(path.parent, f"{option} {display_path(path)}")
     return path
 
 
 def _writable_folder(folder: Path, what: str) -> None:
     for parent in (folder, *folder.parents):
         if parent.exists() and not parent.is_dir():
-            raise OutputPathError(f"{what}: {parent} is a file, not a folder")
+            raise OutputPathError(f"{what}: {display_path(parent)} is a file, not a folder")
+    # the folder that refuses: the nearest existing one when the folder cannot be made
+    existing = next((p for p in (folder, *folder.parents) if p.exists()), folder)
     try:
         folder.mkdir(parents=True, exist_ok=True)
+        existing = folder
         with tempfile.TemporaryFile(dir=folder):
             pass
     except OSError as exc:
-        raise OutputPathError(f"{what}: cannot write in {folder}: {exc.strerror or exc}") from None
+        raise OutputPathError(f"{what}: cannot write in {display_path(existing)}: "
+                              f"{exc.strerror or exc}") from None

@@ -30,6 +30,7 @@ from elastica_magnetic.drive_columns import (
     GRID_TOLERANCE_S,
     INSERTION_COLUMN,
     current_unit_problem,
+    grid_remedy,
 )
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
@@ -182,8 +183,8 @@ def _check_grid(path: Path, times: NDArray[np.float64], lines: tuple[int, ...]) 
         k = int(np.flatnonzero(off)[0])
         raise CoilCurrentsError(
             f"{path}: line {lines[k]}, column {TIME_COLUMN}: {times[k]:g} s, expected {grid[k]:g} s: "
-            f"the board plays one row per {ROW_PERIOD_S:g} s from {TIME_COLUMN} = 0 (resample the "
-            "currents to 100 rows per second)")
+            f"the board plays one row per {ROW_PERIOD_S:g} s from {TIME_COLUMN} = 0 ("
+            + grid_remedy(times, ROW_PERIOD_S, "resample the currents to 100 rows per second") + ")")
 
 
 def _check_unit(path: Path, currents: NDArray[np.float64], columns: list[str],

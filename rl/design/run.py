@@ -189,8 +189,9 @@ def load_design(spec: str | Path) -> Design:
                         "and not a spec file (.toml)")
     source = f"{text}.toml" if text in case_names() else str(path)
     case = case_from_dict(read_spec(path), source, default_name=path.stem)
+    shown = f"{text} (a shipped case)" if text in case_names() else source  # no file of that name here
     if case.task.kind != "crawl":
-        raise DesignError(f"{source}: [task] kind = {case.task.kind!r}: msr design judges a design "
+        raise DesignError(f"{shown}: [task] kind = {case.task.kind!r}: msr design judges a design "
                           "by the distance a rotating field moves it ahead in 10 s (a crawl task); "
                           "design the robot of a crawl case (the same [robot] with a uniform field's "
                           "[actuation], kind = \"field\", and [task] kind = \"crawl\") and use the "
@@ -199,7 +200,7 @@ def load_design(spec: str | Path) -> Design:
                                         case.robot_spec("accurate").magnetization)
     refusal = batched_refusal(case.robot_spec("accurate"), "msr design")
     if refusal:
-        raise DesignError(f"{source}: {refusal}")
+        raise DesignError(f"{shown}: {refusal}")
     base = case.to_dict()
     base.pop(DESIGN_TABLE, None)  # the designs are robots, not searches
     return Design(case, _stable_for_sizes(base, space, source), space)

@@ -112,7 +112,31 @@ def _settings(args: argparse.Namespace, skip: tuple[str, ...] = ()):
             print(f"note: --steps {args.steps} replaces --quick's {base.steps} training steps per seed: "
                   "the training is no smoke run of a minute (the other steps stay --quick's)",
                   file=sys.stderr)
-    return dataclasses.replace(base, **changes)
+    settings = dataclasses.replace(base, **changes)
+    if spec is not None and "train" not in skip and args.steps is not None:
+        _check_steps_learn(settings, spec)
+    return settings
+
+
+def _check_steps_learn(settings, spec) -> None:
+    """``--steps`` no longer than the training's warm-up (or its first minibatch) would train no
+    weight: refused now, in the loop's words, not by the training after the yardstick's sweep."""
+    from ..cases.recipes import crawler_config
+
+    td3 = dict(spec.training.td3)
+    try:
+        config = crawler_config(0, settings.recipe, **{**td3, **dict(settings.train_overrides)})
+    except (TypeError, ValueError):  # the spec's own fault: the check step names it
+        return
+    first = max(config.learning_starts, config.batch_size - 1)
+    if settings.steps > first:
+        return
+    whose = ("--quick's" if "learning_starts" in settings.train_overrides else
+             "the spec's [training.td3]" if "learning_starts" in td3 else f"the {settings.recipe} recipe's")
+    raise CommandError(f"--steps {settings.steps}: within the training's warm-up ({whose} "
+                       f"learning_starts {config.learning_starts}, batch_size {config.batch_size}): no "
+                       "weight would be updated and the seeds would end untrained; give --steps above "
+                       f"{first}")
 
 
 def _recorded_steps(out, base, quick: bool) -> int | None:

@@ -174,9 +174,14 @@ def ship(run: str | Path, name: str, options: ShipOptions | None = None, /,
         raise ValueError(f"{run}: ship takes a run directory or checkpoint, not a shipped policy")
     target = (Path(dest) if dest is not None else POLICIES_DIR) / name
     present = [f for f in SHIPPED_FILES if (target / f).exists()]
+    given = f"--out {display_path(dest)}, " if dest is not None else ""
+    where = f"{display_path(target)} ({given}--name {name})"
+    theirs = [f for f in present if not (f in recorded_files(target) or _holds_a_policy(target))]
+    if theirs:  # named before "pass --force", which would refuse them too
+        raise ResultExistsError(f"{where}: holds {', '.join(theirs)}, which msr did not write (no "
+                                "policy.json beside them, no record of msr's): a policy's files would "
+                                "replace the user's; move them away, or choose another --out or --name")
     if present and not overwrite:
-        given = f"--out {display_path(dest)}, " if dest is not None else ""
-        where = f"{display_path(target)} ({given}--name {name})"
         raise FileExistsError(f"{where}: already holds a policy ({', '.join(present)}); pass --force to "
                               "replace it")
     if present:

@@ -403,8 +403,9 @@ def print_identified(report: dict) -> None:
     to the noise, and the starts."""
     for fit in report["fitted"].values():
         interval = fit["interval"]
-        span = (f"factor in [{interval[0]:.4f}, {interval[1]:.4f}]" if interval is not None
-                else "factor unbounded") + f" (from the {fit['interval_from']})"
+        span = (f"factor in [{interval[0]:.4f}, {interval[1]:.4f}] (from the {fit['interval_from']})"
+                if interval is not None else "no interval (not judged)" if fit["identifiable"] is None
+                else f"factor unbounded (from the {fit['interval_from']})")
         for key, value in fit["values"].items():
             sigma = fit["sigma"][key]
             # a table (a per-element magnetization) is shown by its largest vector
@@ -413,7 +414,9 @@ def print_identified(report: dict) -> None:
                   f"(nominal {magnitude_of(fit['nominal_values'][key]):.6g}, "
                   f"x{fit['factor']:.4f}), {span}"
                   + ("  AT THE BOUND of the fit" if fit["at_bound"] else ""))
-        if not fit["identifiable"]:
+        if fit["identifiable"] is None:
+            print(f"  NOT JUDGED: {fit['reason'].removeprefix('not judged: ')}")
+        elif not fit["identifiable"]:
             print(f"  NOT IDENTIFIABLE: {fit['reason']}")
     r = report["residual_m"]
     ratio = report["residual_vs_noise"]

@@ -71,7 +71,9 @@ def fit_warnings(best: Mapping[str, Any], judged: Sequence[Mapping[str, Any]],
     if not best["converged"]:
         out.append(f"the best start did not converge ({best['message']}); raise --max-evaluations")
     for fit, entry in zip(fits, judged, strict=True):
-        if not entry["identifiable"]:
+        if entry["identifiable"] is None:
+            out.append(f"{fit.name}: identifiability {entry['reason']}")
+        elif not entry["identifiable"]:
             out.append(f"{fit.name} is not identifiable from this trajectory: {entry['reason']}")
     return out
 

@@ -81,8 +81,9 @@ def profile_halfwidths(residual_of: Callable[[NDArray[np.float64]], NDArray[np.f
     the cost at least ``NEAR_BEST_CHI2 s2`` (m^2) above the best? If not, the half-width grows by
     ``PROFILE_GROWTH`` until it is, or until it passes the identifiable width. Returns the
     confirmed half-widths (log factor; ``inf`` where the cost stays flat past the identifiable
-    width, or ``start_half`` already passes it: no interval is stated) and one record per
-    profile point. ``residual_of(x)``: the residuals (m) at log factors ``x``."""
+    width, or ``start_half`` already passes it: no interval is stated, and the cost is looked at
+    once each way at that width, for :func:`lower_cost_found`) and one record per profile point.
+    ``residual_of(x)``: the residuals (m) at log factors ``x``."""
     best = residual_of(x_best)
     cost_best, threshold = float(best @ best), NEAR_BEST_CHI2 * s2
     widest = np.log1p(IDENTIFIABLE_WITHIN)
@@ -90,6 +91,9 @@ def profile_halfwidths(residual_of: Callable[[NDArray[np.float64]], NDArray[np.f
     for k in range(len(x_best)):
         if not halves[k] <= widest:  # not identifiable already; a linearised interval this wide
             halves[k] = np.inf     # is not to be trusted (the cost is far from quadratic)
+            for side in (-1.0, 1.0):  # one look each way: a lower cost there is a fit stopped short
+                rise = _profile_point(residual_of, x_best, k, side * widest, corr, sigma, bounds) - cost_best
+                records.append({"value": k, "log_step": side * widest, "cost_rise_over_s2": rise / s2})
             continue
         for side in (-1.0, 1.0):
             half = max(halves[k], PROFILE_MIN_STEP)
@@ -101,6 +105,21 @@ def profile_halfwidths(residual_of: Callable[[NDArray[np.float64]], NDArray[np.f
                 half *= PROFILE_GROWTH
             halves[k] = np.inf if half > widest and rise < threshold else max(halves[k], half)
     return halves, records
+
+
+def lower_cost_found(profile: Sequence[dict[str, Any]], n_values: int
+                     ) -> list[dict[str, Any] | None]:
+    """Per fitted value, the profile point whose cost lies below the fit's best by more than the
+    noise allows (``NEAR_BEST_CHI2`` residual variances; the lowest such point), or ``None``: where
+    one exists the fit stopped short of its minimum, and a flat or wide cost cannot be told from
+    it."""
+    found: list[dict[str, Any] | None] = [None] * n_values
+    for point in profile:
+        k = point["value"]
+        if point["cost_rise_over_s2"] < -NEAR_BEST_CHI2 and (
+                found[k] is None or point["cost_rise_over_s2"] < found[k]["cost_rise_over_s2"]):
+            found[k] = point
+    return found
 
 
 def _profile_point(residual_of: Callable[[NDArray[np.float64]], NDArray[np.float64]],
@@ -158,10 +177,13 @@ def first_halfwidths(sigma: NDArray[np.float64], x_best: NDArray[np.float64],
 
 def judge_values(names: Sequence[str], x_best: NDArray[np.float64], halves: NDArray[np.float64],
                  sources: Sequence[str], corr: NDArray[np.float64], jac: NDArray[np.float64],
-                 s2: float) -> list[dict[str, Any]]:
+                 s2: float, profile: Sequence[dict[str, Any]] | None = None) -> list[dict[str, Any]]:
     """Per fitted value: the interval of its factor (``halves``: half-widths, log factor), where
-    it comes from (``sources``), and whether it is identifiable (else the reason)."""
+    it comes from (``sources``), and whether it is identifiable (else the reason); ``None``, not
+    judged and no interval, where a point of the ``profile`` lies lower than the fit's best
+    (:func:`lower_cost_found`)."""
     out = []
+    lower = lower_cost_found(profile, len(names)) if profile is not None else [None] * len(names)
     for k in range(len(names)):
         half = float(halves[k])
         identifiable = bool(np.isfinite(half) and np.expm1(half) <= IDENTIFIABLE_WITHIN)
@@ -171,7 +193,13 @@ def judge_values(names: Sequence[str], x_best: NDArray[np.float64], halves: NDAr
             "interval_from": sources[k],
             "identifiable": identifiable,
         }
-        if not identifiable:
+        if (point := lower[k]) is not None:  # the fit is not at its minimum: nothing to judge
+            factor = float(np.exp(x_best[k] + point["log_step"]))
+            entry.update(identifiable=None, interval=None, reason=(
+                f"not judged: the fit stopped short of its minimum (the profile found a cost "
+                f"{-point['cost_rise_over_s2']:.3g} residual variances lower at factor x{factor:.4g}, "
+                "the others re-fitted); raise --max-evaluations or give more --starts"))
+        elif not identifiable:
             entry["reason"] = _reason(k, names, corr, jac, s2, sources[k])
         out.append(entry)
     return out

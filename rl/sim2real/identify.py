@@ -516,7 +516,7 @@ def _judge(model: FitModel, x: NDArray[np.float64], residual: NDArray[np.float64
                                            corr, sigma, bounds)
     widened = (profiled > halves) & (halves <= np.log1p(IDENTIFIABLE_WITHIN))  # by the profile
     sources = ["profile" if widened[k] else src for k, src in enumerate(sources)]
-    judged = judge_values([f.name for f in fits], x, profiled, sources, corr, jac, s2)
+    judged = judge_values([f.name for f in fits], x, profiled, sources, corr, jac, s2, profile)
     return sigma, corr, judged, near, profile
 
 

@@ -20,6 +20,7 @@ from elastica_magnetic.drive_columns import (
     GRID_TOLERANCE_S,
     INSERTION_COLUMN,
     MAGNET_COLUMN,
+    grid_remedy,
     header_names,
 )
 from elastica_magnetic.field_csv import FIELD_COLUMNS, header_named_twice
@@ -88,9 +89,9 @@ def control_grid(path: Path, times: NDArray[np.float64], what: str, log: str) ->
     off = np.abs(times - grid) > GRID_TOLERANCE_S
     if off.any():
         k = int(np.flatnonzero(off)[0])
+        remedy = grid_remedy(times, ACTION_PERIOD, f"resample {log} to the control rate")
         raise TrajectoryError(f"{path}: line {k + 2}: t_s {times[k]:g} s, expected {grid[k]:g} s: a {what} "
-                              f"has one row per {ACTION_PERIOD:g} s control step from 0 (resample {log} "
-                              "to the control rate)")
+                              f"has one row per {ACTION_PERIOD:g} s control step from 0 ({remedy})")
     return grid
 
 

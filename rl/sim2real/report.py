@@ -260,7 +260,8 @@ def plot_identify(report: dict[str, Any], measured: Any, path: str | Path) -> Pa
     axes[0].legend(fontsize=7, ncol=min(len(measured.points), 6), loc="best")
     fitted = ", ".join(f"{name} x{f['factor']:.3f} "
                        + (f"[{f['interval'][0]:.3f}, {f['interval'][1]:.3f}]"
-                          if f.get("interval") is not None else "(not identifiable)")
+                          if f.get("interval") is not None else
+                          "(not judged)" if f.get("identifiable", False) is None else "(not identifiable)")
                        for name, f in report["fitted"].items())
     r = report["residual_m"]
     fig.suptitle(f"{report['physics']} physics: {fitted}\nresidual RMS {1e3 * r['rms']:.3f} mm (nominal "

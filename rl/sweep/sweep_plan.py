@@ -86,6 +86,9 @@ def plan_sweep(loaded: dict[str, Case], s: SweepSettings, r: Resolved
                                                    s.address)
     overrides = dict(s.config_overrides or {})
     _check_dagger_cases(loaded, overrides)  # before the configurations' own checks advise a warm-up
+    if s.resume:  # a resumed run keeps its hyperparameters: said first, not advice to add another
+        check_resumed_checkpoints([(c, run) for c in loaded for k in seed_list
+                                   if (run := CaseDir.of(s.out, c).seed(k)).checkpoint.is_file()], overrides)
     configs = _seed_configs(loaded, seed_list, r.recipe, overrides)
     _check_devices(loaded, overrides)
     _warn_precision(configs[seed_list[0]])
@@ -419,5 +422,5 @@ def _check_run_folders(out: str | Path, loaded: dict[str, Case], seed_list: list
     for case_dir in {run.path.parent for _, _, run in runs}:  # locked for the summary, at the end
         check_lock_name(case_dir)
     for _, _, run in runs:  # every seed's folder can be written, before any work
-        prepare_output_dir(run.path, "--out")
+        prepare_output_dir(run.path, "--out", given=out)
     check_unlocked(run.path for _, _, run in runs)  # no other process trains one of them now

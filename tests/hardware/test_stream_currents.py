@@ -359,3 +359,30 @@ def test_current_columns_in_milliamperes_are_named_for_their_unit(tmp_path):
         read_coil_currents(path)
     with pytest.raises(FieldCSVError, match=r"holds the currents of 2 coils \(current_0_mA"):
         read_field_csv(path)
+
+
+@pytest.mark.parametrize("column", ["Current_0_A", "current_0_a", "current_0_amps", "CURRENT_0_AMPERE"])
+def test_current_columns_spelled_otherwise_in_amperes_are_told_to_rename_only(tmp_path, column):
+    """Round 31, V2, V3: ``Current_0_A`` was read as a field CSV ("lacks mag_x ..."), and
+    ``current_0_a`` or ``current_0_amps`` told to "convert a to A": the values are amperes, only
+    the name differs. Now the column is named with the exact spelling, the values left as they are."""
+    path = tmp_path / "amps.csv"
+    path.write_text(f"t_s,{column}\n0,0\n0.01,0.1\n")
+    with pytest.raises(CoilCurrentsError, match=rf"{column}: a coil's current column is named current_<K>_A "
+                                                r"exactly .* the values are amperes already") as refused:
+        read_coil_currents(path)
+    assert "convert" not in str(refused.value)
+
+
+def test_currents_stamped_at_each_period_s_end_are_told_to_shift_not_resample(tmp_path):
+    """Round 31, V4: a file at 100 rows per second whose t_s ran 0.01, 0.02, ... was told to "resample
+    the currents to 100 rows per second", which it already was; now told to shift t_s by -0.01 s."""
+    path = tmp_path / "late.csv"
+    path.write_text("t_s,current_0_A\n0.01,0.1\n0.02,0.2\n0.03,0.3\n")
+    with pytest.raises(CoilCurrentsError, match=r"the rows are 0.01 s apart but start at t_s = 0.01 s: "
+                                                r"shift t_s by -0.01 s") as refused:
+        read_coil_currents(path)
+    assert "resample" not in str(refused.value)
+    path.write_text("t_s,current_0_A\n0,0.1\n0.02,0.2\n0.04,0.3\n")
+    with pytest.raises(CoilCurrentsError, match="resample the currents to 100 rows per second"):
+        read_coil_currents(path)

@@ -1,0 +1,94 @@
+"""Round 31 of held-out tries (issue 48), the findings of the commands: each test fails without its
+fix (docs/errors.md, "A thirty-first round of tries"). S1 (identify) is tested in
+tests/rl/sim2real/test_identify_honest.py, V2 and V3 (current columns) in
+tests/hardware/test_stream_currents.py."""
+
+from __future__ import annotations
+
+import shutil
+
+import pytest
+
+from elastica_magnetic.cli import main as msr
+
+
+def _tree(folder):
+    return sorted((p.relative_to(folder).as_posix(), p.stat().st_size if p.is_file() else -1,
+                   p.stat().st_mtime_ns) for p in folder.rglob("*"))
+
+
+def test_ship_names_a_user_s_own_file_where_the_policy_would_go(tmp_path, trained, capsys, monkeypatch):
+    """V1: ``msr policy ship --out . --name mine`` where ``mine/`` held only the user's MODEL_CARD.md
+    said it "already holds a policy (MODEL_CARD.md); pass --force", and with --force refused the file
+    as not msr's. Now the first refusal names the user's file and what to do, and the file stays."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "MODEL_CARD.md").write_text("my own file\n")
+    run = str(trained / "m1-4mT" / "seed0")
+    for force in ((), ("--force",)):
+        assert msr(["policy", "ship", run, "--no-measure", "--out", ".", "--name", "mine", "--no-progress",
+                    *force]) == 2
+        err = capsys.readouterr().err
+        assert "holds MODEL_CARD.md, which msr did not write" in err and "pass --force" not in err, err
+    assert (tmp_path / "mine" / "MODEL_CARD.md").read_text() == "my own file\n"
+    assert sorted(p.name for p in (tmp_path / "mine").iterdir()) == ["MODEL_CARD.md"]
+
+
+def test_a_resume_with_a_new_regularization_is_refused_for_the_resume_first(tmp_path, trained, capsys):
+    """V5: ``msr train --resume --set yardstick_regularization=1`` advised "set yardstick_warmup too",
+    and following it was refused: a resumed run keeps its hyperparameters. That refusal comes first."""
+    out = tmp_path / "runs"
+    shutil.copytree(trained, out)
+    before = _tree(out)
+    assert msr(["train", "--case", "m1-4mT", "--seeds", "1", "--steps", "400", "--resume",
+                "--set", "yardstick_regularization=1", "--out", str(out), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "cannot resume" in err and "yardstick_regularization: the run's 0.0, given 1" in err, err
+    assert "set yardstick_warmup too" not in err
+    assert _tree(out) == before
+
+
+def test_train_into_a_folder_it_cannot_write_names_the_out_given_and_the_folder(tmp_path, capsys,
+                                                                               monkeypatch):
+    """V6: ``msr train --out rodir/runs`` under a folder that cannot be written named "--out
+    /abs/rodir/runs/m1-4mT/seed0: cannot write in /abs/rodir/runs/m1-4mT/seed0" (a folder that does
+    not exist, and not the path given). Now the --out given, and the folder that refuses."""
+    import elastica_magnetic.io as io_module
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "rodir").mkdir()
+    real_mkdir = io_module.Path.mkdir
+
+    def refusing(self, *args, **kwargs):  # root writes anywhere: the refusal of a read-only folder
+        if "rodir" in str(self):
+            raise PermissionError(13, "Permission denied")
+        return real_mkdir(self, *args, **kwargs)
+
+    monkeypatch.setattr(io_module.Path, "mkdir", refusing)
+    assert msr(["train", "--case", "m1-4mT", "--seeds", "1", "--steps", "100", "--set", "learning_starts=60",
+                "--set", "batch_size=32", "--out", "rodir/runs", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "--out rodir/runs: cannot write in rodir: Permission denied" in err, err
+
+
+def test_a_loop_too_short_to_learn_is_refused_before_the_sweep(tmp_path, capsys):
+    """V7: ``msr loop m1-4mT --quick --steps 5`` ran the check and the yardstick sweep, then failed
+    advising ``--set learning_starts``, an option msr loop does not have. Now refused at the start,
+    in the loop's words, nothing written."""
+    out = tmp_path / "lp"
+    assert msr(["loop", "m1-4mT", "--quick", "--steps", "5", "--out", str(out), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "--steps 5: within the training's warm-up (--quick's learning_starts 60" in err, err
+    assert "--set" not in err and "give --steps above 60" in err
+    assert not out.exists()
+
+
+def test_design_names_a_shipped_case_as_given(capsys):
+    """V8: ``msr design catheter-magnet-reach`` was refused naming "catheter-magnet-reach.toml", a file
+    that is nowhere the user can see; the shipped case is named as given."""
+    with pytest.raises(SystemExit) as ended:  # argparse's refusal of SPEC
+        msr(["design", "catheter-magnet-reach", "--quick", "--out", "ds"])
+    assert ended.value.code == 2
+    err = capsys.readouterr().err
+    assert "catheter-magnet-reach (a shipped case): [task] kind = 'tip-reach'" in err, err
+    assert "catheter-magnet-reach.toml" not in err
