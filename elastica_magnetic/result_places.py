@@ -189,17 +189,18 @@ def training_run_in(folder: Path, within: Path | None = None) -> Path | None:
     return None
 
 
-def check_not_another_result(folder: str | Path, option: str) -> None:
+def check_not_another_result(folder: str | Path, option: str, *, held_ok: bool = False) -> None:
     """A folder files are put into (figures, a set of files: not a result of their own) is not
-    another command's result, a folder a result holds whole (a shipped policy) or a training's
-    case folder, and does not lie in a result: there they would be files that result does not
-    know, removed or refused when it is replaced."""
+    another command's result, a folder a result holds whole (a shipped policy; ``held_ok``: the
+    writer is that result's, ``msr policy ship`` replacing a policy) or a training's case folder,
+    and does not lie in a result: there they would be files that result does not know, removed or
+    refused when it is replaced."""
     final = normalized_path(folder)
     if (marker := recognized_marker(final)) is not None:
         raise ResultExistsError(f"{option} {display_path(final)}: holds {describe_result(marker)}: files put "
                                 "there are no part of it (replacing that result would remove them); choose "
                                 f"another {option}")
-    if (held := manifest_holder(final)) is not None:
+    if not held_ok and (held := manifest_holder(final)) is not None:
         raise ResultExistsError(f"{option} {display_path(final)}: holds {held}, whose files are its own: "
                                 f"nothing else goes in that folder; choose another {option}")
     if (run := training_run_in(final)) is not None:

@@ -32,8 +32,8 @@ from elastica_magnetic.io import (
 )
 from elastica_magnetic.locks import FolderLock
 from elastica_magnetic.plausibility import SettingNotAppliedWarning
-from elastica_magnetic.result_markers import describe_result, manifest_results_in, recognized_marker
-from elastica_magnetic.result_places import ResultExistsError, check_enclosing, training_run_in
+from elastica_magnetic.result_markers import manifest_results_in
+from elastica_magnetic.result_places import ResultExistsError, check_enclosing, check_not_another_result
 
 from ..cases.case import Case
 from ..cases.tasks import GotoTask, ReachTask
@@ -88,22 +88,9 @@ def check_ship_target(name: str, dest: str | Path | None) -> None:
         check_not_in_a_policy(dest, (Path(dest), *Path(dest).parents))
         # nothing goes inside another command's result (a training's seed folder, a simulation)
         check_enclosing(normalized_path(Path(dest) / name), "--out")
-    _check_not_another_result((Path(dest) if dest is not None else POLICIES_DIR) / name, name)
-
-
-def _check_not_another_result(target: Path, name: str) -> None:
-    """The policy's folder ``target`` (``--out``/``--name``) is not another command's result nor a
-    training's case folder: the policy's files would be put among that result's (and removed with
-    it, or make it refuse to be replaced), ``ResultExistsError`` naming it."""
-    final = normalized_path(target)
-    if (marker := recognized_marker(final)) is not None:
-        raise ResultExistsError(f"--out/--name {display_path(final)}: holds {describe_result(marker)}: a "
-                                "policy's files are not put among another result's; choose another --out "
-                                f"or --name (not {name})")
-    if (run := training_run_in(final)) is not None:
-        raise ResultExistsError(f"--out/--name {display_path(final)}: holds the runs of a training "
-                                f"({run.name}, `msr train`): that folder holds its runs alone; choose "
-                                f"another --out or --name (not {name})")
+    # nor onto another command's result or a training's case folder (a policy there replaced)
+    check_not_another_result((Path(dest) if dest is not None else POLICIES_DIR) / name, "--out/--name",
+                             held_ok=True)
 
 
 def check_not_in_a_policy(dest: str | Path, folders: Sequence[Path]) -> None:

@@ -50,7 +50,7 @@ def test_ship_does_not_put_a_policy_among_another_result_or_a_training(tmp_path,
         assert msr(["policy", "ship", str(run), "--out", str(dest), "--name", name, "--no-measure",
                     "--force", "--no-progress"]) == 2
         err = capsys.readouterr().err
-        assert said in err and "choose another --out or --name" in err, err
+        assert said in err and "choose another --out/--name" in err, err
     assert _tree(other) == before_other
     assert _tree(trained) == before_runs
 
