@@ -29,7 +29,8 @@ STEPS = ("check", "yardstick", "train", "generate", "robustness", "refine", "rob
 #: kept. The spec's ``[training]`` is read by the check (its warnings) and the training alone: the
 #: yardstick sweep plays fields, it trains nothing.
 STEP_SETTINGS = {"settings.calibration": ("firmware",), "spec.training": ("check", "train"),
-                 "settings.steps": ("train",)}
+                 "settings.steps": ("train",),
+                 "settings.robustness_physics": ("robustness", "robustness-refined")}
 #: The steps each step needs (their results are its input).
 NEEDS: dict[str, tuple[str, ...]] = {
     "check": (), "yardstick": (), "train": ("yardstick",), "generate": ("train",),

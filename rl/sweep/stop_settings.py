@@ -60,10 +60,12 @@ def case_stop_rule(case: Case, kind: str | None, *, consecutive: int | None = No
     (``eval_every > 0``). Unset options keep :class:`StopRule`'s defaults; ``target`` is
     confirmed in the accurate physics unless ``confirm`` is ``"none"`` (:data:`DEFAULT_CONFIRM`)."""
     if kind is None:
-        for name, value in (("--stop-consecutive", consecutive), ("--stop-patience", patience),
-                            ("--stop-tolerance", tolerance), ("--stop-confirm", confirm)):
-            if value is not None:
-                raise ValueError(f"{name} needs --stop-when target or plateau")
+        for name, value, rule in (("--stop-consecutive", consecutive, "target"),
+                                  ("--stop-patience", patience, "plateau"),
+                                  ("--stop-tolerance", tolerance, "plateau"),
+                                  ("--stop-confirm", confirm, "target")):
+            if value is not None:  # each option belongs to one rule
+                raise ValueError(f"{name} needs --stop-when {rule}")
         return None
     if eval_every is not None and eval_every <= 0:
         raise ValueError(f"--stop-when {kind} decides at the periodic evaluations: it needs "

@@ -92,3 +92,32 @@ def test_design_names_a_shipped_case_as_given(capsys):
     err = capsys.readouterr().err
     assert "catheter-magnet-reach (a shipped case): [task] kind = 'tip-reach'" in err, err
     assert "catheter-magnet-reach.toml" not in err
+
+
+def test_a_loop_s_robustness_physics_is_redone_by_the_steps_that_read_it():
+    """V9: a loop whose ``--physics-robustness`` changed was sent to ``--force`` (the whole loop again,
+    training included), and ``--redo robustness,robustness-refined`` refused. Only the robustness
+    steps read it: they are named, and redoing them is accepted, the rest kept."""
+    from pathlib import Path
+
+    from elastica_magnetic_rl.loop.state import STEPS, LoopError, LoopState, plan_loop
+
+    done = {s: {"status": "done", "summary": {}} for s in STEPS}
+    state = LoopState(Path("out/loop.json"), "c", {}, {"robustness_physics": "training"}, done)
+    with pytest.raises(LoopError, match="which only steps robustness, robustness-refined use: pass --redo "
+                                        "robustness,robustness-refined"):
+        plan_loop(state, {}, {"robustness_physics": "accurate"}, (), (), False)
+    plan = plan_loop(state, {}, {"robustness_physics": "accurate"}, (), ("robustness", "robustness-refined"),
+                     False)
+    assert plan.run == ("robustness", "robustness-refined") and "train" in plan.done
+
+
+def test_a_stop_option_without_a_rule_names_the_rule_it_belongs_to(tmp_path, capsys):
+    """V10: ``--stop-patience`` without ``--stop-when`` was told "needs --stop-when target or plateau",
+    and with target refused as plateau's; each option now names its one rule."""
+    common = ["train", "--case", "m1-4mT", "--seeds", "1", "--steps", "100", "--set", "learning_starts=60",
+              "--set", "eval_every=50", "--out", str(tmp_path / "t")]
+    for option, rule in (("--stop-patience", "plateau"), ("--stop-consecutive", "target")):
+        assert msr([*common, option, "3"]) == 2
+        err = capsys.readouterr().err
+        assert f"{option} needs --stop-when {rule}" in err and "target or plateau" not in err, err
