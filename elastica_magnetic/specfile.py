@@ -402,6 +402,12 @@ def _interaction_table(interaction: SpecTable, length: float, n_elements: int,
         self_contact_stiffness=interaction.number("self_contact_stiffness", "N/m", 0.0, low=0.0),
         self_contact_damping=interaction.number("self_contact_damping", "N s/m", 0.0, low=0.0),
     )
+    if out["self_contact_damping"] > 0.0 and out["self_contact_stiffness"] == 0.0:
+        # the contact is left out without a stiffness: its damping would be dropped without a word
+        raise interaction.error("self_contact_damping", f"{out['self_contact_damping']:g} N s/m with "
+                                "self-contact off (self_contact_stiffness = 0, the default): the damping "
+                                "acts only on a contact; give self_contact_stiffness (N/m) or remove "
+                                "self_contact_damping")
     interaction.finish()
     return out
 

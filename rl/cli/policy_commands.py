@@ -505,8 +505,11 @@ def diagnose_command(args: argparse.Namespace) -> int:
     if args.figure is not None:
         if len(set(names)) < len(names):
             raise CommandError(f"--figure: two runs would draw the same figure ({', '.join(names)})")
+        from elastica_magnetic.result_places import check_not_another_result
+
         from ..shipping.policy_files import check_policy_case, figure_cases
 
+        check_not_another_result(args.figure, "--figure")  # not among another result's files
         for run in args.run:  # a shipped policy's seeds/ takes its own case's figures only
             for case in figure_cases(run if run.is_dir() else run.parent):
                 check_policy_case(args.figure, case, option="--figure", what="these figures are")

@@ -121,3 +121,41 @@ def test_a_stop_option_without_a_rule_names_the_rule_it_belongs_to(tmp_path, cap
         assert msr([*common, option, "3"]) == 2
         err = capsys.readouterr().err
         assert f"{option} needs --stop-when {rule}" in err and "target or plateau" not in err, err
+
+
+def test_diagnose_puts_no_figure_among_another_result_s_files(tmp_path, trained, capsys):
+    """D1: ``msr policy diagnose RUN --figure DIR`` drew its health figure into another command's
+    result (a simulation, which ``--force`` then replaced without it), a seed campaign, the run itself
+    or a training's case folder (whose resume then refused it). Now refused before the run is read,
+    as ``msr policy seeds --figure`` is, nothing written there."""
+    from elastica_magnetic.result_markers import mark_folder
+
+    sim = tmp_path / "sim"
+    sim.mkdir()
+    (sim / "trajectory.csv").write_text("t_s\n0\n")
+    mark_folder(sim, kind="simulate", subject="case m1-4mT")
+    run = trained / "m1-4mT" / "seed0"
+    before_sim, before_runs = _tree(sim), _tree(trained)
+    for figure, said in ((sim, "holds a result of `msr field simulate`"),
+                         (trained / "m1-4mT", "holds the runs of a training"),
+                         (run, "holds a result of `msr train`")):
+        assert msr(["policy", "diagnose", str(run), "--figure", str(figure)]) == 2
+        err = capsys.readouterr().err
+        assert said in err and "choose another --figure" in err, err
+    assert _tree(sim) == before_sim and _tree(trained) == before_runs
+
+
+def test_self_contact_damping_without_a_contact_is_refused_by_name():
+    """S2: ``self_contact_damping`` without ``self_contact_stiffness`` was accepted and dropped (the
+    contact is left out at zero stiffness): a trajectory byte-identical to no damping."""
+    from elastica_magnetic_rl.cases.case import case_from_dict, load_case
+
+    from elastica_magnetic.specfile import SpecError
+
+    spec = load_case("m1-4mT").to_dict()
+    spec["robot"]["interaction"] = {"self_contact_damping": 1000.0}
+    with pytest.raises(SpecError, match=r"self_contact_damping: 1000 N s/m with self-contact off "
+                                        r"\(self_contact_stiffness = 0"):
+        case_from_dict(spec, "scd.toml")
+    spec["robot"]["interaction"] = {"self_contact_damping": 0.004, "self_contact_stiffness": 40.0}
+    case_from_dict(spec, "scd.toml")  # with a contact, it acts
