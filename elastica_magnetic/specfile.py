@@ -251,6 +251,11 @@ def _robot_table(t: SpecTable) -> dict[str, Any]:
     check_plain_name(t, "name", out["name"])
     out["length"] = t.number("length", "m", low=0.0, low_open=True, plausible="rod length")
     out["n_elements"] = t.number("n_elements", "elements", low=2, integer=True)
+    if out["n_elements"] > MAX_ELEMENTS:
+        raise t.error("n_elements", f"{out['n_elements']} elements is more than {MAX_ELEMENTS}: the stable "
+                      "time step falls with the square of an element's length, so a rod that fine takes "
+                      "days per simulated second (the paper's robots have 64); a count written with extra "
+                      "digits?")
     out.update(_section_values(t))
     out.update(_material_values(t))
     out["magnetization"] = _magnetization_table(t.table("magnetization"), out["n_elements"])
@@ -351,6 +356,9 @@ def _damping_table(damping: SpecTable, n_elements: int) -> dict[str, Any]:
     return out
 
 
+#: The most elements a robot may have: beyond, every simulated second takes days (and the rod's
+#: arrays, allocated before any check of the time step, may not fit in memory).
+MAX_ELEMENTS = 10_000
 #: The cutoff advised where four radii is no longer than an element (in elements): measured on the
 #: paper's robot, cutoffs of 2 and 3 elements turned to NaN within 0.01 s and 3.2 ran.
 SAFE_CUTOFF_ELEMENTS = 4.0

@@ -28,7 +28,7 @@ from .variations import (
     resolve_variations,
 )
 
-__all__ = ["Training", "randomize_table", "training_from_table"]
+__all__ = ["MAX_TRAIN_STEPS", "Training", "randomize_table", "training_from_table"]
 
 
 @dataclass(frozen=True)
@@ -44,6 +44,11 @@ class Training:
 
 
 
+#: The most environment steps per seed a training takes (``[training] steps``, ``--steps``; the
+#: recipes' are 2e4 to 2e5): beyond, months of training, a count written with extra digits.
+MAX_TRAIN_STEPS = 100_000_000
+
+
 def training_from_table(t: SpecTable | None, source: str, robot: RobotDescription,
                         dagger_refused: str | None = None) -> Training:
     """``[training]`` of the spec ``source``: the recipe, the steps per seed, ``[training.td3]``
@@ -55,7 +60,8 @@ def training_from_table(t: SpecTable | None, source: str, robot: RobotDescriptio
         return Training()
     d = Training()
     recipe = t.string("recipe", d.recipe, choices=tuple(RECIPES))
-    steps = t.number("steps", "environment steps per seed", d.steps, low=1, integer=True)
+    steps = t.number("steps", "environment steps per seed", d.steps, low=1, high=MAX_TRAIN_STEPS,
+                     integer=True)
     randomize = _randomize(t, robot)
     td3 = t.table("td3", required=False)
     overrides: dict[str, Any] = {}

@@ -122,7 +122,11 @@ def _check_steps_learn(settings, spec) -> None:
     """``--steps`` no longer than the training's warm-up (or its first minibatch) would train no
     weight: refused now, in the loop's words, not by the training after the yardstick's sweep."""
     from ..cases.recipes import crawler_config
+    from ..cases.training_tables import MAX_TRAIN_STEPS
 
+    if settings.steps > MAX_TRAIN_STEPS:
+        raise CommandError(f"--steps {settings.steps}: more than {MAX_TRAIN_STEPS:.0e} steps per seed, "
+                           "months of training; a count written with extra digits?")
     td3 = dict(spec.training.td3)
     try:
         config = crawler_config(0, settings.recipe, **{**td3, **dict(settings.train_overrides)})

@@ -22,6 +22,7 @@ from elastica_magnetic.specfile import SpecError
 
 from ..cases.case import Case, load_case, warmup_refusal
 from ..cases.recipes import crawler_config
+from ..cases.training_tables import MAX_TRAIN_STEPS
 from ..runfiles.locking import check_unlocked
 from ..runfiles.logs import read_log
 from ..runfiles.rundir import CaseDir, RunDir, being_written_hint
@@ -348,6 +349,10 @@ def _check_sweep_options(*, seeds: int, steps: int, envs: int, workers: int | No
                         ("seeds_per_simulator", seeds_per_simulator), ("threads", threads)):
         if value is not None and value < 1:
             raise ValueError(f"{name} must be >= 1, got {value}")
+    if steps > MAX_TRAIN_STEPS:
+        raise ValueError(f"steps {steps} per seed is more than {MAX_TRAIN_STEPS:.0e}: months of training "
+                         "(a run steps at some hundreds to thousands a second); a count written with extra "
+                         "digits?")
     if seed_offset < 0:
         raise ValueError(f"seed_offset must be >= 0, got {seed_offset}")
 

@@ -159,3 +159,28 @@ def test_self_contact_damping_without_a_contact_is_refused_by_name():
         case_from_dict(spec, "scd.toml")
     spec["robot"]["interaction"] = {"self_contact_damping": 0.004, "self_contact_stiffness": 40.0}
     case_from_dict(spec, "scd.toml")  # with a contact, it acts
+
+
+@pytest.mark.parametrize("count", ["1000000000000", "100000000000000000000"])
+def test_a_rod_of_absurdly_many_elements_is_refused_by_name(count):
+    """T1, V11: ``n_elements = 1000000000000`` ended ``msr case check`` in numpy's ArrayMemoryError, and
+    a count beyond 64 bits in "invalid robot_option value"; now refused where the spec is read."""
+    from elastica_magnetic_rl.cases.case import load_case
+
+    from elastica_magnetic.spec_format import loads
+    from elastica_magnetic.specfile import SpecError, describe_robot
+
+    text = load_case("m1-4mT").toml()
+    spec = loads(text.replace("n_elements = 64", f"n_elements = {count}"))
+    assert spec["robot"]["n_elements"] == int(count)
+    with pytest.raises(SpecError, match=rf"n_elements: {count} elements is more than 10000"):
+        describe_robot(spec, "big.toml")
+
+
+def test_a_training_of_absurdly_many_steps_is_refused_before_any_work(tmp_path, capsys):
+    """The round's note: ``msr train --steps 99999999999999999999`` started training (stopped after
+    ten minutes); a count beyond 1e8 steps per seed is refused, from --steps and from the spec."""
+    out = tmp_path / "t"
+    assert msr(["train", "--case", "m1-4mT", "--steps", "99999999999999999999", "--out", str(out)]) == 2
+    assert "more than 1e+08" in capsys.readouterr().err
+    assert not out.exists()
