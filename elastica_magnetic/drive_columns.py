@@ -13,9 +13,10 @@ from pathlib import Path
 
 #: A coil's current column: ``current_<K>_A``, K its index among the spec's coils (from 0), A.
 CURRENT_COLUMN = re.compile(r"^current_(\d+)_A$")
-#: A coil's current column in any unit (``current_0_mA``): a current column in another unit than A
-#: is named for what it is (:func:`current_unit_problem`), never read as another format.
-CURRENT_ANY_UNIT = re.compile(r"^current_(\d+)_([A-Za-z]+)$", re.IGNORECASE)
+#: A coil's current column in any unit or none, spelled in any case (``current_0_mA``, ``current_0``,
+#: ``Current0_A``): a current column spelled otherwise is named for what it is
+#: (:func:`current_unit_problem`), never read as another format.
+CURRENT_ANY_UNIT = re.compile(r"^current_?(\d+)(?:_([A-Za-z]+))?$", re.IGNORECASE)
 #: Spellings of the ampere (lower case): such a column needs its name mended, not its values.
 _AMPERE = ("a", "amp", "amps", "ampere", "amperes")
 #: What turns a current in these units into A.
@@ -38,6 +39,10 @@ def grid_remedy(times: Sequence[float], period: float, resample: str) -> str:
     if t and shifted and abs(t[0]) > GRID_TOLERANCE_S:
         return (f"the rows are {period:g} s apart but start at t_s = {t[0]:g} s: shift t_s by {-t[0]:g} s "
                 "so that the first row is at 0")
+    if len(t) > 1 and all(abs(t[k] - t[0] - k * 1000.0 * period) <= 1000.0 * GRID_TOLERANCE_S
+                          for k in range(len(t))):  # 10 per row: a logger's milliseconds
+        return (f"t_s rises by {1000.0 * period:g} per row, 1000 x the {period:g} s step: the times look "
+                "like milliseconds; give seconds (divide t_s by 1000)")
     return resample
 
 
@@ -78,7 +83,10 @@ def current_unit_problem(names: Sequence[str]) -> str | None:
     if not wrong:
         return None
     shown = ", ".join(wrong) if len(wrong) <= 3 else f"{wrong[0]}, ..., {wrong[-1]}"
-    units = {CURRENT_ANY_UNIT.match(n).group(2) for n in wrong}  # type: ignore[union-attr]
+    units = {CURRENT_ANY_UNIT.match(n).group(2) or "" for n in wrong}  # type: ignore[union-attr]
+    if "" in units:  # no unit written: what the values are in is not known
+        return (f"column(s) {shown}: a coil's current column is named current_<K>_A, its values in A; "
+                "rename the columns current_0_A, current_1_A, ... (with the values in A)")
     if all(unit.lower() in _AMPERE for unit in units):  # amperes already: only the names differ
         return (f"column(s) {shown}: a coil's current column is named current_<K>_A exactly (lower-case "
                 "current, capital A); the values are amperes already: rename the columns current_0_A, "

@@ -39,6 +39,8 @@ __all__ = [
     "check_not_another_result",
     "check_output_path",
     "held_refusal",
+    "inside_result",
+    "result_above",
     "inside_building",
     "swap_target",
     "training_run_in",
@@ -107,12 +109,12 @@ def check_enclosing(final: Path, option: str, subject: str | None = UNSAID) -> N
                                     f"{describe_owner(owner)} is writing: a result goes in a folder of "
                                     f"its own; choose another {option}")
         if (marker := recognized_marker(parent)) is not None:
-            raise OutputPathError(_inside_result(final, parent, marker, option))
+            raise OutputPathError(inside_result(final, parent, marker, option))
         if (refusal := held_refusal(parent, final, option, subject)) is not None:
             # a seed's policy inside a seed campaign: the campaign is the result to name ("beside
             # the seed" is inside the campaign, refused too)
-            if (outer := _result_above(parent)) is not None:
-                raise OutputPathError(_inside_result(final, *outer, option))
+            if (outer := result_above(parent)) is not None:
+                raise OutputPathError(inside_result(final, *outer, option))
             raise OutputPathError(refusal)
         if (run := training_run_in(parent, final)) is not None:
             raise OutputPathError(f"{option} {display_path(final)}: lies in {display_path(parent)}, which "
@@ -121,13 +123,15 @@ def check_enclosing(final: Path, option: str, subject: str | None = UNSAID) -> N
                                   f"there); choose another {option}")
 
 
-def _inside_result(final: Path, parent: Path, marker: dict, option: str) -> str:
+def inside_result(final: Path, parent: Path, marker: dict, option: str) -> str:
+    """The refusal of ``final`` lying in ``parent``, which holds another command's result (its
+    ``marker``)."""
     return (f"{option} {display_path(final)}: lies in {display_path(parent)}, which holds "
             f"{describe_result(marker)}: a result is replaced whole, so nothing goes inside another; "
             f"choose another {option}")
 
 
-def _result_above(folder: Path) -> tuple[Path, dict] | None:
+def result_above(folder: Path) -> tuple[Path, dict] | None:
     """The nearest folder above ``folder`` that holds another command's result, and its marker
     (``None`` where none does, or a folder this process writes comes first)."""
     for parent in folder.parents:

@@ -76,7 +76,19 @@ class LoopSettings:
         data = dataclasses.asdict(self)
         data.pop("workers")
         data["calibration"] = str(self.calibration) if self.calibration else None
+        # its contents too: a calibration measured again into the same file is a new calibration
+        data["calibration_sha256"] = _file_sha256(self.calibration) if self.calibration else None
         data["yardstick_periods"] = list(self.yardstick_periods)
         data["train_overrides"] = {k: list(v) if isinstance(v, tuple) else v
                                    for k, v in self.train_overrides.items()}
         return data
+
+
+def _file_sha256(path: Path) -> str | None:
+    """The SHA-256 of the file ``path`` (hex), ``None`` when it cannot be read."""
+    import hashlib
+
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError:
+        return None

@@ -28,7 +28,8 @@ STEPS = ("check", "yardstick", "train", "generate", "robustness", "refine", "rob
 #: every key under it): changed, those steps run again (``--redo``) and the rest of the loop is
 #: kept. The spec's ``[training]`` is read by the check (its warnings) and the training alone: the
 #: yardstick sweep plays fields, it trains nothing.
-STEP_SETTINGS = {"settings.calibration": ("firmware",), "spec.training": ("check", "train"),
+STEP_SETTINGS = {"settings.calibration": ("firmware",), "settings.calibration_sha256": ("firmware",),
+                 "spec.training": ("check", "train"),
                  "settings.steps": ("train",),
                  "settings.robustness_physics": ("robustness", "robustness-refined")}
 #: The steps each step needs (their results are its input).

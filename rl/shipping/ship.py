@@ -33,7 +33,14 @@ from elastica_magnetic.io import (
 from elastica_magnetic.locks import FolderLock
 from elastica_magnetic.plausibility import SettingNotAppliedWarning
 from elastica_magnetic.result_markers import manifest_results_in
-from elastica_magnetic.result_places import ResultExistsError, check_enclosing, check_not_another_result
+from elastica_magnetic.result_places import (
+    ResultExistsError,
+    check_enclosing,
+    check_not_another_result,
+    inside_result,
+    result_above,
+    training_run_in,
+)
 
 from ..cases.case import Case
 from ..cases.tasks import GotoTask, ReachTask
@@ -89,8 +96,14 @@ def check_ship_target(name: str, dest: str | Path | None) -> None:
         # nothing goes inside another command's result (a training's seed folder, a simulation)
         check_enclosing(normalized_path(Path(dest) / name), "--out")
     # nor onto another command's result or a training's case folder (a policy there replaced)
-    check_not_another_result((Path(dest) if dest is not None else POLICIES_DIR) / name, "--out/--name",
-                             held_ok=True)
+    target = normalized_path((Path(dest) if dest is not None else POLICIES_DIR) / name)
+    check_not_another_result(target, "--out/--name", held_ok=True)
+    for case_folder in sorted(p for p in target.iterdir() if p.is_dir()) if target.is_dir() else ():
+        if (run := training_run_in(case_folder)) is not None:  # a training's --out: its policy.json
+            raise ResultExistsError(  # would make that folder a shipped policy, refusing the next run
+                f"--out/--name {display_path(target)}: holds the case folder {case_folder.name}/ of a "
+                f"training ({run.name}, `msr train`): a policy there would make the training's folder a "
+                "shipped policy; choose another --out/--name")
 
 
 def check_not_in_a_policy(dest: str | Path, folders: Sequence[Path]) -> None:
@@ -104,6 +117,8 @@ def check_not_in_a_policy(dest: str | Path, folders: Sequence[Path]) -> None:
         inside = Path(dest).relative_to(parent).parts if parent != Path(dest) else ()
         open_to = manifest_results_in(parent)
         if (parent / POLICY_JSON).is_file() and not (inside and inside[0] in open_to):
+            if (outer := result_above(parent)) is not None:  # a seed of a campaign: the campaign named
+                raise OutputPathError(inside_result(normalized_path(dest), *outer, "--out"))
             seeds = f" (its {open_to[0]}/ holds its case's seed campaigns)" if open_to else ""
             raise OutputPathError(f"--out {display_path(dest)}: {display_path(parent)} is a shipped policy: "
                                   f"a policy goes beside another, not inside it{seeds}; choose another --out")

@@ -172,8 +172,10 @@ def numeric_columns(path: Path, table: pd.DataFrame, used: list[str]) -> NDArray
     bad = ~np.isfinite(values)
     if bad.any():
         row, col = (int(i) for i in np.argwhere(bad)[0])
+        unit = used[col].rsplit("_", 1)[-1] if "_" in used[col] else ""  # t_s, tip_x_m, current_0_A
+        shown = f"({unit})" if unit in ("s", "m", "A") else "(SI units: s, m, A)"
         raise TrajectoryError(f"{path}: line {row + 2}, column {used[col]}: {table[used[col]].iloc[row]!r} "
-                              "is not a finite number (SI units: s, m)")
+                              f"is not a finite number {shown}")
     return values
 
 

@@ -60,7 +60,7 @@ def _check_refine_place(out: str | os.PathLike) -> None:
     from elastica_magnetic.io import display_path, normalized_path
     from elastica_magnetic.locks import held_here
     from elastica_magnetic.result_markers import describe_result, recognized_marker
-    from elastica_magnetic.result_places import held_refusal, training_run_in
+    from elastica_magnetic.result_places import held_refusal, inside_result, result_above, training_run_in
 
     final = normalized_path(out)
     for parent in final.parents:
@@ -76,6 +76,8 @@ def _check_refine_place(out: str | os.PathLike) -> None:
                              f"{describe_result(marker)}: a result is replaced whole, so nothing goes inside "
                              "another; choose another --out (default: RUN/refined)")
         if (refusal := held_refusal(parent, final, "--out")) is not None:  # a shipped policy's folder
+            if (outer := result_above(parent)) is not None:  # a seed of a campaign: the campaign named
+                raise ValueError(inside_result(final, *outer, "--out") + " (default: RUN/refined)")
             raise ValueError(refusal)
         if (run := training_run_in(parent, final)) is not None:
             raise ValueError(f"--out {display_path(final)}: lies in {display_path(parent)}, which holds the "

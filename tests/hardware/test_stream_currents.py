@@ -386,3 +386,23 @@ def test_currents_stamped_at_each_period_s_end_are_told_to_shift_not_resample(tm
     path.write_text("t_s,current_0_A\n0,0.1\n0.02,0.2\n0.04,0.3\n")
     with pytest.raises(CoilCurrentsError, match="resample the currents to 100 rows per second"):
         read_coil_currents(path)
+
+
+@pytest.mark.parametrize("header", ["t_s,current_0", "t_s,current0_A"])
+def test_current_columns_without_a_unit_or_underscore_are_named(tmp_path, header):
+    """Round 32, V1: ``current_0`` (no unit) and ``current0_A`` (no underscore) were read as a field
+    CSV ("lacks mag_x, mag_y, mag_z"); they are named as coil-current columns spelled otherwise."""
+    path = tmp_path / "c.csv"
+    path.write_text(f"{header}\n0,0.1\n0.01,0.1\n")
+    with pytest.raises(CoilCurrentsError, match=r"a coil's current column is named current_<K>_A"):
+        read_coil_currents(path)
+
+
+def test_currents_logged_in_milliseconds_are_told_to_divide(tmp_path):
+    """Round 32, V2: t_s in milliseconds (0, 10, 20, ...) was told to resample to 100 rows per second,
+    a drive 1000 x slower; now told the times look like milliseconds."""
+    path = tmp_path / "ms.csv"
+    path.write_text("t_s,current_0_A\n0,0.1\n10,0.1\n20,0.1\n30,0.1\n")
+    with pytest.raises(CoilCurrentsError, match=r"the times look like milliseconds; give seconds "
+                                                r"\(divide t_s by 1000\)"):
+        read_coil_currents(path)

@@ -1,0 +1,85 @@
+"""Round 32 of held-out tries (issue 48), the findings of the commands: each test fails without its
+fix (docs/errors.md, "A thirty-second round of tries"). V1-V3 (coil-current files) are tested in
+tests/hardware/test_stream_currents.py."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import pytest
+from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR
+
+from elastica_magnetic.cli import main as msr
+
+
+def _tree(folder):
+    return sorted((p.relative_to(folder).as_posix(), p.stat().st_size if p.is_file() else -1,
+                   p.stat().st_mtime_ns) for p in folder.rglob("*"))
+
+
+def test_ship_puts_no_policy_into_a_training_s_output_folder(tmp_path, trained, capsys, monkeypatch):
+    """D1: ``msr policy ship --out . --name runs``, where runs/ is a training's --out (it holds the
+    case folder runs/m1-4mT), wrote the policy's files there: the training's folder became "a shipped
+    policy", refusing the user's next training into it. Now refused, nothing written."""
+    runs = tmp_path / "runs"
+    shutil.copytree(trained, runs)
+    before = _tree(runs)
+    monkeypatch.chdir(tmp_path)
+    assert msr(["policy", "ship", "runs/m1-4mT/seed0", "--no-measure", "--out", ".", "--name", "runs",
+                "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "holds the case folder m1-4mT/ of a training" in err and "choose another --out/--name" in err, err
+    assert _tree(runs) == before
+
+
+def test_a_result_inside_a_committed_campaign_s_seed_names_the_campaign(tmp_path, trained, capsys):
+    """V4: ``msr refine --out POLICY/seeds/fast/seed0/ref`` and ``msr policy ship --out
+    POLICY/seeds/fast/seed0`` were told the seed is "a shipped policy" and to go beside it, inside the
+    campaign, refused too. Both now name the campaign, a result of ``msr policy export-seeds``."""
+    policy = tmp_path / "pm"
+    shutil.copytree(POLICIES_DIR / "m1-4mT", policy)
+    before = _tree(policy)
+    run = str(trained / "m1-4mT" / "seed0")
+    seed = policy / "seeds" / "fast" / "seed0"
+    for argv in (["refine", run, "--checkpoint", "final", "--steps", "3", "--out", str(seed / "ref")],
+                 ["policy", "ship", run, "--no-measure", "--out", str(seed), "--name", "x"]):
+        assert msr([*argv, "--no-progress"]) == 2, argv
+        err = capsys.readouterr().err
+        assert "which holds a result of `msr policy export-seeds`" in err and "beside it" not in err, err
+    assert _tree(policy) == before
+
+
+def test_a_loop_s_calibration_measured_again_into_the_same_file_is_a_change():
+    """S1: a loop's ``--calibration`` file whose contents changed (the same path) kept the firmware
+    built from the old calibration, "8 of 8 steps done". The loop records the calibration's contents:
+    a new one is a changed setting of the firmware step."""
+    import tempfile
+    from pathlib import Path
+
+    from elastica_magnetic_rl.loop.settings import LoopSettings
+    from elastica_magnetic_rl.loop.state import STEPS, LoopError, LoopState, plan_loop
+
+    with tempfile.TemporaryDirectory() as folder:
+        calibration = Path(folder) / "cal.json"
+        calibration.write_text(json.dumps({"name": "lab", "gain": 0.003}))
+        first = LoopSettings(calibration=calibration).recorded()
+        calibration.write_text(json.dumps({"name": "lab", "gain": 0.0025}))
+        second = LoopSettings(calibration=calibration).recorded()
+    assert first["calibration"] == second["calibration"]
+    done = {s: {"status": "done", "summary": {}} for s in STEPS}
+    state = LoopState(Path("out/loop.json"), "c", {}, first, done)
+    with pytest.raises(LoopError, match=r"changed: settings.calibration_sha256, which only step firmware "
+                                        r"uses: pass --redo firmware"):
+        plan_loop(state, {}, second, (), (), False)
+    assert plan_loop(state, {}, second, (), ("firmware",), False).run == ("firmware",)
+
+
+def test_a_non_finite_current_is_named_in_amperes(tmp_path):
+    """V3: a NaN current in a coil path was named "(SI units: s, m)"; the column's unit is A."""
+    import pandas as pd
+    from elastica_magnetic_rl.sim2real.tracking import TrajectoryError, numeric_columns
+
+    table = pd.DataFrame({"t_s": ["0", "0.01"], "current_2_A": ["0.5", "nan"]})
+    with pytest.raises(TrajectoryError, match=r"line 3, column current_2_A: 'nan' is not a finite number \(A\)"):
+        numeric_columns(tmp_path / "c.csv", table, ["t_s", "current_2_A"])
