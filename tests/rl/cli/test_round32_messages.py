@@ -81,5 +81,6 @@ def test_a_non_finite_current_is_named_in_amperes(tmp_path):
     from elastica_magnetic_rl.sim2real.tracking import TrajectoryError, numeric_columns
 
     table = pd.DataFrame({"t_s": ["0", "0.01"], "current_2_A": ["0.5", "nan"]})
-    with pytest.raises(TrajectoryError, match=r"line 3, column current_2_A: 'nan' is not a finite number \(A\)"):
+    with pytest.raises(TrajectoryError, match=r"line 3, column current_2_A: 'nan' is not a finite "
+                                              r"number \(A\)"):
         numeric_columns(tmp_path / "c.csv", table, ["t_s", "current_2_A"])
