@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import os
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from .io import OutputPathError, display_path, normalized_path, output_path_problem, unwritable_reason
@@ -36,6 +36,7 @@ __all__ = [
     "building",
     "check_creatable",
     "check_enclosing",
+    "check_inputs_outside",
     "check_not_another_result",
     "check_output_path",
     "held_refusal",
@@ -212,6 +213,23 @@ def check_not_another_result(folder: str | Path, option: str, *, held_ok: bool =
                                 "`msr train`): that folder holds its runs alone (msr train --resume refuses "
                                 f"anything else there); choose another {option}")
     check_enclosing(final, option)
+
+
+def check_inputs_outside(out: str | Path, inputs: Iterable[tuple[str, str | Path | None]],
+                         option: str = "--out") -> None:
+    """No input file (``inputs``: the option or argument that names it, and its path; ``None`` for
+    one not given) lies in the folder ``out`` a command replaces whole (with ``--force``): the
+    input would be deleted with the old result. :class:`OutputPathError` naming both, before any
+    work."""
+    final = normalized_path(out)
+    for name, path in inputs:
+        if path is None or not str(path) or not Path(path).exists():
+            continue  # not a file of the user's (a shipped case's name, a default)
+        given = normalized_path(path)
+        if given == final or final in given.parents:
+            raise OutputPathError(f"{name} {display_path(given)}: lies in {option} {display_path(final)}, "
+                                  "which this command replaces whole: the input would be deleted with the "
+                                  f"old result; copy it elsewhere first, or choose another {option}")
 
 
 def check_creatable(target: Path, option: str) -> None:

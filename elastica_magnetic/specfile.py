@@ -379,18 +379,24 @@ def _interaction_table(interaction: SpecTable, length: float, n_elements: int,
     element = length / n_elements
     default = DEFAULT_CUTOFF_RADII * radius
     # where four radii is no longer than an element, that default would let neighbours interact too
+    safe = SAFE_CUTOFF_ELEMENTS * element
     advice = ("leave cutoff out for four radii" if default > element * (1.0 + 1e-9) else
-              f"give cutoff = {SAFE_CUTOFF_ELEMENTS * element:g} ({SAFE_CUTOFF_ELEMENTS:g} elements; the "
-              f"default four radii, {default:g} m, is no longer than one element of this rod)")
+              f"give cutoff = {safe:g} ({SAFE_CUTOFF_ELEMENTS:g} elements; the default four radii, "
+              f"{default:g} m, is no longer than one element of this rod)" if safe < length else
+              f"this rod of {n_elements} elements is too coarse for the interaction: no cutoff of "
+              f"{SAFE_CUTOFF_ELEMENTS:g} elements or more lies within its length; give n_elements of at "
+              f"least {int(SAFE_CUTOFF_ELEMENTS) * 2}, or remove [robot.interaction]")
     if interaction.has("cutoff"):  # absent: four radii (see InteractionSpec)
         out["cutoff"] = interaction.number("cutoff", "m", low=0.0)
         if out["cutoff"] >= length:
+            # millimetres only where the value in mm would be a cutoff (beyond an element, within the rod)
             mm = (f"; {out['cutoff']:g} mm is {1e-3 * out['cutoff']:g} m"
-                  if 1e-3 * out["cutoff"] < length else "")
+                  if element < 1e-3 * out["cutoff"] < length else "")
             raise interaction.error("cutoff", f"{out['cutoff']:g} m is at or beyond the rod's length "
                                     f"({length:g} m): pairs closer than the cutoff along the rod do not "
                                     "interact, so no pair would and the interaction the table asks for "
-                                    f"would be off (millimetres written as metres?{mm}); {advice}")
+                                    f"would be off{f' (millimetres written as metres?{mm})' if mm else ''}; "
+                                    f"{advice}")
         if out["cutoff"] <= element * (1.0 + 1e-9):
             raise interaction.error("cutoff", f"{out['cutoff']:g} m is at or below one element's length "
                                     f"({element:g} m): {_NEIGHBOURS_AS_DIPOLES}; {advice}")

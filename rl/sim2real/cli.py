@@ -14,6 +14,7 @@ from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, command_name, duration_option, number, output_path
 from elastica_magnetic.progress import progress_bar
+from elastica_magnetic.result_places import check_inputs_outside
 
 from ..cases.variations import (
     DEFAULT_RANGES,
@@ -195,6 +196,8 @@ def robustness_command(args: argparse.Namespace) -> int:
     if args.seed is not None and not args.samples:  # it would be recorded but change nothing
         raise CommandError(f"--seed {args.seed}: seeds the Latin-hypercube draws of --samples, and "
                            "none are drawn (--samples 0); give --samples N, or leave --seed out")
+    check_inputs_outside(args.out, (("POLICY_OR_FIELD_CSV", args.source),
+                                    ("--robot", getattr(args, "robot", None))))
     prepare_output_folder(args.out, args.force, kind="robustness")
     try:
         plan = plan_robustness(
@@ -258,6 +261,8 @@ def identify_command(args: argparse.Namespace) -> int:
         raise CommandError(f"--seed {args.seed}: seeds the perturbed starts, and --starts 1 fits "
                            "from the nominal values only; give --starts 2 or more, or leave --seed "
                            "out")
+    check_inputs_outside(args.out, (("FIELD_CSV", args.field_csv), ("TRAJECTORY_CSV", args.trajectory_csv),
+                                    ("--robot", args.robot)))
     prepare_output_folder(args.out, args.force, kind="identify")
     with _kept_warnings() as input_warnings:  # printed now, and recorded in identify.json
         drive, measured, steered_by = _drive_and_measured(args.field_csv, args.trajectory_csv, args.robot)

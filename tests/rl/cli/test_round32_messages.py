@@ -84,3 +84,40 @@ def test_a_non_finite_current_is_named_in_amperes(tmp_path):
     with pytest.raises(TrajectoryError, match=r"line 3, column current_2_A: 'nan' is not a finite "
                                               r"number \(A\)"):
         numeric_columns(tmp_path / "c.csv", table, ["t_s", "current_2_A"])
+
+
+def test_a_rod_too_coarse_for_the_interaction_is_told_so(tmp_path):
+    """V5: a rod of 4 elements with ``[robot.interaction]`` was advised ``cutoff = 0.02`` (four elements,
+    the rod's whole length), which was refused with the same advice and a millimetre guess that did
+    not apply. Now told the rod is too coarse, and what would do."""
+    from elastica_magnetic_rl.cases.case import load_case
+
+    from elastica_magnetic.specfile import SpecError
+
+    base = load_case("m1-4mT").toml().replace('name = "m1-4mT"', 'name = "c4"').replace("n_elements = 64",
+                                                                                        "n_elements = 4")
+    spec = tmp_path / "c4.toml"
+    for table in ("self_contact_stiffness = 40.0", "cutoff = 0.02"):
+        spec.write_text(base + f"\n[robot.interaction]\n{table}\n")
+        with pytest.raises(SpecError, match=r"too coarse for the interaction: .* give n_elements of at "
+                                            r"least 8, or remove \[robot.interaction\]") as refused:
+            load_case(spec)
+        assert "give cutoff" not in str(refused.value) and "millimetres" not in str(refused.value)
+
+
+def test_an_input_inside_the_folder_force_replaces_is_refused(tmp_path, capsys):
+    """D2: ``msr field replay F --reference OUT/trajectory.csv --out OUT --force`` deleted the reference
+    it compared with, with the old result. An input inside the folder a command replaces whole is
+    refused before any work, the folder untouched."""
+    field = tmp_path / "f.csv"
+    field.write_text("mag_x,mag_y,mag_z\n" + "".join(f"{4 * (k % 2)},0,0\n" for k in range(31)))
+    out = tmp_path / "meas"
+    assert msr(["field", "replay", str(field), "--physics", "training", "--out", str(out),
+                "--no-progress"]) == 0
+    before = _tree(out)
+    capsys.readouterr()
+    assert msr(["field", "replay", str(field), "--physics", "training", "--reference",
+                str(out / "trajectory.csv"), "--out", str(out), "--force", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "--reference" in err and "lies in --out" in err and "replaces whole" in err, err
+    assert _tree(out) == before
