@@ -7,11 +7,15 @@ import argparse
 import json
 import os
 import sys
+import time
 
 from elastica_magnetic.cli import CommandError, number, output_path
 
 from ..cli.options import CASE_HELP
 from .search import OBJECTIVES
+
+#: A design's wall time past this many times its --minutes is said (the budget is a forecast).
+OVER_BUDGET = 1.5
 
 
 def design_spec_option(value: str):
@@ -105,6 +109,7 @@ def design_command(args: argparse.Namespace) -> int:
 
     replacing = args.force and holds_design(args.out)
     try:
+        began = time.perf_counter()
         with signals_as_exceptions():  # SIGTERM/SIGHUP as Ctrl-C: the message below, not silence
             summary = run_design(args.spec, args.out, settings,
                                  resume=args.resume, force=args.force, progress=progress)
@@ -118,11 +123,17 @@ def design_command(args: argparse.Namespace) -> int:
             print(f"design: interrupted; the design's progress (its last whole generation, if any) "
                   f"is in {args.out}: continue with the same command and --resume", file=sys.stderr)
         raise
-    if summary["search"].get("stopped"):
-        stopped = summary["search"]["stopped"]
+    stopped = summary["search"].get("stopped")
+    if stopped and stopped.get("generations_asked") is not None:
         print(f"design: stopped by --minutes {stopped['minutes']:g} after {stopped['generations']} of "
               f"{stopped['generations_asked']} generations (continue with --resume and a larger "
               "--minutes)", file=sys.stderr)
+    took = time.perf_counter() - began
+    if settings.minutes is not None and took > 60.0 * settings.minutes * OVER_BUDGET:
+        print(f"design: warning: took {took:.0f} s, beyond --minutes {settings.minutes:g} "
+              f"({60.0 * settings.minutes:.0f} s): the search runs at least one generation "
+              f"({stopped['generations'] if stopped else '?'} run) and the final judgement whatever the "
+              "budget; give a budget of at least the time above", file=sys.stderr)
     if args.json:
         print(json.dumps(summary, indent=2, default=str))
     else:

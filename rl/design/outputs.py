@@ -200,9 +200,7 @@ def _report(summary: dict[str, Any]) -> str:
               + (f" The {len(search['finalists'])} best distinct candidates were run again for "
                  f"{judged['duration_s']:g} s; the best of them (number {search['chosen_finalist'] + 1} "
                  "by the search's measure) is the design judged." if len(search["finalists"]) > 1 else "")
-              + (f" Stopped by --minutes after {search['stopped']['generations']} of the "
-                 f"{search['stopped']['generations_asked']} generations asked." if search.get("stopped")
-                 else ""), "",
+              + (_stopped_words(search["stopped"]) if search.get("stopped") else ""), "",
               "| segment | elements | direction (x, y, z) | magnitude (A/m) |", "|---|---|---|---|"]
     for k, seg in enumerate(summary["best_segments"]):
         d = ", ".join(f"{v:+.3f}" for v in seg["direction"])
@@ -228,3 +226,10 @@ def judged_periods(*periods: float) -> list[float]:
     search computes (the exponential of its logarithm, 0.9999999999999999) is the sweep's own."""
     return sorted({float(f"{p:.12g}") for p in periods})
 
+
+def _stopped_words(stopped: dict[str, Any]) -> str:
+    """The report's sentence on what ended the search (:func:`~.run._stopped`'s record)."""
+    if stopped.get("generations_asked") is None:
+        return f" Ended by --minutes {stopped['minutes']:g} after {stopped['generations']} generation(s)."
+    return (f" Stopped by --minutes after {stopped['generations']} of the {stopped['generations_asked']} "
+            "generations asked.")

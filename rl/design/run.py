@@ -357,8 +357,9 @@ def _finalists(design: Design, settings: DesignSettings, state: SearchState,
 
 
 def _stopped(state: SearchState, settings: DesignSettings) -> dict[str, Any] | None:
-    """What cut the search short of ``--generations`` (``None``: nothing)."""
-    if settings.generations is None or state.generation >= settings.generations:
+    """What cut the search short of ``--generations`` (``None``: nothing); with ``--minutes`` alone,
+    the budget always ends it (``generations_asked``: ``None``)."""
+    if settings.generations is not None and state.generation >= settings.generations:
         return None
     return {"by": "--minutes", "minutes": settings.minutes, "generations": state.generation,
             "generations_asked": settings.generations}

@@ -476,3 +476,17 @@ def test_a_resume_removes_what_a_killed_replacement_left_beside(tmp_path):
     with pytest.warns(LeftoverWarning, match="left by a run that was killed"):
         run_design("m1-4mT", out, TINY, resume=True)
     assert not leftover.exists()
+
+
+def test_a_minutes_budget_alone_is_recorded_and_its_overrun_said(tmp_path, capsys):
+    """Round 32, S2: ``msr design --minutes 0.01`` (0.6 s for the whole command) ran one generation and
+    the judgement (40 s), said nothing and recorded ``stopped: null``. The record says the budget
+    ended the search after its one generation, and the overrun is said."""
+    out = tmp_path / "d"
+    assert msr(["design", "m1-4mT", "--out", str(out), "--minutes", "0.001", *QUICK]) == 0
+    err = capsys.readouterr().err
+    assert "beyond --minutes 0.001 (0 s): the search runs at least one generation (1 run)" in err, err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["search"]["stopped"] == {"by": "--minutes", "minutes": 0.001, "generations": 1,
+                                            "generations_asked": None}
+    assert "Ended by --minutes 0.001 after 1 generation(s)." in (out / "report.md").read_text()
