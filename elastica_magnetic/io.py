@@ -11,6 +11,7 @@ saved with a byte-order mark.
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import math
 import os
@@ -173,6 +174,15 @@ def unwritable_reason(folder: str | os.PathLike[str]) -> str | None:
     with contextlib.suppress(OSError):
         if os.statvfs(folder).f_flag & os.ST_RDONLY:
             return "the file system is mounted read-only"
+    try:  # the system's own reason: permissions, or a folder made immutable (chattr +i)
+        with tempfile.TemporaryFile(dir=folder):
+            return None
+    except PermissionError as exc:
+        if exc.errno == errno.EPERM:
+            return ("Operation not permitted (the folder is immutable, chattr +i, or locked by the system: "
+                    "not its permissions)")
+    except OSError as exc:
+        return exc.strerror or str(exc)
     return "Permission denied (the folder's permissions do not let you write in it)"
 
 

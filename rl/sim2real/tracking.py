@@ -146,7 +146,12 @@ def _layout(path: Path, columns: list[str]) -> tuple[str, list[tuple[str, ...]],
     for column in columns:
         match = _TRACKER_COLUMN.match(column)
         if match:
-            found.setdefault(float(match.group(2)), {})[match.group(1)] = column
+            point = found.setdefault(float(match.group(2)), {})
+            if match.group(1) in point:  # x_0.5_m and x_0.50_m: one place, two columns
+                raise TrajectoryError(f"{path}: columns {point[match.group(1)]} and {column} both name the "
+                                      f"point at s = {float(match.group(2)):g}: two tracks of one place "
+                                      "contradict each other; keep one")
+            point[match.group(1)] = column
     bad = [s for s in found if not 0.0 <= s <= 1.0]
     if bad:
         raise TrajectoryError(f"{path}: tracked point at s = {bad[0]:g}: s is a fraction of the body "

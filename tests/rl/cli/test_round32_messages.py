@@ -121,3 +121,34 @@ def test_an_input_inside_the_folder_force_replaces_is_refused(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--reference" in err and "lies in --out" in err and "replaces whole" in err, err
     assert _tree(out) == before
+
+
+def test_a_tracker_naming_one_point_twice_is_refused(tmp_path):
+    """S3: a tracker CSV with x_0.5_m and x_0.50_m (two tracks of one place, 5 mm apart) was fitted with
+    one of them dropped without a word; now refused naming both columns."""
+    from elastica_magnetic_rl.sim2real.tracking import TrajectoryError, read_trajectory
+
+    path = tmp_path / "tk.csv"
+    path.write_text("t_s,x_0.5_m,y_0.5_m,x_0.50_m,y_0.50_m\n"
+                    + "".join(f"{k / 30:.4f},{0.001 * k},0,{0.001 * k + 0.005},0\n" for k in range(10)))
+    with pytest.raises(TrajectoryError, match=r"columns x_0.5_m and x_0.50_m both name the point at "
+                                              r"s = 0.5"):
+        read_trajectory(path)
+
+
+def test_an_immutable_folder_is_not_blamed_on_its_permissions(tmp_path, monkeypatch):
+    """V6: a folder made immutable (chattr +i) was said to refuse "the folder's permissions", which
+    chmod cannot change; the system's reason is given."""
+    import errno
+    import tempfile
+
+    import elastica_magnetic.io as io_module
+
+    def immutable(*args, **kwargs):
+        raise PermissionError(errno.EPERM, "Operation not permitted")
+
+    monkeypatch.setattr(io_module.os, "access", lambda *a, **k: False)
+    monkeypatch.setattr(tempfile, "TemporaryFile", immutable)
+    reason = io_module.unwritable_reason(tmp_path)
+    assert reason.startswith("Operation not permitted (the folder is immutable"), reason
+    assert "permissions do" not in reason
