@@ -380,6 +380,14 @@ def _drive_and_measured(drive_csv: Path, trajectory_csv: Path, robot: str):
                            load_field(robot) if Path(robot).suffix == ".toml" else None)
         steered_by = None
     if steered_by is not None:  # a catheter's motion is its tip path: another file named before it is read
+        from elastica_magnetic.specfile import SpecError
+
+        from .identify import load_spec
+
+        try:  # the drive against the robot first: a crawler given an arm's path needs its field CSV
+            load_spec(robot, steered_by=steered_by)
+        except SpecError as exc:
+            raise CommandError(str(exc)) from None
         _check_tip_path_given(drive_csv, trajectory_csv, steered_by)
     measured = read_trajectory(trajectory_csv)
     if steered_by is not None and measured.kind != "tip path":

@@ -12,8 +12,8 @@ import numpy as np
 
 from ..cases.variations import Variation, get_value, scaled
 
-__all__ = ["AGREE_WITHIN", "CONFIRM_RATIO", "fit_warnings", "fitted_values", "physics_warning",
-           "starts_report"]
+__all__ = ["AGREE_WITHIN", "AT_BOUND_LOG", "CONFIRM_RATIO", "at_bound", "fit_warnings", "fitted_values",
+           "physics_warning", "starts_report"]
 
 #: Two starts agree when their factors differ by less than this fraction.
 AGREE_WITHIN = 0.01
@@ -36,10 +36,24 @@ def fitted_values(spec: Mapping[str, Any], fits: Sequence[Variation], x, sigma, 
             "nominal_values": {key: get_value(spec, key) for key in fit.keys},
             "sigma": {key: None if sigma_k is None else scaled(get_value(spec, key), factor * sigma_k)
                       for key in fit.keys},
-            "at_bound": bool(np.isclose(x[k], bounds[0]) or np.isclose(x[k], bounds[1])),
+            "at_bound": at_bound(x[k], bounds),
             **judged[k],
         }
+        if out[fit.name]["at_bound"]:  # the search's wall, not the data, ended the fit: nothing to judge
+            edge = float(np.exp(bounds[0] if x[k] - bounds[0] < bounds[1] - x[k] else bounds[1]))
+            out[fit.name].update(identifiable=None, interval=None, reason=(
+                f"not judged: the fit ended on the search's bound (x{edge:g} of the spec's value): the data "
+                "ask for a value beyond it (a unit mistake in the spec, or another robot than the spec's?)"))
     return out
+
+
+#: A fitted log factor this close to a bound of the search ended on it (0.1 % of the factor).
+AT_BOUND_LOG = 1e-3
+
+
+def at_bound(x: float, bounds: tuple[float, float]) -> bool:
+    """Whether the log factor ``x`` ended on a bound of the search (``bounds``, log factors)."""
+    return bool(x - bounds[0] <= AT_BOUND_LOG or bounds[1] - x <= AT_BOUND_LOG)
 
 
 def starts_report(records: Sequence[dict[str, Any]], near: Sequence[bool], best: int

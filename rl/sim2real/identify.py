@@ -115,7 +115,8 @@ def load_spec(robot: str | Path, steered_by: str | None = None) -> dict[str, Any
             path_words, source_words, _ = STEERED_BY[steered_by]
             raise SpecError(f"--robot {text}: {path_words} drives a case steered by {source_words} "
                             f"([actuation] kind = \"{steered_by}\"); {text}'s actuation is "
-                            f"{'a uniform field' if case.field_actuated else repr(kind)}")
+                            + ("a uniform field: give the field CSV played (mag_x, mag_y, mag_z in mT)"
+                               if case.field_actuated else repr(kind)))
         if steered_by is None and not case.field_actuated:
             instead = f"; {STEERED_BY[kind][2]} is fitted in its place" if kind in STEERED_BY else ""
             raise SpecError("--robot " + field_only_refusal(text, case.actuation.kind) + instead)
@@ -463,13 +464,14 @@ def _fit_report(problem: _Problem, records: list[dict[str, Any]], o: FitOptions,
                                                 [records[i] for i in finished], bounds)
     starts_public, agree = starts_report(records, near, best)
     judged_residual, warnings = residual_against_noise(_rms(residual), o.noise_m)
-    warnings += fit_warnings(records[best], judged, fits)
+    fitted = fitted_values(spec, fits, x, sigma, bounds, judged)  # the verdicts, a bound's included
+    warnings += fit_warnings(records[best], list(fitted.values()), fits)
     if kept:
         warnings.insert(0, kept_note)
     return {
         "_x": x,
         "physics": o.physics,
-        "fitted": fitted_values(spec, fits, x, sigma, bounds, judged),
+        "fitted": fitted,
         "correlation": [[None if not np.isfinite(c) else round(float(c), 6) for c in row]
                         for row in corr],
         "residual_m": {"rms": _rms(residual), "max_abs": float(np.abs(residual).max()),

@@ -152,3 +152,38 @@ def test_an_immutable_folder_is_not_blamed_on_its_permissions(tmp_path, monkeypa
     reason = io_module.unwritable_reason(tmp_path)
     assert reason.startswith("Operation not permitted (the folder is immutable"), reason
     assert "permissions do" not in reason
+
+
+def test_a_fit_ended_on_the_search_s_bound_is_said_so_and_not_judged():
+    """S4: a fit that ended at x0.20006 of the search's bound x0.2 said ``at_bound: false`` (an exact
+    comparison of log factors) and "NOT IDENTIFIABLE: flat cost", though the cost rose on its other
+    side: the search's wall, not the data, had ended it. Now at the bound, and not judged."""
+    import numpy as np
+    from elastica_magnetic_rl.sim2real.fit_report import fitted_values
+    from elastica_magnetic_rl.sim2real.identify import FIT_BOUNDS, load_spec, parse_fit
+
+    spec = load_spec("m1-4mT")
+    fits = parse_fit("robot.magnetization.magnitude", spec)
+    bounds = (np.log(FIT_BOUNDS[0]), np.log(FIT_BOUNDS[1]))
+    judged = [{"interval": None, "interval_from": "jacobian", "identifiable": False,
+               "reason": "flat cost: changing it alone by 10 % changes the residuals by less than the noise"}]
+    fitted = fitted_values(spec, fits, np.array([np.log(0.20006)]), np.array([0.3]), bounds, judged)
+    entry = fitted["robot.magnetization.magnitude"]
+    assert entry["at_bound"] is True and entry["identifiable"] is None and entry["interval"] is None
+    assert entry["reason"].startswith("not judged: the fit ended on the search's bound (x0.2")
+    inside = fitted_values(spec, fits, np.array([np.log(0.25)]), np.array([0.3]), bounds, judged)
+    assert inside["robot.magnetization.magnitude"]["at_bound"] is False
+
+
+def test_a_crawler_given_an_arm_s_path_is_told_to_give_its_field(tmp_path, capsys):
+    """V7: ``msr real identify ARM.csv TRAJ.csv --robot m1.toml`` (a crawler) was told to give a tip path,
+    then refused for the crawler; the drive is checked against the robot first."""
+    arm = tmp_path / "arm.csv"
+    arm.write_text("t_s,magnet_x_m,magnet_y_m,magnet_z_m,direction_x,direction_y,direction_z\n"
+                   + "".join(f"{k / 100:g},0.05,0.1,0,0,-1,0\n" for k in range(40)))
+    traj = tmp_path / "traj.csv"
+    traj.write_text("t_s,x_0.5_m,y_0.5_m\n" + "".join(f"{k / 30:.4f},{1e-4 * k},0\n" for k in range(10)))
+    assert msr(["real", "identify", str(arm), str(traj), "--robot", "m1-4mT", "--fit",
+                "robot.magnetization.magnitude", "--out", str(tmp_path / "id"), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "give the field CSV played (mag_x, mag_y, mag_z in mT)" in err and "tip's path" not in err, err
