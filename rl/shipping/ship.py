@@ -179,7 +179,7 @@ def ship(run: str | Path, name: str, options: ShipOptions | None = None, /,
     given = f"--out {display_path(dest)}, " if dest is not None else ""
     where = f"{display_path(target)} ({given}--name {name})"
     theirs = [f for f in present if not (f in recorded_files(target) or _holds_a_policy(target))]
-    if theirs:  # named before "pass --force", which would refuse them too
+    if theirs and not (target / POLICY_JSON).is_file():  # no policy there to replace: the user's files
         raise ResultExistsError(f"{where}: holds {', '.join(theirs)}, which msr did not write (no "
                                 "policy.json beside them, no record of msr's): a policy's files would "
                                 "replace the user's; move them away, or choose another --out or --name")
