@@ -176,7 +176,7 @@ def unwritable_reason(folder: str | os.PathLike[str]) -> str | None:
             return "the file system is mounted read-only"
     try:  # the system's own reason: permissions, or a folder made immutable (chattr +i)
         with tempfile.TemporaryFile(dir=folder):
-            return None
+            pass  # made all the same (root): the permissions' verdict is kept
     except PermissionError as exc:
         if exc.errno == errno.EPERM:
             return ("Operation not permitted (the folder is immutable, chattr +i, or locked by the system: "
