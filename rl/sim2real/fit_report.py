@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..cases.variations import Variation, get_value, scaled
+from .identifiability import NEAR_BEST_CHI2
 
 __all__ = ["AGREE_WITHIN", "AT_BOUND_LOG", "CONFIRM_RATIO", "at_bound", "fit_warnings", "fitted_values",
            "physics_warning", "starts_report"]
@@ -20,7 +21,8 @@ AGREE_WITHIN = 0.01
 
 
 def fitted_values(spec: Mapping[str, Any], fits: Sequence[Variation], x, sigma, bounds,
-                  judged: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+                  judged: Sequence[Mapping[str, Any]],
+                  profile: Sequence[Mapping[str, Any]] = ()) -> dict[str, Any]:
     """Per fit: its keys, factor and its standard error, fitted and nominal values (SI) and their
     standard errors, whether the factor ended on a bound of the fit, its interval (factors) and
     whether it is identifiable (:func:`~.identifiability.judge_values`)."""
@@ -39,7 +41,10 @@ def fitted_values(spec: Mapping[str, Any], fits: Sequence[Variation], x, sigma, 
             "at_bound": at_bound(x[k], bounds),
             **judged[k],
         }
-        if out[fit.name]["at_bound"]:  # the search's wall, not the data, ended the fit: nothing to judge
+        # on the search's wall with a cost that rises away from it (the profile): the wall, not the
+        # data, ended the fit (a flat value wanders to a wall too: its verdict stands)
+        rises = any(p["value"] == k and p["cost_rise_over_s2"] >= NEAR_BEST_CHI2 for p in profile)
+        if out[fit.name]["at_bound"] and rises:
             edge = float(np.exp(bounds[0] if x[k] - bounds[0] < bounds[1] - x[k] else bounds[1]))
             out[fit.name].update(identifiable=None, interval=None, reason=(
                 f"not judged: the fit ended on the search's bound (x{edge:g} of the spec's value): the data "

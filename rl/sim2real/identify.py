@@ -464,7 +464,7 @@ def _fit_report(problem: _Problem, records: list[dict[str, Any]], o: FitOptions,
                                                 [records[i] for i in finished], bounds)
     starts_public, agree = starts_report(records, near, best)
     judged_residual, warnings = residual_against_noise(_rms(residual), o.noise_m)
-    fitted = fitted_values(spec, fits, x, sigma, bounds, judged)  # the verdicts, a bound's included
+    fitted = fitted_values(spec, fits, x, sigma, bounds, judged, profile)  # the verdicts, a bound's too
     warnings += fit_warnings(records[best], list(fitted.values()), fits)
     if kept:
         warnings.insert(0, kept_note)

@@ -167,12 +167,17 @@ def test_a_fit_ended_on_the_search_s_bound_is_said_so_and_not_judged():
     bounds = (np.log(FIT_BOUNDS[0]), np.log(FIT_BOUNDS[1]))
     judged = [{"interval": None, "interval_from": "jacobian", "identifiable": False,
                "reason": "flat cost: changing it alone by 10 % changes the residuals by less than the noise"}]
-    fitted = fitted_values(spec, fits, np.array([np.log(0.20006)]), np.array([0.3]), bounds, judged)
+    profile = [{"value": 0, "log_step": -0.095, "cost_rise_over_s2": -0.015},
+               {"value": 0, "log_step": 0.095, "cost_rise_over_s2": 5.39}]  # rises away from the wall
+    fitted = fitted_values(spec, fits, np.array([np.log(0.20006)]), np.array([0.3]), bounds, judged, profile)
     entry = fitted["robot.magnetization.magnitude"]
     assert entry["at_bound"] is True and entry["identifiable"] is None and entry["interval"] is None
     assert entry["reason"].startswith("not judged: the fit ended on the search's bound (x0.2")
-    inside = fitted_values(spec, fits, np.array([np.log(0.25)]), np.array([0.3]), bounds, judged)
+    inside = fitted_values(spec, fits, np.array([np.log(0.25)]), np.array([0.3]), bounds, judged, profile)
     assert inside["robot.magnetization.magnitude"]["at_bound"] is False
+    flat = fitted_values(spec, fits, np.array([np.log(0.20006)]), np.array([0.3]), bounds, judged,
+                         [{**p, "cost_rise_over_s2": 0.1} for p in profile])  # a flat value at the wall
+    assert flat["robot.magnetization.magnitude"]["identifiable"] is False  # its flat-cost verdict stands
 
 
 def test_a_crawler_given_an_arm_s_path_is_told_to_give_its_field(tmp_path, capsys):
