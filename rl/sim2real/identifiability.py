@@ -180,8 +180,8 @@ def judge_values(names: Sequence[str], x_best: NDArray[np.float64], halves: NDAr
                  s2: float, profile: Sequence[dict[str, Any]] | None = None) -> list[dict[str, Any]]:
     """Per fitted value: the interval of its factor (``halves``: half-widths, log factor), where
     it comes from (``sources``), and whether it is identifiable (else the reason); ``None``, not
-    judged and no interval, where a point of the ``profile`` lies lower than the fit's best
-    (:func:`lower_cost_found`)."""
+    judged and no interval, where a value would be called not identifiable and a point of the
+    ``profile`` lies lower than the fit's best (:func:`lower_cost_found`)."""
     out = []
     lower = lower_cost_found(profile, len(names)) if profile is not None else [None] * len(names)
     for k in range(len(names)):
@@ -193,7 +193,9 @@ def judge_values(names: Sequence[str], x_best: NDArray[np.float64], halves: NDAr
             "interval_from": sources[k],
             "identifiable": identifiable,
         }
-        if (point := lower[k]) is not None:  # the fit is not at its minimum: nothing to judge
+        # not at its minimum: a value the cost seemed not to fix is not judged (one whose profile
+        # rose on both sides within the identifiable width brackets the minimum: its interval stands)
+        if (point := lower[k]) is not None and not identifiable:
             factor = float(np.exp(x_best[k] + point["log_step"]))
             entry.update(identifiable=None, interval=None, reason=(
                 f"not judged: the fit stopped short of its minimum (the profile found a cost "
