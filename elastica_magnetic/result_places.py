@@ -216,11 +216,13 @@ def check_not_another_result(folder: str | Path, option: str, *, held_ok: bool =
 
 
 def check_inputs_outside(out: str | Path, inputs: Iterable[tuple[str, str | Path | None]],
-                         option: str = "--out") -> None:
+                         option: str = "--out", *, force: bool = True) -> None:
     """No input file (``inputs``: the option or argument that names it, and its path; ``None`` for
     one not given) lies in the folder ``out`` a command replaces whole (with ``--force``): the
     input would be deleted with the old result. :class:`OutputPathError` naming both, before any
-    work."""
+    work. Without ``force`` nothing is replaced (an existing folder is refused by its writer)."""
+    if not force:
+        return
     final = normalized_path(out)
     for name, path in inputs:
         if path is None or not str(path) or not Path(path).exists():

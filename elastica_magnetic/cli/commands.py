@@ -151,7 +151,7 @@ def simulate_amplitude(args: argparse.Namespace) -> tuple[float, str]:
 
 def replay_command(args: argparse.Namespace) -> int:
     check_inputs_outside(args.out, (("FIELD_CSV", args.field_csv), ("--reference", args.reference),
-                                    ("--robot", args.robot)))
+                                    ("--robot", args.robot)), force=args.force)
     field = TabulatedField.from_csv(args.field_csv)
     waveform_z = np.asarray(field.samples)[:, 2]
     duration = field.duration if args.duration is None else args.duration
@@ -197,7 +197,7 @@ def replay_command(args: argparse.Namespace) -> int:
 
 
 def simulate_command(args: argparse.Namespace) -> int:
-    check_inputs_outside(args.out, (("--robot", args.robot),))
+    check_inputs_outside(args.out, (("--robot", args.robot),), force=args.force)
     setup = load_field(args.robot)
     if setup is not None and setup.table is not None:
         return _simulate_spatial(args, setup)

@@ -197,7 +197,7 @@ def robustness_command(args: argparse.Namespace) -> int:
         raise CommandError(f"--seed {args.seed}: seeds the Latin-hypercube draws of --samples, and "
                            "none are drawn (--samples 0); give --samples N, or leave --seed out")
     check_inputs_outside(args.out, (("POLICY_OR_FIELD_CSV", args.source),
-                                    ("--robot", getattr(args, "robot", None))))
+                                    ("--robot", getattr(args, "robot", None))), force=args.force)
     prepare_output_folder(args.out, args.force, kind="robustness")
     try:
         plan = plan_robustness(
@@ -262,7 +262,7 @@ def identify_command(args: argparse.Namespace) -> int:
                            "from the nominal values only; give --starts 2 or more, or leave --seed "
                            "out")
     check_inputs_outside(args.out, (("FIELD_CSV", args.field_csv), ("TRAJECTORY_CSV", args.trajectory_csv),
-                                    ("--robot", args.robot)))
+                                    ("--robot", args.robot)), force=args.force)
     prepare_output_folder(args.out, args.force, kind="identify")
     with _kept_warnings() as input_warnings:  # printed now, and recorded in identify.json
         drive, measured, steered_by = _drive_and_measured(args.field_csv, args.trajectory_csv, args.robot)
