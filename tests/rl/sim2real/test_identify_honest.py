@@ -223,6 +223,18 @@ def test_the_residual_flag_fires_when_the_value_that_differs_is_not_fitted(tmp_p
     assert "2 start(s), " in captured.out
 
 
+def _one_stopped_start(factor, cost_factor=None):
+    """A ``_fit_one_start`` that ends, unconverged, at ``factor`` x the spec's value, its recorded cost
+    that of ``cost_factor`` (default ``factor``): a start the budget stopped."""
+    def stopped(problem, x0, budget):
+        r = problem.whole.residuals(np.array([factor if cost_factor is None else cost_factor]))
+        return {"x": np.array([np.log(factor)]), "cost": float(r @ r), "rms_m": float(np.sqrt(np.mean(r**2))),
+                "converged": False, "status": None, "message": "stopped", "stages": [],
+                "polish": {"converged": False, "message": "", "simulations": 0}}
+
+    return stopped
+
+
 def test_a_fit_that_ends_worse_than_the_spec_keeps_the_specs_values(spec, monkeypatch):
     """Round 11, S3: a search cut short (its stages judged on a short horizon) wrote a
     magnetization of 0.605 x nominal that fitted the whole trajectory worse than the nominal."""
@@ -232,14 +244,8 @@ def test_a_fit_that_ends_worse_than_the_spec_keeps_the_specs_values(spec, monkey
     keys = "robot.magnetization.magnitude"
     measured = synthetic(spec, keys, np.array([1.0]), fields, 0.3)
 
-    def worse(problem, x0, budget):  # a start that stopped far from the truth
-        x = np.array([np.log(0.6)])
-        r = problem.whole.residuals(np.exp(x))
-        return {"x": x, "cost": float(r @ r), "rms_m": float(np.sqrt(np.mean(r**2))),
-                "converged": False, "status": None, "message": "stopped", "stages": [],
-                "polish": {"converged": False, "message": "", "simulations": 0}}
-
-    monkeypatch.setattr(identify_module, "_fit_one_start", worse)
+    # a start that stopped far from the truth
+    monkeypatch.setattr(identify_module, "_fit_one_start", _one_stopped_start(0.6))
     report = identify(fields, measured, spec, parse_fit(keys, spec), starts=1, max_evaluations=10,
                       noise_m=NOISE_M, confirm=False)
     assert report["kept_spec_values"] is True
@@ -260,13 +266,8 @@ def test_a_start_the_budget_stopped_does_not_make_an_interval(spec, monkeypatch)
     keys = "robot.magnetization.magnitude"
     measured = synthetic(spec, keys, np.array([1.0]), fields, 0.3)
 
-    def stopped(problem, x0, budget):  # stopped far away, its (short-horizon) cost the spec's
-        r = problem.whole.residuals(np.ones(1))
-        return {"x": np.array([np.log(0.6)]), "cost": float(r @ r), "rms_m": float(np.sqrt(np.mean(r**2))),
-                "converged": False, "status": None, "message": "stopped", "stages": [],
-                "polish": {"converged": False, "message": "", "simulations": 0}}
-
-    monkeypatch.setattr(identify_module, "_fit_one_start", stopped)
+    # stopped far away, its (short-horizon) cost the spec's
+    monkeypatch.setattr(identify_module, "_fit_one_start", _one_stopped_start(0.6, cost_factor=1.0))
     report = identify(fields, measured, spec, parse_fit(keys, spec), starts=1, max_evaluations=10,
                       noise_m=NOISE_M, confirm=False)
     fitted = report["fitted"][keys]
@@ -286,14 +287,8 @@ def test_a_fit_stopped_short_of_its_minimum_is_not_judged(spec, monkeypatch):
     keys = "robot.magnetization.magnitude"
     measured = synthetic(spec, keys, np.array([1.3]), fields, 0.3)
 
-    def stalled(problem, x0, budget):  # a hair from the spec's values, stopped by the budget
-        x = np.array([np.log(1.001)])
-        r = problem.whole.residuals(np.exp(x))
-        return {"x": x, "cost": float(r @ r), "rms_m": float(np.sqrt(np.mean(r**2))),
-                "converged": False, "status": None, "message": "stopped", "stages": [],
-                "polish": {"converged": False, "message": "", "simulations": 0}}
-
-    monkeypatch.setattr(identify_module, "_fit_one_start", stalled)
+    # a hair from the spec's values, stopped by the budget
+    monkeypatch.setattr(identify_module, "_fit_one_start", _one_stopped_start(1.001))
     report = identify(fields, measured, spec, parse_fit(keys, spec), starts=1, max_evaluations=10,
                       noise_m=NOISE_M, confirm=False)
     fitted = report["fitted"][keys]
