@@ -40,10 +40,13 @@ from elastica_magnetic import (
 from .report import CaseResult, Comparison, Gate
 
 MU0 = 4e-7 * math.pi
-#: Worst errors achieved (the run is the same in full and quick): recorded rounded up to two
-#: digits; the tolerance is MARGIN x these. Round-off checks use a fixed bound instead.
-ACHIEVED = {"energy": 1.4e-10, "biot-savart field": 4.9e-15, "biot-savart gradient": 1.8e-14}
+#: Worst error achieved (the run is the same in full and quick): recorded rounded up to two
+#: digits; the tolerance is MARGIN x it. Round-off checks use a fixed bound instead.
+ACHIEVED = {"energy": 1.4e-10}
 ROUND_OFF = 1e-12
+#: The trapezoidal rule on a loop converges spectrally: the coil pairs' errors are the same 1e-15
+#: (field) and 1e-14 (gradient) from 256 to 8192 points, so they are round-off (which differs
+#: between machines and numpy builds, 1.1e-14 to 1.8e-14 measured), gated by the round-off bound.
 BIOT_SAVART_POINTS = 4096
 
 
@@ -56,10 +59,10 @@ def gates() -> dict[str, Gate]:
                         "round-off bound (exact answer)", relative=True),
         "newton": Gate("Newton's third law", 0.0, ROUND_OFF, "round-off bound (exact balance)",
                        relative=True),
-        "biot-savart field": Gate.from_achieved("coil pair B vs Biot-Savart",
-                                                ACHIEVED["biot-savart field"], relative=True),
-        "biot-savart gradient": Gate.from_achieved("coil pair grad B vs Biot-Savart",
-                                                   ACHIEVED["biot-savart gradient"], relative=True),
+        "biot-savart field": Gate("coil pair B vs Biot-Savart", 0.0, ROUND_OFF,
+                                  "round-off bound (converged quadrature)", relative=True),
+        "biot-savart gradient": Gate("coil pair grad B vs Biot-Savart", 0.0, ROUND_OFF,
+                                     "round-off bound (converged quadrature)", relative=True),
     }
 
 
