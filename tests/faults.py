@@ -164,6 +164,7 @@ def _child(request: dict[str, Any]) -> None:
 def serve() -> None:
     """The server's loop: one JSON request per line on stdin, one status per line on stdout."""
     import elastica_magnetic_rl.cli.commands  # noqa: F401
+    import elastica_magnetic_rl.cli.rollout_commands  # noqa: F401
     import torch  # noqa: F401
 
     import elastica_magnetic.cli  # noqa: F401 - imported once, inherited by every child

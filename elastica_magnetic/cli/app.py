@@ -12,8 +12,8 @@ new one; so do the spellings of a group merged into another
 
 - ``elastica_magnetic.cli.commands``: ``replay``, ``simulate``
 - ``elastica_magnetic_validation.cli``: ``validate``
-- ``elastica_magnetic_rl.cli.commands``: ``case``, ``bench``, ``generate``, ``baseline``, ``figures``,
-  ``demo``
+- ``elastica_magnetic_rl.cli.commands``: ``case``, ``bench``, ``figures``
+- ``elastica_magnetic_rl.cli.rollout_commands``: ``generate``, ``baseline``, ``demo``
 - ``elastica_magnetic_rl.cli.train_commands``: ``train``, ``refine``
 - ``elastica_magnetic_rl.cli.policy_commands``: ``export-seeds``, ``seeds``, ``ship``, ``notes``, ``export``,
   ``diagnose``
@@ -45,6 +45,7 @@ COMMAND_MODULES = (
     "elastica_magnetic.cli.commands",
     "elastica_magnetic_validation.cli",
     "elastica_magnetic_rl.cli.commands",
+    "elastica_magnetic_rl.cli.rollout_commands",
     "elastica_magnetic_rl.cli.train_commands",
     "elastica_magnetic_rl.cli.policy_commands",
     "elastica_magnetic_rl.sim2real.cli",
