@@ -13,10 +13,14 @@ from pathlib import Path
 
 #: A coil's current column: ``current_<K>_A``, K its index among the spec's coils (from 0), A.
 CURRENT_COLUMN = re.compile(r"^current_(\d+)_A$")
-#: A coil's current column in any unit or none, spelled in any case (``current_0_mA``, ``current_0``,
-#: ``Current0_A``): a current column spelled otherwise is named for what it is
-#: (:func:`current_unit_problem`), never read as another format.
-CURRENT_ANY_UNIT = re.compile(r"^current_?(\d+)(?:_([A-Za-z]+))?$", re.IGNORECASE)
+#: A coil's current column in any unit or none, spelled in any case and with any separators
+#: (``current_0_mA``, ``current_0``, ``Current0_A``, ``current_0 [A]``, ``current 0 (mA)``,
+#: ``current_0_A_``, ``I_0_A``, ``coil_0_A``): a current column spelled otherwise is named for
+#: what it is (:func:`current_unit_problem`), never read as another format. Its unit is group
+#: ``unit`` (None where none is written).
+CURRENT_ANY_UNIT = re.compile(
+    r"^(?:current|curr|coil|i)[\s_\-]*(\d+)[\s_\-]*"
+    r"(?:[\[(]\s*(?P<unit>[A-Za-z]+)\s*[\])]|(?P<bare_unit>[A-Za-z]+))?[\s_\-]*$", re.IGNORECASE)
 #: Spellings of the ampere (lower case): such a column needs its name mended, not its values.
 _AMPERE = ("a", "amp", "amps", "ampere", "amperes")
 #: What turns a current in these units into A.
@@ -83,7 +87,7 @@ def current_unit_problem(names: Sequence[str]) -> str | None:
     if not wrong:
         return None
     shown = ", ".join(wrong) if len(wrong) <= 3 else f"{wrong[0]}, ..., {wrong[-1]}"
-    units = {CURRENT_ANY_UNIT.match(n).group(2) or "" for n in wrong}  # type: ignore[union-attr]
+    units = {_unit_of(n) for n in wrong}
     if "" in units:  # no unit written: what the values are in is not known
         return (f"column(s) {shown}: a coil's current column is named current_<K>_A, its values in A; "
                 "rename the columns current_0_A, current_1_A, ... (with the values in A)")
@@ -95,6 +99,12 @@ def current_unit_problem(names: Sequence[str]) -> str | None:
     convert = _TO_AMPERES.get(unit, f"convert {unit} to A")
     return (f"column(s) {shown}: a coil's current is in A, its column current_<K>_A; the currents in "
             f"{unit}? {convert} and name the columns current_0_A, current_1_A, ...")
+
+
+def _unit_of(name: str) -> str:
+    """The unit written in the current column ``name`` (``""`` where none is)."""
+    match = CURRENT_ANY_UNIT.match(name)
+    return (match.group("unit") or match.group("bare_unit") or "") if match else ""
 
 
 def is_magnet_path(path: str | Path) -> bool:

@@ -422,11 +422,15 @@ def print_identified(report: dict) -> None:
         for key, value in fit["values"].items():
             sigma = fit["sigma"][key]
             # a table (a per-element magnetization) is shown by its largest vector
-            print(f"{key}: {magnitude_of(value):.6g} +- "
-                  f"{'inf' if sigma is None else format(magnitude_of(sigma), '.2g')} "
+            error = ("(no standard error)" if "stopped_short" in fit else
+                     f"+- {'inf' if sigma is None else format(magnitude_of(sigma), '.2g')}")
+            print(f"{key}: {magnitude_of(value):.6g} {error} "
                   f"(nominal {magnitude_of(fit['nominal_values'][key]):.6g}, "
                   f"x{fit['factor']:.4f}), {span}"
                   + ("  AT THE BOUND of the fit" if fit["at_bound"] else ""))
+        if "stopped_short" in fit:
+            note = fit["stopped_short"]["note"]
+            print(f"  STOPPED SHORT: {note.removeprefix('the fit stopped short of its minimum: ')}")
         if fit["identifiable"] is None:
             print(f"  NOT JUDGED: {fit['reason'].removeprefix('not judged: ')}")
         elif not fit["identifiable"]:

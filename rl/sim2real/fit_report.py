@@ -29,7 +29,8 @@ def fitted_values(spec: Mapping[str, Any], fits: Sequence[Variation], x, sigma, 
     out = {}
     for k, fit in enumerate(fits):
         factor = float(np.exp(x[k]))
-        sigma_k = float(sigma[k]) if np.isfinite(sigma[k]) else None
+        # a point the profile undercut is not the minimum: the Jacobian there says nothing of it
+        sigma_k = float(sigma[k]) if np.isfinite(sigma[k]) and "stopped_short" not in judged[k] else None
         out[fit.name] = {
             "keys": list(fit.keys),
             "factor": factor,
@@ -85,12 +86,15 @@ def starts_report(records: Sequence[dict[str, Any]], near: Sequence[bool], best:
 
 def fit_warnings(best: Mapping[str, Any], judged: Sequence[Mapping[str, Any]],
                  fits: Sequence[Variation]) -> list[str]:
-    """Warnings on the best start (stopped by the budget) and on values not identifiable."""
+    """Warnings on the best start (stopped by the budget), on values whose profile found a lower
+    cost (``stopped_short``) and on values not identifiable."""
     out = []
     if not best["converged"]:
         out.append(f"the best start did not converge ({best['message']}); raise --max-evaluations")
     for fit, entry in zip(fits, judged, strict=True):
-        if entry["identifiable"] is None:
+        if "stopped_short" in entry:
+            out.append(f"{fit.name}: {entry['stopped_short']['note']}")
+        elif entry["identifiable"] is None:
             out.append(f"{fit.name}: identifiability {entry['reason']}")
         elif not entry["identifiable"]:
             out.append(f"{fit.name} is not identifiable from this trajectory: {entry['reason']}")

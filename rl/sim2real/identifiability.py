@@ -181,7 +181,10 @@ def judge_values(names: Sequence[str], x_best: NDArray[np.float64], halves: NDAr
     """Per fitted value: the interval of its factor (``halves``: half-widths, log factor), where
     it comes from (``sources``), and whether it is identifiable (else the reason); ``None``, not
     judged and no interval, where a value would be called not identifiable and a point of the
-    ``profile`` lies lower than the fit's best (:func:`lower_cost_found`)."""
+    ``profile`` lies lower than the fit's best (:func:`lower_cost_found`). An identifiable value
+    with such a point keeps its interval (the profile rose past the threshold on both sides: it
+    brackets the minimum) and gets ``stopped_short`` (where the lower cost lies, and a note): the
+    fitted point is not the minimum, and its standard error is withdrawn."""
     out = []
     lower = lower_cost_found(profile, len(names)) if profile is not None else [None] * len(names)
     for k in range(len(names)):
@@ -201,7 +204,16 @@ def judge_values(names: Sequence[str], x_best: NDArray[np.float64], halves: NDAr
                 f"not judged: the fit stopped short of its minimum (the profile found a cost "
                 f"{-point['cost_rise_over_s2']:.3g} residual variances lower at factor x{factor:.4g}, "
                 "the others re-fitted); raise --max-evaluations or give more --starts"))
-        elif not identifiable:
+        elif point is not None:  # its interval brackets the minimum; the fit's point is not it
+            factor = float(np.exp(x_best[k] + point["log_step"]))
+            entry["stopped_short"] = {
+                "factor": factor, "cost_below_best_over_s2": -point["cost_rise_over_s2"],
+                "note": (f"the fit stopped short of its minimum: the profile found a cost "
+                         f"{-point['cost_rise_over_s2']:.3g} residual variances lower at factor "
+                         f"x{factor:.4g}, inside the interval (which holds the minimum); the fitted "
+                         "value is not the minimum and has no standard error: raise --max-evaluations "
+                         "or give more --starts")}
+        else:
             entry["reason"] = _reason(k, names, corr, jac, s2, sources[k])
         out.append(entry)
     return out

@@ -104,6 +104,39 @@ def test_the_profile_widens_an_interval_the_cost_does_not_confirm():
     assert len(records) > 4
 
 
+def test_a_point_the_profile_undercut_keeps_its_interval_but_no_standard_error(spec):
+    """Round 33 (S1): a one-value fit stopped by its budget at x1.041 whose profile found a cost
+    290 residual variances lower at x1.052 (inside its interval, which held the truth x1.05) was
+    stated as "63830.8 +- 30": the truth 18 standard errors away. The interval stands (the
+    profile rose past the threshold on both sides), the standard error is withdrawn, the lower
+    cost named."""
+    from elastica_magnetic_rl.sim2real.fit_report import fit_warnings, fitted_values
+
+    x_best = np.log([1.0413])
+    halves = np.array([0.023])  # [1.0177, 1.0655]: the profile's, confirmed on both sides
+    profile = [{"value": 0, "log_step": -0.023, "cost_rise_over_s2": 5.0},
+               {"value": 0, "log_step": 0.01, "cost_rise_over_s2": -289.9},
+               {"value": 0, "log_step": 0.015, "cost_rise_over_s2": -94.9},
+               {"value": 0, "log_step": 0.023, "cost_rise_over_s2": 4.1}]
+    jac = np.full((60, 1), 1e-2)
+    (judged,) = judge_values(["magnetization"], x_best, halves, ["profile"], np.eye(1), jac, 1e-9,
+                             profile)
+    assert judged["identifiable"] and judged["interval"][0] < 1.05 < judged["interval"][1]
+    short = judged["stopped_short"]
+    assert short["factor"] == pytest.approx(1.0413 * np.exp(0.01))
+    assert "289.9" not in short["note"] and "290 residual variances lower" in short["note"]
+    fits = parse_fit("magnetization", spec)
+    (fitted,) = fitted_values(spec, fits, x_best, np.array([4.7e-4]), (np.log(0.2), np.log(5.0)),
+                              [judged], profile).values()
+    assert fitted["factor_sigma"] is None and set(fitted["sigma"].values()) == {None}
+    (warning,) = fit_warnings({"converged": True}, [judged], fits)
+    assert "stopped short of its minimum" in warning and "x1.052" in warning
+    # without a lower point the standard error stands
+    (plain,) = judge_values(["magnetization"], x_best, halves, ["profile"], np.eye(1), jac, 1e-9,
+                            [p for p in profile if p["cost_rise_over_s2"] > 0])
+    assert "stopped_short" not in plain
+
+
 def test_the_residual_is_judged_only_against_a_stated_noise():
     verdict, warnings = residual_against_noise(1e-4, None)
     assert verdict["residual_vs_noise"] is None and "cannot be judged" in verdict["residual_judged"]
