@@ -161,6 +161,19 @@ def separator_hint(names: list[str]) -> str:
     return ""
 
 
+def decimal_comma_hint(names: list[str]) -> str:
+    """For a header read as comma-separated: what looks like a name holding a decimal comma split
+    in two columns (``x_0`` then ``5_m``: ``x_0,5_m`` for ``x_0.5_m``), as a person reads it, or
+    ``""``."""
+    import re
+
+    for first, second in zip(names, names[1:], strict=False):
+        if re.search(r"_\d+$", first) and re.match(r"\d+(_|$)", second):
+            return (f"the columns {first!r} and {second!r} look like one name written with a decimal "
+                    f"comma ({first},{second}) and split at it: write numbers with a dot ({first}.{second})")
+    return ""
+
+
 def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
                    ) -> tuple[list[int], int | None, int, list[tuple[int, list[str]]]]:
     """Where the field components are: their column indices, the index column (``None``: none),

@@ -215,12 +215,18 @@ def check_not_another_result(folder: str | Path, option: str, *, held_ok: bool =
     check_enclosing(final, option)
 
 
+#: What happens to an input inside the folder a command replaces whole (with ``--force``).
+REPLACED_WHOLE = "replaces whole: the input would be deleted with the old result"
+
+
 def check_inputs_outside(out: str | Path, inputs: Iterable[tuple[str, str | Path | None]],
-                         option: str = "--out", *, force: bool = True) -> None:
+                         option: str = "--out", *, force: bool = True, how: str = REPLACED_WHOLE) -> None:
     """No input file (``inputs``: the option or argument that names it, and its path; ``None`` for
     one not given) lies in the folder ``out`` a command replaces whole (with ``--force``): the
     input would be deleted with the old result. :class:`OutputPathError` naming both, before any
-    work. Without ``force`` nothing is replaced (an existing folder is refused by its writer)."""
+    work. Without ``force`` nothing is replaced (an existing folder is refused by its writer).
+    ``how``: what the command does to its folder and so to the input (a command that writes into
+    its folder on every run, as ``msr loop`` does, passes ``force=True`` always)."""
     if not force:
         return
     final = normalized_path(out)
@@ -230,8 +236,8 @@ def check_inputs_outside(out: str | Path, inputs: Iterable[tuple[str, str | Path
         given = normalized_path(path)
         if given == final or final in given.parents:
             raise OutputPathError(f"{name} {display_path(given)}: lies in {option} {display_path(final)}, "
-                                  "which this command replaces whole: the input would be deleted with the "
-                                  f"old result; copy it elsewhere first, or choose another {option}")
+                                  f"which this command {how}; copy it elsewhere first, or choose another "
+                                  f"{option}")
 
 
 def check_creatable(target: Path, option: str) -> None:

@@ -187,12 +187,22 @@ def _check_calibration_drives(calibration, path, case) -> None:
                                "a calibration whose current limits drive it")
 
 
+#: What ``msr loop`` does to a file inside its folder.
+LOOP_WRITES = ("writes into on every run (its spec copy with the yardstick, each step's folder) and "
+               "replaces with --force: the input would be rewritten or deleted (a loop's own spec copy "
+               "is not its SPEC: give the spec it started from)")
+
+
 def loop_command(args: argparse.Namespace) -> int:
     from elastica_magnetic.interrupts import signals_as_exceptions
+    from elastica_magnetic.result_places import check_inputs_outside
 
     from .runner import run_loop
     from .state import LoopError, parse_steps
 
+    # the loop writes into DIR on every run (its spec copy, each step's folder; --force replaces it)
+    check_inputs_outside(args.out, [("SPEC", args.spec.source), ("--calibration", args.calibration)],
+                         how=LOOP_WRITES)
     try:
         skip, redo = parse_steps(args.skip, "--skip"), parse_steps(args.redo, "--redo")
         # SIGTERM/SIGHUP stop it as Ctrl-C does, in every step (the train step's too), with the

@@ -24,8 +24,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = ["CORRELATED", "IDENTIFIABLE_WITHIN", "INTERVAL_SIGMAS", "NEAR_BEST_CHI2",
-           "RESIDUAL_FLAG", "first_halfwidths", "judge_values", "near_best", "profile_halfwidths",
-           "residual_against_noise", "uncertainty"]
+           "RESIDUAL_BODY_FLAG", "RESIDUAL_FLAG", "first_halfwidths", "judge_values", "near_best",
+           "profile_halfwidths", "residual_against_body", "residual_against_noise", "uncertainty"]
 
 #: Standard errors in the stated interval (about 95 %).
 INTERVAL_SIGMAS = 2.0
@@ -38,6 +38,9 @@ IDENTIFIABLE_WITHIN = 0.10
 CORRELATED = 0.9
 #: Residual RMS / the tracker's noise past which the model does not explain the data.
 RESIDUAL_FLAG = 2.0
+#: A fitted robot that misses the tracked points by this fraction of its length (RMS) does not
+#: explain the motion, whatever the tracker's noise: its values are not judged.
+RESIDUAL_BODY_FLAG = 0.25
 #: The quick profile: its least step (log factor), how the step grows while the cost stays
 #: flat, least-squares steps of each re-fit of the other values, their Jacobian step.
 PROFILE_MIN_STEP = 0.01
@@ -261,3 +264,16 @@ def residual_against_noise(rms_m: float, noise_m: float | None) -> tuple[dict[st
         f"({1e3 * noise_m:.4g} mm): the fitted model does not explain the data (a value that "
         "differs is missing from --fit, or a fitted one is wrong), so the fitted values may be "
         "biased and their intervals do not hold"]
+
+
+def residual_against_body(rms_m: float, length_m: float) -> str | None:
+    """Why values fitted with a residual RMS of ``rms_m`` (m) on a body ``length_m`` (m) long are
+    not judged, where it passes :data:`RESIDUAL_BODY_FLAG` of the length (the model explains none
+    of the motion: a tracker in millimetres read as metres, another robot or recording), else
+    ``None``. It needs no ``--noise-m``."""
+    if not rms_m > RESIDUAL_BODY_FLAG * length_m:
+        return None
+    return (f"not judged: the fitted robot misses the tracked points by {1e3 * rms_m:.4g} mm RMS, "
+            f"{rms_m / length_m:.2g} x its {1e3 * length_m:.4g} mm body: the model does not explain "
+            "this motion (values in millimetres given as metres? another robot than the spec's, or "
+            "another recording than the waveform's?)")

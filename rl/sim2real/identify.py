@@ -441,6 +441,7 @@ def _fit_report(problem: _Problem, records: list[dict[str, Any]], o: FitOptions,
         IDENTIFIABLE_WITHIN,
         INTERVAL_SIGMAS,
         NEAR_BEST_CHI2,
+        residual_against_body,
         residual_against_noise,
     )
 
@@ -464,6 +465,9 @@ def _fit_report(problem: _Problem, records: list[dict[str, Any]], o: FitOptions,
                                                 [records[i] for i in finished], bounds)
     starts_public, agree = starts_report(records, near, best)
     judged_residual, warnings = residual_against_noise(_rms(residual), o.noise_m)
+    if (missed := residual_against_body(_rms(residual), float(spec["robot"]["length"]))) is not None:
+        judged = [{"interval": None, "interval_from": entry["interval_from"], "identifiable": None,
+                   "reason": missed} for entry in judged]
     fitted = fitted_values(spec, fits, x, sigma, bounds, judged, profile)  # the verdicts, a bound's too
     warnings += fit_warnings(records[best], list(fitted.values()), fits)
     if kept:

@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from elastica_magnetic.field_csv import header_named_twice, separator_hint
+from elastica_magnetic.field_csv import decimal_comma_hint, header_named_twice, separator_hint
 
 __all__ = [
     "MARKERS",
@@ -118,6 +118,8 @@ def _read_csv(path: Path) -> pd.DataFrame:
         raise TrajectoryError(f"{path}: empty file; expected a header line (t_s, ...)") from None
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise TrajectoryError(f"{path}: not a readable UTF-8 CSV ({exc})") from None
+    if split := decimal_comma_hint([str(c).strip() for c in table.columns]):
+        raise TrajectoryError(f"{path}: {split}")
     if twice := header_named_twice(path):
         raise TrajectoryError(f"{path}: its header {twice}; give each column once (which copy is meant "
                               "cannot be guessed)")
