@@ -96,7 +96,8 @@ def current_unit_problem(names: Sequence[str]) -> str | None:
                 "current, capital A); the values are amperes already: rename the columns current_0_A, "
                 "current_1_A, ...")
     unit = next(u for u in sorted(units) if u.lower() not in _AMPERE)
-    convert = _TO_AMPERES.get(unit, f"convert {unit} to A")
+    # mA spelled in any case (ma, MA: no coil runs mega-amperes)
+    convert = {k.lower(): v for k, v in _TO_AMPERES.items()}.get(unit.lower(), f"convert {unit} to A")
     return (f"column(s) {shown}: a coil's current is in A, its column current_<K>_A; the currents in "
             f"{unit}? {convert} and name the columns current_0_A, current_1_A, ...")
 

@@ -409,7 +409,7 @@ def test_currents_logged_in_milliseconds_are_told_to_divide(tmp_path):
 
 
 @pytest.mark.parametrize("column", ["current_0 [A]", "current_0_(A)", "current 0 A", "current_0_A_", "I_0_A",
-                                    "coil_0_A", "current_0 (mA)"])
+                                    "coil_0_A", "current_0 (mA)", "current_0_ma"])
 def test_current_columns_with_brackets_spaces_or_another_prefix_are_named(tmp_path, column):
     """Round 33, V1: ``current_0 [A]``, ``current 0 A``, ``I_0_A``, ``coil_0_A`` ... were read as a
     field CSV ("lacks mag_x, mag_y, mag_z ... in mT"), even for a coil-currents spec; they are
@@ -419,7 +419,7 @@ def test_current_columns_with_brackets_spaces_or_another_prefix_are_named(tmp_pa
     with pytest.raises(CoilCurrentsError, match=r"a coil's current (column )?is") as refused:
         read_coil_currents(path)
     assert column in str(refused.value) and "current_0_A" in str(refused.value)
-    assert ("divide by 1000" in str(refused.value)) == ("mA" in column)
+    assert ("divide by 1000" in str(refused.value)) == ("mA" in column or "ma" in column)
     from elastica_magnetic.field_csv import FieldCSVError, read_field_csv
 
     with pytest.raises(FieldCSVError, match=r"holds the currents of 1 coil"):

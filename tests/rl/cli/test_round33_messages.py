@@ -51,3 +51,26 @@ def test_a_tracker_header_split_at_decimal_commas_is_named_as_such(tmp_path, cap
     with pytest.raises(TrajectoryError, match=r"'x_0' and '5_m' look like one name written with a "
                                               r"decimal comma \(x_0,5_m\) .* with a dot \(x_0.5_m\)"):
         read_trajectory(track)
+
+
+def test_hardware_inputs_inside_what_force_replaces_are_refused(tmp_path, capsys):
+    """The review of round 33's D1: ``msr real firmware DIR/fields.csv --out DIR --force``
+    and ``msr real calibrate meas.csv --out meas.csv --force`` replaced their own input (the
+    waveform deleted with the folder, the measurements overwritten by the fit)."""
+    out = tmp_path / "fw"
+    out.mkdir()
+    field = out / "fields.csv"
+    field.write_text("mag_x,mag_y,mag_z\n0,0,0\n1,0,0\n")
+    calibration = REPO / "stm32" / "calibration" / "default.json"
+    before = _tree(out)
+    assert msr(["real", "firmware", str(field), "--calibration", str(calibration), "--out", str(out),
+                "--force"]) == 2
+    assert f"FIELD_CSV {field}: lies in --out {out}" in capsys.readouterr().err
+    assert _tree(out) == before
+    measurements = tmp_path / "meas.csv"
+    measurements.write_text("current_x_A,current_y_A,current_z_A,field_x_mT,field_y_mT,field_z_mT\n"
+                            "1,0,0,2,0,0\n0,1,0,0,2,0\n0,0,1,0,0,2\n1,1,0,2,2,0\n")
+    kept = measurements.read_bytes()
+    assert msr(["real", "calibrate", str(measurements), "--out", str(measurements), "--force"]) == 2
+    assert f"MEASUREMENTS {measurements}: lies in --out {measurements}" in capsys.readouterr().err
+    assert measurements.read_bytes() == kept
