@@ -20,11 +20,13 @@ CURRENT_COLUMN = re.compile(r"^current_(\d+)_A$")
 #: ``unit`` (None where none is written).
 CURRENT_ANY_UNIT = re.compile(
     r"^(?:current|curr|coil|i)[\s_\-]*(\d+)[\s_\-]*"
-    r"(?:[\[(]\s*(?P<unit>[A-Za-z]+)\s*[\])]|(?P<bare_unit>[A-Za-z]+))?[\s_\-]*$", re.IGNORECASE)
+    r"(?:[\[(]\s*(?P<unit>[A-Za-z\u00b5\u03bc]+)\s*[\])]|(?P<bare_unit>[A-Za-z\u00b5\u03bc]+))?[\s_\-]*$",
+    re.IGNORECASE)
 #: Spellings of the ampere (lower case): such a column needs its name mended, not its values.
 _AMPERE = ("a", "amp", "amps", "ampere", "amperes")
 #: What turns a current in these units into A.
-_TO_AMPERES = {"mA": "divide by 1000", "uA": "divide by 1e6", "kA": "multiply by 1000"}
+_TO_AMPERES = {"mA": "divide by 1000", "uA": "divide by 1e6", "\u00b5A": "divide by 1e6",
+               "\u03bcA": "divide by 1e6", "kA": "multiply by 1000"}
 #: The column that marks a magnet arm's path (its first position column, m).
 MAGNET_COLUMN = "magnet_x_m"
 #: The insertion stage's column of a recorded drive (m; only with a stage).

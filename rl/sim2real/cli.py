@@ -196,8 +196,9 @@ def robustness_command(args: argparse.Namespace) -> int:
     if args.seed is not None and not args.samples:  # it would be recorded but change nothing
         raise CommandError(f"--seed {args.seed}: seeds the Latin-hypercube draws of --samples, and "
                            "none are drawn (--samples 0); give --samples N, or leave --seed out")
-    check_inputs_outside(args.out, (("POLICY_OR_FIELD_CSV", args.source),
-                                    ("--robot", getattr(args, "robot", None))), force=args.force)
+    check_inputs_outside(args.out, (("POLICY_OR_FIELD_CSV", args.source), ("--fields", args.fields),
+                                    ("--case", args.case), ("--robot", getattr(args, "robot", None))),
+                         force=args.force)
     prepare_output_folder(args.out, args.force, kind="robustness")
     try:
         plan = plan_robustness(
@@ -422,7 +423,7 @@ def print_identified(report: dict) -> None:
         for key, value in fit["values"].items():
             sigma = fit["sigma"][key]
             # a table (a per-element magnetization) is shown by its largest vector
-            error = ("(no standard error)" if "stopped_short" in fit else
+            error = ("(no standard error)" if "stopped_short" in fit or fit["identifiable"] is None else
                      f"+- {'inf' if sigma is None else format(magnitude_of(sigma), '.2g')}")
             print(f"{key}: {magnitude_of(value):.6g} {error} "
                   f"(nominal {magnitude_of(fit['nominal_values'][key]):.6g}, "

@@ -25,7 +25,8 @@ def fitted_values(spec: Mapping[str, Any], fits: Sequence[Variation], x, sigma, 
                   profile: Sequence[Mapping[str, Any]] = ()) -> dict[str, Any]:
     """Per fit: its keys, factor and its standard error, fitted and nominal values (SI) and their
     standard errors, whether the factor ended on a bound of the fit, its interval (factors) and
-    whether it is identifiable (:func:`~.identifiability.judge_values`)."""
+    whether it is identifiable (:func:`~.identifiability.judge_values`). A value not judged, or
+    whose point the profile undercut (``stopped_short``), has no standard error (``None``)."""
     out = {}
     for k, fit in enumerate(fits):
         factor = float(np.exp(x[k]))
@@ -50,6 +51,8 @@ def fitted_values(spec: Mapping[str, Any], fits: Sequence[Variation], x, sigma, 
             out[fit.name].update(identifiable=None, interval=None, reason=(
                 f"not judged: the fit ended on the search's bound (x{edge:g} of the spec's value): the data "
                 "ask for a value beyond it (a unit mistake in the spec, or another robot than the spec's?)"))
+        if out[fit.name]["identifiable"] is None:  # not judged: no standard error either
+            out[fit.name].update(factor_sigma=None, sigma=dict.fromkeys(fit.keys))
     return out
 
 

@@ -253,9 +253,17 @@ def _length_unit_guess(lengths: float) -> str:
 
 def check_against_robot(measured: MeasuredTrajectory, length: float, field_duration: float) -> None:
     """Checks that need the robot (``length``, m) and the waveform (``field_duration``, s): the
-    frames lie within the waveform, the points move (at least :data:`MIN_MOTION` of the length)
+    frames lie within the waveform (a clock started elsewhere named as such), the points move (at
+    least :data:`MIN_MOTION` of the length)
     and their motion and spacing fit the body (else a unit is wrong: mm or cm for m, ms for s)."""
     where = measured.source
+    first = float(measured.times[0])
+    if measured.duration > field_duration + 1e-9 and measured.duration - first <= field_duration + 1e-9:
+        # the frames span no more than the waveform, but later: another clock (not milliseconds)
+        raise TrajectoryError(f"{where}: its frames run from t_s = {first:g} s to {measured.duration:g} s, "
+                              f"and the waveform's time runs from 0 to {field_duration:g} s: a tracker "
+                              "clock that does not start with the waveform? subtract the tracker's time "
+                              f"of the waveform's start from t_s ({first:g} s if the first frame is at it)")
     if measured.duration > _MILLISECONDS_FROM * field_duration:
         raise TrajectoryError(f"{where}: its frames reach t_s = {measured.duration:g} s, "
                               f"{measured.duration / field_duration:.0f} x the {field_duration:g} s "

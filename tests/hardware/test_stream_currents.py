@@ -409,7 +409,8 @@ def test_currents_logged_in_milliseconds_are_told_to_divide(tmp_path):
 
 
 @pytest.mark.parametrize("column", ["current_0 [A]", "current_0_(A)", "current 0 A", "current_0_A_", "I_0_A",
-                                    "coil_0_A", "current_0 (mA)", "current_0_ma"])
+                                    "coil_0_A", "current_0 (mA)", "current_0_ma",
+                                    "current_0_\u00b5A", "current_0_\u03bcA"])
 def test_current_columns_with_brackets_spaces_or_another_prefix_are_named(tmp_path, column):
     """Round 33, V1: ``current_0 [A]``, ``current 0 A``, ``I_0_A``, ``coil_0_A`` ... were read as a
     field CSV ("lacks mag_x, mag_y, mag_z ... in mT"), even for a coil-currents spec; they are

@@ -137,6 +137,22 @@ def test_a_point_the_profile_undercut_keeps_its_interval_but_no_standard_error(s
     assert "stopped_short" not in plain
 
 
+def test_a_value_not_judged_has_no_standard_error(spec):
+    """Round 34 (S1): a value made "not judged" by a lower cost in its profile (x1.128, the truth
+    x1.3) still printed "61372 +- 1.1e+03" (17 of them from the truth) and wrote its sigma."""
+    from elastica_magnetic_rl.sim2real.fit_report import fitted_values
+
+    x_best = np.log([1.0012])
+    profile = [{"value": 0, "log_step": -0.0953, "cost_rise_over_s2": 1.0},
+               {"value": 0, "log_step": 0.0953, "cost_rise_over_s2": -201.0}]
+    (judged,) = judge_values(["magnetization"], x_best, np.array([np.inf]), ["jacobian"], np.eye(1),
+                             np.full((60, 1), 1e-2), 1e-9, profile)
+    assert judged["identifiable"] is None and judged["reason"].startswith("not judged")
+    (fitted,) = fitted_values(spec, parse_fit("magnetization", spec), x_best, np.array([0.0177]),
+                              (np.log(0.2), np.log(5.0)), [judged], profile).values()
+    assert fitted["factor_sigma"] is None and set(fitted["sigma"].values()) == {None}
+
+
 def test_a_fit_that_misses_the_points_by_a_body_length_judges_nothing(spec):
     """Round 33 (S2): one tracked point in millimetres read as metres (under the tracker checks'
     limits) was fitted to magnetization x4.6 and called "flat cost: the motion hardly depends on

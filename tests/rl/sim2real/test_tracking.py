@@ -1,6 +1,8 @@
 """Measured trajectories: both formats are read, bad ones get a named error before any fitting,
 and the simulated points are where the formats say."""
 
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -146,3 +148,15 @@ def test_a_trajectory_naming_a_column_twice_is_refused(tmp_path):
     path = _tracker(tmp_path, rows, header="t_s,front_x_m,front_y_m,front_x_m")
     with pytest.raises(TrajectoryError, match=r"its header names front_x_m twice \(columns 2 and 4\)"):
         read_trajectory(path)
+
+
+@pytest.mark.parametrize("offset", [5.0, 1764892800.0])
+def test_a_tracker_clock_that_does_not_start_with_the_waveform_is_named(tmp_path, offset):
+    """Round 34, V2: frames from t_s = 5 s (or Unix time) were told to "cut the trajectory to the
+    waveform" (leaving no frame) or to "divide t_s by 1000" (refused again); now the clock is named
+    with the shift that mends it."""
+    late = [[offset + r[0], *r[1:]] for r in _moving()]
+    first = re.escape(f"{offset:g}")
+    with pytest.raises(TrajectoryError, match=rf"its frames run from t_s = {first} s .* subtract the "
+                                              r"tracker's time of the waveform's start from t_s"):
+        check_against_robot(read_trajectory(_tracker(tmp_path, late, name="late.csv")), LENGTH, 1.0)
