@@ -482,8 +482,12 @@ def _check_same(record: Mapping[str, Any], spec: dict[str, Any], settings: Desig
     if old != new:
         cases = (f"case {case}" if record.get("case") == case else
                  f"case {record.get('case')} then, {case} now")
+        # the [design] table is derived from the robot when the spec has none: a key the user
+        # changed is named first, the derived one only where nothing else differs
+        given_old, given_new = ({k: v for k, v in d.items() if k != "design"} for d in (old or {}, new))
+        where = first_difference(*((given_old, given_new) if given_old != given_new else (old, new)))
         raise DesignError(f"--resume: the design in {shown} was started from another spec ({cases}; "
-                          f"first difference: {first_difference(old, new)}); "
+                          f"first difference: {where}); "
                           "resume it with the same spec, or start afresh with --force")
     old, new = _plain(record.get("settings")), _plain(settings.recorded())
     if old != new:

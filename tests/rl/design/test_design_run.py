@@ -368,6 +368,12 @@ def test_a_resume_with_other_options_names_the_option(tmp_path):
         run_design("m1-4mT", out, longer, resume=True)
     with pytest.raises(DesignError, match=r"another spec \(case m1-4mT then, m2-4mT now; first difference"):
         run_design("m2-4mT", out, TINY, resume=True)
+    # round 34, V3: the derived [design] table (remanence) was named, not the key changed
+    spec = load_case("m1-4mT").to_dict()
+    spec["robot"]["magnetization"]["magnitude"] = 70000.0
+    (tmp_path / "m1-4mT.toml").write_text(dumps(spec))
+    with pytest.raises(DesignError, match=r"first difference: \[robot.magnetization\] magnitude\)"):
+        run_design(str(tmp_path / "m1-4mT.toml"), out, TINY, resume=True)
 
 
 def test_sizes_get_a_time_step_stable_at_every_corner(tmp_path):
