@@ -114,15 +114,19 @@ def number(
         return value
 
     def milli_hint(value: float) -> str:
-        """Where a value 1000x too large fits the range as a thousandth (mT for T, mm for m):
-        the likely slip, named."""
+        """Where a value 1000x too large fits the range as a thousandth (mT for T, mm for m;
+        a length also as a millionth, um): the likely slips, named."""
         if unit not in _MILLI_SLIPS or high is None or not (math.isfinite(value) and value > high):
             return ""
-        small = value * 1e-3
-        if (low is not None and not (small > low if low_open else small >= low)) or not (
-                small < high if high_open else small <= high):
+        fitting = [(prefix, value * size) for prefix, size in (("m", 1e-3), ("u", 1e-6))
+                   if (prefix == "m" or unit == "m") and (low is None or (
+                       value * size > low if low_open else value * size >= low)) and (
+                       value * size < high if high_open else value * size <= high)]
+        if not fitting:
             return ""
-        return f" (m{unit} written where {unit} is expected? {value:g} m{unit} is {small:g} {unit})"
+        names = " or ".join(f"{prefix}{unit}" for prefix, _ in fitting)
+        shown = "; ".join(f"{value:g} {prefix}{unit} is {small:g} {unit}" for prefix, small in fitting)
+        return f" ({names} written where {unit} is expected? {shown})"
 
     parse.__name__ = f"number ({unit})" if unit else "number"
     return parse

@@ -281,12 +281,13 @@ def ship_command(args: argparse.Namespace) -> int:
     check_ship_target(args.name, args.dest)  # before the actors' evaluations
     _check_ship_case(args)
 
-    notes = None
-    if args.notes is not None:
-        notes = _read_markdown(args.notes, "--notes")
     from ..shipping.policy_files import POLICIES_DIR, POLICY_JSON
 
     target = (args.dest if args.dest is not None else POLICIES_DIR) / args.name
+    notes = None
+    if args.notes is not None:
+        _check_notes_outside(args.notes, target, "--notes")
+        notes = _read_markdown(args.notes, "--notes")
     if (target / POLICY_JSON).exists() and not args.force:  # before the actors' evaluations
         given = f"--out {display_path(args.dest)}, " if args.dest is not None else ""
         where = f"{display_path(target)} ({given}--name {args.name})"
@@ -425,7 +426,7 @@ def _check_not_the_policys_own(path: Path, policy_name: str) -> None:
     wrote (its card, its policy.json: the notes would then hold the card or the JSON), or another
     file there (a seed campaign's, one put there by hand): the notes are kept outside the policy.
     A missing file is left to :func:`_read_markdown` ("no such file")."""
-    from ..shipping.policy_files import SHIPPED_FILES, resolve_policy
+    from ..shipping.policy_files import resolve_policy
 
     if not path.exists():
         return
@@ -433,14 +434,24 @@ def _check_not_the_policys_own(path: Path, policy_name: str) -> None:
         policy = resolve_policy(policy_name)
     except (FileNotFoundError, ValueError):
         return  # set_notes names the policy that cannot be read
-    folder = Path(policy.source).resolve()
-    if policy.kind != "shipped" or not path.resolve().is_relative_to(folder):
+    if policy.kind == "shipped":
+        _check_notes_outside(path, Path(policy.source), "--file")
+
+
+def _check_notes_outside(path: Path, folder: Path, option: str) -> None:
+    """A notes file (``option``) is not in the shipped policy's ``folder`` (one being shipped
+    included): one ship wrote there (its card, its policy.json) would nest in the notes, and
+    any file there belongs to the policy and its seed campaigns."""
+    from ..shipping.policy_files import SHIPPED_FILES
+
+    folder = folder.resolve()
+    if not path.exists() or not path.resolve().is_relative_to(folder):
         return
     if path.resolve().parent == folder and path.name in SHIPPED_FILES:
-        raise CommandError(f"--file {path}: is the policy's own {path.name} (msr policy ship wrote it; the "
+        raise CommandError(f"{option} {path}: is the policy's own {path.name} (msr policy ship wrote it; the "
                            "notes are a part of it); give a Markdown file of notes kept outside the policy's "
                            "folder")
-    raise CommandError(f"--file {path}: lies in the shipped policy {display_path(folder)}'s folder, which "
+    raise CommandError(f"{option} {path}: lies in the shipped policy {display_path(folder)}'s folder, which "
                        "holds the policy and its seed campaigns (the notes go into its policy.json and "
                        "card); give a Markdown file of notes kept outside the policy's folder")
 

@@ -28,7 +28,7 @@ from .identify import MAX_EVALUATIONS, STARTS
 
 #: Largest ``--noise-m`` (m) anywhere, and the largest as a fraction of the body length: a noise
 #: past it is a unit mistake (millimetres given for metres), not a tracker.
-MAX_NOISE_M = 0.1
+MAX_NOISE_M = 0.01
 MAX_NOISE_LENGTHS = 0.1
 
 _DEFAULT_SET = ", ".join(f"{name} ({'+'.join(GROUPS[name])}) x{low:g}:{high:g}"

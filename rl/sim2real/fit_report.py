@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..cases.variations import Variation, get_value, scaled
-from .identifiability import NEAR_BEST_CHI2
+from .identifiability import INTERVAL_SIGMAS, NEAR_BEST_CHI2
 
 __all__ = ["AGREE_WITHIN", "AT_BOUND_LOG", "CONFIRM_RATIO", "at_bound", "fit_warnings", "fitted_values",
            "physics_warning", "starts_report"]
@@ -26,12 +26,18 @@ def fitted_values(spec: Mapping[str, Any], fits: Sequence[Variation], x, sigma, 
     """Per fit: its keys, factor and its standard error, fitted and nominal values (SI) and their
     standard errors, whether the factor ended on a bound of the fit, its interval (factors) and
     whether it is identifiable (:func:`~.identifiability.judge_values`). A value not judged, or
-    whose point the profile undercut (``stopped_short``), has no standard error (``None``)."""
+    whose point the profile undercut (``stopped_short``), has no standard error (``None``); where
+    the profile widened the interval, the standard error is its half-width (log factor) over
+    ``INTERVAL_SIGMAS``, not the Jacobian's."""
     out = {}
     for k, fit in enumerate(fits):
         factor = float(np.exp(x[k]))
         # a point the profile undercut is not the minimum: the Jacobian there says nothing of it
         sigma_k = float(sigma[k]) if np.isfinite(sigma[k]) and "stopped_short" not in judged[k] else None
+        interval = judged[k].get("interval")
+        if sigma_k is not None and judged[k].get("interval_from") == "profile" and interval is not None:
+            # the cost rose slower than the Jacobian said: the standard error the interval implies
+            sigma_k = float(np.log(interval[1] / interval[0])) / (2.0 * INTERVAL_SIGMAS)
         out[fit.name] = {
             "keys": list(fit.keys),
             "factor": factor,

@@ -216,7 +216,7 @@ def judge_values(names: Sequence[str], x_best: NDArray[np.float64], halves: NDAr
                          f"x{factor:.4g}, inside the interval (which holds the minimum); the fitted "
                          "value is not the minimum and has no standard error: raise --max-evaluations "
                          "or give more --starts")}
-        else:
+        elif not identifiable:
             entry["reason"] = _reason(k, names, corr, jac, s2, sources[k])
         out.append(entry)
     return out

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from elastica_magnetic_rl.sim2real.fit_model import FitModel
 from elastica_magnetic_rl.sim2real.identifiability import (
+    INTERVAL_SIGMAS,
     first_halfwidths,
     judge_values,
     profile_halfwidths,
@@ -135,6 +136,13 @@ def test_a_point_the_profile_undercut_keeps_its_interval_but_no_standard_error(s
     (plain,) = judge_values(["magnetization"], x_best, halves, ["profile"], np.eye(1), jac, 1e-9,
                             [p for p in profile if p["cost_rise_over_s2"] > 0])
     assert "stopped_short" not in plain
+    # round 34 (S3): an identifiable value has no reason ("flat cost" had been written beside it),
+    # and the standard error of an interval the profile widened is the interval's (printed "+- 12"
+    # had put the truth 10 of them away)
+    assert "reason" not in plain and "reason" not in judged
+    (shown,) = fitted_values(spec, fits, x_best, np.array([4.7e-4]), (np.log(0.2), np.log(5.0)),
+                             [plain], profile).values()
+    assert shown["factor_sigma"] == pytest.approx(1.0413 * 0.023 / INTERVAL_SIGMAS)
 
 
 def test_a_value_not_judged_has_no_standard_error(spec):
@@ -207,9 +215,14 @@ def test_noise_given_in_millimetres_is_refused_before_any_fitting(tmp_path, caps
     track.write_text("t_s,x_0_m,y_0_m,x_1_m,y_1_m\n" + "\n".join(rows) + "\n")
     base = ["real", "identify", str(tmp_path / "fields.csv"), str(track), "--robot", CASE, "--fit",
             "magnetization", "--out", str(tmp_path / "id")]
-    assert main([*base, "--noise-m", "0.05"]) == 2
+    assert main([*base, "--noise-m", "0.005"]) == 2
     err = capsys.readouterr().err
-    assert "--noise-m 0.05" in err and "millimetres given for metres" in err
+    assert "--noise-m 0.005" in err and "millimetres given for metres" in err
+    # round 34, V4: 50 had been advised "50 mm is 0.05 m", refused next; a tracker's 50 is um
+    with pytest.raises(SystemExit):
+        main([*base, "--noise-m", "50"])
+    err = capsys.readouterr().err
+    assert "(um written where m is expected? 50 um is 5e-05 m)" in err, err
     with pytest.raises(SystemExit) as info:  # argparse: the range of the option
         main([*base, "--noise-m", "0"])
     assert info.value.code == 2 and "--noise-m: expected a finite number of m in (0" in (
