@@ -63,6 +63,11 @@ MAX_SEPARATION = 1.5
 MIN_SPAN = 0.5
 
 _TRACKER_COLUMN = re.compile(r"^([xy])_([0-9]*\.?[0-9]+)_m$")
+#: A tracked point's sideways column (not compared: the fit uses the side view).
+_TRACKER_Z_COLUMN = re.compile(r"^z_([0-9]*\.?[0-9]+)_m$")
+#: What looks like a tracked point's column, however spelled (``X_1_m``, ``x_1_mm``, ``x_-0.5_m``):
+#: one that is not exactly :data:`_TRACKER_COLUMN` is named, never dropped without a word.
+_NEAR_TRACKER_COLUMN = re.compile(r"^[xyz][\s_\-]*[-+]?\.?\d", re.IGNORECASE)
 
 
 class TrajectoryError(ValueError):
@@ -144,6 +149,13 @@ def _layout(path: Path, columns: list[str]) -> tuple[str, list[tuple[str, ...]],
                if f"{n}_x_m" in columns and f"{n}_y_m" in columns]
     if markers:
         return "trajectory.csv", markers, None
+    near = [c for c in columns if _NEAR_TRACKER_COLUMN.match(c) and not _TRACKER_COLUMN.match(c)
+            and not _TRACKER_Z_COLUMN.match(c)]
+    if near:
+        raise TrajectoryError(f"{path}: column(s) {', '.join(near)} look like a tracked point's but are not "
+                              "x_<s>_m / y_<s>_m (lower-case x or y, <s> the place along the body from 0 "
+                              "to 1, the values in m): rename them (a column in mm: divide its values "
+                              "by 1000 and name it ..._m)")
     found: dict[float, dict[str, str]] = {}
     for column in columns:
         match = _TRACKER_COLUMN.match(column)
@@ -196,7 +208,8 @@ def read_trajectory(path: str | Path) -> MeasuredTrajectory:
     path = Path(path)
     table = _read_csv(path)
     kind, layout, fractions = _layout(path, list(table.columns))
-    sideways = [c for c in table.columns if str(c).endswith("_z_m") and kind != "tip path"]
+    sideways = [c for c in table.columns
+                if (str(c).endswith("_z_m") or _TRACKER_Z_COLUMN.match(str(c))) and kind != "tip path"]
     if sideways:  # e.g. msr's own trajectory.csv: its z markers are not compared
         from elastica_magnetic.plausibility import warn_implausible
 

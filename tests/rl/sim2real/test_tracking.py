@@ -160,3 +160,26 @@ def test_a_tracker_clock_that_does_not_start_with_the_waveform_is_named(tmp_path
     with pytest.raises(TrajectoryError, match=rf"its frames run from t_s = {first} s .* subtract the "
                                               r"tracker's time of the waveform's start from t_s"):
         check_against_robot(read_trajectory(_tracker(tmp_path, late, name="late.csv")), LENGTH, 1.0)
+
+
+@pytest.mark.parametrize("columns", ["x_1_mm,y_1_mm", "X_1_m,Y_1_m", "x_-0.5_m,y_-0.5_m"])
+def test_a_tracked_point_spelled_otherwise_is_named_not_dropped(tmp_path, columns):
+    """Round 35, S1: ``x_1_mm``, ``X_1_m`` or ``x_-0.5_m`` beside well-named points were dropped
+    without a word (the fit ran on the other points). Now named, with the spelling expected."""
+    path = tmp_path / "tk.csv"
+    rows = "".join(f"{k / 30:.4f},{1e-4 * k},0,{0.02 + 1e-4 * k},0\n" for k in range(12))
+    path.write_text(f"t_s,x_0_m,y_0_m,{columns}\n" + rows)
+    named = re.escape(columns.replace(",", ", "))
+    with pytest.raises(TrajectoryError, match=rf"column\(s\) {named} look like "
+                                              r"a tracked point's but are not x_<s>_m / y_<s>_m"):
+        read_trajectory(path)
+
+
+def test_a_tracked_point_s_sideways_column_is_said_unused(tmp_path):
+    """Round 35: ``z_0_m`` of a tracked point had been dropped without a word (``mid_z_m`` of
+    msr's trajectory.csv was said unused); now both are."""
+    path = tmp_path / "tk.csv"
+    path.write_text("t_s,x_0_m,y_0_m,z_0_m,x_1_m,y_1_m\n" + "".join(
+        f"{k / 30:.4f},{1e-4 * k},0,0,{0.02 + 1e-4 * k},0\n" for k in range(12)))
+    with pytest.warns(Warning, match=r"columns z_0_m are not used"):
+        read_trajectory(path)
