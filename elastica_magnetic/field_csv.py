@@ -248,8 +248,10 @@ def _field_row(path: Path, line: int, row: list[str], k: int, columns: list[int]
         text = row[index_column].strip()
         if text and (not _is_number(text) or float(text) != k):
             # a time in s (0.01, 0.02...) or in ms (10, 20... every 10: t_ms) read as an index
-            time_like = _is_number(text) and k > 0 and (
-                not float(text).is_integer() or math.isclose(float(text), 10.0 * k))
+            # (on the first row, any number but 0: a clock that does not start at 0, or rows
+            # numbered from 1, which the next row would otherwise be refused for)
+            time_like = _is_number(text) and (k == 0 or not float(text).is_integer()
+                                              or math.isclose(float(text), 10.0 * k))
             hint = ("; the first of four columns is read as a row index 0, 1, 2..., not as a time "
                     "(rows are 0.01 s apart by definition): drop that column or number the rows"
                     if time_like else "")

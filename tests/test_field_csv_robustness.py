@@ -91,6 +91,18 @@ def test_a_time_column_read_as_the_index_is_named(tmp_path):
         read_field_csv(path)
 
 
+@pytest.mark.parametrize("first", ["0.01", "5.00", "1"])
+def test_a_first_row_index_that_is_not_0_is_explained(tmp_path, first):
+    """Round 35, V1: a t_s column starting at 0.01 s (or 5 s, or rows numbered from 1) was told
+    only "index '0.01' out of sequence, expected 0" on the first row, the explanation given from
+    the second row on; now on the first too."""
+    path = tmp_path / "late.csv"
+    path.write_text(f"t_s,mag_x,mag_y,mag_z\n{first},1,0,0\n0.02,1,0,0\n")
+    with pytest.raises(FieldCSVError, match=rf"line 2: index '{first}' out of sequence, expected 0; the "
+                                            r"first of four columns is read as a row index"):
+        read_field_csv(path)
+
+
 def test_round9_v6_trailing_comma_ms_index_and_non_regular_files(tmp_path):
     """Round 9, V6: a headerless file with a trailing comma was called a header lacking columns, a
     t_ms column (0, 10, 20...) got no time hint, a FIFO or /dev/null was "no such file"."""
