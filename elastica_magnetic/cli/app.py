@@ -115,18 +115,16 @@ def number(
 
     def milli_hint(value: float) -> str:
         """Where a value 1000x too large fits the range as a thousandth (mT for T, mm for m;
-        a length also as a millionth, um): the likely slips, named."""
+        a length that does not, as a millionth: um): the likely slip, named."""
         if unit not in _MILLI_SLIPS or high is None or not (math.isfinite(value) and value > high):
             return ""
-        fitting = [(prefix, value * size) for prefix, size in (("m", 1e-3), ("u", 1e-6))
-                   if (prefix == "m" or unit == "m") and (low is None or (
-                       value * size > low if low_open else value * size >= low)) and (
-                       value * size < high if high_open else value * size <= high)]
-        if not fitting:
-            return ""
-        names = " or ".join(f"{prefix}{unit}" for prefix, _ in fitting)
-        shown = "; ".join(f"{value:g} {prefix}{unit} is {small:g} {unit}" for prefix, small in fitting)
-        return f" ({names} written where {unit} is expected? {shown})"
+        for prefix, size in (("m", 1e-3), ("u", 1e-6)) if unit == "m" else (("m", 1e-3),):
+            small = value * size
+            if (low is None or (small > low if low_open else small >= low)) and (
+                    small < high if high_open else small <= high):
+                return (f" ({prefix}{unit} written where {unit} is expected? {value:g} {prefix}{unit} "
+                        f"is {small:g} {unit})")
+        return ""
 
     parse.__name__ = f"number ({unit})" if unit else "number"
     return parse

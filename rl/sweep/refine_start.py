@@ -37,7 +37,7 @@ def check_refine_output(out: str | os.PathLike, resume: bool,
     the command that continues it). ``FileExistsError`` / ``FileNotFoundError`` / ``ValueError``
     naming it."""
     check_not_owned(out, "refine")  # never a training run's folder (its checkpoint, run.json)
-    _check_refine_place(out)
+    _check_refine_place(out, source)
     held = RunDir(out).checkpoint.exists()
     if held and not resume:
         raise FileExistsError(f"{out} already holds a refined checkpoint (use --resume or --out)")
@@ -52,11 +52,12 @@ def check_refine_output(out: str | os.PathLike, resume: bool,
                                 "(drop --resume to start the refinement)")
 
 
-def _check_refine_place(out: str | os.PathLike) -> None:
-    """A refinement lives in the run it refines (``RUN/refined``, a run's or a refinement's folder)
-    or in a folder of no command's: not inside another command's result (an export, a simulation)
-    nor in a training's case folder beside its seed folders (msr train --resume would refuse that
-    folder). ``ValueError`` naming the folder."""
+def _check_refine_place(out: str | os.PathLike, source: str | os.PathLike | None = None) -> None:
+    """A refinement lives in the run it refines (``RUN/refined``, a run's or a refinement's folder;
+    ``source``: the run or checkpoint refined) or in a folder of no command's: not inside another
+    run, nor inside another command's result (an export, a simulation), nor in a training's case
+    folder beside its seed folders (msr train --resume would refuse that folder). ``ValueError``
+    naming the folder."""
     from elastica_magnetic.io import display_path, normalized_path
     from elastica_magnetic.locks import held_here
     from elastica_magnetic.result_markers import describe_result, recognized_marker
@@ -70,7 +71,12 @@ def _check_refine_place(out: str | os.PathLike) -> None:
         # carries no marker file and is still another command's result
         marker = recognized_marker(parent)
         if marker is not None and marker.get("kind") in ("train", "refine"):
-            return
+            if source is None or parent == (mine := _run_folder(source)) or parent in mine.parents:
+                return  # the run refined (or one holding it: a refinement of its refinement)
+            raise ValueError(f"--out {display_path(final)}: lies in {display_path(parent)}, which holds "
+                             f"{describe_result(marker)}, not the run refined ({display_path(mine)}): a "
+                             "refinement goes in the run it refines, or in a folder of no command's; "
+                             "choose another --out (default: RUN/refined)")
         if marker is not None:
             raise ValueError(f"--out {display_path(final)}: lies in {display_path(parent)}, which holds "
                              f"{describe_result(marker)}: a result is replaced whole, so nothing goes inside "
@@ -84,6 +90,14 @@ def _check_refine_place(out: str | os.PathLike) -> None:
                              f"runs of a training ({run.name}): that folder holds its runs alone (msr train "
                              "--resume refuses anything else there); choose another --out (default: "
                              "RUN/refined)")
+
+
+def _run_folder(source: str | os.PathLike) -> Path:
+    """The run folder (normalized) of ``source``, a run folder or one of its checkpoint files."""
+    from elastica_magnetic.io import normalized_path
+
+    source = Path(source)
+    return normalized_path((RunDir(source) if source.is_dir() else RunDir.of_checkpoint(source)).path)
 
 
 def _refined_from(source: str | os.PathLike | None) -> str | None:
