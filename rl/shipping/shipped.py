@@ -74,10 +74,9 @@ def verify_shipped(name: str, duration: float = 10.0, progress: bool = False,
     if not policy.case.field_actuated:
         return _verify_tip_reach(name, folder, policy, info, duration, quick)
     evaluation = info.get("evaluation")
-    if (not closed_loop_elsewhere and not quick and isinstance(evaluation, dict)
+    if (not closed_loop_elsewhere and not quick and _recorded_distance(evaluation)
             and evaluation.get("machine") != machine_fingerprint()
-            and isinstance(evaluation.get("mid_dx_m"), int | float)
-            and evaluation.get("duration_s") == duration):
+            and evaluation["duration_s"] == duration):
         return _verify_replay_only(name, folder, policy, info, duration)
     rollout = run_policy(policy, duration, "accurate", "zero", progress)
     shipped = read_field_csv(folder / "fields.csv")
@@ -85,15 +84,7 @@ def verify_shipped(name: str, duration: float = 10.0, progress: bool = False,
     row_diff_mt = np.max(np.abs(rollout.fields[:rows] - shipped[:rows]), axis=1) * 1e3
     field_diff_mt = float(row_diff_mt.max()) if rows else 0.0
     apart = np.flatnonzero(row_diff_mt > FIELD_ATOL_MT)
-    recorded_on = (info.get("evaluation") or {}).get("machine")
-    here = machine_fingerprint()
-    if recorded_on == here:
-        waveform_check = "exact"
-    elif recorded_on is None:
-        waveform_check = "reported: policy.json does not record the machine that made fields.csv"
-    else:
-        changed = ", ".join(k for k in here if recorded_on.get(k) != here[k])
-        waveform_check = f"reported: fields.csv was recorded on another machine ({changed} differ)"
+    waveform_check = _waveform_check((info.get("evaluation") or {}).get("machine"))
     result: dict[str, Any] = {
         "name": name, "case": info["case"], "duration_s": float(duration), "rows_compared": rows,
         "max_field_diff_mT": field_diff_mt, "field_atol_mT": FIELD_ATOL_MT,
@@ -101,10 +92,7 @@ def verify_shipped(name: str, duration: float = 10.0, progress: bool = False,
         "mid_dx_m": rollout.mid_dx, "diverged": bool(rollout.meta["diverged"]),
     }
     passed = not result["diverged"] and (waveform_check != "exact" or field_diff_mt <= FIELD_ATOL_MT)
-    evaluation = info.get("evaluation")
-    if not isinstance(evaluation, dict) or not all(
-            isinstance(evaluation.get(k), int | float) and not isinstance(evaluation.get(k), bool)
-            for k in ("duration_s", "mid_dx_m")):
+    if not _recorded_distance(evaluation):
         result.update(problem=f"{folder / POLICY_JSON}: no evaluation with duration_s and mid_dx_m (s, m): "
                               "the distance this policy claims is not recorded, so nothing is compared",
                       passed=False)
@@ -160,6 +148,26 @@ def _relative(measured: float, recorded: float) -> float:
     if recorded == 0.0:
         return 0.0 if measured == 0.0 else float("inf")
     return abs(measured - recorded) / abs(recorded)
+
+
+def _recorded_distance(evaluation: Any) -> bool:
+    """Whether ``policy.json``'s ``evaluation`` records a distance to compare: ``duration_s`` (s)
+    and ``mid_dx_m`` (m), numbers."""
+    return isinstance(evaluation, dict) and all(
+        isinstance(evaluation.get(k), int | float) and not isinstance(evaluation.get(k), bool)
+        for k in ("duration_s", "mid_dx_m"))
+
+
+def _waveform_check(recorded_on: dict[str, Any] | None) -> str:
+    """``"exact"`` where this machine recorded ``fields.csv`` (``recorded_on``: policy.json's
+    machine fingerprint), else why the waveform is only reported."""
+    here = machine_fingerprint()
+    if recorded_on == here:
+        return "exact"
+    if recorded_on is None:
+        return "reported: policy.json does not record the machine that made fields.csv"
+    changed = ", ".join(k for k in here if recorded_on.get(k) != here[k])
+    return f"reported: fields.csv was recorded on another machine ({changed} differ)"
 
 
 def _verify_replay_only(name: str, folder: Path, policy: Any, info: dict[str, Any],
