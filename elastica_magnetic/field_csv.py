@@ -69,8 +69,7 @@ def read_field_csv(path: str | Path, *, plausible: bool = False) -> NDArray[np.f
             raise FieldCSVError(f"{path}: is not a regular file (a pipe or a device); give a field "
                                 "CSV file")
         raise FieldCSVError(f"{path}: no such field CSV file")
-    rows = _csv_rows(path, FieldCSVError)
-    rows_with_lines = [(i + 1, r) for i, r in enumerate(rows) if any(c.strip() for c in r)]
+    rows_with_lines = numbered_rows(path, _csv_rows(path, FieldCSVError), FieldCSVError)
     if not rows_with_lines:
         raise FieldCSVError(f"{path}: empty file, expected columns {', '.join(FIELD_COLUMNS)} (mT)")
     columns, index_column, ncols, body = _column_layout(path, rows_with_lines)
@@ -259,6 +258,22 @@ def _field_row(path: Path, line: int, row: list[str], k: int, columns: list[int]
                 f"{path}: line {line}: index {text!r} out of sequence, expected {k}{hint}"
             )
     return field
+
+
+def numbered_rows(path: Path, rows: list[list[str]], error: type[Exception]) -> list[tuple[int, list[str]]]:
+    """The rows of a CSV file that hold a value, with their 1-based line numbers: blank lines are
+    skipped, and so are rows of empty cells (``,,``, as a spreadsheet writes) before the first and
+    after the last of them; one between them is a sample without values, and dropping it would
+    play every later row one step early: raised as ``error`` naming its line."""
+    numbered = [(i + 1, r) for i, r in enumerate(rows) if any(c.strip() for c in r)]
+    if numbered:
+        first, last = numbered[0][0], numbered[-1][0]
+        for i in range(first, last - 1):
+            if len(rows[i]) > 1 and not any(c.strip() for c in rows[i]):
+                raise error(f"{path}: line {i + 1}: a row of empty cells between rows of values (a "
+                            "sample whose values are missing: dropped, every later row would come one "
+                            "step early); fill it in, or delete the line")
+    return numbered
 
 
 def _csv_rows(path: Path, error: type[Exception]) -> list[list[str]]:

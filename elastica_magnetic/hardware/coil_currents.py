@@ -32,6 +32,7 @@ from elastica_magnetic.drive_columns import (
     current_unit_problem,
     grid_remedy,
 )
+from elastica_magnetic.field_csv import numbered_rows
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from .calibration import Calibration
@@ -123,7 +124,7 @@ def _table(path: Path) -> tuple[list[str], list[tuple[int, list[str]]]]:
                                 "CSV") from None
     except csv.Error as exc:
         raise CoilCurrentsError(f"{path}: not a readable CSV: {exc}") from None
-    numbered = [(i + 1, r) for i, r in enumerate(rows) if any(c.strip() for c in r)]
+    numbered = numbered_rows(path, rows, CoilCurrentsError)
     if not numbered:
         raise CoilCurrentsError(f"{path}: empty file; {FORM}")
     names = [c.strip() for c in numbered[0][1]]

@@ -45,6 +45,8 @@ __all__ = [
 
 #: The markers of ``trajectory.csv`` used as tracked points.
 MARKERS = ("back", "mid", "front")
+#: Where msr's trajectory.csv markers sit along the body, fractions of its length from the back end.
+MARKER_FRACTIONS = {"back": 0.0, "mid": 0.5, "front": 1.0}
 #: The columns of a catheter's tip path (m, the spec's frame).
 TIP_COLUMNS = ("tip_x_m", "tip_y_m", "tip_z_m")
 #: Fewest frames and shortest time span of a trajectory to fit.
@@ -145,9 +147,21 @@ def _layout(path: Path, columns: list[str]) -> tuple[str, list[tuple[str, ...]],
             raise TrajectoryError(f"{path}: a tip path needs {', '.join(TIP_COLUMNS)} (m); no "
                                   f"{', '.join(missing)}")
         return "tip path", [("tip", *TIP_COLUMNS)], (1.0,)
+    for n in MARKERS:  # a marker with one coordinate is a column lost, not a marker to drop
+        has = [f"{n}_{a}_m" for a in "xy" if f"{n}_{a}_m" in columns]
+        if len(has) == 1:
+            lacking = f"{n}_{'y' if has[0].endswith('_x_m') else 'x'}_m"
+            raise TrajectoryError(f"{path}: {has[0]} without {lacking}: the {n} marker needs both "
+                                  "(m); add the column, or drop both to fit without that marker")
     markers = [(n, f"{n}_x_m", f"{n}_y_m") for n in MARKERS
                if f"{n}_x_m" in columns and f"{n}_y_m" in columns]
     if markers:
+        tracker = [c for c in columns if _TRACKER_COLUMN.match(c)]
+        if tracker:
+            raise TrajectoryError(f"{path}: holds msr's trajectory.csv markers "
+                                  f"({', '.join(c for m in markers for c in m[1:])}) and a tracker's "
+                                  f"columns ({', '.join(tracker)}): one file is one of the two formats "
+                                  "(the fit would use the markers alone); keep one kind of column")
         return "trajectory.csv", markers, None
     near = [c for c in columns if _NEAR_TRACKER_COLUMN.match(c) and not _TRACKER_COLUMN.match(c)
             and not _TRACKER_Z_COLUMN.match(c)]
@@ -314,7 +328,8 @@ def _check_first_frame_span(measured: MeasuredTrajectory, length: float) -> None
     """The outermost points at the first frame (the robot at rest, straight, before the waveform
     acts) lie at least :data:`MIN_SPAN` of their distance along a straight body apart: points
     closer than that are on a shorter robot or in another unit."""
-    fractions = measured.fractions if measured.fractions is not None else (0.0, 1.0)  # back, front
+    fractions = (measured.fractions if measured.fractions is not None
+                 else tuple(MARKER_FRACTIONS[name] for name in measured.points))  # trajectory.csv
     along = (max(fractions) - min(fractions)) * length
     first = measured.positions[0]
     span = float(np.ptp(first, axis=0) @ np.ptp(first, axis=0)) ** 0.5
