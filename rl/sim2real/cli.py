@@ -14,7 +14,6 @@ from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, command_name, duration_option, number, output_path
 from elastica_magnetic.progress import progress_bar
-from elastica_magnetic.result_places import check_inputs_outside
 
 from ..cases.variations import (
     DEFAULT_RANGES,
@@ -196,9 +195,6 @@ def robustness_command(args: argparse.Namespace) -> int:
     if args.seed is not None and not args.samples:  # it would be recorded but change nothing
         raise CommandError(f"--seed {args.seed}: seeds the Latin-hypercube draws of --samples, and "
                            "none are drawn (--samples 0); give --samples N, or leave --seed out")
-    check_inputs_outside(args.out, (("POLICY_OR_FIELD_CSV", args.source), ("--fields", args.fields),
-                                    ("--case", args.case), ("--robot", getattr(args, "robot", None))),
-                         force=args.force)
     prepare_output_folder(args.out, args.force, kind="robustness")
     try:
         plan = plan_robustness(
@@ -262,8 +258,6 @@ def identify_command(args: argparse.Namespace) -> int:
         raise CommandError(f"--seed {args.seed}: seeds the perturbed starts, and --starts 1 fits "
                            "from the nominal values only; give --starts 2 or more, or leave --seed "
                            "out")
-    check_inputs_outside(args.out, (("FIELD_CSV", args.field_csv), ("TRAJECTORY_CSV", args.trajectory_csv),
-                                    ("--robot", args.robot)), force=args.force)
     prepare_output_folder(args.out, args.force, kind="identify")
     with _kept_warnings() as input_warnings:  # printed now, and recorded in identify.json
         drive, measured, steered_by = _drive_and_measured(args.field_csv, args.trajectory_csv, args.robot)
@@ -441,6 +435,9 @@ def print_identified(report: dict) -> None:
     judged = (f"{ratio:.2f} x the noise" if ratio is not None else report["residual_judged"])
     print(f"residual RMS {1e3 * r['rms']:.4f} mm ({judged}), largest {1e3 * r['max_abs']:.4f} mm "
           f"(nominal robot: {1e3 * r['nominal_rms']:.4f} mm)")
+    if report["identifiability"].get("variance_from") == "noise":
+        print(f"intervals measured in the stated noise ({1e3 * report['noise_m']:.4g} mm), above the "
+              "residual: the data cannot fix the values better than that noise allows")
     o = report["optimizer"]
     print(f"{len(o['starts'])} start(s), {o['simulations']} simulations: best start {o['best_start']} "
           f"{'converged' if o['converged'] else 'did NOT converge'}; "

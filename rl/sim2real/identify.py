@@ -461,8 +461,8 @@ def _fit_report(problem: _Problem, records: list[dict[str, Any]], o: FitOptions,
                      "may find better)")
         x, residual = np.zeros(len(fits)), nominal
     before = model.evaluations
-    sigma, corr, judged, near, profile = _judge(model, x, residual, fits,
-                                                [records[i] for i in finished], bounds)
+    sigma, corr, judged, near, profile, variance = _judge(model, x, residual, fits,
+                                                          [records[i] for i in finished], bounds, o.noise_m)
     starts_public, agree = starts_report(records, near, best)
     judged_residual, warnings = residual_against_noise(_rms(residual), o.noise_m)
     if (missed := residual_against_body(_rms(residual), float(spec["robot"]["length"]))) is not None:
@@ -484,7 +484,7 @@ def _fit_report(problem: _Problem, records: list[dict[str, Any]], o: FitOptions,
         **judged_residual,
         "warnings": warnings,
         "kept_spec_values": kept,
-        "identifiability": {"near_best_chi2": NEAR_BEST_CHI2, "interval_sigmas": INTERVAL_SIGMAS,
+        "identifiability": {**variance, "near_best_chi2": NEAR_BEST_CHI2, "interval_sigmas": INTERVAL_SIGMAS,
                             "identifiable_within": IDENTIFIABLE_WITHIN, "profile": profile,
                             "simulations": model.evaluations - before},
         "optimizer": _optimizer_report(records, best, agree, o.diff_step,
@@ -496,23 +496,25 @@ def _fit_report(problem: _Problem, records: list[dict[str, Any]], o: FitOptions,
 
 def _judge(model: FitModel, x: NDArray[np.float64], residual: NDArray[np.float64],
            fits: Sequence[Variation], finished: Sequence[dict[str, Any]],
-           bounds: tuple[float, float]) -> tuple[Any, ...]:
+           bounds: tuple[float, float], noise_m: float | None) -> tuple[Any, ...]:
     """The uncertainty of the best fit ``x`` (log factors; ``residual`` its residuals, m) from the
     Jacobian, the ``finished`` starts and the profile (:mod:`.identifiability`). Returns the
     standard errors and correlation of the log factors, each value's verdict, which starts ended
-    as good as the best, and the profile's records."""
+    as good as the best, the profile's records and the variance they are measured in (the residual's,
+    or the stated tracker noise ``noise_m``'s where larger)."""
     from .identifiability import (
         IDENTIFIABLE_WITHIN,
         first_halfwidths,
         judge_values,
         near_best,
         profile_halfwidths,
+        residual_variance,
         uncertainty,
     )
 
     jac = _central_jacobian(model, x, UNCERTAINTY_STEP)
-    sigma, corr = uncertainty(residual, jac)
-    s2 = float(residual @ residual) / max(residual.size - len(fits), 1)
+    s2, variance_from = residual_variance(residual, len(fits), noise_m)
+    sigma, corr = uncertainty(residual, jac, s2)
     near = near_best([r["cost"] for r in finished], s2)
     # only a start that converged tells where the cost is flat: one the budget stopped ended
     # anywhere on its way (one such start made "factor unbounded (from the starts)")
@@ -523,7 +525,7 @@ def _judge(model: FitModel, x: NDArray[np.float64], residual: NDArray[np.float64
     widened = (profiled > halves) & (halves <= np.log1p(IDENTIFIABLE_WITHIN))  # by the profile
     sources = ["profile" if widened[k] else src for k, src in enumerate(sources)]
     judged = judge_values([f.name for f in fits], x, profiled, sources, corr, jac, s2, profile)
-    return sigma, corr, judged, near, profile
+    return sigma, corr, judged, near, profile, {"variance_m2": s2, "variance_from": variance_from}
 
 
 def _optimizer_report(records: Sequence[dict[str, Any]], best: int, agree: bool | None, diff_step: float,

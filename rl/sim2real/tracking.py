@@ -326,8 +326,9 @@ def check_against_robot(measured: MeasuredTrajectory, length: float, field_durat
 
 def _check_first_frame_span(measured: MeasuredTrajectory, length: float) -> None:
     """The outermost points at the first frame (the robot at rest, straight, before the waveform
-    acts) lie at least :data:`MIN_SPAN` of their distance along a straight body apart: points
-    closer than that are on a shorter robot or in another unit."""
+    acts) lie at least :data:`MIN_SPAN` of their distance along a straight body apart (points
+    closer than that are on a shorter robot or in another unit), the back end's at the smaller x
+    (else the columns' ends are swapped)."""
     fractions = (measured.fractions if measured.fractions is not None
                  else tuple(MARKER_FRACTIONS[name] for name in measured.points))  # trajectory.csv
     along = (max(fractions) - min(fractions)) * length
@@ -339,6 +340,14 @@ def _check_first_frame_span(measured: MeasuredTrajectory, length: float) -> None
             f"apart, and on the {1e3 * length:g} mm robot of the spec they lie {1e3 * along:.3g} mm apart "
             f"along the body (under {MIN_SPAN:g} x that even bent): is this the robot the spec "
             "describes, and are the values in metres?")
+    back, front = int(np.argmin(fractions)), int(np.argmax(fractions))
+    if first[front, 0] - first[back, 0] < -0.5 * span:  # the front end clearly behind the back end
+        names = measured.points
+        raise TrajectoryError(
+            f"{measured.source}: at the first frame the point {names[front]} lies "
+            f"{1e3 * (first[back, 0] - first[front, 0]):.3g} mm behind {names[back]} along x: the points "
+            "run from the back end (s = 0, the end at smaller x when the robot lies straight) to the "
+            "front end (s = 1); are the columns' ends swapped?")
 
 
 def points_at_rows(measured: MeasuredTrajectory, trajectory: pd.DataFrame,
