@@ -39,6 +39,7 @@ from typing import Any
 from ..command_names import COMMAND_HOMES, FORMER_GROUPS, spelling
 from ..interrupts import signals_as_exceptions
 from ..locks import release_claims
+from .input_places import check_command_inputs, command_parser
 
 # Modules that provide ``register(subparsers)``; missing optional areas are skipped.
 COMMAND_MODULES = (
@@ -475,6 +476,7 @@ def _main(argv: Sequence[str] | None = None) -> int:
             command = args.command_name = command_name(args)
             if extras:  # said by the command's own parser, with its usage, not the top level's
                 _unrecognized(parser, command, extras)
+            check_command_inputs(parser, command, args)  # no input inside what --force replaces
             status = args.func(args)
     except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM/SIGHUP while a result was written
         return _interrupted(command, exc, aborted_results()[already_aborted:])
@@ -503,11 +505,7 @@ REMOVED_OPTIONS: dict[tuple[str, str], str] = {
 
 def _unrecognized(parser: argparse.ArgumentParser, command: str, extras: list[str]) -> None:
     """Exit with the command's own usage and error for arguments it does not take."""
-    for word in command.split():
-        actions = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
-        if not actions or word not in actions[0].choices:
-            break
-        parser = actions[0].choices[word]
+    parser = command_parser(parser, command)
     options = {o for a in parser._actions for o in a.option_strings}
     hint = ""
     if "--case" in extras and "--robot" in options:

@@ -16,7 +16,6 @@ from ..fields import RotatingField, TabulatedField
 from ..openloop import run_open_loop, write_trajectory_csv
 from ..presets import ROBOTS
 from ..progress import progress_bar
-from ..result_places import check_inputs_outside
 from ..results import result_folder
 from ..spatial_fields import FieldSum
 from ..specfile import SpecError, actuation_kind_of, axis_limits_of, field_limit_of, load_robot
@@ -150,8 +149,6 @@ def simulate_amplitude(args: argparse.Namespace) -> tuple[float, str]:
 
 
 def replay_command(args: argparse.Namespace) -> int:
-    check_inputs_outside(args.out, (("FIELD_CSV", args.field_csv), ("--reference", args.reference),
-                                    ("--robot", args.robot)), force=args.force)
     field = TabulatedField.from_csv(args.field_csv)
     waveform_z = np.asarray(field.samples)[:, 2]
     duration = field.duration if args.duration is None else args.duration
@@ -197,7 +194,6 @@ def replay_command(args: argparse.Namespace) -> int:
 
 
 def simulate_command(args: argparse.Namespace) -> int:
-    check_inputs_outside(args.out, (("--robot", args.robot),), force=args.force)
     setup = load_field(args.robot)
     if setup is not None and setup.table is not None:
         return _simulate_spatial(args, setup)

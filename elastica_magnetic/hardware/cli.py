@@ -331,10 +331,7 @@ def _stream_logged(args: argparse.Namespace, drive: _Drive, cal: Any) -> Any:
 
 def _export(args: argparse.Namespace) -> int:
     from elastica_magnetic.hardware.export import export_firmware
-    from elastica_magnetic.result_places import check_inputs_outside
 
-    check_inputs_outside(args.out, (("FIELD_CSV", args.field_csv), ("--calibration", args.calibration)),
-                         force=args.force)
     summary = export_firmware(args.field_csv, args.calibration, args.out, args.allow_clipping,
                               force=args.force)
     for warning in summary["warnings"]:  # slew-limited rows: written, but the coils lag
@@ -360,14 +357,12 @@ def _calibrate(args: argparse.Namespace) -> int:
         check_measurements,
     )
     from elastica_magnetic.result_file import check_result_file, result_file
-    from elastica_magnetic.result_places import check_inputs_outside
 
     if args.upload:
         _check_port("--upload", args.upload)
     path = Path(args.measurements)
     if not path.is_file():
         raise _error(f"{path}: no such measurements file")
-    check_inputs_outside(args.out, (("MEASUREMENTS", path),), force=args.force)
     check_result_file(args.out, force=args.force, kind=CALIBRATION_FILE)
     columns = [*CURRENT_COLUMNS, *FIELD_COLUMNS]
     try:

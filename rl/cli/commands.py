@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, number, output_path, print_result
+from elastica_magnetic.cli.input_places import REPLACED_FOLDER, no_folder_replaced_whole
 
 from .options import CASE_HELP, case_option, checked_spec_option
 
@@ -106,7 +107,7 @@ def _add_figures_command(sub: argparse._SubParsersAction) -> None:
                    help="replace figures already in --out (other files there are never touched)")
     p.add_argument("--no-gif", action="store_true")
     p.add_argument("--json", action="store_true")
-    p.set_defaults(func=figures_command)
+    p.set_defaults(func=figures_command, **{REPLACED_FOLDER: no_folder_replaced_whole})
 
 
 def case_list_command(args: argparse.Namespace) -> int:

@@ -23,6 +23,7 @@ from elastica_magnetic.cli import (
     print_result,
 )
 from elastica_magnetic.cli.app import add_old_option
+from elastica_magnetic.cli.input_places import REPLACED_FOLDER, no_folder_replaced_whole
 from elastica_magnetic.filesets import check_files, replace_files
 from elastica_magnetic.io import display_path
 
@@ -58,7 +59,7 @@ def _add_export_seeds_command(sub: argparse._SubParsersAction) -> None:
                         "or other files, are never replaced)")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true")
-    p.set_defaults(func=export_seeds_command)
+    p.set_defaults(func=export_seeds_command, **{REPLACED_FOLDER: no_folder_replaced_whole})
 
 
 def _add_seeds_command(sub: argparse._SubParsersAction) -> None:
@@ -115,7 +116,7 @@ def _add_ship_command(sub: argparse._SubParsersAction) -> None:
                    help="Markdown file whose text becomes the model card's Notes section")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true")
-    p.set_defaults(func=ship_command)
+    p.set_defaults(func=ship_command, **{REPLACED_FOLDER: no_folder_replaced_whole})
 
 
 def _add_notes_command(sub: argparse._SubParsersAction) -> None:

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, number, output_path
+from elastica_magnetic.cli.input_places import INPUTS_ALWAYS, INPUTS_HOW
 
 from ..cli.options import CASE_HELP, field_case_option
 from .settings import ROBUSTNESS_PHYSICS
@@ -65,7 +66,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="no progress within the steps (the step lines are still printed); by "
                         "default a bar on a terminal, a plain line now and then in a log file")
     p.add_argument("--json", action="store_true", help="print loop.json at the end")
-    p.set_defaults(func=loop_command)
+    # it writes into DIR on every run (its spec copy, each step's folder; --force replaces it)
+    p.set_defaults(func=loop_command, **{INPUTS_ALWAYS: True, INPUTS_HOW: LOOP_WRITES})
 
 
 def _settings(args: argparse.Namespace, skip: tuple[str, ...] = ()):
@@ -195,14 +197,10 @@ LOOP_WRITES = ("writes into on every run (its spec copy with the yardstick, each
 
 def loop_command(args: argparse.Namespace) -> int:
     from elastica_magnetic.interrupts import signals_as_exceptions
-    from elastica_magnetic.result_places import check_inputs_outside
 
     from .runner import run_loop
     from .state import LoopError, parse_steps
 
-    # the loop writes into DIR on every run (its spec copy, each step's folder; --force replaces it)
-    check_inputs_outside(args.out, [("SPEC", args.spec.source), ("--calibration", args.calibration)],
-                         how=LOOP_WRITES)
     try:
         skip, redo = parse_steps(args.skip, "--skip"), parse_steps(args.redo, "--redo")
         # SIGTERM/SIGHUP stop it as Ctrl-C does, in every step (the train step's too), with the
