@@ -261,18 +261,19 @@ def _field_row(path: Path, line: int, row: list[str], k: int, columns: list[int]
 
 
 def numbered_rows(path: Path, rows: list[list[str]], error: type[Exception]) -> list[tuple[int, list[str]]]:
-    """The rows of a CSV file that hold a value, with their 1-based line numbers: blank lines are
-    skipped, and so are rows of empty cells (``,,``, as a spreadsheet writes) before the first and
-    after the last of them; one between them is a sample without values, and dropping it would
-    play every later row one step early: raised as ``error`` naming its line."""
+    """The rows of a CSV file that hold a value, with their 1-based line numbers: blank lines and
+    rows of empty cells (``,,``, as a spreadsheet writes) before the first and after the last of
+    them are skipped; one between them is a sample without values (or a stray line), and dropping
+    it would play every later row one step early: raised as ``error`` naming its line."""
     numbered = [(i + 1, r) for i, r in enumerate(rows) if any(c.strip() for c in r)]
     if numbered:
         first, last = numbered[0][0], numbered[-1][0]
         for i in range(first, last - 1):
-            if len(rows[i]) > 1 and not any(c.strip() for c in rows[i]):
-                raise error(f"{path}: line {i + 1}: a row of empty cells between rows of values (a "
-                            "sample whose values are missing: dropped, every later row would come one "
-                            "step early); fill it in, or delete the line")
+            if not any(c.strip() for c in rows[i]):
+                what = "a row of empty cells" if len(rows[i]) > 1 else "a blank line"
+                raise error(f"{path}: line {i + 1}: {what} between rows of values (a sample whose values "
+                            "are missing: dropped, every later row would come one step early); fill it "
+                            "in, or delete the line")
     return numbered
 
 

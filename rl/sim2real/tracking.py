@@ -70,6 +70,10 @@ _TRACKER_Z_COLUMN = re.compile(r"^z_([0-9]*\.?[0-9]+)_m$")
 #: What looks like a tracked point's column, however spelled (``X_1_m``, ``x_1_mm``, ``x_-0.5_m``):
 #: one that is not exactly :data:`_TRACKER_COLUMN` is named, never dropped without a word.
 _NEAR_TRACKER_COLUMN = re.compile(r"^[xyz][\s_\-]*[-+]?\.?\d", re.IGNORECASE)
+#: A marker's or tip's column of msr's own files, exactly; and what looks like one however spelled
+#: (``mid_x_mm``, ``Mid_X_m``, ``tip x``): one that is not exact is named, never dropped.
+_MARKER_COLUMN = re.compile(r"^(back|mid|front|tip)_[xyz]_m$")
+_NEAR_MARKER_COLUMN = re.compile(r"^(back|mid|front|tip)[\s_\-]*[xyz](?![a-z])", re.IGNORECASE)
 
 
 class TrajectoryError(ValueError):
@@ -141,11 +145,22 @@ def _layout(path: Path, columns: list[str]) -> tuple[str, list[tuple[str, ...]],
             f"{path}: no t_s column (found {', '.join(columns)}); expected msr's trajectory.csv or a "
             "tracker's CSV: t_s (s), then x_<s>_m, y_<s>_m (m) per tracked point, <s> its place "
             f"along the body from 0 (back end) to 1 (front end){separator_hint(columns)}")
+    near = [c for c in columns if _NEAR_MARKER_COLUMN.match(c) and not _MARKER_COLUMN.match(c)]
+    if near:
+        raise TrajectoryError(f"{path}: column(s) {', '.join(near)} look like a marker's but are not "
+                              "<back|mid|front|tip>_<x|y|z>_m (lower case, the values in m): rename them (a "
+                              "column in mm: divide its values by 1000 and name it ..._m)")
     if TIP_COLUMNS[0] in columns:  # a catheter's tip, in 3D
         missing = [c for c in TIP_COLUMNS if c not in columns]
         if missing:
             raise TrajectoryError(f"{path}: a tip path needs {', '.join(TIP_COLUMNS)} (m); no "
                                   f"{', '.join(missing)}")
+        points = [c for c in columns if (_MARKER_COLUMN.match(c) and not c.startswith("tip_"))
+                  or _TRACKER_COLUMN.match(c) or _TRACKER_Z_COLUMN.match(c)]
+        if points:
+            raise TrajectoryError(f"{path}: holds a catheter's tip path ({', '.join(TIP_COLUMNS)}) and "
+                                  f"tracked points' columns ({', '.join(points)}): a tip path is fitted on "
+                                  "the tip alone; keep one kind of column")
         return "tip path", [("tip", *TIP_COLUMNS)], (1.0,)
     for n in MARKERS:  # a marker with one coordinate is a column lost, not a marker to drop
         has = [f"{n}_{a}_m" for a in "xy" if f"{n}_{a}_m" in columns]

@@ -1,0 +1,68 @@
+"""Round 37 of held-out tries (issue 48): what they found, each fixed with the message it gives."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from elastica_magnetic_rl.sim2real.tracking import TrajectoryError, read_trajectory
+
+from elastica_magnetic.field_csv import FieldCSVError, read_field_csv
+
+LENGTH = 0.02  # m
+
+
+def _csv(path, columns: dict[str, np.ndarray]) -> None:
+    t = 0.01 * np.arange(30)
+    table = {"t_s": t, **columns}
+    lines = [",".join(table)] + [",".join(f"{table[c][k]:.6g}" for c in table) for k in range(len(t))]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def _moving(at: float) -> np.ndarray:
+    return at + 0.05 * 0.01 * np.arange(30)
+
+
+@pytest.mark.parametrize("spelled", [("mid_x_mm", "mid_y_mm"), ("Mid_x_m", "Mid_y_m"), ("mid_X_m", "mid_Y_m"),
+                                     ("front x", "front y")])
+def test_a_marker_column_misspelled_is_named(tmp_path, spelled):
+    """S1: ``mid_x_mm, mid_y_mm`` beside back and front: the mid marker was left out without a word."""
+    columns = {"back_x_m": _moving(0.0), "back_y_m": 0 * _moving(0), "front_x_m": _moving(LENGTH),
+               "front_y_m": 0 * _moving(0), spelled[0]: _moving(LENGTH / 2), spelled[1]: 0 * _moving(0)}
+    _csv(tmp_path / "t.csv", columns)
+    named = f"column\\(s\\) {spelled[0]}, {spelled[1]} look like a marker's"
+    with pytest.raises(TrajectoryError, match=named):
+        read_trajectory(tmp_path / "t.csv")
+
+
+def test_msr_s_own_trajectory_columns_are_no_misspelling(tmp_path):
+    """``height_max_m``, ``span_m`` and the markers' ``z`` columns of msr's trajectory.csv are no
+    markers' misspellings."""
+    zero = 0 * _moving(0)
+    columns = {"mid_x_m": _moving(LENGTH / 2), "mid_y_m": zero, "back_x_m": _moving(0), "back_y_m": zero,
+               "front_x_m": _moving(LENGTH), "front_y_m": zero, "height_max_m": zero, "span_m": zero + LENGTH,
+               "mid_z_m": zero, "back_z_m": zero, "front_z_m": zero}
+    _csv(tmp_path / "t.csv", columns)
+    assert read_trajectory(tmp_path / "t.csv").points == ("back", "mid", "front")
+
+
+@pytest.mark.parametrize("extra", [("x_0.5_m", "y_0.5_m"), ("mid_x_m", "mid_y_m")])
+def test_a_tip_path_with_tracked_points_beside_it_is_refused(tmp_path, extra):
+    """S2: a catheter's tip path with ``x_0.5_m, y_0.5_m`` beside it: the points were unused without
+    a word."""
+    zero = 0 * _moving(0)
+    columns = {"tip_x_m": zero + 0.05, "tip_y_m": _moving(0), "tip_z_m": zero, extra[0]: zero + 0.025,
+               extra[1]: _moving(0)}
+    _csv(tmp_path / "tip.csv", columns)
+    with pytest.raises(TrajectoryError, match=f"holds a catheter's tip path .* and tracked points' columns "
+                                              f"\\({extra[0]}, {extra[1]}\\)"):
+        read_trajectory(tmp_path / "tip.csv")
+
+
+@pytest.mark.parametrize("line", ["   ", "\t", ""])
+def test_a_blank_line_between_samples_is_named(tmp_path, line):
+    """S3: a line of spaces, a tab or nothing between samples was dropped: every later sample played
+    10 ms early (round 36 refused ``,,`` alone)."""
+    rows = [f"{0.1 * k:.3f},0.200,0.000" for k in range(20)]
+    (tmp_path / "f.csv").write_text("\n".join([*rows[:4], line, *rows[4:]]) + "\n")
+    with pytest.raises(FieldCSVError, match="f.csv: line 5: a blank line between rows of values"):
+        read_field_csv(tmp_path / "f.csv")
