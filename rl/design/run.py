@@ -482,13 +482,12 @@ def _check_same(record: Mapping[str, Any], spec: dict[str, Any], settings: Desig
     if old != new:
         cases = (f"case {case}" if record.get("case") == case else
                  f"case {record.get('case')} then, {case} now")
-        # the [design] table is derived from the robot when the spec has none: a key the user
-        # changed is named first, the derived one only where nothing else differs
-        given_old, given_new = ({k: v for k, v in d.items() if k != "design"} for d in (old or {}, new))
-        where = first_difference(*((given_old, given_new) if given_old != given_new else (old, new)))
+        where = _first_changed(old or {}, new, first_difference)
+        advice = ("resume it with the same spec, or start afresh with --force" if record.get("case") == case
+                  else f"resume it with its own spec (case {record.get('case')}), or choose another --out "
+                       "for this one (--force replaces only a design of the same case)")
         raise DesignError(f"--resume: the design in {shown} was started from another spec ({cases}; "
-                          f"first difference: {where}); "
-                          "resume it with the same spec, or start afresh with --force")
+                          f"first difference: {where}); {advice}")
     old, new = _plain(record.get("settings")), _plain(settings.recorded())
     if old != new:
         key = next(k for k in sorted(set(old or {}) | set(new)) if (old or {}).get(k) != new.get(k))
@@ -500,6 +499,16 @@ def _check_same(record: Mapping[str, Any], spec: dict[str, Any], settings: Desig
                 f"{option}: {shown_value((old or {}).get(key))} then, {shown_value(new.get(key))} now")
         raise DesignError(f"--resume: the design in {shown} was started with other options ({told}); "
                           "resume it with the same options, or start afresh with --force")
+
+
+def _first_changed(old: Mapping[str, Any], new: Mapping[str, Any], first_difference: Any) -> str:
+    """The first key where two specs differ, a value the user gave before the spec's name or
+    description, and before the [design] table (derived from the robot when the spec has none)."""
+    for skipped in (("design", "name", "description"), ("design",), ()):
+        a, b = ({k: v for k, v in d.items() if k not in skipped} for d in (old, new))
+        if a != b:
+            return first_difference(a, b)
+    return first_difference(old, new)
 
 
 def _plain(data: Any) -> Any:

@@ -189,6 +189,12 @@ def read_policy_json(path: str | Path) -> dict[str, Any]:
         arch["obs_dim"], arch["act_dim"] = int(arch["obs_dim"]), int(arch["act_dim"])
     except (TypeError, ValueError):
         raise PolicyFileError(f"{path}: architecture sizes must be integers, got {arch}") from None
+    sizes = [("obs_dim", arch["obs_dim"]), ("act_dim", arch["act_dim"]),
+             *(("hidden_sizes", h) for h in arch["hidden_sizes"])]
+    if (bad := next(((k, v) for k, v in sizes if v < 1), None)) is not None:
+        raise PolicyFileError(f"{path}: architecture.{bad[0]}: {bad[1]} is not a size (a layer or "
+                              "vector of at least 1); the file was edited or damaged: ship the policy "
+                              "again with msr policy ship")
     return meta
 
 

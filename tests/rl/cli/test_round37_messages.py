@@ -66,3 +66,27 @@ def test_a_blank_line_between_samples_is_named(tmp_path, line):
     (tmp_path / "f.csv").write_text("\n".join([*rows[:4], line, *rows[4:]]) + "\n")
     with pytest.raises(FieldCSVError, match="f.csv: line 5: a blank line between rows of values"):
         read_field_csv(tmp_path / "f.csv")
+
+
+@pytest.mark.parametrize("key, value", [("hidden_sizes", [-256, 256]), ("hidden_sizes", [256, 0]),
+                                        ("act_dim", -2), ("obs_dim", 0)])
+def test_a_policy_file_with_an_impossible_size_is_named(tmp_path, capsys, key, value):
+    """T1: a negative layer size in policy.json ended ``msr policy generate``/``export`` in torch's
+    traceback."""
+    import json
+    import shutil
+    from pathlib import Path
+
+    from elastica_magnetic.cli import main as msr
+
+    policy = tmp_path / "p"
+    shutil.copytree(Path(__file__).resolve().parents[3] / "rl" / "policies" / "m1-4mT", policy)
+    record = json.loads((policy / "policy.json").read_text())
+    record["architecture"][key] = value
+    (policy / "policy.json").write_text(json.dumps(record))
+    shown = next(v for v in value if v < 1) if isinstance(value, list) else value
+    for command in (["policy", "generate", str(policy), "--duration", "0.05", "--out", str(tmp_path / "g")],
+                    ["policy", "export", str(policy), "--out", str(tmp_path / "e")]):
+        assert msr(command) == 2
+        err = capsys.readouterr().err
+        assert f"policy.json: architecture.{key}: {shown} is not a size" in err and "Traceback" not in err

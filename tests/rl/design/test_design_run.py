@@ -366,7 +366,9 @@ def test_a_resume_with_other_options_names_the_option(tmp_path):
     longer = DesignSettings(**{**TINY.__dict__, "final_duration": 10.0})
     with pytest.raises(DesignError, match=r"--quick: given in one and not the other"):
         run_design("m1-4mT", out, longer, resume=True)
-    with pytest.raises(DesignError, match=r"another spec \(case m1-4mT then, m2-4mT now; first difference"):
+    with pytest.raises(DesignError, match=r"another spec \(case m1-4mT then, m2-4mT now; first difference"
+                                          r".*resume it with its own spec \(case m1-4mT\), or choose another "
+                                          r"--out for this one"):  # round 37, V1: --force refused it
         run_design("m2-4mT", out, TINY, resume=True)
     # round 34, V3: the derived [design] table (remanence) was named, not the key changed
     spec = load_case("m1-4mT").to_dict()
@@ -374,6 +376,11 @@ def test_a_resume_with_other_options_names_the_option(tmp_path):
     (tmp_path / "m1-4mT.toml").write_text(dumps(spec))
     with pytest.raises(DesignError, match=r"first difference: \[robot.magnetization\] magnitude\)"):
         run_design(str(tmp_path / "m1-4mT.toml"), out, TINY, resume=True)
+    # round 37, V1: with another name and description too, the value is named, not the description
+    spec["name"], spec["description"] = "m1-4mT-mine", "a stronger band"
+    (tmp_path / "mine.toml").write_text(dumps(spec))
+    with pytest.raises(DesignError, match=r"first difference: \[robot.magnetization\] magnitude\)"):
+        run_design(str(tmp_path / "mine.toml"), out, TINY, resume=True)
 
 
 def test_sizes_get_a_time_step_stable_at_every_corner(tmp_path):
