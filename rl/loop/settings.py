@@ -59,7 +59,7 @@ class LoopSettings:
         quick = cls(
             steps=240, recipe="fast", stop_when="none", check_sag=False,
             train_overrides={"learning_starts": 60, "batch_size": 32, "hidden_sizes": (32, 32),
-                             "checkpoint_every": 80, "eval_every": 120},
+                             "checkpoint_every": 80, "eval_every": 120, "eval_duration": 0.2},
             # a period no longer than the sweep's runs: a run shorter than one never turns it
             episode_duration=0.8, yardstick_periods=(0.5,), yardstick_duration=0.5,
             yardstick_physics="training", evaluation_duration=0.2, robustness_duration=0.2,

@@ -10,6 +10,7 @@ vector steps evaluate and checkpoint) are in :mod:`elastica_magnetic_rl.runner.l
 
 from __future__ import annotations
 
+import functools
 import random
 import time
 from collections.abc import Callable
@@ -48,10 +49,10 @@ class GroupLoop:
         # asked at each step where every episode has just ended: hand the seeds back (see
         # :meth:`hands_back`); ``handed_back`` once done
         self.hand_back, self.handed_back = options.hand_back, False
-        self.log_fn, self.eval_vec_env_fn = options.log_fn, options.eval_vec_env_fn
         self.vec_env_fn = vec_env_fn
         self.confirm_env_fn, self.confirm_vec_env_fn = options.confirm_env_fn, options.confirm_vec_env_fn
         self.cfg, self.k_seeds = learner.config, len(runs)
+        self.log_fn, self.eval_vec_env_fn = options.log_fn, self.evaluation_maker(options.eval_vec_env_fn)
         self.obs_dim, self.act_dim = learner.obs_dim, learner.act_dim
         # a Gymnasium vector environment that can save its state allows checkpoints inside episodes
         self.can_save_env = hasattr(env, "get_state") and hasattr(env, "set_state")
@@ -69,6 +70,14 @@ class GroupLoop:
             self.yardsticks = self._new_yardsticks()
         # each transition's label for DAgger: the yardstick's command at its observation
         self.labels = np.zeros_like(self.actions) if self.cfg.yardstick_dagger else None
+
+    def evaluation_maker(self, make: Callable[..., Any] | None) -> Callable[..., Any] | None:
+        """``make`` (an evaluation environment's maker) with the run's ``eval_duration`` when it
+        sets one (the maker then takes a ``duration`` keyword); the case's otherwise. The
+        stop rule's confirmation keeps the case's: a ``target`` rule is refused with another."""
+        if make is None or not self.cfg.eval_duration:
+            return make
+        return functools.partial(make, duration=self.cfg.eval_duration)
 
     def _new_yardsticks(self) -> list[Any]:
         if self.yardstick_fn is None:
@@ -552,6 +561,7 @@ class GroupLoop:
         """Train the group's seeds to their step budget: the global RNGs and the environments
         restored or started, each seed's logs and progress bar opened, then :meth:`run`."""
         runs, learner = self.runs, self.learner
+        eval_env_fn = self.evaluation_maker(eval_env_fn)
         vector_state = self.restore_global_rngs()
         for k, run in enumerate(runs):
             run.open(progress, None if position is None else position + k,

@@ -31,7 +31,7 @@ from ..runfiles.checkpoint import (
 )
 from ..runfiles.rundir import RunDir
 from ..td3.algorithm import TD3, episode_seed
-from ..td3.config import Schedule, TD3Config
+from ..td3.config import KEPT_ON_RESUME, Schedule, TD3Config
 from ..td3.exploration import colored_noise
 from ..td3.replay_buffer import ReplayBuffer
 from .evaluation import PeriodicEvaluation, truncate_csv
@@ -43,8 +43,8 @@ EPISODE_FIELDS = ("episode", "global_step", "return", "length", "terminated", "t
                   "wall_time_s")
 #: Fields of :class:`~elastica_magnetic_rl.td3.config.TD3Config` that a resumed run takes from the config
 #: passed: its :class:`~elastica_magnetic_rl.td3.config.Schedule` (they change no weight: when to
-#: checkpoint, log and evaluate); every other field comes from the checkpoint.
-RESUMABLE_SETTINGS = tuple(f.name for f in dataclasses.fields(Schedule))
+#: checkpoint, log and evaluate; but its evaluations' length); every other field comes from the checkpoint.
+RESUMABLE_SETTINGS = tuple(f.name for f in dataclasses.fields(Schedule) if f.name not in KEPT_ON_RESUME)
 
 
 # ----------------------------------------------------------------------------------------------

@@ -14,12 +14,12 @@ from elastica_magnetic.io import display_path
 
 from ..runfiles.checkpoint import load_checkpoint, replay_problem
 from ..runfiles.rundir import RunDir
-from ..td3.config import Schedule, setting_option
+from ..td3.config import KEPT_ON_RESUME, Schedule, setting_option
 
 __all__ = ["check_resumed_checkpoints", "check_steps_left"]
 
 #: Settings a resumed run may change (when to checkpoint, log and evaluate: no weight changes).
-_MAY_CHANGE = frozenset(f.name for f in dataclasses.fields(Schedule))
+_MAY_CHANGE = frozenset(f.name for f in dataclasses.fields(Schedule)) - KEPT_ON_RESUME
 
 
 def _same(a: Any, b: Any) -> bool:

@@ -54,11 +54,14 @@ def target_return(case: Case) -> float | None:
 
 def case_stop_rule(case: Case, kind: str | None, *, consecutive: int | None = None,
                    patience: int | None = None, tolerance: float | None = None,
-                   confirm: str | None = None, eval_every: int | None = None) -> StopRule | None:
+                   confirm: str | None = None, eval_every: int | None = None,
+                   eval_duration: float = 0.0) -> StopRule | None:
     """The stop rule ``kind`` (``None``: no rule) for ``case``, checked before any work: ``target``
     needs the case's yardstick (:func:`target_return`), every rule needs evaluations
-    (``eval_every > 0``). Unset options keep :class:`StopRule`'s defaults; ``target`` is
-    confirmed in the accurate physics unless ``confirm`` is ``"none"`` (:data:`DEFAULT_CONFIRM`)."""
+    (``eval_every > 0``); ``target`` compares evaluations of the case's length (``eval_duration``
+    0 or that length, s) with the yardstick's return. Unset options keep :class:`StopRule`'s
+    defaults; ``target`` is confirmed in the accurate physics unless ``confirm`` is ``"none"``
+    (:data:`DEFAULT_CONFIRM`)."""
     if kind is None:
         for name, value, rule in (("--stop-consecutive", consecutive, "target"),
                                   ("--stop-patience", patience, "plateau"),
@@ -78,6 +81,11 @@ def case_stop_rule(case: Case, kind: str | None, *, consecutive: int | None = No
                              f"task is {case.task.kind!r}, [yardstick] distance_10s = "
                              f"{case.yardstick.distance_10s:g} m; target needs a crawling task with "
                              "a yardstick distance > 0); use --stop-when plateau")
+        if eval_duration and abs(eval_duration - case.evaluation_duration) > 1e-9:
+            raise ValueError(f"--stop-when target compares each evaluation's return with the yardstick's "
+                             f"over {case.evaluation_duration:g} s; eval_duration {eval_duration:g} s "
+                             "evaluates another length: leave eval_duration 0 (the case's), or give "
+                             "--stop-when plateau or none")
         options["threshold"] = threshold
         if patience is not None or tolerance is not None:
             raise ValueError("--stop-patience and --stop-tolerance are for --stop-when plateau")

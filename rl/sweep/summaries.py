@@ -120,6 +120,13 @@ def _earlier_seeds(case_dir: Path, exclude: list[int], reward_scale: float,
     return found
 
 
+def _evaluation_duration(mine: list[dict[str, Any]], spec: Case) -> float:
+    """The periodic evaluations' episode of this call's seeds, s (their ``eval_duration``), else the
+    case's."""
+    durations = {r["evaluation_duration_s"] for r in mine if "evaluation_duration_s" in r}
+    return durations.pop() if len(durations) == 1 else spec.evaluation_duration
+
+
 def case_summary(case_dir: CaseDir, spec: Case, mine: list[dict[str, Any]], seed_list: list[int],
                   success_fraction: float, sweep: dict[str, Any], wall: float) -> dict[str, Any]:
     """A case's ``summary.json`` (written, and returned with its path): every seed folder of the
@@ -165,7 +172,7 @@ def _writecase_summary(case_dir: CaseDir, spec: Case, mine: list[dict[str, Any]]
         "seeds": per_seed,
         "failed": [r["seed"] for r in per_seed if "error" in r],
         **stop_summary(per_seed, sweep["steps"], sweep["stop_rules"].get(spec.name),
-                       spec.evaluation_duration),
+                       _evaluation_duration(mine, spec)),
     }
     case_dir.path.mkdir(parents=True, exist_ok=True)
     atomic_write_json(case_dir.summary_json, summary)

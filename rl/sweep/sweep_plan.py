@@ -221,7 +221,7 @@ def _check_before_work(loaded: dict[str, Case], seed_list: list[int], acting: _A
     keep_stop_rules = s.resume and s.stop_when is None and not stop_options
     stop_rules = None if keep_stop_rules else _stop_rules(
         loaded, recipe_stop_when(s.stop_when, r.recipe), stop_options, eval_every,
-        from_recipe=s.stop_when is None)
+        from_recipe=s.stop_when is None, eval_duration=acting.config.eval_duration)
     _check_run_folders(s.out, loaded, seed_list, s.resume, s.physics, r.episode_duration, r.recipe,
                        int(s.envs), before_making=None if s.resume else functools.partial(acting.new_runs,
                                                                              stop_rules))
@@ -265,7 +265,7 @@ def _check_resumed_runs(out: str | Path, loaded: dict[str, Case], seed_list: lis
 
 
 def _stop_rules(loaded: dict[str, Case], kind: str | None, options: dict[str, Any] | None,
-                eval_every: int, from_recipe: bool = False) -> dict[str, Any]:
+                eval_every: int, from_recipe: bool = False, eval_duration: float = 0.0) -> dict[str, Any]:
     """Each case's stop rule (``None``: off), checked before any work. The recipe's ``target``
     rule (not asked for by name) is off, with a warning, for a case that has no target return
     (a goto case, a crawl case without a yardstick): its seeds train their full steps."""
@@ -280,7 +280,8 @@ def _stop_rules(loaded: dict[str, Case], kind: str | None, options: dict[str, An
                           "plateau)", SettingNotAppliedWarning, stacklevel=2)
             rules[name] = None
             continue
-        rules[name] = case_stop_rule(case, kind, eval_every=eval_every, **(options or {}))
+        rules[name] = case_stop_rule(case, kind, eval_every=eval_every, eval_duration=eval_duration,
+                                     **(options or {}))
     return rules
 
 

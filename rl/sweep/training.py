@@ -122,6 +122,9 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
         results.append({"seed": int(ckpt["config"]["seed"]), **summary, **record,
                         "state": seed_state(run_dir, record, target_return(case)),
                         "wall_s": wall, "peak_rss_bytes": peak,
+                        # the periodic evaluations' episode, s (the run's eval_duration, else the case's)
+                        "evaluation_duration_s": float(ckpt["config"].get("eval_duration") or
+                                                       case.evaluation_duration),
                         "group_seeds": [c.seed for c in configs],
                         "group_timing_s": ckpt.get("timing"),
                         **_diverged_throughout(summary, case)})
@@ -153,8 +156,9 @@ def _train_seeds_of(job: GroupJob, case: Case, configs: list[Any], run_dirs: lis
                                   randomize=case.training.randomize),
                 configs, job.steps, run_dirs, envs_per_seed=job.envs, resume=job.resume,
                 progress=job.progress, metadata=metadata,
+                # the duration a keyword: a run's eval_duration replaces it (GroupLoop)
                 eval_env_fn=functools.partial(make_env, case, job.physics, "zero",
-                                              case.evaluation_duration),
+                                              duration=case.evaluation_duration),
                 eval_vec_env_fn=functools.partial(make_vector_env, case, physics=job.physics,
                                                   initial_field="zero",
                                                   duration=case.evaluation_duration),

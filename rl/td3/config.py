@@ -44,6 +44,9 @@ MAX_YARDSTICK_WARMUP = 1_000_000
 #: The strongest hold on the yardstick's warm-up (``yardstick_regularization``), 25x TD3+BC's 0.4:
 #: beyond it the actor's distance to the warm-up's actions outweighs any Q gradient.
 MAX_YARDSTICK_REGULARIZATION = 10.0
+#: The longest evaluation episode a config takes, s (an hour: a goto episode is 30 s; more is a
+#: step count or milliseconds written as seconds).
+MAX_EVAL_DURATION = 3600.0
 #: The largest learning rate a config takes (TD3's is 3e-4; Adam's steps above this only diverge).
 MAX_LEARNING_RATE = 0.1
 
@@ -182,10 +185,16 @@ class RunSettings:
     """Switch on ``torch.use_deterministic_algorithms`` while training (restored afterwards)."""
 
 
+#: The :class:`Schedule` settings a resumed run keeps (the evaluations' length: ``best.pt`` compares
+#: evaluations of one length).
+KEPT_ON_RESUME = frozenset({"eval_duration"})
+
+
 @dataclass
 class Schedule:
     """When a run checkpoints, logs and evaluates (what Stable-Baselines3 leaves to ``learn()``'s
-    callbacks): these change no weight, so a resumed run may change them."""
+    callbacks): these change no weight, so a resumed run may change them (but
+    :data:`KEPT_ON_RESUME`)."""
 
     checkpoint_every: int = 10_000
     """A checkpoint is written at the first episode boundary after every multiple of this many
@@ -199,6 +208,13 @@ class Schedule:
     ``EvalCallback``); 0: never."""
     eval_episodes: int = 1
     """Episodes per evaluation (episode ``i`` reset with seed ``EVAL_SEED + i``)."""
+    eval_duration: float = 0.0
+    """Seconds of each periodic evaluation's episode (:attr:`eval_every`); 0: the case's
+    (the yardstick's 10 s, a goto or tip-reach task's whole episode). Shorter evaluations cost
+    less (smoke runs), and ``best.pt`` is then the best of those: a seed's 10 s distance is still
+    measured after training (``msr policy export-seeds``, ``msr loop``). Unlike the settings above, a
+    resumed run keeps its own (:data:`KEPT_ON_RESUME`): ``best.pt`` compares evaluations of one
+    length."""
 
 
 @dataclass
@@ -232,6 +248,9 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
             raise ValueError(f"precision must be one of {', '.join(PRECISIONS)}, got {self.precision!r}")
         if self.eval_episodes < 1:
             raise ValueError(f"eval_episodes must be >= 1, got {self.eval_episodes}")
+        if not (math.isfinite(self.eval_duration) and 0.0 <= self.eval_duration <= MAX_EVAL_DURATION):
+            raise ValueError(f"eval_duration must be a number of seconds in [0, {MAX_EVAL_DURATION:g}] "
+                             f"(0: the case's evaluation, 10 s for a crawl), got {self.eval_duration!r}")
         ratio = self.updates_per_step
         if not (isinstance(ratio, int | float) and math.isfinite(ratio)
                 and 0 < ratio <= MAX_UPDATES_PER_STEP):

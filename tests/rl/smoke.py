@@ -8,10 +8,12 @@ from elastica_magnetic.cli import main as msr
 
 #: Steps per seed of the shared training run (tests/rl/conftest.py's ``trained``).
 TRAIN_STEPS = 240
-#: Tiny networks and short episodes: a training run of seconds.
+#: s: the smoke runs' evaluations (the case's 10 s would be most of a smoke run's time).
+EVAL_DURATION = 0.8
+#: Tiny networks, short episodes and evaluations: a training run of seconds.
 SMOKE = ["--set", "learning_starts=60", "--set", "batch_size=32", "--set", "hidden_sizes=32,32",
          "--episode-duration", "0.8", "--set", "checkpoint_every=80", "--set", "eval_every=120",
-         "--no-progress"]
+         "--set", f"eval_duration={EVAL_DURATION}", "--no-progress"]
 
 
 def run_msr(capsys, *argv: str) -> dict:

@@ -14,7 +14,7 @@ import pytest
 import torch
 from elastica_magnetic_rl.runfiles.checkpoint import load_checkpoint
 from elastica_magnetic_rl.sweep.run_records import record_hash
-from smoke import SMOKE, TRAIN_STEPS, run_msr
+from smoke import EVAL_DURATION, SMOKE, TRAIN_STEPS, run_msr
 
 from elastica_magnetic.cli import main as msr
 
@@ -35,11 +35,12 @@ def test_train_writes_run_dirs_and_summary(trained):
         assert all(r["truncated"] == "1" and r["terminated"] == "0" for r in rows)
         ckpt = load_checkpoint(run)
         assert ckpt["global_step"] == TRAIN_STEPS and ckpt["metadata"]["case"] == "m1-4mT"
-        # evaluations from a zero field, 10 s: at the episode end past 120 steps, and at the end
+        # evaluations from a zero field, the smoke runs' eval_duration: at the episode end past
+        # 120 steps, and at the end
         with open(run / "evaluations.csv") as f:
             evals = list(csv.DictReader(f))
         assert [int(r["global_step"]) for r in evals] == [160, TRAIN_STEPS]
-        assert all(float(r["mean_length"]) == 1000 for r in evals)
+        assert all(float(r["mean_length"]) == round(EVAL_DURATION / 0.01) for r in evals)
         best = load_checkpoint(run / "best.pt")
         assert best["kind"] == "best" and best["global_step"] in (160, TRAIN_STEPS)
         assert best["metadata"]["case"] == "m1-4mT"
