@@ -298,7 +298,8 @@ def identify_command(args: argparse.Namespace) -> int:
     if "confirm" in report:
         c = report["confirm"]
         print(f"{c['physics']} physics, fitted values: residual RMS {1e3 * c['rms_m']:.4f} mm, "
-              f"largest {1e3 * c['max_abs_m']:.4f} mm")
+              f"largest {1e3 * c['max_abs_m']:.4f} mm (the spec's own values: "
+              f"{1e3 * c['nominal_rms_m']:.4f} mm RMS)")
     print(f"written: {out / 'identified.toml'}, {out / 'identify.json'}, {out / 'identify.png'}")
     return 0
 

@@ -43,7 +43,7 @@ from ..cases.variations import (
     resolve_variations,
 )
 from .fit_model import FieldDrive, FitModel
-from .fit_report import fit_warnings, fitted_values, physics_warning, starts_report
+from .fit_report import fit_warnings, fitted_values, physics_warning, spec_fits_better, starts_report
 from .tracking import MIN_DURATION_S, MeasuredTrajectory, check_against_robot
 
 __all__ = ["DIFF_STEP", "FIT_BOUNDS", "MAX_EVALUATIONS", "STARTS", "FitBudgetExceeded", "drive_recorder",
@@ -423,6 +423,11 @@ def identify(
         report["confirm"] = _confirmation(model, np.exp(x), o.physics)
         if (warning := physics_warning(report["residual_m"]["rms"], report["confirm"], o.physics)):
             report["warnings"].append(warning)
+        if (reason := spec_fits_better(report["confirm"])) is not None:
+            report["warnings"].append(reason)
+            for entry in report["fitted"].values():  # the fit made up for the physics: nothing judged
+                entry.update(identifiable=None, interval=None, reason=f"not judged: {reason}",
+                             factor_sigma=None, sigma=dict.fromkeys(entry["sigma"]))
     report["predicted"] = predicted
     return report
 
@@ -547,12 +552,14 @@ def _optimizer_report(records: Sequence[dict[str, Any]], best: int, agree: bool 
 
 def _confirmation(model: FitModel, factors: NDArray[np.float64], physics: str) -> dict[str, Any]:
     """The fitted robot's residuals in the other physics (the accurate one after a fit in the
-    training physics): RMS and largest absolute residual (m), wall time (s)."""
+    training physics): RMS and largest absolute residual (m), the spec's own values' RMS there
+    (m), wall time (s)."""
     other = "accurate" if physics == "training" else "training"
     t0 = time.perf_counter()
     confirmed = model.residuals(factors, other)
+    nominal = model.residuals(np.ones_like(factors), other)  # the spec's own values, there
     return {"physics": other, "rms_m": _rms(confirmed), "max_abs_m": float(np.abs(confirmed).max()),
-            "wall_s": time.perf_counter() - t0}
+            "nominal_rms_m": _rms(nominal), "wall_s": time.perf_counter() - t0}
 
 
 def write_identified(report: dict[str, Any], spec: Mapping[str, Any], measured: MeasuredTrajectory,

@@ -90,3 +90,36 @@ def test_a_policy_file_with_an_impossible_size_is_named(tmp_path, capsys, key, v
         assert msr(command) == 2
         err = capsys.readouterr().err
         assert f"policy.json: architecture.{key}: {shown} is not a size" in err and "Traceback" not in err
+
+
+def test_spec_fits_better_in_the_accurate_physics():
+    from elastica_magnetic_rl.sim2real.fit_report import spec_fits_better
+
+    worse = {"physics": "accurate", "rms_m": 1.6e-5, "nominal_rms_m": 0.0}
+    assert "the spec's own values reproduce the motion better (0.0000 mm RMS) than the fitted ones " \
+           "(0.0160 mm)" in spec_fits_better(worse)
+    assert spec_fits_better({**worse, "nominal_rms_m": 1.55e-5}) is None  # within noise of each other
+    assert spec_fits_better({**worse, "physics": "training"}) is None  # a fit in the accurate physics
+
+
+def test_identify_judges_nothing_the_training_physics_made_up(tmp_path, capsys):
+    """S4: ``--fit robot.length`` on the accurate physics' own trajectory of the nominal robot: x0.945
+    "identifiable" in [0.935, 0.954], the truth 12 standard errors away. In the accurate physics the
+    spec's values reproduce the motion better than the fitted ones: nothing is judged."""
+    import json
+    from pathlib import Path
+
+    from elastica_magnetic.cli import main as msr
+
+    shipped = Path(__file__).resolve().parents[3] / "rl" / "policies" / "m1-4mT" / "fields.csv"
+    fields = tmp_path / "f20.csv"
+    fields.write_text("".join(shipped.read_text().splitlines(keepends=True)[:21]))
+    assert msr(["field", "replay", str(fields), "--out", str(tmp_path / "R"), "--no-progress"]) == 0
+    capsys.readouterr()
+    assert msr(["real", "identify", str(fields), str(tmp_path / "R" / "trajectory.csv"), "--robot", "m1-4mT",
+                "--fit", "robot.length", "--out", str(tmp_path / "X"), "--no-progress", "--max-evaluations",
+                "20", "--starts", "1"]) == 0
+    assert "NOT JUDGED: in the accurate physics the spec's own values reproduce the motion better" in (
+        capsys.readouterr().out)
+    fitted = json.loads((tmp_path / "X" / "identify.json").read_text())["fitted"]["robot.length"]
+    assert fitted["identifiable"] is None and fitted["interval"] is None and fitted["factor_sigma"] is None
