@@ -6,7 +6,7 @@ is an input (positional or option, a list of them, or a loaded spec's source fil
 added later is covered without a list to update. A command declares only what differs, with
 ``parser.set_defaults``: :data:`REPLACED_FOLDER` (a function of the arguments giving the folder
 replaced, when it is not ``--out`` itself; :func:`no_folder_replaced_whole` for a command whose
-``--force`` replaces only its own files there),
+``--force`` replaces only its own files there, :func:`out_file` for one whose ``--out`` is a file),
 :data:`INPUTS_ALWAYS` (a command that writes into its folder on every run, as ``msr loop`` does,
 checked with or without ``--force``) and :data:`INPUTS_HOW` (what it does to a file there, for the
 message).
@@ -23,7 +23,7 @@ from typing import Any
 from ..result_places import REPLACED_WHOLE, check_inputs_outside
 
 __all__ = ["INPUTS_ALWAYS", "INPUTS_HOW", "REPLACED_FOLDER", "check_command_inputs", "command_parser",
-           "input_arguments", "no_folder_replaced_whole"]
+           "input_arguments", "no_folder_replaced_whole", "out_file"]
 
 #: ``set_defaults`` key: a function ``(args) -> folder or None`` for the folder the command replaces.
 REPLACED_FOLDER = "replaced_folder"
@@ -43,6 +43,14 @@ def no_folder_replaced_whole(args: argparse.Namespace) -> None:
     ``--out`` (other files stay): no input is deleted with a folder; its own checks guard the files
     it writes."""
     return None
+
+
+def out_file(args: argparse.Namespace) -> Path | None:
+    """:data:`REPLACED_FOLDER` of a command whose ``--out`` is one file (``msr real calibrate``):
+    that file, which ``--force`` replaces; ``None`` where ``--out`` names a folder (the command
+    refuses it itself: it replaces no folder)."""
+    out = getattr(args, "out", None)
+    return None if out is None or Path(out).is_dir() else Path(out)
 
 
 def command_parser(parser: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from elastica_magnetic.cli.app import command_name, output_path
+from elastica_magnetic.cli.input_places import REPLACED_FOLDER, out_file
 from elastica_magnetic.field_csv import MILLITESLA, named_twice, read_field_csv, separator_hint
 from elastica_magnetic.io import display_path
 
@@ -91,7 +92,7 @@ def register(subparsers: Any) -> None:
                    help="also upload the fitted calibration to the board at this pyserial URL")
     p.add_argument("--force", action="store_true", help="replace an existing --out file")
     p.add_argument("--json", action="store_true")
-    p.set_defaults(func=_calibrate)
+    p.set_defaults(func=_calibrate, **{REPLACED_FOLDER: out_file})  # --out: a file, not a folder
 
 
 def _calibration_name(text: str) -> str:

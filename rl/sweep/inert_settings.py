@@ -24,7 +24,8 @@ if TYPE_CHECKING:  # torch is imported only when a run is planned
     from ..runner.stopping import StopRule
     from ..td3.config import TD3Config
 
-__all__ = ["SettingSources", "check_episodes_end", "check_run_learns", "check_stop_rule_decides"]
+__all__ = ["SettingSources", "check_episodes_end", "check_evaluations_made", "check_run_learns",
+           "check_stop_rule_decides"]
 
 
 @dataclass(frozen=True)
@@ -57,6 +58,20 @@ class SettingSources:
     def steps(self, steps: int) -> str:
         """The run's steps as the user set them."""
         return f"--steps {steps}" if self.steps_given else f"[training] steps = {steps} ({self.source})"
+
+
+def check_evaluations_made(config: TD3Config, sources: SettingSources) -> None:
+    """Refuse (``ValueError``) a setting of the periodic evaluations (``eval_duration``,
+    ``eval_episodes``) given by the user for a run that makes none (``eval_every`` 0): it would be
+    recorded and change nothing."""
+    if config.eval_every > 0:
+        return
+    for key, unset in (("eval_duration", 0.0), ("eval_episodes", 1)):
+        value = getattr(config, key)
+        if value != unset and (key in sources.given or key in sources.spec_td3):
+            raise ValueError(f"{sources.setting(key, f'{value:g}')} sets the periodic evaluations, and "
+                             f"{sources.setting('eval_every', 0)} makes none: give --set eval_every=N "
+                             f"(steps between evaluations), or leave {key} out")
 
 
 def check_run_learns(config: TD3Config, steps: int, sources: SettingSources) -> None:

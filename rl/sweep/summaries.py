@@ -120,9 +120,9 @@ def _earlier_seeds(case_dir: Path, exclude: list[int], reward_scale: float,
     return found
 
 
-def _evaluation_duration(mine: list[dict[str, Any]], spec: Case) -> float:
-    """The periodic evaluations' episode of this call's seeds, s (their ``eval_duration``), else the
-    case's."""
+def _evaluation_duration(mine: list[dict[str, Any]], spec: Case) -> float | None:
+    """The periodic evaluations' episode of this call's seeds, s (their ``eval_duration``; ``None``
+    for seeds that made none), else the case's."""
     durations = {r["evaluation_duration_s"] for r in mine if "evaluation_duration_s" in r}
     return durations.pop() if len(durations) == 1 else spec.evaluation_duration
 

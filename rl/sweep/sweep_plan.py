@@ -31,6 +31,7 @@ from .case_folders import check_case_folders
 from .inert_settings import (
     SettingSources,
     check_episodes_end,
+    check_evaluations_made,
     check_run_learns,
     check_stop_rule_decides,
 )
@@ -189,6 +190,7 @@ class _ActingChecks:
         asked for can decide."""
         if not self.warm_up_only:
             check_run_learns(self.config, self.steps, self.sources)
+        check_evaluations_made(self.config, self.sources)
         for rule in (stop_rules or {}).values() if self.stop_given else ():
             check_stop_rule_decides(rule, self.config, self.steps, self.envs, self.sources,
                                     self.episode_duration)

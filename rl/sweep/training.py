@@ -122,9 +122,11 @@ def _train_group_unlocked(job: GroupJob) -> dict[str, Any]:
         results.append({"seed": int(ckpt["config"]["seed"]), **summary, **record,
                         "state": seed_state(run_dir, record, target_return(case)),
                         "wall_s": wall, "peak_rss_bytes": peak,
-                        # the periodic evaluations' episode, s (the run's eval_duration, else the case's)
+                        # the periodic evaluations' episode, s (the run's eval_duration, else the
+                        # case's); None for a run that made none
                         "evaluation_duration_s": float(ckpt["config"].get("eval_duration") or
-                                                       case.evaluation_duration),
+                                                       case.evaluation_duration)
+                        if ckpt["config"].get("eval_every", 0) > 0 else None,
                         "group_seeds": [c.seed for c in configs],
                         "group_timing_s": ckpt.get("timing"),
                         **_diverged_throughout(summary, case)})

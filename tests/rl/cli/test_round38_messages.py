@@ -1,0 +1,57 @@
+"""Round 38 of held-out tries (issue 48): what they found, each fixed with the message it gives."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from elastica_magnetic.cli import main as msr
+
+REPO = Path(__file__).resolve().parents[3]
+TINY = ["--seeds", "1", "--steps", "80", "--episode-duration", "0.5", "--set", "learning_starts=60",
+        "--set", "batch_size=32", "--set", "hidden_sizes=32,32", "--no-progress"]
+
+
+@pytest.mark.parametrize("setting", ["eval_duration=0.3", "eval_episodes=4"])
+def test_an_evaluation_setting_without_evaluations_is_refused(tmp_path, capsys, setting):
+    """S1: ``--set eval_duration=0.3`` (or ``eval_episodes``) with ``eval_every=0`` was recorded, and
+    summary.json reported an evaluation length where none ran."""
+    out = tmp_path / "tr"
+    assert msr(["train", "--case", "m1-4mT", *TINY, "--set", "eval_every=0", "--set", setting,
+                "--out", str(out)]) == 2
+    key = setting.split("=")[0]
+    assert (f"--set {setting} sets the periodic evaluations, and --set eval_every=0 makes none" in
+            capsys.readouterr().err)
+    assert not out.exists(), key
+
+
+def test_a_run_without_evaluations_reports_no_evaluation_length(tmp_path, capsys):
+    out = tmp_path / "tr"
+    assert msr(["train", "--case", "m1-4mT", *TINY, "--set", "eval_every=0", "--out", str(out)]) == 0
+    summary = json.loads((out / "m1-4mT" / "summary.json").read_text())
+    assert summary["evaluation_duration_s"] is None
+    assert [s["evaluation_duration_s"] for s in summary["seeds"]] == [None]
+
+
+def test_calibrate_with_a_folder_for_out_is_told_so(tmp_path, capsys):
+    """V1: ``msr real calibrate cal/m.csv --out cal --force``: "cal replaces whole, the input would be
+    deleted", and its advice (copy the input elsewhere) refused next: "--out cal: is a folder". It
+    replaces one file: a folder is said first."""
+    cal = tmp_path / "cal"
+    cal.mkdir()
+    measurements = cal / "m.csv"
+    measurements.write_text("current_x_A,current_y_A,current_z_A,field_x_mT,field_y_mT,field_z_mT\n"
+                            + "".join(f"{i},{j},{k},{2 * i},{3 * j},{4 * k}\n"
+                                      for i, j, k in [(1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 0), (0, 1, 1),
+                                                      (1, 0, 1)]))
+    assert msr(["real", "calibrate", str(measurements), "--out", str(cal), "--force"]) == 2
+    err = capsys.readouterr().err
+    assert f"--out {cal}: is a folder, expected a file name" in err and "lies in" not in err, err
+    # the file itself as --out is still refused as the input it is
+    shutil.copy(REPO / "stm32" / "calibration" / "default.json", cal / "c.json")
+    assert msr(["real", "calibrate", str(measurements), "--base", str(cal / "c.json"), "--out",
+                str(cal / "c.json"), "--force"]) == 2
+    assert f"--base {cal / 'c.json'}: lies in --out {cal / 'c.json'}" in capsys.readouterr().err
