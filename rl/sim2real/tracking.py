@@ -72,6 +72,10 @@ _TRACKER_Z_COLUMN = re.compile(r"^z_([0-9]*\.?[0-9]+)_m$")
 _NEAR_TRACKER_COLUMN = re.compile(r"^[xyz][\s_\-]*[-+]?\.?\d", re.IGNORECASE)
 #: A marker's or tip's column of msr's own files, exactly; and what looks like one however spelled
 #: (``mid_x_mm``, ``Mid_X_m``, ``tip x``): one that is not exact is named, never dropped.
+#: msr's own trajectory.csv columns that are no tracked point (read by no fit, said by no warning).
+TRAJECTORY_EXTRAS = frozenset({"height_max_m", "span_m"})
+#: An unused column that looks like a coordinate: an x or y word, in m.
+_COORDINATE_LIKE = re.compile(r"(^|[_\s\-])[xy]([_\s\-]|$).*m$|_[xy]_?m$", re.IGNORECASE)
 _MARKER_COLUMN = re.compile(r"^(back|mid|front|tip)_[xyz]_m$")
 _NEAR_MARKER_COLUMN = re.compile(r"^(back|mid|front|tip)[\s_\-]*[xyz](?![a-z])", re.IGNORECASE)
 
@@ -227,6 +231,25 @@ def numeric_columns(path: Path, table: pd.DataFrame, used: list[str]) -> NDArray
     return values
 
 
+def _check_unused(path: Path, unused: list[str]) -> None:
+    """No column is dropped without a word: one that looks like a coordinate in m (an x or y word,
+    ``head_x_m``, ``x_mid_m``, ``center_y_m``) is refused (a tracked point the fit would leave
+    out), any other (a frame number, a tracker's likelihood) is said unused; msr's own
+    trajectory.csv extras (:data:`TRAJECTORY_EXTRAS`) go without a word."""
+    unused = [c for c in unused if c not in TRAJECTORY_EXTRAS]
+    points = [c for c in unused if _COORDINATE_LIKE.search(c)]
+    if points:
+        raise TrajectoryError(f"{path}: column(s) {', '.join(points)} look like a tracked point's but are "
+                              "not one the fit reads: a tracker's point is x_<s>_m, y_<s>_m (<s> its place "
+                              "along the body, a number from 0 at the back end to 1 at the front end), "
+                              "msr's markers back_/mid_/front_<x|y>_m; rename them, or drop them")
+    if unused:
+        from elastica_magnetic.plausibility import warn_implausible
+
+        warn_implausible(f"{path}: column(s) {', '.join(unused)} are not used (the fit reads t_s and the "
+                         "tracked points' x and y)", "")
+
+
 def read_trajectory(path: str | Path) -> MeasuredTrajectory:
     """Read and check a measured trajectory (see the module docstring for the formats).
 
@@ -246,6 +269,7 @@ def read_trajectory(path: str | Path) -> MeasuredTrajectory:
                          "side view (x and height y of each tracked point) only, so sideways motion "
                          "neither helps nor hurts it", "")
     used = ["t_s"] + [c for _, *xyz in layout for c in xyz]
+    _check_unused(path, [str(c) for c in table.columns if c not in used and c not in sideways])
     values = numeric_columns(path, table, used)
     times = values[:, 0]
     if times.shape[0] < MIN_FRAMES:

@@ -55,3 +55,42 @@ def test_calibrate_with_a_folder_for_out_is_told_so(tmp_path, capsys):
     assert msr(["real", "calibrate", str(measurements), "--base", str(cal / "c.json"), "--out",
                 str(cal / "c.json"), "--force"]) == 2
     assert f"--base {cal / 'c.json'}: lies in --out {cal / 'c.json'}" in capsys.readouterr().err
+
+
+def _write(path, columns: dict) -> None:
+    import numpy as np
+
+    t = 0.01 * np.arange(30)
+    table = {"t_s": t, **{k: v(t) for k, v in columns.items()}}
+    path.write_text("\n".join([",".join(table)] + [",".join(f"{table[c][k]:.6g}" for c in table)
+                                                   for k in range(len(t))]) + "\n")
+
+
+@pytest.mark.parametrize("extra", [("head_x_m", "head_y_m"), ("x_mid_m", "y_mid_m"),
+                                   ("center_x_m", "center_y_m"), ("x_nan_m", "y_nan_m"),
+                                   ("x_inf_m", "y_inf_m")])
+def test_a_point_the_fit_cannot_read_is_named(tmp_path, extra):
+    """S2: ``head_x_m``, ``x_mid_m``, ``center_x_m``, ``x_nan_m`` beside the points the fit reads were
+    dropped without a word (the fit ran on the others)."""
+    from elastica_magnetic_rl.sim2real.tracking import TrajectoryError, read_trajectory
+
+    columns = {"x_0_m": lambda t: 0.05 * t, "y_0_m": lambda t: 0 * t, "x_1_m": lambda t: 0.02 + 0.05 * t,
+               "y_1_m": lambda t: 0 * t, extra[0]: lambda t: 0.01 + 0.05 * t, extra[1]: lambda t: 0 * t}
+    _write(tmp_path / "t.csv", columns)
+    named = f"column\\(s\\) {extra[0]}, {extra[1]} look like a tracked point's but are not one the fit reads"
+    with pytest.raises(TrajectoryError, match=named):
+        read_trajectory(tmp_path / "t.csv")
+
+
+def test_other_unused_columns_are_said_and_msr_s_own_extras_are_not(tmp_path):
+    from elastica_magnetic_rl.sim2real.tracking import read_trajectory
+
+    from elastica_magnetic.plausibility import ImplausibleValueWarning
+
+    columns = {"x_0_m": lambda t: 0.05 * t, "y_0_m": lambda t: 0 * t, "x_1_m": lambda t: 0.02 + 0.05 * t,
+               "y_1_m": lambda t: 0 * t, "frame": lambda t: 100 * t, "likelihood": lambda t: 0 * t + 0.9,
+               "height_max_m": lambda t: 0 * t, "span_m": lambda t: 0 * t + 0.02}
+    _write(tmp_path / "t.csv", columns)
+    with pytest.warns(ImplausibleValueWarning, match=r"column\(s\) frame, likelihood are not used") as seen:
+        assert read_trajectory(tmp_path / "t.csv").points == ("s=0", "s=1")
+    assert not any("height_max_m" in str(w.message) for w in seen)
