@@ -261,6 +261,11 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
         for name in ("learning_starts", "eval_every", "yardstick_warmup", "yardstick_dagger"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        self._check_noise_and_yardstick()
+
+    def _check_noise_and_yardstick(self) -> None:
+        """The exploration and target noise, the warm-up from the yardstick and the buffer that
+        holds it: each in its range (``ValueError`` naming the setting)."""
         for name in ("exploration_noise", "policy_noise", "target_noise_clip", "noise_color",
                      "actor_saturation_penalty", "yardstick_regularization"):
             value = getattr(self, name)
@@ -307,6 +312,7 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
             raise ValueError(f"buffer_size ({self.buffer_size}) must be >= batch_size "
                              f"({self.batch_size}): a minibatch is drawn from the replay buffer, so "
                              "a smaller buffer never gives one and no weight is ever updated")
+
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
