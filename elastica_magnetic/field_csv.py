@@ -25,6 +25,8 @@ from .plausibility import judge, warn_implausible
 FIELD_CSV_RATE_HZ = 100.0
 #: Column names of the field components, in mT.
 FIELD_COLUMNS = ("mag_x", "mag_y", "mag_z")
+# headers read as a row index 0, 1, 2... in the first column (pandas writes an unnamed one)
+INDEX_HEADERS = ("", "index", "unnamed: 0", "row", "step")
 MILLITESLA = 1e-3
 
 
@@ -212,7 +214,10 @@ def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
             f"expected {', '.join(FIELD_COLUMNS)} in mT (found {names}){separator_hint(names)}"
         )
     columns = [names.index(c) for c in FIELD_COLUMNS]
-    index_column = 0 if len(names) == 4 and columns == [1, 2, 3] else None
+    # a first column before the field's: four columns, or a row index's usual headers (pandas
+    # writes '' for its index) beside further columns
+    index_column = (0 if columns == [1, 2, 3] and (len(names) == 4 or names[0].lower() in INDEX_HEADERS)
+                    else None)
     unread = [n for k, n in enumerate(names) if k not in columns and k != index_column]
     if unread:  # a column a user may think is played (a current, a time)
         warn_implausible(f"{path}: column(s) {', '.join(repr(n) for n in unread)} are not read: the field "

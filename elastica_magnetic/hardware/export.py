@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -35,6 +36,7 @@ from elastica_magnetic.hardware.calibration import (
 )
 from elastica_magnetic.hardware.protocol import wire_rows_mT, wire_values_mT
 from elastica_magnetic.io import atomic_write, atomic_write_text
+from elastica_magnetic.plausibility import ImplausibleValueWarning
 from elastica_magnetic.result_file import FileKind
 from elastica_magnetic.results import check_result_folder, result_folder
 
@@ -118,7 +120,10 @@ def export_firmware(field_csv: str | Path, calibration: Calibration | str | Path
             f"{field_csv}: holds coil currents (current_0_A, ..., A), and the flash table (PLAY) is a "
             f"field waveform ({', '.join(FIELD_COLUMNS)} in mT): compile a field CSV, or stream the "
             "currents with 'msr real stream FILE --port PORT --calibration CAL' (up to 3 coils)")
-    field_T = read_field_csv(field_csv, plausible=True)
+    with warnings.catch_warnings(record=True) as read_warnings:  # the summary's own record
+        warnings.simplefilter("always", ImplausibleValueWarning)
+        field_T = read_field_csv(field_csv, plausible=True)
+    csv_warnings = _reissued(read_warnings)
     if len(field_T) > MAX_TABLE_ROWS:
         raise ValueError(
             f"{field_csv}: {len(field_T)} rows exceed the flash table limit of {MAX_TABLE_ROWS} "
@@ -149,10 +154,24 @@ def export_firmware(field_csv: str | Path, calibration: Calibration | str | Path
         "clipping": clipping.describe(),
         "rows_slew_limited": clipping.slew_rows,
         "slew_limiting": clipping.describe_slew(),
-        "warnings": [w for w in [slew_warning(clipping, field_csv, cal.name)] if w],
+        "warnings": csv_warnings + [w for w in [slew_warning(clipping, field_csv, cal.name)] if w],
         "code_min": int(codes.min()) if len(codes) else None,
         "code_max": int(codes.max()) if len(codes) else None,
     }
+
+
+def _reissued(caught: list[warnings.WarningMessage]) -> list[str]:
+    """The unusual-value warnings among ``caught`` as text (the summary lists and prints them);
+    any other warning is issued again as it was."""
+    texts = []
+    for caught_warning in caught:
+        if issubclass(caught_warning.category, ImplausibleValueWarning):
+            if str(caught_warning.message) not in texts:
+                texts.append(str(caught_warning.message))
+        else:
+            warnings.warn_explicit(caught_warning.message, caught_warning.category,
+                                   caught_warning.filename, caught_warning.lineno)
+    return texts
 
 
 def main(argv: Sequence[str] | None = None) -> int:

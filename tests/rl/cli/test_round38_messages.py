@@ -94,3 +94,31 @@ def test_other_unused_columns_are_said_and_msr_s_own_extras_are_not(tmp_path):
     with pytest.warns(ImplausibleValueWarning, match=r"column\(s\) frame, likelihood are not used") as seen:
         assert read_trajectory(tmp_path / "t.csv").points == ("s=0", "s=1")
     assert not any("height_max_m" in str(w.message) for w in seen)
+
+
+FIELD_CSV = REPO / "elastica_magnetic" / "data" / "yao2023" / "magnetization1_4mT" / "magnetic_field.csv"
+CALIBRATION = REPO / "stm32" / "calibration" / "default.json"
+
+
+def test_firmware_lists_an_unread_column_among_its_warnings(tmp_path, capsys):
+    """V2: ``msr real firmware`` warned "column(s) '', 'note' are not read" and then printed
+    "warnings: none" (``--json``: ``[]``); the pandas index column '' was called unread though it is
+    checked as the row index."""
+    lines = FIELD_CSV.read_text().splitlines()[:51]
+    assert lines[0] == ",mag_x,mag_y,mag_z"  # the index column pandas writes
+    rows = [f"{lines[0]},note"] + [f"{line},x" for line in lines[1:]]
+    (tmp_path / "extra.csv").write_text("\n".join(rows) + "\n")
+    assert msr(["real", "firmware", str(tmp_path / "extra.csv"), "--calibration", str(CALIBRATION),
+                "--out", str(tmp_path / "fw"), "--json"]) == 0
+    captured = capsys.readouterr()
+    summary = json.loads(captured.out)
+    assert len(summary["warnings"]) == 1 and "column(s) 'note' are not read" in summary["warnings"][0]
+    assert captured.err.count("are not read") == 1
+
+
+def test_an_unnamed_index_column_beside_other_columns_is_checked(tmp_path):
+    from elastica_magnetic.field_csv import FieldCSVError, read_field_csv
+
+    (tmp_path / "f.csv").write_text(",mag_x,mag_y,mag_z,note\n0,1,0,0,a\n2,1,0,0,b\n")
+    with pytest.raises(FieldCSVError, match="line 3: index '2' out of sequence, expected 1"):
+        read_field_csv(tmp_path / "f.csv")
