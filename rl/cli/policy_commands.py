@@ -125,7 +125,7 @@ def _add_notes_command(sub: argparse._SubParsersAction) -> None:
         "notes",
         help="show or replace a shipped policy's notes (policy.json and its model card's Notes)",
         description="Without --file, print the notes. With --file, its Markdown replaces them in "
-        "policy.json and in MODEL_CARD.md's Notes section together (an empty file removes them).",
+        "policy.json and in MODEL_CARD.md's Notes section together; --clear removes them.",
     )
     p.add_argument("policy", help="shipped-policy name or folder, e.g. m2-4mT")
     p.add_argument("--file", type=Path, default=None, help="Markdown file with the new notes")

@@ -10,6 +10,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
+from elastica_magnetic.robot_spec import ACTION_PERIOD
+
 #: Arithmetic choices of :attr:`TD3Config.precision`.
 PRECISIONS = ("fp32", "bf16")
 #: ``|pre-tanh output|`` of the actor above which it counts as saturated (``tanh(3) = 0.995``):
@@ -248,9 +250,11 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
             raise ValueError(f"precision must be one of {', '.join(PRECISIONS)}, got {self.precision!r}")
         if self.eval_episodes < 1:
             raise ValueError(f"eval_episodes must be >= 1, got {self.eval_episodes}")
-        if not (math.isfinite(self.eval_duration) and 0.0 <= self.eval_duration <= MAX_EVAL_DURATION):
-            raise ValueError(f"eval_duration must be a number of seconds in [0, {MAX_EVAL_DURATION:g}] "
-                             f"(0: the case's evaluation, 10 s for a crawl), got {self.eval_duration!r}")
+        if not (math.isfinite(self.eval_duration) and (self.eval_duration == 0.0 or ACTION_PERIOD
+                                                        <= self.eval_duration <= MAX_EVAL_DURATION)):
+            raise ValueError(f"eval_duration must be 0 (the case's evaluation, 10 s for a crawl) or a "
+                             f"number of seconds in [{ACTION_PERIOD:g}, {MAX_EVAL_DURATION:g}] (at least "
+                             f"one control step), got {self.eval_duration!r}")
         ratio = self.updates_per_step
         if not (isinstance(ratio, int | float) and math.isfinite(ratio)
                 and 0 < ratio <= MAX_UPDATES_PER_STEP):

@@ -59,9 +59,12 @@ def test_a_target_rule_is_refused_with_another_length():
         case_stop_rule(case, "target", eval_every=100, eval_duration=0.8)
 
 
-@pytest.mark.parametrize("value", [-1.0, float("nan"), float("inf"), 3601.0])
+@pytest.mark.parametrize("value", [-1.0, float("nan"), float("inf"), 3601.0, 0.005, 0.001])
 def test_an_impossible_length_is_refused(value):
-    with pytest.raises(ValueError, match=r"eval_duration must be a number of seconds in \[0, 3600\]"):
+    """Below one 0.01 s control step (round 39 V1: every seed then failed with "duration must be at
+    least one 0.01 s step", no setting named)."""
+    with pytest.raises(ValueError, match=r"eval_duration must be 0 .* or a number of seconds in "
+                                         r"\[0.01, 3600\] \(at least one control step\)"):
         TD3Config(eval_duration=value)
 
 
