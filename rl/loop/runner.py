@@ -113,7 +113,9 @@ def run_loop(case: Case, out: str | Path, settings: LoopSettings, *, skip: tuple
         plan = plan_loop(state, spec, recorded, skip, tuple(dict.fromkeys((*redo, *replaced))), force)
         _check_steps_to_redo(folder, plan)
         folder.mkdir(parents=True, exist_ok=True)
-        if state is None or plan.redo == STEPS:
+        if state is not None and state.case != case.name:  # started over for another robot
+            _remove_spec_copy(state)
+        if state is None or plan.redo == STEPS or state.case != case.name:
             state = LoopState(folder / "loop.json", case.name, spec, recorded)
         state.spec, state.settings = spec, recorded
         _forget(state, plan)
@@ -123,6 +125,15 @@ def run_loop(case: Case, out: str | Path, settings: LoopSettings, *, skip: tuple
         write_report(ctx)
         _run_steps(ctx, plan, log, steps or STEP_FUNCTIONS)
     return state
+
+
+def _remove_spec_copy(state: LoopState) -> None:
+    """Remove the spec copy the yardstick step of ``state``'s loop wrote (``<case>.toml``, named
+    in its record): a loop started over for another case writes its own, and the old one beside
+    it would pass for this loop's."""
+    copy = state.steps.get("yardstick", {}).get("summary", {}).get("spec_file")
+    if isinstance(copy, str) and "/" not in copy and copy.endswith(".toml"):
+        (state.path.parent / copy).unlink(missing_ok=True)
 
 
 def _forget(state: LoopState, plan: LoopPlan) -> None:

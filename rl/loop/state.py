@@ -233,12 +233,17 @@ def plan_loop(state: LoopState | None, spec: dict[str, Any], settings: dict[str,
     done = tuple(s for s in STEPS if state is not None and state.done(s) and s not in redone)
     skipped = tuple(s for s in STEPS if s in skip and s not in done)
     run = tuple(s for s in STEPS if s not in done and s not in skipped)
-    missing = {s: n for s in run for n in NEEDS[s] if n not in done and n not in run}
-    if missing:
-        first, need = next(iter(missing.items()))
-        also = [s for s in run if s in missing]
+    blocked, available = [], set(done)
+    for step in run:  # in order: NEEDS point backwards, so a step's needs are settled before it
+        if all(n in available for n in NEEDS[step]):
+            available.add(step)
+        else:
+            blocked.append(step)
+    if blocked:  # every step the skipped one holds back, directly or through another: one advice
+        first = blocked[0]
+        need = next(n for n in NEEDS[first] if n not in available)
         raise LoopError(f"step {first} needs step {need}, which is skipped (--skip {need}, or "
-                        f"skipped by an earlier run and not done): skip {', '.join(also)} too, "
+                        f"skipped by an earlier run and not done): skip {', '.join(blocked)} too, "
                         f"or run {need}")
     redone_steps = tuple(s for s in STEPS if s in redone and s not in skip)
     return LoopPlan(run, done, skipped, redone_steps, tuple(s for s in extend if s in redone_steps))

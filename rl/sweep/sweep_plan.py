@@ -16,11 +16,12 @@ from pathlib import Path
 from typing import Any
 
 from elastica_magnetic.batch import batched_refusal
+from elastica_magnetic.io import display_path
 from elastica_magnetic.locks import check_lock_name
 from elastica_magnetic.plausibility import ImplausibleValueWarning, SettingNotAppliedWarning
 from elastica_magnetic.specfile import SpecError
 
-from ..cases.case import Case, load_case, warmup_refusal
+from ..cases.case import Case, case_names, load_case, warmup_refusal
 from ..cases.recipes import crawler_config
 from ..cases.training_tables import MAX_TRAIN_STEPS
 from ..runfiles.locking import check_unlocked
@@ -287,6 +288,17 @@ def _stop_rules(loaded: dict[str, Case], kind: str | None, options: dict[str, An
     return rules
 
 
+def _named_by(case: Case) -> str:
+    """Where ``case``'s name comes from, for a message: a shipped case, or a spec file's ``name``
+    key or file name."""
+    if case.name in case_names() and str(case.source) == f"{case.name}.toml":
+        return f"the shipped case {case.name}"
+    source = Path(str(case.source))
+    if source.is_file() and source.stem != case.name:
+        return f"{display_path(source)} (its `name = {case.name!r}`)"
+    return display_path(source) if source.is_file() else str(case.source)
+
+
 def load_cases(cases: Sequence[str | Path | Case]) -> dict[str, Case]:
     """The cases by name, every spec checked before any work (two different specs may not share
     a name)."""
@@ -298,7 +310,9 @@ def load_cases(cases: Sequence[str | Path | Case]) -> dict[str, Case]:
             raise SpecError(refusal if refusal.startswith(str(c.source)) else f"{c.source}: {refusal}")
         loaded.setdefault(c.name, c)
         if loaded[c.name].to_dict() != c.to_dict():
-            raise ValueError(f"two different cases are named {c.name!r}: rename one spec file")
+            raise ValueError(f"two different cases are named {c.name!r}: {_named_by(loaded[c.name])} and "
+                             f"{_named_by(c)}; change one spec's top-level `name` (a spec without one is "
+                             "named after its file)")
     if not loaded:
         raise ValueError("no case to train")
     return loaded

@@ -32,3 +32,69 @@ def test_policy_notes_help_gives_one_rule_for_removing_the_notes(capsys):
         pass
     text = " ".join(capsys.readouterr().out.split())
     assert "empty file removes" not in text and "--clear removes them" in text
+
+
+def test_a_skipped_step_names_every_step_it_holds_back():
+    """V4: ``--skip train`` advised "skip generate, refine too"; followed, it was refused again for
+    robustness, robustness-refined and firmware (which need generate)."""
+    from elastica_magnetic_rl.loop.state import LoopError, plan_loop
+
+    with pytest.raises(LoopError, match=r"step generate needs step train, which is skipped .*: skip "
+                                        r"generate, robustness, refine, robustness-refined, firmware too, "
+                                        r"or run train"):
+        plan_loop(None, {}, {}, ("train",), (), False)
+    plan = plan_loop(None, {}, {}, ("train", "generate", "robustness", "refine", "robustness-refined",
+                                    "firmware"), (), False)
+    assert plan.run == ("check", "yardstick")
+
+
+def test_a_loop_started_over_for_another_case_records_and_titles_it(tmp_path, monkeypatch):
+    """S1: ``msr loop m2-4mT --force`` over a loop of m1-4mT (some steps skipped) ran every step for
+    m2-4mT, but loop.json's case and the report's title stayed m1-4mT, and the old loop's spec copy
+    m1-4mT.toml stayed beside m2-4mT.toml."""
+    import io
+
+    from elastica_magnetic_rl.cases.case import load_case
+    from elastica_magnetic_rl.loop import runner
+    from elastica_magnetic_rl.loop.settings import LoopSettings
+    from elastica_magnetic_rl.loop.state import STEPS, LoopState
+
+    from elastica_magnetic.results import result_folder
+
+    def fake(step):
+        def run(ctx):
+            with result_folder(ctx.folder / step, kind=step, force=True) as folder:
+                (folder.path / "result.txt").write_text(step)
+            if step == "yardstick":
+                ctx.path(f"{ctx.case.name}.toml").write_text(f"name = '{ctx.case.name}'\n")
+                return {"spec_file": f"{ctx.case.name}.toml"}
+            return {}
+        return run
+
+    titles: list[str] = []
+    monkeypatch.setattr(runner, "write_report", lambda ctx: titles.append(ctx.state.case))
+    monkeypatch.setattr(runner, "headline", lambda step, summary: step)
+    functions = {step: fake(step) for step in STEPS}
+    out, skip = tmp_path / "lp2", ("robustness", "robustness-refined", "refine")
+    runner.run_loop(load_case("m1-4mT"), out, LoopSettings(), skip=skip, progress=False, log=io.StringIO(),
+                    steps=functions)
+    (out / "notes.txt").write_text("the user's")
+    runner.run_loop(load_case("m2-4mT"), out, LoopSettings(), skip=skip, force=True, progress=False,
+                    log=io.StringIO(), steps=functions)
+    assert LoopState.read(out).case == "m2-4mT" and titles[-1] == "m2-4mT"
+    assert (out / "m2-4mT.toml").exists() and not (out / "m1-4mT.toml").exists()
+    assert (out / "notes.txt").read_text() == "the user's"
+
+
+def test_two_cases_of_one_name_are_told_where_the_name_comes_from(tmp_path):
+    """V3: "two different cases are named 'm1-4mT-designed': rename one spec file"; renaming the
+    file changed nothing (its ``name`` key names it, as msr design's best.toml does)."""
+    from elastica_magnetic_rl.cases.case import SPECS_DIR
+    from elastica_magnetic_rl.sweep.sweep_plan import load_cases
+
+    mine = tmp_path / "mybest.toml"  # another robot (m1-4mT's) under the shipped design's name
+    mine.write_text('name = "m1-4mT-designed"\n' + (SPECS_DIR / "m1-4mT.toml").read_text())
+    named = (r"two different cases are named 'm1-4mT-designed': the shipped case m1-4mT-designed and "
+             r".*mybest.toml \(its `name = 'm1-4mT-designed'`\); change one spec's top-level `name`")
+    with pytest.raises(ValueError, match=named):
+        load_cases(["m1-4mT-designed", mine])
