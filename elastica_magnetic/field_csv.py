@@ -12,6 +12,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,7 @@ from numpy.typing import NDArray
 from .drive_columns import MAGNET_COLUMN, drive_described
 from .io import atomic_write
 from .plausibility import judge, warn_implausible
+from .robot_spec import ACTION_PERIOD
 
 #: Rows per second of a field CSV (the paper's 100 Hz field update).
 FIELD_CSV_RATE_HZ = 100.0
@@ -80,6 +82,7 @@ def read_field_csv(path: str | Path, *, plausible: bool = False) -> NDArray[np.f
     field = np.empty((len(body), 3))
     for k, (line, row) in enumerate(body):
         field[k] = _field_row(path, line, row, k, columns, index_column, ncols)
+    _check_clock_columns(path, rows_with_lines[0][1], body, columns, index_column)
     if plausible:
         _check_plausible(path, field, [line for line, _ in body])
     return field
@@ -223,6 +226,35 @@ def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
         warn_implausible(f"{path}: column(s) {', '.join(repr(n) for n in unread)} are not read: the field "
                          f"is {', '.join(FIELD_COLUMNS)} (mT), one row per 0.01 s", stacklevel=4)
     return columns, index_column, len(names), rows_with_lines[1:]
+
+
+#: A column header read as a clock: t, time, with a unit s or ms (``t_s``, ``time [ms]``).
+_CLOCK_COLUMN = re.compile(r"^(t|time)\s*[_\s\[(]?\s*(s|ms|sec)?\s*[\])]?$", re.IGNORECASE)
+
+
+def _check_clock_columns(path: Path, header: list[str], body: list[tuple[int, list[str]]],
+                         columns: list[int], index_column: int | None) -> None:
+    """Refuse a clock column the field does not read whose times are not the rows' 0.01 s steps:
+    the rows are played 0.01 s apart whatever it says (a waveform sampled at 50 Hz would play twice
+    as fast)."""
+    for c, name in enumerate(header):
+        match = _CLOCK_COLUMN.match(name.strip())
+        if c in columns or c == index_column or not match or len(body) < 2:
+            continue
+        texts = [row[c].strip() for _, row in body]
+        if not all(_is_number(t) for t in texts):
+            continue
+        scale = 1e-3 if (match.group(2) or "").lower() == "ms" else 1.0
+        times = np.array([float(t) for t in texts]) * scale
+        steps = np.diff(times)
+        off = np.flatnonzero(np.abs(steps - ACTION_PERIOD) > 1e-3 * ACTION_PERIOD)
+        if off.size:
+            k = int(off[0])
+            raise FieldCSVError(
+                f"{path}: column {name!r} reads as a clock stepping {steps[k]:g} s at line "
+                f"{body[k + 1][0]} (from {times[k]:g} to {times[k + 1]:g} s), but a field CSV's rows are "
+                f"played {ACTION_PERIOD:g} s apart whatever it says: resample the waveform to "
+                f"{ACTION_PERIOD:g} s steps (100 rows per second), or drop the column")
 
 
 def _field_row(path: Path, line: int, row: list[str], k: int, columns: list[int],

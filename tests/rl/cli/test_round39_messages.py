@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from elastica_magnetic.cli import main as msr
@@ -98,3 +100,25 @@ def test_two_cases_of_one_name_are_told_where_the_name_comes_from(tmp_path):
              r".*mybest.toml \(its `name = 'm1-4mT-designed'`\); change one spec's top-level `name`")
     with pytest.raises(ValueError, match=named):
         load_cases(["m1-4mT-designed", mine])
+
+
+@pytest.mark.parametrize("header, times", [("t_s", ["0", "0.02", "0.04"]), ("time [ms]", ["0", "20", "40"]),
+                                           ("t_s", ["0", "0.01", "0.03"])])
+def test_a_clock_column_of_other_steps_is_refused(tmp_path, header, times):
+    """A borderline of round 39: a ``t_s`` column stepping 0.02 s in last place was only warned "not
+    read", and the waveform played at 100 Hz, twice as fast as its own times say."""
+    from elastica_magnetic.field_csv import FieldCSVError, read_field_csv
+
+    rows = [f"mag_x,mag_y,mag_z,{header}"] + [f"1,0,0,{t}" for t in times]
+    (tmp_path / "f.csv").write_text("\n".join(rows) + "\n")
+    with pytest.raises(FieldCSVError, match=rf"column '{re.escape(header)}' reads as a clock stepping "
+                                            r"0.0[12] s at line [34].* played 0.01 s apart whatever it says"):
+        read_field_csv(tmp_path / "f.csv")
+
+
+def test_a_clock_column_of_the_rows_steps_is_read_as_before(tmp_path):
+    from elastica_magnetic.field_csv import read_field_csv
+
+    (tmp_path / "f.csv").write_text("mag_x,mag_y,mag_z,t_s\n1,0,0,0.5\n1,0,0,0.51\n2,0,0,0.52\n")
+    with pytest.warns(UserWarning, match=r"column\(s\) 't_s' are not read"):
+        assert read_field_csv(tmp_path / "f.csv")[:, 0].tolist() == [1e-3, 1e-3, 2e-3]
