@@ -228,23 +228,35 @@ def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
     return columns, index_column, len(names), rows_with_lines[1:]
 
 
-#: A column header read as a clock: t, time, with a unit s or ms (``t_s``, ``time [ms]``).
-_CLOCK_COLUMN = re.compile(r"^(t|time)\s*[_\s\[(]?\s*(s|ms|sec)?\s*[\])]?$", re.IGNORECASE)
+#: A column header read as a clock: a word for time (``t``, ``time``, ``timestamp``, ``elapsed``,
+#: ``clock``), alone or followed by a unit in any notation (``t_s``, ``time/s``, ``time [ms]``).
+_CLOCK_COLUMN = re.compile(r"^(t|time|times|timestamp|elapsed|elapsed_time|clock)([\s_/\-\[(:,.]+"
+                           r"(?P<unit>s|ms|sec|secs|seconds|milliseconds)?[\s\])]*)?$", re.IGNORECASE)
 
 
 def _check_clock_columns(path: Path, header: list[str], body: list[tuple[int, list[str]]],
                          columns: list[int], index_column: int | None) -> None:
-    """Refuse a clock column the field does not read whose times are not the rows' 0.01 s steps:
-    the rows are played 0.01 s apart whatever it says (a waveform sampled at 50 Hz would play twice
-    as fast)."""
+    """Refuse a clock column the field does not read whose times are not the rows' 0.01 s steps
+    (or that misses a time): the rows are played 0.01 s apart whatever it says (a waveform
+    sampled at 50 Hz would play twice as fast). A column of words (``time`` of day as text) is
+    left to the unread-column warning."""
     for c, name in enumerate(header):
         match = _CLOCK_COLUMN.match(name.strip())
-        if c in columns or c == index_column or not match or len(body) < 2:
+        if c in columns or c == index_column or not match:
             continue
         texts = [row[c].strip() for _, row in body]
-        if not all(_is_number(t) for t in texts):
+        numbers = [k for k, t in enumerate(texts) if _is_number(t)]
+        if not numbers:
             continue
-        scale = 1e-3 if (match.group(2) or "").lower() == "ms" else 1.0
+        if len(numbers) < len(texts):
+            k = next(k for k, t in enumerate(texts) if not _is_number(t))
+            raise FieldCSVError(
+                f"{path}: column {name!r} reads as a clock, but line {body[k][0]} has "
+                f"{'no time' if not texts[k] else repr(texts[k])} there: a field CSV's rows are played "
+                f"{ACTION_PERIOD:g} s apart whatever it says: give every row its time, 0.01 s apart, or drop "
+                "the column")
+        unit = (match.group("unit") or "s").lower()
+        scale = 1e-3 if unit in ("ms", "milliseconds") else 1.0
         times = np.array([float(t) for t in texts]) * scale
         steps = np.diff(times)
         off = np.flatnonzero(np.abs(steps - ACTION_PERIOD) > 1e-3 * ACTION_PERIOD)
