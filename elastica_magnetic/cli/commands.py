@@ -420,7 +420,8 @@ def _judge_reference_positions(path: Path, reference: pd.DataFrame) -> None:
 
 def compare_trajectories(trajectory: pd.DataFrame, reference: pd.DataFrame) -> dict[str, float]:
     """Differences between a simulated trajectory and a reference, on the reference's frames
-    within the simulated time span (linear interpolation of the simulation). Lengths in m."""
+    within the simulated time span (linear interpolation of the simulation), and the middle's
+    distance of each over that window (``compared_from_s`` to ``compared_to_s``). Lengths in m."""
     ref = reference[(reference.t_s >= -1e-9) & (reference.t_s <= trajectory.t_s.iloc[-1] + 1e-9)]
     out: dict[str, float] = {}
     for column in ("mid_x_m", "mid_y_m", "back_x_m", "front_x_m", "height_max_m", "span_m"):
@@ -429,9 +430,12 @@ def compare_trajectories(trajectory: pd.DataFrame, reference: pd.DataFrame) -> d
     if "mid_z_m" in ref.columns:  # a reference with the sideways markers
         sim = np.interp(ref.t_s, trajectory.t_s, trajectory["mid_z_m"])
         out["max_abs_diff_mid_z_m"] = float(np.max(np.abs(sim - ref["mid_z_m"])))
+    # both distances over the reference's own window (a tracker may start late or stop early)
+    first, last = float(ref.t_s.iloc[0]), float(ref.t_s.iloc[-1])
     ref_dx = float(ref.mid_x_m.iloc[-1] - ref.mid_x_m.iloc[0])
-    sim_dx = float(np.interp(ref.t_s.iloc[-1], trajectory.t_s, trajectory.mid_x_m)
-                   - trajectory.mid_x_m.iloc[0])
+    sim_dx = float(np.interp(last, trajectory.t_s, trajectory.mid_x_m)
+                   - np.interp(first, trajectory.t_s, trajectory.mid_x_m))
+    out["compared_from_s"], out["compared_to_s"] = first, last
     out["reference_mid_dx_m"] = ref_dx
     out["mid_dx_relative_error"] = (sim_dx - ref_dx) / ref_dx if ref_dx != 0 else float("nan")
     return out

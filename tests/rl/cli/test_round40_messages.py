@@ -44,3 +44,20 @@ def test_a_column_of_words_named_like_a_time_is_only_warned(tmp_path):
     (tmp_path / "f.csv").write_text("mag_x,mag_y,mag_z,time\n1,0,0,morning\n1,0,0,noon\n")
     with pytest.warns(UserWarning, match=r"column\(s\) 'time' are not read"):
         assert read_field_csv(tmp_path / "f.csv").shape == (2, 3)
+
+
+def test_a_reference_starting_late_is_compared_over_its_own_window():
+    """S2: a reference identical to the replay but starting at 0.3 s (a tracker started late) gave
+    ``mid_dx_relative_error`` 0.69: the reference's distance was from 0.3 s, the simulation's from 0."""
+    import numpy as np
+    import pandas as pd
+
+    from elastica_magnetic.cli.commands import compare_trajectories
+
+    t = np.arange(0.0, 0.61, 0.01)
+    columns = ("mid_x_m", "mid_y_m", "back_x_m", "front_x_m", "height_max_m", "span_m")
+    run = pd.DataFrame({"t_s": t, **{c: 1e-3 * t ** 2 + k for k, c in enumerate(columns)}})
+    late = run[run.t_s >= 0.3 - 1e-9].reset_index(drop=True)
+    diff = compare_trajectories(run, late)
+    assert abs(diff["mid_dx_relative_error"]) < 1e-9
+    assert diff["compared_from_s"] == pytest.approx(0.3) and diff["compared_to_s"] == pytest.approx(0.6)
