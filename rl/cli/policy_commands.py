@@ -200,6 +200,7 @@ def export_seeds_command(args: argparse.Namespace) -> int:
 def seeds_command(args: argparse.Namespace) -> int:
     from ..shipping.policy_files import POLICIES_DIR
     from ..shipping.seed_report import (
+        card_spec_problem,
         case_cards,
         case_seeds,
         learning_curves_by_recipe,
@@ -250,6 +251,9 @@ def seeds_command(args: argparse.Namespace) -> int:
             if not cards:
                 raise CommandError(f"--card: {policies / case.name / 'MODEL_CARD.md'}: no model "
                                    f"card (ship a policy of {case.name} first)")
+            problems = [problem for card in cards if (problem := card_spec_problem(card, case))]
+            if problems:
+                raise CommandError(f"--card: {problems[0]}")
             report["cards"] = [str(card) for card in cards]
             # a list, not a generator: any() must not stop before every card is updated
             report["card_updated"] = any([update_model_card(card, case, groups) for card in cards])

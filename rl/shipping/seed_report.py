@@ -22,8 +22,9 @@ from elastica_magnetic.filesets import update_recorded_text
 
 from ..cases.case import Case
 from ..runfiles.rundir import RunDir
+from ..sweep.run_records import first_difference
 from .model_card import replace_card_section
-from .policy_files import POLICIES_DIR, POLICY_JSON, SEEDS_FOLDER, read_policy_json
+from .policy_files import POLICIES_DIR, POLICY_JSON, SEEDS_FOLDER, case_spec_difference, read_policy_json
 
 __all__ = ["REPOSITORY_SEEDS", "RecipeSeeds", "case_seeds", "no_seeds_message", "seeds_markdown",
            "recipes_markdown", "update_model_card", "case_cards", "seeds_figure",
@@ -92,6 +93,7 @@ def case_seeds(case: Case, policies_dir: str | Path | None = None,
             raise ValueError(f"{path}: expected a JSON list of objects with an integer 'seed' and "
                              "a number 'distance_10s_m' (m)")
         entries = sorted(entries, key=lambda e: e["seed"])
+        _check_measured_on(case, path.parent, entries)
         if not case.has_yardstick:  # nothing to judge by (a stored meets_target is ignored)
             succeeded: list[bool | None] = [None] * len(entries)
         elif case.task.kind == "crawl":  # judged here, by the case's rule, from the distance
@@ -176,6 +178,47 @@ def recipes_markdown(by_case: dict[str, list[RecipeSeeds]]) -> str:
             cells.append(group.summary if group is not None else "")
         lines.append(f"| `{folder}` | {recipe_change(folder)} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _check_measured_on(case: Case, campaign: Path, entries: list[dict[str, Any]]) -> None:
+    """Refuse seeds measured on another spec than ``case``'s (each seed's ``policy.json`` records
+    its ``case_spec``): a spec of the same name but another robot, physics, field or task would be
+    given their distances and verdicts. A ``ValueError`` naming the file and the first difference."""
+    spec = case.to_dict()
+    for entry in entries:
+        record = campaign / str(entry.get("actor", "")) / POLICY_JSON
+        if not (entry.get("actor") and record.is_file()):
+            continue
+        try:
+            meta = json.loads(record.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue  # an unreadable record: msr validate shipped reports it
+        differ = case_spec_difference(meta.get("case_spec") if isinstance(meta, dict) else None, spec)
+        if differ is not None:
+            raise ValueError(f"{record}: the seeds of {case.name} in {campaign} were measured on another "
+                             f"spec than the one given (they differ at {differ}): give the spec they "
+                             f"ran on (the case {case.name!r} itself, or its policy.json's case_spec)")
+
+
+def card_spec_problem(card: Path, case: Case) -> str | None:
+    """Why ``case``'s seeds table may not go into ``card``: the card's policy was measured on
+    another spec, or judged by another yardstick (its target stays in the card's evaluation and
+    a table judged by another target would contradict it); ``None`` when it may."""
+    try:
+        recorded = read_policy_json(card.parent / POLICY_JSON).get("case_spec")
+    except (OSError, ValueError):
+        return None  # no readable policy.json: msr validate shipped reports it
+    if not isinstance(recorded, dict):
+        return None
+    spec = case.to_dict()
+    differ = case_spec_difference(recorded, spec)
+    if differ is None and recorded.get("yardstick") != spec.get("yardstick"):
+        differ = first_difference(recorded.get("yardstick"), spec.get("yardstick"), "yardstick")
+    if differ is None:
+        return None
+    return (f"{card}: its policy was measured and judged on another spec than the one given (they "
+            f"differ at {differ}): the card keeps its own target; card with the policy's own spec "
+            f"(msr policy seeds {case.name} --card), or leave out --card to see the table judged by yours")
 
 
 def update_model_card(card: Path, case: Case, groups: list[RecipeSeeds]) -> bool:

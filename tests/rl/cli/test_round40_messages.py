@@ -61,3 +61,51 @@ def test_a_reference_starting_late_is_compared_over_its_own_window():
     diff = compare_trajectories(run, late)
     assert abs(diff["mid_dx_relative_error"]) < 1e-9
     assert diff["compared_from_s"] == pytest.approx(0.3) and diff["compared_to_s"] == pytest.approx(0.6)
+
+
+def _m1_4mT_policies(tmp_path):
+    import shutil
+
+    from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR
+
+    policies = tmp_path / "pols"
+    shutil.copytree(POLICIES_DIR / "m1-4mT", policies / "m1-4mT", ignore=shutil.ignore_patterns("*.gif"))
+    return policies
+
+
+def _spec(tmp_path, capsys, old: str, new: str):
+    from elastica_magnetic.cli import main as msr
+
+    assert msr(["case", "show", "m1-4mT", "--toml"]) == 0
+    text = capsys.readouterr().out
+    assert old in text
+    (tmp_path / "m1-4mT.toml").write_text(text.replace(old, new))
+    return tmp_path / "m1-4mT.toml"
+
+
+def test_seeds_of_another_robot_of_the_same_name_are_refused(tmp_path, capsys):
+    """S3: ``msr policy seeds SPEC.toml --card`` gave a 70 kA/m robot the 61.3 kA/m seeds' distances
+    and verdicts and rewrote the shipped card for it (seeds were matched by name only)."""
+    from elastica_magnetic.cli import main as msr
+
+    policies = _m1_4mT_policies(tmp_path)
+    card = (policies / "m1-4mT" / "MODEL_CARD.md").read_text()
+    spec = _spec(tmp_path, capsys, "magnitude = 61300.0", "magnitude = 70000.0")
+    assert msr(["policy", "seeds", str(spec), "--policies", str(policies), "--card"]) == 2
+    assert ("were measured on another spec than the one given (they differ at [robot.magnetization] "
+            "magnitude)" in capsys.readouterr().err)
+    assert (policies / "m1-4mT" / "MODEL_CARD.md").read_text() == card
+
+
+def test_a_card_is_not_judged_by_another_target(tmp_path, capsys):
+    """S3: a spec whose yardstick says +30 mm rewrote the card's seeds section ("0 of 8") while its
+    evaluation kept the policy's +20.5 mm target; without --card the table is judged by it."""
+    from elastica_magnetic.cli import main as msr
+
+    policies = _m1_4mT_policies(tmp_path)
+    card = (policies / "m1-4mT" / "MODEL_CARD.md").read_text()
+    spec = _spec(tmp_path, capsys, "distance_10s = 0.0205", "distance_10s = 0.03")
+    assert msr(["policy", "seeds", str(spec), "--policies", str(policies), "--card"]) == 2
+    assert "they differ at [yardstick] distance_10s" in capsys.readouterr().err
+    assert (policies / "m1-4mT" / "MODEL_CARD.md").read_text() == card
+    assert msr(["policy", "seeds", str(spec), "--policies", str(policies)]) == 0
