@@ -26,12 +26,16 @@ from ..sweep.run_records import first_difference
 from .model_card import replace_card_section
 from .policy_files import POLICIES_DIR, POLICY_JSON, SEEDS_FOLDER, case_spec_difference, read_policy_json
 
-__all__ = ["REPOSITORY_SEEDS", "RecipeSeeds", "case_seeds", "no_seeds_message", "seeds_markdown",
-           "recipes_markdown", "update_model_card", "case_cards", "seeds_figure",
+__all__ = ["REPOSITORY_SEEDS", "RecipeSeeds", "SeedsOfAnotherSpec", "case_seeds", "no_seeds_message",
+           "seeds_markdown", "recipes_markdown", "update_model_card", "case_cards", "seeds_figure",
            "learning_curves_by_recipe"]
 
 #: The model card's section that :func:`update_model_card` keeps current.
 CARD_SECTION = "## Every seed, by recipe"
+
+
+class SeedsOfAnotherSpec(ValueError):
+    """Seeds stored under a case's name but measured on another spec (another robot of that name)."""
 
 
 @dataclass
@@ -195,9 +199,10 @@ def _check_measured_on(case: Case, campaign: Path, entries: list[dict[str, Any]]
             continue  # an unreadable record: msr validate shipped reports it
         differ = case_spec_difference(meta.get("case_spec") if isinstance(meta, dict) else None, spec)
         if differ is not None:
-            raise ValueError(f"{record}: the seeds of {case.name} in {campaign} were measured on another "
-                             f"spec than the one given (they differ at {differ}): give the spec they "
-                             f"ran on (the case {case.name!r} itself, or its policy.json's case_spec)")
+            raise SeedsOfAnotherSpec(
+                f"{record}: the seeds of {case.name} in {campaign} were measured on another spec than the "
+                f"one given (they differ at {differ}): give the spec they ran on (the case {case.name!r} "
+                "itself, or its policy.json's case_spec)")
 
 
 def card_spec_problem(card: Path, case: Case) -> str | None:
@@ -240,8 +245,8 @@ def update_model_card(card: Path, case: Case, groups: list[RecipeSeeds]) -> bool
 
 def case_cards(case: Case, policies: Path = POLICIES_DIR) -> list[Path]:
     """The model cards that carry ``case``'s seeds table: its own folder's (``policies/<case>``)
-    and that of every other policy whose ``policy.json`` names the case (a ``<case>-robust``
-    one, say); sorted by folder."""
+    and that of every other policy whose ``policy.json`` names the case, measured on its spec (a
+    ``<case>-robust`` one, say); sorted by folder."""
     cards = []
     for folder in sorted(p for p in Path(policies).iterdir() if p.is_dir()):
         card = folder / "MODEL_CARD.md"
@@ -251,10 +256,11 @@ def case_cards(case: Case, policies: Path = POLICIES_DIR) -> list[Path]:
             cards.append(card)
             continue
         try:
-            named = read_policy_json(folder / POLICY_JSON)["case"]
+            meta = read_policy_json(folder / POLICY_JSON)
         except (OSError, ValueError):  # PolicyFileError is a ValueError
             continue  # not a policy that can be read; ``msr validate shipped`` reports it
-        if named == case.name:
+        # a policy of a spec of the same name but another robot is not this case's: not its table
+        if meta["case"] == case.name and case_spec_difference(meta.get("case_spec"), case.to_dict()) is None:
             cards.append(card)
     return cards
 

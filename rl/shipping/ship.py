@@ -71,7 +71,7 @@ from .policy_files import (
 )
 from .policy_runs import evaluate_seeds, node_dx, run_policy
 from .seed_report import CARD_SECTION as SEEDS_CARD_SECTION
-from .seed_report import case_seeds, seeds_markdown
+from .seed_report import SeedsOfAnotherSpec, case_seeds, seeds_markdown
 
 __all__ = ["SHIPPED_FILES", "check_not_in_a_policy", "check_policy_name", "check_ship_target", "set_notes",
            "ship"]
@@ -425,7 +425,11 @@ def _ship_card(info: dict[str, Any], summary: dict[str, Any] | None, case: Case,
                target: Path) -> str:
     """The model card; the committed seeds' table (``msr policy seeds --card``) survives a re-ship."""
     card = model_card(info, summary, case)
-    groups = case_seeds(case, target.parent)
+    try:
+        groups = case_seeds(case, target.parent)
+    except SeedsOfAnotherSpec as exc:  # the case's name, another robot: its seeds are not this one's
+        warnings.warn(SettingNotAppliedWarning(f"{exc}; the model card carries no seeds table"), stacklevel=3)
+        groups = []
     if groups:
         card = replace_card_section(card, SEEDS_CARD_SECTION, seeds_markdown(case, groups),
                                     before="## Evaluation")
@@ -495,9 +499,9 @@ def set_notes(policy: str | Path, notes: str | None,
     info = json.loads((folder / POLICY_JSON).read_text()) | {"notes": notes}
     card_path = folder / "MODEL_CARD.md"
     anew = not card_path.is_file()
-    if not anew:
-        card = replace_card_section(card_path.read_text(), NOTES_SECTION, notes,
-                                    before="## Limitations")
+    old_card = None if anew else card_path.read_text()
+    if old_card is not None:
+        card = replace_card_section(old_card, NOTES_SECTION, notes, before="## Limitations")
     else:  # moved away or lost: a new one from policy.json, as ship writes it
         card = _ship_card(info, None, resolved.case, folder)
     names = [POLICY_JSON, "MODEL_CARD.md"]
@@ -510,7 +514,7 @@ def set_notes(policy: str | Path, notes: str | None,
         with FolderLock(folder, option="policy"):
             record_files(folder, [f for f in SHIPPED_FILES if f not in names and (folder / f).is_file()])
     return {"name": info.get("name", folder.name), "dir": str(folder), "notes": notes,
-            "card_updated": True, "card_written_anew": anew}
+            "card_updated": card != old_card, "card_written_anew": anew}
 
 
 def _portable_source(path: Path, case: str) -> str:

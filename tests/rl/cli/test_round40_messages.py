@@ -109,3 +109,42 @@ def test_a_card_is_not_judged_by_another_target(tmp_path, capsys):
     assert "they differ at [yardstick] distance_10s" in capsys.readouterr().err
     assert (policies / "m1-4mT" / "MODEL_CARD.md").read_text() == card
     assert msr(["policy", "seeds", str(spec), "--policies", str(policies)]) == 0
+
+
+def test_notes_say_the_card_is_unchanged_when_it_is(tmp_path, capsys):
+    """S4: the same notes again, or ``--clear`` with no notes, printed ``card_updated: yes``."""
+    import json
+    import shutil
+
+    from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR
+
+    from elastica_magnetic.cli import main as msr
+
+    policy = tmp_path / "p"
+    shutil.copytree(POLICIES_DIR / "m1-4mT", policy, ignore=shutil.ignore_patterns("seeds", "*.gif"))
+    (tmp_path / "n.md").write_text("plain\n")
+    updated = []
+    for extra in (["--file", str(tmp_path / "n.md")],) * 2 + (["--clear"],) * 2:
+        assert msr(["policy", "notes", str(policy), *extra, "--json"]) == 0
+        updated.append(json.loads(capsys.readouterr().out)["card_updated"])
+    assert updated == [True, False, True, False]
+
+
+def test_a_policy_of_another_robot_of_the_same_name_ships_without_the_case_s_seeds(tmp_path, capsys):
+    """S3's second door: ``msr policy ship`` of a run of a spec named m1-4mT with another
+    magnetization put the shipped robot's seeds table in the new card, and ``msr policy seeds
+    m1-4mT --card`` then counted that card as the case's."""
+    from elastica_magnetic.cli import main as msr
+
+    policies = _m1_4mT_policies(tmp_path)
+    spec = _spec(tmp_path, capsys, "magnitude = 61300.0", "magnitude = 70000.0")
+    assert msr(["train", "--case", str(spec), "--seeds", "1", "--steps", "80", "--episode-duration", "0.5",
+                "--set", "learning_starts=60", "--set", "batch_size=32", "--set", "hidden_sizes=32,32",
+                "--set", "eval_every=0", "--workers", "1", "--no-progress",
+                "--out", str(tmp_path / "runs")]) == 0
+    assert msr(["policy", "ship", str(tmp_path / "runs" / "m1-4mT" / "seed0"), "--no-measure", "--out",
+                str(policies), "--name", "mag70", "--no-progress"]) == 0
+    assert "the model card carries no seeds table" in capsys.readouterr().err
+    assert "## Every seed" not in (policies / "mag70" / "MODEL_CARD.md").read_text()
+    assert msr(["policy", "seeds", "m1-4mT", "--policies", str(policies), "--card", "--json"]) == 0
+    assert "mag70" not in capsys.readouterr().out
