@@ -229,9 +229,15 @@ def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
 
 
 #: A column header read as a clock: a word for time (``t``, ``time``, ``timestamp``, ``elapsed``,
-#: ``clock``), alone or followed by a unit in any notation (``t_s``, ``time/s``, ``time [ms]``).
+#: ``clock``), alone or followed by any unit in any notation (``t_s``, ``time/s``, ``time [ms]``).
 _CLOCK_COLUMN = re.compile(r"^(t|time|times|timestamp|elapsed|elapsed_time|clock)([\s_/\-\[(:,.]+"
-                           r"(?P<unit>s|ms|sec|secs|seconds|milliseconds)?[\s\])]*)?$", re.IGNORECASE)
+                           r"(?P<unit>[^\s\])]*)[\s\])]*)?$", re.IGNORECASE)
+#: A clock column's units, in s (an unknown one is refused: its steps cannot be judged).
+CLOCK_UNITS = {"": 1.0, "s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0,
+               "ms": 1e-3, "msec": 1e-3, "millis": 1e-3, "millisecond": 1e-3, "milliseconds": 1e-3,
+               "us": 1e-6, "µs": 1e-6, "μs": 1e-6, "usec": 1e-6, "microsecond": 1e-6, "microseconds": 1e-6,
+               "ns": 1e-9, "nanoseconds": 1e-9, "min": 60.0, "mins": 60.0, "minute": 60.0,
+               "minutes": 60.0, "h": 3600.0, "hr": 3600.0, "hour": 3600.0, "hours": 3600.0}
 
 
 def _check_clock_columns(path: Path, header: list[str], body: list[tuple[int, list[str]]],
@@ -255,8 +261,13 @@ def _check_clock_columns(path: Path, header: list[str], body: list[tuple[int, li
                 f"{'no time' if not texts[k] else repr(texts[k])} there: a field CSV's rows are played "
                 f"{ACTION_PERIOD:g} s apart whatever it says: give every row its time, 0.01 s apart, or drop "
                 "the column")
-        unit = (match.group("unit") or "s").lower()
-        scale = 1e-3 if unit in ("ms", "milliseconds") else 1.0
+        unit = (match.group("unit") or "").lower()
+        if unit not in CLOCK_UNITS:
+            raise FieldCSVError(
+                f"{path}: column {name!r} reads as a clock in an unknown unit {unit!r}: a field CSV's rows "
+                f"are played {ACTION_PERIOD:g} s apart whatever it says, and its steps cannot be checked: "
+                "drop the column, or name its unit (s, ms, us, min)")
+        scale = CLOCK_UNITS[unit]
         times = np.array([float(t) for t in texts]) * scale
         steps = np.diff(times)
         off = np.flatnonzero(np.abs(steps - ACTION_PERIOD) > 1e-3 * ACTION_PERIOD)

@@ -382,6 +382,12 @@ def _read_reference(path: Path, duration: float, length: float | None = None) ->
             f"{reference.iloc[row, col]!r} is not a finite number (SI units: s, m)"
         )
     reference = pd.DataFrame(values, columns=columns)
+    steps = np.diff(reference.t_s.to_numpy())
+    if np.any(steps <= 0.0):  # its window and distance are read from its first and last frame
+        row = int(np.flatnonzero(steps <= 0.0)[0]) + 1
+        raise CommandError(
+            f"--reference {path}: line {row + 2}: t_s {reference.t_s.iloc[row]:g} s does not come after "
+            f"the line before's {reference.t_s.iloc[row - 1]:g} s; give the frames once each, in time order")
     _judge_reference_positions(path, reference)
     span = float(reference.span_m.iloc[0])
     if length is not None and span > REFERENCE_SPAN_LENGTHS * length:  # the robot's extent along x

@@ -1,0 +1,52 @@
+"""Round 41 of held-out tries (issue 48): what they found, each fixed with the message it gives."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+
+@pytest.mark.parametrize("header, scale", [("t_us", 1e6), ("time (min)", 1 / 60), ("time [µs]", 1e6),
+                                           ("t_ns", 1e9), ("time_h", 1 / 3600)])
+def test_a_clock_in_any_unit_is_checked(tmp_path, header, scale):
+    """S1: a clock in microseconds or minutes stepping 0.02 s was only warned "not read" (round 40
+    knew s and ms): the 50 Hz waveform played at 100 Hz."""
+    from elastica_magnetic.field_csv import FieldCSVError, read_field_csv
+
+    rows = [f"mag_x,mag_y,mag_z,{header}"] + [f"1,0,0,{i * 0.02 * scale:.9g}" for i in range(5)]
+    (tmp_path / "f.csv").write_text("\n".join(rows) + "\n")
+    named = rf"column '{re.escape(header)}' reads as a clock stepping 0.02 s"
+    with pytest.raises(FieldCSVError, match=named):
+        read_field_csv(tmp_path / "f.csv")
+
+
+def test_a_clock_in_an_unknown_unit_is_refused(tmp_path):
+    from elastica_magnetic.field_csv import FieldCSVError, read_field_csv
+
+    (tmp_path / "f.csv").write_text("mag_x,mag_y,mag_z,time [fortnights]\n1,0,0,0\n1,0,0,1\n")
+    with pytest.raises(FieldCSVError, match=r"reads as a clock in an unknown unit 'fortnights'"):
+        read_field_csv(tmp_path / "f.csv")
+
+
+@pytest.mark.parametrize("order", ["reversed", "repeated"])
+def test_a_reference_out_of_time_order_is_refused(tmp_path, order):
+    """S2: a reference with its rows reversed was compared "from 0.3 to 0 s" with its distance's sign
+    flipped; rows shuffled, over a third of the motion; two frames of one time, without a word."""
+    import numpy as np
+    import pandas as pd
+
+    from elastica_magnetic.cli.commands import CommandError, _read_reference
+
+    t = np.arange(0.0, 0.31, 0.01)
+    frame = pd.DataFrame({"t_s": t, "mid_x_m": 1e-3 * t, "mid_y_m": 0 * t + 4e-4, "back_x_m": 1e-3 * t - 0.01,
+                          "back_y_m": 0 * t + 4e-4, "front_x_m": 1e-3 * t + 0.01, "front_y_m": 0 * t + 4e-4,
+                          "height_max_m": 0 * t + 8e-4, "span_m": 0 * t + 0.02})
+    if order == "reversed":
+        frame = frame.iloc[::-1]
+    else:
+        frame.loc[5, "t_s"] = frame.loc[4, "t_s"]
+    frame.to_csv(tmp_path / "ref.csv", index=False)
+    named = r"ref.csv: line [37]: t_s .* does not come after the line before's"
+    with pytest.raises(CommandError, match=named):
+        _read_reference(tmp_path / "ref.csv", 0.3, 0.02)
