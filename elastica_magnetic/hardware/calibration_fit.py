@@ -33,14 +33,14 @@ class ActuationFit:
     matrix_T_per_A : ndarray
         Fitted 3x3 actuation matrix (T/A).
     residuals_T : ndarray
-        ``(n, 3)`` measured minus fitted field (T).
+        ``(m, 3)`` measured minus fitted field (T), for the m distinct measurements.
     rms_residual_T : ndarray
         Per-axis RMS of the residuals (T).
     max_abs_residual_T : float
         Largest absolute residual (T).
     std_error_T_per_A : ndarray
         3x3 standard errors of the matrix entries (T/A) from the residual scatter, NaN with only
-        3 measurements (no degree of freedom left).
+        3 distinct measurements (no degree of freedom left).
     current_condition : float
         2-norm condition number of the measured currents (1 when each coil was driven alone at
         equal amplitude).
@@ -48,7 +48,11 @@ class ActuationFit:
         Why the fit may be weak (condition number above
         :data:`~elastica_magnetic.hardware.plausibility.CURRENT_CONDITION_WARN`, a negative
         diagonal entry, standard errors large against a coil constant; see
-        :func:`~elastica_magnetic.hardware.plausibility.fit_warnings`).
+        :func:`~elastica_magnetic.hardware.plausibility.fit_warnings`), rows repeated exactly,
+        standard errors that cannot be estimated.
+    measurements : int
+        The distinct measurements fitted (a row repeating another exactly is counted once: a
+        copy adds no information, and would shrink the residual scatter to nothing).
     """
 
     matrix_T_per_A: NDArray[np.float64]
@@ -58,6 +62,7 @@ class ActuationFit:
     std_error_T_per_A: NDArray[np.float64]
     current_condition: float
     warnings: list[str]
+    measurements: int
 
 
 def fit_actuation_matrix(currents_A: NDArray[np.float64], fields_T: NDArray[np.float64],
@@ -86,9 +91,18 @@ def fit_actuation_matrix(currents_A: NDArray[np.float64], fields_T: NDArray[np.f
     currents = np.asarray(currents_A, dtype=np.float64)
     fields = np.asarray(fields_T, dtype=np.float64)
     _check_fit_input(currents, fields, source)
+    notes = []
+    distinct = np.unique(np.hstack([currents, fields]), axis=0)
+    if len(distinct) < len(currents):  # a copied row: no new measurement, and no scatter
+        notes.append(f"{source}: {len(currents) - len(distinct)} row(s) repeat another row exactly (the same "
+                     f"currents and fields, as a copy would): each counted once, {len(distinct)} "
+                     "measurements fitted")
+        measured, currents, fields = currents, distinct[:, :AXES], distinct[:, AXES:]
+    else:
+        measured = currents
     solution, _, rank, _ = np.linalg.lstsq(currents, fields, rcond=None)
     if rank < AXES:
-        raise _too_few_directions(currents, int(rank), source)
+        raise _too_few_directions(measured, int(rank), source)
     cond = current_condition(currents)
     columns = ", ".join(CURRENT_COLUMNS)
     if cond > CURRENT_CONDITION_REFUSE:
@@ -96,7 +110,7 @@ def fit_actuation_matrix(currents_A: NDArray[np.float64], fields_T: NDArray[np.f
             f"{source}: the measured currents ({columns}) are ill conditioned (condition number "
             f"{cond:.3g} > {CURRENT_CONDITION_REFUSE:g}): the coils were driven together, so their "
             "fields cannot be told apart; drive each coil on its own, at positive and negative currents")
-    warnings = []
+    warnings = notes
     if cond > CURRENT_CONDITION_WARN:
         warnings.append(
             f"{source}: the measured currents' condition number {cond:.3g} exceeds "
@@ -114,9 +128,12 @@ def fit_actuation_matrix(currents_A: NDArray[np.float64], fields_T: NDArray[np.f
         std_error = np.sqrt(np.outer(variance, diag))
     else:
         std_error = np.full((AXES, AXES), np.nan)
+        warnings.append(f"{source}: {len(currents)} distinct measurements determine the {AXES * AXES} "
+                        "matrix entries exactly: their standard errors cannot be estimated (none given); "
+                        "measure more settings (each coil at positive and negative currents)")
     warnings += fit_warnings(matrix, std_error, source)
     return ActuationFit(matrix, residuals, rms, float(np.max(np.abs(residuals))), std_error, cond,
-                        warnings)
+                        warnings, len(currents))
 
 
 def _check_fit_input(currents: NDArray[np.float64], fields: NDArray[np.float64], source: str) -> None:

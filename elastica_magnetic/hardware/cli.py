@@ -393,13 +393,13 @@ def _calibrate(args: argparse.Namespace) -> int:
     fitted: Calibration = calibration_from_dict(
         {**base.to_json_dict(), "name": args.name,
          "actuation_matrix_T_per_A": fit.matrix_T_per_A.tolist(),
-         "description": f"fitted by msr real calibrate from {path.name} ({len(values)} measurements)"},
+         "description": f"fitted by msr real calibrate from {path.name} ({fit.measurements} measurements)"},
         str(args.out))
     with result_file(args.out, force=args.force, kind=CALIBRATION_FILE) as written:
         save_calibration(written.path, fitted)
     uploaded = _upload(args.upload, fitted, args.out) if args.upload else None
     _print({
-        "measurements": len(values),
+        "measurements": fit.measurements,
         "actuation_matrix_mT_per_A": np.round(fit.matrix_T_per_A / MILLITESLA, 6).tolist(),
         "rms_residual_mT": np.round(fit.rms_residual_T / MILLITESLA, 6).tolist(),
         "max_abs_residual_mT": round(fit.max_abs_residual_T / MILLITESLA, 6),

@@ -68,3 +68,36 @@ def test_the_firmware_step_runs_again_after_a_robustness_step_that_runs_later():
     done = LoopState(Path("lp/loop.json"), "m1-4mT", {}, {}, {s: {"status": "done"} for s in STEPS})
     assert plan_loop(done, {}, {}, (), ("robustness",), False).run == ("robustness", "firmware")
     assert plan_loop(None, {}, {}, ("robustness", "robustness-refined"), (), False).run[-1] == "firmware"
+
+
+def _measurements(tmp_path, copies: int):
+    import numpy as np
+
+    rng = np.random.default_rng(7)
+    matrix = np.diag([2.9, 3.1, 1.2]) + 0.05 * rng.standard_normal((3, 3))  # mT/A
+    currents = np.array([[0.1, -0.8, 0.3], [0.9, 0.2, -0.1], [-0.2, 0.4, 1.1]])
+    fields = currents @ matrix.T + 0.01 * rng.standard_normal((3, 3))
+    rows = ["current_x_A,current_y_A,current_z_A,field_x_mT,field_y_mT,field_z_mT"]
+    rows += [",".join(f"{v:.6g}" for v in (*c, *f)) for c, f in zip(currents, fields, strict=True)] * copies
+    (tmp_path / "meas.csv").write_text("\n".join(rows) + "\n")
+    return tmp_path / "meas.csv"
+
+
+@pytest.mark.parametrize("copies", [1, 4])
+def test_a_calibration_from_three_settings_says_its_errors_are_unknown(tmp_path, capsys, copies):
+    """S4: three settings each copied four times were "12 measurements", residual 0, standard errors
+    0, "warnings: none"; the three rows once gave standard errors nan, also without a word."""
+    import json
+    import math
+
+    from elastica_magnetic.cli import main as msr
+
+    measurements = _measurements(tmp_path, copies)
+    assert msr(["real", "calibrate", str(measurements), "--out", str(tmp_path / "cal.json"), "--name", "t1",
+                "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["measurements"] == 3
+    assert all(math.isnan(v) if isinstance(v, float) else v is None for row in summary["std_error_mT_per_A"]
+               for v in row)
+    assert any("their standard errors cannot be estimated" in w for w in summary["warnings"])
+    assert any("9 row(s) repeat another row exactly" in w for w in summary["warnings"]) == (copies == 4)
