@@ -39,11 +39,6 @@ NEEDS: dict[str, tuple[str, ...]] = {
     "firmware": ("generate",),
 }
 
-#: Steps a step reads when they ran, without needing them: the firmware plays the waveform the
-#: robustness steps judge the better (with them skipped, the generated one), so one of them that
-#: runs makes it run again after it; skipping them does not hold it back.
-READS: dict[str, tuple[str, ...]] = {"firmware": ("robustness", "robustness-refined")}
-
 
 class LoopError(ValueError):
     """A loop that cannot run as asked (a bad step name, a skipped step another one needs, a
@@ -235,10 +230,6 @@ def plan_loop(state: LoopState | None, spec: dict[str, Any], settings: dict[str,
             redo = STEPS
     for step in redo:
         redone.update(dependents(step))
-    for step in STEPS:  # in order: a step that reads another one that runs now runs again after it
-        if any(r in redone or (r not in skip and not (state is not None and state.done(r)))
-               for r in READS.get(step, ())):
-            redone.update(dependents(step))
     done = tuple(s for s in STEPS if state is not None and state.done(s) and s not in redone)
     skipped = tuple(s for s in STEPS if s in skip and s not in done)
     run = tuple(s for s in STEPS if s not in done and s not in skipped)
