@@ -14,7 +14,7 @@ from elastica_magnetic.io import DamagedFileError, atomic_write_json, display_pa
 from elastica_magnetic.locks import utc_now
 from elastica_magnetic.result_markers import read_marker
 
-__all__ = ["LOOP_FORMAT", "LOOP_JSON", "NEEDS", "STEPS", "LoopError", "LoopPlan", "LoopState",
+__all__ = ["LOOP_FORMAT", "LOOP_JSON", "NEEDS", "READS", "STEPS", "LoopError", "LoopPlan", "LoopState",
            "parse_steps", "plan_loop"]
 
 LOOP_JSON = "loop.json"
@@ -38,6 +38,11 @@ NEEDS: dict[str, tuple[str, ...]] = {
     "robustness": ("generate",), "refine": ("train",), "robustness-refined": ("refine",),
     "firmware": ("generate",),
 }
+
+#: Steps a step reads when they ran, without needing them: the firmware plays the waveform the
+#: robustness steps judge the better (with them skipped, the generated one), so one of them that
+#: runs makes it run again after it; skipping them does not hold it back.
+READS: dict[str, tuple[str, ...]] = {"firmware": ("robustness", "robustness-refined")}
 
 
 class LoopError(ValueError):
@@ -181,72 +186,100 @@ def plan_loop(state: LoopState | None, spec: dict[str, Any], settings: dict[str,
     """Check a (re-)run against the recorded ``state`` and plan it, before any work:
 
     - a changed spec or setting is refused, naming the keys, unless ``force`` (which then redoes
-      every step);
-    - ``redo`` steps and every step that needs them run again;
+      every step), or unless it acts on some steps only and ``redo`` names them;
+    - ``redo`` steps and every step that needs them run again, and so do the steps that read one
+      that runs (:data:`READS`);
     - a step in ``skip`` is skipped; a step that would run but needs a skipped step (skipped now,
       or recorded as skipped) is refused, naming both."""
     both = sorted(set(skip) & set(redo))
     if both:
         raise LoopError(f"--skip and --redo both name {', '.join(both)}")
+    extend: tuple[str, ...] = ()
     if state is not None:  # steps an interrupted run was to start afresh still are
         pending = [s for s in STEPS if state.steps.get(s, {}).get("status") == AFRESH and s not in redo]
-        redo = (*redo, *pending)
-    redone: set[str] = set()
-    extend: tuple[str, ...] = ()
-    if state is not None:
-        changed = _changed({"spec": state.spec, "settings": state.settings},
-                           {"spec": spec, "settings": settings})
-        others = [key for key in changed if key != "settings.steps"]
-        if ("settings.steps" in changed and not force and all(_own_steps(key) for key in others)
-                and not any("train" in _own_steps(key) for key in others)):
-            # more steps alone: the training goes on (with other training settings it starts over)
-            extend = _longer_training(state, settings.get("steps"))
-            changed, redo = others, (*redo, *extend)
-        own = [_own_steps(key) for key in changed]
-        if changed and not force and all(own):
-            missing = [step for step in STEPS if any(step in steps for steps in own)
-                       and step not in redo and state.done(step)]
-            if missing:  # a setting of some steps: those again, not the whole loop
-                uses = f"step {missing[0]} uses" if len(missing) == 1 else f"steps {', '.join(missing)} use"
-                raise LoopError(
-                    f"--out {display_path(state.path.parent)}: changed: {', '.join(changed)}, which only "
-                    f"{uses}: pass --redo {','.join(missing)} to run {'it' if len(missing) == 1 else 'them'} "
-                    "again with it (the other steps kept), or --force to start the loop over")
-            changed = []
-        if changed and not force:
-            was_quick, is_quick = state.settings.get("quick"), settings.get("quick")
-            if was_quick != is_quick and was_quick is not None:  # the one option behind most settings
-                raise LoopError(
-                    f"--out {display_path(state.path.parent)}: holds a loop made "
-                    f"{'with' if was_quick else 'without'} --quick: "
-                    f"{'add' if was_quick else 'leave out'} --quick to go on with it, or pass --force "
-                    f"to start it over {'without' if was_quick else 'with'} --quick")
-            shown = ", ".join(changed[:6]) + (f" and {len(changed) - 6} more" if len(changed) > 6
-                                               else "")
-            raise LoopError(f"--out {display_path(state.path.parent)}: holds a loop of another spec "
-                            f"or other settings (changed: {shown}); pass --force to start it over "
-                            "with these, or choose another --out")
-        if changed:
-            redo = STEPS
-    for step in redo:
-        redone.update(dependents(step))
+        redo, extend = _redo_for_changes(state, spec, settings, (*redo, *pending), force)
+    redone = _redone_steps(state, skip, redo)
     done = tuple(s for s in STEPS if state is not None and state.done(s) and s not in redone)
     skipped = tuple(s for s in STEPS if s in skip and s not in done)
     run = tuple(s for s in STEPS if s not in done and s not in skipped)
+    _refuse_blocked(run, done)
+    redone_steps = tuple(s for s in STEPS if s in redone and s not in skip)
+    return LoopPlan(run, done, skipped, redone_steps, tuple(s for s in extend if s in redone_steps))
+
+
+def _redone_steps(state: LoopState | None, skip: tuple[str, ...], redo: tuple[str, ...]) -> set[str]:
+    """The ``redo`` steps, every step that needs one of them, and every step that reads (:data:`READS`)
+    a step that runs now (redone, or neither done nor skipped) with the steps that need it."""
+    redone: set[str] = set()
+    for step in redo:
+        redone.update(dependents(step))
+    for step in STEPS:  # in order: a step that reads another one that runs now runs again after it
+        if any(r in redone or (r not in skip and not (state is not None and state.done(r)))
+               for r in READS.get(step, ())):
+            redone.update(dependents(step))
+    return redone
+
+
+def _refuse_blocked(run: tuple[str, ...], done: tuple[str, ...]) -> None:
+    """A :class:`LoopError` naming every step of ``run`` that a skipped step holds back, directly or
+    through another, in one advice."""
     blocked, available = [], set(done)
     for step in run:  # in order: NEEDS point backwards, so a step's needs are settled before it
         if all(n in available for n in NEEDS[step]):
             available.add(step)
         else:
             blocked.append(step)
-    if blocked:  # every step the skipped one holds back, directly or through another: one advice
+    if blocked:
         first = blocked[0]
         need = next(n for n in NEEDS[first] if n not in available)
         raise LoopError(f"step {first} needs step {need}, which is skipped (--skip {need}, or "
                         f"skipped by an earlier run and not done): skip {', '.join(blocked)} too, "
                         f"or run {need}")
-    redone_steps = tuple(s for s in STEPS if s in redone and s not in skip)
-    return LoopPlan(run, done, skipped, redone_steps, tuple(s for s in extend if s in redone_steps))
+
+
+def _redo_for_changes(state: LoopState, spec: dict[str, Any], settings: dict[str, Any],
+                      redo: tuple[str, ...], force: bool) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """``(redo, extend)`` for a loop re-run with ``spec`` and ``settings``: unchanged, ``redo`` as
+    given; more training steps alone, the training extended; a change some steps alone read, accepted
+    when ``redo`` names them; any other change refused (:class:`LoopError`) unless ``force``, which
+    redoes every step."""
+    extend: tuple[str, ...] = ()
+    changed = _changed({"spec": state.spec, "settings": state.settings}, {"spec": spec, "settings": settings})
+    others = [key for key in changed if key != "settings.steps"]
+    if ("settings.steps" in changed and not force and all(_own_steps(key) for key in others)
+            and not any("train" in _own_steps(key) for key in others)):
+        # more steps alone: the training goes on (with other training settings it starts over)
+        extend = _longer_training(state, settings.get("steps"))
+        changed, redo = others, (*redo, *extend)
+    own = [_own_steps(key) for key in changed]
+    if changed and not force and all(own):
+        missing = [step for step in STEPS if any(step in steps for steps in own)
+                   and step not in redo and state.done(step)]
+        if missing:  # a setting of some steps: those again, not the whole loop
+            uses = f"step {missing[0]} uses" if len(missing) == 1 else f"steps {', '.join(missing)} use"
+            raise LoopError(
+                f"--out {display_path(state.path.parent)}: changed: {', '.join(changed)}, which only "
+                f"{uses}: pass --redo {','.join(missing)} to run {'it' if len(missing) == 1 else 'them'} "
+                "again with it (the other steps kept), or --force to start the loop over")
+        return redo, extend
+    if changed and not force:
+        _refuse_changed(state, settings, changed)
+    return (STEPS if changed else redo), extend
+
+
+def _refuse_changed(state: LoopState, settings: dict[str, Any], changed: list[str]) -> None:
+    """The :class:`LoopError` for a loop re-run with another spec or settings (``changed`` keys):
+    a changed ``--quick`` named alone, as the one option behind most settings."""
+    folder = display_path(state.path.parent)
+    was_quick, is_quick = state.settings.get("quick"), settings.get("quick")
+    if was_quick != is_quick and was_quick is not None:
+        raise LoopError(
+            f"--out {folder}: holds a loop made {'with' if was_quick else 'without'} --quick: "
+            f"{'add' if was_quick else 'leave out'} --quick to go on with it, or pass --force "
+            f"to start it over {'without' if was_quick else 'with'} --quick")
+    shown = ", ".join(changed[:6]) + (f" and {len(changed) - 6} more" if len(changed) > 6 else "")
+    raise LoopError(f"--out {folder}: holds a loop of another spec or other settings (changed: {shown}); "
+                    "pass --force to start it over with these, or choose another --out")
 
 
 def _longer_training(state: LoopState, steps: int | None) -> tuple[str, ...]:

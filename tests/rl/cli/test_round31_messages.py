@@ -109,7 +109,7 @@ def test_a_loop_s_robustness_physics_is_redone_by_the_steps_that_read_it():
         plan_loop(state, {}, {"robustness_physics": "accurate"}, (), (), False)
     plan = plan_loop(state, {}, {"robustness_physics": "accurate"}, (), ("robustness", "robustness-refined"),
                      False)
-    assert plan.run == ("robustness", "robustness-refined") and "train" in plan.done
+    assert plan.run == ("robustness", "robustness-refined", "firmware") and "train" in plan.done
 
 
 def test_a_stop_option_without_a_rule_names_the_rule_it_belongs_to(tmp_path, capsys):

@@ -83,3 +83,21 @@ def test_a_calibration_from_three_settings_says_its_errors_are_unknown(tmp_path,
                for v in row)
     assert any("their standard errors cannot be estimated" in w for w in summary["warnings"])
     assert any("9 row(s) repeat another row exactly" in w for w in summary["warnings"]) == (copies == 4)
+
+
+def test_the_firmware_step_runs_again_after_a_robustness_step_that_runs_later():
+    """S3: a loop run with the robustness steps skipped, then without --skip, ran them but kept its
+    firmware ("no robustness step ran"), though the loop's rule now picks the waveform they judge."""
+    from pathlib import Path
+
+    from elastica_magnetic_rl.loop.state import STEPS, LoopState, plan_loop
+
+    skipped = ("robustness", "refine", "robustness-refined")
+    steps = {s: {"status": "skipped"} if s in skipped else {"status": "done", "summary": {}} for s in STEPS}
+    state = LoopState(Path("lp/loop.json"), "m1-4mT", {}, {}, steps)
+    plan = plan_loop(state, {}, {}, (), (), False)
+    assert plan.run == ("robustness", "refine", "robustness-refined", "firmware") and "firmware" in plan.redo
+    assert plan_loop(state, {}, {}, skipped, (), False).run == ()  # still skipped: the firmware stands
+    done = LoopState(Path("lp/loop.json"), "m1-4mT", {}, {}, {s: {"status": "done"} for s in STEPS})
+    assert plan_loop(done, {}, {}, (), ("robustness",), False).run == ("robustness", "firmware")
+    assert plan_loop(None, {}, {}, ("robustness", "robustness-refined"), (), False).run[-1] == "firmware"
