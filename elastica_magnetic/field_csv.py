@@ -218,9 +218,10 @@ def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
         )
     columns = [names.index(c) for c in FIELD_COLUMNS]
     # a first column before the field's: four columns, or a row index's usual headers (pandas
-    # writes '' for its index) beside further columns
-    index_column = (0 if columns == [1, 2, 3] and (len(names) == 4 or names[0].lower() in INDEX_HEADERS)
-                    else None)
+    # writes '' for its index) beside further columns; one headed as a clock (t_ms, time (s)) is a
+    # clock, checked in its unit (0, 1, 2 ms is a 1 kHz waveform, not a row index)
+    index_column = (0 if columns == [1, 2, 3] and not _CLOCK_COLUMN.match(names[0])
+                    and (len(names) == 4 or names[0].lower() in INDEX_HEADERS) else None)
     unread = [n for k, n in enumerate(names) if k not in columns and k != index_column]
     if unread:  # a column a user may think is played (a current, a time)
         warn_implausible(f"{path}: column(s) {', '.join(repr(n) for n in unread)} are not read: the field "

@@ -82,23 +82,29 @@ def test_fuzz_mutated_field_csv_parses_or_names_the_error(tmp_path):
 
 
 def test_a_time_column_read_as_the_index_is_named(tmp_path):
-    """Round 5, F11: a first column of times in s (headed t_s) gave only "index '0.01' out of
-    sequence, expected 1"."""
+    """Round 5, F11: a first column of times in s gave only "index '0.01' out of sequence, expected
+    1". Without a header it is read as the index, and the message says so; headed as a clock (t_s)
+    it is checked as one since round 42 (0.01 s steps: the rows' own, accepted)."""
+    from elastica_magnetic.plausibility import ImplausibleValueWarning
+
     path = tmp_path / "tcol.csv"
-    path.write_text("t_s,mag_x,mag_y,mag_z\n0,1,0,0\n0.01,1,0,0\n0.02,1,0,0\n")
-    with pytest.raises(FieldCSVError, match=r"line 3: index '0.01' out of sequence, expected 1; "
+    path.write_text("0,1,0,0\n0.01,1,0,0\n0.02,1,0,0\n")
+    with pytest.raises(FieldCSVError, match=r"line 2: index '0.01' out of sequence, expected 1; "
                                             r"the first of four columns is read as a row index"):
         read_field_csv(path)
+    path.write_text("t_s,mag_x,mag_y,mag_z\n0,1,0,0\n0.01,1,0,0\n0.02,1,0,0\n")
+    with pytest.warns(ImplausibleValueWarning, match="'t_s' are not read"):
+        assert read_field_csv(path).shape == (3, 3)
 
 
 @pytest.mark.parametrize("first", ["0.01", "5.00", "1"])
 def test_a_first_row_index_that_is_not_0_is_explained(tmp_path, first):
-    """Round 35, V1: a t_s column starting at 0.01 s (or 5 s, or rows numbered from 1) was told
-    only "index '0.01' out of sequence, expected 0" on the first row, the explanation given from
-    the second row on; now on the first too."""
+    """Round 35, V1: a first column of times starting at 0.01 s (or 5 s, or rows numbered from 1)
+    was told only "index '0.01' out of sequence, expected 0" on the first row, the explanation given
+    from the second row on; now on the first too (headed as a clock, the column is checked as one)."""
     path = tmp_path / "late.csv"
-    path.write_text(f"t_s,mag_x,mag_y,mag_z\n{first},1,0,0\n0.02,1,0,0\n")
-    with pytest.raises(FieldCSVError, match=rf"line 2: index '{first}' out of sequence, expected 0; the "
+    path.write_text(f"{first},1,0,0\n0.02,1,0,0\n")
+    with pytest.raises(FieldCSVError, match=rf"line 1: index '{first}' out of sequence, expected 0; the "
                                             r"first of four columns is read as a row index"):
         read_field_csv(path)
 
@@ -113,7 +119,7 @@ def test_round9_v6_trailing_comma_ms_index_and_non_regular_files(tmp_path):
     with pytest.raises(FieldCSVError, match=r"line 1 has 4 columns, the last one empty \(a trailing"):
         read_field_csv(trailing)
     t_ms = tmp_path / "t_ms.csv"
-    t_ms.write_text("t_ms,mag_x,mag_y,mag_z\n0,1,0,0\n10,1,0,0\n20,1,0,0\n")
+    t_ms.write_text("0,1,0,0\n10,1,0,0\n20,1,0,0\n")  # headed t_ms, it is a clock (round 42)
     with pytest.raises(FieldCSVError, match=r"index '10' out of sequence, expected 1; the first of "
                                             r"four columns is read as a row index"):
         read_field_csv(t_ms)
