@@ -366,6 +366,7 @@ def _read_reference(path: Path, duration: float, length: float | None = None) ->
     missing = [c for c in PLANAR_TRAJECTORY_COLUMNS if c not in reference.columns]
     if missing:
         raise CommandError(f"--reference {path}: lacks column(s) {', '.join(missing)}"
+                           f"{_unit_hint(missing, [str(c) for c in reference.columns])}"
                            f"{separator_hint([str(c) for c in reference.columns])}")
     if reference.empty:
         raise CommandError(f"--reference {path}: header but no data rows")
@@ -405,6 +406,21 @@ def _read_reference(path: Path, duration: float, length: float | None = None) ->
             f"(its t_s spans {reference.t_s.min():g} to {reference.t_s.max():g} s); need at least 2{ms}"
         )
     return reference
+
+
+def _unit_hint(missing: list[str], names: list[str]) -> str:
+    """``(found ...: give SI units)`` when a missing column of a trajectory (``mid_x_m``, ``t_s``) is
+    there in another unit (``mid_x_mm``, ``t_ms``, ``time (min)``), else ``""``."""
+    found = []
+    for column in missing:
+        stem = column.rsplit("_", 1)[0].lower()
+        stems = ("t", "time") if stem == "t" else (stem,)
+        found += [n for n in names if n not in found and n.lower() != column
+                  and any(n.lower().startswith((f"{s}_", f"{s} ", f"{s}[", f"{s}(", f"{s}/")) for s in stems)]
+    if not found:
+        return ""
+    return (f" (found {', '.join(repr(n) for n in found)}: a reference is read in SI units, s and m, "
+            "under trajectory.csv's column names: convert and rename them)")
 
 
 def _judge_reference_positions(path: Path, reference: pd.DataFrame) -> None:

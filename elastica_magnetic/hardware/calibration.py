@@ -268,7 +268,11 @@ def load_calibration(path: str | Path) -> Calibration:
         raise CalibrationError(f"{path}: not UTF-8 text (byte {exc.start}): a calibration is a "
                                "JSON file written by 'msr real calibrate'") from None
     except json.JSONDecodeError as exc:
-        raise CalibrationError(f"{path}: not valid JSON: {exc}") from None
+        csv_like = "," in text.partition("\n")[0] and not text.lstrip().startswith(("{", "["))
+        hint = (": it reads as a CSV (measurements?); a calibration is the JSON file 'msr real calibrate "
+                f"{path.name} --out CAL.json' writes from measured currents and fields" if csv_like else
+                ": a calibration is a JSON file written by 'msr real calibrate'")
+        raise CalibrationError(f"{path}: not valid JSON ({exc}){hint}") from None
     calibration = calibration_from_dict(data, str(path))
     for warning in matrix_warnings(np.asarray(calibration.actuation_matrix_T_per_A), str(path)):
         warn_implausible(warning)

@@ -440,8 +440,11 @@ def resolve_variations(variations: Sequence[Variation], spec: Mapping[str, Any],
                     raise VariationError(f"{where}: {key}: {why}; leave it out of {option}")
             keys = tuple(k for key in variation.keys for k in _expand_key(key, spec, valid, where))
         for key in keys:
-            if key in seen:
-                raise VariationError(f"{where}: {key} is already varied by {seen[key]}")
+            if key in seen:  # one key, one variation: which of two would it take?
+                if seen[key] == variation.name:
+                    raise VariationError(f"{where}: {key} is named twice; name it once")
+                raise VariationError(f"{where}: {key} is already taken by {option} {seen[key]}; name it "
+                                     "in one of them")
             seen[key] = variation.name
             value = get_value(spec, key)
             if isinstance(value, list) and variation.absolute:

@@ -108,7 +108,9 @@ def _add_ship_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=duration_option(), default=None,
                    help="evaluation length, s (default 10; not with --no-measure)")
     p.add_argument("--force", action="store_true",
-                   help="replace an existing policy's files in DIR/<name> (other files stay)")
+                   help="replace an existing policy in DIR/<name>: its files (the waveform and critic of the "
+                        "replaced policy go with it, even when this one has none: --no-measure); "
+                        "your other files stay")
     p.add_argument("--evaluate-seeds", action="store_true",
                    help="also run every seed of the case (final checkpoints) in the accurate physics "
                    "and list their distances in the model card (cached per seed)")

@@ -68,9 +68,14 @@ def test_unknown_key_lists_the_valid_keys_and_a_close_one(spec):
 
 
 def test_key_varied_twice_and_relative_on_zero(spec):
-    with pytest.raises(VariationError, match="robot.ground.static_mu is already varied by friction"):
+    with pytest.raises(VariationError, match="robot.ground.static_mu is already taken by --vary friction; "
+                                             "name it in one of them"):
         resolve_variations([parse_variation("friction=0.8:1.2"),
                             parse_variation("robot.ground.static_mu=0.9:1.1")], spec)
+    # round 42: one key twice was "already varied by" itself
+    with pytest.raises(VariationError, match="robot.density is named twice; name it once"):
+        resolve_variations([parse_variation("robot.density=0.9:1.1"),
+                            parse_variation("robot.density=0.8:1.2")], spec)
     assert get_value(spec, "robot.damping.kelvin_voigt") == 0.0
     with pytest.raises(VariationError, match="is 0 in this spec.*abs:LOW:HIGH"):
         resolve_variations([parse_variation("robot.damping.kelvin_voigt=0.5:2")], spec)
