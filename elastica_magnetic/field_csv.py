@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from .clock_columns import clock_scale, is_clock
 from .drive_columns import MAGNET_COLUMN, drive_described
 from .io import atomic_write
 from .plausibility import judge, warn_implausible
@@ -169,7 +170,6 @@ def decimal_comma_hint(names: list[str]) -> str:
     """For a header read as comma-separated: what looks like a name holding a decimal comma split
     in two columns (``x_0`` then ``5_m``: ``x_0,5_m`` for ``x_0.5_m``), as a person reads it, or
     ``""``."""
-    import re
 
     for first, second in zip(names, names[1:], strict=False):
         if re.search(r"_\d+$", first) and re.match(r"\d+(_|$)", second):
@@ -220,25 +220,13 @@ def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
     # a first column before the field's: four columns, or a row index's usual headers (pandas
     # writes '' for its index) beside further columns; one headed as a clock (t_ms, time (s)) is a
     # clock, checked in its unit (0, 1, 2 ms is a 1 kHz waveform, not a row index)
-    index_column = (0 if columns == [1, 2, 3] and not _CLOCK_COLUMN.match(names[0])
+    index_column = (0 if columns == [1, 2, 3] and not is_clock(names[0])
                     and (len(names) == 4 or names[0].lower() in INDEX_HEADERS) else None)
     unread = [n for k, n in enumerate(names) if k not in columns and k != index_column]
     if unread:  # a column a user may think is played (a current, a time)
         warn_implausible(f"{path}: column(s) {', '.join(repr(n) for n in unread)} are not read: the field "
                          f"is {', '.join(FIELD_COLUMNS)} (mT), one row per 0.01 s", stacklevel=4)
     return columns, index_column, len(names), rows_with_lines[1:]
-
-
-#: A column header read as a clock: a word for time (``t``, ``time``, ``timestamp``, ``elapsed``,
-#: ``clock``), alone or followed by any unit in any notation (``t_s``, ``time/s``, ``time [ms]``).
-_CLOCK_COLUMN = re.compile(r"^(t|time|times|timestamp|elapsed|elapsed_time|clock)([\s_/\-\[(:,.]+"
-                           r"(?P<unit>[^\s\])]*)[\s\])]*)?$", re.IGNORECASE)
-#: A clock column's units, in s (an unknown one is refused: its steps cannot be judged).
-CLOCK_UNITS = {"": 1.0, "s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0,
-               "ms": 1e-3, "msec": 1e-3, "millis": 1e-3, "millisecond": 1e-3, "milliseconds": 1e-3,
-               "us": 1e-6, "µs": 1e-6, "μs": 1e-6, "usec": 1e-6, "microsecond": 1e-6, "microseconds": 1e-6,
-               "ns": 1e-9, "nanoseconds": 1e-9, "min": 60.0, "mins": 60.0, "minute": 60.0,
-               "minutes": 60.0, "h": 3600.0, "hr": 3600.0, "hour": 3600.0, "hours": 3600.0}
 
 
 def _check_clock_columns(path: Path, header: list[str], body: list[tuple[int, list[str]]],
@@ -248,8 +236,8 @@ def _check_clock_columns(path: Path, header: list[str], body: list[tuple[int, li
     sampled at 50 Hz would play twice as fast). A column of words (``time`` of day as text) is
     left to the unread-column warning."""
     for c, name in enumerate(header):
-        match = _CLOCK_COLUMN.match(name.strip())
-        if c in columns or c == index_column or not match:
+        clock = clock_scale(name)
+        if c in columns or c == index_column or clock is None:
             continue
         texts = [row[c].strip() for _, row in body]
         numbers = [k for k, t in enumerate(texts) if _is_number(t)]
@@ -262,13 +250,12 @@ def _check_clock_columns(path: Path, header: list[str], body: list[tuple[int, li
                 f"{'no time' if not texts[k] else repr(texts[k])} there: a field CSV's rows are played "
                 f"{ACTION_PERIOD:g} s apart whatever it says: give every row its time, 0.01 s apart, or drop "
                 "the column")
-        unit = (match.group("unit") or "").lower()
-        if unit not in CLOCK_UNITS:
+        unit, scale = clock
+        if scale is None:
             raise FieldCSVError(
                 f"{path}: column {name!r} reads as a clock in an unknown unit {unit!r}: a field CSV's rows "
                 f"are played {ACTION_PERIOD:g} s apart whatever it says, and its steps cannot be checked: "
                 "drop the column, or name its unit (s, ms, us, min)")
-        scale = CLOCK_UNITS[unit]
         times = np.array([float(t) for t in texts]) * scale
         steps = np.diff(times)
         off = np.flatnonzero(np.abs(steps - ACTION_PERIOD) > 1e-3 * ACTION_PERIOD)

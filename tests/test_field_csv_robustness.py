@@ -174,3 +174,4 @@ def test_a_catheter_s_drive_given_as_a_field_csv_is_named(tmp_path):
     arm.write_text("t_s,magnet_x_m,magnet_y_m,magnet_z_m,direction_x,direction_y,direction_z\n0,0.09,0,0,1,0,0\n")
     with pytest.raises(FieldCSVError, match=r"holds a magnet arm's path \(magnet_x_m, \.\.\., m\)"):
         read_field_csv(arm)
+

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..clock_columns import TIME_COLUMN, is_clock
 from ..field_csv import header_named_twice, limit_problem, separator_hint
 from ..field_spec import load_field
 from ..fields import RotatingField, TabulatedField
@@ -413,10 +414,12 @@ def _unit_hint(missing: list[str], names: list[str]) -> str:
     there in another unit (``mid_x_mm``, ``t_ms``, ``time (min)``), else ``""``."""
     found = []
     for column in missing:
+        if column == TIME_COLUMN:  # a clock in any spelling or unit
+            found += [n for n in names if n not in found and is_clock(n)]
+            continue
         stem = column.rsplit("_", 1)[0].lower()
-        stems = ("t", "time") if stem == "t" else (stem,)
         found += [n for n in names if n not in found and n.lower() != column
-                  and any(n.lower().startswith((f"{s}_", f"{s} ", f"{s}[", f"{s}(", f"{s}/")) for s in stems)]
+                  and n.lower().startswith((f"{stem}_", f"{stem} ", f"{stem}[", f"{stem}(", f"{stem}/"))]
     if not found:
         return ""
     return (f" (found {', '.join(repr(n) for n in found)}: a reference is read in SI units, s and m, "

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from elastica_magnetic.clock_columns import TIME_COLUMN, other_clock_hint
 from elastica_magnetic.drive_columns import (
     CURRENT_COLUMN,
     GRID_TOLERANCE_S,
@@ -41,8 +42,6 @@ from .calibration import Calibration
 BOARD_OUTPUTS = ("DAC8563 #1 A", "DAC8563 #1 B", "DAC8563 #2 A")
 #: The time between the rows the board plays (s): one row per control step.
 ROW_PERIOD_S = ACTION_PERIOD
-#: The time column of a coil-current file.
-TIME_COLUMN = "t_s"
 #: A current above this (A) is milliamperes written as amperes (no coil driver makes more).
 UNIT_MISTAKE_A = 1000.0
 #: What a coil-current file holds, for messages.
@@ -156,7 +155,7 @@ def _current_columns(path: Path, names: list[str]) -> list[str]:
         raise CoilCurrentsError(f"{path}: current columns {found}: they are numbered from 0 in "
                                 f"order, current_K_A played on output K; {FORM}")
     if TIME_COLUMN not in names:
-        raise CoilCurrentsError(f"{path}: no column {TIME_COLUMN}; {FORM}")
+        raise CoilCurrentsError(f"{path}: no column {TIME_COLUMN}{other_clock_hint(names)}; {FORM}")
     others = [n for n in names if n not in (TIME_COLUMN, INSERTION_COLUMN, *columns)]
     if others:
         raise CoilCurrentsError(f"{path}: column(s) {', '.join(repr(n) for n in others)} are not "

@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from elastica_magnetic.clock_columns import TIME_COLUMN, other_clock_hint
 from elastica_magnetic.drive_columns import current_unit_problem
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
@@ -97,8 +98,9 @@ def read_coil_path(path: str | Path) -> CoilPath:
     currents = [c for c in table.columns if CURRENT_COLUMN.match(c)]
     numbers = [int(CURRENT_COLUMN.match(c).group(1)) for c in currents]
     if "t_s" not in table.columns or not currents:
-        missing = "t_s" if "t_s" not in table.columns else "current_0_A"
-        raise TrajectoryError(f"{path}: no column {missing}; {form}")
+        missing = TIME_COLUMN if TIME_COLUMN not in table.columns else "current_0_A"
+        clock = other_clock_hint([str(c) for c in table.columns]) if missing == TIME_COLUMN else ""
+        raise TrajectoryError(f"{path}: no column {missing}{clock}; {form}")
     if numbers != list(range(len(numbers))):
         raise TrajectoryError(f"{path}: current columns {', '.join(currents)}: a coil path numbers its "
                               f"coils from 0, in order (current_0_A for the spec's first coil); {form}")

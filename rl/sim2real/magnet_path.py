@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from elastica_magnetic.clock_columns import TIME_COLUMN, other_clock_hint
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from .recorded_paths import (
@@ -95,7 +96,8 @@ def read_magnet_path(path: str | Path) -> MagnetPath:
     table = read_path_table(path, "magnet path")
     missing = [c for c in MAGNET_PATH_COLUMNS if c not in table.columns]
     if missing:
-        raise TrajectoryError(f"{path}: no column {', '.join(missing)}; a magnet path has "
+        clock = other_clock_hint([str(c) for c in table.columns]) if TIME_COLUMN in missing else ""
+        raise TrajectoryError(f"{path}: no column {', '.join(missing)}{clock}; a magnet path has "
                               f"{', '.join(MAGNET_PATH_COLUMNS)} (m; a unit direction) and, with an "
                               f"insertion stage, {INSERTION_COLUMN} (m), one row per 0.01 s from t_s = 0")
     used = list(MAGNET_PATH_COLUMNS) + ([INSERTION_COLUMN] if INSERTION_COLUMN in table.columns else [])

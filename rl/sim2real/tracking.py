@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from elastica_magnetic.clock_columns import other_clock_hint
 from elastica_magnetic.field_csv import decimal_comma_hint, header_named_twice, separator_hint
 
 __all__ = [
@@ -146,7 +147,8 @@ def _layout(path: Path, columns: list[str]) -> tuple[str, list[tuple[str, ...]],
     """The kind of file and its points: ``(name, x column, y column[, z column])``."""
     if "t_s" not in columns:
         raise TrajectoryError(
-            f"{path}: no t_s column (found {', '.join(columns)}); expected msr's trajectory.csv or a "
+            f"{path}: no t_s column (found {', '.join(columns)}){other_clock_hint(columns)}; expected msr's "
+            "trajectory.csv or a "
             "tracker's CSV: t_s (s), then x_<s>_m, y_<s>_m (m) per tracked point, <s> its place "
             f"along the body from 0 (back end) to 1 (front end){separator_hint(columns)}")
     near = [c for c in columns if _NEAR_MARKER_COLUMN.match(c) and not _MARKER_COLUMN.match(c)]

@@ -1,0 +1,58 @@
+"""The clock columns of the CSV files msr reads: a header read as a time (``t_s``, ``t_ms``,
+``time (s)``, ``timestamp_us``, ``Time [min]``) and its unit's scale to seconds. One vocabulary
+for every reader: a field CSV checks such a column's steps (its rows are 0.01 s apart whatever it
+says), and the files that need ``t_s`` itself (a trajectory, a tracker's CSV, coil currents) name
+a clock found in another spelling or unit instead of only saying that ``t_s`` is missing."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+
+__all__ = ["CLOCK_UNITS", "TIME_COLUMN", "clock_scale", "is_clock", "other_clock_hint"]
+
+#: The time column of the files msr writes and of those that need one (s).
+TIME_COLUMN = "t_s"
+#: A column header read as a clock: a word for time (``t``, ``time``, ``timestamp``, ``elapsed``,
+#: ``clock``), alone or followed by any unit in any notation (``t_s``, ``time/s``, ``time [ms]``).
+_CLOCK_COLUMN = re.compile(r"^(t|time|times|timestamp|elapsed|elapsed_time|clock)([\s_/\-\[(:,.]+"
+                           r"(?P<unit>[^\s\])]*)[\s\])]*)?$", re.IGNORECASE)
+#: A clock column's units, in s (an unknown one is refused where steps are checked).
+CLOCK_UNITS = {"": 1.0, "s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0,
+               "ms": 1e-3, "msec": 1e-3, "millis": 1e-3, "millisecond": 1e-3, "milliseconds": 1e-3,
+               "us": 1e-6, "µs": 1e-6, "μs": 1e-6, "usec": 1e-6, "microsecond": 1e-6, "microseconds": 1e-6,
+               "ns": 1e-9, "nanoseconds": 1e-9, "min": 60.0, "mins": 60.0, "minute": 60.0,
+               "minutes": 60.0, "h": 3600.0, "hr": 3600.0, "hour": 3600.0, "hours": 3600.0}
+
+
+def is_clock(name: str) -> bool:
+    """Whether the header ``name`` reads as a clock, in any unit or none."""
+    return _CLOCK_COLUMN.match(name.strip()) is not None
+
+
+def clock_scale(name: str) -> tuple[str, float | None] | None:
+    """``(unit, s per unit)`` of a clock header (``None`` scale: a unit msr does not know); ``None``
+    when ``name`` is not a clock."""
+    match = _CLOCK_COLUMN.match(name.strip())
+    if match is None:
+        return None
+    unit = (match.group("unit") or "").lower()
+    return unit, CLOCK_UNITS.get(unit)
+
+
+def other_clock_hint(names: Sequence[str]) -> str:
+    """For a file that needs :data:`TIME_COLUMN` and lacks it: ``"; 't_ms' reads as a clock in ms:
+    give seconds under t_s (divided by 1000)"``, naming the first clock in another spelling or unit;
+    ``""`` when there is none."""
+    for name in names:
+        found = clock_scale(name)
+        if found is None or name.strip() == TIME_COLUMN:
+            continue
+        unit, scale = found
+        if scale is None:
+            return f"; {name!r} reads as a clock in {unit!r}: give its times in seconds under {TIME_COLUMN}"
+        if scale == 1.0:
+            return f"; {name!r} reads as a clock in seconds: name it {TIME_COLUMN}"
+        convert = f"multiplied by {scale:g}" if scale > 1.0 else f"divided by {1.0 / scale:g}"
+        return f"; {name!r} reads as a clock in {unit}: give seconds under {TIME_COLUMN} ({convert})"
+    return ""
