@@ -351,9 +351,16 @@ def parse_variation(text: str) -> Variation:
         raise VariationError(f"{where}: relative factors must be > 0 (1 = the nominal value), got "
                              f"LOW {low:g}; for absolute values write abs:LOW:HIGH")
     if not absolute and low >= PERCENT_LIKE_FACTOR:
+        percent = (f"{spec_range.strip()} looks like percent: {low / 100:g}:{high / 100:g} (for absolute "
+                   "values write abs:LOW:HIGH)" if low / 100 <= 1.0 <= high / 100 else
+                   f"no fabrication error makes a value x{low:g}: for absolute values (SI) write "
+                   f"abs:{low:g}:{high:g}")
         raise VariationError(f"{where}: factors of the nominal value (1 = nominal) from x{low:g} to "
-                             f"x{high:g}; {spec_range.strip()} looks like percent: "
-                             f"{low / 100:g}:{high / 100:g} (for absolute values write abs:LOW:HIGH)")
+                             f"x{high:g}; {percent}")
+    if not absolute and high <= 1.0 / PERCENT_LIKE_FACTOR:
+        raise VariationError(f"{where}: factors of the nominal value (1 = nominal) from x{low:g} to "
+                             f"x{high:g}: no fabrication error cuts a value tenfold; for absolute values "
+                             f"(SI) write abs:{low:g}:{high:g}")
     return Variation(name, keys, low, high, absolute)
 
 
@@ -450,6 +457,7 @@ def resolve_variations(variations: Sequence[Variation], spec: Mapping[str, Any],
             if isinstance(value, list) and variation.absolute:
                 raise VariationError(f"{where}: {key} is a table; it is varied by a factor "
                                      "(LOW:HIGH), not set to an absolute value")
+            _refuse_absolute_as_factors(variation, key, value, where)
             if not variation.absolute and not np.any(np.asarray(value, dtype=np.float64)):
                 fix = ("a fit scales the spec's value by a factor: give the key a non-zero value "
                        "in the spec to fit it" if option == "--fit"
@@ -460,6 +468,21 @@ def resolve_variations(variations: Sequence[Variation], spec: Mapping[str, Any],
         resolved.append(Variation(variation.name, keys, variation.low, variation.high,
                                   variation.absolute))
     return resolved
+
+
+def _refuse_absolute_as_factors(variation: Variation, key: str, value: Any, where: str) -> None:
+    """Refuse factors that leave out the nominal value (x1) while, read as values, they bracket the
+    key's: ``robot.length=0.018:0.022`` around a 0.02 m robot is metres, not x0.018 to x0.022."""
+    if variation.absolute or variation.low <= 1.0 <= variation.high:
+        return
+    values = np.asarray(value, dtype=np.float64).ravel()
+    if values.size and np.all((variation.low <= values) & (values <= variation.high)):
+        nominal = f"{values[0]:g}" if np.all(values == values[0]) else f"{values.min():g} to {values.max():g}"
+        raise VariationError(
+            f"{where}: factors of the nominal value (1 = nominal) from x{variation.low:g} to "
+            f"x{variation.high:g}, which leave the nominal out, while {key} is {nominal} (SI), inside "
+            f"{variation.low:g}:{variation.high:g}: for absolute values write {key}=abs:{variation.low:g}:"
+            f"{variation.high:g}")
 
 
 def _check_varies(variation: Variation, keys: Sequence[str], spec: Mapping[str, Any], where: str,
