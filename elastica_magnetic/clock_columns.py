@@ -14,9 +14,11 @@ __all__ = ["CLOCK_UNITS", "TIME_COLUMN", "clock_scale", "is_clock", "other_clock
 #: The time column of the files msr writes and of those that need one (s).
 TIME_COLUMN = "t_s"
 #: A column header read as a clock: a word for time (``t``, ``time``, ``timestamp``, ``elapsed``,
-#: ``clock``), alone or followed by any unit in any notation (``t_s``, ``time/s``, ``time [ms]``).
-_CLOCK_COLUMN = re.compile(r"^(t|time|times|timestamp|elapsed|elapsed_time|clock)([\s_/\-\[(:,.]+"
-                           r"(?P<unit>[^\s\])]*)[\s\])]*)?$", re.IGNORECASE)
+#: ``clock``), alone or followed by any unit in any notation (``t_s``, ``time/s``, ``time [ms]``), or
+#: a unit of time alone (``sec``, ``seconds``, ``ms``: not ``s``, ``min`` or ``h``, other words' too).
+_CLOCK_COLUMN = re.compile(r"^(?:(t|time|times|timestamp|elapsed|elapsed_time|clock)([\s_/\-\[(:,.]+"
+                           r"(?P<unit>[^\s\])]*)[\s\])]*)?|(?P<bare>sec|secs|second|seconds|ms|msec|millis|"
+                           r"milliseconds|us|usec|microseconds))$", re.IGNORECASE)
 #: A clock column's units, in s (an unknown one is refused where steps are checked).
 CLOCK_UNITS = {"": 1.0, "s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0,
                "ms": 1e-3, "msec": 1e-3, "millis": 1e-3, "millisecond": 1e-3, "milliseconds": 1e-3,
@@ -36,7 +38,7 @@ def clock_scale(name: str) -> tuple[str, float | None] | None:
     match = _CLOCK_COLUMN.match(name.strip())
     if match is None:
         return None
-    unit = (match.group("unit") or "").lower()
+    unit = (match.group("unit") or match.group("bare") or "").lower()
     return unit, CLOCK_UNITS.get(unit)
 
 

@@ -166,6 +166,23 @@ def separator_hint(names: list[str]) -> str:
     return ""
 
 
+def other_spelling_hint(missing: list[str], names: list[str], units: str) -> str:
+    """For a header that lacks ``missing`` columns: ``" (found 'mag_x (mT)', ...: <units>)"``, the
+    columns that spell one of them otherwise (a unit in brackets, another unit: ``mag_x (mT)``,
+    ``current_x_mA``, ``mid_x_mm``), else ``""``. A clock for ``t_s`` is named too."""
+    from .clock_columns import TIME_COLUMN, is_clock
+
+    found: list[str] = []
+    for column in missing:
+        if column == TIME_COLUMN:  # a clock in any spelling or unit
+            found += [n for n in names if n not in found and is_clock(n)]
+            continue
+        stems = {column.lower(), column.rsplit("_", 1)[0].lower()}
+        found += [n for n in names if n not in found and n.lower() != column.lower()
+                  and any(n.lower().startswith((f"{s}_", f"{s} ", f"{s}[", f"{s}(", f"{s}/")) for s in stems)]
+    return f" (found {', '.join(repr(n) for n in found)}: {units})" if found else ""
+
+
 def decimal_comma_hint(names: list[str]) -> str:
     """For a header read as comma-separated: what looks like a name holding a decimal comma split
     in two columns (``x_0`` then ``5_m``: ``x_0,5_m`` for ``x_0.5_m``), as a person reads it, or
@@ -212,8 +229,10 @@ def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
             "a uniform field, what msr field replay simulates and the coil board plays through its three "
             f"field axes; a catheter's drive is replayed by msr real identify and played by {player}")
     if missing:
+        spelled = other_spelling_hint(missing, names,
+                                      "name the columns exactly mag_x, mag_y, mag_z, the values in mT")
         raise FieldCSVError(
-            f"{path}: header on line {first_line} lacks column(s) {', '.join(missing)}; "
+            f"{path}: header on line {first_line} lacks column(s) {', '.join(missing)}{spelled}; "
             f"expected {', '.join(FIELD_COLUMNS)} in mT (found {names}){separator_hint(names)}"
         )
     columns = [names.index(c) for c in FIELD_COLUMNS]
@@ -251,6 +270,8 @@ def _check_clock_columns(path: Path, header: list[str], body: list[tuple[int, li
                 f"{ACTION_PERIOD:g} s apart whatever it says: give every row its time, 0.01 s apart, or drop "
                 "the column")
         unit, scale = clock
+        if unit in ("step", "steps", "row", "rows"):  # counted in the rows' own steps
+            scale = ACTION_PERIOD
         if scale is None:
             raise FieldCSVError(
                 f"{path}: column {name!r} reads as a clock in an unknown unit {unit!r}: a field CSV's rows "

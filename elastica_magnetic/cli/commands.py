@@ -10,8 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..clock_columns import TIME_COLUMN, is_clock
-from ..field_csv import header_named_twice, limit_problem, separator_hint
+from ..field_csv import header_named_twice, limit_problem, other_spelling_hint, separator_hint
 from ..field_spec import load_field
 from ..fields import RotatingField, TabulatedField
 from ..openloop import run_open_loop, write_trajectory_csv
@@ -345,6 +344,11 @@ def _summary(args, result, trajectory_csv: Path, figure: Path) -> dict[str, obje
 REFERENCE_SPAN_LENGTHS = 1.5
 
 
+#: What a reference with columns in other units or spellings is told.
+_SI_NAMES = ("a reference is read in SI units, s and m, under trajectory.csv's column names: convert and "
+             "rename them")
+
+
 def _read_reference(path: Path, duration: float, length: float | None = None) -> pd.DataFrame:
     """The reference trajectory of ``msr field replay --reference``, checked: the columns of
     ``trajectory.csv``, numbers only, a first frame's span that fits the robot's ``length`` (m),
@@ -367,7 +371,7 @@ def _read_reference(path: Path, duration: float, length: float | None = None) ->
     missing = [c for c in PLANAR_TRAJECTORY_COLUMNS if c not in reference.columns]
     if missing:
         raise CommandError(f"--reference {path}: lacks column(s) {', '.join(missing)}"
-                           f"{_unit_hint(missing, [str(c) for c in reference.columns])}"
+                           f"{other_spelling_hint(missing, [str(c) for c in reference.columns], _SI_NAMES)}"
                            f"{separator_hint([str(c) for c in reference.columns])}")
     if reference.empty:
         raise CommandError(f"--reference {path}: header but no data rows")
@@ -407,23 +411,6 @@ def _read_reference(path: Path, duration: float, length: float | None = None) ->
             f"(its t_s spans {reference.t_s.min():g} to {reference.t_s.max():g} s); need at least 2{ms}"
         )
     return reference
-
-
-def _unit_hint(missing: list[str], names: list[str]) -> str:
-    """``(found ...: give SI units)`` when a missing column of a trajectory (``mid_x_m``, ``t_s``) is
-    there in another unit (``mid_x_mm``, ``t_ms``, ``time (min)``), else ``""``."""
-    found = []
-    for column in missing:
-        if column == TIME_COLUMN:  # a clock in any spelling or unit
-            found += [n for n in names if n not in found and is_clock(n)]
-            continue
-        stem = column.rsplit("_", 1)[0].lower()
-        found += [n for n in names if n not in found and n.lower() != column
-                  and n.lower().startswith((f"{stem}_", f"{stem} ", f"{stem}[", f"{stem}(", f"{stem}/"))]
-    if not found:
-        return ""
-    return (f" (found {', '.join(repr(n) for n in found)}: a reference is read in SI units, s and m, "
-            "under trajectory.csv's column names: convert and rename them)")
 
 
 def _judge_reference_positions(path: Path, reference: pd.DataFrame) -> None:

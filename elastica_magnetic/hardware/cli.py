@@ -13,7 +13,13 @@ import numpy as np
 
 from elastica_magnetic.cli.app import command_name, output_path
 from elastica_magnetic.cli.input_places import REPLACED_FOLDER, out_file
-from elastica_magnetic.field_csv import MILLITESLA, named_twice, read_field_csv, separator_hint
+from elastica_magnetic.field_csv import (
+    MILLITESLA,
+    named_twice,
+    other_spelling_hint,
+    read_field_csv,
+    separator_hint,
+)
 from elastica_magnetic.io import display_path
 
 # the result files the hardware commands write, each known to the others' --force (a calibration
@@ -379,8 +385,11 @@ def _calibrate(args: argparse.Namespace) -> int:
         raise _error(f"{path}: header on line 1 {twice}; give each column once")
     missing = [c for c in columns if c not in table.columns]
     if missing:
-        raise _error(f"{path}: missing column(s) {', '.join(missing)}; expected {', '.join(columns)} "
-                     f"(found {', '.join(header) or 'no header'}){separator_hint(header)}")
+        spelled = other_spelling_hint(missing, header,
+                                      "name the columns exactly, currents in A and fields in mT")
+        raise _error(f"{path}: missing column(s) {', '.join(missing)}{spelled}; expected "
+                     f"{', '.join(columns)} (found {', '.join(header) or 'no header'})"
+                     f"{separator_hint(header)}")
     data = table[columns].apply(pd.to_numeric, errors="coerce")
     bad = data.isna().any(axis=1) | ~np.isfinite(data.to_numpy()).all(axis=1)
     if bad.any():

@@ -47,3 +47,49 @@ def test_the_percent_hint_is_given_only_where_percent_reads_around_the_nominal(s
             parse_variation(text)
     with pytest.raises(VariationError, match=r"85:115 looks like percent: 0.85:1.15"):
         parse_variation("robot.youngs_modulus=85:115")
+
+
+@pytest.mark.parametrize("header, step, refused", [("sec", 0.02, True), ("seconds", 0.01, False),
+                                                    ("ms", 20, True), ("time_step", 1, False),
+                                                    ("time_step", 2, True)])
+def test_a_clock_named_by_its_unit_or_in_steps_is_checked(tmp_path, header, step, refused):
+    """Borderline of round 43: a column headed ``sec`` stepping 0.02 s was only "not read" (a 50 Hz
+    waveform played at 100 Hz), while ``t_s`` was refused; ``time_step`` counting the rows 0, 1, 2
+    was refused as a clock in an unknown unit though it agrees with them."""
+    import warnings
+
+    from elastica_magnetic.field_csv import FieldCSVError, read_field_csv
+
+    rows = [f"mag_x,mag_y,mag_z,{header}"] + [f"1,0,0,{k * step:g}" for k in range(4)]
+    (tmp_path / "f.csv").write_text("\n".join(rows) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if refused:
+            with pytest.raises(FieldCSVError, match=rf"column '{header}' reads as a clock stepping"):
+                read_field_csv(tmp_path / "f.csv")
+        else:
+            assert read_field_csv(tmp_path / "f.csv").shape == (4, 3)
+
+
+@pytest.mark.parametrize("text, found", [
+    ("mag_x (mT),mag_y (mT),mag_z (mT)\n1,0,0\n", "(found 'mag_x (mT)', 'mag_y (mT)', 'mag_z (mT)': name the "
+                                                 "columns exactly mag_x, mag_y, mag_z, the values in mT)"),
+])
+def test_field_columns_spelled_with_their_unit_are_named(tmp_path, text, found):
+    """Borderline of round 43: ``mag_x (mT)`` headers were told only the columns expected."""
+    from elastica_magnetic.field_csv import FieldCSVError, read_field_csv
+
+    (tmp_path / "f.csv").write_text(text)
+    with pytest.raises(FieldCSVError, match=re.escape(found)):
+        read_field_csv(tmp_path / "f.csv")
+
+
+def test_calibration_columns_in_milliamperes_are_named(tmp_path, capsys):
+    from elastica_magnetic.cli import main as msr
+
+    header = "current_x_mA,current_y_mA,current_z_mA,field_x_mT,field_y_mT,field_z_mT"
+    (tmp_path / "m.csv").write_text(f"{header}\n1,0,0,3,0,0\n")
+    assert msr(["real", "calibrate", str(tmp_path / "m.csv"), "--out", str(tmp_path / "c.json"), "--name",
+                "a"]) == 2
+    assert ("(found 'current_x_mA', 'current_y_mA', 'current_z_mA': name the columns exactly, currents in A "
+            "and fields in mT)") in capsys.readouterr().err
