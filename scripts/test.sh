@@ -8,6 +8,15 @@ bash scripts/bootstrap.sh
 export PATH="$root/.venv/bin:$PATH"
 export MPLBACKEND=Agg
 
+# numba compiles a kernel on its first call and caches it: compiled once here, beside ruff and the
+# firmware build, the two test workers and the commands they start load the kernels instead of each
+# compiling them again (a cold cache had made single tests take minutes)
+echo "== numba: compiling the kernels (msr bench --quick) in the background =="
+warm_log="$(mktemp)"
+msr bench --quick --train-seeds 0 --json >"$warm_log" 2>&1 &
+warm_pid=$!
+trap 'kill "$warm_pid" 2>/dev/null || true' EXIT  # a failing step below stops it too
+
 echo "== ruff =="
 ruff check .
 
@@ -15,6 +24,11 @@ if [ -x stm32/ci.sh ] || [ -f stm32/ci.sh ]; then
   echo "== firmware: toolchain, host unit tests, cross build =="
   bash stm32/ci.sh
 fi
+
+if ! wait "$warm_pid"; then  # the tests still compile what they need; say why it failed
+  echo "numba warm-up failed (the tests compile the kernels themselves):"; tail -n 20 "$warm_log"
+fi
+rm -f "$warm_log"
 
 echo "== pytest =="
 # two worker processes (pytest-xdist), a test file each at a time: module fixtures are built once
