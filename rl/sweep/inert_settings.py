@@ -24,7 +24,8 @@ if TYPE_CHECKING:  # torch is imported only when a run is planned
     from ..runner.stopping import StopRule
     from ..td3.config import TD3Config
 
-__all__ = ["SettingSources", "check_episodes_end", "check_evaluations_made", "check_run_learns",
+__all__ = ["SettingSources", "check_episodes_end", "check_evaluations_made", "check_noise_colored",
+           "check_run_learns",
            "check_stop_rule_decides"]
 
 
@@ -72,6 +73,20 @@ def check_evaluations_made(config: TD3Config, sources: SettingSources) -> None:
             raise ValueError(f"{sources.setting(key, f'{value:g}')} sets the periodic evaluations, and "
                              f"{sources.setting('eval_every', 0)} makes none: give --set eval_every=N "
                              f"(steps between evaluations), or leave {key} out")
+
+
+def check_noise_colored(config: TD3Config, sources: SettingSources) -> None:
+    """Warn (:class:`SettingNotAppliedWarning`) of a ``noise_horizon`` given by the user for white
+    exploration noise (``noise_color`` 0): the horizon shapes colored noise only."""
+    from elastica_magnetic.plausibility import SettingNotAppliedWarning
+
+    given = "noise_horizon" in sources.given or "noise_horizon" in sources.spec_td3
+    if config.noise_color == 0 and given:
+        warnings.warn(SettingNotAppliedWarning(
+            f"{sources.setting('noise_horizon', config.noise_horizon)} sets how long colored exploration "
+            f"noise is drawn ahead, and {sources.setting('noise_color', 0)} makes it white (each step "
+            "drawn anew), which has no horizon: give --set noise_color=1 (pink) or 2 (red) for colored "
+            "noise, or leave noise_horizon out"), stacklevel=2)
 
 
 def check_run_learns(config: TD3Config, steps: int, sources: SettingSources) -> None:

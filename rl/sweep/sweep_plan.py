@@ -33,6 +33,7 @@ from .inert_settings import (
     SettingSources,
     check_episodes_end,
     check_evaluations_made,
+    check_noise_colored,
     check_run_learns,
     check_stop_rule_decides,
 )
@@ -192,6 +193,7 @@ class _ActingChecks:
         if not self.warm_up_only:
             check_run_learns(self.config, self.steps, self.sources)
         check_evaluations_made(self.config, self.sources)
+        check_noise_colored(self.config, self.sources)
         for rule in (stop_rules or {}).values() if self.stop_given else ():
             check_stop_rule_decides(rule, self.config, self.steps, self.envs, self.sources,
                                     self.episode_duration)

@@ -93,3 +93,19 @@ def test_calibration_columns_in_milliamperes_are_named(tmp_path, capsys):
                 "a"]) == 2
     assert ("(found 'current_x_mA', 'current_y_mA', 'current_z_mA': name the columns exactly, currents in A "
             "and fields in mT)") in capsys.readouterr().err
+
+
+def test_a_noise_horizon_for_white_noise_is_said_to_change_nothing(tmp_path, capsys):
+    """Borderline of round 43: ``--set noise_horizon=50`` with white noise (``noise_color`` 0) was
+    recorded without a word; it shapes colored noise only."""
+    from elastica_magnetic.cli import main as msr
+
+    argv = ["train", "--case", "m1-4mT", "--seeds", "1", "--steps", "80", "--set", "learning_starts=60",
+            "--set", "batch_size=32", "--set", "hidden_sizes=16,16", "--set", "eval_every=0",
+            "--episode-duration", "0.3", "--no-progress", "--out", str(tmp_path / "t")]
+    assert msr([*argv, "--set", "noise_horizon=50", "--set", "noise_color=0"]) == 0
+    err = capsys.readouterr().err
+    assert ("warning: --set noise_horizon=50 sets how long colored exploration noise is drawn ahead, and "
+            "--set noise_color=0 makes it white") in err, err
+    assert msr([*argv[:-1], str(tmp_path / "u"), "--set", "noise_horizon=50"]) == 0  # the recipe's pink
+    assert "noise_horizon" not in capsys.readouterr().err
