@@ -9,7 +9,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
-__all__ = ["CLOCK_UNITS", "TIME_COLUMN", "clock_scale", "is_clock", "other_clock_hint"]
+__all__ = ["CLOCK_UNITS", "TIME_COLUMN", "clock_scale", "clock_text_seconds", "is_clock", "other_clock_hint"]
 
 #: The time column of the files msr writes and of those that need one (s).
 TIME_COLUMN = "t_s"
@@ -25,6 +25,31 @@ CLOCK_UNITS = {"": 1.0, "s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "secon
                "us": 1e-6, "µs": 1e-6, "μs": 1e-6, "usec": 1e-6, "microsecond": 1e-6, "microseconds": 1e-6,
                "ns": 1e-9, "nanoseconds": 1e-9, "min": 60.0, "mins": 60.0, "minute": 60.0,
                "minutes": 60.0, "h": 3600.0, "hr": 3600.0, "hour": 3600.0, "hours": 3600.0}
+
+
+#: A time written as a clock reads it: ``H:MM:SS.ss`` or ``MM:SS.ss``.
+_CLOCK_TEXT = re.compile(r"^(?:(?P<h>\d+):)?(?P<m>\d{1,2}):(?P<s>\d{1,2}(?:\.\d*)?)$")
+
+
+def clock_text_seconds(text: str) -> float | None:
+    """Seconds of a time written as a clock reads it (``00:00:01.25``, ``01:01.5``) or as a date and
+    time (ISO 8601: ``2026-12-05T10:00:00.010``, seconds since the epoch); ``None`` for any other
+    text (a plain number is read with the column's unit, not here)."""
+    import datetime
+
+    text = text.strip()
+    match = _CLOCK_TEXT.match(text)
+    if match:
+        return 3600.0 * int(match.group("h") or 0) + 60.0 * int(match.group("m")) + float(match.group("s"))
+    if len(text) >= 10 and text[4:5] == "-":
+        try:
+            stamp = datetime.datetime.fromisoformat(text)
+        except ValueError:
+            return None
+        if stamp.tzinfo is None:  # a local clock: only its steps matter
+            stamp = stamp.replace(tzinfo=datetime.UTC)
+        return stamp.timestamp()
+    return None
 
 
 def is_clock(name: str) -> bool:

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from .clock_columns import clock_scale, is_clock
+from .clock_columns import TIME_COLUMN, clock_scale, clock_text_seconds, is_clock
 from .drive_columns import MAGNET_COLUMN, drive_described
 from .io import atomic_write
 from .plausibility import judge, warn_implausible
@@ -29,7 +29,7 @@ FIELD_CSV_RATE_HZ = 100.0
 #: Column names of the field components, in mT.
 FIELD_COLUMNS = ("mag_x", "mag_y", "mag_z")
 # headers read as a row index 0, 1, 2... in the first column (pandas writes an unnamed one)
-INDEX_HEADERS = ("", "index", "unnamed: 0", "row", "step")
+INDEX_HEADERS = ("", "index", "unnamed: 0", "row", "step", "i", "idx", "#", "n", "k", "sample", "row_index")
 MILLITESLA = 1e-3
 
 
@@ -81,8 +81,10 @@ def read_field_csv(path: str | Path, *, plausible: bool = False) -> NDArray[np.f
     if not body:
         raise FieldCSVError(f"{path}: header but no data rows")
     field = np.empty((len(body), 3))
+    header = rows_with_lines[0][1] if len(body) < len(rows_with_lines) else None
+    index = "the first of four columns" if header is None else f"the first column, {header[0].strip()!r},"
     for k, (line, row) in enumerate(body):
-        field[k] = _field_row(path, line, row, k, columns, index_column, ncols)
+        field[k] = _field_row(path, line, row, k, columns, (index_column, index), ncols)
     _check_clock_columns(path, rows_with_lines[0][1], body, columns, index_column)
     if plausible:
         _check_plausible(path, field, [line for line, _ in body])
@@ -170,7 +172,7 @@ def other_spelling_hint(missing: list[str], names: list[str], units: str) -> str
     """For a header that lacks ``missing`` columns: ``" (found 'mag_x (mT)', ...: <units>)"``, the
     columns that spell one of them otherwise (a unit in brackets, another unit: ``mag_x (mT)``,
     ``current_x_mA``, ``mid_x_mm``), else ``""``. A clock for ``t_s`` is named too."""
-    from .clock_columns import TIME_COLUMN, is_clock
+
 
     found: list[str] = []
     for column in missing:
@@ -236,11 +238,10 @@ def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
             f"expected {', '.join(FIELD_COLUMNS)} in mT (found {names}){separator_hint(names)}"
         )
     columns = [names.index(c) for c in FIELD_COLUMNS]
-    # a first column before the field's: four columns, or a row index's usual headers (pandas
-    # writes '' for its index) beside further columns; one headed as a clock (t_ms, time (s)) is a
-    # clock, checked in its unit (0, 1, 2 ms is a 1 kHz waveform, not a row index)
-    index_column = (0 if columns == [1, 2, 3] and not is_clock(names[0])
-                    and (len(names) == 4 or names[0].lower() in INDEX_HEADERS) else None)
+    # a first column before the field's headed as a row index (pandas writes '' for its index); one
+    # headed otherwise is another column (a current I_A, a clock t_ms checked in its unit: 0, 1, 2 ms
+    # is a 1 kHz waveform), not read
+    index_column = 0 if columns == [1, 2, 3] and names[0].lower() in INDEX_HEADERS else None
     unread = [n for k, n in enumerate(names) if k not in columns and k != index_column]
     if unread:  # a column a user may think is played (a current, a time)
         warn_implausible(f"{path}: column(s) {', '.join(repr(n) for n in unread)} are not read: the field "
@@ -252,32 +253,17 @@ def _check_clock_columns(path: Path, header: list[str], body: list[tuple[int, li
                          columns: list[int], index_column: int | None) -> None:
     """Refuse a clock column the field does not read whose times are not the rows' 0.01 s steps
     (or that misses a time): the rows are played 0.01 s apart whatever it says (a waveform
-    sampled at 50 Hz would play twice as fast). A column of words (``time`` of day as text) is
+    sampled at 50 Hz would play twice as fast). Times are numbers in the header's unit, or written
+    as a clock reads them (``00:00:00.02``) or as dates and times (ISO 8601); a column of words is
     left to the unread-column warning."""
     for c, name in enumerate(header):
         clock = clock_scale(name)
         if c in columns or c == index_column or clock is None:
             continue
         texts = [row[c].strip() for _, row in body]
-        numbers = [k for k, t in enumerate(texts) if _is_number(t)]
-        if not numbers:
+        times = _clock_times(path, name, clock, texts, [line for line, _ in body])
+        if times is None:
             continue
-        if len(numbers) < len(texts):
-            k = next(k for k, t in enumerate(texts) if not _is_number(t))
-            raise FieldCSVError(
-                f"{path}: column {name!r} reads as a clock, but line {body[k][0]} has "
-                f"{'no time' if not texts[k] else repr(texts[k])} there: a field CSV's rows are played "
-                f"{ACTION_PERIOD:g} s apart whatever it says: give every row its time, 0.01 s apart, or drop "
-                "the column")
-        unit, scale = clock
-        if unit in ("step", "steps", "row", "rows"):  # counted in the rows' own steps
-            scale = ACTION_PERIOD
-        if scale is None:
-            raise FieldCSVError(
-                f"{path}: column {name!r} reads as a clock in an unknown unit {unit!r}: a field CSV's rows "
-                f"are played {ACTION_PERIOD:g} s apart whatever it says, and its steps cannot be checked: "
-                "drop the column, or name its unit (s, ms, us, min)")
-        times = np.array([float(t) for t in texts]) * scale
         steps = np.diff(times)
         off = np.flatnonzero(np.abs(steps - ACTION_PERIOD) > 1e-3 * ACTION_PERIOD)
         if off.size:
@@ -289,10 +275,41 @@ def _check_clock_columns(path: Path, header: list[str], body: list[tuple[int, li
                 f"{ACTION_PERIOD:g} s steps (100 rows per second), or drop the column")
 
 
+def _clock_times(path: Path, name: str, clock: tuple[str, float | None], texts: list[str],
+                 lines: list[int]) -> NDArray[np.float64] | None:
+    """The times (s) of clock column ``name``: numbers in its unit, or clock or date-and-time texts;
+    ``None`` for a column of words. A row without a time, or a number in a unit msr does not know,
+    is a :class:`FieldCSVError`."""
+    numbers = [float(t) if _is_number(t) else None for t in texts]
+    stamps = [clock_text_seconds(t) for t in texts]
+    values = numbers if any(v is not None for v in numbers) else stamps
+    if all(v is None for v in values):
+        return None
+    if any(v is None for v in values):
+        k = next(k for k, v in enumerate(values) if v is None)
+        raise FieldCSVError(
+            f"{path}: column {name!r} reads as a clock, but line {lines[k]} has "
+            f"{'no time' if not texts[k] else repr(texts[k])} there: a field CSV's rows are played "
+            f"{ACTION_PERIOD:g} s apart whatever it says: give every row its time, 0.01 s apart, or drop "
+            "the column")
+    if values is stamps:  # the texts carry their own unit
+        return np.array(values, dtype=np.float64)
+    unit, scale = clock
+    if unit in ("step", "steps", "row", "rows"):  # counted in the rows' own steps
+        scale = ACTION_PERIOD
+    if scale is None:
+        raise FieldCSVError(
+            f"{path}: column {name!r} reads as a clock in an unknown unit {unit!r}: a field CSV's rows "
+            f"are played {ACTION_PERIOD:g} s apart whatever it says, and its steps cannot be checked: "
+            "drop the column, or name its unit (s, ms, us, min)")
+    return np.array(values, dtype=np.float64) * scale
+
+
 def _field_row(path: Path, line: int, row: list[str], k: int, columns: list[int],
-               index_column: int | None, ncols: int) -> NDArray[np.float64]:
+               index: tuple[int | None, str], ncols: int) -> NDArray[np.float64]:
     """Data row ``k`` (on file line ``line``) as a field ``(3,)`` in tesla, its columns and index
-    checked."""
+    (``(column or None, how messages name it)``) checked."""
+    index_column, index_name = index
     if len(row) != ncols:
         raise FieldCSVError(
             f"{path}: line {line} has {len(row)} columns, expected {ncols}: {','.join(row)!r}"
@@ -320,9 +337,9 @@ def _field_row(path: Path, line: int, row: list[str], k: int, columns: list[int]
             # numbered from 1, which the next row would otherwise be refused for)
             time_like = _is_number(text) and (k == 0 or not float(text).is_integer()
                                               or math.isclose(float(text), 10.0 * k))
-            hint = ("; the first of four columns is read as a row index 0, 1, 2..., not as a time "
-                    "(rows are 0.01 s apart by definition): drop that column or number the rows"
-                    if time_like else "")
+            hint = (f"; {index_name} is read as a row index 0, 1, 2..., not as a time (rows are 0.01 s "
+                    "apart by definition): drop that column or number the rows" if time_like else
+                    f"; {index_name} is read as a row index 0, 1, 2...: number the rows, or drop it")
             raise FieldCSVError(
                 f"{path}: line {line}: index {text!r} out of sequence, expected {k}{hint}"
             )

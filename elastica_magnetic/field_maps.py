@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import _spatial_kernels as kernels
+from .field_csv import other_spelling_hint
 from .spatial_fields import (
     ScalarOrWaveform,
     SpatialField,
@@ -131,14 +132,18 @@ class FieldMap(SpatialField):
         try:
             with open(path, encoding="utf-8-sig") as handle:
                 header = [h.strip() for h in handle.readline().split(",")]
-                if tuple(header) != columns:
-                    raise SpatialFieldError(f"{path}: header must be {','.join(columns)}, got "
-                                            f"{','.join(header)}")
-                table = np.loadtxt(handle, delimiter=",", ndmin=2)
+                if tuple(header) == columns:
+                    table = np.loadtxt(handle, delimiter=",", ndmin=2)
         except (OSError, UnicodeDecodeError) as exc:
             raise SpatialFieldError(f"{path}: cannot be read ({exc})") from None
         except ValueError as exc:
             raise SpatialFieldError(f"{path}: every row must hold 6 numbers ({exc})") from None
+        if tuple(header) != columns:  # outside the try: its own message, not a row's
+            missing = [c for c in columns if c not in header]
+            spelled = other_spelling_hint(missing, header, "positions in m and the field in mT, under "
+                                          "these names: convert and rename them")
+            raise SpatialFieldError(f"{path}: header must be {','.join(columns)}, got {','.join(header)}"
+                                    f"{spelled}")
         if table.shape[1] != 6:
             raise SpatialFieldError(f"{path}: expected 6 columns, got {table.shape[1]}")
         if not np.all(np.isfinite(table)):

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from elastica_magnetic.cli import CommandError, output_path, print_result
+from elastica_magnetic.cli.app import number
 from elastica_magnetic.interrupts import signals_as_exceptions
 from elastica_magnetic.io import display_path
 
@@ -55,7 +56,7 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=output_path, default="runs", help="output folder")
     p.add_argument("--resume", action="store_true", help="continue runs from their checkpoints")
     p.add_argument("--physics", choices=("training", "accurate"), default="training")
-    p.add_argument("--episode-duration", type=float, default=None,
+    p.add_argument("--episode-duration", type=number("s", 0.0, low_open=True), default=None,
                    help="s (truncation; default: the case's, 20 s for the paper's)")
     p.add_argument("--threads", type=int, default=None, help="torch threads per worker")
     p.add_argument("--envs", type=int, default=1,
@@ -235,7 +236,7 @@ def _add_refine_command(sub: argparse._SubParsersAction) -> None:
                         "friction +-25 %%, density +-10 %%), none: the nominal robot (default: the "
                         "--spec's [training.randomize], else the run's setting; one that "
                         "disagrees with the spec's table is refused); recorded in run.json")
-    p.add_argument("--episode-duration", type=float, default=None,
+    p.add_argument("--episode-duration", type=number("s", 0.0, low_open=True), default=None,
                    help="s (truncation; default the case's [task] episode_duration, as msr train's: "
                    "20 s for the paper's crawlers; at least one 0.01 s control step)")
     p.add_argument("--device", choices=("cpu", "cuda"), default=None,

@@ -65,6 +65,8 @@ def _setting_form(key: str, default: Any) -> str:
         return "true or false"
     if key == "noise_color":
         return "a number: the exponent of the noise's spectrum 1/f^beta (0 white, 1 pink, 2 red)"
+    if key == "eval_duration":
+        return "a number of s (0: the case's evaluation), e.g. 0.5 for 500 ms"
     return "an integer" if _is_integer_setting(key, default) else "a number"
 
 
