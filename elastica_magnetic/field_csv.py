@@ -271,8 +271,20 @@ def _check_clock_columns(path: Path, header: list[str], body: list[tuple[int, li
             raise FieldCSVError(
                 f"{path}: column {name!r} reads as a clock stepping {steps[k]:g} s at line "
                 f"{body[k + 1][0]} (from {times[k]:g} to {times[k + 1]:g} s), but a field CSV's rows are "
-                f"played {ACTION_PERIOD:g} s apart whatever it says: resample the waveform to "
-                f"{ACTION_PERIOD:g} s steps (100 rows per second), or drop the column")
+                f"played {ACTION_PERIOD:g} s apart whatever it says: {_clock_remedy(name, steps)}")
+
+
+def _clock_remedy(name: str, steps: NDArray[np.float64]) -> str:
+    """What mends a clock column whose ``steps`` (s) are not the rows' 0.01 s: its unit, where every
+    step is 0.01 s in a unit 1000 or 1e6 times smaller than its header says (a logger's ms under an
+    s header); else a resampling."""
+    for factor in (1e3, 1e6):
+        if np.allclose(steps, factor * ACTION_PERIOD, rtol=1e-3, atol=0.0):
+            return (f"its times step {ACTION_PERIOD:g} s in a unit {factor:g} times smaller than {name!r} "
+                    f"says: name that unit in the header or divide its times by {factor:g} (or drop the "
+                    "column)")
+    return (f"resample the waveform to {ACTION_PERIOD:g} s steps (100 rows per second), or drop the "
+            "column")
 
 
 def _clock_times(path: Path, name: str, clock: tuple[str, float | None], texts: list[str],
@@ -280,6 +292,7 @@ def _clock_times(path: Path, name: str, clock: tuple[str, float | None], texts: 
     """The times (s) of clock column ``name``: numbers in its unit, or clock or date-and-time texts;
     ``None`` for a column of words. A row without a time, or a number in a unit msr does not know,
     is a :class:`FieldCSVError`."""
+    texts = [re.sub(r"^([-+]?\d+),(\d+)$", r"\1.\2", t) for t in texts]  # a decimal comma ("0,02")
     numbers = [float(t) if _is_number(t) else None for t in texts]
     stamps = [clock_text_seconds(t) for t in texts]
     values = numbers if any(v is not None for v in numbers) else stamps

@@ -139,7 +139,7 @@ def _randomize(t: SpecTable, robot: RobotDescription) -> tuple[Variation, ...]:
         raise t.error("randomize", "expected a table of KEY = \"LOW:HIGH\" ranges (or \"default\")")
     variations = []
     try:
-        for key, text in value.items():
+        for key, text in _dotted(value).items():
             if not isinstance(text, str):
                 raise VariationError(f"{where}: {key} = {text!r}: expected a string \"LOW:HIGH\" "
                                      "(factors) or \"abs:LOW:HIGH\" (SI)")
@@ -153,6 +153,18 @@ def _randomize(t: SpecTable, robot: RobotDescription) -> tuple[Variation, ...]:
                             "nothing (its ends are equal): give a range, or leave the key out")
     _check_randomize_ends(variations, robot, where)
     return tuple(variations)
+
+
+def _dotted(table: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """A ``[training.randomize]`` table with its keys as written: TOML reads an unquoted dotted key
+    (``robot.ground.kinetic_mu = "0.8:1.2"``) as nested tables, which are joined back here."""
+    out: dict[str, Any] = {}
+    for key, value in table.items():
+        if isinstance(value, Mapping) and value:
+            out.update(_dotted(value, f"{prefix}{key}."))
+        else:
+            out[f"{prefix}{key}"] = value
+    return out
 
 
 def _check_randomize_ends(variations: list[Variation], robot: RobotDescription, where: str) -> None:

@@ -9,7 +9,8 @@ import pytest
 
 
 @pytest.mark.parametrize("times", [[f"00:00:{0.02 * k:05.2f}" for k in range(5)],
-                                   [f"2026-12-05T10:00:{0.02 * k:06.3f}" for k in range(5)]])
+                                   [f"2026-12-05T10:00:{0.02 * k:06.3f}" for k in range(5)],
+                                   [f'"{0.02 * k:.2f}"'.replace(".", ",") for k in range(5)]])
 def test_a_clock_written_as_a_clock_reads_it_is_checked(tmp_path, times):
     """S1: a ``time`` column of ``00:00:00.02`` steps (a 50 Hz waveform) was only "not read" and
     played at 100 Hz; the same times as numbers were refused."""
@@ -72,3 +73,34 @@ def test_durations_with_a_unit_are_told_the_unit(tmp_path, capsys, argv, message
         msr(["train", "--case", "m1-4mT", "--seeds", "1", "--steps", "80", *argv, "--out",
              str(tmp_path / "r")])
     assert message in capsys.readouterr().err
+
+
+def test_a_clock_in_milliseconds_under_a_seconds_header_is_told_its_unit(tmp_path):
+    """V5: ``t_s`` = 0, 10, 20 (a logger's ms; the rows 0.01 s apart) was told to "resample the
+    waveform to 0.01 s steps", which would stretch it a thousandfold."""
+    from elastica_magnetic.field_csv import FieldCSVError, read_field_csv
+
+    for header, step, factor in (("t_s", 10, "1000"), ("time (ms)", 10000, "1000"), ("t_s", 10000, "1e+06")):
+        rows = [f"{header},mag_x,mag_y,mag_z"] + [f"{k * step},1,0,0" for k in range(4)]
+        (tmp_path / "f.csv").write_text("\n".join(rows) + "\n")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            with pytest.raises(FieldCSVError, match=re.escape(
+                    f"its times step 0.01 s in a unit {factor} times smaller than '{header}' says: name that "
+                    f"unit in the header or divide its times by {factor}")):
+                read_field_csv(tmp_path / "f.csv")
+
+
+def test_a_randomize_table_with_unquoted_dotted_keys_is_read_as_written(tmp_path):
+    """V4: ``robot.ground.kinetic_mu = "abs:0.4:0.7"`` unquoted in ``[training.randomize]`` (TOML's
+    nested tables) was refused as "robot = {...}: expected a string", though the value is one."""
+    from elastica_magnetic_rl.cases.case import load_case
+
+    text = load_case("m1-4mT").toml()
+    cut = text.index("[yardstick]")
+    spec = tmp_path / "r.toml"
+    spec.write_text(text[:cut] + '[training.randomize]\nrobot.ground.kinetic_mu = "abs:0.4:0.7"\n\n'
+                    + text[cut:])
+    case = load_case(str(spec))
+    (variation,) = case.training.randomize
+    assert variation.keys == ("robot.ground.kinetic_mu",) and (variation.low, variation.high) == (0.4, 0.7)
