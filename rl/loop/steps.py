@@ -327,22 +327,34 @@ def firmware_step(ctx: LoopContext) -> dict[str, Any]:
 
 def _waveform_to_play(ctx: LoopContext) -> tuple[str, str, str]:
     """``(which, fields.csv relative to the loop's folder, why)``: of the learned (``robustness/``)
-    and refined (``robustness-refined/``) policies' waveforms, the one with the larger open-loop
-    10th-percentile distance over the varied robots, then the larger nominal one (a refinement
-    is not better by being later: a short one can lose the gait)."""
+    and refined (``robustness-refined/``) policies' waveforms, the one that goes farther open loop
+    on average over the varied robots (nominal included: the distance to expect of a robot made
+    with the spec's fabrication errors), then the larger nominal one. A refinement is not better by
+    being later (a short one can lose the gait), nor by a worst case or a 10th percentile that
+    both policies stall at (a gait lost everywhere had won by a 10th percentile of +0.1 mm against
+    -11.7 mm)."""
     measured = [(name, ctx.state.summary(step)) for name, step in
                 (("learned", "robustness"), ("refined", "robustness-refined"))
                 if ctx.state.done(step)]
     if not measured:
         return "generated", ctx.state.summary("generate")["fields_csv"], "no robustness step ran"
+
     def key(item: tuple[str, dict[str, Any]]) -> tuple[float, float]:
-        loop = item[1]["summary"]["open_loop"]
-        return loop["p10_m"], loop["nominal_m"]
+        return open_loop_mean(item[1]), item[1]["summary"]["open_loop"]["nominal_m"]
 
     name, best = max(measured, key=key)
-    why = "; ".join(f"{n}: open loop 10th percentile {1e3 * key((n, m))[0]:+.3g} mm, nominal "
+    why = "; ".join(f"{n}: open loop mean {1e3 * key((n, m))[0]:+.3g} mm over the varied robots, nominal "
                     f"{1e3 * key((n, m))[1]:+.3g} mm" for n, m in measured)
-    return name, best["fields_csv"], f"the larger open-loop 10th percentile, then nominal ({why})"
+    return name, best["fields_csv"], f"the larger open-loop mean over the varied robots, then nominal ({why})"
+
+
+def open_loop_mean(robustness: dict[str, Any]) -> float:
+    """The mean open-loop distance (m) of a robustness step's summary over its variants, the nominal
+    robot included; a variant without a distance (diverged) counts as 0 m."""
+    distances = [v.get("open_loop") for v in robustness.get("variants") or ()]
+    if not distances:  # a record of an earlier release, without its variants
+        return float(robustness["summary"]["open_loop"]["nominal_m"])
+    return float(sum(d or 0.0 for d in distances) / len(distances))
 
 
 #: Each step's function, by name (:data:`~elastica_magnetic_rl.loop.state.STEPS`).

@@ -104,3 +104,27 @@ def test_a_randomize_table_with_unquoted_dotted_keys_is_read_as_written(tmp_path
     case = load_case(str(spec))
     (variation,) = case.training.randomize
     assert variation.keys == ("robot.ground.kinetic_mu",) and (variation.low, variation.high) == (0.4, 0.7)
+
+
+def test_the_loop_plays_the_waveform_that_goes_farther_on_the_varied_robots():
+    """Found by mybot's loop this session: the firmware step chose the refined waveform (+19.9 mm
+    nominal, a gait lost everywhere) over the learned one (+322 mm) by its open-loop 10th percentile
+    (+0.1 mm against -11.7 mm, both stalled there). It now takes the larger mean over the varied
+    robots."""
+    from pathlib import Path
+    from types import SimpleNamespace
+
+    from elastica_magnetic_rl.loop.state import STEPS, LoopState
+    from elastica_magnetic_rl.loop.steps import _waveform_to_play
+
+    def record(nominal, others, p10):
+        return {"status": "done", "summary": {
+            "fields_csv": "f.csv", "summary": {"open_loop": {"nominal_m": nominal, "p10_m": p10}},
+            "variants": [{"label": "nominal", "open_loop": nominal}] + [{"label": str(k), "open_loop": d}
+                                                                         for k, d in enumerate(others)]}}
+    steps = {s: {"status": "done", "summary": {}} for s in STEPS}
+    steps["robustness"] = record(0.322, [0.3] * 20 + [-0.047, -0.02, -0.01, 0.005], -0.0117)
+    steps["robustness-refined"] = record(0.0199, [0.01] * 20 + [0.0001] * 4, 0.0001)
+    state = LoopState(Path("lp/loop.json"), "mybot", {}, {}, steps)
+    which, _, why = _waveform_to_play(SimpleNamespace(state=state))
+    assert which == "learned" and "open-loop mean" in why, why
