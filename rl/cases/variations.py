@@ -318,10 +318,21 @@ def _number(text: str, what: str, where: str) -> float:
     try:
         value = float(text)
     except ValueError:
-        raise VariationError(f"{where}: {what} {text!r} is not a number") from None
+        percent = text.strip().endswith("%") and _is_float(text.strip()[:-1])
+        hint = (f" (factors of the nominal value: {float(text.strip()[:-1]) / 100:g} for {text.strip()})"
+                if percent else "")
+        raise VariationError(f"{where}: {what} {text!r} is not a number{hint}") from None
     if not math.isfinite(value):
         raise VariationError(f"{where}: {what} must be finite, got {text!r}")
     return value
+
+
+def _is_float(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def parse_variation(text: str) -> Variation:

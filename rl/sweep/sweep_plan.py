@@ -310,6 +310,9 @@ def load_cases(cases: Sequence[str | Path | Case]) -> dict[str, Case]:
         refusal = warmup_refusal(c) or batched_refusal(c.robot_spec("training"), "msr train")
         if refusal:
             raise SpecError(refusal if refusal.startswith(str(c.source)) else f"{c.source}: {refusal}")
+        if c.name in loaded and loaded[c.name].to_dict() == c.to_dict():
+            warnings.warn(SettingNotAppliedWarning(f"--case: {c.name} is named twice ({_named_by(c)}): "
+                                                   "it is trained once"), stacklevel=2)
         loaded.setdefault(c.name, c)
         if loaded[c.name].to_dict() != c.to_dict():
             raise ValueError(f"two different cases are named {c.name!r}: {_named_by(loaded[c.name])} and "

@@ -128,3 +128,24 @@ def test_the_loop_plays_the_waveform_that_goes_farther_on_the_varied_robots():
     state = LoopState(Path("lp/loop.json"), "mybot", {}, {}, steps)
     which, _, why = _waveform_to_play(SimpleNamespace(state=state))
     assert which == "learned" and "open-loop mean" in why, why
+
+
+def test_a_range_in_percent_signs_is_told_the_factors():
+    """Borderline of round 44: ``--vary robot.density=90%:110%`` was "'90%' is not a number"."""
+    from elastica_magnetic_rl.cases.variations import VariationError, parse_variation
+
+    with pytest.raises(VariationError, match=r"LOW '90%' is not a number \(factors of the nominal value: 0.9 "
+                                             r"for 90%\)"):
+        parse_variation("robot.density=90%:110%")
+
+
+def test_a_case_named_twice_is_said_to_train_once():
+    """Borderline of round 44: ``msr train --case m1-4mT m1-4mT`` trained the case once without a
+    word."""
+    from elastica_magnetic_rl.sweep.sweep_plan import load_cases
+
+    from elastica_magnetic.plausibility import SettingNotAppliedWarning
+
+    named_twice = r"--case: m1-4mT is named twice .*: it is trained once"
+    with pytest.warns(SettingNotAppliedWarning, match=named_twice):
+        assert list(load_cases(["m1-4mT", "m1-4mT"])) == ["m1-4mT"]
