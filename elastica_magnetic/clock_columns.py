@@ -1,4 +1,5 @@
-"""The clock columns of the CSV files msr reads: a header read as a time (``t_s``, ``t_ms``,
+"""The column vocabulary of the CSV files msr reads (a column spelled in another unit is named by
+:func:`other_spelling_hint`), and above all their clock columns: a header read as a time (``t_s``, ``t_ms``,
 ``time (s)``, ``timestamp_us``, ``Time [min]``) and its unit's scale to seconds. One vocabulary
 for every reader: a field CSV checks such a column's steps (its rows are 0.01 s apart whatever it
 says), and the files that need ``t_s`` itself (a trajectory, a tracker's CSV, coil currents) name
@@ -9,7 +10,8 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
-__all__ = ["CLOCK_UNITS", "TIME_COLUMN", "clock_scale", "clock_text_seconds", "is_clock", "other_clock_hint"]
+__all__ = ["CLOCK_UNITS", "TIME_COLUMN", "clock_scale", "clock_text_seconds", "is_clock", "other_clock_hint",
+           "other_spelling_hint"]
 
 #: The time column of the files msr writes and of those that need one (s).
 TIME_COLUMN = "t_s"
@@ -83,3 +85,18 @@ def other_clock_hint(names: Sequence[str]) -> str:
         convert = f"multiplied by {scale:g}" if scale > 1.0 else f"divided by {1.0 / scale:g}"
         return f"; {name!r} reads as a clock in {unit}: give seconds under {TIME_COLUMN} ({convert})"
     return ""
+
+
+def other_spelling_hint(missing: list[str], names: list[str], units: str) -> str:
+    """For a header that lacks ``missing`` columns: ``" (found 'mag_x (mT)', ...: <units>)"``, the
+    columns that spell one of them otherwise (a unit in brackets, another unit: ``mag_x (mT)``,
+    ``current_x_mA``, ``mid_x_mm``), else ``""``. A clock for ``t_s`` is named too."""
+    found: list[str] = []
+    for column in missing:
+        if column == TIME_COLUMN:  # a clock in any spelling or unit
+            found += [n for n in names if n not in found and is_clock(n)]
+            continue
+        stems = {column.lower(), column.rsplit("_", 1)[0].lower()}
+        found += [n for n in names if n not in found and n.lower() != column.lower()
+                  and any(n.lower().startswith((f"{s}_", f"{s} ", f"{s}[", f"{s}(", f"{s}/")) for s in stems)]
+    return f" (found {', '.join(repr(n) for n in found)}: {units})" if found else ""

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from .clock_columns import TIME_COLUMN, clock_scale, clock_text_seconds, is_clock
+from .clock_columns import clock_scale, clock_text_seconds, other_spelling_hint
 from .drive_columns import MAGNET_COLUMN, drive_described
 from .io import atomic_write
 from .plausibility import judge, warn_implausible
@@ -166,23 +166,6 @@ def separator_hint(names: list[str]) -> str:
                         f"{names[0]!r} was read as one column): save the file as CSV with commas "
                         "between columns and dots in numbers")
     return ""
-
-
-def other_spelling_hint(missing: list[str], names: list[str], units: str) -> str:
-    """For a header that lacks ``missing`` columns: ``" (found 'mag_x (mT)', ...: <units>)"``, the
-    columns that spell one of them otherwise (a unit in brackets, another unit: ``mag_x (mT)``,
-    ``current_x_mA``, ``mid_x_mm``), else ``""``. A clock for ``t_s`` is named too."""
-
-
-    found: list[str] = []
-    for column in missing:
-        if column == TIME_COLUMN:  # a clock in any spelling or unit
-            found += [n for n in names if n not in found and is_clock(n)]
-            continue
-        stems = {column.lower(), column.rsplit("_", 1)[0].lower()}
-        found += [n for n in names if n not in found and n.lower() != column.lower()
-                  and any(n.lower().startswith((f"{s}_", f"{s} ", f"{s}[", f"{s}(", f"{s}/")) for s in stems)]
-    return f" (found {', '.join(repr(n) for n in found)}: {units})" if found else ""
 
 
 def decimal_comma_hint(names: list[str]) -> str:

@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import _spatial_kernels as kernels
-from .field_csv import other_spelling_hint
+from .clock_columns import other_spelling_hint
 from .spatial_fields import (
     ScalarOrWaveform,
     SpatialField,

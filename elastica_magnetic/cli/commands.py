@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..field_csv import header_named_twice, limit_problem, other_spelling_hint, separator_hint
+from ..clock_columns import other_spelling_hint
+from ..field_csv import header_named_twice, limit_problem, separator_hint
 from ..field_spec import load_field
 from ..fields import RotatingField, TabulatedField
 from ..openloop import run_open_loop, write_trajectory_csv
