@@ -7,6 +7,9 @@ cd "$root"
 bash scripts/bootstrap.sh
 export PATH="$root/.venv/bin:$PATH"
 export MPLBACKEND=Agg
+# two test workers share the machine's cores: one thread each for PyTorch and the training workers
+# (small networks on two threads beside another busy process run 3x slower, not faster)
+export OMP_NUM_THREADS=1
 
 # numba compiles a kernel on its first call and caches it: compiled once here, beside ruff and the
 # firmware build, the two test workers and the commands they start load the kernels instead of each

@@ -58,7 +58,9 @@ def _add_train_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--physics", choices=("training", "accurate"), default="training")
     p.add_argument("--episode-duration", type=number("s", 0.0, low_open=True), default=None,
                    help="s (truncation; default: the case's, 20 s for the paper's)")
-    p.add_argument("--threads", type=int, default=None, help="torch threads per worker")
+    p.add_argument("--threads", type=int, default=None,
+                   help="torch threads per worker (default: the cores shared among the workers, no "
+                        "more than OMP_NUM_THREADS where it is set)")
     p.add_argument("--envs", type=int, default=1,
                    help="crawlers per seed in one batched simulator (vector env; N transitions and "
                         "N TD3 updates per vector step; default 1: the single environment)")

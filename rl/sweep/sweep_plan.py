@@ -246,8 +246,16 @@ def _groups_and_workers(seed_list: list[int], layout: dict[str, Any], n_cases: i
     groups = [seed_list[i:i + per_group] for i in range(0, len(seed_list), per_group)]
     workers = min(layout["workers"], len(groups) * n_cases)
     if threads is None:  # on a Ray cluster this machine's CPU count says nothing: one per worker
-        threads = 1 if address else max(1, (os.cpu_count() or 1) // workers)
+        threads = 1 if address else max(1, _cores() // workers)
     return groups, workers, threads
+
+
+def _cores() -> int:
+    """The cores the networks may compute on: this process's CPUs, or fewer where the user's
+    ``OMP_NUM_THREADS`` (PyTorch's own setting of its threads) says so."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    limit = os.environ.get("OMP_NUM_THREADS", "").strip()
+    return min(cores, int(limit)) if limit.isdigit() and int(limit) > 0 else cores
 
 
 def _check_resumed_runs(out: str | Path, loaded: dict[str, Case], seed_list: list[int],

@@ -186,7 +186,8 @@ def test_msr_train_envs_4_smoke(tmp_path, capsys):
     capsys.readouterr()
     status = msr(["train", "--case", "m1-4mT", "--seeds", "1", "--envs", "4", "--steps", "240",
                   "--out", str(tmp_path), "--set", "learning_starts=60", "--set", "batch_size=32",
-                  "--set", "hidden_sizes=32,32", "--episode-duration", "0.2", "--set", "checkpoint_every=100",
+                  "--set", "hidden_sizes=32,32", "--episode-duration", "0.2",
+                  "--set", "eval_duration=0.2", "--set", "checkpoint_every=100",
                   "--threads", "1", "--no-progress", "--json"])
     summary = json.loads(capsys.readouterr().out)
     assert status == 0 and not summary["failed"] and summary["envs_per_seed"] == 4

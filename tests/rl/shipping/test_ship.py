@@ -22,8 +22,8 @@ def test_layer_norm_recipe_trains_ships_and_loads_with_its_critic(tmp_path):
 
     assert msr(["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), "--steps", "20",
                 "--set", "learning_starts=10", "--set", "batch_size=8", "--set", "hidden_sizes=8",
-                    "--episode-duration",
-                "0.1", "--no-progress", "--recipe", "pink-ln"]) == 0
+                "--set", "eval_duration=0.1", "--episode-duration", "0.1", "--no-progress",
+                "--recipe", "pink-ln"]) == 0
     run = tmp_path / "m1-4mT" / "seed0"
     config = load_checkpoint(run)["config"]
     assert config["critic_layer_norm"] is True and config["noise_color"] == 1.0

@@ -27,7 +27,7 @@ from elastica_magnetic.cli import main as msr
 STEPS = 200
 TINY = ["--case", "m1-4mT", "--seeds", "2", "--workers", "2", "--threads", "1",
         "--set", "learning_starts=100", "--set", "batch_size=32", "--set", "hidden_sizes=32,32",
-        "--episode-duration", "0.5", "--no-progress", "--json"]
+        "--set", "eval_duration=0.5", "--episode-duration", "0.5", "--no-progress", "--json"]
 #: summary.json entries that may differ between two runs of the same seeds
 RUN_SPECIFIC = {"wall_s", "backend", "summary_json"}
 

@@ -17,10 +17,10 @@ from elastica_magnetic_rl.runfiles.logs import read_log
 
 from elastica_magnetic.cli import main as msr
 
-#: 0.1 s episodes (10 steps), tiny networks: 20 steps per seed take a second.
+#: 0.1 s episodes (10 steps) and evaluations, tiny networks: 20 steps per seed take a second.
 TINY = ["--case", "m1-4mT", "--set", "learning_starts=10", "--set", "batch_size=8", "--set", "hidden_sizes=8",
         "--episode-duration", "0.1", "--workers", "1", "--threads", "1", "--set", "eval_every=10",
-        "--no-progress"]
+        "--set", "eval_duration=0.1", "--no-progress"]
 HEADER = "episode,global_step,return,length,terminated,truncated,wall_time_s"
 
 

@@ -14,7 +14,7 @@ import pytest
 import torch
 from elastica_magnetic_rl.runfiles.checkpoint import load_checkpoint
 from elastica_magnetic_rl.sweep.run_records import record_hash
-from smoke import EVAL_DURATION, SMOKE, TRAIN_STEPS, run_msr
+from smoke import EVAL_DURATION, SMOKE, TINY, TRAIN_STEPS, run_msr
 
 from elastica_magnetic.cli import main as msr
 
@@ -93,7 +93,7 @@ def test_train_refuses_to_overwrite(trained, capsys):
 def test_train_resume_extends_runs(tmp_path, capsys):
     """``--resume`` continues a finished run to a larger step count (one seed, in-process)."""
     args = ["train", "--case", "m2-4mT", "--seeds", "1", "--seed-offset", "3", "--out", str(tmp_path),
-            "--set", "learning_starts=10", "--set", "batch_size=8", "--set", "hidden_sizes=8",
+            *TINY,
                 "--episode-duration",
             "0.2", "--no-progress"]  # a warm-up below --steps 20: a run of its warm-up is refused
     assert msr([*args, "--steps", "20"]) == 0
@@ -117,8 +117,7 @@ def test_train_resume_extends_runs(tmp_path, capsys):
 def test_recipe_is_recorded_and_a_resume_keeps_the_runs_settings(tmp_path, capsys):
     """``--recipe pink`` trains with pink exploration noise (run.json, the checkpoint's config);
     a resume that changes the recipe or the episode length is refused before anything is touched."""
-    args = ["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), "--set",
-        "learning_starts=10", "--set", "batch_size=8", "--set", "hidden_sizes=8",
+    args = ["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), *TINY,
         "--episode-duration", "0.1", "--no-progress"]
     assert msr([*args, "--steps", "20", "--recipe", "pink"]) == 0
     run = tmp_path / "m1-4mT" / "seed0"
@@ -148,8 +147,7 @@ def test_recipe_is_recorded_and_a_resume_keeps_the_runs_settings(tmp_path, capsy
 
 
 def test_resume_from_a_corrupted_checkpoint_is_refused_and_keeps_the_results(tmp_path, capsys):
-    args = ["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), "--set",
-        "learning_starts=10", "--set", "batch_size=8", "--set", "hidden_sizes=8",
+    args = ["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), *TINY,
         "--episode-duration", "0.1", "--no-progress"]
     assert msr([*args, "--steps", "20"]) == 0
     run = tmp_path / "m1-4mT" / "seed0"
@@ -174,8 +172,7 @@ def test_ctrl_c_stops_cleanly_and_the_run_resumes(tmp_path):
     import time
 
     args = [sys.executable, "-m", "elastica_magnetic.cli", "train", "--case", "m1-4mT", "--seeds", "2",
-            "--out", str(tmp_path), "--set", "learning_starts=10", "--set", "batch_size=8",
-                "--set", "hidden_sizes=8",
+            "--out", str(tmp_path), *TINY,
             "--episode-duration", "0.1", "--set", "checkpoint_every=10", "--no-progress"]
     # as from a terminal: SIGINT delivered, also when the suite itself was started in the
     # background (a shell starts background jobs with SIGINT ignored, and children inherit that)
@@ -245,8 +242,7 @@ def test_sigint_to_the_main_process_alone_ends_the_workers(tmp_path):
 
 
 def _tiny_train(out, *extra):
-    return ["train", "--case", "m1-4mT", "--out", str(out), "--set", "learning_starts=10",
-        "--set", "batch_size=8", "--set", "hidden_sizes=8", "--episode-duration", "0.1",
+    return ["train", "--case", "m1-4mT", "--out", str(out), *TINY, "--episode-duration", "0.1",
         "--no-progress", *extra]
 
 
@@ -346,8 +342,7 @@ def test_train_help_describes_every_recipe(capsys, monkeypatch):
 def test_a_resume_that_leaves_options_out_keeps_the_runs_recipe_and_episode_length(tmp_path, capsys):
     """Round 13 V1: ``--resume`` without ``--recipe`` and ``--episode-duration`` was refused as if
     the defaults had been given; it now keeps the run's recorded values."""
-    args = ["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), "--set",
-            "learning_starts=10", "--set", "batch_size=8", "--set", "hidden_sizes=8", "--no-progress"]
+    args = ["train", "--case", "m1-4mT", "--seeds", "1", "--out", str(tmp_path), *TINY, "--no-progress"]
     assert msr([*args, "--steps", "20", "--recipe", "pink", "--episode-duration", "0.1"]) == 0
     capsys.readouterr()
     assert msr([*args, "--steps", "30", "--resume"]) == 0
