@@ -15,12 +15,13 @@ __all__ = ["CLOCK_UNITS", "TIME_COLUMN", "clock_scale", "clock_text_seconds", "i
 
 #: The time column of the files msr writes and of those that need one (s).
 TIME_COLUMN = "t_s"
-#: A column header read as a clock: a word for time (``t``, ``time``, ``timestamp``, ``elapsed``,
-#: ``clock``), alone or followed by any unit in any notation (``t_s``, ``time/s``, ``time [ms]``), or
-#: a unit of time alone (``sec``, ``seconds``, ``ms``: not ``s``, ``min`` or ``h``, other words' too).
-_CLOCK_COLUMN = re.compile(r"^(?:(t|time|times|timestamp|elapsed|elapsed_time|clock)([\s_/\-\[(:,.]+"
-                           r"(?P<unit>[^\s\])]*)[\s\])]*)?|(?P<bare>sec|secs|second|seconds|ms|msec|millis|"
-                           r"milliseconds|us|usec|microseconds))$", re.IGNORECASE)
+#: Words that make a header a clock wherever they stand (``Elapsed Time [s]``, ``sample_time_s``,
+#: ``TimeStamp``); ``t`` does as the first word (``t``, ``t_ms``, ``t [min]``). The words after the
+#: last of them name the unit (none: seconds).
+_TIME_WORDS = frozenset({"time", "times", "timestamp", "stamp", "elapsed", "clock"})
+#: A unit of time alone is a clock too (``sec``, ``ms``: not ``s``, ``min`` or ``h``, other words' too).
+_BARE_UNITS = frozenset({"sec", "secs", "second", "seconds", "ms", "msec", "millis", "milliseconds", "us",
+                         "usec", "microseconds"})
 #: A clock column's units, in s (an unknown one is refused where steps are checked).
 CLOCK_UNITS = {"": 1.0, "s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0,
                "ms": 1e-3, "msec": 1e-3, "millis": 1e-3, "millisecond": 1e-3, "milliseconds": 1e-3,
@@ -29,43 +30,71 @@ CLOCK_UNITS = {"": 1.0, "s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "secon
                "minutes": 60.0, "h": 3600.0, "hr": 3600.0, "hour": 3600.0, "hours": 3600.0}
 
 
-#: A time written as a clock reads it: ``H:MM:SS.ss`` or ``MM:SS.ss``.
-_CLOCK_TEXT = re.compile(r"^(?:(?P<h>\d+):)?(?P<m>\d{1,2}):(?P<s>\d{1,2}(?:\.\d*)?)$")
+#: A time written as a clock reads it: ``H:MM:SS.ss`` or ``MM:SS.ss`` (a decimal point or comma), on a
+#: 12-hour clock with ``AM``/``PM`` after it.
+_CLOCK_TEXT = re.compile(
+    r"^(?:(?P<h>\d+):)?(?P<m>\d{1,2}):(?P<s>\d{1,2}(?:[.,]\d*)?)\s*(?P<half>[ap]\.?m\.?)?$", re.IGNORECASE)
+#: A time written with its unit: ``0.02 s``, ``20ms``, ``0,02 s``.
+_TIME_WITH_UNIT = re.compile(r"^(?P<value>[-+]?\d+(?:[.,]\d+)?(?:[eE][-+]?\d+)?)\s*(?P<unit>[a-zµμ]+)$",
+                             re.IGNORECASE)
 
 
 def clock_text_seconds(text: str) -> float | None:
-    """Seconds of a time written as a clock reads it (``00:00:01.25``, ``01:01.5``) or as a date and
-    time (ISO 8601: ``2026-12-05T10:00:00.010``, seconds since the epoch); ``None`` for any other
-    text (a plain number is read with the column's unit, not here)."""
-    import datetime
-
+    """Seconds of a time written as a clock reads it (``00:00:01.25``, ``01:01,5``, ``10:00:00.02 AM``),
+    with its unit (``0.02 s``, ``20 ms``) or as a date and time (ISO 8601: ``2026-12-05T10:00:00.010``,
+    seconds since the epoch); ``None`` for any other text (a plain number is read with the column's
+    unit, not here)."""
     text = text.strip()
     match = _CLOCK_TEXT.match(text)
     if match:
-        return 3600.0 * int(match.group("h") or 0) + 60.0 * int(match.group("m")) + float(match.group("s"))
-    if len(text) >= 10 and text[4:5] == "-":
-        try:
-            stamp = datetime.datetime.fromisoformat(text)
-        except ValueError:
-            return None
-        if stamp.tzinfo is None:  # a local clock: only its steps matter
-            stamp = stamp.replace(tzinfo=datetime.UTC)
-        return stamp.timestamp()
-    return None
+        hours = int(match.group("h") or 0)
+        if match.group("half"):  # 12 AM is midnight, 12 PM noon
+            hours = hours % 12 + (12 if match.group("half").lower().startswith("p") else 0)
+        return 3600.0 * hours + 60.0 * int(match.group("m")) + float(match.group("s").replace(",", "."))
+    match = _TIME_WITH_UNIT.match(text)
+    if match:
+        scale = CLOCK_UNITS.get(match.group("unit").lower())
+        return None if scale is None else float(match.group("value").replace(",", ".")) * scale
+    return _iso_seconds(text)
+
+
+def _iso_seconds(text: str) -> float | None:
+    """Seconds since the epoch of an ISO 8601 date and time (a decimal comma too), else ``None``."""
+    import datetime
+
+    if len(text) < 10 or text[4:5] != "-":
+        return None
+    try:
+        stamp = datetime.datetime.fromisoformat(re.sub(r"(:\d\d),(\d)", r"\1.\2", text))
+    except ValueError:
+        return None
+    if stamp.tzinfo is None:  # a local clock: only its steps matter
+        stamp = stamp.replace(tzinfo=datetime.UTC)
+    return stamp.timestamp()
+
+
+def _words(name: str) -> list[str]:
+    """The words of a header, lower case: ``"Elapsed Time [s]"`` and ``"ElapsedTime_s"`` are
+    ``["elapsed", "time", "s"]``."""
+    spaced = re.sub(r"(?<=[a-z])(?=[A-Z])", " ", name.strip())
+    return re.findall(r"[a-zµμ]+|\d+(?:\.\d+)?", spaced.lower())
 
 
 def is_clock(name: str) -> bool:
     """Whether the header ``name`` reads as a clock, in any unit or none."""
-    return _CLOCK_COLUMN.match(name.strip()) is not None
+    return clock_scale(name) is not None
 
 
 def clock_scale(name: str) -> tuple[str, float | None] | None:
     """``(unit, s per unit)`` of a clock header (``None`` scale: a unit msr does not know); ``None``
     when ``name`` is not a clock."""
-    match = _CLOCK_COLUMN.match(name.strip())
-    if match is None:
+    words = _words(name)
+    if len(words) == 1 and words[0] in _BARE_UNITS:
+        return words[0], CLOCK_UNITS[words[0]]
+    marks = [k for k, w in enumerate(words) if w in _TIME_WORDS or (k == 0 and w == "t")]
+    if not marks:
         return None
-    unit = (match.group("unit") or match.group("bare") or "").lower()
+    unit = " ".join(words[marks[-1] + 1:])
     return unit, CLOCK_UNITS.get(unit)
 
 

@@ -236,25 +236,31 @@ def _check_clock_columns(path: Path, header: list[str], body: list[tuple[int, li
                          columns: list[int], index_column: int | None) -> None:
     """Refuse a clock column the field does not read whose times are not the rows' 0.01 s steps
     (or that misses a time): the rows are played 0.01 s apart whatever it says (a waveform
-    sampled at 50 Hz would play twice as fast). Times are numbers in the header's unit, or written
-    as a clock reads them (``00:00:00.02``) or as dates and times (ISO 8601); a column of words is
-    left to the unread-column warning."""
+    sampled at 50 Hz would play twice as fast). A clock is a column headed as one
+    (:func:`~elastica_magnetic.clock_columns.clock_scale`) or any column of times written as times;
+    its times are numbers in the header's unit, or written as a clock reads them (``00:00:00.02``,
+    ``10:00:00,02 AM``), with their unit (``0.02 s``) or as dates and times (ISO 8601)."""
     for c, name in enumerate(header):
-        clock = clock_scale(name)
-        if c in columns or c == index_column or clock is None:
+        if c in columns or c == index_column:
             continue
         texts = [row[c].strip() for _, row in body]
-        times = _clock_times(path, name, clock, texts, [line for line, _ in body])
-        if times is None:
+        clock = clock_scale(name)
+        if clock is None and texts and all(clock_text_seconds(t) is not None for t in texts):
+            clock = ("", 1.0)  # another header over times written as times (00:00:00.02, 0.02 s)
+        if clock is None:
             continue
+        times = _clock_times(path, name, clock, texts, [line for line, _ in body])
         steps = np.diff(times)
         off = np.flatnonzero(np.abs(steps - ACTION_PERIOD) > 1e-3 * ACTION_PERIOD)
         if off.size:
             k = int(off[0])
+            # dates (seconds since 1970) printed whole would read alike: from the column's first time
+            origin, since = (times[0], " after its first time") if abs(times[0]) >= 1e5 else (0.0, "")
             raise FieldCSVError(
                 f"{path}: column {name!r} reads as a clock stepping {steps[k]:g} s at line "
-                f"{body[k + 1][0]} (from {times[k]:g} to {times[k + 1]:g} s), but a field CSV's rows are "
-                f"played {ACTION_PERIOD:g} s apart whatever it says: {_clock_remedy(name, steps)}")
+                f"{body[k + 1][0]} (from {times[k] - origin:g} to {times[k + 1] - origin:g} s{since}), but "
+                f"a field CSV's rows are played {ACTION_PERIOD:g} s apart whatever it says: "
+                f"{_clock_remedy(name, steps)}")
 
 
 def _clock_remedy(name: str, steps: NDArray[np.float64]) -> str:
@@ -271,16 +277,21 @@ def _clock_remedy(name: str, steps: NDArray[np.float64]) -> str:
 
 
 def _clock_times(path: Path, name: str, clock: tuple[str, float | None], texts: list[str],
-                 lines: list[int]) -> NDArray[np.float64] | None:
-    """The times (s) of clock column ``name``: numbers in its unit, or clock or date-and-time texts;
-    ``None`` for a column of words. A row without a time, or a number in a unit msr does not know,
-    is a :class:`FieldCSVError`."""
+                 lines: list[int]) -> NDArray[np.float64]:
+    """The times (s) of clock column ``name``: numbers in its unit, or clock, date-and-time or
+    with-unit texts. A row without a time, times in no form msr reads, or numbers in a unit msr does
+    not know are a :class:`FieldCSVError`: a clock is checked or refused, never passed."""
     texts = [re.sub(r"^([-+]?\d+),(\d+)$", r"\1.\2", t) for t in texts]  # a decimal comma ("0,02")
     numbers = [float(t) if _is_number(t) else None for t in texts]
     stamps = [clock_text_seconds(t) for t in texts]
     values = numbers if any(v is not None for v in numbers) else stamps
-    if all(v is None for v in values):
-        return None
+    if all(v is None for v in values) and any(texts):  # its steps cannot be checked: never passed
+        example = next(t for t in texts if t)
+        raise FieldCSVError(
+            f"{path}: column {name!r} reads as a clock, but its times ({example!r} at line "
+            f"{lines[texts.index(example)]}) are in a form msr does not read, so its steps cannot be "
+            f"checked: a field CSV's rows are played {ACTION_PERIOD:g} s apart whatever it says: give "
+            "seconds (0.01 s apart), or drop the column")
     if any(v is None for v in values):
         k = next(k for k, v in enumerate(values) if v is None)
         raise FieldCSVError(

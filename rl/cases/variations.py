@@ -314,14 +314,33 @@ def parse_group(text: str, where: str | None = None) -> tuple[str, tuple[str, ..
     return text, tuple(expanded)
 
 
+def _factors_meant(parts: list[str]) -> str | None:
+    """The factors a range written otherwise means, as advice (``"0.9:1.1 for -10% to +10%"``): percents
+    of the nominal value (``90%:110%``), signed changes (``-10%:10%``, ``+-10%``, one ``10%``: either
+    way) or factors marked ``x`` (``x0.9:x1.1``); ``None`` for any other range."""
+    texts = [p.strip().replace("±", "+-") for p in parts]
+    if len(texts) == 1 and texts[0].endswith("%"):  # one percent: a change either way
+        change = texts[0].removeprefix("+-")
+        if _is_float(change[:-1]):
+            p = abs(float(change[:-1])) / 100
+            return f"{1 - p:g}:{1 + p:g} for {texts[0]} either way"
+    if len(texts) != 2:
+        return None
+    if all(t.lower().startswith("x") and _is_float(t[1:]) for t in texts):
+        return f"{texts[0][1:]}:{texts[1][1:]} (without the x)"
+    if not all(t.endswith("%") and _is_float(t[:-1]) for t in texts):
+        return None
+    percents = [float(t[:-1]) for t in texts]
+    changes = any(t.startswith(("+", "-")) for t in texts)  # -10%:+10%: changes of the value
+    low, high = ((1 + p / 100 for p in percents) if changes else (p / 100 for p in percents))
+    return f"{low:g}:{high:g} for {texts[0]} to {texts[1]}"
+
+
 def _number(text: str, what: str, where: str) -> float:
     try:
         value = float(text)
     except ValueError:
-        percent = text.strip().endswith("%") and _is_float(text.strip()[:-1])
-        hint = (f" (factors of the nominal value: {float(text.strip()[:-1]) / 100:g} for {text.strip()})"
-                if percent else "")
-        raise VariationError(f"{where}: {what} {text!r} is not a number{hint}") from None
+        raise VariationError(f"{where}: {what} {text!r} is not a number") from None
     if not math.isfinite(value):
         raise VariationError(f"{where}: {what} must be finite, got {text!r}")
     return value
@@ -348,6 +367,9 @@ def parse_variation(text: str) -> Variation:
     name, keys = parse_group(group, where)
     absolute = spec_range.strip().startswith("abs:")
     parts = spec_range.strip()[4 if absolute else 0:].split(":")
+    if not absolute and (factors := _factors_meant(parts)):
+        raise VariationError(f"{where}: LOW:HIGH are factors of the nominal value (1 = nominal): "
+                             f"{factors}")
     if len(parts) != 2:
         raise VariationError(f"{where}: the range must be LOW:HIGH or abs:LOW:HIGH, got "
                              f"{spec_range!r}")

@@ -116,6 +116,10 @@ def _goto_args(args: argparse.Namespace, case) -> None:
     if args.target is not None and len(args.target) != 2:
         raise CommandError(f"--target of a goto case is FORWARD,LEFT in m from the start (two numbers); "
                            f"got {len(args.target)} (X,Y,Z is a tip-reach case's)")
+    if args.target is not None:
+        from ..shipping.goto import goto_target_notes
+
+        print_notes(goto_target_notes(case, args.target))
 
 
 def _tip_reach_args(args: argparse.Namespace, case, command: str, refused: dict) -> None:

@@ -21,7 +21,12 @@ from ..cases.tasks import RING_TARGETS, GotoTask, goto_metrics, ring_targets
 from .policy_files import check_policy_case
 from .policy_runs import run_policy
 
-__all__ = ["RING_FILES", "evaluate_ring", "goto_result", "goto_target", "ring_summary", "write_ring"]
+__all__ = ["RING_FILES", "evaluate_ring", "goto_result", "goto_target", "goto_target_notes", "ring_summary",
+           "write_ring"]
+
+#: A target farther than this many of the case's own scale (its task's distance or its robot's
+#: length, the larger) is far past any episode's reach: a unit slip (cm for m) more likely than meant.
+FAR_TARGET_SCALES = 10.0
 
 
 def goto_target(case: Case, target: Any) -> tuple[float, float] | None:
@@ -40,6 +45,25 @@ def goto_target(case: Case, target: Any) -> tuple[float, float] | None:
     if not (math.isfinite(forward) and math.isfinite(left)):
         raise ValueError(f"the target must be finite (forward, left) in m, got {target!r}")
     return forward, left
+
+
+def goto_target_notes(case: Case, target: Any) -> list[str]:
+    """What to know about a goto ``target`` (forward, left; m) given by hand: one farther than
+    :data:`FAR_TARGET_SCALES` of the case's scale (its task's distance or its robot's length),
+    which no crawler of the case covers in a run, is named with the unit slip it likely is."""
+    task = case.task
+    if not isinstance(task, GotoTask) or target is None:
+        return []
+    distance = float(np.hypot(*np.asarray(target, dtype=np.float64).reshape(2)))
+    length = case.robot_spec("accurate").length
+    scale = max(task.distance, length)
+    if distance <= FAR_TARGET_SCALES * scale:
+        return []
+    shown = ",".join(f"{float(v):g}" for v in np.asarray(target).reshape(2))
+    return [f"--target {shown} is {distance:g} m from the start: {distance / task.distance:.0f}x the "
+            f"{1e3 * task.distance:g} mm target of case {case.name!r} and {distance / length:.0f} lengths of "
+            f"its {1e3 * length:g} mm robot, beyond any run's reach (cm written for m? {distance:g} cm is "
+            f"{distance / 100:g} m)"]
 
 
 def _pose(rollout) -> np.ndarray:

@@ -5,6 +5,7 @@ of :func:`~elastica_magnetic_rl.sim2real.identify.identify`'s fit."""
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -12,6 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from elastica_magnetic.plausibility import ImplausibleValueWarning
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 from elastica_magnetic.specfile import SpecError, describe_robot
 
@@ -106,7 +108,9 @@ class FitModel:
             return self._cache[key]
         self.evaluations += 1
         spec = apply_values(self.spec, self.values(factors))
-        t_rows, at_rows = self.drive.rows(spec, physics or self.physics, self.measured)
+        with warnings.catch_warnings():  # the optimizer's trial values are nobody's spec: not judged
+            warnings.simplefilter("ignore", ImplausibleValueWarning)
+            t_rows, at_rows = self.drive.rows(spec, physics or self.physics, self.measured)
         sampled = np.empty((self.measured.times.shape[0], *at_rows.shape[1:]))
         for j in range(at_rows.shape[1]):
             for c in range(at_rows.shape[2]):

@@ -475,6 +475,7 @@ def _fit_report(problem: _Problem, records: list[dict[str, Any]], o: FitOptions,
                    "reason": missed} for entry in judged]
     fitted = fitted_values(spec, fits, x, sigma, bounds, judged, profile)  # the verdicts, a bound's too
     warnings += fit_warnings(records[best], list(fitted.values()), fits)
+    warnings += _implausible_fitted(model, x)
     if kept:
         warnings.insert(0, kept_note)
     return {
@@ -560,6 +561,23 @@ def _confirmation(model: FitModel, factors: NDArray[np.float64], physics: str) -
     nominal = model.residuals(np.ones_like(factors), other)  # the spec's own values, there
     return {"physics": other, "rms_m": _rms(confirmed), "max_abs_m": float(np.abs(confirmed).max()),
             "nominal_rms_m": _rms(nominal), "wall_s": time.perf_counter() - t0}
+
+
+def _implausible_fitted(model: FitModel, x: NDArray[np.float64]) -> list[str]:
+    """The plausibility warnings of the fitted robot (``x``: the log factors; the trial values the
+    optimizer tried on its way are not judged): a value no lab's robot has is said once, of the
+    result."""
+    import warnings as python_warnings
+
+    from elastica_magnetic.plausibility import ImplausibleValueWarning
+
+    with python_warnings.catch_warnings(record=True) as caught:
+        python_warnings.simplefilter("always", ImplausibleValueWarning)
+        try:
+            describe_robot(apply_values(model.spec, model.values(np.exp(x))), "the fitted values")
+        except SpecError:
+            return []
+    return [str(w.message) for w in caught if issubclass(w.category, ImplausibleValueWarning)]
 
 
 def write_identified(report: dict[str, Any], spec: Mapping[str, Any], measured: MeasuredTrajectory,

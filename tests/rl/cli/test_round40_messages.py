@@ -38,12 +38,16 @@ def test_a_clock_column_missing_a_time_is_refused(tmp_path):
         read_field_csv(tmp_path / "f.csv")
 
 
-def test_a_column_of_words_named_like_a_time_is_only_warned(tmp_path):
-    from elastica_magnetic.field_csv import read_field_csv
+def test_a_column_of_words_named_like_a_time_is_refused(tmp_path):
+    """Round 40 had only warned of it; round 45 found clocks in forms msr did not read (h:m:s with a
+    decimal comma, times with their unit) passed the same way: a clock is checked or refused."""
+    from elastica_magnetic.field_csv import FieldCSVError, read_field_csv
 
     (tmp_path / "f.csv").write_text("mag_x,mag_y,mag_z,time\n1,0,0,morning\n1,0,0,noon\n")
-    with pytest.warns(UserWarning, match=r"column\(s\) 'time' are not read"):
-        assert read_field_csv(tmp_path / "f.csv").shape == (2, 3)
+    with pytest.warns(UserWarning, match=r"column\(s\) 'time' are not read"), pytest.raises(
+            FieldCSVError, match=r"column 'time' reads as a clock, but its times \('morning' at line 2\) are "
+                                 r"in a form msr does not read"):
+        read_field_csv(tmp_path / "f.csv")
 
 
 def test_a_reference_starting_late_is_compared_over_its_own_window():

@@ -134,8 +134,8 @@ def test_a_range_in_percent_signs_is_told_the_factors():
     """Borderline of round 44: ``--vary robot.density=90%:110%`` was "'90%' is not a number"."""
     from elastica_magnetic_rl.cases.variations import VariationError, parse_variation
 
-    with pytest.raises(VariationError, match=r"LOW '90%' is not a number \(factors of the nominal value: 0.9 "
-                                             r"for 90%\)"):
+    with pytest.raises(VariationError, match=r"LOW:HIGH are factors of the nominal value \(1 = nominal\): "
+                                             r"0.9:1.1 for 90% to 110%"):
         parse_variation("robot.density=90%:110%")
 
 
