@@ -130,7 +130,9 @@ def _add_notes_command(sub: argparse._SubParsersAction) -> None:
         "policy.json and in MODEL_CARD.md's Notes section together; --clear removes them.",
     )
     p.add_argument("policy", help="shipped-policy name or folder, e.g. m2-4mT")
-    p.add_argument("--file", type=Path, default=None, help="Markdown file with the new notes")
+    # --notes too: msr policy ship takes the notes by that name
+    p.add_argument("--file", "--notes", dest="file", type=Path, default=None,
+                   help="Markdown file with the new notes (--notes: the same)")
     p.add_argument("--clear", action="store_true",
                    help="remove the notes (an empty --file is refused: more often a mistake)")
     p.add_argument("--json", action="store_true")

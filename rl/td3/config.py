@@ -364,7 +364,9 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
             else:
                 value = float(text)
         except (ValueError, KeyError):
-            raise ValueError(f"{key}={text}: expected {_setting_form(key, default)}") from None
+            percent = text.strip().endswith("%") and _is_number(text.strip()[:-1])
+            hint = f" ({float(text.strip()[:-1]) / 100:g} for {text.strip()})" if percent else ""
+            raise ValueError(f"{key}={text}: expected {_setting_form(key, default)}{hint}") from None
         # a setting whose rule involves another is checked beside a partner that satisfies it (the
         # rule itself is checked where the whole config is built)
         partner: dict[str, Any] = {"batch_size": {"buffer_size": value},
@@ -388,3 +390,11 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
     def from_dict(cls, d: dict[str, Any]) -> TD3Config:
         names = {f.name for f in dataclasses.fields(cls)}
         return cls(**{k: v for k, v in d.items() if k in names})
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True

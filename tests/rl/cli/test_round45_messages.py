@@ -136,3 +136,16 @@ def test_identify_judges_the_fitted_robot_not_the_trial_values():
     (said,) = [w for w in _implausible_fitted(model, np.log([trial])) if "static_mu" in w]
     assert said.startswith("the fitted values: [robot.ground] static_mu = 2.5 is above 2")
     assert _implausible_fitted(model, np.zeros(1)) == []  # the spec's own values
+
+
+def test_borderline_notes_by_the_name_ship_gives_them_and_percent_settings():
+    """Borderlines of round 45: ``msr policy notes X --notes f.md`` was "unrecognized arguments" (ship
+    takes --notes); ``--set gamma=99%`` was only "expected a number"."""
+    from elastica_magnetic_rl.td3.config import TD3Config
+
+    from elastica_magnetic.cli.app import build_parser
+
+    args = build_parser().parse_args(["policy", "notes", "m1-4mT", "--notes", "f.md"])
+    assert str(args.file) == "f.md"
+    with pytest.raises(ValueError, match=re.escape("gamma=99%: expected a number (0.99 for 99%)")):
+        TD3Config.parse_setting("gamma", "99%")
