@@ -10,8 +10,8 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
-__all__ = ["CLOCK_UNITS", "TIME_COLUMN", "clock_scale", "clock_text_seconds", "is_clock", "other_clock_hint",
-           "other_spelling_hint"]
+__all__ = ["CLOCK_UNITS", "ROW_UNITS", "TIME_COLUMN", "clock_scale", "clock_text_seconds", "is_clock",
+           "other_clock_hint", "other_spelling_hint"]
 
 #: The time column of the files msr writes and of those that need one (s).
 TIME_COLUMN = "t_s"
@@ -85,9 +85,15 @@ def is_clock(name: str) -> bool:
     return clock_scale(name) is not None
 
 
-def clock_scale(name: str) -> tuple[str, float | None] | None:
-    """``(unit, s per unit)`` of a clock header (``None`` scale: a unit msr does not know); ``None``
-    when ``name`` is not a clock."""
+#: Units that count the file's own rows (``time_step``, ``t [rows]``): s per unit is the row period
+#: of the reader (:func:`clock_scale`'s ``row_period``).
+ROW_UNITS = frozenset({"step", "steps", "row", "rows"})
+
+
+def clock_scale(name: str, row_period: float | None = None) -> tuple[str, float | None] | None:
+    """``(unit, s per unit)`` of a clock header (``None`` scale: a unit msr does not know; a count of
+    rows, :data:`ROW_UNITS`, is ``row_period`` s each where the reader gives its row period);
+    ``None`` when ``name`` is not a clock."""
     words = _words(name)
     if len(words) == 1 and words[0] in _BARE_UNITS:
         return words[0], CLOCK_UNITS[words[0]]
@@ -95,7 +101,7 @@ def clock_scale(name: str) -> tuple[str, float | None] | None:
     if not marks:
         return None
     unit = " ".join(words[marks[-1] + 1:])
-    return unit, CLOCK_UNITS.get(unit)
+    return unit, row_period if unit in ROW_UNITS else CLOCK_UNITS.get(unit)
 
 
 def other_clock_hint(names: Sequence[str]) -> str:

@@ -244,7 +244,7 @@ def _check_clock_columns(path: Path, header: list[str], body: list[tuple[int, li
         if c in columns or c == index_column:
             continue
         texts = [row[c].strip() for _, row in body]
-        clock = clock_scale(name)
+        clock = clock_scale(name, row_period=ACTION_PERIOD)
         if clock is None and texts and all(clock_text_seconds(t) is not None for t in texts):
             clock = ("", 1.0)  # another header over times written as times (00:00:00.02, 0.02 s)
         if clock is None:
@@ -302,8 +302,6 @@ def _clock_times(path: Path, name: str, clock: tuple[str, float | None], texts: 
     if values is stamps:  # the texts carry their own unit
         return np.array(values, dtype=np.float64)
     unit, scale = clock
-    if unit in ("step", "steps", "row", "rows"):  # counted in the rows' own steps
-        scale = ACTION_PERIOD
     if scale is None:
         raise FieldCSVError(
             f"{path}: column {name!r} reads as a clock in an unknown unit {unit!r}: a field CSV's rows "
