@@ -18,16 +18,17 @@ TIME_COLUMN = "t_s"
 #: Words that make a header a clock wherever they stand (``Elapsed Time [s]``, ``sample_time_s``,
 #: ``TimeStamp``); ``t`` does as the first word (``t``, ``t_ms``, ``t [min]``). The words after the
 #: last of them name the unit (none: seconds).
-_TIME_WORDS = frozenset({"time", "times", "timestamp", "stamp", "elapsed", "clock"})
+_TIME_WORDS = frozenset({"time", "times", "timestamp", "stamp", "elapsed", "clock", "ts", "epoch"})
 #: A unit of time alone is a clock too (``sec``, ``ms``: not ``s``, ``min`` or ``h``, other words' too).
 _BARE_UNITS = frozenset({"sec", "secs", "second", "seconds", "ms", "msec", "millis", "milliseconds", "us",
-                         "usec", "microseconds"})
+                         "usec", "micros", "microseconds", "nanos", "nanoseconds"})
 #: A clock column's units, in s (an unknown one is refused where steps are checked).
 CLOCK_UNITS = {"": 1.0, "s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0,
                "ms": 1e-3, "msec": 1e-3, "millis": 1e-3, "millisecond": 1e-3, "milliseconds": 1e-3,
-               "us": 1e-6, "µs": 1e-6, "μs": 1e-6, "usec": 1e-6, "microsecond": 1e-6, "microseconds": 1e-6,
-               "ns": 1e-9, "nanoseconds": 1e-9, "min": 60.0, "mins": 60.0, "minute": 60.0,
-               "minutes": 60.0, "h": 3600.0, "hr": 3600.0, "hour": 3600.0, "hours": 3600.0}
+               "us": 1e-6, "µs": 1e-6, "μs": 1e-6, "usec": 1e-6, "micros": 1e-6, "microsecond": 1e-6,
+               "microseconds": 1e-6, "ns": 1e-9, "nanos": 1e-9, "nanoseconds": 1e-9, "min": 60.0,
+               "mins": 60.0, "minute": 60.0, "minutes": 60.0, "h": 3600.0, "hr": 3600.0, "hour": 3600.0,
+               "hours": 3600.0}
 
 
 #: A time written as a clock reads it: ``H:MM:SS.ss`` or ``MM:SS.ss`` (a decimal point or comma), on a

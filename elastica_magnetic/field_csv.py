@@ -248,6 +248,7 @@ def _check_clock_columns(path: Path, header: list[str], body: list[tuple[int, li
         if clock is None and texts and all(clock_text_seconds(t) is not None for t in texts):
             clock = ("", 1.0)  # another header over times written as times (00:00:00.02, 0.02 s)
         if clock is None:
+            _check_evenly_rising(path, name, texts, body)
             continue
         times = _clock_times(path, name, clock, texts, [line for line, _ in body])
         steps = np.diff(times)
@@ -261,6 +262,36 @@ def _check_clock_columns(path: Path, header: list[str], body: list[tuple[int, li
                 f"{body[k + 1][0]} (from {times[k] - origin:g} to {times[k + 1] - origin:g} s{since}), but "
                 f"a field CSV's rows are played {ACTION_PERIOD:g} s apart whatever it says: "
                 f"{_clock_remedy(name, steps)}")
+
+
+#: The steps a column rising evenly may take and agree with the rows' 0.01 s: 0.01 in s, ms, us or ns.
+_ROW_PERIOD_IN_UNITS = tuple(ACTION_PERIOD / scale for scale in (1.0, 1e-3, 1e-6, 1e-9))
+
+
+def _check_evenly_rising(path: Path, name: str, texts: list[str], body: list[tuple[int, list[str]]]) -> None:
+    """Refuse a column of another header that rises by one step every row, as a clock does, by a
+    step that is not the rows' 0.01 s in s, ms, us or ns (``micros`` at 20000, ``Zeit`` at 0.02: a
+    50 Hz waveform would play at 100 Hz): no list of clock headers holds every logger's. A count of
+    the rows (a step of 1 from 0 or 1: a frame number) and a column of uneven steps are left to the
+    unread-column warning."""
+    texts = [re.sub(r"^([-+]?\d+),(\d+)$", r"\1.\2", t) for t in texts]  # a decimal comma ("0,02")
+    if len(texts) < 3 or not all(_is_number(t) for t in texts):
+        return
+    values = np.array([float(t) for t in texts])
+    steps = np.diff(values)
+    step = float(np.median(steps))
+    if step <= 0.0 or np.any(np.abs(steps - step) > 0.05 * step):
+        return  # not a clock's even rise
+    if step == 1.0 and values[0] in (0.0, 1.0):
+        return  # the rows counted
+    if any(abs(step - period) <= 1e-3 * period for period in _ROW_PERIOD_IN_UNITS):
+        return  # a clock of the rows' steps in some unit
+    raise FieldCSVError(
+        f"{path}: column {name!r} rises by {step:g} every row (from line {body[0][0]}), evenly, as a clock "
+        f"does, and not by {ACTION_PERIOD:g} in s, ms, us or ns: if it is a clock, the rows are not "
+        f"{ACTION_PERIOD:g} s apart, and a field CSV's rows are played {ACTION_PERIOD:g} s apart whatever "
+        f"it says: resample the waveform to {ACTION_PERIOD:g} s steps and drop the column; if it is no "
+        "clock, drop it")
 
 
 def _clock_remedy(name: str, steps: NDArray[np.float64]) -> str:

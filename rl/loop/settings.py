@@ -67,6 +67,13 @@ class LoopSettings:
             quick=True)
         return dataclasses.replace(quick, **changes)
 
+    @property
+    def evaluation_physics(self) -> str:
+        """The physics of each seed's distance and of the generated waveform: the accurate one, the
+        training physics in a smoke run (``--quick``: its numbers mean nothing either way, and the
+        accurate physics' small time step made most of its training step's time)."""
+        return "training" if self.quick else "accurate"
+
     def yardstick_is_the_definition(self) -> bool:
         """Whether the yardstick step measures the yardstick as defined (10 s, accurate physics)."""
         return self.yardstick_physics == "accurate" and abs(self.yardstick_duration - 10.0) < 1e-9

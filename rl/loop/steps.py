@@ -147,7 +147,8 @@ def _resumable(case_dir: Path, seeds: int) -> bool | None:
 
 def train_step(ctx: LoopContext) -> dict[str, Any]:
     """``msr train --case <yardstick spec> --recipe fast --seeds N`` into ``train/`` (resuming an
-    interrupted training, as ``--resume`` does), then each seed's distance in the accurate physics
+    interrupted training, as ``--resume`` does), then each seed's distance in the accurate physics (a
+    smoke run's: the training physics)
     from a zero field (``msr policy export-seeds``' evaluation: the farther of its final actor and
     ``best.pt``); the best seed is the farthest."""
     from ..sweep.training import train_cases
@@ -175,13 +176,14 @@ def train_step(ctx: LoopContext) -> dict[str, Any]:
 
 
 def _seed_distances(ctx: LoopContext, case_dir: Path) -> dict[str, Any]:
-    """Each seed's distance (the farther of its two actors, accurate physics, field from zero,
-    the settings' evaluation duration) and the best seed."""
+    """Each seed's distance (the farther of its two actors, the settings' evaluation physics and
+    duration, field from zero) and the best seed."""
     from ..shipping.policy_runs import evaluate_seeds, prefer_best
 
     case = trained_case(ctx)
     seeds = []
-    for r in evaluate_seeds(case_dir, ctx.settings.evaluation_duration, ctx.progress):
+    physics = ctx.settings.evaluation_physics
+    for r in evaluate_seeds(case_dir, ctx.settings.evaluation_duration, ctx.progress, physics=physics):
         best = r["best"]
         chosen = best if prefer_best(case, r, best) else r
         seeds.append({"seed": r["seed"], "actor": "best.pt" if chosen is best else "final",
@@ -189,11 +191,11 @@ def _seed_distances(ctx: LoopContext, case_dir: Path) -> dict[str, Any]:
                       "diverged": chosen["diverged"], "meets_target": chosen.get("meets_target")})
     moving = [r for r in seeds if not r["diverged"]]
     if not moving:
-        raise LoopError(f"every seed's actor diverged in the accurate physics ({case_dir})")
+        raise LoopError(f"every seed's actor diverged in the {physics} physics ({case_dir})")
     best = max(moving, key=lambda r: r["distance_m"])
     return {"seeds": seeds, "best_seed": best["seed"], "best_distance_m": best["distance_m"],
             "best_run_dir": ctx.relative(case_dir / f"seed{best['seed']}"),
-            "evaluation": {"physics": "accurate", "duration_s": ctx.settings.evaluation_duration,
+            "evaluation": {"physics": physics, "duration_s": ctx.settings.evaluation_duration,
                            "initial_field": "zero"}}
 
 
@@ -206,15 +208,24 @@ def generate_step(ctx: LoopContext) -> dict[str, Any]:
     from ..shipping.generate import Pictures, generate
 
     s = ctx.settings
-    run = ctx.path(ctx.state.summary("train")["best_run_dir"])
+    train = ctx.state.summary("train")
+    run = ctx.path(train["best_run_dir"])
+    checkpoint = "auto"  # the farther actor, by the accurate evaluations the training step cached
+    if s.evaluation_physics != "accurate":  # auto would run them again in the accurate physics
+        best = next(r for r in train["seeds"] if r["seed"] == train["best_seed"])
+        checkpoint = "best" if best["actor"] == "best.pt" else "final"
     result = generate(run, duration=s.evaluation_duration, out=step_folder(ctx, "generate"),
-                      physics="accurate", progress=ctx.progress, pictures=Pictures(gif=s.gif),
-                      checkpoint="auto", force=True)
+                      physics=s.evaluation_physics, progress=ctx.progress, pictures=Pictures(gif=s.gif),
+                      checkpoint=checkpoint, force=True)
     yardstick = trained_case(ctx).yardstick.distance_10s
     # a ratio only of like with like: both 10 s of the accurate physics from a zero field
     comparable = (s.yardstick_is_the_definition() and result["physics"] == "accurate"
                   and abs(result["duration_s"] - 10.0) < 1e-9 and yardstick > 0)
     choice = result.get("actor_choice") or {}
+    if checkpoint != "auto":  # chosen here, by the training step's evaluations
+        actor = "best.pt" if checkpoint == "best" else "the final actor (checkpoint.pt)"
+        choice = {"summary": f"{actor}: the farther of the seed's two in the training step's "
+                             f"{s.evaluation_physics} evaluation"}
     return {"distance_m": result["mid_dx_m"], "physics": result["physics"],
             "duration_s": result["duration_s"], "diverged": result["diverged"],
             "yardstick_m": yardstick or None,

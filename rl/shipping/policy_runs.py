@@ -116,11 +116,13 @@ def node_dx(rollout) -> float:
 
 
 def evaluate_checkpoint(path: Path, cached: dict[str, Any], duration: float,
-                     progress: bool, target: tuple[float, float] | None = None) -> dict[str, Any]:
-    """The accurate evaluation of one checkpoint file with its ``meets_target`` verdict (left out
-    where there is none: a case without a yardstick, a crawl run not 10 s long), reusing ``cached``
-    when it is of the same global step and duration (its stored verdict is not reused: an older
-    file's ``meets_target`` of a case without a yardstick is dropped). A goto policy goes to
+                     progress: bool, target: tuple[float, float] | None = None,
+                     physics: str = "accurate") -> dict[str, Any]:
+    """The evaluation of one checkpoint file (in the accurate physics unless ``physics`` says
+    otherwise: a smoke run's) with its ``meets_target`` verdict (left out where there is none: a case
+    without a yardstick, a crawl run not 10 s long), reusing ``cached`` when it is of the same global
+    step, duration and physics (its stored verdict is not reused: an older file's ``meets_target`` of
+    a case without a yardstick is dropped). A goto policy goes to
     ``target`` (forward, left; m), default the task's distance straight ahead."""
     policy = resolve_policy(path)
     step = policy.meta.get("global_step")
@@ -128,13 +130,14 @@ def evaluate_checkpoint(path: Path, cached: dict[str, Any], duration: float,
     keys = ("global_step", "duration_s", "physics", "initial_field", "mid_dx_m", "node_dx_m",
             "diverged", *(("final_distance_to_target_m",) if isinstance(task, GotoTask) else ()))
     if (cached.get("global_step") == step and cached.get("duration_s") == float(duration)
+            and cached.get("physics", "accurate") == physics
             and all(k in cached for k in keys)):
         entry = {k: cached[k] for k in keys}
     else:
         # a goto policy goes to the target asked, else the task's distance straight ahead
         target = (target or (task.distance, 0.0)) if isinstance(task, GotoTask) else None
-        rollout = run_policy(policy, duration, "accurate", "zero", progress, target=target)
-        entry = {"global_step": step, "duration_s": float(duration), "physics": "accurate",
+        rollout = run_policy(policy, duration, physics, "zero", progress, target=target)
+        entry = {"global_step": step, "duration_s": float(duration), "physics": physics,
                  "initial_field": "zero", "mid_dx_m": rollout.mid_dx,
                  "node_dx_m": node_dx(rollout), "diverged": rollout.meta["diverged"]}
         if target is not None:
@@ -167,14 +170,15 @@ def evaluate_seeds(
     duration: float = 10.0,
     progress: bool = True,
     workers: int = 1,
+    physics: str = "accurate",
 ) -> list[dict[str, Any]]:
     """Distance in ``duration`` s of every seed of a case, by the shipping criterion: the final
     checkpoint of ``case_dir/seed<k>/``, and its ``best.pt`` (best evaluation during training) when
-    there is one, run deterministically in the accurate physics from a zero field (as
-    :func:`generate`).
+    there is one, run deterministically in the accurate physics (``physics``: another, for a smoke
+    run) from a zero field (as :func:`generate`).
 
     Each result is cached in the seed's folder (``evaluation.json``) and reused while the
-    checkpoint's global step and the duration are the same. Returns one dict per seed, ordered by
+    checkpoint's global step, the duration and the physics are the same. Returns one dict per seed, ordered by
     seed: ``seed``, ``global_step``, ``mid_dx_m`` (m), ``diverged``, ``meets_target`` (the case's
     yardstick met; absent for a case without one and for other durations than 10 s) of the final
     checkpoint, and ``best``: the same keys for ``best.pt``, or ``None``.
@@ -182,7 +186,7 @@ def evaluate_seeds(
 
     results = []
     seeds = seed_run_dirs(Path(case_dir))
-    jobs = [(seed, run_dir, duration, progress and workers == 1) for seed, run_dir in seeds]
+    jobs = [(seed, run_dir, duration, progress and workers == 1, physics) for seed, run_dir in seeds]
     if workers > 1:  # each seed's rollouts in its own process
         from ..sweep.backends import run_in_processes
 
@@ -194,34 +198,35 @@ def evaluate_seeds(
     return results
 
 
-def _evaluate_seed(job: tuple[int, Path, float, bool]) -> dict[str, Any]:
+def _evaluate_seed(job: tuple[int, Path, float, bool, str]) -> dict[str, Any]:
     """The final and ``best.pt`` evaluations of one seed folder (cached in ``evaluation.json``)."""
-    seed, run_dir, duration, progress = job
-    final, best = evaluate_run(run_dir, duration, progress, seed=seed)
+    seed, run_dir, duration, progress, physics = job
+    final, best = evaluate_run(run_dir, duration, progress, seed=seed, physics=physics)
     return {"seed": seed, **final, "best": best}
 
 
 def evaluate_run(run_dir: str | Path, duration: float = 10.0, progress: bool = True,
-                 seed: int | None = None, target: tuple[float, float] | None = None
-                 ) -> tuple[dict[str, Any], dict[str, Any] | None]:
-    """The shipping criterion's evaluations (``duration`` s, accurate physics, field from zero) of a
+                 seed: int | None = None, target: tuple[float, float] | None = None,
+                 physics: str = "accurate") -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """The shipping criterion's evaluations (``duration`` s, accurate physics unless ``physics``
+    says otherwise, field from zero) of a
     run folder's final checkpoint and of its ``best.pt`` (``None`` without one): each a dict of
     ``global_step``, ``duration_s``, ``physics``, ``initial_field``, ``mid_dx_m``, ``node_dx_m``
     (m), ``diverged`` and ``meets_target`` (absent without a verdict,
     :func:`evaluate_checkpoint`). Cached in the folder's ``evaluation.json`` and reused while the
-    checkpoint's step and the duration are the same. A goto run's actors go to ``target``
+    checkpoint's step, the duration and the physics are the same. A goto run's actors go to ``target``
     (forward, left; m) when given: evaluated afresh and not cached (the cache holds the task's
     own target's)."""
     run = RunDir(run_dir)
     cache_path = run.evaluation_json
     cache = _cached_evaluations(cache_path) if target is None else {}
-    final = evaluate_checkpoint(run.checkpoint, cache, duration, progress, target)
+    final = evaluate_checkpoint(run.checkpoint, cache, duration, progress, target, physics)
     best = None
     if run.best.is_file():
         # a best.pt holding the final actor (a seed stopped by its rule right after that
         # evaluation, or the last evaluation the best) has the final actor's evaluation
         prior = final if _same_actor(run.checkpoint, run.best) else cache.get("best") or {}
-        best = evaluate_checkpoint(run.best, prior, duration, progress, target)
+        best = evaluate_checkpoint(run.best, prior, duration, progress, target, physics)
     if target is not None:
         return final, best
     if seed is None:
