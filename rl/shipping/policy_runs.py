@@ -355,8 +355,8 @@ def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10
                                     "final, best)")
         if not is_run:  # a shipped policy has one actor: the checkpoint would be played in its place
             raise ValueError(f"--checkpoint {checkpoint}: {run} is not a run folder (a shipped policy or an "
-                             "actor file): it has no checkpoints to choose among; play that checkpoint "
-                             f"itself (msr policy generate {checkpoint}), or leave --checkpoint out")
+                             "actor file): it has no checkpoints to choose among; leave --checkpoint out"
+                             + _checkpoint_itself(given, run))
         own, other = resolve_policy(run).case.name, resolve_policy(given).case.name
         if own != other:  # another case's actor would be played on this run's robot
             raise ValueError(f"--checkpoint {checkpoint}: a checkpoint of case {other!r}, not of "
@@ -389,6 +389,22 @@ def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10
     if prefer_best(case, final, best):
         return ActorChoice(run_files.best, "best", "farther", final, best)
     return ActorChoice(run_files.checkpoint, "final", "farther", final, best)
+
+
+def _checkpoint_itself(given: Path, run: str | Path) -> str:
+    """The rest of the advice for ``--checkpoint FILE`` on a policy ``run`` (a name or a folder)
+    that has one actor: FILE given in the policy's place where it is a training checkpoint, else
+    nothing more (a shipped policy's own files, a field CSV: only leaving the option out plays
+    anything)."""
+    from ..runfiles.checkpoint import load_checkpoint
+
+    if Path(run).is_dir() and given.resolve().parent == Path(run).resolve():
+        return f" ({run} plays its own actor)"
+    try:
+        load_checkpoint(given, with_buffer=False)
+    except (ValueError, OSError):
+        return f" ({given} is no training checkpoint)"
+    return f", or give that checkpoint itself in place of {run}"
 
 
 def check_not_training(run_dir: Path) -> None:

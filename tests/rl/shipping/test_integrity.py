@@ -431,7 +431,7 @@ def test_round17_generate_of_a_shipped_policy_refuses_a_checkpoint_file(trained,
                 "--out", str(tmp_path / "g")]) == 2
     err = capsys.readouterr().err
     assert "m1-4mT is not a run folder (a shipped policy or an actor file)" in err
-    assert f"msr policy generate {checkpoint}" in err and not (tmp_path / "g").exists()
+    assert "or give that checkpoint itself in place of m1-4mT" in err and not (tmp_path / "g").exists()
 
 
 def test_round17_export_seeds_never_replaces_a_shipped_policy_folder(trained, tmp_path, capsys):
