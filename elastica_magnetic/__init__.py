@@ -25,6 +25,7 @@ from .forcing import (
     evaluate_field,
 )
 from .ground import FrictionalGroundContact
+from .held_field import HeldFieldSimulation, held_field_simulation
 from .insertion import Advancer, InsertionClamp
 from .interaction import MagneticInteraction
 from .magnet_fields import CuboidMagnetField, CylinderMagnetField, MagnetMap, magnet_map
@@ -140,6 +141,8 @@ __all__ = [
     # simulation
     "BatchedRobots",
     "build_simulation",
+    "held_field_simulation",
+    "HeldFieldSimulation",
     "MagneticRodSimulator",
     "OpenLoopResult",
     "RobotSimulation",

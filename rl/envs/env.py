@@ -47,9 +47,9 @@ from elastica_magnetic import (
     ControlledField,
     RobotSpec,
     SimulationDivergedError,
-    build_simulation,
     yao2023_robot,
 )
+from elastica_magnetic.held_field import held_field_simulation
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..cases.case import Case, load_case
@@ -364,7 +364,8 @@ class MagneticCrawlerEnv(gym.Env):
         initial = initial_field_value((options or {}).get("initial_field", self.initial_field),
                                       self.field_limits, self.np_random, self.axes)
         self.field = new_field(self, initial)
-        self.simulation = build_simulation(self.robot_spec, self.field)
+        # the field is held over each step's 0.01 s: the batched kernel where it models the spec
+        self.simulation = held_field_simulation(self.robot_spec, self.field)
         self.steps = 0
         self._diverged = False
         self.task_state = self.task.start(self._task_position(), self.np_random,
