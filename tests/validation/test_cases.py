@@ -62,13 +62,13 @@ def test_unknown_case_is_a_clear_error(tmp_path, capsys):
     assert "unknown case(s) nonsense" in capsys.readouterr().err
 
 
-# The full 10 s replay costs 112 s (1.25 M steps, 2 shared cores, niced), a fifth of the 542 s
-# the rest of the suite took in the same conditions (docs/testing.md); the 15-minute budget left
-# goes first to the shipped policies' 10 s rollouts, so it is opt-in here, and the suite replays
-# the first second. `msr validate` (and the report in docs/validation) always runs it in full.
+# The full 10 s replay costs 27 s (1.25 M steps on the batched kernel, one core of 2 beside other
+# tests; 112 s on the per-rod simulator before); the 15-minute budget goes first to the shipped
+# policies' 10 s rollouts, so it is opt-in here, and the suite replays the first second. `msr
+# validate` (and the report in docs/validation) always runs it in full.
 @pytest.mark.slow
 @pytest.mark.skipif(os.environ.get("MSR_FULL_REPLAY") != "1",
-                    reason="full 10 s replay (~2 min): set MSR_FULL_REPLAY=1")
+                    reason="full 10 s replay (~30 s): set MSR_FULL_REPLAY=1")
 def test_validate_full_replay(tmp_path, capsys):
     status = main(["validate", "replay-yao2023", "--out", str(tmp_path), "--json"])
     result = json.loads(capsys.readouterr().out)
