@@ -11,7 +11,7 @@ import re
 from collections.abc import Sequence
 
 __all__ = ["CLOCK_UNITS", "ROW_UNITS", "TIME_COLUMN", "clock_scale", "clock_text_seconds", "is_clock",
-           "other_clock_hint", "other_spelling_hint"]
+           "other_clock_hint", "other_spelling_hint", "trailing_time_unit"]
 
 #: The time column of the files msr writes and of those that need one (s).
 TIME_COLUMN = "t_s"
@@ -91,6 +91,23 @@ def is_clock(name: str) -> bool:
 ROW_UNITS = frozenset({"step", "steps", "row", "rows"})
 
 
+#: Units that make a header ``T`` something else than a clock: a temperature (``T (°C)``), a field.
+_OTHER_T_UNITS = frozenset({"c", "degc", "celsius", "k", "kelvin", "f", "degf", "fahrenheit", "mt", "ut",
+                            "nt", "g", "gauss", "tesla"})
+
+
+def _t_is_clock(name: str, words: list[str]) -> bool:
+    """Whether a header whose first word is ``t`` is a clock: ``t`` alone or with a unit of time
+    (``t_ms``, ``t [min]``, ``t [rows]``), or with any other unit in brackets (``t [weeks]``: a
+    clock in a unit msr does not know); not ``T_coil`` (a name) nor ``T (°C)`` (a temperature)."""
+    if words[0] != "t":
+        return False
+    rest = " ".join(words[1:])
+    if rest == "" or rest in CLOCK_UNITS or rest in ROW_UNITS:
+        return True
+    return rest not in _OTHER_T_UNITS and re.match(r"^\s*t\s*[\[(]", name, re.IGNORECASE) is not None
+
+
 def clock_scale(name: str, row_period: float | None = None) -> tuple[str, float | None] | None:
     """``(unit, s per unit)`` of a clock header (``None`` scale: a unit msr does not know; a count of
     rows, :data:`ROW_UNITS`, is ``row_period`` s each where the reader gives its row period);
@@ -98,11 +115,21 @@ def clock_scale(name: str, row_period: float | None = None) -> tuple[str, float 
     words = _words(name)
     if len(words) == 1 and words[0] in _BARE_UNITS:
         return words[0], CLOCK_UNITS[words[0]]
-    marks = [k for k, w in enumerate(words) if w in _TIME_WORDS or (k == 0 and w == "t")]
+    marks = [k for k, w in enumerate(words) if w in _TIME_WORDS or (k == 0 and _t_is_clock(name, words))]
     if not marks:
         return None
     unit = " ".join(words[marks[-1] + 1:])
     return unit, row_period if unit in ROW_UNITS else CLOCK_UNITS.get(unit)
+
+
+def trailing_time_unit(name: str) -> tuple[str, float] | None:
+    """``(unit, s per unit)`` of the unit of time a header of several words ends with, in a
+    language msr has no clock words for (``Zeit [ms]``, ``tiempo_ms``, ``Zeit_s``); ``None`` when
+    its last word is no unit of time."""
+    words = _words(name)
+    if len(words) < 2 or words[-1] not in CLOCK_UNITS or words[-1] == "":
+        return None
+    return words[-1], CLOCK_UNITS[words[-1]]
 
 
 def other_clock_hint(names: Sequence[str]) -> str:

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from .clock_columns import clock_scale, clock_text_seconds, other_spelling_hint
+from .clock_columns import clock_scale, clock_text_seconds, other_spelling_hint, trailing_time_unit
 from .drive_columns import MAGNET_COLUMN, drive_described
 from .io import atomic_write
 from .plausibility import judge, warn_implausible
@@ -219,6 +219,8 @@ def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
         raise FieldCSVError(
             f"{path}: header on line {first_line} lacks column(s) {', '.join(missing)}{spelled}; "
             f"expected {', '.join(FIELD_COLUMNS)} in mT (found {names}){separator_hint(names)}"
+            + (f"; line {first_line} is a comment (it starts with #): msr reads no comment lines, delete it"
+               if names and names[0].startswith("#") else "")
         )
     columns = [names.index(c) for c in FIELD_COLUMNS]
     # a first column before the field's headed as a row index (pandas writes '' for its index); one
@@ -252,17 +254,26 @@ def _check_clock_columns(path: Path, header: list[str], body: list[tuple[int, li
             continue
         times = _clock_times(path, name, clock, texts, [line for line, _ in body])
         steps = np.diff(times)
-        off = np.flatnonzero(np.abs(steps - ACTION_PERIOD) > 1e-3 * ACTION_PERIOD)
+        # a logger's clock jitters: on 0.01 s on average, each step may be off by a tenth of it
+        even = steps.size > 0 and abs(float(np.mean(steps)) - ACTION_PERIOD) <= 1e-3 * ACTION_PERIOD
+        tolerance = CLOCK_JITTER if even else 1e-3
+        off = np.flatnonzero(np.abs(steps - ACTION_PERIOD) > tolerance * ACTION_PERIOD)
         if off.size:
             k = int(off[0])
             # dates (seconds since 1970) printed whole would read alike: from the column's first time
-            origin, since = (times[0], " after its first time") if abs(times[0]) >= 1e5 else (0.0, "")
+            # (and times of day, 36000 s and more, whose steps would not show either)
+            relative = abs(times[0]) >= 1e5 or f"{times[k]:g}" == f"{times[k + 1]:g}"
+            origin, since = (times[0], " after its first time") if relative else (0.0, "")
             raise FieldCSVError(
                 f"{path}: column {name!r} reads as a clock stepping {steps[k]:g} s at line "
                 f"{body[k + 1][0]} (from {times[k] - origin:g} to {times[k + 1] - origin:g} s{since}), but "
                 f"a field CSV's rows are played {ACTION_PERIOD:g} s apart whatever it says: "
                 f"{_clock_remedy(name, steps)}")
 
+
+#: How far one step of a clock column whose mean step is the rows' 0.01 s may be off it, as a
+#: fraction of 0.01 s (a logger stamping its rows to within a millisecond).
+CLOCK_JITTER = 0.1
 
 #: The steps a column rising evenly may take and agree with the rows' 0.01 s: 0.01 in s, ms, us or ns.
 _ROW_PERIOD_IN_UNITS = tuple(ACTION_PERIOD / scale for scale in (1.0, 1e-3, 1e-6, 1e-9))
@@ -280,14 +291,26 @@ def _check_evenly_rising(path: Path, name: str, texts: list[str], body: list[tup
     values = np.array([float(t) for t in texts])
     steps = np.diff(values)
     step = float(np.median(steps))
-    if step <= 0.0 or np.any(np.abs(steps - step) > 0.05 * step):
-        return  # not a clock's even rise
-    if step == 1.0 and values[0] in (0.0, 1.0):
+    if step == 0.0 or np.any(np.abs(steps - step) > 0.05 * abs(step)):
+        return  # not a clock's even rise (nor a countdown's even fall)
+    rises = "rises" if step > 0.0 else "falls"
+    step = abs(step)
+    named = trailing_time_unit(name)
+    if named is not None:  # a clock in a language msr has no words for: its unit says the step
+        unit, scale = named
+        if abs(step * scale - ACTION_PERIOD) <= 1e-3 * ACTION_PERIOD:
+            return
+        raise FieldCSVError(
+            f"{path}: column {name!r} {rises} by {step:g} {unit} every row (from line {body[0][0]}), evenly, "
+            f"as a clock does: {step * scale:g} s per row, and a field CSV's rows are played "
+            f"{ACTION_PERIOD:g} s apart whatever it says: resample the waveform to {ACTION_PERIOD:g} s "
+            "steps and drop the column (if it is no clock, drop it)")
+    if rises == "rises" and step == 1.0 and values[0] in (0.0, 1.0):
         return  # the rows counted
     if any(abs(step - period) <= 1e-3 * period for period in _ROW_PERIOD_IN_UNITS):
         return  # a clock of the rows' steps in some unit
     raise FieldCSVError(
-        f"{path}: column {name!r} rises by {step:g} every row (from line {body[0][0]}), evenly, as a clock "
+        f"{path}: column {name!r} {rises} by {step:g} every row (from line {body[0][0]}), evenly, as a clock "
         f"does, and not by {ACTION_PERIOD:g} in s, ms, us or ns: if it is a clock, the rows are not "
         f"{ACTION_PERIOD:g} s apart, and a field CSV's rows are played {ACTION_PERIOD:g} s apart whatever "
         f"it says: resample the waveform to {ACTION_PERIOD:g} s steps and drop the column; if it is no "

@@ -91,7 +91,15 @@ class SpecTable:
         ``key`` (``widht`` for ``width``), else ``""``."""
         others = sorted(set(self.data) - self._read - self._takes - {key})
         close = difflib.get_close_matches(key, others, n=1, cutoff=0.8)
-        return f"; found {close[0]}: a misspelling of {key}?" if close else ""
+        if close:
+            return f"; found {close[0]}: a misspelling of {key}?"
+        # a key the table takes in its place (poisson_ratio for shear_modulus), misspelt: "poisson"
+        absent = sorted(self._takes - set(self.data) - {key})
+        for other in others:
+            near = difflib.get_close_matches(other, absent, n=1, cutoff=0.6)
+            if near:
+                return f"; found {other}: a misspelling of {near[0]}?"
+        return ""
 
     def number(self, key: str, unit: str, default: Any = REQUIRED, *, low: float | None = None,
                low_open: bool = False, high: float | None = None, integer: bool = False,

@@ -286,8 +286,31 @@ def _noted(plain: str, func: Callable[[argparse.Namespace], Any]) -> Callable[[a
     return run
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, taking a value that starts with a negative number for a value, also a
+    list of numbers (``--target -0.015,0``), where argparse takes any word starting with ``-``
+    but a lone number for an option, and a whole number written as a float (``1e5``) for an
+    integer option. Its sub-parsers are of this class too."""
+
+    _NEGATIVE_VALUE = re.compile(r"^-(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?(?:[,;:][-+]?[\d.eE+-]*)*$")
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = self._NEGATIVE_VALUE
+
+    def _get_value(self, action: argparse.Action, arg_string: str) -> Any:
+        """A whole number written as a float (``--steps 1e5``, ``2.0``) for an integer option, as
+        ``--set`` takes it; any other value as argparse reads it."""
+        if action.type is int:
+            with contextlib.suppress(ValueError, OverflowError):
+                value = float(arg_string)
+                if value.is_integer() and not arg_string.strip().lstrip("+-").isdigit():
+                    return int(value)
+        return super()._get_value(action, arg_string)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="msr",
         description="Magnetic soft robots on PyElastica (Yao et al. 2023).",
     )

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import re
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -347,6 +348,35 @@ def _export(args: argparse.Namespace) -> int:
     return 0
 
 
+#: Header words of a coil current or of a field: such a column the fit does not read would be
+#: lost without a word (a fourth coil's current absorbed into the other coils' entries).
+_CURRENT_WORDS = ("current", "i")
+_FIELD_WORDS = ("field", "b", "mag")
+
+
+def _unread_drive_column(header: list[str], columns: list[str]) -> str:
+    """What is wrong with the first column of ``header`` that names a current or a field but is
+    not one of ``columns`` (the fit reads only those), else ``""``."""
+    for name in header:
+        if name in columns or not name:
+            continue
+        first = re.split(r"[\s_\[(/-]+", name.strip().lower())[0]
+        if first in _CURRENT_WORDS:
+            return (f"column {name!r} is a current the fit does not read: the actuation matrix maps the "
+                    f"three currents {', '.join(columns[:3])} (A) to the field, and another coil's field "
+                    "would be taken for theirs; measure with that coil off and drop the column")
+        if first in _FIELD_WORDS:
+            return (f"column {name!r} is a field the fit does not read (it reads {', '.join(columns[3:])}, "
+                    "in mT): give each component once, in mT, and drop the column")
+    return ""
+
+
+def _not_read(header: list[str], columns: list[str]) -> list[str]:
+    """The warning naming the columns of ``header`` the fit leaves unread (a note, a temperature)."""
+    others = [name for name in header if name and name not in columns]
+    return [f"column(s) {', '.join(repr(n) for n in others)} not read"] if others else []
+
+
 def _calibrate(args: argparse.Namespace) -> int:
     import pandas as pd
 
@@ -390,6 +420,9 @@ def _calibrate(args: argparse.Namespace) -> int:
         raise _error(f"{path}: missing column(s) {', '.join(missing)}{spelled}; expected "
                      f"{', '.join(columns)} (found {', '.join(header) or 'no header'})"
                      f"{separator_hint(header)}")
+    unread = _unread_drive_column(header, columns)
+    if unread:
+        raise _error(f"{path}: {unread}")
     data = table[columns].apply(pd.to_numeric, errors="coerce")
     bad = data.isna().any(axis=1) | ~np.isfinite(data.to_numpy()).all(axis=1)
     if bad.any():
@@ -414,7 +447,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         "max_abs_residual_mT": round(fit.max_abs_residual_T / MILLITESLA, 6),
         "std_error_mT_per_A": np.round(fit.std_error_T_per_A / MILLITESLA, 6).tolist(),
         "current_condition_number": round(fit.current_condition, 3),
-        "warnings": fit.warnings,
+        "warnings": fit.warnings + _not_read(header, columns),
         "calibration": str(args.out),
         "uploaded": uploaded,
     }, args.json)

@@ -302,7 +302,9 @@ def ship_command(args: argparse.Namespace) -> int:
         where = f"{display_path(target)} ({given}--name {args.name})"
         raise CommandError(f"{where}: already holds a policy (pass --force to replace it)")
     if target.is_dir():  # held from now on: no other command writes the policy while it is measured
-        claim(target, option="--out")
+        held = claim(target, option="--out")
+        print_notes(held.notes)  # a killed command's stale lock taken over: said once
+        held.notes = []
     checkpoint = args.checkpoint
     from ..runfiles.rundir import RunDir
 
@@ -320,6 +322,7 @@ def ship_command(args: argparse.Namespace) -> int:
                       evaluate_all_seeds=args.evaluate_seeds, notes=notes)
     except (FileExistsError, FileNotFoundError, ValueError) as exc:
         raise CommandError(str(exc)) from None
+    print_notes(result.pop("lock_notes", []))
     _print_with_choice(result, choice, args.json)
     return 0
 
@@ -426,6 +429,7 @@ def notes_command(args: argparse.Namespace) -> int:
         result = set_notes(args.policy, text)
     except ValueError as exc:
         raise CommandError(str(exc)) from None
+    print_notes(result.pop("lock_notes", []))
     print_result(result, args.json)
     return 0
 

@@ -214,11 +214,14 @@ def ship(run: str | Path, name: str, options: ShipOptions | None = None, /,
                            adopt=_holds_a_policy(target), holder=policy_holder(case.name),
                            results_in=(SEEDS_FOLDER,)) as files:
             _write_policy_folder(files.path, policy, info, measured, card, with_critic)
+        lock_notes = files.notes
     else:
         _write_policy_folder(target, policy, info, measured, card, with_critic)
+        lock_notes = []
     return {"name": name, "dir": str(target), "case": case.name,
             "evaluation": measured.evaluation,
-            "files": sorted(p.name for p in target.iterdir() if p.name in SHIPPED_FILES)}
+            "files": sorted(p.name for p in target.iterdir() if p.name in SHIPPED_FILES),
+            "lock_notes": lock_notes}
 
 
 def _check_same_case(target: Path, case: str, spec: dict[str, Any]) -> None:
@@ -510,11 +513,12 @@ def set_notes(policy: str | Path, notes: str | None,
                        results_in=(SEEDS_FOLDER,)) as files:
         atomic_write_json(files.path / POLICY_JSON, info)
         atomic_write_text(files.path / "MODEL_CARD.md", card)
+    lock_notes = files.notes
     if unrecorded:  # the record now names the policy's other files too, as ship's would
         with FolderLock(folder, option="policy"):
             record_files(folder, [f for f in SHIPPED_FILES if f not in names and (folder / f).is_file()])
     return {"name": info.get("name", folder.name), "dir": str(folder), "notes": notes,
-            "card_updated": card != old_card, "card_written_anew": anew}
+            "card_updated": card != old_card, "card_written_anew": anew, "lock_notes": lock_notes}
 
 
 def _portable_source(path: Path, case: str) -> str:
