@@ -287,7 +287,24 @@ def loads(text: str, source: str = "<spec>") -> dict[str, Any]:
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"{source}: not valid TOML: {exc}") from None
+        raise SpecError(f"{source}: not valid TOML: {exc}{_overwrite_hint(str(exc), text)}") from None
+
+
+def _overwrite_hint(message: str, text: str) -> str:
+    """What ``Cannot overwrite a value`` at a table's header means: a key of the parent table has
+    the table's name (``randomize = "none"`` in ``[training]`` and a ``[training.randomize]``
+    table), else ``""``."""
+    found = re.search(r"Cannot overwrite a value \(at line (\d+)", message)
+    if not found:
+        return ""
+    lines = text.splitlines()
+    number = int(found.group(1))
+    header = re.match(r"^\s*\[+\s*([^\]]+?)\s*\]+", lines[number - 1] if number <= len(lines) else "")
+    if not header or "." not in header.group(1):
+        return ""
+    parent, key = header.group(1).rsplit(".", 1)
+    return (f": line {number} opens the table [{header.group(1)}], and [{parent}] already gives {key} a "
+            f"value ({key} = ...): a key and a table of one name; keep one of them")
 
 
 def toml_with_units(data: Mapping[str, Any], units: Mapping[tuple[str, str], str]) -> str:

@@ -131,9 +131,42 @@ def fit_actuation_matrix(currents_A: NDArray[np.float64], fields_T: NDArray[np.f
         warnings.append(f"{source}: {len(currents)} distinct measurements determine the {AXES * AXES} "
                         "matrix entries exactly: their standard errors cannot be estimated (none given); "
                         "measure more settings (each coil at positive and negative currents)")
-    warnings += fit_warnings(matrix, std_error, source)
+    warnings += fit_warnings(matrix, std_error, source) + _background_warning(currents, fields, source)
     return ActuationFit(matrix, residuals, rms, float(np.max(np.abs(residuals))), std_error, cond,
                         warnings, len(currents))
+
+
+#: A constant part of the fields is a background where it exceeds this many standard errors...
+BACKGROUND_STD_ERRORS = 5.0
+#: ... and this fraction of the measured fields' RMS.
+BACKGROUND_FRACTION = 0.02
+
+
+def _background_warning(currents: NDArray[np.float64], fields: NDArray[np.float64], source: str) -> list[str]:
+    """A constant field the currents do not make (the Earth's, a magnet or steel near the probe),
+    found by fitting ``field = A @ current + b``: the matrix fitted without ``b`` takes part of it
+    for the coils'. Judged where the rows leave ``b`` a standard error (more than 4 of them)."""
+    n = len(currents)
+    if n <= AXES + 1:
+        return []
+    design = np.hstack([currents, np.ones((n, 1))])
+    solution, _, rank, _ = np.linalg.lstsq(design, fields, rcond=None)
+    if rank < AXES + 1:
+        return []  # a constant current on every row: a background cannot be told from the coils
+    offset = solution[AXES]
+    residuals = fields - design @ solution
+    sigma = np.sqrt(np.sum(residuals**2, axis=0) / (n - AXES - 1))
+    std_error = sigma * np.sqrt(np.linalg.inv(design.T @ design)[AXES, AXES])
+    field_rms = np.sqrt(np.mean(fields**2, axis=0))
+    found = ((np.abs(offset) > BACKGROUND_STD_ERRORS * std_error)
+             & (np.abs(offset) > BACKGROUND_FRACTION * field_rms))
+    if not np.any(found):
+        return []
+    values = ", ".join(f"{1e3 * b:.3g}" for b in offset)
+    return [f"{source}: the fields have a constant part the currents do not make, ({values}) mT: a "
+            "background field (the Earth's, a magnet or steel near the probe) that the matrix, fitted "
+            "without it, takes in part for the coils'; measure the fields with every current at zero and "
+            "subtract them"]
 
 
 def _check_fit_input(currents: NDArray[np.float64], fields: NDArray[np.float64], source: str) -> None:

@@ -252,8 +252,9 @@ def check_fit_residuals(fields_T: NDArray[np.float64], residuals_T: NDArray[np.f
         f"{source}: the fitted matrix explains nothing: the residuals are more than "
         f"{FIT_RESIDUAL_FRACTION_REFUSE:.0%} of the measured fields ({numbers}), so the fields do not "
         f"follow the currents ({', '.join(CURRENT_COLUMNS)}) linearly. Likely causes: field signs "
-        "flipped on some rows, columns swapped, or rows from different setups in one file; "
-        "nothing was written")
+        "flipped on some rows, columns swapped, rows from different setups in one file, or a "
+        "constant background field (measure with every current at zero and subtract it); nothing was "
+        "written")
 
 
 def matrix_warnings(matrix_T_per_A: NDArray[np.float64], source: str) -> list[str]:

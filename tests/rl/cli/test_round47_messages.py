@@ -186,3 +186,31 @@ def test_a_comment_line_over_a_field_csv_is_named(tmp_path):
     path.write_text("# logger v2, rate 50 Hz\nmag_x,mag_y,mag_z\n1,0,0\n")
     with pytest.raises(FieldCSVError, match=r"line 1 is a comment \(it starts with #\): msr reads no"):
         _read(path)
+
+
+def test_a_key_and_a_table_of_one_name_are_named(tmp_path, capsys):
+    """Borderline of round 45: ``randomize = "none"`` in ``[training]`` beside a
+    ``[training.randomize]`` table gave TOML's "Cannot overwrite a value" alone."""
+    assert run(["case", "show", "m1-4mT", "--toml"]) == 0
+    text = capsys.readouterr().out.replace('recipe = "pink-ln"', 'recipe = "pink-ln"\nrandomize = "none"')
+    spec = tmp_path / "r.toml"
+    spec.write_text(text + "\n[training.randomize]\nmagnetization = 0.1\n")
+    assert run(["case", "check", str(spec), "--no-sag"]) == 2
+    assert ("opens the table [training.randomize], and [training] already gives randomize a value "
+            "(randomize = ...): a key and a table of one name; keep one of them") in capsys.readouterr().err
+
+
+def test_a_constant_background_field_in_the_measurements_is_said():
+    """Borderline of round 45: fields with a constant background (0.3 mT) were fitted without a
+    word, the matrix taking part of it for the coils'."""
+    import numpy as np
+
+    from elastica_magnetic.hardware.calibration_fit import fit_actuation_matrix
+
+    rng = np.random.default_rng(0)
+    currents = rng.uniform(-2.0, 2.0, (12, 3))
+    fields = currents @ np.diag([2e-3, 2e-3, 1.5e-3]) + rng.normal(0.0, 1e-5, (12, 3))
+    assert not any("constant part" in w for w in fit_actuation_matrix(currents, fields, "m.csv").warnings)
+    background = fields + np.array([3e-4, -2e-4, 0.0])
+    said = [w for w in fit_actuation_matrix(currents, background, "m.csv").warnings if "constant part" in w]
+    assert said and "(0.3" in said[0] and "measure the fields with every current at zero" in said[0], said
