@@ -25,7 +25,6 @@ from .forcing import (
     evaluate_field,
 )
 from .ground import FrictionalGroundContact
-from .held_field import HeldFieldSimulation, held_field_simulation
 from .insertion import Advancer, InsertionClamp
 from .interaction import MagneticInteraction
 from .magnet_fields import CuboidMagnetField, CylinderMagnetField, MagnetMap, magnet_map
@@ -69,6 +68,7 @@ from .spatial_fields import (
 from .spec_format import SpecError
 from .specfile import load_robot
 from .steering import CoilFieldSteering, MagnetBearingSteering
+from .uniform_simulation import UniformFieldSimulation, uniform_field_simulation
 from .units import MM_MG_S, SI, UnitSystem
 from .viscoelastic import KelvinVoigtDamping
 
@@ -141,12 +141,12 @@ __all__ = [
     # simulation
     "BatchedRobots",
     "build_simulation",
-    "held_field_simulation",
-    "HeldFieldSimulation",
     "MagneticRodSimulator",
     "OpenLoopResult",
     "RobotSimulation",
     "run_open_loop",
+    "uniform_field_simulation",
+    "UniformFieldSimulation",
     "write_trajectory_csv",
     # errors
     "BatchedSimulationDivergedError",

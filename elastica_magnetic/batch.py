@@ -73,9 +73,10 @@ from ._batch_kernels import (
     robot_times,
 )
 from ._batch_sources import BatchedSources
+from .forcing import evaluate_field
 from .insertion import Advancer
 from .robot_spec import RobotSpec
-from .simulation import SimulationDivergedError, robot_rod, trajectory_row
+from .simulation import FieldFunction, SimulationDivergedError, robot_rod, trajectory_row
 from .spatial_fields import is_spatial
 
 __all__ = ["BatchedPhysicsNotSupportedError", "BatchedRobots", "BatchedRobotSimulator",
@@ -271,6 +272,7 @@ class BatchedRobots:
             max_speed = 10.0 * spec.units.factor("velocity")
         self.max_speed = float(max_speed)
         self._fields = np.zeros((n_robots, 3), dtype=np.float64)
+        self._field_functions: list[tuple[int, FieldFunction]] = []  # set_field_function's
         if fields is not None:
             self.fields = fields  # type: ignore[assignment]
         self.specs = [spec] * n_robots
@@ -432,7 +434,25 @@ class BatchedRobots:
         ``time`` (s): the spatial sources' force and torque first, then :meth:`apply_forcing`."""
         if self._sources:
             self._sources.apply(float(time))
+        for i, field in self._field_functions:  # as MagneticTorques evaluates it, at the robot's time
+            self._fields[i] = evaluate_field(field, self._robot_time(time, self._behind[i]))
         self.apply_forcing()
+
+    def set_field_function(self, i: int, field: FieldFunction | None) -> None:
+        """Drive robot ``i`` by a uniform field that varies in time, ``field(time) -> (3,)`` (T, lab
+        frame), evaluated at every time step at the robot's own time, as
+        :func:`~elastica_magnetic.build_simulation`'s :class:`~elastica_magnetic.MagneticTorques`
+        evaluates it (its row of :attr:`fields` then holds the last value); ``None``: back to the
+        row written between steps."""
+        if not 0 <= i < self.n_robots:
+            raise IndexError(f"robot {i}: the batch has robots 0 to {self.n_robots - 1}")
+        if field is not None and (is_spatial(field) or not callable(field)):
+            raise SpatialFieldNotSupportedError(
+                f"robot {i}: a field function is uniform, field(time) -> (3,) in tesla; give a source "
+                "that varies in space with set_source(i, source)")
+        self._field_functions = [(j, f) for j, f in self._field_functions if j != i]
+        if field is not None:
+            self._field_functions.append((i, field))
 
     def apply_forcing(self) -> None:
         """One call of the block kernel: every robot's uniform-field magnetic torque, damping,

@@ -12,14 +12,12 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from .batch import batched_unsupported
-from .fields import ConstantField, TabulatedField
 from .forcing import evaluate_field
-from .held_field import HeldFieldSimulation
 from .io import atomic_write
 from .robot_spec import ACTION_PERIOD, RobotSpec
-from .simulation import TRAJECTORY_COLUMNS, FieldFunction, build_simulation
+from .simulation import TRAJECTORY_COLUMNS, FieldFunction
 from .spatial_fields import is_spatial
+from .uniform_simulation import uniform_field_simulation
 
 __all__ = ["MAX_DURATION_S", "OpenLoopResult", "check_duration", "run_open_loop", "write_trajectory_csv"]
 
@@ -114,9 +112,8 @@ def run_open_loop(
     """
     n_actions = int(round(check_duration(duration) / ACTION_PERIOD))
     steps = spec.steps_per_action
-    held = _held_rows(spec, field_source, clamp)
-    simulation = build_simulation(spec, field_source, clamp=clamp) if held is None \
-        else HeldFieldSimulation(spec, held)
+    # on the batched kernel where it models the robot, its field and its base (the same trajectory)
+    simulation = uniform_field_simulation(spec, field_source, clamp=clamp)
     spatial = is_spatial(field_source)
     shape_at = set(np.linspace(0, n_actions, max(n_shapes, 2)).round().astype(int).tolist())
     rows = [simulation.markers()]
@@ -129,8 +126,6 @@ def run_open_loop(
             fields[i] = field_source.at(tip, simulation.time)[:, 0]
         else:
             fields[i] = evaluate_field(field_source, simulation.time)
-        if held is not None:  # the row every time step of this 0.01 s sees (at its middle)
-            held.value[:] = field_source(simulation.time + 0.5 * spec.dt)
         simulation.step(steps)
         rows.append(simulation.markers())
         if i + 1 in shape_at:
@@ -140,20 +135,6 @@ def run_open_loop(
     wall = wallclock.perf_counter() - start
     trajectory = pd.DataFrame(rows, columns=list(TRAJECTORY_COLUMNS))
     return OpenLoopResult(spec, trajectory, shapes, fields, wall, n_actions * steps)
-
-
-def _held_rows(spec: RobotSpec, field_source: FieldFunction, clamp: bool) -> ConstantField | None:
-    """The field to hold over each 0.01 s where ``field_source`` is a table of 100 rows per second
-    whose every row holds over whole time steps, and the batched kernel models the spec: the
-    trajectory is then the per-rod simulator's to the last bit, in about half its time. ``None``
-    where it is not (a field that changes within the steps of a row, a clamped base, physics the
-    batched kernel does not model)."""
-    aligned = math.isclose(spec.steps_per_action * spec.dt, ACTION_PERIOD, rel_tol=1e-9, abs_tol=0.0)
-    if (clamp or not aligned or not isinstance(field_source, TabulatedField)
-            or not math.isclose(field_source.rate * ACTION_PERIOD, 1.0, rel_tol=1e-12)
-            or batched_unsupported(spec)):
-        return None
-    return ConstantField((0.0, 0.0, 0.0))
 
 
 def write_trajectory_csv(trajectory: pd.DataFrame, path: str | Path) -> Path:

@@ -292,7 +292,9 @@ class _Parser(argparse.ArgumentParser):
     but a lone number for an option, and a whole number written as a float (``1e5``) for an
     integer option. Its sub-parsers are of this class too."""
 
-    _NEGATIVE_VALUE = re.compile(r"^-(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?(?:[,;:][-+]?[\d.eE+-]*)*$")
+    #: No option of msr starts with a digit: a word that does is a value (``-0.015,0``, ``-15mm,0``:
+    #: the option's own reader then names what is wrong with it)
+    _NEGATIVE_VALUE = re.compile(r"^-\.?\d")
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)

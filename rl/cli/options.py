@@ -42,7 +42,7 @@ def target_option(value: str) -> tuple[float, ...]:
     if len(numbers) not in (2, 3):
         raise argparse.ArgumentTypeError(
             f"expected FORWARD,LEFT (a goto case) or X,Y,Z (a tip-reach case) in m, e.g. 0.015,0 or "
-            f"0.05,0.01,0; got {value!r}")
+            f"0.05,0.01,0; got {value!r}{_target_units_hint(value)}")
     if not all(math.isfinite(v) for v in numbers):
         raise argparse.ArgumentTypeError(f"the target must be finite numbers in m, got {value!r}")
     distance = math.sqrt(sum(v * v for v in numbers))
@@ -50,6 +50,23 @@ def target_option(value: str) -> tuple[float, ...]:
         raise argparse.ArgumentTypeError(
             f"{value} is {distance:g} m from the start: metres, not mm (15 mm is 0.015)")
     return numbers
+
+
+#: Units a target may be written with, in m.
+_TARGET_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "µm": 1e-6}
+
+
+def _target_units_hint(value: str) -> str:
+    """``": numbers alone, in m (15mm is 0.015)"`` for a target whose numbers carry a unit, else
+    ``""``."""
+    import re
+
+    for part in value.split(","):
+        found = re.fullmatch(r"\s*([-+]?[\d.]+(?:[eE][-+]?\d+)?)\s*([a-zµ]+)\s*", part)
+        if found and found.group(2) in _TARGET_UNITS:
+            metres = float(found.group(1)) * _TARGET_UNITS[found.group(2)]
+            return f": numbers alone, in m ({part.strip()} is {metres:g})"
+    return ""
 
 
 def ring_option(value: str) -> int:

@@ -49,8 +49,8 @@ from elastica_magnetic import (
     SimulationDivergedError,
     yao2023_robot,
 )
-from elastica_magnetic.held_field import held_field_simulation
 from elastica_magnetic.robot_spec import ACTION_PERIOD
+from elastica_magnetic.uniform_simulation import uniform_field_simulation
 
 from ..cases.case import Case, load_case
 from ..cases.field_actuation import ACTUATION_OBSERVATION
@@ -365,7 +365,7 @@ class MagneticCrawlerEnv(gym.Env):
                                       self.field_limits, self.np_random, self.axes)
         self.field = new_field(self, initial)
         # the field is held over each step's 0.01 s: the batched kernel where it models the spec
-        self.simulation = held_field_simulation(self.robot_spec, self.field)
+        self.simulation = uniform_field_simulation(self.robot_spec, self.field)
         self.steps = 0
         self._diverged = False
         self.task_state = self.task.start(self._task_position(), self.np_random,

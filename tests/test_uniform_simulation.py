@@ -1,10 +1,9 @@
-"""One robot under a held field on the batched kernel (``elastica_magnetic.held_field``): the
-environments' simulator and ``run_open_loop``'s for a 100 Hz table. Its trajectory is the per-rod
-simulator's to the last bit, for robots of every form a spec takes."""
+"""One robot under a uniform field on the batched kernel (``elastica_magnetic.uniform_simulation``):
+the environments' simulator and ``run_open_loop``'s. Its trajectory is the per-rod simulator's to the
+last bit, for robots of every form a spec takes, under a held field and under fields that vary in
+time."""
 
 from __future__ import annotations
-
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -13,17 +12,21 @@ from spec_texts import CATHETER, CATHETER_ON_GROUND, SMALL_BAND
 from elastica_magnetic import (
     MM_MG_S,
     ControlledField,
-    HeldFieldSimulation,
+    FieldValueError,
+    PointDipoleField,
+    RampedField,
     RobotSimulation,
+    RotatingField,
     SimulationDivergedError,
     TabulatedField,
+    UniformFieldSimulation,
     build_simulation,
-    held_field_simulation,
     load_robot,
+    openloop,
     run_open_loop,
+    uniform_field_simulation,
     yao2023_robot,
 )
-from elastica_magnetic.openloop import _held_rows
 
 SEGMENTS = SMALL_BAND + """
 [robot.ground]
@@ -65,7 +68,7 @@ def test_a_held_field_follows_the_per_rod_simulator_bit_for_bit(form, tmp_path):
     spec = _spec(form, tmp_path)
     increments = np.random.default_rng(0).uniform(-1.0, 1.0, (12, 3)) * 0.3e-3 * _tesla(spec)
     single_field, held_field = ControlledField(4e-3 * _tesla(spec)), ControlledField(4e-3 * _tesla(spec))
-    single, held = build_simulation(spec, single_field), HeldFieldSimulation(spec, held_field)
+    single, held = build_simulation(spec, single_field), UniformFieldSimulation(spec, held_field)
     for delta in increments:
         single_field.apply_increment(delta)
         held_field.apply_increment(delta)
@@ -79,42 +82,61 @@ def test_a_held_field_follows_the_per_rod_simulator_bit_for_bit(form, tmp_path):
     assert np.ptp(held.rod.position_collection[0]) > 0.5 * spec.length  # a rod that moved, not NaN
 
 
-@pytest.mark.parametrize("form", FORMS)
-def test_open_loop_tables_run_on_the_batched_kernel_bit_for_bit(form, tmp_path):
-    spec = _spec(form, tmp_path)
+def _fields(spec):
+    """Uniform fields that vary in time (T, in the spec's units): a 100 Hz table (after its end,
+    zero), a rotating field ramped up and turned out of the x-y plane, a ramp."""
     rows = np.random.default_rng(1).uniform(-4e-3, 4e-3, (9, 3)) * _tesla(spec)
-    table = TabulatedField(rows, after_end="zero")  # 0.12 s: three rows past its end
-    assert _held_rows(spec, table, clamp=False) is not None
-
-    def per_rod(time: float):  # any callable takes the per-rod simulator
-        return table(time)
-
-    held, single = run_open_loop(spec, table, 0.12), run_open_loop(spec, per_rod, 0.12)
-    assert held.trajectory.equals(single.trajectory)
-    assert np.array_equal(held.fields, single.fields)
-    assert all(np.array_equal(a[1], b[1]) and a[0] == b[0] for a, b in zip(held.shapes, single.shapes,
-                                                                          strict=True))
+    return {"table": TabulatedField(rows, after_end="zero"),
+            "rotating": RotatingField(4e-3 * _tesla(spec), 7.0, phase=0.3, ramp_time=0.02, heading=0.7),
+            "ramp": RampedField((0.0, 4e-3 * _tesla(spec), 1e-3 * _tesla(spec)), 0.05)}
 
 
-def test_fields_and_specs_the_kernel_cannot_hold_take_the_per_rod_simulator(tmp_path):
+@pytest.mark.parametrize("form", FORMS)
+def test_open_loop_fields_run_on_the_batched_kernel_bit_for_bit(form, tmp_path, monkeypatch):
+    spec = _spec(form, tmp_path)
+    for name, field in _fields(spec).items():
+        fast = run_open_loop(spec, field, 0.12)  # 0.12 s: three rows past the table's end
+        with monkeypatch.context() as m:  # the per-rod simulator, as before the batched kernel
+            m.setattr(openloop, "uniform_field_simulation",
+                      lambda spec, field, clamp=False: build_simulation(spec, field, clamp=clamp))
+            single = run_open_loop(spec, field, 0.12)
+        assert fast.trajectory.equals(single.trajectory), name
+        assert np.array_equal(fast.fields, single.fields), name
+        assert all(np.array_equal(a[1], b[1]) and a[0] == b[0]
+                   for a, b in zip(fast.shapes, single.shapes, strict=True)), name
+
+
+def test_fields_and_specs_the_kernel_does_not_model_take_the_per_rod_simulator(tmp_path):
     spec = yao2023_robot(1, "accurate")
-    table = TabulatedField(np.zeros((5, 3)))
-    assert _held_rows(spec, table, clamp=True) is None  # a clamped base
-    assert _held_rows(spec, TabulatedField(np.zeros((5, 3)), rate=50.0), clamp=False) is None
-    # a spec built in code may step 0.01 s unevenly (spec files refuse it): 333 steps of 9.99 ms
-    assert _held_rows(replace(spec, dt=3e-5), table, clamp=False) is None
+    field = RotatingField(4e-3, 1.0)
+    assert isinstance(uniform_field_simulation(spec, field), UniformFieldSimulation)
+    assert isinstance(uniform_field_simulation(spec, field, clamp=True), RobotSimulation)
+    assert isinstance(uniform_field_simulation(spec, PointDipoleField((0.0, 0.05, 0.0), (0.0, 2.5, 0.0))),
+                      RobotSimulation)
     (tmp_path / "kv.toml").write_text(SEGMENTS + "[robot.damping]\nkelvin_voigt = 0.1\n")
     viscous = load_robot(tmp_path / "kv.toml")
-    assert _held_rows(viscous, table, clamp=False) is None
-    assert isinstance(held_field_simulation(viscous, ControlledField(4e-3)), RobotSimulation)
-    assert isinstance(held_field_simulation(spec, ControlledField(4e-3)), HeldFieldSimulation)
+    assert isinstance(uniform_field_simulation(viscous, ControlledField(4e-3)), RobotSimulation)
     with pytest.raises(ValueError, match="does not model .*kelvin_voigt.*use build_simulation"):
-        HeldFieldSimulation(viscous, ControlledField(4e-3))
+        UniformFieldSimulation(viscous, ControlledField(4e-3))
+
+
+def test_a_field_function_that_returns_nonsense_is_named_as_the_per_rod_simulator_names_it():
+    spec = yao2023_robot(1, "accurate")
+
+    def broken(time):
+        return np.array([0.0, np.nan, 0.0]) if time > 0.005 else np.zeros(3)
+
+    messages = []
+    for simulation in (UniformFieldSimulation(spec, broken), build_simulation(spec, broken)):
+        with pytest.raises(FieldValueError) as caught:
+            simulation.step(spec.steps_per_action)
+        messages.append(str(caught.value))
+    assert messages[0] == messages[1] and "non-finite value" in messages[0], messages
 
 
 def test_a_divergence_is_worded_as_the_single_robot_simulator_words_it():
     spec = yao2023_robot(1, "accurate")
-    held = HeldFieldSimulation(spec, ControlledField(4e-3))
+    held = UniformFieldSimulation(spec, ControlledField(4e-3))
     single = build_simulation(spec, ControlledField(4e-3))
     for simulation in (held, single):
         simulation.rod.velocity_collection[1, 5] = np.nan
