@@ -11,6 +11,7 @@ from spec_texts import CATHETER, CATHETER_ON_GROUND, SMALL_BAND
 
 from elastica_magnetic import (
     MM_MG_S,
+    ConstantField,
     ControlledField,
     FieldValueError,
     PointDipoleField,
@@ -146,3 +147,20 @@ def test_a_divergence_is_worded_as_the_single_robot_simulator_words_it():
             simulation.step(1)
         messages.append(str(caught.value))
     assert messages[0] == messages[1] and "robot 0" not in messages[0], messages
+
+
+def test_a_batched_robots_field_function_is_checked_and_can_be_removed():
+    from elastica_magnetic import BatchedRobots, SpatialFieldNotSupportedError
+
+    robots = BatchedRobots(yao2023_robot(1, "training"), 2)
+    with pytest.raises(SpatialFieldNotSupportedError, match="robot 1: a field function is uniform"):
+        robots.set_field_function(1, PointDipoleField((0.0, 0.05, 0.0), (0.0, 2.5, 0.0)))
+    with pytest.raises(IndexError, match="robot 2: the batch has robots 0 to 1"):
+        robots.set_field_function(2, RotatingField(4e-3, 1.0))
+    robots.set_field_function(1, ConstantField((0.0, 4e-3, 0.0)))
+    robots.step(1)
+    assert robots.fields[1].tolist() == [0.0, 4e-3, 0.0] and robots.fields[0].tolist() == [0.0, 0.0, 0.0]
+    robots.set_field_function(1, None)
+    robots.fields[1] = (1e-3, 0.0, 0.0)
+    robots.step(1)
+    assert robots.fields[1].tolist() == [1e-3, 0.0, 0.0]  # the row written between steps again
