@@ -254,6 +254,12 @@ def _check_clock_columns(path: Path, header: list[str], body: list[tuple[int, li
             continue
         times = _clock_times(path, name, clock, texts, [line for line, _ in body])
         steps = np.diff(times)
+        if steps.size and np.all(steps < 0.0):  # a clock running backwards: the rows' order reversed
+            raise FieldCSVError(
+                f"{path}: column {name!r} reads as a clock whose times fall every row (from "
+                f"{times[0]:g} s at line {body[0][0]} to {times[-1]:g} s at line {body[-1][0]}): the rows "
+                "run backwards in time, and a field CSV's rows are played from its first line down: sort "
+                "the rows by time (or, if the column counts down the time left, drop it)")
         # a logger's clock jitters: on 0.01 s on average, each step may be off by a tenth of it
         even = steps.size > 0 and abs(float(np.mean(steps)) - ACTION_PERIOD) <= 1e-3 * ACTION_PERIOD
         tolerance = CLOCK_JITTER if even else 1e-3

@@ -32,6 +32,7 @@ import json
 import math
 import re
 import sys
+import weakref
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
@@ -286,6 +287,35 @@ def _noted(plain: str, func: Callable[[argparse.Namespace], Any]) -> Callable[[a
     return run
 
 
+class _StoreOnce(argparse._StoreAction):
+    """argparse's ``store``, refusing an option given twice with different values (``--duration
+    0.1 --duration 0.2``, ``--file A --notes B`` of one option): argparse would keep the last
+    without a word. The same value twice is taken."""
+
+    #: Per parse (its namespace, by id: namespaces are not hashable) the values given so far.
+    _given: dict[int, tuple[weakref.ref, dict[str, tuple[str | None, Any]]]] = {}
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 option_string: str | None = None) -> None:
+        entry = self._given.get(id(namespace))
+        if entry is None or entry[0]() is not namespace:  # a new parse (an id of a gone one reused)
+            for key in [k for k, (ref, _) in self._given.items() if ref() is None]:
+                del self._given[key]
+            entry = self._given[id(namespace)] = (weakref.ref(namespace), {})
+        given = entry[1]
+        if self.dest in given and given[self.dest][1] != values:
+            first, value = given[self.dest]
+            spelled = " and ".join(dict.fromkeys(f for f in (first, option_string) if f))
+            parser.error(f"argument {spelled}: given twice ({_shown(value)} and {_shown(values)}); "
+                         "give it once")
+        given[self.dest] = (option_string, values)
+        super().__call__(parser, namespace, values, option_string)
+
+
+def _shown(value: Any) -> str:
+    return repr(str(value)) if isinstance(value, (str, Path)) else repr(value)
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse's parser, taking a value that starts with a negative number for a value, also a
     list of numbers (``--target -0.015,0``), where argparse takes any word starting with ``-``
@@ -299,16 +329,34 @@ class _Parser(argparse.ArgumentParser):
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self._negative_number_matcher = self._NEGATIVE_VALUE
+        self.register("action", None, _StoreOnce)
+        self.register("action", "store", _StoreOnce)
 
     def _get_value(self, action: argparse.Action, arg_string: str) -> Any:
-        """A whole number written as a float (``--steps 1e5``, ``2.0``) for an integer option, as
-        ``--set`` takes it; any other value as argparse reads it."""
-        if action.type is int:
-            with contextlib.suppress(ValueError, OverflowError):
-                value = float(arg_string)
-                if value.is_integer() and not arg_string.strip().lstrip("+-").isdigit():
-                    return int(value)
-        return super()._get_value(action, arg_string)
+        """The value as the option's type reads it; a whole number written as a float (``--steps
+        1e5``, ``--ring 12.0``) that an integer option refuses is read as that integer, as ``--set``
+        takes it."""
+        try:
+            return super()._get_value(action, arg_string)
+        except argparse.ArgumentError as refused:
+            whole = _whole_number(arg_string)
+            if whole is None or action.type in (None, str, float):
+                raise
+            try:
+                return super()._get_value(action, whole)
+            except argparse.ArgumentError:
+                raise refused from None
+
+
+def _whole_number(text: str) -> str | None:
+    """``"200"`` for a whole number written as a float (``"2e2"``, ``"200.0"``), else ``None``."""
+    try:
+        value = float(text)
+    except ValueError:
+        return None
+    if not math.isfinite(value) or not value.is_integer() or text.strip().lstrip("+-").isdigit():
+        return None
+    return str(int(value))
 
 
 def build_parser() -> argparse.ArgumentParser:

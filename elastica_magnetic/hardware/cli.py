@@ -363,8 +363,9 @@ def _unread_drive_column(header: list[str], columns: list[str]) -> str:
         first = re.split(r"[\s_\[(/-]+", name.strip().lower())[0]
         if first in _CURRENT_WORDS:
             return (f"column {name!r} is a current the fit does not read: the actuation matrix maps the "
-                    f"three currents {', '.join(columns[:3])} (A) to the field, and another coil's field "
-                    "would be taken for theirs; measure with that coil off and drop the column")
+                    f"three currents {', '.join(columns[:3])} (A) to the field; another coil's field would "
+                    "be taken for theirs (measure with that coil off), and a setpoint beside a measured "
+                    "current is not fitted: drop the column")
         if first in _FIELD_WORDS:
             return (f"column {name!r} is a field the fit does not read (it reads {', '.join(columns[3:])}, "
                     "in mT): give each component once, in mT, and drop the column")
@@ -408,6 +409,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         raise _error(f"{path}: empty file; expected columns {', '.join(columns)}") from None
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise _error(f"{path}: not a readable UTF-8 CSV: {exc}") from None
+    table.columns = [str(c).strip() for c in table.columns]  # "field_z_mT " is field_z_mT
     with open(path, encoding="utf-8-sig", newline="") as handle:
         header = [c.strip() for c in next(csv.reader(handle), [])]
     twice = named_twice(header)
@@ -417,9 +419,11 @@ def _calibrate(args: argparse.Namespace) -> int:
     if missing:
         spelled = other_spelling_hint(missing, header,
                                       "name the columns exactly, currents in A and fields in mT")
+        comment = ("; line 1 is a comment (it starts with #): msr reads no comment lines, delete it"
+                   if header and header[0].startswith("#") else "")
         raise _error(f"{path}: missing column(s) {', '.join(missing)}{spelled}; expected "
                      f"{', '.join(columns)} (found {', '.join(header) or 'no header'})"
-                     f"{separator_hint(header)}")
+                     f"{separator_hint(header)}{comment}")
     unread = _unread_drive_column(header, columns)
     if unread:
         raise _error(f"{path}: {unread}")
@@ -427,7 +431,11 @@ def _calibrate(args: argparse.Namespace) -> int:
     bad = data.isna().any(axis=1) | ~np.isfinite(data.to_numpy()).all(axis=1)
     if bad.any():
         first = int(np.flatnonzero(bad.to_numpy())[0])
-        raise _error(f"{path}: line {first + 2}: missing or non-numeric value in {list(table.iloc[first])}")
+        row = data.iloc[first].to_numpy(dtype=np.float64)
+        column = columns[int(np.flatnonzero(~np.isfinite(row))[0])]
+        cells = ", ".join(str(v) for v in table.iloc[first])
+        raise _error(f"{path}: line {first + 2}: column {column}: missing or non-numeric value "
+                     f"{str(table[column].iloc[first])!r} (the row: {cells})")
     values = data.to_numpy(dtype=np.float64)
     check_measurements(values[:, :3], values[:, 3:], str(path))
     fit = fit_actuation_matrix(values[:, :3], values[:, 3:] * MILLITESLA, str(path))

@@ -16,7 +16,9 @@ The folder (written in place under a lock, like a training run, its marker of ki
 A folder that holds a design is continued with ``resume`` and replaced with ``force``: the new
 design is then searched in a folder beside it and swapped in whole when it is finished (an
 interrupted replacement leaves the earlier design as it was; it cannot be resumed, a new
-``force`` starts it again); anything else in the folder is refused before any work. The end's
+``force`` starts it again); a finished design continued with ``resume`` is continued the same way,
+beside it, and swapped in whole with its new end; anything else in the folder is refused before any
+work. The end's
 files are written beside the search's and moved into place together, so a design that has a
 ``summary.json`` is finished.
 """
@@ -269,11 +271,33 @@ def run_design(spec: str | Path | Design, out: str | Path, settings: DesignSetti
                 summary = _design_into(result.path, design, settings, False, progress, replacing=True)
                 result.subject = subject
             return summary
+        if resume and (folder / "summary.json").is_file():
+            # a finished design continued: its search goes on in a copy beside it, swapped in whole
+            # with its new end (killed before, the finished design stays as it was, whole)
+            with result_folder(folder, kind=DESIGN_KIND, force=True, option="--out",
+                               known_files=_design_files(folder)) as result:
+                _copy_search(folder, result.path)
+                summary = _design_into(result.path, design, settings, True, progress, replacing=True)
+                result.subject = subject
+            return summary
         with FolderLock(folder, option="--out"):
             _check_folder(folder, resume, force, subject)  # again, under the lock
             return _design_into(folder, design, settings, resume, progress)
     finally:
         release_claim(folder)
+
+
+def _copy_search(folder: Path, into: Path) -> None:
+    """The search of the design in ``folder`` (its record, checkpoint and history) copied into
+    ``into``, to be continued there."""
+    import shutil
+
+    for name in (DESIGN_JSON, HISTORY_CSV):
+        if (folder / name).is_file():
+            shutil.copy2(folder / name, into / name)
+    search = STATE_FILE.split("/")[0]
+    if (folder / search).is_dir():
+        shutil.copytree(folder / search, into / search)
 
 
 def _recover_leftovers(folder: Path) -> None:
@@ -552,6 +576,12 @@ def _search(folder: Path, design: Design, settings: DesignSettings, record: dict
     start = _start(folder, design, settings, record)
     if state_path.exists():
         state = SearchState.load(state_path)
+        if settings.generations is not None and state.generation > settings.generations:
+            import warnings
+
+            warnings.warn(f"--generations {settings.generations}: the search has {state.generation} "
+                          "generations already; none is searched and none undone (its end is written "
+                          "again from all of them)", UserWarning, stacklevel=2)
     else:
         state = new_search(design.space, np.array(start["x0"]), settings.seed, settings.popsize,
                            settings.sigma0)

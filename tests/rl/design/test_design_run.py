@@ -503,3 +503,46 @@ def test_a_minutes_budget_alone_is_recorded_and_its_overrun_said(tmp_path, capsy
     assert summary["search"]["stopped"] == {"by": "--minutes", "minutes": 0.001, "generations": 1,
                                             "generations_asked": None}
     assert "Ended by --minutes 0.001 after 1 generation(s)." in (out / "report.md").read_text()
+
+
+def test_an_interrupted_resume_of_a_finished_design_keeps_it_whole(tmp_path, monkeypatch):
+    """Round 48 D1: ``--resume`` with more generations on a finished design, killed, left its end
+    (summary.json, best.toml, report) of one generation beside a search of five, the folder's
+    record crediting the killed command: a finished design is continued beside it now and swapped
+    in whole with its new end."""
+    import elastica_magnetic_rl.design.run as design_run
+
+    out = tmp_path / "d"
+    one = DesignSettings(**{**TINY.__dict__, "generations": 1})
+    run_design("m1-4mT", out, one)
+    before = _fingerprint(out)
+    real, calls = design_run.run_generation, {"n": 0}
+
+    def stopped_in_the_second(*args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    three = DesignSettings(**{**TINY.__dict__, "generations": 3})
+    monkeypatch.setattr(design_run, "run_generation", stopped_in_the_second)
+    with pytest.raises(KeyboardInterrupt):
+        run_design("m1-4mT", out, three, resume=True)
+    assert calls["n"] == 2 and _fingerprint(out) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d"]  # nothing left beside it
+    monkeypatch.setattr(design_run, "run_generation", real)
+    resumed = run_design("m1-4mT", out, three, resume=True)
+    assert resumed["search"]["generations"] == 3
+    assert {int(row["generation"]) for row in _rows(out / "history.csv")} == {1, 2, 3}
+    assert json.loads((out / "summary.json").read_text())["search"]["generations"] == 3
+
+
+def test_a_resume_asking_fewer_generations_than_searched_says_so(tmp_path):
+    """Borderline of round 48: ``--resume --generations 1`` on a search two deep reported two
+    without a word."""
+    out = tmp_path / "d"
+    run_design("m1-4mT", out, TINY)
+    one = DesignSettings(**{**TINY.__dict__, "generations": 1})
+    with pytest.warns(UserWarning, match="--generations 1: the search has 2 generations already"):
+        summary = run_design("m1-4mT", out, one, resume=True)
+    assert summary["search"]["generations"] == 2
