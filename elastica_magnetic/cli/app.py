@@ -288,9 +288,10 @@ def _noted(plain: str, func: Callable[[argparse.Namespace], Any]) -> Callable[[a
 
 
 class _StoreOnce(argparse._StoreAction):
-    """argparse's ``store``, refusing an option given twice with different values (``--duration
-    0.1 --duration 0.2``, ``--file A --notes B`` of one option): argparse would keep the last
-    without a word. The same value twice is taken."""
+    """argparse's ``store``, saying when an option is given twice with different values
+    (``--duration 0.1 --duration 0.2``, ``--file A --notes B`` of one option): the last is used, as
+    argparse and most command lines do (a script's defaults overridden after them), but never
+    without a word."""
 
     #: Per parse (its namespace, by id: namespaces are not hashable) the values given so far.
     _given: dict[int, tuple[weakref.ref, dict[str, tuple[str | None, Any]]]] = {}
@@ -306,8 +307,8 @@ class _StoreOnce(argparse._StoreAction):
         if self.dest in given and given[self.dest][1] != values:
             first, value = given[self.dest]
             spelled = " and ".join(dict.fromkeys(f for f in (first, option_string) if f))
-            parser.error(f"argument {spelled}: given twice ({_shown(value)} and {_shown(values)}); "
-                         "give it once")
+            print(f"{parser.prog}: note: {spelled} given twice ({_shown(value)}, then {_shown(values)}): "
+                  f"the last, {_shown(values)}, is used", file=sys.stderr)
         given[self.dest] = (option_string, values)
         super().__call__(parser, namespace, values, option_string)
 

@@ -457,7 +457,8 @@ def test_finalists_are_run_again_when_the_search_measures_less(tmp_path):
 
 def test_a_users_file_saved_in_gait_during_the_end_is_kept(tmp_path, monkeypatch):
     """The end replaces gait/ of a finished design that is resumed: a file the user saved there
-    while the end ran is never removed (the end is not put in place; --resume puts it later)."""
+    while the end ran is never removed (the resumed design, built beside, is not swapped in: it is
+    left beside, named)."""
     import elastica_magnetic_rl.design.outputs as outputs
 
     out = tmp_path / "d"
@@ -470,10 +471,13 @@ def test_a_users_file_saved_in_gait_during_the_end_is_kept(tmp_path, monkeypatch
         return summary
 
     monkeypatch.setattr(outputs, "write_outputs", and_a_note)
-    with pytest.raises(OutputPathError, match=r"files msr did not write appeared .*\(gait/notes.txt\)"):
+    kept = r"changed while the command ran \(new or changed: gait, gait/notes.txt\); it was not replaced"
+    with pytest.raises(OutputPathError, match=kept):
         run_design("m1-4mT", out, TINY, resume=True)
     assert (out / "gait" / "notes.txt").read_text() == "mine\n"
     assert not (out / ".msr-end").exists()
+    beside = [p for p in tmp_path.iterdir() if p.name.startswith("d-new-")]
+    assert len(beside) == 1 and (beside[0] / "summary.json").is_file()
 
 
 def test_a_resume_removes_what_a_killed_replacement_left_beside(tmp_path):
