@@ -47,8 +47,9 @@ def target_option(value: str) -> tuple[float, ...]:
         raise argparse.ArgumentTypeError(f"the target must be finite numbers in m, got {value!r}")
     distance = math.sqrt(sum(v * v for v in numbers))
     if distance > MAX_TARGET_M:
+        largest = max(numbers, key=abs)
         raise argparse.ArgumentTypeError(
-            f"{value} is {distance:g} m from the start: metres, not mm (15 mm is 0.015)")
+            f"{value} is {distance:g} m from the start: metres, not mm ({largest:g} mm is {largest / 1e3:g})")
     return numbers
 
 

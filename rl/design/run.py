@@ -579,9 +579,11 @@ def _search(folder: Path, design: Design, settings: DesignSettings, record: dict
         if settings.generations is not None and state.generation > settings.generations:
             import warnings
 
+            from elastica_magnetic.plausibility import SettingNotAppliedWarning
+
             warnings.warn(f"--generations {settings.generations}: the search has {state.generation} "
                           "generations already; none is searched and none undone (its end is written "
-                          "again from all of them)", UserWarning, stacklevel=2)
+                          "again from all of them)", SettingNotAppliedWarning, stacklevel=2)
     else:
         state = new_search(design.space, np.array(start["x0"]), settings.seed, settings.popsize,
                            settings.sigma0)

@@ -112,6 +112,8 @@ def run_loop(case: Case, out: str | Path, settings: LoopSettings, *, skip: tuple
                   f"by another command): step {step} and the steps that use it run again", file=log)
         plan = plan_loop(state, spec, recorded, skip, tuple(dict.fromkeys((*redo, *replaced))), force)
         _check_steps_to_redo(folder, plan)
+        if force and state is not None and plan.redo == STEPS and not plan.extend:
+            return _start_over_beside(folder, case, settings, plan, log, progress, steps or STEP_FUNCTIONS)
         folder.mkdir(parents=True, exist_ok=True)
         if state is not None and state.case != case.name:  # started over for another robot
             _remove_spec_copy(state)
@@ -124,6 +126,27 @@ def run_loop(case: Case, out: str | Path, settings: LoopSettings, *, skip: tuple
         ctx = LoopContext(folder, case, settings, state, progress)
         write_report(ctx)
         _run_steps(ctx, plan, log, steps or STEP_FUNCTIONS)
+    return state
+
+
+def _start_over_beside(folder: Path, case: Case, settings: LoopSettings, plan: LoopPlan, log: TextIO,
+                       progress: bool, functions: dict[str, Callable[[LoopContext], dict[str, Any]]]
+                       ) -> LoopState:
+    """A loop started over with ``--force``: built in a folder beside the earlier loop and swapped
+    in whole when its last step is done (an interrupted start-over leaves the earlier loop as it
+    was, its trained runs included; it is not continued: a new ``--force`` starts it again)."""
+    from elastica_magnetic.results import result_folder
+
+    known = [p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file()]
+    with result_folder(folder, kind=LOOP_KIND, force=True, option="--out", known_files=known) as result:
+        state = LoopState(result.path / "loop.json", case.name, case.to_dict(), settings.recorded())
+        state.write()
+        mark_folder(result.path, kind=LOOP_KIND, subject=f"case {case.name}")
+        ctx = LoopContext(result.path, case, settings, state, progress)
+        write_report(ctx)
+        _run_steps(ctx, plan, log, functions)
+        result.subject = f"case {case.name}"
+    state.path = folder / "loop.json"
     return state
 
 

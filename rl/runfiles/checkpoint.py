@@ -175,8 +175,9 @@ def load_checkpoint(path: str | os.PathLike, with_buffer: bool = True) -> dict[s
     if not isinstance(ckpt, dict) or ckpt.get("format") not in (CHECKPOINT_FORMAT, *LEGACY_FORMATS):
         shipped = (path.parent / "policy.json").is_file()  # a shipped policy's actor.pt or critic.pt
         raise ValueError(f"{path} is not a TD3 checkpoint ({CHECKPOINT_FORMAT})"
-                         + (f": a file of the shipped policy {path.parent}; give its folder" if shipped
-                            else ""))
+                         + (f": a file of the shipped policy {path.parent}, played by naming that folder "
+                            f"as the policy (msr policy generate {path.parent}), not as a checkpoint of a run"
+                            if shipped else ""))
     buffer = ckpt.get("buffer")
     if with_buffer and isinstance(buffer, dict) and "file" in buffer:
         ckpt["buffer"] = {**buffer, **read_replay_rows(path.parent / buffer["file"], buffer)}

@@ -61,11 +61,18 @@ def _check_refine_place(out: str | os.PathLike, source: str | os.PathLike | None
     from elastica_magnetic.io import display_path, normalized_path
     from elastica_magnetic.locks import held_here
     from elastica_magnetic.result_markers import describe_result, recognized_marker
-    from elastica_magnetic.result_places import held_refusal, inside_result, result_above, training_run_in
+    from elastica_magnetic.result_places import (
+        held_refusal,
+        inside_building,
+        inside_result,
+        result_above,
+        training_run_in,
+    )
 
     final = normalized_path(out)
     for parent in final.parents:
-        if held_here(parent):  # a folder this process writes (msr loop's) holds its steps' runs
+        # a folder this process writes (msr loop's) or builds (a loop started over) holds its steps' runs
+        if held_here(parent) or inside_building(parent):
             return
         # recognized, not only marked: a committed seed campaign or a result written before markers
         # carries no marker file and is still another command's result

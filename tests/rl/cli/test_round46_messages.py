@@ -69,6 +69,7 @@ def test_a_shipped_policy_given_a_checkpoint_is_advised_only_what_plays(trained,
         err = capsys.readouterr().err
         assert "is not a run folder (a shipped policy or an actor file)" in err and advice in err, err
         assert "play that checkpoint itself" not in err and not (tmp_path / "g").exists()
+    # (round 49 V1: "give its folder" was refused by --checkpoint: the folder is given as the policy)
     with pytest.raises(ValueError, match=rf"is not a TD3 checkpoint \(.*\): a file of the shipped policy "
-                                         rf"{shipped}; give its folder"):
+                                         rf"{shipped}, played by naming that folder as the policy"):
         load_checkpoint(shipped / "actor.pt")

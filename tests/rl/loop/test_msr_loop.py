@@ -483,3 +483,34 @@ def test_round17_quick_with_more_steps_says_it_is_no_smoke_run(capsys):
     assert "--steps 100000 replaces --quick's 240 training steps per seed" in capsys.readouterr().err
     args.steps = 100
     assert _settings(args).steps == 100 and "replaces" not in capsys.readouterr().err
+
+
+def test_an_interrupted_start_over_leaves_the_finished_loop_whole(interrupted_then_resumed, tmp_path,
+                                                                  monkeypatch):
+    """Round 49 D1: ``--force`` with other settings (a third seed), interrupted in its training,
+    had removed the finished loop's trained runs and recorded the new settings beside the old
+    steps' results. A loop started over is built beside and swapped in whole."""
+    import shutil
+
+    folder = tmp_path / "out"
+    shutil.copytree(interrupted_then_resumed["folder"], folder)
+
+    def fingerprint() -> dict[str, bytes]:
+        return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*"))
+                if p.is_file()}
+
+    before = fingerprint()
+    spec = str(interrupted_then_resumed["spec"])
+    with monkeypatch.context() as m:
+        m.setitem(loop_steps.STEP_FUNCTIONS, "train", _interrupt)
+        status, _, err = _loop(spec, "--out", str(folder), "--seeds", "3", "--force")
+    assert status == 130, err
+    assert fingerprint() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # nothing left beside it
+    status, _, err = _loop(spec, "--out", str(folder), "--seeds", "3", "--force")
+    assert status == 0, err
+    assert LoopState.read(folder).settings["seeds"] == 3
+    assert all(LoopState.read(folder).done(s) for s in STEPS if s not in ("refine", "robustness-refined"))
+    # swapped in, it is a loop like any other: run again it skips its steps; a redo reads its runs
+    status, _, err = _loop(spec, "--out", str(folder), "--seeds", "3", "--redo", "generate")
+    assert status == 0 and "loop: [3/8] train: already done" in err and "[4/8] generate: done" in err, err
