@@ -273,7 +273,9 @@ def run_design(spec: str | Path | Design, out: str | Path, settings: DesignSetti
             return summary
         if resume and (folder / "summary.json").is_file():
             # a finished design continued: its search goes on in a copy beside it, swapped in whole
-            # with its new end (killed before, the finished design stays as it was, whole)
+            # with its new end (killed before, the finished design stays as it was, whole); its spec
+            # and settings checked here first, so that a refusal names this folder, not the copy
+            _prepare(folder, design, settings, resume=True)
             with result_folder(folder, kind=DESIGN_KIND, force=True, option="--out",
                                known_files=_design_files(folder)) as result:
                 _copy_search(folder, result.path)

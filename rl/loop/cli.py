@@ -212,9 +212,14 @@ def loop_command(args: argparse.Namespace) -> int:
         raise CommandError(str(exc)) from None
     except FileNotFoundError as exc:
         raise CommandError(str(exc)) from None
-    except KeyboardInterrupt:
-        print(f"loop: interrupted; the finished steps are recorded in {args.out / 'loop.json'}: "
-              "run the same command again to go on from there", file=sys.stderr)
+    except KeyboardInterrupt as exc:
+        if getattr(exc, "loop_started_over", False):
+            print(f"loop: interrupted; the loop started over with --force was not finished, and "
+                  f"{args.out} holds the earlier loop as it was (its loop.json): the same command "
+                  "starts it over again from its first step", file=sys.stderr)
+        else:
+            print(f"loop: interrupted; the finished steps are recorded in {args.out / 'loop.json'}: "
+                  "run the same command again to go on from there", file=sys.stderr)
         raise
     if args.json:
         print(json.dumps({"out": str(args.out), "case": state.case, "steps": state.steps},

@@ -12,7 +12,13 @@ from typing import Any, TextIO
 
 from elastica_magnetic.io import display_path, normalized_path
 from elastica_magnetic.locks import FolderLock
-from elastica_magnetic.result_markers import mark_folder, read_marker, unrecorded_files
+from elastica_magnetic.result_markers import (
+    MARKER,
+    describe_result,
+    mark_folder,
+    read_marker,
+    unrecorded_files,
+)
 from elastica_magnetic.results import check_result_folder, remove_tree
 
 from ..cases.case import Case
@@ -138,14 +144,18 @@ def _start_over_beside(folder: Path, case: Case, settings: LoopSettings, plan: L
     from elastica_magnetic.results import result_folder
 
     known = [p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file()]
-    with result_folder(folder, kind=LOOP_KIND, force=True, option="--out", known_files=known) as result:
-        state = LoopState(result.path / "loop.json", case.name, case.to_dict(), settings.recorded())
-        state.write()
-        mark_folder(result.path, kind=LOOP_KIND, subject=f"case {case.name}")
-        ctx = LoopContext(result.path, case, settings, state, progress)
-        write_report(ctx)
-        _run_steps(ctx, plan, log, functions)
-        result.subject = f"case {case.name}"
+    try:
+        with result_folder(folder, kind=LOOP_KIND, force=True, option="--out", known_files=known) as result:
+            state = LoopState(result.path / "loop.json", case.name, case.to_dict(), settings.recorded())
+            state.write()
+            mark_folder(result.path, kind=LOOP_KIND, subject=f"case {case.name}")
+            ctx = LoopContext(result.path, case, settings, state, progress)
+            write_report(ctx)
+            _run_steps(ctx, plan, log, functions)
+            result.subject = f"case {case.name}"
+    except KeyboardInterrupt as exc:
+        exc.loop_started_over = True  # the command line says: nothing to go on from
+        raise
     state.path = folder / "loop.json"
     return state
 
@@ -188,6 +198,28 @@ def _check_steps_to_redo(folder: Path, plan: LoopPlan) -> None:
             raise LoopError(f"--out {display_path(folder)}: step {step} runs again (its folder is "
                             f"written anew) but {step}/ holds files msr did not write ({shown}); "
                             "move them out of the loop's folder first")
+        if step not in plan.extend and (other := _other_result_in(folder / step, step)) is not None:
+            where, marker = other
+            raise LoopError(f"--out {display_path(folder)}: step {step} runs again (its folder is written "
+                            f"anew) but {step}/{where} holds {describe_result(marker)}, not the loop's: "
+                            "move it out of the loop's folder first")
+
+
+def _other_result_in(step_folder: Path, step: str) -> tuple[str, dict] | None:
+    """A result of another command inside a step's folder (``msr refine``'s ``RUN/refined`` in a
+    seed of ``train/``), as ``(its place relative to the step's folder, its marker)``; the step's
+    own (the folder itself, the training's seeds) are not."""
+    if not step_folder.is_dir():
+        return None
+    for path in sorted(step_folder.rglob(MARKER)):
+        place = path.parent.relative_to(step_folder)
+        if place == Path("."):
+            continue
+        marker = read_marker(path.parent) or {}
+        if step == "train" and len(place.parts) == 2 and marker.get("kind") == "train":
+            continue  # train/<case>/seed<k>: the step's own runs
+        return place.as_posix(), marker
+    return None
 
 
 def _start_afresh(ctx: LoopContext, step: str, plan: LoopPlan) -> None:

@@ -550,3 +550,13 @@ def test_a_resume_asking_fewer_generations_than_searched_says_so(tmp_path):
     with pytest.warns(UserWarning, match="--generations 1: the search has 2 generations already"):
         summary = run_design("m1-4mT", out, one, resume=True)
     assert summary["search"]["generations"] == 2
+
+
+def test_a_finished_designs_resume_with_other_settings_names_its_folder(tmp_path):
+    """Round 50 V4: the refusal named the hidden copy it is continued in (``.d.msr-new-...``)."""
+    out = tmp_path / "d"
+    run_design("m1-4mT", out, TINY)
+    with pytest.raises(DesignError) as refused:
+        run_design("m1-4mT", out, DesignSettings(**{**TINY.__dict__, "seed": 7}), resume=True)
+    assert f"{out.name}" in str(refused.value) and ".msr-new" not in str(refused.value), refused.value
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d"]

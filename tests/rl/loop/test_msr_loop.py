@@ -505,6 +505,8 @@ def test_an_interrupted_start_over_leaves_the_finished_loop_whole(interrupted_th
         m.setitem(loop_steps.STEP_FUNCTIONS, "train", _interrupt)
         status, _, err = _loop(spec, "--out", str(folder), "--seeds", "3", "--force")
     assert status == 130, err
+    # round 50 V1: not "run the same command again to go on from there"
+    assert "the loop started over with --force was not finished" in err and "go on from there" not in err
     assert fingerprint() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # nothing left beside it
     status, _, err = _loop(spec, "--out", str(folder), "--seeds", "3", "--force")
@@ -514,3 +516,24 @@ def test_an_interrupted_start_over_leaves_the_finished_loop_whole(interrupted_th
     # swapped in, it is a loop like any other: run again it skips its steps; a redo reads its runs
     status, _, err = _loop(spec, "--out", str(folder), "--seeds", "3", "--redo", "generate")
     assert status == 0 and "loop: [3/8] train: already done" in err and "[4/8] generate: done" in err, err
+
+
+def test_a_redo_refuses_another_commands_result_inside_a_step(interrupted_then_resumed, tmp_path):
+    """Round 50 D1: ``msr refine LOOP/train/CASE/seed0`` writes ``seed0/refined`` (its default);
+    ``--redo train`` then removed that refinement without a word (files without a record were
+    refused, another command's result was not)."""
+    import shutil
+
+    from elastica_magnetic.result_markers import mark_folder
+
+    folder = tmp_path / "out"
+    shutil.copytree(interrupted_then_resumed["folder"], folder)
+    refined = folder / "train" / "seg4" / "seed0" / "refined"
+    refined.mkdir()
+    (refined / "run.json").write_text("{}\n")
+    mark_folder(refined, kind="refine", subject="case seg4")
+    status, _, err = _loop(str(interrupted_then_resumed["spec"]), "--out", str(folder), "--redo", "train")
+    assert status == 2, err
+    assert "step train runs again (its folder is written anew) but train/seg4/seed0/refined holds" in err
+    assert "not the loop's: move it out of the loop's folder first" in err
+    assert (refined / "run.json").is_file()
