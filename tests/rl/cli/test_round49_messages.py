@@ -51,3 +51,12 @@ def test_a_design_resumed_below_its_generations_warns_as_msr_does(tmp_path, caps
     err = capsys.readouterr().err
     assert "msr design: warning: --generations 1: the search has 2 generations already" in err, err
     assert "UserWarning" not in err
+
+
+def test_a_fit_kept_for_being_worse_says_how_much_worse():
+    """Round 51 V1: a fit 4.4x worse than the spec's values was told "(less than 0.1 % better)"."""
+    from elastica_magnetic_rl.sim2real.identify import _compared
+
+    assert _compared(0.02761, 0.006225) == "4.44x worse"
+    assert _compared(0.0062245, 0.006225) == "less than 0.1 % better"
+    assert _compared(0.006226, 0.006225) == "less than 0.1 % better"  # a hair either way: the same fit
