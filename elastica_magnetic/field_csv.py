@@ -185,12 +185,12 @@ def _column_layout(path: Path, rows_with_lines: list[tuple[int, list[str]]]
     """Where the field components are: their column indices, the index column (``None``: none),
     the number of columns every row must have, and the data rows (after a header, if any)."""
     first_line, first = rows_with_lines[0]
-    if len(first) > 1 and not first[-1].strip() and all(_is_number(c) for c in first[:-1]):
+    if len(first) > 1 and not first[-1].strip() and all(is_number(c) for c in first[:-1]):
         raise FieldCSVError(
             f"{path}: line {first_line} has {len(first)} columns, the last one empty (a trailing "
             f"comma?); expected 3 (mag_x, mag_y, mag_z in mT) or 4 (index first): remove the "
             "comma at the end of each row")
-    if _is_number(first[-1]):  # no header
+    if is_number(first[-1]):  # no header
         ncols = len(first)
         if ncols == 3:
             return [0, 1, 2], None, ncols, rows_with_lines
@@ -292,7 +292,7 @@ def _check_evenly_rising(path: Path, name: str, texts: list[str], body: list[tup
     the rows (a step of 1 from 0 or 1: a frame number) and a column of uneven steps are left to the
     unread-column warning."""
     texts = [re.sub(r"^([-+]?\d+),(\d+)$", r"\1.\2", t) for t in texts]  # a decimal comma ("0,02")
-    if len(texts) < 3 or not all(_is_number(t) for t in texts):
+    if len(texts) < 3 or not all(is_number(t) for t in texts):
         return
     values = np.array([float(t) for t in texts])
     steps = np.diff(values)
@@ -342,7 +342,7 @@ def _clock_times(path: Path, name: str, clock: tuple[str, float | None], texts: 
     with-unit texts. A row without a time, times in no form msr reads, or numbers in a unit msr does
     not know are a :class:`FieldCSVError`: a clock is checked or refused, never passed."""
     texts = [re.sub(r"^([-+]?\d+),(\d+)$", r"\1.\2", t) for t in texts]  # a decimal comma ("0,02")
-    numbers = [float(t) if _is_number(t) else None for t in texts]
+    numbers = [float(t) if is_number(t) else None for t in texts]
     stamps = [clock_text_seconds(t) for t in texts]
     values = numbers if any(v is not None for v in numbers) else stamps
     if all(v is None for v in values) and any(texts):  # its steps cannot be checked: never passed
@@ -396,11 +396,11 @@ def _field_row(path: Path, line: int, row: list[str], k: int, columns: list[int]
         field[j] = value * MILLITESLA
     if index_column is not None:
         text = row[index_column].strip()
-        if text and (not _is_number(text) or float(text) != k):
+        if text and (not is_number(text) or float(text) != k):
             # a time in s (0.01, 0.02...) or in ms (10, 20... every 10: t_ms) read as an index
             # (on the first row, any number but 0: a clock that does not start at 0, or rows
             # numbered from 1, which the next row would otherwise be refused for)
-            time_like = _is_number(text) and (k == 0 or not float(text).is_integer()
+            time_like = is_number(text) and (k == 0 or not float(text).is_integer()
                                               or math.isclose(float(text), 10.0 * k))
             hint = (f"; {index_name} is read as a row index 0, 1, 2..., not as a time (rows are 0.01 s "
                     "apart by definition): drop that column or number the rows" if time_like else
@@ -510,7 +510,9 @@ def write_field_csv(path: str | Path, field_tesla: NDArray[np.float64]) -> Path:
     return path
 
 
-def _is_number(text: str) -> bool:
+def is_number(text: str) -> bool:
+    """Whether ``text`` reads as a float (``"0.02"``, ``"1e-3"``, ``"nan"``); the readers of
+    numbers typed by hand share it."""
     try:
         float(text)
     except ValueError:

@@ -118,12 +118,7 @@ class RobotSimulation:
 
     def advance(self, duration: float) -> None:
         """Step for ``duration`` seconds (rounded to whole time steps), checking every 0.01 s."""
-        n_total = int(round(duration / self.spec.dt))
-        block = max(1, self.spec.steps_per_action)
-        while n_total > 0:
-            n = min(block, n_total)
-            self.step(n)
-            n_total -= n
+        advance_in_actions(self, duration)
 
     def check_health(self) -> None:
         """Raise :class:`SimulationDivergedError` if any node has NaN or moves faster than ``max_speed``."""
@@ -151,6 +146,18 @@ class RobotSimulation:
     def markers(self) -> dict[str, float]:
         """One trajectory row (see :data:`TRAJECTORY_COLUMNS`) of the current state."""
         return trajectory_row(self.rod, self.time)
+
+
+def advance_in_actions(simulation: Any, duration: float) -> None:
+    """Step ``simulation`` (a :class:`RobotSimulation` or one with its ``spec`` and ``step``) for
+    ``duration`` seconds, rounded to whole time steps, in calls of at most 0.01 s (each call
+    checks the state)."""
+    n_total = int(round(duration / simulation.spec.dt))
+    block = max(1, simulation.spec.steps_per_action)
+    while n_total > 0:
+        n = min(block, n_total)
+        simulation.step(n)
+        n_total -= n
 
 
 def _cutoff_hint(spec: RobotSpec) -> str:

@@ -18,7 +18,13 @@ import numpy as np
 from .batch import BatchedRobots, BatchedSimulationDivergedError, batched_unsupported
 from .fields import ConstantField, ControlledField
 from .robot_spec import RobotSpec
-from .simulation import FieldFunction, RobotSimulation, SimulationDivergedError, build_simulation
+from .simulation import (
+    FieldFunction,
+    RobotSimulation,
+    SimulationDivergedError,
+    advance_in_actions,
+    build_simulation,
+)
 from .spatial_fields import is_spatial
 
 __all__ = ["UniformFieldSimulation", "uniform_field_simulation"]
@@ -86,12 +92,7 @@ class UniformFieldSimulation:
 
     def advance(self, duration: float) -> None:
         """Step for ``duration`` seconds (rounded to whole time steps), checking every 0.01 s."""
-        n_total = int(round(duration / self.spec.dt))
-        block = max(1, self.spec.steps_per_action)
-        while n_total > 0:
-            n = min(block, n_total)
-            self.step(n)
-            n_total -= n
+        advance_in_actions(self, duration)
 
     def check_health(self) -> None:
         """Raise :class:`~elastica_magnetic.simulation.SimulationDivergedError` if any node has NaN

@@ -378,31 +378,12 @@ def _not_read(header: list[str], columns: list[str]) -> list[str]:
     return [f"column(s) {', '.join(repr(n) for n in others)} not read"] if others else []
 
 
-def _calibrate(args: argparse.Namespace) -> int:
+def _read_measurements(path: Path, columns: list[str]) -> tuple[np.ndarray, list[str]]:
+    """The measurements file's ``columns`` as ``(n, 6)`` numbers (currents in A, fields in mT) and
+    its header; every problem (a missing, doubled or unread current or field column, a bad value)
+    refused naming the file, line and column."""
     import pandas as pd
 
-    from elastica_magnetic.hardware.calibration import (
-        Calibration,
-        calibration_from_dict,
-        default_calibration_path,
-        load_calibration,
-        save_calibration,
-    )
-    from elastica_magnetic.hardware.calibration_fit import fit_actuation_matrix
-    from elastica_magnetic.hardware.plausibility import (
-        CURRENT_COLUMNS,
-        FIELD_COLUMNS,
-        check_measurements,
-    )
-    from elastica_magnetic.result_file import check_result_file, result_file
-
-    if args.upload:
-        _check_port("--upload", args.upload)
-    path = Path(args.measurements)
-    if not path.is_file():
-        raise _error(f"{path}: no such measurements file")
-    check_result_file(args.out, force=args.force, kind=CALIBRATION_FILE)
-    columns = [*CURRENT_COLUMNS, *FIELD_COLUMNS]
     try:
         table = pd.read_csv(path, skipinitialspace=True, encoding="utf-8-sig")
     except pd.errors.EmptyDataError:
@@ -437,6 +418,33 @@ def _calibrate(args: argparse.Namespace) -> int:
         raise _error(f"{path}: line {first + 2}: column {column}: missing or non-numeric value "
                      f"{str(table[column].iloc[first])!r} (the row: {cells})")
     values = data.to_numpy(dtype=np.float64)
+    return values, header
+
+
+def _calibrate(args: argparse.Namespace) -> int:
+    from elastica_magnetic.hardware.calibration import (
+        Calibration,
+        calibration_from_dict,
+        default_calibration_path,
+        load_calibration,
+        save_calibration,
+    )
+    from elastica_magnetic.hardware.calibration_fit import fit_actuation_matrix
+    from elastica_magnetic.hardware.plausibility import (
+        CURRENT_COLUMNS,
+        FIELD_COLUMNS,
+        check_measurements,
+    )
+    from elastica_magnetic.result_file import check_result_file, result_file
+
+    if args.upload:
+        _check_port("--upload", args.upload)
+    path = Path(args.measurements)
+    if not path.is_file():
+        raise _error(f"{path}: no such measurements file")
+    check_result_file(args.out, force=args.force, kind=CALIBRATION_FILE)
+    columns = [*CURRENT_COLUMNS, *FIELD_COLUMNS]
+    values, header = _read_measurements(path, columns)
     check_measurements(values[:, :3], values[:, 3:], str(path))
     fit = fit_actuation_matrix(values[:, :3], values[:, 3:] * MILLITESLA, str(path))
     base = load_calibration(args.base) if args.base else load_calibration(default_calibration_path())

@@ -42,6 +42,8 @@ from typing import Any
 
 import numpy as np
 
+from elastica_magnetic.field_csv import is_number
+
 __all__ = [
     "DEFAULT_RANGES",
     "SOURCE_RANGES",
@@ -321,14 +323,14 @@ def _factors_meant(parts: list[str]) -> str | None:
     texts = [p.strip().replace("±", "+-") for p in parts]
     if len(texts) == 1 and texts[0].endswith("%"):  # one percent: a change either way
         change = texts[0].removeprefix("+-")
-        if _is_float(change[:-1]):
+        if is_number(change[:-1]):
             p = abs(float(change[:-1])) / 100
             return f"{1 - p:g}:{1 + p:g} for {texts[0]} either way"
     if len(texts) != 2:
         return None
-    if all(t.lower().startswith("x") and _is_float(t[1:]) for t in texts):
+    if all(t.lower().startswith("x") and is_number(t[1:]) for t in texts):
         return f"{texts[0][1:]}:{texts[1][1:]} (without the x)"
-    if not all(t.endswith("%") and _is_float(t[:-1]) for t in texts):
+    if not all(t.endswith("%") and is_number(t[:-1]) for t in texts):
         return None
     percents = [float(t[:-1]) for t in texts]
     changes = any(t.startswith(("+", "-")) for t in texts)  # -10%:+10%: changes of the value
@@ -345,13 +347,6 @@ def _number(text: str, what: str, where: str) -> float:
         raise VariationError(f"{where}: {what} must be finite, got {text!r}")
     return value
 
-
-def _is_float(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 def parse_variation(text: str) -> Variation:

@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
+from elastica_magnetic.field_csv import is_number
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 #: Arithmetic choices of :attr:`TD3Config.precision`.
@@ -364,7 +365,7 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
             else:
                 value = float(text)
         except (ValueError, KeyError):
-            percent = text.strip().endswith("%") and _is_number(text.strip()[:-1])
+            percent = text.strip().endswith("%") and is_number(text.strip()[:-1])
             hint = f" ({float(text.strip()[:-1]) / 100:g} for {text.strip()})" if percent else ""
             raise ValueError(f"{key}={text}: expected {_setting_form(key, default)}{hint}") from None
         # a setting whose rule involves another is checked beside a partner that satisfies it (the
@@ -391,10 +392,3 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
         names = {f.name for f in dataclasses.fields(cls)}
         return cls(**{k: v for k, v in d.items() if k in names})
 
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True

@@ -272,13 +272,10 @@ def _fingerprint(folder: Path) -> dict[str, bytes]:
             if p.is_file()}
 
 
-def test_an_interrupted_force_keeps_the_earlier_design(tmp_path, monkeypatch):
-    """Round 10, D2: --force removed the earlier design at its start; a Ctrl-C then left neither."""
+def _stopped_in_the_second_generation(monkeypatch) -> dict[str, int]:
+    """``run_generation`` patched to raise a Ctrl-C at its second call; the calls counted."""
     import elastica_magnetic_rl.design.run as design_run
 
-    out = tmp_path / "d"
-    run_design("m1-4mT", out, TINY)
-    before = _fingerprint(out)
     real, calls = design_run.run_generation, {"n": 0}
 
     def stopped_in_the_second(*args, **kwargs):
@@ -287,13 +284,22 @@ def test_an_interrupted_force_keeps_the_earlier_design(tmp_path, monkeypatch):
             raise KeyboardInterrupt
         return real(*args, **kwargs)
 
-    other = DesignSettings(**{**TINY.__dict__, "seed": 5})
     monkeypatch.setattr(design_run, "run_generation", stopped_in_the_second)
-    with pytest.raises(KeyboardInterrupt):
-        run_design("m1-4mT", out, other, force=True)
+    return calls
+
+
+def test_an_interrupted_force_keeps_the_earlier_design(tmp_path, monkeypatch):
+    """Round 10, D2: --force removed the earlier design at its start; a Ctrl-C then left neither."""
+    out = tmp_path / "d"
+    run_design("m1-4mT", out, TINY)
+    before = _fingerprint(out)
+    other = DesignSettings(**{**TINY.__dict__, "seed": 5})
+    with monkeypatch.context() as m:
+        calls = _stopped_in_the_second_generation(m)
+        with pytest.raises(KeyboardInterrupt):
+            run_design("m1-4mT", out, other, force=True)
     assert calls["n"] == 2 and _fingerprint(out) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d"]  # nothing left beside it
-    monkeypatch.setattr(design_run, "run_generation", real)
     replaced = run_design("m1-4mT", out, other, force=True)
     assert replaced["search"]["seed"] == 5 and _fingerprint(out) != before
     assert json.loads((out / "summary.json").read_text())["search"]["seed"] == 5
@@ -514,27 +520,17 @@ def test_an_interrupted_resume_of_a_finished_design_keeps_it_whole(tmp_path, mon
     (summary.json, best.toml, report) of one generation beside a search of five, the folder's
     record crediting the killed command: a finished design is continued beside it now and swapped
     in whole with its new end."""
-    import elastica_magnetic_rl.design.run as design_run
-
     out = tmp_path / "d"
     one = DesignSettings(**{**TINY.__dict__, "generations": 1})
     run_design("m1-4mT", out, one)
     before = _fingerprint(out)
-    real, calls = design_run.run_generation, {"n": 0}
-
-    def stopped_in_the_second(*args, **kwargs):
-        calls["n"] += 1
-        if calls["n"] == 2:
-            raise KeyboardInterrupt
-        return real(*args, **kwargs)
-
     three = DesignSettings(**{**TINY.__dict__, "generations": 3})
-    monkeypatch.setattr(design_run, "run_generation", stopped_in_the_second)
-    with pytest.raises(KeyboardInterrupt):
-        run_design("m1-4mT", out, three, resume=True)
+    with monkeypatch.context() as m:
+        calls = _stopped_in_the_second_generation(m)
+        with pytest.raises(KeyboardInterrupt):
+            run_design("m1-4mT", out, three, resume=True)
     assert calls["n"] == 2 and _fingerprint(out) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d"]  # nothing left beside it
-    monkeypatch.setattr(design_run, "run_generation", real)
     resumed = run_design("m1-4mT", out, three, resume=True)
     assert resumed["search"]["generations"] == 3
     assert {int(row["generation"]) for row in _rows(out / "history.csv")} == {1, 2, 3}
