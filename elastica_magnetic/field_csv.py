@@ -4,7 +4,11 @@ Format (as published by Yao et al. 2023): an optional header line ``,mag_x,mag_y
 ``index,mag_x,mag_y,mag_z``), then one row per 1/100 s: an optional integer index column, then the
 field components in **millitesla**. Row ``i`` holds the field during ``[i/100, (i+1)/100)`` s.
 
-Inside the package fields are in tesla; the conversion happens here and only here.
+Inside the package fields are in tesla; the conversion happens here and only here, in decimal:
+a value is written as the shortest decimal of its tesla value with the point moved three places,
+and read by moving the point back, so a field written and read again is the same float to the
+last bit (the waveform a policy played is the waveform its CSV replays), and a hand-written
+``3.9876`` reads as the double nearest 3.9876e-3 T.
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ import csv
 import io
 import math
 import re
+from decimal import Decimal
 from pathlib import Path
 
 import numpy as np
@@ -393,7 +398,7 @@ def _field_row(path: Path, line: int, row: list[str], k: int, columns: list[int]
             raise FieldCSVError(
                 f"{path}: line {line}, column {FIELD_COLUMNS[j]}: non-finite value {text!r}"
             )
-        field[j] = value * MILLITESLA
+        field[j] = millitesla_text_to_tesla(text)
     if index_column is not None:
         text = row[index_column].strip()
         if text and (not is_number(text) or float(text) != k):
@@ -505,9 +510,24 @@ def write_field_csv(path: str | Path, field_tesla: NDArray[np.float64]) -> Path:
     with atomic_write(path, "w", newline="") as handle:
         writer = csv.writer(handle, lineterminator="\n")
         writer.writerow(["", *FIELD_COLUMNS])
-        for i, b in enumerate(field_tesla / MILLITESLA):
-            writer.writerow([i, *(repr(float(v)) for v in b)])
+        for i, b in enumerate(field_tesla):
+            writer.writerow([i, *(tesla_to_millitesla_text(float(v)) for v in b)])
     return path
+
+
+def tesla_to_millitesla_text(value: float) -> str:
+    """A field component (T) as the decimal text of a field CSV (mT): the shortest decimal that
+    reads back as ``value`` (``repr``) with its point moved three places, so that
+    :func:`millitesla_text_to_tesla` returns ``value`` exactly (``0.0003`` -> ``"0.3"``)."""
+    millitesla = Decimal(repr(float(value))).scaleb(3)
+    text = format(millitesla, "f") if -7 < millitesla.adjusted() < 17 else str(millitesla)
+    return text if any(c in text for c in ".En") else text + ".0"
+
+
+def millitesla_text_to_tesla(text: str) -> float:
+    """A field CSV's number (mT, as text) in tesla: the double nearest the decimal value / 1000
+    (exact decimal shift, one rounding: the inverse of :func:`tesla_to_millitesla_text`)."""
+    return float(Decimal(text.strip()).scaleb(-3))
 
 
 def is_number(text: str) -> bool:
