@@ -201,6 +201,7 @@ def loop_command(args: argparse.Namespace) -> int:
     from .runner import run_loop
     from .state import LoopError, parse_steps
 
+    redo: tuple[str, ...] = ()
     try:
         skip, redo = parse_steps(args.skip, "--skip"), parse_steps(args.redo, "--redo")
         # SIGTERM/SIGHUP stop it as Ctrl-C does, in every step (the train step's too), with the
@@ -218,8 +219,11 @@ def loop_command(args: argparse.Namespace) -> int:
                   f"{args.out} holds the earlier loop as it was (its loop.json): the same command "
                   "starts it over again from its first step", file=sys.stderr)
         else:
+            again = ("run the same command again to go on from there" if not redo else
+                     "run it again without --redo to go on from there (the same command starts the "
+                     f"steps of --redo {','.join(redo)} again)")
             print(f"loop: interrupted; the finished steps are recorded in {args.out / 'loop.json'}: "
-                  "run the same command again to go on from there", file=sys.stderr)
+                  f"{again}", file=sys.stderr)
         raise
     if args.json:
         print(json.dumps({"out": str(args.out), "case": state.case, "steps": state.steps},

@@ -22,6 +22,7 @@ from elastica_magnetic.result_markers import (
 from elastica_magnetic.results import check_result_folder, remove_tree
 
 from ..cases.case import Case
+from ..runfiles.locking import is_run_file
 from .report import write_report
 from .settings import LoopSettings
 from .state import AFRESH, STEPS, LoopError, LoopPlan, LoopState, plan_loop
@@ -191,7 +192,8 @@ def _check_steps_to_redo(folder: Path, plan: LoopPlan) -> None:
     the step's folder is removed at its turn, and they are the user's."""
     for step in plan.redo:
         own = STEP_FILES_UNRECORDED.get(step, ())
-        foreign = [f for f in unrecorded_files(folder / step) if f.rsplit("/", 1)[-1] not in own]
+        foreign = [f for f in unrecorded_files(folder / step)
+                   if f.rsplit("/", 1)[-1] not in own and not _an_unfinished_seeds_file(folder / step, f)]
         if foreign:
             shown = ", ".join(f"{step}/{f}" for f in foreign[:5]) + (
                 f" and {len(foreign) - 5} more" if len(foreign) > 5 else "")
@@ -203,6 +205,17 @@ def _check_steps_to_redo(folder: Path, plan: LoopPlan) -> None:
             raise LoopError(f"--out {display_path(folder)}: step {step} runs again (its folder is written "
                             f"anew) but {step}/{where} holds {describe_result(marker)}, not the loop's: "
                             "move it out of the loop's folder first")
+
+
+def _an_unfinished_seeds_file(step_folder: Path, relative: str) -> bool:
+    """Whether ``relative`` (a file under ``step_folder``, unrecorded) is a training run's own
+    file in a seed folder of the train step (``<case>/seed<k>/run.json``) whose marker is a
+    training's: a seed interrupted before it recorded its files (an interrupted ``--redo``)."""
+    parts = relative.split("/")
+    if step_folder.name != "train" or len(parts) != 3 or not is_run_file(parts[2]):
+        return False
+    marker = read_marker(step_folder / parts[0] / parts[1]) or {}
+    return marker.get("kind") == "train"
 
 
 def _other_result_in(step_folder: Path, step: str) -> tuple[str, dict] | None:

@@ -253,13 +253,14 @@ def _redo_for_changes(state: LoopState, spec: dict[str, Any], settings: dict[str
         changed, redo = others, (*redo, *extend)
     own = [_own_steps(key) for key in changed]
     if changed and not force and all(own):
-        missing = [step for step in STEPS if any(step in steps for steps in own)
-                   and step not in redo and state.done(step)]
-        if missing:  # a setting of some steps: those again, not the whole loop
-            uses = f"step {missing[0]} uses" if len(missing) == 1 else f"steps {', '.join(missing)} use"
+        needed = [step for step in STEPS if any(step in steps for steps in own) and state.done(step)]
+        covered = set().union(*(dependents(step) for step in redo))
+        if any(step not in covered for step in needed):  # a setting of some steps: those again
+            # all of them named, so that following the advice once is enough
+            uses = f"step {needed[0]} uses" if len(needed) == 1 else f"steps {', '.join(needed)} use"
             raise LoopError(
                 f"--out {display_path(state.path.parent)}: changed: {', '.join(changed)}, which only "
-                f"{uses}: pass --redo {','.join(missing)} to run {'it' if len(missing) == 1 else 'them'} "
+                f"{uses}: pass --redo {','.join(needed)} to run {'it' if len(needed) == 1 else 'them'} "
                 "again with it (the other steps kept), or --force to start the loop over")
         return redo, extend
     if changed and not force:

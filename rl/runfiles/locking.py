@@ -20,7 +20,7 @@ from elastica_magnetic.result_markers import MARKER, mark_folder, read_marker
 
 from .rundir import RunDir
 
-__all__ = ["check_not_owned", "check_unlocked", "held_run_folders", "mark_run_folder",
+__all__ = ["check_not_owned", "check_unlocked", "held_run_folders", "is_run_file", "mark_run_folder",
            "briefly_locked", "remove_leftovers"]
 
 
@@ -111,12 +111,20 @@ def _foreign_entries(folder: Path) -> list[str]:
     during start-up may have left, and their temporaries)."""
     if not folder.is_dir():
         return []
-    own = {RunDir.CHECKPOINT, RunDir.BEST, RunDir.REPLAY, RunDir.EPISODES_CSV,
-           RunDir.EVALUATIONS_CSV, RunDir.RUN_JSON, RunDir.EVALUATION_JSON, RunDir.REFINED, MARKER}
     temporaries = {p.name for p in RunDir(folder).leftover_temporaries()}
     return sorted(p.name for p in folder.iterdir()
-                  if p.name not in own and p.name not in temporaries
-                  and not p.name.endswith(".tmp"))
+                  if not is_run_file(p.name) and p.name not in temporaries and p.name != MARKER)
+
+
+#: The files a training run writes into its folder (``refined`` is the default place of ``msr refine``).
+RUN_FILES = frozenset({RunDir.CHECKPOINT, RunDir.BEST, RunDir.REPLAY, RunDir.EPISODES_CSV,
+                       RunDir.EVALUATIONS_CSV, RunDir.RUN_JSON, RunDir.EVALUATION_JSON, RunDir.REFINED})
+
+
+def is_run_file(name: str) -> bool:
+    """Whether ``name`` (a file in a run's folder) is one a training writes, or the temporary of
+    one a killed writer left (``*.tmp``)."""
+    return name in RUN_FILES or name.endswith(".tmp")
 
 
 @contextlib.contextmanager

@@ -537,3 +537,59 @@ def test_a_redo_refuses_another_commands_result_inside_a_step(interrupted_then_r
     assert "step train runs again (its folder is written anew) but train/seg4/seed0/refined holds" in err
     assert "not the loop's: move it out of the loop's folder first" in err
     assert (refined / "run.json").is_file()
+
+
+def test_a_changed_training_table_is_told_one_redo_that_covers_it(interrupted_then_resumed, tmp_path):
+    """Round 50, V3: a changed ``[training.td3]`` key with ``--redo check`` was told "pass --redo
+    train", and with ``--redo train`` "pass --redo check": advice that, followed, was refused again.
+    Now each names the whole set that reads the key."""
+    import shutil
+
+    folder = tmp_path / "out"
+    shutil.copytree(interrupted_then_resumed["folder"], folder)
+    spec = json.loads(json.dumps(SPEC))
+    spec["training"] = {"td3": {"exploration_noise": 0.15}}
+    changed = tmp_path / "seg4.toml"
+    changed.write_bytes(tomli_w.dumps(spec).encode())
+    for given in ("check", "train"):
+        status, _, err = _loop(str(changed), "--out", str(folder), "--redo", given)
+        assert status == 2
+        assert "which only steps check, train use: pass --redo check,train" in err, err
+
+
+def _interrupted_seed(ctx):
+    """The train step interrupted after its seeds' folders and ``run.json`` are written, before
+    their markers list them (what a Ctrl-C early in a training leaves)."""
+    from elastica_magnetic_rl.runfiles.locking import mark_run_folder
+
+    for k in range(2):
+        seed = ctx.folder / "train" / ctx.case.name / f"seed{k}"
+        mark_run_folder(seed, "train", ctx.case.name)
+        (seed / "run.json").write_text("{}\n")
+    raise KeyboardInterrupt
+
+
+def test_an_interrupted_redo_is_not_refused_for_its_own_seeds(interrupted_then_resumed, tmp_path,
+                                                               monkeypatch):
+    """Round 50, V2 (and round 51): after a Ctrl-C in the train step of ``--redo yardstick``, "run the
+    same command again" was refused: "train/ holds files msr did not write (train/seg4/seed0/run.json,
+    ...)", the loop's own interrupted seeds. Now the same command runs, and the interruption says
+    that without --redo the loop goes on where it stopped."""
+    import shutil
+
+    folder = tmp_path / "out"
+    shutil.copytree(interrupted_then_resumed["folder"], folder)
+    spec = str(interrupted_then_resumed["spec"])
+    with monkeypatch.context() as m:
+        m.setitem(loop_steps.STEP_FUNCTIONS, "train", _interrupted_seed)
+        status, _, err = _loop(spec, "--out", str(folder), "--redo", "train")
+    assert status != 0
+    assert "run it again without --redo to go on from there (the same command starts the steps of " \
+           "--redo train again)" in err, err
+    # a user's file still stops it
+    (folder / "train" / "seg4" / "seed0" / "mine.txt").write_text("my notes\n")
+    status, _, err = _loop(spec, "--out", str(folder), "--redo", "train")
+    assert status == 2 and "train/seg4/seed0/mine.txt" in err and "seed0/run.json" not in err, err
+    (folder / "train" / "seg4" / "seed0" / "mine.txt").unlink()
+    status, _, err = _loop(spec, "--out", str(folder), "--redo", "train")
+    assert status == 0, err
