@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from .clock_columns import clock_scale, clock_text_seconds, other_spelling_hint, trailing_time_unit
 from .drive_columns import MAGNET_COLUMN, drive_described
-from .io import atomic_write
+from .io import atomic_write, missing_folder_hint
 from .plausibility import judge, warn_implausible
 from .robot_spec import ACTION_PERIOD
 
@@ -78,7 +78,7 @@ def read_field_csv(path: str | Path, *, plausible: bool = False) -> NDArray[np.f
         if path.exists():  # a FIFO, a device such as /dev/null: read once, or never ends
             raise FieldCSVError(f"{path}: is not a regular file (a pipe or a device); give a field "
                                 "CSV file")
-        raise FieldCSVError(f"{path}: no such field CSV file")
+        raise FieldCSVError(f"{path}: no such field CSV file{missing_folder_hint(path)}")
     rows_with_lines = numbered_rows(path, _csv_rows(path, FieldCSVError), FieldCSVError)
     if not rows_with_lines:
         raise FieldCSVError(f"{path}: empty file, expected columns {', '.join(FIELD_COLUMNS)} (mT)")

@@ -92,6 +92,21 @@ def normalized_path(path: str | os.PathLike[str]) -> Path:
     return Path(os.path.realpath(os.path.expanduser(os.fspath(path))))
 
 
+def missing_folder_hint(path: str | os.PathLike[str]) -> str:
+    """For a file that could not be opened: ``" (the folder X does not exist ...)"`` naming the
+    first folder of ``path`` as spelled that is missing (``./missing/../spec.toml``: the system
+    follows ``..`` after ``missing``, so the file is not found even where ``spec.toml`` exists),
+    or ``""`` when every folder exists."""
+    parts = Path(os.path.expanduser(os.fspath(path))).parts
+    for k in range(1, len(parts)):
+        folder = Path(*parts[:k])
+        if not folder.is_dir():
+            through = ("; a path is followed folder by folder, so '..' after a missing folder does not "
+                       "lead back" if ".." in parts[k:] else "")
+            return f" (the folder {folder} does not exist{through})"
+    return ""
+
+
 #: Output paths the command line was given with a trailing separator (``DIR/``: a folder meant),
 #: normalized; a writer of one file refuses them (:func:`spelled_as_folder`).
 _FOLDER_SPELLINGS: set[str] = set()

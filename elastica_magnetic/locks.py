@@ -112,7 +112,18 @@ def _pid_alive(pid: int) -> bool:
         return False
     except (PermissionError, OSError):
         return True  # exists (another user's) or cannot tell: assume alive
-    return True
+    return not _zombie(pid)
+
+
+def _zombie(pid: int) -> bool:
+    """Whether ``pid`` is a process that has ended and not been reaped (state ``Z`` in Linux's
+    ``/proc/PID/stat``): a writer killed with SIGKILL under a parent that does not reap it (some
+    containers' PID 1) still answers ``kill(pid, 0)``, but writes nothing any more."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False  # not Linux, or gone: kill() above has the say
+    return stat[stat.rfind(")") + 2:].startswith("Z")  # after "pid (command) "
 
 
 #: How the temporaries of a writer are named after their stage: ``HOST-PID-RANDOM`` (host tag as

@@ -119,7 +119,7 @@ def check_enclosing(final: Path, option: str, subject: str | None = UNSAID) -> N
             raise OutputPathError(refusal)
         if (run := training_run_in(parent, final)) is not None:
             raise OutputPathError(f"{option} {display_path(final)}: lies in {display_path(parent)}, which "
-                                  f"holds the runs of a training ({run.name}, `msr train`): that folder "
+                                  f"holds the runs of a training ({run.name} among them): that folder "
                                   "holds its runs alone (msr train --resume refuses anything else "
                                   f"there); choose another {option}")
 
@@ -209,8 +209,8 @@ def check_not_another_result(folder: str | Path, option: str, *, held_ok: bool =
         raise ResultExistsError(f"{option} {display_path(final)}: holds {held}, whose files are its own: "
                                 f"nothing else goes in that folder; choose another {option}")
     if (run := training_run_in(final)) is not None:
-        raise ResultExistsError(f"{option} {display_path(final)}: holds the runs of a training ({run.name}, "
-                                "`msr train`): that folder holds its runs alone (msr train --resume refuses "
+        raise ResultExistsError(f"{option} {display_path(final)}: holds the runs of a training ({run.name} "
+                                "among them): that folder holds its runs alone (msr train --resume refuses "
                                 f"anything else there); choose another {option}")
     check_enclosing(final, option)
 

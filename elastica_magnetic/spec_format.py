@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .io import byte_order_mark_problem
+from .io import byte_order_mark_problem, missing_folder_hint
 from .plausibility import NAMED_CHECKS, judge, mistake_hint, warn_implausible
 
 __all__ = ["REQUIRED", "SpecError", "SpecTable", "accepted_keys", "loads", "read_spec",
@@ -261,7 +261,7 @@ def read_spec(path: str | Path) -> dict[str, Any]:
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise SpecError(f"{path}: no such spec file") from None
+        raise SpecError(f"{path}: no such spec file{missing_folder_hint(path)}") from None
     except UnicodeDecodeError as exc:  # e.g. saved as Latin-1 or UTF-16 by an editor
         raw = path.read_bytes()
         line = raw[: exc.start].count(b"\n") + 1

@@ -121,3 +121,25 @@ def test_a_fifo_at_the_lock_files_name_is_refused_at_once(tmp_path):
         signal.alarm(0)
         signal.signal(signal.SIGALRM, previous)
     assert stat.S_ISFIFO(os.lstat(lock_path(folder)).st_mode) and not folder.exists()
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="Linux's /proc tells an unreaped process")
+def test_a_killed_writer_left_unreaped_counts_as_dead(tmp_path):
+    """Round 51 borderline: a writer killed with SIGKILL whose parent does not reap it (a
+    container's PID 1) stayed a zombie, and its lock and temporaries counted as a live writer's."""
+    import subprocess
+    import time
+
+    from elastica_magnetic.locks import _pid_alive
+
+    child = subprocess.Popen(["sleep", "30"])
+    try:
+        assert _pid_alive(child.pid)
+        child.kill()
+        deadline = time.monotonic() + 10
+        while _pid_alive(child.pid) and time.monotonic() < deadline:  # ended, not reaped: a zombie
+            time.sleep(0.05)
+        assert not _pid_alive(child.pid)
+        assert os.path.exists(f"/proc/{child.pid}")  # still there, unreaped
+    finally:
+        child.wait()

@@ -297,6 +297,8 @@ def ship_command(args: argparse.Namespace) -> int:
     if args.notes is not None:
         _check_notes_outside(args.notes, target, "--notes")
         notes = _read_markdown(args.notes, "--notes")
+        if not notes.strip():  # as msr policy notes --file: an empty file is more often a mistake
+            raise CommandError(f"--notes {args.notes}: is empty; leave --notes out to ship without notes")
     if (target / POLICY_JSON).exists() and not args.force:  # before the actors' evaluations
         given = f"--out {display_path(args.dest)}, " if args.dest is not None else ""
         where = f"{display_path(target)} ({given}--name {args.name})"
@@ -410,7 +412,8 @@ def notes_command(args: argparse.Namespace) -> int:
     if args.file is None and not args.clear:
         policy = resolve_policy(args.policy)
         if policy.kind != "shipped":
-            raise CommandError(f"{args.policy}: a {policy.kind}, not a shipped policy: notes belong "
+            what = "training run's folder" if Path(args.policy).is_dir() else f"{policy.kind} file"
+            raise CommandError(f"{args.policy}: a {what}, not a shipped policy: notes belong "
                                "to a shipped policy (a folder with policy.json), and a run's cannot "
                                "be written either; ship it first (msr policy ship)")
         notes = policy.meta.get("notes")

@@ -108,6 +108,7 @@ def design_command(args: argparse.Namespace) -> int:
     from elastica_magnetic.interrupts import signals_as_exceptions
 
     replacing = args.force and holds_design(args.out)
+    continuing_finished = args.resume and not replacing and (args.out / "summary.json").is_file()
     try:
         began = time.perf_counter()
         with signals_as_exceptions():  # SIGTERM/SIGHUP as Ctrl-C: the message below, not silence
@@ -119,6 +120,9 @@ def design_command(args: argparse.Namespace) -> int:
         if replacing:
             print(f"design: interrupted; the earlier design in {args.out} is kept as it was (the "
                   "replacement is dropped: start it again with --force)", file=sys.stderr)
+        elif continuing_finished:
+            print(f"design: interrupted; the finished design in {args.out} is kept as it was (its "
+                  "continued search is dropped: continue it again with --resume)", file=sys.stderr)
         else:
             print(f"design: interrupted; the design's progress (its last whole generation, if any) "
                   f"is in {args.out}: continue with the same command and --resume", file=sys.stderr)
@@ -131,20 +135,20 @@ def design_command(args: argparse.Namespace) -> int:
     took = time.perf_counter() - began
     if settings.minutes is not None and took > 60.0 * settings.minutes * OVER_BUDGET:
         print(f"design: warning: took {took:.0f} s, beyond --minutes {settings.minutes:g} "
-              f"({60.0 * settings.minutes:.0f} s): the search runs at least one generation "
+              f"({60.0 * settings.minutes:.3g} s): the search runs at least one generation "
               f"({stopped['generations'] if stopped else '?'} run) and the final judgement whatever the "
               "budget; give a budget of at least the time above", file=sys.stderr)
     if args.json:
         print(json.dumps(summary, indent=2, default=str))
     else:
+        from .outputs import millimetres
+
         start, best = summary["objective_start_m"], summary["objective_best_m"]
         ratio = summary["ratio"]
-        print(f"design: {summary['objective']} objective: start {_mm(start)}, best {_mm(best)}"
+        print(f"design: {summary['objective']} objective: start {millimetres(start)}, "
+              f"best {millimetres(best)}"
               + (f" ({ratio:.2f}x)" if ratio else ""))
         print(f"best design: {args.out / 'best.toml'}; report: {args.out / 'report.md'}")
     sys.stdout.flush()
     return 0
 
-
-def _mm(value: float | None) -> str:
-    return "diverged" if value is None else f"{1e3 * value:+.1f} mm"

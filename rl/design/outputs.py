@@ -174,8 +174,13 @@ def _write_sweep(path: Path, start: dict[str, Any], best: dict[str, Any]) -> Non
                                  "nan" if d is None else f"{d:.9g}"])
 
 
-def _mm(value: float | None) -> str:
-    return "diverged" if value is None else f"{1e3 * value:+.1f} mm"
+def millimetres(value: float | None) -> str:
+    """A distance (m) as the design's outputs say it: to 0.1 mm, or to two significant digits
+    below that (a smoke run's micrometres are not shown as +0.0 mm); ``None`` is a diverged run."""
+    if value is None:
+        return "diverged"
+    mm = 1e3 * value
+    return f"{mm:+.1f} mm" if mm == 0.0 or abs(mm) >= 0.1 else f"{mm:+.2g} mm"
 
 
 def _report(summary: dict[str, Any]) -> str:
@@ -188,7 +193,8 @@ def _report(summary: dict[str, Any]) -> str:
              "", "| design | objective | best rotating field | period | sense |", "|---|---|---|---|---|"]
     for label, r, obj in (("start", s, summary["objective_start_m"]),
                           ("best", b, summary["objective_best_m"])):
-        lines.append(f"| {label} | {_mm(obj)} | {_mm(r['distance_m'])} | {r['period_s']:.3g} s | "
+        lines.append(f"| {label} | {millimetres(obj)} | {millimetres(r['distance_m'])} | "
+                     f"{r['period_s']:.3g} s | "
                      f"{turn[r['clockwise']]} |")
     ratio = summary["ratio"]
     lines += ["", f"Ratio best / start: {ratio:.2f}x." if ratio else "Ratio: undefined (the start "

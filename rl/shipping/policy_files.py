@@ -223,6 +223,10 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
         path = RunDir(path).checkpoint
     if path.is_dir():
         finish_interrupted_ship(path)
+    if (path.is_file() and path.suffix != ".pt" and path.name in SHIPPED_FILES
+            and (path.parent / POLICY_JSON).is_file()):
+        raise PolicyFileError(f"{path}: a file of the shipped policy {path.parent}, not a policy: give "
+                              f"its folder ({path.parent})")
     if path.is_file():
         try:  # the networks only: a checkpoint copied away from its replay file still plays
             ckpt = load_checkpoint(path, with_buffer=False)

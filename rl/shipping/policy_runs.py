@@ -351,8 +351,11 @@ def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10
             raise FileNotFoundError(f"--checkpoint {checkpoint}: a folder; give one of the run's checkpoint "
                                     f"files ({RunDir.CHECKPOINT}, {RunDir.BEST}) or auto, final, best")
         if not given.is_file():
+            own = {RunDir.BEST: "best", RunDir.CHECKPOINT: "final"}.get(str(checkpoint))
+            hint = (f"; the run's own {checkpoint} is --checkpoint {own}"
+                    if own is not None and (run_dir / checkpoint).is_file() else "")
             raise FileNotFoundError(f"--checkpoint {checkpoint}: no such checkpoint file (or auto, "
-                                    "final, best)")
+                                    f"final, best){hint}")
         if not is_run:  # a shipped policy has one actor: the checkpoint would be played in its place
             raise ValueError(f"--checkpoint {checkpoint}: {run} is not a run folder (a shipped policy or an "
                              "actor file): it has no checkpoints to choose among; leave --checkpoint out"

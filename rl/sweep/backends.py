@@ -110,11 +110,26 @@ def _run_processes(fn, jobs, workers, rebalancing=None) -> list[dict[str, Any]]:
             try:
                 results[k] = fn(job)
             except Exception as exc:  # keep the other seeds going; report the failure
+                if _raised_by_an_interrupt(exc):  # e.g. a Ctrl-C inside an import, wrapped by Python
+                    raise KeyboardInterrupt from exc
                 results[k] = {"seed": job.seed, "error": _error(exc)}
     else:
         results = run_in_processes(fn, jobs, workers, on_error=lambda k, exc: {
             "seed": jobs[k].seed, "error": _error(exc)}, rebalancing=rebalancing)
     return results
+
+
+def _raised_by_an_interrupt(exc: BaseException) -> bool:
+    """Whether ``exc`` was raised while handling a Ctrl-C (a ``KeyboardInterrupt`` in its chain of
+    causes and contexts): the seed was interrupted, not failed."""
+    seen: set[int] = set()
+    current: BaseException | None = exc
+    while current is not None and id(current) not in seen:
+        if isinstance(current, KeyboardInterrupt):
+            return True
+        seen.add(id(current))
+        current = current.__cause__ or current.__context__
+    return False
 
 
 def run_in_processes(

@@ -64,3 +64,48 @@ def test_generate_and_the_replay_of_its_fields_csv_give_one_trajectory(tmp_path,
     replayed = pd.read_csv(tmp_path / "rp" / "trajectory.csv")
     assert played.shape == replayed.shape
     assert (played.to_numpy() == replayed.to_numpy()).all()
+
+
+def test_a_shipped_policys_policy_json_is_told_to_give_its_folder(capsys):
+    """Borderline of round 51: "policy.json: cannot be read as a checkpoint: is a text file"."""
+    from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR
+
+    folder = POLICIES_DIR / "m1-4mT"
+    assert run(["policy", "notes", str(folder / "policy.json")]) == 2
+    assert f"a file of the shipped policy {folder}, not a policy: give its folder" in capsys.readouterr().err
+
+
+def test_notes_of_a_run_folder_call_it_a_run_and_best_pt_is_told_its_name(trained, tmp_path, monkeypatch,
+                                                                          capsys):
+    """Borderline of round 51: a run's folder was "a checkpoint, not a shipped policy"; ``--checkpoint
+    best.pt`` (read from the current folder) was "no such checkpoint file (or auto, final, best)"."""
+    run_dir = trained / "m1-4mT" / "seed0"
+    assert run(["policy", "notes", str(run_dir)]) == 2
+    assert "a training run's folder, not a shipped policy" in capsys.readouterr().err
+    monkeypatch.chdir(tmp_path)
+    assert run(["policy", "export", str(run_dir), "--checkpoint", "best.pt", "--out", "ex"]) == 2
+    assert "the run's own best.pt is --checkpoint best" in capsys.readouterr().err
+
+
+def test_ship_refuses_an_empty_notes_file_as_notes_does(trained, tmp_path, capsys):
+    """Borderline of round 51: ``ship --notes empty.md`` shipped ``notes = ""`` without a word."""
+    empty = tmp_path / "empty.md"
+    empty.write_text("\n")
+    assert run(["policy", "ship", str(trained / "m1-4mT" / "seed0"), "--name", "p1", "--out",
+                str(tmp_path / "pols"), "--notes", str(empty)]) == 2
+    assert f"--notes {empty}: is empty" in capsys.readouterr().err
+    assert not (tmp_path / "pols" / "p1").exists()
+
+
+def test_an_input_through_a_missing_folder_names_the_folder(tmp_path, monkeypatch, capsys):
+    """Borderline of round 51: ``--robot ./missing/../small.toml`` was "no such spec file" beside an
+    existing small.toml (the system follows ``..`` after the missing folder, and fails)."""
+    monkeypatch.chdir(tmp_path)
+    assert run(["case", "show", "m1-4mT", "--toml"]) == 0
+    (tmp_path / "small.toml").write_text(capsys.readouterr().out)
+    write_field_csv(tmp_path / "f.csv", np.zeros((5, 3)))
+    assert run(["field", "replay", "f.csv", "--robot", "./missing/../small.toml", "--out", "r"]) == 2
+    assert ("no such spec file (the folder missing does not exist; a path is followed folder by folder"
+            in capsys.readouterr().err)
+    assert run(["field", "replay", "./gone/../f.csv", "--robot", "small.toml", "--out", "r"]) == 2
+    assert "no such field CSV file (the folder gone does not exist" in capsys.readouterr().err

@@ -556,3 +556,26 @@ def test_a_finished_designs_resume_with_other_settings_names_its_folder(tmp_path
         run_design("m1-4mT", out, DesignSettings(**{**TINY.__dict__, "seed": 7}), resume=True)
     assert f"{out.name}" in str(refused.value) and ".msr-new" not in str(refused.value), refused.value
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d"]
+
+
+def test_an_interrupted_resume_of_a_finished_design_says_it_is_kept_as_it_was(tmp_path, monkeypatch, capsys):
+    """Borderline of round 51: the interruption said "the design's progress (its last whole generation,
+    if any) is in D4: continue with ... --resume", where the continued search is dropped."""
+    out = tmp_path / "d"
+    assert msr(["design", "m1-4mT", "--out", str(out), *QUICK, "--generations", "1"]) == 0
+    capsys.readouterr()
+    with monkeypatch.context() as m:
+        _stopped_in_the_second_generation(m)
+        assert msr(["design", "m1-4mT", "--out", str(out), *QUICK, "--generations", "3", "--resume"]) == 130
+    err = capsys.readouterr().err
+    assert f"the finished design in {out} is kept as it was (its continued search is dropped" in err, err
+    assert "progress" not in err
+
+
+def test_a_smoke_designs_micrometres_are_not_shown_as_zero():
+    """Borderline of round 51: ``msr design --quick`` printed "start +0.0 mm, best +0.0 mm (2.25x)"."""
+    from elastica_magnetic_rl.design.outputs import millimetres
+
+    assert millimetres(1.2e-6) == "+0.0012 mm" and millimetres(-3.4e-5) == "-0.034 mm"
+    assert millimetres(0.0123) == "+12.3 mm" and millimetres(0.0) == "+0.0 mm"
+    assert millimetres(None) == "diverged"

@@ -118,3 +118,23 @@ def test_sigterm_with_jobs_still_queued_prints_no_traceback(tmp_path):
     assert "stopped: Interrupted SIGTERM 15" in out
     assert "Traceback" not in out and "InvalidStateError" not in out and "leaked" not in out, out
     assert _wait_gone(workers, 10) == []
+
+
+def _interrupted_inside_an_import(job):
+    try:
+        raise KeyboardInterrupt
+    except KeyboardInterrupt:  # what Python does to a Ctrl-C inside a class body it is building
+        raise RuntimeError("Error calling __set_name__ on 'Field' instance 'size'") from None
+
+
+def test_a_ctrl_c_wrapped_by_python_stops_the_seeds_not_fails_one():
+    """Round 51 (seen once): a Ctrl-C during a seed's torch import came back as "training failed:
+    RuntimeError: Error calling __set_name__ ..." instead of an interruption."""
+    from types import SimpleNamespace
+
+    from elastica_magnetic_rl.sweep.backends import run_jobs
+
+    with pytest.raises(KeyboardInterrupt):
+        run_jobs(_interrupted_inside_an_import, [SimpleNamespace(seed=0)], workers=1)
+    failing = run_jobs(lambda job: 1 / 0, [SimpleNamespace(seed=0)], workers=1)
+    assert failing[0]["error"].startswith("ZeroDivisionError")
