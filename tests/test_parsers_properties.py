@@ -8,6 +8,7 @@ import copy
 import math
 import os
 import tempfile
+from decimal import Decimal
 from pathlib import Path
 
 import numpy as np
@@ -162,4 +163,6 @@ def test_a_valid_field_csv_reads_back_in_tesla(samples):
     text = ",mag_x,mag_y,mag_z\n" + "".join(
         f"{i},{x!r},{y!r},{z!r}\n" for i, (x, y, z) in enumerate(samples))
     field = _read(text.encode())
-    np.testing.assert_array_equal(field, np.array(samples, dtype=np.float64) * 1e-3)
+    # each value the double nearest its decimal / 1000 (exact in decimal: one rounding)
+    expected = [[float(Decimal(repr(v)) / 1000) for v in row] for row in samples]
+    np.testing.assert_array_equal(field, np.array(expected, dtype=np.float64))

@@ -508,7 +508,7 @@ def test_a_minutes_budget_alone_is_recorded_and_its_overrun_said(tmp_path, capsy
     out = tmp_path / "d"
     assert msr(["design", "m1-4mT", "--out", str(out), "--minutes", "0.001", *QUICK]) == 0
     err = capsys.readouterr().err
-    assert "beyond --minutes 0.001 (0 s): the search runs at least one generation (1 run)" in err, err
+    assert "beyond --minutes 0.001 (0.06 s): the search runs at least one generation (1 run)" in err, err
     summary = json.loads((out / "summary.json").read_text())
     assert summary["search"]["stopped"] == {"by": "--minutes", "minutes": 0.001, "generations": 1,
                                             "generations_asked": None}
