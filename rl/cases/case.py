@@ -89,8 +89,6 @@ __all__ = [
     "PAPER_CASES",
     "YARDSTICK_CONTROLLERS",
     "warmup_refusal",
-    "dagger_reason",
-    "DAGGER_REFUSAL",
     "with_randomize",
 ]
 
@@ -383,9 +381,7 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     if isinstance(actuation, SteeringActuation):
         check_steered_reach(SpecTable(spec["actuation"], source, "actuation", accepted_keys(spec, source)),
                             actuation, robot.robot("accurate"), task.target_box, task.episode_duration)
-    dagger = _task_dagger_reason(task, name)
-    training = training_from_table(top.table("training", required=False), source, robot,
-                                   None if dagger is None else f"{DAGGER_REFUSAL}; {dagger}")
+    training = training_from_table(top.table("training", required=False), source, robot)
     if training.randomize and isinstance(actuation, SteeringActuation):
         given = ("[training] randomize" if isinstance((spec.get("training") or {}).get("randomize"), str)
                  else "[training.randomize]")
@@ -413,30 +409,6 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
         top.raw(key, None)
     top.finish()
     return Case(name, description, robot, actuation, task, training, yardstick, source, design)
-
-
-#: Which yardsticks give DAgger's labels (``yardstick_dagger``); :func:`dagger_reason` says why a
-#: goto case's cannot.
-DAGGER_REFUSAL = ("DAgger's labels come from a yardstick whose command is a function of the observation "
-                  "alone (a tip-reach case's steering law, a crawl's or reach's rotating field)")
-
-
-def _task_dagger_reason(task: Task, name: str) -> str | None:
-    """Why a case of ``task`` (named ``name``) cannot learn by DAgger, or ``None``."""
-    if isinstance(task, GotoTask):
-        return (f"case {name} is a goto task, whose steering field remembers its manoeuvre (walking or "
-                "turning, and since which step), which the observation lacks, so it has no command for a "
-                "state another controller led the robot into")
-    return None
-
-
-def dagger_reason(case: Case) -> str | None:
-    """Why ``case``'s yardstick cannot give DAgger's labels, naming its task (``None``: it can, or
-    it has no yardstick controller, which :func:`warmup_refusal` names). A goto case's steering
-    field remembers its manoeuvre, which the observation lacks; a rotating field turns the field
-    the observation shows and a steering law reads the observation, so both label any state. A
-    spec of a goto case that sets ``yardstick_dagger`` is refused when it is read."""
-    return _task_dagger_reason(case.task, case.name)
 
 
 def warmup_refusal(case: Case) -> str | None:

@@ -20,7 +20,10 @@ the single and the vector environment share one implementation.
   frame), and stay. Reward as the reach task's on the distance in the floor plane. Extra
   observation ``heading`` ``(cos h, sin h)`` and ``target_offset`` ``100 *`` the offset to the
   target in the robot's own frame (forward, left; per m): a policy steers by what is ahead and to
-  its side, the same for every direction it happens to face. Needs a robot that can leave its
+  its side, the same for every direction it happens to face; then ``clock`` ``(cos, sin)`` of
+  ``2 pi t / GOTO_CLOCK_PERIOD`` (``t`` the episode's time, s): a controller's clock, by which the
+  steering yardstick reverses its turning field every turn, so that its command is a function of
+  the observation (DAgger's labels) and a policy can time the same manoeuvre. Needs a robot that can leave its
   line: a three-axis case (``[actuation] axes = "xyz"``). Success: ending within ``tolerance`` of
   the target; a policy is judged on a ring of :data:`RING_TARGETS` targets (:func:`ring_targets`,
   :func:`goto_metrics`).
@@ -39,8 +42,9 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["CrawlTask", "GotoTask", "RING_TARGETS", "ReachTask", "Task", "TASK_KINDS", "TipReachTask",
-           "approach_reward", "TARGET_OFFSET_SCALE", "floor_pose", "goto_metrics", "middle_x", "ring_targets"]
+__all__ = ["CrawlTask", "GOTO_CLOCK_PERIOD", "GotoTask", "RING_TARGETS", "ReachTask", "Task", "TASK_KINDS",
+           "TipReachTask", "approach_reward", "TARGET_OFFSET_SCALE", "floor_pose", "goto_metrics", "middle_x",
+           "ring_targets"]
 
 #: Scale of the reach task's ``target_offset`` observation, per m.
 TARGET_OFFSET_SCALE = 100.0
@@ -97,8 +101,8 @@ class CrawlTask:
         """Reward of a step moving the middle node from ``x_before`` to ``x_after`` (m)."""
         return self.reward_scale * (np.asarray(x_after) - np.asarray(x_before))
 
-    def observe(self, x_mid: Any, start: Any) -> NDArray[np.float64]:
-        """The extra observation, shape ``(..., 0)``."""
+    def observe(self, x_mid: Any, start: Any, time: Any = 0.0) -> NDArray[np.float64]:
+        """The extra observation, shape ``(..., 0)`` (``time``, s, unused: as every task's)."""
         return np.zeros(np.shape(x_mid) + (0,))
 
     def to_dict(self) -> dict[str, Any]:
@@ -145,12 +149,17 @@ class ReachTask:
         """The success test: a signed error (m, as :meth:`error`) within ``tolerance`` of zero."""
         return np.abs(error) <= self.tolerance
 
-    def observe(self, x_mid: Any, start: Any) -> NDArray[np.float64]:
-        """``target_offset``: ``100 * (target_x - x_mid)`` per m, shape ``(..., 1)``."""
+    def observe(self, x_mid: Any, start: Any, time: Any = 0.0) -> NDArray[np.float64]:
+        """``target_offset``: ``100 * (target_x - x_mid)`` per m, shape ``(..., 1)`` (``time`` unused)."""
         return (TARGET_OFFSET_SCALE * -self.error(x_mid, start))[..., None]
 
     def to_dict(self) -> dict[str, Any]:
         return {"kind": self.kind, **asdict(self)}
+
+
+#: s: the cycle of the goto task's ``clock`` observation: two turns of the steering yardstick's field
+#: (:class:`~elastica_magnetic_rl.envs.yardsticks.SteeringFieldPolicy`, 1 s a turn), one in each sense.
+GOTO_CLOCK_PERIOD = 2.0
 
 
 @dataclass(frozen=True)
@@ -159,7 +168,8 @@ class GotoTask:
     angles in rad."""
 
     kind: ClassVar[str] = "goto"
-    extra_observation: ClassVar[tuple[tuple[str, int], ...]] = (("heading", 2), ("target_offset", 2))
+    extra_observation: ClassVar[tuple[tuple[str, int], ...]] = (("heading", 2), ("target_offset", 2),
+                                                                 ("clock", 2))
     #: One robot's state: its target (x, z), m.
     state_shape: ClassVar[tuple[int, ...]] = (2,)
     distance: float = 15e-3
@@ -217,14 +227,18 @@ class GotoTask:
         """The success test: a distance from the target (m) within ``tolerance``."""
         return np.abs(distance) <= self.tolerance
 
-    def observe(self, pose: Any, target: Any) -> NDArray[np.float64]:
-        """``heading`` ``(cos h, sin h)`` then ``target_offset`` ``100 * (forward, left)`` per m,
-        shape ``(..., 4)``."""
+    def observe(self, pose: Any, target: Any, time: Any = 0.0) -> NDArray[np.float64]:
+        """``heading`` ``(cos h, sin h)``, ``target_offset`` ``100 * (forward, left)`` per m, then
+        ``clock`` ``(cos, sin)(2 pi time / GOTO_CLOCK_PERIOD)`` (``time``: s into the episode),
+        shape ``(..., 6)``."""
         pose, target = np.asarray(pose, dtype=np.float64), np.asarray(target, dtype=np.float64)
         c, s = np.cos(pose[..., 2]), np.sin(pose[..., 2])
         dx, dz = target[..., 0] - pose[..., 0], target[..., 1] - pose[..., 1]
         forward, left = dx * c - dz * s, -dx * s - dz * c
-        return np.stack([c, s, TARGET_OFFSET_SCALE * forward, TARGET_OFFSET_SCALE * left], axis=-1)
+        phase = np.broadcast_to(2.0 * math.pi * np.asarray(time, dtype=np.float64) / GOTO_CLOCK_PERIOD,
+                                c.shape)
+        return np.stack([c, s, TARGET_OFFSET_SCALE * forward, TARGET_OFFSET_SCALE * left,
+                         np.cos(phase), np.sin(phase)], axis=-1)
 
     def to_dict(self) -> dict[str, Any]:
         return {"kind": self.kind, **asdict(self)}
@@ -306,8 +320,8 @@ class TipReachTask:
         """The success test: a distance from the target (m) within ``tolerance``."""
         return np.abs(distance) <= self.tolerance
 
-    def observe(self, tip: Any, target: Any) -> NDArray[np.float64]:
-        """``target_offset``: ``100 * (target - tip)`` per m, shape ``(..., 3)``."""
+    def observe(self, tip: Any, target: Any, time: Any = 0.0) -> NDArray[np.float64]:
+        """``target_offset``: ``100 * (target - tip)`` per m, shape ``(..., 3)`` (``time`` unused)."""
         offset = np.asarray(target, dtype=np.float64) - np.asarray(tip, dtype=np.float64)
         return TARGET_OFFSET_SCALE * offset
 

@@ -49,13 +49,10 @@ class Training:
 MAX_TRAIN_STEPS = 100_000_000
 
 
-def training_from_table(t: SpecTable | None, source: str, robot: RobotDescription,
-                        dagger_refused: str | None = None) -> Training:
+def training_from_table(t: SpecTable | None, source: str, robot: RobotDescription) -> Training:
     """``[training]`` of the spec ``source``: the recipe, the steps per seed, ``[training.td3]``
     settings (each checked as ``msr train --set`` checks it) and ``[training.randomize]`` ranges
-    (checked against ``robot``'s values, each end as a spec's own value). ``dagger_refused``: why
-    the case cannot learn by DAgger (its task's yardstick labels no observation alone), which a
-    ``yardstick_dagger`` is refused with before any other check of it."""
+    (checked against ``robot``'s values, each end as a spec's own value)."""
     if t is None:
         return Training()
     d = Training()
@@ -65,8 +62,6 @@ def training_from_table(t: SpecTable | None, source: str, robot: RobotDescriptio
     randomize = _randomize(t, robot)
     td3 = t.table("td3", required=False)
     overrides: dict[str, Any] = {}
-    if td3 is not None and dagger_refused is not None and td3.raw("yardstick_dagger", 0):
-        raise td3.error("yardstick_dagger", f"{dagger_refused}: remove the setting")
     if td3 is not None:
         from ..td3.config import TD3Config
 

@@ -40,7 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..cases.field_actuation import ACTUATION_OBSERVATION
-from ..cases.tasks import Task
+from ..cases.tasks import GOTO_CLOCK_PERIOD, Task
 
 __all__ = ["OBSERVATION_LAYOUT", "OBSERVATION_SCALES", "crawler_observation", "crawler_observation_space",
            "observation_layout", "observation_spec"]
@@ -89,7 +89,9 @@ def observation_spec(n_elements: int = 64, surface_tolerance: float = 1e-7,
                 "100 * (target_x - x_mid) [m]: the reach task's distance to go",
                 "heading": "(cos h, sin h): the back-to-front direction (cos h, 0, -sin h), h "
                            "counter-clockwise seen from above, 0 along +x",
-                "field_z": "200 * B_z [T] (3-axis actuation: the third coil pair's field)"}
+                "field_z": "200 * B_z [T] (3-axis actuation: the third coil pair's field)",
+                "clock": f"(cos, sin)(2 pi t / {GOTO_CLOCK_PERIOD:g} s), t [s] into the episode: the "
+                         "controller's clock (the steering yardstick reverses its turn by it)"}
     return {
         "size": next(reversed(layout.values())).stop,
         "dtype": "float32",

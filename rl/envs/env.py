@@ -319,7 +319,7 @@ class MagneticCrawlerEnv(gym.Env):
         ``(4n+4+k,)`` (``k`` the task's extra entries)."""
         extra = None
         if self.task.extra_observation:
-            extra = self.task.observe(self._task_position(), self.task_state)
+            extra = self.task.observe(self._task_position(), self.task_state, self.steps * ACTION_PERIOD)
         return crawler_observation(self.simulation.rod, self.field.value, self.layout,
                                    self.surface_tolerance, extra)
 
@@ -393,6 +393,7 @@ class MagneticCrawlerEnv(gym.Env):
         self.field.apply_increment(a * self.field_increments)
         before = self._task_position()
         terminated = False
+        self.steps += 1  # before the observation: its clock reads the time the step ends at
         try:
             self.simulation.step(self.robot_spec.steps_per_action)
             obs = self.observation()
@@ -408,7 +409,6 @@ class MagneticCrawlerEnv(gym.Env):
             info_extra = {"divergence": str(exc)}
         else:
             info_extra = {}
-        self.steps += 1
         truncated = (not terminated) and self.steps >= self.max_episode_steps
         info = self._info()
         info.update(info_extra)

@@ -160,7 +160,8 @@ class MagneticCrawlerVectorEnv(VectorEnv):
     def _observe(self, i: int) -> NDArray[np.float32]:
         extra = None
         if self.task.extra_observation:
-            extra = self.task.observe(self._task_position(i), self._task_state[i])
+            extra = self.task.observe(self._task_position(i), self._task_state[i],
+                                      self.steps[i] * ACTION_PERIOD)
         return crawler_observation(self.robots.rods[i], self.fields[i].value, self.layout,
                                    self.surface_tolerance, extra)
 
@@ -273,6 +274,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
         except BatchedSimulationDivergedError as exc:
             diverged = np.array([not self._healthy(i) for i in range(n)])
             messages[exc.robot] = str(exc)
+        self.steps += 1  # before the observations: their clock reads the time the step ends at
         rewards = np.empty(n, dtype=np.float64)
         for i in range(n):
             if not diverged[i]:
@@ -284,7 +286,6 @@ class MagneticCrawlerVectorEnv(VectorEnv):
                 diverged[i] = True
                 messages.setdefault(i, f"robot {i}: non-finite observation")
             rewards[i] = self.divergence_penalty  # obs[i] stays the last finite observation
-        self.steps += 1
         terminated = diverged
         truncated = ~terminated & (self.steps >= self.max_episode_steps)
         info = self._info()

@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..cases.case import Case, load_case
-from ..cases.tasks import TARGET_OFFSET_SCALE, GotoTask
+from ..cases.tasks import GOTO_CLOCK_PERIOD, TARGET_OFFSET_SCALE, GotoTask
 from .crawler_observation import OBSERVATION_SCALES, observation_layout
 from .steering_yardstick import SteeringYardstick
 
@@ -180,9 +180,17 @@ class SteeringFieldPolicy(_FieldReader):
         walk_band, turn_band: rad from abeam where walking starts and where it stops.
         turn_bearing: rad between the plane and the body's axis while turning.
         stop_radius: m; default half the task's tolerance.
+        markov: the law without memory, a function of the observation alone (what DAgger's labels
+            need, :meth:`label`): it walks while the target is within ``markov_walk`` rad of abeam
+            (no hysteresis) and reverses its turning field by the observation's ``clock`` (every
+            ``GOTO_CLOCK_PERIOD / 2`` s, which must be ``period``), not by the turn's own start.
+            Measured on the ring of ``m1-4mT-goto`` (training physics, 30 s): 11 of 12, mean
+            time to target 8.0 s (the default law: 12 of 12, 6.7 s); without the reversal 6 of 12.
+        markov_walk: rad from abeam within which the memoryless law walks.
 
-    It remembers its manoeuvre: :func:`~elastica_magnetic_rl.shipping.policy_runs.run_policy`
-    calls :meth:`reset` at the start of each rollout.
+    The default law remembers its manoeuvre:
+    :func:`~elastica_magnetic_rl.shipping.policy_runs.run_policy` calls :meth:`reset` at the start
+    of each rollout.
     """
 
     case: str | Case
@@ -191,6 +199,8 @@ class SteeringFieldPolicy(_FieldReader):
     turn_band: float = math.pi / 3
     turn_bearing: float = math.pi / 12
     stop_radius: float | None = None
+    markov: bool = False
+    markov_walk: float = math.pi / 9
 
     def __post_init__(self) -> None:
         self.case = self._setup(self.case)
@@ -199,7 +209,11 @@ class SteeringFieldPolicy(_FieldReader):
             raise ValueError(f"the steering yardstick steers to a target: case {self.case.name!r} "
                              f"has the {task.kind} task, not goto")
         _check_period(self.period, self.case)
-        for name in ("walk_band", "turn_band", "turn_bearing"):
+        if self.markov and abs(self.period - GOTO_CLOCK_PERIOD / 2.0) > 1e-12:
+            raise ValueError(f"the memoryless steering law reverses its turn by the observation's clock, "
+                             f"every {GOTO_CLOCK_PERIOD / 2.0:g} s: its period must be that, got "
+                             f"{self.period!r} s")
+        for name in ("walk_band", "turn_band", "turn_bearing", "markov_walk"):
             if not 0.0 < getattr(self, name) < math.pi / 2:
                 raise ValueError(f"{name} must be in (0, pi/2) rad, got {getattr(self, name)!r}")
         self.stop_radius = 0.5 * task.tolerance if self.stop_radius is None else self.stop_radius
@@ -230,6 +244,27 @@ class SteeringFieldPolicy(_FieldReader):
         """Restore a :meth:`state`."""
         self._step, self._walking = int(state["step"]), state["walking"]
         self._turn_started = int(state["turn_started"])
+
+    def label(self, obs: NDArray[np.float32]) -> NDArray[np.float32]:
+        """Its command at ``obs`` while another controller drives (DAgger's label,
+        :attr:`~elastica_magnetic_rl.td3.config.TD3Config.yardstick_dagger`): the memoryless law's
+        (``markov``) :meth:`act`; the default law's depends on its past, so it has none."""
+        if not self.markov:
+            raise ValueError("the steering yardstick labels a state only as its memoryless law "
+                             "(markov=True): the default law's command depends on its manoeuvre so far")
+        return self.act(obs)
+
+    def _markov_bearing(self, forward: float, left: float, clock_sin: float) -> float:
+        """:meth:`plane_bearing` of the memoryless law: walking within ``markov_walk`` of abeam,
+        the turn reversed in the second half of the observation's clock cycle."""
+        bearing = math.atan2(left, forward)
+        if abs(abs(bearing) - math.pi / 2) <= self.markov_walk:
+            return bearing
+        clockwise = (bearing > 0.0) == (abs(bearing) < math.pi / 2)
+        plane = self.turn_bearing if clockwise else -self.turn_bearing
+        if clock_sin < 0.0:
+            plane -= math.copysign(math.pi, plane)
+        return plane
 
     def plane_bearing(self, forward: float, left: float) -> float:
         """The rotation plane's bearing in the robot's frame (rad) for a target ``forward``,
@@ -275,8 +310,12 @@ class SteeringFieldPolicy(_FieldReader):
         distance = math.hypot(forward, left)
         if distance <= self.stop_radius:
             return self._toward(field, np.zeros(3))
-        plane = math.atan2(float(sin_h), float(cos_h)) + self.plane_bearing(float(forward),
-                                                                             float(left))
+        if self.markov:
+            clock_sin = float(obs[self.layout["clock"].start + 1])
+            bearing = self._markov_bearing(float(forward), float(left), clock_sin)
+        else:
+            bearing = self.plane_bearing(float(forward), float(left))
+        plane = math.atan2(float(sin_h), float(cos_h)) + bearing
         along = np.array([math.cos(plane), 0.0, -math.sin(plane)])
         # the field's phase in the plane, then one step further clockwise
         phase = math.atan2(field[1], float(field @ along)) - 2.0 * math.pi * ACTION_PERIOD / self.period
@@ -288,8 +327,8 @@ class SteeringFieldPolicy(_FieldReader):
 def yardstick_controller(case: Case) -> Callable[[], Any] | None:
     """What makes the case's hand-designed controller for a warm-up it plays
     (:attr:`~elastica_magnetic_rl.td3.config.TD3Config.yardstick_warmup`): a goto case's
-    :class:`SteeringFieldPolicy` with its defaults; a crawl or reach case's
-    :class:`RotatingFieldPolicy` at its ``[yardstick]`` ``period`` and sense (what ``msr field
+    :class:`SteeringFieldPolicy`, its memoryless law (``markov``: the labels of DAgger); a crawl or
+    reach case's :class:`RotatingFieldPolicy` at its ``[yardstick]`` ``period`` and sense (what ``msr field
     baseline --set-yardstick`` and ``msr loop`` record); a case steered by a source (a magnet
     arm, coil currents), its steering law reading the observation (:class:`SteeringYardstick`);
     ``None`` for a case without one."""
@@ -297,6 +336,6 @@ def yardstick_controller(case: Case) -> Callable[[], Any] | None:
         return None
     if not case.field_actuated:
         return functools.partial(SteeringYardstick, case)
-    if isinstance(case.task, GotoTask):
-        return functools.partial(SteeringFieldPolicy, case)
+    if isinstance(case.task, GotoTask):  # the memoryless law: DAgger can label any state by it
+        return functools.partial(SteeringFieldPolicy, case, markov=True)
     return functools.partial(RotatingFieldPolicy, case, case.yardstick.period, case.yardstick.clockwise)

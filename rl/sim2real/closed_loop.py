@@ -107,9 +107,9 @@ def run_closed_loop(policy, target: tuple[float, float], duration: float | None 
         tracked = seen[0] + rng.normal(0.0, tracker.noise_m, size=(3, 2))
         worst = max(worst, float(np.hypot(*(tracked[1] - _markers(env.simulation.rod, middle)[1]))))
         extra = env.task.observe(_pose(tracked), env.task_state)
-        obs = obs.copy()
+        obs = obs.copy()  # the pose blocks from the tracker; the clock is the loop's own
         obs[layout["heading"]] = extra[:2]
-        obs[layout["target_offset"]] = extra[2:]
+        obs[layout["target_offset"]] = extra[2:4]
         obs, _, terminated, truncated, _ = env.step(policy.act(obs))
         rod = env.simulation.rod
         seen.append(_markers(rod, middle))

@@ -89,7 +89,6 @@ def plan_sweep(loaded: dict[str, Case], s: SweepSettings, r: Resolved
     groups, workers, threads = _groups_and_workers(seed_list, layout, len(loaded), s.threads,
                                                    s.address)
     overrides = dict(s.config_overrides or {})
-    _check_dagger_cases(loaded, overrides)  # before the configurations' own checks advise a warm-up
     if s.resume:  # a resumed run keeps its hyperparameters: said first, not advice to add another
         check_resumed_checkpoints([(c, run) for c in loaded for k in seed_list
                                    if (run := CaseDir.of(s.out, c).seed(k)).checkpoint.is_file()], overrides)
@@ -109,19 +108,6 @@ def plan_sweep(loaded: dict[str, Case], s: SweepSettings, r: Resolved
                           backend=s.backend, envs_per_seed=int(s.envs), torch_threads_per_worker=threads,
                           recipe=r.recipe, stop_rules=stop_rules)
     return seed_list, groups, workers, configs, sweep
-
-
-def _check_dagger_cases(loaded: dict[str, Case], overrides: dict[str, Any]) -> None:
-    """``--set yardstick_dagger`` on a case whose yardstick labels no observation alone (a goto
-    case's) is refused naming the case and why (``ValueError``), before any other check of the
-    setting (which would advise a warm-up that cannot help)."""
-    from ..cases.case import DAGGER_REFUSAL, dagger_reason
-
-    dagger = overrides.get("yardstick_dagger")
-    reasons = [reason for case in loaded.values() if (reason := dagger_reason(case)) is not None]
-    if dagger and reasons:
-        raise ValueError(f"--set yardstick_dagger={dagger}: {DAGGER_REFUSAL}; {'; '.join(reasons)}: train "
-                         "without it")
 
 
 def _check_yardstick_warmup(loaded: dict[str, Case], config: Any) -> None:

@@ -28,7 +28,7 @@ def test_the_shipped_goto_case_is_listed_and_round_trips(tmp_path, capsys):
     assert case.task.distance == 0.015 and case.task.tolerance == 0.002
     assert case.task.episode_duration == 30.0
     assert case.robot_spec("training").ground.sideways == "sliding"
-    assert case.obs_dim == 4 * 64 + 4 + 1 + 4  # the field's z, the heading and the target
+    assert case.obs_dim == 4 * 64 + 4 + 1 + 6  # the field's z, the heading, the target and the clock
     assert case.target_label == "within 2.0 mm of a target 15.0 mm away in 30 s"
     assert not case.has_yardstick  # judged on a ring, not by one run's distance
     assert main(["case", "show", "m1-4mT-goto", "--toml"]) == 0

@@ -94,17 +94,3 @@ def test_notes_from_a_file_in_the_policy_s_folder_say_what_it_is(tmp_path, capsy
     assert said in err, err
     assert given == "card" or "msr policy ship wrote" not in err, err
     assert (policy / "MODEL_CARD.md").read_text() == card
-
-
-def test_dagger_on_a_goto_case_is_refused_for_the_goto_s_reason(tmp_path, capsys):
-    """V2: ``yardstick_dagger`` on the goto case was refused because "a crawl's rotating field keeps its
-    own clock" and the case was called a crawl. Now the case is named with its task and the reason
-    that holds for it: a goto's steering field remembers its manoeuvre. (A crawl's rotating field,
-    which turns the field the observation shows, now gives DAgger's labels: test_warm_start.)"""
-    out = tmp_path / "tx"
-    assert msr(["train", "--case", "m1-4mT-goto", "--seeds", "1", "--workers", "1", "--steps", "2000",
-                "--no-progress", "--set", "yardstick_warmup=100", "--set", "learning_starts=260", "--set",
-                "yardstick_dagger=10", "--out", str(out)]) == 2
-    err = capsys.readouterr().err
-    assert "case m1-4mT-goto is a goto task, whose steering field remembers its manoeuvre" in err, err
-    assert "are crawls" not in err and not out.exists(), err

@@ -8,12 +8,10 @@ import json
 import shutil
 
 import pytest
-from elastica_magnetic_rl.cases.case import load_case
 from elastica_magnetic_rl.shipping import shipped
 from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR
 
 from elastica_magnetic.cli import main as msr
-from elastica_magnetic.specfile import SpecError
 
 
 def _catheter_with(tmp_path, monkeypatch, distances):
@@ -43,22 +41,6 @@ def test_recorded_final_distances_of_another_form_are_a_failing_verdict(tmp_path
     assert f"evaluation.tip_reach.policy.final_distance_m{said}" in result["problem"], result["problem"]
     assert ("expected 20 distances (m, numbers >= 0)" in result["problem"]
             or "expected a distance (m, a finite number >= 0)" in result["problem"]), result["problem"]
-
-
-def test_dagger_on_a_goto_case_is_refused_for_its_task_before_the_warm_up_advice(tmp_path, capsys):
-    """V1: ``yardstick_dagger`` alone on a goto case advised "set yardstick_warmup too", and following
-    that was refused for the task. Now the task's refusal comes first, from --set and from a spec."""
-    out = tmp_path / "tr"
-    assert msr(["train", "--case", "m1-4mT-goto", "--set", "yardstick_dagger=10", "--steps", "50",
-                "--seeds", "1", "--out", str(out), "--no-progress"]) == 2
-    err = capsys.readouterr().err
-    assert "m1-4mT-goto is a goto task" in err and "set yardstick_warmup too" not in err, err
-    spec = load_case("m1-4mT-goto").to_dict()
-    spec.setdefault("training", {})["td3"] = {"yardstick_dagger": 10}
-    from elastica_magnetic_rl.cases.case import case_from_dict
-
-    with pytest.raises(SpecError, match=r"yardstick_dagger: .* goto task, .*: remove the setting"):
-        case_from_dict(spec, "dg.toml")
 
 
 def test_a_result_of_no_case_is_not_sent_to_the_seeds_folder_that_refuses_it(tmp_path):

@@ -43,7 +43,7 @@ def test_a_given_target_is_in_the_start_frame_and_observed_there(heading):
     left = np.array([-math.sin(heading), -math.cos(heading)])
     assert target == pytest.approx(pose[:2] + 0.012 * ahead + 0.005 * left)
     obs = task.observe(pose, target)
-    assert obs == pytest.approx([math.cos(heading), math.sin(heading), 1.2, 0.5])
+    assert obs == pytest.approx([math.cos(heading), math.sin(heading), 1.2, 0.5, 1.0, 0.0])  # clock at 0 s
     assert task.error(pose, target) == pytest.approx(math.hypot(0.012, 0.005))
 
 
@@ -74,7 +74,7 @@ def test_the_reward_pays_for_closing_the_distance_and_charges_moving_at_the_targ
 def test_the_environments_serve_the_goto_task_alike():
     kwargs = dict(spec=yao2023_robot(1, "training"), task=GotoTask(), initial_field="random", duration=0.2)
     single = MagneticCrawlerEnv(**kwargs)
-    assert single.observation_space.shape == (4 * 64 + 4 + 4,)
+    assert single.observation_space.shape == (4 * 64 + 4 + 6,)
     check_env(MagneticCrawlerEnv(**{**kwargs, "duration": 0.05}), skip_render_check=True)
     vector = MagneticCrawlerVectorEnv(2, **kwargs)
     obs, _ = vector.reset(seed=11)

@@ -91,9 +91,14 @@ def test_the_steering_yardstick_resumes_from_its_state_as_if_never_stopped():
     from elastica_magnetic_rl.envs.yardsticks import SteeringFieldPolicy, yardstick_controller
 
     case = load_case("m1-4mT-goto")
-    make = yardstick_controller(case)
+    warm_up = yardstick_controller(case)()  # the memoryless law, which has no phase to lose
+    assert isinstance(warm_up, SteeringFieldPolicy) and warm_up.markov
+
+    def make():
+        return SteeringFieldPolicy(case)  # the default law: its manoeuvre and turn phase
+
     first = make()
-    assert isinstance(first, SteeringFieldPolicy) and (first.obs_dim, first.act_dim) == (case.obs_dim, 3)
+    assert (first.obs_dim, first.act_dim) == (case.obs_dim, 3)
     rng = np.random.default_rng(0)
     layout = first.layout
     observations = []
@@ -123,3 +128,38 @@ def test_a_warm_up_from_a_case_without_a_controller_is_refused_before_any_work(t
     err = capsys.readouterr().err
     assert "--set yardstick_warmup=100" in err and "case(s) m1-4mT have none" in err
     assert not (tmp_path / "runs").exists()
+
+
+def test_the_memoryless_steering_law_labels_any_state_by_the_observed_clock():
+    """DAgger on a goto case: the warm-up's law (``markov``) is a function of the observation
+    alone (its walk by the bearing, its turn reversed by the ``clock`` block), so a label does not
+    depend on what the controller did before; the default law, which remembers its manoeuvre,
+    gives no label."""
+    from elastica_magnetic_rl.cases.case import load_case
+    from elastica_magnetic_rl.cases.tasks import GOTO_CLOCK_PERIOD
+    from elastica_magnetic_rl.envs.env import MagneticCrawlerEnv
+    from elastica_magnetic_rl.envs.yardsticks import SteeringFieldPolicy, yardstick_controller
+
+    case = load_case("m1-4mT-goto")
+    env = MagneticCrawlerEnv(case=case, physics="training", initial_field="zero", duration=1.0)
+    obs, _ = env.reset(seed=3, options={"target": (0.015, 0.0)})  # straight ahead: a turn in place
+    fresh, used = yardstick_controller(case)(), yardstick_controller(case)()
+    assert fresh.markov
+    rng = np.random.default_rng(1)
+    turned, layout = set(), env.layout
+    for k in range(1, 151):
+        obs, *_ = env.step(rng.uniform(-1, 1, 3).astype(np.float32))  # another controller drives
+        t = k * 0.01
+        np.testing.assert_allclose(obs[layout["clock"]], [math.cos(2 * math.pi * t / GOTO_CLOCK_PERIOD),
+                                                          math.sin(2 * math.pi * t / GOTO_CLOCK_PERIOD)],
+                                   atol=1e-6)
+        used.act(rng.uniform(-1, 1, case.obs_dim).astype(np.float32))  # a history of its own
+        label = used.label(obs)
+        np.testing.assert_array_equal(label, fresh.label(obs))
+        np.testing.assert_array_equal(label, SteeringFieldPolicy(case, markov=True).act(obs))
+        turned.add(bool(obs[layout["clock"]][1] < 0.0))
+    assert turned == {True, False}  # both halves of the clock's cycle were labelled
+    with pytest.raises(ValueError, match="labels a state only as its memoryless law"):
+        SteeringFieldPolicy(case).label(obs)
+    with pytest.raises(ValueError, match="its period must be that"):
+        SteeringFieldPolicy(case, period=1.5, markov=True)

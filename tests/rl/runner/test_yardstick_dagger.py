@@ -117,28 +117,21 @@ def test_a_labelled_buffer_needs_labels_and_keeps_them_through_its_state():
         again.load_state_dict(ReplayBuffer(8, 3, 2).state_dict())
 
 
-def test_dagger_without_a_warm_up_or_on_a_goto_case_is_refused():
+def test_dagger_without_a_warm_up_is_refused_and_a_goto_case_accepted():
     with pytest.raises(ValueError, match="yardstick_dagger 100 continues a clone .* set yardstick_warmup"):
         TD3Config(yardstick_dagger=100)
     with pytest.raises(ValueError, match="yardstick_dagger must be >= 0"):
         TD3Config(yardstick_dagger=-1, yardstick_warmup=10, learning_starts=256)
     assert TD3Config.parse_setting("yardstick_dagger", "20000") == 20000
     from elastica_magnetic_rl.cases.case import case_from_dict, load_case, warmup_refusal
-    from elastica_magnetic_rl.sweep.sweep_plan import _check_dagger_cases, _check_yardstick_warmup
-
-    from elastica_magnetic.specfile import SpecError
+    from elastica_magnetic_rl.sweep.sweep_plan import _check_yardstick_warmup
 
     dagger = TD3Config(yardstick_dagger=500, yardstick_warmup=10, learning_starts=256)
-    goto = load_case("m1-4mT-goto")
-    with pytest.raises(ValueError, match="yardstick_dagger=500: DAgger's labels come from a yardstick whose "
-                                         "command .* m1-4mT-goto is a goto task"):
-        _check_dagger_cases({goto.name: goto}, {"yardstick_dagger": 500})
-    for td3 in ({"yardstick_dagger": 500, "yardstick_warmup": 10}, {"yardstick_dagger": 500}):
-        data = goto.to_dict()
-        data.setdefault("training", {}).setdefault("td3", {}).update(td3)
-        with pytest.raises(SpecError, match=r"\[training.td3\] yardstick_dagger.* goto task, .*: remove the "
-                                            "setting"):
-            case_from_dict(data, "goto-dagger")
+    goto = load_case("m1-4mT-goto")  # its memoryless steering law labels any state
+    _check_yardstick_warmup({goto.name: goto}, dagger)
+    data = goto.to_dict()
+    data.setdefault("training", {}).setdefault("td3", {}).update(yardstick_dagger=500, yardstick_warmup=10)
+    assert case_from_dict(data, "goto-dagger").training.td3["yardstick_dagger"] == 500
     crawl = load_case("m1-4mT-designed")  # its [yardstick] records its rotating field: it labels
     _check_yardstick_warmup({crawl.name: crawl}, dagger)
     data = crawl.to_dict()
