@@ -17,7 +17,7 @@ import csv
 import io
 import math
 import re
-from decimal import Decimal
+from decimal import MAX_EMAX, MIN_EMIN, Context, Decimal
 from pathlib import Path
 
 import numpy as np
@@ -388,6 +388,8 @@ def _field_row(path: Path, line: int, row: list[str], k: int, columns: list[int]
     for j, c in enumerate(columns):
         text = row[c].strip()
         try:
+            if "_" in text:  # Python's float reads "1_0" as 10; no logger writes a number so
+                raise ValueError(text)
             value = float(text)
         except ValueError:
             raise FieldCSVError(
@@ -524,10 +526,15 @@ def tesla_to_millitesla_text(value: float) -> str:
     return text if any(c in text for c in ".En") else text + ".0"
 
 
+#: Decimal arithmetic wide enough for any exponent a CSV cell can spell (``1e-999999999999999999999``).
+_WIDE = Context(Emax=MAX_EMAX, Emin=MIN_EMIN)
+
+
 def millitesla_text_to_tesla(text: str) -> float:
-    """A field CSV's number (mT, as text) in tesla: the double nearest the decimal value / 1000
-    (exact decimal shift, one rounding: the inverse of :func:`tesla_to_millitesla_text`)."""
-    return float(Decimal(text.strip()).scaleb(-3))
+    """A field CSV's number (mT, as text, one ``float`` reads) in tesla: the double nearest the
+    decimal value / 1000 (exact decimal shift, one rounding: the inverse of
+    :func:`tesla_to_millitesla_text`)."""
+    return float(_WIDE.create_decimal(text.strip()).scaleb(-3, _WIDE))
 
 
 def is_number(text: str) -> bool:

@@ -45,6 +45,7 @@ from pathlib import Path
 from typing import Any
 
 from .field_maps import EXPORT_FIELD_UNITS, EXPORT_LENGTH_UNITS, FieldMap
+from .io import missing_folder_hint
 from .spatial_fields import (
     ConstantGradientField,
     CurrentLoopField,
@@ -253,7 +254,8 @@ def _build_map(table: Mapping[str, Any], pose: Any, strength: Strength, base: Pa
     scale = table["scale"]
     factor = scale if strength is None else (lambda t: scale * strength(t))
     if not path.is_file():
-        raise SpatialFieldError(f"file {path}: no such field map (.npz, .csv or a grid export .txt)")
+        raise SpatialFieldError(f"file {path}: no such field map (.npz, .csv or a grid export .txt)"
+                                f"{missing_folder_hint(path)}")
     units = {k: table[k] for k in ("length_unit", "field_unit") if k in table}
     if path.suffix == ".npz" and not units:
         return FieldMap.from_npz(path, factor)

@@ -152,9 +152,19 @@ def _check_file(final: Path, force: bool, option: str, force_option: str,
         raise ResultExistsError(f"{where}: lies in {display_path(final.parent)}, which holds {held}, "
                                 "whose files are its own: nothing else goes in that folder; choose "
                                 f"another {option}")
+    _check_replaceable(final, where, option, force_option, kind)  # first: --force would not help
     if final.exists() and not force:
         raise ResultExistsError(f"{where}: already exists; pass {force_option} to replace it, or "
                                 f"choose another {option}")
+    if final.parent.exists() and (reason := unwritable_reason(final.parent)) is not None:
+        raise OutputPathError(f"{where}: cannot write in {display_path(final.parent)}: {reason}")
+
+
+def _check_replaceable(final: Path, where: str, option: str, force_option: str,
+                       kind: FileKind | None) -> None:
+    """Refuse an existing ``final`` that ``force_option`` may not replace (another command's
+    result, a file msr did not write or that changed since), with or without it: advising
+    ``force_option`` for it would be advice that is refused when followed."""
     recorded_by = manifest_writer(final.parent, final.name) if final.is_file() else None
     if kind is not None and recorded_by is not None and recorded_by != kind.description:
         raise ResultExistsError(f"{where}: is {recorded_by} (msr recorded writing it there), another "
@@ -178,8 +188,6 @@ def _check_file(final: Path, force: bool, option: str, force_option: str,
                                 f"{display_path(final.parent / MANIFEST)}) or changed since: it may "
                                 f"be yours, and {force_option} replaces only a file msr wrote; move it "
                                 f"away or choose another {option}")
-    if final.parent.exists() and (reason := unwritable_reason(final.parent)) is not None:
-        raise OutputPathError(f"{where}: cannot write in {display_path(final.parent)}: {reason}")
 
 
 def _recognized(kind: FileKind, path: Path) -> bool:

@@ -14,6 +14,7 @@ from ..clock_columns import other_spelling_hint
 from ..field_csv import header_named_twice, limit_problem, separator_hint
 from ..field_spec import load_field
 from ..fields import RotatingField, TabulatedField
+from ..io import missing_folder_hint
 from ..openloop import run_open_loop, write_trajectory_csv
 from ..presets import ROBOTS
 from ..progress import progress_bar
@@ -357,7 +358,7 @@ def _read_reference(path: Path, duration: float, length: float | None = None) ->
     from ..simulation import PLANAR_TRAJECTORY_COLUMNS, TRAJECTORY_COLUMNS
 
     if not path.is_file():
-        raise CommandError(f"--reference {path}: no such reference trajectory")
+        raise CommandError(f"--reference {path}: no such reference trajectory{missing_folder_hint(path)}")
     try:
         reference = pd.read_csv(path, encoding="utf-8-sig")
     except pd.errors.EmptyDataError:

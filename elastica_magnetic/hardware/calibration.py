@@ -39,6 +39,8 @@ from elastica_magnetic.io import atomic_write_text, byte_order_mark_problem
 from elastica_magnetic.plausibility import warn_implausible
 from elastica_magnetic.result_file import FileKind
 
+from ..io import missing_folder_hint
+
 AXES = 3
 #: The coil pairs in the order of a field row and of the DAC channels.
 AXIS_NAMES = ("x", "y", "z")
@@ -257,7 +259,7 @@ def load_calibration(path: str | Path) -> Calibration:
         raise CalibrationError(f"{path}: is a folder, not a calibration file (a JSON file written by "
                                "'msr real calibrate')")
     if not path.is_file():
-        raise CalibrationError(f"{path}: no such calibration file")
+        raise CalibrationError(f"{path}: no such calibration file{missing_folder_hint(path)}")
     try:
         text = path.read_text(encoding="utf-8")
         problem = byte_order_mark_problem(path, text)

@@ -23,6 +23,8 @@ from elastica_magnetic.field_csv import (
 )
 from elastica_magnetic.io import display_path
 
+from ..io import missing_folder_hint
+
 # the result files the hardware commands write, each known to the others' --force (a calibration
 # JSON is never replaced by a board log, nor the other way): importing them registers their kinds
 from .calibration import CALIBRATION_FILE
@@ -441,7 +443,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         _check_port("--upload", args.upload)
     path = Path(args.measurements)
     if not path.is_file():
-        raise _error(f"{path}: no such measurements file")
+        raise _error(f"{path}: no such measurements file{missing_folder_hint(path)}")
     check_result_file(args.out, force=args.force, kind=CALIBRATION_FILE)
     columns = [*CURRENT_COLUMNS, *FIELD_COLUMNS]
     values, header = _read_measurements(path, columns)

@@ -36,6 +36,7 @@ from elastica_magnetic.drive_columns import (
 from elastica_magnetic.field_csv import numbered_rows
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
+from ..io import missing_folder_hint
 from .calibration import Calibration
 
 #: The board's outputs in the order of a row, one coil each (docs/firmware.md, "Wiring").
@@ -114,7 +115,7 @@ def _table(path: Path) -> tuple[list[str], list[tuple[int, list[str]]]]:
     if path.is_dir():
         raise CoilCurrentsError(f"{path}: is a folder, not a coil-current CSV file")
     if not path.is_file():
-        raise CoilCurrentsError(f"{path}: no such coil-current file")
+        raise CoilCurrentsError(f"{path}: no such coil-current file{missing_folder_hint(path)}")
     try:
         text = path.read_bytes().decode("utf-8-sig")
         rows = list(csv.reader(io.StringIO(text, newline="")))

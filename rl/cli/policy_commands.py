@@ -25,7 +25,7 @@ from elastica_magnetic.cli import (
 from elastica_magnetic.cli.app import add_old_option
 from elastica_magnetic.cli.input_places import REPLACED_FOLDER, no_folder_replaced_whole
 from elastica_magnetic.filesets import check_files, replace_files
-from elastica_magnetic.io import display_path
+from elastica_magnetic.io import display_path, missing_folder_hint
 
 from .options import CASE_HELP, CHECKPOINT_HELP, FORCE_HELP, field_case_option, print_rollout_result
 
@@ -483,7 +483,7 @@ def _read_markdown(path: Path, option: str) -> str:
         raise CommandError(f"{option} {path}: not a regular file, expected a Markdown file (to remove "
                            "the notes, give --clear)")
     if not path.is_file():
-        raise CommandError(f"{option} {path}: no such file")
+        raise CommandError(f"{option} {path}: no such file{missing_folder_hint(path)}")
     try:
         # "UTF-8 with BOM" (Notepad): the mark is no text, and would land in policy.json and the
         # card; Markdown has no use for it, so it is dropped, as CSV tables skip it
@@ -527,7 +527,7 @@ def diagnose_command(args: argparse.Namespace) -> int:
         raise CommandError(f"--recent must be >= 2 transitions, got {args.recent}")
     for run in args.run:  # every path checked before the slow part
         if not run.exists():
-            raise CommandError(f"{run}: no such run directory or checkpoint")
+            raise CommandError(f"{run}: no such run directory or checkpoint{missing_folder_hint(run)}")
     names = [_health_figure_name(run) for run in args.run]
     if args.figure is not None:
         if len(set(names)) < len(names):

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from elastica_magnetic.cli import CommandError, number, output_path
 from elastica_magnetic.cli.input_places import INPUTS_ALWAYS, INPUTS_HOW
+from elastica_magnetic.io import missing_folder_hint
 
 from ..cli.options import CASE_HELP, field_case_option
 from .settings import ROBUSTNESS_PHYSICS
@@ -87,7 +88,8 @@ def _settings(args: argparse.Namespace, skip: tuple[str, ...] = ()):
     if args.calibration is not None:
         if not args.calibration.is_file():
             raise CommandError(f"--calibration {args.calibration}: no such file (a calibration "
-                               "JSON, e.g. stm32/calibration/default.json or msr real calibrate's)")
+                               "JSON, e.g. stm32/calibration/default.json or msr real calibrate's)"
+                               f"{missing_folder_hint(args.calibration)}")
         calibration = load_calibration(args.calibration)  # its named error now, not after the training
         _check_calibration_drives(calibration, args.calibration, args.spec)
     spec = getattr(args, "spec", None)  # the case (parsed); absent where only the settings are asked
@@ -195,6 +197,20 @@ LOOP_WRITES = ("writes into on every run (its spec copy with the yardstick, each
                "is not its SPEC: give the spec it started from)")
 
 
+def _say_unread_recipe(args: argparse.Namespace) -> None:
+    """A note where the spec chose a recipe the loop does not train with (it trains with its own)."""
+    from ..cases.recipes import DEFAULT_RECIPE
+    from .settings import LoopSettings
+
+    spec = getattr(args, "spec", None)
+    training = spec.to_dict().get("training") if spec is not None else None
+    written = training.get("recipe") if isinstance(training, dict) else None
+    if isinstance(written, str) and written not in (LoopSettings.recipe, DEFAULT_RECIPE):  # chosen
+        print(f"note: {spec.source}: [training] recipe = {written!r} is not used: msr loop trains with "
+              f"the {LoopSettings.recipe} recipe (msr train --case SPEC --recipe {written} trains with "
+              "it)", file=sys.stderr)
+
+
 def loop_command(args: argparse.Namespace) -> int:
     from elastica_magnetic.interrupts import signals_as_exceptions
 
@@ -202,6 +218,7 @@ def loop_command(args: argparse.Namespace) -> int:
     from .state import LoopError, parse_steps
 
     redo: tuple[str, ...] = ()
+    _say_unread_recipe(args)
     try:
         skip, redo = parse_steps(args.skip, "--skip"), parse_steps(args.redo, "--redo")
         # SIGTERM/SIGHUP stop it as Ctrl-C does, in every step (the train step's too), with the

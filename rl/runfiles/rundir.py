@@ -178,9 +178,18 @@ def being_written_hint(path: str | os.PathLike) -> str:
     owner = live_owner(path) if Path(path).is_dir() else None
     if owner is None or (owner.get("pid") == os.getpid() and owner.get("host") == host_name()):
         return ""
+    words = str(owner.get("command") or "").split()
+    command = " ".join(words[:2]) if words[:1] == ["msr"] else ""
+    if command and command not in TRAINING_COMMANDS:  # a design, a replay...: never a checkpoint here
+        return (f"it is being written by {describe_owner(owner)}, a `{command}` result, not a training "
+                "run: it will hold no policy checkpoint")
     return (f"it is being written by another msr command, {describe_owner(owner)}, which has not "
             "written its first checkpoint yet: wait for it (the run's checkpoint comes every "
             "checkpoint_every steps, and at its end)")
+
+
+#: The commands that write a run's checkpoints (``msr CMD``).
+TRAINING_COMMANDS = ("msr train", "msr refine", "msr loop")
 
 
 def seed_runs_hint(path: str | os.PathLike) -> str:

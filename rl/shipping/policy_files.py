@@ -19,7 +19,14 @@ from typing import Any
 
 import numpy as np
 
-from elastica_magnetic.io import DamagedFileError, UnverifiedFileWarning, canonical_sha256, read_json
+from elastica_magnetic.io import (
+    DamagedFileError,
+    UnverifiedFileWarning,
+    canonical_sha256,
+    missing_folder_hint,
+    read_json,
+)
+from elastica_magnetic.result_markers import describe_result, read_marker
 
 from ..cases.case import Case, case_from_metadata
 
@@ -286,7 +293,7 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
         if policies_dir.is_dir() else []
     raise PolicyNotFoundError(
         f"{policy}: not a run directory, checkpoint, shipped-policy folder or shipped policy name "
-        f"(shipped in {policies_dir}: {', '.join(shipped) or 'none'})"
+        f"(shipped in {policies_dir}: {', '.join(shipped) or 'none'}){missing_folder_hint(policy)}"
     )
 
 
@@ -298,6 +305,11 @@ def _check_policy_folder_whole(path: Path) -> None:
         return
     present = [name for name in SHIPPED_FILES if (path / name).is_file()]
     missing = [name for name in ("actor.pt", POLICY_JSON) if not (path / name).is_file()]
+    marker = read_marker(path)
+    if present and missing and marker is not None and marker.get("kind") != "ship":
+        # another command's result that holds a waveform (generate, robustness): named, not "broken"
+        raise PolicyNotFoundError(f"{path}: holds {describe_result(marker)}, not a policy: give the "
+                                  f"policy it played, or its waveform as a field CSV ({path / 'fields.csv'})")
     if present and missing:
         raise PolicyNotFoundError(
             f"{path}: a shipped-policy folder (it holds {', '.join(present)}) without "

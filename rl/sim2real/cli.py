@@ -89,6 +89,9 @@ def _add_robustness_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--fields", type=Path, default=None,
                    help="for a policy: its waveform (default: the shipped fields.csv, else generated "
                    "as msr policy generate does: accurate physics, field from zero, --duration s)")
+    p.add_argument("--checkpoint", default="auto",
+                   help="for a training run: auto (default: the farther of its final and best actors, "
+                   "as msr policy generate chooses), final, best, or a checkpoint file of the run")
     p.add_argument("--vary", type=variation_option, action="append", default=None,
                    metavar="KEY=LOW:HIGH",
                    help="vary dotted spec keys (KEY or KEY+KEY or a group: "
@@ -201,8 +204,9 @@ def robustness_command(args: argparse.Namespace) -> int:
             args.source, case=args.case, fields_csv=args.fields, variations=args.vary,
             corners=not args.no_corners, samples=args.samples, seed=args.seed or 0,
             physics=args.physics, duration=args.duration, progress=not args.no_progress,
+            checkpoint=args.checkpoint,
         )
-    except PolicyNotFoundError as exc:
+    except (PolicyNotFoundError, FileNotFoundError) as exc:
         raise CommandError(str(exc)) from None
     if args.open_loop_only and plan.policy is None:
         raise CommandError(f"--open-loop-only: {args.source} is a field CSV, played open loop only "

@@ -24,6 +24,7 @@ from elastica_magnetic.drive_columns import (
     header_names,
 )
 from elastica_magnetic.field_csv import FIELD_COLUMNS, header_named_twice
+from elastica_magnetic.io import missing_folder_hint
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from .tracking import TIP_COLUMNS, MeasuredTrajectory, TrajectoryError
@@ -69,7 +70,7 @@ def read_path_table(path: Path, what: str) -> pd.DataFrame:
     try:
         table = pd.read_csv(path, encoding="utf-8-sig", dtype=str, keep_default_na=False)
     except FileNotFoundError:
-        raise TrajectoryError(f"{path}: no such {what} file") from None
+        raise TrajectoryError(f"{path}: no such {what} file{missing_folder_hint(path)}") from None
     except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError, IsADirectoryError) as exc:
         raise TrajectoryError(f"{path}: not a readable {what} CSV ({exc})") from None
     if twice := header_named_twice(path):

@@ -90,7 +90,9 @@ class StudySettings:
     ``variations`` (default: :func:`default_variations`), the design (``one_at_a_time``,
     ``corners``, ``samples`` drawn with ``seed``: :func:`design`), the ``physics`` and
     ``duration`` (s) of each run (default :data:`FIELD_STUDY_DURATION`; a tip-reach policy's: its
-    task's episode), and ``progress`` bars."""
+    task's episode), ``progress`` bars, and for a run, which actor (``checkpoint``: ``"auto"``, the
+    farther of its final and best actors as ``msr policy generate`` chooses, ``"final"``, ``"best"``
+    or a checkpoint file: :func:`~elastica_magnetic_rl.shipping.policy_runs.choose_actor`)."""
 
     case: str | Path | Case | None = None
     fields_csv: str | Path | None = None
@@ -102,6 +104,7 @@ class StudySettings:
     physics: str = "training"
     duration: float | None = None
     progress: bool = True
+    checkpoint: str = "auto"
 
 
 def plan_robustness(source: str | Path, settings: StudySettings | None = None, /,
@@ -124,11 +127,29 @@ def plan_robustness(source: str | Path, settings: StudySettings | None = None, /
         raise ValueError(f"--physics must be 'training' or 'accurate', got {o.physics!r}")
     steered = _tip_reach_policy(source, o)
     if steered is not None:
+        if steered.kind == "checkpoint":  # a run: the actor msr policy generate plays for it
+            from ..shipping.policy_runs import choose_tip_reach_actor
+
+            choice = choose_tip_reach_actor(source, o.checkpoint)
+            steered = steered if choice is None else _resolved(choice.path)
+        elif o.checkpoint != "auto":
+            raise ValueError(f"--checkpoint {o.checkpoint}: {source} is not a training run (a shipped "
+                             "policy has one actor): leave --checkpoint out")
         return plan_tip_robustness(str(source), steered, o.variations, one_at_a_time=o.one_at_a_time,
                                    corners=o.corners, samples=o.samples, seed=o.seed, physics=o.physics,
                                    duration=None if o.duration is None else check_duration(o.duration))
     duration = check_duration(FIELD_STUDY_DURATION if o.duration is None else o.duration)
     the_case, policy, fields, waveform = _study_source(source, o.case, o.fields_csv)
+    actor = None
+    if policy is not None and policy.kind == "checkpoint":  # a run: the actor generate would play
+        from ..shipping.policy_runs import choose_actor
+
+        choice = choose_actor(source, o.checkpoint, duration, o.progress)
+        if choice is not None:
+            policy, actor = _resolved(choice.path), choice
+    elif o.checkpoint != "auto":
+        raise ValueError(f"--checkpoint {o.checkpoint}: {source} is not a training run (a shipped policy "
+                         "or a field CSV has one waveform): leave --checkpoint out")
     if fields is not None:  # a waveform the case's coils cannot play is no study of that robot
         actuation = the_case.actuation
         over = limit_problem(fields, dict(zip(actuation.axes, actuation.limits, strict=False)),
@@ -158,13 +179,14 @@ def plan_robustness(source: str | Path, settings: StudySettings | None = None, /
         if rollout.meta["diverged"]:
             raise ValueError(f"{source}: generating the waveform diverged ({rollout.meta['diverged']})")
         fields = rollout.fields
-        waveform = f"generated: {source} on the nominal robot, accurate physics, field from zero"
+        played = f"{source}" if actor is None else f"{source}, {actor.describe()},"
+        waveform = f"generated: {played} on the nominal robot, accurate physics, field from zero"
     rows = int(round(duration / ACTION_PERIOD))
     if rows > fields.shape[0]:
         raise ValueError(f"--duration {duration:g} s is past the end of the waveform {waveform} "
                          f"({fields.shape[0] * ACTION_PERIOD:g} s: {fields.shape[0]} rows at 100 Hz)")
     info = {"one_at_a_time": o.one_at_a_time, "corners": o.corners, "samples": o.samples,
-            "seed": o.seed}
+            "seed": o.seed, **({} if actor is None else {"actor": actor.to_dict()})}
     return RobustnessPlan(str(source), the_case, fields, waveform, policy, chosen, variants, specs,
                           o.physics, duration, info)
 

@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 from elastica_magnetic.clock_columns import other_clock_hint
 from elastica_magnetic.field_csv import decimal_comma_hint, header_named_twice, separator_hint
+from elastica_magnetic.io import missing_folder_hint
 
 __all__ = [
     "MARKERS",
@@ -127,7 +128,7 @@ class MeasuredTrajectory:
 
 def _read_csv(path: Path) -> pd.DataFrame:
     if not path.is_file():
-        raise TrajectoryError(f"{path}: no such trajectory file")
+        raise TrajectoryError(f"{path}: no such trajectory file{missing_folder_hint(path)}")
     try:
         table = pd.read_csv(path, encoding="utf-8-sig", dtype=str, keep_default_na=False)
     except pd.errors.EmptyDataError:

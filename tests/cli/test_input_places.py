@@ -60,7 +60,8 @@ def test_every_argument_that_names_a_path_is_an_input(tmp_path):
     args = parser.parse_args(["P", "--fields", "a.csv", "--out", "o", "--samples", "3", "--force"])
     found = input_arguments(parser, args)
     labels = [label for label, _ in found]
-    assert found == [("POLICY_OR_FIELD_CSV", "P"), ("--fields", Path("a.csv"))]  # --physics: a choice
+    # --physics: a choice; --checkpoint: a run's checkpoint file or a word (auto, final, best)
+    assert found == [("POLICY_OR_FIELD_CSV", "P"), ("--fields", Path("a.csv")), ("--checkpoint", "auto")]
     assert "--out" not in labels and "--samples" not in labels and "--force" not in labels
 
 

@@ -593,3 +593,22 @@ def test_an_interrupted_redo_is_not_refused_for_its_own_seeds(interrupted_then_r
     (folder / "train" / "seg4" / "seed0" / "mine.txt").unlink()
     status, _, err = _loop(spec, "--out", str(folder), "--redo", "train")
     assert status == 0, err
+
+
+def test_a_changed_recipe_the_loop_does_not_train_with_asks_no_redo(interrupted_then_resumed, tmp_path):
+    """Round 52, V5: a changed ``[training] recipe`` was told ``--redo check,train``, whose training
+    then used the loop's own fast recipe again, bit for bit: the key acts on no step. Now it asks no
+    redo, and the loop says the recipe is not used."""
+    import shutil
+
+    folder = tmp_path / "out"
+    shutil.copytree(interrupted_then_resumed["folder"], folder)
+    before = LoopState.read(folder).steps
+    spec = json.loads(json.dumps(SPEC))
+    spec["training"] = {"recipe": "paper"}
+    changed = tmp_path / "seg4.toml"
+    changed.write_bytes(tomli_w.dumps(spec).encode())
+    status, _, err = _loop(str(changed), "--out", str(folder))
+    assert status == 0, err
+    assert "[training] recipe = 'paper' is not used: msr loop trains with the fast recipe" in err, err
+    assert "--redo" not in err and LoopState.read(folder).steps["train"] == before["train"]
