@@ -124,11 +124,16 @@ def _check_column_units(path: Path, field: NDArray[np.float64]) -> None:
     for k, value in enumerate(largest):
         if 0.0 < value < _COLUMN_RATIO_TESLA * largest[strongest]:
             name, other = FIELD_COLUMNS[k], FIELD_COLUMNS[strongest]
+            ratio = largest[strongest] / value
+            if ratio < 1e5:  # about 1000: the unit mistake it looks like
+                reading = f"about {ratio:.0f} times less: {name} in T where the file is in mT?"
+            else:  # far beyond a unit: round-off or a stray value, not tesla for millitesla
+                times = f"{ratio:.3g} times" if math.isfinite(ratio) else "more than 1e308 times"
+                reading = f"{times} less: a column of round-off or stray values?"
             warn_implausible(
                 f"{path}: column {name} reaches only {value:.3g} mT while {other} reaches "
-                f"{largest[strongest]:.3g} mT, about 1000 times less: {name} in T where the file "
-                "is in mT? (every column of a field CSV is in mT); the file is played as written",
-                stacklevel=5)
+                f"{largest[strongest]:.3g} mT, {reading} (every column of a field CSV is in mT); "
+                "the file is played as written", stacklevel=5)
 
 
 def named_twice(names: list[str]) -> str:

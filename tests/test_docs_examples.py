@@ -96,7 +96,7 @@ def test_steering_page_snippet_runs_and_its_numbers_hold():
     (block,) = re.findall(r"```python\n(.*?)```", text, flags=re.S)
     namespace: dict = {}
     exec(compile(block, "steering_3d.md", "exec"), namespace)
-    assert namespace["obs"].shape == (4 * 64 + 4 + 4,)
+    assert namespace["obs"].shape == (4 * 64 + 4 + 6,)  # heading, target offset, clock
     assert "-23.2 mm" in text
     with tempfile.TemporaryDirectory() as tmp:
         done = subprocess.run([sys.executable, "-m", "elastica_magnetic.cli", "field", "simulate",

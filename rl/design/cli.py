@@ -141,7 +141,7 @@ def design_command(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(summary, indent=2, default=str))
     else:
-        from .outputs import millimetres
+        from ..reports.text import millimetres
 
         start, best = summary["objective_start_m"], summary["objective_best_m"]
         ratio = summary["ratio"]

@@ -13,6 +13,7 @@ import numpy as np
 from elastica_magnetic.io import atomic_write, atomic_write_json, atomic_write_text
 
 from ..cases.case import EVAL_DURATION, case_from_dict
+from ..reports.text import millimetres
 from .evaluate import Trial, run_trials
 from .search import DIVERGED_SCORE, SearchState, _worst, variant_specs, variation_set
 
@@ -172,15 +173,6 @@ def _write_sweep(path: Path, start: dict[str, Any], best: dict[str, Any]) -> Non
                 d = row["distance_m"]
                 writer.writerow([label, f"{row['period_s']:.6g}", int(row["clockwise"]),
                                  "nan" if d is None else f"{d:.9g}"])
-
-
-def millimetres(value: float | None) -> str:
-    """A distance (m) as the design's outputs say it: to 0.1 mm, or to two significant digits
-    below that (a smoke run's micrometres are not shown as +0.0 mm); ``None`` is a diverged run."""
-    if value is None:
-        return "diverged"
-    mm = 1e3 * value
-    return f"{mm:+.1f} mm" if mm == 0.0 or abs(mm) >= 0.1 else f"{mm:+.2g} mm"
 
 
 def _report(summary: dict[str, Any]) -> str:

@@ -10,6 +10,8 @@ import numpy as np
 
 from elastica_magnetic.io import atomic_save
 
+from ..reports.text import millimetres
+
 __all__ = ["plot_identify", "plot_robustness", "plot_tip_robustness", "robustness_table"]
 
 _MODE_NAMES = {"open_loop": "open loop", "closed_loop": "closed loop"}
@@ -20,7 +22,7 @@ _TIP_MODE_NAMES = {"policy": "policy", "yardstick": "yardstick"}
 def _mm(distance: float | None, fraction: float | None = None) -> str:
     if distance is None:
         return "diverged"
-    text = f"{1e3 * distance:+.1f} mm"
+    text = millimetres(distance)
     return text + (f" ({100 * fraction:.0f} %)" if fraction is not None else "")
 
 
@@ -168,6 +170,9 @@ def tip_robustness_table(report: dict[str, Any]) -> str:
              f"{report['physics']} physics, {report['duration_s']:g} s each; reached (median final "
              "distance)", "",
              f"{'variant':<{width}}  " + "  ".join(f"{name:>20}" for name in _TIP_MODE_NAMES.values())]
+    actor = (report.get("design") or {}).get("actor")
+    if actor:  # a run's: which of its actors is the policy
+        lines.insert(1, f"policy: {actor['summary']}")
     for v in report["variants"]:
         cells = [f"{_reached(v[m], n):>20}" for m in _TIP_MODE_NAMES]
         lines.append(f"{v['label']:<{width}}  " + "  ".join(cells))

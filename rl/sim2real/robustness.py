@@ -125,17 +125,20 @@ def plan_robustness(source: str | Path, settings: StudySettings | None = None, /
     o = dataclasses.replace(settings or StudySettings(), **changes)
     if o.physics not in ("training", "accurate"):
         raise ValueError(f"--physics must be 'training' or 'accurate', got {o.physics!r}")
-    steered = _tip_reach_policy(source, o)
+    steered, actor = _tip_reach_policy(source, o), None
     if steered is not None:
         if steered.kind == "checkpoint":  # a run: the actor msr policy generate plays for it
             from ..shipping.policy_runs import choose_tip_reach_actor
 
             choice = choose_tip_reach_actor(source, o.checkpoint)
-            steered = steered if choice is None else _resolved(choice.path)
+            if choice is not None:
+                steered = _resolved(choice.path)
+                actor = {**choice.to_dict(), "summary": choice.describe()}
         elif o.checkpoint != "auto":
             raise ValueError(f"--checkpoint {o.checkpoint}: {source} is not a training run (a shipped "
                              "policy has one actor): leave --checkpoint out")
-        return plan_tip_robustness(str(source), steered, o.variations, one_at_a_time=o.one_at_a_time,
+        return plan_tip_robustness(str(source), steered, o.variations, actor=actor,
+                                   one_at_a_time=o.one_at_a_time,
                                    corners=o.corners, samples=o.samples, seed=o.seed, physics=o.physics,
                                    duration=None if o.duration is None else check_duration(o.duration))
     duration = check_duration(FIELD_STUDY_DURATION if o.duration is None else o.duration)
@@ -183,8 +186,11 @@ def plan_robustness(source: str | Path, settings: StudySettings | None = None, /
         waveform = f"generated: {played} on the nominal robot, accurate physics, field from zero"
     rows = int(round(duration / ACTION_PERIOD))
     if rows > fields.shape[0]:
-        raise ValueError(f"--duration {duration:g} s is past the end of the waveform {waveform} "
-                         f"({fields.shape[0] * ACTION_PERIOD:g} s: {fields.shape[0]} rows at 100 Hz)")
+        length = fields.shape[0] * ACTION_PERIOD
+        asked = f"--duration {duration:g} s" if o.duration is not None else f"the default {duration:g} s"
+        raise ValueError(f"{asked} is past the end of the waveform {waveform} ({length:g} s: "
+                         f"{fields.shape[0]} rows at 100 Hz): give --duration {length:g} or less, or "
+                         "a longer waveform with --fields")
     info = {"one_at_a_time": o.one_at_a_time, "corners": o.corners, "samples": o.samples,
             "seed": o.seed, **({} if actor is None else {"actor": actor.to_dict()})}
     return RobustnessPlan(str(source), the_case, fields, waveform, policy, chosen, variants, specs,

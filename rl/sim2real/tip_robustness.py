@@ -69,11 +69,14 @@ class TipRobustnessPlan:
 
 def plan_tip_robustness(source: str, policy: LoadedPolicy, variations: Sequence[Variation] | None, *,
                         one_at_a_time: bool = True, corners: bool = True, samples: int = 0, seed: int = 0,
-                        physics: str = "training", duration: float | None = None) -> TipRobustnessPlan:
+                        physics: str = "training", duration: float | None = None,
+                        actor: dict[str, Any] | None = None) -> TipRobustnessPlan:
     """Check a study of ``policy`` (a tip-reach case's) on varied catheters. ``variations``:
     default :func:`~elastica_magnetic_rl.cases.variations.default_variations` of its spec (the
     magnet's moment among them for a magnet on an arm); ``duration``: s, default the task's
-    episode. Raises ValueError (VariationError, SpecError) naming the problem."""
+    episode; ``actor``: for a run, which of its actors is studied (``ActorChoice.to_dict()`` with
+    its ``summary``), recorded in the report. Raises ValueError (VariationError, SpecError) naming
+    the problem."""
     from ..shipping.tip_reach import held_out_targets
 
     the_case = policy.case
@@ -97,7 +100,8 @@ def plan_tip_robustness(source: str, policy: LoadedPolicy, variations: Sequence[
         checked = case_from_dict(varied, f"variant {variant.label!r}", default_name=the_case.name)
         checked.robot_spec(physics)  # builds the robot: its own checks
         specs.append(varied)
-    info = {"one_at_a_time": one_at_a_time, "corners": corners, "samples": samples, "seed": seed}
+    info = {"one_at_a_time": one_at_a_time, "corners": corners, "samples": samples, "seed": seed,
+            **({} if actor is None else {"actor": actor})}
     return TipRobustnessPlan(str(source), the_case, policy, held_out_targets(the_case), chosen, variants,
                              specs, physics, duration, info)
 

@@ -136,3 +136,30 @@ def test_a_generate_result_given_as_a_policy_is_named_for_what_it_is(tmp_path, c
     assert "holds a result of `msr policy generate` for case m1-4mT" in err, err
     assert "ship it again" not in err
     assert f"its waveform as a field CSV ({out / 'fields.csv'})" in err
+
+
+def test_a_column_far_below_a_unit_mistake_is_not_called_one(tmp_path):
+    """Borderline of round 52: a 1e-315 mT column beside 3 mT was "about 1000 times less: in T?"."""
+    import warnings
+
+    from elastica_magnetic.field_csv import _check_column_units
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        _check_column_units(tmp_path / "x.csv", np.array([[3e-3, 0.0, 3e-6]]))
+        _check_column_units(tmp_path / "x.csv", np.array([[3e-3, 0.0, 1e-318]]))
+    unit, stray = (str(w.message) for w in caught if "times less" in str(w.message))
+    assert "about 1000 times less: mag_z in T where the file is in mT?" in unit
+    assert "more than 1e308 times less: a column of round-off or stray values?" in stray
+
+
+def test_a_waveform_shorter_than_the_study_is_told_the_duration_to_give(tmp_path, capsys):
+    """Borderline of round 52: a 0.3 s waveform under the default 10 s study was refused without
+    saying to give --duration 0.3."""
+    from elastica_magnetic import write_field_csv
+
+    short = write_field_csv(tmp_path / "short.csv", np.zeros((30, 3)))
+    assert run(["real", "robustness", "m1-4mT", "--fields", str(short), "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err
+    assert "the default 10 s is past the end of the waveform" in err, err
+    assert "give --duration 0.3 or less, or a longer waveform with --fields" in err

@@ -574,7 +574,7 @@ def test_an_interrupted_resume_of_a_finished_design_says_it_is_kept_as_it_was(tm
 
 def test_a_smoke_designs_micrometres_are_not_shown_as_zero():
     """Borderline of round 51: ``msr design --quick`` printed "start +0.0 mm, best +0.0 mm (2.25x)"."""
-    from elastica_magnetic_rl.design.outputs import millimetres
+    from elastica_magnetic_rl.reports.text import millimetres
 
     assert millimetres(1.2e-6) == "+0.0012 mm" and millimetres(-3.4e-5) == "-0.034 mm"
     assert millimetres(0.0123) == "+12.3 mm" and millimetres(0.0) == "+0.0 mm"

@@ -12,6 +12,7 @@ import pytest
 from elastica_magnetic_rl.cases.case import case_from_dict, load_case
 from elastica_magnetic_rl.cases.variations import DEFAULT_RANGES, SOURCE_RANGES, default_variations
 from elastica_magnetic_rl.shipping.policy_files import resolve_policy
+from elastica_magnetic_rl.shipping.policy_runs import choose_tip_reach_actor
 from elastica_magnetic_rl.shipping.tip_reach import (
     actor_controller,
     held_out_targets,
@@ -56,7 +57,9 @@ def test_each_variant_is_what_the_policy_and_the_yardstick_do_on_that_catheter(c
     data = copy.deepcopy(case.to_dict())
     data["actuation"]["moment"] = 1.25
     varied = case_from_dict(data, "varied")
-    actor = resolve_policy(str(catheter_run)).actor
+    chosen = choose_tip_reach_actor(catheter_run)  # as msr policy generate plays the run: best.pt
+    assert report["design"]["actor"]["checkpoint"] == str(chosen.path)
+    actor = resolve_policy(str(chosen.path)).actor
     for mode, controller in (("policy", actor_controller(actor)), ("yardstick", steering_controller)):
         expected = run_targets(varied, targets, controller, "training", DURATION)
         assert stronger[mode]["final_distance_m"] == pytest.approx(expected["final_distance_m"], abs=1e-12)
