@@ -136,16 +136,39 @@ def _tip_reach_args(args: argparse.Namespace, case, command: str, refused: dict)
                            f"numbers); got {len(args.target)} (FORWARD,LEFT is a goto case's)")
 
 
-def _ring_result(policy, args: argparse.Namespace, kind: str) -> int:
-    """``--ring``: the ring written into ``--out``, printed."""
+def _ring_result(policy, args: argparse.Namespace, kind: str, actor: dict | None = None) -> int:
+    """``--ring``: the ring written into ``--out``, printed (``actor``: a run's actor choice)."""
     from ..shipping.goto import write_ring
 
     result = write_ring(policy, args.out, args.duration, args.physics, args.ring, force=args.force,
                         progress=not args.no_progress, kind=kind,
-                        workers=args.workers or os.cpu_count() or 1)
+                        workers=args.workers or os.cpu_count() or 1, actor=actor)
     print_notes(result.pop("notes", ()))
-    print_result(result, args.json)
+    if actor is not None:
+        result = {**result, "actor_choice": actor}
+    print_rollout_result(result, args.json)
     return 0
+
+
+def _ring_of_run(loaded, args: argparse.Namespace) -> int:
+    """``msr policy generate POLICY --ring``: of a run, the actor ``--checkpoint`` names (``auto``:
+    the one a single rollout to the task's target straight ahead would play, compared as for
+    ``--target``), said on an ``actor:`` line and in ``ring.json``."""
+    from ..shipping.goto import check_ring_out, goto_target
+    from ..shipping.policy_files import resolve_policy
+    from ..shipping.policy_runs import choose_actor
+
+    check_ring_out(loaded.case, args.out, "generate", args.force)  # before the actors' evaluations
+    try:
+        duration = args.duration if args.duration is not None else loaded.case.task.episode_duration
+        choice = choose_actor(args.policy, args.checkpoint, duration, not args.no_progress,
+                              goto_target(loaded.case, None))
+    except FileNotFoundError as exc:
+        raise CommandError(str(exc)) from None
+    if choice is None:
+        return _ring_result(loaded, args, "generate")
+    return _ring_result(resolve_policy(choice.path), args, "generate",
+                        {**choice.to_dict(), "summary": choice.describe()})
 
 
 def _add_baseline_command(sub: argparse._SubParsersAction) -> None:
@@ -217,7 +240,7 @@ def generate_command(args: argparse.Namespace) -> int:
     if args.target is not None or args.ring is not None:
         _goto_args(args, loaded.case)
         if args.ring is not None:
-            return _ring_result(loaded, args, "generate")
+            return _ring_of_run(loaded, args)
     try:
         result = generate(args.policy, duration=args.duration, out=args.out, physics=args.physics,
                           progress=not args.no_progress, pictures=_pictures(args),

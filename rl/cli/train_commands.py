@@ -431,12 +431,19 @@ def _check_refined_policy_case(args: argparse.Namespace, source: Path) -> None:
 def refine_command(args: argparse.Namespace) -> int:
     from ..runfiles.rundir import RunDir
     from ..shipping.policy_files import resolve_policy
-    from ..shipping.policy_runs import CHECKPOINT_CHOICES, choose_actor, choose_tip_reach_actor
+    from ..shipping.policy_runs import (
+        CHECKPOINT_CHOICES,
+        check_checkpoint_file,
+        choose_actor,
+        choose_tip_reach_actor,
+    )
     from ..sweep.refine import DEFAULT_STEPS, check_refined_case, refine
     from ..sweep.refine_start import check_refine_output, default_refine_output
 
     _check_run_options(args)
     try:  # the output, --spec and --randomize are checked before the actors' 10 s evaluations
+        if args.checkpoint not in CHECKPOINT_CHOICES:
+            check_checkpoint_file(args.run, args.checkpoint)
         source = args.run if args.checkpoint in CHECKPOINT_CHOICES else Path(args.checkpoint)
         check_refine_output(args.out or default_refine_output(source), args.resume, source)
         if args.resume:  # continues its own checkpoint: no actor to choose (refine checks the record)

@@ -35,6 +35,8 @@ STEP_SETTINGS = {"settings.calibration": ("firmware",), "settings.calibration_sh
 #: Spec keys no step reads: the loop trains with its own recipe (``LoopSettings.recipe``), so a
 #: changed ``[training] recipe`` changes no result (the loop says so when it starts).
 UNREAD_SPEC_KEYS = ("spec.training.recipe",)
+#: ... and in a smoke run (``--quick``), which trains its own step budget, ``[training] steps``.
+UNREAD_WHEN_QUICK = ("spec.training.steps",)
 #: The steps each step needs (their results are its input).
 NEEDS: dict[str, tuple[str, ...]] = {
     "check": (), "yardstick": (), "train": ("yardstick",), "generate": ("train",),
@@ -247,8 +249,9 @@ def _redo_for_changes(state: LoopState, spec: dict[str, Any], settings: dict[str
     when ``redo`` names them; any other change refused (:class:`LoopError`) unless ``force``, which
     redoes every step."""
     extend: tuple[str, ...] = ()
+    unread = (*UNREAD_SPEC_KEYS, *(UNREAD_WHEN_QUICK if settings.get("quick") else ()))
     changed = [key for key in _changed({"spec": state.spec, "settings": state.settings},
-                                       {"spec": spec, "settings": settings}) if key not in UNREAD_SPEC_KEYS]
+                                       {"spec": spec, "settings": settings}) if key not in unread]
     others = [key for key in changed if key != "settings.steps"]
     if ("settings.steps" in changed and not force and all(_own_steps(key) for key in others)
             and not any("train" in _own_steps(key) for key in others)):

@@ -141,28 +141,28 @@ RING_FILES = ("ring.csv", "ring.json", "ring.png")
 
 def write_ring(policy, out: str | Path, duration: float | None = None, physics: str = "accurate",
                n_targets: int | None = None, force: bool = False, progress: bool = True,
-               kind: str = "generate", workers: int = 1) -> dict[str, Any]:
+               kind: str = "generate", workers: int = 1,
+               actor: dict[str, Any] | None = None) -> dict[str, Any]:
     """:func:`evaluate_ring` written whole into the result folder ``out`` (as ``msr <kind>``'s
     result for the policy's case; replaced only with ``force``): ``ring.csv`` (one row per
     target), ``ring.json`` (the summary and the rows) and ``ring.png`` (the top view), the targets
     run in ``workers`` processes. Returns the summary with ``policy``, ``physics``, ``duration_s``
-    and the files."""
+    and the files; ``actor`` (a run's actor choice, which ``policy`` is) is recorded in it."""
     import pandas as pd
 
     from elastica_magnetic.io import atomic_write, atomic_write_json
-    from elastica_magnetic.results import check_result_folder, result_folder
+    from elastica_magnetic.results import result_folder
 
     from ..reports.goto_figures import plot_ring
 
-    subject = f"case {policy.case.name}"
-    check_policy_case(out, policy.case)
-    check_result_folder(out, kind=kind, subject=subject, force=force, known_files=RING_FILES)
+    subject = check_ring_out(policy.case, out, kind, force)
     paths: list = []
     rows = evaluate_ring(policy, duration, physics, n_targets, progress=progress, paths=paths,
                          workers=workers)
     summary = {"policy": str(policy.source), "policy_kind": policy.kind, "case": policy.case.name,
                "physics": physics, "duration_s": rows[0]["duration_s"] if rows else None,
-               "initial_field": "zero", **ring_summary(rows)}
+               "initial_field": "zero", **ring_summary(rows),
+               **({} if actor is None else {"actor": actor})}
     with result_folder(out, kind=kind, subject=subject, force=force,
                        known_files=RING_FILES) as folder:
         with atomic_write(folder.path / "ring.csv", "w", newline="") as handle:
@@ -173,6 +173,17 @@ def write_ring(policy, out: str | Path, duration: float | None = None, physics: 
         atomic_write_json(folder.path / "ring.json", {**summary, "targets_table": rows})
     files = {name: str(folder.final / name) for name in RING_FILES}
     return {**summary, "files": files, "notes": folder.notes}
+
+
+def check_ring_out(case: Case, out: str | Path, kind: str, force: bool) -> str:
+    """Refuse, before any rollout, a ring's ``out`` that :func:`write_ring` may not write (another
+    case's result, an existing one without ``force``); returns the result's subject."""
+    from elastica_magnetic.results import check_result_folder
+
+    subject = f"case {case.name}"
+    check_policy_case(out, case)
+    check_result_folder(out, kind=kind, subject=subject, force=force, known_files=RING_FILES)
+    return subject
 
 
 def ring_summary(rows: list[dict[str, Any]]) -> dict[str, Any]:

@@ -289,12 +289,26 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
         raise PolicyNotFoundError(f"{policy}: no checkpoint yet: {hint}")
     if hint := seed_runs_hint(path):
         raise PolicyNotFoundError(f"{policy}: not a run directory: {hint}")
+    if (refusal := other_result_refusal(path)) is not None:
+        raise PolicyNotFoundError(refusal)
     shipped = sorted(p.name for p in policies_dir.glob("*") if (p / POLICY_JSON).is_file()) \
         if policies_dir.is_dir() else []
     raise PolicyNotFoundError(
         f"{policy}: not a run directory, checkpoint, shipped-policy folder or shipped policy name "
         f"(shipped in {policies_dir}: {', '.join(shipped) or 'none'}){missing_folder_hint(policy)}"
     )
+
+
+def other_result_refusal(path: Path) -> str | None:
+    """Where ``path`` holds another command's result (a marker of any kind but a training's: a
+    generate, replay, ring, robustness or export result), the refusal naming it; else ``None``."""
+    marker = read_marker(path) if path.is_dir() else None
+    if marker is None or marker.get("kind") in ("train", "refine"):
+        return None
+    waveform = path / "fields.csv"
+    also = f"; its waveform, where a field CSV goes, is {waveform}" if waveform.is_file() else ""
+    return (f"{path}: holds {describe_result(marker)}, not a policy: give a run folder, a checkpoint "
+            f"or a shipped policy{also}")
 
 
 def _check_policy_folder_whole(path: Path) -> None:
@@ -305,11 +319,8 @@ def _check_policy_folder_whole(path: Path) -> None:
         return
     present = [name for name in SHIPPED_FILES if (path / name).is_file()]
     missing = [name for name in ("actor.pt", POLICY_JSON) if not (path / name).is_file()]
-    marker = read_marker(path)
-    if present and missing and marker is not None and marker.get("kind") != "ship":
-        # another command's result that holds a waveform (generate, robustness): named, not "broken"
-        raise PolicyNotFoundError(f"{path}: holds {describe_result(marker)}, not a policy: give the "
-                                  f"policy it played, or its waveform as a field CSV ({path / 'fields.csv'})")
+    if present and missing and (refusal := other_result_refusal(path)) is not None:
+        raise PolicyNotFoundError(refusal)  # a generate or robustness result: named, not "broken"
     if present and missing:
         raise PolicyNotFoundError(
             f"{path}: a shipped-policy folder (it holds {', '.join(present)}) without "

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from elastica_magnetic.io import atomic_write_json
+from elastica_magnetic.io import atomic_write_json, missing_folder_hint
 
 from ..cases.case import Case
 from ..cases.tasks import GotoTask, ReachTask
@@ -23,7 +23,8 @@ from ..envs.yardsticks import RotatingFieldPolicy
 from ..runfiles.rundir import CaseDir, RunDir, being_written_hint
 from .policy_files import LoadedPolicy, resolve_policy
 
-__all__ = ["ActorChoice", "CHECKPOINT_CHOICES", "choose_actor", "choose_tip_reach_actor",
+__all__ = ["ActorChoice", "CHECKPOINT_CHOICES", "check_checkpoint_file", "choose_actor",
+           "choose_tip_reach_actor",
            "evaluate_checkpoint", "evaluate_run", "evaluate_seeds", "node_dx", "prefer_best", "run_policy",
            "seed_run_dirs"]
 
@@ -334,6 +335,25 @@ def _why_no_best(run_files: RunDir) -> str:
             f"see {run_files.evaluations_csv}; --checkpoint final takes the final actor)")
 
 
+def check_checkpoint_file(run: str | Path, checkpoint: str) -> Path:
+    """``--checkpoint PATH`` (not auto, final, best) of ``run``: the file, or a
+    ``FileNotFoundError`` naming what it is instead (a folder, nothing there, a path through a
+    missing folder, the run's own ``best.pt`` meant as ``best``)."""
+    path = Path(run)
+    run_dir = path if path.is_dir() else path.parent
+    given = Path(checkpoint)
+    if given.is_dir():
+        raise FileNotFoundError(f"--checkpoint {checkpoint}: a folder; give one of the run's checkpoint "
+                                f"files ({RunDir.CHECKPOINT}, {RunDir.BEST}) or auto, final, best")
+    if not given.is_file():
+        own = {RunDir.BEST: "best", RunDir.CHECKPOINT: "final"}.get(str(checkpoint))
+        hint = (f"; the run's own {checkpoint} is --checkpoint {own}"
+                if own is not None and (run_dir / checkpoint).is_file() else "")
+        raise FileNotFoundError(f"--checkpoint {checkpoint}: no such checkpoint file (or auto, "
+                                f"final, best){hint}{missing_folder_hint(checkpoint)}")
+    return given
+
+
 def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10.0,
                  progress: bool = True, target: tuple[float, float] | None = None) -> ActorChoice | None:
     """The actor of a run to use: ``run`` is a run folder or its ``checkpoint.pt``; ``checkpoint``
@@ -346,16 +366,7 @@ def choose_actor(run: str | Path, checkpoint: str = "auto", duration: float = 10
     is_run = (path.is_dir() and RunDir(path).has_checkpoint()) or (
         path.is_file() and path.name == RunDir.CHECKPOINT)
     if checkpoint not in CHECKPOINT_CHOICES:
-        given = Path(checkpoint)
-        if given.is_dir():
-            raise FileNotFoundError(f"--checkpoint {checkpoint}: a folder; give one of the run's checkpoint "
-                                    f"files ({RunDir.CHECKPOINT}, {RunDir.BEST}) or auto, final, best")
-        if not given.is_file():
-            own = {RunDir.BEST: "best", RunDir.CHECKPOINT: "final"}.get(str(checkpoint))
-            hint = (f"; the run's own {checkpoint} is --checkpoint {own}"
-                    if own is not None and (run_dir / checkpoint).is_file() else "")
-            raise FileNotFoundError(f"--checkpoint {checkpoint}: no such checkpoint file (or auto, "
-                                    f"final, best){hint}")
+        given = check_checkpoint_file(run, checkpoint)
         if not is_run:  # a shipped policy has one actor: the checkpoint would be played in its place
             raise ValueError(f"--checkpoint {checkpoint}: {run} is not a run folder (a shipped policy or an "
                              "actor file): it has no checkpoints to choose among; leave --checkpoint out"

@@ -38,7 +38,9 @@ def robustness_table(report: dict[str, Any]) -> str:
     width = max(len(v["label"]) for v in report["variants"])
     yard = report["yardstick_m"]
     comparable = report.get("yardstick_comparable", True)
+    actor = (report.get("design") or {}).get("actor")
     lines = [f"{report['case']}: {report['waveform']}",
+             *([f"policy (closed loop): {actor['summary']}"] if actor and "closed_loop" in modes else []),
              f"{report['physics']} physics, {report['duration_s']:g} s; yardstick "
              + (f"{1e3 * yard:.1f} mm in 10 s (accurate physics)" if yard else "none")
              + ("" if comparable or not yard else

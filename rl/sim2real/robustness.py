@@ -192,7 +192,8 @@ def plan_robustness(source: str | Path, settings: StudySettings | None = None, /
                          f"{fields.shape[0]} rows at 100 Hz): give --duration {length:g} or less, or "
                          "a longer waveform with --fields")
     info = {"one_at_a_time": o.one_at_a_time, "corners": o.corners, "samples": o.samples,
-            "seed": o.seed, **({} if actor is None else {"actor": actor.to_dict()})}
+            "seed": o.seed,
+            **({} if actor is None else {"actor": {**actor.to_dict(), "summary": actor.describe()}})}
     return RobustnessPlan(str(source), the_case, fields, waveform, policy, chosen, variants, specs,
                           o.physics, duration, info)
 

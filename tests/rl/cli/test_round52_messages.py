@@ -126,7 +126,7 @@ def test_a_generate_result_given_as_a_policy_is_named_for_what_it_is(tmp_path, c
     err = capsys.readouterr().err
     assert "holds a result of `msr policy generate` for case m1-4mT" in err, err
     assert "ship it again" not in err
-    assert f"its waveform as a field CSV ({out / 'fields.csv'})" in err
+    assert f"its waveform, where a field CSV goes, is {out / 'fields.csv'}" in err
 
 
 def test_a_column_far_below_a_unit_mistake_is_not_called_one(tmp_path):

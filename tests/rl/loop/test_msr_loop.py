@@ -612,3 +612,20 @@ def test_a_changed_recipe_the_loop_does_not_train_with_asks_no_redo(interrupted_
     assert status == 0, err
     assert "[training] recipe = 'paper' is not used: msr loop trains with the fast recipe" in err, err
     assert "--redo" not in err and LoopState.read(folder).steps["train"] == before["train"]
+
+
+def test_a_smoke_loop_asks_no_redo_for_training_steps_it_does_not_train(interrupted_then_resumed, tmp_path):
+    """Round 53, V6: a changed ``[training] steps`` was told ``--redo check,train`` in a ``--quick``
+    loop, which trains its own 240 steps whatever the spec says."""
+    import shutil
+
+    folder = tmp_path / "out"
+    shutil.copytree(interrupted_then_resumed["folder"], folder)
+    before = LoopState.read(folder).steps
+    spec = json.loads(json.dumps(SPEC))
+    spec["training"] = {"steps": 5000}
+    changed = tmp_path / "seg4.toml"
+    changed.write_bytes(tomli_w.dumps(spec).encode())
+    status, _, err = _loop(str(changed), "--out", str(folder))
+    assert status == 0 and "--redo" not in err, err
+    assert LoopState.read(folder).steps["train"] == before["train"]
