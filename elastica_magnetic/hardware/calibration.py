@@ -270,8 +270,12 @@ def load_calibration(path: str | Path) -> Calibration:
         raise CalibrationError(f"{path}: not UTF-8 text (byte {exc.start}): a calibration is a "
                                "JSON file written by 'msr real calibrate'") from None
     except json.JSONDecodeError as exc:
+        spec_like = re.search(r"^\s*\[(robot|actuation|task)[\].]", text, re.MULTILINE) is not None
         csv_like = "," in text.partition("\n")[0] and not text.lstrip().startswith(("{", "["))
-        hint = (": it reads as a CSV (measurements?); a calibration is the JSON file 'msr real calibrate "
+        hint = (": it is a spec file (TOML with a [robot] table), a robot's, not its coils' "
+                "calibration: give the JSON 'msr real calibrate' writes from measured currents and "
+                "fields (or stm32/calibration/yao2023.json)" if spec_like else
+                ": it reads as a CSV (measurements?); a calibration is the JSON file 'msr real calibrate "
                 f"{path.name} --out CAL.json' writes from measured currents and fields" if csv_like else
                 ": a calibration is a JSON file written by 'msr real calibrate'")
         raise CalibrationError(f"{path}: not valid JSON ({exc}){hint}") from None

@@ -430,7 +430,7 @@ def _check_refined_policy_case(args: argparse.Namespace, source: Path) -> None:
 
 def refine_command(args: argparse.Namespace) -> int:
     from ..runfiles.rundir import RunDir
-    from ..shipping.policy_files import resolve_policy
+    from ..shipping.policy_files import other_result_refusal, resolve_policy
     from ..shipping.policy_runs import (
         CHECKPOINT_CHOICES,
         check_checkpoint_file,
@@ -441,6 +441,8 @@ def refine_command(args: argparse.Namespace) -> int:
     from ..sweep.refine_start import check_refine_output, default_refine_output
 
     _check_run_options(args)
+    if (refusal := other_result_refusal(Path(args.run))) is not None:  # before its default --out inside it
+        raise CommandError(refusal)
     try:  # the output, --spec and --randomize are checked before the actors' 10 s evaluations
         if args.checkpoint not in CHECKPOINT_CHOICES:
             check_checkpoint_file(args.run, args.checkpoint)
