@@ -106,7 +106,8 @@ def _add_ship_command(sub: argparse._SubParsersAction) -> None:
     add_old_option(p, "--dest", "--out", output_path, "dest")
     p.add_argument("--no-measure", action="store_true", help="skip the evaluation run")
     p.add_argument("--duration", type=duration_option(), default=None,
-                   help="evaluation length, s (default 10; not with --no-measure)")
+                   help="evaluation length, s (default 10; not with --no-measure; a goto policy's ring "
+                   "of targets is measured for the task's episode whatever it is)")
     p.add_argument("--force", action="store_true",
                    help="replace an existing policy in DIR/<name>: its files (the waveform and critic of the "
                         "replaced policy go with it, even when this one has none: --no-measure); "

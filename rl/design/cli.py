@@ -109,6 +109,11 @@ def design_command(args: argparse.Namespace) -> int:
 
     replacing = args.force and holds_design(args.out)
     continuing_finished = args.resume and not replacing and (args.out / "summary.json").is_file()
+    if not args.no_progress:  # the first line comes after a whole generation: say what runs first
+        budget = (f"up to {settings.generations} generations" if settings.generations else
+                  f"--minutes {settings.minutes:g} stops it between generations")
+        print(f"design: searching ({budget}; a line after each generation); the first generation and "
+              "the final judgement of the best run whatever the budget", file=sys.stderr, flush=True)
     try:
         began = time.perf_counter()
         with signals_as_exceptions():  # SIGTERM/SIGHUP as Ctrl-C: the message below, not silence

@@ -13,6 +13,7 @@ import dataclasses
 import io
 import json
 import re
+import sys
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
@@ -43,7 +44,7 @@ from elastica_magnetic.result_places import (
 )
 
 from ..cases.case import Case
-from ..cases.tasks import GotoTask, ReachTask
+from ..cases.tasks import RING_TARGETS, GotoTask, ReachTask
 from ..envs.yardsticks import SteeringFieldPolicy
 from ..runfiles.provenance import machine_fingerprint
 from ..runfiles.rundir import CaseDir
@@ -291,6 +292,12 @@ def _measure(policy: LoadedPolicy, duration: float, progress: bool) -> Measured:
         measured["reach"] = reach_metrics(rollout, policy.case.task)
     if goto:  # its waveform to the target ahead, and the judge: the ring, beside the yardstick's
         measured["goto"] = goto_result(rollout, policy.case.task, target)
+        if progress:  # minutes of work whatever --duration: said before it starts
+            episode = policy.case.task.episode_duration
+            print(f"ship: measuring the goto ring: {RING_TARGETS} targets for the policy and "
+                  f"{RING_TARGETS} for the steering yardstick, {episode:g} s each in the accurate "
+                  "physics (the judge of a goto policy; --duration sets the rollout above only)",
+                  file=sys.stderr, flush=True)
         measured["ring"] = _ring_entry(policy, progress)
         measured["yardstick_ring"] = _ring_entry(SteeringFieldPolicy(policy.case), progress)
     return Measured(measured, rollout.fields if rollout.n_steps else None)

@@ -44,3 +44,38 @@ def test_a_spec_given_as_a_calibration_is_named(tmp_path, capsys):
         assert "msr real calibrate my.toml" not in str(exc)
     else:
         raise AssertionError("a spec read as a calibration")
+
+
+def test_a_design_says_what_runs_before_its_first_line(tmp_path, capsys):
+    """V3: ``msr design --minutes 0.1`` printed nothing until its first generation and judgement
+    ended (minutes on a large spec), and looked hung."""
+    assert run(["design", "m1-4mT", "--out", str(tmp_path / "d"), "--quick", "--popsize", "3",
+                "--workers", "1", "--generations", "1"]) == 0
+    err = capsys.readouterr().err
+    assert ("design: searching (up to 1 generations; a line after each generation); the first generation "
+            "and the final judgement of the best run whatever the budget") in err, err
+
+
+def test_shipping_a_goto_policy_says_it_measures_the_rings(tmp_path, monkeypatch, capsys):
+    """V4: ``msr policy ship`` of a goto run measured 24 episodes of 30 s silently, whatever
+    ``--duration``."""
+    import elastica_magnetic_rl.shipping.ship as ship
+    from smoke import SMOKE
+
+    assert run(["train", "--case", "m1-4mT-goto", "--seeds", "1", "--workers", "1", "--steps", "120",
+                *SMOKE, "--out", str(tmp_path / "runs")]) == 0
+    calls = []
+    real = ship.evaluate_ring
+
+    def short_ring(policy, duration, physics, **kwargs):  # one target for 0.05 s: not the cost tested
+        calls.append(policy)
+        return real(policy, 0.05, "training", targets=[(0.015, 0.0)])
+
+    monkeypatch.setattr(ship, "evaluate_ring", short_ring)
+    capsys.readouterr()
+    run(["policy", "ship", str(tmp_path / "runs" / "m1-4mT-goto" / "seed0"), "--name", "g",
+         "--out", str(tmp_path / "pols"), "--duration", "0.05"])
+    err = capsys.readouterr().err
+    assert len(calls) == 2
+    assert ("ship: measuring the goto ring: 12 targets for the policy and 12 for the steering yardstick, "
+            "30 s each in the accurate physics") in err, err
