@@ -58,7 +58,7 @@ def test_checkpoint_paths_and_result_folders_are_named(goto_run, tmp_path, monke
     err = run_err(["refine", "seed0", "--checkpoint", "nope", "--steps", "3", "--out", str(tmp_path / "r")],
                   capsys)
     assert "--checkpoint nope: no such checkpoint file (or auto, final, best)" in err, err
-    assert run(["policy", "export", "seed0", "--out", str(tmp_path / "exp1")]) == 0
+    assert run(["policy", "export", "seed0", "--checkpoint", "final", "--out", str(tmp_path / "exp1")]) == 0
     capsys.readouterr()
     err = run_err(["policy", "notes", str(tmp_path / "exp1")], capsys)
     assert "holds a result of `msr policy export`" in err and "fields.csv" not in err, err
