@@ -220,7 +220,7 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
     (``actor.pt`` + ``policy.json``), or a shipped name (``rl/policies/<name>``), in that order."""
 
     from ..runfiles.checkpoint import checkpoint_metadata, load_checkpoint, torch_file_problem
-    from ..runfiles.rundir import RunDir, being_written_hint, seed_runs_hint
+    from ..runfiles.rundir import RunDir
 
     policies_dir = Path(policies_dir) if policies_dir is not None else POLICIES_DIR
     path = Path(policy)
@@ -284,19 +284,25 @@ def resolve_policy(policy: str | Path, policies_dir: str | Path | None = None) -
                                         tuple(arch.get("critic_hidden_sizes") or hidden))
         return LoadedPolicy(actor, critic, case, path, "shipped", meta, arch["obs_dim"],
                             arch["act_dim"], hidden)
+    raise PolicyNotFoundError(_not_a_policy(policy, path, policies_dir))
+
+
+def _not_a_policy(policy: str | Path, path: Path, policies_dir: Path) -> str:
+    """Why ``policy`` (found at ``path``, or not) is no policy :func:`resolve_policy` can load,
+    naming what it is where that is known."""
+    from ..runfiles.rundir import being_written_hint, seed_runs_hint
+
     _check_policy_folder_whole(path)
     if hint := being_written_hint(path):
-        raise PolicyNotFoundError(f"{policy}: no checkpoint yet: {hint}")
+        return f"{policy}: no checkpoint yet: {hint}"
     if hint := seed_runs_hint(path):
-        raise PolicyNotFoundError(f"{policy}: not a run directory: {hint}")
+        return f"{policy}: not a run directory: {hint}"
     if (refusal := other_result_refusal(path)) is not None:
-        raise PolicyNotFoundError(refusal)
+        return refusal
     shipped = sorted(p.name for p in policies_dir.glob("*") if (p / POLICY_JSON).is_file()) \
         if policies_dir.is_dir() else []
-    raise PolicyNotFoundError(
-        f"{policy}: not a run directory, checkpoint, shipped-policy folder or shipped policy name "
-        f"(shipped in {policies_dir}: {', '.join(shipped) or 'none'}){missing_folder_hint(policy)}"
-    )
+    return (f"{policy}: not a run directory, checkpoint, shipped-policy folder or shipped policy name "
+            f"(shipped in {policies_dir}: {', '.join(shipped) or 'none'}){missing_folder_hint(policy)}")
 
 
 def other_result_refusal(path: Path) -> str | None:

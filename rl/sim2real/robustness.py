@@ -125,22 +125,9 @@ def plan_robustness(source: str | Path, settings: StudySettings | None = None, /
     o = dataclasses.replace(settings or StudySettings(), **changes)
     if o.physics not in ("training", "accurate"):
         raise ValueError(f"--physics must be 'training' or 'accurate', got {o.physics!r}")
-    steered, actor = _tip_reach_policy(source, o), None
+    steered = _tip_reach_policy(source, o)
     if steered is not None:
-        if steered.kind == "checkpoint":  # a run: the actor msr policy generate plays for it
-            from ..shipping.policy_runs import choose_tip_reach_actor
-
-            choice = choose_tip_reach_actor(source, o.checkpoint)
-            if choice is not None:
-                steered = _resolved(choice.path)
-                actor = {**choice.to_dict(), "summary": choice.describe()}
-        elif o.checkpoint != "auto":
-            raise ValueError(f"--checkpoint {o.checkpoint}: {source} is not a training run (a shipped "
-                             "policy has one actor): leave --checkpoint out")
-        return plan_tip_robustness(str(source), steered, o.variations, actor=actor,
-                                   one_at_a_time=o.one_at_a_time,
-                                   corners=o.corners, samples=o.samples, seed=o.seed, physics=o.physics,
-                                   duration=None if o.duration is None else check_duration(o.duration))
+        return _plan_tip(source, steered, o)
     duration = check_duration(FIELD_STUDY_DURATION if o.duration is None else o.duration)
     the_case, policy, fields, waveform = _study_source(source, o.case, o.fields_csv)
     actor = None
@@ -196,6 +183,26 @@ def plan_robustness(source: str | Path, settings: StudySettings | None = None, /
             **({} if actor is None else {"actor": {**actor.to_dict(), "summary": actor.describe()}})}
     return RobustnessPlan(str(source), the_case, fields, waveform, policy, chosen, variants, specs,
                           o.physics, duration, info)
+
+
+def _plan_tip(source: str | Path, steered: LoadedPolicy, o: StudySettings) -> TipRobustnessPlan:
+    """:func:`plan_robustness` of a tip-reach policy: of a run, the actor ``msr policy generate``
+    plays for it (``o.checkpoint``), named in the plan."""
+    actor = None
+    if steered.kind == "checkpoint":
+        from ..shipping.policy_runs import choose_tip_reach_actor
+
+        choice = choose_tip_reach_actor(source, o.checkpoint)
+        if choice is not None:
+            steered = _resolved(choice.path)
+            actor = {**choice.to_dict(), "summary": choice.describe()}
+    elif o.checkpoint != "auto":
+        raise ValueError(f"--checkpoint {o.checkpoint}: {source} is not a training run (a shipped "
+                         "policy has one actor): leave --checkpoint out")
+    return plan_tip_robustness(str(source), steered, o.variations, actor=actor,
+                               one_at_a_time=o.one_at_a_time, corners=o.corners, samples=o.samples,
+                               seed=o.seed, physics=o.physics,
+                               duration=None if o.duration is None else check_duration(o.duration))
 
 
 def _resolved(source: str | Path) -> LoadedPolicy:
