@@ -198,11 +198,19 @@ def bench_command(args: argparse.Namespace) -> int:
 
 def figures_command(args: argparse.Namespace) -> int:
     from ..reports.figures import make_figures
-    from ..shipping.policy_files import check_policy_case, figure_cases, resolve_policy
+    from ..shipping.policy_files import check_policy_case, figure_cases, other_result_refusal, resolve_policy
 
     out = args.out if args.out is not None else args.path
     for case in figure_cases(args.path):  # a shipped policy's seeds/ takes its own case's figures only
         check_policy_case(out, case, option="--out", what="these figures are")
-    print_result(make_figures(args.path, args.out, gif=not args.no_gif, load_policy=resolve_policy,
-                              force=args.force), args.json)
+    try:
+        result = make_figures(args.path, args.out, gif=not args.no_gif, load_policy=resolve_policy,
+                              force=args.force)
+    except FileNotFoundError:  # another command's result (a ring, an export...) is named
+        refusal = other_result_refusal(Path(args.path), "a generate output (rollout.npz) or training "
+                                                        "runs (episodes.csv)")
+        if refusal is None:
+            raise
+        raise CommandError(refusal) from None
+    print_result(result, args.json)
     return 0

@@ -10,6 +10,7 @@ diagnose). Thin wrappers over :mod:`elastica_magnetic_rl.shipping.seed_export`,
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 from pathlib import Path
@@ -182,6 +183,11 @@ def export_seeds_command(args: argparse.Namespace) -> int:
         raise CommandError("--out DIR is required: the folder the seeds are written to")
     if not (math.isfinite(args.duration) and 0 < args.duration <= 600):
         raise CommandError(f"--duration must be a finite time in (0, 600] s, got {args.duration}")
+    from ..shipping.policy_files import other_result_refusal
+
+    if (refusal := other_result_refusal(Path(args.case_dir), "a case's training runs: give the folder "
+                                        "holding its seed<k>/ runs")) is not None:
+        raise CommandError(refusal)
     for checkpoint in sorted(Path(args.case_dir).glob("seed*/checkpoint.pt"))[:1]:  # the case's seeds
         _refuse_tip_reach(checkpoint.parent, "export-seeds")
         _refuse_goto(checkpoint.parent)
@@ -318,6 +324,8 @@ def ship_command(args: argparse.Namespace) -> int:
         print("--no-measure: the final actor is shipped without comparing it with best.pt "
               "(--checkpoint best ships best.pt)", file=sys.stderr)
     choice = _actor_choice(args.run, checkpoint, args.duration, not args.no_progress)
+    if choice is not None and checkpoint != args.checkpoint:  # chosen by --no-measure, not asked for
+        choice = dataclasses.replace(choice, rule="unmeasured")
     try:
         result = ship(choice.path if choice else args.run, args.name, dest=args.dest,
                       measure=not args.no_measure,
@@ -526,9 +534,14 @@ def diagnose_command(args: argparse.Namespace) -> int:
 
     if args.recent < 2:
         raise CommandError(f"--recent must be >= 2 transitions, got {args.recent}")
+    from ..shipping.policy_files import other_result_refusal
+
     for run in args.run:  # every path checked before the slow part
         if not run.exists():
             raise CommandError(f"{run}: no such run directory or checkpoint{missing_folder_hint(run)}")
+        if (refusal := other_result_refusal(run, "a training run: give a seed's run folder or its "
+                                                 "checkpoint.pt")) is not None:
+            raise CommandError(refusal)
     names = [_health_figure_name(run) for run in args.run]
     if args.figure is not None:
         if len(set(names)) < len(names):

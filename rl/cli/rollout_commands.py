@@ -142,7 +142,8 @@ def _ring_result(policy, args: argparse.Namespace, kind: str, actor: dict | None
 
     result = write_ring(policy, args.out, args.duration, args.physics, args.ring, force=args.force,
                         progress=not args.no_progress, kind=kind,
-                        workers=args.workers or os.cpu_count() or 1, actor=actor)
+                        workers=args.workers or os.cpu_count() or 1, actor=actor,
+                        figures=not args.no_figures)
     print_notes(result.pop("notes", ()))
     if actor is not None:
         result = {**result, "actor_choice": actor}
@@ -311,9 +312,7 @@ def baseline_command(args: argparse.Namespace) -> int:
         raise CommandError("--workers is the number of sweep runs run at a time; --period runs one "
                            "rollout, in one process: leave it out, or drop --period to sweep")
     if args.period > args.duration:  # the field would not turn once: nothing to measure
-        raise CommandError(f"--period {args.period:g} s is longer than --duration {args.duration:g} "
-                           "s: the field would not turn once in the run; give a longer --duration "
-                           "or a shorter --period")
+        raise CommandError(_period_past_duration(args.period, args.duration, "the field"))
     try:
         policy = RotatingFieldPolicy(args.case, args.period, clockwise=not args.counterclockwise)
     except ValueError as exc:
@@ -326,6 +325,19 @@ def baseline_command(args: argparse.Namespace) -> int:
         if result["warning"]:
             print(f"warning: {result['warning']}", file=sys.stderr)
     return _print_rollout_result(result, args.json)
+
+
+#: s: a rotation period this long is more likely ms written for s (the yardsticks turn in 0.5-6 s).
+_PERIOD_LIKELY_MS = 100.0
+
+
+def _period_past_duration(period: float, duration: float, field: str) -> str:
+    """The refusal of a ``--period`` (s) longer than the run's ``duration`` (s), with the ms slip
+    named where the period reads as one."""
+    slip = (f" (ms written for s? {period:g} ms is {period / 1e3:g} s)"
+            if period >= _PERIOD_LIKELY_MS else "")
+    return (f"--period {period:g} s is longer than --duration {duration:g} s: {field} would not turn "
+            f"once in the run{slip}; give a longer --duration or a shorter --period")
 
 
 def _tip_reach_baseline(args: argparse.Namespace) -> int:
@@ -369,9 +381,7 @@ def _steering_baseline(args: argparse.Namespace) -> int:
     if args.duration is None:
         args.duration = DEFAULT_ROLLOUT_S
     if args.period is not None and args.period > args.duration:
-        raise CommandError(f"--period {args.period:g} s is longer than --duration {args.duration:g} "
-                           "s: the steering field would not turn once in the run; give a longer "
-                           "--duration or a shorter --period")
+        raise CommandError(_period_past_duration(args.period, args.duration, "the steering field"))
     result = generate(policy, duration=args.duration, out=args.out, physics=args.physics,
                       progress=not args.no_progress, pictures=_pictures(args),
                       force=args.force, kind="baseline", target=args.target)

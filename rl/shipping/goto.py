@@ -60,10 +60,14 @@ def goto_target_notes(case: Case, target: Any) -> list[str]:
     if distance <= FAR_TARGET_SCALES * scale:
         return []
     shown = ",".join(f"{float(v):g}" for v in np.asarray(target).reshape(2))
+    # the slip whose reading lands nearest the task's own distance (ratio on a log scale)
+    unit, factor = min((("mm", 1e-3), ("cm", 1e-2)),
+                       key=lambda slip: abs(math.log(distance * slip[1] / task.distance)))
+    meant = ",".join(f"{float(v) * factor:g}" for v in np.asarray(target).reshape(2))
     return [f"--target {shown} is {distance:g} m from the start: {distance / task.distance:.0f}x the "
             f"{1e3 * task.distance:g} mm target of case {case.name!r} and {distance / length:.0f} lengths of "
-            f"its {1e3 * length:g} mm robot, beyond any run's reach (cm written for m? {distance:g} cm is "
-            f"{distance / 100:g} m)"]
+            f"its {1e3 * length:g} mm robot, beyond any run's reach ({unit} written for m? --target "
+            f"{meant} is {distance:g} {unit})"]
 
 
 def _pose(rollout) -> np.ndarray:
@@ -142,12 +146,13 @@ RING_FILES = ("ring.csv", "ring.json", "ring.png")
 def write_ring(policy, out: str | Path, duration: float | None = None, physics: str = "accurate",
                n_targets: int | None = None, force: bool = False, progress: bool = True,
                kind: str = "generate", workers: int = 1,
-               actor: dict[str, Any] | None = None) -> dict[str, Any]:
+               actor: dict[str, Any] | None = None, figures: bool = True) -> dict[str, Any]:
     """:func:`evaluate_ring` written whole into the result folder ``out`` (as ``msr <kind>``'s
     result for the policy's case; replaced only with ``force``): ``ring.csv`` (one row per
     target), ``ring.json`` (the summary and the rows) and ``ring.png`` (the top view), the targets
     run in ``workers`` processes. Returns the summary with ``policy``, ``physics``, ``duration_s``
-    and the files; ``actor`` (a run's actor choice, which ``policy`` is) is recorded in it."""
+    and the files; ``actor`` (a run's actor choice, which ``policy`` is) is recorded in it. Without
+    ``figures``, no ``ring.png``."""
     import pandas as pd
 
     from elastica_magnetic.io import atomic_write, atomic_write_json
@@ -167,11 +172,12 @@ def write_ring(policy, out: str | Path, duration: float | None = None, physics: 
                        known_files=RING_FILES) as folder:
         with atomic_write(folder.path / "ring.csv", "w", newline="") as handle:
             pd.DataFrame(rows).to_csv(handle, index=False, float_format="%.9g")
-        plot_ring(rows, paths, folder.path / "ring.png",
-                  title=f"{policy.case.name}: {summary['successes']} of {len(rows)} targets "
-                        f"({physics} physics, {summary['duration_s']:g} s)")
+        if figures:
+            plot_ring(rows, paths, folder.path / "ring.png",
+                      title=f"{policy.case.name}: {summary['successes']} of {len(rows)} targets "
+                            f"({physics} physics, {summary['duration_s']:g} s)")
         atomic_write_json(folder.path / "ring.json", {**summary, "targets_table": rows})
-    files = {name: str(folder.final / name) for name in RING_FILES}
+    files = {name: str(folder.final / name) for name in RING_FILES if figures or name != "ring.png"}
     return {**summary, "files": files, "notes": folder.notes}
 
 

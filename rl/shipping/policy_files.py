@@ -305,16 +305,20 @@ def _not_a_policy(policy: str | Path, path: Path, policies_dir: Path) -> str:
             f"(shipped in {policies_dir}: {', '.join(shipped) or 'none'}){missing_folder_hint(policy)}")
 
 
-def other_result_refusal(path: Path) -> str | None:
+#: What a command reading a policy takes (:func:`other_result_refusal`'s default).
+POLICY_WANTED = "a policy: give a run folder, a checkpoint or a shipped policy"
+
+
+def other_result_refusal(path: Path, wanted: str = POLICY_WANTED) -> str | None:
     """Where ``path`` holds another command's result (a marker of any kind but a training's: a
-    generate, replay, ring, robustness or export result), the refusal naming it; else ``None``."""
+    generate, replay, ring, robustness or export result), the refusal naming it and ``wanted``
+    (what the command takes instead); else ``None``."""
     marker = read_marker(path) if path.is_dir() else None
     if marker is None or marker.get("kind") in ("train", "refine"):
         return None
     waveform = path / "fields.csv"
     also = f"; its waveform, where a field CSV goes, is {waveform}" if waveform.is_file() else ""
-    return (f"{path}: holds {describe_result(marker)}, not a policy: give a run folder, a checkpoint "
-            f"or a shipped policy{also}")
+    return f"{path}: holds {describe_result(marker)}, not {wanted}{also}"
 
 
 def _check_policy_folder_whole(path: Path) -> None:

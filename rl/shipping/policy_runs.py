@@ -272,8 +272,9 @@ class ActorChoice:
     ``path``: the checkpoint file used; ``which``: ``"final"`` (``checkpoint.pt``), ``"best"``
     (``best.pt``) or ``"given"`` (a file named with ``--checkpoint PATH``); ``rule``: ``"farther"``
     (:func:`prefer_best` on both evaluations), ``"asked"``, ``"only"`` (the run has no
-    ``best.pt``) or ``"training"`` (a tip-reach run's ``best.pt``, the training's best evaluation,
-    not evaluated again: :func:`choose_tip_reach_actor`); ``final`` / ``best``: their
+    ``best.pt``), ``"training"`` (a tip-reach run's ``best.pt``, the training's best evaluation,
+    not evaluated again: :func:`choose_tip_reach_actor`) or ``"unmeasured"`` (the final actor
+    ``msr policy ship --no-measure`` takes without evaluating either); ``final`` / ``best``: their
     :func:`evaluate_run` entries when both were evaluated (else ``None``)."""
 
     path: Path
@@ -295,6 +296,8 @@ class ActorChoice:
             return f"{name} (the run has no {RunDir.BEST})"
         if self.rule == "training":
             return f"{name} (the training's best evaluation; --checkpoint final for the final actor)"
+        if self.rule == "unmeasured":
+            return f"{name} (--no-measure: not compared with {RunDir.BEST})"
         if self.rule == "asked" or self.final is None:
             return f"{name} (as asked)"
         goto = "final_distance_to_target_m" in self.final

@@ -94,7 +94,11 @@ def test_a_goto_target_far_past_the_case_is_named_as_a_unit_slip():
     case = load_case("m1-4mT-goto")
     (note,) = goto_target_notes(case, (1.5, 0.0))
     assert note.startswith("--target 1.5,0 is 1.5 m from the start: 100x the 15 mm target of case "
-                           "'m1-4mT-goto'") and "(cm written for m? 1.5 cm is 0.015 m)" in note
+                           "'m1-4mT-goto'")
+    assert note.endswith("(cm written for m? --target 0.015,0 is 1.5 cm)")
+    # round 54: 10,0 meant mm (10 mm beside the task's 15 mm), not cm (100 mm): the nearer slip named
+    (note,) = goto_target_notes(case, (10.0, 0.0))
+    assert note.endswith("(mm written for m? --target 0.01,0 is 10 mm)")
     assert goto_target_notes(case, (0.05, -0.02)) == []  # a target beyond the task's, within reach
     assert goto_target_notes(load_case("m1-4mT"), (1.5, 0.0)) == []  # not a goto case: refused elsewhere
 

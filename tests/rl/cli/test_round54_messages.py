@@ -1,5 +1,7 @@
-"""Round 54 of held-out tries (issue 48; D0 S0 T0 V4): refine given another command's result is
-told so first (V1); a spec file given as a calibration is named (V2)."""
+"""Round 54 of held-out tries (issue 48; D0 S0 T0 V4) and its borderlines: refine given another
+command's result is told so first (V1); a spec file given as a calibration is named (V2); a period
+of hundreds of seconds, ``ship --no-measure``'s actor and other results given to diagnose,
+export-seeds and figures are named."""
 
 from __future__ import annotations
 
@@ -79,3 +81,50 @@ def test_shipping_a_goto_policy_says_it_measures_the_rings(tmp_path, monkeypatch
     assert len(calls) == 2
     assert ("ship: measuring the goto ring: 12 targets for the policy and 12 for the steering yardstick, "
             "30 s each in the accurate physics") in err, err
+
+
+def test_a_period_of_hundreds_of_seconds_is_named_as_ms(capsys):
+    """Round 54's borderline: ``msr field baseline --period 1500`` was refused as longer than the
+    run, without the likelier slip (1500 ms meant)."""
+    for case in ("m1-4mT", "m1-4mT-goto"):
+        assert run(["field", "baseline", "--case", case, "--period", "1500", "--physics", "training",
+                    "--duration", "1"]) == 2
+        err = capsys.readouterr().err
+        assert "--period 1500 s is longer than --duration 1 s" in err
+        assert "(ms written for s? 1500 ms is 1.5 s)" in err
+    assert run(["field", "baseline", "--case", "m1-4mT", "--period", "3", "--physics", "training",
+                "--duration", "1"]) == 2  # a period merely longer than the run: no slip suggested
+    assert "ms written" not in capsys.readouterr().err
+
+
+def test_a_ship_without_measure_says_why_it_took_the_final_actor(trained, tmp_path, capsys):
+    """Round 54's borderline: ``msr policy ship RUN --no-measure`` said its final actor was taken
+    "(as asked)", though --checkpoint was left at auto."""
+    import json
+
+    seed = trained / "m1-4mT" / "seed0"
+    assert main(["policy", "ship", str(seed), "--name", "p", "--out", str(tmp_path), "--no-measure",
+                 "--json", "--no-progress"]) == 0
+    summary = json.loads(capsys.readouterr().out)["actor_choice"]["summary"]
+    assert summary == "the final actor (checkpoint.pt) (--no-measure: not compared with best.pt)"
+    assert main(["policy", "ship", str(seed), "--name", "q", "--out", str(tmp_path), "--no-measure",
+                 "--json", "--no-progress", "--checkpoint", "final"]) == 0
+    assert json.loads(capsys.readouterr().out)["actor_choice"]["summary"].endswith("(as asked)")
+
+
+def test_another_commands_result_is_named_by_diagnose_export_seeds_and_figures(tmp_path, capsys):
+    """Round 54's borderline: a result of another command given to ``msr policy diagnose``,
+    ``export-seeds`` or ``figures`` was "no checkpoint.pt", "no seed<k>/checkpoint.pt" or "neither
+    a generate output nor training runs", not named."""
+    ring = tmp_path / "ring"
+    assert run(["field", "baseline", "--case", "m1-4mT-goto", "--ring", "1", "--duration", "0.05",
+                "--physics", "training", "--no-progress", "--no-figures", "--out", str(ring)]) == 0
+    capsys.readouterr()
+    for argv, wanted in ((["policy", "diagnose", str(ring)], "not a training run"),
+                         (["policy", "export-seeds", str(ring), "--out", str(tmp_path / "seeds")],
+                          "not a case's training runs"),
+                         (["policy", "figures", str(ring)], "not a generate output (rollout.npz)")):
+        assert run(argv) == 2
+        err = capsys.readouterr().err
+        assert f"{ring}: holds a result of `msr field baseline`" in err and wanted in err, err
+    assert not (tmp_path / "seeds").exists()

@@ -91,6 +91,10 @@ def test_a_ring_is_written_whole_with_its_top_view(tmp_path, capsys):
     assert main(args) == 2  # an existing result needs --force
     assert "--force" in capsys.readouterr().err and (out / "ring.csv").read_bytes() == before
     assert main([*args, "--force"]) == 0
+    capsys.readouterr()
+    assert main([*args, "--force", "--no-figures"]) == 0  # no picture asked, none left behind
+    assert "ring.png" not in json.loads(capsys.readouterr().out)["files"]
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == ["ring.csv", "ring.json"]
 
 
 @pytest.mark.parametrize(("args", "message"), [
