@@ -53,6 +53,27 @@ def target_option(value: str) -> tuple[float, ...]:
     return numbers
 
 
+def waypoints_option(value: str) -> list[tuple[float, float]]:
+    """``--waypoints F1,L1:F2,L2:...``: a goto case's path, two or more FORWARD,LEFT pairs in m
+    from the start (each read as ``--target`` reads one), in the order they are visited."""
+    pairs = [part for part in value.split(":")]
+    if len(pairs) < 2:
+        raise argparse.ArgumentTypeError(
+            f"expected two or more FORWARD,LEFT pairs in m joined by ':', e.g. 0.01,0:0.01,0.01 (one "
+            f"point is --target's); got {value!r}")
+    points = []
+    for k, pair in enumerate(pairs, start=1):
+        try:
+            point = target_option(pair)
+        except argparse.ArgumentTypeError as exc:
+            raise argparse.ArgumentTypeError(f"waypoint {k} of {value!r}: {exc}") from None
+        if len(point) != 2:
+            raise argparse.ArgumentTypeError(f"waypoint {k} of {value!r} is {pair!r}: a waypoint is "
+                                             "FORWARD,LEFT in m (two numbers)")
+        points.append(point)
+    return points
+
+
 #: Units a target may be written with, in m.
 _TARGET_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "µm": 1e-6}
 

@@ -32,6 +32,7 @@ from .options import (
     print_rollout_result,
     ring_option,
     target_option,
+    waypoints_option,
 )
 
 #: ``--duration`` of a rollout when not given, s.
@@ -101,6 +102,12 @@ def _add_goto_options(p: argparse.ArgumentParser) -> None:
                        f"{RING_TARGETS}) evenly spaced on the task's ring, each from the start, "
                        "for --duration s (default the task's episode); write ring.csv, ring.json "
                        "and ring.png (top view) instead of one rollout's files")
+    where.add_argument("--waypoints", type=waypoints_option, default=None, metavar="F1,L1:F2,L2:...",
+                       help="a goto case: a path, two or more FORWARD,LEFT points in m from the start "
+                       "(as --target), each the target until the robot is within the task's tolerance "
+                       "of it, the last held to the end; --duration defaults to the task's episode; "
+                       "the result's goto block is of the last point, 'waypoints' gives when each was "
+                       "reached, top_view.png draws the path")
 
 
 def _goto_args(args: argparse.Namespace, case) -> None:
@@ -109,17 +116,21 @@ def _goto_args(args: argparse.Namespace, case) -> None:
     case's)."""
     from ..cases.tasks import GotoTask
 
-    given = "--target" if args.target is not None else "--ring" if args.ring is not None else None
+    given = ("--target" if args.target is not None else "--ring" if args.ring is not None
+             else "--waypoints" if args.waypoints is not None else None)
     if given and not isinstance(case.task, GotoTask):
         raise CommandError(f"{given} is for a goto case; case {case.name!r} has the "
                            f"{case.task.kind} task (it goes where its task says)")
     if args.target is not None and len(args.target) != 2:
         raise CommandError(f"--target of a goto case is FORWARD,LEFT in m from the start (two numbers); "
                            f"got {len(args.target)} (X,Y,Z is a tip-reach case's)")
-    if args.target is not None:
+    if args.target is not None or args.waypoints is not None:
         from ..shipping.goto import goto_target_notes
 
-        print_notes(goto_target_notes(case, args.target))
+        if args.target is not None:
+            print_notes(goto_target_notes(case, args.target))
+        for k, point in enumerate(args.waypoints or (), start=1):
+            print_notes(goto_target_notes(case, point, f"waypoint {k}"))
 
 
 def _tip_reach_args(args: argparse.Namespace, case, command: str, refused: dict) -> None:
@@ -236,6 +247,9 @@ def generate_command(args: argparse.Namespace) -> int:
     if args.workers is not None and args.ring is None:
         raise CommandError("--workers is the number of --ring targets run at a time; a single "
                            "rollout runs in one process: leave it out, or give --ring")
+    if args.waypoints is not None:
+        _goto_args(args, loaded.case)  # before the duration: a crawl case's is refused by name
+        args.duration = loaded.case.task.episode_duration if args.duration is None else args.duration
     if args.ring is None and args.duration is None:
         args.duration = DEFAULT_ROLLOUT_S
     if args.target is not None or args.ring is not None:
@@ -245,7 +259,8 @@ def generate_command(args: argparse.Namespace) -> int:
     try:
         result = generate(args.policy, duration=args.duration, out=args.out, physics=args.physics,
                           progress=not args.no_progress, pictures=_pictures(args),
-                          checkpoint=args.checkpoint, force=args.force, target=args.target)
+                          checkpoint=args.checkpoint, force=args.force, target=args.target,
+                          waypoints=args.waypoints)
     except FileNotFoundError as exc:
         raise CommandError(str(exc)) from None
     return _print_rollout_result(result, args.json)
@@ -267,7 +282,8 @@ def _tip_reach_generate(args: argparse.Namespace, loaded) -> int:
     from ..shipping.tip_reach import Steering, actor_controller, target_notes, write_targets
 
     _tip_reach_args(args, loaded.case, "msr policy generate",
-                    {"--ring": args.ring is not None, "--workers": args.workers, "--no-gif": args.no_gif})
+                    {"--ring": args.ring is not None, "--workers": args.workers, "--no-gif": args.no_gif,
+                     "--waypoints": args.waypoints})
     try:
         choice = choose_tip_reach_actor(args.policy, args.checkpoint)
     except FileNotFoundError as exc:
@@ -348,7 +364,7 @@ def _tip_reach_baseline(args: argparse.Namespace) -> int:
     _tip_reach_args(args, args.case, "its yardstick", {
         "--period": args.period, "--counterclockwise": args.counterclockwise, "--periods": args.periods,
         "--set-yardstick": args.set_yardstick, "--workers": args.workers, "--ring": args.ring is not None,
-        "--no-gif": args.no_gif})
+        "--no-gif": args.no_gif, "--waypoints": args.waypoints})
     print_notes(target_notes(args.case, args.target) if args.target is not None else ())
     result = write_targets(args.case, args.out, Steering(steering_controller), physics=args.physics,
                            duration=args.duration, force=args.force, figures=not args.no_figures,
@@ -379,12 +395,13 @@ def _steering_baseline(args: argparse.Namespace) -> int:
         raise CommandError("--workers is the number of --ring targets run at a time; one target "
                            "runs one rollout, in one process: leave it out, or give --ring")
     if args.duration is None:
-        args.duration = DEFAULT_ROLLOUT_S
+        args.duration = (DEFAULT_ROLLOUT_S if args.waypoints is None
+                         else args.case.task.episode_duration)
     if args.period is not None and args.period > args.duration:
         raise CommandError(_period_past_duration(args.period, args.duration, "the steering field"))
     result = generate(policy, duration=args.duration, out=args.out, physics=args.physics,
                       progress=not args.no_progress, pictures=_pictures(args),
-                      force=args.force, kind="baseline", target=args.target)
+                      force=args.force, kind="baseline", target=args.target, waypoints=args.waypoints)
     return _print_rollout_result(result, args.json)
 
 

@@ -54,7 +54,7 @@ from elastica_magnetic.uniform_simulation import uniform_field_simulation
 
 from ..cases.case import Case, load_case
 from ..cases.field_actuation import ACTUATION_OBSERVATION
-from ..cases.tasks import CrawlTask, Task
+from ..cases.tasks import CrawlTask, GotoTask, Task
 from .crawler_observation import (  # re-exported: their documented home before the split
     OBSERVATION_LAYOUT,
     OBSERVATION_SCALES,
@@ -309,6 +309,7 @@ class MagneticCrawlerEnv(gym.Env):
         self.field: ControlledField | None = None
         self.steps = 0
         self.task_state: NDArray[np.float64] | None = None
+        self._start_pose: NDArray[np.float64] | None = None
         self._last_obs: NDArray[np.float32] | None = None
         self._diverged = False
         self._renderer: _SideViewRenderer | None = None
@@ -350,6 +351,25 @@ class MagneticCrawlerEnv(gym.Env):
             "diverged": self._diverged,
         }
 
+    def retarget(self, target: Any) -> NDArray[np.float32]:
+        """Move a goto episode's target to ``target`` (forward, left; m in the episode's *start*
+        frame, as ``reset(options={"target": ...})``), mid-episode: the next waypoint of a path.
+        Returns the observation with the new target (what the policy acts on next), float32."""
+        if not isinstance(self.task, GotoTask):
+            raise ValueError(f"retarget() moves a goto task's target; this environment's task is "
+                             f"{self.task.kind}")
+        if self.simulation is None:
+            raise RuntimeError("call reset() before retarget()")
+        self.task_state = self.task.start(self._start_pose, target=target)
+        self._last_obs = self.observation()
+        return self._last_obs.copy()
+
+    @property
+    def start_pose(self) -> Any:
+        """What the task read of the rod at the episode's start (a goto task's floor pose
+        ``(x, z, heading)``: m, m, rad); ``None`` before the first reset."""
+        return self._start_pose
+
     # -- Gymnasium API ------------------------------------------------------------------------------
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -368,7 +388,8 @@ class MagneticCrawlerEnv(gym.Env):
         self.simulation = uniform_field_simulation(self.robot_spec, self.field)
         self.steps = 0
         self._diverged = False
-        self.task_state = self.task.start(self._task_position(), self.np_random,
+        self._start_pose = self._task_position()
+        self.task_state = self.task.start(self._start_pose, self.np_random,
                                           (options or {}).get("target"))
         self._last_obs = self.observation()
         return self._last_obs.copy(), self._info()

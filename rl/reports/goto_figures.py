@@ -12,7 +12,10 @@ from numpy.typing import NDArray
 
 from .figures import MM, _figure, _save
 
-__all__ = ["plot_ring", "plot_tip_paths", "plot_tip_paths_beside"]
+__all__ = ["TOP_VIEW", "plot_ring", "plot_tip_paths", "plot_tip_paths_beside", "plot_top_view"]
+
+#: The file of a goto rollout's top view (:func:`plot_top_view`).
+TOP_VIEW = "top_view.png"
 
 
 def plot_ring(rows: Sequence[dict[str, Any]], paths: Sequence[NDArray[np.float64]],
@@ -41,6 +44,39 @@ def plot_ring(rows: Sequence[dict[str, Any]], paths: Sequence[NDArray[np.float64
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(alpha=0.3)
     ax.legend(loc="upper right", fontsize=8)
+    return _save(fig, path)
+
+
+def plot_top_view(xz: NDArray[np.float64], targets: Sequence[dict[str, Any]], tolerance: float,
+                  path: str | Path, title: str = "") -> Path:
+    """Top view (as :func:`plot_ring`) of one goto rollout: the middle node's path ``xz`` ``(T, 2)``
+    (x, z; m) and its targets in order (one, or a path's waypoints: ``x_m``, ``z_m`` and
+    ``reached_s``, s or ``None``), numbered, each with its tolerance circle (``tolerance``, m):
+    green where reached, red where not."""
+    from matplotlib.patches import Circle
+
+    fig = _figure((6.0, 6.0))
+    ax = fig.add_subplot(1, 1, 1)
+    ax.plot(MM * xz[:, 0], -MM * xz[:, 1], color="tab:blue", lw=1.0, label="middle node")
+    ax.plot(MM * xz[0, 0], -MM * xz[0, 1], "s", color="black", ms=5, label="start")
+    ax.plot(MM * xz[-1, 0], -MM * xz[-1, 1], "o", color="tab:blue", ms=4, label="end")
+    if len(targets) > 1:
+        ax.plot([MM * t["x_m"] for t in targets], [-MM * t["z_m"] for t in targets], ":", color="grey",
+                lw=0.8)
+    for k, target in enumerate(targets, start=1):
+        color = "tab:green" if target["reached_s"] is not None else "tab:red"
+        centre = (MM * target["x_m"], -MM * target["z_m"])
+        ax.add_patch(Circle(centre, MM * tolerance, fill=False, color=color, lw=1.0))
+        ax.plot(*centre, "+", color="black", ms=6)
+        if len(targets) > 1:
+            ax.annotate(str(k), centre, textcoords="offset points", xytext=(4, 4), fontsize=8)
+    reached = sum(t["reached_s"] is not None for t in targets)
+    ax.set_title(title or f"{reached} of {len(targets)} targets reached")
+    ax.set_xlabel("x (mm, ahead of the start)")
+    ax.set_ylabel("-z (mm, the start's left)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
     return _save(fig, path)
 
 

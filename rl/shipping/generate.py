@@ -19,7 +19,8 @@ from elastica_magnetic.results import ResultExistsError, check_result_folder, re
 from ..cases.tasks import GotoTask, ReachTask
 from ..envs.yardsticks import RotatingFieldPolicy
 from ..reports.figures import ROLLOUT_FIGURES
-from .goto import goto_result, goto_target
+from ..reports.goto_figures import TOP_VIEW
+from .goto import goto_result, goto_target, goto_waypoints
 from .policy_files import (
     POLICIES_DIR,
     POLICY_JSON,
@@ -36,7 +37,7 @@ __all__ = ["GENERATE_FILES", "MID_NODE_KEY", "Pictures", "demo", "generate", "re
 #: The files ``msr policy generate`` (``baseline``, ``demo``) writes: recognises an output folder written
 #: before result folders carried a marker.
 GENERATE_FILES = ("fields.csv", "trajectory.csv", "gait.csv", "rollout.npz", "generate.json",
-                  *ROLLOUT_FIGURES)
+                  *ROLLOUT_FIGURES, TOP_VIEW)
 
 
 @dataclass(frozen=True)
@@ -76,6 +77,7 @@ def generate(
     force: bool = False,
     kind: str = "generate",
     target: Any = None,
+    waypoints: Any = None,
 ) -> dict[str, Any]:
     """Generate a field waveform with a policy: accurate physics, field from zero, deterministic.
 
@@ -107,13 +109,22 @@ def generate(
     when the case has one and ``meets_target`` only for a 10 s run in the accurate physics of a
     case with a target. For a goto case, ``target`` (forward, left; m from the start, in the
     robot's start frame: +x ahead, left is -z) is where it is sent (default: the task's
-    ``distance`` straight ahead) and ``goto`` holds :func:`goto_result`.
+    ``distance`` straight ahead) and ``goto`` holds :func:`goto_result`; ``waypoints`` ``(k, 2)``
+    (the same frame) instead send it along a path, each waypoint its target until it comes within
+    the task's tolerance (:func:`~elastica_magnetic_rl.shipping.policy_runs.run_policy`): ``goto``
+    is then of the last one, ``waypoints`` holds each one's place and the time it was reached, and
+    a run's actor is chosen on the last one. A goto result's figures include ``top_view.png``.
     """
 
 
 
     check_duration(duration)
     loaded = resolve_policy(policy) if isinstance(policy, (str, Path)) else policy
+    if waypoints is not None:
+        if target is not None:
+            raise ValueError("give a target or waypoints, not both")
+        waypoints = goto_waypoints(loaded.case, waypoints)
+        target = waypoints[-1]
     target = goto_target(loaded.case, target)
     task = loaded.case.task
     if target is not None and float(np.hypot(*target)) <= task.tolerance:
@@ -133,14 +144,15 @@ def generate(
     with result_folder(out, kind=kind, subject=subject, force=force,
                        known_files=GENERATE_FILES) as folder:
         result = _write_rollout(loaded, folder.path, duration, physics, progress, pictures, choice,
-                                target)
+                                target, waypoints)
         result = _final_paths(result, folder)  # generate.json names where the files will be
         atomic_write_json(folder.path / "generate.json", result)
     return result | {"notes": folder.notes}
 
 
 def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: str, progress: bool,
-                   pictures: Pictures, choice, target: Any = None) -> dict[str, Any]:
+                   pictures: Pictures, choice, target: Any = None,
+                   waypoints: Any = None) -> dict[str, Any]:
     """Run ``loaded`` and write the files of :func:`generate` into ``out``; its result."""
     import pandas as pd
 
@@ -148,7 +160,10 @@ def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: st
 
     from ..reports.figures import rollout_figures
 
-    rollout = run_policy(loaded, duration, physics, "zero", progress, target=target)
+    if waypoints is None:
+        rollout = run_policy(loaded, duration, physics, "zero", progress, target=target)
+    else:
+        rollout = run_policy(loaded, duration, physics, "zero", progress, waypoints=waypoints)
     fields_csv = write_field_csv(out / "fields.csv", rollout.fields) if rollout.n_steps else None
     trajectory_csv = write_trajectory_csv(rollout.trajectory, out / "trajectory.csv")
     rollout_npz = rollout.save(out)
@@ -196,9 +211,32 @@ def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: st
                             f"in {result['duration_s']:g} s")
         result.update({k: result["goto"][k] for k in ("final_distance_to_target_m",
                                                        "time_to_target_s")})
+        if waypoints is not None:
+            result["waypoints"] = rollout.meta["waypoints"]
+            result["waypoints_reached"] = sum(w["reached_s"] is not None for w in result["waypoints"])
+            result["target"] = (f"{len(waypoints)} waypoints in order, then "
+                                f"{result['target'][:1].lower()}{result['target'][1:]}")
     if pictures.figures and rollout.n_steps:
         result["figures"] = rollout_figures(rollout, out, loaded.critic, loaded.actor, gif=pictures.gif)
+        if isinstance(loaded.case.task, GotoTask):
+            result["figures"]["top_view"] = str(_top_view(rollout, loaded.case.task, result, out / TOP_VIEW))
     return result
+
+
+def _top_view(rollout, task: GotoTask, result: dict[str, Any], path: Path) -> Path:
+    """A goto rollout's top view: its path and its target (or waypoints)."""
+    from ..reports.goto_figures import plot_top_view
+
+    mid = rollout.positions.shape[2] // 2
+    goto = result["goto"]
+    targets = result.get("waypoints") or [{"x_m": goto["target_x_m"], "z_m": goto["target_z_m"],
+                                           "reached_s": goto["time_to_target_s"]}]
+    reached = sum(t["reached_s"] is not None for t in targets)
+    what = f"{reached} of {len(targets)} waypoints reached" if "waypoints" in result else (
+        f"{1e3 * goto['final_distance_to_target_m']:.2f} mm from the target at the end")
+    return plot_top_view(rollout.positions[:, [0, 2], mid], targets, task.tolerance, path,
+                         title=f"{result['case']}: {what} ({result['physics']} physics, "
+                               f"{result['duration_s']:g} s)")
 
 
 def _final_paths(result: dict[str, Any], folder) -> dict[str, Any]:

@@ -21,8 +21,8 @@ from ..cases.tasks import RING_TARGETS, GotoTask, goto_metrics, ring_targets
 from .policy_files import check_policy_case
 from .policy_runs import run_policy
 
-__all__ = ["RING_FILES", "evaluate_ring", "goto_result", "goto_target", "goto_target_notes", "ring_summary",
-           "write_ring"]
+__all__ = ["RING_FILES", "evaluate_ring", "goto_result", "goto_target", "goto_target_notes",
+           "goto_waypoints", "ring_summary", "write_ring"]
 
 #: A target farther than this many of the case's own scale (its task's distance or its robot's
 #: length, the larger) is far past any episode's reach: a unit slip (cm for m) more likely than meant.
@@ -47,10 +47,23 @@ def goto_target(case: Case, target: Any) -> tuple[float, float] | None:
     return forward, left
 
 
-def goto_target_notes(case: Case, target: Any) -> list[str]:
+def goto_waypoints(case: Case, waypoints: Any) -> list[tuple[float, float]]:
+    """A path's waypoints for ``case`` (a goto case): ``(k, 2)`` (forward, left; m from the start,
+    in its start frame), each checked as :func:`goto_target` checks a target, at least one."""
+    if not isinstance(case.task, GotoTask):
+        raise ValueError(f"waypoints are for a goto case; case {case.name!r} has the {case.task.kind} "
+                         "task (it goes where its task says)")
+    points = np.asarray(waypoints, dtype=np.float64)
+    if points.size == 0 or points.size % 2:
+        raise ValueError(f"waypoints are (forward, left) pairs in m, at least one; got {waypoints!r}")
+    return [goto_target(case, point) for point in points.reshape(-1, 2)]
+
+
+def goto_target_notes(case: Case, target: Any, what: str = "--target") -> list[str]:
     """What to know about a goto ``target`` (forward, left; m) given by hand: one farther than
     :data:`FAR_TARGET_SCALES` of the case's scale (its task's distance or its robot's length),
-    which no crawler of the case covers in a run, is named with the unit slip it likely is."""
+    which no crawler of the case covers in a run, is named (as ``what``: the option, or a path's
+    waypoint) with the unit slip it likely is."""
     task = case.task
     if not isinstance(task, GotoTask) or target is None:
         return []
@@ -64,9 +77,9 @@ def goto_target_notes(case: Case, target: Any) -> list[str]:
     unit, factor = min((("mm", 1e-3), ("cm", 1e-2)),
                        key=lambda slip: abs(math.log(distance * slip[1] / task.distance)))
     meant = ",".join(f"{float(v) * factor:g}" for v in np.asarray(target).reshape(2))
-    return [f"--target {shown} is {distance:g} m from the start: {distance / task.distance:.0f}x the "
+    return [f"{what} {shown} is {distance:g} m from the start: {distance / task.distance:.0f}x the "
             f"{1e3 * task.distance:g} mm target of case {case.name!r} and {distance / length:.0f} lengths of "
-            f"its {1e3 * length:g} mm robot, beyond any run's reach ({unit} written for m? --target "
+            f"its {1e3 * length:g} mm robot, beyond any run's reach ({unit} written for m? {what} "
             f"{meant} is {distance:g} {unit})"]
 
 

@@ -94,3 +94,24 @@ def test_the_paper_tasks_take_no_target_option():
     env = MagneticCrawlerEnv(spec=yao2023_robot(1, "training"), duration=0.05)
     with pytest.raises(ValueError, match="the crawl task has no target"):
         env.reset(options={"target": (0.01, 0.0)})
+
+
+def test_retarget_moves_the_target_in_the_start_frame_mid_episode():
+    """A path's next waypoint: ``retarget`` takes (forward, left) in the episode's start frame, not
+    the robot's present one, and the observation it returns shows the new target."""
+    env = MagneticCrawlerEnv(case="m1-4mT-goto", physics="training", initial_field="zero", duration=1.0)
+    obs, _ = env.reset(seed=0, options={"target": (0.015, 0.0)})
+    for _ in range(20):
+        obs, *_ = env.step(np.array([1.0, 1.0, 1.0], dtype=np.float32))
+    start = env.start_pose
+    moved = env.retarget((0.0, 0.004))
+    assert env.task_state == pytest.approx(env.task.start(start, target=(0.0, 0.004)))
+    offset = moved[env.layout["target_offset"]]
+    pose = floor_pose(env.simulation.rod, env.middle_node)
+    assert offset == pytest.approx(env.task.observe(pose, env.task_state, env.time)[2:4], abs=1e-6)
+    assert not np.allclose(offset, obs[env.layout["target_offset"]])
+    crawl = MagneticCrawlerEnv(case="m1-4mT", physics="training")
+    crawl.reset(seed=0)
+    with pytest.raises(ValueError, match="retarget\\(\\) moves a goto task's target; this environment's task "
+                                         "is crawl"):
+        crawl.retarget((0.0, 0.004))
