@@ -19,6 +19,7 @@ from elastica_magnetic.io import atomic_write_json, missing_folder_hint
 from ..cases.case import Case
 from ..cases.tasks import GotoTask, ReachTask
 from ..envs.env import make_env
+from ..envs.waypoints import WaypointPath
 from ..envs.yardsticks import RotatingFieldPolicy
 from ..runfiles.rundir import CaseDir, RunDir, being_written_hint
 from .policy_files import LoadedPolicy, resolve_policy
@@ -61,7 +62,7 @@ def run_policy(
     if target is not None and not isinstance(policy.case.task, GotoTask):
         raise ValueError(f"a target is for a goto case; {policy.case.name!r} has the "
                          f"{policy.case.task.kind} task")
-    path = None if waypoints is None else _Path(env, waypoints, target)
+    path = None if waypoints is None else WaypointPath.for_env(env, waypoints, target)
     if path is not None:
         target = path.points[0]
     obs, _ = env.reset(seed=0, options=None if target is None else {"target": target})
@@ -121,46 +122,6 @@ def run_policy(
         rewards=np.asarray(rewards), observations=np.asarray(observations, dtype=np.float32),
         trajectory=pd.DataFrame(rows, columns=list(TRAJECTORY_COLUMNS)), meta=meta,
     )
-
-
-class _Path:
-    """The waypoints of a goto rollout: which one is the target, and when each was reached."""
-
-    def __init__(self, env: Any, waypoints: Any, target: Any) -> None:
-        task = env.task
-        if not isinstance(task, GotoTask):
-            raise ValueError(f"waypoints are for a goto case; {env.case.name!r} has the {task.kind} task")
-        if target is not None:
-            raise ValueError("give a target or waypoints, not both")
-        self.points = [tuple(float(v) for v in point) for point in np.asarray(waypoints, dtype=np.float64)
-                       .reshape(-1, 2)]
-        if not self.points:
-            raise ValueError("a path needs at least one waypoint")
-        self.tolerance = task.tolerance
-        self.current = 0
-        self.floor: list[list[float]] = []
-        self.reached: list[float | None] = [None] * len(self.points)
-
-    def begin(self, env: Any) -> None:
-        """After the reset: the waypoints' places on the floor, from the episode's start frame."""
-        self.floor = [[float(v) for v in env.task.start(env.start_pose, target=p)] for p in self.points]
-
-    def advance(self, env: Any, obs: Any) -> Any:
-        """After a step: the observation to act on (the next waypoint's once this one is reached)."""
-        pose = env.task.position(env.simulation.rod, env.middle_node)
-        if float(env.task.error(pose, np.asarray(self.floor[self.current]))) <= self.tolerance:
-            if self.reached[self.current] is None:
-                self.reached[self.current] = float(env.time)
-            if self.current + 1 < len(self.points):
-                self.current += 1
-                return env.retarget(self.points[self.current])
-        return obs
-
-    def record(self) -> list[dict[str, Any]]:
-        """Each waypoint: (forward, left) from the start, (x, z) on the floor (m) and the time it
-        was reached (s; ``None``: never)."""
-        return [{"forward_m": p[0], "left_m": p[1], "x_m": xz[0], "z_m": xz[1], "reached_s": t}
-                for p, xz, t in zip(self.points, self.floor, self.reached, strict=True)]
 
 
 def node_dx(rollout) -> float:

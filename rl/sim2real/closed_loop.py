@@ -27,6 +27,7 @@ from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..cases.tasks import GotoTask, goto_metrics
 from ..envs.env import make_env
+from ..envs.waypoints import WaypointPath
 
 __all__ = ["SimulatedTracker", "run_closed_loop"]
 
@@ -75,17 +76,20 @@ def _pose(markers: np.ndarray) -> np.ndarray:
     return np.array([markers[1, 0], markers[1, 1], math.atan2(-along[1], along[0])])
 
 
-def run_closed_loop(policy, target: tuple[float, float], duration: float | None = None,
+def run_closed_loop(policy, target: tuple[float, float] | None = None, duration: float | None = None,
                     physics: str = "accurate", tracker: SimulatedTracker | None = None,
-                    seed: int = 0) -> dict[str, Any]:
+                    seed: int = 0, waypoints: Any = None) -> dict[str, Any]:
     """Send the robot of a goto ``policy`` (a loaded policy or the steering yardstick) to
     ``target`` (forward, left; m from the start, in its start frame), the loop closed around
-    ``tracker`` (default :class:`SimulatedTracker`: 0.1 mm, 20 ms), from a zero field.
+    ``tracker`` (default :class:`SimulatedTracker`: 0.1 mm, 20 ms), from a zero field; or along
+    ``waypoints`` ``(k, 2)`` (the same frame) instead: each the target until the *tracked* middle
+    is within the task's tolerance of it (what a lab's loop knows), the last one to the end.
 
     Returns the true path's :func:`~elastica_magnetic_rl.cases.tasks.goto_metrics`
-    (``final_distance_to_target_m``, ``success``, ``time_to_target_s``...), the target, the
-    tracker's settings and ``tracking_error_m``: the largest distance between the tracked (late,
-    noisy) and the true middle the policy acted on.
+    (``final_distance_to_target_m``, ``success``, ``time_to_target_s``...; of the last waypoint
+    for a path), the target, the tracker's settings and ``tracking_error_m``: the largest distance
+    between the tracked (late, noisy) and the true middle the policy acted on; for a path,
+    ``waypoints`` (each one's place and the time it was reached, s, ``None``: never).
     """
     case = policy.case
     if not isinstance(case.task, GotoTask):
@@ -94,7 +98,15 @@ def run_closed_loop(policy, target: tuple[float, float], duration: float | None 
     tracker = SimulatedTracker() if tracker is None else tracker
     duration = case.task.episode_duration if duration is None else float(duration)
     env = make_env(case, physics, "zero", duration)
-    obs, _ = env.reset(seed=seed, options={"target": tuple(target)})
+    route = None
+    if waypoints is not None:
+        route = WaypointPath.for_env(env, waypoints, target)
+        target = route.points[-1]
+    elif target is None:
+        raise ValueError("give a target (forward, left; m) or waypoints")
+    obs, _ = env.reset(seed=seed, options={"target": tuple(route.points[0] if route else target)})
+    if route is not None:
+        route.begin(env)
     if hasattr(policy, "reset"):
         policy.reset()
     rng = np.random.default_rng(tracker.seed)
@@ -106,6 +118,8 @@ def run_closed_loop(policy, target: tuple[float, float], duration: float | None 
     for _ in range(env.max_episode_steps):
         tracked = seen[0] + rng.normal(0.0, tracker.noise_m, size=(3, 2))
         worst = max(worst, float(np.hypot(*(tracked[1] - _markers(env.simulation.rod, middle)[1]))))
+        if route is not None:  # the next waypoint once the tracked middle is within the tolerance
+            route.advance(env, obs, _pose(tracked))
         extra = env.task.observe(_pose(tracked), env.task_state)
         obs = obs.copy()  # the pose blocks from the tracker; the clock is the loop's own
         obs[layout["heading"]] = extra[:2]
@@ -126,4 +140,5 @@ def run_closed_loop(policy, target: tuple[float, float], duration: float | None 
             "duration_s": float(times[-1]), "diverged": bool(terminated),
             "tracker_noise_m": tracker.noise_m, "tracker_latency_s": tracker.latency_steps * ACTION_PERIOD,
             "tracking_error_m": worst,
+            **({} if route is None else {"waypoints": route.record()}),
             **goto_metrics(np.asarray(times), pose, target_xz, case.task.tolerance)}

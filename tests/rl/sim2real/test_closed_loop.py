@@ -48,3 +48,24 @@ def test_the_closed_loop_is_for_a_goto_case():
 
     with pytest.raises(ValueError, match="case 'm1-4mT' has the crawl task"):
         run_closed_loop(RotatingFieldPolicy("m1-4mT"), (0.01, 0.0), 0.1, "training")
+
+
+def test_a_closed_loop_follows_a_path_by_the_tracked_pose():
+    """Out 4 mm to the left and back, the next waypoint taken when the *tracked* middle is within
+    the tolerance: a perfect tracker switches as the open loop does; a noisy late one still ends
+    the path."""
+    from elastica_magnetic_rl.shipping.policy_runs import run_policy
+
+    policy = SteeringFieldPolicy("m1-4mT-goto")
+    path = [(0.0, 0.004), (0.0, 0.0)]
+    perfect = run_closed_loop(policy, None, 3.0, "training", SimulatedTracker(0.0, 0.0), waypoints=path)
+    direct = run_policy(policy, 3.0, "training", "zero", False, waypoints=path)
+    reached = [w["reached_s"] for w in perfect["waypoints"]]
+    assert reached == [w["reached_s"] for w in direct.meta["waypoints"]]
+    assert perfect["target_left_m"] == 0.0 and all(w["reached_s"] for w in perfect["waypoints"])
+    late = run_closed_loop(policy, None, 3.0, "training", SimulatedTracker(1e-4, 0.02), waypoints=path)
+    assert all(w["reached_s"] is not None for w in late["waypoints"]) and late["tracking_error_m"] > 1e-4
+    with pytest.raises(ValueError, match="give a target or waypoints, not both"):
+        run_closed_loop(policy, (0.01, 0.0), 0.1, "training", waypoints=path)
+    with pytest.raises(ValueError, match="give a target"):
+        run_closed_loop(policy, None, 0.1, "training")
