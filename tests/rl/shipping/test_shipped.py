@@ -21,7 +21,7 @@ ROBUST = tuple(f"{case}-robust" for case in PAPER_CASES)
 SHIPPED = tuple(sorted(("hu2018-crawl", "m1-4mT-reach", "m1-4mT-designed", *PAPER_CASES, *ROBUST)))
 #: The shipped tip-reach policies (catheters steered by a source: no waveform, judged on their
 #: case's held-out targets).
-TIP_REACH_SHIPPED = ("catheter-magnet-reach",)
+TIP_REACH_SHIPPED = ("catheter-coils-reach", "catheter-magnet-reach")
 
 
 def case_of(name: str) -> str:
