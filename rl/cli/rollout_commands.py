@@ -110,6 +110,13 @@ def _add_goto_options(p: argparse.ArgumentParser) -> None:
                        "reached, top_view.png draws the path")
 
 
+def _where(args: argparse.Namespace) -> object:
+    """Where a goto rollout goes: ``--target``'s point, or ``--waypoints``' path."""
+    from ..envs.waypoints import Waypoints
+
+    return args.target if args.waypoints is None else Waypoints(tuple(args.waypoints))
+
+
 def _goto_args(args: argparse.Namespace, case) -> None:
     """Refuse ``--target``/``--ring`` for a case that is not goto (a tip-reach case's own
     checks: :func:`_tip_reach_args`), and a ``--target`` of three numbers (X,Y,Z, a tip-reach
@@ -147,14 +154,13 @@ def _tip_reach_args(args: argparse.Namespace, case, command: str, refused: dict)
                            f"numbers); got {len(args.target)} (FORWARD,LEFT is a goto case's)")
 
 
-def _ring_result(policy, args: argparse.Namespace, kind: str, actor: dict | None = None) -> int:
+def _ring_result(policy, args: argparse.Namespace, actor: dict | None = None) -> int:
     """``--ring``: the ring written into ``--out``, printed (``actor``: a run's actor choice)."""
     from ..shipping.goto import write_ring
 
     result = write_ring(policy, args.out, args.duration, args.physics, args.ring, force=args.force,
-                        progress=not args.no_progress, kind=kind,
-                        workers=args.workers or os.cpu_count() or 1, actor=actor,
-                        figures=not args.no_figures)
+                        progress=not args.no_progress, workers=args.workers or os.cpu_count() or 1,
+                        actor=actor, figures=not args.no_figures)
     print_notes(result.pop("notes", ()))
     if actor is not None:
         result = {**result, "actor_choice": actor}
@@ -178,8 +184,8 @@ def _ring_of_run(loaded, args: argparse.Namespace) -> int:
     except FileNotFoundError as exc:
         raise CommandError(str(exc)) from None
     if choice is None:
-        return _ring_result(loaded, args, "generate")
-    return _ring_result(resolve_policy(choice.path), args, "generate",
+        return _ring_result(loaded, args)
+    return _ring_result(resolve_policy(choice.path), args,
                         {**choice.to_dict(), "summary": choice.describe()})
 
 
@@ -259,8 +265,7 @@ def generate_command(args: argparse.Namespace) -> int:
     try:
         result = generate(args.policy, duration=args.duration, out=args.out, physics=args.physics,
                           progress=not args.no_progress, pictures=_pictures(args),
-                          checkpoint=args.checkpoint, force=args.force, target=args.target,
-                          waypoints=args.waypoints)
+                          checkpoint=args.checkpoint, force=args.force, target=_where(args))
     except FileNotFoundError as exc:
         raise CommandError(str(exc)) from None
     return _print_rollout_result(result, args.json)
@@ -390,7 +395,7 @@ def _steering_baseline(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise CommandError(f"--period: {exc}") from None
     if args.ring is not None:
-        return _ring_result(policy, args, "baseline")
+        return _ring_result(policy, args)
     if args.workers is not None:
         raise CommandError("--workers is the number of --ring targets run at a time; one target "
                            "runs one rollout, in one process: leave it out, or give --ring")
@@ -401,7 +406,7 @@ def _steering_baseline(args: argparse.Namespace) -> int:
         raise CommandError(_period_past_duration(args.period, args.duration, "the steering field"))
     result = generate(policy, duration=args.duration, out=args.out, physics=args.physics,
                       progress=not args.no_progress, pictures=_pictures(args),
-                      force=args.force, kind="baseline", target=args.target, waypoints=args.waypoints)
+                      force=args.force, kind="baseline", target=_where(args))
     return _print_rollout_result(result, args.json)
 
 

@@ -4,13 +4,23 @@ lab walks a robot along, around an obstacle, with any goto controller)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ..cases.tasks import GotoTask
 
-__all__ = ["WaypointPath"]
+__all__ = ["WaypointPath", "Waypoints"]
+
+
+@dataclass(frozen=True)
+class Waypoints:
+    """A path given where a single target is taken (e.g.
+    :func:`~elastica_magnetic_rl.shipping.generate.generate`'s ``target``): ``points``, the
+    waypoints in the order they are visited, each (forward, left) in m in the start frame."""
+
+    points: tuple[tuple[float, float], ...]
 
 
 class WaypointPath:

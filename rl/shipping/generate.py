@@ -17,6 +17,7 @@ from elastica_magnetic.openloop import check_duration
 from elastica_magnetic.results import ResultExistsError, check_result_folder, result_folder
 
 from ..cases.tasks import GotoTask, ReachTask
+from ..envs.waypoints import Waypoints
 from ..envs.yardsticks import RotatingFieldPolicy
 from ..reports.figures import ROLLOUT_FIGURES
 from ..reports.goto_figures import TOP_VIEW
@@ -77,7 +78,6 @@ def generate(
     force: bool = False,
     kind: str = "generate",
     target: Any = None,
-    waypoints: Any = None,
 ) -> dict[str, Any]:
     """Generate a field waveform with a policy: accurate physics, field from zero, deterministic.
 
@@ -109,21 +109,21 @@ def generate(
     when the case has one and ``meets_target`` only for a 10 s run in the accurate physics of a
     case with a target. For a goto case, ``target`` (forward, left; m from the start, in the
     robot's start frame: +x ahead, left is -z) is where it is sent (default: the task's
-    ``distance`` straight ahead) and ``goto`` holds :func:`goto_result`; ``waypoints`` ``(k, 2)``
-    (the same frame) instead send it along a path, each waypoint its target until it comes within
-    the task's tolerance (:func:`~elastica_magnetic_rl.shipping.policy_runs.run_policy`): ``goto``
-    is then of the last one, ``waypoints`` holds each one's place and the time it was reached, and
-    a run's actor is chosen on the last one. A goto result's figures include ``top_view.png``.
+    ``distance`` straight ahead) and ``goto`` holds :func:`goto_result`; a
+    :class:`~elastica_magnetic_rl.envs.waypoints.Waypoints` ``target`` (the same frame) sends it
+    along a path, each waypoint its target until it comes within the task's tolerance
+    (:func:`~elastica_magnetic_rl.shipping.policy_runs.run_policy`): ``goto`` is then of the last
+    one, ``waypoints`` holds each one's place and the time it was reached, and a run's actor is
+    chosen on the last one. A goto result's figures include ``top_view.png``.
     """
 
 
 
     check_duration(duration)
     loaded = resolve_policy(policy) if isinstance(policy, (str, Path)) else policy
-    if waypoints is not None:
-        if target is not None:
-            raise ValueError("give a target or waypoints, not both")
-        waypoints = goto_waypoints(loaded.case, waypoints)
+    waypoints = None
+    if isinstance(target, Waypoints):
+        waypoints = goto_waypoints(loaded.case, target.points)
         target = waypoints[-1]
     target = goto_target(loaded.case, target)
     task = loaded.case.task

@@ -158,10 +158,11 @@ RING_FILES = ("ring.csv", "ring.json", "ring.png")
 
 def write_ring(policy, out: str | Path, duration: float | None = None, physics: str = "accurate",
                n_targets: int | None = None, force: bool = False, progress: bool = True,
-               kind: str = "generate", workers: int = 1,
-               actor: dict[str, Any] | None = None, figures: bool = True) -> dict[str, Any]:
-    """:func:`evaluate_ring` written whole into the result folder ``out`` (as ``msr <kind>``'s
-    result for the policy's case; replaced only with ``force``): ``ring.csv`` (one row per
+               workers: int = 1, actor: dict[str, Any] | None = None,
+               figures: bool = True) -> dict[str, Any]:
+    """:func:`evaluate_ring` written whole into the result folder ``out`` (as ``msr field
+    baseline``'s result for the steering yardstick, else ``msr policy generate``'s, for the
+    policy's case; replaced only with ``force``): ``ring.csv`` (one row per
     target), ``ring.json`` (the summary and the rows) and ``ring.png`` (the top view), the targets
     run in ``workers`` processes. Returns the summary with ``policy``, ``physics``, ``duration_s``
     and the files; ``actor`` (a run's actor choice, which ``policy`` is) is recorded in it. Without
@@ -173,6 +174,7 @@ def write_ring(policy, out: str | Path, duration: float | None = None, physics: 
 
     from ..reports.goto_figures import plot_ring
 
+    kind = "baseline" if policy.kind == "baseline" else "generate"
     subject = check_ring_out(policy.case, out, kind, force)
     paths: list = []
     rows = evaluate_ring(policy, duration, physics, n_targets, progress=progress, paths=paths,
