@@ -38,12 +38,7 @@ def plot_ring(rows: Sequence[dict[str, Any]], paths: Sequence[NDArray[np.float64
     if paths:
         ax.plot(MM * paths[0][0, 0], -MM * paths[0][0, 1], "s", color="black", ms=5, label="start")
     reached = sum(bool(r["success"]) for r in rows)
-    ax.set_title(title or f"{reached} of {len(rows)} targets reached")
-    ax.set_xlabel("x (mm, ahead of the start)")
-    ax.set_ylabel("-z (mm, the start's left)")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.grid(alpha=0.3)
-    ax.legend(loc="upper right", fontsize=8)
+    _floor_axes(ax, title or f"{reached} of {len(rows)} targets reached", "upper right")
     return _save(fig, path)
 
 
@@ -71,13 +66,18 @@ def plot_top_view(xz: NDArray[np.float64], targets: Sequence[dict[str, Any]], to
         if len(targets) > 1:
             ax.annotate(str(k), centre, textcoords="offset points", xytext=(4, 4), fontsize=8)
     reached = sum(t["reached_s"] is not None for t in targets)
-    ax.set_title(title or f"{reached} of {len(targets)} targets reached")
+    _floor_axes(ax, title or f"{reached} of {len(targets)} targets reached", "best")
+    return _save(fig, path)
+
+
+def _floor_axes(ax: Any, title: str, legend: str) -> None:
+    """A top view's title, axes (mm; -z up: the start's left), equal scale, grid and legend."""
+    ax.set_title(title)
     ax.set_xlabel("x (mm, ahead of the start)")
     ax.set_ylabel("-z (mm, the start's left)")
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
-    return _save(fig, path)
+    ax.legend(loc=legend, fontsize=8)
 
 
 def plot_tip_paths(rows: Sequence[dict[str, Any]], paths: NDArray[np.float64], path: str | Path,

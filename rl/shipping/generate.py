@@ -121,18 +121,7 @@ def generate(
 
     check_duration(duration)
     loaded = resolve_policy(policy) if isinstance(policy, (str, Path)) else policy
-    waypoints = None
-    if isinstance(target, Waypoints):
-        waypoints = goto_waypoints(loaded.case, target.points)
-        target = waypoints[-1]
-    target = goto_target(loaded.case, target)
-    task = loaded.case.task
-    if target is not None and float(np.hypot(*target)) <= task.tolerance:
-        from elastica_magnetic.plausibility import warn_implausible
-
-        warn_implausible(f"--target {1e3 * target[0]:g},{1e3 * target[1]:g} mm lies within the "
-                         f"{1e3 * task.tolerance:g} mm tolerance of the start: a robot that stays put "
-                         "succeeds there (mm written as m?)", "target")
+    target, waypoints = _destination(loaded.case, target)
     subject = f"case {loaded.case.name}"
     check_policy_case(out, loaded.case)
     check_result_folder(out, kind=kind, subject=subject, force=force, known_files=GENERATE_FILES)
@@ -148,6 +137,25 @@ def generate(
         result = _final_paths(result, folder)  # generate.json names where the files will be
         atomic_write_json(folder.path / "generate.json", result)
     return result | {"notes": folder.notes}
+
+
+def _destination(case: Any, target: Any) -> tuple[Any, Any]:
+    """``generate``'s ``target`` checked: the point a rollout is judged on (a path's last
+    waypoint) and the path's waypoints (``None`` for one target); a target within the tolerance
+    of the start warned of."""
+    waypoints = None
+    if isinstance(target, Waypoints):
+        waypoints = goto_waypoints(case, target.points)
+        target = waypoints[-1]
+    target = goto_target(case, target)
+    task = case.task
+    if target is not None and float(np.hypot(*target)) <= task.tolerance:
+        from elastica_magnetic.plausibility import warn_implausible
+
+        warn_implausible(f"--target {1e3 * target[0]:g},{1e3 * target[1]:g} mm lies within the "
+                         f"{1e3 * task.tolerance:g} mm tolerance of the start: a robot that stays put "
+                         "succeeds there (mm written as m?)", "target")
+    return target, waypoints
 
 
 def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: str, progress: bool,

@@ -101,18 +101,8 @@ def run_policy(
             if truncated:
                 break
     wall = time.perf_counter() - start
-    spec = env.robot_spec
     env.close()
-    meta = {
-        "case": policy.case.name, "physics": physics, "initial_field": initial_field,
-        "duration_s": float(times[-1]), "field_limit_T": env.field_limit,
-        "max_increment_T": env.max_increment, "length_m": spec.length, "radius_m": spec.radius,
-        "n_elements": spec.n_elements, "policy_source": str(policy.source),
-        "policy_kind": policy.kind, "diverged": diverged, "wall_s": wall,
-        "step_ms": 1e3 * wall / max(len(actions), 1),
-    }
-    if isinstance(policy.case.task, GotoTask):
-        meta["target_xz_m"] = [float(v) for v in env.task_state]
+    meta = _rollout_meta(policy, env, physics, initial_field, float(times[-1]), diverged, wall, len(actions))
     if path is not None:
         meta["waypoints"] = path.record()
     return Rollout(
@@ -122,6 +112,24 @@ def run_policy(
         rewards=np.asarray(rewards), observations=np.asarray(observations, dtype=np.float32),
         trajectory=pd.DataFrame(rows, columns=list(TRAJECTORY_COLUMNS)), meta=meta,
     )
+
+
+def _rollout_meta(policy: Any, env: Any, physics: str, initial_field: str, duration: float,
+                  diverged: str | None, wall: float, steps: int) -> dict[str, Any]:
+    """A rollout's ``meta``: what ran (case, physics, robot, policy), how long and how fast, and a
+    goto episode's target on the floor."""
+    spec = env.robot_spec
+    meta = {
+        "case": policy.case.name, "physics": physics, "initial_field": initial_field,
+        "duration_s": duration, "field_limit_T": env.field_limit,
+        "max_increment_T": env.max_increment, "length_m": spec.length, "radius_m": spec.radius,
+        "n_elements": spec.n_elements, "policy_source": str(policy.source),
+        "policy_kind": policy.kind, "diverged": diverged, "wall_s": wall,
+        "step_ms": 1e3 * wall / max(steps, 1),
+    }
+    if isinstance(policy.case.task, GotoTask):
+        meta["target_xz_m"] = [float(v) for v in env.task_state]
+    return meta
 
 
 def node_dx(rollout) -> float:
