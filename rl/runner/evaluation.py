@@ -22,7 +22,7 @@ from ..runfiles.logs import read_log, unfinished_line
 from ..runfiles.rundir import RunDir
 from ..td3.algorithm import TD3
 from ..td3.config import TD3Config
-from ..td3.networks import Actor
+from ..td3.networks import actor_from_state
 
 __all__ = ["ActorPolicy", "EvalResult", "PeriodicEvaluation", "evaluate", "evaluate_many"]
 
@@ -118,7 +118,7 @@ class ActorPolicy:
     def __init__(self, actor_state: dict[str, torch.Tensor], obs_dim: int, act_dim: int,
                  hidden_sizes: tuple[int, ...], action_low: np.ndarray,
                  action_high: np.ndarray) -> None:
-        self.actor = Actor(obs_dim, act_dim, tuple(hidden_sizes))
+        self.actor = actor_from_state(obs_dim, act_dim, tuple(hidden_sizes), actor_state)
         self.actor.load_state_dict(actor_state)
         self.actor.eval().requires_grad_(False)
         low, high = np.asarray(action_low, np.float64), np.asarray(action_high, np.float64)

@@ -83,8 +83,19 @@ def _use_section(info: dict[str, Any], case: Case) -> list[str]:
         f"`policy.json`); output: {info['architecture']['act_dim']} actions in [-1, 1] "
         f"(dB_{', dB_'.join(case.actuation.axes)}), x {increment:g} mT = field increment per "
         "0.01 s.",
+        *_steering_line(info),
         "",
     ]
+
+
+def _steering_line(info: dict[str, Any]) -> list[str]:
+    """A steering actor's card says what it reads of the observation and how it answers."""
+    if info["architecture"].get("actor_input", "observation") != "steering":
+        return []
+    return ["- The actor reads the steering state of the observation in the robot's own frame (the field "
+            "along forward, up and left, the target's offset and distance, the clock) and its command "
+            "along forward, up and left is turned into dB_x, dB_y, dB_z by the observed heading "
+            "(`actor_input = \"steering\"`, docs/training.md); the exported module does the same."]
 
 
 def _training_section(info: dict[str, Any], summary: dict[str, Any] | None, case: Case) -> list[str]:

@@ -371,6 +371,7 @@ def _policy_info(policy: LoadedPolicy, name: str, summary: dict[str, Any] | None
                                    "(net = Sequential of Linear/ReLU)",
                          "critic_layer_norm": bool((meta.get("config") or {}).get(
                              "critic_layer_norm", False)),
+                         "actor_input": str((meta.get("config") or {}).get("actor_input", "observation")),
                          **_critic_widths(meta.get("config") or {})},
         "observation": observation_spec_of(case),
         "action": action_spec_of(case),

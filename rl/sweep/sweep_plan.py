@@ -96,6 +96,7 @@ def plan_sweep(loaded: dict[str, Case], s: SweepSettings, r: Resolved
     _check_devices(loaded, overrides)
     _warn_precision(configs[seed_list[0]])
     _check_yardstick_warmup(loaded, configs[seed_list[0]])
+    _check_actor_input(loaded, configs[seed_list[0]])
     first = next(iter(loaded.values()))
     acting = _ActingChecks(configs[seed_list[0]], int(r.steps), int(s.envs), SettingSources(
         overrides, first.training.td3, first.source, r.steps_given, recipe=r.recipe),
@@ -124,6 +125,27 @@ def _check_yardstick_warmup(loaded: dict[str, Case], config: Any) -> None:
                          f"none ({YARDSTICK_CONTROLLERS}): train without it, or train {', '.join(without)} "
                          "on the spec msr field baseline --case CASE --set-yardstick FILE writes (it records "
                          "the rotating field's period; a crawl's or a reach's alike)")
+
+
+def _check_actor_input(loaded: dict[str, Case], config: Any) -> None:
+    """A steering actor (``actor_input = "steering"``) reads a goto case's field in three axes,
+    heading, target and clock: any other case is refused by name, before any work."""
+    if config.actor_input == "observation":
+        return
+    from ..cases.tasks import GotoTask
+    from ..envs.crawler_observation import observation_layout
+    from ..td3.steering_inputs import steering_start
+
+    for name, case in loaded.items():
+        if not (case.field_actuated and isinstance(case.task, GotoTask)):
+            raise ValueError(f"actor_input = 'steering' steers a crawler to a target (a goto case with "
+                             f"[actuation] axes = \"xyz\"); case {name} has the {case.task.kind} task: "
+                             "train it with actor_input = 'observation'")
+        extra = (*case.actuation.observation_blocks, *case.task.extra_observation)
+        try:
+            steering_start(observation_layout(case.n_elements, extra))
+        except ValueError as exc:
+            raise ValueError(f"case {name}: {exc}") from None
 
 
 def _check_devices(loaded: dict[str, Case], overrides: dict[str, Any]) -> None:

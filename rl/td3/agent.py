@@ -18,7 +18,7 @@ import torch
 from ..runfiles.checkpoint import load_checkpoint, refuse_networks_only
 from .algorithm import TD3
 from .config import TD3Config
-from .networks import Actor, ScaledPolicy, TwinCritic
+from .networks import Actor, ScaledPolicy, TwinCritic, actor_from_state
 from .replay_buffer import Batch
 from .stacked import StackedMLP
 
@@ -121,8 +121,9 @@ class TD3Agent:
 
     @property
     def actor_target(self) -> Actor:
-        actor = Actor(self.obs_dim, self.act_dim, self.config.actor_widths)
-        actor.load_state_dict(self.learner.actor_state(0, target=True))
+        state = self.learner.actor_state(0, target=True)
+        actor = actor_from_state(self.obs_dim, self.act_dim, self.config.actor_widths, state)
+        actor.load_state_dict(state)
         return actor.eval().requires_grad_(False)
 
     @property

@@ -96,6 +96,7 @@ from .config import Q_SCALE_FLOOR, SATURATION_PREACTIVATION, TD3Config
 from .networks import Actor, ScaledPolicy, TwinCritic
 from .replay_buffer import Batch
 from .stacked import StackedMLP, load_member_adam_state, member_adam_state, prefixed, unprefixed
+from .steering_inputs import STEERING_BLOCK, STEERING_FEATURES, steering_features, steering_to_lab
 
 
 def update_ratio(updates_per_step: float) -> Fraction:
@@ -194,7 +195,13 @@ class TD3:
             resolve_precision(cfg.precision, cfg.device)]
 
         hidden = cfg.hidden_sizes
-        self.actor_net = StackedMLP(k, (self.obs_dim, *cfg.actor_widths, self.act_dim))
+        # a steering actor reads the observation's last blocks in the robot's frame (actor_input)
+        self.steering_start = self.obs_dim - STEERING_BLOCK if cfg.actor_input == "steering" else None
+        if self.steering_start is not None and (self.steering_start < 0 or self.act_dim != 3):
+            raise ValueError(f"actor_input = 'steering' needs a goto case with three axes: observations of "
+                             f"{self.obs_dim} entries, {self.act_dim} actions")
+        actor_in = STEERING_FEATURES if self.steering_start is not None else self.obs_dim
+        self.actor_net = StackedMLP(k, (actor_in, *cfg.actor_widths, self.act_dim))
         # the critics: members 0..K-1 are the seeds' Q1, members K..2K-1 their Q2
         self.critic_net = StackedMLP(2 * k, (self.obs_dim + self.act_dim, *hidden, 1),
                                      cfg.critic_layer_norm)
@@ -221,7 +228,7 @@ class TD3:
         (actor first, then Q1, Q2)."""
         with torch.random.fork_rng(devices=[]):
             torch.manual_seed(seed)
-            actor = Actor(self.obs_dim, self.act_dim, self.config.actor_widths)
+            actor = Actor(self.obs_dim, self.act_dim, self.config.actor_widths, self.steering_start)
             critic = TwinCritic(self.obs_dim, self.act_dim, self.config.hidden_sizes,
                                 self.config.critic_layer_norm)
         return actor, critic
@@ -244,12 +251,23 @@ class TD3:
         ``(n, act_dim)`` draw from each ``rngs[k]``, then clipped to [-1, 1]. Float32 always."""
         obs_t = torch.as_tensor(np.asarray(obs, dtype=np.float32).reshape(self.n_seeds, -1,
                                                                           self.obs_dim))
-        action = torch.tanh(self.actor_net(obs_t.to(self.device))).cpu().numpy().astype(np.float64)
+        action = self._mu(self.actor_net, obs_t.to(self.device))[1].cpu().numpy().astype(np.float64)
         if explore:
             sigma = self.config.exploration_noise
             noise = np.stack([rng.normal(0.0, sigma, size=action.shape[1:]) for rng in self.rngs])
             action = np.clip(action + noise, -1.0, 1.0)
         return action.astype(np.float32)
+
+    def _mu(self, net: StackedMLP, obs: torch.Tensor,
+            dtype: torch.dtype = torch.float32) -> tuple[torch.Tensor, torch.Tensor]:
+        """The actors' pre-``tanh`` outputs and their actions in the lab's frame, ``(K, B, act_dim)``
+        each, for observations ``(K, B, obs_dim)``: ``tanh(MLP(s))``, or for a steering actor
+        ``lab(s, tanh(MLP(features(s))))`` (:mod:`.steering_inputs`)."""
+        if self.steering_start is None:
+            pre = net(obs, dtype)
+            return pre, torch.tanh(pre)
+        pre = net(steering_features(obs, self.steering_start), dtype)
+        return pre, steering_to_lab(obs, torch.tanh(pre), self.steering_start)
 
     # -- learning -------------------------------------------------------------------------------
     def _stack(self, batches: list[Batch]) -> tuple[torch.Tensor, ...]:
@@ -282,7 +300,7 @@ class TD3:
         eps = torch.stack([torch.randn(shape, generator=g) for g in self.torch_rngs])
         eps = (eps.to(self.device) * cfg.policy_noise).clamp(-cfg.target_noise_clip,
                                                              cfg.target_noise_clip)
-        next_action = (torch.tanh(self.actor_target_net(next_obs, self.compute_dtype)) + eps).clamp(-1, 1)
+        next_action = (self._mu(self.actor_target_net, next_obs, self.compute_dtype)[1] + eps).clamp(-1, 1)
         q1_next, q2_next = self._q(self.critic_target_net, next_obs, next_action, self.compute_dtype)
         return rewards + cfg.gamma * (1.0 - terminated) * torch.min(q1_next, q2_next)
 
@@ -314,8 +332,7 @@ class TD3:
         if self.num_updates % cfg.policy_delay == 0 and not train_actor:
             self._polyak(actors=False)
         elif self.num_updates % cfg.policy_delay == 0:
-            pre = self.actor_net(obs, dtype)
-            mu = torch.tanh(pre)
+            pre, mu = self._mu(self.actor_net, obs, dtype)
             q1_mu = self.critic_net(torch.cat([obs, mu], dim=-1), dtype, members=slice(0, self.n_seeds))
             actor_loss = -q1_mu.mean(dim=(1, 2))
             if cfg.yardstick_regularization:  # TD3+BC: -Q / mean|Q| + beta * mean ||mu(s_w) - a_w||^2
@@ -337,7 +354,7 @@ class TD3:
             raise ValueError("yardstick_regularization: update() needs warmup_batches, a minibatch of "
                              "each seed's warm-up transitions")
         obs, actions, _, _, _ = self._stack(warmup_batches())
-        mu = torch.tanh(self.actor_net(obs, self.compute_dtype))
+        mu = self._mu(self.actor_net, obs, self.compute_dtype)[1]
         return ((mu - actions) ** 2).mean(dim=(1, 2))
 
     def clone_step(self, batches: list[Batch]) -> torch.Tensor:
@@ -349,7 +366,7 @@ class TD3:
         Returns each seed's loss, ``(K,)``. The critics and the targets are not touched
         (:meth:`hold_actor_targets` sets the target actors to the clones)."""
         obs, actions, _, _, _ = self._stack(batches)
-        mu = torch.tanh(self.actor_net(obs, self.compute_dtype))
+        mu = self._mu(self.actor_net, obs, self.compute_dtype)[1]
         loss = ((mu - actions) ** 2).mean(dim=(1, 2))
         _step(self.actor_optimizer, torch.autograd.grad(loss.sum(), self.actor_params))
         return loss.detach()
@@ -377,7 +394,10 @@ class TD3:
     # -- one seed's view ------------------------------------------------------------------------
     def actor_state(self, k: int, target: bool = False) -> dict[str, torch.Tensor]:
         """Seed ``k``'s actor (or target actor) as an :class:`Actor` state dict."""
-        return prefixed((self.actor_target_net if target else self.actor_net).member_state(k), "net.")
+        state = prefixed((self.actor_target_net if target else self.actor_net).member_state(k), "net.")
+        if self.steering_start is not None:
+            state["steering_start"] = torch.tensor(self.steering_start)
+        return state
 
     def critic_state(self, k: int, target: bool = False) -> dict[str, torch.Tensor]:
         """Seed ``k``'s twin critic (or its target) as a :class:`TwinCritic` state dict."""
@@ -387,7 +407,7 @@ class TD3:
 
     def actor_module(self, k: int = 0) -> Actor:
         """A standalone copy of seed ``k``'s actor (float32, CPU, eval mode)."""
-        actor = Actor(self.obs_dim, self.act_dim, self.config.actor_widths)
+        actor = Actor(self.obs_dim, self.act_dim, self.config.actor_widths, self.steering_start)
         actor.load_state_dict(self.actor_state(k))
         return actor.eval().requires_grad_(False)
 

@@ -13,6 +13,10 @@ from typing import Any, TypeVar
 from elastica_magnetic.field_csv import is_number
 from elastica_magnetic.robot_spec import ACTION_PERIOD
 
+#: What an actor reads (:attr:`Hyperparameters.actor_input`): the whole ``observation`` in the
+#: lab's frame (the paper's), or a goto case's ``steering`` state in the robot's frame.
+ACTOR_INPUTS = ("observation", "steering")
+
 #: Arithmetic choices of :attr:`TD3Config.precision`.
 PRECISIONS = ("fp32", "bf16")
 #: ``|pre-tanh output|`` of the actor above which it counts as saturated (``tanh(3) = 0.995``):
@@ -64,6 +68,8 @@ def _setting_form(key: str, default: Any) -> str:
         return "comma-separated layer widths, e.g. 256,256" + (", or none" if default is None else "")
     if isinstance(default, bool):
         return "true or false"
+    if key == "actor_input":
+        return " or ".join(ACTOR_INPUTS)
     if key == "noise_color":
         return "a number: the exponent of the noise's spectrum 1/f^beta (0 white, 1 pink, 2 red)"
     if key == "eval_duration":
@@ -95,6 +101,13 @@ class Hyperparameters:
     actor_hidden_sizes: tuple[int, ...] | None = None
     """Hidden layer widths of the actor when they differ from the critics' (e.g. a narrower
     actor); ``None`` (and a checkpoint without the key): the same as :attr:`hidden_sizes`."""
+    actor_input: str = "observation"
+    """What the actor reads and answers in: ``"observation"``, the whole observation, answering
+    the lab's field increments (the paper's); ``"steering"``, a goto case's steering state in the
+    robot's own frame (the field and the target seen from the robot, the clock), answering
+    increments along the robot's forward, up and left that the observed heading turns into the
+    lab's (:mod:`~elastica_magnetic_rl.td3.steering_inputs`: why, and the formulas). The critics
+    always read the whole observation and the lab's action."""
     critic_layer_norm: bool = False
     """Layer normalisation (PyTorch's ``LayerNorm``, learned gain and bias) after every hidden
     linear layer of both critics, before the ReLU (Ball et al. 2023): bounds how far a critic
@@ -237,6 +250,9 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
             if widths is not None and (not widths or min(widths) < 1):
                 raise ValueError(f"{name} must be one or more layers of >= 1 unit, got "
                                  f"{list(widths)}")
+        if self.actor_input not in ACTOR_INPUTS:
+            raise ValueError(f"actor_input must be one of {', '.join(ACTOR_INPUTS)}, got "
+                             f"{self.actor_input!r}")
         for name in ("actor_lr", "critic_lr"):  # 0 changes no weight; Adam above 1 only diverges
             value = getattr(self, name)
             if not (math.isfinite(value) and 0.0 < value <= MAX_LEARNING_RATE):
@@ -355,6 +371,10 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
             if key.endswith("hidden_sizes"):
                 value: Any = None if (default is None and text.lower() == "none") else tuple(
                     int(w) for w in text.split(","))
+            elif key == "actor_input":
+                if text not in ACTOR_INPUTS:
+                    raise ValueError
+                value = text
             elif isinstance(default, bool):
                 value = {"true": True, "1": True, "false": False, "0": False}[text.lower()]
             elif _is_integer_setting(key, default):

@@ -13,7 +13,9 @@ import numpy as np
 import torch
 import torch.nn as nn
 
-__all__ = ["Actor", "ScaledPolicy", "TwinCritic", "mlp", "networks_from_state"]
+from .steering_inputs import STEERING_BLOCK, STEERING_FEATURES, steering_features, steering_to_lab
+
+__all__ = ["Actor", "ScaledPolicy", "TwinCritic", "actor_from_state", "mlp", "networks_from_state"]
 
 
 def mlp(in_dim: int, out_dim: int, hidden_sizes: tuple[int, ...],
@@ -32,14 +34,37 @@ def mlp(in_dim: int, out_dim: int, hidden_sizes: tuple[int, ...],
 
 class Actor(nn.Module):
     """Deterministic policy ``mu(s) = tanh(MLP(s))`` in normalised action units [-1, 1] (one
-    seed's actor as a plain module: for acting, evaluation and export)."""
+    seed's actor as a plain module: for acting, evaluation and export).
 
-    def __init__(self, obs_dim: int, act_dim: int, hidden_sizes: tuple[int, ...]) -> None:
+    With ``steering_start`` (a goto case's steering actor, ``actor_input = "steering"``): ``mu(s) =
+    lab(s, tanh(MLP(features(s))))``, the features and the turn into the lab's frame of
+    :mod:`~elastica_magnetic_rl.td3.steering_inputs`; the index is kept in the state dict
+    (``steering_start``), so that :func:`actor_from_state` rebuilds the same actor."""
+
+    def __init__(self, obs_dim: int, act_dim: int, hidden_sizes: tuple[int, ...],
+                 steering_start: int | None = None) -> None:
         super().__init__()
-        self.net = mlp(obs_dim, act_dim, hidden_sizes)
+        self.steering = steering_start is not None
+        if self.steering:
+            if act_dim != 3 or not 0 <= int(steering_start) <= obs_dim - STEERING_BLOCK:
+                raise ValueError(f"a steering actor answers 3 field increments and reads the last "
+                                 f"{STEERING_BLOCK} of the observation's entries: got {act_dim} actions, "
+                                 f"start {steering_start} of {obs_dim}")
+            self.register_buffer("steering_start", torch.tensor(int(steering_start)))
+        self.net = mlp(STEERING_FEATURES if self.steering else obs_dim, act_dim, hidden_sizes)
 
     def forward(self, obs: torch.Tensor) -> torch.Tensor:
-        return torch.tanh(self.net(obs))
+        if not self.steering:
+            return torch.tanh(self.net(obs))
+        start = int(self.steering_start)
+        return steering_to_lab(obs, torch.tanh(self.net(steering_features(obs, start))), start)
+
+
+def actor_from_state(obs_dim: int, act_dim: int, hidden_sizes: tuple[int, ...], state: dict) -> Actor:
+    """An :class:`Actor` of the kind ``state`` (its state dict) was saved from, not yet loaded: a
+    steering actor where it holds ``steering_start``."""
+    start = state.get("steering_start") if isinstance(state, dict) else None
+    return Actor(obs_dim, act_dim, hidden_sizes, None if start is None else int(start))
 
 
 class TwinCritic(nn.Module):
@@ -82,7 +107,7 @@ def networks_from_state(obs_dim: int, act_dim: int, hidden: tuple[int, ...], act
             ) from None
         return network.eval().requires_grad_(False)
 
-    actor = load(Actor(obs_dim, act_dim, hidden), actor_state, "actor")
+    actor = load(actor_from_state(obs_dim, act_dim, hidden, actor_state), actor_state, "actor")
     critic = None
     if critic_state is not None:
         critic = load(TwinCritic(obs_dim, act_dim, critic_hidden or hidden, critic_layer_norm),
