@@ -112,21 +112,35 @@ def _tip_reach(info: dict) -> bool:
     return "tip_reach" in (info.get("evaluation") or {})
 
 
+def _goto(info: dict) -> bool:
+    return "ring" in (info.get("evaluation") or {})
+
+
 def test_the_shipped_policies_table_is_their_policy_json():
     """rl/policies/README.md: one row per shipped policy; its seed and its 10 s distance (a
     tip-reach policy: its row in the catheters' table, its seed and its held-out targets reached,
-    beside the yardstick's)."""
+    beside the yardstick's; a goto policy: its row in the goto table, its seed and its ring's
+    targets reached, beside the yardstick's)."""
     policies = shipped()
-    rows, reach_rows = {}, {}
+    rows, six_cells = {}, {}
     for line in (POLICIES / "README.md").read_text().splitlines():
         cells = [cell.strip() for cell in line.strip("|").split("|")]
         name = re.fullmatch(r"`(\S+)`", cells[0])
         if name and name.group(1) in policies and len(cells) == 8:
             rows[name.group(1)] = cells
         elif name and name.group(1) in policies and len(cells) == 6:
-            reach_rows[name.group(1)] = cells
-    assert sorted(rows) == sorted(n for n, info in policies.items() if not _tip_reach(info))
+            six_cells[name.group(1)] = cells
+    reach_rows = {n: c for n, c in six_cells.items() if _tip_reach(policies[n])}
+    goto_rows = {n: c for n, c in six_cells.items() if _goto(policies[n])}
+    assert sorted(rows) == sorted(n for n, info in policies.items() if not (_tip_reach(info) or _goto(info)))
     assert sorted(reach_rows) == sorted(n for n, info in policies.items() if _tip_reach(info))
+    assert sorted(goto_rows) == sorted(n for n, info in policies.items() if _goto(info))
+    for name, cells in goto_rows.items():
+        ring, theirs = policies[name]["evaluation"]["ring"], policies[name]["evaluation"]["yardstick_ring"]
+        assert int(re.match(r"\d+", cells[1]).group()) == policies[name]["training"]["seed"], name
+        assert cells[3].startswith(f"{ring['successes']} of {ring['targets']}"), (name, cells[3])
+        assert cells[4].startswith(f"{theirs['successes']} of {theirs['targets']}"), (name, cells[4])
+        assert cells[5].startswith(f"{ring['mean_time_to_target_s']:.1f} s"), (name, cells[5])
     for name, cells in reach_rows.items():
         judged = policies[name]["evaluation"]["tip_reach"]
         assert int(re.match(r"\d+", cells[1]).group()) == policies[name]["training"]["seed"], name

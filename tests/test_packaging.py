@@ -12,8 +12,9 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-#: Largest acceptable wheel, bytes.
-MAX_WHEEL_BYTES = 20 * 1024 * 1024
+#: Largest acceptable wheel, bytes: every shipped policy adds its actor and critic (about 1.5 MB; 21.4 MB
+#: with the 16 policies of 2026-12-06).
+MAX_WHEEL_BYTES = 24 * 1024 * 1024
 
 
 def _source_files() -> list[str]:

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from ..runfiles.provenance import machine_fingerprint
+from .goto import goto_target
 from .policy_files import POLICIES_DIR, POLICY_JSON, read_policy_json, resolve_policy
 from .policy_runs import node_dx, run_policy
 
@@ -78,7 +79,9 @@ def verify_shipped(name: str, duration: float = 10.0, progress: bool = False,
             and evaluation.get("machine") != machine_fingerprint()
             and evaluation["duration_s"] == duration):
         return _verify_replay_only(name, folder, policy, info, duration)
-    rollout = run_policy(policy, duration, "accurate", "zero", progress)
+    # a goto policy's waveform was recorded toward its task's target straight ahead (msr policy ship)
+    target = goto_target(policy.case, None)
+    rollout = run_policy(policy, duration, "accurate", "zero", progress, target=target)
     shipped = read_field_csv(folder / "fields.csv")
     rows = min(len(rollout.fields), len(shipped))
     row_diff_mt = np.max(np.abs(rollout.fields[:rows] - shipped[:rows]), axis=1) * 1e3

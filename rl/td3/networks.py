@@ -51,13 +51,13 @@ class Actor(nn.Module):
                                  f"{STEERING_BLOCK} of the observation's entries: got {act_dim} actions, "
                                  f"start {steering_start} of {obs_dim}")
             self.register_buffer("steering_start", torch.tensor(int(steering_start)))
+            self.start = int(steering_start)  # a plain int: traced and exported as the constant it is
         self.net = mlp(STEERING_FEATURES if self.steering else obs_dim, act_dim, hidden_sizes)
 
     def forward(self, obs: torch.Tensor) -> torch.Tensor:
         if not self.steering:
             return torch.tanh(self.net(obs))
-        start = int(self.steering_start)
-        return steering_to_lab(obs, torch.tanh(self.net(steering_features(obs, start))), start)
+        return steering_to_lab(obs, torch.tanh(self.net(steering_features(obs, self.start))), self.start)
 
 
 def actor_from_state(obs_dim: int, act_dim: int, hidden_sizes: tuple[int, ...], state: dict) -> Actor:

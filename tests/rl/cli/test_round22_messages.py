@@ -65,7 +65,7 @@ def test_a_spec_s_regularization_beyond_its_buffer_is_refused_where_it_is_read(t
     its warm-up through ``[training] steps``."""
     from elastica_magnetic.specfile import SpecError
 
-    text = load_case("m1-4mT-goto").toml() + ("\n[training.td3]\nbuffer_size = 50000\n"
+    text = load_case("m1-4mT-reach").toml() + ("\n[training.td3]\nbuffer_size = 50000\n"
                                               "yardstick_regularization = 0.4\nyardstick_warmup = 4000\n")
     (tmp_path / "gr.toml").write_text(text)
     with pytest.raises(SpecError, match=r"buffer_size: .*holds fewer than the \[training\] steps = 100000"):

@@ -22,6 +22,11 @@ SHIPPED = tuple(sorted(("hu2018-crawl", "m1-4mT-reach", "m1-4mT-designed", *PAPE
 #: The shipped tip-reach policies (catheters steered by a source: no waveform, judged on their
 #: case's held-out targets).
 TIP_REACH_SHIPPED = ("catheter-coils-reach", "catheter-magnet-reach")
+#: The shipped goto policies (judged on their task's ring of 12 targets in the accurate physics,
+#: beside the steering yardstick; the count their README row and card state).
+GOTO_SHIPPED = {"m1-4mT-goto": 10}
+#: Of 12 targets drawn off the ring (training physics), how many each reaches (README, card).
+GOTO_RANDOM_TARGETS = {"m1-4mT-goto": 9}
 
 
 def case_of(name: str) -> str:
@@ -32,7 +37,47 @@ def case_of(name: str) -> str:
 def test_every_shipped_policy_is_tested():
     from elastica_magnetic_rl.shipping.shipped import shipped_names
 
-    assert shipped_names() == sorted(SHIPPED + TIP_REACH_SHIPPED)
+    assert shipped_names() == sorted(SHIPPED + TIP_REACH_SHIPPED + tuple(GOTO_SHIPPED))
+
+
+@pytest.mark.parametrize("name", sorted(GOTO_SHIPPED))
+def test_a_shipped_goto_policy_holds_its_ring_and_goes_to_targets_off_it(name, tmp_path, capsys):
+    """A shipped goto policy's policy.json records at least its stated count of the ring's 12
+    targets reached in the accurate physics, beside the yardstick on the same ring; its exported
+    module gives its actions; it plays by name; and of 12 targets drawn off the ring's angles (a seed
+    the policy never saw, training physics) it reaches the count its README row states."""
+    import math
+
+    from elastica_magnetic_rl.shipping.goto import goto_result
+    from elastica_magnetic_rl.shipping.policy_runs import run_policy
+
+    info = json.loads((policy_files.POLICIES_DIR / name / "policy.json").read_text())
+    ring, theirs = info["evaluation"]["ring"], info["evaluation"]["yardstick_ring"]
+    assert ring["physics"] == theirs["physics"] == "accurate" and ring["targets"] == theirs["targets"] == 12
+    assert ring["successes"] >= GOTO_SHIPPED[name]
+    assert info["architecture"]["actor_input"] == "steering"
+    policy = policy_files.resolve_policy(name)
+    assert msr(["policy", "export", name, "--out", str(tmp_path / "exp")]) == 0
+    capsys.readouterr()
+    module = torch.jit.load(str(next((tmp_path / "exp").glob("*.ts.pt"))))
+    obs = np.random.default_rng(0).normal(size=policy.case.obs_dim).astype(np.float32)
+    np.testing.assert_allclose(module(torch.from_numpy(obs)[None]).detach().numpy()[0], policy.act(obs),
+                               atol=1e-6)
+    task = policy.case.task
+    assert msr(["policy", "generate", name, "--target", "0.004,0.011", "--physics", "training", "--duration",
+                "0.5", "--out", str(tmp_path / "g"), "--json", "--no-figures", "--no-gif"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert {"final_distance_to_target_m", "time_to_target_s"} <= set(result)
+    # 12 targets drawn off the ring's angles, the task's 30 s each (training physics): measured 9 of 12,
+    # the misses behind the robot to its left (bearings 106-127 degrees), as its ring's misses
+    ring_angles = np.arange(12) * math.pi / 6
+    successes = 0
+    for bearing in np.random.default_rng(20261206).uniform(-math.pi, math.pi, 12):
+        assert np.min(np.abs(np.angle(np.exp(1j * (bearing - ring_angles))))) > 0.01  # off the ring
+        target = (task.distance * math.cos(bearing), task.distance * math.sin(bearing))
+        rollout = run_policy(policy, task.episode_duration, "training", "zero", False, target=target)
+        successes += bool(goto_result(rollout, task, target)["success"])
+    assert successes >= GOTO_RANDOM_TARGETS[name], successes
 
 
 @pytest.mark.parametrize("name", TIP_REACH_SHIPPED)
