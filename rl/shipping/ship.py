@@ -343,7 +343,9 @@ def _ring_entry(policy, progress: bool) -> dict[str, Any]:
     import os
 
     rows = evaluate_ring(policy, None, "accurate", progress=progress, workers=os.cpu_count() or 1)
-    return {"policy": str(policy.source), "physics": "accurate",
+    source = policy.source  # a file (this machine's folders left out) or the yardstick's words
+    label = _portable_source(source, policy.case.name) if isinstance(source, Path) else str(source)
+    return {"policy": label, "physics": "accurate",
             "duration_s": policy.case.task.episode_duration, **ring_summary(rows),
             "targets_table": rows}
 

@@ -24,9 +24,9 @@ SHIPPED = tuple(sorted(("hu2018-crawl", "m1-4mT-reach", "m1-4mT-designed", *PAPE
 TIP_REACH_SHIPPED = ("catheter-coils-reach", "catheter-magnet-reach")
 #: The shipped goto policies (judged on their task's ring of 12 targets in the accurate physics,
 #: beside the steering yardstick; the count their README row and card state).
-GOTO_SHIPPED = {"m1-4mT-goto": 10}
+GOTO_SHIPPED = {"m1-4mT-goto": 10, "m1-10mT-goto": 11}
 #: Of 12 targets drawn off the ring (training physics), how many each reaches (README, card).
-GOTO_RANDOM_TARGETS = {"m1-4mT-goto": 9}
+GOTO_RANDOM_TARGETS = {"m1-4mT-goto": 9, "m1-10mT-goto": 11}
 
 
 def case_of(name: str) -> str:
@@ -38,6 +38,29 @@ def test_every_shipped_policy_is_tested():
     from elastica_magnetic_rl.shipping.shipped import shipped_names
 
     assert shipped_names() == sorted(SHIPPED + TIP_REACH_SHIPPED + tuple(GOTO_SHIPPED))
+
+
+def _strings(value):
+    """Every string inside a JSON value."""
+    if isinstance(value, str):
+        yield value
+    elif isinstance(value, dict):
+        for item in value.values():
+            yield from _strings(item)
+    elif isinstance(value, list):
+        for item in value:
+            yield from _strings(item)
+
+
+def test_no_shipped_policy_records_the_machine_it_was_shipped_on():
+    """A shipped policy.json names where it came from portably (``<case>/seedN/best.pt``): no absolute
+    path of the shipping machine (a goto ring's ``policy`` once held one)."""
+    from elastica_magnetic_rl.shipping.shipped import shipped_names
+
+    for name in shipped_names():
+        info = json.loads((policy_files.POLICIES_DIR / name / "policy.json").read_text())
+        machine = [s for s in _strings(info) if s.startswith("/") or "/work/" in s or "/home/" in s]
+        assert not machine, (name, machine)
 
 
 @pytest.mark.parametrize("name", sorted(GOTO_SHIPPED))
@@ -68,8 +91,9 @@ def test_a_shipped_goto_policy_holds_its_ring_and_goes_to_targets_off_it(name, t
                 "0.5", "--out", str(tmp_path / "g"), "--json", "--no-figures", "--no-gif"]) == 0
     result = json.loads(capsys.readouterr().out)
     assert {"final_distance_to_target_m", "time_to_target_s"} <= set(result)
-    # 12 targets drawn off the ring's angles, the task's 30 s each (training physics): measured 9 of 12,
-    # the misses behind the robot to its left (bearings 106-127 degrees), as its ring's misses
+    # 12 targets drawn off the ring's angles, the task's 30 s each (training physics): measured 9 of 12 at
+    # 4 mT, the misses behind the robot to its left (bearings 106-127 degrees), as its ring's misses; 11 of
+    # 12 at 10 mT, the miss to its right (-91 degrees), as its ring's
     ring_angles = np.arange(12) * math.pi / 6
     successes = 0
     for bearing in np.random.default_rng(20261206).uniform(-math.pi, math.pi, 12):
