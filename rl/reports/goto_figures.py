@@ -12,7 +12,8 @@ from numpy.typing import NDArray
 
 from .figures import MM, _figure, _save
 
-__all__ = ["TOP_VIEW", "plot_ring", "plot_tip_paths", "plot_tip_paths_beside", "plot_top_view"]
+__all__ = ["TOP_VIEW", "plot_ring", "plot_rings_beside", "plot_tip_paths", "plot_tip_paths_beside",
+           "plot_top_view"]
 
 #: The file of a goto rollout's top view (:func:`plot_top_view`).
 TOP_VIEW = "top_view.png"
@@ -24,10 +25,33 @@ def plot_ring(rows: Sequence[dict[str, Any]], paths: Sequence[NDArray[np.float64
     path to each target: ``rows`` of :func:`~elastica_magnetic_rl.shipping.goto.goto_result`,
     ``paths`` one ``(T, 2)`` (x, z; m) per row. Targets reached are green, missed red; the circles
     are the tolerance."""
+    fig = _figure((6.0, 6.0))
+    reached = sum(bool(r["success"]) for r in rows)
+    _draw_ring(fig.add_subplot(1, 1, 1), rows, paths, title or f"{reached} of {len(rows)} targets reached")
+    return _save(fig, path)
+
+
+def plot_rings_beside(runs: dict[str, Sequence[dict[str, Any]]],
+                      paths: dict[str, Sequence[NDArray[np.float64]]], path: str | Path,
+                      title: str = "") -> Path:
+    """Several controllers' rings on the same targets, side by side (each as :func:`plot_ring`):
+    ``runs`` maps a label to its rows of :func:`~elastica_magnetic_rl.shipping.goto.goto_result`,
+    ``paths`` the label to one middle-node path ``(T, 2)`` (x, z; m) per row."""
+    fig = _figure((5.2 * len(runs), 5.6))
+    for k, (label, rows) in enumerate(runs.items()):
+        reached = sum(bool(r["success"]) for r in rows)
+        _draw_ring(fig.add_subplot(1, len(runs), k + 1), rows, paths[label],
+                   f"{label}: {reached} of {len(rows)} reached")
+    if title:
+        fig.suptitle(title)
+    return _save(fig, path)
+
+
+def _draw_ring(ax: Any, rows: Sequence[dict[str, Any]], paths: Sequence[NDArray[np.float64]],
+               title: str) -> None:
+    """One ring's top view into ``ax`` (:func:`plot_ring`)."""
     from matplotlib.patches import Circle
 
-    fig = _figure((6.0, 6.0))
-    ax = fig.add_subplot(1, 1, 1)
     for row, xz in zip(rows, paths, strict=True):
         color = "tab:green" if row["success"] else "tab:red"
         ax.plot(MM * xz[:, 0], -MM * xz[:, 1], color=color, lw=1.0, alpha=0.8)
@@ -37,9 +61,7 @@ def plot_ring(rows: Sequence[dict[str, Any]], paths: Sequence[NDArray[np.float64
         ax.plot(*centre, "+", color="black", ms=6)
     if paths:
         ax.plot(MM * paths[0][0, 0], -MM * paths[0][0, 1], "s", color="black", ms=5, label="start")
-    reached = sum(bool(r["success"]) for r in rows)
-    _floor_axes(ax, title or f"{reached} of {len(rows)} targets reached", "upper right")
-    return _save(fig, path)
+    _floor_axes(ax, title, "upper right")
 
 
 def plot_top_view(xz: NDArray[np.float64], targets: Sequence[dict[str, Any]], tolerance: float,

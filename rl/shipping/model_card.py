@@ -7,6 +7,7 @@ from typing import Any
 
 from ..cases.case import Case
 from ..cases.training_tables import randomize_table
+from .policy_files import RING_PNG
 
 __all__ = ["model_card", "seed_meets_target", "card_section", "replace_card_section", "NOTES_SECTION"]
 
@@ -218,6 +219,9 @@ def _ring_lines(ring: dict[str, Any], yardstick: dict[str, Any] | None) -> list[
             return f"{1e3 * r['final_distance_to_target_m']:.2f}{mark} | {time}"
         lines.append(f"| {1e3 * row['target_forward_m']:+.1f}, {1e3 * row['target_left_m']:+.1f} "
                      f"| {cells(row)} | {cells(other).replace(' | ', ', ')} |")
+    if yardstick:  # ship draws both rings' paths, seen from above
+        lines += ["", f"![The middle's paths to the ring's targets seen from above, this policy's and the "
+                      f"steering yardstick's: green reached, red missed]({RING_PNG})"]
     return lines
 
 

@@ -42,6 +42,7 @@ __all__ = [
     "check_policy_case",
     "figure_cases",
     "TIP_PATHS_PNG",
+    "RING_PNG",
     "policy_holder",
     "shipped_policy_holding",
     "OLD_POLICY_KEYS",
@@ -57,8 +58,10 @@ POLICIES_DIR = Path(__file__).resolve().parents[1] / "policies"
 POLICY_JSON = "policy.json"
 #: The tip's paths to a tip-reach policy's held-out targets, its own and its yardstick's (the card shows it).
 TIP_PATHS_PNG = "tip_paths.png"
+#: The top view of a goto policy's paths to its ring of targets, beside its yardstick's (the card shows it).
+RING_PNG = "ring.png"
 #: The files of a shipped policy (``actor.pt`` and ``policy.json`` always, the others optional).
-SHIPPED_FILES = ("actor.pt", POLICY_JSON, "critic.pt", "fields.csv", TIP_PATHS_PNG, "MODEL_CARD.md")
+SHIPPED_FILES = ("actor.pt", POLICY_JSON, "critic.pt", "fields.csv", TIP_PATHS_PNG, RING_PNG, "MODEL_CARD.md")
 POLICY_FORMAT = "msr-policy-v1"
 
 

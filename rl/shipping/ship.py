@@ -57,6 +57,7 @@ from .policy_files import (
     POLICIES_DIR,
     POLICY_FORMAT,
     POLICY_JSON,
+    RING_PNG,
     SEEDS_FOLDER,
     SHIPPED_FILES,
     TIP_PATHS_PNG,
@@ -298,9 +299,29 @@ def _measure(policy: LoadedPolicy, duration: float, progress: bool) -> Measured:
                   f"{RING_TARGETS} for the steering yardstick, {episode:g} s each in the accurate "
                   "physics (the judge of a goto policy; --duration sets the rollout above only)",
                   file=sys.stderr, flush=True)
-        measured["ring"] = _ring_entry(policy, progress)
-        measured["yardstick_ring"] = _ring_entry(SteeringFieldPolicy(policy.case), progress)
+        paths: dict[str, list] = {"this policy": [], "the steering yardstick": []}
+        measured["ring"] = _ring_entry(policy, progress, paths["this policy"])
+        measured["yardstick_ring"] = _ring_entry(SteeringFieldPolicy(policy.case), progress,
+                                                 paths["the steering yardstick"])
+        figure = _ring_figure(policy.case, measured["ring"], measured["yardstick_ring"], paths)
+        return Measured(measured, rollout.fields if rollout.n_steps else None, figure, RING_PNG)
     return Measured(measured, rollout.fields if rollout.n_steps else None)
+
+
+def _ring_figure(case: Case, ring: dict[str, Any], yardstick: dict[str, Any],
+                 paths: dict[str, list]) -> bytes:
+    """The top view of a goto policy's ring beside its yardstick's (PNG bytes), drawn in a scratch
+    folder before the policy's folder is touched."""
+    import tempfile
+
+    from ..reports.goto_figures import plot_rings_beside
+
+    runs = dict(zip(paths, (ring["targets_table"], yardstick["targets_table"]), strict=True))
+    with tempfile.TemporaryDirectory() as scratch:
+        return plot_rings_beside(
+            runs, paths, Path(scratch) / RING_PNG,
+            title=f"{case.name}: the middle's paths to the ring's {len(ring['targets_table'])} targets "
+                  f"({ring['duration_s']:g} s each, accurate physics)").read_bytes()
 
 
 def _measure_tip_reach(policy: LoadedPolicy, duration: float) -> Measured:
@@ -330,19 +351,24 @@ def _measure_tip_reach(policy: LoadedPolicy, duration: float) -> Measured:
 class Measured:
     """What :func:`_measure` gives a policy's files: the ``evaluation`` entry of ``policy.json``,
     the field waveform ``(steps, 3)`` T for ``fields.csv`` (``None``: none, a tip-reach policy or no
-    step taken), and a tip-reach policy's :data:`TIP_PATHS_PNG` (PNG bytes; ``None`` otherwise)."""
+    step taken), and a figure of the paths to the policy's targets (PNG bytes; ``None``: none)
+    written as ``figure_name``: a tip-reach policy's :data:`TIP_PATHS_PNG`, a goto policy's
+    :data:`RING_PNG`."""
 
     evaluation: dict[str, Any] | None = None
     fields: np.ndarray | None = None
     figure: bytes | None = None
+    figure_name: str = TIP_PATHS_PNG
 
 
-def _ring_entry(policy, progress: bool) -> dict[str, Any]:
+def _ring_entry(policy, progress: bool, paths: list | None = None) -> dict[str, Any]:
     """A goto policy's ring of targets in the accurate physics, each for the task's episode from
-    a zero field, every core at work: the summary and the rows."""
+    a zero field, every core at work: the summary and the rows (``paths`` receives the middle's
+    path ``(T, 2)``, m, to each target)."""
     import os
 
-    rows = evaluate_ring(policy, None, "accurate", progress=progress, workers=os.cpu_count() or 1)
+    rows = evaluate_ring(policy, None, "accurate", progress=progress, paths=paths,
+                         workers=os.cpu_count() or 1)
     source = policy.source  # a file (this machine's folders left out) or the yardstick's words
     label = _portable_source(source, policy.case.name) if isinstance(source, Path) else str(source)
     return {"policy": label, "physics": "accurate",
@@ -455,7 +481,8 @@ def _policy_files(policy: LoadedPolicy, measured: Measured, card: str | None,
     return ["actor.pt", POLICY_JSON, *(["critic.pt"] if policy.critic is not None and with_critic
                                       else []),
             *(["fields.csv"] if measured.fields is not None else []),
-            *([TIP_PATHS_PNG] if measured.figure is not None else []), *(["MODEL_CARD.md"] if card else [])]
+            *([measured.figure_name] if measured.figure is not None else []),
+            *(["MODEL_CARD.md"] if card else [])]
 
 
 def _write_policy_folder(target: Path, policy: LoadedPolicy, info: dict[str, Any],
@@ -483,13 +510,13 @@ def _write_policy_folder(target: Path, policy: LoadedPolicy, info: dict[str, Any
         write_field_csv(target / "fields.csv", measured.fields)
         written.add("fields.csv")
     if measured.figure is not None:
-        atomic_write_bytes(target / TIP_PATHS_PNG, measured.figure)
-        written.add(TIP_PATHS_PNG)
+        atomic_write_bytes(target / measured.figure_name, measured.figure)
+        written.add(measured.figure_name)
     atomic_write_json(target / POLICY_JSON, info)
     if card is not None:
         atomic_write_text(target / "MODEL_CARD.md", card)
         written.add("MODEL_CARD.md")
-    for stale in {"critic.pt", "fields.csv", TIP_PATHS_PNG, "MODEL_CARD.md"} - written:
+    for stale in {"critic.pt", "fields.csv", TIP_PATHS_PNG, RING_PNG, "MODEL_CARD.md"} - written:
         (target / stale).unlink(missing_ok=True)  # the replaced policy's, not this one's
 
 

@@ -183,7 +183,8 @@ def _quick_goto_spec(folder):
 def test_a_goto_run_ships_with_its_ring_and_the_yardsticks(tmp_path, monkeypatch):
     """`msr policy ship` of a goto run measures the ring (patched here to 0.2 s of the training
     physics, the shipped judge being 30 s of the accurate one) for the policy and the steering
-    yardstick, and writes both into policy.json and the card."""
+    yardstick, and writes both into policy.json and the card, with the top view of both rings
+    (ring.png); the ring names the policy's file from its case folder on, not this machine's path."""
     from elastica_magnetic_rl.shipping import ship as ship_module
     from elastica_magnetic_rl.shipping.goto import evaluate_ring
 
@@ -195,7 +196,7 @@ def test_a_goto_run_ships_with_its_ring_and_the_yardsticks(tmp_path, monkeypatch
 
     def quick_ring(policy, duration, physics, **kwargs):
         asked.append((duration, physics))
-        return evaluate_ring(policy, 0.2, "training", n_targets=2)
+        return evaluate_ring(policy, 0.2, "training", n_targets=2, paths=kwargs.get("paths"))
 
     monkeypatch.setattr(ship_module, "evaluate_ring", quick_ring)
     result = ship_module.ship(runs / "goto-quick" / "seed0", "goto-test", dest=tmp_path / "shipped",
@@ -205,8 +206,11 @@ def test_a_goto_run_ships_with_its_ring_and_the_yardsticks(tmp_path, monkeypatch
     ev = info["evaluation"]
     assert ev["goto"]["target_forward_m"] == 0.015 and ev["ring"]["targets"] == 2
     assert ev["yardstick_ring"]["policy"].startswith("steering rotating field")
+    assert ev["ring"]["policy"] == "goto-quick/seed0/checkpoint.pt", ev["ring"]["policy"]
     card = (tmp_path / "shipped" / "goto-test" / "MODEL_CARD.md").read_text()
     assert "Ring of 2 targets" in card and "the steering yardstick:" in card
+    figure = tmp_path / "shipped" / "goto-test" / "ring.png"
+    assert figure.read_bytes().startswith(b"\x89PNG") and "](ring.png)" in card
     assert result["name"] == "goto-test"
 
 
