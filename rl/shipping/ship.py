@@ -516,7 +516,7 @@ def _write_policy_folder(target: Path, policy: LoadedPolicy, info: dict[str, Any
     if card is not None:
         atomic_write_text(target / "MODEL_CARD.md", card)
         written.add("MODEL_CARD.md")
-    for stale in {"critic.pt", "fields.csv", TIP_PATHS_PNG, RING_PNG, "MODEL_CARD.md"} - written:
+    for stale in set(SHIPPED_FILES) - {"actor.pt", POLICY_JSON} - written:  # the optional ones
         (target / stale).unlink(missing_ok=True)  # the replaced policy's, not this one's
 
 
