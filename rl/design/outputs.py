@@ -21,12 +21,15 @@ __all__ = ["judge", "write_outputs"]
 
 
 def judge(design, settings, x: np.ndarray | None, periods: list[float],
-          known: dict[tuple[float, bool], float] | None = None) -> dict[str, Any]:
+          known: dict[tuple[float, bool], float] | None = None,
+          robust_fields: list[tuple[float, bool]] = ()) -> dict[str, Any]:
     """One design (the search vector ``x``; ``None``: the spec's own magnetization) under every
     period (s) in both senses for ``settings.final_duration`` s of ``settings.final_physics``:
     ``sweep`` (period, sense, distance in m), the best rotating field (``distance_m``,
     ``period_s``, ``clockwise``), and for the robust objective ``robust_m`` (the worst over the
-    default variation set with its corners, under that best field) and ``variants``.
+    default variation set with its corners) under the better of that best field and
+    ``robust_fields`` (period s, clockwise: the field the search found for the set), that
+    field (``robust_field``) and its ``variants``.
     ``known``: distances (m, ``nan``: diverged) already measured by the same simulations, by
     ``(period, clockwise)``: not run again."""
     spec = design.base if x is None else design.space.spec_of(design.base, x)
@@ -47,13 +50,26 @@ def judge(design, settings, x: np.ndarray | None, periods: list[float],
               "clockwise": best["clockwise"]}
     variations = variation_set(design.start_spec(), settings.objective, corners=True)
     if variations is not None:
-        robots = variant_specs(design.case, spec, settings.final_physics, variations)
-        varied = run_trials(design.case, [Trial(r, best["period_s"], best["clockwise"]) for r in robots],
-                            settings.final_duration, settings.workers)
-        result["robust_m"] = _worst(list(varied))
-        result["variants"] = [{"variant": v.label, "distance_m": None if math.isnan(d) else float(d)}
-                              for v, d in zip(variations[1], varied, strict=True)]
+        result.update(_robust(design, settings, spec, variations,
+                              [(best["period_s"], best["clockwise"]), *robust_fields]))
     return result
+
+
+def _robust(design, settings, spec: dict[str, Any], variations, fields: list[tuple[float, bool]]
+            ) -> dict[str, Any]:
+    """The worst distance (m) over the robots of ``variations`` under each field (period s,
+    clockwise; the repeated ones once), in one batched simulation: the better field's
+    ``robust_m``, ``robust_field`` and ``variants``."""
+    fields = list(dict.fromkeys((float(p), bool(cw)) for p, cw in fields))
+    robots = variant_specs(design.case, spec, settings.final_physics, variations)
+    varied = run_trials(design.case, [Trial(r, p, cw) for p, cw in fields for r in robots],
+                        settings.final_duration, settings.workers).reshape(len(fields), len(robots))
+    worst = [_worst(list(row)) for row in varied]
+    k = int(np.argmax(worst))  # the first of equals: the nominal robot's best field
+    return {"robust_m": worst[k],
+            "robust_field": {"period_s": fields[k][0], "clockwise": fields[k][1]},
+            "variants": [{"variant": v.label, "distance_m": None if math.isnan(d) else float(d)}
+                         for v, d in zip(variations[1], varied[k], strict=True)]}
 
 
 def _start_sweep(record: dict[str, Any], settings) -> dict[tuple[float, bool], float]:
@@ -71,6 +87,24 @@ def _start_sweep(record: dict[str, Any], settings) -> dict[tuple[float, bool], f
     return known
 
 
+def _search_best(state: SearchState, record: dict[str, Any]) -> dict[str, Any]:
+    """The search's best candidate as a finalist's record (``vector``, its rotating field's
+    ``period_s`` and ``clockwise``): its row of the history, or the start when none beat it."""
+    best = [float(v) for v in state.best_x]
+    found = next((r for r in state.history if r["vector"] == best), record["start"])
+    return {"vector": best, "objective_m": 0.0, "period_s": found.get("period_s"),
+            "clockwise": found.get("clockwise")}
+
+
+def _searched_field(found: dict[str, Any], settings) -> list[tuple[float, bool]]:
+    """The rotating field (period s, clockwise) the robust search found for a design (its start
+    record, or a finalist's), judged beside the nominal robot's best; none for the yardstick
+    objective or a record without one (a search that measured as judged keeps no finalists)."""
+    if settings.objective != "robust" or found.get("period_s") is None or "clockwise" not in found:
+        return []
+    return [(float(found["period_s"]), bool(found["clockwise"]))]
+
+
 def _objective(result: dict[str, Any], objective: str) -> float | None:
     return result.get("robust_m") if objective == "robust" else result["distance_m"]
 
@@ -80,13 +114,14 @@ def write_outputs(folder: Path, design, settings, record: dict[str, Any], state:
     """Judge the starting and the best design, write the result files; the summary."""
     from ..reports.design_figures import plot_convergence, plot_magnetization
 
-    finalists = record.get("finalists") or [{"vector": list(state.best_x), "objective_m": 0.0}]
+    finalists = record.get("finalists") or [_search_best(state, record)]
     chosen = max(finalists, key=lambda r: r["objective_m"])  # the first of equals: the search's best
     best_x = np.asarray(chosen["vector"], dtype=float)
     periods = judged_periods(*settings.final_periods, float(record["start"]["period_s"]),
                              design.space.period(best_x))
-    start = judge(design, settings, None, periods, _start_sweep(record, settings))
-    best = judge(design, settings, best_x, periods)
+    start = judge(design, settings, None, periods, _start_sweep(record, settings),
+                  _searched_field(record["start"], settings))
+    best = judge(design, settings, best_x, periods, robust_fields=_searched_field(chosen, settings))
     objective_start, objective_best = (_objective(start, settings.objective),
                                        _objective(best, settings.objective))
     improved = objective_best is not None and (objective_start is None or objective_best > objective_start)

@@ -83,7 +83,8 @@ END_STAGING = ".msr-end"
 #: The command-line option behind each recorded setting (named when a resume differs).
 SETTING_OPTIONS = {"objective": "--objective", "seed": "--seed", "popsize": "--popsize",
                    "sigma0": "the search's step size (another msr version)",
-                   "search_duration": "--quick", "physics": "--quick", "final_duration": "--quick",
+                   "search_duration": "--quick", "physics": "--search-physics", "finalists": "--finalists",
+                   "final_duration": "--quick",
                    "final_physics": "--quick", "final_periods": "--quick"}
 
 
@@ -547,7 +548,10 @@ def _plain(data: Any) -> Any:
 # -- the search ---------------------------------------------------------------------------------------
 
 def _variation_set(design: Design, settings: DesignSettings) -> VariationSet | None:
-    return variation_set(design.start_spec(), settings.objective, corners=False)
+    """The robots a robust search judges each candidate on: the default set with its corners
+    (25), the set the final judgement uses (without them, the search cannot see the corners
+    where both the magnetization is weak and the moduli stiff, and they set the worst case)."""
+    return variation_set(design.start_spec(), settings.objective, corners=True)
 
 
 def _start(folder: Path, design: Design, settings: DesignSettings, record: dict[str, Any]) -> dict[str, Any]:
@@ -602,7 +606,9 @@ def _search(folder: Path, design: Design, settings: DesignSettings, record: dict
 
     trials = _popsize(state) * 2 * (1 if variations is None else len(variations[1]))
     last = 0.0
-    while not _spent(state, settings, last, trials, float(start.get("wall_s", 0.0))):
+    slower = (design.case.robot_spec(settings.final_physics).steps_per_action
+              / design.case.robot_spec(settings.physics).steps_per_action)
+    while not _spent(state, settings, last, trials, float(start.get("wall_s", 0.0)), slower):
         began = time.perf_counter()
         run_generation(state, design.space, evaluate)
         last = time.perf_counter() - began
@@ -621,10 +627,11 @@ OUTPUT_OVERHEAD_S = 60.0
 
 
 def _spent(state: SearchState, settings: DesignSettings, last_s: float, trials: int,
-           start_s: float) -> bool:
+           start_s: float, slower: float = 1.0) -> bool:
     """Whether the budget (``--minutes``: the whole design, the starting sweep ``start_s`` and
     the final judgement included) leaves no room for another generation (``last_s``, of
-    ``trials`` simulations) and the end."""
+    ``trials`` simulations) and the end (``slower``: the judged physics' time steps per
+    simulated second over the search's)."""
     if settings.generations is not None and state.generation >= settings.generations:
         return True
     if settings.minutes is None:
@@ -632,7 +639,7 @@ def _spent(state: SearchState, settings: DesignSettings, last_s: float, trials: 
     if state.generation == 0:
         return False  # at least one generation
     trial_s = last_s / max(1, trials)  # wall time of one search simulation, the workers busy
-    longer = settings.final_duration / settings.search_duration
+    longer = settings.final_duration / settings.search_duration * slower
     same = settings.search_duration == settings.final_duration and settings.physics == settings.final_physics
     # both senses of the periods, for both designs (the start's reused from the search when it
     # measured the same), and the finalists run again when the search measured less
@@ -640,7 +647,8 @@ def _spent(state: SearchState, settings: DesignSettings, last_s: float, trials: 
     if not same:
         judged += settings.finalists * trials // max(1, _popsize(state))
     if settings.objective == "robust":
-        judged += 2 * 25  # each design's worst case over the default set with its corners
+        # each design's worst case over the default set with its corners, under two fields
+        judged += 2 * 2 * 25
     gait = settings.workers * trial_s * longer  # one rollout, on one core
     end = judged * trial_s * longer + gait + OUTPUT_OVERHEAD_S
     return start_s + state.elapsed_s + last_s + end > 60.0 * settings.minutes

@@ -310,39 +310,39 @@ def _measure(policy: LoadedPolicy, duration: float, progress: bool) -> Measured:
 
 def _ring_figure(case: Case, ring: dict[str, Any], yardstick: dict[str, Any],
                  paths: dict[str, list]) -> bytes:
-    """The top view of a goto policy's ring beside its yardstick's (PNG bytes), drawn in a scratch
-    folder before the policy's folder is touched."""
-    import tempfile
-
+    """The top view of a goto policy's ring beside its yardstick's (PNG bytes)."""
     from ..reports.goto_figures import plot_rings_beside
 
     runs = dict(zip(paths, (ring["targets_table"], yardstick["targets_table"]), strict=True))
+    return _png(plot_rings_beside, runs, paths,
+                title=f"{case.name}: the middle's paths to the ring's {len(ring['targets_table'])} targets "
+                      f"({ring['duration_s']:g} s each, accurate physics)")
+
+
+def _png(plot: Any, runs: dict[str, Any], paths: dict[str, Any], title: str) -> bytes:
+    """``plot(runs, paths, file, title=)``'s figure as PNG bytes, drawn in a scratch folder before
+    the policy's folder is touched."""
+    import tempfile
+
     with tempfile.TemporaryDirectory() as scratch:
-        return plot_rings_beside(
-            runs, paths, Path(scratch) / RING_PNG,
-            title=f"{case.name}: the middle's paths to the ring's {len(ring['targets_table'])} targets "
-                  f"({ring['duration_s']:g} s each, accurate physics)").read_bytes()
+        return plot(runs, paths, Path(scratch) / "figure.png", title=title).read_bytes()
 
 
 def _measure_tip_reach(policy: LoadedPolicy, duration: float) -> Measured:
     """A tip-reach policy judged as the case is (:func:`~.tip_reach.judge_held_out`): its case's
     held-out targets in the accurate physics, each for the task's episode (``duration`` s at
     most), beside the case's yardstick on the same targets; the tip's paths of both drawn."""
-    import tempfile
-
     from ..reports.goto_figures import plot_tip_paths_beside
     from .tip_reach import judge_held_out
 
     paths: dict[str, np.ndarray] = {}
     judged = judge_held_out(policy.case, policy.actor, duration, with_yardstick=True, paths=paths)
     seconds = judged.pop("duration_s")
-    with tempfile.TemporaryDirectory() as scratch:  # drawn before the policy's folder is touched
-        figure = plot_tip_paths_beside(
-            {"this policy": judged["policy"], "the steering yardstick": judged["yardstick"]},
-            {"this policy": paths["policy"], "the steering yardstick": paths["yardstick"]},
-            Path(scratch) / TIP_PATHS_PNG,
-            title=f"{policy.case.name}: the tip's paths to the {len(judged['policy']['targets_m'])} held-out "
-                  f"targets ({seconds:g} s, accurate physics)").read_bytes()
+    figure = _png(plot_tip_paths_beside,
+                  {"this policy": judged["policy"], "the steering yardstick": judged["yardstick"]},
+                  {"this policy": paths["policy"], "the steering yardstick": paths["yardstick"]},
+                  title=f"{policy.case.name}: the tip's paths to the {len(judged['policy']['targets_m'])} "
+                        f"held-out targets ({seconds:g} s, accurate physics)")
     return Measured({"duration_s": seconds, "physics": "accurate", "machine": machine_fingerprint(),
                      "tip_reach": judged}, figure=figure)
 

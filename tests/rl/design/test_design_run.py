@@ -151,10 +151,16 @@ def test_bad_options_are_refused_before_any_work(tmp_path, capsys):
     path = tmp_path / "my.toml"
     path.write_text(dumps(spec))
     for argv, named in (([str(path)], "[design] segments: must be <= 12"),
-                        (["m1-4mT", "--popsize", "1"], "--popsize")):
+                        (["m1-4mT", "--popsize", "1"], "--popsize"),
+                        (["m1-4mT", "--search-physics", "fast"], "--search-physics"),
+                        (["m1-4mT", "--finalists", "0"], "--finalists")):
         with pytest.raises(SystemExit) as refused:  # as the options are parsed
             msr(["design", *argv, "--out", str(tmp_path / "d")])
         assert refused.value.code == 2 and named in capsys.readouterr().err
+    assert not (tmp_path / "d").exists()
+    # finalists are the accurate judgement of a search run in the training physics: alone, nothing
+    assert msr(["design", "m1-4mT", "--finalists", "3", "--out", str(tmp_path / "d")]) == 2
+    assert "--finalists 3: acts only with --search-physics training" in capsys.readouterr().err
     assert not (tmp_path / "d").exists()
 
 
@@ -225,6 +231,32 @@ def test_the_robust_objective_runs_on_a_pattern_robot(tmp_path):
     best = summary["best"]
     assert len(best["variants"]) == 25 and best["robust_m"] == min(
         v["distance_m"] for v in best["variants"])
+
+
+def test_the_robust_search_sees_the_corners_and_its_judgement_the_searched_field(tmp_path):
+    """Issue 52: the robust search judged each candidate on 9 robots (no corners) and the end
+    judged the 25 robots under the nominal robot's best field only: the weak-and-stiff corners,
+    which set the worst case, were never searched for, and a design found for slow rotations was
+    judged under a fast one. Now the search sees the 25 robots, and the judgement takes the
+    better of the nominal best field and the field the search found."""
+    from elastica_magnetic_rl.design.run import _variation_set, load_design
+    from elastica_magnetic_rl.design.search import _worst, variant_specs
+
+    design = load_design("m1-4mT")
+    robust = DesignSettings(**{**TINY.__dict__, "objective": "robust", "generations": 1, "popsize": 2,
+                               "search_duration": 0.2, "finalists": 2})
+    variations = _variation_set(design, robust)
+    assert len(variations[1]) == 25 and sum(v.kind == "corner" for v in variations[1]) == 16
+    summary = run_design("m1-4mT", tmp_path / "robust", robust)
+    record = json.loads((tmp_path / "robust" / "design.json").read_text())
+    best = summary["best"]
+    searched = record["finalists"][summary["search"]["chosen_finalist"]]
+    fields = {(best["period_s"], best["clockwise"]), (searched["period_s"], searched["clockwise"])}
+    spec = design.space.spec_of(design.base, np.array(searched["vector"]))
+    robots = variant_specs(design.case, spec, "training", variations)
+    worst = {f: _worst(list(run_trials(design.case, [Trial(r, *f) for r in robots], 0.3))) for f in fields}
+    chosen = (best["robust_field"]["period_s"], best["robust_field"]["clockwise"])
+    assert best["robust_m"] == worst[chosen] == max(worst.values())
 
 
 def test_a_design_interrupted_in_its_first_generation_resumes(tmp_path, monkeypatch):
@@ -372,6 +404,9 @@ def test_a_resume_with_other_options_names_the_option(tmp_path):
     longer = DesignSettings(**{**TINY.__dict__, "final_duration": 10.0})
     with pytest.raises(DesignError, match=r"--quick: given in one and not the other"):
         run_design("m1-4mT", out, longer, resume=True)
+    accurate = DesignSettings(**{**TINY.__dict__, "physics": "accurate"})
+    with pytest.raises(DesignError, match=r"--search-physics: 'training' then, 'accurate' now"):
+        run_design("m1-4mT", out, accurate, resume=True)
     with pytest.raises(DesignError, match=r"another spec \(case m1-4mT then, m2-4mT now; first difference"
                                           r".*resume it with its own spec \(case m1-4mT\), or choose another "
                                           r"--out for this one"):  # round 37, V1: --force refused it
