@@ -109,9 +109,11 @@ def _objective(result: dict[str, Any], objective: str) -> float | None:
     return result.get("robust_m") if objective == "robust" else result["distance_m"]
 
 
-def write_outputs(folder: Path, design, settings, record: dict[str, Any], state: SearchState
-                  ) -> dict[str, Any]:
-    """Judge the starting and the best design, write the result files; the summary."""
+def write_outputs(folder: Path, design, settings, record: dict[str, Any], state: SearchState,
+                  final: Path | None = None) -> dict[str, Any]:
+    """Judge the starting and the best design, write the result files into ``folder`` (their
+    paths recorded as under ``final``, where they are moved after, default ``folder``); the
+    summary."""
     from ..reports.design_figures import plot_convergence, plot_magnetization
 
     finalists = record.get("finalists") or [_search_best(state, record)]
@@ -158,7 +160,7 @@ def write_outputs(folder: Path, design, settings, record: dict[str, Any], state:
     plot_magnetization(start_robot.magnetization, best_case.robot_spec("accurate").magnetization,
                        start_robot.length, folder / "magnetization.png")
     atomic_write_text(folder / "report.md", _report(summary))
-    _write_gait(folder / "gait", best_case, best, settings)
+    _write_gait(folder / "gait", best_case, best, settings, (final or folder) / "gait")
     return summary
 
 
@@ -178,19 +180,35 @@ def _best_case(design, x, best: dict[str, Any], settings, name: str):
                            f"searched ({settings.objective} objective). Started from: {origin}")
     if isinstance(spec["robot"].get("name"), str):
         spec["robot"]["name"] = f"{spec['robot']['name']}-designed"
-    turn = "clockwise" if best["clockwise"] else "counter-clockwise"
+    field = played_field(best, settings.objective)
+    turn = "clockwise" if field["clockwise"] else "counter-clockwise"
     measured = settings.final_physics == "accurate" and abs(settings.final_duration - EVAL_DURATION) < 1e-9
     # a yardstick is 10 s of the accurate physics: a smoke run's (--quick) distance would be taken
     # by msr train and case check as the robot's 10 s target; the best.toml then has none
     spec.pop("yardstick", None)  # the starting robot's yardstick is of another magnetization
-    if measured and best["distance_m"] is not None and best["distance_m"] > 0:
+    if measured and field["distance_m"] is not None and field["distance_m"] > 0:
         spec["yardstick"] = {
-            "distance_10s": float(best["distance_m"]),
-            "source": (f"msr design: the best rotating field of the designed robot, {turn}, period "
-                       f"{best['period_s']:.4g} s, {1e3 * best['distance_m']:+.1f} mm in "
+            "distance_10s": float(field["distance_m"]),
+            "source": (f"msr design: {field['words']} of the designed robot, {turn}, period "
+                       f"{field['period_s']:.4g} s, {1e3 * field['distance_m']:+.1f} mm in "
                        f"{settings.final_duration:g} s, {settings.final_physics} physics, field from zero"),
-            "period": float(best["period_s"]), "clockwise": bool(best["clockwise"])}
+            "period": float(field["period_s"]), "clockwise": bool(field["clockwise"])}
     return case_from_dict(spec, "best.toml", name)
+
+
+def played_field(result: dict[str, Any], objective: str) -> dict[str, Any]:
+    """The rotating field a judged design is meant to be driven by: for ``yardstick`` its best
+    (the farthest, nominal robot), for ``robust`` the one with the best worst case over the
+    variation set (``robust_field``); its ``period_s``, ``clockwise``, the nominal robot's
+    ``distance_m`` (m) under it and ``words`` saying which it is."""
+    if objective != "robust" or "robust_field" not in result:
+        return {"period_s": result["period_s"], "clockwise": result["clockwise"],
+                "distance_m": result["distance_m"], "words": "the best rotating field"}
+    nominal = next(v["distance_m"] for v in result["variants"] if v["variant"] == "nominal")
+    return {**result["robust_field"], "distance_m": nominal,
+            "words": ("the rotating field with the best worst case over the default fabrication "
+                      f"errors ({millimetres(result['robust_m'])} in the worst of "
+                      f"{len(result['variants'])} robots)")}
 
 
 def _best_toml(case, design, settings, state: SearchState) -> str:
@@ -223,6 +241,8 @@ def _report(summary: dict[str, Any]) -> str:
         lines.append(f"| {label} | {millimetres(obj)} | {millimetres(r['distance_m'])} | "
                      f"{r['period_s']:.3g} s | "
                      f"{turn[r['clockwise']]} |")
+    if "robust_m" in b:
+        lines += _robust_lines(s, b)
     ratio = summary["ratio"]
     lines += ["", f"Ratio best / start: {ratio:.2f}x." if ratio else "Ratio: undefined (the start "
               "does not move ahead).",
@@ -244,14 +264,35 @@ def _report(summary: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _write_gait(out: Path, case, best: dict[str, Any], settings) -> None:
-    """The best design under its best rotating field, as ``msr field baseline`` writes it."""
+def _robust_lines(start: dict[str, Any], best: dict[str, Any]) -> list[str]:
+    """The report's table of both designs' worst cases (robust objective)."""
+    turn = {True: "clockwise", False: "counter-clockwise"}
+    lines = ["", f"Objective: the worst of the {len(best['variants'])} robots of the default fabrication "
+             "errors (corners included) under the better of the nominal best field and the field the "
+             "search found:", "", "| design | worst | its field | worst robot |", "|---|---|---|---|"]
+    for label, r in (("start", start), ("best", best)):
+        worst = min(r["variants"], key=lambda v: -math.inf if v["distance_m"] is None else v["distance_m"])
+        field = r["robust_field"]
+        lines.append(f"| {label} | {millimetres(r['robust_m'])} | {field['period_s']:.3g} s, "
+                     f"{turn[field['clockwise']]} | {worst['variant']} |")
+    return lines
+
+
+def _write_gait(out: Path, case, best: dict[str, Any], settings, final: Path) -> None:
+    """The best design under its field (:func:`played_field`), as ``msr field baseline`` writes it,
+    into ``out``; ``generate.json`` names its files where they will be, under ``final``."""
+    import json
+
     from ..envs.yardsticks import RotatingFieldPolicy
     from ..shipping.generate import Pictures, generate
 
-    policy = RotatingFieldPolicy(case, best["period_s"], best["clockwise"])
-    generate(policy, out=out, duration=settings.final_duration, physics=settings.final_physics,
-             progress=False, pictures=Pictures(gif=settings.gif), force=True, kind="baseline")
+    field = played_field(best, settings.objective)
+    policy = RotatingFieldPolicy(case, field["period_s"], field["clockwise"])
+    result = generate(policy, out=out, duration=settings.final_duration, physics=settings.final_physics,
+                      progress=False, pictures=Pictures(gif=settings.gif), force=True, kind="baseline")
+    written = str(Path(result["gait_csv"]).parent)  # as generate names the folder
+    moved = json.dumps(result, default=str).replace(written, str(final.resolve()))
+    atomic_write_json(out / "generate.json", json.loads(moved))
 
 
 def judged_periods(*periods: float) -> list[float]:

@@ -402,7 +402,7 @@ def _end(folder: Path, design: Design, settings: DesignSettings, record: dict[st
     remove_tree(staging)
     try:
         staging.mkdir()
-        summary = write_outputs(staging, design, settings, record, state)
+        summary = write_outputs(staging, design, settings, record, state, folder)
     except (OSError, OutputPathError) as exc:
         remove_tree(staging)
         text = str(exc).replace(str(staging), str(folder))

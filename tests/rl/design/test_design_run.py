@@ -257,6 +257,15 @@ def test_the_robust_search_sees_the_corners_and_its_judgement_the_searched_field
     worst = {f: _worst(list(run_trials(design.case, [Trial(r, *f) for r in robots], 0.3))) for f in fields}
     chosen = (best["robust_field"]["period_s"], best["robust_field"]["clockwise"])
     assert best["robust_m"] == worst[chosen] == max(worst.values())
+    # the design is meant for that field: its gait is drawn under it, the report names both worst cases
+    gait = json.loads((tmp_path / "robust" / "gait" / "generate.json").read_text())
+    turn = "clockwise" if chosen[1] else "counter-clockwise"
+    assert gait["policy"] == f"rotating field, {turn}, period {chosen[0]:g} s"
+    # its files are named where they are, not where the end was staged (they named .msr-end/gait)
+    assert Path(gait["trajectory_csv"]).is_file() and Path(gait["fields_csv"]).parent == (
+        tmp_path / "robust" / "gait").resolve()
+    report = (tmp_path / "robust" / "report.md").read_text()
+    assert "| design | worst | its field | worst robot |" in report and report.count("| start |") == 2
 
 
 def test_a_design_interrupted_in_its_first_generation_resumes(tmp_path, monkeypatch):
