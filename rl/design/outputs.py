@@ -60,7 +60,8 @@ def _robust(design, settings, spec: dict[str, Any], variations, fields: list[tup
     """The worst distance (m) over the robots of ``variations`` under each field (period s,
     clockwise; the repeated ones once), in one batched simulation: the better field's
     ``robust_m``, ``robust_field`` and ``variants``."""
-    fields = list(dict.fromkeys((float(p), bool(cw)) for p, cw in fields))
+    # to 12 digits as the sweep's periods (a searched period is 5.999999999999999 s)
+    fields = list(dict.fromkeys((float(f"{p:.12g}"), bool(cw)) for p, cw in fields))
     robots = variant_specs(design.case, spec, settings.final_physics, variations)
     varied = run_trials(design.case, [Trial(r, p, cw) for p, cw in fields for r in robots],
                         settings.final_duration, settings.workers).reshape(len(fields), len(robots))

@@ -251,7 +251,8 @@ def test_the_robust_search_sees_the_corners_and_its_judgement_the_searched_field
     record = json.loads((tmp_path / "robust" / "design.json").read_text())
     best = summary["best"]
     searched = record["finalists"][summary["search"]["chosen_finalist"]]
-    fields = {(best["period_s"], best["clockwise"]), (searched["period_s"], searched["clockwise"])}
+    fields = {(float(f"{period:.12g}"), clockwise) for period, clockwise in (  # the sweep's digits
+        (best["period_s"], best["clockwise"]), (searched["period_s"], searched["clockwise"]))}
     spec = design.space.spec_of(design.base, np.array(searched["vector"]))
     robots = variant_specs(design.case, spec, "training", variations)
     worst = {f: _worst(list(run_trials(design.case, [Trial(r, *f) for r in robots], 0.3))) for f in fields}
