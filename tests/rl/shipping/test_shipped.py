@@ -18,7 +18,8 @@ PAPER_CASES = ("m1-10mT", "m1-4mT", "m2-10mT", "m2-4mT")
 #: Each paper case's waveform for the robots a lab may build (``<case>-robust``: a policy of the
 #: case, fine-tuned on randomized robots; docs/sim_to_real.md).
 ROBUST = tuple(f"{case}-robust" for case in PAPER_CASES)
-SHIPPED = tuple(sorted(("hu2018-crawl", "m1-4mT-reach", "m1-4mT-designed", *PAPER_CASES, *ROBUST)))
+SHIPPED = tuple(sorted(("hu2018-crawl", "m1-4mT-reach", "m1-4mT-designed", "m1-4mT-designed-robust",
+                        *PAPER_CASES, *ROBUST)))
 #: The shipped tip-reach policies (catheters steered by a source: no waveform, judged on their
 #: case's held-out targets).
 TIP_REACH_SHIPPED = ("catheter-coils-reach", "catheter-magnet-reach")
