@@ -570,11 +570,9 @@ def _main(argv: Sequence[str] | None = None) -> int:
     return int(status or 0)
 
 
-#: Options of earlier releases that were removed, by (command, option): why, for the error.
-REMOVED_OPTIONS: dict[tuple[str, str], str] = {
-    ("design", "--finalists"): "--finalists was removed: the search measures the judged 10 s "
-                               "itself, so no finalists are run again",
-}
+#: Options of earlier releases that were removed, by (command, option): why, for the error
+#: (``msr design --finalists`` was one until ``--search-physics training`` gave it a use again).
+REMOVED_OPTIONS: dict[tuple[str, str], str] = {}
 
 
 def _unrecognized(parser: argparse.ArgumentParser, command: str, extras: list[str]) -> None:
