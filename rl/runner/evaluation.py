@@ -170,12 +170,16 @@ class PeriodicEvaluation:
         if not self.restore_best:
             self.best_path.unlink(missing_ok=True)
 
+    @property
+    def warmup_end(self) -> int:
+        """The step before which no periodic evaluation falls: a warm-up the yardstick plays leaves
+        the actor untrained until its clone, evaluated at the warm-up's end (an untrained actor must
+        not be best.pt); 0 without such a warm-up."""
+        return self.cfg.learning_starts if self.cfg.yardstick_warmup else 0
+
     def _next(self, global_step: int) -> int:
         every = max(self.cfg.eval_every, 1)
-        # a warm-up the yardstick plays leaves the actor untrained until its clone, evaluated at the
-        # warm-up's end: no periodic evaluation falls in it (an untrained actor must not be best.pt)
-        start = self.cfg.learning_starts if self.cfg.yardstick_warmup else 0
-        return (max(global_step, start) // every + 1) * every
+        return (max(global_step, self.warmup_end) // every + 1) * every
 
     def due(self, global_step: int) -> bool:
         return self.enabled and global_step >= self.next_step

@@ -466,7 +466,8 @@ class GroupLoop:
         lead = self.lead
         estimate = self.progress.estimate(self.timing, lead.global_step, lead.steps,
                                           sum(not r.stopped for r in self.runs), self.cfg.eval_every
-                                          if lead.evaluation.enabled else 0, lead.evaluation.last_step)
+                                          if lead.evaluation.enabled else 0, lead.evaluation.last_step,
+                                          lead.evaluation.warmup_end)
         if lead.bar is not None and not getattr(lead.bar, "disable", True):
             base = self.bar_desc.get(id(lead), "")
             lead.bar.set_description_str(f"{base} | {GroupProgress.describe(estimate)}".lstrip(" |"),

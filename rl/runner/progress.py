@@ -15,12 +15,17 @@ from collections.abc import Mapping
 __all__ = ["GroupProgress", "evaluations_left", "format_duration"]
 
 
-def evaluations_left(step: int, steps: int, eval_every: int, last_eval_step: int) -> int:
+def evaluations_left(step: int, steps: int, eval_every: int, last_eval_step: int,
+                     warmup_end: int = 0) -> int:
     """Evaluation rounds still to come after ``step`` for a budget of ``steps``: one at the first
     episode boundary at or after each multiple of ``eval_every`` still ahead, and the last one at
-    ``steps`` (unless a periodic one falls there). 0 without evaluations."""
+    ``steps`` (unless a periodic one falls there). Before ``warmup_end`` (the end of a warm-up the
+    yardstick plays, :attr:`~elastica_magnetic_rl.runner.evaluation.PeriodicEvaluation.warmup_end`)
+    none falls but the clone's, at its end. 0 without evaluations."""
     if eval_every <= 0 or step >= steps:
         return 0
+    if step < warmup_end:
+        return 1 + evaluations_left(warmup_end, steps, eval_every, warmup_end)
     next_multiple = (max(step, last_eval_step) // eval_every + 1) * eval_every
     periodic = 0 if next_multiple > steps else (steps - next_multiple) // eval_every + 1
     return periodic + (0 if steps % eval_every == 0 and periodic else 1)
@@ -51,7 +56,7 @@ class GroupProgress:
         self.rounds += 1
 
     def estimate(self, timing: Mapping[str, float], step: int, steps: int, seeds: int,
-                 eval_every: int, last_eval_step: int) -> dict[str, float]:
+                 eval_every: int, last_eval_step: int, warmup_end: int = 0) -> dict[str, float]:
         """``rate`` (environment steps per second of the whole group, all ``seeds``),
         ``eval_s`` (s per evaluation round; nan before the first), ``evals_left`` and ``eta_s``
         (s, the evaluations left included; before the first round they are counted at 0 s)."""
@@ -60,7 +65,7 @@ class GroupProgress:
         rate = seeds * done / train if train > 0 and done > 0 else math.nan
         eval_s = (float(timing.get("evaluation", 0.0)) - self.start_eval) / self.rounds \
             if self.rounds else math.nan
-        left = evaluations_left(step, steps, eval_every, last_eval_step)
+        left = evaluations_left(step, steps, eval_every, last_eval_step, warmup_end)
         eta = seeds * max(0, steps - step) / rate if rate > 0 else math.nan
         eta += left * (eval_s if math.isfinite(eval_s) else 0.0)
         return {"rate": rate, "eval_s": eval_s, "evals_left": left, "eta_s": eta}

@@ -16,6 +16,14 @@ def test_evaluations_left_follow_the_schedule():
     assert evaluations_left(0, 1000, 0, -1) == 0 and evaluations_left(1000, 1000, 100, 1000) == 0
 
 
+def test_no_evaluation_is_counted_in_a_warm_up_the_yardstick_plays():
+    # the m1-4mT-goto schedule: a 36000-step warm-up, evaluations every 2000 steps, 42100 steps:
+    # the clone's at 36000, then 38000, 40000, 42000 and the last at 42100 (not 21 rounds)
+    assert evaluations_left(0, 42_100, 2000, -1, warmup_end=36_000) == 5
+    assert evaluations_left(36_000, 42_100, 2000, 36_000, warmup_end=36_000) == 4
+    assert evaluations_left(0, 42_100, 2000, -1) == 22  # without a warm-up: every multiple of 2000
+
+
 def test_the_eta_counts_training_at_its_rate_and_each_evaluation_at_its_cost():
     timing = {"act": 0.0, "env": 0.0, "update": 0.0, "evaluation": 0.0}
     progress = GroupProgress(timing, start_step=0)
