@@ -125,11 +125,17 @@ def case_list_command(args: argparse.Namespace) -> int:
     if args.json:
         print_result({"cases": rows}, True)
     else:
-        for r in rows:
-            actuation = ({"magnet-pose": "magnet", "coil-currents": "coils"}[r["actuation"]]
-                         if r["field_limit_mT"] is None else f"{r['field_limit_mT']:g} mT")
-            print(f"{r['name']:<14} {r['robot']:<12} {r['magnetization']:<18} "
-                  f"{actuation:>8}  {r['task']:<6} target {r['target']}")
+        columns = [[r["name"], r["robot"], r["magnetization"],
+                    {"magnet-pose": "magnet", "coil-currents": "coils"}[r["actuation"]]
+                    if r["field_limit_mT"] is None else f"{r['field_limit_mT']:g} mT", r["task"]]
+                   for r in rows]
+        # each column as wide as its longest entry (a user's case may have a long name)
+        widths = [max(len(row[i]) for row in columns) for i in range(5)] if columns else []
+        for r, row in zip(rows, columns, strict=True):
+            name, robot, magnetization, actuation, task = (
+                value.rjust(width) if i == 3 else value.ljust(width)
+                for i, (value, width) in enumerate(zip(row, widths, strict=True)))
+            print(f"{name} {robot} {magnetization} {actuation}  {task} target {r['target']}")
     return 0
 
 

@@ -82,3 +82,14 @@ def test_a_full_standard_output_is_named_as_standard_output():
     assert process.returncode == 2
     assert err.strip() == ("msr case list: error: cannot write to standard output: No space left "
                            "on device (where it is redirected to)"), err
+
+
+def test_the_case_list_is_a_table_whose_columns_align(capsys):
+    """The case names of the catheters (21 characters) pushed their rows' columns past the others'."""
+    assert main(["case", "list"]) == 0
+    lines = [line for line in capsys.readouterr().out.splitlines() if line.strip()]
+    assert len(lines) >= 2
+    assert len({line.index(" target ") for line in lines}) == 1, lines
+    # the robot column starts at the same place in every row, after the longest name
+    longest = max(len(line.split()[0]) for line in lines)
+    assert all(line[longest] == " " and line[longest + 1] != " " for line in lines), lines
