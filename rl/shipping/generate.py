@@ -243,8 +243,8 @@ def _top_view(rollout, task: GotoTask, result: dict[str, Any], path: Path) -> Pa
     what = f"{reached} of {len(targets)} waypoints reached" if "waypoints" in result else (
         f"{1e3 * goto['final_distance_to_target_m']:.2f} mm from the target at the end")
     return plot_top_view(rollout.positions[:, [0, 2], mid], targets, task.tolerance, path,
-                         title=f"{result['case']}: {what} ({result['physics']} physics, "
-                               f"{result['duration_s']:g} s)")
+                         title=f"{result['case']}: {what}\n({result['physics']} physics, "
+                               f"{result['duration_s']:g} s)")  # two lines: one overran the figure
 
 
 def _final_paths(result: dict[str, Any], folder) -> dict[str, Any]:
