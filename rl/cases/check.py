@@ -15,7 +15,7 @@ from elastica_magnetic.plausibility import ImplausibleValueWarning
 from elastica_magnetic.spec_check import Issue, SpecCheck, check_robot, check_spec, format_check
 from elastica_magnetic.specfile import describe_robot, read_spec
 
-from .case import Case, case_names, load_case, warmup_refusal
+from .case import CASE_UNITS, Case, case_names, load_case, warmup_refusal
 from .field_actuation import Actuation
 
 __all__ = ["RobotOnlySpec", "case_summary", "check_case", "check_robot_only", "check_with_warnings",
@@ -130,19 +130,43 @@ def case_summary(case: Case, check: SpecCheck | None = None) -> str:
     yardstick, then the robot's check (``check``, default :func:`check_case` without the sag
     simulations). Per-element tables are summarized, not listed."""
     t, tr = case.task, case.training
-    task = ", ".join(f"{k} {v:g}" if isinstance(v, float) else f"{k} {v}"
-                     for k, v in t.to_dict().items() if k != "kind")
+    task = _settings_text({k: v for k, v in t.to_dict().items() if k != "kind"}, "task")
     lines = [
         f"{case.name}: {case.description}" if case.description else case.name,
         f"  actuation    {_actuation_text(case)}",
         f"  task         {t.kind} ({task})",
         f"  training     recipe {tr.recipe}, {tr.steps} steps per seed"
-        + (f", TD3 settings {dict(tr.td3)}" if tr.td3 else ""),
+        + (f", TD3 settings: {_settings_text(tr.td3, 'training.td3')}" if tr.td3 else ""),
         f"  target       {case.target_label}" + (f" ({case.yardstick.source})"
                                                  if case.yardstick.source else ""),
     ]
     check = check if check is not None else check_case(case, sag=False)
     return "\n".join(lines) + "\n" + format_check(check)
+
+
+def _settings_text(values: Mapping[str, Any], table: str) -> str:
+    """``key value unit, ...`` of a table's settings for people: numbers to 6 digits, lists in
+    brackets, each with its unit where the case tables name one (the unit alone, not its gloss)."""
+    def shown(value: Any) -> str:
+        if isinstance(value, bool):
+            return "yes" if value else "no"
+        if isinstance(value, float):
+            return f"{value:.6g}"
+        if isinstance(value, (list, tuple)):
+            return "[" + ", ".join(shown(v) for v in value) + "]"
+        return str(value)
+
+    parts = []
+    for key, value in values.items():
+        gloss = CASE_UNITS.get((table, key), "").split(",")[0]
+        unit = gloss if gloss in SHORT_UNITS else (gloss.split() or [""])[0]
+        unit = unit if unit in SHORT_UNITS else ""
+        parts.append(f"{key} {shown(value)}" + (f" {unit}" if unit else ""))
+    return ", ".join(parts)
+
+
+#: The units :func:`_settings_text` writes after a value (a longer gloss stays in the spec's comments).
+SHORT_UNITS = ("m", "s", "rad", "T", "Hz", "A", "A/s", "m/s", "rad/s", "A m^2", "per m")
 
 
 def _actuation_text(case: Case) -> str:

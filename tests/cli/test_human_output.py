@@ -41,6 +41,7 @@ def test_nested_results_are_lines_not_reprs(tmp_path, monkeypatch):
 @pytest.mark.parametrize("argv", [
     ["case", "list"],
     ["case", "show", "m1-4mT"],
+    ["case", "show", "m1-4mT-goto"],  # its [training.td3] table was printed as a dict
     ["field", "simulate", "--duration", "0.02", "--physics", "training", "--out", "{tmp}/sim"],
     ["field", "replay", str(FIELD_CSV), "--duration", "0.02", "--physics", "training", "--out",
      "{tmp}/replay"],
@@ -51,7 +52,7 @@ def test_nested_results_are_lines_not_reprs(tmp_path, monkeypatch):
     ["real", "firmware", str(FIELD_CSV), "--calibration", str(CALIBRATION), "--out", "{tmp}/fw"],
     ["real", "robustness", "m1-4mT", "--duration", "0.02", "--no-corners", "--workers", "1", "--out",
      "{tmp}/rob", "--no-progress"],
-], ids=lambda argv: " ".join(argv[:2]))
+], ids=lambda argv: " ".join(argv[:3] if argv[1] == "show" else argv[:2]))
 def test_no_command_prints_a_repr(argv, tmp_path, capsys):
     assert main([a.replace("{tmp}", str(tmp_path)) for a in argv]) == 0
     out = capsys.readouterr().out
@@ -93,3 +94,10 @@ def test_the_case_list_is_a_table_whose_columns_align(capsys):
     # the robot column starts at the same place in every row, after the longest name
     longest = max(len(line.split()[0]) for line in lines)
     assert all(line[longest] == " " and line[longest + 1] != " " for line in lines), lines
+
+
+def test_case_show_gives_the_task_settings_their_units(capsys):
+    assert main(["case", "show", "m1-4mT-goto"]) == 0
+    task = next(line for line in capsys.readouterr().out.splitlines() if line.strip().startswith("task"))
+    assert "distance 0.015 m," in task and "tolerance 0.002 m," in task and "episode_duration 30 s" in task
+    assert "angle_low -3.14159 rad" in task
