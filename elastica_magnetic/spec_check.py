@@ -243,7 +243,8 @@ def check_spec(spec: Mapping[str, Any], source: str = "<spec>", *, sag: bool = T
     task = spec.get("task")
     task_kind = task.get("kind") if isinstance(task, Mapping) else None
     yardstick: Any = None
-    if isinstance(spec.get("yardstick"), Mapping):
+    # distance_10s judges a crawl; other tasks are judged otherwise (a ring of targets, a box...)
+    if isinstance(spec.get("yardstick"), Mapping) and task_kind in (None, "crawl"):
         table = SpecTable(spec["yardstick"], source, "yardstick")
         yardstick = table.number("distance_10s", "m", None)
     name = spec.get("name") if isinstance(spec.get("name"), str) else description.name

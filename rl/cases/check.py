@@ -113,7 +113,8 @@ def check_case(case: Case, sag: bool = True) -> SpecCheck:
     field = (case.field_limit if case.field_actuated else
              case.actuation.field_at_tip(float(case.robot.tables["robot"]["length"])))
     check = check_robot(case.robot, field_limit=field, task_kind=case.task.kind,
-                        yardstick_m=case.yardstick.distance_10s if case.field_actuated else None,
+                        # distance_10s judges a crawl; goto and reach are judged on their targets
+                        yardstick_m=case.yardstick.distance_10s if case.task.kind == "crawl" else None,
                         name=case.name, source=str(case.source), sag=sag,
                         field_name="field limit" if case.field_actuated else case.actuation.tip_field_words)
     refusal = warmup_refusal(case)

@@ -101,3 +101,14 @@ def test_case_show_gives_the_task_settings_their_units(capsys):
     task = next(line for line in capsys.readouterr().out.splitlines() if line.strip().startswith("task"))
     assert "distance 0.015 m," in task and "tolerance 0.002 m," in task and "episode_duration 30 s" in task
     assert "angle_low -3.14159 rad" in task
+
+
+def test_the_yardstick_line_is_a_crawl_cases_alone(capsys, tmp_path):
+    """A goto case printed "yardstick 0 mm in 10 s": it is judged on a ring of targets, not on a distance."""
+    assert main(["case", "show", "m1-4mT-goto"]) == 0
+    assert "  yardstick " not in capsys.readouterr().out
+    assert main(["case", "show", "m1-4mT"]) == 0
+    assert "  yardstick    20.5 mm in 10 s" in capsys.readouterr().out
+    spec = REPO / "rl" / "specs" / "m1-4mT-goto.toml"
+    assert main(["case", "check", str(spec), "--no-sag"]) == 0
+    assert "  yardstick " not in capsys.readouterr().out
