@@ -12,6 +12,7 @@ from .app import (
     build_parser,
     command_name,
     duration_option,
+    heading_option,
     interrupted_message,
     listed_commands,
     main,
@@ -22,5 +23,5 @@ from .app import (
 )
 
 __all__ = ["COMMAND_MODULES", "GROUPS", "OUTPUT_TYPES", "CommandError", "build_parser",
-           "command_name", "duration_option", "interrupted_message", "listed_commands", "main", "number",
-           "output_path", "print_notes", "print_result"]
+           "command_name", "duration_option", "heading_option", "interrupted_message", "listed_commands",
+           "main", "number", "output_path", "print_notes", "print_result"]

@@ -132,6 +132,24 @@ def number(
     return parse
 
 
+def heading_option(text: str) -> float:
+    """An argparse ``type`` for a heading (``--heading``): an angle in rad within one turn; a value of
+    degrees is named as such."""
+    value = number("rad", -2 * math.pi, 2 * math.pi)
+    try:
+        return value(text)
+    except argparse.ArgumentTypeError as exc:
+        try:
+            degrees = float(text)
+        except ValueError:
+            raise exc from None
+        if math.isfinite(degrees) and abs(degrees) <= 360.0:
+            raise argparse.ArgumentTypeError(
+                f"{exc}: degrees? give rad ({degrees:g} degrees = {math.radians(degrees):.6g} rad)"
+            ) from None
+        raise
+
+
 def output_path(text: str) -> Path:
     """The argparse ``type`` of every option naming where a command writes (``--out``,
     ``--figure``, ``--log``, ...): the one path rule. The path is made absolute and normalized once,

@@ -21,7 +21,7 @@ from ..progress import progress_bar
 from ..results import result_folder
 from ..spatial_fields import FieldSum
 from ..specfile import SpecError, actuation_kind_of, axis_limits_of, field_limit_of, load_robot
-from .app import CommandError, duration_option, number, output_path, print_notes, print_result
+from .app import CommandError, duration_option, heading_option, number, output_path, print_notes, print_result
 
 ROBOT_HELP = (f"a preset ({', '.join(ROBOTS)}) or a spec file (.toml, e.g. from "
               "`msr case show m1-4mT --toml`); default yao2023-m1")
@@ -97,7 +97,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--ramp", type=number("s", 0.0), default=None,
                    help="amplitude ramp-up time, s (0: none; at most --duration; default 0.2 or "
                    "--duration if shorter)")
-    p.add_argument("--heading", type=_heading, default=None,
+    p.add_argument("--heading", type=heading_option, default=None,
                    help="turn the rotation plane about the vertical (y) axis, rad, counter-"
                    "clockwise seen from above (default 0: the x-y plane; 1.5708, i.e. 90 degrees: "
                    "the y-z plane, which rolls the robot sideways toward -z); needs the third "
@@ -307,23 +307,6 @@ def _note_sideways_model(spec, field_leaves_plane: bool) -> None:
               "\"rolling\" (the default): the band rolls sideways like a round rod; set sideways = "
               "\"sliding\" to model a flat band that cannot roll (see the spec format's "
               "[robot.ground])", file=sys.stderr)
-
-
-def _heading(text: str) -> float:
-    """``--heading``: an angle in rad within one turn; a value of degrees is named as such."""
-    value = number("rad", -2 * math.pi, 2 * math.pi)
-    try:
-        return value(text)
-    except argparse.ArgumentTypeError as exc:
-        try:
-            degrees = float(text)
-        except ValueError:
-            raise exc from None
-        if math.isfinite(degrees) and abs(degrees) <= 360.0:
-            raise argparse.ArgumentTypeError(
-                f"{exc}: degrees? give rad ({degrees:g} degrees = {math.radians(degrees):.6g} rad)"
-            ) from None
-        raise
 
 
 def _summary(args, result, trajectory_csv: Path, figure: Path) -> dict[str, object]:

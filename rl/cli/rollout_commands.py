@@ -16,6 +16,7 @@ from elastica_magnetic.cli import (
     CommandError,
     command_name,
     duration_option,
+    heading_option,
     number,
     output_path,
     print_notes,
@@ -108,12 +109,20 @@ def _add_goto_options(p: argparse.ArgumentParser) -> None:
                        "of it, the last held to the end; --duration defaults to the task's episode; "
                        "the result's goto block is of the last point, 'waypoints' gives when each was "
                        "reached, top_view.png draws the path")
+    where.add_argument("--heading", type=heading_option, default=None, metavar="RAD",
+                       help="a goto case: crawl along the line from the start at this heading (rad, "
+                       "counter-clockwise seen from above, 0 ahead: 1.5708 is to the left) and keep "
+                       "going, the target kept the task's distance ahead along the line; --duration "
+                       "defaults to the task's episode; the result's 'heading' block gives the distance "
+                       "along it and off it, top_view.png draws the line")
 
 
 def _where(args: argparse.Namespace) -> object:
-    """Where a goto rollout goes: ``--target``'s point, or ``--waypoints``' path."""
-    from ..envs.waypoints import Waypoints
+    """Where a goto rollout goes: ``--target``'s point, ``--waypoints``' path or ``--heading``'s line."""
+    from ..envs.waypoints import Heading, Waypoints
 
+    if args.heading is not None:
+        return Heading(args.heading)
     return args.target if args.waypoints is None else Waypoints(tuple(args.waypoints))
 
 
@@ -124,7 +133,8 @@ def _goto_args(args: argparse.Namespace, case) -> None:
     from ..cases.tasks import GotoTask
 
     given = ("--target" if args.target is not None else "--ring" if args.ring is not None
-             else "--waypoints" if args.waypoints is not None else None)
+             else "--waypoints" if args.waypoints is not None
+             else "--heading" if args.heading is not None else None)
     if given and not isinstance(case.task, GotoTask):
         raise CommandError(f"{given} is for a goto case; case {case.name!r} has the "
                            f"{case.task.kind} task (it goes where its task says)")
@@ -253,7 +263,7 @@ def generate_command(args: argparse.Namespace) -> int:
     if args.workers is not None and args.ring is None:
         raise CommandError("--workers is the number of --ring targets run at a time; a single "
                            "rollout runs in one process: leave it out, or give --ring")
-    if args.waypoints is not None:
+    if args.waypoints is not None or args.heading is not None:
         _goto_args(args, loaded.case)  # before the duration: a crawl case's is refused by name
         args.duration = loaded.case.task.episode_duration if args.duration is None else args.duration
     if args.ring is None and args.duration is None:
@@ -288,7 +298,7 @@ def _tip_reach_generate(args: argparse.Namespace, loaded) -> int:
 
     _tip_reach_args(args, loaded.case, "msr policy generate",
                     {"--ring": args.ring is not None, "--workers": args.workers, "--no-gif": args.no_gif,
-                     "--waypoints": args.waypoints})
+                     "--waypoints": args.waypoints, "--heading": args.heading is not None})
     try:
         choice = choose_tip_reach_actor(args.policy, args.checkpoint)
     except FileNotFoundError as exc:
@@ -369,7 +379,7 @@ def _tip_reach_baseline(args: argparse.Namespace) -> int:
     _tip_reach_args(args, args.case, "its yardstick", {
         "--period": args.period, "--counterclockwise": args.counterclockwise, "--periods": args.periods,
         "--set-yardstick": args.set_yardstick, "--workers": args.workers, "--ring": args.ring is not None,
-        "--no-gif": args.no_gif, "--waypoints": args.waypoints})
+        "--no-gif": args.no_gif, "--waypoints": args.waypoints, "--heading": args.heading is not None})
     print_notes(target_notes(args.case, args.target) if args.target is not None else ())
     result = write_targets(args.case, args.out, Steering(steering_controller), physics=args.physics,
                            duration=args.duration, force=args.force, figures=not args.no_figures,
@@ -400,7 +410,7 @@ def _steering_baseline(args: argparse.Namespace) -> int:
         raise CommandError("--workers is the number of --ring targets run at a time; one target "
                            "runs one rollout, in one process: leave it out, or give --ring")
     if args.duration is None:
-        args.duration = (DEFAULT_ROLLOUT_S if args.waypoints is None
+        args.duration = (DEFAULT_ROLLOUT_S if args.waypoints is None and args.heading is None
                          else args.case.task.episode_duration)
     if args.period is not None and args.period > args.duration:
         raise CommandError(_period_past_duration(args.period, args.duration, "the steering field"))

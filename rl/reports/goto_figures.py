@@ -3,6 +3,7 @@ the tip's paths to a tip-reach case's held-out targets."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -12,8 +13,8 @@ from numpy.typing import NDArray
 
 from .figures import MM, _figure, _save
 
-__all__ = ["TOP_VIEW", "plot_ring", "plot_rings_beside", "plot_tip_paths", "plot_tip_paths_beside",
-           "plot_top_view"]
+__all__ = ["TOP_VIEW", "plot_heading_view", "plot_ring", "plot_rings_beside", "plot_tip_paths",
+           "plot_tip_paths_beside", "plot_top_view"]
 
 #: The file of a goto rollout's top view (:func:`plot_top_view`).
 TOP_VIEW = "top_view.png"
@@ -89,6 +90,26 @@ def plot_top_view(xz: NDArray[np.float64], targets: Sequence[dict[str, Any]], to
             ax.annotate(str(k), centre, textcoords="offset points", xytext=(4, 4), fontsize=8)
     reached = sum(t["reached_s"] is not None for t in targets)
     _floor_axes(ax, title or f"{reached} of {len(targets)} targets reached", "best")
+    return _save(fig, path)
+
+
+def plot_heading_view(xz: NDArray[np.float64], start_heading: float, heading: float, path: str | Path,
+                      title: str = "") -> Path:
+    """Top view (as :func:`plot_top_view`) of a rollout crawling along a commanded heading: the
+    middle node's path ``xz`` ``(T, 2)`` (x, z; m) and the commanded line from its start, at
+    ``heading`` rad from the start's heading ``start_heading`` (rad; both counter-clockwise seen
+    from above), dashed, as long as the path goes along it (at least the path's extent)."""
+    fig = _figure((6.0, 6.0))
+    ax = fig.add_subplot(1, 1, 1)
+    shown = np.column_stack([MM * xz[:, 0], -MM * xz[:, 1]])  # -z up: the start's left
+    direction = np.array([math.cos(start_heading + heading), math.sin(start_heading + heading)])
+    reach = max(float(np.max(np.abs((shown - shown[0]) @ direction))), 1.0)
+    line = shown[0] + np.outer([0.0, 1.2 * reach], direction)
+    ax.plot(line[:, 0], line[:, 1], "--", color="grey", lw=1.0, label="commanded heading")
+    ax.plot(shown[:, 0], shown[:, 1], color="tab:blue", lw=1.0, label="middle node")
+    ax.plot(*shown[0], "s", color="black", ms=5, label="start")
+    ax.plot(*shown[-1], "o", color="tab:blue", ms=4, label="end")
+    _floor_axes(ax, title, "best")
     return _save(fig, path)
 
 

@@ -6,6 +6,7 @@ figures and a GIF."""
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -17,7 +18,7 @@ from elastica_magnetic.openloop import check_duration
 from elastica_magnetic.results import ResultExistsError, check_result_folder, result_folder
 
 from ..cases.tasks import GotoTask, ReachTask
-from ..envs.waypoints import Waypoints
+from ..envs.waypoints import Heading, Waypoints
 from ..envs.yardsticks import RotatingFieldPolicy
 from ..reports.figures import ROLLOUT_FIGURES
 from ..reports.goto_figures import TOP_VIEW
@@ -114,14 +115,19 @@ def generate(
     along a path, each waypoint its target until it comes within the task's tolerance
     (:func:`~elastica_magnetic_rl.shipping.policy_runs.run_policy`): ``goto`` is then of the last
     one, ``waypoints`` holds each one's place and the time it was reached, and a run's actor is
-    chosen on the last one. A goto result's figures include ``top_view.png``.
+    chosen on the last one. A :class:`~elastica_magnetic_rl.envs.waypoints.Heading` ``target``
+    sends it along the line from the start at that heading and on
+    (:class:`~elastica_magnetic_rl.envs.waypoints.HeadingCourse`): ``heading`` then holds
+    ``distance_along_m``, ``cross_track_m`` and the heading of its travel, there is no ``goto``
+    block (its target moves with it), and a run's actor is chosen on the task's distance along the
+    heading. A goto result's figures include ``top_view.png``.
     """
 
 
 
     check_duration(duration)
     loaded = resolve_policy(policy) if isinstance(policy, (str, Path)) else policy
-    target, waypoints = _destination(loaded.case, target)
+    target, course = _destination(loaded.case, target)
     subject = f"case {loaded.case.name}"
     check_policy_case(out, loaded.case)
     check_result_folder(out, kind=kind, subject=subject, force=force, known_files=GENERATE_FILES)
@@ -133,7 +139,7 @@ def generate(
     with result_folder(out, kind=kind, subject=subject, force=force,
                        known_files=GENERATE_FILES) as folder:
         result = _write_rollout(loaded, folder.path, duration, physics, progress, pictures, choice,
-                                target, waypoints)
+                                target, course)
         result = _final_paths(result, folder)  # generate.json names where the files will be
         atomic_write_json(folder.path / "generate.json", result)
     return result | {"notes": folder.notes}
@@ -141,12 +147,20 @@ def generate(
 
 def _destination(case: Any, target: Any) -> tuple[Any, Any]:
     """``generate``'s ``target`` checked: the point a rollout is judged on (a path's last
-    waypoint) and the path's waypoints (``None`` for one target); a target within the tolerance
-    of the start warned of."""
-    waypoints = None
+    waypoint; a heading's: the task's distance along it, on which a run's actor is chosen) and
+    the course (a path's waypoints, or the :class:`Heading`; ``None`` for one target); a target
+    within the tolerance of the start warned of."""
+    course = None
     if isinstance(target, Waypoints):
-        waypoints = goto_waypoints(case, target.points)
-        target = waypoints[-1]
+        course = goto_waypoints(case, target.points)
+        target = course[-1]
+    elif isinstance(target, Heading):
+        if not isinstance(case.task, GotoTask):
+            raise ValueError(f"a heading is for a goto case; case {case.name!r} has the {case.task.kind} "
+                             "task (it goes where its task says)")
+        course = target
+        distance = case.task.distance
+        return (distance * math.cos(target.angle), distance * math.sin(target.angle)), course
     target = goto_target(case, target)
     task = case.task
     if target is not None and float(np.hypot(*target)) <= task.tolerance:
@@ -155,12 +169,12 @@ def _destination(case: Any, target: Any) -> tuple[Any, Any]:
         warn_implausible(f"--target {1e3 * target[0]:g},{1e3 * target[1]:g} mm lies within the "
                          f"{1e3 * task.tolerance:g} mm tolerance of the start: a robot that stays put "
                          "succeeds there (mm written as m?)", "target")
-    return target, waypoints
+    return target, course
 
 
 def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: str, progress: bool,
                    pictures: Pictures, choice, target: Any = None,
-                   waypoints: Any = None) -> dict[str, Any]:
+                   course: Any = None) -> dict[str, Any]:
     """Run ``loaded`` and write the files of :func:`generate` into ``out``; its result."""
     import pandas as pd
 
@@ -168,10 +182,12 @@ def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: st
 
     from ..reports.figures import rollout_figures
 
-    if waypoints is None:
-        rollout = run_policy(loaded, duration, physics, "zero", progress, target=target)
+    if isinstance(course, Heading):
+        rollout = run_policy(loaded, duration, physics, "zero", progress, heading=course.angle)
+    elif course is not None:
+        rollout = run_policy(loaded, duration, physics, "zero", progress, waypoints=course)
     else:
-        rollout = run_policy(loaded, duration, physics, "zero", progress, waypoints=waypoints)
+        rollout = run_policy(loaded, duration, physics, "zero", progress, target=target)
     fields_csv = write_field_csv(out / "fields.csv", rollout.fields) if rollout.n_steps else None
     trajectory_csv = write_trajectory_csv(rollout.trajectory, out / "trajectory.csv")
     rollout_npz = rollout.save(out)
@@ -210,7 +226,11 @@ def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: st
         result["actor_choice"] = {**choice.to_dict(), "summary": choice.describe()}
     if isinstance(loaded.case.task, ReachTask):
         result["reach"] = reach_metrics(rollout, loaded.case.task)
-    if isinstance(loaded.case.task, GotoTask):
+    if isinstance(course, Heading):
+        result["heading"] = rollout.meta["heading"]
+        result["target"] = (f"along the heading {course.angle:.4g} rad ({math.degrees(course.angle):.4g} "
+                            f"degrees from ahead, to the left) for {result['duration_s']:g} s")
+    elif isinstance(loaded.case.task, GotoTask):
         task = loaded.case.task
         result["goto"] = goto_result(rollout, task, target)
         # the target and the time played, not the task's default (15 mm ahead in 30 s)
@@ -219,10 +239,10 @@ def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: st
                             f"in {result['duration_s']:g} s")
         result.update({k: result["goto"][k] for k in ("final_distance_to_target_m",
                                                        "time_to_target_s")})
-        if waypoints is not None:
+        if course is not None:
             result["waypoints"] = rollout.meta["waypoints"]
             result["waypoints_reached"] = sum(w["reached_s"] is not None for w in result["waypoints"])
-            result["target"] = (f"{len(waypoints)} waypoints in order, then "
+            result["target"] = (f"{len(course)} waypoints in order, then "
                                 f"{result['target'][:1].lower()}{result['target'][1:]}")
     if pictures.figures and rollout.n_steps:
         result["figures"] = rollout_figures(rollout, out, loaded.critic, loaded.actor, gif=pictures.gif)
@@ -232,10 +252,19 @@ def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: st
 
 
 def _top_view(rollout, task: GotoTask, result: dict[str, Any], path: Path) -> Path:
-    """A goto rollout's top view: its path and its target (or waypoints)."""
-    from ..reports.goto_figures import plot_top_view
+    """A goto rollout's top view: its path and its target (or waypoints, or commanded heading)."""
+    from ..reports.goto_figures import plot_heading_view, plot_top_view
 
     mid = rollout.positions.shape[2] // 2
+    if "heading" in result:
+        course = result["heading"]
+        start = rollout.positions[0]
+        start_heading = math.atan2(-(start[2, -1] - start[2, 0]), start[0, -1] - start[0, 0])
+        return plot_heading_view(
+            rollout.positions[:, [0, 2], mid], start_heading, course["heading_rad"], path,
+            title=f"{result['case']}: {1e3 * course['distance_along_m']:.1f} mm along the heading, "
+                  f"{1e3 * course['cross_track_m']:+.1f} mm off it\n({result['physics']} physics, "
+                  f"{result['duration_s']:g} s)")
     goto = result["goto"]
     targets = result.get("waypoints") or [{"x_m": goto["target_x_m"], "z_m": goto["target_z_m"],
                                            "reached_s": goto["time_to_target_s"]}]

@@ -19,7 +19,7 @@ from elastica_magnetic.io import atomic_write_json, missing_folder_hint
 from ..cases.case import Case
 from ..cases.tasks import GotoTask, ReachTask
 from ..envs.env import make_env
-from ..envs.waypoints import WaypointPath
+from ..envs.waypoints import HeadingCourse, WaypointPath
 from ..envs.yardsticks import RotatingFieldPolicy
 from ..runfiles.rundir import CaseDir, RunDir, being_written_hint
 from .policy_files import LoadedPolicy, resolve_policy
@@ -42,6 +42,7 @@ def run_policy(
     progress: bool = True,
     target: Any = None,
     waypoints: Any = None,
+    heading: float | None = None,
 ):
     """Roll out ``policy`` deterministically for ``duration`` s; returns a
     :class:`~elastica_magnetic_rl.envs.rollout.Rollout`
@@ -50,7 +51,10 @@ def run_policy(
     seed 0); ``meta["target_xz_m"]`` then holds it in the floor's (x, z). ``waypoints`` ``(k, 2)``
     (forward, left; m from the start) instead: a path, each waypoint the target until the middle
     node comes within the task's tolerance of it, the last one to the end; ``meta["waypoints"]``
-    then holds each one's place on the floor and the time it was reached (s, ``None``: never)."""
+    then holds each one's place on the floor and the time it was reached (s, ``None``: never).
+    ``heading`` (rad, counter-clockwise seen from above, 0 ahead) instead: crawl along the line
+    from the start at that heading (:class:`~elastica_magnetic_rl.envs.waypoints.HeadingCourse`);
+    ``meta["heading"]`` then holds how far along it and how far off it the middle node went."""
     import pandas as pd
 
     from elastica_magnetic.progress import progress_bar
@@ -62,9 +66,12 @@ def run_policy(
     if target is not None and not isinstance(policy.case.task, GotoTask):
         raise ValueError(f"a target is for a goto case; {policy.case.name!r} has the "
                          f"{policy.case.task.kind} task")
-    path = None if waypoints is None else WaypointPath.for_env(env, waypoints, target)
+    if waypoints is not None and heading is not None:
+        raise ValueError("give waypoints or a heading, not both")
+    path = (WaypointPath.for_env(env, waypoints, target) if waypoints is not None
+            else HeadingCourse.for_env(env, heading, target) if heading is not None else None)
     if path is not None:
-        target = path.points[0]
+        target = path.first_target
     obs, _ = env.reset(seed=0, options=None if target is None else {"target": target})
     if path is not None:
         path.begin(env)
@@ -104,7 +111,7 @@ def run_policy(
     env.close()
     meta = _rollout_meta(policy, env, physics, initial_field, float(times[-1]), diverged, wall, len(actions))
     if path is not None:
-        meta["waypoints"] = path.record()
+        meta["waypoints" if heading is None else "heading"] = path.record()
     return Rollout(
         times=np.asarray(times), positions=np.asarray(positions),
         fields=np.asarray(fields).reshape(-1, 3),
