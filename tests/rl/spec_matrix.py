@@ -83,8 +83,9 @@ def user_specs(draw, kinds: tuple[str, ...] = KINDS, poisson: bool | None = None
     """A valid spec as a user writes it, in every form the format allows for the robot's
     magnetization (of ``kinds``), its moduli (``poisson``: a Poisson ratio, else a shear modulus),
     its section (``round_section``: a radius, else a band), its task (``"crawl"`` or
-    ``"reach"``), its actuation (one of :data:`ACTUATIONS`) and its ground's sideways model
-    (rolling, sliding or left out); ``None``: drawn."""
+    ``"reach"``; ``"goto"`` only when asked: it needs the third coil pair, so its actuation is
+    drawn from the three-axis forms), its actuation (one of :data:`ACTUATIONS`) and its ground's
+    sideways model (rolling, sliding or left out); ``None``: drawn."""
     spec = copy.deepcopy(BASE)
     robot = spec["robot"]
     robot["n_elements"] = draw(st.sampled_from([16, 24, 32]))
@@ -96,9 +97,13 @@ def user_specs(draw, kinds: tuple[str, ...] = KINDS, poisson: bool | None = None
     if draw(st.booleans()) if round_section is None else round_section:
         del robot["width"], robot["thickness"]
         robot["radius"] = 0.0005
-    if (draw(st.sampled_from(["crawl", "reach"])) if task is None else task) == "reach":
+    kind = draw(st.sampled_from(["crawl", "reach"])) if task is None else task
+    if kind == "reach":
         spec["task"] = {"kind": "reach", "target": 0.01, "tolerance": 0.001}
-    spec["actuation"] = draw(st.sampled_from(ACTUATIONS)) if actuation is None else actuation
+    elif kind == "goto":
+        spec["task"] = {"kind": "goto", "distance": draw(st.sampled_from([0.01, 0.015])), "tolerance": 0.002}
+    forms = [a for a in ACTUATIONS if a.get("axes") == "xyz"] if kind == "goto" else ACTUATIONS
+    spec["actuation"] = draw(st.sampled_from(forms)) if actuation is None else actuation
     sideways = draw(st.sampled_from(["rolling", "sliding", None]))
     if sideways is not None:
         robot["ground"]["sideways"] = sideways

@@ -146,3 +146,29 @@ def test_identify_fits_every_default_group_on_a_drawn_robot(spec, capsys):
         assert robot.density == pytest.approx(factors["density"] * nominal.density, rel=1e-6)
         assert robot.ground.kinetic_mu == pytest.approx(factors["friction"] *
                                                         nominal.ground.kinetic_mu, rel=1e-6)
+
+
+@settings(DRAWN, max_examples=3)
+@given(spec=user_specs(task="goto"))
+def test_goto_commands_on_a_drawn_robot(spec, capsys):
+    """A user's own goto robot (any magnetization form, moduli, section, three-axis actuation and
+    sideways model): trained (smoke), sent to a point and along a heading by its policy, and along
+    a heading by the steering yardstick; every course's numbers finite and in the start frame."""
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        path = _write(spec, folder)
+        runs = folder / "runs"
+        assert msr(["train", "--case", str(path), "--seeds", "1", "--workers", "1", "--steps", "120",
+                    "--out", str(runs), *SMOKE]) == 0
+        seed = runs / "drawn" / "seed0"
+        point = _json(capsys, "policy", "generate", str(seed), "--checkpoint", "final", "--target", "0,0.005",
+                      "--duration", "0.2", "--physics", "training", "--out", str(folder / "point"),
+                      "--no-figures", "--no-progress")
+        assert point["goto"]["target_left_m"] == 0.005 and np.isfinite(point["final_distance_to_target_m"])
+        for who, argv in (("policy", ["policy", "generate", str(seed), "--checkpoint", "final"]),
+                          ("yardstick", ["field", "baseline", "--case", str(path)])):
+            course = _json(capsys, *argv, "--heading", "-0.5", "--duration", "0.2", "--physics", "training",
+                           "--out", str(folder / who), "--no-progress", "--no-gif")["heading"]
+            assert course["heading_rad"] == -0.5, who
+            assert np.isfinite(course["distance_along_m"]) and np.isfinite(course["cross_track_m"]), who
+            assert (folder / who / "top_view.png").stat().st_size > 0, who
