@@ -149,13 +149,18 @@ class HeadingCourse:
         (default the simulation's; a closed loop's: the tracked one)."""
         if pose is None:
             pose = env.task.position(env.simulation.rod, env.middle_node)
+        ahead = self.measure(env, pose) + self.lookahead
+        return env.retarget((ahead * math.cos(self.angle), ahead * math.sin(self.angle)))
+
+    def measure(self, env: Any, pose: Any) -> float:
+        """Record where the middle node's place ``pose`` (x, z, ...; m) is along the line and off
+        it (what :meth:`record` reports); returns the distance along it, m."""
         forward, left = start_frame(env, pose)
         c, s = math.cos(self.angle), math.sin(self.angle)
         along, across = forward * c + left * s, -forward * s + left * c
         self.along.append(along)
         self.across.append(across)
-        ahead = along + self.lookahead
-        return env.retarget((ahead * c, ahead * s))
+        return along
 
     def record(self) -> dict[str, Any]:
         """The course's result: the heading (rad), how far the middle node went along it

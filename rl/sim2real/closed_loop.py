@@ -27,7 +27,7 @@ from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..cases.tasks import GotoTask, goto_metrics
 from ..envs.env import make_env
-from ..envs.waypoints import WaypointPath
+from ..envs.waypoints import HeadingCourse, WaypointPath
 
 __all__ = ["SimulatedTracker", "run_closed_loop"]
 
@@ -76,20 +76,40 @@ def _pose(markers: np.ndarray) -> np.ndarray:
     return np.array([markers[1, 0], markers[1, 1], math.atan2(-along[1], along[0])])
 
 
+def _route(env: Any, target: Any, waypoints: Any, heading: float | None) -> tuple[Any, Any]:
+    """The course of a closed loop (a :class:`WaypointPath`, a :class:`HeadingCourse` or ``None``)
+    and the target its result is judged on (a path's last waypoint; ``None`` along a heading)."""
+    if waypoints is not None and heading is not None:
+        raise ValueError("give waypoints or a heading, not both")
+    if waypoints is not None:
+        route = WaypointPath.for_env(env, waypoints, target)
+        return route, route.points[-1]
+    if heading is not None:
+        return HeadingCourse.for_env(env, heading, target), None
+    if target is None:
+        raise ValueError("give a target (forward, left; m), waypoints or a heading")
+    return None, target
+
+
 def run_closed_loop(policy, target: tuple[float, float] | None = None, duration: float | None = None,
                     physics: str = "accurate", tracker: SimulatedTracker | None = None,
-                    seed: int = 0, waypoints: Any = None) -> dict[str, Any]:
+                    seed: int = 0, waypoints: Any = None, heading: float | None = None) -> dict[str, Any]:
     """Send the robot of a goto ``policy`` (a loaded policy or the steering yardstick) to
     ``target`` (forward, left; m from the start, in its start frame), the loop closed around
     ``tracker`` (default :class:`SimulatedTracker`: 0.1 mm, 20 ms), from a zero field; or along
     ``waypoints`` ``(k, 2)`` (the same frame) instead: each the target until the *tracked* middle
-    is within the task's tolerance of it (what a lab's loop knows), the last one to the end.
+    is within the task's tolerance of it (what a lab's loop knows), the last one to the end; or
+    along a ``heading`` (rad, counter-clockwise seen from above, 0 ahead) instead, the target kept
+    the task's distance ahead of the *tracked* middle's place on the line
+    (:class:`~elastica_magnetic_rl.envs.waypoints.HeadingCourse`).
 
     Returns the true path's :func:`~elastica_magnetic_rl.cases.tasks.goto_metrics`
     (``final_distance_to_target_m``, ``success``, ``time_to_target_s``...; of the last waypoint
     for a path), the target, the tracker's settings and ``tracking_error_m``: the largest distance
     between the tracked (late, noisy) and the true middle the policy acted on; for a path,
-    ``waypoints`` (each one's place and the time it was reached, s, ``None``: never).
+    ``waypoints`` (each one's place and the time it was reached, s, ``None``: never). Along a
+    heading: ``heading`` (the course's record of the *true* path: ``distance_along_m``,
+    ``cross_track_m``...) and no target or goto metrics (the target moves with the robot).
     """
     case = policy.case
     if not isinstance(case.task, GotoTask):
@@ -98,13 +118,8 @@ def run_closed_loop(policy, target: tuple[float, float] | None = None, duration:
     tracker = SimulatedTracker() if tracker is None else tracker
     duration = case.task.episode_duration if duration is None else float(duration)
     env = make_env(case, physics, "zero", duration)
-    route = None
-    if waypoints is not None:
-        route = WaypointPath.for_env(env, waypoints, target)
-        target = route.points[-1]
-    elif target is None:
-        raise ValueError("give a target (forward, left; m) or waypoints")
-    obs, _ = env.reset(seed=seed, options={"target": tuple(route.points[0] if route else target)})
+    route, target = _route(env, target, waypoints, heading)
+    obs, _ = env.reset(seed=seed, options={"target": tuple(route.first_target if route else target)})
     if route is not None:
         route.begin(env)
     if hasattr(policy, "reset"):
@@ -119,7 +134,7 @@ def run_closed_loop(policy, target: tuple[float, float] | None = None, duration:
         tracked = seen[0] + rng.normal(0.0, tracker.noise_m, size=(3, 2))
         worst = max(worst, float(np.hypot(*(tracked[1] - _markers(env.simulation.rod, middle)[1]))))
         if route is not None:  # the next waypoint once the tracked middle is within the tolerance
-            route.advance(env, obs, _pose(tracked))
+            route.advance(env, obs, _pose(tracked))  # (or the heading's target ahead of it)
         extra = env.task.observe(_pose(tracked), env.task_state)
         obs = obs.copy()  # the pose blocks from the tracker; the clock is the loop's own
         obs[layout["heading"]] = extra[:2]
@@ -132,13 +147,20 @@ def run_closed_loop(policy, target: tuple[float, float] | None = None, duration:
         if terminated or truncated:
             break
     target_xz = [float(v) for v in env.task_state]
-    env.close()
     pose = np.column_stack([np.asarray(path), np.zeros(len(path))])
+    loop = {"physics": physics, "duration_s": float(times[-1]), "diverged": bool(terminated),
+            "tracker_noise_m": tracker.noise_m, "tracker_latency_s": tracker.latency_steps * ACTION_PERIOD,
+            "tracking_error_m": worst}
+    if heading is not None:  # the course measured on the true path, not the tracked one it followed
+        true_course = HeadingCourse.for_env(env, heading)
+        true_course.begin(env)
+        for place in pose[1:]:
+            true_course.measure(env, place)
+        env.close()
+        return {**loop, "heading": true_course.record()}
+    env.close()
     return {"target_forward_m": float(target[0]), "target_left_m": float(target[1]),
             "target_x_m": target_xz[0], "target_z_m": target_xz[1],
-            "tolerance_m": case.task.tolerance, "physics": physics,
-            "duration_s": float(times[-1]), "diverged": bool(terminated),
-            "tracker_noise_m": tracker.noise_m, "tracker_latency_s": tracker.latency_steps * ACTION_PERIOD,
-            "tracking_error_m": worst,
+            "tolerance_m": case.task.tolerance, **loop,
             **({} if route is None else {"waypoints": route.record()}),
             **goto_metrics(np.asarray(times), pose, target_xz, case.task.tolerance)}
