@@ -62,10 +62,7 @@ class WaypointPath:
     def for_env(cls, env: Any, points: Any, target: Any = None) -> WaypointPath:
         """The path of ``points`` for ``env`` (a goto environment); ``target`` must be ``None``
         (a path's first point is the target)."""
-        if not isinstance(env.task, GotoTask):
-            raise ValueError(f"waypoints are for a goto case; this environment's task is {env.task.kind}")
-        if target is not None:
-            raise ValueError("give a target or waypoints, not both")
+        _check_course(env, target, "waypoints are", "waypoints")
         return cls(points, env.task.tolerance)
 
     @property
@@ -98,6 +95,15 @@ class WaypointPath:
                 for p, xz, t in zip(self.points, self.floor, self.reached, strict=True)]
 
 
+def _check_course(env: Any, target: Any, subject: str, course: str) -> None:
+    """Refuse a course (``subject``: "waypoints are", ...) for an environment without the goto
+    task, or given beside a ``target`` (the course sets the target)."""
+    if not isinstance(env.task, GotoTask):
+        raise ValueError(f"{subject} for a goto case; this environment's task is {env.task.kind}")
+    if target is not None:
+        raise ValueError(f"give a target or {course}, not both")
+
+
 def start_frame(env: Any, pose: Any) -> tuple[float, float]:
     """The middle node's place ``pose`` (x, z, ...; m) in the episode's start frame: (forward,
     left), m."""
@@ -128,10 +134,7 @@ class HeadingCourse:
     def for_env(cls, env: Any, angle: float, target: Any = None) -> HeadingCourse:
         """The course at ``angle`` for ``env`` (a goto environment, its task's ``distance`` ahead);
         ``target`` must be ``None`` (the course sets the target)."""
-        if not isinstance(env.task, GotoTask):
-            raise ValueError(f"a heading is for a goto case; this environment's task is {env.task.kind}")
-        if target is not None:
-            raise ValueError("give a target or a heading, not both")
+        _check_course(env, target, "a heading is", "a heading")
         return cls(angle, env.task.distance)
 
     @property

@@ -127,8 +127,8 @@ def plot_tip_paths(rows: Sequence[dict[str, Any]], paths: NDArray[np.float64], p
                    title: str = "") -> Path:
     """The tip's path to each held-out target of a tip-reach run, seen from above (x, y) and from
     the side (x, z): ``rows`` of :func:`~elastica_magnetic_rl.shipping.tip_reach.write_targets`,
-    ``paths`` ``(T, N, 3)`` m. Targets reached are green, missed red (a cross each); the square is
-    the straight tip at the start."""
+    ``paths`` ``(T, N, 3)`` m. Targets reached are green, missed red (a cross each, the tip's end a
+    dot); the square is the straight tip at the start."""
     fig = _figure((11.0, 5.0))
     targets = [[row[f"target_{axis}_m"] for axis in "xyz"] for row in rows]
     _draw_tip_paths(fig, 0, 1, targets, [bool(r["success"]) for r in rows], paths)
@@ -164,6 +164,8 @@ def _draw_tip_paths(fig: Any, row: int, n_rows: int, targets: Sequence[Sequence[
             color = "tab:green" if ok else "tab:red"
             ax.plot(MM * paths[:, i, a], MM * paths[:, i, b], color=color, lw=1.0, alpha=0.8)
             ax.plot(MM * target[a], MM * target[b], "x", color=color, ms=6)
+            ax.plot(MM * paths[-1, i, a], MM * paths[-1, i, b], "o", color=color, ms=3,
+                    label="tip at the end" if i == 0 else None)
         ax.plot(MM * paths[0, 0, a], MM * paths[0, 0, b], "s", color="black", ms=5, label="tip at the start")
         ax.set_xlabel("x (mm, along the clamped catheter)")
         ax.set_ylabel(f"{label} (mm)")
