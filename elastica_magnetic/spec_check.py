@@ -447,11 +447,12 @@ def format_check(check: SpecCheck) -> str:
     lines.append(f"  robot        {shape}, {c.n_elements} elements of {1e3 * c.element_length_m:.3g} mm")
     lines.append(f"  material     {c.density_kg_m3:g} kg/m^3, E {1e-3 * c.youngs_modulus_Pa:.4g} kPa, "
                  f"G {1e-3 * c.shear_modulus_Pa:.4g} kPa (from {c.shear_modulus_from})")
+    band = c.section == "band"  # a round rod is its own equivalent: no band to compare with
     lines.append(f"  rod          equivalent radius {1e3 * c.equivalent_radius_m:.4g} mm, mass "
-                 f"{1e6 * c.mass_kg:.4g} mg (band {1e6 * c.band_mass_kg:.4g} mg), weight "
-                 f"{1e6 * c.weight_N:.4g} uN")
-    lines.append(f"  bending      EI {c.bending_stiffness_Nm2:.4g} N m^2 (band "
-                 f"{c.band_bending_stiffness_Nm2:.4g} N m^2)")
+                 f"{1e6 * c.mass_kg:.4g} mg" + (f" (band {1e6 * c.band_mass_kg:.4g} mg)" if band else "")
+                 + f", weight {1e6 * c.weight_N:.4g} uN")
+    lines.append(f"  bending      EI {c.bending_stiffness_Nm2:.4g} N m^2"
+                 + (f" (band {c.band_bending_stiffness_Nm2:.4g} N m^2)" if band else ""))
     lines.append(f"  magnetized   {c.magnetization[0]}")
     lines += [f"               {run}" for run in c.magnetization[1:]]
     if c.field_limit_T is not None:

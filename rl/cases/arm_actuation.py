@@ -236,8 +236,9 @@ class MagnetArm(SteeringActuation):
         box = " .. ".join("(" + ", ".join(f"{1e3 * v:g}" for v in row) + ")" for row in self.workspace)
         body = "" if self.magnet is None else (f" ({self.magnet.describe()}, "
                                                f"J {self.magnet.polarization(self.moment):.3g} T)")
+        pointing = ", ".join(f"{v:g}" for v in self.direction)
         return (f"a {self.moment:g} A m^2 magnet{body} on an arm, starting at ({mm}) mm pointing "
-                f"{list(self.direction)}, its centre in {box} mm, at most {1e3 * self.max_speed:g} mm/s and "
+                f"({pointing}), its centre in {box} mm, at most {1e3 * self.max_speed:g} mm/s and "
                 f"{self.max_turn_rate:g} rad/s, kept {1e3 * self.min_clearance:g} mm from the rod; "
                 f"{1e3 * self.field_at_tip(rod_length):.3g} mT at the straight tip at the start")
 

@@ -112,3 +112,13 @@ def test_the_yardstick_line_is_a_crawl_cases_alone(capsys, tmp_path):
     spec = REPO / "rl" / "specs" / "m1-4mT-goto.toml"
     assert main(["case", "check", str(spec), "--no-sag"]) == 0
     assert "  yardstick " not in capsys.readouterr().out
+
+
+def test_a_round_rod_and_an_arm_are_described_in_words(capsys):
+    """A round catheter showed "(band ...)" beside its own mass and stiffness (it has no band), and
+    its magnet "pointing [1.0, 0.0, 0.0]" (a Python list)."""
+    assert main(["case", "show", "catheter-magnet-reach"]) == 0
+    out = capsys.readouterr().out
+    assert "(band " not in out and "pointing (1, 0, 0)," in out
+    assert main(["case", "show", "m1-4mT"]) == 0
+    assert "(band 238.1 mg)" in capsys.readouterr().out  # a band keeps the comparison
