@@ -184,8 +184,8 @@ class SteeringFieldPolicy(_FieldReader):
             need, :meth:`label`): it walks while the target is within ``markov_walk`` rad of abeam
             (no hysteresis) and reverses its turning field by the observation's ``clock`` (every
             ``GOTO_CLOCK_PERIOD / 2`` s, which must be ``period``), not by the turn's own start.
-            Measured on the ring of ``m1-4mT-goto`` (training physics, 30 s): 11 of 12, mean
-            time to target 8.0 s (the default law: 12 of 12, 6.7 s); without the reversal 6 of 12.
+            Measured on the ring of ``m1-4mT-goto`` (training physics, 30 s): 12 of 12, mean
+            time to target 10.3 s (the default law: 12 of 12, 6.7 s); without the reversal 6 of 12.
         markov_walk: rad from abeam within which the memoryless law walks.
 
     The default law remembers its manoeuvre:
