@@ -21,7 +21,8 @@ from ..progress import progress_bar
 from ..results import result_folder
 from ..spatial_fields import FieldSum
 from ..specfile import SpecError, actuation_kind_of, axis_limits_of, field_limit_of, load_robot
-from .app import CommandError, duration_option, heading_option, number, output_path, print_notes, print_result
+from .app import CommandError, print_notes, print_result
+from .options import duration_option, heading_option, number, output_path
 
 ROBOT_HELP = (f"a preset ({', '.join(ROBOTS)}) or a spec file (.toml, e.g. from "
               "`msr case show m1-4mT --toml`); default yao2023-m1")

@@ -12,8 +12,9 @@ from typing import Any
 
 import numpy as np
 
-from elastica_magnetic.cli.app import command_name, output_path
+from elastica_magnetic.cli.app import command_name
 from elastica_magnetic.cli.input_places import REPLACED_FOLDER, out_file
+from elastica_magnetic.cli.options import output_path
 from elastica_magnetic.clock_columns import other_spelling_hint
 from elastica_magnetic.field_csv import (
     MILLITESLA,

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from elastica_magnetic.cli.app import output_path
+from elastica_magnetic.cli.options import output_path
 from elastica_magnetic.drive_columns import is_coil_currents
 from elastica_magnetic.field_csv import FIELD_COLUMNS, read_field_csv
 from elastica_magnetic.hardware.calibration import (

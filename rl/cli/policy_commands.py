@@ -23,8 +23,8 @@ from elastica_magnetic.cli import (
     print_notes,
     print_result,
 )
-from elastica_magnetic.cli.app import add_old_option
 from elastica_magnetic.cli.input_places import REPLACED_FOLDER, no_folder_replaced_whole
+from elastica_magnetic.cli.options import add_old_option
 from elastica_magnetic.filesets import check_files, replace_files
 from elastica_magnetic.io import display_path, missing_folder_hint
 

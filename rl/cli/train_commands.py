@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from elastica_magnetic.cli import CommandError, output_path, print_result
-from elastica_magnetic.cli.app import number
+from elastica_magnetic.cli.options import number
 from elastica_magnetic.interrupts import signals_as_exceptions
 from elastica_magnetic.io import display_path
 

@@ -15,7 +15,7 @@ from elastica_magnetic.specfile import SpecError, read_spec
 
 def test_a_duration_in_milliseconds_is_warned(tmp_path, capsys):
     """O01/O16: ``--duration 3000`` (ms meant) ran 50 minutes of simulated time without a word."""
-    from elastica_magnetic.cli.app import duration_option
+    from elastica_magnetic.cli.options import duration_option
 
     with pytest.warns(ImplausibleValueWarning, match=r"--duration = 3000 s is above 600 s.*"
                                                      r"3000 ms is 3 s"):
