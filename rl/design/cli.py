@@ -23,7 +23,8 @@ def design_spec_option(value: str):
     table), so a bad spec is named before any work."""
     from elastica_magnetic.specfile import SpecError
 
-    from .run import DesignError, load_design
+    from .folder import DesignError
+    from .run import load_design
 
     try:
         return load_design(value)
@@ -109,7 +110,8 @@ def _settings(args: argparse.Namespace):
 
 
 def design_command(args: argparse.Namespace) -> int:
-    from .run import DesignError, holds_design, run_design
+    from .folder import DesignError, holds_design
+    from .run import run_design
 
     settings = _settings(args)
 

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 from elastica_magnetic_rl.cases.case import case_from_dict, load_case
 from elastica_magnetic_rl.cases.design_space import LENGTH_WEIGHT_LOW, design_space
-from elastica_magnetic_rl.design.run import DesignError, load_design
+from elastica_magnetic_rl.design.folder import DesignError
+from elastica_magnetic_rl.design.run import load_design
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from spec_matrix import ACTUATIONS, user_specs

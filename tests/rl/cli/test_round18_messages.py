@@ -87,7 +87,7 @@ def test_a_calibration_that_cannot_make_the_field_limit_is_refused_before_the_lo
 
 def test_design_force_refuses_the_design_of_another_case(tmp_path):
     """D73: ``msr design m2-4mT --force --out DIR`` replaced DIR's design of m1-4mT."""
-    from elastica_magnetic_rl.design.run import DESIGN_KIND, _check_folder
+    from elastica_magnetic_rl.design.folder import DESIGN_KIND, check_folder
 
     from elastica_magnetic.io import OutputPathError
     from elastica_magnetic.result_markers import mark_folder
@@ -97,7 +97,7 @@ def test_design_force_refuses_the_design_of_another_case(tmp_path):
     mark_folder(folder, kind=DESIGN_KIND, subject="case m1-4mT")
     with pytest.raises(OutputPathError, match=r"holds the design of case m1-4mT, not of case m2-4mT: "
                                               r"--force replaces only a design of the same case"):
-        _check_folder(folder, False, True, "case m2-4mT")
+        check_folder(folder, False, True, "case m2-4mT")
 
 
 def test_a_period_the_search_computes_is_judged_once():

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 from elastica_magnetic_rl.cases.case import case_from_dict, load_case
 from elastica_magnetic_rl.design.evaluate import Trial, run_trials
-from elastica_magnetic_rl.design.run import DesignError, DesignSettings, run_design
+from elastica_magnetic_rl.design.folder import DesignError
+from elastica_magnetic_rl.design.run import DesignSettings, run_design
 from elastica_magnetic_rl.envs.yardsticks import RotatingFieldPolicy
 from elastica_magnetic_rl.shipping.policy_runs import run_policy
 from faults import Fault
