@@ -104,7 +104,7 @@ def _check_course(env: Any, target: Any, subject: str, course: str) -> None:
         raise ValueError(f"give a target or {course}, not both")
 
 
-def start_frame(env: Any, pose: Any) -> tuple[float, float]:
+def _start_frame(env: Any, pose: Any) -> tuple[float, float]:
     """The middle node's place ``pose`` (x, z, ...; m) in the episode's start frame: (forward,
     left), m."""
     x0, z0, h0 = (float(v) for v in env.start_pose)
@@ -158,7 +158,7 @@ class HeadingCourse:
     def measure(self, env: Any, pose: Any) -> float:
         """Record where the middle node's place ``pose`` (x, z, ...; m) is along the line and off
         it (what :meth:`record` reports); returns the distance along it, m."""
-        forward, left = start_frame(env, pose)
+        forward, left = _start_frame(env, pose)
         c, s = math.cos(self.angle), math.sin(self.angle)
         along, across = forward * c + left * s, -forward * s + left * c
         self.along.append(along)

@@ -228,8 +228,8 @@ def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: st
         result["reach"] = reach_metrics(rollout, loaded.case.task)
     if isinstance(course, Heading):
         result["heading"] = rollout.meta["heading"]
-        result["target"] = (f"along the heading {course.angle:.4g} rad ({math.degrees(course.angle):.4g} "
-                            f"degrees from ahead, to the left) for {result['duration_s']:g} s")
+        result["target"] = (f"along the heading {course.angle:.4g} rad ({_bearing_words(course.angle)}) "
+                            f"for {result['duration_s']:g} s")
     elif isinstance(loaded.case.task, GotoTask):
         task = loaded.case.task
         result["goto"] = goto_result(rollout, task, target)
@@ -249,6 +249,17 @@ def _write_rollout(loaded: LoadedPolicy, out: Path, duration: float, physics: st
         if isinstance(loaded.case.task, GotoTask):
             result["figures"]["top_view"] = str(_top_view(rollout, loaded.case.task, result, out / TOP_VIEW))
     return result
+
+
+def _bearing_words(angle: float) -> str:
+    """A heading (rad, counter-clockwise seen from above, 0 ahead) in words: "straight ahead", "90
+    degrees to the left", "45 degrees to the right", "straight behind"."""
+    degrees = math.degrees(math.remainder(angle, 2.0 * math.pi))  # within half a turn of ahead
+    if abs(degrees) < 0.05:
+        return "straight ahead"
+    if abs(abs(degrees) - 180.0) < 0.05:
+        return "straight behind"
+    return f"{abs(degrees):.4g} degrees to the {'left' if degrees > 0 else 'right'}"
 
 
 def _top_view(rollout, task: GotoTask, result: dict[str, Any], path: Path) -> Path:

@@ -82,7 +82,7 @@ def test_the_steering_yardstick_crawls_along_a_heading_to_its_left(tmp_path, cap
     assert course["distance_along_m"] > 0.01 and abs(course["cross_track_m"]) < 0.002
     assert course["travel_heading_rad"] == pytest.approx(math.pi / 2, abs=0.2)
     assert "goto" not in result and "final_distance_to_target_m" not in result  # its target moves with it
-    assert result["target"] == "along the heading 1.571 rad (90 degrees from ahead, to the left) for 3 s"
+    assert result["target"] == "along the heading 1.571 rad (90 degrees to the left) for 3 s"
     assert result["duration_s"] == 3.0
     # the middle node went to the start's left (-z), as far as the course says
     rollout = np.load(out / "rollout.npz")
@@ -115,4 +115,14 @@ def test_a_shipped_goto_policy_plays_a_heading(tmp_path, capsys):
                 "training", "--no-progress", "--no-figures", "--json", "--out", str(tmp_path / "g")]) == 0
     result = json.loads(capsys.readouterr().out)
     assert result["heading"]["heading_rad"] == -1.5708 and result["duration_s"] == 0.5
+    assert result["target"] == "along the heading -1.571 rad (90 degrees to the right) for 0.5 s"
     assert result["policy_kind"] == "shipped" and "goto" not in result
+
+
+@pytest.mark.parametrize(("angle", "words"), [
+    (0.0, "straight ahead"), (math.pi, "straight behind"), (-math.pi, "straight behind"),
+    (-0.5, "28.65 degrees to the right"), (5.5, "44.87 degrees to the right")])
+def test_a_heading_is_said_in_words(angle, words):
+    from elastica_magnetic_rl.shipping.generate import _bearing_words
+
+    assert _bearing_words(angle) == words
