@@ -64,7 +64,8 @@ def _use_section(info: dict[str, Any], case: Case) -> list[str]:
                 f"{case.task.episode_duration:g} --out DIR`: the field CSV (mT, 100 Hz) that sends "
                 "the robot to that point (m from the start, in its start frame: +x ahead, LEFT to "
                 "its left), from a zero field in the accurate physics, open loop; `--ring` runs a "
-                "ring of 12 targets. Closed around a tracker: `run_closed_loop` (docs: Steering "
+                "ring of 12 targets, `--waypoints F1,L1:F2,L2:...` a path and `--heading RAD` a "
+                "heading to crawl along. Closed around a tracker: `run_closed_loop` (docs: Steering "
                 "in 3D)."
                 if goto else
                 f"- `msr policy generate {info['name']} --duration 10 --out DIR`: field CSV (mT, "
