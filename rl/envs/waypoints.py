@@ -20,7 +20,7 @@ import numpy as np
 
 from ..cases.tasks import GotoTask
 
-__all__ = ["Heading", "HeadingCourse", "WaypointPath", "Waypoints"]
+__all__ = ["Heading", "HeadingCourse", "WaypointPath", "Waypoints", "course_for_env"]
 
 
 @dataclass(frozen=True)
@@ -177,3 +177,18 @@ class HeadingCourse:
         return {"heading_rad": self.angle, "distance_along_m": along, "cross_track_m": across,
                 "max_cross_track_m": max(abs(v) for v in self.across),
                 "travel_heading_rad": math.atan2(left, forward) if moved else None}
+
+
+def course_for_env(env: Any, target: Any, waypoints: Any, heading: float | None) -> tuple[Any, Any]:
+    """The course of a goto rollout of ``env`` (a :class:`WaypointPath` for ``waypoints``, a
+    :class:`HeadingCourse` for ``heading``, else ``None``) and the target its result is judged on (a
+    path's last waypoint; ``None`` along a heading; else ``target``). Use the course's
+    :attr:`first_target` as the reset's target."""
+    if waypoints is not None and heading is not None:
+        raise ValueError("give waypoints or a heading, not both")
+    if waypoints is not None:
+        path = WaypointPath.for_env(env, waypoints, target)
+        return path, path.points[-1]
+    if heading is not None:
+        return HeadingCourse.for_env(env, heading, target), None
+    return None, target

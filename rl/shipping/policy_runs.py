@@ -19,7 +19,7 @@ from elastica_magnetic.io import atomic_write_json, missing_folder_hint
 from ..cases.case import Case
 from ..cases.tasks import GotoTask, ReachTask
 from ..envs.env import make_env
-from ..envs.waypoints import HeadingCourse, WaypointPath
+from ..envs.waypoints import course_for_env
 from ..envs.yardsticks import RotatingFieldPolicy
 from ..runfiles.rundir import CaseDir, RunDir, being_written_hint
 from .policy_files import LoadedPolicy, resolve_policy
@@ -66,12 +66,8 @@ def run_policy(
     if target is not None and not isinstance(policy.case.task, GotoTask):
         raise ValueError(f"a target is for a goto case; {policy.case.name!r} has the "
                          f"{policy.case.task.kind} task")
-    if waypoints is not None and heading is not None:
-        raise ValueError("give waypoints or a heading, not both")
-    path = (WaypointPath.for_env(env, waypoints, target) if waypoints is not None
-            else HeadingCourse.for_env(env, heading, target) if heading is not None else None)
-    if path is not None:
-        target = path.first_target
+    path, _ = course_for_env(env, target, waypoints, heading)
+    target = path.first_target if path is not None else target
     obs, _ = env.reset(seed=0, options=None if target is None else {"target": target})
     if path is not None:
         path.begin(env)
@@ -110,8 +106,7 @@ def run_policy(
     wall = time.perf_counter() - start
     env.close()
     meta = _rollout_meta(policy, env, physics, initial_field, float(times[-1]), diverged, wall, len(actions))
-    if path is not None:
-        meta["waypoints" if heading is None else "heading"] = path.record()
+    meta.update({} if path is None else {"waypoints" if heading is None else "heading": path.record()})
     return Rollout(
         times=np.asarray(times), positions=np.asarray(positions),
         fields=np.asarray(fields).reshape(-1, 3),

@@ -27,7 +27,7 @@ from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 from ..cases.tasks import GotoTask, goto_metrics
 from ..envs.env import make_env
-from ..envs.waypoints import HeadingCourse, WaypointPath
+from ..envs.waypoints import HeadingCourse, course_for_env
 
 __all__ = ["SimulatedTracker", "run_closed_loop"]
 
@@ -76,21 +76,6 @@ def _pose(markers: np.ndarray) -> np.ndarray:
     return np.array([markers[1, 0], markers[1, 1], math.atan2(-along[1], along[0])])
 
 
-def _route(env: Any, target: Any, waypoints: Any, heading: float | None) -> tuple[Any, Any]:
-    """The course of a closed loop (a :class:`WaypointPath`, a :class:`HeadingCourse` or ``None``)
-    and the target its result is judged on (a path's last waypoint; ``None`` along a heading)."""
-    if waypoints is not None and heading is not None:
-        raise ValueError("give waypoints or a heading, not both")
-    if waypoints is not None:
-        route = WaypointPath.for_env(env, waypoints, target)
-        return route, route.points[-1]
-    if heading is not None:
-        return HeadingCourse.for_env(env, heading, target), None
-    if target is None:
-        raise ValueError("give a target (forward, left; m), waypoints or a heading")
-    return None, target
-
-
 def run_closed_loop(policy, target: tuple[float, float] | None = None, duration: float | None = None,
                     physics: str = "accurate", tracker: SimulatedTracker | None = None,
                     seed: int = 0, waypoints: Any = None, heading: float | None = None) -> dict[str, Any]:
@@ -118,7 +103,9 @@ def run_closed_loop(policy, target: tuple[float, float] | None = None, duration:
     tracker = SimulatedTracker() if tracker is None else tracker
     duration = case.task.episode_duration if duration is None else float(duration)
     env = make_env(case, physics, "zero", duration)
-    route, target = _route(env, target, waypoints, heading)
+    route, target = course_for_env(env, target, waypoints, heading)
+    if route is None and target is None:
+        raise ValueError("give a target (forward, left; m), waypoints or a heading")
     obs, _ = env.reset(seed=seed, options={"target": tuple(route.first_target if route else target)})
     if route is not None:
         route.begin(env)
