@@ -26,7 +26,10 @@ the single and the vector environment share one implementation.
   the observation (DAgger's labels) and a policy can time the same manoeuvre. Needs a robot that can leave its
   line: a three-axis case (``[actuation] axes = "xyz"``). Success: ending within ``tolerance`` of
   the target; a policy is judged on a ring of :data:`RING_TARGETS` targets (:func:`ring_targets`,
-  :func:`goto_metrics`).
+  :func:`goto_metrics`). With ``heading_share > 0`` that share of the drawn episodes are heading
+  episodes: after every step (:meth:`GotoTask.follow`) the target moves to ``distance`` ahead of the
+  middle node's place along the line from the start toward the drawn target, so the policy learns
+  to crawl along a commanded heading as well as to stop at a point.
 
 Floor-plane conventions: y is up; the heading ``h`` of the robot is the direction from its back
 node to its front node, ``(cos h, 0, -sin h)``, counter-clockwise seen from above (0: +x, the start);
@@ -170,8 +173,6 @@ class GotoTask:
     kind: ClassVar[str] = "goto"
     extra_observation: ClassVar[tuple[tuple[str, int], ...]] = (("heading", 2), ("target_offset", 2),
                                                                  ("clock", 2))
-    #: One robot's state: its target (x, z), m.
-    state_shape: ClassVar[tuple[int, ...]] = (2,)
     distance: float = 15e-3
     angle_low: float = -math.pi
     angle_high: float = math.pi
@@ -180,6 +181,7 @@ class GotoTask:
     speed_penalty: float = 0.5
     reward_scale: float = 1e4
     episode_duration: float = 30.0
+    heading_share: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("distance", "tolerance", "slow_zone", "reward_scale", "episode_duration"):
@@ -189,6 +191,26 @@ class GotoTask:
         if not (-2 * math.pi <= self.angle_low <= self.angle_high <= 2 * math.pi):
             raise ValueError(f"GotoTask angles must satisfy -2 pi <= angle_low <= angle_high <= 2 pi "
                              f"(rad), got {self.angle_low!r}, {self.angle_high!r}")
+        if not (0.0 <= self.heading_share <= 1.0):
+            raise ValueError(f"GotoTask heading_share must be a fraction in [0, 1], got "
+                             f"{self.heading_share!r}")
+
+    @property
+    def state_shape(self) -> tuple[int, ...]:
+        """One robot's state: its target (x, z), m; with heading episodes (``heading_share > 0``)
+        then the line's start (x, z), m, and its direction (x, z): a unit vector, or (0, 0) in an
+        episode with a fixed target."""
+        return (2,) if self.heading_share == 0.0 else (6,)
+
+    @property
+    def moves_target(self) -> bool:
+        """Whether some episodes' targets move (heading episodes): :meth:`follow` after each step."""
+        return self.heading_share > 0.0
+
+    @staticmethod
+    def target(state: Any) -> NDArray[np.float64]:
+        """The target (x, z), m, of a state (``(..., 2)`` or ``(..., 6)``): its first two entries."""
+        return np.asarray(state, dtype=np.float64)[..., :2]
 
     @staticmethod
     def position(rod: Any, middle_node: int) -> NDArray[np.float64]:
@@ -197,24 +219,44 @@ class GotoTask:
 
     def start(self, pose: Any, rng: np.random.Generator | None = None,
               target: Any = None) -> NDArray[np.float64]:
-        """The target (x, z) of an episode starting at ``pose``: ``target`` (forward, left) in the
-        start frame (m) when given, else drawn from ``rng`` on the ring (one uniform draw)."""
+        """The state (:attr:`state_shape`) of an episode starting at ``pose``: the target (x, z) is
+        ``target`` (forward, left) in the start frame (m) when given, else drawn from ``rng`` on
+        the ring (one uniform draw; with ``heading_share > 0`` a second draw makes that share of
+        the drawn episodes heading episodes: the target stays ``distance`` ahead along the line
+        from the start at the drawn bearing, :meth:`follow`)."""
         x, z, heading = (float(v) for v in np.asarray(pose, dtype=np.float64))
+        along_line = False
         if target is None:
             if rng is None:
                 raise ValueError("the goto task draws its target: give rng (or target)")
             bearing = float(rng.uniform(self.angle_low, self.angle_high))  # from ahead, to the left
             forward, left = self.distance * math.cos(bearing), self.distance * math.sin(bearing)
+            along_line = self.moves_target and float(rng.uniform()) < self.heading_share
         else:
             forward, left = (float(v) for v in np.asarray(target, dtype=np.float64).reshape(2))
             if not (math.isfinite(forward) and math.isfinite(left)):
                 raise ValueError(f"target must be finite (forward, left) in m, got {target!r}")
         c, s = math.cos(heading), math.sin(heading)
         # forward (cos h, -sin h) and left (-sin h, -cos h) in (x, z)
-        return np.array([x + forward * c - left * s, z - forward * s - left * c])
+        dx, dz = forward * c - left * s, -forward * s - left * c
+        if not self.moves_target:
+            return np.array([x + dx, z + dz])
+        direction = (dx / self.distance, dz / self.distance) if along_line else (0.0, 0.0)
+        return np.array([x + dx, z + dz, x, z, *direction])
+
+    def follow(self, state: Any, pose: Any) -> NDArray[np.float64]:
+        """The state after a step ending at ``pose`` (x, z, ...; m): in a heading episode the
+        target moves to ``distance`` ahead of the middle node's place along the line (a carrot the
+        robot never reaches), otherwise it stays. ``state`` ``(6,)`` (:meth:`start`'s)."""
+        state = np.array(state, dtype=np.float64)
+        ux, uz = state[4], state[5]
+        if ux != 0.0 or uz != 0.0:
+            ahead = (float(pose[0]) - state[2]) * ux + (float(pose[1]) - state[3]) * uz + self.distance
+            state[0], state[1] = state[2] + ahead * ux, state[3] + ahead * uz
+        return state
 
     def error(self, pose: Any, target: Any) -> Any:
-        """Distance of the middle node from the target in the floor plane, m."""
+        """Distance of the middle node from the target (or a state's target) in the floor plane, m."""
         pose, target = np.asarray(pose), np.asarray(target)
         return np.hypot(pose[..., 0] - target[..., 0], pose[..., 1] - target[..., 1])
 
@@ -241,7 +283,10 @@ class GotoTask:
                          np.cos(phase), np.sin(phase)], axis=-1)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"kind": self.kind, **asdict(self)}
+        out = {"kind": self.kind, **asdict(self)}
+        if not self.moves_target:  # the tables of cases without heading episodes stay as they were
+            del out["heading_share"]
+        return out
 
 
 def tip_position(rod: Any, node: int = -1) -> NDArray[np.float64]:

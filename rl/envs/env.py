@@ -209,6 +209,8 @@ def adopt_setup(env: Any, setup: CrawlerSetup, physics: str,
     env.setup = setup
     env.case = setup.case
     env.task = setup.task
+    # heading episodes: the target moves after every step (GotoTask.follow)
+    env.moving_target = isinstance(setup.task, GotoTask) and setup.task.moves_target
     env.robot_spec = spec = setup.robot_spec
     env.physics = physics
     env.field_limit = setup.field_limit
@@ -420,7 +422,11 @@ class MagneticCrawlerEnv(gym.Env):
             obs = self.observation()
             if not np.all(np.isfinite(obs)):
                 raise SimulationDivergedError("non-finite observation", self.simulation.time, -1)
-            reward = float(self.task.reward(before, self._task_position(), self.task_state))
+            after = self._task_position()
+            reward = float(self.task.reward(before, after, self.task_state))
+            if self.moving_target:  # the next target, which the policy sees next
+                self.task_state = self.task.follow(self.task_state, after)
+                obs = self.observation()
             self._last_obs = obs
         except SimulationDivergedError as exc:
             terminated = True

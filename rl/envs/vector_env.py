@@ -280,8 +280,12 @@ class MagneticCrawlerVectorEnv(VectorEnv):
             if not diverged[i]:
                 obs = self._observe(i)
                 if np.all(np.isfinite(obs)):
+                    after = self._task_position(i)
+                    rewards[i] = self.task.reward(before[i], after, self._task_state[i])
+                    if self.moving_target:  # the next target, which the policy sees next
+                        self._task_state[i] = self.task.follow(self._task_state[i], after)
+                        obs = self._observe(i)
                     self._obs[i] = obs
-                    rewards[i] = self.task.reward(before[i], self._task_position(i), self._task_state[i])
                     continue
                 diverged[i] = True
                 messages.setdefault(i, f"robot {i}: non-finite observation")

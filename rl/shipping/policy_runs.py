@@ -130,7 +130,7 @@ def _rollout_meta(policy: Any, env: Any, physics: str, initial_field: str, durat
         "step_ms": 1e3 * wall / max(steps, 1),
     }
     if isinstance(policy.case.task, GotoTask):
-        meta["target_xz_m"] = [float(v) for v in env.task_state]
+        meta["target_xz_m"] = [float(v) for v in env.task.target(env.task_state)]
     return meta
 
 

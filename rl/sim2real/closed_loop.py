@@ -133,7 +133,7 @@ def run_closed_loop(policy, target: tuple[float, float] | None = None, duration:
         path.append(_markers(rod, middle)[1])
         if terminated or truncated:
             break
-    target_xz = [float(v) for v in env.task_state]
+    target_xz = [float(v) for v in env.task.target(env.task_state)]
     pose = np.column_stack([np.asarray(path), np.zeros(len(path))])
     loop = {"physics": physics, "duration_s": float(times[-1]), "diverged": bool(terminated),
             "tracker_noise_m": tracker.noise_m, "tracker_latency_s": tracker.latency_steps * ACTION_PERIOD,
