@@ -84,8 +84,9 @@ def user_specs(draw, kinds: tuple[str, ...] = KINDS, poisson: bool | None = None
     magnetization (of ``kinds``), its moduli (``poisson``: a Poisson ratio, else a shear modulus),
     its section (``round_section``: a radius, else a band), its task (``"crawl"`` or
     ``"reach"``; ``"goto"`` only when asked: it needs the third coil pair, so its actuation is
-    drawn from the three-axis forms), its actuation (one of :data:`ACTUATIONS`) and its ground's
-    sideways model (rolling, sliding or left out); ``None``: drawn."""
+    drawn from the three-axis forms, and a share of heading episodes or none), its actuation (one of
+    :data:`ACTUATIONS`) and its ground's sideways model (rolling, sliding or left out); ``None``:
+    drawn."""
     spec = copy.deepcopy(BASE)
     robot = spec["robot"]
     robot["n_elements"] = draw(st.sampled_from([16, 24, 32]))
@@ -102,6 +103,9 @@ def user_specs(draw, kinds: tuple[str, ...] = KINDS, poisson: bool | None = None
         spec["task"] = {"kind": "reach", "target": 0.01, "tolerance": 0.001}
     elif kind == "goto":
         spec["task"] = {"kind": "goto", "distance": draw(st.sampled_from([0.01, 0.015])), "tolerance": 0.002}
+        share = draw(st.sampled_from([None, 0.5, 1.0]))  # heading episodes in its training
+        if share is not None:
+            spec["task"]["heading_share"] = share
     forms = [a for a in ACTUATIONS if a.get("axes") == "xyz"] if kind == "goto" else ACTUATIONS
     spec["actuation"] = draw(st.sampled_from(forms)) if actuation is None else actuation
     sideways = draw(st.sampled_from(["rolling", "sliding", None]))

@@ -151,9 +151,10 @@ def test_identify_fits_every_default_group_on_a_drawn_robot(spec, capsys):
 @settings(DRAWN, max_examples=3)
 @given(spec=user_specs(task="goto"))
 def test_goto_commands_on_a_drawn_robot(spec, capsys):
-    """A user's own goto robot (any magnetization form, moduli, section, three-axis actuation and
-    sideways model): trained (smoke), sent to a point and along a heading by its policy, and along
-    a heading by the steering yardstick; every course's numbers finite and in the start frame."""
+    """A user's own goto robot (any magnetization form, moduli, section, three-axis actuation,
+    sideways model and share of heading episodes): trained (smoke), sent to a point and along a
+    heading by its policy, and along a heading by the steering yardstick; every course's numbers
+    finite and in the start frame."""
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         path = _write(spec, folder)
