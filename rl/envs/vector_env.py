@@ -210,6 +210,28 @@ class MagneticCrawlerVectorEnv(VectorEnv):
             info[f"_{key}"] = np.ones(n, dtype=bool)
         return info
 
+    def _observe_and_reward(self, before: list[Any], diverged: NDArray[np.bool_],
+                            messages: dict[int, str]) -> NDArray[np.float64]:
+        """After a simulated step: each robot's observation and reward (from the task positions
+        ``before`` it), the task's moving target followed; a robot whose observation is not finite
+        is marked in ``diverged`` (with its ``messages`` entry) and gets the divergence penalty."""
+        rewards = np.empty(self.num_envs, dtype=np.float64)
+        for i in range(self.num_envs):
+            if not diverged[i]:
+                obs = self._observe(i)
+                if np.all(np.isfinite(obs)):
+                    after = self._task_position(i)
+                    rewards[i] = self.task.reward(before[i], after, self._task_state[i])
+                    if self.moving_target:  # the next target, which the policy sees next
+                        self._task_state[i] = self.task.follow(self._task_state[i], after)
+                        obs = self._observe(i)
+                    self._obs[i] = obs
+                    continue
+                diverged[i] = True
+                messages.setdefault(i, f"robot {i}: non-finite observation")
+            rewards[i] = self.divergence_penalty  # obs[i] stays the last finite observation
+        return rewards
+
     # -- Gymnasium API -----------------------------------------------------------------------------
     def reset(
         self,
@@ -275,21 +297,7 @@ class MagneticCrawlerVectorEnv(VectorEnv):
             diverged = np.array([not self._healthy(i) for i in range(n)])
             messages[exc.robot] = str(exc)
         self.steps += 1  # before the observations: their clock reads the time the step ends at
-        rewards = np.empty(n, dtype=np.float64)
-        for i in range(n):
-            if not diverged[i]:
-                obs = self._observe(i)
-                if np.all(np.isfinite(obs)):
-                    after = self._task_position(i)
-                    rewards[i] = self.task.reward(before[i], after, self._task_state[i])
-                    if self.moving_target:  # the next target, which the policy sees next
-                        self._task_state[i] = self.task.follow(self._task_state[i], after)
-                        obs = self._observe(i)
-                    self._obs[i] = obs
-                    continue
-                diverged[i] = True
-                messages.setdefault(i, f"robot {i}: non-finite observation")
-            rewards[i] = self.divergence_penalty  # obs[i] stays the last finite observation
+        rewards = self._observe_and_reward(before, diverged, messages)
         terminated = diverged
         truncated = ~terminated & (self.steps >= self.max_episode_steps)
         info = self._info()
