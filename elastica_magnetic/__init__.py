@@ -5,6 +5,9 @@ field sources, magnetization patterns, the equivalent circular section of a band
 ground with an adjustable tolerance, robot presets and a simulation builder. SI units throughout.
 """
 
+# First, before any kernel loads from numba's cache: a kernel cached with another module's kernel
+# inside it would keep the old callee after that module changed (elastica_magnetic._kernel_cache).
+from . import _kernel_cache  # noqa: F401  (drops stale cached kernels on import)
 from .actuation import CoilCurrents, MagnetPose
 from .batch import BatchedRobots, BatchedSimulationDivergedError, SpatialFieldNotSupportedError
 from .field_csv import FieldCSVError, read_field_csv, write_field_csv
