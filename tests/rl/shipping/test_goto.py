@@ -171,6 +171,11 @@ def test_a_goto_model_card_shows_the_ring_beside_the_yardstick():
     assert "| -15.0, +0.0 | 9.00 (missed) | never | 0.90, 9.10 |" in card
 
 
+#: The yardstick's cloning cut to a token (the case's 16000 clone steps and 6000 of DAgger are not what
+#: these tests test: they took some 30 s of each).
+QUICK_CLONE = ("--set", "yardstick_warmup=10", "--set", "yardstick_dagger=0")
+
+
 def _quick_goto_spec(folder):
     """m1-4mT-goto with 0.1 s episodes, its evaluations' too (``--episode-duration`` shortens the
     training episodes only: a goto evaluation is the task's whole 30 s episode)."""
@@ -191,7 +196,7 @@ def test_a_goto_run_ships_with_its_ring_and_the_yardsticks(tmp_path, monkeypatch
     runs = tmp_path / "runs"
     assert main(["train", "--case", str(_quick_goto_spec(tmp_path)), "--seeds", "1", "--steps", "20",
                  "--out", str(runs), "--set", "learning_starts=10", "--set", "batch_size=8", "--set",
-                 "hidden_sizes=8", "--no-progress"]) == 0
+                 "hidden_sizes=8", *QUICK_CLONE, "--no-progress"]) == 0
     asked = []
 
     def quick_ring(policy, duration, physics, **kwargs):
@@ -244,7 +249,7 @@ def test_round17_generate_states_and_chooses_for_the_target_asked(tmp_path, caps
     runs = tmp_path / "runs"
     assert main(["train", "--case", str(_quick_goto_spec(tmp_path)), "--seeds", "1", "--steps", "40",
                  "--out", str(runs), "--set", "learning_starts=10", "--set", "batch_size=8", "--set",
-                 "hidden_sizes=8", "--set", "eval_every=20", "--no-progress"]) == 0
+                 "hidden_sizes=8", *QUICK_CLONE, "--set", "eval_every=20", "--no-progress"]) == 0
     run = runs / "goto-quick" / "seed0"
     assert (run / "best.pt").is_file()
     capsys.readouterr()

@@ -133,14 +133,24 @@ def test_every_recipe_runs_the_cases_steps_unless_steps_are_given():
 def test_the_fast_recipes_target_rule_is_off_with_a_warning_for_a_case_without_a_target(
         tmp_path, capsys):
     """``msr train --case m1-4mT-goto --recipe fast``: the recipe's default stop rule cannot act on
-    a goto case (no target return); the seeds train their full steps, and the run says so."""
-    args = ["train", "--case", "m1-4mT-goto", "--recipe", "fast", "--seeds", "1", "--steps", "20",
+    a goto case (no target return); the seeds train their full steps, and the run says so. (The
+    case's spec with 2 s episodes instead of 30, so that its one evaluation, a whole episode, is
+    short.)"""
+    from elastica_magnetic_rl.cases.case import SPECS_DIR
+
+    text = (SPECS_DIR / "m1-4mT-goto.toml").read_text()
+    assert text.count("episode_duration = 30.0") == 1
+    spec = tmp_path / "spec" / "m1-4mT-goto.toml"
+    spec.parent.mkdir()
+    spec.write_text(text.replace("episode_duration = 30.0", "episode_duration = 2.0"))
+    args = ["train", "--case", str(spec), "--recipe", "fast", "--seeds", "1", "--steps", "20",
             "--out", str(tmp_path), "--set", "learning_starts=10", "--set", "batch_size=8",
-            "--set", "hidden_sizes=8", "--episode-duration", "0.1", "--no-progress"]
+            "--set", "hidden_sizes=8", "--set", "yardstick_warmup=10", "--set", "yardstick_dagger=0",
+            "--episode-duration", "0.1", "--no-progress"]
     assert msr(args) == 0
     err = capsys.readouterr().err
     assert ("warning: case 'm1-4mT-goto' has no target return (task 'goto', judged on its targets, "
             "not on one evaluation's return): the recipe's target stop rule is off for it") in err
     summary = json.loads((tmp_path / "m1-4mT-goto" / "summary.json").read_text())
     assert summary["stop_rule"] is None and summary["steps_run_fraction"] == 1.0
-    assert summary["evaluation_duration_s"] == 30.0  # a goto evaluation runs the whole episode
+    assert summary["evaluation_duration_s"] == 2.0  # a goto evaluation runs the whole episode
