@@ -115,6 +115,17 @@ def _add_goto_options(p: argparse.ArgumentParser) -> None:
                        "going, the target kept the task's distance ahead along the line; --duration "
                        "defaults to the task's episode; the result's 'heading' block gives the distance "
                        "along it and off it, top_view.png draws the line")
+    where.add_argument("--validation", action="store_true",
+                       help="a tip-reach case: steer to its 20 validation targets instead of the 20 "
+                       "held-out ones (another seed; choose among seeds and checkpoints on these, so "
+                       "that the held-out targets judge the chosen policy without having chosen it)")
+
+
+def _refuse_validation(args: argparse.Namespace, case) -> None:
+    """``--validation`` names a tip-reach case's target set: refused by name for any other case."""
+    if args.validation:
+        raise CommandError(f"--validation is a tip-reach case's set of validation targets; case "
+                           f"{case.name!r} has the {case.task.kind} task")
 
 
 def _where(args: argparse.Namespace) -> object:
@@ -158,7 +169,8 @@ def _tip_reach_args(args: argparse.Namespace, case, command: str, refused: dict)
         if value:
             raise CommandError(f"{option} does not apply to case {case.name!r}, steered by a source "
                                f"([actuation] kind = \"{case.actuation.kind}\"): {command} steers the tip to "
-                               "each of the case's 20 held-out targets at once, or to --target X,Y,Z (m)")
+                               "each of the case's 20 held-out targets at once (or its 20 validation "
+                               "targets: --validation), or to --target X,Y,Z (m)")
     if args.target is not None and len(args.target) != 3:
         raise CommandError(f"--target of a tip-reach case is X,Y,Z in m, in the spec's frame (three "
                            f"numbers); got {len(args.target)} (FORWARD,LEFT is a goto case's)")
@@ -260,6 +272,7 @@ def generate_command(args: argparse.Namespace) -> int:
         raise CommandError(str(exc)) from None
     if not loaded.case.field_actuated:
         return _tip_reach_generate(args, loaded)
+    _refuse_validation(args, loaded.case)
     if args.workers is not None and args.ring is None:
         raise CommandError("--workers is the number of --ring targets run at a time; a single "
                            "rollout runs in one process: leave it out, or give --ring")
@@ -279,6 +292,12 @@ def generate_command(args: argparse.Namespace) -> int:
     except FileNotFoundError as exc:
         raise CommandError(str(exc)) from None
     return _print_rollout_result(result, args.json)
+
+
+def _tip_targets(args: argparse.Namespace) -> object:
+    """The targets a tip-reach command steers to: ``--target``'s point, ``"validation"`` (the
+    validation targets) with ``--validation``, else ``None`` (the held-out targets)."""
+    return "validation" if args.validation else args.target
 
 
 def _drive_of(case, target) -> object | None:
@@ -309,7 +328,7 @@ def _tip_reach_generate(args: argparse.Namespace, loaded) -> int:
     steering = Steering(actor_controller(loaded.actor), f"policy {loaded.source}")
     result = write_targets(loaded.case, args.out, steering, physics=args.physics, duration=args.duration,
                            force=args.force, kind="generate", figures=not args.no_figures,
-                           targets=args.target, drive=_drive_of(loaded.case, args.target))
+                           targets=_tip_targets(args), drive=_drive_of(loaded.case, args.target))
     if choice is not None:
         result["actor_choice"] = {**choice.to_dict(), "summary": choice.describe()}
     print_notes(result.pop("notes", ()))
@@ -327,6 +346,7 @@ def baseline_command(args: argparse.Namespace) -> int:
 
     if not args.case.field_actuated:
         return _tip_reach_baseline(args)
+    _refuse_validation(args, args.case)
     _goto_args(args, args.case)
     if isinstance(args.case.task, GotoTask):
         return _steering_baseline(args)
@@ -383,7 +403,7 @@ def _tip_reach_baseline(args: argparse.Namespace) -> int:
     print_notes(target_notes(args.case, args.target) if args.target is not None else ())
     result = write_targets(args.case, args.out, Steering(steering_controller), physics=args.physics,
                            duration=args.duration, force=args.force, figures=not args.no_figures,
-                           targets=args.target, drive=_drive_of(args.case, args.target))
+                           targets=_tip_targets(args), drive=_drive_of(args.case, args.target))
     print_notes(result.pop("notes", ()))
     print_result(result, args.json)
     return 0

@@ -68,8 +68,8 @@ class GroupLoop:
         self.yardsticks: list[Any] | None = None
         if self.cfg.yardstick_warmup and self.lead.global_step < self.cfg.dagger_end:
             self.yardsticks = self._new_yardsticks()
-        # each transition's label for DAgger: the yardstick's command at its observation
-        self.labels = np.zeros_like(self.actions) if self.cfg.yardstick_dagger else None
+        # each transition's label for DAgger or a clone of the commands: the yardstick's command
+        self.labels = np.zeros_like(self.actions) if self.cfg.labelled else None
 
     def evaluation_maker(self, make: Callable[..., Any] | None) -> Callable[..., Any] | None:
         """``make`` (an evaluation environment's maker) with the run's ``eval_duration`` when it
@@ -281,17 +281,19 @@ class GroupLoop:
 
     def start_from_yardstick(self) -> None:
         """The end of a warm-up the yardstick played (``yardstick_warmup`` U): every seed's actor
-        clones the warm-up's actions (U steps), its target actor is set to the clone, and the
+        clones the warm-up's actions (U steps; as played, or as commanded with ``clone_labels``), its
+        target actor is set to the clone, and the
         critics learn the clone's value (U updates, the actor held); each seed is then evaluated
         (its own environment: the training's episodes go on), so ``best.pt`` starts from the
         clone."""
         cfg, learner, runs = self.cfg, self.learner, self.runs
 
-        def batches() -> list[Any]:
-            return [r.buffer.sample(cfg.batch_size, learner.rngs[k]) for k, r in enumerate(runs)]
+        def batches(labels: bool = False) -> list[Any]:
+            return [(r.buffer.sample_labels if labels else r.buffer.sample)(cfg.batch_size, learner.rngs[k])
+                    for k, r in enumerate(runs)]
 
-        for _ in range(cfg.yardstick_warmup):
-            clone_loss = learner.clone_step(batches())
+        for _ in range(cfg.yardstick_warmup):  # the critics below learn the actions as played
+            clone_loss = learner.clone_step(batches(labels=cfg.clone_labels == "commanded"))
         learner.hold_actor_targets()
         for _ in range(cfg.yardstick_warmup):
             info = learner.update(batches(), train_actor=False)

@@ -118,7 +118,7 @@ class SeedRun:
         # the buffer holds every transition of the run (rounded up to whole vector steps)
         total = -(-self.steps // n_envs) * n_envs
         self.buffer = ReplayBuffer(min(self.cfg.buffer_size, total), obs_dim, act_dim,
-                                   labelled=self.cfg.yardstick_dagger > 0)
+                                   labelled=self.cfg.labelled)
         self.global_step, self.episode, self.elapsed_before = 0, 0, 0.0
         self.replay = ReplayFile(self.run_dir)
         if ckpt is not None:

@@ -1,5 +1,7 @@
 """Judging a tip-reach case (a clamped rod steered by a magnet on an arm or by fixed coils):
-held-out targets drawn from the case's ``target_box`` with a seed no training uses, and the result
+held-out targets drawn from the case's ``target_box`` with a seed no training uses (they judge a
+policy), validation targets drawn with another such seed (they choose among seeds and checkpoints,
+so that the held-out ones never do), and the result
 of a controller on them (a trained actor, or the yardstick: the bearing steering law of
 :class:`~elastica_magnetic.steering.MagnetBearingSteering` for a magnet,
 :class:`~elastica_magnetic.steering.CoilFieldSteering` for coils), all targets at once in one
@@ -22,15 +24,18 @@ from ..envs.catheter_env import CatheterReachVectorEnv, make_catheter_env
 from ..envs.steering_yardstick import insertion_command, steering_law
 from .policy_files import check_policy_case
 
-__all__ = ["HELD_OUT_SEED", "HELD_OUT_TARGETS", "TARGET_FILES", "actor_controller", "held_out_targets",
-           "judge_held_out", "run_targets", "Steering", "steering_controller", "target_notes",
-           "write_targets"]
+__all__ = ["HELD_OUT_SEED", "HELD_OUT_TARGETS", "TARGET_FILES", "VALIDATION_SEED", "actor_controller",
+           "held_out_targets", "judge_held_out", "run_targets", "Steering", "steering_controller",
+           "target_notes", "validation_targets", "write_targets"]
 
 #: Seed of the held-out targets: training draws its targets with the run's seed plus small offsets
 #: (episode numbers), never this one.
 HELD_OUT_SEED = 53_000_053
 #: How many held-out targets a tip-reach policy is judged on.
 HELD_OUT_TARGETS = 20
+#: Seed of the validation targets (as many as the held-out ones): choosing a seed or a checkpoint
+#: by its count on the held-out targets would make that count an optimistic judge of it.
+VALIDATION_SEED = 53_000_054
 
 #: A controller: given the environment and its observation ``(N, size)``, the actions ``(N, A)``.
 Controller = Callable[[CatheterReachVectorEnv, NDArray[np.float32]], NDArray[np.float64]]
@@ -40,6 +45,25 @@ def held_out_targets(case: Case, n: int = HELD_OUT_TARGETS, seed: int = HELD_OUT
     """``(n, 3)`` targets drawn uniformly in the case's ``target_box`` (m) with ``seed``."""
     low, high = np.asarray(case.task.target_box, dtype=np.float64)
     return np.random.default_rng(seed).uniform(low, high, size=(int(n), 3))
+
+
+def validation_targets(case: Case, n: int = HELD_OUT_TARGETS) -> NDArray[np.float64]:
+    """``(n, 3)`` validation targets (m): drawn as :func:`held_out_targets` with
+    :data:`VALIDATION_SEED`, for choosing among a case's seeds and checkpoints."""
+    return held_out_targets(case, n, VALIDATION_SEED)
+
+
+def _target_set(case: Case, targets: Any) -> tuple[NDArray[np.float64], str]:
+    """The targets ``(n, 3)`` m that ``targets`` names (``None``: the held-out ones, ``"validation"``:
+    the validation ones, else the points themselves) and their source as results name it."""
+    if targets is None:
+        return held_out_targets(case), f"held out (seed {HELD_OUT_SEED})"
+    if isinstance(targets, str):
+        if targets != "validation":
+            raise ValueError(f"targets: {targets!r} names no target set (None: the held-out targets, "
+                             "'validation': the validation targets, or points (n, 3) m)")
+        return validation_targets(case), f"validation (seed {VALIDATION_SEED})"
+    return np.asarray(targets, dtype=np.float64).reshape(-1, 3), "given"
 
 
 def steering_controller(env: CatheterReachVectorEnv) -> Controller:
@@ -205,7 +229,8 @@ class Steering:
 def write_targets(case: Case, out: Any, steering: Steering, physics: str = "accurate",
                   duration: float | None = None, force: bool = False, kind: str = "baseline",
                   figures: bool = True, targets: Any = None, drive: Any = None) -> dict[str, Any]:
-    """:func:`run_targets` on ``targets`` (m, ``(n, 3)``; default the case's held-out targets),
+    """:func:`run_targets` on ``targets`` (m, ``(n, 3)``; default the case's held-out targets;
+    ``"validation"``: its validation targets),
     written whole into the result folder ``out`` (as ``msr <kind>``'s result for the case;
     replaced only with ``force``): ``targets.csv`` (one row per target), ``targets.json`` (the
     summary and the rows) and, with ``figures``, ``targets.png`` (the tip's paths), ``steering``
@@ -223,8 +248,7 @@ def write_targets(case: Case, out: Any, steering: Steering, physics: str = "accu
 
     subject = f"case {case.name}"
     check_policy_case(out, case)
-    given = targets is not None
-    targets = np.asarray(targets, dtype=np.float64).reshape(-1, 3) if given else held_out_targets(case)
+    targets, source = _target_set(case, targets)
     if drive is not None and len(targets) != 1:
         raise ValueError(f"a drive is recorded for one target; got {len(targets)}")
     known = TARGET_FILES + (drive.file_names if drive is not None else ())
@@ -232,7 +256,7 @@ def write_targets(case: Case, out: Any, steering: Steering, physics: str = "accu
     with result_folder(out, kind=kind, subject=subject, force=force, known_files=known) as folder:
         # inside the result folder: an interruption while steering says so, leaves no lock
         drives: list[list[Any]] = []
-        summary, rows, paths = _steer_to(case, targets, given, steering.make, physics, duration,
+        summary, rows, paths = _steer_to(case, targets, source, steering.make, physics, duration,
                                          steering.label, drive.row if drive is not None else None, drives)
         with atomic_write(folder.path / "targets.csv", "w", newline="") as handle:
             pd.DataFrame(rows).to_csv(handle, index=False, float_format="%.9g")
@@ -247,12 +271,13 @@ def write_targets(case: Case, out: Any, steering: Steering, physics: str = "accu
     return {**summary, "files": files, "notes": folder.notes}
 
 
-def _steer_to(case: Case, targets: NDArray[np.float64], given: bool,
+def _steer_to(case: Case, targets: NDArray[np.float64], source: str,
               make_controller: Callable[[CatheterReachVectorEnv], Controller], physics: str,
               duration: float | None, controller: str, record: Any = None, drives: list | None = None
               ) -> tuple[dict[str, Any], list[dict[str, Any]], list]:
     """:func:`run_targets` for :func:`write_targets`: its summary, one row per target and the tip's
-    paths (``record`` and ``drives`` as :func:`run_targets`')."""
+    paths (``record`` and ``drives`` as :func:`run_targets`'; ``source``: where the targets come
+    from, as :func:`_target_set` names it)."""
     paths: list[NDArray[np.float64]] = []
     result = run_targets(case, targets, make_controller, physics, duration, paths=paths, record=record,
                          drives=drives)
@@ -264,10 +289,10 @@ def _steer_to(case: Case, targets: NDArray[np.float64], given: bool,
     times = [r["time_to_target_s"] for r in rows if r["success"] and r["time_to_target_s"] is not None]
     summary = {"case": case.name, "controller": controller, "physics": physics,
                "duration_s": result["duration_s"],
-               "target_source": "given" if given else f"held out (seed {HELD_OUT_SEED})",
+               "target_source": source,
                "targets": len(rows), "successes": result["successes"], "tolerance_m": case.task.tolerance,
                "mean_time_to_target_s": float(np.mean(times)) if times else None,
                "largest_final_distance_m": float(max(result["final_distance_m"]))}
-    if given and len(rows) == 1:
+    if source == "given" and len(rows) == 1:
         summary |= {"target_m": result["targets_m"][0], "tip_error_m": float(result["final_distance_m"][0])}
     return summary, rows, paths

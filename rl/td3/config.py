@@ -16,6 +16,9 @@ from elastica_magnetic.robot_spec import ACTION_PERIOD
 #: What an actor reads (:attr:`Hyperparameters.actor_input`): the whole ``observation`` in the
 #: lab's frame (the paper's), or a goto case's ``steering`` state in the robot's frame.
 ACTOR_INPUTS = ("observation", "steering")
+#: What a clone of the yardstick's warm-up copies (:attr:`Hyperparameters.clone_labels`): the
+#: actions as ``played`` (the yardstick's plus the exploration noise) or as ``commanded`` (its own).
+CLONE_LABELS = ("played", "commanded")
 
 #: Arithmetic choices of :attr:`TD3Config.precision`.
 PRECISIONS = ("fp32", "bf16")
@@ -70,6 +73,8 @@ def _setting_form(key: str, default: Any) -> str:
         return "true or false"
     if key == "actor_input":
         return " or ".join(ACTOR_INPUTS)
+    if key == "clone_labels":
+        return " or ".join(CLONE_LABELS)
     if key == "noise_color":
         return "a number: the exponent of the noise's spectrum 1/f^beta (0 white, 1 pink, 2 red)"
     if key == "eval_duration":
@@ -161,6 +166,15 @@ class Hyperparameters:
     the critics learn that actor's value (``U`` critic updates with the actor held): TD3 then
     improves a policy that already does what the yardstick does, instead of one from scratch (as
     Hester et al. 2018 and Nair et al. 2018 start from demonstrations)."""
+    clone_labels: str = "played"
+    """What the clone of :attr:`yardstick_warmup` copies: ``"played"`` (the warm-up's actions as
+    played, the yardstick's command plus the exploration noise) or ``"commanded"`` (the yardstick's
+    command before its noise, kept beside each warm-up transition). Why ``commanded``: the noise is
+    there to show the clone the states around the yardstick's paths (DART: Laskey et al., CoRL
+    2017, label those states with the supervisor's clean action); copying the noisy actions asks
+    the clone to average the noise out, and what it does not average (a constant learning rate
+    keeps it fitting the last minibatches' noise) is an error in every action, felt most where a
+    precise action matters: holding a target."""
     yardstick_dagger: int = 0
     """Environment steps of DAgger after the clone (0: none; needs :attr:`yardstick_warmup` and a
     yardstick that labels an observation by itself, a tip-reach case's steering law). For these
@@ -253,6 +267,9 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
         if self.actor_input not in ACTOR_INPUTS:
             raise ValueError(f"actor_input must be one of {', '.join(ACTOR_INPUTS)}, got "
                              f"{self.actor_input!r}")
+        if self.clone_labels not in CLONE_LABELS:
+            raise ValueError(f"clone_labels must be one of {', '.join(CLONE_LABELS)}, got "
+                             f"{self.clone_labels!r}")
         for name in ("actor_lr", "critic_lr"):  # 0 changes no weight; Adam above 1 only diverges
             value = getattr(self, name)
             if not (math.isfinite(value) and 0.0 < value <= MAX_LEARNING_RATE):
@@ -319,6 +336,9 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
             raise ValueError(f"yardstick_regularization {self.yardstick_regularization:g} holds the actor "
                              "near the yardstick's warm-up: set yardstick_warmup too (e.g. 4000), or leave "
                              "it 0")
+        if self.clone_labels == "commanded" and not self.yardstick_warmup:
+            raise ValueError("clone_labels 'commanded' copies the yardstick's own commands in its "
+                             "warm-up: set yardstick_warmup too (e.g. 4000), or leave clone_labels 'played'")
         if self.yardstick_dagger and not self.yardstick_warmup:
             raise ValueError(f"yardstick_dagger {self.yardstick_dagger} continues a clone of the yardstick's "
                              "warm-up on the clone's own states: set yardstick_warmup too (e.g. 4000), or "
@@ -371,8 +391,8 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
             if key.endswith("hidden_sizes"):
                 value: Any = None if (default is None and text.lower() == "none") else tuple(
                     int(w) for w in text.split(","))
-            elif key == "actor_input":
-                if text not in ACTOR_INPUTS:
+            elif key in ("actor_input", "clone_labels"):
+                if text not in (ACTOR_INPUTS if key == "actor_input" else CLONE_LABELS):
                     raise ValueError
                 value = text
             elif isinstance(default, bool):
@@ -392,7 +412,8 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
         # rule itself is checked where the whole config is built)
         partner: dict[str, Any] = {"batch_size": {"buffer_size": value},
                                    "yardstick_regularization": {"yardstick_warmup": 1},
-                                   "yardstick_dagger": {"yardstick_warmup": 1}}.get(key, {})
+                                   "yardstick_dagger": {"yardstick_warmup": 1},
+                                   "clone_labels": {"yardstick_warmup": 1}}.get(key, {})
         if key == "buffer_size":  # the run's minibatch (recipe, spec or --set) is judged with it later
             partner = {"batch_size": max(1, min(value, cls().batch_size))}
         try:
@@ -400,6 +421,12 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
         except ValueError as exc:
             raise ValueError(f"{key}={text}: {exc}") from None
         return value
+
+    @property
+    def labelled(self) -> bool:
+        """Whether each transition keeps the yardstick's command beside the action played (DAgger's
+        labels, or a clone of the commands)."""
+        return self.yardstick_dagger > 0 or self.clone_labels == "commanded"
 
     @property
     def dagger_end(self) -> int:

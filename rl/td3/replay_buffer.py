@@ -141,7 +141,7 @@ class ReplayBuffer:
             raise ValueError("replay buffer dimensions do not match the checkpoint")
         if self.labels is not None and "labels" not in state:
             raise ValueError("the checkpoint's replay buffer holds no labels: it was not written by a "
-                             "run with yardstick_dagger")
+                             "run with yardstick_dagger or clone_labels 'commanded'")
         keys = self._keys()
         data = {k: state[k].numpy() for k in keys}
         size = int(state["size"])

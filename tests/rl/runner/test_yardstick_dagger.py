@@ -140,3 +140,39 @@ def test_dagger_without_a_warm_up_is_refused_and_a_goto_case_accepted():
     coils = load_case("catheter-coils-reach")
     _check_yardstick_warmup({coils.name: coils}, TD3Config(yardstick_dagger=500, yardstick_warmup=10,
                                                            learning_starts=256))
+
+
+def test_a_clone_of_the_commands_copies_the_yardstick_not_its_noise(tmp_path):
+    # a warm-up with much exploration noise, cloned on the actions as played and as commanded: the
+    # buffers (and so the paths) are the same; the clone of the commands is nearer the teacher
+    steps, noise = WARM_UP + 1, 0.6
+    cloned = {}
+    for labels in ("played", "commanded"):
+        config = _config(yardstick_dagger=0, clone_labels=labels, exploration_noise=noise,
+                         yardstick_warmup=2000)
+        cloned[labels] = train(_fixed, config, steps, tmp_path / labels, progress=False, yardstick_fn=Teacher)
+    played = load_checkpoint(tmp_path / "played")["buffer"]
+    commanded = load_checkpoint(tmp_path / "commanded")["buffer"]
+    np.testing.assert_array_equal(np.asarray(played["actions"]), np.asarray(commanded["actions"]))
+    assert "labels" not in played
+    rows, teacher = _rows(tmp_path / "commanded"), Teacher()
+    shown = np.array([teacher.act(o) for o in rows["obs"][:WARM_UP]])
+    np.testing.assert_array_equal(rows["labels"][:WARM_UP], shown)
+    obs = torch.as_tensor(rows["obs"][:WARM_UP])
+    with torch.no_grad():
+        errors = {labels: float(np.abs(torch.tanh(agent.actor.net(obs)).numpy() - shown).mean())
+                  for labels, agent in cloned.items()}
+    # the played actions' noise (clipped to [-1, 1]) is what the clone of the played ones carries
+    assert errors["commanded"] < 0.5 * errors["played"], errors
+
+
+def test_a_clone_of_the_commands_needs_a_warm_up_and_names_its_choices():
+    with pytest.raises(ValueError, match="clone_labels 'commanded' copies the yardstick's own commands"):
+        TD3Config(clone_labels="commanded")
+    with pytest.raises(ValueError, match="clone_labels must be one of played, commanded, got 'clean'"):
+        TD3Config(clone_labels="clean", yardstick_warmup=10, learning_starts=256)
+    assert TD3Config.parse_setting("clone_labels", "commanded") == "commanded"
+    with pytest.raises(ValueError, match="clone_labels=clean: expected played or commanded"):
+        TD3Config.parse_setting("clone_labels", "clean")
+    assert TD3Config(clone_labels="commanded", yardstick_warmup=10, learning_starts=256).labelled
+    assert not TD3Config().labelled

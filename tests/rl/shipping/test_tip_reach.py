@@ -12,9 +12,11 @@ import pytest
 from elastica_magnetic_rl.cases.case import load_case
 from elastica_magnetic_rl.shipping.tip_reach import (
     HELD_OUT_SEED,
+    VALIDATION_SEED,
     held_out_targets,
     run_targets,
     steering_controller,
+    validation_targets,
 )
 from smoke import run_msr
 from spec_texts import CATHETER_MAGNET_REACH
@@ -37,6 +39,17 @@ def test_held_out_targets_lie_in_the_box_and_are_not_a_training_draw():
     assert np.array_equal(targets, held_out_targets(c))
     training_draw = np.random.default_rng(0).uniform(low, high, size=(20, 3))
     assert not np.allclose(targets, training_draw) and HELD_OUT_SEED > 10**6
+
+
+def test_validation_targets_are_another_draw_in_the_same_box():
+    c = case()
+    targets, held_out = validation_targets(c), held_out_targets(c)
+    low, high = np.asarray(c.task.target_box)
+    assert targets.shape == held_out.shape and np.all((targets >= low) & (targets <= high))
+    assert VALIDATION_SEED != HELD_OUT_SEED and VALIDATION_SEED > 10**6
+    # another draw: no validation target is a held-out one
+    gaps = np.linalg.norm(targets[:, None, :] - held_out[None, :, :], axis=-1)
+    assert gaps.min() > 1e-6
 
 
 def test_a_controller_that_does_nothing_ends_where_the_straight_tip_is():
@@ -120,6 +133,22 @@ def test_generate_refuses_options_a_tip_reach_policy_cannot_use(catheter_run, tm
     status = msr(["policy", "generate", str(catheter_run), *extra, "--out", str(tmp_path / "never")])
     assert status == 2 and message in capsys.readouterr().err
     assert not (tmp_path / "never").exists()
+
+
+def test_validation_steers_to_the_validation_targets_and_is_refused_where_it_cannot_act(
+        catheter_run, tmp_path, capsys):
+    result = run_msr(capsys, "policy", "generate", str(catheter_run), "--validation", "--physics", "training",
+                     "--duration", "0.02", "--no-figures", "--out", str(tmp_path / "val"), "--no-progress")
+    c = load_case("catheter-magnet-reach")
+    assert result["targets"] == 20 and result["target_source"] == f"validation (seed {VALIDATION_SEED})"
+    table = (tmp_path / "val" / "targets.csv").read_text().splitlines()
+    assert table[1].startswith(f"{validation_targets(c)[0, 0]:.9g}")
+    capsys.readouterr()
+    assert msr(["field", "baseline", "--case", "m1-4mT", "--validation", "--period", "1", "--out",
+                str(tmp_path / "crawl")]) == 2
+    assert "--validation is a tip-reach case's set of validation targets; case 'm1-4mT'" in (
+        capsys.readouterr().err)
+    assert not (tmp_path / "crawl").exists()
 
 
 def test_generate_without_a_target_judges_the_held_out_targets_and_notes_targets_outside_the_box(
