@@ -173,8 +173,8 @@ class Hyperparameters:
     there to show the clone the states around the yardstick's paths (DART: Laskey et al., CoRL
     2017, label those states with the supervisor's clean action); copying the noisy actions asks
     the clone to average the noise out, and what it does not average (a constant learning rate
-    keeps it fitting the last minibatches' noise) is an error in every action, felt most where a
-    precise action matters: holding a target."""
+    keeps it fitting the last minibatches' noise) is an error in every action. Measured on a
+    catheter's clones it helped one seed of two (docs/steering_catheter.md)."""
     yardstick_dagger: int = 0
     """Environment steps of DAgger after the clone (0: none; needs :attr:`yardstick_warmup` and a
     yardstick that labels an observation by itself, a tip-reach case's steering law). For these
