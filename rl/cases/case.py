@@ -419,12 +419,14 @@ def warmup_refusal(case: Case) -> str | None:
     have one). Such a crawl's spec is valid until then (a sweep, ``msr field baseline
     --set-yardstick`` or ``msr loop``, records it): only the training refuses it, and ``msr case
     check`` warns."""
-    warmup = case.training.td3.get("yardstick_warmup")
-    if not warmup or case.has_yardstick_controller:
+    warmup, residual = case.training.td3.get("yardstick_warmup"), case.training.td3.get("residual")
+    if not (warmup or residual) or case.has_yardstick_controller:
         return None
     fix = ("give [yardstick] period (msr field baseline --case SPEC --set-yardstick FILE writes it; msr "
            "loop finds it itself) or remove the setting")
-    return (f"{case.source}: [training.td3] yardstick_warmup = {warmup}: the warm-up is played by the "
+    what = (f"yardstick_warmup = {warmup}: the warm-up is played by" if warmup else
+            f"residual = {residual}: the actor learns a correction of")
+    return (f"{case.source}: [training.td3] {what} the "
             f"case's hand-designed controller, and this case has none ({YARDSTICK_CONTROLLERS}): {fix}")
 
 

@@ -325,7 +325,7 @@ def _tip_reach_generate(args: argparse.Namespace, loaded) -> int:
     if choice is not None:
         loaded = resolve_policy(choice.path)
     print_notes(target_notes(loaded.case, args.target) if args.target is not None else ())
-    steering = Steering(actor_controller(loaded.actor), f"policy {loaded.source}")
+    steering = Steering(actor_controller(loaded), f"policy {loaded.source}")
     result = write_targets(loaded.case, args.out, steering, physics=args.physics, duration=args.duration,
                            force=args.force, kind="generate", figures=not args.no_figures,
                            targets=_tip_targets(args), drive=_drive_of(loaded.case, args.target))

@@ -184,6 +184,7 @@ def train_seeds(
             return _without_done(same_settings, runs, configs, run_dirs, o.metadata, steps,
                                  (obs_dim, act_dim, act_space))
         _check_yardstick(runs, o.yardstick_fn, obs_dim, act_dim)
+        _check_residual(runs[0].cfg, env)
         learner = _group_learner(runs, obs_dim, act_dim, act_space)
         loop = GroupLoop(env, runs, learner, dataclasses.replace(o, envs_per_seed=n), vec_env_fn)
         learner = loop.train(o.progress, o.eval_env_fn, o.progress_position, o.progress_desc)
@@ -235,6 +236,24 @@ def _check_yardstick(runs: list[SeedRun], yardstick_fn: Callable[[], Any] | None
         raise ValueError(f"the yardstick reads {probe.obs_dim} observation entries and writes "
                          f"{probe.act_dim} action components; the environment has {obs_dim} and "
                          f"{act_dim}")
+
+
+def _check_residual(cfg: TD3Config, env: gym.vector.VectorEnv) -> None:
+    """A residual learner (``residual``) needs environments that play its corrections of the
+    yardstick, with its weight; such environments need a residual learner (its actor starts at a
+    zero correction): ``ValueError`` before any step otherwise."""
+    subs = getattr(env, "envs", None)  # a SyncVectorEnv of single ones (``train``)
+    played = float(getattr(env, "residual", None) or (getattr(subs[0], "residual", 0.0) if subs else 0.0))
+    if played == cfg.residual:
+        return
+    if not cfg.residual:
+        raise ValueError(f"the environments play corrections of the yardstick (residual {played:g}) and the "
+                         "config learns a policy: set residual to the same weight")
+    raise ValueError(f"residual {cfg.residual:g}: the actor learns a correction of the case's yardstick, and "
+                     + ("the environments play its actions as they are" if not played else
+                        f"the environments weigh it {played:g}")
+                     + ": make them with elastica_magnetic_rl.envs.residual.residual_vector_env (msr train "
+                       "does)")
 
 
 def _flat_spaces(env: gym.vector.VectorEnv, total: int) -> tuple[int, int, gym.spaces.Box]:

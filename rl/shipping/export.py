@@ -52,6 +52,12 @@ def export_policy(policy: str | Path, out: str | Path = "out/export",
     from ..td3.networks import ScaledPolicy
 
     loaded = resolve_policy(policy)
+    if loaded.residual:
+        raise ValueError(f"{loaded.source}: a residual policy (residual {loaded.residual:g}) acts as the "
+                         "case's yardstick corrected by its actor, and the yardstick (a controller with a "
+                         "memory) is "
+                         "not a network: the actor alone exported would not be the policy. Play it with "
+                         "msr policy generate, or in Python through resolve_policy(...).act")
     check_policy_case(out, loaded.case)
     with result_folder(out, kind="export", subject=f"case {loaded.case.name}", force=force,
                        known_files=EXPORT_FILES) as folder:

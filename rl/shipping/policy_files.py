@@ -130,14 +130,46 @@ class LoadedPolicy:
     obs_dim: int = 260  # the case's (checked against it on loading)
     act_dim: int = 2
     hidden_sizes: tuple[int, ...] = (256, 256)
+    _controller: Any = field(default=None, repr=False, compare=False)
 
-    def act(self, obs: np.ndarray) -> np.ndarray:
-        """Deterministic normalised action in [-1, 1]^2 for one observation (float32)."""
+    @property
+    def residual(self) -> float:
+        """The weight of the actor's correction on the case's yardstick for a residual policy
+        (:attr:`~elastica_magnetic_rl.td3.config.TD3Config.residual`); 0: the actor is the policy."""
+        if self.kind == "shipped":
+            return float(self.meta["architecture"].get("residual", 0.0))
+        return float((self.meta.get("config") or {}).get("residual", 0.0))
+
+    def correction(self, obs: np.ndarray) -> np.ndarray:
+        """The actor's output ``(N, act_dim)`` float32 in [-1, 1] for observations ``(N, obs_dim)``:
+        the action of a plain policy, the correction of a residual one."""
         import torch
 
         with torch.no_grad():
-            x = torch.as_tensor(np.asarray(obs, dtype=np.float32).reshape(1, -1))
-            return self.actor(x)[0].numpy().astype(np.float32)
+            return self.actor(torch.as_tensor(np.asarray(obs, dtype=np.float32))).numpy()
+
+    def residual_controller(self) -> Any:
+        """A new :class:`~elastica_magnetic_rl.envs.residual.ResidualController` of a residual
+        policy: the case's yardstick (one per sub-environment) corrected by the actor."""
+        from ..envs.residual import ResidualController, residual_base
+
+        return ResidualController(self.correction, residual_base(self.case), self.residual)
+
+    def reset(self) -> None:
+        """A new episode: a residual policy's yardstick forgets its manoeuvre (a plain policy has
+        no memory)."""
+        if self._controller is not None:
+            self._controller.reset()
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        """Deterministic normalised action in [-1, 1]^k for one observation: the actor's (float32),
+        or a residual policy's yardstick command corrected by it (float64, as its environments play
+        it; :meth:`reset` at each episode)."""
+        if self.residual:
+            if self._controller is None:
+                self._controller = self.residual_controller()
+            return self._controller.act(np.asarray(obs, dtype=np.float32).reshape(-1))
+        return self.correction(np.asarray(obs, dtype=np.float32).reshape(1, -1))[0].astype(np.float32)
 
 
 def build_networks(obs_dim: int, act_dim: int, hidden: tuple[int, ...], actor_state: dict,

@@ -336,7 +336,7 @@ def _measure_tip_reach(policy: LoadedPolicy, duration: float) -> Measured:
     from .tip_reach import judge_held_out
 
     paths: dict[str, np.ndarray] = {}
-    judged = judge_held_out(policy.case, policy.actor, duration, with_yardstick=True, paths=paths)
+    judged = judge_held_out(policy.case, policy, duration, with_yardstick=True, paths=paths)
     seconds = judged.pop("duration_s")
     figure = _png(plot_tip_paths_beside,
                   {"this policy": judged["policy"], "the steering yardstick": judged["yardstick"]},
@@ -400,6 +400,8 @@ def _policy_info(policy: LoadedPolicy, name: str, summary: dict[str, Any] | None
                          "critic_layer_norm": bool((meta.get("config") or {}).get(
                              "critic_layer_norm", False)),
                          "actor_input": str((meta.get("config") or {}).get("actor_input", "observation")),
+                         # a residual policy: the actor corrects the case's yardstick (envs.residual)
+                         "residual": float((meta.get("config") or {}).get("residual", 0.0)),
                          **_critic_widths(meta.get("config") or {})},
         "observation": observation_spec_of(case),
         "action": action_spec_of(case),

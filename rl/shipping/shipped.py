@@ -272,7 +272,7 @@ def _verify_tip_reach(name: str, folder: Path, policy: Any, info: dict[str, Any]
     reached and every final distance within :data:`TIP_DISTANCE_ATOL_M` of the recorded one."""
     from .tip_reach import judge_held_out
 
-    judged = judge_held_out(policy.case, policy.actor, duration)
+    judged = judge_held_out(policy.case, policy, duration)
     seconds, run = judged["duration_s"], judged["policy"]
     diverged = "divergence" in run["ended_by"]
     result: dict[str, Any] = {"name": name, "case": info["case"], "duration_s": seconds,

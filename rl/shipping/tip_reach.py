@@ -90,9 +90,18 @@ def steering_controller(env: CatheterReachVectorEnv) -> Controller:
 
 def actor_controller(actor: Any) -> Callable[[CatheterReachVectorEnv], Controller]:
     """A trained actor (a ``torch.nn.Module`` mapping observations ``(N, size)`` float32 to
-    normalised actions ``(N, A)``, as a loaded policy's ``actor``) as a controller maker for
-    :func:`run_targets` and :func:`write_targets`: deterministic, no exploration noise."""
+    normalised actions ``(N, A)``) or a loaded policy (its actor; a residual policy's yardstick
+    corrected by it, a new yardstick per sub-environment of each environment) as a controller maker
+    for :func:`run_targets` and :func:`write_targets`: deterministic, no exploration noise."""
     import torch
+
+    if getattr(actor, "residual", 0.0):
+        def residual(env: CatheterReachVectorEnv) -> Controller:
+            controller = actor.residual_controller()
+            return lambda env, obs: controller.act(obs).astype(np.float64)
+
+        return residual
+    actor = getattr(actor, "actor", actor)  # a loaded policy's network
 
     def act(env: CatheterReachVectorEnv, obs: NDArray[np.float32]) -> NDArray[np.float64]:
         with torch.no_grad():

@@ -119,7 +119,7 @@ def run_tip_variant(job: dict[str, Any]) -> dict[str, Any]:
     start = time.perf_counter()
     case = case_from_dict(job["spec"], "variant", default_name=job.get("case_name"))
     if job["mode"] == "policy":
-        controller = actor_controller(resolve_policy(job["policy"]).actor)
+        controller = actor_controller(resolve_policy(job["policy"]))
     else:
         controller = steering_controller
     with torch_threads(1):

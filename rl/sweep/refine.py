@@ -284,16 +284,20 @@ def _train_refinement(case: Case, start: tuple[dict[str, Any], dict[str, Any]] |
     and provenance of :func:`refine_source`) or, with ``None``, resumed from ``out``'s own
     checkpoint; its ``run.json`` written first (a killed refinement leaves a folder that
     ``resume`` continues). Physics and episode length: ``metadata``'s."""
+    from ..envs.residual import residual_vector_env
     from ..envs.vector_env import make_vector_env
     from ..runner.loop import train_seeds
 
+    vector = make_vector_env  # a residual learner's corrections of the yardstick (envs.residual)
+    if config.residual:
+        vector = functools.partial(residual_vector_env, make_vector_env, case, config.residual)
     with held_run_folders([out.path]) as notes:
         for note in notes:  # a stale lock of a killed refinement taken over, its leftovers removed
             print(f"note: {note}", file=sys.stderr)
         mark_run_folder(out.path, "refine", case.name)
         atomic_write_json(out.run_json, {**metadata, "steps": total, "config": config.to_dict(),
                                          "versions": versions()})
-        env_fn = functools.partial(make_vector_env, case, physics=metadata["physics"],
+        env_fn = functools.partial(vector, case, physics=metadata["physics"],
                                    initial_field="random", duration=metadata["episode_duration_s"],
                                    randomize=case.training.randomize)
         train = functools.partial(

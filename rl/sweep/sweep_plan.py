@@ -112,16 +112,19 @@ def plan_sweep(loaded: dict[str, Case], s: SweepSettings, r: Resolved
 
 
 def _check_yardstick_warmup(loaded: dict[str, Case], config: Any) -> None:
-    """A warm-up played by the yardstick (``yardstick_warmup``) needs a case whose yardstick is a
-    controller (``ValueError`` naming the cases without one, before any work)."""
+    """A warm-up played by the yardstick (``yardstick_warmup``), or a correction of it
+    (``residual``), needs a case whose yardstick is a controller (``ValueError`` naming the cases
+    without one, before any work)."""
     from ..cases.case import YARDSTICK_CONTROLLERS
 
-    if not config.yardstick_warmup:
+    if not (config.yardstick_warmup or config.residual):
         return
     without = [name for name, case in loaded.items() if not case.has_yardstick_controller]
     if without:
-        raise ValueError(f"--set yardstick_warmup={config.yardstick_warmup}: the warm-up is played by "
-                         f"the case's hand-designed controller, and case(s) {', '.join(without)} have "
+        what = (f"--set yardstick_warmup={config.yardstick_warmup}: the warm-up is played by"
+                if config.yardstick_warmup else f"--set residual={config.residual:g}: the actor learns a "
+                "correction of")
+        raise ValueError(f"{what} the case's hand-designed controller, and case(s) {', '.join(without)} have "
                          f"none ({YARDSTICK_CONTROLLERS}): train without it, or train {', '.join(without)} "
                          "on the spec msr field baseline --case CASE --set-yardstick FILE writes (it records "
                          "the rotating field's period; a crawl's or a reach's alike)")

@@ -149,25 +149,31 @@ def _train_seeds_of(job: GroupJob, case: Case, configs: list[Any], run_dirs: lis
                     metadata: list[dict[str, Any]], rule: Any) -> None:
     """:func:`~elastica_magnetic_rl.runner.loop.train_seeds` of a group job's seeds, with the
     case's environments (training, evaluation and the stop rule's confirmation)."""
+    from ..envs.residual import residual_env, residual_vector_env
     from ..envs.vector_env import make_vector_env
     from ..envs.yardsticks import yardstick_controller
     from ..runner.loop import train_seeds
 
-    train_seeds(functools.partial(make_vector_env, case, physics=job.physics,
+    # a residual learner's environments play corrections of the case's yardstick (envs.residual)
+    vector, single = make_vector_env, make_env
+    if configs[0].residual:
+        vector = functools.partial(residual_vector_env, make_vector_env, case, configs[0].residual)
+        single = functools.partial(residual_env, make_env, case, configs[0].residual)
+    train_seeds(functools.partial(vector, case, physics=job.physics,
                                   initial_field="random", duration=job.duration,
                                   randomize=case.training.randomize),
                 configs, job.steps, run_dirs, envs_per_seed=job.envs, resume=job.resume,
                 progress=job.progress, metadata=metadata,
                 # the duration a keyword: a run's eval_duration replaces it (GroupLoop)
-                eval_env_fn=functools.partial(make_env, case, job.physics, "zero",
+                eval_env_fn=functools.partial(single, case, job.physics, "zero",
                                               duration=case.evaluation_duration),
-                eval_vec_env_fn=functools.partial(make_vector_env, case, physics=job.physics,
+                eval_vec_env_fn=functools.partial(vector, case, physics=job.physics,
                                                   initial_field="zero",
                                                   duration=case.evaluation_duration),
                 progress_position=job.position, progress_desc=job.case,
                 stop_rules=[rule] * len(configs),
                 confirm_vec_env_fn=None if rule is None or rule.confirm is None else functools.partial(
-                    make_vector_env, case, physics=rule.confirm, initial_field="zero",
+                    vector, case, physics=rule.confirm, initial_field="zero",
                     duration=case.evaluation_duration),
                 hand_back=None if job.hand_back_file is None else functools.partial(
                     os.path.exists, job.hand_back_file),

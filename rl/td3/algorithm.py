@@ -225,12 +225,18 @@ class TD3:
 
     def _initial_networks(self, seed: int) -> tuple[Actor, TwinCritic]:
         """The initial networks of one seed: PyTorch's default initialisation drawn from ``seed``
-        (actor first, then Q1, Q2)."""
+        (actor first, then Q1, Q2); a residual learner's actor (``residual``) with its last layer
+        zero, so that it starts at a zero correction (the same draws: the other layers are as
+        without)."""
         with torch.random.fork_rng(devices=[]):
             torch.manual_seed(seed)
             actor = Actor(self.obs_dim, self.act_dim, self.config.actor_widths, self.steering_start)
             critic = TwinCritic(self.obs_dim, self.act_dim, self.config.hidden_sizes,
                                 self.config.critic_layer_norm)
+        if self.config.residual:
+            with torch.no_grad():
+                actor.net[-1].weight.zero_()
+                actor.net[-1].bias.zero_()
         return actor, critic
 
     # -- acting ---------------------------------------------------------------------------------

@@ -54,6 +54,9 @@ MAX_YARDSTICK_WARMUP = 1_000_000
 #: The strongest hold on the yardstick's warm-up (``yardstick_regularization``), 25x TD3+BC's 0.4:
 #: beyond it the actor's distance to the warm-up's actions outweighs any Q gradient.
 MAX_YARDSTICK_REGULARIZATION = 10.0
+#: Largest ``residual``: a correction of twice the largest command swings an action across its whole
+#: range, beyond which the yardstick's command no longer matters.
+MAX_RESIDUAL = 2.0
 #: The longest evaluation episode a config takes, s (an hour: a goto episode is 30 s; more is a
 #: step count or milliseconds written as seconds).
 MAX_EVAL_DURATION = 3600.0
@@ -199,6 +202,17 @@ class Hyperparameters:
     the clone off the gait within a few thousand updates; the term keeps it where the critic's
     data is. It holds the actions, not the return: a gait that needs them finer than a clone makes
     them still fails (docs/training.md, "Starting from the yardstick")."""
+    residual: float = 0.0
+    """Learn a correction of the case's yardstick instead of a policy (0: off, the paper's). With
+    ``rho > 0`` the environment plays ``clip(a_yardstick(s) + rho * mu(s), -1, 1)`` (normalised), the
+    yardstick being the controller the case is judged against, run inside the environment with its
+    memory (:mod:`~elastica_magnetic_rl.envs.residual`), and the actor's last layer starts at zero, so
+    the first policy is the yardstick itself (residual policy learning: Silver et al. 2018, Johannink
+    et al. 2019). Why: clones of a yardstick with memory (a goto case's manoeuvres, a coils law's
+    field direction) end as other, worse controllers; a correction starts where the yardstick is and
+    learns only what adds return. ``rho`` (at most :data:`MAX_RESIDUAL`) bounds the correction: 0.5
+    moves an axis's command by at most half its largest increment either way. Not with
+    :attr:`yardstick_warmup` (nothing to clone: the start is the yardstick already)."""
 
 
 @dataclass
@@ -343,6 +357,14 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
             raise ValueError(f"yardstick_dagger {self.yardstick_dagger} continues a clone of the yardstick's "
                              "warm-up on the clone's own states: set yardstick_warmup too (e.g. 4000), or "
                              "leave it 0")
+        if not (math.isfinite(self.residual) and 0.0 <= self.residual <= MAX_RESIDUAL):
+            raise ValueError(f"residual must be a number in [0, {MAX_RESIDUAL:g}] (the correction's weight "
+                             f"on the yardstick's normalised command; 0 off), got {self.residual!r}")
+        if self.residual and self.yardstick_warmup:
+            raise ValueError(f"residual {self.residual:g} starts the actor at the yardstick itself (a zero "
+                             f"correction), nothing is to be cloned: yardstick_warmup must be 0, got "
+                             f"{self.yardstick_warmup} (where a case's [training.td3] sets it: --set "
+                             "yardstick_warmup=0 --set yardstick_dagger=0)")
         if self.yardstick_regularization > MAX_YARDSTICK_REGULARIZATION:
             raise ValueError(f"yardstick_regularization must be at most {MAX_YARDSTICK_REGULARIZATION:g} "
                              f"(TD3+BC's alpha = 2.5 is 0.4), got {self.yardstick_regularization:g}: the "

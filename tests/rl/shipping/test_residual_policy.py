@@ -1,0 +1,122 @@
+"""A residual policy (``--set residual=R``: the actor corrects the case's yardstick) end to end, on
+robots of every goto form the spec format allows and on a catheter: trained, its recorded evaluation
+replayed exactly by the loaded policy acting on a plain environment (the training's wrapper and the
+policy's own composition agree), refined, sent to a point, shipped (the weight in ``policy.json``, the
+shipped policy acting as the run's), and refused by ``msr policy export`` (the actor alone is not
+the policy)."""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from elastica_magnetic_rl.cases.case import load_case
+from elastica_magnetic_rl.envs.env import make_env
+from elastica_magnetic_rl.runner.evaluation import EVAL_SEED, evaluate
+from elastica_magnetic_rl.shipping.policy_files import resolve_policy
+from elastica_magnetic_rl.shipping.policy_runs import run_policy
+from hypothesis import HealthCheck, Phase, given, settings
+from smoke import EVAL_DURATION, SMOKE
+from spec_matrix import user_specs
+
+from elastica_magnetic.cli import main as msr
+from elastica_magnetic.specfile import dumps
+
+RESIDUAL = ["--set", "residual=0.5", "--set", "yardstick_warmup=0", "--set", "yardstick_dagger=0"]
+DRAWN = settings(max_examples=2, derandomize=True, database=None, deadline=None, phases=[Phase.generate],
+                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+
+
+def _json(capsys, *argv: str) -> dict:
+    capsys.readouterr()
+    status = msr([*argv, "--json"])
+    captured = capsys.readouterr()
+    assert status == 0, captured.err
+    return json.loads(captured.out)
+
+
+def _replayed(seed: Path, case) -> None:
+    """The run's last recorded evaluation equals the loaded policy's return on a plain environment."""
+    policy = resolve_policy(seed)
+    assert policy.residual == 0.5
+    recorded = pd.read_csv(seed / "evaluations.csv")["mean_return"].iloc[-1]
+    replay = evaluate(policy, lambda: make_env(case, "training", "zero", EVAL_DURATION), 1, EVAL_SEED)
+    assert replay.mean_return == pytest.approx(recorded, rel=1e-9, abs=1e-12)
+
+
+@DRAWN
+@given(spec=user_specs(task="goto"))
+def test_a_residual_goto_policy_on_a_drawn_robot(spec, capsys):
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        path = folder / "drawn.toml"
+        path.write_text(dumps(spec))
+        runs = folder / "runs"
+        assert msr(["train", "--case", str(path), "--seeds", "1", "--workers", "1", "--steps", "120",
+                    "--out", str(runs), *SMOKE, *RESIDUAL]) == 0
+        seed = runs / "drawn" / "seed0"
+        _replayed(seed, load_case(path))
+        assert msr(["refine", str(seed), "--checkpoint", "final", "--steps", "3", "--episode-duration",
+                    "0.02", "--physics", "training", "--no-progress"]) == 0
+        assert resolve_policy(seed / "refined").residual == 0.5  # refined as corrections, played as such
+        point = _json(capsys, "policy", "generate", str(seed), "--checkpoint", "final", "--target", "0,0.005",
+                      "--duration", "0.2", "--physics", "training", "--out", str(folder / "point"),
+                      "--no-figures", "--no-progress")
+        assert np.isfinite(point["final_distance_to_target_m"])
+        capsys.readouterr()
+        assert msr(["policy", "export", str(seed), "--out", str(folder / "exp"), "--no-progress"]) != 0
+        assert "a residual policy (residual 0.5)" in capsys.readouterr().err
+        assert not (folder / "exp").exists()
+
+
+def test_a_shipped_residual_policy_acts_as_its_run(tmp_path, monkeypatch):
+    from elastica_magnetic_rl.shipping import ship as ship_module
+    from elastica_magnetic_rl.shipping.goto import evaluate_ring
+
+    spec, text = tmp_path / "goto-quick.toml", load_case("m1-4mT-goto").toml()
+    spec.write_text(text.replace("episode_duration = 30.0", "episode_duration = 0.1"))
+    runs = tmp_path / "runs"
+    assert msr(["train", "--case", str(spec), "--seeds", "1", "--steps", "40", "--out", str(runs), "--set",
+                "learning_starts=10", "--set", "batch_size=8", "--set", "hidden_sizes=8", *RESIDUAL,
+                "--no-progress"]) == 0
+    monkeypatch.setattr(ship_module, "evaluate_ring", lambda policy, duration, physics, **kw: evaluate_ring(
+        policy, 0.2, "training", n_targets=2, paths=kw.get("paths")))
+    ship_module.ship(runs / "goto-quick" / "seed0", "goto-residual", dest=tmp_path / "shipped", duration=0.2,
+                     progress=False)
+    info = json.loads((tmp_path / "shipped" / "goto-residual" / "policy.json").read_text())
+    assert info["architecture"]["residual"] == 0.5
+    shipped = resolve_policy(tmp_path / "shipped" / "goto-residual")
+    run = resolve_policy(runs / "goto-quick" / "seed0")
+    assert shipped.residual == run.residual == 0.5
+    one, two = (run_policy(p, 0.3, "training", progress=False, target=(0.0, 0.01)) for p in (shipped, run))
+    np.testing.assert_array_equal(one.actions, two.actions)
+    assert np.abs(one.actions).max() > 0.0
+
+
+def test_a_residual_catheter_policy_is_sent_to_a_point(tmp_path, capsys):
+    runs = tmp_path / "runs"
+    assert msr(["train", "--case", "catheter-magnet-reach", "--seeds", "1", "--workers", "1", "--steps",
+                "160", "--out", str(runs), *SMOKE, *RESIDUAL]) == 0
+    seed = runs / "catheter-magnet-reach" / "seed0"
+    assert resolve_policy(seed).residual == 0.5
+    result = _json(capsys, "policy", "generate", str(seed), "--target", "0.03,0.01,0", "--duration", "0.3",
+                   "--physics", "training", "--out", str(tmp_path / "gen"), "--no-progress")
+    assert np.isfinite(result["tip_error_m"])
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["--case", "hu2018-crawl"], "--set residual=0.5: the actor learns a correction of the case's "
+                                 "hand-designed controller, and case(s) hu2018-crawl have none"),
+    (["--case", "m1-4mT-goto", "--set", "residual=0.5"],
+     "yardstick_warmup must be 0, got 16000 (where a case's [training.td3] sets it: --set yardstick_warmup"),
+])
+def test_a_residual_training_that_cannot_run_is_refused_before_any_work(tmp_path, capsys, argv, message):
+    extra = ["--set", "residual=0.5"] if "--set" not in argv else []
+    assert msr(["train", *argv, *extra, "--seeds", "1", "--steps", "50", "--set", "learning_starts=10",
+                "--out", str(tmp_path / "t"), "--no-progress"]) == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "t").exists()
