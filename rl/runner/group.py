@@ -249,7 +249,8 @@ class GroupLoop:
                 info = self.dagger_update()
                 continue
             info = learner.update([r.buffer.sample(cfg.batch_size, learner.rngs[k])
-                                   for k, r in enumerate(runs)], warmup_batches=held)
+                                   for k, r in enumerate(runs)], warmup_batches=held,
+                                  train_actor=learner.num_updates >= cfg.critic_warmup)
             if learner.num_updates % cfg.log_every == 0:
                 for name, values in info.items():
                     for k, run in enumerate(runs):

@@ -145,6 +145,15 @@ def check_run_learns(config: TD3Config, steps: int, sources: SettingSources) -> 
             + ("" if resumed or steps - warm_up - 1 < 1 else
                f", or --set yardstick_dagger of at most {steps - warm_up - 1} to end DAgger within the run")),
             stacklevel=2)
+    updates = int(made) + config.yardstick_warmup  # a clone's critic updates count as held ones
+    if config.critic_warmup >= updates:
+        from elastica_magnetic.plausibility import SettingNotAppliedWarning
+
+        warnings.warn(SettingNotAppliedWarning(
+            f"{name('critic_warmup', config.critic_warmup)} holds the actor for the run's first "
+            f"{config.critic_warmup} updates, and {sources.steps(steps)} makes {updates}: the actor never "
+            "learns" + (" (a residual learner plays its yardstick unchanged)" if config.residual else "")
+            + f"; give --set critic_warmup below {updates}, or more --steps"), stacklevel=2)
     if config.buffer_size < warm_up and not resumed:
         raise ValueError(
             f"the warm-up outgrows the replay buffer: {name('learning_starts', warm_up)} is above "

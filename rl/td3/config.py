@@ -213,6 +213,14 @@ class Hyperparameters:
     learns only what adds return. ``rho`` (at most :data:`MAX_RESIDUAL`) bounds the correction: 0.5
     moves an axis's command by at most half its largest increment either way. Not with
     :attr:`yardstick_warmup` (nothing to clone: the start is the yardstick already)."""
+    critic_warmup: int = 0
+    """The run's first ``N`` TD3 updates learn the critics only, the actor held (0: none; a clone's
+    critic updates, :attr:`yardstick_warmup`, count among them). Why: TD3 moves the actor along the
+    critic's gradient from the first update, and a critic that has not yet learned the value of the
+    actions played gives gradients that are noise; a residual learner (:attr:`residual`) starts at a
+    yardstick that works, and such early steps only take it away (measured on
+    ``catheter-coils-reach``: evaluations fell from the law's return of 71 to -166 and -242 after
+    5000 updates without it; docs/training.md)."""
 
 
 @dataclass
@@ -312,7 +320,8 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
                              f"(updates per transition), got {ratio}")
         if float(ratio).is_integer():
             self.updates_per_step = int(ratio)
-        for name in ("learning_starts", "eval_every", "yardstick_warmup", "yardstick_dagger"):
+        for name in ("learning_starts", "eval_every", "yardstick_warmup", "yardstick_dagger",
+                     "critic_warmup"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         self._check_noise_and_yardstick()

@@ -89,3 +89,21 @@ def test_a_residual_config_on_plain_environments_is_refused_and_the_reverse(tmp_
     with pytest.raises(ValueError, match="play corrections of the yardstick \\(residual 0.5\\).*set"):
         train_vector(lambda: ResidualVectorEnv(sync_vector_env(_fixed, 2), SlowTeacher, 0.5), toy_config(),
                      10, tmp_path / "b", progress=False)
+
+
+def test_the_critic_warmup_holds_the_actor_and_then_lets_it_learn(tmp_path):
+    """``critic_warmup``: the first N updates learn the critics only; the actor (a residual learner's
+    zero correction) moves once they are done."""
+    def run(warmup: int, name: str):
+        cfg = toy_config(residual=1.0, learning_starts=40, critic_warmup=warmup, seed=4)
+        return train(lambda: ResidualEnv(_fixed(), SlowTeacher, 1.0), cfg, 140, tmp_path / name,
+                     progress=False)
+
+    held, moved = run(100, "held"), run(60, "moved")  # 100 updates in all
+    assert held.num_updates == moved.num_updates == 100
+    last = [p for name, p in held.actor.named_parameters() if name.startswith("net.")][-2:]
+    assert all(not p.any() for p in last)  # still the zero correction: the yardstick
+    assert any(p.any() for name, p in moved.actor.named_parameters() if name.startswith("net.") and
+               p.shape == last[0].shape)
+    with pytest.raises(ValueError, match="critic_warmup must be >= 0"):
+        toy_config(critic_warmup=-1)
