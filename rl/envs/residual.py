@@ -23,6 +23,7 @@ axis's increment by half the largest one, in either direction.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from typing import Any
 
@@ -55,7 +56,7 @@ def residual_base(case: Case) -> Callable[[], Any]:
     otherwise the warm-up's yardstick (:func:`~elastica_magnetic_rl.envs.yardsticks.yardstick_controller`).
     A ``ValueError`` names a case without one."""
     if isinstance(case.task, GotoTask) and case.field_actuated:
-        return lambda: SteeringFieldPolicy(case)
+        return functools.partial(SteeringFieldPolicy, case)  # a partial: worker processes take it
     make = yardstick_controller(case)
     if make is None:
         raise ValueError(f"residual learning corrects the case's yardstick, and case {case.name!r} has none "

@@ -155,6 +155,11 @@ class LoadedPolicy:
 
         return ResidualController(self.correction, residual_base(self.case), self.residual)
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled without a residual policy's controller (the ring's worker processes make their
+        own: its yardsticks' memories belong to the episodes played here)."""
+        return {**self.__dict__, "_controller": None}
+
     def reset(self) -> None:
         """A new episode: a residual policy's yardstick forgets its manoeuvre (a plain policy has
         no memory)."""

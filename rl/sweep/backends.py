@@ -37,6 +37,7 @@ import contextlib
 import logging
 import multiprocessing
 import os
+import pickle
 import sys
 import time
 from collections.abc import Callable
@@ -153,6 +154,11 @@ def run_in_processes(
     ignore SIGINT (no traceback of theirs on a Ctrl-C from the terminal) and are ended by this
     process (for jobs that lose nothing when ended, such as evaluations).
     """
+    for k, job in enumerate(jobs):  # refused here: in the pool's feeder thread it left the pool hanging
+        try:
+            pickle.dumps(job)
+        except (pickle.PicklingError, AttributeError, TypeError) as exc:
+            raise TypeError(f"job {k} of {len(jobs)} cannot be sent to a worker process: {exc}") from None
     context = worker_context()
     grace = STOP_GRACE_S if stop_grace_s is None else stop_grace_s
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=context,

@@ -95,6 +95,9 @@ def test_a_shipped_residual_policy_acts_as_its_run(tmp_path, monkeypatch):
     one, two = (run_policy(p, 0.3, "training", progress=False, target=(0.0, 0.01)) for p in (shipped, run))
     np.testing.assert_array_equal(one.actions, two.actions)
     assert np.abs(one.actions).max() > 0.0
+    # a policy that has acted goes to worker processes (its yardsticks stay here): the same ring
+    here, there = (evaluate_ring(shipped, 0.2, "training", n_targets=2, workers=w) for w in (1, 2))
+    assert [r["final_distance_to_target_m"] for r in here] == [r["final_distance_to_target_m"] for r in there]
 
 
 def test_a_residual_catheter_policy_is_sent_to_a_point(tmp_path, capsys):

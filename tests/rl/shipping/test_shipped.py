@@ -73,7 +73,8 @@ def test_no_shipped_policy_records_the_machine_it_was_shipped_on():
 def test_a_shipped_goto_policy_holds_its_ring_and_goes_to_targets_off_it(name, tmp_path, capsys):
     """A shipped goto policy's policy.json records at least its stated count of the ring's 12
     targets reached in the accurate physics, beside the yardstick on the same ring; its exported
-    module gives its actions; it plays by name; and of 12 targets drawn off the ring's angles (a seed
+    module gives its actions (a residual policy, the yardstick corrected by its actor, is refused
+    export); it plays by name; and of 12 targets drawn off the ring's angles (a seed
     the policy never saw, training physics) it reaches the count its README row states."""
     import math
 
@@ -86,12 +87,17 @@ def test_a_shipped_goto_policy_holds_its_ring_and_goes_to_targets_off_it(name, t
     assert ring["successes"] >= GOTO_SHIPPED[name]
     assert info["architecture"]["actor_input"] == "steering"
     policy = policy_files.resolve_policy(name)
-    assert msr(["policy", "export", name, "--out", str(tmp_path / "exp")]) == 0
-    capsys.readouterr()
-    module = torch.jit.load(str(next((tmp_path / "exp").glob("*.ts.pt"))))
-    obs = np.random.default_rng(0).normal(size=policy.case.obs_dim).astype(np.float32)
-    np.testing.assert_allclose(module(torch.from_numpy(obs)[None]).detach().numpy()[0], policy.act(obs),
-                               atol=1e-6)
+    assert info["architecture"].get("residual", 0.0) == policy.residual
+    if policy.residual:  # the yardstick corrected by the actor: no network alone is the policy
+        assert msr(["policy", "export", name, "--out", str(tmp_path / "exp")]) != 0
+        assert "a residual policy" in capsys.readouterr().err
+    else:
+        assert msr(["policy", "export", name, "--out", str(tmp_path / "exp")]) == 0
+        capsys.readouterr()
+        module = torch.jit.load(str(next((tmp_path / "exp").glob("*.ts.pt"))))
+        obs = np.random.default_rng(0).normal(size=policy.case.obs_dim).astype(np.float32)
+        np.testing.assert_allclose(module(torch.from_numpy(obs)[None]).detach().numpy()[0], policy.act(obs),
+                                   atol=1e-6)
     task = policy.case.task
     assert msr(["policy", "generate", name, "--target", "0.004,0.011", "--physics", "training", "--duration",
                 "0.5", "--out", str(tmp_path / "g"), "--json", "--no-figures", "--no-gif"]) == 0

@@ -26,6 +26,15 @@ def test_without_an_error_handler_the_jobs_exception_is_raised():
         run_in_processes(math.sqrt, [4.0, -1.0, 9.0], 2)
 
 
+def test_a_job_no_worker_can_receive_is_refused_before_the_pool_starts():
+    """A job that does not pickle (a residual policy's yardstick maker was once a lambda) raised in
+    the pool's feeder thread and left ``msr policy ship`` waiting for ever on idle workers."""
+    start = time.perf_counter()
+    with pytest.raises(TypeError, match="job 1 of 3 cannot be sent to a worker process"):
+        run_in_processes(abs, [1.0, lambda: 2.0, 3.0], 2)
+    assert time.perf_counter() - start < 5.0
+
+
 # -- signals: the workers never outlive the sweep that started them ---------------------------
 
 SLEEPER = '''
