@@ -80,7 +80,7 @@ def _use_section(info: dict[str, Any], case: Case) -> list[str]:
         "## Use",
         "",
         generate,
-        f"- `msr policy export {info['name']} --out DIR`: TorchScript + observation/action JSON.",
+        *_export_line(info),
         f"- Input: {info['architecture']['obs_dim']} float32 observations (layout and scales in "
         f"`policy.json`); output: {info['architecture']['act_dim']} actions in [-1, 1] "
         f"(dB_{', dB_'.join(case.actuation.axes)}), x {increment:g} mT = field increment per "
@@ -90,6 +90,19 @@ def _use_section(info: dict[str, Any], case: Case) -> list[str]:
     ]
 
 
+def _export_line(info: dict[str, Any]) -> list[str]:
+    """How the policy leaves the package: exported, or, for a residual policy (the case's yardstick
+    corrected by the actor), played through the package, which composes the two."""
+    residual = float(info["architecture"].get("residual", 0.0))
+    if not residual:
+        return [f"- `msr policy export {info['name']} --out DIR`: TorchScript + observation/action JSON."]
+    return [f"- A residual policy: the action played is the case's yardstick's command plus {residual:g} x "
+            "the actor's output, clipped to [-1, 1] (`architecture.residual`; docs/training.md, \"Correcting "
+            "the yardstick\"). The yardstick is a controller with a memory, not a network, so `msr policy "
+            f"export` refuses it: play it with `msr policy generate` or `resolve_policy(\"{info['name']}\")"
+            ".act(obs)` in Python (`reset()` at each episode), which compose the two."]
+
+
 def _steering_line(info: dict[str, Any]) -> list[str]:
     """A steering actor's card says what it reads of the observation and how it answers."""
     if info["architecture"].get("actor_input", "observation") != "steering":
@@ -97,7 +110,8 @@ def _steering_line(info: dict[str, Any]) -> list[str]:
     return ["- The actor reads the steering state of the observation in the robot's own frame (the field "
             "along forward, up and left, the target's offset and distance, the clock) and its command "
             "along forward, up and left is turned into dB_x, dB_y, dB_z by the observed heading "
-            "(`actor_input = \"steering\"`, docs/training.md); the exported module does the same."]
+            "(`actor_input = \"steering\"`, docs/training.md)"
+            + ("." if info["architecture"].get("residual") else "; the exported module does the same.")]
 
 
 def _training_section(info: dict[str, Any], summary: dict[str, Any] | None, case: Case) -> list[str]:

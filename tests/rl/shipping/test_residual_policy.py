@@ -20,7 +20,7 @@ from elastica_magnetic_rl.runner.evaluation import EVAL_SEED, evaluate
 from elastica_magnetic_rl.shipping.policy_files import resolve_policy
 from elastica_magnetic_rl.shipping.policy_runs import run_policy
 from hypothesis import HealthCheck, Phase, given, settings
-from smoke import EVAL_DURATION, SMOKE
+from smoke import EVAL_DURATION, SMOKE, run_msr
 from spec_matrix import user_specs
 
 from elastica_magnetic.cli import main as msr
@@ -29,14 +29,6 @@ from elastica_magnetic.specfile import dumps
 RESIDUAL = ["--set", "residual=0.5", "--set", "yardstick_warmup=0", "--set", "yardstick_dagger=0"]
 DRAWN = settings(max_examples=2, derandomize=True, database=None, deadline=None, phases=[Phase.generate],
                  suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
-
-
-def _json(capsys, *argv: str) -> dict:
-    capsys.readouterr()
-    status = msr([*argv, "--json"])
-    captured = capsys.readouterr()
-    assert status == 0, captured.err
-    return json.loads(captured.out)
 
 
 def _replayed(seed: Path, case) -> None:
@@ -63,9 +55,9 @@ def test_a_residual_goto_policy_on_a_drawn_robot(spec, capsys):
         assert msr(["refine", str(seed), "--checkpoint", "final", "--steps", "3", "--episode-duration",
                     "0.02", "--physics", "training", "--no-progress"]) == 0
         assert resolve_policy(seed / "refined").residual == 0.5  # refined as corrections, played as such
-        point = _json(capsys, "policy", "generate", str(seed), "--checkpoint", "final", "--target", "0,0.005",
-                      "--duration", "0.2", "--physics", "training", "--out", str(folder / "point"),
-                      "--no-figures", "--no-progress")
+        point = run_msr(capsys, "policy", "generate", str(seed), "--checkpoint", "final", "--target",
+                        "0,0.005", "--duration", "0.2", "--physics", "training", "--out",
+                        str(folder / "point"), "--no-figures", "--no-progress")
         assert np.isfinite(point["final_distance_to_target_m"])
         capsys.readouterr()
         assert msr(["policy", "export", str(seed), "--out", str(folder / "exp"), "--no-progress"]) != 0
@@ -89,6 +81,9 @@ def test_a_shipped_residual_policy_acts_as_its_run(tmp_path, monkeypatch):
                      progress=False)
     info = json.loads((tmp_path / "shipped" / "goto-residual" / "policy.json").read_text())
     assert info["architecture"]["residual"] == 0.5
+    card = (tmp_path / "shipped" / "goto-residual" / "MODEL_CARD.md").read_text()
+    assert "A residual policy: the action played is the case's yardstick's command plus 0.5 x" in card
+    assert "msr policy export goto-residual --out" not in card
     shipped = resolve_policy(tmp_path / "shipped" / "goto-residual")
     run = resolve_policy(runs / "goto-quick" / "seed0")
     assert shipped.residual == run.residual == 0.5
@@ -106,8 +101,8 @@ def test_a_residual_catheter_policy_is_sent_to_a_point(tmp_path, capsys):
                 "160", "--out", str(runs), *SMOKE, *RESIDUAL]) == 0
     seed = runs / "catheter-magnet-reach" / "seed0"
     assert resolve_policy(seed).residual == 0.5
-    result = _json(capsys, "policy", "generate", str(seed), "--target", "0.03,0.01,0", "--duration", "0.3",
-                   "--physics", "training", "--out", str(tmp_path / "gen"), "--no-progress")
+    result = run_msr(capsys, "policy", "generate", str(seed), "--target", "0.03,0.01,0", "--duration", "0.3",
+                     "--physics", "training", "--out", str(tmp_path / "gen"), "--no-progress")
     assert np.isfinite(result["tip_error_m"])
 
 
