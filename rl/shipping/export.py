@@ -33,6 +33,16 @@ EXPORT_FILES = ("policy.ts.pt", "policy.pt2", "policy.json")
 EXPORT_FORMAT = "msr-exported-policy-v1"
 
 
+def _refuse_residual(loaded: Any) -> None:
+    """A residual policy is its case's yardstick (a controller with a memory) corrected by its actor:
+    the actor alone exported would not be the policy (``ValueError`` naming it)."""
+    if loaded.residual:
+        raise ValueError(f"{loaded.source}: a residual policy (residual {loaded.residual:g}) acts as the "
+                         "case's yardstick corrected by its actor, and the yardstick (a controller with a "
+                         "memory) is not a network: the actor alone exported would not be the policy. Play "
+                         "it with msr policy generate, or in Python through resolve_policy(...).act")
+
+
 def export_policy(policy: str | Path, out: str | Path = "out/export",
                   force: bool = False) -> dict[str, Any]:
     """Export the actor as TorchScript (``policy.ts.pt``, traced: float32 ``(N, 260)`` observations
@@ -52,12 +62,7 @@ def export_policy(policy: str | Path, out: str | Path = "out/export",
     from ..td3.networks import ScaledPolicy
 
     loaded = resolve_policy(policy)
-    if loaded.residual:
-        raise ValueError(f"{loaded.source}: a residual policy (residual {loaded.residual:g}) acts as the "
-                         "case's yardstick corrected by its actor, and the yardstick (a controller with a "
-                         "memory) is "
-                         "not a network: the actor alone exported would not be the policy. Play it with "
-                         "msr policy generate, or in Python through resolve_policy(...).act")
+    _refuse_residual(loaded)
     check_policy_case(out, loaded.case)
     with result_folder(out, kind="export", subject=f"case {loaded.case.name}", force=force,
                        known_files=EXPORT_FILES) as folder:
