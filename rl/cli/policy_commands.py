@@ -507,12 +507,14 @@ def _read_markdown(path: Path, option: str) -> str:
 def export_command(args: argparse.Namespace) -> int:
     from elastica_magnetic.results import check_result_folder
 
-    from ..shipping.export import EXPORT_FILES, export_policy
+    from ..shipping.export import EXPORT_FILES, export_policy, refuse_residual_export
     from ..shipping.policy_files import check_policy_case, resolve_policy
 
     _refuse_tip_reach(args.policy, "export")
-    # the output folder before the actors' evaluations (minutes in the accurate physics)
-    loaded_case = resolve_policy(args.policy).case
+    # a residual run and the output folder before the actors' evaluations (minutes in the accurate physics)
+    loaded = resolve_policy(args.policy)
+    refuse_residual_export(loaded)
+    loaded_case = loaded.case
     case = loaded_case.name
     check_policy_case(args.out, loaded_case)
     check_result_folder(args.out, kind="export", subject=f"case {case}", force=args.force,

@@ -33,7 +33,7 @@ EXPORT_FILES = ("policy.ts.pt", "policy.pt2", "policy.json")
 EXPORT_FORMAT = "msr-exported-policy-v1"
 
 
-def _refuse_residual(loaded: Any) -> None:
+def refuse_residual_export(loaded: Any) -> None:
     """A residual policy is its case's yardstick (a controller with a memory) corrected by its actor:
     the actor alone exported would not be the policy (``ValueError`` naming it)."""
     if loaded.residual:
@@ -62,7 +62,7 @@ def export_policy(policy: str | Path, out: str | Path = "out/export",
     from ..td3.networks import ScaledPolicy
 
     loaded = resolve_policy(policy)
-    _refuse_residual(loaded)
+    refuse_residual_export(loaded)
     check_policy_case(out, loaded.case)
     with result_folder(out, kind="export", subject=f"case {loaded.case.name}", force=force,
                        known_files=EXPORT_FILES) as folder:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import tempfile
 from pathlib import Path
+from unittest import mock
 
 import numpy as np
 import pandas as pd
@@ -17,16 +18,24 @@ import pytest
 from elastica_magnetic_rl.cases.case import load_case
 from elastica_magnetic_rl.envs.env import make_env
 from elastica_magnetic_rl.runner.evaluation import EVAL_SEED, evaluate
+from elastica_magnetic_rl.shipping import policy_runs
 from elastica_magnetic_rl.shipping.policy_files import resolve_policy
 from elastica_magnetic_rl.shipping.policy_runs import run_policy
 from hypothesis import HealthCheck, Phase, given, settings
-from smoke import EVAL_DURATION, SMOKE, run_msr
+from smoke import SMOKE, run_msr
 from spec_matrix import user_specs
 
 from elastica_magnetic.cli import main as msr
 from elastica_magnetic.specfile import dumps
 
 RESIDUAL = ["--set", "residual=0.5", "--set", "yardstick_warmup=0", "--set", "yardstick_dagger=0"]
+#: s: a drawn robot's evaluations.
+SHORT_EVAL_S = 0.3
+#: A drawn robot's run: 28 updates after a 20-step warm-up and two evaluations of 0.3 s (a drawn robot
+#: may need thousands of sub-steps an action: the smoke settings' 0.8 s episodes were most of the time).
+SHORT = ["--set", "learning_starts=20", "--set", "batch_size=16", "--set", "hidden_sizes=16",
+         "--episode-duration", "0.3", "--set", "checkpoint_every=24", "--set", "eval_every=24",
+         "--set", f"eval_duration={SHORT_EVAL_S}", "--no-progress"]
 DRAWN = settings(max_examples=2, derandomize=True, database=None, deadline=None, phases=[Phase.generate],
                  suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 
@@ -36,7 +45,7 @@ def _replayed(seed: Path, case) -> None:
     policy = resolve_policy(seed)
     assert policy.residual == 0.5
     recorded = pd.read_csv(seed / "evaluations.csv")["mean_return"].iloc[-1]
-    replay = evaluate(policy, lambda: make_env(case, "training", "zero", EVAL_DURATION), 1, EVAL_SEED)
+    replay = evaluate(policy, lambda: make_env(case, "training", "zero", SHORT_EVAL_S), 1, EVAL_SEED)
     assert replay.mean_return == pytest.approx(recorded, rel=1e-9, abs=1e-12)
 
 
@@ -48,8 +57,8 @@ def test_a_residual_goto_policy_on_a_drawn_robot(spec, capsys):
         path = folder / "drawn.toml"
         path.write_text(dumps(spec))
         runs = folder / "runs"
-        assert msr(["train", "--case", str(path), "--seeds", "1", "--workers", "1", "--steps", "120",
-                    "--out", str(runs), *SMOKE, *RESIDUAL]) == 0
+        assert msr(["train", "--case", str(path), "--seeds", "1", "--workers", "1", "--steps", "48",
+                    "--out", str(runs), *SHORT, *RESIDUAL]) == 0
         seed = runs / "drawn" / "seed0"
         _replayed(seed, load_case(path))
         assert msr(["refine", str(seed), "--checkpoint", "final", "--steps", "3", "--episode-duration",
@@ -60,7 +69,9 @@ def test_a_residual_goto_policy_on_a_drawn_robot(spec, capsys):
                         str(folder / "point"), "--no-figures", "--no-progress")
         assert np.isfinite(point["final_distance_to_target_m"])
         capsys.readouterr()
-        assert msr(["policy", "export", str(seed), "--out", str(folder / "exp"), "--no-progress"]) != 0
+        # refused before the run's two actors are evaluated (10 s each in the accurate physics)
+        with mock.patch.object(policy_runs, "evaluate_run", side_effect=AssertionError("evaluated")):
+            assert msr(["policy", "export", str(seed), "--out", str(folder / "exp"), "--no-progress"]) != 0
         assert "a residual policy (residual 0.5)" in capsys.readouterr().err
         assert not (folder / "exp").exists()
 

@@ -26,12 +26,6 @@ TIP_REACH_SHIPPED = ("catheter-coils-reach", "catheter-magnet-reach")
 #: The shipped goto policies (judged on their task's ring of 12 targets in the accurate physics,
 #: beside the steering yardstick; the count their README row and card state).
 GOTO_SHIPPED = {"m1-4mT-goto": 12, "m1-10mT-goto": 11}
-#: Of 12 targets drawn off the ring (training physics), how many each reaches (README, card).
-# m1-4mT-goto (the residual policy): 12 on the machine that shipped it, every final distance 0.09-0.89 mm
-# (the tolerance 2 mm); the clone it replaced was measured 9 there and 8 on another CPU, where 30 s of
-# rollout amplify the last bit of the arithmetic (PyTorch's and numba's kernels pick their instructions by
-# the CPU): one target may go either way, none of these is near the tolerance's edge
-GOTO_RANDOM_TARGETS = {"m1-4mT-goto": 11, "m1-10mT-goto": 11}
 
 
 def case_of(name: str) -> str:
@@ -71,17 +65,11 @@ def test_no_shipped_policy_records_the_machine_it_was_shipped_on():
 
 
 @pytest.mark.parametrize("name", sorted(GOTO_SHIPPED))
-def test_a_shipped_goto_policy_holds_its_ring_and_goes_to_targets_off_it(name, tmp_path, capsys):
+def test_a_shipped_goto_policy_holds_its_ring_and_plays_by_name(name, tmp_path, capsys):
     """A shipped goto policy's policy.json records at least its stated count of the ring's 12
     targets reached in the accurate physics, beside the yardstick on the same ring; its exported
     module gives its actions (a residual policy, the yardstick corrected by its actor, is refused
-    export); it plays by name; and of 12 targets drawn off the ring's angles (a seed
-    the policy never saw, training physics) it reaches the count its README row states."""
-    import math
-
-    from elastica_magnetic_rl.shipping.goto import goto_result
-    from elastica_magnetic_rl.shipping.policy_runs import run_policy
-
+    export); and it plays by name (targets off the ring: test_shipped_goto_off_ring.py)."""
     info = json.loads((policy_files.POLICIES_DIR / name / "policy.json").read_text())
     ring, theirs = info["evaluation"]["ring"], info["evaluation"]["yardstick_ring"]
     assert ring["physics"] == theirs["physics"] == "accurate" and ring["targets"] == theirs["targets"] == 12
@@ -99,21 +87,10 @@ def test_a_shipped_goto_policy_holds_its_ring_and_goes_to_targets_off_it(name, t
         obs = np.random.default_rng(0).normal(size=policy.case.obs_dim).astype(np.float32)
         np.testing.assert_allclose(module(torch.from_numpy(obs)[None]).detach().numpy()[0], policy.act(obs),
                                    atol=1e-6)
-    task = policy.case.task
     assert msr(["policy", "generate", name, "--target", "0.004,0.011", "--physics", "training", "--duration",
                 "0.5", "--out", str(tmp_path / "g"), "--json", "--no-figures", "--no-gif"]) == 0
     result = json.loads(capsys.readouterr().out)
     assert {"final_distance_to_target_m", "time_to_target_s"} <= set(result)
-    # 12 targets drawn off the ring's angles, the task's 30 s each (training physics): measured 12 of 12 at
-    # 4 mT (the residual policy); 11 of 12 at 10 mT, the miss to its right (-91 degrees), as its ring's
-    ring_angles = np.arange(12) * math.pi / 6
-    successes = 0
-    for bearing in np.random.default_rng(20261206).uniform(-math.pi, math.pi, 12):
-        assert np.min(np.abs(np.angle(np.exp(1j * (bearing - ring_angles))))) > 0.01  # off the ring
-        target = (task.distance * math.cos(bearing), task.distance * math.sin(bearing))
-        rollout = run_policy(policy, task.episode_duration, "training", "zero", False, target=target)
-        successes += bool(goto_result(rollout, task, target)["success"])
-    assert successes >= GOTO_RANDOM_TARGETS[name], successes
 
 
 @pytest.mark.parametrize("name", TIP_REACH_SHIPPED)
