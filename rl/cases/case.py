@@ -112,6 +112,7 @@ CASE_UNITS: dict[tuple[str, str], str] = {
     ("task", "angle_low"): "rad, bearing from ahead, counter-clockwise seen from above",
     ("task", "angle_high"): "rad, bearing from ahead, counter-clockwise seen from above",
     ("task", "heading_share"): "of the drawn training episodes: a heading to crawl along",
+    ("task", "time_penalty"): "m/s, each second away from the target costs reward_scale x this",
     ("actuation", "moment"): "A m^2", ("actuation", "position"): "m, the magnet's centre at the start",
     ("actuation", "direction"): "the moment's direction at the start",
     ("actuation", "workspace"): "m, the box the magnet's centre stays in", ("actuation", "max_speed"): "m/s",

@@ -69,8 +69,8 @@ def task_from_table(t: SpecTable, length: float, reach: float | None = None) -> 
 def _goto_values(t: SpecTable, d: GotoTask, length: float, duration: float) -> dict[str, float]:
     """The goto task's keys: the targets' ring (``distance``, m; bearings ``angle_low`` ..
     ``angle_high``, rad from ahead, counter-clockwise seen from above), ``tolerance`` (m), the
-    reward's ``slow_zone`` (m) and ``speed_penalty``, and ``heading_share`` (the fraction of drawn
-    episodes that are heading episodes)."""
+    reward's ``slow_zone`` (m), ``speed_penalty`` and ``time_penalty`` (m/s), and ``heading_share``
+    (the fraction of drawn episodes that are heading episodes)."""
     values = {
         "distance": t.number("distance", "m from the start", d.distance, low=0.0, low_open=True),
         "angle_low": _bearing(t, "angle_low", d.angle_low),
@@ -80,6 +80,7 @@ def _goto_values(t: SpecTable, d: GotoTask, length: float, duration: float) -> d
         "speed_penalty": t.number("speed_penalty", "1", d.speed_penalty, low=0.0),
         "heading_share": t.number("heading_share", "fraction of the training episodes", d.heading_share,
                                   low=0.0, high=1.0),
+        "time_penalty": t.number("time_penalty", "m/s", d.time_penalty, low=0.0),
     }
     if values["angle_low"] > values["angle_high"]:
         raise t.error("angle_high", f"{values['angle_high']:g} rad is below angle_low = "

@@ -29,7 +29,10 @@ the single and the vector environment share one implementation.
   :func:`goto_metrics`). With ``heading_share > 0`` that share of the drawn episodes are heading
   episodes: after every step (:meth:`GotoTask.follow`) the target moves to ``distance`` ahead of the
   middle node's place along the line from the start toward the drawn target, so the policy learns
-  to crawl along a commanded heading as well as to stop at a point.
+  to crawl along a commanded heading as well as to stop at a point. With ``time_penalty > 0`` (m/s)
+  every step that ends beyond ``tolerance`` also costs ``reward_scale * time_penalty * 0.01 s``: as
+  much as closing ``time_penalty`` m in a second would pay, so that arriving sooner pays (without
+  it, the return is the distance closed, whenever it is closed; only the discount favours speed).
 
 Floor-plane conventions: y is up; the heading ``h`` of the robot is the direction from its back
 node to its front node, ``(cos h, 0, -sin h)``, counter-clockwise seen from above (0: +x, the start);
@@ -44,6 +47,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
+
+from elastica_magnetic.robot_spec import ACTION_PERIOD
 
 __all__ = ["CrawlTask", "GOTO_CLOCK_PERIOD", "GotoTask", "RING_TARGETS", "ReachTask", "Task", "TASK_KINDS",
            "TipReachTask", "approach_reward", "TARGET_OFFSET_SCALE", "floor_pose", "goto_metrics", "middle_x",
@@ -182,12 +187,16 @@ class GotoTask:
     reward_scale: float = 1e4
     episode_duration: float = 30.0
     heading_share: float = 0.0
+    time_penalty: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("distance", "tolerance", "slow_zone", "reward_scale", "episode_duration"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
                 raise ValueError(f"GotoTask {name} must be a positive finite number, got {value!r}")
+        if not (math.isfinite(self.time_penalty) and self.time_penalty >= 0.0):
+            raise ValueError(f"GotoTask time_penalty must be a finite speed >= 0 (m/s), got "
+                             f"{self.time_penalty!r}")
         if not (-2 * math.pi <= self.angle_low <= self.angle_high <= 2 * math.pi):
             raise ValueError(f"GotoTask angles must satisfy -2 pi <= angle_low <= angle_high <= 2 pi "
                              f"(rad), got {self.angle_low!r}, {self.angle_high!r}")
@@ -261,9 +270,15 @@ class GotoTask:
         return np.hypot(pose[..., 0] - target[..., 0], pose[..., 1] - target[..., 1])
 
     def reward(self, pose_before: Any, pose_after: Any, target: Any) -> Any:
+        """The approach reward (:func:`approach_reward`) on the floor-plane distance, minus
+        ``reward_scale * time_penalty * ACTION_PERIOD`` on a step that ends beyond ``tolerance``."""
         a, b = np.asarray(pose_after), np.asarray(pose_before)
         moved = np.hypot(a[..., 0] - b[..., 0], a[..., 1] - b[..., 1])
-        return approach_reward(self, self.error(pose_before, target), self.error(pose_after, target), moved)
+        after = self.error(pose_after, target)
+        reward = approach_reward(self, self.error(pose_before, target), after, moved)
+        if self.time_penalty:  # each 0.01 s away from the target costs time_penalty * 0.01 s of distance
+            reward = reward - self.reward_scale * self.time_penalty * ACTION_PERIOD * (after > self.tolerance)
+        return reward
 
     def within_tolerance(self, distance: Any) -> Any:
         """The success test: a distance from the target (m) within ``tolerance``."""
@@ -286,6 +301,8 @@ class GotoTask:
         out = {"kind": self.kind, **asdict(self)}
         if not self.moves_target:  # the tables of cases without heading episodes stay as they were
             del out["heading_share"]
+        if not self.time_penalty:  # nor those without a time penalty
+            del out["time_penalty"]
         return out
 
 

@@ -106,6 +106,9 @@ def user_specs(draw, kinds: tuple[str, ...] = KINDS, poisson: bool | None = None
         share = draw(st.sampled_from([None, 0.5, 1.0]))  # heading episodes in its training
         if share is not None:
             spec["task"]["heading_share"] = share
+        penalty = draw(st.sampled_from([None, 0.002]))  # m/s: arriving sooner pays
+        if penalty is not None:
+            spec["task"]["time_penalty"] = penalty
     forms = [a for a in ACTUATIONS if a.get("axes") == "xyz"] if kind == "goto" else ACTUATIONS
     spec["actuation"] = draw(st.sampled_from(forms)) if actuation is None else actuation
     sideways = draw(st.sampled_from(["rolling", "sliding", None]))

@@ -53,6 +53,7 @@ def test_a_goto_spec_takes_its_keys():
     ({"distance": -0.015}, "[task] distance: must be > 0 (m from the start)"),
     ({"angle_high": 90.0}, "[task] angle_high: must be within [-6.28319, 6.28319] rad"),
     ({"target": 0.01}, "[task] target: unknown key"),
+    ({"time_penalty": -0.001}, "[task] time_penalty: must be >= 0 (m/s)"),
 ])
 def test_bad_goto_keys_are_refused_by_name(task, message):
     with pytest.raises(SpecError) as err:
@@ -92,3 +93,13 @@ def test_goto_metrics_time_to_target_settling_and_final_distance():
     never = goto_metrics(times, pose, (0.0, 0.02), 0.001)
     assert not never["success"] and never["time_to_target_s"] is None
     assert never["settle_time_s"] is None
+
+
+def test_a_time_penalty_is_read_and_written_only_where_set(tmp_path):
+    case = case_from_dict(_goto_spec(time_penalty=0.002), "my.toml", "my")
+    assert case.task.time_penalty == 0.002 and case.to_dict()["task"]["time_penalty"] == 0.002
+    assert "time_penalty = 0.002  # m/s" in case.toml()
+    mine = tmp_path / "mine.toml"
+    mine.write_text(case.toml())
+    assert load_case(mine).task == case.task
+    assert "time_penalty" not in load_case("m1-4mT-goto").to_dict()["task"]  # the shipped tables as they were

@@ -115,3 +115,36 @@ def test_retarget_moves_the_target_in_the_start_frame_mid_episode():
     with pytest.raises(ValueError, match="retarget\\(\\) moves a goto task's target; this environment's task "
                                          "is crawl"):
         crawl.retarget((0.0, 0.004))
+
+
+def test_a_time_penalty_charges_each_step_that_ends_away_from_the_target():
+    plain = GotoTask(distance=0.015, tolerance=0.002)
+    timed = GotoTask(distance=0.015, tolerance=0.002, time_penalty=0.003)  # m/s
+    target = np.array([0.01, 0.0])
+    poses = np.array([[0.0, 0.0, 0.0], [0.0005, 0.0, 0.0], [0.007, 0.0, 0.0], [0.0095, 0.0, 0.0]])
+    before, after = poses[:-1], poses[1:]  # two steps ending beyond the tolerance, one within it
+    cost = 1e4 * 0.003 * 0.01  # reward_scale x time_penalty x the 0.01 s step
+    assert timed.reward(before, after, target) == pytest.approx(plain.reward(before, after, target)
+                                                                - np.array([cost, cost, 0.0]))
+    assert np.array_equal(GotoTask(time_penalty=0.0).reward(before, after, target),
+                          GotoTask().reward(before, after, target))
+    with pytest.raises(ValueError, match=r"time_penalty must be a finite speed >= 0 \(m/s\)"):
+        GotoTask(time_penalty=-0.001)
+
+
+def test_the_environments_charge_the_time_penalty_alike():
+    robot = yao2023_robot(1, "training")
+    rewards = {}
+    for penalty in (0.0, 0.004):
+        task = GotoTask(time_penalty=penalty)
+        single = MagneticCrawlerEnv(spec=robot, task=task, initial_field="zero", duration=0.1)
+        vector = MagneticCrawlerVectorEnv(1, spec=robot, task=task, initial_field="zero", duration=0.1)
+        single.reset(seed=3, options={"target": (0.0, 0.015)})
+        vector.reset(seed=3, options={"target": (0.0, 0.015)})
+        actions = np.random.default_rng(1).uniform(-1, 1, size=(5, 2)).astype(np.float32)
+        one = [single.step(a)[1] for a in actions]
+        many = [float(vector.step(a[None])[1][0]) for a in actions]
+        assert one == many
+        rewards[penalty] = np.array(one)
+    # 15 mm away all along: every step costs 1e4 x 0.004 m/s x 0.01 s
+    assert rewards[0.004] == pytest.approx(rewards[0.0] - 0.4)
