@@ -134,7 +134,8 @@ def test_a_residual_training_that_cannot_run_is_refused_before_any_work(tmp_path
 def test_a_critic_warmup_longer_than_the_run_is_warned(tmp_path, capsys):
     assert msr(["train", "--case", "m1-4mT-goto", "--seeds", "1", "--steps", "30", "--episode-duration",
                 "0.1", "--out", str(tmp_path / "t"), "--set", "learning_starts=10", "--set", "batch_size=8",
-                "--set", "hidden_sizes=8", *RESIDUAL, "--set", "critic_warmup=100", "--no-progress"]) == 0
+                "--set", "hidden_sizes=8", "--set", "eval_duration=0.1", *RESIDUAL, "--set",
+                "critic_warmup=100", "--no-progress"]) == 0
     err = capsys.readouterr().err
     assert ("--set critic_warmup=100 holds the actor for the run's first 100 updates, and --steps 30 makes "
             "60: the actor never learns (a residual learner plays its yardstick unchanged)") in err, err
