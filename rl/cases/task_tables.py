@@ -92,7 +92,22 @@ def _goto_values(t: SpecTable, d: GotoTask, length: float, duration: float) -> d
                       "reaching every target")
     _check_target_reach(t, values["distance"], length, duration, key="distance")
     _check_slow_zone(t, values, values["distance"])
+    _check_time_penalty(t, values["time_penalty"], length)
     return values
+
+
+#: Body lengths per second: a goto ``time_penalty`` (m/s) above this many of the robot's length is
+#: warned about (crawlers cover a fraction of a body length a second; mm/s written for m/s).
+WARN_TIME_PENALTY_LENGTHS = 10.0
+
+
+def _check_time_penalty(t: SpecTable, penalty: float, length: float) -> None:
+    """Warn about a ``time_penalty`` (m/s) above :data:`WARN_TIME_PENALTY_LENGTHS` body lengths
+    (``length``, m) a second: every step then costs far more than any step toward the target earns."""
+    if penalty > WARN_TIME_PENALTY_LENGTHS * length:
+        t.warn("time_penalty", f"{penalty:g} m/s is more than {WARN_TIME_PENALTY_LENGTHS:g} body lengths "
+               f"({length:g} m) a second: every step away from the target costs far more than a step "
+               f"toward it earns; mm/s written for m/s? ({penalty:g} mm/s is {1e-3 * penalty:g} m/s)")
 
 
 def _bearing(t: SpecTable, key: str, default: float) -> float:

@@ -103,3 +103,11 @@ def test_a_time_penalty_is_read_and_written_only_where_set(tmp_path):
     mine.write_text(case.toml())
     assert load_case(mine).task == case.task
     assert "time_penalty" not in load_case("m1-4mT-goto").to_dict()["task"]  # the shipped tables as they were
+
+
+def test_a_time_penalty_in_mm_per_s_is_warned_naming_the_key():
+    from elastica_magnetic.plausibility import ImplausibleValueWarning
+
+    expected = r"\[task\] time_penalty: 5 m/s is more than 10 body lengths .*mm/s written for m/s\?"
+    with pytest.warns(ImplausibleValueWarning, match=expected + r" \(5 mm/s is 0.005 m/s\)"):
+        case_from_dict(_goto_spec(time_penalty=5.0), "my.toml", "my")
