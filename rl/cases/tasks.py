@@ -277,7 +277,8 @@ class GotoTask:
         after = self.error(pose_after, target)
         reward = approach_reward(self, self.error(pose_before, target), after, moved)
         if self.time_penalty:  # each 0.01 s away from the target costs time_penalty * 0.01 s of distance
-            reward = reward - self.reward_scale * self.time_penalty * ACTION_PERIOD * (after > self.tolerance)
+            away = ~self.within_tolerance(after)  # the success test's own comparison
+            reward = reward - self.reward_scale * self.time_penalty * ACTION_PERIOD * away
         return reward
 
     def within_tolerance(self, distance: Any) -> Any:
