@@ -163,12 +163,16 @@ def run_in_processes(
     grace = STOP_GRACE_S if stop_grace_s is None else stop_grace_s
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=context,
                                initializer=_init_worker, initargs=(os.getpid(), quiet_interrupt))
-    futures = {pool.submit(fn, job): (k, job) for k, job in enumerate(jobs)}
+    futures: dict[Any, tuple[int, Any]] = {}
     results: list[Any] = [None] * len(jobs)
-    running = set(futures)
     asked: set[Any] = set()  # the futures asked to hand work back
     try:
         with _termination_as_interrupt():
+            # handed out inside: a Ctrl-C while the workers start and take their jobs still ends them
+            # (outside, it left them running their jobs and this process waiting on them at exit)
+            for k, job in enumerate(jobs):
+                futures[pool.submit(fn, job)] = (k, job)
+            running = set(futures)
             while running:
                 done, running = wait(running, return_when=FIRST_COMPLETED)
                 for future in done:
