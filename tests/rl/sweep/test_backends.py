@@ -147,3 +147,33 @@ def test_a_ctrl_c_wrapped_by_python_stops_the_seeds_not_fails_one():
         run_jobs(_interrupted_inside_an_import, [SimpleNamespace(seed=0)], workers=1)
     failing = run_jobs(lambda job: 1 / 0, [SimpleNamespace(seed=0)], workers=1)
     assert failing[0]["error"].startswith("ZeroDivisionError")
+
+
+def test_a_ctrl_c_while_the_jobs_are_handed_out_ends_the_workers(monkeypatch):
+    """Session 29's CI (once in five runs): a Ctrl-C that arrived while the pool took its jobs, before
+    the handling that ends the workers, left them running their jobs and ``msr policy export-seeds``
+    waiting on them at exit. Here the interrupt comes right after the second job is handed out."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    real_submit = ProcessPoolExecutor.submit
+    pools: list[ProcessPoolExecutor] = []
+
+    def submit_then_interrupt(pool, fn, *args, **kwargs):
+        future = real_submit(pool, fn, *args, **kwargs)
+        pools.append(pool)
+        if len(pools) == 2:
+            raise KeyboardInterrupt
+        return future
+
+    monkeypatch.setattr(ProcessPoolExecutor, "submit", submit_then_interrupt)
+    start = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        run_in_processes(time.sleep, [120.0, 120.0], 2, stop_grace_s=0.5, quiet_interrupt=True)
+    processes = list((pools[0]._processes or {}).values())
+    try:
+        assert time.monotonic() - start < 30.0
+        assert [p for p in processes if p.is_alive()] == [], "workers still run their jobs"
+    finally:  # without the handling they sleep on; do not leave them to the pool's exit
+        for process in processes:
+            process.terminate()
+
