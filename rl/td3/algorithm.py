@@ -39,7 +39,11 @@ Learning", NeurIPS 2021), on a minibatch ``(s_w, a_w)`` of the warm-up's transit
 
        L_actor = -mean Q1(s, mu(s)) / mean|Q1(s, mu(s))| + beta * mean || tanh(MLP(s_w)) - a_w ||^2
 
-(the normaliser held constant in the gradient, as TD3+BC's ``lambda``).
+(the normaliser held constant in the gradient, as TD3+BC's ``lambda``). A residual learner
+(:attr:`TD3Config.residual`: the actor's output ``mu(s)`` is a correction of the yardstick) may be held
+near a zero correction the same way (:attr:`TD3Config.correction_penalty` ``beta > 0``)::
+
+       L_actor = -mean Q1(s, mu(s)) / mean|Q1(s, mu(s))| + beta * mean || mu(s) ||^2
 
 K seeds as one computation
 --------------------------
@@ -346,6 +350,11 @@ class TD3:
                 actor_loss = (actor_loss / q1_mu.detach().abs().mean(dim=(1, 2)).clamp_min(Q_SCALE_FLOOR)
                               + cfg.yardstick_regularization * distance)
                 info["warmup_distance"] = distance.detach()
+            if cfg.correction_penalty:  # TD3+BC on a zero correction: -Q / mean|Q| + beta * mean ||mu(s)||^2
+                size = (mu ** 2).sum(dim=-1).mean(dim=1)
+                actor_loss = (actor_loss / q1_mu.detach().abs().mean(dim=(1, 2)).clamp_min(Q_SCALE_FLOOR)
+                              + cfg.correction_penalty * size)
+                info["correction_size"] = size.detach()
             if cfg.actor_saturation_penalty:  # lambda * mean(relu(|u| - 3)^2), each seed its own
                 excess = torch.relu(pre.abs() - SATURATION_PREACTIVATION)
                 actor_loss = actor_loss + cfg.actor_saturation_penalty * (excess ** 2).mean(dim=(1, 2))

@@ -213,6 +213,18 @@ class Hyperparameters:
     learns only what adds return. ``rho`` (at most :data:`MAX_RESIDUAL`) bounds the correction: 0.5
     moves an axis's command by at most half its largest increment either way. Not with
     :attr:`yardstick_warmup` (nothing to clone: the start is the yardstick already)."""
+    correction_penalty: float = 0.0
+    """Hold a residual learner's correction small for the whole run (0: plain TD3 on the
+    correction; needs :attr:`residual`). With ``beta > 0`` every actor update also descends the
+    correction's size, the critic's term normalised as in TD3+BC (Fujimoto & Gu 2021)::
+
+        L_actor = -mean Q1(s, mu(s)) / mean|Q1(s, mu(s))| + beta * mean || mu(s) ||^2
+
+    which is TD3+BC with the yardstick as the demonstrator: the yardstick's own action is a zero
+    correction. ``beta = 0.4`` is TD3+BC's ``alpha = 2.5``. Why: the critic has seen only the
+    yardstick's actions plus noise, and its gradient far from them is extrapolation; on
+    ``m1-10mT-goto`` every correction plain TD3 made (four runs) lowered the yardstick's return.
+    The term keeps the correction where a change pays more than it moves."""
     critic_warmup: int = 0
     """The run's first ``N`` TD3 updates learn the critics only, the actor held (0: none; a clone's
     critic updates, :attr:`yardstick_warmup`, count among them). Why: TD3 moves the actor along the
@@ -369,6 +381,13 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
         if not (math.isfinite(self.residual) and 0.0 <= self.residual <= MAX_RESIDUAL):
             raise ValueError(f"residual must be a number in [0, {MAX_RESIDUAL:g}] (the correction's weight "
                              f"on the yardstick's normalised command; 0 off), got {self.residual!r}")
+        if not (math.isfinite(self.correction_penalty) and 0.0 <= self.correction_penalty
+                <= MAX_YARDSTICK_REGULARIZATION):
+            raise ValueError(f"correction_penalty must be a number in [0, {MAX_YARDSTICK_REGULARIZATION:g}] "
+                             f"(TD3+BC's alpha = 2.5 is 0.4; 0 off), got {self.correction_penalty!r}")
+        if self.correction_penalty and not self.residual:
+            raise ValueError(f"correction_penalty {self.correction_penalty:g} holds a residual learner's "
+                             "correction small: set residual too (e.g. 0.5), or leave it 0")
         if self.residual and self.yardstick_warmup:
             raise ValueError(f"residual {self.residual:g} starts the actor at the yardstick itself (a zero "
                              f"correction), nothing is to be cloned: yardstick_warmup must be 0, got "
@@ -444,7 +463,8 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
         partner: dict[str, Any] = {"batch_size": {"buffer_size": value},
                                    "yardstick_regularization": {"yardstick_warmup": 1},
                                    "yardstick_dagger": {"yardstick_warmup": 1},
-                                   "clone_labels": {"yardstick_warmup": 1}}.get(key, {})
+                                   "clone_labels": {"yardstick_warmup": 1},
+                                   "correction_penalty": {"residual": 1.0}}.get(key, {})
         if key == "buffer_size":  # the run's minibatch (recipe, spec or --set) is judged with it later
             partner = {"batch_size": max(1, min(value, cls().batch_size))}
         try:

@@ -107,3 +107,23 @@ def test_the_critic_warmup_holds_the_actor_and_then_lets_it_learn(tmp_path):
                p.shape == last[0].shape)
     with pytest.raises(ValueError, match="critic_warmup must be >= 0"):
         toy_config(critic_warmup=-1)
+
+
+def test_the_correction_penalty_holds_the_correction_near_zero(tmp_path):
+    """``correction_penalty``: TD3+BC's term on a zero correction. The same run (same seed, the same
+    updates) learns a smaller correction of the weak yardstick with it than without it, and reports
+    the size it descends; it needs a residual learner."""
+    def run(penalty: float, name: str):
+        cfg = toy_config(residual=1.0, learning_starts=40, correction_penalty=penalty, seed=4)
+        return train(lambda: ResidualEnv(_fixed(), SlowTeacher, 1.0), cfg, 240, tmp_path / name,
+                     progress=False)
+
+    def mean_size(agent) -> float:
+        obs = np.random.default_rng(0).uniform(-1.0, 1.0, size=(256, 3)).astype(np.float32)
+        with torch.no_grad():
+            return float((agent.actor(torch.as_tensor(obs)) ** 2).sum(dim=-1).mean())
+
+    free, held = mean_size(run(0.0, "free")), mean_size(run(10.0, "held"))
+    assert held < 0.25 * free, (held, free)
+    with pytest.raises(ValueError, match="correction_penalty 0.4 holds a residual learner's correction"):
+        toy_config(correction_penalty=0.4)
