@@ -8,6 +8,7 @@ from typing import Any
 from ..cases.case import Case
 from ..cases.training_tables import randomize_table
 from .policy_files import RING_PNG
+from .residual_card import residual_use_lines
 
 __all__ = ["model_card", "seed_meets_target", "card_section", "replace_card_section", "NOTES_SECTION"]
 
@@ -93,14 +94,8 @@ def _use_section(info: dict[str, Any], case: Case) -> list[str]:
 def _export_line(info: dict[str, Any]) -> list[str]:
     """How the policy leaves the package: exported, or, for a residual policy (the case's yardstick
     corrected by the actor), played through the package, which composes the two."""
-    residual = float(info["architecture"].get("residual", 0.0))
-    if not residual:
-        return [f"- `msr policy export {info['name']} --out DIR`: TorchScript + observation/action JSON."]
-    return [f"- A residual policy: the action played is the case's yardstick's command plus {residual:g} x "
-            "the actor's output, clipped to [-1, 1] (`architecture.residual`; docs/training.md, \"Correcting "
-            "the yardstick\"). The yardstick is a controller with a memory, not a network, so `msr policy "
-            f"export` refuses it: play it with `msr policy generate` or `resolve_policy(\"{info['name']}\")"
-            ".act(obs)` in Python (`reset()` at each episode), which compose the two."]
+    return residual_use_lines(info) or [
+        f"- `msr policy export {info['name']} --out DIR`: TorchScript + observation/action JSON."]
 
 
 def _steering_line(info: dict[str, Any]) -> list[str]:

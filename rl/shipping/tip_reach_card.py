@@ -8,6 +8,7 @@ from typing import Any
 
 from ..cases.case import Case
 from .policy_files import TIP_PATHS_PNG
+from .residual_card import residual_use_lines
 
 __all__ = ["tip_reach_card"]
 
@@ -43,6 +44,7 @@ def tip_reach_card(info: dict[str, Any], case: Case, notes_section: str) -> str:
         f"- `msr policy generate {info['name']} --target X,Y,Z --json`: steers to that target (m, in "
         "the spec's frame: the base at the origin, the rod along +x) in the accurate physics and "
         "reports `tip_error_m`; without `--target`, the case's 20 held-out targets.",
+        *residual_use_lines(info),
         f"- Input: {info['architecture']['obs_dim']} float32 observations (blocks and scales in "
         f"`policy.json`); output: {info['architecture']['act_dim']} actions in [-1, 1] every 0.01 s.",
         "",

@@ -117,6 +117,22 @@ def test_a_residual_catheter_policy_is_sent_to_a_point(tmp_path, capsys):
     assert np.isfinite(result["tip_error_m"])
 
 
+def test_a_residual_tip_reach_policy_s_card_says_how_it_acts():
+    """The catheter's card said nothing of the yardstick its actor corrects (the goto card did), so
+    a reader took the actor for the policy and ``msr policy export`` for the way to run it."""
+    from elastica_magnetic_rl.shipping.model_card import NOTES_SECTION
+    from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR
+    from elastica_magnetic_rl.shipping.tip_reach_card import tip_reach_card
+
+    info = json.loads((POLICIES_DIR / "catheter-coils-reach" / "policy.json").read_text())
+    info["architecture"]["residual"] = 0.5
+    case = load_case("catheter-coils-reach")
+    line = "A residual policy: the action played is the case's yardstick's command plus 0.5 x"
+    assert line in tip_reach_card(info, case, NOTES_SECTION)
+    info["architecture"]["residual"] = 0.0
+    assert "A residual policy" not in tip_reach_card(info, case, NOTES_SECTION)
+
+
 @pytest.mark.parametrize(("argv", "message"), [
     (["--case", "hu2018-crawl"], "--set residual=0.5: the actor learns a correction of the case's "
                                  "hand-designed controller, and case(s) hu2018-crawl have none"),
