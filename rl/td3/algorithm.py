@@ -130,6 +130,13 @@ def _step(optimizer: torch.optim.Adam, grads: tuple[torch.Tensor, ...]) -> None:
     optimizer.step()
 
 
+def _q_normalised(actor_loss: torch.Tensor, q1_mu: torch.Tensor) -> torch.Tensor:
+    """Each seed's ``-mean Q1(s, mu(s))`` over ``mean |Q1(s, mu(s))|`` (at least :data:`Q_SCALE_FLOOR`), the
+    normaliser held constant in the gradient, as TD3+BC's ``lambda``: the critic's term of a loss whose
+    other term (a distance to the data, or to a zero correction) must not depend on the return's scale."""
+    return actor_loss / q1_mu.detach().abs().mean(dim=(1, 2)).clamp_min(Q_SCALE_FLOOR)
+
+
 def cpu_supports_bf16() -> bool:
     """Whether this CPU has native bfloat16 matrix units (AVX512-BF16 or AMX), so ``bf16`` is
     faster than ``fp32`` here."""
@@ -347,13 +354,11 @@ class TD3:
             actor_loss = -q1_mu.mean(dim=(1, 2))
             if cfg.yardstick_regularization:  # TD3+BC: -Q / mean|Q| + beta * mean ||mu(s_w) - a_w||^2
                 distance = self._warmup_distance(warmup_batches)
-                actor_loss = (actor_loss / q1_mu.detach().abs().mean(dim=(1, 2)).clamp_min(Q_SCALE_FLOOR)
-                              + cfg.yardstick_regularization * distance)
+                actor_loss = _q_normalised(actor_loss, q1_mu) + cfg.yardstick_regularization * distance
                 info["warmup_distance"] = distance.detach()
             if cfg.correction_penalty:  # TD3+BC on a zero correction: -Q / mean|Q| + beta * mean ||mu(s)||^2
                 size = (mu ** 2).sum(dim=-1).mean(dim=1)
-                actor_loss = (actor_loss / q1_mu.detach().abs().mean(dim=(1, 2)).clamp_min(Q_SCALE_FLOOR)
-                              + cfg.correction_penalty * size)
+                actor_loss = _q_normalised(actor_loss, q1_mu) + cfg.correction_penalty * size
                 info["correction_size"] = size.detach()
             if cfg.actor_saturation_penalty:  # lambda * mean(relu(|u| - 3)^2), each seed its own
                 excess = torch.relu(pre.abs() - SATURATION_PREACTIVATION)

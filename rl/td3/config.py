@@ -54,6 +54,9 @@ MAX_YARDSTICK_WARMUP = 1_000_000
 #: The strongest hold on the yardstick's warm-up (``yardstick_regularization``), 25x TD3+BC's 0.4:
 #: beyond it the actor's distance to the warm-up's actions outweighs any Q gradient.
 MAX_YARDSTICK_REGULARIZATION = 10.0
+#: The strongest hold on a residual learner's zero correction (``correction_penalty``): the same
+#: TD3+BC weight, with the same reason.
+MAX_CORRECTION_PENALTY = MAX_YARDSTICK_REGULARIZATION
 #: Largest ``residual``: a correction of twice the largest command swings an action across its whole
 #: range, beyond which the yardstick's command no longer matters.
 MAX_RESIDUAL = 2.0
@@ -224,7 +227,9 @@ class Hyperparameters:
     correction. ``beta = 0.4`` is TD3+BC's ``alpha = 2.5``. Why: the critic has seen only the
     yardstick's actions plus noise, and its gradient far from them is extrapolation; on
     ``m1-10mT-goto`` every correction plain TD3 made (four runs) lowered the yardstick's return.
-    The term keeps the correction where a change pays more than it moves."""
+    The term keeps the correction where a change pays more than it moves (measured: the catheters'
+    first corrections that raise their laws' returns, docs/steering_catheter.md; at 10 mT it held
+    the yardstick's return without raising it)."""
     critic_warmup: int = 0
     """The run's first ``N`` TD3 updates learn the critics only, the actor held (0: none; a clone's
     critic updates, :attr:`yardstick_warmup`, count among them). Why: TD3 moves the actor along the
@@ -382,8 +387,8 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
             raise ValueError(f"residual must be a number in [0, {MAX_RESIDUAL:g}] (the correction's weight "
                              f"on the yardstick's normalised command; 0 off), got {self.residual!r}")
         if not (math.isfinite(self.correction_penalty) and 0.0 <= self.correction_penalty
-                <= MAX_YARDSTICK_REGULARIZATION):
-            raise ValueError(f"correction_penalty must be a number in [0, {MAX_YARDSTICK_REGULARIZATION:g}] "
+                <= MAX_CORRECTION_PENALTY):
+            raise ValueError(f"correction_penalty must be a number in [0, {MAX_CORRECTION_PENALTY:g}] "
                              f"(TD3+BC's alpha = 2.5 is 0.4; 0 off), got {self.correction_penalty!r}")
         if self.correction_penalty and not self.residual:
             raise ValueError(f"correction_penalty {self.correction_penalty:g} holds a residual learner's "
