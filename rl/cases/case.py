@@ -35,7 +35,9 @@ Tables of a spec (SI units; the robot's tables are described in
   (:mod:`elastica_magnetic_rl.cases.design_space`); optional, read by no other command.
 - ``[yardstick]``: ``distance_10s`` (m, crawl: the distance in 10 s of accurate physics from a
   zero field that counts as success; 0: the case has none, and no run of it is judged) and
-  ``source`` (where it comes from).
+  ``source`` (where it comes from); a goto case's ``turn_in_place`` (default true: the steering
+  yardstick turns the robot in place until the target is abeam before it walks; false: it never
+  turns, the field's plane always toward the target, for a robot that goes where the plane points).
 """
 
 from __future__ import annotations
@@ -127,6 +129,7 @@ CASE_UNITS: dict[tuple[str, str], str] = {
     ("training", "steps"): "environment steps per seed",
     ("yardstick", "distance_10s"): "m in 10 s, accurate physics, field from zero",
     ("yardstick", "period"): "s, one turn of the rotating field that made distance_10s",
+    ("yardstick", "turn_in_place"): "goto: false, the steering yardstick walks toward every target",
 }
 
 
@@ -144,12 +147,20 @@ class Yardstick:
     #: (``yardstick_warmup``).
     period: float | None = None
     clockwise: bool = True
+    #: A goto case's steering yardstick: whether it turns the robot in place until the target is
+    #: abeam before walking (``None``: not given, which means it does); ``False``: it walks toward
+    #: every target, the field's plane toward it
+    #: (:class:`~elastica_magnetic_rl.envs.yardsticks.SteeringFieldPolicy`).
+    turn_in_place: bool | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain data; the field's keys only where its period is recorded."""
+        """Plain data; the field's keys only where its period is recorded, ``turn_in_place`` only
+        where given."""
         out: dict[str, Any] = {"distance_10s": self.distance_10s, "source": self.source}
         if self.period is not None:
             out.update(period=self.period, clockwise=self.clockwise)
+        if self.turn_in_place is not None:
+            out["turn_in_place"] = self.turn_in_place
         return out
 
 
@@ -393,7 +404,8 @@ def case_from_dict(spec: Mapping[str, Any], source: str = "<spec>", default_name
     fastest = (None if isinstance(actuation, SteeringActuation) else
                min_rotation_period(min(actuation.limits[:2]), min(actuation.increments[:2])))
     yardstick = _yardstick(top.table("yardstick", required=False), length,
-                           _rotating_yardstick_refusal(actuation, task), fastest)
+                           _rotating_yardstick_refusal(actuation, task), fastest,
+                           isinstance(task, GotoTask))
     if yardstick.distance_10s > 0.0 and task.kind in _JUDGED_ON:  # nothing would judge it
         judged = _JUDGED_ON[task.kind]
         raise SpecError(f"{source}: [yardstick] distance_10s: {yardstick.distance_10s:g} m is a crawl's "
@@ -511,20 +523,25 @@ def _rotating_yardstick_refusal(actuation: Actuation | SteeringActuation, task: 
 
 
 def _yardstick(t: SpecTable | None, robot_length: float, rotating_refusal: str | None = None,
-               fastest: float | None = None) -> Yardstick:
+               fastest: float | None = None, steers: bool = False) -> Yardstick:
     """``[yardstick]``; ``rotating_refusal``: why this case cannot take a rotating field's
     ``period``/``clockwise`` (refused by name), ``None`` where it can; ``fastest``: the shortest
     uniform turn (s) the case's rate limit allows at its amplitude (a shorter period is warned
-    about: the field would turn slower than it says)."""
+    about: the field would turn slower than it says); ``steers``: a goto case, whose steering
+    yardstick may be told not to turn in place (``turn_in_place``)."""
     if t is None:
         return Yardstick()
     for key in ("period", "clockwise"):
         if rotating_refusal is not None and t.has(key):
             raise t.error(key, f"{rotating_refusal}: remove period and clockwise")
+    if t.has("turn_in_place") and not steers:
+        raise t.error("turn_in_place", "it tells a goto case's steering yardstick whether to turn the robot "
+                                       "in place; this case has no goto task: remove it")
     out = Yardstick(distance_10s=t.number("distance_10s", "m", 0.0, low=0.0),
                     source=t.string("source", ""),
                     period=t.number("period", "s", None, low=0.0, low_open=True, plausible="rotation period"),
-                    clockwise=t.boolean("clockwise", True))
+                    clockwise=t.boolean("clockwise", True),
+                    turn_in_place=t.boolean("turn_in_place", None))
     if out.period is not None and out.period <= 2 * ACTION_PERIOD:
         raise t.error("period", f"{out.period:g} s is at or under 2 x the {ACTION_PERIOD:g} s control "
                                 "period: no field the coils play turns that fast (a rotating field "

@@ -243,6 +243,11 @@ def _add_baseline_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--set-yardstick", type=output_path, default=None, metavar="OUT.toml",
                    help="write a copy of the case's spec with the sweep's best distance as "
                         "[yardstick] distance_10s (needs the accurate physics and 10 s)")
+    p.add_argument("--turn-in-place", choices=("yes", "no"), default=None,
+                   help="a goto case's steering yardstick: turn the robot in place until the target is "
+                        "abeam before walking (yes), or walk toward every target, the field's plane "
+                        "always toward it (no); default the case's [yardstick] turn_in_place (yes "
+                        "where not given)")
     _add_goto_options(p)
     _add_rollout_options(p, "out/baseline")
     p.set_defaults(func=baseline_command)
@@ -350,6 +355,10 @@ def baseline_command(args: argparse.Namespace) -> int:
     _goto_args(args, args.case)
     if isinstance(args.case.task, GotoTask):
         return _steering_baseline(args)
+    if args.turn_in_place is not None:
+        raise CommandError(f"--turn-in-place is a goto case's steering yardstick's; case {args.case.name!r} "
+                           f"has the {args.case.task.kind} task, whose yardstick is a rotating field: "
+                           "leave it out")
     if args.duration is None:
         args.duration = DEFAULT_ROLLOUT_S
     if args.set_yardstick is not None and (args.physics != "accurate" or args.duration != 10.0):
@@ -399,7 +408,8 @@ def _tip_reach_baseline(args: argparse.Namespace) -> int:
     _tip_reach_args(args, args.case, "its yardstick", {
         "--period": args.period, "--counterclockwise": args.counterclockwise, "--periods": args.periods,
         "--set-yardstick": args.set_yardstick, "--workers": args.workers, "--ring": args.ring is not None,
-        "--no-gif": args.no_gif, "--waypoints": args.waypoints, "--heading": args.heading is not None})
+        "--no-gif": args.no_gif, "--waypoints": args.waypoints, "--heading": args.heading is not None,
+        "--turn-in-place": args.turn_in_place})
     print_notes(target_notes(args.case, args.target) if args.target is not None else ())
     result = write_targets(args.case, args.out, Steering(steering_controller), physics=args.physics,
                            duration=args.duration, force=args.force, figures=not args.no_figures,
@@ -421,7 +431,9 @@ def _steering_baseline(args: argparse.Namespace) -> int:
                                f"{args.case.name!r} is a goto case, whose yardstick steers a field "
                                "turning clockwise (--period, default 1 s) toward the target")
     try:
-        policy = SteeringFieldPolicy(args.case, args.period if args.period is not None else 1.0)
+        turn = None if args.turn_in_place is None else args.turn_in_place == "yes"
+        policy = SteeringFieldPolicy(args.case, args.period if args.period is not None else 1.0,
+                                     turn_in_place=turn)
     except ValueError as exc:
         raise CommandError(f"--period: {exc}") from None
     if args.ring is not None:

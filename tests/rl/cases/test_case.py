@@ -82,6 +82,7 @@ def _spec(**changes):
     ("training.td3", {"learning_rate": 1e-3}, "[training.td3] learning_rate: not a TD3 setting"),
     ("training.td3", {"batch_size": "big"}, "[training.td3] batch_size: batch_size=big: expected an integer"),
     ("yardstick.distance_10s", -1.0, "[yardstick] distance_10s: must be >= 0 (m)"),
+    ("yardstick.turn_in_place", False, "[yardstick] turn_in_place: it tells a goto case's steering"),
     ("robot.ground", None, "[robot.ground] missing: the crawler tasks need a ground"),
 ])
 def test_bad_case_tables_name_the_key(path, value, message):

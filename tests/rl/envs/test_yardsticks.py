@@ -163,3 +163,40 @@ def test_the_memoryless_steering_law_labels_any_state_by_the_observed_clock():
         SteeringFieldPolicy(case).label(obs)
     with pytest.raises(ValueError, match="its period must be that"):
         SteeringFieldPolicy(case, period=1.5, markov=True)
+
+
+def test_a_steering_yardstick_told_not_to_turn_in_place_walks_toward_every_target():
+    """``[yardstick] turn_in_place = false`` (a goto case whose robot goes where the field's plane
+    points): both laws put the plane toward the target at every bearing; the default turns in place
+    toward bringing the target abeam first. The key is a goto case's, kept in the case's plain data
+    only where given (a shipped policy's recorded case is unchanged by it)."""
+    from elastica_magnetic_rl.cases.case import case_from_dict, load_case
+    from elastica_magnetic_rl.envs.yardsticks import SteeringFieldPolicy
+
+    walking_case, turning_case = load_case("m1-10mT-goto"), load_case("m1-4mT-goto")
+    assert walking_case.yardstick.turn_in_place is False and turning_case.yardstick.turn_in_place is None
+    assert "turn_in_place" not in turning_case.to_dict()["yardstick"]
+    again = case_from_dict(walking_case.to_dict(), "again.toml", "again")
+    assert again.yardstick.turn_in_place is False
+
+    walker, turner = SteeringFieldPolicy(walking_case), SteeringFieldPolicy(turning_case)
+    assert (walker.turn_in_place, turner.turn_in_place) == (False, True)
+    assert SteeringFieldPolicy(walking_case, turn_in_place=True).turn_in_place  # an argument wins
+    assert walker.meta["turn_in_place"] is False and "never turning in place" in walker.source
+    for bearing in np.linspace(-math.pi, math.pi, 13)[:-1]:
+        forward, left = math.cos(bearing), math.sin(bearing)
+        assert walker.plane_bearing(forward, left) == pytest.approx(bearing)
+        for clock_sin in (-0.5, 0.5):  # the memoryless law too, in both halves of its clock
+            assert walker._markov_bearing(forward, left, clock_sin) == pytest.approx(bearing)
+    turner.reset()  # straight ahead: the default turns, its plane near the body's axis
+    assert abs(turner.plane_bearing(1.0, 0.0)) == pytest.approx(turner.turn_bearing)
+
+    # the law plays the plane: from a field along +x, straight ahead, its step keeps B_z at zero
+    # (the plane along the body); the turning law's plane is turn_bearing off the axis
+    obs = np.zeros(walking_case.obs_dim, dtype=np.float32)
+    layout = walker.layout
+    obs[layout["heading"]] = (1.0, 0.0)
+    obs[layout["target_offset"]] = (10.0, 0.0)
+    obs[layout["field_amplitude"]] = 200 * 5e-3
+    assert walker.act(obs)[2] == 0.0
+    assert SteeringFieldPolicy(walking_case, turn_in_place=True).act(obs)[2] != 0.0

@@ -113,6 +113,10 @@ def test_a_ring_is_written_whole_with_its_top_view(tmp_path, capsys):
      "--counterclockwise belongs to the rotating-field sweep of a crawl case"),
     (["policy", "generate", "m1-4mT", "--target", "0,0.01"],
      "--target is for a goto case; case 'm1-4mT' has the crawl task"),
+    (["field", "baseline", "--case", "m1-4mT", "--period", "1", "--turn-in-place", "no"],
+     "--turn-in-place is a goto case's steering yardstick's; case 'm1-4mT' has the crawl task"),
+    (["field", "baseline", "--case", "catheter-magnet-reach", "--turn-in-place", "yes"],
+     "--turn-in-place does not apply to case 'catheter-magnet-reach'"),
 ])
 def test_goto_options_that_cannot_act_are_refused(tmp_path, capsys, args, message):
     out = tmp_path / "never"
@@ -273,3 +277,18 @@ def test_round17_generate_states_and_chooses_for_the_target_asked(tmp_path, caps
                  "--no-progress"]) == 2
     assert "has the goto task, and msr policy export-seeds scores each seed" in capsys.readouterr().err
     assert not (tmp_path / "seeds").exists()
+
+
+def test_the_baseline_plays_the_yardstick_the_case_or_the_option_says(tmp_path, capsys):
+    """``--turn-in-place yes|no`` overrides the case's ``[yardstick] turn_in_place`` (m1-10mT-goto:
+    false), so both laws can be measured on one case; the result names the one played."""
+    sources = {}
+    for option in (None, "yes", "no"):
+        out = tmp_path / str(option)
+        extra = [] if option is None else ["--turn-in-place", option]
+        assert main(["field", "baseline", "--case", "m1-10mT-goto", "--duration", "0.02", "--physics",
+                     "training", "--no-figures", "--no-gif", "--no-progress", "--json", *extra,
+                     "--out", str(out)]) == 0
+        sources[option] = json.loads(capsys.readouterr().out)["policy"]
+    assert "never turning in place" in sources[None] and "never turning in place" in sources["no"]
+    assert "never turning in place" not in sources["yes"]
