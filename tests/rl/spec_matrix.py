@@ -2,7 +2,8 @@
 the format allows for what the features read (a named magnetization pattern, ``segments`` by
 elements or by fractions with and without their own magnitudes, a per-element ``table``; an
 explicit shear modulus or a Poisson ratio; a crawl or a reach task; a band or a round section;
-the paper's two field axes or three, one limit or one per axis; a rolling or sliding ground),
+the paper's two field axes or three, one limit or one per axis; a rolling or sliding ground; a
+goto task's heading episodes, time penalty and steering yardstick turning in place or not),
 written as a user writes them (the shortest form: the parser completes them). Tests of any
 feature draw from :func:`user_specs` rather than trusting the shipped cases alone.
 """
@@ -109,6 +110,9 @@ def user_specs(draw, kinds: tuple[str, ...] = KINDS, poisson: bool | None = None
         penalty = draw(st.sampled_from([None, 0.002]))  # m/s: arriving sooner pays
         if penalty is not None:
             spec["task"]["time_penalty"] = penalty
+        turn = draw(st.sampled_from([None, True, False]))  # the steering yardstick's turn in place
+        if turn is not None:
+            spec["yardstick"] = {"turn_in_place": turn}
     forms = [a for a in ACTUATIONS if a.get("axes") == "xyz"] if kind == "goto" else ACTUATIONS
     spec["actuation"] = draw(st.sampled_from(forms)) if actuation is None else actuation
     sideways = draw(st.sampled_from(["rolling", "sliding", None]))

@@ -168,8 +168,12 @@ def test_goto_commands_on_a_drawn_robot(spec, capsys):
         assert point["goto"]["target_left_m"] == 0.005 and np.isfinite(point["final_distance_to_target_m"])
         for who, argv in (("policy", ["policy", "generate", str(seed), "--checkpoint", "final"]),
                           ("yardstick", ["field", "baseline", "--case", str(path)])):
-            course = _json(capsys, *argv, "--heading", "-0.5", "--duration", "0.2", "--physics", "training",
-                           "--out", str(folder / who), "--no-progress", "--no-gif")["heading"]
+            result = _json(capsys, *argv, "--heading", "-0.5", "--duration", "0.2", "--physics", "training",
+                           "--out", str(folder / who), "--no-progress", "--no-gif")
+            course = result["heading"]
             assert course["heading_rad"] == -0.5, who
+            if who == "yardstick":  # the spec's [yardstick] turn_in_place, true where not given
+                walks = spec.get("yardstick", {}).get("turn_in_place") is False
+                assert ("never turning in place" in result["policy"]) == walks
             assert np.isfinite(course["distance_along_m"]) and np.isfinite(course["cross_track_m"]), who
             assert (folder / who / "top_view.png").stat().st_size > 0, who
