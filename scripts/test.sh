@@ -34,8 +34,9 @@ fi
 rm -f "$warm_log"
 
 echo "== pytest =="
-# two worker processes (pytest-xdist), a test file each at a time: module fixtures are built once
-python -m pytest -q -n "${MSR_TEST_WORKERS:-2}" --dist loadfile --durations=15 "$@"
+# two worker processes (pytest-xdist), a test file each at a time: module fixtures are built once;
+# the files with a slow test first (tests/conftest.py), so that no minute-long file is left for last
+python -m pytest -q -n "${MSR_TEST_WORKERS:-2}" --dist loadfile --no-loadscope-reorder --durations=15 "$@"
 
 echo "== docs =="
 python -m sphinx -W --keep-going -q -b html docs docs/_build/html

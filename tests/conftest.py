@@ -22,3 +22,13 @@ def fault_server(tmp_path_factory):
     server = FaultServer(tmp_path_factory.mktemp("faults"))
     yield server
     server.close()
+
+
+def pytest_collection_modifyitems(session, config, items):
+    """The files holding a ``slow`` test go first, in collection order, the others after them.
+    ``scripts/test.sh`` hands the workers whole files in this order (``--dist loadfile
+    --no-loadscope-reorder``): a file of minutes started last would keep one worker busy while the
+    other has nothing left (xdist's own order, most tests first, put the few-test, minute-long files
+    last)."""
+    slow_files = {item.path for item in items if item.get_closest_marker("slow")}
+    items.sort(key=lambda item: item.path not in slow_files)  # stable: each file keeps its order

@@ -10,6 +10,7 @@ import pytest
 from elastica_magnetic.cli import main as msr
 
 
+@pytest.mark.slow
 def test_bench_quick_json_keys(capsys):
     capsys.readouterr()
     assert msr(["bench", "--quick", "--json", "--vector-envs", "4", "--train-seeds", "2"]) == 0

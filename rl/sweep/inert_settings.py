@@ -64,12 +64,15 @@ class SettingSources:
 def check_evaluations_made(config: TD3Config, sources: SettingSources) -> None:
     """Refuse (``ValueError``) a setting of the periodic evaluations (``eval_duration``,
     ``eval_episodes``) given by the user for a run that makes none (``eval_every`` 0): it would be
-    recorded and change nothing."""
+    recorded and change nothing. A spec's setting is refused only where the spec makes no evaluations
+    either: ``--set eval_every=0`` turns a case's evaluations off, its own settings of them with them
+    (the shipped goto and catheter cases evaluate several episodes)."""
     if config.eval_every > 0:
         return
+    off_by_option = "eval_every" in sources.given
     for key, unset in (("eval_duration", 0.0), ("eval_episodes", 1)):
         value = getattr(config, key)
-        if value != unset and (key in sources.given or key in sources.spec_td3):
+        if value != unset and (key in sources.given or (key in sources.spec_td3 and not off_by_option)):
             raise ValueError(f"{sources.setting(key, f'{value:g}')} sets the periodic evaluations, and "
                              f"{sources.setting('eval_every', 0)} makes none: give --set eval_every=N "
                              f"(steps between evaluations), or leave {key} out")

@@ -396,8 +396,10 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
         if self.residual and self.yardstick_warmup:
             raise ValueError(f"residual {self.residual:g} starts the actor at the yardstick itself (a zero "
                              f"correction), nothing is to be cloned: yardstick_warmup must be 0, got "
-                             f"{self.yardstick_warmup} (where a case's [training.td3] sets it: --set "
-                             "yardstick_warmup=0 --set yardstick_dagger=0)")
+                             f"{self.yardstick_warmup} (to learn the correction where a case's "
+                             "[training.td3] sets a warm-up: --set yardstick_warmup=0 --set "
+                             "yardstick_dagger=0; to clone the yardstick where it sets residual: --set "
+                             "residual=0, and --set correction_penalty=0 where it sets that too)")
         if self.yardstick_regularization > MAX_YARDSTICK_REGULARIZATION:
             raise ValueError(f"yardstick_regularization must be at most {MAX_YARDSTICK_REGULARIZATION:g} "
                              f"(TD3+BC's alpha = 2.5 is 0.4), got {self.yardstick_regularization:g}: the "

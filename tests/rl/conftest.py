@@ -14,7 +14,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from smoke import SMOKE, TRAIN_STEPS
+from smoke import NOT_RESIDUAL, SMOKE, TRAIN_STEPS
 
 from elastica_magnetic.cli import main as msr
 
@@ -44,5 +44,5 @@ def catheter_run(tmp_path_factory) -> Path:
     its seed 0's run folder."""
     out = tmp_path_factory.mktemp("catheter_runs")
     assert msr(["train", "--case", "catheter-magnet-reach", "--seeds", "1", "--workers", "1", "--steps",
-                "160", "--out", str(out), *SMOKE, "--set", "yardstick_warmup=20"]) == 0
+                "160", "--out", str(out), *SMOKE, *NOT_RESIDUAL, "--set", "yardstick_warmup=20"]) == 0
     return out / "catheter-magnet-reach" / "seed0"

@@ -16,6 +16,7 @@ LOOSEST = 1.25 * MARGIN
 ROUND_OFF = 1e-12
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", list(CASES))
 def test_validate_quick(case, tmp_path, capsys):
     if case not in available_cases():
@@ -78,6 +79,7 @@ def test_validate_full_replay(tmp_path, capsys):
     assert status == 0 and not failed, failed
 
 
+@pytest.mark.slow
 def test_validate_shipped_quick_checks_every_shipped_policy(capsys):
     """``msr validate shipped --quick``: every shipped policy's first 0.3 s run, and reproduce its
     waveform where this machine is the one that recorded it (the full 10 s check of all four, with

@@ -148,6 +148,7 @@ def test_identify_fits_every_default_group_on_a_drawn_robot(spec, capsys):
                                                         nominal.ground.kinetic_mu, rel=1e-6)
 
 
+@pytest.mark.slow
 @settings(DRAWN, max_examples=3)
 @given(spec=user_specs(task="goto"))
 def test_goto_commands_on_a_drawn_robot(spec, capsys):

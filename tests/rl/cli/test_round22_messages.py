@@ -14,12 +14,14 @@ from elastica_magnetic_rl.cases.case import load_case
 from elastica_magnetic_rl.cases.variations import VariationError, parse_variation, resolve_variations
 from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR
 from elastica_magnetic_rl.shipping.seed_report import case_seeds
+from smoke import NOT_RESIDUAL
 
 from elastica_magnetic.cli import main as msr
 from elastica_magnetic.io import atomic_write_json
 
-REGULARIZED = ["--set", "yardstick_regularization=0.4", "--set", "yardstick_warmup=50", "--set",
-               "batch_size=32", "--set", "learning_starts=100", "--set", "eval_every=0", "--threads", "1"]
+REGULARIZED = [*NOT_RESIDUAL, "--set", "yardstick_regularization=0.4", "--set", "yardstick_warmup=50",
+               "--set", "batch_size=32", "--set", "learning_starts=100", "--set", "eval_every=0", "--threads",
+               "1"]
 
 
 def _snapshot(folder):

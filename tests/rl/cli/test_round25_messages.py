@@ -163,9 +163,12 @@ def test_a_goto_spec_with_dagger_and_a_crawl_s_are_accepted(tmp_path, capsys):
     memoryless steering law does too: both specs are accepted."""
     from elastica_magnetic_rl.cases.case import load_case
 
-    # the shipped goto spec trains with DAgger itself (its [training.td3])
-    assert load_case("m1-4mT-goto").training.td3["yardstick_dagger"] > 0
-    assert msr(["case", "check", "--no-sag", "m1-4mT-goto"]) == 0
+    # the shipped goto spec as it was before it trained a residual learner: a clone and DAgger
+    goto = _spec(tmp_path, "m1-4mT-goto", "goto-dagger.toml",
+                 "residual = 0.5\nyardstick_warmup = 0\nyardstick_dagger = 0\n",
+                 "residual = 0.0\nyardstick_warmup = 16000\nyardstick_dagger = 6000\n")
+    assert load_case(str(goto)).training.td3["yardstick_dagger"] == 6000
+    assert msr(["case", "check", "--no-sag", str(goto)]) == 0
     crawl = _spec(tmp_path, "m1-4mT", "dg.toml", "[yardstick]\n", "[yardstick]\nperiod = 2.5\n",
                   "\n[training.td3]\nyardstick_warmup = 10\nyardstick_dagger = 10\n")
     assert msr(["case", "check", "--no-sag", str(crawl)]) == 0

@@ -9,6 +9,7 @@ import shutil
 import pytest
 from elastica_magnetic_rl.shipping import shipped
 from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR
+from smoke import NOT_RESIDUAL
 
 from elastica_magnetic.cli import main as msr
 from elastica_magnetic.result_markers import mark_folder
@@ -83,7 +84,8 @@ def test_a_regularized_run_is_not_advised_fewer_steps_than_its_warm_up(tmp_path,
     most 1000", which its warm-up (learning_starts 2000) refuses. That advice is given only where a
     run that short still learns."""
     common = ["train", "--case", "m1-4mT-goto", "--seeds", "1", "--steps", "3000", "--set",
-              "yardstick_regularization=0.4", "--set", "yardstick_warmup=50", "--set", "eval_every=0"]
+              "yardstick_regularization=0.4", "--set", "yardstick_warmup=50", "--set", "eval_every=0",
+              *NOT_RESIDUAL]
     assert msr([*common, "--set", "buffer_size=1000", "--set", "learning_starts=2000",
                 "--out", str(tmp_path / "a")]) == 2
     err = capsys.readouterr().err

@@ -28,6 +28,22 @@ def test_an_evaluation_setting_without_evaluations_is_refused(tmp_path, capsys, 
     assert not out.exists(), key
 
 
+def test_evaluations_a_spec_sets_are_refused_only_where_the_spec_turns_them_off():
+    """A case whose ``[training.td3]`` evaluates several episodes (the shipped goto cases:
+    ``eval_episodes = 4``) trained with ``--set eval_every=0``: the option turns its evaluations off,
+    and was refused for the spec's own ``eval_episodes``; a spec that sets both is refused."""
+    from elastica_magnetic_rl.sweep.inert_settings import SettingSources, check_evaluations_made
+    from elastica_magnetic_rl.td3.config import TD3Config
+
+    config = TD3Config(eval_every=0, eval_episodes=4)
+    check_evaluations_made(config, SettingSources(given={"eval_every": 0}, spec_td3={"eval_episodes": 4},
+                                                  source="goto.toml"))
+    with pytest.raises(ValueError, match=r"\[training.td3\] eval_episodes = 4 \(goto.toml\) sets the "
+                                         r"periodic evaluations, and \[training.td3\] eval_every = 0"):
+        check_evaluations_made(config, SettingSources(spec_td3={"eval_episodes": 4, "eval_every": 0},
+                                                      source="goto.toml"))
+
+
 def test_a_run_without_evaluations_reports_no_evaluation_length(tmp_path, capsys):
     out = tmp_path / "tr"
     assert msr(["train", "--case", "m1-4mT", *TINY, "--set", "eval_every=0", "--out", str(out)]) == 0

@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 import pytest
-from smoke import SMOKE
+from smoke import NOT_RESIDUAL, SMOKE
 
 from elastica_magnetic.cli import main
 
@@ -25,7 +25,7 @@ def goto_run(tmp_path_factory):
 
     out = tmp_path_factory.mktemp("goto")
     assert run(["train", "--case", "m1-4mT-goto", "--seeds", "2", "--workers", "1", "--steps", "240",
-                *SMOKE, "--set", "yardstick_warmup=0", "--set", "yardstick_dagger=0", "--out", str(out)]) == 0
+                *SMOKE, *NOT_RESIDUAL, "--out", str(out)]) == 0
     seed = out / "m1-4mT-goto" / "seed0"
     shutil.copy(out / "m1-4mT-goto" / "seed1" / "checkpoint.pt", seed / "best.pt")
     return seed

@@ -62,10 +62,10 @@ def test_shipping_a_goto_policy_says_it_measures_the_rings(tmp_path, monkeypatch
     """V4: ``msr policy ship`` of a goto run measured 24 episodes of 30 s silently, whatever
     ``--duration``."""
     import elastica_magnetic_rl.shipping.ship as ship
-    from smoke import SMOKE
+    from smoke import NOT_RESIDUAL, SMOKE
 
     assert run(["train", "--case", "m1-4mT-goto", "--seeds", "1", "--workers", "1", "--steps", "120",
-                *SMOKE, "--set", "yardstick_warmup=10", "--set", "yardstick_dagger=0",
+                *SMOKE, *NOT_RESIDUAL, "--set", "yardstick_warmup=10", "--set", "yardstick_dagger=0",
                 "--out", str(tmp_path / "runs")]) == 0
     calls = []
     real = ship.evaluate_ring

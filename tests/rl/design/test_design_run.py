@@ -223,6 +223,7 @@ def test_a_candidate_without_magnetization_scores_as_no_robot():
     assert records[0]["objective_m"] == DIVERGED_SCORE and records[1]["objective_m"] > DIVERGED_SCORE
 
 
+@pytest.mark.slow
 def test_the_robust_objective_runs_on_a_pattern_robot(tmp_path):
     """Round 10, T2: --objective robust died with a KeyError (the variation set of the segments
     form applied to the spec's own pattern form)."""
@@ -234,6 +235,7 @@ def test_the_robust_objective_runs_on_a_pattern_robot(tmp_path):
         v["distance_m"] for v in best["variants"])
 
 
+@pytest.mark.slow
 def test_the_robust_search_sees_the_corners_and_its_judgement_the_searched_field(tmp_path):
     """Issue 52: the robust search judged each candidate on 9 robots (no corners) and the end
     judged the 25 robots under the nominal robot's best field only: the weak-and-stiff corners,

@@ -485,6 +485,7 @@ def test_round17_quick_with_more_steps_says_it_is_no_smoke_run(capsys):
     assert _settings(args).steps == 100 and "replaces" not in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_an_interrupted_start_over_leaves_the_finished_loop_whole(interrupted_then_resumed, tmp_path,
                                                                   monkeypatch):
     """Round 49 D1: ``--force`` with other settings (a third seed), interrupted in its training,

@@ -136,11 +136,14 @@ def test_a_residual_tip_reach_policy_s_card_says_how_it_acts():
 @pytest.mark.parametrize(("argv", "message"), [
     (["--case", "hu2018-crawl"], "--set residual=0.5: the actor learns a correction of the case's "
                                  "hand-designed controller, and case(s) hu2018-crawl have none"),
-    (["--case", "m1-4mT-goto", "--set", "residual=0.5"],
-     "yardstick_warmup must be 0, got 16000 (where a case's [training.td3] sets it: --set yardstick_warmup"),
+    # the case's [training.td3] trains a residual learner, and a clone is asked for
+    (["--case", "m1-10mT-goto", "--set", "yardstick_warmup=100"],
+     "yardstick_warmup must be 0, got 100 (to learn the correction where a case's [training.td3] sets a "
+     "warm-up: --set yardstick_warmup=0 --set yardstick_dagger=0; to clone the yardstick where it sets "
+     "residual: --set residual=0, and --set correction_penalty=0 where it sets that too)"),
 ])
 def test_a_residual_training_that_cannot_run_is_refused_before_any_work(tmp_path, capsys, argv, message):
-    extra = ["--set", "residual=0.5"] if "--set" not in argv else []
+    extra = ["--set", "residual=0.5"] if "--case" in argv and "hu2018-crawl" in argv else []
     assert msr(["train", *argv, *extra, "--seeds", "1", "--steps", "50", "--set", "learning_starts=10",
                 "--out", str(tmp_path / "t"), "--no-progress"]) == 2
     assert message in capsys.readouterr().err
@@ -153,5 +156,6 @@ def test_a_critic_warmup_longer_than_the_run_is_warned(tmp_path, capsys):
                 "--set", "hidden_sizes=8", "--set", "eval_duration=0.1", *RESIDUAL, "--set",
                 "critic_warmup=100", "--no-progress"]) == 0
     err = capsys.readouterr().err
+    # the case's one update per step after learning_starts 10: 20 updates
     assert ("--set critic_warmup=100 holds the actor for the run's first 100 updates, and --steps 30 makes "
-            "60: the actor never learns (a residual learner plays its yardstick unchanged)") in err, err
+            "20: the actor never learns (a residual learner plays its yardstick unchanged)") in err, err

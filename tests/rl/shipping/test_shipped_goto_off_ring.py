@@ -29,6 +29,7 @@ def test_every_shipped_goto_policy_is_tried_off_its_ring():
     assert sorted(OFF_RING) == [name for name in shipped_names() if name.endswith("-goto")]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(OFF_RING))
 def test_a_shipped_goto_policy_goes_to_targets_off_its_ring(name):
     from elastica_magnetic_rl.shipping.goto import goto_result

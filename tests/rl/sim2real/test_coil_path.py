@@ -84,6 +84,7 @@ def _measured_files(tmp_path, quick_spec):
     return write_coil_path(tmp_path / "coils.csv", path), tmp_path / "tip.csv", spec_file
 
 
+@pytest.mark.slow
 def test_identify_recovers_the_coils_gain(tmp_path, quick_spec):
     """From a 0.05 mm-noisy tip path of coils 6 % stronger than the spec's, ``msr real identify
     --fit coils`` recovers their gain within 3 %, its interval holding the truth."""

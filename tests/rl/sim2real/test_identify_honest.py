@@ -230,6 +230,7 @@ def test_noise_given_in_millimetres_is_refused_before_any_fitting(tmp_path, caps
     assert not (tmp_path / "id").exists()
 
 
+@pytest.mark.slow
 def test_recovers_magnetization_and_kinetic_friction_within_3_percent_or_says_it_cannot(spec):
     """A robot the fit was not developed on (magnetization x1.1, kinetic friction x0.85) under a
     turning field: the nominal start alone ends in a local minimum (friction ~x1.1). Each value is

@@ -124,6 +124,7 @@ def _measured_files(tmp_path, steered, quick_spec):
     return write_magnet_path(tmp_path / "magnet.csv", path), tmp_path / "tip.csv", spec_file
 
 
+@pytest.mark.slow
 def test_identify_recovers_the_magnet_s_moment(tmp_path, steered, quick_spec, capsys):
     """From a 0.05 mm-noisy tip path of a magnet 7 % stronger than the spec's, ``msr real identify``
     recovers the moment within 3 %, its interval holding the truth."""

@@ -14,6 +14,7 @@ import csv
 import json
 import logging
 import os
+import signal
 from pathlib import Path
 
 import pytest
@@ -63,6 +64,7 @@ def sweeps(tmp_path_factory):
     try:
         import ray
 
+        handlers = {n: signal.getsignal(n) for n in (signal.SIGTERM, signal.SIGINT)}
         results = {}
         for backend in ("ray", "process"):
             argv = ["train", *TINY, "--out", backend, "--steps", str(STEPS), "--backend", backend]
@@ -71,6 +73,8 @@ def sweeps(tmp_path_factory):
             results[backend] = json.loads((root / backend / "m1-4mT" / "summary.json").read_text())
             if backend == "ray":
                 assert not ray.is_initialized(), "the local Ray instance was left running"
+                # ray.init installs its own SIGTERM handler: the sweep puts the one it found back
+                assert {n: signal.getsignal(n) for n in handlers} == handlers
     finally:
         os.chdir(cwd)
     return root, results
@@ -81,12 +85,16 @@ def held_ray(sweeps):
     """One local Ray instance for the sweeps after the first (which ended its own)."""
     import ray
 
+    handlers = {n: signal.getsignal(n) for n in (signal.SIGTERM, signal.SIGINT)}
     ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False,
              logging_level=logging.ERROR, object_store_memory=LOCAL_OBJECT_STORE_BYTES)
     yield ray
     ray.shutdown()
+    for number, handler in handlers.items():  # ray.init's handlers go with its instance
+        signal.signal(number, handler)
 
 
+@pytest.mark.slow
 def test_ray_sweep_writes_run_dirs_and_summary(sweeps):
     root, results = sweeps
     summary = results["ray"]

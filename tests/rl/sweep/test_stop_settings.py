@@ -145,8 +145,7 @@ def test_the_fast_recipes_target_rule_is_off_with_a_warning_for_a_case_without_a
     spec.write_text(text.replace("episode_duration = 30.0", "episode_duration = 2.0"))
     args = ["train", "--case", str(spec), "--recipe", "fast", "--seeds", "1", "--steps", "20",
             "--out", str(tmp_path), "--set", "learning_starts=10", "--set", "batch_size=8",
-            "--set", "hidden_sizes=8", "--set", "yardstick_warmup=10", "--set", "yardstick_dagger=0",
-            "--episode-duration", "0.1", "--no-progress"]
+            "--set", "hidden_sizes=8", "--episode-duration", "0.1", "--no-progress"]
     assert msr(args) == 0
     err = capsys.readouterr().err
     assert ("warning: case 'm1-4mT-goto' has no target return (task 'goto', judged on its targets, "

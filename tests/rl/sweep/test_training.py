@@ -162,6 +162,7 @@ def test_resume_from_a_corrupted_checkpoint_is_refused_and_keeps_the_results(tmp
     assert all(p.read_bytes() == data for p, data in kept.items())
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_cleanly_and_the_run_resumes(tmp_path):
     """SIGINT to a real 2-worker training: exit 130, no traceback, the message names the folders;
     the checkpoints it left resume."""
@@ -203,6 +204,7 @@ def test_ctrl_c_stops_cleanly_and_the_run_resumes(tmp_path):
     assert all(load_checkpoint(p)["global_step"] == int(target) for p in ckpts)
 
 
+@pytest.mark.slow
 def test_sigint_to_the_main_process_alone_ends_the_workers(tmp_path):
     """``kill -INT`` of the main process only (not its group): the workers do not get it, so the
     main process ends them after its grace period instead of waiting on the whole training; exit
@@ -280,6 +282,7 @@ def test_a_failing_worker_is_reported_and_the_other_seeds_finish(tmp_path, capsy
     assert "failed seeds: seed1" in capsys.readouterr().out.splitlines()
 
 
+@pytest.mark.slow
 def test_sigkill_then_resume_equals_an_uninterrupted_run(tmp_path):
     """A real training process killed with SIGKILL (here after its first checkpoints, with what a
     kill inside a checkpoint write leaves: a partial ``checkpoint.pt.tmp`` and stray rows in

@@ -12,6 +12,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from lock_holder import held_elsewhere
 from smoke import SMOKE
 
@@ -87,6 +88,7 @@ def test_a_replay_file_cut_short_is_named_before_resuming(trained, tmp_path, cap
 MSR = "import sys; from elastica_magnetic.cli import main; sys.exit(main(sys.argv[1:]))"
 
 
+@pytest.mark.slow
 def test_two_processes_train_different_seeds_of_one_out(tmp_path):
     out = tmp_path / "runs"
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
