@@ -106,7 +106,11 @@ def _steering_line(info: dict[str, Any]) -> list[str]:
             "along forward, up and left, the target's offset and distance, the clock) and its command "
             "along forward, up and left is turned into dB_x, dB_y, dB_z by the observed heading "
             "(`actor_input = \"steering\"`, docs/training.md)"
-            + ("." if info["architecture"].get("residual") else "; the exported module does the same.")]
+            + ("." if info["architecture"].get("residual") else "; the exported module does the same.")
+            + (" It is mirror-symmetric: its command for a state's mirror image (z -> -z) is the mirror "
+               "image of its command, and where the robot, the field and the target are symmetric it "
+               "commands no left field (`actor_mirror = true`)."
+               if info["architecture"].get("actor_mirror") else "")]
 
 
 def _training_section(info: dict[str, Any], summary: dict[str, Any] | None, case: Case) -> list[str]:

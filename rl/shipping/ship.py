@@ -400,6 +400,8 @@ def _policy_info(policy: LoadedPolicy, name: str, summary: dict[str, Any] | None
                          "critic_layer_norm": bool((meta.get("config") or {}).get(
                              "critic_layer_norm", False)),
                          "actor_input": str((meta.get("config") or {}).get("actor_input", "observation")),
+                         # a mirror-symmetric steering actor (td3.steering_inputs.mirror_symmetric)
+                         **({"actor_mirror": True} if (meta.get("config") or {}).get("actor_mirror") else {}),
                          # a residual policy: the actor corrects the case's yardstick (envs.residual)
                          "residual": float((meta.get("config") or {}).get("residual", 0.0)),
                          **_critic_widths(meta.get("config") or {})},

@@ -15,6 +15,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from elastica_magnetic.batch import batched_refusal
 from elastica_magnetic.io import display_path
 from elastica_magnetic.locks import check_lock_name
@@ -149,6 +151,21 @@ def _check_actor_input(loaded: dict[str, Case], config: Any) -> None:
             steering_start(observation_layout(case.n_elements, extra))
         except ValueError as exc:
             raise ValueError(f"case {name}: {exc}") from None
+        if config.actor_mirror:
+            _check_mirror_image(name, case)
+
+
+def _check_mirror_image(name: str, case: Case) -> None:
+    """A mirror-symmetric actor (``actor_mirror``) is right only for a robot that is its own mirror
+    image through its vertical plane: no z component of its magnetization, in either physics."""
+    for physics in ("training", "accurate"):
+        m = case.robot.robot(physics).magnetization  # (3, n) A/m
+        if np.any(m[2] != 0.0):
+            largest = float(np.max(np.abs(m[2])))
+            raise ValueError(f"actor_mirror = true assumes a robot that is its own mirror image (z -> -z), "
+                             f"and case {name}'s magnetization has a z component (up to {largest:.4g} A/m in "
+                             f"the {physics} physics): its left and right are not alike; train it with "
+                             "actor_mirror = false")
 
 
 def _check_devices(loaded: dict[str, Case], overrides: dict[str, Any]) -> None:

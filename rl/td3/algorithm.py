@@ -100,7 +100,13 @@ from .config import Q_SCALE_FLOOR, SATURATION_PREACTIVATION, TD3Config
 from .networks import Actor, ScaledPolicy, TwinCritic
 from .replay_buffer import Batch
 from .stacked import StackedMLP, load_member_adam_state, member_adam_state, prefixed, unprefixed
-from .steering_inputs import STEERING_BLOCK, STEERING_FEATURES, steering_features, steering_to_lab
+from .steering_inputs import (
+    STEERING_BLOCK,
+    STEERING_FEATURES,
+    mirror_symmetric,
+    steering_features,
+    steering_to_lab,
+)
 
 
 def update_ratio(updates_per_step: float) -> Fraction:
@@ -241,7 +247,8 @@ class TD3:
         without)."""
         with torch.random.fork_rng(devices=[]):
             torch.manual_seed(seed)
-            actor = Actor(self.obs_dim, self.act_dim, self.config.actor_widths, self.steering_start)
+            actor = Actor(self.obs_dim, self.act_dim, self.config.actor_widths, self.steering_start,
+                          self.config.actor_mirror)
             critic = TwinCritic(self.obs_dim, self.act_dim, self.config.hidden_sizes,
                                 self.config.critic_layer_norm)
         if self.config.residual:
@@ -279,11 +286,16 @@ class TD3:
             dtype: torch.dtype = torch.float32) -> tuple[torch.Tensor, torch.Tensor]:
         """The actors' pre-``tanh`` outputs and their actions in the lab's frame, ``(K, B, act_dim)``
         each, for observations ``(K, B, obs_dim)``: ``tanh(MLP(s))``, or for a steering actor
-        ``lab(s, tanh(MLP(features(s))))`` (:mod:`.steering_inputs`)."""
+        ``lab(s, tanh(MLP(features(s))))`` (:mod:`.steering_inputs`; with ``actor_mirror`` the MLP's
+        mirror-symmetric part)."""
         if self.steering_start is None:
             pre = net(obs, dtype)
             return pre, torch.tanh(pre)
-        pre = net(steering_features(obs, self.steering_start), dtype)
+        features = steering_features(obs, self.steering_start)
+        if self.config.actor_mirror:
+            pre = mirror_symmetric(lambda x: net(x, dtype), features)
+        else:
+            pre = net(features, dtype)
         return pre, steering_to_lab(obs, torch.tanh(pre), self.steering_start)
 
     # -- learning -------------------------------------------------------------------------------
@@ -417,6 +429,8 @@ class TD3:
         state = prefixed((self.actor_target_net if target else self.actor_net).member_state(k), "net.")
         if self.steering_start is not None:
             state["steering_start"] = torch.tensor(self.steering_start)
+        if self.config.actor_mirror:
+            state["steering_mirror"] = torch.tensor(1)
         return state
 
     def critic_state(self, k: int, target: bool = False) -> dict[str, torch.Tensor]:
@@ -427,7 +441,8 @@ class TD3:
 
     def actor_module(self, k: int = 0) -> Actor:
         """A standalone copy of seed ``k``'s actor (float32, CPU, eval mode)."""
-        actor = Actor(self.obs_dim, self.act_dim, self.config.actor_widths, self.steering_start)
+        actor = Actor(self.obs_dim, self.act_dim, self.config.actor_widths, self.steering_start,
+                          self.config.actor_mirror)
         actor.load_state_dict(self.actor_state(k))
         return actor.eval().requires_grad_(False)
 

@@ -119,6 +119,13 @@ class Hyperparameters:
     increments along the robot's forward, up and left that the observed heading turns into the
     lab's (:mod:`~elastica_magnetic_rl.td3.steering_inputs`: why, and the formulas). The critics
     always read the whole observation and the lab's action."""
+    actor_mirror: bool = False
+    """With ``actor_input = "steering"``: a mirror-symmetric actor, whose command for a state's
+    mirror image (z -> -z) is its command's mirror image, exactly
+    (:func:`~elastica_magnetic_rl.td3.steering_inputs.mirror_symmetric`): one manoeuvre learned for
+    both sides, and no left command where the robot, the field and the target are symmetric. Only
+    for a robot that is its own mirror image (no z component of its magnetization; a case whose
+    magnetization has one is refused)."""
     critic_layer_norm: bool = False
     """Layer normalisation (PyTorch's ``LayerNorm``, learned gain and bias) after every hidden
     linear layer of both critics, before the ReLU (Ball et al. 2023): bounds how far a critic
@@ -306,6 +313,9 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
         if self.actor_input not in ACTOR_INPUTS:
             raise ValueError(f"actor_input must be one of {', '.join(ACTOR_INPUTS)}, got "
                              f"{self.actor_input!r}")
+        if self.actor_mirror and self.actor_input != "steering":
+            raise ValueError("actor_mirror makes a steering actor mirror-symmetric: it needs actor_input = "
+                             f"'steering', got {self.actor_input!r}")
         if self.clone_labels not in CLONE_LABELS:
             raise ValueError(f"clone_labels must be one of {', '.join(CLONE_LABELS)}, got "
                              f"{self.clone_labels!r}")
@@ -471,7 +481,8 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
                                    "yardstick_regularization": {"yardstick_warmup": 1},
                                    "yardstick_dagger": {"yardstick_warmup": 1},
                                    "clone_labels": {"yardstick_warmup": 1},
-                                   "correction_penalty": {"residual": 1.0}}.get(key, {})
+                                   "correction_penalty": {"residual": 1.0},
+                                   "actor_mirror": {"actor_input": "steering"}}.get(key, {})
         if key == "buffer_size":  # the run's minibatch (recipe, spec or --set) is judged with it later
             partner = {"batch_size": max(1, min(value, cls().batch_size))}
         try:

@@ -13,7 +13,13 @@ import numpy as np
 import torch
 import torch.nn as nn
 
-from .steering_inputs import STEERING_BLOCK, STEERING_FEATURES, steering_features, steering_to_lab
+from .steering_inputs import (
+    STEERING_BLOCK,
+    STEERING_FEATURES,
+    mirror_symmetric,
+    steering_features,
+    steering_to_lab,
+)
 
 __all__ = ["Actor", "ScaledPolicy", "TwinCritic", "actor_from_state", "mlp", "networks_from_state"]
 
@@ -39,12 +45,20 @@ class Actor(nn.Module):
     With ``steering_start`` (a goto case's steering actor, ``actor_input = "steering"``): ``mu(s) =
     lab(s, tanh(MLP(features(s))))``, the features and the turn into the lab's frame of
     :mod:`~elastica_magnetic_rl.td3.steering_inputs`; the index is kept in the state dict
-    (``steering_start``), so that :func:`actor_from_state` rebuilds the same actor."""
+    (``steering_start``), so that :func:`actor_from_state` rebuilds the same actor. With ``mirror``
+    as well (``actor_mirror``): the MLP's mirror-symmetric part
+    (:func:`~elastica_magnetic_rl.td3.steering_inputs.mirror_symmetric`), kept in the state dict as
+    ``steering_mirror``."""
 
     def __init__(self, obs_dim: int, act_dim: int, hidden_sizes: tuple[int, ...],
-                 steering_start: int | None = None) -> None:
+                 steering_start: int | None = None, mirror: bool = False) -> None:
         super().__init__()
         self.steering = steering_start is not None
+        if mirror and not self.steering:
+            raise ValueError("a mirror-symmetric actor is a steering actor: give its steering_start")
+        self.mirror = bool(mirror)
+        if self.mirror:
+            self.register_buffer("steering_mirror", torch.tensor(1))
         if self.steering:
             if act_dim != 3 or not 0 <= int(steering_start) <= obs_dim - STEERING_BLOCK:
                 raise ValueError(f"a steering actor answers 3 field increments and reads the last "
@@ -57,14 +71,17 @@ class Actor(nn.Module):
     def forward(self, obs: torch.Tensor) -> torch.Tensor:
         if not self.steering:
             return torch.tanh(self.net(obs))
-        return steering_to_lab(obs, torch.tanh(self.net(steering_features(obs, self.start))), self.start)
+        features = steering_features(obs, self.start)
+        pre = mirror_symmetric(self.net, features) if self.mirror else self.net(features)
+        return steering_to_lab(obs, torch.tanh(pre), self.start)
 
 
 def actor_from_state(obs_dim: int, act_dim: int, hidden_sizes: tuple[int, ...], state: dict) -> Actor:
     """An :class:`Actor` of the kind ``state`` (its state dict) was saved from, not yet loaded: a
-    steering actor where it holds ``steering_start``."""
+    steering actor where it holds ``steering_start``, mirror-symmetric where ``steering_mirror``."""
     start = state.get("steering_start") if isinstance(state, dict) else None
-    return Actor(obs_dim, act_dim, hidden_sizes, None if start is None else int(start))
+    mirror = isinstance(state, dict) and "steering_mirror" in state
+    return Actor(obs_dim, act_dim, hidden_sizes, None if start is None else int(start), mirror)
 
 
 class TwinCritic(nn.Module):

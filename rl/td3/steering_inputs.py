@@ -23,16 +23,27 @@ actor
 It needs the goto task's observation with three axes: its last :data:`STEERING_BLOCK` entries are
 ``field_amplitude``, ``field_angle``, ``field_z``, ``heading`` (2), ``target_offset`` (2) and
 ``clock`` (2) (:func:`steering_start` checks a layout).
+
+A steering actor may be made **mirror-symmetric** (``actor_mirror``, :func:`mirror_symmetric`): a
+robot whose magnetization has no z component is its own mirror image through its vertical plane
+(z -> -z: the heading's sine, the field's left component and the target's left offset change sign,
+the rest not), so the best command for a state's mirror image is the mirror image (the left
+component negated) of the best command for the state. The symmetric actor answers
+``(g(x) + M g(M x)) / 2`` before its ``tanh``, ``M`` the mirror of the features or of the command:
+it learns a manoeuvre once for both sides, and for a state that is its own mirror image (a straight
+robot, no left field, the target straight ahead or behind) its left command is exactly 0, so that
+it cannot tip a tumble that the symmetric field keeps straight.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import torch
 
-__all__ = ["STEERING_BLOCK", "STEERING_FEATURES", "steering_features", "steering_start",
-           "steering_to_lab"]
+__all__ = ["MIRROR_COMMAND", "MIRROR_FEATURES", "STEERING_BLOCK", "STEERING_FEATURES", "mirror_symmetric",
+           "steering_features", "steering_start", "steering_to_lab"]
 
 #: The observation's entries the steering actor reads: its last ones, from ``field_amplitude``.
 STEERING_BLOCK = 9
@@ -41,6 +52,12 @@ STEERING_FEATURES = 8
 #: The blocks the steering actor reads, in the observation's order (name, size).
 STEERING_BLOCKS = (("field_amplitude", 1), ("field_angle", 1), ("field_z", 1), ("heading", 2),
                    ("target_offset", 2), ("clock", 2))
+
+#: The mirror image z -> -z of the steering features (field forward, up, left; target forward,
+#: left, distance; clock cos, sin): the left components change sign.
+MIRROR_FEATURES = (1.0, 1.0, -1.0, 1.0, -1.0, 1.0, 1.0, 1.0)
+#: The mirror image of a steering command (forward, up, left).
+MIRROR_COMMAND = (1.0, 1.0, -1.0)
 
 _SQRT2 = math.sqrt(2.0)
 
@@ -81,3 +98,15 @@ def steering_to_lab(obs: torch.Tensor, command: torch.Tensor, start: int) -> tor
     lab = torch.stack([_SQRT2 * (forward * cos_h - left * sin_h), up,
                        -_SQRT2 * (forward * sin_h + left * cos_h)], dim=-1)
     return lab.clamp(-1.0, 1.0)
+
+
+def mirror_symmetric(net: Callable[[torch.Tensor], torch.Tensor], features: torch.Tensor) -> torch.Tensor:
+    """The mirror-symmetric part ``(g(x) + M g(M x)) / 2`` of a steering network ``g`` (pre-``tanh``
+    commands ``(..., 3)`` from features ``(..., STEERING_FEATURES)``) at ``features`` ``x``, ``M``
+    :data:`MIRROR_FEATURES` on the features and :data:`MIRROR_COMMAND` on the commands (see the
+    module docstring). The two images go through ``net`` in two calls of one shape, so that where
+    ``M x == x`` they come out bit for bit alike and the left command is exactly 0."""
+    flip_in = torch.tensor(MIRROR_FEATURES, dtype=features.dtype, device=features.device)
+    direct, mirrored = net(features), net(features * flip_in)
+    flip_out = torch.tensor(MIRROR_COMMAND, dtype=mirrored.dtype, device=mirrored.device)
+    return 0.5 * (direct + mirrored * flip_out)
