@@ -315,7 +315,8 @@ class TD3Config(Schedule, RunSettings, Hyperparameters):
                              f"{self.actor_input!r}")
         if self.actor_mirror and self.actor_input != "steering":
             raise ValueError("actor_mirror makes a steering actor mirror-symmetric: it needs actor_input = "
-                             f"'steering', got {self.actor_input!r}")
+                             f"'steering', got {self.actor_input!r} (an actor reading the whole observation: "
+                             "--set actor_mirror=false)")
         if self.clone_labels not in CLONE_LABELS:
             raise ValueError(f"clone_labels must be one of {', '.join(CLONE_LABELS)}, got "
                              f"{self.clone_labels!r}")

@@ -78,6 +78,7 @@ def test_a_shipped_goto_policy_holds_its_ring_and_plays_by_name(name, tmp_path, 
     assert info["architecture"]["actor_input"] == "steering"
     policy = policy_files.resolve_policy(name)
     assert info["architecture"].get("residual", 0.0) == policy.residual
+    assert policy.actor.mirror == info["architecture"].get("actor_mirror", False)
     if policy.residual:  # the yardstick corrected by the actor: no network alone is the policy
         assert msr(["policy", "export", name, "--out", str(tmp_path / "exp")]) != 0
         assert "a residual policy" in capsys.readouterr().err

@@ -12,7 +12,7 @@ from elastica_magnetic_rl.shipping import policy_files
 #: Of the first 4 targets drawn off the ring with :data:`OFF_RING_SEED` (bearings 126.8, -87.0, 113.8 and
 #: -125.9 degrees: behind to the left, right, left, behind to the right), how many each shipped goto
 #: policy reaches: one fewer than measured on the machine that shipped them (4 of 4 for both, ending
-#: 0.45-0.92 mm from the targets at 4 mT, tolerance 2 mm, and 1.9-4.6 mm at 10 mT, tolerance 10 mm; of
+#: 0.45-0.92 mm from the targets at 4 mT, tolerance 2 mm, and 2.0-4.6 mm at 10 mT, tolerance 10 mm; of
 #: the 12 the cards state, 12 at 4 mT and 12 at 10 mT), since 30 s of rollout amplify the last bit of
 #: the arithmetic (PyTorch's and numba's kernels pick their instructions by the CPU): one target may go
 #: either way on another machine.

@@ -162,3 +162,19 @@ def test_a_mirror_symmetric_policy_s_card_says_so():
     steering = {"actor_input": "steering", "residual": 0.5}
     assert "mirror-symmetric" in _steering_line({"architecture": {**steering, "actor_mirror": True}})[0]
     assert "mirror" not in _steering_line({"architecture": steering})[0]
+
+
+def test_a_mirror_symmetric_actor_exports_as_it_acts(walked):
+    """The exported module (``msr policy export`` traces the scaled actor) keeps the symmetry."""
+    from elastica_magnetic_rl.td3.networks import ScaledPolicy
+
+    layout, obs = walked
+    actor = mirror_actor(obs.shape[1], layout)
+    policy = ScaledPolicy(actor, -np.full(3, 3e-4), np.full(3, 3e-4)).eval()
+    traced = torch.jit.trace(policy, torch.as_tensor(obs[:1]), check_trace=True)
+    with torch.no_grad():
+        np.testing.assert_allclose(traced(torch.as_tensor(obs)).numpy(), policy(torch.as_tensor(obs)).numpy(),
+                                   rtol=0, atol=1e-12)
+        image = traced(torch.as_tensor(mirrored(obs, layout))).numpy()
+        direct = policy(torch.as_tensor(obs)).numpy()
+    np.testing.assert_allclose(image, direct * np.array([1.0, 1.0, -1.0]), rtol=0, atol=1e-12)
