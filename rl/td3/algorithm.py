@@ -442,7 +442,7 @@ class TD3:
     def actor_module(self, k: int = 0) -> Actor:
         """A standalone copy of seed ``k``'s actor (float32, CPU, eval mode)."""
         actor = Actor(self.obs_dim, self.act_dim, self.config.actor_widths, self.steering_start,
-                          self.config.actor_mirror)
+                      self.config.actor_mirror)
         actor.load_state_dict(self.actor_state(k))
         return actor.eval().requires_grad_(False)
 
