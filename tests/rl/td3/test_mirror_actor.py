@@ -14,7 +14,6 @@ import torch
 from elastica_magnetic_rl.cases.case import SPECS_DIR, load_case
 from elastica_magnetic_rl.envs.env import MagneticCrawlerEnv
 from elastica_magnetic_rl.envs.residual import ResidualController, residual_base
-from elastica_magnetic_rl.envs.yardsticks import SteeringFieldPolicy
 from elastica_magnetic_rl.td3.algorithm import TD3
 from elastica_magnetic_rl.td3.config import TD3Config
 from elastica_magnetic_rl.td3.networks import Actor, actor_from_state, networks_from_state
@@ -26,18 +25,11 @@ CASE = "m1-4mT-goto"
 
 
 @pytest.fixture(scope="module")
-def walked():
-    """Observations of a goto robot walking toward a target ahead and to its left (training
-    physics, the steering law), 1.5 s: none of them is its own mirror image."""
-    case = load_case(CASE)
-    env = MagneticCrawlerEnv(case=case, physics="training", initial_field="zero", duration=30.0)
-    obs, _ = env.reset(seed=3, options={"target": (0.004, 0.015)})
-    law = SteeringFieldPolicy(case, markov=True)
-    seen = []
-    for _ in range(150):
-        obs, *_ = env.step(law.act(obs))
-        seen.append(obs)
-    return env.layout, np.stack(seen).astype(np.float32)
+def walk_obs(walked):
+    """The observations of the shared walk toward a target ahead and to the left (conftest.py):
+    none of them is its own mirror image. Its layout and the observations ``(N, obs_dim)``."""
+    env, _, seen = walked
+    return env.layout, np.stack([obs for obs, _ in seen]).astype(np.float32)
 
 
 def mirrored(obs: np.ndarray, layout: dict[str, slice]) -> np.ndarray:
@@ -57,8 +49,8 @@ def mirror_actor(obs_dim: int, layout: dict[str, slice], seed: int = 0) -> Actor
     return actor.eval()
 
 
-def test_the_mirror_image_of_a_state_gets_the_mirror_image_of_the_command(walked):
-    layout, obs = walked
+def test_the_mirror_image_of_a_state_gets_the_mirror_image_of_the_command(walk_obs):
+    layout, obs = walk_obs
     actor = mirror_actor(obs.shape[1], layout)
     with torch.no_grad():
         command = actor(torch.as_tensor(obs)).numpy()
@@ -107,8 +99,8 @@ def test_a_symmetric_walk_stays_in_its_plane_under_a_mirror_symmetric_correction
     assert tipped_bz > 1e-5 and tipped_z > 0.0
 
 
-def test_the_stacked_learner_and_a_reloaded_actor_are_the_same_mirror_symmetric_actor(walked):
-    layout, obs = walked
+def test_the_stacked_learner_and_a_reloaded_actor_are_the_same_mirror_symmetric_actor(walk_obs):
+    layout, obs = walk_obs
     configs = [TD3Config(seed=s, hidden_sizes=(32, 32), batch_size=64, actor_input="steering",
                          actor_mirror=True) for s in (0, 1)]
     learner = TD3(obs.shape[1], 3, -np.ones(3), np.ones(3), configs)
@@ -164,11 +156,11 @@ def test_a_mirror_symmetric_policy_s_card_says_so():
     assert "mirror" not in _steering_line({"architecture": steering})[0]
 
 
-def test_a_mirror_symmetric_actor_exports_as_it_acts(walked):
+def test_a_mirror_symmetric_actor_exports_as_it_acts(walk_obs):
     """The exported module (``msr policy export`` traces the scaled actor) keeps the symmetry."""
     from elastica_magnetic_rl.td3.networks import ScaledPolicy
 
-    layout, obs = walked
+    layout, obs = walk_obs
     actor = mirror_actor(obs.shape[1], layout)
     policy = ScaledPolicy(actor, -np.full(3, 3e-4), np.full(3, 3e-4)).eval()
     traced = torch.jit.trace(policy, torch.as_tensor(obs[:1]), check_trace=True)
