@@ -37,7 +37,9 @@ Tables of a spec (SI units; the robot's tables are described in
   zero field that counts as success; 0: the case has none, and no run of it is judged) and
   ``source`` (where it comes from); a goto case's ``turn_in_place`` (default true: the steering
   yardstick turns the robot in place until the target is abeam before it walks; false: it never
-  turns, the field's plane always toward the target, for a robot that goes where the plane points).
+  turns, the field's plane always toward the target, for a robot that goes where the plane points)
+  and ``steering_period`` (s, default :data:`DEFAULT_STEERING_PERIOD`: the turn the steering
+  yardstick asks of the field).
 """
 
 from __future__ import annotations
@@ -81,6 +83,7 @@ __all__ = [
     "ACTUATION_AXES",
     "Actuation",
     "Case",
+    "DEFAULT_STEERING_PERIOD",
     "SPECS_DIR",
     "Yardstick",
     "NO_TARGET",
@@ -98,6 +101,9 @@ __all__ = [
 SPECS_DIR = Path(__file__).resolve().parents[1] / "specs"
 #: The paper's four cases (the first shipped specs).
 PAPER_CASES = ("m1-4mT", "m2-4mT", "m1-10mT", "m2-10mT")
+#: s: the turn a goto case's steering yardstick asks of the field where its ``[yardstick]
+#: steering_period`` is not given.
+DEFAULT_STEERING_PERIOD = 1.0
 #: The evaluation during training, s: the shipping criterion's episode (field from zero,
 #: deterministic actions, the yardstick's 10 s) in the physics the run trains in.
 EVAL_DURATION = 10.0
@@ -130,6 +136,7 @@ CASE_UNITS: dict[tuple[str, str], str] = {
     ("yardstick", "distance_10s"): "m in 10 s, accurate physics, field from zero",
     ("yardstick", "period"): "s, one turn of the rotating field that made distance_10s",
     ("yardstick", "turn_in_place"): "goto: false, the steering yardstick walks toward every target",
+    ("yardstick", "steering_period"): "s, goto: the turn the steering yardstick asks of the field",
 }
 
 
@@ -152,15 +159,28 @@ class Yardstick:
     #: every target, the field's plane toward it
     #: (:class:`~elastica_magnetic_rl.envs.yardsticks.SteeringFieldPolicy`).
     turn_in_place: bool | None = None
+    #: A goto case's steering yardstick: the turn its law asks of the field, s (``None``: not
+    #: given, which means :data:`DEFAULT_STEERING_PERIOD`). Shorter than the rate limit's
+    #: shortest uniform turn, the field turns as fast as the increments let it and its amplitude
+    #: shrinks: a gait of its own, which may be faster.
+    steering_period: float | None = None
+
+    @property
+    def steering_turn(self) -> float:
+        """s: the turn a goto case's steering yardstick asks of the field (``steering_period``, or
+        :data:`DEFAULT_STEERING_PERIOD` where not given)."""
+        return DEFAULT_STEERING_PERIOD if self.steering_period is None else self.steering_period
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain data; the field's keys only where its period is recorded, ``turn_in_place`` only
-        where given."""
+        """Plain data; the field's keys only where its period is recorded, ``turn_in_place`` and
+        ``steering_period`` only where given."""
         out: dict[str, Any] = {"distance_10s": self.distance_10s, "source": self.source}
         if self.period is not None:
             out.update(period=self.period, clockwise=self.clockwise)
         if self.turn_in_place is not None:
             out["turn_in_place"] = self.turn_in_place
+        if self.steering_period is not None:
+            out["steering_period"] = self.steering_period
         return out
 
 
@@ -537,15 +557,23 @@ def _yardstick(t: SpecTable | None, robot_length: float, rotating_refusal: str |
     if t.has("turn_in_place") and not steers:
         raise t.error("turn_in_place", "it tells a goto case's steering yardstick whether to turn the robot "
                                        "in place; this case has no goto task: remove it")
+    if t.has("steering_period") and not steers:
+        raise t.error("steering_period", "it is the turn a goto case's steering yardstick asks of the field; "
+                                         "this case has no goto task: remove it (a crawl's rotating field "
+                                         "is [yardstick] period)")
     out = Yardstick(distance_10s=t.number("distance_10s", "m", 0.0, low=0.0),
                     source=t.string("source", ""),
                     period=t.number("period", "s", None, low=0.0, low_open=True, plausible="rotation period"),
                     clockwise=t.boolean("clockwise", True),
-                    turn_in_place=t.boolean("turn_in_place", None))
-    if out.period is not None and out.period <= 2 * ACTION_PERIOD:
-        raise t.error("period", f"{out.period:g} s is at or under 2 x the {ACTION_PERIOD:g} s control "
-                                "period: no field the coils play turns that fast (a rotating field "
-                                "of the baseline sweep turns once in 0.5 to 6 s)")
+                    turn_in_place=t.boolean("turn_in_place", None),
+                    steering_period=t.number("steering_period", "s", None, low=0.0, low_open=True,
+                                             plausible="rotation period"))
+    for key in ("period", "steering_period"):
+        value = getattr(out, key)
+        if value is not None and value <= 2 * ACTION_PERIOD:
+            raise t.error(key, f"{value:g} s is at or under 2 x the {ACTION_PERIOD:g} s control "
+                               "period: no field the coils play turns that fast (a rotating field "
+                               "of the baseline sweep turns once in 0.5 to 6 s)")
     if out.period is not None and fastest is not None and out.period < fastest * (1.0 - 1e-9):
         t.warn("period", f"{out.period:g} s is shorter than the case's rate limit allows: at most "
                          "max_increment per axis per step at the field limit, its shortest uniform turn "

@@ -230,7 +230,8 @@ def _add_baseline_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--period", type=number("s", 0.0, low_open=True), default=None,
                    help="s per turn of the field; without it, a sweep of --periods in both "
                         "directions, the farthest one's files written (a goto case: the steering "
-                        "yardstick's period, default 1 s)")
+                        "yardstick's, default the case's [yardstick] steering_period, 1 s where "
+                        "not given)")
     p.add_argument("--counterclockwise", action="store_true",
                    help="turn the field counter-clockwise in the x-y plane, seen from +z (with "
                    "--period; default clockwise). Which way the robot then moves depends on its "
@@ -429,11 +430,11 @@ def _steering_baseline(args: argparse.Namespace) -> int:
         if value:
             raise CommandError(f"{option} belongs to the rotating-field sweep of a crawl case; case "
                                f"{args.case.name!r} is a goto case, whose yardstick steers a field "
-                               "turning clockwise (--period, default 1 s) toward the target")
+                               "turning clockwise (--period, default the case's [yardstick] "
+                               f"steering_period, {args.case.yardstick.steering_turn:g} s) toward the target")
     try:
         turn = None if args.turn_in_place is None else args.turn_in_place == "yes"
-        policy = SteeringFieldPolicy(args.case, args.period if args.period is not None else 1.0,
-                                     turn_in_place=turn)
+        policy = SteeringFieldPolicy(args.case, args.period, turn_in_place=turn)
     except ValueError as exc:
         raise CommandError(f"--period: {exc}") from None
     if args.ring is not None:

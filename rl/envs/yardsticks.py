@@ -181,12 +181,18 @@ class SteeringFieldPolicy(_FieldReader):
     30 s) 12 of 12 in 8.8 s, where turning first takes 9.7 s (the two targets on the body's axis
     take 7.6 s only while the field stays exactly in the band's plane of symmetry: 0.5 degrees off
     the axis, 9.8 s); at 4 mT, where a plane along the body barely moves the band, 2 of 12 (the two
-    abeam).
+    abeam). All of these at one turn a second; the shipped cases ask the turn that was fastest on
+    their rings (``[yardstick] steering_period``, training physics): at 10 mT 0.15 s, more than
+    the increments can turn a 10 mT field, which then turns at about 8 mT once in 1.4 s (12 of 12
+    in 7.3 s); at 4 mT 2 s (12 of 12 in 4.6 s, against 6.7 s at 1 s).
 
     Args:
         case: a case with the goto task and three axes (name, spec file or
             :class:`~elastica_magnetic_rl.cases.case.Case`).
-        period: time of one turn of the field, s.
+        period: time of one turn the law asks of the field, s; default the case's ``[yardstick]
+            steering_period`` (1 s where not given; the memoryless law's: ``GOTO_CLOCK_PERIOD / 2``).
+            Shorter than the rate limit's shortest uniform turn, the field turns as fast as the
+            increments allow and its amplitude shrinks (see above).
         walk_band, turn_band: rad from abeam where walking starts and where it stops.
         turn_bearing: rad between the plane and the body's axis while turning.
         stop_radius: m; default half the task's tolerance.
@@ -206,7 +212,7 @@ class SteeringFieldPolicy(_FieldReader):
     """
 
     case: str | Case
-    period: float = 1.0
+    period: float | None = None
     walk_band: float = math.pi / 12
     turn_band: float = math.pi / 3
     turn_bearing: float = math.pi / 12
@@ -223,6 +229,8 @@ class SteeringFieldPolicy(_FieldReader):
         if not isinstance(task, GotoTask):
             raise ValueError(f"the steering yardstick steers to a target: case {self.case.name!r} "
                              f"has the {task.kind} task, not goto")
+        if self.period is None:
+            self.period = GOTO_CLOCK_PERIOD / 2.0 if self.markov else self.case.yardstick.steering_turn
         _check_period(self.period, self.case)
         if self.markov and abs(self.period - GOTO_CLOCK_PERIOD / 2.0) > 1e-12:
             raise ValueError(f"the memoryless steering law reverses its turn by the observation's clock, "

@@ -3,7 +3,8 @@ the format allows for what the features read (a named magnetization pattern, ``s
 elements or by fractions with and without their own magnitudes, a per-element ``table``; an
 explicit shear modulus or a Poisson ratio; a crawl or a reach task; a band or a round section;
 the paper's two field axes or three, one limit or one per axis; a rolling or sliding ground; a
-goto task's heading episodes, time penalty and steering yardstick turning in place or not),
+goto task's heading episodes, time penalty and steering yardstick turning in place or not, at
+the default turn or its own ``steering_period``),
 written as a user writes them (the shortest form: the parser completes them). Tests of any
 feature draw from :func:`user_specs` rather than trusting the shipped cases alone.
 """
@@ -113,6 +114,9 @@ def user_specs(draw, kinds: tuple[str, ...] = KINDS, poisson: bool | None = None
         turn = draw(st.sampled_from([None, True, False]))  # the steering yardstick's turn in place
         if turn is not None:
             spec["yardstick"] = {"turn_in_place": turn}
+        steering = draw(st.sampled_from([None, 0.15]))  # s, the turn it asks of the field
+        if steering is not None:
+            spec.setdefault("yardstick", {})["steering_period"] = steering
     forms = [a for a in ACTUATIONS if a.get("axes") == "xyz"] if kind == "goto" else ACTUATIONS
     spec["actuation"] = draw(st.sampled_from(forms)) if actuation is None else actuation
     sideways = draw(st.sampled_from(["rolling", "sliding", None]))

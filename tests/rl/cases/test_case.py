@@ -83,6 +83,7 @@ def _spec(**changes):
     ("training.td3", {"batch_size": "big"}, "[training.td3] batch_size: batch_size=big: expected an integer"),
     ("yardstick.distance_10s", -1.0, "[yardstick] distance_10s: must be >= 0 (m)"),
     ("yardstick.turn_in_place", False, "[yardstick] turn_in_place: it tells a goto case's steering"),
+    ("yardstick.steering_period", 0.5, "[yardstick] steering_period: it is the turn a goto case's"),
     ("robot.ground", None, "[robot.ground] missing: the crawler tasks need a ground"),
 ])
 def test_bad_case_tables_name_the_key(path, value, message):

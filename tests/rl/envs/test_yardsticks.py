@@ -200,3 +200,42 @@ def test_a_steering_yardstick_told_not_to_turn_in_place_walks_toward_every_targe
     obs[layout["field_amplitude"]] = 200 * 5e-3
     assert walker.act(obs)[2] == 0.0
     assert SteeringFieldPolicy(walking_case, turn_in_place=True).act(obs)[2] != 0.0
+
+
+def test_a_goto_case_gives_its_steering_yardstick_the_turn_it_asks_of_the_field(tmp_path):
+    """``[yardstick] steering_period`` (s): the steering yardstick's turn, the 1 s default where not
+    given; an argument wins; the memoryless law keeps its clock's half cycle; kept in the case's
+    plain data only where given; at or under two control periods refused by name. The turn is
+    what the law plays: from a field along +x, one step asks for the phase ``2 pi 0.01 / period``
+    further clockwise."""
+    from elastica_magnetic_rl.cases.case import DEFAULT_STEERING_PERIOD, case_from_dict, load_case
+    from elastica_magnetic_rl.envs.yardsticks import SteeringFieldPolicy
+
+    from elastica_magnetic.specfile import SpecError
+
+    data = load_case("m1-4mT-goto").to_dict()
+    data["yardstick"].pop("steering_period", None)
+    plain = case_from_dict(data, "plain.toml", "plain")
+    assert plain.yardstick.steering_period is None and "steering_period" not in plain.to_dict()["yardstick"]
+    assert SteeringFieldPolicy(plain).period == DEFAULT_STEERING_PERIOD == 1.0
+    data["yardstick"]["steering_period"] = 0.15
+    quick = case_from_dict(data, "quick.toml", "quick")
+    assert quick.yardstick.steering_turn == 0.15
+    assert case_from_dict(quick.to_dict(), "again.toml", "again").yardstick.steering_period == 0.15
+    assert SteeringFieldPolicy(quick).period == 0.15 and "period 0.15 s" in SteeringFieldPolicy(quick).source
+    assert SteeringFieldPolicy(quick, period=2.0).period == 2.0  # an argument wins
+    assert SteeringFieldPolicy(quick, markov=True).period == 1.0  # the clock's half cycle
+    data["yardstick"]["steering_period"] = 0.02
+    with pytest.raises(SpecError, match=r"quick.toml: \[yardstick\] steering_period: 0.02 s is at or under"):
+        case_from_dict(data, "quick.toml", "quick")
+
+    fields = []
+    for case in (plain, quick):
+        policy = SteeringFieldPolicy(case, turn_in_place=False)
+        obs = np.zeros(case.obs_dim, dtype=np.float32)
+        obs[policy.layout["heading"]] = (1.0, 0.0)
+        obs[policy.layout["target_offset"]] = (10.0, 0.0)
+        obs[policy.layout["field_amplitude"]] = 200 * 1e-3  # 1 mT along +x: far from every limit
+        fields.append(policy.act(obs))
+    # clockwise seen from +z: the field along +x turns toward -y, by the asked phase within the limit
+    assert fields[0][1] < 0.0 and fields[1][1] < fields[0][1]

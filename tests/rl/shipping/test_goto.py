@@ -281,14 +281,17 @@ def test_round17_generate_states_and_chooses_for_the_target_asked(tmp_path, caps
 
 def test_the_baseline_plays_the_yardstick_the_case_or_the_option_says(tmp_path, capsys):
     """``--turn-in-place yes|no`` overrides the case's ``[yardstick] turn_in_place`` (m1-10mT-goto:
-    false), so both laws can be measured on one case; the result names the one played."""
+    false), and ``--period`` its ``steering_period`` (0.15 s), so every law can be measured on one
+    case; the result names the one played."""
     sources = {}
-    for option in (None, "yes", "no"):
+    for option in (None, "yes", "no", "period"):
         out = tmp_path / str(option)
-        extra = [] if option is None else ["--turn-in-place", option]
-        assert main(["field", "baseline", "--case", "m1-10mT-goto", "--duration", "0.02", "--physics",
+        extra = {None: [], "period": ["--period", "0.05"]}.get(option, ["--turn-in-place", option])
+        assert main(["field", "baseline", "--case", "m1-10mT-goto", "--duration", "0.05", "--physics",
                      "training", "--no-figures", "--no-gif", "--no-progress", "--json", *extra,
                      "--out", str(out)]) == 0
         sources[option] = json.loads(capsys.readouterr().out)["policy"]
     assert "never turning in place" in sources[None] and "never turning in place" in sources["no"]
     assert "never turning in place" not in sources["yes"]
+    assert all("period 0.15 s" in sources[option] for option in (None, "yes", "no"))
+    assert "period 0.05 s" in sources["period"]
