@@ -107,15 +107,21 @@ def test_steering_page_snippet_runs_and_its_numbers_hold():
 
 
 def test_steering_page_yardstick_times_are_measured():
-    """docs/steering_3d.md quotes the steering yardstick's time to a target abeam and to one
-    straight ahead (training physics): both measured here."""
+    """docs/steering_3d.md quotes the 4 mT steering yardstick's time to a target abeam and to one
+    straight ahead (training physics), at one turn a second and at the case's 2 s a turn: all
+    measured here."""
     from elastica_magnetic_rl.envs.yardsticks import SteeringFieldPolicy
     from elastica_magnetic_rl.shipping.goto import evaluate_ring
 
     text = (TUTORIAL.parent / "steering_3d.md").read_text()
-    policy = SteeringFieldPolicy("m1-4mT-goto")
-    (abeam,) = evaluate_ring(policy, 3.0, "training", targets=[(0.0, 0.015)])
-    (ahead,) = evaluate_ring(policy, 16.0, "training", targets=[(0.015, 0.0)])
-    assert abeam["success"] and ahead["success"]
-    assert f"{abeam['time_to_target_s']:.2f} s abeam, {ahead['time_to_target_s']:.1f} s straight ahead" \
-        in text
+    times = {}
+    for period in (1.0, None):  # None: the case's own, 2 s
+        policy = SteeringFieldPolicy("m1-4mT-goto", period)
+        (abeam,) = evaluate_ring(policy, 3.0, "training", targets=[(0.0, 0.015)])
+        (ahead,) = evaluate_ring(policy, 16.0, "training", targets=[(0.015, 0.0)])
+        assert abeam["success"] and ahead["success"]
+        times[policy.period] = (abeam["time_to_target_s"], ahead["time_to_target_s"])
+    (abeam_1, ahead_1), (abeam_2, ahead_2) = times[1.0], times[2.0]
+    assert f"{abeam_1:.2f} s abeam, {ahead_1:.1f} s straight ahead" in text
+    assert f"walks abeam slower ({abeam_2:.2f} s against {abeam_1:.2f} s)" in text
+    assert f"(straight ahead {ahead_2:.1f} s against {ahead_1:.1f} s)" in text

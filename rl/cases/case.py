@@ -568,12 +568,12 @@ def _yardstick(t: SpecTable | None, robot_length: float, rotating_refusal: str |
                     turn_in_place=t.boolean("turn_in_place", None),
                     steering_period=t.number("steering_period", "s", None, low=0.0, low_open=True,
                                              plausible="rotation period"))
-    for key in ("period", "steering_period"):
+    for key, usual in (("period", "a rotating field of the baseline sweep turns once in 0.5 to 6 s"),
+                       ("steering_period", "the shipped goto cases' yardsticks ask 0.15 and 2 s")):
         value = getattr(out, key)
         if value is not None and value <= 2 * ACTION_PERIOD:
             raise t.error(key, f"{value:g} s is at or under 2 x the {ACTION_PERIOD:g} s control "
-                               "period: no field the coils play turns that fast (a rotating field "
-                               "of the baseline sweep turns once in 0.5 to 6 s)")
+                               f"period: no field the coils play turns that fast ({usual})")
     if out.period is not None and fastest is not None and out.period < fastest * (1.0 - 1e-9):
         t.warn("period", f"{out.period:g} s is shorter than the case's rate limit allows: at most "
                          "max_increment per axis per step at the field limit, its shortest uniform turn "

@@ -94,8 +94,8 @@ def test_the_steering_yardstick_resumes_from_its_state_as_if_never_stopped():
     warm_up = yardstick_controller(case)()  # the memoryless law, which has no phase to lose
     assert isinstance(warm_up, SteeringFieldPolicy) and warm_up.markov
 
-    def make():
-        return SteeringFieldPolicy(case)  # the default law: its manoeuvre and turn phase
+    def make():  # the default law: its manoeuvre and turn phase (one turn a second: the turn's
+        return SteeringFieldPolicy(case, period=1.0)  # sense reverses after 100 of the 170 steps)
 
     first = make()
     assert (first.obs_dim, first.act_dim) == (case.obs_dim, 3)
