@@ -548,7 +548,8 @@ def _yardstick(t: SpecTable | None, robot_length: float, rotating_refusal: str |
     ``period``/``clockwise`` (refused by name), ``None`` where it can; ``fastest``: the shortest
     uniform turn (s) the case's rate limit allows at its amplitude (a shorter period is warned
     about: the field would turn slower than it says); ``steers``: a goto case, whose steering
-    yardstick may be told not to turn in place (``turn_in_place``)."""
+    yardstick may be told not to turn in place (``turn_in_place``) and given the turn it asks
+    (``steering_period``: not warned about, asking more than the field can follow is a gait)."""
     if t is None:
         return Yardstick()
     for key in ("period", "clockwise"):

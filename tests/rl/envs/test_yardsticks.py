@@ -202,7 +202,7 @@ def test_a_steering_yardstick_told_not_to_turn_in_place_walks_toward_every_targe
     assert SteeringFieldPolicy(walking_case, turn_in_place=True).act(obs)[2] != 0.0
 
 
-def test_a_goto_case_gives_its_steering_yardstick_the_turn_it_asks_of_the_field(tmp_path):
+def test_a_goto_case_gives_its_steering_yardstick_the_turn_it_asks_of_the_field():
     """``[yardstick] steering_period`` (s): the steering yardstick's turn, the 1 s default where not
     given; an argument wins; the memoryless law keeps its clock's half cycle; kept in the case's
     plain data only where given; at or under two control periods refused by name. The turn is

@@ -76,7 +76,7 @@ def test_a_symmetric_walk_stays_in_its_plane_under_a_mirror_symmetric_correction
     the command (B_z about 1e-20 T, z about 1e-21 m: 15 orders under the unsymmetric actor's)."""
     case = load_case("m1-10mT-goto")
 
-    def walk(mirror: bool) -> tuple[float, float]:
+    def walk(mirror: bool) -> tuple[float, float, int]:  # largest |B_z| (T), |z| (m), exact steps
         env = MagneticCrawlerEnv(case=case, physics="training", initial_field="zero", duration=30.0)
         obs, _ = env.reset(seed=0, options={"target": (0.1, 0.0)})
         actor = mirror_actor(len(obs), env.layout, seed=2)
