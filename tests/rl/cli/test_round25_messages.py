@@ -167,6 +167,7 @@ def test_a_goto_spec_with_dagger_and_a_crawl_s_are_accepted(tmp_path, capsys):
     goto = _spec(tmp_path, "m1-4mT-goto", "goto-dagger.toml",
                  "residual = 0.5\nyardstick_warmup = 0\nyardstick_dagger = 0\n",
                  "residual = 0.0\nyardstick_warmup = 16000\nyardstick_dagger = 6000\n")
+    goto.write_text(goto.read_text().replace("correction_penalty = 0.4\n", ""))  # a residual learner's hold
     assert load_case(str(goto)).training.td3["yardstick_dagger"] == 6000
     assert msr(["case", "check", "--no-sag", str(goto)]) == 0
     crawl = _spec(tmp_path, "m1-4mT", "dg.toml", "[yardstick]\n", "[yardstick]\nperiod = 2.5\n",

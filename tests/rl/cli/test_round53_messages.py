@@ -34,12 +34,16 @@ def goto_run(tmp_path_factory):
 def test_a_ring_plays_the_actor_checkpoint_names_and_says_which(goto_run, tmp_path, capsys):
     """S1: ``msr policy generate RUN --ring --checkpoint best`` played checkpoint.pt, and ``auto``
     compared nothing and named no actor."""
+    import shutil
+
     ring = ["--ring", "2", "--duration", "0.1", "--physics", "training", "--no-progress", "--workers", "1"]
     for which, file in (("best", "best.pt"), ("final", "checkpoint.pt")):
         assert run(["policy", "generate", str(goto_run), "--checkpoint", which, *ring,
                     "--out", str(tmp_path / which)]) == 0
         assert "actor: " in capsys.readouterr().out
-        assert run(["policy", "generate", str(goto_run / file), *ring, "--out", str(tmp_path / file)]) == 0
+        # outside its run: a run's checkpoint.pt names the run, whose actor --checkpoint auto chooses
+        alone = shutil.copy(goto_run / file, tmp_path / f"{which}-actor.pt")
+        assert run(["policy", "generate", str(alone), *ring, "--out", str(tmp_path / file)]) == 0
         assert (tmp_path / which / "ring.csv").read_bytes() == (tmp_path / file / "ring.csv").read_bytes()
     assert (tmp_path / "best" / "ring.csv").read_bytes() != (tmp_path / "final" / "ring.csv").read_bytes()
     assert run(["policy", "generate", str(goto_run), *ring, "--out", str(tmp_path / "auto")]) == 0

@@ -131,7 +131,7 @@ def test_dagger_without_a_warm_up_is_refused_and_a_goto_case_accepted():
     _check_yardstick_warmup({goto.name: goto}, dagger)
     data = goto.to_dict()  # its own [training.td3] trains a residual learner: a clone instead
     data.setdefault("training", {}).setdefault("td3", {}).update(yardstick_dagger=500, yardstick_warmup=10,
-                                                                 residual=0.0)
+                                                                 residual=0.0, correction_penalty=0.0)
     assert case_from_dict(data, "goto-dagger").training.td3["yardstick_dagger"] == 500
     crawl = load_case("m1-4mT-designed")  # its [yardstick] records its rotating field: it labels
     _check_yardstick_warmup({crawl.name: crawl}, dagger)

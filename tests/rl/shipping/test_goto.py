@@ -177,7 +177,8 @@ def test_a_goto_model_card_shows_the_ring_beside_the_yardstick():
 
 #: A clone of the yardstick cut to a token (the case trains a residual learner; the clone's 16000 steps
 #: and 6000 of DAgger are not what these tests test: they took some 30 s of each).
-QUICK_CLONE = ("--set", "residual=0", "--set", "yardstick_warmup=10", "--set", "yardstick_dagger=0")
+QUICK_CLONE = ("--set", "residual=0", "--set", "correction_penalty=0", "--set", "critic_warmup=0",
+               "--set", "yardstick_warmup=10", "--set", "yardstick_dagger=0")
 
 
 def _quick_goto_spec(folder):
