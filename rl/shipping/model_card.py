@@ -128,6 +128,11 @@ def _training_section(info: dict[str, Any], summary: dict[str, Any] | None, case
         + ("; the best of the evaluations during training" if tr.get("best_evaluation") else "")
         + ")",
     ]
+    if tr.get("precision"):  # what the run's updates ran in, which a seed's result depends on
+        asked = (tr.get("config") or {}).get("precision")
+        fell_back = ("" if asked in (None, tr["precision"])
+                     else f" ({asked} asked; this CPU had no bfloat16 units)")
+        lines.append(f"- recipe `{tr.get('recipe', 'unrecorded')}`, updates in {tr['precision']}{fell_back}")
     counted = _seed_count(summary, info)
     if counted is None:
         lines.append("- seeds that succeeded: unknown (no summary.json found next to the run)")

@@ -417,6 +417,9 @@ def _policy_info(policy: LoadedPolicy, name: str, summary: dict[str, Any] | None
             "config": meta.get("config"),
             "source": _portable_source(policy.source, case.name),
             "best_evaluation": meta.get("checkpoint_kind") == "best",
+            # the run's recipe and the precision its updates ran in (a CPU without bfloat16 units
+            # trains fp32 where bf16 was asked, and the two are different runs of one seed)
+            **{key: meta[key] for key in ("recipe", "precision") if meta.get(key)},
         },
         "seeds": {"succeeded": summary.get("succeeded"), "total": len(summary.get("seeds", [])),
                   "success_threshold_return": summary.get("success_threshold_return"),

@@ -102,6 +102,12 @@ def test_ship_and_export_take_the_checkpoint_option(best_is_farther, tmp_path, c
     assert shipped["actor_choice"]["actor"] == "best"
     meta = json.loads((tmp_path / "b" / "policy.json").read_text())
     assert meta["training"]["best_evaluation"] is True
+    # the run's recipe and the precision its updates ran in are recorded, and the card says them
+    run_json = json.loads((run / "run.json").read_text())
+    recorded = meta["training"]["recipe"], meta["training"]["precision"]
+    assert recorded == (run_json["recipe"], run_json["precision"])
+    card = (tmp_path / "b" / "MODEL_CARD.md").read_text()
+    assert f"- recipe `{run_json['recipe']}`, updates in {run_json['precision']}" in card
     # an existing policy is refused before the actors are evaluated
     assert msr(["policy", "ship", str(run), "--name", "b", "--out", str(tmp_path), "--no-progress"]) == 2
     assert "already holds a policy" in capsys.readouterr().err
@@ -192,3 +198,22 @@ def test_a_folder_of_seed_runs_given_for_one_run_names_the_seed_to_give(trained,
         err = capsys.readouterr().err
         assert expected in err and f"e.g. {trained / 'm1-4mT' / 'seed0'}" in err, err
         assert not (tmp_path / "out").exists()
+
+
+def test_a_model_card_says_when_the_updates_fell_back_to_fp32():
+    """A run that asked bfloat16 updates on a CPU without bfloat16 units trained in fp32: the card
+    says both (a seed's result depends on which), and says nothing of it for an older record."""
+    from elastica_magnetic_rl.cases.case import load_case
+    from elastica_magnetic_rl.shipping.model_card import model_card
+    from elastica_magnetic_rl.shipping.policy_files import POLICIES_DIR
+
+    case = load_case("m1-4mT")
+    info = json.loads((POLICIES_DIR / "m1-4mT" / "policy.json").read_text())
+    assert "precision" not in info["training"]  # shipped before the record: no line
+    assert "updates in" not in model_card(info, None, case)
+    info["training"] = {**info["training"], "recipe": "fast", "precision": "fp32",
+                        "config": {**info["training"]["config"], "precision": "bf16"}}
+    card = model_card(info, None, case)
+    assert "- recipe `fast`, updates in fp32 (bf16 asked; this CPU had no bfloat16 units)" in card
+    info["training"]["precision"] = "bf16"
+    assert "- recipe `fast`, updates in bf16\n" in model_card(info, None, case)
