@@ -24,6 +24,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from ._implicit_friction import implicit_coulomb_friction
+
 # Layout of the float parameter vector handed to the kernel.
 P_RELATIVE_NU = 0
 P_LEGACY_FORCE = 1
@@ -38,7 +40,9 @@ P_SLIP_TOL = 15
 P_STATIC_MU = 16  # forward, backward, sideways
 P_KINETIC_MU = 19  # forward, backward, sideways
 P_SLIDING = 22  # 1: sideways Coulomb sliding (a flat band), 0: PyElastica's rolling (a round rod)
-N_PARAMS = 23
+P_IMPLICIT = 23  # 1: implicit Coulomb friction at the nodes (_implicit_friction), 0: PyElastica's explicit
+P_DT = 24  # the time step, s (read by the implicit friction only)
+N_PARAMS = 25
 
 # Layout of the integer option vector.
 O_DAMPING = 0
@@ -325,7 +329,8 @@ def ground_contact(
     for operation (bit-identical loads, ``tests/test_batch.py``), so it keeps its structure.
     Elements farther than the surface tolerance from the plane are skipped: PyElastica computes
     their response and friction and then sets all of them to zero, so skipping them gives the same
-    loads (up to the sign of zero).
+    loads (up to the sign of zero). With ``params[P_IMPLICIT]`` set the friction after the normal
+    response is :func:`~elastica_magnetic._implicit_friction.implicit_coulomb_friction` instead.
     """
     o0 = params[P_PLANE_ORIGIN]
     o1 = params[P_PLANE_ORIGIN + 1]
@@ -391,6 +396,11 @@ def ground_contact(
         s[S_RESPONSE + 2, k] = t2
         s[S_RESPONSE_MAG, k] = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
     _spread_to_nodes(external_forces, s, S_RESPONSE, ns, n)
+    if params[P_IMPLICIT] != 0.0:  # the ground's friction = "implicit": solved at the nodes instead
+        implicit_coulomb_friction(ns, n, static_forward, kinetic_forward, slip_tol, params[P_DT],
+                                  params[P_PLANE_NORMAL:P_PLANE_NORMAL + 3], mass, velocities,
+                                  internal_forces, external_forces, s[S_RESPONSE_MAG], s[S_NO_CONTACT])
+        return
 
     # 2. Kinetic friction, axial then rolling (reads no loads: axial forces are spread in the loop).
     for k in range(n):

@@ -13,7 +13,9 @@ from ._batch_kernels import (
     O_GRAVITY,
     O_GROUND,
     O_NODE_OFFSET,
+    P_DT,
     P_GRAVITY,
+    P_IMPLICIT,
     P_K,
     P_KINETIC_MU,
     P_LEGACY_FORCE,
@@ -64,6 +66,8 @@ def kernel_parameters(spec: RobotSpec) -> tuple[NDArray[np.float64], NDArray[np.
         params[P_STATIC_MU : P_STATIC_MU + 3] = _mu3(g.static_mu)
         params[P_KINETIC_MU : P_KINETIC_MU + 3] = _mu3(g.kinetic_mu)
         params[P_SLIDING] = 1.0 if g.sideways == "sliding" else 0.0
+        params[P_IMPLICIT] = 1.0 if g.friction == "implicit" else 0.0
+        params[P_DT] = spec.dt
     return params, options
 
 

@@ -53,6 +53,7 @@ __all__ = [
     "batched_fields",
     "batched_spatial_step_cost",
     "benchmark_step_cost",
+    "ground_model_step_cost",
     "measure_batched",
     "per_robot_step_cost",
     "per_rod_simulator",
@@ -330,6 +331,35 @@ def per_robot_step_cost(
         for name in paths:
             out[name][str(n)] = result[name]
     return out
+
+
+#: The ground models of :func:`ground_model_step_cost`: ``(sideways, friction)`` of ``[robot.ground]``.
+GROUND_MODELS = {"explicit_rolling": ("rolling", "explicit"), "explicit_sliding": ("sliding", "explicit"),
+                 "implicit_sliding": ("sliding", "implicit")}
+
+
+def ground_model_step_cost(n: int = 16, steps: int = 1000, repeats: int = 5,
+                           physics: str = "training") -> dict[str, Any]:
+    """Per-robot-step cost (us) of ``n`` paper robots in one :class:`~elastica_magnetic.BatchedRobots`
+    under 4-10 mT fields (:func:`batched_fields`) on each ground model of :data:`GROUND_MODELS`
+    (PyElastica's explicit friction rolling or sliding sideways, the implicit friction of a band),
+    the models interleaved within each repeat, and the ratios to PyElastica's (``explicit_rolling``,
+    the paper's). ``steps`` time steps per repeat, in 0.01 s blocks."""
+    base = yao2023_robot(1, physics)
+    runners = {}
+    for name, (sideways, friction) in GROUND_MODELS.items():
+        spec = replace(base, ground=replace(base.ground, sideways=sideways, friction=friction))
+        runners[name] = _batched_runner(spec, n)
+    taken = max(100, steps // 100 * 100)
+    samples: dict[str, list[float]] = {name: [] for name in runners}
+    for _ in range(repeats):
+        for name, run in runners.items():
+            samples[name].append(_us_per_robot_step(run, taken, n))
+    medians = {name: statistics.median(values) for name, values in samples.items()}
+    return {"physics": physics, "robots": n, "steps": taken, "repeats": repeats,
+            "per_robot_step_us": medians,
+            "ratio_to_explicit_rolling": {name: value / medians["explicit_rolling"]
+                                          for name, value in medians.items()}}
 
 
 def spatial_sources() -> dict[str, Any]:

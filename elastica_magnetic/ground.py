@@ -22,6 +22,13 @@ Across the rod, PyElastica's model is that of a round rod, which rolls; the robo
 bands, which cannot. ``sideways="sliding"`` gives a band's Coulomb friction across the rod (the
 block kernel of :class:`~elastica_magnetic.BatchedRobots` on this one rod); in the plane of a planar
 robot both models give the same motion to the last bit.
+
+PyElastica's friction is explicit: a contact moving faster than ``slip_velocity_tol`` feels the
+whole kinetic friction, which overshoots once a slide is slower than ``kinetic_mu g dt`` (the
+speed it removes in one step), so a slide never quite stops and static friction never takes over
+again. ``friction="implicit"`` (with ``sideways="sliding"``) solves Coulomb friction at each node
+for its velocity at the end of the step instead (``_implicit_friction``): a slide ends at rest, a
+node at rest needs ``static_mu`` N to start, friction never adds energy.
 """
 
 from __future__ import annotations
@@ -35,6 +42,8 @@ from numpy.typing import ArrayLike
 from ._batch_kernels import (
     N_PARAMS,
     N_SCRATCH,
+    P_DT,
+    P_IMPLICIT,
     P_K,
     P_KINETIC_MU,
     P_NU,
@@ -46,7 +55,7 @@ from ._batch_kernels import (
     P_SURFACE_TOL,
     ground_contact,
 )
-from .robot_spec import SIDEWAYS_FRICTION
+from .robot_spec import FRICTION_INTEGRATION, IMPLICIT_NEEDS_SLIDING, SIDEWAYS_FRICTION
 
 __all__ = ["FrictionalGroundContact"]
 
@@ -74,6 +83,17 @@ class FrictionalGroundContact(RodPlaneContactWithAnisotropicFriction):
         cannot roll: Coulomb friction sideways as along the rod (sticks while the sideways load
         is below ``static_mu`` N, slides against ``kinetic_mu`` N) and no torque. Along the rod
         and in the plane of the paper's robot both give the same loads.
+    friction : {"explicit", "implicit"}
+        How the friction is integrated. ``"explicit"`` (default): PyElastica's (kinetic friction
+        while a contact moves faster than ``slip_velocity_tol``; once a slide is slower than
+        ``kinetic_mu g dt`` it overshoots every step and never quite stops). ``"implicit"``:
+        Coulomb friction solved at each node for its velocity at the end of the step (a slide ends at
+        rest, a node at rest needs ``static_mu`` N to start, friction never gains energy); needs
+        ``sideways="sliding"``, one ``static_mu`` and one ``kinetic_mu`` (isotropic), and
+        ``time_step``.
+    time_step : float, optional
+        The simulation's time step, s (``"implicit"`` only: the friction that stops a node within
+        one step depends on it).
     """
 
     def __init__(
@@ -85,10 +105,17 @@ class FrictionalGroundContact(RodPlaneContactWithAnisotropicFriction):
         surface_tolerance: float = 1e-7,
         slip_velocity_tol: float = 1e-8,
         sideways: str = "rolling",
+        friction: str = "explicit",
+        time_step: float | None = None,
     ) -> None:
         if sideways not in SIDEWAYS_FRICTION:
             raise ValueError(f"sideways must be one of {', '.join(SIDEWAYS_FRICTION)}, got "
                              f"{sideways!r}")
+        if friction not in FRICTION_INTEGRATION:
+            raise ValueError(f"friction must be one of {', '.join(FRICTION_INTEGRATION)}, got "
+                             f"{friction!r}")
+        if friction == "implicit":
+            _check_implicit(sideways, static_mu, kinetic_mu, time_step)
         for name, value, unit in (
             ("k", k, "N/m"),
             ("nu", nu, "N s/m"),
@@ -113,12 +140,15 @@ class FrictionalGroundContact(RodPlaneContactWithAnisotropicFriction):
         self._params[P_STATIC_MU:P_STATIC_MU + 3] = _mu_array(static_mu, "static_mu")
         self._params[P_KINETIC_MU:P_KINETIC_MU + 3] = _mu_array(kinetic_mu, "kinetic_mu")
         self._params[P_SLIDING] = 1.0 if sideways == "sliding" else 0.0
+        self.friction = friction
+        if friction == "implicit":
+            self._params[P_IMPLICIT], self._params[P_DT] = 1.0, time_step
         self._scratch = np.zeros((N_SCRATCH, 0))
 
     def apply_contact(self, system_one, system_two, time: np.float64 = np.float64(0.0)) -> None:
         """PyElastica's kernel for ``"rolling"``; for ``"sliding"`` the block kernel of
         :class:`~elastica_magnetic.BatchedRobots` on this one rod (the same loads along the rod,
-        Coulomb sliding across it)."""
+        Coulomb sliding across it, or the implicit friction)."""
         if self.sideways == "rolling":
             super().apply_contact(system_one, system_two, time)
             return
@@ -133,6 +163,19 @@ class FrictionalGroundContact(RodPlaneContactWithAnisotropicFriction):
                        system_one.omega_collection, system_one.internal_forces,
                        system_one.external_forces, system_one.internal_torques,
                        system_one.external_torques, self._scratch)
+
+
+def _check_implicit(sideways: str, static_mu: float | ArrayLike, kinetic_mu: float | ArrayLike,
+                    time_step: float | None) -> None:
+    """Refuses what the implicit friction cannot do: a rolling rod, anisotropic friction, no step."""
+    if sideways != "sliding":
+        raise ValueError(IMPLICIT_NEEDS_SLIDING)
+    for name, mu in (("static_mu", static_mu), ("kinetic_mu", kinetic_mu)):
+        array = _mu_array(mu, name)
+        if not np.all(array == array[0]):
+            raise ValueError(f'friction = "implicit" takes one {name} (isotropic friction), got {mu!r}')
+    if time_step is None or not (math.isfinite(time_step) and time_step > 0.0):
+        raise ValueError(f'friction = "implicit" needs the time_step in s (> 0), got {time_step!r}')
 
 
 def _mu_array(mu: float | ArrayLike, name: str) -> np.ndarray:

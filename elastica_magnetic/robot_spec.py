@@ -55,10 +55,33 @@ class GroundSpec:
     #: sideways: the paper's, default) or ``"sliding"`` (a flat band, which cannot roll: Coulomb
     #: friction sideways, static up to ``static_mu`` N, kinetic ``kinetic_mu`` N, no torque).
     sideways: str = "rolling"
+    #: How the friction is integrated: ``"explicit"`` (PyElastica's, the paper's, default: kinetic
+    #: friction whenever a contact moves faster than ``slip_velocity_tol``, which overshoots once a
+    #: slide is slower than ``kinetic_mu g dt``, so a slide never quite stops) or ``"implicit"``
+    #: (Coulomb friction solved for each node's velocity at the end of the step: a slide ends at rest,
+    #: a contact at rest needs ``static_mu`` N to start, friction never gains energy; needs
+    #: ``sideways = "sliding"``).
+    friction: str = "explicit"
+
+    def __post_init__(self) -> None:
+        if self.sideways not in SIDEWAYS_FRICTION:
+            raise ValueError(f"ground sideways must be one of {', '.join(SIDEWAYS_FRICTION)}, got "
+                             f"{self.sideways!r}")
+        if self.friction not in FRICTION_INTEGRATION:
+            raise ValueError(f"ground friction must be one of {', '.join(FRICTION_INTEGRATION)}, got "
+                             f"{self.friction!r}")
+        if self.friction == "implicit" and self.sideways != "sliding":
+            raise ValueError(IMPLICIT_NEEDS_SLIDING)
 
 
 #: The choices of :attr:`GroundSpec.sideways`.
 SIDEWAYS_FRICTION = ("rolling", "sliding")
+#: The choices of :attr:`GroundSpec.friction`.
+FRICTION_INTEGRATION = ("explicit", "implicit")
+#: Why ``friction = "implicit"`` refuses a rolling rod.
+IMPLICIT_NEEDS_SLIDING = ('friction = "implicit" needs sideways = "sliding": the implicit friction is that '
+                          "of a band, which slides the same way along and across itself; a round rod's "
+                          "rolling is PyElastica's explicit model")
 
 
 @dataclass(frozen=True)

@@ -273,6 +273,8 @@ def register_robot_forcing(
             surface_tolerance=g.surface_tolerance,
             slip_velocity_tol=g.slip_velocity_tol,
             sideways=g.sideways,
+            friction=g.friction,
+            time_step=spec.dt,
         )
 
 

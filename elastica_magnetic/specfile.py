@@ -49,6 +49,8 @@ from .robot_plausibility import (
 )
 from .robot_spec import (
     ACTION_PERIOD,
+    FRICTION_INTEGRATION,
+    IMPLICIT_NEEDS_SLIDING,
     SIDEWAYS_FRICTION,
     STANDARD_GRAVITY,
     DampingSpec,
@@ -120,6 +122,7 @@ UNITS: dict[tuple[str, str], str] = {
     ("robot.ground", "static_mu"): "friction coefficient",
     ("robot.ground", "kinetic_mu"): "friction coefficient",
     ("robot.ground", "sideways"): "rolling (a round rod) or sliding (a flat band)",
+    ("robot.ground", "friction"): "explicit (PyElastica's) or implicit (a slide ends at rest)",
     ("robot.damping", "relative"): "N s/m^2", ("robot.damping", "node_offset"): "nodes",
     ("robot.damping", "legacy_force"): "N s/m^2", ("robot.damping", "legacy_torque"): "N s",
     ("robot.damping", "kelvin_voigt"): "Pa s",
@@ -194,7 +197,8 @@ class RobotDescription:
                 k=ground["stiffness"], nu=ground["damping"], static_mu=ground["static_mu"],
                 kinetic_mu=ground["kinetic_mu"], surface_tolerance=ground["surface_tolerance"],
                 slip_velocity_tol=ground["slip_velocity_tolerance"],
-                sideways=ground.get("sideways", GroundSpec.sideways)),
+                sideways=ground.get("sideways", GroundSpec.sideways),
+                friction=ground.get("friction", GroundSpec.friction)),
             damping=None if damping is None else DampingSpec(
                 relative_nu=damping["relative"], node_offset=damping["node_offset"],
                 legacy_force=damping["legacy_force"], legacy_torque=damping["legacy_torque"],
@@ -335,6 +339,11 @@ def _ground_table(ground: SpecTable) -> dict[str, Any]:
     sideways = ground.string("sideways", d.sideways, choices=SIDEWAYS_FRICTION)
     if sideways != d.sideways:  # written only when chosen: earlier records stay the same
         out["sideways"] = sideways
+    friction = ground.string("friction", d.friction, choices=FRICTION_INTEGRATION)
+    if friction == "implicit" and sideways != "sliding":
+        raise ground.error("friction", IMPLICIT_NEEDS_SLIDING.removeprefix('friction = "implicit" '))
+    if friction != d.friction:
+        out["friction"] = friction
     check_friction(ground, out)
     return out
 

@@ -39,6 +39,11 @@ def test_bench_quick_json_keys(capsys):
     assert all(math.isfinite(v) and v > 0 for v in batched["per_robot_step_us"].values())
     assert batched["ratio_to_uniform"]["arm_magnet"] == (batched["per_robot_step_us"]["arm_magnet"]
                                                          / batched["per_robot_step_us"]["uniform"])
+    ground = result["ground_models"]  # issue 51: the implicit friction of a band beside PyElastica's
+    assert set(ground["per_robot_step_us"]) == {"explicit_rolling", "explicit_sliding", "implicit_sliding"}
+    assert all(math.isfinite(v) and v > 0 for v in ground["per_robot_step_us"].values())
+    assert ground["ratio_to_explicit_rolling"]["implicit_sliding"] == (
+        ground["per_robot_step_us"]["implicit_sliding"] / ground["per_robot_step_us"]["explicit_rolling"])
     assert result["recipe"] == "paper"  # the series of measurements is the paper recipe's
     roof = result["td3_roofline"]
     assert roof["achieved_gflops"] == roof["gflop_per_update"] * result["td3_updates_per_s"]

@@ -15,6 +15,7 @@ EXCEPTIONS = {
     # numba kernels: the block's arrays one by one, as numba compiles them (PyElastica's kernels too)
     "elastica_magnetic/_batch_kernels.py:block_forcing": "numba kernel",
     "elastica_magnetic/_batch_kernels.py:ground_contact": "numba kernel",
+    "elastica_magnetic/_implicit_friction.py:implicit_coulomb_friction": "numba kernel",
     "elastica_magnetic/_robot_forcing_kernels.py:moved_dipoles_forcing": "numba kernel",
     "elastica_magnetic/_robot_forcing_kernels.py:coil_loops_forcing": "numba kernel",
     "elastica_magnetic/_robot_forcing_kernels.py:dipole_paths_forcing": "numba kernel",

@@ -175,6 +175,24 @@ def test_the_sideways_friction_of_the_ground_is_a_choice_kept_through_a_dump():
         describe_robot(loads(ROBOT + 'sideways = "slide"\n', "s.toml"), "s.toml")
 
 
+def test_the_friction_integration_of_the_ground_is_a_choice_kept_through_a_dump():
+    """``[robot.ground] friction``: ``"explicit"`` (PyElastica's, the default, left out of the complete
+    tables) or ``"implicit"`` (needs a sliding band, refused by name on a rolling rod)."""
+    plain = describe_robot(loads(ROBOT, "r.toml"), "r.toml")
+    assert plain.robot("training").ground.friction == "explicit"
+    assert "friction" not in plain.tables["robot"]["ground"]
+    text = ROBOT + 'sideways = "sliding"\nfriction = "implicit"\n'
+    implicit = describe_robot(loads(text, "i.toml"), "i.toml")
+    assert implicit.robot("training").ground.friction == "implicit"
+    again = describe_robot(loads(dumps(implicit.tables), "again.toml"), "again.toml")
+    assert again.robot("accurate").ground.friction == "implicit"
+    with pytest.raises(SpecError, match=r'i\.toml: \[robot\.ground\] friction: needs sideways = "sliding"'):
+        describe_robot(loads(ROBOT + 'friction = "implicit"\n', "i.toml"), "i.toml")
+    with pytest.raises(SpecError, match=r"i\.toml: \[robot\.ground\] friction: expected one of "
+                                        r"explicit, implicit; got 'stick'"):
+        describe_robot(loads(ROBOT + 'friction = "stick"\n', "i.toml"), "i.toml")
+
+
 def test_a_shear_modulus_below_a_third_of_youngs_is_warned_about():
     """Round 11, S1: shear_modulus = 1000 Pa beside E = 84.5 kPa (an implied Poisson ratio of 41)
     passed in silence; written as poisson_ratio it is refused."""

@@ -24,6 +24,7 @@ from elastica_magnetic.bench import (
     BATCH_SIZES,
     batched_spatial_step_cost,
     benchmark_step_cost,
+    ground_model_step_cost,
     per_robot_step_cost,
 )
 
@@ -420,6 +421,7 @@ def _simulation_rates(sizes: dict[str, int], vector_envs: int) -> dict[str, Any]
         "speedup": training["speedup_vs_naive"],
         "per_robot_step_us": per_robot_step_cost(BATCH_SIZES, sizes["robot_steps"], repeats)["batched"],
         "batched_spatial": batched_spatial_step_cost(16, max(100, sizes["robot_steps"] // 16), repeats),
+        "ground_models": ground_model_step_cost(16, max(100, sizes["robot_steps"] // 16), repeats),
         "env_steps_per_s": env_steps_per_s(sizes["env_steps"], repeats),
         "vector_envs": vector_envs,
         "vector_env_steps_per_s": vector_env_steps_per_s(vector_envs, sizes["vector_steps"], repeats),
@@ -464,6 +466,8 @@ def benchmark(
     each with ``spatial_step_us`` and ``spatial_ratio_to_uniform``: the step under a point dipole,
     a moving dipole and a Helmholtz pair next to the uniform field, target at most 2x),
     ``per_robot_step_us`` ``{"1", "4", "16", "64"}`` (us per robot-step, batched simulator),
+    ``ground_models`` (:func:`~elastica_magnetic.bench.ground_model_step_cost`: the batched step on
+    PyElastica's explicit friction, rolling or sliding, and on a band's implicit friction),
     ``env_steps_per_s`` (single environment, one 0.01 s action = 100 substeps),
     ``vector_env_steps_per_s`` (transitions/s, ``vector_envs`` crawlers in one simulator),
     ``td3_updates_per_s`` (one seed, one torch thread), ``td3_stacked_updates_per_s`` (per-seed
@@ -547,6 +551,18 @@ def spatial_cost_lines(result: dict[str, Any]) -> list[str]:
     return lines
 
 
+def ground_model_lines(result: dict[str, Any]) -> list[str]:
+    """The batched step on each ground model, with its ratio to PyElastica's explicit friction."""
+    models = result.get("ground_models")
+    if not isinstance(models, dict):
+        return []
+    lines = [f"ground models, batched ({models['robots']} robots, {models['physics']} physics; us per "
+             "robot-step, ratio to PyElastica's explicit rolling friction):"]
+    for name, value in models["per_robot_step_us"].items():
+        lines.append(f"  {name:16s} {value:9.2f} us  {models['ratio_to_explicit_rolling'][name]:5.2f}x")
+    return lines
+
+
 def step_cost_lines(result: dict[str, Any]) -> list[str]:
     """One line per physics setting: our step, the per-element Python loops' and the bare rod's."""
     lines = []
@@ -569,6 +585,7 @@ def step_cost_lines(result: dict[str, Any]) -> list[str]:
 def benchmark_text(result: dict[str, Any]) -> str:
     """:func:`benchmark`'s result as plain text: ``key: value`` lines for the scalar figures, then
     the step cost of both physics settings and the fields-in-space table (:func:`spatial_cost_lines`)."""
-    nested = ("training", "accurate", "batched_spatial")
+    nested = ("training", "accurate", "batched_spatial", "ground_models")
     lines = [f"{key}: {value}" for key, value in result.items() if key not in nested]
-    return "\n".join(lines + step_cost_lines(result) + spatial_cost_lines(result))
+    tables = step_cost_lines(result) + spatial_cost_lines(result) + ground_model_lines(result)
+    return "\n".join(lines + tables)

@@ -122,6 +122,8 @@ def user_specs(draw, kinds: tuple[str, ...] = KINDS, poisson: bool | None = None
     sideways = draw(st.sampled_from(["rolling", "sliding", None]))
     if sideways is not None:
         robot["ground"]["sideways"] = sideways
+    if sideways == "sliding" and draw(st.booleans()):  # a band may integrate its friction implicitly
+        robot["ground"]["friction"] = "implicit"
     return copy.deepcopy(spec)
 
 
