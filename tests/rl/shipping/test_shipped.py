@@ -95,6 +95,20 @@ def test_a_shipped_goto_policy_holds_its_ring_and_plays_by_name(name, tmp_path, 
     assert {"final_distance_to_target_m", "time_to_target_s"} <= set(result)
 
 
+
+@pytest.mark.parametrize("name", sorted(GOTO_SHIPPED))
+def test_a_shipped_goto_policy_runs_on_its_case_as_the_case_is_today(name):
+    """A shipped goto policy plays on the robot, ground and physics recorded in its policy.json; its
+    card's numbers hold for ``msr train --case NAME`` only while that record is the case's spec. A
+    case edited (its ground's friction model switched, say) without the policy shipped again fails
+    here instead of leaving a card measured on physics the case no longer has."""
+    from elastica_magnetic_rl.cases.case import load_case
+
+    info = json.loads((policy_files.POLICIES_DIR / name / "policy.json").read_text())
+    today = load_case(name).to_dict()
+    for table in ("robot", "physics", "actuation", "task"):
+        assert info["case_spec"][table] == today[table], (name, table)
+
 #: TD3 settings a run sets itself (where it writes, how often it logs), not the recipe's.
 RUN_SETTINGS = ("device", "checkpoint_every", "log_every")
 #: Shipped residual policies that correct a yardstick other than their case's today (their cards say
